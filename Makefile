@@ -1,0 +1,31 @@
+# Quick start: `make demo` runs the paper's scene, `make test` runs the tests.
+# Both create .venv and install the package on first use.
+PYTHON ?= python3
+VENV ?= .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed-stamp
+DEVICE ?=
+DEMO_OUT ?= demo-output
+
+.PHONY: demo test bench clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e '.[test]'
+	touch $(STAMP)
+
+demo: $(STAMP)
+	mkdir -p $(DEMO_OUT)
+	$(VENV)/bin/warp-ricochet sweep examples/paper.toml --param surfaces.0.mu_s=0:0.5:0.05 \
+	    --tie surfaces.0.mu_d=0.9* -o $(DEMO_OUT)/paper-sweep.h5 --overwrite $(if $(DEVICE),--device $(DEVICE),)
+	$(VENV)/bin/warp-ricochet report $(DEMO_OUT)/paper-sweep.h5
+
+test: $(STAMP)
+	$(PY) -m pytest -n 2 -q
+
+bench: $(STAMP)
+	$(PY) -m bench
+
+clean:
+	rm -rf $(VENV) $(DEMO_OUT) .pytest_cache .hypothesis

@@ -1,0 +1,396 @@
+"""Public entry points: `impact` (the law on given states), `run` and `sweep` (whole scenes).
+
+`run` streams a scene through the device in chunks: each chunk is one launch of the fused
+ricochet kernel and one of the segment reduction; on CUDA the results are copied
+asynchronously into pinned host buffers (two, used in turn) while the host writes the previous
+chunk to HDF5, so writing overlaps computing. Nothing syncs inside a chunk.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import RicochetError, SceneError
+from .kernels import LANES, SEGMENT
+from .stats import combine, empty_totals, finalize
+
+HOST_BUFFER_BYTES = 128 << 20  # per pinned host buffer (two are used): caps host memory
+DEVICE_FRACTION = 0.5  # of the free device memory a chunk may use
+MAX_CHUNK = 1 << 28  # pellets per chunk, statistics-only
+CPU_STATS_CHUNK = 1 << 22  # CPU statistics-only chunk: progress granularity
+
+
+def _warp():
+    import warp as wp
+
+    wp.config.quiet = True
+    wp.init()  # no-op once initialised
+    return wp
+
+
+def resolve_device(name=None):
+    """A Warp device from "cpu", "cuda", "cuda:N" or None (CUDA if present, else CPU)."""
+    wp = _warp()
+    if name is None:
+        return wp.get_preferred_device()
+    try:
+        return wp.get_device(str(name))
+    except Exception:
+        allowed = ", ".join(d.alias for d in wp.get_devices())
+        raise RicochetError(f"device = {str(name)!r}: not available here; available: {allowed}") from None
+
+
+# --------------------------------------------------------------------------- impact API
+
+
+def _vectors(name, value, rows=None):
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.ndim == 1 and arr.shape == (3,) and rows is not None:
+        arr = np.broadcast_to(arr, (rows, 3))
+    if arr.ndim != 2 or arr.shape[1] != 3 or (rows is not None and arr.shape[0] != rows):
+        want = f"({rows}, 3) or (3,)" if rows is not None else "(N, 3)"
+        raise SceneError(name, f"array of shape {arr.shape}", f"must have shape {want}")
+    if not np.isfinite(arr).all():
+        raise SceneError(name, "array with NaN or inf", "must be finite")
+    return arr
+
+
+def _positive(name, value, *, zero_ok=False, upper=None):
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise SceneError(name, value, "must be a number") from None
+    ok = math.isfinite(x) and (x >= 0 if zero_ok else x > 0) and (upper is None or x <= upper)
+    if not ok:
+        bound = ">= 0" if zero_ok else "> 0"
+        raise SceneError(name, value, f"must be finite and {bound}" + (f" and <= {upper}" if upper is not None else ""))
+    return x
+
+
+def impact(
+    velocity,
+    angular_velocity,
+    normal,
+    *,
+    radius,
+    density,
+    restitution,
+    mu_s,
+    mu_d,
+    gravity=(0.0, -9.81, 0.0),
+    duration=0.0,
+    device=None,
+    precision="float32",
+):
+    """Apply the impact law (Zohdi 2021, eqs. 1-25) to pre-impact states.
+
+    velocity, angular_velocity: (N, 3) arrays in m/s and rad/s; normal: (3,) or (N, 3), the
+    plane's normal towards the pellets (normalised here). radius in m, density in kg/m^3,
+    gravity in m/s^2, duration (the paper's delta t) in s. A pellet not moving into the plane
+    is returned unchanged. Returns (velocity, angular_velocity, slipped) as NumPy arrays:
+    float arrays of the requested precision and a bool array.
+    """
+    from .impact_law import SOLID_SPHERE_INERTIA_FACTOR
+    from .kernels import SCALARS, kernels_for
+
+    if precision not in SCALARS:
+        raise SceneError("precision", precision, "must be 'float32' or 'float64'")
+    v = _vectors("velocity", velocity)
+    rows = v.shape[0]
+    w = _vectors("angular_velocity", angular_velocity, rows)
+    n = np.asarray(normal, dtype=np.float64)
+    n = _vectors("normal", n[None, :] if n.shape == (3,) else n, None if n.shape == (3,) else rows)
+    lengths = np.linalg.norm(n, axis=1)
+    if (lengths == 0).any():
+        raise SceneError("normal", "zero vector", "must be non-zero")
+    n = n / lengths[:, None]
+    radius = _positive("radius", radius)
+    _positive("density", density)
+    restitution = _positive("restitution", restitution, zero_ok=True, upper=1.0)
+    mu_s = _positive("mu_s", mu_s, zero_ok=True)
+    mu_d = _positive("mu_d", mu_d, zero_ok=True, upper=mu_s)
+    duration = _positive("duration", duration, zero_ok=True)
+    g = _vectors("gravity", np.asarray(gravity, dtype=np.float64)[None, :] if np.shape(gravity) == (3,) else gravity)[0]
+
+    wp = _warp()
+    dev = resolve_device(device)
+    kern = kernels_for(precision)
+    vec3, scalar = kern.vec3, kern.scalar
+    np_dtype = np.dtype(precision)
+    if rows == 0:
+        return v.astype(np_dtype), w.astype(np_dtype), np.zeros(0, bool)
+    inputs = [
+        wp.array(v.astype(np_dtype), dtype=vec3, device=dev),
+        wp.array(w.astype(np_dtype), dtype=vec3, device=dev),
+        wp.array(n.astype(np_dtype), dtype=vec3, device=dev),
+        scalar(radius), scalar(SOLID_SPHERE_INERTIA_FACTOR), scalar(restitution),
+        scalar(mu_s), scalar(mu_d), vec3(*g), scalar(duration),
+    ]
+    outputs = [
+        wp.empty(rows, dtype=vec3, device=dev),
+        wp.empty(rows, dtype=vec3, device=dev),
+        wp.empty(rows, dtype=wp.int8, device=dev),
+    ]
+    wp.launch(kern.impact_kernel, dim=rows, inputs=inputs, outputs=outputs, device=dev)
+    return outputs[0].numpy(), outputs[1].numpy(), outputs[2].numpy().astype(bool)
+
+
+# --------------------------------------------------------------------------- scenes
+
+
+@dataclass
+class Source:
+    """Where launch states come from: the seed, or explicit arrays from a pellet file."""
+
+    count: int
+    arrays: dict | None = None  # position, velocity, angular_velocity (float64, (N, 3))
+
+    @classmethod
+    def from_scene(cls, scene):
+        if scene.shot.file is None:
+            return cls(count=scene.shot.count)
+        from .scene import load_pellet_file
+
+        arrays = load_pellet_file(scene.shot.file)
+        return cls(count=len(arrays["position"]), arrays=arrays)
+
+
+def plan_chunk(scene, model, pellets: int, fields) -> int:
+    """Pellets per chunk: a multiple of SEGMENT that fits device and host memory budgets."""
+    from .model import State
+
+    if scene.numerics.chunk_size:
+        rows = scene.numerics.chunk_size
+    else:
+        per_pellet_device = State.bytes_per_pellet(model.precision, fields, model.bounces)
+        if scene.shot.file is not None:
+            per_pellet_device += 9 * np.dtype(model.precision).itemsize
+        if model.device.is_cuda:
+            rows = int(DEVICE_FRACTION * model.device.free_memory / per_pellet_device)
+            rows = min(rows, MAX_CHUNK)
+        else:
+            rows = CPU_STATS_CHUNK
+        per_pellet_host = State.bytes_per_pellet(model.precision, fields, model.bounces) - (
+            State.bytes_per_pellet(model.precision, (), model.bounces)
+        )
+        if fields:
+            rows = min(rows, int(HOST_BUFFER_BYTES / per_pellet_host))
+    rows = max(SEGMENT, -(-rows // SEGMENT) * SEGMENT)  # whole segments: chunk-size invariance
+    return min(rows, max(pellets, 1))
+
+
+class _HostSlot:
+    """One set of host buffers receiving a chunk (pinned on CUDA, so copies run async)."""
+
+    def __init__(self, wp, state, pinned):
+        def like(arr):
+            return wp.empty(arr.shape, dtype=arr.dtype, device="cpu", pinned=pinned)
+
+        self.arrays = {name: like(arr) for name, arr in state.arrays.items()}
+        self.segment_sums = like(state.segment_sums)
+        self.segment_min = like(state.segment_min)
+        self.segment_max = like(state.segment_max)
+        self.rows = 0
+        self.segments = 0
+        self.event = None
+
+
+def run_scene(scene, model, *, writer=None, progress=None, source=None) -> dict:
+    """Run every pellet of `scene` through `model`'s device; return the statistics."""
+    from .model import State, threads_for
+
+    wp = _warp()
+    source = source or Source.from_scene(scene)
+    pellets = source.count
+    fields = writer.fields if writer is not None else ()
+    capacity = plan_chunk(scene, model, pellets, fields)
+    state = State(model, capacity, fields)
+    kern = model.kernels
+    dev = model.device
+    cuda = dev.is_cuda
+    slots = [_HostSlot(wp, state, pinned=cuda) for _ in range(2 if cuda else 1)]
+
+    src = kern.Source()
+    sh = scene.shot
+    src.seed = sh.seed
+    src.speed = kern.scalar(sh.speed)
+    src.direction = kern.vec3(*sh.direction)
+    src.jitter = kern.vec3(*sh.direction_jitter)
+    src.envelope_center = kern.vec3(*sh.envelope_center)
+    src.envelope_radius = kern.scalar(sh.envelope_radius)
+    src.spin = kern.vec3(*sh.spin)
+    explicit = None
+    if source.arrays is not None:
+        explicit = {k: wp.empty(capacity, dtype=kern.vec3, device=dev) for k in ("position", "velocity", "angular_velocity")}
+        src.position, src.velocity, src.angular_velocity = (explicit[k] for k in ("position", "velocity", "angular_velocity"))
+    else:
+        src.position = src.velocity = src.angular_velocity = wp.empty(0, dtype=kern.vec3, device=dev)
+
+    totals = empty_totals()
+    done = 0
+
+    def consume(slot):
+        nonlocal totals, done
+        if slot.event is not None:
+            wp.synchronize_event(slot.event)
+        seg = slot.segments
+        totals = combine(
+            totals,
+            slot.segment_sums.numpy()[:seg],
+            slot.segment_min.numpy()[:seg],
+            slot.segment_max.numpy()[:seg],
+        )
+        if writer is not None:
+            writer.append({name: arr.numpy() for name, arr in slot.arrays.items()}, slot.rows)
+        done += slot.rows
+        if progress is not None:
+            progress(done, pellets)
+
+    pending = None
+    for chunk, start in enumerate(range(0, pellets, capacity)):
+        rows = min(capacity, pellets - start)
+        threads = threads_for(rows)
+        segments = threads // LANES
+        if explicit is not None:
+            dtype = np.dtype(model.precision)
+            for key, arr in explicit.items():
+                arr[:rows].assign(np.ascontiguousarray(source.arrays[key][start : start + rows], dtype=dtype))
+        wp.launch(
+            kern.ricochet_kernel,
+            dim=threads,
+            inputs=[start, rows, src, model.surfaces, model.physics, state.outputs],
+            outputs=[state.partial_sums, state.partial_min, state.partial_max],
+            device=dev,
+        )
+        wp.launch(
+            kern.reduce_kernel,
+            dim=segments,
+            inputs=[state.partial_sums, state.partial_min, state.partial_max],
+            outputs=[state.segment_sums, state.segment_min, state.segment_max],
+            device=dev,
+        )
+        slot = slots[chunk % len(slots)]
+        if pending is slot:  # CPU: one slot, consume before reuse
+            consume(pending)
+            pending = None
+        for name, arr in state.arrays.items():
+            wp.copy(slot.arrays[name][:rows], arr[:rows])
+        wp.copy(slot.segment_sums[:segments], state.segment_sums[:segments])
+        wp.copy(slot.segment_min[:segments], state.segment_min[:segments])
+        wp.copy(slot.segment_max[:segments], state.segment_max[:segments])
+        slot.rows, slot.segments = rows, segments
+        slot.event = wp.record_event() if cuda else None
+        if pending is not None:
+            consume(pending)  # host work on the previous chunk while the device runs this one
+        pending = slot
+    if pending is not None:
+        consume(pending)
+    return finalize(totals, pellets=pellets, mass=model.mass, inertia=model.inertia)
+
+
+def run(scene, output=None, device=None, *, overwrite=False, progress=None) -> dict:
+    """Run a scene (a `Scene` or a TOML path); write HDF5 to `output` (or the scene's
+    `output.path`) when given. Returns the statistics (SI units, see `stats.STAT_UNITS`)."""
+    from .model import Model
+    from .scene import Scene, load_scene
+    from .writer import OutputFile, RunWriter, check_output_path
+
+    if not isinstance(scene, Scene):
+        scene = load_scene(scene)
+    output = output if output is not None else scene.output.path
+    if output is not None:
+        check_output_path(output, overwrite)  # before any work
+    dev = resolve_device(device)
+    source = Source.from_scene(scene)
+    model = Model.from_scene(scene, dev)
+    if output is None:
+        return run_scene(scene, model, progress=progress, source=source)
+    seed = None if scene.shot.file else scene.shot.seed
+    with OutputFile(output, overwrite=overwrite, kind="run", device=str(dev), scene_toml=scene.to_toml(), seed=seed) as out:
+        fields = scene.output.fields
+        writer = RunWriter(out.h5, model, scene=scene, fields=fields, pellets=source.count,
+                           chunk_rows=plan_chunk(scene, model, source.count, fields))
+        stats = run_scene(scene, model, writer=writer, progress=progress, source=source)
+        writer.write_stats(stats)
+    return stats
+
+
+def sweep_points(params: dict, ties=()):
+    """Cartesian product of parameter values, with tied keys: a list of {key: value} dicts.
+
+    params: {key: [values]}; ties: [(key, factor, source_key or None)].
+    """
+    import itertools
+
+    keys = list(params)
+    points = []
+    for combo in itertools.product(*(params[k] for k in keys)):
+        point = dict(zip(keys, combo))
+        for key, factor, src in ties:
+            if src is None:
+                if len(keys) != 1:
+                    raise SceneError("--tie", key, "must name the parameter it follows (KEY=F*PARAM) when several are swept")
+                src = keys[0]
+            if src not in point:
+                raise SceneError("--tie", f"{key}={factor}*{src}", f"{src} is not a swept parameter")
+            point[key] = round(factor * point[src], 12)
+        points.append(point)
+    return points
+
+
+def sweep(scene, params: dict, ties=(), output=None, device=None, *, overwrite=False, progress=None) -> list:
+    """Run `scene` at every point of a parameter sweep (e.g. the paper's mu_s in 0..0.5 with
+    mu_d = 0.9 mu_s). Returns [(point, stats)]. With `output`, writes one HDF5 file: the sweep
+    values in /sweep, each run in /runs/NNNN, and every statistic as an array in /stats."""
+    from .model import Model
+    from .scene import Scene, load_scene, scene_from_dict, set_dotted
+    from .writer import OutputFile, RunWriter, check_output_path, write_stats
+
+    if not isinstance(scene, Scene):
+        scene = load_scene(scene)
+    output = output if output is not None else scene.output.path
+    points = sweep_points(params, ties)
+    scenes = []
+    for point in points:  # validate every point before any work
+        raw = scene.to_dict()
+        for key, value in point.items():
+            raw = set_dotted(raw, key, value)
+        scenes.append(scene_from_dict(raw))
+    if output is not None:
+        check_output_path(output, overwrite)
+    dev = resolve_device(device)
+    results = []
+
+    def one(i, sc, group=None):
+        model = Model.from_scene(sc, dev)
+        source = Source.from_scene(sc)
+        writer = None
+        if group is not None:
+            writer = RunWriter(group, model, scene=sc, fields=sc.output.fields, pellets=source.count,
+                               chunk_rows=plan_chunk(sc, model, source.count, sc.output.fields))
+        stats = run_scene(sc, model, writer=writer, source=source,
+                          progress=None if progress is None else (lambda d, n: progress(i * n + d, len(scenes) * n)))
+        if writer is not None:
+            writer.write_stats(stats)
+        return stats
+
+    if output is None:
+        for i, sc in enumerate(scenes):
+            results.append((points[i], one(i, sc)))
+        return results
+    with OutputFile(output, overwrite=overwrite, kind="sweep", device=str(dev), scene_toml=scene.to_toml(),
+                    seed=None if scene.shot.file else scene.shot.seed) as out:
+        sw = out.h5.create_group("sweep")
+        for key in points[0]:
+            sw.create_dataset(key, data=np.array([p[key] for p in points], dtype=np.float64))
+        sw.attrs["parameters"] = list(params)
+        sw.attrs["tied"] = [t[0] for t in ties]
+        for i, sc in enumerate(scenes):
+            stats = one(i, sc, out.h5.create_group(f"runs/{i:04d}"))
+            write_stats(out.h5, stats, index=i, size=len(scenes))
+            out.h5.flush()
+            results.append((points[i], stats))
+    return results

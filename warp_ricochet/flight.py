@@ -1,0 +1,101 @@
+"""Exact ballistic flight between surfaces (Zohdi 2021, eqs. 36-42), without time stepping.
+
+A pellet's centre follows r(t) = r0 + v0 t + g t^2 / 2 (eq. 36). Against a plane (point p,
+unit normal e_n towards the pellet) the gap between the sphere and the plane is the quadratic
+    gap(t) = (g . e_n)/2 t^2 + (v0 . e_n) t + (e_n . (r0 - p) - R),
+and the pellet meets the plane at the first t >= 0 where the gap reaches zero while closing.
+Leaving the plane it just hit (gap 0, normal speed v_n' > 0) it returns after
+    t* = -2 v_n' / (g . e_n)  (= 2 v_n / g for gravity along -e_n),
+which is what the paper's tables use; eqs. (40) and (42) print a square root by mistake.
+
+Planes are one-sided: a pellet whose centre is behind a plane does not interact with it.
+"""
+
+
+import functools
+
+import warp as wp
+
+NO_CONTACT = -1.0  # returned as the time when a pellet never meets a plane
+
+
+@functools.cache
+def make_flight(scalar):
+    """Return the flight `@wp.func`s for a Warp scalar type."""
+    vec3 = wp.types.vector(3, scalar)
+
+    @wp.func
+    def entry_time(gap: scalar, normal_speed: scalar, half_normal_gravity: scalar):
+        """First t >= 0 with gap(t) = 0 while closing, or NO_CONTACT. Stable quadratic roots."""
+        if gap <= scalar(0.0) and normal_speed < scalar(0.0):
+            return scalar(0.0)  # touching or overlapping and approaching: contact now
+        if half_normal_gravity == scalar(0.0):
+            if normal_speed < scalar(0.0):
+                return -gap / normal_speed
+            return scalar(NO_CONTACT)
+        disc = normal_speed * normal_speed - scalar(4.0) * half_normal_gravity * gap
+        if disc < scalar(0.0):
+            return scalar(NO_CONTACT)
+        root = wp.sqrt(disc)
+        # the closing root is (-b - sqrt(disc)) / (2a) for either sign of a; avoid cancellation
+        t = scalar(0.0)
+        if normal_speed >= scalar(0.0):
+            t = -(normal_speed + root) / (scalar(2.0) * half_normal_gravity)
+        else:
+            t = scalar(2.0) * gap / (root - normal_speed)
+        if t > scalar(0.0):
+            return t
+        return scalar(NO_CONTACT)
+
+    @wp.func
+    def return_time(normal_speed: scalar, half_normal_gravity: scalar):
+        """Time to come back to the plane the pellet is leaving (gap 0); eq. (40) corrected.
+
+        A pellet that leaves with no normal speed stays on the surface: it lands at once.
+        """
+        if normal_speed <= scalar(0.0):
+            return scalar(0.0)
+        if half_normal_gravity < scalar(0.0):
+            return -normal_speed / half_normal_gravity
+        return scalar(NO_CONTACT)
+
+    @wp.func
+    def next_contact(
+        position: vec3,  # m, pellet centre
+        velocity: vec3,  # m/s
+        gravity: vec3,  # m/s^2
+        radius: scalar,  # m
+        points: wp.array(dtype=vec3),
+        normals: wp.array(dtype=vec3),
+        touching: wp.int32,  # index of the plane the pellet is leaving, or -1
+    ):
+        """Return (time, plane index) of the next contact; index -1 when none (time NO_CONTACT)."""
+        best_time = scalar(NO_CONTACT)
+        best_plane = wp.int32(-1)
+        for k in range(points.shape[0]):
+            normal = normals[k]
+            normal_speed = wp.dot(velocity, normal)
+            half_normal_gravity = scalar(0.5) * wp.dot(gravity, normal)
+            t = scalar(NO_CONTACT)
+            if k == touching:
+                t = return_time(normal_speed, half_normal_gravity)
+            else:
+                centre_height = wp.dot(position - points[k], normal)
+                if centre_height >= scalar(0.0):  # one-sided: centre behind the plane never touches
+                    t = entry_time(centre_height - radius, normal_speed, half_normal_gravity)
+            if t >= scalar(0.0) and (best_plane < 0 or t < best_time):
+                best_time = t
+                best_plane = wp.int32(k)
+        return best_time, best_plane
+
+    @wp.func
+    def ballistic_position(position: vec3, velocity: vec3, gravity: vec3, t: scalar):
+        """Eq. (36): r(t) = r0 + v0 t + g t^2 / 2."""
+        return position + velocity * t + (scalar(0.5) * t * t) * gravity
+
+    @wp.func
+    def ballistic_velocity(velocity: vec3, gravity: vec3, t: scalar):
+        """dr/dt of eq. (36)."""
+        return velocity + gravity * t
+
+    return entry_time, return_time, next_contact, ballistic_position, ballistic_velocity

@@ -1,0 +1,195 @@
+"""Ensemble statistics of a run (Zohdi 2021, section 3.1 and Tables 1-3), in SI units.
+
+The kernels reduce per-pellet quantities into the sums below on the device. Sums are float64
+and combined in a fixed order over fixed segments of pellet indices (see `kernels.SEGMENT`),
+so the statistics are bitwise the same for any chunk size on a given device.
+
+Impact quantities refer to each pellet's first impact, on the plane it hit:
+v_t = |tangential velocity|, v_n = signed normal velocity, omega the angular velocity vector,
+W_T = m |v|^2 / 2, W_R = I |omega|^2 / 2. Ratios are to the mean launch energy of the same
+pellets (the paper's <W(t=0)>). Ranges (eq. 42) run from the last ricochet point to the
+landing point; L+ / L- are their maximum / minimum, also split by the branch (stick or slip)
+of the last ricochet.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+# indices of the float64 sums accumulated by the kernels
+SUM_NAMES = (
+    "hits",  # pellets that hit a surface
+    "stick",  # first impact stuck
+    "slip",  # first impact slipped
+    "vt_pre", "vn_pre", "wx_pre", "wy_pre", "wz_pre", "v2_pre", "w2_pre",
+    "vt_post", "vn_post", "wx_post", "wy_post", "wz_post", "v2_post", "w2_post",
+    "v2_launch", "w2_launch",  # launch state of the pellets that hit
+    "landed", "range", "range2", "landed_stick", "range_stick", "landed_slip", "range_slip",
+    "time_aloft", "v2_landing",
+)
+SUM = {name: i for i, name in enumerate(SUM_NAMES)}
+NUM_SUMS = len(SUM_NAMES)
+# extremes of the range: all landed pellets, last ricochet stuck, last ricochet slipped
+EXTREME_NAMES = ("all", "stick", "slip")
+NUM_EXTREMES = len(EXTREME_NAMES)
+
+# name -> (unit, description) of every statistic `finalize` returns
+STAT_UNITS = {
+    "pellets": ("1", "pellets launched"),
+    "hits": ("1", "pellets that hit a surface"),
+    "missed": ("1", "pellets that never hit a surface"),
+    "stick": ("1", "first impacts that stuck (eq. 22 not met)"),
+    "slip": ("1", "first impacts that slipped (eq. 22)"),
+    "landed": ("1", "pellets that landed after their last ricochet"),
+    "escaped": ("1", "pellets that ricocheted and never met a surface again"),
+    "pre_mean_vt": ("m/s", "mean tangential speed before the first impact"),
+    "pre_mean_vn": ("m/s", "mean normal velocity before the first impact"),
+    "pre_norm_mean_omega": ("rad/s", "norm of the mean angular velocity before the first impact"),
+    "pre_mean_WT": ("J", "mean translational energy before the first impact"),
+    "pre_mean_WR": ("J", "mean rotational energy before the first impact"),
+    "pre_ratio_WT": ("1", "pre_mean_WT / mean launch energy"),
+    "pre_ratio_WR": ("1", "pre_mean_WR / mean launch energy"),
+    "post_mean_vt": ("m/s", "mean tangential speed after the first impact"),
+    "post_mean_vn": ("m/s", "mean normal velocity after the first impact"),
+    "post_norm_mean_omega": ("rad/s", "norm of the mean angular velocity after the first impact"),
+    "post_mean_WT": ("J", "mean translational energy after the first impact"),
+    "post_mean_WR": ("J", "mean rotational energy after the first impact"),
+    "post_ratio_WT": ("1", "post_mean_WT / mean launch energy"),
+    "post_ratio_WR": ("1", "post_mean_WR / mean launch energy"),
+    "launch_mean_W": ("J", "mean launch energy (translational + rotational) of the pellets that hit"),
+    "range_mean": ("m", "mean range <L> (eq. 42) of the landed pellets"),
+    "range_std": ("m", "standard deviation of the range"),
+    "range_max": ("m", "L+, the largest range"),
+    "range_min": ("m", "L-, the smallest range"),
+    "range_stick_mean": ("m", "mean range of pellets whose last ricochet stuck"),
+    "range_stick_max": ("m", "L+ of pellets whose last ricochet stuck"),
+    "range_stick_min": ("m", "L- of pellets whose last ricochet stuck"),
+    "range_slip_mean": ("m", "mean range of pellets whose last ricochet slipped"),
+    "range_slip_max": ("m", "L+ of pellets whose last ricochet slipped"),
+    "range_slip_min": ("m", "L- of pellets whose last ricochet slipped"),
+    "mean_time_aloft": ("s", "mean time from the last ricochet to landing"),
+    "landing_mean_WT": ("J", "mean translational energy at landing"),
+}
+
+
+def empty_totals():
+    """Identity elements: zero sums, +inf minima, -inf maxima."""
+    return (
+        np.zeros(NUM_SUMS),
+        np.full(NUM_EXTREMES, math.inf),
+        np.full(NUM_EXTREMES, -math.inf),
+    )
+
+
+def combine(totals, segment_sums, segment_mins, segment_maxs):
+    """Fold per-segment partials (shape (n, ...), in pellet order) into running totals.
+
+    Sums are added strictly left to right (np.cumsum is sequential), so the result does not
+    depend on how the segments were split into chunks.
+    """
+    sums, mins, maxs = totals
+    if len(segment_sums):
+        sums = np.cumsum(np.vstack([sums[None, :], segment_sums]), axis=0)[-1]
+        mins = np.minimum(mins, segment_mins.min(axis=0))
+        maxs = np.maximum(maxs, segment_maxs.max(axis=0))
+    return sums, mins, maxs
+
+
+def finalize(totals, *, pellets: int, mass: float, inertia: float) -> dict[str, float]:
+    """Turn the reduced sums into the statistics of `STAT_UNITS` (NaN where a mean is empty)."""
+    sums, mins, maxs = totals
+    s = {name: float(sums[i]) for i, name in enumerate(SUM_NAMES)}
+
+    def mean(key, count):
+        return s[key] / s[count] if s[count] > 0 else math.nan
+
+    def extreme(value, count):
+        return float(value) if s[count] > 0 else math.nan
+
+    launch_energy = 0.5 * mass * mean("v2_launch", "hits") + 0.5 * inertia * mean("w2_launch", "hits")
+    out = {
+        "pellets": float(pellets),
+        "hits": s["hits"],
+        "missed": float(pellets) - s["hits"],
+        "stick": s["stick"],
+        "slip": s["slip"],
+        "landed": s["landed"],
+        "escaped": s["hits"] - s["landed"],
+        "launch_mean_W": launch_energy,
+    }
+    for phase in ("pre", "post"):
+        omega = np.array([mean(f"w{axis}_{phase}", "hits") for axis in "xyz"])
+        energy_t = 0.5 * mass * mean(f"v2_{phase}", "hits")
+        energy_r = 0.5 * inertia * mean(f"w2_{phase}", "hits")
+        out[f"{phase}_mean_vt"] = mean(f"vt_{phase}", "hits")
+        out[f"{phase}_mean_vn"] = mean(f"vn_{phase}", "hits")
+        out[f"{phase}_norm_mean_omega"] = float(np.linalg.norm(omega))
+        out[f"{phase}_mean_WT"] = energy_t
+        out[f"{phase}_mean_WR"] = energy_r
+        out[f"{phase}_ratio_WT"] = energy_t / launch_energy if launch_energy > 0 else math.nan
+        out[f"{phase}_ratio_WR"] = energy_r / launch_energy if launch_energy > 0 else math.nan
+    range_mean = mean("range", "landed")
+    variance = mean("range2", "landed") - range_mean * range_mean
+    out["range_mean"] = range_mean
+    out["range_std"] = math.sqrt(max(variance, 0.0)) if s["landed"] > 0 else math.nan
+    out["range_max"] = extreme(maxs[0], "landed")
+    out["range_min"] = extreme(mins[0], "landed")
+    for j, branch in enumerate(EXTREME_NAMES[1:], start=1):
+        out[f"range_{branch}_mean"] = mean(f"range_{branch}", f"landed_{branch}")
+        out[f"range_{branch}_max"] = extreme(maxs[j], f"landed_{branch}")
+        out[f"range_{branch}_min"] = extreme(mins[j], f"landed_{branch}")
+    out["mean_time_aloft"] = mean("time_aloft", "landed")
+    out["landing_mean_WT"] = 0.5 * mass * mean("v2_landing", "landed")
+    assert set(out) == set(STAT_UNITS)
+    return out
+
+
+def statistics_from_arrays(
+    *, pellets, mass, inertia, launch_velocity, launch_angular_velocity, hit, normal,
+    velocity_before, angular_velocity_before, velocity_after, angular_velocity_after,
+    slipped_first, landed, range_, slipped_last, time_aloft, landing_velocity,
+) -> dict[str, float]:
+    """The same statistics from per-pellet float64 arrays (the NumPy reference path)."""
+    sums = np.zeros(NUM_SUMS)
+    h = np.asarray(hit, bool)
+    n = normal[h]
+
+    def tangential(v):
+        vn = np.einsum("ij,ij->i", v, n)
+        return np.linalg.norm(v - vn[:, None] * n, axis=1), vn
+
+    sums[SUM["hits"]] = h.sum()
+    sums[SUM["slip"]] = np.asarray(slipped_first)[h].sum()
+    sums[SUM["stick"]] = h.sum() - sums[SUM["slip"]]
+    for phase, v, w in (
+        ("pre", velocity_before[h], angular_velocity_before[h]),
+        ("post", velocity_after[h], angular_velocity_after[h]),
+    ):
+        vt, vn = tangential(v)
+        sums[SUM[f"vt_{phase}"]] = vt.sum()
+        sums[SUM[f"vn_{phase}"]] = vn.sum()
+        for axis, name in enumerate("xyz"):
+            sums[SUM[f"w{name}_{phase}"]] = w[:, axis].sum()
+        sums[SUM[f"v2_{phase}"]] = (v * v).sum()
+        sums[SUM[f"w2_{phase}"]] = (w * w).sum()
+    sums[SUM["v2_launch"]] = (launch_velocity[h] ** 2).sum()
+    sums[SUM["w2_launch"]] = (launch_angular_velocity[h] ** 2).sum()
+    land = np.asarray(landed, bool)
+    last_slip = np.asarray(slipped_last, bool)
+    r = np.asarray(range_)
+    sums[SUM["landed"]] = land.sum()
+    sums[SUM["range"]] = r[land].sum()
+    sums[SUM["range2"]] = (r[land] ** 2).sum()
+    sums[SUM["time_aloft"]] = np.asarray(time_aloft)[land].sum()
+    sums[SUM["v2_landing"]] = (landing_velocity[land] ** 2).sum()
+    mins, maxs = np.full(NUM_EXTREMES, math.inf), np.full(NUM_EXTREMES, -math.inf)
+    for j, mask in enumerate((land, land & ~last_slip, land & last_slip)):
+        if j:
+            branch = EXTREME_NAMES[j]
+            sums[SUM[f"landed_{branch}"]] = mask.sum()
+            sums[SUM[f"range_{branch}"]] = r[mask].sum()
+        if mask.any():
+            mins[j], maxs[j] = r[mask].min(), r[mask].max()
+    return finalize((sums, mins, maxs), pellets=pellets, mass=mass, inertia=inertia)
