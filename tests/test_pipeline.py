@@ -1,0 +1,249 @@
+"""The whole no-collision pipeline: exact flight, impacts, landing, statistics, chunking, the paper."""
+
+import math
+
+import h5py
+import numpy as np
+import pytest
+
+import warp_ricochet as wr
+from warp_ricochet import reference
+from warp_ricochet.scene import scene_from_dict
+
+from helpers import GROUND, explicit_scene, make_scene, paper_raw
+
+PAPER_SWEEP = {"surfaces.0.mu_s": [0.0, 0.05, 0.5]}
+PAPER_TIE = [("surfaces.0.mu_d", 0.9, None)]
+
+
+def stats_equal(a, b):
+    assert a.keys() == b.keys()
+    for k in a:
+        assert (a[k] == b[k]) or (math.isnan(a[k]) and math.isnan(b[k])), (k, a[k], b[k])
+
+
+def read_pellets(path, group="/"):
+    out = {}
+    with h5py.File(path, "r") as f:
+        g = f[group]["pellets"]
+        g.visititems(lambda name, obj: out.__setitem__(name.replace("/", "."), obj[()]) if isinstance(obj, h5py.Dataset) else None)
+    return out
+
+
+# ---------------------------------------------------------------- analytic flight
+
+
+def test_single_pellet_flight_matches_closed_form(tmp_path, device):
+    h, vx, vy, E = 2.0, 30.0, -40.0, 0.5
+    R = 0.00125
+    scene = explicit_scene(tmp_path, [[0.0, h, 0.0]], [[vx, vy, 0.0]],
+                           surfaces=[{"point": [0, 0, 0], "normal": [0, 1, 0], "restitution": E, "mu_s": 0.0}],
+                           physics={"gravity": [0.0, -9.81, 0.0]})
+    out = tmp_path / "one.h5"
+    stats = wr.run(scene, out, device=device)
+    g = 9.81
+    gap = h - R
+    t_hit = (-(-vy) + math.sqrt(vy * vy + 2 * g * gap)) / g  # gap - |vy| t - g t^2 / 2 = 0
+    vy_hit = vy - g * t_hit
+    t_star = 2 * E * -vy_hit / g  # eq. (40) as the tables use it: 2 v_n / g
+    p = read_pellets(out)
+    np.testing.assert_allclose(p["impact.time"][0, 0], t_hit, rtol=1e-12)
+    np.testing.assert_allclose(p["impact.velocity"][0, 0], [vx, -E * vy_hit, 0.0], rtol=1e-12)
+    np.testing.assert_allclose(p["landing.time"][0], t_hit + t_star, rtol=1e-12)
+    np.testing.assert_allclose(p["landing.range"][0], vx * t_star, rtol=1e-12)  # eq. (42), mu = 0
+    np.testing.assert_allclose(p["landing.position"][0, 1], R, atol=1e-12)
+    assert stats["range_mean"] == pytest.approx(vx * t_star, rel=1e-12)
+    assert stats["landed"] == 1 and stats["slip"] == 1  # mu_s = 0: eq. (22) holds, slip with zero friction ("All-slip")
+
+
+def test_missed_and_escaped_pellets(tmp_path, device):
+    # pellet 0 flies away from the plane (gravity zero): misses; pellet 1 hits, then never comes back
+    scene = explicit_scene(tmp_path, [[0, 1, 0], [0, 1, 0]], [[1, 1, 0], [1, -1, 0]],
+                           surfaces=[dict(GROUND)], physics={"gravity": [0.0, 0.0, 0.0]})
+    stats = wr.run(scene, tmp_path / "o.h5", device=device)
+    p = read_pellets(tmp_path / "o.h5")
+    assert stats["hits"] == 1 and stats["missed"] == 1 and stats["escaped"] == 1 and stats["landed"] == 0
+    assert math.isnan(stats["range_mean"]) and math.isnan(stats["range_max"])
+    assert np.isnan(p["impact.time"][0, 0]) and p["impact.surface"][0, 0] == -1 and p["impact.slipped"][0, 0] == -1
+    assert np.isinf(p["landing.time"]).all() and np.isnan(p["landing.range"]).all()
+    assert (p["landing.surface"] == -1).all()
+
+
+def test_no_surfaces_means_no_hits(device):
+    scene = make_scene(paper_raw(), surfaces=[])
+    stats = wr.run(scene, device=device)
+    assert stats["hits"] == 0 and stats["missed"] == 450
+    assert math.isnan(stats["pre_mean_vt"])
+
+
+# ---------------------------------------------------------------- float64 reference, random scenes
+
+WALL_AND_GROUND = [
+    {"point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.4, "mu_s": 0.3, "mu_d": 0.2},
+    {"point": [3.0, 0.0, 0.0], "normal": [-1.0, 0.3, 0.1], "restitution": 0.6, "mu_s": 0.2, "mu_d": 0.2},
+    {"point": [0.0, 0.0, -2.0], "normal": [0.05, 0.2, 1.0], "restitution": 0.8, "mu_s": 0.05, "mu_d": 0.01},
+]
+
+
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_pipeline_matches_numpy_reference(tmp_path, device, precision):
+    rng = np.random.default_rng(11)
+    n = 3000
+    position = rng.uniform([-1.0, 0.5, -1.0], [1.0, 3.0, 1.0], size=(n, 3))
+    velocity = rng.normal([20.0, -10.0, -5.0], 15.0, size=(n, 3))
+    spin = rng.normal(0.0, 3000.0, size=(n, 3))
+    scene = explicit_scene(tmp_path, position, velocity, spin, surfaces=WALL_AND_GROUND, precision=precision,
+                           physics={"gravity": [0.5, -9.81, 0.2], "impact_duration": 1e-4, "bounces": 3})
+    stats = wr.run(scene, tmp_path / "r.h5", device=device)
+    p = read_pellets(tmp_path / "r.h5")
+    ref, ref_stats = reference.simulate(scene, position, velocity, spin)
+    # identical discrete outcomes for (almost) every pellet: same surfaces hit, same branches
+    same = (p["impact.surface"] == ref["impact.surface"]).all(axis=1) & (p["landing.surface"] == ref["landing.surface"])
+    same &= (p["impact.slipped"] == ref["impact.slipped"]).all(axis=1)
+    assert same.mean() > (0.999 if precision == "float64" else 0.99)
+    assert (ref["impact.surface"][:, 1:] >= 0).mean() > 0.3  # multiple bounces really exercised
+    assert set(np.unique(ref["landing.surface"])) >= {0, 1, 2}  # every plane is landed on
+    rtol = 1e-9 if precision == "float64" else 2e-3
+    for name in ("impact.time", "impact.velocity", "impact.angular_velocity", "landing.time", "landing.range",
+                 "landing.position", "landing.velocity"):
+        a, b = p[name][same], ref[name][same]
+        finite = np.isfinite(b)
+        assert (np.isfinite(a) == finite).all(), name
+        scale = np.abs(b[finite]).max()
+        assert np.abs(a[finite] - b[finite]).max() <= rtol * scale, name
+    for key in ("hits", "stick", "slip", "landed"):
+        assert abs(stats[key] - ref_stats[key]) <= (0 if precision == "float64" else 0.01 * n), key
+    if precision == "float64":
+        for key, value in ref_stats.items():
+            assert stats[key] == pytest.approx(value, rel=1e-8, abs=1e-12, nan_ok=True), key
+
+
+def test_device_statistics_equal_statistics_of_written_arrays(tmp_path, device):
+    scene = make_scene(paper_raw(), precision="float64")
+    stats = wr.run(scene, tmp_path / "p.h5", device=device)
+    p = read_pellets(tmp_path / "p.h5")
+    _, ref_stats = reference.simulate(scene, p["initial.position"], p["initial.velocity"], p["initial.angular_velocity"])
+    for key, value in ref_stats.items():
+        assert stats[key] == pytest.approx(value, rel=1e-10, abs=1e-12, nan_ok=True), key
+
+
+# ---------------------------------------------------------------- chunking, determinism, precision
+
+
+def test_same_results_for_any_chunk_size(tmp_path, device):
+    raw = paper_raw()
+    raw["shot"]["count"] = 150_001  # three segments of 65,536 pellets, the last partial
+    raw["output"] = {"fields": ["landing.range", "impact.velocity", "initial.position"]}
+    results = []
+    for i, chunk in enumerate([None, 65_536, 131_072, 1]):
+        sc = make_scene(raw, numerics={"chunk_size": chunk} if chunk else {})
+        path = tmp_path / f"c{i}.h5"
+        results.append((wr.run(sc, path, device=device), read_pellets(path)))
+    for stats, pellets in results[1:]:
+        stats_equal(stats, results[0][0])
+        for name, arr in pellets.items():
+            np.testing.assert_array_equal(arr, results[0][1][name])
+
+
+def test_statistics_only_run_writes_no_pellet_arrays(tmp_path, device):
+    scene = make_scene(paper_raw(), output={"fields": []})
+    path = tmp_path / "s.h5"
+    stats = wr.run(scene, path, device=device)
+    with h5py.File(path, "r") as f:
+        assert "pellets" not in f
+        assert f["stats/range_mean"][()] == stats["range_mean"]
+
+
+def test_float32_agrees_with_float64(device):
+    s32 = wr.run(make_scene(paper_raw(), precision="float32"), device=device)
+    s64 = wr.run(make_scene(paper_raw(), precision="float64"), device=device)
+    for key in ("range_mean", "range_max", "range_min", "post_mean_vt", "post_mean_WT", "pre_mean_vn"):
+        assert s32[key] == pytest.approx(s64[key], rel=1e-5), key
+    assert s32["stick"] == s64["stick"]
+
+
+# ---------------------------------------------------------------- the paper (section 3, Tables 1-3)
+
+
+@pytest.fixture(scope="module")
+def paper_sweep():
+    scene = make_scene(paper_raw(), precision="float64")
+    return {p["surfaces.0.mu_s"]: s for p, s in wr.sweep(scene, PAPER_SWEEP, PAPER_TIE, device="cpu")}
+
+
+def test_paper_frictionless_row(paper_sweep):
+    s = paper_sweep[0.0]
+    assert s["slip"] + s["stick"] == 450
+    assert s["range_mean"] == pytest.approx(172.016, rel=0.005)  # Table 3
+    assert s["range_max"] == pytest.approx(172.584, rel=0.005)
+    assert s["range_min"] == pytest.approx(169.308, rel=0.005)
+    assert s["post_ratio_WT"] == pytest.approx(0.499, rel=0.005)  # Table 2
+
+
+def test_paper_slip_branch(paper_sweep):
+    s = paper_sweep[0.05]
+    assert s["slip"] == 450  # with eqs. (19), (22): all slip at mu_s = 0.05
+    assert s["range_slip_max"] == pytest.approx(164.918, rel=0.005)  # Table 3 L+ (slipping pellets)
+    assert s["post_norm_mean_omega"] == pytest.approx(26223.662, rel=0.02)  # Table 1
+
+
+def test_stick_rows_follow_eqs_27_to_29_not_the_table(paper_sweep):
+    s = paper_sweep[0.5]
+    assert s["stick"] == 450
+    # no incoming spin: v_t' = 5/7 v_t exactly (eq. 29), not the table's 36.95 m/s
+    assert s["post_mean_vt"] == pytest.approx(5.0 / 7.0 * s["pre_mean_vt"], rel=1e-9)
+    assert s["post_mean_vt"] > 5 * 36.95
+    assert s["range_mean"] > 5 * 21.888
+
+
+def test_sweep_file_layout(tmp_path):
+    scene = make_scene(paper_raw(), output={"fields": ["landing.range"]})
+    path = tmp_path / "sweep.h5"
+    res = wr.sweep(scene, {"surfaces.0.mu_s": [0.0, 0.1]}, PAPER_TIE, path, device="cpu")
+    with h5py.File(path, "r") as f:
+        assert f.attrs["kind"] == "sweep" and f.attrs["status"] == "complete"
+        np.testing.assert_allclose(f["sweep/surfaces.0.mu_d"][()], [0.0, 0.09])
+        assert f["stats/range_mean"].shape == (2,)
+        assert f["stats/range_mean"][1] == res[1][1]["range_mean"]
+        assert f["runs/0001/pellets/landing/range"].shape == (450,)
+        assert "mu_s = 0.1" in f["runs/0001"].attrs["scene_toml"]
+
+
+# ---------------------------------------------------------------- HDF5 layout
+
+
+REQUIRED = [
+    "pellets/initial/position", "pellets/initial/velocity", "pellets/initial/angular_velocity",
+    "pellets/impact/time", "pellets/impact/position", "pellets/impact/velocity",
+    "pellets/impact/angular_velocity", "pellets/impact/slipped",
+    "pellets/landing/time", "pellets/landing/position", "pellets/landing/range",
+]
+
+
+def test_hdf5_layout(tmp_path):
+    path = tmp_path / "run.h5"
+    wr.run(make_scene(paper_raw()), path, device="cpu")
+    with h5py.File(path, "r") as f:
+        for name in REQUIRED:
+            ds = f[name]
+            assert ds.shape[0] == 450 and "units" in ds.attrs, name
+            assert ds.maxshape[0] is None and ds.chunks is not None, name
+        assert f["pellets/impact/velocity"].shape == (450, 1, 3)
+        assert f["pellets/landing/range"].attrs["units"] == "m"
+        for key in ("scene_toml", "package_version", "warp_version", "device", "seed", "status"):
+            assert key in f.attrs, key
+        assert f.attrs["status"] == "complete" and f.attrs["seed"] == 2021
+        assert scene_from_dict(__import__("tomllib").loads(f.attrs["scene_toml"])).shot.count == 450
+        for name, ds in f["stats"].items():
+            assert "units" in ds.attrs, name
+        assert f["constants/mass"].attrs["units"] == "kg"
+
+
+def test_existing_output_is_not_overwritten(tmp_path):
+    path = tmp_path / "keep.h5"
+    path.write_bytes(b"precious")
+    with pytest.raises(wr.OutputError, match="exists"):
+        wr.run(make_scene(paper_raw()), path, device="cpu")
+    assert path.read_bytes() == b"precious"
+    wr.run(make_scene(paper_raw()), path, device="cpu", overwrite=True)
+    assert h5py.is_hdf5(path)

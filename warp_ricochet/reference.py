@@ -1,0 +1,203 @@
+"""Vectorised NumPy float64 reference of the whole no-collision pipeline.
+
+It is the yardstick of the tests and the NumPy side of the benchmarks. It is written in the
+paper's explicit frame form (scalars along e_t, e_n, e_o: eqs. 13-15, 19-25), not in the
+kernels' vector form, so the two implementations check each other.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .impact_law import SOLID_SPHERE_INERTIA_FACTOR
+from .stats import statistics_from_arrays
+
+
+def _dot(a, b):
+    return np.einsum("...i,...i->...", a, b)
+
+
+def impact_law(velocity, angular_velocity, normal, *, radius, restitution, mu_s, mu_d,
+               gravity=(0.0, -9.81, 0.0), duration=0.0, inertia_factor=SOLID_SPHERE_INERTIA_FACTOR):
+    """Eqs. (1)-(25) for (N, 3) states; `normal` (3,) or (N, 3) unit normals. Returns
+    (velocity', angular_velocity', slipped). Pellets not moving into the plane are unchanged.
+    restitution, mu_s, mu_d may be scalars or (N,) arrays."""
+    v = np.asarray(velocity, np.float64)
+    w = np.asarray(angular_velocity, np.float64)
+    e_n = np.broadcast_to(np.asarray(normal, np.float64), v.shape)
+    E, mu_s, mu_d = (np.broadcast_to(np.asarray(x, np.float64), v.shape[:1]) for x in (restitution, mu_s, mu_d))
+    R = radius
+    k = inertia_factor  # I / (m R^2)
+
+    v_cn = _dot(v, e_n)  # eq. (9)
+    approaching = v_cn < 0.0
+    # eq. (6): v_p = v_c + omega x r_{c->p}, r_{c->p} = -R e_n
+    v_p = v + np.cross(w, -R * e_n)
+    v_pt_vec = v_p - _dot(v_p, e_n)[:, None] * e_n  # eq. (4)
+    v_pt = np.linalg.norm(v_pt_vec, axis=1)
+    safe = v_pt > 0.0
+    e_t = np.zeros_like(v)
+    e_t[safe] = v_pt_vec[safe] / v_pt[safe, None]  # eq. (3)
+    e_o = np.cross(e_t, e_n)  # eq. (13)
+    v_ct = _dot(v, e_t)
+    v_co = _dot(v, e_o)
+
+    # specific impulses (per unit mass, times delta t): N* = N dt / m, f* = f dt / m
+    g_n = _dot(np.broadcast_to(np.asarray(gravity, np.float64), v.shape), e_n)
+    N_star = np.maximum(-v_cn * (1.0 + E) - g_n * duration, 0.0)  # eq. (10), no adhesion
+    # eq. (19): f dt / m = I/(I + m R^2) ((omega x r_cp) . e_t + v_ct) = k/(1+k) v_pt
+    f_stick = k / (1.0 + k) * v_pt
+    slipped = approaching & (f_stick > mu_s * N_star) & safe  # eq. (22)
+    f = np.where(slipped, mu_d * N_star, f_stick)  # eq. (23) when slipping
+
+    v_ct_after = v_ct - f  # eqs. (21), (25)
+    v_cn_after = -E * v_cn  # eq. (30)
+    v_after = v_ct_after[:, None] * e_t + v_cn_after[:, None] * e_n + v_co[:, None] * e_o  # eqs. (14), (15)
+    # eqs. (20), (24): omega' = omega - f R dt / I e_o  ->  per unit mass: f* / (k R)
+    w_after = w - (f / (k * R))[:, None] * e_o
+    v_after = np.where(approaching[:, None], v_after, v)
+    w_after = np.where(approaching[:, None], w_after, w)
+    return v_after, w_after, slipped
+
+
+def next_contact(position, velocity, gravity, radius, points, normals, touching):
+    """Vectorised over pellets: (time, plane) of the next contact, plane -1 (time nan) if none."""
+    n_pellets = position.shape[0]
+    best_t = np.full(n_pellets, np.inf)
+    best_k = np.full(n_pellets, -1)
+    for k, (p, nrm) in enumerate(zip(points, normals)):
+        b = velocity @ nrm
+        a = 0.5 * (np.asarray(gravity) @ nrm)
+        height = (position - p) @ nrm
+        c = height - radius
+        t = np.full(n_pellets, np.nan)
+        # leaving the plane just hit: t* = -2 v_n / (g . e_n)   (eq. 40 as the tables use it)
+        leave = touching == k
+        t = np.where(leave & (b <= 0), 0.0, t)
+        if a < 0:
+            t = np.where(leave & (b > 0), -b / a, t)
+        other = ~leave & (height >= 0)
+        now = other & (c <= 0) & (b < 0)
+        t = np.where(now, 0.0, t)
+        rest = other & ~now
+        with np.errstate(divide="ignore", invalid="ignore"):
+            if a == 0.0:
+                t = np.where(rest & (b < 0), -c / b, t)
+            else:
+                disc = b * b - 4.0 * a * c
+                ok = rest & (disc >= 0)
+                root = np.sqrt(np.where(ok, disc, 0.0))
+                closing = np.where(b >= 0, -(b + root) / (2.0 * a), 2.0 * c / (root - b))
+                t = np.where(ok & (closing > 0), closing, t)
+        better = np.isfinite(t) & (t >= 0) & (t < best_t)
+        best_t = np.where(better, t, best_t)
+        best_k = np.where(better, k, best_k)
+    return np.where(best_k >= 0, best_t, np.nan), best_k
+
+
+def sample_launch(shot, rng: np.random.Generator):
+    """Launch states with NumPy's RNG (same distribution as the kernels, not the same draws)."""
+    n = shot.count
+    offset = np.empty((n, 3))
+    todo = np.arange(n)
+    while todo.size:  # rejection sampling in the unit ball
+        trial = rng.uniform(-1.0, 1.0, (todo.size, 3))
+        ok = (trial * trial).sum(axis=1) <= 1.0
+        offset[todo[ok]] = trial[ok]
+        todo = todo[~ok]
+    d = np.asarray(shot.direction) + np.asarray(shot.direction_jitter) * rng.uniform(-1.0, 1.0, (n, 3))
+    velocity = shot.speed * d / np.linalg.norm(d, axis=1)[:, None]
+    position = np.asarray(shot.envelope_center) + shot.envelope_radius * offset
+    spin = np.broadcast_to(np.asarray(shot.spin, np.float64), (n, 3)).copy()
+    return position, velocity, spin
+
+
+def simulate(scene, position, velocity, angular_velocity):
+    """Follow pellets from launch to landing (float64). Returns (per-pellet dict, statistics)."""
+    radius = 0.5 * scene.shot.diameter
+    mass = scene.shot.density * 4.0 / 3.0 * math.pi * radius**3
+    inertia = SOLID_SPHERE_INERTIA_FACTOR * mass * radius**2
+    g = np.asarray(scene.physics.gravity, np.float64)
+    planes = scene.surfaces
+    points = np.array([s.point for s in planes], np.float64).reshape(-1, 3)
+    normals = np.array([s.normal for s in planes], np.float64).reshape(-1, 3)
+    E = np.array([s.restitution for s in planes] + [0.0])  # index -1 -> dummy
+    mu_s = np.array([s.mu_s for s in planes] + [0.0])
+    mu_d = np.array([s.mu_d for s in planes] + [0.0])
+    n = position.shape[0]
+    B = scene.physics.bounces
+    r = np.array(position, np.float64)
+    v = np.array(velocity, np.float64)
+    w = np.array(angular_velocity, np.float64)
+    launch_v, launch_w = v.copy(), w.copy()
+    time = np.zeros(n)
+    touching = np.full(n, -1)
+    active = np.ones(n, bool)
+    out = {
+        "impact.time": np.full((n, B), np.nan),
+        "impact.position": np.full((n, B, 3), np.nan),
+        "impact.velocity_before": np.full((n, B, 3), np.nan),
+        "impact.angular_velocity_before": np.full((n, B, 3), np.nan),
+        "impact.velocity": np.full((n, B, 3), np.nan),
+        "impact.angular_velocity": np.full((n, B, 3), np.nan),
+        "impact.slipped": np.full((n, B), -1, np.int8),
+        "impact.surface": np.full((n, B), -1, np.int16),
+    }
+    ricochet_point = np.full((n, 3), np.nan)
+    first_normal = np.zeros((n, 3))
+    last_slipped = np.zeros(n, bool)
+    for bounce in range(B):
+        dt, k = next_contact(r, v, g, radius, points, normals, touching)
+        hit = active & (k >= 0)
+        active &= hit
+        dt = np.where(hit, dt, 0.0)
+        nrm = np.where(hit[:, None], normals[k], 0.0)
+        r = np.where(hit[:, None], r + v * dt[:, None] + 0.5 * g * dt[:, None] ** 2, r)
+        v = np.where(hit[:, None], v + g * dt[:, None], v)
+        time = time + dt
+        safe_n = np.where(hit[:, None], nrm, np.array([0.0, 1.0, 0.0]))
+        v2, w2, s2 = impact_law(v, w, safe_n, radius=radius, restitution=E[k], mu_s=mu_s[k], mu_d=mu_d[k],
+                                gravity=g, duration=scene.physics.impact_duration)
+        out["impact.time"][hit, bounce] = time[hit]
+        out["impact.position"][hit, bounce] = r[hit]
+        out["impact.velocity_before"][hit, bounce] = v[hit]
+        out["impact.angular_velocity_before"][hit, bounce] = w[hit]
+        out["impact.velocity"][hit, bounce] = v2[hit]
+        out["impact.angular_velocity"][hit, bounce] = w2[hit]
+        out["impact.slipped"][hit, bounce] = s2[hit]
+        out["impact.surface"][hit, bounce] = k[hit]
+        if bounce == 0:
+            first_normal = nrm
+        v = np.where(hit[:, None], v2, v)
+        w = np.where(hit[:, None], w2, w)
+        touching = np.where(hit, k, touching)
+        last_slipped = np.where(hit, s2, last_slipped)
+        ricochet_point = np.where(hit[:, None], r - radius * nrm, ricochet_point)
+    dt, k = next_contact(r, v, g, radius, points, normals, touching)
+    landed = active & (k >= 0)
+    dt = np.where(landed, dt, 0.0)
+    land_pos = np.where(landed[:, None], r + v * dt[:, None] + 0.5 * g * dt[:, None] ** 2, np.nan)
+    land_vel = np.where(landed[:, None], v + g * dt[:, None], np.nan)
+    contact = land_pos - radius * normals[np.maximum(k, 0)]
+    out.update({
+        "initial.position": np.asarray(position, np.float64),
+        "initial.velocity": launch_v,
+        "initial.angular_velocity": launch_w,
+        "landing.time": np.where(landed, time + dt, np.inf),
+        "landing.position": land_pos,
+        "landing.velocity": land_vel,
+        "landing.range": np.where(landed, np.linalg.norm(contact - ricochet_point, axis=1), np.nan),
+        "landing.surface": np.where(landed, k, -1).astype(np.int16),
+    })
+    hit_any = out["impact.surface"][:, 0] >= 0
+    stats = statistics_from_arrays(
+        pellets=n, mass=mass, inertia=inertia, launch_velocity=launch_v, launch_angular_velocity=launch_w,
+        hit=hit_any, normal=first_normal,
+        velocity_before=out["impact.velocity_before"][:, 0], angular_velocity_before=out["impact.angular_velocity_before"][:, 0],
+        velocity_after=out["impact.velocity"][:, 0], angular_velocity_after=out["impact.angular_velocity"][:, 0],
+        slipped_first=out["impact.slipped"][:, 0] == 1, landed=landed, range_=out["landing.range"],
+        slipped_last=last_slipped, time_aloft=dt, landing_velocity=np.nan_to_num(land_vel),
+    )
+    return out, stats
