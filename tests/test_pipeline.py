@@ -247,3 +247,36 @@ def test_existing_output_is_not_overwritten(tmp_path):
     assert path.read_bytes() == b"precious"
     wr.run(make_scene(paper_raw()), path, device="cpu", overwrite=True)
     assert h5py.is_hdf5(path)
+
+
+# ---------------------------------------------------------------- CPU against GPU (runs where CUDA exists)
+
+from conftest import DEVICES  # noqa: E402
+
+
+@pytest.mark.skipif("cuda:0" not in DEVICES, reason="no CUDA device")
+@pytest.mark.parametrize("precision, rtol", [("float64", 1e-12), ("float32", 2e-5)])
+def test_cpu_and_gpu_agree_per_pellet(tmp_path, precision, rtol):
+    """Same seed: the same pellets on both devices (counter-based RNG), the same outcomes
+    within `rtol` of each quantity's scale (the devices' maths libraries and FMA contraction
+    differ in the last bits)."""
+    raw = paper_raw()
+    raw["shot"]["count"] = 20_000
+    raw["shot"]["spin"] = [0.0, 0.0, 3000.0]
+    raw["surfaces"].append({"point": [40.0, 0.0, 0.0], "normal": [-1.0, 0.2, 0.0], "restitution": 0.3, "mu_s": 0.3, "mu_d": 0.25})
+    raw["physics"]["bounces"] = 2
+    out = {}
+    for dev in ("cpu", "cuda:0"):
+        sc = make_scene(raw, precision=precision, surfaces=raw["surfaces"])
+        wr.run(sc, tmp_path / f"{dev[:3]}.h5", device=dev)
+        out[dev] = read_pellets(tmp_path / f"{dev[:3]}.h5")
+    a, b = out["cpu"], out["cuda:0"]
+    same = (a["impact.slipped"] == b["impact.slipped"]).all(axis=1) & (a["landing.surface"] == b["landing.surface"])
+    assert same.mean() > 0.999
+    for name, x in a.items():
+        if x.dtype.kind == "f":
+            y = b[name]
+            finite = np.isfinite(x[same])
+            assert (finite == np.isfinite(y[same])).all(), name
+            scale = np.abs(x[same][finite]).max() if finite.any() else 1.0
+            assert np.abs(x[same][finite] - y[same][finite]).max() <= rtol * scale, name

@@ -26,7 +26,8 @@ CPU_STATS_CHUNK = 1 << 22  # CPU statistics-only chunk: progress granularity
 def _warp():
     import warp as wp
 
-    wp.config.quiet = True
+    if wp.config.log_level < wp.LOG_WARNING:
+        wp.config.log_level = wp.LOG_WARNING  # no banner, no per-module load lines
     wp.init()  # no-op once initialised
     return wp
 
@@ -282,7 +283,7 @@ def run_scene(scene, model, *, writer=None, progress=None, source=None) -> dict:
         wp.copy(slot.segment_min[:segments], state.segment_min[:segments])
         wp.copy(slot.segment_max[:segments], state.segment_max[:segments])
         slot.rows, slot.segments = rows, segments
-        slot.event = wp.record_event() if cuda else None
+        slot.event = dev.stream.record_event() if cuda else None
         if pending is not None:
             consume(pending)  # host work on the previous chunk while the device runs this one
         pending = slot

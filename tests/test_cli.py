@@ -1,0 +1,331 @@
+"""Tests of the `warp-ricochet` command line (cli), the report tables (report, paper) and the progress bar.
+
+A few end-to-end calls run `python -m warp_ricochet.cli` in a subprocess; the rest call `main([...])`
+in-process. Scenes are small (200 pellets, CPU) so the whole file runs in seconds.
+"""
+
+import io
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from warp_ricochet import cli
+from warp_ricochet.cli import main
+from warp_ricochet.paper import PAPER_ROWS, TABLE1, TABLE2, TABLE3, paper_row
+from warp_ricochet.progress import ProgressBar
+from warp_ricochet.report import Results, format_tables, frictional_case, read_results
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENE = str(ROOT / "examples" / "paper.toml")
+SMALL = ["--set", "shot.count=200", "--device", "cpu"]
+PREFIX = "warp-ricochet: error: "
+
+
+def cli_subprocess(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "warp_ricochet.cli", *args], capture_output=True, text=True,
+                          cwd=cwd, timeout=120)
+
+
+def error_lines(err: str) -> list[str]:
+    return [line for line in err.splitlines() if line.startswith(PREFIX)]
+
+
+def table_blocks(out: str) -> dict[str, list[str]]:
+    """Text output -> {"Table 1": [data rows], ...} for our own tables (not the paper's)."""
+    tables = {}
+    for block in out.split("\n\n"):
+        lines = block.strip("\n").splitlines()
+        if lines and lines[0].startswith("Table ") and "[paper" not in lines[0]:
+            tables[lines[0].split(".")[0]] = lines[3:]  # title, header, dashes, rows
+    return tables
+
+
+@pytest.fixture(scope="module")
+def sweep_run(tmp_path_factory):
+    """The sweep of the brief, run once in-process: (path, stdout)."""
+    path = tmp_path_factory.mktemp("sweep") / "sweep.h5"
+    capture = io.StringIO()
+    old, sys.stdout = sys.stdout, capture
+    try:
+        rc = main(["sweep", SCENE, *SMALL, "--param", "surfaces.0.mu_s=0:0.1:0.05", "--tie", "surfaces.0.mu_d=0.9*",
+                   "-o", str(path)])
+    finally:
+        sys.stdout = old
+    assert rc == 0
+    return path, capture.getvalue()
+
+
+# ---------------------------------------------------------------------------------------------- run
+
+
+def test_run_end_to_end_writes_complete_file(tmp_path):
+    out = tmp_path / "run.h5"
+    proc = cli_subprocess("run", SCENE, *SMALL, "-o", str(out))
+    assert proc.returncode == 0, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert "pellets" in proc.stdout and "mean range <L>" in proc.stdout and " m/s" in proc.stdout
+    assert "Warp 1.19" not in proc.stdout  # warp's banner stays off our output
+    with h5py.File(out, "r") as f:
+        assert f.attrs["format"] == "warp-ricochet"
+        assert f.attrs["kind"] == "run"
+        assert f.attrs["status"] == "complete"
+        assert math.isfinite(float(f["stats/range_mean"][()]))
+        assert float(f["stats/pellets"][()]) == 200
+
+
+def test_run_refuses_to_overwrite_then_overwrites(tmp_path):
+    out = tmp_path / "run.h5"
+    assert main(["run", SCENE, *SMALL, "-o", str(out)]) == 0
+    before, mtime = out.read_bytes(), out.stat().st_mtime_ns
+
+    proc = cli_subprocess("run", SCENE, *SMALL, "-o", str(out))
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(PREFIX) and "exists" in lines[0] and "--overwrite" in lines[0]
+    assert out.read_bytes() == before and out.stat().st_mtime_ns == mtime
+
+    assert main(["run", SCENE, *SMALL, "-o", str(out), "--overwrite"]) == 0
+    assert out.stat().st_mtime_ns != mtime
+    with h5py.File(out, "r") as f:
+        assert f.attrs["status"] == "complete"
+
+
+@pytest.mark.parametrize("assignment, key", [
+    ("surfaces.0.restitution=1.5", "surfaces.0.restitution"),
+    ("shot.count=0", "shot.count"),
+    ("shot.no_such_key=1", "shot.no_such_key"),
+])
+def test_bad_set_is_one_line_and_writes_nothing(tmp_path, capsys, assignment, key):
+    out = tmp_path / "bad.h5"
+    assert main(["run", SCENE, "--device", "cpu", "--set", assignment, "-o", str(out)]) == 2
+    captured = capsys.readouterr()
+    lines = captured.err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(PREFIX) and key in lines[0]
+    assert captured.out == ""
+    assert not out.exists()
+
+
+def test_bad_set_end_to_end_has_no_traceback(tmp_path):
+    out = tmp_path / "bad.h5"
+    proc = cli_subprocess("run", SCENE, "--set", "surfaces.0.restitution=1.5", "-o", str(out))
+    assert proc.returncode == 2
+    assert proc.stderr.strip().splitlines() == [proc.stderr.strip()]
+    assert proc.stderr.startswith(PREFIX) and "surfaces.0.restitution" in proc.stderr
+    assert not out.exists()
+
+
+def test_unavailable_device_is_one_line(tmp_path, capsys):
+    import warp as wp
+
+    if wp.get_cuda_device_count() > 7:
+        pytest.skip("this machine has a cuda:7")
+    out = tmp_path / "dev.h5"
+    assert main(["run", SCENE, "--set", "shot.count=200", "--device", "cuda:7", "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    lines = error_lines(err)
+    assert len(lines) == 1 and "cuda:7" in lines[0]
+    assert "Traceback" not in err
+    assert not out.exists()
+
+
+def test_run_without_output_prints_summary(capsys):
+    assert main(["run", SCENE, *SMALL]) == 0
+    out = capsys.readouterr().out
+    assert "no output file" in out and "L+ (longest)" in out and "L- (shortest)" in out
+
+
+def test_os_error_and_interrupt(monkeypatch, capsys, tmp_path):
+    from warp_ricochet import api
+
+    def disk_full(*args, **kwargs):
+        raise OSError(28, "No space left on device", str(tmp_path / "x.h5"))
+
+    monkeypatch.setattr(api, "run", disk_full)
+    assert main(["run", SCENE, *SMALL]) == 1
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(PREFIX) and "No space left" in lines[0]
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(api, "run", interrupted)
+    assert main(["run", SCENE, *SMALL]) == 130
+    assert capsys.readouterr().err.strip() == "warp-ricochet: interrupted"
+
+
+# ---------------------------------------------------------------------------------------------- sweep and report
+
+
+def test_sweep_writes_file_and_prints_three_tables(sweep_run):
+    path, out = sweep_run
+    with h5py.File(path, "r") as f:
+        assert f.attrs["kind"] == "sweep" and f.attrs["status"] == "complete"
+        assert list(f["sweep"].attrs["parameters"]) == ["surfaces.0.mu_s"]
+        mu_s = f["sweep/surfaces.0.mu_s"][()]
+        np.testing.assert_allclose(f["sweep/surfaces.0.mu_d"][()], 0.9 * mu_s)
+        assert f["stats/range_mean"].shape == (3,)
+    tables = table_blocks(out)
+    assert sorted(tables) == ["Table 1", "Table 2", "Table 3"]
+    assert len(tables["Table 1"]) == len(tables["Table 2"]) == 6  # pre and post per point
+    rows = tables["Table 3"]
+    assert len(rows) == 3
+    assert [r.split()[0] for r in rows] == ["0.100", "0.050", "0.000"]  # the paper's order: descending
+    assert rows[-1].split()[4] == "All-slip"  # mu_s = 0: nothing can stick
+    assert "device: cpu" in out and "status: complete" in out and "pellets: 200" in out
+    results = read_results(path)
+    assert [r["surfaces.0.mu_s"] for r in results.rows] == [0.1, 0.05, 0.0]
+    assert results.params == ["surfaces.0.mu_s"] and results.tied == ["surfaces.0.mu_d"]
+
+
+def test_report_text_is_the_sweep_output(sweep_run, capsys):
+    path, out = sweep_run
+    assert main(["report", str(path)]) == 0
+    assert capsys.readouterr().out == out
+    header = out.splitlines()[0]
+    assert str(path) in header
+
+
+def test_report_markdown(sweep_run, capsys):
+    path, _ = sweep_run
+    assert main(["report", str(path), "--format", "markdown"]) == 0
+    out = capsys.readouterr().out
+    blocks = [b for b in out.split("\n\n") if b.startswith("| ")]
+    assert len(blocks) == 3
+    for block in blocks:
+        lines = block.splitlines()
+        assert lines[1].startswith("|---") or lines[1].startswith("|:--")
+        assert all(line.startswith("| ") and line.endswith(" |") for line in lines[2:])
+    assert len(blocks[2].splitlines()) == 2 + 3
+    assert "&lt;L&gt; (m)" in blocks[2]  # no raw <...>: GitHub would read it as HTML
+    assert "\\|\\|&lt;omega&gt;\\|\\|" in blocks[0]
+
+
+def test_report_paper(sweep_run, capsys):
+    path, _ = sweep_run
+    assert main(["report", str(path), "--paper"]) == 0
+    out = capsys.readouterr().out
+    assert "[paper: Zohdi 2021]" in out
+    assert "172.016" in out and "92.908" in out and "21.888" in out  # <L> at mu_s = 0, 0.05, 0.1
+    paper3 = [b for b in out.split("\n\n") if b.startswith("Table 3.") and "[paper" in b][0].splitlines()[3:]
+    assert [r.split()[0] for r in paper3] == ["0.100", "0.050", "0.000"]
+    assert all(r.rstrip().endswith("%") for r in paper3)
+
+
+def test_report_run_file(tmp_path, capsys):
+    out = tmp_path / "run.h5"
+    assert main(["run", SCENE, *SMALL, "-o", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["report", str(out), "--paper"]) == 0
+    text = capsys.readouterr().out
+    ours = table_blocks(text)
+    assert [r.split()[0] for r in ours["Table 3"]] == ["run"]
+    assert [r.split()[:2] for r in ours["Table 1"]] == [["run", "pre"], ["run", "post"]]
+    assert "21.888" in text  # the paper's row for the scene's mu_s = 0.5
+
+
+def test_report_missing_and_bad_inputs(tmp_path, capsys):
+    text = tmp_path / "notes.txt"
+    text.write_text("not hdf5\n")
+    foreign = tmp_path / "foreign.h5"
+    with h5py.File(foreign, "w") as f:
+        f["x"] = 1
+    for path, words in ((tmp_path / "missing.h5", "does not exist"), (text, "not an HDF5 file"),
+                        (foreign, "not a warp-ricochet output file"), (tmp_path, "directory")):
+        assert main(["report", str(path)]) == 2
+        captured = capsys.readouterr()
+        lines = captured.err.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith(PREFIX + "report = ") and words in lines[0], lines
+        assert captured.out == ""
+
+
+def test_report_missing_file_end_to_end(tmp_path):
+    proc = cli_subprocess("report", str(tmp_path / "missing.h5"))
+    assert proc.returncode == 2
+    assert proc.stderr.strip().splitlines() == [PREFIX + f"report = {str(tmp_path / 'missing.h5')!r}: does not exist"]
+
+
+# ---------------------------------------------------------------------------------------------- argparse
+
+
+@pytest.mark.parametrize("argv", [["--help"], ["run", "--help"], ["sweep", "--help"], ["report", "--help"],
+                                  ["--version"]])
+def test_help_and_version_exit_0(argv, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 0
+    assert capsys.readouterr().out.strip()
+
+
+def test_usage_errors_keep_argparse_behaviour(capsys):
+    for argv in ([], ["run"], ["sweep", SCENE], ["report", "x.h5", "--format", "html"]):
+        with pytest.raises(SystemExit) as exc:
+            main(argv)
+        assert exc.value.code == 2
+        assert "usage:" in capsys.readouterr().err
+
+
+def test_help_end_to_end():
+    proc = cli_subprocess("sweep", "--help")
+    assert proc.returncode == 0 and "--param" in proc.stdout and "--tie" in proc.stdout
+
+
+def test_bad_param_and_tie_are_one_line(capsys):
+    for extra in (["--param", "surfaces.0.mu_s=0:0.1:-0.05"], ["--param", "surfaces.0.mu_s=0,0.1", "--tie", "x"],
+                  ["--param", "surfaces.0.mu_s=0.1", "--param", "surfaces.0.mu_s=0.2"]):
+        assert main(["sweep", SCENE, *SMALL, *extra]) == 2
+        lines = capsys.readouterr().err.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith(PREFIX)
+
+
+# ---------------------------------------------------------------------------------------------- units
+
+
+def test_progress_bar_is_silent_without_a_tty():
+    stream = io.StringIO()
+    bar = ProgressBar("run", stream)
+    bar(1, 2)
+    bar(2, 2)
+    bar.close()
+    assert stream.getvalue() == ""
+
+
+def test_progress_bar_draws_on_a_tty():
+    stream = io.StringIO()
+    with ProgressBar("run", stream, enabled=True) as bar:
+        bar(0, 1000)
+        bar(1000, 1000)
+    text = stream.getvalue()
+    assert text.startswith("\rrun [") and text.endswith("\n") and text.count("\n") == 1
+    assert "100.0%" in text and "pellets/s" in text and "1,000/1,000" in text
+
+
+def test_frictional_case_and_tables_from_rows():
+    assert frictional_case({"stick": 5.0, "slip": 0.0}) == "All-stick"
+    assert frictional_case({"stick": 0.0, "slip": 5.0}) == "All-slip"
+    assert frictional_case({"stick": 1200.0, "slip": 3.0}) == "Mixed: stick+slip (1,200 stick / 3 slip)"
+    rows = [{"surfaces.0.mu_s": mu, "pellets": 1.0, "stick": 1.0, "slip": 0.0, "post_norm_mean_omega": 29880.2391}
+            for mu in (0.0, 0.5)]
+    text = format_tables(Results(rows=rows, params=["surfaces.0.mu_s"], meta={"kind": "sweep"}))
+    assert "29,880.239" in text and "n/a" in text and "mu_s" in text
+
+
+def test_paper_tables_are_consistent():
+    assert len(TABLE1) == len(TABLE2) == 22 and len(TABLE3) == 11
+    assert sorted(PAPER_ROWS, reverse=True) == [round(0.5 - 0.05 * i, 3) for i in range(11)]
+    row = paper_row(0.05)
+    assert row["post_mean_vt"] == 158.212 and row["range_max"] == 164.918 and row["case"] == "Mixed: stick+slip"
+    assert paper_row(0.0)["range_min"] == 169.308 and paper_row(0.42) is None
+    assert all(len(r) == len(PAPER_ROWS[0.5]) for r in PAPER_ROWS.values())
+
+
+def test_cli_imports_no_warp():
+    proc = subprocess.run([sys.executable, "-c", "import sys, warp_ricochet.cli, warp_ricochet.report; "
+                           "print('warp' in sys.modules)"], capture_output=True, text=True, timeout=60)
+    assert proc.stdout.strip() == "False"
+    assert cli.PROG == "warp-ricochet" and os.path.exists(SCENE)

@@ -1,0 +1,192 @@
+"""The `warp-ricochet` command: run a scene, sweep parameters, report Tables 1-3 of Zohdi (2021).
+
+    warp-ricochet run SCENE.toml [-o OUT.h5] [--device cpu|cuda|cuda:N] [--set KEY=VALUE ...] [--overwrite]
+    warp-ricochet sweep SCENE.toml --param KEY=START:STOP:STEP|a,b,c [--tie KEY=F*[PARAM] ...] [-o OUT.h5] ...
+    warp-ricochet report OUT.h5 [--format text|markdown] [--paper]
+
+Exit status: 0 on success; 2 for a usage error or any invalid scene, override, device, output path or
+report input (one line `warp-ricochet: error: ...` on stderr, no traceback); 1 for an operating-system
+error such as a full disk; 130 when interrupted. Warp itself is imported only by `run` and `sweep`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+from . import __version__
+from .errors import RicochetError, SceneError
+
+PROG = "warp-ricochet"
+
+EPILOG = """examples:
+  warp-ricochet run examples/paper.toml -o run.h5
+  warp-ricochet sweep examples/paper.toml --param surfaces.0.mu_s=0:0.5:0.05 --tie surfaces.0.mu_d=0.9* -o sweep.h5
+  warp-ricochet report sweep.h5 --paper"""
+
+
+# ---------------------------------------------------------------------------------------------- parser
+
+
+def _add_scene_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("scene", metavar="SCENE.toml", help="scene file (TOML; see examples/paper.toml)")
+    p.add_argument("-o", "--output", metavar="OUT.h5",
+                   help="HDF5 file to write (default: the scene's output.path; none: statistics only)")
+    p.add_argument("--device", metavar="DEVICE",
+                   help="Warp device: cpu, cuda or cuda:N (default: CUDA if present, else cpu)")
+    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a scene value, e.g. --set shot.count=1000 --set surfaces.0.mu_s=0.2 "
+                        "(VALUE is a TOML value; repeatable)")
+    p.add_argument("--overwrite", action="store_true", help="replace OUT.h5 if it exists")
+
+
+def _add_report_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--format", choices=("text", "markdown"), default="text",
+                   help="text (aligned columns, default) or markdown (GitHub tables)")
+    p.add_argument("--paper", action="store_true",
+                   help="also print the paper's values for the same mu_s and the relative differences of the ranges")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog=PROG,
+        description="Shotgun pellet ricochet (Zohdi 2021) in NVIDIA Warp kernels. SI units throughout.",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+
+    p = sub.add_parser("run", help="run one scene and print a summary of its statistics",
+                       description="Run every pellet of a scene, write HDF5 (with -o) and print a summary.")
+    _add_scene_options(p)
+    p.set_defaults(func=cmd_run)
+
+    p = sub.add_parser("sweep", help="run a scene over a parameter sweep and print Tables 1-3",
+                       description="Run a scene at every point of a parameter sweep, write one HDF5 file "
+                                   "(with -o) and print Tables 1-3 like `report`.",
+                       epilog="example: --param surfaces.0.mu_s=0:0.5:0.05 --tie surfaces.0.mu_d=0.9*",
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    _add_scene_options(p)
+    p.add_argument("--param", dest="params", action="append", required=True,
+                   metavar="KEY=START:STOP:STEP|a,b,c",
+                   help="a swept key: an inclusive range or a list of values (repeatable: cartesian product)")
+    p.add_argument("--tie", dest="ties", action="append", default=[], metavar="KEY=F*[PARAM]",
+                   help="set KEY to F times a swept parameter at each point (PARAM may be left out when "
+                        "one parameter is swept), e.g. surfaces.0.mu_d=0.9*")
+    _add_report_options(p)
+    p.set_defaults(func=cmd_sweep)
+
+    p = sub.add_parser("report", help="print Tables 1-3 of the paper from an output file",
+                       description="Print Tables 1-3 (Zohdi 2021 layout) from a run or sweep HDF5 file.")
+    p.add_argument("file", metavar="OUT.h5", help="a run or sweep file written by warp-ricochet")
+    _add_report_options(p)
+    p.set_defaults(func=cmd_report)
+    return parser
+
+
+# ---------------------------------------------------------------------------------------------- commands
+
+
+def _device_name(api, name) -> str:
+    return str(api.resolve_device(name))
+
+
+def cmd_run(args) -> int:
+    from .progress import ProgressBar
+    from .report import format_run_summary
+    from .scene import load_scene
+
+    scene = load_scene(args.scene, args.overrides)  # before warp: a bad scene fails fast
+    from . import api
+
+    with ProgressBar("run") as bar:
+        stats = api.run(scene, args.output, args.device, overwrite=args.overwrite, progress=bar)
+    output = args.output if args.output is not None else scene.output.path
+    sys.stdout.write(format_run_summary(stats, output, _device_name(api, args.device)))
+    return 0
+
+
+def cmd_sweep(args) -> int:
+    from .progress import ProgressBar
+    from .report import format_tables, read_results, results_from_sweep
+    from .scene import load_scene, parse_sweep, parse_tie
+
+    scene = load_scene(args.scene, args.overrides)
+    params = {}
+    for spec in args.params:
+        key, values = parse_sweep(spec)
+        if key in params:
+            raise SceneError(key, spec, "is swept twice; give each --param key once")
+        params[key] = values
+    ties = [parse_tie(spec) for spec in args.ties]
+    from . import api
+
+    with ProgressBar("sweep") as bar:
+        results = api.sweep(scene, params, ties, args.output, args.device, overwrite=args.overwrite, progress=bar)
+    output = args.output if args.output is not None else scene.output.path
+    if output is not None:
+        res = read_results(output)  # exactly what `report` prints
+    else:
+        res = results_from_sweep(results, params, ties, meta={"device": _device_name(api, args.device),
+                                                               "scene_toml": scene.to_toml()})
+    sys.stdout.write(format_tables(res, args.format, paper=args.paper))
+    return 0
+
+
+def cmd_report(args) -> int:
+    from .report import format_tables, read_results
+
+    sys.stdout.write(format_tables(read_results(args.file), args.format, paper=args.paper))
+    return 0
+
+
+# ---------------------------------------------------------------------------------------------- main
+
+
+def _one_line(text) -> str:
+    return " ".join(str(text).split())
+
+
+def _os_message(exc: OSError) -> str:
+    parts = [exc.strerror or _one_line(exc) or type(exc).__name__]
+    for name in (exc.filename, exc.filename2):
+        if name is not None:
+            parts.append(repr(os.fsdecode(name)))
+    return ": ".join(parts)
+
+
+def _error(message: str) -> None:
+    try:
+        sys.stdout.flush()
+    except (OSError, ValueError):
+        pass
+    print(f"{PROG}: error: {_one_line(message)}", file=sys.stderr)
+
+
+def main(argv=None) -> int:
+    """Entry point of `warp-ricochet`; returns the exit status (argparse exits itself on usage errors)."""
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except RicochetError as exc:  # before OSError: OutputError is both
+        _error(str(exc))
+        return 2
+    except BrokenPipeError:  # stdout closed early (| head): quietly, and keep Python's flush at exit quiet
+        try:
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, sys.stdout.fileno())
+        except (OSError, ValueError):
+            pass
+        return 1
+    except OSError as exc:
+        _error(_os_message(exc))
+        return 1
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

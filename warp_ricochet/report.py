@@ -1,0 +1,415 @@
+"""Reports: the paper's Tables 1-3 (Zohdi 2021) from an output file or a sweep in memory, as text or Markdown.
+
+`read_results(path)` reads a run or sweep HDF5 file (layout in `writer`) into `Results`: one row
+per run / sweep point, a flat dict of the statistics (`stats.STAT_UNITS`) and the point's swept
+and tied values, sorted like the paper (first swept parameter descending). `format_tables` prints
+Tables 1-3 in the paper's layout, optionally followed by the paper's own values (`paper`).
+`format_run_summary` is the short summary of one run's statistics printed by `warp-ricochet run`.
+
+This module needs h5py and numpy only (never warp), so reports work without a device.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tomllib
+from dataclasses import dataclass, field
+
+from .errors import RicochetError
+from .paper import paper_row
+from .stats import STAT_UNITS
+
+__all__ = ["ReportError", "Results", "read_results", "results_from_sweep", "format_tables", "format_run_summary"]
+
+FORMAT_NAME = "warp-ricochet"  # the root attribute `format` (writer.FORMAT_NAME; writer imports warp)
+NA = "n/a"
+
+
+class ReportError(RicochetError):
+    """A report input cannot be used (missing, unreadable, not HDF5, not a warp-ricochet file)."""
+
+    def __init__(self, path, problem: str):
+        super().__init__(f"report = {str(path)!r}: {problem}")
+
+
+@dataclass
+class Results:
+    """The rows of a report. `params`: swept keys (first one sorts the rows); `tied`: keys following them."""
+
+    rows: list[dict]
+    meta: dict = field(default_factory=dict)
+    params: list[str] = field(default_factory=list)
+    tied: list[str] = field(default_factory=list)
+
+    @property
+    def kind(self) -> str:
+        return str(self.meta.get("kind", "sweep" if self.params else "run"))
+
+
+# ---------------------------------------------------------------------------------------------- reading
+
+
+def _text(value):
+    if isinstance(value, bytes):
+        return value.decode("utf-8", "replace")
+    if hasattr(value, "item") and getattr(value, "shape", None) == ():
+        return value.item()
+    return value
+
+
+def _key_list(value) -> list[str]:
+    if value is None:
+        return []
+    if isinstance(value, (str, bytes)):
+        return [str(_text(value))]
+    return [str(_text(v)) for v in value]
+
+
+def _sort_rows(rows: list[dict], params: list[str]) -> list[dict]:
+    """Paper order: by the swept parameters, descending (the paper lists mu_s = 0.5 first); NaN last."""
+    def key(row):
+        out = []
+        for p in params:
+            v = row.get(p, math.nan)
+            v = float(v) if isinstance(v, (int, float)) else math.nan
+            out.append((math.isnan(v), -v if not math.isnan(v) else 0.0))
+        return out
+    return sorted(rows, key=key) if params else list(rows)
+
+
+def read_results(path) -> Results:
+    """Read a warp-ricochet run or sweep file; raise `ReportError` (one line) for any unusable input."""
+    import h5py
+    import numpy as np
+
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise ReportError(path, "does not exist")
+    if os.path.isdir(path):
+        raise ReportError(path, "is a directory, not an HDF5 file")
+    try:
+        with open(path, "rb"):
+            pass
+        hdf5 = h5py.is_hdf5(path)
+    except OSError as exc:
+        raise ReportError(path, f"cannot be read: {exc.strerror or exc}") from None
+    if not hdf5:
+        raise ReportError(path, "is not an HDF5 file (expected a warp-ricochet .h5 output)")
+    try:
+        with h5py.File(path, "r") as f:
+            return _read_open_file(f, path, np)
+    except RicochetError:
+        raise
+    except (OSError, KeyError, ValueError, TypeError) as exc:  # truncated or otherwise damaged files
+        message = " ".join(str(exc).split()) or type(exc).__name__
+        raise ReportError(path, f"cannot be read as a warp-ricochet file: {message}") from None
+
+
+def _read_open_file(f, path, np) -> Results:
+    import h5py
+
+    attrs = {k: _text(v) for k, v in f.attrs.items()}
+    if attrs.get("format") != FORMAT_NAME:
+        found = attrs.get("format")
+        raise ReportError(path, "is not a warp-ricochet output file (root attribute format = "
+                          f"{found!r}, expected {FORMAT_NAME!r})")
+    kind = attrs.get("kind")
+    if kind not in ("run", "sweep"):
+        raise ReportError(path, f"has kind = {kind!r}; expected 'run' or 'sweep'")
+    status = attrs.get("status", "unknown")
+    stats_group = f.get("stats")
+    if not isinstance(stats_group, h5py.Group) or not len(stats_group):
+        raise ReportError(path, f"holds no statistics (status = {status!r}): the run did not finish")
+    stats = {name: ds[()] for name, ds in stats_group.items() if isinstance(ds, h5py.Dataset)}
+    meta = dict(attrs, file=path)
+    if kind == "run":
+        row = {name: float(np.asarray(v).reshape(-1)[0]) for name, v in stats.items()}
+        meta["points"] = meta["points_done"] = 1
+        return Results(rows=[row], meta=meta)
+    sweep = f.get("sweep")
+    if not isinstance(sweep, h5py.Group):
+        raise ReportError(path, "is a sweep file without a /sweep group")
+    params = _key_list(sweep.attrs.get("parameters"))
+    tied = _key_list(sweep.attrs.get("tied"))
+    values = {key: np.asarray(ds[()], dtype=np.float64).reshape(-1) for key, ds in sweep.items()
+              if isinstance(ds, h5py.Dataset)}
+    if not params:
+        params = [k for k in values if k not in tied]
+    missing = [p for p in params if p not in values]
+    if missing:
+        raise ReportError(path, f"has no /sweep/{missing[0]} dataset for swept parameter {missing[0]!r}")
+    points = len(values[params[0]])
+    rows = []
+    for i in range(points):
+        row = {}
+        for name, arr in stats.items():
+            arr = np.asarray(arr, dtype=np.float64).reshape(-1)
+            row[name] = float(arr[i]) if i < arr.size else math.nan
+        if math.isnan(row.get("pellets", math.nan)):
+            continue  # a point the (interrupted) sweep never ran
+        for key, arr in values.items():
+            row[key] = float(arr[i]) if i < arr.size else math.nan
+        rows.append(row)
+    meta["points"], meta["points_done"] = points, len(rows)
+    return Results(rows=_sort_rows(rows, params), meta=meta, params=params, tied=tied)
+
+
+def results_from_sweep(results, params, ties=(), meta=None) -> Results:
+    """`Results` from the list `api.sweep` returns ([(point, stats)]) when no file was written."""
+    rows = [dict(stats, **point) for point, stats in results]
+    params = list(params)
+    meta = dict(meta or {})
+    meta.setdefault("kind", "sweep")
+    meta.setdefault("status", "complete")
+    meta["points"] = meta["points_done"] = len(rows)
+    tied = [t[0] if isinstance(t, (tuple, list)) else str(t) for t in ties]
+    return Results(rows=_sort_rows(rows, params), meta=meta, params=params, tied=tied)
+
+
+# ---------------------------------------------------------------------------------------------- numbers
+
+
+def _num(x, decimals: int = 3) -> str:
+    """Like the paper: fixed decimals with thousands separators; n/a for NaN or missing."""
+    if x is None:
+        return NA
+    try:
+        x = float(x)
+    except (TypeError, ValueError):
+        return str(x)
+    if math.isnan(x):
+        return NA
+    if math.isinf(x):
+        return "inf" if x > 0 else "-inf"
+    text = f"{x:,.{decimals}f}"
+    return text[1:] if text.startswith("-") and not text.strip("-0.,") else text  # no "-0.000"
+
+
+def _count(x) -> str:
+    try:
+        x = float(x)
+    except (TypeError, ValueError):
+        return NA
+    return NA if math.isnan(x) else f"{int(round(x)):,}"
+
+
+def _param_formatter(values):
+    """3 decimals like the paper when that is exact for every value, else the shortest exact form."""
+    finite = [float(v) for v in values if isinstance(v, (int, float)) and math.isfinite(v)]
+    if all(abs(v - round(v, 3)) <= 1e-12 * max(1.0, abs(v)) for v in finite):
+        return lambda v: _num(v, 3)
+    return lambda v: NA if not isinstance(v, (int, float)) or math.isnan(v) else f"{float(v):.6g}"
+
+
+def _rel(ours, theirs) -> str:
+    """Relative difference (ours - paper) / paper as a signed percentage."""
+    try:
+        ours, theirs = float(ours), float(theirs)
+    except (TypeError, ValueError):
+        return NA
+    if math.isnan(ours) or math.isnan(theirs) or theirs == 0:
+        return NA
+    return f"{100 * (ours - theirs) / abs(theirs):+,.1f}%"
+
+
+def frictional_case(row: dict) -> str:
+    """All-stick, All-slip, or Mixed: stick+slip (S stick / P slip), from the first-impact counts."""
+    stick, slip = row.get("stick", math.nan), row.get("slip", math.nan)
+    if any(not isinstance(v, (int, float)) or math.isnan(v) for v in (stick, slip)):
+        return NA
+    if stick + slip == 0:
+        return "No impacts"
+    if slip == 0:
+        return "All-stick"
+    if stick == 0:
+        return "All-slip"
+    return f"Mixed: stick+slip ({_count(stick)} stick / {_count(slip)} slip)"
+
+
+# ---------------------------------------------------------------------------------------------- tables
+
+
+def _label(key: str, params: list[str]) -> str:
+    """Column header for a swept key: its last part (mu_s), or the whole key where that is ambiguous."""
+    last = key.rsplit(".", 1)[-1]
+    return last if sum(p.rsplit(".", 1)[-1] == last for p in params) == 1 else key
+
+
+def _render(title: str, headers: list[str], rows: list[list[str]], fmt: str, left: set[int] = frozenset()) -> str:
+    if fmt == "markdown":
+        def cell(s):
+            return s.replace("|", "\\|").replace("<", "&lt;").replace(">", "&gt;")
+        lines = [f"**{cell(title)}**", "", "| " + " | ".join(cell(h) for h in headers) + " |",
+                 "|" + "|".join(":---" if i in left else "---:" for i in range(len(headers))) + "|"]
+        lines += ["| " + " | ".join(cell(c) for c in r) + " |" for r in rows]
+        return "\n".join(lines)
+    widths = [max([len(h)] + [len(r[i]) for r in rows]) for i, h in enumerate(headers)]
+
+    def line(cells):
+        return "  ".join(c.ljust(w) if i in left else c.rjust(w) for i, (c, w) in enumerate(zip(cells, widths))).rstrip()
+    return "\n".join([title, line(headers), "  ".join("-" * w for w in widths), *map(line, rows)])
+
+
+def _point_cells(row, params, formatters) -> list[str]:
+    return [formatters[p](row.get(p, math.nan)) for p in params] if params else ["run"]
+
+
+TABLE_TITLES = (
+    "Table 1. Pre- and post-impact velocities.",
+    "Table 2. Spin and translational and rotational kinetic energies.",
+    "Table 3. Post-impact ricochet ranges.",
+)
+T1 = (("<v_t> (m/s)", "mean_vt"), ("<v_n> (m/s)", "mean_vn"), ("||<omega>|| (rad/s)", "norm_mean_omega"))
+T2 = (("<W_T> (J)", "mean_WT"), ("<W_R> (J)", "mean_WR"),
+      ("<W_T>/<W(t=0)>", "ratio_WT"), ("<W_R>/<W(t=0)>", "ratio_WR"))
+T3 = (("<L> (m)", "range_mean"), ("L+ (m)", "range_max"), ("L- (m)", "range_min"))
+
+
+def _tables(rows, point_headers, point_cells, fmt, *, ours=True, paper_rows=None) -> list[str]:
+    """Tables 1-3 for `rows` (ours) or the paper's values (paper_rows: [(our row, paper row)])."""
+    n = len(point_headers)
+    left = set(range(n)) if point_headers == ["run"] else set()
+    suffix = "" if ours else " [paper: Zohdi 2021]"
+    source = [(r, r) for r in rows] if ours else paper_rows
+    out = []
+    # Table 1 and 2: two rows per point
+    for title, columns in ((TABLE_TITLES[0], T1), (TABLE_TITLES[1], T2)):
+        body = []
+        for mine, values in source:
+            for phase in ("pre", "post"):
+                body.append(point_cells(mine, values) + [phase] + [_num(values.get(f"{phase}_{stat}")) for _, stat in columns])
+        out.append(_render(title + suffix, point_headers + ["Time"] + [h for h, _ in columns], body, fmt, left | {n}))
+    # Table 3
+    body = []
+    if ours:
+        headers = point_headers + [h for h, _ in T3] + ["Frictional case", "L+ slip (m)", "L+ stick (m)"]
+        for row, _ in source:
+            body.append(point_cells(row, row) + [_num(row.get(stat)) for _, stat in T3]
+                        + [frictional_case(row), _num(row.get("range_slip_max")), _num(row.get("range_stick_max"))])
+        out.append(_render(TABLE_TITLES[2], headers, body, fmt, left | {n + 3}))
+    else:
+        headers = point_headers + [h for h, _ in T3] + ["Frictional case"] + [
+            "ours vs paper " + h.split(" (")[0] for h, _ in T3]
+        for mine, values in source:
+            body.append(point_cells(mine, values) + [_num(values.get(stat)) for _, stat in T3] + [values.get("case", NA)]
+                        + [_rel(mine.get(stat), values.get(stat)) for _, stat in T3])
+        out.append(_render(TABLE_TITLES[2] + suffix, headers, body, fmt, left | {n + 3}))
+    return out
+
+
+def _mu_s(row: dict, results: Results, base_mu_s):
+    """The static friction of a row: a swept or tied key ending in mu_s (surface 0 first), else the scene's."""
+    keys = [k for k in results.params + results.tied if k.rsplit(".", 1)[-1] == "mu_s"]
+    keys.sort(key=lambda k: k != "surfaces.0.mu_s")
+    for k in keys:
+        v = row.get(k)
+        if isinstance(v, (int, float)) and math.isfinite(v):
+            return float(v)
+    return base_mu_s
+
+
+def _scene_mu_s(meta: dict):
+    try:
+        scene = tomllib.loads(str(meta.get("scene_toml", "")))
+        return float(scene["surfaces"][0]["mu_s"])
+    except (ValueError, KeyError, IndexError, TypeError):
+        return None
+
+
+def header_line(results: Results) -> str:
+    """One line: file, kind, device, status and pellets."""
+    meta = results.meta
+    parts = []
+    if meta.get("file"):
+        parts.append(f"file: {meta['file']}")
+    if results.kind == "sweep":
+        done, total = meta.get("points_done", len(results.rows)), meta.get("points", len(results.rows))
+        parts.append(f"sweep: {done} of {total} points" if done != total else f"sweep: {total} points")
+        if results.params:
+            parts[-1] += " over " + ", ".join(results.params)
+        if results.tied:
+            parts[-1] += " (tied: " + ", ".join(results.tied) + ")"
+    else:
+        parts.append("run")
+    parts.append(f"device: {meta.get('device', NA)}")
+    parts.append(f"status: {meta.get('status', NA)}")
+    pellets = sorted({int(round(r["pellets"])) for r in results.rows
+                      if isinstance(r.get("pellets"), (int, float)) and math.isfinite(r["pellets"])})
+    text = ", ".join(f"{p:,}" for p in pellets) or NA
+    parts.append(f"pellets: {text}" + (" per point" if results.kind == "sweep" and len(pellets) == 1 else ""))
+    return " | ".join(parts)
+
+
+def format_tables(results: Results, fmt: str = "text", paper: bool = False) -> str:
+    """Tables 1-3 in the paper's layout ("text" or "markdown"); with `paper`, the paper's values too."""
+    if fmt not in ("text", "markdown"):
+        raise ValueError(f"fmt must be 'text' or 'markdown', not {fmt!r}")
+    params = list(results.params)
+    formatters = {p: _param_formatter([r.get(p) for r in results.rows]) for p in params}
+    point_headers = [_label(p, params) for p in params] or ["run"]
+
+    def point_cells(row, _values):
+        return _point_cells(row, params, formatters)
+
+    # the paper's tables always show mu_s: our columns, plus the paper's mu_s where it is not swept
+    if "mu_s" in point_headers:
+        paper_headers, paper_cells = point_headers, point_cells
+    else:
+        paper_headers = (point_headers if params else []) + ["mu_s"]
+
+        def paper_cells(row, values):
+            return (point_cells(row, values) if params else []) + [_num(values.get("mu_s"))]
+
+    blocks = [header_line(results)]  # followed by a blank line: never a Markdown table
+    if results.meta.get("status", "complete") != "complete":
+        blocks.append(f"note: status is {results.meta.get('status')!r}; the tables show the points that finished")
+    blocks += _tables(results.rows, point_headers, point_cells, fmt)
+    if paper:
+        base = _scene_mu_s(results.meta)
+        matched = []
+        for row in results.rows:
+            mu = _mu_s(row, results, base)
+            pr = paper_row(mu) if mu is not None else None
+            if pr is not None:
+                matched.append((row, pr))
+        if matched:
+            blocks.append("Paper values (Zohdi 2021, Tables 1-3) for the same mu_s; Time 0.000/0.010 in the paper "
+                          "is shown as pre/post. The paper's stick rows do not follow its eqs. (27)-(29); see "
+                          "warp_ricochet.paper. Last columns: relative difference (ours - paper) / paper.")
+            blocks += _tables(results.rows, paper_headers, paper_cells, fmt, ours=False, paper_rows=matched)
+        else:
+            blocks.append("paper: Zohdi (2021) has no row for the mu_s of these results "
+                          "(it lists mu_s = 0, 0.05, ..., 0.5)")
+    return "\n\n".join(blocks) + "\n"
+
+
+def format_run_summary(stats: dict, output=None, device=None) -> str:
+    """A short summary of one run's statistics, with units."""
+    def unit(name):
+        u = STAT_UNITS.get(name, ("", ""))[0]
+        return "" if u == "1" else f" {u}"
+
+    def val(name, decimals=3):
+        return _num(stats.get(name), decimals) + unit(name)
+
+    lines = []
+    if output is not None:
+        lines.append(f"wrote {output}" + (f" (device {device})" if device else ""))
+    elif device:
+        lines.append(f"device {device} (no output file)")
+    rows = [
+        ("pellets", _count(stats.get("pellets"))),
+        ("hits", f"{_count(stats.get('hits'))} ({frictional_case(stats)})"),
+        ("stick", _count(stats.get("stick"))),
+        ("slip", _count(stats.get("slip"))),
+        ("landed", _count(stats.get("landed"))),
+        ("mean v_t pre/post", f"{val('pre_mean_vt')} / {val('post_mean_vt')}"),
+        ("mean v_n pre/post", f"{val('pre_mean_vn')} / {val('post_mean_vn')}"),
+        ("mean range <L>", val("range_mean")),
+        ("L+ (longest)", val("range_max")),
+        ("L- (shortest)", val("range_min")),
+    ]
+    width = max(len(k) for k, _ in rows)
+    lines += [f"{k.ljust(width)}  {v}" for k, v in rows]
+    return "\n".join(lines) + "\n"
