@@ -1,18 +1,22 @@
 #!/usr/bin/env bash
-# One call on the lent GPU machine: the CUDA tests, then the benchmarks. Results land in $OUT.
-# Usage there (after stage1/stage2): . .gpu/b/env.sh && bash bench/gpu_session.sh [tests|bench|all]
+# On the lent GPU machine (after stage1/stage2): . .gpu/b/env.sh && bash bench/gpu_session.sh [check|bench]
+#   check: the CUDA tests, CPU-GPU agreement against .gpu/ref/cpu.h5 (saved here by
+#          `python -m bench.agreement save --device cpu --file .gpu/ref/cpu.h5`), kernel variants
+#   bench: throughput against N (beside NumPy), the disk-bound write run, peak host memory
 set -uo pipefail
-what=${1:-all}
+what=${1:-check}
 out=${OUT:-/tmp/out}
 mkdir -p "$out"
+quiet() { grep -v "^Warp \|CUDA Toolkit\|Devices:\|Kernel cache\|\.cache/warp\|\"cpu\"\|\"cuda:0\""; }
 nvidia-smi --query-gpu=name,memory.total,driver_version,clocks.max.sm --format=csv | tee "$out/gpu.txt"
-if [[ $what == tests || $what == all ]]; then
-  python3 -m pytest tests -q -x -n 8 -p no:cacheprovider 2>&1 | tail -15 | tee "$out/tests.txt"
+if [[ $what == check ]]; then
+  WARP_RICOCHET_TEST_DEVICES=cuda:0 python3 -m pytest tests -q -n 8 -p no:cacheprovider -k "not cli" 2>&1 | tail -6 | tee "$out/tests.txt"
+  [[ -f .gpu/ref/cpu.h5 ]] && python3 -m bench.agreement compare --device cuda:0 --file .gpu/ref/cpu.h5 2>&1 | quiet | tee "$out/agreement.txt"
+  python3 -m bench.variants --device cuda:0 --n 1e8 2>&1 | quiet | tee "$out/variants.txt"
 fi
-if [[ $what == bench || $what == all ]]; then
-  python3 -m bench throughput --device cuda:0 --sizes 1e4,1e5,1e6,1e7,1e8 --numpy-max 1e6 --repeats 5 --out "$out" 2>&1 | grep -v "^Warp\|CUDA Toolkit\|Devices\|Kernel cache\|\.cache" | tee "$out/throughput.txt"
+if [[ $what == bench ]]; then
+  python3 -m bench throughput --device cuda:0 --sizes 1e4,1e5,1e6,1e7,1e8,1e9 --numpy-max 1e6 --repeats 5 --out "$out" 2>&1 | grep "N=" | tee "$out/throughput.txt"
   python3 -m bench throughput --device cuda:0 --sizes 1e8 --numpy-max 0 --repeats 5 --precision float64 --out "$out" 2>&1 | grep "N=" | tee -a "$out/throughput.txt"
-  python3 -m bench throughput --device cpu --sizes 1e6 --numpy-max 1e6 --repeats 3 --out "$out" 2>&1 | grep "N=" | tee -a "$out/throughput.txt"
   python3 -m bench write --device cuda:0 --write-n 1e8 --out /tmp/wr-bench 2>&1 | grep "write" | tee "$out/write.txt"
-  python3 -m bench memory --device cuda:0 --memory-cases "1e9:,1e8:landing" --out /tmp/wr-bench 2>&1 | grep "memory" | tee "$out/memory.txt"
+  python3 -m bench memory --device cuda:0 --memory-cases "1e9:,1e8:landing,1e7:" --out /tmp/wr-bench 2>&1 | grep "memory" | tee "$out/memory.txt"
 fi

@@ -1,12 +1,17 @@
 """Shared fixtures: the device fixture runs a test on the CPU always, and on CUDA when present."""
 
+import os
+
 import pytest
 import warp as wp
 
 wp.config.log_level = wp.LOG_WARNING
 wp.init()
 
-DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
+# WARP_RICOCHET_TEST_DEVICES=cuda:0 limits the device tests (e.g. on a GPU host without Warp's CPU compiler)
+DEVICES = os.environ.get("WARP_RICOCHET_TEST_DEVICES", "").split(",") if os.environ.get("WARP_RICOCHET_TEST_DEVICES") else (
+    ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
+)
 
 
 @pytest.fixture(params=DEVICES)

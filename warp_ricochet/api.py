@@ -183,12 +183,22 @@ def plan_chunk(scene, model, pellets: int, fields) -> int:
     return min(rows, max(pellets, 1))
 
 
+_PINNED_POOL: dict = {}  # (shape, dtype, slot) -> pinned host array, reused: cudaHostAlloc is slow
+
+
 class _HostSlot:
     """One set of host buffers receiving a chunk (pinned on CUDA, so copies run async)."""
 
-    def __init__(self, wp, state, pinned):
+    def __init__(self, wp, state, pinned, index):
         def like(arr):
-            return wp.empty(arr.shape, dtype=arr.dtype, device="cpu", pinned=pinned)
+            if not pinned:
+                return wp.empty(arr.shape, dtype=arr.dtype, device="cpu")
+            key = (arr.shape, arr.dtype, index)
+            if key not in _PINNED_POOL:
+                if len(_PINNED_POOL) > 64:
+                    _PINNED_POOL.clear()
+                _PINNED_POOL[key] = wp.empty(arr.shape, dtype=arr.dtype, device="cpu", pinned=True)
+            return _PINNED_POOL[key]
 
         self.arrays = {name: like(arr) for name, arr in state.arrays.items()}
         self.segment_sums = like(state.segment_sums)
@@ -201,7 +211,9 @@ class _HostSlot:
 
 def run_scene(scene, model, *, writer=None, progress=None, source=None) -> dict:
     """Run every pellet of `scene` through `model`'s device; return the statistics."""
+    from .kernels import ricochet_kernel_for
     from .model import State, threads_for
+    from .stats import NUM_EXTREMES, NUM_SUMS
 
     wp = _warp()
     source = source or Source.from_scene(scene)
@@ -212,7 +224,8 @@ def run_scene(scene, model, *, writer=None, progress=None, source=None) -> dict:
     kern = model.kernels
     dev = model.device
     cuda = dev.is_cuda
-    slots = [_HostSlot(wp, state, pinned=cuda) for _ in range(2 if cuda else 1)]
+    slots = [_HostSlot(wp, state, pinned=cuda, index=i) for i in range(2 if cuda else 1)]
+    ricochet_kernel = ricochet_kernel_for(model.precision, bool(fields), source.arrays is not None)
 
     src = kern.Source()
     sh = scene.shot
@@ -260,7 +273,7 @@ def run_scene(scene, model, *, writer=None, progress=None, source=None) -> dict:
             for key, arr in explicit.items():
                 arr[:rows].assign(np.ascontiguousarray(source.arrays[key][start : start + rows], dtype=dtype))
         wp.launch(
-            kern.ricochet_kernel,
+            ricochet_kernel,
             dim=threads,
             inputs=[start, rows, src, model.surfaces, model.physics, state.outputs],
             outputs=[state.partial_sums, state.partial_min, state.partial_max],
@@ -268,7 +281,7 @@ def run_scene(scene, model, *, writer=None, progress=None, source=None) -> dict:
         )
         wp.launch(
             kern.reduce_kernel,
-            dim=segments,
+            dim=(segments, NUM_SUMS + NUM_EXTREMES),
             inputs=[state.partial_sums, state.partial_min, state.partial_max],
             outputs=[state.segment_sums, state.segment_min, state.segment_max],
             device=dev,

@@ -1,12 +1,17 @@
 """Warp kernels: thin loops over pellets that call the laws of `impact_law`, `flight`, `sampling`.
 
-`kernels_for(scalar)` builds (once per precision) the structs and kernels:
+- `types_for(precision)`: the structs (surfaces, physics, launch source, outputs);
+- `ricochet_kernel_for(precision, write_outputs, from_file)`: the whole no-collision pipeline
+  per pellet: launch state (sampled or given), exact flight to the first surface, up to
+  `bounces` impacts, exact flight to the landing, optional per-pellet writes, and per-thread
+  partial statistics; specialised at code generation so a statistics-only kernel carries none
+  of the output code;
+- `kernels_for(precision)`: `reduce_kernel` (sums the per-thread partials of each segment in
+  lane order) and `impact_kernel` (the impact law on given states, for `warp_ricochet.impact`).
 
-- `impact_kernel`: the impact law on given states (the `warp_ricochet.impact` API);
-- `ricochet_kernel`: the whole no-collision pipeline per pellet: launch state (sampled or
-  given), exact flight to the first surface, up to `bounces` impacts, exact flight to the
-  landing, optional per-pellet writes, and per-thread partial statistics;
-- `reduce_kernel`: sums the per-thread partials of each segment in lane order.
+Per thread, sums are accumulated in the working precision (float32 by default: at most
+PER_THREAD = 256 terms, so a relative rounding error of order 1e-6) and counts in int32; they are
+widened to float64 once per thread, and float64 from there on.
 
 Threads and segments: thread t works on LANES consecutive-lane pellets at a time, so a warp
 touches consecutive pellets (coalesced), and handles PER_THREAD of them. A segment is the
@@ -26,7 +31,7 @@ import warp as wp
 from .flight import make_flight
 from .impact_law import make_impact_law
 from .sampling import make_sampler
-from .stats import NUM_EXTREMES, NUM_SUMS, SUM
+from .stats import NUM_COUNTS, NUM_EXTREMES, NUM_FLOATS, NUM_SUMS, SUM
 
 LANES = 256
 PER_THREAD = 256
@@ -36,27 +41,10 @@ SCALARS = {"float32": wp.float32, "float64": wp.float64}
 
 
 @functools.cache
-def kernels_for(precision: str) -> SimpleNamespace:
-    """Structs and kernels for "float32" or "float64"."""
+def types_for(precision: str) -> SimpleNamespace:
+    """The scalar, vector and struct types of one precision ("float32" or "float64")."""
     scalar = SCALARS[precision]
     vec3 = wp.types.vector(3, scalar)
-    sums_t = wp.types.vector(NUM_SUMS, wp.float64)
-    extremes_t = wp.types.vector(NUM_EXTREMES, wp.float64)
-    impact_law = make_impact_law(scalar)
-    _entry, _return, next_contact, ballistic_position, ballistic_velocity = make_flight(scalar)
-    sample_pellet = make_sampler(scalar)
-
-    # constants captured by the kernels
-    S_HITS, S_STICK, S_SLIP = SUM["hits"], SUM["stick"], SUM["slip"]
-    S_PRE, S_POST = SUM["vt_pre"], SUM["vt_post"]  # vt, vn, wx, wy, wz, v2, w2 follow in order
-    S_V2_LAUNCH, S_W2_LAUNCH = SUM["v2_launch"], SUM["w2_launch"]
-    S_LANDED, S_RANGE, S_RANGE2 = SUM["landed"], SUM["range"], SUM["range2"]
-    S_LANDED_STICK, S_RANGE_STICK = SUM["landed_stick"], SUM["range_stick"]
-    S_LANDED_SLIP, S_RANGE_SLIP = SUM["landed_slip"], SUM["range_slip"]
-    S_TIME_ALOFT, S_V2_LANDING = SUM["time_aloft"], SUM["v2_landing"]
-    lanes, per_thread, segment = LANES, PER_THREAD, SEGMENT
-    num_sums, num_extremes = NUM_SUMS, NUM_EXTREMES
-    inf64 = wp.float64(math.inf)
 
     @wp.struct
     class Surfaces:
@@ -78,7 +66,7 @@ def kernels_for(precision: str) -> SimpleNamespace:
 
     @wp.struct
     class Source:
-        """Launch states: sampled from the seed, or read from `position` when it is not empty."""
+        """Launch states: sampled from the seed, or (from_file) read from the arrays."""
 
         seed: wp.int32
         speed: scalar
@@ -112,19 +100,52 @@ def kernels_for(precision: str) -> SimpleNamespace:
         landing_range: wp.array(dtype=scalar)
         landing_surface: wp.array(dtype=wp.int16)
 
+    return SimpleNamespace(scalar=scalar, vec3=vec3, Surfaces=Surfaces, Physics=Physics, Source=Source, Outputs=Outputs)
+
+
+# Register cap of the CUDA ricochet kernel (None: the compiler's choice). Chosen by measurement
+# on an H200, see bench/RESULTS.md (`python -m bench variants`).
+CUDA_MAX_REGISTERS = None
+
+
+@functools.cache
+def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, max_registers="default"):
+    """The fused ricochet kernel, specialised at code generation (`wp.static`): without
+    `write_outputs` it holds no per-pellet output code at all (statistics-only runs), and it
+    reads launch states from arrays only `from_file`. Fewer live values, more threads per SM.
+    """
+    t = types_for(precision)
+    scalar, vec3, Surfaces, Physics, Source, Outputs = t.scalar, t.vec3, t.Surfaces, t.Physics, t.Source, t.Outputs
+    floats_t = wp.types.vector(NUM_FLOATS, scalar)
+    extremes_t = wp.types.vector(NUM_EXTREMES, scalar)
+    impact_law = make_impact_law(scalar)
+    _entry, _return, next_contact, ballistic_position, ballistic_velocity = make_flight(scalar)
+    sample_pellet = make_sampler(scalar)
+
+    # constants captured by the kernel: offsets into the float accumulator (counts are separate)
+    F_PRE, F_POST = SUM["vt_pre"] - NUM_COUNTS, SUM["vt_post"] - NUM_COUNTS  # vt, vn, wx, wy, wz, v2, w2
+    F_V2_LAUNCH, F_W2_LAUNCH = SUM["v2_launch"] - NUM_COUNTS, SUM["w2_launch"] - NUM_COUNTS
+    F_RANGE, F_RANGE2 = SUM["range"] - NUM_COUNTS, SUM["range2"] - NUM_COUNTS
+    F_RANGE_STICK, F_RANGE_SLIP = SUM["range_stick"] - NUM_COUNTS, SUM["range_slip"] - NUM_COUNTS
+    F_TIME_ALOFT, F_V2_LANDING = SUM["time_aloft"] - NUM_COUNTS, SUM["v2_landing"] - NUM_COUNTS
+    WRITE, FROM_FILE = write_outputs, from_file
+    lanes, per_thread, segment = LANES, PER_THREAD, SEGMENT
+    num_counts, num_floats, num_extremes = NUM_COUNTS, NUM_FLOATS, NUM_EXTREMES
+    inf = scalar(math.inf)
+    cap = CUDA_MAX_REGISTERS if max_registers == "default" else max_registers
+    kernel_options = {} if cap is None else {"cuda_max_registers": cap}
+
     @wp.func
-    def add_impact_sums(
-        acc: sums_t, base: wp.int32, velocity: vec3, angular_velocity: vec3, normal: vec3
-    ):
-        """Accumulate vt, vn, omega, |v|^2, |omega|^2 of one pellet at `base`."""
+    def add_impact_sums(acc: floats_t, base: wp.int32, velocity: vec3, angular_velocity: vec3, normal: vec3):
+        """Accumulate vt, vn, omega, |v|^2, |omega|^2 of one pellet at `base` (a constant)."""
         vn = wp.dot(velocity, normal)
-        acc[base + 0] += wp.float64(wp.length(velocity - vn * normal))
-        acc[base + 1] += wp.float64(vn)
-        acc[base + 2] += wp.float64(angular_velocity[0])
-        acc[base + 3] += wp.float64(angular_velocity[1])
-        acc[base + 4] += wp.float64(angular_velocity[2])
-        acc[base + 5] += wp.float64(wp.dot(velocity, velocity))
-        acc[base + 6] += wp.float64(wp.dot(angular_velocity, angular_velocity))
+        acc[base + 0] += wp.length(velocity - vn * normal)
+        acc[base + 1] += vn
+        acc[base + 2] += angular_velocity[0]
+        acc[base + 3] += angular_velocity[1]
+        acc[base + 4] += angular_velocity[2]
+        acc[base + 5] += wp.dot(velocity, velocity)
+        acc[base + 6] += wp.dot(angular_velocity, angular_velocity)
         return acc
 
     @wp.func
@@ -135,7 +156,8 @@ def kernels_for(precision: str) -> SimpleNamespace:
         surfaces: Surfaces,
         physics: Physics,
         out: Outputs,
-        acc: sums_t,
+        counts: wp.vec4i,  # hits, slip, landed, landed_slip
+        acc: floats_t,
         lo: extremes_t,
         hi: extremes_t,
     ):
@@ -143,7 +165,7 @@ def kernels_for(precision: str) -> SimpleNamespace:
         position = vec3()
         velocity = vec3()
         spin = vec3()
-        if source.position.shape[0] > 0:
+        if wp.static(FROM_FILE):
             position = source.position[row]
             velocity = source.velocity[row]
             spin = source.angular_velocity[row]
@@ -152,20 +174,20 @@ def kernels_for(precision: str) -> SimpleNamespace:
                 source.seed, index, source.speed, source.direction, source.jitter,
                 source.envelope_center, source.envelope_radius, source.spin,
             )
-        if out.initial_position.shape[0] > 0:
-            out.initial_position[row] = position
-        if out.initial_velocity.shape[0] > 0:
-            out.initial_velocity[row] = velocity
-        if out.initial_angular_velocity.shape[0] > 0:
-            out.initial_angular_velocity[row] = spin
-        launch_v2 = wp.float64(wp.dot(velocity, velocity))
-        launch_w2 = wp.float64(wp.dot(spin, spin))
+        if wp.static(WRITE):
+            if out.initial_position.shape[0] > 0:
+                out.initial_position[row] = position
+            if out.initial_velocity.shape[0] > 0:
+                out.initial_velocity[row] = velocity
+            if out.initial_angular_velocity.shape[0] > 0:
+                out.initial_angular_velocity[row] = spin
+        launch_v2 = wp.dot(velocity, velocity)
+        launch_w2 = wp.dot(spin, spin)
 
         gravity = physics.gravity
         radius = physics.radius
         time = scalar(0.0)
         touching = wp.int32(-1)
-        impacts = wp.int32(0)
         ricochet_point = vec3()
         last_slipped = wp.int32(0)
         escaped = wp.int32(0)
@@ -184,53 +206,53 @@ def kernels_for(precision: str) -> SimpleNamespace:
                         surfaces.restitution[k], surfaces.mu_s[k], surfaces.mu_d[k],
                         wp.dot(gravity, normal) * physics.impact_duration,
                     )
-                    if out.impact_time.shape[0] > 0:
-                        out.impact_time[row, bounce] = time
-                    if out.impact_position.shape[0] > 0:
-                        out.impact_position[row, bounce] = position
-                    if out.impact_velocity_before.shape[0] > 0:
-                        out.impact_velocity_before[row, bounce] = velocity
-                    if out.impact_angular_velocity_before.shape[0] > 0:
-                        out.impact_angular_velocity_before[row, bounce] = spin
-                    if out.impact_velocity.shape[0] > 0:
-                        out.impact_velocity[row, bounce] = velocity_after
-                    if out.impact_angular_velocity.shape[0] > 0:
-                        out.impact_angular_velocity[row, bounce] = spin_after
-                    if out.impact_slipped.shape[0] > 0:
-                        out.impact_slipped[row, bounce] = wp.int8(slipped)
-                    if out.impact_surface.shape[0] > 0:
-                        out.impact_surface[row, bounce] = wp.int16(k)
+                    if wp.static(WRITE):
+                        if out.impact_time.shape[0] > 0:
+                            out.impact_time[row, bounce] = time
+                        if out.impact_position.shape[0] > 0:
+                            out.impact_position[row, bounce] = position
+                        if out.impact_velocity_before.shape[0] > 0:
+                            out.impact_velocity_before[row, bounce] = velocity
+                        if out.impact_angular_velocity_before.shape[0] > 0:
+                            out.impact_angular_velocity_before[row, bounce] = spin
+                        if out.impact_velocity.shape[0] > 0:
+                            out.impact_velocity[row, bounce] = velocity_after
+                        if out.impact_angular_velocity.shape[0] > 0:
+                            out.impact_angular_velocity[row, bounce] = spin_after
+                        if out.impact_slipped.shape[0] > 0:
+                            out.impact_slipped[row, bounce] = wp.int8(slipped)
+                        if out.impact_surface.shape[0] > 0:
+                            out.impact_surface[row, bounce] = wp.int16(k)
                     if bounce == 0:
-                        acc[S_HITS] += wp.float64(1.0)
-                        acc[S_SLIP] += wp.float64(slipped)
-                        acc[S_STICK] += wp.float64(1 - slipped)
-                        acc = add_impact_sums(acc, S_PRE, velocity, spin, normal)
-                        acc = add_impact_sums(acc, S_POST, velocity_after, spin_after, normal)
-                        acc[S_V2_LAUNCH] += launch_v2
-                        acc[S_W2_LAUNCH] += launch_w2
+                        counts[0] += 1
+                        counts[1] += slipped
+                        acc = add_impact_sums(acc, F_PRE, velocity, spin, normal)
+                        acc = add_impact_sums(acc, F_POST, velocity_after, spin_after, normal)
+                        acc[F_V2_LAUNCH] += launch_v2
+                        acc[F_W2_LAUNCH] += launch_w2
                     velocity = velocity_after
                     spin = spin_after
                     touching = k
-                    impacts = impacts + 1
                     last_slipped = slipped
                     ricochet_point = position - radius * normal
-            if escaped != 0:  # no impact at this bounce: mark it missing
-                if out.impact_time.shape[0] > 0:
-                    out.impact_time[row, bounce] = scalar(wp.nan)
-                if out.impact_position.shape[0] > 0:
-                    out.impact_position[row, bounce] = vec3(scalar(wp.nan))
-                if out.impact_velocity_before.shape[0] > 0:
-                    out.impact_velocity_before[row, bounce] = vec3(scalar(wp.nan))
-                if out.impact_angular_velocity_before.shape[0] > 0:
-                    out.impact_angular_velocity_before[row, bounce] = vec3(scalar(wp.nan))
-                if out.impact_velocity.shape[0] > 0:
-                    out.impact_velocity[row, bounce] = vec3(scalar(wp.nan))
-                if out.impact_angular_velocity.shape[0] > 0:
-                    out.impact_angular_velocity[row, bounce] = vec3(scalar(wp.nan))
-                if out.impact_slipped.shape[0] > 0:
-                    out.impact_slipped[row, bounce] = wp.int8(-1)
-                if out.impact_surface.shape[0] > 0:
-                    out.impact_surface[row, bounce] = wp.int16(-1)
+            if wp.static(WRITE):
+                if escaped != 0:  # no impact at this bounce: mark it missing
+                    if out.impact_time.shape[0] > 0:
+                        out.impact_time[row, bounce] = scalar(wp.nan)
+                    if out.impact_position.shape[0] > 0:
+                        out.impact_position[row, bounce] = vec3(scalar(wp.nan))
+                    if out.impact_velocity_before.shape[0] > 0:
+                        out.impact_velocity_before[row, bounce] = vec3(scalar(wp.nan))
+                    if out.impact_angular_velocity_before.shape[0] > 0:
+                        out.impact_angular_velocity_before[row, bounce] = vec3(scalar(wp.nan))
+                    if out.impact_velocity.shape[0] > 0:
+                        out.impact_velocity[row, bounce] = vec3(scalar(wp.nan))
+                    if out.impact_angular_velocity.shape[0] > 0:
+                        out.impact_angular_velocity[row, bounce] = vec3(scalar(wp.nan))
+                    if out.impact_slipped.shape[0] > 0:
+                        out.impact_slipped[row, bounce] = wp.int8(-1)
+                    if out.impact_surface.shape[0] > 0:
+                        out.impact_surface[row, bounce] = wp.int16(-1)
 
         # landing: the next surface met after the last of `bounces` ricochets
         landing_time = scalar(wp.inf)
@@ -247,37 +269,36 @@ def kernels_for(precision: str) -> SimpleNamespace:
                 landing_velocity = ballistic_velocity(velocity, gravity, dt)
                 # eq. (42): distance from the ricochet point to the landing point (contact points)
                 landing_range = wp.length(landing_position - radius * surfaces.normal[k] - ricochet_point)
-                r64 = wp.float64(landing_range)
-                acc[S_LANDED] += wp.float64(1.0)
-                acc[S_RANGE] += r64
-                acc[S_RANGE2] += r64 * r64
-                acc[S_TIME_ALOFT] += wp.float64(dt)
-                acc[S_V2_LANDING] += wp.float64(wp.dot(landing_velocity, landing_velocity))
-                lo[0] = wp.min(lo[0], r64)
-                hi[0] = wp.max(hi[0], r64)
+                counts[2] += 1
+                acc[F_RANGE] += landing_range
+                acc[F_RANGE2] += landing_range * landing_range
+                acc[F_TIME_ALOFT] += dt
+                acc[F_V2_LANDING] += wp.dot(landing_velocity, landing_velocity)
+                lo[0] = wp.min(lo[0], landing_range)
+                hi[0] = wp.max(hi[0], landing_range)
                 if last_slipped != 0:
-                    acc[S_LANDED_SLIP] += wp.float64(1.0)
-                    acc[S_RANGE_SLIP] += r64
-                    lo[2] = wp.min(lo[2], r64)
-                    hi[2] = wp.max(hi[2], r64)
+                    counts[3] += 1
+                    acc[F_RANGE_SLIP] += landing_range
+                    lo[2] = wp.min(lo[2], landing_range)
+                    hi[2] = wp.max(hi[2], landing_range)
                 else:
-                    acc[S_LANDED_STICK] += wp.float64(1.0)
-                    acc[S_RANGE_STICK] += r64
-                    lo[1] = wp.min(lo[1], r64)
-                    hi[1] = wp.max(hi[1], r64)
-        if out.landing_time.shape[0] > 0:
-            out.landing_time[row] = landing_time
-        if out.landing_position.shape[0] > 0:
-            out.landing_position[row] = landing_position
-        if out.landing_velocity.shape[0] > 0:
-            out.landing_velocity[row] = landing_velocity
-        if out.landing_range.shape[0] > 0:
-            out.landing_range[row] = landing_range
-        if out.landing_surface.shape[0] > 0:
-            out.landing_surface[row] = wp.int16(landing_surface)
-        return acc, lo, hi
+                    acc[F_RANGE_STICK] += landing_range
+                    lo[1] = wp.min(lo[1], landing_range)
+                    hi[1] = wp.max(hi[1], landing_range)
+        if wp.static(WRITE):
+            if out.landing_time.shape[0] > 0:
+                out.landing_time[row] = landing_time
+            if out.landing_position.shape[0] > 0:
+                out.landing_position[row] = landing_position
+            if out.landing_velocity.shape[0] > 0:
+                out.landing_velocity[row] = landing_velocity
+            if out.landing_range.shape[0] > 0:
+                out.landing_range[row] = landing_range
+            if out.landing_surface.shape[0] > 0:
+                out.landing_surface[row] = wp.int16(landing_surface)
+        return counts, acc, lo, hi
 
-    @wp.kernel(module="unique")
+    @wp.kernel(module="unique", enable_backward=False, **kernel_options)
     def ricochet_kernel(
         first_index: wp.int32,  # global index of the chunk's first pellet (a multiple of SEGMENT)
         count: wp.int32,  # pellets in the chunk
@@ -285,27 +306,44 @@ def kernels_for(precision: str) -> SimpleNamespace:
         surfaces: Surfaces,
         physics: Physics,
         out: Outputs,
-        partial_sums: wp.array2d(dtype=wp.float64),  # (NUM_SUMS, threads)
+        partial_sums: wp.array2d(dtype=wp.float64),  # (NUM_SUMS, threads): counts, then floats
         partial_min: wp.array2d(dtype=wp.float64),  # (NUM_EXTREMES, threads)
         partial_max: wp.array2d(dtype=wp.float64),
     ):
         tid = wp.tid()
         group = tid // lanes
         lane = tid - group * lanes
-        acc = sums_t()
-        lo = extremes_t(inf64)
-        hi = extremes_t(-inf64)
+        counts = wp.vec4i()
+        acc = floats_t()
+        lo = extremes_t(inf)
+        hi = extremes_t(-inf)
         for j in range(per_thread):
             row = group * segment + j * lanes + lane
             if row < count:
-                acc, lo, hi = ricochet_pellet(first_index + row, row, source, surfaces, physics, out, acc, lo, hi)
-        for s in range(num_sums):
-            partial_sums[s, tid] = acc[s]
+                counts, acc, lo, hi = ricochet_pellet(first_index + row, row, source, surfaces, physics, out, counts, acc, lo, hi)
+        # widen once per thread: float64 from here on
+        for c in range(num_counts):
+            partial_sums[c, tid] = wp.float64(counts[c])
+        for f in range(num_floats):
+            partial_sums[num_counts + f, tid] = wp.float64(acc[f])
         for e in range(num_extremes):
-            partial_min[e, tid] = lo[e]
-            partial_max[e, tid] = hi[e]
+            partial_min[e, tid] = wp.float64(lo[e])
+            partial_max[e, tid] = wp.float64(hi[e])
 
-    @wp.kernel(module="unique")
+    return ricochet_kernel
+
+
+@functools.cache
+def kernels_for(precision: str) -> SimpleNamespace:
+    """Types of `types_for` plus the kernels that do not depend on the scene: the segment
+    reduction and the impact law on given states."""
+    t = types_for(precision)
+    scalar, vec3 = t.scalar, t.vec3
+    impact_law = make_impact_law(scalar)
+    lanes, num_sums, num_extremes = LANES, NUM_SUMS, NUM_EXTREMES
+    inf64 = wp.float64(math.inf)
+
+    @wp.kernel(module="unique", enable_backward=False)
     def reduce_kernel(
         partial_sums: wp.array2d(dtype=wp.float64),
         partial_min: wp.array2d(dtype=wp.float64),
@@ -314,23 +352,25 @@ def kernels_for(precision: str) -> SimpleNamespace:
         segment_min: wp.array2d(dtype=wp.float64),  # (segments, NUM_EXTREMES)
         segment_max: wp.array2d(dtype=wp.float64),
     ):
-        """One thread per segment: add its LANES partials in lane order (deterministic)."""
-        seg = wp.tid()
-        for s in range(num_sums):
+        """One thread per (segment, row): add the segment's LANES partials in lane order."""
+        seg, row = wp.tid()
+        base = seg * lanes
+        if row < num_sums:
             total = wp.float64(0.0)
             for lane in range(lanes):
-                total += partial_sums[s, seg * lanes + lane]
-            segment_sums[seg, s] = total
-        for e in range(num_extremes):
+                total += partial_sums[row, base + lane]
+            segment_sums[seg, row] = total
+        else:
+            e = row - num_sums
             low = inf64
             high = -inf64
             for lane in range(lanes):
-                low = wp.min(low, partial_min[e, seg * lanes + lane])
-                high = wp.max(high, partial_max[e, seg * lanes + lane])
+                low = wp.min(low, partial_min[e, base + lane])
+                high = wp.max(high, partial_max[e, base + lane])
             segment_min[seg, e] = low
             segment_max[seg, e] = high
 
-    @wp.kernel(module="unique")
+    @wp.kernel(module="unique", enable_backward=False)
     def impact_kernel(
         velocity: wp.array(dtype=vec3),
         angular_velocity: wp.array(dtype=vec3),
@@ -358,7 +398,4 @@ def kernels_for(precision: str) -> SimpleNamespace:
         angular_velocity_after[i] = w
         slipped[i] = wp.int8(s)
 
-    return SimpleNamespace(
-        scalar=scalar, vec3=vec3, Surfaces=Surfaces, Physics=Physics, Source=Source, Outputs=Outputs,
-        ricochet_kernel=ricochet_kernel, reduce_kernel=reduce_kernel, impact_kernel=impact_kernel,
-    )
+    return SimpleNamespace(**vars(t), reduce_kernel=reduce_kernel, impact_kernel=impact_kernel)

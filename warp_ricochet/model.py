@@ -106,7 +106,7 @@ def threads_for(rows: int) -> int:
 class State:
     """Per-pellet device buffers of one chunk of up to `capacity` pellets, for `fields` only."""
 
-    def __init__(self, model: Model, capacity: int, fields, *, pinned_host: bool = False):
+    def __init__(self, model: Model, capacity: int, fields):
         kern = model.kernels
         self.capacity = capacity
         self.fields = tuple(fields)

@@ -18,19 +18,20 @@ import math
 
 import numpy as np
 
-# indices of the float64 sums accumulated by the kernels
-SUM_NAMES = (
-    "hits",  # pellets that hit a surface
-    "stick",  # first impact stuck
-    "slip",  # first impact slipped
+# the counts the kernels accumulate per thread (int32), then the float sums (working precision
+# per thread, float64 from there on); stick = hits - slip, landed_stick = landed - landed_slip
+COUNT_NAMES = ("hits", "slip", "landed", "landed_slip")
+FLOAT_NAMES = (
     "vt_pre", "vn_pre", "wx_pre", "wy_pre", "wz_pre", "v2_pre", "w2_pre",
     "vt_post", "vn_post", "wx_post", "wy_post", "wz_post", "v2_post", "w2_post",
     "v2_launch", "w2_launch",  # launch state of the pellets that hit
-    "landed", "range", "range2", "landed_stick", "range_stick", "landed_slip", "range_slip",
-    "time_aloft", "v2_landing",
+    "range", "range2", "range_stick", "range_slip", "time_aloft", "v2_landing",
 )
+SUM_NAMES = COUNT_NAMES + FLOAT_NAMES
 SUM = {name: i for i, name in enumerate(SUM_NAMES)}
 NUM_SUMS = len(SUM_NAMES)
+NUM_COUNTS = len(COUNT_NAMES)
+NUM_FLOATS = len(FLOAT_NAMES)
 # extremes of the range: all landed pellets, last ricochet stuck, last ricochet slipped
 EXTREME_NAMES = ("all", "stick", "slip")
 NUM_EXTREMES = len(EXTREME_NAMES)
@@ -113,7 +114,7 @@ def finalize(totals, *, pellets: int, mass: float, inertia: float) -> dict[str, 
         "pellets": float(pellets),
         "hits": s["hits"],
         "missed": float(pellets) - s["hits"],
-        "stick": s["stick"],
+        "stick": s["hits"] - s["slip"],
         "slip": s["slip"],
         "landed": s["landed"],
         "escaped": s["hits"] - s["landed"],
@@ -136,6 +137,7 @@ def finalize(totals, *, pellets: int, mass: float, inertia: float) -> dict[str, 
     out["range_std"] = math.sqrt(max(variance, 0.0)) if s["landed"] > 0 else math.nan
     out["range_max"] = extreme(maxs[0], "landed")
     out["range_min"] = extreme(mins[0], "landed")
+    s["landed_stick"] = s["landed"] - s["landed_slip"]
     for j, branch in enumerate(EXTREME_NAMES[1:], start=1):
         out[f"range_{branch}_mean"] = mean(f"range_{branch}", f"landed_{branch}")
         out[f"range_{branch}_max"] = extreme(maxs[j], f"landed_{branch}")
@@ -162,7 +164,6 @@ def statistics_from_arrays(
 
     sums[SUM["hits"]] = h.sum()
     sums[SUM["slip"]] = np.asarray(slipped_first)[h].sum()
-    sums[SUM["stick"]] = h.sum() - sums[SUM["slip"]]
     for phase, v, w in (
         ("pre", velocity_before[h], angular_velocity_before[h]),
         ("post", velocity_after[h], angular_velocity_after[h]),
@@ -188,8 +189,9 @@ def statistics_from_arrays(
     for j, mask in enumerate((land, land & ~last_slip, land & last_slip)):
         if j:
             branch = EXTREME_NAMES[j]
-            sums[SUM[f"landed_{branch}"]] = mask.sum()
             sums[SUM[f"range_{branch}"]] = r[mask].sum()
+            if branch == "slip":
+                sums[SUM["landed_slip"]] = mask.sum()
         if mask.any():
             mins[j], maxs[j] = r[mask].min(), r[mask].max()
     return finalize((sums, mins, maxs), pellets=pellets, mass=mass, inertia=inertia)

@@ -1,0 +1,73 @@
+"""Kernel-only timings of the ricochet kernel variants on one device (CUDA events), to choose
+the register cap, and the end-to-end time of `run` at the same N. Run: python -m bench.variants"""
+
+import argparse
+import statistics
+
+import numpy as np
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--device", default="cuda:0")
+    ap.add_argument("--n", type=float, default=1e8)
+    ap.add_argument("--caps", default="none,128,96,80,64")
+    ap.add_argument("--repeats", type=int, default=10)
+    args = ap.parse_args(argv)
+    from bench.__main__ import _wr, scene_for
+    from warp_ricochet.api import Source, plan_chunk
+    from warp_ricochet.kernels import LANES, ricochet_kernel_for
+    from warp_ricochet.model import Model, State, threads_for
+    from warp_ricochet.stats import NUM_EXTREMES, NUM_SUMS
+
+    wr, wp = _wr()
+    n = int(args.n)
+    dev = wp.get_device(args.device)
+    for precision in ("float32", "float64"):
+        scene = scene_for(n, precision)
+        model = Model.from_scene(scene, dev)
+        kern = model.kernels
+        rows = min(plan_chunk(scene, model, n, ()), n)
+        state = State(model, rows, ())
+        src = kern.Source()
+        sh = scene.shot
+        src.seed, src.speed = sh.seed, kern.scalar(sh.speed)
+        src.direction, src.jitter = kern.vec3(*sh.direction), kern.vec3(*sh.direction_jitter)
+        src.envelope_center, src.envelope_radius = kern.vec3(*sh.envelope_center), kern.scalar(sh.envelope_radius)
+        src.spin = kern.vec3(*sh.spin)
+        src.position = src.velocity = src.angular_velocity = wp.empty(0, dtype=kern.vec3, device=dev)
+        threads = threads_for(rows)
+        segments = threads // LANES
+        for cap_text in args.caps.split(","):
+            cap = None if cap_text == "none" else int(cap_text)
+            kernel = ricochet_kernel_for(precision, False, False, cap)
+            launch = lambda: wp.launch(kernel, dim=threads, inputs=[0, rows, src, model.surfaces, model.physics, state.outputs],
+                                       outputs=[state.partial_sums, state.partial_min, state.partial_max], device=dev)
+            reduce = lambda: wp.launch(kern.reduce_kernel, dim=(segments, NUM_SUMS + NUM_EXTREMES),
+                                       inputs=[state.partial_sums, state.partial_min, state.partial_max],
+                                       outputs=[state.segment_sums, state.segment_min, state.segment_max], device=dev)
+            launch(); reduce(); wp.synchronize_device(dev)
+            times, rtimes = [], []
+            for _ in range(args.repeats):
+                e0, e1, e2 = (wp.Event(dev, enable_timing=True) for _ in range(3))
+                wp.record_event(e0); launch(); wp.record_event(e1); reduce(); wp.record_event(e2)
+                wp.synchronize_event(e2)
+                times.append(wp.get_event_elapsed_time(e0, e1))
+                rtimes.append(wp.get_event_elapsed_time(e1, e2))
+            t = statistics.median(times)
+            print(f"{precision} cap={cap_text:>4}: ricochet kernel {t:8.3f} ms = {rows / t * 1e3:.3e} pellets/s; "
+                  f"reduce {statistics.median(rtimes):.3f} ms", flush=True)
+    # end-to-end
+    for m in (1e4, 1e6, n):
+        sc = scene_for(int(m))
+        wr.run(sc, device=args.device)
+        ts = []
+        import time
+        for _ in range(args.repeats):
+            t0 = time.perf_counter(); wr.run(sc, device=args.device); wp.synchronize_device(dev); ts.append(time.perf_counter() - t0)
+        t = statistics.median(ts)
+        print(f"run() end to end N={int(m):,d}: {t * 1e3:.3f} ms = {m / t:.3e} pellets/s", flush=True)
+
+
+if __name__ == "__main__":
+    main()
