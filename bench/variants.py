@@ -39,7 +39,7 @@ def main(argv=None):
         threads = threads_for(rows)
         segments = threads // LANES
         for cap_text in args.caps.split(","):
-            cap = None if cap_text == "none" else int(cap_text)
+            cap = {"none": None, "default": "default"}.get(cap_text) or int(cap_text)
             kernel = ricochet_kernel_for(precision, False, False, cap)
             launch = lambda: wp.launch(kernel, dim=threads, inputs=[0, rows, src, model.surfaces, model.physics, state.outputs],
                                        outputs=[state.partial_sums, state.partial_min, state.partial_max], device=dev)

@@ -7,6 +7,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import warp_ricochet as wr
+from conftest import DEVICES
 from warp_ricochet import reference
 
 R = 0.00125
@@ -16,7 +17,7 @@ G = (0.0, -9.81, 0.0)
 UP = np.array([0.0, 1.0, 0.0])
 
 
-def law(v, w, n=UP, *, device="cpu", precision="float64", E=0.01, mu_s=0.5, mu_d=0.45, gravity=G, duration=0.0):
+def law(v, w, n=UP, *, device=DEVICES[0], precision="float64", E=0.01, mu_s=0.5, mu_d=0.45, gravity=G, duration=0.0):
     return wr.impact(np.atleast_2d(v), np.atleast_2d(w), n, radius=R, density=RHO, restitution=E, mu_s=mu_s,
                      mu_d=mu_d, gravity=gravity, duration=duration, device=device, precision=precision)
 
@@ -202,4 +203,5 @@ def test_bad_arguments_name_the_key():
     with pytest.raises(wr.SceneError, match="velocity"):
         law([[1.0, np.nan, 0.0]], [0, 0, 0])
     with pytest.raises(wr.SceneError, match="angular_velocity"):
-        wr.impact(np.zeros((2, 3)), np.zeros((3, 3)), UP, radius=R, density=RHO, restitution=0.1, mu_s=0.1, mu_d=0.1)
+        wr.impact(np.zeros((2, 3)), np.zeros((3, 3)), UP, radius=R, density=RHO, restitution=0.1, mu_s=0.1, mu_d=0.1,
+                  device=DEVICES[0])

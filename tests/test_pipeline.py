@@ -10,6 +10,7 @@ import warp_ricochet as wr
 from warp_ricochet import reference
 from warp_ricochet.scene import scene_from_dict
 
+from conftest import DEVICES
 from helpers import GROUND, explicit_scene, make_scene, paper_raw
 
 PAPER_SWEEP = {"surfaces.0.mu_s": [0.0, 0.05, 0.5]}
@@ -168,7 +169,7 @@ def test_float32_agrees_with_float64(device):
 @pytest.fixture(scope="module")
 def paper_sweep():
     scene = make_scene(paper_raw(), precision="float64")
-    return {p["surfaces.0.mu_s"]: s for p, s in wr.sweep(scene, PAPER_SWEEP, PAPER_TIE, device="cpu")}
+    return {p["surfaces.0.mu_s"]: s for p, s in wr.sweep(scene, PAPER_SWEEP, PAPER_TIE, device=DEVICES[0])}
 
 
 def test_paper_frictionless_row(paper_sweep):
@@ -199,7 +200,7 @@ def test_stick_rows_follow_eqs_27_to_29_not_the_table(paper_sweep):
 def test_sweep_file_layout(tmp_path):
     scene = make_scene(paper_raw(), output={"fields": ["landing.range"]})
     path = tmp_path / "sweep.h5"
-    res = wr.sweep(scene, {"surfaces.0.mu_s": [0.0, 0.1]}, PAPER_TIE, path, device="cpu")
+    res = wr.sweep(scene, {"surfaces.0.mu_s": [0.0, 0.1]}, PAPER_TIE, path, device=DEVICES[0])
     with h5py.File(path, "r") as f:
         assert f.attrs["kind"] == "sweep" and f.attrs["status"] == "complete"
         np.testing.assert_allclose(f["sweep/surfaces.0.mu_d"][()], [0.0, 0.09])
@@ -222,7 +223,7 @@ REQUIRED = [
 
 def test_hdf5_layout(tmp_path):
     path = tmp_path / "run.h5"
-    wr.run(make_scene(paper_raw()), path, device="cpu")
+    wr.run(make_scene(paper_raw()), path, device=DEVICES[0])
     with h5py.File(path, "r") as f:
         for name in REQUIRED:
             ds = f[name]
@@ -243,15 +244,14 @@ def test_existing_output_is_not_overwritten(tmp_path):
     path = tmp_path / "keep.h5"
     path.write_bytes(b"precious")
     with pytest.raises(wr.OutputError, match="exists"):
-        wr.run(make_scene(paper_raw()), path, device="cpu")
+        wr.run(make_scene(paper_raw()), path, device=DEVICES[0])
     assert path.read_bytes() == b"precious"
-    wr.run(make_scene(paper_raw()), path, device="cpu", overwrite=True)
+    wr.run(make_scene(paper_raw()), path, device=DEVICES[0], overwrite=True)
     assert h5py.is_hdf5(path)
 
 
 # ---------------------------------------------------------------- CPU against GPU (runs where CUDA exists)
 
-from conftest import DEVICES  # noqa: E402
 
 
 @pytest.mark.skipif("cuda:0" not in DEVICES, reason="no CUDA device")
@@ -280,3 +280,33 @@ def test_cpu_and_gpu_agree_per_pellet(tmp_path, precision, rtol):
             assert (finite == np.isfinite(y[same])).all(), name
             scale = np.abs(x[same][finite]).max() if finite.any() else 1.0
             assert np.abs(x[same][finite] - y[same][finite]).max() <= rtol * scale, name
+
+
+# ---------------------------------------------------------------- launch sampling (section 3.1)
+
+
+def test_launch_sampling_distribution(tmp_path, device):
+    """Positions uniform in the envelope sphere, |v| = speed, directions inside the jitter box,
+    a pure function of (seed, index)."""
+    raw = paper_raw()
+    raw["shot"]["count"] = 100_000
+    raw["output"] = {"fields": ["initial"]}
+    path = tmp_path / "launch.h5"
+    wr.run(make_scene(raw, precision="float64"), path, device=device)
+    p = read_pellets(path)
+    offset = (p["initial.position"] - [0.0, 1.0, 0.0]) / 0.025
+    r = np.linalg.norm(offset, axis=1)
+    assert r.max() <= 1.0 + 1e-6
+    assert r.mean() == pytest.approx(0.75, abs=0.003)  # E[r] = 3/4 in a ball
+    assert (r < 0.5).mean() == pytest.approx(0.125, abs=0.003)  # volume fraction
+    np.testing.assert_allclose(offset.mean(axis=0), 0.0, atol=0.005)
+    np.testing.assert_allclose(offset.var(axis=0), 0.2, atol=0.004)  # E[x^2] = 1/5
+    v = p["initial.velocity"]
+    np.testing.assert_allclose(np.linalg.norm(v, axis=1), 411.48, rtol=1e-12)
+    # d = (1 +- 0.1, -1 +- 0.1, 0 +- 0.1) normalised: the ratios of components stay in the box
+    assert (v[:, 0] / -v[:, 1] <= 1.1 / 0.9 + 1e-9).all() and (v[:, 0] / -v[:, 1] >= 0.9 / 1.1 - 1e-9).all()
+    assert (np.abs(v[:, 2] / v[:, 0]) <= 0.1 / 0.9 + 1e-9).all()
+    np.testing.assert_array_equal(p["initial.angular_velocity"], 0.0)
+    raw["shot"]["seed"] = 7
+    wr.run(make_scene(raw, precision="float64"), tmp_path / "other.h5", device=device)
+    assert not np.array_equal(read_pellets(tmp_path / "other.h5")["initial.position"], p["initial.position"])

@@ -8,7 +8,9 @@ chunk to HDF5, so writing overlaps computing. Nothing syncs inside a chunk.
 
 from __future__ import annotations
 
+import contextlib
 import math
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -183,27 +185,28 @@ def plan_chunk(scene, model, pellets: int, fields) -> int:
     return min(rows, max(pellets, 1))
 
 
-_PINNED_POOL: dict = {}  # (shape, dtype, slot) -> pinned host array, reused: cudaHostAlloc is slow
+_PINNED_POOL: dict = {}  # (field, shape, dtype, slot) -> pinned host array, reused: cudaHostAlloc is slow
+_PINNED_LOCK = threading.Lock()  # one CUDA run at a time uses the pool
 
 
 class _HostSlot:
     """One set of host buffers receiving a chunk (pinned on CUDA, so copies run async)."""
 
     def __init__(self, wp, state, pinned, index):
-        def like(arr):
+        def like(arr, name):
             if not pinned:
                 return wp.empty(arr.shape, dtype=arr.dtype, device="cpu")
-            key = (arr.shape, arr.dtype, index)
+            key = (name, arr.shape, arr.dtype, index)
             if key not in _PINNED_POOL:
                 if len(_PINNED_POOL) > 64:
                     _PINNED_POOL.clear()
                 _PINNED_POOL[key] = wp.empty(arr.shape, dtype=arr.dtype, device="cpu", pinned=True)
             return _PINNED_POOL[key]
 
-        self.arrays = {name: like(arr) for name, arr in state.arrays.items()}
-        self.segment_sums = like(state.segment_sums)
-        self.segment_min = like(state.segment_min)
-        self.segment_max = like(state.segment_max)
+        self.arrays = {name: like(arr, name) for name, arr in state.arrays.items()}
+        self.segment_sums = like(state.segment_sums, "segment_sums")
+        self.segment_min = like(state.segment_min, "segment_min")
+        self.segment_max = like(state.segment_max, "segment_max")
         self.rows = 0
         self.segments = 0
         self.event = None
@@ -211,6 +214,11 @@ class _HostSlot:
 
 def run_scene(scene, model, *, writer=None, progress=None, source=None) -> dict:
     """Run every pellet of `scene` through `model`'s device; return the statistics."""
+    with _PINNED_LOCK if model.device.is_cuda else contextlib.nullcontext():
+        return _run_scene(scene, model, writer=writer, progress=progress, source=source)
+
+
+def _run_scene(scene, model, *, writer, progress, source) -> dict:
     from .kernels import ricochet_kernel_for
     from .model import State, threads_for
     from .stats import NUM_EXTREMES, NUM_SUMS

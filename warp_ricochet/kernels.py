@@ -103,9 +103,10 @@ def types_for(precision: str) -> SimpleNamespace:
     return SimpleNamespace(scalar=scalar, vec3=vec3, Surfaces=Surfaces, Physics=Physics, Source=Source, Outputs=Outputs)
 
 
-# Register cap of the CUDA ricochet kernel (None: the compiler's choice). Chosen by measurement
-# on an H200, see bench/RESULTS.md (`python -m bench variants`).
-CUDA_MAX_REGISTERS = None
+# Register cap of the CUDA ricochet kernel per precision (None: the compiler's choice), chosen by
+# measurement on an H200 (`python -m bench.variants`, bench/RESULTS.md): float32 runs fastest at
+# 128 (more resident warps, few spills), float64 without a cap (capping it spills heavily).
+CUDA_MAX_REGISTERS = {"float32": 128, "float64": None}
 
 
 @functools.cache
@@ -132,7 +133,7 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, ma
     lanes, per_thread, segment = LANES, PER_THREAD, SEGMENT
     num_counts, num_floats, num_extremes = NUM_COUNTS, NUM_FLOATS, NUM_EXTREMES
     inf = scalar(math.inf)
-    cap = CUDA_MAX_REGISTERS if max_registers == "default" else max_registers
+    cap = CUDA_MAX_REGISTERS[precision] if max_registers == "default" else max_registers
     kernel_options = {} if cap is None else {"cuda_max_registers": cap}
 
     @wp.func

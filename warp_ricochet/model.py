@@ -7,6 +7,7 @@ output fields the scene asks for (none for a statistics-only run).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -67,6 +68,12 @@ class Model:
 
     @classmethod
     def from_scene(cls, scene, device) -> "Model":
+        """The model of `scene` on `device`; recent ones are reused (their arrays never change)."""
+        return _cached_model(scene.shot.diameter, scene.shot.density, scene.surfaces, scene.physics,
+                             scene.numerics.precision, device.alias)
+
+    @classmethod
+    def _build(cls, scene, device) -> "Model":
         kern = kernels_for(scene.numerics.precision)
         scalar, vec3 = kern.scalar, kern.vec3
         radius = 0.5 * scene.shot.diameter
@@ -97,6 +104,28 @@ class Model:
         )
 
 
+@functools.lru_cache(maxsize=32)
+def _cached_model(diameter, density, surfaces, physics, precision, device_alias) -> Model:
+    from types import SimpleNamespace
+
+    device = wp.get_device(device_alias)
+    scene = SimpleNamespace(shot=SimpleNamespace(diameter=diameter, density=density), surfaces=surfaces,
+                            physics=physics, numerics=SimpleNamespace(precision=precision))
+    return Model._build(scene, device)
+
+
+@functools.lru_cache(maxsize=8)
+def _empty_outputs(precision: str, device_alias: str):
+    """An Outputs struct whose arrays are all empty: what a statistics-only run passes."""
+    kern = kernels_for(precision)
+    device = wp.get_device(device_alias)
+    outputs = kern.Outputs()
+    for member, kind, per_bounce, _unit, _doc in FIELD_SPECS.values():
+        dtype = {"vec3": kern.vec3, "scalar": kern.scalar}.get(kind) or _INT_DTYPES[kind][0]
+        setattr(outputs, member, wp.empty((0, 0) if per_bounce else 0, dtype=dtype, device=device))
+    return outputs
+
+
 def threads_for(rows: int) -> int:
     """Threads (a whole number of LANES groups) that cover `rows` pellets."""
     segments = -(-rows // (LANES * PER_THREAD))
@@ -110,21 +139,17 @@ class State:
         kern = model.kernels
         self.capacity = capacity
         self.fields = tuple(fields)
-        self.outputs = kern.Outputs()
         self.arrays = {}
-        empty = {}
-        for name, (member, kind, per_bounce, _unit, _doc) in FIELD_SPECS.items():
-            dtype = {"vec3": kern.vec3, "scalar": kern.scalar}.get(kind) or _INT_DTYPES.get(kind, (None,))[0]
-            shape = (capacity, model.bounces) if per_bounce else (capacity,)
-            if name in self.fields:
-                arr = wp.empty(shape, dtype=dtype, device=model.device)
-                self.arrays[name] = arr
-            else:
-                key = (dtype, len(shape))
-                if key not in empty:
-                    empty[key] = wp.empty((0,) * len(shape), dtype=dtype, device=model.device)
-                arr = empty[key]
-            setattr(self.outputs, member, arr)
+        self.outputs = _empty_outputs(model.precision, model.device.alias)
+        if self.fields:
+            empty = self.outputs
+            self.outputs = kern.Outputs()
+            for name, (member, kind, per_bounce, _unit, _doc) in FIELD_SPECS.items():
+                arr = getattr(empty, member)
+                if name in self.fields:
+                    shape = (capacity, model.bounces) if per_bounce else (capacity,)
+                    arr = self.arrays[name] = wp.empty(shape, dtype=arr.dtype, device=model.device)
+                setattr(self.outputs, member, arr)
         threads = threads_for(capacity)
         self.partial_sums = wp.empty((NUM_SUMS, threads), dtype=wp.float64, device=model.device)
         self.partial_min = wp.empty((NUM_EXTREMES, threads), dtype=wp.float64, device=model.device)

@@ -100,13 +100,11 @@ def next_contact(position, velocity, gravity, radius, points, normals, touching)
 def sample_launch(shot, rng: np.random.Generator):
     """Launch states with NumPy's RNG (same distribution as the kernels, not the same draws)."""
     n = shot.count
-    offset = np.empty((n, 3))
-    todo = np.arange(n)
-    while todo.size:  # rejection sampling in the unit ball
-        trial = rng.uniform(-1.0, 1.0, (todo.size, 3))
-        ok = (trial * trial).sum(axis=1) <= 1.0
-        offset[todo[ok]] = trial[ok]
-        todo = todo[~ok]
+    z = rng.uniform(-1.0, 1.0, n)  # uniform in the unit ball, as the kernels sample it
+    azimuth = rng.uniform(0.0, 2.0 * np.pi, n)
+    r = np.cbrt(rng.uniform(0.0, 1.0, n))
+    ring = r * np.sqrt(1.0 - z * z)
+    offset = np.stack([ring * np.cos(azimuth), ring * np.sin(azimuth), r * z], axis=1)
     d = np.asarray(shot.direction) + np.asarray(shot.direction_jitter) * rng.uniform(-1.0, 1.0, (n, 3))
     velocity = shot.speed * d / np.linalg.norm(d, axis=1)[:, None]
     position = np.asarray(shot.envelope_center) + shot.envelope_radius * offset
