@@ -39,8 +39,11 @@ def main(argv=None):
         threads = threads_for(rows)
         segments = threads // LANES
         for cap_text in args.caps.split(","):
-            cap = {"none": None, "default": "default"}.get(cap_text) or int(cap_text)
-            kernel = ricochet_kernel_for(precision, False, False, cap)
+            fast = cap_text.endswith("+fast")
+            cap_text = cap_text.removesuffix("+fast")
+            cap = {"none": None, "default": "default"}[cap_text] if cap_text in ("none", "default") else int(cap_text)
+            kernel = ricochet_kernel_for(precision, False, False, cap, fast)
+            cap_text = cap_text + ("+fast" if fast else "")
             launch = lambda: wp.launch(kernel, dim=threads, inputs=[0, rows, src, model.surfaces, model.physics, state.outputs],
                                        outputs=[state.partial_sums, state.partial_min, state.partial_max], device=dev)
             reduce = lambda: wp.launch(kern.reduce_kernel, dim=(segments, NUM_SUMS + NUM_EXTREMES),

@@ -254,7 +254,7 @@ def test_existing_output_is_not_overwritten(tmp_path):
 
 
 
-@pytest.mark.skipif("cuda:0" not in DEVICES, reason="no CUDA device")
+@pytest.mark.skipif(not {"cpu", "cuda:0"} <= set(DEVICES), reason="needs both CPU and CUDA")
 @pytest.mark.parametrize("precision, rtol", [("float64", 1e-12), ("float32", 2e-5)])
 def test_cpu_and_gpu_agree_per_pellet(tmp_path, precision, rtol):
     """Same seed: the same pellets on both devices (counter-based RNG), the same outcomes

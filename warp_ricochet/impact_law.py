@@ -85,8 +85,8 @@ def make_impact_law(scalar):
         tangential_velocity = velocity - normal_speed * normal
         velocity_after = tangential_velocity + friction_impulse - restitution * normal_speed * normal
         # eqs. (17), (20)/(24): omega' = omega + (r_cp x f dt)/I with r_cp = -R e_n
-        angular_velocity_after = angular_velocity + wp.cross(friction_impulse, normal) / (
-            inertia_factor * radius
+        angular_velocity_after = angular_velocity + wp.cross(friction_impulse, normal) * (
+            scalar(1.0) / (inertia_factor * radius)
         )
         return velocity_after, angular_velocity_after, slipped
 

@@ -110,7 +110,7 @@ CUDA_MAX_REGISTERS = {"float32": 128, "float64": None}
 
 
 @functools.cache
-def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, max_registers="default"):
+def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, max_registers="default", fast_math=False):
     """The fused ricochet kernel, specialised at code generation (`wp.static`): without
     `write_outputs` it holds no per-pellet output code at all (statistics-only runs), and it
     reads launch states from arrays only `from_file`. Fewer live values, more threads per SM.
@@ -135,6 +135,8 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, ma
     inf = scalar(math.inf)
     cap = CUDA_MAX_REGISTERS[precision] if max_registers == "default" else max_registers
     kernel_options = {} if cap is None else {"cuda_max_registers": cap}
+    if fast_math:
+        kernel_options["module_options"] = {"fast_math": True}
 
     @wp.func
     def add_impact_sums(acc: floats_t, base: wp.int32, velocity: vec3, angular_velocity: vec3, normal: vec3):
