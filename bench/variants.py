@@ -42,7 +42,7 @@ def main(argv=None):
             fast = cap_text.endswith("+fast")
             cap_text = cap_text.removesuffix("+fast")
             cap = {"none": None, "default": "default"}[cap_text] if cap_text in ("none", "default") else int(cap_text)
-            kernel = ricochet_kernel_for(precision, False, False, cap, fast)
+            kernel = ricochet_kernel_for(precision, False, False, 1, 1, cap, fast)
             cap_text = cap_text + ("+fast" if fast else "")
             launch = lambda: wp.launch(kernel, dim=threads, inputs=[0, rows, src, model.surfaces, model.physics, state.outputs],
                                        outputs=[state.partial_sums, state.partial_min, state.partial_max], device=dev)

@@ -20,9 +20,15 @@ NO_CONTACT = -1.0  # returned as the time when a pellet never meets a plane
 
 
 @functools.cache
-def make_flight(scalar):
-    """Return the flight `@wp.func`s for a Warp scalar type."""
+def make_flight(scalar, planes=None):
+    """Return the flight `@wp.func`s for a Warp scalar type.
+
+    `planes`: the number of planes when fixed at code generation (the loop over planes is then
+    unrolled and, for the plane just left, the choice of root folded away); None reads it from
+    the arrays at run time.
+    """
     vec3 = wp.types.vector(3, scalar)
+    STATIC_PLANES = planes
 
     @wp.func
     def entry_time(gap: scalar, normal_speed: scalar, half_normal_gravity: scalar):
@@ -60,6 +66,30 @@ def make_flight(scalar):
         return scalar(NO_CONTACT)
 
     @wp.func
+    def plane_time(
+        k: wp.int32,
+        position: vec3,
+        velocity: vec3,
+        gravity: vec3,
+        radius: scalar,
+        points: wp.array(dtype=vec3),
+        normals: wp.array(dtype=vec3),
+        touching: wp.int32,
+    ):
+        """Time until the pellet meets plane k, or NO_CONTACT."""
+        normal = normals[k]
+        normal_speed = wp.dot(velocity, normal)
+        half_normal_gravity = scalar(0.5) * wp.dot(gravity, normal)
+        t = scalar(NO_CONTACT)
+        if k == touching:
+            t = return_time(normal_speed, half_normal_gravity)
+        else:
+            centre_height = wp.dot(position - points[k], normal)
+            if centre_height >= scalar(0.0):  # one-sided: centre behind the plane never touches
+                t = entry_time(centre_height - radius, normal_speed, half_normal_gravity)
+        return t
+
+    @wp.func
     def next_contact(
         position: vec3,  # m, pellet centre
         velocity: vec3,  # m/s
@@ -69,23 +99,22 @@ def make_flight(scalar):
         normals: wp.array(dtype=vec3),
         touching: wp.int32,  # index of the plane the pellet is leaving, or -1
     ):
-        """Return (time, plane index) of the next contact; index -1 when none (time NO_CONTACT)."""
+        """Return (time, plane index) of the next contact; index -1 when none (time NO_CONTACT).
+        Ties go to the lower index."""
         best_time = scalar(NO_CONTACT)
         best_plane = wp.int32(-1)
-        for k in range(points.shape[0]):
-            normal = normals[k]
-            normal_speed = wp.dot(velocity, normal)
-            half_normal_gravity = scalar(0.5) * wp.dot(gravity, normal)
-            t = scalar(NO_CONTACT)
-            if k == touching:
-                t = return_time(normal_speed, half_normal_gravity)
-            else:
-                centre_height = wp.dot(position - points[k], normal)
-                if centre_height >= scalar(0.0):  # one-sided: centre behind the plane never touches
-                    t = entry_time(centre_height - radius, normal_speed, half_normal_gravity)
-            if t >= scalar(0.0) and (best_plane < 0 or t < best_time):
-                best_time = t
-                best_plane = wp.int32(k)
+        if wp.static(STATIC_PLANES is None):
+            for k in range(points.shape[0]):
+                t = plane_time(k, position, velocity, gravity, radius, points, normals, touching)
+                if t >= scalar(0.0) and (best_plane < 0 or t < best_time):
+                    best_time = t
+                    best_plane = wp.int32(k)
+        else:
+            for k in range(wp.static(STATIC_PLANES)):  # unrolled
+                t = plane_time(k, position, velocity, gravity, radius, points, normals, touching)
+                if t >= scalar(0.0) and (best_plane < 0 or t < best_time):
+                    best_time = t
+                    best_plane = wp.int32(k)
         return best_time, best_plane
 
     @wp.func

@@ -107,21 +107,26 @@ def types_for(precision: str) -> SimpleNamespace:
 # measurement on an H200 (`python -m bench.variants`, bench/RESULTS.md): float32 runs fastest at
 # 128 (more resident warps, few spills), float64 without a cap (capping it spills heavily).
 CUDA_MAX_REGISTERS = {"float32": 128, "float64": None}
+MAX_STATIC_PLANES = 4  # scenes with more planes loop over them at run time
 
 
 @functools.cache
-def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, max_registers="default", fast_math=False):
+def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bounces: int, planes: int,
+                        max_registers="default", fast_math=False):
     """The fused ricochet kernel, specialised at code generation (`wp.static`): without
-    `write_outputs` it holds no per-pellet output code at all (statistics-only runs), and it
-    reads launch states from arrays only `from_file`. Fewer live values, more threads per SM.
+    `write_outputs` it holds no per-pellet output code at all (statistics-only runs); it reads
+    launch states from arrays only `from_file`; its loops over `bounces` and (up to
+    MAX_STATIC_PLANES) `planes` are unrolled. Fewer live values and branches, more threads per SM.
     """
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics, Source, Outputs = t.scalar, t.vec3, t.Surfaces, t.Physics, t.Source, t.Outputs
     floats_t = wp.types.vector(NUM_FLOATS, scalar)
     extremes_t = wp.types.vector(NUM_EXTREMES, scalar)
     impact_law = make_impact_law(scalar)
-    _entry, _return, next_contact, ballistic_position, ballistic_velocity = make_flight(scalar)
+    static_planes = planes if planes <= MAX_STATIC_PLANES else None
+    _entry, _return, next_contact, ballistic_position, ballistic_velocity = make_flight(scalar, static_planes)
     sample_pellet = make_sampler(scalar)
+    BOUNCES = bounces
 
     # constants captured by the kernel: offsets into the float accumulator (counts are separate)
     F_PRE, F_POST = SUM["vt_pre"] - NUM_COUNTS, SUM["vt_post"] - NUM_COUNTS  # vt, vn, wx, wy, wz, v2, w2
@@ -194,7 +199,7 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, ma
         ricochet_point = vec3()
         last_slipped = wp.int32(0)
         escaped = wp.int32(0)
-        for bounce in range(physics.bounces):
+        for bounce in range(wp.static(BOUNCES)):  # unrolled (bounces <= 16)
             if escaped == 0:
                 dt, k = next_contact(position, velocity, gravity, radius, surfaces.point, surfaces.normal, touching)
                 if k < 0:

@@ -8,7 +8,7 @@ Layout of a scene file::
     [shot]        pellets: sampled (count, speed, direction, jitter, envelope, spin, seed) or read from `file`
     [[surfaces]]  planes: point, normal (towards the incoming pellets), restitution, mu_s, mu_d, name
     [physics]     gravity, impact_duration (the paper's delta t), bounces
-    [numerics]    precision, chunk_size
+    [numerics]    precision, chunk_size, fast_math
     [output]      path (HDF5), fields
 
 Every problem raises SceneError with a one-line message: the dotted key, the value and what is allowed.
@@ -85,6 +85,7 @@ class Physics:
 class Numerics:
     precision: str = "float32"
     chunk_size: int | None = None                     # None: automatic
+    fast_math: bool = False                           # CUDA float32: approximate div/sqrt/sin (see README)
 
 
 @dataclass(frozen=True)
@@ -264,6 +265,13 @@ def _str(choices=(), *, empty=False):
     return conv
 
 
+@_rule("must be true or false")
+def _bool(v, path):
+    if not isinstance(v, bool):
+        raise _err(path, v, "must be true or false")
+    return v
+
+
 @_rule("must be a list of field names")
 def _fields(v, path):
     if not isinstance(v, (list, tuple)):
@@ -302,7 +310,7 @@ _SURFACE = {
     "mu_d": _number(0),
 }
 _PHYSICS = {"gravity": _vec3(unit="m/s^2"), "impact_duration": _number(0, unit="s"), "bounces": _int(1, 16)}
-_NUMERICS = {"precision": _str(("float32", "float64")), "chunk_size": _int(1, INT32_MAX)}
+_NUMERICS = {"precision": _str(("float32", "float64")), "chunk_size": _int(1, INT32_MAX), "fast_math": _bool}
 _OUTPUT = {"path": _str(), "fields": _fields}
 _TOP = ("shot", "surfaces", "physics", "numerics", "output")
 
