@@ -5,7 +5,9 @@
   write       a run that writes per-pellet landing data: total time against compute-only time
               and against the time to write the same bytes with h5py alone (is it disk-bound?)
   memory      peak host memory (RSS) of runs in fresh processes, and device bytes per pellet
-  all         the three, with a JSON record and a Markdown table under --out
+  tradeoff    run time against error: float32, float32 + fast_math and float64 on the device,
+              each against the NumPy float64 reference on the same launch states
+  all         throughput, write and memory, with a JSON record under --out
 
 Every figure states the device it was measured on. Warm-up runs (kernel compilation) are not timed.
 """
@@ -35,11 +37,56 @@ def _wr():
     return wr, _warp()
 
 
-def scene_for(n: int, precision="float32", fields=(), mu_s=0.05):
+def scene_for(n: int, precision="float32", fields=(), mu_s=0.05, fast_math=False):
     from warp_ricochet.scene import load_scene
 
     return load_scene(SCENE, [f"shot.count={n}", f"numerics.precision={precision}", f"output.fields={list(fields)!r}".replace("'", '"'),
-                              f"surfaces.0.mu_s={mu_s}", f"surfaces.0.mu_d={0.9 * mu_s}"])
+                              f"surfaces.0.mu_s={mu_s}", f"surfaces.0.mu_d={0.9 * mu_s}", f"numerics.fast_math={str(fast_math).lower()}"])
+
+
+MODES = (("float32", False), ("float32", True), ("float64", False))
+
+
+def tradeoff(device, n, big, repeats, out_dir):
+    """Run time (statistics-only, `big` pellets) against error (`n` pellets, per pellet against
+    the NumPy float64 reference on the same launch states) for each precision mode. The mixed
+    stick/slip friction mu_s = 0.28 puts pellets on both sides of eq. (22)."""
+    wr, wp = _wr()
+    import h5py
+
+    from warp_ricochet import reference
+
+    rows = []
+    for precision, fast in MODES:
+        label = precision + (" + fast_math" if fast else "")
+        scene = scene_for(n, precision, ("initial", "landing.range", "impact.slipped"), mu_s=0.28, fast_math=fast)
+        path = Path(out_dir) / "tradeoff.h5"
+        stats = wr.run(scene, path, device=device, overwrite=True)
+        with h5py.File(path, "r") as f:
+            p0, v0, w0 = (f[f"pellets/initial/{k}"][()].astype(np.float64) for k in ("position", "velocity", "angular_velocity"))
+            rng_ = f["pellets/landing/range"][()].astype(np.float64)
+            slipped = f["pellets/impact/slipped"][:, 0]
+        path.unlink()
+        ref, ref_stats = reference.simulate(scene_for(n, "float64", mu_s=0.28), p0, v0, w0)
+        same = ref["impact.slipped"][:, 0] == slipped
+        err = np.abs(rng_ - ref["landing.range"])[same] / ref["landing.range"][same]
+        big_scene = scene_for(big, precision, mu_s=0.28, fast_math=fast)
+        wr.run(big_scene, device=device)
+
+        def go():
+            wr.run(big_scene, device=device)
+            wp.synchronize_device(device)
+
+        t, _ = _timed(go, repeats)
+        row = {"mode": label, "pellets_per_s": big / t, "N_timed": big, "N_checked": n,
+               "range_max_rel_error": float(err.max()), "range_median_rel_error": float(np.median(err)),
+               "mean_range_rel_error": abs(stats["range_mean"] - ref_stats["range_mean"]) / ref_stats["range_mean"],
+               "branch_mismatches": int((~same).sum())}
+        rows.append(row)
+        print(f"tradeoff {label:20s} {row['pellets_per_s']:.3e} pellets/s | range error per pellet: max {row['range_max_rel_error']:.1e}, "
+              f"median {row['range_median_rel_error']:.1e}; mean range {row['mean_range_rel_error']:.1e}; "
+              f"stick/slip branch differs for {row['branch_mismatches']} of {n:,d}", flush=True)
+    return rows
 
 
 def device_info(wp, device):
@@ -186,13 +233,14 @@ def memory(device, cases, out_dir):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m bench", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("what", choices=["throughput", "write", "memory", "all"])
+    ap.add_argument("what", choices=["throughput", "write", "memory", "tradeoff", "all"])
     ap.add_argument("--device", default=None, help="cpu, cuda:0 (default: CUDA if present)")
     ap.add_argument("--sizes", default="1e4,1e5,1e6", help="pellet counts for throughput")
     ap.add_argument("--numpy-max", type=float, default=1e6, help="largest N also run with NumPy")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--precision", default="float32", choices=["float32", "float64"])
     ap.add_argument("--write-n", type=float, default=1e6)
+    ap.add_argument("--tradeoff-n", default="1e5,1e6", help="N checked against NumPy, N timed")
     ap.add_argument("--memory-cases", default="1e6:,1e6:landing", help="N:fields,... (fields empty = statistics only)")
     ap.add_argument("--out", default=None, help="folder for results.json (default: a temp folder)")
     args = ap.parse_args(argv)
@@ -213,6 +261,9 @@ def main(argv=None):
             n, _, fields = case.partition(":")
             cases.append((int(float(n)), tuple(f for f in fields.split("+") if f)))
         record["memory"] = memory(device, cases, out_dir)
+    if args.what == "tradeoff":
+        n, big = (int(float(x)) for x in args.tradeoff_n.split(","))
+        record["tradeoff"] = tradeoff(device, n, big, args.repeats, out_dir)
     path = out_dir / f"results-{args.what}-{device.replace(':', '')}.json"
     path.write_text(json.dumps(record, indent=1))
     print(f"wrote {path}")

@@ -12,11 +12,13 @@ nvidia-smi --query-gpu=name,memory.total,driver_version,clocks.max.sm --format=c
 if [[ $what == check ]]; then
   WARP_RICOCHET_TEST_DEVICES=cuda:0 python3 -m pytest tests -q -n 8 -p no:cacheprovider -k "not cli" 2>&1 | tail -6 | tee "$out/tests.txt"
   [[ -f .gpu/ref/cpu.h5 ]] && python3 -m bench.agreement compare --device cuda:0 --file .gpu/ref/cpu.h5 2>&1 | quiet | tee "$out/agreement.txt"
-  python3 -m bench.variants --device cuda:0 --n 1e8 --caps default,default+fast,96,80,96+fast,none 2>&1 | quiet | tee "$out/variants.txt"
+  python3 -m bench.variants --device cuda:0 --n 1e8 --caps default,default+fast,none 2>&1 | quiet | tee "$out/variants.txt"
 fi
 if [[ $what == bench ]]; then
+  python3 -m bench.variants --device cuda:0 --n 1e8 --caps default,default+fast,none 2>&1 | quiet | tee "$out/variants.txt"
   python3 -m bench throughput --device cuda:0 --sizes 1e4,1e5,1e6,1e7,1e8,1e9 --numpy-max 1e6 --repeats 5 --out "$out" 2>&1 | grep "N=" | tee "$out/throughput.txt"
   python3 -m bench throughput --device cuda:0 --sizes 1e8 --numpy-max 0 --repeats 5 --precision float64 --out "$out" 2>&1 | grep "N=" | tee -a "$out/throughput.txt"
   python3 -m bench write --device cuda:0 --write-n 1e8 --out /tmp/wr-bench 2>&1 | grep "write" | tee "$out/write.txt"
   python3 -m bench memory --device cuda:0 --memory-cases "1e9:,1e8:landing,1e7:" --out /tmp/wr-bench 2>&1 | grep "memory" | tee "$out/memory.txt"
+  python3 -m bench tradeoff --device cuda:0 --tradeoff-n 1e6,1e8 --out /tmp/wr-bench 2>&1 | grep "tradeoff" | tee "$out/tradeoff.txt"
 fi

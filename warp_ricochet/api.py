@@ -228,7 +228,7 @@ def _run_scene(scene, model, *, writer, progress, source) -> dict:
     pellets = source.count
     fields = writer.fields if writer is not None else ()
     capacity = plan_chunk(scene, model, pellets, fields)
-    state = State(model, capacity, fields)
+    state = model.state(capacity, fields) if model.device.is_cuda else State(model, capacity, fields)
     kern = model.kernels
     dev = model.device
     cuda = dev.is_cuda

@@ -104,9 +104,10 @@ def types_for(precision: str) -> SimpleNamespace:
 
 
 # Register cap of the CUDA ricochet kernel per precision (None: the compiler's choice), chosen by
-# measurement on an H200 (`python -m bench.variants`, bench/RESULTS.md): float32 runs fastest at
-# 128 (more resident warps, few spills), float64 without a cap (capping it spills heavily).
-CUDA_MAX_REGISTERS = {"float32": 128, "float64": None}
+# measurement on an H200 (`python -m bench.variants`, bench/RESULTS.md): the one-plane,
+# one-bounce statistics kernel ran fastest at 80 (float32: 99 registers uncapped) and 96 (float64:
+# 168 uncapped): more resident warps outweigh the few spills.
+CUDA_MAX_REGISTERS = {"float32": 80, "float64": 96}
 MAX_STATIC_PLANES = 4  # scenes with more planes loop over them at run time
 
 

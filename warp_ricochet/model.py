@@ -72,6 +72,14 @@ class Model:
         return _cached_model(scene.shot.diameter, scene.shot.density, scene.surfaces, scene.physics,
                              scene.numerics.precision, device.alias)
 
+    def state(self, capacity: int, fields) -> "State":
+        """The chunk buffers of the last run if they fit (same capacity and fields), else new
+        ones. Only for runs that hold api's CUDA lock: one run at a time uses them."""
+        key = (capacity, tuple(fields))
+        if getattr(self, "_state_key", None) != key:
+            self._state, self._state_key = State(self, capacity, fields), key
+        return self._state
+
     @classmethod
     def _build(cls, scene, device) -> "Model":
         kern = kernels_for(scene.numerics.precision)
