@@ -310,3 +310,11 @@ def test_launch_sampling_distribution(tmp_path, device):
     raw["shot"]["seed"] = 7
     wr.run(make_scene(raw, precision="float64"), tmp_path / "other.h5", device=device)
     assert not np.array_equal(read_pellets(tmp_path / "other.h5")["initial.position"], p["initial.position"])
+
+
+def test_fast_math_option_is_accepted_and_close(device):
+    s_ieee = wr.run(make_scene(paper_raw()), device=device)
+    s_fast = wr.run(make_scene(paper_raw(), numerics={"fast_math": True}), device=device)
+    for key in ("range_mean", "range_max", "post_mean_vt"):
+        assert s_fast[key] == pytest.approx(s_ieee[key], rel=1e-5), key
+    assert s_fast["slip"] == s_ieee["slip"]

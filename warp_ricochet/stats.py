@@ -1,8 +1,9 @@
 """Ensemble statistics of a run (Zohdi 2021, section 3.1 and Tables 1-3), in SI units.
 
-The kernels reduce per-pellet quantities into the sums below on the device. Sums are float64
-and combined in a fixed order over fixed segments of pellet indices (see `kernels.SEGMENT`),
-so the statistics are bitwise the same for any chunk size on a given device.
+The kernels reduce per-pellet quantities into the sums below on the device: per thread (at most
+256 pellets) in the working precision, counts in int32; from there on in float64, combined in a
+fixed order over fixed segments of pellet indices (see `kernels.SEGMENT`), so the statistics are
+bitwise the same for any chunk size on a given device.
 
 Impact quantities refer to each pellet's first impact, on the plane it hit:
 v_t = |tangential velocity|, v_n = signed normal velocity, omega the angular velocity vector,
