@@ -120,6 +120,9 @@ def test_planar_case_eqs_27_to_34(E, device):
         np.testing.assert_allclose(w[0, 2], omega - R / (I_over_m + R * R) * slip, rtol=1e-12)  # eq. (28)
         np.testing.assert_allclose(v[0, 0], vct - I_over_m / (I_over_m + R * R) * slip, rtol=1e-12)  # eq. (29)
         np.testing.assert_allclose(v[0, 1], -E * vcn, rtol=1e-12, atol=1e-300)  # eq. (30)
+        # eq. (35): the rebound angle from the plane, tan(theta) = v_n' / v_t'
+        theta = np.arctan2(-E * vcn, vct - I_over_m / (I_over_m + R * R) * slip)
+        assert np.arctan2(v[0, 1], v[0, 0]) == pytest.approx(theta, rel=1e-12, abs=1e-15)
         mu = 1e-3
         v, w, s = law([vct, vcn, 0.0], [0.0, 0.0, omega], E=E, mu_s=mu, mu_d=mu, device=device)
         assert s[0]

@@ -318,3 +318,18 @@ def test_fast_math_option_is_accepted_and_close(device):
     for key in ("range_mean", "range_max", "post_mean_vt"):
         assert s_fast[key] == pytest.approx(s_ieee[key], rel=1e-5), key
     assert s_fast["slip"] == s_ieee["slip"]
+
+
+def test_pellet_file_from_our_own_output_reproduces_the_run(tmp_path, device):
+    """shot.file = an .h5 written by a run (its /pellets/initial): the same pellets, the same results."""
+    first = tmp_path / "first.h5"
+    stats = wr.run(make_scene(paper_raw(), precision="float64"), first, device=device)
+    raw = paper_raw()
+    raw["shot"] = {"file": str(first), "diameter": 0.0025, "density": 7000.0}
+    again = tmp_path / "again.h5"
+    stats_again = wr.run(make_scene(raw, precision="float64"), again, device=device)
+    a, b = read_pellets(first), read_pellets(again)
+    for name in ("landing.range", "impact.velocity", "impact.slipped"):
+        np.testing.assert_array_equal(a[name], b[name])
+    for key in ("range_mean", "range_max", "stick", "post_mean_WT"):
+        assert stats_again[key] == stats[key], key
