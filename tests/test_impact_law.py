@@ -209,6 +209,8 @@ def test_bad_arguments_name_the_key():
         law([1.0, -1.0, 0.0], [0, 0, 0], n=[0.0, 0.0, 0.0])
     with pytest.raises(wr.SceneError, match="velocity"):
         law([[1.0, np.nan, 0.0]], [0, 0, 0])
+    with pytest.raises(wr.SceneError, match="velocity"):
+        law([["a", "b", "c"]], [0, 0, 0])
     with pytest.raises(wr.SceneError, match="angular_velocity"):
         wr.impact(np.zeros((2, 3)), np.zeros((3, 3)), UP, radius=R, density=RHO, restitution=0.1, mu_s=0.1, mu_d=0.1,
                   device=DEVICES[0])

@@ -50,7 +50,10 @@ def resolve_device(name=None):
 
 
 def _vectors(name, value, rows=None):
-    arr = np.asarray(value, dtype=np.float64)
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise SceneError(name, value, "must be an array of numbers") from None
     if arr.ndim == 1 and arr.shape == (3,) and rows is not None:
         arr = np.broadcast_to(arr, (rows, 3))
     if arr.ndim != 2 or arr.shape[1] != 3 or (rows is not None and arr.shape[0] != rows):
