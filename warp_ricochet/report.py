@@ -404,11 +404,13 @@ def format_run_summary(stats: dict, output=None, device=None) -> str:
         ("stick", _count(stats.get("stick"))),
         ("slip", _count(stats.get("slip"))),
         ("landed", _count(stats.get("landed"))),
+        ("missed / escaped", f"{_count(stats.get('missed'))} / {_count(stats.get('escaped'))}"),
         ("mean v_t pre/post", f"{val('pre_mean_vt')} / {val('post_mean_vt')}"),
         ("mean v_n pre/post", f"{val('pre_mean_vn')} / {val('post_mean_vn')}"),
         ("mean range <L>", val("range_mean")),
         ("L+ (longest)", val("range_max")),
         ("L- (shortest)", val("range_min")),
+        ("mean W_T at landing", val("landing_mean_WT", 6)),
     ]
     width = max(len(k) for k, _ in rows)
     lines += [f"{k.ljust(width)}  {v}" for k, v in rows]
