@@ -25,13 +25,53 @@ MAX_CHUNK = 1 << 28  # pellets per chunk, statistics-only
 CPU_STATS_CHUNK = 1 << 22  # CPU statistics-only chunk: progress granularity
 
 
+_INIT_NOTE = ""  # what Warp's native library said while starting (e.g. why CUDA is unavailable)
+_INITIALISED = False
+_CUDA_MISSING = "Could not find or load the NVIDIA CUDA driver"
+
+
 def _warp():
     import warp as wp
 
-    if wp.config.log_level < wp.LOG_WARNING:
-        wp.config.log_level = wp.LOG_WARNING  # no banner, no per-module load lines
-    wp.init()  # no-op once initialised
+    global _INIT_NOTE, _INITIALISED
+    if not _INITIALISED:
+        if wp.config.log_level < wp.LOG_WARNING:
+            wp.config.log_level = wp.LOG_WARNING  # no banner, no per-module load lines
+        _INIT_NOTE = _init_capturing_native_stderr(wp)  # a no-op init if Warp already started
+        _INITIALISED = True
     return wp
+
+
+def _init_capturing_native_stderr(wp) -> str:
+    """wp.init(), keeping what the native library writes to stderr (on a machine without a GPU:
+    a CUDA-driver warning, which would make a one-line error two lines). Anything else it says
+    is passed on; the CUDA note is given with a device error when CUDA was asked for."""
+    import ctypes
+    import os
+    import sys
+    import tempfile
+
+    try:
+        libc = ctypes.CDLL(None)
+        saved = os.dup(2)
+    except OSError:
+        wp.init()
+        return ""
+    with tempfile.TemporaryFile() as captured:
+        sys.stderr.flush()
+        os.dup2(captured.fileno(), 2)
+        try:
+            wp.init()
+        finally:
+            libc.fflush(None)
+            os.dup2(saved, 2)
+            os.close(saved)
+        captured.seek(0)
+        text = captured.read().decode(errors="replace").strip()
+    kept = [line for line in text.splitlines() if _CUDA_MISSING not in line]
+    if kept:
+        print("\n".join(kept), file=sys.stderr)
+    return " ".join(text.split())
 
 
 def resolve_device(name=None):
@@ -43,7 +83,8 @@ def resolve_device(name=None):
         return wp.get_device(str(name))
     except Exception:
         allowed = ", ".join(d.alias for d in wp.get_devices())
-        raise RicochetError(f"device = {str(name)!r}: not available here; available: {allowed}") from None
+        why = f" ({_INIT_NOTE.removeprefix('Warp CUDA warning: ')})" if "cuda" in str(name) and _CUDA_MISSING in _INIT_NOTE else ""
+        raise RicochetError(f"device = {str(name)!r}: not available here{why}; available: {allowed}") from None
 
 
 # --------------------------------------------------------------------------- impact API
