@@ -79,6 +79,10 @@ def test_zero_slip_velocity_is_unchanged_tangentially_and_finite(device):
         np.testing.assert_allclose(w[0], w_in, rtol=1e-12)
         if mu_s > 0:
             assert not s[0]  # the (vanishing) sticking impulse is far inside the friction cone
+        rv, rw, _ = reference.impact_law(v_in[None], w_in[None], UP, radius=R, restitution=0.01, mu_s=mu_s,
+                                         mu_d=mu_s)
+        np.testing.assert_allclose(v[0], rv[0], rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(w[0], rw[0], rtol=1e-12)
 
 
 def test_grazing_impact_is_finite_and_slips(device):

@@ -333,3 +333,67 @@ def test_pellet_file_from_our_own_output_reproduces_the_run(tmp_path, device):
         np.testing.assert_array_equal(a[name], b[name])
     for key in ("range_mean", "range_max", "stick", "post_mean_WT"):
         assert stats_again[key] == stats[key], key
+
+
+# ---------------------------------------------------------------- contact corner cases
+
+TWO_FLOORS = [
+    {"point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.5, "mu_s": 0.3, "mu_d": 0.2},
+    {"point": [0.0, -1.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.5, "mu_s": 0.3, "mu_d": 0.2},
+]
+
+
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_pellets_starting_on_or_in_a_plane_never_pass_through_it(tmp_path, device, precision):
+    R = 0.00125
+    position = [[0.0, R, 0.0],  # resting on the upper floor
+                [0.0, 0.0005, 0.0],  # overlapping, moving away too slowly to separate
+                [0.0, 0.001, 0.0],  # overlapping, separates, comes back down
+                [0.0, R, 0.0]]  # touching, moving into it
+    velocity = [[1.0, 0.0, 0.0], [1.0, 0.1, 0.0], [1.0, 1.0, 0.0], [1.0, -2.0, 0.0]]
+    scene = explicit_scene(tmp_path, position, velocity, surfaces=TWO_FLOORS, precision=precision,
+                           physics={"bounces": 2})
+    wr.run(scene, tmp_path / "o.h5", device=device)
+    p = read_pellets(tmp_path / "o.h5")
+    ref, _ = reference.simulate(scene, np.array(position), np.array(velocity), np.zeros((4, 3)))
+    assert (p["impact.surface"] != 1).all() and (p["landing.surface"] != 1).all()  # never the lower floor
+    np.testing.assert_array_equal(p["impact.surface"], [[-1, -1], [-1, -1], [0, 0], [0, 0]])
+    np.testing.assert_array_equal(p["impact.surface"], ref["impact.surface"])
+    np.testing.assert_array_equal(p["landing.surface"], ref["landing.surface"])
+    # separates, flies up and comes back: the larger root of -g/2 t^2 + 1 t + (0.001 - R) = 0
+    up_and_down = (1.0 + math.sqrt(1.0 - 2.0 * 9.81 * (R - 0.001))) / 9.81
+    assert p["impact.time"][2, 0] == pytest.approx(up_and_down, rel=1e-5)
+    assert p["impact.time"][3, 0] == 0.0
+
+
+def test_restitution_zero_ends_the_flight_on_the_surface(tmp_path, device):
+    """E = 0: the pellet leaves with no normal speed, so it stays on the surface: a landing with
+    range 0, not a second (fake) impact, and the slip branch keeps its pellets."""
+    floor = [{"point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.0, "mu_s": 0.05, "mu_d": 0.04}]
+    scene = explicit_scene(tmp_path, [[0.0, 1.0, 0.0]] * 2, [[300.0, -300.0, 0.0], [100.0, -300.0, 0.0]],
+                           surfaces=floor, physics={"bounces": 2})
+    stats = wr.run(scene, tmp_path / "o.h5", device=device)
+    p = read_pellets(tmp_path / "o.h5")
+    np.testing.assert_array_equal(p["impact.slipped"], [[1, -1], [1, -1]])
+    np.testing.assert_array_equal(p["landing.range"], [0.0, 0.0])
+    np.testing.assert_array_equal(p["landing.time"], p["impact.time"][:, 0])
+    assert stats["landed"] == 2 and stats["range_slip_mean"] == 0.0 and math.isnan(stats["range_stick_mean"])
+
+
+@pytest.mark.parametrize("precision", ["float32", "float64"])
+def test_range_spread_is_accurate(tmp_path, device, precision):
+    """range_std from device sums (deviations from each thread's first range: no cancellation)."""
+    raw = paper_raw()
+    raw["shot"].update(count=20_000, direction_jitter=0.0, envelope_radius=0.0)
+    raw["surfaces"][0].update(mu_s=0.0, mu_d=0.0)
+    same = wr.run(make_scene(raw, precision=precision), device=device)  # identical pellets
+    assert same["range_min"] == same["range_max"]
+    assert same["range_std"] <= 1e-12 * same["range_mean"]
+    assert same["range_mean"] == pytest.approx(same["range_max"], rel=1e-12)
+    raw = paper_raw()
+    raw["shot"]["count"] = 20_000
+    raw["output"] = {"fields": ["landing.range"]}
+    stats = wr.run(make_scene(raw, precision=precision), tmp_path / "r.h5", device=device)
+    ranges = read_pellets(tmp_path / "r.h5")["landing.range"].astype(np.float64)
+    assert stats["range_std"] == pytest.approx(ranges.std(), rel=1e-6)
+    assert stats["range_mean"] == pytest.approx(ranges.mean(), rel=1e-7)

@@ -32,9 +32,20 @@ def make_flight(scalar, planes=None):
 
     @wp.func
     def entry_time(gap: scalar, normal_speed: scalar, half_normal_gravity: scalar):
-        """First t >= 0 with gap(t) = 0 while closing, or NO_CONTACT. Stable quadratic roots."""
-        if gap <= scalar(0.0) and normal_speed < scalar(0.0):
-            return scalar(0.0)  # touching or overlapping and approaching: contact now
+        """First t >= 0 with gap(t) = 0 while closing, or NO_CONTACT. Stable quadratic roots.
+
+        A pellet touching or overlapping the plane (gap <= 0, centre in front of it) is in
+        contact: now if it closes; if it moves away while gravity pulls it back, when it next
+        closes (the larger root, or the apex if it never separates)."""
+        if gap <= scalar(0.0):
+            if normal_speed < scalar(0.0):
+                return scalar(0.0)
+            if half_normal_gravity < scalar(0.0):
+                disc = normal_speed * normal_speed - scalar(4.0) * half_normal_gravity * gap
+                if disc < scalar(0.0):
+                    return -normal_speed / (scalar(2.0) * half_normal_gravity)  # apex, still overlapping
+                return -(normal_speed + wp.sqrt(disc)) / (scalar(2.0) * half_normal_gravity)
+            return scalar(NO_CONTACT)
         if half_normal_gravity == scalar(0.0):
             if normal_speed < scalar(0.0):
                 return -gap / normal_speed

@@ -132,10 +132,11 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bo
     # constants captured by the kernel: offsets into the float accumulator (counts are separate)
     F_PRE, F_POST = SUM["vt_pre"] - NUM_COUNTS, SUM["vt_post"] - NUM_COUNTS  # vt, vn, wx, wy, wz, v2, w2
     F_V2_LAUNCH, F_W2_LAUNCH = SUM["v2_launch"] - NUM_COUNTS, SUM["w2_launch"] - NUM_COUNTS
-    F_RANGE, F_RANGE2 = SUM["range"] - NUM_COUNTS, SUM["range2"] - NUM_COUNTS
+    F_RANGE, F_RANGE2 = SUM["range"] - NUM_COUNTS, SUM["range_m2"] - NUM_COUNTS  # deviations from the thread's first range
     F_RANGE_STICK, F_RANGE_SLIP = SUM["range_stick"] - NUM_COUNTS, SUM["range_slip"] - NUM_COUNTS
     F_TIME_ALOFT, F_V2_LANDING = SUM["time_aloft"] - NUM_COUNTS, SUM["v2_landing"] - NUM_COUNTS
     WRITE, FROM_FILE = write_outputs, from_file
+    FLYING, ESCAPED, RESTING = 0, 1, 2
     lanes, per_thread, segment = LANES, PER_THREAD, SEGMENT
     num_counts, num_floats, num_extremes = NUM_COUNTS, NUM_FLOATS, NUM_EXTREMES
     inf = scalar(math.inf)
@@ -169,6 +170,7 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bo
         acc: floats_t,
         lo: extremes_t,
         hi: extremes_t,
+        range_shift: scalar,  # the thread's first range: range sums are of deviations from it
     ):
         """Follow one pellet from launch to landing; returns the updated partial statistics."""
         position = vec3()
@@ -198,54 +200,67 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bo
         time = scalar(0.0)
         touching = wp.int32(-1)
         ricochet_point = vec3()
+        ricochet_time = scalar(0.0)
         last_slipped = wp.int32(0)
-        escaped = wp.int32(0)
+        impacts = wp.int32(0)
+        # FLYING, ESCAPED (never meets a surface again), RESTING (met one without closing speed:
+        # it stays on it, the flight ends there; not an impact)
+        flight_state = wp.int32(FLYING)
+        resting_surface = wp.int32(-1)
         for bounce in range(wp.static(BOUNCES)):  # unrolled (bounces <= 16)
-            if escaped == 0:
+            impacted = wp.int32(0)
+            if flight_state == FLYING:
                 dt, k = next_contact(position, velocity, gravity, radius, surfaces.point, surfaces.normal, touching)
                 if k < 0:
-                    escaped = 1
+                    flight_state = ESCAPED
                 else:
                     normal = surfaces.normal[k]
                     position = ballistic_position(position, velocity, gravity, dt)
                     velocity = ballistic_velocity(velocity, gravity, dt)
                     time = time + dt
-                    velocity_after, spin_after, slipped = impact_law(
-                        velocity, spin, normal, radius, physics.inertia_factor,
-                        surfaces.restitution[k], surfaces.mu_s[k], surfaces.mu_d[k],
-                        wp.dot(gravity, normal) * physics.impact_duration,
-                    )
-                    if wp.static(WRITE):
-                        if out.impact_time.shape[0] > 0:
-                            out.impact_time[row, bounce] = time
-                        if out.impact_position.shape[0] > 0:
-                            out.impact_position[row, bounce] = position
-                        if out.impact_velocity_before.shape[0] > 0:
-                            out.impact_velocity_before[row, bounce] = velocity
-                        if out.impact_angular_velocity_before.shape[0] > 0:
-                            out.impact_angular_velocity_before[row, bounce] = spin
-                        if out.impact_velocity.shape[0] > 0:
-                            out.impact_velocity[row, bounce] = velocity_after
-                        if out.impact_angular_velocity.shape[0] > 0:
-                            out.impact_angular_velocity[row, bounce] = spin_after
-                        if out.impact_slipped.shape[0] > 0:
-                            out.impact_slipped[row, bounce] = wp.int8(slipped)
-                        if out.impact_surface.shape[0] > 0:
-                            out.impact_surface[row, bounce] = wp.int16(k)
-                    if bounce == 0:
-                        counts[0] += 1
-                        counts[1] += slipped
-                        acc = add_impact_sums(acc, F_PRE, velocity, spin, normal)
-                        acc = add_impact_sums(acc, F_POST, velocity_after, spin_after, normal)
-                        acc[F_V2_LAUNCH] += launch_v2
-                        acc[F_W2_LAUNCH] += launch_w2
-                    velocity = velocity_after
-                    spin = spin_after
-                    touching = k
-                    last_slipped = slipped
-                    ricochet_point = position - radius * normal
+                    if wp.dot(velocity, normal) >= scalar(0.0):
+                        flight_state = RESTING
+                        resting_surface = k
+                    else:
+                        impacted = 1
+                        velocity_after, spin_after, slipped = impact_law(
+                            velocity, spin, normal, radius, physics.inertia_factor,
+                            surfaces.restitution[k], surfaces.mu_s[k], surfaces.mu_d[k],
+                            wp.dot(gravity, normal) * physics.impact_duration,
+                        )
+                        if wp.static(WRITE):
+                            if out.impact_time.shape[0] > 0:
+                                out.impact_time[row, bounce] = time
+                            if out.impact_position.shape[0] > 0:
+                                out.impact_position[row, bounce] = position
+                            if out.impact_velocity_before.shape[0] > 0:
+                                out.impact_velocity_before[row, bounce] = velocity
+                            if out.impact_angular_velocity_before.shape[0] > 0:
+                                out.impact_angular_velocity_before[row, bounce] = spin
+                            if out.impact_velocity.shape[0] > 0:
+                                out.impact_velocity[row, bounce] = velocity_after
+                            if out.impact_angular_velocity.shape[0] > 0:
+                                out.impact_angular_velocity[row, bounce] = spin_after
+                            if out.impact_slipped.shape[0] > 0:
+                                out.impact_slipped[row, bounce] = wp.int8(slipped)
+                            if out.impact_surface.shape[0] > 0:
+                                out.impact_surface[row, bounce] = wp.int16(k)
+                        if bounce == 0:
+                            counts[0] += 1
+                            counts[1] += slipped
+                            acc = add_impact_sums(acc, F_PRE, velocity, spin, normal)
+                            acc = add_impact_sums(acc, F_POST, velocity_after, spin_after, normal)
+                            acc[F_V2_LAUNCH] += launch_v2
+                            acc[F_W2_LAUNCH] += launch_w2
+                        velocity = velocity_after
+                        spin = spin_after
+                        touching = k
+                        impacts = impacts + 1
+                        last_slipped = slipped
+                        ricochet_point = position - radius * normal
+                        ricochet_time = time
             if wp.static(WRITE):
-                if escaped != 0:  # no impact at this bounce: mark it missing
+                if impacted == 0:  # no impact at this bounce: mark it missing
                     if out.impact_time.shape[0] > 0:
                         out.impact_time[row, bounce] = scalar(wp.nan)
                     if out.impact_position.shape[0] > 0:
@@ -263,25 +278,35 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bo
                     if out.impact_surface.shape[0] > 0:
                         out.impact_surface[row, bounce] = wp.int16(-1)
 
-        # landing: the next surface met after the last of `bounces` ricochets
+        # landing, after at least one ricochet: where the flight ended on a surface (resting), or
+        # the next surface met after the last of `bounces` ricochets
         landing_time = scalar(wp.inf)
         landing_position = vec3(scalar(wp.nan))
         landing_velocity = vec3(scalar(wp.nan))
         landing_range = scalar(wp.nan)
         landing_surface = wp.int32(-1)
-        if escaped == 0:
-            dt, k = next_contact(position, velocity, gravity, radius, surfaces.point, surfaces.normal, touching)
+        if impacts > 0 and flight_state != ESCAPED:
+            k = resting_surface
+            if flight_state == FLYING:
+                dt, k = next_contact(position, velocity, gravity, radius, surfaces.point, surfaces.normal, touching)
+                if k >= 0:
+                    position = ballistic_position(position, velocity, gravity, dt)
+                    velocity = ballistic_velocity(velocity, gravity, dt)
+                    time = time + dt
             if k >= 0:
                 landing_surface = k
-                landing_time = time + dt
-                landing_position = ballistic_position(position, velocity, gravity, dt)
-                landing_velocity = ballistic_velocity(velocity, gravity, dt)
+                landing_time = time
+                landing_position = position
+                landing_velocity = velocity
                 # eq. (42): distance from the ricochet point to the landing point (contact points)
                 landing_range = wp.length(landing_position - radius * surfaces.normal[k] - ricochet_point)
                 counts[2] += 1
-                acc[F_RANGE] += landing_range
-                acc[F_RANGE2] += landing_range * landing_range
-                acc[F_TIME_ALOFT] += dt
+                if counts[2] == 1:
+                    range_shift = landing_range
+                deviation = landing_range - range_shift
+                acc[F_RANGE] += deviation
+                acc[F_RANGE2] += deviation * deviation
+                acc[F_TIME_ALOFT] += time - ricochet_time
                 acc[F_V2_LANDING] += wp.dot(landing_velocity, landing_velocity)
                 lo[0] = wp.min(lo[0], landing_range)
                 hi[0] = wp.max(hi[0], landing_range)
@@ -305,7 +330,7 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bo
                 out.landing_range[row] = landing_range
             if out.landing_surface.shape[0] > 0:
                 out.landing_surface[row] = wp.int16(landing_surface)
-        return counts, acc, lo, hi
+        return counts, acc, lo, hi, range_shift
 
     @wp.kernel(module="unique", enable_backward=False, **kernel_options)
     def ricochet_kernel(
@@ -326,15 +351,27 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bo
         acc = floats_t()
         lo = extremes_t(inf)
         hi = extremes_t(-inf)
+        range_shift = scalar(0.0)
         for j in range(per_thread):
             row = group * segment + j * lanes + lane
             if row < count:
-                counts, acc, lo, hi = ricochet_pellet(first_index + row, row, source, surfaces, physics, out, counts, acc, lo, hi)
-        # widen once per thread: float64 from here on
+                counts, acc, lo, hi, range_shift = ricochet_pellet(
+                    first_index + row, row, source, surfaces, physics, out, counts, acc, lo, hi, range_shift
+                )
+        # widen once per thread: float64 from here on. Ranges were summed as deviations from the
+        # thread's first range: the range row gets the plain sum back, the m2 row the squared
+        # deviations about the thread's mean (no cancellation; merged across threads by Chan).
         for c in range(num_counts):
             partial_sums[c, tid] = wp.float64(counts[c])
         for f in range(num_floats):
             partial_sums[num_counts + f, tid] = wp.float64(acc[f])
+        landed = wp.float64(counts[2])
+        deviations = wp.float64(acc[F_RANGE])
+        partial_sums[num_counts + F_RANGE, tid] = landed * wp.float64(range_shift) + deviations
+        m2 = wp.float64(0.0)
+        if counts[2] > 0:
+            m2 = wp.max(wp.float64(acc[F_RANGE2]) - deviations * deviations / landed, wp.float64(0.0))
+        partial_sums[num_counts + F_RANGE2, tid] = m2
         for e in range(num_extremes):
             partial_min[e, tid] = wp.float64(lo[e])
             partial_max[e, tid] = wp.float64(hi[e])
@@ -350,6 +387,7 @@ def kernels_for(precision: str) -> SimpleNamespace:
     scalar, vec3 = t.scalar, t.vec3
     impact_law = make_impact_law(scalar)
     lanes, num_sums, num_extremes = LANES, NUM_SUMS, NUM_EXTREMES
+    ROW_LANDED, ROW_RANGE, ROW_M2 = SUM["landed"], SUM["range"], SUM["range_m2"]
     inf64 = wp.float64(math.inf)
 
     @wp.kernel(module="unique", enable_backward=False)
@@ -364,7 +402,23 @@ def kernels_for(precision: str) -> SimpleNamespace:
         """One thread per (segment, row): add the segment's LANES partials in lane order."""
         seg, row = wp.tid()
         base = seg * lanes
-        if row < num_sums:
+        if row == ROW_M2:
+            # squared deviations about the segment mean: the lanes' own, plus n (mean_lane - mean)^2
+            count = wp.float64(0.0)
+            total = wp.float64(0.0)
+            for lane in range(lanes):
+                count += partial_sums[ROW_LANDED, base + lane]
+                total += partial_sums[ROW_RANGE, base + lane]
+            m2 = wp.float64(0.0)
+            if count > wp.float64(0.0):
+                mean = total / count
+                for lane in range(lanes):
+                    n = partial_sums[ROW_LANDED, base + lane]
+                    if n > wp.float64(0.0):
+                        delta = partial_sums[ROW_RANGE, base + lane] / n - mean
+                        m2 += partial_sums[ROW_M2, base + lane] + n * delta * delta
+            segment_sums[seg, row] = m2
+        elif row < num_sums:
             total = wp.float64(0.0)
             for lane in range(lanes):
                 total += partial_sums[row, base + lane]

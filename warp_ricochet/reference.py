@@ -55,6 +55,8 @@ def impact_law(velocity, angular_velocity, normal, *, radius, restitution, mu_s,
     v_ct_after = v_ct - f  # eqs. (21), (25)
     v_cn_after = -E * v_cn  # eq. (30)
     v_after = v_ct_after[:, None] * e_t + v_cn_after[:, None] * e_n + v_co[:, None] * e_o  # eqs. (14), (15)
+    # no slip velocity: no e_t, no friction; the tangential velocity of the centre stays
+    v_after = np.where(safe[:, None], v_after, v + (v_cn_after - v_cn)[:, None] * e_n)
     # eqs. (20), (24): omega' = omega - f R dt / I e_o  ->  per unit mass: f* / (k R)
     w_after = w - (f / (k * R))[:, None] * e_o
     v_after = np.where(approaching[:, None], v_after, v)
@@ -81,7 +83,13 @@ def next_contact(position, velocity, gravity, radius, points, normals, touching)
         other = ~leave & (height >= 0)
         now = other & (c <= 0) & (b < 0)
         t = np.where(now, 0.0, t)
-        rest = other & ~now
+        # touching or overlapping and moving away: contact when it next closes (larger root or apex)
+        inside = other & (c <= 0) & (b >= 0)
+        if a < 0:
+            with np.errstate(invalid="ignore"):
+                disc_in = b * b - 4.0 * a * c
+                t = np.where(inside, np.where(disc_in < 0, -b / (2.0 * a), -(b + np.sqrt(np.maximum(disc_in, 0.0))) / (2.0 * a)), t)
+        rest = other & (c > 0)
         with np.errstate(divide="ignore", invalid="ignore"):
             if a == 0.0:
                 t = np.where(rest & (b < 0), -c / b, t)
@@ -144,17 +152,27 @@ def simulate(scene, position, velocity, angular_velocity):
         "impact.surface": np.full((n, B), -1, np.int16),
     }
     ricochet_point = np.full((n, 3), np.nan)
+    ricochet_time = np.zeros(n)
     first_normal = np.zeros((n, 3))
     last_slipped = np.zeros(n, bool)
+    impacts = np.zeros(n, int)
+    resting = np.zeros(n, bool)  # met a surface without closing speed: the flight ends there
+    resting_surface = np.full(n, -1)
     for bounce in range(B):
         dt, k = next_contact(r, v, g, radius, points, normals, touching)
-        hit = active & (k >= 0)
-        active &= hit
-        dt = np.where(hit, dt, 0.0)
-        nrm = np.where(hit[:, None], normals[k], 0.0)
-        r = np.where(hit[:, None], r + v * dt[:, None] + 0.5 * g * dt[:, None] ** 2, r)
-        v = np.where(hit[:, None], v + g * dt[:, None], v)
+        meet = active & (k >= 0)
+        active &= meet
+        dt = np.where(meet, dt, 0.0)
+        nrm = np.where(meet[:, None], normals[k], 0.0)
+        r = np.where(meet[:, None], r + v * dt[:, None] + 0.5 * g * dt[:, None] ** 2, r)
+        v = np.where(meet[:, None], v + g * dt[:, None], v)
         time = time + dt
+        closing = np.einsum("ij,ij->i", v, nrm) < 0
+        rests = meet & ~closing
+        resting |= rests
+        resting_surface = np.where(rests, k, resting_surface)
+        active &= ~rests
+        hit = meet & closing
         safe_n = np.where(hit[:, None], nrm, np.array([0.0, 1.0, 0.0]))
         v2, w2, s2 = impact_law(v, w, safe_n, radius=radius, restitution=E[k], mu_s=mu_s[k], mu_d=mu_d[k],
                                 gravity=g, duration=scene.physics.impact_duration)
@@ -167,23 +185,28 @@ def simulate(scene, position, velocity, angular_velocity):
         out["impact.slipped"][hit, bounce] = s2[hit]
         out["impact.surface"][hit, bounce] = k[hit]
         if bounce == 0:
-            first_normal = nrm
+            first_normal = np.where(hit[:, None], nrm, 0.0)
         v = np.where(hit[:, None], v2, v)
         w = np.where(hit[:, None], w2, w)
         touching = np.where(hit, k, touching)
+        impacts += hit
         last_slipped = np.where(hit, s2, last_slipped)
         ricochet_point = np.where(hit[:, None], r - radius * nrm, ricochet_point)
+        ricochet_time = np.where(hit, time, ricochet_time)
     dt, k = next_contact(r, v, g, radius, points, normals, touching)
-    landed = active & (k >= 0)
-    dt = np.where(landed, dt, 0.0)
+    flying_lands = active & (k >= 0)
+    dt = np.where(flying_lands, dt, 0.0)
+    k = np.where(resting, resting_surface, k)
+    landed = (impacts > 0) & (flying_lands | resting)
     land_pos = np.where(landed[:, None], r + v * dt[:, None] + 0.5 * g * dt[:, None] ** 2, np.nan)
     land_vel = np.where(landed[:, None], v + g * dt[:, None], np.nan)
+    land_time = time + dt
     contact = land_pos - radius * normals[np.maximum(k, 0)]
     out.update({
         "initial.position": np.asarray(position, np.float64),
         "initial.velocity": launch_v,
         "initial.angular_velocity": launch_w,
-        "landing.time": np.where(landed, time + dt, np.inf),
+        "landing.time": np.where(landed, land_time, np.inf),
         "landing.position": land_pos,
         "landing.velocity": land_vel,
         "landing.range": np.where(landed, np.linalg.norm(contact - ricochet_point, axis=1), np.nan),
@@ -196,6 +219,6 @@ def simulate(scene, position, velocity, angular_velocity):
         velocity_before=out["impact.velocity_before"][:, 0], angular_velocity_before=out["impact.angular_velocity_before"][:, 0],
         velocity_after=out["impact.velocity"][:, 0], angular_velocity_after=out["impact.angular_velocity"][:, 0],
         slipped_first=out["impact.slipped"][:, 0] == 1, landed=landed, range_=out["landing.range"],
-        slipped_last=last_slipped, time_aloft=dt, landing_velocity=np.nan_to_num(land_vel),
+        slipped_last=last_slipped, time_aloft=land_time - ricochet_time, landing_velocity=np.nan_to_num(land_vel),
     )
     return out, stats

@@ -26,8 +26,8 @@ FLOAT_NAMES = (
     "vt_pre", "vn_pre", "wx_pre", "wy_pre", "wz_pre", "v2_pre", "w2_pre",
     "vt_post", "vn_post", "wx_post", "wy_post", "wz_post", "v2_post", "w2_post",
     "v2_launch", "w2_launch",  # launch state of the pellets that hit
-    "range", "range2", "range_stick", "range_slip", "time_aloft", "v2_landing",
-)
+    "range", "range_m2", "range_stick", "range_slip", "time_aloft", "v2_landing",
+)  # range_m2: sum of squared deviations of the ranges from their mean, merged with Chan's formula
 SUM_NAMES = COUNT_NAMES + FLOAT_NAMES
 SUM = {name: i for i, name in enumerate(SUM_NAMES)}
 NUM_SUMS = len(SUM_NAMES)
@@ -85,15 +85,30 @@ def empty_totals():
     )
 
 
+def merge_m2(count_a, sum_a, m2_a, count_b, sum_b, m2_b):
+    """Chan et al.'s pairwise update: the squared deviations about the mean of a + b."""
+    if count_a == 0 or count_b == 0:
+        return m2_a + m2_b
+    delta = sum_b / count_b - sum_a / count_a
+    return m2_a + m2_b + delta * delta * count_a * count_b / (count_a + count_b)
+
+
 def combine(totals, segment_sums, segment_mins, segment_maxs):
     """Fold per-segment partials (shape (n, ...), in pellet order) into running totals.
 
-    Sums are added strictly left to right (np.cumsum is sequential), so the result does not
-    depend on how the segments were split into chunks.
+    Sums are added strictly left to right (np.cumsum is sequential), and range_m2 is merged
+    segment by segment in the same order, so the result does not depend on how the segments were
+    split into chunks.
     """
     sums, mins, maxs = totals
     if len(segment_sums):
+        m2 = sums[SUM["range_m2"]]
+        count, total = sums[SUM["landed"]], sums[SUM["range"]]
+        for seg in segment_sums:
+            m2 = merge_m2(count, total, m2, seg[SUM["landed"]], seg[SUM["range"]], seg[SUM["range_m2"]])
+            count, total = count + seg[SUM["landed"]], total + seg[SUM["range"]]
         sums = np.cumsum(np.vstack([sums[None, :], segment_sums]), axis=0)[-1]
+        sums[SUM["range_m2"]] = m2
         mins = np.minimum(mins, segment_mins.min(axis=0))
         maxs = np.maximum(maxs, segment_maxs.max(axis=0))
     return sums, mins, maxs
@@ -132,10 +147,8 @@ def finalize(totals, *, pellets: int, mass: float, inertia: float) -> dict[str, 
         out[f"{phase}_mean_WR"] = energy_r
         out[f"{phase}_ratio_WT"] = energy_t / launch_energy if launch_energy > 0 else math.nan
         out[f"{phase}_ratio_WR"] = energy_r / launch_energy if launch_energy > 0 else math.nan
-    range_mean = mean("range", "landed")
-    variance = mean("range2", "landed") - range_mean * range_mean
-    out["range_mean"] = range_mean
-    out["range_std"] = math.sqrt(max(variance, 0.0)) if s["landed"] > 0 else math.nan
+    out["range_mean"] = mean("range", "landed")
+    out["range_std"] = math.sqrt(max(mean("range_m2", "landed"), 0.0)) if s["landed"] > 0 else math.nan
     out["range_max"] = extreme(maxs[0], "landed")
     out["range_min"] = extreme(mins[0], "landed")
     s["landed_stick"] = s["landed"] - s["landed_slip"]
@@ -183,7 +196,7 @@ def statistics_from_arrays(
     r = np.asarray(range_)
     sums[SUM["landed"]] = land.sum()
     sums[SUM["range"]] = r[land].sum()
-    sums[SUM["range2"]] = (r[land] ** 2).sum()
+    sums[SUM["range_m2"]] = ((r[land] - r[land].mean()) ** 2).sum() if land.any() else 0.0
     sums[SUM["time_aloft"]] = np.asarray(time_aloft)[land].sum()
     sums[SUM["v2_landing"]] = (landing_velocity[land] ** 2).sum()
     mins, maxs = np.full(NUM_EXTREMES, math.inf), np.full(NUM_EXTREMES, -math.inf)
