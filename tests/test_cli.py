@@ -168,7 +168,7 @@ def test_os_error_and_interrupt(monkeypatch, capsys, tmp_path):
 
     monkeypatch.setattr(api, "run", interrupted)
     assert main(["run", SCENE, *SMALL]) == 130
-    assert capsys.readouterr().err.strip() == "warp-ricochet: interrupted"
+    assert capsys.readouterr().err.strip() == "warp-ricochet: interrupted"  # no -o: nothing kept
 
 
 # ---------------------------------------------------------------------------------------------- sweep and report
@@ -341,3 +341,31 @@ def test_cli_imports_no_warp():
                            "print('warp' in sys.modules)"], capture_output=True, text=True, timeout=60)
     assert proc.stdout.strip() == "False"
     assert cli.PROG == "warp-ricochet" and os.path.exists(SCENE)
+
+
+def test_sigterm_marks_the_partial_file_interrupted(tmp_path):
+    import signal
+    import time
+
+    import h5py
+
+    out = tmp_path / "long.h5"
+    proc = subprocess.Popen([sys.executable, "-m", "warp_ricochet.cli", "run", SCENE, "--device", "cpu",
+                             "--set", "shot.count=60000000", "--set", 'output.fields=["landing.range"]',
+                             "--set", "numerics.chunk_size=1000000", "-o", str(out)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    partial = tmp_path / "long.h5.partial"
+    deadline = time.time() + 60
+    while time.time() < deadline:  # wait until some chunks are on disk
+        time.sleep(0.2)
+        if partial.exists() and partial.stat().st_size > 8_000_000:
+            break
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert err.strip().splitlines()[-1].startswith("warp-ricochet: interrupted")
+    assert not out.exists()
+    with h5py.File(partial, "r") as f:
+        assert f.attrs["status"] == "interrupted"
+        assert f["pellets/landing/range"].shape[0] >= 1_000_000  # whole chunks
+        assert f["pellets/landing/range"].shape[0] % (1 << 16) == 0

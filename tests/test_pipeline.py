@@ -397,3 +397,45 @@ def test_range_spread_is_accurate(tmp_path, device, precision):
     ranges = read_pellets(tmp_path / "r.h5")["landing.range"].astype(np.float64)
     assert stats["range_std"] == pytest.approx(ranges.std(), rel=1e-6)
     assert stats["range_mean"] == pytest.approx(ranges.mean(), rel=1e-7)
+
+
+# ---------------------------------------------------------------- output safety
+
+
+def test_failed_or_interrupted_overwrite_keeps_the_old_file(tmp_path, monkeypatch):
+    from warp_ricochet import api
+
+    path = tmp_path / "keep.h5"
+    wr.run(make_scene(paper_raw()), path, device=DEVICES[0])
+    before = path.read_bytes()
+    real = api.run_scene
+
+    def fail_after_first_chunk(*args, **kwargs):
+        real(*args, **kwargs)  # the chunks are written ...
+        raise exc  # ... then the run dies
+
+    for exc, status in ((RuntimeError("boom"), "failed"), (KeyboardInterrupt(), "interrupted")):
+        monkeypatch.setattr(api, "run_scene", fail_after_first_chunk)
+        with pytest.raises(type(exc)):
+            wr.run(make_scene(paper_raw()), path, device=DEVICES[0], overwrite=True)
+        assert path.read_bytes() == before  # the target is untouched
+        with h5py.File(str(path) + ".partial", "r") as f:  # what was done is kept, and says so
+            assert f.attrs["status"] == status
+            assert f["pellets/landing/range"].shape == (450,)
+    monkeypatch.setattr(api, "run_scene", real)
+    wr.run(make_scene(paper_raw()), path, device=DEVICES[0], overwrite=True)
+    assert not (tmp_path / "keep.h5.partial").exists()
+    with h5py.File(path, "r") as f:
+        assert f.attrs["status"] == "complete"
+
+
+def test_sweep_may_overwrite_its_own_pellet_file(tmp_path):
+    """The output goes to NAME.partial until done, so a sweep can replace the file it reads."""
+    path = tmp_path / "p.h5"
+    wr.run(make_scene(paper_raw()), path, device=DEVICES[0])
+    raw = paper_raw()
+    raw["shot"] = {"file": str(path), "diameter": 0.0025, "density": 7000.0}
+    res = wr.sweep(make_scene(raw), {"surfaces.0.mu_s": [0.0, 0.5]}, PAPER_TIE, path, DEVICES[0], overwrite=True)
+    assert res[0][1]["range_mean"] == pytest.approx(172.02, rel=0.005)
+    with h5py.File(path, "r") as f:
+        assert f.attrs["kind"] == "sweep" and f.attrs["status"] == "complete"

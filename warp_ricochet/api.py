@@ -376,7 +376,8 @@ def run(scene, output=None, device=None, *, overwrite=False, progress=None) -> d
     if output is None:
         return run_scene(scene, model, progress=progress, source=source)
     seed = None if scene.shot.file else scene.shot.seed
-    with OutputFile(output, overwrite=overwrite, kind="run", device=str(dev), scene_toml=scene.to_toml(), seed=seed) as out:
+    with OutputFile(output, overwrite=overwrite, kind="run", device=str(dev), scene_toml=scene.to_toml(), seed=seed,
+                    precision=scene.numerics.precision) as out:
         fields = scene.output.fields
         writer = RunWriter(out.h5, model, scene=scene, fields=fields, pellets=source.count,
                            chunk_rows=plan_chunk(scene, model, source.count, fields))
@@ -414,7 +415,7 @@ def sweep(scene, params: dict, ties=(), output=None, device=None, *, overwrite=F
     values in /sweep, each run in /runs/NNNN, and every statistic as an array in /stats."""
     from .model import Model
     from .scene import Scene, load_scene, scene_from_dict, set_dotted
-    from .writer import OutputFile, RunWriter, check_output_path, write_stats
+    from .writer import OutputFile, RunWriter, check_output_path, unit_of_key, write_stats
 
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
@@ -449,10 +450,11 @@ def sweep(scene, params: dict, ties=(), output=None, device=None, *, overwrite=F
             results.append((points[i], one(i, sc)))
         return results
     with OutputFile(output, overwrite=overwrite, kind="sweep", device=str(dev), scene_toml=scene.to_toml(),
-                    seed=None if scene.shot.file else scene.shot.seed) as out:
+                    seed=None if scene.shot.file else scene.shot.seed, precision=scene.numerics.precision) as out:
         sw = out.h5.create_group("sweep")
         for key in points[0]:
-            sw.create_dataset(key, data=np.array([p[key] for p in points], dtype=np.float64))
+            ds = sw.create_dataset(key, data=np.array([p[key] for p in points], dtype=np.float64))
+            ds.attrs["units"] = unit_of_key(key)
         sw.attrs["parameters"] = list(params)
         sw.attrs["tied"] = [t[0] for t in ties]
         for i, sc in enumerate(scenes):

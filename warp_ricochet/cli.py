@@ -165,9 +165,23 @@ def _error(message: str) -> None:
     print(f"{PROG}: error: {_one_line(message)}", file=sys.stderr)
 
 
+def _raise_interrupt(signum, frame):
+    raise KeyboardInterrupt
+
+
+def _sigterm_as_interrupt() -> None:
+    """SIGTERM ends a run like Ctrl-C: the output is closed and marked "interrupted"."""
+    import signal
+    import threading
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _raise_interrupt)
+
+
 def main(argv=None) -> int:
     """Entry point of `warp-ricochet`; returns the exit status (argparse exits itself on usage errors)."""
     args = build_parser().parse_args(argv)
+    _sigterm_as_interrupt()
     try:
         return args.func(args)
     except RicochetError as exc:  # before OSError: OutputError is both
@@ -184,7 +198,9 @@ def main(argv=None) -> int:
         _error(_os_message(exc))
         return 1
     except KeyboardInterrupt:
-        print(f"{PROG}: interrupted", file=sys.stderr)
+        output = getattr(args, "output", None)
+        kept = f"; the chunks completed are in {output}.partial" if output else ""
+        print(f"{PROG}: interrupted{kept}", file=sys.stderr)
         return 130
 
 

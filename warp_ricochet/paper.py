@@ -1,6 +1,7 @@
 """The published values of Zohdi (2021), Tables 1-3, as data (for `warp-ricochet report --paper`).
 
-Source: T. I. Zohdi, "Modeling and simulation of the ricochet of shotgun pellets", section 3
+Source: T. I. Zohdi, "DEM modeling and simulation of post-impact shotgun pellet ricochet for safety
+analysis", Mathematics and Mechanics of Solids (2021), doi:10.1177/10812865211011217, section 3
 (450 steel pellets, D = 0.0025 m, rho = 7000 kg/m^3, |v0| = 411.46 m/s, E = 0.01, mu_d = 0.9 mu_s).
 Every number below is transcribed as printed, one tuple per printed row, in the paper's order
 (mu_s = 0.5 first).

@@ -2,7 +2,10 @@
 
 `OutputFile` owns the file: it refuses to replace an existing file unless asked, writes the
 root attributes once, and marks the run `status` = "running" / "complete" / "interrupted" /
-"failed". `RunWriter` writes one run into a group (the root of a run file, or
+"failed". It writes to `NAME.partial` beside the target and moves it into place only when the
+run is complete (atomically; without overwrite, never over a file that appeared meanwhile), so
+the target is never half-written and a failed `--overwrite` run leaves the old result intact;
+an interrupted or failed run leaves its completed chunks in `NAME.partial`. `RunWriter` writes one run into a group (the root of a run file, or
 `/runs/NNNN` of a sweep file): per-pellet datasets that are chunked, resizable and appended per
 chunk, constants written once, statistics at the end. Every dataset has a `units` attribute.
 The layout is documented in docs/output.md.
@@ -48,10 +51,13 @@ def check_output_path(path, overwrite: bool) -> Path:
 class OutputFile:
     """An HDF5 output file; use as a context manager so its status is always recorded."""
 
-    def __init__(self, path, *, overwrite: bool, kind: str, device: str, scene_toml: str, seed=None):
+    def __init__(self, path, *, overwrite: bool, kind: str, device: str, scene_toml: str, seed=None,
+                 precision=None):
         self.path = check_output_path(path, overwrite)
+        self.overwrite = overwrite
+        self.partial = self.path.with_name(self.path.name + ".partial")
         try:
-            self.h5 = h5py.File(self.path, "w")
+            self.h5 = h5py.File(self.partial, "w")
         except OSError as exc:
             raise OutputError(f"output path = {str(self.path)!r}: cannot be created ({exc})") from None
         attrs = self.h5.attrs
@@ -68,6 +74,8 @@ class OutputFile:
         attrs["units"] = "SI (m, s, kg, J, rad/s)"
         if seed is not None:
             attrs["seed"] = seed
+        if precision is not None:
+            attrs["precision"] = precision
 
     def __enter__(self):
         return self
@@ -85,7 +93,27 @@ class OutputFile:
         except Exception:  # the file is already unusable (e.g. disk full): keep the first error
             if exc_type is None:
                 raise
+            return False
+        if exc_type is None:
+            self._move_into_place()
         return False
+
+    def _move_into_place(self):
+        if self.overwrite:
+            os.replace(self.partial, self.path)
+            return
+        try:
+            os.link(self.partial, self.path)  # atomic, and fails if the target appeared meanwhile
+        except FileExistsError:
+            raise OutputError(f"output path = {str(self.path)!r}: appeared during the run; the result is in "
+                              f"{str(self.partial)!r}") from None
+        except OSError:  # no hard links here: check, then rename
+            if self.path.exists():
+                raise OutputError(f"output path = {str(self.path)!r}: appeared during the run; the result is in "
+                                  f"{str(self.partial)!r}") from None
+            os.replace(self.partial, self.path)
+            return
+        os.unlink(self.partial)
 
 
 class RunWriter:
@@ -155,6 +183,16 @@ class RunWriter:
 
     def write_stats(self, stats: dict[str, float]):
         write_stats(self.group, stats)
+
+
+_KEY_UNITS = {"diameter": "m", "envelope_radius": "m", "density": "kg/m^3", "speed": "m/s", "impact_duration": "s",
+              "direction_jitter": "1", "restitution": "1", "mu_s": "1", "mu_d": "1", "count": "1", "seed": "1",
+              "bounces": "1", "chunk_size": "1"}
+
+
+def unit_of_key(key: str) -> str:
+    """The SI unit of a scalar scene key such as "surfaces.0.mu_s" (swept values)."""
+    return _KEY_UNITS.get(key.rsplit(".", 1)[-1], "see the scene key")
 
 
 def write_stats(group: h5py.Group, stats: dict, index=None, size=None):
