@@ -420,3 +420,35 @@ def test_junk_gives_scene_or_scene_error(key, value):
     else:
         assert isinstance(result, Scene)
         assert scene_from_dict(result.to_dict()) == result
+
+
+@pytest.mark.parametrize("assignment, key", [
+    ("shot.speed=1e39", "shot.speed"),
+    ("shot.diameter=1e-46", "shot.diameter"),
+    ("shot.diameter=2.0", "shot.diameter"),
+    ("shot.density=1e9", "shot.density"),
+    ("shot.direction=[1e308, -1e308, 0]", "shot.direction"),
+    ("shot.envelope_radius=1e39", "shot.envelope_radius"),
+    ("shot.spin=[0, 0, 1e9]", "shot.spin"),
+    ("surfaces.0.point=[0, -1e39, 0]", "surfaces.0.point"),
+    ("surfaces.0.mu_s=1e6", "surfaces.0.mu_s"),
+    ("physics.gravity=[0, -1e5, 0]", "physics.gravity"),
+    ("physics.impact_duration=10.0", "physics.impact_duration"),
+])
+def test_values_outside_the_physical_domain_are_rejected(tmp_path, assignment, key):
+    """Finite in float64 is not enough: the domain keeps every float32 product finite."""
+    path = tmp_path / "s.toml"
+    path.write_text(PAPER_TOML)
+    with pytest.raises(SceneError) as err:
+        load_scene(path, [assignment])
+    assert str(err.value).startswith(key) and "\n" not in str(err.value)
+
+
+def test_pellet_file_values_outside_the_domain_are_rejected(tmp_path):
+    path = tmp_path / "p.npz"
+    np.savez(path, position=[[0.0, 1e39, 0.0]], velocity=[[1.0, -1.0, 0.0]])
+    with pytest.raises(SceneError, match="shot.file:position"):
+        load_pellet_file(path)
+    np.savez(path, position=[[0.0, 1.0, 0.0]], velocity=[[1.0, -1e6, 0.0]])
+    with pytest.raises(SceneError, match="shot.file:velocity"):
+        load_pellet_file(path)

@@ -90,30 +90,31 @@ def resolve_device(name=None):
 # --------------------------------------------------------------------------- impact API
 
 
-def _vectors(name, value, rows=None):
+def _vectors(name, value, rows=None, bound=None, unit="", single=False):
+    """An (N, 3) float64 array (N = rows when given); `single`: a (3,) vector is kept as (1, 3)."""
     try:
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
         raise SceneError(name, value, "must be an array of numbers") from None
-    if arr.ndim == 1 and arr.shape == (3,) and rows is not None:
-        arr = np.broadcast_to(arr, (rows, 3))
+    if arr.shape == (3,):
+        arr = arr[None, :] if single or rows is None else np.broadcast_to(arr, (rows, 3))
     if arr.ndim != 2 or arr.shape[1] != 3 or (rows is not None and arr.shape[0] != rows):
         want = f"({rows}, 3) or (3,)" if rows is not None else "(N, 3)"
         raise SceneError(name, f"array of shape {arr.shape}", f"must have shape {want}")
     if not np.isfinite(arr).all():
         raise SceneError(name, "array with NaN or inf", "must be finite")
+    if bound is not None and arr.size and np.abs(arr).max() > bound:
+        raise SceneError(name, f"array with {np.abs(arr).max():g}", f"each component must be within +-{bound:g} {unit}")
     return arr
 
 
-def _positive(name, value, *, zero_ok=False, upper=None):
+def _in_range(name, value, lo, hi, *, above=False):
     try:
         x = float(value)
     except (TypeError, ValueError):
         raise SceneError(name, value, "must be a number") from None
-    ok = math.isfinite(x) and (x >= 0 if zero_ok else x > 0) and (upper is None or x <= upper)
-    if not ok:
-        bound = ">= 0" if zero_ok else "> 0"
-        raise SceneError(name, value, f"must be finite and {bound}" + (f" and <= {upper}" if upper is not None else ""))
+    if not (math.isfinite(x) and (x > lo if above else x >= lo) and x <= hi):
+        raise SceneError(name, value, f"must be a number in {'(' if above else '['}{lo:g}, {hi:g}]")
     return x
 
 
@@ -145,22 +146,28 @@ def impact(
 
     if precision not in SCALARS:
         raise SceneError("precision", precision, "must be 'float32' or 'float64'")
-    v = _vectors("velocity", velocity)
+    from . import scene as dom
+
+    v = _vectors("velocity", velocity, bound=dom.MAX_SPEED, unit="m/s")
     rows = v.shape[0]
-    w = _vectors("angular_velocity", angular_velocity, rows)
-    n = np.asarray(normal, dtype=np.float64)
-    n = _vectors("normal", n[None, :] if n.shape == (3,) else n, None if n.shape == (3,) else rows)
+    w = _vectors("angular_velocity", angular_velocity, rows, bound=dom.MAX_SPIN, unit="rad/s")
+    n = _vectors("normal", normal, bound=dom.MAX_COORDINATE, single=True)
+    if n.shape[0] not in (1, rows):
+        raise SceneError("normal", f"array of shape {n.shape}", f"must have shape (3,) or ({rows}, 3)")
     lengths = np.linalg.norm(n, axis=1)
     if (lengths == 0).any():
         raise SceneError("normal", "zero vector", "must be non-zero")
     n = n / lengths[:, None]
-    radius = _positive("radius", radius)
-    _positive("density", density)
-    restitution = _positive("restitution", restitution, zero_ok=True, upper=1.0)
-    mu_s = _positive("mu_s", mu_s, zero_ok=True)
-    mu_d = _positive("mu_d", mu_d, zero_ok=True, upper=mu_s)
-    duration = _positive("duration", duration, zero_ok=True)
-    g = _vectors("gravity", np.asarray(gravity, dtype=np.float64)[None, :] if np.shape(gravity) == (3,) else gravity)[0]
+    radius = _in_range("radius", radius, dom.MIN_DIAMETER / 2, dom.MAX_DIAMETER / 2)
+    _in_range("density", density, dom.MIN_DENSITY, dom.MAX_DENSITY)
+    restitution = _in_range("restitution", restitution, 0.0, 1.0)
+    mu_s = _in_range("mu_s", mu_s, 0.0, dom.MAX_FRICTION)
+    mu_d = _in_range("mu_d", mu_d, 0.0, mu_s)
+    duration = _in_range("duration", duration, 0.0, dom.MAX_IMPACT_DURATION)
+    g = _vectors("gravity", gravity, bound=dom.MAX_GRAVITY, unit="m/s^2", single=True)
+    if g.shape != (1, 3):
+        raise SceneError("gravity", f"array of shape {np.shape(gravity)}", "must be a 3-vector")
+    g = g[0]
 
     wp = _warp()
     dev = resolve_device(device)

@@ -216,6 +216,31 @@ def _number(lo=None, hi=None, *, above=False, unit=""):
     return conv
 
 
+# The physical domain the kernels are built for: every product they form stays far inside float32
+# (speeds^2 ~ 1e10, spins times radii ~ 1e8), so a float32 run cannot overflow or lose a pellet.
+MIN_DIAMETER, MAX_DIAMETER = 1e-6, 1.0  # m
+MIN_DENSITY, MAX_DENSITY = 1.0, 1e5  # kg/m^3
+MAX_SPEED = 1e5  # m/s
+MAX_SPIN = 1e8  # rad/s, each component
+MAX_COORDINATE = 1e6  # m, each component of positions (and of direction vectors)
+MAX_GRAVITY = 1e4  # m/s^2, each component
+MAX_FRICTION = 100.0
+MAX_IMPACT_DURATION = 1.0  # s
+
+
+def _range(lo, hi, *, above=False, unit=""):
+    """A number in [lo, hi] ((lo, hi] with above), with the bounds in its one-line rule."""
+    rule = f"must be a number in {'(' if above else '['}{lo:g}, {hi:g}]" + (f" ({unit})" if unit else "")
+
+    @_rule(rule)
+    def conv(v, path):
+        x = _finite(v, path, rule)
+        if x < lo or (above and x == lo) or x > hi:
+            raise _err(path, v, rule)
+        return x
+    return conv
+
+
 def _int(lo: int, hi: int):
     rule = f"must be an integer in [{lo}, {hi}]"
 
@@ -229,7 +254,7 @@ def _int(lo: int, hi: int):
     return conv
 
 
-def _vec3(*, nonzero=False, nonneg=False, scalar=False, unit=""):
+def _vec3(*, nonzero=False, nonneg=False, scalar=False, unit="", bound=None):
     rule = "must be a list of 3 numbers" + (" or one number" if scalar else "") + (f" ({unit})" if unit else "")
 
     @_rule(rule)
@@ -249,6 +274,8 @@ def _vec3(*, nonzero=False, nonneg=False, scalar=False, unit=""):
             raise _err(path, v, "must not be the zero vector")
         if nonneg and min(xs) < 0:
             raise _err(path, v, "must be >= 0 in each component")
+        if bound is not None and max(map(abs, xs)) > bound:
+            raise _err(path, v, f"each component must be within +-{bound:g}" + (f" {unit}" if unit else ""))
         return xs
     return conv
 
@@ -289,27 +316,28 @@ def _fields(v, path):
 
 _SHOT = {
     "count": _int(1, INT32_MAX),
-    "diameter": _number(0, above=True, unit="m"),
-    "density": _number(0, above=True, unit="kg/m^3"),
-    "speed": _number(0, above=True, unit="m/s"),
-    "direction": _vec3(nonzero=True),
-    "direction_jitter": _vec3(nonneg=True, scalar=True),
-    "envelope_radius": _number(0, unit="m"),
-    "envelope_center": _vec3(unit="m"),
-    "spin": _vec3(unit="rad/s"),
+    "diameter": _range(MIN_DIAMETER, MAX_DIAMETER, unit="m"),
+    "density": _range(MIN_DENSITY, MAX_DENSITY, unit="kg/m^3"),
+    "speed": _range(0, MAX_SPEED, above=True, unit="m/s"),
+    "direction": _vec3(nonzero=True, bound=MAX_COORDINATE),
+    "direction_jitter": _vec3(nonneg=True, scalar=True, bound=MAX_COORDINATE),
+    "envelope_radius": _range(0, MAX_COORDINATE, unit="m"),
+    "envelope_center": _vec3(unit="m", bound=MAX_COORDINATE),
+    "spin": _vec3(unit="rad/s", bound=MAX_SPIN),
     "seed": _int(0, INT32_MAX),
     "file": _str(),
 }
 _FILE_EXCLUSIVE = ("speed", "direction", "direction_jitter", "envelope_radius", "envelope_center", "spin", "seed")
 _SURFACE = {
     "name": _str(empty=True),
-    "point": _vec3(unit="m"),
-    "normal": _vec3(nonzero=True),
+    "point": _vec3(unit="m", bound=MAX_COORDINATE),
+    "normal": _vec3(nonzero=True, bound=MAX_COORDINATE),
     "restitution": _number(0, 1),
-    "mu_s": _number(0),
-    "mu_d": _number(0),
+    "mu_s": _range(0, MAX_FRICTION),
+    "mu_d": _range(0, MAX_FRICTION),
 }
-_PHYSICS = {"gravity": _vec3(unit="m/s^2"), "impact_duration": _number(0, unit="s"), "bounces": _int(1, 16)}
+_PHYSICS = {"gravity": _vec3(unit="m/s^2", bound=MAX_GRAVITY), "impact_duration": _range(0, MAX_IMPACT_DURATION, unit="s"),
+            "bounces": _int(1, 16)}
 _NUMERICS = {"precision": _str(("float32", "float64")), "chunk_size": _int(1, INT32_MAX), "fast_math": _bool}
 _OUTPUT = {"path": _str(), "fields": _fields}
 _TOP = ("shot", "surfaces", "physics", "numerics", "output")
@@ -555,6 +583,9 @@ def _read_arrays(path: str) -> dict:
     raise _err("shot.file", path, "must be a .npz, .h5 or .hdf5 file")
 
 
+_FILE_BOUNDS = {"position": (MAX_COORDINATE, "m"), "velocity": (MAX_SPEED, "m/s"), "angular_velocity": (MAX_SPIN, "rad/s")}
+
+
 def load_pellet_file(path) -> dict[str, np.ndarray]:
     """Initial pellet state from .npz or .h5/.hdf5: position (N,3) m, velocity (N,3) m/s, angular_velocity
     (N,3) rad/s (zeros if absent), as float64. HDF5 arrays sit at the root or under /pellets/initial/."""
@@ -587,5 +618,9 @@ def load_pellet_file(path) -> dict[str, np.ndarray]:
         bad = np.flatnonzero(~np.isfinite(a).all(axis=1))
         if bad.size:
             raise _err(key, a[bad[0]].tolist(), f"must be finite (pellet {bad[0]})")
+        bound, unit = _FILE_BOUNDS[name]
+        bad = np.flatnonzero((np.abs(a) > bound).any(axis=1))
+        if bad.size:
+            raise _err(key, a[bad[0]].tolist(), f"each component must be within +-{bound:g} {unit} (pellet {bad[0]})")
         out[name] = a
     return out
