@@ -10,7 +10,7 @@ mkdir -p "$out"
 quiet() { grep -v "^Warp \|CUDA Toolkit\|Devices:\|Kernel cache\|\.cache/warp\|\"cpu\"\|\"cuda:0\""; }
 nvidia-smi --query-gpu=name,memory.total,driver_version,clocks.max.sm --format=csv | tee "$out/gpu.txt"
 if [[ $what == check ]]; then
-  WARP_RICOCHET_TEST_DEVICES=cuda:0 python3 -m pytest tests -q -n 8 -p no:cacheprovider -k "not cli" 2>&1 | tail -6 | tee "$out/tests.txt"
+  WARP_RICOCHET_TEST_DEVICES=cuda:0 WARP_RICOCHET_CPU_REFERENCE=.gpu/ref/cpu.h5 python3 -m pytest tests -q -n 8 -p no:cacheprovider -k "not cli" 2>&1 | tail -6 | tee "$out/tests.txt"
   [[ -f .gpu/ref/cpu.h5 ]] && python3 -m bench.agreement compare --device cuda:0 --file .gpu/ref/cpu.h5 2>&1 | quiet | tee "$out/agreement.txt"
   python3 -m bench.variants --device cuda:0 --n 1e8 --caps default,default+fast,none 2>&1 | quiet | tee "$out/variants.txt"
 fi

@@ -175,10 +175,11 @@ unit = st.tuples(*[st.floats(-1, 1, **finite)] * 3).filter(lambda t: np.linalg.n
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(v=vec, w=spin, n=unit, E=st.floats(0, 1), mu_s=st.floats(0, 10), frac=st.floats(0, 1),
        duration=st.sampled_from([0.0, 1e-5, 1e-2]), precision=st.sampled_from(["float64", "float32"]))
-def test_invariants(v, w, n, E, mu_s, frac, duration, precision):
+def test_invariants(device, v, w, n, E, mu_s, frac, duration, precision):
     v, w = np.array([v]), np.array([w])
     n = np.array(n) / np.linalg.norm(n)
-    v2, w2, s = law(v, w, n, E=E, mu_s=mu_s, mu_d=frac * mu_s, duration=duration, precision=precision)
+    v2, w2, s = law(v, w, n, E=E, mu_s=mu_s, mu_d=frac * mu_s, duration=duration, precision=precision,
+                    device=device)
     assert np.isfinite(v2).all() and np.isfinite(w2).all()
     eps = 1e-12 if precision == "float64" else 3e-6
     scale = np.linalg.norm(v) + R * np.linalg.norm(w) + 1e-30

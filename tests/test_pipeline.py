@@ -1,6 +1,7 @@
 """The whole no-collision pipeline: exact flight, impacts, landing, statistics, chunking, the paper."""
 
 import math
+import os
 
 import h5py
 import numpy as np
@@ -136,7 +137,7 @@ def test_same_results_for_any_chunk_size(tmp_path, device):
     raw["shot"]["count"] = 150_001  # three segments of 65,536 pellets, the last partial
     raw["output"] = {"fields": ["landing.range", "impact.velocity", "initial.position"]}
     results = []
-    for i, chunk in enumerate([None, 65_536, 131_072, 1]):
+    for i, chunk in enumerate([None, 65_536, 131_072, 100_000]):  # 100,000 rounds up to 131,072
         sc = make_scene(raw, numerics={"chunk_size": chunk} if chunk else {})
         path = tmp_path / f"c{i}.h5"
         results.append((wr.run(sc, path, device=device), read_pellets(path)))
@@ -185,7 +186,9 @@ def test_paper_slip_branch(paper_sweep):
     s = paper_sweep[0.05]
     assert s["slip"] == 450  # with eqs. (19), (22): all slip at mu_s = 0.05
     assert s["range_slip_max"] == pytest.approx(164.918, rel=0.005)  # Table 3 L+ (slipping pellets)
-    assert s["post_norm_mean_omega"] == pytest.approx(26223.662, rel=0.02)  # Table 1
+    # Table 1: the paper's row is mixed stick/slip (its stick spin differs, see
+    # docs/paper-reproduction.md), ours all-slip: a 2% sanity check, not the 0.5% claim
+    assert s["post_norm_mean_omega"] == pytest.approx(26223.662, rel=0.02)
 
 
 def test_stick_rows_follow_eqs_27_to_29_not_the_table(paper_sweep):
@@ -254,6 +257,18 @@ def test_existing_output_is_not_overwritten(tmp_path):
 
 
 
+@pytest.mark.skipif(
+    "cuda:0" not in DEVICES or not os.environ.get("WARP_RICOCHET_CPU_REFERENCE"),
+    reason="needs CUDA and WARP_RICOCHET_CPU_REFERENCE (a file from `python -m bench.agreement save --device cpu`)",
+)
+def test_gpu_matches_a_saved_cpu_run():
+    """For GPU hosts whose Warp has no CPU compiler: the same comparison against a CPU run saved
+    elsewhere (float32 within 2e-5, float64 within 1e-12 of each field's scale, same outcomes)."""
+    from bench.agreement import main as agreement
+
+    assert agreement(["compare", "--device", "cuda:0", "--file", os.environ["WARP_RICOCHET_CPU_REFERENCE"]]) == 0
+
+
 @pytest.mark.skipif(not {"cpu", "cuda:0"} <= set(DEVICES), reason="needs both CPU and CUDA")
 @pytest.mark.parametrize("precision, rtol", [("float64", 1e-12), ("float32", 2e-5)])
 def test_cpu_and_gpu_agree_per_pellet(tmp_path, precision, rtol):
@@ -312,9 +327,13 @@ def test_launch_sampling_distribution(tmp_path, device):
     assert not np.array_equal(read_pellets(tmp_path / "other.h5")["initial.position"], p["initial.position"])
 
 
-def test_fast_math_option_is_accepted_and_close(device):
+def test_fast_math_option(device):
+    """CUDA: approximate maths, results within float32 noise; CPU: no effect at all."""
     s_ieee = wr.run(make_scene(paper_raw()), device=device)
     s_fast = wr.run(make_scene(paper_raw(), numerics={"fast_math": True}), device=device)
+    if device == "cpu":
+        stats_equal(s_fast, s_ieee)
+        return
     for key in ("range_mean", "range_max", "post_mean_vt"):
         assert s_fast[key] == pytest.approx(s_ieee[key], rel=1e-5), key
     assert s_fast["slip"] == s_ieee["slip"]

@@ -73,12 +73,14 @@ class Model:
                              scene.numerics.precision, device.alias)
 
     def state(self, capacity: int, fields) -> "State":
-        """The chunk buffers of the last run if they fit (same capacity and fields), else new
-        ones. Only for runs that hold api's CUDA lock: one run at a time uses them."""
-        key = (capacity, tuple(fields))
-        if getattr(self, "_state_key", None) != key:
-            self._state, self._state_key = State(self, capacity, fields), key
-        return self._state
+        """The last run's chunk buffers if they fit (device, precision, bounces, capacity, fields),
+        else new ones, which replace them: one set is kept in all, so device memory does not
+        grow with the runs of a sweep. Only for runs holding api's CUDA lock (one at a time)."""
+        key = (self.device.alias, self.precision, self.bounces, capacity, tuple(fields))
+        if _LAST_STATE.get("key") != key:
+            _LAST_STATE.clear()  # free the old buffers before allocating new ones
+            _LAST_STATE.update(key=key, state=State(self, capacity, fields))
+        return _LAST_STATE["state"]
 
     @classmethod
     def _build(cls, scene, device) -> "Model":
@@ -112,7 +114,10 @@ class Model:
         )
 
 
-@functools.lru_cache(maxsize=32)
+_LAST_STATE: dict = {}
+
+
+@functools.lru_cache(maxsize=16)
 def _cached_model(diameter, density, surfaces, physics, precision, device_alias) -> Model:
     from types import SimpleNamespace
 
