@@ -1,10 +1,13 @@
 """Initial pellets sampled inside the kernel from a counter-based RNG (Zohdi 2021, section 3.1).
 
-Pellet i draws from its own stream `wp.rand_init(seed, i)`, so its initial state depends only on
-(seed, i): the same on CPU and GPU and for any chunk size. Draws are float32, cast to the working
-precision before any arithmetic: float32 and float64 runs start from the same draws, and the
-transforms (cbrt, sin, cos) run in the working precision, so a float64 run agrees between CPU and
-GPU to float64 rounding.
+Counter-based: pellet i of seed s draws from a SplitMix64 stream (Steele, Lea & Flood 2014)
+keyed by the full 63 bits of (s, i): key = mix64(s * 2^32 + i), a bijection, and its three
+64-bit outputs mix64(key + k * golden), k = 1, 2, 3, give six 24-bit uniforms. So the launch
+state depends only on (seed, i): the same on CPU and GPU and for any chunk size; and unlike a
+32-bit generator state (`wp.rand_init`), streams of different pellets or seeds do not overlap,
+even for billions of pellets. The uniforms are cast to the working precision before any
+arithmetic: float32 and float64 runs start from the same draws, and the transforms (cbrt, sin,
+cos) run in the working precision, so a float64 run agrees between CPU and GPU to float64 rounding.
 
 - position: uniform in the sphere of radius `envelope_radius` around `envelope_center`, in
   closed form (radius u^(1/3), direction uniform on the sphere): no rejection loop, whose
@@ -18,6 +21,37 @@ GPU to float64 rounding.
 import functools
 
 import warp as wp
+
+
+GOLDEN = wp.constant(wp.uint64(0x9E3779B97F4A7C15))  # 2^64 / golden ratio: the SplitMix64 increment
+MIX1 = wp.constant(wp.uint64(0xBF58476D1CE4E5B9))
+MIX2 = wp.constant(wp.uint64(0x94D049BB133111EB))
+UNIT24 = 1.0 / 16777216.0  # 2^-24
+
+
+@wp.func
+def mix64(z: wp.uint64):
+    """The SplitMix64 output function (a bijection of 64-bit words)."""
+    z = (z ^ (z >> wp.uint64(30))) * MIX1
+    z = (z ^ (z >> wp.uint64(27))) * MIX2
+    return z ^ (z >> wp.uint64(31))
+
+
+def reference_uniforms(seed: int, index: int):
+    """The six uniforms of pellet `index` of `seed`, in pure Python (what the kernels draw)."""
+    mask = (1 << 64) - 1
+
+    def mix(z):
+        z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & mask
+        z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & mask
+        return z ^ (z >> 31)
+
+    key = mix((seed << 32) | index)
+    out = []
+    for k in (1, 2, 3):
+        z = mix((key + k * 0x9E3779B97F4A7C15) & mask)
+        out += [((z & 0xFFFFFFFF) >> 8) * UNIT24, ((z >> 32) >> 8) * UNIT24]
+    return out
 
 
 @functools.cache
@@ -37,18 +71,28 @@ def make_sampler(scalar):
         spin: vec3,  # rad/s
     ):
         """Return (position, velocity, angular_velocity) of pellet `index`."""
-        state = wp.rand_init(seed, index)
+        key = mix64((wp.uint64(seed) << wp.uint64(32)) | wp.uint64(index))
+        a = mix64(key + GOLDEN)
+        b = mix64(key + wp.uint64(2) * GOLDEN)
+        c = mix64(key + wp.uint64(3) * GOLDEN)
+        unit = scalar(UNIT24)
+        u1 = scalar(wp.uint32(a) >> wp.uint32(8)) * unit  # 24-bit uniforms in [0, 1)
+        u2 = scalar(wp.uint32(a >> wp.uint64(32)) >> wp.uint32(8)) * unit
+        u3 = scalar(wp.uint32(b) >> wp.uint32(8)) * unit
+        u4 = scalar(wp.uint32(b >> wp.uint64(32)) >> wp.uint32(8)) * unit
+        u5 = scalar(wp.uint32(c) >> wp.uint32(8)) * unit
+        u6 = scalar(wp.uint32(c >> wp.uint64(32)) >> wp.uint32(8)) * unit
         # uniform in the unit ball: z uniform in [-1, 1], azimuth uniform, radius u^(1/3)
         one = scalar(1.0)
         two = scalar(2.0)
-        z = two * scalar(wp.randf(state)) - one
-        azimuth = scalar(6.283185307179586) * scalar(wp.randf(state))
-        r = wp.cbrt(scalar(wp.randf(state)))
+        z = two * u1 - one
+        azimuth = scalar(6.283185307179586) * u2
+        r = wp.cbrt(u3)
         ring = r * wp.sqrt(wp.max(one - z * z, scalar(0.0)))
         offset = vec3(ring * wp.cos(azimuth), ring * wp.sin(azimuth), r * z)
-        jx = two * scalar(wp.randf(state)) - one
-        jy = two * scalar(wp.randf(state)) - one
-        jz = two * scalar(wp.randf(state)) - one
+        jx = two * u4 - one
+        jy = two * u5 - one
+        jz = two * u6 - one
         d = direction + wp.cw_mul(jitter, vec3(jx, jy, jz))
         position = envelope_center + envelope_radius * offset
         length = wp.length(d)
