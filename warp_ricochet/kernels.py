@@ -105,9 +105,9 @@ def types_for(precision: str) -> SimpleNamespace:
 
 # Register cap of the CUDA ricochet kernel per precision (None: the compiler's choice), chosen by
 # measurement on an H200 (`python -m bench.variants`, bench/RESULTS.md): the one-plane,
-# one-bounce statistics kernel ran fastest at 80 (float32: 99 registers uncapped) and 96 (float64:
-# 168 uncapped): more resident warps outweigh the few spills.
-CUDA_MAX_REGISTERS = {"float32": 80, "float64": 96}
+# one-bounce float32 statistics kernel runs fastest at 80 (more resident warps outweigh the few
+# spills); float64 fastest without a cap (a cap of 96 spills: 10.6 against 7.2 ms for 1e8 pellets).
+CUDA_MAX_REGISTERS = {"float32": 80, "float64": None}
 MAX_STATIC_PLANES = 4  # scenes with more planes loop over them at run time
 
 

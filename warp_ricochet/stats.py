@@ -77,47 +77,49 @@ STAT_UNITS = {
 
 
 def empty_totals():
-    """Identity elements: zero sums, +inf minima, -inf maxima."""
+    """Identity elements: zero sums, +inf minima, -inf maxima, no segments."""
     return (
         np.zeros(NUM_SUMS),
         np.full(NUM_EXTREMES, math.inf),
         np.full(NUM_EXTREMES, -math.inf),
+        np.zeros((0, 3)),
     )
-
-
-def merge_m2(count_a, sum_a, m2_a, count_b, sum_b, m2_b):
-    """Chan et al.'s pairwise update: the squared deviations about the mean of a + b."""
-    if count_a == 0 or count_b == 0:
-        return m2_a + m2_b
-    delta = sum_b / count_b - sum_a / count_a
-    return m2_a + m2_b + delta * delta * count_a * count_b / (count_a + count_b)
 
 
 def combine(totals, segment_sums, segment_mins, segment_maxs):
     """Fold per-segment partials (shape (n, ...), in pellet order) into running totals.
 
-    Sums are added strictly left to right (np.cumsum is sequential), and range_m2 is merged
-    segment by segment in the same order, so the result does not depend on how the segments were
-    split into chunks.
+    Sums are added strictly left to right (np.cumsum is sequential), so they do not depend on how
+    the segments were split into chunks. Each segment's (landed, range sum, range_m2) is kept
+    (24 bytes per 65,536 pellets) for `finalize` to merge the spreads in one exact pass.
     """
-    sums, mins, maxs = totals
+    sums, mins, maxs, segments = totals
     if len(segment_sums):
-        m2 = sums[SUM["range_m2"]]
-        count, total = sums[SUM["landed"]], sums[SUM["range"]]
-        for seg in segment_sums:
-            m2 = merge_m2(count, total, m2, seg[SUM["landed"]], seg[SUM["range"]], seg[SUM["range_m2"]])
-            count, total = count + seg[SUM["landed"]], total + seg[SUM["range"]]
+        spread = segment_sums[:, [SUM["landed"], SUM["range"], SUM["range_m2"]]]
+        segments = np.vstack([segments, spread])
         sums = np.cumsum(np.vstack([sums[None, :], segment_sums]), axis=0)[-1]
-        sums[SUM["range_m2"]] = m2
         mins = np.minimum(mins, segment_mins.min(axis=0))
         maxs = np.maximum(maxs, segment_maxs.max(axis=0))
-    return sums, mins, maxs
+    return sums, mins, maxs, segments
+
+
+def merged_m2(segments) -> float:
+    """Squared deviations about the overall mean from per-segment (n, sum, m2): the segments'
+    own plus n_s (mean_s - mean)^2 (Chan et al.; exact, and no cancellation)."""
+    n, total, m2 = segments[:, 0], segments[:, 1], segments[:, 2]
+    landed = n > 0
+    if not landed.any():
+        return 0.0
+    mean = total.sum() / n.sum()
+    return float(m2[landed].sum() + (n[landed] * (total[landed] / n[landed] - mean) ** 2).sum())
 
 
 def finalize(totals, *, pellets: int, mass: float, inertia: float) -> dict[str, float]:
     """Turn the reduced sums into the statistics of `STAT_UNITS` (NaN where a mean is empty)."""
-    sums, mins, maxs = totals
+    sums, mins, maxs = totals[:3]
     s = {name: float(sums[i]) for i, name in enumerate(SUM_NAMES)}
+    if len(totals) > 3:
+        s["range_m2"] = merged_m2(totals[3])
 
     def mean(key, count):
         return s[key] / s[count] if s[count] > 0 else math.nan
