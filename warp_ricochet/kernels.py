@@ -137,6 +137,7 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bo
     F_TIME_ALOFT, F_V2_LANDING = SUM["time_aloft"] - NUM_COUNTS, SUM["v2_landing"] - NUM_COUNTS
     WRITE, FROM_FILE = write_outputs, from_file
     FLYING, ESCAPED, RESTING = 0, 1, 2
+    CLOSING_TOLERANCE = scalar(64.0 * (1.1920929e-07 if precision == "float32" else 2.220446049250313e-16))
     lanes, per_thread, segment = LANES, PER_THREAD, SEGMENT
     num_counts, num_floats, num_extremes = NUM_COUNTS, NUM_FLOATS, NUM_EXTREMES
     inf = scalar(math.inf)
@@ -218,7 +219,9 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bo
                     position = ballistic_position(position, velocity, gravity, dt)
                     velocity = ballistic_velocity(velocity, gravity, dt)
                     time = time + dt
-                    if wp.dot(velocity, normal) >= scalar(0.0):
+                    # closing only beyond rounding noise (an overlapping pellet meets the plane at its
+                    # apex, where v_n is 0 give or take an FMA): else it rests on the surface
+                    if wp.dot(velocity, normal) >= -CLOSING_TOLERANCE * wp.length(velocity):
                         flight_state = RESTING
                         resting_surface = k
                     else:

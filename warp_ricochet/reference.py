@@ -15,6 +15,9 @@ from .impact_law import SOLID_SPHERE_INERTIA_FACTOR
 from .stats import statistics_from_arrays
 
 
+CLOSING_TOLERANCE = 64 * np.finfo(np.float64).eps  # normal speeds within rounding noise of 0 do not close
+
+
 def _dot(a, b):
     return np.einsum("...i,...i->...", a, b)
 
@@ -167,7 +170,7 @@ def simulate(scene, position, velocity, angular_velocity):
         r = np.where(meet[:, None], r + v * dt[:, None] + 0.5 * g * dt[:, None] ** 2, r)
         v = np.where(meet[:, None], v + g * dt[:, None], v)
         time = time + dt
-        closing = np.einsum("ij,ij->i", v, nrm) < 0
+        closing = np.einsum("ij,ij->i", v, nrm) < -CLOSING_TOLERANCE * np.linalg.norm(v, axis=1)
         rests = meet & ~closing
         resting |= rests
         resting_surface = np.where(rests, k, resting_surface)
