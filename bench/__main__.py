@@ -37,11 +37,15 @@ def _wr():
     return wr, _warp()
 
 
-def scene_for(n: int, precision="float32", fields=(), mu_s=0.05, fast_math=False):
+def scene_for(n: int, precision="float32", fields=(), mu_s=0.05, fast_math=None):
+    """The paper's scene with N pellets; fast_math None keeps the scene's default."""
     from warp_ricochet.scene import load_scene
 
-    return load_scene(SCENE, [f"shot.count={n}", f"numerics.precision={precision}", f"output.fields={list(fields)!r}".replace("'", '"'),
-                              f"surfaces.0.mu_s={mu_s}", f"surfaces.0.mu_d={0.9 * mu_s}", f"numerics.fast_math={str(fast_math).lower()}"])
+    sets = [f"shot.count={n}", f"numerics.precision={precision}", f"output.fields={list(fields)!r}".replace("'", '"'),
+            f"surfaces.0.mu_s={mu_s}", f"surfaces.0.mu_d={0.9 * mu_s}"]
+    if fast_math is not None:
+        sets.append(f"numerics.fast_math={str(fast_math).lower()}")
+    return load_scene(SCENE, sets)
 
 
 MODES = (("float32", False), ("float32", True), ("float64", False))

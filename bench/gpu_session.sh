@@ -12,10 +12,10 @@ nvidia-smi --query-gpu=name,memory.total,driver_version,clocks.max.sm --format=c
 if [[ $what == check || $what == all ]]; then
   WARP_RICOCHET_TEST_DEVICES=cuda:0 WARP_RICOCHET_CPU_REFERENCE=.gpu/ref/cpu.h5 python3 -m pytest tests -q -n 8 -p no:cacheprovider -k "not cli" 2>&1 | tail -6 | tee "$out/tests.txt"
   [[ -f .gpu/ref/cpu.h5 ]] && python3 -m bench.agreement compare --device cuda:0 --file .gpu/ref/cpu.h5 2>&1 | quiet | tee "$out/agreement.txt"
-  python3 -m bench.variants --device cuda:0 --n 1e8 --caps default,default+fast,none 2>&1 | quiet | tee "$out/variants.txt"
+  python3 -m bench.variants --device cuda:0 --n 1e8 --caps default,default+fast,none,96+fast 2>&1 | quiet | tee "$out/variants.txt"
 fi
 if [[ $what == bench || $what == all ]]; then
-  python3 -m bench.variants --device cuda:0 --n 1e8 --caps default,default+fast,none 2>&1 | quiet | tee "$out/variants.txt"
+  python3 -m bench.variants --device cuda:0 --n 1e8 --caps default,default+fast,none,96+fast 2>&1 | quiet | tee "$out/variants.txt"
   python3 -m bench throughput --device cuda:0 --sizes 1e4,1e5,1e6,1e7,1e8,1e9 --numpy-max 1e6 --repeats 5 --out "$out" 2>&1 | grep "N=" | tee "$out/throughput.txt"
   python3 -m bench throughput --device cuda:0 --sizes 1e8 --numpy-max 0 --repeats 5 --precision float64 --out "$out" 2>&1 | grep "N=" | tee -a "$out/throughput.txt"
   python3 -m bench write --device cuda:0 --write-n 1e8 --out /tmp/wr-bench 2>&1 | grep "write" | tee "$out/write.txt"

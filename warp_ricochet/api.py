@@ -285,7 +285,8 @@ def _run_scene(scene, model, *, writer, progress, source) -> dict:
     cuda = dev.is_cuda
     slots = [_HostSlot(wp, state, pinned=cuda, index=i) for i in range(2 if cuda else 1)]
     ricochet_kernel = ricochet_kernel_for(model.precision, bool(fields), source.arrays is not None,
-                                          model.bounces, len(scene.surfaces), fast_math=scene.numerics.fast_math)
+                                          model.bounces, len(scene.surfaces),
+                                          fast_math=scene.numerics.fast_math and model.precision == "float32")
 
     src = kern.Source()
     sh = scene.shot

@@ -103,11 +103,11 @@ def types_for(precision: str) -> SimpleNamespace:
     return SimpleNamespace(scalar=scalar, vec3=vec3, Surfaces=Surfaces, Physics=Physics, Source=Source, Outputs=Outputs)
 
 
-# Register cap of the CUDA ricochet kernel per precision (None: the compiler's choice), chosen by
-# measurement on an H200 (`python -m bench.variants`, bench/RESULTS.md): the one-plane,
-# one-bounce float32 statistics kernel runs fastest at 80 (more resident warps outweigh the few
-# spills); float64 fastest without a cap (a cap of 96 spills: 10.6 against 7.2 ms for 1e8 pellets).
-CUDA_MAX_REGISTERS = {"float32": 80, "float64": None}
+# Register cap of the CUDA ricochet kernel per (precision, fast_math) (None: the compiler's
+# choice), chosen by measurement on an H200 (`python -m bench.variants`, bench/RESULTS.md): more
+# resident warps outweigh a few spills in float32 (80 with IEEE maths, 96 with fast maths);
+# float64 runs fastest without a cap (a cap of 96 spills: 10.6 against 7.2 ms for 1e8 pellets).
+CUDA_MAX_REGISTERS = {("float32", False): 80, ("float32", True): 96, ("float64", False): None, ("float64", True): None}
 MAX_STATIC_PLANES = 4  # scenes with more planes loop over them at run time
 
 
@@ -137,11 +137,11 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bo
     F_TIME_ALOFT, F_V2_LANDING = SUM["time_aloft"] - NUM_COUNTS, SUM["v2_landing"] - NUM_COUNTS
     WRITE, FROM_FILE = write_outputs, from_file
     FLYING, ESCAPED, RESTING = 0, 1, 2
-    CLOSING_TOLERANCE = scalar(64.0 * (1.1920929e-07 if precision == "float32" else 2.220446049250313e-16))
+    CLOSING_TOLERANCE2 = scalar((64.0 * (1.1920929e-07 if precision == "float32" else 2.220446049250313e-16)) ** 2)
     lanes, per_thread, segment = LANES, PER_THREAD, SEGMENT
     num_counts, num_floats, num_extremes = NUM_COUNTS, NUM_FLOATS, NUM_EXTREMES
     inf = scalar(math.inf)
-    cap = CUDA_MAX_REGISTERS[precision] if max_registers == "default" else max_registers
+    cap = CUDA_MAX_REGISTERS[precision, bool(fast_math)] if max_registers == "default" else max_registers
     kernel_options = {} if cap is None else {"cuda_max_registers": cap}
     if fast_math:
         kernel_options["module_options"] = {"fast_math": True}
@@ -221,7 +221,8 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bo
                     time = time + dt
                     # closing only beyond rounding noise (an overlapping pellet meets the plane at its
                     # apex, where v_n is 0 give or take an FMA): else it rests on the surface
-                    if wp.dot(velocity, normal) >= -CLOSING_TOLERANCE * wp.length(velocity):
+                    normal_speed = wp.dot(velocity, normal)
+                    if normal_speed >= scalar(0.0) or normal_speed * normal_speed <= CLOSING_TOLERANCE2 * wp.dot(velocity, velocity):
                         flight_state = RESTING
                         resting_surface = k
                     else:

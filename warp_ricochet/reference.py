@@ -170,7 +170,8 @@ def simulate(scene, position, velocity, angular_velocity):
         r = np.where(meet[:, None], r + v * dt[:, None] + 0.5 * g * dt[:, None] ** 2, r)
         v = np.where(meet[:, None], v + g * dt[:, None], v)
         time = time + dt
-        closing = np.einsum("ij,ij->i", v, nrm) < -CLOSING_TOLERANCE * np.linalg.norm(v, axis=1)
+        normal_speed = np.einsum("ij,ij->i", v, nrm)
+        closing = (normal_speed < 0) & (normal_speed**2 > CLOSING_TOLERANCE**2 * np.einsum("ij,ij->i", v, v))
         rests = meet & ~closing
         resting |= rests
         resting_surface = np.where(rests, k, resting_surface)

@@ -85,7 +85,7 @@ class Physics:
 class Numerics:
     precision: str = "float32"
     chunk_size: int | None = None                     # None: automatic
-    fast_math: bool = False                           # CUDA float32: approximate div/sqrt/sin (see README)
+    fast_math: bool = True                            # CUDA float32: approximate div/sqrt/sin (see README)
 
 
 @dataclass(frozen=True)
