@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # On the lent GPU machine (after stage1/stage2): . .gpu/b/env.sh && bash bench/gpu_session.sh [check|bench]
-#   check: the CUDA tests, CPU-GPU agreement against .gpu/ref/cpu.h5 (saved here by
-#          `python -m bench.agreement save --device cpu --file .gpu/ref/cpu.h5`), kernel variants
-#   bench: throughput against N (beside NumPy), the disk-bound write run, peak host memory
+#   check: the CUDA tests (with the CPU-GPU test against .gpu/ref/cpu.h5, saved here by
+#          `python -m bench.agreement save --device cpu --file .gpu/ref/cpu.h5`), the agreement table
+#   bench: kernel variants, throughput against N (beside NumPy), the write run, peak host memory, run time against error
 set -uo pipefail
 what=${1:-check}
 out=${OUT:-/tmp/out}
@@ -12,7 +12,6 @@ nvidia-smi --query-gpu=name,memory.total,driver_version,clocks.max.sm --format=c
 if [[ $what == check || $what == all ]]; then
   WARP_RICOCHET_TEST_DEVICES=cuda:0 WARP_RICOCHET_CPU_REFERENCE=.gpu/ref/cpu.h5 python3 -m pytest tests -q -n 8 -p no:cacheprovider -k "not cli" 2>&1 | tail -6 | tee "$out/tests.txt"
   [[ -f .gpu/ref/cpu.h5 ]] && python3 -m bench.agreement compare --device cuda:0 --file .gpu/ref/cpu.h5 2>&1 | quiet | tee "$out/agreement.txt"
-  python3 -m bench.variants --device cuda:0 --n 1e8 --caps default,default+fast,none,96+fast 2>&1 | quiet | tee "$out/variants.txt"
 fi
 if [[ $what == bench || $what == all ]]; then
   python3 -m bench.variants --device cuda:0 --n 1e8 --caps default,default+fast,none,96+fast 2>&1 | quiet | tee "$out/variants.txt"
