@@ -48,7 +48,7 @@ def main(argv=None):
                                        outputs=[state.partial_sums, state.partial_min, state.partial_max], device=dev)
             reduce = lambda: wp.launch(kern.reduce_kernel, dim=(segments, NUM_SUMS + NUM_EXTREMES),
                                        inputs=[state.partial_sums, state.partial_min, state.partial_max],
-                                       outputs=[state.segment_sums, state.segment_min, state.segment_max], device=dev)
+                                       outputs=[state.segments], device=dev)
             launch(); reduce(); wp.synchronize_device(dev)
             times, rtimes = [], []
             for _ in range(args.repeats):

@@ -255,9 +255,7 @@ class _HostSlot:
             return _PINNED_POOL[key]
 
         self.arrays = {name: like(arr, name) for name, arr in state.arrays.items()}
-        self.segment_sums = like(state.segment_sums, "segment_sums")
-        self.segment_min = like(state.segment_min, "segment_min")
-        self.segment_max = like(state.segment_max, "segment_max")
+        self.segment_results = like(state.segments, "segments")
         self.rows = 0
         self.segments = 0
         self.event = None
@@ -312,12 +310,9 @@ def _run_scene(scene, model, *, writer, progress, source) -> dict:
         if slot.event is not None:
             wp.synchronize_event(slot.event)
         seg = slot.segments
-        totals = combine(
-            totals,
-            slot.segment_sums.numpy()[:seg],
-            slot.segment_min.numpy()[:seg],
-            slot.segment_max.numpy()[:seg],
-        )
+        segments = slot.segment_results.numpy()[:seg]
+        totals = combine(totals, segments[:, :NUM_SUMS], segments[:, NUM_SUMS : NUM_SUMS + NUM_EXTREMES],
+                         segments[:, NUM_SUMS + NUM_EXTREMES :])
         if writer is not None:
             writer.append({name: arr.numpy() for name, arr in slot.arrays.items()}, slot.rows)
         done += slot.rows
@@ -344,18 +339,16 @@ def _run_scene(scene, model, *, writer, progress, source) -> dict:
             kern.reduce_kernel,
             dim=(segments, NUM_SUMS + NUM_EXTREMES),
             inputs=[state.partial_sums, state.partial_min, state.partial_max],
-            outputs=[state.segment_sums, state.segment_min, state.segment_max],
+            outputs=[state.segments],
             device=dev,
         )
         slot = slots[chunk % len(slots)]
         if pending is slot:  # CPU: one slot, consume before reuse
             consume(pending)
             pending = None
-        for name, arr in state.arrays.items():
-            wp.copy(slot.arrays[name][:rows], arr[:rows])
-        wp.copy(slot.segment_sums[:segments], state.segment_sums[:segments])
-        wp.copy(slot.segment_min[:segments], state.segment_min[:segments])
-        wp.copy(slot.segment_max[:segments], state.segment_max[:segments])
+        for name, arr in state.arrays.items():  # (element counts: contiguous rows, no views)
+            wp.copy(slot.arrays[name], arr, count=rows * (arr.size // arr.shape[0]))
+        wp.copy(slot.segment_results, state.segments, count=segments * state.segments.shape[1])
         slot.rows, slot.segments = rows, segments
         slot.event = dev.stream.record_event() if cuda else None
         if pending is not None:

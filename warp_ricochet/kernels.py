@@ -399,9 +399,7 @@ def kernels_for(precision: str) -> SimpleNamespace:
         partial_sums: wp.array2d(dtype=wp.float64),
         partial_min: wp.array2d(dtype=wp.float64),
         partial_max: wp.array2d(dtype=wp.float64),
-        segment_sums: wp.array2d(dtype=wp.float64),  # (segments, NUM_SUMS)
-        segment_min: wp.array2d(dtype=wp.float64),  # (segments, NUM_EXTREMES)
-        segment_max: wp.array2d(dtype=wp.float64),
+        segments: wp.array2d(dtype=wp.float64),  # (segments, NUM_SUMS + 2 NUM_EXTREMES): sums, minima, maxima
     ):
         """One thread per (segment, row): add the segment's LANES partials in lane order."""
         seg, row = wp.tid()
@@ -421,12 +419,12 @@ def kernels_for(precision: str) -> SimpleNamespace:
                     if n > wp.float64(0.0):
                         delta = partial_sums[ROW_RANGE, base + lane] / n - mean
                         m2 += partial_sums[ROW_M2, base + lane] + n * delta * delta
-            segment_sums[seg, row] = m2
+            segments[seg, row] = m2
         elif row < num_sums:
             total = wp.float64(0.0)
             for lane in range(lanes):
                 total += partial_sums[row, base + lane]
-            segment_sums[seg, row] = total
+            segments[seg, row] = total
         else:
             e = row - num_sums
             low = inf64
@@ -434,8 +432,8 @@ def kernels_for(precision: str) -> SimpleNamespace:
             for lane in range(lanes):
                 low = wp.min(low, partial_min[e, base + lane])
                 high = wp.max(high, partial_max[e, base + lane])
-            segment_min[seg, e] = low
-            segment_max[seg, e] = high
+            segments[seg, num_sums + e] = low
+            segments[seg, num_sums + num_extremes + e] = high
 
     @wp.kernel(module="unique", enable_backward=False)
     def impact_kernel(

@@ -168,9 +168,7 @@ class State:
         self.partial_min = wp.empty((NUM_EXTREMES, threads), dtype=wp.float64, device=model.device)
         self.partial_max = wp.empty((NUM_EXTREMES, threads), dtype=wp.float64, device=model.device)
         segments = threads // LANES
-        self.segment_sums = wp.empty((segments, NUM_SUMS), dtype=wp.float64, device=model.device)
-        self.segment_min = wp.empty((segments, NUM_EXTREMES), dtype=wp.float64, device=model.device)
-        self.segment_max = wp.empty((segments, NUM_EXTREMES), dtype=wp.float64, device=model.device)
+        self.segments = wp.empty((segments, NUM_SUMS + 2 * NUM_EXTREMES), dtype=wp.float64, device=model.device)
 
     @staticmethod
     def bytes_per_pellet(model_precision: str, fields, bounces: int) -> float:
