@@ -13,6 +13,7 @@ def main(argv=None):
     ap.add_argument("--n", type=float, default=1e8)
     ap.add_argument("--caps", default="none,128,96,80,64")
     ap.add_argument("--repeats", type=int, default=10)
+    ap.add_argument("--block-dims", default="256", help="CUDA block sizes to try for the ricochet kernel")
     args = ap.parse_args(argv)
     from bench.__main__ import _wr, scene_for
     from warp_ricochet.api import Source, plan_chunk
@@ -38,14 +39,15 @@ def main(argv=None):
         src.position = src.velocity = src.angular_velocity = wp.empty(0, dtype=kern.vec3, device=dev)
         threads = threads_for(rows)
         segments = threads // LANES
-        for cap_text in args.caps.split(","):
+        for cap_text, block_dim in [(c, int(b)) for c in args.caps.split(",") for b in args.block_dims.split(",")]:
             fast = cap_text.endswith("+fast")
             cap_text = cap_text.removesuffix("+fast")
             cap = {"none": None, "default": "default"}[cap_text] if cap_text in ("none", "default") else int(cap_text)
             kernel = ricochet_kernel_for(precision, False, False, 1, 1, cap, fast)
             cap_text = cap_text + ("+fast" if fast else "")
             launch = lambda: wp.launch(kernel, dim=threads, inputs=[0, rows, src, model.surfaces, model.physics, state.outputs],
-                                       outputs=[state.partial_sums, state.partial_min, state.partial_max], device=dev)
+                                       outputs=[state.partial_sums, state.partial_min, state.partial_max], device=dev,
+                                       block_dim=block_dim)
             reduce = lambda: wp.launch(kern.reduce_kernel, dim=(segments, NUM_SUMS + NUM_EXTREMES),
                                        inputs=[state.partial_sums, state.partial_min, state.partial_max],
                                        outputs=[state.segments], device=dev)
@@ -58,7 +60,7 @@ def main(argv=None):
                 times.append(wp.get_event_elapsed_time(e0, e1))
                 rtimes.append(wp.get_event_elapsed_time(e1, e2))
             t = statistics.median(times)
-            print(f"{precision} cap={cap_text:>4}: ricochet kernel {t:8.3f} ms = {rows / t * 1e3:.3e} pellets/s; "
+            print(f"{precision} cap={cap_text:>4} block={block_dim:3d}: ricochet kernel {t:8.3f} ms = {rows / t * 1e3:.3e} pellets/s; "
                   f"reduce {statistics.median(rtimes):.3f} ms", flush=True)
     # end-to-end
     for m in (1e4, 1e6, n):

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import RicochetError, SceneError
-from .kernels import LANES, SEGMENT
+from .kernels import CUDA_BLOCK_DIM, LANES, SEGMENT
 from .stats import combine, empty_totals, finalize
 
 HOST_BUFFER_BYTES = 128 << 20  # per pinned host buffer (two are used): caps host memory
@@ -334,6 +334,7 @@ def _run_scene(scene, model, *, writer, progress, source) -> dict:
             inputs=[start, rows, src, model.surfaces, model.physics, state.outputs],
             outputs=[state.partial_sums, state.partial_min, state.partial_max],
             device=dev,
+            block_dim=CUDA_BLOCK_DIM,
         )
         wp.launch(
             kern.reduce_kernel,
