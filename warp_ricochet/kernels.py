@@ -104,12 +104,12 @@ def types_for(precision: str) -> SimpleNamespace:
 
 
 # Register cap of the CUDA ricochet kernel per (precision, fast_math) (None: the compiler's
-# choice), chosen by measurement on an H200 (`python -m bench.variants`, bench/RESULTS.md): more
-# resident warps outweigh a few spills in float32 (80 with IEEE maths, 96 with fast maths);
-# float64 runs fastest without a cap (a cap of 96 spills: 10.6 against 7.2 ms for 1e8 pellets).
-CUDA_MAX_REGISTERS = {("float32", False): 80, ("float32", True): 96, ("float64", False): None, ("float64", True): None}
+# choice), chosen by measurement on an H200 (`python -m bench.variants`, bench/RESULTS.md): 80
+# for float32 with IEEE maths (more resident warps outweigh a few spills); none with fast maths
+# (2.36 ms for 1e8 pellets, against 2.45 at 96 and 2.91 at 80) and for float64 (a cap spills).
+CUDA_MAX_REGISTERS = {("float32", False): 80, ("float32", True): None, ("float64", False): None, ("float64", True): None}
 MAX_STATIC_PLANES = 4  # scenes with more planes loop over them at run time
-CUDA_BLOCK_DIM = 256  # threads per CUDA block of the ricochet kernel (measured: bench/RESULTS.md)
+CUDA_BLOCK_DIM = 256  # threads per CUDA block of the ricochet kernel (64 and 128 measured no faster)
 
 
 @functools.cache
@@ -422,18 +422,10 @@ def kernels_for(precision: str) -> SimpleNamespace:
                         m2 += partial_sums[ROW_M2, base + lane] + n * delta * delta
             segments[seg, row] = m2
         elif row < num_sums:
-            # four interleaved accumulators (loads in flight), combined in a fixed order
-            a0 = wp.float64(0.0)
-            a1 = wp.float64(0.0)
-            a2 = wp.float64(0.0)
-            a3 = wp.float64(0.0)
-            for q in range(lanes // 4):
-                lane = base + 4 * q
-                a0 += partial_sums[row, lane]
-                a1 += partial_sums[row, lane + 1]
-                a2 += partial_sums[row, lane + 2]
-                a3 += partial_sums[row, lane + 3]
-            segments[seg, row] = (a0 + a1) + (a2 + a3)
+            total = wp.float64(0.0)
+            for lane in range(lanes):
+                total += partial_sums[row, base + lane]
+            segments[seg, row] = total
         else:
             e = row - num_sums
             low = inf64
