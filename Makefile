@@ -25,7 +25,7 @@ test: $(STAMP)
 	$(PY) -m pytest -n 2 -q
 
 bench: $(STAMP)
-	$(PY) -m bench
+	$(PY) -m bench all $(if $(DEVICE),--device $(DEVICE),)
 
 clean:
 	rm -rf $(VENV) $(DEMO_OUT) .pytest_cache .hypothesis
