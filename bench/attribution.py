@@ -40,7 +40,7 @@ def main():
     wr, wp_ = _wr()
     from warp_ricochet import kernels
     from bench.variants import main as variants  # noqa: F401  (same timing method)
-    from warp_ricochet.api import plan_chunk
+    from warp_ricochet.api import plan_chunk, source_struct
     from warp_ricochet.kernels import LANES
     from warp_ricochet.model import Model, State, threads_for
     from warp_ricochet.stats import NUM_EXTREMES, NUM_SUMS
@@ -49,16 +49,9 @@ def main():
     n = 100_000_000
     scene = scene_for(n)
     model = Model.from_scene(scene, dev)
-    kern = model.kernels
     rows = plan_chunk(scene, model, n, ())
     state = State(model, rows, ())
-    src = kern.Source()
-    sh = scene.shot
-    src.seed, src.speed = sh.seed, kern.scalar(sh.speed)
-    src.direction, src.jitter = kern.vec3(*sh.direction), kern.vec3(*sh.direction_jitter)
-    src.envelope_center, src.envelope_radius = kern.vec3(*sh.envelope_center), kern.scalar(sh.envelope_radius)
-    src.spin = kern.vec3(*sh.spin)
-    src.position = src.velocity = src.angular_velocity = wp.empty(0, dtype=kern.vec3, device=dev)
+    src = source_struct(scene, model)
     threads = threads_for(rows)
     results = {}
     original = kernels.make_sampler

@@ -1,5 +1,6 @@
 """Kernel-only timings of the ricochet kernel variants on one device (CUDA events), to choose
-the register cap, and the end-to-end time of `run` at the same N. Run: python -m bench.variants"""
+the register cap, and the end-to-end time of `run` at the same N. CUDA only.
+Run: python -m bench.variants --device cuda:0"""
 
 import argparse
 import statistics
@@ -16,7 +17,7 @@ def main(argv=None):
     ap.add_argument("--block-dims", default="256", help="CUDA block sizes to try for the ricochet kernel")
     args = ap.parse_args(argv)
     from bench.__main__ import _wr, scene_for
-    from warp_ricochet.api import Source, plan_chunk
+    from warp_ricochet.api import plan_chunk, source_struct
     from warp_ricochet.kernels import LANES, ricochet_kernel_for
     from warp_ricochet.model import Model, State, threads_for
     from warp_ricochet.stats import NUM_EXTREMES, NUM_SUMS
@@ -24,19 +25,15 @@ def main(argv=None):
     wr, wp = _wr()
     n = int(args.n)
     dev = wp.get_device(args.device)
+    if not dev.is_cuda:
+        raise SystemExit("bench.variants times kernels with CUDA events: it needs a CUDA device")
     for precision in ("float32", "float64"):
         scene = scene_for(n, precision)
         model = Model.from_scene(scene, dev)
         kern = model.kernels
         rows = min(plan_chunk(scene, model, n, ()), n)
         state = State(model, rows, ())
-        src = kern.Source()
-        sh = scene.shot
-        src.seed, src.speed = sh.seed, kern.scalar(sh.speed)
-        src.direction, src.jitter = kern.vec3(*sh.direction), kern.vec3(*sh.direction_jitter)
-        src.envelope_center, src.envelope_radius = kern.vec3(*sh.envelope_center), kern.scalar(sh.envelope_radius)
-        src.spin = kern.vec3(*sh.spin)
-        src.position = src.velocity = src.angular_velocity = wp.empty(0, dtype=kern.vec3, device=dev)
+        src = source_struct(scene, model)
         threads = threads_for(rows)
         segments = threads // LANES
         for cap_text, block_dim in [(c, int(b)) for c in args.caps.split(",") for b in args.block_dims.split(",")]:

@@ -261,6 +261,23 @@ class _HostSlot:
         self.event = None
 
 
+def source_struct(scene, model):
+    """The kernels' Source struct of a scene's shot: sampling parameters, no explicit arrays."""
+    wp = _warp()
+    kern = model.kernels
+    sh = scene.shot
+    src = kern.Source()
+    src.seed = sh.seed
+    src.speed = kern.scalar(sh.speed)
+    src.direction = kern.vec3(*sh.direction)
+    src.jitter = kern.vec3(*sh.direction_jitter)
+    src.envelope_center = kern.vec3(*sh.envelope_center)
+    src.envelope_radius = kern.scalar(sh.envelope_radius)
+    src.spin = kern.vec3(*sh.spin)
+    src.position = src.velocity = src.angular_velocity = wp.empty(0, dtype=kern.vec3, device=model.device)
+    return src
+
+
 def run_scene(scene, model, *, writer=None, progress=None, source=None) -> dict:
     """Run every pellet of `scene` through `model`'s device; return the statistics."""
     with _PINNED_LOCK if model.device.is_cuda else contextlib.nullcontext():
@@ -286,21 +303,11 @@ def _run_scene(scene, model, *, writer, progress, source) -> dict:
                                           model.bounces, len(scene.surfaces),
                                           fast_math=scene.numerics.fast_math and model.precision == "float32")
 
-    src = kern.Source()
-    sh = scene.shot
-    src.seed = sh.seed
-    src.speed = kern.scalar(sh.speed)
-    src.direction = kern.vec3(*sh.direction)
-    src.jitter = kern.vec3(*sh.direction_jitter)
-    src.envelope_center = kern.vec3(*sh.envelope_center)
-    src.envelope_radius = kern.scalar(sh.envelope_radius)
-    src.spin = kern.vec3(*sh.spin)
+    src = source_struct(scene, model)
     explicit = None
     if source.arrays is not None:
         explicit = {k: wp.empty(capacity, dtype=kern.vec3, device=dev) for k in ("position", "velocity", "angular_velocity")}
         src.position, src.velocity, src.angular_velocity = (explicit[k] for k in ("position", "velocity", "angular_velocity"))
-    else:
-        src.position = src.velocity = src.angular_velocity = wp.empty(0, dtype=kern.vec3, device=dev)
 
     totals = empty_totals()
     done = 0
