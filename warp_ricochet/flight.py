@@ -9,6 +9,11 @@ Leaving the plane it just hit (gap 0, normal speed v_n' > 0) it returns after
 which is what the paper's tables use; eqs. (40) and (42) print a square root by mistake.
 
 Planes are one-sided: a pellet whose centre is behind a plane does not interact with it.
+
+Rounding: a gap, or a normal gravity component, within rounding noise of zero (ROUNDING machine
+epsilons of its scale) is taken as zero, so a pellet resting on a tilted plane touches it rather
+than falling a rounding error onto it, and gravity along a plane does not give a time of flight
+of 1e17 s; a contact later than MAX_FLIGHT_TIME counts as none.
 """
 
 
@@ -17,10 +22,13 @@ import functools
 import warp as wp
 
 NO_CONTACT = -1.0  # returned as the time when a pellet never meets a plane
+MAX_FLIGHT_TIME = 1.0e6  # s: a later contact counts as none (keeps every float32 product finite)
+ROUNDING = 64.0  # rounding-noise tolerances are this many machine epsilons of the quantities' scale
+EPSILON = {"float32": 1.1920929e-07, "float64": 2.220446049250313e-16}
 
 
 @functools.cache
-def make_flight(scalar, planes=None):
+def make_flight(scalar, planes=None):  # noqa: C901
     """Return the flight `@wp.func`s for a Warp scalar type.
 
     `planes`: the number of planes when fixed at code generation (the loop over planes is then
@@ -29,6 +37,8 @@ def make_flight(scalar, planes=None):
     """
     vec3 = wp.types.vector(3, scalar)
     STATIC_PLANES = planes
+    TOLERANCE = scalar(ROUNDING * EPSILON["float32" if scalar is wp.float32 else "float64"])
+    LATEST = scalar(MAX_FLIGHT_TIME)
 
     @wp.func
     def entry_time(gap: scalar, normal_speed: scalar, half_normal_gravity: scalar):
@@ -87,17 +97,26 @@ def make_flight(scalar, planes=None):
         normals: wp.array(dtype=vec3),
         touching: wp.int32,
     ):
-        """Time until the pellet meets plane k, or NO_CONTACT."""
+        """Time until the pellet meets plane k, or NO_CONTACT (also beyond MAX_FLIGHT_TIME)."""
         normal = normals[k]
         normal_speed = wp.dot(velocity, normal)
-        half_normal_gravity = scalar(0.5) * wp.dot(gravity, normal)
+        normal_gravity = wp.dot(gravity, normal)
+        if wp.abs(normal_gravity) <= TOLERANCE * (wp.abs(gravity[0]) + wp.abs(gravity[1]) + wp.abs(gravity[2])):
+            normal_gravity = scalar(0.0)  # gravity along the plane, up to rounding
+        half_normal_gravity = scalar(0.5) * normal_gravity
         t = scalar(NO_CONTACT)
         if k == touching:
             t = return_time(normal_speed, half_normal_gravity)
         else:
-            centre_height = wp.dot(position - points[k], normal)
+            offset = position - points[k]
+            centre_height = wp.dot(offset, normal)
             if centre_height >= scalar(0.0):  # one-sided: centre behind the plane never touches
-                t = entry_time(centre_height - radius, normal_speed, half_normal_gravity)
+                gap = centre_height - radius
+                if wp.abs(gap) <= TOLERANCE * (wp.abs(offset[0]) + wp.abs(offset[1]) + wp.abs(offset[2]) + radius):
+                    gap = scalar(0.0)  # touching, up to rounding
+                t = entry_time(gap, normal_speed, half_normal_gravity)
+        if t > LATEST:
+            t = scalar(NO_CONTACT)
         return t
 
     @wp.func

@@ -28,7 +28,7 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from .flight import make_flight
+from .flight import EPSILON, ROUNDING, make_flight
 from .impact_law import make_impact_law
 from .sampling import make_sampler
 from .stats import NUM_COUNTS, NUM_EXTREMES, NUM_FLOATS, NUM_SUMS, SUM
@@ -138,7 +138,7 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bo
     F_TIME_ALOFT, F_V2_LANDING = SUM["time_aloft"] - NUM_COUNTS, SUM["v2_landing"] - NUM_COUNTS
     WRITE, FROM_FILE = write_outputs, from_file
     FLYING, ESCAPED, RESTING = 0, 1, 2
-    CLOSING_TOLERANCE2 = scalar((64.0 * (1.1920929e-07 if precision == "float32" else 2.220446049250313e-16)) ** 2)
+    CLOSING_TOLERANCE2 = scalar((ROUNDING * EPSILON[precision]) ** 2)  # normal speeds within rounding of 0
     lanes, per_thread, segment = LANES, PER_THREAD, SEGMENT
     num_counts, num_floats, num_extremes = NUM_COUNTS, NUM_FLOATS, NUM_EXTREMES
     inf = scalar(math.inf)
@@ -264,6 +264,11 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bo
                         last_slipped = slipped
                         ricochet_point = position - radius * normal
                         ricochet_time = time
+                        # leaving with no normal speed (E = 0, up to rounding): it stays on the surface
+                        leaving_speed = wp.dot(velocity, normal)
+                        if leaving_speed * leaving_speed <= CLOSING_TOLERANCE2 * wp.dot(velocity, velocity):
+                            flight_state = RESTING
+                            resting_surface = k
             if wp.static(WRITE):
                 if impacted == 0:  # no impact at this bounce: mark it missing
                     if out.impact_time.shape[0] > 0:

@@ -11,11 +11,13 @@ import math
 
 import numpy as np
 
+from .flight import MAX_FLIGHT_TIME, ROUNDING
 from .impact_law import SOLID_SPHERE_INERTIA_FACTOR
 from .stats import statistics_from_arrays
 
 
-CLOSING_TOLERANCE = 64 * np.finfo(np.float64).eps  # normal speeds within rounding noise of 0 do not close
+TOLERANCE = ROUNDING * np.finfo(np.float64).eps  # rounding noise, relative (flight.py's rule in float64)
+CLOSING_TOLERANCE = TOLERANCE  # normal speeds within rounding noise of 0 do not close
 
 
 def _dot(a, b):
@@ -72,11 +74,15 @@ def next_contact(position, velocity, gravity, radius, points, normals, touching)
     n_pellets = position.shape[0]
     best_t = np.full(n_pellets, np.inf)
     best_k = np.full(n_pellets, -1)
+    g = np.asarray(gravity, np.float64)
     for k, (p, nrm) in enumerate(zip(points, normals)):
         b = velocity @ nrm
-        a = 0.5 * (np.asarray(gravity) @ nrm)
+        a = 0.5 * (g @ nrm)
+        if abs(2 * a) <= TOLERANCE * np.abs(g).sum():
+            a = 0.0  # gravity along the plane, up to rounding
         height = (position - p) @ nrm
         c = height - radius
+        c = np.where(np.abs(c) <= TOLERANCE * (np.abs(position - p).sum(axis=1) + radius), 0.0, c)  # touching
         t = np.full(n_pellets, np.nan)
         # leaving the plane just hit: t* = -2 v_n / (g . e_n)   (eq. 40 as the tables use it)
         leave = touching == k
@@ -102,6 +108,7 @@ def next_contact(position, velocity, gravity, radius, points, normals, touching)
                 root = np.sqrt(np.where(ok, disc, 0.0))
                 closing = np.where(b >= 0, -(b + root) / (2.0 * a), 2.0 * c / (root - b))
                 t = np.where(ok & (closing > 0), closing, t)
+        t = np.where(t > MAX_FLIGHT_TIME, np.nan, t)
         better = np.isfinite(t) & (t >= 0) & (t < best_t)
         best_t = np.where(better, t, best_t)
         best_k = np.where(better, k, best_k)
@@ -197,6 +204,12 @@ def simulate(scene, position, velocity, angular_velocity):
         last_slipped = np.where(hit, s2, last_slipped)
         ricochet_point = np.where(hit[:, None], r - radius * nrm, ricochet_point)
         ricochet_time = np.where(hit, time, ricochet_time)
+        # leaving with no normal speed (E = 0, up to rounding): it stays on the surface
+        leaving = np.einsum("ij,ij->i", v, nrm)
+        stays = hit & (leaving**2 <= CLOSING_TOLERANCE**2 * np.einsum("ij,ij->i", v, v))
+        resting |= stays
+        resting_surface = np.where(stays, k, resting_surface)
+        active &= ~stays
     dt, k = next_contact(r, v, g, radius, points, normals, touching)
     flying_lands = active & (k >= 0)
     dt = np.where(flying_lands, dt, 0.0)
