@@ -530,3 +530,14 @@ def test_gravity_along_a_plane_up_to_rounding_never_overflows(device):
     assert stats["hits"] == 1000 and stats["escaped"] == 1000
     assert all(math.isfinite(v) or math.isnan(v) for v in stats.values())
     assert not any(math.isinf(v) for v in stats.values())
+
+
+def test_an_earlier_partial_file_is_not_truncated_without_overwrite(tmp_path):
+    path = tmp_path / "o.h5"
+    salvage = tmp_path / "o.h5.partial"
+    salvage.write_bytes(b"chunks of an interrupted run")
+    with pytest.raises(wr.OutputError, match="partial"):
+        wr.run(make_scene(paper_raw()), path, device=DEVICES[0])
+    assert salvage.read_bytes() == b"chunks of an interrupted run" and not path.exists()
+    wr.run(make_scene(paper_raw()), path, device=DEVICES[0], overwrite=True)
+    assert path.exists() and not salvage.exists()

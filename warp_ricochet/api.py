@@ -52,25 +52,28 @@ def _init_capturing_native_stderr(wp) -> str:
     import tempfile
 
     try:
-        libc = ctypes.CDLL(None)
+        libc = ctypes.CDLL(None)  # the C library's stdio, to flush its buffered warnings
         saved = os.dup(2)
-    except OSError:
+    except Exception:  # e.g. Windows (no CDLL(None)): let Warp print as it likes
         wp.init()
         return ""
-    with tempfile.TemporaryFile() as captured:
-        sys.stderr.flush()
-        os.dup2(captured.fileno(), 2)
-        try:
-            wp.init()
-        finally:
-            libc.fflush(None)
-            os.dup2(saved, 2)
-            os.close(saved)
-        captured.seek(0)
-        text = captured.read().decode(errors="replace").strip()
-    kept = [line for line in text.splitlines() if _CUDA_MISSING not in line]
-    if kept:
-        print("\n".join(kept), file=sys.stderr)
+    text = ""
+    try:
+        with tempfile.TemporaryFile() as captured:
+            sys.stderr.flush()
+            os.dup2(captured.fileno(), 2)
+            try:
+                wp.init()
+            finally:
+                libc.fflush(None)
+                os.dup2(saved, 2)
+                os.close(saved)
+                captured.seek(0)
+                text = captured.read().decode(errors="replace").strip()
+    finally:
+        kept = [line for line in text.splitlines() if _CUDA_MISSING not in line]
+        if kept:
+            print("\n".join(kept), file=sys.stderr)
     return " ".join(text.split())
 
 
@@ -80,6 +83,8 @@ def resolve_device(name=None):
     if name is None:
         return wp.get_preferred_device()
     try:
+        if str(name).startswith("cuda") and wp.get_cuda_device_count() == 0:
+            raise LookupError  # asking Warp would print native errors first
         return wp.get_device(str(name))
     except Exception:
         allowed = ", ".join(d.alias for d in wp.get_devices())
@@ -154,6 +159,7 @@ def impact(
     n = _vectors("normal", normal, bound=dom.MAX_COORDINATE, single=True)
     if n.shape[0] not in (1, rows):
         raise SceneError("normal", f"array of shape {n.shape}", f"must have shape (3,) or ({rows}, 3)")
+    n = n / np.maximum(np.abs(n).max(axis=1), np.finfo(np.float64).tiny)[:, None]  # scale first: no underflow
     lengths = np.linalg.norm(n, axis=1)
     if (lengths == 0).any():
         raise SceneError("normal", "zero vector", "must be non-zero")
@@ -164,7 +170,7 @@ def impact(
     mu_s = _in_range("mu_s", mu_s, 0.0, dom.MAX_FRICTION)
     mu_d = _in_range("mu_d", mu_d, 0.0, mu_s)
     duration = _in_range("duration", duration, 0.0, dom.MAX_IMPACT_DURATION)
-    g = _vectors("gravity", gravity, bound=dom.MAX_GRAVITY, unit="m/s^2", single=True)
+    g = _vectors("gravity", gravity, rows=1, bound=dom.MAX_GRAVITY, unit="m/s^2", single=True)
     if g.shape != (1, 3):
         raise SceneError("gravity", f"array of shape {np.shape(gravity)}", "must be a 3-vector")
     g = g[0]

@@ -197,9 +197,9 @@ def main(argv=None) -> int:
     except OSError as exc:
         _error(_os_message(exc))
         return 1
-    except KeyboardInterrupt:
-        output = getattr(args, "output", None)
-        kept = f"; the chunks completed are in {output}.partial" if output else ""
+    except KeyboardInterrupt as exc:
+        partial = getattr(exc, "partial_path", None)  # set by the output file when it was open
+        kept = f"; the chunks completed are in {partial}" if partial else ""
         print(f"{PROG}: interrupted{kept}", file=sys.stderr)
         return 130
 

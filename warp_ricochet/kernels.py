@@ -104,12 +104,12 @@ def types_for(precision: str) -> SimpleNamespace:
 
 
 # Register cap of the CUDA ricochet kernel per (precision, fast_math) (None: the compiler's
-# choice), chosen by measurement on an H200 (`python -m bench.variants`, bench/RESULTS.md): 80
-# for float32 with IEEE maths (more resident warps outweigh a few spills); none with fast maths
-# (2.36 ms for 1e8 pellets, against 2.45 at 96 and 2.91 at 80) and for float64 (a cap spills).
+# choice), chosen by measurement on an H200 (`python -m bench.variants`, bench/results/): 80 for
+# float32 with IEEE maths (more resident warps outweigh a few spills); none with fast maths (2.36 to
+# 2.38 ms for 1e8 pellets, against 2.46 at 96 and 2.91 to 2.97 at 80) and for float64 (a cap spills).
 CUDA_MAX_REGISTERS = {("float32", False): 80, ("float32", True): None, ("float64", False): None, ("float64", True): None}
 MAX_STATIC_PLANES = 4  # scenes with more planes loop over them at run time
-CUDA_BLOCK_DIM = 256  # threads per CUDA block of the ricochet kernel (64 and 128 measured no faster)
+CUDA_BLOCK_DIM = 256  # threads per CUDA block of the ricochet kernel (64, 128: no faster, variants-blocks.txt)
 
 
 @functools.cache

@@ -3,8 +3,8 @@
 Counter-based: pellet i of seed s draws from a SplitMix64 stream (Steele, Lea & Flood 2014)
 keyed by the full 63 bits of (s, i): key = mix64(s * 2^32 + i), a bijection (distinct pellets,
 distinct keys), and its three 64-bit outputs mix64(key + k * golden), k = 1, 2, 3, give six 24-bit
-uniforms. Two streams share a state only if their keys differ by golden or 2 golden: with
-scrambled keys a chance of about 4 n^2 / 2^64 for n pellets in all (0.2 at n = 1e9 over seeds).
+uniforms. Two streams share a state only if their keys differ by +-golden or +-2 golden: with
+scrambled keys, about 2 n^2 / 2^64 such pairs are expected among n pellets (0.1 at n = 1e9).
 (Unscrambled keys s * 2^32 + i would collide for some seed pairs: -2 golden = 0xC3910C8D 016B07D6.) So the launch
 state depends only on (seed, i): the same on CPU and GPU and for any chunk size; and unlike a
 32-bit generator state (`wp.rand_init`), streams of different pellets or seeds do not overlap,

@@ -105,7 +105,7 @@ def combine(totals, segment_sums, segment_mins, segment_maxs):
 
 def merged_m2(segments) -> float:
     """Squared deviations about the overall mean from per-segment (n, sum, m2): the segments'
-    own plus n_s (mean_s - mean)^2 (Chan et al.; exact, and no cancellation)."""
+    own plus n_s (mean_s - mean)^2 (Chan et al.: no cancellation, so numerically stable)."""
     n, total, m2 = segments[:, 0], segments[:, 1], segments[:, 2]
     landed = n > 0
     if not landed.any():

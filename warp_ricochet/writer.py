@@ -40,6 +40,10 @@ def check_output_path(path, overwrite: bool) -> Path:
         raise OutputError(f"output path = {str(p)!r}: is a directory")
     if p.exists() and not overwrite:
         raise OutputError(f"output path = {str(p)!r}: exists; pass --overwrite (overwrite=True) to replace it")
+    partial = p.with_name(p.name + ".partial")
+    if partial.exists() and not overwrite:
+        raise OutputError(f"output path = {str(p)!r}: {partial.name} exists (the chunks of an earlier interrupted "
+                          "run); move it away, or pass --overwrite (overwrite=True) to replace it")
     parent = p.parent if str(p.parent) else Path(".")
     if not parent.is_dir():
         raise OutputError(f"output path = {str(p)!r}: folder {str(parent)!r} does not exist")
@@ -87,6 +91,8 @@ class OutputFile:
             status = "interrupted"
         else:
             status = "failed"
+        if exc is not None:
+            exc.partial_path = str(self.partial)  # for the one-line message: where the chunks are
         try:
             self.h5.attrs["status"] = status
             self.h5.close()
@@ -99,6 +105,20 @@ class OutputFile:
         return False
 
     def _move_into_place(self):
+        """Rename NAME.partial to NAME with Ctrl-C and SIGTERM held off: never half done."""
+        import signal
+
+        held = {signal.SIGINT, signal.SIGTERM}
+        can_hold = hasattr(signal, "pthread_sigmask")
+        if can_hold:
+            signal.pthread_sigmask(signal.SIG_BLOCK, held)
+        try:
+            self._move()
+        finally:
+            if can_hold:
+                signal.pthread_sigmask(signal.SIG_UNBLOCK, held)
+
+    def _move(self):
         if self.overwrite:
             os.replace(self.partial, self.path)
             return
