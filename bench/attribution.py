@@ -39,11 +39,8 @@ def old_sampler(scalar):
 def main():
     wr, wp_ = _wr()
     from warp_ricochet import kernels
-    from bench.variants import main as variants  # noqa: F401  (same timing method)
     from warp_ricochet.api import plan_chunk, source_struct
-    from warp_ricochet.kernels import LANES
     from warp_ricochet.model import Model, State, threads_for
-    from warp_ricochet.stats import NUM_EXTREMES, NUM_SUMS
 
     dev = wp.get_device("cuda:0")
     n = 100_000_000

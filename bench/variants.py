@@ -5,7 +5,6 @@ Run: python -m bench.variants --device cuda:0"""
 import argparse
 import statistics
 
-import numpy as np
 
 
 def main(argv=None):

@@ -134,16 +134,17 @@ def test_unavailable_device_is_one_line(tmp_path, capsys):
     assert not out.exists()
 
 
-def test_unknown_device_is_exactly_one_stderr_line_in_a_fresh_process(tmp_path):
-    """Warp's native start-up warnings (no CUDA driver) must not make it two lines."""
+@pytest.mark.parametrize("name", ["cuda:7", "cuda", "gpu"])
+def test_unknown_device_is_exactly_one_stderr_line_in_a_fresh_process(tmp_path, name):
+    """Warp's native start-up warnings and errors (no CUDA driver) must not make it more lines."""
     import warp as wp
 
-    if wp.get_cuda_device_count() > 7:
-        pytest.skip("this machine has a cuda:7")
-    proc = cli_subprocess("run", SCENE, "--set", "shot.count=20", "--device", "cuda:7", "-o", str(tmp_path / "d.h5"))
+    if name.startswith("cuda") and wp.get_cuda_device_count() > (7 if name == "cuda:7" else 0):
+        pytest.skip(f"this machine has {name}")
+    proc = cli_subprocess("run", SCENE, "--set", "shot.count=20", "--device", name, "-o", str(tmp_path / "d.h5"))
     assert proc.returncode == 2
     assert len(proc.stderr.strip().splitlines()) == 1, proc.stderr
-    assert proc.stderr.startswith("warp-ricochet: error: device = 'cuda:7'")
+    assert proc.stderr.startswith(f"warp-ricochet: error: device = '{name}'")
 
 
 def test_run_without_output_prints_summary(capsys):

@@ -528,7 +528,6 @@ def test_gravity_along_a_plane_up_to_rounding_never_overflows(device):
     raw["surfaces"] = [{"point": [0.0, 0.0, 0.0], "normal": [1.0, 6.123e-17, 0.0], "restitution": 0.5, "mu_s": 0.1}]
     stats = wr.run(make_scene(raw), device=device)
     assert stats["hits"] == 1000 and stats["escaped"] == 1000
-    assert all(math.isfinite(v) or math.isnan(v) for v in stats.values())
     assert not any(math.isinf(v) for v in stats.values())
 
 

@@ -170,10 +170,7 @@ def impact(
     mu_s = _in_range("mu_s", mu_s, 0.0, dom.MAX_FRICTION)
     mu_d = _in_range("mu_d", mu_d, 0.0, mu_s)
     duration = _in_range("duration", duration, 0.0, dom.MAX_IMPACT_DURATION)
-    g = _vectors("gravity", gravity, rows=1, bound=dom.MAX_GRAVITY, unit="m/s^2", single=True)
-    if g.shape != (1, 3):
-        raise SceneError("gravity", f"array of shape {np.shape(gravity)}", "must be a 3-vector")
-    g = g[0]
+    g = _vectors("gravity", gravity, rows=1, bound=dom.MAX_GRAVITY, unit="m/s^2", single=True)[0]
 
     wp = _warp()
     dev = resolve_device(device)
@@ -225,17 +222,14 @@ def plan_chunk(scene, model, pellets: int, fields) -> int:
     if scene.numerics.chunk_size:
         rows = scene.numerics.chunk_size
     else:
+        per_pellet_host = State.field_bytes_per_pellet(model.precision, fields, model.bounces)
         per_pellet_device = State.bytes_per_pellet(model.precision, fields, model.bounces)
         if scene.shot.file is not None:
             per_pellet_device += 9 * np.dtype(model.precision).itemsize
         if model.device.is_cuda:
-            rows = int(DEVICE_FRACTION * model.device.free_memory / per_pellet_device)
-            rows = min(rows, MAX_CHUNK)
+            rows = min(int(DEVICE_FRACTION * model.device.free_memory / per_pellet_device), MAX_CHUNK)
         else:
             rows = CPU_STATS_CHUNK
-        per_pellet_host = State.bytes_per_pellet(model.precision, fields, model.bounces) - (
-            State.bytes_per_pellet(model.precision, (), model.bounces)
-        )
         if fields:
             rows = min(rows, int(HOST_BUFFER_BYTES / per_pellet_host))
     rows = max(SEGMENT, -(-rows // SEGMENT) * SEGMENT)  # whole segments: chunk-size invariance
@@ -263,7 +257,7 @@ class _HostSlot:
         self.arrays = {name: like(arr, name) for name, arr in state.arrays.items()}
         self.segment_results = like(state.segments, "segments")
         self.rows = 0
-        self.segments = 0
+        self.segment_count = 0
         self.event = None
 
 
@@ -322,10 +316,7 @@ def _run_scene(scene, model, *, writer, progress, source) -> dict:
         nonlocal totals, done
         if slot.event is not None:
             wp.synchronize_event(slot.event)
-        seg = slot.segments
-        segments = slot.segment_results.numpy()[:seg]
-        totals = combine(totals, segments[:, :NUM_SUMS], segments[:, NUM_SUMS : NUM_SUMS + NUM_EXTREMES],
-                         segments[:, NUM_SUMS + NUM_EXTREMES :])
+        totals = combine(totals, slot.segment_results.numpy()[: slot.segment_count])
         if writer is not None:
             writer.append({name: arr.numpy() for name, arr in slot.arrays.items()}, slot.rows)
         done += slot.rows
@@ -363,7 +354,7 @@ def _run_scene(scene, model, *, writer, progress, source) -> dict:
         for name, arr in state.arrays.items():  # (element counts: contiguous rows, no views)
             wp.copy(slot.arrays[name], arr, count=rows * (arr.size // arr.shape[0]))
         wp.copy(slot.segment_results, state.segments, count=segments * state.segments.shape[1])
-        slot.rows, slot.segments = rows, segments
+        slot.rows, slot.segment_count = rows, segments
         slot.event = dev.stream.record_event() if cuda else None
         if pending is not None:
             consume(pending)  # host work on the previous chunk while the device runs this one
@@ -373,12 +364,27 @@ def _run_scene(scene, model, *, writer, progress, source) -> dict:
     return finalize(totals, pellets=pellets, mass=model.mass, inertia=model.inertia)
 
 
+def _run_one(scene, device, group=None, progress=None) -> dict:
+    """One scene on `device`: statistics, and with `group` (an HDF5 group) its pellets and
+    statistics written there."""
+    from .model import Model
+    from .writer import RunWriter
+
+    model = Model.from_scene(scene, device)
+    source = Source.from_scene(scene)
+    writer = None if group is None else RunWriter(group, model, scene=scene, fields=scene.output.fields,
+                                                  pellets=source.count)
+    stats = run_scene(scene, model, writer=writer, progress=progress, source=source)
+    if writer is not None:
+        writer.write_stats(stats)
+    return stats
+
+
 def run(scene, output=None, device=None, *, overwrite=False, progress=None) -> dict:
     """Run a scene (a `Scene` or a TOML path); write HDF5 to `output` (or the scene's
     `output.path`) when given. Returns the statistics (SI units, see `stats.STAT_UNITS`)."""
-    from .model import Model
     from .scene import Scene, load_scene
-    from .writer import OutputFile, RunWriter, check_output_path
+    from .writer import OutputFile, check_output_path
 
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
@@ -386,19 +392,11 @@ def run(scene, output=None, device=None, *, overwrite=False, progress=None) -> d
     if output is not None:
         check_output_path(output, overwrite)  # before any work
     dev = resolve_device(device)
-    source = Source.from_scene(scene)
-    model = Model.from_scene(scene, dev)
     if output is None:
-        return run_scene(scene, model, progress=progress, source=source)
-    seed = None if scene.shot.file else scene.shot.seed
-    with OutputFile(output, overwrite=overwrite, kind="run", device=str(dev), scene_toml=scene.to_toml(), seed=seed,
-                    precision=scene.numerics.precision) as out:
-        fields = scene.output.fields
-        writer = RunWriter(out.h5, model, scene=scene, fields=fields, pellets=source.count,
-                           chunk_rows=plan_chunk(scene, model, source.count, fields))
-        stats = run_scene(scene, model, writer=writer, progress=progress, source=source)
-        writer.write_stats(stats)
-    return stats
+        return _run_one(scene, dev, progress=progress)
+    with OutputFile(output, overwrite=overwrite, kind="run", device=str(dev), scene_toml=scene.to_toml(),
+                    seed=None if scene.shot.file else scene.shot.seed, precision=scene.numerics.precision) as out:
+        return _run_one(scene, dev, out.h5, progress)
 
 
 def sweep_points(params: dict, ties=()):
@@ -428,9 +426,8 @@ def sweep(scene, params: dict, ties=(), output=None, device=None, *, overwrite=F
     """Run `scene` at every point of a parameter sweep (e.g. the paper's mu_s in 0..0.5 with
     mu_d = 0.9 mu_s). Returns [(point, stats)]. With `output`, writes one HDF5 file: the sweep
     values in /sweep, each run in /runs/NNNN, and every statistic as an array in /stats."""
-    from .model import Model
     from .scene import Scene, load_scene, scene_from_dict, set_dotted
-    from .writer import OutputFile, RunWriter, check_output_path, unit_of_key, write_stats
+    from .writer import OutputFile, check_output_path, unit_of_key, write_stats
 
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
@@ -448,17 +445,8 @@ def sweep(scene, params: dict, ties=(), output=None, device=None, *, overwrite=F
     results = []
 
     def one(i, sc, group=None):
-        model = Model.from_scene(sc, dev)
-        source = Source.from_scene(sc)
-        writer = None
-        if group is not None:
-            writer = RunWriter(group, model, scene=sc, fields=sc.output.fields, pellets=source.count,
-                               chunk_rows=plan_chunk(sc, model, source.count, sc.output.fields))
-        stats = run_scene(sc, model, writer=writer, source=source,
-                          progress=None if progress is None else (lambda d, n: progress(i * n + d, len(scenes) * n)))
-        if writer is not None:
-            writer.write_stats(stats)
-        return stats
+        point_progress = None if progress is None else (lambda d, n: progress(i * n + d, len(scenes) * n))
+        return _run_one(sc, dev, group, point_progress)
 
     if output is None:
         for i, sc in enumerate(scenes):

@@ -62,7 +62,6 @@ def types_for(precision: str) -> SimpleNamespace:
         inertia_factor: scalar  # I / (m R^2)
         gravity: vec3  # m/s^2
         impact_duration: scalar  # s, the paper's delta t
-        bounces: wp.int32
 
     @wp.struct
     class Source:

@@ -83,14 +83,13 @@ class Model:
         return _LAST_STATE["state"]
 
     @classmethod
-    def _build(cls, scene, device) -> "Model":
-        kern = kernels_for(scene.numerics.precision)
+    def _build(cls, diameter, density, planes, physics_scene, precision, device) -> "Model":
+        kern = kernels_for(precision)
         scalar, vec3 = kern.scalar, kern.vec3
-        radius = 0.5 * scene.shot.diameter
-        mass = scene.shot.density * 4.0 / 3.0 * math.pi * radius**3
+        radius = 0.5 * diameter
+        mass = density * 4.0 / 3.0 * math.pi * radius**3
         surfaces = kern.Surfaces()
-        planes = scene.surfaces
-        np_dtype = np.dtype(scene.numerics.precision)
+        np_dtype = np.dtype(precision)
 
         def column(values, dtype):
             shape = (len(planes), 3) if dtype is vec3 else (len(planes),)
@@ -104,12 +103,11 @@ class Model:
         physics = kern.Physics()
         physics.radius = scalar(radius)
         physics.inertia_factor = scalar(SOLID_SPHERE_INERTIA_FACTOR)
-        physics.gravity = vec3(*scene.physics.gravity)
-        physics.impact_duration = scalar(scene.physics.impact_duration)
-        physics.bounces = scene.physics.bounces
+        physics.gravity = vec3(*physics_scene.gravity)
+        physics.impact_duration = scalar(physics_scene.impact_duration)
         return cls(
-            device=device, precision=scene.numerics.precision, radius=radius, mass=mass,
-            inertia=SOLID_SPHERE_INERTIA_FACTOR * mass * radius**2, bounces=scene.physics.bounces,
+            device=device, precision=precision, radius=radius, mass=mass,
+            inertia=SOLID_SPHERE_INERTIA_FACTOR * mass * radius**2, bounces=physics_scene.bounces,
             surfaces=surfaces, physics=physics, kernels=kern,
         )
 
@@ -119,12 +117,7 @@ _LAST_STATE: dict = {}
 
 @functools.lru_cache(maxsize=16)
 def _cached_model(diameter, density, surfaces, physics, precision, device_alias) -> Model:
-    from types import SimpleNamespace
-
-    device = wp.get_device(device_alias)
-    scene = SimpleNamespace(shot=SimpleNamespace(diameter=diameter, density=density), surfaces=surfaces,
-                            physics=physics, numerics=SimpleNamespace(precision=precision))
-    return Model._build(scene, device)
+    return Model._build(diameter, density, surfaces, physics, precision, wp.get_device(device_alias))
 
 
 @functools.lru_cache(maxsize=8)
@@ -171,11 +164,16 @@ class State:
         self.segments = wp.empty((segments, NUM_SUMS + 2 * NUM_EXTREMES), dtype=wp.float64, device=model.device)
 
     @staticmethod
-    def bytes_per_pellet(model_precision: str, fields, bounces: int) -> float:
-        """Device bytes per pellet for these output fields, partial statistics included."""
-        total = (NUM_SUMS + 2 * NUM_EXTREMES) * 8 / PER_THREAD
+    def field_bytes_per_pellet(precision: str, fields, bounces: int) -> int:
+        """Bytes per pellet of these output fields (on the device, and again on the host)."""
+        total = 0
         for name in fields:
             _member, kind, per_bounce, _unit, _doc = FIELD_SPECS[name]
-            size = field_numpy_dtype(kind, model_precision).itemsize * (3 if kind == "vec3" else 1)
+            size = field_numpy_dtype(kind, precision).itemsize * (3 if kind == "vec3" else 1)
             total += size * (bounces if per_bounce else 1)
         return total
+
+    @staticmethod
+    def bytes_per_pellet(precision: str, fields, bounces: int) -> float:
+        """Device bytes per pellet: the output fields plus the partial statistics."""
+        return (NUM_SUMS + 2 * NUM_EXTREMES) * 8 / PER_THREAD + State.field_bytes_per_pellet(precision, fields, bounces)

@@ -86,14 +86,18 @@ def empty_totals():
     )
 
 
-def combine(totals, segment_sums, segment_mins, segment_maxs):
-    """Fold per-segment partials (shape (n, ...), in pellet order) into running totals.
+def combine(totals, segment_results):
+    """Fold per-segment results (rows in pellet order: NUM_SUMS sums, then NUM_EXTREMES minima and
+    NUM_EXTREMES maxima) into running totals.
 
     Sums are added strictly left to right (np.cumsum is sequential), so they do not depend on how
     the segments were split into chunks. Each segment's (landed, range sum, range_m2) is kept
-    (24 bytes per 65,536 pellets) for `finalize` to merge the spreads in one exact pass.
+    (24 bytes per 65,536 pellets) for `finalize` to merge the spreads in one stable pass.
     """
     sums, mins, maxs, segments = totals
+    segment_sums = segment_results[:, :NUM_SUMS]
+    segment_mins = segment_results[:, NUM_SUMS : NUM_SUMS + NUM_EXTREMES]
+    segment_maxs = segment_results[:, NUM_SUMS + NUM_EXTREMES :]
     if len(segment_sums):
         spread = segment_sums[:, [SUM["landed"], SUM["range"], SUM["range_m2"]]]
         segments = np.vstack([segments, spread])
@@ -116,10 +120,9 @@ def merged_m2(segments) -> float:
 
 def finalize(totals, *, pellets: int, mass: float, inertia: float) -> dict[str, float]:
     """Turn the reduced sums into the statistics of `STAT_UNITS` (NaN where a mean is empty)."""
-    sums, mins, maxs = totals[:3]
+    sums, mins, maxs, segments = totals
     s = {name: float(sums[i]) for i, name in enumerate(SUM_NAMES)}
-    if len(totals) > 3:
-        s["range_m2"] = merged_m2(totals[3])
+    s["range_m2"] = merged_m2(segments)
 
     def mean(key, count):
         return s[key] / s[count] if s[count] > 0 else math.nan
@@ -210,4 +213,5 @@ def statistics_from_arrays(
                 sums[SUM["landed_slip"]] = mask.sum()
         if mask.any():
             mins[j], maxs[j] = r[mask].min(), r[mask].max()
-    return finalize((sums, mins, maxs), pellets=pellets, mass=mass, inertia=inertia)
+    spread = np.array([[sums[SUM["landed"]], sums[SUM["range"]], sums[SUM["range_m2"]]]])
+    return finalize((sums, mins, maxs, spread), pellets=pellets, mass=mass, inertia=inertia)

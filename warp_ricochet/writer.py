@@ -139,7 +139,7 @@ class OutputFile:
 class RunWriter:
     """Writes one run into `group`: constants, per-pellet chunks, statistics."""
 
-    def __init__(self, group: h5py.Group, model, *, scene, fields, pellets: int, chunk_rows: int):
+    def __init__(self, group: h5py.Group, model, *, scene, fields, pellets: int):
         self.group = group
         self.fields = tuple(fields)
         self.rows = 0
@@ -149,7 +149,7 @@ class RunWriter:
             group.attrs["seed"] = scene.shot.seed
         self._write_constants(group.create_group("constants"), model, scene, pellets)
         self.datasets = {}
-        h5_rows = max(1, min(chunk_rows, MAX_H5_CHUNK_ROWS, pellets))
+        h5_rows = max(1, min(MAX_H5_CHUNK_ROWS, pellets))  # compute chunks are whole multiples of it
         for name in self.fields:
             _member, kind, per_bounce, unit, doc = FIELD_SPECS[name]
             shape = field_shape(kind, per_bounce, 0, model.bounces)
