@@ -389,7 +389,7 @@ def test_messages():
         scene_from_dict(set_dotted(paper(), "shot.direction", [math.nan, 1, 0]))
     with pytest.raises(SceneError, match="is required"):
         scene_from_dict(_delete("surfaces", "0", "mu_s")(paper()))
-    with pytest.raises(SceneError, match="allowed: initial, impact, landing, initial.position"):
+    with pytest.raises(SceneError, match="allowed: initial, impact, landing, collisions, release, initial.position"):
         scene_from_dict(set_dotted(paper(), "output.fields", ["x"]))
 
 

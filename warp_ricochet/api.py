@@ -208,7 +208,7 @@ class Source:
     @classmethod
     def from_scene(cls, scene):
         if scene.shot.file is None:
-            return cls(count=scene.shot.count)
+            return cls(count=scene.shot.pellets)
         from .scene import load_pellet_file
 
         arrays = load_pellet_file(scene.shot.file)

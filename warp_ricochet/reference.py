@@ -117,7 +117,7 @@ def next_contact(position, velocity, gravity, radius, points, normals, touching)
 
 def sample_launch(shot, rng: np.random.Generator):
     """Launch states with NumPy's RNG (same distribution as the kernels, not the same draws)."""
-    n = shot.count
+    n = shot.pellets
     z = rng.uniform(-1.0, 1.0, n)  # uniform in the unit ball, as the kernels sample it
     azimuth = rng.uniform(0.0, 2.0 * np.pi, n)
     r = np.cbrt(rng.uniform(0.0, 1.0, n))

@@ -8,6 +8,8 @@ Layout of a scene file::
     [shot]        pellets: sampled (count, speed, direction, jitter, envelope, spin, seed) or read from `file`
     [[surfaces]]  planes: point, normal (towards the incoming pellets), restitution, mu_s, mu_d, name
     [physics]     gravity, impact_duration (the paper's delta t), bounces
+    [collisions]  pellet-pellet collisions (off by default): enabled, restitution, mu_s, mu_d, and the
+                  time stepping of the dense phase (see docs/collisions.md)
     [numerics]    precision, chunk_size, fast_math
     [output]      path (HDF5), fields
 
@@ -30,7 +32,7 @@ import numpy as np
 
 from warp_ricochet.errors import SceneError
 
-__all__ = ["Vec3", "Shot", "Surface", "Physics", "Numerics", "Output", "Scene", "OUTPUT_FIELDS",
+__all__ = ["Vec3", "Shot", "Surface", "Physics", "Collisions", "Numerics", "Output", "Scene", "OUTPUT_FIELDS",
            "load_scene", "scene_from_dict", "apply_override", "set_dotted", "parse_sweep", "parse_tie",
            "load_pellet_file"]
 
@@ -44,7 +46,14 @@ OUTPUT_FIELDS = {
                "slipped", "surface"),
     "landing": ("time", "position", "velocity", "range", "surface"),
 }
-ALL_FIELDS = tuple(f"{group}.{name}" for group, names in OUTPUT_FIELDS.items() for name in names)
+CORE_FIELDS = tuple(f"{group}.{name}" for group, names in OUTPUT_FIELDS.items() for name in names)
+# written only by runs with pellet-pellet collisions
+COLLISION_OUTPUT_FIELDS = {
+    "collisions": ("count", "last_time"),
+    "release": ("time", "position", "velocity", "angular_velocity"),
+}
+COLLISION_FIELDS = tuple(f"{group}.{name}" for group, names in COLLISION_OUTPUT_FIELDS.items() for name in names)
+ALL_FIELDS = CORE_FIELDS + COLLISION_FIELDS
 
 
 @dataclass(frozen=True)
@@ -52,7 +61,8 @@ class Shot:
     """The pellets: sampled from count/speed/direction/... or read from a pellet file (`file`, absolute path)."""
     diameter: float                                   # m
     density: float                                    # kg/m^3
-    count: int = 0                                    # pellets
+    count: int = 0                                    # pellets per shot
+    shots: int = 1                                    # independent shots of `count` pellets each
     speed: float = 0.0                                # m/s
     direction: Vec3 = (1.0, -1.0, 0.0)                # not normalised
     direction_jitter: Vec3 = (0.0, 0.0, 0.0)
@@ -61,6 +71,11 @@ class Shot:
     spin: Vec3 = (0.0, 0.0, 0.0)                      # rad/s
     seed: int = 0
     file: str | None = None
+
+    @property
+    def pellets(self) -> int:
+        """All pellets of the run: count per shot times shots."""
+        return self.count * self.shots
 
 
 @dataclass(frozen=True)
@@ -81,6 +96,27 @@ class Physics:
     bounces: int = 1
 
 
+# Steel on steel (docs/collisions.md): restitution 0.9 for hardened steel spheres at low speed
+# (Goldsmith, "Impact", 1960); dry friction mu_s 0.74, mu_d 0.57 (Serway & Jewett, Physics for
+# Scientists and Engineers, table 5.1). contact_duration: the Hertz contact time of two 2.5 mm steel
+# spheres at 10 m/s is about 0.3 us; 1 us is the TC model's default window.
+@dataclass(frozen=True)
+class Collisions:
+    """Pellet-pellet collisions (the paper neglects them). Off unless `enabled`."""
+    enabled: bool = False
+    restitution: float = 0.9                          # pair E, on the normal relative velocity
+    mu_s: float = 0.74
+    mu_d: float | None = 0.57                         # <= mu_s; defaults to min(0.57, mu_s)
+    contact_duration: float = 1e-6                    # s, TC model: a pellet hit again within it rebounds elastically
+    time_step: float | None = None                    # s, fixed step of the dense phase; None adapts it
+    step_fraction: float = 0.25                       # adaptive step: closing displacement per step / diameter
+    skin: float = 0.5                                 # neighbour-list skin, in diameters
+    rounds: int = 4                                   # event rounds per step (several contacts of one pellet)
+    max_neighbours: int = 32                          # per pellet in the neighbour list
+    max_steps: int = 1_000_000                        # the dense phase stops (and says so) after these
+    frame_every: int = 0                              # H5MD trajectory frame every k steps (0: none)
+
+
 @dataclass(frozen=True)
 class Numerics:
     precision: str = "float32"
@@ -91,7 +127,7 @@ class Numerics:
 @dataclass(frozen=True)
 class Output:
     path: str | None = None                           # relative to the current working directory
-    fields: tuple[str, ...] = ALL_FIELDS              # "group.field", canonical order
+    fields: tuple[str, ...] = CORE_FIELDS             # "group.field", canonical order
 
 
 @dataclass(frozen=True)
@@ -102,6 +138,7 @@ class Scene:
     numerics: Numerics
     output: Output
     source: str = dataclasses.field(default="", compare=False)
+    collisions: Collisions = Collisions()
 
     def to_dict(self) -> dict:
         """Plain TOML-able dict (None omitted, tuples as lists); scene_from_dict(s.to_dict()) == s."""
@@ -109,8 +146,11 @@ class Scene:
         if self.shot.file is not None:
             for key in _FILE_EXCLUSIVE:
                 shot.pop(key, None)
-        return {"shot": shot, "surfaces": [_plain(s) for s in self.surfaces], "physics": _plain(self.physics),
-                "numerics": _plain(self.numerics), "output": _plain(self.output)}
+        out = {"shot": shot, "surfaces": [_plain(s) for s in self.surfaces], "physics": _plain(self.physics),
+               "numerics": _plain(self.numerics), "output": _plain(self.output)}
+        if self.collisions.enabled:
+            out["collisions"] = _plain(self.collisions)
+        return out
 
     def to_toml(self) -> str:
         return "\n".join(_toml_lines(self.to_dict(), "")).lstrip("\n") + "\n"
@@ -307,15 +347,18 @@ def _fields(v, path):
     for name in v:
         if isinstance(name, str) and name in OUTPUT_FIELDS:
             chosen.update(f"{name}.{f}" for f in OUTPUT_FIELDS[name])
+        elif isinstance(name, str) and name in COLLISION_OUTPUT_FIELDS:
+            chosen.update(f"{name}.{f}" for f in COLLISION_OUTPUT_FIELDS[name])
         elif isinstance(name, str) and name in ALL_FIELDS:
             chosen.add(name)
         else:
-            raise _err(path, name, "unknown field; allowed: " + ", ".join((*OUTPUT_FIELDS, *ALL_FIELDS)))
+            raise _err(path, name, "unknown field; allowed: " + ", ".join((*OUTPUT_FIELDS, *COLLISION_OUTPUT_FIELDS, *ALL_FIELDS)))
     return tuple(f for f in ALL_FIELDS if f in chosen)
 
 
 _SHOT = {
     "count": _int(1, INT32_MAX),
+    "shots": _int(1, INT32_MAX),
     "diameter": _range(MIN_DIAMETER, MAX_DIAMETER, unit="m"),
     "density": _range(MIN_DENSITY, MAX_DENSITY, unit="kg/m^3"),
     "speed": _range(0, MAX_SPEED, above=True, unit="m/s"),
@@ -338,9 +381,23 @@ _SURFACE = {
 }
 _PHYSICS = {"gravity": _vec3(unit="m/s^2", bound=MAX_GRAVITY), "impact_duration": _range(0, MAX_IMPACT_DURATION, unit="s"),
             "bounces": _int(1, 16)}
+_COLLISIONS = {
+    "enabled": _bool,
+    "restitution": _number(0, 1),
+    "mu_s": _range(0, MAX_FRICTION),
+    "mu_d": _range(0, MAX_FRICTION),
+    "contact_duration": _range(0, MAX_IMPACT_DURATION, unit="s"),
+    "time_step": _range(0, MAX_IMPACT_DURATION, above=True, unit="s"),
+    "step_fraction": _range(0, 1, above=True),
+    "skin": _range(0, 10, above=True),
+    "rounds": _int(1, 64),
+    "max_neighbours": _int(1, 256),
+    "max_steps": _int(1, INT32_MAX),
+    "frame_every": _int(0, INT32_MAX),
+}
 _NUMERICS = {"precision": _str(("float32", "float64")), "chunk_size": _int(1, INT32_MAX), "fast_math": _bool}
 _OUTPUT = {"path": _str(), "fields": _fields}
-_TOP = ("shot", "surfaces", "physics", "numerics", "output")
+_TOP = ("shot", "surfaces", "physics", "collisions", "numerics", "output")
 
 
 def _table(raw, path: str, schema: dict, required=()) -> dict:
@@ -364,6 +421,8 @@ def _shot(raw, base_dir) -> Shot:
         for key in ("count", "speed"):
             if key not in kw:
                 raise _err(f"shot.{key}", _MISSING, f"is required without shot.file; it {_SHOT[key].rule}")
+        if kw["count"] * kw.get("shots", 1) > INT32_MAX:
+            raise _err("shot.shots", kw["shots"], f"times shot.count ({kw['count']}) must be at most {INT32_MAX} pellets")
         return Shot(**kw)
     for key in _FILE_EXCLUSIVE:
         if key in kw:
@@ -372,8 +431,11 @@ def _shot(raw, base_dir) -> Shot:
     n = len(load_pellet_file(kw["file"])["position"])
     if n > INT32_MAX:
         raise _err("shot.file", kw["file"], f"holds {n} pellets; at most {INT32_MAX} are allowed")
-    if kw.setdefault("count", n) != n:
-        raise _err("shot.count", kw["count"], f"must equal the number of pellets in shot.file ({n}) or be left out")
+    shots = kw.get("shots", 1)
+    if n % shots:
+        raise _err("shot.shots", shots, f"must divide the number of pellets in shot.file ({n}): consecutive blocks are shots")
+    if kw.setdefault("count", n // shots) != n // shots:
+        raise _err("shot.count", kw["count"], f"must equal the pellets per shot in shot.file ({n} / {shots} shots) or be left out")
     return Shot(**kw)
 
 
@@ -387,6 +449,16 @@ def _surface(raw, path: str) -> Surface:
     return Surface(**kw)
 
 
+def _collisions(raw) -> Collisions:
+    kw = _table(raw, "collisions", _COLLISIONS)
+    mu_s = kw.get("mu_s", Collisions.mu_s)
+    if "mu_d" not in kw:
+        kw["mu_d"] = min(Collisions.mu_d, mu_s)
+    elif kw["mu_d"] > mu_s:
+        raise _err("collisions.mu_d", raw["mu_d"], f"must be a number in [0, mu_s = {mu_s:g}]")
+    return Collisions(**kw)
+
+
 def scene_from_dict(raw: dict, base_dir=".") -> Scene:
     """Validate a raw scene dict (as read from TOML); shot.file is resolved relative to `base_dir`."""
     if not isinstance(raw, dict):
@@ -397,12 +469,21 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
     surfaces = [] if raw.get("surfaces") is None else raw["surfaces"]
     if not isinstance(surfaces, (list, tuple)):
         raise _err("surfaces", surfaces, "must be an array of tables ([[surfaces]])")
+    collisions = _collisions(raw.get("collisions"))
+    output = _table(raw.get("output"), "output", _OUTPUT)
+    if "fields" not in output:
+        output["fields"] = ALL_FIELDS if collisions.enabled else CORE_FIELDS
+    elif not collisions.enabled:
+        extra = [f for f in output["fields"] if f in COLLISION_FIELDS]
+        if extra:
+            raise _err("output.fields", extra[0], "needs collisions.enabled = true (pellet-pellet collision fields)")
     return Scene(
         shot=_shot(raw["shot"], base_dir),
         surfaces=tuple(_surface(s, f"surfaces.{i}") for i, s in enumerate(surfaces)),
         physics=Physics(**_table(raw.get("physics"), "physics", _PHYSICS)),
         numerics=Numerics(**_table(raw.get("numerics"), "numerics", _NUMERICS)),
-        output=Output(**_table(raw.get("output"), "output", _OUTPUT)),
+        output=Output(**output),
+        collisions=collisions,
     )
 
 
