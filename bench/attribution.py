@@ -57,7 +57,7 @@ def main():
         kernels.make_sampler = patch or original
         kernel = kernels.ricochet_kernel_for.__wrapped__("float32", False, False, 1, 1, cap)
         kernels.make_sampler = original
-        launch = lambda: wp.launch(kernel, dim=threads, inputs=[0, rows, src, model.surfaces, model.physics, state.outputs],
+        launch = lambda: wp.launch(kernel, dim=threads, inputs=[0, rows, src, model.surfaces, model.physics, state.outputs, state.cloud],
                                    outputs=[state.partial_sums, state.partial_min, state.partial_max], device=dev)
         launch(); wp.synchronize_device(dev)
         times = []

@@ -41,7 +41,7 @@ def main(argv=None):
             cap = {"none": None, "default": "default"}[cap_text] if cap_text in ("none", "default") else int(cap_text)
             kernel = ricochet_kernel_for(precision, False, False, 1, 1, cap, fast)
             cap_text = cap_text + ("+fast" if fast else "")
-            launch = lambda: wp.launch(kernel, dim=threads, inputs=[0, rows, src, model.surfaces, model.physics, state.outputs],
+            launch = lambda: wp.launch(kernel, dim=threads, inputs=[0, rows, src, model.surfaces, model.physics, state.outputs, state.cloud],
                                        outputs=[state.partial_sums, state.partial_min, state.partial_max], device=dev,
                                        block_dim=block_dim)
             reduce = lambda: wp.launch(kern.reduce_kernel, dim=(segments, NUM_SUMS + NUM_EXTREMES),

@@ -281,6 +281,9 @@ def source_struct(scene, model):
 def run_scene(scene, model, *, writer=None, progress=None, source=None) -> dict:
     """Run every pellet of `scene` through `model`'s device; return the statistics."""
     with _PINNED_LOCK if model.device.is_cuda else contextlib.nullcontext():
+        if scene.collisions.enabled and scene.shot.count > 1:  # one pellet per shot: nothing to meet
+            from .collisions import run_collision_scene
+            return run_collision_scene(scene, model, writer=writer, progress=progress, source=source)
         return _run_scene(scene, model, writer=writer, progress=progress, source=source)
 
 
@@ -335,7 +338,7 @@ def _run_scene(scene, model, *, writer, progress, source) -> dict:
         wp.launch(
             ricochet_kernel,
             dim=threads,
-            inputs=[start, rows, src, model.surfaces, model.physics, state.outputs],
+            inputs=[start, rows, src, model.surfaces, model.physics, state.outputs, state.cloud],
             outputs=[state.partial_sums, state.partial_min, state.partial_max],
             device=dev,
             block_dim=CUDA_BLOCK_DIM,

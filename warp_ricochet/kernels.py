@@ -99,7 +99,84 @@ def types_for(precision: str) -> SimpleNamespace:
         landing_range: wp.array(dtype=scalar)
         landing_surface: wp.array(dtype=wp.int16)
 
-    return SimpleNamespace(scalar=scalar, vec3=vec3, Surfaces=Surfaces, Physics=Physics, Source=Source, Outputs=Outputs)
+    @wp.struct
+    class Cloud:
+        """Per-pellet and per-shot arrays of the dense phase (`collisions`). Each pellet's state is
+        a reference state (position, velocity at `time`), valid until its next event: the core
+        kernel continues from it exactly as from a launch."""
+
+        position: wp.array(dtype=vec3)  # m, at `time` (or where the flight ended, ENDED)
+        velocity: wp.array(dtype=vec3)  # m/s
+        angular_velocity: wp.array(dtype=vec3)  # rad/s
+        time: wp.array(dtype=scalar)  # s since launch
+        phase: wp.array(dtype=wp.int32)  # FLYING 0, ENDED 1 (landed, or at rest on a surface)
+        end_surface: wp.array(dtype=wp.int32)
+        touching: wp.array(dtype=wp.int32)  # the plane just left (flight.next_contact), or -1
+        impacts: wp.array(dtype=wp.int32)
+        last_slipped: wp.array(dtype=wp.int32)
+        ricochet_point: wp.array(dtype=vec3)  # m, contact point of the last ricochet
+        ricochet_time: wp.array(dtype=scalar)
+        first_surface: wp.array(dtype=wp.int32)  # the first impact, for the statistics
+        first_slipped: wp.array(dtype=wp.int32)
+        first_velocity_before: wp.array(dtype=vec3)
+        first_angular_velocity_before: wp.array(dtype=vec3)
+        first_velocity_after: wp.array(dtype=vec3)
+        first_angular_velocity_after: wp.array(dtype=vec3)
+        launch_velocity: wp.array(dtype=vec3)
+        launch_angular_velocity: wp.array(dtype=vec3)
+        collision_count: wp.array(dtype=wp.int32)
+        last_collision: wp.array2d(dtype=scalar)  # (2, n) s since launch, NaN: never (round buffers)
+        energy_lost: wp.array(dtype=scalar)  # J, half of each of its pair collisions' losses
+        # round buffers (read [b], write [1 - b]): the reference state
+        round_position: wp.array2d(dtype=vec3)
+        round_velocity: wp.array2d(dtype=vec3)
+        round_spin: wp.array2d(dtype=vec3)
+        round_time: wp.array2d(dtype=scalar)
+        event_time: wp.array(dtype=scalar)  # s since launch
+        event_wait: wp.array(dtype=scalar)  # s after the reference time (plane events)
+        event_partner: wp.array(dtype=wp.int32)  # pellet row, -2 - plane, -1 none
+        changed: wp.array(dtype=wp.int32)
+        # neighbour lists
+        grid_point: wp.array(dtype=vec3)
+        build_offset: wp.array(dtype=vec3)
+        neighbours: wp.array2d(dtype=wp.int32)
+        neighbour_count: wp.array(dtype=wp.int32)
+        # release outputs (empty unless asked for)
+        release_time: wp.array(dtype=scalar)
+        release_position: wp.array(dtype=vec3)
+        release_velocity: wp.array(dtype=vec3)
+        release_angular_velocity: wp.array(dtype=vec3)
+        release_last_collision: wp.array(dtype=scalar)
+        # shots
+        drift_origin: wp.array(dtype=vec3)
+        drift_velocity: wp.array(dtype=vec3)
+        clock: wp.array2d(dtype=scalar)  # (shots, NUM_CLOCK)
+        shot_flags: wp.array2d(dtype=wp.int32)
+        flags: wp.array(dtype=wp.int32)
+        # slot -> pellet of the core kernel's release mode: slot s * stride + k is pellet s * count + k
+        shot_count: wp.int32
+        shot_stride: wp.int32
+
+    @wp.struct
+    class Pair:
+        """Pellet-pellet law and stepping parameters (SI)."""
+
+        count: wp.int32  # pellets per shot
+        mass: scalar  # kg
+        inertia: scalar  # kg m^2
+        restitution: scalar
+        mu_s: scalar
+        mu_d: scalar
+        contact_duration: scalar  # s, TC model
+        fixed_step: scalar  # s, 0: adaptive
+        step_fraction: scalar
+        reach: scalar  # m, 2R + skin
+        half_skin: scalar  # m
+        max_steps: scalar
+        block_steps: wp.int32  # a shot's checkpoints (settling, frames) are every this many of its steps
+
+    return SimpleNamespace(scalar=scalar, vec3=vec3, Surfaces=Surfaces, Physics=Physics, Source=Source, Outputs=Outputs,
+                           Cloud=Cloud, Pair=Pair)
 
 
 # Register cap of the CUDA ricochet kernel per (precision, fast_math) (None: the compiler's
@@ -113,14 +190,21 @@ CUDA_BLOCK_DIM = 256  # threads per CUDA block of the ricochet kernel (64, 128: 
 
 @functools.cache
 def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bounces: int, planes: int,
-                        max_registers="default", fast_math=False):
+                        max_registers="default", fast_math=False, from_release=False):
     """The fused ricochet kernel, specialised at code generation (`wp.static`): without
     `write_outputs` it holds no per-pellet output code at all (statistics-only runs); it reads
     launch states from arrays only `from_file`; its loops over `bounces` and (up to
     MAX_STATIC_PLANES) `planes` are unrolled. Fewer live values and branches, more threads per SM.
+
+    `from_release`: each pellet continues from where the dense phase of `collisions` left it
+    (its reference state, impacts made, flight ended or not); threads run over the slots of the
+    shot-padded layout (`Cloud.shot_stride` slots per shot), so statistics segments hold whole
+    shots and the statistics do not depend on the chunk size.
     """
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics, Source, Outputs = t.scalar, t.vec3, t.Surfaces, t.Physics, t.Source, t.Outputs
+    Cloud = t.Cloud
+    RELEASE = from_release
     floats_t = wp.types.vector(NUM_FLOATS, scalar)
     extremes_t = wp.types.vector(NUM_EXTREMES, scalar)
     impact_law = make_impact_law(scalar)
@@ -167,6 +251,7 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bo
         surfaces: Surfaces,
         physics: Physics,
         out: Outputs,
+        cloud: Cloud,
         counts: wp.vec4i,  # hits, slip, landed, landed_slip
         acc: floats_t,
         lo: extremes_t,
@@ -177,7 +262,11 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bo
         position = vec3()
         velocity = vec3()
         spin = vec3()
-        if wp.static(FROM_FILE):
+        if wp.static(RELEASE):
+            position = cloud.position[row]
+            velocity = cloud.velocity[row]
+            spin = cloud.angular_velocity[row]
+        elif wp.static(FROM_FILE):
             position = source.position[row]
             velocity = source.velocity[row]
             spin = source.angular_velocity[row]
@@ -186,7 +275,7 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bo
                 source.seed, index, source.speed, source.direction, source.jitter,
                 source.envelope_center, source.envelope_radius, source.spin,
             )
-        if wp.static(WRITE):
+        if wp.static(WRITE and not RELEASE):  # (the dense phase wrote them)
             if out.initial_position.shape[0] > 0:
                 out.initial_position[row] = position
             if out.initial_velocity.shape[0] > 0:
@@ -208,9 +297,32 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bo
         # it stays on it, the flight ends there; not an impact)
         flight_state = wp.int32(FLYING)
         resting_surface = wp.int32(-1)
+        if wp.static(RELEASE):
+            launch_velocity = cloud.launch_velocity[row]
+            launch_spin = cloud.launch_angular_velocity[row]
+            launch_v2 = wp.dot(launch_velocity, launch_velocity)
+            launch_w2 = wp.dot(launch_spin, launch_spin)
+            time = cloud.time[row]
+            touching = cloud.touching[row]
+            ricochet_point = cloud.ricochet_point[row]
+            ricochet_time = cloud.ricochet_time[row]
+            last_slipped = cloud.last_slipped[row]
+            impacts = cloud.impacts[row]
+            if cloud.phase[row] != 0:  # its flight ended in the dense phase, on end_surface
+                flight_state = RESTING
+                resting_surface = cloud.end_surface[row]
+            if impacts > 0:  # the first impact happened in the dense phase
+                first_normal = surfaces.normal[cloud.first_surface[row]]
+                counts[0] += 1
+                counts[1] += cloud.first_slipped[row]
+                acc = add_impact_sums(acc, F_PRE, cloud.first_velocity_before[row], cloud.first_angular_velocity_before[row], first_normal)
+                acc = add_impact_sums(acc, F_POST, cloud.first_velocity_after[row], cloud.first_angular_velocity_after[row], first_normal)
+                acc[F_V2_LAUNCH] += launch_v2
+                acc[F_W2_LAUNCH] += launch_w2
+        start_impacts = impacts
         for bounce in range(wp.static(BOUNCES)):  # unrolled (bounces <= 16)
             impacted = wp.int32(0)
-            if flight_state == FLYING:
+            if flight_state == FLYING and bounce >= start_impacts:
                 dt, k = next_contact(position, velocity, gravity, radius, surfaces.point, surfaces.normal, touching)
                 if k < 0:
                     flight_state = ESCAPED
@@ -269,7 +381,7 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bo
                             flight_state = RESTING
                             resting_surface = k
             if wp.static(WRITE):
-                if impacted == 0:  # no impact at this bounce: mark it missing
+                if impacted == 0 and bounce >= start_impacts:  # no impact at this bounce: mark it missing
                     if out.impact_time.shape[0] > 0:
                         out.impact_time[row, bounce] = scalar(wp.nan)
                     if out.impact_position.shape[0] > 0:
@@ -349,6 +461,7 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bo
         surfaces: Surfaces,
         physics: Physics,
         out: Outputs,
+        cloud: Cloud,  # the dense phase's release state (from_release), else empty
         partial_sums: wp.array2d(dtype=wp.float64),  # (NUM_SUMS, threads): counts, then floats
         partial_min: wp.array2d(dtype=wp.float64),  # (NUM_EXTREMES, threads)
         partial_max: wp.array2d(dtype=wp.float64),
@@ -364,9 +477,18 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bo
         for j in range(per_thread):
             row = group * segment + j * lanes + lane
             if row < count:
-                counts, acc, lo, hi, range_shift = ricochet_pellet(
-                    first_index + row, row, source, surfaces, physics, out, counts, acc, lo, hi, range_shift
-                )
+                if wp.static(RELEASE):  # slot -> pellet; padding slots hold none
+                    shot = row / cloud.shot_stride
+                    member = row - shot * cloud.shot_stride
+                    if member < cloud.shot_count:
+                        counts, acc, lo, hi, range_shift = ricochet_pellet(
+                            0, shot * cloud.shot_count + member, source, surfaces, physics, out, cloud,
+                            counts, acc, lo, hi, range_shift
+                        )
+                else:
+                    counts, acc, lo, hi, range_shift = ricochet_pellet(
+                        first_index + row, row, source, surfaces, physics, out, cloud, counts, acc, lo, hi, range_shift
+                    )
         # widen once per thread: float64 from here on. Ranges were summed as deviations from the
         # thread's first range: the range row gets the plain sum back, the m2 row the squared
         # deviations about the thread's mean (no cancellation; merged across threads by Chan).

@@ -36,9 +36,16 @@ FIELD_SPECS = {
     "landing.velocity": ("landing_velocity", "vec3", False, "m/s", "velocity at landing"),
     "landing.range": ("landing_range", "scalar", False, "m", "distance from the last ricochet point to the landing point (eq. 42)"),
     "landing.surface": ("landing_surface", "int16", False, "1", "index of the surface landed on, -1 none"),
+    # runs with pellet-pellet collisions (written from the dense phase's arrays, not Outputs)
+    "collisions.count": (None, "int32", False, "1", "pellet-pellet collisions of the pellet"),
+    "collisions.last_time": (None, "scalar", False, "s", "time of its last pellet-pellet collision since launch (NaN: none)"),
+    "release.time": (None, "scalar", False, "s", "when the time stepping handed it to the exact flight (or its flight ended in it)"),
+    "release.position": (None, "vec3", False, "m", "centre at release"),
+    "release.velocity": (None, "vec3", False, "m/s", "velocity at release"),
+    "release.angular_velocity": (None, "vec3", False, "rad/s", "angular velocity at release"),
 }
 
-_INT_DTYPES = {"int8": (wp.int8, np.int8), "int16": (wp.int16, np.int16)}
+_INT_DTYPES = {"int8": (wp.int8, np.int8), "int16": (wp.int16, np.int16), "int32": (wp.int32, np.int32)}
 
 
 def field_numpy_dtype(kind: str, precision: str):
@@ -127,9 +134,23 @@ def _empty_outputs(precision: str, device_alias: str):
     device = wp.get_device(device_alias)
     outputs = kern.Outputs()
     for member, kind, per_bounce, _unit, _doc in FIELD_SPECS.values():
+        if member is None:
+            continue
         dtype = {"vec3": kern.vec3, "scalar": kern.scalar}.get(kind) or _INT_DTYPES[kind][0]
         setattr(outputs, member, wp.empty((0, 0) if per_bounce else 0, dtype=dtype, device=device))
     return outputs
+
+
+@functools.lru_cache(maxsize=8)
+def empty_cloud(precision: str, device_alias: str):
+    """A Cloud struct whose arrays are all empty: what runs without collisions pass."""
+    kern = kernels_for(precision)
+    device = wp.get_device(device_alias)
+    cloud = kern.Cloud()
+    for name, var in kern.Cloud.vars.items():
+        if wp.types.is_array(var.type):
+            setattr(cloud, name, wp.empty((0,) * var.type.ndim, dtype=var.type.dtype, device=device))
+    return cloud
 
 
 def threads_for(rows: int) -> int:
@@ -147,10 +168,13 @@ class State:
         self.fields = tuple(fields)
         self.arrays = {}
         self.outputs = _empty_outputs(model.precision, model.device.alias)
+        self.cloud = empty_cloud(model.precision, model.device.alias)
         if self.fields:
             empty = self.outputs
             self.outputs = kern.Outputs()
             for name, (member, kind, per_bounce, _unit, _doc) in FIELD_SPECS.items():
+                if member is None:
+                    continue  # collision fields: the dense phase's arrays (api)
                 arr = getattr(empty, member)
                 if name in self.fields:
                     shape = (capacity, model.bounces) if per_bounce else (capacity,)

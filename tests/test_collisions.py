@@ -1,0 +1,267 @@
+"""Pellet-pellet collisions: the Warp pair law against the float64 reference, the time-stepped dense
+phase against the event-driven reference, conservation, isolation of shots, determinism, output."""
+
+import math
+
+import h5py
+import numpy as np
+import pytest
+import warp as wp
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from tests.helpers import GROUND, make_scene, paper_raw
+from warp_ricochet import api
+from warp_ricochet.collision_reference import pair_law as reference_pair_law
+from warp_ricochet.collision_reference import simulate_collisions
+from warp_ricochet.impact_law import SOLID_SPHERE_INERTIA_FACTOR, make_pair_law
+
+wp.config.log_level = wp.LOG_WARNING
+
+_pair_law64 = make_pair_law(wp.float64)
+
+
+@wp.kernel(enable_backward=False)
+def _pair_kernel(
+    xa: wp.array(dtype=wp.vec3d), va: wp.array(dtype=wp.vec3d), wa: wp.array(dtype=wp.vec3d),
+    xb: wp.array(dtype=wp.vec3d), vb: wp.array(dtype=wp.vec3d), wb: wp.array(dtype=wp.vec3d),
+    radius: wp.float64, mass_a: wp.float64, mass_b: wp.float64, restitution: wp.float64, mu_s: wp.float64, mu_d: wp.float64,
+    va_out: wp.array(dtype=wp.vec3d), wa_out: wp.array(dtype=wp.vec3d), vb_out: wp.array(dtype=wp.vec3d), wb_out: wp.array(dtype=wp.vec3d),
+):
+    i = wp.tid()
+    a, b, c, d, _collided, _slipped = _pair_law64(
+        xa[i], va[i], wa[i], radius, mass_a, xb[i], vb[i], wb[i], radius, mass_b,
+        wp.float64(0.4), restitution, mu_s, mu_d,
+    )
+    va_out[i] = a
+    wa_out[i] = b
+    vb_out[i] = c
+    wb_out[i] = d
+
+
+def warp_pair_law(xa, va, wa, xb, vb, wb, *, radius, mass_a, mass_b, restitution, mu_s, mu_d):
+    arrays = [wp.array(np.asarray(a, np.float64), dtype=wp.vec3d, device="cpu") for a in (xa, va, wa, xb, vb, wb)]
+    outs = [wp.empty(len(xa), dtype=wp.vec3d, device="cpu") for _ in range(4)]
+    wp.launch(_pair_kernel, dim=len(xa), inputs=[*arrays, radius, mass_a, mass_b, restitution, mu_s, mu_d], outputs=outs,
+              device="cpu")
+    return [o.numpy() for o in outs]
+
+
+vectors = st.lists(st.floats(-50, 50), min_size=3, max_size=3)
+
+
+@settings(max_examples=60, deadline=None)
+@given(va=vectors, vb=vectors, wa=vectors, wb=vectors, direction=vectors, overlap=st.floats(0.7, 1.0),
+       restitution=st.floats(0, 1), mu_s=st.floats(0, 2), ratio=st.floats(0, 1), mass_ratio=st.floats(0.2, 5))
+def test_pair_law_matches_the_float64_reference(va, vb, wa, wb, direction, overlap, restitution, mu_s, ratio, mass_ratio):
+    d = np.asarray(direction)
+    if np.linalg.norm(d) < 1e-3:
+        d = np.array([1.0, 0.0, 0.0])
+    radius = 0.00125
+    xa = np.zeros((1, 3))
+    xb = (d / np.linalg.norm(d) * 2 * radius * overlap)[None]
+    w_scale = 1e4  # rad/s: spins comparable to speeds / radius
+    args = dict(radius=radius, mass_a=1e-4, mass_b=1e-4 * mass_ratio, restitution=restitution, mu_s=mu_s, mu_d=mu_s * ratio)
+    got = warp_pair_law(xa, [va], np.asarray([wa]) * w_scale, xb, [vb], np.asarray([wb]) * w_scale, **args)
+    ref = reference_pair_law(xa, np.asarray([va]), np.asarray([wa]) * w_scale, xb, np.asarray([vb]), np.asarray([wb]) * w_scale,
+                             mass_a=args["mass_a"], mass_b=args["mass_b"], radius_a=radius, radius_b=radius,
+                             restitution=restitution, mu_s=mu_s, mu_d=mu_s * ratio)
+    expected = [ref.velocity_a, ref.angular_velocity_a, ref.velocity_b, ref.angular_velocity_b]
+    for g, e, scale in zip(got, expected, (1.0, 1 / radius, 1.0, 1 / radius)):
+        np.testing.assert_allclose(g, e, rtol=1e-9, atol=1e-9 * 100 * scale)
+    # momentum conserved, energy never rises
+    ma, mb = args["mass_a"], args["mass_b"]
+    np.testing.assert_allclose(ma * got[0] + mb * got[2], ma * np.asarray([va]) + mb * np.asarray([vb]), atol=1e-15)
+    inertia_a, inertia_b = 0.4 * ma * radius**2, 0.4 * mb * radius**2
+    before = ma * np.dot(va, va) + mb * np.dot(vb, vb) + (inertia_a * np.dot(wa, wa) + inertia_b * np.dot(wb, wb)) * w_scale**2
+    after = ma * np.sum(got[0] ** 2) + mb * np.sum(got[2] ** 2) + inertia_a * np.sum(got[1] ** 2) + inertia_b * np.sum(got[3] ** 2)
+    assert after <= before * (1 + 1e-12) + 1e-18
+
+
+def _paper_collisions(count=120, precision="float64", shots=1, **collisions):
+    raw = paper_raw()
+    raw["shot"]["count"] = count
+    raw["shot"]["shots"] = shots
+    raw["collisions"] = {"enabled": True, **collisions}
+    return make_scene(raw, precision=precision)
+
+
+def _write(scene, path, device="cpu"):
+    api.run(scene, output=str(path), device=device)
+    with h5py.File(path, "r") as f:
+        pellets = {name: f[f"pellets/{name.replace('.', '/')}"][()] for name in scene.output.fields}
+        stats = {k: f["stats"][k][()] for k in f["stats"]}
+    return pellets, stats
+
+
+def test_a_cloud_too_sparse_to_touch_gives_the_collisions_off_result(tmp_path, device):
+    raw = paper_raw()
+    raw["shot"].update(count=200, envelope_radius=20.0)  # pellets metres apart: no pair can meet
+    off = make_scene(raw, precision="float64")
+    raw["collisions"] = {"enabled": True}
+    on = make_scene(raw, precision="float64")
+    pellets_off, stats_off = _write(off, tmp_path / "off.h5", device)
+    pellets_on, stats_on = _write(on, tmp_path / "on.h5", device)
+    for name, value in pellets_off.items():
+        np.testing.assert_array_equal(pellets_on[name], value, err_msg=name)  # bitwise, pellet by pellet
+    assert stats_on["collided_fraction"] == 0.0 and stats_on["pair_energy_lost"] == 0.0
+    for key in ("range_mean", "range_max", "range_min", "post_mean_vt", "range_std"):
+        assert stats_on[key] == pytest.approx(stats_off[key], rel=1e-13, abs=1e-12)
+
+
+def _two_pellets(tmp_path, position, velocity, spin=None, surfaces=(), gravity=(0.0, -9.81, 0.0), **collisions):
+    path = tmp_path / "two.npz"
+    np.savez(path, position=np.asarray(position, float), velocity=np.asarray(velocity, float),
+             angular_velocity=np.zeros((len(position), 3)) if spin is None else np.asarray(spin, float))
+    raw = {"shot": {"file": str(path), "diameter": 0.0025, "density": 7000.0},
+           "surfaces": list(surfaces), "physics": {"gravity": list(gravity), "bounces": 1},
+           "collisions": {"enabled": True, **collisions}, "numerics": {"precision": "float64"}}
+    return make_scene(raw, precision="float64")
+
+
+@pytest.mark.parametrize("spin", [False, True])
+@pytest.mark.parametrize("oblique", [0.0, 0.6])
+def test_two_pellets_against_the_event_driven_reference(tmp_path, device, spin, oblique):
+    """Head-on and oblique, with and without spin: the pair collision mid-air, then the ground."""
+    d = 0.0025
+    position = [[0.0, 1.0, 0.0], [0.05, 1.0 + oblique * d, 0.0]]
+    velocity = [[20.0, -5.0, 0.0], [-20.0, -5.0, 0.0]]
+    spins = [[0.0, 0.0, 3000.0], [500.0, 0.0, -2000.0]] if spin else None
+    scene = _two_pellets(tmp_path, position, velocity, spins, surfaces=[GROUND], restitution=0.8, mu_s=0.3, mu_d=0.2)
+    pellets, stats = _write(scene, tmp_path / "two.h5", device)
+    ref, ref_stats = simulate_collisions(scene, np.asarray(position), np.asarray(velocity),
+                                         np.zeros((2, 3)) if spins is None else np.asarray(spins))
+    assert list(pellets["collisions.count"]) == list(ref["collisions.count"]) == [1, 1]
+    np.testing.assert_allclose(pellets["collisions.last_time"], ref["collisions.last_time"], rtol=1e-12)
+    for name in ("impact.velocity_before", "impact.velocity", "impact.angular_velocity", "landing.position", "landing.range"):
+        np.testing.assert_allclose(pellets[name], ref[name], rtol=1e-9, atol=1e-9, err_msg=name)
+    assert stats["pair_energy_lost"] == pytest.approx(ref_stats["pair_energy_lost"], rel=1e-9)
+
+
+def test_dense_cloud_against_the_event_driven_reference(tmp_path):
+    """A dense shot (60 pellets in the paper's envelope): the time-stepped solver against the exact
+    event-driven one. Collisions are chaotic, so compare the ensemble, not pellet by pellet."""
+    scene = _paper_collisions(60)
+    pellets, stats = _write(scene, tmp_path / "dense.h5")
+    ref, ref_stats = simulate_collisions(scene, pellets["initial.position"], pellets["initial.velocity"],
+                                         pellets["initial.angular_velocity"])
+    assert stats["collided_fraction"] == pytest.approx(ref_stats["collided_fraction"], abs=0.1)
+    assert stats["range_mean"] == pytest.approx(ref_stats["range_mean"], rel=0.05)
+    assert stats["pair_energy_lost"] == pytest.approx(ref_stats["pair_energy_lost"], rel=0.2)
+
+
+def test_shots_only_meet_their_own_pellets(tmp_path, device):
+    """Two shots occupying the same space: each gives what it gives alone."""
+    rng = np.random.default_rng(3)
+    position = np.array([0.0, 1.0, 0.0]) + rng.uniform(-0.01, 0.01, (30, 3))
+    velocity = np.array([300.0, -300.0, 0.0]) + rng.uniform(-30, 30, (30, 3))
+    alone = _two_pellets(tmp_path, position, velocity, surfaces=[GROUND])
+    pellets_alone, _ = _write(alone, tmp_path / "alone.h5", device)
+    assert pellets_alone["collisions.count"].sum() > 0
+    path = tmp_path / "twice.npz"
+    np.savez(path, position=np.concatenate([position, position]), velocity=np.concatenate([velocity, velocity]))
+    raw = alone.to_dict()
+    raw["shot"] = {"file": str(path), "diameter": 0.0025, "density": 7000.0, "shots": 2}
+    twice = make_scene(raw, precision="float64")
+    pellets_twice, _ = _write(twice, tmp_path / "twice.h5", device)
+    for name, value in pellets_alone.items():
+        np.testing.assert_array_equal(pellets_twice[name][:30], value, err_msg=name)
+        np.testing.assert_array_equal(pellets_twice[name][30:], value, err_msg=name)
+
+
+def test_same_results_for_any_chunk_size_and_run(tmp_path):
+    base = dict(count=40, shots=5, precision="float32")
+    runs = []
+    for chunk in (None, 40, 120):
+        scene = _paper_collisions(**base)
+        if chunk:
+            scene = scene.replace(numerics=scene.numerics.__class__(precision="float32", chunk_size=chunk))
+        runs.append(_write(scene, tmp_path / f"c{chunk}.h5"))
+    (p0, s0), *others = runs
+    for p, s in others:
+        for name in p0:
+            np.testing.assert_array_equal(p[name], p0[name], err_msg=name)
+        assert s == s0
+
+
+def test_free_cloud_conserves_momentum_and_loses_energy_only_in_collisions():
+    """No surfaces: the dense phase alone, a cloud dense enough that its lists must grow. Linear
+    momentum (less M g t) and angular momentum about the centre of mass (gravity has no torque
+    about it) are conserved; the kinetic energy lost equals the sum of the pair losses."""
+    from warp_ricochet.api import source_struct
+    from warp_ricochet.collisions import DensePhase
+    from warp_ricochet.model import Model, State
+
+    raw = paper_raw()
+    raw["shot"].update(count=80, envelope_radius=0.006, direction_jitter=[0.3, 0.3, 0.3])
+    raw["surfaces"] = []
+    raw["collisions"] = {"enabled": True, "restitution": 0.5, "mu_s": 0.5, "mu_d": 0.4}
+    scene = make_scene(raw, precision="float64")
+    model = Model.from_scene(scene, wp.get_device("cpu"))
+    state = State(model, 80, ("initial.position",))
+    dense = DensePhase(model, scene, 80, write_outputs=True, from_file=False)
+    dense.run(0, 1, source_struct(scene, model), state.outputs)
+    c = dense.cloud
+    assert c.neighbours.shape[1] > 32  # grew
+    g = np.asarray(scene.physics.gravity)
+    now = float(c.clock.numpy()[0, 0])
+    age = (now - c.time.numpy())[:, None]
+    x = c.position.numpy() + c.velocity.numpy() * age + 0.5 * g * age**2
+    v = c.velocity.numpy() + g * age
+    w = c.angular_velocity.numpy()
+    x0, v0, w0 = state.arrays["initial.position"].numpy(), c.launch_velocity.numpy(), c.launch_angular_velocity.numpy()
+    assert c.collision_count.numpy().sum() > 20
+    m, inertia = model.mass, model.inertia
+    np.testing.assert_allclose(v.sum(0), v0.sum(0) + len(v) * g * now, rtol=0, atol=1e-10 * np.abs(v0).sum())
+
+    def angular_momentum(pos, vel, spin):
+        return m * np.cross(pos - pos.mean(0), vel - vel.mean(0)).sum(0) + inertia * spin.sum(0)
+
+    scale = m * np.abs(x0 - x0.mean(0)).max() * np.abs(v0).max() * len(v0)
+    np.testing.assert_allclose(angular_momentum(x, v, w), angular_momentum(x0, v0, w0), rtol=0, atol=1e-10 * scale)
+    lost = c.energy_lost.numpy().sum()
+    assert lost > 0
+
+    def energy(vel, spin):
+        return 0.5 * m * (vel**2).sum() + 0.5 * inertia * (spin**2).sum()
+
+    work = len(v) * m * (g @ (v0.mean(0) * now + 0.5 * g * now**2))  # gravity's work on the centre of mass
+    assert energy(v, w) == pytest.approx(energy(v0, w0) + work - lost, rel=1e-10)
+    # no pair ends closer than contact, unless it was sampled overlapping (it then only separates)
+    d = np.linalg.norm(x[:, None] - x[None], axis=2) + np.eye(len(x))
+    d0 = np.linalg.norm(x0[:, None] - x0[None], axis=2) + np.eye(len(x))
+    assert np.all(d >= np.minimum(0.0025, d0) * (1 - 1e-9))
+
+
+def test_energy_never_rises_and_no_pellet_ends_inside_a_plane(tmp_path):
+    scene = _paper_collisions(120, restitution=0.3)
+    pellets, stats = _write(scene, tmp_path / "e.h5")
+    assert stats["pair_energy_lost"] > 0
+    # no landing position below the ground (centre at least R above it, up to rounding)
+    landed = np.isfinite(pellets["landing.position"][:, 1])
+    assert np.all(pellets["landing.position"][landed, 1] >= 0.00125 - 1e-9)
+    v2_launch = np.sum(pellets["initial.velocity"] ** 2, axis=1)
+    v2_release = np.sum(pellets["release.velocity"] ** 2, axis=1)
+    assert v2_release.sum() <= v2_launch.sum() + 2 * 9.81 * 1.0 * len(v2_launch)  # at most what the drop gives
+
+
+def test_h5md_frames(tmp_path):
+    scene = _paper_collisions(30, frame_every=8)
+    path = tmp_path / "frames.h5"
+    api.run(scene, output=str(path), device="cpu")
+    with h5py.File(path, "r") as f:
+        assert list(f["h5md"].attrs["version"]) == [1, 1]
+        pos = f["particles/pellets/position"]
+        assert pos["value"].shape[1:] == (30, 3) and pos["value"].shape[0] == pos["step"].shape[0] == pos["time"].shape[0] > 1
+        assert pos["value"].attrs["unit"] == "m" and pos["time"].attrs["unit"] == "s"
+        assert np.all(np.diff(pos["step"][()]) == 8) and np.all(np.diff(pos["time"][()]) > 0)
+        np.testing.assert_allclose(pos["value"][0], f["pellets/initial/position"][()], atol=1e-12)
+
+
+def test_collision_fields_need_collisions():
+    from warp_ricochet.errors import SceneError
+
+    raw = paper_raw()
+    raw["output"] = {"fields": ["release"]}
+    with pytest.raises(SceneError, match="output.fields.*collisions.enabled"):
+        make_scene(raw)

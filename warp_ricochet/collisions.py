@@ -1,0 +1,1002 @@
+"""The dense phase: pellets in flight colliding with each other and with the planes, time-stepped
+on a hash grid, until no pair can touch again; then every pellet goes to the core's exact flight.
+
+One thread per pellet; every pellet belongs to one shot (rows [s * count, (s + 1) * count)) and
+meets only pellets of its own shot. Each shot has its own clock and step, so a shot's results do
+not depend on which shots share a launch (chunk-size invariance) and finished shots stop early.
+
+Each pellet carries a *reference state*: position and velocity at the time of its last event
+(launch, plane impact or pair collision), from which its flight is the exact parabola of eq. (36);
+nothing is integrated. Gravity is the same for all pellets, so the relative motion of a pair is
+linear and its time of contact is exact (no tunnelling); plane contacts are the exact
+parabola-plane times of `flight.py`, from the same reference states as the core, so a pellet that
+never meets another gets bitwise the collisions-off result.
+
+Events in a step are resolved in `rounds`: each pellet picks its earliest event (plane contact,
+or contact with a listed neighbour) after t_last; a plane event, or a pair event that both
+pellets picked (mutual), is applied at its exact time. A pellet takes part in at most one event
+per round, so impulses are never summed: momentum is conserved and energy never rises, and the
+result does not depend on thread order. Events left after the last round carry over (the pair
+overlaps by at most its closing displacement in one step, then separates at once).
+
+Neighbour lists (reach 2R + skin) are built from a `wp.HashGrid` in co-moving coordinates
+(positions relative to each shot's ballistic drift; the grid's groups keep shots apart, so
+overlapping shots cost nothing) and rebuilt only when a pellet could move by half the skin
+relative to the drift (checked before each step; a step that could break a list waits for the
+rebuild). The adaptive step depends on the shot's own speeds only, so its results do not depend
+on when lists are rebuilt, or on the other shots.
+
+At checkpoints (every `block_steps` of its own steps) a shot stops stepping once its arrival
+window is over (its undisturbed pellets have all met their first surface and the cloud has passed
+it) and no listed pair is closing to contact; see docs/collisions.md for what this neglects.
+"""
+
+import functools
+import math
+
+import warp as wp
+
+from .flight import EPSILON, ROUNDING, make_flight
+from .impact_law import make_impact_law, make_pair_law
+from .kernels import types_for
+from .sampling import make_sampler
+
+FLYING, ENDED = 0, 1  # pellet phases; ENDED: landed after its last ricochet, or at rest on a surface
+# global flags (int32 array): a shot waits for a rebuild; shots still stepping; list overflow
+FLAG_STALL, FLAG_REMAINING, FLAG_OVERFLOW = 0, 1, 2
+NUM_FLAGS = 3
+# per-shot clock (scalar array, shots x 6): time, step, speed bound relative to the drift, steps
+# taken, the time the shot stopped stepping, the end of its arrival window (the last first contact
+# of its undisturbed pellets, plus the time the cloud takes to pass a point: 4 rms radii / speed)
+CLOCK_TIME, CLOCK_STEP, CLOCK_DRIFT, CLOCK_STEPS, CLOCK_END, CLOCK_WINDOW = range(6)
+NUM_CLOCK = 6
+HORIZON_RADII = 4.0
+# per-shot int flags (shots x 3): waits for a rebuild, finished, a pair or ricochet still ahead
+SHOT_STALL, SHOT_DONE, SHOT_BUSY = 0, 1, 2
+NUM_SHOT_FLAGS = 3
+SKIN_STEPS = 8.0  # the adaptive step lets a list last at least this many steps (a block) at the current speeds
+
+
+@functools.cache
+def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool, from_file: bool):  # noqa: C901
+    """The kernels of the dense phase, specialised like the core kernel (precision, bounces,
+    planes, per-pellet outputs or not, launch states sampled or given)."""
+    t = types_for(precision)
+    scalar, vec3, Source, Surfaces, Physics, Outputs = t.scalar, t.vec3, t.Source, t.Surfaces, t.Physics, t.Outputs
+    Cloud, Pair = t.Cloud, t.Pair
+    impact_law = make_impact_law(scalar)
+    pair_law = make_pair_law(scalar)
+    _entry, _return, next_contact, ballistic_position, ballistic_velocity = make_flight(scalar, planes if planes <= 4 else None)
+    sample_pellet = make_sampler(scalar)
+    BOUNCES, WRITE, FROM_FILE = bounces, write_outputs, from_file
+    CLOSING_TOLERANCE2 = scalar((ROUNDING * EPSILON[precision]) ** 2)
+    TINY_SPEED = scalar(1e-30)
+    QUIET_STEP = scalar(1.0)  # s: the longest step, when nothing moves relative to the drift
+    opts = {"module": "unique", "enable_backward": False}
+
+    @wp.func
+    def drift_point(cloud: Cloud, shot: wp.int32, time: scalar, gravity: vec3):
+        """The shot's co-moving reference point: its mean launch state in free flight."""
+        return ballistic_position(cloud.drift_origin[shot], cloud.drift_velocity[shot], gravity, time)
+
+    @wp.func
+    def recentre(pair: Pair, physics: Physics, cloud: Cloud, s: wp.int32, time: scalar):
+        """The shot's co-moving frame: the mean state of its flying pellets at `time`. One
+        thread, in pellet order (deterministic). Returns the flying count and the time the cloud
+        takes to pass a point (HORIZON_RADII rms radii over the mean speed)."""
+        gravity = physics.gravity
+        first = s * pair.count
+        position_sum = vec3()
+        velocity_sum = vec3()
+        flying = wp.int32(0)
+        passing = scalar(0.0)
+        for k in range(pair.count):
+            i = first + k
+            if cloud.phase[i] == FLYING:
+                age = time - cloud.time[i]
+                position_sum += ballistic_position(cloud.position[i], cloud.velocity[i], gravity, age)
+                velocity_sum += ballistic_velocity(cloud.velocity[i], gravity, age)
+                flying += 1
+        if flying > 0:
+            inverse = scalar(1.0) / scalar(flying)
+            mean_position = position_sum * inverse
+            mean_velocity = velocity_sum * inverse
+            spread = scalar(0.0)
+            for k in range(pair.count):
+                i = first + k
+                if cloud.phase[i] == FLYING:
+                    d = ballistic_position(cloud.position[i], cloud.velocity[i], gravity, time - cloud.time[i]) - mean_position
+                    spread += wp.dot(d, d)
+            velocity = mean_velocity - gravity * time
+            cloud.drift_velocity[s] = velocity
+            cloud.drift_origin[s] = mean_position - velocity * time - (scalar(0.5) * time * time) * gravity
+            passing = scalar(HORIZON_RADII) * wp.sqrt(spread * inverse) / wp.max(wp.length(mean_velocity), TINY_SPEED)
+        return flying, passing
+
+    @wp.func
+    def stepping(cloud: Cloud, i: wp.int32, s: wp.int32):
+        """Pellet i of shot s takes part in this step."""
+        return cloud.phase[i] == FLYING and cloud.shot_flags[s, SHOT_DONE] == 0 and cloud.shot_flags[s, SHOT_STALL] == 0
+
+    @wp.func
+    def plane_contact(
+        i: wp.int32, k: wp.int32, wait: scalar,
+        position: vec3, velocity: vec3, spin: vec3, time: scalar,
+        cloud: Cloud, surfaces: Surfaces, physics: Physics, out: Outputs,
+    ):
+        """Pellet i (reference state at `time`) meets plane k `wait` later: an impact (eqs. 1-25,
+        exactly as the core kernel), or the end of its flight (its contact after `bounces`
+        ricochets, or no closing speed). Returns the new reference state and whether it flies on."""
+        gravity = physics.gravity
+        radius = physics.radius
+        position = ballistic_position(position, velocity, gravity, wait)
+        velocity = ballistic_velocity(velocity, gravity, wait)
+        time = time + wait
+        normal = surfaces.normal[k]
+        normal_speed = wp.dot(velocity, normal)
+        impacts = cloud.impacts[i]
+        flying = wp.int32(1)
+        if impacts >= wp.static(BOUNCES):
+            flying = wp.int32(0)  # the landing after the last ricochet
+        elif normal_speed >= scalar(0.0) or normal_speed * normal_speed <= CLOSING_TOLERANCE2 * wp.dot(velocity, velocity):
+            flying = wp.int32(0)  # no closing speed: it stays on the surface
+        else:
+            velocity_after, spin_after, slipped = impact_law(
+                velocity, spin, normal, radius, physics.inertia_factor,
+                surfaces.restitution[k], surfaces.mu_s[k], surfaces.mu_d[k],
+                wp.dot(gravity, normal) * physics.impact_duration,
+            )
+            if wp.static(WRITE):
+                if out.impact_time.shape[0] > 0:
+                    out.impact_time[i, impacts] = time
+                if out.impact_position.shape[0] > 0:
+                    out.impact_position[i, impacts] = position
+                if out.impact_velocity_before.shape[0] > 0:
+                    out.impact_velocity_before[i, impacts] = velocity
+                if out.impact_angular_velocity_before.shape[0] > 0:
+                    out.impact_angular_velocity_before[i, impacts] = spin
+                if out.impact_velocity.shape[0] > 0:
+                    out.impact_velocity[i, impacts] = velocity_after
+                if out.impact_angular_velocity.shape[0] > 0:
+                    out.impact_angular_velocity[i, impacts] = spin_after
+                if out.impact_slipped.shape[0] > 0:
+                    out.impact_slipped[i, impacts] = wp.int8(slipped)
+                if out.impact_surface.shape[0] > 0:
+                    out.impact_surface[i, impacts] = wp.int16(k)
+            if impacts == 0:
+                cloud.first_surface[i] = k
+                cloud.first_slipped[i] = slipped
+                cloud.first_velocity_before[i] = velocity
+                cloud.first_angular_velocity_before[i] = spin
+                cloud.first_velocity_after[i] = velocity_after
+                cloud.first_angular_velocity_after[i] = spin_after
+            cloud.impacts[i] = impacts + 1
+            cloud.last_slipped[i] = slipped
+            cloud.ricochet_point[i] = position - radius * normal
+            cloud.ricochet_time[i] = time
+            cloud.touching[i] = k
+            velocity = velocity_after
+            spin = spin_after
+            leaving = wp.dot(velocity, normal)  # E = 0, up to rounding: it stays on the surface
+            if leaving * leaving <= CLOSING_TOLERANCE2 * wp.dot(velocity, velocity):
+                flying = wp.int32(0)
+        if flying == 0:
+            cloud.phase[i] = ENDED
+            cloud.end_surface[i] = k
+            cloud.position[i] = position
+            cloud.velocity[i] = velocity
+            cloud.angular_velocity[i] = spin
+            cloud.time[i] = time
+        return position, velocity, spin, time, flying
+
+    @wp.func
+    def contact_time(d: vec3, u: vec3, reach2: scalar):
+        """First s >= 0 with |d + u s|^2 = reach2 while closing; 0 when within it and closing; -1 none."""
+        du = wp.dot(d, u)
+        if du >= scalar(0.0):
+            return scalar(-1.0)
+        dd = wp.dot(d, d)
+        gap = dd - reach2
+        if gap <= scalar(0.0):
+            return scalar(0.0)
+        disc = du * du - wp.dot(u, u) * gap
+        if disc < scalar(0.0):
+            return scalar(-1.0)
+        return gap / (-du + wp.sqrt(disc))  # the smaller root, without cancellation
+
+    # ------------------------------------------------------------------ set-up
+
+    @wp.kernel(**opts)
+    def launch_kernel(first_index: wp.int32, source: Source, cloud: Cloud, out: Outputs):
+        """Launch state of each pellet (sampled from its global index, or given), phase FLYING."""
+        i = wp.tid()
+        position = vec3()
+        velocity = vec3()
+        spin = vec3()
+        if wp.static(FROM_FILE):
+            position = source.position[i]
+            velocity = source.velocity[i]
+            spin = source.angular_velocity[i]
+        else:
+            position, velocity, spin = sample_pellet(
+                source.seed, first_index + i, source.speed, source.direction, source.jitter,
+                source.envelope_center, source.envelope_radius, source.spin,
+            )
+        if wp.static(WRITE):
+            if out.initial_position.shape[0] > 0:
+                out.initial_position[i] = position
+            if out.initial_velocity.shape[0] > 0:
+                out.initial_velocity[i] = velocity
+            if out.initial_angular_velocity.shape[0] > 0:
+                out.initial_angular_velocity[i] = spin
+            for b in range(wp.static(BOUNCES)):  # impacts never made stay marked missing
+                if out.impact_time.shape[0] > 0:
+                    out.impact_time[i, b] = scalar(wp.nan)
+                if out.impact_position.shape[0] > 0:
+                    out.impact_position[i, b] = vec3(scalar(wp.nan))
+                if out.impact_velocity_before.shape[0] > 0:
+                    out.impact_velocity_before[i, b] = vec3(scalar(wp.nan))
+                if out.impact_angular_velocity_before.shape[0] > 0:
+                    out.impact_angular_velocity_before[i, b] = vec3(scalar(wp.nan))
+                if out.impact_velocity.shape[0] > 0:
+                    out.impact_velocity[i, b] = vec3(scalar(wp.nan))
+                if out.impact_angular_velocity.shape[0] > 0:
+                    out.impact_angular_velocity[i, b] = vec3(scalar(wp.nan))
+                if out.impact_slipped.shape[0] > 0:
+                    out.impact_slipped[i, b] = wp.int8(-1)
+                if out.impact_surface.shape[0] > 0:
+                    out.impact_surface[i, b] = wp.int16(-1)
+        cloud.position[i] = position
+        cloud.velocity[i] = velocity
+        cloud.angular_velocity[i] = spin
+        cloud.launch_velocity[i] = velocity
+        cloud.launch_angular_velocity[i] = spin
+        cloud.time[i] = scalar(0.0)
+        cloud.phase[i] = FLYING
+        cloud.end_surface[i] = -1
+        cloud.touching[i] = -1
+        cloud.impacts[i] = 0
+        cloud.last_slipped[i] = 0
+        cloud.ricochet_point[i] = vec3()
+        cloud.ricochet_time[i] = scalar(0.0)
+        cloud.first_surface[i] = -1
+        cloud.first_slipped[i] = 0
+        cloud.collision_count[i] = 0
+        cloud.energy_lost[i] = scalar(0.0)
+        cloud.last_collision[0, i] = scalar(wp.nan)
+        cloud.last_collision[1, i] = scalar(wp.nan)
+        cloud.neighbour_count[i] = 0
+        cloud.changed[i] = 1
+        cloud.event_partner[i] = -1
+
+    @wp.kernel(**opts)
+    def drift_kernel(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
+        """One thread per shot: the clock starts at 0, the co-moving frame at the launch, and the
+        arrival window: the shot keeps stepping until its undisturbed pellets have all met their
+        first surface and the cloud has passed it (pellets converging in flight, rebounds meeting
+        the pellets still coming)."""
+        s = wp.tid()
+        for c in range(wp.static(NUM_CLOCK)):
+            cloud.clock[s, c] = scalar(0.0)
+        _flying, passing = recentre(pair, physics, cloud, s, scalar(0.0))
+        last_arrival = scalar(0.0)
+        first = s * pair.count
+        for k in range(pair.count):
+            i = first + k
+            wait, plane = next_contact(cloud.position[i], cloud.velocity[i], physics.gravity, physics.radius,
+                                       surfaces.point, surfaces.normal, wp.int32(-1))
+            if plane >= 0:
+                last_arrival = wp.max(last_arrival, wait)
+        cloud.clock[s, CLOCK_WINDOW] = last_arrival + passing
+        cloud.shot_flags[s, SHOT_STALL] = 0
+        cloud.shot_flags[s, SHOT_DONE] = 0
+        cloud.shot_flags[s, SHOT_BUSY] = 0
+
+    # ------------------------------------------------------------------ neighbour lists
+
+    @wp.kernel(**opts)
+    def groups_kernel(pair: Pair, groups: wp.array(dtype=wp.int32)):
+        """Each pellet's hash-grid group: its shot (shots never meet, however they overlap)."""
+        i = wp.tid()
+        groups[i] = i / pair.count
+
+    @wp.kernel(**opts)
+    def grid_points_kernel(pair: Pair, physics: Physics, cloud: Cloud):
+        """Co-moving grid coordinates: the position relative to the shot's drift point (small
+        numbers, and the skin is measured from them); the grid's group is the shot."""
+        i = wp.tid()
+        s = i / pair.count
+        time = cloud.clock[s, CLOCK_TIME]
+        now = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, time - cloud.time[i])
+        relative = now - drift_point(cloud, s, time, physics.gravity)
+        cloud.build_offset[i] = relative
+        cloud.grid_point[i] = relative
+
+    @wp.kernel(**opts)
+    def neighbours_kernel(grid: wp.uint64, pair: Pair, cloud: Cloud):
+        """The listed neighbours of each flying pellet: flying pellets of its shot within the reach."""
+        i = wp.tid()
+        cloud.neighbour_count[i] = 0
+        s = i / pair.count
+        if cloud.phase[i] != FLYING or cloud.shot_flags[s, SHOT_DONE] != 0:
+            return
+        point = cloud.grid_point[i]
+        reach2 = pair.reach * pair.reach
+        capacity = cloud.neighbours.shape[1]
+        found = wp.int32(0)
+        query = wp.hash_grid_query(grid, point, pair.reach, s)  # grouped: pellets of shot s only
+        j = wp.int32(0)
+        while wp.hash_grid_query_next(query, j):
+            if j != i and cloud.phase[j] == FLYING:
+                d = cloud.grid_point[j] - point
+                if wp.dot(d, d) <= reach2:  # the query returns candidates: filter by distance
+                    if found < capacity:
+                        cloud.neighbours[i, found] = j
+                    found += 1
+        if found > capacity:
+            wp.atomic_max(cloud.flags, FLAG_OVERFLOW, found)
+            found = capacity
+        cloud.neighbour_count[i] = found
+        cloud.changed[i] = 1
+
+    # ------------------------------------------------------------------ one step
+
+    @wp.kernel(**opts)
+    def bounds_kernel(pair: Pair, physics: Physics, cloud: Cloud):
+        """Per shot: the largest speed of a flying pellet relative to the drift (a pair closes at
+        most at twice it). It sets the next step; it depends on the shot alone, never on the
+        neighbour lists, so the steps (and results) do not depend on when lists are rebuilt."""
+        i = wp.tid()
+        s = i / pair.count
+        if not stepping(cloud, i, s):
+            return
+        time = cloud.clock[s, CLOCK_TIME]
+        v = ballistic_velocity(cloud.velocity[i], physics.gravity, time - cloud.time[i])
+        drift = wp.length(v - ballistic_velocity(cloud.drift_velocity[s], physics.gravity, time))
+        wp.atomic_max(cloud.clock, s, CLOCK_DRIFT, drift)
+
+    @wp.kernel(**opts)
+    def plan_kernel(pair: Pair, physics: Physics, cloud: Cloud):
+        """One thread per shot: the step, fixed or adaptive (a pair closes by at most
+        step_fraction of a diameter in a step; the list lasts SKIN_STEPS steps at these speeds)."""
+        s = wp.tid()
+        if cloud.shot_flags[s, SHOT_DONE] != 0 or cloud.shot_flags[s, SHOT_STALL] != 0:
+            return
+        step = pair.fixed_step
+        if step <= scalar(0.0):
+            diameter = scalar(2.0) * physics.radius
+            drift = wp.max(cloud.clock[s, CLOCK_DRIFT], TINY_SPEED)
+            step = wp.min(pair.step_fraction * diameter / (scalar(2.0) * drift), pair.half_skin / (scalar(SKIN_STEPS) * drift))
+            step = wp.min(step, QUIET_STEP)
+        cloud.clock[s, CLOCK_STEP] = step
+        cloud.clock[s, CLOCK_DRIFT] = scalar(0.0)
+
+    @wp.kernel(**opts)
+    def prepare_kernel(pair: Pair, physics: Physics, cloud: Cloud):
+        """Round buffers from the state. A step that could carry a pellet beyond half the skin
+        (relative to the drift) since the last build waits for a rebuild: no pair is ever missed."""
+        i = wp.tid()
+        s = i / pair.count
+        if not stepping(cloud, i, s):
+            return
+        time = cloud.clock[s, CLOCK_TIME]
+        step = cloud.clock[s, CLOCK_STEP]
+        gravity = physics.gravity
+        cloud.round_position[0, i] = cloud.position[i]
+        cloud.round_velocity[0, i] = cloud.velocity[i]
+        cloud.round_spin[0, i] = cloud.angular_velocity[i]
+        cloud.round_time[0, i] = cloud.time[i]
+        cloud.changed[i] = 1
+        cloud.event_partner[i] = -1
+        age = time - cloud.time[i]
+        relative = ballistic_position(cloud.position[i], cloud.velocity[i], gravity, age) - drift_point(cloud, s, time, gravity)
+        relative_velocity = ballistic_velocity(cloud.velocity[i], gravity, age) - ballistic_velocity(cloud.drift_velocity[s], gravity, time)
+        if wp.length(relative - cloud.build_offset[i] + relative_velocity * step) > pair.half_skin:
+            cloud.shot_flags[s, SHOT_STALL] = 1
+            cloud.flags[FLAG_STALL] = 1
+
+    @wp.kernel(**opts)
+    def choose_kernel(buffer: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
+        """Each flying pellet's earliest event in the rest of the step (ties: a plane, then the
+        lower row). Skipped when neither it nor a neighbour changed in the last round: its
+        choice still holds."""
+        i = wp.tid()
+        s = i / pair.count
+        if not stepping(cloud, i, s):
+            return
+        count = cloud.neighbour_count[i]
+        stale = cloud.changed[i]
+        if stale == 0:
+            for n in range(count):
+                if cloud.changed[cloud.neighbours[i, n]] != 0:
+                    stale = 1
+        if stale == 0:
+            return
+        gravity = physics.gravity
+        step_start = cloud.clock[s, CLOCK_TIME]
+        step_end = step_start + cloud.clock[s, CLOCK_STEP]
+        position = cloud.round_position[buffer, i]
+        velocity = cloud.round_velocity[buffer, i]
+        time = cloud.round_time[buffer, i]
+        wait, k = next_contact(position, velocity, gravity, physics.radius, surfaces.point, surfaces.normal, cloud.touching[i])
+        best_time = step_end
+        best = wp.int32(-1)
+        if k >= 0 and time + wait <= step_end:
+            best_time = time + wait
+            best = -2 - k
+            cloud.event_wait[i] = wait
+        reach2 = scalar(4.0) * physics.radius * physics.radius
+        for n in range(count):
+            j = cloud.neighbours[i, n]
+            if cloud.phase[j] == FLYING:
+                other_time = cloud.round_time[buffer, j]
+                start = wp.max(step_start, wp.max(time, other_time))  # both reference states hold from here
+                d = ballistic_position(cloud.round_position[buffer, j], cloud.round_velocity[buffer, j], gravity, start - other_time) - ballistic_position(position, velocity, gravity, start - time)
+                u = ballistic_velocity(cloud.round_velocity[buffer, j], gravity, start - other_time) - ballistic_velocity(velocity, gravity, start - time)
+                delay = contact_time(d, u, reach2)
+                if delay >= scalar(0.0):
+                    when = start + delay
+                    if when < best_time or (when == best_time and best >= 0 and j < best):
+                        best_time = when
+                        best = j
+        cloud.event_time[i] = best_time
+        cloud.event_partner[i] = best
+
+    @wp.kernel(**opts)
+    def resolve_kernel(buffer: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs):
+        """Apply each pellet's plane event, or its pair event when the partner chose it too (both
+        threads evaluate the same pair law on the same inputs and each keeps its half)."""
+        i = wp.tid()
+        s = i / pair.count
+        if not stepping(cloud, i, s):
+            return
+        write = 1 - buffer
+        position = cloud.round_position[buffer, i]
+        velocity = cloud.round_velocity[buffer, i]
+        spin = cloud.round_spin[buffer, i]
+        time = cloud.round_time[buffer, i]
+        last_collision = cloud.last_collision[buffer, i]
+        partner = cloud.event_partner[i]
+        gravity = physics.gravity
+        changed = wp.int32(0)
+        if partner <= -2:
+            position, velocity, spin, time, _flying = plane_contact(
+                i, -2 - partner, cloud.event_wait[i], position, velocity, spin, time, cloud, surfaces, physics, out
+            )
+            changed = 1
+        elif partner >= 0:
+            if cloud.event_partner[partner] == i and cloud.phase[partner] == FLYING:
+                a = wp.min(i, partner)
+                b = wp.max(i, partner)
+                when = cloud.event_time[i]
+                # TC model: a pellet hit again within the contact duration rebounds elastically
+                restitution = pair.restitution
+                last_a = cloud.last_collision[buffer, a]
+                last_b = cloud.last_collision[buffer, b]
+                if (not wp.isnan(last_a) and when - last_a < pair.contact_duration) or (
+                    not wp.isnan(last_b) and when - last_b < pair.contact_duration
+                ):
+                    restitution = scalar(1.0)
+                age_a = when - cloud.round_time[buffer, a]
+                age_b = when - cloud.round_time[buffer, b]
+                xa = ballistic_position(cloud.round_position[buffer, a], cloud.round_velocity[buffer, a], gravity, age_a)
+                va = ballistic_velocity(cloud.round_velocity[buffer, a], gravity, age_a)
+                wa = cloud.round_spin[buffer, a]
+                xb = ballistic_position(cloud.round_position[buffer, b], cloud.round_velocity[buffer, b], gravity, age_b)
+                vb = ballistic_velocity(cloud.round_velocity[buffer, b], gravity, age_b)
+                wb = cloud.round_spin[buffer, b]
+                va2, wa2, vb2, wb2, collided, _slipped = pair_law(
+                    xa, va, wa, physics.radius, pair.mass, xb, vb, wb, physics.radius, pair.mass,
+                    physics.inertia_factor, restitution, pair.mu_s, pair.mu_d,
+                )
+                if collided != 0:
+                    # kinetic energy the pair lost (the same on both threads); each pellet books half
+                    before = pair.mass * (wp.dot(va, va) + wp.dot(vb, vb)) + pair.inertia * (wp.dot(wa, wa) + wp.dot(wb, wb))
+                    after = pair.mass * (wp.dot(va2, va2) + wp.dot(vb2, vb2)) + pair.inertia * (wp.dot(wa2, wa2) + wp.dot(wb2, wb2))
+                    cloud.energy_lost[i] = cloud.energy_lost[i] + scalar(0.25) * (before - after)
+                    cloud.collision_count[i] = cloud.collision_count[i] + 1
+                    last_collision = when
+                    cloud.touching[i] = -1  # it may have left the plane: plane times from the actual gap
+                    position = xa
+                    velocity = va2
+                    spin = wa2
+                    if i == b:
+                        position = xb
+                        velocity = vb2
+                        spin = wb2
+                    time = when
+                    changed = 1
+        cloud.round_position[write, i] = position
+        cloud.round_velocity[write, i] = velocity
+        cloud.round_spin[write, i] = spin
+        cloud.round_time[write, i] = time
+        cloud.last_collision[write, i] = last_collision
+        cloud.changed[i] = changed
+
+    @wp.kernel(**opts)
+    def finish_kernel(buffer: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs):
+        """End of the step: plane contacts left in it (no pellet ends a step inside a plane), then
+        the reference state goes back to the state arrays."""
+        i = wp.tid()
+        s = i / pair.count
+        if not stepping(cloud, i, s):
+            return
+        step_end = cloud.clock[s, CLOCK_TIME] + cloud.clock[s, CLOCK_STEP]
+        position = cloud.round_position[buffer, i]
+        velocity = cloud.round_velocity[buffer, i]
+        spin = cloud.round_spin[buffer, i]
+        time = cloud.round_time[buffer, i]
+        flying = wp.int32(1)
+        for _ in range(wp.static(BOUNCES + 1)):
+            if flying != 0:
+                wait, k = next_contact(position, velocity, physics.gravity, physics.radius, surfaces.point,
+                                       surfaces.normal, cloud.touching[i])
+                if k >= 0 and time + wait <= step_end:
+                    position, velocity, spin, time, flying = plane_contact(
+                        i, k, wait, position, velocity, spin, time, cloud, surfaces, physics, out
+                    )
+        cloud.last_collision[0, i] = cloud.last_collision[buffer, i]
+        cloud.last_collision[1, i] = cloud.last_collision[buffer, i]
+        if flying != 0:
+            cloud.position[i] = position
+            cloud.velocity[i] = velocity
+            cloud.angular_velocity[i] = spin
+            cloud.time[i] = time
+
+    @wp.kernel(**opts)
+    def end_step_kernel(pair: Pair, cloud: Cloud):
+        """One thread per shot: its clock moves on (unless the step waits for a rebuild)."""
+        s = wp.tid()
+        if cloud.shot_flags[s, SHOT_DONE] != 0 or cloud.shot_flags[s, SHOT_STALL] != 0:
+            return
+        cloud.clock[s, CLOCK_TIME] = cloud.clock[s, CLOCK_TIME] + cloud.clock[s, CLOCK_STEP]
+        steps = cloud.clock[s, CLOCK_STEPS] + scalar(1.0)
+        cloud.clock[s, CLOCK_STEPS] = steps
+        if wp.int32(steps) % pair.block_steps == 0:
+            cloud.shot_flags[s, SHOT_STALL] = 2  # a checkpoint: wait for the survey
+
+    # ------------------------------------------------------------------ end of a block of steps
+
+    @wp.kernel(**opts)
+    def survey_kernel(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
+        """Per shot: is it in its arrival window, or is a listed pair closing to contact?"""
+        i = wp.tid()
+        s = i / pair.count
+        if cloud.phase[i] != FLYING or cloud.shot_flags[s, SHOT_DONE] != 0:
+            return
+        time = cloud.clock[s, CLOCK_TIME]
+        gravity = physics.gravity
+        x = ballistic_position(cloud.position[i], cloud.velocity[i], gravity, time - cloud.time[i])
+        v = ballistic_velocity(cloud.velocity[i], gravity, time - cloud.time[i])
+        busy = wp.int32(0)
+        if time < cloud.clock[s, CLOCK_WINDOW]:
+            busy = 1  # the arrival window: the cloud converges, meets the surface and passes it
+        reach2 = scalar(4.0) * physics.radius * physics.radius
+        for n in range(cloud.neighbour_count[i]):
+            j = cloud.neighbours[i, n]
+            if cloud.phase[j] == FLYING:
+                d = ballistic_position(cloud.position[j], cloud.velocity[j], gravity, time - cloud.time[j]) - x
+                u = ballistic_velocity(cloud.velocity[j], gravity, time - cloud.time[j]) - v
+                if contact_time(d, u, reach2) >= scalar(0.0):
+                    busy = 1
+        if busy != 0:
+            cloud.shot_flags[s, SHOT_BUSY] = 1
+
+    @wp.kernel(**opts)
+    def settle_kernel(pair: Pair, physics: Physics, cloud: Cloud):
+        """One thread per shot: at a checkpoint (a multiple of block_steps of its own steps, so
+        the decision does not depend on the other shots), a shot with nothing ahead, or out of
+        steps, stops stepping."""
+        s = wp.tid()
+        if cloud.shot_flags[s, SHOT_DONE] != 0 or cloud.flags[FLAG_OVERFLOW] > 0:
+            return  # (an overflowed list: no decision until the lists are whole again)
+        steps = cloud.clock[s, CLOCK_STEPS]
+        checkpoint = wp.int32(steps) % pair.block_steps == 0
+        if checkpoint and (cloud.shot_flags[s, SHOT_BUSY] == 0 or steps >= pair.max_steps):
+            cloud.shot_flags[s, SHOT_DONE] = 1
+            cloud.clock[s, CLOCK_END] = cloud.clock[s, CLOCK_TIME]
+        else:
+            wp.atomic_add(cloud.flags, FLAG_REMAINING, 1)
+            if checkpoint:
+                # the co-moving frame follows the shot's flying pellets (after a ricochet they move
+                # nothing like the launch): speeds relative to it set the step. The lists are
+                # rebuilt in the new frame before the next step.
+                flying, _passing = recentre(pair, physics, cloud, s, cloud.clock[s, CLOCK_TIME])
+                if flying > 0:
+                    cloud.flags[FLAG_STALL] = 1
+        cloud.shot_flags[s, SHOT_BUSY] = 0
+        cloud.shot_flags[s, SHOT_STALL] = 0
+
+    @wp.kernel(**opts)
+    def release_kernel(pair: Pair, physics: Physics, cloud: Cloud):
+        """The release outputs: each pellet's state when its shot left the dense phase (or where
+        its flight ended in it), and the time of its last pair collision."""
+        i = wp.tid()
+        s = i / pair.count
+        time = cloud.time[i]
+        position = cloud.position[i]
+        velocity = cloud.velocity[i]
+        if cloud.phase[i] == FLYING:
+            time = cloud.clock[s, CLOCK_END]
+            age = time - cloud.time[i]
+            position = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age)
+            velocity = ballistic_velocity(cloud.velocity[i], physics.gravity, age)
+        if cloud.release_time.shape[0] > 0:
+            cloud.release_time[i] = time
+        if cloud.release_position.shape[0] > 0:
+            cloud.release_position[i] = position
+        if cloud.release_velocity.shape[0] > 0:
+            cloud.release_velocity[i] = velocity
+        if cloud.release_angular_velocity.shape[0] > 0:
+            cloud.release_angular_velocity[i] = cloud.angular_velocity[i]
+        if cloud.release_last_collision.shape[0] > 0:
+            cloud.release_last_collision[i] = cloud.last_collision[0, i]
+
+    @wp.kernel(**opts)
+    def shot_totals_kernel(pair: Pair, cloud: Cloud, totals: wp.array2d(dtype=wp.float64)):
+        """One thread per shot, in pellet order: pellets that collided, pair collisions, energy
+        lost (J), steps, the time it stopped stepping (s)."""
+        s = wp.tid()
+        first = s * pair.count
+        collided = wp.float64(0.0)
+        collisions = wp.float64(0.0)
+        lost = wp.float64(0.0)
+        for k in range(pair.count):
+            c = cloud.collision_count[first + k]
+            if c > 0:
+                collided += wp.float64(1.0)
+            collisions += wp.float64(c)
+            lost += wp.float64(cloud.energy_lost[first + k])
+        totals[s, 0] = collided
+        totals[s, 1] = collisions
+        totals[s, 2] = lost
+        totals[s, 3] = wp.float64(cloud.clock[s, CLOCK_STEPS])
+        totals[s, 4] = wp.float64(cloud.clock[s, CLOCK_END])
+
+    return dict(
+        launch=launch_kernel, drift=drift_kernel, groups=groups_kernel, grid_points=grid_points_kernel, neighbours=neighbours_kernel,
+        bounds=bounds_kernel, plan=plan_kernel, prepare=prepare_kernel, choose=choose_kernel,
+        resolve=resolve_kernel, finish=finish_kernel, end_step=end_step_kernel, survey=survey_kernel,
+        settle=settle_kernel, release=release_kernel, shot_totals=shot_totals_kernel,
+    )
+
+
+# ---------------------------------------------------------------------------------------------- host wiring
+
+SHOT_TOTALS = ("collided", "pair_collisions", "pair_energy_lost", "dense_steps", "dense_end_time")
+BLOCK_STEPS = 8  # steps between checkpoints (the host reads three integers there, never inside a block)
+
+
+def shot_stride(count: int) -> int:
+    """Slots per shot in the core kernel's release mode: the next power of two >= count, so a
+    statistics segment (a power of two) holds whole shots, or a shot whole segments."""
+    return 1 << max(0, (count - 1).bit_length())
+
+
+class DensePhase:
+    """The dense phase of one chunk of whole shots on one device: buffers for up to `capacity`
+    pellets, the kernels, and the loop of blocks of steps (no host sync inside a block)."""
+
+    def __init__(self, model, scene, capacity: int, *, write_outputs: bool, from_file: bool, release_fields=()):
+        coll = scene.collisions
+        self.model = model
+        self.device = model.device
+        self.count = scene.shot.count
+        self.capacity = capacity
+        self.rounds = coll.rounds
+        self.frame_every = coll.frame_every
+        self.block_steps = coll.frame_every or BLOCK_STEPS
+        kern = model.kernels
+        self.kern = kern
+        self.kernels = dense_kernels(model.precision, model.bounces, len(scene.surfaces), write_outputs, from_file)
+        scalar, vec3 = kern.scalar, kern.vec3
+        dev = self.device
+        n = capacity
+        shots = -(-capacity // self.count)
+
+        def arr(dtype, shape=n):
+            return wp.zeros(shape, dtype=dtype, device=dev)
+
+        cloud = kern.Cloud()
+        for name in ("position", "velocity", "angular_velocity", "ricochet_point", "first_velocity_before",
+                     "first_angular_velocity_before", "first_velocity_after", "first_angular_velocity_after",
+                     "launch_velocity", "launch_angular_velocity", "grid_point", "build_offset"):
+            setattr(cloud, name, arr(vec3))
+        for name in ("time", "ricochet_time", "energy_lost", "event_time", "event_wait"):
+            setattr(cloud, name, arr(scalar))
+        for name in ("phase", "end_surface", "touching", "impacts", "last_slipped", "first_surface", "first_slipped",
+                     "collision_count", "event_partner", "changed", "neighbour_count"):
+            setattr(cloud, name, arr(wp.int32))
+        for name in ("round_position", "round_velocity", "round_spin"):
+            setattr(cloud, name, arr(vec3, (2, n)))
+        cloud.round_time = arr(scalar, (2, n))
+        cloud.last_collision = arr(scalar, (2, n))
+        cloud.neighbours = arr(wp.int32, (n, coll.max_neighbours))
+        release = {"release.time": ("release_time", scalar), "release.position": ("release_position", vec3),
+                   "release.velocity": ("release_velocity", vec3),
+                   "release.angular_velocity": ("release_angular_velocity", vec3),
+                   "collisions.last_time": ("release_last_collision", scalar)}
+        self.field_arrays = {}
+        for field, (member, dtype) in release.items():
+            a = arr(dtype) if field in release_fields else arr(dtype, 0)
+            setattr(cloud, member, a)
+            if field in release_fields:
+                self.field_arrays[field] = a
+        if "collisions.count" in release_fields:
+            self.field_arrays["collisions.count"] = cloud.collision_count
+        cloud.drift_origin = arr(vec3, shots)
+        cloud.drift_velocity = arr(vec3, shots)
+        cloud.clock = arr(scalar, (shots, NUM_CLOCK))
+        cloud.shot_flags = arr(wp.int32, (shots, NUM_SHOT_FLAGS))
+        cloud.flags = arr(wp.int32, NUM_FLAGS)
+        cloud.shot_count = self.count
+        cloud.shot_stride = shot_stride(self.count)
+        self.cloud = cloud
+        self.groups = arr(wp.int32)
+        self.totals = wp.zeros((shots, len(SHOT_TOTALS)), dtype=wp.float64, device=dev)
+
+        pair = kern.Pair()
+        radius = model.radius
+        skin = coll.skin * 2.0 * radius
+        pair.count = self.count
+        pair.mass = scalar(model.mass)
+        pair.inertia = scalar(model.inertia)
+        pair.restitution = scalar(coll.restitution)
+        pair.mu_s = scalar(coll.mu_s)
+        pair.mu_d = scalar(coll.mu_d)
+        pair.contact_duration = scalar(coll.contact_duration)
+        pair.fixed_step = scalar(coll.time_step or 0.0)
+        pair.step_fraction = scalar(coll.step_fraction)
+        pair.reach = scalar(2.0 * radius + skin)
+        pair.half_skin = scalar(0.5 * skin)
+        pair.max_steps = scalar(coll.max_steps)
+        pair.block_steps = self.block_steps
+        self.pair = pair
+        cells = min(max(int(round((2.0 * n) ** (1.0 / 3.0))), 8), 256)
+        self.grid = wp.HashGrid(cells, cells, cells, device=dev, dtype=scalar)
+        self.reach = 2.0 * radius + skin
+        self.rebuilds = 0
+        self.blocks = 0
+        self.graph = None
+        self.use_graphs = True
+
+    def _launch(self, name, dim, inputs, record=False):
+        return wp.launch(self.kernels[name], dim=dim, inputs=inputs, device=self.device, record_cmd=record)
+
+    def _rebuild(self, pellets):
+        m, c = self.model, self.cloud
+        self._launch("grid_points", pellets, [self.pair, m.physics, c])
+        self.grid.build(c.grid_point[:pellets], self.reach, groups=self.groups[:pellets])
+        self._launch("neighbours", pellets, [self.grid.id, self.pair, c])
+        self.rebuilds += 1
+
+    def _step_commands(self, pellets, shots, outputs):
+        """One step's launches, recorded once (packing the structs' parameters costs more than a
+        small launch) and replayed; on CUDA a block of them is captured as a graph."""
+        m, c, p = self.model, self.cloud, self.pair
+        commands = [
+            self._launch("bounds", pellets, [p, m.physics, c], True),
+            self._launch("plan", shots, [p, m.physics, c], True),
+            self._launch("prepare", pellets, [p, m.physics, c], True),
+        ]
+        for r in range(self.rounds):
+            commands.append(self._launch("choose", pellets, [r % 2, p, m.surfaces, m.physics, c], True))
+            commands.append(self._launch("resolve", pellets, [r % 2, p, m.surfaces, m.physics, c, outputs], True))
+        commands.append(self._launch("finish", pellets, [self.rounds % 2, p, m.surfaces, m.physics, c, outputs], True))
+        commands.append(self._launch("end_step", shots, [p, c], True))
+        return commands
+
+    def _block(self, commands):
+        if self.graph is not None:
+            wp.capture_launch(self.graph)
+            return
+        if self.device.is_cuda and self.use_graphs:
+            with wp.ScopedCapture(device=self.device) as capture:
+                for _ in range(self.block_steps):
+                    for command in commands:
+                        command.launch()
+            self.graph = capture.graph
+            wp.capture_launch(self.graph)
+            return
+        for _ in range(self.block_steps):
+            for command in commands:
+                command.launch()
+
+    def run(self, first_index: int, shots: int, source, outputs, frames=None):
+        """Launch `shots` whole shots (global pellet index `first_index` on), step them until no
+        pair can touch again, and leave the release state in `self.cloud` for the core kernel.
+        `frames(step, time, positions)` receives trajectory frames (single-shot runs)."""
+        pellets = shots * self.count
+        c, p = self.cloud, self.pair
+        self._launch("launch", pellets, [first_index, source, c, outputs])
+        self._launch("drift", shots, [p, self.model.surfaces, self.model.physics, c])
+        self._launch("groups", pellets, [p, self.groups])
+        commands = self._step_commands(pellets, shots, outputs)
+        self.graph = None
+        self._rebuild(pellets)
+        while True:
+            self._launch("survey", pellets, [p, self.model.surfaces, self.model.physics, c])
+            self._launch("settle", shots, [p, self.model.physics, c])
+            flags = c.flags.numpy().copy()  # the only host sync: at checkpoints, three integers (a copy: CPU arrays share memory)
+            if flags[FLAG_OVERFLOW] > 0:
+                # a list overflowed (a denser cloud than max_neighbours allows): grow, rebuild, look again
+                c.neighbours = wp.zeros((self.capacity, int(flags[FLAG_OVERFLOW] * 1.25) + 1), dtype=wp.int32, device=self.device)
+                commands = self._step_commands(pellets, shots, outputs)
+                self.graph = None
+                c.flags.zero_()
+                self._rebuild(pellets)
+                continue
+            if frames is not None:
+                frames(self, pellets)
+            if flags[FLAG_REMAINING] == 0:
+                break
+            c.flags.zero_()
+            if flags[FLAG_STALL]:
+                self._rebuild(pellets)
+            self._block(commands)
+            self.blocks += 1
+        self._launch("release", pellets, [p, self.model.physics, c])
+        self._launch("shot_totals", shots, [p, c, self.totals])
+
+
+# bytes per pellet of the dense phase's device arrays (float32; float64 about doubles the vectors)
+def dense_bytes_per_pellet(precision: str, max_neighbours: int) -> int:
+    size = 4 if precision == "float32" else 8
+    return 3 * size * 18 + size * 9 + 4 * (11 + max_neighbours) + 4
+
+
+CPU_CHUNK_PELLETS = 1 << 20  # CPU: pellets per chunk of the dense phase
+
+
+def plan_shots(scene, model, shots: int) -> int:
+    """Shots per chunk: whole statistics segments of slots (so statistics do not depend on it),
+    within the device memory budget (or numerics.chunk_size pellets)."""
+    from .api import DEVICE_FRACTION
+    from .kernels import SEGMENT
+
+    count = scene.shot.count
+    granule = max(1, SEGMENT // shot_stride(count))
+    if scene.numerics.chunk_size:
+        pellets = scene.numerics.chunk_size
+    elif model.device.is_cuda:
+        pellets = int(DEVICE_FRACTION * model.device.free_memory
+                      / (dense_bytes_per_pellet(model.precision, scene.collisions.max_neighbours) + 64))
+    else:
+        pellets = CPU_CHUNK_PELLETS
+    per_chunk = max(granule, (max(pellets // count, 1) // granule) * granule)
+    return min(per_chunk, shots)
+
+
+def _frame_writer(group, pellets: int, every: int):
+    """H5MD trajectory frames (https://www.nongnu.org/h5md/): /h5md with its version, and
+    particles/pellets/position/{step, time, value}, appended at each checkpoint."""
+    import h5py
+    import numpy as np
+
+    h5md = group.require_group("h5md")
+    h5md.attrs["version"] = np.array([1, 1], dtype=np.int32)
+    author = h5md.require_group("author")
+    author.attrs["name"] = "warp-ricochet"
+    creator = h5md.require_group("creator")
+    creator.attrs["name"] = "warp-ricochet"
+    from . import __version__
+    creator.attrs["version"] = __version__
+    position = group.require_group("particles/pellets/position")
+    step = position.create_dataset("step", shape=(0,), maxshape=(None,), dtype=np.int64, chunks=(256,))
+    time = position.create_dataset("time", shape=(0,), maxshape=(None,), dtype=np.float64, chunks=(256,))
+    value = position.create_dataset("value", shape=(0, pellets, 3), maxshape=(None, pellets, 3), dtype=np.float64,
+                                    chunks=(1, min(pellets, 65536), 3))
+    time.attrs["unit"] = "s"
+    value.attrs["unit"] = "m"
+    step.attrs["description"] = "steps of the dense phase"
+    value.attrs["description"] = f"pellet centres every {every} steps of the dense phase (pellets whose flight ended: where it ended)"
+    del h5py
+
+    def record(dense, n):
+        cloud = dense.cloud
+        clock = cloud.clock.numpy()[0]
+        steps = int(clock[CLOCK_STEPS])
+        if steps % every or (step.shape[0] and step[-1] == steps):
+            return  # a block cut short by a list rebuild: not a frame
+        now = float(clock[CLOCK_TIME])
+        x, v, t = cloud.position.numpy()[:n], cloud.velocity.numpy()[:n], cloud.time.numpy()[:n]
+        flying = cloud.phase.numpy()[:n] == FLYING
+        g = np.asarray(dense.model.physics.gravity, np.float64)
+        age = np.where(flying, now - t, 0.0)[:, None]
+        positions = x + v * age + 0.5 * g * age**2
+        k = step.shape[0]
+        for ds, item in ((step, steps), (time, now)):
+            ds.resize((k + 1,))
+            ds[k] = item
+        value.resize((k + 1, n, 3))
+        value[k] = positions
+        group.file.flush()
+
+    return record
+
+
+def run_collision_scene(scene, model, *, writer=None, progress=None, source=None) -> dict:
+    """`api.run_scene` for scenes with pellet-pellet collisions: per chunk of whole shots, the
+    dense phase, then the core kernel continuing every pellet from its release state."""
+    import numpy as np
+
+    from .api import CUDA_BLOCK_DIM, LANES, Source, _HostSlot, source_struct
+    from .kernels import ricochet_kernel_for
+    from .model import FIELD_SPECS, State, threads_for
+    from .stats import NUM_EXTREMES, NUM_SUMS, combine, empty_totals, finalize
+
+    source = source or Source.from_scene(scene)
+    count = scene.shot.count
+    pellets = source.count
+    shots = pellets // count
+    stride = shot_stride(count)
+    fields = writer.fields if writer is not None else ()
+    core_fields = tuple(f for f in fields if FIELD_SPECS[f][0] is not None)
+    release_fields = tuple(f for f in fields if FIELD_SPECS[f][0] is None)
+    per_chunk = plan_shots(scene, model, shots)
+    dev = model.device
+    state = State(model, per_chunk * stride, core_fields)
+    dense = DensePhase(model, scene, per_chunk * count, write_outputs=bool(core_fields),
+                       from_file=source.arrays is not None, release_fields=release_fields)
+    kern = model.kernels
+    src = source_struct(scene, model)
+    explicit = None
+    if source.arrays is not None:
+        explicit = {k: wp.empty(per_chunk * count, dtype=kern.vec3, device=dev) for k in ("position", "velocity", "angular_velocity")}
+        src.position, src.velocity, src.angular_velocity = (explicit[k] for k in ("position", "velocity", "angular_velocity"))
+    ricochet_kernel = ricochet_kernel_for(model.precision, bool(core_fields), False, model.bounces, len(scene.surfaces),
+                                          fast_math=scene.numerics.fast_math and model.precision == "float32",
+                                          from_release=True)
+    slot = _HostSlot(wp, state, pinned=dev.is_cuda, index=0)
+    frames = None
+    if scene.collisions.frame_every and writer is not None:
+        frames = _frame_writer(writer.group, pellets, scene.collisions.frame_every)
+    totals = empty_totals()
+    shot_totals = []
+    done = 0
+    for first_shot in range(0, shots, per_chunk):
+        chunk_shots = min(per_chunk, shots - first_shot)
+        rows = chunk_shots * count
+        slots = chunk_shots * stride
+        start = first_shot * count
+        if explicit is not None:
+            for key, arr in explicit.items():
+                arr[:rows].assign(np.ascontiguousarray(source.arrays[key][start : start + rows], dtype=np.dtype(model.precision)))
+        dense.run(start, chunk_shots, src, state.outputs, frames=frames)
+        threads = threads_for(slots)
+        segments = threads // LANES
+        wp.launch(ricochet_kernel, dim=threads, inputs=[0, slots, src, model.surfaces, model.physics, state.outputs, dense.cloud],
+                  outputs=[state.partial_sums, state.partial_min, state.partial_max], device=dev, block_dim=CUDA_BLOCK_DIM)
+        wp.launch(kern.reduce_kernel, dim=(segments, NUM_SUMS + NUM_EXTREMES),
+                  inputs=[state.partial_sums, state.partial_min, state.partial_max], outputs=[state.segments], device=dev)
+        totals = combine(totals, state.segments.numpy()[:segments])
+        shot_totals.append(dense.totals.numpy()[:chunk_shots].copy())
+        if writer is not None:
+            for name, arr in state.arrays.items():
+                wp.copy(slot.arrays[name], arr, count=rows * (arr.size // arr.shape[0]))
+            wp.synchronize_device(dev)
+            arrays = {name: slot.arrays[name].numpy()[:rows] for name in state.arrays}
+            for name, arr in dense.field_arrays.items():
+                arrays[name] = arr.numpy()[:rows]
+            writer.append(arrays, rows)
+        done += rows
+        if progress is not None:
+            progress(done, pellets)
+    stats = finalize(totals, pellets=pellets, mass=model.mass, inertia=model.inertia)
+    table = np.concatenate(shot_totals)
+    stats.update(collision_statistics(table, pellets, dense))
+    return stats
+
+
+def collision_statistics(table, pellets: int, dense) -> dict:
+    """Per-shot totals (shot order) -> the run's collision statistics; sums with math.fsum
+    (exact, so they do not depend on how shots were chunked)."""
+    collided = math.fsum(table[:, 0])
+    return {
+        "collided_fraction": collided / pellets,
+        "pair_collisions": math.fsum(table[:, 1]) / 2.0,
+        "pair_energy_lost": math.fsum(table[:, 2]),
+        "pair_energy_lost_mean": math.fsum(table[:, 2]) / pellets,
+        "dense_steps_max": float(table[:, 3].max()),
+        "dense_time_max": float(table[:, 4].max()),
+    }
