@@ -33,23 +33,39 @@ MAX_H5_CHUNK_ROWS = 1 << 16
 
 def check_output_path(path, overwrite: bool) -> Path:
     """Fail early (before any work) if `path` cannot be written; return it as a Path."""
-    p = Path(path)
+    text = _output_text(path)
+    p = Path(text)
+    shown = f"output path = {text!r}"
     if p.suffix.lower() not in (".h5", ".hdf5"):
-        raise OutputError(f"output path = {str(p)!r}: must end in .h5 or .hdf5")
+        raise OutputError(f"{shown}: must end in .h5 or .hdf5")
     if p.is_dir():
-        raise OutputError(f"output path = {str(p)!r}: is a directory")
+        raise OutputError(f"{shown}: is a directory")
     if p.exists() and not overwrite:
-        raise OutputError(f"output path = {str(p)!r}: exists; pass --overwrite (overwrite=True) to replace it")
+        raise OutputError(f"{shown}: exists; pass --overwrite (overwrite=True) to replace it")
     partial = p.with_name(p.name + ".partial")
     if partial.exists() and not overwrite:
-        raise OutputError(f"output path = {str(p)!r}: {partial.name} exists (the chunks of an earlier interrupted "
+        raise OutputError(f"{shown}: {partial.name} exists (the chunks of an earlier interrupted "
                           "run); move it away, or pass --overwrite (overwrite=True) to replace it")
     parent = p.parent if str(p.parent) else Path(".")
+    if not parent.exists():
+        raise OutputError(f"{shown}: folder {str(parent)!r} does not exist")
     if not parent.is_dir():
-        raise OutputError(f"output path = {str(p)!r}: folder {str(parent)!r} does not exist")
-    if not os.access(parent, os.W_OK) or (p.exists() and not os.access(p, os.W_OK)):
-        raise OutputError(f"output path = {str(p)!r}: not writable")
+        raise OutputError(f"{shown}: {str(parent)!r} is not a folder")
+    if not os.access(parent, os.W_OK | os.X_OK) or (p.exists() and not os.access(p, os.W_OK)):
+        raise OutputError(f"{shown}: not writable (permission denied)")
     return p
+
+
+def _output_text(path) -> str:
+    """The output path as text, or a one-line OutputError: a NUL character would cut the name short
+    in the C library (and truncate whatever file the shorter name points to)."""
+    try:
+        text = os.fsdecode(path)
+    except TypeError:
+        raise OutputError(f"output path = {path!r}: must be a file name (text) ending in .h5 or .hdf5") from None
+    if "\0" in text:
+        raise OutputError(f"output path = {text!r}: must not contain a NUL character")
+    return text
 
 
 class OutputFile:
