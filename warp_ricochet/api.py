@@ -311,20 +311,24 @@ def _run_scene(scene, model, *, writer, progress, source) -> dict:
 
     totals = empty_totals()
     done = 0
+    if writer is not None and writer.rows:  # resuming: the rows written and their statistics partials
+        totals = combine(totals, writer.completed_segment_results())
+        done = writer.rows
 
     def consume(slot):
         nonlocal totals, done
         if slot.event is not None:
             wp.synchronize_event(slot.event)
-        totals = combine(totals, slot.segment_results.numpy()[: slot.segment_count])
+        segment_results = slot.segment_results.numpy()[: slot.segment_count]
+        totals = combine(totals, segment_results)
         if writer is not None:
-            writer.append({name: arr.numpy() for name, arr in slot.arrays.items()}, slot.rows)
+            writer.append({name: arr.numpy() for name, arr in slot.arrays.items()}, slot.rows, segment_results)
         done += slot.rows
         if progress is not None:
             progress(done, pellets)
 
     pending = None
-    for chunk, start in enumerate(range(0, pellets, capacity)):
+    for chunk, start in enumerate(range(done, pellets, capacity)):
         rows = min(capacity, pellets - start)
         threads = threads_for(rows)
         segments = threads // LANES
@@ -412,6 +416,20 @@ def check_chunk_memory(scene, dev, with_output: bool) -> None:
                              f"{where}: give at most {fits} or leave it out (automatic)")
 
 
+def check_resources(scenes, dev, output, rows_done=0) -> None:
+    """Before any work: every explicit chunk size fits in memory, and the output (less `rows_done`
+    rows already written, for a resumed run) fits on its disk: else a one-line error, no file made."""
+    from .model import State
+    from .writer import check_space
+
+    for sc in scenes:
+        check_chunk_memory(sc, dev, output is not None)
+    if output is not None:
+        need = sum((sc.shot.count - rows_done) * State.field_bytes_per_pellet(
+            sc.numerics.precision, sc.output.fields, sc.physics.bounces) for sc in scenes)
+        check_space(output, need, "the output")
+
+
 def _run_one(scene, device, group=None, progress=None) -> dict:
     """One scene on `device`: statistics, and with `group` (an HDF5 group) its pellets and
     statistics written there."""
@@ -428,19 +446,24 @@ def _run_one(scene, device, group=None, progress=None) -> dict:
     return stats
 
 
-def run(scene, output=None, device=None, *, overwrite=False, progress=None) -> dict:
+def run(scene, output=None, device=None, *, overwrite=False, progress=None, resume=False) -> dict:
     """Run a scene (a `Scene` or a TOML path); write HDF5 to `output` (or the scene's
-    `output.path`) when given. Returns the statistics (SI units, see `stats.STAT_UNITS`)."""
+    `output.path`) when given. Returns the statistics (SI units, see `stats.STAT_UNITS`).
+    `resume`: continue the interrupted run left in OUTPUT.partial (see `warp_ricochet.resume`)."""
     from .scene import Scene, load_scene
     from .writer import OutputFile, check_output_path
 
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
     output = output if output is not None else scene.output.path
+    if resume:
+        from .resume import resume_run
+
+        return resume_run(scene, output, device, overwrite=overwrite, progress=progress)
     if output is not None:
         check_output_path(output, overwrite)  # before any work
     dev = resolve_device(device)
-    check_chunk_memory(scene, dev, output is not None)
+    check_resources([scene], dev, output)
     if output is None:
         return _run_one(scene, dev, progress=progress)
     with OutputFile(output, overwrite=overwrite, kind="run", device=str(dev), scene_toml=scene.to_toml(),
@@ -491,8 +514,7 @@ def sweep(scene, params: dict, ties=(), output=None, device=None, *, overwrite=F
     if output is not None:
         check_output_path(output, overwrite)
     dev = resolve_device(device)
-    for sc in scenes:
-        check_chunk_memory(sc, dev, output is not None)
+    check_resources(scenes, dev, output)
     results = []
 
     def one(i, sc, group=None):
