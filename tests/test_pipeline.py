@@ -6,6 +6,8 @@ import os
 import h5py
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 import warp_ricochet as wr
 from warp_ricochet import reference
@@ -132,19 +134,43 @@ def test_device_statistics_equal_statistics_of_written_arrays(tmp_path, device):
 # ---------------------------------------------------------------- chunking, determinism, precision
 
 
-def test_same_results_for_any_chunk_size(tmp_path, device):
-    raw = paper_raw()
-    raw["shot"]["count"] = 150_001  # three segments of 65,536 pellets, the last partial
-    raw["output"] = {"fields": ["landing.range", "impact.velocity", "initial.position"]}
+# 150,001 pellets are three segments of 65,536, the last partial; chunks are whole segments (1 -> one
+# segment, 100,000 -> two), None plans the whole run as one chunk on the CPU
+CHUNK_SIZES = [None, 1, 100_000]
+
+
+@pytest.mark.parametrize("precision", ["float32", "float64"])
+def test_same_results_for_any_chunk_size(tmp_path, device, precision):
+    """Same seed, same device: every per-pellet dataset and every statistic bitwise equal for any
+    chunk size (one segment per chunk up to the whole run in one chunk), two planes, two bounces,
+    incoming spin; and a statistics-only run (another kernel) gives the same statistics."""
+    raw = paper_raw(bounces=2)
+    raw["shot"].update(count=150_001, spin=[0.0, 0.0, 2000.0])
+    raw["surfaces"].append({"point": [60.0, 0.0, 0.0], "normal": [-1.0, 0.3, 0.0], "restitution": 0.4, "mu_s": 0.2})
     results = []
-    for i, chunk in enumerate([None, 65_536, 131_072, 100_000]):  # 100,000 rounds up to 131,072
-        sc = make_scene(raw, numerics={"chunk_size": chunk} if chunk else {})
+    for i, chunk in enumerate(CHUNK_SIZES):
+        sc = make_scene(raw, precision, numerics={"chunk_size": chunk} if chunk else {})
         path = tmp_path / f"c{i}.h5"
         results.append((wr.run(sc, path, device=device), read_pellets(path)))
+    stats0, pellets0 = results[0]
+    assert len(pellets0) == 16 and (pellets0["impact.surface"] == 1).any()  # every field, both planes
     for stats, pellets in results[1:]:
-        stats_equal(stats, results[0][0])
+        stats_equal(stats, stats0)
         for name, arr in pellets.items():
-            np.testing.assert_array_equal(arr, results[0][1][name])
+            np.testing.assert_array_equal(arr, pellets0[name], err_msg=name)
+    for chunk in (None, 65_536):
+        sc = make_scene(raw, precision, output={"fields": []}, numerics={"chunk_size": chunk} if chunk else {})
+        stats_equal(wr.run(sc, device=device), stats0)
+
+
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(chunk=st.integers(1, 400_000), count=st.integers(1, 300_000), precision=st.sampled_from(["float32", "float64"]))
+def test_statistics_are_bitwise_the_same_for_any_chunk_size(device, chunk, count, precision):
+    raw = paper_raw()
+    raw["shot"]["count"] = count
+    stats = [wr.run(make_scene(raw, precision, output={"fields": []}, numerics=numerics), device=device)
+             for numerics in ({}, {"chunk_size": chunk})]
+    stats_equal(*stats)
 
 
 def test_statistics_only_run_writes_no_pellet_arrays(tmp_path, device):

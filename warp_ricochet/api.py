@@ -314,20 +314,24 @@ def _run_scene(scene, model, *, writer, progress, source) -> dict:
 
     totals = empty_totals()
     done = 0
+    if writer is not None and writer.rows:  # resuming: the rows written and their statistics partials
+        totals = combine(totals, writer.completed_segment_results())
+        done = writer.rows
 
     def consume(slot):
         nonlocal totals, done
         if slot.event is not None:
             wp.synchronize_event(slot.event)
-        totals = combine(totals, slot.segment_results.numpy()[: slot.segment_count])
+        segment_results = slot.segment_results.numpy()[: slot.segment_count]
+        totals = combine(totals, segment_results)
         if writer is not None:
-            writer.append({name: arr.numpy() for name, arr in slot.arrays.items()}, slot.rows)
+            writer.append({name: arr.numpy() for name, arr in slot.arrays.items()}, slot.rows, segment_results)
         done += slot.rows
         if progress is not None:
             progress(done, pellets)
 
     pending = None
-    for chunk, start in enumerate(range(0, pellets, capacity)):
+    for chunk, start in enumerate(range(done, pellets, capacity)):
         rows = min(capacity, pellets - start)
         threads = threads_for(rows)
         segments = threads // LANES
@@ -367,6 +371,68 @@ def _run_scene(scene, model, *, writer, progress, source) -> dict:
     return finalize(totals, pellets=pellets, mass=model.mass, inertia=model.inertia)
 
 
+def host_memory_available():
+    """Bytes of host memory still free for a run (Linux MemAvailable, capped by a cgroup limit), or
+    None where this cannot be read."""
+    import re
+
+    try:
+        with open("/proc/meminfo") as f:
+            free = int(re.search(r"^MemAvailable:\s+(\d+) kB", f.read(), re.M).group(1)) * 1024
+    except (OSError, AttributeError, ValueError):
+        return None
+    for limit, usage in (("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current"),
+                         ("/sys/fs/cgroup/memory/memory.limit_in_bytes", "/sys/fs/cgroup/memory/memory.usage_in_bytes")):
+        try:
+            with open(limit) as a, open(usage) as b:
+                free = min(free, int(a.read()) - int(b.read()))
+        except (OSError, ValueError):  # no such cgroup file, or "max"
+            pass
+    return free
+
+
+def check_chunk_memory(scene, dev, with_output: bool) -> None:
+    """An explicit `numerics.chunk_size` must fit in memory: refuse it in one line before any work
+    (a chunk of 2e8 pellets with every output field needs 40 GB; the automatic size always fits)."""
+    from .model import State
+
+    chunk = scene.numerics.chunk_size
+    if not chunk:
+        return
+    pellets = scene.shot.count
+    rows = min(max(SEGMENT, -(-chunk // SEGMENT) * SEGMENT), max(pellets, 1))
+    fields = scene.output.fields if with_output else ()
+    precision, bounces = scene.numerics.precision, scene.physics.bounces
+    on_device = State.bytes_per_pellet(precision, fields, bounces)
+    if scene.shot.file is not None:
+        on_device += 9 * np.dtype(precision).itemsize
+    on_host = State.field_bytes_per_pellet(precision, fields, bounces) * (2 if dev.is_cuda else 1)
+    if not dev.is_cuda:
+        on_host, on_device = on_host + on_device, 0
+    host_free = host_memory_available()
+    for need, free, where in ((rows * on_device, dev.free_memory if dev.is_cuda else None, f"on {dev.alias}"),
+                              (rows * on_host, host_free, "in host memory")):
+        if free is not None and need > free:
+            fits = int(free / max(need / rows, 1e-9)) // SEGMENT * SEGMENT
+            raise SceneError("numerics.chunk_size", chunk,
+                             f"a chunk of {rows} pellets needs {need / 2**30:.3g} GiB, {free / 2**30:.3g} GiB is free "
+                             f"{where}: give at most {fits} or leave it out (automatic)")
+
+
+def check_resources(scenes, dev, output, rows_done=0) -> None:
+    """Before any work: every explicit chunk size fits in memory, and the output (less `rows_done`
+    rows already written, for a resumed run) fits on its disk: else a one-line error, no file made."""
+    from .model import State
+    from .writer import check_space
+
+    for sc in scenes:
+        check_chunk_memory(sc, dev, output is not None)
+    if output is not None:
+        need = sum((sc.shot.count - rows_done) * State.field_bytes_per_pellet(
+            sc.numerics.precision, sc.output.fields, sc.physics.bounces) for sc in scenes)
+        check_space(output, need, "the output")
+
+
 def _run_one(scene, device, group=None, progress=None) -> dict:
     """One scene on `device`: statistics, and with `group` (an HDF5 group) its pellets and
     statistics written there."""
@@ -383,18 +449,25 @@ def _run_one(scene, device, group=None, progress=None) -> dict:
     return stats
 
 
-def run(scene, output=None, device=None, *, overwrite=False, progress=None) -> dict:
+def run(scene, output=None, device=None, *, overwrite=False, progress=None, resume=False) -> dict:
     """Run a scene (a `Scene` or a TOML path); write HDF5 to `output` (or the scene's
-    `output.path`) when given. Returns the statistics (SI units, see `stats.STAT_UNITS`)."""
+    `output.path`) when given. Returns the statistics (SI units, see `stats.STAT_UNITS`).
+    `resume`: continue the interrupted run left in OUTPUT.partial (see `warp_ricochet.resume`)."""
     from .scene import Scene, load_scene
     from .writer import OutputFile, check_output_path
 
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
     output = output if output is not None else scene.output.path
+    if resume:
+        from .resume import resume_run
+        if getattr(scene, "collisions", None) is not None and scene.collisions.enabled:
+            raise SceneError("collisions.enabled", True, "--resume does not support runs with pellet-pellet collisions yet")
+        return resume_run(scene, output, device, overwrite=overwrite, progress=progress)
     if output is not None:
         check_output_path(output, overwrite)  # before any work
     dev = resolve_device(device)
+    check_resources([scene], dev, output)
     if output is None:
         return _run_one(scene, dev, progress=progress)
     with OutputFile(output, overwrite=overwrite, kind="run", device=str(dev), scene_toml=scene.to_toml(),
@@ -445,6 +518,7 @@ def sweep(scene, params: dict, ties=(), output=None, device=None, *, overwrite=F
     if output is not None:
         check_output_path(output, overwrite)
     dev = resolve_device(device)
+    check_resources(scenes, dev, output)
     results = []
 
     def one(i, sc, group=None):

@@ -1,6 +1,6 @@
 """The `warp-ricochet` command: run a scene, sweep parameters, report Tables 1-3 of Zohdi (2021).
 
-    warp-ricochet run SCENE.toml [-o OUT.h5] [--device cpu|cuda|cuda:N] [--set KEY=VALUE ...] [--overwrite]
+    warp-ricochet run SCENE.toml [-o OUT.h5] [--device cpu|cuda|cuda:N] [--set KEY=VALUE ...] [--overwrite] [--resume]
     warp-ricochet sweep SCENE.toml --param KEY=START:STOP:STEP|a,b,c [--tie KEY=F*[PARAM] ...] [-o OUT.h5] ...
     warp-ricochet report OUT.h5 [--format text|markdown] [--paper]
 
@@ -61,6 +61,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("run", help="run one scene and print a summary of its statistics",
                        description="Run every pellet of a scene, write HDF5 (with -o) and print a summary.")
     _add_scene_options(p)
+    p.add_argument("--resume", action="store_true",
+                   help="continue the interrupted run left in OUT.h5.partial (the same scene, --set overrides and "
+                        "device); the result is bitwise that of an uninterrupted run")
     p.set_defaults(func=cmd_run)
 
     p = sub.add_parser("sweep", help="run a scene over a parameter sweep and print Tables 1-3",
@@ -102,7 +105,7 @@ def cmd_run(args) -> int:
     from . import api
 
     with ProgressBar("run") as bar:
-        stats = api.run(scene, args.output, args.device, overwrite=args.overwrite, progress=bar)
+        stats = api.run(scene, args.output, args.device, overwrite=args.overwrite, progress=bar, resume=args.resume)
     output = args.output if args.output is not None else scene.output.path
     sys.stdout.write(format_run_summary(stats, output, _device_name(api, args.device)))
     return 0
@@ -195,13 +198,25 @@ def main(argv=None) -> int:
             pass
         return 1
     except OSError as exc:
-        _error(_os_message(exc))
+        _error(_os_message(exc) + _kept(exc))
+        writer = sys.modules.get("warp_ricochet.writer")
+        if writer is not None and writer.ABANDONED:  # HDF5 crashes in its exit handler after a failed close
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(1)
         return 1
     except KeyboardInterrupt as exc:
-        partial = getattr(exc, "partial_path", None)  # set by the output file when it was open
-        kept = f"; the chunks completed are in {partial}" if partial else ""
-        print(f"{PROG}: interrupted{kept}", file=sys.stderr)
+        print(f"{PROG}: interrupted{_kept(exc)}", file=sys.stderr)
         return 130
+
+
+def _kept(exc) -> str:
+    """Where the chunks completed before a failure are (set by the output file when it was open)."""
+    partial = getattr(exc, "partial_path", None)
+    if partial is None:
+        return ""
+    resumable = " (warp-ricochet run ... --resume continues the run)" if getattr(exc, "resumable", False) else ""
+    return f"; the chunks completed are in {partial}{resumable}"
 
 
 if __name__ == "__main__":

@@ -969,7 +969,8 @@ def run_collision_scene(scene, model, *, writer=None, progress=None, source=None
                   outputs=[state.partial_sums, state.partial_min, state.partial_max], device=dev, block_dim=CUDA_BLOCK_DIM)
         wp.launch(kern.reduce_kernel, dim=(segments, NUM_SUMS + NUM_EXTREMES),
                   inputs=[state.partial_sums, state.partial_min, state.partial_max], outputs=[state.segments], device=dev)
-        totals = combine(totals, state.segments.numpy()[:segments])
+        segment_results = state.segments.numpy()[:segments].copy()
+        totals = combine(totals, segment_results)
         shot_totals.append(dense.totals.numpy()[:chunk_shots].copy())
         if writer is not None:
             for name, arr in state.arrays.items():
@@ -978,7 +979,7 @@ def run_collision_scene(scene, model, *, writer=None, progress=None, source=None
             arrays = {name: slot.arrays[name].numpy()[:rows] for name in state.arrays}
             for name, arr in dense.field_arrays.items():
                 arrays[name] = arr.numpy()[:rows]
-            writer.append(arrays, rows)
+            writer.append(arrays, rows, segment_results)
         done += rows
         if progress is not None:
             progress(done, pellets)

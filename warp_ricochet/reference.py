@@ -41,6 +41,10 @@ def impact_law(velocity, angular_velocity, normal, *, radius, restitution, mu_s,
     # eq. (6): v_p = v_c + omega x r_{c->p}, r_{c->p} = -R e_n
     v_p = v + np.cross(w, -R * e_n)
     v_pt_vec = v_p - _dot(v_p, e_n)[:, None] * e_n  # eq. (4)
+    # project again: when v_p is (nearly) along e_n the first projection leaves a rounding residue
+    # whose direction is not tangential, and e_t built from it would not be orthogonal to e_n (the
+    # frame sums below would then turn a normal impact into a sideways one)
+    v_pt_vec = v_pt_vec - _dot(v_pt_vec, e_n)[:, None] * e_n
     v_pt = np.linalg.norm(v_pt_vec, axis=1)
     safe = v_pt > 0.0
     e_t = np.zeros_like(v)

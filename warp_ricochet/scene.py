@@ -332,6 +332,17 @@ def _str(choices=(), *, empty=False):
     return conv
 
 
+def _path():
+    rule = "must be a file name (a string, not empty, without NUL characters)"
+
+    @_rule(rule)
+    def conv(v, path):
+        if not isinstance(v, str) or not v or "\0" in v:
+            raise _err(path, v, rule)
+        return v
+    return conv
+
+
 @_rule("must be true or false")
 def _bool(v, path):
     if not isinstance(v, bool):
@@ -368,7 +379,7 @@ _SHOT = {
     "envelope_center": _vec3(unit="m", bound=MAX_COORDINATE),
     "spin": _vec3(unit="rad/s", bound=MAX_SPIN),
     "seed": _int(0, INT32_MAX),
-    "file": _str(),
+    "file": _path(),
 }
 _FILE_EXCLUSIVE = ("speed", "direction", "direction_jitter", "envelope_radius", "envelope_center", "spin", "seed")
 _SURFACE = {
@@ -396,7 +407,7 @@ _COLLISIONS = {
     "frame_every": _int(0, INT32_MAX),
 }
 _NUMERICS = {"precision": _str(("float32", "float64")), "chunk_size": _int(1, INT32_MAX), "fast_math": _bool}
-_OUTPUT = {"path": _str(), "fields": _fields}
+_OUTPUT = {"path": _path(), "fields": _fields}
 _TOP = ("shot", "surfaces", "physics", "collisions", "numerics", "output")
 
 

@@ -9,12 +9,35 @@ an interrupted or failed run leaves its completed chunks in `NAME.partial`. `Run
 `/runs/NNNN` of a sweep file): per-pellet datasets that are chunked, resizable and appended per
 chunk, constants written once, statistics at the end. Every dataset has a `units` attribute.
 The layout is documented in docs/output.md.
+
+Faults. A run file is written in HDF5 SWMR mode (single writer, multiple readers): every dataset
+is created first, then the file only grows, and the library orders its metadata writes so that the
+file on disk can be opened at any moment, by a reader while the run writes (`h5py.File(path, "r",
+swmr=True)`) or after the writer was killed. After each chunk the rows are written and flushed,
+then the chunk's per-segment statistics partials (`/progress/segment_results`), then the count of
+complete rows (`/progress/rows`), flushed again: readers and `--resume` trust the rows below that
+count. A process lock (flock) on NAME.partial, exclusive while the file is set up and shared
+once readers may open it, keeps a second writer or a resume off a file in use.
+
+A full disk: HDF5 does not survive a failed write (the file it leaves can be unreadable, and the
+library crashes at exit), so it must never meet one. Before each chunk the file reserves the disk
+space the chunk and a margin will take, beyond its end (Linux fallocate, FALLOC_FL_KEEP_SIZE): if
+that fails the run stops before writing anything, with a one-line ENOSPC error, and closes the
+file cleanly in the space still reserved; other writers filling the disk meanwhile cannot take the
+reserved space. Where the file system cannot reserve, the free space is checked instead (a race
+with another writer remains). Should the library hit a write error all the same, the file is
+detached (its descriptor pointed at /dev/null) before it is closed: the file on disk stays as of its
+last flush, which is readable (SWMR), instead of half an update.
 """
 
 from __future__ import annotations
 
+import ctypes
 import datetime
+import errno
+import functools
 import os
+import re
 from pathlib import Path
 
 import h5py
@@ -22,34 +45,102 @@ import numpy as np
 import warp as wp
 
 from . import __version__
-from .errors import OutputError
+from .errors import OutputError, RicochetError
 from .model import FIELD_SPECS, field_numpy_dtype, field_shape
 from .stats import STAT_UNITS
+
+try:
+    import fcntl
+except ImportError:  # Windows: no process lock (HDF5's own file locking still applies to sweeps)
+    fcntl = None
+
+FALLOC_FL_KEEP_SIZE, FALLOC_FL_PUNCH_HOLE = 1, 2
+ABANDONED = False  # a file could not be closed: the HDF5 library must not run its exit handlers
 
 FORMAT_NAME = "warp-ricochet"
 FORMAT_VERSION = 1
 MAX_H5_CHUNK_ROWS = 1 << 16
+SWMR_FILE = {"libver": ("v110", "latest"), "locking": False}  # SWMR-capable; our flock replaces HDF5's
+SPACE_MARGIN = 1 << 20  # bytes kept free beyond a chunk's data: HDF5 metadata and the final close
 
 
 def check_output_path(path, overwrite: bool) -> Path:
     """Fail early (before any work) if `path` cannot be written; return it as a Path."""
-    p = Path(path)
-    if p.suffix.lower() not in (".h5", ".hdf5"):
-        raise OutputError(f"output path = {str(p)!r}: must end in .h5 or .hdf5")
+    p, shown = _target(path)
     if p.is_dir():
-        raise OutputError(f"output path = {str(p)!r}: is a directory")
+        raise OutputError(f"{shown}: is a directory")
     if p.exists() and not overwrite:
-        raise OutputError(f"output path = {str(p)!r}: exists; pass --overwrite (overwrite=True) to replace it")
+        raise OutputError(f"{shown}: exists; pass --overwrite (overwrite=True) to replace it")
     partial = p.with_name(p.name + ".partial")
     if partial.exists() and not overwrite:
-        raise OutputError(f"output path = {str(p)!r}: {partial.name} exists (the chunks of an earlier interrupted "
-                          "run); move it away, or pass --overwrite (overwrite=True) to replace it")
+        raise OutputError(f"{shown}: {partial.name} exists (the chunks of an earlier interrupted run); pass "
+                          "--resume (resume=True) to continue that run, --overwrite (overwrite=True) to replace "
+                          "it, or move it away")
     parent = p.parent if str(p.parent) else Path(".")
+    if not parent.exists():
+        raise OutputError(f"{shown}: folder {str(parent)!r} does not exist")
     if not parent.is_dir():
-        raise OutputError(f"output path = {str(p)!r}: folder {str(parent)!r} does not exist")
-    if not os.access(parent, os.W_OK) or (p.exists() and not os.access(p, os.W_OK)):
-        raise OutputError(f"output path = {str(p)!r}: not writable")
+        raise OutputError(f"{shown}: {str(parent)!r} is not a folder")
+    if not os.access(parent, os.W_OK | os.X_OK) or (p.exists() and not os.access(p, os.W_OK)):
+        raise OutputError(f"{shown}: not writable (permission denied)")
     return p
+
+
+def _target(path) -> tuple[Path, str]:
+    """An output path ending in .h5 or .hdf5, and how messages show it ("output path = '...'")."""
+    text = _output_text(path)
+    shown = f"output path = {text!r}"
+    if Path(text).suffix.lower() not in (".h5", ".hdf5"):
+        raise OutputError(f"{shown}: must end in .h5 or .hdf5")
+    return Path(text), shown
+
+
+def _output_text(path) -> str:
+    """The output path as text, or a one-line OutputError: a NUL character would cut the name short
+    in the C library (and truncate whatever file the shorter name points to)."""
+    try:
+        text = os.fsdecode(path)
+    except TypeError:
+        raise OutputError(f"output path = {path!r}: must be a file name (text) ending in .h5 or .hdf5") from None
+    if "\0" in text:
+        raise OutputError(f"output path = {text!r}: must not contain a NUL character")
+    return text
+
+
+class _PartialLock:
+    """A process lock (flock) on NAME.partial: exclusive while the file is set up or checked, shared
+    once SWMR readers (which take shared locks as they open it) may come. A second run or a resume
+    asking for it exclusively is refused while it is held; the system drops it when the process dies."""
+
+    def __init__(self, partial: Path, shown: str, *, create: bool, exclusive_create: bool):
+        self.fd = None
+        flags = os.O_RDWR | (os.O_CREAT | (os.O_EXCL if exclusive_create else 0) if create else 0)
+        try:
+            self.fd = os.open(partial, flags, 0o666)
+        except FileExistsError:
+            raise OutputError(f"{shown}: {partial.name} appeared meanwhile (another run?)") from None
+        except OSError as exc:
+            raise OutputError(f"{shown}: {partial.name} cannot be opened ({exc.strerror})") from None
+        if fcntl is None:
+            return
+        try:
+            fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            self.release()
+            raise OutputError(f"{shown}: {partial.name} is in use by another process (a run writing it, or a "
+                              "reader); wait for it to finish or stop it") from None
+
+    def share(self):
+        if self.fd is not None and fcntl is not None:
+            fcntl.flock(self.fd, fcntl.LOCK_SH)
+
+    def release(self):
+        if self.fd is not None:
+            os.close(self.fd)  # drops the lock
+            self.fd = None
+
+
+_OPEN: dict[str, "OutputFile"] = {}  # HDF5 file name -> its OutputFile while open (for RunWriter)
 
 
 class OutputFile:
@@ -60,10 +151,19 @@ class OutputFile:
         self.path = check_output_path(path, overwrite)
         self.overwrite = overwrite
         self.partial = self.path.with_name(self.path.name + ".partial")
+        self.watchable = kind == "run"  # SWMR: a run file can be read while it is written
+        self.broken = False
+        # a run file is set up as NAME.partial.new and renamed NAME.partial once it is readable (SWMR on):
+        # NAME.partial, if it exists, always opens, even after a SIGKILL during the set-up
+        self.staging = self.partial.with_name(self.partial.name + ".new") if self.watchable else self.partial
+        self._lock = _PartialLock(self.staging, f"output path = {str(self.path)!r}", create=True,
+                                  exclusive_create=not overwrite and not self.watchable)
         try:
-            self.h5 = h5py.File(self.partial, "w")
+            self.h5 = h5py.File(self.staging, "w", **SWMR_FILE)
         except OSError as exc:
+            self._lock.release()
             raise OutputError(f"output path = {str(self.path)!r}: cannot be created ({exc})") from None
+        self._opened("the new file", discard=True)
         attrs = self.h5.attrs
         attrs["format"] = FORMAT_NAME
         attrs["format_version"] = FORMAT_VERSION
@@ -81,6 +181,124 @@ class OutputFile:
         if precision is not None:
             attrs["precision"] = precision
 
+    @classmethod
+    def reopen(cls, path, *, overwrite: bool, check):
+        """The NAME.partial of an interrupted run, reopened to continue it: locked, then `check(f)`
+        on it read-only (it raises to refuse; nothing is changed before it passes), then the status
+        flags a killed writer left are cleared and it is opened for writing. Returns (file, check's
+        result)."""
+        from .superblock import clear_status_flags
+
+        self = cls.__new__(cls)
+        self.path = check_resume_path(path, overwrite)
+        self.overwrite = overwrite
+        self.partial = self.staging = self.path.with_name(self.path.name + ".partial")
+        self.watchable = True
+        self.broken = False
+        shown = f"output path = {str(self.path)!r}"
+        self._lock = _PartialLock(self.partial, shown, create=False, exclusive_create=False)
+        try:
+            try:
+                try:  # swmr: opens even with the flags of a killed writer set
+                    f = h5py.File(self.partial, "r", swmr=True, locking=False)
+                except OSError:
+                    f = h5py.File(self.partial, "r", locking=False)
+            except OSError as exc:
+                raise OutputError(f"{shown}: {self.partial.name} cannot be resumed: HDF5 cannot open it "
+                                  f"({' '.join(str(exc).split())})") from None
+            with f:
+                try:
+                    found = check(f)
+                except (KeyError, ValueError, TypeError) as exc:
+                    if isinstance(exc, RicochetError):
+                        raise
+                    raise OutputError(f"{shown}: {self.partial.name} cannot be resumed: it lacks what a run file "
+                                      f"holds ({' '.join(str(exc).split())})") from None
+            try:
+                clear_status_flags(self.partial)
+                self.h5 = h5py.File(self.partial, "r+", **SWMR_FILE)
+            except (OSError, ValueError) as exc:
+                raise OutputError(f"{shown}: {self.partial.name} cannot be reopened for writing "
+                                  f"({' '.join(str(exc).split())})") from None
+        except BaseException:
+            self._lock.release()
+            raise
+        self._opened("the resumed file", discard=False)
+        self.h5.attrs["status"] = "running"
+        return self, found
+
+    def _opened(self, what: str, *, discard: bool):
+        """Register the open file and reserve the space its closing needs; if there is none, close
+        it unchanged (detached) and, for a new file (`discard`), remove it."""
+        _OPEN[self.h5.filename] = self
+        self._reserved_end = 0
+        self._can_reserve = True
+        try:
+            self.reserve(0, what)
+        except OSError:
+            _OPEN.pop(self.h5.filename, None)
+            self._detach()
+            if discard:
+                os.unlink(self.staging)
+            self._lock.release()
+            raise
+
+    def reserve(self, need: int, what: str) -> None:
+        """Hold `need` + SPACE_MARGIN bytes of disk beyond the end of the file for its next writes,
+        or raise OSError(ENOSPC) naming the file (nothing written). Falls back to a free-space check
+        where the file system cannot reserve."""
+        total = need + SPACE_MARGIN
+        fd, fallocate = self._lock.fd, _fallocate()
+        if fd is not None and fallocate is not None and self._can_reserve:
+            size = os.fstat(fd).st_size
+            if fallocate(fd, FALLOC_FL_KEEP_SIZE, size, total) == 0:
+                self._reserved_end = max(self._reserved_end, size + total)
+                return
+            code = ctypes.get_errno()
+            if code in (errno.ENOSPC, errno.EDQUOT):
+                free = free_bytes(self.staging)
+                raise OSError(errno.ENOSPC, f"No space left on device ({what} needs {_size(total)}"
+                                            + (f", {_size(free)} is free)" if free is not None else ")"),
+                              str(self.staging))
+            self._can_reserve = False  # e.g. EOPNOTSUPP: check instead
+        check_space(self.staging, need, what)
+
+    def _release(self):
+        """Give back what is still reserved beyond the end of the closed file."""
+        fd, fallocate = self._lock.fd, _fallocate()
+        if fd is not None and fallocate is not None and self._reserved_end:
+            size = os.fstat(fd).st_size
+            if self._reserved_end > size:
+                fallocate(fd, FALLOC_FL_PUNCH_HOLE | FALLOC_FL_KEEP_SIZE, size, self._reserved_end - size)
+        self._reserved_end = 0
+
+    def start_watching(self):
+        """Every object exists: from now on the file only grows, and readers may open it (SWMR)."""
+        self.h5.swmr_mode = True
+        self._publish()
+        self._lock.share()
+
+    def _publish(self):
+        """Rename the file set up as NAME.partial.new to NAME.partial (the lock goes with it)."""
+        if self.staging == self.partial:
+            return
+        shown = f"output path = {str(self.path)!r}"
+        if self.overwrite:
+            if self.partial.exists():  # an earlier partial: not while someone has it open
+                _PartialLock(self.partial, shown, create=False, exclusive_create=False).release()
+            os.replace(self.staging, self.partial)
+        else:
+            try:
+                os.link(self.staging, self.partial)  # atomic, and never over a file that appeared meanwhile
+                os.unlink(self.staging)
+            except FileExistsError:
+                raise OutputError(f"{shown}: {self.partial.name} appeared during the set-up (another run?)") from None
+            except OSError:  # no hard links here
+                if self.partial.exists():
+                    raise OutputError(f"{shown}: {self.partial.name} appeared during the set-up (another run?)") from None
+                os.replace(self.staging, self.partial)
+        self.staging = self.partial
+
     def __enter__(self):
         return self
 
@@ -93,16 +311,59 @@ class OutputFile:
             status = "failed"
         if exc is not None:
             exc.partial_path = str(self.partial)  # for the one-line message: where the chunks are
+            exc.resumable = self.watchable
+        _OPEN.pop(self.h5.filename, None)
         try:
-            self.h5.attrs["status"] = status
-            self.h5.close()
-        except Exception:  # the file is already unusable (e.g. disk full): keep the first error
+            if self.broken:
+                self._detach()
+            else:
+                try:
+                    self.h5.attrs["status"] = status
+                    self.h5.close()
+                except Exception as close_error:  # the library failed mid-close: keep the first error
+                    self._abandon()
+                    if exc_type is None:
+                        raise OSError(errno.EIO, "the output file could not be closed: "
+                                      + " ".join(str(close_error).split()), str(self.staging)) from None
+                    return False
+            self._release()
+            if self.staging != self.partial:  # failed during the set-up: closed now, so it opens
+                try:
+                    self._publish()
+                except OutputError:  # NAME.partial appeared meanwhile: ours holds no chunk
+                    os.unlink(self.staging)
             if exc_type is None:
-                raise
-            return False
-        if exc_type is None:
-            self._move_into_place()
+                self._move_into_place()
+        finally:
+            self._lock.release()
         return False
+
+    def _detach(self):
+        """After a failed write, point the file's descriptor at /dev/null and close it: what is on
+        disk stays as of the last successful flush (readable, see the module notes), and the library
+        neither writes half an update nor crashes at exit trying to flush."""
+        try:
+            self._blind()
+            self.h5.close()
+        except Exception:  # noqa: BLE001 - best effort: the first error is what the user sees
+            self._abandon()
+
+    def _blind(self):
+        fd = self.h5.id.get_vfd_handle()
+        null = os.open(os.devnull, os.O_RDWR)
+        os.dup2(null, fd)
+        os.close(null)
+
+    def _abandon(self):
+        """A close that failed leaves the library in a state where closing again, or its exit
+        handler, crashes: blind the descriptor (nothing more reaches the disk) and say so, so the
+        command line can end without the library's exit handlers (cli.main)."""
+        global ABANDONED
+        ABANDONED = True
+        try:
+            self._blind()
+        except Exception:  # noqa: BLE001
+            pass
 
     def _move_into_place(self):
         """Rename NAME.partial to NAME with Ctrl-C and SIGTERM held off: never half done."""
@@ -136,8 +397,83 @@ class OutputFile:
         os.unlink(self.partial)
 
 
+def check_resume_path(path, overwrite: bool) -> Path:
+    """Fail early if there is no NAME.partial to continue, or NAME exists without overwrite."""
+    p, shown = _target(path)
+    if p.exists() and not overwrite:
+        raise OutputError(f"{shown}: exists; pass --overwrite (overwrite=True) to replace it with the resumed run")
+    partial = p.with_name(p.name + ".partial")
+    if not partial.is_file():
+        raise OutputError(f"{shown}: nothing to resume: {partial.name} does not exist")
+    if not os.access(partial, os.R_OK | os.W_OK) or not os.access(partial.parent, os.W_OK | os.X_OK):
+        raise OutputError(f"{shown}: {partial.name} or its folder is not writable (permission denied)")
+    if not h5py.is_hdf5(partial):
+        raise OutputError(f"{shown}: {partial.name} is not an HDF5 file; it cannot be resumed "
+                          "(--overwrite starts the run again)")
+    return p
+
+
+@functools.cache
+def _fallocate():
+    """libc's fallocate(fd, mode, offset, length) (Linux), or None."""
+    try:
+        f = ctypes.CDLL(None, use_errno=True).fallocate
+    except (OSError, AttributeError, TypeError):
+        return None
+    f.argtypes = [ctypes.c_int, ctypes.c_int, ctypes.c_int64, ctypes.c_int64]
+    f.restype = ctypes.c_int
+    return f
+
+
+def free_bytes(path) -> int | None:
+    """Bytes free for an unprivileged writer on the file system holding `path`, or None if unknown."""
+    try:
+        st = os.statvfs(os.path.dirname(os.path.abspath(path)))
+    except (OSError, AttributeError):
+        return None
+    return st.f_bavail * st.f_frsize
+
+
+def check_space(path, need: int, what: str) -> None:
+    """OSError(ENOSPC) naming the file if fewer than `need` (+ a margin) bytes are free next to it."""
+    free = free_bytes(path)
+    if free is not None and need + SPACE_MARGIN > free:
+        raise OSError(errno.ENOSPC, f"No space left on device ({what} needs {_size(need + SPACE_MARGIN)}, "
+                                    f"{_size(free)} is free)", os.fspath(path))
+
+
+def _size(n: float) -> str:
+    for unit in ("B", "kB", "MB", "GB"):
+        if n < 1000 or unit == "GB":
+            return f"{n:.3g} {unit}" if unit != "B" else f"{int(n)} B"
+        n /= 1000
+    return f"{n:.3g} TB"  # pragma: no cover
+
+
+def _write_failure(exc: Exception, group) -> Exception:
+    """An HDF5 write error as a one-line OSError (errno and reason from the library's text) and the
+    file marked broken (detached when closed); errors that carry no errno are returned unchanged."""
+    text = " ".join(str(exc).split())
+    found = re.search(r"errno = (\d+)", text)
+    if found is None:
+        return exc
+    out = _OPEN.get(group.file.filename)
+    if out is not None:
+        out.broken = True
+    code = int(found.group(1))
+    return OSError(code, os.strerror(code), _shown_name(group))
+
+
+def _shown_name(group) -> str:
+    """The name of the file `group` is in, as the user knows it (NAME.partial, not a set-up name)."""
+    out = _OPEN.get(group.file.filename)
+    return str(out.staging) if out is not None else group.file.filename
+
+
 class RunWriter:
-    """Writes one run into `group`: constants, per-pellet chunks, statistics."""
+    """Writes one run into `group`: constants, per-pellet chunks, statistics, and the progress a
+    reader or `--resume` relies on (/progress: the rows complete, the chunk size, the per-segment
+    statistics partials of every complete chunk)."""
 
     def __init__(self, group: h5py.Group, model, *, scene, fields, pellets: int):
         self.group = group
@@ -148,7 +484,6 @@ class RunWriter:
         if scene.shot.file is None:
             group.attrs["seed"] = scene.shot.seed
         self._write_constants(group.create_group("constants"), model, scene, pellets)
-        self.datasets = {}
         h5_rows = max(1, min(MAX_H5_CHUNK_ROWS, pellets))  # compute chunks are whole multiples of it
         for name in self.fields:
             _member, kind, per_bounce, unit, doc = FIELD_SPECS[name]
@@ -162,7 +497,63 @@ class RunWriter:
             )
             ds.attrs["units"] = unit
             ds.attrs["description"] = doc
-            self.datasets[name] = ds
+        self._create_progress(group.create_group("progress"), model, scene)
+        for name, (unit, doc) in STAT_UNITS.items():  # written at the end: NaN until then
+            ds = group.create_dataset(f"stats/{name}", data=np.nan)
+            ds.attrs["units"] = unit
+            ds.attrs["description"] = doc
+        self._open_datasets()
+        self._start_watching()
+
+    @classmethod
+    def reopen(cls, group: h5py.Group, *, fields, rows: int, segments: int):
+        """The writer of a run in an existing file, continuing after `rows` complete rows (and their
+        `segments` segment results): anything written after them is cut off."""
+        self = cls.__new__(cls)
+        self.group = group
+        self.fields = tuple(fields)
+        self._open_datasets()
+        for ds in self.datasets.values():
+            ds.resize(rows, axis=0)
+        self.segment_results.resize(segments, axis=0)
+        self.rows = rows
+        self.progress_rows[()] = rows
+        group.file.flush()
+        self._start_watching()
+        return self
+
+    def _open_datasets(self):
+        g = self.group
+        self.datasets = {name: g[f"pellets/{name.replace('.', '/')}"] for name in self.fields}
+        self.progress_rows = g["progress/rows"]
+        self.chunk_rows = g["progress/chunk_rows"]
+        self.segment_results = g["progress/segment_results"]
+
+    def _start_watching(self):
+        out = _OPEN.get(self.group.file.filename)
+        if out is not None and out.watchable and self.group.name == "/":
+            out.start_watching()
+
+    @staticmethod
+    def _create_progress(g, model, scene):
+        from .kernels import SEGMENT
+        from .stats import NUM_EXTREMES, NUM_SUMS
+
+        g.attrs["description"] = ("rows complete (every /pellets dataset and statistics partial below them is "
+                                  "final), the chunk size, and the per-segment statistics partials, in pellet "
+                                  "order: what readers of a running run and --resume rely on")
+        g.attrs["segment_rows"] = SEGMENT
+        g.attrs["device_name"] = model.device.name
+        if scene.shot.file is not None:
+            st = os.stat(scene.shot.file)
+            g.attrs["pellet_file_size"] = st.st_size
+            g.attrs["pellet_file_mtime_ns"] = st.st_mtime_ns
+        g.create_dataset("rows", data=np.int64(0)).attrs["units"] = "1"
+        g.create_dataset("chunk_rows", data=np.int64(0)).attrs["units"] = "1"
+        width = NUM_SUMS + 2 * NUM_EXTREMES
+        ds = g.create_dataset("segment_results", shape=(0, width), maxshape=(None, width), chunks=(256, width),
+                              dtype="f8")
+        ds.attrs["units"] = "SI (sums of the quantities of warp_ricochet.stats.SUM_NAMES, then range minima and maxima, m)"
 
     @staticmethod
     def _write_constants(g, model, scene, pellets):
@@ -192,17 +583,42 @@ class RunWriter:
                 arr = arr.reshape(len(planes), 3)
             s.create_dataset(name, data=arr).attrs["units"] = unit
 
-    def append(self, arrays: dict[str, np.ndarray], rows: int):
-        """Append the first `rows` rows of each field's array, then flush."""
+    def append(self, arrays: dict[str, np.ndarray], rows: int, segment_results: np.ndarray):
+        """Append the first `rows` rows of each field's array and the chunk's segment results; flush;
+        then count the rows complete and flush again (the commit point of the chunk)."""
         start, stop = self.rows, self.rows + rows
-        for name, ds in self.datasets.items():
-            ds.resize(stop, axis=0)
-            ds[start:stop] = arrays[name][:rows]
+        need = sum(arrays[name][:rows].nbytes for name in self.datasets) + segment_results.nbytes
+        out = _OPEN.get(self.group.file.filename)
+        if out is not None:
+            out.reserve(need, "the next chunk")
+        else:
+            check_space(self.group.file.filename, need, "the next chunk")
+        try:
+            for name, ds in self.datasets.items():
+                ds.resize(stop, axis=0)
+                ds[start:stop] = arrays[name][:rows]
+            done = len(self.segment_results)
+            self.segment_results.resize(done + len(segment_results), axis=0)
+            self.segment_results[done:] = segment_results
+            if start == 0:
+                self.chunk_rows[()] = rows
+            self.group.file.flush()
+            self.progress_rows[()] = stop
+            self.group.file.flush()
+        except (OSError, RuntimeError) as exc:
+            raise _write_failure(exc, self.group) from None
         self.rows = stop
-        self.group.file.flush()
+
+    def completed_segment_results(self) -> np.ndarray:
+        """The segment results of the rows already complete (a resumed run folds them in first)."""
+        return self.segment_results[()]
 
     def write_stats(self, stats: dict[str, float]):
-        write_stats(self.group, stats)
+        try:
+            write_stats(self.group, stats)
+            self.group.file.flush()
+        except (OSError, RuntimeError) as exc:
+            raise _write_failure(exc, self.group) from None
 
 
 _KEY_UNITS = {"diameter": "m", "envelope_radius": "m", "density": "kg/m^3", "speed": "m/s", "impact_duration": "s",
@@ -221,9 +637,11 @@ def write_stats(group: h5py.Group, stats: dict, index=None, size=None):
     for name, value in stats.items():
         unit, doc = STAT_UNITS[name]
         if index is None:
-            ds = g.create_dataset(name, data=float(value))
+            ds = g.require_dataset(name, shape=(), dtype="f8")  # a run's writer made it (SWMR: no new objects)
+            ds[()] = float(value)
         else:
             ds = g.require_dataset(name, shape=(size,), dtype="f8", fillvalue=np.nan)
             ds[index] = float(value)
-        ds.attrs["units"] = unit
-        ds.attrs["description"] = doc
+        if "units" not in ds.attrs:
+            ds.attrs["units"] = unit
+            ds.attrs["description"] = doc

@@ -1,0 +1,106 @@
+"""Stability stress suite (no collisions): the impact law and the whole pipeline driven through
+corners, in float32 and float64, with the rules and the quick subset of bench/stability.py (its
+docstring states them; `python -m bench.stability` runs the full sweep).
+
+Corners: grazing impacts (v_n -> 0 from below, to 1e-12 |v|), normal incidence, the exact stick-slip
+threshold, incoming spin that reverses the slip direction, restitution 0 and 1, mu 0 and 10; speeds
+1e-6 to 1e4 m/s, diameters 0.1 to 20 mm, tilted and vertical planes and an overhang, gravity zero,
+along each axis or oblique, pellets launched on, touching or inside a plane. Each case: no NaN or
+inf, no energy gain beyond rounding, no pellet inside a plane beyond rounding, float32 within 1e-5
+of float64 except at the knife edges where rounding decides (the table says where and why).
+
+The table of what was tried and what held is printed (`pytest -s` or `-rP` shows it) and appended to
+the file named by WARP_RICOCHET_STABILITY_TABLE when that is set; a failure shows it too.
+"""
+
+import os
+
+import numpy as np
+import pytest
+
+import warp_ricochet as wr
+from bench import stability
+
+
+def report(rows):
+    text = stability.table(rows)
+    print(text)
+    path = os.environ.get("WARP_RICOCHET_STABILITY_TABLE")
+    if path:
+        with open(path, "a") as f:
+            f.write(text + "\n")
+    failed = [f"{r.group} / {r.case} / {r.precision}: {f}" for r in rows for f in r.failures]
+    assert not failed, "\n".join([text, *failed])
+    return rows
+
+
+def test_impact_law_corners(device):
+    rows = report(stability.run_impact_law(device, quick=True))
+    assert sum(r.n for r in rows if r.precision == "float32") >= 2700  # the grid really ran
+    by = {(r.case, r.precision): r for r in rows}
+    corners = by[("corners: speeds 1e-6..1e4 m/s, normal to grazing, spins", "float32")].measured
+    assert corners["error off the edges"] <= stability.F32_TOLERANCE  # measured, not just "no failure"
+    assert corners["energy gain / (eps E)"] <= stability.ENERGY_ROUNDING
+
+
+def test_pipeline_corners(device, tmp_path):
+    rows = report(stability.run_pipeline(device, quick=True, workdir=tmp_path))
+    f64 = next(r for r in rows if r.precision == "float64")
+    assert f64.n >= 500 and f64.measured["|gap - R| at landing / (eps scale)"] <= stability.INSIDE_ROUNDING
+
+
+def test_the_rules_catch_a_law_that_adds_energy_or_drifts(monkeypatch):
+    """The checks can fail: an impact law that returns 1e-5 too much speed in float64 breaks the
+    energy rule and the agreement with the NumPy reference."""
+    real = wr.impact
+
+    def leaky(*args, **kwargs):
+        v, w, s = real(*args, **kwargs)
+        return v * (1 + 1e-5), w, s
+
+    monkeypatch.setattr(wr, "impact", leaky)
+    rows = stability.run_impact_law("cpu", quick=True)
+    f64 = next(r for r in rows if r.precision == "float64" and r.case.startswith("corners"))
+    assert any("energy gain" in f for f in f64.failures)
+    assert any("off the float64 reference" in f for f in f64.failures)
+
+
+@pytest.mark.xfail(strict=True, reason="known defect, reported (docs/stability.md): after an E = 0 impact at normal "
+                                       "incidence the kernels test whether the residue velocity leaves the plane "
+                                       "against its own size (kernels.py, 'leaving with no normal speed'), so rounding "
+                                       "decides whether the pellet rests, impacts again or escapes")
+def test_an_e0_impact_at_normal_incidence_rests_on_the_plane(tmp_path, device):
+    """E = 0, no gravity, a tilted plane, pellets moving straight into it: one impact, then at rest
+    on the plane (landed at once, range 0), whatever the speed."""
+    from warp_ricochet.scene import scene_from_dict
+
+    normal = np.array([0.3, 1.0, 0.2]) / np.linalg.norm([0.3, 1.0, 0.2])
+    speeds = np.geomspace(1e-6, 1e4, 41)
+    R = 0.00125
+    path = tmp_path / "p.npz"
+    np.savez(path, position=np.tile(R * normal, (len(speeds), 1)) + np.outer(np.linspace(0, 1, len(speeds)), [1, -0.3, 0]),
+             velocity=-speeds[:, None] * normal)
+    for precision in ("float32", "float64"):
+        scene = scene_from_dict({"shot": {"file": str(path), "diameter": 2 * R, "density": 7000.0},
+                                 "surfaces": [{"point": [0, 0, 0], "normal": list(normal), "restitution": 0.0, "mu_s": 0.3}],
+                                 "physics": {"gravity": [0, 0, 0], "bounces": 3}, "numerics": {"precision": precision}})
+        stats = wr.run(scene, tmp_path / f"{precision}.h5", device=device)
+        import h5py
+
+        with h5py.File(tmp_path / f"{precision}.h5", "r") as f:
+            surfaces = f["pellets/impact/surface"][()]
+        assert (surfaces[:, 0] == 0).all() and (surfaces[:, 1:] == -1).all(), (precision, surfaces.tolist())
+        assert stats["landed"] == len(speeds) and stats["range_max"] == 0.0, precision
+
+
+def test_reference_keeps_a_normal_impact_normal_on_a_tilted_plane():
+    """The NumPy reference built e_t from the rounding residue of a normal impact's slip velocity,
+    which is not tangential on a tilted plane, and turned the impact into a sideways one (|v'| of
+    0.94 |v| with E = 0 at 1 m/s): its frame is now orthogonal to rounding."""
+    from warp_ricochet import reference
+
+    n = np.array([0.3, 1.0, 0.2]) / np.linalg.norm([0.3, 1.0, 0.2])
+    for speed in (1e-6, 1.0, 1e4):
+        v, w, _ = reference.impact_law(-speed * n[None], np.zeros((1, 3)), n, radius=0.00125, restitution=0.0,
+                                       mu_s=0.5, mu_d=0.5, gravity=(0, -9.81, 0), duration=1e-3)
+        assert np.abs(v).max() <= 1e-14 * speed and np.abs(w).max() <= 1e-14 * speed / 0.00125

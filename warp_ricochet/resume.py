@@ -1,0 +1,133 @@
+"""Continuing an interrupted run (`warp-ricochet run ... --resume`, `warp_ricochet.run(..., resume=True)`).
+
+A run file records, after every chunk, the rows complete (`/progress/rows`), the chunk size
+(`/progress/chunk_rows`) and each segment's statistics partials (`/progress/segment_results`: the
+per-segment sums, minima and maxima that `stats.combine` folds in pellet order). To resume, the
+partial file is checked against the run asked for (the same scene after overrides, seed included;
+the same package and Warp versions; the same device; the same pellet file; a consistent chunk
+plan), refused in one line otherwise, and nothing in it is changed before that. Then the rows after
+the last complete chunk are cut off, the stored partials are folded in, and the run goes on with
+the same chunk size from the first missing chunk. Launch states depend only on (seed, index) and
+sums are added strictly in segment order, so the per-pellet datasets and /stats end bitwise equal
+to those of an uninterrupted run on the same device.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import tomllib
+
+from .errors import OutputError, SceneError
+
+
+def _text(value):
+    return value.decode() if isinstance(value, bytes) else value
+
+
+def _flat(node, prefix=""):
+    """{dotted key: value} of a TOML document (lists of tables by index)."""
+    if isinstance(node, dict):
+        items = node.items()
+    elif isinstance(node, list) and any(isinstance(x, dict) for x in node):
+        items = ((str(i), x) for i, x in enumerate(node))
+    else:
+        return {prefix: node}
+    out = {}
+    for key, value in items:
+        out.update(_flat(value, f"{prefix}.{key}" if prefix else key))
+    return out
+
+
+def _first_difference(here: dict, there: dict):
+    a, b = _flat(here), _flat(there)
+    for key in sorted(set(a) | set(b)):
+        if a.get(key, "(absent)") != b.get(key, "(absent)"):
+            return key, a.get(key, "(absent)"), b.get(key, "(absent)")
+    return None
+
+
+def verify(f, scene, dev, partial_name: str) -> tuple[int, int, int]:
+    """Check an interrupted run file `f` (open read-only) against the run asked for; return (rows
+    complete, chunk size, segments complete). Raises SceneError / OutputError (one line)."""
+    import warp as wp
+
+    from . import __version__
+    from .kernels import SEGMENT
+    from .writer import FORMAT_NAME
+
+    attrs = {k: _text(v) for k, v in f.attrs.items()}
+    if attrs.get("format") != FORMAT_NAME or attrs.get("kind") != "run":
+        raise OutputError(f"output path = {partial_name!r}: is not a warp-ricochet run file (format = "
+                          f"{attrs.get('format')!r}, kind = {attrs.get('kind')!r}); it cannot be resumed")
+    if "progress" not in f:
+        raise OutputError(f"output path = {partial_name!r}: holds no resume data (written by an older version); "
+                          "--overwrite starts the run again")
+    for key, here in (("package_version", __version__), ("warp_version", wp.config.version)):
+        if attrs.get(key) != here:
+            raise SceneError(key, here, f"the interrupted run used {attrs.get(key)!r}; resume needs the same "
+                                        "version (for bitwise-identical results)")
+    difference = _first_difference(tomllib.loads(scene.to_toml()), tomllib.loads(attrs.get("scene_toml", "")))
+    if difference is not None:
+        key, here, there = difference
+        raise SceneError(key, here, f"the interrupted run had {there!r}; resume needs the same scene, seed and "
+                                    "--set overrides")
+    progress = f["progress"]
+    there = (attrs.get("device"), _text(progress.attrs.get("device_name")))
+    if there != (str(dev), dev.name):
+        raise SceneError("device", str(dev), f"the interrupted run ran on {there[0]!r} ({there[1]}); resume on the "
+                                             "same device (devices differ in the last bits)")
+    if scene.shot.file is not None:
+        st = os.stat(scene.shot.file)
+        if (st.st_size, st.st_mtime_ns) != (progress.attrs.get("pellet_file_size"),
+                                            progress.attrs.get("pellet_file_mtime_ns")):
+            raise SceneError("shot.file", scene.shot.file, "changed since the interrupted run (size or modification "
+                                                           "time); resume needs the same pellets")
+    rows, chunk = int(progress["rows"][()]), int(progress["chunk_rows"][()])
+    pellets = int(f["constants/pellets"][()])
+    segments = math.ceil(rows / SEGMENT)
+    damaged = None
+    if not 0 <= rows <= pellets or pellets != scene.shot.count:
+        damaged = f"{rows} rows complete of {pellets}"
+    elif rows and (chunk <= 0 or (chunk % SEGMENT and chunk < pellets) or (rows % chunk and rows != pellets)):
+        damaged = f"chunk plan of {chunk} pellets per chunk with {rows} rows complete"
+    elif len(progress["segment_results"]) < segments:
+        damaged = f"{len(progress['segment_results'])} segment results for {segments} segments"
+    else:
+        short = [n for n in scene.output.fields if f[f"pellets/{n.replace('.', '/')}"].shape[0] < rows]
+        if short:
+            damaged = f"pellets/{short[0].replace('.', '/')} is shorter than the {rows} rows complete"
+    if damaged:
+        raise OutputError(f"output path = {partial_name!r}: is inconsistent ({damaged}); it cannot be resumed")
+    return rows, chunk, segments
+
+
+def resume_run(scene, output, device, *, overwrite=False, progress=None) -> dict:
+    """Continue the run left in OUTPUT.partial; returns its statistics (as `run`)."""
+    from .api import Source, check_resources, resolve_device, run_scene
+    from .model import Model
+    from .writer import OutputFile, RunWriter, check_resume_path
+
+    if output is None:
+        raise SceneError("--resume", "no output", "needs the output file of the interrupted run (-o or output.path)")
+    path = check_resume_path(output, overwrite)  # before any work
+    partial_name = str(path) + ".partial"
+    dev = resolve_device(device)
+    plan = {}
+
+    def check(f):
+        rows, chunk, segments = verify(f, scene, dev, partial_name)
+        run_scene_ = scene
+        if chunk:  # the same chunk plan as before (the automatic size depends on free memory)
+            run_scene_ = scene.replace(numerics=dataclasses.replace(scene.numerics, chunk_size=chunk))
+        check_resources([run_scene_], dev, output, rows_done=rows)
+        plan.update(rows=rows, segments=segments, scene=run_scene_)
+
+    out, _ = OutputFile.reopen(output, overwrite=overwrite, check=check)
+    with out:
+        model = Model.from_scene(scene, dev)
+        writer = RunWriter.reopen(out.h5, fields=scene.output.fields, rows=plan["rows"], segments=plan["segments"])
+        stats = run_scene(plan["scene"], model, writer=writer, progress=progress, source=Source.from_scene(scene))
+        writer.write_stats(stats)
+    return stats
