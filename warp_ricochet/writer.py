@@ -60,7 +60,8 @@ ABANDONED = False  # a file could not be closed: the HDF5 library must not run i
 FORMAT_NAME = "warp-ricochet"
 FORMAT_VERSION = 1
 MAX_H5_CHUNK_ROWS = 1 << 16
-SWMR_FILE = {"libver": ("v110", "latest"), "locking": False}  # SWMR-capable; our flock replaces HDF5's
+SWMR_FILE = {"libver": ("v110", "latest"), "locking": False}  # run files: SWMR-capable; our flock replaces HDF5's
+SWEEP_FILE = {"locking": False}  # sweep files: the earliest format, which a killed writer leaves openable
 SPACE_MARGIN = 1 << 20  # bytes kept free beyond a chunk's data: HDF5 metadata and the final close
 
 
@@ -158,7 +159,7 @@ class OutputFile:
             _PartialLock(self.staging, shown).release()  # refused while someone has it open
             os.unlink(self.staging)
         try:  # created, never truncated: ext4 flushes a file truncated to 0 on close (0.3 s per GB)
-            self.h5 = h5py.File(self.staging, "w-", **SWMR_FILE)
+            self.h5 = h5py.File(self.staging, "w-", **(SWMR_FILE if self.watchable else SWEEP_FILE))
         except FileExistsError:
             raise OutputError(f"{shown}: {self.staging.name} appeared meanwhile (another run?)") from None
         except OSError as exc:
