@@ -531,3 +531,21 @@ def test_a_second_process_reads_the_run_while_it_writes(tmp_path, reference):
     assert seen[-1] == len(expected)
     assert len([r for r in seen if 0 < r < len(expected)]) >= 2, seen  # watched it grow
     assert_same_as_reference(out, reference)
+
+
+def test_a_set_up_file_left_by_a_killed_run_is_reused_unless_in_use(tmp_path, reference):
+    """A run killed while it set up its file leaves NAME.partial.new (no chunk in it): the next run
+    replaces it; while another process holds it (a run setting up), the new run is refused."""
+    out = tmp_path / "s.h5"
+    staging = Path(str(out) + ".partial.new")
+    staging.write_bytes(b"half an HDF5 header")
+    held = os.open(staging, os.O_RDONLY)
+    fcntl.flock(held, fcntl.LOCK_SH)
+    try:
+        rc, _, err = cli(["run", SCENE, *ARGS, "-o", out])
+    finally:
+        os.close(held)
+    assert rc == 2 and "in use by another process" in err and staging.read_bytes() == b"half an HDF5 header"
+    assert cli(["run", SCENE, *ARGS, "-o", out])[0] == 0
+    assert not staging.exists()
+    assert_same_as_reference(out, reference)

@@ -60,7 +60,8 @@ ABANDONED = False  # a file could not be closed: the HDF5 library must not run i
 FORMAT_NAME = "warp-ricochet"
 FORMAT_VERSION = 1
 MAX_H5_CHUNK_ROWS = 1 << 16
-SWMR_FILE = {"libver": ("v110", "latest"), "locking": False}  # SWMR-capable; our flock replaces HDF5's
+SWMR_FILE = {"libver": ("v110", "latest"), "locking": False}  # run files: SWMR-capable; our flock replaces HDF5's
+SWEEP_FILE = {"locking": False}  # sweep files: the earliest format, which a killed writer leaves openable
 SPACE_MARGIN = 1 << 20  # bytes kept free beyond a chunk's data: HDF5 metadata and the final close
 
 
@@ -112,13 +113,10 @@ class _PartialLock:
     once SWMR readers (which take shared locks as they open it) may come. A second run or a resume
     asking for it exclusively is refused while it is held; the system drops it when the process dies."""
 
-    def __init__(self, partial: Path, shown: str, *, create: bool, exclusive_create: bool):
+    def __init__(self, partial: Path, shown: str):
         self.fd = None
-        flags = os.O_RDWR | (os.O_CREAT | (os.O_EXCL if exclusive_create else 0) if create else 0)
         try:
-            self.fd = os.open(partial, flags, 0o666)
-        except FileExistsError:
-            raise OutputError(f"{shown}: {partial.name} appeared meanwhile (another run?)") from None
+            self.fd = os.open(partial, os.O_RDWR)
         except OSError as exc:
             raise OutputError(f"{shown}: {partial.name} cannot be opened ({exc.strerror})") from None
         if fcntl is None:
@@ -156,13 +154,21 @@ class OutputFile:
         # a run file is set up as NAME.partial.new and renamed NAME.partial once it is readable (SWMR on):
         # NAME.partial, if it exists, always opens, even after a SIGKILL during the set-up
         self.staging = self.partial.with_name(self.partial.name + ".new") if self.watchable else self.partial
-        self._lock = _PartialLock(self.staging, f"output path = {str(self.path)!r}", create=True,
-                                  exclusive_create=not overwrite and not self.watchable)
-        try:
-            self.h5 = h5py.File(self.staging, "w", **SWMR_FILE)
+        shown = f"output path = {str(self.path)!r}"
+        if self.staging.exists():  # a set-up file of a killed run, or (overwrite) a sweep's earlier partial
+            _PartialLock(self.staging, shown).release()  # refused while someone has it open
+            os.unlink(self.staging)
+        try:  # created, never truncated: ext4 flushes a file truncated to 0 on close (0.3 s per GB)
+            self.h5 = h5py.File(self.staging, "w-", **(SWMR_FILE if self.watchable else SWEEP_FILE))
+        except FileExistsError:
+            raise OutputError(f"{shown}: {self.staging.name} appeared meanwhile (another run?)") from None
         except OSError as exc:
-            self._lock.release()
-            raise OutputError(f"output path = {str(self.path)!r}: cannot be created ({exc})") from None
+            raise OutputError(f"{shown}: cannot be created ({exc})") from None
+        try:
+            self._lock = _PartialLock(self.staging, shown)
+        except OutputError:
+            self.h5.close()
+            raise
         self._opened("the new file", discard=True)
         attrs = self.h5.attrs
         attrs["format"] = FORMAT_NAME
@@ -196,7 +202,7 @@ class OutputFile:
         self.watchable = True
         self.broken = False
         shown = f"output path = {str(self.path)!r}"
-        self._lock = _PartialLock(self.partial, shown, create=False, exclusive_create=False)
+        self._lock = _PartialLock(self.partial, shown)
         try:
             try:
                 try:  # swmr: opens even with the flags of a killed writer set
@@ -285,7 +291,7 @@ class OutputFile:
         shown = f"output path = {str(self.path)!r}"
         if self.overwrite:
             if self.partial.exists():  # an earlier partial: not while someone has it open
-                _PartialLock(self.partial, shown, create=False, exclusive_create=False).release()
+                _PartialLock(self.partial, shown).release()
             os.replace(self.staging, self.partial)
         else:
             try:
