@@ -21,7 +21,6 @@ import shutil
 import signal
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -500,8 +499,9 @@ def test_permission_denied_at_the_final_rename_is_one_line_and_keeps_the_result(
 
 
 def test_a_second_process_reads_the_run_while_it_writes(tmp_path, reference):
-    """The reader recipe of docs/output.md: open NAME.partial with swmr=True, refresh, read the rows
-    below /progress/rows. It sees the count grow, and every row it reads is final."""
+    """The reader recipe of docs/output.md: open NAME.partial with swmr=True, read /progress/rows, then
+    refresh the datasets and read the rows below it. It sees the count grow, and every row it reads is
+    final (refreshing the datasets before reading the count could see fewer rows than the count)."""
     out = tmp_path / "w.h5"
     proc = start_run(out)
     partial = Path(str(out) + ".partial")
@@ -518,8 +518,8 @@ def test_a_second_process_reads_the_run_while_it_writes(tmp_path, reference):
             rows_ds, ranges = f["progress/rows"], f["pellets/landing/range"]
             while time.time() < deadline:
                 rows_ds.refresh()
-                ranges.refresh()
                 rows = int(rows_ds[()])
+                ranges.refresh()  # after reading the count: the rows below it were flushed before it
                 if not seen or rows != seen[-1]:
                     seen.append(rows)
                     assert ranges.shape[0] >= rows
