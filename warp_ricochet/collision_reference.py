@@ -50,7 +50,7 @@ import numpy as np
 
 from .flight import MAX_FLIGHT_TIME
 from .impact_law import SOLID_SPHERE_INERTIA_FACTOR
-from .reference import CLOSING_TOLERANCE, TOLERANCE, impact_law, next_contact
+from .reference import CLOSING_TOLERANCE, TOLERANCE, empty_impact_outputs, impact_law, next_contact
 from .stats import statistics_from_arrays
 
 __all__ = ["PairImpact", "pair_law", "pair_contact_time", "simulate_collisions"]
@@ -262,16 +262,7 @@ class _Cloud:
         self.last_collision_time = math.nan
 
         B = self.B
-        self.out = {
-            "impact.time": np.full((n, B), np.nan),
-            "impact.position": np.full((n, B, 3), np.nan),
-            "impact.velocity_before": np.full((n, B, 3), np.nan),
-            "impact.angular_velocity_before": np.full((n, B, 3), np.nan),
-            "impact.velocity": np.full((n, B, 3), np.nan),
-            "impact.angular_velocity": np.full((n, B, 3), np.nan),
-            "impact.slipped": np.full((n, B), -1, np.int8),
-            "impact.surface": np.full((n, B), -1, np.int16),
-        }
+        self.out = empty_impact_outputs(n, B)
         self.ricochet_point = np.full((n, 3), np.nan)
         self.ricochet_time = np.zeros(n)
         self.first_normal = np.zeros((n, 3))

@@ -38,7 +38,7 @@ import warp as wp
 
 from .flight import EPSILON, ROUNDING, make_flight
 from .impact_law import make_impact_law, make_pair_law
-from .kernels import types_for
+from .kernels import output_writers_for, types_for
 from .sampling import make_sampler
 
 FLYING, ENDED = 0, 1  # pellet phases; ENDED: landed after its last ricochet, or at rest on a surface
@@ -68,6 +68,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
     pair_law = make_pair_law(scalar)
     _entry, _return, next_contact, ballistic_position, ballistic_velocity = make_flight(scalar, planes if planes <= 4 else None)
     sample_pellet = make_sampler(scalar)
+    write_impact, mark_missing = output_writers_for(precision)
     BOUNCES, WRITE, FROM_FILE = bounces, write_outputs, from_file
     CLOSING_TOLERANCE2 = scalar((ROUNDING * EPSILON[precision]) ** 2)
     TINY_SPEED = scalar(1e-30)
@@ -147,22 +148,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
                 wp.dot(gravity, normal) * physics.impact_duration,
             )
             if wp.static(WRITE):
-                if out.impact_time.shape[0] > 0:
-                    out.impact_time[i, impacts] = time
-                if out.impact_position.shape[0] > 0:
-                    out.impact_position[i, impacts] = position
-                if out.impact_velocity_before.shape[0] > 0:
-                    out.impact_velocity_before[i, impacts] = velocity
-                if out.impact_angular_velocity_before.shape[0] > 0:
-                    out.impact_angular_velocity_before[i, impacts] = spin
-                if out.impact_velocity.shape[0] > 0:
-                    out.impact_velocity[i, impacts] = velocity_after
-                if out.impact_angular_velocity.shape[0] > 0:
-                    out.impact_angular_velocity[i, impacts] = spin_after
-                if out.impact_slipped.shape[0] > 0:
-                    out.impact_slipped[i, impacts] = wp.int8(slipped)
-                if out.impact_surface.shape[0] > 0:
-                    out.impact_surface[i, impacts] = wp.int16(k)
+                write_impact(out, i, impacts, time, position, velocity, spin, velocity_after, spin_after, slipped, k)
             if impacts == 0:
                 cloud.first_surface[i] = k
                 cloud.first_slipped[i] = slipped
@@ -230,22 +216,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             if out.initial_angular_velocity.shape[0] > 0:
                 out.initial_angular_velocity[i] = spin
             for b in range(wp.static(BOUNCES)):  # impacts never made stay marked missing
-                if out.impact_time.shape[0] > 0:
-                    out.impact_time[i, b] = scalar(wp.nan)
-                if out.impact_position.shape[0] > 0:
-                    out.impact_position[i, b] = vec3(scalar(wp.nan))
-                if out.impact_velocity_before.shape[0] > 0:
-                    out.impact_velocity_before[i, b] = vec3(scalar(wp.nan))
-                if out.impact_angular_velocity_before.shape[0] > 0:
-                    out.impact_angular_velocity_before[i, b] = vec3(scalar(wp.nan))
-                if out.impact_velocity.shape[0] > 0:
-                    out.impact_velocity[i, b] = vec3(scalar(wp.nan))
-                if out.impact_angular_velocity.shape[0] > 0:
-                    out.impact_angular_velocity[i, b] = vec3(scalar(wp.nan))
-                if out.impact_slipped.shape[0] > 0:
-                    out.impact_slipped[i, b] = wp.int8(-1)
-                if out.impact_surface.shape[0] > 0:
-                    out.impact_surface[i, b] = wp.int16(-1)
+                mark_missing(out, i, b)
         cloud.position[i] = position
         cloud.velocity[i] = velocity
         cloud.angular_velocity[i] = spin
@@ -758,7 +729,6 @@ class DensePhase:
         self.rebuilds = 0
         self.blocks = 0
         self.graph = None
-        self.use_graphs = True
 
     def _launch(self, name, dim, inputs, record=False):
         return wp.launch(self.kernels[name], dim=dim, inputs=inputs, device=self.device, record_cmd=record)
@@ -790,7 +760,7 @@ class DensePhase:
         if self.graph is not None:
             wp.capture_launch(self.graph)
             return
-        if self.device.is_cuda and self.use_graphs:
+        if self.device.is_cuda:
             with wp.ScopedCapture(device=self.device) as capture:
                 for _ in range(self.block_steps):
                     for command in commands:
@@ -870,7 +840,6 @@ def plan_shots(scene, model, shots: int) -> int:
 def _frame_writer(group, pellets: int, every: int):
     """H5MD trajectory frames (https://www.nongnu.org/h5md/): /h5md with its version, and
     particles/pellets/position/{step, time, value}, appended at each checkpoint."""
-    import h5py
     import numpy as np
 
     h5md = group.require_group("h5md")
@@ -890,7 +859,6 @@ def _frame_writer(group, pellets: int, every: int):
     value.attrs["unit"] = "m"
     step.attrs["description"] = "steps of the dense phase"
     value.attrs["description"] = f"pellet centres every {every} steps of the dense phase (pellets whose flight ended: where it ended)"
-    del h5py
 
     def record(dense, n):
         cloud = dense.cloud

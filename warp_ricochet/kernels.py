@@ -179,6 +179,43 @@ def types_for(precision: str) -> SimpleNamespace:
                            Cloud=Cloud, Pair=Pair)
 
 
+@functools.cache
+def output_writers_for(precision: str):
+    """`write_impact` and `mark_missing`: the per-bounce impact outputs of one pellet (rows of
+    Outputs; an empty array is not written), shared by the ricochet kernel and the dense phase."""
+    t = types_for(precision)
+    scalar, vec3, Outputs = t.scalar, t.vec3, t.Outputs
+
+    @wp.func
+    def write_impact(out: Outputs, row: wp.int32, bounce: wp.int32, time: scalar, position: vec3,
+                     velocity_before: vec3, angular_velocity_before: vec3, velocity: vec3, angular_velocity: vec3,
+                     slipped: wp.int32, surface: wp.int32):
+        if out.impact_time.shape[0] > 0:
+            out.impact_time[row, bounce] = time
+        if out.impact_position.shape[0] > 0:
+            out.impact_position[row, bounce] = position
+        if out.impact_velocity_before.shape[0] > 0:
+            out.impact_velocity_before[row, bounce] = velocity_before
+        if out.impact_angular_velocity_before.shape[0] > 0:
+            out.impact_angular_velocity_before[row, bounce] = angular_velocity_before
+        if out.impact_velocity.shape[0] > 0:
+            out.impact_velocity[row, bounce] = velocity
+        if out.impact_angular_velocity.shape[0] > 0:
+            out.impact_angular_velocity[row, bounce] = angular_velocity
+        if out.impact_slipped.shape[0] > 0:
+            out.impact_slipped[row, bounce] = wp.int8(slipped)
+        if out.impact_surface.shape[0] > 0:
+            out.impact_surface[row, bounce] = wp.int16(surface)
+
+    @wp.func
+    def mark_missing(out: Outputs, row: wp.int32, bounce: wp.int32):
+        """No impact at this bounce: NaN states, slipped and surface -1."""
+        missing = vec3(scalar(wp.nan))
+        write_impact(out, row, bounce, scalar(wp.nan), missing, missing, missing, missing, missing, -1, -1)
+
+    return write_impact, mark_missing
+
+
 # Register cap of the CUDA ricochet kernel per (precision, fast_math) (None: the compiler's
 # choice), chosen by measurement on an H200 (`python -m bench.variants`, bench/results/): 80 for
 # float32 with IEEE maths (more resident warps outweigh a few spills); none with fast maths (2.36 to
@@ -211,6 +248,7 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bo
     static_planes = planes if planes <= MAX_STATIC_PLANES else None
     _entry, _return, next_contact, ballistic_position, ballistic_velocity = make_flight(scalar, static_planes)
     sample_pellet = make_sampler(scalar)
+    write_impact, mark_missing = output_writers_for(precision)
     BOUNCES = bounces
 
     # constants captured by the kernel: offsets into the float accumulator (counts are separate)
@@ -345,22 +383,8 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bo
                             wp.dot(gravity, normal) * physics.impact_duration,
                         )
                         if wp.static(WRITE):
-                            if out.impact_time.shape[0] > 0:
-                                out.impact_time[row, bounce] = time
-                            if out.impact_position.shape[0] > 0:
-                                out.impact_position[row, bounce] = position
-                            if out.impact_velocity_before.shape[0] > 0:
-                                out.impact_velocity_before[row, bounce] = velocity
-                            if out.impact_angular_velocity_before.shape[0] > 0:
-                                out.impact_angular_velocity_before[row, bounce] = spin
-                            if out.impact_velocity.shape[0] > 0:
-                                out.impact_velocity[row, bounce] = velocity_after
-                            if out.impact_angular_velocity.shape[0] > 0:
-                                out.impact_angular_velocity[row, bounce] = spin_after
-                            if out.impact_slipped.shape[0] > 0:
-                                out.impact_slipped[row, bounce] = wp.int8(slipped)
-                            if out.impact_surface.shape[0] > 0:
-                                out.impact_surface[row, bounce] = wp.int16(k)
+                            write_impact(out, row, bounce, time, position, velocity, spin, velocity_after, spin_after,
+                                         slipped, k)
                         if bounce == 0:
                             counts[0] += 1
                             counts[1] += slipped
@@ -382,22 +406,7 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bo
                             resting_surface = k
             if wp.static(WRITE):
                 if impacted == 0 and bounce >= start_impacts:  # no impact at this bounce: mark it missing
-                    if out.impact_time.shape[0] > 0:
-                        out.impact_time[row, bounce] = scalar(wp.nan)
-                    if out.impact_position.shape[0] > 0:
-                        out.impact_position[row, bounce] = vec3(scalar(wp.nan))
-                    if out.impact_velocity_before.shape[0] > 0:
-                        out.impact_velocity_before[row, bounce] = vec3(scalar(wp.nan))
-                    if out.impact_angular_velocity_before.shape[0] > 0:
-                        out.impact_angular_velocity_before[row, bounce] = vec3(scalar(wp.nan))
-                    if out.impact_velocity.shape[0] > 0:
-                        out.impact_velocity[row, bounce] = vec3(scalar(wp.nan))
-                    if out.impact_angular_velocity.shape[0] > 0:
-                        out.impact_angular_velocity[row, bounce] = vec3(scalar(wp.nan))
-                    if out.impact_slipped.shape[0] > 0:
-                        out.impact_slipped[row, bounce] = wp.int8(-1)
-                    if out.impact_surface.shape[0] > 0:
-                        out.impact_surface[row, bounce] = wp.int16(-1)
+                    mark_missing(out, row, bounce)
 
         # landing, after at least one ricochet: where the flight ended on a surface (resting), or
         # the next surface met after the last of `bounces` ricochets

@@ -73,6 +73,20 @@ def impact_law(velocity, angular_velocity, normal, *, radius, restitution, mu_s,
     return v_after, w_after, slipped
 
 
+def empty_impact_outputs(n: int, bounces: int) -> dict:
+    """Per-bounce impact arrays of n pellets, all marked missing (NaN, slipped and surface -1)."""
+    return {
+        "impact.time": np.full((n, bounces), np.nan),
+        "impact.position": np.full((n, bounces, 3), np.nan),
+        "impact.velocity_before": np.full((n, bounces, 3), np.nan),
+        "impact.angular_velocity_before": np.full((n, bounces, 3), np.nan),
+        "impact.velocity": np.full((n, bounces, 3), np.nan),
+        "impact.angular_velocity": np.full((n, bounces, 3), np.nan),
+        "impact.slipped": np.full((n, bounces), -1, np.int8),
+        "impact.surface": np.full((n, bounces), -1, np.int16),
+    }
+
+
 def next_contact(position, velocity, gravity, radius, points, normals, touching):
     """Vectorised over pellets: (time, plane) of the next contact, plane -1 (time nan) if none."""
     n_pellets = position.shape[0]
@@ -155,16 +169,7 @@ def simulate(scene, position, velocity, angular_velocity):
     time = np.zeros(n)
     touching = np.full(n, -1)
     active = np.ones(n, bool)
-    out = {
-        "impact.time": np.full((n, B), np.nan),
-        "impact.position": np.full((n, B, 3), np.nan),
-        "impact.velocity_before": np.full((n, B, 3), np.nan),
-        "impact.angular_velocity_before": np.full((n, B, 3), np.nan),
-        "impact.velocity": np.full((n, B, 3), np.nan),
-        "impact.angular_velocity": np.full((n, B, 3), np.nan),
-        "impact.slipped": np.full((n, B), -1, np.int8),
-        "impact.surface": np.full((n, B), -1, np.int16),
-    }
+    out = empty_impact_outputs(n, B)
     ricochet_point = np.full((n, 3), np.nan)
     ricochet_time = np.zeros(n)
     first_normal = np.zeros((n, 3))
