@@ -265,3 +265,35 @@ def test_collision_fields_need_collisions():
     raw["output"] = {"fields": ["release"]}
     with pytest.raises(SceneError, match="output.fields.*collisions.enabled"):
         make_scene(raw)
+
+
+def test_no_tunnelling_with_a_step_far_beyond_the_pellet_size(tmp_path, device):
+    """Head-on at 1e3 m/s closing speed with a fixed step of 1 ms (0.5 m of relative travel per
+    step, 200 diameters): the contact time is exact, so the pair still collides, at the right time."""
+    position = [[0.0, 1.0, 0.0], [0.3, 1.0, 0.0]]
+    velocity = [[500.0, 0.0, 0.0], [-500.0, 0.0, 0.0]]
+    scene = _two_pellets(tmp_path, position, velocity, surfaces=[GROUND], time_step=1e-3, restitution=0.5)
+    pellets, _ = _write(scene, tmp_path / "fast.h5", device)
+    ref, _ = simulate_collisions(scene, np.asarray(position), np.asarray(velocity), np.zeros((2, 3)))
+    assert list(pellets["collisions.count"]) == [1, 1]
+    np.testing.assert_allclose(pellets["collisions.last_time"], (0.3 - 0.0025) / 1000.0, rtol=1e-12)
+    np.testing.assert_allclose(pellets["landing.position"], ref["landing.position"], rtol=1e-9, atol=1e-9)
+
+
+def test_a_pellet_pressed_between_the_ground_and_another_ends(tmp_path, device):
+    """E = 0 between pellets, one pellet falling onto another that rests just above the ground:
+    the lower one is driven into the plane, rebounds, meets the upper one again (TC model keeps
+    that from collapsing). The run ends, no pellet ends below the ground, and it agrees with the
+    event-driven reference."""
+    ground = dict(GROUND, restitution=0.5)
+    position = [[0.0, 0.00125 + 1e-4, 0.0], [0.0, 0.02, 0.0]]
+    velocity = [[0.0, -0.1, 0.0], [0.0, -3.0, 0.0]]
+    scene = _two_pellets(tmp_path, position, velocity, surfaces=[ground], restitution=0.0, mu_s=0.5, mu_d=0.4,
+                         contact_duration=1e-4)
+    pellets, _ = _write(scene, tmp_path / "squeeze.h5", device)
+    ref, _ = simulate_collisions(scene, np.asarray(position), np.asarray(velocity), np.zeros((2, 3)))
+    assert pellets["collisions.count"].sum() >= 2
+    np.testing.assert_array_equal(pellets["collisions.count"], ref["collisions.count"])
+    landed = np.isfinite(pellets["landing.position"][:, 1])
+    assert np.all(pellets["landing.position"][landed, 1] >= 0.00125 - 1e-12)
+    np.testing.assert_allclose(pellets["landing.position"], ref["landing.position"], rtol=1e-9, atol=1e-12)

@@ -84,11 +84,12 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
     def recentre(pair: Pair, physics: Physics, cloud: Cloud, s: wp.int32, time: scalar):
         """The shot's co-moving frame: the mean state of its flying pellets at `time`. One
         thread, in pellet order (deterministic). Returns the flying count and the time the cloud
-        takes to pass a point (HORIZON_RADII rms radii over the mean speed)."""
+        takes to pass a point (HORIZON_RADII rms radii over the pellets' mean speed)."""
         gravity = physics.gravity
         first = s * pair.count
         position_sum = vec3()
         velocity_sum = vec3()
+        speed_sum = scalar(0.0)
         flying = wp.int32(0)
         passing = scalar(0.0)
         for k in range(pair.count):
@@ -96,7 +97,9 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             if cloud.phase[i] == FLYING:
                 age = time - cloud.time[i]
                 position_sum += ballistic_position(cloud.position[i], cloud.velocity[i], gravity, age)
-                velocity_sum += ballistic_velocity(cloud.velocity[i], gravity, age)
+                velocity_now = ballistic_velocity(cloud.velocity[i], gravity, age)
+                velocity_sum += velocity_now
+                speed_sum += wp.length(velocity_now)
                 flying += 1
         if flying > 0:
             inverse = scalar(1.0) / scalar(flying)
@@ -111,7 +114,11 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             velocity = mean_velocity - gravity * time
             cloud.drift_velocity[s] = velocity
             cloud.drift_origin[s] = mean_position - velocity * time - (scalar(0.5) * time * time) * gravity
-            passing = scalar(HORIZON_RADII) * wp.sqrt(spread * inverse) / wp.max(wp.length(mean_velocity), TINY_SPEED)
+            radius = wp.sqrt(spread * inverse)
+            # the pellets' mean speed (not the speed of their mean: a head-on pair has none), or the
+            # free-fall speed over the cloud's size for a cloud at rest
+            speed = speed_sum * inverse + wp.sqrt(wp.length(gravity) * radius)
+            passing = scalar(HORIZON_RADII) * radius / wp.max(speed, TINY_SPEED)
         return flying, passing
 
     @wp.func
@@ -365,6 +372,9 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         if wp.length(relative - cloud.build_offset[i] + relative_velocity * step) > pair.half_skin:
             cloud.shot_flags[s, SHOT_STALL] = 1
             cloud.flags[FLAG_STALL] = 1
+            travel = wp.length(relative_velocity) * step
+            if travel > pair.half_skin:  # one step alone outruns the skin (a fixed step): it must grow
+                wp.atomic_max(cloud.step_travel, 0, travel)
 
     @wp.kernel(**opts)
     def choose_kernel(buffer: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
@@ -700,6 +710,7 @@ class DensePhase:
         cloud.clock = arr(scalar, (shots, NUM_CLOCK))
         cloud.shot_flags = arr(wp.int32, (shots, NUM_SHOT_FLAGS))
         cloud.flags = arr(wp.int32, NUM_FLAGS)
+        cloud.step_travel = arr(scalar, 1)
         cloud.shot_count = self.count
         cloud.shot_stride = shot_stride(self.count)
         self.cloud = cloud
@@ -732,6 +743,11 @@ class DensePhase:
 
     def _launch(self, name, dim, inputs, record=False):
         return wp.launch(self.kernels[name], dim=dim, inputs=inputs, device=self.device, record_cmd=record)
+
+    def _widen(self, half_skin):
+        self.pair.half_skin = self.kern.scalar(half_skin)
+        self.reach = 2.0 * self.model.radius + 2.0 * half_skin
+        self.pair.reach = self.kern.scalar(self.reach)
 
     def _rebuild(self, pellets):
         m, c = self.model, self.cloud
@@ -802,6 +818,14 @@ class DensePhase:
                 break
             c.flags.zero_()
             if flags[FLAG_STALL]:
+                travel = float(c.step_travel.numpy()[0])
+                if travel > 0.0:
+                    # a fixed step longer than the skin allows: widen the reach so a list lasts a
+                    # step (lists hold candidates only: the results do not change)
+                    self._widen(1.25 * travel)
+                    commands = self._step_commands(pellets, shots, outputs)
+                    self.graph = None
+                    c.step_travel.zero_()
                 self._rebuild(pellets)
             self._block(commands)
             self.blocks += 1

@@ -153,6 +153,7 @@ def types_for(precision: str) -> SimpleNamespace:
         clock: wp.array2d(dtype=scalar)  # (shots, NUM_CLOCK)
         shot_flags: wp.array2d(dtype=wp.int32)
         flags: wp.array(dtype=wp.int32)
+        step_travel: wp.array(dtype=scalar)  # (1,) m: the most a pellet moves in one step relative to its frame, when beyond half the skin
         # slot -> pellet of the core kernel's release mode: slot s * stride + k is pellet s * count + k
         shot_count: wp.int32
         shot_stride: wp.int32
