@@ -138,11 +138,11 @@ def test_two_pellets_against_the_event_driven_reference(tmp_path, device, spin, 
     assert stats["pair_energy_lost"] == pytest.approx(ref_stats["pair_energy_lost"], rel=1e-9)
 
 
-def test_dense_cloud_against_the_event_driven_reference(tmp_path):
+def test_dense_cloud_against_the_event_driven_reference(tmp_path, device):
     """A dense shot (60 pellets in the paper's envelope): the time-stepped solver against the exact
     event-driven one. Collisions are chaotic, so compare the ensemble, not pellet by pellet."""
     scene = _paper_collisions(60)
-    pellets, stats = _write(scene, tmp_path / "dense.h5")
+    pellets, stats = _write(scene, tmp_path / "dense.h5", device)
     ref, ref_stats = simulate_collisions(scene, pellets["initial.position"], pellets["initial.velocity"],
                                          pellets["initial.angular_velocity"])
     assert stats["collided_fraction"] == pytest.approx(ref_stats["collided_fraction"], abs=0.1)
@@ -169,14 +169,14 @@ def test_shots_only_meet_their_own_pellets(tmp_path, device):
         np.testing.assert_array_equal(pellets_twice[name][30:], value, err_msg=name)
 
 
-def test_same_results_for_any_chunk_size_and_run(tmp_path):
+def test_same_results_for_any_chunk_size_and_run(tmp_path, device):
     base = dict(count=40, shots=5, precision="float32")
     runs = []
     for chunk in (None, 40, 120):
         scene = _paper_collisions(**base)
         if chunk:
             scene = scene.replace(numerics=scene.numerics.__class__(precision="float32", chunk_size=chunk))
-        runs.append(_write(scene, tmp_path / f"c{chunk}.h5"))
+        runs.append(_write(scene, tmp_path / f"c{chunk}.h5", device))
     (p0, s0), *others = runs
     for p, s in others:
         for name in p0:
@@ -184,7 +184,7 @@ def test_same_results_for_any_chunk_size_and_run(tmp_path):
         assert s == s0
 
 
-def test_free_cloud_conserves_momentum_and_loses_energy_only_in_collisions():
+def test_free_cloud_conserves_momentum_and_loses_energy_only_in_collisions(device):
     """No surfaces: the dense phase alone, a cloud dense enough that its lists must grow. Linear
     momentum (less M g t) and angular momentum about the centre of mass (gravity has no torque
     about it) are conserved; the kinetic energy lost equals the sum of the pair losses."""
@@ -197,7 +197,7 @@ def test_free_cloud_conserves_momentum_and_loses_energy_only_in_collisions():
     raw["surfaces"] = []
     raw["collisions"] = {"enabled": True, "restitution": 0.5, "mu_s": 0.5, "mu_d": 0.4}
     scene = make_scene(raw, precision="float64")
-    model = Model.from_scene(scene, wp.get_device("cpu"))
+    model = Model.from_scene(scene, wp.get_device(device))
     state = State(model, 80, ("initial.position",))
     dense = DensePhase(model, scene, 80, write_outputs=True, from_file=False)
     dense.run(0, 1, source_struct(scene, model), state.outputs)
@@ -233,9 +233,9 @@ def test_free_cloud_conserves_momentum_and_loses_energy_only_in_collisions():
     assert np.all(d >= np.minimum(0.0025, d0) * (1 - 1e-9))
 
 
-def test_energy_never_rises_and_no_pellet_ends_inside_a_plane(tmp_path):
+def test_energy_never_rises_and_no_pellet_ends_inside_a_plane(tmp_path, device):
     scene = _paper_collisions(120, restitution=0.3)
-    pellets, stats = _write(scene, tmp_path / "e.h5")
+    pellets, stats = _write(scene, tmp_path / "e.h5", device)
     assert stats["pair_energy_lost"] > 0
     # no landing position below the ground (centre at least R above it, up to rounding)
     landed = np.isfinite(pellets["landing.position"][:, 1])
