@@ -28,7 +28,10 @@ on when lists are rebuilt, or on the other shots.
 
 At checkpoints (every `block_steps` of its own steps) a shot stops stepping once its arrival
 window is over (its undisturbed pellets have all met their first surface and the cloud has passed
-it) and no listed pair is closing to contact; see docs/collisions.md for what this neglects.
+it) and no listed pair is closing to contact; see docs/collisions.md for what this neglects. A
+shot still busy, but with no listed contact within HORIZON_STEPS steps, finds its next event over
+all its pairs and planes (exact) and jumps to it: the rare pair of rebounds converging slowly for
+tens of milliseconds no longer costs tens of thousands of small steps.
 """
 
 import functools
@@ -45,11 +48,15 @@ FLYING, ENDED = 0, 1  # pellet phases; ENDED: landed after its last ricochet, or
 # global flags (int32 array): a shot waits for a rebuild; shots still stepping; list overflow
 FLAG_STALL, FLAG_REMAINING, FLAG_OVERFLOW = 0, 1, 2
 NUM_FLAGS = 3
-# per-shot clock (scalar array, shots x 6): time, step, speed bound relative to the drift, steps
+# per-shot clock (scalar array, shots x 8): time, step, speed bound relative to the drift, steps
 # taken, the time the shot stopped stepping, the end of its arrival window (the last first contact
-# of its undisturbed pellets, plus the time the cloud takes to pass a point: 4 rms radii / speed)
-CLOCK_TIME, CLOCK_STEP, CLOCK_DRIFT, CLOCK_STEPS, CLOCK_END, CLOCK_WINDOW = range(6)
-NUM_CLOCK = 6
+# of its undisturbed pellets, plus the time the cloud takes to pass a point: 4 rms radii / speed),
+# the soonest contact of a listed pair, and the soonest event of all (any pair of the shot, or a plane)
+CLOCK_TIME, CLOCK_STEP, CLOCK_DRIFT, CLOCK_STEPS, CLOCK_END, CLOCK_WINDOW, CLOCK_SOON, CLOCK_NEXT = range(8)
+NUM_CLOCK = 8
+# a shot whose listed pairs meet no sooner than this many steps ahead looks for its next event over
+# all its pairs, and jumps to it when nothing happens before (see horizon_kernel)
+HORIZON_STEPS = 16.0
 HORIZON_RADII = 4.0
 # per-shot int flags (shots x 3): waits for a rebuild, finished, a pair or ricochet still ahead
 SHOT_STALL, SHOT_DONE, SHOT_BUSY = 0, 1, 2
@@ -72,6 +79,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
     BOUNCES, WRITE, FROM_FILE = bounces, write_outputs, from_file
     CLOSING_TOLERANCE2 = scalar((ROUNDING * EPSILON[precision]) ** 2)
     TINY_SPEED = scalar(1e-30)
+    NEVER = scalar(1e30)  # s: no event ahead
     QUIET_STEP = scalar(1.0)  # s: the longest step, when nothing moves relative to the drift
     opts = {"module": "unique", "enable_backward": False}
 
@@ -256,6 +264,8 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         s = wp.tid()
         for c in range(wp.static(NUM_CLOCK)):
             cloud.clock[s, c] = scalar(0.0)
+        cloud.clock[s, CLOCK_SOON] = NEVER
+        cloud.clock[s, CLOCK_NEXT] = NEVER
         _flying, passing = recentre(pair, physics, cloud, s, scalar(0.0))
         last_arrival = scalar(0.0)
         first = s * pair.count
@@ -553,15 +563,52 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         if time < cloud.clock[s, CLOCK_WINDOW]:
             busy = 1  # the arrival window: the cloud converges, meets the surface and passes it
         reach2 = scalar(4.0) * physics.radius * physics.radius
+        soonest = NEVER
         for n in range(cloud.neighbour_count[i]):
             j = cloud.neighbours[i, n]
             if cloud.phase[j] == FLYING:
                 d = ballistic_position(cloud.position[j], cloud.velocity[j], gravity, time - cloud.time[j]) - x
                 u = ballistic_velocity(cloud.velocity[j], gravity, time - cloud.time[j]) - v
-                if contact_time(d, u, reach2) >= scalar(0.0):
+                delay = contact_time(d, u, reach2)
+                if delay >= scalar(0.0):
                     busy = 1
+                    soonest = wp.min(soonest, delay)
         if busy != 0:
             cloud.shot_flags[s, SHOT_BUSY] = 1
+        if soonest < NEVER:
+            wp.atomic_min(cloud.clock, s, CLOCK_SOON, time + soonest)
+
+    @wp.kernel(**opts)
+    def horizon_kernel(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
+        """Per shot, after its arrival window, when it is still busy but no listed pair meets within
+        HORIZON_STEPS steps (typically a pair of rebounds flying side by side and converging slowly
+        while the others fly apart): the time of its next event over all pairs of the shot (exact:
+        their relative motion is linear) and all plane contacts. Nothing happens before it, so
+        the shot may jump there instead of stepping through empty time with steps sized for its
+        fastest pellets. O(count) per pellet, only for such shots."""
+        i = wp.tid()
+        s = i / pair.count
+        if cloud.phase[i] != FLYING or cloud.shot_flags[s, SHOT_DONE] != 0 or cloud.shot_flags[s, SHOT_BUSY] == 0:
+            return
+        time = cloud.clock[s, CLOCK_TIME]
+        if time < cloud.clock[s, CLOCK_WINDOW] or cloud.clock[s, CLOCK_SOON] <= time + scalar(HORIZON_STEPS) * cloud.clock[s, CLOCK_STEP]:
+            return
+        gravity = physics.gravity
+        x = ballistic_position(cloud.position[i], cloud.velocity[i], gravity, time - cloud.time[i])
+        v = ballistic_velocity(cloud.velocity[i], gravity, time - cloud.time[i])
+        wait, k = next_contact(cloud.position[i], cloud.velocity[i], gravity, physics.radius, surfaces.point, surfaces.normal, cloud.touching[i])
+        earliest = NEVER
+        if k >= 0:
+            earliest = cloud.time[i] + wait
+        reach2 = scalar(4.0) * physics.radius * physics.radius
+        for j in range(i + 1, (s + 1) * pair.count):  # each pair once
+            if cloud.phase[j] == FLYING:
+                d = ballistic_position(cloud.position[j], cloud.velocity[j], gravity, time - cloud.time[j]) - x
+                u = ballistic_velocity(cloud.velocity[j], gravity, time - cloud.time[j]) - v
+                delay = contact_time(d, u, reach2)
+                if delay >= scalar(0.0):
+                    earliest = wp.min(earliest, time + delay)
+        wp.atomic_min(cloud.clock, s, CLOCK_NEXT, earliest)
 
     @wp.kernel(**opts)
     def settle_kernel(pair: Pair, physics: Physics, cloud: Cloud):
@@ -579,6 +626,12 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         else:
             wp.atomic_add(cloud.flags, FLAG_REMAINING, 1)
             if checkpoint:
+                # nothing happens before the shot's next event (horizon_kernel): jump to a step
+                # before it (pellets carry reference states: only the clock moves)
+                time = cloud.clock[s, CLOCK_TIME]
+                ahead = cloud.clock[s, CLOCK_NEXT] - cloud.clock[s, CLOCK_STEP]
+                if cloud.clock[s, CLOCK_NEXT] < NEVER and ahead > time:
+                    cloud.clock[s, CLOCK_TIME] = ahead
                 # the co-moving frame follows the shot's flying pellets (after a ricochet they move
                 # nothing like the launch): speeds relative to it set the step. The lists are
                 # rebuilt in the new frame before the next step.
@@ -587,6 +640,8 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
                     cloud.flags[FLAG_STALL] = 1
         cloud.shot_flags[s, SHOT_BUSY] = 0
         cloud.shot_flags[s, SHOT_STALL] = 0
+        cloud.clock[s, CLOCK_SOON] = NEVER
+        cloud.clock[s, CLOCK_NEXT] = NEVER
 
     @wp.kernel(**opts)
     def release_kernel(pair: Pair, physics: Physics, cloud: Cloud):
@@ -637,7 +692,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
     return dict(
         launch=launch_kernel, drift=drift_kernel, groups=groups_kernel, grid_points=grid_points_kernel, neighbours=neighbours_kernel,
         bounds=bounds_kernel, plan=plan_kernel, prepare=prepare_kernel, choose=choose_kernel,
-        resolve=resolve_kernel, finish=finish_kernel, end_step=end_step_kernel, survey=survey_kernel,
+        resolve=resolve_kernel, finish=finish_kernel, end_step=end_step_kernel, survey=survey_kernel, horizon=horizon_kernel,
         settle=settle_kernel, release=release_kernel, shot_totals=shot_totals_kernel,
     )
 
@@ -802,6 +857,7 @@ class DensePhase:
         self._rebuild(pellets)
         while True:
             self._launch("survey", pellets, [p, self.model.surfaces, self.model.physics, c])
+            self._launch("horizon", pellets, [p, self.model.surfaces, self.model.physics, c])
             self._launch("settle", shots, [p, self.model.physics, c])
             flags = c.flags.numpy().copy()  # the only host sync: at checkpoints, three integers (a copy: CPU arrays share memory)
             if flags[FLAG_OVERFLOW] > 0:
@@ -992,4 +1048,6 @@ def collision_statistics(table, pellets: int, dense) -> dict:
         "pair_energy_lost_mean": math.fsum(table[:, 2]) / pellets,
         "dense_steps_max": float(table[:, 3].max()),
         "dense_time_max": float(table[:, 4].max()),
+        "dense_steps_mean": math.fsum(table[:, 3]) / len(table),
+        "dense_time_mean": math.fsum(table[:, 4]) / len(table),
     }

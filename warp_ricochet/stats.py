@@ -80,9 +80,11 @@ STAT_UNITS = {
     "pair_energy_lost_mean": ("J", "pair_energy_lost per pellet launched"),
     "dense_steps_max": ("1", "most time steps a shot took in the dense phase"),
     "dense_time_max": ("s", "latest time a shot left the dense phase (s since launch)"),
+    "dense_steps_mean": ("1", "time steps a shot took in the dense phase, mean over shots"),
+    "dense_time_mean": ("s", "time a shot left the dense phase (s since launch), mean over shots"),
 }
 COLLISION_STATS = ("collided_fraction", "pair_collisions", "pair_energy_lost", "pair_energy_lost_mean",
-                   "dense_steps_max", "dense_time_max")
+                   "dense_steps_max", "dense_time_max", "dense_steps_mean", "dense_time_mean")
 
 
 def empty_totals():
