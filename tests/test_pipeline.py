@@ -158,9 +158,13 @@ def test_same_results_for_any_chunk_size(tmp_path, device, precision):
         stats_equal(stats, stats0)
         for name, arr in pellets.items():
             np.testing.assert_array_equal(arr, pellets0[name], err_msg=name)
-    for chunk in (None, 65_536):
-        sc = make_scene(raw, precision, output={"fields": []}, numerics={"chunk_size": chunk} if chunk else {})
-        stats_equal(wr.run(sc, device=device), stats0)
+    # the statistics-only kernel sums in another order on CUDA (per-thread partials): bitwise the
+    # same for any chunk size, and equal to the per-pellet run's statistics up to rounding
+    only = [wr.run(make_scene(raw, precision, output={"fields": []}, numerics={"chunk_size": chunk} if chunk else {}),
+                   device=device) for chunk in (None, 65_536)]
+    stats_equal(only[1], only[0])
+    for k, value in only[0].items():
+        assert value == pytest.approx(stats0[k], rel=1e-12 if precision == "float64" else 1e-5, nan_ok=True), k
 
 
 @settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
