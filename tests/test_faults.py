@@ -266,6 +266,26 @@ def test_resume_of_a_pellet_file_run_checks_the_file(tmp_path):
             np.testing.assert_array_equal(a[f"pellets/{name}"][()], b[f"pellets/{name}"][()])
 
 
+def test_a_multi_shot_run_without_collisions_resumes(tmp_path, monkeypatch):
+    """shot.shots > 1 with collisions off: the pellets are count x shots (not count), for the check of
+    the partial and for the disk space of the rest (two chunks of 4-byte ranges, 512 kB, refused
+    where only a quarter of that is free)."""
+    overrides = [f"shot.count={SEGMENT}", "shot.shots=3", f"numerics.chunk_size={SEGMENT}", 'output.fields=["landing.range"]']
+    multi = load_scene(SCENE, overrides)
+    full = wr.run(multi, tmp_path / "full.h5", device="cpu")
+    out = tmp_path / "m.h5"
+    interrupt_after(1, multi, out)
+    monkeypatch.setattr(writer, "free_bytes", lambda path: writer.SPACE_MARGIN + 2 * SEGMENT)
+    with pytest.raises(OSError, match="the output needs"):
+        wr.run(multi, out, device="cpu", resume=True)
+    monkeypatch.undo()
+    stats = wr.run(multi, out, device="cpu", resume=True)
+    assert stats_equal(stats, full)
+    with h5py.File(out, "r") as a, h5py.File(tmp_path / "full.h5", "r") as b:
+        assert a["progress/rows"][()] == 3 * SEGMENT
+        np.testing.assert_array_equal(a["pellets/landing/range"][()], b["pellets/landing/range"][()])
+
+
 # ---------------------------------------------------------------------------------------------- full disk
 
 

@@ -399,7 +399,7 @@ def check_chunk_memory(scene, dev, with_output: bool) -> None:
     chunk = scene.numerics.chunk_size
     if not chunk:
         return
-    pellets = scene.shot.count
+    pellets = scene.shot.pellets
     rows = min(max(SEGMENT, -(-chunk // SEGMENT) * SEGMENT), max(pellets, 1))
     fields = scene.output.fields if with_output else ()
     precision, bounces = scene.numerics.precision, scene.physics.bounces
@@ -428,7 +428,7 @@ def check_resources(scenes, dev, output, rows_done=0) -> None:
     for sc in scenes:
         check_chunk_memory(sc, dev, output is not None)
     if output is not None:
-        need = sum((sc.shot.count - rows_done) * State.field_bytes_per_pellet(
+        need = sum((sc.shot.pellets - rows_done) * State.field_bytes_per_pellet(
             sc.numerics.precision, sc.output.fields, sc.physics.bounces) for sc in scenes)
         check_space(output, need, "the output")
 

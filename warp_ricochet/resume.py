@@ -88,7 +88,7 @@ def verify(f, scene, dev, partial_name: str) -> tuple[int, int, int]:
     pellets = int(f["constants/pellets"][()])
     segments = math.ceil(rows / SEGMENT)
     damaged = None
-    if not 0 <= rows <= pellets or pellets != scene.shot.count:
+    if not 0 <= rows <= pellets or pellets != scene.shot.pellets:
         damaged = f"{rows} rows complete of {pellets}"
     elif rows and (chunk <= 0 or (chunk % SEGMENT and chunk < pellets) or (rows % chunk and rows != pellets)):
         damaged = f"chunk plan of {chunk} pellets per chunk with {rows} rows complete"
