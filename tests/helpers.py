@@ -1,6 +1,15 @@
-"""Scene builders shared by the tests."""
+"""Scene builders and run-file checks shared by the tests."""
 
+import contextlib
+import hashlib
+import io
+import math
+import time
+from pathlib import Path
+
+import h5py
 import numpy as np
+import pytest
 
 PAPER_SHOT = {
     "count": 450, "diameter": 0.0025, "density": 7000.0, "speed": 411.48,
@@ -40,3 +49,80 @@ def explicit_scene(tmp_path, position, velocity, angular_velocity=None, *, surfa
         "numerics": {"precision": precision},
     }
     return make_scene(raw, precision=precision)
+
+
+def cli(argv):
+    """The command line in-process: (exit status, stdout, stderr)."""
+    from warp_ricochet.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        rc = main([str(a) for a in argv])
+    return rc, out.getvalue(), err.getvalue()
+
+
+def digest(path):
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def stats_equal(a, b):
+    """Two statistics dicts bitwise equal (NaN equal to NaN)."""
+    return a.keys() == b.keys() and all(a[k] == b[k] or (math.isnan(a[k]) and math.isnan(b[k])) for k in a)
+
+
+def assert_same_run(path, ref, fields, progress=("segment_results",)):
+    """Run file `path` is complete, and its per-pellet datasets `fields`, every statistic and the
+    /progress partials named are bitwise equal to those of run file `ref`."""
+    with h5py.File(path, "r") as a, h5py.File(ref, "r") as b:
+        assert a.attrs["status"] == "complete"
+        for name in fields:
+            assert a[f"pellets/{name}"].dtype == b[f"pellets/{name}"].dtype
+            np.testing.assert_array_equal(a[f"pellets/{name}"][()], b[f"pellets/{name}"][()], err_msg=name)
+        assert sorted(a["stats"]) == sorted(b["stats"])
+        for name in b["stats"]:
+            x, y = a["stats"][name][()], b["stats"][name][()]
+            assert stats_equal({name: x}, {name: y}), (name, x, y)
+        for name in progress:
+            np.testing.assert_array_equal(a[f"progress/{name}"][()], b[f"progress/{name}"][()], err_msg=name)
+
+
+def wait_for_a_chunk(proc, partial, timeout=60.0):
+    """Wait until the run `proc` (a subprocess) writing `partial` has committed a chunk
+    (/progress/rows > 0, read as a SWMR reader), or has ended, or `timeout` s have passed."""
+    deadline = time.time() + timeout
+    while time.time() < deadline and proc.poll() is None:
+        time.sleep(0.02)
+        if partial.exists():
+            with contextlib.suppress(OSError, KeyError), h5py.File(partial, "r", swmr=True) as f:
+                if f["progress/rows"][()] > 0:
+                    return
+
+
+def interrupt_after(chunks, scene, out):
+    """Run `scene` to `out` on the CPU and press Ctrl-C once `chunks` chunks are written."""
+    import warp_ricochet as wr
+
+    seen = []
+
+    def progress(done, total):
+        seen.append(done)
+        if len(seen) == chunks:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        wr.run(scene, out, device="cpu", progress=progress)
+
+
+def assert_resume_refused(argv, out, edit, start):
+    """`warp-ricochet run ... -o OUT --resume` (`argv`) on OUT.partial, first changed by `edit(file)`
+    when given, is refused in one line "warp-ricochet: error: START...", and leaves the partial
+    unchanged and no OUT."""
+    partial = Path(str(out) + ".partial")
+    if edit is not None:
+        with h5py.File(partial, "r+") as f:
+            edit(f)
+    before = digest(partial)
+    rc, stdout, err = cli(argv)
+    assert rc == 2 and stdout == ""
+    assert len(err.splitlines()) == 1 and err.startswith("warp-ricochet: error: " + start), err
+    assert digest(partial) == before and not Path(out).exists()

@@ -400,6 +400,15 @@ def test_chunk_size_beyond_memory_is_refused_before_any_file(ws):
     assert "GiB" in assert_rejected(result, "numerics.chunk_size", ws)
 
 
+def test_chunk_size_beyond_memory_counts_every_shot(ws, monkeypatch):
+    """A chunk of many small shots: its pellets are count x shots (here a chunk of 1e6 pellets with
+    every field, 0.26 GiB, where 0.1 GiB is free), not the 1,000 of one shot."""
+    monkeypatch.setattr(api, "host_memory_available", lambda: 100 << 20)
+    result = cli(run_args(ws, None, "--set", "shot.count=1000", "--set", "shot.shots=1000",
+                          "--set", "numerics.chunk_size=1000000"))
+    assert "a chunk of 1000000 pellets" in assert_rejected(result, "numerics.chunk_size", ws)
+
+
 # ---------------------------------------------------------------------------------------------- devices
 
 

@@ -9,12 +9,8 @@ permission problem ends with one line, not a corrupt file; a second process can 
 complete while the run writes. Each case compares against one uninterrupted run (`reference`).
 """
 
-import contextlib
 import errno
 import fcntl
-import hashlib
-import io
-import math
 import os
 import random
 import shutil
@@ -29,6 +25,7 @@ import numpy as np
 import pytest
 
 import warp_ricochet as wr
+from tests.helpers import assert_resume_refused, assert_same_run, cli, digest, interrupt_after, stats_equal, wait_for_a_chunk
 from warp_ricochet import writer
 from warp_ricochet.cli import main
 from warp_ricochet.kernels import SEGMENT
@@ -54,26 +51,9 @@ def reference(tmp_path_factory):
     return path, stats
 
 
-def cli(argv):
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        rc = main([str(a) for a in argv])
-    return rc, out.getvalue(), err.getvalue()
-
-
 def assert_same_as_reference(path, reference):
-    """Every per-pellet dataset and every statistic bitwise equal; status complete."""
-    ref, _ = reference
-    with h5py.File(path, "r") as a, h5py.File(ref, "r") as b:
-        assert a.attrs["status"] == "complete"
-        for name in FIELDS:
-            assert a[f"pellets/{name}"].dtype == b[f"pellets/{name}"].dtype
-            np.testing.assert_array_equal(a[f"pellets/{name}"][()], b[f"pellets/{name}"][()], err_msg=name)
-        assert sorted(a["stats"]) == sorted(b["stats"])
-        for name in b["stats"]:
-            x, y = a["stats"][name][()], b["stats"][name][()]
-            assert x == y or (math.isnan(x) and math.isnan(y)), (name, x, y)
-        np.testing.assert_array_equal(a["progress/segment_results"][()], b["progress/segment_results"][()])
+    """Every per-pellet dataset, every statistic and the statistics partials bitwise equal; status complete."""
+    assert_same_run(path, reference[0], FIELDS)
 
 
 def check_partial(partial, reference, *, swmr):
@@ -91,10 +71,6 @@ def check_partial(partial, reference, *, swmr):
         np.testing.assert_array_equal(f["progress/segment_results"][:rows // SEGMENT],
                                       b["progress/segment_results"][:rows // SEGMENT])
     return rows
-
-
-def digest(path):
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
 def start_run(out, *extra):
@@ -145,10 +121,6 @@ def test_sigkill_at_random_moments_then_resume_is_bitwise_identical(tmp_path, re
     print(f"seed {seed}: killed at {kills}")
 
 
-def stats_equal(a, b):
-    return a.keys() == b.keys() and all(a[k] == b[k] or (math.isnan(a[k]) and math.isnan(b[k])) for k in a)
-
-
 @pytest.mark.parametrize("at_chunk", [0, 1, 7, CHUNKS - 1, CHUNKS])
 def test_ctrl_c_after_any_chunk_then_resume_is_bitwise_identical(tmp_path, monkeypatch, reference, at_chunk):
     """Ctrl-C (KeyboardInterrupt) right after chunk k is written: status "interrupted", k chunks
@@ -188,13 +160,7 @@ def test_sigterm_then_resume_from_the_command_line(tmp_path, reference):
     out = tmp_path / "t.h5"
     proc = start_run(out)
     partial = Path(str(out) + ".partial")
-    deadline = time.time() + 60
-    while time.time() < deadline and proc.poll() is None:
-        time.sleep(0.02)
-        if partial.exists():
-            with contextlib.suppress(OSError, KeyError), h5py.File(partial, "r", swmr=True) as f:
-                if f["progress/rows"][()] > 0:
-                    break
+    wait_for_a_chunk(proc, partial)
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=60)
     if proc.returncode == 0:
@@ -213,30 +179,12 @@ def test_sigterm_then_resume_from_the_command_line(tmp_path, reference):
 # ---------------------------------------------------------------------------------------------- resume refusals
 
 
-def interrupt_after(chunks, scene, out):
-    """Run `scene` to `out` and press Ctrl-C once `chunks` chunks are written."""
-    seen = []
-
-    def progress(done, total):
-        seen.append(done)
-        if len(seen) == chunks:
-            raise KeyboardInterrupt
-
-    with pytest.raises(KeyboardInterrupt):
-        wr.run(scene, out, device="cpu", progress=progress)
-
-
 @pytest.fixture
 def interrupted(tmp_path):
     """An interrupted run (3 chunks complete): (output path, partial path)."""
     out = tmp_path / "i.h5"
     interrupt_after(3, load_scene(SCENE, SETS[1::2]), out)
     return out, Path(str(out) + ".partial")
-
-
-def _edit(partial, change):
-    with h5py.File(partial, "r+") as f:
-        change(f)
 
 
 @pytest.mark.parametrize("extra, edit, key", [
@@ -254,14 +202,8 @@ def _edit(partial, change):
     ([], lambda f: f.__delitem__("progress"), "output path = "),
 ])
 def test_resume_refuses_a_different_run_in_one_line_and_changes_nothing(interrupted, extra, edit, key):
-    out, partial = interrupted
-    if edit is not None:
-        _edit(partial, edit)
-    before = digest(partial)
-    rc, stdout, err = cli(["run", SCENE, *ARGS, *extra, "-o", out, "--resume"])
-    assert rc == 2 and stdout == ""
-    assert len(err.splitlines()) == 1 and err.startswith(PREFIX + key), err
-    assert digest(partial) == before and not out.exists()
+    out, _ = interrupted
+    assert_resume_refused(["run", SCENE, *ARGS, *extra, "-o", out, "--resume"], out, edit, key)
 
 
 def test_resume_refusals_without_a_usable_partial(tmp_path, interrupted):
@@ -322,6 +264,26 @@ def test_resume_of_a_pellet_file_run_checks_the_file(tmp_path):
     with h5py.File(out, "r") as a, h5py.File(tmp_path / "full.h5", "r") as b:
         for name in ("landing/range", "impact/angular_velocity"):
             np.testing.assert_array_equal(a[f"pellets/{name}"][()], b[f"pellets/{name}"][()])
+
+
+def test_a_multi_shot_run_without_collisions_resumes(tmp_path, monkeypatch):
+    """shot.shots > 1 with collisions off: the pellets are count x shots (not count), for the check of
+    the partial and for the disk space of the rest (two chunks of 4-byte ranges, 512 kB, refused
+    where only a quarter of that is free)."""
+    overrides = [f"shot.count={SEGMENT}", "shot.shots=3", f"numerics.chunk_size={SEGMENT}", 'output.fields=["landing.range"]']
+    multi = load_scene(SCENE, overrides)
+    full = wr.run(multi, tmp_path / "full.h5", device="cpu")
+    out = tmp_path / "m.h5"
+    interrupt_after(1, multi, out)
+    monkeypatch.setattr(writer, "free_bytes", lambda path: writer.SPACE_MARGIN + 2 * SEGMENT)
+    with pytest.raises(OSError, match="the output needs"):
+        wr.run(multi, out, device="cpu", resume=True)
+    monkeypatch.undo()
+    stats = wr.run(multi, out, device="cpu", resume=True)
+    assert stats_equal(stats, full)
+    with h5py.File(out, "r") as a, h5py.File(tmp_path / "full.h5", "r") as b:
+        assert a["progress/rows"][()] == 3 * SEGMENT
+        np.testing.assert_array_equal(a["pellets/landing/range"][()], b["pellets/landing/range"][()])
 
 
 # ---------------------------------------------------------------------------------------------- full disk

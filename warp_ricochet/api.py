@@ -281,7 +281,7 @@ def source_struct(scene, model):
 def run_scene(scene, model, *, writer=None, progress=None, source=None) -> dict:
     """Run every pellet of `scene` through `model`'s device; return the statistics."""
     with _PINNED_LOCK if model.device.is_cuda else contextlib.nullcontext():
-        if scene.collisions.enabled and scene.shot.count > 1:  # one pellet per shot: nothing to meet
+        if scene.pair_collisions:  # (one pellet per shot: nothing to meet, the core alone)
             from .collisions import run_collision_scene
             return run_collision_scene(scene, model, writer=writer, progress=progress, source=source)
         return _run_scene(scene, model, writer=writer, progress=progress, source=source)
@@ -399,7 +399,7 @@ def check_chunk_memory(scene, dev, with_output: bool) -> None:
     chunk = scene.numerics.chunk_size
     if not chunk:
         return
-    pellets = scene.shot.count
+    pellets = scene.shot.pellets
     rows = min(max(SEGMENT, -(-chunk // SEGMENT) * SEGMENT), max(pellets, 1))
     fields = scene.output.fields if with_output else ()
     precision, bounces = scene.numerics.precision, scene.physics.bounces
@@ -428,7 +428,7 @@ def check_resources(scenes, dev, output, rows_done=0) -> None:
     for sc in scenes:
         check_chunk_memory(sc, dev, output is not None)
     if output is not None:
-        need = sum((sc.shot.count - rows_done) * State.field_bytes_per_pellet(
+        need = sum((sc.shot.pellets - rows_done) * State.field_bytes_per_pellet(
             sc.numerics.precision, sc.output.fields, sc.physics.bounces) for sc in scenes)
         check_space(output, need, "the output")
 
@@ -461,8 +461,10 @@ def run(scene, output=None, device=None, *, overwrite=False, progress=None, resu
     output = output if output is not None else scene.output.path
     if resume:
         from .resume import resume_run
-        if getattr(scene, "collisions", None) is not None and scene.collisions.enabled:
-            raise SceneError("collisions.enabled", True, "--resume does not support runs with pellet-pellet collisions yet")
+        if scene.pair_collisions and scene.collisions.frame_every:  # see resume.py: frames are not resumed
+            raise SceneError("collisions.frame_every", scene.collisions.frame_every,
+                             "must be 0 for --resume (H5MD trajectory frames are not resumed); --overwrite "
+                             "starts a run with frames again")
         return resume_run(scene, output, device, overwrite=overwrite, progress=progress)
     if output is not None:
         check_output_path(output, overwrite)  # before any work

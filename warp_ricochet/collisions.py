@@ -709,6 +709,21 @@ def shot_stride(count: int) -> int:
     return 1 << max(0, (count - 1).bit_length())
 
 
+def shot_granule(count: int) -> int:
+    """The fewest shots a chunk (all but the last) is a multiple of: whole statistics segments of
+    slots, so a chunk starts on a segment boundary and the statistics do not depend on the chunk size."""
+    from .kernels import SEGMENT
+
+    return max(1, SEGMENT // shot_stride(count))
+
+
+def segments_of_shots(shots: int, count: int) -> int:
+    """Statistics segments holding the slots of the first `shots` shots of `count` pellets."""
+    from .kernels import SEGMENT
+
+    return -(-shots * shot_stride(count) // SEGMENT)
+
+
 class DensePhase:
     """The dense phase of one chunk of whole shots on one device: buffers for up to `capacity`
     pellets, the kernels, and the loop of blocks of steps (no host sync inside a block)."""
@@ -902,10 +917,9 @@ def plan_shots(scene, model, shots: int) -> int:
     """Shots per chunk: whole statistics segments of slots (so statistics do not depend on it),
     within the device memory budget (or numerics.chunk_size pellets)."""
     from .api import DEVICE_FRACTION
-    from .kernels import SEGMENT
 
     count = scene.shot.count
-    granule = max(1, SEGMENT // shot_stride(count))
+    granule = shot_granule(count)
     if scene.numerics.chunk_size:
         pellets = scene.numerics.chunk_size
     elif model.device.is_cuda:
@@ -965,7 +979,9 @@ def _frame_writer(group, pellets: int, every: int):
 
 def run_collision_scene(scene, model, *, writer=None, progress=None, source=None) -> dict:
     """`api.run_scene` for scenes with pellet-pellet collisions: per chunk of whole shots, the
-    dense phase, then the core kernel continuing every pellet from its release state."""
+    dense phase, then the core kernel continuing every pellet from its release state. A writer
+    reopened by `--resume` (rows already complete: whole chunks of whole shots) brings the
+    statistics partials and per-shot totals of those chunks; the run goes on from the next shot."""
     import numpy as np
 
     from .api import CUDA_BLOCK_DIM, LANES, Source, _HostSlot, source_struct
@@ -1002,7 +1018,11 @@ def run_collision_scene(scene, model, *, writer=None, progress=None, source=None
     totals = empty_totals()
     shot_totals = []
     done = 0
-    for first_shot in range(0, shots, per_chunk):
+    if writer is not None and writer.rows:  # resuming: the whole chunks written, and their partials
+        done = writer.rows
+        totals = combine(totals, writer.completed_segment_results())
+        shot_totals.append(writer.completed_shot_totals())
+    for first_shot in range(done // count, shots, per_chunk):
         chunk_shots = min(per_chunk, shots - first_shot)
         rows = chunk_shots * count
         slots = chunk_shots * stride
@@ -1019,7 +1039,8 @@ def run_collision_scene(scene, model, *, writer=None, progress=None, source=None
                   inputs=[state.partial_sums, state.partial_min, state.partial_max], outputs=[state.segments], device=dev)
         segment_results = state.segments.numpy()[:segments].copy()
         totals = combine(totals, segment_results)
-        shot_totals.append(dense.totals.numpy()[:chunk_shots].copy())
+        chunk_totals = dense.totals.numpy()[:chunk_shots].copy()
+        shot_totals.append(chunk_totals)
         if writer is not None:
             for name, arr in state.arrays.items():
                 wp.copy(slot.arrays[name], arr, count=rows * (arr.size // arr.shape[0]))
@@ -1027,7 +1048,7 @@ def run_collision_scene(scene, model, *, writer=None, progress=None, source=None
             arrays = {name: slot.arrays[name].numpy()[:rows] for name in state.arrays}
             for name, arr in dense.field_arrays.items():
                 arrays[name] = arr.numpy()[:rows]
-            writer.append(arrays, rows, segment_results)
+            writer.append(arrays, rows, segment_results, chunk_totals)
         done += rows
         if progress is not None:
             progress(done, pellets)

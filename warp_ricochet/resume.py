@@ -10,6 +10,16 @@ the last complete chunk are cut off, the stored partials are folded in, and the 
 the same chunk size from the first missing chunk. Launch states depend only on (seed, index) and
 sums are added strictly in segment order, so the per-pellet datasets and /stats end bitwise equal
 to those of an uninterrupted run on the same device.
+
+Runs with pair collisions (`Scene.pair_collisions`) compute chunks of whole shots, each (but the
+last) a multiple of `collisions.shot_granule` shots, so every chunk starts on a statistics segment
+boundary and a shot's results depend on the shot alone. Such a run also records, per chunk, each
+shot's collision totals (`/progress/shot_totals`: collided pellets, pair collisions, energy lost,
+dense-phase steps and end time), from which the collision statistics are made with exact sums
+(math.fsum) and maxima; a resumed run reads back those of the complete shots, so its /stats are
+bitwise those of an uninterrupted run as well. H5MD trajectory frames (`collisions.frame_every`) are
+written during a chunk's dense phase, before the chunk is committed, into objects made after the
+file went SWMR: they are not resumed, and such a run is refused (start it again with --overwrite).
 """
 
 from __future__ import annotations
@@ -48,12 +58,14 @@ def _first_difference(here: dict, there: dict):
     return None
 
 
-def verify(f, scene, dev, partial_name: str) -> tuple[int, int, int]:
+def verify(f, scene, dev, partial_name: str) -> tuple[int, int, int, int]:
     """Check an interrupted run file `f` (open read-only) against the run asked for; return (rows
-    complete, chunk size, segments complete). Raises SceneError / OutputError (one line)."""
+    complete, chunk size, segments complete, shots complete (pair collisions; else 0)). Raises
+    SceneError / OutputError (one line)."""
     import warp as wp
 
     from . import __version__
+    from .collisions import segments_of_shots, shot_granule
     from .kernels import SEGMENT
     from .writer import FORMAT_NAME
 
@@ -84,23 +96,34 @@ def verify(f, scene, dev, partial_name: str) -> tuple[int, int, int]:
                                             progress.attrs.get("pellet_file_mtime_ns")):
             raise SceneError("shot.file", scene.shot.file, "changed since the interrupted run (size or modification "
                                                            "time); resume needs the same pellets")
+    if scene.pair_collisions and "shot_totals" not in progress:
+        raise OutputError(f"output path = {partial_name!r}: holds no per-shot collision totals (written by an older "
+                          "version); --overwrite starts the run again")
     rows, chunk = int(progress["rows"][()]), int(progress["chunk_rows"][()])
     pellets = int(f["constants/pellets"][()])
-    segments = math.ceil(rows / SEGMENT)
+    if scene.pair_collisions:  # chunks of whole shots, a multiple of shot_granule shots but the last
+        count = scene.shot.count
+        shots, unit = rows // count, count * shot_granule(count)
+        segments = segments_of_shots(shots, count)
+    else:
+        shots, unit = 0, SEGMENT
+        segments = math.ceil(rows / SEGMENT)
     damaged = None
-    if not 0 <= rows <= pellets or pellets != scene.shot.count:
+    if not 0 <= rows <= pellets or pellets != scene.shot.pellets:
         damaged = f"{rows} rows complete of {pellets}"
-    elif rows and (chunk <= 0 or (chunk % SEGMENT and chunk < pellets) or (rows % chunk and rows != pellets)):
+    elif rows and (chunk <= 0 or (chunk % unit and chunk < pellets) or (rows % chunk and rows != pellets)):
         damaged = f"chunk plan of {chunk} pellets per chunk with {rows} rows complete"
     elif len(progress["segment_results"]) < segments:
         damaged = f"{len(progress['segment_results'])} segment results for {segments} segments"
+    elif shots and len(progress["shot_totals"]) < shots:
+        damaged = f"{len(progress['shot_totals'])} per-shot collision totals for {shots} shots"
     else:
         short = [n for n in scene.output.fields if f[f"pellets/{n.replace('.', '/')}"].shape[0] < rows]
         if short:
             damaged = f"pellets/{short[0].replace('.', '/')} is shorter than the {rows} rows complete"
     if damaged:
         raise OutputError(f"output path = {partial_name!r}: is inconsistent ({damaged}); it cannot be resumed")
-    return rows, chunk, segments
+    return rows, chunk, segments, shots
 
 
 def resume_run(scene, output, device, *, overwrite=False, progress=None) -> dict:
@@ -117,17 +140,18 @@ def resume_run(scene, output, device, *, overwrite=False, progress=None) -> dict
     plan = {}
 
     def check(f):
-        rows, chunk, segments = verify(f, scene, dev, partial_name)
+        rows, chunk, segments, shots = verify(f, scene, dev, partial_name)
         run_scene_ = scene
         if chunk:  # the same chunk plan as before (the automatic size depends on free memory)
             run_scene_ = scene.replace(numerics=dataclasses.replace(scene.numerics, chunk_size=chunk))
         check_resources([run_scene_], dev, output, rows_done=rows)
-        plan.update(rows=rows, segments=segments, scene=run_scene_)
+        plan.update(rows=rows, segments=segments, shots=shots, scene=run_scene_)
 
     out, _ = OutputFile.reopen(output, overwrite=overwrite, check=check)
     with out:
         model = Model.from_scene(scene, dev)
-        writer = RunWriter.reopen(out.h5, fields=scene.output.fields, rows=plan["rows"], segments=plan["segments"])
+        writer = RunWriter.reopen(out.h5, fields=scene.output.fields, rows=plan["rows"], segments=plan["segments"],
+                                  shots=plan["shots"])
         stats = run_scene(plan["scene"], model, writer=writer, progress=progress, source=Source.from_scene(scene))
         writer.write_stats(stats)
     return stats

@@ -140,6 +140,12 @@ class Scene:
     source: str = dataclasses.field(default="", compare=False)
     collisions: Collisions = Collisions()
 
+    @property
+    def pair_collisions(self) -> bool:
+        """Pellets of a shot can meet each other: collisions enabled and more than one pellet per
+        shot (the run goes through the dense phase, `collisions.run_collision_scene`)."""
+        return self.collisions.enabled and self.shot.count > 1
+
     def to_dict(self) -> dict:
         """Plain TOML-able dict (None omitted, tuples as lists); scene_from_dict(s.to_dict()) == s."""
         shot = _plain(self.shot)

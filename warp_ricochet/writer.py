@@ -479,7 +479,8 @@ def _shown_name(group) -> str:
 class RunWriter:
     """Writes one run into `group`: constants, per-pellet chunks, statistics, and the progress a
     reader or `--resume` relies on (/progress: the rows complete, the chunk size, the per-segment
-    statistics partials of every complete chunk)."""
+    statistics partials of every complete chunk and, in a run with pair collisions, the per-shot
+    totals its collision statistics are made of)."""
 
     def __init__(self, group: h5py.Group, model, *, scene, fields, pellets: int):
         self.group = group
@@ -512,9 +513,10 @@ class RunWriter:
         self._start_watching()
 
     @classmethod
-    def reopen(cls, group: h5py.Group, *, fields, rows: int, segments: int):
+    def reopen(cls, group: h5py.Group, *, fields, rows: int, segments: int, shots: int = 0):
         """The writer of a run in an existing file, continuing after `rows` complete rows (and their
-        `segments` segment results): anything written after them is cut off."""
+        `segments` segment results and, with pair collisions, the totals of their `shots` shots):
+        anything written after them is cut off."""
         self = cls.__new__(cls)
         self.group = group
         self.fields = tuple(fields)
@@ -522,6 +524,8 @@ class RunWriter:
         for ds in self.datasets.values():
             ds.resize(rows, axis=0)
         self.segment_results.resize(segments, axis=0)
+        if self.shot_totals is not None:
+            self.shot_totals.resize(shots, axis=0)
         self.rows = rows
         self.progress_rows[()] = rows
         group.file.flush()
@@ -534,6 +538,7 @@ class RunWriter:
         self.progress_rows = g["progress/rows"]
         self.chunk_rows = g["progress/chunk_rows"]
         self.segment_results = g["progress/segment_results"]
+        self.shot_totals = g.get("progress/shot_totals")  # runs with pair collisions
 
     def _start_watching(self):
         out = _OPEN.get(self.group.file.filename)
@@ -560,6 +565,15 @@ class RunWriter:
         ds = g.create_dataset("segment_results", shape=(0, width), maxshape=(None, width), chunks=(256, width),
                               dtype="f8")
         ds.attrs["units"] = "SI (sums of the quantities of warp_ricochet.stats.SUM_NAMES, then range minima and maxima, m)"
+        if scene.pair_collisions:
+            from .collisions import SHOT_TOTALS
+
+            ds = g.create_dataset("shot_totals", shape=(0, len(SHOT_TOTALS)), maxshape=(None, len(SHOT_TOTALS)),
+                                  chunks=(1024, len(SHOT_TOTALS)), dtype="f8")
+            ds.attrs["columns"] = list(SHOT_TOTALS)
+            ds.attrs["units"] = "1, 1, J, 1, s (per shot, in shot order: the columns named in `columns`)"
+            ds.attrs["description"] = ("per shot: pellets that collided, pellet-pellet collisions counted by both "
+                                       "pellets, energy lost in them, steps and end time of its dense phase")
 
     @staticmethod
     def _write_constants(g, model, scene, pellets):
@@ -589,11 +603,13 @@ class RunWriter:
                 arr = arr.reshape(len(planes), 3)
             s.create_dataset(name, data=arr).attrs["units"] = unit
 
-    def append(self, arrays: dict[str, np.ndarray], rows: int, segment_results: np.ndarray):
-        """Append the first `rows` rows of each field's array and the chunk's segment results; flush;
-        then count the rows complete and flush again (the commit point of the chunk)."""
+    def append(self, arrays: dict[str, np.ndarray], rows: int, segment_results: np.ndarray, shot_totals=None):
+        """Append the first `rows` rows of each field's array, the chunk's segment results and (pair
+        collisions) the totals of its shots; flush; then count the rows complete and flush again
+        (the commit point of the chunk)."""
         start, stop = self.rows, self.rows + rows
         need = sum(arrays[name][:rows].nbytes for name in self.datasets) + segment_results.nbytes
+        need += 0 if shot_totals is None else shot_totals.nbytes
         out = _OPEN.get(self.group.file.filename)
         if out is not None:
             out.reserve(need, "the next chunk")
@@ -603,9 +619,11 @@ class RunWriter:
             for name, ds in self.datasets.items():
                 ds.resize(stop, axis=0)
                 ds[start:stop] = arrays[name][:rows]
-            done = len(self.segment_results)
-            self.segment_results.resize(done + len(segment_results), axis=0)
-            self.segment_results[done:] = segment_results
+            for ds, block in ((self.segment_results, segment_results), (self.shot_totals, shot_totals)):
+                if block is not None:
+                    done = len(ds)
+                    ds.resize(done + len(block), axis=0)
+                    ds[done:] = block
             if start == 0:
                 self.chunk_rows[()] = rows
             self.group.file.flush()
@@ -618,6 +636,10 @@ class RunWriter:
     def completed_segment_results(self) -> np.ndarray:
         """The segment results of the rows already complete (a resumed run folds them in first)."""
         return self.segment_results[()]
+
+    def completed_shot_totals(self) -> np.ndarray:
+        """The per-shot collision totals of the whole shots already complete (pair collisions)."""
+        return self.shot_totals[()]
 
     def write_stats(self, stats: dict[str, float]):
         try:
