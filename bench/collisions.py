@@ -71,12 +71,16 @@ def tradeoff(args):
     wp.config.log_level = wp.LOG_WARNING
     os.makedirs(args.out, exist_ok=True)
     rows = []
-    grid = [(p, f, r) for p in ("float64", "float32") for f in (1.0, 0.5, 0.25, 0.1) for r in (1, 4)]
-    grid += [("float64", 0.25, 16), ("float64", 0.05, 4)]
-    for precision, fraction, rounds in grid:
+    if args.knobs:  # skin and step fraction together (fraction = skin / 8: neither bound of the step binds alone)
+        grid = [(p, k, k / 8.0, r) for p in ("float64", "float32") for k in (2.0, 4.0, 6.0) for r in (1, 2, 4)]
+    else:
+        grid = [(p, 2.0, f, r) for p in ("float64", "float32") for f in (1.0, 0.5, 0.25, 0.1) for r in (1, 4)]
+        grid += [("float64", 2.0, 0.25, 16), ("float64", 2.0, 0.05, 4)]
+    name = "collisions-knobs" if args.knobs else "collisions-tradeoff"
+    for precision, skin, fraction, rounds in grid:
         per_seed = []
         for seed in range(args.seeds):
-            scene = _scene(args.count, 2021 + seed, precision, step_fraction=fraction, rounds=rounds)
+            scene = _scene(args.count, 2021 + seed, precision, step_fraction=fraction, rounds=rounds, skin=skin)
             elapsed, pellets, stats = _run(scene, args.device, os.path.join(args.out, "tradeoff-run.h5"))
             ref, ref_stats = simulate_collisions(scene, pellets["initial.position"].astype(float),
                                                  pellets["initial.velocity"].astype(float),
@@ -85,16 +89,16 @@ def tradeoff(args):
             m.update(time_s=elapsed, steps=stats["dense_steps_max"],
                      same_collision_count=float(np.mean(pellets["collisions.count"] == ref["collisions.count"])))
             per_seed.append(m)
-        row = {"precision": precision, "step_fraction": fraction, "rounds": rounds}
+        row = {"precision": precision, "skin": skin, "step_fraction": fraction, "rounds": rounds}
         for key in per_seed[0]:
             values = [m[key] for m in per_seed]
             row[key] = float(np.mean(values))
             row[key + "_spread"] = float(np.std(values))
         rows.append(row)
-        print(f"{precision} fraction {fraction:5.2f} rounds {rounds:2d}: {row['time_s']:7.3f} s  steps {row['steps']:7.0f}  "
+        print(f"{precision} skin {skin:3.1f} fraction {fraction:5.2f} rounds {rounds:2d}: {row['time_s']:7.3f} s  steps {row['steps']:7.0f}  "
               f"mean range {row['mean_range_error']:.2e}  L+ {row['Lplus_error']:.2e}  W1 {row['wasserstein_m']:.3g} m  "
               f"collided {row['collided_error']:.3f}  same counts {row['same_collision_count']:.2f}", flush=True)
-    path = os.path.join(args.out, "collisions-tradeoff.csv")
+    path = os.path.join(args.out, name + ".csv")
     with open(path, "w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=list(rows[0]))
         writer.writeheader()
@@ -108,7 +112,7 @@ def tradeoff(args):
         return
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
     for precision, marker in (("float64", "o"), ("float32", "s")):
-        for rounds, colour in ((1, "tab:red"), (4, "tab:blue"), (16, "tab:green")):
+        for rounds, colour in ((1, "tab:red"), (2, "tab:orange"), (4, "tab:blue"), (16, "tab:green")):
             sel = [r for r in rows if r["precision"] == precision and r["rounds"] == rounds]
             if not sel:
                 continue
@@ -117,15 +121,16 @@ def tradeoff(args):
                            label=f"{precision}, {rounds} rounds")
             axes[1].loglog(t, [max(r["wasserstein_m"], 1e-6) for r in sel], marker=marker, color=colour, ls="-")
             for r in sel:
-                axes[0].annotate(f"{r['step_fraction']:g}", (r["time_s"], max(r["mean_range_error"], 1e-6)), fontsize=7)
+                label = f"{r['skin']:g}/{r['step_fraction']:g}" if args.knobs else f"{r['step_fraction']:g}"
+                axes[0].annotate(label, (r["time_s"], max(r["mean_range_error"], 1e-6)), fontsize=7)
     axes[0].set_xlabel("run time (s)")
     axes[0].set_ylabel("|mean range - reference| / reference")
     axes[1].set_xlabel("run time (s)")
     axes[1].set_ylabel("Wasserstein-1 distance of ranges (m)")
     axes[0].legend(fontsize=7)
-    fig.suptitle(f"Collisions, paper shot of {args.count} pellets, {args.seeds} seeds, {args.device} (labels: step_fraction)")
+    fig.suptitle(f"Collisions, paper shot of {args.count} pellets, {args.seeds} seeds, {args.device} (labels: " + ("skin/step_fraction" if args.knobs else "step_fraction") + ")")
     fig.tight_layout()
-    png = os.path.join(args.out, "collisions-tradeoff.png")
+    png = os.path.join(args.out, name + ".png")
     fig.savefig(png, dpi=120)
     print("wrote", path, "and", png)
 
@@ -170,6 +175,7 @@ def main():
     parser.add_argument("--shots", type=int, default=1)
     parser.add_argument("--seeds", type=int, default=3)
     parser.add_argument("--repeats", type=int, default=1)
+    parser.add_argument("--knobs", action="store_true", help="tradeoff over skin (with step_fraction = skin / 8) and rounds")
     parser.add_argument("--rounds", type=int, default=0, help="collisions.rounds (0: the default)")
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--precision", default="float32")

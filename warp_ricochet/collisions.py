@@ -28,10 +28,11 @@ on when lists are rebuilt, or on the other shots.
 
 At checkpoints (every `block_steps` of its own steps) a shot stops stepping once its arrival
 window is over (its undisturbed pellets have all met their first surface and the cloud has passed
-it) and no listed pair is closing to contact; see docs/collisions.md for what this neglects. A
-shot still busy, but with no listed contact within HORIZON_STEPS steps, finds its next event over
-all its pairs and planes (exact) and jumps to it: the rare pair of rebounds converging slowly for
-tens of milliseconds no longer costs tens of thousands of small steps.
+it) and no pair of the shot can meet again (all pairs, not only listed ones, checked exactly when
+no listed pair meets soon); see docs/collisions.md for what this neglects. A shot still busy, but
+with no listed contact within HORIZON_STEPS steps, jumps to its next event (pair or plane): the
+rare pair of rebounds converging slowly for tens of milliseconds no longer costs tens of
+thousands of small steps.
 """
 
 import functools
@@ -580,15 +581,17 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
 
     @wp.kernel(**opts)
     def horizon_kernel(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
-        """Per shot, after its arrival window, when it is still busy but no listed pair meets within
-        HORIZON_STEPS steps (typically a pair of rebounds flying side by side and converging slowly
-        while the others fly apart): the time of its next event over all pairs of the shot (exact:
-        their relative motion is linear) and all plane contacts. Nothing happens before it, so
-        the shot may jump there instead of stepping through empty time with steps sized for its
-        fastest pellets. O(count) per pellet, only for such shots."""
+        """Per shot, after its arrival window, when no listed pair meets within HORIZON_STEPS steps:
+        its next events over ALL its pairs (exact: their relative motion is linear), so that
+        - a shot whose listed pairs are all parting stops only when no pair at all can meet (two
+          pellets further apart than the lists' reach may still converge);
+        - a shot with nothing listed ahead jumps to its next event (pair or plane contact) instead
+          of stepping through empty time with steps sized for its fastest pellets (typically a
+          pair of rebounds converging slowly for tens of milliseconds).
+        O(count) per pellet, for such shots only (each pair once)."""
         i = wp.tid()
         s = i / pair.count
-        if cloud.phase[i] != FLYING or cloud.shot_flags[s, SHOT_DONE] != 0 or cloud.shot_flags[s, SHOT_BUSY] == 0:
+        if cloud.phase[i] != FLYING or cloud.shot_flags[s, SHOT_DONE] != 0:
             return
         time = cloud.clock[s, CLOCK_TIME]
         if time < cloud.clock[s, CLOCK_WINDOW] or cloud.clock[s, CLOCK_SOON] <= time + scalar(HORIZON_STEPS) * cloud.clock[s, CLOCK_STEP]:
@@ -596,18 +599,21 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         gravity = physics.gravity
         x = ballistic_position(cloud.position[i], cloud.velocity[i], gravity, time - cloud.time[i])
         v = ballistic_velocity(cloud.velocity[i], gravity, time - cloud.time[i])
-        wait, k = next_contact(cloud.position[i], cloud.velocity[i], gravity, physics.radius, surfaces.point, surfaces.normal, cloud.touching[i])
-        earliest = NEVER
-        if k >= 0:
-            earliest = cloud.time[i] + wait
         reach2 = scalar(4.0) * physics.radius * physics.radius
-        for j in range(i + 1, (s + 1) * pair.count):  # each pair once
+        earliest = NEVER
+        for j in range(i + 1, (s + 1) * pair.count):
             if cloud.phase[j] == FLYING:
                 d = ballistic_position(cloud.position[j], cloud.velocity[j], gravity, time - cloud.time[j]) - x
                 u = ballistic_velocity(cloud.velocity[j], gravity, time - cloud.time[j]) - v
                 delay = contact_time(d, u, reach2)
                 if delay >= scalar(0.0):
                     earliest = wp.min(earliest, time + delay)
+        if earliest < NEVER:
+            cloud.shot_flags[s, SHOT_BUSY] = 1  # a pair can still meet
+        # plane contacts bound the jump (they do not keep a shot stepping: the core's flight does them)
+        wait, k = next_contact(cloud.position[i], cloud.velocity[i], gravity, physics.radius, surfaces.point, surfaces.normal, cloud.touching[i])
+        if k >= 0:
+            earliest = wp.min(earliest, cloud.time[i] + wait)
         wp.atomic_min(cloud.clock, s, CLOCK_NEXT, earliest)
 
     @wp.kernel(**opts)
