@@ -183,10 +183,12 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         return position, velocity, spin, time, flying
 
     @wp.func
-    def contact_time(d: vec3, u: vec3, reach2: scalar):
-        """First s >= 0 with |d + u s|^2 = reach2 while closing; 0 when within it and closing; -1 none."""
+    def contact_time(d: vec3, u: vec3, reach2: scalar, speeds: scalar):
+        """First s >= 0 with |d + u s|^2 = reach2 while closing; 0 when within it and closing; -1 none.
+        `speeds` = |v_a| + |v_b|: a closing speed within rounding of it is none (after an E = 0
+        collision the normal relative velocity is rounding residue, as collision_reference does)."""
         du = wp.dot(d, u)
-        if du >= scalar(0.0):
+        if du >= scalar(0.0) or du * du <= CLOSING_TOLERANCE2 * wp.dot(d, d) * speeds * speeds:
             return scalar(-1.0)
         dd = wp.dot(d, d)
         gap = dd - reach2
@@ -413,8 +415,10 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
                 other_time = cloud.round_time[buffer, j]
                 start = wp.max(step_start, wp.max(time, other_time))  # both reference states hold from here
                 d = ballistic_position(cloud.round_position[buffer, j], cloud.round_velocity[buffer, j], gravity, start - other_time) - ballistic_position(position, velocity, gravity, start - time)
-                u = ballistic_velocity(cloud.round_velocity[buffer, j], gravity, start - other_time) - ballistic_velocity(velocity, gravity, start - time)
-                delay = contact_time(d, u, reach2)
+                vj = ballistic_velocity(cloud.round_velocity[buffer, j], gravity, start - other_time)
+                vi = ballistic_velocity(velocity, gravity, start - time)
+                u = vj - vi
+                delay = contact_time(d, u, reach2, wp.length(vi) + wp.length(vj))
                 if delay >= scalar(0.0):
                     when = start + delay
                     if when < best_time or (when == best_time and best >= 0 and j < best):
@@ -557,8 +561,8 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             j = cloud.neighbours[i, n]
             if cloud.phase[j] == FLYING:
                 d = ballistic_position(cloud.position[j], cloud.velocity[j], gravity, time - cloud.time[j]) - x
-                u = ballistic_velocity(cloud.velocity[j], gravity, time - cloud.time[j]) - v
-                if contact_time(d, u, reach2) >= scalar(0.0):
+                vj = ballistic_velocity(cloud.velocity[j], gravity, time - cloud.time[j])
+                if contact_time(d, vj - v, reach2, wp.length(v) + wp.length(vj)) >= scalar(0.0):
                     busy = 1
         if busy != 0:
             cloud.shot_flags[s, SHOT_BUSY] = 1
