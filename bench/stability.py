@@ -453,7 +453,7 @@ def _check_pellets(row, case, o, precision):
     _count(row, "decisions on a residue velocity", residue.sum())
     if residue.any():
         i = int(np.argmax(residue))
-        row.known.append(f"{int(residue.sum())} pellets impacted again or escaped on a residue velocity after an "
+        row.failures.append(f"{int(residue.sum())} pellets impacted again or escaped on a residue velocity after an "
                          f"E = 0 impact ({case['kind'][i]}): {case['name']}")
 
 
@@ -778,7 +778,7 @@ def _check_collisions(row, case, o, stats, times, frames, precision):
     gain = (release - launch) / terms
     balance = abs(launch - release - pair - plane.sum()) / terms
     _record(row, "energy gain launch -> release / (eps terms)", max(gain, 0.0) / eps)
-    _record(row, "|launch - release - pair loss - plane loss| / (eps terms)", balance / eps)
+    _record(row, "energy books off: launch - release - pair loss - plane loss, / (eps terms)", balance / eps)
     _record(row, "negative loss (pair, plane impact) / (eps terms)", max(-pair, -plane.min(initial=0.0), 0.0) / terms / eps + 0.0)
     if gain > ENERGY_ROUNDING * eps:
         row.failures.append(f"energy rose by {gain:.1e} of its terms from launch to release: {name}")

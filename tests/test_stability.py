@@ -106,10 +106,6 @@ def test_the_collision_rules_catch_energy_gain_overlap_and_a_pellet_inside_the_p
     assert any("inside R of plane" in f for f in failures(sink))
 
 
-@pytest.mark.xfail(strict=True, reason="known defect, reported (docs/stability.md): after an E = 0 impact at normal "
-                                       "incidence the kernels test whether the residue velocity leaves the plane "
-                                       "against its own size (kernels.py, 'leaving with no normal speed'), so rounding "
-                                       "decides whether the pellet rests, impacts again or escapes")
 def test_an_e0_impact_at_normal_incidence_rests_on_the_plane(tmp_path, device):
     """E = 0, no gravity, a tilted plane, pellets moving straight into it: one impact, then at rest
     on the plane (landed at once, range 0), whatever the speed."""

@@ -168,10 +168,11 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             cloud.ricochet_point[i] = position - radius * normal
             cloud.ricochet_time[i] = time
             cloud.touching[i] = k
+            speed_before2 = wp.dot(velocity, velocity)
             velocity = velocity_after
             spin = spin_after
-            leaving = wp.dot(velocity, normal)  # E = 0, up to rounding: it stays on the surface
-            if leaving * leaving <= CLOSING_TOLERANCE2 * wp.dot(velocity, velocity):
+            leaving = wp.dot(velocity, normal)  # E = 0, up to rounding of the speed before: it stays on the surface
+            if leaving * leaving <= CLOSING_TOLERANCE2 * speed_before2:
                 flying = wp.int32(0)
         if flying == 0:
             cloud.phase[i] = ENDED
