@@ -1,6 +1,6 @@
-"""Stability stress suite (no collisions): the impact law and the whole pipeline driven through
-corners, in float32 and float64, with the rules and the quick subset of bench/stability.py (its
-docstring states them; `python -m bench.stability` runs the full sweep).
+"""Stability stress suite: the impact law, the whole pipeline and pellet-pellet collisions driven
+through corners, in float32 and float64, with the rules and the quick subset of bench/stability.py
+(its docstrings state them; `python -m bench.stability` runs the full sweep).
 
 Corners: grazing impacts (v_n -> 0 from below, to 1e-12 |v|), normal incidence, the exact stick-slip
 threshold, incoming spin that reverses the slip direction, restitution 0 and 1, mu 0 and 10; speeds
@@ -65,10 +65,47 @@ def test_the_rules_catch_a_law_that_adds_energy_or_drifts(monkeypatch):
     assert any("off the float64 reference" in f for f in f64.failures)
 
 
-@pytest.mark.xfail(strict=True, reason="known defect, reported (docs/stability.md): after an E = 0 impact at normal "
-                                       "incidence the kernels test whether the residue velocity leaves the plane "
-                                       "against its own size (kernels.py, 'leaving with no normal speed'), so rounding "
-                                       "decides whether the pellet rests, impacts again or escapes")
+def test_collision_corners(device, tmp_path):
+    """Pellets touching, overlapping or coincident at launch; a cloud at volume fraction 0.5 with
+    and without a plane; pairs at 1e3 m/s each; a chain pressed onto the ground; fixed steps of 1,
+    10 and 100 D / v_rel. Each in float32 and float64 through wr.run, against the rules of
+    stability.run_collisions and, where small, the event-driven reference."""
+    rows = report(stability.run_collisions(device, quick=True, workdir=tmp_path))
+    assert len(rows) == 2 * 11 and sum(r.n for r in rows) >= 2 * 400  # every case ran in both precisions
+    by = {(r.case, r.precision): r.measured for r in rows}
+    cloud = next(k for k in by if k[0].startswith("cloud") and "on the ground" in k[0] and k[1] == "float64")
+    assert by[cloud]["reference pair collisions error"] <= stability.REFERENCE["chaotic"]  # held, not only measured
+    pairs = next(k for k in by if k[0].startswith("pairs touching") and k[1] == "float64")
+    assert by[pairs]["reference pellet by pellet error (of the speed scale)"] <= stability.REFERENCE["exact"]
+
+
+def test_the_collision_rules_catch_energy_gain_overlap_and_a_pellet_inside_the_plane(tmp_path):
+    """The checks can fail: the head-on case's outputs with 1e-5 more speed at release, one pellet
+    moved onto another, or one moved into the ground, break the rules."""
+    case = next(c for c in stability.collision_cases(quick=True) if c["name"].startswith("head-on"))
+    _scene, o, stats, times, frames = stability.run_collision_case(case, "float64", "cpu", tmp_path, "h")
+
+    def failures(change):
+        broken = {k: v.copy() for k, v in o.items()}
+        change(broken)
+        row = stability.Row("collisions", case["name"], "float64", 0)
+        stability._check_collisions(row, case, broken, stats, times, frames, "float64")
+        return row.failures
+
+    assert failures(lambda b: None) == []
+    assert any("energy" in f for f in failures(lambda b: b["release.velocity"].__imul__(1 + 1e-5)))
+    flying = np.nonzero(o["release.time"] >= stats["dense_time_max"])[0]
+    assert len(flying) >= 2
+
+    def overlap(b):
+        b["release.position"][flying[1]] = b["release.position"][flying[0]] + [0.9 * stability.COLLISION_D, 0, 0]
+    assert any("overlap" in f for f in failures(overlap))
+
+    def sink(b):
+        b["landing.position"][:, 1] = np.where(np.isfinite(b["landing.position"][:, 1]), 0.5e-3, np.nan)
+    assert any("inside R of plane" in f for f in failures(sink))
+
+
 def test_an_e0_impact_at_normal_incidence_rests_on_the_plane(tmp_path, device):
     """E = 0, no gravity, a tilted plane, pellets moving straight into it: one impact, then at rest
     on the plane (landed at once, range 0), whatever the speed."""

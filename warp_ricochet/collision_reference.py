@@ -424,7 +424,7 @@ class _Cloud:
             self.touching[p] = k
             self.w[p] = w2[0]
             leaving = np.einsum("ij,ij->i", v2, nrm)
-            if leaving[0] ** 2 <= CLOSING_TOLERANCE**2 * np.einsum("ij,ij->i", v2, v2)[0]:
+            if leaving[0] ** 2 <= CLOSING_TOLERANCE**2 * np.einsum("ij,ij->i", v, v)[0]:  # of the speed before
                 self.end_flight(p, time, r[0], v2[0], k)  # no normal speed left (E = 0): it stays
             else:
                 self.r0[p], self.v0[p], self.t0[p] = r[0], v2[0], time

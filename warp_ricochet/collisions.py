@@ -177,10 +177,11 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             cloud.ricochet_point[i] = position - radius * normal
             cloud.ricochet_time[i] = time
             cloud.touching[i] = k
+            speed_before2 = wp.dot(velocity, velocity)
             velocity = velocity_after
             spin = spin_after
-            leaving = wp.dot(velocity, normal)  # E = 0, up to rounding: it stays on the surface
-            if leaving * leaving <= CLOSING_TOLERANCE2 * wp.dot(velocity, velocity):
+            leaving = wp.dot(velocity, normal)  # E = 0, up to rounding of the speed before: it stays on the surface
+            if leaving * leaving <= CLOSING_TOLERANCE2 * speed_before2:
                 flying = wp.int32(0)
         if flying == 0:
             cloud.phase[i] = ENDED
@@ -192,10 +193,12 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         return position, velocity, spin, time, flying
 
     @wp.func
-    def contact_time(d: vec3, u: vec3, reach2: scalar):
-        """First s >= 0 with |d + u s|^2 = reach2 while closing; 0 when within it and closing; -1 none."""
+    def contact_time(d: vec3, u: vec3, reach2: scalar, speeds: scalar):
+        """First s >= 0 with |d + u s|^2 = reach2 while closing; 0 when within it and closing; -1 none.
+        `speeds` = |v_a| + |v_b|: a closing speed within rounding of it is none (after an E = 0
+        collision the normal relative velocity is rounding residue, as collision_reference does)."""
         du = wp.dot(d, u)
-        if du >= scalar(0.0):
+        if du >= scalar(0.0) or du * du <= CLOSING_TOLERANCE2 * wp.dot(d, d) * speeds * speeds:
             return scalar(-1.0)
         dd = wp.dot(d, d)
         gap = dd - reach2
@@ -424,8 +427,10 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
                 other_time = cloud.round_time[buffer, j]
                 start = wp.max(step_start, wp.max(time, other_time))  # both reference states hold from here
                 d = ballistic_position(cloud.round_position[buffer, j], cloud.round_velocity[buffer, j], gravity, start - other_time) - ballistic_position(position, velocity, gravity, start - time)
-                u = ballistic_velocity(cloud.round_velocity[buffer, j], gravity, start - other_time) - ballistic_velocity(velocity, gravity, start - time)
-                delay = contact_time(d, u, reach2)
+                vj = ballistic_velocity(cloud.round_velocity[buffer, j], gravity, start - other_time)
+                vi = ballistic_velocity(velocity, gravity, start - time)
+                u = vj - vi
+                delay = contact_time(d, u, reach2, wp.length(vi) + wp.length(vj))
                 if delay >= scalar(0.0):
                     when = start + delay
                     if when < best_time or (when == best_time and best >= 0 and j < best):
@@ -569,8 +574,8 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             j = cloud.neighbours[i, n]
             if cloud.phase[j] == FLYING:
                 d = ballistic_position(cloud.position[j], cloud.velocity[j], gravity, time - cloud.time[j]) - x
-                u = ballistic_velocity(cloud.velocity[j], gravity, time - cloud.time[j]) - v
-                delay = contact_time(d, u, reach2)
+                vj = ballistic_velocity(cloud.velocity[j], gravity, time - cloud.time[j])
+                delay = contact_time(d, vj - v, reach2, wp.length(v) + wp.length(vj))
                 if delay >= scalar(0.0):
                     busy = 1
                     soonest = wp.min(soonest, delay)
@@ -604,8 +609,8 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         for j in range(i + 1, (s + 1) * pair.count):
             if cloud.phase[j] == FLYING:
                 d = ballistic_position(cloud.position[j], cloud.velocity[j], gravity, time - cloud.time[j]) - x
-                u = ballistic_velocity(cloud.velocity[j], gravity, time - cloud.time[j]) - v
-                delay = contact_time(d, u, reach2)
+                vj = ballistic_velocity(cloud.velocity[j], gravity, time - cloud.time[j])
+                delay = contact_time(d, vj - v, reach2, wp.length(v) + wp.length(vj))
                 if delay >= scalar(0.0):
                     earliest = wp.min(earliest, time + delay)
         if earliest < NEVER:

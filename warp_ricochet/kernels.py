@@ -393,6 +393,7 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bo
                             acc = add_impact_sums(acc, F_POST, velocity_after, spin_after, normal)
                             acc[F_V2_LAUNCH] += launch_v2
                             acc[F_W2_LAUNCH] += launch_w2
+                        speed_before2 = wp.dot(velocity, velocity)
                         velocity = velocity_after
                         spin = spin_after
                         touching = k
@@ -400,9 +401,10 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bo
                         last_slipped = slipped
                         ricochet_point = position - radius * normal
                         ricochet_time = time
-                        # leaving with no normal speed (E = 0, up to rounding): it stays on the surface
+                        # leaving with no normal speed (E = 0, up to rounding of the speed before the
+                        # impact, not of the residue left): it stays on the surface
                         leaving_speed = wp.dot(velocity, normal)
-                        if leaving_speed * leaving_speed <= CLOSING_TOLERANCE2 * wp.dot(velocity, velocity):
+                        if leaving_speed * leaving_speed <= CLOSING_TOLERANCE2 * speed_before2:
                             flight_state = RESTING
                             resting_surface = k
             if wp.static(WRITE):

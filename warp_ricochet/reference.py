@@ -206,6 +206,7 @@ def simulate(scene, position, velocity, angular_velocity):
         out["impact.surface"][hit, bounce] = k[hit]
         if bounce == 0:
             first_normal = np.where(hit[:, None], nrm, 0.0)
+        speed_before2 = np.einsum("ij,ij->i", v, v)
         v = np.where(hit[:, None], v2, v)
         w = np.where(hit[:, None], w2, w)
         touching = np.where(hit, k, touching)
@@ -213,9 +214,9 @@ def simulate(scene, position, velocity, angular_velocity):
         last_slipped = np.where(hit, s2, last_slipped)
         ricochet_point = np.where(hit[:, None], r - radius * nrm, ricochet_point)
         ricochet_time = np.where(hit, time, ricochet_time)
-        # leaving with no normal speed (E = 0, up to rounding): it stays on the surface
+        # leaving with no normal speed (E = 0, up to rounding of the speed before the impact)
         leaving = np.einsum("ij,ij->i", v, nrm)
-        stays = hit & (leaving**2 <= CLOSING_TOLERANCE**2 * np.einsum("ij,ij->i", v, v))
+        stays = hit & (leaving**2 <= CLOSING_TOLERANCE**2 * speed_before2)
         resting |= stays
         resting_surface = np.where(stays, k, resting_surface)
         active &= ~stays
