@@ -9,7 +9,7 @@ mkdir -p "$out"
 quiet() { grep -v "^Warp \|CUDA Toolkit\|Devices:\|Kernel cache\|\.cache/warp\|\"cpu\"\|\"cuda:0\"\|^Module "; }
 nvidia-smi --query-gpu=name,memory.total,driver_version,clocks.max.sm --format=csv | tee "$out/gpu.txt"
 if [[ $what == check || $what == all ]]; then
-  WARP_RICOCHET_TEST_DEVICES=cuda:0 timeout 300 python3 -m pytest tests/test_collisions.py -q -n 8 -p no:cacheprovider -k "not cli" 2>&1 | tail -15 | tee "$out/collision-tests.txt"
+  WARP_RICOCHET_TEST_DEVICES=cuda:0 timeout 300 python3 -m pytest tests/test_collisions.py tests/test_stability.py tests/test_pipeline.py -q -n 8 -p no:cacheprovider -k "not cli" -rfE 2>&1 | grep "^FAILED\\|^ERROR\\|passed\\|failed" | cut -c1-300 | tee "$out/collision-tests.txt"
 fi
 if [[ $what == speed || $what == all ]]; then
   timeout 120 python3 -m bench.example_dem --device cuda:0 --sizes 65536,524288 --frames 20 2>&1 | quiet | tee "$out/example_dem.txt"
