@@ -612,7 +612,9 @@ REFERENCE = {"exact": 1e-9, "chaotic": 0.05}  # float64 against the event-driven
 COLLISION_ENSEMBLE = ("collided fraction", "pair collisions", "pair energy lost / launch energy", "mean release speed",
                       "mean landing range")
 HELD_F32 = (0, 1, 2, 3)  # landing ranges after up to 16 ricochets include grazing hops float32 cannot follow
-HELD_REFERENCE = (0, 1, 2, 4)  # the reference's end state is not the dense phase's release
+# the reference's end state is not the dense phase's release; mean landing ranges of the chaotic clouds,
+# after up to 16 ricochets, are measured, not held: one event taken in another order changes them
+HELD_REFERENCE = (0, 1, 2)
 GROUND_PLANE = dict(point=[0.0, 0.0, 0.0], normal=[0.0, 1.0, 0.0], restitution=0.5, mu_s=0.5, mu_d=0.4)
 
 

@@ -16,8 +16,9 @@ Events in a step are resolved in `rounds`: each pellet picks its earliest event 
 or contact with a listed neighbour) after t_last; a plane event, or a pair event that both
 pellets picked (mutual), is applied at its exact time. A pellet takes part in at most one event
 per round, so impulses are never summed: momentum is conserved and energy never rises, and the
-result does not depend on thread order. Events left after the last round carry over (the pair
-overlaps by at most its closing displacement in one step, then separates at once).
+result does not depend on thread order. A pair event still ahead after the last round ends the
+shot's step at its time (no pellet flies past it into its partner); it is resolved first in the
+next step.
 
 Neighbour lists (reach 2R + skin) are built from a `wp.HashGrid` in co-moving coordinates
 (positions relative to each shot's ballistic drift; the grid's groups keep shots apart, so
@@ -53,8 +54,12 @@ NUM_FLAGS = 3
 # taken, the time the shot stopped stepping, the end of its arrival window (the last first contact
 # of its undisturbed pellets, plus the time the cloud takes to pass a point: 4 rms radii / speed),
 # the soonest contact of a listed pair, and the soonest event of all (any pair of the shot, or a plane)
-CLOCK_TIME, CLOCK_STEP, CLOCK_DRIFT, CLOCK_STEPS, CLOCK_END, CLOCK_WINDOW, CLOCK_SOON, CLOCK_NEXT = range(8)
-NUM_CLOCK = 8
+# and the earliest pair event left unresolved after the step's rounds (the step ends there)
+CLOCK_TIME, CLOCK_STEP, CLOCK_DRIFT, CLOCK_STEPS, CLOCK_END, CLOCK_WINDOW, CLOCK_SOON, CLOCK_NEXT, CLOCK_CUT = range(9)
+NUM_CLOCK = 9
+# a step cut at an unresolved event still advances by this fraction of itself (a pair the law does
+# not collide, e.g. one closing within rounding, can never stop the clock)
+MIN_CUT_FRACTION = 1.0 / 64.0
 # a shot whose listed pairs meet no sooner than this many steps ahead looks for its next event over
 # all its pairs, and jumps to it when nothing happens before (see horizon_kernel)
 HORIZON_STEPS = 16.0
@@ -270,6 +275,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             cloud.clock[s, c] = scalar(0.0)
         cloud.clock[s, CLOCK_SOON] = NEVER
         cloud.clock[s, CLOCK_NEXT] = NEVER
+        cloud.clock[s, CLOCK_CUT] = NEVER
         _flying, passing = recentre(pair, physics, cloud, s, scalar(0.0))
         last_arrival = scalar(0.0)
         first = s * pair.count
@@ -362,6 +368,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             step = wp.min(step, QUIET_STEP)
         cloud.clock[s, CLOCK_STEP] = step
         cloud.clock[s, CLOCK_DRIFT] = scalar(0.0)
+        cloud.clock[s, CLOCK_CUT] = NEVER
 
     @wp.kernel(**opts)
     def prepare_kernel(pair: Pair, physics: Physics, cloud: Cloud):
@@ -391,10 +398,11 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
                 wp.atomic_max(cloud.step_travel, 0, travel)
 
     @wp.kernel(**opts)
-    def choose_kernel(buffer: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
+    def choose_kernel(buffer: wp.int32, look: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
         """Each flying pellet's earliest event in the rest of the step (ties: a plane, then the
         lower row). Skipped when neither it nor a neighbour changed in the last round: its
-        choice still holds."""
+        choice still holds. `look` (after the last round): pair events still ahead cut the
+        step, so no pellet flies past an event left unresolved (into its partner)."""
         i = wp.tid()
         s = i / pair.count
         if not stepping(cloud, i, s):
@@ -406,6 +414,8 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
                 if cloud.changed[cloud.neighbours[i, n]] != 0:
                     stale = 1
         if stale == 0:
+            if look != 0 and cloud.event_partner[i] >= 0:
+                wp.atomic_min(cloud.clock, s, CLOCK_CUT, cloud.event_time[i])
             return
         gravity = physics.gravity
         step_start = cloud.clock[s, CLOCK_TIME]
@@ -438,6 +448,16 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
                         best = j
         cloud.event_time[i] = best_time
         cloud.event_partner[i] = best
+        if look != 0 and best >= 0:
+            wp.atomic_min(cloud.clock, s, CLOCK_CUT, best_time)
+
+    @wp.func
+    def step_end_of(cloud: Cloud, s: wp.int32):
+        """Where the shot's step ends: its full step, or the earliest pair event its rounds left
+        unresolved (but at least MIN_CUT_FRACTION of the step)."""
+        time = cloud.clock[s, CLOCK_TIME]
+        step = cloud.clock[s, CLOCK_STEP]
+        return time + wp.max(wp.min(step, cloud.clock[s, CLOCK_CUT] - time), step * scalar(MIN_CUT_FRACTION))
 
     @wp.kernel(**opts)
     def resolve_kernel(buffer: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs):
@@ -518,7 +538,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         s = i / pair.count
         if not stepping(cloud, i, s):
             return
-        step_end = cloud.clock[s, CLOCK_TIME] + cloud.clock[s, CLOCK_STEP]
+        step_end = step_end_of(cloud, s)
         position = cloud.round_position[buffer, i]
         velocity = cloud.round_velocity[buffer, i]
         spin = cloud.round_spin[buffer, i]
@@ -546,7 +566,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         s = wp.tid()
         if cloud.shot_flags[s, SHOT_DONE] != 0 or cloud.shot_flags[s, SHOT_STALL] != 0:
             return
-        cloud.clock[s, CLOCK_TIME] = cloud.clock[s, CLOCK_TIME] + cloud.clock[s, CLOCK_STEP]
+        cloud.clock[s, CLOCK_TIME] = step_end_of(cloud, s)
         steps = cloud.clock[s, CLOCK_STEPS] + scalar(1.0)
         cloud.clock[s, CLOCK_STEPS] = steps
         if wp.int32(steps) % pair.block_steps == 0:
@@ -653,6 +673,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         cloud.shot_flags[s, SHOT_STALL] = 0
         cloud.clock[s, CLOCK_SOON] = NEVER
         cloud.clock[s, CLOCK_NEXT] = NEVER
+        cloud.clock[s, CLOCK_CUT] = NEVER
 
     @wp.kernel(**opts)
     def release_kernel(pair: Pair, physics: Physics, cloud: Cloud):
@@ -847,8 +868,10 @@ class DensePhase:
             self._launch("prepare", pellets, [p, m.physics, c], True),
         ]
         for r in range(self.rounds):
-            commands.append(self._launch("choose", pellets, [r % 2, p, m.surfaces, m.physics, c], True))
+            commands.append(self._launch("choose", pellets, [r % 2, 0, p, m.surfaces, m.physics, c], True))
             commands.append(self._launch("resolve", pellets, [r % 2, p, m.surfaces, m.physics, c, outputs], True))
+        # events still ahead after the rounds: the step ends at the earliest (no pellet flies into its partner)
+        commands.append(self._launch("choose", pellets, [self.rounds % 2, 1, p, m.surfaces, m.physics, c], True))
         commands.append(self._launch("finish", pellets, [self.rounds % 2, p, m.surfaces, m.physics, c, outputs], True))
         commands.append(self._launch("end_step", shots, [p, c], True))
         return commands
