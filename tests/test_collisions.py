@@ -297,3 +297,16 @@ def test_a_pellet_pressed_between_the_ground_and_another_ends(tmp_path, device):
     landed = np.isfinite(pellets["landing.position"][:, 1])
     assert np.all(pellets["landing.position"][landed, 1] >= 0.00125 - 1e-12)
     np.testing.assert_allclose(pellets["landing.position"], ref["landing.position"], rtol=1e-9, atol=1e-12)
+
+
+def test_float32_collision_runs_warn_and_float64_runs_do_not():
+    """What the code does where float32 cannot follow float64 (docs/stability.md): it says so."""
+    import warnings
+
+    from warp_ricochet.api import PrecisionWarning
+
+    with pytest.warns(PrecisionWarning, match="float64"):
+        api.run(_paper_collisions(20, precision="float32"), device="cpu")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", PrecisionWarning)
+        api.run(_paper_collisions(20, precision="float64"), device="cpu")

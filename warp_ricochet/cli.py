@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import warnings
 
 from . import __version__
 from .errors import RicochetError, SceneError
@@ -185,6 +186,8 @@ def main(argv=None) -> int:
     """Entry point of `warp-ricochet`; returns the exit status (argparse exits itself on usage errors)."""
     args = build_parser().parse_args(argv)
     _sigterm_as_interrupt()
+    # warnings (e.g. api.PrecisionWarning) in one line, like the errors
+    warnings.formatwarning = lambda message, category, *_args, **_kwargs: f"{PROG}: warning: {_one_line(str(message))}\n"
     try:
         return args.func(args)
     except RicochetError as exc:  # before OSError: OutputError is both
