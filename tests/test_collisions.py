@@ -310,3 +310,21 @@ def test_float32_collision_runs_warn_and_float64_runs_do_not():
     with warnings.catch_warnings():
         warnings.simplefilter("error", PrecisionWarning)
         api.run(_paper_collisions(20, precision="float64"), device="cpu")
+
+
+def test_lists_that_overflow_grow_before_any_step_and_change_nothing(tmp_path, device):
+    """Neighbour lists hold candidates only: lists far too short for the cloud (they overflow at
+    the first build and again as it converges) give bitwise the results of lists long enough."""
+    raw = paper_raw()
+    raw["shot"].update(count=120, envelope_radius=0.006)
+    raw["collisions"] = {"enabled": True}
+    raw["output"] = {"fields": ["landing", "collisions", "release"]}
+    runs = []
+    for cap in (1, 256):
+        raw["collisions"]["max_neighbours"] = cap
+        runs.append(_write(make_scene(raw, precision="float64"), tmp_path / f"cap{cap}.h5", device))
+    (short, short_stats), (long, long_stats) = runs
+    assert long_stats["pair_collisions"] > 50
+    for name, value in long.items():
+        np.testing.assert_array_equal(short[name], value, err_msg=name)
+    assert short_stats == long_stats

@@ -30,10 +30,10 @@ on when lists are rebuilt, or on the other shots.
 At checkpoints (every `block_steps` of its own steps) a shot stops stepping once its arrival
 window is over (its undisturbed pellets have all met their first surface and the cloud has passed
 it) and no pair of the shot can meet again (all pairs, not only listed ones, checked exactly when
-no listed pair meets soon); see docs/collisions.md for what this neglects. A shot still busy, but
-with no listed contact within HORIZON_STEPS steps, jumps to its next event (pair or plane): the
-rare pair of rebounds converging slowly for tens of milliseconds no longer costs tens of
-thousands of small steps.
+no listed pair is closing); see docs/collisions.md for what this neglects. Every HORIZON_STEPS of
+its own steps a shot finds its next event over all its pairs and planes and jumps to it: the rare
+pair of rebounds converging slowly for tens of milliseconds no longer costs tens of thousands of
+small steps.
 """
 
 import functools
@@ -43,8 +43,7 @@ import warp as wp
 
 from .flight import EPSILON, ROUNDING, make_flight
 from .impact_law import make_impact_law, make_pair_law
-from .kernels import output_writers_for, types_for
-from .sampling import make_sampler
+from .kernels import launch_funcs_for, output_writers_for, types_for
 
 FLYING, ENDED = 0, 1  # pellet phases; ENDED: landed after its last ricochet, or at rest on a surface
 # global flags (int32 array): a shot waits for a rebuild; shots still stepping; list overflow
@@ -53,16 +52,16 @@ NUM_FLAGS = 3
 # per-shot clock (scalar array, shots x 8): time, step, speed bound relative to the drift, steps
 # taken, the time the shot stopped stepping, the end of its arrival window (the last first contact
 # of its undisturbed pellets, plus the time the cloud takes to pass a point: 4 rms radii / speed),
-# the soonest contact of a listed pair, and the soonest event of all (any pair of the shot, or a plane)
-# and the earliest pair event left unresolved after the step's rounds (the step ends there)
-CLOCK_TIME, CLOCK_STEP, CLOCK_DRIFT, CLOCK_STEPS, CLOCK_END, CLOCK_WINDOW, CLOCK_SOON, CLOCK_NEXT, CLOCK_CUT = range(9)
-NUM_CLOCK = 9
+# the soonest event of all (any pair of the shot, or a plane; horizon_kernel), and the earliest
+# pair event left unresolved after the step's rounds (the step ends there)
+CLOCK_TIME, CLOCK_STEP, CLOCK_DRIFT, CLOCK_STEPS, CLOCK_END, CLOCK_WINDOW, CLOCK_NEXT, CLOCK_CUT = range(8)
+NUM_CLOCK = 8
 # a step cut at an unresolved event still advances by this fraction of itself (a pair the law does
 # not collide, e.g. one closing within rounding, can never stop the clock)
 MIN_CUT_FRACTION = 1.0 / 64.0
-# a shot whose listed pairs meet no sooner than this many steps ahead looks for its next event over
-# all its pairs, and jumps to it when nothing happens before (see horizon_kernel)
-HORIZON_STEPS = 16.0
+# every this many of its own steps (a multiple of BLOCK_STEPS) a shot past its arrival window finds
+# its next event over all its pairs and planes and jumps to it (horizon_kernel)
+HORIZON_STEPS = 16
 HORIZON_RADII = 4.0
 # per-shot int flags (shots x 3): waits for a rebuild, finished, a pair or ricochet still ahead
 SHOT_STALL, SHOT_DONE, SHOT_BUSY = 0, 1, 2
@@ -80,9 +79,9 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
     impact_law = make_impact_law(scalar)
     pair_law = make_pair_law(scalar)
     _entry, _return, next_contact, ballistic_position, ballistic_velocity = make_flight(scalar, planes if planes <= 4 else None)
-    sample_pellet = make_sampler(scalar)
-    write_impact, mark_missing = output_writers_for(precision)
-    BOUNCES, WRITE, FROM_FILE = bounces, write_outputs, from_file
+    launch_state, write_initial = launch_funcs_for(precision, from_file)
+    write_impact, _mark_missing = output_writers_for(precision)
+    BOUNCES, WRITE = bounces, write_outputs
     CLOSING_TOLERANCE2 = scalar((ROUNDING * EPSILON[precision]) ** 2)
     TINY_SPEED = scalar(1e-30)
     NEVER = scalar(1e30)  # s: no event ahead
@@ -214,33 +213,24 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             return scalar(-1.0)
         return gap / (-du + wp.sqrt(disc))  # the smaller root, without cancellation
 
+    @wp.func
+    def delay_to(cloud: Cloud, physics: Physics, j: wp.int32, x: vec3, v: vec3, time: scalar):
+        """Time from `time` until pellet j (its reference state) touches a pellet at x with
+        velocity v then; -1 when they never do."""
+        age = time - cloud.time[j]
+        vj = ballistic_velocity(cloud.velocity[j], physics.gravity, age)
+        d = ballistic_position(cloud.position[j], cloud.velocity[j], physics.gravity, age) - x
+        return contact_time(d, vj - v, scalar(4.0) * physics.radius * physics.radius, wp.length(v) + wp.length(vj))
+
     # ------------------------------------------------------------------ set-up
 
     @wp.kernel(**opts)
     def launch_kernel(first_index: wp.int32, source: Source, cloud: Cloud, out: Outputs):
         """Launch state of each pellet (sampled from its global index, or given), phase FLYING."""
         i = wp.tid()
-        position = vec3()
-        velocity = vec3()
-        spin = vec3()
-        if wp.static(FROM_FILE):
-            position = source.position[i]
-            velocity = source.velocity[i]
-            spin = source.angular_velocity[i]
-        else:
-            position, velocity, spin = sample_pellet(
-                source.seed, first_index + i, source.speed, source.direction, source.jitter,
-                source.envelope_center, source.envelope_radius, source.spin,
-            )
+        position, velocity, spin = launch_state(source, first_index + i, i)
         if wp.static(WRITE):
-            if out.initial_position.shape[0] > 0:
-                out.initial_position[i] = position
-            if out.initial_velocity.shape[0] > 0:
-                out.initial_velocity[i] = velocity
-            if out.initial_angular_velocity.shape[0] > 0:
-                out.initial_angular_velocity[i] = spin
-            for b in range(wp.static(BOUNCES)):  # impacts never made stay marked missing
-                mark_missing(out, i, b)
+            write_initial(out, i, position, velocity, spin)  # (bounces without an impact: the core kernel marks them)
         cloud.position[i] = position
         cloud.velocity[i] = velocity
         cloud.angular_velocity[i] = spin
@@ -273,7 +263,6 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         s = wp.tid()
         for c in range(wp.static(NUM_CLOCK)):
             cloud.clock[s, c] = scalar(0.0)
-        cloud.clock[s, CLOCK_SOON] = NEVER
         cloud.clock[s, CLOCK_NEXT] = NEVER
         cloud.clock[s, CLOCK_CUT] = NEVER
         _flying, passing = recentre(pair, physics, cloud, s, scalar(0.0))
@@ -490,9 +479,9 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
                 restitution = pair.restitution
                 last_a = cloud.last_collision[buffer, a]
                 last_b = cloud.last_collision[buffer, b]
-                if (not wp.isnan(last_a) and when - last_a < pair.contact_duration) or (
-                    not wp.isnan(last_b) and when - last_b < pair.contact_duration
-                ):
+                if (not wp.isnan(last_a) and when - last_a <= pair.contact_duration) or (
+                    not wp.isnan(last_b) and when - last_b <= pair.contact_duration
+                ):  # (<=, as collision_reference)
                     restitution = scalar(1.0)
                 age_a = when - cloud.round_time[buffer, a]
                 age_b = when - cloud.round_time[buffer, b]
@@ -588,58 +577,53 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         busy = wp.int32(0)
         if time < cloud.clock[s, CLOCK_WINDOW]:
             busy = 1  # the arrival window: the cloud converges, meets the surface and passes it
-        reach2 = scalar(4.0) * physics.radius * physics.radius
-        soonest = NEVER
         for n in range(cloud.neighbour_count[i]):
             j = cloud.neighbours[i, n]
-            if cloud.phase[j] == FLYING:
-                d = ballistic_position(cloud.position[j], cloud.velocity[j], gravity, time - cloud.time[j]) - x
-                vj = ballistic_velocity(cloud.velocity[j], gravity, time - cloud.time[j])
-                delay = contact_time(d, vj - v, reach2, wp.length(v) + wp.length(vj))
-                if delay >= scalar(0.0):
-                    busy = 1
-                    soonest = wp.min(soonest, delay)
+            if cloud.phase[j] == FLYING and delay_to(cloud, physics, j, x, v, time) >= scalar(0.0):
+                busy = 1
         if busy != 0:
             cloud.shot_flags[s, SHOT_BUSY] = 1
-        if soonest < NEVER:
-            wp.atomic_min(cloud.clock, s, CLOCK_SOON, time + soonest)
 
     @wp.kernel(**opts)
     def horizon_kernel(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
-        """Per shot, after its arrival window, when no listed pair meets within HORIZON_STEPS steps:
-        its next events over ALL its pairs (exact: their relative motion is linear), so that
-        - a shot whose listed pairs are all parting stops only when no pair at all can meet (two
-          pellets further apart than the lists' reach may still converge);
-        - a shot with nothing listed ahead jumps to its next event (pair or plane contact) instead
-          of stepping through empty time with steps sized for its fastest pellets (typically a
-          pair of rebounds converging slowly for tens of milliseconds).
-        O(count) per pellet, for such shots only (each pair once)."""
+        """Per shot at its checkpoint, after its arrival window: its next events over ALL its pairs
+        (exact: their relative motion is linear), each pair once, O(count) per pellet.
+        - When no listed pair is closing, so that the shot stops only when no pair at all can meet
+          (pellets farther apart than the lists' reach may still converge). Listed pairs are a
+          subset of all, so whether a shot is busy never depends on the lists.
+        - Every HORIZON_STEPS of its own steps, so that it jumps to its next event (pair or plane)
+          instead of stepping through empty time with steps sized for its fastest pellets
+          (typically two rebounds converging slowly for tens of milliseconds). The cadence is the
+          shot's own, so the jumps (and results) do not depend on the lists or the other shots."""
         i = wp.tid()
         s = i / pair.count
         if cloud.phase[i] != FLYING or cloud.shot_flags[s, SHOT_DONE] != 0:
             return
         time = cloud.clock[s, CLOCK_TIME]
-        if time < cloud.clock[s, CLOCK_WINDOW] or cloud.clock[s, CLOCK_SOON] <= time + scalar(HORIZON_STEPS) * cloud.clock[s, CLOCK_STEP]:
+        steps = wp.int32(cloud.clock[s, CLOCK_STEPS])
+        if time < cloud.clock[s, CLOCK_WINDOW] or steps % pair.block_steps != 0:
             return
+        jump = steps % HORIZON_STEPS == 0
+        if not jump and cloud.shot_flags[s, SHOT_BUSY] != 0:
+            return  # busy by its lists (other threads' writes here only say busy too)
         gravity = physics.gravity
         x = ballistic_position(cloud.position[i], cloud.velocity[i], gravity, time - cloud.time[i])
         v = ballistic_velocity(cloud.velocity[i], gravity, time - cloud.time[i])
-        reach2 = scalar(4.0) * physics.radius * physics.radius
         earliest = NEVER
         for j in range(i + 1, (s + 1) * pair.count):
             if cloud.phase[j] == FLYING:
-                d = ballistic_position(cloud.position[j], cloud.velocity[j], gravity, time - cloud.time[j]) - x
-                vj = ballistic_velocity(cloud.velocity[j], gravity, time - cloud.time[j])
-                delay = contact_time(d, vj - v, reach2, wp.length(v) + wp.length(vj))
+                delay = delay_to(cloud, physics, j, x, v, time)
                 if delay >= scalar(0.0):
                     earliest = wp.min(earliest, time + delay)
         if earliest < NEVER:
             cloud.shot_flags[s, SHOT_BUSY] = 1  # a pair can still meet
-        # plane contacts bound the jump (they do not keep a shot stepping: the core's flight does them)
-        wait, k = next_contact(cloud.position[i], cloud.velocity[i], gravity, physics.radius, surfaces.point, surfaces.normal, cloud.touching[i])
-        if k >= 0:
-            earliest = wp.min(earliest, cloud.time[i] + wait)
-        wp.atomic_min(cloud.clock, s, CLOCK_NEXT, earliest)
+        if jump:
+            # plane contacts bound the jump (they do not keep a shot stepping: the core's flight does them)
+            wait, k = next_contact(cloud.position[i], cloud.velocity[i], gravity, physics.radius, surfaces.point,
+                                   surfaces.normal, cloud.touching[i])
+            if k >= 0:
+                earliest = wp.min(earliest, cloud.time[i] + wait)
+            wp.atomic_min(cloud.clock, s, CLOCK_NEXT, earliest)
 
     @wp.kernel(**opts)
     def settle_kernel(pair: Pair, physics: Physics, cloud: Cloud):
@@ -647,8 +631,8 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         the decision does not depend on the other shots), a shot with nothing ahead, or out of
         steps, stops stepping."""
         s = wp.tid()
-        if cloud.shot_flags[s, SHOT_DONE] != 0 or cloud.flags[FLAG_OVERFLOW] > 0:
-            return  # (an overflowed list: no decision until the lists are whole again)
+        if cloud.shot_flags[s, SHOT_DONE] != 0:
+            return
         steps = cloud.clock[s, CLOCK_STEPS]
         checkpoint = wp.int32(steps) % pair.block_steps == 0
         if checkpoint and (cloud.shot_flags[s, SHOT_BUSY] == 0 or steps >= pair.max_steps):
@@ -671,7 +655,6 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
                     cloud.flags[FLAG_STALL] = 1
         cloud.shot_flags[s, SHOT_BUSY] = 0
         cloud.shot_flags[s, SHOT_STALL] = 0
-        cloud.clock[s, CLOCK_SOON] = NEVER
         cloud.clock[s, CLOCK_NEXT] = NEVER
         cloud.clock[s, CLOCK_CUT] = NEVER
 
@@ -767,7 +750,6 @@ class DensePhase:
         self.count = scene.shot.count
         self.capacity = capacity
         self.rounds = coll.rounds
-        self.frame_every = coll.frame_every
         self.block_steps = coll.frame_every or BLOCK_STEPS
         kern = model.kernels
         self.kern = kern
@@ -839,8 +821,6 @@ class DensePhase:
         cells = min(max(int(round((2.0 * n) ** (1.0 / 3.0))), 8), 256)
         self.grid = wp.HashGrid(cells, cells, cells, device=dev, dtype=scalar)
         self.reach = 2.0 * radius + skin
-        self.rebuilds = 0
-        self.blocks = 0
         self.graph = None
 
     def _launch(self, name, dim, inputs, record=False):
@@ -851,12 +831,22 @@ class DensePhase:
         self.reach = 2.0 * self.model.radius + 2.0 * half_skin
         self.pair.reach = self.kern.scalar(self.reach)
 
-    def _rebuild(self, pellets):
+    def _rebuild(self, pellets) -> bool:
+        """Build the neighbour lists; a list that overflowed (a denser cloud than the lists hold)
+        grows them and builds again, so no step ever runs on a truncated list. Returns whether
+        they grew (the recorded step commands hold the old array)."""
         m, c = self.model, self.cloud
-        self._launch("grid_points", pellets, [self.pair, m.physics, c])
-        self.grid.build(c.grid_point[:pellets], self.reach, groups=self.groups[:pellets])
-        self._launch("neighbours", pellets, [self.grid.id, self.pair, c])
-        self.rebuilds += 1
+        grew = False
+        while True:
+            self._launch("grid_points", pellets, [self.pair, m.physics, c])
+            self.grid.build(c.grid_point[:pellets], self.reach, groups=self.groups[:pellets])
+            self._launch("neighbours", pellets, [self.grid.id, self.pair, c])
+            found = int(c.flags[FLAG_OVERFLOW:].numpy()[0])  # one integer per rebuild
+            if found == 0:
+                return grew
+            c.neighbours = wp.zeros((self.capacity, int(found * 1.25) + 1), dtype=wp.int32, device=self.device)
+            c.flags[FLAG_OVERFLOW:].zero_()
+            grew = True
 
     def _step_commands(self, pellets, shots, outputs):
         """One step's launches, recorded once (packing the structs' parameters costs more than a
@@ -901,22 +891,14 @@ class DensePhase:
         self._launch("launch", pellets, [first_index, source, c, outputs])
         self._launch("drift", shots, [p, self.model.surfaces, self.model.physics, c])
         self._launch("groups", pellets, [p, self.groups])
+        self._rebuild(pellets)
         commands = self._step_commands(pellets, shots, outputs)
         self.graph = None
-        self._rebuild(pellets)
         while True:
             self._launch("survey", pellets, [p, self.model.surfaces, self.model.physics, c])
             self._launch("horizon", pellets, [p, self.model.surfaces, self.model.physics, c])
             self._launch("settle", shots, [p, self.model.physics, c])
-            flags = c.flags.numpy().copy()  # the only host sync: at checkpoints, three integers (a copy: CPU arrays share memory)
-            if flags[FLAG_OVERFLOW] > 0:
-                # a list overflowed (a denser cloud than max_neighbours allows): grow, rebuild, look again
-                c.neighbours = wp.zeros((self.capacity, int(flags[FLAG_OVERFLOW] * 1.25) + 1), dtype=wp.int32, device=self.device)
-                commands = self._step_commands(pellets, shots, outputs)
-                self.graph = None
-                c.flags.zero_()
-                self._rebuild(pellets)
-                continue
+            flags = c.flags.numpy().copy()  # host syncs: here, at checkpoints, and one per rebuild (a copy: CPU arrays share memory)
             if frames is not None:
                 frames(self, pellets)
             if flags[FLAG_REMAINING] == 0:
@@ -924,16 +906,16 @@ class DensePhase:
             c.flags.zero_()
             if flags[FLAG_STALL]:
                 travel = float(c.step_travel.numpy()[0])
-                if travel > 0.0:
+                widen = travel > 0.0
+                if widen:
                     # a fixed step longer than the skin allows: widen the reach so a list lasts a
                     # step (lists hold candidates only: the results do not change)
                     self._widen(1.25 * travel)
+                    c.step_travel.zero_()
+                if self._rebuild(pellets) or widen:
                     commands = self._step_commands(pellets, shots, outputs)
                     self.graph = None
-                    c.step_travel.zero_()
-                self._rebuild(pellets)
             self._block(commands)
-            self.blocks += 1
         self._launch("release", pellets, [p, self.model.physics, c])
         self._launch("shot_totals", shots, [p, c, self.totals])
 

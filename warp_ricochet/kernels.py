@@ -217,6 +217,45 @@ def output_writers_for(precision: str):
     return write_impact, mark_missing
 
 
+@functools.cache
+def launch_funcs_for(precision: str, from_file: bool):
+    """`launch_state` (a pellet's launch: given in the pellet file, or sampled from its global
+    index) and `write_initial` (its initial outputs), shared by the ricochet kernel and the dense
+    phase, so both launch exactly the same pellets."""
+    t = types_for(precision)
+    scalar, vec3, Source, Outputs = t.scalar, t.vec3, t.Source, t.Outputs
+    sample_pellet = make_sampler(scalar)
+    FROM_FILE = from_file
+
+    @wp.func
+    def launch_state(source: Source, index: wp.int32, row: wp.int32):
+        """Position (m), velocity (m/s), angular velocity (rad/s) of global pellet `index` at `row`."""
+        position = vec3()
+        velocity = vec3()
+        spin = vec3()
+        if wp.static(FROM_FILE):
+            position = source.position[row]
+            velocity = source.velocity[row]
+            spin = source.angular_velocity[row]
+        else:
+            position, velocity, spin = sample_pellet(
+                source.seed, index, source.speed, source.direction, source.jitter,
+                source.envelope_center, source.envelope_radius, source.spin,
+            )
+        return position, velocity, spin
+
+    @wp.func
+    def write_initial(out: Outputs, row: wp.int32, position: vec3, velocity: vec3, spin: vec3):
+        if out.initial_position.shape[0] > 0:
+            out.initial_position[row] = position
+        if out.initial_velocity.shape[0] > 0:
+            out.initial_velocity[row] = velocity
+        if out.initial_angular_velocity.shape[0] > 0:
+            out.initial_angular_velocity[row] = spin
+
+    return launch_state, write_initial
+
+
 # Register cap of the CUDA ricochet kernel per (precision, fast_math) (None: the compiler's
 # choice), chosen by measurement on an H200 (`python -m bench.variants`, bench/results/): 80 for
 # float32 with IEEE maths (more resident warps outweigh a few spills); none with fast maths (2.36 to
@@ -248,7 +287,7 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bo
     impact_law = make_impact_law(scalar)
     static_planes = planes if planes <= MAX_STATIC_PLANES else None
     _entry, _return, next_contact, ballistic_position, ballistic_velocity = make_flight(scalar, static_planes)
-    sample_pellet = make_sampler(scalar)
+    launch_state, write_initial = launch_funcs_for(precision, from_file)
     write_impact, mark_missing = output_writers_for(precision)
     BOUNCES = bounces
 
@@ -258,7 +297,7 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bo
     F_RANGE, F_RANGE2 = SUM["range"] - NUM_COUNTS, SUM["range_m2"] - NUM_COUNTS  # deviations from the thread's first range
     F_RANGE_STICK, F_RANGE_SLIP = SUM["range_stick"] - NUM_COUNTS, SUM["range_slip"] - NUM_COUNTS
     F_TIME_ALOFT, F_V2_LANDING = SUM["time_aloft"] - NUM_COUNTS, SUM["v2_landing"] - NUM_COUNTS
-    WRITE, FROM_FILE = write_outputs, from_file
+    WRITE = write_outputs
     FLYING, ESCAPED, RESTING = 0, 1, 2
     CLOSING_TOLERANCE2 = scalar((ROUNDING * EPSILON[precision]) ** 2)  # normal speeds within rounding of 0
     lanes, per_thread, segment = LANES, PER_THREAD, SEGMENT
@@ -305,22 +344,10 @@ def ricochet_kernel_for(precision: str, write_outputs: bool, from_file: bool, bo
             position = cloud.position[row]
             velocity = cloud.velocity[row]
             spin = cloud.angular_velocity[row]
-        elif wp.static(FROM_FILE):
-            position = source.position[row]
-            velocity = source.velocity[row]
-            spin = source.angular_velocity[row]
         else:
-            position, velocity, spin = sample_pellet(
-                source.seed, index, source.speed, source.direction, source.jitter,
-                source.envelope_center, source.envelope_radius, source.spin,
-            )
+            position, velocity, spin = launch_state(source, index, row)
         if wp.static(WRITE and not RELEASE):  # (the dense phase wrote them)
-            if out.initial_position.shape[0] > 0:
-                out.initial_position[row] = position
-            if out.initial_velocity.shape[0] > 0:
-                out.initial_velocity[row] = velocity
-            if out.initial_angular_velocity.shape[0] > 0:
-                out.initial_angular_velocity[row] = spin
+            write_initial(out, row, position, velocity, spin)
         launch_v2 = wp.dot(velocity, velocity)
         launch_w2 = wp.dot(spin, spin)
 
