@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 from tests.helpers import GROUND, make_scene, paper_raw
 from warp_ricochet import api
+from warp_ricochet.scene import COLLISION_FIELDS
 from warp_ricochet.collision_reference import pair_law as reference_pair_law
 from warp_ricochet.collision_reference import simulate_collisions
 from warp_ricochet.impact_law import SOLID_SPHERE_INERTIA_FACTOR, make_pair_law
@@ -265,6 +266,13 @@ def test_collision_fields_need_collisions():
     raw["output"] = {"fields": ["release"]}
     with pytest.raises(SceneError, match="output.fields.*collisions.enabled"):
         make_scene(raw)
+    # one pellet per shot: nothing to meet, no dense phase (it used to end in a KeyError traceback)
+    raw["shot"].update(count=1, shots=3)
+    raw["collisions"] = {"enabled": True}
+    with pytest.raises(SceneError, match="output.fields.*shot.count > 1"):
+        make_scene(raw)
+    raw.pop("output")
+    assert not any(f in make_scene(raw).output.fields for f in COLLISION_FIELDS)
 
 
 def test_no_tunnelling_with_a_step_far_beyond_the_pellet_size(tmp_path, device):
@@ -328,3 +336,18 @@ def test_lists_that_overflow_grow_before_any_step_and_change_nothing(tmp_path, d
     for name, value in long.items():
         np.testing.assert_array_equal(short[name], value, err_msg=name)
     assert short_stats == long_stats
+
+
+def test_frames_of_a_run_in_several_chunks_are_refused_before_any_file(tmp_path):
+    """H5MD frames hold every pellet of the run at each frame: a run that takes more than one
+    chunk is refused in one line (its frames were silently cut to the last chunk's pellets)."""
+    from warp_ricochet.errors import SceneError
+
+    raw = paper_raw()
+    raw["shot"].update(count=2, shots=40_000, envelope_radius=0.05)
+    raw["collisions"] = {"enabled": True, "frame_every": 8}
+    raw["numerics"] = {"chunk_size": 65_536}  # 32,768 shots per chunk: two chunks
+    path = tmp_path / "frames.h5"
+    with pytest.raises(SceneError, match="collisions.frame_every.*one chunk"):
+        api.run(make_scene(raw), output=str(path), device="cpu")
+    assert not list(tmp_path.iterdir())

@@ -441,6 +441,14 @@ def check_resources(scenes, dev, output, rows_done=0) -> None:
 
     for sc in scenes:
         check_chunk_memory(sc, dev, output is not None)
+        if sc.pair_collisions and sc.collisions.frame_every and output is not None:
+            from .collisions import plan_shots
+
+            shots = sc.shot.shots  # H5MD frames hold every pellet of the run at each frame
+            if plan_shots(sc, dev, shots) < shots:
+                raise SceneError("collisions.frame_every", sc.collisions.frame_every,
+                                 f"trajectory frames need the whole run in one chunk, and its {shots} shots take "
+                                 "more: fewer shots, or numerics.chunk_size, or frame_every = 0")
     if output is not None:
         need = sum((sc.shot.pellets - rows_done) * State.field_bytes_per_pellet(
             sc.numerics.precision, sc.output.fields, sc.physics.bounces) for sc in scenes)

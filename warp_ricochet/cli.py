@@ -188,6 +188,17 @@ def main(argv=None) -> int:
     _sigterm_as_interrupt()
     # warnings (e.g. api.PrecisionWarning) in one line, like the errors
     warnings.formatwarning = lambda message, category, *_args, **_kwargs: f"{PROG}: warning: {_one_line(str(message))}\n"
+    status = _run_command(args)
+    writer = sys.modules.get("warp_ricochet.writer")
+    if writer is not None and writer.ABANDONED:  # HDF5 crashes in its exit handler after a failed close
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(status)
+    return status
+
+
+def _run_command(args) -> int:
+    """The subcommand; every failure as one line on stderr and an exit status."""
     try:
         return args.func(args)
     except RicochetError as exc:  # before OSError: OutputError is both
@@ -202,11 +213,6 @@ def main(argv=None) -> int:
         return 1
     except OSError as exc:
         _error(_os_message(exc) + _kept(exc))
-        writer = sys.modules.get("warp_ricochet.writer")
-        if writer is not None and writer.ABANDONED:  # HDF5 crashes in its exit handler after a failed close
-            sys.stdout.flush()
-            sys.stderr.flush()
-            os._exit(1)
         return 1
     except KeyboardInterrupt as exc:
         print(f"{PROG}: interrupted{_kept(exc)}", file=sys.stderr)

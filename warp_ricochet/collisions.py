@@ -929,18 +929,19 @@ def dense_bytes_per_pellet(precision: str, max_neighbours: int) -> int:
 CPU_CHUNK_PELLETS = 1 << 20  # CPU: pellets per chunk of the dense phase
 
 
-def plan_shots(scene, model, shots: int) -> int:
-    """Shots per chunk: whole statistics segments of slots (so statistics do not depend on it),
-    within the device memory budget (or numerics.chunk_size pellets)."""
+def plan_shots(scene, device, shots: int) -> int:
+    """Shots per chunk on `device` (a Warp device): whole statistics segments of slots (so
+    statistics do not depend on it), within the device memory budget (or numerics.chunk_size
+    pellets)."""
     from .api import DEVICE_FRACTION
 
     count = scene.shot.count
     granule = shot_granule(count)
     if scene.numerics.chunk_size:
         pellets = scene.numerics.chunk_size
-    elif model.device.is_cuda:
-        pellets = int(DEVICE_FRACTION * model.device.free_memory
-                      / (dense_bytes_per_pellet(model.precision, scene.collisions.max_neighbours) + 64))
+    elif device.is_cuda:
+        pellets = int(DEVICE_FRACTION * device.free_memory
+                      / (dense_bytes_per_pellet(scene.numerics.precision, scene.collisions.max_neighbours) + 64))
     else:
         pellets = CPU_CHUNK_PELLETS
     per_chunk = max(granule, (max(pellets // count, 1) // granule) * granule)
@@ -1013,7 +1014,7 @@ def run_collision_scene(scene, model, *, writer=None, progress=None, source=None
     fields = writer.fields if writer is not None else ()
     core_fields = tuple(f for f in fields if FIELD_SPECS[f][0] is not None)
     release_fields = tuple(f for f in fields if FIELD_SPECS[f][0] is None)
-    per_chunk = plan_shots(scene, model, shots)
+    per_chunk = plan_shots(scene, model.device, shots)
     dev = model.device
     state = State(model, per_chunk * stride, core_fields)
     dense = DensePhase(model, scene, per_chunk * count, write_outputs=bool(core_fields),
@@ -1053,17 +1054,17 @@ def run_collision_scene(scene, model, *, writer=None, progress=None, source=None
                   outputs=[state.partial_sums, state.partial_min, state.partial_max], device=dev, block_dim=CUDA_BLOCK_DIM)
         wp.launch(kern.reduce_kernel, dim=(segments, NUM_SUMS + NUM_EXTREMES),
                   inputs=[state.partial_sums, state.partial_min, state.partial_max], outputs=[state.segments], device=dev)
-        segment_results = state.segments.numpy()[:segments].copy()
+        segment_results = state.segments[:segments].numpy().copy()  # (only the rows used cross to the host)
         totals = combine(totals, segment_results)
-        chunk_totals = dense.totals.numpy()[:chunk_shots].copy()
+        chunk_totals = dense.totals[:chunk_shots].numpy().copy()
         shot_totals.append(chunk_totals)
         if writer is not None:
             for name, arr in state.arrays.items():
                 wp.copy(slot.arrays[name], arr, count=rows * (arr.size // arr.shape[0]))
             wp.synchronize_device(dev)
-            arrays = {name: slot.arrays[name].numpy()[:rows] for name in state.arrays}
+            arrays = {name: slot.arrays[name][:rows].numpy() for name in state.arrays}
             for name, arr in dense.field_arrays.items():
-                arrays[name] = arr.numpy()[:rows]
+                arrays[name] = arr[:rows].numpy()
             writer.append(arrays, rows, segment_results, chunk_totals)
         done += rows
         if progress is not None:

@@ -487,15 +487,18 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
     if not isinstance(surfaces, (list, tuple)):
         raise _err("surfaces", surfaces, "must be an array of tables ([[surfaces]])")
     collisions = _collisions(raw.get("collisions"))
+    shot = _shot(raw["shot"], base_dir)
+    pairs = collisions.enabled and shot.count > 1  # as Scene.pair_collisions: the run has a dense phase
     output = _table(raw.get("output"), "output", _OUTPUT)
     if "fields" not in output:
-        output["fields"] = ALL_FIELDS if collisions.enabled else CORE_FIELDS
-    elif not collisions.enabled:
+        output["fields"] = ALL_FIELDS if pairs else CORE_FIELDS
+    elif not pairs:
         extra = [f for f in output["fields"] if f in COLLISION_FIELDS]
         if extra:
-            raise _err("output.fields", extra[0], "needs collisions.enabled = true (pellet-pellet collision fields)")
+            raise _err("output.fields", extra[0], "needs pellet-pellet collisions: collisions.enabled = true and "
+                       "more than one pellet per shot (shot.count > 1)")
     return Scene(
-        shot=_shot(raw["shot"], base_dir),
+        shot=shot,
         surfaces=tuple(_surface(s, f"surfaces.{i}") for i, s in enumerate(surfaces)),
         physics=Physics(**_table(raw.get("physics"), "physics", _PHYSICS)),
         numerics=Numerics(**_table(raw.get("numerics"), "numerics", _NUMERICS)),

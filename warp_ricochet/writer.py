@@ -457,15 +457,16 @@ def _size(n: float) -> str:
 
 
 def _write_failure(exc: Exception, group) -> Exception:
-    """An HDF5 write error as a one-line OSError (errno and reason from the library's text) and the
-    file marked broken (detached when closed); errors that carry no errno are returned unchanged."""
+    """An HDF5 write error as a one-line OSError (errno and reason from the library's text, EIO
+    and the library's own words when it names no errno) and the file marked broken (detached when
+    closed: a library that failed a write is not asked to write again)."""
     text = " ".join(str(exc).split())
     found = re.search(r"errno = (\d+)", text)
-    if found is None:
-        return exc
     out = _OPEN.get(group.file.filename)
     if out is not None:
         out.broken = True
+    if found is None:
+        return OSError(errno.EIO, f"{os.strerror(errno.EIO)} ({text[:200]})", _shown_name(group))
     code = int(found.group(1))
     return OSError(code, os.strerror(code), _shown_name(group))
 
