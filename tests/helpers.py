@@ -66,8 +66,12 @@ def digest(path):
 
 
 def stats_equal(a, b):
-    """Two statistics dicts bitwise equal (NaN equal to NaN)."""
-    return a.keys() == b.keys() and all(a[k] == b[k] or (math.isnan(a[k]) and math.isnan(b[k])) for k in a)
+    """Assert two statistics dicts bitwise equal (NaN equal to NaN), naming the first that differs;
+    returns True (so `assert stats_equal(...)` reads as it does)."""
+    assert a.keys() == b.keys(), sorted(set(a) ^ set(b))
+    for k in a:
+        assert a[k] == b[k] or (math.isnan(a[k]) and math.isnan(b[k])), (k, a[k], b[k])
+    return True
 
 
 def assert_same_run(path, ref, fields, progress=("segment_results",)):

@@ -37,27 +37,37 @@ SETTINGS = settings(max_examples=150, deadline=None, database=None,
 VALID = {
     "shot": {"count": 64, "diameter": 0.0025, "density": 7000.0, "speed": 411.48, "direction": [1.0, -1.0, 0.0],
              "direction_jitter": [0.1, 0.1, 0.1], "envelope_radius": 0.025, "envelope_center": [0.0, 1.0, 0.0],
-             "spin": [0.0, 0.0, 0.0], "seed": 2021},
+             "spin": [0.0, 0.0, 0.0], "seed": 2021, "shots": 1},
     "surfaces": [{"name": "ground", "point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.01,
                   "mu_s": 0.5, "mu_d": 0.45}],
     "physics": {"gravity": [0.0, -9.81, 0.0], "impact_duration": 1e-5, "bounces": 1},
     "numerics": {"precision": "float64", "chunk_size": 65536, "fast_math": True},
     "output": {"fields": ["landing"]},
+    "collisions": {"enabled": False, "restitution": 0.9, "mu_s": 0.74, "mu_d": 0.57, "contact_duration": 1e-6,
+                   "time_step": 1e-6, "step_fraction": 0.25, "skin": 2.0, "rounds": 4, "max_neighbours": 32,
+                   "max_steps": 1000000, "frame_every": 0},
 }
 
 # the domain, as documented: key -> (lowest, highest, lowest excluded)
 REALS = {"shot.diameter": (1e-6, 1.0, False), "shot.density": (1.0, 1e5, False), "shot.speed": (0.0, 1e5, True),
          "shot.envelope_radius": (0.0, 1e6, False), "surfaces.0.restitution": (0.0, 1.0, False),
          "surfaces.0.mu_s": (0.0, 100.0, False), "surfaces.0.mu_d": (0.0, 0.5, False),  # mu_d <= mu_s = 0.5
-         "physics.impact_duration": (0.0, 1.0, False)}
+         "physics.impact_duration": (0.0, 1.0, False),
+         "collisions.restitution": (0.0, 1.0, False), "collisions.mu_s": (0.0, 100.0, False),
+         "collisions.mu_d": (0.0, 0.74, False),  # mu_d <= mu_s = 0.74
+         "collisions.contact_duration": (0.0, 1.0, False), "collisions.time_step": (0.0, 1.0, True),
+         "collisions.step_fraction": (0.0, 1.0, True), "collisions.skin": (0.0, 10.0, True)}
 INTEGERS = {"shot.count": (1, 2**31 - 1), "shot.seed": (0, 2**31 - 1), "physics.bounces": (1, 16),
-            "numerics.chunk_size": (1, 2**31 - 1)}
+            "numerics.chunk_size": (1, 2**31 - 1), "shot.shots": (1, 2**31 - 1), "collisions.rounds": (1, 64),
+            "collisions.max_neighbours": (1, 256), "collisions.max_steps": (1, 2**31 - 1),
+            "collisions.frame_every": (0, 2**31 - 1)}
 VECTORS = {"shot.direction": 1e6, "shot.direction_jitter": 1e6, "shot.envelope_center": 1e6, "shot.spin": 1e8,
            "surfaces.0.point": 1e6, "surfaces.0.normal": 1e6, "physics.gravity": 1e4}
 REQUIRED = ["shot.diameter", "shot.density", "shot.count", "shot.speed", "surfaces.0.point", "surfaces.0.normal",
             "surfaces.0.restitution", "surfaces.0.mu_s"]
 TABLES = {"shot": list(VALID["shot"]) + ["file"], "surfaces.0": list(VALID["surfaces"][0]),
           "physics": list(VALID["physics"]), "numerics": list(VALID["numerics"]), "output": ["path", "fields"],
+          "collisions": list(VALID["collisions"]),
           "": list(VALID)}
 FIELDS = {"initial", "impact", "landing"} | {f"{g}.{f}" for g, fs in {
     "initial": ("position", "velocity", "angular_velocity"),

@@ -140,15 +140,17 @@ def test_two_pellets_against_the_event_driven_reference(tmp_path, device, spin, 
 
 
 def test_dense_cloud_against_the_event_driven_reference(tmp_path, device):
-    """A dense shot (60 pellets in the paper's envelope): the time-stepped solver against the exact
-    event-driven one. Collisions are chaotic, so compare the ensemble, not pellet by pellet."""
+    """A dense shot (60 pellets in the paper's envelope, 13 pair collisions): the time-stepped
+    solver against the exact event-driven one, pellet by pellet. (Denser shots are chaotic: one
+    event taken in another order changes everything after it; docs/collisions.md.)"""
     scene = _paper_collisions(60)
     pellets, stats = _write(scene, tmp_path / "dense.h5", device)
     ref, ref_stats = simulate_collisions(scene, pellets["initial.position"], pellets["initial.velocity"],
                                          pellets["initial.angular_velocity"])
-    assert stats["collided_fraction"] == pytest.approx(ref_stats["collided_fraction"], abs=0.1)
-    assert stats["range_mean"] == pytest.approx(ref_stats["range_mean"], rel=0.05)
-    assert stats["pair_energy_lost"] == pytest.approx(ref_stats["pair_energy_lost"], rel=0.2)
+    assert stats["pair_collisions"] == ref_stats["pair_collisions"] >= 10
+    np.testing.assert_array_equal(pellets["collisions.count"], ref["collisions.count"])
+    np.testing.assert_allclose(pellets["landing.range"], ref["landing.range"], rtol=1e-9)
+    assert stats["pair_energy_lost"] == pytest.approx(ref_stats["pair_energy_lost"], rel=1e-9)
 
 
 def test_shots_only_meet_their_own_pellets(tmp_path, device):
@@ -170,19 +172,16 @@ def test_shots_only_meet_their_own_pellets(tmp_path, device):
         np.testing.assert_array_equal(pellets_twice[name][30:], value, err_msg=name)
 
 
-def test_same_results_for_any_chunk_size_and_run(tmp_path, device):
-    base = dict(count=40, shots=5, precision="float32")
-    runs = []
-    for chunk in (None, 40, 120):
-        scene = _paper_collisions(**base)
-        if chunk:
-            scene = scene.replace(numerics=scene.numerics.__class__(precision="float32", chunk_size=chunk))
-        runs.append(_write(scene, tmp_path / f"c{chunk}.h5", device))
-    (p0, s0), *others = runs
-    for p, s in others:
-        for name in p0:
-            np.testing.assert_array_equal(p[name], p0[name], err_msg=name)
-        assert s == s0
+def test_same_results_run_after_run(tmp_path, device):
+    """Same seed, same device: bitwise the same pellets and statistics in a second run (on CUDA
+    too, where atomics could reorder). Chunk-size invariance needs more shots than fit one chunk
+    (65,536 slots): test_resume_collisions.py runs one chunk against three."""
+    scene = _paper_collisions(count=40, shots=5, precision="float32")
+    (p0, s0), (p1, s1) = (_write(scene, tmp_path / f"r{k}.h5", device) for k in range(2))
+    assert s0["pair_collisions"] > 0
+    for name in p0:
+        np.testing.assert_array_equal(p1[name], p0[name], err_msg=name)
+    assert s1 == s0
 
 
 def test_free_cloud_conserves_momentum_and_loses_energy_only_in_collisions(device):
@@ -235,15 +234,30 @@ def test_free_cloud_conserves_momentum_and_loses_energy_only_in_collisions(devic
 
 
 def test_energy_never_rises_and_no_pellet_ends_inside_a_plane(tmp_path, device):
+    """The cloud's books, launch to release: mechanical energy at launch = at release + pair losses
+    + plane-impact losses (each impact before release, from its recorded velocities), every loss
+    >= 0; and no centre ends below the ground."""
+    from warp_ricochet.model import Model
+
     scene = _paper_collisions(120, restitution=0.3)
     pellets, stats = _write(scene, tmp_path / "e.h5", device)
-    assert stats["pair_energy_lost"] > 0
-    # no landing position below the ground (centre at least R above it, up to rounding)
+    model = Model.from_scene(scene, wp.get_device("cpu"))
+    m, inertia, g = model.mass, model.inertia, 9.81
+
+    def energy(v, w, y):
+        return 0.5 * m * np.sum(v**2, axis=-1) + 0.5 * inertia * np.sum(w**2, axis=-1) + m * g * y
+
+    launch = energy(pellets["initial.velocity"], pellets["initial.angular_velocity"], pellets["initial.position"][:, 1])
+    release = energy(pellets["release.velocity"], pellets["release.angular_velocity"], pellets["release.position"][:, 1])
+    before = pellets["impact.time"] <= pellets["release.time"][:, None]  # (NaN: no impact, False)
+    plane_losses = (energy(pellets["impact.velocity_before"], pellets["impact.angular_velocity_before"], 0.0)
+                    - energy(pellets["impact.velocity"], pellets["impact.angular_velocity"], 0.0))[before]
+    assert before.any() and stats["pair_energy_lost"] > 0
+    assert plane_losses.min() >= -1e-12 * launch.max()
+    books = launch.sum() - release.sum() - stats["pair_energy_lost"] - plane_losses.sum()
+    assert abs(books) <= 1e-10 * launch.sum()
     landed = np.isfinite(pellets["landing.position"][:, 1])
     assert np.all(pellets["landing.position"][landed, 1] >= 0.00125 - 1e-9)
-    v2_launch = np.sum(pellets["initial.velocity"] ** 2, axis=1)
-    v2_release = np.sum(pellets["release.velocity"] ** 2, axis=1)
-    assert v2_release.sum() <= v2_launch.sum() + 2 * 9.81 * 1.0 * len(v2_launch)  # at most what the drop gives
 
 
 def test_h5md_frames(tmp_path):
