@@ -1,34 +1,47 @@
 """Pellet-pellet collisions: run time against error of the time-stepped solver, measured against the
-event-driven float64 reference (`warp_ricochet.collision_reference`), and dense-phase throughput.
+event-driven float64 reference (`warp_ricochet.collision_reference`), dense-phase throughput, where
+its time goes, and which shots keep a run stepping. Every subcommand runs the paper's shot (its
+envelope, so most pellets collide) with collisions on.
 
-    python -m bench.collisions tradeoff [--count 200] [--seeds 3] [--device cpu] [--out bench/results/...]
-    python -m bench.collisions throughput [--count 450] [--shots 1] [--device cuda:0]
+    python -m bench.collisions tradeoff [--count 120] [--seeds 2] [--knobs] [--device cpu] [--out DIR]
+    python -m bench.collisions throughput [--count 450] [--shots 2223] [--rounds R] [--repeats 3] [--device cuda:0]
+    python -m bench.collisions profile [--shots 2223] [--rounds R] [--skin K] [--step-fraction F] [--device cuda:0]
+    python -m bench.collisions tail [--shots 2223] [--device cuda:0] [--out DIR]
 
-`tradeoff` runs the paper's shot (its envelope, so most pellets collide) with collisions on for a
-grid of step fractions, rounds per step and precisions, and reports, against the reference on the
-same launch states: the error in mean range, in L+ and L-, the Wasserstein-1 distance between the
-range distributions, the difference in the fraction of pellets that collided, and the run time. It
-writes a CSV and a PNG (error against time) beside it. Collisions are chaotic: per-pellet results
-diverge from the reference as soon as one event is taken in another order, so the ensemble
-metrics are what a study can rely on, and the reference itself is only one sample of that chaos;
-the spread between seeds is printed with each figure.
+`tradeoff` runs a grid of step fractions (or, with --knobs, skins with step_fraction = skin / 8),
+rounds per step and precisions, and reports, against the reference on the same launch states: the
+error in mean range, in L+ and L-, the Wasserstein-1 distance between the range distributions, the
+difference in the fraction of pellets that collided, and the run time; it writes a CSV and a PNG
+(error against time). Collisions are chaotic: per-pellet results diverge from the reference as soon
+as one event is taken in another order, so the ensemble metrics are what a study can rely on; the
+spread between seeds is printed with each figure.
+
+`throughput`: the whole run (dense phase, flight, statistics), median of repeats after a warm-up;
+pellet-steps *launched* (pellets x the longest shot's steps: every step launches over every pellet)
+and *working* (pellets x the mean steps per shot). `profile`: wall time of the list rebuilds, the
+blocks of steps and the checkpoints, each with a device synchronisation around it. `tail`: the end
+of the dense phase per shot (quantiles), and the launch states of the longest shot (tail-shot.npz).
 """
 
 import argparse
 import csv
 import os
 import time
+from collections import defaultdict
 
 import numpy as np
 
 
-def _scene(count, seed, precision, **collisions):
+def paper_shots(count, shots=1, precision="float32", seed=2021, fields=None, **collisions):
+    """The paper's scene as `shots` shots of `count` pellets, collisions on (`collisions`: the
+    [collisions] keys given; the defaults otherwise)."""
     from tests.helpers import make_scene, paper_raw
 
     raw = paper_raw()
-    raw["shot"].update(count=count, seed=seed)
-    raw["collisions"] = {"enabled": True, **collisions}
-    raw["output"] = {"fields": ["initial", "landing.range", "collisions.count"]}
+    raw["shot"].update(count=count, shots=shots, seed=seed)
+    raw["collisions"] = {"enabled": True, **{k: v for k, v in collisions.items() if v is not None}}
+    if fields is not None:
+        raw["output"] = {"fields": list(fields)}
     return make_scene(raw, precision=precision)
 
 
@@ -64,23 +77,22 @@ def _metrics(ranges, ref_ranges, stats, ref_stats):
 
 
 def tradeoff(args):
-    import warp as wp
-
     from warp_ricochet.collision_reference import simulate_collisions
 
-    wp.config.log_level = wp.LOG_WARNING
     os.makedirs(args.out, exist_ok=True)
     rows = []
     if args.knobs:  # skin and step fraction together (fraction = skin / 8: neither bound of the step binds alone)
         grid = [(p, k, k / 8.0, r) for p in ("float64", "float32") for k in (2.0, 4.0, 6.0) for r in (1, 2, 4)]
     else:
-        grid = [(p, 2.0, f, r) for p in ("float64", "float32") for f in (1.0, 0.5, 0.25, 0.1) for r in (1, 4)]
-        grid += [("float64", 2.0, 0.25, 16), ("float64", 2.0, 0.05, 4)]
+        # (at skin 2 the step is capped at skin / 8 = 0.25 diameters: larger fractions give the same steps)
+        grid = [(p, 2.0, f, r) for p in ("float64", "float32") for f in (0.25, 0.1, 0.05) for r in (1, 4)]
+        grid += [("float64", 2.0, 0.25, 16)]
     name = "collisions-knobs" if args.knobs else "collisions-tradeoff"
     for precision, skin, fraction, rounds in grid:
         per_seed = []
         for seed in range(args.seeds):
-            scene = _scene(args.count, 2021 + seed, precision, step_fraction=fraction, rounds=rounds, skin=skin)
+            scene = paper_shots(args.count, 1, precision, 2021 + seed, ("initial", "landing.range", "collisions.count"),
+                                step_fraction=fraction, rounds=rounds, skin=skin)
             elapsed, pellets, stats = _run(scene, args.device, os.path.join(args.out, "tradeoff-run.h5"))
             ref, ref_stats = simulate_collisions(scene, pellets["initial.position"].astype(float),
                                                  pellets["initial.velocity"].astype(float),
@@ -135,28 +147,24 @@ def tradeoff(args):
     print("wrote", path, "and", png)
 
 
-def throughput(args):
-    import warp as wp
-
+def _timed_runs(scene, device, repeats):
+    """Run times (s) of `repeats` runs after a warm-up (kernels compiled, graphs captured), and
+    the last run's statistics."""
     from warp_ricochet import api
 
-    wp.config.log_level = wp.LOG_WARNING
-    from tests.helpers import make_scene, paper_raw
-
-    raw = paper_raw()
-    raw["shot"].update(count=args.count, shots=args.shots)
-    raw["collisions"] = {"enabled": True, **({"rounds": args.rounds} if args.rounds else {})}
-    raw["numerics"] = {"precision": args.precision}
-    scene = make_scene(raw, precision=args.precision)
-    api.run(scene, device=args.device)  # warm: kernels compiled, graphs captured, buffers sized
+    api.run(scene, device=device)
     times = []
-    for _ in range(args.repeats):
+    for _ in range(repeats):
         start = time.perf_counter()
-        stats = api.run(scene, device=args.device)
+        stats = api.run(scene, device=device)
         times.append(time.perf_counter() - start)
+    return times, stats
+
+
+def throughput(args):
+    scene = paper_shots(args.count, args.shots, args.precision, rounds=args.rounds)
+    times, stats = _timed_runs(scene, args.device, args.repeats)
     elapsed = float(np.median(times))
-    # every step launches over every pellet of the run (pellets and shots that are done return at once);
-    # the pellet-steps that do work are those of each shot's own steps
     pellets = args.count * args.shots
     launched = stats["dense_steps_max"] * pellets
     working = stats["dense_steps_mean"] * pellets
@@ -168,20 +176,101 @@ def throughput(args):
           f"{working / elapsed:.3g} working; collided {stats['collided_fraction']:.3f}")
 
 
+def profile(args):
+    import warp as wp
+
+    from warp_ricochet import api
+    from warp_ricochet.collisions import DensePhase
+
+    scene = paper_shots(args.count, args.shots, args.precision, rounds=args.rounds, skin=args.skin,
+                        step_fraction=args.step_fraction)
+    api.run(scene, device=args.device)  # warm
+    device = wp.get_device(args.device)
+    spent, calls = defaultdict(float), defaultdict(int)
+
+    def timed(name, fn):
+        def wrapper(self, *a, **k):
+            wp.synchronize_device(device)
+            start = time.perf_counter()
+            result = fn(self, *a, **k)
+            wp.synchronize_device(device)
+            spent[name] += time.perf_counter() - start
+            calls[name] += 1
+            return result
+        return wrapper
+
+    originals = {name: getattr(DensePhase, name) for name in ("_rebuild", "_block", "_launch")}
+    other = timed("other launches (launch, drift, survey, horizon, settle, release, totals)", originals["_launch"])
+
+    def launch(self, name, *a, **k):  # the rebuild's own launches are timed with it
+        return (originals["_launch"] if name in ("grid_points", "neighbours") else other)(self, name, *a, **k)
+
+    DensePhase._rebuild = timed("rebuild (grid points, HashGrid.build, neighbours)", originals["_rebuild"])
+    DensePhase._block = timed("block of steps (graph or replay)", originals["_block"])
+    DensePhase._launch = launch
+    try:
+        start = time.perf_counter()
+        stats = api.run(scene, device=args.device)
+        total = time.perf_counter() - start
+    finally:
+        for name, fn in originals.items():
+            setattr(DensePhase, name, fn)
+    c = scene.collisions
+    print(f"{args.device} {args.precision} {args.shots} x {args.count}, rounds {c.rounds}, skin {c.skin}, step fraction "
+          f"{c.step_fraction}: {total:.3f} s, steps {stats['dense_steps_max']:.0f} (mean {stats['dense_steps_mean']:.0f})")
+    for name in spent:
+        print(f"  {name:75s} {spent[name]:8.3f} s  {calls[name]:6d} calls  {spent[name] / calls[name] * 1e3:8.3f} ms each")
+    print(f"  {'rest (sampling, flight kernel, statistics, host)':75s} {total - sum(spent.values()):8.3f} s")
+
+
+def tail(args):
+    import h5py
+
+    from warp_ricochet import api
+
+    scene = paper_shots(args.count, args.shots, args.precision, fields=("initial", "release.time", "collisions.count"))
+    os.makedirs(args.out, exist_ok=True)
+    path = os.path.join(args.out, "tail-run.h5")
+    stats = api.run(scene, output=path, device=args.device, overwrite=True)
+    with h5py.File(path, "r") as f:
+        end = f["pellets/release/time"][()].reshape(args.shots, args.count).max(axis=1)
+        initial = {k: f["pellets/initial/" + k][()] for k in ("position", "velocity", "angular_velocity")}
+    os.remove(path)
+    order = np.argsort(end)[::-1]
+    q = np.quantile(end, [0.5, 0.9, 0.99, 0.999, 1.0])
+    print(f"dense phase end per shot (ms): median {q[0]*1e3:.2f}, p90 {q[1]*1e3:.2f}, p99 {q[2]*1e3:.2f}, "
+          f"p99.9 {q[3]*1e3:.2f}, max {q[4]*1e3:.2f}; steps mean {stats['dense_steps_mean']:.0f} max "
+          f"{stats['dense_steps_max']:.0f}")
+    print("longest shots:", ", ".join(f"{s} ({end[s]*1e3:.1f} ms)" for s in order[:8]))
+    rows = slice(order[0] * args.count, (order[0] + 1) * args.count)
+    np.savez(os.path.join(args.out, "tail-shot.npz"), **{k: v[rows] for k, v in initial.items()})
+    np.save(os.path.join(args.out, "shot-end.npy"), end)
+
+
 def main():
-    parser = argparse.ArgumentParser(prog="python -m bench.collisions")
-    parser.add_argument("what", choices=("tradeoff", "throughput"))
-    parser.add_argument("--count", type=int, default=200)
-    parser.add_argument("--shots", type=int, default=1)
-    parser.add_argument("--seeds", type=int, default=3)
-    parser.add_argument("--repeats", type=int, default=1)
+    import warp as wp
+
+    commands = {"tradeoff": tradeoff, "throughput": throughput, "profile": profile, "tail": tail}
+    parser = argparse.ArgumentParser(prog="python -m bench.collisions", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("what", choices=tuple(commands))
+    parser.add_argument("--count", type=int, default=None, help="pellets per shot (tradeoff 120, else 450)")
+    parser.add_argument("--shots", type=int, default=2223, help="shots in one run (throughput, profile, tail)")
+    parser.add_argument("--seeds", type=int, default=2, help="tradeoff: seeds per setting")
+    parser.add_argument("--repeats", type=int, default=3, help="throughput: timed runs after a warm-up")
     parser.add_argument("--knobs", action="store_true", help="tradeoff over skin (with step_fraction = skin / 8) and rounds")
-    parser.add_argument("--rounds", type=int, default=0, help="collisions.rounds (0: the default)")
+    parser.add_argument("--rounds", type=int, default=None, help="collisions.rounds (default: the scene default)")
+    parser.add_argument("--skin", type=float, default=None, help="profile: collisions.skin")
+    parser.add_argument("--step-fraction", type=float, default=None, help="profile: collisions.step_fraction")
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--precision", default="float32")
-    parser.add_argument("--out", default="bench/results/collisions")
+    parser.add_argument("--out", default=None, help="tradeoff, tail: folder for the CSV/PNG or the tail files")
     args = parser.parse_args()
-    {"tradeoff": tradeoff, "throughput": throughput}[args.what](args)
+    args.count = args.count or (120 if args.what == "tradeoff" else 450)
+    if args.out is None and args.what in ("tradeoff", "tail"):
+        parser.error(f"{args.what} needs --out (a dated folder under bench/results/)")
+    wp.config.log_level = wp.LOG_WARNING
+    commands[args.what](args)
 
 
 if __name__ == "__main__":

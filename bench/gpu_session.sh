@@ -3,11 +3,13 @@
 #   check: the CUDA tests (with the CPU-GPU test against .gpu/ref/cpu.h5, saved here by
 #          `python -m bench.agreement save --device cpu --file .gpu/ref/cpu.h5`), the agreement table
 #   bench: kernel variants, throughput against N (beside NumPy), the write run, peak host memory, run time against error
+#   collisions: the collision, stability and pipeline tests on CUDA; Warp's DEM example and the dense phase in the
+#          same run (1e6 pellets: rounds 4, 2, 1, float64; 10,000 shots x 450); where the dense phase's time goes
 set -uo pipefail
 what=${1:-check}
 out=${OUT:-/tmp/out}
 mkdir -p "$out"
-quiet() { grep -v "^Warp \|CUDA Toolkit\|Devices:\|Kernel cache\|\.cache/warp\|\"cpu\"\|\"cuda:0\""; }
+quiet() { grep -v "^Warp \|CUDA Toolkit\|Devices:\|Kernel cache\|\.cache/warp\|\"cpu\"\|\"cuda:0\"\|^Module "; }
 nvidia-smi --query-gpu=name,memory.total,driver_version,clocks.max.sm --format=csv | tee "$out/gpu.txt"
 if [[ $what == check || $what == all ]]; then
   WARP_RICOCHET_TEST_DEVICES=cuda:0 WARP_RICOCHET_CPU_REFERENCE=.gpu/ref/cpu.h5 python3 -m pytest tests -q -n 8 -p no:cacheprovider -k "not cli" 2>&1 | tail -6 | tee "$out/tests.txt"
@@ -20,4 +22,14 @@ if [[ $what == bench || $what == all ]]; then
   python3 -m bench write --device cuda:0 --write-n 1e8 --out /tmp/wr-bench 2>&1 | grep "write" | tee "$out/write.txt"
   python3 -m bench memory --device cuda:0 --memory-cases "1e9:,1e8:landing,1e7:" --out /tmp/wr-bench 2>&1 | grep "memory" | tee "$out/memory.txt"
   python3 -m bench tradeoff --device cuda:0 --tradeoff-n 1e6,1e8 --out /tmp/wr-bench 2>&1 | grep "tradeoff" | tee "$out/tradeoff.txt"
+fi
+if [[ $what == collisions || $what == all ]]; then
+  WARP_RICOCHET_TEST_DEVICES=cuda:0 timeout 300 python3 -m pytest tests/test_collisions.py tests/test_stability.py tests/test_pipeline.py -q -n 8 -p no:cacheprovider -k "not cli" -rfE 2>&1 | grep "^FAILED\|^ERROR\|passed\|failed" | cut -c1-300 | tee "$out/collision-tests.txt"
+  timeout 120 python3 -m bench.example_dem --device cuda:0 --sizes 65536,524288 --frames 20 2>&1 | quiet | tee "$out/example_dem.txt"
+  for a in "--rounds 4" "--rounds 2" "--rounds 1" "--precision float64"; do
+    timeout 150 python3 -m bench.collisions throughput --device cuda:0 --shots 2223 $a 2>&1 | grep shots | tee -a "$out/collisions-throughput.txt"
+  done
+  timeout 300 python3 -m bench.collisions throughput --device cuda:0 --shots 10000 2>&1 | grep shots | tee -a "$out/collisions-throughput.txt"
+  timeout 60 python3 -m bench.collisions profile --device cuda:0 2>&1 | quiet | tee "$out/collisions-profile.txt"
+  timeout 120 python3 -m bench.example_dem --device cuda:0 --sizes 65536,524288 --frames 20 2>&1 | quiet | tee -a "$out/example_dem.txt"
 fi
