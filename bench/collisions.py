@@ -200,7 +200,7 @@ def profile(args):
         return wrapper
 
     originals = {name: getattr(DensePhase, name) for name in ("_rebuild", "_block", "_launch")}
-    other = timed("other launches (launch, drift, survey, horizon, settle, release, totals)", originals["_launch"])
+    other = timed("other launches (launch, drift, horizon, settle, release, totals)", originals["_launch"])
 
     def launch(self, name, *a, **k):  # the rebuild's own launches are timed with it
         return (originals["_launch"] if name in ("grid_points", "neighbours") else other)(self, name, *a, **k)

@@ -29,9 +29,9 @@ on when lists are rebuilt, or on the other shots.
 
 At checkpoints (every `block_steps` of its own steps) a shot stops stepping once its arrival
 window is over (its undisturbed pellets have all met their first surface and the cloud has passed
-it) and no pair of the shot can meet again (all pairs, not only listed ones, checked exactly when
-no listed pair is closing); see docs/collisions.md for what this neglects. Every HORIZON_STEPS of
-its own steps a shot finds its next event over all its pairs and planes and jumps to it: the rare
+it) and no pair of the shot can meet again (all pairs, not only listed ones, checked exactly); see
+docs/collisions.md for what this neglects. At each checkpoint a shot past that window finds its
+next event over all its pairs and planes and jumps to it: the rare
 pair of rebounds converging slowly for tens of milliseconds no longer costs tens of thousands of
 small steps.
 """
@@ -59,9 +59,6 @@ NUM_CLOCK = 8
 # a step cut at an unresolved event still advances by this fraction of itself (a pair the law does
 # not collide, e.g. one closing within rounding, can never stop the clock)
 MIN_CUT_FRACTION = 1.0 / 64.0
-# every this many of its own steps (a multiple of BLOCK_STEPS) a shot past its arrival window finds
-# its next event over all its pairs and planes and jumps to it (horizon_kernel)
-HORIZON_STEPS = 16
 HORIZON_RADII = 4.0
 # per-shot int flags (shots x 3): waits for a rebuild, finished, a pair or ricochet still ahead
 SHOT_STALL, SHOT_DONE, SHOT_BUSY = 0, 1, 2
@@ -559,53 +556,32 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         steps = cloud.clock[s, CLOCK_STEPS] + scalar(1.0)
         cloud.clock[s, CLOCK_STEPS] = steps
         if wp.int32(steps) % pair.block_steps == 0:
-            cloud.shot_flags[s, SHOT_STALL] = 2  # a checkpoint: wait for the survey
+            cloud.shot_flags[s, SHOT_STALL] = 2  # a checkpoint: wait for the horizon check and settle
 
     # ------------------------------------------------------------------ end of a block of steps
 
     @wp.kernel(**opts)
-    def survey_kernel(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
-        """Per shot: is it in its arrival window, or is a listed pair closing to contact?"""
-        i = wp.tid()
-        s = i / pair.count
-        if cloud.phase[i] != FLYING or cloud.shot_flags[s, SHOT_DONE] != 0:
-            return
-        time = cloud.clock[s, CLOCK_TIME]
-        gravity = physics.gravity
-        x = ballistic_position(cloud.position[i], cloud.velocity[i], gravity, time - cloud.time[i])
-        v = ballistic_velocity(cloud.velocity[i], gravity, time - cloud.time[i])
-        busy = wp.int32(0)
-        if time < cloud.clock[s, CLOCK_WINDOW]:
-            busy = 1  # the arrival window: the cloud converges, meets the surface and passes it
-        for n in range(cloud.neighbour_count[i]):
-            j = cloud.neighbours[i, n]
-            if cloud.phase[j] == FLYING and delay_to(cloud, physics, j, x, v, time) >= scalar(0.0):
-                busy = 1
-        if busy != 0:
-            cloud.shot_flags[s, SHOT_BUSY] = 1
-
-    @wp.kernel(**opts)
     def horizon_kernel(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
-        """Per shot at its checkpoint, after its arrival window: its next events over ALL its pairs
-        (exact: their relative motion is linear), each pair once, O(count) per pellet.
-        - When no listed pair is closing, so that the shot stops only when no pair at all can meet
-          (pellets farther apart than the lists' reach may still converge). Listed pairs are a
-          subset of all, so whether a shot is busy never depends on the lists.
-        - Every HORIZON_STEPS of its own steps, so that it jumps to its next event (pair or plane)
-          instead of stepping through empty time with steps sized for its fastest pellets
-          (typically two rebounds converging slowly for tens of milliseconds). The cadence is the
-          shot's own, so the jumps (and results) do not depend on the lists or the other shots."""
+        """Per shot at each of its checkpoints: busy in its arrival window; after it, its next event over ALL
+        its pairs (exact: their relative motion is linear; each pair once, O(count) per pellet)
+        and planes, so that
+        - the shot stops only when no pair at all can meet (pellets farther apart than the lists'
+          reach may still converge): whether a shot is busy never depends on the lists (which
+          checked only listed pairs before, and missed such pairs);
+        - it jumps to its next event instead of stepping through empty time with steps sized for
+          its fastest pellets (typically two rebounds converging slowly for tens of milliseconds).
+        Measured against a check every 16 steps: 14% fewer steps, the same run time on the CPU."""
         i = wp.tid()
         s = i / pair.count
         if cloud.phase[i] != FLYING or cloud.shot_flags[s, SHOT_DONE] != 0:
             return
         time = cloud.clock[s, CLOCK_TIME]
         steps = wp.int32(cloud.clock[s, CLOCK_STEPS])
-        if time < cloud.clock[s, CLOCK_WINDOW] or steps % pair.block_steps != 0:
+        if steps % pair.block_steps != 0:
             return
-        jump = steps % HORIZON_STEPS == 0
-        if not jump and cloud.shot_flags[s, SHOT_BUSY] != 0:
-            return  # busy by its lists (other threads' writes here only say busy too)
+        if time < cloud.clock[s, CLOCK_WINDOW]:
+            cloud.shot_flags[s, SHOT_BUSY] = 1  # the arrival window: the cloud converges, meets the surface and passes it
+            return
         gravity = physics.gravity
         x = ballistic_position(cloud.position[i], cloud.velocity[i], gravity, time - cloud.time[i])
         v = ballistic_velocity(cloud.velocity[i], gravity, time - cloud.time[i])
@@ -617,13 +593,12 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
                     earliest = wp.min(earliest, time + delay)
         if earliest < NEVER:
             cloud.shot_flags[s, SHOT_BUSY] = 1  # a pair can still meet
-        if jump:
-            # plane contacts bound the jump (they do not keep a shot stepping: the core's flight does them)
-            wait, k = next_contact(cloud.position[i], cloud.velocity[i], gravity, physics.radius, surfaces.point,
-                                   surfaces.normal, cloud.touching[i])
-            if k >= 0:
-                earliest = wp.min(earliest, cloud.time[i] + wait)
-            wp.atomic_min(cloud.clock, s, CLOCK_NEXT, earliest)
+        # plane contacts bound the jump (they do not keep a shot stepping: the core's flight does them)
+        wait, k = next_contact(cloud.position[i], cloud.velocity[i], gravity, physics.radius, surfaces.point,
+                               surfaces.normal, cloud.touching[i])
+        if k >= 0:
+            earliest = wp.min(earliest, cloud.time[i] + wait)
+        wp.atomic_min(cloud.clock, s, CLOCK_NEXT, earliest)
 
     @wp.kernel(**opts)
     def settle_kernel(pair: Pair, physics: Physics, cloud: Cloud):
@@ -707,7 +682,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
     return dict(
         launch=launch_kernel, drift=drift_kernel, groups=groups_kernel, grid_points=grid_points_kernel, neighbours=neighbours_kernel,
         bounds=bounds_kernel, plan=plan_kernel, prepare=prepare_kernel, choose=choose_kernel,
-        resolve=resolve_kernel, finish=finish_kernel, end_step=end_step_kernel, survey=survey_kernel, horizon=horizon_kernel,
+        resolve=resolve_kernel, finish=finish_kernel, end_step=end_step_kernel, horizon=horizon_kernel,
         settle=settle_kernel, release=release_kernel, shot_totals=shot_totals_kernel,
     )
 
@@ -895,7 +870,6 @@ class DensePhase:
         commands = self._step_commands(pellets, shots, outputs)
         self.graph = None
         while True:
-            self._launch("survey", pellets, [p, self.model.surfaces, self.model.physics, c])
             self._launch("horizon", pellets, [p, self.model.surfaces, self.model.physics, c])
             self._launch("settle", shots, [p, self.model.physics, c])
             flags = c.flags.numpy().copy()  # host syncs: here, at checkpoints, and one per rebuild (a copy: CPU arrays share memory)
