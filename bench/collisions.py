@@ -7,6 +7,7 @@ envelope, so most pellets collide) with collisions on.
     python -m bench.collisions throughput [--count 450] [--shots 2223] [--rounds R] [--repeats 3] [--device cuda:0]
     python -m bench.collisions profile [--shots 2223] [--rounds R] [--skin K] [--step-fraction F] [--device cuda:0]
     python -m bench.collisions tail [--shots 2223] [--device cuda:0] [--out DIR]
+    python -m bench.collisions reference [--count 450] [--seeds 2] [--device cpu]
 
 `tradeoff` runs a grid of step fractions (or, with --knobs, skins with step_fraction = skin / 8),
 rounds per step and precisions, and reports, against the reference on the same launch states: the
@@ -21,12 +22,15 @@ pellet-steps *launched* (pellets x the longest shot's steps: every step launches
 and *working* (pellets x the mean steps per shot). `profile`: wall time of the list rebuilds, the
 blocks of steps and the checkpoints, each with a device synchronisation around it. `tail`: the end
 of the dense phase per shot (quantiles), and the launch states of the longest shot (tail-shot.npz).
+`reference`: one float64 shot per seed (2021 on) against the event-driven reference, ensemble and
+pellet by pellet.
 """
 
 import argparse
 import csv
 import os
 import time
+import warnings
 from collections import defaultdict
 
 import numpy as np
@@ -247,10 +251,27 @@ def tail(args):
     np.save(os.path.join(args.out, "shot-end.npy"), end)
 
 
+def reference(args):
+    from warp_ricochet.collision_reference import simulate_collisions
+
+    for seed in range(2021, 2021 + args.seeds):
+        scene = paper_shots(args.count, 1, "float64", seed, ("initial", "landing.range", "collisions.count"))
+        elapsed, p, st = _run(scene, args.device, "/tmp/bench-collisions-reference.h5")
+        start = time.perf_counter()
+        ref, rs = simulate_collisions(scene, p["initial.position"], p["initial.velocity"], p["initial.angular_velocity"])
+        ref_time = time.perf_counter() - start
+        same = np.mean(ref["collisions.count"] == p["collisions.count"])
+        print(f"seed {seed}: solver {elapsed:.2f} s, reference {ref_time:.2f} s; collided {st['collided_fraction']:.3f} vs "
+              f"{rs['collided_fraction']:.3f}; pair collisions {st['pair_collisions']:.0f} vs {rs['pair_collisions']:.0f}; "
+              f"lost {st['pair_energy_lost']:.2f} vs {rs['pair_energy_lost']:.2f} J; mean range {st['range_mean']:.2f} vs "
+              f"{rs['range_mean']:.2f}; L+ {st['range_max']:.1f} vs {rs['range_max']:.1f}; same counts {same:.3f}; "
+              f"max range diff {np.nanmax(np.abs(ref['landing.range'] - p['landing.range'])):.3g} m")
+
+
 def main():
     import warp as wp
 
-    commands = {"tradeoff": tradeoff, "throughput": throughput, "profile": profile, "tail": tail}
+    commands = {"tradeoff": tradeoff, "throughput": throughput, "profile": profile, "tail": tail, "reference": reference}
     parser = argparse.ArgumentParser(prog="python -m bench.collisions", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("what", choices=tuple(commands))
@@ -270,6 +291,9 @@ def main():
     if args.out is None and args.what in ("tradeoff", "tail"):
         parser.error(f"{args.what} needs --out (a dated folder under bench/results/)")
     wp.config.log_level = wp.LOG_WARNING
+    from warp_ricochet.api import PrecisionWarning
+
+    warnings.simplefilter("ignore", PrecisionWarning)  # float32 runs here are on purpose
     commands[args.what](args)
 
 

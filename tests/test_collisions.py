@@ -321,17 +321,17 @@ def test_a_pellet_pressed_between_the_ground_and_another_ends(tmp_path, device):
     np.testing.assert_allclose(pellets["landing.position"], ref["landing.position"], rtol=1e-9, atol=1e-12)
 
 
-def test_float32_collision_runs_warn_and_float64_runs_do_not():
+def test_float32_collision_runs_warn_and_float64_runs_do_not(device):
     """What the code does where float32 cannot follow float64 (docs/stability.md): it says so."""
     import warnings
 
     from warp_ricochet.api import PrecisionWarning
 
     with pytest.warns(PrecisionWarning, match="float64"):
-        api.run(_paper_collisions(20, precision="float32"), device="cpu")
+        api.run(_paper_collisions(20, precision="float32"), device=device)
     with warnings.catch_warnings():
         warnings.simplefilter("error", PrecisionWarning)
-        api.run(_paper_collisions(20, precision="float64"), device="cpu")
+        api.run(_paper_collisions(20, precision="float64"), device=device)
 
 
 def test_lists_that_overflow_grow_before_any_step_and_change_nothing(tmp_path, device):
