@@ -365,3 +365,18 @@ def test_frames_of_a_run_in_several_chunks_are_refused_before_any_file(tmp_path)
     with pytest.raises(SceneError, match="collisions.frame_every.*one chunk"):
         api.run(make_scene(raw), output=str(path), device="cpu")
     assert not list(tmp_path.iterdir())
+
+
+def test_a_shot_stops_only_when_no_pair_at_all_can_meet(tmp_path, device):
+    """Two pellets flying together at 100 m/s, 8 diameters apart (beyond the lists' reach of
+    3 diameters) and closing at 0.1 m/s: they meet 0.18 s later, long after the cloud's arrival
+    window (0.4 ms). A stopping rule that looked at listed pairs only let them pass unseen."""
+    d = 0.0025
+    position = [[0.0, 1.0, 0.0], [8 * d + d, 1.0, 0.0]]
+    velocity = [[100.05, 0.0, 0.0], [99.95, 0.0, 0.0]]
+    scene = _two_pellets(tmp_path, position, velocity, gravity=(0.0, 0.0, 0.0))
+    pellets, stats = _write(scene, tmp_path / "far.h5", device)
+    ref, _ref_stats = simulate_collisions(scene, np.asarray(position), np.asarray(velocity), np.zeros((2, 3)))
+    assert list(ref["collisions.count"]) == list(pellets["collisions.count"]) == [1, 1]
+    np.testing.assert_allclose(pellets["collisions.last_time"], ref["collisions.last_time"], rtol=1e-12)
+    assert stats["dense_steps_max"] < 100  # jumped to the contact, not stepped there
