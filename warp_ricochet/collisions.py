@@ -12,13 +12,25 @@ linear and its time of contact is exact (no tunnelling); plane contacts are the 
 parabola-plane times of `flight.py`, from the same reference states as the core, so a pellet that
 never meets another gets bitwise the collisions-off result.
 
-Events in a step are resolved in `rounds`: each pellet picks its earliest event (plane contact,
-or contact with a listed neighbour) after t_last; a plane event, or a pair event that both
-pellets picked (mutual), is applied at its exact time. A pellet takes part in at most one event
-per round, so impulses are never summed: momentum is conserved and energy never rises, and the
-result does not depend on thread order. A pair event still ahead after the last round ends the
-shot's step at its time (no pellet flies past it into its partner); it is resolved first in the
-next step.
+Events in a step are resolved in `rounds`: each pellet knows its earliest event (plane contact,
+or contact with a listed neighbour); a plane event, or a pair event that both pellets picked
+(mutual), is applied at its exact time if it falls in the step. A pellet takes part in at most
+one event per round, and a pair is applied by one thread, in place: impulses are never summed,
+momentum is conserved, energy never rises, and the result does not depend on thread order. A
+pair event still ahead after the last round ends the shot's step at its time (no pellet flies
+past it into its partner); it is resolved first in the next step.
+
+A pellet's earliest event is kept from step to step and found again only when it is stale: when
+it or a neighbour changed, or its list was rebuilt. A pair's contact time is computed from the
+later of the two reference times (as collision_reference does), so it is one number whoever
+asks and whenever, and a kept event is the one a new search would find: results do not depend
+on when events are found again. Most pellets in most steps have no event, and their step costs
+a few reads.
+
+On the CPU a kernel runs on one thread anyway, and entering a Warp kernel thread costs more
+than a quiet pellet's step (its struct arguments and locals are set up per thread), so the
+per-pellet kernels loop over `pair.span` pellets per thread: all of them on the CPU, one on
+CUDA.
 
 Neighbour lists (reach 2R + skin) are built from a `wp.HashGrid` in co-moving coordinates
 (positions relative to each shot's ballistic drift; the grid's groups keep shots apart, so
@@ -132,9 +144,28 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         return flying, passing
 
     @wp.func
+    def relative_to_drift(cloud: Cloud, physics: Physics, i: wp.int32, s: wp.int32):
+        """Pellet i's position and velocity relative to its shot's co-moving frame, at the shot's
+        clock (gravity cancels: between events the relative motion is a straight line)."""
+        gravity = physics.gravity
+        time = cloud.clock[s, CLOCK_TIME]
+        age = time - cloud.time[i]
+        relative = ballistic_position(cloud.position[i], cloud.velocity[i], gravity, age) - drift_point(cloud, s, time, gravity)
+        relative_velocity = ballistic_velocity(cloud.velocity[i], gravity, age) - ballistic_velocity(cloud.drift_velocity[s], gravity, time)
+        return relative, relative_velocity
+
+    @wp.func
     def stepping(cloud: Cloud, i: wp.int32, s: wp.int32):
         """Pellet i of shot s takes part in this step."""
         return cloud.phase[i] == FLYING and cloud.shot_flags[s, SHOT_DONE] == 0 and cloud.shot_flags[s, SHOT_STALL] == 0
+
+    @wp.func
+    def set_reference(cloud: Cloud, i: wp.int32, position: vec3, velocity: vec3, spin: vec3, time: scalar):
+        """Pellet i's new reference state (its flight from here is the parabola of eq. 36)."""
+        cloud.position[i] = position
+        cloud.velocity[i] = velocity
+        cloud.angular_velocity[i] = spin
+        cloud.time[i] = time
 
     @wp.func
     def plane_contact(
@@ -187,10 +218,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         if flying == 0:
             cloud.phase[i] = ENDED
             cloud.end_surface[i] = k
-            cloud.position[i] = position
-            cloud.velocity[i] = velocity
-            cloud.angular_velocity[i] = spin
-            cloud.time[i] = time
+            set_reference(cloud, i, position, velocity, spin, time)
         return position, velocity, spin, time, flying
 
     @wp.func
@@ -222,34 +250,35 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
     # ------------------------------------------------------------------ set-up
 
     @wp.kernel(**opts)
-    def launch_kernel(first_index: wp.int32, source: Source, cloud: Cloud, out: Outputs):
+    def launch_kernel(first_index: wp.int32, pair: Pair, source: Source, cloud: Cloud, out: Outputs):
         """Launch state of each pellet (sampled from its global index, or given), phase FLYING."""
-        i = wp.tid()
-        position, velocity, spin = launch_state(source, first_index + i, i)
-        if wp.static(WRITE):
-            write_initial(out, i, position, velocity, spin)  # (bounces without an impact: the core kernel marks them)
-        cloud.position[i] = position
-        cloud.velocity[i] = velocity
-        cloud.angular_velocity[i] = spin
-        cloud.launch_velocity[i] = velocity
-        cloud.launch_angular_velocity[i] = spin
-        cloud.time[i] = scalar(0.0)
-        cloud.phase[i] = FLYING
-        cloud.end_surface[i] = -1
-        cloud.touching[i] = -1
-        cloud.impacts[i] = 0
-        cloud.last_slipped[i] = 0
-        cloud.ricochet_point[i] = vec3()
-        cloud.ricochet_time[i] = scalar(0.0)
-        cloud.first_surface[i] = -1
-        cloud.first_slipped[i] = 0
-        cloud.collision_count[i] = 0
-        cloud.energy_lost[i] = scalar(0.0)
-        cloud.last_collision[0, i] = scalar(wp.nan)
-        cloud.last_collision[1, i] = scalar(wp.nan)
-        cloud.neighbour_count[i] = 0
-        cloud.changed[i] = 1
-        cloud.event_partner[i] = -1
+        t = wp.tid()
+        for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
+            position, velocity, spin = launch_state(source, first_index + i, i)
+            if wp.static(WRITE):
+                write_initial(out, i, position, velocity, spin)  # (bounces without an impact: the core kernel marks them)
+            cloud.position[i] = position
+            cloud.velocity[i] = velocity
+            cloud.angular_velocity[i] = spin
+            cloud.launch_velocity[i] = velocity
+            cloud.launch_angular_velocity[i] = spin
+            cloud.time[i] = scalar(0.0)
+            cloud.phase[i] = FLYING
+            cloud.end_surface[i] = -1
+            cloud.touching[i] = -1
+            cloud.impacts[i] = 0
+            cloud.last_slipped[i] = 0
+            cloud.ricochet_point[i] = vec3()
+            cloud.ricochet_time[i] = scalar(0.0)
+            cloud.first_surface[i] = -1
+            cloud.first_slipped[i] = 0
+            cloud.collision_count[i] = 0
+            cloud.energy_lost[i] = scalar(0.0)
+            cloud.last_collision[i] = scalar(wp.nan)
+            cloud.neighbour_count[i] = 0
+            cloud.stale[i] = 1
+            cloud.event_partner[i] = -1
+            cloud.event_time[i] = NEVER
 
     @wp.kernel(**opts)
     def drift_kernel(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
@@ -288,40 +317,42 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
     def grid_points_kernel(pair: Pair, physics: Physics, cloud: Cloud):
         """Co-moving grid coordinates: the position relative to the shot's drift point (small
         numbers, and the skin is measured from them); the grid's group is the shot."""
-        i = wp.tid()
-        s = i / pair.count
-        time = cloud.clock[s, CLOCK_TIME]
-        now = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, time - cloud.time[i])
-        relative = now - drift_point(cloud, s, time, physics.gravity)
-        cloud.build_offset[i] = relative
-        cloud.grid_point[i] = relative
+        t = wp.tid()
+        for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
+            s = i / pair.count
+            time = cloud.clock[s, CLOCK_TIME]
+            now = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, time - cloud.time[i])
+            relative = now - drift_point(cloud, s, time, physics.gravity)
+            cloud.build_offset[i] = relative
+            cloud.grid_point[i] = relative
 
     @wp.kernel(**opts)
     def neighbours_kernel(grid: wp.uint64, pair: Pair, cloud: Cloud):
         """The listed neighbours of each flying pellet: flying pellets of its shot within the reach."""
-        i = wp.tid()
-        cloud.neighbour_count[i] = 0
-        s = i / pair.count
-        if cloud.phase[i] != FLYING or cloud.shot_flags[s, SHOT_DONE] != 0:
-            return
-        point = cloud.grid_point[i]
-        reach2 = pair.reach * pair.reach
-        capacity = cloud.neighbours.shape[1]
-        found = wp.int32(0)
-        query = wp.hash_grid_query(grid, point, pair.reach, s)  # grouped: pellets of shot s only
-        j = wp.int32(0)
-        while wp.hash_grid_query_next(query, j):
-            if j != i and cloud.phase[j] == FLYING:
-                d = cloud.grid_point[j] - point
-                if wp.dot(d, d) <= reach2:  # the query returns candidates: filter by distance
-                    if found < capacity:
-                        cloud.neighbours[i, found] = j
-                    found += 1
-        if found > capacity:
-            wp.atomic_max(cloud.flags, FLAG_OVERFLOW, found)
-            found = capacity
-        cloud.neighbour_count[i] = found
-        cloud.changed[i] = 1
+        t = wp.tid()
+        for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
+            cloud.neighbour_count[i] = 0
+            s = i / pair.count
+            if cloud.phase[i] != FLYING or cloud.shot_flags[s, SHOT_DONE] != 0:
+                continue
+            point = cloud.grid_point[i]
+            reach2 = pair.reach * pair.reach
+            capacity = cloud.neighbours.shape[1]
+            found = wp.int32(0)
+            query = wp.hash_grid_query(grid, point, pair.reach, s)  # grouped: pellets of shot s only
+            j = wp.int32(0)
+            while wp.hash_grid_query_next(query, j):
+                if j != i and cloud.phase[j] == FLYING:
+                    d = cloud.grid_point[j] - point
+                    if wp.dot(d, d) <= reach2:  # the query returns candidates: filter by distance
+                        if found < capacity:
+                            cloud.neighbours[i, found] = j
+                        found += 1
+            if found > capacity:
+                wp.atomic_max(cloud.flags, FLAG_OVERFLOW, found)
+                found = capacity
+            cloud.neighbour_count[i] = found
+            cloud.stale[i] = 1  # a new list: its earliest event is found again
 
     # ------------------------------------------------------------------ one step
 
@@ -330,14 +361,13 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         """Per shot: the largest speed of a flying pellet relative to the drift (a pair closes at
         most at twice it). It sets the next step; it depends on the shot alone, never on the
         neighbour lists, so the steps (and results) do not depend on when lists are rebuilt."""
-        i = wp.tid()
-        s = i / pair.count
-        if not stepping(cloud, i, s):
-            return
-        time = cloud.clock[s, CLOCK_TIME]
-        v = ballistic_velocity(cloud.velocity[i], physics.gravity, time - cloud.time[i])
-        drift = wp.length(v - ballistic_velocity(cloud.drift_velocity[s], physics.gravity, time))
-        wp.atomic_max(cloud.clock, s, CLOCK_DRIFT, drift)
+        t = wp.tid()
+        for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
+            s = i / pair.count
+            if not stepping(cloud, i, s):
+                continue
+            _relative, relative_velocity = relative_to_drift(cloud, physics, i, s)
+            wp.atomic_max(cloud.clock, s, CLOCK_DRIFT, wp.length(relative_velocity))
 
     @wp.kernel(**opts)
     def plan_kernel(pair: Pair, physics: Physics, cloud: Cloud):
@@ -358,84 +388,102 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
 
     @wp.kernel(**opts)
     def prepare_kernel(pair: Pair, physics: Physics, cloud: Cloud):
-        """Round buffers from the state. A step that could carry a pellet beyond half the skin
-        (relative to the drift) since the last build waits for a rebuild: no pair is ever missed."""
-        i = wp.tid()
-        s = i / pair.count
-        if not stepping(cloud, i, s):
-            return
-        time = cloud.clock[s, CLOCK_TIME]
-        step = cloud.clock[s, CLOCK_STEP]
-        gravity = physics.gravity
-        cloud.round_position[0, i] = cloud.position[i]
-        cloud.round_velocity[0, i] = cloud.velocity[i]
-        cloud.round_spin[0, i] = cloud.angular_velocity[i]
-        cloud.round_time[0, i] = cloud.time[i]
-        cloud.changed[i] = 1
-        cloud.event_partner[i] = -1
-        age = time - cloud.time[i]
-        relative = ballistic_position(cloud.position[i], cloud.velocity[i], gravity, age) - drift_point(cloud, s, time, gravity)
-        relative_velocity = ballistic_velocity(cloud.velocity[i], gravity, age) - ballistic_velocity(cloud.drift_velocity[s], gravity, time)
-        if wp.length(relative - cloud.build_offset[i] + relative_velocity * step) > pair.half_skin:
-            cloud.shot_flags[s, SHOT_STALL] = 1
-            cloud.flags[FLAG_STALL] = 1
-            travel = wp.length(relative_velocity) * step
-            if travel > pair.half_skin:  # one step alone outruns the skin (a fixed step): it must grow
-                wp.atomic_max(cloud.step_travel, 0, travel)
+        """A step that could carry a pellet beyond half the skin (relative to the drift) since the
+        last build waits for a rebuild: no pair is ever missed."""
+        t = wp.tid()
+        for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
+            s = i / pair.count
+            if not stepping(cloud, i, s):
+                continue
+            step = cloud.clock[s, CLOCK_STEP]
+            relative, relative_velocity = relative_to_drift(cloud, physics, i, s)
+            if wp.length(relative - cloud.build_offset[i] + relative_velocity * step) > pair.half_skin:
+                cloud.shot_flags[s, SHOT_STALL] = 1
+                cloud.flags[FLAG_STALL] = 1
+                travel = wp.length(relative_velocity) * step
+                if travel > pair.half_skin:  # one step alone outruns the skin (a fixed step): it must grow
+                    wp.atomic_max(cloud.step_travel, 0, travel)
+
+    @wp.func
+    def mark_stale(cloud: Cloud, i: wp.int32):
+        """Pellet i changed (or ended): its event, and its neighbours', are found again (the
+        lists are symmetric, so every pellet that could have chosen i is marked)."""
+        cloud.stale[i] = 1
+        for n in range(cloud.neighbour_count[i]):
+            cloud.stale[cloud.neighbours[i, n]] = 1
+
+    @wp.func
+    def plane_contacts_until(i: wp.int32, step_end: scalar, most: wp.int32, cloud: Cloud, surfaces: Surfaces,
+                             physics: Physics, out: Outputs):
+        """Pellet i's plane contacts up to `step_end` (at most `most`), applied to its reference
+        state; it is marked stale if it had one."""
+        position = cloud.position[i]
+        velocity = cloud.velocity[i]
+        spin = cloud.angular_velocity[i]
+        time = cloud.time[i]
+        flying = wp.int32(1)
+        contacts = wp.int32(0)
+        for _ in range(wp.static(BOUNCES + 1)):
+            if flying != 0 and contacts < most:
+                wait, k = next_contact(position, velocity, physics.gravity, physics.radius, surfaces.point,
+                                       surfaces.normal, cloud.touching[i])
+                if k >= 0 and time + wait <= step_end:
+                    position, velocity, spin, time, flying = plane_contact(
+                        i, k, wait, position, velocity, spin, time, cloud, surfaces, physics, out
+                    )
+                    contacts += 1
+        if contacts > 0:
+            if flying != 0:
+                set_reference(cloud, i, position, velocity, spin, time)
+            mark_stale(cloud, i)
 
     @wp.kernel(**opts)
-    def choose_kernel(buffer: wp.int32, look: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
-        """Each flying pellet's earliest event in the rest of the step (ties: a plane, then the
-        lower row). Skipped when neither it nor a neighbour changed in the last round: its
-        choice still holds. `look` (after the last round): pair events still ahead cut the
-        step, so no pellet flies past an event left unresolved (into its partner)."""
-        i = wp.tid()
-        s = i / pair.count
-        if not stepping(cloud, i, s):
-            return
-        count = cloud.neighbour_count[i]
-        stale = cloud.changed[i]
-        if stale == 0:
-            for n in range(count):
-                if cloud.changed[cloud.neighbours[i, n]] != 0:
-                    stale = 1
-        if stale == 0:
+    def choose_kernel(look: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
+        """Each flying pellet's earliest event: its next plane contact, or contact with a listed
+        neighbour (ties: a plane, then the lower row). It is found again only when the pellet is
+        stale (it or a neighbour changed, or its list was rebuilt): a pair's time is computed
+        from the later of the two reference times, as in collision_reference, so it is one
+        number whoever asks and whenever, and a kept event is the one a new search would find.
+        `look` (after the last round): pair events still ahead in the step cut it, so no pellet
+        flies past an event left unresolved (into its partner)."""
+        t = wp.tid()
+        for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
+            s = i / pair.count
+            if not stepping(cloud, i, s):
+                continue
+            if cloud.stale[i] != 0:
+                cloud.stale[i] = 0
+                gravity = physics.gravity
+                position = cloud.position[i]
+                velocity = cloud.velocity[i]
+                time = cloud.time[i]
+                wait, k = next_contact(position, velocity, gravity, physics.radius, surfaces.point, surfaces.normal, cloud.touching[i])
+                best_time = NEVER
+                best = wp.int32(-1)
+                if k >= 0:
+                    best_time = time + wait
+                    best = -2 - k
+                reach2 = scalar(4.0) * physics.radius * physics.radius
+                for n in range(cloud.neighbour_count[i]):
+                    j = cloud.neighbours[i, n]
+                    if cloud.phase[j] == FLYING:
+                        other_time = cloud.time[j]
+                        start = wp.max(time, other_time)  # both reference states hold from here
+                        d = ballistic_position(cloud.position[j], cloud.velocity[j], gravity, start - other_time) - ballistic_position(position, velocity, gravity, start - time)
+                        vj = ballistic_velocity(cloud.velocity[j], gravity, start - other_time)
+                        vi = ballistic_velocity(velocity, gravity, start - time)
+                        delay = contact_time(d, vj - vi, reach2, wp.length(vi) + wp.length(vj))
+                        if delay >= scalar(0.0):
+                            when = start + delay
+                            if when < best_time or (when == best_time and best >= 0 and j < best):
+                                best_time = when
+                                best = j
+                cloud.event_time[i] = best_time
+                cloud.event_partner[i] = best
             if look != 0 and cloud.event_partner[i] >= 0:
-                wp.atomic_min(cloud.clock, s, CLOCK_CUT, cloud.event_time[i])
-            return
-        gravity = physics.gravity
-        step_start = cloud.clock[s, CLOCK_TIME]
-        step_end = step_start + cloud.clock[s, CLOCK_STEP]
-        position = cloud.round_position[buffer, i]
-        velocity = cloud.round_velocity[buffer, i]
-        time = cloud.round_time[buffer, i]
-        wait, k = next_contact(position, velocity, gravity, physics.radius, surfaces.point, surfaces.normal, cloud.touching[i])
-        best_time = step_end
-        best = wp.int32(-1)
-        if k >= 0 and time + wait <= step_end:
-            best_time = time + wait
-            best = -2 - k
-            cloud.event_wait[i] = wait
-        reach2 = scalar(4.0) * physics.radius * physics.radius
-        for n in range(count):
-            j = cloud.neighbours[i, n]
-            if cloud.phase[j] == FLYING:
-                other_time = cloud.round_time[buffer, j]
-                start = wp.max(step_start, wp.max(time, other_time))  # both reference states hold from here
-                d = ballistic_position(cloud.round_position[buffer, j], cloud.round_velocity[buffer, j], gravity, start - other_time) - ballistic_position(position, velocity, gravity, start - time)
-                vj = ballistic_velocity(cloud.round_velocity[buffer, j], gravity, start - other_time)
-                vi = ballistic_velocity(velocity, gravity, start - time)
-                u = vj - vi
-                delay = contact_time(d, u, reach2, wp.length(vi) + wp.length(vj))
-                if delay >= scalar(0.0):
-                    when = start + delay
-                    if when < best_time or (when == best_time and best >= 0 and j < best):
-                        best_time = when
-                        best = j
-        cloud.event_time[i] = best_time
-        cloud.event_partner[i] = best
-        if look != 0 and best >= 0:
-            wp.atomic_min(cloud.clock, s, CLOCK_CUT, best_time)
+                step_start = cloud.clock[s, CLOCK_TIME]
+                if cloud.event_time[i] < step_start + cloud.clock[s, CLOCK_STEP]:
+                    wp.atomic_min(cloud.clock, s, CLOCK_CUT, wp.max(cloud.event_time[i], step_start))
 
     @wp.func
     def step_end_of(cloud: Cloud, s: wp.int32):
@@ -446,105 +494,83 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         return time + wp.max(wp.min(step, cloud.clock[s, CLOCK_CUT] - time), step * scalar(MIN_CUT_FRACTION))
 
     @wp.kernel(**opts)
-    def resolve_kernel(buffer: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs):
-        """Apply each pellet's plane event, or its pair event when the partner chose it too (both
-        threads evaluate the same pair law on the same inputs and each keeps its half)."""
-        i = wp.tid()
-        s = i / pair.count
-        if not stepping(cloud, i, s):
-            return
-        write = 1 - buffer
-        position = cloud.round_position[buffer, i]
-        velocity = cloud.round_velocity[buffer, i]
-        spin = cloud.round_spin[buffer, i]
-        time = cloud.round_time[buffer, i]
-        last_collision = cloud.last_collision[buffer, i]
-        partner = cloud.event_partner[i]
-        gravity = physics.gravity
-        changed = wp.int32(0)
-        if partner <= -2:
-            position, velocity, spin, time, _flying = plane_contact(
-                i, -2 - partner, cloud.event_wait[i], position, velocity, spin, time, cloud, surfaces, physics, out
+    def resolve_kernel(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs):
+        """Apply each pellet's event if it falls in the step: a plane event, or a pair event both
+        pellets chose (mutual), applied by the lower row's thread to both. A pellet takes part in
+        at most one event per round, so every state is read and written by one thread only."""
+        t = wp.tid()
+        for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
+            s = i / pair.count
+            if not stepping(cloud, i, s):
+                continue
+            partner = cloud.event_partner[i]
+            if partner == -1 or (partner >= 0 and partner < i):
+                continue
+            step_start = cloud.clock[s, CLOCK_TIME]
+            step_end = step_start + cloud.clock[s, CLOCK_STEP]
+            when = cloud.event_time[i]
+            gravity = physics.gravity
+            if partner <= -2:
+                if when <= step_end:
+                    plane_contacts_until(i, step_end, 1, cloud, surfaces, physics, out)  # the one it chose
+                continue
+            if when >= step_end or cloud.event_partner[partner] != i or cloud.phase[partner] != FLYING:
+                continue
+            a = i
+            b = partner
+            when = wp.max(when, step_start)  # (an event the step passed after a cut at MIN_CUT_FRACTION)
+            # TC model: a pellet hit again within the contact duration rebounds elastically
+            restitution = pair.restitution
+            last_a = cloud.last_collision[a]
+            last_b = cloud.last_collision[b]
+            if (not wp.isnan(last_a) and when - last_a <= pair.contact_duration) or (
+                not wp.isnan(last_b) and when - last_b <= pair.contact_duration
+            ):  # (<=, as collision_reference)
+                restitution = scalar(1.0)
+            age_a = when - cloud.time[a]
+            age_b = when - cloud.time[b]
+            xa = ballistic_position(cloud.position[a], cloud.velocity[a], gravity, age_a)
+            va = ballistic_velocity(cloud.velocity[a], gravity, age_a)
+            wa = cloud.angular_velocity[a]
+            xb = ballistic_position(cloud.position[b], cloud.velocity[b], gravity, age_b)
+            vb = ballistic_velocity(cloud.velocity[b], gravity, age_b)
+            wb = cloud.angular_velocity[b]
+            va2, wa2, vb2, wb2, collided, _slipped = pair_law(
+                xa, va, wa, physics.radius, pair.mass, xb, vb, wb, physics.radius, pair.mass,
+                physics.inertia_factor, restitution, pair.mu_s, pair.mu_d,
             )
-            changed = 1
-        elif partner >= 0:
-            if cloud.event_partner[partner] == i and cloud.phase[partner] == FLYING:
-                a = wp.min(i, partner)
-                b = wp.max(i, partner)
-                when = cloud.event_time[i]
-                # TC model: a pellet hit again within the contact duration rebounds elastically
-                restitution = pair.restitution
-                last_a = cloud.last_collision[buffer, a]
-                last_b = cloud.last_collision[buffer, b]
-                if (not wp.isnan(last_a) and when - last_a <= pair.contact_duration) or (
-                    not wp.isnan(last_b) and when - last_b <= pair.contact_duration
-                ):  # (<=, as collision_reference)
-                    restitution = scalar(1.0)
-                age_a = when - cloud.round_time[buffer, a]
-                age_b = when - cloud.round_time[buffer, b]
-                xa = ballistic_position(cloud.round_position[buffer, a], cloud.round_velocity[buffer, a], gravity, age_a)
-                va = ballistic_velocity(cloud.round_velocity[buffer, a], gravity, age_a)
-                wa = cloud.round_spin[buffer, a]
-                xb = ballistic_position(cloud.round_position[buffer, b], cloud.round_velocity[buffer, b], gravity, age_b)
-                vb = ballistic_velocity(cloud.round_velocity[buffer, b], gravity, age_b)
-                wb = cloud.round_spin[buffer, b]
-                va2, wa2, vb2, wb2, collided, _slipped = pair_law(
-                    xa, va, wa, physics.radius, pair.mass, xb, vb, wb, physics.radius, pair.mass,
-                    physics.inertia_factor, restitution, pair.mu_s, pair.mu_d,
-                )
-                if collided != 0:
-                    # kinetic energy the pair lost (the same on both threads); each pellet books half
-                    before = pair.mass * (wp.dot(va, va) + wp.dot(vb, vb)) + pair.inertia * (wp.dot(wa, wa) + wp.dot(wb, wb))
-                    after = pair.mass * (wp.dot(va2, va2) + wp.dot(vb2, vb2)) + pair.inertia * (wp.dot(wa2, wa2) + wp.dot(wb2, wb2))
-                    cloud.energy_lost[i] = cloud.energy_lost[i] + scalar(0.25) * (before - after)
-                    cloud.collision_count[i] = cloud.collision_count[i] + 1
-                    last_collision = when
-                    cloud.touching[i] = -1  # it may have left the plane: plane times from the actual gap
-                    position = xa
-                    velocity = va2
-                    spin = wa2
-                    if i == b:
-                        position = xb
-                        velocity = vb2
-                        spin = wb2
-                    time = when
-                    changed = 1
-        cloud.round_position[write, i] = position
-        cloud.round_velocity[write, i] = velocity
-        cloud.round_spin[write, i] = spin
-        cloud.round_time[write, i] = time
-        cloud.last_collision[write, i] = last_collision
-        cloud.changed[i] = changed
+            if collided != 0:
+                # kinetic energy the pair lost; each pellet books half
+                before = pair.mass * (wp.dot(va, va) + wp.dot(vb, vb)) + pair.inertia * (wp.dot(wa, wa) + wp.dot(wb, wb))
+                after = pair.mass * (wp.dot(va2, va2) + wp.dot(vb2, vb2)) + pair.inertia * (wp.dot(wa2, wa2) + wp.dot(wb2, wb2))
+                half = scalar(0.25) * (before - after)
+                cloud.energy_lost[a] = cloud.energy_lost[a] + half
+                cloud.energy_lost[b] = cloud.energy_lost[b] + half
+                cloud.collision_count[a] = cloud.collision_count[a] + 1
+                cloud.collision_count[b] = cloud.collision_count[b] + 1
+                cloud.last_collision[a] = when
+                cloud.last_collision[b] = when
+                cloud.touching[a] = -1  # they may have left the plane: plane times from the actual gap
+                cloud.touching[b] = -1
+            # (a pair the law does not collide, grazing within rounding, moves its reference states to
+            # `when` too: found again from there, it is no longer closing, and the clock moves on)
+            set_reference(cloud, a, xa, va2, wa2, when)
+            set_reference(cloud, b, xb, vb2, wb2, when)
+            mark_stale(cloud, a)
+            mark_stale(cloud, b)
 
     @wp.kernel(**opts)
-    def finish_kernel(buffer: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs):
-        """End of the step: plane contacts left in it (no pellet ends a step inside a plane), then
-        the reference state goes back to the state arrays."""
-        i = wp.tid()
-        s = i / pair.count
-        if not stepping(cloud, i, s):
-            return
-        step_end = step_end_of(cloud, s)
-        position = cloud.round_position[buffer, i]
-        velocity = cloud.round_velocity[buffer, i]
-        spin = cloud.round_spin[buffer, i]
-        time = cloud.round_time[buffer, i]
-        flying = wp.int32(1)
-        for _ in range(wp.static(BOUNCES + 1)):
-            if flying != 0:
-                wait, k = next_contact(position, velocity, physics.gravity, physics.radius, surfaces.point,
-                                       surfaces.normal, cloud.touching[i])
-                if k >= 0 and time + wait <= step_end:
-                    position, velocity, spin, time, flying = plane_contact(
-                        i, k, wait, position, velocity, spin, time, cloud, surfaces, physics, out
-                    )
-        cloud.last_collision[0, i] = cloud.last_collision[buffer, i]
-        cloud.last_collision[1, i] = cloud.last_collision[buffer, i]
-        if flying != 0:
-            cloud.position[i] = position
-            cloud.velocity[i] = velocity
-            cloud.angular_velocity[i] = spin
-            cloud.time[i] = time
+    def finish_kernel(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs):
+        """End of the step: plane contacts left in it (no pellet ends a step inside a plane). Only
+        a pellet whose earliest event falls in the step can have one."""
+        t = wp.tid()
+        for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
+            s = i / pair.count
+            if not stepping(cloud, i, s):
+                continue
+            step_end = step_end_of(cloud, s)
+            if cloud.event_partner[i] != -1 and cloud.event_time[i] <= step_end:
+                plane_contacts_until(i, step_end, wp.static(BOUNCES + 1), cloud, surfaces, physics, out)
 
     @wp.kernel(**opts)
     def end_step_kernel(pair: Pair, cloud: Cloud):
@@ -571,34 +597,35 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         - it jumps to its next event instead of stepping through empty time with steps sized for
           its fastest pellets (typically two rebounds converging slowly for tens of milliseconds).
         Measured against a check every 16 steps: 14% fewer steps, the same run time on the CPU."""
-        i = wp.tid()
-        s = i / pair.count
-        if cloud.phase[i] != FLYING or cloud.shot_flags[s, SHOT_DONE] != 0:
-            return
-        time = cloud.clock[s, CLOCK_TIME]
-        steps = wp.int32(cloud.clock[s, CLOCK_STEPS])
-        if steps % pair.block_steps != 0:
-            return
-        if time < cloud.clock[s, CLOCK_WINDOW]:
-            cloud.shot_flags[s, SHOT_BUSY] = 1  # the arrival window: the cloud converges, meets the surface and passes it
-            return
-        gravity = physics.gravity
-        x = ballistic_position(cloud.position[i], cloud.velocity[i], gravity, time - cloud.time[i])
-        v = ballistic_velocity(cloud.velocity[i], gravity, time - cloud.time[i])
-        earliest = NEVER
-        for j in range(i + 1, (s + 1) * pair.count):
-            if cloud.phase[j] == FLYING:
-                delay = delay_to(cloud, physics, j, x, v, time)
-                if delay >= scalar(0.0):
-                    earliest = wp.min(earliest, time + delay)
-        if earliest < NEVER:
-            cloud.shot_flags[s, SHOT_BUSY] = 1  # a pair can still meet
-        # plane contacts bound the jump (they do not keep a shot stepping: the core's flight does them)
-        wait, k = next_contact(cloud.position[i], cloud.velocity[i], gravity, physics.radius, surfaces.point,
-                               surfaces.normal, cloud.touching[i])
-        if k >= 0:
-            earliest = wp.min(earliest, cloud.time[i] + wait)
-        wp.atomic_min(cloud.clock, s, CLOCK_NEXT, earliest)
+        t = wp.tid()
+        for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
+            s = i / pair.count
+            if cloud.phase[i] != FLYING or cloud.shot_flags[s, SHOT_DONE] != 0:
+                continue
+            time = cloud.clock[s, CLOCK_TIME]
+            steps = wp.int32(cloud.clock[s, CLOCK_STEPS])
+            if steps % pair.block_steps != 0:
+                continue
+            if time < cloud.clock[s, CLOCK_WINDOW]:
+                cloud.shot_flags[s, SHOT_BUSY] = 1  # the arrival window: the cloud converges, meets the surface and passes it
+                continue
+            gravity = physics.gravity
+            x = ballistic_position(cloud.position[i], cloud.velocity[i], gravity, time - cloud.time[i])
+            v = ballistic_velocity(cloud.velocity[i], gravity, time - cloud.time[i])
+            earliest = NEVER
+            for j in range(i + 1, (s + 1) * pair.count):
+                if cloud.phase[j] == FLYING:
+                    delay = delay_to(cloud, physics, j, x, v, time)
+                    if delay >= scalar(0.0):
+                        earliest = wp.min(earliest, time + delay)
+            if earliest < NEVER:
+                cloud.shot_flags[s, SHOT_BUSY] = 1  # a pair can still meet
+            # plane contacts bound the jump (they do not keep a shot stepping: the core's flight does them)
+            wait, k = next_contact(cloud.position[i], cloud.velocity[i], gravity, physics.radius, surfaces.point,
+                                   surfaces.normal, cloud.touching[i])
+            if k >= 0:
+                earliest = wp.min(earliest, cloud.time[i] + wait)
+            wp.atomic_min(cloud.clock, s, CLOCK_NEXT, earliest)
 
     @wp.kernel(**opts)
     def settle_kernel(pair: Pair, physics: Physics, cloud: Cloud):
@@ -637,26 +664,27 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
     def release_kernel(pair: Pair, physics: Physics, cloud: Cloud):
         """The release outputs: each pellet's state when its shot left the dense phase (or where
         its flight ended in it), and the time of its last pair collision."""
-        i = wp.tid()
-        s = i / pair.count
-        time = cloud.time[i]
-        position = cloud.position[i]
-        velocity = cloud.velocity[i]
-        if cloud.phase[i] == FLYING:
-            time = cloud.clock[s, CLOCK_END]
-            age = time - cloud.time[i]
-            position = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age)
-            velocity = ballistic_velocity(cloud.velocity[i], physics.gravity, age)
-        if cloud.release_time.shape[0] > 0:
-            cloud.release_time[i] = time
-        if cloud.release_position.shape[0] > 0:
-            cloud.release_position[i] = position
-        if cloud.release_velocity.shape[0] > 0:
-            cloud.release_velocity[i] = velocity
-        if cloud.release_angular_velocity.shape[0] > 0:
-            cloud.release_angular_velocity[i] = cloud.angular_velocity[i]
-        if cloud.release_last_collision.shape[0] > 0:
-            cloud.release_last_collision[i] = cloud.last_collision[0, i]
+        t = wp.tid()
+        for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
+            s = i / pair.count
+            time = cloud.time[i]
+            position = cloud.position[i]
+            velocity = cloud.velocity[i]
+            if cloud.phase[i] == FLYING:
+                time = cloud.clock[s, CLOCK_END]
+                age = time - cloud.time[i]
+                position = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age)
+                velocity = ballistic_velocity(cloud.velocity[i], physics.gravity, age)
+            if cloud.release_time.shape[0] > 0:
+                cloud.release_time[i] = time
+            if cloud.release_position.shape[0] > 0:
+                cloud.release_position[i] = position
+            if cloud.release_velocity.shape[0] > 0:
+                cloud.release_velocity[i] = velocity
+            if cloud.release_angular_velocity.shape[0] > 0:
+                cloud.release_angular_velocity[i] = cloud.angular_velocity[i]
+            if cloud.release_last_collision.shape[0] > 0:
+                cloud.release_last_collision[i] = cloud.last_collision[i]
 
     @wp.kernel(**opts)
     def shot_totals_kernel(pair: Pair, cloud: Cloud, totals: wp.array2d(dtype=wp.float64)):
@@ -742,15 +770,11 @@ class DensePhase:
                      "first_angular_velocity_before", "first_velocity_after", "first_angular_velocity_after",
                      "launch_velocity", "launch_angular_velocity", "grid_point", "build_offset"):
             setattr(cloud, name, arr(vec3))
-        for name in ("time", "ricochet_time", "energy_lost", "event_time", "event_wait"):
+        for name in ("time", "ricochet_time", "energy_lost", "event_time", "last_collision"):
             setattr(cloud, name, arr(scalar))
         for name in ("phase", "end_surface", "touching", "impacts", "last_slipped", "first_surface", "first_slipped",
-                     "collision_count", "event_partner", "changed", "neighbour_count"):
+                     "collision_count", "event_partner", "stale", "neighbour_count"):
             setattr(cloud, name, arr(wp.int32))
-        for name in ("round_position", "round_velocity", "round_spin"):
-            setattr(cloud, name, arr(vec3, (2, n)))
-        cloud.round_time = arr(scalar, (2, n))
-        cloud.last_collision = arr(scalar, (2, n))
         cloud.neighbours = arr(wp.int32, (n, coll.max_neighbours))
         release = {"release.time": ("release_time", scalar), "release.position": ("release_position", vec3),
                    "release.velocity": ("release_velocity", vec3),
@@ -798,6 +822,13 @@ class DensePhase:
         self.reach = 2.0 * radius + skin
         self.graph = None
 
+    def _threads(self, pellets):
+        """Threads of a per-pellet kernel: one per pellet on CUDA; on the CPU (one thread runs
+        a launch anyway) one for all, since a thread's entry costs more than a quiet pellet."""
+        self.pair.pellets = pellets
+        self.pair.span = 1 if self.device.is_cuda else max(pellets, 1)
+        return -(-pellets // self.pair.span)
+
     def _launch(self, name, dim, inputs, record=False):
         return wp.launch(self.kernels[name], dim=dim, inputs=inputs, device=self.device, record_cmd=record)
 
@@ -813,9 +844,9 @@ class DensePhase:
         m, c = self.model, self.cloud
         grew = False
         while True:
-            self._launch("grid_points", pellets, [self.pair, m.physics, c])
+            self._launch("grid_points", self.threads, [self.pair, m.physics, c])
             self.grid.build(c.grid_point[:pellets], self.reach, groups=self.groups[:pellets])
-            self._launch("neighbours", pellets, [self.grid.id, self.pair, c])
+            self._launch("neighbours", self.threads, [self.grid.id, self.pair, c])
             found = int(c.flags[FLAG_OVERFLOW:].numpy()[0])  # one integer per rebuild
             if found == 0:
                 return grew
@@ -827,17 +858,18 @@ class DensePhase:
         """One step's launches, recorded once (packing the structs' parameters costs more than a
         small launch) and replayed; on CUDA a block of them is captured as a graph."""
         m, c, p = self.model, self.cloud, self.pair
+        threads = self.threads
         commands = [
-            self._launch("bounds", pellets, [p, m.physics, c], True),
+            self._launch("bounds", threads, [p, m.physics, c], True),
             self._launch("plan", shots, [p, m.physics, c], True),
-            self._launch("prepare", pellets, [p, m.physics, c], True),
+            self._launch("prepare", threads, [p, m.physics, c], True),
         ]
-        for r in range(self.rounds):
-            commands.append(self._launch("choose", pellets, [r % 2, 0, p, m.surfaces, m.physics, c], True))
-            commands.append(self._launch("resolve", pellets, [r % 2, p, m.surfaces, m.physics, c, outputs], True))
+        for _ in range(self.rounds):
+            commands.append(self._launch("choose", threads, [0, p, m.surfaces, m.physics, c], True))
+            commands.append(self._launch("resolve", threads, [p, m.surfaces, m.physics, c, outputs], True))
         # events still ahead after the rounds: the step ends at the earliest (no pellet flies into its partner)
-        commands.append(self._launch("choose", pellets, [self.rounds % 2, 1, p, m.surfaces, m.physics, c], True))
-        commands.append(self._launch("finish", pellets, [self.rounds % 2, p, m.surfaces, m.physics, c, outputs], True))
+        commands.append(self._launch("choose", threads, [1, p, m.surfaces, m.physics, c], True))
+        commands.append(self._launch("finish", threads, [p, m.surfaces, m.physics, c, outputs], True))
         commands.append(self._launch("end_step", shots, [p, c], True))
         return commands
 
@@ -863,14 +895,15 @@ class DensePhase:
         `frames(step, time, positions)` receives trajectory frames (single-shot runs)."""
         pellets = shots * self.count
         c, p = self.cloud, self.pair
-        self._launch("launch", pellets, [first_index, source, c, outputs])
+        self.threads = self._threads(pellets)
+        self._launch("launch", self.threads, [first_index, p, source, c, outputs])
         self._launch("drift", shots, [p, self.model.surfaces, self.model.physics, c])
         self._launch("groups", pellets, [p, self.groups])
         self._rebuild(pellets)
         commands = self._step_commands(pellets, shots, outputs)
         self.graph = None
         while True:
-            self._launch("horizon", pellets, [p, self.model.surfaces, self.model.physics, c])
+            self._launch("horizon", self.threads, [p, self.model.surfaces, self.model.physics, c])
             self._launch("settle", shots, [p, self.model.physics, c])
             flags = c.flags.numpy().copy()  # host syncs: here, at checkpoints, and one per rebuild (a copy: CPU arrays share memory)
             if frames is not None:
@@ -890,14 +923,15 @@ class DensePhase:
                     commands = self._step_commands(pellets, shots, outputs)
                     self.graph = None
             self._block(commands)
-        self._launch("release", pellets, [p, self.model.physics, c])
+        self._launch("release", self.threads, [p, self.model.physics, c])
         self._launch("shot_totals", shots, [p, c, self.totals])
 
 
-# bytes per pellet of the dense phase's device arrays (float32; float64 about doubles the vectors)
 def dense_bytes_per_pellet(precision: str, max_neighbours: int) -> int:
+    """Bytes per pellet of the dense phase's device arrays, release outputs included: 15
+    vectors, 7 scalars, 12 integers and the neighbour list."""
     size = 4 if precision == "float32" else 8
-    return 3 * size * 18 + size * 9 + 4 * (11 + max_neighbours) + 4
+    return 3 * size * 15 + size * 7 + 4 * (12 + max_neighbours)
 
 
 CPU_CHUNK_PELLETS = 1 << 20  # CPU: pellets per chunk of the dense phase

@@ -125,17 +125,12 @@ def types_for(precision: str) -> SimpleNamespace:
         launch_velocity: wp.array(dtype=vec3)
         launch_angular_velocity: wp.array(dtype=vec3)
         collision_count: wp.array(dtype=wp.int32)
-        last_collision: wp.array2d(dtype=scalar)  # (2, n) s since launch, NaN: never (round buffers)
+        last_collision: wp.array(dtype=scalar)  # s since launch, NaN: never
         energy_lost: wp.array(dtype=scalar)  # J, half of each of its pair collisions' losses
-        # round buffers (read [b], write [1 - b]): the reference state
-        round_position: wp.array2d(dtype=vec3)
-        round_velocity: wp.array2d(dtype=vec3)
-        round_spin: wp.array2d(dtype=vec3)
-        round_time: wp.array2d(dtype=scalar)
+        # each pellet's earliest event (plane or listed pair), kept until it or a neighbour changes
         event_time: wp.array(dtype=scalar)  # s since launch
-        event_wait: wp.array(dtype=scalar)  # s after the reference time (plane events)
         event_partner: wp.array(dtype=wp.int32)  # pellet row, -2 - plane, -1 none
-        changed: wp.array(dtype=wp.int32)
+        stale: wp.array(dtype=wp.int32)  # 1: the event above must be found again
         # neighbour lists
         grid_point: wp.array(dtype=vec3)
         build_offset: wp.array(dtype=vec3)
@@ -175,6 +170,8 @@ def types_for(precision: str) -> SimpleNamespace:
         half_skin: scalar  # m
         max_steps: scalar
         block_steps: wp.int32  # a shot's checkpoints (settling, frames) are every this many of its steps
+        pellets: wp.int32  # pellets launched (rows [0, pellets))
+        span: wp.int32  # pellets per thread of the per-pellet kernels: 1 on CUDA, many on the CPU
 
     return SimpleNamespace(scalar=scalar, vec3=vec3, Surfaces=Surfaces, Physics=Physics, Source=Source, Outputs=Outputs,
                            Cloud=Cloud, Pair=Pair)
