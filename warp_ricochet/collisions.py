@@ -75,6 +75,9 @@ HORIZON_RADII = 4.0
 # per-shot int flags (shots x 3): waits for a rebuild, finished, a pair or ricochet still ahead
 SHOT_STALL, SHOT_DONE, SHOT_BUSY = 0, 1, 2
 NUM_SHOT_FLAGS = 3
+# hash-grid cells CELL_REACHES reaches wide: a query visits 2 x 2 x 2 cells, not 3 x 3 x 3 (the
+# lists are sparse, about one neighbour per pellet in the paper's shot: the cells cost, not the candidates)
+CELL_REACHES = 2.0
 SKIN_STEPS = 8.0  # the adaptive step lets a list last at least this many steps (a block) at the current speeds
 
 
@@ -845,7 +848,7 @@ class DensePhase:
         grew = False
         while True:
             self._launch("grid_points", self.threads, [self.pair, m.physics, c])
-            self.grid.build(c.grid_point[:pellets], self.reach, groups=self.groups[:pellets])
+            self.grid.build(c.grid_point[:pellets], CELL_REACHES * self.reach, groups=self.groups[:pellets])
             self._launch("neighbours", self.threads, [self.grid.id, self.pair, c])
             found = int(c.flags[FLAG_OVERFLOW:].numpy()[0])  # one integer per rebuild
             if found == 0:
