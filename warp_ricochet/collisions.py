@@ -74,6 +74,7 @@ MIN_CUT_FRACTION = 1.0 / 64.0
 HORIZON_RADII = 4.0
 # per-shot int flags (shots x 3): waits for a rebuild, finished, a pair or ricochet still ahead
 SHOT_STALL, SHOT_DONE, SHOT_BUSY = 0, 1, 2
+CHECKPOINT = 2  # shot_flags[s, SHOT_STALL]: waits at a checkpoint (1: waits for a rebuild)
 NUM_SHOT_FLAGS = 3
 # hash-grid cells CELL_REACHES reaches wide: a query visits 2 x 2 x 2 cells, not 3 x 3 x 3 (the
 # lists are sparse, about one neighbour per pellet in the paper's shot: the cells cost, not the candidates)
@@ -304,7 +305,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             if plane >= 0:
                 last_arrival = wp.max(last_arrival, wait)
         cloud.clock[s, CLOCK_WINDOW] = last_arrival + passing
-        cloud.shot_flags[s, SHOT_STALL] = 0
+        cloud.shot_flags[s, SHOT_STALL] = CHECKPOINT  # the launch is its first checkpoint
         cloud.shot_flags[s, SHOT_DONE] = 0
         cloud.shot_flags[s, SHOT_BUSY] = 0
 
@@ -585,7 +586,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         steps = cloud.clock[s, CLOCK_STEPS] + scalar(1.0)
         cloud.clock[s, CLOCK_STEPS] = steps
         if wp.int32(steps) % pair.block_steps == 0:
-            cloud.shot_flags[s, SHOT_STALL] = 2  # a checkpoint: wait for the horizon check and settle
+            cloud.shot_flags[s, SHOT_STALL] = CHECKPOINT  # wait for the horizon check and settle
 
     # ------------------------------------------------------------------ end of a block of steps
 
@@ -606,8 +607,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             if cloud.phase[i] != FLYING or cloud.shot_flags[s, SHOT_DONE] != 0:
                 continue
             time = cloud.clock[s, CLOCK_TIME]
-            steps = wp.int32(cloud.clock[s, CLOCK_STEPS])
-            if steps % pair.block_steps != 0:
+            if cloud.shot_flags[s, SHOT_STALL] != CHECKPOINT:
                 continue
             if time < cloud.clock[s, CLOCK_WINDOW]:
                 cloud.shot_flags[s, SHOT_BUSY] = 1  # the arrival window: the cloud converges, meets the surface and passes it
@@ -639,7 +639,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         if cloud.shot_flags[s, SHOT_DONE] != 0:
             return
         steps = cloud.clock[s, CLOCK_STEPS]
-        checkpoint = wp.int32(steps) % pair.block_steps == 0
+        checkpoint = cloud.shot_flags[s, SHOT_STALL] == CHECKPOINT  # (not a stall for a rebuild)
         if checkpoint and (cloud.shot_flags[s, SHOT_BUSY] == 0 or steps >= pair.max_steps):
             cloud.shot_flags[s, SHOT_DONE] = 1
             cloud.clock[s, CLOCK_END] = cloud.clock[s, CLOCK_TIME]
