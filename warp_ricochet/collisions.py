@@ -452,6 +452,8 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         flies past an event left unresolved (into its partner)."""
         t = wp.tid()
         for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
+            if cloud.stale[i] == 0 and (look == 0 or cloud.event_partner[i] < 0):
+                continue  # most pellets: nothing to do, found with one or two reads
             s = i / pair.count
             if not stepping(cloud, i, s):
                 continue
