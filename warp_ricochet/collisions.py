@@ -58,24 +58,30 @@ from .impact_law import make_impact_law, make_pair_law
 from .kernels import launch_funcs_for, output_writers_for, types_for
 
 FLYING, ENDED = 0, 1  # pellet phases; ENDED: landed after its last ricochet, or at rest on a surface
-# global flags (int32 array): a shot waits for a rebuild; shots still stepping; list overflow
-FLAG_STALL, FLAG_REMAINING, FLAG_OVERFLOW = 0, 1, 2
-NUM_FLAGS = 3
+# global flags (int32 array): a shot waits for a rebuild; shots still stepping; list overflow; a
+# shot's skin widened
+FLAG_STALL, FLAG_REMAINING, FLAG_OVERFLOW, FLAG_WIDENED = 0, 1, 2, 3
+NUM_FLAGS = 4
 # per-shot clock (scalar array, shots x 8): time, step, speed bound relative to the drift, steps
 # taken, the time the shot stopped stepping, the end of its arrival window (the last first contact
 # of its undisturbed pellets, plus the time the cloud takes to pass a point: 4 rms radii / speed),
 # the soonest event of all (any pair of the shot, or a plane; horizon_kernel), and the earliest
-# pair event left unresolved after the step's rounds (the step ends there)
-CLOCK_TIME, CLOCK_STEP, CLOCK_DRIFT, CLOCK_STEPS, CLOCK_END, CLOCK_WINDOW, CLOCK_NEXT, CLOCK_CUT = range(8)
-NUM_CLOCK = 8
+# pair event left unresolved after the step's rounds (the step ends there), and the largest
+# overrun of the skin (see prepare_kernel)
+CLOCK_TIME, CLOCK_STEP, CLOCK_DRIFT, CLOCK_STEPS, CLOCK_END, CLOCK_WINDOW, CLOCK_NEXT, CLOCK_CUT, CLOCK_OVERRUN = range(9)
+NUM_CLOCK = 9
+# an overrun below this (in half skins) is rounding of the float32 positions the skin is measured from
+OVERRUN_TOLERANCE = 1.01
 # a step cut at an unresolved event still advances by this fraction of itself (a pair the law does
 # not collide, e.g. one closing within rounding, can never stop the clock)
 MIN_CUT_FRACTION = 1.0 / 64.0
 HORIZON_RADII = 4.0
-# per-shot int flags (shots x 3): waits for a rebuild, finished, a pair or ricochet still ahead
-SHOT_STALL, SHOT_DONE, SHOT_BUSY = 0, 1, 2
+# per-shot int flags (shots x 4): waits for a rebuild, finished, a pair or ricochet still ahead,
+# its lists are rebuilt at the next build (a shot's lists are rebuilt when it needs it, whatever
+# the other shots need, so its list-dependent diagnostics do not depend on the chunk)
+SHOT_STALL, SHOT_DONE, SHOT_BUSY, SHOT_REBUILD = 0, 1, 2, 3
 CHECKPOINT = 2  # shot_flags[s, SHOT_STALL]: waits at a checkpoint (1: waits for a rebuild)
-NUM_SHOT_FLAGS = 3
+NUM_SHOT_FLAGS = 4
 # hash-grid cells CELL_REACHES reaches wide: a query visits 2 x 2 x 2 cells, not 3 x 3 x 3 (the
 # lists are sparse, about one neighbour per pellet in the paper's shot: the cells cost, not the candidates)
 CELL_REACHES = 2.0
@@ -308,6 +314,9 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         cloud.shot_flags[s, SHOT_STALL] = CHECKPOINT  # the launch is its first checkpoint
         cloud.shot_flags[s, SHOT_DONE] = 0
         cloud.shot_flags[s, SHOT_BUSY] = 0
+        cloud.shot_flags[s, SHOT_REBUILD] = 1
+        cloud.half_skin[s] = pair.half_skin
+        cloud.step_travel[s] = scalar(0.0)
 
     # ------------------------------------------------------------------ neighbour lists
 
@@ -320,10 +329,13 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
     @wp.kernel(**opts)
     def grid_points_kernel(pair: Pair, physics: Physics, cloud: Cloud):
         """Co-moving grid coordinates: the position relative to the shot's drift point (small
-        numbers, and the skin is measured from them); the grid's group is the shot."""
+        numbers, and the skin is measured from them); the grid's group is the shot. Shots whose
+        lists stay keep their offsets (their points in the grid are never asked for: groups)."""
         t = wp.tid()
         for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
             s = i / pair.count
+            if cloud.shot_flags[s, SHOT_REBUILD] == 0:
+                continue
             time = cloud.clock[s, CLOCK_TIME]
             now = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, time - cloud.time[i])
             relative = now - drift_point(cloud, s, time, physics.gravity)
@@ -331,19 +343,23 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             cloud.grid_point[i] = relative
 
     @wp.kernel(**opts)
-    def neighbours_kernel(grid: wp.uint64, pair: Pair, cloud: Cloud):
-        """The listed neighbours of each flying pellet: flying pellets of its shot within the reach."""
+    def neighbours_kernel(grid: wp.uint64, pair: Pair, physics: Physics, cloud: Cloud):
+        """The listed neighbours of each flying pellet of a shot being rebuilt: flying pellets of
+        its shot within the reach."""
         t = wp.tid()
         for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
-            cloud.neighbour_count[i] = 0
             s = i / pair.count
+            if cloud.shot_flags[s, SHOT_REBUILD] == 0:
+                continue
+            cloud.neighbour_count[i] = 0
             if cloud.phase[i] != FLYING or cloud.shot_flags[s, SHOT_DONE] != 0:
                 continue
             point = cloud.grid_point[i]
-            reach2 = pair.reach * pair.reach
+            reach = scalar(2.0) * (physics.radius + cloud.half_skin[s])
+            reach2 = reach * reach
             capacity = cloud.neighbours.shape[1]
             found = wp.int32(0)
-            query = wp.hash_grid_query(grid, point, pair.reach, s)  # grouped: pellets of shot s only
+            query = wp.hash_grid_query(grid, point, reach, s)  # grouped: pellets of shot s only
             j = wp.int32(0)
             while wp.hash_grid_query_next(query, j):
                 if j != i and cloud.phase[j] == FLYING:
@@ -378,6 +394,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         """One thread per shot: the step, fixed or adaptive (a pair closes by at most
         step_fraction of a diameter in a step; the list lasts SKIN_STEPS steps at these speeds)."""
         s = wp.tid()
+        cloud.shot_flags[s, SHOT_REBUILD] = 0  # (built before this block)
         if cloud.shot_flags[s, SHOT_DONE] != 0 or cloud.shot_flags[s, SHOT_STALL] != 0:
             return
         step = pair.fixed_step
@@ -393,7 +410,10 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
     @wp.kernel(**opts)
     def prepare_kernel(pair: Pair, physics: Physics, cloud: Cloud):
         """A step that could carry a pellet beyond half the skin (relative to the drift) since the
-        last build waits for a rebuild: no pair is ever missed."""
+        last build waits for a rebuild: no pair is missed. That holds for the motion known at the
+        step's start; an event in the step can make a pellet faster (a plane rebound much faster
+        than the step allowed for), and a pellet found beyond half the skin here overran it: the
+        largest overrun is reported (stats skin_overrun_max, a warning above 1)."""
         t = wp.tid()
         for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
             s = i / pair.count
@@ -401,12 +421,17 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
                 continue
             step = cloud.clock[s, CLOCK_STEP]
             relative, relative_velocity = relative_to_drift(cloud, physics, i, s)
-            if wp.length(relative - cloud.build_offset[i] + relative_velocity * step) > pair.half_skin:
+            moved = relative - cloud.build_offset[i]  # since the build
+            half_skin = cloud.half_skin[s]
+            overrun = wp.length(moved) / half_skin
+            if overrun > scalar(1.0):
+                wp.atomic_max(cloud.clock, s, CLOCK_OVERRUN, overrun)
+            if wp.length(moved + relative_velocity * step) > half_skin:
                 cloud.shot_flags[s, SHOT_STALL] = 1
                 cloud.flags[FLAG_STALL] = 1
                 travel = wp.length(relative_velocity) * step
-                if travel > pair.half_skin:  # one step alone outruns the skin (a fixed step): it must grow
-                    wp.atomic_max(cloud.step_travel, 0, travel)
+                if travel > half_skin:  # one step alone outruns the skin (a fixed step): it must grow
+                    wp.atomic_max(cloud.step_travel, s, travel)
 
     @wp.func
     def mark_stale(cloud: Cloud, i: wp.int32):
@@ -647,6 +672,15 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             cloud.clock[s, CLOCK_END] = cloud.clock[s, CLOCK_TIME]
         else:
             wp.atomic_add(cloud.flags, FLAG_REMAINING, 1)
+            if cloud.shot_flags[s, SHOT_STALL] == 1:
+                cloud.shot_flags[s, SHOT_REBUILD] = 1  # it waits for its lists
+                if cloud.step_travel[s] > scalar(0.0):
+                    # a fixed step longer than its skin allows: the shot's skin widens so a list
+                    # lasts a step (lists hold candidates only: the results do not change)
+                    cloud.half_skin[s] = scalar(1.25) * cloud.step_travel[s]
+                    cloud.step_travel[s] = scalar(0.0)
+                    wp.atomic_max(cloud.widest_half_skin, 0, cloud.half_skin[s])
+                    cloud.flags[FLAG_WIDENED] = 1
             if checkpoint:
                 # nothing happens before the shot's next event (horizon_kernel): jump to a step
                 # before it (pellets carry reference states: only the clock moves)
@@ -659,6 +693,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
                 # rebuilt in the new frame before the next step.
                 flying, _passing = recentre(pair, physics, cloud, s, cloud.clock[s, CLOCK_TIME])
                 if flying > 0:
+                    cloud.shot_flags[s, SHOT_REBUILD] = 1
                     cloud.flags[FLAG_STALL] = 1
         cloud.shot_flags[s, SHOT_BUSY] = 0
         cloud.shot_flags[s, SHOT_STALL] = 0
@@ -694,7 +729,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
     @wp.kernel(**opts)
     def shot_totals_kernel(pair: Pair, cloud: Cloud, totals: wp.array2d(dtype=wp.float64)):
         """One thread per shot, in pellet order: pellets that collided, pair collisions, energy
-        lost (J), steps, the time it stopped stepping (s)."""
+        lost (J), steps, the time it stopped stepping (s), the largest skin overrun (half skins)."""
         s = wp.tid()
         first = s * pair.count
         collided = wp.float64(0.0)
@@ -711,6 +746,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         totals[s, 2] = lost
         totals[s, 3] = wp.float64(cloud.clock[s, CLOCK_STEPS])
         totals[s, 4] = wp.float64(cloud.clock[s, CLOCK_END])
+        totals[s, 5] = wp.float64(cloud.clock[s, CLOCK_OVERRUN])
 
     return dict(
         launch=launch_kernel, drift=drift_kernel, groups=groups_kernel, grid_points=grid_points_kernel, neighbours=neighbours_kernel,
@@ -722,7 +758,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
 
 # ---------------------------------------------------------------------------------------------- host wiring
 
-SHOT_TOTALS = ("collided", "pair_collisions", "pair_energy_lost", "dense_steps", "dense_end_time")
+SHOT_TOTALS = ("collided", "pair_collisions", "pair_energy_lost", "dense_steps", "dense_end_time", "skin_overrun")
 BLOCK_STEPS = 8  # steps between checkpoints (the host reads three integers there, never inside a block)
 
 
@@ -798,7 +834,9 @@ class DensePhase:
         cloud.clock = arr(scalar, (shots, NUM_CLOCK))
         cloud.shot_flags = arr(wp.int32, (shots, NUM_SHOT_FLAGS))
         cloud.flags = arr(wp.int32, NUM_FLAGS)
-        cloud.step_travel = arr(scalar, 1)
+        cloud.step_travel = arr(scalar, shots)
+        cloud.half_skin = arr(scalar, shots)
+        cloud.widest_half_skin = arr(scalar, 1)
         cloud.shot_count = self.count
         cloud.shot_stride = shot_stride(self.count)
         self.cloud = cloud
@@ -817,7 +855,6 @@ class DensePhase:
         pair.contact_duration = scalar(coll.contact_duration)
         pair.fixed_step = scalar(coll.time_step or 0.0)
         pair.step_fraction = scalar(coll.step_fraction)
-        pair.reach = scalar(2.0 * radius + skin)
         pair.half_skin = scalar(0.5 * skin)
         pair.max_steps = scalar(coll.max_steps)
         pair.block_steps = self.block_steps
@@ -837,11 +874,6 @@ class DensePhase:
     def _launch(self, name, dim, inputs, record=False):
         return wp.launch(self.kernels[name], dim=dim, inputs=inputs, device=self.device, record_cmd=record)
 
-    def _widen(self, half_skin):
-        self.pair.half_skin = self.kern.scalar(half_skin)
-        self.reach = 2.0 * self.model.radius + 2.0 * half_skin
-        self.pair.reach = self.kern.scalar(self.reach)
-
     def _rebuild(self, pellets) -> bool:
         """Build the neighbour lists; a list that overflowed (a denser cloud than the lists hold)
         grows them and builds again, so no step ever runs on a truncated list. Returns whether
@@ -851,7 +883,7 @@ class DensePhase:
         while True:
             self._launch("grid_points", self.threads, [self.pair, m.physics, c])
             self.grid.build(c.grid_point[:pellets], CELL_REACHES * self.reach, groups=self.groups[:pellets])
-            self._launch("neighbours", self.threads, [self.grid.id, self.pair, c])
+            self._launch("neighbours", self.threads, [self.grid.id, self.pair, m.physics, c])
             found = int(c.flags[FLAG_OVERFLOW:].numpy()[0])  # one integer per rebuild
             if found == 0:
                 return grew
@@ -917,14 +949,9 @@ class DensePhase:
                 break
             c.flags.zero_()
             if flags[FLAG_STALL]:
-                travel = float(c.step_travel.numpy()[0])
-                widen = travel > 0.0
-                if widen:
-                    # a fixed step longer than the skin allows: widen the reach so a list lasts a
-                    # step (lists hold candidates only: the results do not change)
-                    self._widen(1.25 * travel)
-                    c.step_travel.zero_()
-                if self._rebuild(pellets) or widen:
+                if flags[FLAG_WIDENED]:  # the grid's cells follow the widest reach (a shot's skin widened)
+                    self.reach = 2.0 * self.model.radius + 2.0 * float(c.widest_half_skin.numpy()[0])
+                if self._rebuild(pellets):
                     commands = self._step_commands(pellets, shots, outputs)
                     self.graph = None
             self._block(commands)
@@ -1085,7 +1112,20 @@ def run_collision_scene(scene, model, *, writer=None, progress=None, source=None
     stats = finalize(totals, pellets=pellets, mass=model.mass, inertia=model.inertia)
     table = np.concatenate(shot_totals)
     stats.update(collision_statistics(table, pellets, dense))
+    if stats["skin_overrun_max"] > OVERRUN_TOLERANCE:
+        import warnings
+
+        from .api import PrecisionWarning
+
+        warnings.warn(SKIN_OVERRUN.format(stats["skin_overrun_max"]), PrecisionWarning, stacklevel=3)
     return stats
+
+
+# seen: the paper's shot on a surface of restitution 0.9 (1.24 half skins, 4 shots of 450 pellets)
+SKIN_OVERRUN = ("a pellet moved {:.2f} half skins between neighbour-list builds (an event in a step, such as a plane "
+                "rebound, made it faster than the step allowed for): a pair contact beyond the lists could have been "
+                "missed; lower collisions.step_fraction, raise collisions.skin, or set a collisions.time_step short "
+                "enough for the rebound speed (docs/collisions.md)")
 
 
 def collision_statistics(table, pellets: int, dense) -> dict:
@@ -1101,4 +1141,5 @@ def collision_statistics(table, pellets: int, dense) -> dict:
         "dense_time_max": float(table[:, 4].max()),
         "dense_steps_mean": math.fsum(table[:, 3]) / len(table),
         "dense_time_mean": math.fsum(table[:, 4]) / len(table),
+        "skin_overrun_max": float(table[:, 5].max()),
     }

@@ -148,7 +148,9 @@ def types_for(precision: str) -> SimpleNamespace:
         clock: wp.array2d(dtype=scalar)  # (shots, NUM_CLOCK)
         shot_flags: wp.array2d(dtype=wp.int32)
         flags: wp.array(dtype=wp.int32)
-        step_travel: wp.array(dtype=scalar)  # (1,) m: the most a pellet moves in one step relative to its frame, when beyond half the skin
+        step_travel: wp.array(dtype=scalar)  # (shots,) m: the most a pellet moves in one step relative to its frame, when beyond half the skin
+        half_skin: wp.array(dtype=scalar)  # (shots,) m: the shot's half skin (widened for a fixed step that outruns it)
+        widest_half_skin: wp.array(dtype=scalar)  # (1,) m: the widest of them (the grid's cells)
         # slot -> pellet of the core kernel's release mode: slot s * stride + k is pellet s * count + k
         shot_count: wp.int32
         shot_stride: wp.int32
@@ -166,8 +168,7 @@ def types_for(precision: str) -> SimpleNamespace:
         contact_duration: scalar  # s, TC model
         fixed_step: scalar  # s, 0: adaptive
         step_fraction: scalar
-        reach: scalar  # m, 2R + skin
-        half_skin: scalar  # m
+        half_skin: scalar  # m, the configured one (a shot's own may widen: Cloud.half_skin)
         max_steps: scalar
         block_steps: wp.int32  # a shot's checkpoints (settling, frames) are every this many of its steps
         pellets: wp.int32  # pellets launched (rows [0, pellets))

@@ -65,7 +65,7 @@ def verify(f, scene, dev, partial_name: str) -> tuple[int, int, int, int]:
     import warp as wp
 
     from . import __version__
-    from .collisions import segments_of_shots, shot_granule
+    from .collisions import SHOT_TOTALS, segments_of_shots, shot_granule
     from .kernels import SEGMENT
     from .writer import FORMAT_NAME
 
@@ -96,7 +96,8 @@ def verify(f, scene, dev, partial_name: str) -> tuple[int, int, int, int]:
                                             progress.attrs.get("pellet_file_mtime_ns")):
             raise SceneError("shot.file", scene.shot.file, "changed since the interrupted run (size or modification "
                                                            "time); resume needs the same pellets")
-    if scene.pair_collisions and "shot_totals" not in progress:
+    if scene.pair_collisions and ("shot_totals" not in progress
+                                  or list(progress["shot_totals"].attrs.get("columns", [])) != list(SHOT_TOTALS)):
         raise OutputError(f"output path = {partial_name!r}: holds no per-shot collision totals (written by an older "
                           "version); --overwrite starts the run again")
     rows, chunk = int(progress["rows"][()]), int(progress["chunk_rows"][()])

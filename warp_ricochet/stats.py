@@ -82,9 +82,11 @@ STAT_UNITS = {
     "dense_time_max": ("s", "latest time a shot left the dense phase (s since launch)"),
     "dense_steps_mean": ("1", "time steps a shot took in the dense phase, mean over shots"),
     "dense_time_mean": ("s", "time a shot left the dense phase (s since launch), mean over shots"),
+    "skin_overrun_max": ("1", "largest distance a pellet moved between neighbour-list builds, in half skins, when "
+                              "above 1 (0 otherwise); above 1 a pair contact beyond the lists could have been missed"),
 }
 COLLISION_STATS = ("collided_fraction", "pair_collisions", "pair_energy_lost", "pair_energy_lost_mean",
-                   "dense_steps_max", "dense_time_max", "dense_steps_mean", "dense_time_mean")
+                   "dense_steps_max", "dense_time_max", "dense_steps_mean", "dense_time_mean", "skin_overrun_max")
 
 
 def empty_totals():

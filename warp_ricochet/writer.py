@@ -572,7 +572,7 @@ class RunWriter:
             ds = g.create_dataset("shot_totals", shape=(0, len(SHOT_TOTALS)), maxshape=(None, len(SHOT_TOTALS)),
                                   chunks=(1024, len(SHOT_TOTALS)), dtype="f8")
             ds.attrs["columns"] = list(SHOT_TOTALS)
-            ds.attrs["units"] = "1, 1, J, 1, s (per shot, in shot order: the columns named in `columns`)"
+            ds.attrs["units"] = "1, 1, J, 1, s, 1 (per shot, in shot order: the columns named in `columns`)"
             ds.attrs["description"] = ("per shot: pellets that collided, pellet-pellet collisions counted by both "
                                        "pellets, energy lost in them, steps and end time of its dense phase")
 
