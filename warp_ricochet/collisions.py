@@ -395,6 +395,8 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         step_fraction of a diameter in a step; the list lasts SKIN_STEPS steps at these speeds)."""
         s = wp.tid()
         cloud.shot_flags[s, SHOT_REBUILD] = 0  # (built before this block)
+        for r in range(cloud.round_applied.shape[0]):
+            cloud.round_applied[r] = 0  # (every shot's thread writes the same)
         if cloud.shot_flags[s, SHOT_DONE] != 0 or cloud.shot_flags[s, SHOT_STALL] != 0:
             return
         step = pair.fixed_step
@@ -445,7 +447,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
     def plane_contacts_until(i: wp.int32, step_end: scalar, most: wp.int32, cloud: Cloud, surfaces: Surfaces,
                              physics: Physics, out: Outputs):
         """Pellet i's plane contacts up to `step_end` (at most `most`), applied to its reference
-        state; it is marked stale if it had one."""
+        state; it is marked stale if it had one. Returns how many it had."""
         position = cloud.position[i]
         velocity = cloud.velocity[i]
         spin = cloud.angular_velocity[i]
@@ -465,16 +467,20 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             if flying != 0:
                 set_reference(cloud, i, position, velocity, spin, time)
             mark_stale(cloud, i)
+        return contacts
 
     @wp.kernel(**opts)
-    def choose_kernel(look: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
+    def choose_kernel(round: wp.int32, look: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
         """Each flying pellet's earliest event: its next plane contact, or contact with a listed
         neighbour (ties: a plane, then the lower row). It is found again only when the pellet is
         stale (it or a neighbour changed, or its list was rebuilt): a pair's time is computed
         from the later of the two reference times, as in collision_reference, so it is one
         number whoever asks and whenever, and a kept event is the one a new search would find.
         `look` (after the last round): pair events still ahead in the step cut it, so no pellet
-        flies past an event left unresolved (into its partner)."""
+        flies past an event left unresolved (into its partner). A round after one that applied
+        nothing has nothing to do (no pellet is stale, every choice is the same)."""
+        if round > 0 and look == 0 and cloud.round_applied[round - 1] == 0:
+            return
         t = wp.tid()
         for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
             if cloud.stale[i] == 0 and (look == 0 or cloud.event_partner[i] < 0):
@@ -525,10 +531,13 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         return time + wp.max(wp.min(step, cloud.clock[s, CLOCK_CUT] - time), step * scalar(MIN_CUT_FRACTION))
 
     @wp.kernel(**opts)
-    def resolve_kernel(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs):
+    def resolve_kernel(round: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs):
         """Apply each pellet's event if it falls in the step: a plane event, or a pair event both
         pellets chose (mutual), applied by the lower row's thread to both. A pellet takes part in
-        at most one event per round, so every state is read and written by one thread only."""
+        at most one event per round, so every state is read and written by one thread only. A
+        round after one that applied nothing has nothing to apply."""
+        if round > 0 and cloud.round_applied[round - 1] == 0:
+            return
         t = wp.tid()
         for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
             s = i / pair.count
@@ -543,7 +552,8 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             gravity = physics.gravity
             if partner <= -2:
                 if when <= step_end:
-                    plane_contacts_until(i, step_end, 1, cloud, surfaces, physics, out)  # the one it chose
+                    if plane_contacts_until(i, step_end, 1, cloud, surfaces, physics, out) > 0:  # the one it chose
+                        cloud.round_applied[round] = 1
                 continue
             if when >= step_end or cloud.event_partner[partner] != i or cloud.phase[partner] != FLYING:
                 continue
@@ -587,6 +597,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             # `when` too: found again from there, it is no longer closing, and the clock moves on)
             set_reference(cloud, a, xa, va2, wa2, when)
             set_reference(cloud, b, xb, vb2, wb2, when)
+            cloud.round_applied[round] = 1
             mark_stale(cloud, a)
             mark_stale(cloud, b)
 
@@ -817,6 +828,7 @@ class DensePhase:
                      "collision_count", "event_partner", "stale", "neighbour_count"):
             setattr(cloud, name, arr(wp.int32))
         cloud.neighbours = arr(wp.int32, (n, coll.max_neighbours))
+        cloud.round_applied = arr(wp.int32, max(self.rounds, 1))
         release = {"release.time": ("release_time", scalar), "release.position": ("release_position", vec3),
                    "release.velocity": ("release_velocity", vec3),
                    "release.angular_velocity": ("release_angular_velocity", vec3),
@@ -901,11 +913,11 @@ class DensePhase:
             self._launch("plan", shots, [p, m.physics, c], True),
             self._launch("prepare", threads, [p, m.physics, c], True),
         ]
-        for _ in range(self.rounds):
-            commands.append(self._launch("choose", threads, [0, p, m.surfaces, m.physics, c], True))
-            commands.append(self._launch("resolve", threads, [p, m.surfaces, m.physics, c, outputs], True))
+        for r in range(self.rounds):
+            commands.append(self._launch("choose", threads, [r, 0, p, m.surfaces, m.physics, c], True))
+            commands.append(self._launch("resolve", threads, [r, p, m.surfaces, m.physics, c, outputs], True))
         # events still ahead after the rounds: the step ends at the earliest (no pellet flies into its partner)
-        commands.append(self._launch("choose", threads, [1, p, m.surfaces, m.physics, c], True))
+        commands.append(self._launch("choose", threads, [self.rounds, 1, p, m.surfaces, m.physics, c], True))
         commands.append(self._launch("finish", threads, [p, m.surfaces, m.physics, c, outputs], True))
         commands.append(self._launch("end_step", shots, [p, c], True))
         return commands

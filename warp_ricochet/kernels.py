@@ -131,6 +131,7 @@ def types_for(precision: str) -> SimpleNamespace:
         event_time: wp.array(dtype=scalar)  # s since launch
         event_partner: wp.array(dtype=wp.int32)  # pellet row, -2 - plane, -1 none
         stale: wp.array(dtype=wp.int32)  # 1: the event above must be found again
+        round_applied: wp.array(dtype=wp.int32)  # (rounds,) 1: round r of this step applied an event
         # neighbour lists
         grid_point: wp.array(dtype=vec3)
         build_offset: wp.array(dtype=vec3)
