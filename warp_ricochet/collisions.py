@@ -248,15 +248,6 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             return scalar(-1.0)
         return gap / (-du + wp.sqrt(disc))  # the smaller root, without cancellation
 
-    @wp.func
-    def delay_to(cloud: Cloud, physics: Physics, j: wp.int32, x: vec3, v: vec3, time: scalar):
-        """Time from `time` until pellet j (its reference state) touches a pellet at x with
-        velocity v then; -1 when they never do."""
-        age = time - cloud.time[j]
-        vj = ballistic_velocity(cloud.velocity[j], physics.gravity, age)
-        d = ballistic_position(cloud.position[j], cloud.velocity[j], physics.gravity, age) - x
-        return contact_time(d, vj - v, scalar(4.0) * physics.radius * physics.radius, wp.length(v) + wp.length(vj))
-
     # ------------------------------------------------------------------ set-up
 
     @wp.kernel(**opts)
@@ -650,23 +641,39 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             if time < cloud.clock[s, CLOCK_WINDOW]:
                 cloud.shot_flags[s, SHOT_BUSY] = 1  # the arrival window: the cloud converges, meets the surface and passes it
                 continue
-            gravity = physics.gravity
-            x = ballistic_position(cloud.position[i], cloud.velocity[i], gravity, time - cloud.time[i])
-            v = ballistic_velocity(cloud.velocity[i], gravity, time - cloud.time[i])
+            x = cloud.now_position[i]
+            v = cloud.now_velocity[i]
+            speed = cloud.now_speed[i]
+            reach2 = scalar(4.0) * physics.radius * physics.radius
             earliest = NEVER
             for j in range(i + 1, (s + 1) * pair.count):
                 if cloud.phase[j] == FLYING:
-                    delay = delay_to(cloud, physics, j, x, v, time)
+                    delay = contact_time(cloud.now_position[j] - x, cloud.now_velocity[j] - v, reach2, speed + cloud.now_speed[j])
                     if delay >= scalar(0.0):
                         earliest = wp.min(earliest, time + delay)
             if earliest < NEVER:
                 cloud.shot_flags[s, SHOT_BUSY] = 1  # a pair can still meet
             # plane contacts bound the jump (they do not keep a shot stepping: the core's flight does them)
-            wait, k = next_contact(cloud.position[i], cloud.velocity[i], gravity, physics.radius, surfaces.point,
+            wait, k = next_contact(cloud.position[i], cloud.velocity[i], physics.gravity, physics.radius, surfaces.point,
                                    surfaces.normal, cloud.touching[i])
             if k >= 0:
                 earliest = wp.min(earliest, cloud.time[i] + wait)
             wp.atomic_min(cloud.clock, s, CLOCK_NEXT, earliest)
+
+    @wp.kernel(**opts)
+    def now_kernel(pair: Pair, physics: Physics, cloud: Cloud):
+        """Each flying pellet's state at its shot's checkpoint, for horizon_kernel (computed once,
+        not once per pair)."""
+        t = wp.tid()
+        for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
+            s = i / pair.count
+            if cloud.phase[i] != FLYING or cloud.shot_flags[s, SHOT_DONE] != 0 or cloud.shot_flags[s, SHOT_STALL] != CHECKPOINT:
+                continue
+            age = cloud.clock[s, CLOCK_TIME] - cloud.time[i]
+            velocity = ballistic_velocity(cloud.velocity[i], physics.gravity, age)
+            cloud.now_position[i] = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age)
+            cloud.now_velocity[i] = velocity
+            cloud.now_speed[i] = wp.length(velocity)
 
     @wp.kernel(**opts)
     def settle_kernel(pair: Pair, physics: Physics, cloud: Cloud):
@@ -762,7 +769,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
     return dict(
         launch=launch_kernel, drift=drift_kernel, groups=groups_kernel, grid_points=grid_points_kernel, neighbours=neighbours_kernel,
         bounds=bounds_kernel, plan=plan_kernel, prepare=prepare_kernel, choose=choose_kernel,
-        resolve=resolve_kernel, finish=finish_kernel, end_step=end_step_kernel, horizon=horizon_kernel,
+        resolve=resolve_kernel, finish=finish_kernel, end_step=end_step_kernel, now=now_kernel, horizon=horizon_kernel,
         settle=settle_kernel, release=release_kernel, shot_totals=shot_totals_kernel,
     )
 
@@ -820,9 +827,10 @@ class DensePhase:
         cloud = kern.Cloud()
         for name in ("position", "velocity", "angular_velocity", "ricochet_point", "first_velocity_before",
                      "first_angular_velocity_before", "first_velocity_after", "first_angular_velocity_after",
-                     "launch_velocity", "launch_angular_velocity", "grid_point", "build_offset"):
+                     "launch_velocity", "launch_angular_velocity", "grid_point", "build_offset", "now_position",
+                     "now_velocity"):
             setattr(cloud, name, arr(vec3))
-        for name in ("time", "ricochet_time", "energy_lost", "event_time", "last_collision"):
+        for name in ("time", "ricochet_time", "energy_lost", "event_time", "last_collision", "now_speed"):
             setattr(cloud, name, arr(scalar))
         for name in ("phase", "end_surface", "touching", "impacts", "last_slipped", "first_surface", "first_slipped",
                      "collision_count", "event_partner", "stale", "neighbour_count"):
@@ -952,6 +960,7 @@ class DensePhase:
         commands = self._step_commands(pellets, shots, outputs)
         self.graph = None
         while True:
+            self._launch("now", self.threads, [p, self.model.physics, c])
             self._launch("horizon", self.threads, [p, self.model.surfaces, self.model.physics, c])
             self._launch("settle", shots, [p, self.model.physics, c])
             flags = c.flags.numpy().copy()  # host syncs: here, at checkpoints, and one per rebuild (a copy: CPU arrays share memory)
@@ -972,10 +981,10 @@ class DensePhase:
 
 
 def dense_bytes_per_pellet(precision: str, max_neighbours: int) -> int:
-    """Bytes per pellet of the dense phase's device arrays, release outputs included: 15
-    vectors, 7 scalars, 12 integers and the neighbour list."""
+    """Bytes per pellet of the dense phase's device arrays, release outputs included: 17
+    vectors, 8 scalars, 12 integers and the neighbour list."""
     size = 4 if precision == "float32" else 8
-    return 3 * size * 15 + size * 7 + 4 * (12 + max_neighbours)
+    return 3 * size * 17 + size * 8 + 4 * (12 + max_neighbours)
 
 
 CPU_CHUNK_PELLETS = 1 << 20  # CPU: pellets per chunk of the dense phase

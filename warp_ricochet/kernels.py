@@ -132,6 +132,10 @@ def types_for(precision: str) -> SimpleNamespace:
         event_partner: wp.array(dtype=wp.int32)  # pellet row, -2 - plane, -1 none
         stale: wp.array(dtype=wp.int32)  # 1: the event above must be found again
         round_applied: wp.array(dtype=wp.int32)  # (rounds,) 1: round r of this step applied an event
+        # states at a shot's checkpoint (horizon_kernel: each is read by O(count) pairs)
+        now_position: wp.array(dtype=vec3)
+        now_velocity: wp.array(dtype=vec3)
+        now_speed: wp.array(dtype=scalar)
         # neighbour lists
         grid_point: wp.array(dtype=vec3)
         build_offset: wp.array(dtype=vec3)
