@@ -367,6 +367,21 @@ def test_lists_that_overflow_grow_before_any_step_and_change_nothing(tmp_path, d
     assert short_stats == long_stats
 
 
+def test_the_cpu_block_kernel_is_the_per_step_kernels(tmp_path, monkeypatch):
+    """On the CPU a block of steps is one launch of block_kernel; the per-step kernels (those CUDA
+    runs) in their order give bitwise the same results, on several shots."""
+    from warp_ricochet.collisions import DensePhase
+
+    scene = _paper_collisions(count=60, shots=3, precision="float64")
+    fused = _write(scene, tmp_path / "fused.h5", "cpu")
+    monkeypatch.setattr(DensePhase, "FUSED_ON_CPU", False)
+    per_step = _write(scene, tmp_path / "per-step.h5", "cpu")
+    assert fused[1]["pair_collisions"] > 10
+    for name, value in fused[0].items():
+        np.testing.assert_array_equal(per_step[0][name], value, err_msg=name)
+    assert per_step[1] == fused[1]
+
+
 @wp.kernel(enable_backward=False)
 def _all_stale(stale: wp.array(dtype=wp.int32)):
     stale[wp.tid()] = 1
@@ -391,6 +406,7 @@ def test_kept_events_are_those_a_new_search_finds(tmp_path, device, monkeypatch)
         return [stale, *step_commands(self, pellets, shots, outputs)]
 
     monkeypatch.setattr(DensePhase, "_step_commands", search_every_step)
+    monkeypatch.setattr(DensePhase, "FUSED_ON_CPU", False)  # (the CPU's block kernel is one launch a block)
     searched_pellets, searched_stats = _write(scene, tmp_path / "searched.h5", device)
     assert kept_stats["pair_collisions"] > 50
     for name, value in kept_pellets.items():

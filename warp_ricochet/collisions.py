@@ -367,24 +367,27 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
 
     # ------------------------------------------------------------------ one step
 
-    @wp.kernel(**opts)
-    def bounds_kernel(pair: Pair, physics: Physics, cloud: Cloud):
+    @wp.func(inline=True)
+    def bounds_pellet(i: wp.int32, pair: Pair, physics: Physics, cloud: Cloud):
         """Per shot: the largest speed of a flying pellet relative to the drift (a pair closes at
         most at twice it). It sets the next step; it depends on the shot alone, never on the
         neighbour lists, so the steps (and results) do not depend on when lists are rebuilt."""
-        t = wp.tid()
-        for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
-            s = i / pair.count
-            if not stepping(cloud, i, s):
-                continue
-            _relative, relative_velocity = relative_to_drift(cloud, physics, i, s)
-            wp.atomic_max(cloud.clock, s, CLOCK_DRIFT, wp.length(relative_velocity))
+        s = i / pair.count
+        if not stepping(cloud, i, s):
+            return
+        _relative, relative_velocity = relative_to_drift(cloud, physics, i, s)
+        wp.atomic_max(cloud.clock, s, CLOCK_DRIFT, wp.length(relative_velocity))
 
     @wp.kernel(**opts)
-    def plan_kernel(pair: Pair, physics: Physics, cloud: Cloud):
+    def bounds_kernel(pair: Pair, physics: Physics, cloud: Cloud):
+        t = wp.tid()
+        for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
+            bounds_pellet(i, pair, physics, cloud)
+
+    @wp.func(inline=True)
+    def plan_shot(s: wp.int32, pair: Pair, physics: Physics, cloud: Cloud):
         """One thread per shot: the step, fixed or adaptive (a pair closes by at most
         step_fraction of a diameter in a step; the list lasts SKIN_STEPS steps at these speeds)."""
-        s = wp.tid()
         cloud.shot_flags[s, SHOT_REBUILD] = 0  # (built before this block)
         for r in range(cloud.round_applied.shape[0]):
             cloud.round_applied[r] = 0  # (every shot's thread writes the same)
@@ -401,30 +404,38 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         cloud.clock[s, CLOCK_CUT] = NEVER
 
     @wp.kernel(**opts)
-    def prepare_kernel(pair: Pair, physics: Physics, cloud: Cloud):
+    def plan_kernel(pair: Pair, physics: Physics, cloud: Cloud):
+        plan_shot(wp.tid(), pair, physics, cloud)
+
+    @wp.func(inline=True)
+    def prepare_pellet(i: wp.int32, pair: Pair, physics: Physics, cloud: Cloud):
         """A step that could carry a pellet beyond half the skin (relative to the drift) since the
         last build waits for a rebuild: no pair is missed. That holds for the motion known at the
         step's start; an event in the step can make a pellet faster (a plane rebound much faster
         than the step allowed for), and a pellet found beyond half the skin here overran it: the
         largest overrun is reported (stats skin_overrun_max, a warning above 1)."""
+        s = i / pair.count
+        if not stepping(cloud, i, s):
+            return
+        step = cloud.clock[s, CLOCK_STEP]
+        relative, relative_velocity = relative_to_drift(cloud, physics, i, s)
+        moved = relative - cloud.build_offset[i]  # since the build
+        half_skin = cloud.half_skin[s]
+        overrun = wp.length(moved) / half_skin
+        if overrun > scalar(1.0):
+            wp.atomic_max(cloud.clock, s, CLOCK_OVERRUN, overrun)
+        if wp.length(moved + relative_velocity * step) > half_skin:
+            cloud.shot_flags[s, SHOT_STALL] = 1
+            cloud.flags[FLAG_STALL] = 1
+            travel = wp.length(relative_velocity) * step
+            if travel > half_skin:  # one step alone outruns the skin (a fixed step): it must grow
+                wp.atomic_max(cloud.step_travel, s, travel)
+
+    @wp.kernel(**opts)
+    def prepare_kernel(pair: Pair, physics: Physics, cloud: Cloud):
         t = wp.tid()
         for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
-            s = i / pair.count
-            if not stepping(cloud, i, s):
-                continue
-            step = cloud.clock[s, CLOCK_STEP]
-            relative, relative_velocity = relative_to_drift(cloud, physics, i, s)
-            moved = relative - cloud.build_offset[i]  # since the build
-            half_skin = cloud.half_skin[s]
-            overrun = wp.length(moved) / half_skin
-            if overrun > scalar(1.0):
-                wp.atomic_max(cloud.clock, s, CLOCK_OVERRUN, overrun)
-            if wp.length(moved + relative_velocity * step) > half_skin:
-                cloud.shot_flags[s, SHOT_STALL] = 1
-                cloud.flags[FLAG_STALL] = 1
-                travel = wp.length(relative_velocity) * step
-                if travel > half_skin:  # one step alone outruns the skin (a fixed step): it must grow
-                    wp.atomic_max(cloud.step_travel, s, travel)
+            prepare_pellet(i, pair, physics, cloud)
 
     @wp.func
     def mark_stale(cloud: Cloud, i: wp.int32):
@@ -460,8 +471,8 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             mark_stale(cloud, i)
         return contacts
 
-    @wp.kernel(**opts)
-    def choose_kernel(round: wp.int32, look: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
+    @wp.func(inline=True)
+    def choose_pellet(i: wp.int32, look: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
         """Each flying pellet's earliest event: its next plane contact, or contact with a listed
         neighbour (ties: a plane, then the lower row). It is found again only when the pellet is
         stale (it or a neighbour changed, or its list was rebuilt): a pair's time is computed
@@ -470,48 +481,52 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         `look` (after the last round): pair events still ahead in the step cut it, so no pellet
         flies past an event left unresolved (into its partner). A round after one that applied
         nothing has nothing to do (no pellet is stale, every choice is the same)."""
-        if round > 0 and look == 0 and cloud.round_applied[round - 1] == 0:
+        if cloud.stale[i] == 0 and (look == 0 or cloud.event_partner[i] < 0):
+            return  # most pellets: nothing to do, found with one or two reads
+        s = i / pair.count
+        if not stepping(cloud, i, s):
             return
+        if cloud.stale[i] != 0:
+            cloud.stale[i] = 0
+            gravity = physics.gravity
+            position = cloud.position[i]
+            velocity = cloud.velocity[i]
+            time = cloud.time[i]
+            wait, k = next_contact(position, velocity, gravity, physics.radius, surfaces.point, surfaces.normal, cloud.touching[i])
+            best_time = NEVER
+            best = wp.int32(-1)
+            if k >= 0:
+                best_time = time + wait
+                best = -2 - k
+            reach2 = scalar(4.0) * physics.radius * physics.radius
+            for n in range(cloud.neighbour_count[i]):
+                j = cloud.neighbours[i, n]
+                if cloud.phase[j] == FLYING:
+                    other_time = cloud.time[j]
+                    start = wp.max(time, other_time)  # both reference states hold from here
+                    d = ballistic_position(cloud.position[j], cloud.velocity[j], gravity, start - other_time) - ballistic_position(position, velocity, gravity, start - time)
+                    vj = ballistic_velocity(cloud.velocity[j], gravity, start - other_time)
+                    vi = ballistic_velocity(velocity, gravity, start - time)
+                    delay = contact_time(d, vj - vi, reach2, wp.length(vi) + wp.length(vj))
+                    if delay >= scalar(0.0):
+                        when = start + delay
+                        if when < best_time or (when == best_time and best >= 0 and j < best):
+                            best_time = when
+                            best = j
+            cloud.event_time[i] = best_time
+            cloud.event_partner[i] = best
+        if look != 0 and cloud.event_partner[i] >= 0:
+            step_start = cloud.clock[s, CLOCK_TIME]
+            if cloud.event_time[i] < step_start + cloud.clock[s, CLOCK_STEP]:
+                wp.atomic_min(cloud.clock, s, CLOCK_CUT, wp.max(cloud.event_time[i], step_start))
+
+    @wp.kernel(**opts)
+    def choose_kernel(round: wp.int32, look: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
+        if round > 0 and look == 0 and cloud.round_applied[round - 1] == 0:
+            return  # a round after one that applied nothing: no pellet is stale, every choice is the same
         t = wp.tid()
         for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
-            if cloud.stale[i] == 0 and (look == 0 or cloud.event_partner[i] < 0):
-                continue  # most pellets: nothing to do, found with one or two reads
-            s = i / pair.count
-            if not stepping(cloud, i, s):
-                continue
-            if cloud.stale[i] != 0:
-                cloud.stale[i] = 0
-                gravity = physics.gravity
-                position = cloud.position[i]
-                velocity = cloud.velocity[i]
-                time = cloud.time[i]
-                wait, k = next_contact(position, velocity, gravity, physics.radius, surfaces.point, surfaces.normal, cloud.touching[i])
-                best_time = NEVER
-                best = wp.int32(-1)
-                if k >= 0:
-                    best_time = time + wait
-                    best = -2 - k
-                reach2 = scalar(4.0) * physics.radius * physics.radius
-                for n in range(cloud.neighbour_count[i]):
-                    j = cloud.neighbours[i, n]
-                    if cloud.phase[j] == FLYING:
-                        other_time = cloud.time[j]
-                        start = wp.max(time, other_time)  # both reference states hold from here
-                        d = ballistic_position(cloud.position[j], cloud.velocity[j], gravity, start - other_time) - ballistic_position(position, velocity, gravity, start - time)
-                        vj = ballistic_velocity(cloud.velocity[j], gravity, start - other_time)
-                        vi = ballistic_velocity(velocity, gravity, start - time)
-                        delay = contact_time(d, vj - vi, reach2, wp.length(vi) + wp.length(vj))
-                        if delay >= scalar(0.0):
-                            when = start + delay
-                            if when < best_time or (when == best_time and best >= 0 and j < best):
-                                best_time = when
-                                best = j
-                cloud.event_time[i] = best_time
-                cloud.event_partner[i] = best
-            if look != 0 and cloud.event_partner[i] >= 0:
-                step_start = cloud.clock[s, CLOCK_TIME]
-                if cloud.event_time[i] < step_start + cloud.clock[s, CLOCK_STEP]:
-                    wp.atomic_min(cloud.clock, s, CLOCK_CUT, wp.max(cloud.event_time[i], step_start))
+            choose_pellet(i, look, pair, surfaces, physics, cloud)
 
     @wp.func
     def step_end_of(cloud: Cloud, s: wp.int32):
@@ -521,94 +536,101 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         step = cloud.clock[s, CLOCK_STEP]
         return time + wp.max(wp.min(step, cloud.clock[s, CLOCK_CUT] - time), step * scalar(MIN_CUT_FRACTION))
 
-    @wp.kernel(**opts)
-    def resolve_kernel(round: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs):
+    @wp.func(inline=True)
+    def resolve_pellet(i: wp.int32, round: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs):
         """Apply each pellet's event if it falls in the step: a plane event, or a pair event both
         pellets chose (mutual), applied by the lower row's thread to both. A pellet takes part in
         at most one event per round, so every state is read and written by one thread only. A
         round after one that applied nothing has nothing to apply."""
-        if round > 0 and cloud.round_applied[round - 1] == 0:
+        s = i / pair.count
+        if not stepping(cloud, i, s):
             return
+        partner = cloud.event_partner[i]
+        if partner == -1 or (partner >= 0 and partner < i):
+            return
+        step_start = cloud.clock[s, CLOCK_TIME]
+        step_end = step_start + cloud.clock[s, CLOCK_STEP]
+        when = cloud.event_time[i]
+        gravity = physics.gravity
+        if partner <= -2:
+            if when <= step_end:
+                if plane_contacts_until(i, step_end, 1, cloud, surfaces, physics, out) > 0:  # the one it chose
+                    cloud.round_applied[round] = 1
+            return
+        if when >= step_end or cloud.event_partner[partner] != i or cloud.phase[partner] != FLYING:
+            return
+        a = i
+        b = partner
+        when = wp.max(when, step_start)  # (an event the step passed after a cut at MIN_CUT_FRACTION)
+        # TC model: a pellet hit again within the contact duration rebounds elastically
+        restitution = pair.restitution
+        last_a = cloud.last_collision[a]
+        last_b = cloud.last_collision[b]
+        if (not wp.isnan(last_a) and when - last_a <= pair.contact_duration) or (
+            not wp.isnan(last_b) and when - last_b <= pair.contact_duration
+        ):  # (<=, as collision_reference)
+            restitution = scalar(1.0)
+        age_a = when - cloud.time[a]
+        age_b = when - cloud.time[b]
+        xa = ballistic_position(cloud.position[a], cloud.velocity[a], gravity, age_a)
+        va = ballistic_velocity(cloud.velocity[a], gravity, age_a)
+        wa = cloud.angular_velocity[a]
+        xb = ballistic_position(cloud.position[b], cloud.velocity[b], gravity, age_b)
+        vb = ballistic_velocity(cloud.velocity[b], gravity, age_b)
+        wb = cloud.angular_velocity[b]
+        va2, wa2, vb2, wb2, collided, _slipped = pair_law(
+            xa, va, wa, physics.radius, pair.mass, xb, vb, wb, physics.radius, pair.mass,
+            physics.inertia_factor, restitution, pair.mu_s, pair.mu_d,
+        )
+        if collided != 0:
+            # kinetic energy the pair lost; each pellet books half
+            before = pair.mass * (wp.dot(va, va) + wp.dot(vb, vb)) + pair.inertia * (wp.dot(wa, wa) + wp.dot(wb, wb))
+            after = pair.mass * (wp.dot(va2, va2) + wp.dot(vb2, vb2)) + pair.inertia * (wp.dot(wa2, wa2) + wp.dot(wb2, wb2))
+            half = scalar(0.25) * (before - after)
+            cloud.energy_lost[a] = cloud.energy_lost[a] + half
+            cloud.energy_lost[b] = cloud.energy_lost[b] + half
+            cloud.collision_count[a] = cloud.collision_count[a] + 1
+            cloud.collision_count[b] = cloud.collision_count[b] + 1
+            cloud.last_collision[a] = when
+            cloud.last_collision[b] = when
+            cloud.touching[a] = -1  # they may have left the plane: plane times from the actual gap
+            cloud.touching[b] = -1
+        # (a pair the law does not collide, grazing within rounding, moves its reference states to
+        # `when` too: found again from there, it is no longer closing, and the clock moves on)
+        set_reference(cloud, a, xa, va2, wa2, when)
+        set_reference(cloud, b, xb, vb2, wb2, when)
+        cloud.round_applied[round] = 1
+        mark_stale(cloud, a)
+        mark_stale(cloud, b)
+
+    @wp.kernel(**opts)
+    def resolve_kernel(round: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs):
+        if round > 0 and cloud.round_applied[round - 1] == 0:
+            return  # a round after one that applied nothing has nothing to apply
         t = wp.tid()
         for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
-            s = i / pair.count
-            if not stepping(cloud, i, s):
-                continue
-            partner = cloud.event_partner[i]
-            if partner == -1 or (partner >= 0 and partner < i):
-                continue
-            step_start = cloud.clock[s, CLOCK_TIME]
-            step_end = step_start + cloud.clock[s, CLOCK_STEP]
-            when = cloud.event_time[i]
-            gravity = physics.gravity
-            if partner <= -2:
-                if when <= step_end:
-                    if plane_contacts_until(i, step_end, 1, cloud, surfaces, physics, out) > 0:  # the one it chose
-                        cloud.round_applied[round] = 1
-                continue
-            if when >= step_end or cloud.event_partner[partner] != i or cloud.phase[partner] != FLYING:
-                continue
-            a = i
-            b = partner
-            when = wp.max(when, step_start)  # (an event the step passed after a cut at MIN_CUT_FRACTION)
-            # TC model: a pellet hit again within the contact duration rebounds elastically
-            restitution = pair.restitution
-            last_a = cloud.last_collision[a]
-            last_b = cloud.last_collision[b]
-            if (not wp.isnan(last_a) and when - last_a <= pair.contact_duration) or (
-                not wp.isnan(last_b) and when - last_b <= pair.contact_duration
-            ):  # (<=, as collision_reference)
-                restitution = scalar(1.0)
-            age_a = when - cloud.time[a]
-            age_b = when - cloud.time[b]
-            xa = ballistic_position(cloud.position[a], cloud.velocity[a], gravity, age_a)
-            va = ballistic_velocity(cloud.velocity[a], gravity, age_a)
-            wa = cloud.angular_velocity[a]
-            xb = ballistic_position(cloud.position[b], cloud.velocity[b], gravity, age_b)
-            vb = ballistic_velocity(cloud.velocity[b], gravity, age_b)
-            wb = cloud.angular_velocity[b]
-            va2, wa2, vb2, wb2, collided, _slipped = pair_law(
-                xa, va, wa, physics.radius, pair.mass, xb, vb, wb, physics.radius, pair.mass,
-                physics.inertia_factor, restitution, pair.mu_s, pair.mu_d,
-            )
-            if collided != 0:
-                # kinetic energy the pair lost; each pellet books half
-                before = pair.mass * (wp.dot(va, va) + wp.dot(vb, vb)) + pair.inertia * (wp.dot(wa, wa) + wp.dot(wb, wb))
-                after = pair.mass * (wp.dot(va2, va2) + wp.dot(vb2, vb2)) + pair.inertia * (wp.dot(wa2, wa2) + wp.dot(wb2, wb2))
-                half = scalar(0.25) * (before - after)
-                cloud.energy_lost[a] = cloud.energy_lost[a] + half
-                cloud.energy_lost[b] = cloud.energy_lost[b] + half
-                cloud.collision_count[a] = cloud.collision_count[a] + 1
-                cloud.collision_count[b] = cloud.collision_count[b] + 1
-                cloud.last_collision[a] = when
-                cloud.last_collision[b] = when
-                cloud.touching[a] = -1  # they may have left the plane: plane times from the actual gap
-                cloud.touching[b] = -1
-            # (a pair the law does not collide, grazing within rounding, moves its reference states to
-            # `when` too: found again from there, it is no longer closing, and the clock moves on)
-            set_reference(cloud, a, xa, va2, wa2, when)
-            set_reference(cloud, b, xb, vb2, wb2, when)
-            cloud.round_applied[round] = 1
-            mark_stale(cloud, a)
-            mark_stale(cloud, b)
+            resolve_pellet(i, round, pair, surfaces, physics, cloud, out)
+
+    @wp.func(inline=True)
+    def finish_pellet(i: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs):
+        """End of the step: plane contacts left in it (no pellet ends a step inside a plane). Only
+        a pellet whose earliest event falls in the step can have one."""
+        s = i / pair.count
+        if not stepping(cloud, i, s):
+            return
+        step_end = step_end_of(cloud, s)
+        if cloud.event_partner[i] != -1 and cloud.event_time[i] <= step_end:
+            plane_contacts_until(i, step_end, wp.static(BOUNCES + 1), cloud, surfaces, physics, out)
 
     @wp.kernel(**opts)
     def finish_kernel(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs):
-        """End of the step: plane contacts left in it (no pellet ends a step inside a plane). Only
-        a pellet whose earliest event falls in the step can have one."""
         t = wp.tid()
         for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
-            s = i / pair.count
-            if not stepping(cloud, i, s):
-                continue
-            step_end = step_end_of(cloud, s)
-            if cloud.event_partner[i] != -1 and cloud.event_time[i] <= step_end:
-                plane_contacts_until(i, step_end, wp.static(BOUNCES + 1), cloud, surfaces, physics, out)
+            finish_pellet(i, pair, surfaces, physics, cloud, out)
 
-    @wp.kernel(**opts)
-    def end_step_kernel(pair: Pair, cloud: Cloud):
+    @wp.func(inline=True)
+    def end_step_shot(s: wp.int32, pair: Pair, cloud: Cloud):
         """One thread per shot: its clock moves on (unless the step waits for a rebuild)."""
-        s = wp.tid()
         if cloud.shot_flags[s, SHOT_DONE] != 0 or cloud.shot_flags[s, SHOT_STALL] != 0:
             return
         cloud.clock[s, CLOCK_TIME] = step_end_of(cloud, s)
@@ -616,6 +638,38 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         cloud.clock[s, CLOCK_STEPS] = steps
         if wp.int32(steps) % pair.block_steps == 0:
             cloud.shot_flags[s, SHOT_STALL] = CHECKPOINT  # wait for the horizon check and settle
+
+    @wp.kernel(**opts)
+    def end_step_kernel(pair: Pair, cloud: Cloud):
+        end_step_shot(wp.tid(), pair, cloud)
+
+
+    @wp.kernel(**opts)
+    def block_kernel(steps: wp.int32, rounds: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud,
+                     out: Outputs):
+        """The CPU's block of steps in one launch (one thread): each step is the per-step
+        kernels' work in their order. A CPU kernel runs its threads one after another anyway, so
+        the results are those of the per-step kernels (tested), without 13 launches a step."""
+        shots = pair.pellets / pair.count
+        for _ in range(steps):
+            for i in range(pair.pellets):
+                bounds_pellet(i, pair, physics, cloud)
+            for s in range(shots):
+                plan_shot(s, pair, physics, cloud)
+            for i in range(pair.pellets):
+                prepare_pellet(i, pair, physics, cloud)
+            for r in range(rounds):
+                if r == 0 or cloud.round_applied[r - 1] != 0:
+                    for i in range(pair.pellets):
+                        choose_pellet(i, 0, pair, surfaces, physics, cloud)
+                    for i in range(pair.pellets):
+                        resolve_pellet(i, r, pair, surfaces, physics, cloud, out)
+            for i in range(pair.pellets):
+                choose_pellet(i, 1, pair, surfaces, physics, cloud)
+            for i in range(pair.pellets):
+                finish_pellet(i, pair, surfaces, physics, cloud, out)
+            for s in range(shots):
+                end_step_shot(s, pair, cloud)
 
     # ------------------------------------------------------------------ end of a block of steps
 
@@ -769,7 +823,8 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
     return dict(
         launch=launch_kernel, drift=drift_kernel, groups=groups_kernel, grid_points=grid_points_kernel, neighbours=neighbours_kernel,
         bounds=bounds_kernel, plan=plan_kernel, prepare=prepare_kernel, choose=choose_kernel,
-        resolve=resolve_kernel, finish=finish_kernel, end_step=end_step_kernel, now=now_kernel, horizon=horizon_kernel,
+        resolve=resolve_kernel, finish=finish_kernel, end_step=end_step_kernel, block=block_kernel, now=now_kernel,
+        horizon=horizon_kernel,
         settle=settle_kernel, release=release_kernel, shot_totals=shot_totals_kernel,
     )
 
@@ -883,6 +938,10 @@ class DensePhase:
         self.grid = wp.HashGrid(cells, cells, cells, device=dev, dtype=scalar)
         self.reach = 2.0 * radius + skin
         self.graph = None
+        self.fused = not dev.is_cuda and self.FUSED_ON_CPU
+
+    # on the CPU a block of steps is one launch of block_kernel (False: the per-step kernels, as on CUDA)
+    FUSED_ON_CPU = True
 
     def _threads(self, pellets):
         """Threads of a per-pellet kernel: one per pellet on CUDA; on the CPU (one thread runs
@@ -902,7 +961,10 @@ class DensePhase:
         grew = False
         while True:
             self._launch("grid_points", self.threads, [self.pair, m.physics, c])
-            self.grid.build(c.grid_point[:pellets], CELL_REACHES * self.reach, groups=self.groups[:pellets])
+            # (one shot: no groups, a grouped build costs twice as much on the CPU; a grouped query
+            # of an ungrouped grid filters nothing)
+            groups = self.groups[:pellets] if pellets > self.count else None
+            self.grid.build(c.grid_point[:pellets], CELL_REACHES * self.reach, groups=groups)
             self._launch("neighbours", self.threads, [self.grid.id, self.pair, m.physics, c])
             found = int(c.flags[FLAG_OVERFLOW:].numpy()[0])  # one integer per rebuild
             if found == 0:
@@ -915,6 +977,8 @@ class DensePhase:
         """One step's launches, recorded once (packing the structs' parameters costs more than a
         small launch) and replayed; on CUDA a block of them is captured as a graph."""
         m, c, p = self.model, self.cloud, self.pair
+        if self.fused:  # the CPU: a block of steps is one launch
+            return [self._launch("block", 1, [self.block_steps, self.rounds, p, m.surfaces, m.physics, c, outputs], True)]
         threads = self.threads
         commands = [
             self._launch("bounds", threads, [p, m.physics, c], True),
@@ -942,7 +1006,7 @@ class DensePhase:
             self.graph = capture.graph
             wp.capture_launch(self.graph)
             return
-        for _ in range(self.block_steps):
+        for _ in range(1 if self.fused else self.block_steps):
             for command in commands:
                 command.launch()
 
