@@ -284,7 +284,7 @@ class PrecisionWarning(UserWarning):
 
 
 # measured: docs/collisions.md (mean range 9 to 11% off the float64 reference on the paper's 450-pellet shot) and
-# docs/stability.md (E = 0 clouds: release speeds 0.16 apart)
+# docs/stability.md (E = 0 clouds: release speeds 0.16 apart before the kept events, 0.024 after)
 FLOAT32_COLLISIONS = ("pellet-pellet collisions in float32: contact times rounded in float32 change the order of "
                       "events in a dense cloud, and a shot's mean range differs from float64 by about 10% (docs/collisions.md); "
                       "set numerics.precision = \"float64\" for a study")
