@@ -369,7 +369,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
 
     @wp.func(inline=True)
     def bounds_pellet(i: wp.int32, pair: Pair, physics: Physics, cloud: Cloud):
-        """Per shot: the largest speed of a flying pellet relative to the drift (a pair closes at
+        """Pellet i's speed relative to its shot's drift, into the shot's largest (a pair closes at
         most at twice it). It sets the next step; it depends on the shot alone, never on the
         neighbour lists, so the steps (and results) do not depend on when lists are rebuilt."""
         s = i / pair.count
@@ -386,7 +386,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
 
     @wp.func(inline=True)
     def plan_shot(s: wp.int32, pair: Pair, physics: Physics, cloud: Cloud):
-        """One thread per shot: the step, fixed or adaptive (a pair closes by at most
+        """Shot s's step, fixed or adaptive (a pair closes by at most
         step_fraction of a diameter in a step; the list lasts SKIN_STEPS steps at these speeds)."""
         cloud.shot_flags[s, SHOT_REBUILD] = 0  # (built before this block)
         for r in range(cloud.round_applied.shape[0]):
@@ -630,7 +630,8 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
 
     @wp.func(inline=True)
     def end_step_shot(s: wp.int32, pair: Pair, cloud: Cloud):
-        """One thread per shot: its clock moves on (unless the step waits for a rebuild)."""
+        """Shot s's clock moves on (unless the step waits for a rebuild); after block_steps of its
+        own steps it waits at a checkpoint."""
         if cloud.shot_flags[s, SHOT_DONE] != 0 or cloud.shot_flags[s, SHOT_STALL] != 0:
             return
         cloud.clock[s, CLOCK_TIME] = step_end_of(cloud, s)
@@ -731,9 +732,9 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
 
     @wp.kernel(**opts)
     def settle_kernel(pair: Pair, physics: Physics, cloud: Cloud):
-        """One thread per shot: at a checkpoint (a multiple of block_steps of its own steps, so
-        the decision does not depend on the other shots), a shot with nothing ahead, or out of
-        steps, stops stepping."""
+        """One thread per shot: at a checkpoint (after block_steps of its own steps, so the
+        decision does not depend on the other shots), a shot with nothing ahead, or out of steps,
+        stops stepping; one still busy jumps to its next event and recentres its frame."""
         s = wp.tid()
         if cloud.shot_flags[s, SHOT_DONE] != 0:
             return
