@@ -32,6 +32,10 @@ than a quiet pellet's step (its struct arguments and locals are set up per threa
 per-pellet kernels loop over `pair.span` pellets per thread: all of them on the CPU, one on
 CUDA.
 
+A round first looks at its events without applying them: the earliest time a pellet they change
+would leave its skin ends the step, and only events up to it are applied (a plane rebound can be
+far faster than the step was sized for).
+
 Neighbour lists (reach 2R + skin) are built from a `wp.HashGrid` in co-moving coordinates
 (positions relative to each shot's ballistic drift; the grid's groups keep shots apart, so
 overlapping shots cost nothing) and rebuilt only when a pellet could move by half the skin
@@ -66,10 +70,11 @@ NUM_FLAGS = 4
 # taken, the time the shot stopped stepping, the end of its arrival window (the last first contact
 # of its undisturbed pellets, plus the time the cloud takes to pass a point: 4 rms radii / speed),
 # the soonest event of all (any pair of the shot, or a plane; horizon_kernel), and the earliest
-# pair event left unresolved after the step's rounds (the step ends there), and the largest
-# overrun of the skin (see prepare_kernel)
-CLOCK_TIME, CLOCK_STEP, CLOCK_DRIFT, CLOCK_STEPS, CLOCK_END, CLOCK_WINDOW, CLOCK_NEXT, CLOCK_CUT, CLOCK_OVERRUN = range(9)
-NUM_CLOCK = 9
+# pair event left unresolved after the step's rounds (the step ends there), the largest overrun
+# of the skin (see prepare_pellet), and the earliest time a pellet changed in the step leaves its
+# skin (the step ends there too, and no event after it is applied)
+CLOCK_TIME, CLOCK_STEP, CLOCK_DRIFT, CLOCK_STEPS, CLOCK_END, CLOCK_WINDOW, CLOCK_NEXT, CLOCK_CUT, CLOCK_OVERRUN, CLOCK_SKIN = range(10)
+NUM_CLOCK = 10
 # an overrun below this (in half skins) is rounding of the float32 positions the skin is measured from
 OVERRUN_TOLERANCE = 1.01
 # a step cut at an unresolved event still advances by this fraction of itself (a pair the law does
@@ -165,6 +170,29 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         return relative, relative_velocity
 
     @wp.func
+    def skin_exit(cloud: Cloud, physics: Physics, i: wp.int32, s: wp.int32, position: vec3, velocity: vec3, time: scalar):
+        """When pellet i, at `position` with `velocity` at `time` (a new reference state), is half
+        its shot's skin from where its list was built (relative to the frame its motion is a
+        straight line: gravity cancels); `time` if it is there already and moving out."""
+        gravity = physics.gravity
+        moved = position - drift_point(cloud, s, time, gravity) - cloud.build_offset[i]
+        relative_velocity = velocity - ballistic_velocity(cloud.drift_velocity[s], gravity, time)
+        half_skin = cloud.half_skin[s]
+        a = wp.dot(relative_velocity, relative_velocity)
+        b = wp.dot(moved, relative_velocity)
+        c = wp.dot(moved, moved) - half_skin * half_skin
+        if a <= scalar(0.0):
+            if c < scalar(0.0):
+                return NEVER
+            return time
+        if c >= scalar(0.0) and b >= scalar(0.0):
+            return time
+        root = wp.sqrt(wp.max(b * b - a * c, scalar(0.0)))
+        if b <= scalar(0.0):
+            return time + (root - b) / a  # the later root (no cancellation: -b >= 0)
+        return time - c / (b + root)  # the same root, written without cancellation (c < 0 here)
+
+    @wp.func
     def stepping(cloud: Cloud, i: wp.int32, s: wp.int32):
         """Pellet i of shot s takes part in this step."""
         return cloud.phase[i] == FLYING and cloud.shot_flags[s, SHOT_DONE] == 0 and cloud.shot_flags[s, SHOT_STALL] == 0
@@ -178,6 +206,42 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         cloud.time[i] = time
 
     @wp.func
+    def plane_outcome(
+        i: wp.int32, k: wp.int32, wait: scalar,
+        position: vec3, velocity: vec3, spin: vec3, time: scalar,
+        cloud: Cloud, surfaces: Surfaces, physics: Physics,
+    ):
+        """What plane_contact does to pellet i, without doing it: its position, velocity before
+        and after, spin after, slipped, the contact time, whether it flies on, whether it is an
+        impact (not the end of its flight)."""
+        gravity = physics.gravity
+        position = ballistic_position(position, velocity, gravity, wait)
+        velocity = ballistic_velocity(velocity, gravity, wait)
+        time = time + wait
+        normal = surfaces.normal[k]
+        normal_speed = wp.dot(velocity, normal)
+        flying = wp.int32(1)
+        impacted = wp.int32(0)
+        velocity_after = velocity
+        spin_after = spin
+        slipped = wp.int32(0)
+        if cloud.impacts[i] >= wp.static(BOUNCES):
+            flying = wp.int32(0)  # the landing after the last ricochet
+        elif normal_speed >= scalar(0.0) or normal_speed * normal_speed <= CLOSING_TOLERANCE2 * wp.dot(velocity, velocity):
+            flying = wp.int32(0)  # no closing speed: it stays on the surface
+        else:
+            velocity_after, spin_after, slipped = impact_law(
+                velocity, spin, normal, physics.radius, physics.inertia_factor,
+                surfaces.restitution[k], surfaces.mu_s[k], surfaces.mu_d[k],
+                wp.dot(gravity, normal) * physics.impact_duration,
+            )
+            impacted = wp.int32(1)
+            leaving = wp.dot(velocity_after, normal)  # E = 0, up to rounding of the speed before: it stays on the surface
+            if leaving * leaving <= CLOSING_TOLERANCE2 * wp.dot(velocity, velocity):
+                flying = wp.int32(0)
+        return position, velocity, velocity_after, spin_after, slipped, time, flying, impacted
+
+    @wp.func
     def plane_contact(
         i: wp.int32, k: wp.int32, wait: scalar,
         position: vec3, velocity: vec3, spin: vec3, time: scalar,
@@ -186,25 +250,13 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         """Pellet i (reference state at `time`) meets plane k `wait` later: an impact (eqs. 1-25,
         exactly as the core kernel), or the end of its flight (its contact after `bounces`
         ricochets, or no closing speed). Returns the new reference state and whether it flies on."""
-        gravity = physics.gravity
         radius = physics.radius
-        position = ballistic_position(position, velocity, gravity, wait)
-        velocity = ballistic_velocity(velocity, gravity, wait)
-        time = time + wait
+        position, velocity, velocity_after, spin_after, slipped, time, flying, impacted = plane_outcome(
+            i, k, wait, position, velocity, spin, time, cloud, surfaces, physics
+        )
         normal = surfaces.normal[k]
-        normal_speed = wp.dot(velocity, normal)
         impacts = cloud.impacts[i]
-        flying = wp.int32(1)
-        if impacts >= wp.static(BOUNCES):
-            flying = wp.int32(0)  # the landing after the last ricochet
-        elif normal_speed >= scalar(0.0) or normal_speed * normal_speed <= CLOSING_TOLERANCE2 * wp.dot(velocity, velocity):
-            flying = wp.int32(0)  # no closing speed: it stays on the surface
-        else:
-            velocity_after, spin_after, slipped = impact_law(
-                velocity, spin, normal, radius, physics.inertia_factor,
-                surfaces.restitution[k], surfaces.mu_s[k], surfaces.mu_d[k],
-                wp.dot(gravity, normal) * physics.impact_duration,
-            )
+        if impacted != 0:
             if wp.static(WRITE):
                 write_impact(out, i, impacts, time, position, velocity, spin, velocity_after, spin_after, slipped, k)
             if impacts == 0:
@@ -219,12 +271,8 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             cloud.ricochet_point[i] = position - radius * normal
             cloud.ricochet_time[i] = time
             cloud.touching[i] = k
-            speed_before2 = wp.dot(velocity, velocity)
             velocity = velocity_after
             spin = spin_after
-            leaving = wp.dot(velocity, normal)  # E = 0, up to rounding of the speed before: it stays on the surface
-            if leaving * leaving <= CLOSING_TOLERANCE2 * speed_before2:
-                flying = wp.int32(0)
         if flying == 0:
             cloud.phase[i] = ENDED
             cloud.end_surface[i] = k
@@ -292,6 +340,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             cloud.clock[s, c] = scalar(0.0)
         cloud.clock[s, CLOCK_NEXT] = NEVER
         cloud.clock[s, CLOCK_CUT] = NEVER
+        cloud.clock[s, CLOCK_SKIN] = NEVER
         _flying, passing = recentre(pair, physics, cloud, s, scalar(0.0))
         last_arrival = scalar(0.0)
         first = s * pair.count
@@ -402,6 +451,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         cloud.clock[s, CLOCK_STEP] = step
         cloud.clock[s, CLOCK_DRIFT] = scalar(0.0)
         cloud.clock[s, CLOCK_CUT] = NEVER
+        cloud.clock[s, CLOCK_SKIN] = NEVER
 
     @wp.kernel(**opts)
     def plan_kernel(pair: Pair, physics: Physics, cloud: Cloud):
@@ -531,17 +581,23 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
     @wp.func
     def step_end_of(cloud: Cloud, s: wp.int32):
         """Where the shot's step ends: its full step, or the earliest pair event its rounds left
-        unresolved (but at least MIN_CUT_FRACTION of the step)."""
+        unresolved (but at least MIN_CUT_FRACTION of the step), or the earliest time a pellet
+        changed in the step leaves its skin (no minimum there: no pellet outruns its list)."""
         time = cloud.clock[s, CLOCK_TIME]
         step = cloud.clock[s, CLOCK_STEP]
-        return time + wp.max(wp.min(step, cloud.clock[s, CLOCK_CUT] - time), step * scalar(MIN_CUT_FRACTION))
+        cut = time + wp.max(wp.min(step, cloud.clock[s, CLOCK_CUT] - time), step * scalar(MIN_CUT_FRACTION))
+        return wp.min(cut, cloud.clock[s, CLOCK_SKIN])
 
     @wp.func(inline=True)
-    def resolve_pellet(i: wp.int32, round: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs):
+    def resolve_pellet(i: wp.int32, round: wp.int32, apply: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics,
+                       cloud: Cloud, out: Outputs):
         """Apply each pellet's event if it falls in the step: a plane event, or a pair event both
         pellets chose (mutual), applied by the lower row's thread to both. A pellet takes part in
-        at most one event per round, so every state is read and written by one thread only. A
-        round after one that applied nothing has nothing to apply."""
+        at most one event per round, so every state is read and written by one thread only.
+        First (apply = 0) every event of the round is only looked at: the earliest time a pellet
+        it changes would leave its skin ends the step, and (apply = 1) only events up to that time
+        are applied, so no pellet outruns its list (the skin was sized for the motion known at
+        the step's start; a plane rebound can be far faster)."""
         s = i / pair.count
         if not stepping(cloud, i, s):
             return
@@ -550,12 +606,26 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             return
         step_start = cloud.clock[s, CLOCK_TIME]
         step_end = step_start + cloud.clock[s, CLOCK_STEP]
+        # (wp.static for CLOCK_SKIN here: Warp 1.19 merges a module constant used inside a branch
+        # that returns into a variable set only on that path, and a later use on another path
+        # read it unset: a wrong index into the clock)
+        skin_limit = cloud.clock[s, wp.static(CLOCK_SKIN)]
         when = cloud.event_time[i]
         gravity = physics.gravity
         if partner <= -2:
             if when <= step_end:
-                if plane_contacts_until(i, step_end, 1, cloud, surfaces, physics, out) > 0:  # the one it chose
-                    cloud.round_applied[round] = 1
+                if apply == 0:
+                    wait, k = next_contact(cloud.position[i], cloud.velocity[i], gravity, physics.radius, surfaces.point,
+                                           surfaces.normal, cloud.touching[i])  # (the one it chose)
+                    position, _velocity, velocity_after, _spin, _slipped, time, flying, impacted = plane_outcome(
+                        i, k, wait, cloud.position[i], cloud.velocity[i], cloud.angular_velocity[i], cloud.time[i],
+                        cloud, surfaces, physics
+                    )
+                    if flying != 0 and impacted != 0:
+                        wp.atomic_min(cloud.clock, s, wp.static(CLOCK_SKIN), skin_exit(cloud, physics, i, s, position, velocity_after, time))
+                elif when <= skin_limit:
+                    if plane_contacts_until(i, step_end, 1, cloud, surfaces, physics, out) > 0:  # the one it chose
+                        cloud.round_applied[round] = 1
             return
         if when >= step_end or cloud.event_partner[partner] != i or cloud.phase[partner] != FLYING:
             return
@@ -582,6 +652,12 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             xa, va, wa, physics.radius, pair.mass, xb, vb, wb, physics.radius, pair.mass,
             physics.inertia_factor, restitution, pair.mu_s, pair.mu_d,
         )
+        if apply == 0:
+            exit = wp.min(skin_exit(cloud, physics, a, s, xa, va2, when), skin_exit(cloud, physics, b, s, xb, vb2, when))
+            wp.atomic_min(cloud.clock, s, wp.static(CLOCK_SKIN), exit)
+            return
+        if when > skin_limit:
+            return  # after a pellet changed in this round leaves its skin: the next step
         if collided != 0:
             # kinetic energy the pair lost; each pellet books half
             before = pair.mass * (wp.dot(va, va) + wp.dot(vb, vb)) + pair.inertia * (wp.dot(wa, wa) + wp.dot(wb, wb))
@@ -604,12 +680,13 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         mark_stale(cloud, b)
 
     @wp.kernel(**opts)
-    def resolve_kernel(round: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs):
+    def resolve_kernel(round: wp.int32, apply: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud,
+                       out: Outputs):
         if round > 0 and cloud.round_applied[round - 1] == 0:
             return  # a round after one that applied nothing has nothing to apply
         t = wp.tid()
         for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
-            resolve_pellet(i, round, pair, surfaces, physics, cloud, out)
+            resolve_pellet(i, round, apply, pair, surfaces, physics, cloud, out)
 
     @wp.func(inline=True)
     def finish_pellet(i: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs):
@@ -650,7 +727,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
                      out: Outputs):
         """The CPU's block of steps in one launch (one thread): each step is the per-step
         kernels' work in their order. A CPU kernel runs its threads one after another anyway, so
-        the results are those of the per-step kernels (tested), without 13 launches a step."""
+        the results are those of the per-step kernels (tested), without 18 launches a step."""
         shots = pair.pellets / pair.count
         for _ in range(steps):
             for i in range(pair.pellets):
@@ -664,7 +741,9 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
                     for i in range(pair.pellets):
                         choose_pellet(i, 0, pair, surfaces, physics, cloud)
                     for i in range(pair.pellets):
-                        resolve_pellet(i, r, pair, surfaces, physics, cloud, out)
+                        resolve_pellet(i, r, 0, pair, surfaces, physics, cloud, out)
+                    for i in range(pair.pellets):
+                        resolve_pellet(i, r, 1, pair, surfaces, physics, cloud, out)
             for i in range(pair.pellets):
                 choose_pellet(i, 1, pair, surfaces, physics, cloud)
             for i in range(pair.pellets):
@@ -772,6 +851,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         cloud.shot_flags[s, SHOT_STALL] = 0
         cloud.clock[s, CLOCK_NEXT] = NEVER
         cloud.clock[s, CLOCK_CUT] = NEVER
+        cloud.clock[s, CLOCK_SKIN] = NEVER
 
     @wp.kernel(**opts)
     def release_kernel(pair: Pair, physics: Physics, cloud: Cloud):
@@ -988,7 +1068,8 @@ class DensePhase:
         ]
         for r in range(self.rounds):
             commands.append(self._launch("choose", threads, [r, 0, p, m.surfaces, m.physics, c], True))
-            commands.append(self._launch("resolve", threads, [r, p, m.surfaces, m.physics, c, outputs], True))
+            for apply in (0, 1):  # look at the round's events, then apply those before any skin is left
+                commands.append(self._launch("resolve", threads, [r, apply, p, m.surfaces, m.physics, c, outputs], True))
         # events still ahead after the rounds: the step ends at the earliest (no pellet flies into its partner)
         commands.append(self._launch("choose", threads, [self.rounds, 1, p, m.surfaces, m.physics, c], True))
         commands.append(self._launch("finish", threads, [p, m.surfaces, m.physics, c, outputs], True))
@@ -1207,7 +1288,8 @@ def run_collision_scene(scene, model, *, writer=None, progress=None, source=None
     return stats
 
 
-# seen: the paper's shot on a surface of restitution 0.9 (1.24 half skins, 4 shots of 450 pellets)
+# before the step ended at the earliest skin exit, seen on the paper's shot on a surface of
+# restitution 0.9 (1.24 half skins); since then only a planted one (tests)
 SKIN_OVERRUN = ("a pellet moved {:.2f} half skins between neighbour-list builds (an event in a step, such as a plane "
                 "rebound, made it faster than the step allowed for): a pair contact beyond the lists could have been "
                 "missed; lower collisions.step_fraction, raise collisions.skin, or set a collisions.time_step short "
