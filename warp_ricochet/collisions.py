@@ -29,8 +29,9 @@ a few reads.
 
 On the CPU a kernel runs on one thread anyway, and entering a Warp kernel thread costs more
 than a quiet pellet's step (its struct arguments and locals are set up per thread), so the
-per-pellet kernels loop over `pair.span` pellets per thread: all of them on the CPU, one on
-CUDA.
+per-pellet kernels loop over `pair.span` pellets per thread (all of them on the CPU, one on
+CUDA), and on the CPU a whole block of steps is one launch of `block_kernel`, which runs the same
+per-pellet functions in the order the per-step kernels do.
 
 A round first looks at its events without applying them: the earliest time a pellet they change
 would leave its skin ends the step, and only events up to it are applied (a plane rebound can be
@@ -38,9 +39,9 @@ far faster than the step was sized for).
 
 Neighbour lists (reach 2R + skin) are built from a `wp.HashGrid` in co-moving coordinates
 (positions relative to each shot's ballistic drift; the grid's groups keep shots apart, so
-overlapping shots cost nothing) and rebuilt only when a pellet could move by half the skin
-relative to the drift (checked before each step; a step that could break a list waits for the
-rebuild). The adaptive step depends on the shot's own speeds only, so its results do not depend
+overlapping shots cost nothing) and a shot's lists are rebuilt only when it needs it: a pellet
+could move by half the skin relative to the drift (checked before each step; a step that could
+break a list waits for the rebuild), or its frame was recentred at a checkpoint. The adaptive step depends on the shot's own speeds only, so its results do not depend
 on when lists are rebuilt, or on the other shots.
 
 At checkpoints (every `block_steps` of its own steps) a shot stops stepping once its arrival
