@@ -33,9 +33,9 @@ per-pellet kernels loop over `pair.span` pellets per thread (all of them on the 
 CUDA), and on the CPU a whole block of steps is one launch of `block_kernel`, which runs the same
 per-pellet functions in the order the per-step kernels do.
 
-A round first looks at its events without applying them: the earliest time a pellet they change
-would leave its skin ends the step, and only events up to it are applied (a plane rebound can be
-far faster than the step was sized for).
+Each pellet keeps, with its event, when it would leave its skin after it; the earliest of those
+among a round's events in the step ends the step, and only events up to it are applied (a plane
+rebound can be far faster than the step was sized for).
 
 Neighbour lists (reach 2R + skin) are built from a `wp.HashGrid` in co-moving coordinates
 (positions relative to each shot's ballistic drift; the grid's groups keep shots apart, so
@@ -522,6 +522,33 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             mark_stale(cloud, i)
         return contacts
 
+    @wp.func
+    def pair_outcome(a: wp.int32, b: wp.int32, when: scalar, pair: Pair, physics: Physics, cloud: Cloud):
+        """The pair law for pellets a < b meeting at `when`, not applied: their states then and
+        their velocities and spins after."""
+        gravity = physics.gravity
+        # TC model: a pellet hit again within the contact duration rebounds elastically
+        restitution = pair.restitution
+        last_a = cloud.last_collision[a]
+        last_b = cloud.last_collision[b]
+        if (not wp.isnan(last_a) and when - last_a <= pair.contact_duration) or (
+            not wp.isnan(last_b) and when - last_b <= pair.contact_duration
+        ):  # (<=, as collision_reference)
+            restitution = scalar(1.0)
+        age_a = when - cloud.time[a]
+        age_b = when - cloud.time[b]
+        xa = ballistic_position(cloud.position[a], cloud.velocity[a], gravity, age_a)
+        va = ballistic_velocity(cloud.velocity[a], gravity, age_a)
+        wa = cloud.angular_velocity[a]
+        xb = ballistic_position(cloud.position[b], cloud.velocity[b], gravity, age_b)
+        vb = ballistic_velocity(cloud.velocity[b], gravity, age_b)
+        wb = cloud.angular_velocity[b]
+        va2, wa2, vb2, wb2, collided, _slipped = pair_law(
+            xa, va, wa, physics.radius, pair.mass, xb, vb, wb, physics.radius, pair.mass,
+            physics.inertia_factor, restitution, pair.mu_s, pair.mu_d,
+        )
+        return xa, va, wa, xb, vb, wb, va2, wa2, vb2, wb2, collided
+
     @wp.func(inline=True)
     def choose_pellet(i: wp.int32, look: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
         """Each flying pellet's earliest event: its next plane contact, or contact with a listed
@@ -529,11 +556,14 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         stale (it or a neighbour changed, or its list was rebuilt): a pair's time is computed
         from the later of the two reference times, as in collision_reference, so it is one
         number whoever asks and whenever, and a kept event is the one a new search would find.
+        With its event it keeps when it would leave its skin after it (as if applied: a pair as
+        if both chose it), and each round the earliest of those among events in the step is the
+        round's skin limit (resolve_pellet applies no event after it; the step ends there).
         `look` (after the last round): pair events still ahead in the step cut it, so no pellet
         flies past an event left unresolved (into its partner). A round after one that applied
         nothing has nothing to do (no pellet is stale, every choice is the same)."""
-        if cloud.stale[i] == 0 and (look == 0 or cloud.event_partner[i] < 0):
-            return  # most pellets: nothing to do, found with one or two reads
+        if cloud.stale[i] == 0 and cloud.event_partner[i] == -1:
+            return  # nothing ahead
         s = i / pair.count
         if not stepping(cloud, i, s):
             return
@@ -566,10 +596,28 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
                             best = j
             cloud.event_time[i] = best_time
             cloud.event_partner[i] = best
-        if look != 0 and cloud.event_partner[i] >= 0:
-            step_start = cloud.clock[s, CLOCK_TIME]
-            if cloud.event_time[i] < step_start + cloud.clock[s, CLOCK_STEP]:
-                wp.atomic_min(cloud.clock, s, CLOCK_CUT, wp.max(cloud.event_time[i], step_start))
+            exit = NEVER
+            if best <= -2:
+                at, _v, velocity_after, _w, _slipped, contact, flying, impacted = plane_outcome(
+                    i, k, wait, position, velocity, cloud.angular_velocity[i], time, cloud, surfaces, physics
+                )
+                if flying != 0 and impacted != 0:
+                    exit = skin_exit(cloud, physics, i, s, at, velocity_after, contact)
+            elif best >= 0:
+                a = wp.min(i, best)
+                xa, _va, _wa, xb, _vb, _wb, va2, _wa2, vb2, _wb2, _collided = pair_outcome(a, wp.max(i, best), best_time, pair, physics, cloud)
+                if i == a:
+                    exit = skin_exit(cloud, physics, i, s, xa, va2, best_time)
+                else:
+                    exit = skin_exit(cloud, physics, i, s, xb, vb2, best_time)
+            cloud.event_exit[i] = exit
+        step_start = cloud.clock[s, wp.static(CLOCK_TIME)]
+        step_end = step_start + cloud.clock[s, wp.static(CLOCK_STEP)]
+        if cloud.event_time[i] <= step_end:
+            if look == 0:
+                wp.atomic_min(cloud.clock, s, wp.static(CLOCK_SKIN), cloud.event_exit[i])
+            elif cloud.event_partner[i] >= 0 and cloud.event_time[i] < step_end:
+                wp.atomic_min(cloud.clock, s, wp.static(CLOCK_CUT), wp.max(cloud.event_time[i], step_start))
 
     @wp.kernel(**opts)
     def choose_kernel(round: wp.int32, look: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
@@ -590,15 +638,15 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         return wp.min(cut, cloud.clock[s, CLOCK_SKIN])
 
     @wp.func(inline=True)
-    def resolve_pellet(i: wp.int32, round: wp.int32, apply: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics,
-                       cloud: Cloud, out: Outputs):
+    def resolve_pellet(i: wp.int32, round: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud,
+                       out: Outputs):
         """Apply each pellet's event if it falls in the step: a plane event, or a pair event both
         pellets chose (mutual), applied by the lower row's thread to both. A pellet takes part in
         at most one event per round, so every state is read and written by one thread only.
-        First (apply = 0) every event of the round is only looked at: the earliest time a pellet
-        it changes would leave its skin ends the step, and (apply = 1) only events up to that time
-        are applied, so no pellet outruns its list (the skin was sized for the motion known at
-        the step's start; a plane rebound can be far faster)."""
+        Only events up to the round's skin limit are applied (choose_pellet: the earliest time a
+        pellet changed by an event of the round would leave its skin), so no pellet outruns its
+        list (the skin was sized for the motion known at the step's start; a plane rebound can be
+        far faster)."""
         s = i / pair.count
         if not stepping(cloud, i, s):
             return
@@ -614,49 +662,16 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         when = cloud.event_time[i]
         gravity = physics.gravity
         if partner <= -2:
-            if when <= step_end:
-                if apply == 0:
-                    wait, k = next_contact(cloud.position[i], cloud.velocity[i], gravity, physics.radius, surfaces.point,
-                                           surfaces.normal, cloud.touching[i])  # (the one it chose)
-                    position, _velocity, velocity_after, _spin, _slipped, time, flying, impacted = plane_outcome(
-                        i, k, wait, cloud.position[i], cloud.velocity[i], cloud.angular_velocity[i], cloud.time[i],
-                        cloud, surfaces, physics
-                    )
-                    if flying != 0 and impacted != 0:
-                        wp.atomic_min(cloud.clock, s, wp.static(CLOCK_SKIN), skin_exit(cloud, physics, i, s, position, velocity_after, time))
-                elif when <= skin_limit:
-                    if plane_contacts_until(i, step_end, 1, cloud, surfaces, physics, out) > 0:  # the one it chose
-                        cloud.round_applied[round] = 1
+            if when <= step_end and when <= skin_limit:
+                if plane_contacts_until(i, step_end, 1, cloud, surfaces, physics, out) > 0:  # the one it chose
+                    cloud.round_applied[round] = 1
             return
         if when >= step_end or cloud.event_partner[partner] != i or cloud.phase[partner] != FLYING:
             return
         a = i
         b = partner
         when = wp.max(when, step_start)  # (an event the step passed after a cut at MIN_CUT_FRACTION)
-        # TC model: a pellet hit again within the contact duration rebounds elastically
-        restitution = pair.restitution
-        last_a = cloud.last_collision[a]
-        last_b = cloud.last_collision[b]
-        if (not wp.isnan(last_a) and when - last_a <= pair.contact_duration) or (
-            not wp.isnan(last_b) and when - last_b <= pair.contact_duration
-        ):  # (<=, as collision_reference)
-            restitution = scalar(1.0)
-        age_a = when - cloud.time[a]
-        age_b = when - cloud.time[b]
-        xa = ballistic_position(cloud.position[a], cloud.velocity[a], gravity, age_a)
-        va = ballistic_velocity(cloud.velocity[a], gravity, age_a)
-        wa = cloud.angular_velocity[a]
-        xb = ballistic_position(cloud.position[b], cloud.velocity[b], gravity, age_b)
-        vb = ballistic_velocity(cloud.velocity[b], gravity, age_b)
-        wb = cloud.angular_velocity[b]
-        va2, wa2, vb2, wb2, collided, _slipped = pair_law(
-            xa, va, wa, physics.radius, pair.mass, xb, vb, wb, physics.radius, pair.mass,
-            physics.inertia_factor, restitution, pair.mu_s, pair.mu_d,
-        )
-        if apply == 0:
-            exit = wp.min(skin_exit(cloud, physics, a, s, xa, va2, when), skin_exit(cloud, physics, b, s, xb, vb2, when))
-            wp.atomic_min(cloud.clock, s, wp.static(CLOCK_SKIN), exit)
-            return
+        xa, va, wa, xb, vb, wb, va2, wa2, vb2, wb2, collided = pair_outcome(a, b, when, pair, physics, cloud)
         if when > skin_limit:
             return  # after a pellet changed in this round leaves its skin: the next step
         if collided != 0:
@@ -681,13 +696,12 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         mark_stale(cloud, b)
 
     @wp.kernel(**opts)
-    def resolve_kernel(round: wp.int32, apply: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud,
-                       out: Outputs):
+    def resolve_kernel(round: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs):
         if round > 0 and cloud.round_applied[round - 1] == 0:
             return  # a round after one that applied nothing has nothing to apply
         t = wp.tid()
         for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
-            resolve_pellet(i, round, apply, pair, surfaces, physics, cloud, out)
+            resolve_pellet(i, round, pair, surfaces, physics, cloud, out)
 
     @wp.func(inline=True)
     def finish_pellet(i: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs):
@@ -742,9 +756,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
                     for i in range(pair.pellets):
                         choose_pellet(i, 0, pair, surfaces, physics, cloud)
                     for i in range(pair.pellets):
-                        resolve_pellet(i, r, 0, pair, surfaces, physics, cloud, out)
-                    for i in range(pair.pellets):
-                        resolve_pellet(i, r, 1, pair, surfaces, physics, cloud, out)
+                        resolve_pellet(i, r, pair, surfaces, physics, cloud, out)
             for i in range(pair.pellets):
                 choose_pellet(i, 1, pair, surfaces, physics, cloud)
             for i in range(pair.pellets):
@@ -967,7 +979,7 @@ class DensePhase:
                      "launch_velocity", "launch_angular_velocity", "grid_point", "build_offset", "now_position",
                      "now_velocity"):
             setattr(cloud, name, arr(vec3))
-        for name in ("time", "ricochet_time", "energy_lost", "event_time", "last_collision", "now_speed"):
+        for name in ("time", "ricochet_time", "energy_lost", "event_time", "event_exit", "last_collision", "now_speed"):
             setattr(cloud, name, arr(scalar))
         for name in ("phase", "end_surface", "touching", "impacts", "last_slipped", "first_surface", "first_slipped",
                      "collision_count", "event_partner", "stale", "neighbour_count"):
@@ -1069,8 +1081,7 @@ class DensePhase:
         ]
         for r in range(self.rounds):
             commands.append(self._launch("choose", threads, [r, 0, p, m.surfaces, m.physics, c], True))
-            for apply in (0, 1):  # look at the round's events, then apply those before any skin is left
-                commands.append(self._launch("resolve", threads, [r, apply, p, m.surfaces, m.physics, c, outputs], True))
+            commands.append(self._launch("resolve", threads, [r, p, m.surfaces, m.physics, c, outputs], True))
         # events still ahead after the rounds: the step ends at the earliest (no pellet flies into its partner)
         commands.append(self._launch("choose", threads, [self.rounds, 1, p, m.surfaces, m.physics, c], True))
         commands.append(self._launch("finish", threads, [p, m.surfaces, m.physics, c, outputs], True))

@@ -130,6 +130,7 @@ def types_for(precision: str) -> SimpleNamespace:
         # each pellet's earliest event (plane or listed pair), kept until it or a neighbour changes
         event_time: wp.array(dtype=scalar)  # s since launch
         event_partner: wp.array(dtype=wp.int32)  # pellet row, -2 - plane, -1 none
+        event_exit: wp.array(dtype=scalar)  # s: when the pellet would leave its skin after that event
         stale: wp.array(dtype=wp.int32)  # 1: the event above must be found again
         round_applied: wp.array(dtype=wp.int32)  # (rounds,) 1: round r of this step applied an event
         # states at a shot's checkpoint (horizon_kernel: each is read by O(count) pairs)
