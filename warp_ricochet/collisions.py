@@ -742,7 +742,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
                      out: Outputs):
         """The CPU's block of steps in one launch (one thread): each step is the per-step
         kernels' work in their order. A CPU kernel runs its threads one after another anyway, so
-        the results are those of the per-step kernels (tested), without 18 launches a step."""
+        the results are those of the per-step kernels (tested), without 14 launches a step."""
         shots = pair.pellets / pair.count
         for _ in range(steps):
             for i in range(pair.pellets):
