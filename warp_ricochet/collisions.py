@@ -614,9 +614,9 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         step_start = cloud.clock[s, wp.static(CLOCK_TIME)]
         step_end = step_start + cloud.clock[s, wp.static(CLOCK_STEP)]
         if cloud.event_time[i] <= step_end:
-            if look == 0:
-                wp.atomic_min(cloud.clock, s, wp.static(CLOCK_SKIN), cloud.event_exit[i])
-            elif cloud.event_partner[i] >= 0 and cloud.event_time[i] < step_end:
+            # (after the last round too: finish_kernel applies the plane contacts left in the step)
+            wp.atomic_min(cloud.clock, s, wp.static(CLOCK_SKIN), cloud.event_exit[i])
+            if look != 0 and cloud.event_partner[i] >= 0 and cloud.event_time[i] < step_end:
                 wp.atomic_min(cloud.clock, s, wp.static(CLOCK_CUT), wp.max(cloud.event_time[i], step_start))
 
     @wp.kernel(**opts)
@@ -1140,9 +1140,9 @@ class DensePhase:
 
 def dense_bytes_per_pellet(precision: str, max_neighbours: int) -> int:
     """Bytes per pellet of the dense phase's device arrays, release outputs included: 17
-    vectors, 8 scalars, 12 integers and the neighbour list."""
+    vectors, 9 scalars, 12 integers and the neighbour list."""
     size = 4 if precision == "float32" else 8
-    return 3 * size * 17 + size * 8 + 4 * (12 + max_neighbours)
+    return 3 * size * 17 + size * 9 + 4 * (12 + max_neighbours)
 
 
 CPU_CHUNK_PELLETS = 1 << 20  # CPU: pellets per chunk of the dense phase
