@@ -3,7 +3,7 @@
 A collision run computes chunks of whole shots, each but the last a multiple of
 `collisions.shot_granule` shots (whole statistics segments of slots): here 5 pellets a shot, so a
 chunk is 8,192 shots (40,960 pellets). The scene is the paper's shot lowered to 5 cm above a
-livelier ground, with a fixed 0.5 ms step and one event round per step, so a chunk takes about 1.5 s
+livelier ground, with a fixed 0.5 ms step and one event round per step, so a chunk takes about 0.6 s
 on the CPU and a few percent of the pellets collide. Each case compares every per-pellet dataset,
 every statistic and the stored partials bitwise with one uninterrupted run (`reference`).
 """
@@ -158,16 +158,21 @@ def test_a_chunk_written_but_not_committed_is_computed_again(tmp_path, monkeypat
 
 
 def test_sigkill_then_resume_is_bitwise_identical(tmp_path, reference):
-    """A real SIGKILL once a chunk is complete (HDF5's flags of a killed writer set), then --resume."""
-    out = tmp_path / "k.h5"
-    proc = subprocess.Popen([sys.executable, "-m", "warp_ricochet.cli", "run", SCENE, *ARGS, "-o", str(out)],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=ENV)
-    partial = Path(str(out) + ".partial")
-    wait_for_a_chunk(proc, partial, timeout=120)
-    proc.send_signal(signal.SIGKILL)
-    proc.communicate(timeout=60)
-    if out.exists():
-        pytest.skip("the run ended before SIGKILL")
+    """A real SIGKILL once a chunk is complete (HDF5's flags of a killed writer set), then --resume.
+    The kill must land in the half second the rest of the run takes after its first chunk: a run
+    that ended first is tried again (up to 3 times) before the test gives up."""
+    for attempt in range(3):
+        out = tmp_path / f"k{attempt}.h5"
+        proc = subprocess.Popen([sys.executable, "-m", "warp_ricochet.cli", "run", SCENE, *ARGS, "-o", str(out)],
+                                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=ENV)
+        partial = Path(str(out) + ".partial")
+        wait_for_a_chunk(proc, partial, timeout=120)
+        proc.send_signal(signal.SIGKILL)
+        proc.communicate(timeout=60)
+        if not out.exists():
+            break
+    else:
+        pytest.skip("the run ended before SIGKILL, 3 times")
     with h5py.File(partial, "r", swmr=True) as f:
         assert f.attrs["status"] == "running"  # never closed
     assert check_partial(partial, reference, swmr=True) > 0
