@@ -203,15 +203,11 @@ def profile(args):
             return result
         return wrapper
 
-    originals = {name: getattr(DensePhase, name) for name in ("_rebuild", "_block", "_launch")}
-    other = timed("other launches (launch, drift, horizon, settle, release, totals)", originals["_launch"])
-
-    def launch(self, name, *a, **k):  # the rebuild's own launches are timed with it
-        return (originals["_launch"] if name in ("grid_points", "neighbours") else other)(self, name, *a, **k)
-
-    DensePhase._rebuild = timed("rebuild (grid points, HashGrid.build, neighbours)", originals["_rebuild"])
+    originals = {name: getattr(DensePhase, name) for name in ("_rebuild", "_block", "_checkpoint", "_launch")}
+    DensePhase._rebuild = timed("rebuild (CPU: cell lists; CUDA: grid points, HashGrid.build, neighbours)", originals["_rebuild"])
     DensePhase._block = timed("block of steps (graph or replay)", originals["_block"])
-    DensePhase._launch = launch
+    DensePhase._checkpoint = timed("checkpoint (now, horizon, settle; flags to the host)", originals["_checkpoint"])
+    DensePhase._launch = timed("other launches (launch, drift, release, totals; recording)", originals["_launch"])
     try:
         start = time.perf_counter()
         stats = api.run(scene, device=args.device)

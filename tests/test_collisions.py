@@ -410,6 +410,43 @@ def test_the_cpu_block_kernel_is_the_per_step_kernels(tmp_path, monkeypatch):
     assert per_step[1] == fused[1]
 
 
+def _lists_at_every_rebuild(scene, monkeypatch, cell_lists):
+    """Run `scene` on the CPU with its lists from cell_lists_kernel or from wp.HashGrid, and
+    return each rebuild's lists (each pellet's sorted list)."""
+    from warp_ricochet.collisions import DensePhase
+
+    lists = []
+    monkeypatch.undo()  # (the DensePhase of an earlier call)
+    rebuild = DensePhase._rebuild
+
+    def recording(self, pellets):
+        grew = rebuild(self, pellets)
+        count = self.cloud.neighbour_count.numpy()[:pellets]
+        table = self.cloud.neighbours.numpy()[:pellets]
+        lists.append([tuple(sorted(table[i, :count[i]])) for i in range(pellets)])
+        return grew
+
+    monkeypatch.setattr(DensePhase, "CELL_LISTS_ON_CPU", cell_lists)
+    monkeypatch.setattr(DensePhase, "_rebuild", recording)
+    api.run(scene, device="cpu")
+    return lists
+
+
+@pytest.mark.parametrize("max_neighbours", [32, 2])
+def test_the_cpu_cell_lists_are_the_hash_grid_lists(monkeypatch, max_neighbours):
+    """On the CPU the lists come from a cell list (wp.HashGrid's CPU build has a fixed cost of a
+    few tenths of a millisecond); at every rebuild of a run, every pellet's list holds the same
+    pellets as wp.HashGrid's: three shots from one muzzle (they overlap in space: each must see
+    only its own), pellets that ended, shots that stopped, lists that overflow and grow."""
+    scene = _paper_collisions(count=60, shots=3, max_neighbours=max_neighbours)
+    cell = _lists_at_every_rebuild(scene, monkeypatch, True)
+    grid = _lists_at_every_rebuild(scene, monkeypatch, False)
+    assert len(cell) == len(grid) > 20
+    assert max(len(n) for rebuild in grid for n in rebuild) > 5  # dense at first
+    for number, (a, b) in enumerate(zip(cell, grid)):
+        assert a == b, f"rebuild {number}"
+
+
 @wp.kernel(enable_backward=False)
 def _all_stale(stale: wp.array(dtype=wp.int32)):
     stale[wp.tid()] = 1

@@ -91,7 +91,12 @@ NUM_SHOT_FLAGS = 4
 # hash-grid cells CELL_REACHES reaches wide: a query visits 2 x 2 x 2 cells, not 3 x 3 x 3 (the
 # lists are sparse, about one neighbour per pellet in the paper's shot: the cells cost, not the candidates)
 CELL_REACHES = 2.0
-SKIN_STEPS = 8.0  # the adaptive step lets a list last at least this many steps (a block) at the current speeds
+BLOCK_STEPS = 8  # steps between checkpoints (the host reads three integers there, never inside a block)
+# the adaptive step lets a list last this many steps at the current speeds: a list built at a
+# checkpoint lasts its block with a step to spare (speeds change in a block); with a list that
+# lasted exactly a block, a third of the blocks stalled at their last step for a rebuild one step
+# before the checkpoint's
+SKIN_STEPS = float(BLOCK_STEPS + 1)
 
 
 @functools.cache
@@ -414,6 +419,114 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
                 found = capacity
             cloud.neighbour_count[i] = found
             cloud.stale[i] = 1  # a new list: its earliest event is found again
+
+    @wp.func
+    def cell_bucket(cell: wp.vec3i, mask: wp.uint32):
+        """A cell's bucket in a table of mask + 1 (a power of two) buckets."""
+        h = (wp.uint32(cell[0]) * wp.uint32(73856093)) ^ (wp.uint32(cell[1]) * wp.uint32(19349663)) ^ (wp.uint32(cell[2]) * wp.uint32(83492791))
+        return wp.int32(h & mask)
+
+    @wp.func
+    def cell_of(point: vec3, inverse: wp.float64):
+        """The cell (one reach wide, and a little more) holding a co-moving grid point, in float64:
+        a pellet within reach of another is in one of the 27 cells around it, at any distance
+        from the drift point."""
+        limit = wp.float64(1.0e9)
+        x = wp.clamp(wp.floor(wp.float64(point[0]) * inverse), -limit, limit)
+        y = wp.clamp(wp.floor(wp.float64(point[1]) * inverse), -limit, limit)
+        z = wp.clamp(wp.floor(wp.float64(point[2]) * inverse), -limit, limit)
+        return wp.vec3i(wp.int32(x), wp.int32(y), wp.int32(z))
+
+    @wp.func
+    def list_pair(cloud: Cloud, i: wp.int32, j: wp.int32, capacity: wp.int32):
+        """i and j are neighbours: each goes on the other's list (counted beyond its capacity)."""
+        found = cloud.neighbour_count[i]
+        if found < capacity:
+            cloud.neighbours[i, found] = j
+        cloud.neighbour_count[i] = found + 1
+        found = cloud.neighbour_count[j]
+        if found < capacity:
+            cloud.neighbours[j, found] = i
+        cloud.neighbour_count[j] = found + 1
+
+    @wp.kernel(**opts)
+    def cell_lists_kernel(pair: Pair, physics: Physics, cloud: Cloud, bucket_end: wp.array(dtype=wp.int32),
+                          rows: wp.array(dtype=wp.int32), cells: wp.array(dtype=wp.vec3i)):
+        """The CPU's lists in one launch (one thread): grid_points_kernel and neighbours_kernel
+        over a cell list of each shot being rebuilt, in place of wp.HashGrid, whose CPU build
+        costs a fixed 0.15 to 0.3 ms (two radix passes over 65,536 bins) for any number of
+        points. The same lists (as sets: the same points, the same distance test; no result
+        depends on a list's order): each shot's flying pellets are counting-sorted into hashed
+        cells one reach wide, and each pair is found once, from the lower cell (13 cells and its
+        own around each pellet). `bucket_end` has a power of two plus one entries; `rows` and
+        `cells` one per pellet of a shot and per pellet."""
+        buckets = bucket_end.shape[0] - 1
+        mask = wp.uint32(buckets - 1)
+        capacity = cloud.neighbours.shape[1]
+        shots = pair.pellets / pair.count
+        for s in range(shots):
+            if cloud.shot_flags[s, SHOT_REBUILD] == 0:
+                continue
+            first = s * pair.count
+            time = cloud.clock[s, CLOCK_TIME]
+            origin = drift_point(cloud, s, time, physics.gravity)
+            done = cloud.shot_flags[s, SHOT_DONE] != 0
+            reach = scalar(2.0) * (physics.radius + cloud.half_skin[s])
+            reach2 = reach * reach
+            inverse = wp.float64(1.0) / (wp.float64(reach) * wp.float64(1.001))
+            for b in range(buckets + 1):
+                bucket_end[b] = 0
+            for k in range(pair.count):
+                i = first + k
+                relative = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, time - cloud.time[i]) - origin
+                cloud.build_offset[i] = relative
+                cloud.grid_point[i] = relative
+                cloud.neighbour_count[i] = 0
+                if cloud.phase[i] == FLYING and not done:
+                    cloud.stale[i] = 1  # a new list: its earliest event is found again
+                    cell = cell_of(relative, inverse)
+                    cells[i] = cell
+                    b = cell_bucket(cell, mask)
+                    bucket_end[b + 1] = bucket_end[b + 1] + 1
+            for b in range(buckets):
+                bucket_end[b + 1] = bucket_end[b + 1] + bucket_end[b]
+            # (bucket_end[b] is where bucket b starts; filling moves it to where b ends)
+            for k in range(pair.count):
+                i = first + k
+                if cloud.phase[i] == FLYING and not done:
+                    b = cell_bucket(cells[i], mask)
+                    rows[bucket_end[b]] = i
+                    bucket_end[b] = bucket_end[b] + 1
+            for k in range(pair.count):
+                i = first + k
+                if cloud.phase[i] != FLYING or done:
+                    continue
+                point = cloud.grid_point[i]
+                cell = cells[i]
+                # the cells around it from its own on (dz, dy, dx after 0, 0, 0): each pair once
+                for dz in range(2):
+                    for dy in range(-dz, 2):
+                        for dx in range(-1, 2):
+                            if dz == 0 and dy == 0 and dx < 0:
+                                continue
+                            around = wp.vec3i(cell[0] + dx, cell[1] + dy, cell[2] + dz)
+                            own = dz == 0 and dy == 0 and dx == 0
+                            b = cell_bucket(around, mask)
+                            start = wp.int32(0)
+                            if b > 0:
+                                start = bucket_end[b - 1]
+                            for m in range(start, bucket_end[b]):
+                                j = rows[m]
+                                if (j > i or not own) and cells[j] == around:
+                                    d = cloud.grid_point[j] - point
+                                    if wp.dot(d, d) <= reach2:
+                                        list_pair(cloud, i, j, capacity)
+            for k in range(pair.count):
+                i = first + k
+                found = cloud.neighbour_count[i]
+                if found > capacity:
+                    wp.atomic_max(cloud.flags, FLAG_OVERFLOW, found)
+                    cloud.neighbour_count[i] = capacity
 
     # ------------------------------------------------------------------ one step
 
@@ -742,26 +855,34 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
                      out: Outputs):
         """The CPU's block of steps in one launch (one thread): each step is the per-step
         kernels' work in their order. A CPU kernel runs its threads one after another anyway, so
-        the results are those of the per-step kernels (tested), without 14 launches a step."""
+        the results are those of the per-step kernels (tested), without 14 launches a step.
+        Shots never meet, so it takes them one after another, all its steps each: a shot's
+        pellets stay in cache, and a shot that is done or waits costs nothing."""
         shots = pair.pellets / pair.count
-        for _ in range(steps):
-            for i in range(pair.pellets):
-                bounds_pellet(i, pair, physics, cloud)
-            for s in range(shots):
+        for s in range(shots):
+            first = s * pair.count
+            last = first + pair.count
+            cloud.shot_flags[s, SHOT_REBUILD] = 0  # (as plan_shot: built before this block)
+            for _ in range(steps):
+                if cloud.shot_flags[s, SHOT_DONE] != 0 or cloud.shot_flags[s, SHOT_STALL] != 0:
+                    break  # (until the host's next checkpoint)
+                for i in range(first, last):
+                    bounds_pellet(i, pair, physics, cloud)
                 plan_shot(s, pair, physics, cloud)
-            for i in range(pair.pellets):
-                prepare_pellet(i, pair, physics, cloud)
-            for r in range(rounds):
-                if r == 0 or cloud.round_applied[r - 1] != 0:
-                    for i in range(pair.pellets):
-                        choose_pellet(i, 0, pair, surfaces, physics, cloud)
-                    for i in range(pair.pellets):
-                        resolve_pellet(i, r, pair, surfaces, physics, cloud, out)
-            for i in range(pair.pellets):
-                choose_pellet(i, 1, pair, surfaces, physics, cloud)
-            for i in range(pair.pellets):
-                finish_pellet(i, pair, surfaces, physics, cloud, out)
-            for s in range(shots):
+                for i in range(first, last):
+                    prepare_pellet(i, pair, physics, cloud)
+                # (round_applied is this shot's alone here: a round after one in which the shot
+                # applied nothing is skipped, as the per-step kernels skip one nobody applied in)
+                for r in range(rounds):
+                    if r == 0 or cloud.round_applied[r - 1] != 0:
+                        for i in range(first, last):
+                            choose_pellet(i, 0, pair, surfaces, physics, cloud)
+                        for i in range(first, last):
+                            resolve_pellet(i, r, pair, surfaces, physics, cloud, out)
+                for i in range(first, last):
+                    choose_pellet(i, 1, pair, surfaces, physics, cloud)
+                for i in range(first, last):
+                    finish_pellet(i, pair, surfaces, physics, cloud, out)
                 end_step_shot(s, pair, cloud)
 
     # ------------------------------------------------------------------ end of a block of steps
@@ -917,6 +1038,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
     return dict(
         launch=launch_kernel, drift=drift_kernel, groups=groups_kernel, grid_points=grid_points_kernel, neighbours=neighbours_kernel,
         bounds=bounds_kernel, plan=plan_kernel, prepare=prepare_kernel, choose=choose_kernel,
+        cell_lists=cell_lists_kernel,
         resolve=resolve_kernel, finish=finish_kernel, end_step=end_step_kernel, block=block_kernel, now=now_kernel,
         horizon=horizon_kernel,
         settle=settle_kernel, release=release_kernel, shot_totals=shot_totals_kernel,
@@ -926,7 +1048,6 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
 # ---------------------------------------------------------------------------------------------- host wiring
 
 SHOT_TOTALS = ("collided", "pair_collisions", "pair_energy_lost", "dense_steps", "dense_end_time", "skin_overrun")
-BLOCK_STEPS = 8  # steps between checkpoints (the host reads three integers there, never inside a block)
 
 
 def shot_stride(count: int) -> int:
@@ -1009,7 +1130,6 @@ class DensePhase:
         cloud.shot_count = self.count
         cloud.shot_stride = shot_stride(self.count)
         self.cloud = cloud
-        self.groups = arr(wp.int32)
         self.totals = wp.zeros((shots, len(SHOT_TOTALS)), dtype=wp.float64, device=dev)
 
         pair = kern.Pair()
@@ -1028,14 +1148,23 @@ class DensePhase:
         pair.max_steps = scalar(coll.max_steps)
         pair.block_steps = self.block_steps
         self.pair = pair
-        cells = min(max(int(round((2.0 * n) ** (1.0 / 3.0))), 8), 256)
-        self.grid = wp.HashGrid(cells, cells, cells, device=dev, dtype=scalar)
+        self.cell_lists = not dev.is_cuda and self.CELL_LISTS_ON_CPU
+        if self.cell_lists:  # one shot at a time: a table for one shot, rows of one shot
+            self.bucket_end = arr(wp.int32, (1 << max(3, (2 * self.count - 1).bit_length())) + 1)
+            self.rows = arr(wp.int32, self.count)
+            self.cells = arr(wp.vec3i)
+        else:
+            self.groups = arr(wp.int32)
+            cells = min(max(int(round((2.0 * n) ** (1.0 / 3.0))), 8), 256)
+            self.grid = wp.HashGrid(cells, cells, cells, device=dev, dtype=scalar)
         self.reach = 2.0 * radius + skin
         self.graph = None
         self.fused = not dev.is_cuda and self.FUSED_ON_CPU
 
     # on the CPU a block of steps is one launch of block_kernel (False: the per-step kernels, as on CUDA)
     FUSED_ON_CPU = True
+    # on the CPU the lists come from cell_lists_kernel (False: wp.HashGrid, as on CUDA; the same lists)
+    CELL_LISTS_ON_CPU = True
 
     def _threads(self, pellets):
         """Threads of a per-pellet kernel: one per pellet on CUDA; on the CPU (one thread runs
@@ -1047,24 +1176,51 @@ class DensePhase:
     def _launch(self, name, dim, inputs, record=False):
         return wp.launch(self.kernels[name], dim=dim, inputs=inputs, device=self.device, record_cmd=record)
 
+    def _record(self):
+        """The launches of the checkpoints and the rebuilds, recorded once per run (packing the
+        structs' parameters costs more than a small launch on the CPU) and again when the lists
+        grow (the cloud's struct then holds a new array)."""
+        m, c, p = self.model, self.cloud, self.pair
+        self.checkpoint_commands = [
+            self._launch("now", self.threads, [p, m.physics, c], True),
+            self._launch("horizon", self.threads, [p, m.surfaces, m.physics, c], True),
+            self._launch("settle", self.shots, [p, m.physics, c], True),
+        ]
+        if self.cell_lists:
+            self.list_commands = [self._launch("cell_lists", 1, [p, m.physics, c, self.bucket_end, self.rows, self.cells], True)]
+        else:
+            self.list_commands = [self._launch("grid_points", self.threads, [p, m.physics, c], True),
+                                  self._launch("neighbours", self.threads, [self.grid.id, p, m.physics, c], True)]
+
+    def _checkpoint(self):
+        """Each shot at its checkpoint: its horizon, and whether it stops, jumps or rebuilds;
+        returns the global flags (one host sync)."""
+        for command in self.checkpoint_commands:
+            command.launch()
+        return self.cloud.flags.numpy().copy()  # (a copy: CPU arrays share memory)
+
     def _rebuild(self, pellets) -> bool:
         """Build the neighbour lists; a list that overflowed (a denser cloud than the lists hold)
         grows them and builds again, so no step ever runs on a truncated list. Returns whether
-        they grew (the recorded step commands hold the old array)."""
-        m, c = self.model, self.cloud
+        they grew (the recorded commands then hold the old array, and are recorded again)."""
+        c = self.cloud
         grew = False
         while True:
-            self._launch("grid_points", self.threads, [self.pair, m.physics, c])
-            # (one shot: no groups, a grouped build costs twice as much on the CPU; a grouped query
-            # of an ungrouped grid filters nothing)
-            groups = self.groups[:pellets] if pellets > self.count else None
-            self.grid.build(c.grid_point[:pellets], CELL_REACHES * self.reach, groups=groups)
-            self._launch("neighbours", self.threads, [self.grid.id, self.pair, m.physics, c])
-            found = int(c.flags[FLAG_OVERFLOW:].numpy()[0])  # one integer per rebuild
+            if self.cell_lists:
+                self.list_commands[0].launch()
+            else:
+                self.list_commands[0].launch()
+                # (one shot: no groups, a grouped build costs twice as much on the CPU; a grouped query
+                # of an ungrouped grid filters nothing)
+                groups = self.groups[:pellets] if pellets > self.count else None
+                self.grid.build(c.grid_point[:pellets], CELL_REACHES * self.reach, groups=groups)
+                self.list_commands[1].launch()
+            found = int(c.flags.numpy()[FLAG_OVERFLOW])  # one integer per rebuild
             if found == 0:
                 return grew
             c.neighbours = wp.zeros((self.capacity, int(found * 1.25) + 1), dtype=wp.int32, device=self.device)
             c.flags[FLAG_OVERFLOW:].zero_()
+            self._record()
             grew = True
 
     def _step_commands(self, pellets, shots, outputs):
@@ -1111,17 +1267,17 @@ class DensePhase:
         pellets = shots * self.count
         c, p = self.cloud, self.pair
         self.threads = self._threads(pellets)
+        self.shots = shots
         self._launch("launch", self.threads, [first_index, p, source, c, outputs])
         self._launch("drift", shots, [p, self.model.surfaces, self.model.physics, c])
-        self._launch("groups", pellets, [p, self.groups])
+        if not self.cell_lists:
+            self._launch("groups", pellets, [p, self.groups])
+        self._record()
         self._rebuild(pellets)
         commands = self._step_commands(pellets, shots, outputs)
         self.graph = None
         while True:
-            self._launch("now", self.threads, [p, self.model.physics, c])
-            self._launch("horizon", self.threads, [p, self.model.surfaces, self.model.physics, c])
-            self._launch("settle", shots, [p, self.model.physics, c])
-            flags = c.flags.numpy().copy()  # host syncs: here, at checkpoints, and one per rebuild (a copy: CPU arrays share memory)
+            flags = self._checkpoint()  # host syncs: here, at checkpoints, and one per rebuild
             if frames is not None:
                 frames(self, pellets)
             if flags[FLAG_REMAINING] == 0:
