@@ -873,16 +873,25 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
                     prepare_pellet(i, pair, physics, cloud)
                 # (round_applied is this shot's alone here: a round after one in which the shot
                 # applied nothing is skipped, as the per-step kernels skip one nobody applied in)
+                # a pellet whose kept event is after the step (most are) has nothing to do in
+                # it until a neighbour's event makes it stale: the per-pellet functions would
+                # return at once, after reading the shot's flags and clock (step_end_of is never
+                # after the full step)
+                step_end = cloud.clock[s, CLOCK_TIME] + cloud.clock[s, CLOCK_STEP]
                 for r in range(rounds):
                     if r == 0 or cloud.round_applied[r - 1] != 0:
                         for i in range(first, last):
-                            choose_pellet(i, 0, pair, surfaces, physics, cloud)
+                            if cloud.stale[i] != 0 or cloud.event_time[i] <= step_end:
+                                choose_pellet(i, 0, pair, surfaces, physics, cloud)
                         for i in range(first, last):
-                            resolve_pellet(i, r, pair, surfaces, physics, cloud, out)
+                            if cloud.stale[i] != 0 or cloud.event_time[i] <= step_end:
+                                resolve_pellet(i, r, pair, surfaces, physics, cloud, out)
                 for i in range(first, last):
-                    choose_pellet(i, 1, pair, surfaces, physics, cloud)
+                    if cloud.stale[i] != 0 or cloud.event_time[i] <= step_end:
+                        choose_pellet(i, 1, pair, surfaces, physics, cloud)
                 for i in range(first, last):
-                    finish_pellet(i, pair, surfaces, physics, cloud, out)
+                    if cloud.stale[i] != 0 or cloud.event_time[i] <= step_end:
+                        finish_pellet(i, pair, surfaces, physics, cloud, out)
                 end_step_shot(s, pair, cloud)
 
     # ------------------------------------------------------------------ end of a block of steps
