@@ -274,6 +274,26 @@ def test_h5md_frames(tmp_path):
         np.testing.assert_allclose(pos["value"][0], f["pellets/initial/position"][()], atol=1e-12)
 
 
+def test_no_object_is_created_once_the_file_is_readable_while_written(tmp_path, monkeypatch):
+    """A run file goes SWMR (readable while written) once every object exists: SWMR writers may
+    not create objects. The H5MD frames' groups and datasets were created after the switch."""
+    created_in_swmr = []
+    for name in ("create_group", "create_dataset", "require_group", "require_dataset"):
+        original = getattr(h5py.Group, name)
+
+        def checked(self, *a, _original=original, _name=name, **k):
+            path = a[0] if a else k.get("name")
+            if self.file.swmr_mode and (_name.startswith("create") or path not in self):  # (require_*: a new one)
+                created_in_swmr.append((_name, path))
+            return _original(self, *a, **k)
+
+        monkeypatch.setattr(h5py.Group, name, checked)
+    api.run(_paper_collisions(30, frame_every=8), output=str(tmp_path / "frames.h5"), device="cpu")
+    with h5py.File(tmp_path / "frames.h5", "r") as f:
+        assert f["particles/pellets/position/step"].shape[0] > 1
+    assert created_in_swmr == []
+
+
 def test_collision_fields_need_collisions():
     from warp_ricochet.errors import SceneError
 

@@ -37,12 +37,15 @@ Each pellet keeps, with its event, when it would leave its skin after it; the ea
 among a round's events in the step ends the step, and only events up to it are applied (a plane
 rebound can be far faster than the step was sized for).
 
-Neighbour lists (reach 2R + skin) are built from a `wp.HashGrid` in co-moving coordinates
-(positions relative to each shot's ballistic drift; the grid's groups keep shots apart, so
-overlapping shots cost nothing) and a shot's lists are rebuilt only when it needs it: a pellet
-could move by half the skin relative to the drift (checked before each step; a step that could
-break a list waits for the rebuild), or its frame was recentred at a checkpoint. The adaptive step depends on the shot's own speeds only, so its results do not depend
-on when lists are rebuilt, or on the other shots.
+Neighbour lists (reach 2R + skin) are built in co-moving coordinates (positions relative to each
+shot's ballistic drift): on CUDA from a `wp.HashGrid` whose groups keep shots apart (overlapping
+shots cost nothing), on the CPU from `cell_lists_kernel` (the same lists; HashGrid's CPU build has
+a fixed cost larger than a shot's whole build). A shot's lists are rebuilt only when it needs it:
+a pellet could move by half the skin relative to the drift (checked before each step; a step that
+could break a list waits for the rebuild), or its frame was recentred at a checkpoint; the
+adaptive step lets a list last SKIN_STEPS steps, one more than a block, so the lists built at a
+checkpoint last its block. The adaptive step depends on the shot's own speeds only (a skin cut,
+rare, on its own lists' build points), so its results do not depend on the other shots.
 
 At checkpoints (every `block_steps` of its own steps) a shot stops stepping once its arrival
 window is over (its undisturbed pellets have all met their first surface and the cloud has passed
@@ -1332,48 +1335,23 @@ def plan_shots(scene, device, shots: int) -> int:
     return min(per_chunk, shots)
 
 
-def _frame_writer(group, pellets: int, every: int):
-    """H5MD trajectory frames (https://www.nongnu.org/h5md/): /h5md with its version, and
-    particles/pellets/position/{step, time, value}, appended at each checkpoint."""
+def _frame_recorder(writer, every: int):
+    """H5MD trajectory frames: each checkpoint's positions, to the writer's frame datasets (made
+    with the file, before it is readable while written: SWMR creates no objects)."""
     import numpy as np
-
-    h5md = group.require_group("h5md")
-    h5md.attrs["version"] = np.array([1, 1], dtype=np.int32)
-    author = h5md.require_group("author")
-    author.attrs["name"] = "warp-ricochet"
-    creator = h5md.require_group("creator")
-    creator.attrs["name"] = "warp-ricochet"
-    from . import __version__
-    creator.attrs["version"] = __version__
-    position = group.require_group("particles/pellets/position")
-    step = position.create_dataset("step", shape=(0,), maxshape=(None,), dtype=np.int64, chunks=(256,))
-    time = position.create_dataset("time", shape=(0,), maxshape=(None,), dtype=np.float64, chunks=(256,))
-    value = position.create_dataset("value", shape=(0, pellets, 3), maxshape=(None, pellets, 3), dtype=np.float64,
-                                    chunks=(1, min(pellets, 65536), 3))
-    time.attrs["unit"] = "s"
-    value.attrs["unit"] = "m"
-    step.attrs["description"] = "steps of the dense phase"
-    value.attrs["description"] = f"pellet centres every {every} steps of the dense phase (pellets whose flight ended: where it ended)"
 
     def record(dense, n):
         cloud = dense.cloud
         clock = cloud.clock.numpy()[0]
         steps = int(clock[CLOCK_STEPS])
-        if steps % every or (step.shape[0] and step[-1] == steps):
+        if steps % every or steps == writer.last_frame_step:
             return  # a block cut short by a list rebuild: not a frame
         now = float(clock[CLOCK_TIME])
         x, v, t = cloud.position.numpy()[:n], cloud.velocity.numpy()[:n], cloud.time.numpy()[:n]
         flying = cloud.phase.numpy()[:n] == FLYING
         g = np.asarray(dense.model.physics.gravity, np.float64)
         age = np.where(flying, now - t, 0.0)[:, None]
-        positions = x + v * age + 0.5 * g * age**2
-        k = step.shape[0]
-        for ds, item in ((step, steps), (time, now)):
-            ds.resize((k + 1,))
-            ds[k] = item
-        value.resize((k + 1, n, 3))
-        value[k] = positions
-        group.file.flush()
+        writer.append_frame(steps, now, x + v * age + 0.5 * g * age**2)
 
     return record
 
@@ -1415,7 +1393,7 @@ def run_collision_scene(scene, model, *, writer=None, progress=None, source=None
     slot = _HostSlot(wp, state, pinned=dev.is_cuda, index=0)
     frames = None
     if scene.collisions.frame_every and writer is not None:
-        frames = _frame_writer(writer.group, pellets, scene.collisions.frame_every)
+        frames = _frame_recorder(writer, scene.collisions.frame_every)
     totals = empty_totals()
     shot_totals = []
     done = 0

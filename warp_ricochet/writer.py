@@ -510,8 +510,50 @@ class RunWriter:
             ds = group.create_dataset(f"stats/{name}", data=np.nan)
             ds.attrs["units"] = unit
             ds.attrs["description"] = doc
+        if scene.pair_collisions and scene.collisions.frame_every:
+            self._create_frames(group, pellets, scene.collisions.frame_every)
         self._open_datasets()
         self._start_watching()
+
+    @staticmethod
+    def _create_frames(group, pellets: int, every: int):
+        """H5MD trajectory frames (https://www.nongnu.org/h5md/): /h5md with its version, and
+        particles/pellets/position/{step, time, value}, empty until the dense phase appends."""
+        from . import __version__
+
+        h5md = group.create_group("h5md")
+        h5md.attrs["version"] = np.array([1, 1], dtype=np.int32)
+        h5md.create_group("author").attrs["name"] = "warp-ricochet"
+        creator = h5md.create_group("creator")
+        creator.attrs["name"] = "warp-ricochet"
+        creator.attrs["version"] = __version__
+        position = group.create_group("particles/pellets/position")
+        step = position.create_dataset("step", shape=(0,), maxshape=(None,), dtype=np.int64, chunks=(256,))
+        time = position.create_dataset("time", shape=(0,), maxshape=(None,), dtype=np.float64, chunks=(256,))
+        value = position.create_dataset("value", shape=(0, pellets, 3), maxshape=(None, pellets, 3), dtype=np.float64,
+                                        chunks=(1, min(pellets, 65536), 3))
+        time.attrs["unit"] = "s"
+        value.attrs["unit"] = "m"
+        step.attrs["description"] = "steps of the dense phase"
+        value.attrs["description"] = (f"pellet centres every {every} steps of the dense phase (pellets whose flight "
+                                      "ended: where it ended)")
+
+    @property
+    def last_frame_step(self):
+        """The step of the last trajectory frame appended (None: none yet)."""
+        step = self.group["particles/pellets/position/step"]
+        return int(step[-1]) if step.shape[0] else None
+
+    def append_frame(self, step: int, time: float, positions):
+        """One H5MD frame: the dense phase's step, its time (s) and every pellet's centre (m)."""
+        position = self.group["particles/pellets/position"]
+        k = position["step"].shape[0]
+        for name, item in (("step", step), ("time", time)):
+            position[name].resize((k + 1,))
+            position[name][k] = item
+        position["value"].resize((k + 1, *positions.shape))
+        position["value"][k] = positions
+        self.group.file.flush()
 
     @classmethod
     def reopen(cls, group: h5py.Group, *, fields, rows: int, segments: int, shots: int = 0):
