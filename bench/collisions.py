@@ -9,7 +9,7 @@ envelope, so most pellets collide) with collisions on.
     python -m bench.collisions tail [--shots 2223] [--device cuda:0] [--out DIR]
     python -m bench.collisions reference [--count 450] [--seeds 2] [--device cpu]
 
-`tradeoff` runs a grid of step fractions (or, with --knobs, skins with step_fraction = skin / 8),
+`tradeoff` runs a grid of step fractions (or, with --knobs, skins with step_fraction = skin / 9),
 rounds per step and precisions, and reports, against the reference on the same launch states: the
 error in mean range, in L+ and L-, the Wasserstein-1 distance between the range distributions, the
 difference in the fraction of pellets that collided, and the run time; it writes a CSV and a PNG
@@ -85,12 +85,14 @@ def tradeoff(args):
 
     os.makedirs(args.out, exist_ok=True)
     rows = []
-    if args.knobs:  # skin and step fraction together (fraction = skin / 8: neither bound of the step binds alone)
-        grid = [(p, k, k / 8.0, r) for p in ("float64", "float32") for k in (2.0, 4.0, 6.0) for r in (1, 2, 4)]
+    from warp_ricochet.collisions import SKIN_STEPS
+
+    if args.knobs:  # skin and step fraction together (fraction = skin / SKIN_STEPS: neither bound of the step binds alone)
+        grid = [(p, k, k / SKIN_STEPS, r) for p in ("float64", "float32") for k in (2.25, 4.5, 6.75) for r in (1, 2, 4)]
     else:
-        # (at skin 2 the step is capped at skin / 8 = 0.25 diameters: larger fractions give the same steps)
-        grid = [(p, 2.0, f, r) for p in ("float64", "float32") for f in (0.25, 0.1, 0.05) for r in (1, 4)]
-        grid += [("float64", 2.0, 0.25, 16)]
+        # (at skin 2.25 the step is capped at skin / SKIN_STEPS = 0.25 diameters: larger fractions give the same steps)
+        grid = [(p, 2.25, f, r) for p in ("float64", "float32") for f in (0.25, 0.1, 0.05) for r in (1, 4)]
+        grid += [("float64", 2.25, 0.25, 16)]
     name = "collisions-knobs" if args.knobs else "collisions-tradeoff"
     for precision, skin, fraction, rounds in grid:
         per_seed = []
@@ -111,7 +113,7 @@ def tradeoff(args):
             row[key] = float(np.mean(values))
             row[key + "_spread"] = float(np.std(values))
         rows.append(row)
-        print(f"{precision} skin {skin:3.1f} fraction {fraction:5.2f} rounds {rounds:2d}: {row['time_s']:7.3f} s  steps {row['steps']:7.0f}  "
+        print(f"{precision} skin {skin:4.2f} fraction {fraction:5.2f} rounds {rounds:2d}: {row['time_s']:7.3f} s  steps {row['steps']:7.0f}  "
               f"mean range {row['mean_range_error']:.2e}  L+ {row['Lplus_error']:.2e}  W1 {row['wasserstein_m']:.3g} m  "
               f"collided {row['collided_error']:.3f}  same counts {row['same_collision_count']:.2f}", flush=True)
     path = os.path.join(args.out, name + ".csv")
@@ -275,7 +277,7 @@ def main():
     parser.add_argument("--shots", type=int, default=2223, help="shots in one run (throughput, profile, tail)")
     parser.add_argument("--seeds", type=int, default=2, help="tradeoff: seeds per setting")
     parser.add_argument("--repeats", type=int, default=3, help="throughput: timed runs after a warm-up")
-    parser.add_argument("--knobs", action="store_true", help="tradeoff over skin (with step_fraction = skin / 8) and rounds")
+    parser.add_argument("--knobs", action="store_true", help="tradeoff over skin (with step_fraction = skin / 9) and rounds")
     parser.add_argument("--rounds", type=int, default=None, help="collisions.rounds (default: the scene default)")
     parser.add_argument("--skin", type=float, default=None, help="profile: collisions.skin")
     parser.add_argument("--step-fraction", type=float, default=None, help="profile: collisions.step_fraction")
