@@ -359,6 +359,7 @@ def test_a_pellet_found_beyond_its_skin_is_reported(tmp_path, device, monkeypatc
         block(self, commands)
 
     monkeypatch.setattr(DensePhase, "_block", plant)
+    monkeypatch.setattr(DensePhase, "ONE_LAUNCH_ON_CPU", False)  # (the host loop: a _block a block)
     scene = _paper_collisions(count=60)
     with pytest.warns(api.PrecisionWarning, match="half skins between neighbour-list builds"):
         stats = api.run(scene, device=device)
@@ -415,19 +416,25 @@ def test_lists_that_overflow_grow_before_any_step_and_change_nothing(tmp_path, d
     assert short_stats == long_stats
 
 
-def test_the_cpu_block_kernel_is_the_per_step_kernels(tmp_path, monkeypatch):
-    """On the CPU a block of steps is one launch of block_kernel; the per-step kernels (those CUDA
-    runs) in their order give bitwise the same results, on several shots."""
+@pytest.mark.parametrize("max_neighbours", [32, 2])
+def test_the_cpu_one_launch_is_the_host_loop_and_the_per_step_kernels(tmp_path, monkeypatch, max_neighbours):
+    """On the CPU the whole dense phase is one launch of phase_kernel (again after a list
+    overflowed: max_neighbours 2). The host loop of checkpoints, rebuilds and blocks (one launch
+    of block_kernel each), and the per-step kernels (those CUDA runs) in their order, give
+    bitwise the same results, on several shots."""
     from warp_ricochet.collisions import DensePhase
 
-    scene = _paper_collisions(count=60, shots=3, precision="float64")
-    fused = _write(scene, tmp_path / "fused.h5", "cpu")
+    scene = _paper_collisions(count=60, shots=3, precision="float64", max_neighbours=max_neighbours)
+    one_launch = _write(scene, tmp_path / "one-launch.h5", "cpu")
+    monkeypatch.setattr(DensePhase, "ONE_LAUNCH_ON_CPU", False)
+    host_loop = _write(scene, tmp_path / "host-loop.h5", "cpu")
     monkeypatch.setattr(DensePhase, "FUSED_ON_CPU", False)
     per_step = _write(scene, tmp_path / "per-step.h5", "cpu")
-    assert fused[1]["pair_collisions"] > 10
-    for name, value in fused[0].items():
-        np.testing.assert_array_equal(per_step[0][name], value, err_msg=name)
-    assert per_step[1] == fused[1]
+    assert one_launch[1]["pair_collisions"] > 10
+    for other in (host_loop, per_step):
+        for name, value in one_launch[0].items():
+            np.testing.assert_array_equal(other[0][name], value, err_msg=name)
+        assert other[1] == one_launch[1]
 
 
 def _lists_at_every_rebuild(scene, monkeypatch, cell_lists):
@@ -447,6 +454,7 @@ def _lists_at_every_rebuild(scene, monkeypatch, cell_lists):
         return grew
 
     monkeypatch.setattr(DensePhase, "CELL_LISTS_ON_CPU", cell_lists)
+    monkeypatch.setattr(DensePhase, "ONE_LAUNCH_ON_CPU", False)  # (the host loop: a _rebuild a rebuild)
     monkeypatch.setattr(DensePhase, "_rebuild", recording)
     api.run(scene, device="cpu")
     return lists

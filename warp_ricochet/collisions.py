@@ -452,84 +452,88 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             cloud.neighbours[j, found] = i
         cloud.neighbour_count[j] = found + 1
 
-    @wp.kernel(**opts)
-    def cell_lists_kernel(pair: Pair, physics: Physics, cloud: Cloud, bucket_end: wp.array(dtype=wp.int32),
-                          rows: wp.array(dtype=wp.int32), cells: wp.array(dtype=wp.vec3i)):
-        """The CPU's lists in one launch (one thread): grid_points_kernel and neighbours_kernel
-        over a cell list of each shot being rebuilt, in place of wp.HashGrid, whose CPU build
-        costs a fixed 0.15 to 0.3 ms (two radix passes over 65,536 bins) for any number of
-        points. The same lists (as sets: the same points, the same distance test; no result
-        depends on a list's order): each shot's flying pellets are counting-sorted into hashed
-        cells one reach wide, and each pair is found once, from the lower cell (13 cells and its
-        own around each pellet). `bucket_end` has a power of two plus one entries; `rows` and
-        `cells` one per pellet of a shot and per pellet."""
+    @wp.func
+    def cell_lists_shot(s: wp.int32, pair: Pair, physics: Physics, cloud: Cloud, bucket_end: wp.array(dtype=wp.int32),
+                        rows: wp.array(dtype=wp.int32), cells: wp.array(dtype=wp.vec3i)):
+        """Shot s's lists on the CPU (one thread), in place of grid_points_kernel, wp.HashGrid and
+        neighbours_kernel: HashGrid's CPU build costs a fixed 0.15 to 0.3 ms (two radix passes
+        over 65,536 bins) for any number of points. The same lists (as sets: the same points, the
+        same distance test; no result depends on a list's order): the shot's flying pellets are
+        counting-sorted into hashed cells one reach wide, and each pair is found once, from the
+        lower cell (its own cell and the 13 after it around each pellet). `bucket_end` has a power
+        of two plus one entries; `rows` one per pellet of a shot, `cells` one per pellet. A list
+        that overflows sets FLAG_OVERFLOW (to its length)."""
         buckets = bucket_end.shape[0] - 1
         mask = wp.uint32(buckets - 1)
         capacity = cloud.neighbours.shape[1]
-        shots = pair.pellets / pair.count
-        for s in range(shots):
-            if cloud.shot_flags[s, SHOT_REBUILD] == 0:
+        first = s * pair.count
+        time = cloud.clock[s, CLOCK_TIME]
+        origin = drift_point(cloud, s, time, physics.gravity)
+        done = cloud.shot_flags[s, SHOT_DONE] != 0
+        reach = scalar(2.0) * (physics.radius + cloud.half_skin[s])
+        reach2 = reach * reach
+        inverse = wp.float64(1.0) / (wp.float64(reach) * wp.float64(1.001))
+        for b in range(buckets + 1):
+            bucket_end[b] = 0
+        for k in range(pair.count):
+            i = first + k
+            relative = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, time - cloud.time[i]) - origin
+            cloud.build_offset[i] = relative
+            cloud.grid_point[i] = relative
+            cloud.neighbour_count[i] = 0
+            if cloud.phase[i] == FLYING and not done:
+                cloud.stale[i] = 1  # a new list: its earliest event is found again
+                cell = cell_of(relative, inverse)
+                cells[i] = cell
+                b = cell_bucket(cell, mask)
+                bucket_end[b + 1] = bucket_end[b + 1] + 1
+        for b in range(buckets):
+            bucket_end[b + 1] = bucket_end[b + 1] + bucket_end[b]
+        # (bucket_end[b] is where bucket b starts; filling moves it to where b ends)
+        for k in range(pair.count):
+            i = first + k
+            if cloud.phase[i] == FLYING and not done:
+                b = cell_bucket(cells[i], mask)
+                rows[bucket_end[b]] = i
+                bucket_end[b] = bucket_end[b] + 1
+        for k in range(pair.count):
+            i = first + k
+            if cloud.phase[i] != FLYING or done:
                 continue
-            first = s * pair.count
-            time = cloud.clock[s, CLOCK_TIME]
-            origin = drift_point(cloud, s, time, physics.gravity)
-            done = cloud.shot_flags[s, SHOT_DONE] != 0
-            reach = scalar(2.0) * (physics.radius + cloud.half_skin[s])
-            reach2 = reach * reach
-            inverse = wp.float64(1.0) / (wp.float64(reach) * wp.float64(1.001))
-            for b in range(buckets + 1):
-                bucket_end[b] = 0
-            for k in range(pair.count):
-                i = first + k
-                relative = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, time - cloud.time[i]) - origin
-                cloud.build_offset[i] = relative
-                cloud.grid_point[i] = relative
-                cloud.neighbour_count[i] = 0
-                if cloud.phase[i] == FLYING and not done:
-                    cloud.stale[i] = 1  # a new list: its earliest event is found again
-                    cell = cell_of(relative, inverse)
-                    cells[i] = cell
-                    b = cell_bucket(cell, mask)
-                    bucket_end[b + 1] = bucket_end[b + 1] + 1
-            for b in range(buckets):
-                bucket_end[b + 1] = bucket_end[b + 1] + bucket_end[b]
-            # (bucket_end[b] is where bucket b starts; filling moves it to where b ends)
-            for k in range(pair.count):
-                i = first + k
-                if cloud.phase[i] == FLYING and not done:
-                    b = cell_bucket(cells[i], mask)
-                    rows[bucket_end[b]] = i
-                    bucket_end[b] = bucket_end[b] + 1
-            for k in range(pair.count):
-                i = first + k
-                if cloud.phase[i] != FLYING or done:
-                    continue
-                point = cloud.grid_point[i]
-                cell = cells[i]
-                # the cells around it from its own on (dz, dy, dx after 0, 0, 0): each pair once
-                for dz in range(2):
-                    for dy in range(-dz, 2):
-                        for dx in range(-1, 2):
-                            if dz == 0 and dy == 0 and dx < 0:
-                                continue
-                            around = wp.vec3i(cell[0] + dx, cell[1] + dy, cell[2] + dz)
-                            own = dz == 0 and dy == 0 and dx == 0
-                            b = cell_bucket(around, mask)
-                            start = wp.int32(0)
-                            if b > 0:
-                                start = bucket_end[b - 1]
-                            for m in range(start, bucket_end[b]):
-                                j = rows[m]
-                                if (j > i or not own) and cells[j] == around:
-                                    d = cloud.grid_point[j] - point
-                                    if wp.dot(d, d) <= reach2:
-                                        list_pair(cloud, i, j, capacity)
-            for k in range(pair.count):
-                i = first + k
-                found = cloud.neighbour_count[i]
-                if found > capacity:
-                    wp.atomic_max(cloud.flags, FLAG_OVERFLOW, found)
-                    cloud.neighbour_count[i] = capacity
+            point = cloud.grid_point[i]
+            cell = cells[i]
+            # the cells around it from its own on (dz, dy, dx after 0, 0, 0): each pair once
+            for dz in range(2):
+                for dy in range(-dz, 2):
+                    for dx in range(-1, 2):
+                        if dz == 0 and dy == 0 and dx < 0:
+                            continue
+                        around = wp.vec3i(cell[0] + dx, cell[1] + dy, cell[2] + dz)
+                        own = dz == 0 and dy == 0 and dx == 0
+                        b = cell_bucket(around, mask)
+                        start = wp.int32(0)
+                        if b > 0:
+                            start = bucket_end[b - 1]
+                        for m in range(start, bucket_end[b]):
+                            j = rows[m]
+                            if (j > i or not own) and cells[j] == around:
+                                d = cloud.grid_point[j] - point
+                                if wp.dot(d, d) <= reach2:
+                                    list_pair(cloud, i, j, capacity)
+        for k in range(pair.count):
+            i = first + k
+            found = cloud.neighbour_count[i]
+            if found > capacity:
+                wp.atomic_max(cloud.flags, FLAG_OVERFLOW, found)
+                cloud.neighbour_count[i] = capacity
+
+    @wp.kernel(**opts)
+    def cell_lists_kernel(pair: Pair, physics: Physics, cloud: Cloud, bucket_end: wp.array(dtype=wp.int32),
+                          rows: wp.array(dtype=wp.int32), cells: wp.array(dtype=wp.vec3i)):
+        """The CPU's lists of every shot being rebuilt, in one launch (one thread)."""
+        for s in range(pair.pellets / pair.count):
+            if cloud.shot_flags[s, SHOT_REBUILD] != 0:
+                cell_lists_shot(s, pair, physics, cloud, bucket_end, rows, cells)
 
     # ------------------------------------------------------------------ one step
 
@@ -853,6 +857,45 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         end_step_shot(wp.tid(), pair, cloud)
 
 
+    @wp.func
+    def block_shot(s: wp.int32, steps: wp.int32, rounds: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics,
+                   cloud: Cloud, out: Outputs):
+        """On the CPU (one thread), up to `steps` steps of shot s: each step is the per-step
+        kernels' work for its pellets, in their order; it ends early when the shot waits (a
+        checkpoint, or a rebuild) or is done."""
+        first = s * pair.count
+        last = first + pair.count
+        cloud.shot_flags[s, SHOT_REBUILD] = 0  # (as plan_shot: built before this block)
+        for _ in range(steps):
+            if cloud.shot_flags[s, SHOT_DONE] != 0 or cloud.shot_flags[s, SHOT_STALL] != 0:
+                break  # (until its checkpoint, or its rebuild)
+            for i in range(first, last):
+                bounds_pellet(i, pair, physics, cloud)
+            plan_shot(s, pair, physics, cloud)
+            for i in range(first, last):
+                prepare_pellet(i, pair, physics, cloud)
+            # A pellet whose kept event is after the step (most are) has nothing to do in it
+            # until a neighbour's event makes it stale: the per-pellet functions would return at
+            # once, after reading the shot's flags and clock (step_end_of is never after the full
+            # step). round_applied is this shot's alone here: a round after one in which the
+            # shot applied nothing is skipped, as the per-step kernels skip one nobody applied in.
+            step_end = cloud.clock[s, CLOCK_TIME] + cloud.clock[s, CLOCK_STEP]
+            for r in range(rounds):
+                if r == 0 or cloud.round_applied[r - 1] != 0:
+                    for i in range(first, last):
+                        if cloud.stale[i] != 0 or cloud.event_time[i] <= step_end:
+                            choose_pellet(i, 0, pair, surfaces, physics, cloud)
+                    for i in range(first, last):
+                        if cloud.stale[i] != 0 or cloud.event_time[i] <= step_end:
+                            resolve_pellet(i, r, pair, surfaces, physics, cloud, out)
+            for i in range(first, last):
+                if cloud.stale[i] != 0 or cloud.event_time[i] <= step_end:
+                    choose_pellet(i, 1, pair, surfaces, physics, cloud)
+            for i in range(first, last):
+                if cloud.stale[i] != 0 or cloud.event_time[i] <= step_end:
+                    finish_pellet(i, pair, surfaces, physics, cloud, out)
+            end_step_shot(s, pair, cloud)
+
     @wp.kernel(**opts)
     def block_kernel(steps: wp.int32, rounds: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud,
                      out: Outputs):
@@ -861,46 +904,13 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         the results are those of the per-step kernels (tested), without 14 launches a step.
         Shots never meet, so it takes them one after another, all its steps each: a shot's
         pellets stay in cache, and a shot that is done or waits costs nothing."""
-        shots = pair.pellets / pair.count
-        for s in range(shots):
-            first = s * pair.count
-            last = first + pair.count
-            cloud.shot_flags[s, SHOT_REBUILD] = 0  # (as plan_shot: built before this block)
-            for _ in range(steps):
-                if cloud.shot_flags[s, SHOT_DONE] != 0 or cloud.shot_flags[s, SHOT_STALL] != 0:
-                    break  # (until the host's next checkpoint)
-                for i in range(first, last):
-                    bounds_pellet(i, pair, physics, cloud)
-                plan_shot(s, pair, physics, cloud)
-                for i in range(first, last):
-                    prepare_pellet(i, pair, physics, cloud)
-                # (round_applied is this shot's alone here: a round after one in which the shot
-                # applied nothing is skipped, as the per-step kernels skip one nobody applied in)
-                # a pellet whose kept event is after the step (most are) has nothing to do in
-                # it until a neighbour's event makes it stale: the per-pellet functions would
-                # return at once, after reading the shot's flags and clock (step_end_of is never
-                # after the full step)
-                step_end = cloud.clock[s, CLOCK_TIME] + cloud.clock[s, CLOCK_STEP]
-                for r in range(rounds):
-                    if r == 0 or cloud.round_applied[r - 1] != 0:
-                        for i in range(first, last):
-                            if cloud.stale[i] != 0 or cloud.event_time[i] <= step_end:
-                                choose_pellet(i, 0, pair, surfaces, physics, cloud)
-                        for i in range(first, last):
-                            if cloud.stale[i] != 0 or cloud.event_time[i] <= step_end:
-                                resolve_pellet(i, r, pair, surfaces, physics, cloud, out)
-                for i in range(first, last):
-                    if cloud.stale[i] != 0 or cloud.event_time[i] <= step_end:
-                        choose_pellet(i, 1, pair, surfaces, physics, cloud)
-                for i in range(first, last):
-                    if cloud.stale[i] != 0 or cloud.event_time[i] <= step_end:
-                        finish_pellet(i, pair, surfaces, physics, cloud, out)
-                end_step_shot(s, pair, cloud)
+        for s in range(pair.pellets / pair.count):
+            block_shot(s, steps, rounds, pair, surfaces, physics, cloud, out)
 
     # ------------------------------------------------------------------ end of a block of steps
 
-    @wp.kernel(**opts)
-    def horizon_kernel(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
+    @wp.func(inline=True)
+    def horizon_pellet(i: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
         """Per shot at each of its checkpoints: busy in its arrival window; after it, its next event over ALL
         its pairs (exact: their relative motion is linear; each pair once, O(count) per pellet)
         and planes, so that
@@ -910,57 +920,64 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         - it jumps to its next event instead of stepping through empty time with steps sized for
           its fastest pellets (typically two rebounds converging slowly for tens of milliseconds).
         Measured against a check every 16 steps: 14% fewer steps, the same run time on the CPU."""
+        s = i / pair.count
+        if cloud.phase[i] != FLYING or cloud.shot_flags[s, SHOT_DONE] != 0 or cloud.shot_flags[s, SHOT_STALL] != CHECKPOINT:
+            return
+        time = cloud.clock[s, CLOCK_TIME]
+        if time < cloud.clock[s, CLOCK_WINDOW]:
+            # the arrival window: the cloud converges, meets the surface and passes it (wp.static:
+            # see resolve_pellet, a constant used in a branch that returns, then on another path)
+            cloud.shot_flags[s, wp.static(SHOT_BUSY)] = 1
+            return
+        x = cloud.now_position[i]
+        v = cloud.now_velocity[i]
+        speed = cloud.now_speed[i]
+        reach2 = scalar(4.0) * physics.radius * physics.radius
+        earliest = NEVER
+        for j in range(i + 1, (s + 1) * pair.count):
+            if cloud.phase[j] == FLYING:
+                delay = contact_time(cloud.now_position[j] - x, cloud.now_velocity[j] - v, reach2, speed + cloud.now_speed[j])
+                if delay >= scalar(0.0):
+                    earliest = wp.min(earliest, time + delay)
+        if earliest < NEVER:
+            cloud.shot_flags[s, wp.static(SHOT_BUSY)] = 1  # a pair can still meet
+        # plane contacts bound the jump (they do not keep a shot stepping: the core's flight does them)
+        wait, k = next_contact(cloud.position[i], cloud.velocity[i], physics.gravity, physics.radius, surfaces.point,
+                               surfaces.normal, cloud.touching[i])
+        if k >= 0:
+            earliest = wp.min(earliest, cloud.time[i] + wait)
+        wp.atomic_min(cloud.clock, s, CLOCK_NEXT, earliest)
+
+    @wp.kernel(**opts)
+    def horizon_kernel(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
         t = wp.tid()
         for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
-            s = i / pair.count
-            if cloud.phase[i] != FLYING or cloud.shot_flags[s, SHOT_DONE] != 0:
-                continue
-            time = cloud.clock[s, CLOCK_TIME]
-            if cloud.shot_flags[s, SHOT_STALL] != CHECKPOINT:
-                continue
-            if time < cloud.clock[s, CLOCK_WINDOW]:
-                cloud.shot_flags[s, SHOT_BUSY] = 1  # the arrival window: the cloud converges, meets the surface and passes it
-                continue
-            x = cloud.now_position[i]
-            v = cloud.now_velocity[i]
-            speed = cloud.now_speed[i]
-            reach2 = scalar(4.0) * physics.radius * physics.radius
-            earliest = NEVER
-            for j in range(i + 1, (s + 1) * pair.count):
-                if cloud.phase[j] == FLYING:
-                    delay = contact_time(cloud.now_position[j] - x, cloud.now_velocity[j] - v, reach2, speed + cloud.now_speed[j])
-                    if delay >= scalar(0.0):
-                        earliest = wp.min(earliest, time + delay)
-            if earliest < NEVER:
-                cloud.shot_flags[s, SHOT_BUSY] = 1  # a pair can still meet
-            # plane contacts bound the jump (they do not keep a shot stepping: the core's flight does them)
-            wait, k = next_contact(cloud.position[i], cloud.velocity[i], physics.gravity, physics.radius, surfaces.point,
-                                   surfaces.normal, cloud.touching[i])
-            if k >= 0:
-                earliest = wp.min(earliest, cloud.time[i] + wait)
-            wp.atomic_min(cloud.clock, s, CLOCK_NEXT, earliest)
+            horizon_pellet(i, pair, surfaces, physics, cloud)
+
+    @wp.func(inline=True)
+    def now_pellet(i: wp.int32, pair: Pair, physics: Physics, cloud: Cloud):
+        """A flying pellet's state at its shot's checkpoint, for horizon_pellet (computed once,
+        not once per pair)."""
+        s = i / pair.count
+        if cloud.phase[i] != FLYING or cloud.shot_flags[s, SHOT_DONE] != 0 or cloud.shot_flags[s, SHOT_STALL] != CHECKPOINT:
+            return
+        age = cloud.clock[s, CLOCK_TIME] - cloud.time[i]
+        velocity = ballistic_velocity(cloud.velocity[i], physics.gravity, age)
+        cloud.now_position[i] = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age)
+        cloud.now_velocity[i] = velocity
+        cloud.now_speed[i] = wp.length(velocity)
 
     @wp.kernel(**opts)
     def now_kernel(pair: Pair, physics: Physics, cloud: Cloud):
-        """Each flying pellet's state at its shot's checkpoint, for horizon_kernel (computed once,
-        not once per pair)."""
         t = wp.tid()
         for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
-            s = i / pair.count
-            if cloud.phase[i] != FLYING or cloud.shot_flags[s, SHOT_DONE] != 0 or cloud.shot_flags[s, SHOT_STALL] != CHECKPOINT:
-                continue
-            age = cloud.clock[s, CLOCK_TIME] - cloud.time[i]
-            velocity = ballistic_velocity(cloud.velocity[i], physics.gravity, age)
-            cloud.now_position[i] = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age)
-            cloud.now_velocity[i] = velocity
-            cloud.now_speed[i] = wp.length(velocity)
+            now_pellet(i, pair, physics, cloud)
 
-    @wp.kernel(**opts)
-    def settle_kernel(pair: Pair, physics: Physics, cloud: Cloud):
-        """One thread per shot: at a checkpoint (after block_steps of its own steps, so the
+    @wp.func
+    def settle_shot(s: wp.int32, pair: Pair, physics: Physics, cloud: Cloud):
+        """At a checkpoint (after block_steps of its own steps, so the
         decision does not depend on the other shots), a shot with nothing ahead, or out of steps,
         stops stepping; one still busy jumps to its next event and recentres its frame."""
-        s = wp.tid()
         if cloud.shot_flags[s, SHOT_DONE] != 0:
             return
         steps = cloud.clock[s, CLOCK_STEPS]
@@ -998,6 +1015,35 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         cloud.clock[s, CLOCK_NEXT] = NEVER
         cloud.clock[s, CLOCK_CUT] = NEVER
         cloud.clock[s, CLOCK_SKIN] = NEVER
+
+    @wp.kernel(**opts)
+    def settle_kernel(pair: Pair, physics: Physics, cloud: Cloud):
+        settle_shot(wp.tid(), pair, physics, cloud)
+
+    @wp.kernel(**opts)
+    def phase_kernel(steps: wp.int32, rounds: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud,
+                     out: Outputs, bucket_end: wp.array(dtype=wp.int32), rows: wp.array(dtype=wp.int32),
+                     cells: wp.array(dtype=wp.vec3i)):
+        """The CPU's whole dense phase in one launch (one thread): each shot, one after another,
+        goes through what the host loop does with it (its lists, its checkpoint, a block of
+        steps) until it is done; no host round trip between. A list that overflows ends the
+        launch: the host grows the lists and launches again, and that shot builds its lists
+        again first (the shots before it are done)."""
+        for s in range(pair.pellets / pair.count):
+            while cloud.shot_flags[s, SHOT_DONE] == 0:
+                if cloud.shot_flags[s, SHOT_REBUILD] != 0:
+                    cell_lists_shot(s, pair, physics, cloud, bucket_end, rows, cells)
+                    if cloud.flags[FLAG_OVERFLOW] != 0:
+                        return
+                if cloud.shot_flags[s, SHOT_STALL] != 0:
+                    first = s * pair.count
+                    for i in range(first, first + pair.count):
+                        now_pellet(i, pair, physics, cloud)
+                    for i in range(first, first + pair.count):
+                        horizon_pellet(i, pair, surfaces, physics, cloud)
+                    settle_shot(s, pair, physics, cloud)
+                else:
+                    block_shot(s, steps, rounds, pair, surfaces, physics, cloud, out)
 
     @wp.kernel(**opts)
     def release_kernel(pair: Pair, physics: Physics, cloud: Cloud):
@@ -1050,7 +1096,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
     return dict(
         launch=launch_kernel, drift=drift_kernel, groups=groups_kernel, grid_points=grid_points_kernel, neighbours=neighbours_kernel,
         bounds=bounds_kernel, plan=plan_kernel, prepare=prepare_kernel, choose=choose_kernel,
-        cell_lists=cell_lists_kernel,
+        cell_lists=cell_lists_kernel, phase=phase_kernel,
         resolve=resolve_kernel, finish=finish_kernel, end_step=end_step_kernel, block=block_kernel, now=now_kernel,
         horizon=horizon_kernel,
         settle=settle_kernel, release=release_kernel, shot_totals=shot_totals_kernel,
@@ -1177,6 +1223,9 @@ class DensePhase:
     FUSED_ON_CPU = True
     # on the CPU the lists come from cell_lists_kernel (False: wp.HashGrid, as on CUDA; the same lists)
     CELL_LISTS_ON_CPU = True
+    # on the CPU (cell lists, no frames) the whole dense phase is one launch of phase_kernel
+    # (False: the host loop of checkpoints, rebuilds and blocks, as on CUDA)
+    ONE_LAUNCH_ON_CPU = True
 
     def _threads(self, pellets):
         """Threads of a per-pellet kernel: one per pellet on CUDA; on the CPU (one thread runs
@@ -1280,10 +1329,36 @@ class DensePhase:
         c, p = self.cloud, self.pair
         self.threads = self._threads(pellets)
         self.shots = shots
+        self._outputs = outputs
         self._launch("launch", self.threads, [first_index, p, source, c, outputs])
         self._launch("drift", shots, [p, self.model.surfaces, self.model.physics, c])
         if not self.cell_lists:
             self._launch("groups", pellets, [p, self.groups])
+        if self.cell_lists and self.fused and self.ONE_LAUNCH_ON_CPU and frames is None:
+            self._whole_phase()
+        else:
+            self._host_loop(pellets, shots, outputs, frames)
+        self._launch("release", self.threads, [p, self.model.physics, c])
+        self._launch("shot_totals", shots, [p, c, self.totals])
+
+    def _whole_phase(self):
+        """The CPU, without trajectory frames: the whole dense phase is one launch of phase_kernel
+        (again after a list overflowed, with longer lists)."""
+        m, c = self.model, self.cloud
+        c.flags.zero_()
+        while True:
+            self._launch("phase", 1, [self.block_steps, self.rounds, self.pair, m.surfaces, m.physics, c, self._outputs,
+                                      self.bucket_end, self.rows, self.cells])
+            found = int(c.flags.numpy()[FLAG_OVERFLOW])
+            if found == 0:
+                return
+            c.neighbours = wp.zeros((self.capacity, int(found * 1.25) + 1), dtype=wp.int32, device=self.device)
+            c.flags[FLAG_OVERFLOW:].zero_()
+
+    def _host_loop(self, pellets, shots, outputs, frames):
+        """Checkpoints, rebuilds and blocks of steps launched from the host (CUDA; the CPU with
+        frames, or with wp.HashGrid's lists)."""
+        c = self.cloud
         self._record()
         self._rebuild(pellets)
         commands = self._step_commands(pellets, shots, outputs)
@@ -1302,8 +1377,6 @@ class DensePhase:
                     commands = self._step_commands(pellets, shots, outputs)
                     self.graph = None
             self._block(commands)
-        self._launch("release", self.threads, [p, self.model.physics, c])
-        self._launch("shot_totals", shots, [p, c, self.totals])
 
 
 def dense_bytes_per_pellet(precision: str, max_neighbours: int) -> int:
