@@ -37,16 +37,21 @@ import numpy as np
 
 
 def paper_shots(count, shots=1, precision="float32", seed=2021, fields=None, **collisions):
-    """The paper's scene as `shots` shots of `count` pellets, collisions on (`collisions`: the
-    [collisions] keys given; the defaults otherwise)."""
-    from tests.helpers import make_scene, paper_raw
+    """The paper's scene (examples/paper.toml) as `shots` shots of `count` pellets, collisions on
+    (`collisions`: the [collisions] keys given; the defaults otherwise)."""
+    import tomllib
 
-    raw = paper_raw()
+    from warp_ricochet.scene import scene_from_dict
+
+    with open(os.path.join(os.path.dirname(__file__), "..", "examples", "paper.toml"), "rb") as f:
+        raw = tomllib.load(f)
     raw["shot"].update(count=count, shots=shots, seed=seed)
     raw["collisions"] = {"enabled": True, **{k: v for k, v in collisions.items() if v is not None}}
+    raw["numerics"]["precision"] = precision
+    raw.pop("output")  # the default fields
     if fields is not None:
         raw["output"] = {"fields": list(fields)}
-    return make_scene(raw, precision=precision)
+    return scene_from_dict(raw)
 
 
 def _run(scene, device, path):
