@@ -286,6 +286,19 @@ def test_mu_d_above_mu_s_is_named(ws, mu_s, excess):
     assert_rejected(cli(run_args(ws, ws.write_scene(raw))), "surfaces.0.mu_d", ws)
 
 
+def test_a_float32_step_counter_past_2_to_the_24_is_named(ws):
+    """In float32 a shot's step counter is a float32, exact up to 2^24 steps: a larger
+    collisions.max_steps (it would stop counting, and never stop) is refused in float32 only."""
+    raw = set_path(set_path(VALID, "collisions.enabled", True), "numerics.precision", "float32")
+    result = cli(run_args(ws, ws.write_scene(set_path(raw, "collisions.max_steps", 2**24 + 1))))
+    assert "float64" in assert_rejected(result, "collisions.max_steps", ws)
+    from warp_ricochet.scene import scene_from_dict
+
+    for precision, steps in (("float32", 2**24), ("float64", 2**31 - 1)):
+        scene = scene_from_dict(set_path(set_path(raw, "numerics.precision", precision), "collisions.max_steps", steps))
+        assert scene.collisions.max_steps == steps
+
+
 # ---------------------------------------------------------------------------------------------- pellet files
 
 ARRAYS = ("position", "velocity", "angular_velocity")

@@ -412,6 +412,7 @@ _COLLISIONS = {
     "max_steps": _int(1, INT32_MAX),
     "frame_every": _int(0, INT32_MAX),
 }
+FLOAT32_EXACT_STEPS = 2**24  # float32 counts every integer up to here
 _NUMERICS = {"precision": _str(("float32", "float64")), "chunk_size": _int(1, INT32_MAX), "fast_math": _bool}
 _OUTPUT = {"path": _path(), "fields": _fields}
 _TOP = ("shot", "surfaces", "physics", "collisions", "numerics", "output")
@@ -497,11 +498,16 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
         if extra:
             raise _err("output.fields", extra[0], "needs pellet-pellet collisions: collisions.enabled = true and "
                        "more than one pellet per shot (shot.count > 1)")
+    numerics = Numerics(**_table(raw.get("numerics"), "numerics", _NUMERICS))
+    if pairs and numerics.precision == "float32" and collisions.max_steps > FLOAT32_EXACT_STEPS:
+        # (a shot's step counter is a float32 in a float32 run: it would stop counting)
+        raise _err("collisions.max_steps", collisions.max_steps, f"at most {FLOAT32_EXACT_STEPS:,} with "
+                   "numerics.precision = \"float32\" (its step counter is exact up to 2^24); use float64 for more")
     return Scene(
         shot=shot,
         surfaces=tuple(_surface(s, f"surfaces.{i}") for i, s in enumerate(surfaces)),
         physics=Physics(**_table(raw.get("physics"), "physics", _PHYSICS)),
-        numerics=Numerics(**_table(raw.get("numerics"), "numerics", _NUMERICS)),
+        numerics=numerics,
         output=Output(**output),
         collisions=collisions,
     )
