@@ -552,18 +552,22 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         wp.atomic_max(cloud.clock, s, CLOCK_DRIFT, wp.length(relative_velocity))
 
     @wp.func(inline=True)
-    def drift_and_edge(i: wp.int32, pair: Pair, physics: Physics, cloud: Cloud):
-        """bounds_pellet's speed, without writing it, and whether the pellet is near the edge of
-        its skin (beyond SKIN_EDGE of half the skin since the build): with the adaptive step (at
-        most a ninth of half the skin at its speed) a pellet within it can neither break its
-        list in the step nor have overrun it, and prepare_pellet has nothing to do for it."""
-        s = i / pair.count
+    def drift_and_edge(i: wp.int32, time: scalar, frame_point: vec3, frame_velocity: vec3, edge_distance: scalar,
+                       physics: Physics, cloud: Cloud):
+        """For block_shot (its shot is stepping; the frame's point and velocity at the shot's
+        clock, computed once a step): bounds_pellet's speed, without writing it, and whether the
+        pellet is near the edge of its skin (beyond SKIN_EDGE of half the skin since the build):
+        with the adaptive step (at most a ninth of half the skin at its speed) a pellet within it
+        can neither break its list in the step nor have overrun it, and prepare_pellet has
+        nothing to do for it. The same arithmetic as relative_to_drift."""
         speed = scalar(0.0)
         edge = wp.int32(0)
-        if stepping(cloud, i, s):
-            relative, relative_velocity = relative_to_drift(cloud, physics, i, s)
+        if cloud.phase[i] == FLYING:
+            age = time - cloud.time[i]
+            relative = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age) - frame_point
+            relative_velocity = ballistic_velocity(cloud.velocity[i], physics.gravity, age) - frame_velocity
             speed = wp.length(relative_velocity)
-            if wp.length(relative - cloud.build_offset[i]) > scalar(SKIN_EDGE) * cloud.half_skin[s]:
+            if wp.length(relative - cloud.build_offset[i]) > edge_distance:
                 edge = wp.int32(1)
         return speed, edge
 
@@ -893,8 +897,12 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             # fixed: no bound on how far it carries a pellet)
             drift = scalar(0.0)
             edge = wp.int32(0)
+            time = cloud.clock[s, CLOCK_TIME]
+            frame_point = drift_point(cloud, s, time, physics.gravity)
+            frame_velocity = ballistic_velocity(cloud.drift_velocity[s], physics.gravity, time)
+            edge_distance = scalar(SKIN_EDGE) * cloud.half_skin[s]
             for i in range(first, last):
-                speed, near = drift_and_edge(i, pair, physics, cloud)
+                speed, near = drift_and_edge(i, time, frame_point, frame_velocity, edge_distance, physics, cloud)
                 drift = wp.max(drift, speed)
                 edge = wp.max(edge, near)
             wp.atomic_max(cloud.clock, s, CLOCK_DRIFT, drift)
@@ -964,9 +972,12 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         earliest = NEVER
         for j in range(i + 1, (s + 1) * pair.count):
             if cloud.phase[j] == FLYING:
-                delay = contact_time(cloud.now_position[j] - x, cloud.now_velocity[j] - v, reach2, speed + cloud.now_speed[j])
-                if delay >= scalar(0.0):
-                    earliest = wp.min(earliest, time + delay)
+                d = cloud.now_position[j] - x
+                u = cloud.now_velocity[j] - v
+                if wp.dot(d, u) < scalar(0.0):  # closing (contact_time has no time for the others)
+                    delay = contact_time(d, u, reach2, speed + cloud.now_speed[j])
+                    if delay >= scalar(0.0):
+                        earliest = wp.min(earliest, time + delay)
         if earliest < NEVER:
             cloud.shot_flags[s, wp.static(SHOT_BUSY)] = 1  # a pair can still meet
         # plane contacts bound the jump (they do not keep a shot stepping: the core's flight does them)
