@@ -418,20 +418,22 @@ def test_lists_that_overflow_grow_before_any_step_and_change_nothing(tmp_path, d
 
 @pytest.mark.parametrize("max_neighbours", [32, 2])
 def test_the_cpu_one_launch_is_the_host_loop_and_the_per_step_kernels(tmp_path, monkeypatch, max_neighbours):
-    """On the CPU the whole dense phase is one launch of phase_kernel (again after a list
-    overflowed: max_neighbours 2). The host loop of checkpoints, rebuilds and blocks (one launch
-    of block_kernel each), and the per-step kernels (those CUDA runs) in their order, give
-    bitwise the same results, on several shots."""
+    """On the CPU the dense phase of a group of shots is one launch of phase_kernel (again
+    after a list overflowed: max_neighbours 2). A launch a shot, the host loop of checkpoints,
+    rebuilds and blocks (one launch of block_kernel each), and the per-step kernels (those CUDA
+    runs) in their order, give bitwise the same results, on several shots."""
     from warp_ricochet.collisions import DensePhase
 
     scene = _paper_collisions(count=60, shots=3, precision="float64", max_neighbours=max_neighbours)
     one_launch = _write(scene, tmp_path / "one-launch.h5", "cpu")
+    monkeypatch.setattr(DensePhase, "PHASE_PELLETS", 1)  # a launch a shot
+    shot_by_shot = _write(scene, tmp_path / "shot-by-shot.h5", "cpu")
     monkeypatch.setattr(DensePhase, "ONE_LAUNCH_ON_CPU", False)
     host_loop = _write(scene, tmp_path / "host-loop.h5", "cpu")
     monkeypatch.setattr(DensePhase, "FUSED_ON_CPU", False)
     per_step = _write(scene, tmp_path / "per-step.h5", "cpu")
     assert one_launch[1]["pair_collisions"] > 10
-    for other in (host_loop, per_step):
+    for other in (shot_by_shot, host_loop, per_step):
         for name, value in one_launch[0].items():
             np.testing.assert_array_equal(other[0][name], value, err_msg=name)
         assert other[1] == one_launch[1]

@@ -30,8 +30,10 @@ a few reads.
 On the CPU a kernel runs on one thread anyway, and entering a Warp kernel thread costs more
 than a quiet pellet's step (its struct arguments and locals are set up per thread), so the
 per-pellet kernels loop over `pair.span` pellets per thread (all of them on the CPU, one on
-CUDA), and on the CPU a whole block of steps is one launch of `block_kernel`, which runs the same
-per-pellet functions in the order the per-step kernels do.
+CUDA). On the CPU the whole dense phase of a group of shots is one launch of `phase_kernel`
+(without trajectory frames; with them a block of steps is one launch of `block_kernel`): each
+shot in turn builds its lists, passes its checkpoints and steps, with the same per-pellet
+functions in the order the per-step kernels run them (the results are bitwise the same).
 
 Each pellet keeps, with its event, when it would leave its skin after it; the earliest of those
 among a round's events in the step ends the step, and only events up to it are applied (a plane
@@ -1060,15 +1062,15 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         settle_shot(wp.tid(), pair, physics, cloud)
 
     @wp.kernel(**opts)
-    def phase_kernel(steps: wp.int32, rounds: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud,
-                     out: Outputs, bucket_end: wp.array(dtype=wp.int32), rows: wp.array(dtype=wp.int32),
-                     cells: wp.array(dtype=wp.vec3i)):
-        """The CPU's whole dense phase in one launch (one thread): each shot, one after another,
-        goes through what the host loop does with it (its lists, its checkpoint, a block of
-        steps) until it is done; no host round trip between. A list that overflows ends the
-        launch: the host grows the lists and launches again, and that shot builds its lists
-        again first (the shots before it are done)."""
-        for s in range(pair.pellets / pair.count):
+    def phase_kernel(first_shot: wp.int32, end_shot: wp.int32, steps: wp.int32, rounds: wp.int32, pair: Pair,
+                     surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs, bucket_end: wp.array(dtype=wp.int32),
+                     rows: wp.array(dtype=wp.int32), cells: wp.array(dtype=wp.vec3i)):
+        """The CPU's whole dense phase of shots [first_shot, end_shot) in one launch (one
+        thread): each shot, one after another, goes through what the host loop does with it (its
+        lists, its checkpoint, a block of steps) until it is done; no host round trip between. A
+        list that overflows ends the launch: the host grows the lists and launches again, and
+        that shot builds its lists again first (the shots before it are done)."""
+        for s in range(first_shot, end_shot):
             while cloud.shot_flags[s, SHOT_DONE] == 0:
                 if cloud.shot_flags[s, SHOT_REBUILD] != 0:
                     cell_lists_shot(s, pair, physics, cloud, bucket_end, rows, cells)
@@ -1380,17 +1382,25 @@ class DensePhase:
         self._launch("release", self.threads, [p, self.model.physics, c])
         self._launch("shot_totals", shots, [p, c, self.totals])
 
+    # the CPU's one-launch dense phase takes about this many pellets' shots a launch (about a
+    # second), so that Ctrl-C and SIGTERM are seen within about a second, not at the chunk's end
+    PHASE_PELLETS = 4096
+
     def _whole_phase(self):
-        """The CPU, without trajectory frames: the whole dense phase is one launch of phase_kernel
-        (again after a list overflowed, with longer lists)."""
+        """The CPU, without trajectory frames: the dense phase of a group of shots is one launch
+        of phase_kernel (again after a list overflowed, with longer lists)."""
         m, c = self.model, self.cloud
         c.flags.zero_()
-        while True:
-            self._launch("phase", 1, [self.block_steps, self.rounds, self.pair, m.surfaces, m.physics, c, self._outputs,
-                                      self.bucket_end, self.rows, self.cells])
+        group = max(1, self.PHASE_PELLETS // self.count)
+        first = 0
+        while first < self.shots:
+            end = min(first + group, self.shots)
+            self._launch("phase", 1, [first, end, self.block_steps, self.rounds, self.pair, m.surfaces, m.physics, c,
+                                      self._outputs, self.bucket_end, self.rows, self.cells])
             found = int(c.flags.numpy()[FLAG_OVERFLOW])
             if found == 0:
-                return
+                first = end
+                continue
             c.neighbours = wp.zeros((self.capacity, int(found * 1.25) + 1), dtype=wp.int32, device=self.device)
             c.flags[FLAG_OVERFLOW:].zero_()
 
