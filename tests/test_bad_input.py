@@ -287,8 +287,9 @@ def test_mu_d_above_mu_s_is_named(ws, mu_s, excess):
 
 
 def test_a_float32_step_counter_past_2_to_the_24_is_named(ws):
-    """In float32 a shot's step counter is a float32, exact up to 2^24 steps: a larger
-    collisions.max_steps (it would stop counting, and never stop) is refused in float32 only."""
+    """In float32 a shot's step counter is a float32, exact up to 2^24 steps: a
+    collisions.max_steps whose checkpoint comes later (the counter would stop counting, the shot
+    never stop) is refused in float32 only, as is a frame_every beyond 2^24."""
     raw = set_path(set_path(VALID, "collisions.enabled", True), "numerics.precision", "float32")
     result = cli(run_args(ws, ws.write_scene(set_path(raw, "collisions.max_steps", 2**24 + 1))))
     assert "float64" in assert_rejected(result, "collisions.max_steps", ws)
@@ -297,6 +298,14 @@ def test_a_float32_step_counter_past_2_to_the_24_is_named(ws):
     for precision, steps in (("float32", 2**24), ("float64", 2**31 - 1)):
         scene = scene_from_dict(set_path(set_path(raw, "numerics.precision", precision), "collisions.max_steps", steps))
         assert scene.collisions.max_steps == steps
+    # a shot stops at a checkpoint (every frame_every steps): the one at or after max_steps must
+    # come by 2^24 (with frame_every 3, 2^24 itself is not a checkpoint: 2^24 - 1 is the last)
+    framed = set_path(raw, "collisions.frame_every", 3)
+    result = cli(run_args(ws, ws.write_scene(set_path(framed, "collisions.max_steps", 2**24))))
+    assert f"at most {2**24 - 1:,}" in assert_rejected(result, "collisions.max_steps", ws)
+    assert scene_from_dict(set_path(framed, "collisions.max_steps", 2**24 - 1)).collisions.max_steps == 2**24 - 1
+    result = cli(run_args(ws, ws.write_scene(set_path(framed, "collisions.frame_every", 2**24 + 1))))
+    assert_rejected(result, "collisions.frame_every", ws)
 
 
 # ---------------------------------------------------------------------------------------------- pellet files

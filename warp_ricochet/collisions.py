@@ -66,6 +66,7 @@ import warp as wp
 from .flight import EPSILON, ROUNDING, make_flight
 from .impact_law import make_impact_law, make_pair_law
 from .kernels import launch_funcs_for, output_writers_for, types_for
+from .scene import CHECKPOINT_STEPS
 
 FLYING, ENDED = 0, 1  # pellet phases; ENDED: landed after its last ricochet, or at rest on a surface
 # global flags (int32 array): a shot waits for a rebuild; shots still stepping; list overflow; a
@@ -96,11 +97,11 @@ NUM_SHOT_FLAGS = 4
 # hash-grid cells CELL_REACHES reaches wide: a query visits 2 x 2 x 2 cells, not 3 x 3 x 3 (the
 # lists are sparse, about one neighbour per pellet in the paper's shot: the cells cost, not the candidates)
 CELL_REACHES = 2.0
-BLOCK_STEPS = 8  # steps between checkpoints (the host reads three integers there, never inside a block)
+BLOCK_STEPS = CHECKPOINT_STEPS  # steps between checkpoints (the host reads three integers there, never inside a block)
 # the adaptive step lets a list last this many steps at the current speeds: a list built at a
-# checkpoint lasts its block with a step to spare (speeds change in a block); with a list that
-# lasted exactly a block, a third of the blocks stalled at their last step for a rebuild one step
-# before the checkpoint's
+# checkpoint lasts its block (of the default 8 steps; frame_every sets another) with a step to
+# spare (speeds change in a block); with a list that lasted exactly a block, a third of the blocks
+# stalled at their last step for a rebuild one step before the checkpoint's
 SKIN_STEPS = float(BLOCK_STEPS + 1)
 # a pellet within this fraction of half its skin since the build, moving at most half the skin /
 # SKIN_STEPS in a step (the adaptive step), ends the step within 0.96 of it: no check needed

@@ -413,6 +413,7 @@ _COLLISIONS = {
     "frame_every": _int(0, INT32_MAX),
 }
 FLOAT32_EXACT_STEPS = 2**24  # float32 counts every integer up to here
+CHECKPOINT_STEPS = 8  # a shot's steps between checkpoints when collisions.frame_every is 0 (collisions.BLOCK_STEPS)
 _NUMERICS = {"precision": _str(("float32", "float64")), "chunk_size": _int(1, INT32_MAX), "fast_math": _bool}
 _OUTPUT = {"path": _path(), "fields": _fields}
 _TOP = ("shot", "surfaces", "physics", "collisions", "numerics", "output")
@@ -499,10 +500,19 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
             raise _err("output.fields", extra[0], "needs pellet-pellet collisions: collisions.enabled = true and "
                        "more than one pellet per shot (shot.count > 1)")
     numerics = Numerics(**_table(raw.get("numerics"), "numerics", _NUMERICS))
-    if pairs and numerics.precision == "float32" and collisions.max_steps > FLOAT32_EXACT_STEPS:
-        # (a shot's step counter is a float32 in a float32 run: it would stop counting)
-        raise _err("collisions.max_steps", collisions.max_steps, f"at most {FLOAT32_EXACT_STEPS:,} with "
-                   "numerics.precision = \"float32\" (its step counter is exact up to 2^24); use float64 for more")
+    if pairs and numerics.precision == "float32":
+        # A shot's step counter is a float32 in a float32 run: it stops counting at 2^24, and a shot
+        # stops (max_steps) only at a checkpoint, every frame_every steps (or CHECKPOINT_STEPS), so
+        # the checkpoint at or after max_steps must come by then, or the shot never stops.
+        every = collisions.frame_every or CHECKPOINT_STEPS
+        if every > FLOAT32_EXACT_STEPS:
+            raise _err("collisions.frame_every", collisions.frame_every, f"at most {FLOAT32_EXACT_STEPS:,} with "
+                       "numerics.precision = \"float32\" (a shot's step counter is exact up to 2^24); use float64")
+        if -(-collisions.max_steps // every) * every > FLOAT32_EXACT_STEPS:
+            raise _err("collisions.max_steps", collisions.max_steps, f"with numerics.precision = \"float32\", its "
+                       f"checkpoint (a multiple of {every} steps) must come by step {FLOAT32_EXACT_STEPS:,}, where the "
+                       "step counter stops being exact: at most "
+                       f"{FLOAT32_EXACT_STEPS // every * every:,}; use float64 for more")
     return Scene(
         shot=shot,
         surfaces=tuple(_surface(s, f"surfaces.{i}") for i, s in enumerate(surfaces)),
