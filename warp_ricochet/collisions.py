@@ -1429,11 +1429,15 @@ class DensePhase:
             self._block(commands)
 
 
+HASH_GRID_BYTES = 48  # wp.HashGrid per point: cell, id (4 B each) and grouped key (8 B), each x2 (sort scratch) x1.5 (headroom)
+
+
 def dense_bytes_per_pellet(precision: str, max_neighbours: int) -> int:
-    """Bytes per pellet of the dense phase's device arrays, release outputs included: 17
-    vectors, 9 scalars, 12 integers and the neighbour list."""
+    """Bytes per pellet of the dense phase's CUDA arrays (the chunk plan on a GPU), release
+    outputs included: 17 vectors, 9 scalars, 12 integers (the grid's group among them), the
+    neighbour list, and wp.HashGrid's per-point buffers."""
     size = 4 if precision == "float32" else 8
-    return 3 * size * 17 + size * 9 + 4 * (12 + max_neighbours)
+    return 3 * size * 17 + size * 9 + 4 * (12 + max_neighbours) + HASH_GRID_BYTES
 
 
 CPU_CHUNK_PELLETS = 1 << 20  # CPU: pellets per chunk of the dense phase
