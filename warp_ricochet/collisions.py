@@ -174,15 +174,24 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         return flying, passing
 
     @wp.func
+    def relative_to_frame(cloud: Cloud, physics: Physics, i: wp.int32, time: scalar, frame_point: vec3,
+                          frame_velocity: vec3):
+        """Pellet i's position and velocity at `time` relative to a frame there (gravity cancels:
+        between events the relative motion is a straight line)."""
+        gravity = physics.gravity
+        age = time - cloud.time[i]
+        relative = ballistic_position(cloud.position[i], cloud.velocity[i], gravity, age) - frame_point
+        relative_velocity = ballistic_velocity(cloud.velocity[i], gravity, age) - frame_velocity
+        return relative, relative_velocity
+
+    @wp.func
     def relative_to_drift(cloud: Cloud, physics: Physics, i: wp.int32, s: wp.int32):
         """Pellet i's position and velocity relative to its shot's co-moving frame, at the shot's
-        clock (gravity cancels: between events the relative motion is a straight line)."""
+        clock."""
         gravity = physics.gravity
         time = cloud.clock[s, CLOCK_TIME]
-        age = time - cloud.time[i]
-        relative = ballistic_position(cloud.position[i], cloud.velocity[i], gravity, age) - drift_point(cloud, s, time, gravity)
-        relative_velocity = ballistic_velocity(cloud.velocity[i], gravity, age) - ballistic_velocity(cloud.drift_velocity[s], gravity, time)
-        return relative, relative_velocity
+        return relative_to_frame(cloud, physics, i, time, drift_point(cloud, s, time, gravity),
+                                 ballistic_velocity(cloud.drift_velocity[s], gravity, time))
 
     @wp.func
     def skin_exit(cloud: Cloud, physics: Physics, i: wp.int32, s: wp.int32, position: vec3, velocity: vec3, time: scalar):
@@ -562,13 +571,11 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         pellet is near the edge of its skin (beyond SKIN_EDGE of half the skin since the build):
         with the adaptive step (at most a ninth of half the skin at its speed) a pellet within it
         can neither break its list in the step nor have overrun it, and prepare_pellet has
-        nothing to do for it. The same arithmetic as relative_to_drift."""
+        nothing to do for it."""
         speed = scalar(0.0)
         edge = wp.int32(0)
         if cloud.phase[i] == FLYING:
-            age = time - cloud.time[i]
-            relative = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age) - frame_point
-            relative_velocity = ballistic_velocity(cloud.velocity[i], physics.gravity, age) - frame_velocity
+            relative, relative_velocity = relative_to_frame(cloud, physics, i, time, frame_point, frame_velocity)
             speed = wp.length(relative_velocity)
             if wp.length(relative - cloud.build_offset[i]) > edge_distance:
                 edge = wp.int32(1)
