@@ -390,6 +390,15 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
         i = wp.tid()
         groups[i] = i / pair.count
 
+    @wp.func
+    def set_build_point(cloud: Cloud, physics: Physics, i: wp.int32, time: scalar, origin: vec3):
+        """Pellet i's co-moving grid point at its shot's clock (`origin`: the drift point then),
+        which its skin is measured from until the next build."""
+        relative = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, time - cloud.time[i]) - origin
+        cloud.build_offset[i] = relative
+        cloud.grid_point[i] = relative
+        return relative
+
     @wp.kernel(**opts)
     def grid_points_kernel(pair: Pair, physics: Physics, cloud: Cloud):
         """Co-moving grid coordinates: the position relative to the shot's drift point (small
@@ -401,10 +410,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             if cloud.shot_flags[s, SHOT_REBUILD] == 0:
                 continue
             time = cloud.clock[s, CLOCK_TIME]
-            now = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, time - cloud.time[i])
-            relative = now - drift_point(cloud, s, time, physics.gravity)
-            cloud.build_offset[i] = relative
-            cloud.grid_point[i] = relative
+            set_build_point(cloud, physics, i, time, drift_point(cloud, s, time, physics.gravity))
 
     @wp.kernel(**opts)
     def neighbours_kernel(grid: wp.uint64, pair: Pair, physics: Physics, cloud: Cloud):
@@ -492,9 +498,7 @@ def dense_kernels(precision: str, bounces: int, planes: int, write_outputs: bool
             bucket_end[b] = 0
         for k in range(pair.count):
             i = first + k
-            relative = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, time - cloud.time[i]) - origin
-            cloud.build_offset[i] = relative
-            cloud.grid_point[i] = relative
+            relative = set_build_point(cloud, physics, i, time, origin)
             cloud.neighbour_count[i] = 0
             if cloud.phase[i] == FLYING and not done:
                 cloud.stale[i] = 1  # a new list: its earliest event is found again
@@ -1316,22 +1320,28 @@ class DensePhase:
         c = self.cloud
         grew = False
         while True:
-            if self.cell_lists:
-                self.list_commands[0].launch()
-            else:
-                self.list_commands[0].launch()
+            self.list_commands[0].launch()  # cell lists (CPU), or the grid points
+            if not self.cell_lists:
                 # (one shot: no groups, a grouped build costs twice as much on the CPU; a grouped query
                 # of an ungrouped grid filters nothing)
                 groups = self.groups[:pellets] if pellets > self.count else None
                 self.grid.build(c.grid_point[:pellets], CELL_REACHES * self.reach, groups=groups)
                 self.list_commands[1].launch()
-            found = int(c.flags.numpy()[FLAG_OVERFLOW])  # one integer per rebuild
-            if found == 0:
+            if not self._grew_lists():
                 return grew
-            c.neighbours = wp.zeros((self.capacity, int(found * 1.25) + 1), dtype=wp.int32, device=self.device)
-            c.flags[FLAG_OVERFLOW:].zero_()
             self._record()
             grew = True
+
+    def _grew_lists(self) -> bool:
+        """After a build: if a list overflowed, longer lists (1.25 x the longest needed), to be
+        built again. One integer read per build."""
+        c = self.cloud
+        found = int(c.flags.numpy()[FLAG_OVERFLOW])
+        if found == 0:
+            return False
+        c.neighbours = wp.zeros((self.capacity, int(found * 1.25) + 1), dtype=wp.int32, device=self.device)
+        c.flags[FLAG_OVERFLOW:].zero_()
+        return True
 
     def _step_commands(self, pellets, shots, outputs):
         """One step's launches, recorded once (packing the structs' parameters costs more than a
@@ -1405,12 +1415,8 @@ class DensePhase:
             end = min(first + group, self.shots)
             self._launch("phase", 1, [first, end, self.block_steps, self.rounds, self.pair, m.surfaces, m.physics, c,
                                       self._outputs, self.bucket_end, self.rows, self.cells])
-            found = int(c.flags.numpy()[FLAG_OVERFLOW])
-            if found == 0:
+            if not self._grew_lists():  # (else the same group again: its shots before the overflow are done)
                 first = end
-                continue
-            c.neighbours = wp.zeros((self.capacity, int(found * 1.25) + 1), dtype=wp.int32, device=self.device)
-            c.flags[FLAG_OVERFLOW:].zero_()
 
     def _host_loop(self, pellets, shots, outputs, frames):
         """Checkpoints, rebuilds and blocks of steps launched from the host (CUDA; the CPU with
