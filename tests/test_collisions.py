@@ -425,13 +425,25 @@ def test_the_cpu_one_launch_is_the_host_loop_and_the_per_step_kernels(tmp_path, 
     from warp_ricochet.collisions import DensePhase
 
     scene = _paper_collisions(count=60, shots=3, precision="float64", max_neighbours=max_neighbours)
-    one_launch = _write(scene, tmp_path / "one-launch.h5", "cpu")
+    launched = []  # the kernels each run launched (or recorded), by name
+    launch = DensePhase._launch
+    monkeypatch.setattr(DensePhase, "_launch", lambda self, name, *a, **k: launched.append(name) or launch(self, name, *a, **k))
+
+    def run(name):
+        launched.clear()
+        return _write(scene, tmp_path / f"{name}.h5", "cpu"), list(launched)
+
+    one_launch, kernels = run("one-launch")
+    assert 1 <= kernels.count("phase") <= 2 and "block" not in kernels  # (a second after an overflow)
     monkeypatch.setattr(DensePhase, "PHASE_PELLETS", 1)  # a launch a shot
-    shot_by_shot = _write(scene, tmp_path / "shot-by-shot.h5", "cpu")
+    shot_by_shot, kernels = run("shot-by-shot")
+    assert kernels.count("phase") >= 3
     monkeypatch.setattr(DensePhase, "ONE_LAUNCH_ON_CPU", False)
-    host_loop = _write(scene, tmp_path / "host-loop.h5", "cpu")
+    host_loop, kernels = run("host-loop")
+    assert "block" in kernels and "phase" not in kernels
     monkeypatch.setattr(DensePhase, "FUSED_ON_CPU", False)
-    per_step = _write(scene, tmp_path / "per-step.h5", "cpu")
+    per_step, kernels = run("per-step")
+    assert "choose" in kernels and "block" not in kernels
     assert one_launch[1]["pair_collisions"] > 10
     for other in (shot_by_shot, host_loop, per_step):
         for name, value in one_launch[0].items():
