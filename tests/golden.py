@@ -1,0 +1,102 @@
+"""Golden digests: the bits of every per-pellet dataset and statistic of a few runs on the CPU.
+
+They hold results bitwise across refactors (issue 11): `python -m tests.golden record` writes
+tests/data/golden-cpu.json on this machine; tests/test_golden.py recomputes and compares. Warp's
+CPU compiler targets the host CPU (LLVM's host name and features: FMA contraction differs between
+CPUs), so the digests are keyed by a fingerprint of the machine and the Warp version; on another
+machine the test says so and skips, and `record` makes that machine's digests.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import platform
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+GOLDEN = Path(__file__).parent / "data" / "golden-cpu.json"
+
+COLLISIONS = ["collisions.enabled=true", "shot.shots=3", "shot.count=200",
+              'output.fields=["initial", "impact", "landing", "collisions", "release"]']
+CASES = {
+    "paper-float32": ("examples/paper.toml", []),
+    "paper-float64": ("examples/paper.toml", ['numerics.precision="float64"']),
+    "steel-plate": ("examples/steel_plate.toml", []),
+    "spin-planes": ("examples/steel_plate.toml", ["shot.count=70000", "shot.spin=[300.0, -2000.0, 9000.0]",
+                                                  "physics.bounces=3", 'numerics.precision="float64"',
+                                                  'output.fields=["initial", "impact", "landing"]']),
+    "collisions-float64": ("examples/paper.toml", COLLISIONS + ['numerics.precision="float64"']),
+    "collisions-float32": ("examples/paper.toml", COLLISIONS),
+}
+
+
+def fingerprint() -> str:
+    """The CPU model and flags that LLVM's host target depends on, and the Warp version."""
+    import warp as wp
+
+    model, flags = platform.processor() or platform.machine(), ""
+    try:
+        info = Path("/proc/cpuinfo").read_text()
+        model = next(line.split(":", 1)[1].strip() for line in info.splitlines() if line.startswith("model name"))
+        flags = next(line.split(":", 1)[1] for line in info.splitlines() if line.startswith("flags"))
+    except (OSError, StopIteration):
+        pass
+    wanted = ("fma", "avx2", "avx512f", "avx512vl", "neon", "asimd")
+    features = ",".join(f for f in wanted if f in flags.split())
+    return f"{model} [{features}] warp {wp.config.version}"
+
+
+def _sha(array) -> str:
+    a = np.ascontiguousarray(array)
+    return hashlib.sha256(a.dtype.str.encode() + str(a.shape).encode() + a.tobytes()).hexdigest()[:24]
+
+
+def digests(path) -> dict[str, str]:
+    """{dataset: digest} of /pellets/** and of the /stats a run computes (NaN statistics left out:
+    a run without collisions has no collision statistics)."""
+    out = {}
+    with h5py.File(path, "r") as f:
+        def visit(name, obj):
+            if isinstance(obj, h5py.Dataset):
+                out[f"pellets/{name}"] = _sha(obj[()])
+        f["pellets"].visititems(visit)
+        for name, ds in f["stats"].items():
+            value = float(ds[()])
+            if not math.isnan(value):
+                out[f"stats/{name}"] = _sha(np.float64(value))
+    return out
+
+
+def run_case(name: str, tmp: Path) -> dict[str, str]:
+    import warp_ricochet as wr
+    from warp_ricochet.scene import load_scene
+
+    scene_path, overrides = CASES[name]
+    scene = load_scene(ROOT / scene_path, overrides)
+    out = tmp / f"{name}.h5"
+    wr.run(scene, out, device="cpu", overwrite=True)
+    return digests(out)
+
+
+def record(tmp: Path) -> dict:
+    data = {"fingerprint": fingerprint(), "cases": {name: run_case(name, tmp) for name in CASES}}
+    GOLDEN.write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
+    return data
+
+
+if __name__ == "__main__":
+    import tempfile
+    import warnings
+
+    warnings.simplefilter("ignore")
+    if sys.argv[1:] != ["record"]:
+        raise SystemExit("usage: python -m tests.golden record")
+    with tempfile.TemporaryDirectory() as tmp:
+        data = record(Path(tmp))
+    print(f"recorded {sum(map(len, data['cases'].values()))} digests of {len(data['cases'])} runs for {data['fingerprint']}")
