@@ -27,7 +27,7 @@ from hypothesis import strategies as st
 
 from warp_ricochet import api
 from warp_ricochet.cli import main
-from warp_ricochet.scene import _toml_value as toml_value  # TOML text of any value (NaN, inf too)
+from warp_ricochet.scene.toml_out import toml_value  # TOML text of any value (NaN, inf too)
 
 PREFIX = "warp-ricochet: error: "
 SETTINGS = settings(max_examples=150, deadline=None, database=None,

@@ -1,0 +1,103 @@
+"""The per-pellet output fields: one registry, from which the kernels' output struct, the scene's
+validation of `output.fields` and the writer's datasets are made.
+
+A field is named "group.name" (its HDF5 path is /pellets/group/name). Its `stage` says which part
+of the pipeline produces it: "launch", "impact" and "landing" fields are written by the core kernel
+(members of its Outputs struct, `core.types`), "collide" fields by the dense phase of pellet-pellet
+collisions (only runs with collisions have them). Units are SI. This module imports nothing heavy.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Field", "FIELDS", "GROUPS", "CORE_FIELDS", "COLLISION_FIELDS", "ALL_FIELDS", "core_fields",
+           "collision_fields", "numpy_dtype", "shape", "bytes_per_pellet"]
+
+INTEGER_KINDS = {"int8": np.int8, "int16": np.int16, "int32": np.int32}
+
+
+@dataclass(frozen=True)
+class Field:
+    """One per-pellet output: `kind` is "vec3" or "scalar" (the run's precision) or an integer
+    kind; `per_bounce` fields have one entry per ricochet followed."""
+
+    name: str
+    kind: str
+    per_bounce: bool
+    unit: str
+    stage: str
+    description: str
+
+    @property
+    def member(self) -> str:
+        """Its member in the kernels' structs and its HDF5 path below /pellets."""
+        return self.name.replace(".", "_")
+
+    @property
+    def path(self) -> str:
+        return "pellets/" + self.name.replace(".", "/")
+
+
+_F = Field
+FIELDS: dict[str, Field] = {f.name: f for f in (
+    _F("initial.position", "vec3", False, "m", "launch", "centre at launch"),
+    _F("initial.velocity", "vec3", False, "m/s", "launch", "velocity at launch"),
+    _F("initial.angular_velocity", "vec3", False, "rad/s", "launch", "angular velocity at launch"),
+    _F("impact.time", "scalar", True, "s", "impact", "time of the impact since launch (NaN: no impact)"),
+    _F("impact.position", "vec3", True, "m", "impact", "centre at the impact"),
+    _F("impact.velocity_before", "vec3", True, "m/s", "impact", "velocity just before the impact"),
+    _F("impact.angular_velocity_before", "vec3", True, "rad/s", "impact", "angular velocity just before the impact"),
+    _F("impact.velocity", "vec3", True, "m/s", "impact", "velocity just after the impact (eq. 15)"),
+    _F("impact.angular_velocity", "vec3", True, "rad/s", "impact", "angular velocity just after the impact (eqs. 20, 24)"),
+    _F("impact.slipped", "int8", True, "1", "impact", "1 slip (eq. 22 met), 0 stick, -1 no impact"),
+    _F("impact.surface", "int16", True, "1", "impact", "index of the surface hit, -1 none"),
+    _F("landing.time", "scalar", False, "s", "landing", "landing time since launch (inf: never lands)"),
+    _F("landing.position", "vec3", False, "m", "landing", "centre at landing (NaN: never lands)"),
+    _F("landing.velocity", "vec3", False, "m/s", "landing", "velocity at landing"),
+    _F("landing.range", "scalar", False, "m", "landing", "distance from the last ricochet point to the landing point (eq. 42)"),
+    _F("landing.surface", "int16", False, "1", "landing", "index of the surface landed on, -1 none"),
+    _F("collisions.count", "int32", False, "1", "collide", "pellet-pellet collisions of the pellet"),
+    _F("collisions.last_time", "scalar", False, "s", "collide", "time of its last pellet-pellet collision since launch (NaN: none)"),
+    _F("release.time", "scalar", False, "s", "collide", "when the time stepping handed it to the exact flight (or its flight ended in it)"),
+    _F("release.position", "vec3", False, "m", "collide", "centre at release"),
+    _F("release.velocity", "vec3", False, "m/s", "collide", "velocity at release"),
+    _F("release.angular_velocity", "vec3", False, "rad/s", "collide", "angular velocity at release"),
+)}
+
+# "group" -> its field names, in registry order (a scene may name a whole group in output.fields)
+GROUPS: dict[str, tuple[str, ...]] = {}
+for _name in FIELDS:
+    GROUPS.setdefault(_name.split(".")[0], ())
+    GROUPS[_name.split(".")[0]] += (_name.split(".")[1],)
+
+CORE_FIELDS = tuple(name for name, f in FIELDS.items() if f.stage != "collide")
+COLLISION_FIELDS = tuple(name for name, f in FIELDS.items() if f.stage == "collide")
+ALL_FIELDS = CORE_FIELDS + COLLISION_FIELDS
+
+
+def core_fields(fields) -> tuple[str, ...]:
+    """Those of `fields` the core kernel writes."""
+    return tuple(f for f in fields if FIELDS[f].stage != "collide")
+
+
+def collision_fields(fields) -> tuple[str, ...]:
+    """Those of `fields` the dense phase writes."""
+    return tuple(f for f in fields if FIELDS[f].stage == "collide")
+
+
+def numpy_dtype(name: str, precision: str) -> np.dtype:
+    kind = FIELDS[name].kind
+    return np.dtype(INTEGER_KINDS.get(kind, precision))
+
+
+def shape(name: str, rows: int, bounces: int) -> tuple[int, ...]:
+    f = FIELDS[name]
+    return (rows,) + ((bounces,) if f.per_bounce else ()) + ((3,) if f.kind == "vec3" else ())
+
+
+def bytes_per_pellet(fields, precision: str, bounces: int) -> int:
+    """Bytes per pellet of these fields (on the device, and again on the host)."""
+    return sum(numpy_dtype(n, precision).itemsize * int(np.prod(shape(n, 1, bounces))) for n in fields)

@@ -1,0 +1,204 @@
+"""Converters: conv(value, dotted_key) -> validated value, each with the `rule` its one-line errors state; the schemas of the scene's tables."""
+
+from __future__ import annotations
+
+import math
+
+from ..fields import ALL_FIELDS, FIELDS, GROUPS
+from .keys import err as _err
+from .schema import (
+    INT32_MAX,
+    MAX_COORDINATE,
+    MAX_DENSITY,
+    MAX_DIAMETER,
+    MAX_FRICTION,
+    MAX_GRAVITY,
+    MAX_IMPACT_DURATION,
+    MAX_SPEED,
+    MAX_SPIN,
+    MIN_DENSITY,
+    MIN_DIAMETER,
+)
+
+
+def _rule(rule):
+    def deco(conv):
+        conv.rule = rule
+        return conv
+    return deco
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _finite(v, path: str, rule: str) -> float:
+    if not _is_number(v):
+        raise _err(path, v, rule)
+    try:
+        x = float(v)
+    except OverflowError:
+        x = math.inf
+    if not math.isfinite(x):
+        raise _err(path, v, "must be finite")
+    return x
+
+
+def _number(lo=None, hi=None, *, above=False, unit=""):
+    if hi is not None:
+        rule = f"must be a number in [{lo:g}, {hi:g}]"
+    else:
+        rule = "must be a number" + ("" if lo is None else f" {'>' if above else '>='} {lo:g}")
+    rule += f" ({unit})" if unit else ""
+
+    @_rule(rule)
+    def conv(v, path):
+        x = _finite(v, path, rule)
+        if (lo is not None and (x <= lo if above else x < lo)) or (hi is not None and x > hi):
+            raise _err(path, v, rule)
+        return x
+    return conv
+
+
+def _range(lo, hi, *, above=False, unit=""):
+    """A number in [lo, hi] ((lo, hi] with above), with the bounds in its one-line rule."""
+    rule = f"must be a number in {'(' if above else '['}{lo:g}, {hi:g}]" + (f" ({unit})" if unit else "")
+
+    @_rule(rule)
+    def conv(v, path):
+        x = _finite(v, path, rule)
+        if x < lo or (above and x == lo) or x > hi:
+            raise _err(path, v, rule)
+        return x
+    return conv
+
+
+def _int(lo: int, hi: int):
+    rule = f"must be an integer in [{lo}, {hi}]"
+
+    @_rule(rule)
+    def conv(v, path):
+        if isinstance(v, float) and not math.isfinite(v):
+            raise _err(path, v, "must be finite")
+        if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
+            raise _err(path, v, rule)
+        return int(v)
+    return conv
+
+
+def _vec3(*, nonzero=False, nonneg=False, scalar=False, unit="", bound=None):
+    rule = "must be a list of 3 numbers" + (" or one number" if scalar else "") + (f" ({unit})" if unit else "")
+
+    @_rule(rule)
+    def conv(v, path):
+        if scalar and _is_number(v):
+            xs = (_finite(v, path, rule),) * 3
+        elif isinstance(v, (list, tuple)) and len(v) == 3 and all(map(_is_number, v)):
+            try:
+                xs = tuple(map(float, v))
+            except OverflowError:
+                xs = (math.inf,)
+            if not all(map(math.isfinite, xs)):
+                raise _err(path, v, "must be finite")
+        else:
+            raise _err(path, v, rule)
+        if nonzero and not any(xs):
+            raise _err(path, v, "must not be the zero vector")
+        if nonneg and min(xs) < 0:
+            raise _err(path, v, "must be >= 0 in each component")
+        if bound is not None and max(map(abs, xs)) > bound:
+            raise _err(path, v, f"each component must be within +-{bound:g}" + (f" {unit}" if unit else ""))
+        return xs
+    return conv
+
+
+def _str(choices=(), *, empty=False):
+    rule = ("must be one of " + ", ".join(map(repr, choices))) if choices else \
+        "must be a string" + ("" if empty else " (not empty)")
+
+    @_rule(rule)
+    def conv(v, path):
+        if not isinstance(v, str) or (choices and v not in choices) or (not empty and not v):
+            raise _err(path, v, rule)
+        return v
+    return conv
+
+
+def _path():
+    rule = "must be a file name (a string, not empty, without NUL characters)"
+
+    @_rule(rule)
+    def conv(v, path):
+        if not isinstance(v, str) or not v or "\0" in v:
+            raise _err(path, v, rule)
+        return v
+    return conv
+
+
+@_rule("must be true or false")
+def _bool(v, path):
+    if not isinstance(v, bool):
+        raise _err(path, v, "must be true or false")
+    return v
+
+
+@_rule("must be a list of field names")
+def _fields(v, path):
+    if not isinstance(v, (list, tuple)):
+        raise _err(path, v, "must be a list of field names")
+    chosen = set()
+    for name in v:
+        if isinstance(name, str) and name in GROUPS:
+            chosen.update(f"{name}.{f}" for f in GROUPS[name])
+        elif isinstance(name, str) and name in FIELDS:
+            chosen.add(name)
+        else:
+            raise _err(path, name, "unknown field; allowed: " + ", ".join((*GROUPS, *ALL_FIELDS)))
+    return tuple(f for f in ALL_FIELDS if f in chosen)
+
+
+_SHOT = {
+    "count": _int(1, INT32_MAX),
+    "shots": _int(1, INT32_MAX),
+    "diameter": _range(MIN_DIAMETER, MAX_DIAMETER, unit="m"),
+    "density": _range(MIN_DENSITY, MAX_DENSITY, unit="kg/m^3"),
+    "speed": _range(0, MAX_SPEED, above=True, unit="m/s"),
+    "direction": _vec3(nonzero=True, bound=MAX_COORDINATE),
+    "direction_jitter": _vec3(nonneg=True, scalar=True, bound=MAX_COORDINATE),
+    "envelope_radius": _range(0, MAX_COORDINATE, unit="m"),
+    "envelope_center": _vec3(unit="m", bound=MAX_COORDINATE),
+    "spin": _vec3(unit="rad/s", bound=MAX_SPIN),
+    "seed": _int(0, INT32_MAX),
+    "file": _path(),
+}
+_SURFACE = {
+    "name": _str(empty=True),
+    "point": _vec3(unit="m", bound=MAX_COORDINATE),
+    "normal": _vec3(nonzero=True, bound=MAX_COORDINATE),
+    "restitution": _number(0, 1),
+    "mu_s": _range(0, MAX_FRICTION),
+    "mu_d": _range(0, MAX_FRICTION),
+}
+_PHYSICS = {"gravity": _vec3(unit="m/s^2", bound=MAX_GRAVITY), "impact_duration": _range(0, MAX_IMPACT_DURATION, unit="s"),
+            "bounces": _int(1, 16)}
+_COLLISIONS = {
+    "enabled": _bool,
+    "restitution": _number(0, 1),
+    "mu_s": _range(0, MAX_FRICTION),
+    "mu_d": _range(0, MAX_FRICTION),
+    "contact_duration": _range(0, MAX_IMPACT_DURATION, unit="s"),
+    "time_step": _range(0, MAX_IMPACT_DURATION, above=True, unit="s"),
+    "step_fraction": _range(0, 1, above=True),
+    "skin": _range(0, 10, above=True),
+    "rounds": _int(1, 64),
+    "max_neighbours": _int(1, 256),
+    "max_steps": _int(1, INT32_MAX),
+    "frame_every": _int(0, INT32_MAX),
+}
+FLOAT32_EXACT_STEPS = 2**24  # float32 counts every integer up to here
+_NUMERICS = {"precision": _str(("float32", "float64")), "chunk_size": _int(1, INT32_MAX), "fast_math": _bool}
+_OUTPUT = {"path": _path(), "fields": _fields}
+_TOP = ("shot", "surfaces", "physics", "collisions", "numerics", "output")
+# table -> its schema (the top level: the names of the tables)
+SCHEMAS = {"shot": _SHOT, "surfaces": _SURFACE, "physics": _PHYSICS, "collisions": _COLLISIONS, "numerics": _NUMERICS,
+           "output": _OUTPUT, "": _TOP}

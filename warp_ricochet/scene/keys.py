@@ -1,0 +1,59 @@
+"""One-line scene errors, and the dotted keys they name."""
+
+from __future__ import annotations
+
+from ..errors import SceneError
+
+
+class _Missing:
+    def __repr__(self):
+        return "(missing)"
+
+
+class _Shown:
+    """A value shown by a given one-line text (for values whose repr spans lines or fails)."""
+    def __init__(self, text):
+        self.text = text
+
+    def __repr__(self):
+        return self.text
+
+
+MISSING = _Missing()
+
+
+def err(key: str, value, allowed: str) -> SceneError:
+    """SceneError whose message is guaranteed to be one line."""
+    key = key if key.isprintable() else repr(key)[1:-1]
+    try:
+        text = repr(value)
+        ok = text.isprintable()
+    except Exception:  # noqa: BLE001 - any user value must give a SceneError, even one whose repr fails
+        text, ok = f"<{type(value).__name__}>", False
+    if not ok:
+        text = " ".join(text.split())
+        value = _Shown(text if text.isprintable() else repr(text)[1:-1])
+    return SceneError(key, value, " ".join(str(allowed).split()))
+
+
+def quote(text: str) -> str:
+    """TOML basic string."""
+    esc = {'"': '\\"', "\\": "\\\\", "\n": "\\n", "\t": "\\t", "\r": "\\r", "\b": "\\b", "\f": "\\f"}
+    return '"' + "".join(esc.get(c) or (f"\\u{ord(c):04x}" if ord(c) < 0x20 or ord(c) == 0x7F else c)
+                         for c in text) + '"'
+
+
+def _bare(key) -> bool:
+    return isinstance(key, str) and key != "" and all(c.isascii() and (c.isalnum() or c in "_-") for c in key)
+
+
+def join(path: str, key) -> str:
+    name = key if _bare(key) else quote(str(key))
+    return f"{path}.{name}" if path else name
+
+
+def check_keys(raw: dict, path: str, allowed) -> None:
+    for key in raw:
+        if key not in allowed:
+            raise err(join(path, key), raw[key], "unknown key; allowed keys: " + ", ".join(allowed))
+

@@ -1,0 +1,149 @@
+"""Scenes from TOML: tables validated into the dataclasses of `schema`; every problem one SceneError line."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import tomllib
+from pathlib import Path
+
+from ..fields import ALL_FIELDS, COLLISION_FIELDS, CORE_FIELDS
+from .convert import SCHEMAS
+from .keys import MISSING, check_keys, err, join
+from .overrides import apply_override
+from .pellets import load_pellet_file
+from .schema import (
+    CHECKPOINT_STEPS,
+    FILE_EXCLUSIVE,
+    FLOAT32_EXACT_STEPS,
+    INT32_MAX,
+    Collisions,
+    Numerics,
+    Output,
+    Physics,
+    Scene,
+    Shot,
+    Surface,
+)
+
+
+def _table(raw, path: str, schema: dict, required=()) -> dict:
+    """Validated values of the keys given in table `raw` (None counts as absent); defaults are the dataclass's."""
+    raw = {} if raw is None else raw
+    if not isinstance(raw, dict):
+        raise err(path, raw, "must be a table")
+    check_keys(raw, path, schema)
+    out = {}
+    for key, conv in schema.items():
+        if raw.get(key) is not None:
+            out[key] = conv(raw[key], join(path, key))
+        elif key in required:
+            raise err(join(path, key), MISSING, f"is required; it {conv.rule}")
+    return out
+
+
+def _shot(raw, base_dir) -> Shot:
+    kw = _table(raw, "shot", SCHEMAS["shot"], required=("diameter", "density"))
+    if "file" not in kw:
+        for key in ("count", "speed"):
+            if key not in kw:
+                raise err(f"shot.{key}", MISSING, f"is required without shot.file; it {SCHEMAS['shot'][key].rule}")
+        if kw["count"] * kw.get("shots", 1) > INT32_MAX:
+            raise err("shot.shots", kw["shots"], f"times shot.count ({kw['count']}) must be at most {INT32_MAX} pellets")
+        return Shot(**kw)
+    for key in FILE_EXCLUSIVE:
+        if key in kw:
+            raise err(f"shot.{key}", raw[key], "not allowed together with shot.file")
+    kw["file"] = os.path.abspath(os.path.join(os.fspath(base_dir), kw["file"]))
+    n = len(load_pellet_file(kw["file"])["position"])
+    if n > INT32_MAX:
+        raise err("shot.file", kw["file"], f"holds {n} pellets; at most {INT32_MAX} are allowed")
+    shots = kw.get("shots", 1)
+    if n % shots:
+        raise err("shot.shots", shots, f"must divide the number of pellets in shot.file ({n}): consecutive blocks are shots")
+    if kw.setdefault("count", n // shots) != n // shots:
+        raise err("shot.count", kw["count"], f"must equal the pellets per shot in shot.file ({n} / {shots} shots) or be left out")
+    return Shot(**kw)
+
+
+def _surface(raw, path: str) -> Surface:
+    kw = _table(raw, path, SCHEMAS["surfaces"], required=("point", "normal", "restitution", "mu_s"))
+    norm = math.hypot(*kw["normal"])
+    if abs(norm - 1.0) > 1e-15:  # keeps normalisation idempotent (round trips)
+        kw["normal"] = tuple(x / norm for x in kw["normal"])
+    if kw.setdefault("mu_d", kw["mu_s"]) > kw["mu_s"]:
+        raise err(f"{path}.mu_d", raw["mu_d"], f"must be a number in [0, mu_s = {kw['mu_s']:g}]")
+    return Surface(**kw)
+
+
+def _collisions(raw) -> Collisions:
+    kw = _table(raw, "collisions", SCHEMAS["collisions"])
+    mu_s = kw.get("mu_s", Collisions.mu_s)
+    if "mu_d" not in kw:
+        kw["mu_d"] = min(Collisions.mu_d, mu_s)
+    elif kw["mu_d"] > mu_s:
+        raise err("collisions.mu_d", raw["mu_d"], f"must be a number in [0, mu_s = {mu_s:g}]")
+    return Collisions(**kw)
+
+
+def scene_from_dict(raw: dict, base_dir=".") -> Scene:
+    """Validate a raw scene dict (as read from TOML); shot.file is resolved relative to `base_dir`."""
+    if not isinstance(raw, dict):
+        raise err("scene", raw, "must be a table")
+    check_keys(raw, "", SCHEMAS[""])
+    if raw.get("shot") is None:
+        raise err("shot", MISSING, "is required (a [shot] table)")
+    surfaces = [] if raw.get("surfaces") is None else raw["surfaces"]
+    if not isinstance(surfaces, (list, tuple)):
+        raise err("surfaces", surfaces, "must be an array of tables ([[surfaces]])")
+    collisions = _collisions(raw.get("collisions"))
+    shot = _shot(raw["shot"], base_dir)
+    pairs = collisions.enabled and shot.count > 1  # as Scene.pair_collisions: the run has a dense phase
+    output = _table(raw.get("output"), "output", SCHEMAS["output"])
+    if "fields" not in output:
+        output["fields"] = ALL_FIELDS if pairs else CORE_FIELDS
+    elif not pairs:
+        extra = [f for f in output["fields"] if f in COLLISION_FIELDS]
+        if extra:
+            raise err("output.fields", extra[0], "needs pellet-pellet collisions: collisions.enabled = true and "
+                       "more than one pellet per shot (shot.count > 1)")
+    numerics = Numerics(**_table(raw.get("numerics"), "numerics", SCHEMAS["numerics"]))
+    if pairs and numerics.precision == "float32":
+        # A shot's step counter is a float32 in a float32 run: it stops counting at 2^24, and a shot
+        # stops (max_steps) only at a checkpoint, every frame_every steps (or CHECKPOINT_STEPS), so
+        # the checkpoint at or after max_steps must come by then, or the shot never stops.
+        every = collisions.frame_every or CHECKPOINT_STEPS
+        if every > FLOAT32_EXACT_STEPS:
+            raise err("collisions.frame_every", collisions.frame_every, f"at most {FLOAT32_EXACT_STEPS:,} with "
+                       "numerics.precision = \"float32\" (a shot's step counter is exact up to 2^24); use float64")
+        if -(-collisions.max_steps // every) * every > FLOAT32_EXACT_STEPS:
+            raise err("collisions.max_steps", collisions.max_steps, f"with numerics.precision = \"float32\", its "
+                       f"checkpoint (a multiple of {every} steps) must come by step {FLOAT32_EXACT_STEPS:,}, where the "
+                       "step counter stops being exact: at most "
+                       f"{FLOAT32_EXACT_STEPS // every * every:,}; use float64 for more")
+    return Scene(
+        shot=shot,
+        surfaces=tuple(_surface(s, f"surfaces.{i}") for i, s in enumerate(surfaces)),
+        physics=Physics(**_table(raw.get("physics"), "physics", SCHEMAS["physics"])),
+        numerics=numerics,
+        output=Output(**output),
+        collisions=collisions,
+    )
+
+
+def load_scene(path, overrides=()) -> Scene:
+    """Read a TOML scene, apply "KEY=VALUE" overrides, validate; shot.file is relative to the scene's folder."""
+    overrides = (overrides,) if isinstance(overrides, str) else overrides
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except (OSError, ValueError) as exc:
+        raise err("scene", str(path), f"cannot be read: {getattr(exc, 'strerror', None) or exc}") from None
+    try:
+        raw = tomllib.loads(text)
+    except (ValueError, RecursionError) as exc:
+        raise err("scene", str(path), f"is not valid TOML: {exc}") from None
+    for assignment in overrides:
+        raw = apply_override(raw, assignment)
+    return dataclasses.replace(scene_from_dict(raw, base_dir=Path(path).parent), source=str(path))
+

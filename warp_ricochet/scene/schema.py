@@ -1,0 +1,138 @@
+"""The scene's validated, frozen dataclasses and the physical domain the kernels are built for (SI units)."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+from ..fields import CORE_FIELDS
+from .toml_out import plain, toml_lines
+
+Vec3 = tuple[float, float, float]
+INT32_MAX = 2**31 - 1
+
+# The physical domain the kernels are built for: every product they form stays far inside float32
+# (speeds^2 ~ 1e10, spins times radii ~ 1e8), so a float32 run cannot overflow or lose a pellet.
+MIN_DIAMETER, MAX_DIAMETER = 1e-6, 1.0  # m
+MIN_DENSITY, MAX_DENSITY = 1.0, 1e5  # kg/m^3
+MAX_SPEED = 1e5  # m/s
+MAX_SPIN = 1e8  # rad/s, each component
+MAX_COORDINATE = 1e6  # m, each component of positions (and of direction vectors)
+MAX_GRAVITY = 1e4  # m/s^2, each component
+MAX_FRICTION = 100.0
+MAX_IMPACT_DURATION = 1.0  # s
+
+FLOAT32_EXACT_STEPS = 2**24  # float32 counts every integer up to here
+CHECKPOINT_STEPS = 8  # a shot's steps between checkpoints when collisions.frame_every is 0 (dense.constants.BLOCK_STEPS)
+# shot keys that a pellet file replaces
+FILE_EXCLUSIVE = ("speed", "direction", "direction_jitter", "envelope_radius", "envelope_center", "spin", "seed")
+
+
+@dataclass(frozen=True)
+class Shot:
+    """The pellets: sampled from count/speed/direction/... or read from a pellet file (`file`, absolute path)."""
+    diameter: float                                   # m
+    density: float                                    # kg/m^3
+    count: int = 0                                    # pellets per shot
+    shots: int = 1                                    # independent shots of `count` pellets each
+    speed: float = 0.0                                # m/s
+    direction: Vec3 = (1.0, -1.0, 0.0)                # not normalised
+    direction_jitter: Vec3 = (0.0, 0.0, 0.0)
+    envelope_radius: float = 0.0                      # m
+    envelope_center: Vec3 = (0.0, 0.0, 0.0)           # m
+    spin: Vec3 = (0.0, 0.0, 0.0)                      # rad/s
+    seed: int = 0
+    file: str | None = None
+
+    @property
+    def pellets(self) -> int:
+        """All pellets of the run: count per shot times shots."""
+        return self.count * self.shots
+
+
+@dataclass(frozen=True)
+class Surface:
+    """A plane through `point` (m) with unit `normal` pointing to the side the pellets come from."""
+    point: Vec3
+    normal: Vec3
+    restitution: float
+    mu_s: float
+    mu_d: float | None = None
+    name: str = ""
+
+
+@dataclass(frozen=True)
+class Physics:
+    gravity: Vec3 = (0.0, -9.81, 0.0)                 # m/s^2
+    impact_duration: float = 0.0                      # s
+    bounces: int = 1
+
+
+# Steel on steel (docs/collisions.md): restitution 0.9 for hardened steel spheres at low speed
+# (Goldsmith, "Impact", 1960); dry friction mu_s 0.74, mu_d 0.57 (Serway & Jewett, Physics for
+# Scientists and Engineers, table 5.1). contact_duration: the Hertz contact time of two 2.5 mm steel
+# spheres at 10 m/s is about 0.3 us; 1 us is the TC model's default window.
+@dataclass(frozen=True)
+class Collisions:
+    """Pellet-pellet collisions (the paper neglects them). Off unless `enabled`."""
+    enabled: bool = False
+    restitution: float = 0.9                          # pair E, on the normal relative velocity
+    mu_s: float = 0.74
+    mu_d: float | None = 0.57                         # <= mu_s; defaults to min(0.57, mu_s)
+    contact_duration: float = 1e-6                    # s, TC model: a pellet hit again within it rebounds elastically
+    time_step: float | None = None                    # s, fixed step of the dense phase; None adapts it
+    step_fraction: float = 0.25                       # adaptive step: closing displacement per step / diameter
+    skin: float = 2.25                                # neighbour-list skin, in diameters (9 x step_fraction: a list lasts a block of 8 steps, and one more)
+    rounds: int = 4                                   # event rounds per step (several contacts of one pellet)
+    max_neighbours: int = 32                          # per pellet in the neighbour list at first (grows when needed)
+    max_steps: int = 1_000_000                        # the dense phase stops (and says so) after these
+    frame_every: int = 0                              # H5MD trajectory frame every k steps (0: none)
+
+
+@dataclass(frozen=True)
+class Numerics:
+    precision: str = "float32"
+    chunk_size: int | None = None                     # None: automatic
+    fast_math: bool = True                            # CUDA float32: approximate div/sqrt/sin (see README)
+
+
+@dataclass(frozen=True)
+class Output:
+    path: str | None = None                           # relative to the current working directory
+    fields: tuple[str, ...] = CORE_FIELDS             # "group.field", canonical order
+
+
+@dataclass(frozen=True)
+class Scene:
+    shot: Shot
+    surfaces: tuple[Surface, ...]
+    physics: Physics
+    numerics: Numerics
+    output: Output
+    source: str = dataclasses.field(default="", compare=False)
+    collisions: Collisions = Collisions()
+
+    @property
+    def pair_collisions(self) -> bool:
+        """Pellets of a shot can meet each other: collisions enabled and more than one pellet per
+        shot (the run goes through the dense phase, `collisions.run_collision_scene`)."""
+        return self.collisions.enabled and self.shot.count > 1
+
+    def to_dict(self) -> dict:
+        """Plain TOML-able dict (None omitted, tuples as lists); scene_from_dict(s.to_dict()) == s."""
+        shot = plain(self.shot)
+        if self.shot.file is not None:
+            for key in FILE_EXCLUSIVE:
+                shot.pop(key, None)
+        out = {"shot": shot, "surfaces": [plain(s) for s in self.surfaces], "physics": plain(self.physics),
+               "numerics": plain(self.numerics), "output": plain(self.output)}
+        if self.collisions.enabled:
+            out["collisions"] = plain(self.collisions)
+        return out
+
+    def to_toml(self) -> str:
+        return "\n".join(toml_lines(self.to_dict(), "")).lstrip("\n") + "\n"
+
+    def replace(self, **changes) -> "Scene":
+        return dataclasses.replace(self, **changes)
+
