@@ -32,7 +32,7 @@ SCENE = ROOT / "examples" / "paper.toml"
 
 def _wr():
     import warp_ricochet as wr
-    from warp_ricochet.api import _warp
+    from warp_ricochet.device import warp as _warp
 
     return wr, _warp()
 
@@ -58,7 +58,7 @@ def tradeoff(device, n, big, repeats, out_dir):
     wr, wp = _wr()
     import h5py
 
-    from warp_ricochet import reference
+    from warp_ricochet.reference import ballistic as reference
 
     rows = []
     for precision, fast in MODES:
@@ -113,7 +113,7 @@ def _timed(fn, repeats):
 
 def throughput(device, sizes, numpy_max, repeats, precision="float32"):
     wr, wp = _wr()
-    from warp_ricochet import reference
+    from warp_ricochet.reference import ballistic as reference
 
     wr.run(scene_for(1000, precision), device=device)  # compile
     rows = []
@@ -152,9 +152,9 @@ def write_bench(device, n, out_dir, fields=("landing",)):
     wr, wp = _wr()
     import h5py
 
-    from warp_ricochet.model import FIELD_SPECS
+    from warp_ricochet.fields import FIELDS
 
-    expanded = [f for f in FIELD_SPECS if f in fields or f.split(".")[0] in fields]
+    expanded = [f for f in FIELDS if f in fields or f.split(".")[0] in fields]
     wr.run(scene_for(1000, fields=expanded), Path(out_dir) / "warm.h5", device=device, overwrite=True)
     t0 = time.perf_counter()
     wr.run(scene_for(n), device=device)
@@ -214,11 +214,12 @@ print(json.dumps({{"peak_rss_MiB": hwm(), "rss_after_warmup_MiB": base, "seconds
 
 def memory(device, cases, out_dir):
     """Peak host RSS of fresh processes (ru_maxrss), and device bytes per pellet by mode."""
-    from warp_ricochet.model import FIELD_SPECS, State
+    from warp_ricochet.fields import FIELDS
+    from warp_ricochet.model import State
 
     rows = []
     for n, fields in cases:
-        expanded = [f for f in FIELD_SPECS if f in fields or f.split(".")[0] in fields]
+        expanded = [f for f in FIELDS if f in fields or f.split(".")[0] in fields]
         out = str(Path(out_dir) / "bench-mem.h5") if expanded else ""
         code = MEMORY_CHILD.format(root=str(ROOT), n=n, device=device, out=out, fields=expanded)
         res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)

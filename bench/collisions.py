@@ -1,5 +1,5 @@
 """Pellet-pellet collisions: run time against error of the time-stepped solver, measured against the
-event-driven float64 reference (`warp_ricochet.collision_reference`), dense-phase throughput, where
+event-driven float64 reference (`warp_ricochet.reference.collisions`), dense-phase throughput, where
 its time goes, and which shots keep a run stepping. Every subcommand runs the paper's shot (its
 envelope, so most pellets collide) with collisions on.
 
@@ -86,11 +86,11 @@ def _metrics(ranges, ref_ranges, stats, ref_stats):
 
 
 def tradeoff(args):
-    from warp_ricochet.collision_reference import simulate_collisions
+    from warp_ricochet.reference.collisions import simulate_collisions
 
     os.makedirs(args.out, exist_ok=True)
     rows = []
-    from warp_ricochet.collisions import SKIN_STEPS
+    from warp_ricochet.dense.constants import SKIN_STEPS
 
     if args.knobs:  # skin and step fraction together (fraction = skin / SKIN_STEPS: neither bound of the step binds alone)
         grid = [(p, k, k / SKIN_STEPS, r) for p in ("float64", "float32") for k in (2.25, 4.5, 6.75) for r in (1, 2, 4)]
@@ -191,14 +191,14 @@ def profile(args):
     import warp as wp
 
     from warp_ricochet import api
-    from warp_ricochet.collisions import DensePhase
+    from warp_ricochet.dense.phase import DenseOptions, DensePhase
 
     scene = paper_shots(args.count, args.shots, args.precision, rounds=args.rounds, skin=args.skin,
                         step_fraction=args.step_fraction)
     # (on the CPU the dense phase is one launch; its parts are timed in the host loop, which
     # launches the same per-shot work: the one launch saves the host round trips between them)
-    one_launch, DensePhase.ONE_LAUNCH_ON_CPU = DensePhase.ONE_LAUNCH_ON_CPU, False
-    api.run(scene, device=args.device)  # warm
+    host_loop = DenseOptions(cpu_steps="block")
+    api.run(scene, device=args.device, dense_options=host_loop)  # warm
     device = wp.get_device(args.device)
     spent, calls = defaultdict(float), defaultdict(int)
 
@@ -214,14 +214,13 @@ def profile(args):
         return wrapper
 
     originals = {name: getattr(DensePhase, name) for name in ("_rebuild", "_block", "_checkpoint", "_launch")}
-    originals["ONE_LAUNCH_ON_CPU"] = one_launch
     DensePhase._rebuild = timed("rebuild (CPU: cell lists; CUDA: grid points, HashGrid.build, neighbours)", originals["_rebuild"])
     DensePhase._block = timed("block of steps (graph or replay)", originals["_block"])
     DensePhase._checkpoint = timed("checkpoint (now, horizon, settle; flags to the host)", originals["_checkpoint"])
     DensePhase._launch = timed("other launches (launch, drift, release, totals; recording)", originals["_launch"])
     try:
         start = time.perf_counter()
-        stats = api.run(scene, device=args.device)
+        stats = api.run(scene, device=args.device, dense_options=host_loop)
         total = time.perf_counter() - start
     finally:
         for name, fn in originals.items():
@@ -260,7 +259,7 @@ def tail(args):
 
 
 def reference(args):
-    from warp_ricochet.collision_reference import simulate_collisions
+    from warp_ricochet.reference.collisions import simulate_collisions
 
     for seed in range(2021, 2021 + args.seeds):
         scene = paper_shots(args.count, 1, "float64", seed, ("initial", "landing.range", "collisions.count"))
@@ -299,7 +298,7 @@ def main():
     if args.out is None and args.what in ("tradeoff", "tail"):
         parser.error(f"{args.what} needs --out (a dated folder under bench/results/)")
     wp.config.log_level = wp.LOG_WARNING
-    from warp_ricochet.api import PrecisionWarning
+    from warp_ricochet.errors import PrecisionWarning
 
     warnings.simplefilter("ignore", PrecisionWarning)  # float32 runs here are on purpose
     commands[args.what](args)

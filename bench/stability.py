@@ -130,7 +130,7 @@ def impact_cases(quick: bool):
 def run_impact_law(device="cpu", quick=False, seed=0):
     """Rows of the impact-law table: each group of cases in float32 and float64."""
     import warp_ricochet as wr
-    from warp_ricochet import reference
+    from warp_ricochet.reference import ballistic as reference
 
     rng = np.random.default_rng(seed)
     speeds = (1e-6, 1e-2, 1.0, 1e2, 1e4) if not quick else (1e-6, 1.0, 1e4)
@@ -178,7 +178,7 @@ def run_impact_law(device="cpu", quick=False, seed=0):
     return list(rows.values()) + run_threshold(device)
 
 
-ROUNDING = 64  # the flight's rounding-noise rule (warp_ricochet.flight.ROUNDING): closing speeds within 64 eps |v| are 0
+ROUNDING = 64  # the flight's rounding-noise rule (warp_ricochet.physics.ballistic.ROUNDING): closing speeds within 64 eps |v| are 0
 EDGE_NOTE = ("Knife edges, where rounding decides and the law jumps: an approach |v_n| < {eps:.1e} |v| (the impact "
              "happens or not: it changes v_t by up to mu_s N*/m, N* including g_n dt) and k/(1+k)|v_pt| within "
              "rounding of mu_s N* (stick or slip: they differ by (mu_s - mu_d) N*/m); there the allowed error is the jump.")
@@ -857,7 +857,7 @@ def run_collisions(device="cpu", quick=False, workdir=None):
     step, flying pellets overlap by at most OVERLAP_STEP D (measured for fixed steps); float32
     within ENSEMBLE_F32 of float64 on the ensemble quantities (COLLISION_ENSEMBLE) and float64
     within REFERENCE of the event-driven reference (pellet by pellet for the exact cases)."""
-    from warp_ricochet.collision_reference import simulate_collisions
+    from warp_ricochet.reference.collisions import simulate_collisions
 
     workdir = Path(workdir or tempfile.mkdtemp(prefix="stability-collisions-"))
     rows = []

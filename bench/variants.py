@@ -3,8 +3,8 @@ the register cap, and the end-to-end time of `run` at the same N. CUDA only.
 Run: python -m bench.variants --device cuda:0"""
 
 import argparse
+import dataclasses
 import statistics
-
 
 
 def main(argv=None):
@@ -16,10 +16,11 @@ def main(argv=None):
     ap.add_argument("--block-dims", default="256", help="CUDA block sizes to try for the ricochet kernel")
     args = ap.parse_args(argv)
     from bench.__main__ import _wr, scene_for
-    from warp_ricochet.api import plan_chunk, source_struct
-    from warp_ricochet.kernels import LANES, ricochet_kernel_for
-    from warp_ricochet.model import Model, State, threads_for
-    from warp_ricochet.stats import NUM_EXTREMES, NUM_SUMS
+    from warp_ricochet.core.kernel import ricochet_kernel_for
+    from warp_ricochet.model import Model
+    from warp_ricochet.pipeline import CoreStage
+    from warp_ricochet.spec import RunSpec
+    from warp_ricochet.tallies.reduce import launch_reduce, threads_for
 
     wr, wp = _wr()
     n = int(args.n)
@@ -29,24 +30,20 @@ def main(argv=None):
     for precision in ("float32", "float64"):
         scene = scene_for(n, precision)
         model = Model.from_scene(scene, dev)
-        kern = model.kernels
-        rows = min(plan_chunk(scene, model, n, ()), n)
-        state = State(model, rows, ())
-        src = source_struct(scene, model)
+        spec = RunSpec.of(scene, with_output=False)
+        stage = CoreStage(scene, model, spec, None, n)  # its buffers and source, statistics only
+        rows, state = min(stage.capacity, n), stage.state
         threads = threads_for(rows)
-        segments = threads // LANES
         for cap_text, block_dim in [(c, int(b)) for c in args.caps.split(",") for b in args.block_dims.split(",")]:
             fast = cap_text.endswith("+fast")
             cap_text = cap_text.removesuffix("+fast")
             cap = {"none": None, "default": "default"}[cap_text] if cap_text in ("none", "default") else int(cap_text)
-            kernel = ricochet_kernel_for(precision, False, False, 1, 1, cap, fast)
+            kernel = ricochet_kernel_for(dataclasses.replace(spec, fast_math=fast), cap)
             cap_text = cap_text + ("+fast" if fast else "")
-            launch = lambda: wp.launch(kernel, dim=threads, inputs=[0, rows, src, model.surfaces, model.physics, state.outputs, state.cloud],
+            launch = lambda: wp.launch(kernel, dim=threads, inputs=[0, rows, stage.source.struct, model.surfaces, model.physics, state.outputs, stage.release],
                                        outputs=[state.partial_sums, state.partial_min, state.partial_max], device=dev,
                                        block_dim=block_dim)
-            reduce = lambda: wp.launch(kern.reduce_kernel, dim=(segments, NUM_SUMS + NUM_EXTREMES),
-                                       inputs=[state.partial_sums, state.partial_min, state.partial_max],
-                                       outputs=[state.segments], device=dev)
+            reduce = lambda: launch_reduce(state, rows, dev)
             launch(); reduce(); wp.synchronize_device(dev)
             times, rtimes = [], []
             for _ in range(args.repeats):

@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 
 import warp_ricochet as wr
-from warp_ricochet.paper import paper_row
 from warp_ricochet.report import format_tables, read_results
+from warp_ricochet.report.paper import paper_row
 
 HERE = Path(__file__).resolve().parent
 SWEEP = {"surfaces.0.mu_s": [round(0.05 * i, 2) for i in range(11)]}

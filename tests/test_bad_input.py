@@ -6,7 +6,7 @@ bytes and its modification time, and no NAME.partial appears.
 
 The allowed domain is restated here (README "Scenes") rather than read from warp_ricochet.scene, so
 a validator that stops checking something makes these tests fail. `main()` runs in-process (a few
-milliseconds a call) with `api.run_scene` replaced by a trap: reaching it means work began.
+milliseconds a call) with `api.run_pipeline` replaced by a trap: reaching it means work began.
 """
 
 import contextlib
@@ -25,9 +25,11 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from warp_ricochet import api
+from warp_ricochet import api, chunks
 from warp_ricochet.cli import main
-from warp_ricochet.scene.toml_out import toml_value  # TOML text of any value (NaN, inf too)
+from warp_ricochet.scene.toml_out import (
+    toml_value,  # TOML text of any value (NaN, inf too)
+)
 
 PREFIX = "warp-ricochet: error: "
 SETTINGS = settings(max_examples=150, deadline=None, database=None,
@@ -131,7 +133,7 @@ def ws(tmp_path, monkeypatch):
     def work_began(*args, **kwargs):
         raise AssertionError("bad input reached the simulation")
 
-    monkeypatch.setattr(api, "run_scene", work_began)
+    monkeypatch.setattr(api, "run_pipeline", work_began)
     return Workspace(tmp_path)
 
 
@@ -425,7 +427,7 @@ def test_nul_in_output_path_never_truncates_the_shorter_name(ws):
 
 
 def test_chunk_size_beyond_memory_is_refused_before_any_file(ws):
-    if api.host_memory_available() is None:
+    if chunks.host_memory_available() is None:
         pytest.skip("host memory cannot be read here")
     result = cli(run_args(ws, None, "--set", "shot.count=2147483647", "--set", "numerics.chunk_size=2147483647",
                           "--set", 'output.fields=["initial", "impact", "landing"]'))
@@ -435,7 +437,7 @@ def test_chunk_size_beyond_memory_is_refused_before_any_file(ws):
 def test_chunk_size_beyond_memory_counts_every_shot(ws, monkeypatch):
     """A chunk of many small shots: its pellets are count x shots (here a chunk of 1e6 pellets with
     every field, 0.26 GiB, where 0.1 GiB is free), not the 1,000 of one shot."""
-    monkeypatch.setattr(api, "host_memory_available", lambda: 100 << 20)
+    monkeypatch.setattr(chunks, "host_memory_available", lambda: 100 << 20)
     result = cli(run_args(ws, None, "--set", "shot.count=1000", "--set", "shot.shots=1000",
                           "--set", "numerics.chunk_size=1000000"))
     assert "a chunk of 1000000 pellets" in assert_rejected(result, "numerics.chunk_size", ws)

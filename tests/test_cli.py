@@ -17,9 +17,9 @@ import pytest
 
 from warp_ricochet import cli
 from warp_ricochet.cli import main
-from warp_ricochet.paper import PAPER_ROWS, TABLE1, TABLE2, TABLE3, paper_row
 from warp_ricochet.progress import ProgressBar
 from warp_ricochet.report import Results, format_tables, frictional_case, read_results
+from warp_ricochet.report.paper import PAPER_ROWS, TABLE1, TABLE2, TABLE3, paper_row
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = str(ROOT / "examples" / "paper.toml")

@@ -11,8 +11,12 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from warp_ricochet import reference
-from warp_ricochet.collision_reference import pair_contact_time, pair_law, simulate_collisions
+from warp_ricochet.reference import ballistic as reference
+from warp_ricochet.reference.collisions import (
+    pair_contact_time,
+    pair_law,
+    simulate_collisions,
+)
 from warp_ricochet.scene import scene_from_dict
 
 D = 0.0025  # m

@@ -1,7 +1,7 @@
 """Pellet-pellet collisions: the Warp pair law against the float64 reference, the time-stepped dense
 phase against the event-driven reference, conservation, isolation of shots, determinism, output."""
 
-import math
+import dataclasses
 
 import h5py
 import numpy as np
@@ -12,10 +12,12 @@ from hypothesis import strategies as st
 
 from tests.helpers import GROUND, make_scene, paper_raw
 from warp_ricochet import api
+from warp_ricochet.dense.phase import DenseOptions
+from warp_ricochet.errors import PrecisionWarning
+from warp_ricochet.physics.pair import make_pair_law
+from warp_ricochet.reference.collisions import pair_law as reference_pair_law
+from warp_ricochet.reference.collisions import simulate_collisions
 from warp_ricochet.scene import COLLISION_FIELDS
-from warp_ricochet.collision_reference import pair_law as reference_pair_law
-from warp_ricochet.collision_reference import simulate_collisions
-from warp_ricochet.impact_law import SOLID_SPHERE_INERTIA_FACTOR, make_pair_law
 
 wp.config.log_level = wp.LOG_WARNING
 
@@ -87,8 +89,8 @@ def _paper_collisions(count=120, precision="float64", shots=1, **collisions):
     return make_scene(raw, precision=precision)
 
 
-def _write(scene, path, device="cpu"):
-    api.run(scene, output=str(path), device=device)
+def _write(scene, path, device="cpu", options=None):
+    api.run(scene, output=str(path), device=device, dense_options=options)
     with h5py.File(path, "r") as f:
         pellets = {name: f[f"pellets/{name.replace('.', '/')}"][()] for name in scene.output.fields}
         stats = {k: f["stats"][k][()] for k in f["stats"]}
@@ -189,9 +191,10 @@ def test_free_cloud_conserves_momentum_and_loses_energy_only_in_collisions(devic
     """No surfaces: the dense phase alone, a cloud dense enough that its lists must grow. Linear
     momentum (less M g t) and angular momentum about the centre of mass (gravity has no torque
     about it) are conserved; the kinetic energy lost equals the sum of the pair losses."""
-    from warp_ricochet.api import source_struct
-    from warp_ricochet.collisions import DensePhase
+    from warp_ricochet.dense.phase import DensePhase
+    from warp_ricochet.launch.source import PelletSource
     from warp_ricochet.model import Model, State
+    from warp_ricochet.spec import RunSpec
 
     raw = paper_raw()
     raw["shot"].update(count=80, envelope_radius=0.006, direction_jitter=[0.3, 0.3, 0.3])
@@ -200,8 +203,8 @@ def test_free_cloud_conserves_momentum_and_loses_energy_only_in_collisions(devic
     scene = make_scene(raw, precision="float64")
     model = Model.from_scene(scene, wp.get_device(device))
     state = State(model, 80, ("initial.position",))
-    dense = DensePhase(model, scene, 80, write_outputs=True, from_file=False)
-    dense.run(0, 1, source_struct(scene, model), state.outputs)
+    dense = DensePhase(model, scene, dataclasses.replace(RunSpec.of(scene), fields=("initial.position",)), 80)
+    dense.run(0, 1, PelletSource(scene, "float64", model.device, 80).struct, state.outputs)
     c = dense.cloud
     assert c.neighbours.shape[1] > 32  # grew
     g = np.asarray(scene.physics.gravity)
@@ -345,7 +348,7 @@ def test_a_pellet_found_beyond_its_skin_is_reported(tmp_path, device, monkeypatc
     """The check before each step measures how far each pellet has moved since its list was
     built: a pellet found beyond half the skin (planted here by moving its build point) is
     reported in the statistics and in a one-line warning, and the lists are rebuilt."""
-    from warp_ricochet.collisions import DensePhase
+    from warp_ricochet.dense.phase import DensePhase
 
     block = DensePhase._block
     planted = []
@@ -359,10 +362,9 @@ def test_a_pellet_found_beyond_its_skin_is_reported(tmp_path, device, monkeypatc
         block(self, commands)
 
     monkeypatch.setattr(DensePhase, "_block", plant)
-    monkeypatch.setattr(DensePhase, "ONE_LAUNCH_ON_CPU", False)  # (the host loop: a _block a block)
     scene = _paper_collisions(count=60)
-    with pytest.warns(api.PrecisionWarning, match="half skins between neighbour-list builds"):
-        stats = api.run(scene, device=device)
+    with pytest.warns(PrecisionWarning, match="half skins between neighbour-list builds"):
+        stats = api.run(scene, device=device, dense_options=DenseOptions(cpu_steps="block"))  # (a _block a block)
     assert 2.9 < stats["skin_overrun_max"] < 3.1
 
 
@@ -388,8 +390,6 @@ def test_a_pellet_pressed_between_the_ground_and_another_ends(tmp_path, device):
 def test_float32_collision_runs_warn_and_float64_runs_do_not(device):
     """What the code does where float32 cannot follow float64 (docs/stability.md): it says so."""
     import warnings
-
-    from warp_ricochet.api import PrecisionWarning
 
     with pytest.warns(PrecisionWarning, match="float64"):
         api.run(_paper_collisions(20, precision="float32"), device=device)
@@ -422,28 +422,25 @@ def test_the_cpu_one_launch_is_the_host_loop_and_the_per_step_kernels(tmp_path, 
     after a list overflowed: max_neighbours 2). A launch a shot, the host loop of checkpoints,
     rebuilds and blocks (one launch of block_kernel each), and the per-step kernels (those CUDA
     runs) in their order, give bitwise the same results, on several shots."""
-    from warp_ricochet.collisions import DensePhase
+    from warp_ricochet.dense.phase import DensePhase
 
     scene = _paper_collisions(count=60, shots=3, precision="float64", max_neighbours=max_neighbours)
     launched = []  # the kernels each run launched (or recorded), by name
     launch = DensePhase._launch
     monkeypatch.setattr(DensePhase, "_launch", lambda self, name, *a, **k: launched.append(name) or launch(self, name, *a, **k))
 
-    def run(name):
+    def run(name, **options):
         launched.clear()
-        return _write(scene, tmp_path / f"{name}.h5", "cpu"), list(launched)
+        return _write(scene, tmp_path / f"{name}.h5", "cpu", DenseOptions(**options)), list(launched)
 
     one_launch, kernels = run("one-launch")
-    assert 1 <= kernels.count("phase") <= 2 and "block" not in kernels  # (a second after an overflow)
-    monkeypatch.setattr(DensePhase, "PHASE_PELLETS", 1)  # a launch a shot
-    shot_by_shot, kernels = run("shot-by-shot")
-    assert kernels.count("phase") >= 3
-    monkeypatch.setattr(DensePhase, "ONE_LAUNCH_ON_CPU", False)
-    host_loop, kernels = run("host-loop")
-    assert "block" in kernels and "phase" not in kernels
-    monkeypatch.setattr(DensePhase, "FUSED_ON_CPU", False)
-    per_step, kernels = run("per-step")
-    assert "choose" in kernels and "block" not in kernels
+    assert 1 <= kernels.count("phase_kernel") <= 2 and "block_kernel" not in kernels  # (a second after an overflow)
+    shot_by_shot, kernels = run("shot-by-shot", phase_pellets=1)  # a launch a shot
+    assert kernels.count("phase_kernel") >= 3
+    host_loop, kernels = run("host-loop", cpu_steps="block")
+    assert "block_kernel" in kernels and "phase_kernel" not in kernels
+    per_step, kernels = run("per-step", cpu_steps="kernels")
+    assert "choose_kernel" in kernels and "block_kernel" not in kernels
     assert one_launch[1]["pair_collisions"] > 10
     for other in (shot_by_shot, host_loop, per_step):
         for name, value in one_launch[0].items():
@@ -454,7 +451,7 @@ def test_the_cpu_one_launch_is_the_host_loop_and_the_per_step_kernels(tmp_path, 
 def _lists_at_every_rebuild(scene, monkeypatch, cell_lists):
     """Run `scene` on the CPU with its lists from cell_lists_kernel or from wp.HashGrid, and
     return each rebuild's lists (each pellet's sorted list)."""
-    from warp_ricochet.collisions import DensePhase
+    from warp_ricochet.dense.phase import DensePhase
 
     lists = []
     monkeypatch.undo()  # (the DensePhase of an earlier call)
@@ -467,10 +464,9 @@ def _lists_at_every_rebuild(scene, monkeypatch, cell_lists):
         lists.append([tuple(sorted(table[i, :count[i]])) for i in range(pellets)])
         return grew
 
-    monkeypatch.setattr(DensePhase, "CELL_LISTS_ON_CPU", cell_lists)
-    monkeypatch.setattr(DensePhase, "ONE_LAUNCH_ON_CPU", False)  # (the host loop: a _rebuild a rebuild)
     monkeypatch.setattr(DensePhase, "_rebuild", recording)
-    api.run(scene, device="cpu")
+    options = DenseOptions(cpu_steps="block", cpu_lists="cells" if cell_lists else "hashgrid")  # (a _rebuild a rebuild)
+    api.run(scene, device="cpu", dense_options=options)
     return lists
 
 
@@ -498,7 +494,7 @@ def test_kept_events_are_those_a_new_search_finds(tmp_path, device, monkeypatch)
     """Each pellet keeps its earliest event until it or a neighbour changes. Searching every
     pellet's event again at every step (all pellets stale) gives bitwise the same results: a
     kept event is never out of date."""
-    from warp_ricochet.collisions import DensePhase
+    from warp_ricochet.dense.phase import DensePhase
 
     raw = paper_raw()
     raw["shot"].update(count=120, envelope_radius=0.006)
@@ -513,8 +509,8 @@ def test_kept_events_are_those_a_new_search_finds(tmp_path, device, monkeypatch)
         return [stale, *step_commands(self, pellets, shots, outputs)]
 
     monkeypatch.setattr(DensePhase, "_step_commands", search_every_step)
-    monkeypatch.setattr(DensePhase, "FUSED_ON_CPU", False)  # (the CPU's block kernel is one launch a block)
-    searched_pellets, searched_stats = _write(scene, tmp_path / "searched.h5", device)
+    options = DenseOptions(cpu_steps="kernels")  # (the CPU's block kernel is one launch a block)
+    searched_pellets, searched_stats = _write(scene, tmp_path / "searched.h5", device, options)
     assert kept_stats["pair_collisions"] > 50
     for name, value in kept_pellets.items():
         np.testing.assert_array_equal(searched_pellets[name], value, err_msg=name)

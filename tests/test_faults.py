@@ -25,11 +25,19 @@ import numpy as np
 import pytest
 
 import warp_ricochet as wr
-from tests.helpers import assert_resume_refused, assert_same_run, cli, digest, interrupt_after, stats_equal, wait_for_a_chunk
-from warp_ricochet import writer
+from tests.helpers import (
+    assert_resume_refused,
+    assert_same_run,
+    cli,
+    digest,
+    interrupt_after,
+    stats_equal,
+    wait_for_a_chunk,
+)
 from warp_ricochet.cli import main
-from warp_ricochet.kernels import SEGMENT
+from warp_ricochet.io import space, writer
 from warp_ricochet.scene import load_scene
+from warp_ricochet.tallies.reduce import SEGMENT
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = str(ROOT / "examples" / "paper.toml")
@@ -275,7 +283,7 @@ def test_a_multi_shot_run_without_collisions_resumes(tmp_path, monkeypatch):
     full = wr.run(multi, tmp_path / "full.h5", device="cpu")
     out = tmp_path / "m.h5"
     interrupt_after(1, multi, out)
-    monkeypatch.setattr(writer, "free_bytes", lambda path: writer.SPACE_MARGIN + 2 * SEGMENT)
+    monkeypatch.setattr(space, "free_bytes", lambda path: space.SPACE_MARGIN + 2 * SEGMENT)
     with pytest.raises(OSError, match="the output needs"):
         wr.run(multi, out, device="cpu", resume=True)
     monkeypatch.undo()
@@ -290,7 +298,7 @@ def test_a_multi_shot_run_without_collisions_resumes(tmp_path, monkeypatch):
 
 
 def test_no_room_for_the_output_is_refused_before_any_file(tmp_path, monkeypatch, capsys):
-    monkeypatch.setattr(writer, "free_bytes", lambda path: 10_000_000)
+    monkeypatch.setattr(space, "free_bytes", lambda path: 10_000_000)
     out = tmp_path / "o.h5"
     assert main(["run", SCENE, *ARGS, "-o", str(out)]) == 1
     err = capsys.readouterr().err
@@ -309,9 +317,9 @@ def test_disk_full_during_the_run_ends_in_one_line_with_a_readable_file(tmp_path
     chunks_written = []
     real_append = writer.RunWriter.append
 
-    def append(self, arrays, rows, segment_results):
+    def append(self, arrays, rows, *results):
         chunks_written.append(rows)
-        return real_append(self, arrays, rows, segment_results)
+        return real_append(self, arrays, rows, *results)
 
     def fallocate(fd, mode, offset, length):
         if len(chunks_written) <= 5:
@@ -321,10 +329,10 @@ def test_disk_full_during_the_run_ends_in_one_line_with_a_readable_file(tmp_path
 
     monkeypatch.setattr(writer.RunWriter, "append", append)
     if how == "reserve":
-        monkeypatch.setattr(writer, "_fallocate", lambda: fallocate)
+        monkeypatch.setattr(space, "_fallocate", lambda: fallocate)
     else:
-        monkeypatch.setattr(writer, "_fallocate", lambda: None)
-        monkeypatch.setattr(writer, "free_bytes", lambda path: 10**12 if len(chunks_written) <= 5 else 2_000_000)
+        monkeypatch.setattr(space, "_fallocate", lambda: None)
+        monkeypatch.setattr(space, "free_bytes", lambda path: 10**12 if len(chunks_written) <= 5 else 2_000_000)
     out = tmp_path / "o.h5"
     assert main(["run", SCENE, *ARGS, "-o", str(out)]) == 1
     err = capsys.readouterr().err

@@ -3,12 +3,12 @@ reference on random inputs, and invariants as property-based tests."""
 
 import numpy as np
 import pytest
+from conftest import DEVICES
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import warp_ricochet as wr
-from conftest import DEVICES
-from warp_ricochet import reference
+from warp_ricochet.reference import ballistic as reference
 
 R = 0.00125
 RHO = 7000.0

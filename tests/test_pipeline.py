@@ -6,15 +6,14 @@ import os
 import h5py
 import numpy as np
 import pytest
+from conftest import DEVICES
+from helpers import GROUND, explicit_scene, make_scene, paper_raw, stats_equal
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import warp_ricochet as wr
-from warp_ricochet import reference
+from warp_ricochet.reference import ballistic as reference
 from warp_ricochet.scene import scene_from_dict
-
-from conftest import DEVICES
-from helpers import GROUND, explicit_scene, make_scene, paper_raw, stats_equal
 
 PAPER_SWEEP = {"surfaces.0.mu_s": [0.0, 0.05, 0.5]}
 PAPER_TIE = [("surfaces.0.mu_d", 0.9, None)]
@@ -453,21 +452,21 @@ def test_failed_or_interrupted_overwrite_keeps_the_old_file(tmp_path, monkeypatc
     path = tmp_path / "keep.h5"
     wr.run(make_scene(paper_raw()), path, device=DEVICES[0])
     before = path.read_bytes()
-    real = api.run_scene
+    real = api.run_pipeline
 
     def fail_after_first_chunk(*args, **kwargs):
         real(*args, **kwargs)  # the chunks are written ...
         raise exc  # ... then the run dies
 
     for exc, status in ((RuntimeError("boom"), "failed"), (KeyboardInterrupt(), "interrupted")):
-        monkeypatch.setattr(api, "run_scene", fail_after_first_chunk)
+        monkeypatch.setattr(api, "run_pipeline", fail_after_first_chunk)
         with pytest.raises(type(exc)):
             wr.run(make_scene(paper_raw()), path, device=DEVICES[0], overwrite=True)
         assert path.read_bytes() == before  # the target is untouched
         with h5py.File(str(path) + ".partial", "r") as f:  # what was done is kept, and says so
             assert f.attrs["status"] == status
             assert f["pellets/landing/range"].shape == (450,)
-    monkeypatch.setattr(api, "run_scene", real)
+    monkeypatch.setattr(api, "run_pipeline", real)
     wr.run(make_scene(paper_raw()), path, device=DEVICES[0], overwrite=True)
     assert not (tmp_path / "keep.h5.partial").exists()
     with h5py.File(path, "r") as f:
@@ -488,7 +487,7 @@ def test_sweep_may_overwrite_its_own_pellet_file(tmp_path):
 
 def test_launch_states_are_the_splitmix64_draws(tmp_path, device):
     """The kernel's sampling equals a pure-Python SplitMix64 of (seed, index), for any index."""
-    from warp_ricochet.sampling import reference_uniforms
+    from warp_ricochet.launch.sampling import reference_uniforms
 
     raw = paper_raw()
     raw["shot"]["count"] = 70_000

@@ -21,9 +21,18 @@ import numpy as np
 import pytest
 
 import warp_ricochet as wr
-from tests.helpers import assert_resume_refused, assert_same_run, cli, interrupt_after, stats_equal, wait_for_a_chunk
-from warp_ricochet.collisions import SHOT_TOTALS, segments_of_shots, shot_granule
+from tests.helpers import (
+    assert_resume_refused,
+    assert_same_run,
+    cli,
+    interrupt_after,
+    stats_equal,
+    wait_for_a_chunk,
+)
+from warp_ricochet.dense.schedule import segments_of_shots, shot_granule
+from warp_ricochet.io.writer import RunWriter
 from warp_ricochet.scene import load_scene
+from warp_ricochet.tallies.collisions import SHOT_TOTALS
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = str(ROOT / "examples" / "paper.toml")
@@ -113,7 +122,7 @@ def test_ctrl_c_after_any_chunk_then_resume_is_bitwise_identical(tmp_path, monke
         def interrupted(self, *args, **kwargs):
             raise KeyboardInterrupt
 
-        monkeypatch.setattr(wr.writer.RunWriter, "append", interrupted)
+        monkeypatch.setattr(RunWriter, "append", interrupted)
         with pytest.raises(KeyboardInterrupt):
             wr.run(scene(), out, device="cpu")
         monkeypatch.undo()

@@ -13,8 +13,22 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from warp_ricochet.errors import SceneError
-from warp_ricochet.scene import (CORE_FIELDS, Numerics, Output, Physics, Scene, Shot, Surface, apply_override,
-                                 load_pellet_file, load_scene, parse_sweep, parse_tie, scene_from_dict, set_dotted)
+from warp_ricochet.scene import (
+    CORE_FIELDS,
+    Numerics,
+    Output,
+    Physics,
+    Scene,
+    Shot,
+    Surface,
+    apply_override,
+    load_pellet_file,
+    load_scene,
+    parse_sweep,
+    parse_tie,
+    scene_from_dict,
+    set_dotted,
+)
 
 PAPER_TOML = """
 [shot]

@@ -1,19 +1,22 @@
-"""warp-ricochet: shotgun pellet ricochet (Zohdi 2021) in NVIDIA Warp kernels, SI units throughout."""
+"""warp-ricochet: shotgun pellet ricochet (Zohdi 2021) in NVIDIA Warp kernels, SI units throughout.
 
-__version__ = "0.1.0"
+The pipeline, one folder or module a stage: `scene` (TOML into validated dataclasses) ->
+`launch` (launch states) -> `physics` (the laws: impact, pair, flight) -> `core` (the fused
+kernel: flight, impact, landing) and `dense` (pellet-pellet collisions) -> `tallies`
+(statistics) -> `io` (HDF5 run files, resume, H5MD) -> `report` (tables). `pipeline` owns the
+chunk loop, `spec` what a run compiles, `fields` the output fields; `api` and `cli` are the doors.
+"""
 
-from .errors import OutputError, RicochetError, SceneError  # noqa: E402
+from ._version import __version__
+from .errors import OutputError, PrecisionWarning, RicochetError, SceneError
 
-__all__ = ["__version__", "RicochetError", "SceneError", "OutputError", "impact", "load_scene", "run", "sweep"]
+__all__ = ["__version__", "RicochetError", "SceneError", "OutputError", "PrecisionWarning", "impact", "load_scene",
+           "run", "sweep"]
 
 
 def __getattr__(name):
     # heavy imports (warp) only when used, so `warp-ricochet --help` and the scene loader start fast
-    if name == "impact":
-        from .api import impact
-
-        return impact
-    if name in ("run", "sweep"):
+    if name in ("impact", "run", "sweep"):
         from . import api
 
         return getattr(api, name)

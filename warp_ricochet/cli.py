@@ -16,7 +16,7 @@ import os
 import sys
 import warnings
 
-from . import __version__
+from ._version import __version__
 from .errors import RicochetError, SceneError
 
 PROG = "warp-ricochet"
@@ -189,8 +189,8 @@ def main(argv=None) -> int:
     # warnings (e.g. api.PrecisionWarning) in one line, like the errors
     warnings.formatwarning = lambda message, category, *_args, **_kwargs: f"{PROG}: warning: {_one_line(str(message))}\n"
     status = _run_command(args)
-    writer = sys.modules.get("warp_ricochet.writer")
-    if writer is not None and writer.ABANDONED:  # HDF5 crashes in its exit handler after a failed close
+    runfile = sys.modules.get("warp_ricochet.io.runfile")
+    if runfile is not None and runfile.ABANDONED:  # HDF5 crashes in its exit handler after a failed close
         sys.stdout.flush()
         sys.stderr.flush()
         os._exit(status)

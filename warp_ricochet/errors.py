@@ -20,3 +20,7 @@ class OutputError(RicochetError, OSError):
 def _short(value, limit: int = 60) -> str:
     text = repr(value)
     return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+class PrecisionWarning(UserWarning):
+    """A result the chosen precision (or a step size) is known not to resolve."""

@@ -2,7 +2,7 @@
 
 A run file records, after every chunk, the rows complete (`/progress/rows`), the chunk size
 (`/progress/chunk_rows`) and each segment's statistics partials (`/progress/segment_results`: the
-per-segment sums, minima and maxima that `stats.combine` folds in pellet order). To resume, the
+per-segment sums, minima and maxima that `tallies.sums.combine` folds in pellet order). To resume, the
 partial file is checked against the run asked for (the same scene after overrides, seed included;
 the same package and Warp versions; the same device; the same pellet file; a consistent chunk
 plan), refused in one line otherwise, and nothing in it is changed before that. Then the rows after
@@ -12,24 +12,31 @@ sums are added strictly in segment order, so the per-pellet datasets and /stats 
 to those of an uninterrupted run on the same device.
 
 Runs with pair collisions (`Scene.pair_collisions`) compute chunks of whole shots, each (but the
-last) a multiple of `collisions.shot_granule` shots, so every chunk starts on a statistics segment
+last) a multiple of `dense.schedule.shot_granule` shots, so every chunk starts on a statistics segment
 boundary and a shot's results depend on the shot alone. Such a run also records, per chunk, each
 shot's collision totals (`/progress/shot_totals`: collided pellets, pair collisions, energy lost,
 dense-phase steps and end time), from which the collision statistics are made with exact sums
 (math.fsum) and maxima; a resumed run reads back those of the complete shots, so its /stats are
 bitwise those of an uninterrupted run as well. H5MD trajectory frames (`collisions.frame_every`) are
-written during a chunk's dense phase, before the chunk is committed, into objects made after the
-file went SWMR: they are not resumed, and such a run is refused (start it again with --overwrite).
+appended during a chunk's dense phase, before the chunk is committed: they are not resumed, and
+such a run is refused (start it again with --overwrite).
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import os
 import tomllib
+from dataclasses import dataclass
 
-from .errors import OutputError, SceneError
+import warp as wp
+
+from .._version import __version__
+from ..dense.schedule import segments_of_shots, shot_granule
+from ..errors import OutputError, SceneError
+from ..tallies.collisions import SHOT_TOTALS
+from ..tallies.reduce import SEGMENT
+from .runfile import FORMAT_NAME
 
 
 def _text(value):
@@ -62,13 +69,6 @@ def verify(f, scene, dev, partial_name: str) -> tuple[int, int, int, int]:
     """Check an interrupted run file `f` (open read-only) against the run asked for; return (rows
     complete, chunk size, segments complete, shots complete (pair collisions; else 0)). Raises
     SceneError / OutputError (one line)."""
-    import warp as wp
-
-    from . import __version__
-    from .collisions import SHOT_TOTALS, segments_of_shots, shot_granule
-    from .kernels import SEGMENT
-    from .writer import FORMAT_NAME
-
     attrs = {k: _text(v) for k, v in f.attrs.items()}
     if attrs.get("format") != FORMAT_NAME or attrs.get("kind") != "run":
         raise OutputError(f"output path = {partial_name!r}: is not a warp-ricochet run file (format = "
@@ -127,32 +127,23 @@ def verify(f, scene, dev, partial_name: str) -> tuple[int, int, int, int]:
     return rows, chunk, segments, shots
 
 
-def resume_run(scene, output, device, *, overwrite=False, progress=None) -> dict:
-    """Continue the run left in OUTPUT.partial; returns its statistics (as `run`)."""
-    from .api import Source, check_resources, resolve_device, run_scene
-    from .model import Model
-    from .writer import OutputFile, RunWriter, check_resume_path
+@dataclass
+class ResumePlan:
+    """What a resumed run continues from: its rows, chunk size, segments and shots complete, and
+    the statistics partials (and per-shot totals) of those rows, read from the file."""
 
-    if output is None:
-        raise SceneError("--resume", "no output", "needs the output file of the interrupted run (-o or output.path)")
-    path = check_resume_path(output, overwrite)  # before any work
-    partial_name = str(path) + ".partial"
-    dev = resolve_device(device)
-    plan = {}
+    rows: int
+    chunk: int
+    segments: int
+    shots: int
+    segment_results: object
+    shot_totals: object
 
-    def check(f):
-        rows, chunk, segments, shots = verify(f, scene, dev, partial_name)
-        run_scene_ = scene
-        if chunk:  # the same chunk plan as before (the automatic size depends on free memory)
-            run_scene_ = scene.replace(numerics=dataclasses.replace(scene.numerics, chunk_size=chunk))
-        check_resources([run_scene_], dev, output, rows_done=rows)
-        plan.update(rows=rows, segments=segments, shots=shots, scene=run_scene_)
 
-    out, _ = OutputFile.reopen(output, overwrite=overwrite, check=check)
-    with out:
-        model = Model.from_scene(scene, dev)
-        writer = RunWriter.reopen(out.h5, fields=scene.output.fields, rows=plan["rows"], segments=plan["segments"],
-                                  shots=plan["shots"])
-        stats = run_scene(plan["scene"], model, writer=writer, progress=progress, source=Source.from_scene(scene))
-        writer.write_stats(stats)
-    return stats
+def plan(f, scene, dev, partial_name: str) -> ResumePlan:
+    """Check the interrupted run file `f` (open read-only) against `scene` on `dev` (`verify`) and
+    read what the run continues from."""
+    rows, chunk, segments, shots = verify(f, scene, dev, partial_name)
+    progress = f["progress"]
+    totals = progress["shot_totals"][:shots] if scene.pair_collisions else None
+    return ResumePlan(rows, chunk, segments, shots, progress["segment_results"][:segments], totals)

@@ -16,9 +16,9 @@ import os
 import tomllib
 from dataclasses import dataclass, field
 
-from .errors import RicochetError
+from ..errors import RicochetError
+from ..tallies.sums import STAT_UNITS
 from .paper import paper_row
-from .stats import STAT_UNITS
 
 __all__ = ["ReportError", "Results", "read_results", "results_from_sweep", "format_tables", "format_run_summary"]
 

@@ -2,7 +2,7 @@
 
 The kernels reduce per-pellet quantities into the sums below on the device: per thread (at most
 256 pellets) in the working precision, counts in int32; from there on in float64, combined in a
-fixed order over fixed segments of pellet indices (see `kernels.SEGMENT`), so the statistics are
+fixed order over fixed segments of pellet indices (see `tallies.reduce.SEGMENT`), so the statistics are
 bitwise the same for any chunk size on a given device.
 
 Impact quantities refer to each pellet's first impact, on the plane it hit:
@@ -228,3 +228,8 @@ def statistics_from_arrays(
             mins[j], maxs[j] = r[mask].min(), r[mask].max()
     spread = np.array([[sums[SUM["landed"]], sums[SUM["range"]], sums[SUM["range_m2"]]]])
     return finalize((sums, mins, maxs, spread), pellets=pellets, mass=mass, inertia=inertia)
+
+
+def stat_names(collisions: bool) -> tuple[str, ...]:
+    """The statistics a run computes: those of `finalize`, and with pair collisions COLLISION_STATS."""
+    return tuple(name for name in STAT_UNITS if collisions or name not in COLLISION_STATS)

@@ -25,7 +25,6 @@ import functools
 
 import warp as wp
 
-
 GOLDEN = wp.constant(wp.uint64(0x9E3779B97F4A7C15))  # 2^64 / golden ratio: the SplitMix64 increment
 MIX1 = wp.constant(wp.uint64(0xBF58476D1CE4E5B9))
 MIX2 = wp.constant(wp.uint64(0x94D049BB133111EB))

@@ -28,7 +28,7 @@ EPSILON = {"float32": 1.1920929e-07, "float64": 2.220446049250313e-16}
 
 
 @functools.cache
-def make_flight(scalar, planes=None):  # noqa: C901
+def make_ballistic(scalar, planes=None):  # noqa: C901
     """Return the flight `@wp.func`s for a Warp scalar type.
 
     `planes`: the number of planes when fixed at code generation (the loop over planes is then

@@ -48,10 +48,16 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .flight import MAX_FLIGHT_TIME
-from .impact_law import SOLID_SPHERE_INERTIA_FACTOR
-from .reference import CLOSING_TOLERANCE, TOLERANCE, empty_impact_outputs, impact_law, next_contact
-from .stats import statistics_from_arrays
+from ..physics.ballistic import MAX_FLIGHT_TIME
+from ..physics.impact import SOLID_SPHERE_INERTIA_FACTOR
+from ..tallies.sums import statistics_from_arrays
+from .ballistic import (
+    CLOSING_TOLERANCE,
+    TOLERANCE,
+    empty_impact_outputs,
+    impact_law,
+    next_contact,
+)
 
 __all__ = ["PairImpact", "pair_law", "pair_contact_time", "simulate_collisions"]
 
@@ -223,7 +229,101 @@ def _pair_parameters(scene, collisions, restitution, mu_s, mu_d, contact_duratio
     return E, mu_s, mu_d, tc
 
 
-class _Cloud:
+class _Events:
+    """What the event-driven simulation does at an event (a plane contact, a pair contact, the end
+    of a flight), on the state of `_Cloud`."""
+
+    def end_flight(self, p, time, position, velocity, plane):
+        """The flight of p ends on `plane` (landing, or resting): it is frozen from now on."""
+        self.flying[p] = False
+        self.r0[p], self.v0[p], self.t0[p] = position, velocity, time
+        if self.impacts[p] > 0:  # as reference.simulate: only a ricocheted pellet lands
+            self.landed[p] = True
+            self.land_time[p] = time
+            self.land_position[p] = position
+            self.land_velocity[p] = velocity
+            self.land_surface[p] = plane
+            contact = position - self.radius * self.normals[plane]
+            self.land_range[p] = np.linalg.norm((contact - self.ricochet_point[p])[None], axis=1)[0]
+
+    def plane_event(self, p):
+        """Pellet p meets plane k: impact, rest or landing, as one bounce of reference.simulate."""
+        self.plane_events += 1
+        dt, k = self.plane_dt[p : p + 1], int(self.plane_k[p])
+        sl = slice(p, p + 1)
+        # the same expressions as reference.simulate, so a pellet that meets no other matches bitwise
+        r = self.r0[sl] + self.v0[sl] * dt[:, None] + 0.5 * self.g * dt[:, None] ** 2
+        v = self.v0[sl] + self.g * dt[:, None]
+        time = self.t0[p] + dt[0]
+        self.now = max(self.now, time)
+        nrm = self.normals[k][None, :]
+        normal_speed = np.einsum("ij,ij->i", v, nrm)
+        closing = bool((normal_speed < 0) & (normal_speed**2 > CLOSING_TOLERANCE**2 * np.einsum("ij,ij->i", v, v)))
+        if self.impacts[p] >= self.B or not closing:
+            # after B impacts the next contact is the landing; without closing speed it rests there
+            self.end_flight(p, time, r[0], v[0], k)
+        else:
+            v2, w2, s2 = impact_law(v, self.w[sl], nrm, radius=self.radius, restitution=self.plane_E[k],
+                                    mu_s=self.plane_mu_s[k], mu_d=self.plane_mu_d[k], gravity=self.g,
+                                    duration=self.duration, inertia_factor=self.k)
+            b = self.impacts[p]
+            self.out["impact.time"][p, b] = time
+            self.out["impact.position"][p, b] = r[0]
+            self.out["impact.velocity_before"][p, b] = v[0]
+            self.out["impact.angular_velocity_before"][p, b] = self.w[p]
+            self.out["impact.velocity"][p, b] = v2[0]
+            self.out["impact.angular_velocity"][p, b] = w2[0]
+            self.out["impact.slipped"][p, b] = s2[0]
+            self.out["impact.surface"][p, b] = k
+            if b == 0:
+                self.first_normal[p] = nrm[0]
+            self.impacts[p] += 1
+            self.last_slipped[p] = s2[0]
+            self.ricochet_point[p] = r[0] - self.radius * nrm[0]
+            self.ricochet_time[p] = time
+            self.touching[p] = k
+            self.w[p] = w2[0]
+            leaving = np.einsum("ij,ij->i", v2, nrm)
+            if leaving[0] ** 2 <= CLOSING_TOLERANCE**2 * np.einsum("ij,ij->i", v, v)[0]:  # of the speed before
+                self.end_flight(p, time, r[0], v2[0], k)  # no normal speed left (E = 0): it stays
+            else:
+                self.r0[p], self.v0[p], self.t0[p] = r[0], v2[0], time
+        self.refresh([p])
+
+    def pair_event(self, i, j):
+        """Pellets i and j (i the lower index) touch while approaching: apply the pair law, with
+        the TC model's restitution."""
+        self.pair_events += 1
+        time = max(self.pair_t[i], self.now)  # never earlier than now (rounding guard; no-op in practice)
+        self.now = time
+        xi, vi = self.advance(i, time)
+        xj, vj = self.advance(j, time)
+        # TC model: within contact_duration of a pellet's previous pair collision, elastic
+        elastic = (time - self.pair_last[i] <= self.tc) or (time - self.pair_last[j] <= self.tc)
+        hit = pair_law(xi, vi, self.w[i], xj, vj, self.w[j], mass_a=self.mass, mass_b=self.mass,
+                       radius_a=self.radius, radius_b=self.radius, restitution=1.0 if elastic else self.E,
+                       mu_s=self.mu_s, mu_d=self.mu_d, inertia_factor=self.k)
+        for p, x, v, w in ((i, xi, hit.velocity_a, hit.angular_velocity_a),
+                           (j, xj, hit.velocity_b, hit.angular_velocity_b)):
+            if self.t0[p] != time:
+                # it has flown since its last event, so it no longer sits on the plane it left at
+                # that event: the gap is computed afresh (still touching up to rounding if it is)
+                self.touching[p] = -1
+            # else no time has passed since its last event (an impact at this very instant): it is
+            # still leaving that plane with gap 0, and next_contact's return time uses the new v_n
+            self.r0[p], self.v0[p], self.w[p], self.t0[p] = x, v, w, time
+        if hit.collided:
+            self.pair_collisions += 1
+            self.pair_count[[i, j]] += 1
+            self.pair_last[[i, j]] = time
+            self.pair_energy_lost += float(hit.energy_lost)
+            self.last_collision_time = time
+        # re-basing both states at `time` also retires the event if the law found no approach
+        self.refresh([i, j])
+
+
+
+class _Cloud(_Events):
     """State of the event-driven simulation. Each pellet's state (r0, v0, w) holds at its time t0,
     the time of its last event; between events it flies on the parabola."""
 
@@ -372,94 +472,6 @@ class _Cloud:
                 "pair-event cache out of date"
 
     # ------------------------------------------------------------------ events
-
-    def end_flight(self, p, time, position, velocity, plane):
-        """The flight of p ends on `plane` (landing, or resting): it is frozen from now on."""
-        self.flying[p] = False
-        self.r0[p], self.v0[p], self.t0[p] = position, velocity, time
-        if self.impacts[p] > 0:  # as reference.simulate: only a ricocheted pellet lands
-            self.landed[p] = True
-            self.land_time[p] = time
-            self.land_position[p] = position
-            self.land_velocity[p] = velocity
-            self.land_surface[p] = plane
-            contact = position - self.radius * self.normals[plane]
-            self.land_range[p] = np.linalg.norm((contact - self.ricochet_point[p])[None], axis=1)[0]
-
-    def plane_event(self, p):
-        """Pellet p meets plane k: impact, rest or landing, as one bounce of reference.simulate."""
-        self.plane_events += 1
-        dt, k = self.plane_dt[p : p + 1], int(self.plane_k[p])
-        sl = slice(p, p + 1)
-        # the same expressions as reference.simulate, so a pellet that meets no other matches bitwise
-        r = self.r0[sl] + self.v0[sl] * dt[:, None] + 0.5 * self.g * dt[:, None] ** 2
-        v = self.v0[sl] + self.g * dt[:, None]
-        time = self.t0[p] + dt[0]
-        self.now = max(self.now, time)
-        nrm = self.normals[k][None, :]
-        normal_speed = np.einsum("ij,ij->i", v, nrm)
-        closing = bool((normal_speed < 0) & (normal_speed**2 > CLOSING_TOLERANCE**2 * np.einsum("ij,ij->i", v, v)))
-        if self.impacts[p] >= self.B or not closing:
-            # after B impacts the next contact is the landing; without closing speed it rests there
-            self.end_flight(p, time, r[0], v[0], k)
-        else:
-            v2, w2, s2 = impact_law(v, self.w[sl], nrm, radius=self.radius, restitution=self.plane_E[k],
-                                    mu_s=self.plane_mu_s[k], mu_d=self.plane_mu_d[k], gravity=self.g,
-                                    duration=self.duration, inertia_factor=self.k)
-            b = self.impacts[p]
-            self.out["impact.time"][p, b] = time
-            self.out["impact.position"][p, b] = r[0]
-            self.out["impact.velocity_before"][p, b] = v[0]
-            self.out["impact.angular_velocity_before"][p, b] = self.w[p]
-            self.out["impact.velocity"][p, b] = v2[0]
-            self.out["impact.angular_velocity"][p, b] = w2[0]
-            self.out["impact.slipped"][p, b] = s2[0]
-            self.out["impact.surface"][p, b] = k
-            if b == 0:
-                self.first_normal[p] = nrm[0]
-            self.impacts[p] += 1
-            self.last_slipped[p] = s2[0]
-            self.ricochet_point[p] = r[0] - self.radius * nrm[0]
-            self.ricochet_time[p] = time
-            self.touching[p] = k
-            self.w[p] = w2[0]
-            leaving = np.einsum("ij,ij->i", v2, nrm)
-            if leaving[0] ** 2 <= CLOSING_TOLERANCE**2 * np.einsum("ij,ij->i", v, v)[0]:  # of the speed before
-                self.end_flight(p, time, r[0], v2[0], k)  # no normal speed left (E = 0): it stays
-            else:
-                self.r0[p], self.v0[p], self.t0[p] = r[0], v2[0], time
-        self.refresh([p])
-
-    def pair_event(self, i, j):
-        """Pellets i and j (i the lower index) touch while approaching: apply the pair law, with
-        the TC model's restitution."""
-        self.pair_events += 1
-        time = max(self.pair_t[i], self.now)  # never earlier than now (rounding guard; no-op in practice)
-        self.now = time
-        xi, vi = self.advance(i, time)
-        xj, vj = self.advance(j, time)
-        # TC model: within contact_duration of a pellet's previous pair collision, elastic
-        elastic = (time - self.pair_last[i] <= self.tc) or (time - self.pair_last[j] <= self.tc)
-        hit = pair_law(xi, vi, self.w[i], xj, vj, self.w[j], mass_a=self.mass, mass_b=self.mass,
-                       radius_a=self.radius, radius_b=self.radius, restitution=1.0 if elastic else self.E,
-                       mu_s=self.mu_s, mu_d=self.mu_d, inertia_factor=self.k)
-        for p, x, v, w in ((i, xi, hit.velocity_a, hit.angular_velocity_a),
-                           (j, xj, hit.velocity_b, hit.angular_velocity_b)):
-            if self.t0[p] != time:
-                # it has flown since its last event, so it no longer sits on the plane it left at
-                # that event: the gap is computed afresh (still touching up to rounding if it is)
-                self.touching[p] = -1
-            # else no time has passed since its last event (an impact at this very instant): it is
-            # still leaving that plane with gap 0, and next_contact's return time uses the new v_n
-            self.r0[p], self.v0[p], self.w[p], self.t0[p] = x, v, w, time
-        if hit.collided:
-            self.pair_collisions += 1
-            self.pair_count[[i, j]] += 1
-            self.pair_last[[i, j]] = time
-            self.pair_energy_lost += float(hit.energy_lost)
-            self.last_collision_time = time
-        # re-basing both states at `time` also retires the event if the law found no approach
-        self.refresh([i, j])
 
     def run(self, max_events, check_caches=False):
         while self.n:

@@ -11,10 +11,9 @@ import math
 
 import numpy as np
 
-from .flight import MAX_FLIGHT_TIME, ROUNDING
-from .impact_law import SOLID_SPHERE_INERTIA_FACTOR
-from .stats import statistics_from_arrays
-
+from ..physics.ballistic import MAX_FLIGHT_TIME, ROUNDING
+from ..physics.impact import SOLID_SPHERE_INERTIA_FACTOR
+from ..tallies.sums import statistics_from_arrays
 
 TOLERANCE = ROUNDING * np.finfo(np.float64).eps  # rounding noise, relative (flight.py's rule in float64)
 CLOSING_TOLERANCE = TOLERANCE  # normal speeds within rounding noise of 0 do not close

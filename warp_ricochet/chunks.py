@@ -1,0 +1,106 @@
+"""How a run is cut into chunks: sizes within the device and host memory budgets (pellet rows
+for the core; whole shots for runs with pair collisions), and the check, before any work, that an
+explicit `numerics.chunk_size` fits in memory.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+
+from .dense.schedule import dense_bytes_per_pellet, shot_granule
+from .errors import SceneError
+from .fields import bytes_per_pellet
+from .tallies.reduce import SEGMENT, partial_bytes_per_pellet
+
+HOST_BUFFER_BYTES = 128 << 20  # per pinned host buffer (two are used): caps host memory
+DEVICE_FRACTION = 0.5  # of the free device memory a chunk may use
+MAX_CHUNK = 1 << 28  # pellets per chunk, statistics-only
+CPU_STATS_CHUNK = 1 << 22  # CPU statistics-only chunk: progress granularity
+CPU_CHUNK_PELLETS = 1 << 20  # CPU: pellets per chunk of the dense phase
+
+
+def file_bytes_per_pellet(scene) -> int:
+    """Device bytes per pellet of a pellet file's launch states (none when sampling)."""
+    return 0 if scene.shot.file is None else 9 * np.dtype(scene.numerics.precision).itemsize
+
+
+def device_bytes_per_pellet(scene, fields) -> float:
+    """Device bytes per pellet of a core chunk: outputs, statistics partials, pellet-file states."""
+    return (partial_bytes_per_pellet() + bytes_per_pellet(fields, scene.numerics.precision, scene.physics.bounces)
+            + file_bytes_per_pellet(scene))
+
+
+def plan_rows(scene, device, pellets: int, fields) -> int:
+    """Pellets per core chunk: a multiple of SEGMENT that fits device and host memory budgets."""
+    if scene.numerics.chunk_size:
+        rows = scene.numerics.chunk_size
+    else:
+        if device.is_cuda:
+            rows = min(int(DEVICE_FRACTION * device.free_memory / device_bytes_per_pellet(scene, fields)), MAX_CHUNK)
+        else:
+            rows = CPU_STATS_CHUNK
+        if fields:
+            rows = min(rows, int(HOST_BUFFER_BYTES / bytes_per_pellet(fields, scene.numerics.precision,
+                                                                       scene.physics.bounces)))
+    rows = max(SEGMENT, -(-rows // SEGMENT) * SEGMENT)  # whole segments: chunk-size invariance
+    return min(rows, max(pellets, 1))
+
+
+def plan_shots(scene, device, shots: int) -> int:
+    """Shots per chunk of a run with pair collisions: whole statistics segments of slots (so
+    statistics do not depend on it), within the device memory budget (or numerics.chunk_size
+    pellets)."""
+    count = scene.shot.count
+    granule = shot_granule(count)
+    if scene.numerics.chunk_size:
+        pellets = scene.numerics.chunk_size
+    elif device.is_cuda:
+        pellets = int(DEVICE_FRACTION * device.free_memory
+                      / (dense_bytes_per_pellet(scene.numerics.precision, scene.collisions.max_neighbours) + 64))
+    else:
+        pellets = CPU_CHUNK_PELLETS
+    per_chunk = max(granule, (max(pellets // count, 1) // granule) * granule)
+    return min(per_chunk, shots)
+
+
+def host_memory_available():
+    """Bytes of host memory still free for a run (Linux MemAvailable, capped by a cgroup limit), or
+    None where this cannot be read."""
+    try:
+        with open("/proc/meminfo") as f:
+            free = int(re.search(r"^MemAvailable:\s+(\d+) kB", f.read(), re.M).group(1)) * 1024
+    except (OSError, AttributeError, ValueError):
+        return None
+    for limit, usage in (("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current"),
+                         ("/sys/fs/cgroup/memory/memory.limit_in_bytes", "/sys/fs/cgroup/memory/memory.usage_in_bytes")):
+        try:
+            with open(limit) as a, open(usage) as b:
+                free = min(free, int(a.read()) - int(b.read()))
+        except (OSError, ValueError):  # no such cgroup file, or "max"
+            pass
+    return free
+
+
+def check_chunk_memory(scene, dev, with_output: bool) -> None:
+    """An explicit `numerics.chunk_size` must fit in memory: refuse it in one line before any work
+    (a chunk of 2e8 pellets with every output field needs 40 GB; the automatic size always fits)."""
+    chunk = scene.numerics.chunk_size
+    if not chunk:
+        return
+    pellets = scene.shot.pellets
+    rows = min(max(SEGMENT, -(-chunk // SEGMENT) * SEGMENT), max(pellets, 1))
+    fields = scene.output.fields if with_output else ()
+    on_device = device_bytes_per_pellet(scene, fields)
+    on_host = bytes_per_pellet(fields, scene.numerics.precision, scene.physics.bounces) * (2 if dev.is_cuda else 1)
+    if not dev.is_cuda:
+        on_host, on_device = on_host + on_device, 0
+    host_free = host_memory_available()
+    for need, free, where in ((rows * on_device, dev.free_memory if dev.is_cuda else None, f"on {dev.alias}"),
+                              (rows * on_host, host_free, "in host memory")):
+        if free is not None and need > free:
+            fits = int(free / max(need / rows, 1e-9)) // SEGMENT * SEGMENT
+            raise SceneError("numerics.chunk_size", chunk,
+                             f"a chunk of {rows} pellets needs {need / 2**30:.3g} GiB, {free / 2**30:.3g} GiB is free "
+                             f"{where}: give at most {fits} or leave it out (automatic)")

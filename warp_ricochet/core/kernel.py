@@ -1,0 +1,97 @@
+"""The fused ricochet kernel: a thin loop over the pellets of one chunk (`core.pellet` does the
+work), one thread per LANES-interleaved set of PER_THREAD pellets, ending in the thread's
+statistics partials (`tallies`).
+"""
+
+import functools
+
+import warp as wp
+
+from ..launch.source import make_source
+from ..physics.types import types_for
+from ..tallies.accumulate import make_accumulators
+from ..tallies.reduce import LANES, PER_THREAD, SEGMENT
+from .outputs import make_outputs
+from .pellet import FLYING, make_course, make_start
+from .release import make_release
+
+# Register cap of the CUDA ricochet kernel per (precision, fast_math) (None: the compiler's
+# choice), chosen by measurement on an H200 (bench/RESULTS.md, `python -m bench.variants`).
+CUDA_MAX_REGISTERS = {("float32", False): 80, ("float32", True): None, ("float64", False): None, ("float64", True): None}
+CUDA_BLOCK_DIM = 256  # threads per CUDA block of the ricochet kernel
+
+
+@functools.cache
+def ricochet_kernel_for(spec, max_registers="default"):
+    """The core kernel of `spec` (a `spec.RunSpec`): statistics-only kernels carry no output code;
+    with `spec.collisions` each pellet continues from the dense phase's release state, and
+    threads run over the slots of the shot-padded layout (`Release.shot_stride` slots a shot), so
+    statistics segments hold whole shots and do not depend on the chunk size."""
+    t = types_for(spec.precision)
+    scalar, Surfaces, Physics = t.scalar, t.Surfaces, t.Physics
+    Source, Outputs, Release = make_source(spec.precision, spec.from_file).Source, make_outputs(spec.precision).Outputs, make_release(spec.precision)
+    acc_funcs, start, course = make_accumulators(spec.precision), make_start(spec), make_course(spec)
+    floats_t, extremes_t, inf, mark_missing = acc_funcs.floats_t, acc_funcs.extremes_t, acc_funcs.inf, make_outputs(spec.precision).mark_missing
+    RELEASE, WRITE, BOUNCES = spec.collisions, bool(spec.core_fields), spec.bounces
+    lanes, per_thread, segment = LANES, PER_THREAD, SEGMENT
+    cap = CUDA_MAX_REGISTERS[spec.precision, spec.fast_math] if max_registers == "default" else max_registers
+    options = {} if cap is None else {"cuda_max_registers": cap}
+    if spec.fast_math:
+        options["module_options"] = {"fast_math": True}
+
+    @wp.func
+    def ricochet_pellet(index: wp.int32, row: wp.int32, source: Source, surfaces: Surfaces, physics: Physics,
+                        out: Outputs, release: Release, counts: wp.vec4i, acc: floats_t, lo: extremes_t,
+                        hi: extremes_t, range_shift: scalar):
+        """Follow one pellet (global `index`, chunk row `row`) from its start to its landing."""
+        if wp.static(RELEASE):
+            f, counts, acc, launch_v2, launch_w2 = start.resume_pellet(release, row, surfaces, counts, acc)
+        else:
+            f, launch_v2, launch_w2 = start.launch_pellet(source, index, row, out)
+        first_bounce = f.impacts  # (bounces made in the dense phase are its outputs)
+        for b in range(wp.static(BOUNCES)):  # unrolled (bounces <= 16)
+            impacted = wp.int32(0)
+            if f.state == FLYING and b >= first_bounce:
+                f, counts, acc, impacted = course.bounce(b, row, f, counts, acc, launch_v2, launch_w2, surfaces, physics, out)
+            if wp.static(WRITE):
+                if impacted == 0 and b >= first_bounce:  # no impact at this bounce: mark it missing
+                    mark_missing(out, row, b)
+        return course.land(row, f, counts, acc, lo, hi, range_shift, surfaces, physics, out)
+
+    @wp.kernel(module="unique", enable_backward=False, **options)
+    def ricochet_kernel(
+        first_index: wp.int32,  # global index of the chunk's first pellet (a multiple of SEGMENT)
+        count: wp.int32,  # pellets (slots, from a release) in the chunk
+        source: Source,
+        surfaces: Surfaces,
+        physics: Physics,
+        out: Outputs,
+        release: Release,  # the dense phase's release state (spec.collisions), else empty
+        partial_sums: wp.array2d(dtype=wp.float64),  # (NUM_SUMS, threads): counts, then floats
+        partial_min: wp.array2d(dtype=wp.float64),  # (NUM_EXTREMES, threads)
+        partial_max: wp.array2d(dtype=wp.float64),
+    ):
+        tid = wp.tid()
+        group = tid // lanes
+        lane = tid - group * lanes
+        counts = wp.vec4i()
+        acc = floats_t()
+        lo = extremes_t(inf)
+        hi = extremes_t(-inf)
+        range_shift = scalar(0.0)
+        for j in range(per_thread):
+            row = group * segment + j * lanes + lane
+            if row < count:
+                if wp.static(RELEASE):  # slot -> pellet; padding slots hold none
+                    shot = row / release.shot_stride
+                    member = row - shot * release.shot_stride
+                    if member < release.shot_count:
+                        counts, acc, lo, hi, range_shift = ricochet_pellet(
+                            0, shot * release.shot_count + member, source, surfaces, physics, out, release,
+                            counts, acc, lo, hi, range_shift)
+                else:
+                    counts, acc, lo, hi, range_shift = ricochet_pellet(
+                        first_index + row, row, source, surfaces, physics, out, release, counts, acc, lo, hi, range_shift)
+        acc_funcs.store_partials(tid, counts, acc, lo, hi, range_shift, partial_sums, partial_min, partial_max)
+
+    return ricochet_kernel

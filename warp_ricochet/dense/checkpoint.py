@@ -1,0 +1,143 @@
+"""A shot's checkpoint, every block of its own steps: its horizon (the next event over all its pairs
+and planes, exact), and then whether it stops, jumps to that event, or rebuilds its lists."""
+
+import functools
+from types import SimpleNamespace
+
+import warp as wp
+
+from ..physics.ballistic import make_ballistic
+from ..physics.flight import make_flight
+from .constants import (
+    CHECKPOINT,
+    CLOCK_CUT,
+    CLOCK_END,
+    CLOCK_NEXT,
+    CLOCK_SKIN,
+    CLOCK_STEP,
+    CLOCK_STEPS,
+    CLOCK_TIME,
+    CLOCK_WINDOW,
+    FLAG_REMAINING,
+    FLAG_STALL,
+    FLAG_WIDENED,
+    FLYING,
+    SHOT_BUSY,
+    SHOT_DONE,
+    SHOT_REBUILD,
+    SHOT_STALL,
+)
+from .events import make_events
+from .frame import make_frame
+from .state import dense_types
+
+
+@functools.cache
+def make_checkpoint(spec) -> SimpleNamespace:
+    """horizon_pellet, now_pellet and settle_shot."""
+    d = dense_types(spec)
+    scalar, Surfaces, Physics, Cloud, Pair = d.scalar, d.Surfaces, d.Physics, d.Cloud, d.Pair
+    NEVER = d.NEVER
+    next_contact = make_flight(spec.precision, spec.static_planes).next_contact
+    _entry, _return, _contact, ballistic_position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
+    contact_time, recentre = make_events(spec).contact_time, make_frame(spec).recentre
+
+    @wp.func(inline=True)
+    def horizon_pellet(i: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
+        """Per shot at each of its checkpoints: busy in its arrival window; after it, its next event over ALL
+        its pairs (exact: their relative motion is linear; each pair once, O(count) per pellet)
+        and planes, so that
+        - the shot stops only when no pair at all can meet (pellets farther apart than the lists'
+          reach may still converge): whether a shot is busy never depends on the lists (which
+          checked only listed pairs before, and missed such pairs);
+        - it jumps to its next event instead of stepping through empty time with steps sized for
+          its fastest pellets (typically two rebounds converging slowly for tens of milliseconds).
+        Measured against a check every 16 steps: 14% fewer steps, the same run time on the CPU."""
+        s = i / pair.count
+        if cloud.phase[i] != FLYING or cloud.shot_flags[s, SHOT_DONE] != 0 or cloud.shot_flags[s, SHOT_STALL] != CHECKPOINT:
+            return
+        time = cloud.clock[s, CLOCK_TIME]
+        if time < cloud.clock[s, CLOCK_WINDOW]:
+            # the arrival window: the cloud converges, meets the surface and passes it (wp.static:
+            # see resolve_pellet, a constant used in a branch that returns, then on another path)
+            cloud.shot_flags[s, wp.static(SHOT_BUSY)] = 1
+            return
+        x = cloud.now_position[i]
+        v = cloud.now_velocity[i]
+        speed = cloud.now_speed[i]
+        reach2 = scalar(4.0) * physics.radius * physics.radius
+        earliest = NEVER
+        for j in range(i + 1, (s + 1) * pair.count):
+            if cloud.phase[j] == FLYING:
+                d = cloud.now_position[j] - x
+                u = cloud.now_velocity[j] - v
+                if wp.dot(d, u) < scalar(0.0):  # closing (contact_time has no time for the others)
+                    delay = contact_time(d, u, reach2, speed + cloud.now_speed[j])
+                    if delay >= scalar(0.0):
+                        earliest = wp.min(earliest, time + delay)
+        if earliest < NEVER:
+            cloud.shot_flags[s, wp.static(SHOT_BUSY)] = 1  # a pair can still meet
+        # plane contacts bound the jump (they do not keep a shot stepping: the core's flight does them)
+        wait, k = next_contact(cloud.position[i], cloud.velocity[i], cloud.angular_velocity[i], cloud.touching[i], surfaces,
+                               physics)
+        if k >= 0:
+            earliest = wp.min(earliest, cloud.time[i] + wait)
+        wp.atomic_min(cloud.clock, s, CLOCK_NEXT, earliest)
+
+    @wp.func(inline=True)
+    def now_pellet(i: wp.int32, pair: Pair, physics: Physics, cloud: Cloud):
+        """A flying pellet's state at its shot's checkpoint, for horizon_pellet (computed once,
+        not once per pair)."""
+        s = i / pair.count
+        if cloud.phase[i] != FLYING or cloud.shot_flags[s, SHOT_DONE] != 0 or cloud.shot_flags[s, SHOT_STALL] != CHECKPOINT:
+            return
+        age = cloud.clock[s, CLOCK_TIME] - cloud.time[i]
+        velocity = ballistic_velocity(cloud.velocity[i], physics.gravity, age)
+        cloud.now_position[i] = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age)
+        cloud.now_velocity[i] = velocity
+        cloud.now_speed[i] = wp.length(velocity)
+
+    @wp.func
+    def settle_shot(s: wp.int32, pair: Pair, physics: Physics, cloud: Cloud):
+        """At a checkpoint (after block_steps of its own steps, so the
+        decision does not depend on the other shots), a shot with nothing ahead, or out of steps,
+        stops stepping; one still busy jumps to its next event and recentres its frame."""
+        if cloud.shot_flags[s, SHOT_DONE] != 0:
+            return
+        steps = cloud.clock[s, CLOCK_STEPS]
+        checkpoint = cloud.shot_flags[s, SHOT_STALL] == CHECKPOINT  # (not a stall for a rebuild)
+        if checkpoint and (cloud.shot_flags[s, SHOT_BUSY] == 0 or steps >= pair.max_steps):
+            cloud.shot_flags[s, SHOT_DONE] = 1
+            cloud.clock[s, CLOCK_END] = cloud.clock[s, CLOCK_TIME]
+        else:
+            wp.atomic_add(cloud.flags, FLAG_REMAINING, 1)
+            if cloud.shot_flags[s, SHOT_STALL] == 1:
+                cloud.shot_flags[s, SHOT_REBUILD] = 1  # it waits for its lists
+                if cloud.step_travel[s] > scalar(0.0):
+                    # a fixed step longer than its skin allows: the shot's skin widens so a list
+                    # lasts a step (lists hold candidates only: the results do not change)
+                    cloud.half_skin[s] = scalar(1.25) * cloud.step_travel[s]
+                    cloud.step_travel[s] = scalar(0.0)
+                    wp.atomic_max(cloud.widest_half_skin, 0, cloud.half_skin[s])
+                    cloud.flags[FLAG_WIDENED] = 1
+            if checkpoint:
+                # nothing happens before the shot's next event (horizon_kernel): jump to a step
+                # before it (pellets carry reference states: only the clock moves)
+                time = cloud.clock[s, CLOCK_TIME]
+                ahead = cloud.clock[s, CLOCK_NEXT] - cloud.clock[s, CLOCK_STEP]
+                if cloud.clock[s, CLOCK_NEXT] < NEVER and ahead > time:
+                    cloud.clock[s, CLOCK_TIME] = ahead
+                # the co-moving frame follows the shot's flying pellets (after a ricochet they move
+                # nothing like the launch): speeds relative to it set the step. The lists are
+                # rebuilt in the new frame before the next step.
+                flying, _passing = recentre(pair, physics, cloud, s, cloud.clock[s, CLOCK_TIME])
+                if flying > 0:
+                    cloud.shot_flags[s, SHOT_REBUILD] = 1
+                    cloud.flags[FLAG_STALL] = 1
+        cloud.shot_flags[s, SHOT_BUSY] = 0
+        cloud.shot_flags[s, SHOT_STALL] = 0
+        cloud.clock[s, CLOCK_NEXT] = NEVER
+        cloud.clock[s, CLOCK_CUT] = NEVER
+        cloud.clock[s, CLOCK_SKIN] = NEVER
+
+    return SimpleNamespace(horizon_pellet=horizon_pellet, now_pellet=now_pellet, settle_shot=settle_shot)

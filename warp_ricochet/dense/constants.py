@@ -1,0 +1,44 @@
+"""Constants of the dense phase: pellet phases, the global and per-shot flags, the per-shot clock's
+slots, and the stepping's tuning (see docs/collisions.md)."""
+
+from ..scene import CHECKPOINT_STEPS
+
+FLYING, ENDED = 0, 1  # pellet phases; ENDED: landed after its last ricochet, or at rest on a surface
+# global flags (int32 array): a shot waits for a rebuild; shots still stepping; list overflow; a
+# shot's skin widened
+FLAG_STALL, FLAG_REMAINING, FLAG_OVERFLOW, FLAG_WIDENED = 0, 1, 2, 3
+NUM_FLAGS = 4
+# per-shot clock (scalar array, shots x 8): time, step, speed bound relative to the drift, steps
+# taken, the time the shot stopped stepping, the end of its arrival window (the last first contact
+# of its undisturbed pellets, plus the time the cloud takes to pass a point: 4 rms radii / speed),
+# the soonest event of all (any pair of the shot, or a plane; horizon_kernel), and the earliest
+# pair event left unresolved after the step's rounds (the step ends there), the largest overrun
+# of the skin (see prepare_pellet), and the earliest time a pellet changed in the step leaves its
+# skin (the step ends there too, and no event after it is applied)
+CLOCK_TIME, CLOCK_STEP, CLOCK_DRIFT, CLOCK_STEPS, CLOCK_END, CLOCK_WINDOW, CLOCK_NEXT, CLOCK_CUT, CLOCK_OVERRUN, CLOCK_SKIN = range(10)
+NUM_CLOCK = 10
+# a step cut at an unresolved event still advances by this fraction of itself (a pair the law does
+# not collide, e.g. one closing within rounding, can never stop the clock)
+MIN_CUT_FRACTION = 1.0 / 64.0
+HORIZON_RADII = 4.0
+# per-shot int flags (shots x 4): waits for a rebuild, finished, a pair or ricochet still ahead,
+# its lists are rebuilt at the next build (a shot's lists are rebuilt when it needs it, whatever
+# the other shots need, so its list-dependent diagnostics do not depend on the chunk)
+SHOT_STALL, SHOT_DONE, SHOT_BUSY, SHOT_REBUILD = 0, 1, 2, 3
+CHECKPOINT = 2  # shot_flags[s, SHOT_STALL]: waits at a checkpoint (1: waits for a rebuild)
+NUM_SHOT_FLAGS = 4
+# hash-grid cells CELL_REACHES reaches wide: a query visits 2 x 2 x 2 cells, not 3 x 3 x 3 (the
+# lists are sparse, about one neighbour per pellet in the paper's shot: the cells cost, not the candidates)
+CELL_REACHES = 2.0
+BLOCK_STEPS = CHECKPOINT_STEPS  # steps between checkpoints (the host reads three integers there, never inside a block)
+# the adaptive step lets a list last this many steps at the current speeds: a list built at a
+# checkpoint lasts its block (of the default 8 steps; frame_every sets another) with a step to
+# spare (speeds change in a block); with a list that lasted exactly a block, a third of the blocks
+# stalled at their last step for a rebuild one step before the checkpoint's
+SKIN_STEPS = float(BLOCK_STEPS + 1)
+# a pellet within this fraction of half its skin since the build, moving at most half the skin /
+# SKIN_STEPS in a step (the adaptive step), ends the step within 0.96 of it: no check needed
+SKIN_EDGE = 0.85
+NEVER_VALUE = 1e30  # s: no event ahead
+QUIET_STEP_VALUE = 1.0  # s: the longest step, when nothing moves relative to the drift
+TINY_SPEED_VALUE = 1e-30  # m/s: a floor under speeds that divide

@@ -1,0 +1,148 @@
+"""The start and the end of the dense phase: each pellet's launch, each shot's clock, frame and
+arrival window, the release (each pellet's state when its shot stopped stepping) and each shot's
+totals."""
+
+import functools
+from types import SimpleNamespace
+
+import warp as wp
+
+from ..core.outputs import make_outputs
+from ..launch.source import make_source
+from ..physics.ballistic import make_ballistic
+from ..physics.flight import make_flight
+from .constants import (
+    CHECKPOINT,
+    CLOCK_CUT,
+    CLOCK_END,
+    CLOCK_NEXT,
+    CLOCK_OVERRUN,
+    CLOCK_SKIN,
+    CLOCK_STEPS,
+    CLOCK_WINDOW,
+    FLYING,
+    NUM_CLOCK,
+    SHOT_BUSY,
+    SHOT_DONE,
+    SHOT_REBUILD,
+    SHOT_STALL,
+)
+from .frame import make_frame
+from .state import dense_types
+
+
+@functools.cache
+def make_ends(spec) -> SimpleNamespace:
+    """launch_pellet, start_shot, release_pellet and shot_totals."""
+    d = dense_types(spec)
+    scalar, vec3, Surfaces, Physics, Outputs, Source, Cloud, Pair = d.scalar, d.vec3, d.Surfaces, d.Physics, d.Outputs, d.Source, d.Cloud, d.Pair
+    NEVER, WRITE = d.NEVER, bool(spec.core_fields)
+    launch_state = make_source(spec.precision, spec.from_file).launch_state
+    write_initial = make_outputs(spec.precision).write_initial
+    next_contact = make_flight(spec.precision, spec.static_planes).next_contact
+    _entry, _return, _contact, ballistic_position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
+    recentre = make_frame(spec).recentre
+
+    @wp.func
+    def launch_pellet(i: wp.int32, first_index: wp.int32, source: Source, cloud: Cloud, out: Outputs):
+        """Launch state of each pellet (sampled from its global index, or given), phase FLYING."""
+        position, velocity, spin = launch_state(source, first_index + i, i)
+        if wp.static(WRITE):
+            write_initial(out, i, position, velocity, spin)  # (bounces without an impact: the core kernel marks them)
+        cloud.position[i] = position
+        cloud.velocity[i] = velocity
+        cloud.angular_velocity[i] = spin
+        cloud.launch_velocity[i] = velocity
+        cloud.launch_angular_velocity[i] = spin
+        cloud.time[i] = scalar(0.0)
+        cloud.phase[i] = FLYING
+        cloud.end_surface[i] = -1
+        cloud.touching[i] = -1
+        cloud.impacts[i] = 0
+        cloud.last_slipped[i] = 0
+        cloud.ricochet_point[i] = vec3()
+        cloud.ricochet_time[i] = scalar(0.0)
+        cloud.first_surface[i] = -1
+        cloud.first_slipped[i] = 0
+        cloud.collision_count[i] = 0
+        cloud.energy_lost[i] = scalar(0.0)
+        cloud.last_collision[i] = scalar(wp.nan)
+        cloud.neighbour_count[i] = 0
+        cloud.stale[i] = 1
+        cloud.event_partner[i] = -1
+        cloud.event_time[i] = NEVER
+
+    @wp.func
+    def start_shot(s: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
+        """One thread per shot: the clock starts at 0, the co-moving frame at the launch, and the
+        arrival window: the shot keeps stepping until its undisturbed pellets have all met their
+        first surface and the cloud has passed it (pellets converging in flight, rebounds meeting
+        the pellets still coming)."""
+        for c in range(wp.static(NUM_CLOCK)):
+            cloud.clock[s, c] = scalar(0.0)
+        cloud.clock[s, CLOCK_NEXT] = NEVER
+        cloud.clock[s, CLOCK_CUT] = NEVER
+        cloud.clock[s, CLOCK_SKIN] = NEVER
+        _flying, passing = recentre(pair, physics, cloud, s, scalar(0.0))
+        last_arrival = scalar(0.0)
+        first = s * pair.count
+        for k in range(pair.count):
+            i = first + k
+            wait, plane = next_contact(cloud.position[i], cloud.velocity[i], cloud.angular_velocity[i], wp.int32(-1),
+                                       surfaces, physics)
+            if plane >= 0:
+                last_arrival = wp.max(last_arrival, wait)
+        cloud.clock[s, CLOCK_WINDOW] = last_arrival + passing
+        cloud.shot_flags[s, SHOT_STALL] = CHECKPOINT  # the launch is its first checkpoint
+        cloud.shot_flags[s, SHOT_DONE] = 0
+        cloud.shot_flags[s, SHOT_BUSY] = 0
+        cloud.shot_flags[s, SHOT_REBUILD] = 1
+        cloud.half_skin[s] = pair.half_skin
+        cloud.step_travel[s] = scalar(0.0)
+
+    @wp.func
+    def release_pellet(i: wp.int32, pair: Pair, physics: Physics, cloud: Cloud):
+        """The release outputs: each pellet's state when its shot left the dense phase (or where
+        its flight ended in it), and the time of its last pair collision."""
+        s = i / pair.count
+        time = cloud.time[i]
+        position = cloud.position[i]
+        velocity = cloud.velocity[i]
+        if cloud.phase[i] == FLYING:
+            time = cloud.clock[s, CLOCK_END]
+            age = time - cloud.time[i]
+            position = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age)
+            velocity = ballistic_velocity(cloud.velocity[i], physics.gravity, age)
+        if cloud.release_time.shape[0] > 0:
+            cloud.release_time[i] = time
+        if cloud.release_position.shape[0] > 0:
+            cloud.release_position[i] = position
+        if cloud.release_velocity.shape[0] > 0:
+            cloud.release_velocity[i] = velocity
+        if cloud.release_angular_velocity.shape[0] > 0:
+            cloud.release_angular_velocity[i] = cloud.angular_velocity[i]
+        if cloud.collisions_last_time.shape[0] > 0:
+            cloud.collisions_last_time[i] = cloud.last_collision[i]
+
+    @wp.func
+    def shot_totals(s: wp.int32, pair: Pair, cloud: Cloud, totals: wp.array2d(dtype=wp.float64)):
+        """One thread per shot, in pellet order: pellets that collided, pair collisions, energy
+        lost (J), steps, the time it stopped stepping (s), the largest skin overrun (half skins)."""
+        first = s * pair.count
+        collided = wp.float64(0.0)
+        collisions = wp.float64(0.0)
+        lost = wp.float64(0.0)
+        for k in range(pair.count):
+            c = cloud.collision_count[first + k]
+            if c > 0:
+                collided += wp.float64(1.0)
+            collisions += wp.float64(c)
+            lost += wp.float64(cloud.energy_lost[first + k])
+        totals[s, 0] = collided
+        totals[s, 1] = collisions
+        totals[s, 2] = lost
+        totals[s, 3] = wp.float64(cloud.clock[s, CLOCK_STEPS])
+        totals[s, 4] = wp.float64(cloud.clock[s, CLOCK_END])
+        totals[s, 5] = wp.float64(cloud.clock[s, CLOCK_OVERRUN])
+
+    return SimpleNamespace(launch_pellet=launch_pellet, start_shot=start_shot, release_pellet=release_pellet, shot_totals=shot_totals)

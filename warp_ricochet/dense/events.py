@@ -1,0 +1,172 @@
+"""A pellet's events in the dense phase: a plane contact (an impact, eqs. 1-25, or the end of its
+flight, by the rules of `physics.contact`), and a pair contact (the pair law of `physics.pair`)
+at the exact time two reference states meet."""
+
+import functools
+from types import SimpleNamespace
+
+import warp as wp
+
+from ..core.outputs import make_outputs
+from ..physics.ballistic import make_ballistic
+from ..physics.contact import make_contact
+from ..physics.flight import make_flight
+from ..physics.pair import make_pair_law
+from .constants import ENDED
+from .frame import make_frame
+from .state import dense_types
+
+
+@functools.cache
+def make_events(spec) -> SimpleNamespace:
+    """The event functions of the dense phase."""
+    d = dense_types(spec)
+    scalar, vec3, Surfaces, Physics, Outputs, Cloud, Pair = d.scalar, d.vec3, d.Surfaces, d.Physics, d.Outputs, d.Cloud, d.Pair
+    CLOSING_TOLERANCE2 = d.CLOSING_TOLERANCE2
+    flight = make_flight(spec.precision, spec.static_planes)  # within a step: the exact ballistic flight
+    next_contact, advance = flight.next_contact, flight.advance
+    _rests, _stays, meet_surface, contact_point, _range = make_contact(spec.precision)
+    _entry, _return, _contact, ballistic_position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
+    pair_law = make_pair_law(scalar)
+    write_impact = make_outputs(spec.precision).write_impact
+    set_reference = make_frame(spec).set_reference
+    BOUNCES, WRITE = spec.bounces, bool(spec.core_fields)
+
+    @wp.func
+    def plane_outcome(
+        i: wp.int32, k: wp.int32, wait: scalar,
+        position: vec3, velocity: vec3, spin: vec3, time: scalar,
+        cloud: Cloud, surfaces: Surfaces, physics: Physics,
+    ):
+        """What plane_contact does to pellet i, without doing it: its position, velocity before
+        and after, spin after, slipped, the contact time, whether it flies on, whether it is an
+        impact (not the end of its flight)."""
+        position, velocity, spin_then = advance(position, velocity, spin, wait, physics)
+        time = time + wait
+        flying = wp.int32(1)
+        impacted = wp.int32(0)
+        velocity_after = velocity
+        spin_after = spin
+        slipped = wp.int32(0)
+        if cloud.impacts[i] >= wp.static(BOUNCES):
+            flying = wp.int32(0)  # the landing after the last ricochet
+        else:  # an impact, or no closing speed: it stays on the surface (physics.contact)
+            velocity_after, spin_after, slipped, impacted, flying = meet_surface(k, velocity, spin, surfaces, physics)
+        return position, velocity, velocity_after, spin_after, slipped, time, flying, impacted
+
+    @wp.func
+    def plane_contact(
+        i: wp.int32, k: wp.int32, wait: scalar,
+        position: vec3, velocity: vec3, spin: vec3, time: scalar,
+        cloud: Cloud, surfaces: Surfaces, physics: Physics, out: Outputs,
+    ):
+        """Pellet i (reference state at `time`) meets plane k `wait` later: an impact (eqs. 1-25,
+        exactly as the core kernel), or the end of its flight (its contact after `bounces`
+        ricochets, or no closing speed). Returns the new reference state and whether it flies on."""
+        radius = physics.radius
+        position, velocity, velocity_after, spin_after, slipped, time, flying, impacted = plane_outcome(
+            i, k, wait, position, velocity, spin, time, cloud, surfaces, physics
+        )
+        normal = surfaces.normal[k]
+        impacts = cloud.impacts[i]
+        if impacted != 0:
+            if wp.static(WRITE):
+                write_impact(out, i, impacts, time, position, velocity, spin, velocity_after, spin_after, slipped, k)
+            if impacts == 0:
+                cloud.first_surface[i] = k
+                cloud.first_slipped[i] = slipped
+                cloud.first_velocity_before[i] = velocity
+                cloud.first_angular_velocity_before[i] = spin
+                cloud.first_velocity_after[i] = velocity_after
+                cloud.first_angular_velocity_after[i] = spin_after
+            cloud.impacts[i] = impacts + 1
+            cloud.last_slipped[i] = slipped
+            cloud.ricochet_point[i] = contact_point(position, radius, normal)
+            cloud.ricochet_time[i] = time
+            cloud.touching[i] = k
+            velocity = velocity_after
+            spin = spin_after
+        if flying == 0:
+            cloud.phase[i] = ENDED
+            cloud.end_surface[i] = k
+            set_reference(cloud, i, position, velocity, spin, time)
+        return position, velocity, spin, time, flying
+
+    @wp.func
+    def contact_time(d: vec3, u: vec3, reach2: scalar, speeds: scalar):
+        """First s >= 0 with |d + u s|^2 = reach2 while closing; 0 when within it and closing; -1 none.
+        `speeds` = |v_a| + |v_b|: a closing speed within rounding of it is none (after an E = 0
+        collision the normal relative velocity is rounding residue, as collision_reference does)."""
+        du = wp.dot(d, u)
+        if du >= scalar(0.0) or du * du <= CLOSING_TOLERANCE2 * wp.dot(d, d) * speeds * speeds:
+            return scalar(-1.0)
+        dd = wp.dot(d, d)
+        gap = dd - reach2
+        if gap <= scalar(0.0):
+            return scalar(0.0)
+        disc = du * du - wp.dot(u, u) * gap
+        if disc < scalar(0.0):
+            return scalar(-1.0)
+        return gap / (-du + wp.sqrt(disc))  # the smaller root, without cancellation
+
+    @wp.func
+    def mark_stale(cloud: Cloud, i: wp.int32):
+        """Pellet i changed (or ended): its event, and its neighbours', are found again (the
+        lists are symmetric, so every pellet that could have chosen i is marked)."""
+        cloud.stale[i] = 1
+        for n in range(cloud.neighbour_count[i]):
+            cloud.stale[cloud.neighbours[i, n]] = 1
+
+    @wp.func
+    def plane_contacts_until(i: wp.int32, step_end: scalar, most: wp.int32, cloud: Cloud, surfaces: Surfaces,
+                             physics: Physics, out: Outputs):
+        """Pellet i's plane contacts up to `step_end` (at most `most`), applied to its reference
+        state; it is marked stale if it had one. Returns how many it had."""
+        position = cloud.position[i]
+        velocity = cloud.velocity[i]
+        spin = cloud.angular_velocity[i]
+        time = cloud.time[i]
+        flying = wp.int32(1)
+        contacts = wp.int32(0)
+        for _ in range(wp.static(BOUNCES + 1)):
+            if flying != 0 and contacts < most:
+                wait, k = next_contact(position, velocity, spin, cloud.touching[i], surfaces, physics)
+                if k >= 0 and time + wait <= step_end:
+                    position, velocity, spin, time, flying = plane_contact(
+                        i, k, wait, position, velocity, spin, time, cloud, surfaces, physics, out
+                    )
+                    contacts += 1
+        if contacts > 0:
+            if flying != 0:
+                set_reference(cloud, i, position, velocity, spin, time)
+            mark_stale(cloud, i)
+        return contacts
+
+    @wp.func
+    def pair_outcome(a: wp.int32, b: wp.int32, when: scalar, pair: Pair, physics: Physics, cloud: Cloud):
+        """The pair law for pellets a < b meeting at `when`, not applied: their states then and
+        their velocities and spins after."""
+        gravity = physics.gravity
+        # TC model: a pellet hit again within the contact duration rebounds elastically
+        restitution = pair.restitution
+        last_a = cloud.last_collision[a]
+        last_b = cloud.last_collision[b]
+        if (not wp.isnan(last_a) and when - last_a <= pair.contact_duration) or (
+            not wp.isnan(last_b) and when - last_b <= pair.contact_duration
+        ):  # (<=, as collision_reference)
+            restitution = scalar(1.0)
+        age_a = when - cloud.time[a]
+        age_b = when - cloud.time[b]
+        xa = ballistic_position(cloud.position[a], cloud.velocity[a], gravity, age_a)
+        va = ballistic_velocity(cloud.velocity[a], gravity, age_a)
+        wa = cloud.angular_velocity[a]
+        xb = ballistic_position(cloud.position[b], cloud.velocity[b], gravity, age_b)
+        vb = ballistic_velocity(cloud.velocity[b], gravity, age_b)
+        wb = cloud.angular_velocity[b]
+        va2, wa2, vb2, wb2, collided, _slipped = pair_law(
+            xa, va, wa, physics.radius, pair.mass, xb, vb, wb, physics.radius, pair.mass,
+            physics.inertia_factor, restitution, pair.mu_s, pair.mu_d,
+        )
+        return xa, va, wa, xb, vb, wb, va2, wa2, vb2, wb2, collided
+
+    return SimpleNamespace(plane_outcome=plane_outcome, plane_contact=plane_contact, contact_time=contact_time, mark_stale=mark_stale, plane_contacts_until=plane_contacts_until, pair_outcome=pair_outcome)

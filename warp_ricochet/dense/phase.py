@@ -1,0 +1,257 @@
+"""The dense phase's host wiring: `DensePhase` runs one chunk of whole shots on a device, from the
+launch until no pair of any shot can touch again, and leaves each pellet's release state for the
+core kernel. No host sync inside a block of steps: the host reads the global flags at checkpoints
+and after each list build (one small read each).
+
+How it runs (the results are bitwise the same in every mode, tested):
+- CUDA: lists from a `wp.HashGrid`, the host loop of checkpoints, rebuilds and blocks, each block
+  of per-step kernels captured once as a CUDA graph and replayed;
+- CPU (`DenseOptions`): by default a group of shots' whole dense phase is one launch of
+  `phase_kernel` on cell lists ("phase"); "block" runs the host loop with a block of steps a
+  launch; "kernels" the per-step kernels, as CUDA; lists from cell lists ("cells") or, as on CUDA,
+  `wp.HashGrid` ("hashgrid"). Trajectory frames need the host loop (they are taken at checkpoints).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import warp as wp
+
+from ..tallies.collisions import SHOT_TOTALS
+from .constants import (
+    BLOCK_STEPS,
+    CELL_REACHES,
+    CLOCK_STEPS,
+    CLOCK_TIME,
+    FLAG_OVERFLOW,
+    FLAG_REMAINING,
+    FLAG_STALL,
+    FLAG_WIDENED,
+    FLYING,
+)
+from .kernels import make_setup_kernels, make_step_kernels
+from .state import allocate_cloud, pair_struct, release_struct
+
+CPU_STEPS = ("phase", "block", "kernels")
+CPU_LISTS = ("cells", "hashgrid")
+
+
+@dataclass(frozen=True)
+class DenseOptions:
+    """How the CPU runs the dense phase (see the module notes); `phase_pellets`: about this many
+    pellets' shots per launch of the one-launch phase (about a second: Ctrl-C and SIGTERM are
+    seen within it)."""
+
+    cpu_steps: str = "phase"
+    cpu_lists: str = "cells"
+    phase_pellets: int = 4096
+
+    def __post_init__(self):
+        if self.cpu_steps not in CPU_STEPS or self.cpu_lists not in CPU_LISTS or self.phase_pellets < 1:
+            raise ValueError(f"DenseOptions: cpu_steps in {CPU_STEPS}, cpu_lists in {CPU_LISTS}, phase_pellets >= 1")
+
+
+class DensePhase:
+    """Buffers for up to `capacity` pellets (whole shots of `scene.shot.count`), the kernels of
+    `spec`, and the loop that steps them."""
+
+    def __init__(self, model, scene, spec, capacity: int, options: DenseOptions | None = None):
+        options = options or DenseOptions()
+        coll = scene.collisions
+        self.model, self.device, self.count, self.capacity = model, model.device, scene.shot.count, capacity
+        self.rounds = coll.rounds
+        self.block_steps = coll.frame_every or BLOCK_STEPS
+        self.kernels = {**vars(make_setup_kernels(spec)), **vars(make_step_kernels(spec))}
+        shots = -(-capacity // self.count)
+        self.cloud, self.field_arrays = allocate_cloud(model.precision, self.device, capacity, shots, coll.rounds,
+                                                       coll.max_neighbours, spec.collision_fields)
+        self.release = release_struct(model.precision, self.cloud, self.count)
+        self.totals = wp.zeros((shots, len(SHOT_TOTALS)), dtype=wp.float64, device=self.device)
+        self.pair = pair_struct(model.precision, model, coll, self.count, self.block_steps)
+        cpu = not self.device.is_cuda
+        self.fused = cpu and options.cpu_steps != "kernels"
+        self.cell_lists = cpu and options.cpu_lists == "cells"
+        self.one_launch = self.cell_lists and options.cpu_steps == "phase"
+        self.phase_pellets = options.phase_pellets
+        if self.cell_lists:  # one shot at a time: a table for one shot, rows of one shot
+            self.bucket_end = wp.zeros((1 << max(3, (2 * self.count - 1).bit_length())) + 1, dtype=wp.int32, device=self.device)
+            self.rows = wp.zeros(self.count, dtype=wp.int32, device=self.device)
+            self.cells = wp.zeros(capacity, dtype=wp.vec3i, device=self.device)
+        else:
+            self.groups = wp.zeros(capacity, dtype=wp.int32, device=self.device)
+            cells = min(max(int(round((2.0 * capacity) ** (1.0 / 3.0))), 8), 256)
+            self.grid = wp.HashGrid(cells, cells, cells, device=self.device, dtype=model.types.scalar)
+        self.reach = 2.0 * model.radius + coll.skin * 2.0 * model.radius
+        self.graph = None
+        self.last_frame_step = None
+
+    def run(self, first_index: int, shots: int, source, outputs, frames=None):
+        """Launch `shots` whole shots (global pellet index `first_index` on), step them until no
+        pair can touch again, and leave the release state for the core kernel (`self.release`).
+        `frames(step, time, positions)` receives trajectory frames at checkpoints."""
+        pellets = shots * self.count
+        c, p = self.cloud, self.pair
+        self.threads = self._threads(pellets)
+        self.shots = shots
+        self._outputs = outputs
+        self._launch("launch_kernel", self.threads, [first_index, p, source, c, outputs])
+        self._launch("drift_kernel", shots, [p, self.model.surfaces, self.model.physics, c])
+        if not self.cell_lists:
+            self._launch("groups_kernel", pellets, [p, self.groups])
+        if self.one_launch and frames is None:
+            self._whole_phase()
+        else:
+            self._host_loop(pellets, shots, outputs, frames)
+        self._launch("release_kernel", self.threads, [p, self.model.physics, c])
+        self._launch("shot_totals_kernel", shots, [p, c, self.totals])
+
+    def _threads(self, pellets):
+        """Threads of a per-pellet kernel: one per pellet on CUDA; on the CPU one for all."""
+        self.pair.pellets = pellets
+        self.pair.span = 1 if self.device.is_cuda else max(pellets, 1)
+        return -(-pellets // self.pair.span)
+
+    def _launch(self, name, dim, inputs, record=False):
+        return wp.launch(self.kernels[name], dim=dim, inputs=inputs, device=self.device, record_cmd=record)
+
+    def _whole_phase(self):
+        """The CPU: the dense phase of a group of shots is one launch of phase_kernel (again
+        after a list overflowed, with longer lists)."""
+        m, c = self.model, self.cloud
+        c.flags.zero_()
+        group = max(1, self.phase_pellets // self.count)
+        first = 0
+        while first < self.shots:
+            end = min(first + group, self.shots)
+            self._launch("phase_kernel", 1, [first, end, self.block_steps, self.rounds, self.pair, m.surfaces, m.physics,
+                                             c, self._outputs, self.bucket_end, self.rows, self.cells])
+            if not self._grew_lists():  # (else the same group again: its shots before the overflow are done)
+                first = end
+
+    def _host_loop(self, pellets, shots, outputs, frames):
+        """Checkpoints, rebuilds and blocks of steps launched from the host."""
+        c = self.cloud
+        self._record()
+        self._rebuild(pellets)
+        commands = self._step_commands(pellets, shots, outputs)
+        self.graph = None
+        while True:
+            flags = self._checkpoint()  # host syncs: here, at checkpoints, and one per rebuild
+            if frames is not None:
+                take_frame(self, pellets, frames)
+            if flags[FLAG_REMAINING] == 0:
+                break
+            c.flags.zero_()
+            if flags[FLAG_STALL]:
+                if flags[FLAG_WIDENED]:  # the grid's cells follow the widest reach (a shot's skin widened)
+                    self.reach = 2.0 * self.model.radius + 2.0 * float(c.widest_half_skin.numpy()[0])
+                if self._rebuild(pellets):
+                    commands = self._step_commands(pellets, shots, outputs)
+                    self.graph = None
+            self._block(commands)
+
+    def _record(self):
+        """The launches of the checkpoints and the rebuilds, recorded once per run (packing the
+        structs' parameters costs more than a small launch on the CPU) and again when the lists
+        grow (the cloud's struct then holds a new array)."""
+        m, c, p = self.model, self.cloud, self.pair
+        self.checkpoint_commands = [
+            self._launch("now_kernel", self.threads, [p, m.physics, c], True),
+            self._launch("horizon_kernel", self.threads, [p, m.surfaces, m.physics, c], True),
+            self._launch("settle_kernel", self.shots, [p, m.physics, c], True),
+        ]
+        if self.cell_lists:
+            self.list_commands = [self._launch("cell_lists_kernel", 1, [p, m.physics, c, self.bucket_end, self.rows, self.cells], True)]
+        else:
+            self.list_commands = [self._launch("grid_points_kernel", self.threads, [p, m.physics, c], True),
+                                  self._launch("neighbours_kernel", self.threads, [self.grid.id, p, m.physics, c], True)]
+
+    def _checkpoint(self):
+        """Each shot at its checkpoint: its horizon, and whether it stops, jumps or rebuilds;
+        returns the global flags (one host sync)."""
+        for command in self.checkpoint_commands:
+            command.launch()
+        return self.cloud.flags.numpy().copy()  # (a copy: CPU arrays share memory)
+
+    def _rebuild(self, pellets) -> bool:
+        """Build the neighbour lists; a list that overflowed grows them and builds again, so no
+        step ever runs on a truncated list. Returns whether they grew (the recorded commands then
+        hold the old array, and are recorded again)."""
+        grew = False
+        while True:
+            self.list_commands[0].launch()  # cell lists (CPU), or the grid points
+            if not self.cell_lists:
+                # (one shot: no groups; a grouped build costs twice as much on the CPU, and a grouped
+                # query of an ungrouped grid filters nothing)
+                groups = self.groups[:pellets] if pellets > self.count else None
+                self.grid.build(self.cloud.grid_point[:pellets], CELL_REACHES * self.reach, groups=groups)
+                self.list_commands[1].launch()
+            if not self._grew_lists():
+                return grew
+            self._record()
+            grew = True
+
+    def _grew_lists(self) -> bool:
+        """After a build: if a list overflowed, longer lists (1.25 x the longest needed), to be
+        built again. One integer read per build."""
+        c = self.cloud
+        found = int(c.flags.numpy()[FLAG_OVERFLOW])
+        if found == 0:
+            return False
+        c.neighbours = wp.zeros((self.capacity, int(found * 1.25) + 1), dtype=wp.int32, device=self.device)
+        c.flags[FLAG_OVERFLOW:].zero_()
+        return True
+
+    def _step_commands(self, pellets, shots, outputs):
+        """One step's launches, recorded once and replayed; on CUDA a block of them is captured as
+        a graph; on the CPU (fused) a block of steps is one launch."""
+        m, c, p = self.model, self.cloud, self.pair
+        if self.fused:
+            return [self._launch("block_kernel", 1, [self.block_steps, self.rounds, p, m.surfaces, m.physics, c, outputs], True)]
+        threads = self.threads
+        commands = [self._launch("bounds_kernel", threads, [p, m.physics, c], True),
+                    self._launch("plan_kernel", shots, [p, m.physics, c], True),
+                    self._launch("prepare_kernel", threads, [p, m.physics, c], True)]
+        for r in range(self.rounds):
+            commands.append(self._launch("choose_kernel", threads, [r, 0, p, m.surfaces, m.physics, c], True))
+            commands.append(self._launch("resolve_kernel", threads, [r, p, m.surfaces, m.physics, c, outputs], True))
+        # events still ahead after the rounds: the step ends at the earliest (no pellet flies into its partner)
+        commands.append(self._launch("choose_kernel", threads, [self.rounds, 1, p, m.surfaces, m.physics, c], True))
+        commands.append(self._launch("finish_kernel", threads, [p, m.surfaces, m.physics, c, outputs], True))
+        commands.append(self._launch("end_step_kernel", shots, [p, c], True))
+        return commands
+
+    def _block(self, commands):
+        if self.graph is not None:
+            wp.capture_launch(self.graph)
+            return
+        if self.device.is_cuda:
+            with wp.ScopedCapture(device=self.device) as capture:
+                for _ in range(self.block_steps):
+                    for command in commands:
+                        command.launch()
+            self.graph = capture.graph
+            wp.capture_launch(self.graph)
+            return
+        for _ in range(1 if self.fused else self.block_steps):
+            for command in commands:
+                command.launch()
+
+
+def take_frame(dense, pellets: int, frames):
+    """A trajectory frame at a checkpoint every `block_steps` steps (one shot): each pellet's
+    centre then (where its flight ended, for those that ended), to `frames(step, time, positions)`."""
+    clock = dense.cloud.clock.numpy()[0]
+    steps = int(clock[CLOCK_STEPS])
+    if steps % dense.block_steps or steps == dense.last_frame_step:
+        return  # a block cut short by a list rebuild: not a frame
+    dense.last_frame_step = steps
+    now = float(clock[CLOCK_TIME])
+    c = dense.cloud
+    x, v, t = c.position.numpy()[:pellets], c.velocity.numpy()[:pellets], c.time.numpy()[:pellets]
+    flying = c.phase.numpy()[:pellets] == FLYING
+    g = np.asarray(dense.model.physics.gravity, np.float64)
+    age = np.where(flying, now - t, 0.0)[:, None]
+    frames(steps, now, x + v * age + 0.5 * g * age**2)

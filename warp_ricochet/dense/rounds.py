@@ -1,0 +1,175 @@
+"""The rounds of a step: each pellet's earliest event is found (kept until it or a neighbour
+changes), then the events in the step are applied, a plane event by its pellet and a mutual pair
+event by the lower row's thread, up to the round's skin limit."""
+
+import functools
+from types import SimpleNamespace
+
+import warp as wp
+
+from ..physics.ballistic import make_ballistic
+from ..physics.flight import make_flight
+from .constants import (
+    CLOCK_CUT,
+    CLOCK_SKIN,
+    CLOCK_STEP,
+    CLOCK_TIME,
+    FLYING,
+    MIN_CUT_FRACTION,
+)
+from .events import make_events
+from .frame import make_frame
+from .state import dense_types
+
+
+@functools.cache
+def make_rounds(spec) -> SimpleNamespace:
+    """choose_pellet, step_end_of and resolve_pellet."""
+    d = dense_types(spec)
+    scalar, Surfaces, Physics, Outputs, Cloud, Pair = d.scalar, d.Surfaces, d.Physics, d.Outputs, d.Cloud, d.Pair
+    NEVER = d.NEVER
+    next_contact = make_flight(spec.precision, spec.static_planes).next_contact
+    _entry, _return, _contact, ballistic_position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
+    ev, fr = make_events(spec), make_frame(spec)
+    contact_time, plane_outcome, pair_outcome = ev.contact_time, ev.plane_outcome, ev.pair_outcome
+    plane_contacts_until, mark_stale = ev.plane_contacts_until, ev.mark_stale
+    stepping, skin_exit, set_reference = fr.stepping, fr.skin_exit, fr.set_reference
+
+    @wp.func(inline=True)
+    def choose_pellet(i: wp.int32, look: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
+        """Each flying pellet's earliest event: its next plane contact, or contact with a listed
+        neighbour (ties: a plane, then the lower row). It is found again only when the pellet is
+        stale (it or a neighbour changed, or its list was rebuilt): a pair's time is computed
+        from the later of the two reference times, as in collision_reference, so it is one
+        number whoever asks and whenever, and a kept event is the one a new search would find.
+        With its event it keeps when it would leave its skin after it (as if applied: a pair as
+        if both chose it), and each round the earliest of those among events in the step is the
+        round's skin limit (resolve_pellet applies no event after it; the step ends there).
+        `look` (after the last round): pair events still ahead in the step cut it, so no pellet
+        flies past an event left unresolved (into its partner). A round after one that applied
+        nothing has nothing to do (no pellet is stale, every choice is the same)."""
+        if cloud.stale[i] == 0 and cloud.event_partner[i] == -1:
+            return  # nothing ahead
+        s = i / pair.count
+        if not stepping(cloud, i, s):
+            return
+        if cloud.stale[i] != 0:
+            cloud.stale[i] = 0
+            gravity = physics.gravity
+            position = cloud.position[i]
+            velocity = cloud.velocity[i]
+            time = cloud.time[i]
+            wait, k = next_contact(position, velocity, cloud.angular_velocity[i], cloud.touching[i], surfaces, physics)
+            best_time = NEVER
+            best = wp.int32(-1)
+            if k >= 0:
+                best_time = time + wait
+                best = -2 - k
+            reach2 = scalar(4.0) * physics.radius * physics.radius
+            for n in range(cloud.neighbour_count[i]):
+                j = cloud.neighbours[i, n]
+                if cloud.phase[j] == FLYING:
+                    other_time = cloud.time[j]
+                    start = wp.max(time, other_time)  # both reference states hold from here
+                    d = ballistic_position(cloud.position[j], cloud.velocity[j], gravity, start - other_time) - ballistic_position(position, velocity, gravity, start - time)
+                    vj = ballistic_velocity(cloud.velocity[j], gravity, start - other_time)
+                    vi = ballistic_velocity(velocity, gravity, start - time)
+                    delay = contact_time(d, vj - vi, reach2, wp.length(vi) + wp.length(vj))
+                    if delay >= scalar(0.0):
+                        when = start + delay
+                        if when < best_time or (when == best_time and best >= 0 and j < best):
+                            best_time = when
+                            best = j
+            cloud.event_time[i] = best_time
+            cloud.event_partner[i] = best
+            exit = NEVER
+            if best <= -2:
+                at, _v, velocity_after, _w, _slipped, contact, flying, impacted = plane_outcome(
+                    i, k, wait, position, velocity, cloud.angular_velocity[i], time, cloud, surfaces, physics
+                )
+                if flying != 0 and impacted != 0:
+                    exit = skin_exit(cloud, physics, i, s, at, velocity_after, contact)
+            elif best >= 0:
+                a = wp.min(i, best)
+                xa, _va, _wa, xb, _vb, _wb, va2, _wa2, vb2, _wb2, _collided = pair_outcome(a, wp.max(i, best), best_time, pair, physics, cloud)
+                if i == a:
+                    exit = skin_exit(cloud, physics, i, s, xa, va2, best_time)
+                else:
+                    exit = skin_exit(cloud, physics, i, s, xb, vb2, best_time)
+            cloud.event_exit[i] = exit
+        step_start = cloud.clock[s, wp.static(CLOCK_TIME)]
+        step_end = step_start + cloud.clock[s, wp.static(CLOCK_STEP)]
+        if cloud.event_time[i] <= step_end:
+            # (after the last round too: finish_kernel applies the plane contacts left in the step)
+            wp.atomic_min(cloud.clock, s, wp.static(CLOCK_SKIN), cloud.event_exit[i])
+            if look != 0 and cloud.event_partner[i] >= 0 and cloud.event_time[i] < step_end:
+                wp.atomic_min(cloud.clock, s, wp.static(CLOCK_CUT), wp.max(cloud.event_time[i], step_start))
+
+    @wp.func
+    def step_end_of(cloud: Cloud, s: wp.int32):
+        """Where the shot's step ends: its full step, or the earliest pair event its rounds left
+        unresolved (but at least MIN_CUT_FRACTION of the step), or the earliest time a pellet
+        changed in the step leaves its skin (no minimum there: no pellet outruns its list)."""
+        time = cloud.clock[s, CLOCK_TIME]
+        step = cloud.clock[s, CLOCK_STEP]
+        cut = time + wp.max(wp.min(step, cloud.clock[s, CLOCK_CUT] - time), step * scalar(MIN_CUT_FRACTION))
+        return wp.min(cut, cloud.clock[s, CLOCK_SKIN])
+
+    @wp.func(inline=True)
+    def resolve_pellet(i: wp.int32, round: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud,
+                       out: Outputs):
+        """Apply each pellet's event if it falls in the step: a plane event, or a pair event both
+        pellets chose (mutual), applied by the lower row's thread to both. A pellet takes part in
+        at most one event per round, so every state is read and written by one thread only.
+        Only events up to the round's skin limit are applied (choose_pellet: the earliest time a
+        pellet changed by an event of the round would leave its skin), so no pellet outruns its
+        list (the skin was sized for the motion known at the step's start; a plane rebound can be
+        far faster)."""
+        s = i / pair.count
+        if not stepping(cloud, i, s):
+            return
+        partner = cloud.event_partner[i]
+        if partner == -1 or (partner >= 0 and partner < i):
+            return
+        step_start = cloud.clock[s, CLOCK_TIME]
+        step_end = step_start + cloud.clock[s, CLOCK_STEP]
+        # (wp.static for CLOCK_SKIN here: Warp 1.19 merges a module constant used inside a branch
+        # that returns into a variable set only on that path, and a later use on another path
+        # read it unset: a wrong index into the clock)
+        skin_limit = cloud.clock[s, wp.static(CLOCK_SKIN)]
+        when = cloud.event_time[i]
+        if partner <= -2:
+            if when <= step_end and when <= skin_limit:
+                if plane_contacts_until(i, step_end, 1, cloud, surfaces, physics, out) > 0:  # the one it chose
+                    cloud.round_applied[round] = 1
+            return
+        if when >= step_end or cloud.event_partner[partner] != i or cloud.phase[partner] != FLYING:
+            return
+        a = i
+        b = partner
+        when = wp.max(when, step_start)  # (an event the step passed after a cut at MIN_CUT_FRACTION)
+        xa, va, wa, xb, vb, wb, va2, wa2, vb2, wb2, collided = pair_outcome(a, b, when, pair, physics, cloud)
+        if when > skin_limit:
+            return  # after a pellet changed in this round leaves its skin: the next step
+        if collided != 0:
+            # kinetic energy the pair lost; each pellet books half
+            before = pair.mass * (wp.dot(va, va) + wp.dot(vb, vb)) + pair.inertia * (wp.dot(wa, wa) + wp.dot(wb, wb))
+            after = pair.mass * (wp.dot(va2, va2) + wp.dot(vb2, vb2)) + pair.inertia * (wp.dot(wa2, wa2) + wp.dot(wb2, wb2))
+            half = scalar(0.25) * (before - after)
+            cloud.energy_lost[a] = cloud.energy_lost[a] + half
+            cloud.energy_lost[b] = cloud.energy_lost[b] + half
+            cloud.collision_count[a] = cloud.collision_count[a] + 1
+            cloud.collision_count[b] = cloud.collision_count[b] + 1
+            cloud.last_collision[a] = when
+            cloud.last_collision[b] = when
+            cloud.touching[a] = -1  # they may have left the plane: plane times from the actual gap
+            cloud.touching[b] = -1
+        # (a pair the law does not collide, grazing within rounding, moves its reference states to
+        # `when` too: found again from there, it is no longer closing, and the clock moves on)
+        set_reference(cloud, a, xa, va2, wa2, when)
+        set_reference(cloud, b, xb, vb2, wb2, when)
+        cloud.round_applied[round] = 1
+        mark_stale(cloud, a)
+        mark_stale(cloud, b)
+
+    return SimpleNamespace(choose_pellet=choose_pellet, step_end_of=step_end_of, resolve_pellet=resolve_pellet)

@@ -1,0 +1,203 @@
+"""The dense phase's state: the `Cloud` (per-pellet and per-shot arrays) and `Pair` (the pair law's and
+the stepping's parameters) structs, the types and constants its `@wp.func`s share, and their
+allocation on the host.
+"""
+
+import functools
+from types import SimpleNamespace
+
+import warp as wp
+
+from ..core.outputs import make_outputs
+from ..core.release import RELEASE_ARRAYS, make_release
+from ..launch.source import make_source
+from ..physics.ballistic import EPSILON, ROUNDING
+from ..physics.types import types_for
+from .constants import (
+    NEVER_VALUE,
+    NUM_CLOCK,
+    NUM_FLAGS,
+    NUM_SHOT_FLAGS,
+    QUIET_STEP_VALUE,
+    TINY_SPEED_VALUE,
+)
+from .schedule import shot_stride
+
+
+@functools.cache
+def make_state(precision: str):
+    """The `Cloud` and `Pair` structs of one precision."""
+    t = types_for(precision)
+    scalar, vec3 = t.scalar, t.vec3
+
+    @wp.struct
+    class Cloud:
+        """Per-pellet and per-shot arrays of the dense phase (`collisions`). Each pellet's state is
+        a reference state (position, velocity at `time`), valid until its next event: the core
+        kernel continues from it exactly as from a launch (`core.release`)."""
+
+        position: wp.array(dtype=vec3)  # m, at `time` (or where the flight ended, ENDED)
+        velocity: wp.array(dtype=vec3)  # m/s
+        angular_velocity: wp.array(dtype=vec3)  # rad/s
+        time: wp.array(dtype=scalar)  # s since launch
+        phase: wp.array(dtype=wp.int32)  # FLYING 0, ENDED 1 (landed, or at rest on a surface)
+        end_surface: wp.array(dtype=wp.int32)
+        touching: wp.array(dtype=wp.int32)  # the plane just left (flight.next_contact), or -1
+        impacts: wp.array(dtype=wp.int32)
+        last_slipped: wp.array(dtype=wp.int32)
+        ricochet_point: wp.array(dtype=vec3)  # m, contact point of the last ricochet
+        ricochet_time: wp.array(dtype=scalar)
+        first_surface: wp.array(dtype=wp.int32)  # the first impact, for the statistics
+        first_slipped: wp.array(dtype=wp.int32)
+        first_velocity_before: wp.array(dtype=vec3)
+        first_angular_velocity_before: wp.array(dtype=vec3)
+        first_velocity_after: wp.array(dtype=vec3)
+        first_angular_velocity_after: wp.array(dtype=vec3)
+        launch_velocity: wp.array(dtype=vec3)
+        launch_angular_velocity: wp.array(dtype=vec3)
+        collision_count: wp.array(dtype=wp.int32)
+        last_collision: wp.array(dtype=scalar)  # s since launch, NaN: never
+        energy_lost: wp.array(dtype=scalar)  # J, half of each of its pair collisions' losses
+        # each pellet's earliest event (plane or listed pair), kept until it or a neighbour changes
+        event_time: wp.array(dtype=scalar)  # s since launch
+        event_partner: wp.array(dtype=wp.int32)  # pellet row, -2 - plane, -1 none
+        event_exit: wp.array(dtype=scalar)  # s: when the pellet would leave its skin after that event
+        stale: wp.array(dtype=wp.int32)  # 1: the event above must be found again
+        round_applied: wp.array(dtype=wp.int32)  # (rounds,) 1: round r of this step applied an event
+        # states at a shot's checkpoint (horizon_kernel: each is read by O(count) pairs)
+        now_position: wp.array(dtype=vec3)
+        now_velocity: wp.array(dtype=vec3)
+        now_speed: wp.array(dtype=scalar)
+        # neighbour lists
+        grid_point: wp.array(dtype=vec3)
+        build_offset: wp.array(dtype=vec3)
+        neighbours: wp.array2d(dtype=wp.int32)
+        neighbour_count: wp.array(dtype=wp.int32)
+        # release outputs (empty unless asked for)
+        release_time: wp.array(dtype=scalar)
+        release_position: wp.array(dtype=vec3)
+        release_velocity: wp.array(dtype=vec3)
+        release_angular_velocity: wp.array(dtype=vec3)
+        collisions_last_time: wp.array(dtype=scalar)
+        # shots
+        drift_origin: wp.array(dtype=vec3)
+        drift_velocity: wp.array(dtype=vec3)
+        clock: wp.array2d(dtype=scalar)  # (shots, NUM_CLOCK)
+        shot_flags: wp.array2d(dtype=wp.int32)
+        flags: wp.array(dtype=wp.int32)
+        step_travel: wp.array(dtype=scalar)  # (shots,) m: the most a pellet moves in one step relative to its frame, when beyond half the skin
+        half_skin: wp.array(dtype=scalar)  # (shots,) m: the shot's half skin (widened for a fixed step that outruns it)
+        widest_half_skin: wp.array(dtype=scalar)  # (1,) m: the widest of them (the grid's cells)
+
+    @wp.struct
+    class Pair:
+        """Pellet-pellet law and stepping parameters (SI)."""
+
+        count: wp.int32  # pellets per shot
+        mass: scalar  # kg
+        inertia: scalar  # kg m^2
+        restitution: scalar
+        mu_s: scalar
+        mu_d: scalar
+        contact_duration: scalar  # s, TC model
+        fixed_step: scalar  # s, 0: adaptive
+        step_fraction: scalar
+        half_skin: scalar  # m, the configured one (a shot's own may widen: Cloud.half_skin)
+        max_steps: scalar
+        block_steps: wp.int32  # a shot's checkpoints (settling, frames) are every this many of its steps
+        pellets: wp.int32  # pellets launched (rows [0, pellets))
+        span: wp.int32  # pellets per thread of the per-pellet kernels: 1 on CUDA, many on the CPU
+
+    return Cloud, Pair
+
+
+@functools.cache
+def dense_types(spec) -> SimpleNamespace:
+    """What the dense phase's function factories share: types, structs and scalar constants."""
+    t = types_for(spec.precision)
+    Cloud, Pair = make_state(spec.precision)
+    scalar = t.scalar
+    return SimpleNamespace(
+        scalar=scalar, vec3=t.vec3, Surfaces=t.Surfaces, Physics=t.Physics, Cloud=Cloud, Pair=Pair,
+        Outputs=make_outputs(spec.precision).Outputs, Source=make_source(spec.precision, spec.from_file).Source,
+        NEVER=scalar(NEVER_VALUE), TINY_SPEED=scalar(TINY_SPEED_VALUE), QUIET_STEP=scalar(QUIET_STEP_VALUE),
+        CLOSING_TOLERANCE2=scalar((ROUNDING * EPSILON[spec.precision]) ** 2),
+        opts={"module": "unique", "enable_backward": False},
+    )
+
+
+VECTORS = ("position", "velocity", "angular_velocity", "ricochet_point", "first_velocity_before",
+           "first_angular_velocity_before", "first_velocity_after", "first_angular_velocity_after", "launch_velocity",
+           "launch_angular_velocity", "grid_point", "build_offset", "now_position", "now_velocity")
+SCALARS = ("time", "ricochet_time", "energy_lost", "event_time", "event_exit", "last_collision", "now_speed")
+INTEGERS = ("phase", "end_surface", "touching", "impacts", "last_slipped", "first_surface", "first_slipped",
+            "collision_count", "event_partner", "stale", "neighbour_count")
+# the dense phase's output fields (fields.FIELDS, stage "collide") -> (Cloud member, element kind)
+FIELD_MEMBERS = {"release.time": ("release_time", "scalar"), "release.position": ("release_position", "vec3"),
+                 "release.velocity": ("release_velocity", "vec3"),
+                 "release.angular_velocity": ("release_angular_velocity", "vec3"),
+                 "collisions.last_time": ("collisions_last_time", "scalar")}
+
+
+def allocate_cloud(precision: str, device, capacity: int, shots: int, rounds: int, max_neighbours: int, fields):
+    """A Cloud for up to `capacity` pellets in `shots` shots, with the output arrays of `fields`
+    (others empty); returns it and {field: its device array}."""
+    t = types_for(precision)
+    kinds = {"vec3": t.vec3, "scalar": t.scalar}
+
+    def arr(dtype, shape=capacity):
+        return wp.zeros(shape, dtype=dtype, device=device)
+
+    cloud = make_state(precision)[0]()
+    for names, dtype in ((VECTORS, t.vec3), (SCALARS, t.scalar), (INTEGERS, wp.int32)):
+        for name in names:
+            setattr(cloud, name, arr(dtype))
+    cloud.neighbours = arr(wp.int32, (capacity, max_neighbours))
+    cloud.round_applied = arr(wp.int32, max(rounds, 1))
+    field_arrays = {}
+    for name, (member, kind) in FIELD_MEMBERS.items():
+        a = arr(kinds[kind], capacity if name in fields else 0)
+        setattr(cloud, member, a)
+        if name in fields:
+            field_arrays[name] = a
+    if "collisions.count" in fields:
+        field_arrays["collisions.count"] = cloud.collision_count
+    for name, dtype in (("drift_origin", t.vec3), ("drift_velocity", t.vec3), ("step_travel", t.scalar),
+                        ("half_skin", t.scalar)):
+        setattr(cloud, name, arr(dtype, shots))
+    cloud.clock = arr(t.scalar, (shots, NUM_CLOCK))
+    cloud.shot_flags = arr(wp.int32, (shots, NUM_SHOT_FLAGS))
+    cloud.flags = arr(wp.int32, NUM_FLAGS)
+    cloud.widest_half_skin = arr(t.scalar, 1)
+    return cloud, field_arrays
+
+
+def pair_struct(precision: str, model, collisions, count: int, block_steps: int):
+    """The Pair struct of a scene's [collisions] table for shots of `count` pellets (SI)."""
+    t = types_for(precision)
+    scalar = t.scalar
+    pair = make_state(precision)[1]()
+    pair.count = count
+    pair.mass = scalar(model.mass)
+    pair.inertia = scalar(model.inertia)
+    pair.restitution = scalar(collisions.restitution)
+    pair.mu_s = scalar(collisions.mu_s)
+    pair.mu_d = scalar(collisions.mu_d)
+    pair.contact_duration = scalar(collisions.contact_duration)
+    pair.fixed_step = scalar(collisions.time_step or 0.0)
+    pair.step_fraction = scalar(collisions.step_fraction)
+    skin = collisions.skin * 2.0 * model.radius  # m
+    pair.half_skin = scalar(0.5 * skin)
+    pair.max_steps = scalar(collisions.max_steps)
+    pair.block_steps = block_steps
+    return pair
+
+
+def release_struct(precision: str, cloud, count: int):
+    """The core kernel's view of a cloud (`core.release`): the same arrays, and the shot layout."""
+    release = make_release(precision)()
+    for name in RELEASE_ARRAYS:
+        setattr(release, name, getattr(cloud, name))
+    release.shot_count = count
+    release.shot_stride = shot_stride(count)
+    return release

@@ -1,0 +1,194 @@
+"""One step of a shot: its speed bound and step, the skin check, the rounds (`rounds`), the plane
+contacts left in the step, and the clock; `block_shot` runs a block of them for the CPU in one
+thread, with the same functions in the order the per-step kernels run them."""
+
+import functools
+from types import SimpleNamespace
+
+import warp as wp
+
+from ..physics.ballistic import make_ballistic
+from .constants import (
+    CHECKPOINT,
+    CLOCK_CUT,
+    CLOCK_DRIFT,
+    CLOCK_OVERRUN,
+    CLOCK_SKIN,
+    CLOCK_STEP,
+    CLOCK_STEPS,
+    CLOCK_TIME,
+    FLAG_STALL,
+    FLYING,
+    SHOT_DONE,
+    SHOT_REBUILD,
+    SHOT_STALL,
+    SKIN_EDGE,
+    SKIN_STEPS,
+)
+from .events import make_events
+from .frame import make_frame
+from .rounds import make_rounds
+from .state import dense_types
+
+
+@functools.cache
+def make_step(spec) -> SimpleNamespace:
+    """The step functions of the dense phase."""
+    d = dense_types(spec)
+    scalar, vec3, Surfaces, Physics, Outputs, Cloud, Pair = d.scalar, d.vec3, d.Surfaces, d.Physics, d.Outputs, d.Cloud, d.Pair
+    TINY_SPEED, QUIET_STEP, NEVER, BOUNCES = d.TINY_SPEED, d.QUIET_STEP, d.NEVER, spec.bounces
+    _entry, _return, _contact, _position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
+    fr, ro = make_frame(spec), make_rounds(spec)
+    stepping, relative_to_drift, relative_to_frame, drift_point = fr.stepping, fr.relative_to_drift, fr.relative_to_frame, fr.drift_point
+    choose_pellet, resolve_pellet, step_end_of = ro.choose_pellet, ro.resolve_pellet, ro.step_end_of
+    plane_contacts_until = make_events(spec).plane_contacts_until
+
+    @wp.func(inline=True)
+    def bounds_pellet(i: wp.int32, pair: Pair, physics: Physics, cloud: Cloud):
+        """Pellet i's speed relative to its shot's drift, into the shot's largest (a pair closes at
+        most at twice it). It sets the next step; it depends on the shot alone, never on the
+        neighbour lists, so the steps (and results) do not depend on when lists are rebuilt."""
+        s = i / pair.count
+        if not stepping(cloud, i, s):
+            return
+        _relative, relative_velocity = relative_to_drift(cloud, physics, i, s)
+        wp.atomic_max(cloud.clock, s, CLOCK_DRIFT, wp.length(relative_velocity))
+
+    @wp.func(inline=True)
+    def drift_and_edge(i: wp.int32, time: scalar, frame_point: vec3, frame_velocity: vec3, edge_distance: scalar,
+                       physics: Physics, cloud: Cloud):
+        """For block_shot (its shot is stepping; the frame's point and velocity at the shot's
+        clock, computed once a step): bounds_pellet's speed, without writing it, and whether the
+        pellet is near the edge of its skin (beyond SKIN_EDGE of half the skin since the build):
+        with the adaptive step (at most a ninth of half the skin at its speed) a pellet within it
+        can neither break its list in the step nor have overrun it, and prepare_pellet has
+        nothing to do for it."""
+        speed = scalar(0.0)
+        edge = wp.int32(0)
+        if cloud.phase[i] == FLYING:
+            relative, relative_velocity = relative_to_frame(cloud, physics, i, time, frame_point, frame_velocity)
+            speed = wp.length(relative_velocity)
+            if wp.length(relative - cloud.build_offset[i]) > edge_distance:
+                edge = wp.int32(1)
+        return speed, edge
+
+    @wp.func(inline=True)
+    def plan_shot(s: wp.int32, pair: Pair, physics: Physics, cloud: Cloud):
+        """Shot s's step, fixed or adaptive (a pair closes by at most
+        step_fraction of a diameter in a step; the list lasts SKIN_STEPS steps at these speeds)."""
+        cloud.shot_flags[s, SHOT_REBUILD] = 0  # (built before this block)
+        for r in range(cloud.round_applied.shape[0]):
+            cloud.round_applied[r] = 0  # (every shot's thread writes the same)
+        if cloud.shot_flags[s, SHOT_DONE] != 0 or cloud.shot_flags[s, SHOT_STALL] != 0:
+            return
+        step = pair.fixed_step
+        if step <= scalar(0.0):
+            diameter = scalar(2.0) * physics.radius
+            drift = wp.max(cloud.clock[s, CLOCK_DRIFT], TINY_SPEED)
+            step = wp.min(pair.step_fraction * diameter / (scalar(2.0) * drift), pair.half_skin / (scalar(SKIN_STEPS) * drift))
+            step = wp.min(step, QUIET_STEP)
+        cloud.clock[s, CLOCK_STEP] = step
+        cloud.clock[s, CLOCK_DRIFT] = scalar(0.0)
+        cloud.clock[s, CLOCK_CUT] = NEVER
+        cloud.clock[s, CLOCK_SKIN] = NEVER
+
+    @wp.func(inline=True)
+    def prepare_pellet(i: wp.int32, pair: Pair, physics: Physics, cloud: Cloud):
+        """A step that could carry a pellet beyond half the skin (relative to the drift) since the
+        last build waits for a rebuild: no pair is missed. That holds for the motion known at the
+        step's start; an event in the step can make a pellet faster (a plane rebound much faster
+        than the step allowed for), and a pellet found beyond half the skin here overran it: the
+        largest overrun is reported (stats skin_overrun_max, a warning above 1)."""
+        s = i / pair.count
+        if not stepping(cloud, i, s):
+            return
+        step = cloud.clock[s, CLOCK_STEP]
+        relative, relative_velocity = relative_to_drift(cloud, physics, i, s)
+        moved = relative - cloud.build_offset[i]  # since the build
+        half_skin = cloud.half_skin[s]
+        overrun = wp.length(moved) / half_skin
+        if overrun > scalar(1.0):
+            wp.atomic_max(cloud.clock, s, CLOCK_OVERRUN, overrun)
+        if wp.length(moved + relative_velocity * step) > half_skin:
+            cloud.shot_flags[s, SHOT_STALL] = 1
+            cloud.flags[FLAG_STALL] = 1
+            travel = wp.length(relative_velocity) * step
+            if travel > half_skin:  # one step alone outruns the skin (a fixed step): it must grow
+                wp.atomic_max(cloud.step_travel, s, travel)
+
+    @wp.func(inline=True)
+    def finish_pellet(i: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs):
+        """End of the step: plane contacts left in it (no pellet ends a step inside a plane). Only
+        a pellet whose earliest event falls in the step can have one."""
+        s = i / pair.count
+        if not stepping(cloud, i, s):
+            return
+        step_end = step_end_of(cloud, s)
+        if cloud.event_partner[i] != -1 and cloud.event_time[i] <= step_end:
+            plane_contacts_until(i, step_end, wp.static(BOUNCES + 1), cloud, surfaces, physics, out)
+
+    @wp.func(inline=True)
+    def end_step_shot(s: wp.int32, pair: Pair, cloud: Cloud):
+        """Shot s's clock moves on (unless the step waits for a rebuild); after block_steps of its
+        own steps it waits at a checkpoint."""
+        if cloud.shot_flags[s, SHOT_DONE] != 0 or cloud.shot_flags[s, SHOT_STALL] != 0:
+            return
+        cloud.clock[s, CLOCK_TIME] = step_end_of(cloud, s)
+        steps = cloud.clock[s, CLOCK_STEPS] + scalar(1.0)
+        cloud.clock[s, CLOCK_STEPS] = steps
+        if wp.int32(steps) % pair.block_steps == 0:
+            cloud.shot_flags[s, SHOT_STALL] = CHECKPOINT  # wait for the horizon check and settle
+
+    @wp.func
+    def block_shot(s: wp.int32, steps: wp.int32, rounds: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics,
+                   cloud: Cloud, out: Outputs):
+        """On the CPU (one thread), up to `steps` steps of shot s: each step is the per-step
+        kernels' work for its pellets, in their order; it ends early when the shot waits (a
+        checkpoint, or a rebuild) or is done."""
+        first = s * pair.count
+        last = first + pair.count
+        cloud.shot_flags[s, SHOT_REBUILD] = 0  # (as plan_shot: built before this block)
+        for _ in range(steps):
+            if cloud.shot_flags[s, SHOT_DONE] != 0 or cloud.shot_flags[s, SHOT_STALL] != 0:
+                break  # (until its checkpoint, or its rebuild)
+            # bounds_pellet and the part of prepare_pellet that most pellets need, in one pass:
+            # the full check only when some pellet is near the edge of its skin (or the step is
+            # fixed: no bound on how far it carries a pellet)
+            drift = scalar(0.0)
+            edge = wp.int32(0)
+            time = cloud.clock[s, CLOCK_TIME]
+            frame_point = drift_point(cloud, s, time, physics.gravity)
+            frame_velocity = ballistic_velocity(cloud.drift_velocity[s], physics.gravity, time)
+            edge_distance = scalar(SKIN_EDGE) * cloud.half_skin[s]
+            for i in range(first, last):
+                speed, near = drift_and_edge(i, time, frame_point, frame_velocity, edge_distance, physics, cloud)
+                drift = wp.max(drift, speed)
+                edge = wp.max(edge, near)
+            wp.atomic_max(cloud.clock, s, CLOCK_DRIFT, drift)
+            plan_shot(s, pair, physics, cloud)
+            if edge != 0 or pair.fixed_step > scalar(0.0):
+                for i in range(first, last):
+                    prepare_pellet(i, pair, physics, cloud)
+            # A pellet whose kept event is after the step (most are) has nothing to do in it
+            # until a neighbour's event makes it stale: the per-pellet functions would return at
+            # once, after reading the shot's flags and clock (step_end_of is never after the full
+            # step). round_applied is this shot's alone here: a round after one in which the
+            # shot applied nothing is skipped, as the per-step kernels skip one nobody applied in.
+            step_end = cloud.clock[s, CLOCK_TIME] + cloud.clock[s, CLOCK_STEP]
+            for r in range(rounds):
+                if r == 0 or cloud.round_applied[r - 1] != 0:
+                    for i in range(first, last):
+                        if cloud.stale[i] != 0 or cloud.event_time[i] <= step_end:
+                            choose_pellet(i, 0, pair, surfaces, physics, cloud)
+                    for i in range(first, last):
+                        if cloud.stale[i] != 0 or cloud.event_time[i] <= step_end:
+                            resolve_pellet(i, r, pair, surfaces, physics, cloud, out)
+            for i in range(first, last):
+                if cloud.stale[i] != 0 or cloud.event_time[i] <= step_end:
+                    choose_pellet(i, 1, pair, surfaces, physics, cloud)
+            for i in range(first, last):
+                if cloud.stale[i] != 0 or cloud.event_time[i] <= step_end:
+                    finish_pellet(i, pair, surfaces, physics, cloud, out)
+            end_step_shot(s, pair, cloud)
+
+    return SimpleNamespace(bounds_pellet=bounds_pellet, drift_and_edge=drift_and_edge, plan_shot=plan_shot, prepare_pellet=prepare_pellet, finish_pellet=finish_pellet, end_step_shot=end_step_shot, block_shot=block_shot)

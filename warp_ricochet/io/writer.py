@@ -1,0 +1,238 @@
+"""Writers: one run's results into a group of an HDF5 file (the root of a run file, or /runs/NNNN of
+a sweep file), as HOOMD-blue's writers do: they receive what compute produced and decide nothing
+about what is computed.
+
+`RunWriter` creates every object first (SWMR files may not create objects later): the per-pellet
+datasets of the fields it is given (fields.FIELDS: chunked, resizable, appended per chunk), the
+constants, the statistics the run computes (NaN until the end) and /progress; then after each
+chunk it appends the rows, flushes, and commits the chunk by advancing /progress/rows. Every
+dataset has a `units` attribute. The layout is documented in docs/output.md.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import re
+
+import h5py
+import numpy as np
+
+from ..fields import FIELDS, numpy_dtype, shape
+from ..tallies.collisions import SHOT_TOTALS, SHOT_TOTALS_UNITS
+from ..tallies.reduce import SEGMENT, SEGMENT_WIDTH
+from ..tallies.sums import STAT_UNITS
+from . import h5md
+from .runfile import _OPEN
+from .space import check_space
+
+MAX_H5_CHUNK_ROWS = 1 << 16
+
+
+def _write_failure(exc: Exception, group) -> Exception:
+    """An HDF5 write error as a one-line OSError (errno and reason from the library's text, EIO
+    and the library's own words when it names no errno) and the file marked broken (detached when
+    closed: a library that failed a write is not asked to write again)."""
+    text = " ".join(str(exc).split())
+    found = re.search(r"errno = (\d+)", text)
+    out = _OPEN.get(group.file.filename)
+    if out is not None:
+        out.broken = True
+    if found is None:
+        return OSError(errno.EIO, f"{os.strerror(errno.EIO)} ({text[:200]})", _shown_name(group))
+    code = int(found.group(1))
+    return OSError(code, os.strerror(code), _shown_name(group))
+
+
+def _shown_name(group) -> str:
+    """The name of the file `group` is in, as the user knows it (NAME.partial, not a set-up name)."""
+    out = _OPEN.get(group.file.filename)
+    return str(out.staging) if out is not None else group.file.filename
+
+
+
+class RunWriter:
+    """Writes one run into `group`: constants, per-pellet chunks, statistics, and the progress a
+    reader or `--resume` relies on (/progress: the rows complete, the chunk size, the per-segment
+    statistics partials of every complete chunk and, in a run with pair collisions, the per-shot
+    totals its collision statistics are made of)."""
+
+    def __init__(self, group: h5py.Group, model, *, scene, fields, pellets: int, stats):
+        """`fields`: the per-pellet fields written; `stats`: the names of the statistics the run
+        computes (`tallies.sums.stat_names`)."""
+        self.group = group
+        self.fields = tuple(fields)
+        self.rows = 0
+        group.attrs["scene_toml"] = scene.to_toml()
+        group.attrs["precision"] = model.precision
+        if scene.shot.file is None:
+            group.attrs["seed"] = scene.shot.seed
+        self._write_constants(group.create_group("constants"), model, scene, pellets)
+        h5_rows = max(1, min(MAX_H5_CHUNK_ROWS, pellets))  # compute chunks are whole multiples of it
+        for name in self.fields:
+            empty = shape(name, 0, model.bounces)
+            ds = group.create_dataset(FIELDS[name].path, shape=empty, maxshape=(None,) + empty[1:],
+                                      chunks=(h5_rows,) + empty[1:], dtype=numpy_dtype(name, model.precision))
+            ds.attrs["units"] = FIELDS[name].unit
+            ds.attrs["description"] = FIELDS[name].description
+        self._create_progress(group.create_group("progress"), model, scene)
+        for name in stats:  # written at the end: NaN until then
+            ds = group.create_dataset(f"stats/{name}", data=np.nan)
+            ds.attrs["units"], ds.attrs["description"] = STAT_UNITS[name]
+        if scene.pair_collisions and scene.collisions.frame_every:
+            h5md.create_frames(group, pellets, scene.collisions.frame_every)
+        self._open_datasets()
+        self._start_watching()
+
+    def append_frame(self, step: int, time: float, positions):
+        """One H5MD frame: the dense phase's step, its time (s) and every pellet's centre (m)."""
+        h5md.append_frame(self.group, step, time, positions)
+
+    @classmethod
+    def reopen(cls, group: h5py.Group, *, fields, rows: int, segments: int, shots: int = 0):
+        """The writer of a run in an existing file, continuing after `rows` complete rows (and their
+        `segments` segment results and, with pair collisions, the totals of their `shots` shots):
+        anything written after them is cut off."""
+        self = cls.__new__(cls)
+        self.group = group
+        self.fields = tuple(fields)
+        self._open_datasets()
+        for ds in self.datasets.values():
+            ds.resize(rows, axis=0)
+        self.segment_results.resize(segments, axis=0)
+        if self.shot_totals is not None:
+            self.shot_totals.resize(shots, axis=0)
+        self.rows = rows
+        self.progress_rows[()] = rows
+        group.file.flush()
+        self._start_watching()
+        return self
+
+    def _open_datasets(self):
+        g = self.group
+        self.datasets = {name: g[FIELDS[name].path] for name in self.fields}
+        self.progress_rows = g["progress/rows"]
+        self.chunk_rows = g["progress/chunk_rows"]
+        self.segment_results = g["progress/segment_results"]
+        self.shot_totals = g.get("progress/shot_totals")  # runs with pair collisions
+
+    def _start_watching(self):
+        out = _OPEN.get(self.group.file.filename)
+        if out is not None and out.watchable and self.group.name == "/":
+            out.start_watching()
+
+    @staticmethod
+    def _create_progress(g, model, scene):
+        g.attrs["description"] = ("rows complete (every /pellets dataset and statistics partial below them is "
+                                  "final), the chunk size, and the per-segment statistics partials, in pellet "
+                                  "order: what readers of a running run and --resume rely on")
+        g.attrs["segment_rows"] = SEGMENT
+        g.attrs["device_name"] = model.device.name
+        if scene.shot.file is not None:
+            st = os.stat(scene.shot.file)
+            g.attrs["pellet_file_size"] = st.st_size
+            g.attrs["pellet_file_mtime_ns"] = st.st_mtime_ns
+        g.create_dataset("rows", data=np.int64(0)).attrs["units"] = "1"
+        g.create_dataset("chunk_rows", data=np.int64(0)).attrs["units"] = "1"
+        width = SEGMENT_WIDTH
+        ds = g.create_dataset("segment_results", shape=(0, width), maxshape=(None, width), chunks=(256, width),
+                              dtype="f8")
+        ds.attrs["units"] = "SI (sums of the quantities of warp_ricochet.tallies.sums.SUM_NAMES, then range minima and maxima, m)"
+        if scene.pair_collisions:
+            ds = g.create_dataset("shot_totals", shape=(0, len(SHOT_TOTALS)), maxshape=(None, len(SHOT_TOTALS)),
+                                  chunks=(1024, len(SHOT_TOTALS)), dtype="f8")
+            ds.attrs["columns"] = list(SHOT_TOTALS)
+            ds.attrs["units"] = SHOT_TOTALS_UNITS
+            ds.attrs["description"] = ("per shot: pellets that collided, pellet-pellet collisions counted by both "
+                                       "pellets, energy lost in them, steps and end time of its dense phase")
+
+    @staticmethod
+    def _write_constants(g, model, scene, pellets):
+        def scalar(name, value, unit, doc):
+            ds = g.create_dataset(name, data=value)
+            ds.attrs["units"] = unit
+            ds.attrs["description"] = doc
+
+        scalar("pellets", pellets, "1", "pellets launched")
+        scalar("radius", model.radius, "m", "pellet radius R")
+        scalar("mass", model.mass, "kg", "pellet mass m = rho 4/3 pi R^3")
+        scalar("inertia", model.inertia, "kg m^2", "moment of inertia 2/5 m R^2 (eq. 17)")
+        scalar("gravity", np.asarray(scene.physics.gravity), "m/s^2", "gravity vector")
+        scalar("impact_duration", scene.physics.impact_duration, "s", "delta t of eq. (1)")
+        scalar("bounces", scene.physics.bounces, "1", "ricochets followed per pellet")
+        s = g.create_group("surfaces")
+        planes = scene.surfaces
+        for name, unit, values in (
+            ("point", "m", [p.point for p in planes]),
+            ("normal", "1", [p.normal for p in planes]),
+            ("restitution", "1", [p.restitution for p in planes]),
+            ("mu_s", "1", [p.mu_s for p in planes]),
+            ("mu_d", "1", [p.mu_d for p in planes]),
+        ):
+            arr = np.asarray(values, dtype=np.float64)
+            if name in ("point", "normal"):
+                arr = arr.reshape(len(planes), 3)
+            s.create_dataset(name, data=arr).attrs["units"] = unit
+
+    def append(self, arrays: dict[str, np.ndarray], rows: int, segment_results: np.ndarray, shot_totals=None):
+        """Append the first `rows` rows of each field's array, the chunk's segment results and (pair
+        collisions) the totals of its shots; flush; then count the rows complete and flush again
+        (the commit point of the chunk)."""
+        start, stop = self.rows, self.rows + rows
+        need = sum(arrays[name][:rows].nbytes for name in self.datasets) + segment_results.nbytes
+        need += 0 if shot_totals is None else shot_totals.nbytes
+        out = _OPEN.get(self.group.file.filename)
+        if out is not None:
+            out.reserve(need, "the next chunk")
+        else:
+            check_space(self.group.file.filename, need, "the next chunk")
+        try:
+            for name, ds in self.datasets.items():
+                ds.resize(stop, axis=0)
+                ds[start:stop] = arrays[name][:rows]
+            for ds, block in ((self.segment_results, segment_results), (self.shot_totals, shot_totals)):
+                if block is not None:
+                    done = len(ds)
+                    ds.resize(done + len(block), axis=0)
+                    ds[done:] = block
+            if start == 0:
+                self.chunk_rows[()] = rows
+            self.group.file.flush()
+            self.progress_rows[()] = stop
+            self.group.file.flush()
+        except (OSError, RuntimeError) as exc:
+            raise _write_failure(exc, self.group) from None
+        self.rows = stop
+
+    def write_stats(self, stats: dict[str, float]):
+        try:
+            write_stats(self.group, stats)
+            self.group.file.flush()
+        except (OSError, RuntimeError) as exc:
+            raise _write_failure(exc, self.group) from None
+
+
+_KEY_UNITS = {"diameter": "m", "envelope_radius": "m", "density": "kg/m^3", "speed": "m/s", "impact_duration": "s",
+              "direction_jitter": "1", "restitution": "1", "mu_s": "1", "mu_d": "1", "count": "1", "seed": "1",
+              "bounces": "1", "chunk_size": "1"}
+
+
+def unit_of_key(key: str) -> str:
+    """The SI unit of a scalar scene key such as "surfaces.0.mu_s" (swept values)."""
+    return _KEY_UNITS.get(key.rsplit(".", 1)[-1], "see the scene key")
+
+
+def write_stats(group: h5py.Group, stats: dict, index=None, size=None):
+    """Write statistics under `group/stats`: scalars, or element `index` of arrays of `size`."""
+    g = group.require_group("stats")
+    for name, value in stats.items():
+        unit, doc = STAT_UNITS[name]
+        if index is None:
+            ds = g.require_dataset(name, shape=(), dtype="f8")  # a run's writer made it (SWMR: no new objects)
+            ds[()] = float(value)
+        else:
+            ds = g.require_dataset(name, shape=(size,), dtype="f8", fillvalue=np.nan)
+            ds[index] = float(value)
+        if "units" not in ds.attrs:
+            ds.attrs["units"] = unit
+            ds.attrs["description"] = doc

@@ -1,0 +1,95 @@
+"""Launch states in the kernels: the `Source` struct, the `launch_state` function every kernel that
+launches pellets calls (so the core kernel and the dense phase launch exactly the same pellets),
+and `PelletSource`, which fills the struct on the host and copies a pellet file's states to the
+device chunk by chunk.
+"""
+
+import functools
+from types import SimpleNamespace
+
+import numpy as np
+import warp as wp
+
+from ..physics.types import types_for
+from .sampling import make_sampler
+
+ARRAYS = ("position", "velocity", "angular_velocity")
+
+
+@functools.cache
+def make_source(precision: str, from_file: bool) -> SimpleNamespace:
+    """The `Source` struct and `launch_state` of one precision; `from_file`: states read from the
+    struct's arrays (chunk-local rows), else sampled from the seed and the global index."""
+    t = types_for(precision)
+    scalar, vec3 = t.scalar, t.vec3
+    sample_pellet = make_sampler(scalar)
+    FROM_FILE = from_file
+
+    @wp.struct
+    class Source:
+        """Launch states: sampled from the seed, or (from_file) read from the arrays."""
+
+        seed: wp.int32
+        speed: scalar  # m/s
+        direction: vec3
+        jitter: vec3
+        envelope_center: vec3  # m
+        envelope_radius: scalar  # m
+        spin: vec3  # rad/s
+        position: wp.array(dtype=vec3)  # chunk-local explicit states (empty when sampling)
+        velocity: wp.array(dtype=vec3)
+        angular_velocity: wp.array(dtype=vec3)
+
+    @wp.func
+    def launch_state(source: Source, index: wp.int32, row: wp.int32):
+        """Position (m), velocity (m/s), angular velocity (rad/s) of global pellet `index` at `row`."""
+        position = vec3()
+        velocity = vec3()
+        spin = vec3()
+        if wp.static(FROM_FILE):
+            position = source.position[row]
+            velocity = source.velocity[row]
+            spin = source.angular_velocity[row]
+        else:
+            position, velocity, spin = sample_pellet(
+                source.seed, index, source.speed, source.direction, source.jitter,
+                source.envelope_center, source.envelope_radius, source.spin,
+            )
+        return position, velocity, spin
+
+    return SimpleNamespace(Source=Source, launch_state=launch_state)
+
+
+class PelletSource:
+    """A scene's launch states on a device: the `Source` struct of its shot (sampling parameters)
+    and, for a pellet file, device arrays of `capacity` rows that `load` fills chunk by chunk."""
+
+    def __init__(self, scene, precision: str, device, capacity: int, arrays=None):
+        self.arrays = arrays  # host float64 (N, 3) arrays of a pellet file, else None
+        self.precision = precision
+        shot = scene.shot
+        t = types_for(precision)
+        struct = make_source(precision, self.from_file).Source()
+        struct.seed = shot.seed
+        struct.speed = t.scalar(shot.speed)
+        struct.direction = t.vec3(*shot.direction)
+        struct.jitter = t.vec3(*shot.direction_jitter)
+        struct.envelope_center = t.vec3(*shot.envelope_center)
+        struct.envelope_radius = t.scalar(shot.envelope_radius)
+        struct.spin = t.vec3(*shot.spin)
+        rows = capacity if self.from_file else 0
+        for name in ARRAYS:
+            setattr(struct, name, wp.empty(rows, dtype=t.vec3, device=device))
+        self.struct = struct
+
+    @property
+    def from_file(self) -> bool:
+        return self.arrays is not None
+
+    def load(self, start: int, rows: int) -> None:
+        """Copy the pellet file's rows [start, start + rows) to the device (no-op when sampling)."""
+        if not self.from_file:
+            return
+        dtype = np.dtype(self.precision)
+        for name in ARRAYS:
+            getattr(self.struct, name)[:rows].assign(np.ascontiguousarray(self.arrays[name][start : start + rows], dtype=dtype))

@@ -1,0 +1,62 @@
+"""The flight interface: how a pellet moves between contacts, chosen at code generation.
+
+`make_flight(precision, planes, model)` returns `@wp.func`s with one signature for every model:
+
+- `next_contact(position, velocity, spin, touching, surfaces, physics) -> (dt, k)`: the time (s)
+  until the pellet meets a plane and the plane's index (k = -1, dt = NO_CONTACT: none);
+- `to_contact(position, velocity, spin, touching, surfaces, physics) -> (dt, k, position,
+  velocity, spin)`: the same, and the state there (unchanged when k = -1);
+- `advance(position, velocity, spin, dt, physics) -> (position, velocity, spin)`: the state `dt`
+  later, with no contact in between.
+
+`touching` is the plane the pellet is leaving (-1: none). The core kernel flies every pellet
+with `to_contact`; the dense phase, whose exact contact times rest on linear relative motion,
+moves pellets within a step with the ballistic model. Models: "ballistic", the exact parabola of
+eq. (36) (`physics.ballistic`). A new model is a new branch here, not a change to the kernels.
+"""
+
+import functools
+from types import SimpleNamespace
+
+import warp as wp
+
+from .ballistic import NO_CONTACT, make_ballistic
+from .types import types_for
+
+MODELS = ("ballistic",)
+
+
+@functools.cache
+def make_flight(precision: str, planes=None, model: str = "ballistic") -> SimpleNamespace:
+    """The flight functions of `model`; `planes`: the number of planes when fixed at code
+    generation (loops over them unrolled), else None."""
+    if model not in MODELS:
+        raise ValueError(f"flight model {model!r}: must be one of {MODELS}")
+    t = types_for(precision)
+    scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
+    _entry, _return, contact_time, position_at, velocity_at = make_ballistic(scalar, planes)
+
+    @wp.func
+    def next_contact(position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces,
+                     physics: Physics):
+        """The exact parabola's next plane contact (eqs. 36-40): (dt, plane index)."""
+        return contact_time(position, velocity, physics.gravity, physics.radius, surfaces.point, surfaces.normal,
+                            touching)
+
+    @wp.func
+    def advance(position: vec3, velocity: vec3, spin: vec3, dt: scalar, physics: Physics):
+        """Eq. (36) `dt` later; the spin does not change in vacuum."""
+        return position_at(position, velocity, physics.gravity, dt), velocity_at(velocity, physics.gravity, dt), spin
+
+    @wp.func
+    def to_contact(position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces,
+                   physics: Physics):
+        """The next plane contact and the state there."""
+        dt, k = next_contact(position, velocity, spin, touching, surfaces, physics)
+        if k < 0:
+            return dt, k, position, velocity, spin
+        position_then, velocity_then, spin_then = advance(position, velocity, spin, dt, physics)
+        return dt, k, position_then, velocity_then, spin_then
+
+    return SimpleNamespace(model=model, next_contact=next_contact, to_contact=to_contact, advance=advance,
+                           NO_CONTACT=NO_CONTACT)

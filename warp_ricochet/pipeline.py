@@ -1,0 +1,218 @@
+"""The run: one chunk loop for every scene.
+
+A stage computes a chunk on the device: `CoreStage` launches its pellets in the fused core
+kernel; `CollisionStage` (scenes with pair collisions) runs whole shots through the dense phase,
+then continues every pellet in the core kernel. Each chunk ends with the segment reduction of its
+statistics partials. The loop copies a chunk's results into host buffers (on CUDA two pinned sets,
+used in turn, copied asynchronously: the host hands one chunk to the sink while the device
+computes the next; no sync inside a chunk), folds its statistics in pellet order and hands its
+rows to the sink (a writer): the sink receives results and decides nothing about what is
+computed. A resumed run starts after the rows already complete, with their partials.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import threading
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+import warp as wp
+
+from .chunks import plan_rows, plan_shots
+from .core.kernel import CUDA_BLOCK_DIM, ricochet_kernel_for
+from .core.release import empty_release
+from .dense.phase import DensePhase
+from .dense.schedule import shot_stride
+from .errors import PrecisionWarning
+from .launch.source import PelletSource
+from .model import State, reused_state
+from .tallies.collisions import (
+    OVERRUN_TOLERANCE,
+    SHOT_TOTALS,
+    SKIN_OVERRUN,
+    collision_statistics,
+)
+from .tallies.reduce import launch_reduce, threads_for
+from .tallies.sums import combine, empty_totals, finalize
+
+# measured: docs/collisions.md and docs/stability.md
+FLOAT32_COLLISIONS = ("pellet-pellet collisions in float32: contact times rounded in float32 change the order of "
+                      "events in a dense cloud, and a shot's mean range differs from float64 by about 10% (docs/collisions.md); "
+                      "set numerics.precision = \"float64\" for a study")
+
+_PINNED_POOL: dict = {}  # (name, shape, dtype, slot) -> pinned host array, reused: cudaHostAlloc is slow
+_DEVICE_LOCK = threading.Lock()  # one CUDA run at a time uses the pool and the reused state
+
+
+@dataclass
+class Resumed:
+    """What a resumed run already has: `rows` pellets complete, their statistics partials (one row
+    per segment) and, with pair collisions, their shots' totals."""
+
+    rows: int
+    segment_results: np.ndarray
+    shot_totals: np.ndarray | None = None
+
+
+class CoreStage:
+    """Chunks of pellet rows, launched in the core kernel."""
+
+    def __init__(self, scene, model, spec, arrays, pellets):
+        dev = model.device
+        self.model, self.pellets = model, pellets
+        self.capacity = plan_rows(scene, dev, pellets, spec.fields)
+        self.state = (reused_state if dev.is_cuda else State)(model, self.capacity, spec.core_fields)
+        self.source = PelletSource(scene, model.precision, dev, self.capacity, arrays)
+        self.kernel = ricochet_kernel_for(spec)
+        self.release = empty_release(model.precision, dev.alias)
+        self.arrays, self.totals = self.state.arrays, None
+
+    def chunks(self, done: int):
+        for start in range(done, self.pellets, self.capacity):
+            yield start, min(self.capacity, self.pellets - start)
+
+    def compute(self, start: int, rows: int):
+        """Launch the chunk's kernels; returns (segments, shots) of results to copy."""
+        m = self.model
+        self.source.load(start, rows)
+        wp.launch(self.kernel, dim=threads_for(rows),
+                  inputs=[start, rows, self.source.struct, m.surfaces, m.physics, self.state.outputs, self.release],
+                  outputs=[self.state.partial_sums, self.state.partial_min, self.state.partial_max],
+                  device=m.device, block_dim=CUDA_BLOCK_DIM)
+        return launch_reduce(self.state, rows, m.device), 0
+
+
+class CollisionStage:
+    """Chunks of whole shots: the dense phase, then the core kernel from each pellet's release."""
+
+    def __init__(self, scene, model, spec, arrays, pellets, options=None, frames=None):
+        dev = model.device
+        self.model, self.pellets, self.frames = model, pellets, frames
+        self.count = scene.shot.count
+        self.shots = pellets // self.count
+        self.per_chunk = plan_shots(scene, dev, self.shots)
+        self.stride = shot_stride(self.count)
+        self.state = State(model, self.per_chunk * self.stride, spec.core_fields)
+        self.dense = DensePhase(model, scene, spec, self.per_chunk * self.count, options)
+        self.source = PelletSource(scene, model.precision, dev, self.per_chunk * self.count, arrays)
+        self.kernel = ricochet_kernel_for(spec)
+        self.arrays = {**self.state.arrays, **self.dense.field_arrays}
+        self.totals = self.dense.totals
+
+    def chunks(self, done: int):
+        for first in range(done // self.count, self.shots, self.per_chunk):
+            yield first * self.count, min(self.per_chunk, self.shots - first) * self.count
+
+    def compute(self, start: int, rows: int):
+        m = self.model
+        shots = rows // self.count
+        self.source.load(start, rows)
+        self.dense.run(start, shots, self.source.struct, self.state.outputs, frames=self.frames)
+        slots = shots * self.stride
+        wp.launch(self.kernel, dim=threads_for(slots),
+                  inputs=[0, slots, self.source.struct, m.surfaces, m.physics, self.state.outputs, self.dense.release],
+                  outputs=[self.state.partial_sums, self.state.partial_min, self.state.partial_max],
+                  device=m.device, block_dim=CUDA_BLOCK_DIM)
+        return launch_reduce(self.state, slots, m.device), shots
+
+
+class HostSlot:
+    """One set of host buffers receiving a chunk (pinned on CUDA, so copies run async)."""
+
+    def __init__(self, stage, pinned: bool, index: int):
+        def like(arr, name):
+            if not pinned:
+                return wp.empty(arr.shape, dtype=arr.dtype, device="cpu")
+            key = (name, arr.shape, arr.dtype, index)
+            if key not in _PINNED_POOL:
+                if len(_PINNED_POOL) > 64:
+                    _PINNED_POOL.clear()
+                _PINNED_POOL[key] = wp.empty(arr.shape, dtype=arr.dtype, device="cpu", pinned=True)
+            return _PINNED_POOL[key]
+
+        self.arrays = {name: like(arr, name) for name, arr in stage.arrays.items()}
+        self.segments = like(stage.state.segments, "segments")
+        self.totals = None if stage.totals is None else like(stage.totals, "shot_totals")
+        self.rows = self.segment_count = self.shots = 0
+        self.event = None
+
+    def fill(self, stage, rows: int, segments: int, shots: int):
+        """Enqueue the copies of a computed chunk's results (element counts: contiguous rows)."""
+        for name, arr in stage.arrays.items():
+            wp.copy(self.arrays[name], arr, count=rows * (arr.size // arr.shape[0]))
+        wp.copy(self.segments, stage.state.segments, count=segments * stage.state.segments.shape[1])
+        if shots:
+            wp.copy(self.totals, stage.totals, count=shots * stage.totals.shape[1])
+        self.rows, self.segment_count, self.shots = rows, segments, shots
+        device = stage.model.device
+        self.event = device.stream.record_event() if device.is_cuda else None
+
+    def results(self):
+        """(per-pellet arrays, segment results, shot totals) once the copies are done."""
+        if self.event is not None:
+            wp.synchronize_event(self.event)
+        totals = self.totals.numpy()[: self.shots].copy() if self.shots else None
+        return ({name: arr.numpy() for name, arr in self.arrays.items()}, self.segments.numpy()[: self.segment_count],
+                totals)
+
+
+def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=None, options=None, frames=None) -> dict:
+    """Every pellet of `scene` through `model`'s device as `spec` compiles it; returns the statistics.
+    arrays: a pellet file's launch states; sink: receives each chunk (`append(arrays, rows,
+    segment_results, shot_totals)`); resumed: a `Resumed`; progress(done, total); options: the
+    dense phase's `DenseOptions`; frames(step, time, positions): trajectory frames."""
+    with _DEVICE_LOCK if model.device.is_cuda else contextlib.nullcontext():
+        pellets = scene.shot.pellets
+        if spec.collisions:
+            if model.precision == "float32":
+                warnings.warn(FLOAT32_COLLISIONS, PrecisionWarning, stacklevel=3)
+            stage = CollisionStage(scene, model, spec, arrays, pellets, options, frames)
+        else:
+            stage = CoreStage(scene, model, spec, arrays, pellets)
+        totals, tables = _loop(stage, pellets, sink, resumed, progress)
+    stats = finalize(totals, pellets=pellets, mass=model.mass, inertia=model.inertia)
+    if spec.collisions:
+        stats.update(collision_statistics(np.concatenate(tables) if tables else np.zeros((0, len(SHOT_TOTALS))), pellets))
+        if stats["skin_overrun_max"] > OVERRUN_TOLERANCE:
+            warnings.warn(SKIN_OVERRUN.format(stats["skin_overrun_max"]), PrecisionWarning, stacklevel=3)
+    return stats
+
+
+def _loop(stage, pellets, sink, resumed, progress):
+    """The chunk loop; returns the folded statistics totals and the shots' totals tables."""
+    totals, tables, done = empty_totals(), [], 0
+    if resumed is not None and resumed.rows:
+        totals, done = combine(totals, resumed.segment_results), resumed.rows
+        if resumed.shot_totals is not None:
+            tables.append(resumed.shot_totals)
+    cuda = stage.model.device.is_cuda
+    slots = [HostSlot(stage, pinned=cuda, index=i) for i in range(2 if cuda else 1)]
+
+    def consume(slot):
+        nonlocal totals, done
+        arrays, segment_results, shot_totals = slot.results()
+        totals = combine(totals, segment_results)
+        if shot_totals is not None:
+            tables.append(shot_totals)
+        if sink is not None:
+            sink.append(arrays, slot.rows, segment_results, shot_totals)
+        done += slot.rows
+        if progress is not None:
+            progress(done, pellets)
+
+    pending = None
+    for i, (start, rows) in enumerate(stage.chunks(done)):
+        segments, shots = stage.compute(start, rows)
+        slot = slots[i % len(slots)]
+        if pending is slot:  # CPU: one slot, consume before reuse
+            consume(pending)
+            pending = None
+        slot.fill(stage, rows, segments, shots)
+        if pending is not None:
+            consume(pending)  # host work on the previous chunk while the device runs this one
+        pending = slot
+    if pending is not None:
+        consume(pending)
+    return totals, tables

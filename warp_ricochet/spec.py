@@ -1,0 +1,56 @@
+"""What a run compiles: one frozen spec, the cache key of every kernel factory.
+
+The kernels are specialised at code generation (`wp.static`) for what the scene needs: no output
+code in a statistics-only run, loops over bounces and (up to MAX_STATIC_PLANES) planes unrolled,
+launch states read from memory only for a pellet file, the dense phase only with pair collisions,
+the flight model chosen. Two runs with equal specs share their kernels.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .fields import collision_fields, core_fields
+
+MAX_STATIC_PLANES = 4  # scenes with more planes loop over them at run time
+PRECISIONS = ("float32", "float64")
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """precision: "float32" or "float64"; bounces: ricochets followed; planes: surfaces in the
+    scene; fields: per-pellet outputs computed (empty: statistics only); from_file: launch states
+    from a pellet file; fast_math: CUDA float32 approximate maths; collisions: a dense phase of
+    pellet-pellet collisions first; flight: the flight model (`physics.flight.MODELS`)."""
+
+    precision: str
+    bounces: int
+    planes: int
+    fields: tuple[str, ...] = ()
+    from_file: bool = False
+    fast_math: bool = False
+    collisions: bool = False
+    flight: str = "ballistic"
+
+    @classmethod
+    def of(cls, scene, *, with_output: bool = True) -> "RunSpec":
+        """The spec of running `scene`, writing its output fields or (not with_output) statistics only."""
+        precision = scene.numerics.precision
+        return cls(precision=precision, bounces=scene.physics.bounces, planes=len(scene.surfaces),
+                   fields=tuple(scene.output.fields) if with_output else (), from_file=scene.shot.file is not None,
+                   fast_math=scene.numerics.fast_math and precision == "float32", collisions=scene.pair_collisions)
+
+    @property
+    def core_fields(self) -> tuple[str, ...]:
+        """The fields the core kernel writes."""
+        return core_fields(self.fields)
+
+    @property
+    def collision_fields(self) -> tuple[str, ...]:
+        """The fields the dense phase writes."""
+        return collision_fields(self.fields)
+
+    @property
+    def static_planes(self):
+        """The number of planes when the loops over them are unrolled, else None."""
+        return self.planes if self.planes <= MAX_STATIC_PLANES else None

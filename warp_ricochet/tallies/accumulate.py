@@ -1,0 +1,111 @@
+"""Per-thread accumulation of the statistics (`tallies.sums`) inside the core kernel.
+
+A thread's partials are `counts` (int32: hits, slip, landed, landed_slip), `acc` (the float sums
+in the working precision: at most PER_THREAD = 256 terms, a relative rounding error of order
+1e-6 in float32), `lo`/`hi` (range extremes: all, stick, slip) and `range_shift` (the thread's
+first range: ranges are summed as deviations from it). `store_partials` widens them to float64
+once per thread; from there on everything is float64 (`tallies.reduce`).
+"""
+
+import functools
+import math
+from types import SimpleNamespace
+
+import warp as wp
+
+from ..physics.types import types_for
+from .sums import NUM_COUNTS, NUM_EXTREMES, NUM_FLOATS, SUM
+
+
+@functools.cache
+def make_accumulators(precision: str) -> SimpleNamespace:
+    """The vector types of the partials and the functions that add to them and store them."""
+    t = types_for(precision)
+    scalar, vec3 = t.scalar, t.vec3
+    floats_t = wp.types.vector(NUM_FLOATS, scalar)
+    extremes_t = wp.types.vector(NUM_EXTREMES, scalar)
+    # offsets into the float accumulator (counts are separate)
+    F_PRE, F_POST = SUM["vt_pre"] - NUM_COUNTS, SUM["vt_post"] - NUM_COUNTS  # vt, vn, wx, wy, wz, v2, w2
+    F_V2_LAUNCH, F_W2_LAUNCH = SUM["v2_launch"] - NUM_COUNTS, SUM["w2_launch"] - NUM_COUNTS
+    F_RANGE, F_RANGE2 = SUM["range"] - NUM_COUNTS, SUM["range_m2"] - NUM_COUNTS  # deviations from the thread's first range
+    F_RANGE_STICK, F_RANGE_SLIP = SUM["range_stick"] - NUM_COUNTS, SUM["range_slip"] - NUM_COUNTS
+    F_TIME_ALOFT, F_V2_LANDING = SUM["time_aloft"] - NUM_COUNTS, SUM["v2_landing"] - NUM_COUNTS
+    num_counts, num_floats, num_extremes = NUM_COUNTS, NUM_FLOATS, NUM_EXTREMES
+    inf = scalar(math.inf)
+
+    @wp.func
+    def add_impact_sums(acc: floats_t, base: wp.int32, velocity: vec3, angular_velocity: vec3, normal: vec3):
+        """Accumulate vt, vn, omega, |v|^2, |omega|^2 of one pellet at `base` (a constant)."""
+        vn = wp.dot(velocity, normal)
+        acc[base + 0] += wp.length(velocity - vn * normal)
+        acc[base + 1] += vn
+        acc[base + 2] += angular_velocity[0]
+        acc[base + 3] += angular_velocity[1]
+        acc[base + 4] += angular_velocity[2]
+        acc[base + 5] += wp.dot(velocity, velocity)
+        acc[base + 6] += wp.dot(angular_velocity, angular_velocity)
+        return acc
+
+    @wp.func
+    def add_first_impact(counts: wp.vec4i, acc: floats_t, slipped: wp.int32, velocity_before: vec3,
+                         spin_before: vec3, velocity_after: vec3, spin_after: vec3, normal: vec3, launch_v2: scalar,
+                         launch_w2: scalar):
+        """A pellet's first impact: hits, slips, the states before and after, its launch energy."""
+        counts[0] += 1
+        counts[1] += slipped
+        acc = add_impact_sums(acc, F_PRE, velocity_before, spin_before, normal)
+        acc = add_impact_sums(acc, F_POST, velocity_after, spin_after, normal)
+        acc[F_V2_LAUNCH] += launch_v2
+        acc[F_W2_LAUNCH] += launch_w2
+        return counts, acc
+
+    @wp.func
+    def add_landing(counts: wp.vec4i, acc: floats_t, lo: extremes_t, hi: extremes_t, range_shift: scalar,
+                    landing_range: scalar, time_aloft: scalar, landing_velocity: vec3, last_slipped: wp.int32):
+        """A pellet's landing: its range (eq. 42) by the branch of its last ricochet, time aloft,
+        speed at landing."""
+        counts[2] += 1
+        if counts[2] == 1:
+            range_shift = landing_range
+        deviation = landing_range - range_shift
+        acc[F_RANGE] += deviation
+        acc[F_RANGE2] += deviation * deviation
+        acc[F_TIME_ALOFT] += time_aloft
+        acc[F_V2_LANDING] += wp.dot(landing_velocity, landing_velocity)
+        lo[0] = wp.min(lo[0], landing_range)
+        hi[0] = wp.max(hi[0], landing_range)
+        if last_slipped != 0:
+            counts[3] += 1
+            acc[F_RANGE_SLIP] += landing_range
+            lo[2] = wp.min(lo[2], landing_range)
+            hi[2] = wp.max(hi[2], landing_range)
+        else:
+            acc[F_RANGE_STICK] += landing_range
+            lo[1] = wp.min(lo[1], landing_range)
+            hi[1] = wp.max(hi[1], landing_range)
+        return counts, acc, lo, hi, range_shift
+
+    @wp.func
+    def store_partials(tid: wp.int32, counts: wp.vec4i, acc: floats_t, lo: extremes_t, hi: extremes_t,
+                       range_shift: scalar, partial_sums: wp.array2d(dtype=wp.float64),
+                       partial_min: wp.array2d(dtype=wp.float64), partial_max: wp.array2d(dtype=wp.float64)):
+        """Widen once per thread: float64 from here on. Ranges were summed as deviations from the
+        thread's first range: the range row gets the plain sum back, the m2 row the squared
+        deviations about the thread's mean (no cancellation; merged across threads by Chan)."""
+        for c in range(num_counts):
+            partial_sums[c, tid] = wp.float64(counts[c])
+        for f in range(num_floats):
+            partial_sums[num_counts + f, tid] = wp.float64(acc[f])
+        landed = wp.float64(counts[2])
+        deviations = wp.float64(acc[F_RANGE])
+        partial_sums[num_counts + F_RANGE, tid] = landed * wp.float64(range_shift) + deviations
+        m2 = wp.float64(0.0)
+        if counts[2] > 0:
+            m2 = wp.max(wp.float64(acc[F_RANGE2]) - deviations * deviations / landed, wp.float64(0.0))
+        partial_sums[num_counts + F_RANGE2, tid] = m2
+        for e in range(num_extremes):
+            partial_min[e, tid] = wp.float64(lo[e])
+            partial_max[e, tid] = wp.float64(hi[e])
+
+    return SimpleNamespace(floats_t=floats_t, extremes_t=extremes_t, inf=inf, add_first_impact=add_first_impact,
+                           add_landing=add_landing, store_partials=store_partials)

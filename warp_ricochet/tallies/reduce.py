@@ -1,0 +1,91 @@
+"""The layout of the statistics reduction and its segment kernel.
+
+Threads and segments: thread t works on LANES consecutive-lane pellets at a time, so a warp
+touches consecutive pellets (coalesced), and handles PER_THREAD of them. A segment is the
+SEGMENT = LANES * PER_THREAD pellets of one group of LANES threads. Chunks start on segment
+boundaries, so segment k always holds the same pellets and the reduction order (pellet order
+within a thread, lane order within a segment, segment order on the host, `sums.combine`) is
+independent of the chunk size.
+"""
+
+import functools
+import math
+
+import warp as wp
+
+from .sums import NUM_EXTREMES, NUM_SUMS, SUM
+
+LANES = 256
+PER_THREAD = 256
+SEGMENT = LANES * PER_THREAD
+SEGMENT_WIDTH = NUM_SUMS + 2 * NUM_EXTREMES  # a segment's results: sums, minima, maxima
+
+
+def threads_for(rows: int) -> int:
+    """Threads (a whole number of LANES groups) that cover `rows` pellets."""
+    segments = -(-rows // (LANES * PER_THREAD))
+    return max(segments, 1) * LANES
+
+
+def partial_bytes_per_pellet() -> float:
+    """Device bytes per pellet of the per-thread partials (float64 sums, minima and maxima)."""
+    return SEGMENT_WIDTH * 8 / PER_THREAD
+
+
+@functools.cache
+def reduce_kernel():
+    """One thread per (segment, row): the segment's LANES per-thread partials added in lane order."""
+    lanes, num_sums, num_extremes = LANES, NUM_SUMS, NUM_EXTREMES
+    ROW_LANDED, ROW_RANGE, ROW_M2 = SUM["landed"], SUM["range"], SUM["range_m2"]
+    inf64 = wp.float64(math.inf)
+
+    @wp.kernel(module="unique", enable_backward=False)
+    def reduce_segments(
+        partial_sums: wp.array2d(dtype=wp.float64),
+        partial_min: wp.array2d(dtype=wp.float64),
+        partial_max: wp.array2d(dtype=wp.float64),
+        segments: wp.array2d(dtype=wp.float64),  # (segments, SEGMENT_WIDTH): sums, minima, maxima
+    ):
+        seg, row = wp.tid()
+        base = seg * lanes
+        if row == ROW_M2:
+            # squared deviations about the segment mean: the lanes' own, plus n (mean_lane - mean)^2
+            count = wp.float64(0.0)
+            total = wp.float64(0.0)
+            for lane in range(lanes):
+                count += partial_sums[ROW_LANDED, base + lane]
+                total += partial_sums[ROW_RANGE, base + lane]
+            m2 = wp.float64(0.0)
+            if count > wp.float64(0.0):
+                mean = total / count
+                for lane in range(lanes):
+                    n = partial_sums[ROW_LANDED, base + lane]
+                    if n > wp.float64(0.0):
+                        delta = partial_sums[ROW_RANGE, base + lane] / n - mean
+                        m2 += partial_sums[ROW_M2, base + lane] + n * delta * delta
+            segments[seg, row] = m2
+        elif row < num_sums:
+            total = wp.float64(0.0)
+            for lane in range(lanes):
+                total += partial_sums[row, base + lane]
+            segments[seg, row] = total
+        else:
+            e = row - num_sums
+            low = inf64
+            high = -inf64
+            for lane in range(lanes):
+                low = wp.min(low, partial_min[e, base + lane])
+                high = wp.max(high, partial_max[e, base + lane])
+            segments[seg, num_sums + e] = low
+            segments[seg, num_sums + num_extremes + e] = high
+
+    return reduce_segments
+
+
+def launch_reduce(state, rows: int, device) -> int:
+    """Reduce the per-thread partials of a chunk of `rows` pellets into `state.segments`; returns
+    the number of segments."""
+    segments = threads_for(rows) // LANES
+    wp.launch(reduce_kernel(), dim=(segments, NUM_SUMS + NUM_EXTREMES),
+              inputs=[state.partial_sums, state.partial_min, state.partial_max], outputs=[state.segments], device=device)
+    return segments
