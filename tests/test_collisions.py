@@ -545,3 +545,23 @@ def test_a_shot_stops_only_when_no_pair_at_all_can_meet(tmp_path, device):
     assert list(ref["collisions.count"]) == list(pellets["collisions.count"]) == [1, 1]
     np.testing.assert_allclose(pellets["collisions.last_time"], ref["collisions.last_time"], rtol=1e-12)
     assert stats["dense_steps_max"] < 100  # jumped to the contact, not stepped there
+
+
+def test_only_runs_with_pair_collisions_have_collision_statistics(tmp_path):
+    """Collision statistics exist where a dense phase ran: not in a run without collisions, nor
+    in one with collisions on but one pellet a shot (nothing to meet), neither returned nor written."""
+    from warp_ricochet.tallies.sums import COLLISION_STATS
+
+    raw = paper_raw()
+    raw["shot"]["count"] = 20
+    cases = {"off": make_scene(raw), "one-a-shot": make_scene(dict(raw, shot=dict(raw["shot"], count=1, shots=20)),
+                                                             collisions={"enabled": True})}
+    cases["on"] = make_scene(raw, collisions={"enabled": True})
+    for name, scene in cases.items():
+        path = tmp_path / f"{name}.h5"
+        stats = api.run(scene, output=str(path), device="cpu")
+        with h5py.File(path, "r") as f:
+            written = set(f["stats"])
+        has = name == "on"
+        assert all((k in stats) == has and (k in written) == has for k in COLLISION_STATS), name
+        assert set(stats) == written, name

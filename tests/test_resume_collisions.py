@@ -1,7 +1,7 @@
 """--resume of runs with pellet-pellet collisions.
 
 A collision run computes chunks of whole shots, each but the last a multiple of
-`collisions.shot_granule` shots (whole statistics segments of slots): here 5 pellets a shot, so a
+`dense.schedule.shot_granule` shots (whole statistics segments of slots): here 5 pellets a shot, so a
 chunk is 8,192 shots (40,960 pellets). The scene is the paper's shot lowered to 5 cm above a
 livelier ground, with a fixed 0.5 ms step and one event round per step, so a chunk takes about 0.6 s
 on the CPU and a few percent of the pellets collide. Each case compares every per-pellet dataset,

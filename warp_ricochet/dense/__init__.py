@@ -9,7 +9,7 @@ Each pellet carries a *reference state*: position and velocity at the time of it
 (launch, plane impact or pair collision), from which its flight is the exact parabola of eq. (36);
 nothing is integrated. Gravity is the same for all pellets, so the relative motion of a pair is
 linear and its time of contact is exact (no tunnelling); plane contacts are the exact
-parabola-plane times of `flight.py`, from the same reference states as the core, so a pellet that
+parabola-plane times of `physics.ballistic`, from the same reference states as the core, so a pellet that
 never meets another gets bitwise the collisions-off result.
 
 Events in a step are resolved in `rounds`: each pellet knows its earliest event (plane contact,
@@ -22,7 +22,7 @@ past it into its partner); it is resolved first in the next step.
 
 A pellet's earliest event is kept from step to step and found again only when it is stale: when
 it or a neighbour changed, or its list was rebuilt. A pair's contact time is computed from the
-later of the two reference times (as collision_reference does), so it is one number whoever
+later of the two reference times (as reference.collisions does), so it is one number whoever
 asks and whenever, and a kept event is the one a new search would find: results do not depend
 on when events are found again. Most pellets in most steps have no event, and their step costs
 a few reads.

@@ -96,7 +96,7 @@ def make_events(spec) -> SimpleNamespace:
     def contact_time(d: vec3, u: vec3, reach2: scalar, speeds: scalar):
         """First s >= 0 with |d + u s|^2 = reach2 while closing; 0 when within it and closing; -1 none.
         `speeds` = |v_a| + |v_b|: a closing speed within rounding of it is none (after an E = 0
-        collision the normal relative velocity is rounding residue, as collision_reference does)."""
+        collision the normal relative velocity is rounding residue, as reference.collisions does)."""
         du = wp.dot(d, u)
         if du >= scalar(0.0) or du * du <= CLOSING_TOLERANCE2 * wp.dot(d, d) * speeds * speeds:
             return scalar(-1.0)
@@ -153,7 +153,7 @@ def make_events(spec) -> SimpleNamespace:
         last_b = cloud.last_collision[b]
         if (not wp.isnan(last_a) and when - last_a <= pair.contact_duration) or (
             not wp.isnan(last_b) and when - last_b <= pair.contact_duration
-        ):  # (<=, as collision_reference)
+        ):  # (<=, as reference.collisions)
             restitution = scalar(1.0)
         age_a = when - cloud.time[a]
         age_b = when - cloud.time[b]

@@ -40,7 +40,7 @@ def make_rounds(spec) -> SimpleNamespace:
         """Each flying pellet's earliest event: its next plane contact, or contact with a listed
         neighbour (ties: a plane, then the lower row). It is found again only when the pellet is
         stale (it or a neighbour changed, or its list was rebuilt): a pair's time is computed
-        from the later of the two reference times, as in collision_reference, so it is one
+        from the later of the two reference times, as in reference.collisions, so it is one
         number whoever asks and whenever, and a kept event is the one a new search would find.
         With its event it keeps when it would leave its skin after it (as if applied: a pair as
         if both chose it), and each round the earliest of those among events in the step is the

@@ -15,7 +15,7 @@ from ..physics.ballistic import MAX_FLIGHT_TIME, ROUNDING
 from ..physics.impact import SOLID_SPHERE_INERTIA_FACTOR
 from ..tallies.sums import statistics_from_arrays
 
-TOLERANCE = ROUNDING * np.finfo(np.float64).eps  # rounding noise, relative (flight.py's rule in float64)
+TOLERANCE = ROUNDING * np.finfo(np.float64).eps  # rounding noise, relative (physics.ballistic's rule in float64)
 CLOSING_TOLERANCE = TOLERANCE  # normal speeds within rounding noise of 0 do not close
 
 

@@ -5,7 +5,7 @@ exact time, one at a time in time order. It is meant for up to a few thousand pe
 
 Physics (SI units throughout: m, s, kg, m/s, rad/s, J):
 
-- Flight between events is the exact parabola r(t) = r0 + v0 t + g t^2 / 2 (flight.py). Every
+- Flight between events is the exact parabola r(t) = r0 + v0 t + g t^2 / 2 (physics.ballistic). Every
   pellet has the same gravity, so the relative motion of two pellets is a straight line and the
   time two spheres of radius R touch is a root of |d + u t| = 2R (a quadratic).
 - Planes, impacts, resting, landing and ranges are exactly those of `reference.simulate` (the
@@ -89,7 +89,7 @@ class PairImpact(NamedTuple):
 def pair_law(position_a, velocity_a, angular_velocity_a, position_b, velocity_b, angular_velocity_b, *,
              mass_a, mass_b, radius_a, radius_b, restitution, mu_s, mu_d,
              inertia_factor=SOLID_SPHERE_INERTIA_FACTOR) -> PairImpact:
-    """Impact of sphere a on sphere b: the plane law (impact_law.py) generalised to two spheres.
+    """Impact of sphere a on sphere b: the plane law (physics.impact) generalised to two spheres.
 
     Vectorised: vectors are (..., 3) arrays, the scalars broadcast against their leading shape.
     Units: positions m, velocities m/s, angular velocities rad/s, masses kg, radii m;

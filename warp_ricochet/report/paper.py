@@ -104,7 +104,7 @@ TABLE3 = (
 
 
 def _build_rows() -> dict[float, dict]:
-    """mu_s -> the paper's values under our statistic names (see `stats.STAT_UNITS`) plus "case"."""
+    """mu_s -> the paper's values under our statistic names (see `tallies.sums.STAT_UNITS`) plus "case"."""
     rows: dict[float, dict] = {}
     for mu_s, time, vt, vn, omega in TABLE1:
         phase = "pre" if time == TIME_PRE else "post"

@@ -1,7 +1,7 @@
 """Reports: the paper's Tables 1-3 (Zohdi 2021) from an output file or a sweep in memory, as text or Markdown.
 
-`read_results(path)` reads a run or sweep HDF5 file (layout in `writer`) into `Results`: one row
-per run / sweep point, a flat dict of the statistics (`stats.STAT_UNITS`) and the point's swept
+`read_results(path)` reads a run or sweep HDF5 file (layout in `io.writer`, docs/output.md) into `Results`: one row
+per run / sweep point, a flat dict of the statistics (`tallies.sums.STAT_UNITS`) and the point's swept
 and tied values, sorted like the paper (first swept parameter descending). `format_tables` prints
 Tables 1-3 in the paper's layout, optionally followed by the paper's own values (`paper`).
 `format_run_summary` is the short summary of one run's statistics printed by `warp-ricochet run`.

@@ -115,7 +115,7 @@ class Scene:
     @property
     def pair_collisions(self) -> bool:
         """Pellets of a shot can meet each other: collisions enabled and more than one pellet per
-        shot (the run goes through the dense phase, `collisions.run_collision_scene`)."""
+        shot (the run goes through the dense phase, `pipeline.CollisionStage`)."""
         return self.collisions.enabled and self.shot.count > 1
 
     def to_dict(self) -> dict:
