@@ -12,7 +12,7 @@ from ..physics.types import types_for
 from ..tallies.accumulate import make_accumulators
 from ..tallies.reduce import LANES, PER_THREAD, SEGMENT
 from .outputs import make_outputs
-from .pellet import FLYING, make_course, make_start
+from .pellet import make_ricochet_pellet
 from .release import make_release
 
 # Register cap of the CUDA ricochet kernel per (precision, fast_math) (None: the compiler's
@@ -30,33 +30,14 @@ def ricochet_kernel_for(spec, max_registers="default"):
     t = types_for(spec.precision)
     scalar, Surfaces, Physics = t.scalar, t.Surfaces, t.Physics
     Source, Outputs, Release = make_source(spec.precision, spec.from_file).Source, make_outputs(spec.precision).Outputs, make_release(spec.precision)
-    acc_funcs, start, course = make_accumulators(spec.precision), make_start(spec), make_course(spec)
-    floats_t, extremes_t, inf, mark_missing = acc_funcs.floats_t, acc_funcs.extremes_t, acc_funcs.inf, make_outputs(spec.precision).mark_missing
-    RELEASE, WRITE, BOUNCES = spec.collisions, bool(spec.core_fields), spec.bounces
+    acc_fns, ricochet_pellet = make_accumulators(spec.precision), make_ricochet_pellet(spec)
+    floats_t, extremes_t, inf = acc_fns.floats_t, acc_fns.extremes_t, acc_fns.inf
+    RELEASE = spec.collisions
     lanes, per_thread, segment = LANES, PER_THREAD, SEGMENT
     cap = CUDA_MAX_REGISTERS[spec.precision, spec.fast_math] if max_registers == "default" else max_registers
     options = {} if cap is None else {"cuda_max_registers": cap}
     if spec.fast_math:
         options["module_options"] = {"fast_math": True}
-
-    @wp.func
-    def ricochet_pellet(index: wp.int32, row: wp.int32, source: Source, surfaces: Surfaces, physics: Physics,
-                        out: Outputs, release: Release, counts: wp.vec4i, acc: floats_t, lo: extremes_t,
-                        hi: extremes_t, range_shift: scalar):
-        """Follow one pellet (global `index`, chunk row `row`) from its start to its landing."""
-        if wp.static(RELEASE):
-            f, counts, acc, launch_v2, launch_w2 = start.resume_pellet(release, row, surfaces, counts, acc)
-        else:
-            f, launch_v2, launch_w2 = start.launch_pellet(source, index, row, out)
-        first_bounce = f.impacts  # (bounces made in the dense phase are its outputs)
-        for b in range(wp.static(BOUNCES)):  # unrolled (bounces <= 16)
-            impacted = wp.int32(0)
-            if f.state == FLYING and b >= first_bounce:
-                f, counts, acc, impacted = course.bounce(b, row, f, counts, acc, launch_v2, launch_w2, surfaces, physics, out)
-            if wp.static(WRITE):
-                if impacted == 0 and b >= first_bounce:  # no impact at this bounce: mark it missing
-                    mark_missing(out, row, b)
-        return course.land(row, f, counts, acc, lo, hi, range_shift, surfaces, physics, out)
 
     @wp.kernel(module="unique", enable_backward=False, **options)
     def ricochet_kernel(
@@ -92,6 +73,6 @@ def ricochet_kernel_for(spec, max_registers="default"):
                 else:
                     counts, acc, lo, hi, range_shift = ricochet_pellet(
                         first_index + row, row, source, surfaces, physics, out, release, counts, acc, lo, hi, range_shift)
-        acc_funcs.store_partials(tid, counts, acc, lo, hi, range_shift, partial_sums, partial_min, partial_max)
+        acc_fns.store_partials(tid, counts, acc, lo, hi, range_shift, partial_sums, partial_min, partial_max)
 
     return ricochet_kernel

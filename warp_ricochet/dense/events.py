@@ -25,7 +25,7 @@ def make_events(spec) -> SimpleNamespace:
     CLOSING_TOLERANCE2 = d.CLOSING_TOLERANCE2
     flight = make_flight(spec.precision, spec.static_planes)  # within a step: the exact ballistic flight
     next_contact, advance = flight.next_contact, flight.advance
-    _rests, _stays, meet_surface, contact_point, _range = make_contact(spec.precision)
+    _rests, _stays, _impact, meet_surface, contact_point, _range = make_contact(spec.precision)
     _entry, _return, _contact, ballistic_position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
     pair_law = make_pair_law(scalar)
     write_impact = make_outputs(spec.precision).write_impact

@@ -18,7 +18,7 @@ from .types import types_for
 
 @functools.cache
 def make_contact(precision: str):
-    """`rests`, `stays`, `meet_surface`, `contact_point` and `landing_range` for one precision."""
+    """`rests`, `stays`, `impact`, `meet_surface`, `contact_point` and `landing_range` for one precision."""
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
     impact_law = make_impact_law(scalar)
@@ -37,17 +37,21 @@ def make_contact(precision: str):
         return leaving_speed * leaving_speed <= CLOSING_TOLERANCE2 * speed_before2
 
     @wp.func
+    def impact(k: wp.int32, velocity: vec3, spin: vec3, surfaces: Surfaces, physics: Physics):
+        """The impact law (eqs. 1-25) at plane k, gravity resisted during the contact (eq. 10):
+        (velocity', spin', slipped)."""
+        normal = surfaces.normal[k]
+        return impact_law(velocity, spin, normal, physics.radius, physics.inertia_factor, surfaces.restitution[k],
+                          surfaces.mu_s[k], surfaces.mu_d[k], wp.dot(physics.gravity, normal) * physics.impact_duration)
+
+    @wp.func
     def meet_surface(k: wp.int32, velocity: vec3, spin: vec3, surfaces: Surfaces, physics: Physics):
         """A pellet with `velocity` (m/s) and `spin` (rad/s) at plane k: returns (velocity',
         spin', slipped, impacted, flies_on). Not an impact if it rests there (unchanged state)."""
         normal = surfaces.normal[k]
         if rests(velocity, normal):
             return velocity, spin, wp.int32(0), wp.int32(0), wp.int32(0)
-        velocity_after, spin_after, slipped = impact_law(
-            velocity, spin, normal, physics.radius, physics.inertia_factor,
-            surfaces.restitution[k], surfaces.mu_s[k], surfaces.mu_d[k],
-            wp.dot(physics.gravity, normal) * physics.impact_duration,
-        )
+        velocity_after, spin_after, slipped = impact(k, velocity, spin, surfaces, physics)
         flies_on = wp.int32(1)
         if stays(velocity_after, normal, wp.dot(velocity, velocity)):
             flies_on = wp.int32(0)
@@ -63,4 +67,4 @@ def make_contact(precision: str):
         """Eq. (42): the distance from the last ricochet's contact point to the landing's (m)."""
         return wp.length(contact_point(position, radius, normal) - ricochet_point)
 
-    return rests, stays, meet_surface, contact_point, landing_range
+    return rests, stays, impact, meet_surface, contact_point, landing_range

@@ -4,7 +4,8 @@ A thread's partials are `counts` (int32: hits, slip, landed, landed_slip), `acc`
 in the working precision: at most PER_THREAD = 256 terms, a relative rounding error of order
 1e-6 in float32), `lo`/`hi` (range extremes: all, stick, slip) and `range_shift` (the thread's
 first range: ranges are summed as deviations from it). `store_partials` widens them to float64
-once per thread; from there on everything is float64 (`tallies.reduce`).
+once per thread; from there on everything is float64 (`tallies.reduce`). Each helper returns one
+vector (see `core.pellet` on why).
 """
 
 import functools
@@ -16,6 +17,15 @@ import warp as wp
 from ..physics.types import types_for
 from .sums import NUM_COUNTS, NUM_EXTREMES, NUM_FLOATS, SUM
 
+# offsets into the float accumulator (counts are separate)
+OFFSETS = SimpleNamespace(
+    PRE=SUM["vt_pre"] - NUM_COUNTS, POST=SUM["vt_post"] - NUM_COUNTS,  # vt, vn, wx, wy, wz, v2, w2 each
+    V2_LAUNCH=SUM["v2_launch"] - NUM_COUNTS, W2_LAUNCH=SUM["w2_launch"] - NUM_COUNTS,
+    RANGE=SUM["range"] - NUM_COUNTS, RANGE2=SUM["range_m2"] - NUM_COUNTS,  # deviations from the thread's first range
+    RANGE_STICK=SUM["range_stick"] - NUM_COUNTS, RANGE_SLIP=SUM["range_slip"] - NUM_COUNTS,
+    TIME_ALOFT=SUM["time_aloft"] - NUM_COUNTS, V2_LANDING=SUM["v2_landing"] - NUM_COUNTS,
+)
+
 
 @functools.cache
 def make_accumulators(precision: str) -> SimpleNamespace:
@@ -24,14 +34,9 @@ def make_accumulators(precision: str) -> SimpleNamespace:
     scalar, vec3 = t.scalar, t.vec3
     floats_t = wp.types.vector(NUM_FLOATS, scalar)
     extremes_t = wp.types.vector(NUM_EXTREMES, scalar)
-    # offsets into the float accumulator (counts are separate)
-    F_PRE, F_POST = SUM["vt_pre"] - NUM_COUNTS, SUM["vt_post"] - NUM_COUNTS  # vt, vn, wx, wy, wz, v2, w2
-    F_V2_LAUNCH, F_W2_LAUNCH = SUM["v2_launch"] - NUM_COUNTS, SUM["w2_launch"] - NUM_COUNTS
-    F_RANGE, F_RANGE2 = SUM["range"] - NUM_COUNTS, SUM["range_m2"] - NUM_COUNTS  # deviations from the thread's first range
-    F_RANGE_STICK, F_RANGE_SLIP = SUM["range_stick"] - NUM_COUNTS, SUM["range_slip"] - NUM_COUNTS
-    F_TIME_ALOFT, F_V2_LANDING = SUM["time_aloft"] - NUM_COUNTS, SUM["v2_landing"] - NUM_COUNTS
+    F_PRE, F_POST, F_V2_LAUNCH, F_W2_LAUNCH = OFFSETS.PRE, OFFSETS.POST, OFFSETS.V2_LAUNCH, OFFSETS.W2_LAUNCH
+    F_RANGE, F_RANGE2, F_TIME_ALOFT, F_V2_LANDING = OFFSETS.RANGE, OFFSETS.RANGE2, OFFSETS.TIME_ALOFT, OFFSETS.V2_LANDING
     num_counts, num_floats, num_extremes = NUM_COUNTS, NUM_FLOATS, NUM_EXTREMES
-    inf = scalar(math.inf)
 
     @wp.func
     def add_impact_sums(acc: floats_t, base: wp.int32, velocity: vec3, angular_velocity: vec3, normal: vec3):
@@ -47,43 +52,25 @@ def make_accumulators(precision: str) -> SimpleNamespace:
         return acc
 
     @wp.func
-    def add_first_impact(counts: wp.vec4i, acc: floats_t, slipped: wp.int32, velocity_before: vec3,
-                         spin_before: vec3, velocity_after: vec3, spin_after: vec3, normal: vec3, launch_v2: scalar,
-                         launch_w2: scalar):
-        """A pellet's first impact: hits, slips, the states before and after, its launch energy."""
-        counts[0] += 1
-        counts[1] += slipped
+    def add_first_impact_sums(acc: floats_t, velocity_before: vec3, spin_before: vec3, velocity_after: vec3,
+                              spin_after: vec3, normal: vec3, launch_v2: scalar, launch_w2: scalar):
+        """The float sums of a pellet's first impact: the states before and after, its launch
+        |v|^2 and |omega|^2 (its counts are the caller's)."""
         acc = add_impact_sums(acc, F_PRE, velocity_before, spin_before, normal)
         acc = add_impact_sums(acc, F_POST, velocity_after, spin_after, normal)
         acc[F_V2_LAUNCH] += launch_v2
         acc[F_W2_LAUNCH] += launch_w2
-        return counts, acc
+        return acc
 
     @wp.func
-    def add_landing(counts: wp.vec4i, acc: floats_t, lo: extremes_t, hi: extremes_t, range_shift: scalar,
-                    landing_range: scalar, time_aloft: scalar, landing_velocity: vec3, last_slipped: wp.int32):
-        """A pellet's landing: its range (eq. 42) by the branch of its last ricochet, time aloft,
-        speed at landing."""
-        counts[2] += 1
-        if counts[2] == 1:
-            range_shift = landing_range
-        deviation = landing_range - range_shift
+    def add_landing_sums(acc: floats_t, deviation: scalar, time_aloft: scalar, landing_velocity: vec3):
+        """The float sums of a landing: its range as a deviation from the thread's first, its time
+        aloft, its |v|^2 (the range by branch, counts and extremes are the caller's)."""
         acc[F_RANGE] += deviation
         acc[F_RANGE2] += deviation * deviation
         acc[F_TIME_ALOFT] += time_aloft
         acc[F_V2_LANDING] += wp.dot(landing_velocity, landing_velocity)
-        lo[0] = wp.min(lo[0], landing_range)
-        hi[0] = wp.max(hi[0], landing_range)
-        if last_slipped != 0:
-            counts[3] += 1
-            acc[F_RANGE_SLIP] += landing_range
-            lo[2] = wp.min(lo[2], landing_range)
-            hi[2] = wp.max(hi[2], landing_range)
-        else:
-            acc[F_RANGE_STICK] += landing_range
-            lo[1] = wp.min(lo[1], landing_range)
-            hi[1] = wp.max(hi[1], landing_range)
-        return counts, acc, lo, hi, range_shift
+        return acc
 
     @wp.func
     def store_partials(tid: wp.int32, counts: wp.vec4i, acc: floats_t, lo: extremes_t, hi: extremes_t,
@@ -107,5 +94,6 @@ def make_accumulators(precision: str) -> SimpleNamespace:
             partial_min[e, tid] = wp.float64(lo[e])
             partial_max[e, tid] = wp.float64(hi[e])
 
-    return SimpleNamespace(floats_t=floats_t, extremes_t=extremes_t, inf=inf, add_first_impact=add_first_impact,
-                           add_landing=add_landing, store_partials=store_partials)
+    return SimpleNamespace(floats_t=floats_t, extremes_t=extremes_t, inf=scalar(math.inf), offsets=OFFSETS,
+                           add_first_impact_sums=add_first_impact_sums, add_landing_sums=add_landing_sums,
+                           store_partials=store_partials)
