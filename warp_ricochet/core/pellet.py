@@ -105,7 +105,7 @@ def make_ricochet_pellet(spec):
                         resting_surface = k
                     else:
                         impacted = 1
-                        velocity_after, spin_after, slipped = impact(k, velocity, spin, surfaces, physics)
+                        velocity_after, spin_after, slipped = impact(k, normal, velocity, spin, surfaces, physics)
                         if wp.static(WRITE):
                             outs.write_impact(out, row, b, time, position, velocity, spin, velocity_after, spin_after,
                                               slipped, k)

@@ -37,10 +37,9 @@ def make_contact(precision: str):
         return leaving_speed * leaving_speed <= CLOSING_TOLERANCE2 * speed_before2
 
     @wp.func
-    def impact(k: wp.int32, velocity: vec3, spin: vec3, surfaces: Surfaces, physics: Physics):
-        """The impact law (eqs. 1-25) at plane k, gravity resisted during the contact (eq. 10):
-        (velocity', spin', slipped)."""
-        normal = surfaces.normal[k]
+    def impact(k: wp.int32, normal: vec3, velocity: vec3, spin: vec3, surfaces: Surfaces, physics: Physics):
+        """The impact law (eqs. 1-25) at plane k of unit `normal`, gravity resisted during the
+        contact (eq. 10): (velocity', spin', slipped)."""
         return impact_law(velocity, spin, normal, physics.radius, physics.inertia_factor, surfaces.restitution[k],
                           surfaces.mu_s[k], surfaces.mu_d[k], wp.dot(physics.gravity, normal) * physics.impact_duration)
 
@@ -51,7 +50,7 @@ def make_contact(precision: str):
         normal = surfaces.normal[k]
         if rests(velocity, normal):
             return velocity, spin, wp.int32(0), wp.int32(0), wp.int32(0)
-        velocity_after, spin_after, slipped = impact(k, velocity, spin, surfaces, physics)
+        velocity_after, spin_after, slipped = impact(k, normal, velocity, spin, surfaces, physics)
         flies_on = wp.int32(1)
         if stays(velocity_after, normal, wp.dot(velocity, velocity)):
             flies_on = wp.int32(0)
