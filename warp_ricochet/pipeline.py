@@ -37,7 +37,6 @@ from .tallies.collisions import (
 from .tallies.reduce import launch_reduce, threads_for
 from .tallies.sums import combine, empty_totals, finalize
 
-# measured: docs/collisions.md and docs/stability.md
 FLOAT32_COLLISIONS = ("pellet-pellet collisions in float32: contact times rounded in float32 change the order of "
                       "events in a dense cloud, and a shot's mean range differs from float64 by about 10% (docs/collisions.md); "
                       "set numerics.precision = \"float64\" for a study")

@@ -3,9 +3,9 @@
 `physics.contact`), and its landing (eq. 42), with its outputs written and its statistics added
 to the thread's partials (`tallies.accumulate`).
 
-The partials are updated in this one function: a `@wp.func` that takes the partial vectors and
-returns several of them (a tuple) costs the CUDA kernel a fifth of its instructions and 40 to 65%
-of its speed (bench/RESULTS.md); helpers that return one vector cost nothing.
+The partials are updated in this one function: helpers that take the partial vectors and return
+several of them (a tuple) through branches make the CUDA kernel much slower (bench/RESULTS.md,
+"The redesign"); helpers that return one vector do not.
 """
 
 import functools

@@ -53,9 +53,8 @@ At checkpoints (every `block_steps` of its own steps) a shot stops stepping once
 window is over (its undisturbed pellets have all met their first surface and the cloud has passed
 it) and no pair of the shot can meet again (all pairs, not only listed ones, checked exactly); see
 docs/collisions.md for what this neglects. At each checkpoint a shot past that window finds its
-next event over all its pairs and planes and jumps to it: the rare
-pair of rebounds converging slowly for tens of milliseconds no longer costs tens of thousands of
-small steps.
+next event over all its pairs and planes and jumps to it, so a pair of rebounds converging slowly
+for tens of milliseconds does not cost tens of thousands of small steps.
 
 Modules, one stage each: `state` (the Cloud and Pair structs, their allocation), `frame` (each
 shot's co-moving frame, reference states), `events` (plane and pair contacts), `rounds` (finding

@@ -33,8 +33,7 @@ CELL_REACHES = 2.0
 BLOCK_STEPS = CHECKPOINT_STEPS  # steps between checkpoints (the host reads three integers there, never inside a block)
 # the adaptive step lets a list last this many steps at the current speeds: a list built at a
 # checkpoint lasts its block (of the default 8 steps; frame_every sets another) with a step to
-# spare (speeds change in a block); with a list that lasted exactly a block, a third of the blocks
-# stalled at their last step for a rebuild one step before the checkpoint's
+# spare (speeds change in a block)
 SKIN_STEPS = float(BLOCK_STEPS + 1)
 # a pellet within this fraction of half its skin since the build, moving at most half the skin /
 # SKIN_STEPS in a step (the adaptive step), ends the step within 0.96 of it: no check needed

@@ -95,8 +95,8 @@ def make_lists(spec) -> SimpleNamespace:
     def cell_lists_shot(s: wp.int32, pair: Pair, physics: Physics, cloud: Cloud, bucket_end: wp.array(dtype=wp.int32),
                         rows: wp.array(dtype=wp.int32), cells: wp.array(dtype=wp.vec3i)):
         """Shot s's lists on the CPU (one thread), in place of grid_points_kernel, wp.HashGrid and
-        neighbours_kernel: HashGrid's CPU build costs a fixed 0.15 to 0.3 ms (two radix passes
-        over 65,536 bins) for any number of points. The same lists (as sets: the same points, the
+        neighbours_kernel, whose CPU build has a fixed cost (two radix passes over 65,536 bins)
+        larger than a shot's whole list build. The same lists (as sets: the same points, the
         same distance test; no result depends on a list's order): the shot's flying pellets are
         counting-sorted into hashed cells one reach wide, and each pair is found once, from the
         lower cell (its own cell and the 13 after it around each pellet). `bucket_end` has a power

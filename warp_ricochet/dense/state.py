@@ -10,6 +10,7 @@ import warp as wp
 
 from ..core.outputs import make_outputs
 from ..core.release import RELEASE_ARRAYS, make_release
+from ..fields import COLLISION_FIELDS, FIELDS
 from ..launch.source import make_source
 from ..physics.ballistic import EPSILON, ROUNDING
 from ..physics.types import types_for
@@ -132,11 +133,9 @@ VECTORS = ("position", "velocity", "angular_velocity", "ricochet_point", "first_
 SCALARS = ("time", "ricochet_time", "energy_lost", "event_time", "event_exit", "last_collision", "now_speed")
 INTEGERS = ("phase", "end_surface", "touching", "impacts", "last_slipped", "first_surface", "first_slipped",
             "collision_count", "event_partner", "stale", "neighbour_count")
-# the dense phase's output fields (fields.FIELDS, stage "collide") -> (Cloud member, element kind)
-FIELD_MEMBERS = {"release.time": ("release_time", "scalar"), "release.position": ("release_position", "vec3"),
-                 "release.velocity": ("release_velocity", "vec3"),
-                 "release.angular_velocity": ("release_angular_velocity", "vec3"),
-                 "collisions.last_time": ("collisions_last_time", "scalar")}
+# the dense phase's output arrays (fields.FIELDS, stage "collide"), by their Cloud members;
+# collisions.count is the Cloud's own collision_count
+OUTPUT_FIELDS = tuple(name for name in COLLISION_FIELDS if name != "collisions.count")
 
 
 def allocate_cloud(precision: str, device, capacity: int, shots: int, rounds: int, max_neighbours: int, fields):
@@ -155,9 +154,9 @@ def allocate_cloud(precision: str, device, capacity: int, shots: int, rounds: in
     cloud.neighbours = arr(wp.int32, (capacity, max_neighbours))
     cloud.round_applied = arr(wp.int32, max(rounds, 1))
     field_arrays = {}
-    for name, (member, kind) in FIELD_MEMBERS.items():
-        a = arr(kinds[kind], capacity if name in fields else 0)
-        setattr(cloud, member, a)
+    for name in OUTPUT_FIELDS:
+        a = arr(kinds[FIELDS[name].kind], capacity if name in fields else 0)
+        setattr(cloud, FIELDS[name].member, a)
         if name in fields:
             field_arrays[name] = a
     if "collisions.count" in fields:
