@@ -27,23 +27,8 @@ from .physics.impact import SOLID_SPHERE_INERTIA_FACTOR
 from .physics.types import SCALARS, types_for
 from .pipeline import Resumed
 from .pipeline import run as run_pipeline
-from .scene import (
-    MAX_COORDINATE,
-    MAX_DENSITY,
-    MAX_DIAMETER,
-    MAX_FRICTION,
-    MAX_GRAVITY,
-    MAX_IMPACT_DURATION,
-    MAX_SPEED,
-    MAX_SPIN,
-    MIN_DENSITY,
-    MIN_DIAMETER,
-    Scene,
-    load_pellet_file,
-    load_scene,
-    scene_from_dict,
-    set_dotted,
-)
+from .scene import Scene, load_pellet_file, load_scene, scene_from_dict, set_dotted
+from .scene import schema as domain
 from .spec import RunSpec
 from .tallies.sums import stat_names
 
@@ -103,10 +88,10 @@ def impact(
     """
     if precision not in SCALARS:
         raise SceneError("precision", precision, "must be 'float32' or 'float64'")
-    v = _vectors("velocity", velocity, bound=MAX_SPEED, unit="m/s")
+    v = _vectors("velocity", velocity, bound=domain.MAX_SPEED, unit="m/s")
     rows = v.shape[0]
-    w = _vectors("angular_velocity", angular_velocity, rows, bound=MAX_SPIN, unit="rad/s")
-    n = _vectors("normal", normal, bound=MAX_COORDINATE, single=True)
+    w = _vectors("angular_velocity", angular_velocity, rows, bound=domain.MAX_SPIN, unit="rad/s")
+    n = _vectors("normal", normal, bound=domain.MAX_COORDINATE, single=True)
     if n.shape[0] not in (1, rows):
         raise SceneError("normal", f"array of shape {n.shape}", f"must have shape (3,) or ({rows}, 3)")
     n = n / np.maximum(np.abs(n).max(axis=1), np.finfo(np.float64).tiny)[:, None]  # scale first: no underflow
@@ -114,13 +99,13 @@ def impact(
     if (lengths == 0).any():
         raise SceneError("normal", "zero vector", "must be non-zero")
     n = n / lengths[:, None]
-    radius = _in_range("radius", radius, MIN_DIAMETER / 2, MAX_DIAMETER / 2)
-    _in_range("density", density, MIN_DENSITY, MAX_DENSITY)
+    radius = _in_range("radius", radius, domain.MIN_DIAMETER / 2, domain.MAX_DIAMETER / 2)
+    _in_range("density", density, domain.MIN_DENSITY, domain.MAX_DENSITY)
     restitution = _in_range("restitution", restitution, 0.0, 1.0)
-    mu_s = _in_range("mu_s", mu_s, 0.0, MAX_FRICTION)
+    mu_s = _in_range("mu_s", mu_s, 0.0, domain.MAX_FRICTION)
     mu_d = _in_range("mu_d", mu_d, 0.0, mu_s)
-    duration = _in_range("duration", duration, 0.0, MAX_IMPACT_DURATION)
-    g = _vectors("gravity", gravity, rows=1, bound=MAX_GRAVITY, unit="m/s^2", single=True)[0]
+    duration = _in_range("duration", duration, 0.0, domain.MAX_IMPACT_DURATION)
+    g = _vectors("gravity", gravity, rows=1, bound=domain.MAX_GRAVITY, unit="m/s^2", single=True)[0]
 
     wp = warp()
     dev = resolve_device(device)
