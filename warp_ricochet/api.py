@@ -170,7 +170,7 @@ def _run_one(scene, dev, group=None, progress=None, dense_options=None) -> dict:
     writer = None
     if group is not None:
         writer = RunWriter(group, Model.from_scene(scene, dev), scene=scene, fields=scene.output.fields,
-                           pellets=scene.shot.pellets, stats=stat_names(scene.pair_collisions))
+                           pellets=scene.shot.pellets, stats=stat_names(scene.pair_collisions, scene.in_air))
     return _compute(scene, dev, writer, progress, dense_options=dense_options)
 
 

@@ -16,6 +16,7 @@ import warp as wp
 
 from .core.outputs import element_type, outputs_struct
 from .fields import FIELDS, bytes_per_pellet
+from .physics.air import GAMMA_AIR
 from .physics.impact import SOLID_SPHERE_INERTIA_FACTOR
 from .physics.types import types_for
 from .tallies.reduce import LANES, SEGMENT_WIDTH, partial_bytes_per_pellet, threads_for
@@ -39,11 +40,12 @@ class Model:
     @classmethod
     def from_scene(cls, scene, device) -> "Model":
         """The model of `scene` on `device`; recent ones are reused (their arrays never change)."""
+        air = scene.air if scene.in_air else None
         return _cached_model(scene.shot.diameter, scene.shot.density, scene.surfaces, scene.physics,
-                             scene.numerics.precision, device.alias)
+                             scene.numerics.precision, device.alias, air, scene.numerics.flight_tolerance)
 
     @classmethod
-    def _build(cls, diameter, density, planes, physics_scene, precision, device) -> "Model":
+    def _build(cls, diameter, density, planes, physics_scene, precision, device, air=None, tolerance=1e-6) -> "Model":
         t = types_for(precision)
         radius = 0.5 * diameter
         mass = density * 4.0 / 3.0 * math.pi * radius**3
@@ -64,14 +66,51 @@ class Model:
         physics.inertia_factor = t.scalar(SOLID_SPHERE_INERTIA_FACTOR)
         physics.gravity = t.vec3(*physics_scene.gravity)
         physics.impact_duration = t.scalar(physics_scene.impact_duration)
+        physics.air = air_struct(air, precision, device, radius, mass, physics_scene.gravity, tolerance)
         return cls(device=device, precision=precision, radius=radius, mass=mass,
                    inertia=SOLID_SPHERE_INERTIA_FACTOR * mass * radius**2, bounces=physics_scene.bounces,
                    surfaces=surfaces, physics=physics, types=t)
 
 
 @functools.lru_cache(maxsize=16)
-def _cached_model(diameter, density, surfaces, physics, precision, device_alias) -> Model:
-    return Model._build(diameter, density, surfaces, physics, precision, wp.get_device(device_alias))
+def _cached_model(diameter, density, surfaces, physics, precision, device_alias, air, tolerance) -> Model:
+    return Model._build(diameter, density, surfaces, physics, precision, wp.get_device(device_alias), air, tolerance)
+
+
+def air_struct(air, precision: str, device, radius: float, mass: float, gravity, tolerance: float):
+    """The kernels' Air struct of a scene's [air] (None: zeros, as in vacuum): the constants the
+    laws of physics.air read, premultiplied here in float64 (SI)."""
+    t = types_for(precision)
+    out = t.Air()
+    np_dtype = np.dtype(precision)
+    table = np.zeros((0, 2))
+    if air is not None:
+        d, area = 2.0 * radius, math.pi * radius**2
+        inertia = SOLID_SPHERE_INERTIA_FACTOR * mass * radius**2
+        constants = {
+            "inverse_sound_speed": 1.0 / air.sound_speed,
+            "re_per_speed": air.density * d / air.viscosity,
+            "knudsen": math.sqrt(0.5 * math.pi * GAMMA_AIR) * air.viscosity / (air.density * air.sound_speed * d),
+            "stokes": 3.0 * math.pi * air.viscosity * d * air.drag_factor / mass,
+            "quadratic": air.density * area * air.drag_factor / (2.0 * mass),
+            "drag_coefficient": air.drag_coefficient or 0.0,
+            "lift": air.density * area * radius / (2.0 * mass),
+            "radius": radius,
+            "lift_slope": air.slope,
+            "lift_max": air.cap,
+            "spin": 8.0 * math.pi * air.viscosity * radius**3 / inertia,
+            "re_r_per_spin": air.density * d * d / air.viscosity,
+            "tolerance": tolerance,
+            "speed_floor": max(math.sqrt(math.hypot(*gravity) * radius), 1e-6),
+        }
+        for name, value in constants.items():
+            setattr(out, name, t.scalar(value))
+        out.wind = t.vec3(*air.wind)
+        if air.drag == "table":
+            table = np.asarray(air.table, dtype=np.float64)
+    out.table_mach = wp.array(np.ascontiguousarray(table[:, 0], dtype=np_dtype), dtype=t.scalar, device=device)
+    out.table_cd = wp.array(np.ascontiguousarray(table[:, 1], dtype=np_dtype), dtype=t.scalar, device=device)
+    return out
 
 
 class State:

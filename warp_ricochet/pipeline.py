@@ -171,7 +171,7 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
         else:
             stage = CoreStage(scene, model, spec, arrays, pellets)
         totals, tables = _loop(stage, pellets, sink, resumed, progress)
-    stats = finalize(totals, pellets=pellets, mass=model.mass, inertia=model.inertia)
+    stats = finalize(totals, pellets=pellets, mass=model.mass, inertia=model.inertia, air=spec.in_air)
     if spec.collisions:
         stats.update(collision_statistics(np.concatenate(tables) if tables else np.zeros((0, len(SHOT_TOTALS))), pellets))
         if stats["skin_overrun_max"] > OVERRUN_TOLERANCE:

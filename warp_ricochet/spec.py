@@ -21,7 +21,8 @@ class RunSpec:
     """precision: "float32" or "float64"; bounces: ricochets followed; planes: surfaces in the
     scene; fields: per-pellet outputs computed (empty: statistics only); from_file: launch states
     from a pellet file; fast_math: CUDA float32 approximate maths; collisions: a dense phase of
-    pellet-pellet collisions first; flight: the flight model (`physics.flight.MODELS`)."""
+    pellet-pellet collisions first; flight: the flight model (`physics.flight.MODELS`); air_laws:
+    in air, (drag, lift or None, spin decay or None) of `physics.air`."""
 
     precision: str
     bounces: int
@@ -31,14 +32,23 @@ class RunSpec:
     fast_math: bool = False
     collisions: bool = False
     flight: str = "ballistic"
+    air_laws: tuple | None = None
 
     @classmethod
     def of(cls, scene, *, with_output: bool = True) -> "RunSpec":
         """The spec of running `scene`, writing its output fields or (not with_output) statistics only."""
         precision = scene.numerics.precision
+        air = scene.air if scene.in_air else None
+        laws = None if air is None else (air.drag, air.lift if air.magnus else None,
+                                         air.spin_decay_law if air.spin_decay else None)
         return cls(precision=precision, bounces=scene.physics.bounces, planes=len(scene.surfaces),
                    fields=tuple(scene.output.fields) if with_output else (), from_file=scene.shot.file is not None,
-                   fast_math=scene.numerics.fast_math and precision == "float32", collisions=scene.pair_collisions)
+                   fast_math=scene.numerics.fast_math and precision == "float32", collisions=scene.pair_collisions,
+                   flight="ballistic" if air is None else "air", air_laws=laws)
+
+    @property
+    def in_air(self) -> bool:
+        return self.flight == "air"
 
     @property
     def core_fields(self) -> tuple[str, ...]:

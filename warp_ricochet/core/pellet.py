@@ -32,7 +32,8 @@ def make_ricochet_pellet(spec):
     Source, Outputs, Release = src.Source, outs.Outputs, make_release(spec.precision)
     floats_t, extremes_t = acc_fns.floats_t, acc_fns.extremes_t
     F_RANGE_STICK, F_RANGE_SLIP = acc_fns.offsets.RANGE_STICK, acc_fns.offsets.RANGE_SLIP
-    flight = make_flight(spec.precision, spec.static_planes, spec.flight)
+    flight = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws)
+    AIR = spec.flight == "air"
     rests, stays, impact, _meet, contact_point, landing_range = make_contact(spec.precision)
     RELEASE, WRITE, BOUNCES = spec.collisions, bool(spec.core_fields), spec.bounces
 
@@ -90,8 +91,10 @@ def make_ricochet_pellet(spec):
         for b in range(wp.static(BOUNCES)):  # unrolled (bounces <= 16)
             impacted = wp.int32(0)
             if state == FLYING and b >= first_bounce:
-                dt, k, position_then, velocity_then, spin_then = flight.to_contact(position, velocity, spin, touching,
-                                                                                   surfaces, physics)
+                dt, k, position_then, velocity_then, spin_then, steps = flight.to_contact(position, velocity, spin,
+                                                                                          touching, surfaces, physics)
+                if wp.static(AIR):
+                    acc = acc_fns.add_flight_sums(acc, steps, k)
                 if k < 0:
                     state = wp.int32(ESCAPED)  # it never meets a surface again
                 else:
@@ -138,8 +141,10 @@ def make_ricochet_pellet(spec):
         if impacts > 0 and state != ESCAPED:
             k = resting_surface
             if state == FLYING:
-                dt, k_next, position_then, velocity_then, spin_then = flight.to_contact(position, velocity, spin, touching,
-                                                                                        surfaces, physics)
+                dt, k_next, position_then, velocity_then, spin_then, steps = flight.to_contact(position, velocity, spin,
+                                                                                               touching, surfaces, physics)
+                if wp.static(AIR):
+                    acc = acc_fns.add_flight_sums(acc, steps, k_next)
                 k = k_next
                 if k >= 0:
                     position = position_then

@@ -5,14 +5,17 @@
 - `next_contact(position, velocity, spin, touching, surfaces, physics) -> (dt, k)`: the time (s)
   until the pellet meets a plane and the plane's index (k = -1, dt = NO_CONTACT: none);
 - `to_contact(position, velocity, spin, touching, surfaces, physics) -> (dt, k, position,
-  velocity, spin)`: the same, and the state there (unchanged when k = -1);
+  velocity, spin, steps)`: the same, the state there (unchanged when k = -1 in vacuum) and the
+  integration steps it took (0 in vacuum); k = GAVE_UP when an integration gave up;
 - `advance(position, velocity, spin, dt, physics) -> (position, velocity, spin)`: the state `dt`
   later, with no contact in between.
 
 `touching` is the plane the pellet is leaving (-1: none). The core kernel flies every pellet
 with `to_contact`; the dense phase, whose exact contact times rest on linear relative motion,
-moves pellets within a step with the ballistic model. Models: "ballistic", the exact parabola of
-eq. (36) (`physics.ballistic`). A new model is a new branch here, not a change to the kernels.
+moves pellets within a step with the ballistic model (and feels the air at step boundaries).
+Models: "ballistic", the exact parabola of eq. (36) (`physics.ballistic`); "air", integrated
+with error control (`physics.air_flight`; `laws` = (drag, lift or None, spin_decay or None) of
+`physics.air`). A new model is a new branch here, not a change to the kernels.
 """
 
 import functools
@@ -20,18 +23,21 @@ from types import SimpleNamespace
 
 import warp as wp
 
+from .air_flight import GAVE_UP, make_air_flight
 from .ballistic import NO_CONTACT, make_ballistic
 from .types import types_for
 
-MODELS = ("ballistic",)
+MODELS = ("ballistic", "air")
 
 
 @functools.cache
-def make_flight(precision: str, planes=None, model: str = "ballistic") -> SimpleNamespace:
+def make_flight(precision: str, planes=None, model: str = "ballistic", laws=None) -> SimpleNamespace:
     """The flight functions of `model`; `planes`: the number of planes when fixed at code
     generation (loops over them unrolled), else None."""
     if model not in MODELS:
         raise ValueError(f"flight model {model!r}: must be one of {MODELS}")
+    if model == "air":
+        return _air_flight(precision, planes, laws)
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
     _entry, _return, contact_time, position_at, velocity_at = make_ballistic(scalar, planes)
@@ -54,9 +60,25 @@ def make_flight(precision: str, planes=None, model: str = "ballistic") -> Simple
         """The next plane contact and the state there."""
         dt, k = next_contact(position, velocity, spin, touching, surfaces, physics)
         if k < 0:
-            return dt, k, position, velocity, spin
+            return dt, k, position, velocity, spin, wp.int32(0)
         position_then, velocity_then, spin_then = advance(position, velocity, spin, dt, physics)
-        return dt, k, position_then, velocity_then, spin_then
+        return dt, k, position_then, velocity_then, spin_then, wp.int32(0)
 
     return SimpleNamespace(model=model, next_contact=next_contact, to_contact=to_contact, advance=advance,
-                           NO_CONTACT=NO_CONTACT)
+                           NO_CONTACT=NO_CONTACT, GAVE_UP=GAVE_UP)
+
+
+def _air_flight(precision: str, planes, laws) -> SimpleNamespace:
+    t = types_for(precision)
+    vec3, Surfaces, Physics = t.vec3, t.Surfaces, t.Physics
+    air = make_air_flight(precision, planes, tuple(laws))
+
+    @wp.func
+    def next_contact(position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces,
+                     physics: Physics):
+        """The integrated flight's next plane contact: (dt, plane index)."""
+        dt, k, _x, _v, _w, _steps = air.to_contact(position, velocity, spin, touching, surfaces, physics)
+        return dt, k
+
+    return SimpleNamespace(model="air", next_contact=next_contact, to_contact=air.to_contact, advance=air.advance,
+                           NO_CONTACT=NO_CONTACT, GAVE_UP=GAVE_UP)

@@ -1,8 +1,8 @@
 """The kernels' precision and the scene constants the laws read, as Warp structs (SI units).
 
 `types_for(precision)` gives the scalar and 3-vector types of "float32" or "float64" and the
-`Surfaces` (planes) and `Physics` (pellet and gravity) structs that `model.Model` fills once per
-scene and device.
+`Surfaces` (planes), `Air` (the air's constants, premultiplied for the laws of `physics.air`) and
+`Physics` (pellet, gravity, air) structs that `model.Model` fills once per scene and device.
 """
 
 import functools
@@ -30,10 +30,34 @@ def types_for(precision: str) -> SimpleNamespace:
         mu_d: wp.array(dtype=scalar)
 
     @wp.struct
+    class Air:
+        """The air and what the laws of `physics.air` need of it for this pellet, computed on the
+        host in float64 (`model.air_struct`); all zero in vacuum."""
+
+        wind: vec3  # m/s
+        inverse_sound_speed: scalar  # s/m: M = |u| / c
+        re_per_speed: scalar  # s/m: Re = rho d |u| / mu
+        knudsen: scalar  # sqrt(pi gamma / 2) mu / (rho c d): Loth's Kn = that M / Re, from the fluid
+        stokes: scalar  # 1/s: 3 pi mu d drag_factor / m (loth2021: a_D = -stokes f u, f = C_D Re/24)
+        quadratic: scalar  # 1/m: rho A drag_factor / (2 m) (constant, table: a_D = -quadratic C_D |u| u)
+        drag_coefficient: scalar  # the constant law's C_D
+        table_mach: wp.array(dtype=scalar)  # the table law's C_D against Mach (empty otherwise)
+        table_cd: wp.array(dtype=scalar)
+        lift: scalar  # rho A R / (2 m): a_L = lift (C_L/S) (omega x u)
+        radius: scalar  # m: S = R |omega x u| / |u|^2
+        lift_slope: scalar  # the linear law's C_L/S
+        lift_max: scalar  # sawicki2003's cap on C_L
+        spin: scalar  # 1/s: 8 pi mu R^3 / I (d omega/dt = -spin h(Re_R) omega)
+        re_r_per_spin: scalar  # s: Re_R = rho d^2 |omega| / mu
+        tolerance: scalar  # the integrator's relative tolerance (numerics.flight_tolerance)
+        speed_floor: scalar  # m/s: speeds below it count as it in the error control, sqrt(|g| R)
+
+    @wp.struct
     class Physics:
         radius: scalar  # m
         inertia_factor: scalar  # I / (m R^2)
         gravity: vec3  # m/s^2
         impact_duration: scalar  # s, the paper's delta t
+        air: Air
 
-    return SimpleNamespace(precision=precision, scalar=scalar, vec3=vec3, Surfaces=Surfaces, Physics=Physics)
+    return SimpleNamespace(precision=precision, scalar=scalar, vec3=vec3, Surfaces=Surfaces, Air=Air, Physics=Physics)

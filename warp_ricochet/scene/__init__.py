@@ -10,7 +10,9 @@ Layout of a scene file::
     [physics]     gravity, impact_duration (the paper's delta t), bounces
     [collisions]  pellet-pellet collisions (off by default): enabled, restitution, mu_s, mu_d, and the
                   time stepping of the dense phase (see docs/collisions.md)
-    [numerics]    precision, chunk_size, fast_math
+    [air]         flight in air (absent: vacuum): density, viscosity, sound_speed, wind, the drag, lift
+                  and spin-decay laws (see docs/air.md)
+    [numerics]    precision, chunk_size, fast_math, flight_tolerance
     [output]      path (HDF5), fields
 
 Every problem raises SceneError with a one-line message: the dotted key, the value and what is allowed.
@@ -44,6 +46,7 @@ from .schema import (
                      MAX_SPIN,
                      MIN_DENSITY,
                      MIN_DIAMETER,
+                     Air,
                      Collisions,
                      Numerics,
                      Output,
@@ -54,7 +57,7 @@ from .schema import (
                      Vec3,
 )
 
-__all__ = ["Vec3", "Shot", "Surface", "Physics", "Collisions", "Numerics", "Output", "Scene", "GROUPS", "CORE_FIELDS",
+__all__ = ["Vec3", "Shot", "Surface", "Physics", "Collisions", "Air", "Numerics", "Output", "Scene", "GROUPS", "CORE_FIELDS",
            "COLLISION_FIELDS", "ALL_FIELDS", "load_scene", "scene_from_dict", "apply_override", "set_dotted",
            "parse_sweep", "parse_tie", "load_pellet_file", "MAX_SWEEP_POINTS", "CHECKPOINT_STEPS",
            "FLOAT32_EXACT_STEPS", "INT32_MAX", "MAX_COORDINATE", "MAX_DENSITY", "MAX_DIAMETER", "MAX_FRICTION",

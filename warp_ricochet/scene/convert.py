@@ -8,6 +8,7 @@ from ..fields import ALL_FIELDS, FIELDS, GROUPS
 from .keys import err as _err
 from .schema import (
     INT32_MAX,
+    MAX_AIR_DENSITY,
     MAX_COORDINATE,
     MAX_DENSITY,
     MAX_DIAMETER,
@@ -16,6 +17,7 @@ from .schema import (
     MAX_IMPACT_DURATION,
     MAX_SPEED,
     MAX_SPIN,
+    MAX_WIND,
     MIN_DENSITY,
     MIN_DIAMETER,
 )
@@ -196,9 +198,49 @@ _COLLISIONS = {
     "frame_every": _int(0, INT32_MAX),
 }
 FLOAT32_EXACT_STEPS = 2**24  # float32 counts every integer up to here
-_NUMERICS = {"precision": _str(("float32", "float64")), "chunk_size": _int(1, INT32_MAX), "fast_math": _bool}
+_NUMERICS = {"precision": _str(("float32", "float64")), "chunk_size": _int(1, INT32_MAX), "fast_math": _bool,
+             "flight_tolerance": _range(1e-12, 1e-2)}
+
+
+@_rule("must be \"braun\", \"gs\", or a list of at least 2 [Mach, C_D] pairs, Mach increasing from >= 0, C_D > 0")
+def _drag_table(v, path):
+    rule = _drag_table.rule
+    if isinstance(v, str):
+        if v not in ("braun", "gs"):
+            raise _err(path, v, rule)
+        return v
+    if not isinstance(v, (list, tuple)) or len(v) < 2 or len(v) > MAX_TABLE_POINTS:
+        raise _err(path, v, rule + f" (at most {MAX_TABLE_POINTS} pairs)")
+    pairs = []
+    for i, pair in enumerate(v):
+        if not isinstance(pair, (list, tuple)) or len(pair) != 2:
+            raise _err(f"{path}.{i}", pair, "must be a [Mach, C_D] pair of numbers")
+        mach, cd = (_finite(x, f"{path}.{i}", "must be a [Mach, C_D] pair of numbers") for x in pair)
+        if mach < 0 or cd <= 0 or cd > 100 or (pairs and mach <= pairs[-1][0]):
+            raise _err(f"{path}.{i}", pair, "must have Mach >= 0 and above the pair before, and C_D in (0, 100]")
+        pairs.append((mach, cd))
+    return tuple(pairs)
+
+
+MAX_TABLE_POINTS = 1024
+_AIR = {
+    "density": _range(0, MAX_AIR_DENSITY, unit="kg/m^3"),
+    "viscosity": _range(0, 1, above=True, unit="Pa s"),
+    "sound_speed": _range(1, 1e4, unit="m/s"),
+    "wind": _vec3(unit="m/s", bound=MAX_WIND),
+    "drag": _str(("loth2021", "constant", "table")),
+    "drag_coefficient": _range(0, 100, above=True),
+    "drag_table": _drag_table,
+    "drag_factor": _range(0, 10, above=True),
+    "magnus": _bool,
+    "lift": _str(("loth2008", "linear", "sawicki2003")),
+    "lift_slope": _range(0, 10),
+    "lift_max": _range(0, 10),
+    "spin_decay": _bool,
+    "spin_decay_law": _str(("dennis1980", "loth2008")),
+}
 _OUTPUT = {"path": _path(), "fields": _fields}
-_TOP = ("shot", "surfaces", "physics", "collisions", "numerics", "output")
+_TOP = ("shot", "surfaces", "physics", "collisions", "air", "numerics", "output")
 # table -> its schema (the top level: the names of the tables)
-SCHEMAS = {"shot": _SHOT, "surfaces": _SURFACE, "physics": _PHYSICS, "collisions": _COLLISIONS, "numerics": _NUMERICS,
+SCHEMAS = {"shot": _SHOT, "surfaces": _SURFACE, "physics": _PHYSICS, "collisions": _COLLISIONS, "air": _AIR, "numerics": _NUMERICS,
            "output": _OUTPUT, "": _TOP}

@@ -18,6 +18,8 @@ from .schema import (
     FILE_EXCLUSIVE,
     FLOAT32_EXACT_STEPS,
     INT32_MAX,
+    MIN_FLIGHT_TOLERANCE,
+    Air,
     Collisions,
     Numerics,
     Output,
@@ -87,6 +89,32 @@ def _collisions(raw) -> Collisions:
     return Collisions(**kw)
 
 
+_AIR_PARAMETERS = {"drag_coefficient": ("drag", "constant"), "drag_table": ("drag", "table"),
+                   "lift_slope": ("lift", "linear"), "lift_max": ("lift", "sawicki2003")}
+
+
+def _air(raw):
+    """The [air] table, or None when absent. A law's parameter is allowed only with its law."""
+    if raw is None:
+        return None
+    kw = _table(raw, "air", SCHEMAS["air"])
+    for key, (law_key, law) in _AIR_PARAMETERS.items():
+        if key in kw and kw.get(law_key, getattr(Air, law_key)) != law:
+            raise err(f"air.{key}", raw[key], f"only with air.{law_key} = \"{law}\"")
+    if kw.get("drag") == "constant" and "drag_coefficient" not in kw:
+        raise err("air.drag_coefficient", MISSING, "is required with air.drag = \"constant\" (a number in (0, 100])")
+    return Air(**kw)
+
+
+def _numerics(raw) -> Numerics:
+    numerics = Numerics(**_table(raw, "numerics", SCHEMAS["numerics"]))
+    least = MIN_FLIGHT_TOLERANCE[numerics.precision]
+    if numerics.flight_tolerance < least:
+        raise err("numerics.flight_tolerance", numerics.flight_tolerance, f"at least {least:g} with numerics.precision = "
+                  f"\"{numerics.precision}\" (it cannot resolve less)" + ("; use float64" if least > 1e-12 else ""))
+    return numerics
+
+
 def scene_from_dict(raw: dict, base_dir=".") -> Scene:
     """Validate a raw scene dict (as read from TOML); shot.file is resolved relative to `base_dir`."""
     if not isinstance(raw, dict):
@@ -108,7 +136,7 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
         if extra:
             raise err("output.fields", extra[0], "needs pellet-pellet collisions: collisions.enabled = true and "
                        "more than one pellet per shot (shot.count > 1)")
-    numerics = Numerics(**_table(raw.get("numerics"), "numerics", SCHEMAS["numerics"]))
+    numerics = _numerics(raw.get("numerics"))
     if pairs and numerics.precision == "float32":
         # A shot's step counter is a float32 in a float32 run: it stops counting at 2^24, and a shot
         # stops (max_steps) only at a checkpoint, every frame_every steps (or CHECKPOINT_STEPS), so
@@ -129,6 +157,7 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
         numerics=numerics,
         output=Output(**output),
         collisions=collisions,
+        air=_air(raw.get("air")),
     )
 
 

@@ -6,6 +6,7 @@ import dataclasses
 from dataclasses import dataclass
 
 from ..fields import CORE_FIELDS
+from ..physics.drag_tables import DRAG_TABLES
 from .toml_out import plain, toml_lines
 
 Vec3 = tuple[float, float, float]
@@ -21,6 +22,8 @@ MAX_COORDINATE = 1e6  # m, each component of positions (and of direction vectors
 MAX_GRAVITY = 1e4  # m/s^2, each component
 MAX_FRICTION = 100.0
 MAX_IMPACT_DURATION = 1.0  # s
+MAX_AIR_DENSITY = 100.0  # kg/m^3: gases (the laws of docs/air.md are for a gas)
+MAX_WIND = 1e3  # m/s, each component
 
 FLOAT32_EXACT_STEPS = 2**24  # float32 counts every integer up to here
 CHECKPOINT_STEPS = 8  # a shot's steps between checkpoints when collisions.frame_every is 0 (dense.constants.BLOCK_STEPS)
@@ -89,11 +92,58 @@ class Collisions:
     frame_every: int = 0                              # H5MD trajectory frame every k steps (0: none)
 
 
+# International Standard Atmosphere at sea level (15 C, 101,325 Pa): density 1.225 kg/m^3, sound speed
+# 340.3 m/s = sqrt(1.4 x 287.05 x 288.15), viscosity 1.789e-5 Pa s (Sutherland's law at 288.15 K;
+# 1.81e-5 is the 20 C value). docs/air.md gives every default's source.
+@dataclass(frozen=True)
+class Air:
+    """Flight in air: drag, Magnus lift, spin decay, wind (docs/air.md). Absent: the vacuum's exact
+    parabola. density = 0 is the vacuum too."""
+    density: float = 1.225                            # kg/m^3
+    viscosity: float = 1.789e-5                       # Pa s
+    sound_speed: float = 340.3                        # m/s
+    wind: Vec3 = (0.0, 0.0, 0.0)                      # m/s; drag and lift act on u = v - wind
+    drag: str = "loth2021"                            # "loth2021" | "constant" | "table"
+    drag_coefficient: float | None = None             # the constant law's C_D (required with it)
+    drag_table: str | tuple | None = None             # the table law's: "braun" (default), "gs", or ((mach, C_D), ...)
+    drag_factor: float = 1.0                          # multiplies C_D (shot programs: 0.90 to 1.15)
+    magnus: bool = True
+    lift: str = "loth2008"                            # "loth2008" | "linear" | "sawicki2003"
+    lift_slope: float | None = None                   # the linear law's C_L / S (default 0.5)
+    lift_max: float | None = None                     # sawicki2003's cap on C_L (default 0.4)
+    spin_decay: bool = True
+    spin_decay_law: str = "dennis1980"                # "dennis1980" | "loth2008"
+
+    @property
+    def table(self):
+        """The table law's ((Mach, C_D), ...): its own or a named one."""
+        table = self.drag_table or "braun"
+        return DRAG_TABLES[table] if isinstance(table, str) else table
+
+    @property
+    def slope(self) -> float:
+        return 0.5 if self.lift_slope is None else self.lift_slope
+
+    @property
+    def cap(self) -> float:
+        return 0.4 if self.lift_max is None else self.lift_max
+
+    @property
+    def still(self) -> bool:
+        """No air at all (density 0): the vacuum's flight."""
+        return self.density == 0.0
+
+
+FLIGHT_TOLERANCE = 1e-6  # numerics.flight_tolerance by default (bench/RESULTS.md: the knee of run time against error)
+MIN_FLIGHT_TOLERANCE = {"float32": 1e-6, "float64": 1e-12}  # what each precision can resolve
+
+
 @dataclass(frozen=True)
 class Numerics:
     precision: str = "float32"
     chunk_size: int | None = None                     # None: automatic
     fast_math: bool = True                            # CUDA float32: approximate div/sqrt/sin (see README)
+    flight_tolerance: float = FLIGHT_TOLERANCE        # relative, of the integrated flight in air
 
 
 @dataclass(frozen=True)
@@ -111,6 +161,12 @@ class Scene:
     output: Output
     source: str = dataclasses.field(default="", compare=False)
     collisions: Collisions = Collisions()
+    air: Air | None = None
+
+    @property
+    def in_air(self) -> bool:
+        """Pellets fly through air (an [air] table with a density above 0)."""
+        return self.air is not None and not self.air.still
 
     @property
     def pair_collisions(self) -> bool:
@@ -128,6 +184,8 @@ class Scene:
                "numerics": plain(self.numerics), "output": plain(self.output)}
         if self.collisions.enabled:
             out["collisions"] = plain(self.collisions)
+        if self.air is not None:
+            out["air"] = plain(self.air)
         return out
 
     def to_toml(self) -> str:

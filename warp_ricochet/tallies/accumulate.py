@@ -14,6 +14,7 @@ from types import SimpleNamespace
 
 import warp as wp
 
+from ..physics.air_flight import GAVE_UP
 from ..physics.types import types_for
 from .sums import NUM_COUNTS, NUM_EXTREMES, NUM_FLOATS, SUM
 
@@ -24,6 +25,7 @@ OFFSETS = SimpleNamespace(
     RANGE=SUM["range"] - NUM_COUNTS, RANGE2=SUM["range_m2"] - NUM_COUNTS,  # deviations from the thread's first range
     RANGE_STICK=SUM["range_stick"] - NUM_COUNTS, RANGE_SLIP=SUM["range_slip"] - NUM_COUNTS,
     TIME_ALOFT=SUM["time_aloft"] - NUM_COUNTS, V2_LANDING=SUM["v2_landing"] - NUM_COUNTS,
+    FLIGHT_STEPS=SUM["flight_steps"] - NUM_COUNTS, FLIGHT_UNFINISHED=SUM["flight_unfinished"] - NUM_COUNTS,
 )
 
 
@@ -36,6 +38,7 @@ def make_accumulators(precision: str) -> SimpleNamespace:
     extremes_t = wp.types.vector(NUM_EXTREMES, scalar)
     F_PRE, F_POST, F_V2_LAUNCH, F_W2_LAUNCH = OFFSETS.PRE, OFFSETS.POST, OFFSETS.V2_LAUNCH, OFFSETS.W2_LAUNCH
     F_RANGE, F_RANGE2, F_TIME_ALOFT, F_V2_LANDING = OFFSETS.RANGE, OFFSETS.RANGE2, OFFSETS.TIME_ALOFT, OFFSETS.V2_LANDING
+    F_FLIGHT_STEPS, F_FLIGHT_UNFINISHED = OFFSETS.FLIGHT_STEPS, OFFSETS.FLIGHT_UNFINISHED
     num_counts, num_floats, num_extremes = NUM_COUNTS, NUM_FLOATS, NUM_EXTREMES
 
     @wp.func
@@ -73,6 +76,14 @@ def make_accumulators(precision: str) -> SimpleNamespace:
         return acc
 
     @wp.func
+    def add_flight_sums(acc: floats_t, steps: wp.int32, plane: wp.int32):
+        """A flight in air: its integration steps, and whether it was given up (plane GAVE_UP)."""
+        acc[F_FLIGHT_STEPS] += scalar(steps)
+        if plane == GAVE_UP:
+            acc[F_FLIGHT_UNFINISHED] += scalar(1.0)
+        return acc
+
+    @wp.func
     def store_partials(tid: wp.int32, counts: wp.vec4i, acc: floats_t, lo: extremes_t, hi: extremes_t,
                        range_shift: scalar, partial_sums: wp.array2d(dtype=wp.float64),
                        partial_min: wp.array2d(dtype=wp.float64), partial_max: wp.array2d(dtype=wp.float64)):
@@ -96,4 +107,5 @@ def make_accumulators(precision: str) -> SimpleNamespace:
 
     return SimpleNamespace(floats_t=floats_t, extremes_t=extremes_t, inf=scalar(math.inf), offsets=OFFSETS,
                            add_first_impact_sums=add_first_impact_sums, add_landing_sums=add_landing_sums,
+                           add_flight_sums=add_flight_sums,
                            store_partials=store_partials)

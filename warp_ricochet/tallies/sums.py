@@ -27,6 +27,7 @@ FLOAT_NAMES = (
     "vt_post", "vn_post", "wx_post", "wy_post", "wz_post", "v2_post", "w2_post",
     "v2_launch", "w2_launch",  # launch state of the pellets that hit
     "range", "range_m2", "range_stick", "range_slip", "time_aloft", "v2_landing",
+    "flight_steps", "flight_unfinished",  # flight in air: integration steps, flights given up
 )  # range_m2: sum of squared deviations of the ranges from their mean, merged with Chan's formula
 SUM_NAMES = COUNT_NAMES + FLOAT_NAMES
 SUM = {name: i for i, name in enumerate(SUM_NAMES)}
@@ -84,9 +85,13 @@ STAT_UNITS = {
     "dense_time_mean": ("s", "time a shot left the dense phase (s since launch), mean over shots"),
     "skin_overrun_max": ("1", "largest distance a pellet moved between neighbour-list builds, in half skins, when "
                               "above 1 (0 otherwise); above 1 a pair contact beyond the lists could have been missed"),
+    # runs in air
+    "flight_steps_mean": ("1", "integration steps of a pellet's flights in air (after the dense phase), mean over pellets"),
+    "flights_unfinished": ("1", "flights in air given up after MAX_FLIGHT_STEPS steps (counted as escaped)"),
 }
 COLLISION_STATS = ("collided_fraction", "pair_collisions", "pair_energy_lost", "pair_energy_lost_mean",
                    "dense_steps_max", "dense_time_max", "dense_steps_mean", "dense_time_mean", "skin_overrun_max")
+AIR_STATS = ("flight_steps_mean", "flights_unfinished")
 
 
 def empty_totals():
@@ -131,7 +136,7 @@ def merged_m2(segments) -> float:
     return float(m2[landed].sum() + (n[landed] * (total[landed] / n[landed] - mean) ** 2).sum())
 
 
-def finalize(totals, *, pellets: int, mass: float, inertia: float) -> dict[str, float]:
+def finalize(totals, *, pellets: int, mass: float, inertia: float, air: bool = False) -> dict[str, float]:
     """Turn the reduced sums into the statistics of `STAT_UNITS` (NaN where a mean is empty)."""
     sums, mins, maxs, segments = totals
     s = {name: float(sums[i]) for i, name in enumerate(SUM_NAMES)}
@@ -176,7 +181,10 @@ def finalize(totals, *, pellets: int, mass: float, inertia: float) -> dict[str, 
         out[f"range_{branch}_min"] = extreme(mins[j], f"landed_{branch}")
     out["mean_time_aloft"] = mean("time_aloft", "landed")
     out["landing_mean_WT"] = 0.5 * mass * mean("v2_landing", "landed")
-    assert set(out) == set(STAT_UNITS) - set(COLLISION_STATS)
+    if air:
+        out["flight_steps_mean"] = s["flight_steps"] / pellets if pellets else math.nan
+        out["flights_unfinished"] = s["flight_unfinished"]
+    assert set(out) == set(stat_names(False, air)) - set(COLLISION_STATS)
     return out
 
 
@@ -230,6 +238,8 @@ def statistics_from_arrays(
     return finalize((sums, mins, maxs, spread), pellets=pellets, mass=mass, inertia=inertia)
 
 
-def stat_names(collisions: bool) -> tuple[str, ...]:
-    """The statistics a run computes: those of `finalize`, and with pair collisions COLLISION_STATS."""
-    return tuple(name for name in STAT_UNITS if collisions or name not in COLLISION_STATS)
+def stat_names(collisions: bool, air: bool = False) -> tuple[str, ...]:
+    """The statistics a run computes: those of `finalize`, with pair collisions COLLISION_STATS,
+    in air AIR_STATS."""
+    return tuple(name for name in STAT_UNITS if (collisions or name not in COLLISION_STATS)
+                 and (air or name not in AIR_STATS))

@@ -1,0 +1,271 @@
+"""The flight in air between contacts: adaptive Dormand-Prince steps (`physics.integrate`), each
+accepted step searched for plane contacts on its dense output, so a contact is located on the
+step's interpolant (to rounding) rather than stepped past.
+
+The rules at the planes are those of the exact flight (`physics.ballistic`): planes are one-sided
+(one with the pellet's centre behind it at the start is never met); a pellet touching or
+overlapping a plane, or leaving the plane it just hit, meets it at once if it is not moving away
+from it. Otherwise a plane it touches (the one it is leaving, or one it overlaps) waits until the
+pellet's normal velocity turns towards it: the pellet meets it then if it is still touching,
+else the plane is watched from there. A watched plane is met where its gap n.(x - p) - R reaches
+0, also inside a step whose ends are both clear of it (a graze: the gap's minimum on the step).
+Ties go to the lower index; a contact later than MAX_FLIGHT_TIME counts as none, and a flight
+that takes more than MAX_FLIGHT_STEPS steps is given up (plane -2, counted in the statistics).
+"""
+
+import functools
+from types import SimpleNamespace
+
+import warp as wp
+
+from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT, ROUNDING
+from .integrate import make_dense_output, make_stepper
+from .types import types_for
+
+MAX_FLIGHT_STEPS = 1 << 16  # per flight between contacts
+MAX_PLANES_IN_AIR = 31  # a flight keeps its planes' states in the bits of an int32
+GAVE_UP = -2  # the plane index of a flight given up after MAX_FLIGHT_STEPS
+
+
+@functools.cache
+def make_roots(precision: str) -> SimpleNamespace:
+    """`root(lo, hi, slope, sign, g0, s0, q0, g1, s1, q1)`: where the quintic gap on a step (or,
+    `slope`, its derivative), times `sign`, falls from > 0 at lo to <= 0 at hi (Illinois)."""
+    t = types_for(precision)
+    scalar = t.scalar
+    hermite = make_dense_output(precision).hermite
+    THETA_TOLERANCE = scalar(4.0 * EPSILON[precision])
+    ITERATIONS = 64 if precision == "float64" else 40
+
+    @wp.func
+    def evaluate(theta: scalar, slope: wp.int32, sign: scalar, g0: scalar, s0: scalar, q0: scalar, g1: scalar,
+                 s1: scalar, q1: scalar):
+        value, derivative = hermite(theta, g0, s0, q0, g1, s1, q1)
+        if slope != 0:
+            return sign * derivative
+        return sign * value
+
+    @wp.func
+    def root(lo: scalar, hi: scalar, slope: wp.int32, sign: scalar, g0: scalar, s0: scalar, q0: scalar,
+             g1: scalar, s1: scalar, q1: scalar):
+        """The bracket's upper end once it is narrower than a few rounding errors of theta."""
+        f_lo = evaluate(lo, slope, sign, g0, s0, q0, g1, s1, q1)
+        f_hi = evaluate(hi, slope, sign, g0, s0, q0, g1, s1, q1)
+        side = wp.int32(0)
+        for _ in range(ITERATIONS):
+            if hi - lo > THETA_TOLERANCE:
+                mid = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
+                if not (mid > lo and mid < hi):
+                    mid = scalar(0.5) * (lo + hi)
+                f_mid = evaluate(mid, slope, sign, g0, s0, q0, g1, s1, q1)
+                if f_mid > scalar(0.0):
+                    lo = mid
+                    f_lo = f_mid
+                    if side == 1:
+                        f_hi = scalar(0.5) * f_hi
+                    side = wp.int32(1)
+                else:
+                    hi = mid
+                    f_hi = f_mid
+                    if side == -1:
+                        f_lo = scalar(0.5) * f_lo
+                    side = wp.int32(-1)
+        return hi
+
+    return SimpleNamespace(root=root)
+
+
+@functools.cache
+def make_plane_search(precision: str, planes) -> SimpleNamespace:
+    """`start(...)` (the planes' states at a flight's start) and `search(...)` (the earliest
+    contact on an accepted step); `planes`: fixed at code generation (unrolled) or None."""
+    t = types_for(precision)
+    scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
+    roots = make_roots(precision)
+    hermite = make_dense_output(precision).hermite
+    STATIC, TOLERANCE = planes, scalar(ROUNDING * EPSILON[precision])
+
+    @wp.func
+    def start_plane(k: wp.int32, position: vec3, velocity: vec3, touching: wp.int32, surfaces: Surfaces,
+                    physics: Physics):
+        """Plane k at a flight's start: 0 never met, 1 watched, 2 waiting for the turn, 3 met now."""
+        normal = surfaces.normal[k]
+        offset = position - surfaces.point[k]
+        height = wp.dot(offset, normal)
+        moving_away = wp.dot(velocity, normal) > scalar(0.0)
+        state = wp.int32(0)
+        if k == touching:
+            state = wp.int32(3)
+            if moving_away:
+                state = wp.int32(2)
+        elif height >= scalar(0.0):
+            gap = height - physics.radius
+            if wp.abs(gap) <= TOLERANCE * (wp.abs(offset[0]) + wp.abs(offset[1]) + wp.abs(offset[2]) + physics.radius):
+                gap = scalar(0.0)  # touching, up to rounding
+            state = wp.int32(1)
+            if gap <= scalar(0.0):
+                state = wp.int32(3)
+                if moving_away:
+                    state = wp.int32(2)
+        return state
+
+    @wp.func
+    def start(position: vec3, velocity: vec3, touching: wp.int32, surfaces: Surfaces, physics: Physics):
+        """(watched, waiting) bit masks, and the first plane met at once (-1 none)."""
+        watched = wp.int32(0)
+        waiting = wp.int32(0)
+        now = wp.int32(-1)
+        count = surfaces.point.shape[0]
+        if wp.static(STATIC is not None):
+            count = wp.static(STATIC)
+        for k in range(count):
+            state = start_plane(k, position, velocity, touching, surfaces, physics)
+            if state == 1:
+                watched = watched | (wp.int32(1) << k)
+            elif state == 2:
+                waiting = waiting | (wp.int32(1) << k)
+            elif state == 3 and now < 0:
+                now = k
+        return watched, waiting, now
+
+    @wp.func
+    def plane_theta(watch: wp.int32, g0: scalar, s0: scalar, q0: scalar, g1: scalar, s1: scalar, q1: scalar):
+        """Where on the step a plane's gap (values g, h n.v and h^2 n.a at its ends) is met, 2 if
+        not; and whether a waiting plane turned to watched. watch: 1 watched, 2 waiting."""
+        theta = scalar(2.0)
+        now_watched = wp.int32(0)
+        low = scalar(0.0)
+        if watch == 2 and s1 < scalar(0.0):  # its normal velocity turned towards it in this step
+            turn = roots.root(scalar(0.0), scalar(1.0), 1, scalar(1.0), g0, s0, q0, g1, s1, q1)
+            gap_turn, _slope = hermite(turn, g0, s0, q0, g1, s1, q1)
+            if gap_turn <= scalar(0.0):
+                theta = turn
+            else:
+                now_watched = wp.int32(1)
+                low = turn
+        if watch == 1 or now_watched != 0:
+            if g1 <= scalar(0.0):
+                theta = roots.root(low, scalar(1.0), 0, scalar(1.0), g0, s0, q0, g1, s1, q1)
+            elif s0 < scalar(0.0) and s1 > scalar(0.0):  # a minimum inside: a graze?
+                bottom = roots.root(scalar(0.0), scalar(1.0), 1, scalar(-1.0), g0, s0, q0, g1, s1, q1)
+                gap_bottom, _slope = hermite(bottom, g0, s0, q0, g1, s1, q1)
+                if gap_bottom <= scalar(0.0):
+                    theta = roots.root(scalar(0.0), bottom, 0, scalar(1.0), g0, s0, q0, g1, s1, q1)
+        return theta, now_watched
+
+    @wp.func
+    def search(h: scalar, x0: vec3, v0: vec3, a0: vec3, x1: vec3, v1: vec3, a1: vec3, watched: wp.int32,
+               waiting: wp.int32, surfaces: Surfaces, physics: Physics):
+        """The earliest contact on an accepted step from state 0 to state 1: (theta in [0, 1],
+        plane; -1 and 2 for none) and the planes' states after the step."""
+        best_theta = scalar(2.0)
+        best = wp.int32(-1)
+        count = surfaces.point.shape[0]
+        if wp.static(STATIC is not None):
+            count = wp.static(STATIC)
+        for k in range(count):
+            bit = wp.int32(1) << k
+            watch = wp.int32(0)
+            if (watched & bit) != 0:
+                watch = wp.int32(1)
+            elif (waiting & bit) != 0:
+                watch = wp.int32(2)
+            if watch != 0:
+                normal = surfaces.normal[k]
+                level = wp.dot(surfaces.point[k], normal) + physics.radius
+                theta, now_watched = plane_theta(watch, wp.dot(x0, normal) - level, h * wp.dot(v0, normal),
+                                                 h * h * wp.dot(a0, normal), wp.dot(x1, normal) - level,
+                                                 h * wp.dot(v1, normal), h * h * wp.dot(a1, normal))
+                if now_watched != 0:
+                    watched = watched | bit
+                    waiting = waiting & ~bit
+                if theta < best_theta:
+                    best_theta = theta
+                    best = k
+        return best_theta, best, watched, waiting
+
+    return SimpleNamespace(start=start, search=search)
+
+
+@functools.cache
+def make_air_flight(precision: str, planes, laws: tuple) -> SimpleNamespace:
+    """`to_contact` and `advance` in air (the flight interface of `physics.flight`), plus `steps`:
+    the steps a `to_contact` took are its sixth value."""
+    t = types_for(precision)
+    scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
+    stepper, dense, search = make_stepper(precision, laws), make_dense_output(precision), make_plane_search(precision, planes)
+    LATEST, MAX_STEPS = scalar(MAX_FLIGHT_TIME), MAX_FLIGHT_STEPS
+
+    @wp.func
+    def first_step(velocity: vec3, acceleration: vec3, physics: Physics):
+        """A first step of about tolerance^(1/5) of the time the speed takes to change by itself."""
+        speed = wp.length(velocity) + physics.air.speed_floor
+        return scalar(0.1) * wp.pow(physics.air.tolerance, scalar(0.2)) * speed / (wp.length(acceleration) + scalar(1e-30))
+
+    @wp.func
+    def next_step(h: scalar, error: scalar):
+        """The step after one of length h with this scaled error (safety 0.9, within 0.2 to 5 x h)."""
+        factor = scalar(5.0)
+        if error > scalar(0.0):
+            factor = wp.clamp(scalar(0.9) * wp.pow(error, scalar(-0.2)), scalar(0.2), scalar(5.0))
+        return h * factor
+
+    @wp.func
+    def to_contact(position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces,
+                   physics: Physics):
+        """(dt, plane, x, v, w, steps) at the next plane contact; plane -1 (none before
+        MAX_FLIGHT_TIME) or GAVE_UP with the state where the flight stopped."""
+        watched, waiting, now = search.start(position, velocity, touching, surfaces, physics)
+        if now >= 0:
+            return scalar(0.0), now, position, velocity, spin, wp.int32(0)
+        if watched == 0 and waiting == 0:
+            return scalar(NO_CONTACT), wp.int32(-1), position, velocity, spin, wp.int32(0)
+        acceleration, spin_change = stepper.rates(velocity, spin, physics)
+        h = first_step(velocity, acceleration, physics)
+        time = scalar(0.0)
+        steps = wp.int32(0)
+        while steps < MAX_STEPS and time < LATEST:
+            h = wp.min(h, LATEST - time)
+            x1, v1, w1, a1, d1, error = stepper.step(position, velocity, spin, acceleration, spin_change, h, physics)
+            steps += 1
+            if error <= scalar(1.0):
+                theta, k, watched, waiting = search.search(h, position, velocity, acceleration, x1, v1, a1, watched,
+                                                           waiting, surfaces, physics)
+                if k >= 0:
+                    x, slope = dense.hermite_vec(theta, position, h * velocity, h * h * acceleration, x1, h * v1, h * h * a1)
+                    w = dense.cubic_vec(theta, spin, h * spin_change, w1, h * d1)
+                    return time + theta * h, k, x, slope / h, w, steps
+                position = x1
+                velocity = v1
+                spin = w1
+                acceleration = a1
+                spin_change = d1
+                time = time + h
+            h = next_step(h, error)
+        stopped = wp.int32(-1)
+        if steps >= MAX_STEPS:
+            stopped = wp.int32(GAVE_UP)
+        return scalar(NO_CONTACT), stopped, position, velocity, spin, steps
+
+    @wp.func
+    def advance(position: vec3, velocity: vec3, spin: vec3, dt: scalar, physics: Physics):
+        """The state dt (s) later, no contact looked for."""
+        acceleration, spin_change = stepper.rates(velocity, spin, physics)
+        h = wp.min(first_step(velocity, acceleration, physics), dt)
+        time = scalar(0.0)
+        steps = wp.int32(0)
+        while time < dt and steps < MAX_STEPS:
+            h = wp.min(h, dt - time)
+            x1, v1, w1, a1, d1, error = stepper.step(position, velocity, spin, acceleration, spin_change, h, physics)
+            steps += 1
+            if error <= scalar(1.0):
+                position = x1
+                velocity = v1
+                spin = w1
+                acceleration = a1
+                spin_change = d1
+                time = time + h
+            h = next_step(h, error)
+        return position, velocity, spin
+
+    return SimpleNamespace(to_contact=to_contact, advance=advance)
