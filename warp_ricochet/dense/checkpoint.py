@@ -41,6 +41,7 @@ def make_checkpoint(spec) -> SimpleNamespace:
     next_contact = make_flight(spec.precision, spec.static_planes).next_contact
     _entry, _return, _contact, ballistic_position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
     contact_time, recentre = make_events(spec).contact_time, make_frame(spec).recentre
+    AIR = spec.in_air
 
     @wp.func(inline=True)
     def horizon_pellet(i: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
@@ -123,8 +124,9 @@ def make_checkpoint(spec) -> SimpleNamespace:
                 # before it (pellets carry reference states: only the clock moves)
                 time = cloud.clock[s, CLOCK_TIME]
                 ahead = cloud.clock[s, CLOCK_NEXT] - cloud.clock[s, CLOCK_STEP]
-                if cloud.clock[s, CLOCK_NEXT] < NEVER and ahead > time:
-                    cloud.clock[s, CLOCK_TIME] = ahead
+                if wp.static(not AIR):  # (in air the pellets slow down in the time a jump skips)
+                    if cloud.clock[s, CLOCK_NEXT] < NEVER and ahead > time:
+                        cloud.clock[s, CLOCK_TIME] = ahead
                 # the co-moving frame follows the shot's flying pellets (after a ricochet they move
                 # nothing like the launch): speeds relative to it set the step. The lists are
                 # rebuilt in the new frame before the next step.

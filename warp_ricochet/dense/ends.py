@@ -11,6 +11,7 @@ from ..core.outputs import make_outputs
 from ..launch.source import make_source
 from ..physics.ballistic import make_ballistic
 from ..physics.flight import make_flight
+from .air import make_dense_air
 from .constants import (
     CHECKPOINT,
     CLOCK_CUT,
@@ -39,7 +40,11 @@ def make_ends(spec) -> SimpleNamespace:
     NEVER, WRITE = d.NEVER, bool(spec.core_fields)
     launch_state = make_source(spec.precision, spec.from_file).launch_state
     write_initial = make_outputs(spec.precision).write_initial
-    next_contact = make_flight(spec.precision, spec.static_planes).next_contact
+    # the arrival window: from each pellet's first contact in its own flight (in air: integrated)
+    next_contact = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws).next_contact
+    AIR = spec.in_air
+    air = make_dense_air(spec) if AIR else None  # (its calls compile only in air)
+    set_reference = make_frame(spec).set_reference
     _entry, _return, _contact, ballistic_position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
     recentre = make_frame(spec).recentre
 
@@ -66,6 +71,7 @@ def make_ends(spec) -> SimpleNamespace:
         cloud.first_slipped[i] = 0
         cloud.collision_count[i] = 0
         cloud.energy_lost[i] = scalar(0.0)
+        cloud.air_time[i] = scalar(0.0)
         cloud.last_collision[i] = scalar(wp.nan)
         cloud.neighbour_count[i] = 0
         cloud.stale[i] = 1
@@ -113,6 +119,12 @@ def make_ends(spec) -> SimpleNamespace:
             age = time - cloud.time[i]
             position = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age)
             velocity = ballistic_velocity(cloud.velocity[i], physics.gravity, age)
+            if wp.static(AIR):  # the air since its last kick; the core flies on from here
+                spin = cloud.angular_velocity[i]
+                velocity, spin = air.kicked(velocity, spin, time - cloud.air_time[i], physics)
+                cloud.air_time[i] = time
+                set_reference(cloud, i, position, velocity, spin, time)
+                cloud.touching[i] = -1  # (off the plane it left: the core's flight starts from the gap)
         if cloud.release_time.shape[0] > 0:
             cloud.release_time[i] = time
         if cloud.release_position.shape[0] > 0:

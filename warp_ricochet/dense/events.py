@@ -12,6 +12,7 @@ from ..physics.ballistic import make_ballistic
 from ..physics.contact import make_contact
 from ..physics.flight import make_flight
 from ..physics.pair import make_pair_law
+from .air import make_dense_air
 from .constants import ENDED
 from .frame import make_frame
 from .state import dense_types
@@ -29,8 +30,10 @@ def make_events(spec) -> SimpleNamespace:
     _entry, _return, _contact, ballistic_position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
     pair_law = make_pair_law(scalar)
     write_impact = make_outputs(spec.precision).write_impact
-    set_reference = make_frame(spec).set_reference
-    BOUNCES, WRITE = spec.bounces, bool(spec.core_fields)
+    fr = make_frame(spec)
+    set_reference, mark_stale = fr.set_reference, fr.mark_stale
+    BOUNCES, WRITE, AIR = spec.bounces, bool(spec.core_fields), spec.in_air
+    air = make_dense_air(spec) if AIR else None  # (its calls compile only in air)
 
     @wp.func
     def plane_outcome(
@@ -38,11 +41,13 @@ def make_events(spec) -> SimpleNamespace:
         position: vec3, velocity: vec3, spin: vec3, time: scalar,
         cloud: Cloud, surfaces: Surfaces, physics: Physics,
     ):
-        """What plane_contact does to pellet i, without doing it: its position, velocity before
-        and after, spin after, slipped, the contact time, whether it flies on, whether it is an
-        impact (not the end of its flight)."""
-        position, velocity, spin_then = advance(position, velocity, spin, wait, physics)
+        """What plane_contact does to pellet i, without doing it: its position, velocity and spin
+        before and after, slipped, the contact time, whether it flies on, whether it is an impact
+        (not the end of its flight)."""
+        position, velocity, spin = advance(position, velocity, spin, wait, physics)
         time = time + wait
+        if wp.static(AIR):  # the air up to the contact (dense.air)
+            velocity, spin = air.kicked(velocity, spin, time - cloud.air_time[i], physics)
         flying = wp.int32(1)
         impacted = wp.int32(0)
         velocity_after = velocity
@@ -52,7 +57,7 @@ def make_events(spec) -> SimpleNamespace:
             flying = wp.int32(0)  # the landing after the last ricochet
         else:  # an impact, or no closing speed: it stays on the surface (physics.contact)
             velocity_after, spin_after, slipped, impacted, flying = meet_surface(k, velocity, spin, surfaces, physics)
-        return position, velocity, velocity_after, spin_after, slipped, time, flying, impacted
+        return position, velocity, spin, velocity_after, spin_after, slipped, time, flying, impacted
 
     @wp.func
     def plane_contact(
@@ -64,9 +69,11 @@ def make_events(spec) -> SimpleNamespace:
         exactly as the core kernel), or the end of its flight (its contact after `bounces`
         ricochets, or no closing speed). Returns the new reference state and whether it flies on."""
         radius = physics.radius
-        position, velocity, velocity_after, spin_after, slipped, time, flying, impacted = plane_outcome(
+        position, velocity, spin, velocity_after, spin_after, slipped, time, flying, impacted = plane_outcome(
             i, k, wait, position, velocity, spin, time, cloud, surfaces, physics
         )
+        if wp.static(AIR):
+            cloud.air_time[i] = time
         normal = surfaces.normal[k]
         impacts = cloud.impacts[i]
         if impacted != 0:
@@ -108,14 +115,6 @@ def make_events(spec) -> SimpleNamespace:
         if disc < scalar(0.0):
             return scalar(-1.0)
         return gap / (-du + wp.sqrt(disc))  # the smaller root, without cancellation
-
-    @wp.func
-    def mark_stale(cloud: Cloud, i: wp.int32):
-        """Pellet i changed (or ended): its event, and its neighbours', are found again (the
-        lists are symmetric, so every pellet that could have chosen i is marked)."""
-        cloud.stale[i] = 1
-        for n in range(cloud.neighbour_count[i]):
-            cloud.stale[cloud.neighbours[i, n]] = 1
 
     @wp.func
     def plane_contacts_until(i: wp.int32, step_end: scalar, most: wp.int32, cloud: Cloud, surfaces: Surfaces,
@@ -163,10 +162,13 @@ def make_events(spec) -> SimpleNamespace:
         xb = ballistic_position(cloud.position[b], cloud.velocity[b], gravity, age_b)
         vb = ballistic_velocity(cloud.velocity[b], gravity, age_b)
         wb = cloud.angular_velocity[b]
+        if wp.static(AIR):  # the air up to the contact (dense.air)
+            va, wa = air.kicked(va, wa, when - cloud.air_time[a], physics)
+            vb, wb = air.kicked(vb, wb, when - cloud.air_time[b], physics)
         va2, wa2, vb2, wb2, collided, _slipped = pair_law(
             xa, va, wa, physics.radius, pair.mass, xb, vb, wb, physics.radius, pair.mass,
             physics.inertia_factor, restitution, pair.mu_s, pair.mu_d,
         )
         return xa, va, wa, xb, vb, wb, va2, wa2, vb2, wb2, collided
 
-    return SimpleNamespace(plane_outcome=plane_outcome, plane_contact=plane_contact, contact_time=contact_time, mark_stale=mark_stale, plane_contacts_until=plane_contacts_until, pair_outcome=pair_outcome)
+    return SimpleNamespace(plane_outcome=plane_outcome, plane_contact=plane_contact, contact_time=contact_time, plane_contacts_until=plane_contacts_until, pair_outcome=pair_outcome)

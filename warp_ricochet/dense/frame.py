@@ -131,4 +131,12 @@ def make_frame(spec) -> SimpleNamespace:
         cloud.grid_point[i] = relative
         return relative
 
-    return SimpleNamespace(drift_point=drift_point, recentre=recentre, relative_to_frame=relative_to_frame, relative_to_drift=relative_to_drift, skin_exit=skin_exit, stepping=stepping, set_reference=set_reference, set_build_point=set_build_point)
+    @wp.func
+    def mark_stale(cloud: Cloud, i: wp.int32):
+        """Pellet i changed (or ended): its event, and its neighbours', are found again (the
+        lists are symmetric, so every pellet that could have chosen i is marked)."""
+        cloud.stale[i] = 1
+        for n in range(cloud.neighbour_count[i]):
+            cloud.stale[cloud.neighbours[i, n]] = 1
+
+    return SimpleNamespace(drift_point=drift_point, recentre=recentre, relative_to_frame=relative_to_frame, relative_to_drift=relative_to_drift, skin_exit=skin_exit, stepping=stepping, set_reference=set_reference, set_build_point=set_build_point, mark_stale=mark_stale)

@@ -8,6 +8,7 @@ from types import SimpleNamespace
 
 import warp as wp
 
+from .air import make_dense_air
 from .checkpoint import make_checkpoint
 from .constants import FLAG_OVERFLOW, SHOT_DONE, SHOT_REBUILD, SHOT_STALL
 from .ends import make_ends
@@ -81,12 +82,22 @@ def make_step_kernels(spec) -> SimpleNamespace:
     Surfaces, Physics, Outputs, Cloud, Pair = d.Surfaces, d.Physics, d.Outputs, d.Cloud, d.Pair
     opts = d.opts
     step_fns, round_fns, checkpoint_fns, list_fns = make_step(spec), make_rounds(spec), make_checkpoint(spec), make_lists(spec)
+    AIR = spec.in_air
+    air = make_dense_air(spec) if AIR else None
 
     @wp.kernel(**opts)
     def bounds_kernel(pair: Pair, physics: Physics, cloud: Cloud):
         t = wp.tid()
         for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
             step_fns.bounds_pellet(i, pair, physics, cloud)
+
+    @wp.kernel(**opts)
+    def kick_kernel(pair: Pair, physics: Physics, cloud: Cloud):
+        """In air: each pellet's kick before a step (dense.air)."""
+        t = wp.tid()
+        if wp.static(AIR):
+            for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
+                air.kick_pellet(i, pair, physics, cloud)
 
     @wp.kernel(**opts)
     def plan_kernel(pair: Pair, physics: Physics, cloud: Cloud):

@@ -64,6 +64,7 @@ class DensePhase:
         self.rounds = coll.rounds
         self.block_steps = coll.frame_every or BLOCK_STEPS
         self.kernels = {**vars(make_setup_kernels(spec)), **vars(make_step_kernels(spec))}
+        self.in_air = spec.in_air
         shots = -(-capacity // self.count)
         self.cloud, self.field_arrays = allocate_cloud(model.precision, self.device, capacity, shots, coll.rounds,
                                                        coll.max_neighbours, spec.collision_fields)
@@ -214,6 +215,8 @@ class DensePhase:
         commands = [self._launch("bounds_kernel", threads, [p, m.physics, c], True),
                     self._launch("plan_kernel", shots, [p, m.physics, c], True),
                     self._launch("prepare_kernel", threads, [p, m.physics, c], True)]
+        if self.in_air:
+            commands.append(self._launch("kick_kernel", threads, [p, m.physics, c], True))
         for r in range(self.rounds):
             commands.append(self._launch("choose_kernel", threads, [r, 0, p, m.surfaces, m.physics, c], True))
             commands.append(self._launch("resolve_kernel", threads, [r, p, m.surfaces, m.physics, c, outputs], True))

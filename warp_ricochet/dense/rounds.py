@@ -32,8 +32,9 @@ def make_rounds(spec) -> SimpleNamespace:
     _entry, _return, _contact, ballistic_position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
     ev, fr = make_events(spec), make_frame(spec)
     contact_time, plane_outcome, pair_outcome = ev.contact_time, ev.plane_outcome, ev.pair_outcome
-    plane_contacts_until, mark_stale = ev.plane_contacts_until, ev.mark_stale
+    plane_contacts_until, mark_stale = ev.plane_contacts_until, fr.mark_stale
     stepping, skin_exit, set_reference = fr.stepping, fr.skin_exit, fr.set_reference
+    AIR = spec.in_air
 
     @wp.func(inline=True)
     def choose_pellet(i: wp.int32, look: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
@@ -84,7 +85,7 @@ def make_rounds(spec) -> SimpleNamespace:
             cloud.event_partner[i] = best
             exit = NEVER
             if best <= -2:
-                at, _v, velocity_after, _w, _slipped, contact, flying, impacted = plane_outcome(
+                at, _v, _w, velocity_after, _w_after, _slipped, contact, flying, impacted = plane_outcome(
                     i, k, wait, position, velocity, cloud.angular_velocity[i], time, cloud, surfaces, physics
                 )
                 if flying != 0 and impacted != 0:
@@ -168,6 +169,9 @@ def make_rounds(spec) -> SimpleNamespace:
         # `when` too: found again from there, it is no longer closing, and the clock moves on)
         set_reference(cloud, a, xa, va2, wa2, when)
         set_reference(cloud, b, xb, vb2, wb2, when)
+        if wp.static(AIR):  # (pair_outcome gave them the air up to the contact)
+            cloud.air_time[a] = when
+            cloud.air_time[b] = when
         cloud.round_applied[round] = 1
         mark_stale(cloud, a)
         mark_stale(cloud, b)

@@ -59,6 +59,7 @@ def make_state(precision: str):
         collision_count: wp.array(dtype=wp.int32)
         last_collision: wp.array(dtype=scalar)  # s since launch, NaN: never
         energy_lost: wp.array(dtype=scalar)  # J, half of each of its pair collisions' losses
+        air_time: wp.array(dtype=scalar)  # s: in air, the air has acted on it up to this time (dense.air)
         # each pellet's earliest event (plane or listed pair), kept until it or a neighbour changes
         event_time: wp.array(dtype=scalar)  # s since launch
         event_partner: wp.array(dtype=wp.int32)  # pellet row, -2 - plane, -1 none
@@ -103,6 +104,7 @@ def make_state(precision: str):
         contact_duration: scalar  # s, TC model
         fixed_step: scalar  # s, 0: adaptive
         step_fraction: scalar
+        air_step_fraction: scalar  # in air: the adaptive step is at most this of |u| / |a_air|
         half_skin: scalar  # m, the configured one (a shot's own may widen: Cloud.half_skin)
         max_steps: scalar
         block_steps: wp.int32  # a shot's checkpoints (settling, frames) are every this many of its steps
@@ -130,7 +132,7 @@ def dense_types(spec) -> SimpleNamespace:
 VECTORS = ("position", "velocity", "angular_velocity", "ricochet_point", "first_velocity_before",
            "first_angular_velocity_before", "first_velocity_after", "first_angular_velocity_after", "launch_velocity",
            "launch_angular_velocity", "grid_point", "build_offset", "now_position", "now_velocity")
-SCALARS = ("time", "ricochet_time", "energy_lost", "event_time", "event_exit", "last_collision", "now_speed")
+SCALARS = ("time", "ricochet_time", "energy_lost", "event_time", "event_exit", "last_collision", "now_speed", "air_time")
 INTEGERS = ("phase", "end_surface", "touching", "impacts", "last_slipped", "first_surface", "first_slipped",
             "collision_count", "event_partner", "stale", "neighbour_count")
 # the dense phase's output arrays (fields.FIELDS, stage "collide"), by their Cloud members;
@@ -185,6 +187,7 @@ def pair_struct(precision: str, model, collisions, count: int, block_steps: int)
     pair.contact_duration = scalar(collisions.contact_duration)
     pair.fixed_step = scalar(collisions.time_step or 0.0)
     pair.step_fraction = scalar(collisions.step_fraction)
+    pair.air_step_fraction = scalar(collisions.air_step_fraction)
     skin = collisions.skin * 2.0 * model.radius  # m
     pair.half_skin = scalar(0.5 * skin)
     pair.max_steps = scalar(collisions.max_steps)

@@ -8,8 +8,10 @@ from types import SimpleNamespace
 import warp as wp
 
 from ..physics.ballistic import make_ballistic
+from .air import make_dense_air
 from .constants import (
     CHECKPOINT,
+    CLOCK_AIR,
     CLOCK_CUT,
     CLOCK_DRIFT,
     CLOCK_OVERRUN,
@@ -42,6 +44,8 @@ def make_step(spec) -> SimpleNamespace:
     stepping, relative_to_drift, relative_to_frame, drift_point = fr.stepping, fr.relative_to_drift, fr.relative_to_frame, fr.drift_point
     choose_pellet, resolve_pellet, step_end_of = ro.choose_pellet, ro.resolve_pellet, ro.step_end_of
     plane_contacts_until = make_events(spec).plane_contacts_until
+    AIR = spec.in_air
+    air = make_dense_air(spec) if AIR else None  # (its calls compile only in air)
 
     @wp.func(inline=True)
     def bounds_pellet(i: wp.int32, pair: Pair, physics: Physics, cloud: Cloud):
@@ -53,6 +57,10 @@ def make_step(spec) -> SimpleNamespace:
             return
         _relative, relative_velocity = relative_to_drift(cloud, physics, i, s)
         wp.atomic_max(cloud.clock, s, CLOCK_DRIFT, wp.length(relative_velocity))
+        if wp.static(AIR):
+            age = cloud.clock[s, CLOCK_TIME] - cloud.time[i]
+            rate = air.air_rate(ballistic_velocity(cloud.velocity[i], physics.gravity, age), cloud.angular_velocity[i], physics)
+            wp.atomic_max(cloud.clock, s, CLOCK_AIR, rate)
 
     @wp.func(inline=True)
     def drift_and_edge(i: wp.int32, time: scalar, frame_point: vec3, frame_velocity: vec3, edge_distance: scalar,
@@ -65,12 +73,15 @@ def make_step(spec) -> SimpleNamespace:
         nothing to do for it."""
         speed = scalar(0.0)
         edge = wp.int32(0)
+        rate = scalar(0.0)
         if cloud.phase[i] == FLYING:
             relative, relative_velocity = relative_to_frame(cloud, physics, i, time, frame_point, frame_velocity)
             speed = wp.length(relative_velocity)
             if wp.length(relative - cloud.build_offset[i]) > edge_distance:
                 edge = wp.int32(1)
-        return speed, edge
+            if wp.static(AIR):
+                rate = air.air_rate(relative_velocity + frame_velocity, cloud.angular_velocity[i], physics)
+        return speed, edge, rate
 
     @wp.func(inline=True)
     def plan_shot(s: wp.int32, pair: Pair, physics: Physics, cloud: Cloud):
@@ -87,6 +98,10 @@ def make_step(spec) -> SimpleNamespace:
             drift = wp.max(cloud.clock[s, CLOCK_DRIFT], TINY_SPEED)
             step = wp.min(pair.step_fraction * diameter / (scalar(2.0) * drift), pair.half_skin / (scalar(SKIN_STEPS) * drift))
             step = wp.min(step, QUIET_STEP)
+            if wp.static(AIR):
+                step = wp.min(step, pair.air_step_fraction / wp.max(cloud.clock[s, CLOCK_AIR], TINY_SPEED))
+        if wp.static(AIR):
+            cloud.clock[s, CLOCK_AIR] = scalar(0.0)
         cloud.clock[s, CLOCK_STEP] = step
         cloud.clock[s, CLOCK_DRIFT] = scalar(0.0)
         cloud.clock[s, CLOCK_CUT] = NEVER
@@ -156,19 +171,26 @@ def make_step(spec) -> SimpleNamespace:
             # fixed: no bound on how far it carries a pellet)
             drift = scalar(0.0)
             edge = wp.int32(0)
+            rate = scalar(0.0)
             time = cloud.clock[s, CLOCK_TIME]
             frame_point = drift_point(cloud, s, time, physics.gravity)
             frame_velocity = ballistic_velocity(cloud.drift_velocity[s], physics.gravity, time)
             edge_distance = scalar(SKIN_EDGE) * cloud.half_skin[s]
             for i in range(first, last):
-                speed, near = drift_and_edge(i, time, frame_point, frame_velocity, edge_distance, physics, cloud)
+                speed, near, pellet_rate = drift_and_edge(i, time, frame_point, frame_velocity, edge_distance, physics, cloud)
                 drift = wp.max(drift, speed)
                 edge = wp.max(edge, near)
+                rate = wp.max(rate, pellet_rate)
             wp.atomic_max(cloud.clock, s, CLOCK_DRIFT, drift)
+            if wp.static(AIR):
+                wp.atomic_max(cloud.clock, s, CLOCK_AIR, rate)
             plan_shot(s, pair, physics, cloud)
             if edge != 0 or pair.fixed_step > scalar(0.0):
                 for i in range(first, last):
                     prepare_pellet(i, pair, physics, cloud)
+            if wp.static(AIR):
+                for i in range(first, last):
+                    air.kick_pellet(i, pair, physics, cloud)
             # A pellet whose kept event is after the step (most are) has nothing to do in it
             # until a neighbour's event makes it stale: the per-pellet functions would return at
             # once, after reading the shot's flags and clock (step_end_of is never after the full
