@@ -1,0 +1,155 @@
+"""Flight in air (physics/air_flight.py) through the whole pipeline, against the float64 SciPy
+reference (reference/air.py: DOP853, rtol 1e-12) and by its limits and invariants."""
+
+import math
+
+import h5py
+import numpy as np
+import pytest
+
+import warp_ricochet as wr
+from warp_ricochet.reference import air as ref
+from warp_ricochet.scene import scene_from_dict
+
+SURFACES = [{"point": [0.0, 0.0, 0.0], "normal": [0.05, 1.0, 0.02], "restitution": 0.4, "mu_s": 0.3, "mu_d": 0.25},
+            {"point": [60.0, 0.0, 0.0], "normal": [-1.0, 0.1, 0.0], "restitution": 0.6, "mu_s": 0.2, "mu_d": 0.15}]
+DIAMETER, DENSITY, GRAVITY = 0.0025, 7800.0, (0.0, -9.81, 0.0)
+
+
+def _launches(n, seed):
+    """Speeds 30 to 450 m/s, angles -60 to 40 degrees, some sideways, spins up to ~1e4 rad/s."""
+    rng = np.random.default_rng(seed)
+    speed, angle, azimuth = rng.uniform(30, 450, n), np.radians(rng.uniform(-60, 40, n)), rng.uniform(-0.3, 0.3, n)
+    velocity = np.stack([speed * np.cos(angle) * np.cos(azimuth), speed * np.sin(angle),
+                         speed * np.cos(angle) * np.sin(azimuth)], 1)
+    position = np.stack([np.zeros(n), rng.uniform(0.5, 3.0, n), np.zeros(n)], 1)
+    return position, velocity, rng.normal(0.0, 3000.0, (n, 3))
+
+
+def _run(tmp_path, position, velocity, spin, air, precision, name="air.h5", surfaces=SURFACES, **numerics):
+    np.savez(tmp_path / "pellets.npz", position=position, velocity=velocity, angular_velocity=spin)
+    raw = {"shot": {"file": str(tmp_path / "pellets.npz"), "diameter": DIAMETER, "density": DENSITY},
+           "surfaces": surfaces, "physics": {"bounces": 1, "gravity": list(GRAVITY)},
+           "numerics": {"precision": precision, **numerics}, "output": {"fields": ["impact", "landing"]}}
+    if air is not None:
+        raw["air"] = air
+    scene = scene_from_dict(raw)
+    stats = wr.run(scene, tmp_path / name, device="cpu", overwrite=True)
+    with h5py.File(tmp_path / name, "r") as f:
+        out = {k: f["pellets/" + k][()].astype(np.float64) for k in
+               ("impact/time", "impact/position", "impact/velocity", "impact/angular_velocity", "impact/surface",
+                "landing/time", "landing/position", "landing/velocity")}
+    return scene, out, stats
+
+
+def _planes(surfaces=SURFACES):
+    return [(np.array(s["point"], float), np.array(s["normal"], float)) for s in surfaces]
+
+
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+@pytest.mark.parametrize("air", [
+    {"wind": [4.0, 0.0, -3.0]},
+    {"drag": "table", "drag_table": "gs", "lift": "sawicki2003", "spin_decay_law": "loth2008", "drag_factor": 1.1},
+    {"drag": "constant", "drag_coefficient": 0.47, "lift": "linear", "lift_slope": 0.8, "spin_decay": False},
+    {"magnus": False, "wind": [0.0, 0.0, 5.0]},
+], ids=["loth-wind", "gs-sawicki", "constant-linear", "no-magnus"])
+def test_landing_points_match_the_reference(tmp_path, precision, air):
+    """Random launches: the first contact (from the launch) and the landing (from the kernel's own
+    state after the impact, so the flight alone is compared) within 1e-4 of the distance flown
+    at the default tolerance, on tilted planes."""
+    position, velocity, spin = _launches(6, seed=len(str(air)))
+    scene, out, _stats = _run(tmp_path, position, velocity, spin, air, precision)
+    pellet = ref.Pellet(DIAMETER / 2, DENSITY)
+    checked = 0
+    for i in range(len(position)):
+        first = ref.fly_to_planes(position[i], velocity[i], spin[i], pellet, scene.air, GRAVITY, _planes())
+        if first is None:
+            assert np.isnan(out["impact/time"][i, 0])
+            continue
+        assert out["impact/surface"][i, 0] == first.plane
+        flown = np.linalg.norm(first.x - position[i])
+        assert np.linalg.norm(out["impact/position"][i, 0] - first.x) <= 1e-4 * flown, i
+        after = ref.fly_to_planes(out["impact/position"][i, 0], out["impact/velocity"][i, 0],
+                                  out["impact/angular_velocity"][i, 0], pellet, scene.air, GRAVITY, _planes(),
+                                  touching=first.plane)
+        if after is None:
+            continue
+        flown = np.linalg.norm(after.x - out["impact/position"][i, 0])
+        assert np.linalg.norm(out["landing/position"][i] - after.x) <= 1e-4 * flown + 1e-7, i
+        checked += 1
+    assert checked >= 3
+
+
+def test_the_air_to_zero_is_the_vacuum(tmp_path):
+    """density 0 is the vacuum's exact parabola (bitwise). Air thinned to 1e-12 of sea level
+    (density and viscosity: the viscous spin decay depends on the viscosity alone, as in any
+    continuum law) lands within 1e-8 of the distance flown of it, long flights (km) included."""
+    position, velocity, spin = _launches(8, seed=5)
+    _s, vacuum, _ = _run(tmp_path, position, velocity, spin, None, "float64", "vacuum.h5")
+    _s, zero, _ = _run(tmp_path, position, velocity, spin, {"density": 0.0}, "float64", "zero.h5")
+    thin_air = {"density": 1.225e-12, "viscosity": 1.789e-17}
+    _s, thin, stats = _run(tmp_path, position, velocity, spin, thin_air, "float64", "thin.h5")
+    for name in vacuum:
+        np.testing.assert_array_equal(zero[name], vacuum[name], err_msg=name)
+    landed = np.isfinite(vacuum["landing/time"])
+    flown = np.linalg.norm(vacuum["landing/position"][landed] - position[landed], axis=1)
+    assert landed.sum() >= 4 and flown.max() > 1000
+    assert (np.linalg.norm(thin["landing/position"][landed] - vacuum["landing/position"][landed], axis=1) < 1e-8 * flown).all()
+    assert "flight_steps_mean" in stats
+
+
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_a_dropped_pellet_lands_at_the_terminal_speed(tmp_path, precision):
+    """Drag only, dropped from 3 km: it lands at the speed where drag balances its weight (root
+    found by the reference) for each drag law."""
+    ground = [{"point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.5, "mu_s": 0.2}]
+    pellet = ref.Pellet(DIAMETER / 2, DENSITY)
+    for air in ({"magnus": False}, {"drag": "table", "magnus": False},
+                {"drag": "constant", "drag_coefficient": 0.47, "magnus": False}):
+        scene, out, _ = _run(tmp_path, [[0.0, 3000.0, 0.0]], [[0.0, 0.0, 0.0]], [[0.0, 0.0, 0.0]], air, precision,
+                             surfaces=ground)
+        terminal = ref.terminal_speed(pellet, scene.air)
+        assert np.linalg.norm(out["impact/velocity"][0, 0] / 0.5) == pytest.approx(terminal, rel=2e-5), air
+
+
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_the_air_never_adds_energy_without_wind(tmp_path, precision):
+    """Kinetic (translation and rotation) plus potential energy at the first contact is at most
+    that at the launch, whatever the spin and lift law."""
+    position, velocity, spin = _launches(40, seed=9)
+    spin *= 5.0
+    for lift in ("loth2008", "sawicki2003"):
+        _s, out, _ = _run(tmp_path, position, velocity, spin, {"lift": lift}, precision)
+        hit = np.isfinite(out["impact/time"][:, 0])
+        mass = DENSITY * 4 / 3 * math.pi * (DIAMETER / 2) ** 3
+        inertia = 0.4 * mass * (DIAMETER / 2) ** 2
+
+        def energy(x, v, w):
+            return 0.5 * mass * (v * v).sum(1) + 0.5 * inertia * (w * w).sum(1) + mass * 9.81 * x[:, 1]
+
+        with h5py.File(tmp_path / "air.h5", "r") as f:
+            before_v = f["pellets/impact/velocity_before"][:, 0].astype(float)
+            before_w = f["pellets/impact/angular_velocity_before"][:, 0].astype(float)
+        start = energy(position, velocity, spin)[hit]
+        end = energy(out["impact/position"][:, 0], before_v, before_w)[hit]
+        rounding = 1e-12 if precision == "float64" else 2e-6
+        assert (end <= start * (1 + rounding)).all()
+        assert (end < 0.999 * start).any()
+
+
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_a_pellet_leaving_a_plane_under_topspin_lift_comes_back_when_it_should(tmp_path, precision):
+    """A pellet leaving the ground with a little normal speed and topspin (the lift pushes it down)
+    meets the ground again after the reference's time, not at once and not at the vacuum's 2 v_n / g."""
+    ground = [{"point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.02, "mu_s": 0.5}]
+    r = DIAMETER / 2
+    # launched onto the ground at a grazing angle: E = 0.02 leaves it 0.05 m/s of normal speed, rolling
+    position, velocity = [[0.0, r + 1e-3, 0.0]], [[200.0, -2.5, 0.0]]
+    scene, out, _ = _run(tmp_path, position, velocity, [[0.0, 0.0, 0.0]], {}, precision, surfaces=ground)
+    pellet = ref.Pellet(r, DENSITY)
+    after = ref.fly_to_planes(out["impact/position"][0, 0], out["impact/velocity"][0, 0],
+                              out["impact/angular_velocity"][0, 0], pellet, scene.air, GRAVITY, _planes(ground), touching=0)
+    took = out["landing/time"][0] - out["impact/time"][0, 0]
+    vacuum = 2 * out["impact/velocity"][0, 0, 1] / 9.81
+    assert 0 < after.t < 0.5 * vacuum
+    assert took == pytest.approx(after.t, rel=1e-4)
