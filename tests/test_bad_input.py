@@ -43,11 +43,13 @@ VALID = {
     "surfaces": [{"name": "ground", "point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.01,
                   "mu_s": 0.5, "mu_d": 0.45}],
     "physics": {"gravity": [0.0, -9.81, 0.0], "impact_duration": 1e-5, "bounces": 1},
-    "numerics": {"precision": "float64", "chunk_size": 65536, "fast_math": True},
+    "numerics": {"precision": "float64", "chunk_size": 65536, "fast_math": True, "flight_tolerance": 1e-6},
     "output": {"fields": ["landing"]},
     "collisions": {"enabled": False, "restitution": 0.9, "mu_s": 0.74, "mu_d": 0.57, "contact_duration": 1e-6,
                    "time_step": 1e-6, "step_fraction": 0.25, "skin": 2.0, "rounds": 4, "max_neighbours": 32,
-                   "max_steps": 1000000, "frame_every": 0},
+                   "max_steps": 1000000, "frame_every": 0, "air_step_fraction": 0.01},
+    "air": {"density": 1.225, "viscosity": 1.789e-5, "sound_speed": 340.3, "wind": [0.0, 0.0, 0.0], "drag": "loth2021",
+            "drag_factor": 1.0, "magnus": True, "lift": "loth2008", "spin_decay": True, "spin_decay_law": "dennis1980"},
 }
 
 # the domain, as documented: key -> (lowest, highest, lowest excluded)
@@ -58,18 +60,22 @@ REALS = {"shot.diameter": (1e-6, 1.0, False), "shot.density": (1.0, 1e5, False),
          "collisions.restitution": (0.0, 1.0, False), "collisions.mu_s": (0.0, 100.0, False),
          "collisions.mu_d": (0.0, 0.74, False),  # mu_d <= mu_s = 0.74
          "collisions.contact_duration": (0.0, 1.0, False), "collisions.time_step": (0.0, 1.0, True),
-         "collisions.step_fraction": (0.0, 1.0, True), "collisions.skin": (0.0, 10.0, True)}
+         "collisions.step_fraction": (0.0, 1.0, True), "collisions.skin": (0.0, 10.0, True),
+         "collisions.air_step_fraction": (0.0, 1.0, True),
+         "air.density": (0.0, 100.0, False), "air.viscosity": (0.0, 1.0, True), "air.sound_speed": (1.0, 1e4, False),
+         "air.drag_factor": (0.0, 10.0, True), "numerics.flight_tolerance": (1e-12, 1e-2, False)}
 INTEGERS = {"shot.count": (1, 2**31 - 1), "shot.seed": (0, 2**31 - 1), "physics.bounces": (1, 16),
             "numerics.chunk_size": (1, 2**31 - 1), "shot.shots": (1, 2**31 - 1), "collisions.rounds": (1, 64),
             "collisions.max_neighbours": (1, 256), "collisions.max_steps": (1, 2**31 - 1),
             "collisions.frame_every": (0, 2**31 - 1)}
 VECTORS = {"shot.direction": 1e6, "shot.direction_jitter": 1e6, "shot.envelope_center": 1e6, "shot.spin": 1e8,
-           "surfaces.0.point": 1e6, "surfaces.0.normal": 1e6, "physics.gravity": 1e4}
+           "surfaces.0.point": 1e6, "surfaces.0.normal": 1e6, "physics.gravity": 1e4, "air.wind": 1e3}
 REQUIRED = ["shot.diameter", "shot.density", "shot.count", "shot.speed", "surfaces.0.point", "surfaces.0.normal",
             "surfaces.0.restitution", "surfaces.0.mu_s"]
 TABLES = {"shot": list(VALID["shot"]) + ["file"], "surfaces.0": list(VALID["surfaces"][0]),
           "physics": list(VALID["physics"]), "numerics": list(VALID["numerics"]), "output": ["path", "fields"],
           "collisions": list(VALID["collisions"]),
+          "air": list(VALID["air"]) + ["drag_coefficient", "drag_table", "lift_slope", "lift_max"],
           "": list(VALID)}
 FIELDS = {"initial", "impact", "landing"} | {f"{g}.{f}" for g, fs in {
     "initial": ("position", "velocity", "angular_velocity"),
@@ -233,7 +239,14 @@ def malformed():
             st.lists(st.integers(), min_size=1, max_size=2), TEXT, st.integers(), st.just([[]]))),
         st.tuples(st.just("output.path"), st.one_of(st.integers(), st.just(""), st.just([]), st.just("a\x00.h5"))),
         st.tuples(st.just("surfaces.0.name"), st.one_of(st.integers(), st.floats(), st.lists(TEXT, max_size=2))),
-        st.tuples(st.sampled_from(["shot", "physics", "numerics", "output", "surfaces.0"]),
+        st.tuples(st.sampled_from(["air.drag", "air.lift", "air.spin_decay_law"]),
+                  st.one_of(TEXT.filter(lambda s: s not in ("loth2021", "constant", "table", "loth2008", "linear",
+                                                             "sawicki2003", "dennis1980")), st.integers(), st.just([]))),
+        st.tuples(st.sampled_from(["air.magnus", "air.spin_decay"]), st.one_of(TEXT, st.integers(), st.floats())),
+        st.tuples(st.just("air.drag_table"), st.one_of(
+            TEXT.filter(lambda s: s not in ("braun", "gs")), st.integers(), st.just([]), st.just([[0.0, 0.5]]),
+            st.just([[0.5, 0.5], [0.4, 0.6]]), st.just([[0.0, -1.0], [1.0, 0.5]]), st.just([[0.0, 0.5, 1.0], [1.0, 0.5]]))),
+        st.tuples(st.sampled_from(["shot", "physics", "numerics", "output", "surfaces.0", "air"]),
                   st.one_of(TEXT, st.integers(), st.floats(), st.lists(st.integers(), max_size=2))),
         st.tuples(st.just("surfaces"), st.one_of(TEXT, st.integers(), st.dictionaries(st.sampled_from("ab"), st.integers(), min_size=1, max_size=2))),
     ]
@@ -509,3 +522,20 @@ def test_bad_input_end_to_end_is_exactly_one_stderr_line(tmp_path):
         assert proc.returncode == 2 and proc.stdout == ""
         assert len(proc.stderr.splitlines()) == 1 and proc.stderr.startswith(PREFIX + expected), proc.stderr
     assert out.read_bytes() == b"keep" and sorted(os.listdir(tmp_path)) == ["f.toml", "o.h5", "p.npz", "s.toml"]
+
+
+@pytest.mark.parametrize("key,value,law", [("air.drag_coefficient", 0.5, "air.drag"), ("air.drag_table", "gs", "air.drag"),
+                                           ("air.lift_slope", 1.0, "air.lift"), ("air.lift_max", 0.3, "air.lift")])
+def test_a_law_parameter_without_its_law_is_named(ws, key, value, law):
+    """A parameter of a law the scene does not use is refused, naming the law it needs (it would
+    be ignored silently); with its law it is taken. The constant law needs its coefficient."""
+    result = cli(run_args(ws, ws.write_scene(set_path(VALID, key, value))))
+    assert f"only with {law} = " in assert_rejected(result, key, ws)
+    result = cli(run_args(ws, ws.write_scene(set_path(VALID, "air.drag", "constant"))))
+    assert "is required" in assert_rejected(result, "air.drag_coefficient", ws)
+
+
+def test_a_flight_tolerance_float32_cannot_resolve_is_named(ws):
+    raw = set_path(VALID, "numerics.precision", "float32")
+    result = cli(run_args(ws, ws.write_scene(set_path(raw, "numerics.flight_tolerance", 1e-8))))
+    assert "float64" in assert_rejected(result, "numerics.flight_tolerance", ws)

@@ -214,11 +214,11 @@ def _drag_table(v, path):
         raise _err(path, v, rule + f" (at most {MAX_TABLE_POINTS} pairs)")
     pairs = []
     for i, pair in enumerate(v):
-        if not isinstance(pair, (list, tuple)) or len(pair) != 2:
-            raise _err(f"{path}.{i}", pair, "must be a [Mach, C_D] pair of numbers")
-        mach, cd = (_finite(x, f"{path}.{i}", "must be a [Mach, C_D] pair of numbers") for x in pair)
+        if not isinstance(pair, (list, tuple)) or len(pair) != 2 or not all(map(_is_number, pair)):
+            raise _err(path, v, f"pair {i} ({pair!r}) must be a [Mach, C_D] pair of numbers")
+        mach, cd = (_finite(x, path, "must be finite") for x in pair)
         if mach < 0 or cd <= 0 or cd > 100 or (pairs and mach <= pairs[-1][0]):
-            raise _err(f"{path}.{i}", pair, "must have Mach >= 0 and above the pair before, and C_D in (0, 100]")
+            raise _err(path, v, f"pair {i} ({pair!r}) must have Mach >= 0 and above the pair before, and C_D in (0, 100]")
         pairs.append((mach, cd))
     return tuple(pairs)
 
