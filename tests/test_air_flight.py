@@ -153,3 +153,18 @@ def test_a_pellet_leaving_a_plane_under_topspin_lift_comes_back_when_it_should(t
     vacuum = 2 * out["impact/velocity"][0, 0, 1] / 9.81
     assert 0 < after.t < 0.5 * vacuum
     assert took == pytest.approx(after.t, rel=1e-4)
+
+
+def test_a_flight_given_up_is_counted_and_warned(tmp_path):
+    """A 0.25 mm pellet dropped from 1000 km falls at its terminal speed for days, in steps bounded
+    by the stepper's stability (its drag time scale): more than MAX_FLIGHT_STEPS steps, so it is
+    given up, counted in flights_unfinished, and the run warns in one line. (In float32 the fall
+    reaches a speed where the drag rounds to exactly the weight, and steps grow without bound.)"""
+    np.savez(tmp_path / "p.npz", position=[[0.0, 1e6, 0.0]], velocity=[[0.0, 0.0, 0.0]],
+             angular_velocity=[[0.0, 0.0, 0.0]])
+    raw = {"shot": {"file": str(tmp_path / "p.npz"), "diameter": 2.5e-4, "density": DENSITY},
+           "surfaces": [{"point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.5, "mu_s": 0.2}],
+           "air": {"magnus": False}, "output": {"fields": []}, "numerics": {"precision": "float64"}}
+    with pytest.warns(wr.PrecisionWarning, match="given up"):
+        stats = wr.run(scene_from_dict(raw), tmp_path / "o.h5", device="cpu", overwrite=True)
+    assert stats["flights_unfinished"] == 1 and stats["hits"] == 0

@@ -27,6 +27,7 @@ from hypothesis import strategies as st
 
 from warp_ricochet import api, chunks
 from warp_ricochet.cli import main
+from warp_ricochet.scene import scene_from_dict
 from warp_ricochet.scene.toml_out import (
     toml_value,  # TOML text of any value (NaN, inf too)
 )
@@ -539,3 +540,13 @@ def test_a_flight_tolerance_float32_cannot_resolve_is_named(ws):
     raw = set_path(VALID, "numerics.precision", "float32")
     result = cli(run_args(ws, ws.write_scene(set_path(raw, "numerics.flight_tolerance", 1e-8))))
     assert "float64" in assert_rejected(result, "numerics.flight_tolerance", ws)
+
+
+def test_more_planes_than_a_flight_in_air_tracks_is_named(ws):
+    """A flight in air keeps its planes' states in the bits of an int32: 31 planes at most; in
+    vacuum there is no such limit."""
+    planes = [dict(VALID["surfaces"][0], point=[0.0, -float(i), 0.0]) for i in range(32)]
+    result = cli(run_args(ws, ws.write_scene(dict(VALID, surfaces=planes))))
+    assert "at most 31 with [air]" in assert_rejected(result, "surfaces", ws)
+    vacuum = {k: v for k, v in VALID.items() if k != "air"}
+    assert len(scene_from_dict(dict(vacuum, surfaces=planes)).surfaces) == 32

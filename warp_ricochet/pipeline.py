@@ -28,6 +28,7 @@ from .dense.schedule import shot_stride
 from .errors import PrecisionWarning
 from .launch.source import PelletSource
 from .model import State, reused_state
+from .physics.air_flight import MAX_FLIGHT_STEPS
 from .tallies.collisions import (
     OVERRUN_TOLERANCE,
     SHOT_TOTALS,
@@ -40,6 +41,9 @@ from .tallies.sums import combine, empty_totals, finalize
 FLOAT32_COLLISIONS = ("pellet-pellet collisions in float32: contact times rounded in float32 change the order of "
                       "events in a dense cloud, and a shot's mean range differs from float64 by about 10% (docs/collisions.md); "
                       "set numerics.precision = \"float64\" for a study")
+
+UNFINISHED_FLIGHTS = ("{:,} flights in air took more than {:,} integration steps and were given up (counted as "
+                      "escaped, in flights_unfinished): raise numerics.flight_tolerance or check the scene")
 
 _PINNED_POOL: dict = {}  # (name, shape, dtype, slot) -> pinned host array, reused: cudaHostAlloc is slow
 _DEVICE_LOCK = threading.Lock()  # one CUDA run at a time uses the pool and the reused state
@@ -172,6 +176,9 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
             stage = CoreStage(scene, model, spec, arrays, pellets)
         totals, tables = _loop(stage, pellets, sink, resumed, progress)
     stats = finalize(totals, pellets=pellets, mass=model.mass, inertia=model.inertia, air=spec.in_air)
+    if spec.in_air and stats["flights_unfinished"] > 0:
+        warnings.warn(UNFINISHED_FLIGHTS.format(int(stats["flights_unfinished"]), MAX_FLIGHT_STEPS), PrecisionWarning,
+                      stacklevel=3)
     if spec.collisions:
         stats.update(collision_statistics(np.concatenate(tables) if tables else np.zeros((0, len(SHOT_TOTALS))), pellets))
         if stats["skin_overrun_max"] > OVERRUN_TOLERANCE:

@@ -11,6 +11,7 @@ else the plane is watched from there. A watched plane is met where its gap n.(x 
 0, also inside a step whose ends are both clear of it (a graze: the gap's minimum on the step).
 Ties go to the lower index; a contact later than MAX_FLIGHT_TIME counts as none, and a flight
 that takes more than MAX_FLIGHT_STEPS steps is given up (plane -2, counted in the statistics).
+The planes' states live in the bits of an int32: at most `limits.MAX_PLANES_IN_AIR` planes.
 """
 
 import functools
@@ -23,7 +24,6 @@ from .integrate import make_dense_output, make_stepper
 from .types import types_for
 
 MAX_FLIGHT_STEPS = 1 << 16  # per flight between contacts
-MAX_PLANES_IN_AIR = 31  # a flight keeps its planes' states in the bits of an int32
 GAVE_UP = -2  # the plane index of a flight given up after MAX_FLIGHT_STEPS
 
 

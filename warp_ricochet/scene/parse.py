@@ -9,6 +9,7 @@ import tomllib
 from pathlib import Path
 
 from ..fields import ALL_FIELDS, COLLISION_FIELDS, CORE_FIELDS
+from ..physics.limits import MAX_PLANES_IN_AIR
 from .convert import SCHEMAS
 from .keys import MISSING, check_keys, err, join
 from .overrides import apply_override
@@ -150,6 +151,10 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
                        f"checkpoint (a multiple of {every} steps) must come by step {FLOAT32_EXACT_STEPS:,}, where the "
                        "step counter stops being exact: at most "
                        f"{FLOAT32_EXACT_STEPS // every * every:,}; use float64 for more")
+    air = _air(raw.get("air"))
+    if air is not None and len(surfaces) > MAX_PLANES_IN_AIR:
+        raise err("surfaces", f"{len(surfaces)} surfaces", f"at most {MAX_PLANES_IN_AIR} with [air] (a flight in "
+                   "air tracks its planes in the bits of an int32)")
     return Scene(
         shot=shot,
         surfaces=tuple(_surface(s, f"surfaces.{i}") for i, s in enumerate(surfaces)),
@@ -157,7 +162,7 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
         numerics=numerics,
         output=Output(**output),
         collisions=collisions,
-        air=_air(raw.get("air")),
+        air=air,
     )
 
 
