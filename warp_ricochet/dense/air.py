@@ -10,8 +10,8 @@ pellet). Kicks every step, not over longer intervals: a pellet leaving a plane w
 speed under a strong lift returns within a fraction of a millisecond, which longer intervals miss.
 
 The adaptive step is at most `collisions.air_step_fraction` of the shortest time the air takes to
-change a pellet's motion (|u| / |a_air|) in its shot; a fixed step is kept as given (to measure
-convergence).
+change a pellet's motion in its shot (|u| / |a_air|), or its motion towards a plane within a step's
+reach (|v.n| / |a_air.n|: `air_rate`); a fixed step is kept as given (to measure convergence).
 """
 
 import functools
@@ -30,17 +30,48 @@ from .state import dense_types
 def make_dense_air(spec) -> SimpleNamespace:
     """`air_rate`, `kicked` and `kick_pellet` for a spec in air."""
     d = dense_types(spec)
-    scalar, vec3, Physics, Cloud, Pair = d.scalar, d.vec3, d.Physics, d.Cloud, d.Pair
+    scalar, vec3, Surfaces, Physics, Cloud, Pair = d.scalar, d.vec3, d.Surfaces, d.Physics, d.Cloud, d.Pair
+    TINY_RATE = 1e-30  # 1/s: no air (a pellet at rest in still air)
     laws = make_air_laws(spec.precision, *spec.air_laws)
     _entry, _return, _contact, ballistic_position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
     fr = make_frame(spec)
     stepping, set_reference = fr.stepping, fr.set_reference
 
+    STATIC_PLANES = spec.static_planes
+
     @wp.func
-    def air_rate(velocity: vec3, spin: vec3, physics: Physics):
-        """How fast the air changes a pellet's motion: |a_air| / (|u| + speed floor) (1/s)."""
+    def plane_rate(k: wp.int32, position: vec3, velocity: vec3, acceleration: vec3, reach_time: scalar,
+                   surfaces: Surfaces, physics: Physics):
+        """Plane k's share of air_rate: |a_air.n| / (|v.n| + speed floor) if the pellet can reach
+        the plane within `reach_time` (s), else 0. Planes are one-sided: none behind the centre."""
+        n = surfaces.normal[k]
+        height = wp.dot(position - surfaces.point[k], n)
+        if height < scalar(0.0):
+            return scalar(0.0)
+        speed = wp.length(velocity) + physics.air.speed_floor
+        reach = speed * reach_time + scalar(0.5) * (wp.length(physics.gravity) + wp.length(acceleration)) * reach_time * reach_time
+        if height - physics.radius > reach:
+            return scalar(0.0)
+        return wp.abs(wp.dot(acceleration, n)) / (wp.abs(wp.dot(velocity, n)) + physics.air.speed_floor)
+
+    @wp.func
+    def air_rate(position: vec3, velocity: vec3, spin: vec3, pair: Pair, surfaces: Surfaces, physics: Physics):
+        """How fast the air changes a pellet's motion (1/s), which bounds the adaptive step (at
+        most air_step_fraction over it): |a_air| / (|u| + speed floor), and for each plane within
+        a step's reach at that rate, |a_air.n| / (|v.n| + speed floor). Within a step the exact
+        flight leaves the air out, a position error up to |a_air| h^2 / 8 that moves a plane
+        contact by |a_air.n| h^2 / (8 |v.n|): the second rate keeps that a small fraction of a
+        step, also for a pellet leaving a plane slowly under a strong lift."""
         acceleration, _spin_change = laws.air_rates(velocity, spin, physics.air)
-        return wp.length(acceleration) / (wp.length(velocity - physics.air.wind) + physics.air.speed_floor)
+        rate = wp.length(acceleration) / (wp.length(velocity - physics.air.wind) + physics.air.speed_floor)
+        reach_time = pair.air_step_fraction / wp.max(rate, scalar(TINY_RATE))
+        if wp.static(STATIC_PLANES is None):
+            for k in range(surfaces.normal.shape[0]):
+                rate = wp.max(rate, plane_rate(k, position, velocity, acceleration, reach_time, surfaces, physics))
+        else:
+            for k in range(wp.static(STATIC_PLANES)):  # unrolled
+                rate = wp.max(rate, plane_rate(k, position, velocity, acceleration, reach_time, surfaces, physics))
+        return rate
 
     @wp.func
     def kicked(velocity: vec3, spin: vec3, duration: scalar, physics: Physics):

@@ -86,10 +86,10 @@ def make_step_kernels(spec) -> SimpleNamespace:
     air = make_dense_air(spec) if AIR else None
 
     @wp.kernel(**opts)
-    def bounds_kernel(pair: Pair, physics: Physics, cloud: Cloud):
+    def bounds_kernel(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
         t = wp.tid()
         for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
-            step_fns.bounds_pellet(i, pair, physics, cloud)
+            step_fns.bounds_pellet(i, pair, surfaces, physics, cloud)
 
     @wp.kernel(**opts)
     def kick_kernel(pair: Pair, physics: Physics, cloud: Cloud):

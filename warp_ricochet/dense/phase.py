@@ -212,7 +212,7 @@ class DensePhase:
         if self.fused:
             return [self._launch("block_kernel", 1, [self.block_steps, self.rounds, p, m.surfaces, m.physics, c, outputs], True)]
         threads = self.threads
-        commands = [self._launch("bounds_kernel", threads, [p, m.physics, c], True),
+        commands = [self._launch("bounds_kernel", threads, [p, m.surfaces, m.physics, c], True),
                     self._launch("plan_kernel", shots, [p, m.physics, c], True),
                     self._launch("prepare_kernel", threads, [p, m.physics, c], True)]
         if self.in_air:

@@ -47,7 +47,9 @@ def make_rounds(spec) -> SimpleNamespace:
         if both chose it), and each round the earliest of those among events in the step is the
         round's skin limit (resolve_pellet applies no event after it; the step ends there).
         `look` (after the last round): pair events still ahead in the step cut it, so no pellet
-        flies past an event left unresolved (into its partner). A round after one that applied
+        flies past an event left unresolved (into its partner). In air a plane rebound is also a
+        skin limit at its own time: the step ends there, and the next one is sized by the air
+        for the motion after it (a slow rebound under a strong lift returns within microseconds). A round after one that applied
         nothing has nothing to do (no pellet is stale, every choice is the same)."""
         if cloud.stale[i] == 0 and cloud.event_partner[i] == -1:
             return  # nothing ahead
@@ -90,6 +92,8 @@ def make_rounds(spec) -> SimpleNamespace:
                 )
                 if flying != 0 and impacted != 0:
                     exit = skin_exit(cloud, physics, i, s, at, velocity_after, contact)
+                    if wp.static(AIR):  # a rebound ends the step: the next is sized for the motion after it
+                        exit = wp.min(exit, contact)
             elif best >= 0:
                 a = wp.min(i, best)
                 xa, _va, _wa, xb, _vb, _wb, va2, _wa2, vb2, _wb2, _collided = pair_outcome(a, wp.max(i, best), best_time, pair, physics, cloud)

@@ -39,7 +39,7 @@ def make_step(spec) -> SimpleNamespace:
     d = dense_types(spec)
     scalar, vec3, Surfaces, Physics, Outputs, Cloud, Pair = d.scalar, d.vec3, d.Surfaces, d.Physics, d.Outputs, d.Cloud, d.Pair
     TINY_SPEED, QUIET_STEP, NEVER, BOUNCES = d.TINY_SPEED, d.QUIET_STEP, d.NEVER, spec.bounces
-    _entry, _return, _contact, _position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
+    _entry, _return, _contact, ballistic_position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
     fr, ro = make_frame(spec), make_rounds(spec)
     stepping, relative_to_drift, relative_to_frame, drift_point = fr.stepping, fr.relative_to_drift, fr.relative_to_frame, fr.drift_point
     choose_pellet, resolve_pellet, step_end_of = ro.choose_pellet, ro.resolve_pellet, ro.step_end_of
@@ -48,7 +48,7 @@ def make_step(spec) -> SimpleNamespace:
     air = make_dense_air(spec) if AIR else None  # (its calls compile only in air)
 
     @wp.func(inline=True)
-    def bounds_pellet(i: wp.int32, pair: Pair, physics: Physics, cloud: Cloud):
+    def bounds_pellet(i: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
         """Pellet i's speed relative to its shot's drift, into the shot's largest (a pair closes at
         most at twice it). It sets the next step; it depends on the shot alone, never on the
         neighbour lists, so the steps (and results) do not depend on when lists are rebuilt."""
@@ -59,12 +59,14 @@ def make_step(spec) -> SimpleNamespace:
         wp.atomic_max(cloud.clock, s, CLOCK_DRIFT, wp.length(relative_velocity))
         if wp.static(AIR):
             age = cloud.clock[s, CLOCK_TIME] - cloud.time[i]
-            rate = air.air_rate(ballistic_velocity(cloud.velocity[i], physics.gravity, age), cloud.angular_velocity[i], physics)
+            rate = air.air_rate(ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age),
+                                ballistic_velocity(cloud.velocity[i], physics.gravity, age), cloud.angular_velocity[i],
+                                pair, surfaces, physics)
             wp.atomic_max(cloud.clock, s, CLOCK_AIR, rate)
 
     @wp.func(inline=True)
     def drift_and_edge(i: wp.int32, time: scalar, frame_point: vec3, frame_velocity: vec3, edge_distance: scalar,
-                       physics: Physics, cloud: Cloud):
+                       pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
         """For block_shot (its shot is stepping; the frame's point and velocity at the shot's
         clock, computed once a step): bounds_pellet's speed, without writing it, and whether the
         pellet is near the edge of its skin (beyond SKIN_EDGE of half the skin since the build):
@@ -80,7 +82,8 @@ def make_step(spec) -> SimpleNamespace:
             if wp.length(relative - cloud.build_offset[i]) > edge_distance:
                 edge = wp.int32(1)
             if wp.static(AIR):
-                rate = air.air_rate(relative_velocity + frame_velocity, cloud.angular_velocity[i], physics)
+                rate = air.air_rate(relative + frame_point, relative_velocity + frame_velocity, cloud.angular_velocity[i],
+                                    pair, surfaces, physics)
         return speed, edge, rate
 
     @wp.func(inline=True)
@@ -177,7 +180,8 @@ def make_step(spec) -> SimpleNamespace:
             frame_velocity = ballistic_velocity(cloud.drift_velocity[s], physics.gravity, time)
             edge_distance = scalar(SKIN_EDGE) * cloud.half_skin[s]
             for i in range(first, last):
-                speed, near, pellet_rate = drift_and_edge(i, time, frame_point, frame_velocity, edge_distance, physics, cloud)
+                speed, near, pellet_rate = drift_and_edge(i, time, frame_point, frame_velocity, edge_distance, pair, surfaces,
+                                                            physics, cloud)
                 drift = wp.max(drift, speed)
                 edge = wp.max(edge, near)
                 rate = wp.max(rate, pellet_rate)
