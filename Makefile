@@ -15,11 +15,15 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install --quiet -e '.[test]'
 	touch $(STAMP)
 
+# the paper's sweep in vacuum (Tables 1-3), then in sea-level air, then Table 3 of both side by side
+SWEEP := --param surfaces.0.mu_s=0:0.5:0.05 --tie surfaces.0.mu_d=0.9* --overwrite $(if $(DEVICE),--device $(DEVICE),)
+
 demo: $(STAMP)
 	mkdir -p $(DEMO_OUT)
-	$(VENV)/bin/warp-ricochet sweep examples/paper.toml --param surfaces.0.mu_s=0:0.5:0.05 \
-	    --tie surfaces.0.mu_d=0.9* -o $(DEMO_OUT)/paper-sweep.h5 --overwrite $(if $(DEVICE),--device $(DEVICE),)
-	$(VENV)/bin/warp-ricochet report $(DEMO_OUT)/paper-sweep.h5
+	$(VENV)/bin/warp-ricochet sweep examples/paper.toml $(SWEEP) -o $(DEMO_OUT)/paper-sweep.h5
+	$(VENV)/bin/warp-ricochet sweep examples/paper.toml $(SWEEP) --set air.density=1.225 \
+	    -o $(DEMO_OUT)/paper-sweep-air.h5 > /dev/null
+	$(VENV)/bin/warp-ricochet report $(DEMO_OUT)/paper-sweep.h5 $(DEMO_OUT)/paper-sweep-air.h5
 
 test: $(STAMP)
 	$(PY) -m pytest -n 2 -q

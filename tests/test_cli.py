@@ -242,6 +242,33 @@ def test_report_run_file(tmp_path, capsys):
     assert "21.888" in text  # the paper's row for the scene's mu_s = 0.5
 
 
+def test_report_puts_vacuum_and_air_side_by_side(sweep_run, tmp_path, capsys):
+    """Two sweeps of the same points (vacuum, air): one Table 3 with each file's columns, matched
+    by mu_s, the same numbers as each file's own report; different sweeps are refused in one line."""
+    vacuum, _ = sweep_run
+    air = tmp_path / "air.h5"
+    assert main(["sweep", SCENE, *SMALL, "--set", "air.density=1.225", "--param", "surfaces.0.mu_s=0:0.1:0.05",
+                 "--tie", "surfaces.0.mu_d=0.9*", "-o", str(air)]) == 0
+    capsys.readouterr()
+    assert main(["report", str(vacuum), str(air)]) == 0
+    out = capsys.readouterr().out
+    block = [b for b in out.split("\n\n") if b.startswith("Table 3.")][0].splitlines()
+    assert "vacuum, air" in block[0] and "<L> (m) vacuum" in block[1] and "<L> (m) air" in block[1]
+    rows = [r.split() for r in block[3:]]
+    assert [r[0] for r in rows] == ["0.100", "0.050", "0.000"]
+    for path, first in ((vacuum, 1), (air, 5)):
+        want = {round(r["surfaces.0.mu_s"], 3): r["range_mean"] for r in read_results(path).rows}
+        for r in rows:
+            assert float(r[first].replace(",", "")) == pytest.approx(want[float(r[0])], abs=5e-4)
+    assert float(rows[2][5]) < 0.5 * float(rows[2][1].replace(",", ""))  # frictionless: air shortens the range
+    other = tmp_path / "other.h5"
+    assert main(["sweep", SCENE, *SMALL, "--param", "surfaces.0.restitution=0.1,0.2", "-o", str(other)]) == 0
+    capsys.readouterr()
+    assert main(["report", str(vacuum), str(other)]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and "side by side needs the same sweep" in err[0]
+
+
 def test_report_missing_and_bad_inputs(tmp_path, capsys):
     text = tmp_path / "notes.txt"
     text.write_text("not hdf5\n")

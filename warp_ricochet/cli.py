@@ -2,7 +2,7 @@
 
     warp-ricochet run SCENE.toml [-o OUT.h5] [--device cpu|cuda|cuda:N] [--set KEY=VALUE ...] [--overwrite] [--resume]
     warp-ricochet sweep SCENE.toml --param KEY=START:STOP:STEP|a,b,c [--tie KEY=F*[PARAM] ...] [-o OUT.h5] ...
-    warp-ricochet report OUT.h5 [--format text|markdown] [--paper]
+    warp-ricochet report OUT.h5 [OUT2.h5 ...] [--format text|markdown] [--paper]
 
 Exit status: 0 on success; 2 for a usage error or any invalid scene, override, device, output path or
 report input (one line `warp-ricochet: error: ...` on stderr, no traceback); 1 for an operating-system
@@ -84,7 +84,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("report", help="print Tables 1-3 of the paper from an output file",
                        description="Print Tables 1-3 (Zohdi 2021 layout) from a run or sweep HDF5 file.")
-    p.add_argument("file", metavar="OUT.h5", help="a run or sweep file written by warp-ricochet")
+    p.add_argument("files", metavar="OUT.h5", nargs="+",
+                   help="a run or sweep file written by warp-ricochet; several: their Table 3 side by side "
+                        "(the same sweep, e.g. in vacuum and in air)")
     _add_report_options(p)
     p.set_defaults(func=cmd_report)
     return parser
@@ -140,9 +142,15 @@ def cmd_sweep(args) -> int:
 
 
 def cmd_report(args) -> int:
-    from .report import format_tables, read_results
+    from .report import ReportError, format_side_by_side, format_tables, read_results
 
-    sys.stdout.write(format_tables(read_results(args.file), args.format, paper=args.paper))
+    results = [read_results(path) for path in args.files]
+    if len(results) == 1:
+        sys.stdout.write(format_tables(results[0], args.format, paper=args.paper))
+    elif args.paper:
+        raise ReportError(args.files[1], "--paper compares one file with the paper; give one file")
+    else:
+        sys.stdout.write(format_side_by_side(results, args.format))
     return 0
 
 

@@ -1,0 +1,64 @@
+"""Table 3 of several output files side by side (`warp-ricochet report A.h5 B.h5`): the same sweep
+points in, say, vacuum and air, one group of columns per file, each named by what sets it apart
+(vacuum, air, or the file's name). Needs h5py and numpy only (never warp)."""
+
+from __future__ import annotations
+
+import math
+import os
+import tomllib
+
+from .tables import NA, ReportError, Results, _label, _num, _param_formatter, _point_cells, _render, header_line
+
+COLUMNS = (("<L> (m)", "range_mean"), ("L+ (m)", "range_max"), ("L- (m)", "range_min"),
+           ("landing <W_T> (J)", "landing_mean_WT"))
+
+
+def file_label(results: Results) -> str:
+    """"air" for a scene with an [air] table of non-zero density, else "vacuum"."""
+    try:
+        scene = tomllib.loads(str(results.meta.get("scene_toml", "")))
+    except ValueError:
+        return os.path.basename(str(results.meta.get("file", "?")))
+    air = scene.get("air")
+    return "air" if isinstance(air, dict) and air.get("density", 1.0) != 0.0 else "vacuum"
+
+
+def _labels(all_results) -> list[str]:
+    labels = [file_label(r) for r in all_results]
+    if len(set(labels)) < len(labels):  # the same kind twice: name them by file
+        labels = [os.path.basename(str(r.meta.get("file", label))) for r, label in zip(all_results, labels)]
+    return labels
+
+
+def _key(row, params):
+    return tuple(round(float(row.get(p, math.nan)), 12) for p in params)
+
+
+def format_side_by_side(all_results: list[Results], fmt: str = "text") -> str:
+    """Table 3 (and the mean translational energy at landing) of each file, matched by sweep point."""
+    first = all_results[0]
+    params = list(first.params)
+    for results in all_results[1:]:
+        if list(results.params) != params:
+            raise ReportError(results.meta.get("file", "?"), f"sweeps {results.params or 'nothing'}, not {params or 'nothing'} "
+                              "as the first file: side by side needs the same sweep")
+    labels = _labels(all_results)
+    formatters = {p: _param_formatter([r.get(p) for res in all_results for r in res.rows]) for p in params}
+    by_point = [{_key(r, params): r for r in res.rows} for res in all_results]
+    keys = list(dict.fromkeys(_key(r, params) for res in all_results for r in res.rows))
+    headers = [_label(p, params) for p in params] or ["run"]
+    n = len(headers)
+    headers += [f"{h} {label}" for label in labels for h, _ in COLUMNS]
+    body = []
+    for key in keys:
+        sample = next(rows[key] for rows in by_point if key in rows)
+        cells = _point_cells(sample, params, formatters)
+        for rows in by_point:
+            row = rows.get(key)
+            cells += [_num(row.get(stat)) if row is not None else NA for _, stat in COLUMNS]
+        body.append(cells)
+    title = "Table 3. Post-impact ricochet ranges, side by side: " + ", ".join(labels)
+    blocks = [header_line(r) for r in all_results]
+    blocks = ["\n".join(blocks), _render(title, headers, body, fmt, set(range(n)) if not params else set())]
+    return "\n\n".join(blocks) + "\n"
