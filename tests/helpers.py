@@ -102,8 +102,8 @@ def wait_for_a_chunk(proc, partial, timeout=60.0):
                     return
 
 
-def interrupt_after(chunks, scene, out):
-    """Run `scene` to `out` on the CPU and press Ctrl-C once `chunks` chunks are written."""
+def interrupt_after(chunks, scene, out, device="cpu"):
+    """Run `scene` to `out` on `device` and press Ctrl-C once `chunks` chunks are written."""
     import warp_ricochet as wr
 
     seen = []
@@ -114,7 +114,7 @@ def interrupt_after(chunks, scene, out):
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        wr.run(scene, out, device="cpu", progress=progress)
+        wr.run(scene, out, device=device, progress=progress)
 
 
 def assert_resume_refused(argv, out, edit, start):

@@ -14,21 +14,21 @@ PAPER = "examples/paper.toml"
 FIELDS = 'output.fields=["initial", "impact", "landing"]'
 
 
-def _landings(tmp_path, sets, name):
+def _landings(tmp_path, sets, name, device="cpu"):
     scene = load_scene(PAPER, sets)
-    stats = wr.run(scene, tmp_path / f"{name}.h5", device="cpu", overwrite=True)
+    stats = wr.run(scene, tmp_path / f"{name}.h5", device=device, overwrite=True)
     with h5py.File(tmp_path / f"{name}.h5", "r") as f:
         return {k: f["pellets/" + k][()].astype(float) for k in ("initial/position", "landing/position")}, stats
 
 
-def test_lone_pellets_land_where_the_collisions_off_run_lands_them(tmp_path):
+def test_lone_pellets_land_where_the_collisions_off_run_lands_them(tmp_path, device):
     """Pellets metres apart (none meets another), spinning, two ricochets, in float64: through the
     dense phase (exact flight, the air as kicks) and then the core, each lands within 1e-5 of
     the distance it flew from where the core alone (integrated flight) lands it."""
     sets = ["shot.count=30", "shot.envelope_radius=15.0", 'numerics.precision="float64"', "air.density=1.225",
             "shot.spin=[0.0, 0.0, 2000.0]", "physics.bounces=2", FIELDS]
-    off, _ = _landings(tmp_path, sets, "off")
-    on, stats = _landings(tmp_path, sets + ["collisions.enabled=true"], "on")
+    off, _ = _landings(tmp_path, sets, "off", device)
+    on, stats = _landings(tmp_path, sets + ["collisions.enabled=true"], "on", device)
     assert stats["pair_collisions"] == 0 and stats["dense_steps_mean"] > 100
     flown = np.linalg.norm(off["landing/position"] - off["initial/position"], axis=1)
     landed = np.isfinite(flown)
@@ -37,7 +37,7 @@ def test_lone_pellets_land_where_the_collisions_off_run_lands_them(tmp_path):
     assert error.max() < 1e-5, error.max()
 
 
-def _lattice(tmp_path, collisions):
+def _lattice(tmp_path, collisions, device):
     """Identical pellets 1 m apart across the shot: no relative motion, so the air alone sizes the
     dense phase's step. The second rebound is a slip that leaves at 2.6 cm/s under 660 m/s^2 of
     Magnus lift (topspin of 1.5e5 rad/s from the first, sticking, impact): it lands 79 us later."""
@@ -49,24 +49,24 @@ def _lattice(tmp_path, collisions):
            "surfaces": [{"point": [0, 0, 0], "normal": [0, 1, 0], "restitution": 0.01, "mu_s": 0.28, "mu_d": 0.252}],
            "physics": {"bounces": 2}, "air": {}, "numerics": {"precision": "float64", "flight_tolerance": 1e-12},
            "output": {"fields": ["initial", "impact", "landing"]}, "collisions": {"enabled": collisions}}
-    stats = wr.run(scene_from_dict(raw), tmp_path / "lattice.h5", device="cpu", overwrite=True)
+    stats = wr.run(scene_from_dict(raw), tmp_path / "lattice.h5", device=device, overwrite=True)
     with h5py.File(tmp_path / "lattice.h5", "r") as f:
         return {k: f["pellets/" + k][()].astype(float) for k in ("initial/position", "impact/slipped", "landing/position")}, stats
 
 
-def test_a_rigid_lattice_lands_where_the_core_lands_it(tmp_path):
+def test_a_rigid_lattice_lands_where_the_core_lands_it(tmp_path, device):
     """With no relative motion the step is bounded by the air alone (air_step_fraction): near a
     plane by the air's share of the normal motion, and cut at each rebound, so the slow hop
     after the second impact is resolved: within 1e-5 of the distance flown."""
-    off, _ = _lattice(tmp_path, False)
-    on, stats = _lattice(tmp_path, True)
+    off, _ = _lattice(tmp_path, False, device)
+    on, stats = _lattice(tmp_path, True, device)
     assert stats["pair_collisions"] == 0 and (off["impact/slipped"] == [0, 1]).all()
     flown = np.linalg.norm(off["landing/position"] - off["initial/position"], axis=1)
     error = np.linalg.norm(on["landing/position"] - off["landing/position"], axis=1) / flown
     assert error.max() < 1e-5, error
 
 
-def _two_pellets(tmp_path, time_step):
+def _two_pellets(tmp_path, time_step, device):
     np.savez(tmp_path / "two.npz", position=[[0.0, 1.0, 0.0], [0.0, 1.0, 5.0]],
              velocity=[[300.0, -300.0, 0.0], [300.0, -290.0, 0.0]])
     raw = {"shot": {"file": str(tmp_path / "two.npz"), "diameter": 0.0025, "density": 7000.0},
@@ -75,39 +75,39 @@ def _two_pellets(tmp_path, time_step):
            "output": {"fields": ["landing"]}, "collisions": {"enabled": time_step is not None}}
     if time_step:
         raw["collisions"]["time_step"] = time_step
-    wr.run(scene_from_dict(raw), tmp_path / "two.h5", device="cpu", overwrite=True)
+    wr.run(scene_from_dict(raw), tmp_path / "two.h5", device=device, overwrite=True)
     with h5py.File(tmp_path / "two.h5", "r") as f:
         return f["pellets/landing/position"][()]
 
 
-def test_the_splitting_converges_with_the_step(tmp_path):
+def test_the_splitting_converges_with_the_step(tmp_path, device):
     """Fixed dense steps h, h/4, h/16: the landing error against the core alone falls at least
     ~h^2 until the integrator's own tolerance (about 1e-9 of 135 m) is reached."""
-    reference = _two_pellets(tmp_path, None)
-    errors = [np.abs(_two_pellets(tmp_path, h) - reference).max() for h in (4e-4, 1e-4, 2.5e-5)]
+    reference = _two_pellets(tmp_path, None, device)
+    errors = [np.abs(_two_pellets(tmp_path, h, device) - reference).max() for h in (4e-4, 1e-4, 2.5e-5)]
     assert errors[0] > 1e-6
     assert errors[1] < errors[0] / 12 and errors[2] < max(errors[1] / 12, 2e-6), errors
 
 
 @pytest.mark.parametrize("collisions", [False, True])
-def test_runs_in_air_are_the_same_bits_for_any_chunk_size(tmp_path, collisions):
+def test_runs_in_air_are_the_same_bits_for_any_chunk_size(tmp_path, device, collisions):
     """Statistics and pellets of a run in air do not depend on the chunk size (nor on how many
     shots share a chunk)."""
     sets = ["air.density=1.225", FIELDS, "shot.count=40", "shot.shots=6", f"collisions.enabled={str(collisions).lower()}",
             "shot.envelope_radius=0.01"]
-    small = wr.run(load_scene(PAPER, sets + ["numerics.chunk_size=1"]), tmp_path / "small.h5", device="cpu")
-    big = wr.run(load_scene(PAPER, sets), tmp_path / "big.h5", device="cpu")
+    small = wr.run(load_scene(PAPER, sets + ["numerics.chunk_size=1"]), tmp_path / "small.h5", device=device)
+    big = wr.run(load_scene(PAPER, sets), tmp_path / "big.h5", device=device)
     assert small.keys() == big.keys() and "flight_steps_mean" in big
     assert_same_run(tmp_path / "small.h5", tmp_path / "big.h5", ["landing/position", "impact/velocity"], progress=())
     for k in big:
         assert small[k] == big[k] or (np.isnan(small[k]) and np.isnan(big[k])), k
 
 
-def test_a_run_in_air_resumes_bitwise(tmp_path):
+def test_a_run_in_air_resumes_bitwise(tmp_path, device):
     """Interrupted after a chunk, resumed: the same file as an uninterrupted run."""
     sets = ["air.density=1.225", FIELDS, "shot.count=200000", "numerics.chunk_size=65536"]
     scene = load_scene(PAPER, sets)
-    wr.run(scene, tmp_path / "whole.h5", device="cpu")
-    interrupt_after(1, scene, tmp_path / "part.h5")
-    wr.run(scene, tmp_path / "part.h5", device="cpu", resume=True)
+    wr.run(scene, tmp_path / "whole.h5", device=device)
+    interrupt_after(1, scene, tmp_path / "part.h5", device)
+    wr.run(scene, tmp_path / "part.h5", device=device, resume=True)
     assert_same_run(tmp_path / "part.h5", tmp_path / "whole.h5", ["landing/position", "impact/time"])

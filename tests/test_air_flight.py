@@ -26,7 +26,7 @@ def _launches(n, seed):
     return position, velocity, rng.normal(0.0, 3000.0, (n, 3))
 
 
-def _run(tmp_path, position, velocity, spin, air, precision, name="air.h5", surfaces=SURFACES, **numerics):
+def _run(tmp_path, position, velocity, spin, air, precision, name="air.h5", surfaces=SURFACES, device="cpu", **numerics):
     np.savez(tmp_path / "pellets.npz", position=position, velocity=velocity, angular_velocity=spin)
     raw = {"shot": {"file": str(tmp_path / "pellets.npz"), "diameter": DIAMETER, "density": DENSITY},
            "surfaces": surfaces, "physics": {"bounces": 1, "gravity": list(GRAVITY)},
@@ -34,7 +34,7 @@ def _run(tmp_path, position, velocity, spin, air, precision, name="air.h5", surf
     if air is not None:
         raw["air"] = air
     scene = scene_from_dict(raw)
-    stats = wr.run(scene, tmp_path / name, device="cpu", overwrite=True)
+    stats = wr.run(scene, tmp_path / name, device=device, overwrite=True)
     with h5py.File(tmp_path / name, "r") as f:
         out = {k: f["pellets/" + k][()].astype(np.float64) for k in
                ("impact/time", "impact/position", "impact/velocity", "impact/angular_velocity", "impact/surface",
@@ -53,12 +53,12 @@ def _planes(surfaces=SURFACES):
     {"drag": "constant", "drag_coefficient": 0.47, "lift": "linear", "lift_slope": 0.8, "spin_decay": False},
     {"magnus": False, "wind": [0.0, 0.0, 5.0]},
 ], ids=["loth-wind", "gs-sawicki", "constant-linear", "no-magnus"])
-def test_landing_points_match_the_reference(tmp_path, precision, air):
+def test_landing_points_match_the_reference(tmp_path, device, precision, air):
     """Random launches: the first contact (from the launch) and the landing (from the kernel's own
     state after the impact, so the flight alone is compared) within 1e-4 of the distance flown
     at the default tolerance, on tilted planes."""
     position, velocity, spin = _launches(6, seed=len(str(air)))
-    scene, out, _stats = _run(tmp_path, position, velocity, spin, air, precision)
+    scene, out, _stats = _run(tmp_path, position, velocity, spin, air, precision, device=device)
     pellet = ref.Pellet(DIAMETER / 2, DENSITY)
     checked = 0
     for i in range(len(position)):
@@ -99,7 +99,7 @@ def test_the_air_to_zero_is_the_vacuum(tmp_path):
 
 
 @pytest.mark.parametrize("precision", ["float64", "float32"])
-def test_a_dropped_pellet_lands_at_the_terminal_speed(tmp_path, precision):
+def test_a_dropped_pellet_lands_at_the_terminal_speed(tmp_path, device, precision):
     """Drag only, dropped from 3 km: it lands at the speed where drag balances its weight (root
     found by the reference) for each drag law."""
     ground = [{"point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.5, "mu_s": 0.2}]
@@ -107,19 +107,19 @@ def test_a_dropped_pellet_lands_at_the_terminal_speed(tmp_path, precision):
     for air in ({"magnus": False}, {"drag": "table", "magnus": False},
                 {"drag": "constant", "drag_coefficient": 0.47, "magnus": False}):
         scene, out, _ = _run(tmp_path, [[0.0, 3000.0, 0.0]], [[0.0, 0.0, 0.0]], [[0.0, 0.0, 0.0]], air, precision,
-                             surfaces=ground)
+                             surfaces=ground, device=device)
         terminal = ref.terminal_speed(pellet, scene.air)
         assert np.linalg.norm(out["impact/velocity"][0, 0] / 0.5) == pytest.approx(terminal, rel=2e-5), air
 
 
 @pytest.mark.parametrize("precision", ["float64", "float32"])
-def test_the_air_never_adds_energy_without_wind(tmp_path, precision):
+def test_the_air_never_adds_energy_without_wind(tmp_path, device, precision):
     """Kinetic (translation and rotation) plus potential energy at the first contact is at most
     that at the launch, whatever the spin and lift law."""
     position, velocity, spin = _launches(40, seed=9)
     spin *= 5.0
     for lift in ("loth2008", "sawicki2003"):
-        _s, out, _ = _run(tmp_path, position, velocity, spin, {"lift": lift}, precision)
+        _s, out, _ = _run(tmp_path, position, velocity, spin, {"lift": lift}, precision, device=device)
         hit = np.isfinite(out["impact/time"][:, 0])
         mass = DENSITY * 4 / 3 * math.pi * (DIAMETER / 2) ** 3
         inertia = 0.4 * mass * (DIAMETER / 2) ** 2
@@ -138,14 +138,14 @@ def test_the_air_never_adds_energy_without_wind(tmp_path, precision):
 
 
 @pytest.mark.parametrize("precision", ["float64", "float32"])
-def test_a_pellet_leaving_a_plane_under_topspin_lift_comes_back_when_it_should(tmp_path, precision):
+def test_a_pellet_leaving_a_plane_under_topspin_lift_comes_back_when_it_should(tmp_path, device, precision):
     """A pellet leaving the ground with a little normal speed and topspin (the lift pushes it down)
     meets the ground again after the reference's time, not at once and not at the vacuum's 2 v_n / g."""
     ground = [{"point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.02, "mu_s": 0.5}]
     r = DIAMETER / 2
     # launched onto the ground at a grazing angle: E = 0.02 leaves it 0.05 m/s of normal speed, rolling
     position, velocity = [[0.0, r + 1e-3, 0.0]], [[200.0, -2.5, 0.0]]
-    scene, out, _ = _run(tmp_path, position, velocity, [[0.0, 0.0, 0.0]], {}, precision, surfaces=ground)
+    scene, out, _ = _run(tmp_path, position, velocity, [[0.0, 0.0, 0.0]], {}, precision, surfaces=ground, device=device)
     pellet = ref.Pellet(r, DENSITY)
     after = ref.fly_to_planes(out["impact/position"][0, 0], out["impact/velocity"][0, 0],
                               out["impact/angular_velocity"][0, 0], pellet, scene.air, GRAVITY, _planes(ground), touching=0)

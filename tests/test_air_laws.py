@@ -43,10 +43,10 @@ def _kernels(precision):
     return scalar, drag, table, spin
 
 
-def _run(kernel, n, inputs, outputs, precision):
-    arrays = [wp.array(np.asarray(a, dtype=precision), device="cpu") for a in inputs]
-    out = wp.zeros(outputs, dtype=wp.float64 if precision == "float64" else wp.float32, device="cpu")
-    wp.launch(kernel, dim=n, inputs=arrays, outputs=[out], device="cpu")
+def _run(kernel, n, inputs, outputs, precision, device):
+    arrays = [wp.array(np.asarray(a, dtype=precision), device=device) for a in inputs]
+    out = wp.zeros(outputs, dtype=wp.float64 if precision == "float64" else wp.float32, device=device)
+    wp.launch(kernel, dim=n, inputs=arrays, outputs=[out], device=device)
     return out.numpy().astype(np.float64)
 
 
@@ -55,7 +55,7 @@ def _relative(got, want):
 
 
 @pytest.mark.parametrize("precision", ["float64", "float32"])
-def test_loth2021_drag_matches_the_reference(precision):
+def test_loth2021_drag_matches_the_reference(precision, device):
     """f = C_D Re / 24 over Mach 0 to 4 (both sides of the branch points 0.8, 1, 1.5) and Re from
     1e-3 to 1e6 (both sides of 45: the rarefaction branch below)."""
     rng = np.random.default_rng(1)
@@ -66,7 +66,7 @@ def test_loth2021_drag_matches_the_reference(precision):
     re[::7] = 45.0 * (1 + rng.normal(0, 1e-3, len(re[::7])))
     kn = math.sqrt(0.5 * math.pi * 1.4) * 1.789e-5 / (1.225 * 340.3 * 10.0 ** rng.uniform(-4, -2, n))
     _scalar, drag, _table, _spin = _kernels(precision)
-    got = _run(drag, n, [mach, re, kn], n, precision)
+    got = _run(drag, n, [mach, re, kn], n, precision, device)
     want = np.array([ref.loth2021_f(m, r, k) for m, r, k in zip(mach, re, kn)])
     err = _relative(got, want)
     assert np.isfinite(got).all()
@@ -87,19 +87,19 @@ def test_loth2021_limits():
 
 @pytest.mark.parametrize("precision", ["float64", "float32"])
 @pytest.mark.parametrize("name", ["braun", "gs"])
-def test_drag_tables_match_the_reference(precision, name):
+def test_drag_tables_match_the_reference(precision, name, device):
     """Linear between the points, the end values outside."""
     machs, cds = zip(*DRAG_TABLES[name])
     rng = np.random.default_rng(2)
     mach = np.concatenate([rng.uniform(-0.5, 5, 500), machs])
     _scalar, _drag, table, _spin = _kernels(precision)
-    got = _run(table, len(mach), [mach, machs, cds], len(mach), precision)
+    got = _run(table, len(mach), [mach, machs, cds], len(mach), precision, device)
     want = np.interp(mach, machs, cds)
     assert _relative(got, want).max() < TOLERANCE[precision]
 
 
 @pytest.mark.parametrize("precision", ["float64", "float32"])
-def test_lift_and_spin_laws_match_the_reference(precision):
+def test_lift_and_spin_laws_match_the_reference(precision, device):
     """C_L/S of loth2008 and sawicki2003 over S from 1e-4 to 1e4 and Re to 1e6; the torque factor
     h of dennis1980 and loth2008 over Re_R from 1e-3 to 1e7."""
     rng = np.random.default_rng(3)
@@ -109,7 +109,7 @@ def test_lift_and_spin_laws_match_the_reference(precision):
     re = 10.0 ** rng.uniform(-2, 6, n)
     re_r = 10.0 ** rng.uniform(-3, 7, n)
     _scalar, _drag, _table, spin = _kernels(precision)
-    got = _run(spin, n, [1.0 / s, re, re_r], (n, 4), precision)
+    got = _run(spin, n, [1.0 / s, re, re_r], (n, 4), precision, device)
     want = np.array([[ref.lift_ratio(a, b, "loth2008"), ref.lift_ratio(a, b, "sawicki2003"),
                       ref.rotation_factor(c, "dennis1980"), ref.rotation_factor(c, "loth2008")]
                      for a, b, c in zip(s, re, re_r)])
