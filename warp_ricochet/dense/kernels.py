@@ -187,4 +187,4 @@ def make_step_kernels(spec) -> SimpleNamespace:
                 else:
                     step_fns.block_shot(s, steps, rounds, pair, surfaces, physics, cloud, out)
 
-    return SimpleNamespace(bounds_kernel=bounds_kernel, plan_kernel=plan_kernel, prepare_kernel=prepare_kernel, choose_kernel=choose_kernel, resolve_kernel=resolve_kernel, finish_kernel=finish_kernel, end_step_kernel=end_step_kernel, block_kernel=block_kernel, now_kernel=now_kernel, horizon_kernel=horizon_kernel, settle_kernel=settle_kernel, phase_kernel=phase_kernel)
+    return SimpleNamespace(bounds_kernel=bounds_kernel, kick_kernel=kick_kernel, plan_kernel=plan_kernel, prepare_kernel=prepare_kernel, choose_kernel=choose_kernel, resolve_kernel=resolve_kernel, finish_kernel=finish_kernel, end_step_kernel=end_step_kernel, block_kernel=block_kernel, now_kernel=now_kernel, horizon_kernel=horizon_kernel, settle_kernel=settle_kernel, phase_kernel=phase_kernel)

@@ -82,7 +82,10 @@ def make_step(spec) -> SimpleNamespace:
             if wp.length(relative - cloud.build_offset[i]) > edge_distance:
                 edge = wp.int32(1)
             if wp.static(AIR):
-                rate = air.air_rate(relative + frame_point, relative_velocity + frame_velocity, cloud.angular_velocity[i],
+                # (from the reference state, as bounds_pellet: the same bits on every schedule)
+                age = time - cloud.time[i]
+                rate = air.air_rate(ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age),
+                                    ballistic_velocity(cloud.velocity[i], physics.gravity, age), cloud.angular_velocity[i],
                                     pair, surfaces, physics)
         return speed, edge, rate
 
