@@ -16,9 +16,9 @@ pellets (median of --repeats) and a run of --checked pellets whose flights are c
 float64 SciPy reference (`warp_ricochet.reference.air`: DOP853, rtol 1e-12): the first flight from
 the launch state, and the flight after the impact from the kernel's own post-impact state, so the
 integrator alone is measured. The error of a flight is |landing - reference| / distance flown.
-It writes air-tradeoff.csv and air-tradeoff.png (error against pellets/s). Without SciPy (the GPU
-machine) it writes the checked runs' states (air-tradeoff-states.h5) and the timings; `errors DIR`
-then finishes the CSV and PNG on a machine with SciPy.
+It writes air-tradeoff.csv and air-tradeoff.png (error against pellets/s). Without SciPy, or with
+--no-errors (to spend no GPU time on the reference), it writes the checked runs' states
+(air-tradeoff-states.h5) and the timings; `errors DIR` then finishes the CSV and PNG elsewhere.
 
 `cpu`: one CPU core (Warp's CPU backend runs a kernel on one thread): pellets/s of the package in
 air and in vacuum, of SciPy solve_ivp per pellet, and of a vectorised NumPy RK4 (bench/air_numpy.py),
@@ -144,7 +144,7 @@ def _tradeoff_scene(name, n, precision, tolerance, fields=()):
     return paper_scene(n, precision, tolerance=tolerance, mu_s=mu_s, fields=fields, extra=extra)
 
 
-def tradeoff(device, checked, timed, repeats, out_dir, scenes=tuple(TRADEOFF_SCENES)):
+def tradeoff(device, checked, timed, repeats, out_dir, scenes=tuple(TRADEOFF_SCENES), with_errors=True):
     """Run time (statistics only) and states of the checked runs for each scene, precision and
     tolerance."""
     wr, wp = _wr()
@@ -175,10 +175,10 @@ def tradeoff(device, checked, timed, repeats, out_dir, scenes=tuple(TRADEOFF_SCE
                 print(f"air tradeoff {label:26s} {timed / t:.3e} pellets/s, {stats['flight_steps_mean']:.2f} steps "
                       f"per flight, mean range {stats['range_mean']:.4f} m", flush=True)
     _write_csv(rows, out_dir / "air-tradeoff-timings.csv")
-    if _have_scipy():
+    if with_errors and _have_scipy():
         errors(out_dir)
     else:
-        print("SciPy is not installed here: run `python -m bench.air errors DIR` where it is")
+        print("errors not computed here: run `python -m bench.air errors DIR` (needs SciPy)")
     return rows
 
 
@@ -523,6 +523,7 @@ def main(argv=None):
     parser.add_argument("--speed", type=float, default=411.48, help="journee: launch speed, m/s")
     parser.add_argument("--mu-s", dest="mu_s", type=float, nargs="+", default=[0.5, 0.28, 0.0],
                         help="cpu: the paper's scene at these mu_s (0.5 as published; 0: the longest ricochets)")
+    parser.add_argument("--no-errors", action="store_true", help="tradeoff: timings and states only (errors later)")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--out", default="bench-air", help="folder for the CSV, PNG and JSON")
     args = parser.parse_args(argv)
@@ -535,7 +536,8 @@ def main(argv=None):
     record = {"info": device_info(wp, args.device), "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())}
     print(json.dumps(record["info"]), flush=True)
     if args.what == "tradeoff":
-        record[args.what] = tradeoff(args.device, args.checked, int(args.timed), args.repeats, out_dir)
+        record[args.what] = tradeoff(args.device, args.checked, int(args.timed), args.repeats, out_dir,
+                                     with_errors=not args.no_errors)
     elif args.what == "cpu":
         record[args.what] = [row for mu_s in args.mu_s for row in
                              cpu(int(args.timed), args.compared, int(args.numpy), args.repeats, out_dir, mu_s)]

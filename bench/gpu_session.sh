@@ -3,6 +3,9 @@
 #   check: the CUDA tests (with the CPU-GPU test against .gpu/ref/cpu.h5, saved here by
 #          `python -m bench.agreement save --device cpu --file .gpu/ref/cpu.h5`), the agreement table
 #   bench: kernel variants, throughput against N (beside NumPy), the write run, peak host memory, run time against error
+#   air: flight in air beside vacuum (statistics only, 1e8; collisions, 10,000 x 450)
+#   air-tests: the air tests on CUDA; air-study: the tradeoff's timings and states, the air study
+#          (1000 shots), the air stability sweep
 #   collisions: the collision, stability and pipeline tests on CUDA; Warp's DEM example and the dense phase in the
 #          same run (1e6 pellets: rounds 4, 2, 1, float64; 10,000 shots x 450); where the dense phase's time goes
 set -uo pipefail
@@ -32,4 +35,17 @@ if [[ $what == collisions || $what == all ]]; then
   timeout 300 python3 -m bench.collisions throughput --device cuda:0 --shots 10000 2>&1 | grep shots | tee -a "$out/collisions-throughput.txt"
   timeout 60 python3 -m bench.collisions profile --device cuda:0 2>&1 | quiet | tee "$out/collisions-profile.txt"
   timeout 120 python3 -m bench.example_dem --device cuda:0 --sizes 65536,524288 --frames 20 2>&1 | quiet | tee -a "$out/example_dem.txt"
+fi
+if [[ $what == air ]]; then
+  python3 -m bench.air throughput --device cuda:0 --sizes 1e6,1e8 --repeats 5 --out "$out/air" 2>&1 | quiet | tee "$out/air-throughput.txt"
+  python3 -m bench.air throughput --device cuda:0 --sizes 1e7 --precision float64 --repeats 3 --out "$out/air64" 2>&1 | quiet | tee -a "$out/air-throughput.txt"
+  timeout 400 python3 -m bench.air collisions --device cuda:0 --shots 10000 --repeats 2 --out "$out/air" 2>&1 | quiet | tee "$out/air-collisions.txt"
+fi
+if [[ $what == air-tests ]]; then
+  WARP_RICOCHET_TEST_DEVICES=cuda:0 timeout 400 python3 -m pytest tests/test_air_laws.py tests/test_air_flight.py tests/test_air_dense.py tests/test_stability_air.py -q -n 8 -p no:cacheprovider -rfE 2>&1 | grep "^FAILED\|^ERROR\|passed\|failed\|^E " | cut -c1-300 | tee "$out/air-tests.txt"
+fi
+if [[ $what == air-study ]]; then
+  timeout 200 python3 -m bench.air tradeoff --device cuda:0 --checked 200 --timed 1e7 --no-errors --out "$out/tradeoff" 2>&1 | quiet | tee "$out/air-tradeoff.txt"
+  timeout 250 python3 examples/air_study.py --shots 1000 --device cuda:0 --out "$out/study" 2>&1 | quiet | tee "$out/air-study.txt"
+  timeout 100 python3 -m bench.stability_air --device cuda:0 2>&1 | quiet | tee "$out/stability-air.txt"
 fi

@@ -80,15 +80,15 @@ def test_landing_points_match_the_reference(tmp_path, device, precision, air):
     assert checked >= 3
 
 
-def test_the_air_to_zero_is_the_vacuum(tmp_path):
+def test_the_air_to_zero_is_the_vacuum(tmp_path, device):
     """density 0 is the vacuum's exact parabola (bitwise). Air thinned to 1e-12 of sea level
     (density and viscosity: the viscous spin decay depends on the viscosity alone, as in any
     continuum law) lands within 1e-8 of the distance flown of it, long flights (km) included."""
     position, velocity, spin = _launches(8, seed=5)
-    _s, vacuum, _ = _run(tmp_path, position, velocity, spin, None, "float64", "vacuum.h5")
-    _s, zero, _ = _run(tmp_path, position, velocity, spin, {"density": 0.0}, "float64", "zero.h5")
+    _s, vacuum, _ = _run(tmp_path, position, velocity, spin, None, "float64", "vacuum.h5", device=device)
+    _s, zero, _ = _run(tmp_path, position, velocity, spin, {"density": 0.0}, "float64", "zero.h5", device=device)
     thin_air = {"density": 1.225e-12, "viscosity": 1.789e-17}
-    _s, thin, stats = _run(tmp_path, position, velocity, spin, thin_air, "float64", "thin.h5")
+    _s, thin, stats = _run(tmp_path, position, velocity, spin, thin_air, "float64", "thin.h5", device=device)
     for name in vacuum:
         np.testing.assert_array_equal(zero[name], vacuum[name], err_msg=name)
     landed = np.isfinite(vacuum["landing/time"])
@@ -155,7 +155,7 @@ def test_a_pellet_leaving_a_plane_under_topspin_lift_comes_back_when_it_should(t
     assert took == pytest.approx(after.t, rel=1e-4)
 
 
-def test_a_flight_given_up_is_counted_and_warned(tmp_path):
+def test_a_flight_given_up_is_counted_and_warned(tmp_path, device):
     """A 0.25 mm pellet dropped from 1000 km falls at its terminal speed for days, in steps bounded
     by the stepper's stability (its drag time scale): more than MAX_FLIGHT_STEPS steps, so it is
     given up, counted in flights_unfinished, and the run warns in one line. (In float32 the fall
@@ -166,5 +166,5 @@ def test_a_flight_given_up_is_counted_and_warned(tmp_path):
            "surfaces": [{"point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.5, "mu_s": 0.2}],
            "air": {"magnus": False}, "output": {"fields": []}, "numerics": {"precision": "float64"}}
     with pytest.warns(wr.PrecisionWarning, match="given up"):
-        stats = wr.run(scene_from_dict(raw), tmp_path / "o.h5", device="cpu", overwrite=True)
+        stats = wr.run(scene_from_dict(raw), tmp_path / "o.h5", device=device, overwrite=True)
     assert stats["flights_unfinished"] == 1 and stats["hits"] == 0
