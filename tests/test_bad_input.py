@@ -526,7 +526,7 @@ def test_bad_input_end_to_end_is_exactly_one_stderr_line(tmp_path):
 
 
 @pytest.mark.parametrize("key,value,law", [("air.drag_coefficient", 0.5, "air.drag"), ("air.drag_table", "gs", "air.drag"),
-                                           ("air.lift_slope", 1.0, "air.lift"), ("air.lift_max", 0.3, "air.lift")])
+                                           ("air.lift_slope", 1.0, "air.lift")])
 def test_a_law_parameter_without_its_law_is_named(ws, key, value, law):
     """A parameter of a law the scene does not use is refused, naming the law it needs (it would
     be ignored silently); with its law it is taken. The constant law needs its coefficient."""

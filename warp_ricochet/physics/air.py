@@ -13,7 +13,9 @@ them are in docs/air.md. SI units; u = v - wind is the velocity relative to the 
 - Lift F_L = 1/2 rho C_L A |u|^2 (omega x u)/|omega x u| with S = R |omega x u| / |u|^2 (the spin
   across u) is evaluated as 1/2 rho A R (C_L/S) (omega x u): no unit vector of omega x u, finite
   at omega x u = 0 and at u = 0. `loth2008` (Loth 2008, AIAA J 46(4):801), `linear` (C_L = k S),
-  `sawicki2003` (Sawicki, Hubbard & Stronge 2003, Am J Phys 71:1152; capped).
+  `sawicki2003` (Sawicki, Hubbard & Stronge 2003, Am J Phys 71:1152); every law capped at
+  C_L = lift_max (sawicki2003's own 0.4; else 0.5, above smooth-sphere data, which level off near
+  0.37 for S of 0.5 to 6, so that no law grows without bound at S >> 1).
 - Torque T = -(rho/2) R^5 C_R |omega| omega, Re_R = rho d^2 |omega| / mu, evaluated as
   T = -8 pi mu R^3 h omega with h = C_R Re_R / (64 pi) (h = 1 in Stokes flow). `dennis1980`: the fit
   to Dennis, Singh & Ingham (1980), J Fluid Mech 101:257, joined to Stokes; `loth2008`.
@@ -196,6 +198,7 @@ def make_air_laws(precision: str, drag: str, lift, spin_decay) -> SimpleNamespac
                 ratio = sl.sawicki2003_lift_ratio(inverse_s, air.lift_max)
             else:
                 ratio = air.lift_slope
+            ratio = wp.min(ratio, air.lift_max * inverse_s)  # C_L <= lift_max, every law (docs/air.md)
         return (air.lift * ratio) * across
 
     @wp.func

@@ -46,7 +46,7 @@ def types_for(precision: str) -> SimpleNamespace:
         lift: scalar  # rho A R / (2 m): a_L = lift (C_L/S) (omega x u)
         radius: scalar  # m: S = R |omega x u| / |u|^2
         lift_slope: scalar  # the linear law's C_L/S
-        lift_max: scalar  # sawicki2003's cap on C_L
+        lift_max: scalar  # the cap on C_L of every lift law
         spin: scalar  # 1/s: 8 pi mu R^3 / I (d omega/dt = -spin h(Re_R) omega)
         re_r_per_spin: scalar  # s: Re_R = rho d^2 |omega| / mu
         tolerance: scalar  # the integrator's relative tolerance (numerics.flight_tolerance)

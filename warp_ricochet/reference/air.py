@@ -128,22 +128,26 @@ def constant_cd(mach: float, re: float, value: float) -> float:
 LIFT_LAWS = ("loth2008", "linear", "sawicki2003")
 
 
-def lift_ratio(s: float, re: float, law: str = "loth2008", slope: float = 0.5, cap: float = 0.4) -> float:
+def lift_ratio(s: float, re: float, law: str = "loth2008", slope: float = 0.5, cap: float | None = None) -> float:
     """C_L(S)/S, finite as S -> 0, so that F_L = 1/2 rho A R (C_L/S) (omega x u) needs no unit
-    vector of omega x u [docs/air.md 2.1]. S = R |omega x u| / |u|^2 (perpendicular spin)."""
+    vector of omega x u [docs/air.md 2.1]. S = R |omega x u| / |u|^2 (perpendicular spin). Every
+    law is capped at C_L = cap (None: 0.4 for sawicki2003, 0.5 for the others; inf: the law alone)."""
+    if cap is None:
+        cap = 0.4 if law == "sawicki2003" else 0.5
     if law == "loth2008":  # Loth (2008) eq. for the spin lift, Omega* = omega d / u = 2 S
         t_re = math.tanh(0.18 * math.sqrt(re)) if math.isfinite(re) else 1.0
-        return 2.0 * (1.0 - (0.675 + 0.15 * (1.0 + math.tanh(0.28 * (2.0 * s - 2.0)))) * t_re)
-    if law == "linear":  # C_L = slope S; 0.5 is loth2008's high-Re, small-S limit (2 (1 - 0.7488))
-        return slope
-    if law == "sawicki2003":  # Sawicki, Hubbard & Stronge (2003), capped at cap
+        ratio = 2.0 * (1.0 - (0.675 + 0.15 * (1.0 + math.tanh(0.28 * (2.0 * s - 2.0)))) * t_re)
+    elif law == "linear":  # C_L = slope S; 0.5 is loth2008's high-Re, small-S limit (2 (1 - 0.7488))
+        ratio = slope
+    elif law == "sawicki2003":  # Sawicki, Hubbard & Stronge (2003)
         ratio = 1.5 if s <= 0.1 else 0.09 / s + 0.6
-        return min(ratio, cap / s) if s > 0.0 else ratio
-    raise ValueError(f"unknown lift law {law!r}; allowed: {LIFT_LAWS}")
+    else:
+        raise ValueError(f"unknown lift law {law!r}; allowed: {LIFT_LAWS}")
+    return min(ratio, cap / s) if s > 0.0 else ratio  # every law: C_L <= cap
 
 
 def lift_coefficient(s: float, law: str = "loth2008", re: float = math.inf, slope: float = 0.5,
-                     cap: float = 0.4) -> float:
+                     cap: float | None = None) -> float:
     """C_L(S) of the lift laws [docs/air.md 2]; loth2008 at Reynolds number re (default: high-Re saturation)."""
     return s * lift_ratio(s, re, law, slope, cap)
 

@@ -91,7 +91,7 @@ def _collisions(raw) -> Collisions:
 
 
 _AIR_PARAMETERS = {"drag_coefficient": ("drag", "constant"), "drag_table": ("drag", "table"),
-                   "lift_slope": ("lift", "linear"), "lift_max": ("lift", "sawicki2003")}
+                   "lift_slope": ("lift", "linear")}
 
 
 def _air(raw):

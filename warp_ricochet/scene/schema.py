@@ -111,7 +111,7 @@ class Air:
     magnus: bool = True
     lift: str = "loth2008"                            # "loth2008" | "linear" | "sawicki2003"
     lift_slope: float | None = None                   # the linear law's C_L / S (default 0.5)
-    lift_max: float | None = None                     # sawicki2003's cap on C_L (default 0.4)
+    lift_max: float | None = None                     # the cap on C_L of every lift law (default: `cap`)
     spin_decay: bool = True
     spin_decay_law: str = "dennis1980"                # "dennis1980" | "loth2008"
 
@@ -127,7 +127,10 @@ class Air:
 
     @property
     def cap(self) -> float:
-        return 0.4 if self.lift_max is None else self.lift_max
+        """The largest C_L: sawicki2003's published cap (0.4), else 0.5 (docs/air.md 2.2)."""
+        if self.lift_max is not None:
+            return self.lift_max
+        return 0.4 if self.lift == "sawicki2003" else 0.5
 
     @property
     def still(self) -> bool:
