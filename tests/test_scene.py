@@ -466,3 +466,14 @@ def test_pellet_file_values_outside_the_domain_are_rejected(tmp_path):
     np.savez(path, position=[[0.0, 1.0, 0.0]], velocity=[[1.0, -1e6, 0.0]])
     with pytest.raises(SceneError, match="shot.file:velocity"):
         load_pellet_file(path)
+
+
+def test_every_example_scene_loads_and_the_paper_stays_in_vacuum():
+    """examples/*.toml are valid scenes; the paper's has no [air], the realistic ones in air do."""
+    from pathlib import Path
+
+    from warp_ricochet.scene import load_scene
+
+    scenes = {p.stem: load_scene(p) for p in sorted((Path(__file__).resolve().parents[1] / "examples").glob("*.toml"))}
+    assert scenes["paper"].air is None and scenes["steel_plate"].air is None
+    assert scenes["field"].air is not None and scenes["steel_plate_air"].air.drag == "table"
