@@ -1,10 +1,11 @@
 """Golden digests: the bits of every per-pellet dataset and statistic of a few runs on the CPU.
 
-They hold results bitwise across refactors (issue 11): `python -m tests.golden record` writes
-tests/data/golden-cpu.json on this machine; tests/test_golden.py recomputes and compares. Warp's
+They hold results bitwise across refactors (issue 11): `python -m tests.golden record` adds this
+machine's digests to tests/data/golden-cpu.json; tests/test_golden.py recomputes and compares. Warp's
 CPU compiler targets the host CPU (LLVM's host name and features: FMA contraction differs between
-CPUs), so the digests are keyed by a fingerprint of the machine and the Warp version; on another
-machine the test says so and skips, and `record` makes that machine's digests.
+CPUs), so the digests are kept per fingerprint of the machine and the Warp version; on a machine
+with none the test says so and skips. Record only on code known to be right (e.g. a checkout of
+the commit that first recorded them).
 """
 
 from __future__ import annotations
@@ -84,10 +85,17 @@ def run_case(name: str, tmp: Path) -> dict[str, str]:
     return digests(out)
 
 
-def record(tmp: Path) -> dict:
-    data = {"fingerprint": fingerprint(), "cases": {name: run_case(name, tmp) for name in CASES}}
-    GOLDEN.write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
-    return data
+def recorded() -> dict[str, dict]:
+    """{fingerprint: {case: {dataset: digest}}} of every machine recorded so far."""
+    return json.loads(GOLDEN.read_text())["machines"] if GOLDEN.exists() else {}
+
+
+def record(tmp: Path) -> tuple[str, dict]:
+    machines = recorded()
+    key = fingerprint()
+    machines[key] = {name: run_case(name, tmp) for name in CASES}
+    GOLDEN.write_text(json.dumps({"machines": machines}, indent=1, sort_keys=True) + "\n")
+    return key, machines[key]
 
 
 if __name__ == "__main__":
@@ -98,5 +106,5 @@ if __name__ == "__main__":
     if sys.argv[1:] != ["record"]:
         raise SystemExit("usage: python -m tests.golden record")
     with tempfile.TemporaryDirectory() as tmp:
-        data = record(Path(tmp))
-    print(f"recorded {sum(map(len, data['cases'].values()))} digests of {len(data['cases'])} runs for {data['fingerprint']}")
+        key, cases = record(Path(tmp))
+    print(f"recorded {sum(map(len, cases.values()))} digests of {len(cases)} runs for {key}")
