@@ -10,6 +10,11 @@ How it runs (the results are bitwise the same in every mode, tested):
   `phase_kernel` on cell lists ("phase"); "block" runs the host loop with a block of steps a
   launch; "kernels" the per-step kernels, as CUDA; lists from cell lists ("cells") or, as on CUDA,
   `wp.HashGrid` ("hashgrid"). Trajectory frames need the host loop (they are taken at checkpoints).
+
+Interrupts (`interrupts`): the host loop checks for one before each block; on the CPU the long
+launches (phase_kernel, block_kernel) run in a worker thread while the main thread waits, and an
+interrupt sets `cloud.stop`, which ends them at their next block, pass or pellet; the chunk is
+then abandoned (KeyboardInterrupt), its state unfinished.
 """
 
 from __future__ import annotations
@@ -19,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
+from .. import interrupts
 from ..tallies.collisions import SHOT_TOTALS
 from .constants import (
     BLOCK_STEPS,
@@ -87,6 +93,7 @@ class DensePhase:
         self.reach = 2.0 * model.radius + coll.skin * 2.0 * model.radius
         self.graph = None
         self.last_frame_step = None
+        self.stop = self.cloud.stop.numpy() if cpu else None  # (a view: the host sets it, a launch reads it)
 
     def run(self, first_index: int, shots: int, source, outputs, frames=None):
         """Launch `shots` whole shots (global pellet index `first_index` on), step them until no
@@ -126,8 +133,10 @@ class DensePhase:
         first = 0
         while first < self.shots:
             end = min(first + group, self.shots)
-            self._launch("phase_kernel", 1, [first, end, self.block_steps, self.rounds, self.pair, m.surfaces, m.physics,
-                                             c, self._outputs, self.bucket_end, self.rows, self.cells])
+            command = self._launch("phase_kernel", 1, [first, end, self.block_steps, self.rounds, self.pair, m.surfaces,
+                                                       m.physics, c, self._outputs, self.bucket_end, self.rows, self.cells],
+                                   True)
+            interrupts.wait(command.launch, self.stop)
             if not self._grew_lists():  # (else the same group again: its shots before the overflow are done)
                 first = end
 
@@ -139,6 +148,7 @@ class DensePhase:
         commands = self._step_commands(pellets, shots, outputs)
         self.graph = None
         while True:
+            interrupts.check()
             flags = self._checkpoint()  # host syncs: here, at checkpoints, and one per rebuild
             if frames is not None:
                 take_frame(self, pellets, frames)
@@ -238,7 +248,11 @@ class DensePhase:
             self.graph = capture.graph
             wp.capture_launch(self.graph)
             return
-        for _ in range(1 if self.fused else self.block_steps):
+        if self.fused:
+            interrupts.wait(commands[0].launch, self.stop)
+            return
+        for _ in range(self.block_steps):
+            interrupts.check()
             for command in commands:
                 command.launch()
 
