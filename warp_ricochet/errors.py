@@ -10,16 +10,30 @@ class SceneError(RicochetError, ValueError):
 
     def __init__(self, key: str, value, allowed: str):
         self.key, self.value, self.allowed = key, value, allowed
-        super().__init__(f"{key} = {_short(value)}: {allowed}")
+        super().__init__(shorten(f"{shorten(str(key), MAX_KEY)} = {_short(value)}: {allowed}", MAX_MESSAGE))
 
 
 class OutputError(RicochetError, OSError):
     """The output path cannot be used (exists without overwrite, unwritable, not HDF5)."""
 
 
-def _short(value, limit: int = 60) -> str:
-    text = repr(value)
+def in_use_error(shown: str, name: str) -> OutputError:
+    """A partial file or sweep folder another process holds (a run or sweep writing it, a reader)."""
+    return OutputError(f"{shown}: {name} is in use by another process (a run or sweep writing it, or a reader); "
+                       "wait for it to finish or stop it")
+
+
+MAX_KEY = 200  # characters of a key shown in a message (a 100,000-character unknown key is not echoed whole)
+MAX_MESSAGE = 2000  # characters of a whole one-line message
+
+
+def shorten(text: str, limit: int) -> str:
+    """`text`, cut to `limit` characters (ending in "...") when longer."""
     return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _short(value, limit: int = 60) -> str:
+    return shorten(repr(value), limit)
 
 
 class PrecisionWarning(UserWarning):

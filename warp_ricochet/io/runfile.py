@@ -39,7 +39,7 @@ import h5py
 import warp as wp
 
 from .._version import __version__
-from ..errors import OutputError, RicochetError
+from ..errors import OutputError, RicochetError, in_use_error
 from .space import Reservation
 
 try:
@@ -62,11 +62,18 @@ def check_output_path(path, overwrite: bool) -> Path:
         raise OutputError(f"{shown}: is a directory")
     if p.exists() and not overwrite:
         raise OutputError(f"{shown}: exists; pass --overwrite (overwrite=True) to replace it")
+    if p.is_symlink() and not p.exists() and not overwrite:  # else found only when the run moves into place
+        raise OutputError(f"{shown}: is a dangling symbolic link (to {os.readlink(p)!r}); remove it, or pass "
+                          "--overwrite (overwrite=True) to replace the link")
     partial = p.with_name(p.name + ".partial")
-    if partial.exists() and not overwrite:
-        raise OutputError(f"{shown}: {partial.name} exists (the chunks of an earlier interrupted run); pass "
-                          "--resume (resume=True) to continue that run, --overwrite (overwrite=True) to replace "
-                          "it, or move it away")
+    if partial.exists():
+        if in_use(partial):
+            raise in_use_error(shown, partial.name)
+        if not overwrite:
+            what = ("the points of an earlier interrupted sweep", "sweep") if partial.is_dir() else \
+                ("the chunks of an earlier interrupted run", "run")
+            raise OutputError(f"{shown}: {partial.name} exists ({what[0]}); pass --resume (resume=True) to continue "
+                              f"that {what[1]}, --overwrite (overwrite=True) to replace it, or move it away")
     parent = p.parent if str(p.parent) else Path(".")
     if not parent.exists():
         raise OutputError(f"{shown}: folder {str(parent)!r} does not exist")
@@ -75,6 +82,29 @@ def check_output_path(path, overwrite: bool) -> Path:
     if not os.access(parent, os.W_OK | os.X_OK) or (p.exists() and not os.access(p, os.W_OK)):
         raise OutputError(f"{shown}: not writable (permission denied)")
     return p
+
+
+def in_use(path: Path) -> bool:
+    """Whether another process holds a lock on `path` (a partial file or a sweep's folder): a run or
+    sweep writing it (flock, see `_PartialLock`, `io.sweepdir`) or an HDF5 reader."""
+    if fcntl is None:
+        return False
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        return True
+    finally:
+        os.close(fd)
+    return False
+
+
+def output_target(path) -> Path:
+    """An output path as a Path, or a one-line OutputError (not .h5 or .hdf5, a NUL character)."""
+    return _target(path)[0]
 
 
 def _target(path) -> tuple[Path, str]:
@@ -115,8 +145,7 @@ class _PartialLock:
             fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
             self.release()
-            raise OutputError(f"{shown}: {partial.name} is in use by another process (a run writing it, or a "
-                              "reader); wait for it to finish or stop it") from None
+            raise in_use_error(shown, partial.name) from None
 
     def share(self):
         if self.fd is not None and fcntl is not None:
@@ -380,8 +409,12 @@ def check_resume_path(path, overwrite: bool) -> Path:
     if p.exists() and not overwrite:
         raise OutputError(f"{shown}: exists; pass --overwrite (overwrite=True) to replace it with the resumed run")
     partial = p.with_name(p.name + ".partial")
+    if partial.is_dir():
+        raise OutputError(f"{shown}: {partial.name} is a sweep's folder; warp-ricochet sweep ... --resume continues it")
     if not partial.is_file():
         raise OutputError(f"{shown}: nothing to resume: {partial.name} does not exist")
+    if in_use(partial):
+        raise in_use_error(shown, partial.name)
     if not os.access(partial, os.R_OK | os.W_OK) or not os.access(partial.parent, os.W_OK | os.X_OK):
         raise OutputError(f"{shown}: {partial.name} or its folder is not writable (permission denied)")
     if not h5py.is_hdf5(partial):

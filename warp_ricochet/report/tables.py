@@ -87,6 +87,12 @@ def read_results(path) -> Results:
     if not os.path.exists(path):
         raise ReportError(path, "does not exist")
     if os.path.isdir(path):
+        from ..io.sweepdir import folder_progress
+
+        found = folder_progress(path)
+        if found is not None:
+            raise ReportError(path, f"is an unfinished sweep: {found[0]} of {found[1]} points complete (its tables are "
+                                    "written when every point is); warp-ricochet sweep ... --resume continues it")
         raise ReportError(path, "is a directory, not an HDF5 file")
     try:
         with open(path, "rb"):
