@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -18,7 +19,7 @@ import numpy as np
 from .chunks import check_chunk_memory, plan_shots
 from .core.impact import impact_kernel_for
 from .device import resolve_device, warp
-from .errors import PrecisionWarning, SceneError  # noqa: F401 - PrecisionWarning: part of the API
+from .errors import PrecisionWarning, SceneError, SceneWarning  # noqa: F401 - PrecisionWarning: part of the API
 from .fields import bytes_per_pellet
 from .io import resume, sweepdir
 from .io.runfile import OutputFile, check_output_path, check_resume_path, output_target
@@ -134,6 +135,9 @@ def impact(
 
 # --------------------------------------------------------------------------- scenes
 
+NO_HITS = ("no pellet hit any surface (all {:,} missed): check shot.direction and the surfaces' points and "
+           "normals (a plane is hit only from the side its normal points to)")
+
 
 def check_resources(scenes, dev, output, rows_done=0) -> None:
     """Before any work: every explicit chunk size fits in memory, and the output (less `rows_done`
@@ -163,6 +167,8 @@ def _compute(scene, dev, writer=None, progress=None, resumed=None, dense_options
                          options=dense_options, frames=frames)
     if writer is not None:
         writer.write_stats(stats)
+    if stats["hits"] == 0 and stats["pellets"] > 0:
+        warnings.warn(NO_HITS.format(int(stats["pellets"])), SceneWarning, stacklevel=3)
     return stats
 
 

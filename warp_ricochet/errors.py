@@ -1,5 +1,8 @@
 """User-facing errors: each one prints as a single line naming the key, the value and what is allowed."""
 
+import os
+import re
+
 
 class RicochetError(Exception):
     """Base class of every error the package reports to a user as one line (no traceback)."""
@@ -34,6 +37,26 @@ def shorten(text: str, limit: int) -> str:
 
 def _short(value, limit: int = 60) -> str:
     return shorten(repr(value), limit)
+
+
+def hdf5_reason(exc: Exception) -> str:
+    """The reason in an HDF5 (h5py) error as plain words ("Permission denied", "file signature not
+    found"), without the library's call chain, flags and descriptors."""
+    text = " ".join(str(exc).split())
+    found = re.search(r"error message = '([^']*)'", text)
+    if found:
+        return found.group(1)
+    found = re.search(r"errno = (\d+)", text)
+    if found:
+        return os.strerror(int(found.group(1)))
+    found = re.search(r"\(([^()]*)\)$", text)  # "Unable to synchronously open file (file signature not found)"
+    if found:
+        return found.group(1)
+    return shorten(re.sub(r"^\[Errno -?\d+\] ", "", text), MAX_KEY) or type(exc).__name__
+
+
+class SceneWarning(UserWarning):
+    """A valid scene that very likely does not do what was meant (no pellet hits anything)."""
 
 
 class PrecisionWarning(UserWarning):

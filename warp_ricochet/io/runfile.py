@@ -39,7 +39,8 @@ import h5py
 import warp as wp
 
 from .._version import __version__
-from ..errors import OutputError, RicochetError, in_use_error
+from ..errors import OutputError, RicochetError, hdf5_reason, in_use_error
+from .h5open import open_for_reading
 from .space import Reservation
 
 try:
@@ -182,7 +183,7 @@ class OutputFile:
         except FileExistsError:
             raise OutputError(f"{shown}: {self.staging.name} appeared meanwhile (another run?)") from None
         except OSError as exc:
-            raise OutputError(f"{shown}: cannot be created ({exc})") from None
+            raise OutputError(f"{shown}: {self.staging.name} cannot be created ({hdf5_reason(exc)})") from None
         try:
             self._lock = _PartialLock(self.staging, shown)
         except OutputError:
@@ -224,13 +225,10 @@ class OutputFile:
         self._lock = _PartialLock(self.partial, shown)
         try:
             try:
-                try:  # swmr: opens even with the flags of a killed writer set
-                    f = h5py.File(self.partial, "r", swmr=True, locking=False)
-                except OSError:
-                    f = h5py.File(self.partial, "r", locking=False)
+                f = open_for_reading(self.partial, locking=False)  # also with the flags of a killed writer set
             except OSError as exc:
                 raise OutputError(f"{shown}: {self.partial.name} cannot be resumed: HDF5 cannot open it "
-                                  f"({' '.join(str(exc).split())})") from None
+                                  f"({hdf5_reason(exc)}); --overwrite starts the run again") from None
             with f:
                 try:
                     found = check(f)
@@ -244,7 +242,7 @@ class OutputFile:
                 self.h5 = h5py.File(self.partial, "r+", **SWMR_FILE)
             except (OSError, ValueError) as exc:
                 raise OutputError(f"{shown}: {self.partial.name} cannot be reopened for writing "
-                                  f"({' '.join(str(exc).split())})") from None
+                                  f"({hdf5_reason(exc)})") from None
         except BaseException:
             self._lock.release()
             raise
@@ -324,6 +322,14 @@ class OutputFile:
 def publish(staging: Path, partial: Path, overwrite: bool, shown: str):
     """Rename a file set up as NAME.partial.new to NAME.partial (the lock goes with it): atomically,
     and without overwrite never over a NAME.partial that appeared meanwhile."""
+    try:
+        _publish(staging, partial, overwrite, shown)
+    except FileNotFoundError:  # removed by another process meanwhile
+        raise OutputError(f"{shown}: {staging.name} was removed during the set-up (by another process?); run it "
+                          "again") from None
+
+
+def _publish(staging: Path, partial: Path, overwrite: bool, shown: str):
     if overwrite:
         if partial.exists():  # an earlier partial: not while someone has it open
             _PartialLock(partial, shown).release()
@@ -386,6 +392,14 @@ def move_into_place(partial: Path, path: Path, overwrite: bool):
 
 
 def _move(partial: Path, path: Path, overwrite: bool):
+    try:
+        _replace(partial, path, overwrite)
+    except FileNotFoundError:  # removed by another process while the run wrote it: its rows are gone
+        raise OutputError(f"output path = {str(path)!r}: {partial.name} was removed during the run (by another "
+                          "process?); its results are lost: run it again") from None
+
+
+def _replace(partial: Path, path: Path, overwrite: bool):
     if overwrite:
         os.replace(partial, path)
         return

@@ -16,7 +16,8 @@ import os
 import tomllib
 from dataclasses import dataclass, field
 
-from ..errors import RicochetError
+from ..errors import RicochetError, hdf5_reason
+from ..io.h5open import open_for_reading
 from ..tallies.sums import STAT_UNITS
 from .paper import paper_row
 
@@ -103,13 +104,12 @@ def read_results(path) -> Results:
     if not hdf5:
         raise ReportError(path, "is not an HDF5 file (expected a warp-ricochet .h5 output)")
     try:
-        with h5py.File(path, "r") as f:
+        with open_for_reading(path) as f:  # also a killed run's partial
             return _read_open_file(f, path, np)
     except RicochetError:
         raise
     except (OSError, KeyError, ValueError, TypeError) as exc:  # truncated or otherwise damaged files
-        message = " ".join(str(exc).split()) or type(exc).__name__
-        raise ReportError(path, f"cannot be read as a warp-ricochet file: {message}") from None
+        raise ReportError(path, f"cannot be read as a warp-ricochet file: {hdf5_reason(exc)}") from None
 
 
 def _read_open_file(f, path, np) -> Results:
@@ -132,6 +132,11 @@ def _read_open_file(f, path, np) -> Results:
     if kind == "run":
         row = {name: float(np.asarray(v).reshape(-1)[0]) for name, v in stats.items()}
         meta["points"] = meta["points_done"] = 1
+        if status != "complete" and "progress/rows" in f and "constants/pellets" in f:  # how far it got
+            meta["rows_done"], meta["rows_total"] = int(f["progress/rows"][()]), int(f["constants/pellets"][()])
+        if math.isnan(row.get("pellets", math.nan)):  # statistics are written when the run completes
+            meta["points_done"] = 0
+            return Results(rows=[], meta=meta)
         return Results(rows=[row], meta=meta)
     sweep = f.get("sweep")
     if not isinstance(sweep, h5py.Group):
@@ -368,7 +373,12 @@ def format_tables(results: Results, fmt: str = "text", paper: bool = False) -> s
             return (point_cells(row, values) if params else []) + [_num(values.get("mu_s"))]
 
     blocks = [header_line(results)]  # followed by a blank line: never a Markdown table
-    if results.meta.get("status", "complete") != "complete":
+    if "rows_done" in results.meta:  # an unfinished run file (NAME.h5.partial)
+        done, total = results.meta["rows_done"], results.meta["rows_total"]
+        blocks.append(f"note: status is {results.meta.get('status')!r}: {done:,} of {total:,} pellets complete "
+                      f"({100 * done / max(total, 1):.1f}%); the statistics are written when the run completes "
+                      "(warp-ricochet run ... --resume continues it)")
+    elif results.meta.get("status", "complete") != "complete":
         blocks.append(f"note: status is {results.meta.get('status')!r}; the tables show the points that finished")
     blocks += _tables(results.rows, point_headers, point_cells, fmt)
     if paper:
