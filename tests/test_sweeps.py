@@ -214,8 +214,12 @@ def test_resume_refusals_without_a_folder(tmp_path, interrupted):
     out, folder = interrupted
     rc, _, err = cli(["sweep", *ARGS, "-o", tmp_path / "none.h5", "--resume"])
     assert rc == 2 and "nothing to resume" in err
+    before = folder_digest(folder)
     rc, _, err = cli(["run", SCENE, "--device", "cpu", *SETS, "-o", out, "--resume"])
     assert rc == 2 and "is a sweep's folder; warp-ricochet sweep ... --resume continues it" in err
+    rc, _, err = cli(["run", SCENE, "--device", "cpu", *SETS, "-o", out, "--overwrite"])  # never over a sweep's folder
+    assert rc == 2 and len(err.splitlines()) == 1 and "is a sweep's folder" in err, err
+    assert folder_digest(folder) == before and not Path(str(folder) + ".new").exists()
     rc, stdout, err = cli(["report", folder])
     assert rc == 2 and "unfinished sweep: 1 of 3 points complete" in err, err
 

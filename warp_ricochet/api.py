@@ -139,9 +139,10 @@ NO_HITS = ("no pellet hit any surface (all {:,} missed): check shot.direction an
            "normals (a plane is hit only from the side its normal points to)")
 
 
-def check_resources(scenes, dev, output, rows_done=0) -> None:
+def check_resources(scenes, dev, output, rows_done=0, copies=1) -> None:
     """Before any work: every explicit chunk size fits in memory, and the output (less `rows_done`
-    rows already written, for a resumed run) fits on its disk: else a one-line error, no file made."""
+    rows already written, for a resumed run; `copies` times: a sweep's points, then the sweep file
+    made of them) fits on its disk: else a one-line error, no file made."""
     for sc in scenes:
         check_chunk_memory(sc, dev, output is not None)
         if sc.pair_collisions and sc.collisions.frame_every and output is not None:
@@ -151,7 +152,7 @@ def check_resources(scenes, dev, output, rows_done=0) -> None:
                                  f"trajectory frames need the whole run in one chunk, and its {shots} shots take "
                                  "more: fewer shots, or numerics.chunk_size, or frame_every = 0")
     if output is not None:
-        need = sum((sc.shot.pellets - rows_done) * bytes_per_pellet(sc.output.fields, sc.numerics.precision,
+        need = copies * sum((sc.shot.pellets - rows_done) * bytes_per_pellet(sc.output.fields, sc.numerics.precision,
                                                                     sc.physics.bounces) for sc in scenes)
         check_space(output, need, "the output")
 
@@ -167,7 +168,7 @@ def _compute(scene, dev, writer=None, progress=None, resumed=None, dense_options
                          options=dense_options, frames=frames)
     if writer is not None:
         writer.write_stats(stats)
-    if stats["hits"] == 0 and stats["pellets"] > 0:
+    if stats["hits"] == 0 and stats["pellets"] > 0 and scene.surfaces:
         warnings.warn(NO_HITS.format(int(stats["pellets"])), SceneWarning, stacklevel=3)
     return stats
 
@@ -282,8 +283,10 @@ def sweep(scene, params: dict, ties=(), output=None, device=None, *, overwrite=F
     manifest = sweepdir.make_manifest(scene.to_toml(), points, dev)
     if resume:
         folder = sweepdir.SweepFolder(path, manifest, resume=True, overwrite=overwrite)  # refuses, changing nothing
+        with _sweep_kept(folder, close=False):
+            check_resources([sc for i, sc in enumerate(scenes) if not folder.point(i).exists()], dev, output, copies=2)
     else:
-        check_resources(scenes, dev, output)
+        check_resources(scenes, dev, output, copies=2)
         folder = sweepdir.SweepFolder(path, manifest, resume=False, overwrite=overwrite)
     with _sweep_kept(folder):
         results = []
@@ -307,15 +310,17 @@ def _point_progress(progress, index: int, points: int):
 
 
 @contextlib.contextmanager
-def _sweep_kept(folder):
-    """The one place a sweep meets an interruption or a failure: the folder's lock is released, and
-    the one-line message names the folder and `sweep ... --resume` (cli._kept)."""
+def _sweep_kept(folder, close=True):
+    """The one place a sweep meets an interruption or a failure: the folder's lock is released (at
+    the end too, with `close`), and the one-line message names the folder and `sweep ... --resume`
+    (cli._kept)."""
     try:
         yield
     except BaseException as exc:
+        folder.close()
         exc.partial_path = str(folder.folder)
         exc.resumable = True
         exc.resume_command = "sweep"
         raise
-    finally:
+    if close:
         folder.close()

@@ -175,6 +175,9 @@ class OutputFile:
         # NAME.partial, if it exists, always opens, even after a SIGKILL during the set-up
         self.staging = self.partial.with_name(self.partial.name + ".new") if self.watchable else self.partial
         shown = f"output path = {str(self.path)!r}"
+        if self.watchable and self.partial.is_dir():  # never replaced by a run's partial, even with overwrite
+            raise OutputError(f"{shown}: {self.partial.name} is a sweep's folder (warp-ricochet sweep ... --resume "
+                              "continues it); remove it, or choose another output path")
         if self.staging.exists():  # a set-up file of a killed run, or (overwrite) a sweep's earlier partial
             _PartialLock(self.staging, shown).release()  # refused while someone has it open
             os.unlink(self.staging)
