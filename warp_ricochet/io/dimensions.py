@@ -45,14 +45,15 @@ def field_dimensions(name: str) -> tuple[str, ...]:
 
 def dimensions_of(path: str, ds: h5py.Dataset) -> tuple[str, ...]:
     """The axes of the dataset at `path` (relative to its run group): from the layout, else, for a
-    dataset the layout does not know, `xyz` for a last axis of 3 and `<name>_<axis>` for the rest."""
+    dataset the layout does not know, `xyz` for a last axis of 3 and `<path>_<axis>` (slashes as
+    underscores: one dimension per dataset and axis) for the rest."""
     if path.startswith("pellets/") and path.count("/") == 2:
         name = path[len("pellets/"):].replace("/", ".")
         if name in FIELDS:
             return field_dimensions(name)
     if path in RUN_DIMENSIONS:
         return RUN_DIMENSIONS[path]
-    base = path.rsplit("/", 1)[-1]
+    base = path.replace("/", "_")
     return tuple("xyz" if n == 3 and axis == ds.ndim - 1 else f"{base}_{axis}" for axis, n in enumerate(ds.shape))
 
 
