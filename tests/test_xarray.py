@@ -126,6 +126,9 @@ def test_open_run_reads_several_chunks_lazily_as_h5py_does(reference):
         assert len(long) == 10
         impact = run.dataframe("impact", pellets=slice(100, 200))
         assert impact.index.names == ["pellet", "bounce"] and len(impact) == 100
+        tree = run.to_datatree()
+        assert isinstance(tree["pellets/landing/range"].data, da.Array)
+        assert list(tree["pellets/impact"].ds.xyz.values) == ["x", "y", "z"]  # inherited from the root
         with pytest.raises(AttributeError, match="no per-pellet collisions"):
             run.collisions
 
