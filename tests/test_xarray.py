@@ -202,3 +202,23 @@ def test_the_documented_examples_run(tmp_path, monkeypatch):
            "shot.h5", device="cpu")
     for block in blocks:
         exec(compile(block, "docs/output.md", "exec"), {})  # raises if an example is wrong
+
+
+def test_datasets_the_layout_does_not_know_get_dimensions_of_their_own(tmp_path):
+    """A dataset added to a run group later (say by a new writer) is named, not left anonymous:
+    `xyz` for a last axis of 3, `<path>_<axis>` otherwise, never sharing a dimension of another length."""
+    from warp_ricochet.io.dimensions import name_run_dimensions
+
+    path = tmp_path / "extra.h5"
+    with h5py.File(path, "w") as f:
+        f["pellets/landing/range"] = np.arange(4.0)
+        f["particles/pellets/box/edges"] = np.ones(3)
+        f["particles/pellets/id/value"] = np.zeros((2, 5))
+        f["other/value"] = np.zeros(7)
+        name_run_dimensions(f)
+    with xr.open_datatree(path, engine="h5netcdf") as tree:
+        dims = {p: v.dims for p, v in walk(tree)}
+    assert dims["pellets/landing/range"] == ("pellet",)
+    assert dims["particles/pellets/box/edges"] == ("xyz",)
+    assert dims["particles/pellets/id/value"] == ("particles_pellets_id_value_0", "particles_pellets_id_value_1")
+    assert dims["other/value"] == ("other_value_0",)

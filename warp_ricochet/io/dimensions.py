@@ -73,6 +73,8 @@ def scale(group: h5py.Group, name: str, size: int, unlimited: bool) -> h5py.Data
         ds = group.create_dataset(name, shape=(size,), dtype="f4")  # never written: no storage
     ds.make_scale(name)
     ds.attrs["NAME"] = np.bytes_(f"{NOT_A_VARIABLE}{0 if unlimited else size:10d}")
+    ds.attrs["units"] = "1"
+    ds.attrs["description"] = f"the dimension {name} (an HDF5 dimension scale without data; docs/output.md)"
     return ds
 
 
