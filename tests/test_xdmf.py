@@ -85,7 +85,7 @@ def _expected(g, stage, bounce=None):
 def _check_clouds(blocks, g, suffix=""):
     """Every cloud of run group `g`: one point per pellet at its position, arrays equal to the HDF5's."""
     rows = int(g["progress/rows"][()])
-    clouds = [("launch", "initial", None), ("landing", "landing", None)]
+    clouds = [("launch", "initial", None), ("landing", "landing", None), ("release", "release", None)]
     clouds += [(f"impact_{b + 1}", "impact", b) for b in range(int(g["constants/bounces"][()]))]
     for name, stage, bounce in clouds:
         if f"pellets/{stage}/position" not in g:
@@ -155,7 +155,8 @@ def test_only_datasets_in_the_file_are_referenced(tmp_path):
 
 
 def test_trajectory_frames_are_time_steps(tmp_path):
-    scene = _scene(30, bounces=1, fields=ALL + ["collisions"], collisions={"enabled": True, "frame_every": 8})
+    scene = _scene(30, bounces=1, fields=ALL + ["collisions", "release"],
+                   collisions={"enabled": True, "frame_every": 8})
     out = tmp_path / "frames.h5"
     api.run(scene, output=str(out), device="cpu")
     with h5py.File(out) as f:
