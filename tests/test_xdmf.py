@@ -11,8 +11,10 @@ import pytest
 
 from helpers import cli, interrupt_after, make_scene, paper_raw
 
-vtk = pytest.importorskip("vtk")
-from vtk.util.numpy_support import vtk_to_numpy  # noqa: E402
+xdmf2 = pytest.importorskip("vtkmodules.vtkIOXdmf2")  # the vtk wheel's XDMF 2 reader, no rendering modules
+from vtkmodules.util.numpy_support import vtk_to_numpy  # noqa: E402
+from vtkmodules.vtkCommonDataModel import vtkCompositeDataSet  # noqa: E402
+from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline  # noqa: E402
 
 from warp_ricochet import api  # noqa: E402
 from warp_ricochet.io.xdmf import quad_corners, sidecar_path, write_xdmf  # noqa: E402
@@ -30,10 +32,10 @@ def _scene(count=40, precision="float64", bounces=2, fields=ALL, **sections):
 
 def _read(xmf, time=None):
     """{block name: vtkDataSet} of the sidecar as vtkXdmfReader reads it (at `time`), and its time steps."""
-    reader = vtk.vtkXdmfReader()
+    reader = xdmf2.vtkXdmfReader()
     reader.SetFileName(str(xmf))
     reader.UpdateInformation()
-    steps = reader.GetOutputInformation(0).Get(vtk.vtkStreamingDemandDrivenPipeline.TIME_STEPS())
+    steps = reader.GetOutputInformation(0).Get(vtkStreamingDemandDrivenPipeline.TIME_STEPS())
     if time is None:
         reader.Update()
     else:
@@ -43,7 +45,7 @@ def _read(xmf, time=None):
     def walk(obj, name):
         if obj.IsA("vtkMultiBlockDataSet"):
             for i in range(obj.GetNumberOfBlocks()):
-                walk(obj.GetBlock(i), obj.GetMetaData(i).Get(vtk.vtkCompositeDataSet.NAME()))
+                walk(obj.GetBlock(i), obj.GetMetaData(i).Get(vtkCompositeDataSet.NAME()))
         else:
             blocks[name] = obj
 
@@ -245,3 +247,22 @@ def test_quad_corners_span_the_projections(normal):
     rel = points - q[0]
     assert np.all(rel @ u > 0) and np.all(rel @ u < np.linalg.norm(edges[0]))
     assert np.all(rel @ v > 0) and np.all(rel @ v < np.linalg.norm(edges[1]))
+
+
+def test_a_sidecar_that_cannot_be_written_is_a_warning(tmp_path, monkeypatch):
+    """The run's file is in place when its sidecar is written: a failure there (a full disk) warns,
+    naming the command that writes it later, and the run succeeds."""
+    import errno
+
+    from warp_ricochet.io import runfile
+
+    def full(path, overwrite):
+        raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+    monkeypatch.setattr(runfile, "write_xdmf", full)
+    out = tmp_path / "shot.h5"
+    with pytest.warns(UserWarning, match=r"shot.xmf .* was not written: .*No space left.*warp-ricochet xdmf"):
+        api.run(_scene(10, bounces=1), output=str(out), device="cpu")
+    with h5py.File(out) as f:
+        assert f.attrs["status"] == "complete"
+    assert not sidecar_path(out).exists()

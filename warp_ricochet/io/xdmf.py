@@ -18,8 +18,8 @@ collection `point_NNNN`):
   `energy_translational` = m |v|^2 / 2 and `energy_rotational` = I |w|^2 / 2 (J; eq. 40's W_T and
   W_R per pellet), and `landing.range`, `collisions.count`, `collisions.last_time` where present;
 - `surfaces`: each plane as a finite quad (cell data: `surface` index, `restitution`, `mu_s`, `mu_d`),
-  centred where the plane meets the pellets: it spans the points' projections onto the plane
-  (launch, impact and landing positions, and the plane's point), 10 % wider on each side;
+  centred where the plane meets the pellets: it spans the plane's point and the projections onto
+  the plane of the box around the launch, impact and landing positions, 10 % wider on each side;
 - `frames` (runs with H5MD trajectory frames): a temporal collection, one grid per frame at its
   time (s), with the pellets' `id` and the per-pellet values above, so ParaView animates the shot.
 """
@@ -40,7 +40,7 @@ from ..fields import FIELDS
 __all__ = ["sidecar_path", "write_xdmf", "xdmf_text"]
 
 EXTRAS = ("landing.range", "collisions.count", "collisions.last_time")  # per-pellet values shown on every cloud
-SAMPLE_BLOCK = 1 << 16  # rows read at a time to size the surfaces
+SAMPLE_BLOCK = 1 << 16  # rows read at a time to size the surfaces (at most 16 blocks: bounded time)
 SAMPLE_BLOCKS = 16  # blocks read at most (spread over the file)
 _NUMBER_TYPES = {"f": "Float", "i": "Int", "u": "UInt"}
 _MAGNITUDES = {"velocity": "speed", "angular_velocity": "spin"}
@@ -254,22 +254,28 @@ def _cloud(parent, ref, rows, name, stage, bounce, extras, constants):
 # ------------------------------------------------------------------------------------------ surfaces
 
 
-def _sample_positions(group, rows) -> np.ndarray:
-    """Finite positions (launch, impacts, landings; float64, (M, 3)) from at most SAMPLE_BLOCKS
-    blocks of SAMPLE_BLOCK rows spread over the first `rows` rows."""
+def _sample_box(group, rows) -> np.ndarray:
+    """The 8 corners (8, 3) of the axis-aligned box around the finite positions (launch, impacts,
+    landings, releases) of at most SAMPLE_BLOCKS blocks of SAMPLE_BLOCK rows spread over the first
+    `rows` rows; (0, 3) when there are none. Their projections onto a plane span at least those
+    of the positions themselves."""
     starts = np.arange(0, rows, SAMPLE_BLOCK)
     if len(starts) > SAMPLE_BLOCKS:
         starts = starts[np.linspace(0, len(starts) - 1, SAMPLE_BLOCKS).round().astype(int)]
-    found = []
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
     for stage in ("initial", "impact", "landing", "release"):
         path = FIELDS[f"{stage}.position"].path
         if path not in group:
             continue
         ds = group[path]
         for start in starts:
-            block = np.asarray(ds[start:min(start + SAMPLE_BLOCK, rows)], dtype=np.float64).reshape(-1, 3)
-            found.append(block[np.isfinite(block).all(axis=1)])
-    return np.concatenate(found) if found else np.zeros((0, 3))
+            block = np.asarray(ds[start:min(start + SAMPLE_BLOCK, rows)]).reshape(-1, 3)
+            block = block[np.isfinite(block).all(axis=1)]
+            if len(block):
+                lo, hi = np.minimum(lo, block.min(axis=0)), np.maximum(hi, block.max(axis=0))
+    if not np.all(lo <= hi):
+        return np.zeros((0, 3))
+    return np.array([[(lo, hi)[(k >> axis) & 1][axis] for axis in range(3)] for k in range(8)], dtype=np.float64)
 
 
 def plane_basis(normal) -> tuple[np.ndarray, np.ndarray]:
@@ -302,7 +308,7 @@ def _surfaces(parent, group, ref, rows, name):
     if "constants/surfaces/point" not in group:
         return
     points, normals = group["constants/surfaces/point"][()], group["constants/surfaces/normal"][()]
-    sample = _sample_positions(group, rows)
+    sample = _sample_box(group, rows)
     corners = np.concatenate([quad_corners(p, n, sample) for p, n in zip(points, normals)])
     grid = ET.SubElement(parent, "Grid", Name=name, GridType="Uniform")
     ET.SubElement(grid, "Topology", TopologyType="Quadrilateral", NumberOfElements=str(len(points)))
