@@ -142,8 +142,9 @@ def _rows(group) -> int:
 
 
 def _run(parent, group, h5name: str, name: str, suffix: str) -> None:
-    """A spatial collection `name` with the run's point clouds and surfaces, then its frames (each
-    grid's name ends in `suffix`: ParaView's block names are unique)."""
+    """A spatial collection `name` of the run's point clouds, surfaces and frames; each grid's name
+    ends in `suffix` (ParaView's block names are unique). A run file's one collection is the
+    reader's root: its blocks are /Root/landing ... in ParaView."""
     rows = _rows(group)
     run = ET.SubElement(parent, "Grid", Name=name, GridType="Collection", CollectionType="Spatial")
     ref = _Refs(group, h5name)
@@ -158,7 +159,7 @@ def _run(parent, group, h5name: str, name: str, suffix: str) -> None:
                 _cloud(run, ref, rows, cloud + suffix, stage, bounce, [e for e in extras if not e.startswith(stage + ".")],
                        constants)
     _surfaces(run, group, ref, rows, "surfaces" + suffix)
-    _frames(parent, group, ref, extras, "frames" + suffix)
+    _frames(run, group, ref, extras, "frames" + suffix)
 
 
 class _Refs:
