@@ -3,6 +3,7 @@
     warp-ricochet run SCENE.toml [-o OUT.h5] [--device cpu|cuda|cuda:N] [--set KEY=VALUE ...] [--overwrite] [--resume]
     warp-ricochet sweep SCENE.toml --param KEY=START:STOP:STEP|a,b,c [--tie KEY=F*[PARAM] ...] [-o OUT.h5] ...
     warp-ricochet report OUT.h5 [OUT2.h5 ...] [--format text|markdown] [--paper]
+    warp-ricochet xdmf OUT.h5 [--overwrite]
 
 Exit status: 0 on success; 2 for a usage error or any invalid scene, override, device, output path or
 report input (one line `warp-ricochet: error: ...` on stderr, no traceback); 1 for an operating-system
@@ -24,7 +25,8 @@ PROG = "warp-ricochet"
 EPILOG = """examples:
   warp-ricochet run examples/paper.toml -o run.h5
   warp-ricochet sweep examples/paper.toml --param surfaces.0.mu_s=0:0.5:0.05 --tie surfaces.0.mu_d=0.9* -o sweep.h5
-  warp-ricochet report sweep.h5 --paper"""
+  warp-ricochet report sweep.h5 --paper
+  warp-ricochet xdmf run.h5          # run.xmf: open it in ParaView"""
 
 
 # ---------------------------------------------------------------------------------------------- parser
@@ -89,6 +91,14 @@ def build_parser() -> argparse.ArgumentParser:
                         "(the same sweep, e.g. in vacuum and in air)")
     _add_report_options(p)
     p.set_defaults(func=cmd_report)
+
+    p = sub.add_parser("xdmf", help="write the XDMF sidecar (OUT.xmf) that opens a run or sweep file in ParaView",
+                       description="Write OUT.xmf beside OUT.h5: an XDMF 2 description of its point clouds, surfaces "
+                                   "and trajectory frames that ParaView and VTK open (runs and sweeps write it when "
+                                   "they complete; docs/output.md, \"ParaView\").")
+    p.add_argument("file", metavar="OUT.h5", help="a run or sweep file written by warp-ricochet")
+    p.add_argument("--overwrite", action="store_true", help="replace OUT.xmf if it exists")
+    p.set_defaults(func=cmd_xdmf)
     return parser
 
 
@@ -151,6 +161,13 @@ def cmd_report(args) -> int:
         raise ReportError(args.files[1], "--paper compares one file with the paper; give one file")
     else:
         sys.stdout.write(format_side_by_side(results, args.format))
+    return 0
+
+
+def cmd_xdmf(args) -> int:
+    from .io.xdmf import write_xdmf
+
+    print(write_xdmf(args.file, overwrite=args.overwrite))
     return 0
 
 

@@ -34,6 +34,8 @@ RUN_DIMENSIONS = {
     "particles/pellets/position/step": ("frame",),
     "particles/pellets/position/time": ("frame",),
     "particles/pellets/position/value": ("frame", "pellet", "xyz"),
+    "particles/pellets/species": ("pellet",),
+    "particles/pellets/id": ("pellet",),
 }
 
 
