@@ -49,7 +49,8 @@ class Landings:
     position (n, 3) m; distance (n,) m horizontal distance from the shooter; range (n,) m (eq. 42);
     energy (n,) J translational kinetic energy at landing; slipped (n,) int8 or None (first impact:
     1 slip, 0 stick); shooter (3,) m; up (3,) unit vector against gravity; planes: [(name, point,
-    normal)]; rows: the rows read; total: the run's pellets."""
+    normal)]; rows: the rows read; total: the run's pellets; aim (3,): the line of fire (the mean
+    launch velocity when stored, else the scene's shot.direction), or None."""
 
     position: np.ndarray
     distance: np.ndarray
@@ -61,6 +62,7 @@ class Landings:
     planes: list
     rows: int
     total: int
+    aim: np.ndarray | None = None
 
 
 def _up(group) -> np.ndarray:
@@ -76,6 +78,14 @@ def _shooter(group, scene, rows) -> np.ndarray:
         return np.asarray(ds[: min(rows, 1_000_000)], dtype=np.float64).mean(axis=0)
     centre = scene.get("shot", {}).get("envelope_center", (0.0, 0.0, 0.0))
     return np.asarray(centre, dtype=np.float64)
+
+
+def _aim(group, scene, rows):
+    ds = group.get("pellets/initial/velocity")
+    if ds is not None and rows:
+        return np.asarray(ds[: min(rows, 1_000_000)], dtype=np.float64).mean(axis=0)
+    direction = scene.get("shot", {}).get("direction")
+    return None if direction is None else np.asarray(direction, dtype=np.float64)
 
 
 def _planes(group, scene) -> list:
@@ -113,23 +123,26 @@ def read_landings(group) -> Landings | None:
         range=None if rng is None else np.asarray(rng[:rows], dtype=np.float64)[keep],
         energy=energy,
         slipped=None if slipped is None else np.asarray(slipped[:rows]).reshape(rows, -1)[keep, 0],
-        shooter=shooter, up=up, planes=_planes(group, scene), rows=rows, total=total)
+        shooter=shooter, up=up, planes=_planes(group, scene), rows=rows, total=total, aim=_aim(group, scene, rows))
 
 
 def top_view(landings: Landings, directions=None):
-    """A horizontal basis seen from above: e1 (downrange) the mean horizontal direction from the
-    shooter to the landings (or `directions`; a world axis when within 2 degrees of it), e2 = up x e1 (cross-range, to the left of downrange),
+    """A horizontal basis seen from above: e1 (downrange) the horizontal part of `directions`, else of
+    the line of fire (`landings.aim`), else of the mean way from the shooter to the landings (a world
+    axis when within 2 degrees of it), e2 = up x e1 (cross-range, to the left of downrange),
     so that (e1, e2) drawn as (right, up) is the view from above, not its mirror. Returns (e1, e2)."""
     up = landings.up
-    d = (landings.position - landings.shooter).mean(axis=0) if directions is None else np.asarray(directions, float)
+    if directions is None:
+        directions = landings.aim if landings.aim is not None else (landings.position - landings.shooter).mean(axis=0)
+    d = np.asarray(directions, dtype=np.float64)
     d = d - (d @ up) * up
     axes = np.eye(3)
-    if np.linalg.norm(d) > 0 and np.max(np.abs(axes @ d)) > np.cos(np.radians(2.0)) * np.linalg.norm(d):
-        d = axes[int(np.argmax(np.abs(axes @ d)))] * np.sign(d[int(np.argmax(np.abs(axes @ d)))])
-        d = d - (d @ up) * up  # within 2 degrees of an axis: the axis
-    if not np.all(np.isfinite(d)) or np.linalg.norm(d) < 1e-12:
-        axes = np.eye(3)
-        d = axes[int(np.argmin(np.abs(axes @ up)))]
+    if not np.all(np.isfinite(d)) or np.linalg.norm(d) < 1e-12:  # straight up or down: the flattest axis
+        d = axes[int(np.argmin(np.abs(up)))]
+        d = d - (d @ up) * up
+    i = int(np.argmax(np.abs(d)))
+    if abs(d[i]) > np.cos(np.radians(2.0)) * np.linalg.norm(d):  # within 2 degrees of an axis: the axis
+        d = np.sign(d[i]) * axes[i]
         d = d - (d @ up) * up
     e1 = d / np.linalg.norm(d)
     e2 = np.cross(up, e1)

@@ -88,9 +88,9 @@ def draw_range(fig, group) -> bool:
     if landings is None or landings.range is None:
         return False
     ax1, ax2 = fig.subplots(1, 2)
-    figures.range_histogram(ax1, landings.range, "ricochet range L, eq. (42) (m)")
+    figures.range_histogram(ax1, landings.range, "range from the last ricochet L, eq. (42) (m)")
     figures.survival_curve(ax2, landings.range)
-    ax2.set_xlabel("ricochet range L, eq. (42) (m)")
+    ax2.set_xlabel("range from the last ricochet L, eq. (42) (m)")
     ax1.set_title("Distribution")
     ax2.set_title("Survival: share of pellets at least this far")
     _title(fig, group, f"Ricochet range of {landings.range.size:,} landed pellets" + _read_note(landings))
@@ -199,7 +199,7 @@ def draw_sweep_survival(fig, sweeps) -> bool:
             drawn = True
         _log_if_wide(ax, "x", np.concatenate(spans) if spans else np.zeros(0))
         fig.colorbar(ScalarMappable(norm=norm, cmap="viridis"), ax=ax, label=_axis_label(x))
-        ax.set_xlabel("ricochet range L, eq. (42) (m)")
+        ax.set_xlabel("range from the last ricochet L, eq. (42) (m)")
         ax.set_title(f"{sweep.label}: {os.path.basename(str(sweep.results.meta.get('file', '')))}")
     fig.suptitle("Range survival at each sweep point (log scale: the tail)")
     return drawn
