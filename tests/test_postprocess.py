@@ -149,6 +149,7 @@ def test_license_and_changelog(name):
     text = (ROOT / name).read_text()
     if name == "LICENSE":
         assert text.startswith("MIT License") and "2026 the warp-ricochet authors" in text
-        assert tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["license"] == {"text": "MIT"}
+        project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+        assert project["license"] == "MIT" and project["license-files"] == ["LICENSE"]
     else:
         assert "## [Unreleased]" in text and "## [0.1.0]" in text and "keepachangelog.com" in text
