@@ -100,7 +100,7 @@ def test_plot_bad_inputs_are_one_line(files, tmp_path, capsys):
     text = tmp_path / "x.h5"
     text.write_text("not hdf5")
     for argv in (["plot", str(tmp_path / "missing.h5")], ["plot", str(text)],
-                 ["plot", str(files["run"]), "-o", str(text)]):
+                 ["plot", str(files["run"]), "-o", str(text)], ["plot", str(files["run"]), str(files["run"])]):
         assert main(argv) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and err[0].startswith(PREFIX), argv

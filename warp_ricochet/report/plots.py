@@ -22,7 +22,7 @@ from . import figures, plotdata
 from .compare import file_label
 from .paper import paper_row
 from .papercheck import is_papers
-from .tables import ReportError, Results, read_results
+from .tables import Results, read_results
 
 __all__ = ["Plot", "PLOTS", "DPI", "PlotError", "register", "require_matplotlib", "planned", "write_plots"]
 
@@ -264,6 +264,11 @@ def write_plots(paths, outdir=None, overwrite=False) -> list[tuple[str, str | No
     _check_outdir(outdir)
     results = {p: read_results(p) for p in paths}
     plan = planned(paths, outdir, [results[p] for p in paths])
+    names = [png for png, _, _ in plan]
+    if len(set(names)) < len(names):
+        twice = next(n for n in names if names.count(n) > 1)
+        raise PlotError(f"output = {twice!r}: two inputs have the same file name; plot them one at a time "
+                        "into different folders (-o)")
     if not overwrite:
         for png, _, _ in plan:
             if os.path.lexists(png):
@@ -282,11 +287,9 @@ def write_plots(paths, outdir=None, overwrite=False) -> list[tuple[str, str | No
             if not plot.draw(fig, source):
                 done.append((png, "nothing to draw (no per-pellet landing data in the file)"))
                 continue
-            tmp = os.path.join(outdir, f".{os.path.basename(png)}.tmp")
-            fig.savefig(tmp, dpi=DPI, format="png")
-            os.replace(tmp, png)
+            _save(fig, png)
             done.append((png, None))
-    except (OSError, KeyError, ValueError) as exc:
+    except (KeyError, ValueError) as exc:  # a damaged file (OSError: one line from the command, exit 1)
         if isinstance(exc, RicochetError):
             raise
         raise PlotError(f"plot failed: {' '.join(str(exc).split()) or type(exc).__name__}") from None
@@ -296,11 +299,21 @@ def write_plots(paths, outdir=None, overwrite=False) -> list[tuple[str, str | No
     return done
 
 
+def _save(fig, png) -> None:
+    """Write the PNG beside its place, then move it there: a failed write leaves no partial PNG."""
+    tmp = os.path.join(os.path.dirname(png), f".{os.path.basename(png)}.tmp")
+    try:
+        fig.savefig(tmp, dpi=DPI, format="png")
+        os.replace(tmp, png)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
 def _labels(paths, results) -> dict:
     labels = {p: file_label(results[p]) for p in paths}
     if len(set(labels.values())) < len(labels):
         labels = {p: _stem(p) for p in paths}
     return labels
 
-
-__all__ += ["ReportError"]
