@@ -186,9 +186,10 @@ def energy_distance(ax, distance, energy, slipped=None):
         art = ax.hexbin(distance, np.log10(energy) if log else energy, gridsize=80, bins="log", mincnt=1,
                         cmap="viridis")
         ax.figure.colorbar(art, ax=ax, label="pellets per cell")
-        if log:
-            from matplotlib.ticker import FuncFormatter
+        if log:  # log10 of the energy binned: ticks at whole decades, labelled in J
+            from matplotlib.ticker import FuncFormatter, MaxNLocator
 
+            ax.yaxis.set_major_locator(MaxNLocator(integer=True))
             ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: f"{10 ** v:.3g}"))
     ax.set_xlabel("horizontal distance from the shooter to the landing point (m)")
     ax.set_ylabel("kinetic energy at landing (J)")
