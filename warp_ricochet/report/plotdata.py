@@ -14,7 +14,8 @@ import numpy as np
 
 __all__ = ["MAX_ROWS", "Landings", "read_landings", "rows_final", "top_view", "axis_name", "scene_dict"]
 
-MAX_ROWS = 20_000_000  # per-pellet rows read for a plot (the first ones; 20e6 float32 triples: 240 MB)
+MAX_ROWS = 5_000_000  # per-pellet rows read for a plot: the first ones, a random sample (pellet i depends only
+# on the seed and i; whole shots with collisions); about 0.5 GB of float64 arrays at most
 
 
 def _value(group, path, default=None):

@@ -66,6 +66,17 @@ def require_matplotlib():
 # ---------------------------------------------------------------------------------------------- run plots
 
 
+_LANDINGS: dict = {}  # (file name, group name) -> Landings, for the plots of one write_plots call
+
+
+def _landings(group):
+    """`plotdata.read_landings(group)`, read once for all the run plots of one call."""
+    key = (str(group.file.filename), group.name)
+    if key not in _LANDINGS:
+        _LANDINGS[key] = plotdata.read_landings(group)
+    return _LANDINGS[key]
+
+
 def _title(fig, group, what: str):
     name = os.path.basename(str(group.file.filename))
     where = "" if group.name == "/" else f" {group.name}"
@@ -73,7 +84,7 @@ def _title(fig, group, what: str):
 
 
 def draw_landing_map(fig, group) -> bool:
-    landings = plotdata.read_landings(group)
+    landings = _landings(group)
     if landings is None:
         return False
     e1, e2 = plotdata.top_view(landings)
@@ -84,7 +95,7 @@ def draw_landing_map(fig, group) -> bool:
 
 
 def draw_range(fig, group) -> bool:
-    landings = plotdata.read_landings(group)
+    landings = _landings(group)
     if landings is None or landings.range is None:
         return False
     ax1, ax2 = fig.subplots(1, 2)
@@ -98,7 +109,7 @@ def draw_range(fig, group) -> bool:
 
 
 def draw_energy_distance(fig, group) -> bool:
-    landings = plotdata.read_landings(group)
+    landings = _landings(group)
     if landings is None or landings.energy is None:
         return False
     ax = fig.subplots()
@@ -294,6 +305,7 @@ def write_plots(paths, outdir=None, overwrite=False) -> list[tuple[str, str | No
             raise
         raise PlotError(f"plot failed: {' '.join(str(exc).split()) or type(exc).__name__}") from None
     finally:
+        _LANDINGS.clear()
         for f in files.values():
             f.close()
     return done
