@@ -137,6 +137,7 @@ def range_histogram(ax, values, label="range (m)"):
     else:
         edges = np.array([values[0] - 0.5, values[0] + 0.5])
     ax.hist(values, bins=edges, color="C0", alpha=0.85)
+    ax.yaxis.set_major_formatter(lambda v, _pos: f"{v:,.0f}")
     ax.set_xlabel(label)
     ax.set_ylabel("pellets per bin" + (f" ({edges[1] - edges[0]:g} m)" if span > 0 else ""))
     ax.grid(alpha=0.3)
@@ -157,7 +158,8 @@ def survival_curve(ax, values, label=None, color=None):
     ax.yaxis.set_minor_formatter(lambda v, _pos: "")
     ax.set_ylim(0.5 / n, 1.5)
     ax.set_ylabel("fraction of pellets at least this far")
-    ax.grid(alpha=0.3, which="both")
+    ax.grid(alpha=0.3)
+    ax.grid(alpha=0.1, which="minor")
 
 
 def energy_distance(ax, distance, energy, slipped=None):
