@@ -196,6 +196,9 @@ def cmd_xdmf(args) -> int:
     from .io.xdmf import write_xdmf
 
     print(write_xdmf(args.file, overwrite=args.overwrite))
+    return 0
+
+
 def cmd_plot(args) -> int:
     from .report.plots import write_plots
 
