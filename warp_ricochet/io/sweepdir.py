@@ -37,6 +37,8 @@ MANIFEST = "sweep.json"
 ASSEMBLY = "sweep.h5"
 FOLDER_FORMAT = "warp-ricochet sweep folder"
 FOLDER_VERSION = 1
+FILE_ATTRIBUTES = ("format", "format_version", "kind", "status", "package_version", "warp_version", "h5py_version",
+                   "device", "created", "units")  # root attributes of a run file that its group in a sweep lacks
 _POINT = re.compile(r"^(\d{4,})\.h5$")
 
 
@@ -114,6 +116,9 @@ class SweepFolder:
                               "warp-ricochet run ... --resume continues it")
         if not folder.is_dir():
             raise OutputError(f"{shown}: nothing to resume: {folder.name} does not exist")
+        from .xdmf import check_sidecar
+
+        check_sidecar(self.path, overwrite, shown)  # NAME.xmf is written at the end
         self.fd = lock_folder(folder, shown)
         try:
             try:
@@ -164,7 +169,7 @@ class SweepFolder:
         import h5py
         import numpy as np
 
-        from .runfile import OutputFile, move_into_place
+        from .runfile import OutputFile, move_into_place, publish_sidecar
         from .writer import unit_of_key, write_stats
 
         target = self.folder / ASSEMBLY
@@ -180,16 +185,16 @@ class SweepFolder:
             for i, point_stats in enumerate(stats):
                 source = self.point(i)
                 out.reserve(os.path.getsize(source), "the sweep file")
-                group = out.h5.create_group(f"runs/{point_name(i)}")
-                with h5py.File(source, "r") as src:
-                    for name in src.attrs:
-                        if name in ("scene_toml", "precision", "seed"):  # a run group's own attributes
-                            group.attrs[name] = src.attrs[name]
-                    for name in src:
-                        src.copy(src[name], group, name=name)
+                with h5py.File(source, "r") as src:  # the whole root at once: references within it (dimension
+                    src.copy(src["/"], out.h5.require_group("runs"), name=point_name(i))  # scales) follow
+                group = out.h5[f"runs/{point_name(i)}"]
+                for name in FILE_ATTRIBUTES:  # the run file's own, not a run group's (io.runfile.OutputFile)
+                    if name in group.attrs:
+                        del group.attrs[name]
                 write_stats(out.h5, point_stats, index=i, size=len(stats))
                 out.h5.flush()
         move_into_place(target, self.path, overwrite)
+        publish_sidecar(self.path, overwrite)
         self.close()
         shutil.rmtree(self.folder, ignore_errors=True)
 
