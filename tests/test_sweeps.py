@@ -49,8 +49,18 @@ def _objects(f):
     return found
 
 
+def _named(f, value):
+    """An attribute's value with object references (dimension scales) as the names they point to."""
+    if isinstance(value, h5py.Reference):
+        return f[value].name
+    if isinstance(value, (tuple, list)) or (isinstance(value, np.ndarray) and value.dtype.kind in "OV"):
+        return [_named(f, v) for v in (value.tolist() if isinstance(value, np.ndarray) else value)]
+    return value
+
+
 def assert_same_sweep(path, ref):
-    """Every group, dataset (values, dtype, shape, chunks) and attribute equal, but `created`."""
+    """Every group, dataset (values, dtype, shape, chunks) and attribute equal, but `created`; object
+    references (dimension scales) point to objects of the same name."""
     with h5py.File(path, "r") as a, h5py.File(ref, "r") as b:
         assert a.attrs["status"] == "complete" and a.attrs["kind"] == "sweep"
         objects_a, objects_b = _objects(a), _objects(b)
@@ -59,7 +69,9 @@ def assert_same_sweep(path, ref):
             x, y = a[name], b[name]
             assert sorted(x.attrs) == sorted(y.attrs), name
             for attr in y.attrs:
-                if attr != "created":
+                if attr in ("DIMENSION_LIST", "REFERENCE_LIST"):
+                    assert _named(a, x.attrs[attr]) == _named(b, y.attrs[attr]), (name, attr)
+                elif attr != "created":
                     np.testing.assert_array_equal(np.asarray(x.attrs[attr]), np.asarray(y.attrs[attr]), err_msg=name)
             if isinstance(y, h5py.Dataset):
                 assert (x.dtype, x.shape, x.chunks, x.maxshape) == (y.dtype, y.shape, y.chunks, y.maxshape), name
@@ -231,6 +243,10 @@ def test_interrupted_sweep_resumed_in_process_equals_reference(interrupted, refe
                        resume=True)
     assert [p["surfaces.0.mu_s"] for p, _ in results] == [0, 0.05, 0.1] and not folder.exists()
     assert_same_sweep(out, reference)
+    with h5py.File(out) as f:  # the copied points' dimensions are their own group's (io.dimensions)
+        assert f["runs/0001/pellets/landing/range"].dims[0][0].name == "/runs/0001/pellet"
+        assert f["runs/0002/pellets/initial/position"].dims[1][0].name == "/runs/0002/xyz"
+        assert f["stats/range_mean"].dims[0][0].name == "/point"
     with h5py.File(reference) as f:
         for i, (_, stats) in enumerate(results):
             assert all(stats[k] == f[f"stats/{k}"][i] or np.isnan(stats[k]) for k in stats)

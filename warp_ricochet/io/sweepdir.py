@@ -188,6 +188,7 @@ class SweepFolder:
                 with h5py.File(source, "r") as src:  # the whole root at once: references within it (dimension
                     src.copy(src["/"], out.h5.require_group("runs"), name=point_name(i))  # scales) follow
                 group = out.h5[f"runs/{point_name(i)}"]
+                _attach_dimensions_again(group)
                 for name in FILE_ATTRIBUTES:  # the run file's own, not a run group's (io.runfile.OutputFile)
                     if name in group.attrs:
                         del group.attrs[name]
@@ -197,6 +198,24 @@ class SweepFolder:
         publish_sidecar(self.path, overwrite)
         self.close()
         shutil.rmtree(self.folder, ignore_errors=True)
+
+
+def _attach_dimensions_again(group) -> None:
+    """HDF5 copies the object references of dimension scales (attributes DIMENSION_LIST and
+    REFERENCE_LIST) as they were, addresses in the point's file: drop them and attach the copied
+    scales again (io.dimensions), as the writer attached them in the point's file."""
+    import h5py
+
+    from .dimensions import name_run_dimensions
+
+    def drop(_name, obj):
+        if isinstance(obj, h5py.Dataset):
+            for attr in ("DIMENSION_LIST", "REFERENCE_LIST"):
+                if attr in obj.attrs:
+                    del obj.attrs[attr]
+
+    group.visititems(drop)
+    name_run_dimensions(group)
 
 
 def read_point_stats(path: Path) -> dict:
