@@ -12,7 +12,7 @@ import numpy as np
 
 from ..tallies.bins import BINS, RESOLUTION, ROW_DISTANCE, edges
 from ..tallies.counts import TallySetup, TallyTotals
-from ..tallies.quantiles import LEVELS, QUANTITIES, danger_distance, hazard_distance_counts, landing_quantiles, tail
+from ..tallies.quantiles import LEVELS, QUANTITIES, summarize
 
 HIST_ROWS = "range, speed, then distance of the landings exceeding 0, 1, ... thresholds (hazard levels)"
 
@@ -52,7 +52,6 @@ def create(group, scene, model):
     _ds(tails, "count", np.zeros(len(distances), dtype=np.int64), unit="1", doc="landings at or beyond the distance from the shooter")
     _ds(tails, "fraction", np.full(len(distances), np.nan), unit="1",
         doc="share of the landed pellets at or beyond the distance from the shooter")
-    tails.attrs["requested"] = np.asarray(distances, dtype=np.float64)
     if scene.hazard is not None:
         _create_hazard(group.create_group("hazard"), setup)
 
@@ -112,36 +111,19 @@ def read_progress(progress, rows: int):
     return progress["tally"][int(slots[0])] if len(slots) else None
 
 
-def write_results(group, tally: TallyTotals, landed_total: int):
-    """Fill the tally objects from the run's final counts."""
-    setup, hist = tally.setup, tally.hist
-    group["stats/histograms/counts"][...] = hist
-    for name, (value, lower) in landing_quantiles(hist, setup.half_mass).items():
+def write_results(group, tally: TallyTotals, landed: int):
+    """Fill the tally objects from the run's final counts (`tallies.quantiles.summarize`)."""
+    results = summarize(tally, landed)
+    group["stats/histograms/counts"][...] = tally.hist
+    for name, (value, lower) in results["quantiles"].items():
         group[f"stats/quantiles/{name}"][...] = value
         group[f"stats/quantiles/lower/{name}"][...] = lower
-    tails = group["stats/tail"]
-    used, beyond = tail(hist[ROW_DISTANCE:].sum(axis=0), tails.attrs["requested"])
-    tails["distance"][...], tails["count"][...] = used, beyond
-    tails["fraction"][...] = beyond / landed_total if landed_total else np.nan
-    if "hazard" not in group:
-        return
-    by_threshold = hazard_distance_counts(hist, setup.order)
-    g = group["hazard"]
-    g["thresholds/landings"][...] = by_threshold.sum(axis=1)
-    for i in range(len(setup.names)):
-        for j, p in enumerate(setup.fractions):
-            value, low, high, needed = danger_distance(by_threshold[i], p)
-            for name, x in (("distance", value), ("ci_low", low), ("ci_high", high), ("needed_landings", needed)):
-                g[f"danger_distance/{name}"][i, j] = x
-    if setup.has_map:
-        shape = (setup.map_nv, setup.map_nu)
-        cells = setup.cells
-        counts = tally.map_counts
-        g["map/count"][...] = counts[:, :cells].sum(axis=0).reshape(shape)
-        g["map/outside"][()] = counts[:, cells].sum()
-        g["map/elsewhere"][()] = counts[:, cells + 1].sum()
-        g["map/energy"][...] = (tally.map_energy[:cells] * setup.quantum).reshape(shape)
-        g["map/quantum"][()] = setup.quantum
-        above = np.cumsum(counts[::-1], axis=0)[::-1]  # landings at level >= L per column
-        for position, index in enumerate(setup.order):
-            g["map/above"][index] = above[position + 1, :cells].reshape(shape)
+    for name, values in results["tail"].items():
+        group[f"stats/tail/{name}"][...] = values
+    if "hazard" in results:
+        group["hazard/thresholds/landings"][...] = results["hazard"]["landings"]
+        for name in ("distance", "ci_low", "ci_high", "needed_landings"):
+            group[f"hazard/danger_distance/{name}"][...] = results["hazard"][name]
+    if "map" in results:
+        for name, values in results["map"].items():
+            group[f"hazard/map/{name}"][...] = values

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 from ..errors import RicochetError
 from ..tallies.sums import STAT_UNITS
+from .hazard_tables import from_file, from_run, tally_lines
 from .paper import paper_row
 
 __all__ = ["ReportError", "Results", "read_results", "results_from_sweep", "format_tables", "format_run_summary"]
@@ -126,6 +127,7 @@ def _read_open_file(f, path, np) -> Results:
     if kind == "run":
         row = {name: float(np.asarray(v).reshape(-1)[0]) for name, v in stats.items()}
         meta["points"] = meta["points_done"] = 1
+        meta["tally"] = from_file(f)
         return Results(rows=[row], meta=meta)
     sweep = f.get("sweep")
     if not isinstance(sweep, h5py.Group):
@@ -381,6 +383,8 @@ def format_tables(results: Results, fmt: str = "text", paper: bool = False) -> s
         else:
             blocks.append("paper: Zohdi (2021) has no row for the mu_s of these results "
                           "(it lists mu_s = 0, 0.05, ..., 0.5)")
+    if results.meta.get("tally") is not None:
+        blocks.append("\n".join(tally_lines(results.meta["tally"], results.rows[0].get("pellets", 0.0))))
     return "\n\n".join(blocks) + "\n"
 
 
@@ -414,4 +418,5 @@ def format_run_summary(stats: dict, output=None, device=None) -> str:
     ]
     width = max(len(k) for k, _ in rows)
     lines += [f"{k.ljust(width)}  {v}" for k, v in rows]
+    lines += tally_lines(from_run(stats), stats.get("pellets", 0.0))
     return "\n".join(lines) + "\n"

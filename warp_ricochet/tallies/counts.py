@@ -30,6 +30,7 @@ class TallySetup:
     half_mass: float
     area: float
     fractions: tuple[float, ...]
+    tail_distances: tuple[float, ...] = ()  # m
     map_surface: int = -1  # -1: no map
     map_origin: tuple = (0.0, 0.0, 0.0)
     map_u: tuple = (0.0, 0.0, 0.0)
@@ -79,7 +80,7 @@ class TallySetup:
         kw = dict(names=tuple(t[0] for t in thresholds), kinds=tuple(t[1] for t in thresholds),
                   values=tuple(t[2] for t in thresholds), thresholds2=v2, shooter=tuple(map(float, shooter)),
                   up=tuple(map(float, up)), half_mass=0.5 * mass, area=area,
-                  fractions=() if hazard is None else hazard.fractions,
+                  fractions=() if hazard is None else hazard.fractions, tail_distances=scene.output.tail_distances,
                   quantum=reference / 2.0**ENERGY_QUANTUM_BITS if reference > 0 else 1e-30)
         if hazard is not None and hazard.has_map:
             kw.update(_map_geometry(scene, hazard, np.asarray(shooter, dtype=np.float64)))

@@ -120,3 +120,35 @@ def hazard_distance_counts(hist, order) -> np.ndarray:
     for position, index in enumerate(order):
         out[index] = above[position + 1]
     return out
+
+
+def summarize(tally, landed: int) -> dict:
+    """The results of a run's landing counts (`counts.TallyTotals`), as plain arrays: quantiles
+    {name: (value, lower)}, tail (distance used, count, fraction), and with thresholds the danger
+    distances (rows: thresholds in scene order, columns: fractions) and the map's layers."""
+    setup, hist = tally.setup, tally.hist
+    used, beyond = tail(hist[ROW_DISTANCE:].sum(axis=0), setup.tail_distances)
+    out = {"levels": np.asarray(LEVELS), "quantiles": landing_quantiles(hist, setup.half_mass),
+           "tail": {"distance": used, "count": beyond, "fraction": beyond / landed if landed else np.full(len(used), np.nan)}}
+    if setup.names:
+        by_threshold = hazard_distance_counts(hist, setup.order)
+        shape = (len(setup.names), len(setup.fractions))
+        danger = {name: np.zeros(shape, dtype=np.int64 if name == "needed_landings" else np.float64)
+                  for name in ("distance", "ci_low", "ci_high", "needed_landings")}
+        for i in range(shape[0]):
+            for j, p in enumerate(setup.fractions):
+                for name, x in zip(danger, danger_distance(by_threshold[i], p)):
+                    danger[name][i, j] = x
+        out["hazard"] = {"names": setup.names, "kinds": setup.kinds, "values": setup.values,
+                         "fractions": np.asarray(setup.fractions), "landings": by_threshold.sum(axis=1), **danger}
+    if setup.has_map:
+        shape, cells, counts = (setup.map_nv, setup.map_nu), setup.cells, tally.map_counts
+        above = np.cumsum(counts[::-1], axis=0)[::-1]  # landings at level >= L per column
+        layers = np.zeros((len(setup.names),) + shape, dtype=np.int64)
+        for position, index in enumerate(setup.order):
+            layers[index] = above[position + 1, :cells].reshape(shape)
+        out["map"] = {"count": counts[:, :cells].sum(axis=0).reshape(shape), "outside": int(counts[:, cells].sum()),
+                      "elsewhere": int(counts[:, cells + 1].sum()),
+                      "energy": (tally.map_energy[:cells] * setup.quantum).reshape(shape), "quantum": setup.quantum,
+                      "above": layers}
+    return out
