@@ -142,3 +142,17 @@ def test_bad_hazard_keys_are_refused_in_one_line_before_any_work(tmp_path, overr
     out = tmp_path / "x.h5"
     rc, stdout, stderr = cli(["run", "examples/paper.toml", "--set", override, "-o", out, "--device", "cpu"])
     assert rc == 2 and stderr.count("\n") == 1 and key in stderr and not out.exists(), stderr
+
+
+def test_the_summary_and_report_show_quantiles_tails_and_danger_distances(tmp_path):
+    out = tmp_path / "run.h5"
+    rc, stdout, stderr = cli(["run", "examples/paper.toml", "--set", "shot.count=2000", "--set", "hazard.fractions=[0.01]",
+                              "-o", out, "--device", "cpu"])
+    assert rc == 0, stderr
+    rc, report, stderr = cli(["report", out])
+    assert rc == 0, stderr
+    for text in (stdout, report):
+        assert "quantiles P50 / P75 / P90 / P99 / P99.9 / 1-1e-6" in text and "  range " in text
+        assert "landed beyond" in text and "corneal_abrasion (1503 J/m^2, 2,000 landings): p=0.01:" in text
+    tail = [line for line in stdout.splitlines() if line.startswith("  distance")]
+    assert tail and tail == [line for line in report.splitlines() if line.startswith("  distance")]

@@ -106,6 +106,7 @@ class CoreStage:
                           self.tally.struct],
                   outputs=[self.state.partial_sums, self.state.partial_min, self.state.partial_max],
                   device=m.device, block_dim=CUDA_BLOCK_DIM)
+        self.tally.reduce()
         return launch_reduce(self.state, rows, m.device), 0
 
 
@@ -143,6 +144,7 @@ class CollisionStage:
                           self.tally.struct],
                   outputs=[self.state.partial_sums, self.state.partial_min, self.state.partial_max],
                   device=m.device, block_dim=CUDA_BLOCK_DIM)
+        self.tally.reduce()
         return launch_reduce(self.state, slots, m.device), shots
 
 

@@ -165,7 +165,7 @@ def make_ricochet_pellet(spec):
                     v2 = wp.dot(velocity, velocity)
                     exceeds = landing_tally.exceeded(tally, v2)
                     if wp.static(TALLY):
-                        landing_tally.add_landing(tally, k, distance, position, v2, exceeds)
+                        landing_tally.add_landing(tally, row, k, distance, position, v2, exceeds)
                 if counts[2] == 1:
                     range_shift = distance
                 acc = acc_fns.add_landing_sums(acc, distance - range_shift, time - ricochet_time, landing_velocity)

@@ -105,9 +105,19 @@ def _map_geometry(scene, hazard, shooter) -> dict:
                 map_nv=math.ceil((v1 - v0) / cell - 1e-9))
 
 
+CUDA_COPIES = 64  # copies of the counts on CUDA (see `tallies.landing`)
+MAX_COPY_BYTES = 1 << 28  # at most this much device memory for the copies of each array
+
+
+def copies_for(device, nbytes: int) -> int:
+    """How many copies of an array of `nbytes` a device counts into."""
+    return max(1, min(CUDA_COPIES, MAX_COPY_BYTES // max(nbytes, 1))) if device.is_cuda else 1
+
+
 class DeviceTally:
-    """The device arrays of the landing tallies and the kernels' `Tally` struct over them (empty
-    arrays when the run counts nothing: `active` false)."""
+    """The device arrays of the landing tallies and the kernels' `Tally` struct over their copies
+    (empty arrays when the run counts nothing: `active` false). After a chunk's kernel, `reduce`
+    sums the copies into `arrays`, the counts the host copies back."""
 
     def __init__(self, setup: TallySetup, precision: str, device, active: bool):
         import warp as wp
@@ -116,15 +126,20 @@ class DeviceTally:
         from .landing import make_landing_tally
 
         t = types_for(precision)
-        self.setup, self.active = setup, active
+        self.setup, self.active, self.device = setup, active, device
         levels, width = setup.levels, setup.cells + 2
-        self.arrays = {
-            "hist": wp.zeros((ROW_DISTANCE + levels, BINS) if active else (0, 0), dtype=wp.int32, device=device),
-            "map_counts": wp.zeros((levels, width) if active and setup.has_map else (0, 0), dtype=wp.int32, device=device),
-            "map_energy": wp.zeros(width if active and setup.has_map else 0, dtype=wp.int64, device=device),
-        }
+        mapped = active and setup.has_map
+        shapes = {"hist": (ROW_DISTANCE + levels, BINS) if active else (0, 0),
+                  "map_counts": (levels, width) if mapped else (0, 0), "map_energy": (width,) if mapped else (0,)}
+        dtypes = {"hist": wp.int32, "map_counts": wp.int32, "map_energy": wp.int64}
+        self.arrays = {name: wp.zeros(shape, dtype=dtypes[name], device=device) for name, shape in shapes.items()}
+        self.wide = {}
+        for name, shape in shapes.items():
+            copies = copies_for(device, int(np.prod(shape)) * 8)
+            self.wide[name] = wp.zeros((copies,) + shape if np.prod(shape) else (1,) + (0,) * len(shape),
+                                       dtype=dtypes[name], device=device)
         s = make_landing_tally(precision).Tally()
-        s.hist, s.map_counts, s.map_energy = self.arrays["hist"], self.arrays["map_counts"], self.arrays["map_energy"]
+        s.hist, s.map_counts, s.map_energy = self.wide["hist"], self.wide["map_counts"], self.wide["map_energy"]
         s.thresholds2 = wp.array(np.asarray(setup.thresholds2, dtype=precision), dtype=t.scalar, device=device)
         s.shooter, s.up = t.vec3(*setup.shooter), t.vec3(*setup.up)
         s.half_mass, s.inverse_area = t.scalar(setup.half_mass), t.scalar(1.0 / setup.area)
@@ -139,8 +154,22 @@ class DeviceTally:
     def zero(self):
         """Before a chunk: its counts start from zero."""
         if self.active:
-            for arr in self.arrays.values():
+            for arr in self.wide.values():
                 arr.zero_()
+
+    def reduce(self):
+        """After a chunk's kernel: the copies summed into `arrays`."""
+        if not self.active:
+            return
+        import warp as wp
+
+        from .landing import sum_copies_kernels
+
+        sum_int32, sum_int64 = sum_copies_kernels()
+        for name, kernel in (("hist", sum_int32), ("map_counts", sum_int32), ("map_energy", sum_int64)):
+            out = self.arrays[name]
+            if out.size:
+                wp.launch(kernel, dim=out.shape, inputs=[self.wide[name]], outputs=[out], device=self.device)
 
 
 class TallyTotals:

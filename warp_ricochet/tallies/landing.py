@@ -14,7 +14,10 @@ Per landed pellet (docs/hazard.md):
 - with a map: one count in (level, cell) of `map_counts` and its energy in `map_energy` as int64
   multiples of `quantum` J, on the map's surface (cell index, else the `outside` column CELLS; a
   landing on another surface in column CELLS + 1).
-Three atomics per landed pellet, five with a map.
+Three atomics per landed pellet, five with a map. On CUDA each array has COPIES copies (the
+leading axis), a warp's pellets counting into copy (row / 32) mod copies, so that a narrow
+distribution's few busy bins are not one address each for the whole GPU (`counts.DeviceTally`
+sums the copies after the chunk).
 """
 
 
@@ -37,14 +40,14 @@ def make_landing_tally(precision: str) -> SimpleNamespace:
     class Tally:
         """What the landings are counted into (`tallies.landing`), and the constants that needs (SI)."""
 
-        hist: wp.array2d(dtype=wp.int32)  # (ROW_DISTANCE + levels, bins.BINS)
+        hist: wp.array3d(dtype=wp.int32)  # (copies, ROW_DISTANCE + levels, bins.BINS)
         thresholds2: wp.array(dtype=scalar)  # (m/s)^2, every threshold as one on |v|^2, in scene order
         shooter: vec3  # m
         up: vec3  # unit vector against gravity (zero without gravity: distances in 3-D)
         half_mass: scalar  # kg, m / 2
         inverse_area: scalar  # 1/m^2, 1 / (pi R^2)
-        map_counts: wp.array2d(dtype=wp.int32)  # (levels, cells + 2)
-        map_energy: wp.array(dtype=wp.int64)  # (cells + 2,), multiples of `quantum`
+        map_counts: wp.array3d(dtype=wp.int32)  # (copies, levels, cells + 2)
+        map_energy: wp.array2d(dtype=wp.int64)  # (copies, cells + 2), multiples of `quantum`
         map_surface: wp.int32
         map_origin: vec3  # m, the grid's (u, v) = (0, 0) on the map's plane
         map_u: vec3  # unit vectors of the grid's axes in the plane
@@ -102,18 +105,44 @@ def make_add_landing(precision: str, with_map: bool):
         return mask
 
     @wp.func
-    def add_landing(tally: Tally, surface: wp.int32, landing_range: scalar, position: vec3, v2: scalar,
+    def add_landing(tally: Tally, row: wp.int32, surface: wp.int32, landing_range: scalar, position: vec3, v2: scalar,
                     mask: wp.int32):
         level = wp.int32(wp.bit_count(mask))  # the thresholds are nested: it exceeds the `level` lowest
         one = wp.int32(1)
-        wp.atomic_add(tally.hist, ROW_RANGE, bin_of(wp.float32(landing_range)), one)
-        wp.atomic_add(tally.hist, ROW_SPEED, bin_of(wp.float32(wp.sqrt(v2))), one)
+        warp = row / 32
+        c = warp % tally.hist.shape[0]
+        wp.atomic_add(tally.hist, c, ROW_RANGE, bin_of(wp.float32(landing_range)), one)
+        wp.atomic_add(tally.hist, c, ROW_SPEED, bin_of(wp.float32(wp.sqrt(v2))), one)
         distance = horizontal_distance(tally, position)
-        wp.atomic_add(tally.hist, ROW_DISTANCE + level, bin_of(wp.float32(distance)), one)
+        wp.atomic_add(tally.hist, c, ROW_DISTANCE + level, bin_of(wp.float32(distance)), one)
         if wp.static(MAP):
             column = map_cell(tally, surface, position)
-            wp.atomic_add(tally.map_counts, level, column, one)
+            m = warp % tally.map_counts.shape[0]
+            wp.atomic_add(tally.map_counts, m, level, column, one)
             energy = wp.float64(tally.half_mass * v2)
-            wp.atomic_add(tally.map_energy, column, wp.int64(wp.floor(energy * tally.inverse_quantum + wp.float64(0.5))))
+            wp.atomic_add(tally.map_energy, m, column, wp.int64(wp.floor(energy * tally.inverse_quantum + wp.float64(0.5))))
 
     return SimpleNamespace(exceeded=exceeded, add_landing=add_landing)
+
+
+@functools.cache
+def sum_copies_kernels():
+    """Kernels summing the copies (leading axis) of the counts into one array each."""
+
+    @wp.kernel(enable_backward=False)
+    def sum_int32(wide: wp.array3d(dtype=wp.int32), out: wp.array2d(dtype=wp.int32)):
+        i, j = wp.tid()
+        total = wp.int32(0)
+        for c in range(wide.shape[0]):
+            total += wide[c, i, j]
+        out[i, j] = total
+
+    @wp.kernel(enable_backward=False)
+    def sum_int64(wide: wp.array2d(dtype=wp.int64), out: wp.array(dtype=wp.int64)):
+        j = wp.tid()
+        total = wp.int64(0)
+        for c in range(wide.shape[0]):
+            total += wide[c, j]
+        out[j] = total
+
+    return sum_int32, sum_int64
