@@ -156,3 +156,16 @@ def test_the_summary_and_report_show_quantiles_tails_and_danger_distances(tmp_pa
         assert "landed beyond" in text and "corneal_abrasion (1503 J/m^2, 2,000 landings): p=0.01:" in text
     tail = [line for line in stdout.splitlines() if line.startswith("  distance")]
     assert tail and tail == [line for line in report.splitlines() if line.startswith("  distance")]
+
+
+def test_plots_write_pngs_of_the_map_and_the_survival_curve(run_file, tmp_path):
+    pytest.importorskip("matplotlib")
+    from warp_ricochet.report.hazard_plots import plot_map, plot_survival, read_plot_data
+
+    _scene, path, _stats = run_file
+    with h5py.File(path, "r") as f:
+        data = read_plot_data(f)
+        plot_map(f, tmp_path / "map.png")
+    plot_survival(data, tmp_path / "survival.png")  # from arrays as well
+    for name in ("map.png", "survival.png"):
+        assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
