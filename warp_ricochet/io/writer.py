@@ -23,6 +23,7 @@ from ..tallies.collisions import SHOT_TOTALS, SHOT_TOTALS_UNITS
 from ..tallies.reduce import SEGMENT, SEGMENT_WIDTH
 from ..tallies.sums import STAT_UNITS
 from . import h5md, tally_out
+from .dimensions import name_run_dimensions, name_sweep_dimensions
 from .runfile import _OPEN
 from .space import check_space
 
@@ -83,6 +84,7 @@ class RunWriter:
             h5md.create_frames(group, pellets, scene.collisions.frame_every)
         if scene.output.quantiles:
             tally_out.create(group, scene, model)
+        name_run_dimensions(group)  # before SWMR: attaching a scale writes attributes
         self._open_datasets()
         self._start_watching()
 
@@ -245,3 +247,5 @@ def write_stats(group: h5py.Group, stats: dict, index=None, size=None):
         if "units" not in ds.attrs:
             ds.attrs["units"] = unit
             ds.attrs["description"] = doc
+    if index is not None:
+        name_sweep_dimensions(group)
