@@ -101,12 +101,14 @@ def plot_map(source, path, title="Landings on the map"):
         raise ValueError("the run has no hazard map ([hazard] map_cell and map_extent)")
     u, v, count = d["map_u_edges"], d["map_v_edges"], d["map_count"]
     area = (u[1] - u[0]) * (v[1] - v[0])
-    fig, ax = plt.subplots(figsize=(7, 5.5), dpi=120)
+    names = d.get("names", [])
+    aspect = (v[-1] - v[0]) / (u[-1] - u[0])
+    fig, ax = plt.subplots(figsize=(8, min(9.0, max(1.5, 6.0 * aspect)) + 1.3 + 0.18 * len(names)), dpi=120,
+                           layout="constrained")
     density = np.where(count > 0, count / area, np.nan)
     if np.isfinite(density).any():
         mesh = ax.pcolormesh(u, v, density, norm=LogNorm(), cmap="Greys", shading="flat")
         fig.colorbar(mesh, ax=ax, label="landings per m$^2$")
-    names = d.get("names", [])
     colours = plt.cm.viridis(np.linspace(0.15, 0.85, max(len(names), 1)))
     uc, vc = 0.5 * (u[1:] + u[:-1]), 0.5 * (v[1:] + v[:-1])
     angle = np.linspace(0, 2 * np.pi, 361)
@@ -132,7 +134,6 @@ def plot_map(source, path, title="Landings on the map"):
     ax.set_xlabel("u: downrange (m)")
     ax.set_ylabel("v: cross-range (m)")
     ax.set_title(f"{title} ({int(count.sum()):,} in the grid, {int(d.get('map_outside', 0)):,} outside)", fontsize=10)
-    ax.legend(fontsize=7, loc="upper left")
-    fig.tight_layout()
+    fig.legend(fontsize=7, loc="outside lower center", frameon=False)
     fig.savefig(path)
     plt.close(fig)
