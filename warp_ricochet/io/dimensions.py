@@ -34,6 +34,8 @@ RUN_DIMENSIONS = {
     "particles/pellets/position/step": ("frame",),
     "particles/pellets/position/time": ("frame",),
     "particles/pellets/position/value": ("frame", "pellet", "xyz"),
+    "particles/pellets/species": ("pellet",),
+    "particles/pellets/id": ("pellet",),
     # landing tallies (io.tally_out, docs/hazard.md)
     "progress/tally": ("tally_slot", "tally_column"),
     "progress/tally_rows": ("tally_slot",),
