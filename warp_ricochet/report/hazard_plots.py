@@ -2,11 +2,13 @@
 File or Group of a run) or from the same arrays in a dict (`read_plot_data`'s keys):
 
 - `plot_map`: landings per square metre on the map's surface (log colour scale), the contour of
-  where landings above each threshold occur, and each threshold's danger distance (the largest
-  fraction's) as a circle around the shooter;
+  where landings above each threshold occur, and each threshold's danger distance (the smallest p
+  the run can answer) as a circle around the shooter;
 - `plot_survival`: the share of landed pellets at or beyond each distance from the shooter, all of
   them and those above each threshold, on a log scale, with the danger distances marked.
 
+`draw_map(fig, source)` and `draw_survival(fig, source)` draw the same on a given matplotlib Figure
+and return False when the run has nothing to draw: `warp-ricochet plot` (`report.plots`) calls them.
 What the numbers mean: docs/hazard.md.
 """
 
@@ -15,21 +17,26 @@ from __future__ import annotations
 import numpy as np
 
 
-def _pyplot():
+def _figure(size):
     try:
-        import matplotlib
+        from matplotlib.figure import Figure
     except ImportError:  # an optional dependency
         raise ImportError("the hazard plots need matplotlib: pip install warp-ricochet[plot]") from None
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    return Figure(figsize=size, dpi=120, layout="constrained")
 
-    return plt
+
+def _colours(n):
+    from matplotlib import colormaps
+
+    return colormaps["viridis"](np.linspace(0.15, 0.85, max(n, 1)))
 
 
 def read_plot_data(group) -> dict:
     """The arrays the plots use, from a run file's group (a dict is returned as it is)."""
     if isinstance(group, dict):
         return group
+    if "stats/histograms" not in group:
+        return {}
     from ..tallies.bins import ROW_DISTANCE
 
     out = {"edges": group["stats/histograms/edges"][()], "distance_counts": group["stats/histograms/counts"][()][ROW_DISTANCE:]}
@@ -51,12 +58,21 @@ def _survival(counts, total):
 
 def plot_survival(source, path, title="Landings beyond a distance from the shooter"):
     """The survival curve of the distance, all landings and above each threshold; writes `path`."""
-    plt = _pyplot()
+    fig = _figure((7, 4.5))
+    if not draw_survival(fig, source, title):
+        raise ValueError("the run has no landing histograms (output.quantiles = false)")
+    fig.savefig(path)
+
+
+def draw_survival(fig, source, title="Landings beyond a distance from the shooter") -> bool:
+    """The survival curve on `fig`; False when the run counted no landings (output.quantiles off)."""
     d = read_plot_data(source)
+    if "distance_counts" not in d:
+        return False
     by_level = np.asarray(d["distance_counts"], dtype=np.int64)
     total = by_level.sum()
     edges = d["edges"]
-    fig, ax = plt.subplots(figsize=(7, 4.5), dpi=120)
+    ax = fig.subplots()
     if total:
         all_counts = by_level.sum(axis=0)
         used = np.flatnonzero(all_counts)
@@ -67,7 +83,7 @@ def plot_survival(source, path, title="Landings beyond a distance from the shoot
         names = d.get("names", [])
         order = np.argsort(d.get("threshold_speed", []), kind="stable")
         above = np.cumsum(by_level[::-1], axis=0)[::-1]
-        colours = plt.cm.viridis(np.linspace(0.15, 0.85, max(len(names), 1)))
+        colours = _colours(len(names))
         for position, index in enumerate(order):
             counts = above[position + 1]
             if counts.sum() == 0:
@@ -85,31 +101,43 @@ def plot_survival(source, path, title="Landings beyond a distance from the shoot
     ax.set_title(title + (f" ({total:,} landed)" if total else " (none landed)"), fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8, title="dashed, dotted: danger distances", title_fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
+    return True
 
 
 def plot_map(source, path, title="Landings on the map"):
     """The hazard map: landings per m^2, contours of landings above each threshold, danger
     distances as circles around the shooter (u, v) = (0, 0); writes `path`."""
-    plt = _pyplot()
+    d = read_plot_data(source)
+    fig = _figure(_map_size(d) if "map_count" in d else (8, 6))
+    if not draw_map(fig, d, title):
+        raise ValueError("the run has no hazard map ([hazard] map_cell and map_extent)")
+    fig.savefig(path)
+
+
+def _map_size(d) -> tuple[float, float]:
+    """Inches that fit the grid's shape, the colour bar and a legend line per threshold."""
+    u, v = d["map_u_edges"], d["map_v_edges"]
+    aspect = (v[-1] - v[0]) / (u[-1] - u[0])
+    return 8.0, min(9.0, max(1.5, 6.0 * aspect)) + 1.3 + 0.18 * len(d.get("names", []))
+
+
+def draw_map(fig, source, title="Landings on the map") -> bool:
+    """The hazard map on `fig` (a constrained layout); False when the run has no map."""
     from matplotlib.colors import LogNorm
 
     d = read_plot_data(source)
     if "map_count" not in d:
-        raise ValueError("the run has no hazard map ([hazard] map_cell and map_extent)")
+        return False
     u, v, count = d["map_u_edges"], d["map_v_edges"], d["map_count"]
     area = (u[1] - u[0]) * (v[1] - v[0])
     names = d.get("names", [])
-    aspect = (v[-1] - v[0]) / (u[-1] - u[0])
-    fig, ax = plt.subplots(figsize=(8, min(9.0, max(1.5, 6.0 * aspect)) + 1.3 + 0.18 * len(names)), dpi=120,
-                           layout="constrained")
+    ax = fig.subplots()
     density = np.where(count > 0, count / area, np.nan)
     if np.isfinite(density).any():
         mesh = ax.pcolormesh(u, v, density, norm=LogNorm(), cmap="Greys", shading="flat")
-        fig.colorbar(mesh, ax=ax, label="landings per m$^2$")
-    colours = plt.cm.viridis(np.linspace(0.15, 0.85, max(len(names), 1)))
+        aspect = (v[-1] - v[0]) / (u[-1] - u[0])  # the axes keep equal scales: a flat grid, a short bar
+        fig.colorbar(mesh, ax=ax, label="landings per m$^2$", shrink=min(1.0, max(0.3, 1.6 * aspect)))
+    colours = _colours(len(names))
     uc, vc = 0.5 * (u[1:] + u[:-1]), 0.5 * (v[1:] + v[:-1])
     angle = np.linspace(0, 2 * np.pi, 361)
     for i, name in enumerate(names):
@@ -135,5 +163,4 @@ def plot_map(source, path, title="Landings on the map"):
     ax.set_ylabel("v: cross-range (m)")
     ax.set_title(f"{title} ({int(count.sum()):,} in the grid, {int(d.get('map_outside', 0)):,} outside)", fontsize=10)
     fig.legend(fontsize=7, loc="outside lower center", frameon=False)
-    fig.savefig(path)
-    plt.close(fig)
+    return True
