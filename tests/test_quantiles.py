@@ -148,3 +148,17 @@ def test_quantiles_can_be_turned_off():
     scene = make_scene(paper_raw(), output={"quantiles": False})
     stats = wr.run(scene, device="cpu")
     assert stats.tally is None
+
+
+def test_counting_into_several_copies_gives_the_same_counts(monkeypatch):
+    """The CUDA path's copies (`tallies.counts.copies_for`), forced on the CPU: the same counts."""
+    from warp_ricochet.tallies import counts
+
+    raw = paper_raw()
+    raw["shot"]["count"] = 3000
+    scene = make_scene(raw, hazard={"map_cell": 1.0, "map_extent": [100.0, 140.0, -20.0, 20.0]})
+    one = wr.run(scene, device="cpu").tally
+    monkeypatch.setattr(counts, "copies_for", lambda device, nbytes: 5)
+    several = wr.run(scene, device="cpu").tally
+    assert one.hist.sum() > 0 and one.map_counts.sum() > 0
+    np.testing.assert_array_equal(several.flat(), one.flat())
