@@ -154,6 +154,7 @@ def test_the_summary_and_report_show_quantiles_tails_and_danger_distances(tmp_pa
     for text in (stdout, report):
         assert "quantiles P50 / P75 / P90 / P99 / P99.9 / 1-1e-6" in text and "  range " in text
         assert "landed beyond" in text and "corneal_abrasion (1503 J/m^2, 2,000 landings): p=0.01:" in text
+        assert "(1,000,000 for 1-1e-6), this run has 2,000" in text
     tail = [line for line in stdout.splitlines() if line.startswith("  distance")]
     assert tail and tail == [line for line in report.splitlines() if line.startswith("  distance")]
 

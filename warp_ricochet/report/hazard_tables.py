@@ -36,7 +36,7 @@ def from_file(group) -> dict | None:
     if "stats/quantiles" not in group:
         return None
     q = group["stats/quantiles"]
-    out = {"levels": np.asarray(q.attrs["levels"]),
+    out = {"levels": np.asarray(q.attrs["levels"]), "landed": int(group["stats/histograms/counts"][0].sum()),
            "quantiles": {name: (q[name][()], q[f"lower/{name}"][()]) for name in ("range", "distance", "speed", "energy")},
            "tail": {name: group[f"stats/tail/{name}"][()] for name in ("distance", "count", "fraction")}}
     if "hazard/danger_distance" in group:
@@ -55,6 +55,11 @@ def tally_lines(results: dict | None, pellets: float) -> list[str]:
         return []
     units = {"range": "m", "distance": "m", "speed": "m/s", "energy": "J"}
     lines = ["quantiles " + " / ".join(SHOWN_LEVELS) + " (bin upper edges, <= 0.1% above)"]
+    unresolved = [(name, q) for name, q in zip(SHOWN_LEVELS, results["levels"]) if results["landed"] * (1.0 - q) < 1.0]
+    if unresolved and results["landed"]:
+        name, q = unresolved[0]
+        lines[0] += (f"; from {name} on the largest value: a level q needs 1 / (1 - q) landings "
+                     f"({round(1.0 / (1.0 - q)):,} for {name}), this run has {results['landed']:,}")
     for name, (value, _lower) in results["quantiles"].items():
         lines.append(f"  {name:<9}" + " / ".join(_fmt(v) for v in value) + f" {units[name]}")
     tail = results["tail"]

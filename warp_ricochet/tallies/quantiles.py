@@ -128,7 +128,7 @@ def summarize(tally, landed: int) -> dict:
     distances (rows: thresholds in scene order, columns: fractions) and the map's layers."""
     setup, hist = tally.setup, tally.hist
     used, beyond = tail(hist[ROW_DISTANCE:].sum(axis=0), setup.tail_distances)
-    out = {"levels": np.asarray(LEVELS), "quantiles": landing_quantiles(hist, setup.half_mass),
+    out = {"levels": np.asarray(LEVELS), "landed": landed, "quantiles": landing_quantiles(hist, setup.half_mass),
            "tail": {"distance": used, "count": beyond, "fraction": beyond / landed if landed else np.full(len(used), np.nan)}}
     if setup.names:
         by_threshold = hazard_distance_counts(hist, setup.order)
