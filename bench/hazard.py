@@ -2,10 +2,12 @@
 side by side in one process on one device: without tallies (output.quantiles = false), with the
 quantile histograms, with [hazard] thresholds (danger distances) and with a hazard map too.
 
-    python -m bench.hazard [--device cuda:0] [--sizes 1e8,1e9] [--repeats 5]
+    python -m bench.hazard [--device cuda:0] [--sizes 1e8,1e9] [--repeats 5] [--copies 64,1]
 
 Each configuration is compiled and warmed up first (not timed); each time is the median of
 --repeats runs (wall clock of `warp_ricochet.run` without an output file, synchronised at its end).
+`--copies`: one table per number of copies of the counts on CUDA (`tallies.counts.CUDA_COPIES`, 64 by
+default; the CPU always counts into one).
 """
 
 from __future__ import annotations
@@ -51,19 +53,25 @@ def main(argv=None):
     parser.add_argument("--device", default=None, help="Warp device (default: CUDA if present, else cpu)")
     parser.add_argument("--sizes", default="1e8,1e9", help="pellet counts, comma-separated")
     parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--copies", default=None, help="copies of the counts on CUDA, comma-separated (default: 64)")
     args = parser.parse_args(argv)
     wr, wp = _wr()
+    from warp_ricochet.tallies import counts
+
     device = args.device
     sizes = [int(float(s)) for s in args.sizes.split(",")]
     print("device:", device_info(wp, device))
-    rows = measure(device, sizes, args.repeats)
-    names = list(CONFIGS)
-    print("| N | " + " | ".join(names) + " |")
-    print("| ---: |" + " ---: |" * len(names))
-    for n, times in rows:
-        base = times[names[0]]
-        cells = [f"{times[k] * 1e3:.2f} ms" + ("" if k == names[0] else f" ({times[k] / base - 1:+.0%})") for k in names]
-        print(f"| {n:.0e} | " + " | ".join(cells) + " |")
+    for copies in [int(c) for c in args.copies.split(",")] if args.copies else [counts.CUDA_COPIES]:
+        counts.CUDA_COPIES = copies
+        rows = measure(device, sizes, args.repeats)
+        names = list(CONFIGS)
+        print(f"\ncopies of the counts on CUDA: {copies}")
+        print("| N | " + " | ".join(names) + " |")
+        print("| ---: |" + " ---: |" * len(names))
+        for n, times in rows:
+            base = times[names[0]]
+            cells = [f"{times[k] * 1e3:.2f} ms" + ("" if k == names[0] else f" ({times[k] / base - 1:+.0%})") for k in names]
+            print(f"| {n:.0e} | " + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":
