@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 
 from ..errors import RicochetError
 from ..tallies.sums import STAT_UNITS
+from .hazard_tables import from_file, from_run, tally_lines
 from .paper import paper_row
 from .papercheck import differences, row_scene
 
@@ -126,6 +127,7 @@ def _read_open_file(f, path, np) -> Results:
     if kind == "run":
         row = {name: float(np.asarray(v).reshape(-1)[0]) for name, v in stats.items()}
         meta["points"] = meta["points_done"] = 1
+        meta["tally"] = from_file(f)
         return Results(rows=[row], meta=meta)
     sweep = f.get("sweep")
     if not isinstance(sweep, h5py.Group):
@@ -416,6 +418,8 @@ def format_tables(results: Results, fmt: str = "text", paper: bool = False) -> s
     blocks += _collision_tables(results.rows, point_headers, point_cells, fmt)
     if paper:
         blocks += _paper_blocks(results, point_headers, point_cells, fmt)
+    if results.meta.get("tally") is not None:
+        blocks.append("\n".join(tally_lines(results.meta["tally"], results.rows[0].get("pellets", 0.0))))
     return "\n\n".join(blocks) + "\n"
 
 
@@ -457,4 +461,5 @@ def format_run_summary(stats: dict, output=None, device=None) -> str:
         ]
     width = max(len(k) for k, _ in rows)
     lines += [f"{k.ljust(width)}  {v}" for k, v in rows]
+    lines += tally_lines(from_run(stats), stats.get("pellets", 0.0))
     return "\n".join(lines) + "\n"
