@@ -230,7 +230,7 @@ def _resume(scene, output, device, *, overwrite, progress, dense_options) -> dic
         plan = found["plan"]
         writer = RunWriter.reopen(out.h5, fields=scene.output.fields, rows=plan.rows, segments=plan.segments,
                                   shots=plan.shots)
-        resumed = Resumed(plan.rows, plan.segment_results, plan.shot_totals)
+        resumed = Resumed(plan.rows, plan.segment_results, plan.shot_totals, plan.tally)
         return _compute(found["scene"], dev, writer, progress, resumed, dense_options)
 
 

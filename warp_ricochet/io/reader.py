@@ -161,8 +161,8 @@ class Run:
     def _stats(self, group, *, sweep: bool):
         xr, _ = _imports()
         stats = group.get("stats", {})
-        if not sweep:
-            return xr.Dataset({name: _variable(ds, ()) for name, ds in stats.items()},
+        if not sweep:  # the scalars (the landing tallies' groups below /stats are arrays: docs/hazard.md)
+            return xr.Dataset({name: _variable(ds, ()) for name, ds in stats.items() if isinstance(ds, h5py.Dataset)},
                               attrs=self._dataset_attrs("stats"))
         coords = {key: _variable(ds, ("point",)) for key, ds in self.file.get("sweep", {}).items()}
         variables = {name: _variable(ds, ("point",)) for name, ds in stats.items()}

@@ -36,6 +36,7 @@ from ..dense.schedule import segments_of_shots, shot_granule
 from ..errors import OutputError, SceneError
 from ..tallies.collisions import SHOT_TOTALS
 from ..tallies.reduce import SEGMENT, SEGMENT_WIDTH
+from . import tally_out
 from .runfile import FORMAT_NAME
 
 
@@ -143,6 +144,7 @@ class ResumePlan:
     shots: int
     segment_results: object
     shot_totals: object
+    tally: object = None  # the landing counts of the rows complete (`io.tally_out.read_progress`)
 
 
 def plan(f, scene, dev, partial_name: str) -> ResumePlan:
@@ -151,4 +153,8 @@ def plan(f, scene, dev, partial_name: str) -> ResumePlan:
     rows, chunk, segments, shots = verify(f, scene, dev, partial_name)
     progress = f["progress"]
     totals = progress["shot_totals"][:shots] if scene.pair_collisions else None
-    return ResumePlan(rows, chunk, segments, shots, progress["segment_results"][:segments], totals)
+    tally = tally_out.read_progress(progress, rows)
+    if scene.output.quantiles and rows and tally is None:
+        raise OutputError(f"output path = {partial_name!r}: holds no landing counts for its {rows} rows complete; "
+                          "it cannot be resumed (--overwrite starts the run again)")
+    return ResumePlan(rows, chunk, segments, shots, progress["segment_results"][:segments], totals, tally)

@@ -22,7 +22,7 @@ from ..fields import FIELDS, numpy_dtype, shape
 from ..tallies.collisions import SHOT_TOTALS, SHOT_TOTALS_UNITS
 from ..tallies.reduce import SEGMENT, SEGMENT_WIDTH
 from ..tallies.sums import STAT_UNITS
-from . import h5md
+from . import h5md, tally_out
 from .dimensions import name_run_dimensions, name_sweep_dimensions
 from .runfile import _OPEN
 from .space import check_space
@@ -82,6 +82,8 @@ class RunWriter:
             ds.attrs["units"], ds.attrs["description"] = STAT_UNITS[name]
         if scene.pair_collisions and scene.collisions.frame_every:
             h5md.create_frames(group, pellets, scene.collisions.frame_every)
+        if scene.output.quantiles:
+            tally_out.create(group, scene, model)
         name_run_dimensions(group)  # before SWMR: attaching a scale writes attributes
         self._open_datasets()
         self._start_watching()
@@ -176,10 +178,11 @@ class RunWriter:
                 arr = arr.reshape(len(planes), 3)
             s.create_dataset(name, data=arr).attrs["units"] = unit
 
-    def append(self, arrays: dict[str, np.ndarray], rows: int, segment_results: np.ndarray, shot_totals=None):
+    def append(self, arrays: dict[str, np.ndarray], rows: int, segment_results: np.ndarray, shot_totals=None,
+               tally=None):
         """Append the first `rows` rows of each field's array, the chunk's segment results and (pair
-        collisions) the totals of its shots; flush; then count the rows complete and flush again
-        (the commit point of the chunk)."""
+        collisions) the totals of its shots, keep the landing counts so far (`tally`); flush; then
+        count the rows complete and flush again (the commit point of the chunk)."""
         start, stop = self.rows, self.rows + rows
         need = sum(arrays[name][:rows].nbytes for name in self.datasets) + segment_results.nbytes
         need += 0 if shot_totals is None else shot_totals.nbytes
@@ -199,6 +202,8 @@ class RunWriter:
                     ds[done:] = block
             if start == 0:
                 self.chunk_rows[()] = rows
+            if tally is not None:
+                tally_out.store_progress(self.group, tally, stop)
             self.group.file.flush()
             self.progress_rows[()] = stop
             self.group.file.flush()
@@ -207,8 +212,12 @@ class RunWriter:
         self.rows = stop
 
     def write_stats(self, stats: dict[str, float]):
+        """The statistics, and the landing tallies' results (`pipeline.RunStats.tally`)."""
         try:
             write_stats(self.group, stats)
+            tally = getattr(stats, "tally", None)
+            if tally is not None:
+                tally_out.write_results(self.group, tally, int(stats["landed"]))
             self.group.file.flush()
         except (OSError, RuntimeError) as exc:
             raise _write_failure(exc, self.group) from None

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 from ..errors import RicochetError, hdf5_reason
 from ..io.h5open import open_for_reading
 from ..tallies.sums import STAT_UNITS
+from .hazard_tables import from_file, from_run, tally_lines
 from .paper import paper_row
 from .papercheck import differences, row_scene
 
@@ -132,6 +133,7 @@ def _read_open_file(f, path, np) -> Results:
     if kind == "run":
         row = {name: float(np.asarray(v).reshape(-1)[0]) for name, v in stats.items()}
         meta["points"] = meta["points_done"] = 1
+        meta["tally"] = from_file(f)
         if status != "complete" and "progress/rows" in f and "constants/pellets" in f:  # how far it got
             meta["rows_done"], meta["rows_total"] = int(f["progress/rows"][()]), int(f["constants/pellets"][()])
         if math.isnan(row.get("pellets", math.nan)):  # statistics are written when the run completes
@@ -432,6 +434,8 @@ def format_tables(results: Results, fmt: str = "text", paper: bool = False) -> s
     blocks += _collision_tables(results.rows, point_headers, point_cells, fmt)
     if paper:
         blocks += _paper_blocks(results, point_headers, point_cells, fmt)
+    if results.meta.get("tally") is not None:
+        blocks.append("\n".join(tally_lines(results.meta["tally"], results.rows[0].get("pellets", 0.0))))
     return "\n\n".join(blocks) + "\n"
 
 
@@ -473,4 +477,5 @@ def format_run_summary(stats: dict, output=None, device=None) -> str:
         ]
     width = max(len(k) for k, _ in rows)
     lines += [f"{k.ljust(width)}  {v}" for k, v in rows]
+    lines += tally_lines(from_run(stats), stats.get("pellets", 0.0))
     return "\n".join(lines) + "\n"
