@@ -265,7 +265,8 @@ def sweep(scene, params: dict, ties=(), output=None, device=None, *, overwrite=F
     mu_d = 0.9 mu_s). Returns [(point, stats)]. With `output`, writes one HDF5 file: the sweep
     values in /sweep, each run in /runs/NNNN, and every statistic as an array in /stats; while it
     runs, each point is a run file in OUTPUT.partial/ (`io.sweepdir`), and `resume` continues a
-    sweep interrupted or killed there."""
+    sweep interrupted or killed there (the statistics of the points it reads back from their files
+    have no `.tally`; the file holds every point's tallies)."""
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
     output = output if output is not None else scene.output.path

@@ -219,11 +219,15 @@ def _attach_dimensions_again(group) -> None:
 
 
 def read_point_stats(path: Path) -> dict:
-    """The statistics of a complete point's run file."""
+    """The statistics of a complete point's run file: the scalars of /stats (tallies.sums.STAT_UNITS;
+    the landing tallies' groups beside them stay in the file)."""
     import h5py
 
+    from ..tallies.sums import STAT_UNITS
+
     with h5py.File(path, "r") as f:
-        return {name: float(ds[()]) for name, ds in f["stats"].items()}
+        return {name: float(ds[()]) for name, ds in f["stats"].items()
+                if name in STAT_UNITS and isinstance(ds, h5py.Dataset) and ds.shape == ()}
 
 
 def _compare(here: dict, there: dict, shown: str) -> None:

@@ -133,12 +133,12 @@ def _read_open_file(f, path, np) -> Results:
     if kind == "run":
         row = {name: float(np.asarray(v).reshape(-1)[0]) for name, v in stats.items()}
         meta["points"] = meta["points_done"] = 1
-        meta["tally"] = from_file(f)
         if status != "complete" and "progress/rows" in f and "constants/pellets" in f:  # how far it got
             meta["rows_done"], meta["rows_total"] = int(f["progress/rows"][()]), int(f["constants/pellets"][()])
-        if math.isnan(row.get("pellets", math.nan)):  # statistics are written when the run completes
+        if math.isnan(row.get("pellets", math.nan)):  # statistics (and tallies) are written when the run completes
             meta["points_done"] = 0
             return Results(rows=[], meta=meta)
+        meta["tally"] = from_file(f)
         return Results(rows=[row], meta=meta)
     sweep = f.get("sweep")
     if not isinstance(sweep, h5py.Group):
