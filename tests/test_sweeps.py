@@ -133,7 +133,7 @@ def test_sigkill_at_random_moments_then_resume_is_bitwise_identical(tmp_path, re
         out = tmp_path / f"k{trial}.h5"
         proc = start_sweep(out)
         wait_for(Path(str(out) + ".partial"), proc)
-        time.sleep(rng.uniform(0.0, 2.0))
+        time.sleep(rng.uniform(0.0, 1.5))
         proc.kill()
         proc.wait(timeout=60)
         stages.append(finish_after_stop(out, reference))
@@ -305,3 +305,13 @@ def test_trajectory_frames_are_refused_in_a_sweep_file(tmp_path):
                       "--set", "collisions.frame_every=10", "--param", "surfaces.0.restitution=0,0.1", "-o", tmp_path / "f.h5"])
     assert rc == 2 and len(err.splitlines()) == 1 and err.startswith(PREFIX + "collisions.frame_every = 10"), err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_point_interrupted_while_its_file_was_set_up_is_run_again(interrupted, reference):
+    """Its NNNN.h5.partial holds no /progress (and no chunk): --resume runs that point again."""
+    out, folder = interrupted
+    with h5py.File(folder / "0001.h5.partial", "r+") as f:
+        del f["progress"]
+    rc, _, err = cli(["sweep", *ARGS, "-o", out, "--resume"])
+    assert rc == 0, err
+    assert_same_sweep(out, reference)

@@ -293,11 +293,13 @@ def sweep(scene, params: dict, ties=(), output=None, device=None, *, overwrite=F
         results = []
         for i, sc in enumerate(scenes):
             point_path, step = folder.point(i), _point_progress(progress, i, len(scenes))
+            partial = Path(str(point_path) + ".partial")
             if point_path.exists():  # complete before an interruption
                 stats = sweepdir.read_point_stats(point_path)
             else:
-                stats = run(sc, point_path, dev, progress=step, dense_options=dense_options,
-                            resume=Path(str(point_path) + ".partial").exists())
+                if partial.exists() and not sweepdir.resumable_point(partial):  # no chunk in it: run it again
+                    partial.unlink()
+                stats = run(sc, point_path, dev, progress=step, dense_options=dense_options, resume=partial.exists())
             results.append((points[i], stats))
         folder.assemble(points, [s for _, s in results], overwrite=overwrite, device=str(dev),
                         scene_toml=scene.to_toml(), seed=None if scene.shot.file else scene.shot.seed,

@@ -200,6 +200,18 @@ class SweepFolder:
         shutil.rmtree(self.folder, ignore_errors=True)
 
 
+def resumable_point(partial: Path) -> bool:
+    """Whether a point's NNNN.h5.partial can be resumed: it opens and has its /progress (a point
+    interrupted while its file was set up has none, and holds no chunk: it is run again)."""
+    from .h5open import open_for_reading
+
+    try:
+        with open_for_reading(partial, locking=False) as f:
+            return "progress/rows" in f
+    except OSError:
+        return False
+
+
 def _attach_dimensions_again(group) -> None:
     """HDF5 copies the object references of dimension scales (attributes DIMENSION_LIST and
     REFERENCE_LIST) as they were, addresses in the point's file: drop them and attach the copied
