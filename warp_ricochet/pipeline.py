@@ -23,6 +23,7 @@ import warp as wp
 from .chunks import plan_rows, plan_shots
 from .core.kernel import CUDA_BLOCK_DIM, ricochet_kernel_for
 from .core.release import empty_release
+from .core.shots import ShotPass
 from .dense.phase import DensePhase
 from .dense.schedule import shot_stride
 from .errors import PrecisionWarning
@@ -35,6 +36,7 @@ from .tallies.collisions import (
     SKIN_OVERRUN,
     collision_statistics,
 )
+from .tallies.ensemble import RunStats, ensemble_of, has_ensemble, per_shot_statistics
 from .tallies.reduce import launch_reduce, threads_for
 from .tallies.sums import combine, empty_totals, finalize
 
@@ -52,11 +54,13 @@ _DEVICE_LOCK = threading.Lock()  # one CUDA run at a time uses the pool and the 
 @dataclass
 class Resumed:
     """What a resumed run already has: `rows` pellets complete, their statistics partials (one row
-    per segment) and, with pair collisions, their shots' totals."""
+    per segment), with pair collisions their shots' totals, and in a run of several shots the
+    per-shot partials of its complete shots (`core.shots`)."""
 
     rows: int
     segment_results: np.ndarray
     shot_totals: np.ndarray | None = None
+    shot_partials: np.ndarray | None = None
 
 
 class CoreStage:
@@ -71,6 +75,9 @@ class CoreStage:
         self.kernel = ricochet_kernel_for(spec)
         self.release = empty_release(model.precision, dev.alias)
         self.arrays, self.totals = self.state.arrays, None
+        self.count = scene.shot.count
+        self.shot_pass = (ShotPass(scene, model, spec, self.capacity // self.count + 1, arrays)
+                          if has_ensemble(scene) else None)
 
     def chunks(self, done: int):
         for start in range(done, self.pellets, self.capacity):
@@ -85,6 +92,15 @@ class CoreStage:
                   outputs=[self.state.partial_sums, self.state.partial_min, self.state.partial_max],
                   device=m.device, block_dim=CUDA_BLOCK_DIM)
         return launch_reduce(self.state, rows, m.device), 0
+
+    def shot_rows(self, start: int, rows: int):
+        """Per-piece partials of the shots this chunk completes (None: no ensemble)."""
+        if self.shot_pass is None:
+            return None
+        first = start // self.count
+        pieces = self.shot_pass.launch(first, (start + rows) // self.count - first, self.source.struct,
+                                       self.state.outputs, self.release, start)
+        return self.shot_pass.host_rows(pieces)
 
 
 class CollisionStage:
@@ -103,6 +119,7 @@ class CollisionStage:
         self.kernel = ricochet_kernel_for(spec)
         self.arrays = {**self.state.arrays, **self.dense.field_arrays}
         self.totals = self.dense.totals
+        self.shot_pass = ShotPass(scene, model, spec, self.per_chunk) if has_ensemble(scene) else None
 
     def chunks(self, done: int):
         for first in range(done // self.count, self.shots, self.per_chunk):
@@ -119,6 +136,14 @@ class CollisionStage:
                   outputs=[self.state.partial_sums, self.state.partial_min, self.state.partial_max],
                   device=m.device, block_dim=CUDA_BLOCK_DIM)
         return launch_reduce(self.state, slots, m.device), shots
+
+    def shot_rows(self, start: int, rows: int):
+        """Per-piece partials of the chunk's shots, continued from their release (None: no ensemble)."""
+        if self.shot_pass is None:
+            return None
+        pieces = self.shot_pass.launch(start // self.count, rows // self.count, self.source.struct,
+                                       self.state.outputs, self.dense.release, start)
+        return self.shot_pass.host_rows(pieces)
 
 
 class HostSlot:
@@ -139,7 +164,7 @@ class HostSlot:
         self.segments = like(stage.state.segments, "segments")
         self.totals = None if stage.totals is None else like(stage.totals, "shot_totals")
         self.rows = self.segment_count = self.shots = 0
-        self.event = None
+        self.event, self.shot_rows = None, None
 
     def fill(self, stage, rows: int, segments: int, shots: int):
         """Enqueue the copies of a computed chunk's results (element counts: contiguous rows)."""
@@ -174,8 +199,8 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
             stage = CollisionStage(scene, model, spec, arrays, pellets, options, frames)
         else:
             stage = CoreStage(scene, model, spec, arrays, pellets)
-        totals, tables = _loop(stage, pellets, sink, resumed, progress)
-    stats = finalize(totals, pellets=pellets, mass=model.mass, inertia=model.inertia, air=spec.in_air)
+        totals, tables, pieces = _loop(stage, pellets, sink, resumed, progress)
+    stats = RunStats(finalize(totals, pellets=pellets, mass=model.mass, inertia=model.inertia, air=spec.in_air))
     if spec.in_air and stats["flights_unfinished"] > 0:
         warnings.warn(UNFINISHED_FLIGHTS.format(int(stats["flights_unfinished"]), MAX_FLIGHT_STEPS), PrecisionWarning,
                       stacklevel=3)
@@ -183,16 +208,24 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
         stats.update(collision_statistics(np.concatenate(tables) if tables else np.zeros((0, len(SHOT_TOTALS))), pellets))
         if stats["skin_overrun_max"] > OVERRUN_TOLERANCE:
             warnings.warn(SKIN_OVERRUN.format(stats["skin_overrun_max"]), PrecisionWarning, stacklevel=3)
+    if stage.shot_pass is not None:
+        per_shot = per_shot_statistics(np.concatenate(pieces), stage.shot_pass.pieces, count=scene.shot.count,
+                                       mass=model.mass, inertia=model.inertia, air=spec.in_air,
+                                       shot_totals=np.concatenate(tables) if spec.collisions else None)
+        stats.ensemble = ensemble_of(per_shot, scene.shot.shots)
     return stats
 
 
 def _loop(stage, pellets, sink, resumed, progress):
-    """The chunk loop; returns the folded statistics totals and the shots' totals tables."""
-    totals, tables, done = empty_totals(), [], 0
+    """The chunk loop; returns the folded statistics totals, the shots' totals tables and the
+    per-shot partials (`core.shots`), in shot order."""
+    totals, tables, pieces, done = empty_totals(), [], [], 0
     if resumed is not None and resumed.rows:
         totals, done = combine(totals, resumed.segment_results), resumed.rows
         if resumed.shot_totals is not None:
             tables.append(resumed.shot_totals)
+        if resumed.shot_partials is not None:
+            pieces.append(resumed.shot_partials)
     cuda = stage.model.device.is_cuda
     slots = [HostSlot(stage, pinned=cuda, index=i) for i in range(2 if cuda else 1)]
 
@@ -202,8 +235,10 @@ def _loop(stage, pellets, sink, resumed, progress):
         totals = combine(totals, segment_results)
         if shot_totals is not None:
             tables.append(shot_totals)
+        if slot.shot_rows is not None:
+            pieces.append(slot.shot_rows)
         if sink is not None:
-            sink.append(arrays, slot.rows, segment_results, shot_totals)
+            sink.append(arrays, slot.rows, segment_results, shot_totals, slot.shot_rows)
         done += slot.rows
         if progress is not None:
             progress(done, pellets)
@@ -211,14 +246,16 @@ def _loop(stage, pellets, sink, resumed, progress):
     pending = None
     for i, (start, rows) in enumerate(stage.chunks(done)):
         segments, shots = stage.compute(start, rows)
+        shot_rows = stage.shot_rows(start, rows)
         slot = slots[i % len(slots)]
         if pending is slot:  # CPU: one slot, consume before reuse
             consume(pending)
             pending = None
         slot.fill(stage, rows, segments, shots)
+        slot.shot_rows = shot_rows
         if pending is not None:
             consume(pending)  # host work on the previous chunk while the device runs this one
         pending = slot
     if pending is not None:
         consume(pending)
-    return totals, tables
+    return totals, tables, pieces

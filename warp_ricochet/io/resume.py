@@ -35,6 +35,7 @@ from .._version import __version__
 from ..dense.schedule import segments_of_shots, shot_granule
 from ..errors import OutputError, SceneError
 from ..tallies.collisions import SHOT_TOTALS
+from ..tallies.ensemble import has_ensemble, pieces_per_shot
 from ..tallies.reduce import SEGMENT
 from .runfile import FORMAT_NAME
 
@@ -138,6 +139,8 @@ class ResumePlan:
     shots: int
     segment_results: object
     shot_totals: object
+    shot_partials: object = None  # per-shot partials of the complete shots (runs of several shots)
+    pieces: int = 0
 
 
 def plan(f, scene, dev, partial_name: str) -> ResumePlan:
@@ -146,4 +149,11 @@ def plan(f, scene, dev, partial_name: str) -> ResumePlan:
     rows, chunk, segments, shots = verify(f, scene, dev, partial_name)
     progress = f["progress"]
     totals = progress["shot_totals"][:shots] if scene.pair_collisions else None
-    return ResumePlan(rows, chunk, segments, shots, progress["segment_results"][:segments], totals)
+    partials, pieces = None, 0
+    if has_ensemble(scene):
+        pieces = rows // scene.shot.count * pieces_per_shot(scene.shot.count)
+        if "shot_partials" not in progress or len(progress["shot_partials"]) < pieces:
+            raise OutputError(f"output path = {partial_name!r}: is inconsistent (per-shot partials of fewer than "
+                              f"{rows // scene.shot.count} shots); it cannot be resumed")
+        partials = progress["shot_partials"][:pieces]
+    return ResumePlan(rows, chunk, segments, shots, progress["segment_results"][:segments], totals, partials, pieces)
