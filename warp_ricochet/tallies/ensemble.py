@@ -30,8 +30,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .collisions import collision_statistics
-from .sums import STAT_UNITS, combine, empty_totals, finalize
+from .collisions import SHOT_TOTALS, collision_statistics
+from .sums import NUM_EXTREMES, NUM_SUMS, STAT_UNITS, SUM, finalize_rows
 
 LEVEL = 0.95
 PIECE = 256  # pellets of one shot a thread of `core.shots` follows (as the core kernel's PER_THREAD: short float32 sums)
@@ -92,17 +92,40 @@ def t_interval(values, level: float = LEVEL) -> tuple[float, float]:
 def per_shot_statistics(piece_rows, pieces: int, *, count: int, mass: float, inertia: float, air: bool = False,
                         shot_totals=None) -> dict:
     """name -> (S,) values of each shot alone, from its pieces' partial rows (`core.shots`; `pieces`
-    rows a shot, in order) and, with pair collisions, its row of per-shot totals."""
+    rows a shot, in order: sums added left to right, spreads merged as `sums.merged_m2`) and, with
+    pair collisions, its row of per-shot totals (`collisions.collision_statistics` of that row)."""
     shots = len(piece_rows) // pieces
-    rows = []
-    for s in range(shots):
-        stats = finalize(combine(empty_totals(), piece_rows[s * pieces:(s + 1) * pieces]), pellets=count, mass=mass,
-                         inertia=inertia, air=air)
-        if shot_totals is not None:
-            stats.update(collision_statistics(shot_totals[s:s + 1], count))
-        rows.append(stats)
-    names = rows[0].keys() if rows else ()
-    return {name: np.array([row[name] for row in rows], np.float64) for name in names}
+    rows = np.asarray(piece_rows, np.float64)[: shots * pieces].reshape(shots, pieces, -1)
+    sums = rows[:, 0, :NUM_SUMS].copy()
+    for k in range(1, pieces):
+        sums += rows[:, k, :NUM_SUMS]
+    mins = rows[:, :, NUM_SUMS:NUM_SUMS + NUM_EXTREMES].min(axis=1)
+    maxs = rows[:, :, NUM_SUMS + NUM_EXTREMES:].max(axis=1)
+    n, total, m2 = (rows[:, :, SUM[key]] for key in ("landed", "range", "range_m2"))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        mean = (total.sum(axis=1) / n.sum(axis=1))[:, None]
+        spread = np.where(n > 0, m2, 0.0).sum(axis=1) + np.where(n > 0, n * (total / n - mean) ** 2, 0.0).sum(axis=1)
+    out = finalize_rows(sums, mins, maxs, spread, pellets=count, mass=mass, inertia=inertia, air=air)
+    if shot_totals is not None:
+        out.update(_collision_rows(np.asarray(shot_totals, np.float64)[:shots], count))
+    return out
+
+
+def _collision_rows(table, count: int) -> dict:
+    """`collisions.collision_statistics` of each row of per-shot totals alone (a sum of one value is
+    itself, the mean over one shot its value)."""
+    col = {name: table[:, i] for i, name in enumerate(SHOT_TOTALS)}
+    out = {
+        "collided_fraction": col["collided"] / count,
+        "pair_collisions": col["pair_collisions"] / 2.0,
+        "pair_energy_lost": col["pair_energy_lost"],
+        "pair_energy_lost_mean": col["pair_energy_lost"] / count,
+        "dense_steps_max": col["dense_steps"], "dense_time_max": col["dense_end_time"],
+        "dense_steps_mean": col["dense_steps"], "dense_time_mean": col["dense_end_time"],
+        "skin_overrun_max": col["skin_overrun"],
+    }
+    assert not len(table) or set(out) == set(collision_statistics(table[:1], count))
+    return out
 
 
 def ensemble_of(per_shot: dict, shots: int) -> Ensemble:
