@@ -19,6 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
+from ..errors import SceneError
+from ..launch.packing import MAX_REDRAWS
 from ..tallies.collisions import SHOT_TOTALS
 from .constants import (
     BLOCK_STEPS,
@@ -70,6 +72,9 @@ class DensePhase:
                                                        coll.max_neighbours, spec.collision_fields)
         self.release = release_struct(model.precision, self.cloud, self.count)
         self.totals = wp.zeros((shots, len(SHOT_TOTALS)), dtype=wp.float64, device=self.device)
+        self.sampled = not spec.from_file  # sampled launches are separated (no overlaps); a pellet file's are as given
+        self.redraws = wp.zeros(shots, dtype=wp.int32, device=self.device)
+        self.envelope_radius = scene.shot.envelope_radius
         self.pair = pair_struct(model.precision, model, coll, self.count, self.block_steps)
         cpu = not self.device.is_cuda
         self.fused = cpu and options.cpu_steps != "kernels"
@@ -98,6 +103,8 @@ class DensePhase:
         self.shots = shots
         self._outputs = outputs
         self._launch("launch_kernel", self.threads, [first_index, p, source, c, outputs])
+        if self.sampled:
+            self._launch("separate_kernel", shots, [first_index, p, self.model.physics, source, c, outputs, self.redraws])
         self._launch("drift_kernel", shots, [p, self.model.surfaces, self.model.physics, c])
         if not self.cell_lists:
             self._launch("groups_kernel", pellets, [p, self.groups])
@@ -107,6 +114,10 @@ class DensePhase:
             self._host_loop(pellets, shots, outputs, frames)
         self._launch("release_kernel", self.threads, [p, self.model.physics, c])
         self._launch("shot_totals_kernel", shots, [p, c, self.totals])
+        if self.sampled and int(self.redraws.numpy()[:shots].max()) > MAX_REDRAWS:  # (the scene check keeps this from happening)
+            raise SceneError("shot.envelope_radius", self.envelope_radius,
+                             f"a pellet found no place free of overlaps in {MAX_REDRAWS:,} draws: the envelope is too "
+                             "dense to sample without overlaps; make it larger")
 
     def _threads(self, pellets):
         """Threads of a per-pellet kernel: one per pellet on CUDA; on the CPU one for all."""
