@@ -102,9 +102,7 @@ class DensePhase:
         self.threads = self._threads(pellets)
         self.shots = shots
         self._outputs = outputs
-        self._launch("launch_kernel", self.threads, [first_index, p, source, c, outputs])
-        if self.sampled:
-            self._launch("separate_kernel", shots, [first_index, p, self.model.physics, source, c, outputs, self.redraws])
+        self.launch_shots(first_index, shots, source, outputs)
         self._launch("drift_kernel", shots, [p, self.model.surfaces, self.model.physics, c])
         if not self.cell_lists:
             self._launch("groups_kernel", pellets, [p, self.groups])
@@ -114,7 +112,20 @@ class DensePhase:
             self._host_loop(pellets, shots, outputs, frames)
         self._launch("release_kernel", self.threads, [p, self.model.physics, c])
         self._launch("shot_totals_kernel", shots, [p, c, self.totals])
-        if self.sampled and int(self.redraws.numpy()[:shots].max()) > MAX_REDRAWS:  # (the scene check keeps this from happening)
+        self.check_redraws(shots)
+
+    def launch_shots(self, first_index: int, shots: int, source, outputs):
+        """Each pellet's launch state, each shot of sampled launches separated (no overlaps)."""
+        self.threads = self._threads(shots * self.count)
+        self._launch("launch_kernel", self.threads, [first_index, self.pair, source, self.cloud, outputs])
+        if self.sampled:
+            self._launch("separate_kernel", shots, [first_index, self.pair, self.model.physics, source, self.cloud,
+                                                    outputs, self.redraws])
+
+    def check_redraws(self, shots: int):
+        """Refuse (one line) shots where a pellet found no free place (the scene check keeps this
+        from happening below `launch.packing.MAX_PACKING`)."""
+        if self.sampled and int(self.redraws.numpy()[:shots].max()) > MAX_REDRAWS:
             raise SceneError("shot.envelope_radius", self.envelope_radius,
                              f"a pellet found no place free of overlaps in {MAX_REDRAWS:,} draws: the envelope is too "
                              "dense to sample without overlaps; make it larger")
