@@ -139,7 +139,7 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
             raise err("output.fields", extra[0], "needs pellet-pellet collisions: collisions.enabled = true and "
                        "more than one pellet per shot (shot.count > 1)")
     numerics = _numerics(raw.get("numerics"))
-    if pairs and shot.file is None:  # sampled without overlaps (launch.sampling): the envelope must leave room
+    if pairs and shot.file is None and collisions.separate:  # sampled without overlaps (launch.sampling): the envelope must leave room
         fraction = packing_fraction(shot.count, shot.diameter, shot.envelope_radius)
         if fraction > MAX_PACKING:
             least = shot.envelope_radius * (fraction / MAX_PACKING) ** (1 / 3)
