@@ -14,7 +14,7 @@ from scipy.spatial import cKDTree
 
 import warp_ricochet as wr
 from warp_ricochet.cli import main as cli_main
-from warp_ricochet.dense.phase import DensePhase
+from warp_ricochet.dense.phase import DensePhase, check_redraws
 from warp_ricochet.errors import SceneError
 from warp_ricochet.launch.packing import MAX_PACKING, packing_fraction
 from warp_ricochet.launch.source import PelletSource
@@ -120,4 +120,4 @@ def test_a_shot_that_cannot_be_placed_is_refused():
     _, _, redraws, dense = launched(40, 1, D, scene=scene)
     assert redraws.max() > 10_000
     with pytest.raises(SceneError, match="no place free of overlaps in 10,000 draws"):
-        dense.check_redraws(1)
+        check_redraws(dense, 1)

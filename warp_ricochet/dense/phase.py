@@ -113,7 +113,7 @@ class DensePhase:
             self._host_loop(pellets, shots, outputs, frames)
         self._launch("release_kernel", self.threads, [p, self.model.physics, c])
         self._launch("shot_totals_kernel", shots, [p, c, self.totals])
-        self.check_redraws(shots)
+        check_redraws(self, shots)
 
     def launch_shots(self, first_index: int, shots: int, source, outputs):
         """Each pellet's launch state, each shot of sampled launches separated (no overlaps)."""
@@ -122,14 +122,6 @@ class DensePhase:
         if self.sampled:
             self._launch("separate_kernel", shots, [first_index, self.pair, self.model.physics, source, self.cloud,
                                                     outputs, self.redraws])
-
-    def check_redraws(self, shots: int):
-        """Refuse (one line) shots where a pellet found no free place (the scene check keeps this
-        from happening below `launch.packing.MAX_PACKING`)."""
-        if self.sampled and int(self.redraws.numpy()[:shots].max()) > MAX_REDRAWS:
-            raise SceneError("shot.envelope_radius", self.envelope_radius,
-                             f"a pellet found no place free of overlaps in {MAX_REDRAWS:,} draws: the envelope is too "
-                             "dense to sample without overlaps; make it larger")
 
     def _threads(self, pellets):
         """Threads of a per-pellet kernel: one per pellet on CUDA; on the CPU one for all."""
@@ -281,3 +273,12 @@ def take_frame(dense, pellets: int, frames):
     g = np.asarray(dense.model.physics.gravity, np.float64)
     age = np.where(flying, now - t, 0.0)[:, None]
     frames(steps, now, x + v * age + 0.5 * g * age**2)
+
+
+def check_redraws(phase: DensePhase, shots: int):
+    """Refuse (one line) shots where a pellet found no place free of overlaps (the scene check
+    keeps this from happening below `launch.packing.MAX_PACKING`)."""
+    if phase.sampled and int(phase.redraws.numpy()[:shots].max()) > MAX_REDRAWS:
+        raise SceneError("shot.envelope_radius", phase.envelope_radius,
+                         f"a pellet found no place free of overlaps in {MAX_REDRAWS:,} draws: the envelope is too "
+                         "dense to sample without overlaps; make it larger")
