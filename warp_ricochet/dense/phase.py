@@ -72,10 +72,8 @@ class DensePhase:
                                                        coll.max_neighbours, spec.collision_fields)
         self.release = release_struct(model.precision, self.cloud, self.count)
         self.totals = wp.zeros((shots, len(SHOT_TOTALS)), dtype=wp.float64, device=self.device)
-        # sampled launches are separated (no overlaps) unless collisions.separate = false; a pellet file's are as given
-        self.sampled = not spec.from_file and coll.separate
-        self.redraws = wp.zeros(shots, dtype=wp.int32, device=self.device)
-        self.envelope_radius = scene.shot.envelope_radius
+        self.sampled = not spec.from_file and coll.separate  # separated launches (a pellet file's are as given)
+        self.redraws, self.envelope_radius = wp.zeros(shots, dtype=wp.int32, device=self.device), scene.shot.envelope_radius
         self.pair = pair_struct(model.precision, model, coll, self.count, self.block_steps)
         cpu = not self.device.is_cuda
         self.fused = cpu and options.cpu_steps != "kernels"
