@@ -41,7 +41,7 @@ from .tallies.reduce import launch_reduce, threads_for
 from .tallies.sums import combine, empty_totals, finalize
 
 ONE_SHOT_COLLISIONS = ("one shot with pellet-pellet collisions is one sample of a chaotic cloud: on the paper's shot its "
-                       "mean range moves by a median 5% (up to 19%) when its launch moves by 1e-7, in float64 as in "
+                       "mean range moves by a median 5% (up to 23%) when its launch moves by 1e-7, in float64 as in "
                        "float32; set shot.shots = 200 or more for 95% intervals (docs/collisions.md)")
 
 UNFINISHED_FLIGHTS = ("{:,} flights in air took more than {:,} integration steps and were given up (counted as "
