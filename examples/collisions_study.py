@@ -67,7 +67,7 @@ def main():
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
-        print("matplotlib not installed: no histogram")
+        print("matplotlib not installed (pip install 'warp-ricochet[plot]'): no histogram")
         return
     fig, axes = plt.subplots(1, 3, figsize=(13, 3.8), sharey=True)
     for ax, mu_s in zip(axes, (0.0, 0.25, 0.5)):

@@ -3,6 +3,9 @@
     warp-ricochet run SCENE.toml [-o OUT.h5] [--device cpu|cuda|cuda:N] [--set KEY=VALUE ...] [--overwrite] [--resume]
     warp-ricochet sweep SCENE.toml --param KEY=START:STOP:STEP|a,b,c [--tie KEY=F*[PARAM] ...] [-o OUT.h5] ...
     warp-ricochet report OUT.h5 [OUT2.h5 ...] [--format text|markdown] [--paper]
+    warp-ricochet xdmf OUT.h5 [--overwrite]
+    warp-ricochet plot OUT.h5 [OUT2.h5 ...] [-o DIR] [--overwrite]
+    warp-ricochet example [NAME] [-o PATH] [--overwrite]
 
 Exit status: 0 on success; 2 for a usage error or any invalid scene, override, device, output path or
 report input (one line `warp-ricochet: error: ...` on stderr, no traceback); 1 for an operating-system
@@ -24,7 +27,10 @@ PROG = "warp-ricochet"
 EPILOG = """examples:
   warp-ricochet run examples/paper.toml -o run.h5
   warp-ricochet sweep examples/paper.toml --param surfaces.0.mu_s=0:0.5:0.05 --tie surfaces.0.mu_d=0.9* -o sweep.h5
-  warp-ricochet report sweep.h5 --paper"""
+  warp-ricochet report sweep.h5 --paper
+  warp-ricochet xdmf run.h5          # run.xmf: open it in ParaView
+  warp-ricochet plot sweep.h5 -o plots/
+  warp-ricochet example paper -o my-scene.toml"""
 
 
 # ---------------------------------------------------------------------------------------------- parser
@@ -89,7 +95,39 @@ def build_parser() -> argparse.ArgumentParser:
                         "(the same sweep, e.g. in vacuum and in air)")
     _add_report_options(p)
     p.set_defaults(func=cmd_report)
+
+    p = sub.add_parser("xdmf", help="write the XDMF sidecar (OUT.xmf) that opens a run or sweep file in ParaView",
+                       description="Write OUT.xmf beside OUT.h5: an XDMF 2 description of its point clouds, surfaces "
+                                   "and trajectory frames that ParaView and VTK open (runs and sweeps write it when "
+                                   "they complete; docs/output.md, \"ParaView\").")
+    p.add_argument("file", metavar="OUT.h5", help="a run or sweep file written by warp-ricochet")
+    p.add_argument("--overwrite", action="store_true", help="replace OUT.xmf if it exists")
+    p.set_defaults(func=cmd_xdmf)
+    _add_plot_and_example(sub)
     return parser
+
+
+def _add_plot_and_example(sub) -> None:
+    p = sub.add_parser("plot", help="draw PNG plots of run and sweep files (needs the plot extra: matplotlib)",
+                       description="Write PNGs of run and sweep files: for a run, where pellets land seen from "
+                                   "above (density and energy), the range distribution with its survival curve, "
+                                   "energy against distance; for sweeps, <L> with the L- to L+ band over the "
+                                   "swept key and each point's survival curve (several sweeps side by side).",
+                       epilog="example: warp-ricochet plot sweep.h5 sweep-air.h5 -o plots/")
+    p.add_argument("files", metavar="OUT.h5", nargs="+", help="run or sweep files written by warp-ricochet")
+    p.add_argument("-o", "--output", metavar="DIR", help="folder for the PNGs (made if missing; default: the "
+                                                           "first file's folder)")
+    p.add_argument("--overwrite", action="store_true", help="replace PNGs that exist")
+    p.set_defaults(func=cmd_plot)
+
+    p = sub.add_parser("example", help="list the example scenes, or write or print one",
+                       description="Without NAME, list the example scenes installed with the package; with NAME, "
+                                   "print its TOML, or write it to PATH with -o.",
+                       epilog="example: warp-ricochet example paper -o paper.toml")
+    p.add_argument("name", metavar="NAME", nargs="?", help="an example's name (e.g. paper)")
+    p.add_argument("-o", "--output", metavar="PATH", help="write the scene here instead of printing it")
+    p.add_argument("--overwrite", action="store_true", help="replace PATH if it exists")
+    p.set_defaults(func=cmd_example)
 
 
 # ---------------------------------------------------------------------------------------------- commands
@@ -151,6 +189,40 @@ def cmd_report(args) -> int:
         raise ReportError(args.files[1], "--paper compares one file with the paper; give one file")
     else:
         sys.stdout.write(format_side_by_side(results, args.format))
+    return 0
+
+
+def cmd_xdmf(args) -> int:
+    from .io.xdmf import write_xdmf
+
+    print(write_xdmf(args.file, overwrite=args.overwrite))
+    return 0
+
+
+def cmd_plot(args) -> int:
+    from .report.plots import write_plots
+
+    for png, why in write_plots(args.files, args.output, overwrite=args.overwrite):
+        print(f"wrote {png}" if why is None else f"skipped {png}: {why}")
+    return 0
+
+
+def cmd_example(args) -> int:
+    from .examples import example_text, examples
+
+    if args.name is None:
+        width = max(len(name) for name, _ in examples())
+        for name, summary in examples():
+            print(f"{name.ljust(width)}  {summary}")
+        return 0
+    text = example_text(args.name)
+    if args.output is None:
+        sys.stdout.write(text)
+        return 0
+    from .examples import write_example
+
+    write_example(text, args.output, overwrite=args.overwrite)
+    print(f"wrote {args.output}")
     return 0
 
 

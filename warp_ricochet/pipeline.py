@@ -30,6 +30,7 @@ from .errors import ChaosWarning, PrecisionWarning
 from .launch.source import PelletSource
 from .model import State, reused_state
 from .physics.air_flight import MAX_FLIGHT_STEPS
+from .physics.limits import POSITION_RESOLUTION, UNIT_ROUNDOFF
 from .tallies.collisions import (
     OVERRUN_TOLERANCE,
     SHOT_TOTALS,
@@ -46,6 +47,12 @@ ONE_SHOT_COLLISIONS = ("one shot with pellet-pellet collisions is one sample of 
 
 UNFINISHED_FLIGHTS = ("{:,} flights in air took more than {:,} integration steps and were given up (counted as "
                       "escaped, in flights_unfinished): raise numerics.flight_tolerance or check the scene")
+
+COARSE_POSITIONS = ("{precision} resolves a flight's coordinates to {eps} of its scale: flight_scale_max = {scale:.3g} m "
+                    "gives {error:.3g} m, more than 1/{parts:g} of the pellet radius ({radius:.3g} m), so contacts and "
+                    "ranges are decided by rounding (docs/stability.md, \"Precision\"); {fix}")
+FIX = {"float32": "set numerics.precision = \"float64\"",
+       "float64": "even float64 cannot: shorten the flights or move the scene nearer the origin"}
 
 _PINNED_POOL: dict = {}  # (name, shape, dtype, slot) -> pinned host array, reused: cudaHostAlloc is slow
 _DEVICE_LOCK = threading.Lock()  # one CUDA run at a time uses the pool and the reused state
@@ -201,6 +208,7 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
             stage = CoreStage(scene, model, spec, arrays, pellets)
         totals, tables, pieces = _loop(stage, pellets, sink, resumed, progress)
     stats = RunStats(finalize(totals, pellets=pellets, mass=model.mass, inertia=model.inertia, air=spec.in_air))
+    warn_coarse_positions(stats["flight_scale_max"], model.precision, model.radius)
     if spec.in_air and stats["flights_unfinished"] > 0:
         warnings.warn(UNFINISHED_FLIGHTS.format(int(stats["flights_unfinished"]), MAX_FLIGHT_STEPS), PrecisionWarning,
                       stacklevel=3)
@@ -214,6 +222,18 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
                                        shot_totals=np.concatenate(tables) if spec.collisions else None)
         stats.ensemble = ensemble_of(per_shot, scene.shot.shots)
     return stats
+
+
+def warn_coarse_positions(scale: float, precision: str, radius: float) -> bool:
+    """The precision rule: warn (one line) when the unit roundoff of `precision` times the largest
+    flight scale (m) exceeds POSITION_RESOLUTION of the pellet radius (m); returns whether it did."""
+    error = UNIT_ROUNDOFF[precision] * scale
+    if not error > POSITION_RESOLUTION * radius:  # (NaN: no flight met a surface)
+        return False
+    warnings.warn(COARSE_POSITIONS.format(precision=precision, eps="2^-24" if precision == "float32" else "2^-53",
+                                          scale=scale, error=error, parts=1 / POSITION_RESOLUTION, radius=radius,
+                                          fix=FIX[precision]), PrecisionWarning, stacklevel=4)
+    return True
 
 
 def _loop(stage, pellets, sink, resumed, progress):

@@ -32,6 +32,7 @@ def make_ricochet_pellet(spec):
     Source, Outputs, Release = src.Source, outs.Outputs, make_release(spec.precision)
     floats_t, extremes_t = acc_fns.floats_t, acc_fns.extremes_t
     F_RANGE_STICK, F_RANGE_SLIP = acc_fns.offsets.RANGE_STICK, acc_fns.offsets.RANGE_SLIP
+    X_SCALE, flight_scale = acc_fns.flight_scale_index, acc_fns.flight_scale  # the precision rule's statistic
     flight = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws)
     AIR = spec.flight == "air"
     rests, stays, impact, _meet, contact_point, landing_range = make_contact(spec.precision)
@@ -98,6 +99,7 @@ def make_ricochet_pellet(spec):
                 if k < 0:
                     state = wp.int32(ESCAPED)  # it never meets a surface again
                 else:
+                    hi[X_SCALE] = wp.max(hi[X_SCALE], flight_scale(position, velocity, dt, physics.gravity))
                     position = position_then
                     velocity = velocity_then
                     spin = spin_then
@@ -147,6 +149,7 @@ def make_ricochet_pellet(spec):
                     acc = acc_fns.add_flight_sums(acc, steps, k_next)
                 k = k_next
                 if k >= 0:
+                    hi[X_SCALE] = wp.max(hi[X_SCALE], flight_scale(position, velocity, dt, physics.gravity))
                     position = position_then
                     velocity = velocity_then
                     time = time + dt

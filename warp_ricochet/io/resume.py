@@ -36,7 +36,7 @@ from ..dense.schedule import segments_of_shots, shot_granule
 from ..errors import OutputError, SceneError
 from ..tallies.collisions import SHOT_TOTALS
 from ..tallies.ensemble import has_ensemble, pieces_per_shot
-from ..tallies.reduce import SEGMENT
+from ..tallies.reduce import SEGMENT, SEGMENT_WIDTH
 from .runfile import FORMAT_NAME
 
 
@@ -101,6 +101,11 @@ def verify(f, scene, dev, partial_name: str) -> tuple[int, int, int, int]:
                                   or list(progress["shot_totals"].attrs.get("columns", [])) != list(SHOT_TOTALS)):
         raise OutputError(f"output path = {partial_name!r}: holds no per-shot collision totals (written by an older "
                           "version); --overwrite starts the run again")
+    results = progress.get("segment_results")
+    width = results.shape[-1] if results is not None and results.ndim == 2 else 0
+    if width != SEGMENT_WIDTH:
+        raise OutputError(f"output path = {partial_name!r}: holds statistics partials of another layout ({width} columns "
+                          f"for {SEGMENT_WIDTH}: written by an older version); --overwrite starts the run again")
     rows, chunk = int(progress["rows"][()]), int(progress["chunk_rows"][()])
     pellets = int(f["constants/pellets"][()])
     if scene.pair_collisions:  # chunks of whole shots, a multiple of shot_granule shots but the last

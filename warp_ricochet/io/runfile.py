@@ -5,7 +5,9 @@ root attributes once, and marks the run `status` = "running" / "complete" / "int
 "failed". It writes to `NAME.partial` beside the target and moves it into place only when the
 run is complete (atomically; without overwrite, never over a file that appeared meanwhile), so
 the target is never half-written and a failed `--overwrite` run leaves the old result intact;
-an interrupted or failed run leaves its completed chunks in `NAME.partial`. `io.writer.RunWriter` writes one run into a group of it. The layout is documented in
+an interrupted or failed run leaves its completed chunks in `NAME.partial`. Once a file is in place
+its XDMF sidecar `NAME.xmf` is written (`io.xdmf`; an existing one is replaced only with overwrite,
+and refused before any work otherwise). `io.writer.RunWriter` writes one run into a group of it. The layout is documented in
 docs/output.md.
 
 Faults. A run file is written in HDF5 SWMR mode (single writer, multiple readers): every dataset
@@ -33,6 +35,7 @@ from __future__ import annotations
 import datetime
 import errno
 import os
+import warnings
 from pathlib import Path
 
 import h5py
@@ -41,6 +44,7 @@ import warp as wp
 from .._version import __version__
 from ..errors import OutputError, RicochetError
 from .space import Reservation
+from .xdmf import check_sidecar, sidecar_path, write_xdmf
 
 try:
     import fcntl
@@ -67,6 +71,7 @@ def check_output_path(path, overwrite: bool) -> Path:
         raise OutputError(f"{shown}: {partial.name} exists (the chunks of an earlier interrupted run); pass "
                           "--resume (resume=True) to continue that run, --overwrite (overwrite=True) to replace "
                           "it, or move it away")
+    check_sidecar(p, overwrite, shown)
     parent = p.parent if str(p.parent) else Path(".")
     if not parent.exists():
         raise OutputError(f"{shown}: folder {str(parent)!r} does not exist")
@@ -288,7 +293,19 @@ class OutputFile:
                 move_into_place(self.partial, self.path, self.overwrite)
         finally:
             self._lock.release()
+        if exc_type is None:
+            publish_sidecar(self.path, self.overwrite)
         return False
+
+
+def publish_sidecar(path: Path, overwrite: bool) -> None:
+    """Write the XDMF sidecar of a published file (io.xdmf); the result is in place already, so a
+    sidecar that cannot be written is a warning naming the command that writes it later."""
+    try:
+        write_xdmf(path, overwrite=overwrite)
+    except (OSError, RicochetError) as exc:
+        warnings.warn(f"{sidecar_path(path).name} (the XDMF sidecar for ParaView) was not written: "
+                      f"{' '.join(str(exc).split())}; `warp-ricochet xdmf {path}` writes it", stacklevel=2)
 
 
 
@@ -379,6 +396,7 @@ def check_resume_path(path, overwrite: bool) -> Path:
     p, shown = _target(path)
     if p.exists() and not overwrite:
         raise OutputError(f"{shown}: exists; pass --overwrite (overwrite=True) to replace it with the resumed run")
+    check_sidecar(p, overwrite, shown)
     partial = p.with_name(p.name + ".partial")
     if not partial.is_file():
         raise OutputError(f"{shown}: nothing to resume: {partial.name} does not exist")

@@ -25,6 +25,7 @@ from .ensemble import create_ensemble_datasets, write_ensemble
 from ..tallies.reduce import SEGMENT, SEGMENT_WIDTH
 from ..tallies.sums import STAT_UNITS
 from . import h5md
+from .dimensions import name_run_dimensions, name_sweep_dimensions
 from .runfile import _OPEN
 from .space import check_space
 
@@ -85,6 +86,7 @@ class RunWriter:
             create_ensemble_datasets(group, stats, scene.shot.shots)
         if scene.pair_collisions and scene.collisions.frame_every:
             h5md.create_frames(group, pellets, scene.collisions.frame_every)
+        name_run_dimensions(group)  # before SWMR: attaching a scale writes attributes
         self._open_datasets()
         self._start_watching()
 
@@ -255,3 +257,5 @@ def write_stats(group: h5py.Group, stats: dict, index=None, size=None):
         if "units" not in ds.attrs:
             ds.attrs["units"] = unit
             ds.attrs["description"] = doc
+    if index is not None:
+        name_sweep_dimensions(group)

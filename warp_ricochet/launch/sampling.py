@@ -16,7 +16,8 @@ cos) run in the working precision, so a float64 run agrees between CPU and GPU t
   closed form (radius u^(1/3), direction uniform on the sphere): no rejection loop, whose
   iterations a GPU warp would have to wait out for its slowest lane;
 - direction: d = direction + jitter * u, u uniform in [-1, 1]^3, then n = d / |d|
-  (the paper's d = (1 +- 0.1, -1 +- 0.1, 0 +- 0.1));
+  (the paper's d = (1 +- 0.1, -1 +- 0.1, 0 +- 0.1)); `launch.source` scales direction and jitter
+  together by a power of two on the host (`scene.vectors`), so |d|^2 does not underflow;
 - velocity = speed * n; angular velocity = spin.
 
 With pellet-pellet collisions a shot is sampled without overlaps (`dense.ends.separate_shot`): a

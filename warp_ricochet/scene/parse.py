@@ -15,6 +15,7 @@ from .convert import SCHEMAS
 from .keys import MISSING, check_keys, err, join
 from .overrides import apply_override
 from .pellets import load_pellet_file
+from .vectors import unit_vector
 from .schema import (
     CHECKPOINT_STEPS,
     FILE_EXCLUSIVE,
@@ -73,9 +74,8 @@ def _shot(raw, base_dir) -> Shot:
 
 def _surface(raw, path: str) -> Surface:
     kw = _table(raw, path, SCHEMAS["surfaces"], required=("point", "normal", "restitution", "mu_s"))
-    norm = math.hypot(*kw["normal"])
-    if abs(norm - 1.0) > 1e-15:  # keeps normalisation idempotent (round trips)
-        kw["normal"] = tuple(x / norm for x in kw["normal"])
+    if abs(math.hypot(*kw["normal"]) - 1.0) > 1e-15:  # keeps normalisation idempotent (round trips)
+        kw["normal"] = unit_vector(kw["normal"])  # scaled first: a tiny normal does not underflow
     if kw.setdefault("mu_d", kw["mu_s"]) > kw["mu_s"]:
         raise err(f"{path}.mu_d", raw["mu_d"], f"must be a number in [0, mu_s = {kw['mu_s']:g}]")
     return Surface(**kw)

@@ -39,7 +39,7 @@ MAX_ENSEMBLE_SHOTS = 100_000  # per-shot values are kept on the host and in the 
 TOTALS = ("pellets", "hits", "missed", "stick", "slip", "landed", "escaped", "pair_collisions", "pair_energy_lost",
           "flights_unfinished")
 EXTREMES = ("range_max", "range_min", "range_stick_max", "range_stick_min", "range_slip_max", "range_slip_min",
-            "dense_steps_max", "dense_time_max", "skin_overrun_max")
+            "dense_steps_max", "dense_time_max", "skin_overrun_max", "flight_scale_max")
 STAT_KIND = {name: "total" if name in TOTALS else "extreme" if name in EXTREMES else "mean" for name in STAT_UNITS}
 CI_METHOD = {
     "mean": "Student t 95% interval of the mean over shots of the per-shot value",
