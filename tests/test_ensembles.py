@@ -157,3 +157,16 @@ def test_intervals_cover_on_real_runs():
         truth = values.mean()
         covered = [low <= truth <= high for low, high in (t_interval(part) for part in values.reshape(100, 20))]
         assert abs(np.mean(covered) - 0.95) <= 3 * math.sqrt(0.95 * 0.05 / 100), (name, np.mean(covered))
+
+
+def test_the_xarray_reader_gives_intervals_and_per_shot_values(multi):
+    """`open_run(...).stats`: each statistic with its ci_low / ci_high attributes, and its per-shot
+    values as shots_<name> along the dimension `shot`."""
+    pytest.importorskip("xarray")
+    from warp_ricochet.io.reader import open_run
+
+    path, stats = multi
+    with open_run(path) as run:
+        assert run.stats["range_mean"].attrs["ci_low"] == stats.ensemble.low["range_mean"]
+        assert run.stats["shots_range_mean"].dims == ("shot",)
+        np.testing.assert_array_equal(run.stats["shots_range_mean"].values, stats.ensemble.per_shot["range_mean"])
