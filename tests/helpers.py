@@ -102,6 +102,16 @@ def assert_same_run(path, ref, fields, progress=("segment_results",)):
             assert a[f"pellets/{name}"].dtype == b[f"pellets/{name}"].dtype
             np.testing.assert_array_equal(a[f"pellets/{name}"][()], b[f"pellets/{name}"][()], err_msg=name)
         assert_same_stats(a["stats"], b["stats"])
+        for group in ("stats", "hazard"):
+            names = [[], []]
+            for f, found in zip((a, b), names):
+                if group in f:
+                    f[group].visititems(lambda name, obj, found=found: found.append(name)
+                                        if isinstance(obj, h5py.Dataset) else None)
+            assert sorted(names[0]) == sorted(names[1]), group
+            for name in names[1]:
+                x, y = a[group][name][()], b[group][name][()]
+                np.testing.assert_array_equal(x, y, err_msg=f"{group}/{name}")
         for name in progress:
             np.testing.assert_array_equal(a[f"progress/{name}"][()], b[f"progress/{name}"][()], err_msg=name)
 

@@ -31,13 +31,14 @@ from .launch.source import PelletSource
 from .model import State, reused_state
 from .physics.air_flight import MAX_FLIGHT_STEPS
 from .physics.limits import POSITION_RESOLUTION, UNIT_ROUNDOFF
+from .tallies.counts import DeviceTally, TallySetup, TallyTotals
 from .tallies.collisions import (
     OVERRUN_TOLERANCE,
     SHOT_TOTALS,
     SKIN_OVERRUN,
     collision_statistics,
 )
-from .tallies.ensemble import RunStats, ensemble_of, has_ensemble, per_shot_statistics
+from .tallies.ensemble import ensemble_of, has_ensemble, per_shot_statistics
 from .tallies.reduce import launch_reduce, threads_for
 from .tallies.sums import combine, empty_totals, finalize
 
@@ -67,7 +68,27 @@ class Resumed:
     rows: int
     segment_results: np.ndarray
     shot_totals: np.ndarray | None = None
+    tally: np.ndarray | None = None  # the landing counts of those rows (`TallyTotals.flat`)
     shot_partials: np.ndarray | None = None
+
+
+class RunStats(dict):
+    """The statistics of a run ({name: float}, `tallies.sums.STAT_UNITS`) and, in `tally`, its
+    landing counts (`TallyTotals`; None when the scene counts none: output.quantiles = false) and, in
+    `ensemble`, its intervals over shots (`tallies.ensemble.Ensemble`; None for one shot)."""
+
+    tally = None
+    ensemble = None
+
+
+def landing_tally(scene, model, spec, arrays) -> DeviceTally:
+    """The device tally of a run (active with spec.tally; its struct is passed either way)."""
+    if arrays is not None:
+        launch_speed = float(np.sqrt((np.asarray(arrays["velocity"], dtype=np.float64) ** 2).sum(axis=1)).max(initial=0.0))
+    else:
+        launch_speed = scene.shot.speed
+    setup = TallySetup.of(scene, model.mass, model.radius, launch_speed)
+    return DeviceTally(setup, model.precision, model.device, spec.tally)
 
 
 class CoreStage:
@@ -82,6 +103,7 @@ class CoreStage:
         self.kernel = ricochet_kernel_for(spec)
         self.release = empty_release(model.precision, dev.alias)
         self.arrays, self.totals = self.state.arrays, None
+        self.tally = landing_tally(scene, model, spec, arrays)
         self.count = scene.shot.count
         self.shot_pass = (ShotPass(scene, model, spec, self.capacity // self.count + 1, arrays)
                           if has_ensemble(scene) else None)
@@ -94,10 +116,13 @@ class CoreStage:
         """Launch the chunk's kernels; returns (segments, shots) of results to copy."""
         m = self.model
         self.source.load(start, rows)
+        self.tally.zero()
         wp.launch(self.kernel, dim=threads_for(rows),
-                  inputs=[start, rows, self.source.struct, m.surfaces, m.physics, self.state.outputs, self.release],
+                  inputs=[start, rows, self.source.struct, m.surfaces, m.physics, self.state.outputs, self.release,
+                          self.tally.struct],
                   outputs=[self.state.partial_sums, self.state.partial_min, self.state.partial_max],
                   device=m.device, block_dim=CUDA_BLOCK_DIM)
+        self.tally.reduce()
         return launch_reduce(self.state, rows, m.device), 0
 
     def shot_rows(self, start: int, rows: int):
@@ -106,7 +131,7 @@ class CoreStage:
             return None
         first = start // self.count
         pieces = self.shot_pass.launch(first, (start + rows) // self.count - first, self.source.struct,
-                                       self.state.outputs, self.release, start)
+                                       self.state.outputs, self.release, self.tally.struct, start)
         return self.shot_pass.host_rows(pieces)
 
 
@@ -126,6 +151,7 @@ class CollisionStage:
         self.kernel = ricochet_kernel_for(spec)
         self.arrays = {**self.state.arrays, **self.dense.field_arrays}
         self.totals = self.dense.totals
+        self.tally = landing_tally(scene, model, spec, arrays)
         self.shot_pass = ShotPass(scene, model, spec, self.per_chunk) if has_ensemble(scene) else None
 
     def chunks(self, done: int):
@@ -138,10 +164,13 @@ class CollisionStage:
         self.source.load(start, rows)
         self.dense.run(start, shots, self.source.struct, self.state.outputs, frames=self.frames)
         slots = shots * self.stride
+        self.tally.zero()
         wp.launch(self.kernel, dim=threads_for(slots),
-                  inputs=[0, slots, self.source.struct, m.surfaces, m.physics, self.state.outputs, self.dense.release],
+                  inputs=[0, slots, self.source.struct, m.surfaces, m.physics, self.state.outputs, self.dense.release,
+                          self.tally.struct],
                   outputs=[self.state.partial_sums, self.state.partial_min, self.state.partial_max],
                   device=m.device, block_dim=CUDA_BLOCK_DIM)
+        self.tally.reduce()
         return launch_reduce(self.state, slots, m.device), shots
 
     def shot_rows(self, start: int, rows: int):
@@ -149,7 +178,7 @@ class CollisionStage:
         if self.shot_pass is None:
             return None
         pieces = self.shot_pass.launch(start // self.count, rows // self.count, self.source.struct,
-                                       self.state.outputs, self.dense.release, start)
+                                       self.state.outputs, self.dense.release, self.tally.struct, start)
         return self.shot_pass.host_rows(pieces)
 
 
@@ -170,6 +199,7 @@ class HostSlot:
         self.arrays = {name: like(arr, name) for name, arr in stage.arrays.items()}
         self.segments = like(stage.state.segments, "segments")
         self.totals = None if stage.totals is None else like(stage.totals, "shot_totals")
+        self.tally = {name: like(arr, "tally_" + name) for name, arr in stage.tally.arrays.items()}
         self.rows = self.segment_count = self.shots = 0
         self.event, self.shot_rows = None, None
 
@@ -180,17 +210,20 @@ class HostSlot:
         wp.copy(self.segments, stage.state.segments, count=segments * stage.state.segments.shape[1])
         if shots:
             wp.copy(self.totals, stage.totals, count=shots * stage.totals.shape[1])
+        for name, arr in stage.tally.arrays.items():
+            if arr.size:
+                wp.copy(self.tally[name], arr)
         self.rows, self.segment_count, self.shots = rows, segments, shots
         device = stage.model.device
         self.event = device.stream.record_event() if device.is_cuda else None
 
     def results(self):
-        """(per-pellet arrays, segment results, shot totals) once the copies are done."""
+        """(per-pellet arrays, segment results, shot totals, landing counts) once the copies are done."""
         if self.event is not None:
             wp.synchronize_event(self.event)
         totals = self.totals.numpy()[: self.shots].copy() if self.shots else None
         return ({name: arr.numpy() for name, arr in self.arrays.items()}, self.segments.numpy()[: self.segment_count],
-                totals)
+                totals, {name: arr.numpy() for name, arr in self.tally.items()})
 
 
 def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=None, options=None, frames=None) -> dict:
@@ -206,8 +239,9 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
             stage = CollisionStage(scene, model, spec, arrays, pellets, options, frames)
         else:
             stage = CoreStage(scene, model, spec, arrays, pellets)
-        totals, tables, pieces = _loop(stage, pellets, sink, resumed, progress)
+        totals, tables, tally, pieces = _loop(stage, pellets, sink, resumed, progress)
     stats = RunStats(finalize(totals, pellets=pellets, mass=model.mass, inertia=model.inertia, air=spec.in_air))
+    stats.tally = tally
     warn_coarse_positions(stats["flight_scale_max"], model.precision, model.radius)
     if spec.in_air and stats["flights_unfinished"] > 0:
         warnings.warn(UNFINISHED_FLIGHTS.format(int(stats["flights_unfinished"]), MAX_FLIGHT_STEPS), PrecisionWarning,
@@ -238,12 +272,15 @@ def warn_coarse_positions(scale: float, precision: str, radius: float) -> bool:
 
 def _loop(stage, pellets, sink, resumed, progress):
     """The chunk loop; returns the folded statistics totals, the shots' totals tables and the
-    per-shot partials (`core.shots`), in shot order."""
+    landing counts (None when not counted) and the per-shot partials (`core.shots`), in shot order."""
     totals, tables, pieces, done = empty_totals(), [], [], 0
+    tally = TallyTotals(stage.tally.setup) if stage.tally.active else None
     if resumed is not None and resumed.rows:
         totals, done = combine(totals, resumed.segment_results), resumed.rows
         if resumed.shot_totals is not None:
             tables.append(resumed.shot_totals)
+        if tally is not None and resumed.tally is not None:
+            tally.load(resumed.tally)
         if resumed.shot_partials is not None:
             pieces.append(resumed.shot_partials)
     cuda = stage.model.device.is_cuda
@@ -251,14 +288,16 @@ def _loop(stage, pellets, sink, resumed, progress):
 
     def consume(slot):
         nonlocal totals, done
-        arrays, segment_results, shot_totals = slot.results()
+        arrays, segment_results, shot_totals, counts = slot.results()
         totals = combine(totals, segment_results)
         if shot_totals is not None:
             tables.append(shot_totals)
+        if tally is not None:
+            tally.add(counts)
         if slot.shot_rows is not None:
             pieces.append(slot.shot_rows)
         if sink is not None:
-            sink.append(arrays, slot.rows, segment_results, shot_totals, slot.shot_rows)
+            sink.append(arrays, slot.rows, segment_results, shot_totals, tally, slot.shot_rows)
         done += slot.rows
         if progress is not None:
             progress(done, pellets)
@@ -278,4 +317,4 @@ def _loop(stage, pellets, sink, resumed, progress):
         pending = slot
     if pending is not None:
         consume(pending)
-    return totals, tables, pieces
+    return totals, tables, tally, pieces

@@ -17,6 +17,7 @@ from ..physics.contact import make_contact
 from ..physics.flight import make_flight
 from ..physics.types import types_for
 from ..tallies.accumulate import make_accumulators
+from ..tallies.landing import make_add_landing, make_landing_tally
 from .outputs import make_outputs
 from .release import make_release
 
@@ -37,10 +38,12 @@ def make_ricochet_pellet(spec):
     AIR = spec.flight == "air"
     rests, stays, impact, _meet, contact_point, landing_range = make_contact(spec.precision)
     RELEASE, WRITE, BOUNCES = spec.collisions, bool(spec.core_fields), spec.bounces
+    Tally, landing_tally = make_landing_tally(spec.precision).Tally, make_add_landing(spec.precision, spec.hazard_map)
+    TALLY, HAZARD_OUT = spec.tally, any(f.startswith("hazard.") for f in spec.core_fields)
 
     @wp.func
     def ricochet_pellet(index: wp.int32, row: wp.int32, source: Source, surfaces: Surfaces, physics: Physics,
-                        out: Outputs, release: Release, counts: wp.vec4i, acc: floats_t, lo: extremes_t,
+                        out: Outputs, release: Release, tally: Tally, counts: wp.vec4i, acc: floats_t, lo: extremes_t,
                         hi: extremes_t, range_shift: scalar):
         """Follow one pellet (global `index`, chunk row `row`) from its start to its landing;
         returns the thread's partials with it added."""
@@ -140,6 +143,7 @@ def make_ricochet_pellet(spec):
         landing_velocity = vec3(scalar(wp.nan))
         distance = scalar(wp.nan)
         landing_surface = wp.int32(-1)
+        exceeds = wp.int32(0)
         if impacts > 0 and state != ESCAPED:
             k = resting_surface
             if state == FLYING:
@@ -160,6 +164,11 @@ def make_ricochet_pellet(spec):
                 landing_velocity = velocity
                 distance = landing_range(position, physics.radius, surfaces.normal[k], ricochet_point)
                 counts[2] += 1
+                if wp.static(TALLY or HAZARD_OUT):
+                    v2 = wp.dot(velocity, velocity)
+                    exceeds = landing_tally.exceeded(tally, v2)
+                    if wp.static(TALLY):
+                        landing_tally.add_landing(tally, row, k, distance, position, v2, exceeds)
                 if counts[2] == 1:
                     range_shift = distance
                 acc = acc_fns.add_landing_sums(acc, distance - range_shift, time - ricochet_time, landing_velocity)
@@ -176,6 +185,9 @@ def make_ricochet_pellet(spec):
                     hi[1] = wp.max(hi[1], distance)
         if wp.static(WRITE):
             outs.write_landing(out, row, landing_time, landing_position, landing_velocity, distance, landing_surface)
+            if wp.static(HAZARD_OUT):
+                energy = tally.half_mass * wp.dot(landing_velocity, landing_velocity)  # NaN: never landed
+                outs.write_hazard(out, row, energy, energy * tally.inverse_area, exceeds)
         return counts, acc, lo, hi, range_shift
 
     return ricochet_pellet

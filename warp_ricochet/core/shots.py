@@ -25,18 +25,21 @@ from ..tallies.ensemble import PIECE, pieces_per_shot
 from ..tallies.sums import NUM_EXTREMES, NUM_SUMS
 from .outputs import make_outputs
 from .pellet import make_ricochet_pellet
+from ..tallies.landing import make_landing_tally
 from .release import make_release
 
 
 
 @functools.cache
 def shot_kernel_for(spec):
-    """The per-piece kernel of `spec` (its outputs left out: statistics only)."""
-    spec = dataclasses.replace(spec, fields=())
+    """The per-piece kernel of `spec`: statistics only (no outputs, no landing tallies: the core
+    kernel counts each landing once)."""
+    spec = dataclasses.replace(spec, fields=(), tally=False, hazard_map=False)
     t = types_for(spec.precision)
     scalar, Surfaces, Physics = t.scalar, t.Surfaces, t.Physics
     Source, Outputs, Release = make_source(spec.precision, spec.from_file).Source, make_outputs(spec.precision).Outputs, make_release(spec.precision)
     acc_fns, ricochet_pellet = make_accumulators(spec.precision), make_ricochet_pellet(spec)
+    Tally = make_landing_tally(spec.precision).Tally
     floats_t, extremes_t, inf = acc_fns.floats_t, acc_fns.extremes_t, acc_fns.inf
     piece = PIECE
 
@@ -51,6 +54,7 @@ def shot_kernel_for(spec):
         physics: Physics,
         out: Outputs,
         release: Release,
+        tally: Tally,  # not counted into (the spec's tally is off)
         partial_sums: wp.array2d(dtype=wp.float64),  # (NUM_SUMS, pieces of the launch)
         partial_min: wp.array2d(dtype=wp.float64),
         partial_max: wp.array2d(dtype=wp.float64),
@@ -68,7 +72,7 @@ def shot_kernel_for(spec):
             if member < count:
                 index = (first_shot + shot) * count + member
                 counts, acc, lo, hi, range_shift = ricochet_pellet(
-                    index, index - row_offset, source, surfaces, physics, out, release, counts, acc, lo, hi,
+                    index, index - row_offset, source, surfaces, physics, out, release, tally, counts, acc, lo, hi,
                     range_shift)
         acc_fns.store_partials(tid, counts, acc, lo, hi, range_shift, partial_sums, partial_min, partial_max)
 
@@ -93,7 +97,7 @@ class ShotPass:
         self.source = (PelletSource(scene, model.precision, dev, max(max_shots, 1) * self.count, arrays)
                        if arrays is not None and not spec.collisions else None)
 
-    def launch(self, first_shot: int, shots: int, source, outputs, release, row_offset: int) -> int:
+    def launch(self, first_shot: int, shots: int, source, outputs, release, tally, row_offset: int) -> int:
         """Per-piece partials of shots [first_shot, first_shot + shots); returns the pieces."""
         if shots <= 0:
             return 0
@@ -103,7 +107,7 @@ class ShotPass:
         m, pieces = self.model, shots * self.pieces
         wp.launch(self.kernel, dim=pieces,
                   inputs=[first_shot, self.count, self.pieces, row_offset, source, m.surfaces, m.physics, outputs,
-                          release],
+                          release, tally],
                   outputs=[self.partial_sums, self.partial_min, self.partial_max], device=m.device)
         return pieces
 

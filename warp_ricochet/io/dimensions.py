@@ -37,6 +37,22 @@ RUN_DIMENSIONS = {
     "particles/pellets/position/value": ("frame", "pellet", "xyz"),
     "particles/pellets/species": ("pellet",),
     "particles/pellets/id": ("pellet",),
+    # landing tallies (io.tally_out, docs/hazard.md)
+    "progress/tally": ("tally_slot", "tally_column"),
+    "progress/tally_rows": ("tally_slot",),
+    "stats/histograms/counts": ("histogram_row", "bin"),
+    "stats/histograms/edges": ("bin_edge",),
+    **{f"stats/quantiles/{lower}{q}": ("level",) for q in ("range", "distance", "speed", "energy") for lower in ("", "lower/")},
+    **{f"stats/tail/{name}": ("tail_distance",) for name in ("distance", "count", "fraction")},
+    **{f"hazard/thresholds/{name}": ("threshold",) for name in ("name", "kind", "value", "speed", "landings")},
+    **{f"hazard/danger_distance/{name}": ("threshold", "fraction") for name in ("distance", "ci_low", "ci_high",
+                                                                                  "needed_landings")},
+    "hazard/danger_distance/fraction": ("fraction",),
+    "hazard/map/count": ("map_v", "map_u"),
+    "hazard/map/energy": ("map_v", "map_u"),
+    "hazard/map/above": ("threshold", "map_v", "map_u"),
+    "hazard/map/u_edges": ("map_u_edge",),
+    "hazard/map/v_edges": ("map_v_edge",),
 }
 
 

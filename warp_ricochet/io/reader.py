@@ -162,7 +162,8 @@ class Run:
     def _stats(self, group, *, sweep: bool):
         xr, _ = _imports()
         stats = group.get("stats", {})
-        if not sweep:  # a run of several shots: each statistic's per-shot values as shots_<name> (dimension shot)
+        if not sweep:  # the scalars (the landing tallies' groups below /stats are arrays: docs/hazard.md), and
+            # in a run of several shots each statistic's per-shot values as shots_<name> (dimension shot)
             variables = {name: _variable(ds, ()) for name, ds in stats.items() if isinstance(ds, h5py.Dataset)}
             variables.update({f"shots_{name}": _variable(ds, ("shot",)) for name, ds in stats.get("shots", {}).items()})
             return xr.Dataset(variables, attrs=self._dataset_attrs("stats"))

@@ -24,7 +24,7 @@ from ..tallies.ensemble import has_ensemble
 from .ensemble import create_ensemble_datasets, write_ensemble
 from ..tallies.reduce import SEGMENT, SEGMENT_WIDTH
 from ..tallies.sums import STAT_UNITS
-from . import h5md
+from . import h5md, tally_out
 from .dimensions import name_run_dimensions, name_sweep_dimensions
 from .runfile import _OPEN
 from .space import check_space
@@ -86,6 +86,8 @@ class RunWriter:
             create_ensemble_datasets(group, stats, scene.shot.shots)
         if scene.pair_collisions and scene.collisions.frame_every:
             h5md.create_frames(group, pellets, scene.collisions.frame_every)
+        if scene.output.quantiles:
+            tally_out.create(group, scene, model)
         name_run_dimensions(group)  # before SWMR: attaching a scale writes attributes
         self._open_datasets()
         self._start_watching()
@@ -191,11 +193,11 @@ class RunWriter:
             s.create_dataset(name, data=arr).attrs["units"] = unit
 
     def append(self, arrays: dict[str, np.ndarray], rows: int, segment_results: np.ndarray, shot_totals=None,
-               shot_partials=None):
-        """Append the first `rows` rows of each field's array, the chunk's segment results, (pair
-        collisions) the totals of its shots and (several shots) the per-shot partials of the shots
-        it completes; flush; then count the rows complete and flush again (the commit point of the
-        chunk)."""
+               tally=None, shot_partials=None):
+        """Append the first `rows` rows of each field's array, the chunk's segment results and (pair
+        collisions) the totals of its shots, keep the landing counts so far (`tally`), and (several
+        shots) the per-shot partials of the shots it completes; flush; then count the rows complete
+        and flush again (the commit point of the chunk)."""
         start, stop = self.rows, self.rows + rows
         need = sum(arrays[name][:rows].nbytes for name in self.datasets) + segment_results.nbytes
         need += sum(block.nbytes for block in (shot_totals, shot_partials) if block is not None)
@@ -216,6 +218,8 @@ class RunWriter:
                     ds[done:] = block
             if start == 0:
                 self.chunk_rows[()] = rows
+            if tally is not None:
+                tally_out.store_progress(self.group, tally, stop)
             self.group.file.flush()
             self.progress_rows[()] = stop
             self.group.file.flush()
@@ -224,8 +228,12 @@ class RunWriter:
         self.rows = stop
 
     def write_stats(self, stats: dict[str, float]):
+        """The statistics, and the landing tallies' results (`pipeline.RunStats.tally`)."""
         try:
             write_stats(self.group, stats)
+            tally = getattr(stats, "tally", None)
+            if tally is not None:
+                tally_out.write_results(self.group, tally, int(stats["landed"]))
             if getattr(stats, "ensemble", None) is not None:
                 write_ensemble(self.group, stats.ensemble)
             self.group.file.flush()

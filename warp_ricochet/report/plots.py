@@ -18,7 +18,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import RicochetError
-from . import figures, plotdata
+from . import figures, hazard_plots, plotdata
 from .compare import file_label
 from .paper import paper_row
 from .papercheck import is_papers
@@ -46,12 +46,13 @@ class Sweep:
 @dataclass(frozen=True)
 class Plot:
     """One PNG: `name` (file suffix), `kind` ("run" or "sweep"), `size` (inches; a sweep plot's width
-    is per file), `draw(fig, source) -> bool`."""
+    is per file), `draw(fig, source) -> bool`, and what a file it draws nothing of lacks (`missing`)."""
 
     name: str
     kind: str
     size: tuple[float, float]
     draw: Callable
+    missing: str = "no per-pellet landing data in the file"
 
 
 def require_matplotlib():
@@ -222,6 +223,9 @@ PLOTS: list[Plot] = [
     Plot("landing-map", "run", (10.0, 9.0), draw_landing_map),
     Plot("range", "run", (12.0, 4.8), draw_range),
     Plot("energy-distance", "run", (8.0, 5.5), draw_energy_distance),
+    Plot("distance-survival", "run", (7.0, 4.5), hazard_plots.draw_survival,  # docs/hazard.md
+         "no landing histograms: output.quantiles = false"),
+    Plot("hazard-map", "run", (8.0, 6.0), hazard_plots.draw_map, "no hazard map: [hazard] map_cell and map_extent"),
     Plot("sweep-ranges", "sweep", (6.5, 5.0), draw_sweep_ranges),
     Plot("sweep-survival", "sweep", (6.5, 5.0), draw_sweep_survival),
 ]
@@ -296,7 +300,7 @@ def write_plots(paths, outdir=None, overwrite=False) -> list[tuple[str, str | No
             source = (files[inputs[0]] if plot.kind == "run"
                       else [Sweep(results[p], files[p], label) for p, label in _labels(inputs, results).items()])
             if not plot.draw(fig, source):
-                done.append((png, "nothing to draw (no per-pellet landing data in the file)"))
+                done.append((png, f"nothing to draw ({plot.missing})"))
                 continue
             _save(fig, png)
             done.append((png, None))

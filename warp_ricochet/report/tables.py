@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 
 from ..errors import RicochetError
 from ..tallies.sums import STAT_UNITS
+from .hazard_tables import from_file, from_run, tally_lines
 from .paper import paper_row
 from .papercheck import differences, row_scene
 
@@ -130,6 +131,7 @@ def _read_open_file(f, path, np) -> Results:
                              for name, ds in stats_group.items() if isinstance(ds, h5py.Dataset) and "ci_low" in ds.attrs}
         shots_group = stats_group.get("shots")
         meta["shots"] = int(shots_group.attrs.get("shots", 0)) if isinstance(shots_group, h5py.Group) else 0
+        meta["tally"] = from_file(f)
         return Results(rows=[row], meta=meta)
     sweep = f.get("sweep")
     if not isinstance(sweep, h5py.Group):
@@ -422,6 +424,8 @@ def format_tables(results: Results, fmt: str = "text", paper: bool = False) -> s
         blocks.append(format_intervals(results.rows[0], results.meta["intervals"], results.meta.get("shots", 0), fmt))
     if paper:
         blocks += _paper_blocks(results, point_headers, point_cells, fmt)
+    if results.meta.get("tally") is not None:
+        blocks.append("\n".join(tally_lines(results.meta["tally"], results.rows[0].get("pellets", 0.0))))
     return "\n\n".join(blocks) + "\n"
 
 
@@ -463,6 +467,7 @@ def format_run_summary(stats: dict, output=None, device=None) -> str:
         ]
     width = max(len(k) for k, _ in rows)
     lines += [f"{k.ljust(width)}  {v}" for k, v in rows]
+    lines += tally_lines(from_run(stats), stats.get("pellets", 0.0))
     ensemble = getattr(stats, "ensemble", None)
     if ensemble is not None:
         intervals = {name: (ensemble.low[name], ensemble.high[name]) for name in ensemble.low}

@@ -48,6 +48,7 @@ from .schema import (
                      MIN_DIAMETER,
                      Air,
                      Collisions,
+                     Hazard,
                      Numerics,
                      Output,
                      Physics,
@@ -57,7 +58,7 @@ from .schema import (
                      Vec3,
 )
 
-__all__ = ["Vec3", "Shot", "Surface", "Physics", "Collisions", "Air", "Numerics", "Output", "Scene", "GROUPS", "CORE_FIELDS",
+__all__ = ["Vec3", "Shot", "Surface", "Physics", "Collisions", "Air", "Hazard", "Numerics", "Output", "Scene", "GROUPS", "CORE_FIELDS",
            "COLLISION_FIELDS", "ALL_FIELDS", "load_scene", "scene_from_dict", "apply_override", "set_dotted",
            "parse_sweep", "parse_tie", "load_pellet_file", "MAX_SWEEP_POINTS", "CHECKPOINT_STEPS",
            "FLOAT32_EXACT_STEPS", "INT32_MAX", "MAX_COORDINATE", "MAX_DENSITY", "MAX_DIAMETER", "MAX_FRICTION",

@@ -8,7 +8,7 @@ import os
 import tomllib
 from pathlib import Path
 
-from ..fields import ALL_FIELDS, COLLISION_FIELDS, CORE_FIELDS
+from ..fields import COLLISION_FIELDS, default_fields
 from ..launch.packing import MAX_PACKING, packing_fraction
 from ..physics.limits import MAX_PLANES_IN_AIR
 from .convert import SCHEMAS
@@ -21,9 +21,11 @@ from .schema import (
     FILE_EXCLUSIVE,
     FLOAT32_EXACT_STEPS,
     INT32_MAX,
+    MAX_THRESHOLDS,
     MIN_FLIGHT_TOLERANCE,
     Air,
     Collisions,
+    Hazard,
     Numerics,
     Output,
     Physics,
@@ -108,6 +110,34 @@ def _air(raw):
     return Air(**kw)
 
 
+def _hazard(raw, surfaces: int):
+    """The [hazard] table, or None when absent."""
+    if raw is None:
+        return None
+    kw = _table(raw, "hazard", SCHEMAS["hazard"])
+    hazard = Hazard(**kw)
+    names = [t[0] for t in hazard.thresholds]
+    if len(names) > MAX_THRESHOLDS:
+        raise err("hazard", f"{len(names)} thresholds", f"at most {MAX_THRESHOLDS} thresholds (energy_density and speed together)")
+    if len(set(names)) < len(names):
+        twice = next(n for n in names if names.count(n) > 1)
+        raise err("hazard", twice, "names a threshold twice (energy_density and speed together): give each a name of its own")
+    if (hazard.map_cell is None) != (hazard.map_extent is None):
+        key = "map_extent" if hazard.map_extent is None else "map_cell"
+        raise err(f"hazard.{key}", MISSING, "is required for a map (hazard.map_cell and hazard.map_extent go together)")
+    if hazard.has_map:
+        (u0, u1, v0, v1), cell = hazard.map_extent, hazard.map_cell
+        cells = math.ceil((u1 - u0) / cell) * math.ceil((v1 - v0) / cell)
+        if cells > MAX_MAP_CELLS:
+            raise err("hazard.map_cell", cell, f"makes {cells:,} cells of hazard.map_extent; at most {MAX_MAP_CELLS:,}")
+        if hazard.map_surface >= surfaces:
+            raise err("hazard.map_surface", hazard.map_surface, f"must be the index of a surface (0 to {surfaces - 1})")
+    return hazard
+
+
+MAX_MAP_CELLS = 4_000_000
+
+
 def _numerics(raw) -> Numerics:
     numerics = Numerics(**_table(raw, "numerics", SCHEMAS["numerics"]))
     least = MIN_FLIGHT_TOLERANCE[numerics.precision]
@@ -131,8 +161,9 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
     shot = _shot(raw["shot"], base_dir)
     pairs = collisions.enabled and shot.count > 1  # as Scene.pair_collisions: the run has a dense phase
     output = _table(raw.get("output"), "output", SCHEMAS["output"])
+    hazard = _hazard(raw.get("hazard"), len(surfaces))
     if "fields" not in output:
-        output["fields"] = ALL_FIELDS if pairs else CORE_FIELDS
+        output["fields"] = default_fields(pairs, hazard is not None)
     elif not pairs:
         extra = [f for f in output["fields"] if f in COLLISION_FIELDS]
         if extra:
@@ -172,6 +203,7 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
         output=Output(**output),
         collisions=collisions,
         air=air,
+        hazard=hazard,
     )
 
 

@@ -59,12 +59,6 @@ def has_ensemble(scene) -> bool:
     return 2 <= scene.shot.shots <= MAX_ENSEMBLE_SHOTS
 
 
-class RunStats(dict):
-    """A run's statistics (name -> value), with `ensemble` (an `Ensemble`, or None for one shot)."""
-
-    ensemble = None
-
-
 @dataclass
 class Ensemble:
     """Per-shot values (name -> (S,) float64, shot order) and the 95% interval of each statistic."""
