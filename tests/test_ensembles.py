@@ -195,3 +195,15 @@ def test_a_pellet_file_gives_the_same_per_shot_values(tmp_path, multi):
     again = wr.run(scene, device="cpu")
     for name, values in stats.ensemble.per_shot.items():
         np.testing.assert_array_equal(again.ensemble.per_shot[name], values, err_msg=name)
+
+
+@pytest.mark.parametrize("collisions", ["false", "true"])
+def test_the_per_shot_pass_counts_no_landing_twice(tmp_path, collisions):
+    """The per-shot pass runs the core with the landing tallies off: the histograms hold each
+    landing once."""
+    path = tmp_path / "q.h5"
+    stats = wr.run(load_scene(SCENE, ["shot.shots=4", "shot.count=100", f"collisions.enabled={collisions}"]), path,
+                   device="cpu")
+    assert stats.ensemble is not None
+    with h5py.File(path, "r") as f:
+        assert (f["stats/histograms/counts"][()].sum(axis=1)[:2] == stats["landed"]).all()
