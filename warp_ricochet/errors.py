@@ -24,3 +24,7 @@ def _short(value, limit: int = 60) -> str:
 
 class PrecisionWarning(UserWarning):
     """A result the chosen precision (or a step size) is known not to resolve."""
+
+
+class ChaosWarning(PrecisionWarning):
+    """A result that is one sample of a chaotic process: its figures need an ensemble to judge."""
