@@ -59,9 +59,9 @@ if [[ $what == tallies-tests ]]; then
     | cut -c1-300 | tee "$out/tallies-tests.txt"
 fi
 if [[ $what == tallies ]]; then
-  timeout 240 bench/side_by_side.sh .gpu/old . 3 python3 -m bench throughput --device cuda:0 --sizes 1e8,1e9 \
+  timeout 200 bench/side_by_side.sh .gpu/old . 3 python3 -m bench throughput --device cuda:0 --sizes 1e8,1e9 \
     --numpy-max 0 --repeats 5 2>&1 | grep "N=" | tee "$out/throughput-side-by-side.txt"
-  timeout 120 bench/side_by_side.sh .gpu/old . 2 python3 -m bench throughput --device cuda:0 --sizes 1e8 \
+  timeout 100 bench/side_by_side.sh .gpu/old . 2 python3 -m bench throughput --device cuda:0 --sizes 1e8 \
     --numpy-max 0 --repeats 5 --precision float64 2>&1 | grep "N=" | tee -a "$out/throughput-side-by-side.txt"
   timeout 200 python3 -m bench.hazard --device cuda:0 --sizes 1e8,1e9 --repeats 5 --copies 64,1 2>&1 | quiet \
     | tee "$out/hazard.txt"
