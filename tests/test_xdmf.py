@@ -266,3 +266,11 @@ def test_a_sidecar_that_cannot_be_written_is_a_warning(tmp_path, monkeypatch):
     with h5py.File(out) as f:
         assert f.attrs["status"] == "complete"
     assert not sidecar_path(out).exists()
+
+
+def test_a_scene_without_planes_has_no_surfaces_block(tmp_path):
+    """Pellets in free flight (no [[surfaces]]): the sidecar has their launch cloud and no quads."""
+    out = tmp_path / "free.h5"
+    api.run(_scene(fields=["initial"], surfaces=[]), output=str(out), device="cpu")
+    blocks, _ = _read(sidecar_path(out))
+    assert sorted(blocks) == ["launch"] and blocks["launch"].GetNumberOfPoints() == 40

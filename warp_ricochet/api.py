@@ -229,8 +229,8 @@ def _resume(scene, output, device, *, overwrite, progress, dense_options) -> dic
     with out:
         plan = found["plan"]
         writer = RunWriter.reopen(out.h5, fields=scene.output.fields, rows=plan.rows, segments=plan.segments,
-                                  shots=plan.shots)
-        resumed = Resumed(plan.rows, plan.segment_results, plan.shot_totals, plan.tally)
+                                  shots=plan.shots, pieces=plan.pieces)
+        resumed = Resumed(plan.rows, plan.segment_results, plan.shot_totals, plan.tally, plan.shot_partials)
         return _compute(found["scene"], dev, writer, progress, resumed, dense_options)
 
 

@@ -61,3 +61,7 @@ class SceneWarning(UserWarning):
 
 class PrecisionWarning(UserWarning):
     """A result the chosen precision (or a step size) is known not to resolve."""
+
+
+class ChaosWarning(PrecisionWarning):
+    """A result that is one sample of a chaotic process: its figures need an ensemble to judge."""

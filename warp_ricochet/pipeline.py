@@ -23,9 +23,10 @@ import warp as wp
 from .chunks import plan_rows, plan_shots
 from .core.kernel import CUDA_BLOCK_DIM, ricochet_kernel_for
 from .core.release import empty_release
+from .core.shots import ShotPass
 from .dense.phase import DensePhase
 from .dense.schedule import shot_stride
-from .errors import PrecisionWarning
+from .errors import ChaosWarning, PrecisionWarning
 from .launch.source import PelletSource
 from .model import State, reused_state
 from .physics.air_flight import MAX_FLIGHT_STEPS
@@ -37,12 +38,13 @@ from .tallies.collisions import (
     SKIN_OVERRUN,
     collision_statistics,
 )
+from .tallies.ensemble import ensemble_of, has_ensemble, per_shot_statistics
 from .tallies.reduce import launch_reduce, threads_for
 from .tallies.sums import combine, empty_totals, finalize
 
-FLOAT32_COLLISIONS = ("pellet-pellet collisions in float32: contact times rounded in float32 change the order of "
-                      "events in a dense cloud, and a shot's mean range differs from float64 by about 10% (docs/collisions.md); "
-                      "set numerics.precision = \"float64\" for a study")
+ONE_SHOT_COLLISIONS = ("one shot with pellet-pellet collisions is one sample of a chaotic cloud: on the paper's shot its "
+                       "mean range moves by a median 5% (up to 23%) when its launch moves by 1e-7, in float64 as in "
+                       "float32; set shot.shots = 200 or more for 95% intervals (docs/collisions.md)")
 
 UNFINISHED_FLIGHTS = ("{:,} flights in air took more than {:,} integration steps and were given up (counted as "
                       "escaped, in flights_unfinished): raise numerics.flight_tolerance or check the scene")
@@ -60,19 +62,23 @@ _DEVICE_LOCK = threading.Lock()  # one CUDA run at a time uses the pool and the 
 @dataclass
 class Resumed:
     """What a resumed run already has: `rows` pellets complete, their statistics partials (one row
-    per segment) and, with pair collisions, their shots' totals."""
+    per segment), with pair collisions their shots' totals, and in a run of several shots the
+    per-shot partials of its complete shots (`core.shots`)."""
 
     rows: int
     segment_results: np.ndarray
     shot_totals: np.ndarray | None = None
     tally: np.ndarray | None = None  # the landing counts of those rows (`TallyTotals.flat`)
+    shot_partials: np.ndarray | None = None
 
 
 class RunStats(dict):
     """The statistics of a run ({name: float}, `tallies.sums.STAT_UNITS`) and, in `tally`, its
-    landing counts (`TallyTotals`; None when the scene counts none: output.quantiles = false)."""
+    landing counts (`TallyTotals`; None when the scene counts none: output.quantiles = false) and, in
+    `ensemble`, its intervals over shots (`tallies.ensemble.Ensemble`; None for one shot)."""
 
     tally = None
+    ensemble = None
 
 
 def landing_tally(scene, model, spec, arrays) -> DeviceTally:
@@ -98,6 +104,9 @@ class CoreStage:
         self.release = empty_release(model.precision, dev.alias)
         self.arrays, self.totals = self.state.arrays, None
         self.tally = landing_tally(scene, model, spec, arrays)
+        self.count = scene.shot.count
+        self.shot_pass = (ShotPass(scene, model, spec, self.capacity // self.count + 1, arrays)
+                          if has_ensemble(scene) else None)
 
     def chunks(self, done: int):
         for start in range(done, self.pellets, self.capacity):
@@ -115,6 +124,15 @@ class CoreStage:
                   device=m.device, block_dim=CUDA_BLOCK_DIM)
         self.tally.reduce()
         return launch_reduce(self.state, rows, m.device), 0
+
+    def shot_rows(self, start: int, rows: int):
+        """Per-piece partials of the shots this chunk completes (None: no ensemble)."""
+        if self.shot_pass is None:
+            return None
+        first = start // self.count
+        pieces = self.shot_pass.launch(first, (start + rows) // self.count - first, self.source.struct,
+                                       self.state.outputs, self.release, self.tally.struct, start)
+        return self.shot_pass.host_rows(pieces)
 
 
 class CollisionStage:
@@ -134,6 +152,7 @@ class CollisionStage:
         self.arrays = {**self.state.arrays, **self.dense.field_arrays}
         self.totals = self.dense.totals
         self.tally = landing_tally(scene, model, spec, arrays)
+        self.shot_pass = ShotPass(scene, model, spec, self.per_chunk) if has_ensemble(scene) else None
 
     def chunks(self, done: int):
         for first in range(done // self.count, self.shots, self.per_chunk):
@@ -153,6 +172,14 @@ class CollisionStage:
                   device=m.device, block_dim=CUDA_BLOCK_DIM)
         self.tally.reduce()
         return launch_reduce(self.state, slots, m.device), shots
+
+    def shot_rows(self, start: int, rows: int):
+        """Per-piece partials of the chunk's shots, continued from their release (None: no ensemble)."""
+        if self.shot_pass is None:
+            return None
+        pieces = self.shot_pass.launch(start // self.count, rows // self.count, self.source.struct,
+                                       self.state.outputs, self.dense.release, self.tally.struct, start)
+        return self.shot_pass.host_rows(pieces)
 
 
 class HostSlot:
@@ -174,7 +201,7 @@ class HostSlot:
         self.totals = None if stage.totals is None else like(stage.totals, "shot_totals")
         self.tally = {name: like(arr, "tally_" + name) for name, arr in stage.tally.arrays.items()}
         self.rows = self.segment_count = self.shots = 0
-        self.event = None
+        self.event, self.shot_rows = None, None
 
     def fill(self, stage, rows: int, segments: int, shots: int):
         """Enqueue the copies of a computed chunk's results (element counts: contiguous rows)."""
@@ -207,12 +234,12 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
     with _DEVICE_LOCK if model.device.is_cuda else contextlib.nullcontext():
         pellets = scene.shot.pellets
         if spec.collisions:
-            if model.precision == "float32":
-                warnings.warn(FLOAT32_COLLISIONS, PrecisionWarning, stacklevel=3)
+            if scene.shot.shots == 1:
+                warnings.warn(ONE_SHOT_COLLISIONS, ChaosWarning, stacklevel=3)
             stage = CollisionStage(scene, model, spec, arrays, pellets, options, frames)
         else:
             stage = CoreStage(scene, model, spec, arrays, pellets)
-        totals, tables, tally = _loop(stage, pellets, sink, resumed, progress)
+        totals, tables, tally, pieces = _loop(stage, pellets, sink, resumed, progress)
     stats = RunStats(finalize(totals, pellets=pellets, mass=model.mass, inertia=model.inertia, air=spec.in_air))
     stats.tally = tally
     warn_coarse_positions(stats["flight_scale_max"], model.precision, model.radius)
@@ -223,6 +250,11 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
         stats.update(collision_statistics(np.concatenate(tables) if tables else np.zeros((0, len(SHOT_TOTALS))), pellets))
         if stats["skin_overrun_max"] > OVERRUN_TOLERANCE:
             warnings.warn(SKIN_OVERRUN.format(stats["skin_overrun_max"]), PrecisionWarning, stacklevel=3)
+    if stage.shot_pass is not None:
+        per_shot = per_shot_statistics(np.concatenate(pieces), stage.shot_pass.pieces, count=scene.shot.count,
+                                       mass=model.mass, inertia=model.inertia, air=spec.in_air,
+                                       shot_totals=np.concatenate(tables) if spec.collisions else None)
+        stats.ensemble = ensemble_of(per_shot, scene.shot.shots)
     return stats
 
 
@@ -240,8 +272,8 @@ def warn_coarse_positions(scale: float, precision: str, radius: float) -> bool:
 
 def _loop(stage, pellets, sink, resumed, progress):
     """The chunk loop; returns the folded statistics totals, the shots' totals tables and the
-    landing counts (None when not counted)."""
-    totals, tables, done = empty_totals(), [], 0
+    landing counts (None when not counted) and the per-shot partials (`core.shots`), in shot order."""
+    totals, tables, pieces, done = empty_totals(), [], [], 0
     tally = TallyTotals(stage.tally.setup) if stage.tally.active else None
     if resumed is not None and resumed.rows:
         totals, done = combine(totals, resumed.segment_results), resumed.rows
@@ -249,6 +281,8 @@ def _loop(stage, pellets, sink, resumed, progress):
             tables.append(resumed.shot_totals)
         if tally is not None and resumed.tally is not None:
             tally.load(resumed.tally)
+        if resumed.shot_partials is not None:
+            pieces.append(resumed.shot_partials)
     cuda = stage.model.device.is_cuda
     slots = [HostSlot(stage, pinned=cuda, index=i) for i in range(2 if cuda else 1)]
 
@@ -260,8 +294,10 @@ def _loop(stage, pellets, sink, resumed, progress):
             tables.append(shot_totals)
         if tally is not None:
             tally.add(counts)
+        if slot.shot_rows is not None:
+            pieces.append(slot.shot_rows)
         if sink is not None:
-            sink.append(arrays, slot.rows, segment_results, shot_totals, tally)
+            sink.append(arrays, slot.rows, segment_results, shot_totals, tally, slot.shot_rows)
         done += slot.rows
         if progress is not None:
             progress(done, pellets)
@@ -269,14 +305,16 @@ def _loop(stage, pellets, sink, resumed, progress):
     pending = None
     for i, (start, rows) in enumerate(stage.chunks(done)):
         segments, shots = stage.compute(start, rows)
+        shot_rows = stage.shot_rows(start, rows)
         slot = slots[i % len(slots)]
         if pending is slot:  # CPU: one slot, consume before reuse
             consume(pending)
             pending = None
         slot.fill(stage, rows, segments, shots)
+        slot.shot_rows = shot_rows
         if pending is not None:
             consume(pending)  # host work on the previous chunk while the device runs this one
         pending = slot
     if pending is not None:
         consume(pending)
-    return totals, tables, tally
+    return totals, tables, tally, pieces

@@ -19,6 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
+from ..errors import SceneError
+from ..launch.packing import MAX_REDRAWS
 from ..tallies.collisions import SHOT_TOTALS
 from .constants import (
     BLOCK_STEPS,
@@ -70,6 +72,8 @@ class DensePhase:
                                                        coll.max_neighbours, spec.collision_fields)
         self.release = release_struct(model.precision, self.cloud, self.count)
         self.totals = wp.zeros((shots, len(SHOT_TOTALS)), dtype=wp.float64, device=self.device)
+        self.sampled = not spec.from_file and coll.separate  # separated launches (a pellet file's are as given)
+        self.redraws, self.envelope_radius = wp.zeros(shots, dtype=wp.int32, device=self.device), scene.shot.envelope_radius
         self.pair = pair_struct(model.precision, model, coll, self.count, self.block_steps)
         cpu = not self.device.is_cuda
         self.fused = cpu and options.cpu_steps != "kernels"
@@ -97,7 +101,7 @@ class DensePhase:
         self.threads = self._threads(pellets)
         self.shots = shots
         self._outputs = outputs
-        self._launch("launch_kernel", self.threads, [first_index, p, source, c, outputs])
+        self.launch_shots(first_index, shots, source, outputs)
         self._launch("drift_kernel", shots, [p, self.model.surfaces, self.model.physics, c])
         if not self.cell_lists:
             self._launch("groups_kernel", pellets, [p, self.groups])
@@ -107,6 +111,15 @@ class DensePhase:
             self._host_loop(pellets, shots, outputs, frames)
         self._launch("release_kernel", self.threads, [p, self.model.physics, c])
         self._launch("shot_totals_kernel", shots, [p, c, self.totals])
+        check_redraws(self, shots)
+
+    def launch_shots(self, first_index: int, shots: int, source, outputs):
+        """Each pellet's launch state, each shot of sampled launches separated (no overlaps)."""
+        self.threads = self._threads(shots * self.count)
+        self._launch("launch_kernel", self.threads, [first_index, self.pair, source, self.cloud, outputs])
+        if self.sampled:
+            self._launch("separate_kernel", shots, [first_index, self.pair, self.model.physics, source, self.cloud,
+                                                    outputs, self.redraws])
 
     def _threads(self, pellets):
         """Threads of a per-pellet kernel: one per pellet on CUDA; on the CPU one for all."""
@@ -258,3 +271,12 @@ def take_frame(dense, pellets: int, frames):
     g = np.asarray(dense.model.physics.gravity, np.float64)
     age = np.where(flying, now - t, 0.0)[:, None]
     frames(steps, now, x + v * age + 0.5 * g * age**2)
+
+
+def check_redraws(phase: DensePhase, shots: int):
+    """Refuse (one line) shots where a pellet found no place free of overlaps (the scene check
+    keeps this from happening below `launch.packing.MAX_PACKING`)."""
+    if phase.sampled and int(phase.redraws.numpy()[:shots].max()) > MAX_REDRAWS:
+        raise SceneError("shot.envelope_radius", phase.envelope_radius,
+                         f"a pellet found no place free of overlaps in {MAX_REDRAWS:,} draws: the envelope is too "
+                         "dense to sample without overlaps; make it larger")

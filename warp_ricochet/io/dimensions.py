@@ -31,6 +31,7 @@ RUN_DIMENSIONS = {
     "constants/surfaces/mu_d": ("surface",),
     "progress/segment_results": ("segment", "segment_column"),
     "progress/shot_totals": ("shot", "shot_column"),
+    "progress/shot_partials": ("shot_piece", "segment_column"),  # runs of several shots (tallies.ensemble)
     "particles/pellets/position/step": ("frame",),
     "particles/pellets/position/time": ("frame",),
     "particles/pellets/position/value": ("frame", "pellet", "xyz"),
@@ -71,6 +72,8 @@ def dimensions_of(path: str, ds: h5py.Dataset) -> tuple[str, ...]:
             return field_dimensions(name)
     if path in RUN_DIMENSIONS:
         return RUN_DIMENSIONS[path]
+    if path.startswith("stats/shots/"):  # each statistic's per-shot values
+        return ("shot",)
     base = path.replace("/", "_")
     return tuple("xyz" if n == 3 and axis == ds.ndim - 1 else f"{base}_{axis}" for axis, n in enumerate(ds.shape))
 

@@ -63,7 +63,8 @@ def _open(path: str) -> h5py.File:
 
 def _variable(ds: h5py.Dataset, dims, data=None):
     xr, _ = _imports()
-    attrs = {k: _text(ds.attrs[k]) for k in ("units", "description", "columns") if k in ds.attrs}
+    attrs = {k: _text(ds.attrs[k]) for k in ("units", "description", "columns", "ci_low", "ci_high", "ci_method")
+             if k in ds.attrs}
     return xr.Variable(dims, ds[()] if data is None else data, attrs=attrs)
 
 
@@ -161,9 +162,11 @@ class Run:
     def _stats(self, group, *, sweep: bool):
         xr, _ = _imports()
         stats = group.get("stats", {})
-        if not sweep:  # the scalars (the landing tallies' groups below /stats are arrays: docs/hazard.md)
-            return xr.Dataset({name: _variable(ds, ()) for name, ds in stats.items() if isinstance(ds, h5py.Dataset)},
-                              attrs=self._dataset_attrs("stats"))
+        if not sweep:  # the scalars (the landing tallies' groups below /stats are arrays: docs/hazard.md), and
+            # in a run of several shots each statistic's per-shot values as shots_<name> (dimension shot)
+            variables = {name: _variable(ds, ()) for name, ds in stats.items() if isinstance(ds, h5py.Dataset)}
+            variables.update({f"shots_{name}": _variable(ds, ("shot",)) for name, ds in stats.get("shots", {}).items()})
+            return xr.Dataset(variables, attrs=self._dataset_attrs("stats"))
         coords = {key: _variable(ds, ("point",)) for key, ds in self.file.get("sweep", {}).items()}
         variables = {name: _variable(ds, ("point",)) for name, ds in stats.items()}
         attrs = self._dataset_attrs("stats")

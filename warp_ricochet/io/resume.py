@@ -35,6 +35,7 @@ from .._version import __version__
 from ..dense.schedule import segments_of_shots, shot_granule
 from ..errors import OutputError, SceneError
 from ..tallies.collisions import SHOT_TOTALS
+from ..tallies.ensemble import has_ensemble, pieces_per_shot
 from ..tallies.reduce import SEGMENT, SEGMENT_WIDTH
 from . import tally_out
 from .runfile import FORMAT_NAME
@@ -146,6 +147,8 @@ class ResumePlan:
     segment_results: object
     shot_totals: object
     tally: object = None  # the landing counts of the rows complete (`io.tally_out.read_progress`)
+    shot_partials: object = None  # per-shot partials of the complete shots (runs of several shots)
+    pieces: int = 0
 
 
 def plan(f, scene, dev, partial_name: str) -> ResumePlan:
@@ -158,4 +161,12 @@ def plan(f, scene, dev, partial_name: str) -> ResumePlan:
     if scene.output.quantiles and rows and tally is None:
         raise OutputError(f"output path = {partial_name!r}: holds no landing counts for its {rows} rows complete; "
                           "it cannot be resumed (--overwrite starts the run again)")
-    return ResumePlan(rows, chunk, segments, shots, progress["segment_results"][:segments], totals, tally)
+    partials, pieces = None, 0
+    if has_ensemble(scene):
+        pieces = rows // scene.shot.count * pieces_per_shot(scene.shot.count)
+        if "shot_partials" not in progress or len(progress["shot_partials"]) < pieces:
+            raise OutputError(f"output path = {partial_name!r}: is inconsistent (per-shot partials of fewer than "
+                              f"{rows // scene.shot.count} shots); it cannot be resumed")
+        partials = progress["shot_partials"][:pieces]
+    return ResumePlan(rows, chunk, segments, shots, progress["segment_results"][:segments], totals, tally, partials,
+                      pieces)

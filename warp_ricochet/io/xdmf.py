@@ -305,10 +305,13 @@ def quad_corners(point, normal, positions) -> np.ndarray:
 
 
 def _surfaces(parent, group, ref, rows, name):
-    """The planes as finite quads, with their index and coefficients as cell data."""
+    """The planes as finite quads, with their index and coefficients as cell data (none for a
+    scene without planes)."""
     if "constants/surfaces/point" not in group:
         return
     points, normals = group["constants/surfaces/point"][()], group["constants/surfaces/normal"][()]
+    if len(points) == 0:
+        return
     sample = _sample_box(group, rows)
     corners = np.concatenate([quad_corners(p, n, sample) for p, n in zip(points, normals)])
     grid = ET.SubElement(parent, "Grid", Name=name, GridType="Uniform")

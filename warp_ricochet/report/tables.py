@@ -138,6 +138,10 @@ def _read_open_file(f, path, np) -> Results:
         if math.isnan(row.get("pellets", math.nan)):  # statistics (and tallies) are written when the run completes
             meta["points_done"] = 0
             return Results(rows=[], meta=meta)
+        meta["intervals"] = {name: (float(ds.attrs["ci_low"]), float(ds.attrs["ci_high"]))
+                             for name, ds in stats_group.items() if isinstance(ds, h5py.Dataset) and "ci_low" in ds.attrs}
+        shots_group = stats_group.get("shots")
+        meta["shots"] = int(shots_group.attrs.get("shots", 0)) if isinstance(shots_group, h5py.Group) else 0
         meta["tally"] = from_file(f)
         return Results(rows=[row], meta=meta)
     sweep = f.get("sweep")
@@ -432,6 +436,8 @@ def format_tables(results: Results, fmt: str = "text", paper: bool = False) -> s
         blocks.append(f"note: status is {results.meta.get('status')!r}; the tables show the points that finished")
     blocks += _tables(results.rows, point_headers, point_cells, fmt)
     blocks += _collision_tables(results.rows, point_headers, point_cells, fmt)
+    if results.meta.get("intervals") and len(results.rows) == 1:
+        blocks.append(format_intervals(results.rows[0], results.meta["intervals"], results.meta.get("shots", 0), fmt))
     if paper:
         blocks += _paper_blocks(results, point_headers, point_cells, fmt)
     if results.meta.get("tally") is not None:
@@ -478,4 +484,33 @@ def format_run_summary(stats: dict, output=None, device=None) -> str:
     width = max(len(k) for k, _ in rows)
     lines += [f"{k.ljust(width)}  {v}" for k, v in rows]
     lines += tally_lines(from_run(stats), stats.get("pellets", 0.0))
+    ensemble = getattr(stats, "ensemble", None)
+    if ensemble is not None:
+        intervals = {name: (ensemble.low[name], ensemble.high[name]) for name in ensemble.low}
+        lines += ["", format_intervals(stats, intervals, ensemble.shots, "text", SUMMARY_INTERVALS)]
     return "\n".join(lines) + "\n"
+
+
+SUMMARY_INTERVALS = ("landed", "post_mean_vt", "range_mean", "range_std", "range_max", "range_min", "landing_mean_WT",
+                     "collided_fraction", "pair_energy_lost_mean")
+
+
+def format_intervals(row: dict, intervals: dict, shots: int, fmt: str, names=None) -> str:
+    """The 95% intervals over shots of a run of several shots (`tallies.ensemble`): each statistic,
+    its ensemble value and interval; extremes' intervals are those of one shot's extreme."""
+    extremes = ("_max", "_min")
+    body = []
+    for name in names or STAT_UNITS:
+        if name not in intervals or name not in row:
+            continue
+        low, high = intervals[name]
+        unit = STAT_UNITS[name][0]
+        over = "one shot's extreme" if name.endswith(extremes) else "all shots" if name in _TOTAL_NAMES else "per shot"
+        body.append([name, _num(row[name], 4), _num(low, 4), _num(high, 4), "" if unit == "1" else unit, over])
+    title = (f"95% confidence intervals over {shots:,} shots (Student t over per-shot values; "
+             "values in /stats/shots; docs/output.md)")
+    return _render(title, ["statistic", "value", "95% low", "95% high", "unit", "interval of"], body, fmt, {0, 4, 5})
+
+
+_TOTAL_NAMES = ("pellets", "hits", "missed", "stick", "slip", "landed", "escaped", "pair_collisions",
+                "pair_energy_lost", "flights_unfinished")

@@ -185,6 +185,7 @@ _PHYSICS = {"gravity": _vec3(unit="m/s^2", bound=MAX_GRAVITY), "impact_duration"
             "bounces": _int(1, 16)}
 _COLLISIONS = {
     "enabled": _bool,
+    "separate": _bool,
     "restitution": _number(0, 1),
     "mu_s": _range(0, MAX_FRICTION),
     "mu_d": _range(0, MAX_FRICTION),

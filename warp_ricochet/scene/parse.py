@@ -9,6 +9,7 @@ import tomllib
 from pathlib import Path
 
 from ..fields import COLLISION_FIELDS, default_fields
+from ..launch.packing import MAX_PACKING, packing_fraction
 from ..physics.limits import MAX_PLANES_IN_AIR
 from .convert import SCHEMAS
 from .keys import MISSING, check_keys, err, join
@@ -169,6 +170,14 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
             raise err("output.fields", extra[0], "needs pellet-pellet collisions: collisions.enabled = true and "
                        "more than one pellet per shot (shot.count > 1)")
     numerics = _numerics(raw.get("numerics"))
+    if pairs and shot.file is None and collisions.separate:  # sampled without overlaps (launch.sampling): the envelope must leave room
+        fraction = packing_fraction(shot.count, shot.diameter, shot.envelope_radius)
+        if fraction > MAX_PACKING:
+            least = shot.envelope_radius * (fraction / MAX_PACKING) ** (1 / 3)
+            raise err("shot.envelope_radius", shot.envelope_radius,
+                      f"too small for {shot.count} pellets of {shot.diameter:g} m without overlaps (collisions on): "
+                      f"they fill {fraction:.3g} of it, at most {MAX_PACKING} can be sampled (random sequential "
+                      f"addition); at least {least:.4g} m")
     if pairs and numerics.precision == "float32":
         # A shot's step counter is a float32 in a float32 run: it stops counting at 2^24, and a shot
         # stops (max_steps) only at a checkpoint, every frame_every steps (or CHECKPOINT_STEPS), so

@@ -91,6 +91,7 @@ class Collisions:
     max_neighbours: int = 32                          # per pellet in the neighbour list at first (grows when needed)
     max_steps: int = 1_000_000                        # the dense phase stops (and says so) after these
     frame_every: int = 0                              # H5MD trajectory frame every k steps (0: none)
+    separate: bool = True                             # sample each shot without overlaps (launch.sampling); false: as without collisions
 
 
 # International Standard Atmosphere at sea level (15 C, 101,325 Pa): density 1.225 kg/m^3, sound speed

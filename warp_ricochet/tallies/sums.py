@@ -145,18 +145,34 @@ def merged_m2(segments) -> float:
 def finalize(totals, *, pellets: int, mass: float, inertia: float, air: bool = False) -> dict[str, float]:
     """Turn the reduced sums into the statistics of `STAT_UNITS` (NaN where a mean is empty)."""
     sums, mins, maxs, segments = totals
-    s = {name: float(sums[i]) for i, name in enumerate(SUM_NAMES)}
-    s["range_m2"] = merged_m2(segments)
+    rows = finalize_rows(sums[None, :], mins[None, :], maxs[None, :], np.array([merged_m2(segments)]),
+                         pellets=pellets, mass=mass, inertia=inertia, air=air)
+    return {name: float(values[0]) for name, values in rows.items()}
+
+
+def finalize_rows(sums, mins, maxs, range_m2, *, pellets: int, mass: float, inertia: float,
+                  air: bool = False) -> dict[str, np.ndarray]:
+    """`finalize` of many totals at once (rows: sums (K, NUM_SUMS), range minima and maxima
+    (K, NUM_EXTREMES), merged range_m2 (K,)): name -> (K,) values, each row's bitwise as `finalize`
+    gives it (elementwise IEEE operations; the norm row by row)."""
+    s = {name: sums[:, i] for i, name in enumerate(SUM_NAMES)}
+    s["range_m2"] = np.asarray(range_m2, np.float64)
+    nan = np.full(len(sums), math.nan)
 
     def mean(key, count):
-        return s[key] / s[count] if s[count] > 0 else math.nan
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(s[count] > 0, s[key] / s[count], nan)
 
     def extreme(value, count):
-        return float(value) if s[count] > 0 else math.nan
+        return np.where(s[count] > 0, value, nan)
+
+    def ratio(energy, launch):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(launch > 0, energy / launch, nan)
 
     launch_energy = 0.5 * mass * mean("v2_launch", "hits") + 0.5 * inertia * mean("w2_launch", "hits")
     out = {
-        "pellets": float(pellets),
+        "pellets": np.full(len(sums), float(pellets)),
         "hits": s["hits"],
         "missed": float(pellets) - s["hits"],
         "stick": s["hits"] - s["slip"],
@@ -166,30 +182,30 @@ def finalize(totals, *, pellets: int, mass: float, inertia: float, air: bool = F
         "launch_mean_W": launch_energy,
     }
     for phase in ("pre", "post"):
-        omega = np.array([mean(f"w{axis}_{phase}", "hits") for axis in "xyz"])
+        omega = np.stack([mean(f"w{axis}_{phase}", "hits") for axis in "xyz"], axis=1)
         energy_t = 0.5 * mass * mean(f"v2_{phase}", "hits")
         energy_r = 0.5 * inertia * mean(f"w2_{phase}", "hits")
         out[f"{phase}_mean_vt"] = mean(f"vt_{phase}", "hits")
         out[f"{phase}_mean_vn"] = mean(f"vn_{phase}", "hits")
-        out[f"{phase}_norm_mean_omega"] = float(np.linalg.norm(omega))
+        out[f"{phase}_norm_mean_omega"] = np.array([float(np.linalg.norm(row)) for row in omega])
         out[f"{phase}_mean_WT"] = energy_t
         out[f"{phase}_mean_WR"] = energy_r
-        out[f"{phase}_ratio_WT"] = energy_t / launch_energy if launch_energy > 0 else math.nan
-        out[f"{phase}_ratio_WR"] = energy_r / launch_energy if launch_energy > 0 else math.nan
+        out[f"{phase}_ratio_WT"] = ratio(energy_t, launch_energy)
+        out[f"{phase}_ratio_WR"] = ratio(energy_r, launch_energy)
     out["range_mean"] = mean("range", "landed")
-    out["range_std"] = math.sqrt(max(mean("range_m2", "landed"), 0.0)) if s["landed"] > 0 else math.nan
-    out["range_max"] = extreme(maxs[0], "landed")
-    out["range_min"] = extreme(mins[0], "landed")
+    out["range_std"] = np.where(s["landed"] > 0, np.sqrt(np.maximum(mean("range_m2", "landed"), 0.0)), nan)
+    out["range_max"] = extreme(maxs[:, 0], "landed")
+    out["range_min"] = extreme(mins[:, 0], "landed")
     s["landed_stick"] = s["landed"] - s["landed_slip"]
     for j, branch in enumerate(EXTREME_NAMES[1:FLIGHT_SCALE], start=1):
         out[f"range_{branch}_mean"] = mean(f"range_{branch}", f"landed_{branch}")
-        out[f"range_{branch}_max"] = extreme(maxs[j], f"landed_{branch}")
-        out[f"range_{branch}_min"] = extreme(mins[j], f"landed_{branch}")
+        out[f"range_{branch}_max"] = extreme(maxs[:, j], f"landed_{branch}")
+        out[f"range_{branch}_min"] = extreme(mins[:, j], f"landed_{branch}")
     out["mean_time_aloft"] = mean("time_aloft", "landed")
     out["landing_mean_WT"] = 0.5 * mass * mean("v2_landing", "landed")
-    out["flight_scale_max"] = float(maxs[FLIGHT_SCALE]) if maxs[FLIGHT_SCALE] >= 0 else math.nan
+    out["flight_scale_max"] = np.where(maxs[:, FLIGHT_SCALE] >= 0, maxs[:, FLIGHT_SCALE], nan)
     if air:
-        out["flight_steps_mean"] = s["flight_steps"] / pellets if pellets else math.nan
+        out["flight_steps_mean"] = s["flight_steps"] / pellets if pellets else nan
         out["flights_unfinished"] = s["flight_unfinished"]
     assert set(out) == set(stat_names(False, air)) - set(COLLISION_STATS)
     return out
