@@ -302,12 +302,17 @@ def test_help_and_version_exit_0(argv, capsys):
     assert capsys.readouterr().out.strip()
 
 
-def test_usage_errors_keep_argparse_behaviour(capsys):
-    for argv in ([], ["run"], ["sweep", SCENE], ["report", "x.h5", "--format", "html"]):
+def test_usage_errors_are_one_line_exit_2(capsys):
+    """The README's promise: argparse's errors too are one line `warp-ricochet: error: ...`, exit 2."""
+    for argv, words in (([], "COMMAND"), (["run"], "SCENE.toml"), (["sweep", SCENE], "--param"),
+                        (["report", "x.h5", "--format", "html"], "invalid choice: 'html'"),
+                        (["run", SCENE, "--bogus"], "unrecognized arguments: --bogus")):
         with pytest.raises(SystemExit) as exc:
             main(argv)
         assert exc.value.code == 2
-        assert "usage:" in capsys.readouterr().err
+        err = capsys.readouterr().err
+        assert len(err.splitlines()) == 1 and err.startswith(PREFIX) and words in err, (argv, err)
+        assert "--help)" in err and "usage:" not in err
 
 
 def test_help_end_to_end():

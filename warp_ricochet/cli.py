@@ -20,7 +20,7 @@ import sys
 import warnings
 
 from ._version import __version__
-from .errors import RicochetError, SceneError
+from .errors import MAX_MESSAGE, RicochetError, SceneError, shorten
 
 PROG = "warp-ricochet"
 
@@ -55,8 +55,16 @@ def _add_report_options(p: argparse.ArgumentParser) -> None:
                    help="also print the paper's values for the same mu_s and the relative differences of the ranges")
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse, its usage errors as the one line the README promises (`warp-ricochet: error: ...`), exit 2."""
+
+    def error(self, message):
+        _error(f"{message} (see {self.prog} --help)")
+        raise SystemExit(2)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog=PROG,
         description="Shotgun pellet ricochet (Zohdi 2021) in NVIDIA Warp kernels. SI units throughout.",
         epilog=EPILOG,
@@ -85,6 +93,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--tie", dest="ties", action="append", default=[], metavar="KEY=F*[PARAM]",
                    help="set KEY to F times a swept parameter at each point (PARAM may be left out when "
                         "one parameter is swept), e.g. surfaces.0.mu_d=0.9*")
+    p.add_argument("--resume", action="store_true",
+                   help="continue the interrupted sweep left in OUT.h5.partial/ (the same scene, --set, --param, "
+                        "--tie and device); the result is bitwise that of an uninterrupted sweep")
     _add_report_options(p)
     p.set_defaults(func=cmd_sweep)
 
@@ -168,7 +179,8 @@ def cmd_sweep(args) -> int:
     from . import api
 
     with ProgressBar("sweep") as bar:
-        results = api.sweep(scene, params, ties, args.output, args.device, overwrite=args.overwrite, progress=bar)
+        results = api.sweep(scene, params, ties, args.output, args.device, overwrite=args.overwrite, progress=bar,
+                            resume=args.resume)
     output = args.output if args.output is not None else scene.output.path
     if output is not None:
         res = read_results(output)  # exactly what `report` prints
@@ -230,7 +242,8 @@ def cmd_example(args) -> int:
 
 
 def _one_line(text) -> str:
-    return " ".join(str(text).split())
+    """One line, at most MAX_MESSAGE characters (a huge key or path is not echoed whole)."""
+    return shorten(" ".join(str(text).split()), MAX_MESSAGE)
 
 
 def _os_message(exc: OSError) -> str:
@@ -304,7 +317,8 @@ def _kept(exc) -> str:
     partial = getattr(exc, "partial_path", None)
     if partial is None:
         return ""
-    resumable = " (warp-ricochet run ... --resume continues the run)" if getattr(exc, "resumable", False) else ""
+    what = getattr(exc, "resume_command", "run")  # "sweep" for a sweep's folder (api._sweep_kept)
+    resumable = f" (warp-ricochet {what} ... --resume continues the {what})" if getattr(exc, "resumable", False) else ""
     return f"; the chunks completed are in {partial}{resumable}"
 
 

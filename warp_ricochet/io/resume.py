@@ -76,7 +76,8 @@ def verify(f, scene, dev, partial_name: str) -> tuple[int, int, int, int]:
         raise OutputError(f"output path = {partial_name!r}: is not a warp-ricochet run file (format = "
                           f"{attrs.get('format')!r}, kind = {attrs.get('kind')!r}); it cannot be resumed")
     if "progress" not in f:
-        raise OutputError(f"output path = {partial_name!r}: holds no resume data (written by an older version); "
+        raise OutputError(f"output path = {partial_name!r}: holds no resume data (interrupted while it was set up, before any "
+                          "chunk, or written by an older version); "
                           "--overwrite starts the run again")
     for key, here in (("package_version", __version__), ("warp_version", wp.config.version)):
         if attrs.get(key) != here:

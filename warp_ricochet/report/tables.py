@@ -15,7 +15,8 @@ import math
 import os
 from dataclasses import dataclass, field
 
-from ..errors import RicochetError
+from ..errors import RicochetError, hdf5_reason
+from ..io.h5open import open_for_reading
 from ..tallies.sums import STAT_UNITS
 from .hazard_tables import from_file, from_run, tally_lines
 from .paper import paper_row
@@ -88,6 +89,12 @@ def read_results(path) -> Results:
     if not os.path.exists(path):
         raise ReportError(path, "does not exist")
     if os.path.isdir(path):
+        from ..io.sweepdir import folder_progress
+
+        found = folder_progress(path)
+        if found is not None:
+            raise ReportError(path, f"is an unfinished sweep: {found[0]} of {found[1]} points complete (its tables are "
+                                    "written when every point is); warp-ricochet sweep ... --resume continues it")
         raise ReportError(path, "is a directory, not an HDF5 file")
     try:
         with open(path, "rb"):
@@ -98,13 +105,12 @@ def read_results(path) -> Results:
     if not hdf5:
         raise ReportError(path, "is not an HDF5 file (expected a warp-ricochet .h5 output)")
     try:
-        with h5py.File(path, "r") as f:
+        with open_for_reading(path) as f:  # also a killed run's partial
             return _read_open_file(f, path, np)
     except RicochetError:
         raise
     except (OSError, KeyError, ValueError, TypeError) as exc:  # truncated or otherwise damaged files
-        message = " ".join(str(exc).split()) or type(exc).__name__
-        raise ReportError(path, f"cannot be read as a warp-ricochet file: {message}") from None
+        raise ReportError(path, f"cannot be read as a warp-ricochet file: {hdf5_reason(exc)}") from None
 
 
 def _read_open_file(f, path, np) -> Results:
@@ -127,6 +133,11 @@ def _read_open_file(f, path, np) -> Results:
     if kind == "run":
         row = {name: float(np.asarray(v).reshape(-1)[0]) for name, v in stats.items()}
         meta["points"] = meta["points_done"] = 1
+        if status != "complete" and "progress/rows" in f and "constants/pellets" in f:  # how far it got
+            meta["rows_done"], meta["rows_total"] = int(f["progress/rows"][()]), int(f["constants/pellets"][()])
+        if math.isnan(row.get("pellets", math.nan)):  # statistics (and tallies) are written when the run completes
+            meta["points_done"] = 0
+            return Results(rows=[], meta=meta)
         meta["intervals"] = {name: (float(ds.attrs["ci_low"]), float(ds.attrs["ci_high"]))
                              for name, ds in stats_group.items() if isinstance(ds, h5py.Dataset) and "ci_low" in ds.attrs}
         shots_group = stats_group.get("shots")
@@ -416,7 +427,12 @@ def format_tables(results: Results, fmt: str = "text", paper: bool = False) -> s
         return _point_cells(row, params, formatters)
 
     blocks = [header_line(results)]  # followed by a blank line: never a Markdown table
-    if results.meta.get("status", "complete") != "complete":
+    if "rows_done" in results.meta:  # an unfinished run file (NAME.h5.partial)
+        done, total = results.meta["rows_done"], results.meta["rows_total"]
+        blocks.append(f"note: status is {results.meta.get('status')!r}: {done:,} of {total:,} pellets complete "
+                      f"({100 * done / max(total, 1):.1f}%); the statistics are written when the run completes "
+                      "(warp-ricochet run ... --resume continues it)")
+    elif results.meta.get("status", "complete") != "complete":
         blocks.append(f"note: status is {results.meta.get('status')!r}; the tables show the points that finished")
     blocks += _tables(results.rows, point_headers, point_cells, fmt)
     blocks += _collision_tables(results.rows, point_headers, point_cells, fmt)
