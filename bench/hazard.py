@@ -6,7 +6,7 @@ quantile histograms, with [hazard] thresholds (danger distances) and with a haza
 
 Each configuration is compiled and warmed up first (not timed); each time is the median of
 --repeats runs (wall clock of `warp_ricochet.run` without an output file, synchronised at its end).
-`--copies`: one table per number of copies of the counts on CUDA (`tallies.counts.CUDA_COPIES`, 64 by
+`--copies`: one table per number of copies of the counts on CUDA (`tallies.counts.CUDA_COPIES`, 256 by
 default; the CPU always counts into one).
 """
 

@@ -105,8 +105,8 @@ def _map_geometry(scene, hazard, shooter) -> dict:
                 map_nv=math.ceil((v1 - v0) / cell - 1e-9))
 
 
-CUDA_COPIES = 64  # copies of the counts on CUDA (see `tallies.landing`)
-MAX_COPY_BYTES = 1 << 28  # at most this much device memory for the copies of each array
+CUDA_COPIES = 256  # copies of the counts on CUDA (see `tallies.landing`)
+MAX_COPY_BYTES = 1 << 30  # at most this much device memory for the copies of each array
 
 
 def copies_for(device, nbytes: int) -> int:
