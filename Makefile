@@ -1,5 +1,5 @@
-# Quick start: `make demo` runs the paper's scene, `make test` runs the tests.
-# Both create .venv and install the package on first use.
+# Quick start: `make demo` runs the paper's scene and plots it, `make test` runs the tests.
+# Both create .venv and install the package (with the test and plot extras) on first use.
 PYTHON ?= python3
 VENV ?= .venv
 PY := $(VENV)/bin/python
@@ -12,18 +12,24 @@ DEMO_OUT ?= demo-output
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[test]'
+	$(PY) -m pip install --quiet -e '.[test,plot]'
 	touch $(STAMP)
 
-# the paper's sweep in vacuum (Tables 1-3), then in sea-level air, then Table 3 of both side by side
+# the paper's sweep in vacuum and in sea-level air, and one shot of 100,000 pellets; then Tables 1-3
+# in vacuum, Table 3 of both side by side, and the plots of all three (their paths)
 SWEEP := --param surfaces.0.mu_s=0:0.5:0.05 --tie surfaces.0.mu_d=0.9* --overwrite $(if $(DEVICE),--device $(DEVICE),)
+WR := $(VENV)/bin/warp-ricochet
 
 demo: $(STAMP)
 	mkdir -p $(DEMO_OUT)
-	$(VENV)/bin/warp-ricochet sweep examples/paper.toml $(SWEEP) -o $(DEMO_OUT)/paper-sweep.h5
-	$(VENV)/bin/warp-ricochet sweep examples/paper.toml $(SWEEP) --set air.density=1.225 \
-	    -o $(DEMO_OUT)/paper-sweep-air.h5 > /dev/null
-	$(VENV)/bin/warp-ricochet report $(DEMO_OUT)/paper-sweep.h5 $(DEMO_OUT)/paper-sweep-air.h5
+	$(WR) sweep examples/paper.toml $(SWEEP) -o $(DEMO_OUT)/paper-sweep.h5 > /dev/null
+	$(WR) sweep examples/paper.toml $(SWEEP) --set air.density=1.225 -o $(DEMO_OUT)/paper-sweep-air.h5 > /dev/null
+	$(WR) run examples/paper.toml --set shot.count=100000 --overwrite $(if $(DEVICE),--device $(DEVICE),) \
+	    -o $(DEMO_OUT)/paper-shot.h5 > /dev/null
+	$(WR) report $(DEMO_OUT)/paper-sweep.h5
+	$(WR) report $(DEMO_OUT)/paper-sweep.h5 $(DEMO_OUT)/paper-sweep-air.h5
+	$(WR) plot $(DEMO_OUT)/paper-shot.h5 $(DEMO_OUT)/paper-sweep.h5 $(DEMO_OUT)/paper-sweep-air.h5 \
+	    -o $(DEMO_OUT)/plots --overwrite
 
 test: $(STAMP)
 	$(PY) -m pytest -n 2 -q

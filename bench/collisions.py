@@ -67,7 +67,7 @@ def _run(scene, device, path):
         pellets = {k: f["pellets/" + k.replace(".", "/")][()] for k in ("initial.position", "initial.velocity",
                                                                          "initial.angular_velocity", "landing.range",
                                                                          "collisions.count")}
-        stats = {k: float(f["stats"][k][()]) for k in f["stats"]}
+        stats = {k: float(ds[()]) for k, ds in f["stats"].items() if isinstance(ds, h5py.Dataset)}
     return elapsed, pellets, stats
 
 

@@ -6,6 +6,9 @@
 #   air: flight in air beside vacuum (statistics only, 1e8; collisions, 10,000 x 450)
 #   air-tests: the air tests on CUDA; air-study: the tradeoff's timings and states, the air study
 #          (1000 shots), the air stability sweep
+#   tallies-tests: the CUDA tests of the landing tallies, hazard, precision, ensembles and launches
+#   tallies: statistics only before this work (.gpu/old, a git archive of 27e7781) beside now, with
+#          quantiles and hazard maps; collisions 10,000 x 450 old beside new; the safety study
 #   collisions: the collision, stability and pipeline tests on CUDA; Warp's DEM example and the dense phase in the
 #          same run (1e6 pellets: rounds 4, 2, 1, float64; 10,000 shots x 450); where the dense phase's time goes
 set -uo pipefail
@@ -48,4 +51,25 @@ if [[ $what == air-study ]]; then
   timeout 200 python3 -m bench.air tradeoff --device cuda:0 --checked 200 --timed 1e7 --no-errors --out "$out/tradeoff" 2>&1 | quiet | tee "$out/air-tradeoff.txt"
   timeout 250 python3 examples/air_study.py --shots 1000 --device cuda:0 --out "$out/study" 2>&1 | quiet | tee "$out/air-study.txt"
   timeout 100 python3 -m bench.stability_air --device cuda:0 2>&1 | quiet | tee "$out/stability-air.txt"
+fi
+if [[ $what == tallies-tests ]]; then
+  WARP_RICOCHET_TEST_DEVICES=cuda:0 timeout 420 python3 -m pytest tests/test_quantiles.py tests/test_hazard.py \
+    tests/test_precision.py tests/test_collisions.py tests/test_air_dense.py tests/test_resume_collisions.py \
+    tests/test_golden.py -q -n 8 -p no:cacheprovider -rfE 2>&1 | grep "^FAILED\|^ERROR\|passed\|failed\|^E " \
+    | cut -c1-300 | tee "$out/tallies-tests.txt"
+fi
+if [[ $what == tallies ]]; then
+  timeout 200 bench/side_by_side.sh .gpu/old . 3 python3 -m bench throughput --device cuda:0 --sizes 1e8,1e9 \
+    --numpy-max 0 --repeats 5 2>&1 | grep "N=" | tee "$out/throughput-side-by-side.txt"
+  timeout 100 bench/side_by_side.sh .gpu/old . 2 python3 -m bench throughput --device cuda:0 --sizes 1e8 \
+    --numpy-max 0 --repeats 5 --precision float64 2>&1 | grep "N=" | tee -a "$out/throughput-side-by-side.txt"
+  timeout 200 python3 -m bench.hazard --device cuda:0 --sizes 1e8,1e9 --repeats 5 --copies 64,1 2>&1 | quiet \
+    | tee "$out/hazard.txt"
+fi
+if [[ $what == tallies-collisions ]]; then
+  timeout 200 bench/side_by_side.sh .gpu/old . 1 python3 -m bench.collisions throughput --device cuda:0 \
+    --shots 10000 2>&1 | grep shots | tee "$out/collisions-side-by-side.txt"
+  timeout 60 python3 -m bench.launch_overlaps --device cuda:0 --shots 200 2>&1 | quiet | tee "$out/launch-overlaps.txt"
+  timeout 280 python3 examples/safety_study.py --shots 1000 --device cuda:0 --out /tmp/safety 2>&1 | quiet \
+    | tee "$out/safety-study.txt"
 fi

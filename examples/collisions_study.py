@@ -1,9 +1,12 @@
 """What the paper's no-collision assumption costs: its scene (450 pellets, 2.5 cm envelope) with
-pellet-pellet collisions off and on, over mu_s, with a histogram of ranges.
+pellet-pellet collisions off and on, over mu_s, as ensembles of shots (default 200), with a
+histogram of ranges.
 
-    python examples/collisions_study.py [--device cpu] [--out collisions-study]
+    python examples/collisions_study.py [--device cpu] [--shots 200] [--out collisions-study]
 
-Prints a table (SI units) and writes collisions-study/ranges.png. See docs/collisions.md.
+Prints a Markdown table (SI units): each statistic of the ensemble with its 95% interval over shots
+(`tallies.ensemble`: for L+ and L- the interval of one shot's extreme), and writes
+collisions-study/ranges.png. See docs/collisions.md.
 """
 
 import argparse
@@ -27,6 +30,7 @@ def main():
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--out", default="collisions-study")
     parser.add_argument("--precision", default="float64")
+    parser.add_argument("--shots", type=int, default=200)
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
     here = Path(__file__).resolve().parent
@@ -35,23 +39,35 @@ def main():
         for enabled in (False, True):
             scene = load_scene(here / "paper.toml", [f"surfaces.0.mu_s={mu_s}", f"surfaces.0.mu_d={0.9 * mu_s}",
                                                       f"collisions.enabled={str(enabled).lower()}",
-                                                      f"numerics.precision=\"{args.precision}\""])
+                                                      f"numerics.precision=\"{args.precision}\"",
+                                                      f"shot.shots={args.shots}", 'output.fields=["landing.range"]'])
             path = os.path.join(args.out, f"mu{mu_s}-{'on' if enabled else 'off'}.h5")
             stats = api.run(scene, output=path, device=args.device, overwrite=True)
             with h5py.File(path, "r") as f:
                 ranges[mu_s, enabled] = f["pellets/landing/range"][()]
             rows.append((mu_s, enabled, stats))
-    keys = ("range_mean", "range_std", "range_max", "range_min", "post_mean_vt", "post_mean_WT", "landing_mean_WT")
-    print(f"{'mu_s':>5} {'coll':>4} " + " ".join(f"{k:>15}" for k in keys) + f" {'collided':>9} {'pair loss J':>11}")
+    keys = ("range_mean", "range_std", "range_max", "range_min", "post_mean_vt", "landing_mean_WT",
+            "collided_fraction", "pair_energy_lost_mean")
+
+    def cell(stats, key):
+        if key not in stats:
+            return "0"
+        e = stats.ensemble
+        if e is None:
+            return f"{stats[key]:.4g}"
+        return f"{stats[key]:.4g} [{e.low[key]:.4g}, {e.high[key]:.4g}]"
+
+    print(f"{args.shots} shots a row; value [95% interval over shots; for range_max/min one shot's extreme]")
+    print("| mu_s | collisions | " + " | ".join(keys) + " |")
+    print("|---|---|" + "---|" * len(keys))
     for mu_s, enabled, s in rows:
-        extra = f" {s.get('collided_fraction', 0.0):9.3f} {s.get('pair_energy_lost', 0.0):11.4g}"
-        print(f"{mu_s:5.2f} {'on' if enabled else 'off':>4} " + " ".join(f"{s[k]:15.5g}" for k in keys) + extra)
+        print(f"| {mu_s:g} | {'on' if enabled else 'off (paper)'} | " + " | ".join(cell(s, k) for k in keys) + " |")
     try:
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
-        print("matplotlib not installed: no histogram")
+        print("matplotlib not installed (pip install 'warp-ricochet[plot]'): no histogram")
         return
     fig, axes = plt.subplots(1, 3, figsize=(13, 3.8), sharey=True)
     for ax, mu_s in zip(axes, (0.0, 0.25, 0.5)):

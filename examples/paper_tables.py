@@ -3,8 +3,9 @@
     python examples/paper_tables.py [--device cpu|cuda:0] [--out paper-sweep.h5] [--seeds 20]
 
 Runs the paper's sweep (mu_s = 0 ... 0.5, mu_d = 0.9 mu_s) of examples/paper.toml, prints our tables,
-the paper's with the relative differences, the checks of docs/paper-reproduction.md, and, with
---seeds, how much the statistics move from one draw of 450 pellets to another.
+then the paper's values beside ours with the relative differences, the checks of
+docs/paper-reproduction.md, and, with --seeds, how much the statistics move from one draw of 450
+pellets to another.
 """
 
 import argparse

@@ -74,6 +74,25 @@ def stats_equal(a, b):
     return True
 
 
+def assert_same_stats(a, b):
+    """Two /stats groups bitwise equal: every statistic, its interval attributes (ci_low, ci_high)
+    and, in runs of several shots, every per-shot dataset of /stats/shots."""
+    assert sorted(a) == sorted(b)
+    for name in b:
+        if isinstance(b[name], h5py.Group):
+            assert_same_stats(a[name], b[name])
+            continue
+        x, y = a[name][()], b[name][()]
+        if np.ndim(y):
+            np.testing.assert_array_equal(x, y, err_msg=name)
+        else:
+            assert stats_equal({name: x}, {name: y}), (name, x, y)
+        for attr in ("ci_low", "ci_high"):
+            assert (attr in a[name].attrs) == (attr in b[name].attrs), (name, attr)
+            if attr in b[name].attrs:
+                assert stats_equal({attr: a[name].attrs[attr]}, {attr: b[name].attrs[attr]}), (name, attr)
+
+
 def assert_same_run(path, ref, fields, progress=("segment_results",)):
     """Run file `path` is complete, and its per-pellet datasets `fields`, every statistic and the
     /progress partials named are bitwise equal to those of run file `ref`."""
@@ -82,10 +101,17 @@ def assert_same_run(path, ref, fields, progress=("segment_results",)):
         for name in fields:
             assert a[f"pellets/{name}"].dtype == b[f"pellets/{name}"].dtype
             np.testing.assert_array_equal(a[f"pellets/{name}"][()], b[f"pellets/{name}"][()], err_msg=name)
-        assert sorted(a["stats"]) == sorted(b["stats"])
-        for name in b["stats"]:
-            x, y = a["stats"][name][()], b["stats"][name][()]
-            assert stats_equal({name: x}, {name: y}), (name, x, y)
+        assert_same_stats(a["stats"], b["stats"])
+        for group in ("stats", "hazard"):
+            names = [[], []]
+            for f, found in zip((a, b), names):
+                if group in f:
+                    f[group].visititems(lambda name, obj, found=found: found.append(name)
+                                        if isinstance(obj, h5py.Dataset) else None)
+            assert sorted(names[0]) == sorted(names[1]), group
+            for name in names[1]:
+                x, y = a[group][name][()], b[group][name][()]
+                np.testing.assert_array_equal(x, y, err_msg=f"{group}/{name}")
         for name in progress:
             np.testing.assert_array_equal(a[f"progress/{name}"][()], b[f"progress/{name}"][()], err_msg=name)
 

@@ -302,12 +302,17 @@ def test_help_and_version_exit_0(argv, capsys):
     assert capsys.readouterr().out.strip()
 
 
-def test_usage_errors_keep_argparse_behaviour(capsys):
-    for argv in ([], ["run"], ["sweep", SCENE], ["report", "x.h5", "--format", "html"]):
+def test_usage_errors_are_one_line_exit_2(capsys):
+    """The README's promise: argparse's errors too are one line `warp-ricochet: error: ...`, exit 2."""
+    for argv, words in (([], "COMMAND"), (["run"], "SCENE.toml"), (["sweep", SCENE], "--param"),
+                        (["report", "x.h5", "--format", "html"], "invalid choice: 'html'"),
+                        (["run", SCENE, "--bogus"], "unrecognized arguments: --bogus")):
         with pytest.raises(SystemExit) as exc:
             main(argv)
         assert exc.value.code == 2
-        assert "usage:" in capsys.readouterr().err
+        err = capsys.readouterr().err
+        assert len(err.splitlines()) == 1 and err.startswith(PREFIX) and words in err, (argv, err)
+        assert "--help)" in err and "usage:" not in err
 
 
 def test_help_end_to_end():
@@ -341,8 +346,25 @@ def test_progress_bar_draws_on_a_tty():
         bar(0, 1000)
         bar(1000, 1000)
     text = stream.getvalue()
-    assert text.startswith("\rrun [") and text.endswith("\n") and text.count("\n") == 1
-    assert "100.0%" in text and "pellets/s" in text and "1,000/1,000" in text
+    assert text.startswith("\rrun:") and text.endswith("\n") and text.count("\n") == 1
+    assert "100%" in text and "pellets/s" in text and "1.00k/1.00k" in text
+
+
+def test_progress_rate_and_eta_count_only_this_session(monkeypatch):
+    """After --resume the first report already counts the rows done before: the rate is this
+    session's rows over this session's time, and the time left follows from it."""
+    import tqdm.std
+
+    now = [1000.0]
+    monkeypatch.setattr(tqdm.std, "time", lambda: now[0])
+    stream = io.StringIO()
+    with ProgressBar("run", stream, enabled=True) as bar:
+        bar(5000, 10000)  # resumed at 5,000 rows
+        now[0] += 2.0
+        bar(7000, 10000)  # 2,000 rows in 2 s
+    lines = stream.getvalue().split("\r")
+    second = [line for line in lines if "7.00k/10.0k" in line][0]
+    assert "1.00k pellets/s" in second and "00:02<00:03" in second  # 3,000 rows left at 1,000/s
 
 
 def test_frictional_case_and_tables_from_rows():

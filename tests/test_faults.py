@@ -195,6 +195,13 @@ def interrupted(tmp_path):
     return out, Path(str(out) + ".partial")
 
 
+def _older_partials(f):
+    """The statistics partials of an older layout (before flight_scale: two columns fewer)."""
+    old = f["progress/segment_results"][()][:, :-2]
+    del f["progress/segment_results"]
+    f["progress"].create_dataset("segment_results", data=old, maxshape=(None, old.shape[1]))
+
+
 @pytest.mark.parametrize("extra, edit, key", [
     (["--set", "surfaces.0.mu_s=0.06"], None, "surfaces.0.mu_s = 0.06"),
     (["--set", "shot.seed=7"], None, "shot.seed = 7"),
@@ -206,6 +213,7 @@ def interrupted(tmp_path):
     ([], lambda f: f["progress/rows"].__setitem__((), 3 * SEGMENT + 5), "output path = "),
     ([], lambda f: f["progress/segment_results"].resize(1, axis=0), "output path = "),
     ([], lambda f: f["pellets/landing/range"].resize(10, axis=0), "output path = "),
+    ([], _older_partials, "output path = "),
     ([], lambda f: f.attrs.__setitem__("kind", "sweep"), "output path = "),
     ([], lambda f: f.__delitem__("progress"), "output path = "),
 ])

@@ -72,7 +72,7 @@ def reference(tmp_path_factory):
 def assert_same_as_reference(path, reference):
     """Every per-pellet dataset, every statistic and the stored partials (statistics and per-shot
     totals) bitwise equal; status complete."""
-    assert_same_run(path, reference[0], FIELDS, progress=("segment_results", "shot_totals"))
+    assert_same_run(path, reference[0], FIELDS, progress=("segment_results", "shot_totals", "shot_partials"))
 
 
 def check_partial(partial, reference, *, swmr):

@@ -3,15 +3,15 @@
 The pipeline, one folder or module a stage: `scene` (TOML into validated dataclasses) ->
 `launch` (launch states) -> `physics` (the laws: impact, pair, flight) -> `core` (the fused
 kernel: flight, impact, landing) and `dense` (pellet-pellet collisions) -> `tallies`
-(statistics) -> `io` (HDF5 run files, resume, H5MD) -> `report` (tables). `pipeline` owns the
+(statistics) -> `io` (HDF5 run files, resume, H5MD, `open_run`: lazy xarray reading) -> `report` (tables). `pipeline` owns the
 chunk loop, `spec` what a run compiles, `fields` the output fields; `api` and `cli` are the doors.
 """
 
 from ._version import __version__
-from .errors import OutputError, PrecisionWarning, RicochetError, SceneError
+from .errors import OutputError, PrecisionWarning, RicochetError, SceneError, SceneWarning
 
-__all__ = ["__version__", "RicochetError", "SceneError", "OutputError", "PrecisionWarning", "impact", "load_scene",
-           "run", "sweep"]
+__all__ = ["__version__", "RicochetError", "SceneError", "OutputError", "PrecisionWarning", "SceneWarning", "impact",
+           "load_scene", "open_run", "run", "sweep"]
 
 
 def __getattr__(name):
@@ -20,6 +20,10 @@ def __getattr__(name):
         from . import api
 
         return getattr(api, name)
+    if name == "open_run":  # xarray and dask: the optional extra warp-ricochet[xarray]
+        from .io.reader import open_run
+
+        return open_run
     if name == "load_scene":
         from .scene import load_scene
 

@@ -8,8 +8,11 @@ out of its file.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
+import warnings
+from pathlib import Path
 
 import numpy as np
 
@@ -17,10 +20,10 @@ from . import interrupts
 from .chunks import check_chunk_memory, plan_shots
 from .core.impact import impact_kernel_for
 from .device import resolve_device, warp
-from .errors import PrecisionWarning, SceneError  # noqa: F401 - PrecisionWarning: part of the API
+from .errors import PrecisionWarning, SceneError, SceneWarning  # noqa: F401 - PrecisionWarning: part of the API
 from .fields import bytes_per_pellet
-from .io import resume
-from .io.runfile import OutputFile, check_output_path, check_resume_path
+from .io import resume, sweepdir
+from .io.runfile import OutputFile, check_output_path, check_resume_path, output_target
 from .io.space import check_space
 from .io.writer import RunWriter, unit_of_key, write_stats
 from .model import Model
@@ -28,7 +31,7 @@ from .physics.impact import SOLID_SPHERE_INERTIA_FACTOR
 from .physics.types import SCALARS, types_for
 from .pipeline import Resumed
 from .pipeline import run as run_pipeline
-from .scene import Scene, load_pellet_file, load_scene, scene_from_dict, set_dotted
+from .scene import Scene, SweepPoints, load_pellet_file, load_scene, scene_from_dict, set_dotted
 from .scene import schema as domain
 from .spec import RunSpec
 from .tallies.sums import stat_names
@@ -133,10 +136,14 @@ def impact(
 
 # --------------------------------------------------------------------------- scenes
 
+NO_HITS = ("no pellet hit any surface (all {:,} missed): check shot.direction and the surfaces' points and "
+           "normals (a plane is hit only from the side its normal points to)")
 
-def check_resources(scenes, dev, output, rows_done=0) -> None:
+
+def check_resources(scenes, dev, output, rows_done=0, copies=1) -> None:
     """Before any work: every explicit chunk size fits in memory, and the output (less `rows_done`
-    rows already written, for a resumed run) fits on its disk: else a one-line error, no file made."""
+    rows already written, for a resumed run; `copies` times: a sweep's points, then the sweep file
+    made of them) fits on its disk: else a one-line error, no file made."""
     for sc in scenes:
         check_chunk_memory(sc, dev, output is not None)
         if sc.pair_collisions and sc.collisions.frame_every and output is not None:
@@ -146,7 +153,7 @@ def check_resources(scenes, dev, output, rows_done=0) -> None:
                                  f"trajectory frames need the whole run in one chunk, and its {shots} shots take "
                                  "more: fewer shots, or numerics.chunk_size, or frame_every = 0")
     if output is not None:
-        need = sum((sc.shot.pellets - rows_done) * bytes_per_pellet(sc.output.fields, sc.numerics.precision,
+        need = copies * sum((sc.shot.pellets - rows_done) * bytes_per_pellet(sc.output.fields, sc.numerics.precision,
                                                                     sc.physics.bounces) for sc in scenes)
         check_space(output, need, "the output")
 
@@ -162,6 +169,8 @@ def _compute(scene, dev, writer=None, progress=None, resumed=None, dense_options
                          options=dense_options, frames=frames)
     if writer is not None:
         writer.write_stats(stats)
+    if stats["hits"] == 0 and stats["pellets"] > 0 and scene.surfaces:
+        warnings.warn(NO_HITS.format(int(stats["pellets"])), SceneWarning, stacklevel=3)
     return stats
 
 
@@ -223,74 +232,101 @@ def _resume(scene, output, device, *, overwrite, progress, dense_options) -> dic
     with out:
         plan = found["plan"]
         writer = RunWriter.reopen(out.h5, fields=scene.output.fields, rows=plan.rows, segments=plan.segments,
-                                  shots=plan.shots)
-        resumed = Resumed(plan.rows, plan.segment_results, plan.shot_totals)
+                                  shots=plan.shots, pieces=plan.pieces)
+        resumed = Resumed(plan.rows, plan.segment_results, plan.shot_totals, plan.tally, plan.shot_partials)
         return _compute(found["scene"], dev, writer, progress, resumed, dense_options)
 
 
-def sweep_points(params: dict, ties=()):
-    """Cartesian product of parameter values, with tied keys: a list of {key: value} dicts.
+def sweep_points(params: dict, ties=()) -> SweepPoints:
+    """The points of a parameter sweep: a lazy sequence of {key: value} dicts (the Cartesian product
+    of the values, tied keys set from them), counted first and refused above `MAX_SWEEP_POINTS`.
 
     params: {key: [values]}; ties: [(key, factor, source_key or None)].
     """
-    import itertools
+    return SweepPoints(params, ties)
 
-    keys = list(params)
-    points = []
-    for combo in itertools.product(*(params[k] for k in keys)):
-        point = dict(zip(keys, combo))
-        for key, factor, src in ties:
-            if src is None:
-                if len(keys) != 1:
-                    raise SceneError("--tie", key, "must name the parameter it follows (KEY=F*PARAM) when several are swept")
-                src = keys[0]
-            if src not in point:
-                raise SceneError("--tie", f"{key}={factor}*{src}", f"{src} is not a swept parameter")
-            point[key] = round(factor * point[src], 12)
-        points.append(point)
-    return points
+
+def _point_scenes(scene, points, with_output: bool) -> list:
+    """Every point's scene, validated before any work (one line for the first bad point)."""
+    base, scenes = scene.to_dict(), []
+    for point in points:
+        raw = base
+        for key, value in point.items():
+            raw = set_dotted(raw, key, value)
+        sc = scene_from_dict(raw)
+        if with_output and sc.pair_collisions and sc.collisions.frame_every:
+            raise SceneError("collisions.frame_every", sc.collisions.frame_every,
+                             "must be 0 in a sweep written to a file (H5MD trajectory frames are written by `run`, "
+                             "one run per file)")
+        scenes.append(sc)
+    return scenes
 
 
 def sweep(scene, params: dict, ties=(), output=None, device=None, *, overwrite=False, progress=None,
-          dense_options=None) -> list:
+          dense_options=None, resume=False) -> list:
     """Run `scene` at every point of a parameter sweep (e.g. the paper's mu_s in 0..0.5 with
     mu_d = 0.9 mu_s). Returns [(point, stats)]. With `output`, writes one HDF5 file: the sweep
-    values in /sweep, each run in /runs/NNNN, and every statistic as an array in /stats."""
+    values in /sweep, each run in /runs/NNNN, and every statistic as an array in /stats; while it
+    runs, each point is a run file in OUTPUT.partial/ (`io.sweepdir`), and `resume` continues a
+    sweep interrupted or killed there (the statistics of the points it reads back from their files
+    have no `.tally`; the file holds every point's tallies)."""
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
     output = output if output is not None else scene.output.path
     points = sweep_points(params, ties)
-    scenes = []
-    for point in points:  # validate every point before any work
-        raw = scene.to_dict()
-        for key, value in point.items():
-            raw = set_dotted(raw, key, value)
-        scenes.append(scene_from_dict(raw))
-    if output is not None:
-        check_output_path(output, overwrite)
-    dev = resolve_device(device)
-    check_resources(scenes, dev, output)
-    results = []
-
-    def one(i, sc, group=None):
-        point_progress = None if progress is None else (lambda d, n: progress(i * n + d, len(scenes) * n))
-        return _run_one(sc, dev, group, point_progress, dense_options)
-
+    if resume and output is None:
+        raise SceneError("--resume", "no output", "needs the output file of the interrupted sweep (-o or output.path)")
+    scenes = _point_scenes(scene, points, output is not None)
     if output is None:
+        dev = resolve_device(device)
+        check_resources(scenes, dev, None)
+        return [(points[i], _run_one(sc, dev, None, _point_progress(progress, i, len(scenes)), dense_options))
+                for i, sc in enumerate(scenes)]
+    path = output_target(output) if resume else check_output_path(output, overwrite)  # before any work
+    dev = resolve_device(device)
+    manifest = sweepdir.make_manifest(scene.to_toml(), points, dev)
+    if resume:
+        folder = sweepdir.SweepFolder(path, manifest, resume=True, overwrite=overwrite)  # refuses, changing nothing
+        with _sweep_kept(folder, close=False):
+            check_resources([sc for i, sc in enumerate(scenes) if not folder.point(i).exists()], dev, output, copies=2)
+    else:
+        check_resources(scenes, dev, output, copies=2)
+        folder = sweepdir.SweepFolder(path, manifest, resume=False, overwrite=overwrite)
+    with _sweep_kept(folder):
+        results = []
         for i, sc in enumerate(scenes):
-            results.append((points[i], one(i, sc)))
-        return results
-    with OutputFile(output, overwrite=overwrite, kind="sweep", device=str(dev), scene_toml=scene.to_toml(),
-                    seed=None if scene.shot.file else scene.shot.seed, precision=scene.numerics.precision) as out:
-        sw = out.h5.create_group("sweep")
-        for key in points[0]:
-            ds = sw.create_dataset(key, data=np.array([p[key] for p in points], dtype=np.float64))
-            ds.attrs["units"] = unit_of_key(key)
-        sw.attrs["parameters"] = list(params)
-        sw.attrs["tied"] = [t[0] for t in ties]
-        for i, sc in enumerate(scenes):
-            stats = one(i, sc, out.h5.create_group(f"runs/{i:04d}"))
-            write_stats(out.h5, stats, index=i, size=len(scenes))
-            out.h5.flush()
+            point_path, step = folder.point(i), _point_progress(progress, i, len(scenes))
+            partial = Path(str(point_path) + ".partial")
+            if point_path.exists():  # complete before an interruption
+                stats = sweepdir.read_point_stats(point_path)
+            else:
+                if partial.exists() and not sweepdir.resumable_point(partial):  # no chunk in it: run it again
+                    partial.unlink()
+                stats = run(sc, point_path, dev, progress=step, dense_options=dense_options, resume=partial.exists())
             results.append((points[i], stats))
+        folder.assemble(points, [s for _, s in results], overwrite=overwrite, device=str(dev),
+                        scene_toml=scene.to_toml(), seed=None if scene.shot.file else scene.shot.seed,
+                        precision=scene.numerics.precision)
     return results
+
+
+def _point_progress(progress, index: int, points: int):
+    """progress(done, total) of point `index` as a part of the whole sweep."""
+    return None if progress is None else (lambda d, n: progress(index * n + d, points * n))
+
+
+@contextlib.contextmanager
+def _sweep_kept(folder, close=True):
+    """The one place a sweep meets an interruption or a failure: the folder's lock is released (at
+    the end too, with `close`), and the one-line message names the folder and `sweep ... --resume`
+    (cli._kept)."""
+    try:
+        yield
+    except BaseException as exc:
+        folder.close()
+        exc.partial_path = str(folder.folder)
+        exc.resumable = True
+        exc.resume_command = "sweep"
+        raise
+    if close:
+        folder.close()

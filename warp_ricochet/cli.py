@@ -3,6 +3,9 @@
     warp-ricochet run SCENE.toml [-o OUT.h5] [--device cpu|cuda|cuda:N] [--set KEY=VALUE ...] [--overwrite] [--resume]
     warp-ricochet sweep SCENE.toml --param KEY=START:STOP:STEP|a,b,c [--tie KEY=F*[PARAM] ...] [-o OUT.h5] ...
     warp-ricochet report OUT.h5 [OUT2.h5 ...] [--format text|markdown] [--paper]
+    warp-ricochet xdmf OUT.h5 [--overwrite]
+    warp-ricochet plot OUT.h5 [OUT2.h5 ...] [-o DIR] [--overwrite]
+    warp-ricochet example [NAME] [-o PATH] [--overwrite]
 
 Exit status: 0 on success; 2 for a usage error or any invalid scene, override, device, output path or
 report input (one line `warp-ricochet: error: ...` on stderr, no traceback); 1 for an operating-system
@@ -19,14 +22,17 @@ import warnings
 
 from . import interrupts
 from ._version import __version__
-from .errors import RicochetError, SceneError
+from .errors import MAX_MESSAGE, RicochetError, SceneError, shorten
 
 PROG = "warp-ricochet"
 
 EPILOG = """examples:
   warp-ricochet run examples/paper.toml -o run.h5
   warp-ricochet sweep examples/paper.toml --param surfaces.0.mu_s=0:0.5:0.05 --tie surfaces.0.mu_d=0.9* -o sweep.h5
-  warp-ricochet report sweep.h5 --paper"""
+  warp-ricochet report sweep.h5 --paper
+  warp-ricochet xdmf run.h5          # run.xmf: open it in ParaView
+  warp-ricochet plot sweep.h5 -o plots/
+  warp-ricochet example paper -o my-scene.toml"""
 
 
 # ---------------------------------------------------------------------------------------------- parser
@@ -51,8 +57,16 @@ def _add_report_options(p: argparse.ArgumentParser) -> None:
                    help="also print the paper's values for the same mu_s and the relative differences of the ranges")
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse, its usage errors as the one line the README promises (`warp-ricochet: error: ...`), exit 2."""
+
+    def error(self, message):
+        _error(f"{message} (see {self.prog} --help)")
+        raise SystemExit(2)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog=PROG,
         description="Shotgun pellet ricochet (Zohdi 2021) in NVIDIA Warp kernels. SI units throughout.",
         epilog=EPILOG,
@@ -81,6 +95,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--tie", dest="ties", action="append", default=[], metavar="KEY=F*[PARAM]",
                    help="set KEY to F times a swept parameter at each point (PARAM may be left out when "
                         "one parameter is swept), e.g. surfaces.0.mu_d=0.9*")
+    p.add_argument("--resume", action="store_true",
+                   help="continue the interrupted sweep left in OUT.h5.partial/ (the same scene, --set, --param, "
+                        "--tie and device); the result is bitwise that of an uninterrupted sweep")
     _add_report_options(p)
     p.set_defaults(func=cmd_sweep)
 
@@ -91,7 +108,39 @@ def build_parser() -> argparse.ArgumentParser:
                         "(the same sweep, e.g. in vacuum and in air)")
     _add_report_options(p)
     p.set_defaults(func=cmd_report)
+
+    p = sub.add_parser("xdmf", help="write the XDMF sidecar (OUT.xmf) that opens a run or sweep file in ParaView",
+                       description="Write OUT.xmf beside OUT.h5: an XDMF 2 description of its point clouds, surfaces "
+                                   "and trajectory frames that ParaView and VTK open (runs and sweeps write it when "
+                                   "they complete; docs/output.md, \"ParaView\").")
+    p.add_argument("file", metavar="OUT.h5", help="a run or sweep file written by warp-ricochet")
+    p.add_argument("--overwrite", action="store_true", help="replace OUT.xmf if it exists")
+    p.set_defaults(func=cmd_xdmf)
+    _add_plot_and_example(sub)
     return parser
+
+
+def _add_plot_and_example(sub) -> None:
+    p = sub.add_parser("plot", help="draw PNG plots of run and sweep files (needs the plot extra: matplotlib)",
+                       description="Write PNGs of run and sweep files: for a run, where pellets land seen from "
+                                   "above (density and energy), the range distribution with its survival curve, "
+                                   "energy against distance; for sweeps, <L> with the L- to L+ band over the "
+                                   "swept key and each point's survival curve (several sweeps side by side).",
+                       epilog="example: warp-ricochet plot sweep.h5 sweep-air.h5 -o plots/")
+    p.add_argument("files", metavar="OUT.h5", nargs="+", help="run or sweep files written by warp-ricochet")
+    p.add_argument("-o", "--output", metavar="DIR", help="folder for the PNGs (made if missing; default: the "
+                                                           "first file's folder)")
+    p.add_argument("--overwrite", action="store_true", help="replace PNGs that exist")
+    p.set_defaults(func=cmd_plot)
+
+    p = sub.add_parser("example", help="list the example scenes, or write or print one",
+                       description="Without NAME, list the example scenes installed with the package; with NAME, "
+                                   "print its TOML, or write it to PATH with -o.",
+                       epilog="example: warp-ricochet example paper -o paper.toml")
+    p.add_argument("name", metavar="NAME", nargs="?", help="an example's name (e.g. paper)")
+    p.add_argument("-o", "--output", metavar="PATH", help="write the scene here instead of printing it")
+    p.add_argument("--overwrite", action="store_true", help="replace PATH if it exists")
+    p.set_defaults(func=cmd_example)
 
 
 # ---------------------------------------------------------------------------------------------- commands
@@ -134,7 +183,8 @@ def cmd_sweep(args) -> int:
     from . import api
 
     with ProgressBar("sweep") as bar:
-        results = api.sweep(scene, params, ties, args.output, args.device, overwrite=args.overwrite, progress=bar)
+        results = api.sweep(scene, params, ties, args.output, args.device, overwrite=args.overwrite, progress=bar,
+                            resume=args.resume)
     output = args.output if args.output is not None else scene.output.path
     if output is not None:
         res = read_results(output)  # exactly what `report` prints
@@ -158,11 +208,46 @@ def cmd_report(args) -> int:
     return 0
 
 
+def cmd_xdmf(args) -> int:
+    from .io.xdmf import write_xdmf
+
+    print(write_xdmf(args.file, overwrite=args.overwrite))
+    return 0
+
+
+def cmd_plot(args) -> int:
+    from .report.plots import write_plots
+
+    for png, why in write_plots(args.files, args.output, overwrite=args.overwrite):
+        print(f"wrote {png}" if why is None else f"skipped {png}: {why}")
+    return 0
+
+
+def cmd_example(args) -> int:
+    from .examples import example_text, examples
+
+    if args.name is None:
+        width = max(len(name) for name, _ in examples())
+        for name, summary in examples():
+            print(f"{name.ljust(width)}  {summary}")
+        return 0
+    text = example_text(args.name)
+    if args.output is None:
+        sys.stdout.write(text)
+        return 0
+    from .examples import write_example
+
+    write_example(text, args.output, overwrite=args.overwrite)
+    print(f"wrote {args.output}")
+    return 0
+
+
 # ---------------------------------------------------------------------------------------------- main
 
 
 def _one_line(text) -> str:
-    return " ".join(str(text).split())
+    """One line, at most MAX_MESSAGE characters (a huge key or path is not echoed whole)."""
+    return shorten(" ".join(str(text).split()), MAX_MESSAGE)
 
 
 def _os_message(exc: OSError) -> str:
@@ -234,7 +319,8 @@ def _kept(exc) -> str:
     partial = getattr(exc, "partial_path", None)
     if partial is None:
         return ""
-    resumable = " (warp-ricochet run ... --resume continues the run)" if getattr(exc, "resumable", False) else ""
+    what = getattr(exc, "resume_command", "run")  # "sweep" for a sweep's folder (api._sweep_kept)
+    resumable = f" (warp-ricochet {what} ... --resume continues the {what})" if getattr(exc, "resumable", False) else ""
     return f"; the chunks completed are in {partial}{resumable}"
 
 

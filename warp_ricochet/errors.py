@@ -1,5 +1,8 @@
 """User-facing errors: each one prints as a single line naming the key, the value and what is allowed."""
 
+import os
+import re
+
 
 class RicochetError(Exception):
     """Base class of every error the package reports to a user as one line (no traceback)."""
@@ -10,17 +13,55 @@ class SceneError(RicochetError, ValueError):
 
     def __init__(self, key: str, value, allowed: str):
         self.key, self.value, self.allowed = key, value, allowed
-        super().__init__(f"{key} = {_short(value)}: {allowed}")
+        super().__init__(shorten(f"{shorten(str(key), MAX_KEY)} = {_short(value)}: {allowed}", MAX_MESSAGE))
 
 
 class OutputError(RicochetError, OSError):
     """The output path cannot be used (exists without overwrite, unwritable, not HDF5)."""
 
 
-def _short(value, limit: int = 60) -> str:
-    text = repr(value)
+def in_use_error(shown: str, name: str) -> OutputError:
+    """A partial file or sweep folder another process holds (a run or sweep writing it, a reader)."""
+    return OutputError(f"{shown}: {name} is in use by another process (a run or sweep writing it, or a reader); "
+                       "wait for it to finish or stop it")
+
+
+MAX_KEY = 200  # characters of a key shown in a message (a 100,000-character unknown key is not echoed whole)
+MAX_MESSAGE = 2000  # characters of a whole one-line message
+
+
+def shorten(text: str, limit: int) -> str:
+    """`text`, cut to `limit` characters (ending in "...") when longer."""
     return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _short(value, limit: int = 60) -> str:
+    return shorten(repr(value), limit)
+
+
+def hdf5_reason(exc: Exception) -> str:
+    """The reason in an HDF5 (h5py) error as plain words ("Permission denied", "file signature not
+    found"), without the library's call chain, flags and descriptors."""
+    text = " ".join(str(exc).split())
+    found = re.search(r"error message = '([^']*)'", text)
+    if found:
+        return found.group(1)
+    found = re.search(r"errno = (\d+)", text)
+    if found:
+        return os.strerror(int(found.group(1)))
+    found = re.search(r"\(([^()]*)\)$", text)  # "Unable to synchronously open file (file signature not found)"
+    if found:
+        return found.group(1)
+    return shorten(re.sub(r"^\[Errno -?\d+\] ", "", text), MAX_KEY) or type(exc).__name__
+
+
+class SceneWarning(UserWarning):
+    """A valid scene that very likely does not do what was meant (no pellet hits anything)."""
 
 
 class PrecisionWarning(UserWarning):
     """A result the chosen precision (or a step size) is known not to resolve."""
+
+
+class ChaosWarning(PrecisionWarning):
+    """A result that is one sample of a chaotic process: its figures need an ensemble to judge."""

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["Field", "FIELDS", "GROUPS", "CORE_FIELDS", "COLLISION_FIELDS", "ALL_FIELDS", "core_fields",
-           "collision_fields", "numpy_dtype", "shape", "bytes_per_pellet"]
+           "collision_fields", "default_fields", "HAZARD_FIELDS", "numpy_dtype", "shape", "bytes_per_pellet"]
 
 INTEGER_KINDS = {"int8": np.int8, "int16": np.int16, "int32": np.int32}
 
@@ -59,6 +59,10 @@ FIELDS: dict[str, Field] = {f.name: f for f in (
     _F("landing.velocity", "vec3", False, "m/s", "landing", "velocity at landing"),
     _F("landing.range", "scalar", False, "m", "landing", "distance from the last ricochet point to the landing point (eq. 42)"),
     _F("landing.surface", "int16", False, "1", "landing", "index of the surface landed on, -1 none"),
+    _F("hazard.energy", "scalar", False, "J", "landing", "translational kinetic energy m |v|^2 / 2 at landing (NaN: never lands)"),
+    _F("hazard.energy_density", "scalar", False, "J/m^2", "landing", "energy density E / (pi R^2) at landing (NaN: never lands)"),
+    _F("hazard.exceeds", "int32", False, "1", "landing", "bit i set: at landing it exceeds hazard threshold i "
+                                                        "(/hazard/thresholds, in scene order); 0 when it never lands"),
     _F("collisions.count", "int32", False, "1", "collide", "pellet-pellet collisions of the pellet"),
     _F("collisions.last_time", "scalar", False, "s", "collide", "time of its last pellet-pellet collision since launch (NaN: none)"),
     _F("release.time", "scalar", False, "s", "collide", "when the time stepping handed it to the exact flight (or its flight ended in it)"),
@@ -74,6 +78,8 @@ for _name in FIELDS:
     GROUPS[_name.split(".")[0]] += (_name.split(".")[1],)
 
 CORE_FIELDS = tuple(name for name, f in FIELDS.items() if f.stage != "collide")
+# written only when output.fields names them, or by default in a scene with a [hazard] table
+HAZARD_FIELDS = tuple(name for name in FIELDS if name.startswith("hazard."))
 COLLISION_FIELDS = tuple(name for name, f in FIELDS.items() if f.stage == "collide")
 ALL_FIELDS = CORE_FIELDS + COLLISION_FIELDS
 
@@ -86,6 +92,12 @@ def core_fields(fields) -> tuple[str, ...]:
 def collision_fields(fields) -> tuple[str, ...]:
     """Those of `fields` the dense phase writes."""
     return tuple(f for f in fields if FIELDS[f].stage == "collide")
+
+
+def default_fields(pair_collisions: bool, hazard: bool) -> tuple[str, ...]:
+    """output.fields when a scene names none: the core's (and the dense phase's with pair
+    collisions), the hazard group only in a scene with a [hazard] table."""
+    return tuple(f for f in (ALL_FIELDS if pair_collisions else CORE_FIELDS) if hazard or f not in HAZARD_FIELDS)
 
 
 def numpy_dtype(name: str, precision: str) -> np.dtype:

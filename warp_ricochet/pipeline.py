@@ -27,27 +27,37 @@ from . import interrupts
 from .chunks import plan_rows, plan_shots
 from .core.kernel import CUDA_BLOCK_DIM, ricochet_kernel_for
 from .core.release import empty_release
+from .core.shots import ShotPass
 from .dense.phase import DensePhase
 from .dense.schedule import shot_stride
-from .errors import PrecisionWarning
+from .errors import ChaosWarning, PrecisionWarning
 from .launch.source import PelletSource
 from .model import State, reused_state
 from .physics.air_flight import MAX_FLIGHT_STEPS
+from .physics.limits import POSITION_RESOLUTION, UNIT_ROUNDOFF
+from .tallies.counts import DeviceTally, TallySetup, TallyTotals
 from .tallies.collisions import (
     OVERRUN_TOLERANCE,
     SHOT_TOTALS,
     SKIN_OVERRUN,
     collision_statistics,
 )
+from .tallies.ensemble import ensemble_of, has_ensemble, per_shot_statistics
 from .tallies.reduce import launch_reduce, threads_for
 from .tallies.sums import combine, empty_totals, finalize
 
-FLOAT32_COLLISIONS = ("pellet-pellet collisions in float32: contact times rounded in float32 change the order of "
-                      "events in a dense cloud, and a shot's mean range differs from float64 by about 10% (docs/collisions.md); "
-                      "set numerics.precision = \"float64\" for a study")
+ONE_SHOT_COLLISIONS = ("one shot with pellet-pellet collisions is one sample of a chaotic cloud: on the paper's shot its "
+                       "mean range moves by a median 5% (up to 23%) when its launch moves by 1e-7, in float64 as in "
+                       "float32; set shot.shots = 200 or more for 95% intervals (docs/collisions.md)")
 
 UNFINISHED_FLIGHTS = ("{:,} flights in air took more than {:,} integration steps and were given up (counted as "
                       "escaped, in flights_unfinished): raise numerics.flight_tolerance or check the scene")
+
+COARSE_POSITIONS = ("{precision} resolves a flight's coordinates to {eps} of its scale: flight_scale_max = {scale:.3g} m "
+                    "gives {error:.3g} m, more than 1/{parts:g} of the pellet radius ({radius:.3g} m), so contacts and "
+                    "ranges are decided by rounding (docs/stability.md, \"Precision\"); {fix}")
+FIX = {"float32": "set numerics.precision = \"float64\"",
+       "float64": "even float64 cannot: shorten the flights or move the scene nearer the origin"}
 
 _PINNED_POOL: dict = {}  # (name, shape, dtype, slot) -> pinned host array, reused: cudaHostAlloc is slow
 _DEVICE_LOCK = threading.Lock()  # one CUDA run at a time uses the pool and the reused state
@@ -56,11 +66,33 @@ _DEVICE_LOCK = threading.Lock()  # one CUDA run at a time uses the pool and the 
 @dataclass
 class Resumed:
     """What a resumed run already has: `rows` pellets complete, their statistics partials (one row
-    per segment) and, with pair collisions, their shots' totals."""
+    per segment), with pair collisions their shots' totals, and in a run of several shots the
+    per-shot partials of its complete shots (`core.shots`)."""
 
     rows: int
     segment_results: np.ndarray
     shot_totals: np.ndarray | None = None
+    tally: np.ndarray | None = None  # the landing counts of those rows (`TallyTotals.flat`)
+    shot_partials: np.ndarray | None = None
+
+
+class RunStats(dict):
+    """The statistics of a run ({name: float}, `tallies.sums.STAT_UNITS`) and, in `tally`, its
+    landing counts (`TallyTotals`; None when the scene counts none: output.quantiles = false) and, in
+    `ensemble`, its intervals over shots (`tallies.ensemble.Ensemble`; None for one shot)."""
+
+    tally = None
+    ensemble = None
+
+
+def landing_tally(scene, model, spec, arrays) -> DeviceTally:
+    """The device tally of a run (active with spec.tally; its struct is passed either way)."""
+    if arrays is not None:
+        launch_speed = float(np.sqrt((np.asarray(arrays["velocity"], dtype=np.float64) ** 2).sum(axis=1)).max(initial=0.0))
+    else:
+        launch_speed = scene.shot.speed
+    setup = TallySetup.of(scene, model.mass, model.radius, launch_speed)
+    return DeviceTally(setup, model.precision, model.device, spec.tally)
 
 
 class CoreStage:
@@ -75,6 +107,10 @@ class CoreStage:
         self.kernel = ricochet_kernel_for(spec)
         self.release = empty_release(model.precision, dev.alias)
         self.arrays, self.totals = self.state.arrays, None
+        self.tally = landing_tally(scene, model, spec, arrays)
+        self.count = scene.shot.count
+        self.shot_pass = (ShotPass(scene, model, spec, self.capacity // self.count + 1, arrays)
+                          if has_ensemble(scene) else None)
 
     def chunks(self, done: int):
         for start in range(done, self.pellets, self.capacity):
@@ -84,11 +120,23 @@ class CoreStage:
         """Launch the chunk's kernels; returns (segments, shots) of results to copy."""
         m = self.model
         self.source.load(start, rows)
+        self.tally.zero()
         wp.launch(self.kernel, dim=threads_for(rows),
-                  inputs=[start, rows, self.source.struct, m.surfaces, m.physics, self.state.outputs, self.release],
+                  inputs=[start, rows, self.source.struct, m.surfaces, m.physics, self.state.outputs, self.release,
+                          self.tally.struct],
                   outputs=[self.state.partial_sums, self.state.partial_min, self.state.partial_max],
                   device=m.device, block_dim=CUDA_BLOCK_DIM)
+        self.tally.reduce()
         return launch_reduce(self.state, rows, m.device), 0
+
+    def shot_rows(self, start: int, rows: int):
+        """Per-piece partials of the shots this chunk completes (None: no ensemble)."""
+        if self.shot_pass is None:
+            return None
+        first = start // self.count
+        pieces = self.shot_pass.launch(first, (start + rows) // self.count - first, self.source.struct,
+                                       self.state.outputs, self.release, self.tally.struct, start)
+        return self.shot_pass.host_rows(pieces)
 
 
 class CollisionStage:
@@ -107,6 +155,8 @@ class CollisionStage:
         self.kernel = ricochet_kernel_for(spec)
         self.arrays = {**self.state.arrays, **self.dense.field_arrays}
         self.totals = self.dense.totals
+        self.tally = landing_tally(scene, model, spec, arrays)
+        self.shot_pass = ShotPass(scene, model, spec, self.per_chunk) if has_ensemble(scene) else None
 
     def chunks(self, done: int):
         for first in range(done // self.count, self.shots, self.per_chunk):
@@ -119,11 +169,22 @@ class CollisionStage:
         self.dense.run(start, shots, self.source.struct, self.state.outputs, frames=self.frames)
         interrupts.check()  # (before the core kernel's pass over the chunk)
         slots = shots * self.stride
+        self.tally.zero()
         wp.launch(self.kernel, dim=threads_for(slots),
-                  inputs=[0, slots, self.source.struct, m.surfaces, m.physics, self.state.outputs, self.dense.release],
+                  inputs=[0, slots, self.source.struct, m.surfaces, m.physics, self.state.outputs, self.dense.release,
+                          self.tally.struct],
                   outputs=[self.state.partial_sums, self.state.partial_min, self.state.partial_max],
                   device=m.device, block_dim=CUDA_BLOCK_DIM)
+        self.tally.reduce()
         return launch_reduce(self.state, slots, m.device), shots
+
+    def shot_rows(self, start: int, rows: int):
+        """Per-piece partials of the chunk's shots, continued from their release (None: no ensemble)."""
+        if self.shot_pass is None:
+            return None
+        pieces = self.shot_pass.launch(start // self.count, rows // self.count, self.source.struct,
+                                       self.state.outputs, self.dense.release, self.tally.struct, start)
+        return self.shot_pass.host_rows(pieces)
 
 
 class HostSlot:
@@ -143,8 +204,9 @@ class HostSlot:
         self.arrays = {name: like(arr, name) for name, arr in stage.arrays.items()}
         self.segments = like(stage.state.segments, "segments")
         self.totals = None if stage.totals is None else like(stage.totals, "shot_totals")
+        self.tally = {name: like(arr, "tally_" + name) for name, arr in stage.tally.arrays.items()}
         self.rows = self.segment_count = self.shots = 0
-        self.event = None
+        self.event, self.shot_rows = None, None
 
     def fill(self, stage, rows: int, segments: int, shots: int):
         """Enqueue the copies of a computed chunk's results (element counts: contiguous rows)."""
@@ -153,17 +215,20 @@ class HostSlot:
         wp.copy(self.segments, stage.state.segments, count=segments * stage.state.segments.shape[1])
         if shots:
             wp.copy(self.totals, stage.totals, count=shots * stage.totals.shape[1])
+        for name, arr in stage.tally.arrays.items():
+            if arr.size:
+                wp.copy(self.tally[name], arr)
         self.rows, self.segment_count, self.shots = rows, segments, shots
         device = stage.model.device
         self.event = device.stream.record_event() if device.is_cuda else None
 
     def results(self):
-        """(per-pellet arrays, segment results, shot totals) once the copies are done."""
+        """(per-pellet arrays, segment results, shot totals, landing counts) once the copies are done."""
         if self.event is not None:
             wp.synchronize_event(self.event)
         totals = self.totals.numpy()[: self.shots].copy() if self.shots else None
         return ({name: arr.numpy() for name, arr in self.arrays.items()}, self.segments.numpy()[: self.segment_count],
-                totals)
+                totals, {name: arr.numpy() for name, arr in self.tally.items()})
 
 
 def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=None, options=None, frames=None) -> dict:
@@ -174,13 +239,15 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
     with interrupts.honoured(), _DEVICE_LOCK if model.device.is_cuda else contextlib.nullcontext():
         pellets = scene.shot.pellets
         if spec.collisions:
-            if model.precision == "float32":
-                warnings.warn(FLOAT32_COLLISIONS, PrecisionWarning, stacklevel=3)
+            if scene.shot.shots == 1:
+                warnings.warn(ONE_SHOT_COLLISIONS, ChaosWarning, stacklevel=3)
             stage = CollisionStage(scene, model, spec, arrays, pellets, options, frames)
         else:
             stage = CoreStage(scene, model, spec, arrays, pellets)
-        totals, tables = _loop(stage, pellets, sink, resumed, progress)
-    stats = finalize(totals, pellets=pellets, mass=model.mass, inertia=model.inertia, air=spec.in_air)
+        totals, tables, tally, pieces = _loop(stage, pellets, sink, resumed, progress)
+    stats = RunStats(finalize(totals, pellets=pellets, mass=model.mass, inertia=model.inertia, air=spec.in_air))
+    stats.tally = tally
+    warn_coarse_positions(stats["flight_scale_max"], model.precision, model.radius)
     if spec.in_air and stats["flights_unfinished"] > 0:
         warnings.warn(UNFINISHED_FLIGHTS.format(int(stats["flights_unfinished"]), MAX_FLIGHT_STEPS), PrecisionWarning,
                       stacklevel=3)
@@ -188,27 +255,54 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
         stats.update(collision_statistics(np.concatenate(tables) if tables else np.zeros((0, len(SHOT_TOTALS))), pellets))
         if stats["skin_overrun_max"] > OVERRUN_TOLERANCE:
             warnings.warn(SKIN_OVERRUN.format(stats["skin_overrun_max"]), PrecisionWarning, stacklevel=3)
+    if stage.shot_pass is not None:
+        per_shot = per_shot_statistics(np.concatenate(pieces), stage.shot_pass.pieces, count=scene.shot.count,
+                                       mass=model.mass, inertia=model.inertia, air=spec.in_air,
+                                       shot_totals=np.concatenate(tables) if spec.collisions else None)
+        stats.ensemble = ensemble_of(per_shot, scene.shot.shots)
     return stats
 
 
+def warn_coarse_positions(scale: float, precision: str, radius: float) -> bool:
+    """The precision rule: warn (one line) when the unit roundoff of `precision` times the largest
+    flight scale (m) exceeds POSITION_RESOLUTION of the pellet radius (m); returns whether it did."""
+    error = UNIT_ROUNDOFF[precision] * scale
+    if not error > POSITION_RESOLUTION * radius:  # (NaN: no flight met a surface)
+        return False
+    warnings.warn(COARSE_POSITIONS.format(precision=precision, eps="2^-24" if precision == "float32" else "2^-53",
+                                          scale=scale, error=error, parts=1 / POSITION_RESOLUTION, radius=radius,
+                                          fix=FIX[precision]), PrecisionWarning, stacklevel=4)
+    return True
+
+
 def _loop(stage, pellets, sink, resumed, progress):
-    """The chunk loop; returns the folded statistics totals and the shots' totals tables."""
-    totals, tables, done = empty_totals(), [], 0
+    """The chunk loop; returns the folded statistics totals, the shots' totals tables and the
+    landing counts (None when not counted) and the per-shot partials (`core.shots`), in shot order."""
+    totals, tables, pieces, done = empty_totals(), [], [], 0
+    tally = TallyTotals(stage.tally.setup) if stage.tally.active else None
     if resumed is not None and resumed.rows:
         totals, done = combine(totals, resumed.segment_results), resumed.rows
         if resumed.shot_totals is not None:
             tables.append(resumed.shot_totals)
+        if tally is not None and resumed.tally is not None:
+            tally.load(resumed.tally)
+        if resumed.shot_partials is not None:
+            pieces.append(resumed.shot_partials)
     cuda = stage.model.device.is_cuda
     slots = [HostSlot(stage, pinned=cuda, index=i) for i in range(2 if cuda else 1)]
 
     def consume(slot):
         nonlocal totals, done
-        arrays, segment_results, shot_totals = slot.results()
+        arrays, segment_results, shot_totals, counts = slot.results()
         totals = combine(totals, segment_results)
         if shot_totals is not None:
             tables.append(shot_totals)
+        if tally is not None:
+            tally.add(counts)
+        if slot.shot_rows is not None:
+            pieces.append(slot.shot_rows)
         if sink is not None:
-            sink.append(arrays, slot.rows, segment_results, shot_totals)
+            sink.append(arrays, slot.rows, segment_results, shot_totals, tally, slot.shot_rows)
         done += slot.rows
         if progress is not None:
             progress(done, pellets)
@@ -217,15 +311,17 @@ def _loop(stage, pellets, sink, resumed, progress):
     for i, (start, rows) in enumerate(stage.chunks(done)):
         interrupts.check()
         segments, shots = stage.compute(start, rows)
+        shot_rows = stage.shot_rows(start, rows)
         slot = slots[i % len(slots)]
         if pending is slot:  # CPU: one slot, consume before reuse
             consume(pending)
             pending = None
         slot.fill(stage, rows, segments, shots)
+        slot.shot_rows = shot_rows
         if pending is not None:
             consume(pending)  # host work on the previous chunk while the device runs this one
         pending = slot
     if pending is not None:
         consume(pending)
     interrupts.check()
-    return totals, tables
+    return totals, tables, tally, pieces

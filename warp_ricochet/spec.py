@@ -22,7 +22,8 @@ class RunSpec:
     scene; fields: per-pellet outputs computed (empty: statistics only); from_file: launch states
     from a pellet file; fast_math: CUDA float32 approximate maths; collisions: a dense phase of
     pellet-pellet collisions first; flight: the flight model (`physics.flight.MODELS`); air_laws:
-    in air, (drag, lift or None, spin decay or None) of `physics.air`."""
+    in air, (drag, lift or None, spin decay or None) of `physics.air`; tally: landing histograms
+    (quantiles, danger distances, `tallies.landing`); hazard_map: the hazard map too."""
 
     precision: str
     bounces: int
@@ -33,6 +34,8 @@ class RunSpec:
     collisions: bool = False
     flight: str = "ballistic"
     air_laws: tuple | None = None
+    tally: bool = False
+    hazard_map: bool = False
 
     @classmethod
     def of(cls, scene, *, with_output: bool = True) -> "RunSpec":
@@ -44,7 +47,8 @@ class RunSpec:
         return cls(precision=precision, bounces=scene.physics.bounces, planes=len(scene.surfaces),
                    fields=tuple(scene.output.fields) if with_output else (), from_file=scene.shot.file is not None,
                    fast_math=scene.numerics.fast_math and precision == "float32", collisions=scene.pair_collisions,
-                   flight="ballistic" if air is None else "air", air_laws=laws)
+                   flight="ballistic" if air is None else "air", air_laws=laws, tally=scene.output.quantiles,
+                   hazard_map=scene.output.quantiles and scene.hazard is not None and scene.hazard.has_map)
 
     @property
     def in_air(self) -> bool:

@@ -10,6 +10,7 @@ import warp as wp
 from ..launch.source import make_source
 from ..physics.types import types_for
 from ..tallies.accumulate import make_accumulators
+from ..tallies.landing import make_landing_tally
 from ..tallies.reduce import LANES, PER_THREAD, SEGMENT
 from .outputs import make_outputs
 from .pellet import make_ricochet_pellet
@@ -31,6 +32,7 @@ def ricochet_kernel_for(spec, max_registers="default"):
     scalar, Surfaces, Physics = t.scalar, t.Surfaces, t.Physics
     Source, Outputs, Release = make_source(spec.precision, spec.from_file).Source, make_outputs(spec.precision).Outputs, make_release(spec.precision)
     acc_fns, ricochet_pellet = make_accumulators(spec.precision), make_ricochet_pellet(spec)
+    Tally = make_landing_tally(spec.precision).Tally
     floats_t, extremes_t, inf = acc_fns.floats_t, acc_fns.extremes_t, acc_fns.inf
     RELEASE = spec.collisions
     lanes, per_thread, segment = LANES, PER_THREAD, SEGMENT
@@ -48,6 +50,7 @@ def ricochet_kernel_for(spec, max_registers="default"):
         physics: Physics,
         out: Outputs,
         release: Release,  # the dense phase's release state (spec.collisions), else empty
+        tally: Tally,  # landing histograms and maps (spec.tally), else empty
         partial_sums: wp.array2d(dtype=wp.float64),  # (NUM_SUMS, threads): counts, then floats
         partial_min: wp.array2d(dtype=wp.float64),  # (NUM_EXTREMES, threads)
         partial_max: wp.array2d(dtype=wp.float64),
@@ -68,11 +71,11 @@ def ricochet_kernel_for(spec, max_registers="default"):
                     member = row - shot * release.shot_stride
                     if member < release.shot_count:
                         counts, acc, lo, hi, range_shift = ricochet_pellet(
-                            0, shot * release.shot_count + member, source, surfaces, physics, out, release,
+                            0, shot * release.shot_count + member, source, surfaces, physics, out, release, tally,
                             counts, acc, lo, hi, range_shift)
                 else:
                     counts, acc, lo, hi, range_shift = ricochet_pellet(
-                        first_index + row, row, source, surfaces, physics, out, release, counts, acc, lo, hi, range_shift)
+                        first_index + row, row, source, surfaces, physics, out, release, tally, counts, acc, lo, hi, range_shift)
         acc_fns.store_partials(tid, counts, acc, lo, hi, range_shift, partial_sums, partial_min, partial_max)
 
     return ricochet_kernel

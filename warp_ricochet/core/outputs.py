@@ -82,8 +82,17 @@ def make_outputs(precision: str) -> SimpleNamespace:
         if out.landing_surface.shape[0] > 0:
             out.landing_surface[row] = wp.int16(surface)
 
+    @wp.func
+    def write_hazard(out: Outputs, row: wp.int32, energy: scalar, energy_density: scalar, exceeds: wp.int32):
+        if out.hazard_energy.shape[0] > 0:
+            out.hazard_energy[row] = energy
+        if out.hazard_energy_density.shape[0] > 0:
+            out.hazard_energy_density[row] = energy_density
+        if out.hazard_exceeds.shape[0] > 0:
+            out.hazard_exceeds[row] = exceeds
+
     return SimpleNamespace(Outputs=Outputs, write_initial=write_initial, write_impact=write_impact,
-                           mark_missing=mark_missing, write_landing=write_landing)
+                           mark_missing=mark_missing, write_landing=write_landing, write_hazard=write_hazard)
 
 
 def outputs_struct(precision: str, device, arrays: dict):

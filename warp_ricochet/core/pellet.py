@@ -17,6 +17,7 @@ from ..physics.contact import make_contact
 from ..physics.flight import make_flight
 from ..physics.types import types_for
 from ..tallies.accumulate import make_accumulators
+from ..tallies.landing import make_add_landing, make_landing_tally
 from .outputs import make_outputs
 from .release import make_release
 
@@ -32,14 +33,17 @@ def make_ricochet_pellet(spec):
     Source, Outputs, Release = src.Source, outs.Outputs, make_release(spec.precision)
     floats_t, extremes_t = acc_fns.floats_t, acc_fns.extremes_t
     F_RANGE_STICK, F_RANGE_SLIP = acc_fns.offsets.RANGE_STICK, acc_fns.offsets.RANGE_SLIP
+    X_SCALE, flight_scale = acc_fns.flight_scale_index, acc_fns.flight_scale  # the precision rule's statistic
     flight = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws)
     AIR = spec.flight == "air"
     rests, stays, impact, _meet, contact_point, landing_range = make_contact(spec.precision)
     RELEASE, WRITE, BOUNCES = spec.collisions, bool(spec.core_fields), spec.bounces
+    Tally, landing_tally = make_landing_tally(spec.precision).Tally, make_add_landing(spec.precision, spec.hazard_map)
+    TALLY, HAZARD_OUT = spec.tally, any(f.startswith("hazard.") for f in spec.core_fields)
 
     @wp.func
     def ricochet_pellet(index: wp.int32, row: wp.int32, source: Source, surfaces: Surfaces, physics: Physics,
-                        out: Outputs, release: Release, counts: wp.vec4i, acc: floats_t, lo: extremes_t,
+                        out: Outputs, release: Release, tally: Tally, counts: wp.vec4i, acc: floats_t, lo: extremes_t,
                         hi: extremes_t, range_shift: scalar):
         """Follow one pellet (global `index`, chunk row `row`) from its start to its landing;
         returns the thread's partials with it added."""
@@ -98,6 +102,7 @@ def make_ricochet_pellet(spec):
                 if k < 0:
                     state = wp.int32(ESCAPED)  # it never meets a surface again
                 else:
+                    hi[X_SCALE] = wp.max(hi[X_SCALE], flight_scale(position, velocity, dt, physics.gravity))
                     position = position_then
                     velocity = velocity_then
                     spin = spin_then
@@ -138,6 +143,7 @@ def make_ricochet_pellet(spec):
         landing_velocity = vec3(scalar(wp.nan))
         distance = scalar(wp.nan)
         landing_surface = wp.int32(-1)
+        exceeds = wp.int32(0)
         if impacts > 0 and state != ESCAPED:
             k = resting_surface
             if state == FLYING:
@@ -147,6 +153,7 @@ def make_ricochet_pellet(spec):
                     acc = acc_fns.add_flight_sums(acc, steps, k_next)
                 k = k_next
                 if k >= 0:
+                    hi[X_SCALE] = wp.max(hi[X_SCALE], flight_scale(position, velocity, dt, physics.gravity))
                     position = position_then
                     velocity = velocity_then
                     time = time + dt
@@ -157,6 +164,11 @@ def make_ricochet_pellet(spec):
                 landing_velocity = velocity
                 distance = landing_range(position, physics.radius, surfaces.normal[k], ricochet_point)
                 counts[2] += 1
+                if wp.static(TALLY or HAZARD_OUT):
+                    v2 = wp.dot(velocity, velocity)
+                    exceeds = landing_tally.exceeded(tally, v2)
+                    if wp.static(TALLY):
+                        landing_tally.add_landing(tally, row, k, distance, position, v2, exceeds)
                 if counts[2] == 1:
                     range_shift = distance
                 acc = acc_fns.add_landing_sums(acc, distance - range_shift, time - ricochet_time, landing_velocity)
@@ -173,6 +185,9 @@ def make_ricochet_pellet(spec):
                     hi[1] = wp.max(hi[1], distance)
         if wp.static(WRITE):
             outs.write_landing(out, row, landing_time, landing_position, landing_velocity, distance, landing_surface)
+            if wp.static(HAZARD_OUT):
+                energy = tally.half_mass * wp.dot(landing_velocity, landing_velocity)  # NaN: never landed
+                outs.write_hazard(out, row, energy, energy * tally.inverse_area, exceeds)
         return counts, acc, lo, hi, range_shift
 
     return ricochet_pellet

@@ -47,6 +47,12 @@ def make_setup_kernels(spec) -> SimpleNamespace:
             end_fns.launch_pellet(i, first_index, source, cloud, out)
 
     @wp.kernel(**opts)
+    def separate_kernel(first_index: wp.int32, pair: Pair, physics: Physics, source: Source, cloud: Cloud, out: Outputs,
+                        redraws: wp.array(dtype=wp.int32)):
+        """Each shot without overlaps at launch (one thread a shot)."""
+        end_fns.separate_shot(wp.tid(), first_index, pair, physics, source, cloud, out, redraws)
+
+    @wp.kernel(**opts)
     def drift_kernel(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
         end_fns.start_shot(wp.tid(), pair, surfaces, physics, cloud)
 
@@ -72,7 +78,7 @@ def make_setup_kernels(spec) -> SimpleNamespace:
     def shot_totals_kernel(pair: Pair, cloud: Cloud, totals: wp.array2d(dtype=wp.float64)):
         end_fns.shot_totals(wp.tid(), pair, cloud, totals)
 
-    return SimpleNamespace(groups_kernel=groups_kernel, cell_lists_kernel=cell_lists_kernel, launch_kernel=launch_kernel, drift_kernel=drift_kernel, grid_points_kernel=grid_points_kernel, neighbours_kernel=neighbours_kernel, release_kernel=release_kernel, shot_totals_kernel=shot_totals_kernel)
+    return SimpleNamespace(groups_kernel=groups_kernel, cell_lists_kernel=cell_lists_kernel, launch_kernel=launch_kernel, separate_kernel=separate_kernel, drift_kernel=drift_kernel, grid_points_kernel=grid_points_kernel, neighbours_kernel=neighbours_kernel, release_kernel=release_kernel, shot_totals_kernel=shot_totals_kernel)
 
 
 @functools.cache

@@ -12,7 +12,7 @@ How it runs (the results are bitwise the same in every mode, tested):
   `wp.HashGrid` ("hashgrid"). Trajectory frames need the host loop (they are taken at checkpoints).
 
 Interrupts (`interrupts`): the host loop checks for one before each block; on the CPU the long
-launches (phase_kernel, block_kernel) run in a worker thread while the main thread waits, and an
+launches (phase_kernel, block_kernel, separate_kernel) run in a worker thread while the main thread waits, and an
 interrupt sets `cloud.stop`, which ends them at their next block, pass or pellet; the chunk is
 then abandoned (KeyboardInterrupt), its state unfinished.
 """
@@ -25,6 +25,8 @@ import numpy as np
 import warp as wp
 
 from .. import interrupts
+from ..errors import SceneError
+from ..launch.packing import MAX_REDRAWS
 from ..tallies.collisions import SHOT_TOTALS
 from .constants import (
     BLOCK_STEPS,
@@ -76,6 +78,8 @@ class DensePhase:
                                                        coll.max_neighbours, spec.collision_fields)
         self.release = release_struct(model.precision, self.cloud, self.count)
         self.totals = wp.zeros((shots, len(SHOT_TOTALS)), dtype=wp.float64, device=self.device)
+        self.sampled = not spec.from_file and coll.separate  # separated launches (a pellet file's are as given)
+        self.redraws, self.envelope_radius = wp.zeros(shots, dtype=wp.int32, device=self.device), scene.shot.envelope_radius
         self.pair = pair_struct(model.precision, model, coll, self.count, self.block_steps)
         cpu = not self.device.is_cuda
         self.fused = cpu and options.cpu_steps != "kernels"
@@ -104,7 +108,7 @@ class DensePhase:
         self.threads = self._threads(pellets)
         self.shots = shots
         self._outputs = outputs
-        self._launch("launch_kernel", self.threads, [first_index, p, source, c, outputs])
+        self.launch_shots(first_index, shots, source, outputs)
         self._launch("drift_kernel", shots, [p, self.model.surfaces, self.model.physics, c])
         if not self.cell_lists:
             self._launch("groups_kernel", pellets, [p, self.groups])
@@ -114,6 +118,19 @@ class DensePhase:
             self._host_loop(pellets, shots, outputs, frames)
         self._launch("release_kernel", self.threads, [p, self.model.physics, c])
         self._launch("shot_totals_kernel", shots, [p, c, self.totals])
+        check_redraws(self, shots)
+
+    def launch_shots(self, first_index: int, shots: int, source, outputs):
+        """Each pellet's launch state, each shot of sampled launches separated (no overlaps)."""
+        self.threads = self._threads(shots * self.count)
+        self._launch("launch_kernel", self.threads, [first_index, self.pair, source, self.cloud, outputs])
+        if self.sampled:  # (O(count^2) a shot: on the CPU, stopped by an interrupt as the phase is)
+            command = self._launch("separate_kernel", shots, [first_index, self.pair, self.model.physics, source,
+                                                              self.cloud, outputs, self.redraws], True)
+            if self.stop is None:
+                command.launch()
+            else:
+                interrupts.wait(command.launch, self.stop)
 
     def _threads(self, pellets):
         """Threads of a per-pellet kernel: one per pellet on CUDA; on the CPU one for all."""
@@ -272,3 +289,12 @@ def take_frame(dense, pellets: int, frames):
     g = np.asarray(dense.model.physics.gravity, np.float64)
     age = np.where(flying, now - t, 0.0)[:, None]
     frames(steps, now, x + v * age + 0.5 * g * age**2)
+
+
+def check_redraws(phase: DensePhase, shots: int):
+    """Refuse (one line) shots where a pellet found no place free of overlaps (the scene check
+    keeps this from happening below `launch.packing.MAX_PACKING`)."""
+    if phase.sampled and int(phase.redraws.numpy()[:shots].max()) > MAX_REDRAWS:
+        raise SceneError("shot.envelope_radius", phase.envelope_radius,
+                         f"a pellet found no place free of overlaps in {MAX_REDRAWS:,} draws: the envelope is too "
+                         "dense to sample without overlaps; make it larger")

@@ -35,7 +35,9 @@ from .._version import __version__
 from ..dense.schedule import segments_of_shots, shot_granule
 from ..errors import OutputError, SceneError
 from ..tallies.collisions import SHOT_TOTALS
-from ..tallies.reduce import SEGMENT
+from ..tallies.ensemble import has_ensemble, pieces_per_shot
+from ..tallies.reduce import SEGMENT, SEGMENT_WIDTH
+from . import tally_out
 from .runfile import FORMAT_NAME
 
 
@@ -74,7 +76,8 @@ def verify(f, scene, dev, partial_name: str) -> tuple[int, int, int, int]:
         raise OutputError(f"output path = {partial_name!r}: is not a warp-ricochet run file (format = "
                           f"{attrs.get('format')!r}, kind = {attrs.get('kind')!r}); it cannot be resumed")
     if "progress" not in f:
-        raise OutputError(f"output path = {partial_name!r}: holds no resume data (written by an older version); "
+        raise OutputError(f"output path = {partial_name!r}: holds no resume data (interrupted while it was set up, before any "
+                          "chunk, or written by an older version); "
                           "--overwrite starts the run again")
     for key, here in (("package_version", __version__), ("warp_version", wp.config.version)):
         if attrs.get(key) != here:
@@ -100,6 +103,11 @@ def verify(f, scene, dev, partial_name: str) -> tuple[int, int, int, int]:
                                   or list(progress["shot_totals"].attrs.get("columns", [])) != list(SHOT_TOTALS)):
         raise OutputError(f"output path = {partial_name!r}: holds no per-shot collision totals (written by an older "
                           "version); --overwrite starts the run again")
+    results = progress.get("segment_results")
+    width = results.shape[-1] if results is not None and results.ndim == 2 else 0
+    if width != SEGMENT_WIDTH:
+        raise OutputError(f"output path = {partial_name!r}: holds statistics partials of another layout ({width} columns "
+                          f"for {SEGMENT_WIDTH}: written by an older version); --overwrite starts the run again")
     rows, chunk = int(progress["rows"][()]), int(progress["chunk_rows"][()])
     pellets = int(f["constants/pellets"][()])
     if scene.pair_collisions:  # chunks of whole shots, a multiple of shot_granule shots but the last
@@ -138,6 +146,9 @@ class ResumePlan:
     shots: int
     segment_results: object
     shot_totals: object
+    tally: object = None  # the landing counts of the rows complete (`io.tally_out.read_progress`)
+    shot_partials: object = None  # per-shot partials of the complete shots (runs of several shots)
+    pieces: int = 0
 
 
 def plan(f, scene, dev, partial_name: str) -> ResumePlan:
@@ -146,4 +157,16 @@ def plan(f, scene, dev, partial_name: str) -> ResumePlan:
     rows, chunk, segments, shots = verify(f, scene, dev, partial_name)
     progress = f["progress"]
     totals = progress["shot_totals"][:shots] if scene.pair_collisions else None
-    return ResumePlan(rows, chunk, segments, shots, progress["segment_results"][:segments], totals)
+    tally = tally_out.read_progress(progress, rows)
+    if scene.output.quantiles and rows and tally is None:
+        raise OutputError(f"output path = {partial_name!r}: holds no landing counts for its {rows} rows complete; "
+                          "it cannot be resumed (--overwrite starts the run again)")
+    partials, pieces = None, 0
+    if has_ensemble(scene):
+        pieces = rows // scene.shot.count * pieces_per_shot(scene.shot.count)
+        if "shot_partials" not in progress or len(progress["shot_partials"]) < pieces:
+            raise OutputError(f"output path = {partial_name!r}: is inconsistent (per-shot partials of fewer than "
+                              f"{rows // scene.shot.count} shots); it cannot be resumed")
+        partials = progress["shot_partials"][:pieces]
+    return ResumePlan(rows, chunk, segments, shots, progress["segment_results"][:segments], totals, tally, partials,
+                      pieces)

@@ -5,7 +5,9 @@ root attributes once, and marks the run `status` = "running" / "complete" / "int
 "failed". It writes to `NAME.partial` beside the target and moves it into place only when the
 run is complete (atomically; without overwrite, never over a file that appeared meanwhile), so
 the target is never half-written and a failed `--overwrite` run leaves the old result intact;
-an interrupted or failed run leaves its completed chunks in `NAME.partial`. `io.writer.RunWriter` writes one run into a group of it. The layout is documented in
+an interrupted or failed run leaves its completed chunks in `NAME.partial`. Once a file is in place
+its XDMF sidecar `NAME.xmf` is written (`io.xdmf`; an existing one is replaced only with overwrite,
+and refused before any work otherwise). `io.writer.RunWriter` writes one run into a group of it. The layout is documented in
 docs/output.md.
 
 Faults. A run file is written in HDF5 SWMR mode (single writer, multiple readers): every dataset
@@ -33,6 +35,7 @@ from __future__ import annotations
 import datetime
 import errno
 import os
+import warnings
 from pathlib import Path
 
 import h5py
@@ -40,8 +43,10 @@ import warp as wp
 
 from .. import interrupts
 from .._version import __version__
-from ..errors import OutputError, RicochetError
+from ..errors import OutputError, RicochetError, hdf5_reason, in_use_error
+from .h5open import open_for_reading
 from .space import Reservation
+from .xdmf import check_sidecar, sidecar_path, write_xdmf
 
 try:
     import fcntl
@@ -63,11 +68,19 @@ def check_output_path(path, overwrite: bool) -> Path:
         raise OutputError(f"{shown}: is a directory")
     if p.exists() and not overwrite:
         raise OutputError(f"{shown}: exists; pass --overwrite (overwrite=True) to replace it")
+    if p.is_symlink() and not p.exists() and not overwrite:  # else found only when the run moves into place
+        raise OutputError(f"{shown}: is a dangling symbolic link (to {os.readlink(p)!r}); remove it, or pass "
+                          "--overwrite (overwrite=True) to replace the link")
     partial = p.with_name(p.name + ".partial")
-    if partial.exists() and not overwrite:
-        raise OutputError(f"{shown}: {partial.name} exists (the chunks of an earlier interrupted run); pass "
-                          "--resume (resume=True) to continue that run, --overwrite (overwrite=True) to replace "
-                          "it, or move it away")
+    if partial.exists():
+        if in_use(partial):
+            raise in_use_error(shown, partial.name)
+        if not overwrite:
+            what = ("the points of an earlier interrupted sweep", "sweep") if partial.is_dir() else \
+                ("the chunks of an earlier interrupted run", "run")
+            raise OutputError(f"{shown}: {partial.name} exists ({what[0]}); pass --resume (resume=True) to continue "
+                              f"that {what[1]}, --overwrite (overwrite=True) to replace it, or move it away")
+    check_sidecar(p, overwrite, shown)
     parent = p.parent if str(p.parent) else Path(".")
     if not parent.exists():
         raise OutputError(f"{shown}: folder {str(parent)!r} does not exist")
@@ -76,6 +89,29 @@ def check_output_path(path, overwrite: bool) -> Path:
     if not os.access(parent, os.W_OK | os.X_OK) or (p.exists() and not os.access(p, os.W_OK)):
         raise OutputError(f"{shown}: not writable (permission denied)")
     return p
+
+
+def in_use(path: Path) -> bool:
+    """Whether another process holds a lock on `path` (a partial file or a sweep's folder): a run or
+    sweep writing it (flock, see `_PartialLock`, `io.sweepdir`) or an HDF5 reader."""
+    if fcntl is None:
+        return False
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        return True
+    finally:
+        os.close(fd)
+    return False
+
+
+def output_target(path) -> Path:
+    """An output path as a Path, or a one-line OutputError (not .h5 or .hdf5, a NUL character)."""
+    return _target(path)[0]
 
 
 def _target(path) -> tuple[Path, str]:
@@ -116,8 +152,7 @@ class _PartialLock:
             fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
             self.release()
-            raise OutputError(f"{shown}: {partial.name} is in use by another process (a run writing it, or a "
-                              "reader); wait for it to finish or stop it") from None
+            raise in_use_error(shown, partial.name) from None
 
     def share(self):
         if self.fd is not None and fcntl is not None:
@@ -146,6 +181,9 @@ class OutputFile:
         # NAME.partial, if it exists, always opens, even after a SIGKILL during the set-up
         self.staging = self.partial.with_name(self.partial.name + ".new") if self.watchable else self.partial
         shown = f"output path = {str(self.path)!r}"
+        if self.watchable and self.partial.is_dir():  # never replaced by a run's partial, even with overwrite
+            raise OutputError(f"{shown}: {self.partial.name} is a sweep's folder (warp-ricochet sweep ... --resume "
+                              "continues it); remove it, or choose another output path")
         if self.staging.exists():  # a set-up file of a killed run, or (overwrite) a sweep's earlier partial
             _PartialLock(self.staging, shown).release()  # refused while someone has it open
             os.unlink(self.staging)
@@ -154,7 +192,7 @@ class OutputFile:
         except FileExistsError:
             raise OutputError(f"{shown}: {self.staging.name} appeared meanwhile (another run?)") from None
         except OSError as exc:
-            raise OutputError(f"{shown}: cannot be created ({exc})") from None
+            raise OutputError(f"{shown}: {self.staging.name} cannot be created ({hdf5_reason(exc)})") from None
         try:
             self._lock = _PartialLock(self.staging, shown)
         except OutputError:
@@ -196,13 +234,10 @@ class OutputFile:
         self._lock = _PartialLock(self.partial, shown)
         try:
             try:
-                try:  # swmr: opens even with the flags of a killed writer set
-                    f = h5py.File(self.partial, "r", swmr=True, locking=False)
-                except OSError:
-                    f = h5py.File(self.partial, "r", locking=False)
+                f = open_for_reading(self.partial, locking=False)  # also with the flags of a killed writer set
             except OSError as exc:
                 raise OutputError(f"{shown}: {self.partial.name} cannot be resumed: HDF5 cannot open it "
-                                  f"({' '.join(str(exc).split())})") from None
+                                  f"({hdf5_reason(exc)}); --overwrite starts the run again") from None
             with f:
                 try:
                     found = check(f)
@@ -216,7 +251,7 @@ class OutputFile:
                 self.h5 = h5py.File(self.partial, "r+", **SWMR_FILE)
             except (OSError, ValueError) as exc:
                 raise OutputError(f"{shown}: {self.partial.name} cannot be reopened for writing "
-                                  f"({' '.join(str(exc).split())})") from None
+                                  f"({hdf5_reason(exc)})") from None
         except BaseException:
             self._lock.release()
             raise
@@ -289,13 +324,33 @@ class OutputFile:
                 move_into_place(self.partial, self.path, self.overwrite)
         finally:
             self._lock.release()
+        if exc_type is None:
+            publish_sidecar(self.path, self.overwrite)
         return False
+
+
+def publish_sidecar(path: Path, overwrite: bool) -> None:
+    """Write the XDMF sidecar of a published file (io.xdmf); the result is in place already, so a
+    sidecar that cannot be written is a warning naming the command that writes it later."""
+    try:
+        write_xdmf(path, overwrite=overwrite)
+    except (OSError, RicochetError) as exc:
+        warnings.warn(f"{sidecar_path(path).name} (the XDMF sidecar for ParaView) was not written: "
+                      f"{' '.join(str(exc).split())}; `warp-ricochet xdmf {path}` writes it", stacklevel=2)
 
 
 
 def publish(staging: Path, partial: Path, overwrite: bool, shown: str):
     """Rename a file set up as NAME.partial.new to NAME.partial (the lock goes with it): atomically,
     and without overwrite never over a NAME.partial that appeared meanwhile."""
+    try:
+        _publish(staging, partial, overwrite, shown)
+    except FileNotFoundError:  # removed by another process meanwhile
+        raise OutputError(f"{shown}: {staging.name} was removed during the set-up (by another process?); run it "
+                          "again") from None
+
+
+def _publish(staging: Path, partial: Path, overwrite: bool, shown: str):
     if overwrite:
         if partial.exists():  # an earlier partial: not while someone has it open
             _PartialLock(partial, shown).release()
@@ -351,6 +406,14 @@ def move_into_place(partial: Path, path: Path, overwrite: bool):
 
 
 def _move(partial: Path, path: Path, overwrite: bool):
+    try:
+        _replace(partial, path, overwrite)
+    except FileNotFoundError:  # removed by another process while the run wrote it: its rows are gone
+        raise OutputError(f"output path = {str(path)!r}: {partial.name} was removed during the run (by another "
+                          "process?); its results are lost: run it again") from None
+
+
+def _replace(partial: Path, path: Path, overwrite: bool):
     if overwrite:
         os.replace(partial, path)
         return
@@ -373,9 +436,14 @@ def check_resume_path(path, overwrite: bool) -> Path:
     p, shown = _target(path)
     if p.exists() and not overwrite:
         raise OutputError(f"{shown}: exists; pass --overwrite (overwrite=True) to replace it with the resumed run")
+    check_sidecar(p, overwrite, shown)
     partial = p.with_name(p.name + ".partial")
+    if partial.is_dir():
+        raise OutputError(f"{shown}: {partial.name} is a sweep's folder; warp-ricochet sweep ... --resume continues it")
     if not partial.is_file():
         raise OutputError(f"{shown}: nothing to resume: {partial.name} does not exist")
+    if in_use(partial):
+        raise in_use_error(shown, partial.name)
     if not os.access(partial, os.R_OK | os.W_OK) or not os.access(partial.parent, os.W_OK | os.X_OK):
         raise OutputError(f"{shown}: {partial.name} or its folder is not writable (permission denied)")
     if not h5py.is_hdf5(partial):

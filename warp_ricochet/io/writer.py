@@ -20,9 +20,12 @@ import numpy as np
 
 from ..fields import FIELDS, numpy_dtype, shape
 from ..tallies.collisions import SHOT_TOTALS, SHOT_TOTALS_UNITS
+from ..tallies.ensemble import has_ensemble
+from .ensemble import create_ensemble_datasets, write_ensemble
 from ..tallies.reduce import SEGMENT, SEGMENT_WIDTH
 from ..tallies.sums import STAT_UNITS
-from . import h5md
+from . import h5md, tally_out
+from .dimensions import name_run_dimensions, name_sweep_dimensions
 from .runfile import _OPEN
 from .space import check_space
 
@@ -79,8 +82,13 @@ class RunWriter:
         for name in stats:  # written at the end: NaN until then
             ds = group.create_dataset(f"stats/{name}", data=np.nan)
             ds.attrs["units"], ds.attrs["description"] = STAT_UNITS[name]
+        if has_ensemble(scene):  # intervals over shots: made now, filled at the end (SWMR: no new objects then)
+            create_ensemble_datasets(group, stats, scene.shot.shots)
         if scene.pair_collisions and scene.collisions.frame_every:
             h5md.create_frames(group, pellets, scene.collisions.frame_every)
+        if scene.output.quantiles:
+            tally_out.create(group, scene, model)
+        name_run_dimensions(group)  # before SWMR: attaching a scale writes attributes
         self._open_datasets()
         self._start_watching()
 
@@ -89,9 +97,10 @@ class RunWriter:
         h5md.append_frame(self.group, step, time, positions)
 
     @classmethod
-    def reopen(cls, group: h5py.Group, *, fields, rows: int, segments: int, shots: int = 0):
+    def reopen(cls, group: h5py.Group, *, fields, rows: int, segments: int, shots: int = 0, pieces: int = 0):
         """The writer of a run in an existing file, continuing after `rows` complete rows (and their
-        `segments` segment results and, with pair collisions, the totals of their `shots` shots):
+        `segments` segment results, with pair collisions the totals of their `shots` shots, and
+        the `pieces` rows of per-shot partials of their complete shots):
         anything written after them is cut off."""
         self = cls.__new__(cls)
         self.group = group
@@ -102,6 +111,8 @@ class RunWriter:
         self.segment_results.resize(segments, axis=0)
         if self.shot_totals is not None:
             self.shot_totals.resize(shots, axis=0)
+        if self.shot_partials is not None:
+            self.shot_partials.resize(pieces, axis=0)
         self.rows = rows
         self.progress_rows[()] = rows
         group.file.flush()
@@ -115,6 +126,7 @@ class RunWriter:
         self.chunk_rows = g["progress/chunk_rows"]
         self.segment_results = g["progress/segment_results"]
         self.shot_totals = g.get("progress/shot_totals")  # runs with pair collisions
+        self.shot_partials = g.get("progress/shot_partials")  # runs of several shots (tallies.ensemble)
 
     def _start_watching(self):
         out = _OPEN.get(self.group.file.filename)
@@ -145,6 +157,12 @@ class RunWriter:
             ds.attrs["units"] = SHOT_TOTALS_UNITS
             ds.attrs["description"] = ("per shot: pellets that collided, pellet-pellet collisions counted by both "
                                        "pellets, energy lost in them, steps and end time of its dense phase")
+        if has_ensemble(scene):
+            ds = g.create_dataset("shot_partials", shape=(0, width), maxshape=(None, width), chunks=(256, width),
+                                  dtype="f8")
+            ds.attrs["units"] = "as segment_results"
+            ds.attrs["description"] = ("per piece of 256 pellets of a shot (core.shots.PIECE), shots complete in "
+                                       "order: the statistics partials each shot's values in /stats/shots are made of")
 
     @staticmethod
     def _write_constants(g, model, scene, pellets):
@@ -174,13 +192,15 @@ class RunWriter:
                 arr = arr.reshape(len(planes), 3)
             s.create_dataset(name, data=arr).attrs["units"] = unit
 
-    def append(self, arrays: dict[str, np.ndarray], rows: int, segment_results: np.ndarray, shot_totals=None):
+    def append(self, arrays: dict[str, np.ndarray], rows: int, segment_results: np.ndarray, shot_totals=None,
+               tally=None, shot_partials=None):
         """Append the first `rows` rows of each field's array, the chunk's segment results and (pair
-        collisions) the totals of its shots; flush; then count the rows complete and flush again
-        (the commit point of the chunk)."""
+        collisions) the totals of its shots, keep the landing counts so far (`tally`), and (several
+        shots) the per-shot partials of the shots it completes; flush; then count the rows complete
+        and flush again (the commit point of the chunk)."""
         start, stop = self.rows, self.rows + rows
         need = sum(arrays[name][:rows].nbytes for name in self.datasets) + segment_results.nbytes
-        need += 0 if shot_totals is None else shot_totals.nbytes
+        need += sum(block.nbytes for block in (shot_totals, shot_partials) if block is not None)
         out = _OPEN.get(self.group.file.filename)
         if out is not None:
             out.reserve(need, "the next chunk")
@@ -190,13 +210,16 @@ class RunWriter:
             for name, ds in self.datasets.items():
                 ds.resize(stop, axis=0)
                 ds[start:stop] = arrays[name][:rows]
-            for ds, block in ((self.segment_results, segment_results), (self.shot_totals, shot_totals)):
+            for ds, block in ((self.segment_results, segment_results), (self.shot_totals, shot_totals),
+                              (self.shot_partials, shot_partials)):
                 if block is not None:
                     done = len(ds)
                     ds.resize(done + len(block), axis=0)
                     ds[done:] = block
             if start == 0:
                 self.chunk_rows[()] = rows
+            if tally is not None:
+                tally_out.store_progress(self.group, tally, stop)
             self.group.file.flush()
             self.progress_rows[()] = stop
             self.group.file.flush()
@@ -205,8 +228,14 @@ class RunWriter:
         self.rows = stop
 
     def write_stats(self, stats: dict[str, float]):
+        """The statistics, and the landing tallies' results (`pipeline.RunStats.tally`)."""
         try:
             write_stats(self.group, stats)
+            tally = getattr(stats, "tally", None)
+            if tally is not None:
+                tally_out.write_results(self.group, tally, int(stats["landed"]))
+            if getattr(stats, "ensemble", None) is not None:
+                write_ensemble(self.group, stats.ensemble)
             self.group.file.flush()
         except (OSError, RuntimeError) as exc:
             raise _write_failure(exc, self.group) from None
@@ -236,3 +265,5 @@ def write_stats(group: h5py.Group, stats: dict, index=None, size=None):
         if "units" not in ds.attrs:
             ds.attrs["units"] = unit
             ds.attrs["description"] = doc
+    if index is not None:
+        name_sweep_dimensions(group)

@@ -16,8 +16,16 @@ cos) run in the working precision, so a float64 run agrees between CPU and GPU t
   closed form (radius u^(1/3), direction uniform on the sphere): no rejection loop, whose
   iterations a GPU warp would have to wait out for its slowest lane;
 - direction: d = direction + jitter * u, u uniform in [-1, 1]^3, then n = d / |d|
-  (the paper's d = (1 +- 0.1, -1 +- 0.1, 0 +- 0.1));
+  (the paper's d = (1 +- 0.1, -1 +- 0.1, 0 +- 0.1)); `launch.source` scales direction and jitter
+  together by a power of two on the host (`scene.vectors`), so |d|^2 does not underflow;
 - velocity = speed * n; angular velocity = spin.
+
+With pellet-pellet collisions a shot is sampled without overlaps (`dense.ends.separate_shot`): a
+pellet whose centre lies closer than a diameter to an earlier pellet of its shot takes a new
+position, attempt r = 1, 2, ... drawn by `redraw_position` from outputs k = 2r + 2, 2r + 3 of its
+own stream (k = 1, 2, 3 are its launch state), at most `launch.packing.MAX_REDRAWS` times; its velocity and spin
+stay. The envelope's packing fraction (pellet volume over envelope volume) may be at most
+`launch.packing.MAX_PACKING` (scene check).
 """
 
 
@@ -104,3 +112,31 @@ def make_sampler(scalar):
         return position, velocity, spin
 
     return sample_pellet
+
+
+@functools.cache
+def make_redraw(scalar):
+    """Return the `@wp.func` that draws attempt r >= 1 of a new position of pellet `index`."""
+    vec3 = wp.types.vector(3, scalar)
+
+    @wp.func
+    def redraw_position(seed: wp.int32, index: wp.int32, attempt: wp.int32, envelope_center: vec3,
+                        envelope_radius: scalar):
+        """Uniform in the envelope sphere, as `sample_pellet`'s position, from stream outputs
+        k = 2 attempt + 2 and 2 attempt + 3 of pellet `index` of `seed` (m)."""
+        key = mix64((wp.uint64(seed) << wp.uint64(32)) | wp.uint64(index))
+        k = wp.uint64(2 * attempt + 2)
+        a = mix64(key + k * GOLDEN)
+        b = mix64(key + (k + wp.uint64(1)) * GOLDEN)
+        unit = scalar(UNIT24)
+        u1 = scalar(wp.uint32(a) >> wp.uint32(8)) * unit
+        u2 = scalar(wp.uint32(a >> wp.uint64(32)) >> wp.uint32(8)) * unit
+        u3 = scalar(wp.uint32(b) >> wp.uint32(8)) * unit
+        one = scalar(1.0)
+        z = scalar(2.0) * u1 - one
+        azimuth = scalar(6.283185307179586) * u2
+        r = wp.cbrt(u3)
+        ring = r * wp.sqrt(wp.max(one - z * z, scalar(0.0)))
+        return envelope_center + envelope_radius * vec3(ring * wp.cos(azimuth), ring * wp.sin(azimuth), r * z)
+
+    return redraw_position

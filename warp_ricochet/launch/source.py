@@ -11,6 +11,7 @@ import numpy as np
 import warp as wp
 
 from ..physics.types import types_for
+from ..scene.vectors import scale_exponent, scaled
 from .sampling import make_sampler
 
 ARRAYS = ("position", "velocity", "angular_velocity")
@@ -72,8 +73,11 @@ class PelletSource:
         struct = make_source(precision, self.from_file).Source()
         struct.seed = shot.seed
         struct.speed = t.scalar(shot.speed)
-        struct.direction = t.vec3(*shot.direction)
-        struct.jitter = t.vec3(*shot.direction_jitter)
+        # scaled together by a power of two (exact): the kernel forms |d|^2 of d = direction + jitter u
+        # without underflow, and ordinary directions are left as they are (scene.vectors)
+        k = scale_exponent(shot.direction, shot.direction_jitter)
+        struct.direction = t.vec3(*scaled(shot.direction, k))
+        struct.jitter = t.vec3(*scaled(shot.direction_jitter, k))
         struct.envelope_center = t.vec3(*shot.envelope_center)
         struct.envelope_radius = t.scalar(shot.envelope_radius)
         struct.spin = t.vec3(*shot.spin)

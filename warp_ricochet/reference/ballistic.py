@@ -13,6 +13,7 @@ import numpy as np
 
 from ..physics.ballistic import MAX_FLIGHT_TIME, ROUNDING
 from ..physics.impact import SOLID_SPHERE_INERTIA_FACTOR
+from ..scene.vectors import scale_exponent, scaled
 from ..tallies.sums import statistics_from_arrays
 
 TOLERANCE = ROUNDING * np.finfo(np.float64).eps  # rounding noise, relative (physics.ballistic's rule in float64)
@@ -140,11 +141,19 @@ def sample_launch(shot, rng: np.random.Generator):
     r = np.cbrt(rng.uniform(0.0, 1.0, n))
     ring = r * np.sqrt(1.0 - z * z)
     offset = np.stack([ring * np.cos(azimuth), ring * np.sin(azimuth), r * z], axis=1)
-    d = np.asarray(shot.direction) + np.asarray(shot.direction_jitter) * rng.uniform(-1.0, 1.0, (n, 3))
+    k = scale_exponent(shot.direction, shot.direction_jitter)  # as the kernels: no underflow in |d|^2
+    d = np.asarray(scaled(shot.direction, k)) + np.asarray(scaled(shot.direction_jitter, k)) * rng.uniform(-1.0, 1.0, (n, 3))
     velocity = shot.speed * d / np.linalg.norm(d, axis=1)[:, None]
     position = np.asarray(shot.envelope_center) + shot.envelope_radius * offset
     spin = np.broadcast_to(np.asarray(shot.spin, np.float64), (n, 3)).copy()
     return position, velocity, spin
+
+
+def flight_scale(position, velocity, gravity, dt):
+    """M = |x0| + |v0| t + |g| t^2 / 2 (m) of flights of `dt` (s), |.| the largest absolute component
+    (tallies.sums)."""
+    g = np.abs(np.asarray(gravity, np.float64)).max()
+    return np.abs(position).max(axis=-1) + dt * (np.abs(velocity).max(axis=-1) + 0.5 * dt * g)
 
 
 def simulate(scene, position, velocity, angular_velocity):
@@ -176,11 +185,13 @@ def simulate(scene, position, velocity, angular_velocity):
     impacts = np.zeros(n, int)
     resting = np.zeros(n, bool)  # met a surface without closing speed: the flight ends there
     resting_surface = np.full(n, -1)
+    scale = np.full(n, np.nan)  # each pellet's largest flight scale (m)
     for bounce in range(B):
         dt, k = next_contact(r, v, g, radius, points, normals, touching)
         meet = active & (k >= 0)
         active &= meet
         dt = np.where(meet, dt, 0.0)
+        scale = np.where(meet, np.fmax(scale, flight_scale(r, v, g, dt)), scale)
         nrm = np.where(meet[:, None], normals[k], 0.0)
         r = np.where(meet[:, None], r + v * dt[:, None] + 0.5 * g * dt[:, None] ** 2, r)
         v = np.where(meet[:, None], v + g * dt[:, None], v)
@@ -222,6 +233,7 @@ def simulate(scene, position, velocity, angular_velocity):
     dt, k = next_contact(r, v, g, radius, points, normals, touching)
     flying_lands = active & (k >= 0)
     dt = np.where(flying_lands, dt, 0.0)
+    scale = np.where(flying_lands, np.fmax(scale, flight_scale(r, v, g, dt)), scale)
     k = np.where(resting, resting_surface, k)
     landed = (impacts > 0) & (flying_lands | resting)
     land_pos = np.where(landed[:, None], r + v * dt[:, None] + 0.5 * g * dt[:, None] ** 2, np.nan)
@@ -246,5 +258,6 @@ def simulate(scene, position, velocity, angular_velocity):
         velocity_after=out["impact.velocity"][:, 0], angular_velocity_after=out["impact.angular_velocity"][:, 0],
         slipped_first=out["impact.slipped"][:, 0] == 1, landed=landed, range_=out["landing.range"],
         slipped_last=last_slipped, time_aloft=land_time - ricochet_time, landing_velocity=np.nan_to_num(land_vel),
+        flight_scale=scale,
     )
     return out, stats

@@ -55,6 +55,7 @@ from .ballistic import (
     CLOSING_TOLERANCE,
     TOLERANCE,
     empty_impact_outputs,
+    flight_scale,
     impact_law,
     next_contact,
 )
@@ -251,6 +252,7 @@ class _Events:
         self.plane_events += 1
         dt, k = self.plane_dt[p : p + 1], int(self.plane_k[p])
         sl = slice(p, p + 1)
+        self.scale[p] = np.fmax(self.scale[p], flight_scale(self.r0[p], self.v0[p], self.g, dt[0]))
         # the same expressions as reference.simulate, so a pellet that meets no other matches bitwise
         r = self.r0[sl] + self.v0[sl] * dt[:, None] + 0.5 * self.g * dt[:, None] ** 2
         v = self.v0[sl] + self.g * dt[:, None]
@@ -373,6 +375,7 @@ class _Cloud(_Events):
         self.land_velocity = np.full((n, 3), np.nan)
         self.land_range = np.full(n, np.nan)
         self.land_surface = np.full(n, -1, np.int16)
+        self.scale = np.full(n, np.nan)  # largest scale of a flight that met a plane (m), as reference.simulate
 
         # caches: next plane contact (from t0) and earliest pair event (absolute time, partner)
         dt, plane = next_contact(self.r0, self.v0, self.g, self.radius, self.points, self.normals, self.touching)
@@ -587,7 +590,7 @@ def simulate_collisions(scene, position, velocity, angular_velocity=None, shot_i
         velocity_after=out["impact.velocity"][:, 0], angular_velocity_after=out["impact.angular_velocity"][:, 0],
         slipped_first=out["impact.slipped"][:, 0] == 1, landed=cloud.landed, range_=cloud.land_range,
         slipped_last=cloud.last_slipped, time_aloft=cloud.land_time - cloud.ricochet_time,
-        landing_velocity=np.nan_to_num(cloud.land_velocity),
+        landing_velocity=np.nan_to_num(cloud.land_velocity), flight_scale=cloud.scale,
     )
     stats.update({
         "collided_fraction": float((cloud.pair_count > 0).mean()) if n else math.nan,

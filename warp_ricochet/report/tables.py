@@ -13,12 +13,14 @@ from __future__ import annotations
 
 import math
 import os
-import tomllib
 from dataclasses import dataclass, field
 
-from ..errors import RicochetError
+from ..errors import RicochetError, hdf5_reason
+from ..io.h5open import open_for_reading
 from ..tallies.sums import STAT_UNITS
+from .hazard_tables import from_file, from_run, tally_lines
 from .paper import paper_row
+from .papercheck import differences, row_scene
 
 __all__ = ["ReportError", "Results", "read_results", "results_from_sweep", "format_tables", "format_run_summary"]
 
@@ -87,6 +89,12 @@ def read_results(path) -> Results:
     if not os.path.exists(path):
         raise ReportError(path, "does not exist")
     if os.path.isdir(path):
+        from ..io.sweepdir import folder_progress
+
+        found = folder_progress(path)
+        if found is not None:
+            raise ReportError(path, f"is an unfinished sweep: {found[0]} of {found[1]} points complete (its tables are "
+                                    "written when every point is); warp-ricochet sweep ... --resume continues it")
         raise ReportError(path, "is a directory, not an HDF5 file")
     try:
         with open(path, "rb"):
@@ -97,13 +105,12 @@ def read_results(path) -> Results:
     if not hdf5:
         raise ReportError(path, "is not an HDF5 file (expected a warp-ricochet .h5 output)")
     try:
-        with h5py.File(path, "r") as f:
+        with open_for_reading(path) as f:  # also a killed run's partial
             return _read_open_file(f, path, np)
     except RicochetError:
         raise
     except (OSError, KeyError, ValueError, TypeError) as exc:  # truncated or otherwise damaged files
-        message = " ".join(str(exc).split()) or type(exc).__name__
-        raise ReportError(path, f"cannot be read as a warp-ricochet file: {message}") from None
+        raise ReportError(path, f"cannot be read as a warp-ricochet file: {hdf5_reason(exc)}") from None
 
 
 def _read_open_file(f, path, np) -> Results:
@@ -126,6 +133,16 @@ def _read_open_file(f, path, np) -> Results:
     if kind == "run":
         row = {name: float(np.asarray(v).reshape(-1)[0]) for name, v in stats.items()}
         meta["points"] = meta["points_done"] = 1
+        if status != "complete" and "progress/rows" in f and "constants/pellets" in f:  # how far it got
+            meta["rows_done"], meta["rows_total"] = int(f["progress/rows"][()]), int(f["constants/pellets"][()])
+        if math.isnan(row.get("pellets", math.nan)):  # statistics (and tallies) are written when the run completes
+            meta["points_done"] = 0
+            return Results(rows=[], meta=meta)
+        meta["intervals"] = {name: (float(ds.attrs["ci_low"]), float(ds.attrs["ci_high"]))
+                             for name, ds in stats_group.items() if isinstance(ds, h5py.Dataset) and "ci_low" in ds.attrs}
+        shots_group = stats_group.get("shots")
+        meta["shots"] = int(shots_group.attrs.get("shots", 0)) if isinstance(shots_group, h5py.Group) else 0
+        meta["tally"] = from_file(f)
         return Results(rows=[row], meta=meta)
     sweep = f.get("sweep")
     if not isinstance(sweep, h5py.Group):
@@ -266,55 +283,112 @@ T2 = (("<W_T> (J)", "mean_WT"), ("<W_R> (J)", "mean_WR"),
 T3 = (("<L> (m)", "range_mean"), ("L+ (m)", "range_max"), ("L- (m)", "range_min"))
 
 
-def _tables(rows, point_headers, point_cells, fmt, *, ours=True, paper_rows=None) -> list[str]:
-    """Tables 1-3 for `rows` (ours) or the paper's values (paper_rows: [(our row, paper row)])."""
+def _tables(rows, point_headers, point_cells, fmt, *, paper_rows=None) -> list[str]:
+    """Tables 1-3 of our `rows`; with `paper_rows` ([(our row, the paper's row)]), the paper's values
+    beside ours in each table and the relative differences of the ranges."""
     n = len(point_headers)
     left = set(range(n)) if point_headers == ["run"] else set()
-    suffix = "" if ours else " [paper: Zohdi 2021]"
-    source = [(r, r) for r in rows] if ours else paper_rows
+    source = [(r, None) for r in rows] if paper_rows is None else paper_rows
+    suffix = "" if paper_rows is None else ", ours beside the paper's [paper: Zohdi 2021]"
+    paper = paper_rows is not None
     out = []
     # Table 1 and 2: two rows per point
     for title, columns in ((TABLE_TITLES[0], T1), (TABLE_TITLES[1], T2)):
+        headers = point_headers + ["Time"] + [c for h, _ in columns for c in ((h, "paper") if paper else (h,))]
         body = []
-        for mine, values in source:
+        for mine, theirs in source:
             for phase in ("pre", "post"):
-                body.append(point_cells(mine, values) + [phase] + [_num(values.get(f"{phase}_{stat}")) for _, stat in columns])
-        out.append(_render(title + suffix, point_headers + ["Time"] + [h for h, _ in columns], body, fmt, left | {n}))
+                cells = point_cells(mine, mine) + [phase]
+                for _, stat in columns:
+                    cells.append(_num(mine.get(f"{phase}_{stat}")))
+                    if paper:
+                        cells.append(_num(theirs.get(f"{phase}_{stat}")))
+                body.append(cells)
+        out.append(_render(title.rstrip(".") + suffix + ".", headers, body, fmt, left | {n}))
     # Table 3
     body = []
-    if ours:
+    if not paper:
         headers = point_headers + [h for h, _ in T3] + ["Frictional case", "L+ slip (m)", "L+ stick (m)"]
         for row, _ in source:
             body.append(point_cells(row, row) + [_num(row.get(stat)) for _, stat in T3]
                         + [frictional_case(row), _num(row.get("range_slip_max")), _num(row.get("range_stick_max"))])
         out.append(_render(TABLE_TITLES[2], headers, body, fmt, left | {n + 3}))
     else:
-        headers = point_headers + [h for h, _ in T3] + ["Frictional case"] + [
+        headers = point_headers + [c for h, _ in T3 for c in (h, "paper")] + ["Frictional case", "paper"] + [
             "ours vs paper " + h.split(" (")[0] for h, _ in T3]
-        for mine, values in source:
-            body.append(point_cells(mine, values) + [_num(values.get(stat)) for _, stat in T3] + [values.get("case", NA)]
-                        + [_rel(mine.get(stat), values.get(stat)) for _, stat in T3])
-        out.append(_render(TABLE_TITLES[2] + suffix, headers, body, fmt, left | {n + 3}))
+        for mine, theirs in source:
+            body.append(point_cells(mine, mine) + [c for _, stat in T3 for c in (_num(mine.get(stat)), _num(theirs.get(stat)))]
+                        + [frictional_case(mine), theirs.get("case", NA)]
+                        + [_rel(mine.get(stat), theirs.get(stat)) for _, stat in T3])
+        out.append(_render(TABLE_TITLES[2].rstrip(".") + suffix + ".", headers, body, fmt, left | {n + 6, n + 7}))
     return out
 
 
-def _mu_s(row: dict, results: Results, base_mu_s):
-    """The static friction of a row: a swept or tied key ending in mu_s (surface 0 first), else the scene's."""
-    keys = [k for k in results.params + results.tied if k.rsplit(".", 1)[-1] == "mu_s"]
-    keys.sort(key=lambda k: k != "surfaces.0.mu_s")
-    for k in keys:
-        v = row.get(k)
-        if isinstance(v, (int, float)) and math.isfinite(v):
-            return float(v)
-    return base_mu_s
+def _paper_matches(results: Results):
+    """Rows of `results` split by the paper's scene (`papercheck`): ([(row, the paper's row)], rows of
+    another scene with their first difference, mu_s values of the paper's scene the paper has no row for)."""
+    keys = results.params + results.tied
+    matched, other, missing = [], [], []
+    for row in results.rows:
+        scene = row_scene(results.meta.get("scene_toml", ""), row, keys)
+        diffs = differences(scene)
+        if diffs:
+            other.append((row, diffs))
+            continue
+        mu_s = float(scene["surfaces"][0]["mu_s"])
+        theirs = paper_row(mu_s)
+        if theirs is None:
+            missing.append(mu_s)
+        else:
+            matched.append((row, theirs))
+    return matched, other, missing
 
 
-def _scene_mu_s(meta: dict):
-    try:
-        scene = tomllib.loads(str(meta.get("scene_toml", "")))
-        return float(scene["surfaces"][0]["mu_s"])
-    except (ValueError, KeyError, IndexError, TypeError):
-        return None
+def _given(value) -> str:
+    return "absent" if value is None else repr(value)
+
+
+def _paper_blocks(results: Results, point_headers, point_cells, fmt) -> list[str]:
+    """`report --paper`: Tables 1-3 with the paper's values beside ours for the rows whose scene is
+    the paper's (apart from friction), and a one-line note for the rows it does not apply to."""
+    matched, other, missing = _paper_matches(results)
+    blocks = []
+    if other:
+        row, diffs = other[0]
+        key, ours, theirs = diffs[0]
+        more = f" and {len(diffs) - 1} more key{'s' if len(diffs) > 2 else ''}" if len(diffs) > 1 else ""
+        which = "this run" if results.kind == "run" else (
+            "any point" if len(other) == len(results.rows) else f"{len(other)} of {len(results.rows)} points")
+        blocks.append(f"paper: the comparison with Zohdi (2021) does not apply to {which}: the scene differs from "
+                      f"the paper's (examples/paper.toml) in {key} = {_given(ours)} (paper: {_given(theirs)}){more}")
+    if missing:
+        values = ", ".join(f"{m:g}" for m in sorted(set(missing)))
+        blocks.append(f"paper: Zohdi (2021) has no row for mu_s = {values} (it lists mu_s = 0, 0.05, ..., 0.5)")
+    if matched:
+        blocks.append("The paper's values (Zohdi 2021, Tables 1-3) beside ours for the same mu_s; its Time "
+                      "0.000/0.010 is shown as pre/post. The paper's stick rows do not follow its eqs. (27)-(29); "
+                      "see warp_ricochet.report.paper. Last columns: relative difference (ours - paper) / paper.")
+        blocks += _tables(None, point_headers, point_cells, fmt, paper_rows=matched)
+    return blocks
+
+
+COLLISION_COLUMNS = (("collided", "collided_fraction", 4), ("pair collisions", "pair_collisions", 0),
+                     ("energy lost (J)", "pair_energy_lost", 4), ("lost per pellet (J)", "pair_energy_lost_mean", 6),
+                     ("dense steps mean", "dense_steps_mean", 1), ("dense steps max", "dense_steps_max", 0),
+                     ("dense time mean (s)", "dense_time_mean", 6), ("dense time max (s)", "dense_time_max", 6),
+                     ("skin overrun max", "skin_overrun_max", 2))
+
+
+def _collision_tables(rows, point_headers, point_cells, fmt) -> list[str]:
+    """The collision statistics of rows with pellet-pellet collisions (none for other runs)."""
+    rows = [r for r in rows if math.isfinite(r.get("collided_fraction", math.nan))]
+    if not rows:
+        return []
+    left = set(range(len(point_headers))) if point_headers == ["run"] else set()
+    body = [point_cells(r, r) + [_num(r.get(stat), d) for _, stat, d in COLLISION_COLUMNS] for r in rows]
+    return [_render("Pellet-pellet collisions (fraction of pellets that collided, pair collisions, the energy they "
+                    "lost; the dense phase's steps and duration per shot; skin overrun in half skins).",
+                    point_headers + [h for h, _, _ in COLLISION_COLUMNS], body, fmt, left)]
 
 
 def header_line(results: Results) -> str:
@@ -352,35 +426,22 @@ def format_tables(results: Results, fmt: str = "text", paper: bool = False) -> s
     def point_cells(row, _values):
         return _point_cells(row, params, formatters)
 
-    # the paper's tables always show mu_s: our columns, plus the paper's mu_s where it is not swept
-    if "mu_s" in point_headers:
-        paper_headers, paper_cells = point_headers, point_cells
-    else:
-        paper_headers = (point_headers if params else []) + ["mu_s"]
-
-        def paper_cells(row, values):
-            return (point_cells(row, values) if params else []) + [_num(values.get("mu_s"))]
-
     blocks = [header_line(results)]  # followed by a blank line: never a Markdown table
-    if results.meta.get("status", "complete") != "complete":
+    if "rows_done" in results.meta:  # an unfinished run file (NAME.h5.partial)
+        done, total = results.meta["rows_done"], results.meta["rows_total"]
+        blocks.append(f"note: status is {results.meta.get('status')!r}: {done:,} of {total:,} pellets complete "
+                      f"({100 * done / max(total, 1):.1f}%); the statistics are written when the run completes "
+                      "(warp-ricochet run ... --resume continues it)")
+    elif results.meta.get("status", "complete") != "complete":
         blocks.append(f"note: status is {results.meta.get('status')!r}; the tables show the points that finished")
     blocks += _tables(results.rows, point_headers, point_cells, fmt)
+    blocks += _collision_tables(results.rows, point_headers, point_cells, fmt)
+    if results.meta.get("intervals") and len(results.rows) == 1:
+        blocks.append(format_intervals(results.rows[0], results.meta["intervals"], results.meta.get("shots", 0), fmt))
     if paper:
-        base = _scene_mu_s(results.meta)
-        matched = []
-        for row in results.rows:
-            mu = _mu_s(row, results, base)
-            pr = paper_row(mu) if mu is not None else None
-            if pr is not None:
-                matched.append((row, pr))
-        if matched:
-            blocks.append("Paper values (Zohdi 2021, Tables 1-3) for the same mu_s; Time 0.000/0.010 in the paper "
-                          "is shown as pre/post. The paper's stick rows do not follow its eqs. (27)-(29); see "
-                          "warp_ricochet.paper. Last columns: relative difference (ours - paper) / paper.")
-            blocks += _tables(results.rows, paper_headers, paper_cells, fmt, ours=False, paper_rows=matched)
-        else:
-            blocks.append("paper: Zohdi (2021) has no row for the mu_s of these results "
-                          "(it lists mu_s = 0, 0.05, ..., 0.5)")
+        blocks += _paper_blocks(results, point_headers, point_cells, fmt)
+    if results.meta.get("tally") is not None:
+        blocks.append("\n".join(tally_lines(results.meta["tally"], results.rows[0].get("pellets", 0.0))))
     return "\n\n".join(blocks) + "\n"
 
 
@@ -412,6 +473,44 @@ def format_run_summary(stats: dict, output=None, device=None) -> str:
         ("L- (shortest)", val("range_min")),
         ("mean W_T at landing", val("landing_mean_WT", 6)),
     ]
+    if math.isfinite(stats.get("collided_fraction", math.nan)):
+        rows += [
+            ("collided (fraction)", _num(stats.get("collided_fraction"), 4)),
+            ("pair collisions", _count(stats.get("pair_collisions"))),
+            ("energy lost in them", f"{val('pair_energy_lost', 4)} ({val('pair_energy_lost_mean', 6)} per pellet)"),
+            ("dense steps mean/max", f"{_num(stats.get('dense_steps_mean'), 1)} / {_count(stats.get('dense_steps_max'))}"),
+            ("dense time mean/max", f"{val('dense_time_mean', 6)} / {val('dense_time_max', 6)}"),
+        ]
     width = max(len(k) for k, _ in rows)
     lines += [f"{k.ljust(width)}  {v}" for k, v in rows]
+    lines += tally_lines(from_run(stats), stats.get("pellets", 0.0))
+    ensemble = getattr(stats, "ensemble", None)
+    if ensemble is not None:
+        intervals = {name: (ensemble.low[name], ensemble.high[name]) for name in ensemble.low}
+        lines += ["", format_intervals(stats, intervals, ensemble.shots, "text", SUMMARY_INTERVALS)]
     return "\n".join(lines) + "\n"
+
+
+SUMMARY_INTERVALS = ("landed", "post_mean_vt", "range_mean", "range_std", "range_max", "range_min", "landing_mean_WT",
+                     "collided_fraction", "pair_energy_lost_mean")
+
+
+def format_intervals(row: dict, intervals: dict, shots: int, fmt: str, names=None) -> str:
+    """The 95% intervals over shots of a run of several shots (`tallies.ensemble`): each statistic,
+    its ensemble value and interval; extremes' intervals are those of one shot's extreme."""
+    extremes = ("_max", "_min")
+    body = []
+    for name in names or STAT_UNITS:
+        if name not in intervals or name not in row:
+            continue
+        low, high = intervals[name]
+        unit = STAT_UNITS[name][0]
+        over = "one shot's extreme" if name.endswith(extremes) else "all shots" if name in _TOTAL_NAMES else "per shot"
+        body.append([name, _num(row[name], 4), _num(low, 4), _num(high, 4), "" if unit == "1" else unit, over])
+    title = (f"95% confidence intervals over {shots:,} shots (Student t over per-shot values; "
+             "values in /stats/shots; docs/output.md)")
+    return _render(title, ["statistic", "value", "95% low", "95% high", "unit", "interval of"], body, fmt, {0, 4, 5})
+
+
+_TOTAL_NAMES = ("pellets", "hits", "missed", "stick", "slip", "landed", "escaped", "pair_collisions",
+                "pair_energy_lost", "flights_unfinished")

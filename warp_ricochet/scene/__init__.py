@@ -24,7 +24,6 @@ Modules: `schema` (the dataclasses and the physical domain), `convert` (one conv
 
 from ..fields import ALL_FIELDS, COLLISION_FIELDS, CORE_FIELDS, GROUPS
 from .overrides import (
-                     MAX_SWEEP_POINTS,
                      apply_override,
                      parse_sweep,
                      parse_tie,
@@ -32,6 +31,7 @@ from .overrides import (
 )
 from .parse import load_scene, scene_from_dict
 from .pellets import load_pellet_file
+from .sweep import MAX_SWEEP_POINTS, SweepPoints
 from .schema import (
                      CHECKPOINT_STEPS,
                      FLOAT32_EXACT_STEPS,
@@ -48,6 +48,7 @@ from .schema import (
                      MIN_DIAMETER,
                      Air,
                      Collisions,
+                     Hazard,
                      Numerics,
                      Output,
                      Physics,
@@ -57,8 +58,8 @@ from .schema import (
                      Vec3,
 )
 
-__all__ = ["Vec3", "Shot", "Surface", "Physics", "Collisions", "Air", "Numerics", "Output", "Scene", "GROUPS", "CORE_FIELDS",
+__all__ = ["Vec3", "Shot", "Surface", "Physics", "Collisions", "Air", "Hazard", "Numerics", "Output", "Scene", "GROUPS", "CORE_FIELDS",
            "COLLISION_FIELDS", "ALL_FIELDS", "load_scene", "scene_from_dict", "apply_override", "set_dotted",
-           "parse_sweep", "parse_tie", "load_pellet_file", "MAX_SWEEP_POINTS", "CHECKPOINT_STEPS",
+           "parse_sweep", "parse_tie", "load_pellet_file", "MAX_SWEEP_POINTS", "SweepPoints", "CHECKPOINT_STEPS",
            "FLOAT32_EXACT_STEPS", "INT32_MAX", "MAX_COORDINATE", "MAX_DENSITY", "MAX_DIAMETER", "MAX_FRICTION",
            "MAX_GRAVITY", "MAX_IMPACT_DURATION", "MAX_SPEED", "MAX_SPIN", "MIN_DENSITY", "MIN_DIAMETER"]

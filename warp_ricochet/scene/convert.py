@@ -185,6 +185,7 @@ _PHYSICS = {"gravity": _vec3(unit="m/s^2", bound=MAX_GRAVITY), "impact_duration"
             "bounces": _int(1, 16)}
 _COLLISIONS = {
     "enabled": _bool,
+    "separate": _bool,
     "restitution": _number(0, 1),
     "mu_s": _range(0, MAX_FRICTION),
     "mu_d": _range(0, MAX_FRICTION),
@@ -240,8 +241,72 @@ _AIR = {
     "spin_decay": _bool,
     "spin_decay_law": _str(("dennis1980", "loth2008")),
 }
-_OUTPUT = {"path": _path(), "fields": _fields}
-_TOP = ("shot", "surfaces", "physics", "collisions", "air", "numerics", "output")
+@_rule("must be a list of at most 64 numbers in (0, 1e7] (m), increasing")
+def _distances(v, path):
+    if not isinstance(v, (list, tuple)) or len(v) > 64 or not all(map(_is_number, v)):
+        raise _err(path, v, _distances.rule)
+    xs = tuple(_finite(x, path, _distances.rule) for x in v)
+    if any(x <= 0 or x > 1e7 for x in xs) or any(b <= a for a, b in zip(xs, xs[1:])):
+        raise _err(path, v, _distances.rule)
+    return xs
+
+
+def _thresholds(unit, hi):
+    rule = (f"must be a table of name = value (names of letters, digits, _ and -; values in (0, {hi:g}] {unit}), "
+            "e.g. {corneal_abrasion = 1503.0}")
+
+    @_rule(rule)
+    def conv(v, path):
+        pairs = v.items() if isinstance(v, dict) else v if isinstance(v, (list, tuple)) else None
+        if pairs is None:
+            raise _err(path, v, rule)
+        out = []
+        for pair in pairs:
+            if not isinstance(pair, (list, tuple)) or len(pair) != 2:
+                raise _err(path, v, rule)
+            name, value = pair
+            if not isinstance(name, str) or not name or not all(c.isascii() and (c.isalnum() or c in "_-") for c in name):
+                raise _err(f"{path}.{name}", value, rule)
+            x = _finite(value, f"{path}.{name}", rule)
+            if not 0 < x <= hi:
+                raise _err(f"{path}.{name}", value, rule)
+            out.append((name, x))
+        return tuple(out)
+    return conv
+
+
+@_rule("must be a list of numbers in (0, 0.5], each the fraction of hazardous landings left beyond a danger distance")
+def _fractions(v, path):
+    if not isinstance(v, (list, tuple)) or not v or len(v) > 16 or not all(map(_is_number, v)):
+        raise _err(path, v, _fractions.rule)
+    xs = tuple(_finite(x, path, _fractions.rule) for x in v)
+    if any(not 0 < x <= 0.5 for x in xs):
+        raise _err(path, v, _fractions.rule)
+    return xs
+
+
+@_rule("must be a list of 4 numbers [u_min, u_max, v_min, v_max] (m), each min below its max")
+def _extent(v, path):
+    if not isinstance(v, (list, tuple)) or len(v) != 4 or not all(map(_is_number, v)):
+        raise _err(path, v, _extent.rule)
+    xs = tuple(_finite(x, path, _extent.rule) for x in v)
+    if xs[0] >= xs[1] or xs[2] >= xs[3] or max(map(abs, xs)) > MAX_COORDINATE:
+        raise _err(path, v, _extent.rule + f", within +-{MAX_COORDINATE:g}")
+    return xs
+
+
+_HAZARD = {
+    "energy_density": _thresholds("J/m^2", 1e12),
+    "speed": _thresholds("m/s", MAX_SPEED),
+    "fractions": _fractions,
+    "shooter": _vec3(unit="m", bound=MAX_COORDINATE),
+    "map_cell": _range(0, MAX_COORDINATE, above=True, unit="m"),
+    "map_extent": _extent,
+    "map_surface": _int(0, 1_000_000),
+    "map_axis": _vec3(nonzero=True, bound=MAX_COORDINATE),
+}
+_OUTPUT = {"path": _path(), "fields": _fields, "quantiles": _bool, "tail_distances": _distances}
+_TOP = ("shot", "surfaces", "physics", "collisions", "air", "numerics", "output", "hazard")
 # table -> its schema (the top level: the names of the tables)
 SCHEMAS = {"shot": _SHOT, "surfaces": _SURFACE, "physics": _PHYSICS, "collisions": _COLLISIONS, "air": _AIR, "numerics": _NUMERICS,
-           "output": _OUTPUT, "": _TOP}
+           "output": _OUTPUT, "hazard": _HAZARD, "": _TOP}

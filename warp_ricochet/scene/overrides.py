@@ -8,8 +8,7 @@ import tomllib
 from decimal import Decimal, InvalidOperation
 
 from .keys import err as _err
-
-MAX_SWEEP_POINTS = 100_000
+from .sweep import MAX_SWEEP_POINTS
 
 
 def _dotted(key: str, spec: str, what: str) -> str:
@@ -78,6 +77,8 @@ def parse_sweep(spec: str) -> tuple[str, list[float]]:
         raise _err("sweep", spec, "must be KEY=start:stop:step or KEY=a,b,c")
     key = _dotted(key, spec, "sweep")
     if ":" not in rhs:
+        if rhs.count(",") >= MAX_SWEEP_POINTS:
+            raise _err(key, spec, f"gives {rhs.count(',') + 1:,} points; a sweep may have at most {MAX_SWEEP_POINTS:,}")
         values = [_sweep_number(t, key, spec) for t in rhs.split(",")]
         if not all(isinstance(v, int) for v in values):
             values = [float(v) for v in values]
@@ -94,11 +95,12 @@ def parse_sweep(spec: str) -> tuple[str, list[float]]:
             raise _err(key, spec, "step must be nonzero and have the sign of stop - start")
         q = (stop - start) / step
         if q >= MAX_SWEEP_POINTS:
-            raise _err(key, spec, f"gives more than {MAX_SWEEP_POINTS} points")
+            shown = f"{int(q) + 1:,}" if q < 10**15 else f"about {q:.2E}"
+            raise _err(key, spec, f"gives {shown} points; a sweep may have at most {MAX_SWEEP_POINTS:,}")
         as_type = int if all(isinstance(n, int) for n in nums) else float
         values = [as_type(start + i * step) for i in range(int(q) + 1)]
     if len(values) > MAX_SWEEP_POINTS:
-        raise _err(key, spec, f"gives more than {MAX_SWEEP_POINTS} points")
+        raise _err(key, spec, f"gives {len(values):,} points; a sweep may have at most {MAX_SWEEP_POINTS:,}")
     return key, values
 
 

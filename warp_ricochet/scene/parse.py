@@ -8,20 +8,24 @@ import os
 import tomllib
 from pathlib import Path
 
-from ..fields import ALL_FIELDS, COLLISION_FIELDS, CORE_FIELDS
+from ..fields import COLLISION_FIELDS, default_fields
+from ..launch.packing import MAX_PACKING, packing_fraction
 from ..physics.limits import MAX_PLANES_IN_AIR
 from .convert import SCHEMAS
 from .keys import MISSING, check_keys, err, join
 from .overrides import apply_override
 from .pellets import load_pellet_file
+from .vectors import unit_vector
 from .schema import (
     CHECKPOINT_STEPS,
     FILE_EXCLUSIVE,
     FLOAT32_EXACT_STEPS,
     INT32_MAX,
+    MAX_THRESHOLDS,
     MIN_FLIGHT_TOLERANCE,
     Air,
     Collisions,
+    Hazard,
     Numerics,
     Output,
     Physics,
@@ -72,9 +76,8 @@ def _shot(raw, base_dir) -> Shot:
 
 def _surface(raw, path: str) -> Surface:
     kw = _table(raw, path, SCHEMAS["surfaces"], required=("point", "normal", "restitution", "mu_s"))
-    norm = math.hypot(*kw["normal"])
-    if abs(norm - 1.0) > 1e-15:  # keeps normalisation idempotent (round trips)
-        kw["normal"] = tuple(x / norm for x in kw["normal"])
+    if abs(math.hypot(*kw["normal"]) - 1.0) > 1e-15:  # keeps normalisation idempotent (round trips)
+        kw["normal"] = unit_vector(kw["normal"])  # scaled first: a tiny normal does not underflow
     if kw.setdefault("mu_d", kw["mu_s"]) > kw["mu_s"]:
         raise err(f"{path}.mu_d", raw["mu_d"], f"must be a number in [0, mu_s = {kw['mu_s']:g}]")
     return Surface(**kw)
@@ -107,6 +110,34 @@ def _air(raw):
     return Air(**kw)
 
 
+def _hazard(raw, surfaces: int):
+    """The [hazard] table, or None when absent."""
+    if raw is None:
+        return None
+    kw = _table(raw, "hazard", SCHEMAS["hazard"])
+    hazard = Hazard(**kw)
+    names = [t[0] for t in hazard.thresholds]
+    if len(names) > MAX_THRESHOLDS:
+        raise err("hazard", f"{len(names)} thresholds", f"at most {MAX_THRESHOLDS} thresholds (energy_density and speed together)")
+    if len(set(names)) < len(names):
+        twice = next(n for n in names if names.count(n) > 1)
+        raise err("hazard", twice, "names a threshold twice (energy_density and speed together): give each a name of its own")
+    if (hazard.map_cell is None) != (hazard.map_extent is None):
+        key = "map_extent" if hazard.map_extent is None else "map_cell"
+        raise err(f"hazard.{key}", MISSING, "is required for a map (hazard.map_cell and hazard.map_extent go together)")
+    if hazard.has_map:
+        (u0, u1, v0, v1), cell = hazard.map_extent, hazard.map_cell
+        cells = math.ceil((u1 - u0) / cell) * math.ceil((v1 - v0) / cell)
+        if cells > MAX_MAP_CELLS:
+            raise err("hazard.map_cell", cell, f"makes {cells:,} cells of hazard.map_extent; at most {MAX_MAP_CELLS:,}")
+        if hazard.map_surface >= surfaces:
+            raise err("hazard.map_surface", hazard.map_surface, f"must be the index of a surface (0 to {surfaces - 1})")
+    return hazard
+
+
+MAX_MAP_CELLS = 4_000_000
+
+
 def _numerics(raw) -> Numerics:
     numerics = Numerics(**_table(raw, "numerics", SCHEMAS["numerics"]))
     least = MIN_FLIGHT_TOLERANCE[numerics.precision]
@@ -130,14 +161,23 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
     shot = _shot(raw["shot"], base_dir)
     pairs = collisions.enabled and shot.count > 1  # as Scene.pair_collisions: the run has a dense phase
     output = _table(raw.get("output"), "output", SCHEMAS["output"])
+    hazard = _hazard(raw.get("hazard"), len(surfaces))
     if "fields" not in output:
-        output["fields"] = ALL_FIELDS if pairs else CORE_FIELDS
+        output["fields"] = default_fields(pairs, hazard is not None)
     elif not pairs:
         extra = [f for f in output["fields"] if f in COLLISION_FIELDS]
         if extra:
             raise err("output.fields", extra[0], "needs pellet-pellet collisions: collisions.enabled = true and "
                        "more than one pellet per shot (shot.count > 1)")
     numerics = _numerics(raw.get("numerics"))
+    if pairs and shot.file is None and collisions.separate:  # sampled without overlaps (launch.sampling): the envelope must leave room
+        fraction = packing_fraction(shot.count, shot.diameter, shot.envelope_radius)
+        if fraction > MAX_PACKING:
+            least = shot.envelope_radius * (fraction / MAX_PACKING) ** (1 / 3)
+            raise err("shot.envelope_radius", shot.envelope_radius,
+                      f"too small for {shot.count} pellets of {shot.diameter:g} m without overlaps (collisions on): "
+                      f"they fill {fraction:.3g} of it, at most {MAX_PACKING} can be sampled (random sequential "
+                      f"addition); at least {least:.4g} m")
     if pairs and numerics.precision == "float32":
         # A shot's step counter is a float32 in a float32 run: it stops counting at 2^24, and a shot
         # stops (max_steps) only at a checkpoint, every frame_every steps (or CHECKPOINT_STEPS), so
@@ -163,6 +203,7 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
         output=Output(**output),
         collisions=collisions,
         air=air,
+        hazard=hazard,
     )
 
 

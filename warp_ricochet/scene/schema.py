@@ -5,7 +5,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from ..fields import CORE_FIELDS
+from ..fields import default_fields
 from ..physics.drag_tables import DRAG_TABLES
 from .toml_out import plain, toml_lines
 
@@ -91,6 +91,7 @@ class Collisions:
     max_neighbours: int = 32                          # per pellet in the neighbour list at first (grows when needed)
     max_steps: int = 1_000_000                        # the dense phase stops (and says so) after these
     frame_every: int = 0                              # H5MD trajectory frame every k steps (0: none)
+    separate: bool = True                             # sample each shot without overlaps (launch.sampling); false: as without collisions
 
 
 # International Standard Atmosphere at sea level (15 C, 101,325 Pa): density 1.225 kg/m^3, sound speed
@@ -150,10 +151,49 @@ class Numerics:
     flight_tolerance: float = FLIGHT_TOLERANCE        # relative, of the integrated flight in air
 
 
+# Tail fractions (share of landed pellets beyond these distances from the shooter), m
+TAIL_DISTANCES = (1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0, 1000.0)
+
+
 @dataclass(frozen=True)
 class Output:
     path: str | None = None                           # relative to the current working directory
-    fields: tuple[str, ...] = CORE_FIELDS             # "group.field", canonical order
+    fields: tuple[str, ...] = default_fields(False, False)  # "group.field", canonical order
+    quantiles: bool = True                            # landing histograms: quantiles, tail fractions (docs/hazard.md)
+    tail_distances: tuple[float, ...] = TAIL_DISTANCES  # m, from the shooter
+
+
+# Hazard thresholds (docs/hazard.md; ../shared/reference/air-and-hazard-sources.md). Energy density
+# E/A, J/m^2: eye, 50% risk (Duma et al., J Trauma 2005, doi:10.1097/01.ta.0000174830.55282.32)
+# of corneal abrasion 1,503 and of globe rupture 23,771; eye penetration ~4.3 J/cm^2 (Marshall,
+# Dahlstrom, Powley 2011, Am J Forensic Med Pathol 32(2), pig eyes, 4.5 mm steel BBs). Speed, m/s:
+# skin perforation by a 0.177 in lead pellet ~101 m/s (DiMaio et al. 1982, J Forensic Sci 27(4):894).
+HAZARD_ENERGY_DENSITY = (("corneal_abrasion", 1503.0), ("globe_rupture", 23771.0), ("eye_penetration", 43000.0))
+HAZARD_SPEED = (("skin_perforation", 101.0),)
+MAX_THRESHOLDS = 31  # a pellet's thresholds exceeded are the bits of an int32
+
+
+@dataclass(frozen=True)
+class Hazard:
+    """Hazard thresholds, danger-distance fractions and the ground map (docs/hazard.md). Absent:
+    no thresholds, no map (quantiles are still counted)."""
+    energy_density: tuple[tuple[str, float], ...] = HAZARD_ENERGY_DENSITY  # (name, J/m^2)
+    speed: tuple[tuple[str, float], ...] = HAZARD_SPEED                    # (name, m/s)
+    fractions: tuple[float, ...] = (1e-3, 1e-6)       # p of the danger distances
+    shooter: Vec3 | None = None                       # m; None: shot.envelope_center (the origin for a pellet file)
+    map_cell: float | None = None                     # m, square cells; the map needs it and map_extent
+    map_extent: tuple[float, float, float, float] | None = None  # m: u_min, u_max, v_min, v_max
+    map_surface: int = 0                              # the surface the map lies on
+    map_axis: Vec3 | None = None                      # the grid's u axis (projected on the plane); None: shot.direction
+
+    @property
+    def thresholds(self) -> tuple[tuple[str, str, float], ...]:
+        """(name, kind "energy_density" or "speed", value) of every threshold, in the order of their bits."""
+        return tuple((n, "energy_density", v) for n, v in self.energy_density) + tuple((n, "speed", v) for n, v in self.speed)
+
+    @property
+    def has_map(self) -> bool:
+        return self.map_cell is not None and self.map_extent is not None
 
 
 @dataclass(frozen=True)
@@ -166,6 +206,7 @@ class Scene:
     source: str = dataclasses.field(default="", compare=False)
     collisions: Collisions = Collisions()
     air: Air | None = None
+    hazard: Hazard | None = None
 
     @property
     def in_air(self) -> bool:
@@ -190,6 +231,10 @@ class Scene:
             out["collisions"] = plain(self.collisions)
         if self.air is not None:
             out["air"] = plain(self.air)
+        if self.hazard is not None:
+            out["hazard"] = plain(self.hazard)
+            for key in ("energy_density", "speed"):  # inline tables {name = value}
+                out["hazard"][key] = dict(getattr(self.hazard, key))
         return out
 
     def to_toml(self) -> str:

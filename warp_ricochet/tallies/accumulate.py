@@ -2,7 +2,7 @@
 
 A thread's partials are `counts` (int32: hits, slip, landed, landed_slip), `acc` (the float sums
 in the working precision: at most PER_THREAD = 256 terms, a relative rounding error of order
-1e-6 in float32), `lo`/`hi` (range extremes: all, stick, slip) and `range_shift` (the thread's
+1e-6 in float32), `lo`/`hi` (range extremes: all, stick, slip; then `hi` the largest flight scale) and `range_shift` (the thread's
 first range: ranges are summed as deviations from it). `store_partials` widens them to float64
 once per thread; from there on everything is float64 (`tallies.reduce`). Each helper returns one
 vector (see `core.pellet` on why).
@@ -16,7 +16,7 @@ import warp as wp
 
 from ..physics.air_flight import GAVE_UP
 from ..physics.types import types_for
-from .sums import NUM_COUNTS, NUM_EXTREMES, NUM_FLOATS, SUM
+from .sums import FLIGHT_SCALE, NUM_COUNTS, NUM_EXTREMES, NUM_FLOATS, SUM
 
 # offsets into the float accumulator (counts are separate)
 OFFSETS = SimpleNamespace(
@@ -84,6 +84,13 @@ def make_accumulators(precision: str) -> SimpleNamespace:
         return acc
 
     @wp.func
+    def flight_scale(position: vec3, velocity: vec3, dt: scalar, gravity: vec3):
+        """M = |x0| + |v0| t + |g| t^2 / 2 (m) of a flight from `position` at `velocity` lasting `dt`
+        (s), |.| the largest absolute component: no coordinate along the flight exceeds it
+        (`tallies.sums`; the precision rule of docs/stability.md)."""
+        return wp.max(wp.abs(position)) + dt * (wp.max(wp.abs(velocity)) + scalar(0.5) * dt * wp.max(wp.abs(gravity)))
+
+    @wp.func
     def store_partials(tid: wp.int32, counts: wp.vec4i, acc: floats_t, lo: extremes_t, hi: extremes_t,
                        range_shift: scalar, partial_sums: wp.array2d(dtype=wp.float64),
                        partial_min: wp.array2d(dtype=wp.float64), partial_max: wp.array2d(dtype=wp.float64)):
@@ -106,6 +113,7 @@ def make_accumulators(precision: str) -> SimpleNamespace:
             partial_max[e, tid] = wp.float64(hi[e])
 
     return SimpleNamespace(floats_t=floats_t, extremes_t=extremes_t, inf=scalar(math.inf), offsets=OFFSETS,
+                           flight_scale_index=FLIGHT_SCALE, flight_scale=flight_scale,
                            add_first_impact_sums=add_first_impact_sums, add_landing_sums=add_landing_sums,
                            add_flight_sums=add_flight_sums,
                            store_partials=store_partials)

@@ -10,7 +10,9 @@ v_t = |tangential velocity|, v_n = signed normal velocity, omega the angular vel
 W_T = m |v|^2 / 2, W_R = I |omega|^2 / 2. Ratios are to the mean launch energy of the same
 pellets (the paper's <W(t=0)>). Ranges (eq. 42) run from the last ricochet point to the
 landing point; L+ / L- are their maximum / minimum, also split by the branch (stick or slip)
-of the last ricochet.
+of the last ricochet. The flight scale M of a flight from x0 at speed v0 lasting t under g is
+|x0| + |v0| t + |g| t^2 / 2 with |.| the largest absolute component: every coordinate along the
+flight is at most M, so the working precision resolves it to eps M (docs/stability.md, "Precision").
 """
 
 from __future__ import annotations
@@ -34,8 +36,10 @@ SUM = {name: i for i, name in enumerate(SUM_NAMES)}
 NUM_SUMS = len(SUM_NAMES)
 NUM_COUNTS = len(COUNT_NAMES)
 NUM_FLOATS = len(FLOAT_NAMES)
-# extremes of the range: all landed pellets, last ricochet stuck, last ricochet slipped
-EXTREME_NAMES = ("all", "stick", "slip")
+# extremes of the range: all landed pellets, last ricochet stuck, last ricochet slipped; then the
+# flight scale (its maximum only: the precision rule, docs/stability.md "Precision")
+EXTREME_NAMES = ("all", "stick", "slip", "flight_scale")
+FLIGHT_SCALE = EXTREME_NAMES.index("flight_scale")
 NUM_EXTREMES = len(EXTREME_NAMES)
 
 # name -> (unit, description) of every statistic `finalize` returns
@@ -74,6 +78,8 @@ STAT_UNITS = {
     "range_slip_min": ("m", "L- of pellets whose last ricochet slipped"),
     "mean_time_aloft": ("s", "mean time from the last ricochet to landing"),
     "landing_mean_WT": ("J", "mean translational energy at landing"),
+    "flight_scale_max": ("m", "largest flight scale M = |x0| + |v0| t + |g| t^2 / 2 (largest components) of a flight "
+                              "that met a surface; positions are resolved to about eps M (docs/stability.md)"),
     # runs with pellet-pellet collisions
     "collided_fraction": ("1", "fraction of the pellets that collided with another pellet"),
     "pair_collisions": ("1", "pellet-pellet collisions"),
@@ -139,18 +145,34 @@ def merged_m2(segments) -> float:
 def finalize(totals, *, pellets: int, mass: float, inertia: float, air: bool = False) -> dict[str, float]:
     """Turn the reduced sums into the statistics of `STAT_UNITS` (NaN where a mean is empty)."""
     sums, mins, maxs, segments = totals
-    s = {name: float(sums[i]) for i, name in enumerate(SUM_NAMES)}
-    s["range_m2"] = merged_m2(segments)
+    rows = finalize_rows(sums[None, :], mins[None, :], maxs[None, :], np.array([merged_m2(segments)]),
+                         pellets=pellets, mass=mass, inertia=inertia, air=air)
+    return {name: float(values[0]) for name, values in rows.items()}
+
+
+def finalize_rows(sums, mins, maxs, range_m2, *, pellets: int, mass: float, inertia: float,
+                  air: bool = False) -> dict[str, np.ndarray]:
+    """`finalize` of many totals at once (rows: sums (K, NUM_SUMS), range minima and maxima
+    (K, NUM_EXTREMES), merged range_m2 (K,)): name -> (K,) values, each row's bitwise as `finalize`
+    gives it (elementwise IEEE operations; the norm row by row)."""
+    s = {name: sums[:, i] for i, name in enumerate(SUM_NAMES)}
+    s["range_m2"] = np.asarray(range_m2, np.float64)
+    nan = np.full(len(sums), math.nan)
 
     def mean(key, count):
-        return s[key] / s[count] if s[count] > 0 else math.nan
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(s[count] > 0, s[key] / s[count], nan)
 
     def extreme(value, count):
-        return float(value) if s[count] > 0 else math.nan
+        return np.where(s[count] > 0, value, nan)
+
+    def ratio(energy, launch):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(launch > 0, energy / launch, nan)
 
     launch_energy = 0.5 * mass * mean("v2_launch", "hits") + 0.5 * inertia * mean("w2_launch", "hits")
     out = {
-        "pellets": float(pellets),
+        "pellets": np.full(len(sums), float(pellets)),
         "hits": s["hits"],
         "missed": float(pellets) - s["hits"],
         "stick": s["hits"] - s["slip"],
@@ -160,29 +182,30 @@ def finalize(totals, *, pellets: int, mass: float, inertia: float, air: bool = F
         "launch_mean_W": launch_energy,
     }
     for phase in ("pre", "post"):
-        omega = np.array([mean(f"w{axis}_{phase}", "hits") for axis in "xyz"])
+        omega = np.stack([mean(f"w{axis}_{phase}", "hits") for axis in "xyz"], axis=1)
         energy_t = 0.5 * mass * mean(f"v2_{phase}", "hits")
         energy_r = 0.5 * inertia * mean(f"w2_{phase}", "hits")
         out[f"{phase}_mean_vt"] = mean(f"vt_{phase}", "hits")
         out[f"{phase}_mean_vn"] = mean(f"vn_{phase}", "hits")
-        out[f"{phase}_norm_mean_omega"] = float(np.linalg.norm(omega))
+        out[f"{phase}_norm_mean_omega"] = np.array([float(np.linalg.norm(row)) for row in omega])
         out[f"{phase}_mean_WT"] = energy_t
         out[f"{phase}_mean_WR"] = energy_r
-        out[f"{phase}_ratio_WT"] = energy_t / launch_energy if launch_energy > 0 else math.nan
-        out[f"{phase}_ratio_WR"] = energy_r / launch_energy if launch_energy > 0 else math.nan
+        out[f"{phase}_ratio_WT"] = ratio(energy_t, launch_energy)
+        out[f"{phase}_ratio_WR"] = ratio(energy_r, launch_energy)
     out["range_mean"] = mean("range", "landed")
-    out["range_std"] = math.sqrt(max(mean("range_m2", "landed"), 0.0)) if s["landed"] > 0 else math.nan
-    out["range_max"] = extreme(maxs[0], "landed")
-    out["range_min"] = extreme(mins[0], "landed")
+    out["range_std"] = np.where(s["landed"] > 0, np.sqrt(np.maximum(mean("range_m2", "landed"), 0.0)), nan)
+    out["range_max"] = extreme(maxs[:, 0], "landed")
+    out["range_min"] = extreme(mins[:, 0], "landed")
     s["landed_stick"] = s["landed"] - s["landed_slip"]
-    for j, branch in enumerate(EXTREME_NAMES[1:], start=1):
+    for j, branch in enumerate(EXTREME_NAMES[1:FLIGHT_SCALE], start=1):
         out[f"range_{branch}_mean"] = mean(f"range_{branch}", f"landed_{branch}")
-        out[f"range_{branch}_max"] = extreme(maxs[j], f"landed_{branch}")
-        out[f"range_{branch}_min"] = extreme(mins[j], f"landed_{branch}")
+        out[f"range_{branch}_max"] = extreme(maxs[:, j], f"landed_{branch}")
+        out[f"range_{branch}_min"] = extreme(mins[:, j], f"landed_{branch}")
     out["mean_time_aloft"] = mean("time_aloft", "landed")
     out["landing_mean_WT"] = 0.5 * mass * mean("v2_landing", "landed")
+    out["flight_scale_max"] = np.where(maxs[:, FLIGHT_SCALE] >= 0, maxs[:, FLIGHT_SCALE], nan)
     if air:
-        out["flight_steps_mean"] = s["flight_steps"] / pellets if pellets else math.nan
+        out["flight_steps_mean"] = s["flight_steps"] / pellets if pellets else nan
         out["flights_unfinished"] = s["flight_unfinished"]
     assert set(out) == set(stat_names(False, air)) - set(COLLISION_STATS)
     return out
@@ -191,9 +214,10 @@ def finalize(totals, *, pellets: int, mass: float, inertia: float, air: bool = F
 def statistics_from_arrays(
     *, pellets, mass, inertia, launch_velocity, launch_angular_velocity, hit, normal,
     velocity_before, angular_velocity_before, velocity_after, angular_velocity_after,
-    slipped_first, landed, range_, slipped_last, time_aloft, landing_velocity,
+    slipped_first, landed, range_, slipped_last, time_aloft, landing_velocity, flight_scale=None,
 ) -> dict[str, float]:
-    """The same statistics from per-pellet float64 arrays (the NumPy reference path)."""
+    """The same statistics from per-pellet float64 arrays (the NumPy reference path); flight_scale:
+    each pellet's largest flight scale (m, NaN where none of its flights met a surface)."""
     sums = np.zeros(NUM_SUMS)
     h = np.asarray(hit, bool)
     n = normal[h]
@@ -226,6 +250,8 @@ def statistics_from_arrays(
     sums[SUM["time_aloft"]] = np.asarray(time_aloft)[land].sum()
     sums[SUM["v2_landing"]] = (landing_velocity[land] ** 2).sum()
     mins, maxs = np.full(NUM_EXTREMES, math.inf), np.full(NUM_EXTREMES, -math.inf)
+    if flight_scale is not None and np.isfinite(flight_scale).any():
+        maxs[FLIGHT_SCALE] = np.nanmax(flight_scale)
     for j, mask in enumerate((land, land & ~last_slip, land & last_slip)):
         if j:
             branch = EXTREME_NAMES[j]

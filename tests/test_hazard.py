@@ -1,0 +1,172 @@
+"""Hazard thresholds, maps and danger distances (issue 15, section 2): per-pellet fields against
+NumPy, maps summed against the per-pellet totals, danger distances against NumPy's quantiles of the
+per-pellet data, and the coverage of their confidence intervals on a case with a known answer."""
+
+import math
+
+import h5py
+import numpy as np
+import pytest
+
+import warp_ricochet as wr
+from tests.helpers import cli, make_scene, paper_raw
+from warp_ricochet.tallies import bins
+from warp_ricochet.tallies.quantiles import binomial_point, danger_distance, needed_landings
+
+HAZARD = {"energy_density": {"low": 1000.0, "high": 45_000.0}, "speed": {"fast": 212.0},
+          "fractions": [0.01, 1e-6], "map_cell": 0.5, "map_extent": [100.0, 140.0, -20.0, 20.0]}
+
+
+@pytest.fixture(scope="module")
+def run_file(tmp_path_factory):
+    raw = paper_raw()
+    raw["shot"]["count"] = 20_000
+    scene = make_scene(raw, "float64", hazard=HAZARD, output={"fields": ["landing", "hazard"]})
+    path = tmp_path_factory.mktemp("hazard") / "run.h5"
+    stats = wr.run(scene, path, device="cpu")
+    return scene, path, stats
+
+
+def _per_pellet(f):
+    r = f["pellets/landing/range"][()]
+    landed = np.isfinite(r)
+    return {"landed": landed, "position": f["pellets/landing/position"][()][landed],
+            "velocity": f["pellets/landing/velocity"][()][landed], "energy": f["pellets/hazard/energy"][()][landed],
+            "density": f["pellets/hazard/energy_density"][()][landed], "exceeds": f["pellets/hazard/exceeds"][()][landed]}
+
+
+def test_per_pellet_energy_density_and_thresholds(run_file):
+    scene, path, stats = run_file
+    with h5py.File(path, "r") as f:
+        p = _per_pellet(f)
+        mass, radius = f["constants/mass"][()], f["constants/radius"][()]
+        assert f["pellets/hazard/exceeds"][()][~p["landed"]].tolist() == [0] * int((~p["landed"]).sum())
+    v2 = (p["velocity"] ** 2).sum(axis=1)
+    np.testing.assert_allclose(p["energy"], 0.5 * mass * v2, rtol=1e-14)
+    np.testing.assert_allclose(p["density"], 0.5 * mass * v2 / (math.pi * radius**2), rtol=1e-14)
+    # E/A = rho d v^2 / 3 for a sphere
+    np.testing.assert_allclose(p["density"], scene.shot.density * scene.shot.diameter * v2 / 3, rtol=1e-12)
+    for bit, (_name, kind, value) in enumerate(scene.hazard.thresholds):
+        above = p["density"] >= value if kind == "energy_density" else np.sqrt(v2) >= value
+        near = np.isclose(p["density"] if kind == "energy_density" else np.sqrt(v2), value, rtol=1e-12)
+        got = (p["exceeds"] >> bit & 1).astype(bool)
+        assert np.array_equal(got[~near], above[~near]), kind
+        assert 0 < above.sum() < len(above) or kind == "energy_density"
+
+
+def test_maps_sum_to_the_per_pellet_totals(run_file):
+    scene, path, stats = run_file
+    with h5py.File(path, "r") as f:
+        p = _per_pellet(f)
+        m = {name: f[f"hazard/map/{name}"][()] for name in ("count", "outside", "elsewhere", "energy", "above",
+                                                             "u_edges", "v_edges", "origin", "u_axis", "v_axis", "quantum")}
+    assert m["count"].sum() + m["outside"] + m["elsewhere"] == stats["landed"]
+    local = p["position"] - m["origin"]
+    u, v = local @ m["u_axis"], local @ m["v_axis"]
+    i = np.floor((u - m["u_edges"][0]) / 0.5).astype(int)
+    j = np.floor((v - m["v_edges"][0]) / 0.5).astype(int)
+    inside = (i >= 0) & (j >= 0) & (i < len(m["u_edges"]) - 1) & (j < len(m["v_edges"]) - 1)
+    assert inside.sum() > 0.9 * len(inside) and m["outside"] == (~inside).sum()
+    expected = np.zeros_like(m["count"])
+    np.add.at(expected, (j[inside], i[inside]), 1)
+    np.testing.assert_array_equal(m["count"], expected)
+    energy = np.zeros(m["count"].shape)
+    np.add.at(energy, (j[inside], i[inside]), p["energy"][inside])
+    np.testing.assert_allclose(m["energy"], energy, rtol=0, atol=0.5 * m["quantum"] * m["count"].max() + 1e-300)
+    assert abs(m["energy"].sum() - p["energy"][inside].sum()) <= 0.5 * m["quantum"] * inside.sum()
+    for bit in range(len(scene.hazard.thresholds)):
+        above = np.zeros_like(m["count"])
+        hit = inside & (p["exceeds"] >> bit & 1).astype(bool)
+        np.add.at(above, (j[hit], i[hit]), 1)
+        np.testing.assert_array_equal(m["above"][bit], above)
+
+
+def test_danger_distances_hold_numpys_quantiles_of_the_hazardous_landings(run_file):
+    scene, path, stats = run_file
+    with h5py.File(path, "r") as f:
+        p = _per_pellet(f)
+        d = {name: f[f"hazard/danger_distance/{name}"][()] for name in ("distance", "ci_low", "ci_high", "needed_landings")}
+        landings = f["hazard/thresholds/landings"][()]
+    delta = p["position"] - np.asarray(scene.shot.envelope_center)
+    distance = np.hypot(delta[:, 0], delta[:, 2])  # gravity along -y
+    for bit in range(len(scene.hazard.thresholds)):
+        hazardous = distance[(p["exceeds"] >> bit & 1).astype(bool)]
+        assert landings[bit] == len(hazardous)
+        for j, fraction in enumerate(scene.hazard.fractions):
+            if not len(hazardous):
+                assert np.isnan(d["distance"][bit, j])
+                continue
+            true = np.quantile(hazardous, 1 - fraction, method="inverted_cdf")
+            value = d["distance"][bit, j]
+            assert value / (1 + bins.RELATIVE_WIDTH) * (1 - 1e-7) <= true <= value * (1 + 1e-7), (bit, fraction)
+            assert d["ci_low"][bit, j] <= true <= d["ci_high"][bit, j]
+            assert d["needed_landings"][bit, j] == needed_landings(fraction)
+            assert math.isinf(d["ci_high"][bit, j]) == (len(hazardous) < needed_landings(fraction))
+
+
+def test_confidence_intervals_cover_a_known_quantile_95_percent_of_the_time():
+    rng = np.random.default_rng(15)
+    p, n, trials = 0.01, 2000, 400
+    true = -math.log(p)  # the 1 - p quantile of Exp(1)
+    covered = 0
+    for _ in range(trials):
+        x = rng.exponential(size=n).astype(np.float32)
+        _value, low, high, _needed = danger_distance(np.bincount(bins.bin_index(x), minlength=bins.BINS), p)
+        covered += low <= true <= high
+    rate = covered / trials
+    sd = math.sqrt(0.95 * 0.05 / trials)
+    assert 0.95 - 3 * sd <= rate <= 0.95 + 0.04, rate  # the interval is conservative (>= 95% by construction)
+
+
+def test_binomial_points_and_the_pellets_a_fraction_needs():
+    from scipy import stats as sps
+
+    for n, p, alpha in ((100, 0.01, 0.025), (5000, 0.001, 0.975), (2000, 0.3, 0.025), (10**9, 1e-3, 0.975)):
+        assert abs(binomial_point(n, p, alpha) - sps.binom.ppf(alpha, n, p)) <= (1 if n * p > 1e5 else 0), (n, p)
+    assert needed_landings(1e-3) == 3688 and needed_landings(1e-6) == 3_688_878
+    value, low, high, needed = danger_distance(np.bincount(bins.bin_index(np.arange(1, 101, dtype=np.float32)),
+                                                           minlength=bins.BINS), 1e-3)
+    assert math.isinf(high) and needed == 3688 and 99 <= value <= 100.1 and low <= 100
+
+
+@pytest.mark.parametrize("override, key", [
+    ("hazard.speed={a=-1.0}", "hazard.speed.a"),
+    ("hazard.energy_density=[1, 2]", "hazard.energy_density"),
+    ("hazard.fractions=[0.7]", "hazard.fractions"),
+    ("hazard.map_cell=1.0", "hazard.map_extent"),
+    ("hazard.map_extent=[1, 0, 0, 1]", "hazard.map_extent"),
+    ("hazard.colour=1", "hazard.colour"),
+    ('output.tail_distances=[5.0, 1.0]', "output.tail_distances"),
+])
+def test_bad_hazard_keys_are_refused_in_one_line_before_any_work(tmp_path, override, key):
+    out = tmp_path / "x.h5"
+    rc, stdout, stderr = cli(["run", "examples/paper.toml", "--set", override, "-o", out, "--device", "cpu"])
+    assert rc == 2 and stderr.count("\n") == 1 and key in stderr and not out.exists(), stderr
+
+
+def test_the_summary_and_report_show_quantiles_tails_and_danger_distances(tmp_path):
+    out = tmp_path / "run.h5"
+    rc, stdout, stderr = cli(["run", "examples/paper.toml", "--set", "shot.count=2000", "--set", "hazard.fractions=[0.01]",
+                              "-o", out, "--device", "cpu"])
+    assert rc == 0, stderr
+    rc, report, stderr = cli(["report", out])
+    assert rc == 0, stderr
+    for text in (stdout, report):
+        assert "quantiles P50 / P75 / P90 / P99 / P99.9 / 1-1e-6" in text and "  range " in text
+        assert "landed beyond" in text and "corneal_abrasion (1503 J/m^2, 2,000 landings): p=0.01:" in text
+        assert "(1,000,000 for 1-1e-6), this run has 2,000" in text
+    tail = [line for line in stdout.splitlines() if line.startswith("  distance")]
+    assert tail and tail == [line for line in report.splitlines() if line.startswith("  distance")]
+
+
+def test_plots_write_pngs_of_the_map_and_the_survival_curve(run_file, tmp_path):
+    pytest.importorskip("matplotlib")
+    from warp_ricochet.report.hazard_plots import plot_map, plot_survival, read_plot_data
+
+    _scene, path, _stats = run_file
+    with h5py.File(path, "r") as f:
+        data = read_plot_data(f)
+        plot_map(f, tmp_path / "map.png")
+    plot_survival(data, tmp_path / "survival.png")  # from arrays as well
+    for name in ("map.png", "survival.png"):
+        assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -1,0 +1,276 @@
+"""XDMF sidecars opened by a real reader: VTK's vtkXdmfReader (the `vtk` wheel, ParaView's XDMF 2
+reader) must see every point cloud with one point per pellet and arrays equal to the HDF5 file's
+(speeds and energies: NumPy float64 from the same datasets), the surfaces as quads on their planes,
+and the trajectory frames as time steps."""
+
+import shutil
+
+import h5py
+import numpy as np
+import pytest
+
+from helpers import cli, interrupt_after, make_scene, paper_raw
+
+xdmf2 = pytest.importorskip("vtkmodules.vtkIOXdmf2")  # the vtk wheel's XDMF 2 reader, no rendering modules
+from vtkmodules.util.numpy_support import vtk_to_numpy  # noqa: E402
+from vtkmodules.vtkCommonDataModel import vtkCompositeDataSet  # noqa: E402
+from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline  # noqa: E402
+
+from warp_ricochet import api  # noqa: E402
+from warp_ricochet.io.xdmf import quad_corners, sidecar_path, write_xdmf  # noqa: E402
+
+ALL = ["initial", "impact", "landing"]
+
+
+def _scene(count=40, precision="float64", bounces=2, fields=ALL, **sections):
+    raw = paper_raw(bounces=bounces)
+    raw["shot"]["count"] = count
+    raw["output"] = {"fields": list(fields)}
+    raw.update(sections)
+    return make_scene(raw, precision=precision)
+
+
+def _read(xmf, time=None):
+    """{block name: vtkDataSet} of the sidecar as vtkXdmfReader reads it (at `time`), and its time steps."""
+    reader = xdmf2.vtkXdmfReader()
+    reader.SetFileName(str(xmf))
+    reader.UpdateInformation()
+    steps = reader.GetOutputInformation(0).Get(vtkStreamingDemandDrivenPipeline.TIME_STEPS())
+    if time is None:
+        reader.Update()
+    else:
+        reader.UpdateTimeStep(time)
+    blocks = {}
+
+    def walk(obj, name):
+        if obj.IsA("vtkMultiBlockDataSet"):
+            for i in range(obj.GetNumberOfBlocks()):
+                walk(obj.GetBlock(i), obj.GetMetaData(i).Get(vtkCompositeDataSet.NAME()))
+        else:
+            blocks[name] = obj
+
+    walk(reader.GetOutputDataObject(0), "root")
+    return blocks, (list(steps) if steps is not None else [])
+
+
+def _arrays(ds, cells=False):
+    data = ds.GetCellData() if cells else ds.GetPointData()
+    return {data.GetArrayName(i): vtk_to_numpy(data.GetArray(i)) for i in range(data.GetNumberOfArrays())}
+
+
+def _norm(v):
+    return np.linalg.norm(np.asarray(v, np.float64), axis=-1)
+
+
+def _expected(g, stage, bounce=None):
+    """The point data a cloud must carry, computed here from the HDF5 datasets of group `g`."""
+    m, inertia = g["constants/mass"][()], g["constants/inertia"][()]
+    out = {}
+    for name, ds in g[f"pellets/{stage}"].items():
+        value = ds[()] if bounce is None else ds[:, bounce]
+        if name == "position":
+            continue
+        out[name] = value
+        base, tail = name.removesuffix("_before"), "_before" if name.endswith("_before") else ""
+        if base == "velocity":
+            out["speed" + tail] = _norm(value)
+            out["energy_translational" + tail] = 0.5 * m * _norm(value) ** 2
+        elif base == "angular_velocity":
+            out["spin" + tail] = _norm(value)
+            out["energy_rotational" + tail] = 0.5 * inertia * _norm(value) ** 2
+    for extra in ("landing/range", "collisions/count", "collisions/last_time"):
+        if f"pellets/{extra}" in g and not extra.startswith(stage):
+            out[extra.replace("/", ".")] = g[f"pellets/{extra}"][()]
+    return out
+
+
+def _check_clouds(blocks, g, suffix=""):
+    """Every cloud of run group `g`: one point per pellet at its position, arrays equal to the HDF5's."""
+    rows = int(g["progress/rows"][()])
+    clouds = [("launch", "initial", None), ("landing", "landing", None), ("release", "release", None)]
+    clouds += [(f"impact_{b + 1}", "impact", b) for b in range(int(g["constants/bounces"][()]))]
+    for name, stage, bounce in clouds:
+        if f"pellets/{stage}/position" not in g:
+            assert name + suffix not in blocks
+            continue
+        ds = blocks[name + suffix]
+        assert ds.GetNumberOfPoints() == rows == ds.GetNumberOfCells(), name
+        position = g[f"pellets/{stage}/position"][()]
+        position = position if bounce is None else position[:, bounce]
+        points = vtk_to_numpy(ds.GetPoints().GetData())
+        np.testing.assert_array_equal(points, position[:rows], err_msg=name)
+        got, want = _arrays(ds), _expected(g, stage, bounce)
+        assert sorted(got) == sorted(want), name
+        for key, value in want.items():
+            value = np.asarray(value)[:rows]
+            assert got[key].shape[0] == rows, (name, key)
+            if value.dtype.kind in "iu":
+                np.testing.assert_array_equal(got[key].reshape(value.shape), value, err_msg=f"{name}.{key}")
+            else:  # speeds and energies: XDMF functions evaluated in the dataset's precision
+                rtol = 1e-13 if got[key].dtype == np.float64 else 1e-6
+                np.testing.assert_allclose(got[key].reshape(value.shape), value, rtol=rtol, atol=0,
+                                           equal_nan=True, err_msg=f"{name}.{key}")
+
+
+def _check_surfaces(ds, g):
+    points, normals = g["constants/surfaces/point"][()], g["constants/surfaces/normal"][()]
+    assert ds.GetNumberOfCells() == len(points) and ds.GetNumberOfPoints() == 4 * len(points)
+    corners = vtk_to_numpy(ds.GetPoints().GetData()).reshape(len(points), 4, 3)
+    landed = g["pellets/landing/position"][()]
+    landed = landed[np.isfinite(landed).all(axis=1)]
+    for p, n, quad in zip(points, normals, corners):
+        assert np.abs((quad - p) @ n).max() < 1e-12 * max(1.0, np.abs(quad).max())  # on its plane
+        lo, hi = quad.min(axis=0), quad.max(axis=0)  # a horizontal ground here: its landings inside
+        assert np.all(landed[:, [0, 2]] > lo[[0, 2]]) and np.all(landed[:, [0, 2]] < hi[[0, 2]])
+    cells = _arrays(ds, cells=True)
+    np.testing.assert_array_equal(cells["surface"], np.arange(len(points)))
+    for name in ("restitution", "mu_s", "mu_d"):
+        np.testing.assert_array_equal(cells[name], g[f"constants/surfaces/{name}"][()])
+
+
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_a_published_run_opens_in_vtk(tmp_path, precision):
+    out = tmp_path / "shot.h5"
+    api.run(_scene(precision=precision), output=str(out), device="cpu")
+    xmf = tmp_path / "shot.xmf"
+    assert sidecar_path(out) == xmf and xmf.is_file()
+    blocks, steps = _read(xmf)
+    assert steps == [] and sorted(blocks) == ["impact_1", "impact_2", "landing", "launch", "surfaces"]
+    with h5py.File(out) as f:
+        _check_clouds(blocks, f)
+        _check_surfaces(blocks["surfaces"], f)
+    assert ('NumberType="Float" Precision="4"' in xmf.read_text()) == (precision == "float32")
+
+
+def test_only_datasets_in_the_file_are_referenced(tmp_path):
+    """A run writing landings only has one cloud (launch and impacts absent); a statistics-only
+    run file has the surfaces alone."""
+    out = tmp_path / "landing.h5"
+    api.run(_scene(fields=["landing.position", "landing.range"]), output=str(out), device="cpu")
+    blocks, _ = _read(sidecar_path(out))
+    assert sorted(blocks) == ["landing", "surfaces"]
+    assert sorted(_arrays(blocks["landing"])) == ["range"]
+    out = tmp_path / "stats.h5"
+    api.run(_scene(fields=[]), output=str(out), device="cpu")
+    blocks, _ = _read(sidecar_path(out))
+    assert list(blocks) == ["surfaces"] and blocks["surfaces"].GetNumberOfCells() == 1
+
+
+def test_trajectory_frames_are_time_steps(tmp_path):
+    scene = _scene(30, bounces=1, fields=ALL + ["collisions", "release"],
+                   collisions={"enabled": True, "frame_every": 8})
+    out = tmp_path / "frames.h5"
+    api.run(scene, output=str(out), device="cpu")
+    with h5py.File(out) as f:
+        times, frames = f["particles/pellets/position/time"][()], f["particles/pellets/position/value"]
+        blocks, steps = _read(sidecar_path(out))
+        assert len(times) > 1 and steps == list(times)
+        _check_clouds(blocks, f)
+        for k in (0, len(times) // 2, len(times) - 1):
+            blocks, _ = _read(sidecar_path(out), time=times[k])
+            ds = blocks["frames"]
+            np.testing.assert_array_equal(vtk_to_numpy(ds.GetPoints().GetData()), frames[k])
+            got = _arrays(ds)
+            np.testing.assert_array_equal(got["id"], np.arange(30))
+            np.testing.assert_array_equal(got["collisions.count"], f["pellets/collisions/count"][()])
+
+
+def test_a_sweep_has_one_collection_per_point(tmp_path):
+    out = tmp_path / "sweep.h5"
+    api.sweep(_scene(20, bounces=1), {"surfaces.0.mu_s": [0.5, 0.2]}, [("surfaces.0.mu_d", 0.9, None)],
+              output=str(out), device="cpu")
+    blocks, _ = _read(sidecar_path(out))
+    assert len(blocks) == 2 * 4
+    with h5py.File(out) as f:
+        for point in ("0000", "0001"):
+            _check_clouds(blocks, f[f"runs/{point}"], suffix=f" point_{point}")
+            _check_surfaces(blocks[f"surfaces point_{point}"], f[f"runs/{point}"])
+
+
+def test_sidecar_rules(tmp_path):
+    """Never over an existing sidecar unless asked (refused before any work, like the output);
+    `warp-ricochet xdmf` writes it again; an interrupted run has none, its partial can have one
+    of the rows complete, and the resumed run publishes it."""
+    out = tmp_path / "shot.h5"
+    xmf = tmp_path / "shot.xmf"
+    xmf.write_text("mine")
+    scene_file = tmp_path / "scene.toml"
+    scene_file.write_text(_scene(20).to_toml())
+    rc, _, err = cli(["run", scene_file, "-o", out, "--device", "cpu"])
+    assert rc == 2 and "shot.xmf (its XDMF sidecar) exists; pass --overwrite" in err
+    assert not out.exists() and xmf.read_text() == "mine"
+    assert cli(["run", scene_file, "-o", out, "--device", "cpu", "--overwrite"])[0] == 0
+    text = xmf.read_text()
+    assert text.startswith("<?xml") and "shot.h5:/pellets/landing/position" in text
+    rc, _, err = cli(["xdmf", out])
+    assert rc == 2 and "--overwrite" in err and xmf.read_text() == text
+    xmf.unlink()
+    assert cli(["xdmf", out]) == (0, f"{xmf}\n", "")
+    assert xmf.read_text() == text
+    rc, _, err = cli(["xdmf", scene_file])
+    assert rc == 2 and "is not an HDF5 file" in err
+
+    big = tmp_path / "big.h5"
+    count = 3 * 65536 - 1000  # three chunks
+    scene = _scene(count, fields=["initial.position", "landing.position", "landing.range"],
+                   numerics={"chunk_size": 65536})
+    interrupt_after(2, scene, str(big))
+    partial = tmp_path / "big.h5.partial"
+    assert partial.exists() and not sidecar_path(big).exists()
+    copy = tmp_path / "copy.h5"
+    shutil.copy(partial, copy)
+    with h5py.File(copy, "r+") as f:
+        f.attrs["status"] = "interrupted"
+        rows = int(f["progress/rows"][()])
+        assert 0 < rows < count
+    blocks, _ = _read(write_xdmf(copy))
+    with h5py.File(copy) as f:
+        _check_clouds(blocks, f)
+    api.run(scene, output=str(big), device="cpu", resume=True)
+    blocks, _ = _read(sidecar_path(big))
+    assert blocks["landing"].GetNumberOfPoints() == count
+
+
+@pytest.mark.parametrize("normal", [(0, 1, 0), (1, 0, 0), (0.3, -0.2, 0.9), (0, 0, -1)])
+def test_quad_corners_span_the_projections(normal):
+    """quad_corners: on the plane, a rectangle (equal diagonals, right angles), counter-clockwise
+    about the normal, holding every projected point inside."""
+    rng = np.random.default_rng(1)
+    point, points = rng.normal(size=3), rng.normal(size=(50, 3)) * 5
+    n = np.asarray(normal, float) / np.linalg.norm(normal)
+    q = quad_corners(point, normal, points)
+    assert np.abs((q - point) @ n).max() < 1e-12
+    edges = np.roll(q, -1, axis=0) - q
+    assert np.abs(np.einsum("ij,ij->i", edges, np.roll(edges, -1, axis=0))).max() < 1e-9
+    assert np.cross(edges[0], edges[1]) @ n > 0
+    u, v = edges[0] / np.linalg.norm(edges[0]), edges[1] / np.linalg.norm(edges[1])
+    rel = points - q[0]
+    assert np.all(rel @ u > 0) and np.all(rel @ u < np.linalg.norm(edges[0]))
+    assert np.all(rel @ v > 0) and np.all(rel @ v < np.linalg.norm(edges[1]))
+
+
+def test_a_sidecar_that_cannot_be_written_is_a_warning(tmp_path, monkeypatch):
+    """The run's file is in place when its sidecar is written: a failure there (a full disk) warns,
+    naming the command that writes it later, and the run succeeds."""
+    import errno
+
+    from warp_ricochet.io import runfile
+
+    def full(path, overwrite):
+        raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+    monkeypatch.setattr(runfile, "write_xdmf", full)
+    out = tmp_path / "shot.h5"
+    with pytest.warns(UserWarning, match=r"shot.xmf .* was not written: .*No space left.*warp-ricochet xdmf"):
+        api.run(_scene(10, bounces=1), output=str(out), device="cpu")
+    with h5py.File(out) as f:
+        assert f.attrs["status"] == "complete"
+    assert not sidecar_path(out).exists()
+
+
+def test_a_scene_without_planes_has_no_surfaces_block(tmp_path):
+    """Pellets in free flight (no [[surfaces]]): the sidecar has their launch cloud and no quads."""
+    out = tmp_path / "free.h5"
+    api.run(_scene(fields=["initial"], surfaces=[]), output=str(out), device="cpu")
+    blocks, _ = _read(sidecar_path(out))
+    assert sorted(blocks) == ["launch"] and blocks["launch"].GetNumberOfPoints() == 40

@@ -1,0 +1,119 @@
+"""Per-shot statistics partials of a run of several shots (`shot.shots`), for the ensemble's
+confidence intervals (`tallies.ensemble`).
+
+A second, statistics-only pass of the core over the pellets of each complete shot: one thread per
+*piece* (`tallies.ensemble.PIECE` = 256 consecutive pellets of one shot, the last piece of a shot shorter), each
+follows its pellets in order through `core.pellet.ricochet_pellet` (from the launch, or from the
+dense phase's release in a run with pair collisions) and stores its partials as the core kernel's
+threads do (`tallies.accumulate.store_partials`). A piece's partials depend only on its pellets,
+never on the chunk or on the other shots, so per-shot values are bitwise the same for any chunk
+size and after --resume. Rows are (shot, piece) in order, SEGMENT_WIDTH columns like a statistics
+segment's: sums, range minima, range maxima.
+"""
+
+
+import dataclasses
+import functools
+
+import numpy as np
+import warp as wp
+
+from ..launch.source import PelletSource, make_source
+from ..physics.types import types_for
+from ..tallies.accumulate import make_accumulators
+from ..tallies.ensemble import PIECE, pieces_per_shot
+from ..tallies.sums import NUM_EXTREMES, NUM_SUMS
+from .outputs import make_outputs
+from .pellet import make_ricochet_pellet
+from ..tallies.landing import make_landing_tally
+from .release import make_release
+
+
+
+@functools.cache
+def shot_kernel_for(spec):
+    """The per-piece kernel of `spec`: statistics only (no outputs, no landing tallies: the core
+    kernel counts each landing once)."""
+    spec = dataclasses.replace(spec, fields=(), tally=False, hazard_map=False)
+    t = types_for(spec.precision)
+    scalar, Surfaces, Physics = t.scalar, t.Surfaces, t.Physics
+    Source, Outputs, Release = make_source(spec.precision, spec.from_file).Source, make_outputs(spec.precision).Outputs, make_release(spec.precision)
+    acc_fns, ricochet_pellet = make_accumulators(spec.precision), make_ricochet_pellet(spec)
+    Tally = make_landing_tally(spec.precision).Tally
+    floats_t, extremes_t, inf = acc_fns.floats_t, acc_fns.extremes_t, acc_fns.inf
+    piece = PIECE
+
+    @wp.kernel(module="unique", enable_backward=False)
+    def shot_pieces_kernel(
+        first_shot: wp.int32,  # global index of the first shot
+        count: wp.int32,  # pellets per shot
+        pieces: wp.int32,  # pieces per shot
+        row_offset: wp.int32,  # global index of the source's (or release's) row 0
+        source: Source,
+        surfaces: Surfaces,
+        physics: Physics,
+        out: Outputs,
+        release: Release,
+        tally: Tally,  # not counted into (the spec's tally is off)
+        partial_sums: wp.array2d(dtype=wp.float64),  # (NUM_SUMS, pieces of the launch)
+        partial_min: wp.array2d(dtype=wp.float64),
+        partial_max: wp.array2d(dtype=wp.float64),
+    ):
+        tid = wp.tid()
+        shot = tid // pieces
+        k = tid - shot * pieces
+        counts = wp.vec4i()
+        acc = floats_t()
+        lo = extremes_t(inf)
+        hi = extremes_t(-inf)
+        range_shift = scalar(0.0)
+        for j in range(piece):
+            member = k * piece + j
+            if member < count:
+                index = (first_shot + shot) * count + member
+                counts, acc, lo, hi, range_shift = ricochet_pellet(
+                    index, index - row_offset, source, surfaces, physics, out, release, tally, counts, acc, lo, hi,
+                    range_shift)
+        acc_fns.store_partials(tid, counts, acc, lo, hi, range_shift, partial_sums, partial_min, partial_max)
+
+    return shot_pieces_kernel
+
+
+class ShotPass:
+    """Launches the per-piece kernel for the shots a chunk completes and keeps their rows on the
+    device (`rows`, (pieces, SEGMENT_WIDTH) float64) until the host copies them."""
+
+    def __init__(self, scene, model, spec, max_shots: int, arrays=None):
+        self.model, self.spec = model, spec
+        self.count = scene.shot.count
+        self.pieces = pieces_per_shot(self.count)
+        self.kernel = shot_kernel_for(spec)
+        dev = model.device
+        n = max(max_shots, 1) * self.pieces
+        self.partial_sums = wp.empty((NUM_SUMS, n), dtype=wp.float64, device=dev)
+        self.partial_min = wp.empty((NUM_EXTREMES, n), dtype=wp.float64, device=dev)
+        self.partial_max = wp.empty((NUM_EXTREMES, n), dtype=wp.float64, device=dev)
+        # a pellet file: its own rows, the shots may start in an earlier chunk
+        self.source = (PelletSource(scene, model.precision, dev, max(max_shots, 1) * self.count, arrays)
+                       if arrays is not None and not spec.collisions else None)
+
+    def launch(self, first_shot: int, shots: int, source, outputs, release, tally, row_offset: int) -> int:
+        """Per-piece partials of shots [first_shot, first_shot + shots); returns the pieces."""
+        if shots <= 0:
+            return 0
+        if self.source is not None:
+            self.source.load(first_shot * self.count, shots * self.count)
+            source, row_offset = self.source.struct, first_shot * self.count
+        m, pieces = self.model, shots * self.pieces
+        wp.launch(self.kernel, dim=pieces,
+                  inputs=[first_shot, self.count, self.pieces, row_offset, source, m.surfaces, m.physics, outputs,
+                          release, tally],
+                  outputs=[self.partial_sums, self.partial_min, self.partial_max], device=m.device)
+        return pieces
+
+    def host_rows(self, pieces: int) -> np.ndarray:
+        """The first `pieces` rows on the host: sums, minima, maxima (a statistics segment's layout)."""
+        if not pieces:
+            return np.zeros((0, NUM_SUMS + 2 * NUM_EXTREMES))
+        return np.hstack([self.partial_sums.numpy()[:, :pieces].T, self.partial_min.numpy()[:, :pieces].T,
+                          self.partial_max.numpy()[:, :pieces].T])

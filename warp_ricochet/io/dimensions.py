@@ -1,0 +1,132 @@
+"""Named dimensions of a run file: HDF5 dimension scales (the HDF5 Dimension Scale specification, as
+netCDF-4 writes them), so that netCDF readers (h5netcdf, xarray, netCDF-C) see `pellet`, `bounce`,
+`xyz`, ... instead of anonymous dimensions.
+
+A dimension is a dataset in the run's group (the file's root, or /runs/NNNN of a sweep): netCDF
+readers look a dimension up in the group of a variable and its ancestors. `xyz` is a coordinate
+(the strings "x", "y", "z"); the others are dimension-only scales (netCDF's "This is a netCDF
+dimension but not a netCDF variable." name): they hold no data and cost no disk, and an unlimited
+one (`pellet`, `frame`, `segment`, `shot`) takes its length from the datasets attached to it, as
+netCDF defines it. `name_run_dimensions` runs after the writer made a run's objects and before the
+file switches to SWMR (HDF5 attaches scales by writing attributes, which SWMR forbids later).
+"""
+
+from __future__ import annotations
+
+import h5py
+import numpy as np
+
+from ..fields import FIELDS
+
+NOT_A_VARIABLE = "This is a netCDF dimension but not a netCDF variable."
+XYZ = ("x", "y", "z")
+
+# datasets of a run group (relative paths) -> the names of their axes (per-pellet fields: from fields.FIELDS)
+RUN_DIMENSIONS = {
+    "constants/gravity": ("xyz",),
+    "constants/surfaces/point": ("surface", "xyz"),
+    "constants/surfaces/normal": ("surface", "xyz"),
+    "constants/surfaces/restitution": ("surface",),
+    "constants/surfaces/mu_s": ("surface",),
+    "constants/surfaces/mu_d": ("surface",),
+    "progress/segment_results": ("segment", "segment_column"),
+    "progress/shot_totals": ("shot", "shot_column"),
+    "progress/shot_partials": ("shot_piece", "segment_column"),  # runs of several shots (tallies.ensemble)
+    "particles/pellets/position/step": ("frame",),
+    "particles/pellets/position/time": ("frame",),
+    "particles/pellets/position/value": ("frame", "pellet", "xyz"),
+    "particles/pellets/species": ("pellet",),
+    "particles/pellets/id": ("pellet",),
+    # landing tallies (io.tally_out, docs/hazard.md)
+    "progress/tally": ("tally_slot", "tally_column"),
+    "progress/tally_rows": ("tally_slot",),
+    "stats/histograms/counts": ("histogram_row", "bin"),
+    "stats/histograms/edges": ("bin_edge",),
+    **{f"stats/quantiles/{lower}{q}": ("level",) for q in ("range", "distance", "speed", "energy") for lower in ("", "lower/")},
+    **{f"stats/tail/{name}": ("tail_distance",) for name in ("distance", "count", "fraction")},
+    **{f"hazard/thresholds/{name}": ("threshold",) for name in ("name", "kind", "value", "speed", "landings")},
+    **{f"hazard/danger_distance/{name}": ("threshold", "fraction") for name in ("distance", "ci_low", "ci_high",
+                                                                                  "needed_landings")},
+    "hazard/danger_distance/fraction": ("fraction",),
+    "hazard/map/count": ("map_v", "map_u"),
+    "hazard/map/energy": ("map_v", "map_u"),
+    "hazard/map/above": ("threshold", "map_v", "map_u"),
+    "hazard/map/u_edges": ("map_u_edge",),
+    "hazard/map/v_edges": ("map_v_edge",),
+}
+
+
+def field_dimensions(name: str) -> tuple[str, ...]:
+    """The axes of per-pellet field `name` ("landing.position" -> ("pellet", "xyz"))."""
+    f = FIELDS[name]
+    return ("pellet",) + (("bounce",) if f.per_bounce else ()) + (("xyz",) if f.kind == "vec3" else ())
+
+
+def dimensions_of(path: str, ds: h5py.Dataset) -> tuple[str, ...]:
+    """The axes of the dataset at `path` (relative to its run group): from the layout, else, for a
+    dataset the layout does not know, `xyz` for a last axis of 3 and `<path>_<axis>` (slashes as
+    underscores: one dimension per dataset and axis) for the rest."""
+    if path.startswith("pellets/") and path.count("/") == 2:
+        name = path[len("pellets/"):].replace("/", ".")
+        if name in FIELDS:
+            return field_dimensions(name)
+    if path in RUN_DIMENSIONS:
+        return RUN_DIMENSIONS[path]
+    if path.startswith("stats/shots/"):  # each statistic's per-shot values
+        return ("shot",)
+    base = path.replace("/", "_")
+    return tuple("xyz" if n == 3 and axis == ds.ndim - 1 else f"{base}_{axis}" for axis, n in enumerate(ds.shape))
+
+
+def scale(group: h5py.Group, name: str, size: int, unlimited: bool) -> h5py.Dataset:
+    """The dimension `name` of `group`: made (a dimension scale) if it does not exist."""
+    if name in group:
+        return group[name]
+    if name == "xyz":
+        ds = group.create_dataset(name, data=np.array(XYZ, dtype=object), dtype=h5py.string_dtype())
+        ds.make_scale(name)
+        ds.attrs["units"] = "1"
+        ds.attrs["description"] = "Cartesian components (SI axes of the scene)"
+        return ds
+    if unlimited:
+        ds = group.create_dataset(name, shape=(0,), maxshape=(None,), chunks=(1024,), dtype="f4")
+    else:
+        ds = group.create_dataset(name, shape=(size,), dtype="f4")  # never written: no storage
+    ds.make_scale(name)
+    ds.attrs["NAME"] = np.bytes_(f"{NOT_A_VARIABLE}{0 if unlimited else size:10d}")
+    ds.attrs["units"] = "1"
+    ds.attrs["description"] = f"the dimension {name} (an HDF5 dimension scale without data; docs/output.md)"
+    return ds
+
+
+def attach(root: h5py.Group, ds: h5py.Dataset, names: tuple[str, ...]) -> None:
+    """Attach the dimensions `names` (made in `root` as needed) to the axes of `ds`."""
+    for axis, name in enumerate(names):
+        dim = ds.dims[axis]
+        if len(dim):
+            continue
+        dim.attach_scale(scale(root, name, ds.shape[axis], ds.maxshape[axis] is None))
+
+
+def name_run_dimensions(group: h5py.Group) -> None:
+    """Attach named dimensions to every dataset of the run in `group` (its per-pellet datasets,
+    constants, progress and frames; not its scalars)."""
+    found = []
+
+    def visit(path, obj):
+        if isinstance(obj, h5py.Dataset) and obj.ndim and path.split("/", 1)[0] != "runs" \
+                and obj.attrs.get("CLASS") != b"DIMENSION_SCALE":
+            found.append((path, obj))
+
+    group.visititems(visit)
+    for path, ds in found:
+        attach(group, ds, dimensions_of(path, ds))
+
+
+def name_sweep_dimensions(root: h5py.Group) -> None:
+    """Attach the dimension `point` (the sweep's points) to the arrays of /sweep and /stats."""
+    for name in ("sweep", "stats"):
+        if name in root:
+            for ds in root[name].values():
+                if isinstance(ds, h5py.Dataset) and ds.ndim == 1:
+                    attach(root, ds, ("point",))

@@ -1,0 +1,166 @@
+"""Hazard plots (PNG, matplotlib: `pip install warp-ricochet[plot]`), from a run file (an open h5py
+File or Group of a run) or from the same arrays in a dict (`read_plot_data`'s keys):
+
+- `plot_map`: landings per square metre on the map's surface (log colour scale), the contour of
+  where landings above each threshold occur, and each threshold's danger distance (the smallest p
+  the run can answer) as a circle around the shooter;
+- `plot_survival`: the share of landed pellets at or beyond each distance from the shooter, all of
+  them and those above each threshold, on a log scale, with the danger distances marked.
+
+`draw_map(fig, source)` and `draw_survival(fig, source)` draw the same on a given matplotlib Figure
+and return False when the run has nothing to draw: `warp-ricochet plot` (`report.plots`) calls them.
+What the numbers mean: docs/hazard.md.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def _figure(size):
+    try:
+        from matplotlib.figure import Figure
+    except ImportError:  # an optional dependency
+        raise ImportError("the hazard plots need matplotlib: pip install warp-ricochet[plot]") from None
+    return Figure(figsize=size, dpi=120, layout="constrained")
+
+
+def _colours(n):
+    from matplotlib import colormaps
+
+    return colormaps["viridis"](np.linspace(0.15, 0.85, max(n, 1)))
+
+
+def read_plot_data(group) -> dict:
+    """The arrays the plots use, from a run file's group (a dict is returned as it is)."""
+    if isinstance(group, dict):
+        return group
+    if "stats/histograms" not in group:
+        return {}
+    from ..tallies.bins import ROW_DISTANCE
+
+    out = {"edges": group["stats/histograms/edges"][()], "distance_counts": group["stats/histograms/counts"][()][ROW_DISTANCE:]}
+    h = group.get("hazard")
+    if h is not None and "thresholds" in h:
+        out.update(names=[n.decode() for n in h["thresholds/name"][()]], threshold_speed=h["thresholds/speed"][()],
+                   fractions=h["danger_distance/fraction"][()], danger_distance=h["danger_distance/distance"][()],
+                   ci_low=h["danger_distance/ci_low"][()], ci_high=h["danger_distance/ci_high"][()])
+        if "map" in h:
+            m = h["map"]
+            out.update({f"map_{k}": m[k][()] for k in ("count", "above", "energy", "u_edges", "v_edges", "outside")})
+    return out
+
+
+def _survival(counts, total):
+    """Share of `total` at or beyond each bin's lower edge."""
+    return np.cumsum(np.asarray(counts)[::-1])[::-1] / total
+
+
+def plot_survival(source, path, title="Landings beyond a distance from the shooter"):
+    """The survival curve of the distance, all landings and above each threshold; writes `path`."""
+    fig = _figure((7, 4.5))
+    if not draw_survival(fig, source, title):
+        raise ValueError("the run has no landing histograms (output.quantiles = false)")
+    fig.savefig(path)
+
+
+def draw_survival(fig, source, title="Landings beyond a distance from the shooter") -> bool:
+    """The survival curve on `fig`; False when the run counted no landings (output.quantiles off)."""
+    d = read_plot_data(source)
+    if "distance_counts" not in d:
+        return False
+    by_level = np.asarray(d["distance_counts"], dtype=np.int64)
+    total = by_level.sum()
+    edges = d["edges"]
+    ax = fig.subplots()
+    if total:
+        all_counts = by_level.sum(axis=0)
+        used = np.flatnonzero(all_counts)
+        lo, hi = used[0], used[-1] + 1
+        x = edges[lo : hi + 1]
+        s = np.append(_survival(all_counts, total)[lo:hi], 0.0)
+        ax.step(x, np.maximum(s, 1e-12), where="post", color="k", label="all landings")
+        names = d.get("names", [])
+        order = np.argsort(d.get("threshold_speed", []), kind="stable")
+        above = np.cumsum(by_level[::-1], axis=0)[::-1]
+        colours = _colours(len(names))
+        for position, index in enumerate(order):
+            counts = above[position + 1]
+            if counts.sum() == 0:
+                continue
+            s = np.append(_survival(counts, total)[lo:hi], 0.0)
+            ax.step(x, np.maximum(s, 1e-12), where="post", color=colours[index], label=f"above {names[index]}")
+            for j, p in enumerate(d["fractions"]):
+                r = d["danger_distance"][index, j]
+                if np.isfinite(r):
+                    ax.axvline(r, color=colours[index], ls=":" if j else "--", lw=0.8)
+        ax.set_yscale("log")
+        ax.set_ylim(max(0.5 / total, 1e-12), 1.5)
+    ax.set_xlabel("horizontal distance from the shooter (m)")
+    ax.set_ylabel("share of landed pellets at or beyond")
+    ax.set_title(title + (f" ({total:,} landed)" if total else " (none landed)"), fontsize=10)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8, title="dashed, dotted: danger distances", title_fontsize=7)
+    return True
+
+
+def plot_map(source, path, title="Landings on the map"):
+    """The hazard map: landings per m^2, contours of landings above each threshold, danger
+    distances as circles around the shooter (u, v) = (0, 0); writes `path`."""
+    d = read_plot_data(source)
+    fig = _figure(_map_size(d) if "map_count" in d else (8, 6))
+    if not draw_map(fig, d, title):
+        raise ValueError("the run has no hazard map ([hazard] map_cell and map_extent)")
+    fig.savefig(path)
+
+
+def _map_size(d) -> tuple[float, float]:
+    """Inches that fit the grid's shape, the colour bar and a legend line per threshold."""
+    u, v = d["map_u_edges"], d["map_v_edges"]
+    aspect = (v[-1] - v[0]) / (u[-1] - u[0])
+    return 8.0, min(9.0, max(1.5, 6.0 * aspect)) + 1.3 + 0.18 * len(d.get("names", []))
+
+
+def draw_map(fig, source, title="Landings on the map") -> bool:
+    """The hazard map on `fig` (a constrained layout); False when the run has no map."""
+    from matplotlib.colors import LogNorm
+
+    d = read_plot_data(source)
+    if "map_count" not in d:
+        return False
+    u, v, count = d["map_u_edges"], d["map_v_edges"], d["map_count"]
+    area = (u[1] - u[0]) * (v[1] - v[0])
+    names = d.get("names", [])
+    ax = fig.subplots()
+    density = np.where(count > 0, count / area, np.nan)
+    if np.isfinite(density).any():
+        mesh = ax.pcolormesh(u, v, density, norm=LogNorm(), cmap="Greys", shading="flat")
+        aspect = (v[-1] - v[0]) / (u[-1] - u[0])  # the axes keep equal scales: a flat grid, a short bar
+        fig.colorbar(mesh, ax=ax, label="landings per m$^2$", shrink=min(1.0, max(0.3, 1.6 * aspect)))
+    colours = _colours(len(names))
+    uc, vc = 0.5 * (u[1:] + u[:-1]), 0.5 * (v[1:] + v[:-1])
+    angle = np.linspace(0, 2 * np.pi, 361)
+    for i, name in enumerate(names):
+        layer = d["map_above"][i]
+        if layer.max() > 0 and min(layer.shape) > 1:
+            ax.contour(uc, vc, (layer > 0).astype(float), levels=[0.5], colors=[colours[i]], linewidths=1.0)
+        bounded = np.flatnonzero(np.isfinite(d["ci_high"][i]))  # the smallest p this run can answer
+        if layer.max() == 0:
+            label = f"{name}: no landing above"
+        elif len(bounded):
+            j = bounded[np.argmin(d["fractions"][bounded])]
+            r = d["danger_distance"][i, j]
+            ax.plot(r * np.cos(angle), r * np.sin(angle), color=colours[i], ls="--", lw=0.8)
+            label = f"{name}: where above; dashed: danger distance {r:.4g} m (p = {d['fractions'][j]:g})"
+        else:
+            label = f"{name}: where above (too few landings for a danger distance)"
+        ax.plot([], [], color=colours[i], label=label)
+    ax.plot([0], [0], marker="*", color="C3", ls="", label="shooter")
+    ax.set_xlim(u[0], u[-1])
+    ax.set_ylim(v[0], v[-1])
+    ax.set_aspect("equal")
+    ax.set_xlabel("u: downrange (m)")
+    ax.set_ylabel("v: cross-range (m)")
+    ax.set_title(f"{title} ({int(count.sum()):,} in the grid, {int(d.get('map_outside', 0)):,} outside)", fontsize=10)
+    fig.legend(fontsize=7, loc="outside lower center", frameon=False)
+    return True

@@ -1,0 +1,95 @@
+"""The landing quantiles, tail fractions and danger distances of one run as short text lines: from
+the counts a run returns (`pipeline.RunStats.tally`, the CLI summary) or from a run file (`report`).
+Both go through the same plain dict (`tallies.quantiles.summarize`'s layout). Needs numpy and h5py
+only (never warp)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+SHOWN_LEVELS = ("P50", "P75", "P90", "P99", "P99.9", "1-1e-6")
+
+
+def _fmt(x) -> str:
+    x = float(x)
+    if math.isnan(x):
+        return "n/a"
+    if math.isinf(x):
+        return "inf"
+    return f"{x:.4g}"
+
+
+def from_run(stats) -> dict | None:
+    """The results of a run's landing counts (None when it counted none)."""
+    tally = getattr(stats, "tally", None)
+    if tally is None:
+        return None
+    from ..tallies.quantiles import summarize
+
+    return summarize(tally, int(stats["landed"]))
+
+
+def from_file(group) -> dict | None:
+    """The same results read back from a run file's group (None when it has none)."""
+    if "stats/quantiles" not in group:
+        return None
+    q = group["stats/quantiles"]
+    out = {"levels": np.asarray(q.attrs["levels"]), "landed": int(group["stats/histograms/counts"][0].sum()),
+           "quantiles": {name: (q[name][()], q[f"lower/{name}"][()]) for name in ("range", "distance", "speed", "energy")},
+           "tail": {name: group[f"stats/tail/{name}"][()] for name in ("distance", "count", "fraction")}}
+    if "hazard/danger_distance" in group:
+        h = group["hazard"]
+        out["hazard"] = {"names": [n.decode() for n in h["thresholds/name"][()]],
+                         "kinds": [k.decode() for k in h["thresholds/kind"][()]], "values": h["thresholds/value"][()],
+                         "fractions": h["danger_distance/fraction"][()], "landings": h["thresholds/landings"][()],
+                         **{name: h[f"danger_distance/{name}"][()] for name in
+                            ("distance", "ci_low", "ci_high", "needed_landings")}}
+    return out
+
+
+def tally_lines(results: dict | None, pellets: float) -> list[str]:
+    """Quantiles (one line per quantity), tail fractions and danger distances, compactly."""
+    if results is None:
+        return []
+    units = {"range": "m", "distance": "m", "speed": "m/s", "energy": "J"}
+    lines = ["quantiles " + " / ".join(SHOWN_LEVELS) + " (bin upper edges, <= 0.1% above)"]
+    unresolved = [(name, q) for name, q in zip(SHOWN_LEVELS, results["levels"]) if results["landed"] * (1.0 - q) < 1.0]
+    if unresolved and results["landed"]:
+        name, q = unresolved[0]
+        lines[0] += (f"; from {name} on the largest value: a level q needs 1 / (1 - q) landings "
+                     f"({round(1.0 / (1.0 - q)):,} for {name}), this run has {results['landed']:,}")
+    for name, (value, _lower) in results["quantiles"].items():
+        lines.append(f"  {name:<9}" + " / ".join(_fmt(v) for v in value) + f" {units[name]}")
+    tail = results["tail"]
+    fractions = np.asarray(tail["fraction"], dtype=np.float64)
+    split = (fractions > 0) & (fractions < 1)
+    if split.any():
+        lines.append("landed beyond  " + ", ".join(f">={_fmt(d)} m: {_fmt(f)}" for d, f in
+                                                   zip(tail["distance"][split], fractions[split])))
+    elif len(fractions) and np.isfinite(fractions).all():
+        within = [f"all >= {_fmt(tail['distance'][fractions == 1].max())} m"] if (fractions == 1).any() else []
+        within += [f"none >= {_fmt(tail['distance'][fractions == 0].min())} m"] if (fractions == 0).any() else []
+        lines.append("landed beyond  " + ", ".join(within))
+    hazard = results.get("hazard")
+    if hazard is not None:
+        lines.append("danger distance (all but p of the landings above the threshold; 95% CI)")
+        for i, name in enumerate(hazard["names"]):
+            unit = "J/m^2" if hazard["kinds"][i] == "energy_density" else "m/s"
+            parts = []
+            for j, p in enumerate(hazard["fractions"]):
+                if hazard["landings"][i] == 0:
+                    parts.append(f"p={p:g}: none above")
+                    continue
+                text = (f"p={p:g}: {_fmt(hazard['distance'][i, j])} m "
+                        f"[{_fmt(hazard['ci_low'][i, j])}, {_fmt(hazard['ci_high'][i, j])}]")
+                if math.isinf(hazard["ci_high"][i, j]):
+                    need = hazard["needed_landings"][i, j]
+                    share = hazard["landings"][i] / pellets if pellets else math.nan
+                    text += (f" too few: needs {need:,} landings above it (about {need / share:,.0f} pellets)"
+                             if share > 0 else f" too few: needs {need:,} landings above it")
+                parts.append(text)
+            lines.append(f"  {name} ({_fmt(hazard['values'][i])} {unit}, {int(hazard['landings'][i]):,} landings): "
+                         + "; ".join(parts))
+    return lines

@@ -1,0 +1,154 @@
+"""Quantiles, tail fractions and danger distances from the landing histograms (`tallies.bins`).
+
+Quantile at level q of n counted values: the sample quantile X_(k), k = ceil(q n) (NumPy's
+"inverted_cdf"), located in its bin: the reported value is the bin's upper edge and `lower` its lower
+edge, so X_(k) lies in [lower, value] and value / lower - 1 <= 2^-8 (docs/hazard.md).
+
+Danger distance for a threshold and a fraction p: the distance from the shooter that contains all but
+p of the landings above the threshold, i.e. their quantile at level 1 - p, with a distribution-free
+95% confidence interval from the order statistics: the number E of landings beyond the true quantile
+is binomial(n, p), so [X_(n+1-m_l), X_(n+1-m_u)] with m_u = the 2.5% point of E and m_l = its 97.5%
+point + 1 covers it with probability >= 95% (e.g. Hahn & Meeker, Statistical Intervals, 1991,
+sec. 5.2), widened to the bins' edges. When (1 - p)^n > 2.5% the upper end is unbounded: the run is
+too small for p, and `needed` says how many landings above the threshold it would take.
+"""
+
+from __future__ import annotations
+
+import math
+from fractions import Fraction
+
+import numpy as np
+
+from .bins import ROW_DISTANCE, ROW_RANGE, ROW_SPEED, edges
+
+LEVELS = (0.5, 0.75, 0.9, 0.99, 0.999, 0.999999)
+QUANTITIES = {"range": ("m", "range (eq. 42): last ricochet point to landing point"),
+              "distance": ("m", "horizontal distance from the shooter to the landing centre"),
+              "speed": ("m/s", "speed |v| at landing"),
+              "energy": ("J", "translational kinetic energy m |v|^2 / 2 at landing")}
+CONFIDENCE = 0.95
+Z_975 = 1.959963984540054  # the standard normal's 97.5% point
+EXACT_VARIANCE = 1e4  # above this n p (1 - p), binomial points by the normal approximation
+
+
+def rank(q: float, n: int) -> int:
+    """k = ceil(q n), at least 1 (exact: q as its decimal)."""
+    return max(1, math.ceil(Fraction(repr(float(q))) * n))
+
+
+def bins_of_ranks(counts, ranks) -> np.ndarray:
+    """The bin holding the k-th smallest value (1-based) for each k of `ranks`."""
+    cumulative = np.cumsum(np.asarray(counts, dtype=np.int64))
+    return np.searchsorted(cumulative, np.asarray(ranks, dtype=np.int64), side="left")
+
+
+def quantiles(counts, levels=LEVELS) -> tuple[np.ndarray, np.ndarray]:
+    """(upper, lower) edges of the bins holding the sample quantiles at `levels` (NaN when empty)."""
+    n = int(np.sum(counts))
+    if n == 0:
+        return np.full(len(levels), math.nan), np.full(len(levels), math.nan)
+    e = edges()
+    b = bins_of_ranks(counts, [rank(q, n) for q in levels])
+    return e[b + 1], e[b]
+
+
+def tail(counts, distances) -> tuple[np.ndarray, np.ndarray]:
+    """(edges used, counts at or beyond them): each distance moved up to the nearest bin edge e
+    (e / d - 1 <= 2^-8), and the number of values >= e, exactly."""
+    e = edges()
+    j = np.searchsorted(e, np.asarray(distances, dtype=np.float64), side="left")
+    beyond = np.concatenate([np.cumsum(np.asarray(counts, dtype=np.int64)[::-1])[::-1], [0]])
+    return e[j], beyond[j]
+
+
+def landing_quantiles(hist, half_mass: float, levels=LEVELS) -> dict:
+    """{quantity: (value, lower)} of QUANTITIES from the histogram rows (distance: all levels)."""
+    hist = np.asarray(hist)
+    speed = quantiles(hist[ROW_SPEED], levels)
+    return {"range": quantiles(hist[ROW_RANGE], levels),
+            "distance": quantiles(hist[ROW_DISTANCE:].sum(axis=0), levels),
+            "speed": speed,
+            "energy": (half_mass * speed[0] ** 2, half_mass * speed[1] ** 2)}
+
+
+def binomial_point(n: int, p: float, alpha: float) -> int:
+    """The smallest m with P(Binomial(n, p) <= m) >= alpha (exact summation; the normal
+    approximation with continuity correction when n p (1 - p) > EXACT_VARIANCE)."""
+    if n == 0:
+        return 0
+    variance = n * p * (1.0 - p)
+    if variance > EXACT_VARIANCE:
+        z = Z_975 if alpha > 0.5 else -Z_975
+        return min(n, max(0, math.ceil(n * p + z * math.sqrt(variance) - 0.5)))
+    top = min(n, int(n * p + 40.0 * math.sqrt(variance) + 50))
+    m = np.arange(top + 1)
+    log_pmf = (math.lgamma(n + 1) - np.frompyfunc(math.lgamma, 1, 1)(m + 1).astype(float)
+               - np.frompyfunc(math.lgamma, 1, 1)(n - m + 1).astype(float) + m * math.log(p) + (n - m) * math.log1p(-p))
+    cdf = np.cumsum(np.exp(log_pmf))
+    return int(min(np.searchsorted(cdf, alpha * (1.0 - 1e-12), side="left"), n))
+
+
+def needed_landings(p: float, confidence: float = CONFIDENCE) -> int:
+    """The fewest landings n whose 1 - p quantile has a bounded upper confidence limit:
+    (1 - p)^n <= (1 - confidence) / 2."""
+    return math.ceil(math.log((1.0 - confidence) / 2.0) / math.log1p(-p))
+
+
+def danger_distance(counts, p: float) -> tuple[float, float, float, int]:
+    """(distance, ci_low, ci_high, landings needed) of the 1 - p quantile of the distances counted
+    in `counts` (NaN when empty; ci_high inf when the run is too small for p)."""
+    n = int(np.sum(counts))
+    needed = needed_landings(p)
+    if n == 0:
+        return math.nan, math.nan, math.nan, needed
+    e = edges()
+    m_upper = binomial_point(n, p, (1.0 - CONFIDENCE) / 2.0)  # landings beyond the upper limit
+    m_lower = binomial_point(n, p, 1.0 - (1.0 - CONFIDENCE) / 2.0) + 1
+    value_bin = bins_of_ranks(counts, [rank(1.0 - p, n)])[0]
+    low = e[bins_of_ranks(counts, [n + 1 - m_lower])[0]] if m_lower <= n else 0.0
+    high = e[bins_of_ranks(counts, [n + 1 - m_upper])[0] + 1] if m_upper >= 1 else math.inf
+    return float(e[value_bin + 1]), float(low), float(high), needed
+
+
+def hazard_distance_counts(hist, order) -> np.ndarray:
+    """(thresholds, bins): the distance counts of the landings above each threshold (scene order),
+    from the rows by level (a landing at level L exceeds the L lowest thresholds, `order`)."""
+    by_level = np.asarray(hist)[ROW_DISTANCE:]
+    above = np.cumsum(by_level[::-1], axis=0)[::-1]  # above[L]: landings at level >= L
+    out = np.zeros((len(order), by_level.shape[1]), dtype=np.int64)
+    for position, index in enumerate(order):
+        out[index] = above[position + 1]
+    return out
+
+
+def summarize(tally, landed: int) -> dict:
+    """The results of a run's landing counts (`counts.TallyTotals`), as plain arrays: quantiles
+    {name: (value, lower)}, tail (distance used, count, fraction), and with thresholds the danger
+    distances (rows: thresholds in scene order, columns: fractions) and the map's layers."""
+    setup, hist = tally.setup, tally.hist
+    used, beyond = tail(hist[ROW_DISTANCE:].sum(axis=0), setup.tail_distances)
+    out = {"levels": np.asarray(LEVELS), "landed": landed, "quantiles": landing_quantiles(hist, setup.half_mass),
+           "tail": {"distance": used, "count": beyond, "fraction": beyond / landed if landed else np.full(len(used), np.nan)}}
+    if setup.names:
+        by_threshold = hazard_distance_counts(hist, setup.order)
+        shape = (len(setup.names), len(setup.fractions))
+        danger = {name: np.zeros(shape, dtype=np.int64 if name == "needed_landings" else np.float64)
+                  for name in ("distance", "ci_low", "ci_high", "needed_landings")}
+        for i in range(shape[0]):
+            for j, p in enumerate(setup.fractions):
+                for name, x in zip(danger, danger_distance(by_threshold[i], p)):
+                    danger[name][i, j] = x
+        out["hazard"] = {"names": setup.names, "kinds": setup.kinds, "values": setup.values,
+                         "fractions": np.asarray(setup.fractions), "landings": by_threshold.sum(axis=1), **danger}
+    if setup.has_map:
+        shape, cells, counts = (setup.map_nv, setup.map_nu), setup.cells, tally.map_counts
+        above = np.cumsum(counts[::-1], axis=0)[::-1]  # landings at level >= L per column
+        layers = np.zeros((len(setup.names),) + shape, dtype=np.int64)
+        for position, index in enumerate(setup.order):
+            layers[index] = above[position + 1, :cells].reshape(shape)
+        out["map"] = {"count": counts[:, :cells].sum(axis=0).reshape(shape), "outside": int(counts[:, cells].sum()),
+                      "elsewhere": int(counts[:, cells + 1].sum()),
+                      "energy": (tally.map_energy[:cells] * setup.quantum).reshape(shape), "quantum": setup.quantum,
+                      "above": layers}
+    return out
