@@ -113,7 +113,7 @@ class DensePhase:
         if not self.cell_lists:
             self._launch("groups_kernel", pellets, [p, self.groups])
         if self.one_launch and frames is None:
-            self._whole_phase()
+            whole_phase(self)
         else:
             self._host_loop(pellets, shots, outputs, frames)
         self._launch("release_kernel", self.threads, [p, self.model.physics, c])
@@ -124,13 +124,9 @@ class DensePhase:
         """Each pellet's launch state, each shot of sampled launches separated (no overlaps)."""
         self.threads = self._threads(shots * self.count)
         self._launch("launch_kernel", self.threads, [first_index, self.pair, source, self.cloud, outputs])
-        if self.sampled:  # (O(count^2) a shot: on the CPU, stopped by an interrupt as the phase is)
-            command = self._launch("separate_kernel", shots, [first_index, self.pair, self.model.physics, source,
-                                                              self.cloud, outputs, self.redraws], True)
-            if self.stop is None:
-                command.launch()
-            else:
-                interrupts.wait(command.launch, self.stop)
+        if self.sampled:  # (O(count^2) a shot)
+            self._long("separate_kernel", shots, [first_index, self.pair, self.model.physics, source, self.cloud,
+                                                  outputs, self.redraws])
 
     def _threads(self, pellets):
         """Threads of a per-pellet kernel: one per pellet on CUDA; on the CPU one for all."""
@@ -141,21 +137,14 @@ class DensePhase:
     def _launch(self, name, dim, inputs, record=False):
         return wp.launch(self.kernels[name], dim=dim, inputs=inputs, device=self.device, record_cmd=record)
 
-    def _whole_phase(self):
-        """The CPU: the dense phase of a group of shots is one launch of phase_kernel (again
-        after a list overflowed, with longer lists)."""
-        m, c = self.model, self.cloud
-        c.flags.zero_()
-        group = max(1, self.phase_pellets // self.count)
-        first = 0
-        while first < self.shots:
-            end = min(first + group, self.shots)
-            command = self._launch("phase_kernel", 1, [first, end, self.block_steps, self.rounds, self.pair, m.surfaces,
-                                                       m.physics, c, self._outputs, self.bucket_end, self.rows, self.cells],
-                                   True)
+    def _long(self, name, dim, inputs):
+        """A launch that may run long: on the CPU through `interrupts.wait` (a worker thread; an
+        interrupt sets `cloud.stop`, which the kernel reads and returns early)."""
+        command = self._launch(name, dim, inputs, True)
+        if self.stop is None:
+            command.launch()
+        else:
             interrupts.wait(command.launch, self.stop)
-            if not self._grew_lists():  # (else the same group again: its shots before the overflow are done)
-                first = end
 
     def _host_loop(self, pellets, shots, outputs, frames):
         """Checkpoints, rebuilds and blocks of steps launched from the host."""
@@ -272,6 +261,21 @@ class DensePhase:
             interrupts.check()
             for command in commands:
                 command.launch()
+
+
+def whole_phase(dense: DensePhase):
+    """The CPU: the dense phase of a group of shots is one launch of phase_kernel (again after a
+    list overflowed, with longer lists)."""
+    m, c = dense.model, dense.cloud
+    c.flags.zero_()
+    group = max(1, dense.phase_pellets // dense.count)
+    first = 0
+    while first < dense.shots:
+        end = min(first + group, dense.shots)
+        dense._long("phase_kernel", 1, [first, end, dense.block_steps, dense.rounds, dense.pair, m.surfaces, m.physics, c,
+                                        dense._outputs, dense.bucket_end, dense.rows, dense.cells])
+        if not dense._grew_lists():  # (else the same group again: its shots before the overflow are done)
+            first = end
 
 
 def take_frame(dense, pellets: int, frames):
