@@ -66,7 +66,7 @@ def honoured(signals=(signal.SIGINT,)):
     previous = {}
     for signum in signals:
         handler = signal.getsignal(signum)
-        if handler in (signal.default_int_handler, signal.SIG_DFL):
+        if handler is signal.default_int_handler or (signum == signal.SIGTERM and handler == signal.SIG_DFL):
             previous[signum] = handler
             signal.signal(signum, _record)
     if _depth == 0:
