@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import interrupts
 from .chunks import check_chunk_memory, plan_shots
 from .core.impact import impact_kernel_for
 from .device import resolve_device, warp
@@ -183,12 +184,14 @@ def _run_one(scene, dev, group=None, progress=None, dense_options=None) -> dict:
     return _compute(scene, dev, writer, progress, dense_options=dense_options)
 
 
+@interrupts.honouring
 def run(scene, output=None, device=None, *, overwrite=False, progress=None, resume=False, dense_options=None) -> dict:
     """Run a scene (a `Scene` or a TOML path); write HDF5 to `output` (or the scene's
     `output.path`) when given. Returns the statistics (SI units, see `tallies.sums.STAT_UNITS`).
     `resume`: continue the interrupted run left in OUTPUT.partial (see `io.resume`).
     `dense_options`: how the CPU runs the dense phase (`dense.phase.DenseOptions`; the results
-    are the same for every choice)."""
+    are the same for every choice). Ctrl-C raises KeyboardInterrupt at the next safe point
+    (`interrupts`), the completed chunks kept in OUTPUT.partial."""
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
     output = output if output is not None else scene.output.path

@@ -16,9 +16,11 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
 import warnings
 
+from . import interrupts
 from ._version import __version__
 from .errors import MAX_MESSAGE, RicochetError, SceneError, shorten
 
@@ -156,9 +158,11 @@ def cmd_run(args) -> int:
     scene = load_scene(args.scene, args.overrides)  # before warp: a bad scene fails fast
     from . import api
 
+    interrupts.check()
     with ProgressBar("run") as bar:
         stats = api.run(scene, args.output, args.device, overwrite=args.overwrite, progress=bar, resume=args.resume)
     output = args.output if args.output is not None else scene.output.path
+    interrupts.check(completed_path=output)  # (None: statistics only, nothing kept)
     sys.stdout.write(format_run_summary(stats, output, _device_name(api, args.device)))
     return 0
 
@@ -262,26 +266,19 @@ def _error(message: str) -> None:
     print(f"{PROG}: error: {_one_line(message)}", file=sys.stderr)
 
 
-def _raise_interrupt(signum, frame):
-    raise KeyboardInterrupt
-
-
-def _sigterm_as_interrupt() -> None:
-    """SIGTERM ends a run like Ctrl-C: the output is closed and marked "interrupted"."""
-    import signal
-    import threading
-
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, _raise_interrupt)
-
-
 def main(argv=None) -> int:
-    """Entry point of `warp-ricochet`; returns the exit status (argparse exits itself on usage errors)."""
+    """Entry point of `warp-ricochet`; returns the exit status (argparse exits itself on usage errors).
+    Ctrl-C and SIGTERM are requests the run acts on at safe points (`interrupts`): the output is
+    closed and marked "interrupted", exit status 130."""
     args = build_parser().parse_args(argv)
-    _sigterm_as_interrupt()
     # warnings (e.g. api.PrecisionWarning) in one line, like the errors
     warnings.formatwarning = lambda message, category, *_args, **_kwargs: f"{PROG}: warning: {_one_line(str(message))}\n"
-    status = _run_command(args)
+    try:
+        with interrupts.honoured((signal.SIGINT, signal.SIGTERM)):
+            status = _run_command(args)
+    except KeyboardInterrupt:  # a signal after the command's last check (its result complete)
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        status = 130
     runfile = sys.modules.get("warp_ricochet.io.runfile")
     if runfile is not None and runfile.ABANDONED:  # HDF5 crashes in its exit handler after a failed close
         sys.stdout.flush()
@@ -293,7 +290,9 @@ def main(argv=None) -> int:
 def _run_command(args) -> int:
     """The subcommand; every failure as one line on stderr and an exit status."""
     try:
-        return args.func(args)
+        status = args.func(args)
+        interrupts.check()  # a signal after the run's last safe point
+        return status
     except RicochetError as exc:  # before OSError: OutputError is both
         _error(str(exc))
         return 2
@@ -314,6 +313,9 @@ def _run_command(args) -> int:
 
 def _kept(exc) -> str:
     """Where the chunks completed before a failure are (set by the output file when it was open)."""
+    completed = getattr(exc, "completed_path", None)
+    if completed is not None:
+        return f"; the run had completed: its result is in {completed}"
     partial = getattr(exc, "partial_path", None)
     if partial is None:
         return ""

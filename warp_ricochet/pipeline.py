@@ -8,6 +8,9 @@ used in turn, copied asynchronously: the host hands one chunk to the sink while 
 computes the next; no sync inside a chunk), folds its statistics in pellet order and hands its
 rows to the sink (a writer): the sink receives results and decides nothing about what is
 computed. A resumed run starts after the rows already complete, with their partials.
+
+Ctrl-C (and, from the command line, SIGTERM) is honoured between chunks (`interrupts`): the loop
+raises KeyboardInterrupt before it computes the next chunk, so the sink holds whole chunks only.
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
+from . import interrupts
 from .chunks import plan_rows, plan_shots
 from .core.kernel import CUDA_BLOCK_DIM, ricochet_kernel_for
 from .core.release import empty_release
@@ -163,6 +167,7 @@ class CollisionStage:
         shots = rows // self.count
         self.source.load(start, rows)
         self.dense.run(start, shots, self.source.struct, self.state.outputs, frames=self.frames)
+        interrupts.check()  # (before the core kernel's pass over the chunk)
         slots = shots * self.stride
         self.tally.zero()
         wp.launch(self.kernel, dim=threads_for(slots),
@@ -231,7 +236,7 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
     arrays: a pellet file's launch states; sink: receives each chunk (`append(arrays, rows,
     segment_results, shot_totals)`); resumed: a `Resumed`; progress(done, total); options: the
     dense phase's `DenseOptions`; frames(step, time, positions): trajectory frames."""
-    with _DEVICE_LOCK if model.device.is_cuda else contextlib.nullcontext():
+    with interrupts.honoured(), _DEVICE_LOCK if model.device.is_cuda else contextlib.nullcontext():
         pellets = scene.shot.pellets
         if spec.collisions:
             if scene.shot.shots == 1:
@@ -304,6 +309,7 @@ def _loop(stage, pellets, sink, resumed, progress):
 
     pending = None
     for i, (start, rows) in enumerate(stage.chunks(done)):
+        interrupts.check()
         segments, shots = stage.compute(start, rows)
         shot_rows = stage.shot_rows(start, rows)
         slot = slots[i % len(slots)]
@@ -317,4 +323,5 @@ def _loop(stage, pellets, sink, resumed, progress):
         pending = slot
     if pending is not None:
         consume(pending)
+    interrupts.check()
     return totals, tables, tally, pieces

@@ -106,6 +106,8 @@ def make_ends(spec) -> SimpleNamespace:
         if wp.static(SAMPLED):
             for k in range(pair.count):
                 i = first + k
+                if cloud.stop[0] != 0:  # an interrupt (the host abandons the chunk)
+                    return
                 position = cloud.position[i]
                 attempt = wp.int32(0)
                 clash = overlaps_earlier(position, first, i, diameter2, cloud)

@@ -176,18 +176,24 @@ def make_step_kernels(spec) -> SimpleNamespace:
         thread): each shot, one after another, goes through what the host loop does with it (its
         lists, its checkpoint, a block of steps) until it is done; no host round trip between. A
         list that overflows ends the launch: the host grows the lists and launches again, and
-        that shot builds its lists again first (the shots before it are done)."""
+        that shot builds its lists again first (the shots before it are done). `cloud.stop` set
+        by the host (an interrupt) ends it early, at the next block, pass or pellet's horizon:
+        the host then abandons the chunk."""
         for s in range(first_shot, end_shot):
             while cloud.shot_flags[s, SHOT_DONE] == 0:
+                if cloud.stop[0] != 0:
+                    return
                 if cloud.shot_flags[s, SHOT_REBUILD] != 0:
                     list_fns.cell_lists_shot(s, pair, physics, cloud, bucket_end, rows, cells)
-                    if cloud.flags[FLAG_OVERFLOW] != 0:
+                    if cloud.flags[FLAG_OVERFLOW] != 0 or cloud.stop[0] != 0:
                         return
                 if cloud.shot_flags[s, SHOT_STALL] != 0:
                     first = s * pair.count
                     for i in range(first, first + pair.count):
                         checkpoint_fns.now_pellet(i, pair, physics, cloud)
                     for i in range(first, first + pair.count):
+                        if cloud.stop[0] != 0:  # (a pellet's horizon is O(count))
+                            return
                         checkpoint_fns.horizon_pellet(i, pair, surfaces, physics, cloud)
                     checkpoint_fns.settle_shot(s, pair, physics, cloud)
                 else:

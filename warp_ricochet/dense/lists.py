@@ -101,7 +101,8 @@ def make_lists(spec) -> SimpleNamespace:
         counting-sorted into hashed cells one reach wide, and each pair is found once, from the
         lower cell (its own cell and the 13 after it around each pellet). `bucket_end` has a power
         of two plus one entries; `rows` one per pellet of a shot, `cells` one per pellet. A list
-        that overflows sets FLAG_OVERFLOW (to its length)."""
+        that overflows sets FLAG_OVERFLOW (to its length). It returns early, lists unfinished, once
+        `cloud.stop` is set (an interrupt)."""
         buckets = bucket_end.shape[0] - 1
         mask = wp.uint32(buckets - 1)
         capacity = cloud.neighbours.shape[1]
@@ -135,6 +136,8 @@ def make_lists(spec) -> SimpleNamespace:
                 bucket_end[b] = bucket_end[b] + 1
         for k in range(pair.count):
             i = first + k
+            if cloud.stop[0] != 0:  # an interrupt: the host abandons the chunk
+                return
             if cloud.phase[i] != FLYING or done:
                 continue
             point = cloud.grid_point[i]

@@ -10,6 +10,11 @@ How it runs (the results are bitwise the same in every mode, tested):
   `phase_kernel` on cell lists ("phase"); "block" runs the host loop with a block of steps a
   launch; "kernels" the per-step kernels, as CUDA; lists from cell lists ("cells") or, as on CUDA,
   `wp.HashGrid` ("hashgrid"). Trajectory frames need the host loop (they are taken at checkpoints).
+
+Interrupts (`interrupts`): the host loop checks for one before each block; on the CPU the long
+launches (phase_kernel, block_kernel, separate_kernel) run in a worker thread while the main thread waits, and an
+interrupt sets `cloud.stop`, which ends them at their next block, pass or pellet; the chunk is
+then abandoned (KeyboardInterrupt), its state unfinished.
 """
 
 from __future__ import annotations
@@ -19,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
+from .. import interrupts
 from ..errors import SceneError
 from ..launch.packing import MAX_REDRAWS
 from ..tallies.collisions import SHOT_TOTALS
@@ -91,6 +97,7 @@ class DensePhase:
         self.reach = 2.0 * model.radius + coll.skin * 2.0 * model.radius
         self.graph = None
         self.last_frame_step = None
+        self.stop = self.cloud.stop.numpy() if cpu else None  # (a view: the host sets it, a launch reads it)
 
     def run(self, first_index: int, shots: int, source, outputs, frames=None):
         """Launch `shots` whole shots (global pellet index `first_index` on), step them until no
@@ -106,7 +113,7 @@ class DensePhase:
         if not self.cell_lists:
             self._launch("groups_kernel", pellets, [p, self.groups])
         if self.one_launch and frames is None:
-            self._whole_phase()
+            whole_phase(self)
         else:
             self._host_loop(pellets, shots, outputs, frames)
         self._launch("release_kernel", self.threads, [p, self.model.physics, c])
@@ -117,9 +124,9 @@ class DensePhase:
         """Each pellet's launch state, each shot of sampled launches separated (no overlaps)."""
         self.threads = self._threads(shots * self.count)
         self._launch("launch_kernel", self.threads, [first_index, self.pair, source, self.cloud, outputs])
-        if self.sampled:
-            self._launch("separate_kernel", shots, [first_index, self.pair, self.model.physics, source, self.cloud,
-                                                    outputs, self.redraws])
+        if self.sampled:  # (O(count^2) a shot)
+            self._long("separate_kernel", shots, [first_index, self.pair, self.model.physics, source, self.cloud,
+                                                  outputs, self.redraws])
 
     def _threads(self, pellets):
         """Threads of a per-pellet kernel: one per pellet on CUDA; on the CPU one for all."""
@@ -130,19 +137,14 @@ class DensePhase:
     def _launch(self, name, dim, inputs, record=False):
         return wp.launch(self.kernels[name], dim=dim, inputs=inputs, device=self.device, record_cmd=record)
 
-    def _whole_phase(self):
-        """The CPU: the dense phase of a group of shots is one launch of phase_kernel (again
-        after a list overflowed, with longer lists)."""
-        m, c = self.model, self.cloud
-        c.flags.zero_()
-        group = max(1, self.phase_pellets // self.count)
-        first = 0
-        while first < self.shots:
-            end = min(first + group, self.shots)
-            self._launch("phase_kernel", 1, [first, end, self.block_steps, self.rounds, self.pair, m.surfaces, m.physics,
-                                             c, self._outputs, self.bucket_end, self.rows, self.cells])
-            if not self._grew_lists():  # (else the same group again: its shots before the overflow are done)
-                first = end
+    def _long(self, name, dim, inputs):
+        """A launch that may run long: on the CPU through `interrupts.wait` (a worker thread; an
+        interrupt sets `cloud.stop`, which the kernel reads and returns early)."""
+        command = self._launch(name, dim, inputs, True)
+        if self.stop is None:
+            command.launch()
+        else:
+            interrupts.wait(command.launch, self.stop)
 
     def _host_loop(self, pellets, shots, outputs, frames):
         """Checkpoints, rebuilds and blocks of steps launched from the host."""
@@ -152,6 +154,7 @@ class DensePhase:
         commands = self._step_commands(pellets, shots, outputs)
         self.graph = None
         while True:
+            interrupts.check()
             flags = self._checkpoint()  # host syncs: here, at checkpoints, and one per rebuild
             if frames is not None:
                 take_frame(self, pellets, frames)
@@ -251,9 +254,28 @@ class DensePhase:
             self.graph = capture.graph
             wp.capture_launch(self.graph)
             return
-        for _ in range(1 if self.fused else self.block_steps):
+        if self.fused:
+            interrupts.wait(commands[0].launch, self.stop)
+            return
+        for _ in range(self.block_steps):
+            interrupts.check()
             for command in commands:
                 command.launch()
+
+
+def whole_phase(dense: DensePhase):
+    """The CPU: the dense phase of a group of shots is one launch of phase_kernel (again after a
+    list overflowed, with longer lists)."""
+    m, c = dense.model, dense.cloud
+    c.flags.zero_()
+    group = max(1, dense.phase_pellets // dense.count)
+    first = 0
+    while first < dense.shots:
+        end = min(first + group, dense.shots)
+        dense._long("phase_kernel", 1, [first, end, dense.block_steps, dense.rounds, dense.pair, m.surfaces, m.physics, c,
+                                        dense._outputs, dense.bucket_end, dense.rows, dense.cells])
+        if not dense._grew_lists():  # (else the same group again: its shots before the overflow are done)
+            first = end
 
 
 def take_frame(dense, pellets: int, frames):

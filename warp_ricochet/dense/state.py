@@ -90,6 +90,7 @@ def make_state(precision: str):
         step_travel: wp.array(dtype=scalar)  # (shots,) m: the most a pellet moves in one step relative to its frame, when beyond half the skin
         half_skin: wp.array(dtype=scalar)  # (shots,) m: the shot's half skin (widened for a fixed step that outruns it)
         widest_half_skin: wp.array(dtype=scalar)  # (1,) m: the widest of them (the grid's cells)
+        stop: wp.array(dtype=wp.int32)  # (1,) 1: the host asks the CPU's long launches to return (an interrupt)
 
     @wp.struct
     class Pair:
@@ -170,6 +171,7 @@ def allocate_cloud(precision: str, device, capacity: int, shots: int, rounds: in
     cloud.shot_flags = arr(wp.int32, (shots, NUM_SHOT_FLAGS))
     cloud.flags = arr(wp.int32, NUM_FLAGS)
     cloud.widest_half_skin = arr(t.scalar, 1)
+    cloud.stop = arr(wp.int32, 1)
     return cloud, field_arrays
 
 

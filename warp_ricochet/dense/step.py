@@ -165,13 +165,16 @@ def make_step(spec) -> SimpleNamespace:
                    cloud: Cloud, out: Outputs):
         """On the CPU (one thread), up to `steps` steps of shot s: each step is the per-step
         kernels' work for its pellets, in their order; it ends early when the shot waits (a
-        checkpoint, or a rebuild) or is done."""
+        checkpoint, or a rebuild) or is done, and mid-step once `cloud.stop` is set (an interrupt:
+        the host abandons the chunk)."""
         first = s * pair.count
         last = first + pair.count
         cloud.shot_flags[s, SHOT_REBUILD] = 0  # (as plan_shot: built before this block)
         for _ in range(steps):
             if cloud.shot_flags[s, SHOT_DONE] != 0 or cloud.shot_flags[s, SHOT_STALL] != 0:
                 break  # (until its checkpoint, or its rebuild)
+            if cloud.stop[0] != 0:
+                return
             # bounds_pellet and the part of prepare_pellet that most pellets need, in one pass:
             # the full check only when some pellet is near the edge of its skin (or the step is
             # fixed: no bound on how far it carries a pellet)
@@ -205,6 +208,8 @@ def make_step(spec) -> SimpleNamespace:
             # shot applied nothing is skipped, as the per-step kernels skip one nobody applied in.
             step_end = cloud.clock[s, CLOCK_TIME] + cloud.clock[s, CLOCK_STEP]
             for r in range(rounds):
+                if cloud.stop[0] != 0:
+                    return
                 if r == 0 or cloud.round_applied[r - 1] != 0:
                     for i in range(first, last):
                         if cloud.stale[i] != 0 or cloud.event_time[i] <= step_end:

@@ -41,6 +41,7 @@ from pathlib import Path
 import h5py
 import warp as wp
 
+from .. import interrupts
 from .._version import __version__
 from ..errors import OutputError, RicochetError, hdf5_reason, in_use_error
 from .h5open import open_for_reading
@@ -397,18 +398,11 @@ def abandon(h5):
 
 
 def move_into_place(partial: Path, path: Path, overwrite: bool):
-    """Rename NAME.partial to NAME with Ctrl-C and SIGTERM held off: never half done."""
-    import signal
-
-    held = {signal.SIGINT, signal.SIGTERM}
-    can_hold = hasattr(signal, "pthread_sigmask")
-    if can_hold:
-        signal.pthread_sigmask(signal.SIG_BLOCK, held)
-    try:
+    """Rename NAME.partial to NAME with Ctrl-C and SIGTERM held off (`interrupts.held`: recorded,
+    acted on after it): never half done. (Blocking the signals in this thread would not do: the
+    kernel may deliver one to another thread, and Python then runs its handler here.)"""
+    with interrupts.held():
         _move(partial, path, overwrite)
-    finally:
-        if can_hold:
-            signal.pthread_sigmask(signal.SIG_UNBLOCK, held)
 
 
 def _move(partial: Path, path: Path, overwrite: bool):
