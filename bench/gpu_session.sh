@@ -9,6 +9,7 @@
 #   tallies-tests: the CUDA tests of the landing tallies, hazard, precision, ensembles and launches
 #   tallies: statistics only before this work (.gpu/old, a git archive of 27e7781) beside now, with
 #          quantiles and hazard maps; collisions 10,000 x 450 old beside new; the safety study
+#   interrupts: signal-to-exit latency of collision runs on CUDA (many small shots, one shot of 3e6)
 #   collisions: the collision, stability and pipeline tests on CUDA; Warp's DEM example and the dense phase in the
 #          same run (1e6 pellets: rounds 4, 2, 1, float64; 10,000 shots x 450); where the dense phase's time goes
 set -uo pipefail
@@ -72,4 +73,8 @@ if [[ $what == tallies-collisions ]]; then
   timeout 60 python3 -m bench.launch_overlaps --device cuda:0 --shots 200 2>&1 | quiet | tee "$out/launch-overlaps.txt"
   timeout 280 python3 examples/safety_study.py --shots 1000 --device cuda:0 --out /tmp/safety 2>&1 | quiet \
     | tee "$out/safety-study.txt"
+fi
+if [[ $what == interrupts ]]; then
+  timeout 300 python3 -m bench.interrupts --device cuda:0 --kinds shots,shot --trials 8 --out "$out" 2>&1 | quiet \
+    | tee "$out/interrupts.txt"
 fi

@@ -44,7 +44,7 @@ KINDS = {
                "numerics.chunk_size=40960", *COLLISIONS], None, 46_960),
     # one shot of 1e5 pellets: its dense phase takes minutes (so no uninterrupted run to compare with;
     # signals in its first 1.5 s), in launches that only the stop flag ends; its launches not separated
-    # (that is one launch too, O(count^2): test_a_large_shot_stops_from_the_command_line)
+    # (that is one launch too: test_a_large_shot_stops_from_the_command_line)
     "large": (["shot.count=100000", "shot.envelope_radius=0.3", "collisions.separate=false", *COLLISIONS], 1.5, 100_000),
 }
 

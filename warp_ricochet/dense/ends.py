@@ -8,8 +8,6 @@ from types import SimpleNamespace
 import warp as wp
 
 from ..core.outputs import make_outputs
-from ..launch.packing import MAX_REDRAWS
-from ..launch.sampling import make_redraw
 from ..launch.source import make_source
 from ..physics.ballistic import make_ballistic
 from ..physics.flight import make_flight
@@ -36,7 +34,7 @@ from .state import dense_types
 
 @functools.cache
 def make_ends(spec) -> SimpleNamespace:
-    """launch_pellet, separate_shot, start_shot, release_pellet and shot_totals."""
+    """launch_pellet, start_shot, release_pellet and shot_totals."""
     d = dense_types(spec)
     scalar, vec3, Surfaces, Physics, Outputs, Source, Cloud, Pair = d.scalar, d.vec3, d.Surfaces, d.Physics, d.Outputs, d.Source, d.Cloud, d.Pair
     NEVER, WRITE = d.NEVER, bool(spec.core_fields)
@@ -79,49 +77,6 @@ def make_ends(spec) -> SimpleNamespace:
         cloud.stale[i] = 1
         cloud.event_partner[i] = -1
         cloud.event_time[i] = NEVER
-
-    redraw_position = make_redraw(scalar)
-    SAMPLED = not spec.from_file
-
-    @wp.func
-    def overlaps_earlier(position: vec3, first: wp.int32, i: wp.int32, diameter2: scalar, cloud: Cloud):
-        """Whether `position` lies closer than a diameter to a pellet first..i-1 (as placed)."""
-        hit = wp.int32(0)
-        for j in range(first, i):
-            if wp.length_sq(position - cloud.position[j]) < diameter2:
-                hit = wp.int32(1)
-                break
-        return hit
-
-    @wp.func
-    def separate_shot(s: wp.int32, first_index: wp.int32, pair: Pair, physics: Physics, source: Source, cloud: Cloud,
-                      out: Outputs, redraws: wp.array(dtype=wp.int32)):
-        """One thread per shot of sampled launches: its pellets in order, each redrawn
-        (`launch.sampling.redraw_position`) while it overlaps an earlier one; `redraws[s]`: the
-        most attempts a pellet took, MAX_REDRAWS + 1 when one still overlaps."""
-        diameter = scalar(2.0) * physics.radius
-        diameter2 = diameter * diameter
-        first = s * pair.count
-        worst = wp.int32(0)
-        if wp.static(SAMPLED):
-            for k in range(pair.count):
-                i = first + k
-                if cloud.stop[0] != 0:  # an interrupt (the host abandons the chunk)
-                    return
-                position = cloud.position[i]
-                attempt = wp.int32(0)
-                clash = overlaps_earlier(position, first, i, diameter2, cloud)
-                while clash != 0 and attempt < wp.static(MAX_REDRAWS):
-                    attempt += 1
-                    position = redraw_position(source.seed, first_index + i, attempt, source.envelope_center,
-                                               source.envelope_radius)
-                    clash = overlaps_earlier(position, first, i, diameter2, cloud)
-                if attempt > 0:
-                    cloud.position[i] = position
-                    if wp.static(WRITE):
-                        write_initial(out, i, position, cloud.velocity[i], cloud.angular_velocity[i])
-                worst = wp.max(worst, attempt + clash)
-        redraws[s] = worst
 
     @wp.func
     def start_shot(s: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
@@ -202,4 +157,4 @@ def make_ends(spec) -> SimpleNamespace:
         totals[s, 4] = wp.float64(cloud.clock[s, CLOCK_END])
         totals[s, 5] = wp.float64(cloud.clock[s, CLOCK_OVERRUN])
 
-    return SimpleNamespace(launch_pellet=launch_pellet, separate_shot=separate_shot, start_shot=start_shot, release_pellet=release_pellet, shot_totals=shot_totals)
+    return SimpleNamespace(launch_pellet=launch_pellet, start_shot=start_shot, release_pellet=release_pellet, shot_totals=shot_totals)

@@ -14,6 +14,7 @@ from .constants import FLAG_OVERFLOW, SHOT_DONE, SHOT_REBUILD, SHOT_STALL
 from .ends import make_ends
 from .lists import make_lists
 from .rounds import make_rounds
+from .separation import make_separation
 from .state import dense_types
 from .step import make_step
 
@@ -25,6 +26,7 @@ def make_setup_kernels(spec) -> SimpleNamespace:
     Surfaces, Physics, Outputs, Source, Cloud, Pair = d.Surfaces, d.Physics, d.Outputs, d.Source, d.Cloud, d.Pair
     opts = d.opts
     end_fns, list_fns = make_ends(spec), make_lists(spec)
+    separate_shot = make_separation(spec).separate_shot
 
     @wp.kernel(**opts)
     def groups_kernel(pair: Pair, groups: wp.array(dtype=wp.int32)):
@@ -48,9 +50,10 @@ def make_setup_kernels(spec) -> SimpleNamespace:
 
     @wp.kernel(**opts)
     def separate_kernel(first_index: wp.int32, pair: Pair, physics: Physics, source: Source, cloud: Cloud, out: Outputs,
-                        redraws: wp.array(dtype=wp.int32)):
+                        redraws: wp.array(dtype=wp.int32), heads: wp.array(dtype=wp.int32),
+                        chain: wp.array(dtype=wp.int32)):
         """Each shot without overlaps at launch (one thread a shot)."""
-        end_fns.separate_shot(wp.tid(), first_index, pair, physics, source, cloud, out, redraws)
+        separate_shot(wp.tid(), first_index, pair, physics, source, cloud, out, redraws, heads, chain)
 
     @wp.kernel(**opts)
     def drift_kernel(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):

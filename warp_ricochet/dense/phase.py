@@ -40,6 +40,7 @@ from .constants import (
     FLYING,
 )
 from .kernels import make_setup_kernels, make_step_kernels
+from .schedule import separation_table
 from .state import allocate_cloud, pair_struct, release_struct
 
 CPU_STEPS = ("phase", "block", "kernels")
@@ -69,17 +70,16 @@ class DensePhase:
         options = options or DenseOptions()
         coll = scene.collisions
         self.model, self.device, self.count, self.capacity = model, model.device, scene.shot.count, capacity
-        self.rounds = coll.rounds
-        self.block_steps = coll.frame_every or BLOCK_STEPS
-        self.kernels = {**vars(make_setup_kernels(spec)), **vars(make_step_kernels(spec))}
-        self.in_air = spec.in_air
+        self.rounds, self.block_steps = coll.rounds, coll.frame_every or BLOCK_STEPS
+        self.kernels, self.in_air = {**vars(make_setup_kernels(spec)), **vars(make_step_kernels(spec))}, spec.in_air
         shots = -(-capacity // self.count)
         self.cloud, self.field_arrays = allocate_cloud(model.precision, self.device, capacity, shots, coll.rounds,
                                                        coll.max_neighbours, spec.collision_fields)
         self.release = release_struct(model.precision, self.cloud, self.count)
         self.totals = wp.zeros((shots, len(SHOT_TOTALS)), dtype=wp.float64, device=self.device)
         self.sampled = not spec.from_file and coll.separate  # separated launches (a pellet file's are as given)
-        self.redraws, self.envelope_radius = wp.zeros(shots, dtype=wp.int32, device=self.device), scene.shot.envelope_radius
+        self.envelope_radius = scene.shot.envelope_radius
+        self.redraws, self.heads, self.chain = separation_buffers(self.device, shots, self.count, self.sampled)
         self.pair = pair_struct(model.precision, model, coll, self.count, self.block_steps)
         cpu = not self.device.is_cuda
         self.fused = cpu and options.cpu_steps != "kernels"
@@ -124,9 +124,9 @@ class DensePhase:
         """Each pellet's launch state, each shot of sampled launches separated (no overlaps)."""
         self.threads = self._threads(shots * self.count)
         self._launch("launch_kernel", self.threads, [first_index, self.pair, source, self.cloud, outputs])
-        if self.sampled:  # (O(count^2) a shot)
+        if self.sampled:
             self._long("separate_kernel", shots, [first_index, self.pair, self.model.physics, source, self.cloud,
-                                                  outputs, self.redraws])
+                                                  outputs, self.redraws, self.heads, self.chain])
 
     def _threads(self, pellets):
         """Threads of a per-pellet kernel: one per pellet on CUDA; on the CPU one for all."""
@@ -293,6 +293,14 @@ def take_frame(dense, pellets: int, frames):
     g = np.asarray(dense.model.physics.gravity, np.float64)
     age = np.where(flying, now - t, 0.0)[:, None]
     frames(steps, now, x + v * age + 0.5 * g * age**2)
+
+
+def separation_buffers(device, shots: int, count: int, sampled: bool):
+    """The launch separation's arrays: the most redraws of each shot, its cell buckets and a chain
+    entry a pellet (`dense.separation`; empty buckets and chain without sampled launches)."""
+    table = separation_table(count) if sampled else 0
+    return (wp.zeros(shots, dtype=wp.int32, device=device), wp.empty(shots * table, dtype=wp.int32, device=device),
+            wp.empty(shots * count if sampled else 0, dtype=wp.int32, device=device))
 
 
 def check_redraws(phase: DensePhase, shots: int):

@@ -26,9 +26,16 @@ def segments_of_shots(shots: int, count: int) -> int:
     return -(-shots * shot_stride(count) // SEGMENT)
 
 
+def separation_table(count: int) -> int:
+    """Cell buckets a shot of `count` pellets is separated with (`dense.separation`): a power of
+    two, at least twice the pellets."""
+    return 1 << max(3, (2 * count - 1).bit_length())
+
+
 def dense_bytes_per_pellet(precision: str, max_neighbours: int) -> int:
     """Bytes per pellet of the dense phase's CUDA arrays (the chunk plan on a GPU), release
     outputs included: 17 vectors, 10 scalars, 12 integers (the grid's group among them), the
-    neighbour list, and wp.HashGrid's per-point buffers."""
+    neighbour list, the launch separation's chain and cell buckets (5 integers at most), and
+    wp.HashGrid's per-point buffers."""
     size = 4 if precision == "float32" else 8
-    return 3 * size * 17 + size * 10 + 4 * (12 + max_neighbours) + HASH_GRID_BYTES
+    return 3 * size * 17 + size * 10 + 4 * (12 + 5 + max_neighbours) + HASH_GRID_BYTES

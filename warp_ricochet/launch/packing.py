@@ -1,5 +1,5 @@
 """How densely a shot's envelope may be filled when its pellets are sampled without overlaps (runs
-with pellet-pellet collisions, `dense.ends.separate_shot`); no Warp here: scenes are checked before
+with pellet-pellet collisions, `dense.separation`); no Warp here: scenes are checked before
 Warp is imported.
 
 Sequential placement with redraws is random sequential addition (RSA) of hard spheres, which jams

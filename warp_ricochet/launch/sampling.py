@@ -20,7 +20,7 @@ cos) run in the working precision, so a float64 run agrees between CPU and GPU t
   together by a power of two on the host (`scene.vectors`), so |d|^2 does not underflow;
 - velocity = speed * n; angular velocity = spin.
 
-With pellet-pellet collisions a shot is sampled without overlaps (`dense.ends.separate_shot`): a
+With pellet-pellet collisions a shot is sampled without overlaps (`dense.separation`): a
 pellet whose centre lies closer than a diameter to an earlier pellet of its shot takes a new
 position, attempt r = 1, 2, ... drawn by `redraw_position` from outputs k = 2r + 2, 2r + 3 of its
 own stream (k = 1, 2, 3 are its launch state), at most `launch.packing.MAX_REDRAWS` times; its velocity and spin

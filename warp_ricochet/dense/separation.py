@@ -1,0 +1,103 @@
+"""Launches without overlaps (runs with pellet-pellet collisions, issue 15): each shot's sampled
+pellets placed in order, a pellet redrawn from its own counter-based stream while it lies closer
+than a diameter to one placed before it (random sequential addition; `launch.packing` bounds how
+dense an envelope may be). Placed pellets are chained into cell buckets one diameter wide, so a
+pellet looks at the 27 cells around it: O(1) a pellet, the same answers as comparing with every
+earlier pellet of its shot."""
+
+import functools
+from types import SimpleNamespace
+
+import warp as wp
+
+from ..core.outputs import make_outputs
+from ..launch.packing import MAX_REDRAWS
+from ..launch.sampling import make_redraw
+from .state import dense_types
+
+
+@functools.cache
+def make_separation(spec) -> SimpleNamespace:
+    """separate_shot for a spec (does nothing for pellets from a file: they are used as given)."""
+    d = dense_types(spec)
+    scalar, vec3, Physics, Outputs, Source, Cloud, Pair = d.scalar, d.vec3, d.Physics, d.Outputs, d.Source, d.Cloud, d.Pair
+    WRITE = bool(spec.core_fields)
+    write_initial = make_outputs(spec.precision).write_initial
+    redraw_position = make_redraw(scalar)
+    SAMPLED = not spec.from_file
+
+    @wp.func
+    def cell_of(position: vec3, centre: vec3, inverse_cell: scalar):
+        """Integer cell coordinates of `position` in cells one diameter wide, from the envelope centre."""
+        q = (position - centre) * inverse_cell
+        return wp.vec3i(wp.int32(wp.floor(q[0])), wp.int32(wp.floor(q[1])), wp.int32(wp.floor(q[2])))
+
+    @wp.func
+    def cell_hash(c: wp.vec3i, table: wp.int32):
+        """The bucket of cell c in a shot's table of `table` (a power of two) buckets."""
+        h = (c[0] * 73856093) ^ (c[1] * 19349663) ^ (c[2] * 83492791)
+        return h & (table - 1)
+
+    @wp.func
+    def overlaps_earlier(position: vec3, centre: vec3, inverse_cell: scalar, diameter2: scalar, base: wp.int32,
+                         table: wp.int32, heads: wp.array(dtype=wp.int32), chain: wp.array(dtype=wp.int32),
+                         cloud: Cloud):
+        """Whether `position` lies closer than a diameter to a pellet already placed in the shot:
+        those are chained by cell (one diameter wide) into the shot's buckets `heads[base:base +
+        table]`, so only the 27 cells around it are looked at (the same answer as comparing with
+        every earlier pellet, at O(1) a pellet instead of O(count))."""
+        c = cell_of(position, centre, inverse_cell)
+        hit = wp.int32(0)
+        for dx in range(-1, 2):
+            for dy in range(-1, 2):
+                for dz in range(-1, 2):
+                    j = heads[base + cell_hash(c + wp.vec3i(dx, dy, dz), table)]
+                    while j >= 0 and hit == 0:
+                        if wp.length_sq(position - cloud.position[j]) < diameter2:
+                            hit = wp.int32(1)
+                        j = chain[j]
+        return hit
+
+    @wp.func
+    def separate_shot(s: wp.int32, first_index: wp.int32, pair: Pair, physics: Physics, source: Source, cloud: Cloud,
+                      out: Outputs, redraws: wp.array(dtype=wp.int32), heads: wp.array(dtype=wp.int32),
+                      chain: wp.array(dtype=wp.int32)):
+        """One thread per shot of sampled launches: its pellets in order, each redrawn
+        (`launch.sampling.redraw_position`) while it overlaps an earlier one, then chained into the
+        shot's cell buckets (`heads`: `heads.shape[0] / shots` a shot, a power of two; `chain`: one
+        a pellet); `redraws[s]`: the most attempts a pellet took, MAX_REDRAWS + 1 when one still
+        overlaps."""
+        diameter = scalar(2.0) * physics.radius
+        diameter2 = diameter * diameter
+        inverse_cell = scalar(1.0) / diameter
+        centre = source.envelope_center
+        first = s * pair.count
+        table = heads.shape[0] / redraws.shape[0]
+        base = s * table
+        worst = wp.int32(0)
+        if wp.static(SAMPLED):
+            for b in range(table):
+                heads[base + b] = -1
+            for k in range(pair.count):
+                i = first + k
+                if cloud.stop[0] != 0:  # an interrupt (the host abandons the chunk)
+                    return
+                position = cloud.position[i]
+                attempt = wp.int32(0)
+                clash = overlaps_earlier(position, centre, inverse_cell, diameter2, base, table, heads, chain, cloud)
+                while clash != 0 and attempt < wp.static(MAX_REDRAWS):
+                    attempt += 1
+                    position = redraw_position(source.seed, first_index + i, attempt, source.envelope_center,
+                                               source.envelope_radius)
+                    clash = overlaps_earlier(position, centre, inverse_cell, diameter2, base, table, heads, chain, cloud)
+                if attempt > 0:
+                    cloud.position[i] = position
+                    if wp.static(WRITE):
+                        write_initial(out, i, position, cloud.velocity[i], cloud.angular_velocity[i])
+                bucket = base + cell_hash(cell_of(position, centre, inverse_cell), table)
+                chain[i] = heads[bucket]
+                heads[bucket] = i
+                worst = wp.max(worst, attempt + clash)
+        redraws[s] = worst
+
+    return SimpleNamespace(separate_shot=separate_shot)
