@@ -10,7 +10,8 @@ Each configuration is compiled and warmed up first (not timed); each time is the
 `--copies`: one table per number of copies of the counts on CUDA (`tallies.counts.CUDA_COPIES`, 256 by
 default; the CPU always counts into one). `--locality`: how often a core-kernel thread's consecutive
 landings (LANES apart in the chunk) share their map cell or histogram bin (the hit rate of a
-one-entry run-length cache per thread), from the per-pellet landings of a run with the map (CPU).
+one-entry run-length cache per thread) and how many distinct keys a warp's 32 consecutive rows
+hold (the addresses of one atomic instruction), from the per-pellet landings of a run with the map (CPU).
 """
 
 from __future__ import annotations
@@ -83,7 +84,8 @@ def locality(n: int):
     rates = {}
     for name, key in keys.items():
         hits = sum(int((k[1:] == k[:-1]).sum()) for k in (key[rows][landed[rows]] for rows in order))
-        rates[name] = hits / landed[: order.size].sum()
+        warps = key[: n // 32 * 32].reshape(-1, 32)  # a warp's atomic: 32 consecutive rows
+        rates[name] = (hits / landed[: order.size].sum(), np.mean([len(np.unique(w)) for w in warps]))
     return rates, len(np.unique(cell[landed]))
 
 
@@ -100,9 +102,10 @@ def main(argv=None):
 
         n = max(SEGMENT, int(float(args.sizes.split(",")[0])) // SEGMENT * SEGMENT)
         rates, cells = locality(n)
-        print(f"{n} pellets, landings in {cells} map cells; hit rate of a one-entry cache per thread:")
-        for name, rate in rates.items():
-            print(f"  {name}: {rate:.3f}")
+        print(f"{n} pellets, landings in {cells} map cells; hit rate of a one-entry cache per thread, and distinct "
+              "addresses per warp atomic (of 32):")
+        for name, (rate, distinct) in rates.items():
+            print(f"  {name}: {rate:.3f}, {distinct:.1f}")
         return
     wr, wp = _wr()
     from warp_ricochet.tallies import counts
