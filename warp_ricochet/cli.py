@@ -162,7 +162,8 @@ def cmd_run(args) -> int:
     with ProgressBar("run") as bar:
         stats = api.run(scene, args.output, args.device, overwrite=args.overwrite, progress=bar, resume=args.resume)
     output = args.output if args.output is not None else scene.output.path
-    interrupts.check(completed_path=output)  # (None: statistics only, nothing kept)
+    args.completed = output  # a signal from here on: the result is complete (None: statistics only)
+    interrupts.check(completed_path=output)
     sys.stdout.write(format_run_summary(stats, output, _device_name(api, args.device)))
     return 0
 
@@ -186,6 +187,8 @@ def cmd_sweep(args) -> int:
         results = api.sweep(scene, params, ties, args.output, args.device, overwrite=args.overwrite, progress=bar,
                             resume=args.resume)
     output = args.output if args.output is not None else scene.output.path
+    args.completed, args.completed_what = output, "sweep"  # a signal from here on: the sweep is complete
+    interrupts.check(completed_path=output, completed_what="sweep")
     if output is not None:
         res = read_results(output)  # exactly what `report` prints
     else:
@@ -291,7 +294,9 @@ def _run_command(args) -> int:
     """The subcommand; every failure as one line on stderr and an exit status."""
     try:
         status = args.func(args)
-        interrupts.check()  # a signal after the run's last safe point
+        # a signal after the run's last safe point (while its summary was printed)
+        interrupts.check(completed_path=getattr(args, "completed", None),
+                         completed_what=getattr(args, "completed_what", "run"))
         return status
     except RicochetError as exc:  # before OSError: OutputError is both
         _error(str(exc))
@@ -315,7 +320,7 @@ def _kept(exc) -> str:
     """Where the chunks completed before a failure are (set by the output file when it was open)."""
     completed = getattr(exc, "completed_path", None)
     if completed is not None:
-        return f"; the run had completed: its result is in {completed}"
+        return f"; the {getattr(exc, 'completed_what', 'run')} had completed: its result is in {completed}"
     partial = getattr(exc, "partial_path", None)
     if partial is None:
         return ""
