@@ -202,13 +202,6 @@ def _older_partials(f):
     f["progress"].create_dataset("segment_results", data=old, maxshape=(None, old.shape[1]))
 
 
-def _older_histograms(f):
-    """Landing histograms of an older bin layout (65,538 bins a row: the span [2^-32, 2^32))."""
-    rows = f["stats/histograms/counts"].shape[0]
-    del f["stats/histograms/counts"]
-    f["stats/histograms"].create_dataset("counts", data=np.zeros((rows, 65538), dtype=np.int64))
-
-
 @pytest.mark.parametrize("extra, edit, key", [
     (["--set", "surfaces.0.mu_s=0.06"], None, "surfaces.0.mu_s = 0.06"),
     (["--set", "shot.seed=7"], None, "shot.seed = 7"),
@@ -221,7 +214,6 @@ def _older_histograms(f):
     ([], lambda f: f["progress/segment_results"].resize(1, axis=0), "output path = "),
     ([], lambda f: f["pellets/landing/range"].resize(10, axis=0), "output path = "),
     ([], _older_partials, "output path = "),
-    ([], _older_histograms, "output path = "),
     ([], lambda f: f.attrs.__setitem__("kind", "sweep"), "output path = "),
     ([], lambda f: f.__delitem__("progress"), "output path = "),
 ])

@@ -51,22 +51,6 @@ def test_bins_are_log_spaced_with_the_stated_resolution():
                                                                               bins.BINS - 1]
 
 
-def test_a_value_of_the_span_lies_in_the_bin_of_its_top_mantissa_bits():
-    """Independent of the bit arithmetic: the bin of x in the span is [2^e (1 + f), 2^e (1 + f + 2^-10))
-    with 2^e <= x < 2^(e+1) and f = x / 2^e - 1 truncated to 10 bits (so a narrower span than before
-    keeps each value's bin edges); the span holds the scene domain's distances and speeds."""
-    rng = np.random.default_rng(3)
-    x = np.concatenate([np.exp(rng.uniform(np.log(2.0**-20), np.log(2.0**24), 20_000)), [2.0**-20, 1.0, 1e6 * 3**0.5, 1e5]])
-    x = x.astype(np.float32).astype(np.float64)
-    mantissa, exponent = np.frexp(x)  # x = mantissa 2^exponent, mantissa in [0.5, 1)
-    octave = np.ldexp(1.0, exponent - 1)
-    lower = octave * (1 + np.floor((x / octave - 1) * 2**bins.MANTISSA_BITS) / 2**bins.MANTISSA_BITS)
-    e, b = bins.edges(), bins.bin_index(x)
-    assert np.all((b > 0) & (b < bins.BINS - 1))
-    np.testing.assert_array_equal(e[b], lower)
-    np.testing.assert_array_equal(e[b + 1], lower + octave * 2.0**-bins.MANTISSA_BITS)
-
-
 @given(n=st.integers(1, 3000), seed=st.integers(0, 10_000))
 @settings(max_examples=30, deadline=None)
 def test_histogram_quantiles_hold_numpys_exact_quantiles(n, seed):
@@ -178,26 +162,3 @@ def test_counting_into_several_copies_gives_the_same_counts(monkeypatch):
     several = wr.run(scene, device="cpu").tally
     assert one.hist.sum() > 0 and one.map_counts.sum() > 0
     np.testing.assert_array_equal(several.flat(), one.flat())
-
-
-def test_kept_copies_count_the_same_in_every_chunk_and_run_and_after_an_interruption(monkeypatch):
-    """The CUDA path, forced on the CPU: copies kept between runs (`tallies.counts.pooled`), summed
-    and zeroed after each chunk; a run interrupted after its kernel leaves them dirty, and the next
-    run zeroes them: every run counts the same as one copy, fresh."""
-    from warp_ricochet.tallies import counts
-
-    raw = paper_raw()
-    raw["shot"]["count"] = 140_000  # three chunks
-    scene = _chunked(make_scene(raw, hazard={"map_cell": 1.0, "map_extent": [100.0, 140.0, -20.0, 20.0]}), 65_536)
-    one = wr.run(scene, device="cpu").tally
-    monkeypatch.setattr(counts, "copies_for", lambda device, nbytes: 3)
-    monkeypatch.setattr(counts, "keeps_arrays", lambda device: True)
-    monkeypatch.setattr(counts, "_DEVICE_POOL", {})
-    runs = [wr.run(scene, device="cpu").tally for _ in range(2)]
-    for slot in counts._DEVICE_POOL.values():  # an interrupted run: counted into, never summed
-        slot[0].fill_(7)
-        slot[1] = False
-    runs.append(wr.run(scene, device="cpu").tally)
-    assert len(counts._DEVICE_POOL) == 6 and one.map_counts.sum() > 0
-    for other in runs:
-        np.testing.assert_array_equal(other.flat(), one.flat())

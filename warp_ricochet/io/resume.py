@@ -34,7 +34,6 @@ import warp as wp
 from .._version import __version__
 from ..dense.schedule import segments_of_shots, shot_granule
 from ..errors import OutputError, SceneError
-from ..tallies.bins import BINS
 from ..tallies.collisions import SHOT_TOTALS
 from ..tallies.ensemble import has_ensemble, pieces_per_shot
 from ..tallies.reduce import SEGMENT, SEGMENT_WIDTH
@@ -109,11 +108,6 @@ def verify(f, scene, dev, partial_name: str) -> tuple[int, int, int, int]:
     if width != SEGMENT_WIDTH:
         raise OutputError(f"output path = {partial_name!r}: holds statistics partials of another layout ({width} columns "
                           f"for {SEGMENT_WIDTH}: written by an older version); --overwrite starts the run again")
-    counts = f.get("stats/histograms/counts")
-    if counts is not None and counts.shape[-1] != BINS:
-        raise OutputError(f"output path = {partial_name!r}: holds landing histograms of another layout "
-                          f"({counts.shape[-1]} bins for {BINS}: written by an older version); --overwrite starts the "
-                          "run again")
     rows, chunk = int(progress["rows"][()]), int(progress["chunk_rows"][()])
     pellets = int(f["constants/pellets"][()])
     if scene.pair_collisions:  # chunks of whole shots, a multiple of shot_granule shots but the last

@@ -107,8 +107,6 @@ def _map_geometry(scene, hazard, shooter) -> dict:
 
 CUDA_COPIES = 256  # copies of the counts on CUDA (see `tallies.landing`)
 MAX_COPY_BYTES = 1 << 30  # at most this much device memory for the copies of each array
-_DEVICE_POOL: dict = {}  # (device, name, shape, dtype) -> [CUDA array, zero]: kept between runs
-POOL_BYTES = 3 << 30  # at most this much device memory kept (the pool is emptied when it would hold more)
 
 
 def copies_for(device, nbytes: int) -> int:
@@ -116,34 +114,10 @@ def copies_for(device, nbytes: int) -> int:
     return max(1, min(CUDA_COPIES, MAX_COPY_BYTES // max(nbytes, 1))) if device.is_cuda else 1
 
 
-def keeps_arrays(device) -> bool:
-    """Whether `pooled` keeps a device's arrays between runs."""
-    return device.is_cuda
-
-
-def pooled(device, name: str, shape: tuple, dtype) -> list:
-    """[array, zero] of `shape` on `device` (`zero`: whether it holds zeros now), allocated zeroed.
-    On CUDA kept between runs (allocating, zeroing and freeing hundreds of MB of copies is a fixed
-    cost a run; CUDA runs take turns, `pipeline._DEVICE_LOCK`); on the CPU a new one each time."""
-    import warp as wp
-
-    if not keeps_arrays(device):
-        return [wp.zeros(shape, dtype=dtype, device=device), True]
-    key = (str(device), name, tuple(shape), dtype)
-    if key not in _DEVICE_POOL:
-        held = sum(arr.capacity for arr, _zero in _DEVICE_POOL.values())
-        if held + int(np.prod(shape)) * wp.types.type_size_in_bytes(dtype) > POOL_BYTES:
-            _DEVICE_POOL.clear()
-        _DEVICE_POOL[key] = [wp.zeros(shape, dtype=dtype, device=device), True]
-    return _DEVICE_POOL[key]
-
-
 class DeviceTally:
     """The device arrays of the landing tallies and the kernels' `Tally` struct over their copies
     (empty arrays when the run counts nothing: `active` false). After a chunk's kernel, `reduce`
-    makes `arrays`, the counts the host copies back: with one copy (the CPU) the copy itself, else
-    the copies summed by a kernel that zeroes them as it reads them, so that they are ready for
-    the next chunk (and the next run: the arrays are kept in a pool, `pooled`)."""
+    sums the copies into `arrays`, the counts the host copies back."""
 
     def __init__(self, setup: TallySetup, precision: str, device, active: bool):
         import warp as wp
@@ -158,17 +132,12 @@ class DeviceTally:
         shapes = {"hist": (ROW_DISTANCE + levels, BINS) if active else (0, 0),
                   "map_counts": (levels, width) if mapped else (0, 0), "map_energy": (width,) if mapped else (0,)}
         dtypes = {"hist": wp.int32, "map_counts": wp.int32, "map_energy": wp.int64}
-        self.wide, self.arrays, self.slots = {}, {}, {}
+        self.arrays = {name: wp.zeros(shape, dtype=dtypes[name], device=device) for name, shape in shapes.items()}
+        self.wide = {}
         for name, shape in shapes.items():
-            if not np.prod(shape):
-                self.wide[name] = wp.zeros((1,) + (0,) * len(shape), dtype=dtypes[name], device=device)
-                self.arrays[name] = wp.zeros(shape, dtype=dtypes[name], device=device)
-                continue
             copies = copies_for(device, int(np.prod(shape)) * 8)
-            self.slots[name] = pooled(device, name, (copies,) + shape, dtypes[name])
-            self.wide[name] = self.slots[name][0]
-            self.arrays[name] = (self.wide[name][0] if copies == 1
-                                 else pooled(device, name + "_sum", shape, dtypes[name])[0])
+            self.wide[name] = wp.zeros((copies,) + shape if np.prod(shape) else (1,) + (0,) * len(shape),
+                                       dtype=dtypes[name], device=device)
         s = make_landing_tally(precision).Tally()
         s.hist, s.map_counts, s.map_energy = self.wide["hist"], self.wide["map_counts"], self.wide["map_energy"]
         s.thresholds2 = wp.array(np.asarray(setup.thresholds2, dtype=precision), dtype=t.scalar, device=device)
@@ -183,26 +152,24 @@ class DeviceTally:
         self.struct = s
 
     def zero(self):
-        """Before a chunk's kernel: its counts start from zero (zeroed here only where they are not
-        already); they are counted into from now on."""
-        for slot in self.slots.values():
-            if not slot[1]:
-                slot[0].zero_()
-            slot[1] = False
+        """Before a chunk: its counts start from zero."""
+        if self.active:
+            for arr in self.wide.values():
+                arr.zero_()
 
     def reduce(self):
-        """After a chunk's kernel: `arrays` hold its counts (several copies: summed, and zeroed)."""
+        """After a chunk's kernel: the copies summed into `arrays`."""
+        if not self.active:
+            return
         import warp as wp
 
         from .landing import sum_copies_kernels
 
         sum_int32, sum_int64 = sum_copies_kernels()
-        for name, slot in self.slots.items():
-            if slot[0].shape[0] > 1:
-                kernel = sum_int64 if name == "map_energy" else sum_int32
-                out = self.arrays[name]
-                wp.launch(kernel, dim=out.shape, inputs=[slot[0]], outputs=[out], device=self.device)
-                slot[1] = True
+        for name, kernel in (("hist", sum_int32), ("map_counts", sum_int32), ("map_energy", sum_int64)):
+            out = self.arrays[name]
+            if out.size:
+                wp.launch(kernel, dim=out.shape, inputs=[self.wide[name]], outputs=[out], device=self.device)
 
 
 class TallyTotals:

@@ -127,8 +127,7 @@ def make_add_landing(precision: str, with_map: bool):
 
 @functools.cache
 def sum_copies_kernels():
-    """Kernels summing the copies (leading axis) of the counts into one array each, and zeroing the
-    copies as they go (ready for the next chunk)."""
+    """Kernels summing the copies (leading axis) of the counts into one array each."""
 
     @wp.kernel(enable_backward=False)
     def sum_int32(wide: wp.array3d(dtype=wp.int32), out: wp.array2d(dtype=wp.int32)):
@@ -136,7 +135,6 @@ def sum_copies_kernels():
         total = wp.int32(0)
         for c in range(wide.shape[0]):
             total += wide[c, i, j]
-            wide[c, i, j] = wp.int32(0)
         out[i, j] = total
 
     @wp.kernel(enable_backward=False)
@@ -145,7 +143,6 @@ def sum_copies_kernels():
         total = wp.int64(0)
         for c in range(wide.shape[0]):
             total += wide[c, j]
-            wide[c, j] = wp.int64(0)
         out[j] = total
 
     return sum_int32, sum_int64

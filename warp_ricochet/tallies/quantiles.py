@@ -105,11 +105,9 @@ def danger_distance(counts, p: float) -> tuple[float, float, float, int]:
     e = edges()
     m_upper = binomial_point(n, p, (1.0 - CONFIDENCE) / 2.0)  # landings beyond the upper limit
     m_lower = binomial_point(n, p, 1.0 - (1.0 - CONFIDENCE) / 2.0) + 1
-    # the bins of X_(k), X_(n+1-m_l) and X_(n+1-m_u), ranks clipped to [1, n] (unused when outside)
-    value_bin, low_bin, high_bin = bins_of_ranks(counts, [rank(1.0 - p, n), max(n + 1 - m_lower, 1),
-                                                          min(n + 1 - m_upper, n)])
-    low = e[low_bin] if m_lower <= n else 0.0
-    high = e[high_bin + 1] if m_upper >= 1 else math.inf
+    value_bin = bins_of_ranks(counts, [rank(1.0 - p, n)])[0]
+    low = e[bins_of_ranks(counts, [n + 1 - m_lower])[0]] if m_lower <= n else 0.0
+    high = e[bins_of_ranks(counts, [n + 1 - m_upper])[0] + 1] if m_upper >= 1 else math.inf
     return float(e[value_bin + 1]), float(low), float(high), needed
 
 
