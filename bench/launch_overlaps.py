@@ -83,7 +83,7 @@ def main():
               f"{pairs_after:.1f} | {moved:.3f} | {redraws.max()} | {ks_before.statistic:.4f} -> "
               f"{ks_after.statistic:.4f} (p {ks_after.pvalue:.2g}) | {r_before.mean():.4f} -> {r_after.mean():.4f} | "
               f"{elapsed / shots:.2g} |")
-    print(f"({args.shots} shots of 450, fewer of 2000; one CPU core; positions float64)")
+    print(f"({args.shots} shots of 450, fewer of 2000; device {args.device}; positions float64)")
 
 
 if __name__ == "__main__":

@@ -54,8 +54,9 @@ def read(path):
         out["tail"] = dict(zip(stats["tail/distance"][()], stats["tail/fraction"][()]))
         danger = f["hazard/danger_distance"]
         names = [n.decode() if isinstance(n, bytes) else str(n) for n in f["hazard/thresholds/name"][()]]
+        above = f["hazard/thresholds/landings"][()]
         out["danger"] = {name: [(float(danger["distance"][i, j]), float(danger["ci_low"][i, j]),
-                                 float(danger["ci_high"][i, j]), int(danger["needed_landings"][i, j]))
+                                 float(danger["ci_high"][i, j]), int(danger["needed_landings"][i, j]), int(above[i]))
                                 for j in range(len(FRACTIONS))] for i, name in enumerate(names)}
         out["landed"] = int(stats["landed"][()])
     return out
@@ -79,7 +80,9 @@ def _ci(value, low, high, digits=1):
 
 
 def _danger(entry):
-    distance, low, high, needed = entry
+    distance, low, high, needed, above = entry
+    if above == 0:
+        return "no landing above it"
     if math.isinf(high):
         return f"{distance:,.1f} (needs {needed:,} landings)"
     return _ci(distance, low, high)
