@@ -11,7 +11,6 @@ size and after --resume. Rows are (shot, piece) in order, SEGMENT_WIDTH columns 
 segment's: sums, range minima, range maxima.
 """
 
-
 import dataclasses
 import functools
 
@@ -22,12 +21,11 @@ from ..launch.source import PelletSource, make_source
 from ..physics.types import types_for
 from ..tallies.accumulate import make_accumulators
 from ..tallies.ensemble import PIECE, pieces_per_shot
+from ..tallies.landing import make_landing_tally
 from ..tallies.sums import NUM_EXTREMES, NUM_SUMS
 from .outputs import make_outputs
 from .pellet import make_ricochet_pellet
-from ..tallies.landing import make_landing_tally
 from .release import make_release
-
 
 
 @functools.cache
