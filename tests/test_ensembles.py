@@ -207,3 +207,18 @@ def test_the_per_shot_pass_counts_no_landing_twice(tmp_path, collisions):
     assert stats.ensemble is not None
     with h5py.File(path, "r") as f:
         assert (f["stats/histograms/counts"][()].sum(axis=1)[:2] == stats["landed"]).all()
+
+
+def test_a_sweep_keeps_each_points_intervals(tmp_path):
+    """A sweep's top-level /stats carry each point's intervals as arrays (one per point), equal to
+    its /runs/NNNN/stats attributes; a point of one shot has none (NaN)."""
+    scene = load_scene(SCENE, ["shot.count=200", "output.fields=[]"])
+    out = tmp_path / "sweep.h5"
+    wr.sweep(scene, {"shot.shots": [3, 1]}, output=str(out), device="cpu")
+    with h5py.File(out, "r") as f:
+        ds = f["stats/range_mean"]
+        low, high = ds.attrs["ci_low"], ds.attrs["ci_high"]
+        point = f["runs/0000/stats/range_mean"].attrs
+        assert low.shape == high.shape == (2,) and ds.attrs["ci_method"] == point["ci_method"]
+        assert (low[0], high[0]) == (point["ci_low"], point["ci_high"]) and low[0] < ds[0] < high[0]
+        assert np.isnan(low[1]) and np.isnan(high[1])

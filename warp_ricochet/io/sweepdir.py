@@ -194,10 +194,30 @@ class SweepFolder:
                         del group.attrs[name]
                 write_stats(out.h5, point_stats, index=i, size=len(stats))
                 out.h5.flush()
+            point_intervals(out.h5, len(stats))
         move_into_place(target, self.path, overwrite)
         publish_sidecar(self.path, overwrite)
         self.close()
         shutil.rmtree(self.folder, ignore_errors=True)
+
+
+def point_intervals(h5, points: int) -> None:
+    """Each sweep statistic's 95% intervals over shots, one per point, as the array attributes
+    `ci_low` and `ci_high` of `/stats/<name>` (from each point's `/runs/NNNN/stats`; NaN where a point
+    has none: runs of one shot), with the points' `ci_method`."""
+    import numpy as np
+
+    from .ensemble import read_ensemble
+
+    intervals = [read_ensemble(h5[f"runs/{point_name(i)}/stats"]) for i in range(points)]
+    for name, ds in h5["stats"].items():
+        if not any(name in found for found in intervals):
+            continue
+        ds.attrs["ci_low"] = np.array([found.get(name, (np.nan, np.nan))[0] for found in intervals])
+        ds.attrs["ci_high"] = np.array([found.get(name, (np.nan, np.nan))[1] for found in intervals])
+        methods = {h5[f"runs/{point_name(i)}/stats/{name}"].attrs.get("ci_method") for i in range(points)} - {None}
+        if len(methods) == 1:
+            ds.attrs["ci_method"] = methods.pop()
 
 
 def resumable_point(partial: Path) -> bool:
