@@ -1,9 +1,11 @@
 """Scene builders and run-file checks shared by the tests."""
 
 import contextlib
+import fcntl
 import hashlib
 import io
 import math
+import os
 import time
 from pathlib import Path
 
@@ -156,3 +158,14 @@ def assert_resume_refused(argv, out, edit, start):
     assert rc == 2 and stdout == ""
     assert len(err.splitlines()) == 1 and err.startswith("warp-ricochet: error: " + start), err
     assert digest(partial) == before and not Path(out).exists()
+
+
+@contextlib.contextmanager
+def held(path, exclusive=False):
+    """Another process's lock on `path` (a file or folder), as a live run or reader holds it."""
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX if exclusive else fcntl.LOCK_SH)
+        yield
+    finally:
+        os.close(fd)

@@ -9,8 +9,8 @@ permission problem ends with one line, not a corrupt file; a second process can 
 complete while the run writes. Each case compares against one uninterrupted run (`reference`).
 """
 
+import contextlib
 import errno
-import fcntl
 import os
 import random
 import shutil
@@ -30,6 +30,7 @@ from tests.helpers import (
     assert_same_run,
     cli,
     digest,
+    held,
     interrupt_after,
     stats_equal,
     wait_for_a_chunk,
@@ -236,15 +237,9 @@ def test_resume_refusals_without_a_usable_partial(tmp_path, interrupted):
     shutil.copy(partial, str(done) + ".partial")
     cases.append((done, "exists; pass --overwrite"))
     for path, words in cases:
-        held = None
-        if words.startswith("in use"):  # a writer or reader holds the file
-            held = os.open(partial, os.O_RDONLY)
-            fcntl.flock(held, fcntl.LOCK_SH)
-        try:
+        # a writer or reader holds the file
+        with held(partial) if words.startswith("in use") else contextlib.nullcontext():
             rc, _, err = cli(["run", SCENE, *ARGS, "-o", path, "--resume"])
-        finally:
-            if held is not None:
-                os.close(held)
         assert rc == 2 and len(err.splitlines()) == 1 and words in err, (path, err)
     assert done.read_bytes() == b"a finished result"
     rc, _, err = cli(["run", SCENE, *ARGS, "-o", out, "--resume", "--device", "cuda:9"])
@@ -517,12 +512,8 @@ def test_a_set_up_file_left_by_a_killed_run_is_reused_unless_in_use(tmp_path, re
     out = tmp_path / "s.h5"
     staging = Path(str(out) + ".partial.new")
     staging.write_bytes(b"half an HDF5 header")
-    held = os.open(staging, os.O_RDONLY)
-    fcntl.flock(held, fcntl.LOCK_SH)
-    try:
+    with held(staging):
         rc, _, err = cli(["run", SCENE, *ARGS, "-o", out])
-    finally:
-        os.close(held)
     assert rc == 2 and "in use by another process" in err and staging.read_bytes() == b"half an HDF5 header"
     assert cli(["run", SCENE, *ARGS, "-o", out])[0] == 0
     assert not staging.exists()

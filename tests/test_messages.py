@@ -4,7 +4,6 @@ dependent failures (a partial removed during the run, HDF5's open errors) as one
 keys and values not echoed whole; `report` of a killed run's partial says how far it got; a scene
 in which no pellet hits anything warns in one line."""
 
-import fcntl
 import os
 import subprocess
 import sys
@@ -15,7 +14,7 @@ import h5py
 import pytest
 
 import warp_ricochet as wr
-from tests.helpers import cli, digest, interrupt_after
+from tests.helpers import cli, digest, held, interrupt_after
 from warp_ricochet.errors import MAX_MESSAGE
 from warp_ricochet.io import runfile
 from warp_ricochet.scene import load_scene
@@ -51,12 +50,8 @@ def test_a_partial_held_by_a_live_process_is_in_use(tmp_path, extra):
     out = tmp_path / "live.h5"
     partial = Path(str(out) + ".partial")
     partial.write_bytes(b"a run writing")
-    held = os.open(partial, os.O_RDONLY)
-    fcntl.flock(held, fcntl.LOCK_SH)
-    try:
+    with held(partial):
         rc, _, err = cli(["run", SCENE, *SMALL, "-o", out, *extra])
-    finally:
-        os.close(held)
     one_line_error(rc, err, "live.h5.partial is in use by another process")
     assert "earlier interrupted" not in err and partial.read_bytes() == b"a run writing" and not out.exists()
 

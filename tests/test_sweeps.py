@@ -4,7 +4,6 @@ OUT.h5.partial/, so a sweep killed (SIGKILL) or interrupted (SIGINT) at any mome
 `sweep ... --resume` and ends bitwise identical to an uninterrupted sweep; a --resume of a
 different sweep, or of a folder in use, is refused in one line without touching the folder."""
 
-import fcntl
 import hashlib
 import os
 import random
@@ -20,7 +19,7 @@ import numpy as np
 import pytest
 
 import warp_ricochet as wr
-from tests.helpers import cli
+from tests.helpers import cli, held
 from warp_ricochet.scene import MAX_SWEEP_POINTS, load_scene
 from warp_ricochet.tallies.reduce import SEGMENT
 
@@ -211,14 +210,10 @@ def test_resume_with_other_values_is_refused_naming_the_first_that_differs(inter
 def test_a_folder_in_use_is_refused_with_resume_overwrite_or_neither(interrupted):
     out, folder = interrupted
     before = folder_digest(folder)
-    held = os.open(folder, os.O_RDONLY)
-    fcntl.flock(held, fcntl.LOCK_EX)
-    try:
+    with held(folder, exclusive=True):
         for extra in (["--resume"], ["--overwrite"], []):
             rc, _, err = cli(["sweep", *ARGS, "-o", out, *extra])
             assert rc == 2 and len(err.splitlines()) == 1 and "in use by another process" in err, (extra, err)
-    finally:
-        os.close(held)
     assert folder_digest(folder) == before
     rc, _, err = cli(["sweep", *ARGS, "-o", out])  # not in use: an earlier sweep, which --resume continues
     assert rc == 2 and "earlier interrupted sweep" in err and "--resume" in err
