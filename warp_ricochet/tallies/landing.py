@@ -75,11 +75,9 @@ def make_landing_tally(precision: str) -> SimpleNamespace:
             local = position - tally.map_origin
             fu = (wp.float64(wp.dot(local, tally.map_u)) - tally.map_u0) * tally.map_inverse_cell
             fv = (wp.float64(wp.dot(local, tally.map_v)) - tally.map_v0) * tally.map_inverse_cell
-            if fu >= wp.float64(0.0) and fv >= wp.float64(0.0):
-                i = wp.int32(wp.floor(fu))
-                j = wp.int32(wp.floor(fv))
-                if i < tally.map_nu and j < tally.map_nv:
-                    column = j * tally.map_nu + i
+            # bounds in float64 before the cast: a landing far out in small cells is past int32
+            if fu >= wp.float64(0.0) and fv >= wp.float64(0.0) and fu < wp.float64(tally.map_nu) and fv < wp.float64(tally.map_nv):
+                column = wp.int32(wp.floor(fv)) * tally.map_nu + wp.int32(wp.floor(fu))
         return column
 
     return SimpleNamespace(Tally=Tally, scalar=scalar, vec3=vec3, map_cell=map_cell,
