@@ -28,7 +28,7 @@ CONFIGS = {
 def scene(n: int, settings):
     from warp_ricochet.scene import load_scene
 
-    # shots of 450 pellets: shot.count alone is limited to int32; the paper's mu_s = 0.05
+    # one shot of n pellets, the paper's mu_s = 0.05 (slip ricochets)
     return load_scene(SCENE, [f"shot.count={n}", "output.fields=[]", "surfaces.0.mu_s=0.05", "surfaces.0.mu_d=0.045",
                               *settings])
 
@@ -53,7 +53,7 @@ def main(argv=None):
     parser.add_argument("--device", default=None, help="Warp device (default: CUDA if present, else cpu)")
     parser.add_argument("--sizes", default="1e8,1e9", help="pellet counts, comma-separated")
     parser.add_argument("--repeats", type=int, default=5)
-    parser.add_argument("--copies", default=None, help="copies of the counts on CUDA, comma-separated (default: 64)")
+    parser.add_argument("--copies", default=None, help="copies of the counts on CUDA, comma-separated (default: tallies.counts.CUDA_COPIES)")
     args = parser.parse_args(argv)
     wr, wp = _wr()
     from warp_ricochet.tallies import counts

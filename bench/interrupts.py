@@ -8,9 +8,10 @@ own exit, ~0.1 s, is not in it). The kernels are loaded by a first, short run of
   core   the paper's scene, vacuum, 1e8 pellets (chunks of 2^21 on the CPU)
   air    the paper's scene in air, 1e6 pellets (chunks of one segment on the CPU)
   shots  pellet-pellet collisions, 20,000 shots of 20 pellets, float64
+  paper-shots  pellet-pellet collisions, 10,000 paper shots of 450 (sized for a GPU)
   shot   pellet-pellet collisions, one shot of 3e6 pellets, float64, launches not separated (its
-         dense phase is one launch on the CPU, stopped by its flag; the separation, O(count^2), would
-         take the whole window)
+         dense phase is one launch on the CPU, stopped by its flag; on CUDA the separation is one
+         thread a shot, long for millions of pellets)
 
 Every figure states the device it was measured on.
 """

@@ -1,4 +1,4 @@
-"""What sampling collision shots without overlaps (`dense.ends.separate_shot`) does to the launch:
+"""What sampling collision shots without overlaps (`dense.separation`) does to the launch:
 overlapping pairs before and after, redraws, the radial distribution against uniform in the sphere
 (Kolmogorov-Smirnov), and the time it takes, for the paper's envelope and denser ones.
 

@@ -123,9 +123,10 @@ def test_signals_at_random_moments(tmp_path, kind):
 
 @pytest.mark.parametrize("signum, separate", [(signal.SIGTERM, "true"), (signal.SIGINT, "false")])
 def test_a_large_shot_stops_from_the_command_line(tmp_path, signum, separate):
-    """The command in a subprocess, one shot of 1e5 pellets in the separation of its launches or in
-    its dense phase (each one native launch on the CPU): the signal ends it within MAX_LATENCY s, one
-    line (after the scene's warning), status 130, its partial marked interrupted."""
+    """The command in a subprocess, one shot of 1e5 pellets with and without separated launches, in
+    its dense phase (one native launch on the CPU; the separation takes ~20 ms and is stopped by its
+    flag too: test_launch_overlaps): the signal ends it within MAX_LATENCY s, one line (after the
+    scene's warning), status 130, its partial marked interrupted."""
     out = tmp_path / "large.h5"
     partial = Path(str(out) + ".partial")
     args = argv("large", out, "--set", f"collisions.separate={separate}")

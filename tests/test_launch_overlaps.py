@@ -14,7 +14,7 @@ from scipy.spatial import cKDTree
 
 import warp_ricochet as wr
 from warp_ricochet.cli import main as cli_main
-from warp_ricochet.dense.phase import DensePhase, check_redraws
+from warp_ricochet.dense.phase import DensePhase
 from warp_ricochet.errors import SceneError
 from warp_ricochet.launch.packing import MAX_PACKING, packing_fraction
 from warp_ricochet.launch.source import PelletSource
@@ -127,10 +127,32 @@ def test_an_envelope_too_dense_is_refused_in_one_line(tmp_path, capsys):
 
 def test_a_shot_that_cannot_be_placed_is_refused():
     """The run-time guard behind the scene check: a shot of 40 pellets in an envelope of one
-    diameter (the check bypassed) runs out of redraws, and the run says so in one line."""
+    diameter (the check bypassed) runs out of redraws, and its launch says so in one line, before
+    the shot steps."""
     scene = load_scene(SCENE, ["shot.count=40", "collisions.enabled=true", 'numerics.precision="float64"'])
     scene = scene.replace(shot=dataclasses.replace(scene.shot, envelope_radius=D))
-    _, _, redraws, dense = launched(40, 1, D, scene=scene)
-    assert redraws.max() > 10_000
-    with pytest.raises(SceneError, match="no place free of overlaps in 10,000 draws"):
-        check_redraws(dense, 1)
+    with pytest.raises(SceneError, match="no place free of overlaps in 10,000 draws") as refused:
+        launched(40, 1, D, scene=scene)
+    assert "\n" not in str(refused.value)
+
+
+def test_an_interrupt_stops_the_separation_at_once():
+    """A request already made when the separation starts (the flag it reads before each pellet):
+    the launch returns before placing any pellet and the run's KeyboardInterrupt follows, the shot
+    left as sampled (overlaps and all)."""
+    import signal
+
+    from warp_ricochet import interrupts
+
+    before, _, _, _ = launched(450, 2, 0.025, separate=False)
+    scene = load_scene(SCENE, ["shot.count=450", "shot.shots=2", "shot.envelope_radius=0.025",
+                               'numerics.precision="float64"', "collisions.enabled=true"])
+    model = Model.from_scene(scene, wp.get_device("cpu"))
+    dense = DensePhase(model, scene, RunSpec.of(scene, with_output=False), 900)
+    source = PelletSource(scene, "float64", model.device, 900)
+    with interrupts.honoured():
+        interrupts._requested.append(signal.SIGINT)
+        with pytest.raises(KeyboardInterrupt):
+            dense.launch_shots(0, 2, source.struct, State(model, 900, ()).outputs)
+    np.testing.assert_array_equal(dense.cloud.position.numpy()[:900], before)
+

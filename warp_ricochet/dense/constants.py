@@ -43,3 +43,4 @@ SKIN_EDGE = 0.85
 NEVER_VALUE = 1e30  # s: no event ahead
 QUIET_STEP_VALUE = 1.0  # s: the longest step, when nothing moves relative to the drift
 TINY_SPEED_VALUE = 1e-30  # m/s: a floor under speeds that divide
+CELL_MARGIN = 1.001  # cells this much wider than the distance they are for: rounding cannot split a pair two cells apart

@@ -8,7 +8,7 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from .constants import CLOCK_TIME, FLAG_OVERFLOW, FLYING, SHOT_DONE, SHOT_REBUILD
+from .constants import CELL_MARGIN, CLOCK_TIME, FLAG_OVERFLOW, FLYING, SHOT_DONE, SHOT_REBUILD
 from .frame import make_frame
 from .state import dense_types
 
@@ -112,7 +112,7 @@ def make_lists(spec) -> SimpleNamespace:
         done = cloud.shot_flags[s, SHOT_DONE] != 0
         reach = scalar(2.0) * (physics.radius + cloud.half_skin[s])
         reach2 = reach * reach
-        inverse = wp.float64(1.0) / (wp.float64(reach) * wp.float64(1.001))
+        inverse = wp.float64(1.0) / (wp.float64(reach) * wp.float64(CELL_MARGIN))
         for b in range(buckets + 1):
             bucket_end[b] = 0
         for k in range(pair.count):

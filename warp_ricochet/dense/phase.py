@@ -87,7 +87,7 @@ class DensePhase:
         self.one_launch = self.cell_lists and options.cpu_steps == "phase"
         self.phase_pellets = options.phase_pellets
         if self.cell_lists:  # one shot at a time: a table for one shot, rows of one shot
-            self.bucket_end = wp.zeros((1 << max(3, (2 * self.count - 1).bit_length())) + 1, dtype=wp.int32, device=self.device)
+            self.bucket_end = wp.zeros(separation_table(self.count) + 1, dtype=wp.int32, device=self.device)
             self.rows = wp.zeros(self.count, dtype=wp.int32, device=self.device)
             self.cells = wp.zeros(capacity, dtype=wp.vec3i, device=self.device)
         else:
@@ -105,9 +105,7 @@ class DensePhase:
         `frames(step, time, positions)` receives trajectory frames at checkpoints."""
         pellets = shots * self.count
         c, p = self.cloud, self.pair
-        self.threads = self._threads(pellets)
-        self.shots = shots
-        self._outputs = outputs
+        self.shots, self._outputs = shots, outputs
         self.launch_shots(first_index, shots, source, outputs)
         self._launch("drift_kernel", shots, [p, self.model.surfaces, self.model.physics, c])
         if not self.cell_lists:
@@ -118,15 +116,18 @@ class DensePhase:
             self._host_loop(pellets, shots, outputs, frames)
         self._launch("release_kernel", self.threads, [p, self.model.physics, c])
         self._launch("shot_totals_kernel", shots, [p, c, self.totals])
-        check_redraws(self, shots)
 
     def launch_shots(self, first_index: int, shots: int, source, outputs):
-        """Each pellet's launch state, each shot of sampled launches separated (no overlaps)."""
+        """Each pellet's launch state, each shot of sampled launches separated (no overlaps; one
+        that cannot be is refused before it steps)."""
+        if self.stop is not None:  # (a stop left by an interrupted launch of an earlier chunk)
+            self.stop[0] = 0
         self.threads = self._threads(shots * self.count)
         self._launch("launch_kernel", self.threads, [first_index, self.pair, source, self.cloud, outputs])
         if self.sampled:
             self._long("separate_kernel", shots, [first_index, self.pair, self.model.physics, source, self.cloud,
                                                   outputs, self.redraws, self.heads, self.chain])
+            check_redraws(self, shots)
 
     def _threads(self, pellets):
         """Threads of a per-pellet kernel: one per pellet on CUDA; on the CPU one for all."""

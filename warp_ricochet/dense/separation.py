@@ -2,7 +2,8 @@
 pellets placed in order, a pellet redrawn from its own counter-based stream while it lies closer
 than a diameter to one placed before it (random sequential addition; `launch.packing` bounds how
 dense an envelope may be). Placed pellets are chained into cell buckets one diameter wide, so a
-pellet looks at the 27 cells around it: O(1) a pellet, the same answers as comparing with every
+pellet looks at the 27 cells around it (cells a little wider than a diameter, hashed as the
+neighbour lists' are): O(1) a pellet, the same answers as comparing with every
 earlier pellet of its shot."""
 
 import functools
@@ -13,6 +14,8 @@ import warp as wp
 from ..core.outputs import make_outputs
 from ..launch.packing import MAX_REDRAWS
 from ..launch.sampling import make_redraw
+from .constants import CELL_MARGIN
+from .lists import make_lists
 from .state import dense_types
 
 
@@ -24,22 +27,21 @@ def make_separation(spec) -> SimpleNamespace:
     WRITE = bool(spec.core_fields)
     write_initial = make_outputs(spec.precision).write_initial
     redraw_position = make_redraw(scalar)
+    cell_bucket = make_lists(spec).cell_bucket
     SAMPLED = not spec.from_file
 
     @wp.func
-    def cell_of(position: vec3, centre: vec3, inverse_cell: scalar):
-        """Integer cell coordinates of `position` in cells one diameter wide, from the envelope centre."""
-        q = (position - centre) * inverse_cell
-        return wp.vec3i(wp.int32(wp.floor(q[0])), wp.int32(wp.floor(q[1])), wp.int32(wp.floor(q[2])))
+    def cell_of(position: vec3, centre: vec3, inverse_cell: wp.float64):
+        """Integer cell coordinates of `position` (float64, from the envelope centre) in cells a
+        little wider than a diameter: two pellets closer than a diameter are in neighbouring cells
+        whatever the rounding."""
+        q = position - centre
+        return wp.vec3i(wp.int32(wp.floor(wp.float64(q[0]) * inverse_cell)),
+                        wp.int32(wp.floor(wp.float64(q[1]) * inverse_cell)),
+                        wp.int32(wp.floor(wp.float64(q[2]) * inverse_cell)))
 
     @wp.func
-    def cell_hash(c: wp.vec3i, table: wp.int32):
-        """The bucket of cell c in a shot's table of `table` (a power of two) buckets."""
-        h = (c[0] * 73856093) ^ (c[1] * 19349663) ^ (c[2] * 83492791)
-        return h & (table - 1)
-
-    @wp.func
-    def overlaps_earlier(position: vec3, centre: vec3, inverse_cell: scalar, diameter2: scalar, base: wp.int32,
+    def overlaps_earlier(position: vec3, centre: vec3, inverse_cell: wp.float64, diameter2: scalar, base: wp.int32,
                          table: wp.int32, heads: wp.array(dtype=wp.int32), chain: wp.array(dtype=wp.int32),
                          cloud: Cloud):
         """Whether `position` lies closer than a diameter to a pellet already placed in the shot:
@@ -51,7 +53,7 @@ def make_separation(spec) -> SimpleNamespace:
         for dx in range(-1, 2):
             for dy in range(-1, 2):
                 for dz in range(-1, 2):
-                    j = heads[base + cell_hash(c + wp.vec3i(dx, dy, dz), table)]
+                    j = heads[base + cell_bucket(c + wp.vec3i(dx, dy, dz), wp.uint32(table - 1))]
                     while j >= 0 and hit == 0:
                         if wp.length_sq(position - cloud.position[j]) < diameter2:
                             hit = wp.int32(1)
@@ -69,7 +71,7 @@ def make_separation(spec) -> SimpleNamespace:
         overlaps."""
         diameter = scalar(2.0) * physics.radius
         diameter2 = diameter * diameter
-        inverse_cell = scalar(1.0) / diameter
+        inverse_cell = wp.float64(1.0) / (wp.float64(CELL_MARGIN) * wp.float64(diameter))
         centre = source.envelope_center
         first = s * pair.count
         table = heads.shape[0] / redraws.shape[0]
@@ -94,7 +96,7 @@ def make_separation(spec) -> SimpleNamespace:
                     cloud.position[i] = position
                     if wp.static(WRITE):
                         write_initial(out, i, position, cloud.velocity[i], cloud.angular_velocity[i])
-                bucket = base + cell_hash(cell_of(position, centre, inverse_cell), table)
+                bucket = base + cell_bucket(cell_of(position, centre, inverse_cell), wp.uint32(table - 1))
                 chain[i] = heads[bucket]
                 heads[bucket] = i
                 worst = wp.max(worst, attempt + clash)
