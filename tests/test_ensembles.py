@@ -8,6 +8,7 @@ import math
 import h5py
 import numpy as np
 import pytest
+from scipy.stats import t as stats_t
 from helpers import assert_same_stats, interrupt_after
 
 import warp_ricochet as wr
@@ -101,8 +102,10 @@ def test_per_shot_values_are_each_shots_numpy_statistics(multi):
     for name, (low, high) in intervals.items():
         values = per_shot[name][np.isfinite(per_shot[name])]
         scale = SHOTS if STAT_KIND[name] == "total" else 1
-        if len(values) >= 2:
-            assert low <= scale * values.mean() <= high, name
+        if len(values) >= 2:  # Student t over the shots, computed here with SciPy
+            half = stats_t.ppf(0.975, len(values) - 1) * values.std(ddof=1) / math.sqrt(len(values))
+            assert (low, high) == pytest.approx((scale * (values.mean() - half), scale * (values.mean() + half)),
+                                                rel=1e-12, abs=1e-12), name
     assert stats["range_mean"] == pytest.approx(np.mean(per_shot["range_mean"]), rel=1e-3)
     assert stats.ensemble.shots == SHOTS and stats.ensemble.low["range_mean"] == intervals["range_mean"][0]
 
