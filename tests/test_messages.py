@@ -117,7 +117,7 @@ def test_huge_keys_and_values_are_not_echoed_whole(tmp_path, argv):
     assert len(err) <= len(PREFIX) + MAX_MESSAGE + 1 and "..." in err
 
 
-def test_report_of_a_killed_runs_partial_says_how_far_it_got(tmp_path):
+def test_report_and_plot_of_a_killed_runs_partial(tmp_path):
     out = tmp_path / "killed.h5"
     scene = load_scene(SCENE, CHUNKED)
     interrupt_after(2, scene, out)
@@ -133,6 +133,8 @@ def test_report_of_a_killed_runs_partial_says_how_far_it_got(tmp_path):
     assert rc == 0, err
     assert (f"note: status is 'running': {2 * SEGMENT:,} of {scene.shot.count:,} pellets complete (66.7%); the "
             "statistics are written when the run completes (warp-ricochet run ... --resume continues it)") in out_text
+    rc, out_text, err = cli(["plot", partial, "-o", tmp_path / "plots"])  # plot opens it too
+    assert rc == 0 and "wrote" in out_text, err
     assert digest(partial) == before
 
 

@@ -234,7 +234,7 @@ class HostSlot:
 def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=None, options=None, frames=None) -> dict:
     """Every pellet of `scene` through `model`'s device as `spec` compiles it; returns the statistics.
     arrays: a pellet file's launch states; sink: receives each chunk (`append(arrays, rows,
-    segment_results, shot_totals)`); resumed: a `Resumed`; progress(done, total); options: the
+    segment_results, shot_totals, tally, shot_partials)`); resumed: a `Resumed`; progress(done, total); options: the
     dense phase's `DenseOptions`; frames(step, time, positions): trajectory frames."""
     with interrupts.honoured(), _DEVICE_LOCK if model.device.is_cuda else contextlib.nullcontext():
         pellets = scene.shot.pellets

@@ -48,7 +48,7 @@ def create(group, scene, model):
     distances = scene.output.tail_distances
     tails = group.create_group("stats/tail")
     _ds(tails, "distance", np.full(len(distances), np.nan), unit="m",
-        doc="output.tail_distances, each moved up to the nearest bin edge (at most 0.39% more)")
+        doc="output.tail_distances, each moved up to the nearest bin edge (at most 0.098% more)")
     _ds(tails, "count", np.zeros(len(distances), dtype=np.int64), unit="1", doc="landings at or beyond the distance from the shooter")
     _ds(tails, "fraction", np.full(len(distances), np.nan), unit="1",
         doc="share of the landed pellets at or beyond the distance from the shooter")

@@ -18,6 +18,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import RicochetError
+from ..io.h5open import open_for_reading
 from . import figures, hazard_plots, plotdata
 from .compare import file_label
 from .paper import paper_row
@@ -293,7 +294,7 @@ def write_plots(paths, outdir=None, overwrite=False) -> list[tuple[str, str | No
     files = {}
     try:
         for p in paths:
-            files[p] = h5py.File(p, "r")
+            files[p] = open_for_reading(p)  # (a killed run's partial: as a SWMR reader)
         for png, plot, inputs in plan:
             fig = figure_class(figsize=(plot.size[0] * (len(inputs) if plot.kind == "sweep" else 1), plot.size[1]),
                                dpi=DPI, layout="constrained")

@@ -2,7 +2,7 @@
 
 A value x >= 0 is binned by the bits of float32(x): its exponent and its top MANTISSA_BITS mantissa
 bits (as HDR histograms do). So the bins are log-spaced, each of relative width at most
-2^-MANTISSA_BITS (0.39%), over the span [2^E_LO, 2^(E_LO + OCTAVES)) = [2.3e-10, 4.3e9) in SI units;
+2^-MANTISSA_BITS (0.098%), over the span [2^E_LO, 2^(E_LO + OCTAVES)) = [2.3e-10, 4.3e9) in SI units;
 bin 0 counts what lies below (zero included), bin BINS - 1 what lies above (and NaN). The binning is
 exact integer arithmetic on the value's bits: the same value falls in the same bin on every device,
 and NumPy reproduces it (`bin_index`). This module imports no Warp at module level.

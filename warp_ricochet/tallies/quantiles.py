@@ -2,7 +2,7 @@
 
 Quantile at level q of n counted values: the sample quantile X_(k), k = ceil(q n) (NumPy's
 "inverted_cdf"), located in its bin: the reported value is the bin's upper edge and `lower` its lower
-edge, so X_(k) lies in [lower, value] and value / lower - 1 <= 2^-8 (docs/hazard.md).
+edge, so X_(k) lies in [lower, value] and value / lower - 1 <= 2^-10 (docs/hazard.md).
 
 Danger distance for a threshold and a fraction p: the distance from the shooter that contains all but
 p of the landings above the threshold, i.e. their quantile at level 1 - p, with a distribution-free
@@ -55,7 +55,7 @@ def quantiles(counts, levels=LEVELS) -> tuple[np.ndarray, np.ndarray]:
 
 def tail(counts, distances) -> tuple[np.ndarray, np.ndarray]:
     """(edges used, counts at or beyond them): each distance moved up to the nearest bin edge e
-    (e / d - 1 <= 2^-8), and the number of values >= e, exactly."""
+    (e / d - 1 <= 2^-10), and the number of values >= e, exactly."""
     e = edges()
     j = np.searchsorted(e, np.asarray(distances, dtype=np.float64), side="left")
     beyond = np.concatenate([np.cumsum(np.asarray(counts, dtype=np.int64)[::-1])[::-1], [0]])
