@@ -175,10 +175,17 @@ def test_trajectory_frames_are_time_steps(tmp_path):
             np.testing.assert_array_equal(got["collisions.count"], f["pellets/collisions/count"][()])
 
 
-def test_a_sweep_has_one_collection_per_point(tmp_path):
+def test_a_sweep_has_one_collection_per_point(tmp_path, monkeypatch):
+    """One sidecar, the sweep file's, with a collection per point (none is written for the points'
+    own files in the folder, nor for the file before it is moved into place)."""
+    from warp_ricochet.io import runfile
+
+    written = []
+    monkeypatch.setattr(runfile, "write_xdmf", lambda path, **kw: written.append(str(path)) or write_xdmf(path, **kw))
     out = tmp_path / "sweep.h5"
     api.sweep(_scene(20, bounces=1), {"surfaces.0.mu_s": [0.5, 0.2]}, [("surfaces.0.mu_d", 0.9, None)],
               output=str(out), device="cpu")
+    assert written == [str(out)]
     blocks, _ = _read(sidecar_path(out))
     assert len(blocks) == 2 * 4
     with h5py.File(out) as f:

@@ -185,13 +185,15 @@ def _run_one(scene, dev, group=None, progress=None, dense_options=None) -> dict:
 
 
 @interrupts.honouring
-def run(scene, output=None, device=None, *, overwrite=False, progress=None, resume=False, dense_options=None) -> dict:
+def run(scene, output=None, device=None, *, overwrite=False, progress=None, resume=False, dense_options=None,
+        sidecar=True) -> dict:
     """Run a scene (a `Scene` or a TOML path); write HDF5 to `output` (or the scene's
     `output.path`) when given. Returns the statistics (SI units, see `tallies.sums.STAT_UNITS`).
     `resume`: continue the interrupted run left in OUTPUT.partial (see `io.resume`).
     `dense_options`: how the CPU runs the dense phase (`dense.phase.DenseOptions`; the results
     are the same for every choice). Ctrl-C raises KeyboardInterrupt at the next safe point
-    (`interrupts`), the completed chunks kept in OUTPUT.partial."""
+    (`interrupts`), the completed chunks kept in OUTPUT.partial. `sidecar`: write OUTPUT.xmf (XDMF,
+    for ParaView) when the run is published (a sweep's points do not: the sweep file gets one)."""
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
     output = output if output is not None else scene.output.path
@@ -200,7 +202,8 @@ def run(scene, output=None, device=None, *, overwrite=False, progress=None, resu
             raise SceneError("collisions.frame_every", scene.collisions.frame_every,
                              "must be 0 for --resume (H5MD trajectory frames are not resumed); --overwrite "
                              "starts a run with frames again")
-        return _resume(scene, output, device, overwrite=overwrite, progress=progress, dense_options=dense_options)
+        return _resume(scene, output, device, overwrite=overwrite, progress=progress, dense_options=dense_options,
+                       sidecar=sidecar)
     if output is not None:
         check_output_path(output, overwrite)  # before any work
     dev = resolve_device(device)
@@ -208,11 +211,12 @@ def run(scene, output=None, device=None, *, overwrite=False, progress=None, resu
     if output is None:
         return _run_one(scene, dev, progress=progress, dense_options=dense_options)
     with OutputFile(output, overwrite=overwrite, kind="run", device=str(dev), scene_toml=scene.to_toml(),
-                    seed=None if scene.shot.file else scene.shot.seed, precision=scene.numerics.precision) as out:
+                    seed=None if scene.shot.file else scene.shot.seed, precision=scene.numerics.precision,
+                    sidecar=sidecar) as out:
         return _run_one(scene, dev, out.h5, progress, dense_options)
 
 
-def _resume(scene, output, device, *, overwrite, progress, dense_options) -> dict:
+def _resume(scene, output, device, *, overwrite, progress, dense_options, sidecar=True) -> dict:
     """Continue the run left in OUTPUT.partial; returns its statistics (as `run`)."""
     if output is None:
         raise SceneError("--resume", "no output", "needs the output file of the interrupted run (-o or output.path)")
@@ -228,7 +232,7 @@ def _resume(scene, output, device, *, overwrite, progress, dense_options) -> dic
         check_resources([same_chunks], dev, output, rows_done=plan.rows)
         found.update(plan=plan, scene=same_chunks)
 
-    out, _ = OutputFile.reopen(output, overwrite=overwrite, check=check)
+    out, _ = OutputFile.reopen(output, overwrite=overwrite, check=check, sidecar=sidecar)
     with out:
         plan = found["plan"]
         writer = RunWriter.reopen(out.h5, fields=scene.output.fields, rows=plan.rows, segments=plan.segments,
@@ -302,7 +306,8 @@ def sweep(scene, params: dict, ties=(), output=None, device=None, *, overwrite=F
             else:
                 if partial.exists() and not sweepdir.resumable_point(partial):  # no chunk in it: run it again
                     partial.unlink()
-                stats = run(sc, point_path, dev, progress=step, dense_options=dense_options, resume=partial.exists())
+                stats = run(sc, point_path, dev, progress=step, dense_options=dense_options, resume=partial.exists(),
+                            sidecar=False)
             results.append((points[i], stats))
         folder.assemble(points, [s for _, s in results], overwrite=overwrite, device=str(dev),
                         scene_toml=scene.to_toml(), seed=None if scene.shot.file else scene.shot.seed,

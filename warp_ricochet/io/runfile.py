@@ -171,9 +171,9 @@ class OutputFile:
     """An HDF5 output file; use as a context manager so its status is always recorded."""
 
     def __init__(self, path, *, overwrite: bool, kind: str, device: str, scene_toml: str, seed=None,
-                 precision=None):
+                 precision=None, sidecar: bool = True):
         self.path = check_output_path(path, overwrite)
-        self.overwrite = overwrite
+        self.overwrite, self.sidecar = overwrite, sidecar
         self.partial = self.path.with_name(self.path.name + ".partial")
         self.watchable = kind == "run"  # SWMR: a run file can be read while it is written
         self.broken = False
@@ -217,7 +217,7 @@ class OutputFile:
             attrs["precision"] = precision
 
     @classmethod
-    def reopen(cls, path, *, overwrite: bool, check):
+    def reopen(cls, path, *, overwrite: bool, check, sidecar: bool = True):
         """The NAME.partial of an interrupted run, reopened to continue it: locked, then `check(f)`
         on it read-only (it raises to refuse; nothing is changed before it passes), then the status
         flags a killed writer left are cleared and it is opened for writing. Returns (file, check's
@@ -226,7 +226,7 @@ class OutputFile:
 
         self = cls.__new__(cls)
         self.path = check_resume_path(path, overwrite)
-        self.overwrite = overwrite
+        self.overwrite, self.sidecar = overwrite, sidecar
         self.partial = self.staging = self.path.with_name(self.path.name + ".partial")
         self.watchable = True
         self.broken = False
@@ -324,7 +324,7 @@ class OutputFile:
                 move_into_place(self.partial, self.path, self.overwrite)
         finally:
             self._lock.release()
-        if exc_type is None:
+        if exc_type is None and self.sidecar:
             publish_sidecar(self.path, self.overwrite)
         return False
 

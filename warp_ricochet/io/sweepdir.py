@@ -174,7 +174,7 @@ class SweepFolder:
 
         target = self.folder / ASSEMBLY
         with OutputFile(target, overwrite=True, kind="sweep", device=device, scene_toml=scene_toml, seed=seed,
-                        precision=precision) as out:
+                        precision=precision, sidecar=False) as out:
             sw = out.h5.create_group("sweep")
             columns = points.columns
             table = np.array([[p[key] for key in columns] for p in points], dtype=np.float64).reshape(-1, len(columns))
