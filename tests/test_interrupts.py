@@ -188,3 +188,14 @@ def test_the_rename_of_a_finished_file_holds_signals(tmp_path, monkeypatch):
     with pytest.raises(KeyboardInterrupt):
         runfile.move_into_place(partial, path, overwrite=False)
     assert moved and path.read_bytes() == b"x" and not partial.exists()
+
+
+def test_a_signal_after_the_command_returned_is_ignored(tmp_path):
+    """Once the command's status is decided (`cli.entry` returned), Ctrl-C and SIGTERM during the
+    interpreter's shutdown no longer end the process by the signal, without a message."""
+    code = ("import os, signal, sys; from warp_ricochet import cli; sys.argv = ['warp-ricochet', 'run', sys.argv[1], "
+            "'--device', 'cpu', '--set', 'shot.count=100']; status = cli.entry(); "
+            "os.kill(os.getpid(), signal.SIGINT); os.kill(os.getpid(), signal.SIGTERM); print('status', status)")
+    proc = subprocess.run([sys.executable, "-c", code, SCENE], capture_output=True, text=True,
+                          env={**os.environ, "PYTHONPATH": str(ROOT)}, timeout=120)
+    assert proc.returncode == 0 and proc.stdout.rstrip().endswith("status 0"), (proc.returncode, proc.stderr)

@@ -18,6 +18,7 @@ import argparse
 import os
 import signal
 import sys
+import threading
 import warnings
 
 from . import interrupts
@@ -329,5 +330,16 @@ def _kept(exc) -> str:
     return f"; the chunks completed are in {partial}{resumable}"
 
 
+def entry() -> int:
+    """The console script and `python -m warp_ricochet.cli`: `main`, then Ctrl-C and SIGTERM ignored
+    while the interpreter shuts down (the command's outcome and message are decided; a signal there
+    would otherwise end the process by the signal, with no message)."""
+    status = main()
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    return status
+
+
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(entry())
