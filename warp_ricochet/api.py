@@ -25,7 +25,7 @@ from .fields import bytes_per_pellet
 from .io import resume, sweepdir
 from .io.runfile import OutputFile, check_output_path, check_resume_path, output_target
 from .io.space import check_space
-from .io.writer import RunWriter, unit_of_key, write_stats
+from .io.writer import RunWriter
 from .model import Model
 from .physics.impact import SOLID_SPHERE_INERTIA_FACTOR
 from .physics.types import SCALARS, types_for

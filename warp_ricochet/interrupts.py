@@ -35,11 +35,6 @@ def _record(signum, frame):
         stop[0] = 1
 
 
-def requested() -> bool:
-    """A signal has been received while honoured and not yet acted on by a new run."""
-    return bool(_requested)
-
-
 def check(**notes) -> None:
     """A safe point: raise KeyboardInterrupt if an interrupt was requested (`notes` become its
     attributes, e.g. completed_path for the command line's message)."""

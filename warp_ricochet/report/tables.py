@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 
 from ..errors import RicochetError, hdf5_reason
 from ..io.h5open import open_for_reading
+from ..tallies.ensemble import STAT_KIND
 from ..tallies.sums import STAT_UNITS
 from .hazard_tables import from_file, from_run, tally_lines
 from .paper import paper_row
@@ -498,19 +499,15 @@ SUMMARY_INTERVALS = ("landed", "post_mean_vt", "range_mean", "range_std", "range
 def format_intervals(row: dict, intervals: dict, shots: int, fmt: str, names=None) -> str:
     """The 95% intervals over shots of a run of several shots (`tallies.ensemble`): each statistic,
     its ensemble value and interval; extremes' intervals are those of one shot's extreme."""
-    extremes = ("_max", "_min")
     body = []
     for name in names or STAT_UNITS:
         if name not in intervals or name not in row:
             continue
         low, high = intervals[name]
         unit = STAT_UNITS[name][0]
-        over = "one shot's extreme" if name.endswith(extremes) else "all shots" if name in _TOTAL_NAMES else "per shot"
+        over = {"extreme": "one shot's extreme", "total": "all shots"}.get(STAT_KIND.get(name), "per shot")
         body.append([name, _num(row[name], 4), _num(low, 4), _num(high, 4), "" if unit == "1" else unit, over])
     title = (f"95% confidence intervals over {shots:,} shots (Student t over per-shot values; "
              "values in /stats/shots; docs/output.md)")
     return _render(title, ["statistic", "value", "95% low", "95% high", "unit", "interval of"], body, fmt, {0, 4, 5})
 
-
-_TOTAL_NAMES = ("pellets", "hits", "missed", "stick", "slip", "landed", "escaped", "pair_collisions",
-                "pair_energy_lost", "flights_unfinished")
