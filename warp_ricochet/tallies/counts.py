@@ -114,19 +114,21 @@ def copies_for(device, nbytes: int) -> int:
     return max(1, min(CUDA_COPIES, MAX_COPY_BYTES // max(nbytes, 1))) if device.is_cuda else 1
 
 
-_POOL: dict = {}  # (device, role, shape, dtype) -> CUDA array kept between runs (allocating 200 MB costs a run ~0.5 ms)
+_POOL: dict = {}  # (device, role) -> CUDA array kept between runs (allocating 200 MB costs a run ~0.5 ms)
 
 
 def _buffer(device, role: str, shape, dtype):
-    """A device array of `shape`; on CUDA the same one for every run asking for it (its contents are
-    zeroed before each chunk, `DeviceTally.zero`, or overwritten whole, `reduce`; one CUDA run at a
-    time: pipeline._DEVICE_LOCK)."""
+    """A device array of `shape`; on CUDA the one kept for `role` if it has that shape and dtype (its
+    contents are zeroed before each chunk, `DeviceTally.zero`, or overwritten whole, `reduce`; one
+    CUDA run at a time: pipeline._DEVICE_LOCK), else a new one that replaces it: one array a role."""
     import warp as wp
 
     if not device.is_cuda:
         return wp.zeros(shape, dtype=dtype, device=device)
-    key = (str(device), role, tuple(shape), dtype)
-    if key not in _POOL:
+    key = (str(device), role)
+    kept = _POOL.get(key)
+    if kept is None or kept.shape != tuple(shape) or kept.dtype != dtype:
+        _POOL[key] = None  # (freed before the new one is made)
         _POOL[key] = wp.zeros(shape, dtype=dtype, device=device)
     return _POOL[key]
 
@@ -149,11 +151,11 @@ class DeviceTally:
         shapes = {"hist": (ROW_DISTANCE + levels, BINS) if active else (0, 0),
                   "map_counts": (levels, width) if mapped else (0, 0), "map_energy": (width,) if mapped else (0,)}
         dtypes = {"hist": wp.int32, "map_counts": wp.int32, "map_energy": wp.int64}
-        self.arrays = {name: _buffer(device, "sum", shape, dtypes[name]) for name, shape in shapes.items()}
+        self.arrays = {name: _buffer(device, "sum " + name, shape, dtypes[name]) for name, shape in shapes.items()}
         self.wide = {}
         for name, shape in shapes.items():
             copies = copies_for(device, int(np.prod(shape)) * 8)
-            self.wide[name] = _buffer(device, "wide", (copies,) + shape if np.prod(shape) else (1,) + (0,) * len(shape),
+            self.wide[name] = _buffer(device, "wide " + name, (copies,) + shape if np.prod(shape) else (1,) + (0,) * len(shape),
                                       dtypes[name])
         s = make_landing_tally(precision).Tally()
         s.hist, s.map_counts, s.map_energy = self.wide["hist"], self.wide["map_counts"], self.wide["map_energy"]
