@@ -6,9 +6,10 @@
 #   air: flight in air beside vacuum (statistics only, 1e8; collisions, 10,000 x 450)
 #   air-tests: the air tests on CUDA; air-study: the tradeoff's timings and states, the air study
 #          (1000 shots), the air stability sweep
-#   tallies-tests: the CUDA tests of the landing tallies, hazard, precision, ensembles and launches
+#   tallies-tests: the CUDA tests of the landing tallies, hazard and precision, collisions, air dense phase
 #   tallies: statistics only before this work (.gpu/old, a git archive of 27e7781) beside now, with
-#          quantiles and hazard maps; collisions 10,000 x 450 old beside new; the safety study
+#          quantiles and hazard maps
+#   tallies-collisions: collisions 10,000 x 450 old beside new, the launch overlaps, the safety study
 #   interrupts: signal-to-exit latency of collision runs on CUDA (10,000 paper shots, one shot of 3e6)
 #   collisions: the collision, stability and pipeline tests on CUDA; Warp's DEM example and the dense phase in the
 #          same run (1e6 pellets: rounds 4, 2, 1, float64; 10,000 shots x 450); where the dense phase's time goes

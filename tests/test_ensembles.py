@@ -225,3 +225,11 @@ def test_a_sweep_keeps_each_points_intervals(tmp_path):
         assert low.shape == high.shape == (2,) and ds.attrs["ci_method"] == point["ci_method"]
         assert (low[0], high[0]) == (point["ci_low"], point["ci_high"]) and low[0] < ds[0] < high[0]
         assert np.isnan(low[1]) and np.isnan(high[1])
+
+
+def test_a_piece_is_a_core_thread_of_pellets():
+    """core.shots follows PIECE pellets a thread, as the core kernel's threads do (short sums)."""
+    from warp_ricochet.tallies.ensemble import PIECE
+    from warp_ricochet.tallies.reduce import PER_THREAD
+
+    assert PIECE == PER_THREAD

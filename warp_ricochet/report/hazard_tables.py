@@ -9,6 +9,8 @@ import math
 
 import numpy as np
 
+from ..tallies.bins import RELATIVE_WIDTH
+
 SHOWN_LEVELS = ("P50", "P75", "P90", "P99", "P99.9", "1-1e-6")
 
 
@@ -54,7 +56,7 @@ def tally_lines(results: dict | None, pellets: float) -> list[str]:
     if results is None:
         return []
     units = {"range": "m", "distance": "m", "speed": "m/s", "energy": "J"}
-    lines = ["quantiles " + " / ".join(SHOWN_LEVELS) + " (bin upper edges, <= 0.1% above)"]
+    lines = ["quantiles " + " / ".join(SHOWN_LEVELS) + f" (bin upper edges, <= {RELATIVE_WIDTH:.2%} above)"]
     unresolved = [(name, q) for name, q in zip(SHOWN_LEVELS, results["levels"]) if results["landed"] * (1.0 - q) < 1.0]
     if unresolved and results["landed"]:
         name, q = unresolved[0]

@@ -34,7 +34,7 @@ from .collisions import SHOT_TOTALS, collision_statistics
 from .sums import NUM_EXTREMES, NUM_SUMS, STAT_UNITS, SUM, finalize_rows
 
 LEVEL = 0.95
-PIECE = 256  # pellets of one shot a thread of `core.shots` follows (as the core kernel's PER_THREAD: short float32 sums)
+PIECE = 256  # pellets of one shot a thread of `core.shots` follows (= reduce.PER_THREAD, not imported: reduce imports Warp)
 MAX_ENSEMBLE_SHOTS = 100_000  # per-shot values are kept on the host and in the file up to this many shots
 TOTALS = ("pellets", "hits", "missed", "stick", "slip", "landed", "escaped", "pair_collisions", "pair_energy_lost",
           "flights_unfinished")
