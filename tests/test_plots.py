@@ -14,6 +14,7 @@ import pytest
 
 pytest.importorskip("matplotlib")
 
+import warp_ricochet as wr  # noqa: E402
 from warp_ricochet.cli import main  # noqa: E402
 from warp_ricochet.report import figures, plotdata  # noqa: E402
 from warp_ricochet.report.plots import DPI, PLOTS  # noqa: E402
@@ -119,13 +120,14 @@ def test_plot_of_a_statistics_only_run_skips_with_a_reason(files, tmp_path, caps
 
 
 def test_landing_data_against_numpy(files):
-    """Energies, distances and the top view from the stored per-pellet datasets, independently."""
+    """Energies, distances and the top view from the stored per-pellet datasets, independently;
+    distances from the shooter the tallies use (the envelope centre here: the paper's, (0, 1, 0))."""
     with h5py.File(files["run"]) as f:
         landings = plotdata.read_landings(f)
         mass = f["constants/mass"][()]
         v = f["pellets/landing/velocity"][:].astype(np.float64)
         p = f["pellets/landing/position"][:].astype(np.float64)
-        start = f["pellets/initial/position"][:].astype(np.float64).mean(axis=0)
+        start = np.array([0.0, 1.0, 0.0])
     np.testing.assert_allclose(landings.energy, 0.5 * mass * (v**2).sum(axis=1), rtol=1e-12)
     np.testing.assert_allclose(landings.distance, np.hypot(p[:, 0] - start[0], p[:, 2] - start[2]), rtol=1e-12)
     e1, e2 = plotdata.top_view(landings)
@@ -159,3 +161,19 @@ def test_drawn_survival_curve_and_density_are_the_data():
     xb, yb = mesh.get_coordinates()[0, :, 0], mesh.get_coordinates()[:, 0, 1]
     cell = (xb[1] - xb[0]) * (yb[1] - yb[0])
     assert np.isclose(mesh.get_array().sum() * cell, n)  # landings per m^2 integrate to the landings
+
+
+def test_plot_distances_are_the_tallies_distances(tmp_path):
+    """With `[hazard] shooter` set, the plots measure distances from it, as the landing tallies
+    do: the largest plotted distance lies in the bin of /stats/quantiles/distance's top level."""
+    from warp_ricochet.scene import load_scene
+
+    scene = load_scene(SCENE, ["shot.count=500", 'output.fields=["landing"]', "hazard.shooter=[5.0, 0.0, 3.0]"])
+    out = tmp_path / "shooter.h5"
+    wr.run(scene, out, device="cpu")
+    with h5py.File(out) as f:
+        landings = plotdata.read_landings(f)
+        p = f["pellets/landing/position"][:].astype(np.float64)
+        top, bottom = f["stats/quantiles/distance"][-1], f["stats/quantiles/lower/distance"][-1]
+    np.testing.assert_allclose(landings.distance, np.hypot(p[:, 0] - 5.0, p[:, 2] - 3.0), rtol=1e-12)
+    assert bottom <= landings.distance.max() <= top

@@ -72,13 +72,16 @@ def _up(group) -> np.ndarray:
     return -g / norm if norm > 0 else np.array([0.0, 1.0, 0.0])
 
 
-def _shooter(group, scene, rows) -> np.ndarray:
-    """The launch point: the mean launch position when stored, else the scene's envelope centre."""
-    ds = group.get("pellets/initial/position")
-    if ds is not None and rows:
-        return np.asarray(ds[: min(rows, 1_000_000)], dtype=np.float64).mean(axis=0)
-    centre = scene.get("shot", {}).get("envelope_center", (0.0, 0.0, 0.0))
-    return np.asarray(centre, dtype=np.float64)
+def _shooter(scene) -> np.ndarray:
+    """The shooter as the landing tallies take it (`tallies.counts.TallySetup.of`), so a plot's
+    distances are those of /stats/quantiles/distance and the danger distances: `[hazard] shooter`,
+    else the envelope centre, or the origin for a pellet file."""
+    shot, hazard = scene.get("shot", {}), scene.get("hazard") or {}
+    if hazard.get("shooter") is not None:
+        return np.asarray(hazard["shooter"], dtype=np.float64)
+    if shot.get("file"):
+        return np.zeros(3)
+    return np.asarray(shot.get("envelope_center", (0.0, 0.0, 0.0)), dtype=np.float64)
 
 
 def _aim(group, scene, rows):
@@ -109,7 +112,7 @@ def read_landings(group) -> Landings | None:
     scene = scene_dict(group)
     position = np.asarray(pos_ds[:rows], dtype=np.float64)
     keep = np.all(np.isfinite(position), axis=1)
-    up, shooter = _up(group), _shooter(group, scene, rows)
+    up, shooter = _up(group), _shooter(scene)
     offset = position[keep] - shooter
     horizontal = offset - np.outer(offset @ up, up)
     energy = None
