@@ -189,8 +189,8 @@ def make_plane_search(precision: str, planes) -> SimpleNamespace:
 
 @functools.cache
 def make_air_flight(precision: str, planes, laws: tuple) -> SimpleNamespace:
-    """`to_contact` and `advance` in air (the flight interface of `physics.flight`), plus `steps`:
-    the steps a `to_contact` took are its sixth value."""
+    """`to_contact` and `advance` in air (the flight interface of `physics.flight`; the steps a
+    `to_contact` took are its sixth value), and `to_contact_within` (the flight up to a time)."""
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
     stepper, dense, search = make_stepper(precision, laws), make_dense_output(precision), make_plane_search(precision, planes)
@@ -211,21 +211,22 @@ def make_air_flight(precision: str, planes, laws: tuple) -> SimpleNamespace:
         return h * factor
 
     @wp.func
-    def to_contact(position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces,
-                   physics: Physics):
-        """(dt, plane, x, v, w, steps) at the next plane contact; plane -1 (none before
-        MAX_FLIGHT_TIME) or GAVE_UP with the state where the flight stopped."""
+    def to_contact_within(position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces,
+                          physics: Physics, latest: scalar):
+        """(dt, plane, x, v, w, steps) at the next plane contact within `latest` (s); plane -1
+        (none by then: the state `latest` later) or GAVE_UP with the state where the flight
+        stopped."""
         watched, waiting, now = search.start(position, velocity, touching, surfaces, physics)
         if now >= 0:
             return scalar(0.0), now, position, velocity, spin, wp.int32(0)
-        if watched == 0 and waiting == 0:
+        if watched == 0 and waiting == 0 and latest >= LATEST:
             return scalar(NO_CONTACT), wp.int32(-1), position, velocity, spin, wp.int32(0)
         acceleration, spin_change = stepper.rates(velocity, spin, physics)
         h = first_step(velocity, acceleration, physics)
         time = scalar(0.0)
         steps = wp.int32(0)
-        while steps < MAX_STEPS and time < LATEST:
-            h = wp.min(h, LATEST - time)
+        while steps < MAX_STEPS and time < latest:
+            h = wp.min(h, latest - time)
             x1, v1, w1, a1, d1, error = stepper.step(position, velocity, spin, acceleration, spin_change, h, physics)
             steps += 1
             if error <= scalar(1.0):
@@ -248,6 +249,13 @@ def make_air_flight(precision: str, planes, laws: tuple) -> SimpleNamespace:
         return scalar(NO_CONTACT), stopped, position, velocity, spin, steps
 
     @wp.func
+    def to_contact(position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces,
+                   physics: Physics):
+        """(dt, plane, x, v, w, steps) at the next plane contact; plane -1 (none before
+        MAX_FLIGHT_TIME) or GAVE_UP with the state where the flight stopped."""
+        return to_contact_within(position, velocity, spin, touching, surfaces, physics, LATEST)
+
+    @wp.func
     def advance(position: vec3, velocity: vec3, spin: vec3, dt: scalar, physics: Physics):
         """The state dt (s) later, no contact looked for."""
         acceleration, spin_change = stepper.rates(velocity, spin, physics)
@@ -268,4 +276,4 @@ def make_air_flight(precision: str, planes, laws: tuple) -> SimpleNamespace:
             h = next_step(h, error)
         return position, velocity, spin
 
-    return SimpleNamespace(to_contact=to_contact, advance=advance)
+    return SimpleNamespace(to_contact=to_contact, to_contact_within=to_contact_within, advance=advance)

@@ -81,4 +81,4 @@ def _air_flight(precision: str, planes, laws) -> SimpleNamespace:
         return dt, k
 
     return SimpleNamespace(model="air", next_contact=next_contact, to_contact=air.to_contact, advance=air.advance,
-                           NO_CONTACT=NO_CONTACT, GAVE_UP=GAVE_UP)
+                           to_contact_within=air.to_contact_within, NO_CONTACT=NO_CONTACT, GAVE_UP=GAVE_UP)
