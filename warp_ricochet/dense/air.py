@@ -12,6 +12,7 @@ speed under a strong lift returns within a fraction of a millisecond, which long
 The adaptive step is at most `collisions.air_step_fraction` of the shortest time the air takes to
 change a pellet's motion in its shot (|u| / |a_air|), or its motion towards a plane within a step's
 reach (|v.n| / |a_air.n|: `air_rate`); a fixed step is kept as given (to measure convergence).
+Past its arrival window a shot leaps instead of stepping through empty time (`dense.leap`).
 """
 
 import functools
@@ -21,14 +22,16 @@ import warp as wp
 
 from ..physics.air import make_air_laws
 from ..physics.ballistic import make_ballistic
-from .constants import CLOCK_STEP, CLOCK_TIME
+from ..physics.flight import make_flight
+from .constants import CLOCK_STEP, CLOCK_STEPS, CLOCK_TIME, KICK_STEPS
 from .frame import make_frame
 from .state import dense_types
 
 
 @functools.cache
 def make_dense_air(spec) -> SimpleNamespace:
-    """`air_rate`, `kicked` and `kick_pellet` for a spec in air."""
+    """`air_rate`, `acceleration_bound`, `kicked`, `drift_end`, `kick_pellet` and `air_until` for a
+    spec in air."""
     d = dense_types(spec)
     scalar, vec3, Surfaces, Physics, Cloud, Pair = d.scalar, d.vec3, d.Surfaces, d.Physics, d.Cloud, d.Pair
     TINY_RATE = 1e-30  # 1/s: no air (a pellet at rest in still air)
@@ -36,8 +39,10 @@ def make_dense_air(spec) -> SimpleNamespace:
     _entry, _return, _contact, ballistic_position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
     fr = make_frame(spec)
     stepping, set_reference = fr.stepping, fr.set_reference
+    next_contact = make_flight(spec.precision, spec.static_planes).next_contact  # (the exact flight)
 
     STATIC_PLANES = spec.static_planes
+    LIFT = spec.air_laws[1] is not None
 
     @wp.func
     def plane_rate(k: wp.int32, position: vec3, velocity: vec3, acceleration: vec3, reach_time: scalar,
@@ -74,6 +79,29 @@ def make_dense_air(spec) -> SimpleNamespace:
         return rate
 
     @wp.func
+    def pellet_rate(i: wp.int32, time: scalar, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
+        """Pellet i's `air_rate` at the shot's clock `time` (s), for the step's bound: found
+        anew in a step that kicks it (kept for its kick), else the one found at its last kick
+        (its motion has changed by at most air_step_fraction since)."""
+        if wp.int32(cloud.clock[i / pair.count, CLOCK_STEPS]) >= cloud.kick_due[i]:
+            age = time - cloud.time[i]
+            cloud.air_rate[i] = air_rate(ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age),
+                                         ballistic_velocity(cloud.velocity[i], physics.gravity, age), cloud.angular_velocity[i],
+                                         pair, surfaces, physics)
+        return cloud.air_rate[i]
+
+    @wp.func
+    def acceleration_bound(speed: scalar, physics: Physics):
+        """The most the air can accelerate a pellet (m/s^2; drag and lift, not gravity) moving at
+        up to `speed` (m/s) relative to the air, whatever its spin: the drag at that speed (the
+        drag force grows with speed, as every law of physics.air does: tested) and the lift at
+        its cap C_L = lift_max, lift R (C_L / S) |omega x u| <= lift lift_max |u|^2 / R."""
+        bound = wp.length(laws.drag_acceleration(vec3(speed, scalar(0.0), scalar(0.0)), speed, physics.air))
+        if wp.static(LIFT):
+            bound += physics.air.lift * physics.air.lift_max * speed * speed / physics.air.radius
+        return bound
+
+    @wp.func
     def kicked(velocity: vec3, spin: vec3, duration: scalar, physics: Physics):
         """Velocity and spin after the air's flow alone over `duration` (s): the explicit midpoint
         rule, second order like the splitting (a kick is at most a small fraction of the time the
@@ -84,22 +112,80 @@ def make_dense_air(spec) -> SimpleNamespace:
         return velocity + duration * a2, spin + duration * d2
 
     @wp.func
-    def kick_pellet(i: wp.int32, pair: Pair, physics: Physics, cloud: Cloud):
-        """Before a step of pellet i's shot: the air from its air time to the step's middle, at
-        the shot's clock, where its reference state moves to."""
+    def drift_end(cloud: Cloud, i: wp.int32, time: scalar, until: scalar, physics: Physics):
+        """Pellet i's state at `time` (s), the end of a drift from its reference state, with the
+        air up to `until` (s): the exact flight from it, in position the air the drift missed
+        (its velocity had the air up to the air time, not up to the drift's middle: a (t_mid -
+        t_air) (t - t_ref), which makes a drift of any length second order at its end), and in
+        velocity and spin one kick from the air time to `until`."""
+        age = time - cloud.time[i]
+        velocity = ballistic_velocity(cloud.velocity[i], physics.gravity, age)
+        spin = cloud.angular_velocity[i]
+        acceleration, _spin_change = laws.air_rates(velocity, spin, physics.air)
+        lag = scalar(0.5) * (cloud.time[i] + time) - cloud.air_time[i]
+        position = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age) + (lag * age) * acceleration
+        velocity, spin = kicked(velocity, spin, until - cloud.air_time[i], physics)
+        return position, velocity, spin
+
+    @wp.func
+    def kick_steps(i: wp.int32, time: scalar, position: vec3, velocity: vec3, spin: vec3, pair: Pair, surfaces: Surfaces,
+                   physics: Physics, cloud: Cloud):
+        """How many of its shot's steps pellet i's kick lasts: to the next multiple of KICK_STEPS
+        of the shot's steps (so a shot's pellets are kicked together, in the same steps), but
+        no longer than `air_step_fraction` of the time the air takes to change its motion
+        (`air_rate`) or gravity its speed relative to the air (|u| / |g|), nor than to its next
+        plane contact or its kept pair event (an event then falls at the kick's end), and at
+        least one step (every step with a fixed step, as given: to measure convergence)."""
+        s = i / pair.count
+        steps = wp.int32(cloud.clock[s, CLOCK_STEPS])
+        aligned = (steps / KICK_STEPS + 1) * KICK_STEPS - steps
+        if pair.fixed_step > scalar(0.0):
+            return wp.int32(1)
+        rate = cloud.air_rate[i]  # (pellet_rate's, found in this step: the pellet is due)
+        falling = wp.length(physics.gravity) / (wp.length(velocity - physics.air.wind) + physics.air.speed_floor)
+        interval = pair.air_step_fraction / wp.max(wp.max(rate, falling), scalar(TINY_RATE))
+        wait, k = next_contact(position, velocity, spin, wp.int32(-1), surfaces, physics)
+        if k >= 0:
+            interval = wp.min(interval, wait)
+        if cloud.stale[i] == 0 and cloud.event_partner[i] >= 0:
+            interval = wp.min(interval, cloud.event_time[i] - time)
+        within = interval / cloud.clock[s, CLOCK_STEP]
+        if within >= scalar(aligned):
+            return aligned
+        return wp.max(wp.int32(within), wp.int32(1))
+
+    @wp.func
+    def kick_pellet(i: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
+        """At a step's start, pellet i's kick if it is due: its drift ends (`drift_end`), and it
+        gets the air up to the middle of its next kick (`kick_steps` of the current step: the
+        next drift's end corrects for steps of other lengths), at the shot's clock, where its
+        reference state moves to. Between kicks it flies the exact parabola and keeps its
+        event."""
         s = i / pair.count
         if not stepping(cloud, i, s):
             return
+        steps = wp.int32(cloud.clock[s, CLOCK_STEPS])
+        if steps < cloud.kick_due[i]:
+            return
         time = cloud.clock[s, CLOCK_TIME]
-        middle = time + scalar(0.5) * cloud.clock[s, CLOCK_STEP]
-        duration = middle - cloud.air_time[i]
-        cloud.air_time[i] = middle
         age = time - cloud.time[i]
-        position = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age)
-        velocity, spin = kicked(ballistic_velocity(cloud.velocity[i], physics.gravity, age), cloud.angular_velocity[i],
-                                duration, physics)
+        count = kick_steps(i, time, ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age),
+                           ballistic_velocity(cloud.velocity[i], physics.gravity, age), cloud.angular_velocity[i], pair,
+                           surfaces, physics, cloud)
+        middle = time + scalar(0.5) * scalar(count) * cloud.clock[s, CLOCK_STEP]
+        position, velocity, spin = drift_end(cloud, i, time, middle, physics)
+        cloud.air_time[i] = middle
+        cloud.kick_due[i] = steps + count
         set_reference(cloud, i, position, velocity, spin, time)
         cloud.touching[i] = -1  # (its reference state is off the plane it left: plane times from the gap)
-        cloud.stale[i] = 1  # (every flying pellet of the shot is kicked: all are found again)
+        cloud.stale[i] = 1
 
-    return SimpleNamespace(air_rate=air_rate, kicked=kicked, kick_pellet=kick_pellet)
+    @wp.func
+    def air_until(cloud: Cloud, i: wp.int32, time: scalar):
+        """Pellet i has had the air up to `time` (s: an event's, its release's): its next step
+        kicks it."""
+        cloud.air_time[i] = time
+        cloud.kick_due[i] = 0
+
+    return SimpleNamespace(air_rate=air_rate, pellet_rate=pellet_rate, acceleration_bound=acceleration_bound, kicked=kicked, drift_end=drift_end,
+                           kick_pellet=kick_pellet, air_until=air_until)

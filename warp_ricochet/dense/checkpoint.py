@@ -8,10 +8,12 @@ import warp as wp
 
 from ..physics.ballistic import make_ballistic
 from ..physics.flight import make_flight
+from .air import make_dense_air
 from .constants import (
     CHECKPOINT,
     CLOCK_CUT,
     CLOCK_END,
+    CLOCK_LEAP,
     CLOCK_NEXT,
     CLOCK_SKIN,
     CLOCK_STEP,
@@ -22,13 +24,16 @@ from .constants import (
     FLAG_STALL,
     FLAG_WIDENED,
     FLYING,
+    LEAP_MAX_VALUE,
     SHOT_BUSY,
     SHOT_DONE,
+    SHOT_LEAP,
     SHOT_REBUILD,
     SHOT_STALL,
 )
 from .events import make_events
 from .frame import make_frame
+from .leap import make_leap
 from .state import dense_types
 
 
@@ -41,7 +46,10 @@ def make_checkpoint(spec) -> SimpleNamespace:
     next_contact = make_flight(spec.precision, spec.static_planes).next_contact
     _entry, _return, _contact, ballistic_position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
     contact_time, recentre = make_events(spec).contact_time, make_frame(spec).recentre
-    AIR = spec.in_air
+    AIR, BOUNCES = spec.in_air, spec.bounces
+    air = make_dense_air(spec) if AIR else None  # (their calls compile only in air)
+    lp = make_leap(spec) if AIR else None
+    LEAP_MAX = scalar(LEAP_MAX_VALUE)
 
     @wp.func(inline=True)
     def horizon_pellet(i: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
@@ -64,9 +72,17 @@ def make_checkpoint(spec) -> SimpleNamespace:
         x = cloud.now_position[i]
         v = cloud.now_velocity[i]
         speed = cloud.now_speed[i]
-        reach2 = scalar(4.0) * physics.radius * physics.radius
+        reach = scalar(2.0) * physics.radius
+        reach2 = reach * reach
         earliest = NEVER
-        for j in range(i + 1, (s + 1) * pair.count):
+        leap = NEVER  # in air (dense.leap): the earliest time anything may happen
+        leaps = pair.leaps != 0
+        margin = cloud.half_skin[s]
+        # each pair once (twice for the pairs half a shot apart when the count is even): pellet k
+        # of the shot with the next count / 2 after it, cyclically, so every thread does as much
+        first = s * pair.count
+        for m in range(1, pair.count / 2 + 1):
+            j = first + (i - first + m) % pair.count
             if cloud.phase[j] == FLYING:
                 d = cloud.now_position[j] - x
                 u = cloud.now_velocity[j] - v
@@ -74,14 +90,24 @@ def make_checkpoint(spec) -> SimpleNamespace:
                     delay = contact_time(d, u, reach2, speed + cloud.now_speed[j])
                     if delay >= scalar(0.0):
                         earliest = wp.min(earliest, time + delay)
+                if wp.static(AIR):
+                    if leaps:
+                        bound = cloud.now_bound[i] + cloud.now_bound[j]
+                        leap = wp.min(leap, time + lp.pair_leap(d, u, reach, margin, bound, speed + cloud.now_speed[j]))
         if earliest < NEVER:
             cloud.shot_flags[s, wp.static(SHOT_BUSY)] = 1  # a pair can still meet
-        # plane contacts bound the jump (they do not keep a shot stepping: the core's flight does them)
-        wait, k = next_contact(cloud.position[i], cloud.velocity[i], cloud.angular_velocity[i], cloud.touching[i], surfaces,
-                               physics)
-        if k >= 0:
-            earliest = wp.min(earliest, cloud.time[i] + wait)
-        wp.atomic_min(cloud.clock, s, CLOCK_NEXT, earliest)
+        if wp.static(AIR):
+            # a pellet's landing after its last impact does not bound a leap (the leap flies it there)
+            if leaps and cloud.impacts[i] < wp.static(BOUNCES):
+                leap = wp.min(leap, time + lp.plane_leap(x, v, cloud.now_bound[i], surfaces, physics))
+            wp.atomic_min(cloud.clock, s, CLOCK_NEXT, leap)
+        else:
+            # plane contacts bound the jump (they do not keep a shot stepping: the core's flight does them)
+            wait, k = next_contact(cloud.position[i], cloud.velocity[i], cloud.angular_velocity[i], cloud.touching[i],
+                                   surfaces, physics)
+            if k >= 0:
+                earliest = wp.min(earliest, cloud.time[i] + wait)
+            wp.atomic_min(cloud.clock, s, CLOCK_NEXT, earliest)
 
     @wp.func(inline=True)
     def now_pellet(i: wp.int32, pair: Pair, physics: Physics, cloud: Cloud):
@@ -90,9 +116,15 @@ def make_checkpoint(spec) -> SimpleNamespace:
         s = i / pair.count
         if cloud.phase[i] != FLYING or cloud.shot_flags[s, SHOT_DONE] != 0 or cloud.shot_flags[s, SHOT_STALL] != CHECKPOINT:
             return
-        age = cloud.clock[s, CLOCK_TIME] - cloud.time[i]
+        time = cloud.clock[s, CLOCK_TIME]
+        age = time - cloud.time[i]
+        position = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age)
         velocity = ballistic_velocity(cloud.velocity[i], physics.gravity, age)
-        cloud.now_position[i] = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age)
+        if wp.static(AIR):  # the end of its drift, and the bound on the air in a leap (dense.leap)
+            position, velocity, _spin = air.drift_end(cloud, i, time, time, physics)
+            speed = wp.length(velocity - physics.air.wind) + wp.length(physics.gravity) * LEAP_MAX
+            cloud.now_bound[i] = air.acceleration_bound(speed, physics)
+        cloud.now_position[i] = position
         cloud.now_velocity[i] = velocity
         cloud.now_speed[i] = wp.length(velocity)
 
@@ -119,14 +151,24 @@ def make_checkpoint(spec) -> SimpleNamespace:
                     cloud.step_travel[s] = scalar(0.0)
                     wp.atomic_max(cloud.widest_half_skin, 0, cloud.half_skin[s])
                     cloud.flags[FLAG_WIDENED] = 1
+            leaping = wp.int32(0)
             if checkpoint:
                 # nothing happens before the shot's next event (horizon_kernel): jump to a step
-                # before it (pellets carry reference states: only the clock moves)
+                # before it (pellets carry reference states: only the clock moves); in air the
+                # pellets leap there, flown through it (dense.leap), and then the frame follows
                 time = cloud.clock[s, CLOCK_TIME]
                 ahead = cloud.clock[s, CLOCK_NEXT] - cloud.clock[s, CLOCK_STEP]
-                if wp.static(not AIR):  # (in air the pellets slow down in the time a jump skips)
+                if wp.static(AIR):
+                    ahead = wp.min(ahead, time + LEAP_MAX)
+                    if pair.leaps != 0 and cloud.clock[s, CLOCK_NEXT] < NEVER and ahead > time:
+                        cloud.clock[s, wp.static(CLOCK_LEAP)] = time
+                        cloud.clock[s, CLOCK_TIME] = ahead
+                        cloud.shot_flags[s, wp.static(SHOT_LEAP)] = 1
+                        leaping = wp.int32(1)
+                else:
                     if cloud.clock[s, CLOCK_NEXT] < NEVER and ahead > time:
                         cloud.clock[s, CLOCK_TIME] = ahead
+            if checkpoint and leaping == 0:
                 # the co-moving frame follows the shot's flying pellets (after a ricochet they move
                 # nothing like the launch): speeds relative to it set the step. The lists are
                 # rebuilt in the new frame before the next step.

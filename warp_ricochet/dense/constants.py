@@ -16,19 +16,21 @@ NUM_FLAGS = 4
 # of the skin (see prepare_pellet), and the earliest time a pellet changed in the step leaves its
 # skin (the step ends there too, and no event after it is applied)
 CLOCK_TIME, CLOCK_STEP, CLOCK_DRIFT, CLOCK_STEPS, CLOCK_END, CLOCK_WINDOW, CLOCK_NEXT, CLOCK_CUT, CLOCK_OVERRUN, CLOCK_SKIN = range(10)
-# in air (dense.air): the shot's fastest air rate |a_air| / |u| (1/s)
-CLOCK_AIR = 10
-NUM_CLOCK = 11
+# in air (dense.air): the shot's fastest air rate |a_air| / |u| (1/s); where its last leap began
+# (dense.leap)
+CLOCK_AIR, CLOCK_LEAP = 10, 11
+NUM_CLOCK = 12
 # a step cut at an unresolved event still advances by this fraction of itself (a pair the law does
 # not collide, e.g. one closing within rounding, can never stop the clock)
 MIN_CUT_FRACTION = 1.0 / 64.0
 HORIZON_RADII = 4.0
-# per-shot int flags (shots x 4): waits for a rebuild, finished, a pair or ricochet still ahead,
+# per-shot int flags (shots x 5): waits for a rebuild, finished, a pair or ricochet still ahead,
 # its lists are rebuilt at the next build (a shot's lists are rebuilt when it needs it, whatever
-# the other shots need, so its list-dependent diagnostics do not depend on the chunk)
-SHOT_STALL, SHOT_DONE, SHOT_BUSY, SHOT_REBUILD = 0, 1, 2, 3
+# the other shots need, so its list-dependent diagnostics do not depend on the chunk), in air its
+# pellets leap at this checkpoint (dense.leap)
+SHOT_STALL, SHOT_DONE, SHOT_BUSY, SHOT_REBUILD, SHOT_LEAP = 0, 1, 2, 3, 4
 CHECKPOINT = 2  # shot_flags[s, SHOT_STALL]: waits at a checkpoint (1: waits for a rebuild)
-NUM_SHOT_FLAGS = 4
+NUM_SHOT_FLAGS = 5
 # hash-grid cells CELL_REACHES reaches wide: a query visits 2 x 2 x 2 cells, not 3 x 3 x 3 (the
 # lists are sparse, about one neighbour per pellet in the paper's shot: the cells cost, not the candidates)
 CELL_REACHES = 2.0
@@ -44,3 +46,9 @@ NEVER_VALUE = 1e30  # s: no event ahead
 QUIET_STEP_VALUE = 1.0  # s: the longest step, when nothing moves relative to the drift
 TINY_SPEED_VALUE = 1e-30  # m/s: a floor under speeds that divide
 CELL_MARGIN = 1.001  # cells this much wider than the distance they are for: rounding cannot split a pair two cells apart
+# in air: the longest leap (s); the bound on a pellet's air acceleration over a leap takes its
+# speed relative to the air up by |g| times this (dense.leap)
+LEAP_MAX_VALUE = 0.05
+TINY_ACCELERATION_VALUE = 1e-30  # m/s^2: a floor under air accelerations that divide
+# in air: a pellet's kick lasts at most this many steps (dense.air)
+KICK_STEPS = BLOCK_STEPS

@@ -72,6 +72,8 @@ def make_ends(spec) -> SimpleNamespace:
         cloud.collision_count[i] = 0
         cloud.energy_lost[i] = scalar(0.0)
         cloud.air_time[i] = scalar(0.0)
+        cloud.kick_due[i] = 0
+        cloud.air_rate[i] = scalar(0.0)
         cloud.last_collision[i] = scalar(wp.nan)
         cloud.neighbour_count[i] = 0
         cloud.stale[i] = 1
@@ -119,10 +121,9 @@ def make_ends(spec) -> SimpleNamespace:
             age = time - cloud.time[i]
             position = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age)
             velocity = ballistic_velocity(cloud.velocity[i], physics.gravity, age)
-            if wp.static(AIR):  # the air since its last kick; the core flies on from here
-                spin = cloud.angular_velocity[i]
-                velocity, spin = air.kicked(velocity, spin, time - cloud.air_time[i], physics)
-                cloud.air_time[i] = time
+            if wp.static(AIR):  # the end of its drift, the air up to now; the core flies on from here
+                position, velocity, spin = air.drift_end(cloud, i, time, time, physics)
+                air.air_until(cloud, i, time)
                 set_reference(cloud, i, position, velocity, spin, time)
                 cloud.touching[i] = -1  # (off the plane it left: the core's flight starts from the gap)
         if cloud.release_time.shape[0] > 0:

@@ -73,7 +73,7 @@ def make_events(spec) -> SimpleNamespace:
             i, k, wait, position, velocity, spin, time, cloud, surfaces, physics
         )
         if wp.static(AIR):
-            cloud.air_time[i] = time
+            air.air_until(cloud, i, time)
         normal = surfaces.normal[k]
         impacts = cloud.impacts[i]
         if impacted != 0:

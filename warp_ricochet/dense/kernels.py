@@ -10,8 +10,9 @@ import warp as wp
 
 from .air import make_dense_air
 from .checkpoint import make_checkpoint
-from .constants import FLAG_OVERFLOW, SHOT_DONE, SHOT_REBUILD, SHOT_STALL
+from .constants import FLAG_OVERFLOW, SHOT_DONE, SHOT_LEAP, SHOT_REBUILD, SHOT_STALL
 from .ends import make_ends
+from .leap import make_leap
 from .lists import make_lists
 from .rounds import make_rounds
 from .separation import make_separation
@@ -93,6 +94,7 @@ def make_step_kernels(spec) -> SimpleNamespace:
     step_fns, round_fns, checkpoint_fns, list_fns = make_step(spec), make_rounds(spec), make_checkpoint(spec), make_lists(spec)
     AIR = spec.in_air
     air = make_dense_air(spec) if AIR else None
+    leap_fns = make_leap(spec) if AIR else None
 
     @wp.kernel(**opts)
     def bounds_kernel(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
@@ -101,12 +103,12 @@ def make_step_kernels(spec) -> SimpleNamespace:
             step_fns.bounds_pellet(i, pair, surfaces, physics, cloud)
 
     @wp.kernel(**opts)
-    def kick_kernel(pair: Pair, physics: Physics, cloud: Cloud):
-        """In air: each pellet's kick before a step (dense.air)."""
+    def kick_kernel(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
+        """In air: each pellet's kick before a step, when due (dense.air)."""
         t = wp.tid()
         if wp.static(AIR):
             for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
-                air.kick_pellet(i, pair, physics, cloud)
+                air.kick_pellet(i, pair, surfaces, physics, cloud)
 
     @wp.kernel(**opts)
     def plan_kernel(pair: Pair, physics: Physics, cloud: Cloud):
@@ -172,6 +174,19 @@ def make_step_kernels(spec) -> SimpleNamespace:
         checkpoint_fns.settle_shot(wp.tid(), pair, physics, cloud)
 
     @wp.kernel(**opts)
+    def leap_kernel(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs):
+        """In air: the pellets of each shot that leaps at this checkpoint fly through it (dense.leap)."""
+        t = wp.tid()
+        if wp.static(AIR):
+            for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
+                leap_fns.leap_pellet(i, pair, surfaces, physics, cloud, out)
+
+    @wp.kernel(**opts)
+    def leaped_kernel(pair: Pair, physics: Physics, cloud: Cloud):
+        if wp.static(AIR):
+            leap_fns.leaped_shot(wp.tid(), pair, physics, cloud)
+
+    @wp.kernel(**opts)
     def phase_kernel(first_shot: wp.int32, end_shot: wp.int32, steps: wp.int32, rounds: wp.int32, pair: Pair,
                      surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs, bucket_end: wp.array(dtype=wp.int32),
                      rows: wp.array(dtype=wp.int32), cells: wp.array(dtype=wp.vec3i)):
@@ -199,7 +214,12 @@ def make_step_kernels(spec) -> SimpleNamespace:
                             return
                         checkpoint_fns.horizon_pellet(i, pair, surfaces, physics, cloud)
                     checkpoint_fns.settle_shot(s, pair, physics, cloud)
+                    if wp.static(AIR):
+                        if cloud.shot_flags[s, SHOT_LEAP] != 0:
+                            for i in range(first, first + pair.count):
+                                leap_fns.leap_pellet(i, pair, surfaces, physics, cloud, out)
+                            leap_fns.leaped_shot(s, pair, physics, cloud)
                 else:
                     step_fns.block_shot(s, steps, rounds, pair, surfaces, physics, cloud, out)
 
-    return SimpleNamespace(bounds_kernel=bounds_kernel, kick_kernel=kick_kernel, plan_kernel=plan_kernel, prepare_kernel=prepare_kernel, choose_kernel=choose_kernel, resolve_kernel=resolve_kernel, finish_kernel=finish_kernel, end_step_kernel=end_step_kernel, block_kernel=block_kernel, now_kernel=now_kernel, horizon_kernel=horizon_kernel, settle_kernel=settle_kernel, phase_kernel=phase_kernel)
+    return SimpleNamespace(bounds_kernel=bounds_kernel, kick_kernel=kick_kernel, plan_kernel=plan_kernel, prepare_kernel=prepare_kernel, choose_kernel=choose_kernel, resolve_kernel=resolve_kernel, finish_kernel=finish_kernel, end_step_kernel=end_step_kernel, block_kernel=block_kernel, now_kernel=now_kernel, horizon_kernel=horizon_kernel, settle_kernel=settle_kernel, leap_kernel=leap_kernel, leaped_kernel=leaped_kernel, phase_kernel=phase_kernel)

@@ -180,6 +180,9 @@ class DensePhase:
             self._launch("horizon_kernel", self.threads, [p, m.surfaces, m.physics, c], True),
             self._launch("settle_kernel", self.shots, [p, m.physics, c], True),
         ]
+        if self.in_air:  # (dense.leap)
+            self.checkpoint_commands += [self._launch("leap_kernel", self.threads, [p, m.surfaces, m.physics, c, self._outputs], True),
+                                         self._launch("leaped_kernel", self.shots, [p, m.physics, c], True)]
         if self.cell_lists:
             self.list_commands = [self._launch("cell_lists_kernel", 1, [p, m.physics, c, self.bucket_end, self.rows, self.cells], True)]
         else:
@@ -211,6 +214,9 @@ class DensePhase:
             self._record()
             grew = True
 
+    def _block(self, commands):
+        run_block(self, commands)
+
     def _grew_lists(self) -> bool:
         """After a build: if a list overflowed, longer lists (1.25 x the longest needed), to be
         built again. One integer read per build."""
@@ -233,7 +239,7 @@ class DensePhase:
                     self._launch("plan_kernel", shots, [p, m.physics, c], True),
                     self._launch("prepare_kernel", threads, [p, m.physics, c], True)]
         if self.in_air:
-            commands.append(self._launch("kick_kernel", threads, [p, m.physics, c], True))
+            commands.append(self._launch("kick_kernel", threads, [p, m.surfaces, m.physics, c], True))
         for r in range(self.rounds):
             commands.append(self._launch("choose_kernel", threads, [r, 0, p, m.surfaces, m.physics, c], True))
             commands.append(self._launch("resolve_kernel", threads, [r, p, m.surfaces, m.physics, c, outputs], True))
@@ -243,25 +249,28 @@ class DensePhase:
         commands.append(self._launch("end_step_kernel", shots, [p, c], True))
         return commands
 
-    def _block(self, commands):
-        if self.graph is not None:
-            wp.capture_launch(self.graph)
-            return
-        if self.device.is_cuda:
-            with wp.ScopedCapture(device=self.device) as capture:
-                for _ in range(self.block_steps):
-                    for command in commands:
-                        command.launch()
-            self.graph = capture.graph
-            wp.capture_launch(self.graph)
-            return
-        if self.fused:
-            interrupts.wait(commands[0].launch, self.stop)
-            return
-        for _ in range(self.block_steps):
-            interrupts.check()
-            for command in commands:
-                command.launch()
+
+def run_block(dense: DensePhase, commands):
+    """A block of steps: on CUDA a graph of `block_steps` steps, captured once and replayed; on the
+    CPU one launch of block_kernel (fused) or the per-step launches."""
+    if dense.graph is not None:
+        wp.capture_launch(dense.graph)
+        return
+    if dense.device.is_cuda:
+        with wp.ScopedCapture(device=dense.device) as capture:
+            for _ in range(dense.block_steps):
+                for command in commands:
+                    command.launch()
+        dense.graph = capture.graph
+        wp.capture_launch(dense.graph)
+        return
+    if dense.fused:
+        interrupts.wait(commands[0].launch, dense.stop)
+        return
+    for _ in range(dense.block_steps):
+        interrupts.check()
+        for command in commands:
+            command.launch()
 
 
 def whole_phase(dense: DensePhase):

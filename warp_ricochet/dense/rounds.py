@@ -9,6 +9,7 @@ import warp as wp
 
 from ..physics.ballistic import make_ballistic
 from ..physics.flight import make_flight
+from .air import make_dense_air
 from .constants import (
     CLOCK_CUT,
     CLOCK_SKIN,
@@ -35,6 +36,7 @@ def make_rounds(spec) -> SimpleNamespace:
     plane_contacts_until, mark_stale = ev.plane_contacts_until, fr.mark_stale
     stepping, skin_exit, set_reference = fr.stepping, fr.skin_exit, fr.set_reference
     AIR = spec.in_air
+    air = make_dense_air(spec) if AIR else None  # (its calls compile only in air)
 
     @wp.func(inline=True)
     def choose_pellet(i: wp.int32, look: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
@@ -106,9 +108,13 @@ def make_rounds(spec) -> SimpleNamespace:
         step_end = step_start + cloud.clock[s, wp.static(CLOCK_STEP)]
         if cloud.event_time[i] <= step_end:
             # (after the last round too: finish_kernel applies the plane contacts left in the step)
-            wp.atomic_min(cloud.clock, s, wp.static(CLOCK_SKIN), cloud.event_exit[i])
+            # (an atomic only where it can lower the shot's value)
+            if cloud.event_exit[i] < cloud.clock[s, wp.static(CLOCK_SKIN)]:
+                wp.atomic_min(cloud.clock, s, wp.static(CLOCK_SKIN), cloud.event_exit[i])
             if look != 0 and cloud.event_partner[i] >= 0 and cloud.event_time[i] < step_end:
-                wp.atomic_min(cloud.clock, s, wp.static(CLOCK_CUT), wp.max(cloud.event_time[i], step_start))
+                cut = wp.max(cloud.event_time[i], step_start)
+                if cut < cloud.clock[s, wp.static(CLOCK_CUT)]:
+                    wp.atomic_min(cloud.clock, s, wp.static(CLOCK_CUT), cut)
 
     @wp.func
     def step_end_of(cloud: Cloud, s: wp.int32):
@@ -174,8 +180,8 @@ def make_rounds(spec) -> SimpleNamespace:
         set_reference(cloud, a, xa, va2, wa2, when)
         set_reference(cloud, b, xb, vb2, wb2, when)
         if wp.static(AIR):  # (pair_outcome gave them the air up to the contact)
-            cloud.air_time[a] = when
-            cloud.air_time[b] = when
+            air.air_until(cloud, a, when)
+            air.air_until(cloud, b, when)
         cloud.round_applied[round] = 1
         mark_stale(cloud, a)
         mark_stale(cloud, b)

@@ -60,16 +60,19 @@ def make_state(precision: str):
         last_collision: wp.array(dtype=scalar)  # s since launch, NaN: never
         energy_lost: wp.array(dtype=scalar)  # J, half of each of its pair collisions' losses
         air_time: wp.array(dtype=scalar)  # s: in air, the air has acted on it up to this time (dense.air)
+        air_rate: wp.array(dtype=scalar)  # 1/s: in air, its air rate at its last kick (dense.air)
         # each pellet's earliest event (plane or listed pair), kept until it or a neighbour changes
         event_time: wp.array(dtype=scalar)  # s since launch
         event_partner: wp.array(dtype=wp.int32)  # pellet row, -2 - plane, -1 none
         event_exit: wp.array(dtype=scalar)  # s: when the pellet would leave its skin after that event
         stale: wp.array(dtype=wp.int32)  # 1: the event above must be found again
+        kick_due: wp.array(dtype=wp.int32)  # in air: it is kicked at the start of its shot's step of this count (dense.air)
         round_applied: wp.array(dtype=wp.int32)  # (rounds,) 1: round r of this step applied an event
         # states at a shot's checkpoint (horizon_kernel: each is read by O(count) pairs)
         now_position: wp.array(dtype=vec3)
         now_velocity: wp.array(dtype=vec3)
         now_speed: wp.array(dtype=scalar)
+        now_bound: wp.array(dtype=scalar)  # m/s^2, in air: the most the air can accelerate it in a leap (dense.leap)
         # neighbour lists
         grid_point: wp.array(dtype=vec3)
         build_offset: wp.array(dtype=vec3)
@@ -107,6 +110,7 @@ def make_state(precision: str):
         step_fraction: scalar
         air_step_fraction: scalar  # in air: the adaptive step is at most this of |u| / |a_air|
         half_skin: scalar  # m, the configured one (a shot's own may widen: Cloud.half_skin)
+        leaps: wp.int32  # in air: 1, a shot past its arrival window leaps to its next possible event (dense.leap)
         max_steps: scalar
         block_steps: wp.int32  # a shot's checkpoints (settling, frames) are every this many of its steps
         pellets: wp.int32  # pellets launched (rows [0, pellets))
@@ -133,9 +137,10 @@ def dense_types(spec) -> SimpleNamespace:
 VECTORS = ("position", "velocity", "angular_velocity", "ricochet_point", "first_velocity_before",
            "first_angular_velocity_before", "first_velocity_after", "first_angular_velocity_after", "launch_velocity",
            "launch_angular_velocity", "grid_point", "build_offset", "now_position", "now_velocity")
-SCALARS = ("time", "ricochet_time", "energy_lost", "event_time", "event_exit", "last_collision", "now_speed", "air_time")
+SCALARS = ("time", "ricochet_time", "energy_lost", "event_time", "event_exit", "last_collision", "now_speed", "now_bound",
+           "air_time", "air_rate")
 INTEGERS = ("phase", "end_surface", "touching", "impacts", "last_slipped", "first_surface", "first_slipped",
-            "collision_count", "event_partner", "stale", "neighbour_count")
+            "collision_count", "event_partner", "stale", "neighbour_count", "kick_due")
 # the dense phase's output arrays (fields.FIELDS, stage "collide"), by their Cloud members;
 # collisions.count is the Cloud's own collision_count
 OUTPUT_FIELDS = tuple(name for name in COLLISION_FIELDS if name != "collisions.count")
@@ -192,6 +197,7 @@ def pair_struct(precision: str, model, collisions, count: int, block_steps: int)
     pair.air_step_fraction = scalar(collisions.air_step_fraction)
     skin = collisions.skin * 2.0 * model.radius  # m
     pair.half_skin = scalar(0.5 * skin)
+    pair.leaps = int(collisions.air_leaps)
     pair.max_steps = scalar(collisions.max_steps)
     pair.block_steps = block_steps
     return pair

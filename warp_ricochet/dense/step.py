@@ -56,13 +56,14 @@ def make_step(spec) -> SimpleNamespace:
         if not stepping(cloud, i, s):
             return
         _relative, relative_velocity = relative_to_drift(cloud, physics, i, s)
-        wp.atomic_max(cloud.clock, s, CLOCK_DRIFT, wp.length(relative_velocity))
+        # (an atomic only where it can raise the shot's value: most pellets' cannot, and skip it)
+        speed = wp.length(relative_velocity)
+        if speed > cloud.clock[s, wp.static(CLOCK_DRIFT)]:
+            wp.atomic_max(cloud.clock, s, wp.static(CLOCK_DRIFT), speed)
         if wp.static(AIR):
-            age = cloud.clock[s, CLOCK_TIME] - cloud.time[i]
-            rate = air.air_rate(ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age),
-                                ballistic_velocity(cloud.velocity[i], physics.gravity, age), cloud.angular_velocity[i],
-                                pair, surfaces, physics)
-            wp.atomic_max(cloud.clock, s, CLOCK_AIR, rate)
+            rate = air.pellet_rate(i, cloud.clock[s, CLOCK_TIME], pair, surfaces, physics, cloud)
+            if rate > cloud.clock[s, wp.static(CLOCK_AIR)]:
+                wp.atomic_max(cloud.clock, s, wp.static(CLOCK_AIR), rate)
 
     @wp.func(inline=True)
     def drift_and_edge(i: wp.int32, time: scalar, frame_point: vec3, frame_velocity: vec3, edge_distance: scalar,
@@ -82,11 +83,7 @@ def make_step(spec) -> SimpleNamespace:
             if wp.length(relative - cloud.build_offset[i]) > edge_distance:
                 edge = wp.int32(1)
             if wp.static(AIR):
-                # (from the reference state, as bounds_pellet: the same bits on every schedule)
-                age = time - cloud.time[i]
-                rate = air.air_rate(ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age),
-                                    ballistic_velocity(cloud.velocity[i], physics.gravity, age), cloud.angular_velocity[i],
-                                    pair, surfaces, physics)
+                rate = air.pellet_rate(i, time, pair, surfaces, physics, cloud)  # (as bounds_pellet: the same bits on every schedule)
         return speed, edge, rate
 
     @wp.func(inline=True)
@@ -200,7 +197,7 @@ def make_step(spec) -> SimpleNamespace:
                     prepare_pellet(i, pair, physics, cloud)
             if wp.static(AIR):
                 for i in range(first, last):
-                    air.kick_pellet(i, pair, physics, cloud)
+                    air.kick_pellet(i, pair, surfaces, physics, cloud)
             # A pellet whose kept event is after the step (most are) has nothing to do in it
             # until a neighbour's event makes it stale: the per-pellet functions would return at
             # once, after reading the shot's flags and clock (step_end_of is never after the full

@@ -193,6 +193,7 @@ _COLLISIONS = {
     "time_step": _range(0, MAX_IMPACT_DURATION, above=True, unit="s"),
     "step_fraction": _range(0, 1, above=True),
     "air_step_fraction": _range(0, 1, above=True),
+    "air_leaps": _bool,
     "skin": _range(0, 10, above=True),
     "rounds": _int(1, 64),
     "max_neighbours": _int(1, 256),

@@ -86,6 +86,7 @@ class Collisions:
     time_step: float | None = None                    # s, fixed step of the dense phase; None adapts it
     step_fraction: float = 0.25                       # adaptive step: closing displacement per step / diameter
     air_step_fraction: float = 0.01                   # in air, adaptive step: at most this of |u| / |a_air| (dense/air.py)
+    air_leaps: bool = True                            # in air, leap to the next possible event past the arrival window (dense/leap.py)
     skin: float = 2.25                                # neighbour-list skin, in diameters (9 x step_fraction: a list lasts a block of 8 steps, and one more)
     rounds: int = 4                                   # event rounds per step (several contacts of one pellet)
     max_neighbours: int = 32                          # per pellet in the neighbour list at first (grows when needed)
