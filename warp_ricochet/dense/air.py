@@ -102,14 +102,19 @@ def make_dense_air(spec) -> SimpleNamespace:
         return bound
 
     @wp.func
+    def kicked_from(velocity: vec3, spin: vec3, a1: vec3, d1: vec3, duration: scalar, physics: Physics):
+        """`kicked`, given the air's rates at its start (a1, d1)."""
+        half = scalar(0.5) * duration
+        a2, d2 = laws.air_rates(velocity + half * a1, spin + half * d1, physics.air)
+        return velocity + duration * a2, spin + duration * d2
+
+    @wp.func
     def kicked(velocity: vec3, spin: vec3, duration: scalar, physics: Physics):
         """Velocity and spin after the air's flow alone over `duration` (s): the explicit midpoint
         rule, second order like the splitting (a kick is at most a small fraction of the time the
         air takes to change the motion)."""
         a1, d1 = laws.air_rates(velocity, spin, physics.air)
-        half = scalar(0.5) * duration
-        a2, d2 = laws.air_rates(velocity + half * a1, spin + half * d1, physics.air)
-        return velocity + duration * a2, spin + duration * d2
+        return kicked_from(velocity, spin, a1, d1, duration, physics)
 
     @wp.func
     def drift_end(cloud: Cloud, i: wp.int32, time: scalar, until: scalar, physics: Physics):
@@ -121,10 +126,10 @@ def make_dense_air(spec) -> SimpleNamespace:
         age = time - cloud.time[i]
         velocity = ballistic_velocity(cloud.velocity[i], physics.gravity, age)
         spin = cloud.angular_velocity[i]
-        acceleration, _spin_change = laws.air_rates(velocity, spin, physics.air)
+        acceleration, spin_change = laws.air_rates(velocity, spin, physics.air)
         lag = scalar(0.5) * (cloud.time[i] + time) - cloud.air_time[i]
         position = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age) + (lag * age) * acceleration
-        velocity, spin = kicked(velocity, spin, until - cloud.air_time[i], physics)
+        velocity, spin = kicked_from(velocity, spin, acceleration, spin_change, until - cloud.air_time[i], physics)
         return position, velocity, spin
 
     @wp.func

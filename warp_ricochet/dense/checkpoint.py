@@ -172,7 +172,7 @@ def make_checkpoint(spec) -> SimpleNamespace:
                 # the co-moving frame follows the shot's flying pellets (after a ricochet they move
                 # nothing like the launch): speeds relative to it set the step. The lists are
                 # rebuilt in the new frame before the next step.
-                flying, _passing = recentre(pair, physics, cloud, s, cloud.clock[s, CLOCK_TIME])
+                flying, _speed = recentre(pair, physics, cloud, s, cloud.clock[s, CLOCK_TIME])
                 if flying > 0:
                     cloud.shot_flags[s, SHOT_REBUILD] = 1
                     cloud.flags[FLAG_STALL] = 1

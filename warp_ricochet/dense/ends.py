@@ -46,7 +46,7 @@ def make_ends(spec) -> SimpleNamespace:
     air = make_dense_air(spec) if AIR else None  # (its calls compile only in air)
     set_reference = make_frame(spec).set_reference
     _entry, _return, _contact, ballistic_position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
-    recentre = make_frame(spec).recentre
+    recentre, passing_time = make_frame(spec).recentre, make_frame(spec).passing_time
 
     @wp.func
     def launch_pellet(i: wp.int32, first_index: wp.int32, source: Source, cloud: Cloud, out: Outputs):
@@ -91,7 +91,8 @@ def make_ends(spec) -> SimpleNamespace:
         cloud.clock[s, CLOCK_NEXT] = NEVER
         cloud.clock[s, CLOCK_CUT] = NEVER
         cloud.clock[s, CLOCK_SKIN] = NEVER
-        _flying, passing = recentre(pair, physics, cloud, s, scalar(0.0))
+        _flying, speed = recentre(pair, physics, cloud, s, scalar(0.0))
+        passing = passing_time(pair, physics, cloud, s, scalar(0.0), speed)
         last_arrival = scalar(0.0)
         first = s * pair.count
         for k in range(pair.count):

@@ -28,15 +28,14 @@ def make_frame(spec) -> SimpleNamespace:
     @wp.func
     def recentre(pair: Pair, physics: Physics, cloud: Cloud, s: wp.int32, time: scalar):
         """The shot's co-moving frame: the mean state of its flying pellets at `time`. One
-        thread, in pellet order (deterministic). Returns the flying count and the time the cloud
-        takes to pass a point (HORIZON_RADII rms radii over the pellets' mean speed)."""
+        thread, in pellet order (deterministic). Returns the flying count and their mean speed
+        (not the speed of their mean: a head-on pair has none)."""
         gravity = physics.gravity
         first = s * pair.count
         position_sum = vec3()
         velocity_sum = vec3()
         speed_sum = scalar(0.0)
         flying = wp.int32(0)
-        passing = scalar(0.0)
         for k in range(pair.count):
             i = first + k
             if cloud.phase[i] == FLYING:
@@ -46,25 +45,36 @@ def make_frame(spec) -> SimpleNamespace:
                 velocity_sum += velocity_now
                 speed_sum += wp.length(velocity_now)
                 flying += 1
+        speed = scalar(0.0)
         if flying > 0:
             inverse = scalar(1.0) / scalar(flying)
             mean_position = position_sum * inverse
-            mean_velocity = velocity_sum * inverse
-            spread = scalar(0.0)
-            for k in range(pair.count):
-                i = first + k
-                if cloud.phase[i] == FLYING:
-                    d = ballistic_position(cloud.position[i], cloud.velocity[i], gravity, time - cloud.time[i]) - mean_position
-                    spread += wp.dot(d, d)
-            velocity = mean_velocity - gravity * time
+            velocity = velocity_sum * inverse - gravity * time
             cloud.drift_velocity[s] = velocity
             cloud.drift_origin[s] = mean_position - velocity * time - (scalar(0.5) * time * time) * gravity
-            radius = wp.sqrt(spread * inverse)
-            # the pellets' mean speed (not the speed of their mean: a head-on pair has none), or the
-            # free-fall speed over the cloud's size for a cloud at rest
-            speed = speed_sum * inverse + wp.sqrt(wp.length(gravity) * radius)
-            passing = scalar(HORIZON_RADII) * radius / wp.max(speed, TINY_SPEED)
-        return flying, passing
+            speed = speed_sum * inverse
+        return flying, speed
+
+    @wp.func
+    def passing_time(pair: Pair, physics: Physics, cloud: Cloud, s: wp.int32, time: scalar, speed: scalar):
+        """The time the shot's flying pellets take to pass a point: HORIZON_RADII rms radii about
+        the frame's point (`recentre` at `time`) over their mean speed `speed`, or over the
+        free-fall speed over the cloud's size for a cloud at rest."""
+        gravity = physics.gravity
+        first = s * pair.count
+        centre = drift_point(cloud, s, time, gravity)
+        spread = scalar(0.0)
+        flying = wp.int32(0)
+        for k in range(pair.count):
+            i = first + k
+            if cloud.phase[i] == FLYING:
+                d = ballistic_position(cloud.position[i], cloud.velocity[i], gravity, time - cloud.time[i]) - centre
+                spread += wp.dot(d, d)
+                flying += 1
+        if flying == 0:
+            return scalar(0.0)
+        radius = wp.sqrt(spread / scalar(flying))
+        return scalar(HORIZON_RADII) * radius / wp.max(speed + wp.sqrt(wp.length(gravity) * radius), TINY_SPEED)
 
     @wp.func
     def relative_to_frame(cloud: Cloud, physics: Physics, i: wp.int32, time: scalar, frame_point: vec3,
@@ -139,4 +149,4 @@ def make_frame(spec) -> SimpleNamespace:
         for n in range(cloud.neighbour_count[i]):
             cloud.stale[cloud.neighbours[i, n]] = 1
 
-    return SimpleNamespace(drift_point=drift_point, recentre=recentre, relative_to_frame=relative_to_frame, relative_to_drift=relative_to_drift, skin_exit=skin_exit, stepping=stepping, set_reference=set_reference, set_build_point=set_build_point, mark_stale=mark_stale)
+    return SimpleNamespace(drift_point=drift_point, recentre=recentre, passing_time=passing_time, relative_to_frame=relative_to_frame, relative_to_drift=relative_to_drift, skin_exit=skin_exit, stepping=stepping, set_reference=set_reference, set_build_point=set_build_point, mark_stale=mark_stale)

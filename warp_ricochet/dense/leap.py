@@ -161,7 +161,7 @@ def make_leap(spec) -> SimpleNamespace:
         if cloud.shot_flags[s, SHOT_LEAP] == 0:
             return
         cloud.shot_flags[s, SHOT_LEAP] = 0
-        flying, _passing = recentre(pair, physics, cloud, s, cloud.clock[s, CLOCK_TIME])
+        flying, _speed = recentre(pair, physics, cloud, s, cloud.clock[s, CLOCK_TIME])
         if flying > 0:
             cloud.shot_flags[s, SHOT_REBUILD] = 1
             cloud.flags[FLAG_STALL] = 1

@@ -35,7 +35,7 @@ def make_rounds(spec) -> SimpleNamespace:
     contact_time, plane_outcome, pair_outcome = ev.contact_time, ev.plane_outcome, ev.pair_outcome
     plane_contacts_until, mark_stale = ev.plane_contacts_until, fr.mark_stale
     stepping, skin_exit, set_reference = fr.stepping, fr.skin_exit, fr.set_reference
-    AIR = spec.in_air
+    AIR, BOUNCES = spec.in_air, spec.bounces
     air = make_dense_air(spec) if AIR else None  # (its calls compile only in air)
 
     @wp.func(inline=True)
@@ -88,7 +88,8 @@ def make_rounds(spec) -> SimpleNamespace:
             cloud.event_time[i] = best_time
             cloud.event_partner[i] = best
             exit = NEVER
-            if best <= -2:
+            if best <= -2 and cloud.impacts[i] < wp.static(BOUNCES):
+                # (the contact after the last ricochet ends the flight: no skin after it, no outcome to find)
                 at, _v, _w, velocity_after, _w_after, _slipped, contact, flying, impacted = plane_outcome(
                     i, k, wait, position, velocity, cloud.angular_velocity[i], time, cloud, surfaces, physics
                 )
@@ -159,9 +160,9 @@ def make_rounds(spec) -> SimpleNamespace:
         a = i
         b = partner
         when = wp.max(when, step_start)  # (an event the step passed after a cut at MIN_CUT_FRACTION)
-        xa, va, wa, xb, vb, wb, va2, wa2, vb2, wb2, collided = pair_outcome(a, b, when, pair, physics, cloud)
         if when > skin_limit:
             return  # after a pellet changed in this round leaves its skin: the next step
+        xa, va, wa, xb, vb, wb, va2, wa2, vb2, wb2, collided = pair_outcome(a, b, when, pair, physics, cloud)
         if collided != 0:
             # kinetic energy the pair lost; each pellet books half
             before = pair.mass * (wp.dot(va, va) + wp.dot(vb, vb)) + pair.inertia * (wp.dot(wa, wa) + wp.dot(wb, wb))
