@@ -8,6 +8,7 @@ otherwise, and names the device it ran on.
     python -m bench.air cpu [--timed 200000] [--compared 100] [--out DIR]
     python -m bench.air throughput [--device cuda:0] [--sizes 1e6,1e8] [--out DIR]
     python -m bench.air collisions [--device cuda:0] [--shots 10000] [--out DIR]
+    python -m bench.air ensemble [--shots 200] [--out DIR]  (the same shots in air, leaps on and off)
     python -m bench.air dense [--out DIR]
     python -m bench.air journee [--device cpu] [--out DIR]
 
@@ -366,27 +367,59 @@ def air_shots(count, shots, precision, air=True, **collisions):
 
 
 def collisions(device, count, shots, repeats, precisions):
-    """The whole run with pellet-pellet collisions, in air beside vacuum, in one run."""
+    """The whole run with pellet-pellet collisions in vacuum, in air, and in air without leaps
+    (collisions.air_leaps = false: every shot steps to its end), in one run."""
     import warnings
 
     wr, wp = _wr()
     rows = []
     for precision in precisions:
-        for air in (False, True):
-            scene = air_shots(count, shots, precision, air)
+        for air, leaps in ((False, None), (True, True), (True, False)):
+            scene = air_shots(count, shots, precision, air, air_leaps=None if leaps is None else str(leaps).lower())
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # float32 collisions: the PrecisionWarning is known here
                 stats = wr.run(scene, device=device)
                 t, times = _timed(lambda scene=scene: (wr.run(scene, device=device), wp.synchronize_device(device)),
                                   repeats)
-            row = {"shots": shots, "count": count, "precision": precision, "air": air, "seconds": t,
+            row = {"shots": shots, "count": count, "precision": precision, "air": air, "leaps": leaps, "seconds": t,
                    "dense_steps_max": stats["dense_steps_max"], "dense_steps_mean": stats["dense_steps_mean"],
                    "collided_fraction": stats["collided_fraction"], "range_mean_m": stats["range_mean"]}
             rows.append(row)
-            print(f"{shots} shots x {count} {precision} {'air   ' if air else 'vacuum'}: {t:.3f} s (runs "
+            label = "vacuum" if not air else ("air" if leaps else "air, no leaps")
+            print(f"{shots} shots x {count} {precision} {label:14s}: {t:.3f} s (runs "
                   f"{', '.join(f'{x:.3f}' for x in times)}), dense steps max {stats['dense_steps_max']:.0f} mean "
-                  f"{stats['dense_steps_mean']:.0f}, collided {stats['collided_fraction']:.3f}, mean range "
-                  f"{stats['range_mean']:.2f} m", flush=True)
+                  f"{stats['dense_steps_mean']:.0f}, collided {stats['collided_fraction']:.4f}, mean range "
+                  f"{stats['range_mean']:.3f} m", flush=True)
+    return rows
+
+
+def ensemble(device, count, shots, out_dir):
+    """The same shots in air with leaps and without (collisions.air_leaps): run time and each
+    statistic's mean over shots with its 95% interval (Student t), from /stats/shots."""
+    import warnings
+
+    import h5py
+
+    wr, _ = _wr()
+    rows = []
+    for leaps in ("true", "false"):
+        scene = air_shots(count, shots, "float32", True, air_leaps=leaps)
+        path = out_dir / f"ensemble-leaps-{leaps}.h5"
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            start = time.perf_counter()
+            wr.run(scene, path, device=device, overwrite=True, sidecar=False)
+            seconds = time.perf_counter() - start
+        row = {"leaps": leaps, "shots": shots, "count": count, "seconds": seconds}
+        with h5py.File(path, "r") as f:
+            for name in ("collided_fraction", "pair_collisions", "range_mean", "range_max", "landing_mean_WT",
+                         "pair_energy_lost", "dense_steps_mean"):
+                x = f["stats/shots/" + name][()]
+                row[name] = (float(x.mean()), float(1.972 * x.std(ddof=1) / np.sqrt(len(x))))
+        path.unlink()
+        rows.append(row)
+        print(f"{shots} shots x {count}, leaps {leaps}: {seconds:.1f} s | " + " | ".join(
+            f"{k} {v[0]:.4g} +- {v[1]:.2g}" for k, v in row.items() if isinstance(v, tuple)), flush=True)
     return rows
 
 
@@ -508,7 +541,8 @@ def journee(device, speed, angles, out_dir, drags=("loth2021", "braun")):
 def main(argv=None):
     parser = argparse.ArgumentParser(prog="python -m bench.air", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("what", choices=("tradeoff", "errors", "cpu", "throughput", "collisions", "dense", "journee"))
+    parser.add_argument("what", choices=("tradeoff", "errors", "cpu", "throughput", "collisions", "ensemble", "dense",
+                                         "journee"))
     parser.add_argument("dir", nargs="?", help="errors: the tradeoff run's folder")
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--precision", default="float32")
@@ -517,7 +551,7 @@ def main(argv=None):
     parser.add_argument("--compared", type=int, default=100, help="cpu: pellets run by SciPy")
     parser.add_argument("--numpy", type=float, default=1e4, help="cpu: pellets run by NumPy RK4")
     parser.add_argument("--sizes", default="1e6", help="throughput: pellet counts")
-    parser.add_argument("--shots", type=int, default=10000, help="collisions: shots of 450 pellets")
+    parser.add_argument("--shots", type=int, default=10000, help="collisions, ensemble: shots of 450 pellets")
     parser.add_argument("--precisions", default="float32,float64", help="collisions")
     parser.add_argument("--count", type=int, default=40, help="dense: pellets")
     parser.add_argument("--speed", type=float, default=411.48, help="journee: launch speed, m/s")
@@ -547,6 +581,8 @@ def main(argv=None):
         record[args.what] = throughput(args.device, sizes, args.repeats, args.precision)
     elif args.what == "collisions":
         record[args.what] = collisions(args.device, 450, args.shots, args.repeats, args.precisions.split(","))
+    elif args.what == "ensemble":
+        record[args.what] = ensemble(args.device, 450, args.shots, out_dir)
     elif args.what == "dense":
         record[args.what] = dense(args.device, args.count, (0.16, 0.08, 0.04, 0.02, 0.01, 0.005, 0.0025),
                                   (4e-4, 1e-4, 2.5e-5, 6.25e-6, 1.5625e-6), out_dir)

@@ -36,9 +36,9 @@ from collections import defaultdict
 import numpy as np
 
 
-def paper_shots(count, shots=1, precision="float32", seed=2021, fields=None, **collisions):
+def paper_shots(count, shots=1, precision="float32", seed=2021, fields=None, air=False, **collisions):
     """The paper's scene (examples/paper.toml) as `shots` shots of `count` pellets, collisions on
-    (`collisions`: the [collisions] keys given; the defaults otherwise)."""
+    (`collisions`: the [collisions] keys given; the defaults otherwise); `air`: in sea-level air."""
     import tomllib
 
     from warp_ricochet.scene import scene_from_dict
@@ -48,6 +48,9 @@ def paper_shots(count, shots=1, precision="float32", seed=2021, fields=None, **c
     raw["shot"].update(count=count, shots=shots, seed=seed)
     raw["collisions"] = {"enabled": True, **{k: v for k, v in collisions.items() if v is not None}}
     raw["numerics"]["precision"] = precision
+    if air:
+        raw["air"] = {"density": 1.225}  # sea level, every other key its default (docs/air.md)
+        raw["surfaces"][0].update(mu_s=0.5, mu_d=0.45)
     raw.pop("output")  # the default fields
     if fields is not None:
         raw["output"] = {"fields": list(fields)}
@@ -194,7 +197,7 @@ def profile(args):
     from warp_ricochet.dense.phase import DenseOptions, DensePhase
 
     scene = paper_shots(args.count, args.shots, args.precision, rounds=args.rounds, skin=args.skin,
-                        step_fraction=args.step_fraction)
+                        step_fraction=args.step_fraction, air=args.air)
     # (on the CPU the dense phase is one launch; its parts are timed in the host loop, which
     # launches the same per-shot work: the one launch saves the host round trips between them)
     host_loop = DenseOptions(cpu_steps="block")
@@ -216,7 +219,27 @@ def profile(args):
     originals = {name: getattr(DensePhase, name) for name in ("_rebuild", "_block", "_checkpoint", "_launch")}
     DensePhase._rebuild = timed("rebuild (CPU: cell lists; CUDA: grid points, HashGrid.build, neighbours)", originals["_rebuild"])
     DensePhase._block = timed("block of steps (graph or replay)", originals["_block"])
-    DensePhase._checkpoint = timed("checkpoint (now, horizon, settle; flags to the host)", originals["_checkpoint"])
+    DensePhase._checkpoint = timed("checkpoint (now, horizon, settle, leaps; flags to the host)", originals["_checkpoint"])
+    if args.per_kernel:  # each launch of a block and a checkpoint alone, synchronised (no graphs: slower in all)
+        def each(commands, repeat=1):
+            for _ in range(repeat):
+                for command in commands:
+                    wp.synchronize_device(device)
+                    start = time.perf_counter()
+                    command.launch()
+                    wp.synchronize_device(device)
+                    name = "  kernel " + command.kernel.key
+                    spent[name] += time.perf_counter() - start
+                    calls[name] += 1
+
+        def block(self, commands):
+            each(commands, self.block_steps)
+
+        def checkpoint(self):
+            each(self.checkpoint_commands)
+            return self.cloud.flags.numpy().copy()
+        DensePhase._block = timed("block of steps (kernels one at a time)", block)
+        DensePhase._checkpoint = timed("checkpoint (kernels one at a time)", checkpoint)
     DensePhase._launch = timed("other launches (launch, drift, release, totals; recording)", originals["_launch"])
     try:
         start = time.perf_counter()
@@ -290,6 +313,9 @@ def main():
     parser.add_argument("--rounds", type=int, default=None, help="collisions.rounds (default: the scene default)")
     parser.add_argument("--skin", type=float, default=None, help="profile: collisions.skin")
     parser.add_argument("--step-fraction", type=float, default=None, help="profile: collisions.step_fraction")
+    parser.add_argument("--air", action="store_true", help="profile: in sea-level air (mu_s 0.5, as bench.air)")
+    parser.add_argument("--per-kernel", dest="per_kernel", action="store_true",
+                        help="profile: time each launch of a block and a checkpoint alone")
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--precision", default="float32")
     parser.add_argument("--out", default=None, help="tradeoff, tail: folder for the CSV/PNG or the tail files")
