@@ -166,8 +166,10 @@ def test_a_leap_lets_no_pellet_meet_a_plane(height, normal_speed, bound, tilt):
 
     def closes(h):
         """The earliest t >= 0 where the worst gap from h closes to 0 (a root with gap' <= 0 there)."""
-        if h <= 0.0 and normal_speed <= 0:
-            return 0.0
+        if h <= 0.0:  # touching: now if closing, else when the pull brings it back
+            if normal_speed <= 0:
+                return 0.0
+            return 2.0 * normal_speed / -pull if pull < 0 else math.inf
         roots = [r.real for r in np.roots([0.5 * pull, normal_speed, h])
                  if abs(r.imag) < 1e-12 and r.real >= 0 and pull * r.real + normal_speed <= 0]
         return min(roots) if roots else math.inf

@@ -129,6 +129,7 @@ def make_leap(spec) -> SimpleNamespace:
         position, velocity, spin = air.drift_end(cloud, i, start, start, physics)
         set_reference(cloud, i, position, velocity, spin, start)
         air.air_until(cloud, i, start)
+        cloud.touching[i] = -1  # (off any plane it left: plane times from the gap)
         time = start
         touching = wp.int32(-1)
         flying = wp.int32(1)
@@ -152,7 +153,7 @@ def make_leap(spec) -> SimpleNamespace:
         if cloud.phase[i] == FLYING and time > start:
             set_reference(cloud, i, position, velocity, spin, time)
             air.air_until(cloud, i, time)
-            cloud.touching[i] = -1  # (off any plane it left: plane times from the gap)
+            cloud.touching[i] = -1
         cloud.stale[i] = 1
 
     @wp.func
