@@ -59,6 +59,7 @@ for tens of milliseconds does not cost tens of thousands of small steps.
 Modules, one stage each: `state` (the Cloud and Pair structs, their allocation), `frame` (each
 shot's co-moving frame, reference states), `events` (plane and pair contacts), `rounds` (finding
 and applying a step's events), `lists` (neighbour lists), `step` (a step; the CPU's block),
-`checkpoint` (a shot's horizon, stop or jump), `ends` (launch, release, totals), `kernels` (thin
+`checkpoint` (a shot's horizon, stop or jump), `leap` (in air, the jump: the pellets flown through
+it), `air` (the air's kicks), `ends` (launch, release, totals), `kernels` (thin
 kernels), `phase` (the host loop), `schedule` (shots onto chunks and threads), `constants`.
 """
