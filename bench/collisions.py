@@ -254,7 +254,8 @@ def profile(args):
           + ("; the host loop (by default the CPU's dense phase is one launch of the same work)" if not device.is_cuda else ""))
     for name in spent:
         print(f"  {name:75s} {spent[name]:8.3f} s  {calls[name]:6d} calls  {spent[name] / calls[name] * 1e3:8.3f} ms each")
-    print(f"  {'rest (sampling, flight kernel, statistics, host)':75s} {total - sum(spent.values()):8.3f} s")
+    parts = sum(t for name, t in spent.items() if not name.startswith("  kernel"))  # (kernels are inside their parts)
+    print(f"  {'rest (sampling, flight kernel, statistics, host)':75s} {total - parts:8.3f} s")
 
 
 def tail(args):

@@ -1,18 +1,27 @@
-"""The air in the dense phase, by Strang splitting: within a step every pellet flies the exact
+"""The air in the dense phase, by Strang splitting: between kicks every pellet flies the exact
 parabola (so pair and plane contact times stay exact), and the air's own flow (drag, lift and
-spin decay, no gravity: `physics.air`) acts at the step's ends, half a step's worth at each
-(K(h/2) D(h) K(h/2): second order in h). Each pellet keeps the time up to which it has had the air
-(`Cloud.air_time`): a kick at a step's start gives it the air from there to the step's middle; an
-event (a plane or a pair contact, which changes its velocity) first gives it the air up to the
-event's time; the release gives the rest (or takes back what it had beyond the release). So the
-air acts on the velocity the pellet had, and an event costs a local error of order h^2 (a few a
-pellet). Kicks every step, not over longer intervals: a pellet leaving a plane with little normal
-speed under a strong lift returns within a fraction of a millisecond, which longer intervals miss.
+spin decay, no gravity: `physics.air`) acts in kicks, half an interval's worth at each end
+(K(H/2) D(H) K(H/2): second order in H). Each pellet keeps the time up to which it has had the air
+(`Cloud.air_time`) and the step of its shot at which its next kick is due (`Cloud.kick_due`). A
+kick (`kick_pellet`, at a step's start) gives it the air up to the middle of its next interval:
+up to the shot's next multiple of KICK_STEPS steps (so a shot's pellets are kicked together, in
+the same steps), sooner where `air_step_fraction` of its own air rate, its next plane contact or
+its kept pair event asks (`kick_steps`). The drift that a kick ends had the air only up to the
+previous kick's predicted middle: its end (`drift_end`) adds the air it missed to the position,
+so a drift of any length is second order at its end. Between kicks a pellet keeps its cached
+event. An event (a plane or a pair contact, which changes its velocity) first gives it the air up
+to the event's time and makes its next step kick it (`air_until`); the release gives the rest
+(or takes back what it had beyond the release). An event inside an interval costs a local error
+of order |a| H^2 (a few a pellet; H is at most KICK_STEPS skin-sized steps). A pellet leaving a
+plane with little normal speed under a strong lift returns within a fraction of a millisecond:
+the plane share of its rate keeps its interval short.
 
 The adaptive step is at most `collisions.air_step_fraction` of the shortest time the air takes to
 change a pellet's motion in its shot (|u| / |a_air|), or its motion towards a plane within a step's
-reach (|v.n| / |a_air.n|: `air_rate`); a fixed step is kept as given (to measure convergence).
-Past its arrival window a shot leaps instead of stepping through empty time (`dense.leap`).
+reach (|v.n| / |a_air.n|: `air_rate`; `pellet_rate` finds it anew for a pellet due a kick, and keeps
+it otherwise); a fixed step is kept as given, and every pellet is kicked every step (to measure
+convergence). Past its arrival window a shot leaps instead of stepping through empty time
+(`dense.leap`).
 """
 
 import functools
@@ -141,11 +150,11 @@ def make_dense_air(spec) -> SimpleNamespace:
         (`air_rate`) or gravity its speed relative to the air (|u| / |g|), nor than to its next
         plane contact or its kept pair event (an event then falls at the kick's end), and at
         least one step (every step with a fixed step, as given: to measure convergence)."""
+        if pair.fixed_step > scalar(0.0):
+            return wp.int32(1)
         s = i / pair.count
         steps = wp.int32(cloud.clock[s, CLOCK_STEPS])
         aligned = (steps / KICK_STEPS + 1) * KICK_STEPS - steps
-        if pair.fixed_step > scalar(0.0):
-            return wp.int32(1)
         rate = cloud.air_rate[i]  # (pellet_rate's, found in this step: the pellet is due)
         falling = wp.length(physics.gravity) / (wp.length(velocity - physics.air.wind) + physics.air.speed_floor)
         interval = pair.air_step_fraction / wp.max(wp.max(rate, falling), scalar(TINY_RATE))
