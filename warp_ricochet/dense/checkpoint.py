@@ -76,8 +76,11 @@ def make_checkpoint(spec) -> SimpleNamespace:
         reach2 = reach * reach
         earliest = NEVER
         leap = NEVER  # in air (dense.leap): the earliest time anything may happen
-        leaps = pair.leaps != 0
-        margin = cloud.half_skin[s]
+        leaps = False
+        margin = scalar(0.0)
+        if wp.static(AIR):
+            leaps = pair.leaps != 0
+            margin = cloud.half_skin[s]
         # each pair once (twice for the pairs half a shot apart when the count is even): pellet k
         # of the shot with the next count / 2 after it, cyclically, so every thread does as much
         first = s * pair.count
