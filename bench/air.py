@@ -7,7 +7,7 @@ otherwise, and names the device it ran on.
     python -m bench.air errors DIR                      (the errors of a tradeoff run without SciPy)
     python -m bench.air cpu [--timed 200000] [--compared 100] [--out DIR]
     python -m bench.air throughput [--device cuda:0] [--sizes 1e6,1e8] [--out DIR]
-    python -m bench.air collisions [--device cuda:0] [--shots 10000] [--out DIR]
+    python -m bench.air collisions [--device cuda:0] [--shots 10000] [--cases vacuum,air] [--out DIR]
     python -m bench.air ensemble [--shots 200] [--out DIR]  (the same shots in air, leaps on and off)
     python -m bench.air dense [--out DIR]
     python -m bench.air journee [--device cpu] [--out DIR]
@@ -366,15 +366,18 @@ def air_shots(count, shots, precision, air=True, **collisions):
     return paper_scene(count, precision, air=air, mu_s=0.5, extra=extra)
 
 
-def collisions(device, count, shots, repeats, precisions):
+COLLISION_CASES = {"vacuum": (False, None), "air": (True, True), "air-no-leaps": (True, False)}
+
+
+def collisions(device, count, shots, repeats, precisions, cases=tuple(COLLISION_CASES)):
     """The whole run with pellet-pellet collisions in vacuum, in air, and in air without leaps
-    (collisions.air_leaps = false: every shot steps to its end), in one run."""
+    (collisions.air_leaps = false: every shot steps to its end), in one run (`cases`: which)."""
     import warnings
 
     wr, wp = _wr()
     rows = []
     for precision in precisions:
-        for air, leaps in ((False, None), (True, True), (True, False)):
+        for air, leaps in (COLLISION_CASES[case] for case in cases):
             scene = air_shots(count, shots, precision, air, air_leaps=None if leaps is None else str(leaps).lower())
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # float32 collisions: the PrecisionWarning is known here
@@ -553,6 +556,7 @@ def main(argv=None):
     parser.add_argument("--sizes", default="1e6", help="throughput: pellet counts")
     parser.add_argument("--shots", type=int, default=10000, help="collisions, ensemble: shots of 450 pellets")
     parser.add_argument("--precisions", default="float32,float64", help="collisions")
+    parser.add_argument("--cases", default=",".join(COLLISION_CASES), help="collisions: which runs")
     parser.add_argument("--count", type=int, default=40, help="dense: pellets")
     parser.add_argument("--speed", type=float, default=411.48, help="journee: launch speed, m/s")
     parser.add_argument("--mu-s", dest="mu_s", type=float, nargs="+", default=[0.5, 0.28, 0.0],
@@ -580,7 +584,8 @@ def main(argv=None):
         sizes = [int(float(s)) for s in args.sizes.split(",")]
         record[args.what] = throughput(args.device, sizes, args.repeats, args.precision)
     elif args.what == "collisions":
-        record[args.what] = collisions(args.device, 450, args.shots, args.repeats, args.precisions.split(","))
+        record[args.what] = collisions(args.device, 450, args.shots, args.repeats, args.precisions.split(","),
+                                       args.cases.split(","))
     elif args.what == "ensemble":
         record[args.what] = ensemble(args.device, 450, args.shots, out_dir)
     elif args.what == "dense":

@@ -1,6 +1,6 @@
 """Kernel-only timings of the ricochet kernel variants on one device (CUDA events), to choose
 the register cap, and the end-to-end time of `run` at the same N. CUDA only.
-Run: python -m bench.variants --device cuda:0"""
+Run: python -m bench.variants --device cuda:0 [--air] [--caps none,80,64]"""
 
 import argparse
 import dataclasses
@@ -13,9 +13,12 @@ def main(argv=None):
     ap.add_argument("--n", type=float, default=1e8)
     ap.add_argument("--caps", default="none,128,96,80,64")
     ap.add_argument("--repeats", type=int, default=10)
+    ap.add_argument("--air", action="store_true", help="the paper's scene in sea-level air (mu_s 0.5, as bench.air)")
+    ap.add_argument("--precisions", default="float32,float64")
     ap.add_argument("--block-dims", default="256", help="CUDA block sizes to try for the ricochet kernel")
     args = ap.parse_args(argv)
     from bench.__main__ import _wr, scene_for
+    from bench.air import paper_scene
     from warp_ricochet.core.kernel import ricochet_kernel_for
     from warp_ricochet.model import Model
     from warp_ricochet.pipeline import CoreStage
@@ -27,8 +30,11 @@ def main(argv=None):
     dev = wp.get_device(args.device)
     if not dev.is_cuda:
         raise SystemExit("bench.variants times kernels with CUDA events: it needs a CUDA device")
-    for precision in ("float32", "float64"):
-        scene = scene_for(n, precision)
+    def scene_of(n, precision="float32"):
+        return paper_scene(n, precision, air=True, mu_s=0.5) if args.air else scene_for(n, precision)
+
+    for precision in args.precisions.split(","):
+        scene = scene_of(n, precision)
         model = Model.from_scene(scene, dev)
         spec = RunSpec.of(scene, with_output=False)
         stage = CoreStage(scene, model, spec, None, n)  # its buffers and source, statistics only
@@ -40,7 +46,8 @@ def main(argv=None):
             cap = {"none": None, "default": "default"}[cap_text] if cap_text in ("none", "default") else int(cap_text)
             kernel = ricochet_kernel_for(dataclasses.replace(spec, fast_math=fast), cap)
             cap_text = cap_text + ("+fast" if fast else "")
-            launch = lambda: wp.launch(kernel, dim=threads, inputs=[0, rows, stage.source.struct, model.surfaces, model.physics, state.outputs, stage.release],
+            launch = lambda: wp.launch(kernel, dim=threads, inputs=[0, rows, stage.source.struct, model.surfaces, model.physics, state.outputs, stage.release,
+                                                                   stage.tally.struct],
                                        outputs=[state.partial_sums, state.partial_min, state.partial_max], device=dev,
                                        block_dim=block_dim)
             reduce = lambda: launch_reduce(state, rows, dev)
@@ -57,7 +64,7 @@ def main(argv=None):
                   f"reduce {statistics.median(rtimes):.3f} ms", flush=True)
     # end-to-end
     for m in (1e4, 1e6, n):
-        sc = scene_for(int(m))
+        sc = scene_of(int(m))
         wr.run(sc, device=args.device)
         ts = []
         import time
