@@ -1,7 +1,11 @@
 """The dense phase's kernels: thin loops over pellets or shots that call the stage functions
 (`ends`, `lists`, `step`, `rounds`, `checkpoint`). On CUDA a per-pellet kernel has one thread a
 pellet; on the CPU (where a kernel runs on one thread anyway, and entering a kernel thread costs
-more than a quiet pellet's step) one thread loops over all (`Pair.span`)."""
+more than a quiet pellet's step) one thread loops over all (`Pair.span`).
+
+The per-pellet kernels of a step are capped at STEP_MAX_REGISTERS registers a CUDA thread: most
+of their threads read a few flags and return, and the rare event or kick (the air laws, the
+impact law) would otherwise set the register count, and so the occupancy, of all of them."""
 
 import functools
 from types import SimpleNamespace
@@ -18,6 +22,8 @@ from .rounds import make_rounds
 from .separation import make_separation
 from .state import dense_types
 from .step import make_step
+
+STEP_MAX_REGISTERS = 40  # CUDA registers a thread of a step's per-pellet kernels (bench/RESULTS.md)
 
 
 @functools.cache
@@ -91,18 +97,19 @@ def make_step_kernels(spec) -> SimpleNamespace:
     d = dense_types(spec)
     Surfaces, Physics, Outputs, Cloud, Pair = d.Surfaces, d.Physics, d.Outputs, d.Cloud, d.Pair
     opts = d.opts
+    hot = {**opts, "cuda_max_registers": STEP_MAX_REGISTERS}  # (ignored on the CPU)
     step_fns, round_fns, checkpoint_fns, list_fns = make_step(spec), make_rounds(spec), make_checkpoint(spec), make_lists(spec)
     AIR = spec.in_air
     air = make_dense_air(spec) if AIR else None
     leap_fns = make_leap(spec) if AIR else None
 
-    @wp.kernel(**opts)
+    @wp.kernel(**hot)
     def bounds_kernel(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
         t = wp.tid()
         for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
             step_fns.bounds_pellet(i, pair, surfaces, physics, cloud)
 
-    @wp.kernel(**opts)
+    @wp.kernel(**hot)
     def kick_kernel(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
         """In air: each pellet's kick before a step, when due (dense.air)."""
         t = wp.tid()
@@ -114,13 +121,13 @@ def make_step_kernels(spec) -> SimpleNamespace:
     def plan_kernel(pair: Pair, physics: Physics, cloud: Cloud):
         step_fns.plan_shot(wp.tid(), pair, physics, cloud)
 
-    @wp.kernel(**opts)
+    @wp.kernel(**hot)
     def prepare_kernel(pair: Pair, physics: Physics, cloud: Cloud):
         t = wp.tid()
         for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
             step_fns.prepare_pellet(i, pair, physics, cloud)
 
-    @wp.kernel(**opts)
+    @wp.kernel(**hot)
     def choose_kernel(round: wp.int32, look: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
         if round > 0 and look == 0 and cloud.round_applied[round - 1] == 0:
             return  # a round after one that applied nothing: no pellet is stale, every choice is the same
@@ -128,7 +135,7 @@ def make_step_kernels(spec) -> SimpleNamespace:
         for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
             round_fns.choose_pellet(i, look, pair, surfaces, physics, cloud)
 
-    @wp.kernel(**opts)
+    @wp.kernel(**hot)
     def resolve_kernel(round: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs):
         if round > 0 and cloud.round_applied[round - 1] == 0:
             return  # a round after one that applied nothing has nothing to apply
@@ -136,7 +143,7 @@ def make_step_kernels(spec) -> SimpleNamespace:
         for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
             round_fns.resolve_pellet(i, round, pair, surfaces, physics, cloud, out)
 
-    @wp.kernel(**opts)
+    @wp.kernel(**hot)
     def finish_kernel(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs):
         t = wp.tid()
         for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
