@@ -236,7 +236,7 @@ def profile(args):
             each(commands, self.block_steps)
 
         def checkpoint(self):
-            each(self.checkpoint_commands)
+            each([self.now_command, *self.horizon_commands, *self.checkpoint_commands])
             return self.cloud.flags.numpy().copy()
         DensePhase._block = timed("block of steps (kernels one at a time)", block)
         DensePhase._checkpoint = timed("checkpoint (kernels one at a time)", checkpoint)

@@ -10,8 +10,10 @@ own exit, ~0.1 s, is not in it). The kernels are loaded by a first, short run of
   shots  pellet-pellet collisions, 20,000 shots of 20 pellets, float64
   paper-shots  pellet-pellet collisions, 10,000 paper shots of 450 (sized for a GPU)
   shot   pellet-pellet collisions, one shot of 3e6 pellets, float64, launches not separated (its
-         dense phase is one launch on the CPU, stopped by its flag; on CUDA the separation is one
-         thread a shot, long for millions of pellets)
+         dense phase is one launch on the CPU, stopped by its flag; on CUDA its launches are
+         bounded: the frame's sums a thread a block, the horizon and the separation in pieces)
+  separated-shot  the same shot with its launches separated (the separation: one thread a shot,
+         in pieces of SEPARATION_PELLETS_PER_LAUNCH pellets on CUDA)
 
 Every figure states the device it was measured on.
 """
@@ -45,6 +47,8 @@ KINDS = {
     "paper-shots": (["shot.shots=10000", *COLLISIONS], ["shot.shots=2", *COLLISIONS], (0.5, 4.0)),  # GPU-sized
     "shot": (["shot.count=3000000", "shot.envelope_radius=0.5", "collisions.separate=false", *COLLISIONS],
              ["shot.count=20", "collisions.separate=false", *COLLISIONS], (0.5, 6.0)),
+    "separated-shot": (["shot.count=3000000", "shot.envelope_radius=0.5", *COLLISIONS], ["shot.count=20", *COLLISIONS],
+                       (0.5, 6.0)),
 }
 
 

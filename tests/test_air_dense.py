@@ -121,6 +121,7 @@ def test_in_air_every_cpu_schedule_gives_the_same_bits(tmp_path):
 
     if "cpu" not in DEVICES:
         pytest.skip("the CPU's schedules (this run's devices exclude the CPU)")
+    from warp_ricochet.dense import phase
     from warp_ricochet.dense.phase import DenseOptions
 
     sets = ["air.density=1.225", FIELDS, "shot.count=60", "shot.shots=2", "collisions.enabled=true",
@@ -130,5 +131,9 @@ def test_in_air_every_cpu_schedule_gives_the_same_bits(tmp_path):
                           ("kernels", DenseOptions(cpu_steps="kernels"))):
         stats = api.run(scene, output=tmp_path / f"{name}.h5", device="cpu", dense_options=options)
         assert stats["pair_collisions"] > 10
-    for name in ("block", "kernels"):
+    with pytest.MonkeyPatch.context() as patch:  # the horizon (leap bounds) and the separation in pieces
+        patch.setattr(phase, "HORIZON_PAIRS_PER_LAUNCH", 4 * 120)
+        patch.setattr(phase, "SEPARATION_PELLETS_PER_LAUNCH", 7)
+        api.run(scene, output=tmp_path / "pieces.h5", device="cpu", dense_options=DenseOptions(cpu_steps="kernels"))
+    for name in ("block", "kernels", "pieces"):
         assert_same_run(tmp_path / f"{name}.h5", tmp_path / "one.h5", ["landing/position", "impact/velocity"], progress=())

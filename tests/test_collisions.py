@@ -426,10 +426,12 @@ def test_the_cpu_one_launch_is_the_host_loop_and_the_per_step_kernels(tmp_path, 
     """On the CPU the dense phase of a group of shots is one launch of phase_kernel (again
     after a list overflowed: max_neighbours 2). A launch a shot, the host loop of checkpoints,
     rebuilds and blocks (one launch of block_kernel each), and the per-step kernels (those CUDA
-    runs) in their order, give bitwise the same results, on several shots."""
+    runs) in their order, give bitwise the same results, on several shots; so do the per-step
+    kernels with the launch separation and the horizon in pieces (as CUDA launches a large shot's)."""
+    from warp_ricochet.dense import phase
     from warp_ricochet.dense.phase import DensePhase
 
-    scene = _paper_collisions(count=60, shots=3, precision="float64", max_neighbours=max_neighbours)
+    scene = _paper_collisions(count=60, shots=3, precision="float64", max_neighbours=max_neighbours, separate=True)
     launched = []  # the kernels each run launched (or recorded), by name
     launch = DensePhase._launch
     monkeypatch.setattr(DensePhase, "_launch", lambda self, name, *a, **k: launched.append(name) or launch(self, name, *a, **k))
@@ -446,8 +448,12 @@ def test_the_cpu_one_launch_is_the_host_loop_and_the_per_step_kernels(tmp_path, 
     assert "block_kernel" in kernels and "phase_kernel" not in kernels
     per_step, kernels = run("per-step", cpu_steps="kernels")
     assert "choose_kernel" in kernels and "block_kernel" not in kernels
+    monkeypatch.setattr(phase, "HORIZON_PAIRS_PER_LAUNCH", 4 * 180)  # 180 pellets: 4 partners a piece, 8 pieces
+    monkeypatch.setattr(phase, "SEPARATION_PELLETS_PER_LAUNCH", 7)  # 9 pieces of a 60-pellet shot
+    in_pieces, kernels = run("pieces", cpu_steps="kernels")
+    assert kernels.count("separate_kernel") == 9 and kernels.count("horizon_kernel") >= 8
     assert one_launch[1]["pair_collisions"] > 10
-    for other in (shot_by_shot, host_loop, per_step):
+    for other in (shot_by_shot, host_loop, per_step, in_pieces):
         for name, value in one_launch[0].items():
             np.testing.assert_array_equal(other[0][name], value, err_msg=name)
         assert other[1] == one_launch[1]
@@ -570,3 +576,33 @@ def test_only_runs_with_pair_collisions_have_collision_statistics(tmp_path):
         has = name == "on"
         assert all((k in stats) == has and (k in written) == has for k in COLLISION_STATS), name
         assert set(stats) == written, name
+
+
+def test_a_shot_in_several_frame_blocks_takes_its_mean_and_the_same_bits_on_every_schedule(tmp_path, monkeypatch):
+    """A shot larger than a block of the frame's sums (dense.frame: FRAME_BLOCK, set to 16 pellets
+    here, so a shot of 60 has 4 blocks, the last short): its frame at the launch is the mean state
+    of its pellets (float64 NumPy), and the CPU's one-launch phase and the per-step kernels (CUDA's
+    path: a thread a block) give the same bits."""
+    from warp_ricochet.dense import state
+    from warp_ricochet.dense.phase import DensePhase, start_shots
+    from warp_ricochet.launch.source import PelletSource
+    from warp_ricochet.model import Model, State
+    from warp_ricochet.spec import RunSpec
+
+    monkeypatch.setattr(state, "FRAME_BLOCK", 16)
+    scene = _paper_collisions(count=60, shots=3, precision="float64", separate=True)
+    model = Model.from_scene(scene, wp.get_device("cpu"))
+    dense = DensePhase(model, scene, RunSpec.of(scene, with_output=False), 180)
+    assert dense.pair.frame_blocks == 4
+    dense.launch_shots(0, 3, PelletSource(scene, "float64", model.device, 180).struct, State(model, 180, ()).outputs)
+    start_shots(dense, 3)
+    x, v = dense.cloud.position.numpy().reshape(3, 60, 3), dense.cloud.velocity.numpy().reshape(3, 60, 3)
+    np.testing.assert_allclose(dense.cloud.drift_origin.numpy(), x.mean(axis=1), rtol=1e-14, atol=1e-15)
+    np.testing.assert_allclose(dense.cloud.drift_velocity.numpy(), v.mean(axis=1), rtol=1e-14, atol=1e-12)
+    assert np.all(dense.cloud.shot_flags.numpy()[:, 5] == 0)  # (SHOT_FRAME: taken)
+    one = _write(scene, tmp_path / "one.h5", "cpu", DenseOptions())
+    kernels = _write(scene, tmp_path / "kernels.h5", "cpu", DenseOptions(cpu_steps="kernels"))
+    assert one[1]["pair_collisions"] > 10
+    for name, value in one[0].items():
+        np.testing.assert_array_equal(kernels[0][name], value, err_msg=name)
+    assert kernels[1] == one[1]

@@ -21,18 +21,18 @@ from .constants import (
     CLOCK_TIME,
     CLOCK_WINDOW,
     FLAG_REMAINING,
-    FLAG_STALL,
     FLAG_WIDENED,
     FLYING,
+    FRAME_RECENTRE,
     LEAP_MAX_VALUE,
     SHOT_BUSY,
     SHOT_DONE,
+    SHOT_FRAME,
     SHOT_LEAP,
     SHOT_REBUILD,
     SHOT_STALL,
 )
 from .events import make_events
-from .frame import make_frame
 from .leap import make_leap
 from .state import dense_types
 
@@ -45,21 +45,26 @@ def make_checkpoint(spec) -> SimpleNamespace:
     NEVER = d.NEVER
     next_contact = make_flight(spec.precision, spec.static_planes).next_contact
     _entry, _return, _contact, ballistic_position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
-    contact_time, recentre = make_events(spec).contact_time, make_frame(spec).recentre
+    contact_time = make_events(spec).contact_time
     AIR, BOUNCES = spec.in_air, spec.bounces
     air = make_dense_air(spec) if AIR else None  # (their calls compile only in air)
     lp = make_leap(spec) if AIR else None
     LEAP_MAX = scalar(LEAP_MAX_VALUE)
 
     @wp.func(inline=True)
-    def horizon_pellet(i: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
+    def horizon_pellet(i: wp.int32, begin: wp.int32, end: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics,
+                       cloud: Cloud):
         """Per shot at each of its checkpoints: busy in its arrival window; after it, its next event over ALL
         its pairs (exact: their relative motion is linear; each pair once, O(count) per pellet)
         and planes, so that
         - the shot stops only when no pair at all can meet (pellets farther apart than the lists'
           reach may still converge): whether a shot is busy never depends on the lists;
         - it jumps to its next event instead of stepping through empty time with steps sized for
-          its fastest pellets (typically two rebounds converging slowly for tens of milliseconds)."""
+          its fastest pellets (typically two rebounds converging slowly for tens of milliseconds).
+        The pairs with the pellets m = [begin, end) after it (all: [1, count / 2 + 1)); the planes
+        with the piece that starts at 1. A large shot's horizon is split into pieces of m (one
+        launch each, so the host can stop between them): the shot's minima and flags are the
+        same for any split."""
         s = i / pair.count
         if cloud.phase[i] != FLYING or cloud.shot_flags[s, SHOT_DONE] != 0 or cloud.shot_flags[s, SHOT_STALL] != CHECKPOINT:
             return
@@ -84,7 +89,7 @@ def make_checkpoint(spec) -> SimpleNamespace:
         # each pair once (twice for the pairs half a shot apart when the count is even): pellet k
         # of the shot with the next count / 2 after it, cyclically, so every thread does as much
         first = s * pair.count
-        for m in range(1, pair.count / 2 + 1):
+        for m in range(begin, end):
             j = first + (i - first + m) % pair.count
             if cloud.phase[j] == FLYING:
                 d = cloud.now_position[j] - x
@@ -101,15 +106,16 @@ def make_checkpoint(spec) -> SimpleNamespace:
             cloud.shot_flags[s, wp.static(SHOT_BUSY)] = 1  # a pair can still meet
         if wp.static(AIR):
             # a pellet's landing after its last impact does not bound a leap (the leap flies it there)
-            if leaps and cloud.impacts[i] < wp.static(BOUNCES):
+            if leaps and begin == 1 and cloud.impacts[i] < wp.static(BOUNCES):
                 leap = wp.min(leap, time + lp.plane_leap(x, v, cloud.now_bound[i], surfaces, physics))
             wp.atomic_min(cloud.clock, s, CLOCK_NEXT, leap)
         else:
             # plane contacts bound the jump (they do not keep a shot stepping: the core's flight does them)
-            wait, k = next_contact(cloud.position[i], cloud.velocity[i], cloud.angular_velocity[i], cloud.touching[i],
-                                   surfaces, physics)
-            if k >= 0:
-                earliest = wp.min(earliest, cloud.time[i] + wait)
+            if begin == 1:
+                wait, k = next_contact(cloud.position[i], cloud.velocity[i], cloud.angular_velocity[i], cloud.touching[i],
+                                       surfaces, physics)
+                if k >= 0:
+                    earliest = wp.min(earliest, cloud.time[i] + wait)
             wp.atomic_min(cloud.clock, s, CLOCK_NEXT, earliest)
 
     @wp.func(inline=True)
@@ -174,11 +180,8 @@ def make_checkpoint(spec) -> SimpleNamespace:
             if checkpoint and leaping == 0:
                 # the co-moving frame follows the shot's flying pellets (after a ricochet they move
                 # nothing like the launch): speeds relative to it set the step. The lists are
-                # rebuilt in the new frame before the next step.
-                flying, _speed = recentre(pair, physics, cloud, s, cloud.clock[s, CLOCK_TIME])
-                if flying > 0:
-                    cloud.shot_flags[s, SHOT_REBUILD] = 1
-                    cloud.flags[FLAG_STALL] = 1
+                # rebuilt in the new frame before the next step (dense.frame: framed_shot).
+                cloud.shot_flags[s, wp.static(SHOT_FRAME)] = wp.static(FRAME_RECENTRE)
         cloud.shot_flags[s, SHOT_BUSY] = 0
         cloud.shot_flags[s, SHOT_STALL] = 0
         cloud.clock[s, CLOCK_NEXT] = NEVER

@@ -19,18 +19,27 @@ CLOCK_TIME, CLOCK_STEP, CLOCK_DRIFT, CLOCK_STEPS, CLOCK_END, CLOCK_WINDOW, CLOCK
 # in air (dense.air): the shot's fastest air rate |a_air| / |u| (1/s); where its last leap began
 # (dense.leap)
 CLOCK_AIR, CLOCK_LEAP = 10, 11
-NUM_CLOCK = 12
+# the mean speed of the shot's flying pellets at its launch (dense.frame, for the arrival window)
+CLOCK_SPEED = 12
+NUM_CLOCK = 13
 # a step cut at an unresolved event still advances by this fraction of itself (a pair the law does
 # not collide, e.g. one closing within rounding, can never stop the clock)
 MIN_CUT_FRACTION = 1.0 / 64.0
 HORIZON_RADII = 4.0
-# per-shot int flags (shots x 5): waits for a rebuild, finished, a pair or ricochet still ahead,
+# per-shot int flags (shots x 6): waits for a rebuild, finished, a pair or ricochet still ahead,
 # its lists are rebuilt at the next build (a shot's lists are rebuilt when it needs it, whatever
 # the other shots need, so its list-dependent diagnostics do not depend on the chunk), in air its
-# pellets leap at this checkpoint (dense.leap)
-SHOT_STALL, SHOT_DONE, SHOT_BUSY, SHOT_REBUILD, SHOT_LEAP = 0, 1, 2, 3, 4
+# pellets leap at this checkpoint (dense.leap), its co-moving frame is due (dense.frame)
+SHOT_STALL, SHOT_DONE, SHOT_BUSY, SHOT_REBUILD, SHOT_LEAP, SHOT_FRAME = 0, 1, 2, 3, 4, 5
 CHECKPOINT = 2  # shot_flags[s, SHOT_STALL]: waits at a checkpoint (1: waits for a rebuild)
-NUM_SHOT_FLAGS = 5
+NUM_SHOT_FLAGS = 6
+# shot_flags[s, SHOT_FRAME]: its frame follows its flying pellets (a checkpoint, a leap); its
+# frame and its arrival window at the launch
+FRAME_RECENTRE, FRAME_START = 1, 2
+# a shot's frame sums are taken over blocks of this many pellets (one thread a block on CUDA),
+# each in pellet order, then the blocks in order: deterministic, and one block (the whole shot,
+# in order) for shots up to this size
+FRAME_BLOCK = 1 << 14
 # hash-grid cells CELL_REACHES reaches wide: a query visits 2 x 2 x 2 cells, not 3 x 3 x 3 (the
 # lists are sparse, about one neighbour per pellet in the paper's shot: the cells cost, not the candidates)
 CELL_REACHES = 2.0
@@ -50,5 +59,10 @@ CELL_MARGIN = 1.001  # cells this much wider than the distance they are for: rou
 # speed relative to the air up by |g| times this (dense.leap)
 LEAP_MAX_VALUE = 0.05
 TINY_ACCELERATION_VALUE = 1e-30  # m/s^2: a floor under air accelerations that divide
+# launches of bounded duration for large shots on CUDA (the host waits for each and checks for an
+# interrupt between them): a horizon launch covers at most about this many pairs, a separation
+# launch at most this many pellets a shot (shots smaller than that: one launch, as before)
+HORIZON_PAIRS_PER_LAUNCH = 1 << 30
+SEPARATION_PELLETS_PER_LAUNCH = 1 << 15
 # in air: a pellet's kick lasts at most this many steps (dense.air)
 KICK_STEPS = BLOCK_STEPS

@@ -22,9 +22,11 @@ from .constants import (
     CLOCK_STEPS,
     CLOCK_WINDOW,
     FLYING,
+    FRAME_START,
     NUM_CLOCK,
     SHOT_BUSY,
     SHOT_DONE,
+    SHOT_FRAME,
     SHOT_REBUILD,
     SHOT_STALL,
 )
@@ -46,7 +48,8 @@ def make_ends(spec) -> SimpleNamespace:
     air = make_dense_air(spec) if AIR else None  # (its calls compile only in air)
     set_reference = make_frame(spec).set_reference
     _entry, _return, _contact, ballistic_position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
-    recentre, passing_time = make_frame(spec).recentre, make_frame(spec).passing_time
+    fr = make_frame(spec)
+    block_range, drift_point, passing_time = fr.block_range, fr.drift_point, fr.passing_time
 
     @wp.func
     def launch_pellet(i: wp.int32, first_index: wp.int32, source: Source, cloud: Cloud, out: Outputs):
@@ -82,32 +85,64 @@ def make_ends(spec) -> SimpleNamespace:
 
     @wp.func
     def start_shot(s: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
-        """One thread per shot: the clock starts at 0, the co-moving frame at the launch, and the
-        arrival window: the shot keeps stepping until its undisturbed pellets have all met their
-        first surface and the cloud has passed it (pellets converging in flight, rebounds meeting
-        the pellets still coming)."""
+        """One thread per shot: the clock starts at 0; the co-moving frame at the launch and the
+        arrival window are due (`dense.frame`, then `start_block` and `window_shot`)."""
         for c in range(wp.static(NUM_CLOCK)):
             cloud.clock[s, c] = scalar(0.0)
         cloud.clock[s, CLOCK_NEXT] = NEVER
         cloud.clock[s, CLOCK_CUT] = NEVER
         cloud.clock[s, CLOCK_SKIN] = NEVER
-        _flying, speed = recentre(pair, physics, cloud, s, scalar(0.0))
-        passing = passing_time(pair, physics, cloud, s, scalar(0.0), speed)
-        last_arrival = scalar(0.0)
-        first = s * pair.count
-        for k in range(pair.count):
-            i = first + k
-            wait, plane = next_contact(cloud.position[i], cloud.velocity[i], cloud.angular_velocity[i], wp.int32(-1),
-                                       surfaces, physics)
-            if plane >= 0:
-                last_arrival = wp.max(last_arrival, wait)
-        cloud.clock[s, CLOCK_WINDOW] = last_arrival + passing
+        cloud.shot_flags[s, SHOT_FRAME] = FRAME_START
         cloud.shot_flags[s, SHOT_STALL] = CHECKPOINT  # the launch is its first checkpoint
         cloud.shot_flags[s, SHOT_DONE] = 0
         cloud.shot_flags[s, SHOT_BUSY] = 0
         cloud.shot_flags[s, SHOT_REBUILD] = 1
         cloud.half_skin[s] = pair.half_skin
         cloud.step_travel[s] = scalar(0.0)
+
+    @wp.func
+    def start_block(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, row: wp.int32):
+        """At the launch, after the frame (one thread a block, as `frame.frame_block`): the block's
+        squared distances of flying pellets from the frame's point, their count, and the latest
+        first contact of its pellets in their own flights (0 if none meets a surface)."""
+        s = row / pair.frame_blocks
+        if cloud.shot_flags[s, SHOT_FRAME] != wp.static(FRAME_START):
+            return
+        first, last = block_range(pair, s, row - s * pair.frame_blocks)
+        centre = drift_point(cloud, s, scalar(0.0), physics.gravity)
+        spread = scalar(0.0)
+        flying = wp.int32(0)
+        last_arrival = scalar(0.0)
+        for i in range(first, last):
+            if cloud.phase[i] == FLYING:
+                d = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, -cloud.time[i]) - centre
+                spread += wp.dot(d, d)
+                flying += 1
+            wait, plane = next_contact(cloud.position[i], cloud.velocity[i], cloud.angular_velocity[i], wp.int32(-1),
+                                       surfaces, physics)
+            if plane >= 0:
+                last_arrival = wp.max(last_arrival, wait)
+        cloud.frame_spread[row] = spread
+        cloud.frame_flying[row] = flying
+        cloud.frame_arrival[row] = last_arrival
+
+    @wp.func
+    def window_shot(pair: Pair, physics: Physics, cloud: Cloud, s: wp.int32):
+        """The arrival window from the blocks (in order): the shot keeps stepping until its
+        undisturbed pellets have all met their first surface and the cloud has passed it
+        (pellets converging in flight, rebounds meeting the pellets still coming)."""
+        if cloud.shot_flags[s, SHOT_FRAME] != wp.static(FRAME_START):
+            return
+        row = s * pair.frame_blocks
+        spread = cloud.frame_spread[row]
+        flying = cloud.frame_flying[row]
+        last_arrival = cloud.frame_arrival[row]
+        for b in range(1, pair.frame_blocks):
+            spread += cloud.frame_spread[row + b]
+            flying += cloud.frame_flying[row + b]
+            last_arrival = wp.max(last_arrival, cloud.frame_arrival[row + b])
+        cloud.clock[s, CLOCK_WINDOW] = last_arrival + passing_time(pair, physics, cloud, s, spread, flying)
+        cloud.shot_flags[s, SHOT_FRAME] = 0
 
     @wp.func
     def release_pellet(i: wp.int32, pair: Pair, physics: Physics, cloud: Cloud):
@@ -159,4 +194,5 @@ def make_ends(spec) -> SimpleNamespace:
         totals[s, 4] = wp.float64(cloud.clock[s, CLOCK_END])
         totals[s, 5] = wp.float64(cloud.clock[s, CLOCK_OVERRUN])
 
-    return SimpleNamespace(launch_pellet=launch_pellet, start_shot=start_shot, release_pellet=release_pellet, shot_totals=shot_totals)
+    return SimpleNamespace(launch_pellet=launch_pellet, start_shot=start_shot, start_block=start_block,
+                           window_shot=window_shot, release_pellet=release_pellet, shot_totals=shot_totals)

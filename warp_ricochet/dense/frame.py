@@ -8,7 +8,18 @@ from types import SimpleNamespace
 import warp as wp
 
 from ..physics.ballistic import make_ballistic
-from .constants import CLOCK_TIME, FLYING, HORIZON_RADII, SHOT_DONE, SHOT_STALL
+from .constants import (
+    CLOCK_SPEED,
+    CLOCK_TIME,
+    FLAG_STALL,
+    FLYING,
+    FRAME_START,
+    HORIZON_RADII,
+    SHOT_DONE,
+    SHOT_FRAME,
+    SHOT_REBUILD,
+    SHOT_STALL,
+)
 from .state import dense_types
 
 
@@ -26,18 +37,28 @@ def make_frame(spec) -> SimpleNamespace:
         return ballistic_position(cloud.drift_origin[shot], cloud.drift_velocity[shot], gravity, time)
 
     @wp.func
-    def recentre(pair: Pair, physics: Physics, cloud: Cloud, s: wp.int32, time: scalar):
-        """The shot's co-moving frame: the mean state of its flying pellets at `time`. One
-        thread, in pellet order (deterministic). Returns the flying count and their mean speed
-        (not the speed of their mean: a head-on pair has none)."""
+    def block_range(pair: Pair, s: wp.int32, b: wp.int32):
+        """The rows [first, last) of block b of shot s (`Pair.frame_block` pellets, FRAME_BLOCK; the
+        last may be short)."""
+        first = s * pair.count + b * pair.frame_block
+        return first, wp.min(first + pair.frame_block, (s + 1) * pair.count)
+
+    @wp.func
+    def frame_block(pair: Pair, physics: Physics, cloud: Cloud, row: wp.int32):
+        """Block `row` (shot row / frame_blocks) of a shot whose frame is due (SHOT_FRAME): the sums
+        of its flying pellets' positions, velocities and speeds at the shot's clock, and their
+        count, in pellet order (one thread a block on CUDA; `frame_shot` for the CPU)."""
+        s = row / pair.frame_blocks
+        if cloud.shot_flags[s, SHOT_FRAME] == 0:
+            return
         gravity = physics.gravity
-        first = s * pair.count
+        time = cloud.clock[s, CLOCK_TIME]
+        first, last = block_range(pair, s, row - s * pair.frame_blocks)
         position_sum = vec3()
         velocity_sum = vec3()
         speed_sum = scalar(0.0)
         flying = wp.int32(0)
-        for k in range(pair.count):
-            i = first + k
+        for i in range(first, last):
             if cloud.phase[i] == FLYING:
                 age = time - cloud.time[i]
                 position_sum += ballistic_position(cloud.position[i], cloud.velocity[i], gravity, age)
@@ -45,6 +66,29 @@ def make_frame(spec) -> SimpleNamespace:
                 velocity_sum += velocity_now
                 speed_sum += wp.length(velocity_now)
                 flying += 1
+        cloud.frame_position[row] = position_sum
+        cloud.frame_velocity[row] = velocity_sum
+        cloud.frame_speed[row] = speed_sum
+        cloud.frame_flying[row] = flying
+
+    @wp.func
+    def recentre(pair: Pair, physics: Physics, cloud: Cloud, s: wp.int32):
+        """The shot's co-moving frame from its blocks' sums (`frame_block`, added in block order:
+        deterministic, and for one block the sums in pellet order): the mean state of its flying
+        pellets at its clock. Returns the flying count and their mean speed (not the speed of
+        their mean: a head-on pair has none)."""
+        gravity = physics.gravity
+        time = cloud.clock[s, CLOCK_TIME]
+        row = s * pair.frame_blocks
+        position_sum = cloud.frame_position[row]
+        velocity_sum = cloud.frame_velocity[row]
+        speed_sum = cloud.frame_speed[row]
+        flying = cloud.frame_flying[row]
+        for b in range(1, pair.frame_blocks):
+            position_sum += cloud.frame_position[row + b]
+            velocity_sum += cloud.frame_velocity[row + b]
+            speed_sum += cloud.frame_speed[row + b]
+            flying += cloud.frame_flying[row + b]
         speed = scalar(0.0)
         if flying > 0:
             inverse = scalar(1.0) / scalar(flying)
@@ -56,25 +100,43 @@ def make_frame(spec) -> SimpleNamespace:
         return flying, speed
 
     @wp.func
-    def passing_time(pair: Pair, physics: Physics, cloud: Cloud, s: wp.int32, time: scalar, speed: scalar):
+    def framed_shot(pair: Pair, physics: Physics, cloud: Cloud, s: wp.int32):
+        """After its blocks' sums: a shot whose frame was due (a checkpoint, a leap) takes it, and
+        its lists are rebuilt in it; at the launch the frame and the mean speed (CLOCK_SPEED, for
+        the arrival window: `dense.ends`)."""
+        due = cloud.shot_flags[s, SHOT_FRAME]
+        if due == 0:
+            return
+        flying, speed = recentre(pair, physics, cloud, s)
+        if due == wp.static(FRAME_START):
+            cloud.clock[s, CLOCK_SPEED] = speed
+            return  # (the window's pass clears the flag)
+        cloud.shot_flags[s, SHOT_FRAME] = 0
+        if flying > 0:
+            cloud.shot_flags[s, SHOT_REBUILD] = 1
+            cloud.flags[FLAG_STALL] = 1
+
+    @wp.func
+    def frame_shot(pair: Pair, physics: Physics, cloud: Cloud, s: wp.int32):
+        """The CPU's `frame_block` of each block of shot s, in order, then `framed_shot`: the same
+        sums and the same frame as CUDA's thread a block."""
+        if cloud.shot_flags[s, SHOT_FRAME] == 0:
+            return
+        for b in range(pair.frame_blocks):
+            frame_block(pair, physics, cloud, s * pair.frame_blocks + b)
+        framed_shot(pair, physics, cloud, s)
+
+    @wp.func
+    def passing_time(pair: Pair, physics: Physics, cloud: Cloud, s: wp.int32, spread: scalar, flying: wp.int32):
         """The time the shot's flying pellets take to pass a point: HORIZON_RADII rms radii about
-        the frame's point (`recentre` at `time`) over their mean speed `speed`, or over the
-        free-fall speed over the cloud's size for a cloud at rest."""
-        gravity = physics.gravity
-        first = s * pair.count
-        centre = drift_point(cloud, s, time, gravity)
-        spread = scalar(0.0)
-        flying = wp.int32(0)
-        for k in range(pair.count):
-            i = first + k
-            if cloud.phase[i] == FLYING:
-                d = ballistic_position(cloud.position[i], cloud.velocity[i], gravity, time - cloud.time[i]) - centre
-                spread += wp.dot(d, d)
-                flying += 1
+        the frame's point (`spread`: the sum of their squared distances from it, m^2) over their
+        mean speed (CLOCK_SPEED), or over the free-fall speed over the cloud's size for a cloud at
+        rest."""
         if flying == 0:
             return scalar(0.0)
         radius = wp.sqrt(spread / scalar(flying))
-        return scalar(HORIZON_RADII) * radius / wp.max(speed + wp.sqrt(wp.length(gravity) * radius), TINY_SPEED)
+        speed = cloud.clock[s, CLOCK_SPEED]
+        return scalar(HORIZON_RADII) * radius / wp.max(speed + wp.sqrt(wp.length(physics.gravity) * radius), TINY_SPEED)
 
     @wp.func
     def relative_to_frame(cloud: Cloud, physics: Physics, i: wp.int32, time: scalar, frame_point: vec3,
@@ -149,4 +211,5 @@ def make_frame(spec) -> SimpleNamespace:
         for n in range(cloud.neighbour_count[i]):
             cloud.stale[cloud.neighbours[i, n]] = 1
 
-    return SimpleNamespace(drift_point=drift_point, recentre=recentre, passing_time=passing_time, relative_to_frame=relative_to_frame, relative_to_drift=relative_to_drift, skin_exit=skin_exit, stepping=stepping, set_reference=set_reference, set_build_point=set_build_point, mark_stale=mark_stale)
+    return SimpleNamespace(drift_point=drift_point, block_range=block_range, frame_block=frame_block, recentre=recentre,
+                           framed_shot=framed_shot, frame_shot=frame_shot, passing_time=passing_time, relative_to_frame=relative_to_frame, relative_to_drift=relative_to_drift, skin_exit=skin_exit, stepping=stepping, set_reference=set_reference, set_build_point=set_build_point, mark_stale=mark_stale)

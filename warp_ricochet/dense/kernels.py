@@ -16,6 +16,7 @@ from .air import make_dense_air
 from .checkpoint import make_checkpoint
 from .constants import FLAG_OVERFLOW, SHOT_DONE, SHOT_LEAP, SHOT_REBUILD, SHOT_STALL
 from .ends import make_ends
+from .frame import make_frame
 from .leap import make_leap
 from .lists import make_lists
 from .rounds import make_rounds
@@ -56,15 +57,24 @@ def make_setup_kernels(spec) -> SimpleNamespace:
             end_fns.launch_pellet(i, first_index, source, cloud, out)
 
     @wp.kernel(**opts)
-    def separate_kernel(first_index: wp.int32, pair: Pair, physics: Physics, source: Source, cloud: Cloud, out: Outputs,
-                        redraws: wp.array(dtype=wp.int32), heads: wp.array(dtype=wp.int32),
-                        chain: wp.array(dtype=wp.int32)):
-        """Each shot without overlaps at launch (one thread a shot)."""
-        separate_shot(wp.tid(), first_index, pair, physics, source, cloud, out, redraws, heads, chain)
+    def separate_kernel(begin: wp.int32, end: wp.int32, first_index: wp.int32, pair: Pair, physics: Physics,
+                        source: Source, cloud: Cloud, out: Outputs, redraws: wp.array(dtype=wp.int32),
+                        heads: wp.array(dtype=wp.int32), chain: wp.array(dtype=wp.int32)):
+        """Each shot's pellets [begin, end) without overlaps at launch (one thread a shot)."""
+        separate_shot(wp.tid(), begin, end, first_index, pair, physics, source, cloud, out, redraws, heads, chain)
 
     @wp.kernel(**opts)
     def drift_kernel(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
         end_fns.start_shot(wp.tid(), pair, surfaces, physics, cloud)
+
+    @wp.kernel(**opts)
+    def start_block_kernel(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
+        """At the launch: each block's spread and arrivals (one thread a block of a shot)."""
+        end_fns.start_block(pair, surfaces, physics, cloud, wp.tid())
+
+    @wp.kernel(**opts)
+    def window_kernel(pair: Pair, physics: Physics, cloud: Cloud):
+        end_fns.window_shot(pair, physics, cloud, wp.tid())
 
     @wp.kernel(**opts)
     def grid_points_kernel(pair: Pair, physics: Physics, cloud: Cloud):
@@ -88,7 +98,7 @@ def make_setup_kernels(spec) -> SimpleNamespace:
     def shot_totals_kernel(pair: Pair, cloud: Cloud, totals: wp.array2d(dtype=wp.float64)):
         end_fns.shot_totals(wp.tid(), pair, cloud, totals)
 
-    return SimpleNamespace(groups_kernel=groups_kernel, cell_lists_kernel=cell_lists_kernel, launch_kernel=launch_kernel, separate_kernel=separate_kernel, drift_kernel=drift_kernel, grid_points_kernel=grid_points_kernel, neighbours_kernel=neighbours_kernel, release_kernel=release_kernel, shot_totals_kernel=shot_totals_kernel)
+    return SimpleNamespace(groups_kernel=groups_kernel, cell_lists_kernel=cell_lists_kernel, launch_kernel=launch_kernel, separate_kernel=separate_kernel, drift_kernel=drift_kernel, start_block_kernel=start_block_kernel, window_kernel=window_kernel, grid_points_kernel=grid_points_kernel, neighbours_kernel=neighbours_kernel, release_kernel=release_kernel, shot_totals_kernel=shot_totals_kernel)
 
 
 @functools.cache
@@ -99,6 +109,7 @@ def make_step_kernels(spec) -> SimpleNamespace:
     opts = d.opts
     hot = {**opts, "cuda_max_registers": STEP_MAX_REGISTERS}  # (ignored on the CPU)
     step_fns, round_fns, checkpoint_fns, list_fns = make_step(spec), make_rounds(spec), make_checkpoint(spec), make_lists(spec)
+    frame_fns = make_frame(spec)
     AIR = spec.in_air
     air = make_dense_air(spec) if AIR else None
     leap_fns = make_leap(spec) if AIR else None
@@ -171,14 +182,24 @@ def make_step_kernels(spec) -> SimpleNamespace:
             checkpoint_fns.now_pellet(i, pair, physics, cloud)
 
     @wp.kernel(**opts)
-    def horizon_kernel(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
+    def horizon_kernel(begin: wp.int32, end: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
+        """The pairs with the pellets [begin, end) after each (a piece of the horizon: `horizon_pellet`)."""
         t = wp.tid()
         for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
-            checkpoint_fns.horizon_pellet(i, pair, surfaces, physics, cloud)
+            checkpoint_fns.horizon_pellet(i, begin, end, pair, surfaces, physics, cloud)
 
     @wp.kernel(**opts)
     def settle_kernel(pair: Pair, physics: Physics, cloud: Cloud):
         checkpoint_fns.settle_shot(wp.tid(), pair, physics, cloud)
+
+    @wp.kernel(**opts)
+    def frame_block_kernel(pair: Pair, physics: Physics, cloud: Cloud):
+        """The frame sums of each block of a shot whose frame is due (one thread a block; dense.frame)."""
+        frame_fns.frame_block(pair, physics, cloud, wp.tid())
+
+    @wp.kernel(**opts)
+    def framed_kernel(pair: Pair, physics: Physics, cloud: Cloud):
+        frame_fns.framed_shot(pair, physics, cloud, wp.tid())
 
     @wp.kernel(**opts)
     def leap_kernel(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs):
@@ -219,14 +240,15 @@ def make_step_kernels(spec) -> SimpleNamespace:
                     for i in range(first, first + pair.count):
                         if cloud.stop[0] != 0:  # (a pellet's horizon is O(count))
                             return
-                        checkpoint_fns.horizon_pellet(i, pair, surfaces, physics, cloud)
+                        checkpoint_fns.horizon_pellet(i, 1, pair.count / 2 + 1, pair, surfaces, physics, cloud)
                     checkpoint_fns.settle_shot(s, pair, physics, cloud)
                     if wp.static(AIR):
                         if cloud.shot_flags[s, SHOT_LEAP] != 0:
                             for i in range(first, first + pair.count):
                                 leap_fns.leap_pellet(i, pair, surfaces, physics, cloud, out)
                             leap_fns.leaped_shot(s, pair, physics, cloud)
+                    frame_fns.frame_shot(pair, physics, cloud, s)
                 else:
                     step_fns.block_shot(s, steps, rounds, pair, surfaces, physics, cloud, out)
 
-    return SimpleNamespace(bounds_kernel=bounds_kernel, kick_kernel=kick_kernel, plan_kernel=plan_kernel, prepare_kernel=prepare_kernel, choose_kernel=choose_kernel, resolve_kernel=resolve_kernel, finish_kernel=finish_kernel, end_step_kernel=end_step_kernel, block_kernel=block_kernel, now_kernel=now_kernel, horizon_kernel=horizon_kernel, settle_kernel=settle_kernel, leap_kernel=leap_kernel, leaped_kernel=leaped_kernel, phase_kernel=phase_kernel)
+    return SimpleNamespace(frame_block_kernel=frame_block_kernel, framed_kernel=framed_kernel, bounds_kernel=bounds_kernel, kick_kernel=kick_kernel, plan_kernel=plan_kernel, prepare_kernel=prepare_kernel, choose_kernel=choose_kernel, resolve_kernel=resolve_kernel, finish_kernel=finish_kernel, end_step_kernel=end_step_kernel, block_kernel=block_kernel, now_kernel=now_kernel, horizon_kernel=horizon_kernel, settle_kernel=settle_kernel, leap_kernel=leap_kernel, leaped_kernel=leaped_kernel, phase_kernel=phase_kernel)

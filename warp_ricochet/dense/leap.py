@@ -33,10 +33,10 @@ from .air import make_dense_air
 from .constants import (
     CLOCK_LEAP,
     CLOCK_TIME,
-    FLAG_STALL,
     FLYING,
+    FRAME_RECENTRE,
+    SHOT_FRAME,
     SHOT_LEAP,
-    SHOT_REBUILD,
     TINY_ACCELERATION_VALUE,
 )
 from .events import make_events
@@ -55,7 +55,7 @@ def make_leap(spec) -> SimpleNamespace:
     to_contact_within = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws).to_contact_within
     air, ev, fr = make_dense_air(spec), make_events(spec), make_frame(spec)
     contact_time, plane_contact = ev.contact_time, ev.plane_contact
-    set_reference, recentre = fr.set_reference, fr.recentre
+    set_reference = fr.set_reference
     STATIC_PLANES = spec.static_planes
 
     @wp.func
@@ -162,9 +162,6 @@ def make_leap(spec) -> SimpleNamespace:
         if cloud.shot_flags[s, SHOT_LEAP] == 0:
             return
         cloud.shot_flags[s, SHOT_LEAP] = 0
-        flying, _speed = recentre(pair, physics, cloud, s, cloud.clock[s, CLOCK_TIME])
-        if flying > 0:
-            cloud.shot_flags[s, SHOT_REBUILD] = 1
-            cloud.flags[FLAG_STALL] = 1
+        cloud.shot_flags[s, SHOT_FRAME] = FRAME_RECENTRE  # (dense.frame: framed_shot)
 
     return SimpleNamespace(pair_leap=pair_leap, plane_leap=plane_leap, leap_pellet=leap_pellet, leaped_shot=leaped_shot)

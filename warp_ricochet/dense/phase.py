@@ -11,7 +11,8 @@ How it runs (the results are bitwise the same in every mode, tested):
   launch; "kernels" the per-step kernels, as CUDA; lists from cell lists ("cells") or, as on CUDA,
   `wp.HashGrid` ("hashgrid"). Trajectory frames need the host loop (they are taken at checkpoints).
 
-Interrupts (`interrupts`): the host loop checks for one before each block; on the CPU the long
+Interrupts (`interrupts`): the host loop checks for one before each block, and on CUDA between
+the pieces of a large shot's horizon and launch separation (`in_pieces`); on the CPU the long
 launches (phase_kernel, block_kernel, separate_kernel) run in a worker thread while the main thread waits, and an
 interrupt sets `cloud.stop`, which ends them at their next block, pass or pellet; the chunk is
 then abandoned (KeyboardInterrupt), its state unfinished.
@@ -30,6 +31,8 @@ from ..launch.packing import MAX_REDRAWS
 from ..tallies.collisions import SHOT_TOTALS
 from .constants import (
     BLOCK_STEPS,
+    HORIZON_PAIRS_PER_LAUNCH,
+    SEPARATION_PELLETS_PER_LAUNCH,
     CELL_REACHES,
     CLOCK_STEPS,
     CLOCK_TIME,
@@ -73,7 +76,7 @@ class DensePhase:
         self.rounds, self.block_steps = coll.rounds, coll.frame_every or BLOCK_STEPS
         self.kernels, self.in_air = {**vars(make_setup_kernels(spec)), **vars(make_step_kernels(spec))}, spec.in_air
         shots = -(-capacity // self.count)
-        self.cloud, self.field_arrays = allocate_cloud(model.precision, self.device, capacity, shots, coll.rounds,
+        self.cloud, self.field_arrays = allocate_cloud(model.precision, self.device, capacity, shots, self.count, coll.rounds,
                                                        coll.max_neighbours, spec.collision_fields)
         self.release = release_struct(model.precision, self.cloud, self.count)
         self.totals = wp.zeros((shots, len(SHOT_TOTALS)), dtype=wp.float64, device=self.device)
@@ -107,7 +110,7 @@ class DensePhase:
         c, p = self.cloud, self.pair
         self.shots, self._outputs = shots, outputs
         self.launch_shots(first_index, shots, source, outputs)
-        self._launch("drift_kernel", shots, [p, self.model.surfaces, self.model.physics, c])
+        start_shots(self, shots)
         if not self.cell_lists:
             self._launch("groups_kernel", pellets, [p, self.groups])
         if self.one_launch and frames is None:
@@ -125,8 +128,15 @@ class DensePhase:
         self.threads = self._threads(shots * self.count)
         self._launch("launch_kernel", self.threads, [first_index, self.pair, source, self.cloud, outputs])
         if self.sampled:
-            self._long("separate_kernel", shots, [first_index, self.pair, self.model.physics, source, self.cloud,
-                                                  outputs, self.redraws, self.heads, self.chain])
+            args = [first_index, self.pair, self.model.physics, source, self.cloud, outputs, self.redraws, self.heads,
+                    self.chain]
+            parts = pieces(self.count, SEPARATION_PELLETS_PER_LAUNCH)
+            if self.stop is not None:  # the CPU: each launch reads the stop flag
+                for begin, end in parts:
+                    self._long("separate_kernel", shots, [begin, end, *args])
+            else:
+                in_pieces(self.device, [self._launch("separate_kernel", shots, [begin, end, *args], True)
+                                        for begin, end in parts])
             check_redraws(self, shots)
 
     def _threads(self, pellets):
@@ -175,14 +185,16 @@ class DensePhase:
         structs' parameters costs more than a small launch on the CPU) and again when the lists
         grow (the cloud's struct then holds a new array)."""
         m, c, p = self.model, self.cloud, self.pair
-        self.checkpoint_commands = [
-            self._launch("now_kernel", self.threads, [p, m.physics, c], True),
-            self._launch("horizon_kernel", self.threads, [p, m.surfaces, m.physics, c], True),
-            self._launch("settle_kernel", self.shots, [p, m.physics, c], True),
-        ]
+        partners = pieces(self.count // 2, max(1, HORIZON_PAIRS_PER_LAUNCH // max(p.pellets, 1)))
+        self.now_command = self._launch("now_kernel", self.threads, [p, m.physics, c], True)
+        self.horizon_commands = [self._launch("horizon_kernel", self.threads, [1 + begin, 1 + end, p, m.surfaces, m.physics, c],
+                                              True) for begin, end in partners]
+        self.checkpoint_commands = [self._launch("settle_kernel", self.shots, [p, m.physics, c], True)]
         if self.in_air:  # (dense.leap)
             self.checkpoint_commands += [self._launch("leap_kernel", self.threads, [p, m.surfaces, m.physics, c, self._outputs], True),
                                          self._launch("leaped_kernel", self.shots, [p, m.physics, c], True)]
+        self.checkpoint_commands += [self._launch("frame_block_kernel", self.shots * p.frame_blocks, [p, m.physics, c], True),
+                                     self._launch("framed_kernel", self.shots, [p, m.physics, c], True)]
         if self.cell_lists:
             self.list_commands = [self._launch("cell_lists_kernel", 1, [p, m.physics, c, self.bucket_end, self.rows, self.cells], True)]
         else:
@@ -192,6 +204,8 @@ class DensePhase:
     def _checkpoint(self):
         """Each shot at its checkpoint: its horizon, and whether it stops, jumps or rebuilds;
         returns the global flags (one host sync)."""
+        self.now_command.launch()
+        in_pieces(self.device, self.horizon_commands)
         for command in self.checkpoint_commands:
             command.launch()
         return self.cloud.flags.numpy().copy()  # (a copy: CPU arrays share memory)
@@ -248,6 +262,33 @@ class DensePhase:
         commands.append(self._launch("finish_kernel", threads, [p, m.surfaces, m.physics, c, outputs], True))
         commands.append(self._launch("end_step_kernel", shots, [p, c], True))
         return commands
+
+
+def start_shots(dense: DensePhase, shots: int):
+    """Each shot's clock, its co-moving frame at the launch and its arrival window (the frame's
+    sums a block of pellets a thread: dense.frame)."""
+    m, c, p = dense.model, dense.cloud, dense.pair
+    blocks = shots * p.frame_blocks
+    dense._launch("drift_kernel", shots, [p, m.surfaces, m.physics, c])
+    dense._launch("frame_block_kernel", blocks, [p, m.physics, c])
+    dense._launch("framed_kernel", shots, [p, m.physics, c])
+    dense._launch("start_block_kernel", blocks, [p, m.surfaces, m.physics, c])
+    dense._launch("window_kernel", shots, [p, m.physics, c])
+
+
+def in_pieces(device, commands):
+    """Launch `commands` in order; with more than one (a large shot), wait for each and see
+    whether an interrupt came before the next, so none waits for the rest."""
+    for command in commands:
+        command.launch()
+        if len(commands) > 1:
+            wp.synchronize_device(device)
+            interrupts.check()
+
+
+def pieces(count: int, size: int) -> list[tuple[int, int]]:
+    """[begin, end) pieces of at most `size` covering range(count) (one, empty, for count 0)."""
+    return [(begin, min(begin + size, count)) for begin in range(0, max(count, 1), size)]
 
 
 def run_block(dense: DensePhase, commands):

@@ -61,10 +61,12 @@ def make_separation(spec) -> SimpleNamespace:
         return hit
 
     @wp.func
-    def separate_shot(s: wp.int32, first_index: wp.int32, pair: Pair, physics: Physics, source: Source, cloud: Cloud,
-                      out: Outputs, redraws: wp.array(dtype=wp.int32), heads: wp.array(dtype=wp.int32),
-                      chain: wp.array(dtype=wp.int32)):
-        """One thread per shot of sampled launches: its pellets in order, each redrawn
+    def separate_shot(s: wp.int32, begin: wp.int32, end: wp.int32, first_index: wp.int32, pair: Pair, physics: Physics,
+                      source: Source, cloud: Cloud, out: Outputs, redraws: wp.array(dtype=wp.int32),
+                      heads: wp.array(dtype=wp.int32), chain: wp.array(dtype=wp.int32)):
+        """One thread per shot of sampled launches: its pellets [begin, end) in order (a large
+        shot in pieces, one launch each, the same as in one: the buckets and `redraws` carry
+        over; the first piece begins at 0 and empties them), each redrawn
         (`launch.sampling.redraw_position`) while it overlaps an earlier one, then chained into the
         shot's cell buckets (`heads`: `heads.shape[0] / shots` a shot, a power of two; `chain`: one
         a pellet); `redraws[s]`: the most attempts a pellet took, MAX_REDRAWS + 1 when one still
@@ -77,10 +79,13 @@ def make_separation(spec) -> SimpleNamespace:
         table = heads.shape[0] / redraws.shape[0]
         base = s * table
         worst = wp.int32(0)
+        if begin > 0:
+            worst = redraws[s]
         if wp.static(SAMPLED):
-            for b in range(table):
-                heads[base + b] = -1
-            for k in range(pair.count):
+            if begin == 0:
+                for b in range(table):
+                    heads[base + b] = -1
+            for k in range(begin, wp.min(end, pair.count)):
                 i = first + k
                 if cloud.stop[0] != 0:  # an interrupt (the host abandons the chunk)
                     return

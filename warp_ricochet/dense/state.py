@@ -15,6 +15,7 @@ from ..launch.source import make_source
 from ..physics.ballistic import EPSILON, ROUNDING
 from ..physics.types import types_for
 from .constants import (
+    FRAME_BLOCK,
     NEVER_VALUE,
     NUM_CLOCK,
     NUM_FLAGS,
@@ -87,6 +88,15 @@ def make_state(precision: str):
         # shots
         drift_origin: wp.array(dtype=vec3)
         drift_velocity: wp.array(dtype=vec3)
+        # per block of a shot (dense.frame: shots x Pair.frame_blocks): its flying pellets' sums
+        # (position m, velocity m/s, speed m/s, squared distance from the frame's point m^2), their
+        # count, and the latest first contact among them (s)
+        frame_position: wp.array(dtype=vec3)
+        frame_velocity: wp.array(dtype=vec3)
+        frame_speed: wp.array(dtype=scalar)
+        frame_spread: wp.array(dtype=scalar)
+        frame_arrival: wp.array(dtype=scalar)
+        frame_flying: wp.array(dtype=wp.int32)
         clock: wp.array2d(dtype=scalar)  # (shots, NUM_CLOCK)
         shot_flags: wp.array2d(dtype=wp.int32)
         flags: wp.array(dtype=wp.int32)
@@ -100,6 +110,8 @@ def make_state(precision: str):
         """Pellet-pellet law and stepping parameters (SI)."""
 
         count: wp.int32  # pellets per shot
+        frame_block: wp.int32  # pellets a block of the frame sums (FRAME_BLOCK; dense.frame)
+        frame_blocks: wp.int32  # such blocks a shot
         mass: scalar  # kg
         inertia: scalar  # kg m^2
         restitution: scalar
@@ -146,9 +158,15 @@ INTEGERS = ("phase", "end_surface", "touching", "impacts", "last_slipped", "firs
 OUTPUT_FIELDS = tuple(name for name in COLLISION_FIELDS if name != "collisions.count")
 
 
-def allocate_cloud(precision: str, device, capacity: int, shots: int, rounds: int, max_neighbours: int, fields):
-    """A Cloud for up to `capacity` pellets in `shots` shots, with the output arrays of `fields`
-    (others empty); returns it and {field: its device array}."""
+def frame_blocks(count: int) -> int:
+    """Blocks of FRAME_BLOCK pellets in a shot of `count` (dense.frame)."""
+    return max(1, -(-count // FRAME_BLOCK))  # (FRAME_BLOCK read here: a test sets it smaller)
+
+
+def allocate_cloud(precision: str, device, capacity: int, shots: int, count: int, rounds: int, max_neighbours: int,
+                   fields):
+    """A Cloud for up to `capacity` pellets in `shots` shots of `count`, with the output arrays of
+    `fields` (others empty); returns it and {field: its device array}."""
     t = types_for(precision)
     kinds = {"vec3": t.vec3, "scalar": t.scalar}
 
@@ -172,6 +190,10 @@ def allocate_cloud(precision: str, device, capacity: int, shots: int, rounds: in
     for name, dtype in (("drift_origin", t.vec3), ("drift_velocity", t.vec3), ("step_travel", t.scalar),
                         ("half_skin", t.scalar)):
         setattr(cloud, name, arr(dtype, shots))
+    blocks = shots * frame_blocks(count)
+    for name, dtype in (("frame_position", t.vec3), ("frame_velocity", t.vec3), ("frame_speed", t.scalar),
+                        ("frame_spread", t.scalar), ("frame_arrival", t.scalar), ("frame_flying", wp.int32)):
+        setattr(cloud, name, arr(dtype, blocks))
     cloud.clock = arr(t.scalar, (shots, NUM_CLOCK))
     cloud.shot_flags = arr(wp.int32, (shots, NUM_SHOT_FLAGS))
     cloud.flags = arr(wp.int32, NUM_FLAGS)
@@ -186,6 +208,8 @@ def pair_struct(precision: str, model, collisions, count: int, block_steps: int)
     scalar = t.scalar
     pair = make_state(precision)[1]()
     pair.count = count
+    pair.frame_block = FRAME_BLOCK
+    pair.frame_blocks = frame_blocks(count)
     pair.mass = scalar(model.mass)
     pair.inertia = scalar(model.inertia)
     pair.restitution = scalar(collisions.restitution)
