@@ -195,12 +195,36 @@ def make_air_flight(precision: str, planes, laws: tuple) -> SimpleNamespace:
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
     stepper, dense, search = make_stepper(precision, laws), make_dense_output(precision), make_plane_search(precision, planes)
     LATEST, MAX_STEPS = scalar(MAX_FLIGHT_TIME), MAX_FLIGHT_STEPS
+    SPIN_CHANGES = laws[2] is not None
 
     @wp.func
-    def first_step(velocity: vec3, acceleration: vec3, physics: Physics):
-        """A first step of about tolerance^(1/5) of the time the speed takes to change by itself."""
-        speed = wp.length(velocity) + physics.air.speed_floor
-        return scalar(0.1) * wp.pow(physics.air.tolerance, scalar(0.2)) * speed / (wp.length(acceleration) + scalar(1e-30))
+    def scaled(velocity_part: vec3, spin_part: vec3, velocity: vec3, spin: vec3, physics: Physics):
+        """The step error's norm of a (velocity, spin) pair (`physics.integrate.step`): the larger
+        of each over tolerance x its scale (spin only where it changes)."""
+        air = physics.air
+        norm = wp.length(velocity_part) / (air.tolerance * (wp.length(velocity) + air.speed_floor))
+        if wp.static(SPIN_CHANGES):
+            norm = wp.max(norm, wp.length(spin_part) / (air.tolerance * (wp.length(spin) + air.speed_floor / air.radius)))
+        return norm
+
+    @wp.func
+    def first_step(velocity: vec3, spin: vec3, acceleration: vec3, spin_change: vec3, physics: Physics):
+        """The starting step of Hairer, Norsett & Wanner (Solving ODEs I, 2nd ed., II.4, p. 169;
+        SciPy's `select_initial_step`), in the step error's norm: d0 = |y|, d1 = |f(y)|, h0 =
+        0.01 d0 / d1, an explicit Euler step of h0 for d2 = |f(y + h0 f) - f(y)| / h0, then
+        min(100 h0, (0.01 / max(d1, d2))^(1/5)) (the error estimate's order 4, plus 1)."""
+        d0 = scaled(velocity, spin, velocity, spin, physics)
+        d1 = scaled(acceleration, spin_change, velocity, spin, physics)
+        h0 = scalar(1e-6)
+        if d0 >= scalar(1e-5) and d1 >= scalar(1e-5):
+            h0 = scalar(0.01) * d0 / d1
+        a1, c1 = stepper.rates(velocity + h0 * acceleration, spin + h0 * spin_change, physics)
+        d2 = scaled(a1 - acceleration, c1 - spin_change, velocity, spin, physics) / h0
+        largest = wp.max(d1, d2)
+        h1 = wp.max(scalar(1e-6), h0 * scalar(1e-3))
+        if largest > scalar(1e-15):
+            h1 = wp.pow(scalar(0.01) / largest, scalar(0.2))
+        return wp.min(scalar(100.0) * h0, h1)
 
     @wp.func
     def next_step(h: scalar, error: scalar):
@@ -222,7 +246,7 @@ def make_air_flight(precision: str, planes, laws: tuple) -> SimpleNamespace:
         if watched == 0 and waiting == 0 and latest >= LATEST:
             return scalar(NO_CONTACT), wp.int32(-1), position, velocity, spin, wp.int32(0)
         acceleration, spin_change = stepper.rates(velocity, spin, physics)
-        h = first_step(velocity, acceleration, physics)
+        h = first_step(velocity, spin, acceleration, spin_change, physics)
         time = scalar(0.0)
         steps = wp.int32(0)
         while steps < MAX_STEPS and time < latest:
@@ -259,7 +283,7 @@ def make_air_flight(precision: str, planes, laws: tuple) -> SimpleNamespace:
     def advance(position: vec3, velocity: vec3, spin: vec3, dt: scalar, physics: Physics):
         """The state dt (s) later, no contact looked for."""
         acceleration, spin_change = stepper.rates(velocity, spin, physics)
-        h = wp.min(first_step(velocity, acceleration, physics), dt)
+        h = wp.min(first_step(velocity, spin, acceleration, spin_change, physics), dt)
         time = scalar(0.0)
         steps = wp.int32(0)
         while time < dt and steps < MAX_STEPS:
