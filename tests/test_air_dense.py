@@ -131,9 +131,13 @@ def test_in_air_every_cpu_schedule_gives_the_same_bits(tmp_path):
                           ("kernels", DenseOptions(cpu_steps="kernels"))):
         stats = api.run(scene, output=tmp_path / f"{name}.h5", device="cpu", dense_options=options)
         assert stats["pair_collisions"] > 10
+    launched = []
     with pytest.MonkeyPatch.context() as patch:  # the horizon (leap bounds) and the separation in pieces
         patch.setattr(phase, "HORIZON_PAIRS_PER_LAUNCH", 4 * 120)
         patch.setattr(phase, "SEPARATION_PELLETS_PER_LAUNCH", 7)
+        launch = phase.DensePhase._launch
+        patch.setattr(phase.DensePhase, "_launch", lambda self, name, *a, **k: launched.append(name) or launch(self, name, *a, **k))
         api.run(scene, output=tmp_path / "pieces.h5", device="cpu", dense_options=DenseOptions(cpu_steps="kernels"))
+    assert launched.count("horizon_kernel") >= 8 and launched.count("separate_kernel") == 9  # (60 pellets: 30 partners)
     for name in ("block", "kernels", "pieces"):
         assert_same_run(tmp_path / f"{name}.h5", tmp_path / "one.h5", ["landing/position", "impact/velocity"], progress=())

@@ -60,8 +60,9 @@ CELL_MARGIN = 1.001  # cells this much wider than the distance they are for: rou
 LEAP_MAX_VALUE = 0.05
 TINY_ACCELERATION_VALUE = 1e-30  # m/s^2: a floor under air accelerations that divide
 # launches of bounded duration for large shots on CUDA (the host waits for each and checks for an
-# interrupt between them): a horizon launch covers at most about this many pairs, a separation
-# launch at most this many pellets a shot (shots smaller than that: one launch, as before)
+# interrupt between them): a horizon launch covers at most about this many pairs of the chunk (a
+# chunk of fewer pellets x count / 2: one launch, as before), a separation launch at most this
+# many pellets a shot (smaller shots: one launch)
 HORIZON_PAIRS_PER_LAUNCH = 1 << 30
 SEPARATION_PELLETS_PER_LAUNCH = 1 << 15
 # in air: a pellet's kick lasts at most this many steps (dense.air)
