@@ -16,3 +16,24 @@ def open_for_reading(path, **kwargs):
         if "already open for write" not in str(exc):
             raise
     return h5py.File(path, "r", swmr=True, **kwargs)
+
+
+def open_checked(path, shown: str):
+    """`open_for_reading(path)` for a user's path: a path that is no file, no HDF5 file, or that
+    HDF5 cannot open is refused in one line (OutputError, `shown`: the key and value, e.g.
+    "open_run path = 'x.h5'")."""
+    import os
+
+    import h5py
+
+    from ..errors import OutputError
+
+    path = os.fsdecode(path)
+    if not os.path.isfile(path):
+        raise OutputError(f"{shown}: " + ("is a directory" if os.path.isdir(path) else "does not exist"))
+    if not h5py.is_hdf5(path):
+        raise OutputError(f"{shown}: is not an HDF5 file")
+    try:
+        return open_for_reading(path)
+    except OSError as exc:
+        raise OutputError(f"{shown}: HDF5 cannot open it ({' '.join(str(exc).split())})") from None

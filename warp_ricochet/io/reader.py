@@ -20,6 +20,7 @@ import numpy as np
 from ..errors import OutputError
 from ..fields import FIELDS, GROUPS
 from .dimensions import RUN_DIMENSIONS, XYZ, field_dimensions
+from .h5open import open_checked
 
 __all__ = ["Run", "open_run", "DASK_ROWS"]
 
@@ -44,23 +45,6 @@ def _imports():
     return xarray, dask.array
 
 
-def _open(path: str) -> h5py.File:
-    """The file, read-only: with SWMR where its format has it (a running or killed run's .partial
-    opens only so), plainly otherwise (sweep files)."""
-    shown = f"open_run path = {path!r}"
-    if not os.path.isfile(path):
-        raise OutputError(f"{shown}: " + ("is a directory" if os.path.isdir(path) else "does not exist"))
-    if not h5py.is_hdf5(path):
-        raise OutputError(f"{shown}: is not an HDF5 file")
-    try:
-        return h5py.File(path, "r", swmr=True)
-    except OSError:
-        try:
-            return h5py.File(path, "r")
-        except OSError as exc:
-            raise OutputError(f"{shown}: HDF5 cannot open it ({' '.join(str(exc).split())})") from None
-
-
 def _variable(ds: h5py.Dataset, dims, data=None):
     xr, _ = _imports()
     attrs = {k: _text(ds.attrs[k]) for k in ("units", "description", "columns", "ci_low", "ci_high", "ci_method")
@@ -79,7 +63,7 @@ class Run:
     def __init__(self, path, *, point: int | None = None, chunk_rows: int = DASK_ROWS):
         xr, _ = _imports()
         self.path = os.fspath(path)
-        self.file = _open(self.path)
+        self.file = open_checked(self.path, f"open_run path = {self.path!r}")
         try:
             self.attrs = {k: _text(v) for k, v in self.file.attrs.items()}
             kind = self.attrs.get("kind")

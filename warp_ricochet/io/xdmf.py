@@ -36,6 +36,7 @@ import numpy as np
 
 from ..errors import OutputError
 from ..fields import FIELDS
+from .h5open import open_checked
 
 __all__ = ["sidecar_path", "write_xdmf", "xdmf_text"]
 
@@ -99,25 +100,11 @@ def _umask() -> int:
     return mask
 
 
-def _open(src: Path, shown: str) -> h5py.File:
-    if not src.is_file():
-        raise OutputError(f"{shown}: does not exist")
-    if not h5py.is_hdf5(src):
-        raise OutputError(f"{shown}: is not an HDF5 file")
-    try:
-        return h5py.File(src, "r")
-    except OSError:
-        try:  # the file of a killed writer opens only this way
-            return h5py.File(src, "r", swmr=True)
-        except OSError as exc:
-            raise OutputError(f"{shown}: HDF5 cannot open it ({' '.join(str(exc).split())})") from None
-
-
 def xdmf_text(path) -> str:
     """The XDMF document of the run or sweep file `path`, referring to it by its file name."""
     src = Path(os.fsdecode(path))
     shown = f"file = {str(src)!r}"
-    with _open(src, shown) as f:
+    with open_checked(src, shown) as f:
         if f.attrs.get("format") != "warp-ricochet" or f.attrs.get("kind") not in ("run", "sweep"):
             raise OutputError(f"{shown}: is not a warp-ricochet run or sweep file")
         root = ET.Element("Xdmf", Version="2.0")
