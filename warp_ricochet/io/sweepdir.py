@@ -170,7 +170,7 @@ class SweepFolder:
         import numpy as np
 
         from .runfile import OutputFile, move_into_place, publish_sidecar
-        from .writer import unit_of_key, write_stats
+        from .writer import unit_of_key, write_stats_table
 
         target = self.folder / ASSEMBLY
         with OutputFile(target, overwrite=True, kind="sweep", device=device, scene_toml=scene_toml, seed=seed,
@@ -182,7 +182,7 @@ class SweepFolder:
                 sw.create_dataset(key, data=table[:, j]).attrs["units"] = unit_of_key(key)
             sw.attrs["parameters"] = list(points.keys)
             sw.attrs["tied"] = [t[0] for t in points.ties]
-            for i, point_stats in enumerate(stats):
+            for i in range(len(stats)):
                 source = self.point(i)
                 out.reserve(os.path.getsize(source), "the sweep file")
                 with h5py.File(source, "r") as src:  # the whole root at once: references within it (dimension
@@ -192,8 +192,8 @@ class SweepFolder:
                 for name in FILE_ATTRIBUTES:  # the run file's own, not a run group's (io.runfile.OutputFile)
                     if name in group.attrs:
                         del group.attrs[name]
-                write_stats(out.h5, point_stats, index=i, size=len(stats))
                 out.h5.flush()
+            write_stats_table(out.h5, stats)
             point_intervals(out.h5, len(stats))
         move_into_place(target, self.path, overwrite)
         publish_sidecar(self.path, overwrite)

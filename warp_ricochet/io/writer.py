@@ -251,19 +251,28 @@ def unit_of_key(key: str) -> str:
     return _KEY_UNITS.get(key.rsplit(".", 1)[-1], "see the scene key")
 
 
-def write_stats(group: h5py.Group, stats: dict, index=None, size=None):
-    """Write statistics under `group/stats`: scalars, or element `index` of arrays of `size`."""
+def write_stats(group: h5py.Group, stats: dict):
+    """Write a run's statistics under `group/stats`, as scalars."""
     g = group.require_group("stats")
     for name, value in stats.items():
+        ds = g.require_dataset(name, shape=(), dtype="f8")  # a run's writer made it (SWMR: no new objects)
+        ds[()] = float(value)
+        _describe(ds, name)
+
+
+def write_stats_table(group: h5py.Group, stats: list[dict]):
+    """Write the statistics of a sweep's points under `group/stats`: one array each, a value a
+    point (NaN where a point has none), written once, on the dimension `point`."""
+    g = group.require_group("stats")
+    for name in dict.fromkeys(name for point in stats for name in point):  # (in order of first appearance)
+        values = np.array([float(point.get(name, np.nan)) for point in stats], dtype=np.float64)
+        _describe(g.create_dataset(name, data=values, fillvalue=np.nan), name)
+    name_sweep_dimensions(group)
+
+
+def _describe(ds: h5py.Dataset, name: str):
+    """A statistic's units and description (`STAT_UNITS`), once."""
+    if "units" not in ds.attrs:
         unit, doc = STAT_UNITS[name]
-        if index is None:
-            ds = g.require_dataset(name, shape=(), dtype="f8")  # a run's writer made it (SWMR: no new objects)
-            ds[()] = float(value)
-        else:
-            ds = g.require_dataset(name, shape=(size,), dtype="f8", fillvalue=np.nan)
-            ds[index] = float(value)
-        if "units" not in ds.attrs:
-            ds.attrs["units"] = unit
-            ds.attrs["description"] = doc
-    if index is not None:
-        name_sweep_dimensions(group)
+        ds.attrs["units"] = unit
+        ds.attrs["description"] = doc
