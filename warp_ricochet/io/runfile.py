@@ -48,10 +48,7 @@ from .h5open import open_for_reading
 from .space import Reservation
 from .xdmf import check_sidecar, sidecar_path, write_xdmf
 
-try:
-    import fcntl
-except ImportError:  # Windows: no process lock (HDF5's own file locking still applies to sweeps)
-    fcntl = None
+from .locks import share, try_lock
 
 ABANDONED = False  # a file could not be closed: the HDF5 library must not run its exit handlers
 
@@ -94,19 +91,14 @@ def check_output_path(path, overwrite: bool) -> Path:
 def in_use(path: Path) -> bool:
     """Whether another process holds a lock on `path` (a partial file or a sweep's folder): a run or
     sweep writing it (flock, see `_PartialLock`, `io.sweepdir`) or an HDF5 reader."""
-    if fcntl is None:
-        return False
     try:
         fd = os.open(path, os.O_RDONLY)
     except OSError:
         return False
     try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except OSError:
-        return True
+        return not try_lock(fd)
     finally:
         os.close(fd)
-    return False
 
 
 def output_target(path) -> Path:
@@ -146,17 +138,13 @@ class _PartialLock:
             self.fd = os.open(partial, os.O_RDWR)
         except OSError as exc:
             raise OutputError(f"{shown}: {partial.name} cannot be opened ({exc.strerror})") from None
-        if fcntl is None:
-            return
-        try:
-            fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
+        if not try_lock(self.fd):
             self.release()
-            raise in_use_error(shown, partial.name) from None
+            raise in_use_error(shown, partial.name)
 
     def share(self):
-        if self.fd is not None and fcntl is not None:
-            fcntl.flock(self.fd, fcntl.LOCK_SH)
+        if self.fd is not None:
+            share(self.fd)
 
     def release(self):
         if self.fd is not None:

@@ -28,10 +28,7 @@ from pathlib import Path
 from ..errors import OutputError, SceneError, in_use_error
 from ..scene.keys import _Shown
 
-try:
-    import fcntl
-except ImportError:  # Windows: no process lock
-    fcntl = None
+from .locks import try_lock
 
 MANIFEST = "sweep.json"
 ASSEMBLY = "sweep.h5"
@@ -67,13 +64,9 @@ def lock_folder(folder: Path, shown: str) -> int | None:
     """Hold an exclusive process lock on the folder (returns its descriptor), or refuse in one line
     when another process holds it."""
     fd = os.open(folder, os.O_RDONLY)
-    if fcntl is None:
-        return fd
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except OSError:
+    if not try_lock(fd):
         os.close(fd)
-        raise in_use_error(shown, folder.name) from None
+        raise in_use_error(shown, folder.name)
     return fd
 
 

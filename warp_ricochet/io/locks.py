@@ -1,0 +1,27 @@
+"""Process locks (flock) on run files and sweep folders: a second run, resume or sweep of the same
+output is refused while one holds it, and the system drops a lock when its process dies."""
+
+from __future__ import annotations
+
+try:
+    import fcntl
+except ImportError:  # Windows: no process lock (HDF5's own file locking still applies to sweeps)
+    fcntl = None
+
+
+def try_lock(fd: int) -> bool:
+    """Take an exclusive lock on the open descriptor `fd` without waiting: False when another
+    process holds one (True where there is no flock)."""
+    if fcntl is None:
+        return True
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        return False
+    return True
+
+
+def share(fd: int) -> None:
+    """Turn the lock held on `fd` into a shared one (SWMR readers take shared locks)."""
+    if fcntl is not None:
+        fcntl.flock(fd, fcntl.LOCK_SH)
