@@ -11,6 +11,7 @@ import os
 from importlib import resources
 
 from ..errors import OutputError, SceneError
+from ..io.atomic import replaced
 
 __all__ = ["examples", "example_text", "write_example"]
 
@@ -56,14 +57,8 @@ def write_example(text: str, path, overwrite: bool = False) -> None:
         raise OutputError(f"output path = {path!r}: is a folder; give a file name such as {path}/scene.toml")
     if os.path.lexists(path) and not overwrite:
         raise OutputError(f"output path = {path!r}: exists; give --overwrite to replace it")
-    tmp = os.path.join(os.path.dirname(path) or ".", f".{os.path.basename(path)}.tmp")
     try:
-        with open(tmp, "w", encoding="utf-8") as f:
+        with replaced(path) as tmp, open(tmp, "w", encoding="utf-8") as f:
             f.write(text)
-        os.replace(tmp, path)
     except OSError as exc:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
         raise OutputError(f"output path = {path!r}: cannot be written ({exc.strerror or exc})") from None

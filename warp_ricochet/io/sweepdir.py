@@ -28,6 +28,7 @@ from pathlib import Path
 from ..errors import OutputError, SceneError, in_use_error
 from ..scene.keys import _Shown
 
+from .atomic import replaced
 from .locks import try_lock
 
 MANIFEST = "sweep.json"
@@ -144,9 +145,8 @@ class SweepFolder:
         except FileExistsError:
             raise OutputError(f"{shown}: {folder.name} appeared meanwhile (another sweep?)") from None
         self.fd = lock_folder(folder, shown)
-        new = folder / (MANIFEST + ".new")
-        new.write_text(json.dumps(self.manifest, indent=1))
-        os.replace(new, folder / MANIFEST)
+        with replaced(folder / MANIFEST) as tmp:
+            Path(tmp).write_text(json.dumps(self.manifest, indent=1))
 
     def point(self, index: int) -> Path:
         return self.folder / (point_name(index) + ".h5")

@@ -18,6 +18,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import RicochetError
+from ..io.atomic import replaced
 from ..io.h5open import open_for_reading
 from . import figures, hazard_plots, plotdata
 from .compare import file_label
@@ -318,14 +319,8 @@ def write_plots(paths, outdir=None, overwrite=False) -> list[tuple[str, str | No
 
 def _save(fig, png) -> None:
     """Write the PNG beside its place, then move it there: a failed write leaves no partial PNG."""
-    tmp = os.path.join(os.path.dirname(png), f".{os.path.basename(png)}.tmp")
-    try:
+    with replaced(png) as tmp:
         fig.savefig(tmp, dpi=DPI, format="png")
-        os.replace(tmp, png)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
 
 
 def _labels(paths, results) -> dict:
