@@ -2,6 +2,15 @@
 
 from __future__ import annotations
 
+FORMAT_NAME = "warp-ricochet"  # the root attribute `format` of run and sweep files
+KINDS = ("run", "sweep")  # their root attribute `kind`
+
+
+def file_kind(attrs) -> str | None:
+    """"run" or "sweep" for the root attributes (text) of a warp-ricochet output file, else None."""
+    kind = attrs.get("kind")
+    return kind if attrs.get("format") == FORMAT_NAME and kind in KINDS else None
+
 
 def open_for_reading(path, **kwargs):
     """`h5py.File(path, "r")`; a file whose writer died with it open for writing (SWMR: HDF5 refuses

@@ -20,7 +20,7 @@ import numpy as np
 from ..errors import OutputError
 from ..fields import FIELDS, GROUPS
 from .dimensions import RUN_DIMENSIONS, XYZ, field_dimensions
-from .h5open import open_checked
+from .h5open import file_kind, open_checked
 
 __all__ = ["Run", "open_run", "DASK_ROWS"]
 
@@ -67,7 +67,7 @@ class Run:
         try:
             self.attrs = {k: _text(v) for k, v in self.file.attrs.items()}
             kind = self.attrs.get("kind")
-            if self.attrs.get("format") != "warp-ricochet" or kind not in ("run", "sweep"):
+            if file_kind(self.attrs) is None:
                 raise OutputError(f"open_run path = {self.path!r}: is not a warp-ricochet run or sweep file "
                                   f"(format = {self.attrs.get('format')!r}, kind = {kind!r})")
             self.points = 0

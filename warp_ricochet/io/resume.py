@@ -38,7 +38,7 @@ from ..tallies.collisions import SHOT_TOTALS
 from ..tallies.ensemble import has_ensemble, pieces_per_shot
 from ..tallies.reduce import SEGMENT, SEGMENT_WIDTH
 from . import tally_out
-from .runfile import FORMAT_NAME
+from .h5open import file_kind
 
 
 def _text(value):
@@ -72,7 +72,7 @@ def verify(f, scene, dev, partial_name: str) -> tuple[int, int, int, int]:
     complete, chunk size, segments complete, shots complete (pair collisions; else 0)). Raises
     SceneError / OutputError (one line)."""
     attrs = {k: _text(v) for k, v in f.attrs.items()}
-    if attrs.get("format") != FORMAT_NAME or attrs.get("kind") != "run":
+    if file_kind(attrs) != "run":
         raise OutputError(f"output path = {partial_name!r}: is not a warp-ricochet run file (format = "
                           f"{attrs.get('format')!r}, kind = {attrs.get('kind')!r}); it cannot be resumed")
     if "progress" not in f:

@@ -36,7 +36,7 @@ import numpy as np
 
 from ..errors import OutputError
 from ..fields import FIELDS
-from .h5open import open_checked
+from .h5open import file_kind, open_checked
 
 __all__ = ["sidecar_path", "write_xdmf", "xdmf_text"]
 
@@ -105,7 +105,7 @@ def xdmf_text(path) -> str:
     src = Path(os.fsdecode(path))
     shown = f"file = {str(src)!r}"
     with open_checked(src, shown) as f:
-        if f.attrs.get("format") != "warp-ricochet" or f.attrs.get("kind") not in ("run", "sweep"):
+        if file_kind(f.attrs) is None:
             raise OutputError(f"{shown}: is not a warp-ricochet run or sweep file")
         root = ET.Element("Xdmf", Version="2.0")
         domain = ET.SubElement(root, "Domain")

@@ -16,7 +16,7 @@ import os
 from dataclasses import dataclass, field
 
 from ..errors import RicochetError, hdf5_reason
-from ..io.h5open import open_for_reading
+from ..io.h5open import FORMAT_NAME, KINDS, open_for_reading
 from ..tallies.ensemble import STAT_KIND
 from ..tallies.sums import STAT_UNITS
 from .hazard_tables import from_file, from_run, tally_lines
@@ -25,7 +25,6 @@ from .papercheck import differences, row_scene
 
 __all__ = ["ReportError", "Results", "read_results", "results_from_sweep", "format_tables", "format_run_summary"]
 
-FORMAT_NAME = "warp-ricochet"  # the root attribute `format` (writer.FORMAT_NAME; writer imports warp)
 NA = "n/a"
 
 
@@ -123,7 +122,7 @@ def _read_open_file(f, path, np) -> Results:
         raise ReportError(path, "is not a warp-ricochet output file (root attribute format = "
                           f"{found!r}, expected {FORMAT_NAME!r})")
     kind = attrs.get("kind")
-    if kind not in ("run", "sweep"):
+    if kind not in KINDS:
         raise ReportError(path, f"has kind = {kind!r}; expected 'run' or 'sweep'")
     status = attrs.get("status", "unknown")
     stats_group = f.get("stats")
