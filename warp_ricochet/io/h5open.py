@@ -46,3 +46,19 @@ def open_checked(path, shown: str):
         return open_for_reading(path)
     except OSError as exc:
         raise OutputError(f"{shown}: HDF5 cannot open it ({' '.join(str(exc).split())})") from None
+
+
+def rows_final(group, refresh: bool = False) -> int:
+    """Rows final in a run group's per-pellet datasets: /progress/rows (an unfinished file's; read
+    after a SWMR refresh with `refresh`, so the datasets read next are never shorter), else its
+    pellet count (0 without one)."""
+    import numpy as np
+
+    progress = group.get("progress/rows")
+    if progress is None:
+        progress = group.get("constants/pellets")
+        if progress is None:
+            return 0
+    elif refresh:
+        progress.refresh()
+    return int(np.asarray(progress[()]).reshape(-1)[0])

@@ -20,7 +20,7 @@ import numpy as np
 from ..errors import OutputError
 from ..fields import FIELDS, GROUPS
 from .dimensions import RUN_DIMENSIONS, XYZ, field_dimensions
-from .h5open import file_kind, open_checked
+from .h5open import file_kind, open_checked, rows_final
 
 __all__ = ["Run", "open_run", "DASK_ROWS"]
 
@@ -77,10 +77,7 @@ class Run:
             self.attrs.update({k: _text(v) for k, v in group.attrs.items()})
             self.status = self.attrs.get("status")
             self.pellets = int(group["constants/pellets"][()]) if "constants/pellets" in group else 0
-            progress = group.get("progress/rows")
-            if progress is not None:
-                progress.refresh()  # first the count, then the datasets (SWMR: never shorter than it)
-            self.rows = int(progress[()]) if progress is not None else self.pellets
+            self.rows = rows_final(group, refresh=True)  # (first the count, then the datasets)
             self.groups = {}
             pellets = group.get("pellets", {})
             for name in GROUPS:

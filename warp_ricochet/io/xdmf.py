@@ -36,7 +36,7 @@ import numpy as np
 
 from ..errors import OutputError
 from ..fields import FIELDS
-from .h5open import file_kind, open_checked
+from .h5open import file_kind, open_checked, rows_final
 
 __all__ = ["sidecar_path", "write_xdmf", "xdmf_text"]
 
@@ -121,18 +121,11 @@ def xdmf_text(path) -> str:
 # ------------------------------------------------------------------------------------------ one run
 
 
-def _rows(group) -> int:
-    """Rows final in every per-pellet dataset: all of them when complete, else /progress/rows."""
-    if "progress/rows" in group:
-        return int(group["progress/rows"][()])
-    return int(group["constants/pellets"][()])
-
-
 def _run(parent, group, h5name: str, name: str, suffix: str) -> None:
     """A spatial collection `name` of the run's point clouds, surfaces and frames; each grid's name
     ends in `suffix` (ParaView's block names are unique). A run file's one collection is the
     reader's root: its blocks are /Root/landing ... in ParaView."""
-    rows = _rows(group)
+    rows = rows_final(group)
     run = ET.SubElement(parent, "Grid", Name=name, GridType="Collection", CollectionType="Spatial")
     ref = _Refs(group, h5name)
     extras = [n for n in EXTRAS if FIELDS[n].path in group]

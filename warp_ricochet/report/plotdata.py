@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..io.h5open import rows_final
+
 __all__ = ["MAX_ROWS", "Landings", "read_landings", "rows_final", "top_view", "axis_name", "scene_dict"]
 
 MAX_ROWS = 5_000_000  # per-pellet rows read for a plot: the first ones, a random sample (pellet i depends only
@@ -21,14 +23,6 @@ MAX_ROWS = 5_000_000  # per-pellet rows read for a plot: the first ones, a rando
 def _value(group, path, default=None):
     ds = group.get(path)
     return default if ds is None else ds[()]
-
-
-def rows_final(group) -> int:
-    """Rows complete in `group`'s per-pellet datasets: /progress/rows, else the pellet count."""
-    rows = _value(group, "progress/rows")
-    if rows is None:
-        rows = _value(group, "constants/pellets", 0)
-    return int(np.asarray(rows).reshape(-1)[0])
 
 
 def scene_dict(group) -> dict:
