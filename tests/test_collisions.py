@@ -584,6 +584,7 @@ def test_a_shot_in_several_frame_blocks_takes_its_mean_and_the_same_bits_on_ever
     of its pellets (float64 NumPy), and the CPU's one-launch phase and the per-step kernels (CUDA's
     path: a thread a block) give the same bits."""
     from warp_ricochet.dense import state
+    from warp_ricochet.dense.constants import SHOT_FRAME
     from warp_ricochet.dense.phase import DensePhase, start_shots
     from warp_ricochet.launch.source import PelletSource
     from warp_ricochet.model import Model, State
@@ -599,7 +600,7 @@ def test_a_shot_in_several_frame_blocks_takes_its_mean_and_the_same_bits_on_ever
     x, v = dense.cloud.position.numpy().reshape(3, 60, 3), dense.cloud.velocity.numpy().reshape(3, 60, 3)
     np.testing.assert_allclose(dense.cloud.drift_origin.numpy(), x.mean(axis=1), rtol=1e-14, atol=1e-15)
     np.testing.assert_allclose(dense.cloud.drift_velocity.numpy(), v.mean(axis=1), rtol=1e-14, atol=1e-12)
-    assert np.all(dense.cloud.shot_flags.numpy()[:, 5] == 0)  # (SHOT_FRAME: taken)
+    assert np.all(dense.cloud.shot_flags.numpy()[:, SHOT_FRAME] == 0)  # taken
     one = _write(scene, tmp_path / "one.h5", "cpu", DenseOptions())
     kernels = _write(scene, tmp_path / "kernels.h5", "cpu", DenseOptions(cpu_steps="kernels"))
     assert one[1]["pair_collisions"] > 10

@@ -31,7 +31,6 @@ import tempfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-import h5py
 import numpy as np
 
 from ..errors import OutputError

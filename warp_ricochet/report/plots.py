@@ -273,8 +273,6 @@ def write_plots(paths, outdir=None, overwrite=False) -> list[tuple[str, str | No
     """Draw every registered plot of the input files into `outdir` (default: the first file's folder).
     Returns [(png path, None if written else why not)]. Refuses in one line, before drawing anything,
     a missing matplotlib, an unreadable input and an existing PNG unless `overwrite`."""
-    import h5py
-
     figure_class = require_matplotlib()
     paths = [os.fspath(p) for p in paths]
     outdir = os.fspath(outdir) if outdir is not None else (os.path.dirname(paths[0]) or ".")
