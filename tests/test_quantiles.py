@@ -158,7 +158,7 @@ def test_counting_into_several_copies_gives_the_same_counts(monkeypatch):
     raw["shot"]["count"] = 3000
     scene = make_scene(raw, hazard={"map_cell": 1.0, "map_extent": [100.0, 140.0, -20.0, 20.0]})
     one = wr.run(scene, device="cpu").tally
-    monkeypatch.setattr(counts, "copies_for", lambda device, nbytes: 5)
+    monkeypatch.setattr(counts, "copies_for", lambda device, nbytes: 8)
     several = wr.run(scene, device="cpu").tally
     assert one.hist.sum() > 0 and one.map_counts.sum() > 0
     np.testing.assert_array_equal(several.flat(), one.flat())

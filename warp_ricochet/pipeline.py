@@ -120,13 +120,13 @@ class CoreStage:
         """Launch the chunk's kernels; returns (segments, shots) of results to copy."""
         m = self.model
         self.source.load(start, rows)
-        self.tally.zero()
+        self.tally.before_chunk()
         wp.launch(self.kernel, dim=threads_for(rows),
                   inputs=[start, rows, self.source.struct, m.surfaces, m.physics, self.state.outputs, self.release,
                           self.tally.struct],
                   outputs=[self.state.partial_sums, self.state.partial_min, self.state.partial_max],
                   device=m.device, block_dim=CUDA_BLOCK_DIM)
-        self.tally.reduce()
+        self.tally.fold()
         return launch_reduce(self.state, rows, m.device), 0
 
     def shot_rows(self, start: int, rows: int):
@@ -169,13 +169,13 @@ class CollisionStage:
         self.dense.run(start, shots, self.source.struct, self.state.outputs, frames=self.frames)
         interrupts.check()  # (before the core kernel's pass over the chunk)
         slots = shots * self.stride
-        self.tally.zero()
+        self.tally.before_chunk()
         wp.launch(self.kernel, dim=threads_for(slots),
                   inputs=[0, slots, self.source.struct, m.surfaces, m.physics, self.state.outputs, self.dense.release,
                           self.tally.struct],
                   outputs=[self.state.partial_sums, self.state.partial_min, self.state.partial_max],
                   device=m.device, block_dim=CUDA_BLOCK_DIM)
-        self.tally.reduce()
+        self.tally.fold()
         return launch_reduce(self.state, slots, m.device), shots
 
     def shot_rows(self, start: int, rows: int):
@@ -204,31 +204,34 @@ class HostSlot:
         self.arrays = {name: like(arr, name) for name, arr in stage.arrays.items()}
         self.segments = like(stage.state.segments, "segments")
         self.totals = None if stage.totals is None else like(stage.totals, "shot_totals")
-        self.tally = {name: like(arr, "tally_" + name) for name, arr in stage.tally.arrays.items()}
+        self.tally = {name: like(arr, "tally_" + name) for name, arr in stage.tally.totals.items()}
         self.rows = self.segment_count = self.shots = 0
-        self.event, self.shot_rows = None, None
+        self.event, self.shot_rows, self.with_tally = None, None, False
 
-    def fill(self, stage, rows: int, segments: int, shots: int):
-        """Enqueue the copies of a computed chunk's results (element counts: contiguous rows)."""
+    def fill(self, stage, rows: int, segments: int, shots: int, with_tally: bool):
+        """Enqueue the copies of a computed chunk's results (element counts: contiguous rows) and,
+        `with_tally`, of the landing counts so far."""
         for name, arr in stage.arrays.items():
             wp.copy(self.arrays[name], arr, count=rows * (arr.size // arr.shape[0]))
         wp.copy(self.segments, stage.state.segments, count=segments * stage.state.segments.shape[1])
         if shots:
             wp.copy(self.totals, stage.totals, count=shots * stage.totals.shape[1])
-        for name, arr in stage.tally.arrays.items():
-            if arr.size:
-                wp.copy(self.tally[name], arr)
-        self.rows, self.segment_count, self.shots = rows, segments, shots
+        if with_tally:
+            for name, arr in stage.tally.totals.items():
+                if arr.size:
+                    wp.copy(self.tally[name], arr)
+        self.rows, self.segment_count, self.shots, self.with_tally = rows, segments, shots, with_tally
         device = stage.model.device
         self.event = device.stream.record_event() if device.is_cuda else None
 
     def results(self):
-        """(per-pellet arrays, segment results, shot totals, landing counts) once the copies are done."""
+        """(per-pellet arrays, segment results, shot totals, landing counts so far or None) once the
+        copies are done."""
         if self.event is not None:
             wp.synchronize_event(self.event)
         totals = self.totals.numpy()[: self.shots].copy() if self.shots else None
         return ({name: arr.numpy() for name, arr in self.arrays.items()}, self.segments.numpy()[: self.segment_count],
-                totals, {name: arr.numpy() for name, arr in self.tally.items()})
+                totals, {name: arr.numpy() for name, arr in self.tally.items()} if self.with_tally else None)
 
 
 def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=None, options=None, frames=None) -> dict:
@@ -280,14 +283,17 @@ def _loop(stage, pellets, sink, resumed, progress):
     landing counts (None when not counted) and the per-shot partials (`core.shots`), in shot order."""
     totals, tables, pieces, done = empty_totals(), [], [], 0
     tally = TallyTotals(stage.tally.setup) if stage.tally.active else None
+    loaded = None  # the resumed run's landing counts
     if resumed is not None and resumed.rows:
         totals, done = combine(totals, resumed.segment_results), resumed.rows
         if resumed.shot_totals is not None:
             tables.append(resumed.shot_totals)
         if tally is not None and resumed.tally is not None:
-            tally.load(resumed.tally)
+            loaded = tally.load(resumed.tally)
         if resumed.shot_partials is not None:
             pieces.append(resumed.shot_partials)
+    if tally is not None:
+        stage.tally.start(loaded)
     cuda = stage.model.device.is_cuda
     slots = [HostSlot(stage, pinned=cuda, index=i) for i in range(2 if cuda else 1)]
 
@@ -297,8 +303,8 @@ def _loop(stage, pellets, sink, resumed, progress):
         totals = combine(totals, segment_results)
         if shot_totals is not None:
             tables.append(shot_totals)
-        if tally is not None:
-            tally.add(counts)
+        if tally is not None and counts is not None:
+            tally.set(counts)
         if slot.shot_rows is not None:
             pieces.append(slot.shot_rows)
         if sink is not None:
@@ -316,12 +322,14 @@ def _loop(stage, pellets, sink, resumed, progress):
         if pending is slot:  # CPU: one slot, consume before reuse
             consume(pending)
             pending = None
-        slot.fill(stage, rows, segments, shots)
+        slot.fill(stage, rows, segments, shots, with_tally=sink is not None)
         slot.shot_rows = shot_rows
         if pending is not None:
             consume(pending)  # host work on the previous chunk while the device runs this one
         pending = slot
     if pending is not None:
         consume(pending)
+    if tally is not None and sink is None:  # (a sink had them chunk by chunk)
+        stage.tally.fetch(tally)
     interrupts.check()
     return totals, tables, tally, pieces

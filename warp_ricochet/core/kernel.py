@@ -10,7 +10,8 @@ import warp as wp
 from ..launch.source import make_source
 from ..physics.types import types_for
 from ..tallies.accumulate import make_accumulators
-from ..tallies.landing import make_landing_tally
+from ..tallies.block import BEGIN
+from ..tallies.landing import make_add_landing, make_landing_tally
 from ..tallies.reduce import LANES, PER_THREAD, SEGMENT
 from .outputs import make_outputs
 from .pellet import make_ricochet_pellet
@@ -32,7 +33,8 @@ def ricochet_kernel_for(spec, max_registers="default"):
     scalar, Surfaces, Physics = t.scalar, t.Surfaces, t.Physics
     Source, Outputs, Release = make_source(spec.precision, spec.from_file).Source, make_outputs(spec.precision).Outputs, make_release(spec.precision)
     acc_fns, ricochet_pellet = make_accumulators(spec.precision), make_ricochet_pellet(spec)
-    Tally = make_landing_tally(spec.precision).Tally
+    Tally, landing = make_landing_tally(spec.precision).Tally, make_add_landing(spec.precision, spec.hazard_map)
+    TABLE = spec.hazard_map  # the map's block table (`tallies.block`)
     floats_t, extremes_t, inf = acc_fns.floats_t, acc_fns.extremes_t, acc_fns.inf
     RELEASE = spec.collisions
     lanes, per_thread, segment = LANES, PER_THREAD, SEGMENT
@@ -63,6 +65,8 @@ def ricochet_kernel_for(spec, max_registers="default"):
         lo = extremes_t(inf)
         hi = extremes_t(-inf)
         range_shift = scalar(0.0)
+        if wp.static(TABLE):  # every thread of the block: launches cover whole blocks
+            landing.table(BEGIN, 0, wp.int64(0))
         for j in range(per_thread):
             row = group * segment + j * lanes + lane
             if row < count:
@@ -76,6 +80,8 @@ def ricochet_kernel_for(spec, max_registers="default"):
                 else:
                     counts, acc, lo, hi, range_shift = ricochet_pellet(
                         first_index + row, row, source, surfaces, physics, out, release, tally, counts, acc, lo, hi, range_shift)
+        if wp.static(TABLE):
+            landing.flush(tally)
         acc_fns.store_partials(tid, counts, acc, lo, hi, range_shift, partial_sums, partial_min, partial_max)
 
     return ricochet_kernel

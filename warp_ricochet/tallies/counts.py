@@ -1,6 +1,7 @@
 """The landing tallies of a run on the host: their constants from the scene (`TallySetup`), their
-device arrays and struct (`DeviceTally`, zeroed before each chunk) and the run's running totals
-(`TallyTotals`, int64, added chunk by chunk: integer sums, so the same for any chunk size).
+device arrays and struct (`DeviceTally`: a chunk's counts, added to the run's int64 totals on the
+device after each chunk) and those totals on the host (`TallyTotals`). Integer sums: the same for
+any chunk size and after --resume.
 What is counted, and how, is `tallies.landing`; what the counts mean, docs/hazard.md.
 """
 
@@ -105,38 +106,59 @@ def _map_geometry(scene, hazard, shooter) -> dict:
                 map_nv=math.ceil((v1 - v0) / cell - 1e-9))
 
 
-CUDA_COPIES = 256  # copies of the counts on CUDA (see `tallies.landing`)
-MAX_COPY_BYTES = 1 << 30  # at most this much device memory for the copies of each array
+CUDA_COPIES = 256  # copies of the histograms on CUDA (see `tallies.landing`), a power of two
+MAX_COPY_BYTES = 1 << 30  # at most this much device memory for the copies
 
 
 def copies_for(device, nbytes: int) -> int:
-    """How many copies of an array of `nbytes` a device counts into."""
-    return max(1, min(CUDA_COPIES, MAX_COPY_BYTES // max(nbytes, 1))) if device.is_cuda else 1
+    """How many copies (a power of two) of histograms of `nbytes` a device counts into."""
+    if not device.is_cuda:
+        return 1
+    most = max(1, min(CUDA_COPIES, MAX_COPY_BYTES // max(nbytes, 1)))
+    return 1 << (most.bit_length() - 1)
 
 
-_POOL: dict = {}  # (device, role) -> CUDA array kept between runs (allocating 200 MB costs a run ~0.5 ms)
+_POOL: dict = {}  # device arrays and pinned host arrays kept between runs (allocating 200 MB costs a run ~0.5 ms)
+_CLEAN: set = set()  # the pooled count arrays known to be all zero (`DeviceTally.fold` leaves them so)
 
 
-def _buffer(device, role: str, shape, dtype):
-    """A device array of `shape`; on CUDA the one kept for `role` if it has that shape and dtype (its
-    contents are zeroed before each chunk, `DeviceTally.zero`, or overwritten whole, `reduce`; one
-    CUDA run at a time: pipeline._DEVICE_LOCK), else a new one that replaces it: one array a role."""
+def _buffer(device, role: str, size: int, dtype):
+    """A device array of `size`; on CUDA the one kept for `role` if it has that size and dtype (one
+    CUDA run at a time: pipeline._DEVICE_LOCK), else a new one, zeroed, that replaces it."""
     import warp as wp
 
-    if not device.is_cuda:
-        return wp.zeros(shape, dtype=dtype, device=device)
+    if not device.is_cuda or not size:  # (an inactive tally leaves the kept arrays to the next run)
+        return wp.zeros(size, dtype=dtype, device=device)
     key = (str(device), role)
     kept = _POOL.get(key)
-    if kept is None or kept.shape != tuple(shape) or kept.dtype != dtype:
+    if kept is None or kept.shape != (size,) or kept.dtype != dtype:
         _POOL[key] = None  # (freed before the new one is made)
-        _POOL[key] = wp.zeros(shape, dtype=dtype, device=device)
+        _POOL[key] = wp.zeros(size, dtype=dtype, device=device)
+        _CLEAN.add(key)
+    return _POOL[key]
+
+
+SPARSE_CAPACITY = 1 << 16  # nonzero totals a run's end fetches as (index, value) pairs (`host_totals`)
+
+
+def _pinned(device, arrays: dict) -> dict:
+    """Host arrays like `arrays` ({name: device array}), pinned on CUDA and kept between runs."""
+    import warp as wp
+
+    key = (str(device), tuple((name, arr.shape, arr.dtype) for name, arr in arrays.items()))
+    if key not in _POOL:
+        _POOL[key] = {name: wp.empty(arr.shape, dtype=arr.dtype, device="cpu", pinned=device.is_cuda)
+                      for name, arr in arrays.items()}
     return _POOL[key]
 
 
 class DeviceTally:
-    """The device arrays of the landing tallies and the kernels' `Tally` struct over their copies
-    (empty arrays when the run counts nothing: `active` false). After a chunk's kernel, `reduce`
-    sums the copies into `arrays`, the counts the host copies back."""
+    """The device arrays of the landing tallies and the kernels' `Tally` struct over them (empty
+    arrays when the run counts nothing: `active` false): the counts of a chunk (int32, the
+    histograms in copies), which `fold` adds to the run's totals on the device (`totals`, int64,
+    flat: what the host copies back) and sets to zero again, so no chunk needs its own zeroing."""
+
+    COUNTS = ("hist", "map_counts", "map_energy")
 
     def __init__(self, setup: TallySetup, precision: str, device, active: bool):
         import warp as wp
@@ -148,17 +170,20 @@ class DeviceTally:
         self.setup, self.active, self.device = setup, active, device
         levels, width = setup.levels, setup.cells + 2
         mapped = active and setup.has_map
-        shapes = {"hist": (ROW_DISTANCE + levels, BINS) if active else (0, 0),
-                  "map_counts": (levels, width) if mapped else (0, 0), "map_energy": (width,) if mapped else (0,)}
+        sizes = {"hist": (ROW_DISTANCE + levels) * BINS if active else 0,
+                 "map_counts": levels * width if mapped else 0, "map_energy": width if mapped else 0}
+        self.copies = copies_for(device, sizes["hist"] * 4)
         dtypes = {"hist": wp.int32, "map_counts": wp.int32, "map_energy": wp.int64}
-        self.arrays = {name: _buffer(device, "sum " + name, shape, dtypes[name]) for name, shape in shapes.items()}
-        self.wide = {}
-        for name, shape in shapes.items():
-            copies = copies_for(device, int(np.prod(shape)) * 8)
-            self.wide[name] = _buffer(device, "wide " + name, (copies,) + shape if np.prod(shape) else (1,) + (0,) * len(shape),
-                                      dtypes[name])
+        self.counts = {name: _buffer(device, "counts " + name, size * (self.copies if name == "hist" else 1), dtypes[name])
+                       for name, size in sizes.items()}
+        self.totals = {name: _buffer(device, "totals " + name, size, wp.int64) for name, size in sizes.items()}
+        capacity = SPARSE_CAPACITY if active else 0
+        self.sparse = {"count": _buffer(device, "sparse count", 1, wp.int32),
+                       "index": _buffer(device, "sparse index", capacity, wp.int32),
+                       "value": _buffer(device, "sparse value", capacity, wp.int64)}
         s = make_landing_tally(precision).Tally()
-        s.hist, s.map_counts, s.map_energy = self.wide["hist"], self.wide["map_counts"], self.wide["map_energy"]
+        s.hist, s.map_counts, s.map_energy = self.counts["hist"], self.counts["map_counts"], self.counts["map_energy"]
+        s.hist_rows, s.copy_mask, s.map_width = ROW_DISTANCE + levels, self.copies - 1, width
         s.thresholds2 = wp.array(np.asarray(setup.thresholds2, dtype=precision), dtype=t.scalar, device=device)
         s.shooter, s.up = t.vec3(*setup.shooter), t.vec3(*setup.up)
         s.half_mass, s.inverse_area = t.scalar(setup.half_mass), t.scalar(1.0 / setup.area)
@@ -170,55 +195,122 @@ class DeviceTally:
         s.inverse_quantum = wp.float64(1.0 / setup.quantum)
         self.struct = s
 
-    def zero(self):
-        """Before a chunk: its counts start from zero."""
-        if self.active:
-            for arr in self.wide.values():
-                arr.zero_()
-
-    def reduce(self):
-        """After a chunk's kernel: the copies summed into `arrays`."""
+    def start(self, totals: "TallyTotals | None"):
+        """Before a run's first chunk: its totals from `totals` (a resumed run's) or zero, and its
+        count arrays zero (unless a fold left them so)."""
         if not self.active:
             return
         import warp as wp
 
-        from .landing import sum_copies_kernels
+        for name in self.COUNTS:
+            if (str(self.device), "counts " + name) not in _CLEAN:
+                self.counts[name].zero_()
+            if totals is None:
+                self.totals[name].zero_()
+            else:
+                wp.copy(self.totals[name], wp.array(getattr(totals, name).ravel(), dtype=wp.int64, device="cpu"))
 
-        sum_int32, sum_int64 = sum_copies_kernels()
-        for name, kernel in (("hist", sum_int32), ("map_counts", sum_int32), ("map_energy", sum_int64)):
-            out = self.arrays[name]
-            if out.size:
-                wp.launch(kernel, dim=out.shape, inputs=[self.wide[name]], outputs=[out], device=self.device)
+    def fold(self):
+        """After a chunk's kernel: its counts (every copy) added to the totals, then zeroed."""
+        if not self.active:
+            return
+        import warp as wp
+
+        from .landing import fold_kernels
+
+        fold32, fold64 = fold_kernels()
+        for name in self.COUNTS:
+            total = self.totals[name]
+            if total.size:
+                wp.launch(fold64 if name == "map_energy" else fold32, dim=total.size,
+                          inputs=[self.counts[name], total.size], outputs=[total], device=self.device)
+        if self.device.is_cuda:
+            _CLEAN.update((str(self.device), "counts " + name) for name in self.COUNTS)
+
+    def fetch(self, tally: "TallyTotals"):
+        """The totals into `tally` on the host, waiting for the device. Only their nonzero elements
+        travel, as (index, value) pairs: most bins and cells are empty, and a dense copy means
+        writing megabytes of fresh host memory. The dense arrays when more than SPARSE_CAPACITY
+        elements are nonzero."""
+        import warp as wp
+
+        from .landing import pack_kernel
+
+        sparse, host, offset = self.sparse, _pinned(self.device, self.sparse), 0
+        sparse["count"].zero_()
+        for arr in self.totals.values():
+            if arr.size:
+                wp.launch(pack_kernel(), dim=arr.size, inputs=[arr, offset],
+                          outputs=[sparse["count"], sparse["index"], sparse["value"]], device=self.device)
+            offset += arr.size
+        for name in ("count", "index", "value"):
+            wp.copy(host[name], sparse[name])
+        wp.synchronize_device(self.device)
+        count = int(host["count"].numpy()[0])
+        if count > host["index"].size:
+            tally.set({name: arr.numpy() for name, arr in self.totals.items()})
+        else:
+            tally.scatter(host["index"].numpy()[:count], host["value"].numpy()[:count])
+
+    def before_chunk(self):
+        """Before a chunk's kernel: its count arrays are no longer known to be zero."""
+        _CLEAN.difference_update((str(self.device), "counts " + name) for name in self.COUNTS)
 
 
 class TallyTotals:
     """The run's landing counts so far (int64): `hist` (rows: range, speed, distance by hazard
     level; bins of `tallies.bins`), `map_counts` (level, cell; then outside, elsewhere) and
-    `map_energy` (per column, in quanta)."""
+    `map_energy` (per column, in quanta). Held as their nonzero elements after `scatter` (most
+    bins and cells are empty), as dense arrays from the first read of one of them on."""
+
+    NAMES = ("hist", "map_counts", "map_energy")
 
     def __init__(self, setup: TallySetup):
         levels, width = setup.levels, setup.cells + 2
         self.setup = setup
-        self.hist = np.zeros((ROW_DISTANCE + levels, BINS), dtype=np.int64)
-        self.map_counts = np.zeros((levels, width) if setup.has_map else (0, 0), dtype=np.int64)
-        self.map_energy = np.zeros(width if setup.has_map else 0, dtype=np.int64)
+        self.shapes = {"hist": (ROW_DISTANCE + levels, BINS), "map_counts": (levels, width) if setup.has_map else (0, 0),
+                       "map_energy": (width,) if setup.has_map else (0,)}
+        self._dense: dict | None = None
+        self._pairs = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))  # (flat index, value), nonzero only
 
-    def add(self, chunk: dict):
-        """Add one chunk's counts ({name: array} as `DeviceTally.arrays`)."""
-        for name in ("hist", "map_counts", "map_energy"):
-            if chunk[name].size:
-                getattr(self, name)[...] += chunk[name]
+    @property
+    def hist(self) -> np.ndarray:
+        return self._arrays()["hist"]
+
+    @property
+    def map_counts(self) -> np.ndarray:
+        return self._arrays()["map_counts"]
+
+    @property
+    def map_energy(self) -> np.ndarray:
+        return self._arrays()["map_energy"]
+
+    def _arrays(self) -> dict:
+        if self._dense is None:
+            flat = np.zeros(sum(int(np.prod(shape)) for shape in self.shapes.values()), dtype=np.int64)
+            flat[self._pairs[0]] = self._pairs[1]
+            self._dense = self._split(flat)
+        return self._dense
+
+    def _split(self, flat) -> dict:
+        bounds = np.cumsum([0] + [int(np.prod(shape)) for shape in self.shapes.values()])
+        return {name: flat[bounds[i]:bounds[i + 1]].reshape(shape) for i, (name, shape) in enumerate(self.shapes.items())}
+
+    def set(self, totals: dict):
+        """The counts so far, from `DeviceTally.totals` ({name: flat int64 array}) copied to the host."""
+        self._dense = {name: np.array(totals[name], dtype=np.int64).reshape(self.shapes[name]) for name in self.NAMES}
+
+    def scatter(self, index, value):
+        """The counts so far from their nonzero elements: `value` at `index` of `flat()`'s order, the
+        rest zero (`DeviceTally.fetch`)."""
+        self._pairs = (np.asarray(index, dtype=np.int64).copy(), np.asarray(value, dtype=np.int64).copy())
+        self._dense = None
 
     def flat(self) -> np.ndarray:
         """All counts in one int64 vector (what /progress keeps for --resume)."""
-        return np.concatenate([self.hist.ravel(), self.map_counts.ravel(), self.map_energy.ravel()])
+        return np.concatenate([self._arrays()[name].ravel() for name in self.NAMES])
 
     def load(self, flat) -> "TallyTotals":
         """Counts from `flat` (as `flat()` made them)."""
-        flat = np.asarray(flat, dtype=np.int64)
-        i = 0
-        for name in ("hist", "map_counts", "map_energy"):
-            arr = getattr(self, name)
-            arr[...] = flat[i:i + arr.size].reshape(arr.shape)
-            i += arr.size
+        self._dense = self._split(np.array(flat, dtype=np.int64))
         return self

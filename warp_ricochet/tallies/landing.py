@@ -14,10 +14,14 @@ Per landed pellet (docs/hazard.md):
 - with a map: one count in (level, cell) of `map_counts` and its energy in `map_energy` as int64
   multiples of `quantum` J, on the map's surface (cell index, else the `outside` column CELLS; a
   landing on another surface in column CELLS + 1).
-Three atomics per landed pellet, five with a map. On CUDA each array has COPIES copies (the
-leading axis), a warp's pellets counting into copy (row / 32) mod copies, so that a narrow
-distribution's few busy bins are not one address each for the whole GPU (`counts.DeviceTally`
-sums the copies after the chunk).
+Three histogram counts per landed pellet, each an atomic add on the device: the GPU's L2 cache
+merges a warp's adds to the few busy bins of a narrow distribution. The histograms have COPIES
+copies on CUDA (`counts.copies_for`, a power of two), a warp's pellets counting into one copy
+chosen from its row, so that those few bins are not one address each for the whole GPU
+(`counts.DeviceTally.fold` adds the copies to the run's totals after each chunk). A map landing's
+count and energy go together into its thread block's table in shared memory (`tallies.block`,
+added to the maps once at the end of the block: the landings of a cloud are spread over many
+cells, whose atomics the L2 cache cannot merge); one that finds no slot there is added at once.
 """
 
 
@@ -27,7 +31,10 @@ from types import SimpleNamespace
 import warp as wp
 
 from ..physics.types import types_for
-from .bins import ROW_DISTANCE, ROW_RANGE, ROW_SPEED, make_bin_of
+from .bins import BINS, ROW_DISTANCE, ROW_RANGE, ROW_SPEED, make_bin_of
+from .block import ADD, COUNT, END, ENERGY, KEY, LANE, PROBES, SLOTS, STRIDE, make_block_table
+
+COPY_MIX = 37  # `copy_of`: consecutive segments' warps start at copies 37 apart
 
 
 @functools.cache
@@ -40,14 +47,17 @@ def make_landing_tally(precision: str) -> SimpleNamespace:
     class Tally:
         """What the landings are counted into (`tallies.landing`), and the constants that needs (SI)."""
 
-        hist: wp.array3d(dtype=wp.int32)  # (copies, ROW_DISTANCE + levels, bins.BINS)
+        hist: wp.array(dtype=wp.int32)  # copies x (ROW_DISTANCE + levels) x bins.BINS, flat (copy, row, bin)
+        hist_rows: wp.int32  # ROW_DISTANCE + levels
+        copy_mask: wp.int32  # copies - 1 (copies: a power of two)
         thresholds2: wp.array(dtype=scalar)  # (m/s)^2, every threshold as one on |v|^2, in scene order
         shooter: vec3  # m
         up: vec3  # unit vector against gravity (zero without gravity: distances in 3-D)
         half_mass: scalar  # kg, m / 2
         inverse_area: scalar  # 1/m^2, 1 / (pi R^2)
-        map_counts: wp.array3d(dtype=wp.int32)  # (copies, levels, cells + 2)
-        map_energy: wp.array2d(dtype=wp.int64)  # (copies, cells + 2), multiples of `quantum`
+        map_counts: wp.array(dtype=wp.int32)  # levels x (cells + 2), flat (level, column)
+        map_energy: wp.array(dtype=wp.int64)  # (cells + 2), multiples of `quantum`
+        map_width: wp.int32  # cells + 2
         map_surface: wp.int32
         map_origin: vec3  # m, the grid's (u, v) = (0, 0) on the map's plane
         map_u: vec3  # unit vectors of the grid's axes in the plane
@@ -85,13 +95,15 @@ def make_landing_tally(precision: str) -> SimpleNamespace:
 
 
 @functools.cache
-def make_add_landing(precision: str, with_map: bool):
+def make_add_landing(precision: str, with_map: bool, slots: int = SLOTS, probes: int = PROBES):
     """exceeded(tally, v2) -> the bit mask of the thresholds a landing with |v|^2 = v2 exceeds (bit i:
-    v2 >= thresholds2[i]); add_landing(tally, surface, range, position, v2, mask) counts it (and,
-    `with_map`, maps it)."""
+    v2 >= thresholds2[i]); add_landing(tally, row, surface, range, position, v2, mask) counts it
+    (and, `with_map`, maps it: through the block's table, `tallies.block` with `slots` and `probes`);
+    flush(tally) adds the block's table to the maps (with a map, every thread of the block at its
+    end, after `table(BEGIN, ...)` at its start). A table key is a flat index of map_counts."""
     fns = make_landing_tally(precision)
     Tally, scalar, vec3, map_cell, horizontal_distance = fns.Tally, fns.scalar, fns.vec3, fns.map_cell, fns.horizontal_distance
-    bin_of = make_bin_of()
+    bin_of, table = make_bin_of(), make_block_table(slots, probes)
     MAP = with_map
 
     @wp.func
@@ -103,44 +115,90 @@ def make_add_landing(precision: str, with_map: bool):
         return mask
 
     @wp.func
+    def copy_of(row: wp.int32, copy_mask: wp.int32):
+        """The histogram copy of a landing in chunk row `row`: its warp's (32 rows), offset by
+        COPY_MIX a segment of 2^16 rows, so that the segments in flight at once use different copies."""
+        return ((row >> 5) + (row >> 16) * COPY_MIX) & copy_mask
+
+    @wp.func
     def add_landing(tally: Tally, row: wp.int32, surface: wp.int32, landing_range: scalar, position: vec3, v2: scalar,
                     mask: wp.int32):
         level = wp.int32(wp.bit_count(mask))  # the thresholds are nested: it exceeds the `level` lowest
+        first = copy_of(row, tally.copy_mask) * tally.hist_rows * BINS
         one = wp.int32(1)
-        warp = row / 32
-        c = warp % tally.hist.shape[0]
-        wp.atomic_add(tally.hist, c, ROW_RANGE, bin_of(wp.float32(landing_range)), one)
-        wp.atomic_add(tally.hist, c, ROW_SPEED, bin_of(wp.float32(wp.sqrt(v2))), one)
+        wp.atomic_add(tally.hist, first + ROW_RANGE * BINS + bin_of(wp.float32(landing_range)), one)
+        wp.atomic_add(tally.hist, first + ROW_SPEED * BINS + bin_of(wp.float32(wp.sqrt(v2))), one)
         distance = horizontal_distance(tally, position)
-        wp.atomic_add(tally.hist, c, ROW_DISTANCE + level, bin_of(wp.float32(distance)), one)
+        wp.atomic_add(tally.hist, first + (ROW_DISTANCE + level) * BINS + bin_of(wp.float32(distance)), one)
         if wp.static(MAP):
             column = map_cell(tally, surface, position)
-            m = warp % tally.map_counts.shape[0]
-            wp.atomic_add(tally.map_counts, m, level, column, one)
-            energy = wp.float64(tally.half_mass * v2)
-            wp.atomic_add(tally.map_energy, m, column, wp.int64(wp.floor(energy * tally.inverse_quantum + wp.float64(0.5))))
+            key = level * tally.map_width + column
+            energy = wp.int64(wp.floor(wp.float64(tally.half_mass * v2) * tally.inverse_quantum + wp.float64(0.5)))
+            if table(ADD, key, energy) == wp.int64(0):
+                wp.atomic_add(tally.map_counts, key, one)
+                wp.atomic_add(tally.map_energy, column, energy)
 
-    return SimpleNamespace(exceeded=exceeded, add_landing=add_landing)
+    @wp.func
+    def flush(tally: Tally):
+        """The block's table added to the maps (every thread of the block, at its end)."""
+        slots_here = wp.int32(table(END, 0, wp.int64(0)))
+        for s in range(wp.int32(table(LANE, 0, wp.int64(0))), slots_here, wp.int32(table(STRIDE, 0, wp.int64(0)))):
+            key = wp.int32(table(KEY, s, wp.int64(0)))
+            if key >= 0:
+                wp.atomic_add(tally.map_counts, key, wp.int32(table(COUNT, s, wp.int64(0))))
+                wp.atomic_add(tally.map_energy, key % tally.map_width, table(ENERGY, s, wp.int64(0)))
+
+    return SimpleNamespace(exceeded=exceeded, add_landing=add_landing, flush=flush, table=table, copy_of=copy_of)
 
 
 @functools.cache
-def sum_copies_kernels():
-    """Kernels summing the copies (leading axis) of the counts into one array each."""
+def fold_kernels():
+    """fold32 and fold64(counts, n, totals): one thread an element i < n adds the copies of
+    `counts` (flat, copy c's element i at c * n + i) to totals[i] (int64) and zeroes them (writing
+    only the nonzero ones: most bins of a histogram stay empty)."""
 
     @wp.kernel(enable_backward=False)
-    def sum_int32(wide: wp.array3d(dtype=wp.int32), out: wp.array2d(dtype=wp.int32)):
-        i, j = wp.tid()
-        total = wp.int32(0)
-        for c in range(wide.shape[0]):
-            total += wide[c, i, j]
-        out[i, j] = total
-
-    @wp.kernel(enable_backward=False)
-    def sum_int64(wide: wp.array2d(dtype=wp.int64), out: wp.array(dtype=wp.int64)):
-        j = wp.tid()
+    def fold32(counts: wp.array(dtype=wp.int32), n: wp.int32, totals: wp.array(dtype=wp.int64)):
+        i = wp.tid()
         total = wp.int64(0)
-        for c in range(wide.shape[0]):
-            total += wide[c, j]
-        out[j] = total
+        for c in range(counts.shape[0] / n):
+            value = counts[c * n + i]
+            if value != 0:
+                total += wp.int64(value)
+                counts[c * n + i] = 0
+        if total != wp.int64(0):
+            totals[i] += total
 
-    return sum_int32, sum_int64
+    @wp.kernel(enable_backward=False)
+    def fold64(counts: wp.array(dtype=wp.int64), n: wp.int32, totals: wp.array(dtype=wp.int64)):
+        i = wp.tid()
+        total = wp.int64(0)
+        for c in range(counts.shape[0] / n):
+            value = counts[c * n + i]
+            if value != wp.int64(0):
+                total += value
+                counts[c * n + i] = wp.int64(0)
+        if total != wp.int64(0):
+            totals[i] += total
+
+    return fold32, fold64
+
+
+@functools.cache
+def pack_kernel():
+    """pack(totals, offset, count, index, value): each nonzero totals[i] as a pair (offset + i, value)
+    at the next slot of `count` (pairs past the capacity of `index` are dropped; `count` still
+    counts them). The pairs' order varies from run to run; their set does not."""
+
+    @wp.kernel(enable_backward=False)
+    def pack(totals: wp.array(dtype=wp.int64), offset: wp.int32, count: wp.array(dtype=wp.int32),
+             index: wp.array(dtype=wp.int32), value: wp.array(dtype=wp.int64)):
+        i = wp.tid()
+        v = totals[i]
+        if v != wp.int64(0):
+            slot = wp.atomic_add(count, 0, 1)
+            if slot < index.shape[0]:
+                index[slot] = offset + i
+                value[slot] = v
+
+    return pack

@@ -1,0 +1,85 @@
+"""Block-level aggregation of the landing counts on CUDA, in shared memory.
+
+Each CUDA thread block of the core kernel adds its landings into a hash table in shared memory
+(`SLOTS` slots, open addressing with `PROBES` linear probes): the key of a landing's count is the
+flat index of its histogram bin or map cell (`tallies.landing`), a slot holds a count and an
+energy (int64 quanta). At the end of the block its threads add the table's slots to the device
+arrays, one atomic per key and block instead of one per landing: a narrow cloud lands in a few
+hundred bins and cells, so this turns most of a run's global atomics into shared-memory ones. A
+landing whose key finds no slot in its probes is added to the device arrays at once.
+
+Every sum is an integer sum, so the totals are the same bits however the landings are grouped:
+as on the CPU, where `block_table` aggregates nothing (one thread a block) and every landing is
+added directly. Assumes that every thread of a block reaches the kernel's `table_begin` and
+`table_end` calls (they hold `__syncthreads`): the core kernel's launch covers whole blocks.
+"""
+
+import functools
+
+import warp as wp
+
+SLOTS = 2048  # slots of a block's table (16 bytes each: 32 KiB of shared memory)
+PROBES = 8  # slots tried for a key before its landing is added to the device arrays directly
+EMPTY = -1  # the key of a free slot
+
+BEGIN, ADD, END, KEY, COUNT, ENERGY, LANE, STRIDE = range(8)  # the operations of `block_table`
+
+
+@functools.cache
+def make_block_table(slots: int = SLOTS, probes: int = PROBES):
+    """block_table(op, a, b) -> int64, one native function over one shared table (its operations):
+    BEGIN clears the table (every thread of the block: a barrier); ADD adds one landing of key a
+    (>= 0) and energy b (quanta), returning 1, or 0 when no slot was free; END waits for the
+    block's adds (every thread: a barrier) and returns the number of slots to flush; KEY, COUNT,
+    ENERGY read slot a; LANE, STRIDE: the thread's slots to flush are LANE, LANE + STRIDE, ...
+    On the CPU, or with no slots or probes, nothing is aggregated: ADD returns 0, END 0 slots,
+    LANE 0, STRIDE 1 (and no barrier)."""
+    if slots & (slots - 1) or not 0 <= probes <= slots:
+        raise ValueError(f"slots must be 0 or a power of two and probes in [0, slots]: {slots}, {probes}")
+    shift = 32 - max(slots.bit_length() - 1, 0)
+    snippet = f"""
+#if defined(__CUDA_ARCH__) && {int(slots > 0 and probes > 0)}
+    __shared__ int table_keys[{slots}];
+    __shared__ int table_counts[{slots}];
+    __shared__ unsigned long long table_energies[{slots}];
+    if (op == {ADD}) {{
+        unsigned int h = {"0u" if shift == 32 else f"((unsigned int)a * 2654435761u) >> {shift}"};
+        for (int p = 0; p < {probes}; ++p) {{
+            int s = (int)((h + (unsigned int)p) & {slots - 1}u);
+            int old = atomicCAS(&table_keys[s], {EMPTY}, (int)a);
+            if (old == {EMPTY} || old == (int)a) {{
+                atomicAdd(&table_counts[s], 1);
+                if (b != 0) atomicAdd(&table_energies[s], (unsigned long long)b);
+                return 1;
+            }}
+        }}
+        return 0;
+    }}
+    if (op == {BEGIN}) {{
+        for (int s = threadIdx.x; s < {slots}; s += blockDim.x) {{
+            table_keys[s] = {EMPTY};
+            table_counts[s] = 0;
+            table_energies[s] = 0ull;
+        }}
+        __syncthreads();
+        return 0;
+    }}
+    if (op == {END}) {{
+        __syncthreads();
+        return {slots};
+    }}
+    if (op == {KEY}) return table_keys[a];
+    if (op == {COUNT}) return table_counts[a];
+    if (op == {ENERGY}) return (wp::int64)table_energies[a];
+    if (op == {LANE}) return threadIdx.x;
+    if (op == {STRIDE}) return blockDim.x;
+    return 0;
+#else
+    return op == {STRIDE} ? 1 : 0;
+#endif
+"""
+
+    @wp.func_native(snippet)
+    def block_table(op: wp.int32, a: wp.int32, b: wp.int64) -> wp.int64: ...
+
+    return block_table
