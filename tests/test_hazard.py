@@ -7,6 +7,8 @@ import math
 import h5py
 import numpy as np
 import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
 
 import warp_ricochet as wr
 from tests.helpers import cli, make_scene, paper_raw
@@ -129,6 +131,16 @@ def test_binomial_points_and_the_pellets_a_fraction_needs():
     value, low, high, needed = danger_distance(np.bincount(bins.bin_index(np.arange(1, 101, dtype=np.float32)),
                                                            minlength=bins.BINS), 1e-3)
     assert math.isinf(high) and needed == 3688 and 99 <= value <= 100.1 and low <= 100
+
+
+@given(log_n=st.floats(0.0, 9.5), log_p=st.floats(-7.0, -0.5), upper=st.booleans())
+@settings(max_examples=200, deadline=None)
+def test_binomial_points_are_scipys_in_the_exact_regime(log_n, log_p, upper):
+    from scipy import stats as sps
+
+    n, p, alpha = int(10**log_n), 10**log_p, 0.975 if upper else 0.025
+    assume(n * p * (1 - p) <= 1e4)  # (above: the normal approximation, tested above)
+    assert binomial_point(n, p, alpha) == sps.binom.ppf(alpha, n, p)
 
 
 @pytest.mark.parametrize("override, key", [

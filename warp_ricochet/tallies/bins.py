@@ -28,11 +28,14 @@ RESOLUTION = (f"log-spaced bins from the float32 bits (exponent and top {MANTISS
               "(SI units), counts below and above the span kept in the first and last bins")
 
 
+@functools.cache
 def edges() -> np.ndarray:
-    """The BINS + 1 bin edges (float64): 0, the REGULAR + 1 edges of the span, inf."""
+    """The BINS + 1 bin edges (float64, read-only): 0, the REGULAR + 1 edges of the span, inf."""
     bits = ((np.arange(REGULAR + 1, dtype=np.int64) + BASE) << SHIFT).astype(np.uint32)
     inner = bits.view(np.float32).astype(np.float64)
-    return np.concatenate([[0.0], inner, [np.inf]])
+    out = np.concatenate([[0.0], inner, [np.inf]])
+    out.setflags(write=False)
+    return out
 
 
 def bin_index(values) -> np.ndarray:

@@ -38,9 +38,15 @@ def rank(q: float, n: int) -> int:
 
 
 def bins_of_ranks(counts, ranks) -> np.ndarray:
-    """The bin holding the k-th smallest value (1-based) for each k of `ranks`."""
-    cumulative = np.cumsum(np.asarray(counts, dtype=np.int64))
-    return np.searchsorted(cumulative, np.asarray(ranks, dtype=np.int64), side="left")
+    """The bin holding the k-th smallest value (1-based) for each k of `ranks` (1 <= k <= the
+    total; the cumulative counts are taken over the span of nonzero bins only)."""
+    counts = np.asarray(counts, dtype=np.int64)
+    nonzero = np.flatnonzero(counts)
+    if not nonzero.size:
+        return np.full(len(ranks), counts.size)
+    first = nonzero[0]
+    cumulative = np.cumsum(counts[first:nonzero[-1] + 1])
+    return first + np.searchsorted(cumulative, np.asarray(ranks, dtype=np.int64), side="left")
 
 
 def quantiles(counts, levels=LEVELS) -> tuple[np.ndarray, np.ndarray]:
@@ -82,9 +88,10 @@ def binomial_point(n: int, p: float, alpha: float) -> int:
         z = Z_975 if alpha > 0.5 else -Z_975
         return min(n, max(0, math.ceil(n * p + z * math.sqrt(variance) - 0.5)))
     top = min(n, int(n * p + 40.0 * math.sqrt(variance) + 50))
-    m = np.arange(top + 1)
-    log_pmf = (math.lgamma(n + 1) - np.frompyfunc(math.lgamma, 1, 1)(m + 1).astype(float)
-               - np.frompyfunc(math.lgamma, 1, 1)(n - m + 1).astype(float) + m * math.log(p) + (n - m) * math.log1p(-p))
+    m = np.arange(1, top + 1, dtype=np.float64)
+    # log pmf(m) = log pmf(m - 1) + log((n - m + 1) / m) + log(p / (1 - p)), from pmf(0) = (1 - p)^n
+    steps = np.log((n - m + 1.0) / m) + (math.log(p) - math.log1p(-p))
+    log_pmf = n * math.log1p(-p) + np.concatenate([[0.0], np.cumsum(steps)])
     cdf = np.cumsum(np.exp(log_pmf))
     return int(min(np.searchsorted(cdf, alpha * (1.0 - 1e-12), side="left"), n))
 
@@ -105,9 +112,9 @@ def danger_distance(counts, p: float) -> tuple[float, float, float, int]:
     e = edges()
     m_upper = binomial_point(n, p, (1.0 - CONFIDENCE) / 2.0)  # landings beyond the upper limit
     m_lower = binomial_point(n, p, 1.0 - (1.0 - CONFIDENCE) / 2.0) + 1
-    value_bin = bins_of_ranks(counts, [rank(1.0 - p, n)])[0]
-    low = e[bins_of_ranks(counts, [n + 1 - m_lower])[0]] if m_lower <= n else 0.0
-    high = e[bins_of_ranks(counts, [n + 1 - m_upper])[0] + 1] if m_upper >= 1 else math.inf
+    value_bin, low_bin, high_bin = bins_of_ranks(counts, [rank(1.0 - p, n), min(n + 1 - m_lower, n), max(n + 1 - m_upper, 1)])
+    low = e[low_bin] if m_lower <= n else 0.0
+    high = e[high_bin + 1] if m_upper >= 1 else math.inf
     return float(e[value_bin + 1]), float(low), float(high), needed
 
 
@@ -115,11 +122,19 @@ def hazard_distance_counts(hist, order) -> np.ndarray:
     """(thresholds, bins): the distance counts of the landings above each threshold (scene order),
     from the rows by level (a landing at level L exceeds the L lowest thresholds, `order`)."""
     by_level = np.asarray(hist)[ROW_DISTANCE:]
-    above = np.cumsum(by_level[::-1], axis=0)[::-1]  # above[L]: landings at level >= L
     out = np.zeros((len(order), by_level.shape[1]), dtype=np.int64)
+    above, span = levels_at_or_above(by_level)
     for position, index in enumerate(order):
-        out[index] = above[position + 1]
+        out[index, span] = above[position + 1]
     return out
+
+
+def levels_at_or_above(by_level) -> tuple[np.ndarray, slice]:
+    """(above, span): above[L] = the counts at level >= L (rows: levels) over `span`, the columns
+    from the first to the last with a count (most are empty)."""
+    used = np.flatnonzero(by_level.any(axis=0))
+    span = slice(int(used[0]), int(used[-1]) + 1) if used.size else slice(0, 0)
+    return np.cumsum(by_level[::-1, span], axis=0)[::-1], span
 
 
 def summarize(tally, landed: int) -> dict:
@@ -143,10 +158,11 @@ def summarize(tally, landed: int) -> dict:
                          "fractions": np.asarray(setup.fractions), "landings": by_threshold.sum(axis=1), **danger}
     if setup.has_map:
         shape, cells, counts = (setup.map_nv, setup.map_nu), setup.cells, tally.map_counts
-        above = np.cumsum(counts[::-1], axis=0)[::-1]  # landings at level >= L per column
-        layers = np.zeros((len(setup.names),) + shape, dtype=np.int64)
+        above, span = levels_at_or_above(counts[:, :cells])  # landings at level >= L per cell
+        layers = np.zeros((len(setup.names), cells), dtype=np.int64)
         for position, index in enumerate(setup.order):
-            layers[index] = above[position + 1, :cells].reshape(shape)
+            layers[index, span] = above[position + 1]
+        layers = layers.reshape((len(setup.names),) + shape)
         out["map"] = {"count": counts[:, :cells].sum(axis=0).reshape(shape), "outside": int(counts[:, cells].sum()),
                       "elsewhere": int(counts[:, cells + 1].sum()),
                       "energy": (tally.map_energy[:cells] * setup.quantum).reshape(shape), "quantum": setup.quantum,
