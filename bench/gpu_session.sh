@@ -55,7 +55,7 @@ if [[ $what == air-study ]]; then
   timeout 100 python3 -m bench.stability_air --device cuda:0 2>&1 | quiet | tee "$out/stability-air.txt"
 fi
 if [[ $what == tallies-tests ]]; then
-  WARP_RICOCHET_TEST_DEVICES=cuda:0 timeout 420 python3 -m pytest tests/test_quantiles.py tests/test_hazard.py \
+  WARP_RICOCHET_TEST_DEVICES=cuda:0 timeout 420 python3 -m pytest tests/test_quantiles.py tests/test_hazard.py tests/test_block_table.py \
     tests/test_precision.py tests/test_collisions.py tests/test_air_dense.py tests/test_resume_collisions.py \
     tests/test_golden.py -q -n 8 -p no:cacheprovider -rfE 2>&1 | grep "^FAILED\|^ERROR\|passed\|failed\|^E " \
     | cut -c1-300 | tee "$out/tallies-tests.txt"

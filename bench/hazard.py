@@ -6,6 +6,8 @@ quantile histograms, with [hazard] thresholds (danger distances) and with a haza
 
 Each configuration is compiled and warmed up first (not timed); each time is the median of
 --repeats runs (wall clock of `warp_ricochet.run` without an output file, synchronised at its end).
+A run returns its counts as their nonzero elements; the host's time to make them answers (dense
+histograms and maps, quantiles, danger distances: `quantiles.summarize`) is timed apart, after it.
 `--copies`: one table per number of copies of the counts on CUDA (`tallies.counts.CUDA_COPIES`, 256 by
 default; the CPU always counts into one).
 """
@@ -33,9 +35,25 @@ def scene(n: int, settings):
                               *settings])
 
 
+def summarize_time(wr, sc, device, repeats) -> float:
+    """Median seconds the host takes to turn a fresh run's counts into answers (`quantiles.summarize`:
+    the dense counts, quantiles, tails, danger distances and map layers)."""
+    import time
+
+    from warp_ricochet.tallies.quantiles import summarize
+
+    times = []
+    for _ in range(repeats):
+        stats = wr.run(sc, device=device)
+        t0 = time.perf_counter()
+        summarize(stats.tally, int(stats["landed"]))
+        times.append(time.perf_counter() - t0)
+    return sorted(times)[len(times) // 2]
+
+
 def measure(device, sizes, repeats):
     wr, wp = _wr()
-    rows = []
+    rows, answers = [], []
     for name, settings in CONFIGS.items():
         wr.run(scene(100_000, settings), device=device)  # compile and warm up
     for n in sizes:
@@ -45,7 +63,9 @@ def measure(device, sizes, repeats):
             wr.run(sc, device=device)  # warm up at this size (buffers, pinned pools)
             times[name], _ = _timed(lambda sc=sc: (wr.run(sc, device=device), wp.synchronize()), repeats)
         rows.append((n, times))
-    return rows
+        answers.append((n, {name: summarize_time(wr, scene(n, settings), device, repeats)
+                            for name, settings in CONFIGS.items() if name != "statistics only"}))
+    return rows, answers
 
 
 def main(argv=None):
@@ -63,7 +83,7 @@ def main(argv=None):
     print("device:", device_info(wp, device))
     for copies in [int(c) for c in args.copies.split(",")] if args.copies else [counts.CUDA_COPIES]:
         counts.CUDA_COPIES = copies
-        rows = measure(device, sizes, args.repeats)
+        rows, answers = measure(device, sizes, args.repeats)
         names = list(CONFIGS)
         print(f"\ncopies of the counts on CUDA: {copies}")
         print("| N | " + " | ".join(names) + " |")
@@ -72,6 +92,9 @@ def main(argv=None):
             base = times[names[0]]
             cells = [f"{times[k] * 1e3:.2f} ms" + ("" if k == names[0] else f" ({times[k] / base - 1:+.0%})") for k in names]
             print(f"| {n:.0e} | " + " | ".join(cells) + " |")
+        print("\nthen, on the host, the counts turned into answers (`quantiles.summarize`, median):")
+        for n, times in answers:
+            print(f"| {n:.0e} | " + " | ".join(f"{k}: {v * 1e3:.2f} ms" for k, v in times.items()) + " |")
 
 
 if __name__ == "__main__":
