@@ -22,7 +22,7 @@ from bench.hazard import CONFIGS, scene
 VARIANTS = ("as-is", "no-table", "no-add", "empty")
 
 
-def variant_factory(variant: str):
+def variant_factory(variant: str, table_size: int = 0, table_probes: int = 0):
     """A stand-in for `make_add_landing` with the landing code of `variant`."""
     import functools
 
@@ -36,7 +36,7 @@ def variant_factory(variant: str):
 
     @functools.cache
     def make(precision: str, with_map: bool, slots: int = SLOTS, probes: int = PROBES):
-        slots, probes = (0, 0) if variant in ("no-table", "empty") else (slots, probes)
+        slots, probes = (0, 0) if variant in ("no-table", "empty") else (table_size or slots, table_probes or probes)
         base = original(precision, with_map, slots, probes)
         if variant in ("as-is", "no-table"):
             return base
@@ -73,11 +73,12 @@ def variant_factory(variant: str):
     return make
 
 
-def patch(variant: str):
-    """Build every later kernel with `variant`'s landing code."""
+def patch(variant: str, slots: int = 0, probes: int = 0):
+    """Build every later kernel with `variant`'s landing code (and a block table of `slots` and
+    `probes`, where not 0)."""
     from warp_ricochet.core import kernel, pellet
 
-    make = variant_factory(variant)
+    make = variant_factory(variant, slots, probes)
     kernel.make_add_landing = pellet.make_add_landing = make
     pellet.make_ricochet_pellet.cache_clear()
     kernel.ricochet_kernel_for.cache_clear()
@@ -100,6 +101,8 @@ def main(argv=None):
     parser.add_argument("--sizes", default="1e8,1e9")
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--variant", choices=VARIANTS, default="as-is")
+    parser.add_argument("--slots", type=int, default=0, help="slots of the block table (default: tallies.block.SLOTS)")
+    parser.add_argument("--probes", type=int, default=0, help="probes of the block table (default: tallies.block.PROBES)")
     parser.add_argument("--cap", default="default", help="register cap of the core kernel: default, none or a number")
     parser.add_argument("--host-profile", action="store_true", help="a cProfile of one run with a map at the last size")
     parser.add_argument("--copies", type=int, default=None, help="copies of the counts on CUDA (default: tallies.counts.CUDA_COPIES)")
@@ -109,7 +112,7 @@ def main(argv=None):
 
     if args.copies:
         counts.CUDA_COPIES = args.copies
-    patch(args.variant)
+    patch(args.variant, args.slots, args.probes)
     if args.cap != "default":
         from warp_ricochet.core import kernel
 
@@ -125,7 +128,7 @@ def main(argv=None):
             wr.run(sc, device=args.device)
             times[name], _ = _timed(lambda sc=sc: (wr.run(sc, device=args.device), wp.synchronize()), args.repeats)
         base = times[names[0]]
-        print(f"{args.variant} cap={args.cap} copies={counts.CUDA_COPIES} N={n:.0e}: statistics only {base * 1e3:.2f} ms, "
+        print(f"{args.variant} slots={args.slots or 'default'} probes={args.probes or 'default'} cap={args.cap} copies={counts.CUDA_COPIES} N={n:.0e}: statistics only {base * 1e3:.2f} ms, "
               f"with a map {times[names[1]] * 1e3:.2f} ms ({times[names[1]] / base - 1:+.0%})")
         if wp.get_device(args.device).is_cuda:
             for name in names:

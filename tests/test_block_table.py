@@ -129,7 +129,7 @@ def test_the_host_fetches_the_device_totals_sparse_or_dense(landings, device, mo
 def test_a_table_size_must_be_a_power_of_two():
     from warp_ricochet.tallies.block import make_block_table
 
-    for slots, probes in ((12, 2), (16, 17), (16, -1)):
+    for slots, probes in ((12, 2), (16, 17), (16, -1), (4096, 8)):  # 4096 slots: 64 KiB, past static shared memory
         with pytest.raises(ValueError, match="power of two"):
             make_block_table(slots, probes)
     assert math.log2(SLOTS).is_integer()

@@ -21,6 +21,8 @@ import warp as wp
 SLOTS = 2048  # slots of a block's table (16 bytes each: 32 KiB of shared memory)
 PROBES = 8  # slots tried for a key before its landing is added to the device arrays directly
 EMPTY = -1  # the key of a free slot
+SLOT_BYTES = 16  # key, count (int32) and energy (int64)
+MAX_STATIC_SHARED = 48 * 1024  # bytes of static shared memory a CUDA block may declare
 
 BEGIN, ADD, END, KEY, COUNT, ENERGY, LANE, STRIDE = range(8)  # the operations of `block_table`
 
@@ -34,8 +36,9 @@ def make_block_table(slots: int = SLOTS, probes: int = PROBES):
     ENERGY read slot a; LANE, STRIDE: the thread's slots to flush are LANE, LANE + STRIDE, ...
     On the CPU, or with no slots or probes, nothing is aggregated: ADD returns 0, END 0 slots,
     LANE 0, STRIDE 1 (and no barrier)."""
-    if slots & (slots - 1) or not 0 <= probes <= slots:
-        raise ValueError(f"slots must be 0 or a power of two and probes in [0, slots]: {slots}, {probes}")
+    if slots & (slots - 1) or not 0 <= probes <= slots or slots * SLOT_BYTES > MAX_STATIC_SHARED:
+        raise ValueError(f"slots must be 0 or a power of two of at most {MAX_STATIC_SHARED} bytes, probes in "
+                         f"[0, slots]: {slots}, {probes}")
     shift = 32 - max(slots.bit_length() - 1, 0)
     snippet = f"""
 #if defined(__CUDA_ARCH__) && {int(slots > 0 and probes > 0)}
