@@ -10,6 +10,10 @@ Variants of the landing code (`tallies.landing.make_add_landing`, patched before
   no-table  no block table: each map landing added to the maps at once
   no-add    the bins, cells and energies computed, nothing added (a condition no landing meets)
   empty     no landing code at all (the thresholds exceeded are still found)
+  fixed-level, no-distance, no-map-math
+            as-is with one part of the arithmetic a constant: the thresholds exceeded (all of them,
+            as in the paper shot), the distance from the shooter (the range instead), the map's
+            cell and energy
 A variant's numbers are only for finding costs: its counts are wrong by design.
 """
 
@@ -19,7 +23,7 @@ from types import SimpleNamespace
 from bench.__main__ import _timed, _wr, device_info
 from bench.hazard import CONFIGS, scene
 
-VARIANTS = ("as-is", "no-table", "no-add", "empty")
+VARIANTS = ("as-is", "no-table", "no-add", "empty", "fixed-level", "no-distance", "no-map-math")
 
 
 def variant_factory(variant: str, table_size: int = 0, table_probes: int = 0):
@@ -35,15 +39,21 @@ def variant_factory(variant: str, table_size: int = 0, table_probes: int = 0):
     original = landing.make_add_landing
 
     @functools.cache
-    def make(precision: str, with_map: bool, slots: int = SLOTS, probes: int = PROBES):
+    def make(precision: str, with_map: bool, thresholds: int = 0, slots: int = SLOTS, probes: int = PROBES):
         slots, probes = (0, 0) if variant in ("no-table", "empty") else (table_size or slots, table_probes or probes)
-        base = original(precision, with_map, slots, probes)
+        base = original(precision, with_map, thresholds, slots, probes)
         if variant in ("as-is", "no-table"):
             return base
         fns = landing.make_landing_tally(precision)
         Tally, scalar, vec3, map_cell, horizontal_distance = fns.Tally, fns.scalar, fns.vec3, fns.map_cell, fns.horizontal_distance
         bin_of, table, copy_of = make_bin_of(), make_block_table(slots, probes), base.copy_of
-        EMPTY = variant == "empty"
+        EMPTY, NEVER = variant == "empty", variant == "no-add"
+        NO_DISTANCE, NO_MAP_MATH = variant == "no-distance", variant == "no-map-math"
+        ALL = 15  # fixed-level: every landing above each of the scene's four thresholds (as in the paper shot)
+
+        @wp.func
+        def exceeded(tally: Tally, v2: scalar):
+            return wp.int32(ALL)
 
         @wp.func
         def add_landing(tally: Tally, row: wp.int32, surface: wp.int32, landing_range: scalar, position: vec3, v2: scalar,
@@ -51,24 +61,30 @@ def variant_factory(variant: str, table_size: int = 0, table_probes: int = 0):
             if not wp.static(EMPTY):
                 level = wp.int32(wp.bit_count(mask))
                 first = copy_of(row, tally.copy_mask) * tally.hist_rows * BINS
+                distance = landing_range
+                if not wp.static(NO_DISTANCE):
+                    distance = horizontal_distance(tally, position)
                 b0 = first + ROW_RANGE * BINS + bin_of(wp.float32(landing_range))
                 b1 = first + ROW_SPEED * BINS + bin_of(wp.float32(wp.sqrt(v2)))
-                b2 = first + (ROW_DISTANCE + level) * BINS + bin_of(wp.float32(horizontal_distance(tally, position)))
-                if row == -7:  # never: the values are computed, not added
+                b2 = first + (ROW_DISTANCE + level) * BINS + bin_of(wp.float32(distance))
+                if row == -7 or not wp.static(NEVER):  # no-add: never (the values computed, not added)
                     wp.atomic_add(tally.hist, b0, 1)
                     wp.atomic_add(tally.hist, b1, 1)
                     wp.atomic_add(tally.hist, b2, 1)
                 if wp.static(with_map):
-                    column = map_cell(tally, surface, position)
+                    column = level
+                    energy = wp.int64(1)
+                    if not wp.static(NO_MAP_MATH):
+                        column = map_cell(tally, surface, position)
+                        energy = wp.int64(wp.floor(wp.float64(tally.half_mass * v2) * tally.inverse_quantum + wp.float64(0.5)))
                     key = level * tally.map_width + column
-                    energy = wp.int64(wp.floor(wp.float64(tally.half_mass * v2) * tally.inverse_quantum + wp.float64(0.5)))
-                    if row == -7:
+                    if row == -7 or not wp.static(NEVER):
                         if table(ADD, key, energy) == wp.int64(0):
                             wp.atomic_add(tally.map_counts, key, 1)
                             wp.atomic_add(tally.map_energy, column, energy)
 
-        return SimpleNamespace(exceeded=base.exceeded, add_landing=add_landing, flush=base.flush, table=base.table,
-                               copy_of=copy_of)
+        return SimpleNamespace(exceeded=exceeded if variant == "fixed-level" else base.exceeded, add_landing=add_landing,
+                               flush=base.flush, table=base.table, copy_of=copy_of)
 
     return make
 

@@ -48,7 +48,7 @@ def landings():
 
 def _count(landings, device, slots, probes, totals=True):
     setup = _setup()
-    fns = make_add_landing("float32", True, slots, probes)
+    fns = make_add_landing("float32", True, len(SPEED_THRESHOLDS), slots, probes)
     Tally = make_landing_tally("float32").Tally
 
     @wp.kernel(module="unique", enable_backward=False)
@@ -133,3 +133,12 @@ def test_a_table_size_must_be_a_power_of_two():
         with pytest.raises(ValueError, match="power of two"):
             make_block_table(slots, probes)
     assert math.log2(SLOTS).is_integer()
+
+
+def test_a_tally_holds_every_threshold_a_scene_may_set():
+    from warp_ricochet.scene.schema import MAX_THRESHOLDS
+    from warp_ricochet.tallies.landing import MAX_THRESHOLDS as HELD
+
+    assert MAX_THRESHOLDS <= HELD
+    with pytest.raises(ValueError, match="thresholds"):
+        make_add_landing("float32", False, HELD + 1)

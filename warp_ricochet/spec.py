@@ -23,7 +23,8 @@ class RunSpec:
     from a pellet file; fast_math: CUDA float32 approximate maths; collisions: a dense phase of
     pellet-pellet collisions first; flight: the flight model (`physics.flight.MODELS`); air_laws:
     in air, (drag, lift or None, spin decay or None) of `physics.air`; tally: landing histograms
-    (quantiles, danger distances, `tallies.landing`); hazard_map: the hazard map too."""
+    (quantiles, danger distances, `tallies.landing`); hazard_map: the hazard map too; thresholds:
+    the number of hazard thresholds (compiled in: the landing code tests each one unrolled)."""
 
     precision: str
     bounces: int
@@ -36,6 +37,7 @@ class RunSpec:
     air_laws: tuple | None = None
     tally: bool = False
     hazard_map: bool = False
+    thresholds: int = 0
 
     @classmethod
     def of(cls, scene, *, with_output: bool = True) -> "RunSpec":
@@ -48,7 +50,8 @@ class RunSpec:
                    fields=tuple(scene.output.fields) if with_output else (), from_file=scene.shot.file is not None,
                    fast_math=scene.numerics.fast_math and precision == "float32", collisions=scene.pair_collisions,
                    flight="ballistic" if air is None else "air", air_laws=laws, tally=scene.output.quantiles,
-                   hazard_map=scene.output.quantiles and scene.hazard is not None and scene.hazard.has_map)
+                   hazard_map=scene.output.quantiles and scene.hazard is not None and scene.hazard.has_map,
+                   thresholds=0 if scene.hazard is None else len(scene.hazard.thresholds))
 
     @property
     def in_air(self) -> bool:

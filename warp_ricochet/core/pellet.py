@@ -38,7 +38,7 @@ def make_ricochet_pellet(spec):
     AIR = spec.flight == "air"
     rests, stays, impact, _meet, contact_point, landing_range = make_contact(spec.precision)
     RELEASE, WRITE, BOUNCES = spec.collisions, bool(spec.core_fields), spec.bounces
-    Tally, landing_tally = make_landing_tally(spec.precision).Tally, make_add_landing(spec.precision, spec.hazard_map)
+    Tally, landing_tally = make_landing_tally(spec.precision).Tally, make_add_landing(spec.precision, spec.hazard_map, spec.thresholds)
     TALLY, HAZARD_OUT = spec.tally, any(f.startswith("hazard.") for f in spec.core_fields)
 
     @wp.func

@@ -164,7 +164,7 @@ class DeviceTally:
         import warp as wp
 
         from ..physics.types import types_for
-        from .landing import make_landing_tally
+        from .landing import MAX_THRESHOLDS, make_landing_tally
 
         t = types_for(precision)
         self.setup, self.active, self.device = setup, active, device
@@ -181,10 +181,12 @@ class DeviceTally:
         self.sparse = {"count": _buffer(device, "sparse count", 1, wp.int32),
                        "index": _buffer(device, "sparse index", capacity, wp.int32),
                        "value": _buffer(device, "sparse value", capacity, wp.int64)}
-        s = make_landing_tally(precision).Tally()
+        fns = make_landing_tally(precision)
+        s = fns.Tally()
         s.hist, s.map_counts, s.map_energy = self.counts["hist"], self.counts["map_counts"], self.counts["map_energy"]
         s.hist_rows, s.copy_mask, s.map_width = ROW_DISTANCE + levels, self.copies - 1, width
-        s.thresholds2 = wp.array(np.asarray(setup.thresholds2, dtype=precision), dtype=t.scalar, device=device)
+        unused = (math.inf,) * (MAX_THRESHOLDS - len(setup.thresholds2))
+        s.thresholds2 = fns.Thresholds(*(float(np.dtype(precision).type(v)) for v in setup.thresholds2), *unused)
         s.shooter, s.up = t.vec3(*setup.shooter), t.vec3(*setup.up)
         s.half_mass, s.inverse_area = t.scalar(setup.half_mass), t.scalar(1.0 / setup.area)
         s.map_surface = setup.map_surface

@@ -35,6 +35,7 @@ from .bins import BINS, ROW_DISTANCE, ROW_RANGE, ROW_SPEED, make_bin_of
 from .block import ADD, COUNT, END, ENERGY, KEY, LANE, PROBES, SLOTS, STRIDE, make_block_table
 
 COPY_MIX = 37  # `copy_of`: consecutive segments' warps start at copies 37 apart
+MAX_THRESHOLDS = 31  # hazard thresholds a `Tally` holds (a landing's exceeded ones are the bits of an int32)
 
 
 @functools.cache
@@ -42,6 +43,7 @@ def make_landing_tally(precision: str) -> SimpleNamespace:
     """The `Tally` struct of one precision and the functions that add a landing to it."""
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
+    Thresholds = wp.types.vector(length=MAX_THRESHOLDS, dtype=scalar)
 
     @wp.struct
     class Tally:
@@ -50,7 +52,7 @@ def make_landing_tally(precision: str) -> SimpleNamespace:
         hist: wp.array(dtype=wp.int32)  # copies x (ROW_DISTANCE + levels) x bins.BINS, flat (copy, row, bin)
         hist_rows: wp.int32  # ROW_DISTANCE + levels
         copy_mask: wp.int32  # copies - 1 (copies: a power of two)
-        thresholds2: wp.array(dtype=scalar)  # (m/s)^2, every threshold as one on |v|^2, in scene order
+        thresholds2: Thresholds  # (m/s)^2, every threshold as one on |v|^2, in scene order (the rest unused)
         shooter: vec3  # m
         up: vec3  # unit vector against gravity (zero without gravity: distances in 3-D)
         half_mass: scalar  # kg, m / 2
@@ -90,26 +92,28 @@ def make_landing_tally(precision: str) -> SimpleNamespace:
                 column = wp.int32(wp.floor(fv)) * tally.map_nu + wp.int32(wp.floor(fu))
         return column
 
-    return SimpleNamespace(Tally=Tally, scalar=scalar, vec3=vec3, map_cell=map_cell,
+    return SimpleNamespace(Tally=Tally, Thresholds=Thresholds, scalar=scalar, vec3=vec3, map_cell=map_cell,
                            horizontal_distance=horizontal_distance)
 
 
 @functools.cache
-def make_add_landing(precision: str, with_map: bool, slots: int = SLOTS, probes: int = PROBES):
-    """exceeded(tally, v2) -> the bit mask of the thresholds a landing with |v|^2 = v2 exceeds (bit i:
-    v2 >= thresholds2[i]); add_landing(tally, row, surface, range, position, v2, mask) counts it
+def make_add_landing(precision: str, with_map: bool, thresholds: int = 0, slots: int = SLOTS, probes: int = PROBES):
+    """exceeded(tally, v2) -> the bit mask of the `thresholds` (the first of thresholds2, tested
+    unrolled) a landing with |v|^2 = v2 exceeds (bit i: v2 >= thresholds2[i]); add_landing(tally, row, surface, range, position, v2, mask) counts it
     (and, `with_map`, maps it: through the block's table, `tallies.block` with `slots` and `probes`);
     flush(tally) adds the block's table to the maps (with a map, every thread of the block at its
     end, after `table(BEGIN, ...)` at its start). A table key is a flat index of map_counts."""
     fns = make_landing_tally(precision)
     Tally, scalar, vec3, map_cell, horizontal_distance = fns.Tally, fns.scalar, fns.vec3, fns.map_cell, fns.horizontal_distance
     bin_of, table = make_bin_of(), make_block_table(slots, probes)
-    MAP = with_map
+    MAP, THRESHOLDS = with_map, thresholds
+    if not 0 <= thresholds <= MAX_THRESHOLDS:
+        raise ValueError(f"thresholds must be in [0, {MAX_THRESHOLDS}]: {thresholds}")
 
     @wp.func
     def exceeded(tally: Tally, v2: scalar):
         mask = wp.int32(0)
-        for i in range(tally.thresholds2.shape[0]):
+        for i in range(wp.static(THRESHOLDS)):
             if v2 >= tally.thresholds2[i]:
                 mask = mask | (wp.int32(1) << i)
         return mask
