@@ -20,16 +20,16 @@ PER_THREAD = 4
 CELL, NU, NV = 0.5, 64, 8  # the map: cells of 0.5 m, u in [10, 42) m, v in [-2, 2) m
 U0, V0 = 10.0, -2.0
 HALF_MASS = 0.5 * 2.0e-3
-QUANTUM = 1e-6  # J
+QUANTUM = 1e-6  # J: up to 6e7 quanta a landing (a table slot's 32-bit low word carries)
 SPEED_THRESHOLDS = (150.0, 200.0)  # m/s
 
 
-def _setup():
+def _setup(quantum=QUANTUM):
     return TallySetup(names=("slow", "fast"), kinds=("speed", "speed"), values=SPEED_THRESHOLDS,
                       thresholds2=tuple(v * v for v in SPEED_THRESHOLDS), shooter=(0.0, 0.0, 0.0), up=(0.0, 0.0, 1.0),
                       half_mass=HALF_MASS, area=1e-5, fractions=(), map_surface=0, map_origin=(0.0, 0.0, 0.0),
                       map_u=(1.0, 0.0, 0.0), map_v=(0.0, 0.0, 1.0), map_u0=U0, map_v0=V0, map_cell=CELL, map_nu=NU,
-                      map_nv=NV, quantum=QUANTUM)
+                      map_nv=NV, quantum=quantum)
 
 
 @pytest.fixture(scope="module")
@@ -46,8 +46,8 @@ def landings():
     return {"range": np.abs(x).astype(np.float32), "position": position, "v2": speed * speed, "surface": surface}
 
 
-def _count(landings, device, slots, probes, totals=True):
-    setup = _setup()
+def _count(landings, device, slots, probes, totals=True, quantum=QUANTUM):
+    setup = _setup(quantum)
     fns = make_add_landing("float32", True, len(SPEED_THRESHOLDS), slots, probes)
     Tally = make_landing_tally("float32").Tally
 
@@ -77,7 +77,7 @@ def _count(landings, device, slots, probes, totals=True):
     return {name: arr.numpy() for name, arr in tally.totals.items()} if totals else tally
 
 
-def _reference(landings):
+def _reference(landings, quantum=QUANTUM):
     """The counts by NumPy, in float64 from the float32 values (exact for these landings)."""
     r, p, v2, surface = (landings[k] for k in ("range", "position", "v2", "surface"))
     level = sum((v2 >= np.float32(t * t)).astype(int) for t in SPEED_THRESHOLDS)
@@ -93,7 +93,7 @@ def _reference(landings):
     column = np.where(surface == 0, column, NU * NV + 1)
     counts = np.zeros((3, NU * NV + 2), dtype=np.int64)
     np.add.at(counts, (level, column), 1)
-    energy = np.floor((np.float32(HALF_MASS) * v2).astype(np.float64) / QUANTUM + 0.5).astype(np.int64)
+    energy = np.floor((np.float32(HALF_MASS) * v2).astype(np.float64) * (1.0 / quantum) + 0.5).astype(np.int64)
     map_energy = np.zeros(NU * NV + 2, dtype=np.int64)
     np.add.at(map_energy, column, energy)
     return {"hist": hist, "map_counts": counts, "map_energy": map_energy}
@@ -103,12 +103,13 @@ def test_launches_of_the_core_kernel_cover_whole_blocks():
     assert LANES % CUDA_BLOCK_DIM == 0  # threads_for() gives whole LANES groups
 
 
-def test_block_tables_count_what_numpy_counts(landings, device):
-    expected = _reference(landings)
+@pytest.mark.parametrize("quantum", [QUANTUM, 1e-9])  # 1e-9 J: past 2^32 quanta a landing, added at once
+def test_block_tables_count_what_numpy_counts(landings, device, quantum):
+    expected = _reference(landings, quantum)
     assert expected["map_counts"][:, : NU * NV].sum() > 0.8 * len(landings["range"])
     assert expected["map_counts"][:, NU * NV].sum() > 0 and expected["map_counts"][:, NU * NV + 1].sum() > 0
     for slots, probes in ((SLOTS, PROBES), (16, 2), (0, 0)):  # default, mostly overflowing, none
-        got = _count(landings, device, slots, probes)
+        got = _count(landings, device, slots, probes, quantum=quantum)
         for name in ("hist", "map_counts", "map_energy"):
             np.testing.assert_array_equal(got[name].reshape(expected[name].shape), 2 * expected[name],
                                           err_msg=f"{name}, {slots} slots, {probes} probes")

@@ -21,7 +21,7 @@ import warp as wp
 SLOTS = 2048  # slots of a block's table (16 bytes each: 32 KiB of shared memory)
 PROBES = 8  # slots tried for a key before its landing is added to the device arrays directly
 EMPTY = -1  # the key of a free slot
-SLOT_BYTES = 16  # key, count (int32) and energy (int64)
+SLOT_BYTES = 16  # key, count (int32) and energy (two uint32)
 MAX_STATIC_SHARED = 48 * 1024  # bytes of static shared memory a CUDA block may declare
 
 BEGIN, ADD, END, KEY, COUNT, ENERGY, LANE, STRIDE = range(8)  # the operations of `block_table`
@@ -44,15 +44,18 @@ def make_block_table(slots: int = SLOTS, probes: int = PROBES):
 #if defined(__CUDA_ARCH__) && {int(slots > 0 and probes > 0)}
     __shared__ int table_keys[{slots}];
     __shared__ int table_counts[{slots}];
-    __shared__ unsigned long long table_energies[{slots}];
+    __shared__ unsigned int table_energy_low[{slots}];  // a slot's energy: high * 2^32 + low
+    __shared__ unsigned int table_energy_high[{slots}];
     if (op == {ADD}) {{
+        if ((unsigned long long)b > 0xffffffffull) return 0;  // (past 32 bits: added at once)
         unsigned int h = {"0u" if shift == 32 else f"((unsigned int)a * 2654435761u) >> {shift}"};
         for (int p = 0; p < {probes}; ++p) {{
             int s = (int)((h + (unsigned int)p) & {slots - 1}u);
             int old = atomicCAS(&table_keys[s], {EMPTY}, (int)a);
             if (old == {EMPTY} || old == (int)a) {{
                 atomicAdd(&table_counts[s], 1);
-                if (b != 0) atomicAdd(&table_energies[s], (unsigned long long)b);
+                unsigned int e = (unsigned int)b;  // 32-bit shared atomics, the carry counted in high
+                if (e != 0u && atomicAdd(&table_energy_low[s], e) > 0xffffffffu - e) atomicAdd(&table_energy_high[s], 1u);
                 return 1;
             }}
         }}
@@ -62,7 +65,8 @@ def make_block_table(slots: int = SLOTS, probes: int = PROBES):
         for (int s = threadIdx.x; s < {slots}; s += blockDim.x) {{
             table_keys[s] = {EMPTY};
             table_counts[s] = 0;
-            table_energies[s] = 0ull;
+            table_energy_low[s] = 0u;
+            table_energy_high[s] = 0u;
         }}
         __syncthreads();
         return 0;
@@ -73,7 +77,7 @@ def make_block_table(slots: int = SLOTS, probes: int = PROBES):
     }}
     if (op == {KEY}) return table_keys[a];
     if (op == {COUNT}) return table_counts[a];
-    if (op == {ENERGY}) return (wp::int64)table_energies[a];
+    if (op == {ENERGY}) return (wp::int64)(((unsigned long long)table_energy_high[a] << 32) | table_energy_low[a]);
     if (op == {LANE}) return threadIdx.x;
     if (op == {STRIDE}) return blockDim.x;
     return 0;
