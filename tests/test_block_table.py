@@ -72,7 +72,7 @@ def _count(landings, device, slots, probes, totals=True, quantum=QUANTUM):
     for _chunk in range(2):  # two chunks of the same landings: the totals hold twice the counts
         tally.before_chunk()
         wp.launch(count, dim=threads, inputs=[tally.struct, *arrays, n], device=device, block_dim=CUDA_BLOCK_DIM)
-        tally.fold()
+        tally.fold(n, last=True)
     assert not any(arr.numpy().any() for arr in tally.counts.values())  # a fold leaves the counts zero
     return {name: arr.numpy() for name, arr in tally.totals.items()} if totals else tally
 
@@ -113,6 +113,19 @@ def test_block_tables_count_what_numpy_counts(landings, device, quantum):
         for name in ("hist", "map_counts", "map_energy"):
             np.testing.assert_array_equal(got[name].reshape(expected[name].shape), 2 * expected[name],
                                           err_msg=f"{name}, {slots} slots, {probes} probes")
+
+
+def test_histogram_counts_wait_unfolded_until_read_or_near_int32(landings, device, monkeypatch):
+    tally = _count(landings, device, SLOTS, PROBES, totals=False)  # (folded: every count zero)
+    n = len(landings["range"])
+    monkeypatch.setattr(counts, "FOLD_LIMIT", 2 * n)
+    tally.start(None)
+    hist = tally.counts["hist"]
+    for chunk, expect_folded in ((1, False), (2, True), (3, False), (4, True)):  # once one more chunk could pass 2n, and last
+        hist.fill_(1)  # (stands for the chunk's counts)
+        tally.fold(n, last=chunk == 4)
+        assert (not hist.numpy().any()) == expect_folded, chunk
+    assert tally.totals["hist"].numpy().tolist() == [2 * tally.copies] * (hist.size // tally.copies)
 
 
 @pytest.mark.parametrize("capacity", [counts.SPARSE_CAPACITY, 7])

@@ -126,7 +126,7 @@ class CoreStage:
                           self.tally.struct],
                   outputs=[self.state.partial_sums, self.state.partial_min, self.state.partial_max],
                   device=m.device, block_dim=CUDA_BLOCK_DIM)
-        self.tally.fold()
+        self.tally.fold(rows, last=start + rows >= self.pellets)
         return launch_reduce(self.state, rows, m.device), 0
 
     def shot_rows(self, start: int, rows: int):
@@ -175,7 +175,7 @@ class CollisionStage:
                           self.tally.struct],
                   outputs=[self.state.partial_sums, self.state.partial_min, self.state.partial_max],
                   device=m.device, block_dim=CUDA_BLOCK_DIM)
-        self.tally.fold()
+        self.tally.fold(slots, last=start + rows >= self.pellets)
         return launch_reduce(self.state, slots, m.device), shots
 
     def shot_rows(self, start: int, rows: int):
@@ -293,7 +293,7 @@ def _loop(stage, pellets, sink, resumed, progress):
         if resumed.shot_partials is not None:
             pieces.append(resumed.shot_partials)
     if tally is not None:
-        stage.tally.start(loaded)
+        stage.tally.start(loaded, every_chunk=sink is not None)
     cuda = stage.model.device.is_cuda
     slots = [HostSlot(stage, pinned=cuda, index=i) for i in range(2 if cuda else 1)]
 

@@ -138,6 +138,7 @@ def _buffer(device, role: str, size: int, dtype):
     return _POOL[key]
 
 
+FOLD_LIMIT = (1 << 31) - 1  # pellets whose histogram counts may wait unfolded (int32 bins)
 SPARSE_CAPACITY = 1 << 16  # nonzero totals a run's end fetches as (index, value) pairs (`host_totals`)
 
 
@@ -197,9 +198,11 @@ class DeviceTally:
         s.inverse_quantum = wp.float64(1.0 / setup.quantum)
         self.struct = s
 
-    def start(self, totals: "TallyTotals | None"):
+    def start(self, totals: "TallyTotals | None", every_chunk: bool = False):
         """Before a run's first chunk: its totals from `totals` (a resumed run's) or zero, and its
-        count arrays zero (unless a fold left them so)."""
+        count arrays zero (unless a fold left them so); `every_chunk`: the totals are read after
+        every chunk (a run with a file), so every fold folds them all."""
+        self.every_chunk, self.unfolded = every_chunk, 0
         if not self.active:
             return
         import warp as wp
@@ -212,22 +215,31 @@ class DeviceTally:
             else:
                 wp.copy(self.totals[name], wp.array(getattr(totals, name).ravel(), dtype=wp.int64, device="cpu"))
 
-    def fold(self):
-        """After a chunk's kernel: its counts (every copy) added to the totals, then zeroed."""
+    def fold(self, rows: int, last: bool):
+        """After a chunk's kernel (`rows` pellets; `last`: the totals are read after it): its map
+        counts added to the totals, then zeroed; its histogram counts (every copy) too when `last`,
+        when the run reads its totals after every chunk (`start`), or when one more chunk of `rows`
+        could take a bin past int32 (a pellet adds at most one count to a bin). Folding the copies
+        (hundreds of MB on CUDA) once a run instead of once a chunk spares their reading."""
         if not self.active:
             return
         import warp as wp
 
         from .landing import fold_kernels
 
+        self.unfolded += rows
+        names = ["map_counts", "map_energy"]
+        if last or self.every_chunk or self.unfolded + rows > FOLD_LIMIT:
+            names.append("hist")
+            self.unfolded = 0
         fold32, fold64 = fold_kernels()
-        for name in self.COUNTS:
+        for name in names:
             total = self.totals[name]
             if total.size:
                 wp.launch(fold64 if name == "map_energy" else fold32, dim=total.size,
                           inputs=[self.counts[name], total.size], outputs=[total], device=self.device)
         if self.device.is_cuda:
-            _CLEAN.update((str(self.device), "counts " + name) for name in self.COUNTS)
+            _CLEAN.update((str(self.device), "counts " + name) for name in names)
 
     def fetch(self, tally: "TallyTotals"):
         """The totals into `tally` on the host, waiting for the device. Only their nonzero elements
