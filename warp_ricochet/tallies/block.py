@@ -1,17 +1,17 @@
-"""Block-level aggregation of the landing counts on CUDA, in shared memory.
+"""Block-level aggregation of the hazard map's landings on CUDA, in shared memory.
 
-Each CUDA thread block of the core kernel adds its landings into a hash table in shared memory
-(`SLOTS` slots, open addressing with `PROBES` linear probes): the key of a landing's count is the
-flat index of its histogram bin or map cell (`tallies.landing`), a slot holds a count and an
-energy (int64 quanta). At the end of the block its threads add the table's slots to the device
-arrays, one atomic per key and block instead of one per landing: a narrow cloud lands in a few
-hundred bins and cells, so this turns most of a run's global atomics into shared-memory ones. A
-landing whose key finds no slot in its probes is added to the device arrays at once.
+Each CUDA thread block of the core kernel adds its map landings into a hash table in shared memory
+(`SLOTS` slots, open addressing with `PROBES` linear probes): a landing's key is the flat index of
+its (hazard level, map column) (`tallies.landing`), a slot holds a count and an energy in quanta
+(two uint32 words: 32-bit shared-memory atomics, the low word's carry counted in the high one). At
+the end of the block its threads add the table's slots to the maps, one atomic per key and block
+instead of one per landing: a cloud lands in a few hundred cells. A landing whose key finds no slot
+in its probes, or whose energy is 2^32 quanta or more, is added to the maps at once.
 
 Every sum is an integer sum, so the totals are the same bits however the landings are grouped:
 as on the CPU, where `block_table` aggregates nothing (one thread a block) and every landing is
-added directly. Assumes that every thread of a block reaches the kernel's `table_begin` and
-`table_end` calls (they hold `__syncthreads`): the core kernel's launch covers whole blocks.
+added directly. Assumes that every thread of a block reaches the kernel's BEGIN and END calls
+(they hold `__syncthreads`): the core kernel's launch covers whole blocks.
 """
 
 import functools
