@@ -31,7 +31,7 @@ BEGIN, ADD, END, KEY, COUNT, ENERGY, LANE, STRIDE = range(8)  # the operations o
 def make_block_table(slots: int = SLOTS, probes: int = PROBES):
     """block_table(op, a, b) -> int64, one native function over one shared table (its operations):
     BEGIN clears the table (every thread of the block: a barrier); ADD adds one landing of key a
-    (>= 0) and energy b (quanta), returning 1, or 0 when no slot was free; END waits for the
+    (>= 0) and energy b (quanta), returning 1, or 0 when no slot was free or b >= 2^32; END waits for the
     block's adds (every thread: a barrier) and returns the number of slots to flush; KEY, COUNT,
     ENERGY read slot a; LANE, STRIDE: the thread's slots to flush are LANE, LANE + STRIDE, ...
     On the CPU, or with no slots or probes, nothing is aggregated: ADD returns 0, END 0 slots,
