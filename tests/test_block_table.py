@@ -20,7 +20,7 @@ PER_THREAD = 4
 CELL, NU, NV = 0.5, 64, 8  # the map: cells of 0.5 m, u in [10, 42) m, v in [-2, 2) m
 U0, V0 = 10.0, -2.0
 HALF_MASS = 0.5 * 2.0e-3
-QUANTUM = 1e-6  # J: up to 6e7 quanta a landing (a table slot's 32-bit low word carries)
+QUANTUM = 1e-6  # J: up to 6e7 quanta a landing (both 16-bit halves in use)
 SPEED_THRESHOLDS = (150.0, 200.0)  # m/s
 
 
@@ -100,10 +100,14 @@ def _reference(landings, quantum=QUANTUM):
 
 
 def test_launches_of_the_core_kernel_cover_whole_blocks():
+    from warp_ricochet.tallies.block import MAX_BLOCK_LANDINGS
+    from warp_ricochet.tallies.reduce import PER_THREAD as CORE_PER_THREAD
+
     assert LANES % CUDA_BLOCK_DIM == 0  # threads_for() gives whole LANES groups
+    assert CUDA_BLOCK_DIM * CORE_PER_THREAD <= MAX_BLOCK_LANDINGS  # a table's energy words cannot overflow
 
 
-@pytest.mark.parametrize("quantum", [QUANTUM, 1e-9])  # 1e-9 J: past 2^32 quanta a landing, added at once
+@pytest.mark.parametrize("quantum", [QUANTUM, 1e-9])  # 1e-9 J: past 2^31 quanta a landing, added at once
 def test_block_tables_count_what_numpy_counts(landings, device, quantum):
     expected = _reference(landings, quantum)
     assert expected["map_counts"][:, : NU * NV].sum() > 0.8 * len(landings["range"])
