@@ -1,6 +1,6 @@
 """The landing tallies of a run on the host: their constants from the scene (`TallySetup`), their
-device arrays and struct (`DeviceTally`: a chunk's counts, added to the run's int64 totals on the
-device after each chunk) and those totals on the host (`TallyTotals`). Integer sums: the same for
+device arrays and struct (`DeviceTally`: the chunks' counts, added to the run's int64 totals on
+the device) and those totals on the host (`TallyTotals`). Integer sums: the same for
 any chunk size and after --resume.
 What is counted, and how, is `tallies.landing`; what the counts mean, docs/hazard.md.
 """
@@ -139,7 +139,8 @@ def _buffer(device, role: str, size: int, dtype):
 
 
 FOLD_LIMIT = (1 << 31) - 1  # pellets whose histogram counts may wait unfolded (int32 bins)
-SPARSE_CAPACITY = 1 << 16  # nonzero totals a run's end fetches as (index, value) pairs (`host_totals`)
+SPARSE_CAPACITY = 1 << 16  # nonzero totals a run's end fetches as (index, value) pairs (`DeviceTally.fetch`)
+COUNTS = ("hist", "map_counts", "map_energy")  # the landing counts, in `TallyTotals.flat` order
 
 
 def _pinned(device, arrays: dict) -> dict:
@@ -158,8 +159,6 @@ class DeviceTally:
     arrays when the run counts nothing: `active` false): the counts of a chunk (int32, the
     histograms in copies), which `fold` adds to the run's totals on the device (`totals`, int64,
     flat: what the host copies back) and sets to zero again, so no chunk needs its own zeroing."""
-
-    COUNTS = ("hist", "map_counts", "map_energy")
 
     def __init__(self, setup: TallySetup, precision: str, device, active: bool):
         import warp as wp
@@ -207,8 +206,8 @@ class DeviceTally:
             return
         import warp as wp
 
-        for name in self.COUNTS:
-            if (str(self.device), "counts " + name) not in _CLEAN:
+        for name in COUNTS:
+            if self.device.is_cuda and (str(self.device), "counts " + name) not in _CLEAN:  # (CPU: fresh zeros)
                 self.counts[name].zero_()
             if totals is None:
                 self.totals[name].zero_()
@@ -225,19 +224,18 @@ class DeviceTally:
             return
         import warp as wp
 
-        from .landing import fold_kernels
+        from .landing import fold_kernel
 
         self.unfolded += rows
         names = ["map_counts", "map_energy"]
         if last or self.every_chunk or self.unfolded + rows > FOLD_LIMIT:
             names.append("hist")
             self.unfolded = 0
-        fold32, fold64 = fold_kernels()
         for name in names:
             total = self.totals[name]
             if total.size:
-                wp.launch(fold64 if name == "map_energy" else fold32, dim=total.size,
-                          inputs=[self.counts[name], total.size], outputs=[total], device=self.device)
+                wp.launch(fold_kernel(), dim=total.size, inputs=[self.counts[name], total.size], outputs=[total],
+                          device=self.device)
         if self.device.is_cuda:
             _CLEAN.update((str(self.device), "counts " + name) for name in names)
 
@@ -268,7 +266,7 @@ class DeviceTally:
 
     def before_chunk(self):
         """Before a chunk's kernel: its count arrays are no longer known to be zero."""
-        _CLEAN.difference_update((str(self.device), "counts " + name) for name in self.COUNTS)
+        _CLEAN.difference_update((str(self.device), "counts " + name) for name in COUNTS)
 
 
 class TallyTotals:
@@ -276,8 +274,6 @@ class TallyTotals:
     level; bins of `tallies.bins`), `map_counts` (level, cell; then outside, elsewhere) and
     `map_energy` (per column, in quanta). Held as their nonzero elements after `scatter` (most
     bins and cells are empty), as dense arrays from the first read of one of them on."""
-
-    NAMES = ("hist", "map_counts", "map_energy")
 
     def __init__(self, setup: TallySetup):
         levels, width = setup.levels, setup.cells + 2
@@ -312,7 +308,7 @@ class TallyTotals:
 
     def set(self, totals: dict):
         """The counts so far, from `DeviceTally.totals` ({name: flat int64 array}) copied to the host."""
-        self._dense = {name: np.array(totals[name], dtype=np.int64).reshape(self.shapes[name]) for name in self.NAMES}
+        self._dense = {name: np.array(totals[name], dtype=np.int64).reshape(self.shapes[name]) for name in COUNTS}
 
     def scatter(self, index, value):
         """The counts so far from their nonzero elements: `value` at `index` of `flat()`'s order, the
@@ -322,7 +318,7 @@ class TallyTotals:
 
     def flat(self) -> np.ndarray:
         """All counts in one int64 vector (what /progress keeps for --resume)."""
-        return np.concatenate([self._arrays()[name].ravel() for name in self.NAMES])
+        return np.concatenate([self._arrays()[name].ravel() for name in COUNTS])
 
     def load(self, flat) -> "TallyTotals":
         """Counts from `flat` (as `flat()` made them)."""

@@ -18,7 +18,7 @@ Three histogram counts per landed pellet, each an atomic add on the device: the 
 merges a warp's adds to the few busy bins of a narrow distribution. The histograms have COPIES
 copies on CUDA (`counts.copies_for`, a power of two), a warp's pellets counting into one copy
 chosen from its row, so that those few bins are not one address each for the whole GPU
-(`counts.DeviceTally.fold` adds the copies to the run's totals after each chunk). A map landing's
+(`counts.DeviceTally.fold` adds the copies to the run's totals when they are read). A map landing's
 count and energy go together into its thread block's table in shared memory (`tallies.block`,
 added to the maps once at the end of the block: the landings of a cloud are spread over many
 cells, whose atomics the L2 cache cannot merge); one that finds no slot there is added at once.
@@ -27,6 +27,7 @@ cells, whose atomics the L2 cache cannot merge); one that finds no slot there is
 
 import functools
 from types import SimpleNamespace
+from typing import Any
 
 import warp as wp
 
@@ -99,9 +100,9 @@ def make_landing_tally(precision: str) -> SimpleNamespace:
 @functools.cache
 def make_add_landing(precision: str, with_map: bool, thresholds: int = 0, slots: int = SLOTS, probes: int = PROBES):
     """exceeded(tally, v2) -> the bit mask of the `thresholds` (the first of thresholds2, tested
-    unrolled) a landing with |v|^2 = v2 exceeds (bit i: v2 >= thresholds2[i]); add_landing(tally, row, surface, range, position, v2, mask) counts it
-    (and, `with_map`, maps it: through the block's table, `tallies.block` with `slots` and `probes`);
-    flush(tally) adds the block's table to the maps (with a map, every thread of the block at its
+    unrolled) a landing with |v|^2 = v2 exceeds (bit i: v2 >= thresholds2[i]);
+    add_landing(tally, row, surface, range, position, v2, mask) counts it (and, `with_map`, maps it:
+    through the block's table, `tallies.block` with `slots` and `probes`); flush(tally) adds the block's table to the maps (with a map, every thread of the block at its
     end, after `table(BEGIN, ...)` at its start). A table key is a flat index of map_counts."""
     fns = make_landing_tally(precision)
     Tally, scalar, vec3, map_cell, horizontal_distance = fns.Tally, fns.scalar, fns.vec3, fns.map_cell, fns.horizontal_distance
@@ -156,36 +157,24 @@ def make_add_landing(precision: str, with_map: bool, thresholds: int = 0, slots:
 
 
 @functools.cache
-def fold_kernels():
-    """fold32 and fold64(counts, n, totals): one thread an element i < n adds the copies of
-    `counts` (flat, copy c's element i at c * n + i) to totals[i] (int64) and zeroes them (writing
-    only the nonzero ones: most bins of a histogram stay empty)."""
+def fold_kernel():
+    """fold(counts, n, totals), for int32 or int64 counts: one thread an element i < n adds the
+    copies of `counts` (flat, copy c's element i at c * n + i) to totals[i] (int64) and zeroes them
+    (writing only the nonzero ones: most bins of a histogram stay empty)."""
 
     @wp.kernel(enable_backward=False)
-    def fold32(counts: wp.array(dtype=wp.int32), n: wp.int32, totals: wp.array(dtype=wp.int64)):
+    def fold(counts: wp.array(dtype=Any), n: wp.int32, totals: wp.array(dtype=wp.int64)):
         i = wp.tid()
         total = wp.int64(0)
         for c in range(counts.shape[0] / n):
             value = counts[c * n + i]
-            if value != 0:
+            if wp.int64(value) != wp.int64(0):
                 total += wp.int64(value)
-                counts[c * n + i] = 0
+                counts[c * n + i] = value - value
         if total != wp.int64(0):
             totals[i] += total
 
-    @wp.kernel(enable_backward=False)
-    def fold64(counts: wp.array(dtype=wp.int64), n: wp.int32, totals: wp.array(dtype=wp.int64)):
-        i = wp.tid()
-        total = wp.int64(0)
-        for c in range(counts.shape[0] / n):
-            value = counts[c * n + i]
-            if value != wp.int64(0):
-                total += value
-                counts[c * n + i] = wp.int64(0)
-        if total != wp.int64(0):
-            totals[i] += total
-
-    return fold32, fold64
+    return fold
 
 
 @functools.cache
