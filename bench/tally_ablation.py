@@ -46,6 +46,7 @@ def variant_factory(variant: str, table_size: int = 0, table_probes: int = 0):
             return base
         fns = landing.make_landing_tally(precision)
         Tally, scalar, vec3, map_cell, horizontal_distance = fns.Tally, fns.scalar, fns.vec3, fns.map_cell, fns.horizontal_distance
+        energy_quanta, count_one = fns.energy_quanta, landing.count_one
         bin_of, table, copy_of = make_bin_of(), make_block_table(slots, probes), base.copy_of
         EMPTY, NEVER = variant == "empty", variant == "no-add"
         NO_DISTANCE, NO_MAP_MATH = variant == "no-distance", variant == "no-map-math"
@@ -60,7 +61,7 @@ def variant_factory(variant: str, table_size: int = 0, table_probes: int = 0):
                         mask: wp.int32):
             if not wp.static(EMPTY):
                 level = wp.int32(wp.bit_count(mask))
-                first = copy_of(row, tally.copy_mask) * tally.hist_rows * BINS
+                first = copy_of(row, tally.copy_mask) * tally.hist_stride
                 distance = landing_range
                 if not wp.static(NO_DISTANCE):
                     distance = horizontal_distance(tally, position)
@@ -68,15 +69,15 @@ def variant_factory(variant: str, table_size: int = 0, table_probes: int = 0):
                 b1 = first + ROW_SPEED * BINS + bin_of(wp.float32(wp.sqrt(v2)))
                 b2 = first + (ROW_DISTANCE + level) * BINS + bin_of(wp.float32(distance))
                 if row == -7 or not wp.static(NEVER):  # no-add: never (the values computed, not added)
-                    wp.atomic_add(tally.hist, b0, 1)
-                    wp.atomic_add(tally.hist, b1, 1)
-                    wp.atomic_add(tally.hist, b2, 1)
+                    count_one(tally.hist, b0)
+                    count_one(tally.hist, b1)
+                    count_one(tally.hist, b2)
                 if wp.static(with_map):
                     column = level
                     energy = wp.int64(1)
                     if not wp.static(NO_MAP_MATH):
                         column = map_cell(tally, surface, position)
-                        energy = wp.int64(wp.floor(wp.float64(tally.half_mass * v2) * tally.inverse_quantum + wp.float64(0.5)))
+                        energy = energy_quanta(tally, v2)
                     key = level * tally.map_width + column
                     if row == -7 or not wp.static(NEVER):
                         if table(ADD, key, energy) == wp.int64(0):

@@ -78,7 +78,8 @@ def _count(landings, device, slots, probes, totals=True, quantum=QUANTUM):
 
 
 def _reference(landings, quantum=QUANTUM):
-    """The counts by NumPy, in float64 from the float32 values (exact for these landings)."""
+    """The counts by NumPy: bins and cells in float64 from the float32 values (exact for these
+    landings), energies in float32 as the kernel's."""
     r, p, v2, surface = (landings[k] for k in ("range", "position", "v2", "surface"))
     level = sum((v2 >= np.float32(t * t)).astype(int) for t in SPEED_THRESHOLDS)
     hist = np.zeros((bins.ROW_DISTANCE + 3, bins.BINS), dtype=np.int64)
@@ -93,7 +94,8 @@ def _reference(landings, quantum=QUANTUM):
     column = np.where(surface == 0, column, NU * NV + 1)
     counts = np.zeros((3, NU * NV + 2), dtype=np.int64)
     np.add.at(counts, (level, column), 1)
-    energy = np.floor((np.float32(HALF_MASS) * v2).astype(np.float64) * (1.0 / quantum) + 0.5).astype(np.int64)
+    quanta = np.float32(HALF_MASS / quantum) * v2  # float32, as the kernel (`energy_quanta`)
+    energy = np.floor(quanta.astype(np.float64) + 0.5).astype(np.int64)  # (exact: halves away from zero)
     map_energy = np.zeros(NU * NV + 2, dtype=np.int64)
     np.add.at(map_energy, column, energy)
     return {"hist": hist, "map_counts": counts, "map_energy": map_energy}
@@ -129,7 +131,7 @@ def test_histogram_counts_wait_unfolded_until_read_or_near_int32(landings, devic
         hist.fill_(1)  # (stands for the chunk's counts)
         tally.fold(n, last=chunk == 4)
         assert (not hist.numpy().any()) == expect_folded, chunk
-    assert tally.totals["hist"].numpy().tolist() == [2 * tally.copies] * (hist.size // tally.copies)
+    assert tally.totals["hist"].numpy().tolist() == [2 * tally.copies] * tally.totals["hist"].size
 
 
 @pytest.mark.parametrize("capacity", [counts.SPARSE_CAPACITY, 7])

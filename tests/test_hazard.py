@@ -85,6 +85,30 @@ def test_maps_sum_to_the_per_pellet_totals(run_file):
         np.testing.assert_array_equal(m["above"][bit], above)
 
 
+def test_float32_map_cells_move_only_landings_at_a_cell_edge(tmp_path, device):
+    """A float32 run maps its landings in float32 (`tallies.landing.map_cell`): against cells found
+    in float64 from the same positions, only landings within rounding of a cell edge may move."""
+    raw = paper_raw()
+    raw["shot"]["count"] = 20_000
+    scene = make_scene(raw, "float32", hazard=HAZARD, output={"fields": ["landing", "hazard"]})
+    stats = wr.run(scene, tmp_path / "run.h5", device=device)
+    with h5py.File(tmp_path / "run.h5", "r") as f:
+        p = _per_pellet(f)
+        m = {name: f[f"hazard/map/{name}"][()] for name in ("count", "outside", "u_edges", "v_edges", "origin", "u_axis",
+                                                             "v_axis")}
+    assert m["count"].sum() + m["outside"] == stats["landed"]
+    local = p["position"].astype(np.float64) - m["origin"]
+    fu, fv = (local @ m["u_axis"] - m["u_edges"][0]) / 0.5, (local @ m["v_axis"] - m["v_edges"][0]) / 0.5
+    i, j = np.floor(fu).astype(int), np.floor(fv).astype(int)
+    inside = (i >= 0) & (j >= 0) & (i < len(m["u_edges"]) - 1) & (j < len(m["v_edges"]) - 1)
+    edge = (np.abs(fu - np.round(fu)) < 1e-3) | (np.abs(fv - np.round(fv)) < 1e-3)  # 0.5 mm of a cell edge
+    expected = np.zeros_like(m["count"])
+    np.add.at(expected, (j[inside], i[inside]), 1)
+    assert inside.sum() > 0.9 * len(inside) and edge.sum() < 0.01 * len(edge)
+    assert np.abs(m["count"] - expected).sum() <= 2 * edge.sum()
+    assert abs(int(m["outside"]) - int((~inside).sum())) <= edge.sum()
+
+
 def test_danger_distances_hold_numpys_quantiles_of_the_hazardous_landings(run_file):
     scene, path, stats = run_file
     with h5py.File(path, "r") as f:

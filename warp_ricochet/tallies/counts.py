@@ -184,17 +184,18 @@ class DeviceTally:
         fns = make_landing_tally(precision)
         s = fns.Tally()
         s.hist, s.map_counts, s.map_energy = self.counts["hist"], self.counts["map_counts"], self.counts["map_energy"]
-        s.hist_rows, s.copy_mask, s.map_width = ROW_DISTANCE + levels, self.copies - 1, width
+        s.hist_stride, s.copy_mask, s.map_width = sizes["hist"], self.copies - 1, width
         unused = (math.inf,) * (MAX_THRESHOLDS - len(setup.thresholds2))
         s.thresholds2 = fns.Thresholds(*(float(np.dtype(precision).type(v)) for v in setup.thresholds2), *unused)
         s.shooter, s.up = t.vec3(*setup.shooter), t.vec3(*setup.up)
         s.half_mass, s.inverse_area = t.scalar(setup.half_mass), t.scalar(1.0 / setup.area)
-        s.map_surface = setup.map_surface
-        s.map_origin, s.map_u, s.map_v = t.vec3(*setup.map_origin), t.vec3(*setup.map_u), t.vec3(*setup.map_v)
-        s.map_u0, s.map_v0 = wp.float64(setup.map_u0), wp.float64(setup.map_v0)
-        s.map_inverse_cell = wp.float64(1.0 / setup.map_cell)
-        s.map_nu, s.map_nv = setup.map_nu, setup.map_nv
-        s.inverse_quantum = wp.float64(1.0 / setup.quantum)
+        s.map_surface, s.map_cells, s.map_nu = setup.map_surface, setup.cells, setup.map_nu
+        origin, u, v = (np.asarray(x, dtype=np.float64) for x in (setup.map_origin, setup.map_u, setup.map_v))
+        s.map_u_cell, s.map_v_cell = t.vec3(*(u / setup.map_cell)), t.vec3(*(v / setup.map_cell))
+        s.map_u_start = t.scalar((origin @ u + setup.map_u0) / setup.map_cell)
+        s.map_v_start = t.scalar((origin @ v + setup.map_v0) / setup.map_cell)
+        s.map_nu_cells, s.map_nv_cells = t.scalar(setup.map_nu), t.scalar(setup.map_nv)
+        s.energy_scale = t.scalar(setup.half_mass / setup.quantum)
         self.struct = s
 
     def start(self, totals: "TallyTotals | None", every_chunk: bool = False):

@@ -39,6 +39,19 @@ COPY_MIX = 37  # `copy_of`: consecutive segments' warps start at copies 37 apart
 MAX_THRESHOLDS = 31  # hazard thresholds a `Tally` holds (a landing's exceeded ones are the bits of an int32)
 
 
+@wp.func_native("""
+#if defined(__CUDA_ARCH__)
+    atomicAdd(hist.data + index, 1);
+#else
+    hist.data[index] += 1;  // (a CPU kernel runs on one thread)
+#endif
+""")
+def count_one(hist: wp.array(dtype=wp.int32), index: wp.int32):
+    """hist[index] += 1 (atomic on CUDA), for 0 <= index < hist.size: a flat contiguous array's
+    element reached without the wrap of negative indices that Warp's indexing adds."""
+    ...
+
+
 @functools.cache
 def make_landing_tally(precision: str) -> SimpleNamespace:
     """The `Tally` struct of one precision and the functions that add a landing to it."""
@@ -50,8 +63,8 @@ def make_landing_tally(precision: str) -> SimpleNamespace:
     class Tally:
         """What the landings are counted into (`tallies.landing`), and the constants that needs (SI)."""
 
-        hist: wp.array(dtype=wp.int32)  # copies x (ROW_DISTANCE + levels) x bins.BINS, flat (copy, row, bin)
-        hist_rows: wp.int32  # ROW_DISTANCE + levels
+        hist: wp.array(dtype=wp.int32)  # copies x hist_stride, flat (copy, row, bin)
+        hist_stride: wp.int32  # elements a copy: (ROW_DISTANCE + levels) * bins.BINS
         copy_mask: wp.int32  # copies - 1 (copies: a power of two)
         thresholds2: Thresholds  # (m/s)^2, every threshold as one on |v|^2, in scene order (the rest unused)
         shooter: vec3  # m
@@ -59,18 +72,18 @@ def make_landing_tally(precision: str) -> SimpleNamespace:
         half_mass: scalar  # kg, m / 2
         inverse_area: scalar  # 1/m^2, 1 / (pi R^2)
         map_counts: wp.array(dtype=wp.int32)  # levels x (cells + 2), flat (level, column)
-        map_energy: wp.array(dtype=wp.int64)  # (cells + 2), multiples of `quantum`
+        map_energy: wp.array(dtype=wp.int64)  # (cells + 2), multiples of the energy quantum
         map_width: wp.int32  # cells + 2
+        map_cells: wp.int32  # map_nu * map_nv
         map_surface: wp.int32
-        map_origin: vec3  # m, the grid's (u, v) = (0, 0) on the map's plane
-        map_u: vec3  # unit vectors of the grid's axes in the plane
-        map_v: vec3
-        map_u0: wp.float64  # m, the grid's lower corner in (u, v)
-        map_v0: wp.float64
-        map_inverse_cell: wp.float64  # 1/m
         map_nu: wp.int32  # cells along u and v
-        map_nv: wp.int32
-        inverse_quantum: wp.float64  # 1/J
+        map_u_cell: vec3  # 1/m, the grid's unit axes in the plane divided by the cell size
+        map_v_cell: vec3
+        map_u_start: scalar  # cells: a position p lies map_u_cell . p - map_u_start cells into the grid along u
+        map_v_start: scalar
+        map_nu_cells: scalar  # map_nu, map_nv
+        map_nv_cells: scalar
+        energy_scale: scalar  # quanta / (m/s)^2: m / 2 / the map's energy quantum
 
     @wp.func
     def horizontal_distance(tally: Tally, position: vec3):
@@ -80,21 +93,27 @@ def make_landing_tally(precision: str) -> SimpleNamespace:
 
     @wp.func
     def map_cell(tally: Tally, surface: wp.int32, position: vec3):
-        """The map column of a landing: its cell, CELLS outside the grid, CELLS + 1 on another surface."""
-        cells = tally.map_nu * tally.map_nv
-        column = cells + 1
+        """The map column of a landing: its cell, CELLS outside the grid, CELLS + 1 on another surface.
+        In the run's precision, as the position is (float32: a rounding of ~1e-7 of the position's
+        distance from the world origin, which moves only landings that close to a cell edge)."""
+        column = tally.map_cells + 1
         if surface == tally.map_surface:
-            column = cells
-            local = position - tally.map_origin
-            fu = (wp.float64(wp.dot(local, tally.map_u)) - tally.map_u0) * tally.map_inverse_cell
-            fv = (wp.float64(wp.dot(local, tally.map_v)) - tally.map_v0) * tally.map_inverse_cell
-            # bounds in float64 before the cast: a landing far out in small cells is past int32
-            if fu >= wp.float64(0.0) and fv >= wp.float64(0.0) and fu < wp.float64(tally.map_nu) and fv < wp.float64(tally.map_nv):
-                column = wp.int32(wp.floor(fv)) * tally.map_nu + wp.int32(wp.floor(fu))
+            column = tally.map_cells
+            fu = wp.dot(position, tally.map_u_cell) - tally.map_u_start
+            fv = wp.dot(position, tally.map_v_cell) - tally.map_v_start
+            # bounds before the cast: a landing far out in small cells is past int32 (NaN: outside)
+            if fu >= scalar(0.0) and fv >= scalar(0.0) and fu < tally.map_nu_cells and fv < tally.map_nv_cells:
+                column = wp.int32(fv) * tally.map_nu + wp.int32(fu)
         return column
 
+    @wp.func
+    def energy_quanta(tally: Tally, v2: scalar):
+        """A landing's kinetic energy m v^2 / 2 in quanta, rounded to nearest (halves away from zero),
+        in the run's precision (float32: exact to a quantum below 2^24 quanta, the reference energy)."""
+        return wp.int64(wp.round(tally.energy_scale * v2))
+
     return SimpleNamespace(Tally=Tally, Thresholds=Thresholds, scalar=scalar, vec3=vec3, map_cell=map_cell,
-                           horizontal_distance=horizontal_distance)
+                           energy_quanta=energy_quanta, horizontal_distance=horizontal_distance)
 
 
 @functools.cache
@@ -106,6 +125,7 @@ def make_add_landing(precision: str, with_map: bool, thresholds: int = 0, slots:
     end, after `table(BEGIN, ...)` at its start). A table key is a flat index of map_counts."""
     fns = make_landing_tally(precision)
     Tally, scalar, vec3, map_cell, horizontal_distance = fns.Tally, fns.scalar, fns.vec3, fns.map_cell, fns.horizontal_distance
+    energy_quanta = fns.energy_quanta
     bin_of, table = make_bin_of(), make_block_table(slots, probes)
     MAP, THRESHOLDS = with_map, thresholds
     if not 0 <= thresholds <= MAX_THRESHOLDS:
@@ -129,16 +149,16 @@ def make_add_landing(precision: str, with_map: bool, thresholds: int = 0, slots:
     def add_landing(tally: Tally, row: wp.int32, surface: wp.int32, landing_range: scalar, position: vec3, v2: scalar,
                     mask: wp.int32):
         level = wp.int32(wp.bit_count(mask))  # the thresholds are nested: it exceeds the `level` lowest
-        first = copy_of(row, tally.copy_mask) * tally.hist_rows * BINS
+        first = copy_of(row, tally.copy_mask) * tally.hist_stride
         one = wp.int32(1)
-        wp.atomic_add(tally.hist, first + ROW_RANGE * BINS + bin_of(wp.float32(landing_range)), one)
-        wp.atomic_add(tally.hist, first + ROW_SPEED * BINS + bin_of(wp.float32(wp.sqrt(v2))), one)
+        count_one(tally.hist, first + ROW_RANGE * BINS + bin_of(wp.float32(landing_range)))
+        count_one(tally.hist, first + ROW_SPEED * BINS + bin_of(wp.float32(wp.sqrt(v2))))
         distance = horizontal_distance(tally, position)
-        wp.atomic_add(tally.hist, first + (ROW_DISTANCE + level) * BINS + bin_of(wp.float32(distance)), one)
+        count_one(tally.hist, first + (ROW_DISTANCE + level) * BINS + bin_of(wp.float32(distance)))
         if wp.static(MAP):
             column = map_cell(tally, surface, position)
             key = level * tally.map_width + column
-            energy = wp.int64(wp.floor(wp.float64(tally.half_mass * v2) * tally.inverse_quantum + wp.float64(0.5)))
+            energy = energy_quanta(tally, v2)
             if table(ADD, key, energy) == wp.int64(0):
                 wp.atomic_add(tally.map_counts, key, one)
                 wp.atomic_add(tally.map_energy, column, energy)
