@@ -119,7 +119,7 @@ def copies_for(device, nbytes: int) -> int:
 
 
 _POOL: dict = {}  # device arrays and pinned host arrays kept between runs (allocating 200 MB costs a run ~0.5 ms)
-_CLEAN: set = set()  # the pooled count arrays known to be all zero (`DeviceTally.fold` leaves them so)
+_CLEAN: set = set()  # the pooled count arrays known to be all zero (`DeviceTally.fold` and `fetch` leave them so)
 
 
 def _buffer(device, role: str, size: int, dtype):
@@ -176,7 +176,10 @@ class DeviceTally:
         dtypes = {"hist": wp.int32, "map_counts": wp.int32, "map_energy": wp.int64}
         self.counts = {name: _buffer(device, "counts " + name, size * (self.copies if name == "hist" else 1), dtypes[name])
                        for name, size in sizes.items()}
-        self.totals = {name: _buffer(device, "totals " + name, size, wp.int64) for name, size in sizes.items()}
+        bounds = np.cumsum([0, *sizes.values()])  # the totals: one array (one pack, one copy), a view a name
+        self.flat = _buffer(device, "totals", int(bounds[-1]), wp.int64)
+        self.totals = {name: self.flat[int(bounds[i]):int(bounds[i + 1])] if sizes[name] else wp.zeros(0, dtype=wp.int64, device=device)
+                       for i, name in enumerate(sizes)}
         capacity = SPARSE_CAPACITY if active else 0
         self.sparse = {"count": _buffer(device, "sparse count", 1, wp.int32),
                        "index": _buffer(device, "sparse index", capacity, wp.int32),
@@ -199,10 +202,10 @@ class DeviceTally:
         self.struct = s
 
     def start(self, totals: "TallyTotals | None", every_chunk: bool = False):
-        """Before a run's first chunk: its totals from `totals` (a resumed run's) or zero, and its
-        count arrays zero (unless a fold left them so); `every_chunk`: the totals are read after
-        every chunk (a run with a file), so every fold folds them all."""
-        self.every_chunk, self.unfolded = every_chunk, 0
+        """Before a run's first chunk: its totals from `totals` (a resumed run's), else set by their
+        first fold (`unset`), and its count arrays zero (unless a fold left them so); `every_chunk`:
+        the totals are read after every chunk (a run with a file), so every fold folds them all."""
+        self.every_chunk, self.unfolded, self.unset = every_chunk, 0, set()
         if not self.active:
             return
         import warp as wp
@@ -210,10 +213,10 @@ class DeviceTally:
         for name in COUNTS:
             if self.device.is_cuda and (str(self.device), "counts " + name) not in _CLEAN:  # (CPU: fresh zeros)
                 self.counts[name].zero_()
-            if totals is None:
-                self.totals[name].zero_()
-            else:
-                wp.copy(self.totals[name], wp.array(getattr(totals, name).ravel(), dtype=wp.int64, device="cpu"))
+        if totals is None:
+            self.unset = set(COUNTS)
+        else:
+            wp.copy(self.flat, wp.array(totals.flat(), dtype=wp.int64, device="cpu"))
 
     def fold(self, rows: int, last: bool):
         """After a chunk's kernel (`rows` pellets; `last`: the totals are read after it): its map
@@ -233,10 +236,11 @@ class DeviceTally:
             names.append("hist")
             self.unfolded = 0
         for name in names:
-            total = self.totals[name]
+            total, add = self.totals[name], int(name not in self.unset)
             if total.size:
-                wp.launch(fold_kernel(), dim=total.size, inputs=[self.counts[name], total.size], outputs=[total],
+                wp.launch(fold_kernel(), dim=total.size, inputs=[self.counts[name], total.size, add], outputs=[total],
                           device=self.device)
+            self.unset.discard(name)
         if self.device.is_cuda:
             _CLEAN.update((str(self.device), "counts " + name) for name in names)
 
@@ -244,30 +248,39 @@ class DeviceTally:
         """The totals into `tally` on the host, waiting for the device. Only their nonzero elements
         travel, as (index, value) pairs: most bins and cells are empty, and a dense copy means
         writing megabytes of fresh host memory. The dense arrays when more than SPARSE_CAPACITY
-        elements are nonzero."""
+        elements are nonzero. The pairs' count is zeroed again after it is read, off the next
+        run's path (the count is known zero in `_CLEAN`)."""
         import warp as wp
 
         from .landing import pack_kernel
 
-        sparse, host, offset = self.sparse, _pinned(self.device, self.sparse), 0
-        sparse["count"].zero_()
-        for arr in self.totals.values():
-            if arr.size:
-                wp.launch(pack_kernel(), dim=arr.size, inputs=[arr, offset],
-                          outputs=[sparse["count"], sparse["index"], sparse["value"]], device=self.device)
-            offset += arr.size
+        for name in self.unset:  # (no fold yet: a run of no chunks)
+            self.totals[name].zero_()
+        self.unset = set()
+        sparse, host, key = self.sparse, _pinned(self.device, self.sparse), (str(self.device), "sparse count")
+        if key not in _CLEAN:
+            sparse["count"].zero_()
+        _CLEAN.discard(key)
+        if self.flat.size:
+            wp.launch(pack_kernel(), dim=self.flat.size, inputs=[self.flat, 0],
+                      outputs=[sparse["count"], sparse["index"], sparse["value"]], device=self.device)
         for name in ("count", "index", "value"):
             wp.copy(host[name], sparse[name])
         wp.synchronize_device(self.device)
         count = int(host["count"].numpy()[0])
+        sparse["count"].zero_()
+        if self.device.is_cuda:
+            _CLEAN.add(key)
         if count > host["index"].size:
             tally.set({name: arr.numpy() for name, arr in self.totals.items()})
         else:
             tally.scatter(host["index"].numpy()[:count], host["value"].numpy()[:count])
 
     def before_chunk(self):
-        """Before a chunk's kernel: its count arrays are no longer known to be zero."""
-        _CLEAN.difference_update((str(self.device), "counts " + name) for name in COUNTS)
+        """Before a chunk's kernel: its count arrays are no longer known to be zero (an inactive
+        tally's kernel counts nothing: the kept arrays stay as they are)."""
+        if self.active:
+            _CLEAN.difference_update((str(self.device), "counts " + name) for name in COUNTS)
 
 
 class TallyTotals:

@@ -178,12 +178,13 @@ def make_add_landing(precision: str, with_map: bool, thresholds: int = 0, slots:
 
 @functools.cache
 def fold_kernel():
-    """fold(counts, n, totals), for int32 or int64 counts: one thread an element i < n adds the
-    copies of `counts` (flat, copy c's element i at c * n + i) to totals[i] (int64) and zeroes them
-    (writing only the nonzero ones: most bins of a histogram stay empty)."""
+    """fold(counts, n, add, totals), for int32 or int64 counts: one thread an element i < n sums
+    the copies of `counts` (flat, copy c's element i at c * n + i), zeroes them (writing only the
+    nonzero ones: most bins of a histogram stay empty) and adds the sum to totals[i] (int64), or
+    with `add` 0 sets totals[i] to it (a run's first fold: no zeroing of the totals before)."""
 
     @wp.kernel(enable_backward=False)
-    def fold(counts: wp.array(dtype=Any), n: wp.int32, totals: wp.array(dtype=wp.int64)):
+    def fold(counts: wp.array(dtype=Any), n: wp.int32, add: wp.int32, totals: wp.array(dtype=wp.int64)):
         i = wp.tid()
         total = wp.int64(0)
         for c in range(counts.shape[0] / n):
@@ -191,7 +192,9 @@ def fold_kernel():
             if wp.int64(value) != wp.int64(0):
                 total += wp.int64(value)
                 counts[c * n + i] = value - value
-        if total != wp.int64(0):
+        if add == 0:
+            totals[i] = total
+        elif total != wp.int64(0):
             totals[i] += total
 
     return fold
