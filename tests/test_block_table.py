@@ -121,6 +121,24 @@ def test_block_tables_count_what_numpy_counts(landings, device, quantum):
                                           err_msg=f"{name}, {slots} slots, {probes} probes")
 
 
+def test_counts_over_the_whole_span_of_the_bins_and_past_it(device):
+    """Values over every octave of the bins and past them (zero, inf, NaN, v^2 past float32): the
+    kernels' counts are NumPy's, bin by bin."""
+    rng = np.random.default_rng(3)
+    n = 4096
+    wide = np.concatenate([10.0 ** rng.uniform(-14, 14, n - 4), [0.0, np.inf, np.nan, 3e38]]).astype(np.float32)
+    speed = np.abs(rng.permutation(wide))
+    position = np.stack([rng.permutation(wide), np.zeros(n), np.zeros(n)], axis=1).astype(np.float32)
+    with np.errstate(over="ignore"):  # (v^2 past float32: inf, as in the kernel)
+        v2 = (speed * speed).astype(np.float32)
+    landings = {"range": wide, "position": position, "v2": v2, "surface": np.zeros(n, dtype=np.int32)}
+    with np.errstate(invalid="ignore"):  # (cells and energies of inf and NaN: not checked here)
+        expected = _reference(landings)["hist"]
+    assert len(np.unique(np.nonzero(expected[bins.ROW_RANGE])[0] >> bins.MANTISSA_BITS)) > 40  # octaves
+    got = _count(landings, device, SLOTS, PROBES)["hist"]
+    np.testing.assert_array_equal(got.reshape(expected.shape), 2 * expected)
+
+
 def test_histogram_counts_wait_unfolded_until_read_or_near_int32(landings, device, monkeypatch):
     tally = _count(landings, device, SLOTS, PROBES, totals=False)  # (folded: every count zero)
     n = len(landings["range"])

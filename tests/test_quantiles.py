@@ -47,8 +47,28 @@ def test_bins_are_log_spaced_with_the_stated_resolution():
     x = np.exp(rng.uniform(-25, 25, 10_000)).astype(np.float32)
     b = bins.bin_index(x)
     assert np.all((e[b] <= x) & (x < e[b + 1]))
-    assert list(bins.bin_index([0.0, -1.0, 1e-30, 1e30, np.inf, np.nan])) == [0, 0, 0, bins.BINS - 1, bins.BINS - 1,
-                                                                              bins.BINS - 1]
+    negative_nan = np.array([0xFFC00000], dtype=np.uint32).view(np.float32)[0]  # (x86's inf * 0)
+    assert list(bins.bin_index([0.0, -1.0, 1e-30, 1e30, np.inf, np.nan, negative_nan])) == [
+        0, 0, 0, bins.BINS - 1, bins.BINS - 1, bins.BINS - 1, bins.BINS - 1]
+
+
+def test_the_kernels_bin_as_numpy_does(device):
+    import warp as wp
+
+    bin_of = bins.make_bin_of()
+
+    @wp.kernel(module="unique", enable_backward=False)
+    def bin_all(x: wp.array(dtype=wp.float32), b: wp.array(dtype=wp.int32)):
+        i = wp.tid()
+        b[i] = bin_of(x[i])
+
+    rng = np.random.default_rng(2)
+    specials = np.array([0xFFC00000, 0x7FC00000, 0x80000000, 0x7F800000, 0xFF800000, 0x00000001], dtype=np.uint32)
+    x = np.concatenate([(10.0 ** rng.uniform(-15, 15, 5000)) * rng.choice([-1, 1], 5000), [0.0]]).astype(np.float32)
+    x = np.concatenate([x, specials.view(np.float32)])
+    b = wp.zeros(len(x), dtype=wp.int32, device=device)
+    wp.launch(bin_all, dim=len(x), inputs=[wp.array(x, dtype=wp.float32, device=device)], outputs=[b], device=device)
+    np.testing.assert_array_equal(b.numpy(), bins.bin_index(x))
 
 
 @given(n=st.integers(1, 3000), seed=st.integers(0, 10_000))

@@ -3,9 +3,9 @@
 A value x >= 0 is binned by the bits of float32(x): its exponent and its top MANTISSA_BITS mantissa
 bits (as HDR histograms do). So the bins are log-spaced, each of relative width at most
 2^-MANTISSA_BITS (0.098%), over the span [2^E_LO, 2^(E_LO + OCTAVES)) = [2.3e-10, 4.3e9) in SI units;
-bin 0 counts what lies below (zero included), bin BINS - 1 what lies above (and NaN). The binning is
-exact integer arithmetic on the value's bits: the same value falls in the same bin on every device,
-and NumPy reproduces it (`bin_index`). This module imports no Warp at module level.
+bin 0 counts what lies below (zero included), bin BINS - 1 what lies above (and NaN, whatever its
+sign bit). The binning is exact integer arithmetic on the value's bits: the same value falls in the
+same bin on every device, and NumPy reproduces it (`bin_index`). This module imports no Warp at module level.
 """
 
 from __future__ import annotations
@@ -40,9 +40,9 @@ def edges() -> np.ndarray:
 
 def bin_index(values) -> np.ndarray:
     """The bin of each value, as the kernels compute it (reference for tests)."""
-    bits = np.asarray(values, dtype=np.float32).view(np.int32).astype(np.int64) >> SHIFT
-    k = bits - BASE
-    return np.where(k < 0, 0, np.where(k >= REGULAR, BINS - 1, k + 1))
+    values = np.asarray(values, dtype=np.float32)
+    k = (values.view(np.int32).astype(np.int64) >> SHIFT) - BASE
+    return np.where(np.isnan(values), BINS - 1, np.where(k < 0, 0, np.where(k >= REGULAR, BINS - 1, k + 1)))
 
 
 @functools.cache
@@ -59,6 +59,8 @@ def make_bin_of():
         if k < 0:
             b = 0
         elif k >= regular:
+            b = regular + 1
+        if x != x:  # NaN, whatever its sign bit (a NaN of x86 arithmetic has it set)
             b = regular + 1
         return b
 
