@@ -191,22 +191,24 @@ class HostSlot:
     """One set of host buffers receiving a chunk (pinned on CUDA, so copies run async)."""
 
     def __init__(self, stage, pinned: bool, index: int):
-        def like(arr, name):
-            if not pinned:
-                return wp.empty(arr.shape, dtype=arr.dtype, device="cpu")
-            key = (name, arr.shape, arr.dtype, index)
-            if key not in _PINNED_POOL:
-                if len(_PINNED_POOL) > 64:
-                    _PINNED_POOL.clear()
-                _PINNED_POOL[key] = wp.empty(arr.shape, dtype=arr.dtype, device="cpu", pinned=True)
-            return _PINNED_POOL[key]
-
-        self.arrays = {name: like(arr, name) for name, arr in stage.arrays.items()}
-        self.segments = like(stage.state.segments, "segments")
-        self.totals = None if stage.totals is None else like(stage.totals, "shot_totals")
-        self.tally = {name: like(arr, "tally_" + name) for name, arr in stage.tally.totals.items()}
+        self.pinned, self.index = pinned, index
+        self.arrays = {name: self._like(arr, name) for name, arr in stage.arrays.items()}
+        self.segments = self._like(stage.state.segments, "segments")
+        self.totals = None if stage.totals is None else self._like(stage.totals, "shot_totals")
+        self.tally = None  # the landing counts' buffers, made by the first `fill` that copies them
         self.rows = self.segment_count = self.shots = 0
         self.event, self.shot_rows, self.with_tally = None, None, False
+
+    def _like(self, arr, name):
+        """A host array like `arr`: pinned ones kept between runs (by name, shape, dtype and slot)."""
+        if not self.pinned:
+            return wp.empty(arr.shape, dtype=arr.dtype, device="cpu")
+        key = (name, arr.shape, arr.dtype, self.index)
+        if key not in _PINNED_POOL:
+            if len(_PINNED_POOL) > 64:
+                _PINNED_POOL.clear()
+            _PINNED_POOL[key] = wp.empty(arr.shape, dtype=arr.dtype, device="cpu", pinned=True)
+        return _PINNED_POOL[key]
 
     def fill(self, stage, rows: int, segments: int, shots: int, with_tally: bool):
         """Enqueue the copies of a computed chunk's results (element counts: contiguous rows) and,
@@ -217,6 +219,8 @@ class HostSlot:
         if shots:
             wp.copy(self.totals, stage.totals, count=shots * stage.totals.shape[1])
         if with_tally:
+            if self.tally is None:
+                self.tally = {name: self._like(arr, "tally_" + name) for name, arr in stage.tally.totals.items()}
             for name, arr in stage.tally.totals.items():
                 if arr.size:
                     wp.copy(self.tally[name], arr)
