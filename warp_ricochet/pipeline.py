@@ -43,7 +43,7 @@ from .tallies.collisions import (
     collision_statistics,
 )
 from .tallies.ensemble import ensemble_of, has_ensemble, per_shot_statistics
-from .tallies.reduce import launch_reduce, threads_for
+from .tallies.reduce import SEGMENT_WIDTH, launch_reduce, threads_for
 from .tallies.sums import combine, empty_totals, finalize
 
 ONE_SHOT_COLLISIONS = ("one shot with pellet-pellet collisions is one sample of a chaotic cloud: on the paper's shot its "
@@ -130,13 +130,13 @@ class CoreStage:
         return launch_reduce(self.state, rows, m.device), 0
 
     def shot_rows(self, start: int, rows: int):
-        """Per-piece partials of the shots this chunk completes (None: no ensemble)."""
+        """Launch the per-piece partials of the shots this chunk completes; returns their pieces
+        (rows of `shot_pass.rows`; None: no ensemble)."""
         if self.shot_pass is None:
             return None
         first = start // self.count
-        pieces = self.shot_pass.launch(first, (start + rows) // self.count - first, self.source.struct,
-                                       self.state.outputs, self.release, self.tally.struct, start)
-        return self.shot_pass.host_rows(pieces)
+        return self.shot_pass.launch(first, (start + rows) // self.count - first, self.source.struct,
+                                     self.state.outputs, self.release, self.tally.struct, start)
 
 
 class CollisionStage:
@@ -179,12 +179,12 @@ class CollisionStage:
         return launch_reduce(self.state, slots, m.device), shots
 
     def shot_rows(self, start: int, rows: int):
-        """Per-piece partials of the chunk's shots, continued from their release (None: no ensemble)."""
+        """Launch the per-piece partials of the chunk's shots, continued from their release; returns
+        their pieces (rows of `shot_pass.rows`; None: no ensemble)."""
         if self.shot_pass is None:
             return None
-        pieces = self.shot_pass.launch(start // self.count, rows // self.count, self.source.struct,
-                                       self.state.outputs, self.dense.release, self.tally.struct, start)
-        return self.shot_pass.host_rows(pieces)
+        return self.shot_pass.launch(start // self.count, rows // self.count, self.source.struct,
+                                     self.state.outputs, self.dense.release, self.tally.struct, start)
 
 
 class HostSlot:
@@ -196,8 +196,10 @@ class HostSlot:
         self.segments = self._like(stage.state.segments, "segments")
         self.totals = None if stage.totals is None else self._like(stage.totals, "shot_totals")
         self.tally = None  # the landing counts' buffers, made by the first `fill` that copies them
+        passes = getattr(stage, "shot_pass", None)
+        self.pieces = None if passes is None else self._like(passes.rows, "shot_rows")
         self.rows = self.segment_count = self.shots = 0
-        self.event, self.shot_rows, self.with_tally = None, None, False
+        self.event, self.shot_pieces, self.with_tally = None, None, False
 
     def _like(self, arr, name):
         """A host array like `arr`: pinned ones kept between runs (by name, shape, dtype and slot)."""
@@ -210,9 +212,10 @@ class HostSlot:
             _PINNED_POOL[key] = wp.empty(arr.shape, dtype=arr.dtype, device="cpu", pinned=True)
         return _PINNED_POOL[key]
 
-    def fill(self, stage, rows: int, segments: int, shots: int, with_tally: bool):
-        """Enqueue the copies of a computed chunk's results (element counts: contiguous rows) and,
-        `with_tally`, of the landing counts so far."""
+    def fill(self, stage, rows: int, segments: int, shots: int, with_tally: bool, shot_pieces=None):
+        """Enqueue the copies of a computed chunk's results (element counts: contiguous rows),
+        `with_tally` of the landing counts so far, and of its shots' `shot_pieces` rows of
+        per-piece partials (None: no ensemble)."""
         for name, arr in stage.arrays.items():
             wp.copy(self.arrays[name], arr, count=rows * (arr.size // arr.shape[0]))
         wp.copy(self.segments, stage.state.segments, count=segments * stage.state.segments.shape[1])
@@ -224,18 +227,22 @@ class HostSlot:
             for name, arr in stage.tally.totals.items():
                 if arr.size:
                     wp.copy(self.tally[name], arr)
+        if shot_pieces:
+            wp.copy(self.pieces, stage.shot_pass.rows, count=shot_pieces * SEGMENT_WIDTH)
         self.rows, self.segment_count, self.shots, self.with_tally = rows, segments, shots, with_tally
+        self.shot_pieces = shot_pieces
         device = stage.model.device
         self.event = device.stream.record_event() if device.is_cuda else None
 
     def results(self):
-        """(per-pellet arrays, segment results, shot totals, landing counts so far or None) once the
-        copies are done."""
+        """(per-pellet arrays, segment results, shot totals, landing counts so far or None, per-piece
+        partials of the chunk's shots or None) once the copies are done."""
         if self.event is not None:
             wp.synchronize_event(self.event)
         totals = self.totals.numpy()[: self.shots].copy() if self.shots else None
+        pieces = None if self.shot_pieces is None else self.pieces.numpy()[: self.shot_pieces].copy()
         return ({name: arr.numpy() for name, arr in self.arrays.items()}, self.segments.numpy()[: self.segment_count],
-                totals, {name: arr.numpy() for name, arr in self.tally.items()} if self.with_tally else None)
+                totals, {name: arr.numpy() for name, arr in self.tally.items()} if self.with_tally else None, pieces)
 
 
 def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=None, options=None, frames=None) -> dict:
@@ -303,16 +310,16 @@ def _loop(stage, pellets, sink, resumed, progress):
 
     def consume(slot):
         nonlocal totals, done
-        arrays, segment_results, shot_totals, counts = slot.results()
+        arrays, segment_results, shot_totals, counts, shot_rows = slot.results()
         totals = combine(totals, segment_results)
         if shot_totals is not None:
             tables.append(shot_totals)
         if tally is not None and counts is not None:
             tally.set(counts)
-        if slot.shot_rows is not None:
-            pieces.append(slot.shot_rows)
+        if shot_rows is not None:
+            pieces.append(shot_rows)
         if sink is not None:
-            sink.append(arrays, slot.rows, segment_results, shot_totals, tally, slot.shot_rows)
+            sink.append(arrays, slot.rows, segment_results, shot_totals, tally, shot_rows)
         done += slot.rows
         if progress is not None:
             progress(done, pellets)
@@ -321,13 +328,12 @@ def _loop(stage, pellets, sink, resumed, progress):
     for i, (start, rows) in enumerate(stage.chunks(done)):
         interrupts.check()
         segments, shots = stage.compute(start, rows)
-        shot_rows = stage.shot_rows(start, rows)
+        shot_pieces = stage.shot_rows(start, rows)
         slot = slots[i % len(slots)]
         if pending is slot:  # CPU: one slot, consume before reuse
             consume(pending)
             pending = None
-        slot.fill(stage, rows, segments, shots, with_tally=sink is not None)
-        slot.shot_rows = shot_rows
+        slot.fill(stage, rows, segments, shots, with_tally=sink is not None, shot_pieces=shot_pieces)
         if pending is not None:
             consume(pending)  # host work on the previous chunk while the device runs this one
         pending = slot

@@ -14,7 +14,6 @@ segment's: sums, range minima, range maxima.
 import dataclasses
 import functools
 
-import numpy as np
 import warp as wp
 
 from ..launch.source import PelletSource, make_source
@@ -22,6 +21,7 @@ from ..physics.types import types_for
 from ..tallies.accumulate import make_accumulators
 from ..tallies.ensemble import PIECE, pieces_per_shot
 from ..tallies.landing import make_landing_tally
+from ..tallies.reduce import SEGMENT_WIDTH
 from ..tallies.sums import NUM_EXTREMES, NUM_SUMS
 from .outputs import make_outputs
 from .pellet import make_ricochet_pellet
@@ -88,15 +88,14 @@ class ShotPass:
         self.kernel = shot_kernel_for(spec)
         dev = model.device
         n = max(max_shots, 1) * self.pieces
-        self.partial_sums = wp.empty((NUM_SUMS, n), dtype=wp.float64, device=dev)
-        self.partial_min = wp.empty((NUM_EXTREMES, n), dtype=wp.float64, device=dev)
-        self.partial_max = wp.empty((NUM_EXTREMES, n), dtype=wp.float64, device=dev)
+        self.partial_sums, self.partial_min, self.partial_max, self.rows = _arrays(dev, n)
         # a pellet file: its own rows, the shots may start in an earlier chunk
         self.source = (PelletSource(scene, model.precision, dev, max(max_shots, 1) * self.count, arrays)
                        if arrays is not None and not spec.collisions else None)
 
     def launch(self, first_shot: int, shots: int, source, outputs, release, tally, row_offset: int) -> int:
-        """Per-piece partials of shots [first_shot, first_shot + shots); returns the pieces."""
+        """Per-piece partials of shots [first_shot, first_shot + shots) into the first rows of
+        `rows` (no wait for the device: the host copies them with the chunk); returns the pieces."""
         if shots <= 0:
             return 0
         if self.source is not None:
@@ -107,11 +106,46 @@ class ShotPass:
                   inputs=[first_shot, self.count, self.pieces, row_offset, source, m.surfaces, m.physics, outputs,
                           release, tally],
                   outputs=[self.partial_sums, self.partial_min, self.partial_max], device=m.device)
+        wp.launch(rows_kernel(), dim=(pieces, SEGMENT_WIDTH), inputs=[self.partial_sums, self.partial_min, self.partial_max],
+                  outputs=[self.rows], device=m.device)
         return pieces
 
-    def host_rows(self, pieces: int) -> np.ndarray:
-        """The first `pieces` rows on the host: sums, minima, maxima (a statistics segment's layout)."""
-        if not pieces:
-            return np.zeros((0, NUM_SUMS + 2 * NUM_EXTREMES))
-        return np.hstack([self.partial_sums.numpy()[:, :pieces].T, self.partial_min.numpy()[:, :pieces].T,
-                          self.partial_max.numpy()[:, :pieces].T])
+
+_KEPT: dict = {}  # CUDA: the last pass's device arrays, reused by the next of the same size (hundreds of MB)
+
+
+def _arrays(dev, n: int):
+    """The per-piece partials of up to `n` pieces (sums, minima, maxima: a column a piece) and their
+    rows (a piece a row, as the host takes them), float64; on CUDA the last pass's if they have
+    this size (one run at a time: pipeline's lock), so a run does not allocate them again."""
+    def make():
+        return (wp.empty((NUM_SUMS, n), dtype=wp.float64, device=dev), wp.empty((NUM_EXTREMES, n), dtype=wp.float64, device=dev),
+                wp.empty((NUM_EXTREMES, n), dtype=wp.float64, device=dev), wp.empty((n, SEGMENT_WIDTH), dtype=wp.float64, device=dev))
+
+    if not dev.is_cuda:
+        return make()
+    key = (dev.alias, n)
+    if key not in _KEPT:
+        _KEPT.clear()  # (the old ones freed before the new ones are made)
+        _KEPT[key] = make()
+    return _KEPT[key]
+
+
+@functools.cache
+def rows_kernel():
+    """rows(sums, minima, maxima, rows): piece p's partials (columns of the three) as row p of
+    `rows`: sums, minima, maxima (a statistics segment's layout, SEGMENT_WIDTH columns)."""
+    num_sums, num_extremes = NUM_SUMS, NUM_EXTREMES
+
+    @wp.kernel(enable_backward=False)
+    def rows(sums: wp.array2d(dtype=wp.float64), minima: wp.array2d(dtype=wp.float64),
+             maxima: wp.array2d(dtype=wp.float64), out: wp.array2d(dtype=wp.float64)):
+        p, c = wp.tid()
+        if c < num_sums:
+            out[p, c] = sums[c, p]
+        elif c < num_sums + num_extremes:
+            out[p, c] = minima[c - num_sums, p]
+        else:
+            out[p, c] = maxima[c - num_sums - num_extremes, p]
+
+    return rows
