@@ -197,7 +197,7 @@ class HostSlot:
         self.totals = None if stage.totals is None else self._like(stage.totals, "shot_totals")
         self.tally = None  # the landing counts' buffers, made by the first `fill` that copies them
         passes = getattr(stage, "shot_pass", None)
-        self.pieces = None if passes is None else self._like(passes.rows, "shot_rows")
+        self.piece_rows = None if passes is None else self._like(passes.rows, "shot_rows")
         self.rows = self.segment_count = self.shots = 0
         self.event, self.shot_pieces, self.with_tally = None, None, False
 
@@ -228,7 +228,7 @@ class HostSlot:
                 if arr.size:
                     wp.copy(self.tally[name], arr)
         if shot_pieces:
-            wp.copy(self.pieces, stage.shot_pass.rows, count=shot_pieces * SEGMENT_WIDTH)
+            wp.copy(self.piece_rows, stage.shot_pass.rows, count=shot_pieces * SEGMENT_WIDTH)
         self.rows, self.segment_count, self.shots, self.with_tally = rows, segments, shots, with_tally
         self.shot_pieces = shot_pieces
         device = stage.model.device
@@ -240,7 +240,7 @@ class HostSlot:
         if self.event is not None:
             wp.synchronize_event(self.event)
         totals = self.totals.numpy()[: self.shots].copy() if self.shots else None
-        pieces = None if self.shot_pieces is None else self.pieces.numpy()[: self.shot_pieces].copy()
+        pieces = None if self.shot_pieces is None else self.piece_rows.numpy()[: self.shot_pieces].copy()
         return ({name: arr.numpy() for name, arr in self.arrays.items()}, self.segments.numpy()[: self.segment_count],
                 totals, {name: arr.numpy() for name, arr in self.tally.items()} if self.with_tally else None, pieces)
 
