@@ -95,7 +95,8 @@ class ShotPass:
 
     def launch(self, first_shot: int, shots: int, source, outputs, release, tally, row_offset: int) -> int:
         """Per-piece partials of shots [first_shot, first_shot + shots) into the first rows of
-        `rows` (no wait for the device: the host copies them with the chunk); returns the pieces."""
+        `rows` (the kernel writes them through strided views; no wait for the device: the host
+        copies them with the chunk); returns the pieces."""
         if shots <= 0:
             return 0
         if self.source is not None:
@@ -106,46 +107,30 @@ class ShotPass:
                   inputs=[first_shot, self.count, self.pieces, row_offset, source, m.surfaces, m.physics, outputs,
                           release, tally],
                   outputs=[self.partial_sums, self.partial_min, self.partial_max], device=m.device)
-        wp.launch(rows_kernel(), dim=(pieces, SEGMENT_WIDTH), inputs=[self.partial_sums, self.partial_min, self.partial_max],
-                  outputs=[self.rows], device=m.device)
         return pieces
 
 
-_KEPT: dict = {}  # CUDA: the last pass's device arrays, reused by the next of the same size (hundreds of MB)
+_KEPT: dict = {}  # CUDA: the last pass's device rows, reused by the next of the same size (hundreds of MB)
 
 
 def _arrays(dev, n: int):
-    """The per-piece partials of up to `n` pieces (sums, minima, maxima: a column a piece) and their
-    rows (a piece a row, as the host takes them), float64; on CUDA the last pass's if they have
-    this size (one run at a time: pipeline's lock), so a run does not allocate them again."""
-    def make():
-        return (wp.empty((NUM_SUMS, n), dtype=wp.float64, device=dev), wp.empty((NUM_EXTREMES, n), dtype=wp.float64, device=dev),
-                wp.empty((NUM_EXTREMES, n), dtype=wp.float64, device=dev), wp.empty((n, SEGMENT_WIDTH), dtype=wp.float64, device=dev))
-
-    if not dev.is_cuda:
-        return make()
+    """The per-piece partials of up to `n` pieces as the kernel writes them (sums, minima, maxima:
+    a column a piece) and as the host takes them (`rows`: a piece a row, SEGMENT_WIDTH columns),
+    float64: the first three are strided views of `rows`. On CUDA the last pass's if they have this
+    size (one run at a time: pipeline's lock), so a run does not allocate them again."""
     key = (dev.alias, n)
-    if key not in _KEPT:
+    if key in _KEPT:
+        return _KEPT[key]
+    if dev.is_cuda:
         _KEPT.clear()  # (the old ones freed before the new ones are made)
-        _KEPT[key] = make()
-    return _KEPT[key]
+    rows = wp.empty((n, SEGMENT_WIDTH), dtype=wp.float64, device=dev)
+    item = 8  # bytes of a float64
 
+    def columns(first: int, width: int):
+        return wp.array(ptr=rows.ptr + first * item, dtype=wp.float64, shape=(width, n),
+                        strides=(item, SEGMENT_WIDTH * item), device=dev)
 
-@functools.cache
-def rows_kernel():
-    """rows(sums, minima, maxima, rows): piece p's partials (columns of the three) as row p of
-    `rows`: sums, minima, maxima (a statistics segment's layout, SEGMENT_WIDTH columns)."""
-    num_sums, num_extremes = NUM_SUMS, NUM_EXTREMES
-
-    @wp.kernel(enable_backward=False)
-    def rows(sums: wp.array2d(dtype=wp.float64), minima: wp.array2d(dtype=wp.float64),
-             maxima: wp.array2d(dtype=wp.float64), out: wp.array2d(dtype=wp.float64)):
-        p, c = wp.tid()
-        if c < num_sums:
-            out[p, c] = sums[c, p]
-        elif c < num_sums + num_extremes:
-            out[p, c] = minima[c - num_sums, p]
-        else:
-            out[p, c] = maxima[c - num_sums - num_extremes, p]
-
-    return rows
+    out = (columns(0, NUM_SUMS), columns(NUM_SUMS, NUM_EXTREMES), columns(NUM_SUMS + NUM_EXTREMES, NUM_EXTREMES), rows)
+    if dev.is_cuda:
+        _KEPT[key] = out
+    return out
