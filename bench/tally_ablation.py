@@ -34,7 +34,7 @@ def variant_factory(variant: str, table_size: int = 0, table_probes: int = 0):
 
     from warp_ricochet.tallies import landing
     from warp_ricochet.tallies.bins import BINS, ROW_DISTANCE, ROW_RANGE, ROW_SPEED, make_bin_of
-    from warp_ricochet.tallies.block import ADD, PROBES, SLOTS, make_block_table
+    from warp_ricochet.tallies.block import ADD, PROBES, SLOTS, first_slot_steps, make_block_table
 
     original = landing.make_add_landing
 
@@ -48,6 +48,7 @@ def variant_factory(variant: str, table_size: int = 0, table_probes: int = 0):
         Tally, scalar, vec3, map_cell, horizontal_distance = fns.Tally, fns.scalar, fns.vec3, fns.map_cell, fns.horizontal_distance
         energy_quanta, count_one = fns.energy_quanta, landing.count_one
         bin_of, table, copy_of = make_bin_of(), make_block_table(slots, probes), base.copy_of
+        LATTICE, LEVEL_STEP = first_slot_steps(slots)
         EMPTY, NEVER = variant == "empty", variant == "no-add"
         NO_DISTANCE, NO_MAP_MATH = variant == "no-distance", variant == "no-map-math"
         ALL = 15  # fixed-level: every landing above each of the scene's four thresholds (as in the paper shot)
@@ -75,12 +76,14 @@ def variant_factory(variant: str, table_size: int = 0, table_probes: int = 0):
                 if wp.static(with_map):
                     column = level
                     energy = wp.int64(1)
+                    home = column
                     if not wp.static(NO_MAP_MATH):
-                        column = map_cell(tally, surface, position)
+                        column, iu, iv = map_cell(tally, surface, position)
                         energy = energy_quanta(tally, v2)
+                        home = iu + iv * LATTICE + level * LEVEL_STEP
                     key = level * tally.map_width + column
                     if row == -7 or not wp.static(NEVER):
-                        if table(ADD, key, energy) == wp.int64(0):
+                        if table(ADD, key, energy, home) == wp.int64(0):
                             wp.atomic_add(tally.map_counts, key, 1)
                             wp.atomic_add(tally.map_energy, column, energy)
 

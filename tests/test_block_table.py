@@ -55,7 +55,7 @@ def _count(landings, device, slots, probes, totals=True, quantum=QUANTUM):
     def count(tally: Tally, ranges: wp.array(dtype=wp.float32), positions: wp.array(dtype=wp.vec3f),
               v2s: wp.array(dtype=wp.float32), surfaces: wp.array(dtype=wp.int32), n: wp.int32):
         tid = wp.tid()
-        fns.table(BEGIN, 0, wp.int64(0))  # (with a map)
+        fns.table(BEGIN, 0, wp.int64(0), 0)  # (with a map)
         for j in range(PER_THREAD):
             row = tid * PER_THREAD + j
             if row < n:
@@ -180,3 +180,25 @@ def test_a_tally_holds_every_threshold_a_scene_may_set():
     assert MAX_THRESHOLDS <= HELD
     with pytest.raises(ValueError, match="thresholds"):
         make_add_landing("float32", False, HELD + 1)
+
+
+@pytest.mark.parametrize("slots", [16, 256, SLOTS])
+def test_the_lattice_of_first_slots_keeps_nearby_cells_apart(slots):
+    """Brute force over the cell offsets: no two cells closer than the lattice's shortest vector
+    share a first slot, and no multiplier B has a longer shortest vector."""
+    from warp_ricochet.tallies.block import first_slot_steps, lattice_multiplier
+
+    reach = int(2 * math.sqrt(slots)) + 2  # (a lattice of covolume `slots` has a vector shorter than this)
+    du, dv = np.meshgrid(np.arange(-reach, reach + 1), np.arange(0, reach + 1))
+    keep = (dv > 0) | (du > 0)
+    du, dv, norm2 = du[keep], dv[keep], (du * du + dv * dv)[keep]
+
+    def shortest2(b):
+        return norm2[(du + b * dv) % slots == 0].min()
+
+    b = lattice_multiplier(slots)
+    assert first_slot_steps(slots)[0] == b and first_slot_steps(slots)[1] % 2 == 1
+    assert shortest2(b) == max(shortest2(c) for c in range(slots))
+    assert shortest2(b) >= 0.85 * 2 * slots / math.sqrt(3)  # near the hexagonal lattice's (the densest packing)
+    if slots == SLOTS:
+        assert math.sqrt(shortest2(b)) > 47.0

@@ -66,7 +66,7 @@ def ricochet_kernel_for(spec, max_registers="default"):
         hi = extremes_t(-inf)
         range_shift = scalar(0.0)
         if wp.static(TABLE):  # every thread of the block: launches cover whole blocks
-            landing.table(BEGIN, 0, wp.int64(0))
+            landing.table(BEGIN, 0, wp.int64(0), 0)
         for j in range(per_thread):
             row = group * segment + j * lanes + lane
             if row < count:

@@ -1,8 +1,11 @@
 """Block-level aggregation of the hazard map's landings on CUDA, in shared memory.
 
 Each CUDA thread block of the core kernel adds its map landings into a hash table in shared memory
-(`SLOTS` slots, open addressing with `PROBES` linear probes): a landing's key is the flat index of
-its (hazard level, map column) (`tallies.landing`), a slot holds a count and an energy in quanta
+(`SLOTS` slots, open addressing with up to `PROBES` probes): a landing's key is the flat index of
+its (hazard level, map column) (`tallies.landing`). Its first slot is its cell's place on a lattice
+(`lattice_multiplier`: cells closer than about sqrt(SLOTS) cells apart never share one, so a compact
+cloud finds its slots at the first probe), its next ones a step set by a hash of the key (double
+hashing: no clusters of probes). A slot holds a count and an energy in quanta
 (the sums of its low and high 16 bits, in two uint32 words: 32-bit shared-memory atomics that no
 thread waits for). At the end of the block its threads add the table's slots to the maps, one atomic per key and block
 instead of one per landing: a cloud lands in a few hundred cells. A landing whose key finds no slot
@@ -29,10 +32,37 @@ BEGIN, ADD, END, KEY, COUNT, ENERGY, LANE, STRIDE = range(8)  # the operations o
 
 
 @functools.cache
+def lattice_multiplier(slots: int = SLOTS) -> int:
+    """The B of the first slot (u + B v) mod `slots` of the map cell (u, v) whose lattice of
+    colliding cell offsets {(du, dv): du + B dv = 0 mod slots} has the longest shortest vector
+    (Lagrange-Gauss reduction of its basis; ties: the smallest B): for SLOTS = 2048, B = 592 and no
+    two cells less than 47.7 cells apart share a first slot (a cloud of ~1,800 cells in a disc)."""
+    def shortest2(b: int) -> int:
+        x, y = (slots, 0), (-b, 1)  # a basis of the lattice
+        while True:
+            if x[0] ** 2 + x[1] ** 2 > y[0] ** 2 + y[1] ** 2:
+                x, y = y, x
+            n = x[0] ** 2 + x[1] ** 2
+            m = round((x[0] * y[0] + x[1] * y[1]) / n)
+            if m == 0:
+                return n
+            y = (y[0] - m * x[0], y[1] - m * x[1])
+
+    return max(range(slots), key=lambda b: (shortest2(b), -b)) if slots > 1 else 0
+
+
+def first_slot_steps(slots: int = SLOTS) -> tuple[int, int]:
+    """(B, L): a landing's first slot is u + B v + L level (mod `slots`), for its cell (u, v) and
+    hazard level; a cell's levels lie a golden-ratio fraction of the table apart."""
+    return (lattice_multiplier(slots), int(slots * 0.6180339887) | 1) if slots else (0, 0)
+
+
+@functools.cache
 def make_block_table(slots: int = SLOTS, probes: int = PROBES):
-    """block_table(op, a, b) -> int64, one native function over one shared table (its operations):
+    """block_table(op, a, b, home) -> int64, one native function over one shared table (its operations):
     BEGIN clears the table (every thread of the block: a barrier); ADD adds one landing of key a
-    (>= 0) and energy b (quanta), returning 1, or 0 when no slot was free or b >= 2^31; END waits for the
+    (>= 0) and energy b (quanta), its first slot `home` modulo `slots`, returning 1, or 0 when no
+    slot was free in `probes` or b >= 2^31; END waits for the
     block's adds (every thread: a barrier) and returns the number of slots to flush; KEY, COUNT,
     ENERGY read slot a; LANE, STRIDE: the thread's slots to flush are LANE, LANE + STRIDE, ...
     On the CPU, or with no slots or probes, nothing is aggregated: ADD returns 0, END 0 slots,
@@ -49,9 +79,8 @@ def make_block_table(slots: int = SLOTS, probes: int = PROBES):
     __shared__ unsigned int table_energy_high[{slots}];
     if (op == {ADD}) {{
         if ((unsigned long long)b >= 0x80000000ull) return 0;  // (past 31 bits: added at once)
-        unsigned int h = {"0u" if shift == 32 else f"((unsigned int)a * 2654435761u) >> {shift}"};
+        unsigned int s = (unsigned int)home & {slots - 1}u, step = 0u;
         for (int p = 0; p < {probes}; ++p) {{
-            int s = (int)((h + (unsigned int)p) & {slots - 1}u);
             int old = atomicCAS(&table_keys[s], {EMPTY}, (int)a);
             if (old == {EMPTY} || old == (int)a) {{
                 atomicAdd(&table_counts[s], 1);
@@ -61,6 +90,9 @@ def make_block_table(slots: int = SLOTS, probes: int = PROBES):
                 atomicAdd(&table_energy_high[s], (unsigned int)b >> 16);
                 return 1;
             }}
+            if (p == 0)  // the step of the next probes: odd, so they visit every slot
+                step = {"1u" if shift == 32 else f"(((unsigned int)a * 2654435761u) >> {shift}) | 1u"};
+            s = (s + step) & {slots - 1}u;
         }}
         return 0;
     }}
@@ -90,6 +122,6 @@ def make_block_table(slots: int = SLOTS, probes: int = PROBES):
 """
 
     @wp.func_native(snippet)
-    def block_table(op: wp.int32, a: wp.int32, b: wp.int64) -> wp.int64: ...
+    def block_table(op: wp.int32, a: wp.int32, b: wp.int64, home: wp.int32) -> wp.int64: ...
 
     return block_table

@@ -33,7 +33,7 @@ import warp as wp
 
 from ..physics.types import types_for
 from .bins import BINS, ROW_DISTANCE, ROW_RANGE, ROW_SPEED, make_bin_of
-from .block import ADD, COUNT, END, ENERGY, KEY, LANE, PROBES, SLOTS, STRIDE, make_block_table
+from .block import ADD, COUNT, END, ENERGY, KEY, LANE, PROBES, SLOTS, STRIDE, first_slot_steps, make_block_table
 
 COPY_MIX = 37  # `copy_of`: consecutive segments' warps start at copies 37 apart
 MAX_THRESHOLDS = 31  # hazard thresholds a `Tally` holds (a landing's exceeded ones are the bits of an int32)
@@ -93,18 +93,24 @@ def make_landing_tally(precision: str) -> SimpleNamespace:
 
     @wp.func
     def map_cell(tally: Tally, surface: wp.int32, position: vec3):
-        """The map column of a landing: its cell, CELLS outside the grid, CELLS + 1 on another surface.
+        """(column, u, v): the map column of a landing (its cell, CELLS outside the grid, CELLS + 1 on
+        another surface) and its cell's indices along u and v (off the grid: the column and 0).
         In the run's precision, as the position is (float32: a rounding of ~1e-7 of the position's
         distance from the world origin, which moves only landings that close to a cell edge)."""
         column = tally.map_cells + 1
+        iu = column
+        iv = wp.int32(0)
         if surface == tally.map_surface:
             column = tally.map_cells
+            iu = column
             fu = wp.dot(position, tally.map_u_cell) - tally.map_u_start
             fv = wp.dot(position, tally.map_v_cell) - tally.map_v_start
             # bounds before the cast: a landing far out in small cells is past int32 (NaN: outside)
             if fu >= scalar(0.0) and fv >= scalar(0.0) and fu < tally.map_nu_cells and fv < tally.map_nv_cells:
-                column = wp.int32(fv) * tally.map_nu + wp.int32(fu)
-        return column
+                iu = wp.int32(fu)
+                iv = wp.int32(fv)
+                column = iv * tally.map_nu + iu
+        return column, iu, iv
 
     @wp.func
     def energy_quanta(tally: Tally, v2: scalar):
@@ -121,13 +127,14 @@ def make_add_landing(precision: str, with_map: bool, thresholds: int = 0, slots:
     """exceeded(tally, v2) -> the bit mask of the `thresholds` (the first of thresholds2, tested
     unrolled) a landing with |v|^2 = v2 exceeds (bit i: v2 >= thresholds2[i]);
     add_landing(tally, row, surface, range, position, v2, mask) counts it (and, `with_map`, maps it:
-    through the block's table, `tallies.block` with `slots` and `probes`); flush(tally) adds the block's table to the maps (with a map, every thread of the block at its
+    through the block's table, `tallies.block` with `slots` and `probes`, first slot on its lattice); flush(tally) adds the block's table to the maps (with a map, every thread of the block at its
     end, after `table(BEGIN, ...)` at its start). A table key is a flat index of map_counts."""
     fns = make_landing_tally(precision)
     Tally, scalar, vec3, map_cell, horizontal_distance = fns.Tally, fns.scalar, fns.vec3, fns.map_cell, fns.horizontal_distance
     energy_quanta = fns.energy_quanta
     bin_of, table = make_bin_of(), make_block_table(slots, probes)
     MAP, THRESHOLDS = with_map, thresholds
+    LATTICE, LEVEL_STEP = first_slot_steps(slots)  # a landing's first table slot: u + LATTICE v + LEVEL_STEP level
     if not 0 <= thresholds <= MAX_THRESHOLDS:
         raise ValueError(f"thresholds must be in [0, {MAX_THRESHOLDS}]: {thresholds}")
 
@@ -156,22 +163,22 @@ def make_add_landing(precision: str, with_map: bool, thresholds: int = 0, slots:
         distance = horizontal_distance(tally, position)
         count_one(tally.hist, first + (ROW_DISTANCE + level) * BINS + bin_of(wp.float32(distance)))
         if wp.static(MAP):
-            column = map_cell(tally, surface, position)
+            column, iu, iv = map_cell(tally, surface, position)
             key = level * tally.map_width + column
             energy = energy_quanta(tally, v2)
-            if table(ADD, key, energy) == wp.int64(0):
+            if table(ADD, key, energy, iu + iv * LATTICE + level * LEVEL_STEP) == wp.int64(0):
                 wp.atomic_add(tally.map_counts, key, one)
                 wp.atomic_add(tally.map_energy, column, energy)
 
     @wp.func
     def flush(tally: Tally):
         """The block's table added to the maps (every thread of the block, at its end)."""
-        slots_here = wp.int32(table(END, 0, wp.int64(0)))
-        for s in range(wp.int32(table(LANE, 0, wp.int64(0))), slots_here, wp.int32(table(STRIDE, 0, wp.int64(0)))):
-            key = wp.int32(table(KEY, s, wp.int64(0)))
+        slots_here = wp.int32(table(END, 0, wp.int64(0), 0))
+        for s in range(wp.int32(table(LANE, 0, wp.int64(0), 0)), slots_here, wp.int32(table(STRIDE, 0, wp.int64(0), 0))):
+            key = wp.int32(table(KEY, s, wp.int64(0), 0))
             if key >= 0:
-                wp.atomic_add(tally.map_counts, key, wp.int32(table(COUNT, s, wp.int64(0))))
-                wp.atomic_add(tally.map_energy, key % tally.map_width, table(ENERGY, s, wp.int64(0)))
+                wp.atomic_add(tally.map_counts, key, wp.int32(table(COUNT, s, wp.int64(0), 0)))
+                wp.atomic_add(tally.map_energy, key % tally.map_width, table(ENERGY, s, wp.int64(0), 0))
 
     return SimpleNamespace(exceeded=exceeded, add_landing=add_landing, flush=flush, table=table, copy_of=copy_of)
 
