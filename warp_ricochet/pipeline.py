@@ -337,9 +337,12 @@ def _loop(stage, pellets, sink, resumed, progress):
         if pending is not None:
             consume(pending)  # host work on the previous chunk while the device runs this one
         pending = slot
+    fetch = tally is not None and sink is None  # (a sink had them chunk by chunk)
+    if fetch:
+        stage.tally.request()  # queued behind the last chunk: one wait for both
     if pending is not None:
         consume(pending)
-    if tally is not None and sink is None:  # (a sink had them chunk by chunk)
-        stage.tally.fetch(tally)
+    if fetch:
+        stage.tally.receive(tally)
     interrupts.check()
     return totals, tables, tally, pieces

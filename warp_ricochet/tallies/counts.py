@@ -168,6 +168,7 @@ class DeviceTally:
 
         t = types_for(precision)
         self.setup, self.active, self.device = setup, active, device
+        self.requested = None  # the event of `request`'s copies (CUDA)
         levels, width = setup.levels, setup.cells + 2
         mapped = active and setup.has_map
         sizes = {"hist": (ROW_DISTANCE + levels) * BINS if active else 0,
@@ -245,11 +246,14 @@ class DeviceTally:
             _CLEAN.update((str(self.device), "counts " + name) for name in names)
 
     def fetch(self, tally: "TallyTotals"):
-        """The totals into `tally` on the host, waiting for the device. Only their nonzero elements
-        travel, as (index, value) pairs: most bins and cells are empty, and a dense copy means
-        writing megabytes of fresh host memory. The dense arrays when more than SPARSE_CAPACITY
-        elements are nonzero. The pairs' count is zeroed again after it is read, off the next
-        run's path (the count is known zero in `_CLEAN`)."""
+        """The totals into `tally` on the host, waiting for the device: `request`, then `receive`."""
+        self.request()
+        self.receive(tally)
+
+    def request(self):
+        """Queue the totals' copy to the host behind the work already queued (no wait). Only their
+        nonzero elements travel, as (index, value) pairs: most bins and cells are empty, and a dense
+        copy means writing megabytes of fresh host memory."""
         import warp as wp
 
         from .landing import pack_kernel
@@ -266,7 +270,17 @@ class DeviceTally:
                       outputs=[sparse["count"], sparse["index"], sparse["value"]], device=self.device)
         for name in ("count", "index", "value"):
             wp.copy(host[name], sparse[name])
-        wp.synchronize_device(self.device)
+        self.requested = self.device.stream.record_event() if self.device.is_cuda else None
+
+    def receive(self, tally: "TallyTotals"):
+        """The totals `request` queued, into `tally`, once copied; the dense arrays when more than
+        SPARSE_CAPACITY elements are nonzero. The pairs' count is zeroed again after it is read,
+        off the next run's path (the count is known zero in `_CLEAN`)."""
+        import warp as wp
+
+        sparse, host, key = self.sparse, _pinned(self.device, self.sparse), (str(self.device), "sparse count")
+        if self.requested is not None:
+            wp.synchronize_event(self.requested)
         count = int(host["count"].numpy()[0])
         sparse["count"].zero_()
         if self.device.is_cuda:
