@@ -607,3 +607,48 @@ def test_a_shot_in_several_frame_blocks_takes_its_mean_and_the_same_bits_on_ever
     for name, value in one[0].items():
         np.testing.assert_array_equal(kernels[0][name], value, err_msg=name)
     assert kernels[1] == one[1]
+
+
+@pytest.mark.parametrize("block", [16, 1 << 14])
+def test_a_shots_collision_totals_are_its_blocks_summed_in_order(monkeypatch, block):
+    """A shot's totals (dense.ends.shot_totals) are taken a frame block at a time: counts exactly
+    NumPy's, the energy lost each block's float64 sum in pellet order, added in block order (with
+    one block, the whole shot's sum in pellet order: as before the blocks)."""
+    from warp_ricochet.dense import state
+    from warp_ricochet.dense.constants import CLOCK_END, CLOCK_OVERRUN, CLOCK_STEPS
+    from warp_ricochet.dense.phase import DensePhase
+    from warp_ricochet.launch.source import PelletSource
+    from warp_ricochet.model import Model, State
+    from warp_ricochet.spec import RunSpec
+
+    monkeypatch.setattr(state, "FRAME_BLOCK", block)
+    scene = _paper_collisions(count=60, shots=3, precision="float64")
+    model = Model.from_scene(scene, wp.get_device("cpu"))
+    dense = DensePhase(model, scene, RunSpec.of(scene, with_output=False), 180)
+    assert dense.pair.frame_blocks == (4 if block == 16 else 1)
+    dense.run(0, 3, PelletSource(scene, "float64", model.device, 180).struct, State(model, 180, ()).outputs)
+    assert dense.cloud.collision_count.numpy().sum() > 10
+    # then totals of counts and energies of every magnitude (sums whose rounding depends on their order)
+    rng = np.random.default_rng(7)
+    dense.cloud.collision_count.assign(rng.integers(0, 4, 180).astype(np.int32))
+    dense.cloud.energy_lost.assign(rng.random(180) * 10.0 ** rng.uniform(-9, 0, 180))
+    dense._launch("block_totals_kernel", 3 * dense.pair.frame_blocks, [dense.pair, dense.cloud, dense.block_totals])
+    dense._launch("shot_totals_kernel", 3, [dense.pair, dense.cloud, dense.block_totals, dense.totals])
+    counts = dense.cloud.collision_count.numpy().reshape(3, 60)
+    lost = dense.cloud.energy_lost.numpy().astype(np.float64).reshape(3, 60)
+    totals = dense.totals.numpy()
+    np.testing.assert_array_equal(totals[:, 0], (counts > 0).sum(axis=1))
+    np.testing.assert_array_equal(totals[:, 1], counts.sum(axis=1))
+    for s in range(3):
+        blocks = []
+        for first in range(0, 60, block):
+            total = 0.0
+            for x in lost[s, first:first + block]:
+                total += float(x)
+            blocks.append(total)
+        expected = blocks[0]
+        for x in blocks[1:]:
+            expected += x
+        assert totals[s, 2] == expected
+    clock = dense.cloud.clock.numpy()[:, [CLOCK_STEPS, CLOCK_END, CLOCK_OVERRUN]]
+    np.testing.assert_array_equal(totals[:, 3:], clock)

@@ -36,7 +36,7 @@ from .state import dense_types
 
 @functools.cache
 def make_ends(spec) -> SimpleNamespace:
-    """launch_pellet, start_shot, release_pellet and shot_totals."""
+    """launch_pellet, start_shot, release_pellet, block_totals and shot_totals."""
     d = dense_types(spec)
     scalar, vec3, Surfaces, Physics, Outputs, Source, Cloud, Pair = d.scalar, d.vec3, d.Surfaces, d.Physics, d.Outputs, d.Source, d.Cloud, d.Pair
     NEVER, WRITE = d.NEVER, bool(spec.core_fields)
@@ -174,25 +174,40 @@ def make_ends(spec) -> SimpleNamespace:
             cloud.collisions_last_time[i] = cloud.last_collision[i]
 
     @wp.func
-    def shot_totals(s: wp.int32, pair: Pair, cloud: Cloud, totals: wp.array2d(dtype=wp.float64)):
-        """One thread per shot, in pellet order: pellets that collided, pair collisions, energy
-        lost (J), steps, the time it stopped stepping (s), the largest skin overrun (half skins)."""
-        first = s * pair.count
+    def block_totals(row: wp.int32, pair: Pair, cloud: Cloud, blocks: wp.array2d(dtype=wp.float64)):
+        """Block `row` (shot row / frame_blocks, `frame.block_range`) of a shot, in pellet order:
+        its pellets that collided, its pair collisions and the energy they lost (J)."""
+        s = row / pair.frame_blocks
+        first, last = block_range(pair, s, row - s * pair.frame_blocks)
         collided = wp.float64(0.0)
         collisions = wp.float64(0.0)
         lost = wp.float64(0.0)
-        for k in range(pair.count):
-            c = cloud.collision_count[first + k]
+        for i in range(first, last):
+            c = cloud.collision_count[i]
             if c > 0:
                 collided += wp.float64(1.0)
             collisions += wp.float64(c)
-            lost += wp.float64(cloud.energy_lost[first + k])
-        totals[s, 0] = collided
-        totals[s, 1] = collisions
-        totals[s, 2] = lost
+            lost += wp.float64(cloud.energy_lost[i])
+        blocks[row, 0] = collided
+        blocks[row, 1] = collisions
+        blocks[row, 2] = lost
+
+    @wp.func
+    def shot_totals(s: wp.int32, pair: Pair, cloud: Cloud, blocks: wp.array2d(dtype=wp.float64),
+                    totals: wp.array2d(dtype=wp.float64)):
+        """A shot's totals, its blocks' (`block_totals`) added in block order (deterministic; for
+        one block its sums in pellet order): pellets that collided, pair collisions, energy lost
+        (J); then its steps, the time it stopped stepping (s), its largest skin overrun (half skins)."""
+        row = s * pair.frame_blocks
+        for k in range(3):
+            total = blocks[row, k]
+            for b in range(1, pair.frame_blocks):
+                total += blocks[row + b, k]
+            totals[s, k] = total
         totals[s, 3] = wp.float64(cloud.clock[s, CLOCK_STEPS])
         totals[s, 4] = wp.float64(cloud.clock[s, CLOCK_END])
         totals[s, 5] = wp.float64(cloud.clock[s, CLOCK_OVERRUN])
 
     return SimpleNamespace(launch_pellet=launch_pellet, start_shot=start_shot, start_block=start_block,
-                           window_shot=window_shot, release_pellet=release_pellet, shot_totals=shot_totals)
+                           window_shot=window_shot, release_pellet=release_pellet, block_totals=block_totals,
+                           shot_totals=shot_totals)

@@ -95,10 +95,16 @@ def make_setup_kernels(spec) -> SimpleNamespace:
             end_fns.release_pellet(i, pair, physics, cloud)
 
     @wp.kernel(**opts)
-    def shot_totals_kernel(pair: Pair, cloud: Cloud, totals: wp.array2d(dtype=wp.float64)):
-        end_fns.shot_totals(wp.tid(), pair, cloud, totals)
+    def block_totals_kernel(pair: Pair, cloud: Cloud, blocks: wp.array2d(dtype=wp.float64)):
+        """One thread a block of a shot (frame blocks): its collision totals."""
+        end_fns.block_totals(wp.tid(), pair, cloud, blocks)
 
-    return SimpleNamespace(groups_kernel=groups_kernel, cell_lists_kernel=cell_lists_kernel, launch_kernel=launch_kernel, separate_kernel=separate_kernel, drift_kernel=drift_kernel, start_block_kernel=start_block_kernel, window_kernel=window_kernel, grid_points_kernel=grid_points_kernel, neighbours_kernel=neighbours_kernel, release_kernel=release_kernel, shot_totals_kernel=shot_totals_kernel)
+    @wp.kernel(**opts)
+    def shot_totals_kernel(pair: Pair, cloud: Cloud, blocks: wp.array2d(dtype=wp.float64),
+                           totals: wp.array2d(dtype=wp.float64)):
+        end_fns.shot_totals(wp.tid(), pair, cloud, blocks, totals)
+
+    return SimpleNamespace(groups_kernel=groups_kernel, cell_lists_kernel=cell_lists_kernel, launch_kernel=launch_kernel, separate_kernel=separate_kernel, drift_kernel=drift_kernel, start_block_kernel=start_block_kernel, window_kernel=window_kernel, grid_points_kernel=grid_points_kernel, neighbours_kernel=neighbours_kernel, release_kernel=release_kernel, block_totals_kernel=block_totals_kernel, shot_totals_kernel=shot_totals_kernel)
 
 
 @functools.cache

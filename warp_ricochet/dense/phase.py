@@ -84,6 +84,8 @@ class DensePhase:
         self.envelope_radius = scene.shot.envelope_radius
         self.redraws, self.heads, self.chain = separation_buffers(self.device, shots, self.count, self.sampled)
         self.pair = pair_struct(model.precision, model, coll, self.count, self.block_steps)
+        # a shot's collision totals a frame block at a time (dense.ends.block_totals)
+        self.block_totals = wp.zeros((shots * self.pair.frame_blocks, 3), dtype=wp.float64, device=self.device)
         cpu = not self.device.is_cuda
         self.fused = cpu and options.cpu_steps != "kernels"
         self.cell_lists = cpu and options.cpu_lists == "cells"
@@ -118,7 +120,8 @@ class DensePhase:
         else:
             self._host_loop(pellets, shots, outputs, frames)
         self._launch("release_kernel", self.threads, [p, self.model.physics, c])
-        self._launch("shot_totals_kernel", shots, [p, c, self.totals])
+        self._launch("block_totals_kernel", shots * p.frame_blocks, [p, c, self.block_totals])
+        self._launch("shot_totals_kernel", shots, [p, c, self.block_totals, self.totals])
 
     def launch_shots(self, first_index: int, shots: int, source, outputs):
         """Each pellet's launch state, each shot of sampled launches separated (no overlaps; one
