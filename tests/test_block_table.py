@@ -158,7 +158,8 @@ def test_the_host_fetches_the_device_totals_sparse_or_dense(landings, device, mo
     tally = _count(landings, device, SLOTS, PROBES, totals=False)
     host = counts.TallyTotals(tally.setup)
     host.map_counts[...] = 1  # (replaced, not added to)
-    tally.fetch(host)
+    tally.request()
+    tally.receive(host)
     for name, arr in tally.totals.items():
         assert np.count_nonzero(arr.numpy()) > 7
         np.testing.assert_array_equal(getattr(host, name).reshape(-1), arr.numpy(), err_msg=name)

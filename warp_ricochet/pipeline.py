@@ -196,8 +196,7 @@ class HostSlot:
         self.segments = self._like(stage.state.segments, "segments")
         self.totals = None if stage.totals is None else self._like(stage.totals, "shot_totals")
         self.tally = None  # the landing counts' buffers, made by the first `fill` that copies them
-        passes = getattr(stage, "shot_pass", None)
-        self.piece_rows = None if passes is None else self._like(passes.rows, "shot_rows")
+        self.piece_rows = None if stage.shot_pass is None else self._like(stage.shot_pass.rows, "shot_rows")
         self.rows = self.segment_count = self.shots = 0
         self.event, self.shot_pieces, self.with_tally = None, None, False
 

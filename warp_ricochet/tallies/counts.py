@@ -119,7 +119,7 @@ def copies_for(device, nbytes: int) -> int:
 
 
 _POOL: dict = {}  # device arrays and pinned host arrays kept between runs (allocating 200 MB costs a run ~0.5 ms)
-_CLEAN: set = set()  # the pooled count arrays known to be all zero (`DeviceTally.fold` and `fetch` leave them so)
+_CLEAN: set = set()  # the pooled count arrays known to be all zero (`DeviceTally.fold` and `receive` leave them so)
 
 
 def _buffer(device, role: str, size: int, dtype):
@@ -139,7 +139,7 @@ def _buffer(device, role: str, size: int, dtype):
 
 
 FOLD_LIMIT = (1 << 31) - 1  # pellets whose histogram counts may wait unfolded (int32 bins)
-SPARSE_CAPACITY = 1 << 16  # nonzero totals a run's end fetches as (index, value) pairs (`DeviceTally.fetch`)
+SPARSE_CAPACITY = 1 << 16  # nonzero totals a run's end fetches as (index, value) pairs (`DeviceTally.request`)
 COUNTS = ("hist", "map_counts", "map_energy")  # the landing counts, in `TallyTotals.flat` order
 
 
@@ -245,11 +245,6 @@ class DeviceTally:
         if self.device.is_cuda:
             _CLEAN.update((str(self.device), "counts " + name) for name in names)
 
-    def fetch(self, tally: "TallyTotals"):
-        """The totals into `tally` on the host, waiting for the device: `request`, then `receive`."""
-        self.request()
-        self.receive(tally)
-
     def request(self):
         """Queue the totals' copy to the host behind the work already queued (no wait). Only their
         nonzero elements travel, as (index, value) pairs: most bins and cells are empty, and a dense
@@ -266,7 +261,7 @@ class DeviceTally:
             sparse["count"].zero_()
         _CLEAN.discard(key)
         if self.flat.size:
-            wp.launch(pack_kernel(), dim=self.flat.size, inputs=[self.flat, 0],
+            wp.launch(pack_kernel(), dim=self.flat.size, inputs=[self.flat],
                       outputs=[sparse["count"], sparse["index"], sparse["value"]], device=self.device)
         for name in ("count", "index", "value"):
             wp.copy(host[name], sparse[name])
@@ -340,7 +335,7 @@ class TallyTotals:
 
     def scatter(self, index, value):
         """The counts so far from their nonzero elements: `value` at `index` of `flat()`'s order, the
-        rest zero (`DeviceTally.fetch`)."""
+        rest zero (`DeviceTally.receive`)."""
         self._pairs = (np.asarray(index, dtype=np.int64).copy(), np.asarray(value, dtype=np.int64).copy())
         self._dense = None
 

@@ -209,19 +209,19 @@ def fold_kernel():
 
 @functools.cache
 def pack_kernel():
-    """pack(totals, offset, count, index, value): each nonzero totals[i] as a pair (offset + i, value)
-    at the next slot of `count` (pairs past the capacity of `index` are dropped; `count` still
-    counts them). The pairs' order varies from run to run; their set does not."""
+    """pack(totals, count, index, value): each nonzero totals[i] as a pair (i, value) at the next
+    slot of `count` (pairs past the capacity of `index` are dropped; `count` still counts them).
+    The pairs' order varies from run to run; their set does not."""
 
     @wp.kernel(enable_backward=False)
-    def pack(totals: wp.array(dtype=wp.int64), offset: wp.int32, count: wp.array(dtype=wp.int32),
-             index: wp.array(dtype=wp.int32), value: wp.array(dtype=wp.int64)):
+    def pack(totals: wp.array(dtype=wp.int64), count: wp.array(dtype=wp.int32), index: wp.array(dtype=wp.int32),
+             value: wp.array(dtype=wp.int64)):
         i = wp.tid()
         v = totals[i]
         if v != wp.int64(0):
             slot = wp.atomic_add(count, 0, 1)
             if slot < index.shape[0]:
-                index[slot] = offset + i
+                index[slot] = i
                 value[slot] = v
 
     return pack
