@@ -56,7 +56,7 @@ def assert_named_like_the_layout(path, group=""):
         variables = dict(walk(tree))
         phony = [(p, v.dims) for p, v in variables.items() if any(d.startswith("phony") for d in v.dims)]
         assert not phony, phony
-        fields = [p for p in variables if p.startswith(group + "pellets/")]
+        fields = [p for p in variables if p.startswith(group + "pellets/") and p.count("/") > 1 + group.count("/")]
         assert fields
         for p in fields:
             name = p[len(group + "pellets/"):].replace("/", ".")
@@ -74,7 +74,7 @@ def test_xarray_with_h5netcdf_sees_named_dimensions_and_units(tmp_path):
     assert variables["pellets/impact/velocity"].shape == (300, 2, 3)
     assert variables["constants/surfaces/normal"].dims == ("surface", "xyz")
     assert variables["progress/segment_results"].dims[0] == "segment"
-    assert list(variables["xyz"].values) == ["x", "y", "z"]
+    assert list(variables["pellets/xyz"].values) == ["x", "y", "z"]
     assert variables["stats/range_mean"].attrs["units"] == "m"
     with xr.open_dataset(path, engine="h5netcdf", group="pellets/landing") as ds:
         assert dict(ds.sizes) == {"pellet": 300, "xyz": 3}
@@ -100,6 +100,29 @@ def test_collision_runs_with_frames_and_sweeps_have_no_anonymous_dimension(tmp_p
     with wr.open_run(sweep, point=1) as run, h5py.File(sweep) as f:
         np.testing.assert_array_equal(run.landing.range.values, f["runs/0001/pellets/landing/range"][:])
         assert run.stats.range_mean.item() == f["stats/range_mean"][1]
+
+
+def test_every_group_of_a_hazard_run_opens_and_open_run_reads_its_hazard_group(tmp_path):
+    """/hazard/map/surface (a scalar) once met a dimension `surface` in the file's root: h5netcdf took
+    it for a coordinate variable and sliced it ("Illegal slicing argument for scalar dataspace").
+    Dimension scales now live in the groups of their datasets, none in a run file's root."""
+    path = tmp_path / "hazard.h5"
+    wr.run(load_scene(str(ROOT / "examples" / "hazard.toml"), ["shot.count=30", "shot.shots=2"]), path, device="cpu")
+    variables = assert_named_like_the_layout(path)
+    assert variables["hazard/map/surface"].dims == () and variables["hazard/map/above"].dims[0] == "threshold"
+    assert variables["hazard/danger_distance/distance"].dims == ("threshold", "fraction")
+    with h5py.File(path) as f:
+        assert sorted(f) == ["constants", "hazard", "pellets", "progress", "stats"]  # no dimension in the root
+        assert f["hazard/map/above"].dims[0][0].name == "/hazard/threshold"
+        assert f.attrs["format_version"] == 2
+        with wr.open_run(path) as run:
+            h = run.hazard_results
+            assert list(h.thresholds_name.values) == [n.decode() for n in f["hazard/thresholds/name"][()]]
+            np.testing.assert_array_equal(h.map_above.values, f["hazard/map/above"][()])
+            assert h.map_count.dims == ("map_v", "map_u") and h.map_origin.dims == ("xyz",)
+            assert h.danger_distance_distance.attrs["units"] == "m"
+            assert "hazard" in run.to_datatree().children
+            assert run.hazard.energy_density.shape == (60,)
 
 
 def test_open_run_reads_several_chunks_lazily_as_h5py_does(reference):

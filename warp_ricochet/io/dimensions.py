@@ -2,8 +2,13 @@
 netCDF-4 writes them), so that netCDF readers (h5netcdf, xarray, netCDF-C) see `pellet`, `bounce`,
 `xyz`, ... instead of anonymous dimensions.
 
-A dimension is a dataset in the run's group (the file's root, or /runs/NNNN of a sweep): netCDF
-readers look a dimension up in the group of a variable and its ancestors. `xyz` is a coordinate
+A dimension is a dataset in the top group of the datasets it names (`/pellets/pellet`,
+`/constants/surface`, `/hazard/threshold`; below /stats, whose datasets are the statistics, in its
+subgroup: `/stats/quantiles/level`; the H5MD frames' in the run's group, as H5MD's groups hold only
+what H5MD names). format_version 1 kept them all in the run's group (the file's root). netCDF
+readers look a dimension up in the group of a variable and its ancestors only, so one `/dims` group
+would hide them; and a dimension in the run's root clashed with a variable of its name in any group
+below (`/hazard/map/surface`: h5netcdf sliced that scalar as a coordinate). `xyz` is a coordinate
 (the strings "x", "y", "z"); the others are dimension-only scales (netCDF's "This is a netCDF
 dimension but not a netCDF variable." name): they hold no data and cost no disk, and an unlimited
 one (`pellet`, `frame`, `segment`, `shot`) takes its length from the datasets attached to it, as
@@ -108,23 +113,42 @@ def attach(root: h5py.Group, ds: h5py.Dataset, names: tuple[str, ...]) -> None:
         dim.attach_scale(scale(root, name, ds.shape[axis], ds.maxshape[axis] is None))
 
 
+def is_dimension(obj) -> bool:
+    """Whether `obj` is a dimension scale holding no values of its own (`xyz`, or a dimension-only
+    scale): readers that walk a group leave it out."""
+    if not isinstance(obj, h5py.Dataset) or obj.attrs.get("CLASS") != b"DIMENSION_SCALE":
+        return False
+    return obj.name.rsplit("/", 1)[-1] == "xyz" or bytes(obj.attrs.get("NAME", b"")).startswith(
+        NOT_A_VARIABLE.encode())
+
+
 def name_run_dimensions(group: h5py.Group) -> None:
     """Attach named dimensions to every dataset of the run in `group` (its per-pellet datasets,
-    constants, progress and frames; not its scalars)."""
+    constants, progress and frames; not its scalars), each made in the group `home_of` names."""
     found = []
 
     def visit(path, obj):
         if isinstance(obj, h5py.Dataset) and obj.ndim and path.split("/", 1)[0] != "runs" \
-                and obj.attrs.get("CLASS") != b"DIMENSION_SCALE":
+                and not is_dimension(obj):
             found.append((path, obj))
 
     group.visititems(visit)
     for path, ds in found:
-        attach(group, ds, dimensions_of(path, ds))
+        attach(group[home_of(path)] if home_of(path) else group, ds, dimensions_of(path, ds))
+
+
+def home_of(path: str) -> str:
+    """The group (relative to the run's) holding the dimensions of the dataset at `path`: its top
+    group, its second for /stats, the run's ("") for the H5MD frames and datasets of the run's root."""
+    parts = path.split("/")[:-1]
+    if not parts or parts[0] == "particles":
+        return ""
+    return "/".join(parts[:2] if parts[0] == "stats" else parts[:1])
 
 
 def name_sweep_dimensions(root: h5py.Group) -> None:
-    """Attach the dimension `point` (the sweep's points) to the arrays of /sweep and /stats."""
+    """Attach the dimension `point` (the sweep's points) to the arrays of /sweep and /stats: the
+    sweep file's one dimension in its root (the two groups share it)."""
     for name in ("sweep", "stats"):
         if name in root:
             for ds in root[name].values():

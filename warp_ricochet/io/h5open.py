@@ -4,6 +4,8 @@ from __future__ import annotations
 
 FORMAT_NAME = "warp-ricochet"  # the root attribute `format` of run and sweep files
 KINDS = ("run", "sweep")  # their root attribute `kind`
+FORMAT_VERSION = 2  # the root attribute `format_version` written (2: dimension scales in their datasets' groups)
+FORMAT_VERSIONS = (1, 2)  # those read (1: every dimension scale in the run's group)
 
 
 def file_kind(attrs) -> str | None:

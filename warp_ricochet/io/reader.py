@@ -19,12 +19,13 @@ import numpy as np
 
 from ..errors import OutputError
 from ..fields import FIELDS, GROUPS
-from .dimensions import RUN_DIMENSIONS, XYZ, field_dimensions
+from .dimensions import RUN_DIMENSIONS, XYZ, dimensions_of, field_dimensions, is_dimension
 from .h5open import file_kind, open_checked, rows_final
 
 __all__ = ["Run", "open_run", "DASK_ROWS"]
 
 DASK_ROWS = 1 << 20  # pellets per dask chunk: 16 HDF5 chunks (io.writer.MAX_H5_CHUNK_ROWS)
+LAZY_BYTES = 1 << 24  # a dataset of a small group (/hazard's map) this large is read lazily (dask)
 EXTRA = "pip install 'warp-ricochet[xarray]'"
 
 
@@ -49,14 +50,20 @@ def _variable(ds: h5py.Dataset, dims, data=None):
     xr, _ = _imports()
     attrs = {k: _text(ds.attrs[k]) for k in ("units", "description", "columns", "ci_low", "ci_high", "ci_method")
              if k in ds.attrs}
-    return xr.Variable(dims, ds[()] if data is None else data, attrs=attrs)
+    if data is None:
+        data = ds[()]
+        if ds.dtype.kind in "SO":  # text (the hazard thresholds' names and kinds)
+            data = np.asarray(_text(np.asarray(data, dtype=object)), dtype=str)
+    return xr.Variable(dims, data, attrs=attrs)
 
 
 class Run:
     """One run's results, lazily: a Dataset per per-pellet group (`initial`, `impact`, `landing`,
-    `collisions`, `release`; those the run wrote), `stats`, `constants` and `frames` (H5MD trajectory
-    frames, when written). Per-pellet Datasets hold the rows complete only (`rows`) and are dask
-    backed; `stats` and `constants` are small and read at once. A sweep file without `point` has
+    `collisions`, `release`, `hazard`; those the run wrote), `stats`, `constants`, `frames` (H5MD
+    trajectory frames, when written) and `hazard_results` (/hazard: thresholds, danger distances and
+    the map as `thresholds_name`, `danger_distance_distance`, `map_count`, ...; empty without
+    `[hazard]`). Per-pellet Datasets hold the rows complete only (`rows`) and are dask backed;
+    `stats`, `constants` and `hazard_results` are read at once (a map over LAZY_BYTES lazily). A sweep file without `point` has
     `stats` per point (dimension `point`, the swept values as coordinates) and no per-pellet groups.
     Keep it open while computing (a context manager; `close()`)."""
 
@@ -84,6 +91,7 @@ class Run:
                 if name in pellets:
                     self.groups[name] = self._pellet_group(pellets[name], name, chunk_rows)
             self.constants = self._small(group.get("constants"), "constants")
+            self.hazard_results = self._small(group.get("hazard"), "hazard")
             self.stats = self._stats(group, sweep=kind == "sweep" and point is None)
             self.frames = self._frames(group.get("particles/pellets/position"), chunk_rows)
         except BaseException:
@@ -126,16 +134,17 @@ class Run:
 
     def _small(self, g, where: str):
         """A Dataset of the (small) datasets of `g` and its subgroups, read at once."""
-        xr, _ = _imports()
-        if g is None:
+        xr, da = _imports()
+        if not isinstance(g, h5py.Group):
             return xr.Dataset()
         variables = {}
 
         def visit(path, ds):
-            if isinstance(ds, h5py.Dataset):
-                full = f"{where}/{path}"
-                dims = RUN_DIMENSIONS.get(full, tuple(f"{path.replace('/', '_')}_{a}" for a in range(ds.ndim)))
-                variables[path.replace("/", "_")] = _variable(ds, dims)
+            if isinstance(ds, h5py.Dataset) and not is_dimension(ds):
+                dims = dimensions_of(f"{where}/{path}", ds)
+                lazy = ds.ndim and ds.size * ds.dtype.itemsize > LAZY_BYTES
+                data = da.from_array(ds, chunks="auto", lock=True, name=False) if lazy else None
+                variables[path.replace("/", "_")] = _variable(ds, dims, data)
 
         g.visititems(visit)
         return xr.Dataset(variables, coords=self._xyz(variables), attrs=self._dataset_attrs(where))
@@ -146,7 +155,8 @@ class Run:
         if not sweep:  # the scalars (the landing tallies' groups below /stats are arrays: docs/hazard.md), and
             # in a run of several shots each statistic's per-shot values as shots_<name> (dimension shot)
             variables = {name: _variable(ds, ()) for name, ds in stats.items() if isinstance(ds, h5py.Dataset)}
-            variables.update({f"shots_{name}": _variable(ds, ("shot",)) for name, ds in stats.get("shots", {}).items()})
+            variables.update({f"shots_{name}": _variable(ds, ("shot",)) for name, ds in stats.get("shots", {}).items()
+                              if not is_dimension(ds)})
             return xr.Dataset(variables, attrs=self._dataset_attrs("stats"))
         coords = {key: _variable(ds, ("point",)) for key, ds in self.file.get("sweep", {}).items()}
         variables = {name: _variable(ds, ("point",)) for name, ds in stats.items()}
@@ -191,10 +201,11 @@ class Run:
         return frame
 
     def to_datatree(self):
-        """All of it as one xarray DataTree: /pellets/<group>, /stats, /constants, /frames."""
+        """All of it as one xarray DataTree: /pellets/<group>, /stats, /constants, /hazard, /frames."""
         xr, _ = _imports()
         tree = {f"/pellets/{name}": ds.drop_vars("xyz", errors="ignore") for name, ds in self.groups.items()}
-        tree.update({"/stats": self.stats, "/constants": self.constants.drop_vars("xyz", errors="ignore")})
+        tree.update({"/stats": self.stats, "/constants": self.constants.drop_vars("xyz", errors="ignore"),
+                     "/hazard": self.hazard_results.drop_vars("xyz", errors="ignore")})
         if self.frames is not None:
             tree["/frames"] = self.frames.drop_vars("xyz", errors="ignore")
         root = xr.Dataset(coords={"xyz": list(XYZ)}, attrs=self.attrs)

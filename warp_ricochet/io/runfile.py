@@ -44,7 +44,7 @@ import warp as wp
 from .. import interrupts
 from .._version import __version__
 from ..errors import OutputError, RicochetError, hdf5_reason, in_use_error
-from .h5open import FORMAT_NAME, open_for_reading
+from .h5open import FORMAT_NAME, FORMAT_VERSION, open_for_reading
 from .space import Reservation
 from .xdmf import check_sidecar, sidecar_path, write_xdmf
 
@@ -52,7 +52,6 @@ from .locks import share, try_lock
 
 ABANDONED = False  # a file could not be closed: the HDF5 library must not run its exit handlers
 
-FORMAT_VERSION = 1
 SWMR_FILE = {"libver": ("v110", "latest"), "locking": False}  # run files: SWMR-capable; our flock replaces HDF5's
 SWEEP_FILE = {"locking": False}  # sweep files: the earliest format, which a killed writer leaves openable
 
