@@ -78,7 +78,8 @@ def _expected(g, stage, bounce=None):
         elif base == "angular_velocity":
             out["spin" + tail] = _norm(value)
             out["energy_rotational" + tail] = 0.5 * inertia * _norm(value) ** 2
-    for extra in ("landing/range", "collisions/count", "collisions/last_time"):
+    for extra in ("landing/range", "collisions/count", "collisions/last_time", "hazard/energy", "hazard/energy_density",
+                  "hazard/exceeds"):
         if f"pellets/{extra}" in g and not extra.startswith(stage):
             out[extra.replace("/", ".")] = g[f"pellets/{extra}"][()]
     return out
@@ -281,3 +282,61 @@ def test_a_scene_without_planes_has_no_surfaces_block(tmp_path):
     api.run(_scene(fields=["initial"], surfaces=[]), output=str(out), device="cpu")
     blocks, _ = _read(sidecar_path(out))
     assert sorted(blocks) == ["launch"] and blocks["launch"].GetNumberOfPoints() == 40
+
+
+KILL_AFTER_A_CHUNK = """
+import os, signal, sys
+import warp_ricochet as wr
+from warp_ricochet.scene import load_scene
+
+def progress(done, total):  # the first chunk is complete and counted: die as SIGKILL leaves a run
+    os.kill(os.getpid(), signal.SIGKILL)
+
+wr.run(load_scene(sys.argv[1]), sys.argv[2], device="cpu", progress=progress)
+"""
+
+
+def test_a_killed_runs_partial_opens_in_vtk_with_the_rows_complete(tmp_path):
+    """A SIGKILLed run leaves its writer's flags set, and HDF5 refuses a plain open of such a file,
+    which is how VTK (ParaView) opens it ("Failed to read attribute data"): `warp-ricochet xdmf`
+    clears them (as h5clear -s), and the sidecar shows /progress/rows rows; --resume still works."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    scene = _scene(2 * 65536 + 100, fields=["initial.position", "landing"], numerics={"chunk_size": 65536})
+    scene_file, out = tmp_path / "scene.toml", tmp_path / "killed.h5"
+    scene_file.write_text(scene.to_toml())
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    proc = subprocess.run([sys.executable, "-c", KILL_AFTER_A_CHUNK, str(scene_file), str(out)], env=env,
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == -signal.SIGKILL, proc.stderr
+    partial = tmp_path / "killed.h5.partial"
+    with pytest.raises(OSError, match="already open for write"):
+        h5py.File(partial, "r").close()
+    with pytest.warns(UserWarning, match="its writer was killed; cleared the flags"):
+        assert cli(["xdmf", partial])[0] == 0
+    blocks, _ = _read(sidecar_path(partial))
+    with h5py.File(partial) as f:
+        assert f.attrs["status"] == "running" and 0 < f["progress/rows"][()] < len(f["pellets/landing/range"]) + 1
+        _check_clouds(blocks, f)
+        assert blocks["landing"].GetNumberOfPoints() == f["progress/rows"][()] == 65536
+    api.run(scene, output=str(out), device="cpu", resume=True)
+    assert _read(sidecar_path(out))[0]["landing"].GetNumberOfPoints() == 2 * 65536 + 100
+
+
+def test_the_hazard_at_landing_is_on_every_cloud(tmp_path):
+    """energy, energy_density and exceeds (/pellets/hazard) are point data, so ParaView colours by them."""
+    hazard = {"energy_density": {"eye": 1503.0}, "speed": {"skin": 101.0}}
+    out = tmp_path / "hazard.h5"
+    api.run(_scene(fields=["initial", "landing", "hazard"], hazard=hazard), output=str(out), device="cpu")
+    blocks, _ = _read(sidecar_path(out))
+    with h5py.File(out) as f:
+        for cloud in ("launch", "landing"):
+            got = _arrays(blocks[cloud])
+            for name in ("energy", "energy_density", "exceeds"):
+                want = f[f"pellets/hazard/{name}"][()]
+                np.testing.assert_array_equal(got[f"hazard.{name}"].reshape(want.shape), want, err_msg=name)
+        assert f["pellets/hazard/exceeds"][()].any()

@@ -16,7 +16,8 @@ collection `point_NNNN`):
   `landing`, `release` (runs with pellet-pellet collisions), each with its group's datasets as
   point data, the magnitudes of its vectors (`speed`, `spin`, m/s and rad/s), the energies
   `energy_translational` = m |v|^2 / 2 and `energy_rotational` = I |w|^2 / 2 (J; eq. 40's W_T and
-  W_R per pellet), and `landing.range`, `collisions.count`, `collisions.last_time` where present;
+  W_R per pellet), and `landing.range`, `collisions.count`, `collisions.last_time` and the hazard
+  at landing (`hazard.energy`, `hazard.energy_density`, `hazard.exceeds`) where present;
 - `surfaces`: each plane as a finite quad (cell data: `surface` index, `restitution`, `mu_s`, `mu_d`),
   centred where the plane meets the pellets: it spans the plane's point and the projections onto
   the plane of the box around the launch, impact and landing positions, 10 % wider on each side;
@@ -28,6 +29,7 @@ from __future__ import annotations
 
 import os
 import tempfile
+import warnings
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -39,7 +41,8 @@ from .h5open import file_kind, open_checked, rows_final
 
 __all__ = ["sidecar_path", "write_xdmf", "xdmf_text"]
 
-EXTRAS = ("landing.range", "collisions.count", "collisions.last_time")  # per-pellet values shown on every cloud
+EXTRAS = ("landing.range", "collisions.count", "collisions.last_time",  # per-pellet values shown on every cloud
+          "hazard.energy", "hazard.energy_density", "hazard.exceeds")
 SAMPLE_BLOCK = 1 << 16  # rows read at a time to size the surfaces (at most 16 blocks: bounded time)
 SAMPLE_BLOCKS = 16  # blocks read at most (spread over the file)
 _NUMBER_TYPES = {"f": "Float", "i": "Int", "u": "UInt"}
@@ -72,6 +75,7 @@ def write_xdmf(path, *, overwrite: bool = False) -> Path:
         raise OutputError(f"{shown}: does not exist")
     check_sidecar(src, overwrite, shown)
     text = xdmf_text(src)
+    _openable(src, shown)
     xmf = sidecar_path(src)
     fd, tmp = tempfile.mkstemp(prefix=xmf.name + ".", suffix=".new", dir=xmf.parent if str(xmf.parent) else ".")
     try:
@@ -91,6 +95,36 @@ def write_xdmf(path, *, overwrite: bool = False) -> Path:
             os.unlink(tmp)
         raise
     return xmf
+
+
+def _openable(src: Path, shown: str) -> None:
+    """Make a killed run's partial openable by any HDF5 reader: VTK's (ParaView's) opens files
+    plainly, and HDF5 refuses a plain open of a file whose writer died ("already open for write"):
+    its superblock's status flags are cleared, as `h5clear -s` does (`--resume` does it too), while
+    an exclusive lock shows that no run writes it; a file a run is writing is refused."""
+    import h5py
+
+    from .locks import try_lock
+    from .superblock import clear_status_flags
+
+    try:
+        h5py.File(src, "r", locking=False).close()
+        return
+    except OSError as exc:
+        if "already open for write" not in str(exc):
+            raise OutputError(f"{shown}: HDF5 cannot open it ({' '.join(str(exc).split())})") from None
+    fd = os.open(src, os.O_RDWR)
+    try:
+        if not try_lock(fd):
+            raise OutputError(f"{shown}: another process has it open (a run writing it?); ParaView cannot open a "
+                              "file being written: write its sidecar when the run has ended")
+        clear_status_flags(src)
+    except ValueError as exc:
+        raise OutputError(f"{shown}: HDF5 cannot open it, and its superblock is not one we know ({exc})") from None
+    finally:
+        os.close(fd)
+    warnings.warn(f"{src.name}: its writer was killed; cleared the flags it left in the file (as h5clear -s "
+                  "does) so that ParaView can open it", stacklevel=3)
 
 
 def _umask() -> int:
