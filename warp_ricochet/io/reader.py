@@ -20,7 +20,8 @@ import numpy as np
 from ..errors import OutputError
 from ..fields import FIELDS, GROUPS
 from .dimensions import RUN_DIMENSIONS, XYZ, dimensions_of, field_dimensions, is_dimension
-from .h5open import file_kind, open_checked, rows_final
+from .h5open import file_kind, rows_final
+from .inputcheck import open_valid
 
 __all__ = ["Run", "open_run", "DASK_ROWS"]
 
@@ -70,7 +71,7 @@ class Run:
     def __init__(self, path, *, point: int | None = None, chunk_rows: int = DASK_ROWS):
         xr, _ = _imports()
         self.path = os.fspath(path)
-        self.file = open_checked(self.path, f"open_run path = {self.path!r}")
+        self.file = open_valid(self.path, f"open_run path = {self.path!r}")
         try:
             self.attrs = {k: _text(v) for k, v in self.file.attrs.items()}
             kind = self.attrs.get("kind")

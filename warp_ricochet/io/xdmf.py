@@ -37,7 +37,8 @@ import numpy as np
 
 from ..errors import OutputError
 from ..fields import FIELDS
-from .h5open import file_kind, open_checked, rows_final
+from .h5open import rows_final
+from .inputcheck import open_valid
 
 __all__ = ["sidecar_path", "write_xdmf", "xdmf_text"]
 
@@ -137,9 +138,7 @@ def xdmf_text(path) -> str:
     """The XDMF document of the run or sweep file `path`, referring to it by its file name."""
     src = Path(os.fsdecode(path))
     shown = f"file = {str(src)!r}"
-    with open_checked(src, shown) as f:
-        if file_kind(f.attrs) is None:
-            raise OutputError(f"{shown}: is not a warp-ricochet run or sweep file")
+    with open_valid(src, shown) as f:
         root = ET.Element("Xdmf", Version="2.0")
         domain = ET.SubElement(root, "Domain")
         if f.attrs["kind"] == "run":

@@ -272,7 +272,9 @@ def _check_outdir(outdir) -> None:
 def write_plots(paths, outdir=None, overwrite=False) -> list[tuple[str, str | None]]:
     """Draw every registered plot of the input files into `outdir` (default: the first file's folder).
     Returns [(png path, None if written else why not)]. Refuses in one line, before drawing anything,
-    a missing matplotlib, an unreadable input and an existing PNG unless `overwrite`."""
+    a missing matplotlib, an unreadable or damaged input (`read_results` checks each file whole:
+    io.inputcheck) and an existing PNG unless `overwrite`; every PNG is drawn in memory before the
+    folder and the first PNG are written, so a file that fails while drawn leaves nothing behind."""
     figure_class = require_matplotlib()
     paths = [os.fspath(p) for p in paths]
     outdir = os.fspath(outdir) if outdir is not None else (os.path.dirname(paths[0]) or ".")
@@ -288,8 +290,7 @@ def write_plots(paths, outdir=None, overwrite=False) -> list[tuple[str, str | No
         for png, _, _ in plan:
             if os.path.lexists(png):
                 raise PlotError(f"output = {png!r}: exists; give --overwrite to replace it")
-    os.makedirs(outdir, exist_ok=True)
-    done = []
+    done, drawn = [], []
     files = {}
     try:
         for p in paths:
@@ -302,23 +303,37 @@ def write_plots(paths, outdir=None, overwrite=False) -> list[tuple[str, str | No
             if not plot.draw(fig, source):
                 done.append((png, f"nothing to draw ({plot.missing})"))
                 continue
-            _save(fig, png)
+            drawn.append((png, _render(fig)))
             done.append((png, None))
-    except (KeyError, ValueError) as exc:  # a damaged file (OSError: one line from the command, exit 1)
+    except (KeyError, ValueError, TypeError, OSError, RuntimeError) as exc:  # a damaged file (nothing written yet)
         if isinstance(exc, RicochetError):
             raise
-        raise PlotError(f"plot failed: {' '.join(str(exc).split()) or type(exc).__name__}") from None
+        from ..errors import hdf5_reason
+
+        raise PlotError(f"plot failed: an input is damaged ({hdf5_reason(exc)})") from None
     finally:
         _LANDINGS.clear()
         for f in files.values():
             f.close()
+    os.makedirs(outdir, exist_ok=True)
+    for png, data in drawn:
+        _save(data, png)
     return done
 
 
-def _save(fig, png) -> None:
+def _render(fig) -> bytes:
+    """The figure as PNG bytes (a few hundred kB)."""
+    import io
+
+    buffer = io.BytesIO()
+    fig.savefig(buffer, dpi=DPI, format="png")
+    return buffer.getvalue()
+
+
+def _save(data: bytes, png) -> None:
     """Write the PNG beside its place, then move it there: a failed write leaves no partial PNG."""
-    with replaced(png) as tmp:
-        fig.savefig(tmp, dpi=DPI, format="png")
+    with replaced(png) as tmp, open(tmp, "wb") as out:
+        out.write(data)
 
 
 def _labels(paths, results) -> dict:

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 
 from ..errors import RicochetError, hdf5_reason
 from ..io.h5open import FORMAT_NAME, KINDS, open_for_reading
+from ..io.inputcheck import BadFile, check_file
 from ..tallies.ensemble import STAT_KIND
 from ..tallies.sums import STAT_UNITS
 from .hazard_tables import from_file, from_run, tally_lines
@@ -106,6 +107,10 @@ def read_results(path) -> Results:
         raise ReportError(path, "is not an HDF5 file (expected a warp-ricochet .h5 output)")
     try:
         with open_for_reading(path) as f:  # also a killed run's partial
+            try:
+                check_file(f)
+            except BadFile as exc:
+                raise ReportError(path, str(exc)) from None
             return _read_open_file(f, path, np)
     except RicochetError:
         raise
