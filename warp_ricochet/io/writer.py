@@ -19,6 +19,7 @@ import h5py
 import numpy as np
 
 from ..fields import FIELDS, numpy_dtype, shape
+from ..scene.schema import COMPRESSIONS
 from ..tallies.collisions import SHOT_TOTALS, SHOT_TOTALS_UNITS
 from ..tallies.ensemble import has_ensemble
 from .ensemble import create_ensemble_datasets, write_ensemble
@@ -75,7 +76,8 @@ class RunWriter:
         for name in self.fields:
             empty = shape(name, 0, model.bounces)
             ds = group.create_dataset(FIELDS[name].path, shape=empty, maxshape=(None,) + empty[1:],
-                                      chunks=(h5_rows,) + empty[1:], dtype=numpy_dtype(name, model.precision))
+                                      chunks=(h5_rows,) + empty[1:], dtype=numpy_dtype(name, model.precision),
+                                      **COMPRESSIONS[scene.output.compression])
             ds.attrs["units"] = FIELDS[name].unit
             ds.attrs["description"] = FIELDS[name].description
         self._create_progress(group.create_group("progress"), model, scene)

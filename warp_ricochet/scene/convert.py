@@ -7,6 +7,7 @@ import math
 from ..fields import ALL_FIELDS, FIELDS, GROUPS
 from .keys import err as _err
 from .schema import (
+    COMPRESSIONS,
     INT32_MAX,
     MAX_AIR_DENSITY,
     MAX_COORDINATE,
@@ -306,7 +307,8 @@ _HAZARD = {
     "map_surface": _int(0, 1_000_000),
     "map_axis": _vec3(nonzero=True, bound=MAX_COORDINATE),
 }
-_OUTPUT = {"path": _path(), "fields": _fields, "quantiles": _bool, "tail_distances": _distances}
+_OUTPUT = {"path": _path(), "fields": _fields, "quantiles": _bool, "tail_distances": _distances,
+           "compression": _str(tuple(COMPRESSIONS))}
 _TOP = ("shot", "surfaces", "physics", "collisions", "air", "numerics", "output", "hazard")
 # table -> its schema (the top level: the names of the tables)
 SCHEMAS = {"shot": _SHOT, "surfaces": _SURFACE, "physics": _PHYSICS, "collisions": _COLLISIONS, "air": _AIR, "numerics": _NUMERICS,
