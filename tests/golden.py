@@ -20,8 +20,6 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from warp_ricochet.io.dimensions import is_dimension
-
 ROOT = Path(__file__).resolve().parents[1]
 GOLDEN = Path(__file__).parent / "data" / "golden-cpu.json"
 
@@ -66,7 +64,7 @@ def digests(path) -> dict[str, str]:
     out = {}
     with h5py.File(path, "r") as f:
         def visit(name, obj):
-            if isinstance(obj, h5py.Dataset) and not is_dimension(obj):  # (/pellets/pellet, /pellets/xyz: names)
+            if isinstance(obj, h5py.Dataset):
                 out[f"pellets/{name}"] = _sha(obj[()])
         f["pellets"].visititems(visit)
         for name, ds in f["stats"].items():

@@ -18,7 +18,6 @@ from hypothesis import strategies as st
 import warp_ricochet as wr
 from warp_ricochet.reference.ballistic import sample_launch, simulate
 from warp_ricochet.errors import PrecisionWarning
-from warp_ricochet.io.dimensions import is_dimension
 from warp_ricochet.physics.limits import POSITION_RESOLUTION, UNIT_ROUNDOFF
 from warp_ricochet.scene import load_scene
 from warp_ricochet.scene.vectors import HIGHEST, LOWEST, scale_exponent, scaled, unit_vector
@@ -30,8 +29,7 @@ SCALE = {"float32": -100, "float64": -600}  # 2^k: exact, far below the square r
 def _pellets(path):
     out = {}
     with h5py.File(path, "r") as f:
-        f["pellets"].visititems(lambda name, obj: out.__setitem__(name, obj[()]) if isinstance(obj, h5py.Dataset)
-                                and not is_dimension(obj) else None)
+        f["pellets"].visititems(lambda name, obj: out.__setitem__(name, obj[()]) if isinstance(obj, h5py.Dataset) else None)
     return out
 
 

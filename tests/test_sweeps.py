@@ -241,8 +241,8 @@ def test_interrupted_sweep_resumed_in_process_equals_reference(interrupted, refe
     assert [p["surfaces.0.mu_s"] for p, _ in results] == [0, 0.05, 0.1] and not folder.exists()
     assert_same_sweep(out, reference)
     with h5py.File(out) as f:  # the copied points' dimensions are their own group's (io.dimensions)
-        assert f["runs/0001/pellets/landing/range"].dims[0][0].name == "/runs/0001/pellets/pellet"
-        assert f["runs/0002/pellets/initial/position"].dims[1][0].name == "/runs/0002/pellets/xyz"
+        assert f["runs/0001/pellets/landing/range"].dims[0][0].name == "/runs/0001/pellet"
+        assert f["runs/0002/pellets/initial/position"].dims[1][0].name == "/runs/0002/xyz"
         assert f["stats/range_mean"].dims[0][0].name == "/point"
     with h5py.File(reference) as f:
         for i, (_, stats) in enumerate(results):

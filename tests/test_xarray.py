@@ -56,7 +56,7 @@ def assert_named_like_the_layout(path, group=""):
         variables = dict(walk(tree))
         phony = [(p, v.dims) for p, v in variables.items() if any(d.startswith("phony") for d in v.dims)]
         assert not phony, phony
-        fields = [p for p in variables if p.startswith(group + "pellets/") and p.count("/") > 1 + group.count("/")]
+        fields = [p for p in variables if p.startswith(group + "pellets/")]
         assert fields
         for p in fields:
             name = p[len(group + "pellets/"):].replace("/", ".")
@@ -74,7 +74,7 @@ def test_xarray_with_h5netcdf_sees_named_dimensions_and_units(tmp_path):
     assert variables["pellets/impact/velocity"].shape == (300, 2, 3)
     assert variables["constants/surfaces/normal"].dims == ("surface", "xyz")
     assert variables["progress/segment_results"].dims[0] == "segment"
-    assert list(variables["pellets/xyz"].values) == ["x", "y", "z"]
+    assert list(variables["xyz"].values) == ["x", "y", "z"]
     assert variables["stats/range_mean"].attrs["units"] == "m"
     with xr.open_dataset(path, engine="h5netcdf", group="pellets/landing") as ds:
         assert dict(ds.sizes) == {"pellet": 300, "xyz": 3}
@@ -112,7 +112,7 @@ def test_every_group_of_a_hazard_run_opens_and_open_run_reads_its_hazard_group(t
     assert variables["hazard/map/surface"].dims == () and variables["hazard/map/above"].dims[0] == "threshold"
     assert variables["hazard/danger_distance/distance"].dims == ("threshold", "fraction")
     with h5py.File(path) as f:
-        assert sorted(f) == ["constants", "hazard", "pellets", "progress", "stats"]  # no dimension in the root
+        assert sorted(f) == ["constants", "hazard", "pellet", "pellets", "progress", "stats", "xyz"]
         assert f["hazard/map/above"].dims[0][0].name == "/hazard/threshold"
         assert f.attrs["format_version"] == 2
         with wr.open_run(path) as run:
@@ -208,7 +208,7 @@ def test_open_run_refuses_what_is_not_a_run_file_in_one_line(tmp_path):
     other = tmp_path / "other.h5"
     with h5py.File(other, "w") as f:
         f["x"] = [1.0]
-    with pytest.raises(wr.OutputError, match="is not a warp-ricochet run or sweep file") as info:
+    with pytest.raises(wr.OutputError, match="is not a warp-ricochet output file") as info:
         wr.open_run(other)
     assert "\n" not in str(info.value)
 

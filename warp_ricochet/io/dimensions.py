@@ -2,10 +2,11 @@
 netCDF-4 writes them), so that netCDF readers (h5netcdf, xarray, netCDF-C) see `pellet`, `bounce`,
 `xyz`, ... instead of anonymous dimensions.
 
-A dimension is a dataset in the top group of the datasets it names (`/pellets/pellet`,
-`/constants/surface`, `/hazard/threshold`; below /stats, whose datasets are the statistics, in its
-subgroup: `/stats/quantiles/level`; the H5MD frames' in the run's group, as H5MD's groups hold only
-what H5MD names). format_version 1 kept them all in the run's group (the file's root). netCDF
+A dimension is a dataset in the top group of the datasets it names (`/constants/surface`,
+`/progress/segment`, `/hazard/threshold`; below /stats, whose datasets are the statistics, in its
+subgroup: `/stats/quantiles/level`), except `pellet`, `bounce`, `xyz` and `frame`, in the run's
+group: /pellets holds per-pellet fields only (code walks it), and H5MD's groups only what H5MD
+names. format_version 1 kept them all in the run's group (the file's root). netCDF
 readers look a dimension up in the group of a variable and its ancestors only, so one `/dims` group
 would hide them; and a dimension in the run's root clashed with a variable of its name in any group
 below (`/hazard/map/surface`: h5netcdf sliced that scalar as a coordinate). `xyz` is a coordinate
@@ -108,7 +109,7 @@ def attach(root: h5py.Group, ds: h5py.Dataset, names: tuple[str, ...]) -> None:
     """Attach the dimensions `names` (made in `root` as needed) to the axes of `ds`."""
     for axis, name in enumerate(names):
         dim = ds.dims[axis]
-        if len(dim):
+        if name is None or len(dim):
             continue
         dim.attach_scale(scale(root, name, ds.shape[axis], ds.maxshape[axis] is None))
 
@@ -134,14 +135,20 @@ def name_run_dimensions(group: h5py.Group) -> None:
 
     group.visititems(visit)
     for path, ds in found:
-        attach(group[home_of(path)] if home_of(path) else group, ds, dimensions_of(path, ds))
+        for axis, name in enumerate(dimensions_of(path, ds)):
+            home = home_of(path, name)
+            attach(group[home] if home else group, ds, (None,) * axis + (name,))
 
 
-def home_of(path: str) -> str:
-    """The group (relative to the run's) holding the dimensions of the dataset at `path`: its top
-    group, its second for /stats, the run's ("") for the H5MD frames and datasets of the run's root."""
+RUN_GROUP_DIMENSIONS = ("pellet", "bounce", "xyz", "frame")  # in the run's group: /pellets holds fields only
+
+
+def home_of(path: str, name: str) -> str:
+    """The group (relative to the run's) holding the dimension `name` of the dataset at `path`: the
+    run's ("") for RUN_GROUP_DIMENSIONS, the H5MD frames' and a dataset's of the run's group; else
+    the dataset's top group, its second below /stats."""
     parts = path.split("/")[:-1]
-    if not parts or parts[0] == "particles":
+    if name in RUN_GROUP_DIMENSIONS or not parts or parts[0] == "particles":
         return ""
     return "/".join(parts[:2] if parts[0] == "stats" else parts[:1])
 
