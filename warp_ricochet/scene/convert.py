@@ -82,9 +82,10 @@ def _int(lo: int, hi: int):
     def conv(v, path):
         if isinstance(v, float) and not math.isfinite(v):
             raise _err(path, v, "must be finite")
-        if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
+        n = int(v) if isinstance(v, float) and v.is_integer() else v  # TOML's 1e6: an integer written as a float
+        if isinstance(n, bool) or not isinstance(n, int) or not lo <= n <= hi:
             raise _err(path, v, rule)
-        return int(v)
+        return int(n)
     return conv
 
 

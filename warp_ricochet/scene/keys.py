@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import difflib
+
 from ..errors import SceneError
 
 
@@ -52,8 +54,17 @@ def join(path: str, key) -> str:
     return f"{path}.{name}" if path else name
 
 
+def suggest(key, allowed, path: str = "") -> str:
+    """ "did you mean KEY? " for the allowed key closest to an unknown `key` (difflib's ratio >= 0.6), or ""."""
+    if not isinstance(key, str) or len(key) > 100:  # (a long key is no typo, and the ratio costs len^2)
+        return ""
+    close = difflib.get_close_matches(key, [str(a) for a in allowed], n=1)
+    return f"did you mean {join(path, close[0])}? " if close else ""
+
+
 def check_keys(raw: dict, path: str, allowed) -> None:
     for key in raw:
         if key not in allowed:
-            raise err(join(path, key), raw[key], "unknown key; allowed keys: " + ", ".join(allowed))
+            raise err(join(path, key), raw[key], f"unknown key; {suggest(key, allowed, path)}allowed keys: "
+                      + ", ".join(allowed))
 
