@@ -27,6 +27,7 @@ from hypothesis import strategies as st
 
 from warp_ricochet import api, chunks
 from warp_ricochet.cli import main
+from warp_ricochet.errors import SceneError
 from warp_ricochet.scene import scene_from_dict
 from warp_ricochet.scene.toml_out import (
     toml_value,  # TOML text of any value (NaN, inf too)
@@ -551,3 +552,38 @@ def test_more_planes_than_a_flight_in_air_tracks_is_named(ws):
     assert "at most 31 with [air]" in assert_rejected(result, "surfaces", ws)
     vacuum = {k: v for k, v in VALID.items() if k != "air"}
     assert len(scene_from_dict(dict(vacuum, surfaces=planes)).surfaces) == 32
+
+
+def test_a_drag_table_float32_cannot_hold_is_refused(ws):
+    """A Mach of 1e300 is finite in float64 and inf in float32 (numpy's overflow warning): refused
+    in one line; the domain's largest, 1e6, is taken."""
+    raw = set_path(set_path(VALID, "air.drag", "table"), "numerics.precision", "float32")
+    result = cli(run_args(ws, ws.write_scene(set_path(raw, "air.drag_table", [[0.0, 0.5], [1e300, 0.6]]))))
+    assert "Mach in [0, 1e+06]" in assert_rejected(result, "air.drag_table", ws)
+    air = scene_from_dict(set_path(raw, "air.drag_table", [[0.0, 0.5], [1e6, 0.6]])).air
+    assert air.table == ((0.0, 0.5), (1e6, 0.6))
+
+
+class _Untouchable(list):
+    """A list whose elements must not be looked at one by one."""
+
+    def __iter__(self):
+        raise AssertionError("a long list was walked element by element")
+
+
+def test_a_long_list_is_refused_by_its_length_alone():
+    """2,000,000 tail distances: refused on their count (the message shows 8 of them), no element read."""
+    raw = set_path(VALID, "output.tail_distances", [])
+    raw["output"]["tail_distances"] = _Untouchable([1.0] * 2_000_000)
+    with pytest.raises(SceneError) as e:
+        scene_from_dict(raw)
+    assert str(e.value).startswith("output.tail_distances = list of 2,000,000 items: 1.0, 1.0, ")
+    assert "at most 64 numbers" in str(e.value) and len(str(e.value)) < 300
+
+
+def test_a_scene_file_too_long_to_be_a_scene_is_refused_before_parsing(ws):
+    """A scene holds no bulk data (pellets go in shot.file): over 1 MiB of text it is refused unparsed
+    (an 18 MB file of 2,000,000 tail distances took the TOML parser ~10 s)."""
+    scene = Path(ws.write_scene(VALID))
+    scene.write_text(scene.read_text() + "# " + "x" * (1 << 20) + "\n")
+    assert "a scene is at most 1,048,576" in assert_rejected(cli(run_args(ws, scene)), "scene", ws)

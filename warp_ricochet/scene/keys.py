@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import difflib
+import itertools
 
 from ..errors import SceneError
 
@@ -22,11 +23,17 @@ class _Shown:
 
 
 MISSING = _Missing()
+MAX_SHOWN_ITEMS = 8  # items of a long list or table shown in a message
 
 
 def err(key: str, value, allowed: str) -> SceneError:
     """SceneError whose message is guaranteed to be one line."""
     key = key if key.isprintable() else repr(key)[1:-1]
+    if isinstance(value, (list, tuple, dict)) and len(value) > MAX_SHOWN_ITEMS:  # shown cut short: no repr of it all
+        items = list(itertools.islice(value.items(), MAX_SHOWN_ITEMS)) if isinstance(value, dict) else \
+            list(value[:MAX_SHOWN_ITEMS])
+        kind = "table" if isinstance(value, dict) else "list"
+        value = _Shown(f"{kind} of {len(value):,} items: {repr(items)[1:-1]}, ...")
     try:
         text = repr(value)
         ok = text.isprintable()

@@ -207,6 +207,9 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
     )
 
 
+MAX_SCENE_CHARS = 1 << 20  # a scene's text; the largest valid one (a drag table of 1,024 pairs) is ~40 kB
+
+
 def load_scene(path, overrides=()) -> Scene:
     """Read a TOML scene, apply "KEY=VALUE" overrides, validate; shot.file is relative to the scene's folder."""
     overrides = (overrides,) if isinstance(overrides, str) else overrides
@@ -214,6 +217,9 @@ def load_scene(path, overrides=()) -> Scene:
         text = Path(path).read_text(encoding="utf-8")
     except (OSError, ValueError) as exc:
         raise err("scene", str(path), f"cannot be read: {getattr(exc, 'strerror', None) or exc}") from None
+    if len(text) > MAX_SCENE_CHARS:  # before the parser, whose time grows with the text (~10 s for 18 MB)
+        raise err("scene", str(path), f"has {len(text):,} characters; a scene is at most {MAX_SCENE_CHARS:,} "
+                  "(pellets go in shot.file)")
     try:
         raw = tomllib.loads(text)
     except (ValueError, RecursionError) as exc:
