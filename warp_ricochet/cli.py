@@ -175,11 +175,14 @@ def cmd_sweep(args) -> int:
     from .scene import load_scene, parse_sweep, parse_tie
 
     scene = load_scene(args.scene, args.overrides)
+    set_keys = {str(o).partition("=")[0].strip() for o in args.overrides}
     params = {}
     for spec in args.params:
         key, values = parse_sweep(spec)
         if key in params:
             raise SceneError(key, spec, "is swept twice; give each --param key once")
+        if key in set_keys:  # the sweep would replace the --set value at every point
+            raise SceneError(key, spec, "is given with --set too; give it either --set or --param")
         params[key] = values
     ties = [parse_tie(spec) for spec in args.ties]
     from . import api
