@@ -587,3 +587,65 @@ def test_a_scene_file_too_long_to_be_a_scene_is_refused_before_parsing(ws):
     scene = Path(ws.write_scene(VALID))
     scene.write_text(scene.read_text() + "# " + "x" * (1 << 20) + "\n")
     assert "a scene is at most 1,048,576" in assert_rejected(cli(run_args(ws, scene)), "scene", ws)
+
+
+def _lying_npz(path, rows, held=b"\0" * 48):
+    """An .npz whose arrays' .npy headers declare (rows, 3) float64 and hold only `held`."""
+    header = io.BytesIO()
+    np.lib.format.write_array_header_1_0(header, {"descr": "<f8", "fortran_order": False, "shape": (rows, 3)})
+    import zipfile
+
+    with zipfile.ZipFile(path, "w") as z:
+        for name in ("position", "velocity"):
+            z.writestr(f"{name}.npy", header.getvalue() + held)
+
+
+def test_a_pellet_files_declared_sizes_are_checked_before_reading(ws, monkeypatch):
+    """A 2 kB .h5 declaring (3e8, 3) arrays (fill values, nothing stored) drove memory to 21.5 GB:
+    refused from its declared shape, naming the file, the array and how many pellets fit, before a
+    value is read; with shot.count given, its mismatch is named first."""
+    from warp_ricochet.scene import pellets
+
+    def no_reading(*args, **kwargs):
+        raise AssertionError("the pellet file was read")
+
+    monkeypatch.setattr(pellets, "_read", no_reading)
+    monkeypatch.setattr(pellets, "host_memory_available", lambda: 4 << 30)
+    path = ws.root / "pellets.h5"
+    with h5py.File(path, "w") as f:
+        for name in ("position", "velocity"):
+            f.create_dataset(name, shape=(300_000_000, 3), dtype="f8", chunks=(65536, 3))
+    assert path.stat().st_size < 10_000
+    ws.listing = sorted(os.listdir(ws.root))
+    shot = {"file": str(path), "diameter": 0.0025, "density": 7000.0}
+    message = assert_rejected(cli(run_args(ws, None, "--set", f"shot={toml_value(shot)}")), "shot.file:position", ws)
+    assert f"(300000000, 3): {path} declares 300,000,000 pellets" in message
+    assert "more than half the 4 GiB of host memory available: at most 29,826,161 pellets" in message
+    result = cli(run_args(ws, None, "--set", f"shot={toml_value({**shot, 'count': 5})}"))
+    assert "must equal the pellets per shot in shot.file (300000000" in assert_rejected(result, "shot.count", ws)
+    with h5py.File(path, "w") as f:  # a storage chunk is read whole: one of 805 MB is refused too
+        for name in ("position", "velocity"):
+            f.create_dataset(name, shape=(2**25, 3), dtype="f8", chunks=(2**25, 3))
+    assert "storage chunks of 805,306,368 bytes" in assert_rejected(
+        cli(run_args(ws, None, "--set", f"shot={toml_value(shot)}")), "shot.file:position", ws)
+
+
+def test_a_pellet_file_holding_less_than_it_declares_is_read_in_bounded_pieces(ws, monkeypatch):
+    """An .npz declaring (3e7, 3) float64 (720 MB) and holding 48 bytes, with memory to spare: read a
+    piece at a time, it is refused at its end having taken at most a piece of memory."""
+    import tracemalloc
+
+    from warp_ricochet.scene import pellets
+
+    monkeypatch.setattr(pellets, "host_memory_available", lambda: 1 << 40, raising=False)
+    path = ws.root / "pellets.npz"
+    _lying_npz(path, 30_000_000)
+    ws.listing = sorted(os.listdir(ws.root))
+    tracemalloc.start()
+    try:
+        result = cli(run_args(ws, None, "--set", f"shot={toml_value({'file': str(path), 'diameter': 0.0025, 'density': 7000.0})}"))
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 100 << 20, peak  # (numpy's own reading allocated the 720 MB array first)
+    assert "it declares more than it holds" in assert_rejected(result, "shot.file", ws)

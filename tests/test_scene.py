@@ -503,3 +503,37 @@ def test_an_unknown_key_given_with_set_gets_a_suggestion(tmp_path):
     with pytest.raises(SceneError, match=r"^numerics\.precisoin = 'float64': unknown key; did you mean "
                                          r"numerics\.precision\? allowed keys: precision, "):
         load_scene(path, ["numerics.precisoin=\"float64\""])
+
+
+@pytest.mark.parametrize("layout", ["npz", "npz-fortran", "h5"])
+def test_pellet_files_are_read_and_checked_in_pieces(tmp_path, monkeypatch, layout):
+    """Pieces of 4 rows (PIECE_ROWS): the arrays come back whole, in C or Fortran order, and the first
+    bad pellet is named with its values wherever it lies (a later column's earlier row first)."""
+    from warp_ricochet.scene import pellets
+
+    monkeypatch.setattr(pellets, "PIECE_ROWS", 4)
+    rng = np.random.default_rng(7)
+    arrays = {"position": rng.normal(size=(11, 3)), "velocity": rng.normal(size=(11, 3)).astype(np.float32),
+              "angular_velocity": rng.integers(-5, 5, size=(11, 3))}
+    order = "F" if layout == "npz-fortran" else "C"
+    path = tmp_path / ("p.h5" if layout == "h5" else "p.npz")
+
+    def write(arrays):
+        arrays = {k: np.asarray(v, order=order) for k, v in arrays.items()}
+        if layout == "h5":
+            with h5py.File(path, "w") as f:
+                for k, v in arrays.items():
+                    f.create_dataset(k, data=v, chunks=(2, 3))
+        else:
+            np.savez(path, **arrays)
+
+    write(arrays)
+    got = load_pellet_file(path)
+    for name, values in arrays.items():
+        np.testing.assert_array_equal(got[name], values.astype(np.float64))
+    bad = {k: v.copy() for k, v in arrays.items()}
+    bad["position"][9, 0] = 2e6  # out of the domain, in the first column of a later piece
+    bad["position"][6, 2] = np.inf  # not finite, in the last column of an earlier piece: the first bad pellet
+    write(bad)
+    with pytest.raises(SceneError, match=r"^shot.file:position = \[.*, inf\]: must be finite \(pellet 6\)$"):
+        load_pellet_file(path)

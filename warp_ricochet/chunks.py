@@ -5,13 +5,12 @@ explicit `numerics.chunk_size` fits in memory.
 
 from __future__ import annotations
 
-import re
-
 import numpy as np
 
 from .dense.schedule import dense_bytes_per_pellet, shot_granule
 from .errors import SceneError
 from .fields import bytes_per_pellet
+from .io.space import host_memory_available
 from .tallies.reduce import SEGMENT, partial_bytes_per_pellet
 
 HOST_BUFFER_BYTES = 128 << 20  # per pinned host buffer (two are used): caps host memory
@@ -65,24 +64,6 @@ def plan_shots(scene, device, shots: int) -> int:
         pellets = CPU_AIR_CHUNK if scene.in_air else CPU_CHUNK_PELLETS
     per_chunk = max(granule, (max(pellets // count, 1) // granule) * granule)
     return min(per_chunk, shots)
-
-
-def host_memory_available():
-    """Bytes of host memory still free for a run (Linux MemAvailable, capped by a cgroup limit), or
-    None where this cannot be read."""
-    try:
-        with open("/proc/meminfo") as f:
-            free = int(re.search(r"^MemAvailable:\s+(\d+) kB", f.read(), re.M).group(1)) * 1024
-    except (OSError, AttributeError, ValueError):
-        return None
-    for limit, usage in (("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current"),
-                         ("/sys/fs/cgroup/memory/memory.limit_in_bytes", "/sys/fs/cgroup/memory/memory.usage_in_bytes")):
-        try:
-            with open(limit) as a, open(usage) as b:
-                free = min(free, int(a.read()) - int(b.read()))
-        except (OSError, ValueError):  # no such cgroup file, or "max"
-            pass
-    return free
 
 
 def check_chunk_memory(scene, dev, with_output: bool) -> None:

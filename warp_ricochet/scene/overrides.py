@@ -41,7 +41,8 @@ def set_dotted(raw: dict, key: str, value) -> dict:
             raise _err(key, value, f"cannot set it: {where} is not a table or array")
         elif not last and node.get(part) is None:
             nxt = parts[i + 1]
-            node[part] = [] if nxt.isascii() and nxt.isdigit() else dict(DEFAULT_TABLES.get(".".join(parts[:i + 1]), {}))
+            defaults = DEFAULT_TABLES.get(".".join(parts[:i + 1]), {})
+            node[part] = [] if nxt.isascii() and nxt.isdigit() else dict(defaults)
         if last:
             node[part] = value
         else:

@@ -14,7 +14,7 @@ from ..physics.limits import MAX_PLANES_IN_AIR
 from .convert import SCHEMAS
 from .keys import MISSING, _Shown, check_keys, err, join
 from .overrides import apply_override
-from .pellets import load_pellet_file
+from .pellets import check_pellet_file, pellet_file_rows
 from .vectors import unit_vector
 from .schema import (
     CHECKPOINT_STEPS,
@@ -63,14 +63,13 @@ def _shot(raw, base_dir) -> Shot:
         if key in kw:
             raise err(f"shot.{key}", raw[key], "not allowed together with shot.file")
     kw["file"] = os.path.abspath(os.path.join(os.fspath(base_dir), kw["file"]))
-    n = len(load_pellet_file(kw["file"])["position"])
-    if n > INT32_MAX:
-        raise err("shot.file", kw["file"], f"holds {n} pellets; at most {INT32_MAX} are allowed")
+    n = pellet_file_rows(kw["file"])  # declared: nothing read yet
     shots = kw.get("shots", 1)
     if n % shots:
         raise err("shot.shots", shots, f"must divide the number of pellets in shot.file ({n}): consecutive blocks are shots")
     if kw.setdefault("count", n // shots) != n // shots:
         raise err("shot.count", kw["count"], f"must equal the pellets per shot in shot.file ({n} / {shots} shots) or be left out")
+    check_pellet_file(kw["file"])  # the memory a run holds them in, then their values, a piece at a time
     return Shot(**kw)
 
 
