@@ -459,6 +459,23 @@ def test_chunk_size_beyond_memory_counts_every_shot(ws, monkeypatch):
     assert "a chunk of 1000000 pellets" in assert_rejected(result, "numerics.chunk_size", ws)
 
 
+def test_a_hazard_map_beyond_memory_or_disk_is_refused_before_any_file(ws, monkeypatch):
+    """A map within the limits (4e6 cells x 31 thresholds) costs gigabytes (4.9 GB of memory and a
+    1 GB file for 200 pellets, issue 24): its estimate is checked before any work, in one line
+    naming the keys and the estimate, against host memory and the output's disk."""
+    thresholds = "{" + ", ".join(f"t{i} = {1000.0 + i}" for i in range(30)) + "}"
+    args = run_args(ws, None, "--set", f"hazard.energy_density={thresholds}", "--set", "hazard.map_cell=0.1",
+                    "--set", "hazard.map_extent=[0.0, 200.0, -100.0, 100.0]")
+    monkeypatch.setattr(chunks, "host_memory_available", lambda: 2 << 30)
+    message = assert_rejected(cli(args), "hazard.map_cell", ws)
+    assert message.startswith("hazard.map_cell = 0.1: the hazard map of 4,000,000 cells (2,000 x 2,000 cells of "
+                              "hazard.map_cell over hazard.map_extent [0.0, 200.0, -100.0, 100.0]) x 31 thresholds "
+                              "needs up to 6.93 GB of host memory, 2.15 GB is free: a larger map_cell"), message
+    monkeypatch.setattr(chunks, "host_memory_available", lambda: 1 << 40)
+    monkeypatch.setattr(chunks, "free_bytes", lambda path: 1 << 30)
+    assert "needs up to 3.22 GB on the output's disk, 1.07 GB is free" in assert_rejected(cli(args), "hazard.map_cell", ws)
+
+
 # ---------------------------------------------------------------------------------------------- devices
 
 

@@ -272,3 +272,34 @@ def test_a_landing_far_past_a_fine_map_counts_outside(tmp_path):
     stats = wr.run(make_scene(raw, "float64", hazard=hazard, output={"fields": []}), tmp_path / "fine.h5", device="cpu")
     with h5py.File(tmp_path / "fine.h5", "r") as f:
         assert f["hazard/map/count"][()].sum() == 0 and f["hazard/map/outside"][()] == stats["landed"] == 64
+
+
+def test_the_tally_estimate_bounds_what_a_run_allocates_and_writes(tmp_path):
+    """`tallies.counts.tally_bytes` (checked before any work, `chunks.check_tallies`) against the
+    arrays a CPU run makes (the device's counts and totals, the dense totals, `summarize`'s layers)
+    and the file it writes; the map's layers are stored compressed (mostly empty cells)."""
+    from warp_ricochet.device import resolve_device
+    from warp_ricochet.fields import bytes_per_pellet
+    from warp_ricochet.tallies.counts import DeviceTally, TallySetup, TallyTotals, tally_bytes
+    from warp_ricochet.tallies.quantiles import summarize
+
+    raw = paper_raw()
+    raw["shot"]["count"] = 2000
+    scene = make_scene(raw, "float64", hazard={**HAZARD, "map_cell": 0.05}, output={"fields": ["landing"]})
+    setup, cpu = TallySetup.of(scene, 1.0, 1.0, 1.0), resolve_device("cpu")
+    assert setup.cells == 640_000 and setup.levels == 4
+    device = DeviceTally(setup, "float64", cpu, True)
+    made = sum(a.capacity for a in (*device.counts.values(), device.flat))
+    totals = TallyTotals(setup)
+    made += totals.flat().nbytes + sum(np.asarray(v).nbytes for v in summarize(totals, 0)["map"].values())
+    host, on_device, file = tally_bytes(setup, cpu, with_file=False)
+    assert on_device == 0 and made <= host < 2 * made
+    out = tmp_path / "run.h5"
+    wr.run(scene, out, device="cpu")
+    pellets = scene.shot.pellets * bytes_per_pellet(scene.output.fields, "float64", 1)
+    file = tally_bytes(setup, cpu, with_file=True)[2]
+    assert out.stat().st_size <= pellets + file
+    assert out.stat().st_size < 8 * (len(setup.names) + 2) * setup.cells / 10  # dense layers: 10 times more
+    with h5py.File(out, "r") as f:
+        assert f["hazard/map/above"].compression == "gzip"
+        assert f["hazard/map/count"][()].sum() + f["hazard/map/outside"][()] + f["hazard/map/elsewhere"][()] == 2000

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from . import interrupts
-from .chunks import check_chunk_memory, plan_shots
+from .chunks import check_chunk_memory, check_tallies, plan_shots
 from .core.impact import impact_kernel_for
 from .device import resolve_device, warp
 from .errors import PrecisionWarning, SceneError, SceneWarning  # noqa: F401 - PrecisionWarning: part of the API
@@ -144,8 +144,10 @@ def check_resources(scenes, dev, output, rows_done=0, copies=1) -> None:
     """Before any work: every explicit chunk size fits in memory, and the output (less `rows_done`
     rows already written, for a resumed run; `copies` times: a sweep's points, then the sweep file
     made of them) fits on its disk: else a one-line error, no file made."""
+    tallies = 0  # bytes of the tallies' datasets
     for sc in scenes:
         check_chunk_memory(sc, dev, output is not None)
+        tallies += check_tallies(sc, dev, output)
         if sc.pair_collisions and sc.collisions.frame_every and output is not None:
             shots = sc.shot.shots  # H5MD frames hold every pellet of the run at each frame
             if plan_shots(sc, dev, shots) < shots:
@@ -153,8 +155,8 @@ def check_resources(scenes, dev, output, rows_done=0, copies=1) -> None:
                                  f"trajectory frames need the whole run in one chunk, and its {shots} shots take "
                                  "more: fewer shots, or numerics.chunk_size, or frame_every = 0")
     if output is not None:
-        need = copies * sum((sc.shot.pellets - rows_done) * bytes_per_pellet(sc.output.fields, sc.numerics.precision,
-                                                                    sc.physics.bounces) for sc in scenes)
+        need = copies * (tallies + sum((sc.shot.pellets - rows_done) * bytes_per_pellet(
+            sc.output.fields, sc.numerics.precision, sc.physics.bounces) for sc in scenes))
         check_space(output, need, "the output")
 
 
