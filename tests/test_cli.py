@@ -419,3 +419,40 @@ def test_sigterm_marks_the_partial_file_interrupted(tmp_path):
         assert f.attrs["status"] == "interrupted"
         assert f["pellets/landing/range"].shape[0] >= 1_000_000  # whole chunks
         assert f["pellets/landing/range"].shape[0] % (1 << 16) == 0
+
+
+# ---------------------------------------------------------------------------------------------- --version, -q, -v
+
+
+def test_version_names_the_package_warp_and_the_devices():
+    import warp
+
+    from warp_ricochet import __version__
+
+    proc = cli_subprocess("--version")
+    assert proc.returncode == 0 and proc.stderr == "", proc.stderr
+    lines = proc.stdout.splitlines()
+    assert lines[0] == f"warp-ricochet {__version__}"
+    assert lines[1] == f"Warp {warp.__version__}"
+    assert lines[2].startswith("devices: ") and "cpu" in lines[2]
+
+
+def test_quiet_and_verbose_set_the_logging_level(tmp_path):
+    """A scene in which no pellet hits warns (SceneWarning, through `py.warnings`); -q hides it, -v adds
+    the package's informational lines; an error stays one line, exit 2, even with -q."""
+    away = [*SMALL, "--set", "surfaces.0.normal=[0, -1, 0]"]
+    plain = cli_subprocess("run", SCENE, *away)
+    quiet = cli_subprocess("-q", "run", SCENE, *away)
+    verbose = cli_subprocess("run", SCENE, *away, "--verbose")
+    assert plain.returncode == quiet.returncode == verbose.returncode == 0
+    assert plain.stderr.splitlines() == ["warp-ricochet: warning: no pellet hit any surface (all 200 missed): check "
+                                         "shot.direction and the surfaces' points and normals (a plane is hit only "
+                                         "from the side its normal points to)"]
+    assert quiet.stderr == "" and quiet.stdout == plain.stdout
+    info = [line for line in verbose.stderr.splitlines() if line.startswith("warp-ricochet: info: ")]
+    assert info[0] == "warp-ricochet: info: 200 pellets on cpu, float32, in vacuum" and "pellets/s" in info[1]
+    assert plain.stderr.splitlines()[0] in verbose.stderr.splitlines()
+    bad = cli_subprocess("run", SCENE, "--set", "shot.count=-1", "-q")
+    assert bad.returncode == 2 and bad.stderr.splitlines() == error_lines(bad.stderr) and len(error_lines(bad.stderr)) == 1
+    both = cli_subprocess("run", SCENE, "-q", "-v")
+    assert both.returncode == 2 and "not allowed with argument" in both.stderr
