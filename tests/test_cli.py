@@ -479,5 +479,8 @@ def test_quiet_and_verbose_set_the_logging_level(tmp_path):
     assert plain.stderr.splitlines()[0] in verbose.stderr.splitlines()
     bad = cli_subprocess("run", SCENE, "--set", "shot.count=-1", "-q")
     assert bad.returncode == 2 and bad.stderr.splitlines() == error_lines(bad.stderr) and len(error_lines(bad.stderr)) == 1
+    debug = cli_subprocess("-vv", "run", SCENE, *SMALL)
+    assert "warp-ricochet: debug: 200 of 200 pellets complete" in debug.stderr.splitlines(), debug.stderr
+    assert "debug" not in verbose.stderr
     both = cli_subprocess("run", SCENE, "-q", "-v")
     assert both.returncode == 2 and "not allowed with argument" in both.stderr
