@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import logging
 import math
+import time
 import warnings
 from pathlib import Path
 
@@ -35,6 +37,8 @@ from .scene import Scene, SweepPoints, load_pellet_file, load_scene, scene_from_
 from .scene import schema as domain
 from .spec import RunSpec
 from .tallies.sums import stat_names
+
+log = logging.getLogger(__name__)  # informational lines (`warp-ricochet -v`)
 
 # --------------------------------------------------------------------------- impact API
 
@@ -167,8 +171,15 @@ def _compute(scene, dev, writer=None, progress=None, resumed=None, dense_options
     spec = RunSpec.of(scene, with_output=writer is not None)
     arrays = load_pellet_file(scene.shot.file) if scene.shot.file is not None else None
     frames = writer.append_frame if writer is not None and spec.collisions and scene.collisions.frame_every else None
+    log.info("%s pellets on %s, %s, %s%s%s", f"{scene.shot.pellets:,}", dev, scene.numerics.precision,
+             "in air" if scene.in_air else "in vacuum", ", pellet-pellet collisions" if spec.collisions else "",
+             f", resuming after {resumed.rows:,} rows" if resumed is not None else "")
+    start = time.perf_counter()
     stats = run_pipeline(scene, model, spec, arrays=arrays, sink=writer, resumed=resumed, progress=progress,
                          options=dense_options, frames=frames)
+    seconds = time.perf_counter() - start
+    log.info("%s pellets in %.3g s (%.3g pellets/s)", f"{int(stats['pellets']):,}", seconds,
+             stats["pellets"] / seconds if seconds > 0 else math.inf)
     if writer is not None:
         writer.write_stats(stats)
     if stats["hits"] == 0 and stats["pellets"] > 0 and scene.surfaces:
