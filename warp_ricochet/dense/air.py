@@ -48,7 +48,7 @@ def make_dense_air(spec) -> SimpleNamespace:
     _entry, _return, _contact, ballistic_position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
     fr = make_frame(spec)
     stepping, set_reference = fr.stepping, fr.set_reference
-    next_contact = make_flight(spec.precision, spec.static_planes).next_contact  # (the exact flight)
+    next_contact = make_flight(spec.precision, spec.static_planes, snap=spec.flight != "air").next_contact  # (the exact flight)
 
     STATIC_PLANES = spec.static_planes
     LIFT = spec.air_laws[1] is not None
