@@ -518,3 +518,85 @@ def test_a_set_up_file_left_by_a_killed_run_is_reused_unless_in_use(tmp_path, re
     assert cli(["run", SCENE, *ARGS, "-o", out])[0] == 0
     assert not staging.exists()
     assert_same_as_reference(out, reference)
+
+
+def shared_lock_free(path) -> bool:
+    """Whether a reader could take the shared lock HDF5 takes as it opens `path` (flock, LOCK_NB)."""
+    import fcntl
+
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        return True
+    except BlockingIOError:
+        return False
+    finally:
+        os.close(fd)
+
+
+@pytest.mark.parametrize("setup_fails", [False, True])
+def test_the_partial_appears_only_once_a_reader_can_open_it(tmp_path, monkeypatch, setup_fails):
+    """The moment NAME.partial appears (renamed from NAME.partial.new), the writer's lock on it is
+    shared already, so a SWMR reader opening it at once is not refused ("unable to lock file"): after
+    a normal set-up, and when the set-up fails (the file is closed, then published)."""
+    from warp_ricochet.io import runfile
+
+    seen = []
+
+    def publish(staging, partial, *args):
+        real_publish(staging, partial, *args)
+        seen.append(shared_lock_free(partial))
+
+    real_publish = runfile.publish
+    monkeypatch.setattr(runfile, "publish", publish)
+    if setup_fails:
+        def fail(group):
+            raise OSError(errno.EIO, "set-up failed")
+
+        monkeypatch.setattr(writer, "name_run_dimensions", fail)
+    out = tmp_path / "p.h5"
+    scene = load_scene(SCENE, ["shot.count=100"])
+    if setup_fails:
+        with pytest.raises(OSError, match="set-up failed"):
+            wr.run(scene, out, device="cpu")
+    else:
+        wr.run(scene, out, device="cpu")
+    assert seen == [True]
+
+
+READER = """
+import sys, h5py, os
+folder, n = sys.argv[1], int(sys.argv[2])
+for i in range(n):
+    path = os.path.join(folder, f"r{i}.h5.partial")
+    while not os.path.exists(path):
+        pass
+    try:
+        with h5py.File(path, "r", swmr=True):
+            print("ok", flush=True)
+    except Exception as exc:
+        print("failed:", type(exc).__name__, " ".join(str(exc).split())[:100], flush=True)
+"""
+
+
+def test_200_immediate_opens_under_load_all_succeed(tmp_path):
+    """200 run files set up one after another while every core is busy; a reader process opens each
+    NAME.partial with swmr=True the moment it appears (the README's recipe): every open succeeds."""
+    from warp_ricochet.io.runfile import OutputFile
+
+    n = 200
+    load = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(os.cpu_count() or 1)]
+    reader = subprocess.Popen([sys.executable, "-c", READER, str(tmp_path), str(n)], stdout=subprocess.PIPE,
+                              text=True, env=ENV)
+    answers = []
+    try:
+        for i in range(n):
+            with OutputFile(tmp_path / f"r{i}.h5", overwrite=False, kind="run", device="cpu", scene_toml="") as out:
+                out.h5.create_dataset("rows", data=0)
+                out.start_watching()
+                answers.append(reader.stdout.readline().strip())  # (the file stays until the reader opened it)
+    finally:
+        for proc in (*load, reader):
+            proc.kill()
+            proc.wait()
+    assert answers == ["ok"] * n, [a for a in answers if a != "ok"][:5]

@@ -16,8 +16,9 @@ file on disk can be opened at any moment, by a reader while the run writes (`h5p
 swmr=True)`) or after the writer was killed. After each chunk the rows are written and flushed,
 then the chunk's per-segment statistics partials (`/progress/segment_results`), then the count of
 complete rows (`/progress/rows`), flushed again: readers and `--resume` trust the rows below that
-count. A process lock (flock) on NAME.partial, exclusive while the file is set up and shared
-once readers may open it, keeps a second writer or a resume off a file in use.
+count. A process lock (flock) on NAME.partial, exclusive while the file is set up (as
+NAME.partial.new) and shared before it appears as NAME.partial (a reader's HDF5 takes a shared lock
+as it opens it), keeps a second writer or a resume off a file in use.
 
 A full disk: HDF5 does not survive a failed write (the file it leaves can be unreadable, and the
 library crashes at exit), so it must never meet one. Before each chunk the file reserves the disk
@@ -269,10 +270,10 @@ class OutputFile:
     def start_watching(self):
         """Every object exists: from now on the file only grows, and readers may open it (SWMR)."""
         self.h5.swmr_mode = True
+        self._lock.share()  # before the file appears: a reader opening it at once takes a shared lock too
         if self.staging != self.partial:
             publish(self.staging, self.partial, self.overwrite, f"output path = {str(self.path)!r}")
             self.staging = self.partial
-        self._lock.share()
 
     def __enter__(self):
         return self
@@ -303,6 +304,7 @@ class OutputFile:
                     return False
             self.space.release()
             if self.staging != self.partial:  # failed during the set-up: closed now, so it opens
+                self._lock.share()  # (as in start_watching: a reader may open it the moment it appears)
                 try:
                     publish(self.staging, self.partial, self.overwrite, f"output path = {str(self.path)!r}")
                 except OutputError:  # NAME.partial appeared meanwhile: ours holds no chunk
