@@ -600,3 +600,80 @@ def test_200_immediate_opens_under_load_all_succeed(tmp_path):
             proc.kill()
             proc.wait()
     assert answers == ["ok"] * n, [a for a in answers if a != "ok"][:5]
+
+
+# ---------------------------------------------------------------------------------------------- special files
+
+
+@contextlib.contextmanager
+def watchdog(fifo, after=5.0):
+    """After `after` s, opens `fifo` (both ends, so a command waiting on it goes on) and replaces it
+    with an empty file (so it does not wait again); yields a list that is non-empty if it had to."""
+    import threading
+
+    fired, done = [], threading.Event()
+
+    def unblock():
+        if not done.wait(after):
+            fired.append(True)
+            fd = os.open(fifo, os.O_RDWR | os.O_NONBLOCK)
+            os.unlink(fifo)
+            Path(fifo).touch()
+            os.close(fd)
+
+    thread = threading.Thread(target=unblock, daemon=True)
+    thread.start()
+    try:
+        yield fired
+    finally:
+        done.set()
+        thread.join()
+
+
+SPECIAL_CASES = {  # argv given the folder and a FIFO in it: the expected message's start
+    "scene": (lambda d, fifo: ["run", fifo, *ARGS], "scene = '{fifo}': is a FIFO (named pipe), not a regular file"),
+    "shot.file": (lambda d, fifo: ["run", SCENE, *ARGS, "--set", f"shot.file='{fifo}'", "--set", "shot.count=", "-o",
+                                   d / "o.h5"], None),
+    "output": (lambda d, fifo: ["run", SCENE, *ARGS, "-o", fifo, "--overwrite"],
+               "output path = '{fifo}': is a FIFO (named pipe), not a regular file"),
+    "partial": (lambda d, fifo: ["run", SCENE, *ARGS, "-o", fifo[: -len(".partial")], "--overwrite"],
+                "output path = '{out}': {name} is a FIFO (named pipe), not a regular file; remove it"),
+    "resumed partial": (lambda d, fifo: ["run", SCENE, *ARGS, "-o", fifo[: -len(".partial")], "--resume"],
+                        "output path = '{out}': {name} is a FIFO (named pipe), not a regular file; it cannot be resumed"),
+    "report": (lambda d, fifo: ["report", fifo], "report = '{fifo}': is a FIFO (named pipe), not a regular file"),
+    "xdmf": (lambda d, fifo: ["xdmf", fifo], "file = '{fifo}': is a FIFO (named pipe), not a regular file"),
+    "plot": (lambda d, fifo: ["plot", fifo, "-o", d / "plots"], "report = '{fifo}': is a FIFO (named pipe), not a "
+                                                                 "regular file"),
+}
+
+
+@pytest.mark.parametrize("case", list(SPECIAL_CASES))
+def test_a_fifo_is_refused_in_one_line_without_opening_it(tmp_path, case):
+    """A FIFO as the scene, the pellet file, the output, its partial, or a file to report, describe or
+    plot: refused in one line (exit 2) before it is opened (opening it would wait for a writer),
+    nothing made."""
+    make, message = SPECIAL_CASES[case]
+    name = {"shot.file": "pellets.npz", "partial": "o.h5.partial", "resumed partial": "o.h5.partial",
+            "scene": "scene.toml"}.get(case, "o.h5")
+    fifo = str(tmp_path / name)
+    os.mkfifo(fifo)
+    argv = make(tmp_path, fifo)
+    if case == "shot.file":  # a scene whose pellets come from the file (shot.count, speed, seed... left out)
+        scene = tmp_path / "scene.toml"
+        scene.write_text(f'[shot]\nfile = "{name}"\ndiameter = 0.0025\ndensity = 7000.0\n\n[[surfaces]]\n'
+                         'point = [0.0, 0.0, 0.0]\nnormal = [0.0, 1.0, 0.0]\nrestitution = 0.01\nmu_s = 0.5\n')
+        argv = ["run", scene, "--device", "cpu", "-o", tmp_path / "o.h5"]
+        message = "shot.file = '{fifo}': is a FIFO (named pipe), not a regular file"
+    with watchdog(fifo) as fired:
+        rc, _, err = cli(argv)
+    assert not fired, "the command waited on the FIFO"
+    out = fifo[: -len(".partial")] if case.endswith("partial") else fifo
+    expected = message.format(fifo=fifo, out=out, name=Path(fifo).name)  # (a scene's values are shortened)
+    key, why = expected.split(" = ")[0], expected.split("': ", 1)[1]
+    assert rc == 2 and err.count("\n") == 1 and err.startswith(f"{PREFIX}{key} = '") and err.endswith(f": {why}\n"), err
+    assert sorted(os.listdir(tmp_path)) == sorted([name, *(["scene.toml"] if case == "shot.file" else [])])
+
+
+def test_a_device_as_the_scene_is_refused_in_one_line():
+    rc, _, err = cli(["run", os.devnull, "--device", "cpu"])
+    assert rc == 2 and err == PREFIX + f"scene = '{os.devnull}': is a character device, not a regular file\n"

@@ -44,7 +44,7 @@ import warp as wp
 
 from .. import interrupts
 from .._version import __version__
-from ..errors import OutputError, RicochetError, hdf5_reason, in_use_error
+from ..errors import OutputError, RicochetError, hdf5_reason, in_use_error, not_regular
 from .h5open import FORMAT_NAME, open_for_reading
 from .space import Reservation
 from .xdmf import check_sidecar, sidecar_path, write_xdmf
@@ -63,6 +63,8 @@ def check_output_path(path, overwrite: bool) -> Path:
     p, shown = _target(path)
     if p.is_dir():
         raise OutputError(f"{shown}: is a directory")
+    if not_regular(p):  # (a FIFO, a device: never replaced, even with overwrite)
+        raise OutputError(f"{shown}: {not_regular(p)}")
     if p.exists() and not overwrite:
         raise OutputError(f"{shown}: exists; pass --overwrite (overwrite=True) to replace it")
     if p.is_symlink() and not p.exists() and not overwrite:  # else found only when the run moves into place
@@ -70,6 +72,8 @@ def check_output_path(path, overwrite: bool) -> Path:
                           "--overwrite (overwrite=True) to replace the link")
     partial = p.with_name(p.name + ".partial")
     if partial.exists():
+        if not partial.is_dir() and not_regular(partial):  # (checking its lock would open it)
+            raise OutputError(f"{shown}: {partial.name} {not_regular(partial)}; remove it")
         if in_use(partial):
             raise in_use_error(shown, partial.name)
         if not overwrite:
@@ -429,6 +433,8 @@ def check_resume_path(path, overwrite: bool) -> Path:
     partial = p.with_name(p.name + ".partial")
     if partial.is_dir():
         raise OutputError(f"{shown}: {partial.name} is a sweep's folder; warp-ricochet sweep ... --resume continues it")
+    if not_regular(partial):
+        raise OutputError(f"{shown}: {partial.name} {not_regular(partial)}; it cannot be resumed")
     if not partial.is_file():
         raise OutputError(f"{shown}: nothing to resume: {partial.name} does not exist")
     if in_use(partial):

@@ -15,7 +15,7 @@ import math
 import os
 from dataclasses import dataclass, field
 
-from ..errors import RicochetError, hdf5_reason
+from ..errors import RicochetError, hdf5_reason, not_regular
 from ..io.h5open import FORMAT_NAME, KINDS, open_for_reading
 from ..tallies.ensemble import STAT_KIND
 from ..tallies.sums import STAT_UNITS
@@ -96,6 +96,8 @@ def read_results(path) -> Results:
             raise ReportError(path, f"is an unfinished sweep: {found[0]} of {found[1]} points complete (its tables are "
                                     "written when every point is); warp-ricochet sweep ... --resume continues it")
         raise ReportError(path, "is a directory, not an HDF5 file")
+    if not_regular(path):  # (opening a FIFO would wait for a writer)
+        raise ReportError(path, not_regular(path))
     try:
         with open(path, "rb"):
             pass

@@ -8,6 +8,7 @@ import os
 import tomllib
 from pathlib import Path
 
+from ..errors import not_regular
 from ..fields import COLLISION_FIELDS, default_fields
 from ..launch.packing import MAX_PACKING, packing_fraction
 from ..physics.limits import MAX_PLANES_IN_AIR
@@ -210,6 +211,9 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
 def load_scene(path, overrides=()) -> Scene:
     """Read a TOML scene, apply "KEY=VALUE" overrides, validate; shot.file is relative to the scene's folder."""
     overrides = (overrides,) if isinstance(overrides, str) else overrides
+    special = not_regular(path)  # (a FIFO would wait for a writer)
+    if special:
+        raise err("scene", str(path), special)
     try:
         text = Path(path).read_text(encoding="utf-8")
     except (OSError, ValueError) as exc:

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SceneError
+from ..errors import SceneError, not_regular
 from .keys import err as _err
 from .schema import MAX_COORDINATE, MAX_SPEED, MAX_SPIN
 
@@ -34,6 +34,9 @@ def load_pellet_file(path) -> dict[str, np.ndarray]:
     """Initial pellet state from .npz or .h5/.hdf5: position (N,3) m, velocity (N,3) m/s, angular_velocity
     (N,3) rad/s (zeros if absent), as float64. HDF5 arrays sit at the root or under /pellets/initial/."""
     path = os.fspath(path)
+    special = not_regular(path)  # (a FIFO would wait for a writer)
+    if special:
+        raise _err("shot.file", path, special)
     try:
         arrays = _read_arrays(path)
     except SceneError:
