@@ -300,12 +300,16 @@ def test_a_multi_shot_run_without_collisions_resumes(tmp_path, monkeypatch):
 # ---------------------------------------------------------------------------------------------- full disk
 
 
-def test_no_room_for_the_output_is_refused_before_any_file(tmp_path, monkeypatch, capsys):
+@pytest.mark.parametrize("command", ["run", "sweep"])
+def test_no_room_for_the_output_is_refused_before_any_file(tmp_path, monkeypatch, capsys, command):
+    """An output that cannot fit is bad input, found before any work: one line, exit status 2."""
     monkeypatch.setattr(space, "free_bytes", lambda path: 10_000_000)
     out = tmp_path / "o.h5"
-    assert main(["run", SCENE, *ARGS, "-o", str(out)]) == 1
+    sweep = ["--param", "surfaces.0.mu_s=0.1,0.2"] if command == "sweep" else []
+    assert main([command, SCENE, *ARGS, *sweep, "-o", str(out)]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and err.startswith(PREFIX + "No space left on device (the output needs")
+    assert err.count("\n") == 1 and err.startswith(PREFIX + f"output path = '{out}': cannot fit: No space left on "
+                                                             "device (the output needs"), err
     assert os.listdir(tmp_path) == []
 
 
