@@ -681,3 +681,39 @@ def test_a_fifo_is_refused_in_one_line_without_opening_it(tmp_path, case):
 def test_a_device_as_the_scene_is_refused_in_one_line():
     rc, _, err = cli(["run", os.devnull, "--device", "cpu"])
     assert rc == 2 and err == PREFIX + f"scene = '{os.devnull}': is a character device, not a regular file\n"
+
+
+# ---------------------------------------------------------------------------------------------- report's status
+
+
+@pytest.mark.parametrize("writer, lock, says", [
+    ("alive", True, "running"),  # a run writing it: its process lives and holds its lock
+    ("alive", False, "gone"),  # (no lock: its process is another one with the same id)
+    ("dead", True, "gone"),  # a reader's lock keeps no dead writer "running"
+    ("dead", False, "gone"),  # killed (SIGKILL)
+])
+def test_report_tells_a_killed_run_from_a_running_one(tmp_path, writer, lock, says):
+    """`report NAME.partial` of a file marked "running": "running" only while its writer's process
+    lives and a lock is held on the file; else "not finished (the writer is gone ...)"."""
+    out = tmp_path / "k.h5"
+    scene = load_scene(SCENE, SETS[1::2])
+    interrupt_after(1, scene, out)
+    partial = Path(str(out) + ".partial")
+    pid = os.getpid() if writer == "alive" else _dead_pid()
+    with h5py.File(partial, "r+") as f:
+        f.attrs["status"] = "running"
+        assert f.attrs["writer_host"]  # (the run recorded its writer)
+        f.attrs["writer_pid"] = pid
+    with held(partial) if lock else contextlib.nullcontext():
+        rc, text, err = cli(["report", partial])
+    assert rc == 0, err
+    status = "running" if says == "running" else \
+        "not finished (the writer is gone: killed or crashed; --resume continues it)"
+    assert f"| status: {status} |" in text, text.splitlines()[0]
+
+
+def _dead_pid() -> int:
+    """The id of a process that has ended."""
+    proc = subprocess.Popen([sys.executable, "-c", "0"])
+    proc.wait()
+    return proc.pid

@@ -36,6 +36,7 @@ from __future__ import annotations
 import datetime
 import errno
 import os
+import socket
 import warnings
 from pathlib import Path
 
@@ -207,6 +208,8 @@ class OutputFile:
             attrs["seed"] = seed
         if precision is not None:
             attrs["precision"] = precision
+        if self.watchable:
+            _name_writer(attrs)
 
     @classmethod
     def reopen(cls, path, *, overwrite: bool, check, sidecar: bool = True):
@@ -249,6 +252,7 @@ class OutputFile:
             raise
         self._opened("the resumed file", discard=False)
         self.h5.attrs["status"] = "running"
+        _name_writer(self.h5.attrs)
         return self, found
 
     def _opened(self, what: str, *, discard: bool):
@@ -320,6 +324,13 @@ class OutputFile:
         if exc_type is None and self.sidecar:
             publish_sidecar(self.path, self.overwrite)
         return False
+
+
+def _name_writer(attrs) -> None:
+    """Record the writing process (`writer_pid` on `writer_host`): `report` tells a run still
+    writing from one whose writer was killed (report.tables.writer_gone)."""
+    attrs["writer_pid"] = os.getpid()
+    attrs["writer_host"] = socket.gethostname()
 
 
 def publish_sidecar(path: Path, overwrite: bool) -> None:
