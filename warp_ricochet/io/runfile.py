@@ -50,7 +50,7 @@ from .h5open import FORMAT_NAME, open_for_reading
 from .space import Reservation
 from .xdmf import check_sidecar, sidecar_path, write_xdmf
 
-from .locks import share, try_lock
+from .locks import in_use, share, try_lock
 
 ABANDONED = False  # a file could not be closed: the HDF5 library must not run its exit handlers
 
@@ -91,19 +91,6 @@ def check_output_path(path, overwrite: bool) -> Path:
     if not os.access(parent, os.W_OK | os.X_OK) or (p.exists() and not os.access(p, os.W_OK)):
         raise OutputError(f"{shown}: not writable (permission denied)")
     return p
-
-
-def in_use(path: Path) -> bool:
-    """Whether another process holds a lock on `path` (a partial file or a sweep's folder): a run or
-    sweep writing it (flock, see `_PartialLock`, `io.sweepdir`) or an HDF5 reader."""
-    try:
-        fd = os.open(path, os.O_RDONLY)
-    except OSError:
-        return False
-    try:
-        return not try_lock(fd)
-    finally:
-        os.close(fd)
 
 
 def output_target(path) -> Path:

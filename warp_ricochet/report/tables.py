@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 from ..errors import RicochetError, hdf5_reason, not_regular
 from ..io.h5open import FORMAT_NAME, KINDS, open_for_reading
+from ..io.locks import in_use
 from ..tallies.ensemble import STAT_KIND
 from ..tallies.sums import STAT_UNITS
 from .hazard_tables import from_file, from_run, tally_lines
@@ -107,7 +108,7 @@ def read_results(path) -> Results:
         raise ReportError(path, f"cannot be read: {exc.strerror or exc}") from None
     if not hdf5:
         raise ReportError(path, "is not an HDF5 file (expected a warp-ricochet .h5 output)")
-    held = _held(path)  # (before HDF5 takes its own lock on it)
+    held = in_use(path)  # (before HDF5 takes its own lock on it)
     try:
         with open_for_reading(path) as f:  # also a killed run's partial
             results = _read_open_file(f, path, np)
@@ -121,20 +122,6 @@ def read_results(path) -> Results:
 
 
 WRITER_GONE = "not finished (the writer is gone: killed or crashed; --resume continues it)"
-
-
-def _held(path) -> bool:
-    """Whether another process holds a lock (flock) on `path`: a run writing it, or a reader."""
-    from ..io.locks import try_lock
-
-    try:
-        fd = os.open(path, os.O_RDONLY)
-    except OSError:
-        return False
-    try:
-        return not try_lock(fd)
-    finally:
-        os.close(fd)
 
 
 def writer_gone(meta, held: bool) -> bool:
