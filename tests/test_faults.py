@@ -717,3 +717,33 @@ def _dead_pid() -> int:
     proc = subprocess.Popen([sys.executable, "-c", "0"])
     proc.wait()
     return proc.pid
+
+
+KILL_BEFORE_SIDECAR = """
+import os, signal, sys
+from warp_ricochet import cli
+from warp_ricochet.io import runfile
+runfile.publish_sidecar = lambda *args: os.kill(os.getpid(), signal.SIGKILL)
+sys.argv = ["warp-ricochet", *sys.argv[1:]]
+cli.entry()
+"""
+
+
+def test_a_kill_between_the_rename_and_the_sidecar_is_recovered_by_xdmf(tmp_path):
+    """A SIGKILL after OUT.h5 is in place and before OUT.xmf is written (README: the sidecar comes
+    after the rename) leaves the complete result without its sidecar; `warp-ricochet xdmf OUT.h5`
+    writes the sidecar the run would have written."""
+    killed, whole = tmp_path / "killed" / "k.h5", tmp_path / "whole" / "k.h5"
+    for out in (killed, whole):
+        out.parent.mkdir()
+    argv = ["run", SCENE, "--device", "cpu", "--set", "shot.count=500"]
+    proc = subprocess.run([sys.executable, "-c", KILL_BEFORE_SIDECAR, *argv, "-o", str(killed)], env=ENV,
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == -signal.SIGKILL, proc.stderr
+    assert killed.exists() and not killed.with_suffix(".xmf").exists()
+    assert not Path(str(killed) + ".partial").exists()
+    with h5py.File(killed, "r") as f:
+        assert f.attrs["status"] == "complete"
+    assert cli(["xdmf", killed])[0] == 0
+    assert cli([*argv, "-o", whole])[0] == 0
+    assert killed.with_suffix(".xmf").read_text() == whole.with_suffix(".xmf").read_text()

@@ -7,7 +7,9 @@ run is complete (atomically; without overwrite, never over a file that appeared 
 the target is never half-written and a failed `--overwrite` run leaves the old result intact;
 an interrupted or failed run leaves its completed chunks in `NAME.partial`. Once a file is in place
 its XDMF sidecar `NAME.xmf` is written (`io.xdmf`; an existing one is replaced only with overwrite,
-and refused before any work otherwise). `io.writer.RunWriter` writes one run into a group of it. The layout is documented in
+and refused before any work otherwise; a SIGKILL between the two leaves NAME without it, and
+`warp-ricochet xdmf NAME` writes it: written first, it would name a file not yet there, and block a
+resume of the complete partial). `io.writer.RunWriter` writes one run into a group of it. The layout is documented in
 docs/output.md.
 
 Faults. A run file is written in HDF5 SWMR mode (single writer, multiple readers): every dataset
