@@ -12,6 +12,7 @@ import contextlib
 import dataclasses
 import logging
 import math
+import os
 import time
 import warnings
 from pathlib import Path
@@ -23,6 +24,7 @@ from .chunks import check_chunk_memory, check_tallies, plan_shots
 from .core.impact import impact_kernel_for
 from .device import resolve_device, warp
 from .errors import PrecisionWarning, SceneError, SceneWarning  # noqa: F401 - PrecisionWarning: part of the API
+from .errors import OutputError
 from .fields import bytes_per_pellet
 from .io import resume, sweepdir
 from .io.runfile import OutputFile, check_output_path, check_resume_path, output_target
@@ -147,7 +149,8 @@ NO_HITS = ("no pellet hit any surface (all {:,} missed): check shot.direction an
 def check_resources(scenes, dev, output, rows_done=0, copies=1) -> None:
     """Before any work: every explicit chunk size fits in memory, and the output (less `rows_done`
     rows already written, for a resumed run; `copies` times: a sweep's points, then the sweep file
-    made of them) fits on its disk: else a one-line error, no file made."""
+    made of them) fits on its disk: else a one-line error (OutputError: bad input, exit status 2),
+    no file made."""
     tallies = 0  # bytes of the tallies' datasets
     for sc in scenes:
         check_chunk_memory(sc, dev, output is not None)
@@ -161,7 +164,10 @@ def check_resources(scenes, dev, output, rows_done=0, copies=1) -> None:
     if output is not None:
         need = copies * (tallies + sum((sc.shot.pellets - rows_done) * bytes_per_pellet(
             sc.output.fields, sc.numerics.precision, sc.physics.bounces) for sc in scenes))
-        check_space(output, need, "the output")
+        try:
+            check_space(output, need, "the output")
+        except OSError as exc:  # bad input, found before any work (a disk filling during the run: exit 1)
+            raise OutputError(f"output path = {os.fsdecode(output)!r}: cannot fit: {exc.strerror}") from None
 
 
 def _compute(scene, dev, writer=None, progress=None, resumed=None, dense_options=None) -> dict:

@@ -19,6 +19,8 @@ error such as a full disk; 130 when interrupted. Warp itself is imported only by
 from __future__ import annotations
 
 import argparse
+import atexit
+import ctypes
 import logging
 import os
 import signal
@@ -365,8 +367,9 @@ def main(argv=None) -> int:
         with interrupts.honoured((signal.SIGINT, signal.SIGTERM)):
             status = _run_command(args)
     except KeyboardInterrupt:  # a signal after the command's last check (its result complete)
-        print(f"{PROG}: interrupted", file=sys.stderr)
+        print(f"{PROG}: interrupted{_kept(_completed(args))}", file=sys.stderr)
         status = 130
+    _LATE["note"] = _kept(_completed(args))  # (entry: a signal after main returned)
     runfile = sys.modules.get("warp_ricochet.io.runfile")
     if runfile is not None and runfile.ABANDONED:  # HDF5 crashes in its exit handler after a failed close
         sys.stdout.flush()
@@ -401,6 +404,14 @@ def _run_command(args) -> int:
         return 130
 
 
+def _completed(args) -> KeyboardInterrupt:
+    """A request after the command's last check, noting where its completed result is (`_kept`)."""
+    exc = KeyboardInterrupt()
+    exc.completed_path = getattr(args, "completed", None)
+    exc.completed_what = getattr(args, "completed_what", "run")
+    return exc
+
+
 def _kept(exc) -> str:
     """Where the chunks completed before a failure are (set by the output file when it was open)."""
     completed = getattr(exc, "completed_path", None)
@@ -414,15 +425,40 @@ def _kept(exc) -> str:
     return f"; the chunks completed are in {partial}{resumable}"
 
 
+_LATE = {"note": ""}  # what `entry` adds to "interrupted" for a signal after `main` returned
+
+
 def entry() -> int:
-    """The console script and `python -m warp_ricochet.cli`: `main`, then Ctrl-C and SIGTERM ignored
-    while the interpreter shuts down (the command's outcome and message are decided; a signal there
-    would otherwise end the process by the signal, with no message)."""
+    """The console script and `python -m warp_ricochet.cli`: `main` with Ctrl-C and SIGTERM recorded
+    from the start to the process's end (`interrupts.honour_until_exit`), then the exit: Python's
+    exit functions, and a request that no safe point acted on (one after the command returned)
+    ends as the others do: exit status 130 and the one line saying where the result is. The process
+    then ends at once (os._exit, after flushing), skipping the interpreter's teardown (~0.5 s in
+    which a signal could only have been ignored or ended the process without a word)."""
+    if threading.current_thread() is not threading.main_thread():
+        return main()
+    interrupts.honour_until_exit((signal.SIGINT, signal.SIGTERM))
     status = main()
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
-        signal.signal(signal.SIGTERM, signal.SIG_IGN)
-    return status
+    atexit._run_exitfuncs()  # (e.g. Warp's)
+    _flush_all()
+    if interrupts.pending() and status == 0:  # (a failure's status and line stand)
+        print(f"{PROG}: interrupted{_LATE['note']}", file=sys.stderr)
+        _flush_all()
+        status = 130
+    os._exit(status)  # (a signal from here on is recorded and dropped: the process is ending)
+
+
+def _flush_all() -> None:
+    """Flush Python's standard streams and the C library's (os._exit does neither)."""
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
+    try:
+        ctypes.CDLL(None).fflush(None)
+    except (OSError, AttributeError, TypeError):
+        pass
 
 
 if __name__ == "__main__":

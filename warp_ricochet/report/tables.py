@@ -13,10 +13,12 @@ from __future__ import annotations
 
 import math
 import os
+import socket
 from dataclasses import dataclass, field
 
-from ..errors import RicochetError, hdf5_reason
+from ..errors import RicochetError, hdf5_reason, not_regular
 from ..io.h5open import FORMAT_NAME, KINDS, open_for_reading
+from ..io.locks import in_use
 from ..tallies.ensemble import STAT_KIND
 from ..tallies.sums import STAT_UNITS
 from .hazard_tables import from_file, from_run, tally_lines
@@ -96,6 +98,8 @@ def read_results(path) -> Results:
             raise ReportError(path, f"is an unfinished sweep: {found[0]} of {found[1]} points complete (its tables are "
                                     "written when every point is); warp-ricochet sweep ... --resume continues it")
         raise ReportError(path, "is a directory, not an HDF5 file")
+    if not_regular(path):  # (opening a FIFO would wait for a writer)
+        raise ReportError(path, not_regular(path))
     try:
         with open(path, "rb"):
             pass
@@ -104,13 +108,38 @@ def read_results(path) -> Results:
         raise ReportError(path, f"cannot be read: {exc.strerror or exc}") from None
     if not hdf5:
         raise ReportError(path, "is not an HDF5 file (expected a warp-ricochet .h5 output)")
+    held = in_use(path)  # (before HDF5 takes its own lock on it)
     try:
         with open_for_reading(path) as f:  # also a killed run's partial
-            return _read_open_file(f, path, np)
+            results = _read_open_file(f, path, np)
     except RicochetError:
         raise
     except (OSError, KeyError, ValueError, TypeError) as exc:  # truncated or otherwise damaged files
         raise ReportError(path, f"cannot be read as a warp-ricochet file: {hdf5_reason(exc)}") from None
+    if results.meta.get("status") == "running" and writer_gone(results.meta, held):
+        results.meta["status"] = WRITER_GONE
+    return results
+
+
+WRITER_GONE = "not finished (the writer is gone: killed or crashed; --resume continues it)"
+
+
+def writer_gone(meta, held: bool) -> bool:
+    """Whether the writer of a file marked "running" is gone: a live writer holds its lock on the
+    file (io.runfile), and where the file names it (`writer_pid` on this `writer_host`) its process
+    exists (a reader's lock alone does not keep a dead writer "running")."""
+    if not held:
+        return True
+    pid, host = meta.get("writer_pid"), meta.get("writer_host")
+    if pid is None or host != socket.gethostname():
+        return False
+    try:
+        os.kill(int(pid), 0)
+    except ProcessLookupError:
+        return True
+    except (OSError, OverflowError, ValueError):  # (another user's process: alive)
+        return False
+    return False
 
 
 def _read_open_file(f, path, np) -> Results:
@@ -442,7 +471,9 @@ def format_tables(results: Results, fmt: str = "text", paper: bool = False) -> s
     blocks = [header_line(results)]  # followed by a blank line: never a Markdown table
     if "rows_done" in results.meta:  # an unfinished run file (NAME.h5.partial)
         done, total = results.meta["rows_done"], results.meta["rows_total"]
-        blocks.append(f"note: status is {results.meta.get('status')!r}: {done:,} of {total:,} pellets complete "
+        status = results.meta.get("status")
+        said = "the run's writer is gone (killed or crashed)" if status == WRITER_GONE else f"status is {status!r}"
+        blocks.append(f"note: {said}: {done:,} of {total:,} pellets complete "
                       f"({100 * done / max(total, 1):.1f}%); the statistics are written when the run completes "
                       "(warp-ricochet run ... --resume continues it)")
     elif results.meta.get("status", "complete") != "complete":

@@ -8,6 +8,7 @@ import os
 import tomllib
 from pathlib import Path
 
+from ..errors import not_regular
 from ..fields import COLLISION_FIELDS, default_fields
 from ..launch.packing import MAX_PACKING, packing_fraction
 from ..physics.limits import MAX_PLANES_IN_AIR
@@ -233,6 +234,9 @@ MAX_SCENE_CHARS = 1 << 20  # a scene's text; the largest valid one (a drag table
 def load_scene(path, overrides=()) -> Scene:
     """Read a TOML scene, apply "KEY=VALUE" overrides, validate; shot.file is relative to the scene's folder."""
     overrides = (overrides,) if isinstance(overrides, str) else overrides
+    special = not_regular(path)  # (a FIFO would wait for a writer)
+    if special:
+        raise err("scene", str(path), special)
     try:
         text = Path(path).read_text(encoding="utf-8")
     except (OSError, ValueError) as exc:

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SceneError
+from ..errors import SceneError, not_regular
 from ..io.space import host_memory_available
 from .keys import err as _err
 from .schema import INT32_MAX, MAX_COORDINATE, MAX_SPEED, MAX_SPIN
@@ -110,6 +110,9 @@ def _opened(path: str):
     suffix = Path(path).suffix.lower()
     if suffix not in (".npz", ".h5", ".hdf5"):
         raise _err("shot.file", path, "must be a .npz, .h5 or .hdf5 file")
+    special = not_regular(path)  # (a FIFO would wait for a writer)
+    if special:
+        raise _err("shot.file", path, special)
     reader = None
     try:
         reader = _Npz(path) if suffix == ".npz" else _H5(path)
