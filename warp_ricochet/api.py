@@ -321,12 +321,24 @@ def sweep(scene, params: dict, ties=(), output=None, device=None, *, overwrite=F
 
 def _point_done(stats, summary: bool):
     """A sweep point's statistics, its landing counts dropped (the hazard's histograms: 0.5 MB a row),
-    with `summary` their results first kept in `stats.summary`, less the map (a sweep file's only)."""
+    with `summary` their results first kept in `stats.summary`, less the map (a sweep file's only),
+    as lists of Python numbers: NumPy's small arrays, kept, would pin pages of the heap that the
+    summary's temporaries of megabytes leave, and the heap would grow a point at a time."""
     tally, stats.tally = stats.tally, None
     if summary and tally is not None:
-        stats.summary = summarize(tally, int(stats["landed"]))
-        stats.summary.pop("map", None)
+        results = summarize(tally, int(stats["landed"]))
+        results.pop("map", None)
+        stats.summary = _plain(results)
     return stats
+
+
+def _plain(value):
+    """`value` with its arrays as (nested) lists of Python numbers, in dicts and tuples."""
+    if isinstance(value, dict):
+        return {key: _plain(v) for key, v in value.items()}
+    if isinstance(value, tuple):
+        return tuple(_plain(v) for v in value)
+    return value.tolist() if isinstance(value, np.ndarray) else value
 
 
 def _point_progress(progress, index: int, points: int):
