@@ -276,7 +276,8 @@ def sweep(scene, params: dict, ties=(), output=None, device=None, *, overwrite=F
     sweep interrupted or killed there. No point keeps its landing counts (`.tally`, megabytes a
     point) once it is done, so a sweep's memory stays flat (bench/sweep_memory.py): with `output`
     the file holds them and their results; without, each point's `stats.summary` holds their
-    results (`tallies.quantiles.summarize`) but the map's, which only a sweep file keeps."""
+    results (`tallies.quantiles.summarize`, arrays as lists) but the map's, which only a sweep file
+    keeps."""
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
     output = output if output is not None else scene.output.path
