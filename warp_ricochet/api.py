@@ -38,6 +38,7 @@ from .pipeline import run as run_pipeline
 from .scene import Scene, SweepPoints, load_pellet_file, load_scene, scene_from_dict, set_dotted
 from .scene import schema as domain
 from .spec import RunSpec
+from .tallies.quantiles import summarize
 from .tallies.sums import stat_names
 
 log = logging.getLogger(__name__)  # informational lines (`warp-ricochet -v`)
@@ -291,8 +292,11 @@ def sweep(scene, params: dict, ties=(), output=None, device=None, *, overwrite=F
     mu_d = 0.9 mu_s). Returns [(point, stats)]. With `output`, writes one HDF5 file: the sweep
     values in /sweep, each run in /runs/NNNN, and every statistic as an array in /stats; while it
     runs, each point is a run file in OUTPUT.partial/ (`io.sweepdir`), and `resume` continues a
-    sweep interrupted or killed there (the statistics of the points it reads back from their files
-    have no `.tally`; the file holds every point's tallies)."""
+    sweep interrupted or killed there. No point keeps its landing counts (`.tally`, megabytes a
+    point) once it is done, so a sweep's memory stays flat (bench/sweep_memory.py): with `output`
+    the file holds them and their results; without, each point's `stats.summary` holds their
+    results (`tallies.quantiles.summarize`, arrays as lists) but the map's, which only a sweep file
+    keeps."""
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
     output = output if output is not None else scene.output.path
@@ -303,7 +307,8 @@ def sweep(scene, params: dict, ties=(), output=None, device=None, *, overwrite=F
     if output is None:
         dev = resolve_device(device)
         check_resources(scenes, dev, None)
-        return [(points[i], _run_one(sc, dev, None, _point_progress(progress, i, len(scenes)), dense_options))
+        return [(points[i], _point_done(_run_one(sc, dev, None, _point_progress(progress, i, len(scenes)),
+                                                 dense_options), summary=True))
                 for i, sc in enumerate(scenes)]
     path = output_target(output) if resume else check_output_path(output, overwrite)  # before any work
     dev = resolve_device(device)
@@ -325,13 +330,35 @@ def sweep(scene, params: dict, ties=(), output=None, device=None, *, overwrite=F
             else:
                 if partial.exists() and not sweepdir.resumable_point(partial):  # no chunk in it: run it again
                     partial.unlink()
-                stats = run(sc, point_path, dev, progress=step, dense_options=dense_options, resume=partial.exists(),
-                            sidecar=False)
+                stats = _point_done(run(sc, point_path, dev, progress=step, dense_options=dense_options,
+                                        resume=partial.exists(), sidecar=False), summary=False)
             results.append((points[i], stats))
         folder.assemble(points, [s for _, s in results], overwrite=overwrite, device=str(dev),
                         scene_toml=scene.to_toml(), seed=None if scene.shot.file else scene.shot.seed,
                         precision=scene.numerics.precision)
     return results
+
+
+def _point_done(stats, summary: bool):
+    """A sweep point's statistics, its landing counts dropped (the hazard's histograms: 0.5 MB a row),
+    with `summary` their results first kept in `stats.summary`, less the map (a sweep file's only),
+    as lists of Python numbers: NumPy's small arrays, kept, would pin pages of the heap that the
+    summary's temporaries of megabytes leave, and the heap would grow a point at a time."""
+    tally, stats.tally = stats.tally, None
+    if summary and tally is not None:
+        results = summarize(tally, int(stats["landed"]))
+        results.pop("map", None)
+        stats.summary = _plain(results)
+    return stats
+
+
+def _plain(value):
+    """`value` with its arrays as (nested) lists of Python numbers, in dicts and tuples."""
+    if isinstance(value, dict):
+        return {key: _plain(v) for key, v in value.items()}
+    if isinstance(value, tuple):
+        return tuple(_plain(v) for v in value)
+    return value.tolist() if isinstance(value, np.ndarray) else value
 
 
 def _point_progress(progress, index: int, points: int):

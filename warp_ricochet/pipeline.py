@@ -82,10 +82,12 @@ class Resumed:
 class RunStats(dict):
     """The statistics of a run ({name: float}, `tallies.sums.STAT_UNITS`) and, in `tally`, its
     landing counts (`TallyTotals`; None when the scene counts none: output.quantiles = false) and, in
-    `ensemble`, its intervals over shots (`tallies.ensemble.Ensemble`; None for one shot)."""
+    `ensemble`, its intervals over shots (`tallies.ensemble.Ensemble`; None for one shot). A sweep's
+    points keep no `tally`; without a sweep file, `summary` holds its results (`api.sweep`)."""
 
     tally = None
     ensemble = None
+    summary = None
 
 
 def landing_tally(scene, model, spec, arrays) -> DeviceTally:
