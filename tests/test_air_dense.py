@@ -1,4 +1,4 @@
-"""Air in the dense phase (dense/air.py: Strang splitting) and in whole runs: lone pellets land
+"""Air in the dense phase (dense/air.py: Strang splitting) and in whole runs: pellets far apart land
 where the collisions-off run lands them, the splitting converges with the step, and runs in air
 keep the pipeline's guarantees (same bits for any chunk size and after a resume)."""
 
@@ -21,20 +21,43 @@ def _landings(tmp_path, sets, name, device="cpu"):
         return {k: f["pellets/" + k][()].astype(float) for k in ("initial/position", "landing/position")}, stats
 
 
-def test_lone_pellets_land_where_the_collisions_off_run_lands_them(tmp_path, device):
-    """Pellets metres apart (none meets another), spinning, two ricochets, in float64: through the
-    dense phase (exact flight, the air as kicks) and then the core, each lands within 1e-5 of
-    the distance it flew from where the core alone (integrated flight) lands it."""
-    sets = ["shot.count=30", "shot.envelope_radius=15.0", 'numerics.precision="float64"', "air.density=1.225",
-            "shot.spin=[0.0, 0.0, 2000.0]", "physics.bounces=2", FIELDS]
-    off, _ = _landings(tmp_path, sets, "off", device)
-    on, stats = _landings(tmp_path, sets + ["collisions.enabled=true"], "on", device)
+FAR_APART = ["shot.count=120", "shot.envelope_radius=15.0", "air.density=1.225", "shot.spin=[0.0, 0.0, 2000.0]",
+             "physics.bounces=2", FIELDS]
+
+
+def _far_apart_errors(tmp_path, device, precision, reference_precision, sets=()):
+    """Pellets metres apart (none meets another), spinning, two ricochets, in `precision` through
+    the dense phase (exact flight, the air as kicks) and then the core: each one's landing error
+    against the core alone (integrated flight) in `reference_precision`, over the distance flown."""
+    sets = FAR_APART + list(sets)
+    off, _ = _landings(tmp_path, sets + [f'numerics.precision="{reference_precision}"'], "off", device)
+    on, stats = _landings(tmp_path, sets + [f'numerics.precision="{precision}"', "collisions.enabled=true"], "on", device)
     assert stats["pair_collisions"] == 0 and stats["dense_steps_mean"] > 100
     flown = np.linalg.norm(off["landing/position"] - off["initial/position"], axis=1)
     landed = np.isfinite(flown)
-    assert landed.sum() >= 10
-    error = np.linalg.norm(on["landing/position"] - off["landing/position"], axis=1)[landed] / flown[landed]
-    assert error.max() < 1e-5, error.max()
+    assert landed.sum() >= 50
+    return np.linalg.norm(on["landing/position"] - off["landing/position"], axis=1)[landed] / flown[landed]
+
+
+@pytest.mark.parametrize(("precision", "bound"), [("float64", 1e-5), ("float32", 1e-4)])
+def test_pellets_far_apart_land_where_the_collisions_off_run_lands_them(tmp_path, device, precision, bound):
+    """Each lands within `bound` of the distance it flew from where the collisions-off run of its
+    precision lands it: 1e-5 in float64, 1e-4 in float32 (the float32 flight's own error;
+    docs/air.md, section 3.2). Until 2026-11-28 float32 was off by up to 1e-2: a kick that put a
+    pellet within 64 float32 epsilons of its distance from the plane's point (0.1 mm at 20 m)
+    met the plane at once."""
+    error = _far_apart_errors(tmp_path, device, precision, precision)
+    assert error.max() < bound, error.max()
+
+
+def test_over_a_tilted_plane_float32_lands_as_the_float64_flight(tmp_path, device):
+    """Ground tilted 11 degrees (second hops leave it at a few cm/s: grazing landings, where a
+    position error is multiplied by the slope): float32 through the dense phase lands within a
+    median 1e-4 of the distance flown of the float64 core (measured 5e-5; the float32 core's own
+    median is 7e-5), its worst within 3e-3 (the float32 core's own worst: 1.8e-3). Without the
+    compensated kicks (dense.air.drifted) the median was 3.6e-4: each kick rounded the position."""
+    error = _far_apart_errors(tmp_path, device, "float32", "float64", ["surfaces.0.normal=[0.2, 1.0, 0.0]"])
+    assert np.median(error) < 1e-4 and error.max() < 3e-3, (np.median(error), error.max())
 
 
 def _lattice(tmp_path, collisions, device):

@@ -27,6 +27,7 @@ from hypothesis import strategies as st
 
 from warp_ricochet import api, chunks
 from warp_ricochet.cli import main
+from warp_ricochet.errors import SceneError
 from warp_ricochet.scene import scene_from_dict
 from warp_ricochet.scene.toml_out import (
     toml_value,  # TOML text of any value (NaN, inf too)
@@ -200,7 +201,8 @@ def bad_integer(draw, lo, hi):
     if kind == "type":
         return draw(st.one_of(TEXT, st.booleans(), st.lists(st.integers(), max_size=2)))
     if kind == "float":
-        return draw(st.floats(-1e12, 1e12))  # 3.0 is not an integer in a scene either
+        # a float is refused unless it is an integer in range (TOML's 1e6 is one: tests/test_scene.py)
+        return draw(st.floats(-1e12, 1e12).filter(lambda x: not (x.is_integer() and lo <= x <= hi)))
     if kind == "nonfinite":
         return draw(NON_FINITE)
     return draw(st.one_of(st.integers(-2**63, lo - 1), st.integers(hi + 1, 2**63 - 1)))
@@ -457,6 +459,23 @@ def test_chunk_size_beyond_memory_counts_every_shot(ws, monkeypatch):
     assert "a chunk of 1000000 pellets" in assert_rejected(result, "numerics.chunk_size", ws)
 
 
+def test_a_hazard_map_beyond_memory_or_disk_is_refused_before_any_file(ws, monkeypatch):
+    """A map within the limits (4e6 cells x 31 thresholds) costs gigabytes (4.9 GB of memory and a
+    1 GB file for 200 pellets, issue 24): its estimate is checked before any work, in one line
+    naming the keys and the estimate, against host memory and the output's disk."""
+    thresholds = "{" + ", ".join(f"t{i} = {1000.0 + i}" for i in range(30)) + "}"
+    args = run_args(ws, None, "--set", f"hazard.energy_density={thresholds}", "--set", "hazard.map_cell=0.1",
+                    "--set", "hazard.map_extent=[0.0, 200.0, -100.0, 100.0]")
+    monkeypatch.setattr(chunks, "host_memory_available", lambda: 2 << 30)
+    message = assert_rejected(cli(args), "hazard.map_cell", ws)
+    assert message.startswith("hazard.map_cell = 0.1: the hazard map of 4,000,000 cells (2,000 x 2,000 cells of "
+                              "hazard.map_cell over hazard.map_extent [0.0, 200.0, -100.0, 100.0]) x 31 thresholds "
+                              "needs up to 6.93 GB of host memory, 2.15 GB is free: a larger map_cell"), message
+    monkeypatch.setattr(chunks, "host_memory_available", lambda: 1 << 40)
+    monkeypatch.setattr(chunks, "free_bytes", lambda path: 1 << 30)
+    assert "needs up to 3.22 GB on the output's disk, 1.07 GB is free" in assert_rejected(cli(args), "hazard.map_cell", ws)
+
+
 # ---------------------------------------------------------------------------------------------- devices
 
 
@@ -550,3 +569,100 @@ def test_more_planes_than_a_flight_in_air_tracks_is_named(ws):
     assert "at most 31 with [air]" in assert_rejected(result, "surfaces", ws)
     vacuum = {k: v for k, v in VALID.items() if k != "air"}
     assert len(scene_from_dict(dict(vacuum, surfaces=planes)).surfaces) == 32
+
+
+def test_a_drag_table_float32_cannot_hold_is_refused(ws):
+    """A Mach of 1e300 is finite in float64 and inf in float32 (numpy's overflow warning): refused
+    in one line; the domain's largest, 1e6, is taken."""
+    raw = set_path(set_path(VALID, "air.drag", "table"), "numerics.precision", "float32")
+    result = cli(run_args(ws, ws.write_scene(set_path(raw, "air.drag_table", [[0.0, 0.5], [1e300, 0.6]]))))
+    assert "Mach in [0, 1e+06]" in assert_rejected(result, "air.drag_table", ws)
+    air = scene_from_dict(set_path(raw, "air.drag_table", [[0.0, 0.5], [1e6, 0.6]])).air
+    assert air.table == ((0.0, 0.5), (1e6, 0.6))
+
+
+class _Untouchable(list):
+    """A list whose elements must not be looked at one by one."""
+
+    def __iter__(self):
+        raise AssertionError("a long list was walked element by element")
+
+
+def test_a_long_list_is_refused_by_its_length_alone():
+    """2,000,000 tail distances: refused on their count (the message shows 8 of them), no element read."""
+    raw = set_path(VALID, "output.tail_distances", [])
+    raw["output"]["tail_distances"] = _Untouchable([1.0] * 2_000_000)
+    with pytest.raises(SceneError) as e:
+        scene_from_dict(raw)
+    assert str(e.value).startswith("output.tail_distances = list of 2,000,000 items: 1.0, 1.0, ")
+    assert "at most 64 numbers" in str(e.value) and len(str(e.value)) < 300
+
+
+def test_a_scene_file_too_long_to_be_a_scene_is_refused_before_parsing(ws):
+    """A scene holds no bulk data (pellets go in shot.file): over 1 MiB of text it is refused unparsed
+    (an 18 MB file of 2,000,000 tail distances took the TOML parser ~10 s)."""
+    scene = Path(ws.write_scene(VALID))
+    scene.write_text(scene.read_text() + "# " + "x" * (1 << 20) + "\n")
+    assert "a scene is at most 1,048,576" in assert_rejected(cli(run_args(ws, scene)), "scene", ws)
+
+
+def _lying_npz(path, rows, held=b"\0" * 48):
+    """An .npz whose arrays' .npy headers declare (rows, 3) float64 and hold only `held`."""
+    header = io.BytesIO()
+    np.lib.format.write_array_header_1_0(header, {"descr": "<f8", "fortran_order": False, "shape": (rows, 3)})
+    import zipfile
+
+    with zipfile.ZipFile(path, "w") as z:
+        for name in ("position", "velocity"):
+            z.writestr(f"{name}.npy", header.getvalue() + held)
+
+
+def test_a_pellet_files_declared_sizes_are_checked_before_reading(ws, monkeypatch):
+    """A 2 kB .h5 declaring (3e8, 3) arrays (fill values, nothing stored) drove memory to 21.5 GB:
+    refused from its declared shape, naming the file, the array and how many pellets fit, before a
+    value is read; with shot.count given, its mismatch is named first."""
+    from warp_ricochet.scene import pellets
+
+    def no_reading(*args, **kwargs):
+        raise AssertionError("the pellet file was read")
+
+    monkeypatch.setattr(pellets, "_read", no_reading)
+    monkeypatch.setattr(pellets, "host_memory_available", lambda: 4 << 30)
+    path = ws.root / "pellets.h5"
+    with h5py.File(path, "w") as f:
+        for name in ("position", "velocity"):
+            f.create_dataset(name, shape=(300_000_000, 3), dtype="f8", chunks=(65536, 3))
+    assert path.stat().st_size < 10_000
+    ws.listing = sorted(os.listdir(ws.root))
+    shot = {"file": str(path), "diameter": 0.0025, "density": 7000.0}
+    message = assert_rejected(cli(run_args(ws, None, "--set", f"shot={toml_value(shot)}")), "shot.file:position", ws)
+    assert f"(300000000, 3): {path} declares 300,000,000 pellets" in message
+    assert "more than half the 4 GiB of host memory available: at most 29,826,161 pellets" in message
+    result = cli(run_args(ws, None, "--set", f"shot={toml_value({**shot, 'count': 5})}"))
+    assert "must equal the pellets per shot in shot.file (300000000" in assert_rejected(result, "shot.count", ws)
+    with h5py.File(path, "w") as f:  # a storage chunk is read whole: one of 805 MB is refused too
+        for name in ("position", "velocity"):
+            f.create_dataset(name, shape=(2**25, 3), dtype="f8", chunks=(2**25, 3))
+    assert "storage chunks of 805,306,368 bytes" in assert_rejected(
+        cli(run_args(ws, None, "--set", f"shot={toml_value(shot)}")), "shot.file:position", ws)
+
+
+def test_a_pellet_file_holding_less_than_it_declares_is_read_in_bounded_pieces(ws, monkeypatch):
+    """An .npz declaring (3e7, 3) float64 (720 MB) and holding 48 bytes, with memory to spare: read a
+    piece at a time, it is refused at its end having taken at most a piece of memory."""
+    import tracemalloc
+
+    from warp_ricochet.scene import pellets
+
+    monkeypatch.setattr(pellets, "host_memory_available", lambda: 1 << 40, raising=False)
+    path = ws.root / "pellets.npz"
+    _lying_npz(path, 30_000_000)
+    ws.listing = sorted(os.listdir(ws.root))
+    tracemalloc.start()
+    try:
+        result = cli(run_args(ws, None, "--set", f"shot={toml_value({'file': str(path), 'diameter': 0.0025, 'density': 7000.0})}"))
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 100 << 20, peak  # (numpy's own reading allocated the 720 MB array first)
+    assert "it declares more than it holds" in assert_rejected(result, "shot.file", ws)

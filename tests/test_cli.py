@@ -7,6 +7,7 @@ in-process. Scenes are small (200 pellets, CPU) so the whole file runs in second
 import io
 import math
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -185,7 +186,9 @@ def test_sweep_writes_file_and_prints_three_tables(sweep_run):
         assert f["stats/range_mean"].shape == (3,)
     tables = table_blocks(out)
     assert sorted(tables) == ["Table 1", "Table 2", "Table 3"]
-    assert len(tables["Table 1"]) == len(tables["Table 2"]) == 6  # pre and post per point
+    for name in ("Table 1", "Table 2"):  # the pre-impact row, the same at every point, once; a post row per point
+        assert [r.split()[:2] for r in tables[name]] == [["all", "pre"], ["0.100", "post"], ["0.050", "post"],
+                                                          ["0.000", "post"]], tables[name]
     rows = tables["Table 3"]
     assert len(rows) == 3
     assert [r.split()[0] for r in rows] == ["0.100", "0.050", "0.000"]  # the paper's order: descending
@@ -215,8 +218,8 @@ def test_report_markdown(sweep_run, capsys):
         assert lines[1].startswith("|---") or lines[1].startswith("|:--")
         assert all(line.startswith("| ") and line.endswith(" |") for line in lines[2:])
     assert len(blocks[2].splitlines()) == 2 + 3
-    assert "&lt;L&gt; (m)" in blocks[2]  # no raw <...>: GitHub would read it as HTML
-    assert "\\|\\|&lt;omega&gt;\\|\\|" in blocks[0]
+    assert "\\<L\\> (m)" in blocks[2]  # no raw <...>: GitHub would read it as HTML; no &lt;: a terminal shows it raw
+    assert "\\|\\|\\<omega\\>\\|\\|" in blocks[0] and "&lt;" not in out and "&gt;" not in out
 
 
 def test_report_paper(sweep_run, capsys):
@@ -255,12 +258,20 @@ def test_report_puts_vacuum_and_air_side_by_side(sweep_run, tmp_path, capsys):
     block = [b for b in out.split("\n\n") if b.startswith("Table 3.")][0].splitlines()
     assert "vacuum, air" in block[0] and "<L> (m) vacuum" in block[1] and "<L> (m) air" in block[1]
     rows = [r.split() for r in block[3:]]
+    column = {h: i for i, h in enumerate(re.split(r"\s{2,}", block[1].strip()))}
     assert [r[0] for r in rows] == ["0.100", "0.050", "0.000"]
-    for path, first in ((vacuum, 1), (air, 5)):
+    for path, label in ((vacuum, "vacuum"), (air, "air")):
         want = {round(r["surfaces.0.mu_s"], 3): r["range_mean"] for r in read_results(path).rows}
+        with h5py.File(path) as f:  # the distance from the shooter: each point's landing quantiles
+            levels = list(f["runs/0000/stats/quantiles"].attrs["levels"])
+            far = {round(mu, 3): f[f"runs/{i:04d}/stats/quantiles/distance"][levels.index(0.999)]
+                   for i, mu in enumerate(f["sweep/surfaces.0.mu_s"][()])}
         for r in rows:
-            assert float(r[first].replace(",", "")) == pytest.approx(want[float(r[0])], abs=5e-4)
-    assert float(rows[2][5]) < 0.5 * float(rows[2][1].replace(",", ""))  # frictionless: air shortens the range
+            assert float(r[column[f"<L> (m) {label}"]].replace(",", "")) == pytest.approx(want[float(r[0])], abs=5e-4)
+            assert float(r[column[f"distance P99.9 (m) {label}"]].replace(",", "")) == pytest.approx(
+                far[float(r[0])], abs=5e-4)
+    assert float(rows[2][column["<L> (m) air"]]) < 0.5 * float(rows[2][column["<L> (m) vacuum"]].replace(",", ""))
+    assert "distance: horizontal, from the shooter" in block[0]
     other = tmp_path / "other.h5"
     assert main(["sweep", SCENE, *SMALL, "--param", "surfaces.0.restitution=0.1,0.2", "-o", str(other)]) == 0
     capsys.readouterr()
@@ -377,6 +388,20 @@ def test_frictional_case_and_tables_from_rows():
     assert "29,880.239" in text and "n/a" in text and "mu_s" in text
 
 
+def test_pre_impact_rows_are_shown_once_only_when_the_same_at_every_point():
+    """Sweeping friction leaves the pre-impact means alone: one pre row; sweeping the speed does not."""
+    def row(mu, speed):
+        return {"surfaces.0.mu_s": mu, "pre_mean_vt": speed, "post_mean_vt": 0.7 * speed * (1 - mu)}
+    same = table_blocks(format_tables(Results(rows=[row(0.1, 290.0), row(0.0, 290.0)], params=["surfaces.0.mu_s"],
+                                              meta={"kind": "sweep"})))
+    assert [r.split()[:3] for r in same["Table 1"]] == [["all", "pre", "290.000"], ["0.100", "post", "182.700"],
+                                                        ["0.000", "post", "203.000"]]
+    differ = table_blocks(format_tables(Results(rows=[row(0.1, 290.0), row(0.0, 300.0)], params=["surfaces.0.mu_s"],
+                                                meta={"kind": "sweep"})))
+    assert [r.split()[:3] for r in differ["Table 1"]] == [["0.100", "pre", "290.000"], ["0.100", "post", "182.700"],
+                                                          ["0.000", "pre", "300.000"], ["0.000", "post", "210.000"]]
+
+
 def test_paper_tables_are_consistent():
     assert len(TABLE1) == len(TABLE2) == 22 and len(TABLE3) == 11
     assert sorted(PAPER_ROWS, reverse=True) == [round(0.5 - 0.05 * i, 3) for i in range(11)]
@@ -419,3 +444,43 @@ def test_sigterm_marks_the_partial_file_interrupted(tmp_path):
         assert f.attrs["status"] == "interrupted"
         assert f["pellets/landing/range"].shape[0] >= 1_000_000  # whole chunks
         assert f["pellets/landing/range"].shape[0] % (1 << 16) == 0
+
+
+# ---------------------------------------------------------------------------------------------- --version, -q, -v
+
+
+def test_version_names_the_package_warp_and_the_devices():
+    import warp
+
+    from warp_ricochet import __version__
+
+    proc = cli_subprocess("--version")
+    assert proc.returncode == 0 and proc.stderr == "", proc.stderr
+    lines = proc.stdout.splitlines()
+    assert lines[0] == f"warp-ricochet {__version__}"
+    assert lines[1] == f"Warp {warp.__version__}"
+    assert lines[2].startswith("devices: ") and "cpu" in lines[2]
+
+
+def test_quiet_and_verbose_set_the_logging_level(tmp_path):
+    """A scene in which no pellet hits warns (SceneWarning, through `py.warnings`); -q hides it, -v adds
+    the package's informational lines; an error stays one line, exit 2, even with -q."""
+    away = [*SMALL, "--set", "surfaces.0.normal=[0, -1, 0]"]
+    plain = cli_subprocess("run", SCENE, *away)
+    quiet = cli_subprocess("-q", "run", SCENE, *away)
+    verbose = cli_subprocess("run", SCENE, *away, "--verbose")
+    assert plain.returncode == quiet.returncode == verbose.returncode == 0
+    assert plain.stderr.splitlines() == ["warp-ricochet: warning: no pellet hit any surface (all 200 missed): check "
+                                         "shot.direction and the surfaces' points and normals (a plane is hit only "
+                                         "from the side its normal points to)"]
+    assert quiet.stderr == "" and quiet.stdout == plain.stdout
+    info = [line for line in verbose.stderr.splitlines() if line.startswith("warp-ricochet: info: ")]
+    assert info[0] == "warp-ricochet: info: 200 pellets on cpu, float32, in vacuum" and "pellets/s" in info[1]
+    assert plain.stderr.splitlines()[0] in verbose.stderr.splitlines()
+    bad = cli_subprocess("run", SCENE, "--set", "shot.count=-1", "-q")
+    assert bad.returncode == 2 and bad.stderr.splitlines() == error_lines(bad.stderr) and len(error_lines(bad.stderr)) == 1
+    debug = cli_subprocess("-vv", "run", SCENE, *SMALL)
+    assert "warp-ricochet: debug: 200 of 200 pellets complete" in debug.stderr.splitlines(), debug.stderr
+    assert "debug" not in verbose.stderr
+    both = cli_subprocess("run", SCENE, "-q", "-v")
+    assert both.returncode == 2 and "not allowed with argument" in both.stderr

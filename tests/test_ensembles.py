@@ -138,10 +138,24 @@ def test_summary_and_report_show_the_intervals(multi, capsys):
     path, stats = multi
     text = format_tables(read_results(path))
     assert "95% confidence intervals over 5 shots" in text
-    line = next(x for x in text.splitlines() if x.startswith("range_mean "))
-    low, high = stats.ensemble.low["range_mean"], stats.ensemble.high["range_mean"]
-    assert f"{low:,.4f}" in line and f"{high:,.4f}" in line and "per shot" in line
-    assert "one shot's extreme" in next(x for x in text.splitlines() if x.startswith("range_max "))
+    table = {x.split()[0]: x.split() for x in text.split("95% confidence intervals")[1].split("\n\n")[0].splitlines()[3:]}
+    columns = ("all shots", "mean over shots", "95% low", "95% high")
+    for name, cells in table.items():  # every row's numbers apart: the value over all shots, the mean of
+        if "n/a" in cells[1:5]:        # the per-shot values and the interval around that mean
+            continue
+        value, centre, low, high = (float(c.replace(",", "")) for c in cells[1:5])
+        assert low <= centre <= high, (name, cells)
+        got = dict(zip(columns, cells[1:5]))
+        if name in ("pellets", "hits", "landed", "missed", "stick", "slip", "escaped"):
+            assert "." not in "".join(got.values()), (name, cells)  # counts are whole: 150,000, not 150,000.0000
+        else:
+            decimals = len(got["95% low"].partition(".")[2])
+            want_low, want_high = stats.ensemble.low[name], stats.ensemble.high[name]
+            assert (low, high) == pytest.approx((want_low, want_high), abs=0.51 * 10.0 ** -decimals), name
+            assert value == pytest.approx(stats[name], abs=0.51 * 10.0 ** -decimals), name
+    assert table["range_mean"][-2:] == ["per", "shot"] and table["pellets"][1] == f"{int(stats['pellets']):,}"
+    assert table["range_max"][-3:] == ["one", "shot's", "extreme"]
+    assert float(table["range_max"][1]) >= float(table["range_max"][4])  # the extreme of all shots, said apart
     assert cli_main(["run", SCENE, "--device", "cpu", "--set", "shot.count=200", "--set", "shot.shots=3"]) == 0
     assert "95% confidence intervals over 3 shots" in capsys.readouterr().out
     assert cli_main(["run", SCENE, "--device", "cpu", "--set", "shot.count=200"]) == 0

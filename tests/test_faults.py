@@ -300,12 +300,16 @@ def test_a_multi_shot_run_without_collisions_resumes(tmp_path, monkeypatch):
 # ---------------------------------------------------------------------------------------------- full disk
 
 
-def test_no_room_for_the_output_is_refused_before_any_file(tmp_path, monkeypatch, capsys):
+@pytest.mark.parametrize("command", ["run", "sweep"])
+def test_no_room_for_the_output_is_refused_before_any_file(tmp_path, monkeypatch, capsys, command):
+    """An output that cannot fit is bad input, found before any work: one line, exit status 2."""
     monkeypatch.setattr(space, "free_bytes", lambda path: 10_000_000)
     out = tmp_path / "o.h5"
-    assert main(["run", SCENE, *ARGS, "-o", str(out)]) == 1
+    sweep = ["--param", "surfaces.0.mu_s=0.1,0.2"] if command == "sweep" else []
+    assert main([command, SCENE, *ARGS, *sweep, "-o", str(out)]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and err.startswith(PREFIX + "No space left on device (the output needs")
+    assert err.count("\n") == 1 and err.startswith(PREFIX + f"output path = '{out}': cannot fit: No space left on "
+                                                             "device (the output needs"), err
     assert os.listdir(tmp_path) == []
 
 
@@ -518,3 +522,228 @@ def test_a_set_up_file_left_by_a_killed_run_is_reused_unless_in_use(tmp_path, re
     assert cli(["run", SCENE, *ARGS, "-o", out])[0] == 0
     assert not staging.exists()
     assert_same_as_reference(out, reference)
+
+
+def shared_lock_free(path) -> bool:
+    """Whether a reader could take the shared lock HDF5 takes as it opens `path` (flock, LOCK_NB)."""
+    import fcntl
+
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        return True
+    except BlockingIOError:
+        return False
+    finally:
+        os.close(fd)
+
+
+@pytest.mark.parametrize("setup_fails", [False, True])
+def test_the_partial_appears_only_once_a_reader_can_open_it(tmp_path, monkeypatch, setup_fails):
+    """The moment NAME.partial appears (renamed from NAME.partial.new), the writer's lock on it is
+    shared already, so a SWMR reader opening it at once is not refused ("unable to lock file"): after
+    a normal set-up, and when the set-up fails (the file is closed, then published)."""
+    from warp_ricochet.io import runfile
+
+    seen = []
+
+    def publish(staging, partial, *args):
+        real_publish(staging, partial, *args)
+        seen.append(shared_lock_free(partial))
+
+    real_publish = runfile.publish
+    monkeypatch.setattr(runfile, "publish", publish)
+    if setup_fails:
+        def fail(group):
+            raise OSError(errno.EIO, "set-up failed")
+
+        monkeypatch.setattr(writer, "name_run_dimensions", fail)
+    out = tmp_path / "p.h5"
+    scene = load_scene(SCENE, ["shot.count=100"])
+    if setup_fails:
+        with pytest.raises(OSError, match="set-up failed"):
+            wr.run(scene, out, device="cpu")
+    else:
+        wr.run(scene, out, device="cpu")
+    assert seen == [True]
+
+
+READER = """
+import sys, h5py, os
+folder, n = sys.argv[1], int(sys.argv[2])
+for i in range(n):
+    path = os.path.join(folder, f"r{i}.h5.partial")
+    while not os.path.exists(path):
+        pass
+    try:
+        with h5py.File(path, "r", swmr=True):
+            print("ok", flush=True)
+    except Exception as exc:
+        print("failed:", type(exc).__name__, " ".join(str(exc).split())[:100], flush=True)
+"""
+
+
+def test_200_immediate_opens_under_load_all_succeed(tmp_path):
+    """200 run files set up one after another while every core is busy; a reader process opens each
+    NAME.partial with swmr=True the moment it appears (the README's recipe): every open succeeds."""
+    from warp_ricochet.io.runfile import OutputFile
+
+    n = 200
+    load = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(os.cpu_count() or 1)]
+    reader = subprocess.Popen([sys.executable, "-c", READER, str(tmp_path), str(n)], stdout=subprocess.PIPE,
+                              text=True, env=ENV)
+    answers = []
+    try:
+        for i in range(n):
+            with OutputFile(tmp_path / f"r{i}.h5", overwrite=False, kind="run", device="cpu", scene_toml="") as out:
+                out.h5.create_dataset("rows", data=0)
+                out.start_watching()
+                answers.append(reader.stdout.readline().strip())  # (the file stays until the reader opened it)
+    finally:
+        for proc in (*load, reader):
+            proc.kill()
+            proc.wait()
+    assert answers == ["ok"] * n, [a for a in answers if a != "ok"][:5]
+
+
+# ---------------------------------------------------------------------------------------------- special files
+
+
+@contextlib.contextmanager
+def watchdog(fifo, after=5.0):
+    """After `after` s, opens `fifo` (both ends, so a command waiting on it goes on) and replaces it
+    with an empty file (so it does not wait again); yields a list that is non-empty if it had to."""
+    import threading
+
+    fired, done = [], threading.Event()
+
+    def unblock():
+        if not done.wait(after):
+            fired.append(True)
+            fd = os.open(fifo, os.O_RDWR | os.O_NONBLOCK)
+            os.unlink(fifo)
+            Path(fifo).touch()
+            os.close(fd)
+
+    thread = threading.Thread(target=unblock, daemon=True)
+    thread.start()
+    try:
+        yield fired
+    finally:
+        done.set()
+        thread.join()
+
+
+SPECIAL_CASES = {  # argv given the folder and a FIFO in it: the expected message's start
+    "scene": (lambda d, fifo: ["run", fifo, *ARGS], "scene = '{fifo}': is a FIFO (named pipe), not a regular file"),
+    "shot.file": (lambda d, fifo: ["run", SCENE, *ARGS, "--set", f"shot.file='{fifo}'", "--set", "shot.count=", "-o",
+                                   d / "o.h5"], None),
+    "output": (lambda d, fifo: ["run", SCENE, *ARGS, "-o", fifo, "--overwrite"],
+               "output path = '{fifo}': is a FIFO (named pipe), not a regular file"),
+    "partial": (lambda d, fifo: ["run", SCENE, *ARGS, "-o", fifo[: -len(".partial")], "--overwrite"],
+                "output path = '{out}': {name} is a FIFO (named pipe), not a regular file; remove it"),
+    "resumed partial": (lambda d, fifo: ["run", SCENE, *ARGS, "-o", fifo[: -len(".partial")], "--resume"],
+                        "output path = '{out}': {name} is a FIFO (named pipe), not a regular file; it cannot be resumed"),
+    "report": (lambda d, fifo: ["report", fifo], "report = '{fifo}': is a FIFO (named pipe), not a regular file"),
+    "xdmf": (lambda d, fifo: ["xdmf", fifo], "file = '{fifo}': is a FIFO (named pipe), not a regular file"),
+    "plot": (lambda d, fifo: ["plot", fifo, "-o", d / "plots"], "report = '{fifo}': is a FIFO (named pipe), not a "
+                                                                 "regular file"),
+}
+
+
+@pytest.mark.parametrize("case", list(SPECIAL_CASES))
+def test_a_fifo_is_refused_in_one_line_without_opening_it(tmp_path, case):
+    """A FIFO as the scene, the pellet file, the output, its partial, or a file to report, describe or
+    plot: refused in one line (exit 2) before it is opened (opening it would wait for a writer),
+    nothing made."""
+    make, message = SPECIAL_CASES[case]
+    name = {"shot.file": "pellets.npz", "partial": "o.h5.partial", "resumed partial": "o.h5.partial",
+            "scene": "scene.toml"}.get(case, "o.h5")
+    fifo = str(tmp_path / name)
+    os.mkfifo(fifo)
+    argv = make(tmp_path, fifo)
+    if case == "shot.file":  # a scene whose pellets come from the file (shot.count, speed, seed... left out)
+        scene = tmp_path / "scene.toml"
+        scene.write_text(f'[shot]\nfile = "{name}"\ndiameter = 0.0025\ndensity = 7000.0\n\n[[surfaces]]\n'
+                         'point = [0.0, 0.0, 0.0]\nnormal = [0.0, 1.0, 0.0]\nrestitution = 0.01\nmu_s = 0.5\n')
+        argv = ["run", scene, "--device", "cpu", "-o", tmp_path / "o.h5"]
+        message = "shot.file = '{fifo}': is a FIFO (named pipe), not a regular file"
+    with watchdog(fifo) as fired:
+        rc, _, err = cli(argv)
+    assert not fired, "the command waited on the FIFO"
+    out = fifo[: -len(".partial")] if case.endswith("partial") else fifo
+    expected = message.format(fifo=fifo, out=out, name=Path(fifo).name)  # (a scene's values are shortened)
+    key, why = expected.split(" = ")[0], expected.split("': ", 1)[1]
+    assert rc == 2 and err.count("\n") == 1 and err.startswith(f"{PREFIX}{key} = '") and err.endswith(f": {why}\n"), err
+    assert sorted(os.listdir(tmp_path)) == sorted([name, *(["scene.toml"] if case == "shot.file" else [])])
+
+
+def test_a_device_as_the_scene_is_refused_in_one_line():
+    rc, _, err = cli(["run", os.devnull, "--device", "cpu"])
+    assert rc == 2 and err == PREFIX + f"scene = '{os.devnull}': is a character device, not a regular file\n"
+
+
+# ---------------------------------------------------------------------------------------------- report's status
+
+
+@pytest.mark.parametrize("writer, lock, says", [
+    ("alive", True, "running"),  # a run writing it: its process lives and holds its lock
+    ("alive", False, "gone"),  # (no lock: its process is another one with the same id)
+    ("dead", True, "gone"),  # a reader's lock keeps no dead writer "running"
+    ("dead", False, "gone"),  # killed (SIGKILL)
+])
+def test_report_tells_a_killed_run_from_a_running_one(tmp_path, writer, lock, says):
+    """`report NAME.partial` of a file marked "running": "running" only while its writer's process
+    lives and a lock is held on the file; else "not finished (the writer is gone ...)"."""
+    out = tmp_path / "k.h5"
+    scene = load_scene(SCENE, SETS[1::2])
+    interrupt_after(1, scene, out)
+    partial = Path(str(out) + ".partial")
+    pid = os.getpid() if writer == "alive" else _dead_pid()
+    with h5py.File(partial, "r+") as f:
+        f.attrs["status"] = "running"
+        assert f.attrs["writer_host"]  # (the run recorded its writer)
+        f.attrs["writer_pid"] = pid
+    with held(partial) if lock else contextlib.nullcontext():
+        rc, text, err = cli(["report", partial])
+    assert rc == 0, err
+    status = "running" if says == "running" else \
+        "not finished (the writer is gone: killed or crashed; --resume continues it)"
+    assert f"| status: {status} |" in text, text.splitlines()[0]
+
+
+def _dead_pid() -> int:
+    """The id of a process that has ended."""
+    proc = subprocess.Popen([sys.executable, "-c", "0"])
+    proc.wait()
+    return proc.pid
+
+
+KILL_BEFORE_SIDECAR = """
+import os, signal, sys
+from warp_ricochet import cli
+from warp_ricochet.io import runfile
+runfile.publish_sidecar = lambda *args: os.kill(os.getpid(), signal.SIGKILL)
+sys.argv = ["warp-ricochet", *sys.argv[1:]]
+cli.entry()
+"""
+
+
+def test_a_kill_between_the_rename_and_the_sidecar_is_recovered_by_xdmf(tmp_path):
+    """A SIGKILL after OUT.h5 is in place and before OUT.xmf is written (README: the sidecar comes
+    after the rename) leaves the complete result without its sidecar; `warp-ricochet xdmf OUT.h5`
+    writes the sidecar the run would have written."""
+    killed, whole = tmp_path / "killed" / "k.h5", tmp_path / "whole" / "k.h5"
+    for out in (killed, whole):
+        out.parent.mkdir()
+    argv = ["run", SCENE, "--device", "cpu", "--set", "shot.count=500"]
+    proc = subprocess.run([sys.executable, "-c", KILL_BEFORE_SIDECAR, *argv, "-o", str(killed)], env=ENV,
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == -signal.SIGKILL, proc.stderr
+    assert killed.exists() and not killed.with_suffix(".xmf").exists()
+    assert not Path(str(killed) + ".partial").exists()
+    with h5py.File(killed, "r") as f:
+        assert f.attrs["status"] == "complete"
+    assert cli(["xdmf", killed])[0] == 0
+    assert cli([*argv, "-o", whole])[0] == 0
+    assert killed.with_suffix(".xmf").read_text() == whole.with_suffix(".xmf").read_text()

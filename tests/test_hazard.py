@@ -175,11 +175,64 @@ def test_binomial_points_are_scipys_in_the_exact_regime(log_n, log_p, upper):
     ("hazard.map_extent=[1, 0, 0, 1]", "hazard.map_extent"),
     ("hazard.colour=1", "hazard.colour"),
     ('output.tail_distances=[5.0, 1.0]', "output.tail_distances"),
+    # contradictions (issue 24, item 7): an axis along the map surface's normal (all landings would fall
+    # outside a grid on another axis); no histograms for a [hazard] table's answers
+    ("hazard={map_cell = 1.0, map_extent = [0, 10, -5, 5], map_axis = [0, -3, 0]}", "hazard.map_axis"),
+    ("hazard={map_cell = 1.0, map_extent = [0, 10, -5, 5], map_axis = [1e-12, 1, 0]}", "hazard.map_axis"),
+    ("hazard={}", "output.quantiles"),  # (with --set output.quantiles=false below)
 ])
 def test_bad_hazard_keys_are_refused_in_one_line_before_any_work(tmp_path, override, key):
     out = tmp_path / "x.h5"
-    rc, stdout, stderr = cli(["run", "examples/paper.toml", "--set", override, "-o", out, "--device", "cpu"])
+    extra = ["--set", "output.quantiles=false"] if key == "output.quantiles" else []
+    rc, stdout, stderr = cli(["run", "examples/paper.toml", "--set", override, *extra, "-o", out, "--device", "cpu"])
     assert rc == 2 and stderr.count("\n") == 1 and key in stderr and not out.exists(), stderr
+
+
+def test_a_map_axis_defaulting_to_a_shot_along_the_normal_is_required():
+    """shot.direction straight down onto the ground: the map's default u axis has no direction in
+    the plane, so map_axis is required (it was replaced by an arbitrary axis); given, it is taken."""
+    raw = paper_raw()
+    raw["shot"].update(direction=[0.0, -1.0, 0.0], direction_jitter=[0.0, 0.0, 0.0])
+    hazard = {"map_cell": 1.0, "map_extent": [0.0, 10.0, -5.0, 5.0]}
+    with pytest.raises(wr.SceneError, match=r"^hazard.map_axis = \(missing\): is required: its default, shot.direction"):
+        make_scene(raw, hazard=hazard)
+    assert make_scene(raw, hazard={**hazard, "map_axis": [0.0, 0.0, 1.0]}).hazard.map_axis == (0.0, 0.0, 1.0)
+
+
+@pytest.mark.parametrize("hazard", [None, {"fractions": [0.01]}, {"energy_density": {"corneal_abrasion": 1503.0}}],
+                         ids=["no table", "defaults", "one threshold"])
+def test_setting_one_threshold_adds_it_to_the_scenes_in_run_and_sweep(tmp_path, hazard):
+    """One rule for `run --set` and `sweep --param` (issue 24, item 7): a dotted key inside
+    hazard.energy_density or hazard.speed sets that threshold among the scene's own, the defaults
+    when the scene gives none; a whole table replaces them. (`run --set` replaced the defaults
+    and `sweep --param` kept them.)"""
+    from warp_ricochet.api import _point_scenes
+    from warp_ricochet.scene import SweepPoints, load_scene
+    from warp_ricochet.scene.schema import HAZARD_ENERGY_DENSITY
+    from warp_ricochet.scene.toml_out import toml_lines
+
+    raw = paper_raw()
+    if hazard is not None:
+        raw["hazard"] = hazard
+    path = tmp_path / "s.toml"
+    path.write_text("\n".join(toml_lines(raw, "")) + "\n")
+    own = dict(hazard["energy_density"]) if hazard and "energy_density" in hazard else dict(HAZARD_ENERGY_DENSITY)
+    ran = load_scene(path, ["hazard.energy_density.eye=20000.0"]).hazard.energy_density
+    swept = _point_scenes(load_scene(path), SweepPoints({"hazard.energy_density.eye": [20000.0]}), False)[0]
+    assert ran == swept.hazard.energy_density == tuple({**own, "eye": 20000.0}.items())
+    replaced = load_scene(path, ["hazard.energy_density={eye = 20000.0}"]).hazard.energy_density
+    assert replaced == (("eye", 20000.0),)
+
+
+def test_a_sweep_refuses_a_key_set_twice(tmp_path):
+    """--param over a --set key, or --tie onto a swept or tied key: the later would silently win."""
+    out = tmp_path / "x.h5"
+    for argv, key in ((["--set", "surfaces.0.mu_s=0.6", "--param", "surfaces.0.mu_s=0.5,0.6"], "surfaces.0.mu_s"),
+                      (["--param", "surfaces.0.mu_s=0.1,0.2", "--tie", "surfaces.0.mu_s=0.9*"], "--tie"),
+                      (["--param", "surfaces.0.mu_s=0.1,0.2", "--tie", "surfaces.0.mu_d=0.9*",
+                        "--tie", "surfaces.0.mu_d=0.8*"], "--tie")):
+        rc, stdout, stderr = cli(["sweep", "examples/paper.toml", *argv, "-o", out, "--device", "cpu"])
+        assert rc == 2 and stderr.count("\n") == 1 and f": error: {key} = " in stderr and not out.exists(), stderr
 
 
 def test_the_summary_and_report_show_quantiles_tails_and_danger_distances(tmp_path):
@@ -219,3 +272,34 @@ def test_a_landing_far_past_a_fine_map_counts_outside(tmp_path):
     stats = wr.run(make_scene(raw, "float64", hazard=hazard, output={"fields": []}), tmp_path / "fine.h5", device="cpu")
     with h5py.File(tmp_path / "fine.h5", "r") as f:
         assert f["hazard/map/count"][()].sum() == 0 and f["hazard/map/outside"][()] == stats["landed"] == 64
+
+
+def test_the_tally_estimate_bounds_what_a_run_allocates_and_writes(tmp_path):
+    """`tallies.counts.tally_bytes` (checked before any work, `chunks.check_tallies`) against the
+    arrays a CPU run makes (the device's counts and totals, the dense totals, `summarize`'s layers)
+    and the file it writes; the map's layers are stored compressed (mostly empty cells)."""
+    from warp_ricochet.device import resolve_device
+    from warp_ricochet.fields import bytes_per_pellet
+    from warp_ricochet.tallies.counts import DeviceTally, TallySetup, TallyTotals, tally_bytes
+    from warp_ricochet.tallies.quantiles import summarize
+
+    raw = paper_raw()
+    raw["shot"]["count"] = 2000
+    scene = make_scene(raw, "float64", hazard={**HAZARD, "map_cell": 0.05}, output={"fields": ["landing"]})
+    setup, cpu = TallySetup.of(scene, 1.0, 1.0, 1.0), resolve_device("cpu")
+    assert setup.cells == 640_000 and setup.levels == 4
+    device = DeviceTally(setup, "float64", cpu, True)
+    made = sum(a.capacity for a in (*device.counts.values(), device.flat))
+    totals = TallyTotals(setup)
+    made += totals.flat().nbytes + sum(np.asarray(v).nbytes for v in summarize(totals, 0)["map"].values())
+    host, on_device, file = tally_bytes(setup, cpu, with_file=False)
+    assert on_device == 0 and made <= host < 2 * made
+    out = tmp_path / "run.h5"
+    wr.run(scene, out, device="cpu")
+    pellets = scene.shot.pellets * bytes_per_pellet(scene.output.fields, "float64", 1)
+    file = tally_bytes(setup, cpu, with_file=True)[2]
+    assert out.stat().st_size <= pellets + file
+    assert out.stat().st_size < 8 * (len(setup.names) + 2) * setup.cells / 10  # dense layers: 10 times more
+    with h5py.File(out, "r") as f:
+        assert f["hazard/map/above"].compression == "gzip"
+        assert f["hazard/map/count"][()].sum() + f["hazard/map/outside"][()] + f["hazard/map/elsewhere"][()] == 2000

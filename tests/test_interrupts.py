@@ -190,12 +190,76 @@ def test_the_rename_of_a_finished_file_holds_signals(tmp_path, monkeypatch):
     assert moved and path.read_bytes() == b"x" and not partial.exists()
 
 
-def test_a_signal_after_the_command_returned_is_ignored(tmp_path):
-    """Once the command's status is decided (`cli.entry` returned), Ctrl-C and SIGTERM during the
-    interpreter's shutdown no longer end the process by the signal, without a message."""
-    code = ("import os, signal, sys; from warp_ricochet import cli; sys.argv = ['warp-ricochet', 'run', sys.argv[1], "
-            "'--device', 'cpu', '--set', 'shot.count=100']; status = cli.entry(); "
-            "os.kill(os.getpid(), signal.SIGINT); os.kill(os.getpid(), signal.SIGTERM); print('status', status)")
-    proc = subprocess.run([sys.executable, "-c", code, SCENE], capture_output=True, text=True,
-                          env={**os.environ, "PYTHONPATH": str(ROOT)}, timeout=120)
-    assert proc.returncode == 0 and proc.stdout.rstrip().endswith("status 0"), (proc.returncode, proc.stderr)
+# the steps of a run's end, in order: (module, attribute, object in it or None, signal before or after)
+END_STEPS = [
+    ("warp_ricochet.io.writer", "RunWriter", "write_stats", "after"),
+    ("warp_ricochet.io.runfile", "OutputFile", "__exit__", "before"),
+    ("warp_ricochet.io.runfile", None, "_move", "before"),
+    ("warp_ricochet.io.runfile", None, "move_into_place", "after"),
+    ("warp_ricochet.io.runfile", None, "write_xdmf", "before"),
+    ("warp_ricochet.io.runfile", None, "publish_sidecar", "after"),
+    ("warp_ricochet.progress", "ProgressBar", "__exit__", "before"),
+    ("warp_ricochet.report", None, "format_run_summary", "after"),
+    ("warp_ricochet.cli", None, "_run_command", "after"),
+]
+
+
+def signal_at(monkeypatch, step, signum):
+    """Send `signum` to this process when the run reaches `step` (an END_STEPS entry)."""
+    import importlib
+
+    module, owner, name, when = step
+    target = importlib.import_module(module)
+    target = getattr(target, owner) if owner else target
+    real = getattr(target, name)
+
+    def hooked(*args, **kwargs):
+        if when == "before":
+            os.kill(os.getpid(), signum)
+        result = real(*args, **kwargs)
+        if when == "after":
+            os.kill(os.getpid(), signum)
+        return result
+
+    monkeypatch.setattr(target, name, hooked)
+
+
+@pytest.mark.parametrize("step", END_STEPS, ids=[f"{s[3]}-{s[2]}" for s in END_STEPS])
+def test_a_signal_at_each_step_of_a_runs_end(tmp_path, monkeypatch, step):
+    """A signal at every step of a run's end, from its statistics to the command's return (the
+    result complete, or being moved into place): exit status 130 and the one line saying where the
+    complete result is; the result and its sidecar in place, no partial left."""
+    out = tmp_path / "end.h5"
+    signum = (signal.SIGINT, signal.SIGTERM)[END_STEPS.index(step) % 2]
+    signal_at(monkeypatch, step, signum)
+    status, lines, unraisable = quiet_main(argv("core", out, "--set", "shot.count=1000"))
+    assert status == 130 and not unraisable, lines
+    assert lines == [f"warp-ricochet: interrupted; the run had completed: its result is in {out}"]
+    assert out.exists() and out.with_suffix(".xmf").exists() and not Path(str(out) + ".partial").exists()
+
+
+LATE = """
+import atexit, os, signal, sys
+from warp_ricochet import cli
+signum, when = int(sys.argv[1]), sys.argv[2]
+sys.argv = ["warp-ricochet", *sys.argv[3:]]
+if when == "main returned":
+    real = cli.main
+    cli.main = lambda: (real(), os.kill(os.getpid(), signum))[0]
+else:  # an exit function: registered before Warp's, so it runs after them
+    atexit.register(os.kill, os.getpid(), signum)
+cli.entry()
+"""
+
+
+@pytest.mark.parametrize("signum, when", [(signal.SIGTERM, "main returned"), (signal.SIGINT, "exit functions")])
+def test_a_signal_after_the_command_returned_exits_130(tmp_path, signum, when):
+    """The command line (`cli.entry`) after `main` returned: while Python's exit functions run, a
+    signal still gives exit status 130 and the one line (the interpreter's teardown is skipped)."""
+    out = tmp_path / "late.h5"
+    proc = subprocess.run([sys.executable, "-c", LATE, str(int(signum)), when,
+                           *argv("core", out, "--set", "shot.count=100")],
+                          capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(ROOT)}, timeout=120)
+    assert proc.returncode == 130, (proc.returncode, proc.stderr)
+    assert proc.stderr.splitlines() == [f"warp-ricochet: interrupted; the run had completed: its result is in {out}"]
+    assert out.exists() and "pellets" in proc.stdout  # (the summary was printed before)

@@ -131,8 +131,10 @@ def test_report_and_plot_of_a_killed_runs_partial(tmp_path):
     before = digest(partial)
     rc, out_text, err = cli(["report", partial])
     assert rc == 0, err
-    assert (f"note: status is 'running': {2 * SEGMENT:,} of {scene.shot.count:,} pellets complete (66.7%); the "
-            "statistics are written when the run completes (warp-ricochet run ... --resume continues it)") in out_text
+    assert ("status: not finished (the writer is gone: killed or crashed; --resume continues it)" in out_text
+            and f"note: the run's writer is gone (killed or crashed): {2 * SEGMENT:,} of {scene.shot.count:,} pellets "
+            "complete (66.7%); the statistics are written when the run completes (warp-ricochet run ... --resume "
+            "continues it)" in out_text), out_text
     rc, out_text, err = cli(["plot", partial, "-o", tmp_path / "plots"])  # plot opens it too
     assert rc == 0 and "wrote" in out_text, err
     assert digest(partial) == before

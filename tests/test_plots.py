@@ -64,7 +64,10 @@ def test_plot_writes_every_plot_of_a_run_and_of_sweeps_side_by_side(files, tmp_p
     assert sorted(p.name for p in outdir.iterdir()) == sorted(want)  # no temporary files left
     assert sorted(printed) == sorted(f"wrote {outdir / name}" for name in want)
     for name, size in want.items():
-        assert png_size(outdir / name) == size, name
+        if name.endswith("hazard-map.png"):  # sized to the grid's shape (hazard_plots._map_size)
+            assert png_size(outdir / name)[0] == size[0], name
+        else:
+            assert png_size(outdir / name) == size, name
         assert (outdir / name).stat().st_size > 20_000, name  # drawn, not blank
 
 
@@ -177,3 +180,145 @@ def test_plot_distances_are_the_tallies_distances(tmp_path):
         top, bottom = f["stats/quantiles/distance"][-1], f["stats/quantiles/lower/distance"][-1]
     np.testing.assert_allclose(landings.distance, np.hypot(p[:, 0] - 5.0, p[:, 2] - 3.0), rtol=1e-12)
     assert bottom <= landings.distance.max() <= top
+
+
+# ---------------------------------------------------------------------------------------------- figure objects
+
+
+def _drawn(ax, handle, label) -> bool:
+    """A legend entry stands for something drawn: its own artist with data, or (a proxy, e.g. for a
+    contour or a danger-distance line) a drawn line or contour of its colour and line style."""
+    from matplotlib.colors import same_color
+    from matplotlib.lines import Line2D
+
+    if not isinstance(handle, Line2D):
+        return True  # patches, collections and error bars are the artists themselves
+    if len(handle.get_xdata()) and handle in ax.lines:
+        return True
+    if handle.get_linestyle() in ("None", " ", "") and handle.get_marker() in (None, "None", "", " "):
+        return True  # a note without a symbol (the landing map's horizontal planes) promises no artist
+    style, colour = handle.get_linestyle(), handle.get_color()
+    any_colour = label.startswith("danger distance")  # one entry a style, its lines in the thresholds' colours
+    for line in ax.lines:
+        if line is not handle and len(line.get_xdata()) and line.get_linestyle() == style and (
+                any_colour or same_color(line.get_color(), colour)):
+            return True
+    return style == "-" and any(hasattr(c, "levels") and any(same_color(e, colour) for e in c.get_edgecolor())
+                                for c in ax.collections)  # a contour drawn in that colour
+
+
+def legend_entries(fig):
+    """(axes, handle, label) of every legend of `fig`, and the legends' titles."""
+    out, titles = [], []
+    for legend in [ax.get_legend() for ax in fig.axes if ax.get_legend()] + list(fig.legends):
+        ax = legend.axes if legend.axes is not None and legend.axes in fig.axes else fig.axes[0]
+        titles.append(legend.get_title().get_text())
+        out += [(ax, h, t.get_text()) for h, t in zip(legend.legend_handles, legend.get_texts())]
+    return out, titles
+
+
+def _hazard_dict(names=("a", "b", "c", "eye"), extent=(40.0, 80.0, -5.0, 5.0), same=3):
+    """A map of 40 m x 10 m whose first `same` thresholds have every landing above them (one layer)."""
+    rng = np.random.default_rng(3)
+    u, v = np.linspace(extent[0], extent[1], 81), np.linspace(extent[2], extent[3], 21)
+    count = np.zeros((20, 80), np.int64)
+    count[8:12, 10:60] = rng.integers(1, 50, (4, 50))
+    above = np.stack([count if i < same else np.where(np.arange(80) < 30, count, 0) for i in range(len(names))])
+    r = np.array([[59.0, 59.5] if i < same else [44.0, np.inf] for i in range(len(names))])
+    edges = np.geomspace(1.0, 100.0, 401)
+    distance_counts = np.zeros((len(names) + 1, 400), np.int64)
+    distance_counts[-1, 300:350] = 10  # every landing above every threshold: identical curves
+    return {"edges": edges, "distance_counts": distance_counts, "names": list(names),
+            "threshold_speed": np.zeros(len(names), bool), "fractions": np.array([1e-3, 1e-6]),
+            "danger_distance": r, "ci_low": r - 0.5, "ci_high": r + 0.5, "map_count": count, "map_above": above,
+            "map_energy": np.zeros(len(names)), "map_u_edges": u, "map_v_edges": v, "map_outside": 0}
+
+
+@pytest.mark.parametrize("plot", [p for p in PLOTS if p.kind == "run"], ids=lambda p: p.name)
+def test_every_legend_entry_of_a_run_plot_has_a_drawn_artist(files, plot):
+    from matplotlib.figure import Figure
+
+    for name in ("run", "stats"):
+        with h5py.File(files[name]) as f:
+            fig = Figure(figsize=plot.size, layout="constrained")
+            if not plot.draw(fig, f):
+                continue
+        entries, titles = legend_entries(fig)
+        for ax, handle, label in entries:
+            assert _drawn(ax, handle, label), (plot.name, name, label)
+        for title in titles:  # a title may not promise what no entry shows (the danger distances were one)
+            assert "danger" not in title, (plot.name, name, title)
+
+
+def test_the_hazard_plots_merge_thresholds_that_coincide_and_fit_the_map():
+    from matplotlib.figure import Figure
+
+    from warp_ricochet.report import hazard_plots
+
+    d = _hazard_dict()
+    fig = Figure(figsize=(8, 6), layout="constrained")  # the registry's size: resized to the grid
+    assert hazard_plots.draw_map(fig, d)
+    entries, _ = legend_entries(fig)
+    labels = [label for _, _, label in entries]
+    assert labels == ["a, b, c: where above; dashed: danger distance 59.5 m (p = 1e-06)",
+                      "eye: where above; dashed: danger distance 44 m (p = 0.001)"]  # no shooter: it is at u = 0
+    assert all(_drawn(ax, h, label) for ax, h, label in entries)
+    fig.draw_without_rendering()  # the constrained layout, as saved
+    ax = fig.axes[0]
+    box = ax.get_position(original=False)  # the drawn box (equal scales), in figure fractions
+    assert box.height > 0.45 and box.width > 0.6, (box, fig.get_size_inches())  # not mostly blank
+    assert (ax.get_xlim(), ax.get_ylim()) == ((40.0, 80.0), (-5.0, 5.0))
+
+    d = _hazard_dict(extent=(-10.0, 30.0, -5.0, 5.0))
+    fig = Figure(layout="constrained")
+    hazard_plots.draw_map(fig, d)
+    assert "shooter" in [label for _, _, label in legend_entries(fig)[0]]
+
+    fig = Figure(layout="constrained")
+    assert hazard_plots.draw_survival(fig, _hazard_dict(same=4))
+    entries, titles = legend_entries(fig)
+    assert [label for _, _, label in entries] == [
+        "all landings", "above a, b, c, eye (every landing)", "danger distance, p = 0.001",
+        "danger distance, p = 1e-06"]
+    assert all(_drawn(ax, h, label) for ax, h, label in entries) and titles == [""]
+    ax = fig.axes[0]
+    assert ax.get_lines()[1].get_linestyle() != "-"  # dashed over the black curve it would hide
+
+
+def _sweeps(files):
+    from warp_ricochet.report.plots import Sweep
+    from warp_ricochet.report.tables import read_results
+
+    return [Sweep(read_results(files[k]), h5py.File(files[k]), k) for k in ("vacuum", "air")]
+
+
+def test_compared_sweep_panels_have_one_scale_and_the_paper_is_explained(files):
+    from matplotlib.figure import Figure
+
+    from warp_ricochet.report.plots import draw_sweep_ranges, draw_sweep_survival
+
+    sweeps = _sweeps(files)
+    try:
+        fig = Figure(figsize=(13, 5), layout="constrained")
+        assert draw_sweep_ranges(fig, sweeps)
+        vacuum, air = fig.axes[:2]
+        assert vacuum.get_yscale() == air.get_yscale() == "log" and vacuum.get_ylim() == air.get_ylim()
+        drawn = [r[k] for s in sweeps for r in s.results.rows for k in ("range_min", "range_max")]
+        assert vacuum.get_ylim()[0] <= min(drawn) and max(drawn) <= vacuum.get_ylim()[1]
+        paper = [label for _, _, label in legend_entries(fig)[0] if "Zohdi" in label]
+        assert len(paper) == 1 and "(27)-(29)" in paper[0]  # why its markers sit far below ours
+        errorbar = vacuum.containers[0]
+        low = min(float(np.min(seg[:, 1])) for seg in errorbar.lines[2][0].get_segments())
+        assert vacuum.get_ylim()[0] <= low  # the paper's L- (17 m) is inside the axes
+
+        fig = Figure(figsize=(13, 5), layout="constrained")
+        assert draw_sweep_survival(fig, sweeps)
+        panels = [ax for ax in fig.axes if ax.get_lines()]
+        assert len(panels) == 2 and {ax.get_xscale() for ax in panels} == {"log"}
+        for ax in panels:
+            x = np.concatenate([line.get_xdata() for line in ax.get_lines()])
+            assert ax.get_xlim()[0] <= x.min() and x.max() <= ax.get_xlim()[1]
+            assert any(t.get_text() for t in ax.get_xticklabels())  # a narrow log axis still has numbers
+    finally:
+        for s in sweeps:
+            s.file.close()

@@ -338,7 +338,7 @@ BAD = [
     ("shot.count", _set("shot.count", 0)),
     ("shot.count", _set("shot.count", 2**31)),
     ("shot.count", _set("shot.count", 1.5)),
-    ("shot.count", _set("shot.count", 450.0)),
+    ("shot.count", _set("shot.count", 2.0**31)),  # integral (450.0 is 450), out of range
     ("shot.count", _set("shot.count", True)),
     ("shot.seed", _set("shot.seed", -1)),
     ("surfaces.0.normal", _set("surfaces.0.normal", [0, 0, 0])),
@@ -399,8 +399,12 @@ def test_messages():
     with pytest.raises(SceneError) as e:
         scene_from_dict(set_dotted(paper(), "surfaces.0.restitution", 1.5))
     assert str(e.value) == "surfaces.0.restitution = 1.5: must be a number in [0, 1]"
-    with pytest.raises(SceneError, match="unknown key; allowed keys: .*diameter"):
+    with pytest.raises(SceneError, match="unknown key; did you mean shot.diameter[?] allowed keys: .*diameter"):
         scene_from_dict(set_dotted(paper(), "shot.diametre", 1))
+    with pytest.raises(SceneError, match=r"^surfaces.0.mu = 1: unknown key; did you mean surfaces.0.mu_s\? allowed"):
+        scene_from_dict(set_dotted(paper(), "surfaces.0.mu", 1))
+    with pytest.raises(SceneError, match=r"^zzz = 1: unknown key; allowed keys: shot, "):  # nothing close: no guess
+        scene_from_dict(set_dotted(paper(), "zzz", 1))
     with pytest.raises(SceneError, match="must be finite"):
         scene_from_dict(set_dotted(paper(), "shot.direction", [math.nan, 1, 0]))
     with pytest.raises(SceneError, match="is required"):
@@ -479,3 +483,57 @@ def test_every_example_scene_loads_and_the_paper_stays_in_vacuum():
     scenes = {p.stem: load_scene(p) for p in sorted((Path(__file__).resolve().parents[1] / "examples").glob("*.toml"))}
     assert scenes["paper"].air is None and scenes["steel_plate"].air is None
     assert scenes["field"].air is not None and scenes["steel_plate_air"].air.drag == "table"
+
+
+def test_an_integer_written_as_a_float_is_an_integer(tmp_path):
+    """TOML reads 1e6 as a float: an integral one is the integer; 1.5 and 1e300 are still refused."""
+    path = tmp_path / "s.toml"
+    path.write_text(PAPER_TOML)
+    scene = load_scene(path, ["shot.count=1e6", "physics.bounces=2.0"])
+    assert (scene.shot.count, scene.physics.bounces) == (1_000_000, 2)
+    assert type(scene.shot.count) is int and scene.to_dict()["shot"]["count"] == 1_000_000
+    for assignment, shown in (("shot.count=1.5", "1.5"), ("shot.count=1e300", "1e+300"), ("shot.seed=-1.0", "-1.0")):
+        with pytest.raises(SceneError, match=r"^shot\.\w+ = " + shown.replace("+", r"\+") + ": must be an integer in"):
+            load_scene(path, [assignment])
+
+
+def test_an_unknown_key_given_with_set_gets_a_suggestion(tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_text(PAPER_TOML)
+    with pytest.raises(SceneError, match=r"^numerics\.precisoin = 'float64': unknown key; did you mean "
+                                         r"numerics\.precision\? allowed keys: precision, "):
+        load_scene(path, ["numerics.precisoin=\"float64\""])
+
+
+@pytest.mark.parametrize("layout", ["npz", "npz-fortran", "h5"])
+def test_pellet_files_are_read_and_checked_in_pieces(tmp_path, monkeypatch, layout):
+    """Pieces of 4 rows (PIECE_ROWS): the arrays come back whole, in C or Fortran order, and the first
+    bad pellet is named with its values wherever it lies (a later column's earlier row first)."""
+    from warp_ricochet.scene import pellets
+
+    monkeypatch.setattr(pellets, "PIECE_ROWS", 4)
+    rng = np.random.default_rng(7)
+    arrays = {"position": rng.normal(size=(11, 3)), "velocity": rng.normal(size=(11, 3)).astype(np.float32),
+              "angular_velocity": rng.integers(-5, 5, size=(11, 3))}
+    order = "F" if layout == "npz-fortran" else "C"
+    path = tmp_path / ("p.h5" if layout == "h5" else "p.npz")
+
+    def write(arrays):
+        arrays = {k: np.asarray(v, order=order) for k, v in arrays.items()}
+        if layout == "h5":
+            with h5py.File(path, "w") as f:
+                for k, v in arrays.items():
+                    f.create_dataset(k, data=v, chunks=(2, 3))
+        else:
+            np.savez(path, **arrays)
+
+    write(arrays)
+    got = load_pellet_file(path)
+    for name, values in arrays.items():
+        np.testing.assert_array_equal(got[name], values.astype(np.float64))
+    bad = {k: v.copy() for k, v in arrays.items()}
+    bad["position"][9, 0] = 2e6  # out of the domain, in the first column of a later piece
+    bad["position"][6, 2] = np.inf  # not finite, in the last column of an earlier piece: the first bad pellet
+    write(bad)
+    with pytest.raises(SceneError, match=r"^shot.file:position = \[.*, inf\]: must be finite \(pellet 6\)$"):
+        load_pellet_file(path)

@@ -313,3 +313,36 @@ def test_a_point_interrupted_while_its_file_was_set_up_is_run_again(interrupted,
     rc, _, err = cli(["sweep", *ARGS, "-o", out, "--resume"])
     assert rc == 0, err
     assert_same_sweep(out, reference)
+
+
+# ---------------------------------------------------------------------------------------------- memory
+
+
+def test_a_sweep_keeps_no_point_s_landing_counts(tmp_path):
+    """Issue 24, item 5: each point's landing counts (3.7 MB with the four hazard thresholds of
+    examples/hazard.toml) stayed in the list a sweep returns, so its memory grew with every point.
+    Python's allocations (tracemalloc sees NumPy's arrays) from point 2 to point 6 of a sweep file:
+    16 MB before, now about 0.1 MB (bench/sweep_memory.py measures 1,000 points). Without a file each
+    point keeps the results of its counts instead (less the map)."""
+    from warp_ricochet.tallies.quantiles import summarize
+
+    hazard, sets = ROOT / "examples" / "hazard.toml", ["shot.shots=1", "shot.count=20"]
+    scene, values, traced = load_scene(hazard, sets), [0.04 * i for i in range(6)], []
+
+    def progress(done, total):
+        if done * len(values) % total == 0:  # a point done
+            traced.append(tracemalloc.get_traced_memory()[0])
+
+    tracemalloc.start()
+    try:
+        results = wr.sweep(scene, {"surfaces.0.restitution": values}, output=tmp_path / "s.h5", device="cpu",
+                           progress=progress)
+    finally:
+        tracemalloc.stop()
+    assert len(traced) == len(values) and traced[-1] - traced[1] < 1e6, traced
+    assert all(stats.tally is None for _, stats in results)
+    [(_, stats)] = wr.sweep(scene, {"surfaces.0.restitution": [0.04]}, device="cpu")
+    alone = wr.run(load_scene(hazard, [*sets, "surfaces.0.restitution=0.04"]), device="cpu")
+    expected = summarize(alone.tally, int(alone["landed"]))
+    assert stats.tally is None and expected.pop("map") is not None and sorted(stats.summary) == sorted(expected)
+    np.testing.assert_equal(stats.summary, expected)

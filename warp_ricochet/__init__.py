@@ -10,8 +10,8 @@ chunk loop, `spec` what a run compiles, `fields` the output fields; `api` and `c
 from ._version import __version__
 from .errors import OutputError, PrecisionWarning, RicochetError, SceneError, SceneWarning
 
-__all__ = ["__version__", "RicochetError", "SceneError", "OutputError", "PrecisionWarning", "SceneWarning", "impact",
-           "load_scene", "open_run", "run", "sweep"]
+__all__ = ["__version__", "RicochetError", "SceneError", "OutputError", "PrecisionWarning", "SceneWarning", "STAT_UNITS",
+           "impact", "load_scene", "open_run", "run", "sweep"]
 
 
 def __getattr__(name):
@@ -24,6 +24,10 @@ def __getattr__(name):
         from .io.reader import open_run
 
         return open_run
+    if name == "STAT_UNITS":  # name -> (unit, description) of every statistic a run returns (SI units)
+        from .tallies.sums import STAT_UNITS
+
+        return STAT_UNITS
     if name == "load_scene":
         from .scene import load_scene
 

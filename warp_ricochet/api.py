@@ -10,17 +10,21 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import logging
 import math
+import os
+import time
 import warnings
 from pathlib import Path
 
 import numpy as np
 
 from . import interrupts
-from .chunks import check_chunk_memory, plan_shots
+from .chunks import check_chunk_memory, check_tallies, plan_shots
 from .core.impact import impact_kernel_for
 from .device import resolve_device, warp
 from .errors import PrecisionWarning, SceneError, SceneWarning  # noqa: F401 - PrecisionWarning: part of the API
+from .errors import OutputError
 from .fields import bytes_per_pellet
 from .io import resume, sweepdir
 from .io.runfile import OutputFile, check_output_path, check_resume_path, output_target
@@ -34,7 +38,10 @@ from .pipeline import run as run_pipeline
 from .scene import Scene, SweepPoints, load_pellet_file, load_scene, scene_from_dict, set_dotted
 from .scene import schema as domain
 from .spec import RunSpec
+from .tallies.quantiles import summarize
 from .tallies.sums import stat_names
+
+log = logging.getLogger(__name__)  # informational lines (`warp-ricochet -v`)
 
 # --------------------------------------------------------------------------- impact API
 
@@ -143,9 +150,12 @@ NO_HITS = ("no pellet hit any surface (all {:,} missed): check shot.direction an
 def check_resources(scenes, dev, output, rows_done=0, copies=1) -> None:
     """Before any work: every explicit chunk size fits in memory, and the output (less `rows_done`
     rows already written, for a resumed run; `copies` times: a sweep's points, then the sweep file
-    made of them) fits on its disk: else a one-line error, no file made."""
+    made of them) fits on its disk: else a one-line error (OutputError: bad input, exit status 2),
+    no file made."""
+    tallies = 0  # bytes of the tallies' datasets
     for sc in scenes:
         check_chunk_memory(sc, dev, output is not None)
+        tallies += check_tallies(sc, dev, output)
         if sc.pair_collisions and sc.collisions.frame_every and output is not None:
             shots = sc.shot.shots  # H5MD frames hold every pellet of the run at each frame
             if plan_shots(sc, dev, shots) < shots:
@@ -153,9 +163,12 @@ def check_resources(scenes, dev, output, rows_done=0, copies=1) -> None:
                                  f"trajectory frames need the whole run in one chunk, and its {shots} shots take "
                                  "more: fewer shots, or numerics.chunk_size, or frame_every = 0")
     if output is not None:
-        need = copies * sum((sc.shot.pellets - rows_done) * bytes_per_pellet(sc.output.fields, sc.numerics.precision,
-                                                                    sc.physics.bounces) for sc in scenes)
-        check_space(output, need, "the output")
+        need = copies * (tallies + sum((sc.shot.pellets - rows_done) * bytes_per_pellet(
+            sc.output.fields, sc.numerics.precision, sc.physics.bounces) for sc in scenes))
+        try:
+            check_space(output, need, "the output")
+        except OSError as exc:  # bad input, found before any work (a disk filling during the run: exit 1)
+            raise OutputError(f"output path = {os.fsdecode(output)!r}: cannot fit: {exc.strerror}") from None
 
 
 def _compute(scene, dev, writer=None, progress=None, resumed=None, dense_options=None) -> dict:
@@ -165,8 +178,15 @@ def _compute(scene, dev, writer=None, progress=None, resumed=None, dense_options
     spec = RunSpec.of(scene, with_output=writer is not None)
     arrays = load_pellet_file(scene.shot.file) if scene.shot.file is not None else None
     frames = writer.append_frame if writer is not None and spec.collisions and scene.collisions.frame_every else None
+    log.info("%s pellets on %s, %s, %s%s%s", f"{scene.shot.pellets:,}", dev, scene.numerics.precision,
+             "in air" if scene.in_air else "in vacuum", ", pellet-pellet collisions" if spec.collisions else "",
+             f", resuming after {resumed.rows:,} rows" if resumed is not None else "")
+    start = time.perf_counter()
     stats = run_pipeline(scene, model, spec, arrays=arrays, sink=writer, resumed=resumed, progress=progress,
                          options=dense_options, frames=frames)
+    seconds = time.perf_counter() - start
+    log.info("%s pellets in %.3g s (%.3g pellets/s)", f"{int(stats['pellets']):,}", seconds,
+             stats["pellets"] / seconds if seconds > 0 else math.inf)
     if writer is not None:
         writer.write_stats(stats)
     if stats["hits"] == 0 and stats["pellets"] > 0 and scene.surfaces:
@@ -272,8 +292,11 @@ def sweep(scene, params: dict, ties=(), output=None, device=None, *, overwrite=F
     mu_d = 0.9 mu_s). Returns [(point, stats)]. With `output`, writes one HDF5 file: the sweep
     values in /sweep, each run in /runs/NNNN, and every statistic as an array in /stats; while it
     runs, each point is a run file in OUTPUT.partial/ (`io.sweepdir`), and `resume` continues a
-    sweep interrupted or killed there (the statistics of the points it reads back from their files
-    have no `.tally`; the file holds every point's tallies)."""
+    sweep interrupted or killed there. No point keeps its landing counts (`.tally`, megabytes a
+    point) once it is done, so a sweep's memory stays flat (bench/sweep_memory.py): with `output`
+    the file holds them and their results; without, each point's `stats.summary` holds their
+    results (`tallies.quantiles.summarize`, arrays as lists) but the map's, which only a sweep file
+    keeps."""
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
     output = output if output is not None else scene.output.path
@@ -284,7 +307,8 @@ def sweep(scene, params: dict, ties=(), output=None, device=None, *, overwrite=F
     if output is None:
         dev = resolve_device(device)
         check_resources(scenes, dev, None)
-        return [(points[i], _run_one(sc, dev, None, _point_progress(progress, i, len(scenes)), dense_options))
+        return [(points[i], _point_done(_run_one(sc, dev, None, _point_progress(progress, i, len(scenes)),
+                                                 dense_options), summary=True))
                 for i, sc in enumerate(scenes)]
     path = output_target(output) if resume else check_output_path(output, overwrite)  # before any work
     dev = resolve_device(device)
@@ -306,13 +330,35 @@ def sweep(scene, params: dict, ties=(), output=None, device=None, *, overwrite=F
             else:
                 if partial.exists() and not sweepdir.resumable_point(partial):  # no chunk in it: run it again
                     partial.unlink()
-                stats = run(sc, point_path, dev, progress=step, dense_options=dense_options, resume=partial.exists(),
-                            sidecar=False)
+                stats = _point_done(run(sc, point_path, dev, progress=step, dense_options=dense_options,
+                                        resume=partial.exists(), sidecar=False), summary=False)
             results.append((points[i], stats))
         folder.assemble(points, [s for _, s in results], overwrite=overwrite, device=str(dev),
                         scene_toml=scene.to_toml(), seed=None if scene.shot.file else scene.shot.seed,
                         precision=scene.numerics.precision)
     return results
+
+
+def _point_done(stats, summary: bool):
+    """A sweep point's statistics, its landing counts dropped (the hazard's histograms: 0.5 MB a row),
+    with `summary` their results first kept in `stats.summary`, less the map (a sweep file's only),
+    as lists of Python numbers: NumPy's small arrays, kept, would pin pages of the heap that the
+    summary's temporaries of megabytes leave, and the heap would grow a point at a time."""
+    tally, stats.tally = stats.tally, None
+    if summary and tally is not None:
+        results = summarize(tally, int(stats["landed"]))
+        results.pop("map", None)
+        stats.summary = _plain(results)
+    return stats
+
+
+def _plain(value):
+    """`value` with its arrays as (nested) lists of Python numbers, in dicts and tuples."""
+    if isinstance(value, dict):
+        return {key: _plain(v) for key, v in value.items()}
+    if isinstance(value, tuple):
+        return tuple(_plain(v) for v in value)
+    return value.tolist() if isinstance(value, np.ndarray) else value
 
 
 def _point_progress(progress, index: int, points: int):

@@ -5,13 +5,13 @@ explicit `numerics.chunk_size` fits in memory.
 
 from __future__ import annotations
 
-import re
-
 import numpy as np
 
 from .dense.schedule import dense_bytes_per_pellet, shot_granule
 from .errors import SceneError
 from .fields import bytes_per_pellet
+from .io.space import free_bytes, host_memory_available, size_text
+from .tallies.counts import TallySetup, tally_bytes
 from .tallies.reduce import SEGMENT, partial_bytes_per_pellet
 
 HOST_BUFFER_BYTES = 128 << 20  # per pinned host buffer (two are used): caps host memory
@@ -67,24 +67,6 @@ def plan_shots(scene, device, shots: int) -> int:
     return min(per_chunk, shots)
 
 
-def host_memory_available():
-    """Bytes of host memory still free for a run (Linux MemAvailable, capped by a cgroup limit), or
-    None where this cannot be read."""
-    try:
-        with open("/proc/meminfo") as f:
-            free = int(re.search(r"^MemAvailable:\s+(\d+) kB", f.read(), re.M).group(1)) * 1024
-    except (OSError, AttributeError, ValueError):
-        return None
-    for limit, usage in (("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current"),
-                         ("/sys/fs/cgroup/memory/memory.limit_in_bytes", "/sys/fs/cgroup/memory/memory.usage_in_bytes")):
-        try:
-            with open(limit) as a, open(usage) as b:
-                free = min(free, int(a.read()) - int(b.read()))
-        except (OSError, ValueError):  # no such cgroup file, or "max"
-            pass
-    return free
-
-
 def check_chunk_memory(scene, dev, with_output: bool) -> None:
     """An explicit `numerics.chunk_size` must fit in memory: refuse it in one line before any work
     (a chunk of 2e8 pellets with every output field needs 40 GB; the automatic size always fits)."""
@@ -106,3 +88,28 @@ def check_chunk_memory(scene, dev, with_output: bool) -> None:
             raise SceneError("numerics.chunk_size", chunk,
                              f"a chunk of {rows} pellets needs {need / 2**30:.3g} GiB, {free / 2**30:.3g} GiB is free "
                              f"{where}: give at most {fits} or leave it out (automatic)")
+
+
+def check_tallies(scene, dev, output) -> int:
+    """Before any work: the landing tallies (`tallies.counts.tally_bytes`: histograms and hazard map)
+    must fit in host and device memory, and their datasets on the output's disk; else one line naming
+    the map's keys and the estimate. Returns the bytes they add to the output file."""
+    if not scene.output.quantiles:
+        return 0
+    setup = TallySetup.of(scene, 1.0, 1.0, 1.0)  # (the shapes do not depend on the pellets)
+    host, device, file = tally_bytes(setup, dev, output is not None)
+    if setup.has_map:
+        hazard = scene.hazard
+        key, value = "hazard.map_cell", hazard.map_cell
+        what = (f"the hazard map of {setup.cells:,} cells ({setup.map_nu:,} x {setup.map_nv:,} cells of hazard.map_cell "
+                f"over hazard.map_extent {list(hazard.map_extent)}) x {setup.levels - 1} thresholds needs")
+        fix = "a larger map_cell, a smaller map_extent or fewer thresholds"
+    else:
+        key, value, what, fix = "output.quantiles", True, "the landing histograms need", "output.quantiles = false"
+    for need, free, where in ((host, host_memory_available(), "of host memory"),
+                              (device, dev.free_memory if dev.is_cuda else None, f"on {dev.alias}"),
+                              (file, None if output is None else free_bytes(output), "on the output's disk")):
+        if free is not None and need > free:
+            raise SceneError(key, value, f"{what} up to {size_text(need)} {where}, {size_text(free)} is "
+                                         f"free: {fix}")
+    return file

@@ -6,7 +6,11 @@
     warp-ricochet xdmf OUT.h5 [--overwrite]
     warp-ricochet plot OUT.h5 [OUT2.h5 ...] [-o DIR] [--overwrite]
     warp-ricochet example [NAME] [-o PATH] [--overwrite]
+    warp-ricochet --version | [-q|--quiet] [-v|--verbose] COMMAND ...
 
+`--quiet` and `--verbose` (before or after COMMAND) set the level of the package's `logging` loggers
+(`warp_ricochet`, and Python warnings through `py.warnings`): warnings by default, errors only with
+`--quiet` (no progress bar either), informational lines with `-v` and debugging lines with `-vv`.
 Exit status: 0 on success; 2 for a usage error or any invalid scene, override, device, output path or
 report input (one line `warp-ricochet: error: ...` on stderr, no traceback); 1 for an operating-system
 error such as a full disk; 130 when interrupted. Warp itself is imported only by `run` and `sweep`.
@@ -15,6 +19,9 @@ error such as a full disk; 130 when interrupted. Warp itself is imported only by
 from __future__ import annotations
 
 import argparse
+import atexit
+import ctypes
+import logging
 import os
 import signal
 import sys
@@ -58,6 +65,40 @@ def _add_report_options(p: argparse.ArgumentParser) -> None:
                    help="also print the paper's values for the same mu_s and the relative differences of the ranges")
 
 
+def _add_verbosity(p: argparse.ArgumentParser, default) -> None:
+    """-q / -v, given before or after the command (the command's parser leaves them unset unless given)."""
+    group = p.add_mutually_exclusive_group()
+    group.add_argument("-q", "--quiet", action="store_true", default=default,
+                       help="errors only: no warnings, no progress bar")
+    group.add_argument("-v", "--verbose", action="count", default=default,
+                       help="informational lines on stderr too (-vv: debugging lines)")
+
+
+class _Version(argparse.Action):
+    """`--version`: the package's version, Warp's and the devices Warp finds (Warp imported only here)."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS, help=None):
+        super().__init__(option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(version_text())
+        parser.exit()
+
+
+def version_text() -> str:
+    """Three lines: warp-ricochet's version, Warp's, and each device Warp can use here."""
+    lines = [f"{PROG} {__version__}"]
+    try:
+        from .device import warp
+
+        wp = warp()
+    except Exception as exc:  # Warp missing or broken: say so rather than fail
+        return "\n".join(lines + [f"Warp: not usable here ({_one_line(exc)})"])
+    lines.append(f"Warp {wp.__version__}")
+    lines.append("devices: " + ", ".join(f"{d.alias} ({d.name})" for d in wp.get_devices()))
+    return "\n".join(lines)
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse, its usage errors as the one line the README promises (`warp-ricochet: error: ...`), exit 2."""
 
@@ -73,8 +114,15 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
+    parser.add_argument("--version", action=_Version, help="show the version of warp-ricochet and Warp, and the "
+                                                             "devices available, and exit")
+    _add_verbosity(parser, None)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    _add_subparsers(sub)
+    return parser
+
+
+def _add_subparsers(sub) -> None:
 
     p = sub.add_parser("run", help="run one scene and print a summary of its statistics",
                        description="Run every pellet of a scene, write HDF5 (with -o) and print a summary.")
@@ -118,7 +166,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--overwrite", action="store_true", help="replace OUT.xmf if it exists")
     p.set_defaults(func=cmd_xdmf)
     _add_plot_and_example(sub)
-    return parser
+    for p in sub.choices.values():
+        _add_verbosity(p, argparse.SUPPRESS)
 
 
 def _add_plot_and_example(sub) -> None:
@@ -160,7 +209,7 @@ def cmd_run(args) -> int:
     from . import api
 
     interrupts.check()
-    with ProgressBar("run") as bar:
+    with ProgressBar("run", enabled=False if args.quiet else None) as bar:
         stats = api.run(scene, args.output, args.device, overwrite=args.overwrite, progress=bar, resume=args.resume)
     output = args.output if args.output is not None else scene.output.path
     args.completed = output  # a signal from here on: the result is complete (None: statistics only)
@@ -175,16 +224,19 @@ def cmd_sweep(args) -> int:
     from .scene import load_scene, parse_sweep, parse_tie
 
     scene = load_scene(args.scene, args.overrides)
+    set_keys = {str(o).partition("=")[0].strip() for o in args.overrides}
     params = {}
     for spec in args.params:
         key, values = parse_sweep(spec)
         if key in params:
             raise SceneError(key, spec, "is swept twice; give each --param key once")
+        if key in set_keys:  # the sweep would replace the --set value at every point
+            raise SceneError(key, spec, "is given with --set too; give it either --set or --param")
         params[key] = values
     ties = [parse_tie(spec) for spec in args.ties]
     from . import api
 
-    with ProgressBar("sweep") as bar:
+    with ProgressBar("sweep", enabled=False if args.quiet else None) as bar:
         results = api.sweep(scene, params, ties, args.output, args.device, overwrite=args.overwrite, progress=bar,
                             resume=args.resume)
     output = args.output if args.output is not None else scene.output.path
@@ -270,19 +322,54 @@ def _error(message: str) -> None:
     print(f"{PROG}: error: {_one_line(message)}", file=sys.stderr)
 
 
+class _OneLine(logging.Formatter):
+    """`warp-ricochet: warning: ...` (the level in lower case), one line, like the errors."""
+
+    def format(self, record):
+        return f"{PROG}: {record.levelname.lower()}: {_one_line(record.getMessage())}"
+
+
+LOGGERS = ("warp_ricochet", "py.warnings")
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    """Python warnings (PrecisionWarning, SceneWarning, ...) as log lines of `py.warnings`, as
+    `logging.captureWarnings` does, without its file and line (they are the user's, not code's)."""
+    logging.getLogger("py.warnings").warning("%s", message)
+
+
+def configure_logging(verbose: int = 0, quiet: bool = False, stream=None) -> None:
+    """The command's log lines on stderr: WARNING by default, ERROR with `quiet`, INFO with one
+    `verbose`, DEBUG with two. Python warnings (e.g. PrecisionWarning) go through `py.warnings`."""
+    if quiet:
+        level = logging.ERROR
+    else:
+        level = (logging.WARNING, logging.INFO, logging.DEBUG)[min(verbose, 2)]
+    handler = logging.StreamHandler(sys.stderr if stream is None else stream)
+    handler.setFormatter(_OneLine())
+    warnings.showwarning = _show_warning
+    for name in LOGGERS:
+        logger = logging.getLogger(name)
+        for old in [h for h in logger.handlers if isinstance(h.formatter, _OneLine)]:
+            logger.removeHandler(old)
+        logger.addHandler(handler)
+        logger.setLevel(level)
+        logger.propagate = False
+
+
 def main(argv=None) -> int:
     """Entry point of `warp-ricochet`; returns the exit status (argparse exits itself on usage errors).
     Ctrl-C and SIGTERM are requests the run acts on at safe points (`interrupts`): the output is
     closed and marked "interrupted", exit status 130."""
     args = build_parser().parse_args(argv)
-    # warnings (e.g. api.PrecisionWarning) in one line, like the errors
-    warnings.formatwarning = lambda message, category, *_args, **_kwargs: f"{PROG}: warning: {_one_line(str(message))}\n"
+    configure_logging(args.verbose or 0, args.quiet or False)
     try:
         with interrupts.honoured((signal.SIGINT, signal.SIGTERM)):
             status = _run_command(args)
     except KeyboardInterrupt:  # a signal after the command's last check (its result complete)
-        print(f"{PROG}: interrupted", file=sys.stderr)
+        print(f"{PROG}: interrupted{_kept(_completed(args))}", file=sys.stderr)
         status = 130
+    _LATE["note"] = _kept(_completed(args))  # (entry: a signal after main returned)
     runfile = sys.modules.get("warp_ricochet.io.runfile")
     if runfile is not None and runfile.ABANDONED:  # HDF5 crashes in its exit handler after a failed close
         sys.stdout.flush()
@@ -317,6 +404,14 @@ def _run_command(args) -> int:
         return 130
 
 
+def _completed(args) -> KeyboardInterrupt:
+    """A request after the command's last check, noting where its completed result is (`_kept`)."""
+    exc = KeyboardInterrupt()
+    exc.completed_path = getattr(args, "completed", None)
+    exc.completed_what = getattr(args, "completed_what", "run")
+    return exc
+
+
 def _kept(exc) -> str:
     """Where the chunks completed before a failure are (set by the output file when it was open)."""
     completed = getattr(exc, "completed_path", None)
@@ -330,15 +425,40 @@ def _kept(exc) -> str:
     return f"; the chunks completed are in {partial}{resumable}"
 
 
+_LATE = {"note": ""}  # what `entry` adds to "interrupted" for a signal after `main` returned
+
+
 def entry() -> int:
-    """The console script and `python -m warp_ricochet.cli`: `main`, then Ctrl-C and SIGTERM ignored
-    while the interpreter shuts down (the command's outcome and message are decided; a signal there
-    would otherwise end the process by the signal, with no message)."""
+    """The console script and `python -m warp_ricochet.cli`: `main` with Ctrl-C and SIGTERM recorded
+    from the start to the process's end (`interrupts.honour_until_exit`), then the exit: Python's
+    exit functions, and a request that no safe point acted on (one after the command returned)
+    ends as the others do: exit status 130 and the one line saying where the result is. The process
+    then ends at once (os._exit, after flushing), skipping the interpreter's teardown (~0.5 s in
+    which a signal could only have been ignored or ended the process without a word)."""
+    if threading.current_thread() is not threading.main_thread():
+        return main()
+    interrupts.honour_until_exit((signal.SIGINT, signal.SIGTERM))
     status = main()
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
-        signal.signal(signal.SIGTERM, signal.SIG_IGN)
-    return status
+    atexit._run_exitfuncs()  # (e.g. Warp's)
+    _flush_all()
+    if interrupts.pending() and status == 0:  # (a failure's status and line stand)
+        print(f"{PROG}: interrupted{_LATE['note']}", file=sys.stderr)
+        _flush_all()
+        status = 130
+    os._exit(status)  # (a signal from here on is recorded and dropped: the process is ending)
+
+
+def _flush_all() -> None:
+    """Flush Python's standard streams and the C library's (os._exit does neither)."""
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
+    try:
+        ctypes.CDLL(None).fflush(None)
+    except (OSError, AttributeError, TypeError):
+        pass
 
 
 if __name__ == "__main__":

@@ -3,6 +3,8 @@ errors), and a device named by the user resolved or refused in one line."""
 
 from __future__ import annotations
 
+import logging
+
 from .errors import RicochetError
 
 _INIT_NOTE = ""  # what Warp's native library said while starting (e.g. why CUDA is unavailable)
@@ -52,8 +54,8 @@ def _init_capturing_native_stderr(wp) -> str:
                 text = captured.read().decode(errors="replace").strip()
     finally:
         kept = [line for line in text.splitlines() if _CUDA_MISSING not in line]
-        if kept:
-            print("\n".join(kept), file=sys.stderr)
+        for line in kept:  # Warp's own notes, as warnings of this package's logger (`warp-ricochet -q` hides them)
+            logging.getLogger(__name__).warning("%s", line)
     return " ".join(text.split())
 
 

@@ -2,6 +2,7 @@
 
 import os
 import re
+import stat
 
 
 class RicochetError(Exception):
@@ -37,6 +38,25 @@ def shorten(text: str, limit: int) -> str:
 
 def _short(value, limit: int = 60) -> str:
     return shorten(repr(value), limit)
+
+
+_SPECIAL = ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISSOCK, "a socket"),
+            (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"))
+
+
+def not_regular(path) -> str | None:
+    """Why `path` cannot be read or written as a file when it exists but is no regular file ("is a
+    FIFO (named pipe), not a regular file"), found by os.stat (following links) without opening it:
+    opening a FIFO waits for a writer, a device may never end. None for a regular file or a path
+    that cannot be looked at (the caller's own open reports that)."""
+    try:
+        mode = os.stat(path).st_mode
+    except (OSError, TypeError, ValueError):
+        return None
+    if stat.S_ISREG(mode):
+        return None
+    what = next((name for test, name in _SPECIAL if test(mode)), "a special file")
+    return f"is {what}, not a regular file"
 
 
 def hdf5_reason(exc: Exception) -> str:

@@ -52,8 +52,9 @@ def honoured(signals=(signal.SIGINT,)):
     """While inside, `signals` only record a request (acted on by `check()`). A signal whose
     handler is not Python's default (SIGINT: raise KeyboardInterrupt; SIGTERM: end the process) is
     left alone, unless our handler is already installed. The outermost context starts with no
-    request and, leaving without an exception, raises KeyboardInterrupt for a request that no
-    `check()` acted on (a signal that came after the last safe point is not lost)."""
+    request and, leaving without an exception, raises KeyboardInterrupt (once the previous handlers
+    are back) for a request that no `check()` acted on (a signal that came after the last safe
+    point is not lost)."""
     global _depth, _raised
     if threading.current_thread() is not threading.main_thread():
         yield
@@ -70,12 +71,29 @@ def honoured(signals=(signal.SIGINT,)):
     _depth += 1
     try:
         yield
-        if _depth == 1 and _requested and not _raised:
-            check()
     finally:
         _depth -= 1
         for signum, handler in previous.items():
             signal.signal(signum, handler)
+    if _depth == 0 and pending():  # after the handlers are back: a signal in between is not lost either
+        check()
+
+
+def pending() -> bool:
+    """Whether a request was recorded that no `check()` has acted on."""
+    return bool(_requested) and not _raised
+
+
+def honour_until_exit(signals) -> None:
+    """`signals` only record a request from now until the process ends (the command line's entry
+    point: an outer `honoured` that never closes, so no signal meets a default handler between the
+    command's last safe point and its exit; `pending()` says whether one came). Main thread only."""
+    global _depth, _raised
+    for signum in signals:
+        signal.signal(signum, _record)
+    _requested.clear()
+    _raised = False
+    _depth += 1
 
 
 def honouring(fn):

@@ -16,6 +16,7 @@ raises KeyboardInterrupt before it computes the next chunk, so the sink holds wh
 from __future__ import annotations
 
 import contextlib
+import logging
 import threading
 import warnings
 from dataclasses import dataclass
@@ -45,6 +46,8 @@ from .tallies.collisions import (
 from .tallies.ensemble import ensemble_of, has_ensemble, per_shot_statistics
 from .tallies.reduce import SEGMENT_WIDTH, launch_reduce, threads_for
 from .tallies.sums import combine, empty_totals, finalize
+
+log = logging.getLogger(__name__)  # `warp-ricochet -vv`: a line per chunk
 
 ONE_SHOT_COLLISIONS = ("one shot with pellet-pellet collisions is one sample of a chaotic cloud: on the paper's shot its "
                        "mean range moves by a median 5% (up to 23%) when its launch moves by 1e-7, in float64 as in "
@@ -79,10 +82,12 @@ class Resumed:
 class RunStats(dict):
     """The statistics of a run ({name: float}, `tallies.sums.STAT_UNITS`) and, in `tally`, its
     landing counts (`TallyTotals`; None when the scene counts none: output.quantiles = false) and, in
-    `ensemble`, its intervals over shots (`tallies.ensemble.Ensemble`; None for one shot)."""
+    `ensemble`, its intervals over shots (`tallies.ensemble.Ensemble`; None for one shot). A sweep's
+    points keep no `tally`; without a sweep file, `summary` holds its results (`api.sweep`)."""
 
     tally = None
     ensemble = None
+    summary = None
 
 
 def landing_tally(scene, model, spec, arrays) -> DeviceTally:
@@ -320,6 +325,7 @@ def _loop(stage, pellets, sink, resumed, progress):
         if sink is not None:
             sink.append(arrays, slot.rows, segment_results, shot_totals, tally, shot_rows)
         done += slot.rows
+        log.debug("%s of %s pellets complete", f"{done:,}", f"{pellets:,}")
         if progress is not None:
             progress(done, pellets)
 

@@ -43,7 +43,7 @@ def make_checkpoint(spec) -> SimpleNamespace:
     d = dense_types(spec)
     scalar, Surfaces, Physics, Cloud, Pair = d.scalar, d.Surfaces, d.Physics, d.Cloud, d.Pair
     NEVER = d.NEVER
-    next_contact = make_flight(spec.precision, spec.static_planes).next_contact
+    next_contact = make_flight(spec.precision, spec.static_planes, snap=spec.flight != "air").next_contact
     _entry, _return, _contact, ballistic_position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
     contact_time = make_events(spec).contact_time
     AIR, BOUNCES = spec.in_air, spec.bounces

@@ -77,6 +77,7 @@ def make_ends(spec) -> SimpleNamespace:
         cloud.air_time[i] = scalar(0.0)
         cloud.kick_due[i] = 0
         cloud.air_rate[i] = scalar(0.0)
+        cloud.position_error[i] = vec3()
         cloud.last_collision[i] = scalar(wp.nan)
         cloud.neighbour_count[i] = 0
         cloud.stale[i] = 1

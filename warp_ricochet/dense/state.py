@@ -62,6 +62,7 @@ def make_state(precision: str):
         energy_lost: wp.array(dtype=scalar)  # J, half of each of its pair collisions' losses
         air_time: wp.array(dtype=scalar)  # s: in air, the air has acted on it up to this time (dense.air)
         air_rate: wp.array(dtype=scalar)  # 1/s: in air, its air rate at its last kick (dense.air)
+        position_error: wp.array(dtype=vec3)  # m: in air, the rounding its position lost at its last kick (dense.air)
         # each pellet's earliest event (plane or listed pair), kept until it or a neighbour changes
         event_time: wp.array(dtype=scalar)  # s since launch
         event_partner: wp.array(dtype=wp.int32)  # pellet row, -2 - plane, -1 none
@@ -148,7 +149,7 @@ def dense_types(spec) -> SimpleNamespace:
 
 VECTORS = ("position", "velocity", "angular_velocity", "ricochet_point", "first_velocity_before",
            "first_angular_velocity_before", "first_velocity_after", "first_angular_velocity_after", "launch_velocity",
-           "launch_angular_velocity", "grid_point", "build_offset", "now_position", "now_velocity")
+           "launch_angular_velocity", "grid_point", "build_offset", "now_position", "now_velocity", "position_error")
 SCALARS = ("time", "ricochet_time", "energy_lost", "event_time", "event_exit", "last_collision", "now_speed", "now_bound",
            "air_time", "air_rate")
 INTEGERS = ("phase", "end_surface", "touching", "impacts", "last_slipped", "first_surface", "first_slipped",

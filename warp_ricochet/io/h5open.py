@@ -39,7 +39,11 @@ def open_checked(path, shown: str):
 
     from ..errors import OutputError
 
+    from ..errors import not_regular
+
     path = os.fsdecode(path)
+    if not_regular(path):  # (a FIFO would wait for a writer)
+        raise OutputError(f"{shown}: {not_regular(path)}")
     if not os.path.isfile(path):
         raise OutputError(f"{shown}: " + ("is a directory" if os.path.isdir(path) else "does not exist"))
     if not h5py.is_hdf5(path):

@@ -3,6 +3,8 @@ output is refused while one holds it, and the system drops a lock when its proce
 
 from __future__ import annotations
 
+import os
+
 try:
     import fcntl
 except ImportError:  # Windows: no process lock (HDF5's own file locking still applies to sweeps)
@@ -25,3 +27,16 @@ def share(fd: int) -> None:
     """Turn the lock held on `fd` into a shared one (SWMR readers take shared locks)."""
     if fcntl is not None:
         fcntl.flock(fd, fcntl.LOCK_SH)
+
+
+def in_use(path) -> bool:
+    """Whether another process holds a lock on `path` (a partial file or a sweep's folder): a run or
+    sweep writing it (flock, see `io.runfile`, `io.sweepdir`) or an HDF5 reader."""
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return False
+    try:
+        return not try_lock(fd)
+    finally:
+        os.close(fd)

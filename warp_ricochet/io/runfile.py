@@ -7,7 +7,9 @@ run is complete (atomically; without overwrite, never over a file that appeared 
 the target is never half-written and a failed `--overwrite` run leaves the old result intact;
 an interrupted or failed run leaves its completed chunks in `NAME.partial`. Once a file is in place
 its XDMF sidecar `NAME.xmf` is written (`io.xdmf`; an existing one is replaced only with overwrite,
-and refused before any work otherwise). `io.writer.RunWriter` writes one run into a group of it. The layout is documented in
+and refused before any work otherwise; a SIGKILL between the two leaves NAME without it, and
+`warp-ricochet xdmf NAME` writes it: written first, it would name a file not yet there, and block a
+resume of the complete partial). `io.writer.RunWriter` writes one run into a group of it. The layout is documented in
 docs/output.md.
 
 Faults. A run file is written in HDF5 SWMR mode (single writer, multiple readers): every dataset
@@ -16,8 +18,9 @@ file on disk can be opened at any moment, by a reader while the run writes (`h5p
 swmr=True)`) or after the writer was killed. After each chunk the rows are written and flushed,
 then the chunk's per-segment statistics partials (`/progress/segment_results`), then the count of
 complete rows (`/progress/rows`), flushed again: readers and `--resume` trust the rows below that
-count. A process lock (flock) on NAME.partial, exclusive while the file is set up and shared
-once readers may open it, keeps a second writer or a resume off a file in use.
+count. A process lock (flock) on NAME.partial, exclusive while the file is set up (as
+NAME.partial.new) and shared before it appears as NAME.partial (a reader's HDF5 takes a shared lock
+as it opens it), keeps a second writer or a resume off a file in use.
 
 A full disk: HDF5 does not survive a failed write (the file it leaves can be unreadable, and the
 library crashes at exit), so it must never meet one. Before each chunk the file reserves the disk
@@ -35,6 +38,7 @@ from __future__ import annotations
 import datetime
 import errno
 import os
+import socket
 import warnings
 from pathlib import Path
 
@@ -43,12 +47,12 @@ import warp as wp
 
 from .. import interrupts
 from .._version import __version__
-from ..errors import OutputError, RicochetError, hdf5_reason, in_use_error
+from ..errors import OutputError, RicochetError, hdf5_reason, in_use_error, not_regular
 from .h5open import FORMAT_NAME, FORMAT_VERSION, open_for_reading
 from .space import Reservation
 from .xdmf import check_sidecar, sidecar_path, write_xdmf
 
-from .locks import share, try_lock
+from .locks import in_use, share, try_lock
 
 ABANDONED = False  # a file could not be closed: the HDF5 library must not run its exit handlers
 
@@ -61,6 +65,8 @@ def check_output_path(path, overwrite: bool) -> Path:
     p, shown = _target(path)
     if p.is_dir():
         raise OutputError(f"{shown}: is a directory")
+    if not_regular(p):  # (a FIFO, a device: never replaced, even with overwrite)
+        raise OutputError(f"{shown}: {not_regular(p)}")
     if p.exists() and not overwrite:
         raise OutputError(f"{shown}: exists; pass --overwrite (overwrite=True) to replace it")
     if p.is_symlink() and not p.exists() and not overwrite:  # else found only when the run moves into place
@@ -68,6 +74,8 @@ def check_output_path(path, overwrite: bool) -> Path:
                           "--overwrite (overwrite=True) to replace the link")
     partial = p.with_name(p.name + ".partial")
     if partial.exists():
+        if not partial.is_dir() and not_regular(partial):  # (checking its lock would open it)
+            raise OutputError(f"{shown}: {partial.name} {not_regular(partial)}; remove it")
         if in_use(partial):
             raise in_use_error(shown, partial.name)
         if not overwrite:
@@ -84,19 +92,6 @@ def check_output_path(path, overwrite: bool) -> Path:
     if not os.access(parent, os.W_OK | os.X_OK) or (p.exists() and not os.access(p, os.W_OK)):
         raise OutputError(f"{shown}: not writable (permission denied)")
     return p
-
-
-def in_use(path: Path) -> bool:
-    """Whether another process holds a lock on `path` (a partial file or a sweep's folder): a run or
-    sweep writing it (flock, see `_PartialLock`, `io.sweepdir`) or an HDF5 reader."""
-    try:
-        fd = os.open(path, os.O_RDONLY)
-    except OSError:
-        return False
-    try:
-        return not try_lock(fd)
-    finally:
-        os.close(fd)
 
 
 def output_target(path) -> Path:
@@ -201,6 +196,8 @@ class OutputFile:
             attrs["seed"] = seed
         if precision is not None:
             attrs["precision"] = precision
+        if self.watchable:
+            _name_writer(attrs)
 
     @classmethod
     def reopen(cls, path, *, overwrite: bool, check, sidecar: bool = True):
@@ -243,6 +240,7 @@ class OutputFile:
             raise
         self._opened("the resumed file", discard=False)
         self.h5.attrs["status"] = "running"
+        _name_writer(self.h5.attrs)
         return self, found
 
     def _opened(self, what: str, *, discard: bool):
@@ -268,10 +266,10 @@ class OutputFile:
     def start_watching(self):
         """Every object exists: from now on the file only grows, and readers may open it (SWMR)."""
         self.h5.swmr_mode = True
+        self._lock.share()  # before the file appears: a reader opening it at once takes a shared lock too
         if self.staging != self.partial:
             publish(self.staging, self.partial, self.overwrite, f"output path = {str(self.path)!r}")
             self.staging = self.partial
-        self._lock.share()
 
     def __enter__(self):
         return self
@@ -302,6 +300,7 @@ class OutputFile:
                     return False
             self.space.release()
             if self.staging != self.partial:  # failed during the set-up: closed now, so it opens
+                self._lock.share()  # (as in start_watching: a reader may open it the moment it appears)
                 try:
                     publish(self.staging, self.partial, self.overwrite, f"output path = {str(self.path)!r}")
                 except OutputError:  # NAME.partial appeared meanwhile: ours holds no chunk
@@ -313,6 +312,13 @@ class OutputFile:
         if exc_type is None and self.sidecar:
             publish_sidecar(self.path, self.overwrite)
         return False
+
+
+def _name_writer(attrs) -> None:
+    """Record the writing process (`writer_pid` on `writer_host`): `report` tells a run still
+    writing from one whose writer was killed (report.tables.writer_gone)."""
+    attrs["writer_pid"] = os.getpid()
+    attrs["writer_host"] = socket.gethostname()
 
 
 def publish_sidecar(path: Path, overwrite: bool) -> None:
@@ -426,6 +432,8 @@ def check_resume_path(path, overwrite: bool) -> Path:
     partial = p.with_name(p.name + ".partial")
     if partial.is_dir():
         raise OutputError(f"{shown}: {partial.name} is a sweep's folder; warp-ricochet sweep ... --resume continues it")
+    if not_regular(partial):
+        raise OutputError(f"{shown}: {partial.name} {not_regular(partial)}; it cannot be resumed")
     if not partial.is_file():
         raise OutputError(f"{shown}: nothing to resume: {partial.name} does not exist")
     if in_use(partial):

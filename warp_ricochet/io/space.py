@@ -1,7 +1,8 @@
-"""Disk space for HDF5 writes: a full disk must never meet the HDF5 library (the file a failed write
-leaves can be unreadable, and the library crashes at exit), so the space a chunk will take is
-reserved before it is written (Linux fallocate, FALLOC_FL_KEEP_SIZE: other writers filling the
-disk meanwhile cannot take it), or, where the file system cannot reserve, checked.
+"""Host memory free for a run (`host_memory_available`), and disk space for HDF5 writes: a full
+disk must never meet the HDF5 library (the file a failed write leaves can be unreadable, and the
+library crashes at exit), so the space a chunk will take is reserved before it is written (Linux
+fallocate, FALLOC_FL_KEEP_SIZE: other writers filling the disk meanwhile cannot take it), or,
+where the file system cannot reserve, checked.
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ import ctypes
 import errno
 import functools
 import os
+import re
 
 FALLOC_FL_KEEP_SIZE, FALLOC_FL_PUNCH_HOLE = 1, 2
 SPACE_MARGIN = 1 << 20  # bytes kept free beyond a chunk's data: HDF5 metadata and the final close
@@ -88,3 +90,21 @@ def size_text(n: float) -> str:
             return f"{n:.3g} {unit}" if unit != "B" else f"{int(n)} B"
         n /= 1000
     return f"{n:.3g} TB"  # pragma: no cover
+
+
+def host_memory_available():
+    """Bytes of host memory still free for a run (Linux MemAvailable, capped by a cgroup limit), or
+    None where this cannot be read."""
+    try:
+        with open("/proc/meminfo") as f:
+            free = int(re.search(r"^MemAvailable:\s+(\d+) kB", f.read(), re.M).group(1)) * 1024
+    except (OSError, AttributeError, ValueError):
+        return None
+    for limit, usage in (("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current"),
+                         ("/sys/fs/cgroup/memory/memory.limit_in_bytes", "/sys/fs/cgroup/memory/memory.usage_in_bytes")):
+        try:
+            with open(limit) as a, open(usage) as b:
+                free = min(free, int(a.read()) - int(b.read()))
+        except (OSError, ValueError):  # no such cgroup file, or "max"
+            pass
+    return free

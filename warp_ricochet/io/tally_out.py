@@ -28,7 +28,7 @@ def create(group, scene, model):
     setup = TallySetup.of(scene, model.mass, model.radius, 1.0)
     width = TallyTotals(setup).flat().size
     p = group["progress"]
-    _ds(p, "tally", np.zeros((2, width), dtype=np.int64), unit="1", chunks=(1, min(width, 1 << 20)),
+    _ds(p, "tally", shape=(2, width), dtype=np.int64, fillvalue=0, unit="1", chunks=(1, min(width, 1 << 20)),
         compression="gzip", compression_opts=1,
         doc="cumulative landing counts (warp_ricochet.tallies.counts.TallyTotals.flat) in two slots used in turn")
     _ds(p, "tally_rows", np.full(2, -1, dtype=np.int64), unit="1", doc="rows each tally slot is complete for")
@@ -77,18 +77,24 @@ def _create_hazard(g, setup):
     if setup.has_map:
         m = g.create_group("map")
         shape = (setup.map_nv, setup.map_nu)
-        _ds(m, "count", np.zeros(shape, dtype=np.int64), unit="1", doc="landings per cell (rows v, columns u)")
+        _ds(m, "count", **_map_layer(shape, np.int64), unit="1", doc="landings per cell (rows v, columns u)")
         _ds(m, "outside", np.int64(0), unit="1", doc="landings on the map's surface outside the grid")
         _ds(m, "elsewhere", np.int64(0), unit="1", doc="landings on other surfaces")
-        _ds(m, "energy", np.zeros(shape), unit="J", doc="kinetic energy at landing per cell, summed (fixed point: `quantum`)")
+        _ds(m, "energy", **_map_layer(shape, np.float64), unit="J", doc="kinetic energy at landing per cell, summed (fixed point: `quantum`)")
         _ds(m, "quantum", np.nan, unit="J", doc="the energy sums' unit: each landing's energy rounded to a multiple of it")
-        _ds(m, "above", np.zeros((t,) + shape, dtype=np.int64), unit="1", doc="landings above each threshold per cell")
+        _ds(m, "above", **_map_layer((t,) + shape, np.int64), unit="1", doc="landings above each threshold per cell")
         _ds(m, "u_edges", setup.map_u0 + setup.map_cell * np.arange(setup.map_nu + 1), unit="m", doc="cell edges along u")
         _ds(m, "v_edges", setup.map_v0 + setup.map_cell * np.arange(setup.map_nv + 1), unit="m", doc="cell edges along v")
         _ds(m, "origin", np.asarray(setup.map_origin), unit="m", doc="(u, v) = (0, 0): the shooter projected on the surface")
         _ds(m, "u_axis", np.asarray(setup.map_u), unit="1", doc="unit vector of u (downrange)")
         _ds(m, "v_axis", np.asarray(setup.map_v), unit="1", doc="unit vector of v = normal x u")
         _ds(m, "surface", np.int64(setup.map_surface), unit="1", doc="index of the surface the map lies on")
+
+
+def _map_layer(shape, dtype) -> dict:
+    """A map layer's dataset: zeros until written, gzip-compressed (most cells of a map are empty:
+    1e6 cells x 31 thresholds took 248 MB dense)."""
+    return dict(shape=shape, dtype=dtype, fillvalue=0, compression="gzip", compression_opts=1)
 
 
 def store_progress(group, tally: TallyTotals, rows: int):

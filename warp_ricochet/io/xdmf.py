@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import OutputError
+from ..errors import OutputError, not_regular
 from ..fields import FIELDS
 from .h5open import rows_final
 from .inputcheck import open_valid
@@ -72,6 +72,8 @@ def write_xdmf(path, *, overwrite: bool = False) -> Path:
     meanwhile without `overwrite`)."""
     src = Path(os.fsdecode(path))
     shown = f"file = {str(src)!r}"
+    if not_regular(src):
+        raise OutputError(f"{shown}: {not_regular(src)}")
     if not src.is_file():
         raise OutputError(f"{shown}: does not exist")
     check_sidecar(src, overwrite, shown)

@@ -100,7 +100,8 @@ def make_plane_search(precision: str, planes) -> SimpleNamespace:
                 state = wp.int32(2)
         elif height >= scalar(0.0):
             gap = height - physics.radius
-            if wp.abs(gap) <= TOLERANCE * (wp.abs(offset[0]) + wp.abs(offset[1]) + wp.abs(offset[2]) + physics.radius):
+            if wp.abs(gap) <= TOLERANCE * (wp.abs(offset[0] * normal[0]) + wp.abs(offset[1] * normal[1])
+                                           + wp.abs(offset[2] * normal[2]) + physics.radius):
                 gap = scalar(0.0)  # touching, up to rounding
             state = wp.int32(1)
             if gap <= scalar(0.0):

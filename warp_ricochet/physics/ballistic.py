@@ -28,15 +28,19 @@ EPSILON = {"float32": 1.1920929e-07, "float64": 2.220446049250313e-16}
 
 
 @functools.cache
-def make_ballistic(scalar, planes=None):  # noqa: C901
+def make_ballistic(scalar, planes=None, snap=True):  # noqa: C901
     """Return the flight `@wp.func`s for a Warp scalar type.
 
     `planes`: the number of planes when fixed at code generation (the loop over planes is then
     unrolled and, for the plane just left, the choice of root folded away); None reads it from
-    the arrays at run time.
+    the arrays at run time. `snap`: a gap within rounding noise of zero is taken as zero (below);
+    False for the dense phase in air, whose kicks move a pellet's reference state every few
+    steps: a snap at each would meet a plane early wherever the pellet comes within the noise
+    band of it (docs/air.md, section 3.2).
     """
     vec3 = wp.types.vector(3, scalar)
     STATIC_PLANES = planes
+    SNAP = snap
     TOLERANCE = scalar(ROUNDING * EPSILON["float32" if scalar is wp.float32 else "float64"])
     LATEST = scalar(MAX_FLIGHT_TIME)
 
@@ -112,8 +116,10 @@ def make_ballistic(scalar, planes=None):  # noqa: C901
             centre_height = wp.dot(offset, normal)
             if centre_height >= scalar(0.0):  # one-sided: centre behind the plane never touches
                 gap = centre_height - radius
-                if wp.abs(gap) <= TOLERANCE * (wp.abs(offset[0]) + wp.abs(offset[1]) + wp.abs(offset[2]) + radius):
-                    gap = scalar(0.0)  # touching, up to rounding
+                if wp.static(SNAP):  # the gap's rounding noise scales with sum |offset_k n_k|
+                    if wp.abs(gap) <= TOLERANCE * (wp.abs(offset[0] * normal[0]) + wp.abs(offset[1] * normal[1])
+                                                   + wp.abs(offset[2] * normal[2]) + radius):
+                        gap = scalar(0.0)  # touching, up to rounding
                 t = entry_time(gap, normal_speed, half_normal_gravity)
         if t > LATEST:
             t = scalar(NO_CONTACT)

@@ -31,16 +31,17 @@ MODELS = ("ballistic", "air")
 
 
 @functools.cache
-def make_flight(precision: str, planes=None, model: str = "ballistic", laws=None) -> SimpleNamespace:
+def make_flight(precision: str, planes=None, model: str = "ballistic", laws=None, snap: bool = True) -> SimpleNamespace:
     """The flight functions of `model`; `planes`: the number of planes when fixed at code
-    generation (loops over them unrolled), else None."""
+    generation (loops over them unrolled), else None; `snap`: the ballistic model takes a gap
+    within rounding of zero as zero (`physics.ballistic.make_ballistic`)."""
     if model not in MODELS:
         raise ValueError(f"flight model {model!r}: must be one of {MODELS}")
     if model == "air":
         return _air_flight(precision, planes, laws)
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
-    _entry, _return, contact_time, position_at, velocity_at = make_ballistic(scalar, planes)
+    _entry, _return, contact_time, position_at, velocity_at = make_ballistic(scalar, planes, snap)
 
     @wp.func
     def next_contact(position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces,

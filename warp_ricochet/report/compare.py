@@ -35,8 +35,38 @@ def _key(row, params):
     return tuple(round(float(row.get(p, math.nan)), 12) for p in params)
 
 
+DISTANCE_LEVELS = (("distance P50 (m)", 0.5), ("distance P99.9 (m)", 0.999))  # from the shooter: landing tallies
+
+
+def _distances(results: Results) -> dict:
+    """Point key -> {column: distance quantile} of each run in the file (its landing tallies,
+    `/stats/quantiles/distance` of the run or of each `/runs/NNNN`); empty where the file has none."""
+    import h5py
+    import numpy as np
+
+    from ..io.h5open import open_for_reading
+
+    params, out = list(results.params), {}
+    try:
+        with open_for_reading(results.meta["file"]) as f:
+            if results.kind == "run":
+                groups = [((), f)]
+            else:
+                values = [np.asarray(f["sweep"][p][()], dtype=np.float64).reshape(-1) for p in params]
+                groups = [(_key(dict(zip(params, v)), params), f.get(f"runs/{i:04d}")) for i, v in enumerate(zip(*values))]
+            for key, group in groups:
+                q = group.get("stats/quantiles/distance") if isinstance(group, h5py.Group) else None
+                if isinstance(q, h5py.Dataset):
+                    levels = list(np.asarray(group["stats/quantiles"].attrs["levels"], dtype=np.float64))
+                    out[key] = {c: float(q[levels.index(lv)]) for c, lv in DISTANCE_LEVELS if lv in levels}
+    except (OSError, KeyError, ValueError):  # statistics of a file written without tallies: no columns
+        return {}
+    return out
+
+
 def format_side_by_side(all_results: list[Results], fmt: str = "text") -> str:
-    """Table 3 (and the mean translational energy at landing) of each file, matched by sweep point."""
+    """Table 3, the mean translational energy at landing and the distance from the shooter (median
+    and P99.9 of the landing tallies) of each file, matched by sweep point."""
     first = all_results[0]
     params = list(first.params)
     for results in all_results[1:]:
@@ -49,16 +79,22 @@ def format_side_by_side(all_results: list[Results], fmt: str = "text") -> str:
     keys = list(dict.fromkeys(_key(r, params) for res in all_results for r in res.rows))
     headers = [_label(p, params) for p in params] or ["run"]
     n = len(headers)
-    headers += [f"{h} {label}" for label in labels for h, _ in COLUMNS]
+    distances = [_distances(res) for res in all_results]
+    shown = [c for c, _ in DISTANCE_LEVELS if any(c in d for dist in distances for d in dist.values())]
+    headers += [f"{h} {label}" for label in labels for h in [h for h, _ in COLUMNS] + shown]
     body = []
     for key in keys:
         sample = next(rows[key] for rows in by_point if key in rows)
         cells = _point_cells(sample, params, formatters)
-        for rows in by_point:
+        for rows, dist in zip(by_point, distances):
             row = rows.get(key)
             cells += [_num(row.get(stat)) if row is not None else NA for _, stat in COLUMNS]
+            cells += [_num(dist.get(key, {}).get(c)) for c in shown]
         body.append(cells)
     title = "Table 3. Post-impact ricochet ranges, side by side: " + ", ".join(labels)
+    if shown:
+        title += ("; range: eq. (42), from the last ricochet; distance: horizontal, from the shooter to the landing "
+                  "point (landing quantiles, bin upper edges, <= 0.1% above)")
     blocks = [header_line(r) for r in all_results]
     blocks = ["\n".join(blocks), _render(title, headers, body, fmt, set(range(n)) if not params else set())]
     return "\n\n".join(blocks) + "\n"

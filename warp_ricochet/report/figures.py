@@ -38,6 +38,14 @@ def plain_log(ax, axis: str = "x") -> None:
 
     target = ax.xaxis if axis == "x" else ax.yaxis
     (ax.set_xscale if axis == "x" else ax.set_yscale)("log")
+    lo, hi = ax.get_xlim() if axis == "x" else ax.get_ylim()
+    if 0 < lo < hi < 5 * lo:  # under a factor 5 (e.g. 120 ... 172 m), powers and 2, 5 times them are too far apart
+        from matplotlib.ticker import MaxNLocator, NullFormatter
+
+        target.set_major_locator(MaxNLocator(nbins=6))
+        target.set_major_formatter(FuncFormatter(label))
+        target.set_minor_formatter(NullFormatter())
+        return
     target.set_major_locator(LogLocator(base=10))
     target.set_major_formatter(FuncFormatter(label))
     target.set_minor_formatter(FuncFormatter(minor))
@@ -198,6 +206,10 @@ def energy_distance(ax, distance, energy, slipped=None):
     ax.grid(alpha=0.3, which="both")
 
 
+PAPER_NOTE = ("Zohdi (2021), Table 3: <L> and L- to L+;\nits rows with sticking pellets (mu_s >= 0.05) do not\n"
+              "follow from its eqs. (27)-(29), whose 5/7 v_t we\ndraw: docs/paper-reproduction.md")
+
+
 def sweep_band(ax, x, mean, low, high, label=None, color=None, paper=None):
     """A swept statistic: `mean` against `x` with the band from `low` to `high` (L- to L+);
     `paper`: optional (x, mean, low, high) of the paper's rows, drawn as markers with error bars."""
@@ -209,5 +221,5 @@ def sweep_band(ax, x, mean, low, high, label=None, color=None, paper=None):
     if paper is not None and len(paper[0]):
         px, pm, plo, phi = (np.asarray(a, dtype=np.float64) for a in paper)
         ax.errorbar(px, pm, yerr=[pm - plo, phi - pm], fmt="s", color="k", mfc="none", ms=6, capsize=3,
-                    label="Zohdi (2021), Table 3: <L> and L- to L+")
+                    label=PAPER_NOTE)
     ax.grid(alpha=0.3)

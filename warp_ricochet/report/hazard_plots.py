@@ -64,8 +64,20 @@ def plot_survival(source, path, title="Landings beyond a distance from the shoot
     fig.savefig(path)
 
 
+def _same(arrays) -> list[list[int]]:
+    """Indices of `arrays` grouped by equal content, in first-seen order (curves that would coincide)."""
+    groups: dict = {}
+    for i, a in enumerate(arrays):
+        groups.setdefault(np.asarray(a).tobytes(), []).append(i)
+    return list(groups.values())
+
+
 def draw_survival(fig, source, title="Landings beyond a distance from the shooter") -> bool:
-    """The survival curve on `fig`; False when the run counted no landings (output.quantiles off)."""
+    """The survival curve on `fig`; False when the run counted no landings (output.quantiles off).
+    Thresholds whose curves coincide (every landing above all of them) are one curve named by all;
+    the danger-distance lines are in the legend only when drawn."""
+    from matplotlib.lines import Line2D
+
     d = read_plot_data(source)
     if "distance_counts" not in d:
         return False
@@ -73,6 +85,7 @@ def draw_survival(fig, source, title="Landings beyond a distance from the shoote
     total = by_level.sum()
     edges = d["edges"]
     ax = fig.subplots()
+    styles = set()  # the line styles of the danger distances drawn (one legend entry each)
     if total:
         all_counts = by_level.sum(axis=0)
         used = np.flatnonzero(all_counts)
@@ -84,23 +97,33 @@ def draw_survival(fig, source, title="Landings beyond a distance from the shoote
         order = np.argsort(d.get("threshold_speed", []), kind="stable")
         above = np.cumsum(by_level[::-1], axis=0)[::-1]
         colours = _colours(len(names))
-        for position, index in enumerate(order):
-            counts = above[position + 1]
-            if counts.sum() == 0:
-                continue
-            s = np.append(_survival(counts, total)[lo:hi], 0.0)
-            ax.step(x, np.maximum(s, 1e-12), where="post", color=colours[index], label=f"above {names[index]}")
+        counts = {index: above[position + 1] for position, index in enumerate(order)}
+        shown = [i for i in order if counts[i].sum()]
+        for group in _same([np.concatenate([counts[i], d["danger_distance"][i]]) for i in shown]):
+            index = shown[group[0]]
+            same = all_counts.tolist() == counts[index].tolist()
+            label = "above " + ", ".join(names[shown[g]] for g in group) + (" (every landing)" if same else "")
+            s = np.append(_survival(counts[index], total)[lo:hi], 0.0)
+            ax.step(x, np.maximum(s, 1e-12), where="post", color=colours[index], label=label,
+                    ls=(0, (6, 3)) if same else "-")  # dashed over the black curve it hides otherwise
             for j, p in enumerate(d["fractions"]):
                 r = d["danger_distance"][index, j]
                 if np.isfinite(r):
-                    ax.axvline(r, color=colours[index], ls=":" if j else "--", lw=0.8)
+                    style = ":" if j else "--"
+                    ax.axvline(r, color=colours[index], ls=style, lw=0.8)
+                    styles.add((j, style, p))
         ax.set_yscale("log")
         ax.set_ylim(max(0.5 / total, 1e-12), 1.5)
     ax.set_xlabel("horizontal distance from the shooter (m)")
     ax.set_ylabel("share of landed pellets at or beyond")
     ax.set_title(title + (f" ({total:,} landed)" if total else " (none landed)"), fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8, title="dashed, dotted: danger distances", title_fontsize=7)
+    handles, labels = ax.get_legend_handles_labels()
+    for _j, style, p in sorted(styles):  # one entry a line style, for the lines drawn in it
+        handles.append(Line2D([], [], color="0.3", ls=style, lw=0.8))
+        labels.append(f"danger distance, p = {p:g}")
+    if handles:
+        ax.legend(handles, labels, fontsize=8)
     return True
 
 
@@ -114,15 +137,19 @@ def plot_map(source, path, title="Landings on the map"):
     fig.savefig(path)
 
 
-def _map_size(d) -> tuple[float, float]:
-    """Inches that fit the grid's shape, the colour bar and a legend line per threshold."""
+def _map_size(d, entries=None) -> tuple[float, float]:
+    """Inches that fit the grid's shape (6.5 inches wide), the title, the axis label and a legend
+    line per entry (default: per threshold)."""
     u, v = d["map_u_edges"], d["map_v_edges"]
     aspect = (v[-1] - v[0]) / (u[-1] - u[0])
-    return 8.0, min(9.0, max(1.5, 6.0 * aspect)) + 1.3 + 0.18 * len(d.get("names", []))
+    entries = len(d.get("names", [])) if entries is None else entries
+    return 8.0, min(9.0, max(1.2, 6.5 * aspect)) + 1.0 + 0.16 * (entries + 1)
 
 
 def draw_map(fig, source, title="Landings on the map") -> bool:
-    """The hazard map on `fig` (a constrained layout); False when the run has no map."""
+    """The hazard map on `fig` (a constrained layout, resized to the grid's shape); False when the
+    run has no map. Thresholds with the same landings above them share one contour and entry; the
+    shooter, at (u, v) = (0, 0), is marked when inside the map."""
     from matplotlib.colors import LogNorm
 
     d = read_plot_data(source)
@@ -131,36 +158,45 @@ def draw_map(fig, source, title="Landings on the map") -> bool:
     u, v, count = d["map_u_edges"], d["map_v_edges"], d["map_count"]
     area = (u[1] - u[0]) * (v[1] - v[0])
     names = d.get("names", [])
+    layers = [np.concatenate([(d["map_above"][i] > 0).ravel(), d["danger_distance"][i], d["ci_high"][i]])
+              for i in range(len(names))]
+    groups = _same(layers)
+    fig.set_size_inches(*_map_size(d, len(groups)))
     ax = fig.subplots()
     density = np.where(count > 0, count / area, np.nan)
     if np.isfinite(density).any():
         mesh = ax.pcolormesh(u, v, density, norm=LogNorm(), cmap="Greys", shading="flat")
         aspect = (v[-1] - v[0]) / (u[-1] - u[0])  # the axes keep equal scales: a flat grid, a short bar
         fig.colorbar(mesh, ax=ax, label="landings per m$^2$", shrink=min(1.0, max(0.3, 1.6 * aspect)))
-    colours = _colours(len(names))
+    colours = _colours(len(groups))
     uc, vc = 0.5 * (u[1:] + u[:-1]), 0.5 * (v[1:] + v[:-1])
     angle = np.linspace(0, 2 * np.pi, 361)
-    for i, name in enumerate(names):
+    for colour, group in zip(colours, groups):
+        i, name = group[0], ", ".join(names[g] for g in group)
         layer = d["map_above"][i]
-        if layer.max() > 0 and min(layer.shape) > 1:
-            ax.contour(uc, vc, (layer > 0).astype(float), levels=[0.5], colors=[colours[i]], linewidths=1.0)
+        contour = layer.max() > 0 and min(layer.shape) > 1
+        if contour:
+            ax.contour(uc, vc, (layer > 0).astype(float), levels=[0.5], colors=[colour], linewidths=1.0)
         bounded = np.flatnonzero(np.isfinite(d["ci_high"][i]))  # the smallest p this run can answer
         if layer.max() == 0:
             label = f"{name}: no landing above"
         elif len(bounded):
             j = bounded[np.argmin(d["fractions"][bounded])]
             r = d["danger_distance"][i, j]
-            ax.plot(r * np.cos(angle), r * np.sin(angle), color=colours[i], ls="--", lw=0.8)
-            label = f"{name}: where above; dashed: danger distance {r:.4g} m (p = {d['fractions'][j]:g})"
+            ax.plot(r * np.cos(angle), r * np.sin(angle), color=colour, ls="--", lw=0.8)
+            label = f"danger distance {r:.4g} m (p = {d['fractions'][j]:g})"
+            label = f"{name}: where above; dashed: {label}" if contour else f"{name}: {label}"
         else:
             label = f"{name}: where above (too few landings for a danger distance)"
-        ax.plot([], [], color=colours[i], label=label)
-    ax.plot([0], [0], marker="*", color="C3", ls="", label="shooter")
+        ax.plot([], [], color=colour, label=label)
+    if u[0] <= 0 <= u[-1] and v[0] <= 0 <= v[-1]:
+        ax.plot([0], [0], marker="*", color="C3", ls="", label="shooter")
     ax.set_xlim(u[0], u[-1])
     ax.set_ylim(v[0], v[-1])
     ax.set_aspect("equal")
-    ax.set_xlabel("u: downrange (m)")
+    ax.set_xlabel("u: downrange from the shooter (m)")
     ax.set_ylabel("v: cross-range (m)")
     ax.set_title(f"{title} ({int(count.sum()):,} in the grid, {int(d.get('map_outside', 0)):,} outside)", fontsize=10)
-    fig.legend(fontsize=7, loc="outside lower center", frameon=False)
+    if ax.get_legend_handles_labels()[0]:
+        fig.legend(fontsize=7, loc="outside lower center", frameon=False)
     return True

@@ -170,20 +170,27 @@ def _axis_label(key: str) -> str:
 
 
 def draw_sweep_ranges(fig, sweeps) -> bool:
-    """The paper's study as one figure: <L> against the swept key, the L- to L+ band; one panel a file."""
-    axes = np.atleast_1d(fig.subplots(1, len(sweeps)))
+    """The paper's study as one figure: <L> against the swept key, the L- to L+ band; one panel a
+    file, all on one y axis (logarithmic when the ranges drawn span more than a factor 10)."""
+    axes = np.atleast_1d(fig.subplots(1, len(sweeps), sharey=True))
+    drawn = []
     for ax, sweep in zip(axes, sweeps):
         x = _x_param(sweep.results)
+        paper = _paper_points(sweep, x)
         for i, (label, rows) in enumerate(_groups(sweep.results.rows, x, sweep.results.params)):
             series = [[r.get(k, math.nan) for r in rows] for k in (x, "range_mean", "range_min", "range_max")]
             figures.sweep_band(ax, *series, label=label or None, color=f"C{i % 10}",
-                               paper=_paper_points(sweep, x) if i == 0 else None)
+                               paper=paper if i == 0 else None)
+        drawn += [r.get(k, math.nan) for r in sweep.results.rows for k in ("range_min", "range_max")]
+        drawn += [] if paper is None else [v for column in paper[1:] for v in column]
         ax.set_xlabel(_axis_label(x))
-        ax.set_ylabel("ricochet range, eq. (42) (m)")
-        _log_if_wide(ax, "y", np.array([r.get(k, math.nan) for r in sweep.results.rows for k in ("range_min", "range_max")]))
         ax.set_title(f"{sweep.label}: {os.path.basename(str(sweep.results.meta.get('file', '')))}")
         ax.legend(loc="best", fontsize="small")
-    fig.suptitle("Mean ricochet range <L> with the L- to L+ band, over the sweep")
+    axes[0].set_ylabel("ricochet range, eq. (42) (m)")
+    for ax in axes:
+        _log_if_wide(ax, "y", np.array(drawn, dtype=np.float64))
+    fig.suptitle("Mean ricochet range <L> with the L- to L+ band, over the sweep"
+                 + (" (panels on one scale)" if len(axes) > 1 else ""))
     return True
 
 
@@ -194,13 +201,13 @@ def draw_sweep_survival(fig, sweeps) -> bool:
     from matplotlib.cm import ScalarMappable
     from matplotlib.colors import Normalize
 
-    drawn = False
+    drawn, spans = False, []
     axes = np.atleast_1d(fig.subplots(1, len(sweeps)))
     for ax, sweep in zip(axes, sweeps):
         f, x = sweep.file, _x_param(sweep.results)
         values = np.asarray(f["sweep"][x][()], dtype=np.float64)
         norm = Normalize(float(np.nanmin(values)), float(np.nanmax(values)) + (np.nanmax(values) == np.nanmin(values)))
-        runs, spans = f.get("runs"), []
+        runs = f.get("runs")
         for i, value in enumerate(values):
             group = runs.get(f"{i:04d}") if isinstance(runs, h5py.Group) else None
             ds = None if group is None else group.get("pellets/landing/range")
@@ -211,10 +218,11 @@ def draw_sweep_survival(fig, sweeps) -> bool:
             figures.survival_curve(ax, ranges, color=colormaps["viridis"](norm(value)))
             spans.append(ranges[np.isfinite(ranges)])
             drawn = True
-        _log_if_wide(ax, "x", np.concatenate(spans) if spans else np.zeros(0))
         fig.colorbar(ScalarMappable(norm=norm, cmap="viridis"), ax=ax, label=_axis_label(x))
         ax.set_xlabel("range from the last ricochet L, eq. (42) (m)")
         ax.set_title(f"{sweep.label}: {os.path.basename(str(sweep.results.meta.get('file', '')))}")
+    for ax in axes:  # one scale type on every panel: logarithmic when any panel's ranges span a factor 10
+        _log_if_wide(ax, "x", np.concatenate(spans) if spans else np.zeros(0))
     fig.suptitle("Range survival at each sweep point (log scale: the tail)")
     return drawn
 

@@ -13,11 +13,13 @@ from __future__ import annotations
 
 import math
 import os
+import socket
 from dataclasses import dataclass, field
 
-from ..errors import RicochetError, hdf5_reason
+from ..errors import RicochetError, hdf5_reason, not_regular
 from ..io.h5open import FORMAT_NAME, KINDS, open_for_reading
 from ..io.inputcheck import BadFile, check_file
+from ..io.locks import in_use
 from ..tallies.ensemble import STAT_KIND
 from ..tallies.sums import STAT_UNITS
 from .hazard_tables import from_file, from_run, tally_lines
@@ -97,6 +99,8 @@ def read_results(path) -> Results:
             raise ReportError(path, f"is an unfinished sweep: {found[0]} of {found[1]} points complete (its tables are "
                                     "written when every point is); warp-ricochet sweep ... --resume continues it")
         raise ReportError(path, "is a directory, not an HDF5 file")
+    if not_regular(path):  # (opening a FIFO would wait for a writer)
+        raise ReportError(path, not_regular(path))
     try:
         with open(path, "rb"):
             pass
@@ -105,17 +109,42 @@ def read_results(path) -> Results:
         raise ReportError(path, f"cannot be read: {exc.strerror or exc}") from None
     if not hdf5:
         raise ReportError(path, "is not an HDF5 file (expected a warp-ricochet .h5 output)")
+    held = in_use(path)  # (before HDF5 takes its own lock on it)
     try:
         with open_for_reading(path) as f:  # also a killed run's partial
             try:
                 check_file(f)
             except BadFile as exc:
                 raise ReportError(path, str(exc)) from None
-            return _read_open_file(f, path, np)
+            results = _read_open_file(f, path, np)
     except RicochetError:
         raise
     except (OSError, KeyError, ValueError, TypeError) as exc:  # truncated or otherwise damaged files
         raise ReportError(path, f"cannot be read as a warp-ricochet file: {hdf5_reason(exc)}") from None
+    if results.meta.get("status") == "running" and writer_gone(results.meta, held):
+        results.meta["status"] = WRITER_GONE
+    return results
+
+
+WRITER_GONE = "not finished (the writer is gone: killed or crashed; --resume continues it)"
+
+
+def writer_gone(meta, held: bool) -> bool:
+    """Whether the writer of a file marked "running" is gone: a live writer holds its lock on the
+    file (io.runfile), and where the file names it (`writer_pid` on this `writer_host`) its process
+    exists (a reader's lock alone does not keep a dead writer "running")."""
+    if not held:
+        return True
+    pid, host = meta.get("writer_pid"), meta.get("writer_host")
+    if pid is None or host != socket.gethostname():
+        return False
+    try:
+        os.kill(int(pid), 0)
+    except ProcessLookupError:
+        return True
+    except (OSError, OverflowError, ValueError):  # (another user's process: alive)
+        return False
+    return False
 
 
 def _read_open_file(f, path, np) -> Results:
@@ -258,19 +287,25 @@ def _label(key: str, params: list[str]) -> str:
     return last if sum(p.rsplit(".", 1)[-1] == last for p in params) == 1 else key
 
 
-def _render(title: str, headers: list[str], rows: list[list[str]], fmt: str, left: set[int] = frozenset()) -> str:
-    if fmt == "markdown":
-        def cell(s):
-            return s.replace("|", "\\|").replace("<", "&lt;").replace(">", "&gt;")
-        lines = [f"**{cell(title)}**", "", "| " + " | ".join(cell(h) for h in headers) + " |",
-                 "|" + "|".join(":---" if i in left else "---:" for i in range(len(headers))) + "|"]
-        lines += ["| " + " | ".join(cell(c) for c in r) + " |" for r in rows]
-        return "\n".join(lines)
-    widths = [max([len(h)] + [len(r[i]) for r in rows]) for i, h in enumerate(headers)]
+def _markdown(text: str) -> str:
+    """A cell as Markdown text: `|`, `<`, `>` and `*` backslash-escaped (CommonMark), so `<v_t>`
+    reads as itself in the source and on GitHub (HTML entities such as `&lt;` read badly in a terminal)."""
+    for c in "\\|<>*":
+        text = text.replace(c, "\\" + c)
+    return text
 
-    def line(cells):
-        return "  ".join(c.ljust(w) if i in left else c.rjust(w) for i, (c, w) in enumerate(zip(cells, widths))).rstrip()
-    return "\n".join([title, line(headers), "  ".join("-" * w for w in widths), *map(line, rows)])
+
+def _render(title: str, headers: list[str], rows: list[list[str]], fmt: str, left: set[int] = frozenset()) -> str:
+    """A titled table of preformatted cells (tabulate: "simple" text or a Markdown "pipe" table)."""
+    from tabulate import tabulate
+
+    align = ["left" if i in left else "right" for i in range(len(headers))]
+    if fmt == "markdown":
+        table = tabulate([[_markdown(c) for c in r] for r in rows], [_markdown(h) for h in headers], tablefmt="pipe",
+                         disable_numparse=True, colalign=align)
+        return f"**{_markdown(title)}**\n\n{table}"
+    table = tabulate(rows, headers, tablefmt="simple", disable_numparse=True, colalign=align)
+    return "\n".join([title, *(line.rstrip() for line in table.splitlines())])
 
 
 def _point_cells(row, params, formatters) -> list[str]:
@@ -297,19 +332,26 @@ def _tables(rows, point_headers, point_cells, fmt, *, paper_rows=None) -> list[s
     suffix = "" if paper_rows is None else ", ours beside the paper's [paper: Zohdi 2021]"
     paper = paper_rows is not None
     out = []
-    # Table 1 and 2: two rows per point
+    # Table 1 and 2: a pre and a post row per point; one pre row when it is the same at every point
     for title, columns in ((TABLE_TITLES[0], T1), (TABLE_TITLES[1], T2)):
         headers = point_headers + ["Time"] + [c for h, _ in columns for c in ((h, "paper") if paper else (h,))]
-        body = []
-        for mine, theirs in source:
-            for phase in ("pre", "post"):
-                cells = point_cells(mine, mine) + [phase]
-                for _, stat in columns:
-                    cells.append(_num(mine.get(f"{phase}_{stat}")))
-                    if paper:
-                        cells.append(_num(theirs.get(f"{phase}_{stat}")))
-                body.append(cells)
-        out.append(_render(title.rstrip(".") + suffix + ".", headers, body, fmt, left | {n}))
+
+        def values(mine, theirs, phase, columns=columns):
+            cells = []
+            for _, stat in columns:
+                cells.append(_num(mine.get(f"{phase}_{stat}")))
+                if paper:
+                    cells.append(_num(theirs.get(f"{phase}_{stat}")))
+            return cells
+        pre = [values(mine, theirs, "pre") for mine, theirs in source]
+        once = len(pre) > 1 and all(cells == pre[0] for cells in pre)
+        body = [["all"] * n + ["pre"] + pre[0]] if once else []
+        for (mine, theirs), pre_cells in zip(source, pre):
+            if not once:
+                body.append(point_cells(mine, mine) + ["pre"] + pre_cells)
+            body.append(point_cells(mine, mine) + ["post"] + values(mine, theirs, "post"))
+        note = " The pre-impact row is the same at every point: shown once." if once else ""
+        out.append(_render(title.rstrip(".") + suffix + "." + note, headers, body, fmt, left | {n}))
     # Table 3
     body = []
     if not paper:
@@ -434,7 +476,9 @@ def format_tables(results: Results, fmt: str = "text", paper: bool = False) -> s
     blocks = [header_line(results)]  # followed by a blank line: never a Markdown table
     if "rows_done" in results.meta:  # an unfinished run file (NAME.h5.partial)
         done, total = results.meta["rows_done"], results.meta["rows_total"]
-        blocks.append(f"note: status is {results.meta.get('status')!r}: {done:,} of {total:,} pellets complete "
+        status = results.meta.get("status")
+        said = "the run's writer is gone (killed or crashed)" if status == WRITER_GONE else f"status is {status!r}"
+        blocks.append(f"note: {said}: {done:,} of {total:,} pellets complete "
                       f"({100 * done / max(total, 1):.1f}%); the statistics are written when the run completes "
                       "(warp-ricochet run ... --resume continues it)")
     elif results.meta.get("status", "complete") != "complete":
@@ -500,18 +544,44 @@ SUMMARY_INTERVALS = ("landed", "post_mean_vt", "range_mean", "range_std", "range
                      "collided_fraction", "pair_energy_lost_mean")
 
 
+def _interval_decimals(value, low, high) -> int:
+    """Decimals that show an interval's width to two significant digits, at most 7 significant
+    digits of the value (4 for an interval of zero width)."""
+    width = abs(float(high) - float(low))
+    if not math.isfinite(width) or width == 0:
+        return 4
+    d = 1 - math.floor(math.log10(width))
+    value = abs(float(value))
+    if math.isfinite(value) and value > 0:
+        d = min(d, 6 - math.floor(math.log10(value)))
+    return int(min(10, max(0, d)))
+
+
 def format_intervals(row: dict, intervals: dict, shots: int, fmt: str, names=None) -> str:
-    """The 95% intervals over shots of a run of several shots (`tallies.ensemble`): each statistic,
-    its ensemble value and interval; extremes' intervals are those of one shot's extreme."""
+    """The 95% intervals over shots of a run of several shots (`tallies.ensemble`), apart from the
+    value over all shots: each statistic over every pellet of the run ("all shots"; for L+ and L-
+    the extreme of all shots), the mean of its per-shot values (the centre of the Student t
+    interval) and the interval, which is of a shot's mean, of one shot's extreme, or of the total
+    of all shots. Counts are whole numbers."""
     body = []
     for name in names or STAT_UNITS:
         if name not in intervals or name not in row:
             continue
         low, high = intervals[name]
         unit = STAT_UNITS[name][0]
-        over = {"extreme": "one shot's extreme", "total": "all shots"}.get(STAT_KIND.get(name), "per shot")
-        body.append([name, _num(row[name], 4), _num(low, 4), _num(high, 4), "" if unit == "1" else unit, over])
-    title = (f"95% confidence intervals over {shots:,} shots (Student t over per-shot values; "
-             "values in /stats/shots; docs/output.md)")
-    return _render(title, ["statistic", "value", "95% low", "95% high", "unit", "interval of"], body, fmt, {0, 4, 5})
-
+        kind = STAT_KIND.get(name)
+        over = {"extreme": "one shot's extreme", "total": "total of all shots"}.get(kind, "per shot")
+        centre = 0.5 * (float(low) + float(high))  # Student t: symmetric about the mean over shots
+        if kind == "total" and unit == "1":  # counts
+            cells = [_count(row[name]), _count(centre), _count(low), _count(high)]
+        else:
+            d = _interval_decimals(row[name], low, high)
+            cells = [_num(row[name], d), _num(centre, d), _num(low, d), _num(high, d)]
+        body.append([name, *cells, "" if unit == "1" else unit, over])
+    title = (f"95% confidence intervals over {shots:,} shots (Student t over the per-shot values in /stats/shots; "
+             "docs/output.md). \"all shots\": the statistic over every pellet of the run, for L+ and L- the "
+             "extreme of all shots, which lies outside the interval of one shot's extreme by design, and for "
+             "range_std the spread with the shots' differences; \"mean over shots\": the mean of the per-shot "
+             "values, the interval's centre.")
+    return _render(title, ["statistic", "all shots", "mean over shots", "95% low", "95% high", "unit", "interval of"],
+                   body, fmt, {0, 5, 6})

@@ -83,9 +83,10 @@ def _int(lo: int, hi: int):
     def conv(v, path):
         if isinstance(v, float) and not math.isfinite(v):
             raise _err(path, v, "must be finite")
-        if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
+        n = int(v) if isinstance(v, float) and v.is_integer() else v  # TOML's 1e6: an integer written as a float
+        if isinstance(n, bool) or not isinstance(n, int) or not lo <= n <= hi:
             raise _err(path, v, rule)
-        return int(v)
+        return int(n)
     return conv
 
 
@@ -206,7 +207,7 @@ _NUMERICS = {"precision": _str(("float32", "float64")), "chunk_size": _int(1, IN
              "flight_tolerance": _range(1e-12, 1e-2)}
 
 
-@_rule("must be \"braun\", \"gs\", or a list of at least 2 [Mach, C_D] pairs, Mach increasing from >= 0, C_D > 0")
+@_rule("must be \"braun\", \"gs\", or a list of at least 2 [Mach, C_D] pairs, Mach increasing in [0, 1e6], C_D > 0")
 def _drag_table(v, path):
     rule = _drag_table.rule
     if isinstance(v, str):
@@ -220,13 +221,17 @@ def _drag_table(v, path):
         if not isinstance(pair, (list, tuple)) or len(pair) != 2 or not all(map(_is_number, pair)):
             raise _err(path, v, f"pair {i} ({pair!r}) must be a [Mach, C_D] pair of numbers")
         mach, cd = (_finite(x, path, "must be finite") for x in pair)
-        if mach < 0 or cd <= 0 or cd > 100 or (pairs and mach <= pairs[-1][0]):
-            raise _err(path, v, f"pair {i} ({pair!r}) must have Mach >= 0 and above the pair before, and C_D in (0, 100]")
+        if not 0 <= mach <= MAX_TABLE_MACH or cd <= 0 or cd > 100 or (pairs and mach <= pairs[-1][0]):
+            raise _err(path, v, f"pair {i} ({pair!r}) must have Mach in [0, {MAX_TABLE_MACH:g}] and above the pair "
+                                "before, and C_D in (0, 100]")
         pairs.append((mach, cd))
     return tuple(pairs)
 
 
 MAX_TABLE_POINTS = 1024
+# Mach of a table's points: 10 times the domain's fastest flight (MAX_SPEED at the least sound_speed, 1 m/s),
+# exact enough and finite in float32 (a Mach of 1e300 would be inf there)
+MAX_TABLE_MACH = 1e6
 _AIR = {
     "density": _range(0, MAX_AIR_DENSITY, unit="kg/m^3"),
     "viscosity": _range(0, 1, above=True, unit="Pa s"),
@@ -245,7 +250,9 @@ _AIR = {
 }
 @_rule("must be a list of at most 64 numbers in (0, 1e7] (m), increasing")
 def _distances(v, path):
-    if not isinstance(v, (list, tuple)) or len(v) > 64 or not all(map(_is_number, v)):
+    if isinstance(v, (list, tuple)) and len(v) > 64:  # (the length first: nothing per element of a long list)
+        raise _err(path, v, _distances.rule)
+    if not isinstance(v, (list, tuple)) or not all(map(_is_number, v)):
         raise _err(path, v, _distances.rule)
     xs = tuple(_finite(x, path, _distances.rule) for x in v)
     if any(x <= 0 or x > 1e7 for x in xs) or any(b <= a for a, b in zip(xs, xs[1:])):

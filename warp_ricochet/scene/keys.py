@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import difflib
+import itertools
+
 from ..errors import SceneError
 
 
@@ -20,11 +23,17 @@ class _Shown:
 
 
 MISSING = _Missing()
+MAX_SHOWN_ITEMS = 8  # items of a long list or table shown in a message
 
 
 def err(key: str, value, allowed: str) -> SceneError:
     """SceneError whose message is guaranteed to be one line."""
     key = key if key.isprintable() else repr(key)[1:-1]
+    if isinstance(value, (list, tuple, dict)) and len(value) > MAX_SHOWN_ITEMS:  # shown cut short: no repr of it all
+        items = list(itertools.islice(value.items(), MAX_SHOWN_ITEMS)) if isinstance(value, dict) else \
+            list(value[:MAX_SHOWN_ITEMS])
+        kind = "table" if isinstance(value, dict) else "list"
+        value = _Shown(f"{kind} of {len(value):,} items: {repr(items)[1:-1]}, ...")
     try:
         text = repr(value)
         ok = text.isprintable()
@@ -52,8 +61,17 @@ def join(path: str, key) -> str:
     return f"{path}.{name}" if path else name
 
 
+def suggest(key, allowed, path: str = "") -> str:
+    """ "did you mean KEY? " for the allowed key closest to an unknown `key` (difflib's ratio >= 0.6), or ""."""
+    if not isinstance(key, str) or len(key) > 100:  # (a long key is no typo, and the ratio costs len^2)
+        return ""
+    close = difflib.get_close_matches(key, [str(a) for a in allowed], n=1)
+    return f"did you mean {join(path, close[0])}? " if close else ""
+
+
 def check_keys(raw: dict, path: str, allowed) -> None:
     for key in raw:
         if key not in allowed:
-            raise err(join(path, key), raw[key], "unknown key; allowed keys: " + ", ".join(allowed))
+            raise err(join(path, key), raw[key], f"unknown key; {suggest(key, allowed, path)}allowed keys: "
+                      + ", ".join(allowed))
 

@@ -8,6 +8,7 @@ import tomllib
 from decimal import Decimal, InvalidOperation
 
 from .keys import err as _err
+from .schema import HAZARD_ENERGY_DENSITY, HAZARD_SPEED
 from .sweep import MAX_SWEEP_POINTS
 
 
@@ -18,8 +19,15 @@ def _dotted(key: str, spec: str, what: str) -> str:
     return key
 
 
+# Tables of names whose defaults a dotted key inside adds to: `--set hazard.energy_density.eye=2e4` (as
+# `--param`) keeps the default thresholds beside `eye`, as a key set in any table keeps that table's
+# other defaults; `--set 'hazard.energy_density={eye = 2e4}'` replaces them (docs/hazard.md, section 3).
+DEFAULT_TABLES = {"hazard.energy_density": dict(HAZARD_ENERGY_DENSITY), "hazard.speed": dict(HAZARD_SPEED)}
+
+
 def set_dotted(raw: dict, key: str, value) -> dict:
-    """A deep copy of `raw` with dotted `key` set to `value`; numeric parts index lists, missing tables are made."""
+    """A deep copy of `raw` with dotted `key` set to `value`; numeric parts index lists, missing tables are
+    made (with their defaults for `DEFAULT_TABLES`)."""
     out = copy.deepcopy(raw)
     parts = _dotted(key, key, "key").split(".")
     node = out
@@ -33,7 +41,8 @@ def set_dotted(raw: dict, key: str, value) -> dict:
             raise _err(key, value, f"cannot set it: {where} is not a table or array")
         elif not last and node.get(part) is None:
             nxt = parts[i + 1]
-            node[part] = [] if nxt.isascii() and nxt.isdigit() else {}
+            defaults = DEFAULT_TABLES.get(".".join(parts[:i + 1]), {})
+            node[part] = [] if nxt.isascii() and nxt.isdigit() else dict(defaults)
         if last:
             node[part] = value
         else:

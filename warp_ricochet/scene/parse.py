@@ -8,13 +8,14 @@ import os
 import tomllib
 from pathlib import Path
 
+from ..errors import not_regular
 from ..fields import COLLISION_FIELDS, default_fields
 from ..launch.packing import MAX_PACKING, packing_fraction
 from ..physics.limits import MAX_PLANES_IN_AIR
 from .convert import SCHEMAS
-from .keys import MISSING, check_keys, err, join
+from .keys import MISSING, _Shown, check_keys, err, join
 from .overrides import apply_override
-from .pellets import load_pellet_file
+from .pellets import check_pellet_file, pellet_file_rows
 from .vectors import unit_vector
 from .schema import (
     CHECKPOINT_STEPS,
@@ -63,14 +64,13 @@ def _shot(raw, base_dir) -> Shot:
         if key in kw:
             raise err(f"shot.{key}", raw[key], "not allowed together with shot.file")
     kw["file"] = os.path.abspath(os.path.join(os.fspath(base_dir), kw["file"]))
-    n = len(load_pellet_file(kw["file"])["position"])
-    if n > INT32_MAX:
-        raise err("shot.file", kw["file"], f"holds {n} pellets; at most {INT32_MAX} are allowed")
+    n = pellet_file_rows(kw["file"])  # declared: nothing read yet
     shots = kw.get("shots", 1)
     if n % shots:
         raise err("shot.shots", shots, f"must divide the number of pellets in shot.file ({n}): consecutive blocks are shots")
     if kw.setdefault("count", n // shots) != n // shots:
         raise err("shot.count", kw["count"], f"must equal the pellets per shot in shot.file ({n} / {shots} shots) or be left out")
+    check_pellet_file(kw["file"])  # the memory a run holds them in, then their values, a piece at a time
     return Shot(**kw)
 
 
@@ -110,7 +110,7 @@ def _air(raw):
     return Air(**kw)
 
 
-def _hazard(raw, surfaces: int):
+def _hazard(raw, surfaces: tuple, shot: Shot):
     """The [hazard] table, or None when absent."""
     if raw is None:
         return None
@@ -130,9 +130,26 @@ def _hazard(raw, surfaces: int):
         cells = math.ceil((u1 - u0) / cell) * math.ceil((v1 - v0) / cell)
         if cells > MAX_MAP_CELLS:
             raise err("hazard.map_cell", cell, f"makes {cells:,} cells of hazard.map_extent; at most {MAX_MAP_CELLS:,}")
-        if hazard.map_surface >= surfaces:
-            raise err("hazard.map_surface", hazard.map_surface, f"must be the index of a surface (0 to {surfaces - 1})")
+        if hazard.map_surface >= len(surfaces):
+            raise err("hazard.map_surface", hazard.map_surface, f"must be the index of a surface (0 to {len(surfaces) - 1})")
+        _check_map_axis(hazard, surfaces[hazard.map_surface].normal, shot)
     return hazard
+
+
+def _check_map_axis(hazard: Hazard, normal, shot: Shot) -> None:
+    """The map's u axis (map_axis, else shot.direction) projected on its plane must not vanish: an axis
+    along the normal has no downrange direction (tallies.counts._map_geometry projects it)."""
+    axis = hazard.map_axis or shot.direction
+    scale = max(map(abs, axis))
+    a = [x / scale for x in axis]  # (scaled first: a tiny axis does not underflow)
+    along = sum(x * n for x, n in zip(a, normal))
+    if math.hypot(*(x - along * n for x, n in zip(a, normal))) >= 1e-9 * math.hypot(*a):
+        return
+    if hazard.map_axis is not None:
+        raise err("hazard.map_axis", list(hazard.map_axis), f"is along the normal {list(normal)} of the map's surface "
+                  f"(hazard.map_surface = {hazard.map_surface}): give an axis in that plane")
+    raise err("hazard.map_axis", MISSING, f"is required: its default, shot.direction = {list(shot.direction)}, is along "
+              f"the normal of the map's surface (hazard.map_surface = {hazard.map_surface}); give an axis in that plane")
 
 
 MAX_MAP_CELLS = 4_000_000
@@ -161,7 +178,11 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
     shot = _shot(raw["shot"], base_dir)
     pairs = collisions.enabled and shot.count > 1  # as Scene.pair_collisions: the run has a dense phase
     output = _table(raw.get("output"), "output", SCHEMAS["output"])
-    hazard = _hazard(raw.get("hazard"), len(surfaces))
+    planes = tuple(_surface(s, f"surfaces.{i}") for i, s in enumerate(surfaces))
+    hazard = _hazard(raw.get("hazard"), planes, shot)
+    if hazard is not None and output.get("quantiles") is False:
+        raise err("output.quantiles", _Shown("false"), "must be true with a [hazard] table: its thresholds' landings, danger "
+                  "distances and map are counted in the landing histograms (leave [hazard] out for none)")
     if "fields" not in output:
         output["fields"] = default_fields(pairs, hazard is not None)
     elif not pairs:
@@ -197,7 +218,7 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
                    "air tracks its planes in the bits of an int32)")
     return Scene(
         shot=shot,
-        surfaces=tuple(_surface(s, f"surfaces.{i}") for i, s in enumerate(surfaces)),
+        surfaces=planes,
         physics=Physics(**_table(raw.get("physics"), "physics", SCHEMAS["physics"])),
         numerics=numerics,
         output=Output(**output),
@@ -207,13 +228,22 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
     )
 
 
+MAX_SCENE_CHARS = 1 << 20  # a scene's text; the largest valid one (a drag table of 1,024 pairs) is ~40 kB
+
+
 def load_scene(path, overrides=()) -> Scene:
     """Read a TOML scene, apply "KEY=VALUE" overrides, validate; shot.file is relative to the scene's folder."""
     overrides = (overrides,) if isinstance(overrides, str) else overrides
+    special = not_regular(path)  # (a FIFO would wait for a writer)
+    if special:
+        raise err("scene", str(path), special)
     try:
         text = Path(path).read_text(encoding="utf-8")
     except (OSError, ValueError) as exc:
         raise err("scene", str(path), f"cannot be read: {getattr(exc, 'strerror', None) or exc}") from None
+    if len(text) > MAX_SCENE_CHARS:  # before the parser, whose time grows with the text (~10 s for 18 MB)
+        raise err("scene", str(path), f"has {len(text):,} characters; a scene is at most {MAX_SCENE_CHARS:,} "
+                  "(pellets go in shot.file)")
     try:
         raw = tomllib.loads(text)
     except (ValueError, RecursionError) as exc:

@@ -42,6 +42,9 @@ class SweepPoints:
                 src = self.keys[0]
             if src not in self.keys:
                 raise _err("--tie", _Shown(f"{key}={factor}*{src}"), f"{src} is not a swept parameter")
+            if key in self.keys or key in (t[0] for t in self.ties):
+                raise _err("--tie", _Shown(f"{key}={factor}*{src}"), f"{key} is already " + (
+                    "swept (--param)" if key in self.keys else "tied") + ": give each key one --param or --tie")
             self.ties.append((key, factor, src))
 
     def __len__(self) -> int:

@@ -106,6 +106,33 @@ def _map_geometry(scene, hazard, shooter) -> dict:
                 map_nv=math.ceil((v1 - v0) / cell - 1e-9))
 
 
+def tally_bytes(setup: TallySetup, device, with_file: bool) -> tuple[int, int, int]:
+    """(host, device, file) bytes the landing tallies of a run on `device` take at most: every page
+    touched, as when landings cover the whole map (a sparse run's resident memory is less: 1e6 cells
+    x 31 thresholds, 200 pellets, CPU, with a file: 1.2 GB measured, 1.8 GB estimated). What is
+    alive at once at the end of a run: the device's counts (int32; the histograms in `copies_for`
+    copies) and int64 totals (F bytes); on the host the dense totals (F), with a file a host slot's
+    copy of them (one per slot: 2 on CUDA) and `flat()`'s for /progress (F each), on CUDA the dense
+    copy `receive` makes (F), and `quantiles.summarize`'s map layers ((levels + thresholds + 2)
+    int64 per cell); on the CPU the device's arrays are host memory too. The file: /progress/tally's
+    two slots (2F, gzip: at most that), the histogram counts and the map's count, energy and above
+    layers ((thresholds + 2) x 8 bytes per cell)."""
+    levels, thresholds, cells = setup.levels, setup.levels - 1, setup.cells if setup.has_map else 0
+    width = cells + 2 if setup.has_map else 0
+    hist = (ROW_DISTANCE + levels) * BINS
+    flat = 8 * (hist + levels * width + width)
+    on_device = 4 * (hist * copies_for(device, hist * 4) + levels * width) + 8 * width + flat
+    host = flat + 8 * (levels + thresholds + 2) * cells
+    if with_file:
+        host += (2 if device.is_cuda else 1) * flat + flat
+    if device.is_cuda:
+        host += flat
+    else:
+        host, on_device = host + on_device, 0
+    file = 2 * flat + 8 * hist + 8 * (thresholds + 2) * cells if with_file else 0
+    return host, on_device, file
+
+
 CUDA_COPIES = 256  # copies of the histograms on CUDA (see `tallies.landing`), a power of two
 MAX_COPY_BYTES = 1 << 30  # at most this much device memory for the copies
 
