@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed-stamp
 DEVICE ?=
 DEMO_OUT ?= demo-output
 
-.PHONY: demo test bench clean
+.PHONY: demo test lint format bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -31,8 +31,17 @@ demo: $(STAMP)
 	$(WR) plot $(DEMO_OUT)/paper-shot.h5 $(DEMO_OUT)/paper-sweep.h5 $(DEMO_OUT)/paper-sweep-air.h5 \
 	    -o $(DEMO_OUT)/plots --overwrite
 
-test: $(STAMP)
+# lint and format check (ruff, pinned in the test extra) first: CI fails on either
+test: lint
 	$(PY) -m pytest -n 2 -q
+
+lint: $(STAMP)
+	$(PY) -m ruff check .
+	$(PY) -m ruff format --check .
+
+format: $(STAMP)
+	$(PY) -m ruff check --fix .
+	$(PY) -m ruff format .
 
 bench: $(STAMP)
 	$(PY) -m bench all $(if $(DEVICE),--device $(DEVICE),)

@@ -41,8 +41,13 @@ def scene_for(n: int, precision="float32", fields=(), mu_s=0.05, fast_math=None)
     """The paper's scene with N pellets; fast_math None keeps the scene's default."""
     from warp_ricochet.scene import load_scene
 
-    sets = [f"shot.count={n}", f"numerics.precision={precision}", f"output.fields={list(fields)!r}".replace("'", '"'),
-            f"surfaces.0.mu_s={mu_s}", f"surfaces.0.mu_d={0.9 * mu_s}"]
+    sets = [
+        f"shot.count={n}",
+        f"numerics.precision={precision}",
+        f"output.fields={list(fields)!r}".replace("'", '"'),
+        f"surfaces.0.mu_s={mu_s}",
+        f"surfaces.0.mu_d={0.9 * mu_s}",
+    ]
     if fast_math is not None:
         sets.append(f"numerics.fast_math={str(fast_math).lower()}")
     return load_scene(SCENE, sets)
@@ -82,21 +87,36 @@ def tradeoff(device, n, big, repeats, out_dir):
             wp.synchronize_device(device)
 
         t, _ = _timed(go, repeats)
-        row = {"mode": label, "pellets_per_s": big / t, "N_timed": big, "N_checked": n,
-               "range_max_rel_error": float(err.max()), "range_median_rel_error": float(np.median(err)),
-               "mean_range_rel_error": abs(stats["range_mean"] - ref_stats["range_mean"]) / ref_stats["range_mean"],
-               "branch_mismatches": int((~same).sum())}
+        row = {
+            "mode": label,
+            "pellets_per_s": big / t,
+            "N_timed": big,
+            "N_checked": n,
+            "range_max_rel_error": float(err.max()),
+            "range_median_rel_error": float(np.median(err)),
+            "mean_range_rel_error": abs(stats["range_mean"] - ref_stats["range_mean"]) / ref_stats["range_mean"],
+            "branch_mismatches": int((~same).sum()),
+        }
         rows.append(row)
-        print(f"tradeoff {label:20s} {row['pellets_per_s']:.3e} pellets/s | range error per pellet: max {row['range_max_rel_error']:.1e}, "
-              f"median {row['range_median_rel_error']:.1e}; mean range {row['mean_range_rel_error']:.1e}; "
-              f"stick/slip branch differs for {row['branch_mismatches']} of {n:,d}", flush=True)
+        print(
+            f"tradeoff {label:20s} {row['pellets_per_s']:.3e} pellets/s | range error per pellet: max {row['range_max_rel_error']:.1e}, "
+            f"median {row['range_median_rel_error']:.1e}; mean range {row['mean_range_rel_error']:.1e}; "
+            f"stick/slip branch differs for {row['branch_mismatches']} of {n:,d}",
+            flush=True,
+        )
     return rows
 
 
 def device_info(wp, device):
     dev = wp.get_device(device)
-    info = {"device": str(dev), "name": dev.name, "warp": wp.config.version, "host": platform.processor() or platform.machine(),
-            "cpu_count": os.cpu_count(), "python": platform.python_version()}
+    info = {
+        "device": str(dev),
+        "name": dev.name,
+        "warp": wp.config.version,
+        "host": platform.processor() or platform.machine(),
+        "cpu_count": os.cpu_count(),
+        "python": platform.python_version(),
+    }
     if dev.is_cuda:
         info["total_memory_GiB"] = round(dev.total_memory / 2**30, 1)
     return info
@@ -181,11 +201,23 @@ def write_bench(device, n, out_dir, fields=("landing",)):
     raw_time = time.perf_counter() - t0
     raw.unlink()
     path.unlink()
-    row = {"N": n, "fields": expanded, "bytes": size, "total_s": total, "compute_only_s": compute, "h5py_only_s": raw_time,
-           "pellets_per_s": n / total, "write_GB_per_s": size / total / 1e9, "h5py_only_GB_per_s": size / raw_time / 1e9,
-           "total_over_h5py_only": total / raw_time}
-    print(f"write N={n:,d}: total {total:.2f} s ({row['write_GB_per_s']:.2f} GB/s), compute only {compute:.3f} s, "
-          f"h5py alone {raw_time:.2f} s ({row['h5py_only_GB_per_s']:.2f} GB/s): total/h5py-alone = {row['total_over_h5py_only']:.2f}", flush=True)
+    row = {
+        "N": n,
+        "fields": expanded,
+        "bytes": size,
+        "total_s": total,
+        "compute_only_s": compute,
+        "h5py_only_s": raw_time,
+        "pellets_per_s": n / total,
+        "write_GB_per_s": size / total / 1e9,
+        "h5py_only_GB_per_s": size / raw_time / 1e9,
+        "total_over_h5py_only": total / raw_time,
+    }
+    print(
+        f"write N={n:,d}: total {total:.2f} s ({row['write_GB_per_s']:.2f} GB/s), compute only {compute:.3f} s, "
+        f"h5py alone {raw_time:.2f} s ({row['h5py_only_GB_per_s']:.2f} GB/s): total/h5py-alone = {row['total_over_h5py_only']:.2f}",
+        flush=True,
+    )
     return row
 
 
@@ -231,13 +263,18 @@ def memory(device, cases, out_dir):
         if out:
             Path(out).unlink(missing_ok=True)
         rows.append(row)
-        print(f"memory N={n:,d} fields={fields or 'stats only'}: peak host RSS {row['peak_rss_MiB']:.0f} MiB "
-              f"(after warm-up {row['rss_after_warmup_MiB']:.0f}), {row['seconds']:.2f} s, device {row['device_bytes_per_pellet']:.2f} B/pellet", flush=True)
+        print(
+            f"memory N={n:,d} fields={fields or 'stats only'}: peak host RSS {row['peak_rss_MiB']:.0f} MiB "
+            f"(after warm-up {row['rss_after_warmup_MiB']:.0f}), {row['seconds']:.2f} s, device {row['device_bytes_per_pellet']:.2f} B/pellet",
+            flush=True,
+        )
     return rows
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m bench", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        prog="python -m bench", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     ap.add_argument("what", choices=["throughput", "write", "memory", "tradeoff", "all"])
     ap.add_argument("--device", default=None, help="cpu, cuda:0 (default: CUDA if present)")
     ap.add_argument("--sizes", default="1e4,1e5,1e6", help="pellet counts for throughput")

@@ -10,7 +10,7 @@ import sys
 import h5py
 import numpy as np
 
-SETS = ["shot.count=20000", "shot.spin=[0.0, 0.0, 3000.0]", "physics.bounces=2", "output.fields=[\"initial\", \"impact\", \"landing\"]"]
+SETS = ["shot.count=20000", "shot.spin=[0.0, 0.0, 3000.0]", "physics.bounces=2", 'output.fields=["initial", "impact", "landing"]']
 WALL = {"point": [40.0, 0.0, 0.0], "normal": [-1.0, 0.2, 0.0], "restitution": 0.3, "mu_s": 0.3, "mu_d": 0.25}
 
 

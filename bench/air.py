@@ -49,8 +49,13 @@ def paper_scene(n, precision="float32", *, air=True, tolerance=None, mu_s=0.28, 
     sea-level air (air=True) or vacuum; `extra`: more KEY=VALUE settings."""
     from warp_ricochet.scene import load_scene
 
-    sets = [f"shot.count={n}", f'numerics.precision="{precision}"', f"surfaces.0.mu_s={mu_s}",
-            f"surfaces.0.mu_d={0.9 * mu_s}", "output.fields=" + json.dumps(list(fields))]
+    sets = [
+        f"shot.count={n}",
+        f'numerics.precision="{precision}"',
+        f"surfaces.0.mu_s={mu_s}",
+        f"surfaces.0.mu_d={0.9 * mu_s}",
+        "output.fields=" + json.dumps(list(fields)),
+    ]
     if air:
         sets += list(SEA_LEVEL)
     if tolerance is not None:
@@ -64,8 +69,16 @@ def paper_scene(n, precision="float32", *, air=True, tolerance=None, mu_s=0.28, 
 TRADEOFF_SCENES = {
     "paper": (0.28, ()),
     "frictionless": (0.0, ()),
-    "field": (0.3, ("shot.speed=400.0", "shot.direction=[1.0, 0.3, 0.0]", "shot.direction_jitter=[0.05, 0.3, 0.1]",
-                    "shot.envelope_center=[0.0, 1.5, 0.0]", "shot.spin=[0.0, 0.0, 3000.0]")),
+    "field": (
+        0.3,
+        (
+            "shot.speed=400.0",
+            "shot.direction=[1.0, 0.3, 0.0]",
+            "shot.direction_jitter=[0.05, 0.3, 0.1]",
+            "shot.envelope_center=[0.0, 1.5, 0.0]",
+            "shot.spin=[0.0, 0.0, 3000.0]",
+        ),
+    ),
 }
 
 
@@ -79,8 +92,9 @@ def read_states(path, group="pellets"):
 
     with h5py.File(path, "r") as f:
         out = {}
-        f[group].visititems(lambda name, obj: out.__setitem__(name, obj[()].astype(np.float64))
-                            if hasattr(obj, "shape") else None)
+        f[group].visititems(
+            lambda name, obj: out.__setitem__(name, obj[()].astype(np.float64)) if hasattr(obj, "shape") else None
+        )
     return out
 
 
@@ -118,9 +132,14 @@ def _summary(first_err, landing_err):
     """Max, 99th percentile and median over all flights; the max of first and landing flights apart
     (a short ricochet far from the origin meets float32's position resolution, ulp(|x|) / flown)."""
     both = np.concatenate([first_err[np.isfinite(first_err)], landing_err[np.isfinite(landing_err)]])
-    return {"error_max": float(both.max()), "error_p99": float(np.quantile(both, 0.99)),
-            "error_median": float(np.median(both)), "first_error_max": float(np.nanmax(first_err)),
-            "landing_error_max": float(np.nanmax(landing_err)), "flights_checked": int(both.size)}
+    return {
+        "error_max": float(both.max()),
+        "error_p99": float(np.quantile(both, 0.99)),
+        "error_median": float(np.median(both)),
+        "first_error_max": float(np.nanmax(first_err)),
+        "landing_error_max": float(np.nanmax(landing_err)),
+        "flights_checked": int(both.size),
+    }
 
 
 def _have_scipy():
@@ -158,8 +177,7 @@ def tradeoff(device, checked, timed, repeats, out_dir, scenes=tuple(TRADEOFF_SCE
             for tol in tolerances:
                 label = f"{name}/{precision}/{tol:g}"
                 run_path = out_dir / "checked.h5"
-                wr.run(_tradeoff_scene(name, checked, precision, tol, CHECKED_FIELDS), run_path, device=device,
-                       overwrite=True)
+                wr.run(_tradeoff_scene(name, checked, precision, tol, CHECKED_FIELDS), run_path, device=device, overwrite=True)
                 _append_states(states_path, label, run_path)
                 run_path.unlink()
                 scene = _tradeoff_scene(name, timed, precision, tol)
@@ -170,11 +188,23 @@ def tradeoff(device, checked, timed, repeats, out_dir, scenes=tuple(TRADEOFF_SCE
                     wp.synchronize_device(device)
 
                 t, _ = _timed(go, repeats)
-                rows.append({"scene": name, "precision": precision, "tolerance": tol, "pellets_per_s": timed / t,
-                             "N_timed": timed, "steps_per_flight": stats["flight_steps_mean"],
-                             "range_mean_m": stats["range_mean"], "flights_unfinished": stats["flights_unfinished"]})
-                print(f"air tradeoff {label:26s} {timed / t:.3e} pellets/s, {stats['flight_steps_mean']:.2f} steps "
-                      f"per flight, mean range {stats['range_mean']:.4f} m", flush=True)
+                rows.append(
+                    {
+                        "scene": name,
+                        "precision": precision,
+                        "tolerance": tol,
+                        "pellets_per_s": timed / t,
+                        "N_timed": timed,
+                        "steps_per_flight": stats["flight_steps_mean"],
+                        "range_mean_m": stats["range_mean"],
+                        "flights_unfinished": stats["flights_unfinished"],
+                    }
+                )
+                print(
+                    f"air tradeoff {label:26s} {timed / t:.3e} pellets/s, {stats['flight_steps_mean']:.2f} steps "
+                    f"per flight, mean range {stats['range_mean']:.4f} m",
+                    flush=True,
+                )
     _write_csv(rows, out_dir / "air-tradeoff-timings.csv")
     if with_errors and _have_scipy():
         errors(out_dir)
@@ -207,9 +237,12 @@ def errors(out_dir):
         states = read_states(out_dir / "air-tradeoff-states.h5", label)
         scene = _tradeoff_scene(row["scene"], len(states["initial/position"]), row["precision"], float(row["tolerance"]))
         row.update(_summary(*flight_errors(scene, states, cache)))
-        print(f"air tradeoff {label:26s} error per flight: max {row['error_max']:.2e} (first flights "
-              f"{row['first_error_max']:.2e}, after the impact {row['landing_error_max']:.2e}), p99 {row['error_p99']:.2e}, "
-              f"median {row['error_median']:.2e} ({row['flights_checked']} flights)", flush=True)
+        print(
+            f"air tradeoff {label:26s} error per flight: max {row['error_max']:.2e} (first flights "
+            f"{row['first_error_max']:.2e}, after the impact {row['landing_error_max']:.2e}), p99 {row['error_p99']:.2e}, "
+            f"median {row['error_median']:.2e} ({row['flights_checked']} flights)",
+            flush=True,
+        )
     _write_csv(rows, out_dir / "air-tradeoff.csv")
     _plot_tradeoff(rows, out_dir / "air-tradeoff.png")
 
@@ -227,11 +260,17 @@ def _plot_tradeoff(rows, path):
             mine = [r for r in rows if r["scene"] == name and r["precision"] == precision and "error_max" in r]
             x = [float(r["pellets_per_s"]) for r in mine]
             for key, style in (("error_max", "-"), ("error_median", ":")):
-                ax.plot(x, [float(r[key]) for r in mine], style, marker=marker,
-                        label=f"{precision}, {key.split('_')[1]} over flights")
+                ax.plot(
+                    x, [float(r[key]) for r in mine], style, marker=marker, label=f"{precision}, {key.split('_')[1]} over flights"
+                )
             for r in mine:
-                ax.annotate(f"{float(r['tolerance']):g}", (float(r["pellets_per_s"]), float(r["error_max"])),
-                            textcoords="offset points", xytext=(4, 4), fontsize=7)
+                ax.annotate(
+                    f"{float(r['tolerance']):g}",
+                    (float(r["pellets_per_s"]), float(r["error_max"])),
+                    textcoords="offset points",
+                    xytext=(4, 4),
+                    fontsize=7,
+                )
         ax.axhline(1e-4, color="grey", lw=0.8, ls="--", label="1e-4 of the distance flown")
         ax.set(xscale="log", yscale="log", xlabel="pellets/s (statistics only)", title=f"{name} scene")
     axes[0][0].set_ylabel("|landing - reference| / distance flown")
@@ -243,6 +282,7 @@ def _plot_tradeoff(rows, path):
 
 
 # ------------------------------------------------------------------------------------------ cpu
+
 
 def scipy_ricochet(scene, x0, v0, w0, rtol=1e-12, method="DOP853"):
     """Launch -> contact -> impact law -> landing per pellet with SciPy (one bounce); returns
@@ -258,11 +298,20 @@ def scipy_ricochet(scene, x0, v0, w0, rtol=1e-12, method="DOP853"):
         if first is None:
             continue
         s = scene.surfaces[first.plane]
-        v2, w2, _ = impact_law(first.v[None], first.omega[None], planes[first.plane][1], radius=pellet.radius,
-                               restitution=s.restitution, mu_s=s.mu_s, mu_d=s.mu_d, gravity=g,
-                               duration=scene.physics.impact_duration)
-        after = ref.fly_to_planes(first.x, v2[0], w2[0], pellet, scene.air, g, planes, touching=first.plane,
-                                  rtol=rtol, method=method)
+        v2, w2, _ = impact_law(
+            first.v[None],
+            first.omega[None],
+            planes[first.plane][1],
+            radius=pellet.radius,
+            restitution=s.restitution,
+            mu_s=s.mu_s,
+            mu_d=s.mu_d,
+            gravity=g,
+            duration=scene.physics.impact_duration,
+        )
+        after = ref.fly_to_planes(
+            first.x, v2[0], w2[0], pellet, scene.air, g, planes, touching=first.plane, rtol=rtol, method=method
+        )
         if after is not None:
             out[i] = after.x
     return out
@@ -273,8 +322,12 @@ def _ricochet_error(landing, reference, x0):
     flown = np.linalg.norm(reference - x0, axis=1)
     ok = np.isfinite(flown) & np.isfinite(landing).all(1)
     err = np.linalg.norm(landing[ok] - reference[ok], axis=1) / flown[ok]
-    return {"error_max": float(err.max()), "error_median": float(np.median(err)), "error_p99": float(np.quantile(err, 0.99)),
-            "compared": int(ok.sum())}
+    return {
+        "error_max": float(err.max()),
+        "error_median": float(np.median(err)),
+        "error_p99": float(np.quantile(err, 0.99)),
+        "compared": int(ok.sum()),
+    }
 
 
 def cpu(timed, compared, numpy_n, repeats, out_dir, mu_s, h=1e-3):
@@ -289,8 +342,15 @@ def cpu(timed, compared, numpy_n, repeats, out_dir, mu_s, h=1e-3):
             scene = paper_scene(timed, precision, air=air, mu_s=mu_s)
             stats = wr.run(scene, device="cpu")
             t, _ = _timed(lambda scene=scene: wr.run(scene, device="cpu"), repeats)
-            rows.append({"mu_s": mu_s, "method": f"warp-ricochet {precision}, {'air' if air else 'vacuum'}", "pellets_per_s": timed / t,
-                         "N": timed, "steps_per_pellet": stats.get("flight_steps_mean", 0.0)})
+            rows.append(
+                {
+                    "mu_s": mu_s,
+                    "method": f"warp-ricochet {precision}, {'air' if air else 'vacuum'}",
+                    "pellets_per_s": timed / t,
+                    "N": timed,
+                    "steps_per_pellet": stats.get("flight_steps_mean", 0.0),
+                }
+            )
             print(f"cpu mu_s {mu_s}: {rows[-1]['method']:32s} {timed / t:.3e} pellets/s", flush=True)
     # the same launch states for every method: those the package drew (float64)
     path = out_dir / "cpu-compared.h5"
@@ -306,8 +366,15 @@ def cpu(timed, compared, numpy_n, repeats, out_dir, mu_s, h=1e-3):
         t0 = time.perf_counter()
         landing = scipy_ricochet(scene, x0, v0, w0, rtol=rtol, method=method)
         t = time.perf_counter() - t0
-        rows.append({"mu_s": mu_s, "method": f"SciPy solve_ivp {method} rtol {rtol:g}, per pellet", "pellets_per_s": compared / t,
-                     "N": compared, **_ricochet_error(landing, reference, x0)})
+        rows.append(
+            {
+                "mu_s": mu_s,
+                "method": f"SciPy solve_ivp {method} rtol {rtol:g}, per pellet",
+                "pellets_per_s": compared / t,
+                "N": compared,
+                **_ricochet_error(landing, reference, x0),
+            }
+        )
         print(f"cpu mu_s {mu_s}: {rows[-1]['method']:32s} {compared / t:.3e} pellets/s", flush=True)
     big = paper_scene(numpy_n, "float64", mu_s=mu_s, fields=("initial",))
     wr.run(big, path, device="cpu", overwrite=True)
@@ -317,18 +384,28 @@ def cpu(timed, compared, numpy_n, repeats, out_dir, mu_s, h=1e-3):
     t0 = time.perf_counter()
     _contact, landing = air_numpy.ricochet(big, x, v, w, h)
     t = time.perf_counter() - t0
-    rows.append({"mu_s": mu_s, "method": f"NumPy RK4 vectorised, h = {h:g} s", "pellets_per_s": numpy_n / t, "N": numpy_n,
-                 **_ricochet_error(landing[:compared, :3], reference, x0)})
+    rows.append(
+        {
+            "mu_s": mu_s,
+            "method": f"NumPy RK4 vectorised, h = {h:g} s",
+            "pellets_per_s": numpy_n / t,
+            "N": numpy_n,
+            **_ricochet_error(landing[:compared, :3], reference, x0),
+        }
+    )
     print(f"cpu mu_s {mu_s}: {rows[-1]['method']:32s} {numpy_n / t:.3e} pellets/s", flush=True)
     path.unlink()
     for row in rows:
         if "error_max" in row:
-            print(f"    {row['method']:40s} landing error / distance flown: max {row['error_max']:.1e}, "
-                  f"median {row['error_median']:.1e} ({row['compared']} pellets)")
+            print(
+                f"    {row['method']:40s} landing error / distance flown: max {row['error_max']:.1e}, "
+                f"median {row['error_median']:.1e} ({row['compared']} pellets)"
+            )
     return rows
 
 
 # ------------------------------------------------------------------------------ device throughput
+
 
 def throughput(device, sizes, repeats, precision):
     """Statistics only, the paper's scene (mu_s 0.5 as published, and 0.05: long slip flights) in
@@ -348,20 +425,31 @@ def throughput(device, sizes, repeats, precision):
                     wp.synchronize_device(device)
 
                 t, times = _timed(go, repeats)
-                row = {"N": n, "precision": precision, "mu_s": mu_s, "air": air, "seconds": t, "pellets_per_s": n / t,
-                       "steps_per_pellet": stats.get("flight_steps_mean", 0.0), "range_mean_m": stats["range_mean"],
-                       "device_bytes_per_pellet": State.bytes_per_pellet(precision, (), scene.physics.bounces)}
+                row = {
+                    "N": n,
+                    "precision": precision,
+                    "mu_s": mu_s,
+                    "air": air,
+                    "seconds": t,
+                    "pellets_per_s": n / t,
+                    "steps_per_pellet": stats.get("flight_steps_mean", 0.0),
+                    "range_mean_m": stats["range_mean"],
+                    "device_bytes_per_pellet": State.bytes_per_pellet(precision, (), scene.physics.bounces),
+                }
                 rows.append(row)
-                print(f"N={n:.0e} {precision} mu_s={mu_s} {'air   ' if air else 'vacuum'} {n / t:.3e} pellets/s "
-                      f"({t * 1e3:.1f} ms, runs {', '.join(f'{x * 1e3:.1f}' for x in times)}), "
-                      f"{row['steps_per_pellet']:.2f} steps per flight, {row['device_bytes_per_pellet']:.3f} device "
-                      f"B/pellet, mean range {stats['range_mean']:.3f} m", flush=True)
+                print(
+                    f"N={n:.0e} {precision} mu_s={mu_s} {'air   ' if air else 'vacuum'} {n / t:.3e} pellets/s "
+                    f"({t * 1e3:.1f} ms, runs {', '.join(f'{x * 1e3:.1f}' for x in times)}), "
+                    f"{row['steps_per_pellet']:.2f} steps per flight, {row['device_bytes_per_pellet']:.3f} device "
+                    f"B/pellet, mean range {stats['range_mean']:.3f} m",
+                    flush=True,
+                )
     return rows
 
 
 def air_shots(count, shots, precision, air=True, **collisions):
     """The paper's shot, `shots` times, collisions on, in sea-level air or vacuum."""
-    extra = [f"shot.shots={shots}", "collisions.enabled=true", 'output.fields=[]']
+    extra = [f"shot.shots={shots}", "collisions.enabled=true", "output.fields=[]"]
     extra += [f"collisions.{k}={v}" for k, v in collisions.items() if v is not None]
     return paper_scene(count, precision, air=air, mu_s=0.5, extra=extra)
 
@@ -382,17 +470,28 @@ def collisions(device, count, shots, repeats, precisions, cases=tuple(COLLISION_
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # float32 collisions: the PrecisionWarning is known here
                 stats = wr.run(scene, device=device)
-                t, times = _timed(lambda scene=scene: (wr.run(scene, device=device), wp.synchronize_device(device)),
-                                  repeats)
-            row = {"shots": shots, "count": count, "precision": precision, "air": air, "leaps": leaps, "seconds": t,
-                   "dense_steps_max": stats["dense_steps_max"], "dense_steps_mean": stats["dense_steps_mean"],
-                   "collided_fraction": stats["collided_fraction"], "range_mean_m": stats["range_mean"]}
+                t, times = _timed(lambda scene=scene: (wr.run(scene, device=device), wp.synchronize_device(device)), repeats)
+            row = {
+                "shots": shots,
+                "count": count,
+                "precision": precision,
+                "air": air,
+                "leaps": leaps,
+                "seconds": t,
+                "dense_steps_max": stats["dense_steps_max"],
+                "dense_steps_mean": stats["dense_steps_mean"],
+                "collided_fraction": stats["collided_fraction"],
+                "range_mean_m": stats["range_mean"],
+            }
             rows.append(row)
             label = "vacuum" if not air else ("air" if leaps else "air, no leaps")
-            print(f"{shots} shots x {count} {precision} {label:14s}: {t:.3f} s (runs "
-                  f"{', '.join(f'{x:.3f}' for x in times)}), dense steps max {stats['dense_steps_max']:.0f} mean "
-                  f"{stats['dense_steps_mean']:.0f}, collided {stats['collided_fraction']:.4f}, mean range "
-                  f"{stats['range_mean']:.3f} m", flush=True)
+            print(
+                f"{shots} shots x {count} {precision} {label:14s}: {t:.3f} s (runs "
+                f"{', '.join(f'{x:.3f}' for x in times)}), dense steps max {stats['dense_steps_max']:.0f} mean "
+                f"{stats['dense_steps_mean']:.0f}, collided {stats['collided_fraction']:.4f}, mean range "
+                f"{stats['range_mean']:.3f} m",
+                flush=True,
+            )
     return rows
 
 
@@ -415,14 +514,24 @@ def ensemble(device, count, shots, out_dir):
             seconds = time.perf_counter() - start
         row = {"leaps": leaps, "shots": shots, "count": count, "seconds": seconds}
         with h5py.File(path, "r") as f:
-            for name in ("collided_fraction", "pair_collisions", "range_mean", "range_max", "landing_mean_WT",
-                         "pair_energy_lost", "dense_steps_mean"):
+            for name in (
+                "collided_fraction",
+                "pair_collisions",
+                "range_mean",
+                "range_max",
+                "landing_mean_WT",
+                "pair_energy_lost",
+                "dense_steps_mean",
+            ):
                 x = f["stats/shots/" + name][()]
                 row[name] = (float(x.mean()), float(1.972 * x.std(ddof=1) / np.sqrt(len(x))))
         path.unlink()
         rows.append(row)
-        print(f"{shots} shots x {count}, leaps {leaps}: {seconds:.1f} s | " + " | ".join(
-            f"{k} {v[0]:.4g} +- {v[1]:.2g}" for k, v in row.items() if isinstance(v, tuple)), flush=True)
+        print(
+            f"{shots} shots x {count}, leaps {leaps}: {seconds:.1f} s | "
+            + " | ".join(f"{k} {v[0]:.4g} +- {v[1]:.2g}" for k, v in row.items() if isinstance(v, tuple)),
+            flush=True,
+        )
     return rows
 
 
@@ -446,13 +555,21 @@ def _lattice(count, out_dir, collisions):
 
     z = np.arange(count, dtype=float)
     one = np.ones_like(z)
-    np.savez(out_dir / "lattice.npz", position=np.stack([0 * z, one, z], 1),
-             velocity=np.stack([290.96 * one, -290.96 * one, 0 * z], 1), angular_velocity=np.stack([0 * z, 0 * z, -3e3 * one], 1))
-    raw = {"shot": {"file": str(out_dir / "lattice.npz"), "diameter": 0.0025, "density": 7000.0},
-           "surfaces": [{"point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.01, "mu_s": 0.28,
-                         "mu_d": 0.252}],
-           "physics": {"bounces": 2}, "air": {}, "numerics": {"precision": "float64", "flight_tolerance": 1e-12},
-           "output": {"fields": ["initial", "landing"]}, "collisions": {"enabled": collisions is not None, **(collisions or {})}}
+    np.savez(
+        out_dir / "lattice.npz",
+        position=np.stack([0 * z, one, z], 1),
+        velocity=np.stack([290.96 * one, -290.96 * one, 0 * z], 1),
+        angular_velocity=np.stack([0 * z, 0 * z, -3e3 * one], 1),
+    )
+    raw = {
+        "shot": {"file": str(out_dir / "lattice.npz"), "diameter": 0.0025, "density": 7000.0},
+        "surfaces": [{"point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.01, "mu_s": 0.28, "mu_d": 0.252}],
+        "physics": {"bounces": 2},
+        "air": {},
+        "numerics": {"precision": "float64", "flight_tolerance": 1e-12},
+        "output": {"fields": ["initial", "landing"]},
+        "collisions": {"enabled": collisions is not None, **(collisions or {})},
+    }
     return scene_from_dict(raw)
 
 
@@ -463,12 +580,24 @@ def _dense_rows(label, cases, reference, device, path):
     for key, value, scene in cases:
         states, stats, seconds = _landings(scene, device, path)
         err = np.linalg.norm(states["landing/position"] - reference["landing/position"], axis=1)[landed] / flown[landed]
-        rows.append({"case": label, key: value, "error_max": float(err.max()), "error_median": float(np.median(err)),
-                     "dense_steps_mean": stats["dense_steps_mean"], "pair_collisions": stats["pair_collisions"],
-                     "seconds": seconds, "pellets": int(landed.sum())})
-        print(f"dense {label}, {key} = {value}: landing error / distance flown max {err.max():.2e}, median "
-              f"{np.median(err):.2e}; {stats['dense_steps_mean']:.0f} dense steps; {seconds:.2f} s "
-              f"({int(landed.sum())} pellets, {stats['pair_collisions']:.0f} pair collisions)", flush=True)
+        rows.append(
+            {
+                "case": label,
+                key: value,
+                "error_max": float(err.max()),
+                "error_median": float(np.median(err)),
+                "dense_steps_mean": stats["dense_steps_mean"],
+                "pair_collisions": stats["pair_collisions"],
+                "seconds": seconds,
+                "pellets": int(landed.sum()),
+            }
+        )
+        print(
+            f"dense {label}, {key} = {value}: landing error / distance flown max {err.max():.2e}, median "
+            f"{np.median(err):.2e}; {stats['dense_steps_mean']:.0f} dense steps; {seconds:.2f} s "
+            f"({int(landed.sum())} pellets, {stats['pair_collisions']:.0f} pair collisions)",
+            flush=True,
+        )
     return rows
 
 
@@ -520,19 +649,36 @@ def journee(device, speed, angles, out_dir, drags=("loth2021", "braun")):
             velocity = speed * np.stack([np.cos(a), np.sin(a), np.zeros_like(a)], 1)
             np.savez(out_dir / "journee.npz", position=position, velocity=velocity, angular_velocity=0 * velocity)
             air = {} if drag == "loth2021" else {"drag": "table", "drag_table": drag}
-            raw = {"shot": {"file": str(out_dir / "journee.npz"), "diameter": d, "density": LEAD},
-                   "surfaces": [{"point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.0, "mu_s": 0.5}],
-                   "air": air, "numerics": {"precision": "float64"}, "output": {"fields": ["impact.position"]}}
+            raw = {
+                "shot": {"file": str(out_dir / "journee.npz"), "diameter": d, "density": LEAD},
+                "surfaces": [{"point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.0, "mu_s": 0.5}],
+                "air": air,
+                "numerics": {"precision": "float64"},
+                "output": {"fields": ["impact.position"]},
+            }
             wr.run(scene_from_dict(raw), out_dir / "journee.h5", device=device, overwrite=True)
             x = read_states(out_dir / "journee.h5")["impact/position"][:, 0, 0]
             best = int(np.nanargmax(x))
             rule = 2200.0 * inches * YARD
-            rows.append({"drag": drag, "shot": name, "diameter_mm": d * 1e3, "max_range_m": float(x[best]),
-                         "best_angle_deg": float(angles[best]), "journee_m": rule, "ratio": float(x[best]) / rule,
-                         "vacuum_m": speed**2 / 9.81, "fraction_of_vacuum": float(x[best]) / (speed**2 / 9.81)})
-            print(f"journee {drag:8s} {name:8s} d = {d * 1e3:5.2f} mm: longest range {x[best]:7.1f} m at "
-                  f"{angles[best]:.1f} deg; Journee {rule:7.1f} m (model/rule {x[best] / rule:.2f}); "
-                  f"{100 * x[best] / (speed**2 / 9.81):.1f}% of the vacuum's {speed**2 / 9.81:,.0f} m", flush=True)
+            rows.append(
+                {
+                    "drag": drag,
+                    "shot": name,
+                    "diameter_mm": d * 1e3,
+                    "max_range_m": float(x[best]),
+                    "best_angle_deg": float(angles[best]),
+                    "journee_m": rule,
+                    "ratio": float(x[best]) / rule,
+                    "vacuum_m": speed**2 / 9.81,
+                    "fraction_of_vacuum": float(x[best]) / (speed**2 / 9.81),
+                }
+            )
+            print(
+                f"journee {drag:8s} {name:8s} d = {d * 1e3:5.2f} mm: longest range {x[best]:7.1f} m at "
+                f"{angles[best]:.1f} deg; Journee {rule:7.1f} m (model/rule {x[best] / rule:.2f}); "
+                f"{100 * x[best] / (speed**2 / 9.81):.1f}% of the vacuum's {speed**2 / 9.81:,.0f} m",
+                flush=True,
+            )
     for p in ("journee.npz", "journee.h5"):
         (out_dir / p).unlink()
     _write_csv(rows, out_dir / "air-journee.csv")
@@ -541,11 +687,12 @@ def journee(device, speed, angles, out_dir, drags=("loth2021", "braun")):
 
 # ------------------------------------------------------------------------------------------- main
 
+
 def main(argv=None):
-    parser = argparse.ArgumentParser(prog="python -m bench.air", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("what", choices=("tradeoff", "errors", "cpu", "throughput", "collisions", "ensemble", "dense",
-                                         "journee"))
+    parser = argparse.ArgumentParser(
+        prog="python -m bench.air", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("what", choices=("tradeoff", "errors", "cpu", "throughput", "collisions", "ensemble", "dense", "journee"))
     parser.add_argument("dir", nargs="?", help="errors: the tradeoff run's folder")
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--precision", default="float32")
@@ -559,8 +706,14 @@ def main(argv=None):
     parser.add_argument("--cases", default=",".join(COLLISION_CASES), help="collisions: which runs")
     parser.add_argument("--count", type=int, default=40, help="dense: pellets")
     parser.add_argument("--speed", type=float, default=411.48, help="journee: launch speed, m/s")
-    parser.add_argument("--mu-s", dest="mu_s", type=float, nargs="+", default=[0.5, 0.28, 0.0],
-                        help="cpu: the paper's scene at these mu_s (0.5 as published; 0: the longest ricochets)")
+    parser.add_argument(
+        "--mu-s",
+        dest="mu_s",
+        type=float,
+        nargs="+",
+        default=[0.5, 0.28, 0.0],
+        help="cpu: the paper's scene at these mu_s (0.5 as published; 0: the longest ricochets)",
+    )
     parser.add_argument("--no-errors", action="store_true", help="tradeoff: timings and states only (errors later)")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--out", default="bench-air", help="folder for the CSV, PNG and JSON")
@@ -574,23 +727,31 @@ def main(argv=None):
     record = {"info": device_info(wp, args.device), "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())}
     print(json.dumps(record["info"]), flush=True)
     if args.what == "tradeoff":
-        record[args.what] = tradeoff(args.device, args.checked, int(args.timed), args.repeats, out_dir,
-                                     with_errors=not args.no_errors)
+        record[args.what] = tradeoff(
+            args.device, args.checked, int(args.timed), args.repeats, out_dir, with_errors=not args.no_errors
+        )
     elif args.what == "cpu":
-        record[args.what] = [row for mu_s in args.mu_s for row in
-                             cpu(int(args.timed), args.compared, int(args.numpy), args.repeats, out_dir, mu_s)]
+        record[args.what] = [
+            row for mu_s in args.mu_s for row in cpu(int(args.timed), args.compared, int(args.numpy), args.repeats, out_dir, mu_s)
+        ]
         _write_csv(record[args.what], out_dir / "air-cpu.csv")
     elif args.what == "throughput":
         sizes = [int(float(s)) for s in args.sizes.split(",")]
         record[args.what] = throughput(args.device, sizes, args.repeats, args.precision)
     elif args.what == "collisions":
-        record[args.what] = collisions(args.device, 450, args.shots, args.repeats, args.precisions.split(","),
-                                       args.cases.split(","))
+        record[args.what] = collisions(
+            args.device, 450, args.shots, args.repeats, args.precisions.split(","), args.cases.split(",")
+        )
     elif args.what == "ensemble":
         record[args.what] = ensemble(args.device, 450, args.shots, out_dir)
     elif args.what == "dense":
-        record[args.what] = dense(args.device, args.count, (0.16, 0.08, 0.04, 0.02, 0.01, 0.005, 0.0025),
-                                  (4e-4, 1e-4, 2.5e-5, 6.25e-6, 1.5625e-6), out_dir)
+        record[args.what] = dense(
+            args.device,
+            args.count,
+            (0.16, 0.08, 0.04, 0.02, 0.01, 0.005, 0.0025),
+            (4e-4, 1e-4, 2.5e-5, 6.25e-6, 1.5625e-6),
+            out_dir,
+        )
     elif args.what == "journee":
         record[args.what] = journee(args.device, args.speed, np.arange(5.0, 45.01, 0.25), out_dir)
     path = out_dir / f"air-{args.what}-{args.device.replace(':', '')}.json"

@@ -106,9 +106,17 @@ def ricochet(scene, position, velocity, spin, h):
     y = np.concatenate([position, velocity, spin], axis=1).astype(float)
     contact = fly(y.copy(), h, f, point, normal, radius, np.zeros(len(y), bool))
     hit = np.isfinite(contact[:, 0])
-    v2, w2, _ = impact_law(contact[hit, 3:6], contact[hit, 6:9], normal, radius=radius,
-                           restitution=surface.restitution, mu_s=surface.mu_s, mu_d=surface.mu_d,
-                           gravity=gravity, duration=scene.physics.impact_duration)
+    v2, w2, _ = impact_law(
+        contact[hit, 3:6],
+        contact[hit, 6:9],
+        normal,
+        radius=radius,
+        restitution=surface.restitution,
+        mu_s=surface.mu_s,
+        mu_d=surface.mu_d,
+        gravity=gravity,
+        duration=scene.physics.impact_duration,
+    )
     after = np.concatenate([contact[hit, :3], v2, w2], axis=1)
     landing = np.full_like(contact, np.nan)
     landing[hit] = fly(after, h, f, point, normal, radius, np.ones(len(after), bool))

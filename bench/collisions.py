@@ -67,9 +67,10 @@ def _run(scene, device, path):
     api.run(scene, output=path, device=device, overwrite=True)
     elapsed = time.perf_counter() - start
     with h5py.File(path, "r") as f:
-        pellets = {k: f["pellets/" + k.replace(".", "/")][()] for k in ("initial.position", "initial.velocity",
-                                                                         "initial.angular_velocity", "landing.range",
-                                                                         "collisions.count")}
+        pellets = {
+            k: f["pellets/" + k.replace(".", "/")][()]
+            for k in ("initial.position", "initial.velocity", "initial.angular_velocity", "landing.range", "collisions.count")
+        }
         stats = {k: float(ds[()]) for k, ds in f["stats"].items() if isinstance(ds, h5py.Dataset)}
     return elapsed, pellets, stats
 
@@ -105,15 +106,29 @@ def tradeoff(args):
     for precision, skin, fraction, rounds in grid:
         per_seed = []
         for seed in range(args.seeds):
-            scene = paper_shots(args.count, 1, precision, 2021 + seed, ("initial", "landing.range", "collisions.count"),
-                                step_fraction=fraction, rounds=rounds, skin=skin)
+            scene = paper_shots(
+                args.count,
+                1,
+                precision,
+                2021 + seed,
+                ("initial", "landing.range", "collisions.count"),
+                step_fraction=fraction,
+                rounds=rounds,
+                skin=skin,
+            )
             elapsed, pellets, stats = _run(scene, args.device, os.path.join(args.out, "tradeoff-run.h5"))
-            ref, ref_stats = simulate_collisions(scene, pellets["initial.position"].astype(float),
-                                                 pellets["initial.velocity"].astype(float),
-                                                 pellets["initial.angular_velocity"].astype(float))
+            ref, ref_stats = simulate_collisions(
+                scene,
+                pellets["initial.position"].astype(float),
+                pellets["initial.velocity"].astype(float),
+                pellets["initial.angular_velocity"].astype(float),
+            )
             m = _metrics(pellets["landing.range"].astype(float), ref["landing.range"], stats, ref_stats)
-            m.update(time_s=elapsed, steps=stats["dense_steps_max"],
-                     same_collision_count=float(np.mean(pellets["collisions.count"] == ref["collisions.count"])))
+            m.update(
+                time_s=elapsed,
+                steps=stats["dense_steps_max"],
+                same_collision_count=float(np.mean(pellets["collisions.count"] == ref["collisions.count"])),
+            )
             per_seed.append(m)
         row = {"precision": precision, "skin": skin, "step_fraction": fraction, "rounds": rounds}
         for key in per_seed[0]:
@@ -121,9 +136,12 @@ def tradeoff(args):
             row[key] = float(np.mean(values))
             row[key + "_spread"] = float(np.std(values))
         rows.append(row)
-        print(f"{precision} skin {skin:4.2f} fraction {fraction:5.2f} rounds {rounds:2d}: {row['time_s']:7.3f} s  steps {row['steps']:7.0f}  "
-              f"mean range {row['mean_range_error']:.2e}  L+ {row['Lplus_error']:.2e}  W1 {row['wasserstein_m']:.3g} m  "
-              f"collided {row['collided_error']:.3f}  same counts {row['same_collision_count']:.2f}", flush=True)
+        print(
+            f"{precision} skin {skin:4.2f} fraction {fraction:5.2f} rounds {rounds:2d}: {row['time_s']:7.3f} s  steps {row['steps']:7.0f}  "
+            f"mean range {row['mean_range_error']:.2e}  L+ {row['Lplus_error']:.2e}  W1 {row['wasserstein_m']:.3g} m  "
+            f"collided {row['collided_error']:.3f}  same counts {row['same_collision_count']:.2f}",
+            flush=True,
+        )
     path = os.path.join(args.out, name + ".csv")
     with open(path, "w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=list(rows[0]))
@@ -131,6 +149,7 @@ def tradeoff(args):
         writer.writerows(rows)
     try:
         import matplotlib
+
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
@@ -143,8 +162,14 @@ def tradeoff(args):
             if not sel:
                 continue
             t = [r["time_s"] for r in sel]
-            axes[0].loglog(t, [max(r["mean_range_error"], 1e-6) for r in sel], marker=marker, color=colour, ls="-",
-                           label=f"{precision}, {rounds} rounds")
+            axes[0].loglog(
+                t,
+                [max(r["mean_range_error"], 1e-6) for r in sel],
+                marker=marker,
+                color=colour,
+                ls="-",
+                label=f"{precision}, {rounds} rounds",
+            )
             axes[1].loglog(t, [max(r["wasserstein_m"], 1e-6) for r in sel], marker=marker, color=colour, ls="-")
             for r in sel:
                 label = f"{r['skin']:g}/{r['step_fraction']:g}" if args.knobs else f"{r['step_fraction']:g}"
@@ -154,7 +179,11 @@ def tradeoff(args):
     axes[1].set_xlabel("run time (s)")
     axes[1].set_ylabel("Wasserstein-1 distance of ranges (m)")
     axes[0].legend(fontsize=7)
-    fig.suptitle(f"Collisions, paper shot of {args.count} pellets, {args.seeds} seeds, {args.device} (labels: " + ("skin/step_fraction" if args.knobs else "step_fraction") + ")")
+    fig.suptitle(
+        f"Collisions, paper shot of {args.count} pellets, {args.seeds} seeds, {args.device} (labels: "
+        + ("skin/step_fraction" if args.knobs else "step_fraction")
+        + ")"
+    )
     fig.tight_layout()
     png = os.path.join(args.out, name + ".png")
     fig.savefig(png, dpi=120)
@@ -182,12 +211,14 @@ def throughput(args):
     pellets = args.count * args.shots
     launched = stats["dense_steps_max"] * pellets
     working = stats["dense_steps_mean"] * pellets
-    print(f"{args.device} {args.precision} rounds={scene.collisions.rounds}: {args.shots} shots x {args.count} pellets = {pellets:.3g} "
-          f"in {elapsed:.3f} s (median of {args.repeats}: {', '.join(f'{t:.3f}' for t in times)}; whole run: dense "
-          f"phase, flight, statistics); steps: {stats['dense_steps_max']:.0f} launched, {stats['dense_steps_mean']:.0f} "
-          f"per shot on average; dense phase up to {stats['dense_time_max'] * 1e3:.2f} ms of flight (mean "
-          f"{stats['dense_time_mean'] * 1e3:.2f}); {launched / elapsed:.3g} pellet-steps/s launched, "
-          f"{working / elapsed:.3g} working; collided {stats['collided_fraction']:.3f}")
+    print(
+        f"{args.device} {args.precision} rounds={scene.collisions.rounds}: {args.shots} shots x {args.count} pellets = {pellets:.3g} "
+        f"in {elapsed:.3f} s (median of {args.repeats}: {', '.join(f'{t:.3f}' for t in times)}; whole run: dense "
+        f"phase, flight, statistics); steps: {stats['dense_steps_max']:.0f} launched, {stats['dense_steps_mean']:.0f} "
+        f"per shot on average; dense phase up to {stats['dense_time_max'] * 1e3:.2f} ms of flight (mean "
+        f"{stats['dense_time_mean'] * 1e3:.2f}); {launched / elapsed:.3g} pellet-steps/s launched, "
+        f"{working / elapsed:.3g} working; collided {stats['collided_fraction']:.3f}"
+    )
 
 
 def profile(args):
@@ -196,8 +227,9 @@ def profile(args):
     from warp_ricochet import api
     from warp_ricochet.dense.phase import DenseOptions, DensePhase
 
-    scene = paper_shots(args.count, args.shots, args.precision, rounds=args.rounds, skin=args.skin,
-                        step_fraction=args.step_fraction, air=args.air)
+    scene = paper_shots(
+        args.count, args.shots, args.precision, rounds=args.rounds, skin=args.skin, step_fraction=args.step_fraction, air=args.air
+    )
     # (on the CPU the dense phase is one launch; its parts are timed in the host loop, which
     # launches the same per-shot work: the one launch saves the host round trips between them)
     host_loop = DenseOptions(cpu_steps="block")
@@ -214,6 +246,7 @@ def profile(args):
             spent[name] += time.perf_counter() - start
             calls[name] += 1
             return result
+
         return wrapper
 
     originals = {name: getattr(DensePhase, name) for name in ("_rebuild", "_block", "_checkpoint", "_launch")}
@@ -221,6 +254,7 @@ def profile(args):
     DensePhase._block = timed("block of steps (graph or replay)", originals["_block"])
     DensePhase._checkpoint = timed("checkpoint (now, horizon, settle, leaps; flags to the host)", originals["_checkpoint"])
     if args.per_kernel:  # each launch of a block and a checkpoint alone, synchronised (no graphs: slower in all)
+
         def each(commands, repeat=1):
             for _ in range(repeat):
                 for command in commands:
@@ -238,6 +272,7 @@ def profile(args):
         def checkpoint(self):
             each([self.now_command, *self.horizon_commands, *self.checkpoint_commands])
             return self.cloud.flags.numpy().copy()
+
         DensePhase._block = timed("block of steps (kernels one at a time)", block)
         DensePhase._checkpoint = timed("checkpoint (kernels one at a time)", checkpoint)
     DensePhase._launch = timed("other launches (launch, drift, release, totals; recording)", originals["_launch"])
@@ -249,9 +284,11 @@ def profile(args):
         for name, fn in originals.items():
             setattr(DensePhase, name, fn)
     c = scene.collisions
-    print(f"{args.device} {args.precision} {args.shots} x {args.count}, rounds {c.rounds}, skin {c.skin}, step fraction "
-          f"{c.step_fraction}: {total:.3f} s, steps {stats['dense_steps_max']:.0f} (mean {stats['dense_steps_mean']:.0f})"
-          + ("; the host loop (by default the CPU's dense phase is one launch of the same work)" if not device.is_cuda else ""))
+    print(
+        f"{args.device} {args.precision} {args.shots} x {args.count}, rounds {c.rounds}, skin {c.skin}, step fraction "
+        f"{c.step_fraction}: {total:.3f} s, steps {stats['dense_steps_max']:.0f} (mean {stats['dense_steps_mean']:.0f})"
+        + ("; the host loop (by default the CPU's dense phase is one launch of the same work)" if not device.is_cuda else "")
+    )
     for name in spent:
         print(f"  {name:75s} {spent[name]:8.3f} s  {calls[name]:6d} calls  {spent[name] / calls[name] * 1e3:8.3f} ms each")
     parts = sum(t for name, t in spent.items() if not name.startswith("  kernel"))  # (kernels are inside their parts)
@@ -273,10 +310,12 @@ def tail(args):
     os.remove(path)
     order = np.argsort(end)[::-1]
     q = np.quantile(end, [0.5, 0.9, 0.99, 0.999, 1.0])
-    print(f"dense phase end per shot (ms): median {q[0]*1e3:.2f}, p90 {q[1]*1e3:.2f}, p99 {q[2]*1e3:.2f}, "
-          f"p99.9 {q[3]*1e3:.2f}, max {q[4]*1e3:.2f}; steps mean {stats['dense_steps_mean']:.0f} max "
-          f"{stats['dense_steps_max']:.0f}")
-    print("longest shots:", ", ".join(f"{s} ({end[s]*1e3:.1f} ms)" for s in order[:8]))
+    print(
+        f"dense phase end per shot (ms): median {q[0] * 1e3:.2f}, p90 {q[1] * 1e3:.2f}, p99 {q[2] * 1e3:.2f}, "
+        f"p99.9 {q[3] * 1e3:.2f}, max {q[4] * 1e3:.2f}; steps mean {stats['dense_steps_mean']:.0f} max "
+        f"{stats['dense_steps_max']:.0f}"
+    )
+    print("longest shots:", ", ".join(f"{s} ({end[s] * 1e3:.1f} ms)" for s in order[:8]))
     rows = slice(order[0] * args.count, (order[0] + 1) * args.count)
     np.savez(os.path.join(args.out, "tail-shot.npz"), **{k: v[rows] for k, v in initial.items()})
     np.save(os.path.join(args.out, "shot-end.npy"), end)
@@ -292,19 +331,22 @@ def reference(args):
         ref, rs = simulate_collisions(scene, p["initial.position"], p["initial.velocity"], p["initial.angular_velocity"])
         ref_time = time.perf_counter() - start
         same = np.mean(ref["collisions.count"] == p["collisions.count"])
-        print(f"seed {seed}: solver {elapsed:.2f} s, reference {ref_time:.2f} s; collided {st['collided_fraction']:.3f} vs "
-              f"{rs['collided_fraction']:.3f}; pair collisions {st['pair_collisions']:.0f} vs {rs['pair_collisions']:.0f}; "
-              f"lost {st['pair_energy_lost']:.2f} vs {rs['pair_energy_lost']:.2f} J; mean range {st['range_mean']:.2f} vs "
-              f"{rs['range_mean']:.2f}; L+ {st['range_max']:.1f} vs {rs['range_max']:.1f}; same counts {same:.3f}; "
-              f"max range diff {np.nanmax(np.abs(ref['landing.range'] - p['landing.range'])):.3g} m")
+        print(
+            f"seed {seed}: solver {elapsed:.2f} s, reference {ref_time:.2f} s; collided {st['collided_fraction']:.3f} vs "
+            f"{rs['collided_fraction']:.3f}; pair collisions {st['pair_collisions']:.0f} vs {rs['pair_collisions']:.0f}; "
+            f"lost {st['pair_energy_lost']:.2f} vs {rs['pair_energy_lost']:.2f} J; mean range {st['range_mean']:.2f} vs "
+            f"{rs['range_mean']:.2f}; L+ {st['range_max']:.1f} vs {rs['range_max']:.1f}; same counts {same:.3f}; "
+            f"max range diff {np.nanmax(np.abs(ref['landing.range'] - p['landing.range'])):.3g} m"
+        )
 
 
 def main():
     import warp as wp
 
     commands = {"tradeoff": tradeoff, "throughput": throughput, "profile": profile, "tail": tail, "reference": reference}
-    parser = argparse.ArgumentParser(prog="python -m bench.collisions", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog="python -m bench.collisions", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("what", choices=tuple(commands))
     parser.add_argument("--count", type=int, default=None, help="pellets per shot (tradeoff 120, else 450)")
     parser.add_argument("--shots", type=int, default=2223, help="shots in one run (throughput, profile, tail)")
@@ -315,8 +357,9 @@ def main():
     parser.add_argument("--skin", type=float, default=None, help="profile: collisions.skin")
     parser.add_argument("--step-fraction", type=float, default=None, help="profile: collisions.step_fraction")
     parser.add_argument("--air", action="store_true", help="profile: in sea-level air (mu_s 0.5, as bench.air)")
-    parser.add_argument("--per-kernel", dest="per_kernel", action="store_true",
-                        help="profile: time each launch of a block and a checkpoint alone")
+    parser.add_argument(
+        "--per-kernel", dest="per_kernel", action="store_true", help="profile: time each launch of a block and a checkpoint alone"
+    )
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--precision", default="float32")
     parser.add_argument("--out", default=None, help="tradeoff, tail: folder for the CSV/PNG or the tail files")

@@ -25,10 +25,28 @@ import numpy as np
 
 from bench.collisions import paper_shots
 
-FIELDS = ("initial", "impact.surface", "impact.velocity", "landing.range", "landing.surface", "landing.velocity",
-          "collisions.count")
-STATS = ("range_mean", "range_std", "range_max", "range_min", "range_p50", "range_p90", "landed_fraction",
-         "collided_fraction", "pair_collisions", "post_mean_vt", "landing_mean_WT")
+FIELDS = (
+    "initial",
+    "impact.surface",
+    "impact.velocity",
+    "landing.range",
+    "landing.surface",
+    "landing.velocity",
+    "collisions.count",
+)
+STATS = (
+    "range_mean",
+    "range_std",
+    "range_max",
+    "range_min",
+    "range_p50",
+    "range_p90",
+    "landed_fraction",
+    "collided_fraction",
+    "pair_collisions",
+    "post_mean_vt",
+    "landing_mean_WT",
+)
 
 
 def per_shot(out, count, mass):
@@ -42,14 +60,21 @@ def per_shot(out, count, mass):
         hit = out["impact.surface"][sl][:, 0] >= 0
         v = out["impact.velocity"][sl][:, 0][hit]
         vl = out["landing.velocity"][sl][landed]
-        rows.append({
-            "range_mean": r.mean(), "range_std": r.std(), "range_max": r.max(), "range_min": r.min(),
-            "range_p50": np.median(r), "range_p90": np.quantile(r, 0.9), "landed_fraction": landed.mean(),
-            "collided_fraction": np.mean(out["collisions.count"][sl] > 0),
-            "pair_collisions": out["collisions.count"][sl].sum() / 2.0,
-            "post_mean_vt": np.hypot(v[:, 0], v[:, 2]).mean(),  # the ground's normal is y
-            "landing_mean_WT": 0.5 * mass * np.mean(np.einsum("ij,ij->i", vl, vl)),
-        })
+        rows.append(
+            {
+                "range_mean": r.mean(),
+                "range_std": r.std(),
+                "range_max": r.max(),
+                "range_min": r.min(),
+                "range_p50": np.median(r),
+                "range_p90": np.quantile(r, 0.9),
+                "landed_fraction": landed.mean(),
+                "collided_fraction": np.mean(out["collisions.count"][sl] > 0),
+                "pair_collisions": out["collisions.count"][sl].sum() / 2.0,
+                "post_mean_vt": np.hypot(v[:, 0], v[:, 2]).mean(),  # the ground's normal is y
+                "landing_mean_WT": 0.5 * mass * np.mean(np.einsum("ij,ij->i", vl, vl)),
+            }
+        )
     return {k: np.array([row[k] for row in rows]) for k in STATS}
 
 
@@ -90,15 +115,20 @@ def compare(name_a, a, name_b, b, ranges_a, ranges_b, lines):
     pvals = [stats.mannwhitneyu(a[k], b[k]).pvalue for k in STATS]
     adjusted = holm(pvals)
     ks = stats.ks_2samp(ranges_a, ranges_b).statistic
-    lines.append(f"\n## {name_a} ({len(a['range_mean'])} shots) vs {name_b} ({len(b['range_mean'])} shots): "
-                 f"pooled ranges KS D = {ks:.4f}")
-    lines.append(f"| statistic | {name_a} mean [95% t CI] | {name_b} mean [95% t CI] | difference [Welch 95% CI] | "
-                 "Mann-Whitney p | Holm p |")
+    lines.append(
+        f"\n## {name_a} ({len(a['range_mean'])} shots) vs {name_b} ({len(b['range_mean'])} shots): pooled ranges KS D = {ks:.4f}"
+    )
+    lines.append(
+        f"| statistic | {name_a} mean [95% t CI] | {name_b} mean [95% t CI] | difference [Welch 95% CI] | "
+        "Mann-Whitney p | Holm p |"
+    )
     lines.append("|---|---|---|---|---|---|")
     for k, p, q in zip(STATS, pvals, adjusted):
         ma, mb, d = t_interval(a[k]), t_interval(b[k]), welch_interval(a[k], b[k])
-        lines.append(f"| {k} | {ma[0]:.5g} [{ma[1]:.5g}, {ma[2]:.5g}] | {mb[0]:.5g} [{mb[1]:.5g}, {mb[2]:.5g}] | "
-                     f"{d[0]:+.4g} [{d[1]:+.4g}, {d[2]:+.4g}] | {p:.3g} | {q:.3g} |")
+        lines.append(
+            f"| {k} | {ma[0]:.5g} [{ma[1]:.5g}, {ma[2]:.5g}] | {mb[0]:.5g} [{mb[1]:.5g}, {mb[2]:.5g}] | "
+            f"{d[0]:+.4g} [{d[1]:+.4g}, {d[2]:+.4g}] | {p:.3g} | {q:.3g} |"
+        )
     lines.append(f"smallest Holm p: {adjusted.min():.3g} ({STATS[int(np.argmin(adjusted))]})")
 
 
@@ -156,10 +186,10 @@ def main():
     rng = np.random.default_rng(7)
     moved = base["initial.position"] * (1 + 1e-7 * rng.choice([-1.0, 1.0], size=base["initial.position"].shape))
     pellet_file = os.path.join(args.out, "moved.npz")
-    np.savez(pellet_file, position=moved, velocity=base["initial.velocity"],
-             angular_velocity=base["initial.angular_velocity"])
+    np.savez(pellet_file, position=moved, velocity=base["initial.velocity"], angular_velocity=base["initial.angular_velocity"])
     scene = paper_shots(count, args.shots, "float64", args.seed, FIELDS)
     import dataclasses
+
     scene = dataclasses.replace(scene, shot=dataclasses.replace(scene.shot, file=pellet_file))
     runs["float64 moved 1e-7"], _, cpu = solver_run(scene, args.device, os.path.join(args.out, "moved.h5"))
     lines.append(f"stepped float64, launch positions moved by 1e-7: {cpu:.1f} s CPU")
@@ -167,13 +197,17 @@ def main():
     ref, start = {}, time.process_time()
     for s in range(args.reference_shots):
         sl = slice(s * count, (s + 1) * count)
-        out, _ = simulate_collisions(scene, base["initial.position"][sl], base["initial.velocity"][sl],
-                                     base["initial.angular_velocity"][sl], np.zeros(count, int))
+        out, _ = simulate_collisions(
+            scene,
+            base["initial.position"][sl],
+            base["initial.velocity"][sl],
+            base["initial.angular_velocity"][sl],
+            np.zeros(count, int),
+        )
         for k, v in out.items():
             ref.setdefault(k, []).append(v)
     runs["reference"] = {k: np.concatenate(v) for k, v in ref.items()}
-    lines.append(f"reference (event-driven, float64): {time.process_time() - start:.1f} s CPU for "
-                 f"{args.reference_shots} shots")
+    lines.append(f"reference (event-driven, float64): {time.process_time() - start:.1f} s CPU for {args.reference_shots} shots")
     per = {name: per_shot(out, count, mass) for name, out in runs.items()}
     for name, p in per.items():
         write_csv(os.path.join(args.out, f"per-shot-{name.replace(' ', '-')}.csv"), p)
@@ -187,12 +221,15 @@ def main():
     # chaos: per-shot relative change of the mean range, on the same seeds
     lines.append("\n## chaos: per-shot |relative change| of the mean range (same launch seeds)")
     n = min(args.reference_shots, args.shots)
-    for label, a, b in (("float64, positions moved by 1e-7", "float64 moved 1e-7", "float64"),
-                        ("float32 against float64", "float32", "float64"),
-                        ("reference against float64 stepped", "reference", "float64")):
+    for label, a, b in (
+        ("float64, positions moved by 1e-7", "float64 moved 1e-7", "float64"),
+        ("float32 against float64", "float32", "float64"),
+        ("reference against float64 stepped", "reference", "float64"),
+    ):
         rel = np.abs(per[a]["range_mean"][:n] / per[b]["range_mean"][:n] - 1)
         lines.append(f"- {label}: median {np.median(rel):.3f}, P90 {np.quantile(rel, 0.9):.3f}, max {rel.max():.3f}")
     from scipy import stats
+
     rel64 = np.abs(per["float64 moved 1e-7"]["range_mean"] / per["float64"]["range_mean"] - 1)
     rel32 = np.abs(per["float32"]["range_mean"] / per["float64"]["range_mean"] - 1)
     lines.append(f"- the two spreads (moved 1e-7 vs float32), Mann-Whitney p = {stats.mannwhitneyu(rel64, rel32).pvalue:.3g}")

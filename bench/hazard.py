@@ -31,8 +31,7 @@ def scene(n: int, settings):
     from warp_ricochet.scene import load_scene
 
     # one shot of n pellets, the paper's mu_s = 0.05 (slip ricochets)
-    return load_scene(SCENE, [f"shot.count={n}", "output.fields=[]", "surfaces.0.mu_s=0.05", "surfaces.0.mu_d=0.045",
-                              *settings])
+    return load_scene(SCENE, [f"shot.count={n}", "output.fields=[]", "surfaces.0.mu_s=0.05", "surfaces.0.mu_d=0.045", *settings])
 
 
 def summarize_time(wr, sc, device, repeats) -> float:
@@ -63,8 +62,16 @@ def measure(device, sizes, repeats):
             wr.run(sc, device=device)  # warm up at this size (buffers, pinned pools)
             times[name], _ = _timed(lambda sc=sc: (wr.run(sc, device=device), wp.synchronize()), repeats)
         rows.append((n, times))
-        answers.append((n, {name: summarize_time(wr, scene(n, settings), device, repeats)
-                            for name, settings in CONFIGS.items() if name != "statistics only"}))
+        answers.append(
+            (
+                n,
+                {
+                    name: summarize_time(wr, scene(n, settings), device, repeats)
+                    for name, settings in CONFIGS.items()
+                    if name != "statistics only"
+                },
+            )
+        )
     return rows, answers
 
 
@@ -73,7 +80,9 @@ def main(argv=None):
     parser.add_argument("--device", default=None, help="Warp device (default: CUDA if present, else cpu)")
     parser.add_argument("--sizes", default="1e8,1e9", help="pellet counts, comma-separated")
     parser.add_argument("--repeats", type=int, default=5)
-    parser.add_argument("--copies", default=None, help="copies of the counts on CUDA, comma-separated (default: tallies.counts.CUDA_COPIES)")
+    parser.add_argument(
+        "--copies", default=None, help="copies of the counts on CUDA, comma-separated (default: tallies.counts.CUDA_COPIES)"
+    )
     args = parser.parse_args(argv)
     wr, wp = _wr()
     from warp_ricochet.tallies import counts

@@ -42,13 +42,22 @@ LOST = 0.05  # s: a signal this long before a run returned must have interrupted
 KINDS = {
     "core": (["shot.count=100000000"], ["shot.count=1000"], (0.5, 4.0)),
     "air": (["shot.count=1000000", "air.density=1.225"], ["shot.count=1000", "air.density=1.225"], (0.5, 4.0)),
-    "shots": (["shot.count=20", "shot.shots=20000", "shot.envelope_center=[0.0, 0.05, 0.0]", "surfaces.0.restitution=0.5",
-               *COLLISIONS], ["shot.count=20", "shot.shots=2", *COLLISIONS], (0.5, 4.0)),
+    "shots": (
+        ["shot.count=20", "shot.shots=20000", "shot.envelope_center=[0.0, 0.05, 0.0]", "surfaces.0.restitution=0.5", *COLLISIONS],
+        ["shot.count=20", "shot.shots=2", *COLLISIONS],
+        (0.5, 4.0),
+    ),
     "paper-shots": (["shot.shots=10000", *COLLISIONS], ["shot.shots=2", *COLLISIONS], (0.5, 4.0)),  # GPU-sized
-    "shot": (["shot.count=3000000", "shot.envelope_radius=0.5", "collisions.separate=false", *COLLISIONS],
-             ["shot.count=20", "collisions.separate=false", *COLLISIONS], (0.5, 6.0)),
-    "separated-shot": (["shot.count=3000000", "shot.envelope_radius=0.5", *COLLISIONS], ["shot.count=20", *COLLISIONS],
-                       (0.5, 6.0)),
+    "shot": (
+        ["shot.count=3000000", "shot.envelope_radius=0.5", "collisions.separate=false", *COLLISIONS],
+        ["shot.count=20", "collisions.separate=false", *COLLISIONS],
+        (0.5, 6.0),
+    ),
+    "separated-shot": (
+        ["shot.count=3000000", "shot.envelope_radius=0.5", *COLLISIONS],
+        ["shot.count=20", *COLLISIONS],
+        (0.5, 6.0),
+    ),
 }
 
 
@@ -106,8 +115,9 @@ def measure(kind, device, trials, seed=2021):
     rng = random.Random(seed)
     latencies, late, bad = [], 0, []
     for k in range(trials):
-        status, lines, unraisable, latency = trial(command(device, sets), rng.uniform(lo, hi),
-                                                   (signal.SIGINT, signal.SIGTERM)[k % 2])
+        status, lines, unraisable, latency = trial(
+            command(device, sets), rng.uniform(lo, hi), (signal.SIGINT, signal.SIGTERM)[k % 2]
+        )
         if latency is None:
             late += 1
             continue
@@ -119,20 +129,31 @@ def measure(kind, device, trials, seed=2021):
     if not len(lat):
         print(f"{kind:6s} every run ended before its signal: a longer run is needed on this device", flush=True)
         return {"kind": kind, "sets": sets, "trials": trials, "late": late}
-    row = {"kind": kind, "sets": sets, "trials": trials, "late": late, "not_one_line_130": len(bad),
-           "latency_max_s": float(lat.max()), "latency_median_s": float(np.median(lat)),
-           "latency_p90_s": float(np.quantile(lat, 0.9)), "latencies_s": [round(x, 4) for x in latencies]}
-    print(f"{kind:6s} {len(lat)} interrupted ({late} after the end, {len(bad)} not one line/130): latency "
-          f"median {row['latency_median_s']:.3f} s, p90 {row['latency_p90_s']:.3f} s, max {row['latency_max_s']:.3f} s",
-          flush=True)
+    row = {
+        "kind": kind,
+        "sets": sets,
+        "trials": trials,
+        "late": late,
+        "not_one_line_130": len(bad),
+        "latency_max_s": float(lat.max()),
+        "latency_median_s": float(np.median(lat)),
+        "latency_p90_s": float(np.quantile(lat, 0.9)),
+        "latencies_s": [round(x, 4) for x in latencies],
+    }
+    print(
+        f"{kind:6s} {len(lat)} interrupted ({late} after the end, {len(bad)} not one line/130): latency "
+        f"median {row['latency_median_s']:.3f} s, p90 {row['latency_p90_s']:.3f} s, max {row['latency_max_s']:.3f} s",
+        flush=True,
+    )
     return row
 
 
 def main(argv=None):
     from bench.__main__ import _wr, device_info
 
-    p = argparse.ArgumentParser(prog="python -m bench.interrupts", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = argparse.ArgumentParser(
+        prog="python -m bench.interrupts", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     p.add_argument("--device", default="cpu")
     p.add_argument("--kinds", default=",".join(KINDS), help=f"comma-separated, of {', '.join(KINDS)}")
     p.add_argument("--trials", type=int, default=10, help="signals per kind")

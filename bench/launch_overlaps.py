@@ -22,9 +22,17 @@ def launches(count, shots, envelope_radius, device):
     from warp_ricochet.scene import load_scene
     from warp_ricochet.spec import RunSpec
 
-    scene = load_scene("examples/paper.toml", [f"shot.count={count}", f"shot.shots={shots}",
-                                                f"shot.envelope_radius={envelope_radius}", 'numerics.precision="float64"',
-                                                "collisions.enabled=true", 'output.fields=["initial.position"]'])
+    scene = load_scene(
+        "examples/paper.toml",
+        [
+            f"shot.count={count}",
+            f"shot.shots={shots}",
+            f"shot.envelope_radius={envelope_radius}",
+            'numerics.precision="float64"',
+            "collisions.enabled=true",
+            'output.fields=["initial.position"]',
+        ],
+    )
     dev = wp.get_device(device)
     model = Model.from_scene(scene, dev)
     spec = RunSpec.of(scene)
@@ -48,7 +56,7 @@ def overlapping_pairs(positions, count, diameter):
     from scipy.spatial import cKDTree
 
     shots = len(positions) // count
-    return [len(cKDTree(positions[s * count:(s + 1) * count]).query_pairs(diameter)) for s in range(shots)]
+    return [len(cKDTree(positions[s * count : (s + 1) * count]).query_pairs(diameter)) for s in range(shots)]
 
 
 def main():
@@ -62,9 +70,11 @@ def main():
     parser.add_argument("--device", default="cpu")
     args = parser.parse_args()
     diameter = 0.0025
-    print("| envelope radius (mm) | pellets | packing | overlapping pairs a shot, before -> after | pellets redrawn | "
-          "most redraws of a pellet | KS D of r/R^e vs uniform in the sphere, before -> after (p after) | "
-          "mean r/R^e (uniform: 0.75), before -> after | launch and separation, s a shot |")
+    print(
+        "| envelope radius (mm) | pellets | packing | overlapping pairs a shot, before -> after | pellets redrawn | "
+        "most redraws of a pellet | KS D of r/R^e vs uniform in the sphere, before -> after (p after) | "
+        "mean r/R^e (uniform: 0.75), before -> after | launch and separation, s a shot |"
+    )
     print("|---|---|---|---|---|---|---|---|---|")
     for count, radius in ((450, 0.025), (450, 0.02), (450, 0.0153), (2000, 0.025)):
         from warp_ricochet.launch.packing import packing_fraction
@@ -79,10 +89,12 @@ def main():
         r_before = np.linalg.norm(before - centre, axis=1) / radius
         r_after = np.linalg.norm(after - centre, axis=1) / radius
         ks_after = stats.kstest(r_after, lambda x: np.clip(x, 0, 1) ** 3)
-        print(f"| {radius * 1e3:g} | {count} | {packing_fraction(count, diameter, radius):.3f} | {pairs_before:.1f} -> "
-              f"{pairs_after:.1f} | {moved:.3f} | {redraws.max()} | {ks_before.statistic:.4f} -> "
-              f"{ks_after.statistic:.4f} (p {ks_after.pvalue:.2g}) | {r_before.mean():.4f} -> {r_after.mean():.4f} | "
-              f"{elapsed / shots:.2g} |")
+        print(
+            f"| {radius * 1e3:g} | {count} | {packing_fraction(count, diameter, radius):.3f} | {pairs_before:.1f} -> "
+            f"{pairs_after:.1f} | {moved:.3f} | {redraws.max()} | {ks_before.statistic:.4f} -> "
+            f"{ks_after.statistic:.4f} (p {ks_after.pvalue:.2g}) | {r_before.mean():.4f} -> {r_after.mean():.4f} | "
+            f"{elapsed / shots:.2g} |"
+        )
     print(f"({args.shots} shots of 450, fewer of 2000; device {args.device}; positions float64)")
 
 

@@ -67,8 +67,9 @@ def main(argv=None):
     rows, reference = measure(args.device, n)
     print(f"one shot of {n:,} pellets; NumPy: collided {reference[0]}, collisions {reference[1]}, energy lost {reference[2]!r} J")
     for blocks, ms, totals in rows:
-        print(f"  {blocks} block(s): {ms:.3f} ms; collided {totals[0]:.0f}, collisions {totals[1]:.0f}, "
-              f"energy lost {totals[2]!r} J")
+        print(
+            f"  {blocks} block(s): {ms:.3f} ms; collided {totals[0]:.0f}, collisions {totals[1]:.0f}, energy lost {totals[2]!r} J"
+        )
 
 
 if __name__ == "__main__":

@@ -72,13 +72,18 @@ def _frame(normal):
     return t, np.cross(t, n)
 
 
-NORMALS = {"floor": (0.0, 1.0, 0.0), "tilted": (0.3, 1.0, 0.2), "vertical wall": (-1.0, 0.0, 0.0),
-           "overhang": (0.2, -1.0, 0.4)}
-GRAVITIES = {"g = 0": (0.0, 0.0, 0.0), "g -y": (0.0, -9.81, 0.0), "g +x": (9.81, 0.0, 0.0), "g -z": (0.0, 0.0, -9.81),
-             "g oblique": (5.66, -5.66, 5.66)}
+NORMALS = {"floor": (0.0, 1.0, 0.0), "tilted": (0.3, 1.0, 0.2), "vertical wall": (-1.0, 0.0, 0.0), "overhang": (0.2, -1.0, 0.4)}
+GRAVITIES = {
+    "g = 0": (0.0, 0.0, 0.0),
+    "g -y": (0.0, -9.81, 0.0),
+    "g +x": (9.81, 0.0, 0.0),
+    "g -z": (0.0, 0.0, -9.81),
+    "g oblique": (5.66, -5.66, 5.66),
+}
 
 
 # ---------------------------------------------------------------------------------------------- impact law
+
 
 def impact_states(speeds, normal, radius, rng):
     """(velocity, angular velocity, label) arrays: for each speed, incidences from normal to grazing
@@ -86,16 +91,25 @@ def impact_states(speeds, normal, radius, rng):
     n = _unit(normal)
     t, o = _frame(n)
     rows = []
-    incidences = {"normal incidence": (0.0, -1.0), "45 deg": (1.0, -1.0), "grazing 1e-2": (1.0, -1e-2),
-                  "grazing 1e-4": (1.0, -1e-4), "grazing 1e-7": (1.0, -1e-7), "grazing 1e-12": (1.0, -1e-12)}
+    incidences = {
+        "normal incidence": (0.0, -1.0),
+        "45 deg": (1.0, -1.0),
+        "grazing 1e-2": (1.0, -1e-2),
+        "grazing 1e-4": (1.0, -1e-4),
+        "grazing 1e-7": (1.0, -1e-7),
+        "grazing 1e-12": (1.0, -1e-12),
+    }
     for speed in speeds:
         for name, (a, b) in incidences.items():
             v = speed * _unit(a * t + b * n) if a else -speed * n
             vt = speed * a / math.hypot(a, b) if a else 0.0
-            spins = {"no spin": np.zeros(3), "spin about n": speed / radius * n,
-                     "topspin": -vt / radius * o if vt else np.zeros(3),  # rolling already: no slip
-                     "backspin reversing slip": 3.0 * vt / radius * o if vt else speed / radius * o,
-                     "random spin": rng.normal(0.0, speed / radius, 3)}
+            spins = {
+                "no spin": np.zeros(3),
+                "spin about n": speed / radius * n,
+                "topspin": -vt / radius * o if vt else np.zeros(3),  # rolling already: no slip
+                "backspin reversing slip": 3.0 * vt / radius * o if vt else speed / radius * o,
+                "random spin": rng.normal(0.0, speed / radius, 3),
+            }
             for spin_name, w in spins.items():
                 top = np.abs(w).max()
                 if top > MAX_SPIN:  # the domain's bound (scene.MAX_SPIN): the corner is on it
@@ -119,12 +133,21 @@ def impact_cases(quick: bool):
     normals = list(NORMALS)
     combos = itertools.product(diameters, restitutions, frictions, gravity, normals)
     if quick:  # every value of every axis, not every combination
-        combos = [(diameters[i % 3], restitutions[(i // 3) % 3], frictions[i % 5], gravity[i % 6],
-                   normals[(i // 2) % 4]) for i in range(30)]
+        combos = [
+            (diameters[i % 3], restitutions[(i // 3) % 3], frictions[i % 5], gravity[i % 6], normals[(i // 2) % 4])
+            for i in range(30)
+        ]
     for d, e, (mu_s, mu_d), (gname, dt), nname in combos:
-        yield dict(name=f"D {d * 1e3:g} mm, E {e:g}, mu {mu_s:g}/{mu_d:g}, {gname}, dt {dt:g} s, {nname}",
-                   radius=d / 2, restitution=e, mu_s=mu_s, mu_d=mu_d, gravity=GRAVITIES[gname], duration=dt,
-                   normal=_unit(NORMALS[nname]))
+        yield dict(
+            name=f"D {d * 1e3:g} mm, E {e:g}, mu {mu_s:g}/{mu_d:g}, {gname}, dt {dt:g} s, {nname}",
+            radius=d / 2,
+            restitution=e,
+            mu_s=mu_s,
+            mu_d=mu_d,
+            gravity=GRAVITIES[gname],
+            duration=dt,
+            normal=_unit(NORMALS[nname]),
+        )
 
 
 def run_impact_law(device="cpu", quick=False, seed=0):
@@ -137,11 +160,26 @@ def run_impact_law(device="cpu", quick=False, seed=0):
     rows = {p: Row("impact law", "corners: speeds 1e-6..1e4 m/s, normal to grazing, spins", p, 0) for p in EPS}
     for case in impact_cases(quick):
         v, w, labels = impact_states(speeds, case["normal"], case["radius"], rng)
-        kw = dict(radius=case["radius"], density=7000.0, restitution=case["restitution"], mu_s=case["mu_s"],
-                  mu_d=case["mu_d"], gravity=case["gravity"], duration=case["duration"])
-        ref_v, ref_w, _ = reference.impact_law(v, w, case["normal"], radius=case["radius"],
-                                               restitution=case["restitution"], mu_s=case["mu_s"],
-                                               mu_d=case["mu_d"], gravity=case["gravity"], duration=case["duration"])
+        kw = dict(
+            radius=case["radius"],
+            density=7000.0,
+            restitution=case["restitution"],
+            mu_s=case["mu_s"],
+            mu_d=case["mu_d"],
+            gravity=case["gravity"],
+            duration=case["duration"],
+        )
+        ref_v, ref_w, _ = reference.impact_law(
+            v,
+            w,
+            case["normal"],
+            radius=case["radius"],
+            restitution=case["restitution"],
+            mu_s=case["mu_s"],
+            mu_d=case["mu_d"],
+            gravity=case["gravity"],
+            duration=case["duration"],
+        )
         out = {p: wr.impact(v, w, case["normal"], device=device, precision=p, **kw) for p in EPS}
         scale = np.maximum(np.linalg.norm(v, axis=1), case["radius"] * np.linalg.norm(w, axis=1))
         before = kinetic(v, w, case["radius"])
@@ -171,17 +209,22 @@ def run_impact_law(device="cpu", quick=False, seed=0):
             bad = err > allowed
             if bad.any():
                 i = int(np.where(bad, err, 0).argmax())
-                row.failures.append(f"{p} off the float64 reference by {err[i]:.1e} (allowed {allowed[i]:.1e}): "
-                                    f"{case['name']}, {labels[i]}")
+                row.failures.append(
+                    f"{p} off the float64 reference by {err[i]:.1e} (allowed {allowed[i]:.1e}): {case['name']}, {labels[i]}"
+                )
     for p, row in rows.items():
         row.notes.append(EDGE_NOTE.format(eps=ROUNDING * EPS[p]))
     return list(rows.values()) + run_threshold(device)
 
 
-ROUNDING = 64  # the flight's rounding-noise rule (warp_ricochet.physics.ballistic.ROUNDING): closing speeds within 64 eps |v| are 0
-EDGE_NOTE = ("Knife edges, where rounding decides and the law jumps: an approach |v_n| < {eps:.1e} |v| (the impact "
-             "happens or not: it changes v_t by up to mu_s N*/m, N* including g_n dt) and k/(1+k)|v_pt| within "
-             "rounding of mu_s N* (stick or slip: they differ by (mu_s - mu_d) N*/m); there the allowed error is the jump.")
+ROUNDING = (
+    64  # the flight's rounding-noise rule (warp_ricochet.physics.ballistic.ROUNDING): closing speeds within 64 eps |v| are 0
+)
+EDGE_NOTE = (
+    "Knife edges, where rounding decides and the law jumps: an approach |v_n| < {eps:.1e} |v| (the impact "
+    "happens or not: it changes v_t by up to mu_s N*/m, N* including g_n dt) and k/(1+k)|v_pt| within "
+    "rounding of mu_s N* (stick or slip: they differ by (mu_s - mu_d) N*/m); there the allowed error is the jump."
+)
 
 
 def knife_edges(case, v, w, scale):
@@ -226,9 +269,21 @@ def run_threshold(device="cpu"):
             normal_impulse = (1 + E) * 0.7 * vts[i]
             mu_s = K / (1 + K) * vts[i] / normal_impulse
             for p in EPS:
-                results[p].append(wr.impact(v[i:i + 1], w[i:i + 1], n, radius=0.00125, density=7000.0, restitution=E,
-                                            mu_s=mu_s, mu_d=mu_ratio * mu_s, gravity=(0, 0, 0), device=device,
-                                            precision=p))
+                results[p].append(
+                    wr.impact(
+                        v[i : i + 1],
+                        w[i : i + 1],
+                        n,
+                        radius=0.00125,
+                        density=7000.0,
+                        restitution=E,
+                        mu_s=mu_s,
+                        mu_d=mu_ratio * mu_s,
+                        gravity=(0, 0, 0),
+                        device=device,
+                        precision=p,
+                    )
+                )
         row = Row("impact law", f"exact stick-slip threshold, mu_d = {mu_ratio:g} mu_s", "float32", len(v))
         v32 = np.concatenate([r[0] for r in results["float32"]]).astype(float)
         v64 = np.concatenate([r[0] for r in results["float64"]])
@@ -242,10 +297,12 @@ def run_threshold(device="cpu"):
         if err.max() > limit:
             row.failures.append(f"float32 off float64 by {err.max():.1e} > {limit:.1e}")
         if mu_ratio < 1:
-            row.notes.append(f"at the threshold rounding picks the branch: the two differ by (mu_s - mu_d) N*/m "
-                             f"= {jump:.3f} |v|; float32 took the other branch in {int((s32 != s64).sum())} of "
-                             f"{len(v)} (the code compares k/(1+k)|v_pt| with mu_s N* as eq. 22 does: no tie rule "
-                             "can make a discontinuous law agree across precisions)")
+            row.notes.append(
+                f"at the threshold rounding picks the branch: the two differ by (mu_s - mu_d) N*/m "
+                f"= {jump:.3f} |v|; float32 took the other branch in {int((s32 != s64).sum())} of "
+                f"{len(v)} (the code compares k/(1+k)|v_pt| with mu_s N* as eq. 22 does: no tie rule "
+                "can make a discontinuous law agree across precisions)"
+            )
         rows.append(row)
     return rows
 
@@ -264,8 +321,15 @@ def _count(row, name, n):
 # ---------------------------------------------------------------------------------------------- whole pipeline
 
 # pellet kinds relative to the first plane: (height of the centre in R units or m, direction)
-KINDS = ("above", "touching, 17 deg in", "on, moving along", "overlapping, moving out", "on, moving straight in",
-         "touching, grazing 1e-3", "touching, grazing 1e-7")
+KINDS = (
+    "above",
+    "touching, 17 deg in",
+    "on, moving along",
+    "overlapping, moving out",
+    "on, moving straight in",
+    "touching, grazing 1e-3",
+    "touching, grazing 1e-7",
+)
 EDGE_KINDS = {"touching, grazing 1e-7"}  # |v_n| below float32's rounding rule: float32 may see no impact
 GRAZING = {"touching, grazing 1e-3": 1e-3}  # |v_n| / |v|: float32 resolves v_n to eps |v|, so the hop to eps / 1e-3
 
@@ -281,16 +345,17 @@ def pipeline_cases(quick: bool):
         "floor": [dict(point=[0, 0, 0], normal=[0, 1, 0])],
         "tilted floor": [dict(point=[0, 0, 0], normal=list(_unit(NORMALS["tilted"])))],
         "floor and vertical wall": [dict(point=[0, 0, 0], normal=[0, 1, 0]), dict(point=[5, 0, 0], normal=[-1, 0, 0])],
-        "box of 4 tilted planes": [dict(point=[0, 0, 0], normal=list(_unit([0.1, 1, 0]))),
-                                   dict(point=[4, 0, 0], normal=list(_unit([-1, 0.2, 0]))),
-                                   dict(point=[-4, 0, 0], normal=list(_unit([1, 0.1, 0.1]))),
-                                   dict(point=[0, 0, -3], normal=list(_unit([0, 0.3, 1])))],
+        "box of 4 tilted planes": [
+            dict(point=[0, 0, 0], normal=list(_unit([0.1, 1, 0]))),
+            dict(point=[4, 0, 0], normal=list(_unit([-1, 0.2, 0]))),
+            dict(point=[-4, 0, 0], normal=list(_unit([1, 0.1, 0.1]))),
+            dict(point=[0, 0, -3], normal=list(_unit([0, 0.3, 1]))),
+        ],
     }
     laws = ((0.0, 0.0, 0.0), (0.5, 0.3, 0.25), (1.0, 0.0, 0.0), (0.2, 10.0, 10.0))
     combos = list(itertools.product(diameters, gravities, planes, laws, (False,)))
     if quick:  # every value of every axis, not every combination
-        combos = [(diameters[i % 3], gravities[i % 5], list(planes)[(i // 3) % 4], laws[(i // 2) % 4], False)
-                  for i in range(12)]
+        combos = [(diameters[i % 3], gravities[i % 5], list(planes)[(i // 3) % 4], laws[(i // 2) % 4], False) for i in range(12)]
     else:
         combos += [(d, "g -y", "tilted floor", laws[1], True) for d in diameters]
     for d, gname, pname, (E, mu_s, mu_d), far in combos:
@@ -306,18 +371,31 @@ def pipeline_cases(quick: bool):
         for speed in speeds:
             for kind in KINDS:
                 height = 1.0 if kind == "above" else 0.4 * radius if kind.startswith("overlapping") else radius
-                direction = {"above": _unit(t0 - n0 + 0.1 * rng.normal(size=3)),
-                             "touching, 17 deg in": _unit(t0 - 0.3 * n0), "on, moving along": t0,
-                             "overlapping, moving out": _unit(t0 + 0.2 * n0), "on, moving straight in": -n0,
-                             "touching, grazing 1e-3": _unit(t0 - 1e-3 * n0),
-                             "touching, grazing 1e-7": _unit(t0 - 1e-7 * n0)}[kind]
+                direction = {
+                    "above": _unit(t0 - n0 + 0.1 * rng.normal(size=3)),
+                    "touching, 17 deg in": _unit(t0 - 0.3 * n0),
+                    "on, moving along": t0,
+                    "overlapping, moving out": _unit(t0 + 0.2 * n0),
+                    "on, moving straight in": -n0,
+                    "touching, grazing 1e-3": _unit(t0 - 1e-3 * n0),
+                    "touching, grazing 1e-7": _unit(t0 - 1e-7 * n0),
+                }[kind]
                 position.append(origin + height * n0 + rng.uniform(-0.5, 0.5) * t0)
                 velocity.append(speed * direction)
                 spin.append(np.clip(rng.normal(0.0, speed / radius / 3, 3), -MAX_SPIN, MAX_SPIN))
                 kinds.append(kind)
-        yield dict(name=f"D {d * 1e3:g} mm, {gname}, {pname}{', point 1e4 m away' if far else ''}, E {E:g}, "
-                        f"mu {mu_s:g}/{mu_d:g}", surfaces=surfaces, gravity=g, diameter=d, position=np.array(position),
-                   velocity=np.array(velocity), spin=np.array(spin), bounces=3, kind=np.array(kinds), far=far)
+        yield dict(
+            name=f"D {d * 1e3:g} mm, {gname}, {pname}{', point 1e4 m away' if far else ''}, E {E:g}, mu {mu_s:g}/{mu_d:g}",
+            surfaces=surfaces,
+            gravity=g,
+            diameter=d,
+            position=np.array(position),
+            velocity=np.array(velocity),
+            spin=np.array(spin),
+            bounces=3,
+            kind=np.array(kinds),
+            far=far,
+        )
 
 
 def run_pipeline(device="cpu", quick=False, workdir=None):
@@ -328,17 +406,19 @@ def run_pipeline(device="cpu", quick=False, workdir=None):
     from warp_ricochet.scene import scene_from_dict
 
     workdir = Path(workdir or tempfile.mkdtemp(prefix="stability-"))
-    rows = {p: Row("pipeline", "speeds 1e-6..1e4 m/s, D 0.1..20 mm, planes, gravity, on/touching/in a plane", p, 0)
-            for p in EPS}
+    rows = {p: Row("pipeline", "speeds 1e-6..1e4 m/s, D 0.1..20 mm, planes, gravity, on/touching/in a plane", p, 0) for p in EPS}
     far = Row("pipeline", "the plane's point 1e4 m from the pellets (tilted floor, g -y)", "float32", 0)
     for ci, case in enumerate(pipeline_cases(quick)):
         pellet_file = workdir / f"p{ci}.npz"
         np.savez(pellet_file, position=case["position"], velocity=case["velocity"], angular_velocity=case["spin"])
         out = {}
         for p in EPS:
-            raw = {"shot": {"file": str(pellet_file), "diameter": case["diameter"], "density": 7000.0},
-                   "surfaces": case["surfaces"], "physics": {"gravity": list(case["gravity"]), "bounces": case["bounces"]},
-                   "numerics": {"precision": p}}
+            raw = {
+                "shot": {"file": str(pellet_file), "diameter": case["diameter"], "density": 7000.0},
+                "surfaces": case["surfaces"],
+                "physics": {"gravity": list(case["gravity"]), "bounces": case["bounces"]},
+                "numerics": {"precision": p},
+            }
             path = workdir / f"r{ci}-{p}.h5"
             wr.run(scene_from_dict(raw), path, device=device, overwrite=True)
             with h5py.File(path, "r") as f:
@@ -356,11 +436,14 @@ def run_pipeline(device="cpu", quick=False, workdir=None):
         "errors up to eps |v| / |v_n| (held to 1e-5 + 64 eps / 1e-3 = 7.6e-3). Flights "
         f"longer than {LONG_FLIGHT:g} m (1e3 and 1e4 m/s under gravity): positions are resolved to eps |r| "
         "(0.24 m at 4e6 m), so the time and velocity of a later impact on another plane follow that; measured, "
-        "not held to the tolerance.")
+        "not held to the tolerance."
+    )
     out = list(rows.values())
     if far.n:
-        far.notes.append("float32 resolves positions to about 64 eps |r - plane point| = 7.6e-2 m here: gaps, "
-                         "contacts and short ranges are not resolved; keep plane points near the pellets or use float64.")
+        far.notes.append(
+            "float32 resolves positions to about 64 eps |r - plane point| = 7.6e-2 m here: gaps, "
+            "contacts and short ranges are not resolved; keep plane points near the pellets or use float64."
+        )
         out.append(far)
     return out
 
@@ -390,8 +473,14 @@ def _check_pellets(row, case, o, precision):
     row.n += len(case["position"])
     hit = o["impact.surface"] >= 0  # (N, B)
     landed = o["landing.surface"] >= 0
-    for name in ("impact.time", "impact.position", "impact.velocity", "impact.angular_velocity",
-                 "impact.velocity_before", "impact.angular_velocity_before"):
+    for name in (
+        "impact.time",
+        "impact.position",
+        "impact.velocity",
+        "impact.angular_velocity",
+        "impact.velocity_before",
+        "impact.angular_velocity_before",
+    ):
         if not np.isfinite(o[name][hit]).all():
             row.failures.append(f"non-finite {name}: {case['name']}")
     for name in ("landing.time", "landing.position", "landing.velocity", "landing.range"):
@@ -453,8 +542,10 @@ def _check_pellets(row, case, o, precision):
     _count(row, "decisions on a residue velocity", residue.sum())
     if residue.any():
         i = int(np.argmax(residue))
-        row.failures.append(f"{int(residue.sum())} pellets impacted again or escaped on a residue velocity after an "
-                         f"E = 0 impact ({case['kind'][i]}): {case['name']}")
+        row.failures.append(
+            f"{int(residue.sum())} pellets impacted again or escaped on a residue velocity after an "
+            f"E = 0 impact ({case['kind'][i]}): {case['name']}"
+        )
 
 
 def flight_terms(case, o, b):
@@ -482,8 +573,9 @@ def _terms(r, v, g, t0, o, b):
 def _speed_scale(case, o):
     """Per pellet, the fastest it goes: launch, before any impact, R w."""
     before = np.linalg.norm(np.nan_to_num(o["impact.velocity_before"].astype(float)), axis=2).max(axis=1)
-    return np.maximum.reduce([before, np.linalg.norm(case["velocity"], axis=1),
-                              0.5 * case["diameter"] * np.linalg.norm(case["spin"], axis=1)])
+    return np.maximum.reduce(
+        [before, np.linalg.norm(case["velocity"], axis=1), 0.5 * case["diameter"] * np.linalg.norm(case["spin"], axis=1)]
+    )
 
 
 def _residue_decisions(case, o, precision):
@@ -527,7 +619,7 @@ def _knife_edge_divergence(case, a, b):
                 vn = float(np.dot(o["impact.velocity_before"][i, j], normals[k]))
             if abs(vn) <= 4 * ROUNDING * EPS["float32"] * scale[i]:
                 out[i] = True
-        out[i] |= (a["impact.surface"][i, j] == b["impact.surface"][i, j])  # same plane, other branch: eq. 22's edge
+        out[i] |= a["impact.surface"][i, j] == b["impact.surface"][i, j]  # same plane, other branch: eq. 22's edge
     # the same impacts, but one meets the next plane at once where the other hops first: the gap to
     # it was below float32's touching rule (64 eps of the distance to the plane's point), e.g. in a corner
     points = np.array([s["point"] for s in case["surfaces"]], float)
@@ -543,8 +635,10 @@ def _knife_edge_divergence(case, a, b):
     hit = b["impact.surface"] >= 0
     last = np.where(hit.any(axis=1), B - 1 - np.argmax(hit[:, ::-1], axis=1), 0)
     rows = np.arange(len(last))
-    rested = [np.nan_to_num(o["landing.time"].astype(float)) == np.nan_to_num(o["impact.time"][rows, last].astype(float))
-              for o in (a, b)]
+    rested = [
+        np.nan_to_num(o["landing.time"].astype(float)) == np.nan_to_num(o["impact.time"][rows, last].astype(float))
+        for o in (a, b)
+    ]
     # (on the plane just hit or on another it touches, e.g. the floor of a corner), or a gap to
     # another plane below float32's touching rule (64 eps of the distance to the plane's point)
     leaving = np.abs(np.nan_to_num(b["impact.velocity"][rows, last]) @ normals.T).min(axis=1)
@@ -576,19 +670,26 @@ def _compare(row, case, a, b):
     _count(row, "outcome differs: elsewhere", (~same & ~edge).sum())
     if (~same & strict).any():
         kinds = sorted(set(case["kind"][~same & strict]))
-        row.failures.append(f"float32 outcome differs from float64 for {int((~same & strict).sum())} pellets "
-                            f"({', '.join(kinds)}): {case['name']}")
+        row.failures.append(
+            f"float32 outcome differs from float64 for {int((~same & strict).sum())} pellets ({', '.join(kinds)}): {case['name']}"
+        )
     # scales: the pellet's fastest speed for velocities, the flight's terms for ranges (a difference of
     # two positions, each rounded to eps of them), the time for times
     times = np.nan_to_num(np.abs(b["landing.time"]), posinf=0.0) + 1e-9
-    for name, scale in (("impact.velocity", _speed_scale(case, b)), ("landing.range", extent + 1e-9),
-                        ("landing.time", times)):
+    for name, scale in (("impact.velocity", _speed_scale(case, b)), ("landing.range", extent + 1e-9), ("landing.time", times)):
         x, y = a[name].astype(float), b[name]
         with np.errstate(invalid="ignore"):
             diff = np.abs(np.where(np.isfinite(y), x - y, 0.0)).reshape(len(y), -1).max(axis=1)
         err = np.where(same & ~edge, diff / scale, 0.0)
-        bands = ((("", strict & (grazing == 1)), (" (grazing 1e-3)", strict & (grazing < 1)),
-                  (" (flights > 1e4 m)", long & same & ~edge)) if not case["far"] else (("", same & ~edge),))
+        bands = (
+            (
+                ("", strict & (grazing == 1)),
+                (" (grazing 1e-3)", strict & (grazing < 1)),
+                (" (flights > 1e4 m)", long & same & ~edge),
+            )
+            if not case["far"]
+            else (("", same & ~edge),)
+        )
         for band, mask in bands:
             if mask.any():
                 _record(row, f"float32 {name} error{band}", err[mask].max())
@@ -596,8 +697,10 @@ def _compare(row, case, a, b):
         allowed = F32_TOLERANCE + ROUNDING * EPS["float32"] / grazing
         if (err[strict] > allowed[strict]).any():
             i = int(np.where(strict, err - allowed, -1).argmax())
-            row.failures.append(f"float32 {name} off float64 by {err[i]:.1e} ({case['kind'][i]}, "
-                                f"{np.linalg.norm(case['velocity'][i]):g} m/s): {case['name']}")
+            row.failures.append(
+                f"float32 {name} off float64 by {err[i]:.1e} ({case['kind'][i]}, "
+                f"{np.linalg.norm(case['velocity'][i]):g} m/s): {case['name']}"
+            )
 
 
 # ---------------------------------------------------------------------------------------------- pellet-pellet collisions
@@ -609,8 +712,13 @@ OVERLAP_STEP = 0.25  # of D: at a checkpoint of the adaptive step (a pair closes
 ENSEMBLE_F32 = {"exact": 1e-5, "chaotic": 0.05}  # float32 against float64 on ensemble quantities, by kind of case
 REFERENCE = {"exact": 1e-9, "chaotic": 0.05}  # float64 against the event-driven reference, by kind of case
 # ensemble quantities (collision_ensemble); which are held float32 against float64, which against the reference
-COLLISION_ENSEMBLE = ("collided fraction", "pair collisions", "pair energy lost / launch energy", "mean release speed",
-                      "mean landing range")
+COLLISION_ENSEMBLE = (
+    "collided fraction",
+    "pair collisions",
+    "pair energy lost / launch energy",
+    "mean release speed",
+    "mean landing range",
+)
 HELD_F32 = (0, 1, 2, 3)  # landing ranges after up to 16 ricochets include grazing hops float32 cannot follow
 # the reference's end state is not the dense phase's release; mean landing ranges of the chaotic clouds,
 # after up to 16 ricochets, are measured, not held: one event taken in another order changes them
@@ -635,8 +743,12 @@ def launch_pairs(separations, spacing=0.05, height=0.05):
     """Pairs touching (separation 1, in D), overlapping (< 1) or coincident (0) at launch, each
     closing head-on at 1 m/s, separating, at rest relative to each other, or sliding past each
     other tangentially with spin; pairs `spacing` apart so they never meet another pair."""
-    motions = {"closing": ([1.0, 0, 0], [0, 0, 0]), "separating": ([-1.0, 0, 0], [0, 0, 0]),
-               "at rest": ([0.0, 0, 0], [0, 0, 0]), "sliding, spinning": ([0.0, 0, 1.0], [0, 400.0, 0])}
+    motions = {
+        "closing": ([1.0, 0, 0], [0, 0, 0]),
+        "separating": ([-1.0, 0, 0], [0, 0, 0]),
+        "at rest": ([0.0, 0, 0], [0, 0, 0]),
+        "sliding, spinning": ([0.0, 0, 1.0], [0, 400.0, 0]),
+    }
     position, velocity, spin = [], [], []
     for k, (sep, (u, w)) in enumerate(itertools.product(separations, motions.values())):
         centre = np.array([0.0, height, k * spacing])
@@ -656,39 +768,74 @@ def collision_cases(quick: bool):
     R = COLLISION_D / 2
     pair_law = dict(restitution=0.5, mu_s=0.5, mu_d=0.4)
     separations = (1.0, 0.999, 0.9, 0.5, 0.0)
-    yield dict(name="pairs touching (1 D), overlapping (0.999, 0.9, 0.5 D) or coincident at launch: closing, "
-                    "separating, at rest, sliding", pellets=launch_pairs(separations), surfaces=[GROUND_PLANE],
-               collisions=pair_law, kind="exact", reference="held")
+    yield dict(
+        name="pairs touching (1 D), overlapping (0.999, 0.9, 0.5 D) or coincident at launch: closing, "
+        "separating, at rest, sliding",
+        pellets=launch_pairs(separations),
+        surfaces=[GROUND_PLANE],
+        collisions=pair_law,
+        kind="exact",
+        reference="held",
+    )
     n = 5 if quick else 8
     for plane in (False, True):
-        for E in ((0.5,) if quick else (0.0, 0.5, 1.0)):
+        for E in (0.5,) if quick else (0.0, 0.5, 1.0):
             pellets = lattice(n, 0.5, rng, 1.0, R + 1e-3)
-            yield dict(name=f"cloud: {n}^3 on a lattice at volume fraction 0.5, 1 m/s, pair E {E:g}, "
-                            f"{'on the ground' if plane else 'no plane'}",
-                       pellets=pellets, surfaces=[GROUND_PLANE] if plane else [], collisions=dict(pair_law, restitution=E),
-                       kind="chaotic", reference="held" if n**3 <= 216 else None)
+            yield dict(
+                name=f"cloud: {n}^3 on a lattice at volume fraction 0.5, 1 m/s, pair E {E:g}, "
+                f"{'on the ground' if plane else 'no plane'}",
+                pellets=pellets,
+                surfaces=[GROUND_PLANE] if plane else [],
+                collisions=dict(pair_law, restitution=E),
+                kind="chaotic",
+                reference="held" if n**3 <= 216 else None,
+            )
     # 10 D apart, 2 mm above the ground and falling at 1 m/s: they meet after 12.5 us, land within ms
     apart, low = 10 * COLLISION_D, R + 2e-3
-    head_on = (np.array([[0.0, low, 0.0], [apart, low, 0.0], [0.0, low, 0.1], [apart, low + 0.6 * COLLISION_D, 0.1]]),
-               np.array([[1e3, -1.0, 0.0], [-1e3, -1.0, 0.0]] * 2), np.zeros((4, 3)))
-    yield dict(name="head-on and oblique (0.6 D) pairs at 1e3 m/s each", pellets=head_on, surfaces=[GROUND_PLANE],
-               collisions=pair_law, kind="exact", reference="held")
+    head_on = (
+        np.array([[0.0, low, 0.0], [apart, low, 0.0], [0.0, low, 0.1], [apart, low + 0.6 * COLLISION_D, 0.1]]),
+        np.array([[1e3, -1.0, 0.0], [-1e3, -1.0, 0.0]] * 2),
+        np.zeros((4, 3)),
+    )
+    yield dict(
+        name="head-on and oblique (0.6 D) pairs at 1e3 m/s each",
+        pellets=head_on,
+        surfaces=[GROUND_PLANE],
+        collisions=pair_law,
+        kind="exact",
+        reference="held",
+    )
     column = np.stack([np.zeros(5), R + 1e-3 + np.arange(5) * COLLISION_D, np.zeros(5)], axis=1)
     drive = np.tile([0.0, -3.0, 0.0], (5, 1))
     drive[-1, 1] = -6.0
-    yield dict(name="chain: a column of 5 touching pellets falling at 3 m/s onto the ground, the top one driven at "
-                    "6 m/s; pair E 0, ground E 0.1", pellets=(column, drive, np.zeros((5, 3))),
-               surfaces=[dict(GROUND_PLANE, restitution=0.1)], collisions=dict(pair_law, restitution=0.0),
-               kind="chaotic", reference="measured")  # events deferred past the rounds (docs/stability.md)
+    yield dict(
+        name="chain: a column of 5 touching pellets falling at 3 m/s onto the ground, the top one driven at "
+        "6 m/s; pair E 0, ground E 0.1",
+        pellets=(column, drive, np.zeros((5, 3))),
+        surfaces=[dict(GROUND_PLANE, restitution=0.1)],
+        collisions=dict(pair_law, restitution=0.0),
+        kind="chaotic",
+        reference="measured",
+    )  # events deferred past the rounds (docs/stability.md)
     small = lattice(4, 0.5, rng, 1.0, R + 1e-3)
     relative = 2.0 * np.linalg.norm(small[1] - small[1].mean(0), axis=1).max()
     for k in (1, 10, 100):
-        yield dict(name=f"fixed step {k} D / v_rel: head-on pairs at 2e3 m/s relative", pellets=head_on,
-                   surfaces=[GROUND_PLANE], collisions=dict(pair_law, time_step=k * COLLISION_D / 2e3), kind="exact",
-                   reference="held")
-        yield dict(name=f"fixed step {k} D / v_rel: 4^3 cloud at volume fraction 0.5, no plane (v_rel {relative:.2g} m/s)",
-                   pellets=small, surfaces=[], collisions=dict(pair_law, time_step=k * COLLISION_D / relative),
-                   kind="chaotic", reference="held" if k == 1 else "measured")  # beyond: rounds cap events per step
+        yield dict(
+            name=f"fixed step {k} D / v_rel: head-on pairs at 2e3 m/s relative",
+            pellets=head_on,
+            surfaces=[GROUND_PLANE],
+            collisions=dict(pair_law, time_step=k * COLLISION_D / 2e3),
+            kind="exact",
+            reference="held",
+        )
+        yield dict(
+            name=f"fixed step {k} D / v_rel: 4^3 cloud at volume fraction 0.5, no plane (v_rel {relative:.2g} m/s)",
+            pellets=small,
+            surfaces=[],
+            collisions=dict(pair_law, time_step=k * COLLISION_D / relative),
+            kind="chaotic",
+            reference="held" if k == 1 else "measured",
+        )  # beyond: rounds cap events per step
 
 
 def run_collision_case(case, precision, device, workdir, name):
@@ -702,9 +849,13 @@ def run_collision_case(case, precision, device, workdir, name):
     position, velocity, spin = case["pellets"]
     pellet_file = Path(workdir) / f"{name}.npz"
     np.savez(pellet_file, position=position, velocity=velocity, angular_velocity=spin)
-    raw = {"shot": {"file": str(pellet_file), "diameter": COLLISION_D, "density": 7000.0}, "surfaces": case["surfaces"],
-           "physics": {"gravity": [0.0, -9.81, 0.0], "bounces": COLLISION_BOUNCES},
-           "collisions": {"enabled": True, "frame_every": 8, **case["collisions"]}, "numerics": {"precision": precision}}
+    raw = {
+        "shot": {"file": str(pellet_file), "diameter": COLLISION_D, "density": 7000.0},
+        "surfaces": case["surfaces"],
+        "physics": {"gravity": [0.0, -9.81, 0.0], "bounces": COLLISION_BOUNCES},
+        "collisions": {"enabled": True, "frame_every": 8, **case["collisions"]},
+        "numerics": {"precision": precision},
+    }
     scene = scene_from_dict(raw)
     path = Path(workdir) / f"{name}-{precision}.h5"
     stats = wr.run(scene, path, device=device, overwrite=True)
@@ -792,8 +943,11 @@ def _check_collisions(row, case, o, stats, times, frames, precision):
     # no centre closer than R to a plane it is in front of: release, impacts, landings
     for j, s in enumerate(case["surfaces"]):
         point, normal = np.asarray(s["point"], float), np.asarray(s["normal"], float)
-        for what, pos in (("release", o["release.position"]), ("impacts", o["impact.position"][hit]),
-                          ("landing", o["landing.position"][landed])):
+        for what, pos in (
+            ("release", o["release.position"]),
+            ("impacts", o["impact.position"][hit]),
+            ("landing", o["landing.position"][landed]),
+        ):
             pos = pos.astype(float).reshape(-1, 3)
             if not len(pos):
                 continue
@@ -814,8 +968,7 @@ def _check_collisions(row, case, o, stats, times, frames, precision):
     if overlap > OVERLAP_END:
         row.failures.append(f"two pellets flying at release overlap by {overlap:.2e} D: {name}")
     # at checkpoints (every 8 steps) in the dense phase: measured; the adaptive step's bound is a rule
-    during = max((_min_distance(x, (release_time > t) | flying, launch_distance) for t, x in zip(times, frames)),
-                 default=0.0)
+    during = max((_min_distance(x, (release_time > t) | flying, launch_distance) for t, x in zip(times, frames)), default=0.0)
     adaptive = "time_step" not in case["collisions"]
     _record(row, f"overlap at checkpoints / D ({'adaptive' if adaptive else 'fixed'} step)", max(during, 0.0))
     if adaptive and during > OVERLAP_STEP:
@@ -827,12 +980,17 @@ def collision_ensemble(o, stats):
     energy lost over the launch kinetic energy, mean speed at release, mean landing range."""
     m, inertia = _mass()
     v0, w0 = o["initial.velocity"].astype(float), o["initial.angular_velocity"].astype(float)
-    launch = (0.5 * m * (v0 * v0).sum() + 0.5 * inertia * (w0 * w0).sum())
+    launch = 0.5 * m * (v0 * v0).sum() + 0.5 * inertia * (w0 * w0).sum()
     ranges = o["landing.range"].astype(float)
-    return np.array([float(stats["collided_fraction"]), float(stats["pair_collisions"]),
-                     float(stats["pair_energy_lost"]) / launch,
-                     np.linalg.norm(o["release.velocity"].astype(float), axis=1).mean(),
-                     np.nanmean(ranges) if np.isfinite(ranges).any() else 0.0])
+    return np.array(
+        [
+            float(stats["collided_fraction"]),
+            float(stats["pair_collisions"]),
+            float(stats["pair_energy_lost"]) / launch,
+            np.linalg.norm(o["release.velocity"].astype(float), axis=1).mean(),
+            np.nanmean(ranges) if np.isfinite(ranges).any() else 0.0,
+        ]
+    )
 
 
 def _ensemble_error(a, b):
@@ -882,9 +1040,11 @@ def run_collisions(device="cpu", quick=False, workdir=None):
     return rows
 
 
-COLLISION_F32_NOTE = ("Mean landing ranges are measured, not held: after up to 16 ricochets on the ground the hops "
-                      "become grazing (|v_n| / |v| down to rounding), where float32 cannot follow float64 (see the "
-                      "pipeline rows).")
+COLLISION_F32_NOTE = (
+    "Mean landing ranges are measured, not held: after up to 16 ricochets on the ground the hops "
+    "become grazing (|v_n| / |v| down to rounding), where float32 cannot follow float64 (see the "
+    "pipeline rows)."
+)
 
 
 def _hold(row, label, error, held, limit, against, name, shown=range(len(COLLISION_ENSEMBLE))):
@@ -909,8 +1069,11 @@ def _against_reference(row, case, scene, o, stats, simulate_collisions):
     limit = REFERENCE[case["kind"]] if case["reference"] == "held" else None
     if case["kind"] == "exact":
         same = np.array_equal(o["collisions.count"], ref["collisions.count"])
-        _count(row, "pellets whose collision count differs from the reference",
-               (o["collisions.count"] != ref["collisions.count"]).sum())
+        _count(
+            row,
+            "pellets whose collision count differs from the reference",
+            (o["collisions.count"] != ref["collisions.count"]).sum(),
+        )
         scale = np.abs(velocity).max() + 1.0
         diffs = []
         for key in ("impact.velocity", "landing.position", "landing.velocity"):
@@ -921,19 +1084,33 @@ def _against_reference(row, case, scene, o, stats, simulate_collisions):
             diffs.append(np.abs(a - b)[both].max(initial=0.0) / scale)
         _record(row, "reference pellet by pellet error (of the speed scale)", max(diffs))
         if not same or max(diffs) > limit:
-            row.failures.append(f"off the event-driven reference pellet by pellet ({max(diffs):.1e}, same counts: "
-                                f"{same}): {case['name']}")
-    _hold(row, "reference", error, HELD_REFERENCE, limit if case["kind"] == "chaotic" else None,
-          "the event-driven reference", case["name"], shown=COMPARED_REFERENCE)
+            row.failures.append(
+                f"off the event-driven reference pellet by pellet ({max(diffs):.1e}, same counts: {same}): {case['name']}"
+            )
+    _hold(
+        row,
+        "reference",
+        error,
+        HELD_REFERENCE,
+        limit if case["kind"] == "chaotic" else None,
+        "the event-driven reference",
+        case["name"],
+        shown=COMPARED_REFERENCE,
+    )
 
 
 # ---------------------------------------------------------------------------------------------- table
+
 
 def table(rows) -> str:
     lines = ["| group | cases | precision | n | held | largest measured | notes |", "|---|---|---|---:|---|---|---|"]
     for r in rows:
         measured = "; ".join(f"{k} {int(v) if v == int(v) and abs(v) >= 1 else f'{v:.3g}'}" for k, v in r.measured.items())
-        held = "yes" if r.held else "NO: " + "; ".join(r.failures[:3]) + (f" (+{len(r.failures) - 3})" if len(r.failures) > 3 else "")
+        held = (
+            "yes"
+            if r.held
+            else "NO: " + "; ".join(r.failures[:3]) + (f" (+{len(r.failures) - 3})" if len(r.failures) > 3 else "")
+        )
         if r.known:
             held += f"; known defect in {len(r.known)} scenes (docs/stability.md), e.g. {r.known[0]}"
         lines.append(f"| {r.group} | {r.case} | {r.precision} | {r.n} | {held} | {measured} | {' '.join(r.notes)} |")
@@ -947,8 +1124,10 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     rows = run_impact_law(args.device, args.quick) + run_pipeline(args.device, args.quick)
     rows += run_collisions(args.device, args.quick)
-    print(f"device {args.device}; limits: energy {ENERGY_ROUNDING} eps, inside {INSIDE_ROUNDING} eps of the scale, "
-          f"float32 {F32_TOLERANCE:g}, float64 {F64_TOLERANCE:g}")
+    print(
+        f"device {args.device}; limits: energy {ENERGY_ROUNDING} eps, inside {INSIDE_ROUNDING} eps of the scale, "
+        f"float32 {F32_TOLERANCE:g}, float64 {F64_TOLERANCE:g}"
+    )
     print(table(rows))
     return 0 if all(r.held for r in rows) else 1
 

@@ -45,15 +45,28 @@ TERMINAL_SLACK = 1e-4
 F32_TOLERANCE = 2e-4  # of the path: float32 resolves a 0.1 mm pellet 10 m out to 1e-6 m, 2% of its radius
 WIND = (20.0, 0.0, -5.0)
 SPEEDS = (1e-3, 1e-1, 10.0, 100.0, 1e3, 1e4)
-DIRECTIONS = {"level": (1.0, 0.0, 0.0), "up 45": (1.0, 1.0, 0.0), "straight up": (0.0, 1.0, 0.0),
-              "straight down": (0.0, -1.0, 0.0), "down 30, sideways": (1.0, -0.6, 0.5)}
-SPINS = {"none": (0.0, 0.0, 0.0), "topspin 1e4": (0.0, 0.0, -1e4), "backspin 1e4": (0.0, 0.0, 1e4),
-         "oblique 1e6": (6e5, -6e5, 5.3e5), "the limit, 1e8 each": (1e8, -1e8, 1e8)}
+DIRECTIONS = {
+    "level": (1.0, 0.0, 0.0),
+    "up 45": (1.0, 1.0, 0.0),
+    "straight up": (0.0, 1.0, 0.0),
+    "straight down": (0.0, -1.0, 0.0),
+    "down 30, sideways": (1.0, -0.6, 0.5),
+}
+SPINS = {
+    "none": (0.0, 0.0, 0.0),
+    "topspin 1e4": (0.0, 0.0, -1e4),
+    "backspin 1e4": (0.0, 0.0, 1e4),
+    "oblique 1e6": (6e5, -6e5, 5.3e5),
+    "the limit, 1e8 each": (1e8, -1e8, 1e8),
+}
 LIMIT_SPIN = 1e7  # rad/s: launches spinning faster (the domain's limit) are checked apart in float32
 DIAMETERS = (1e-4, 2.5e-3, 2e-2)
-AIRS = {"loth2021, loth2008": {}, "gs table, sawicki2003": {"drag": "table", "drag_table": "gs", "lift": "sawicki2003"},
-        "braun table, lift 0.5 S": {"drag": "table", "drag_table": "braun", "lift": "linear"},
-        "constant 0.47, no spin terms": {"drag": "constant", "drag_coefficient": 0.47, "magnus": False, "spin_decay": False}}
+AIRS = {
+    "loth2021, loth2008": {},
+    "gs table, sawicki2003": {"drag": "table", "drag_table": "gs", "lift": "sawicki2003"},
+    "braun table, lift 0.5 S": {"drag": "table", "drag_table": "braun", "lift": "linear"},
+    "constant 0.47, no spin terms": {"drag": "constant", "drag_coefficient": 0.47, "magnus": False, "spin_decay": False},
+}
 FIELDS = ["initial", "impact", "landing"]
 GRAVITY = np.array([0.0, -9.81, 0.0])
 DENSITY = 7800.0
@@ -75,10 +88,14 @@ def _scene(workdir, name, position, velocity, spin, diameter, air, precision):
 
     path = Path(workdir) / f"{name}.npz"
     np.savez(path, position=position, velocity=velocity, angular_velocity=spin)
-    raw = {"shot": {"file": str(path), "diameter": diameter, "density": DENSITY},
-           "surfaces": [{"point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.5, "mu_s": 0.3, "mu_d": 0.25}],
-           "physics": {"bounces": 2, "gravity": GRAVITY.tolist()}, "air": air,
-           "numerics": {"precision": precision}, "output": {"fields": FIELDS}}
+    raw = {
+        "shot": {"file": str(path), "diameter": diameter, "density": DENSITY},
+        "surfaces": [{"point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.5, "mu_s": 0.3, "mu_d": 0.25}],
+        "physics": {"bounces": 2, "gravity": GRAVITY.tolist()},
+        "air": air,
+        "numerics": {"precision": precision},
+        "output": {"fields": FIELDS},
+    }
     return scene_from_dict(raw)
 
 
@@ -238,14 +255,16 @@ def run_limits(device="cpu", quick=False, workdir=None):
         n = len(DIAMETERS)
         for i, diameter in enumerate(DIAMETERS):
             position = np.array([[0.0, 1.0, 0.0], [0.0, 1000.0, 0.0]])
-            scene = _scene(workdir, "wind", position, np.zeros((2, 3)), np.zeros((2, 3)), diameter,
-                           {"wind": list(WIND)}, precision)
+            scene = _scene(
+                workdir, "wind", position, np.zeros((2, 3)), np.zeros((2, 3)), diameter, {"wind": list(WIND)}, precision
+            )
             o, stats = _run(workdir, "wind", scene, device)
             check(row, o, stats, precision, scene.numerics.flight_tolerance, still=False)
             first = o["impact/velocity_before"][:, 0]
             across = np.linalg.norm(first[:, [0, 2]], axis=1) / np.linalg.norm(np.array(WIND)[[0, 2]])
-            row.measured["speed across / wind - 1"] = max(row.measured.get("speed across / wind - 1", -np.inf),
-                                                          float(across.max()) - 1.0)
+            row.measured["speed across / wind - 1"] = max(
+                row.measured.get("speed across / wind - 1", -np.inf), float(across.max()) - 1.0
+            )
             if across.max() > 1.0 + TERMINAL_SLACK:
                 row.failures.append(f"d {diameter}: moved across the wind {across.max():.6f} x its speed")
         rows.append(row)
@@ -258,10 +277,12 @@ def run_limits(device="cpu", quick=False, workdir=None):
             check(row, o, stats, precision, scene.numerics.flight_tolerance, still=True)
             terminal = ref.terminal_speed(ref.Pellet(0.5 * diameter, DENSITY), scene.air)
             speed = np.linalg.norm(o["impact/velocity_before"][:, 0], axis=1) / terminal
-            row.measured["from rest: speed / terminal - 1"] = max(row.measured.get("from rest: speed / terminal - 1", -np.inf),
-                                                                  float(speed[0]) - 1.0)
+            row.measured["from rest: speed / terminal - 1"] = max(
+                row.measured.get("from rest: speed / terminal - 1", -np.inf), float(speed[0]) - 1.0
+            )
             row.measured["thrown down: 1 - speed / terminal"] = max(
-                row.measured.get("thrown down: 1 - speed / terminal", -np.inf), 1.0 - float(speed[1]))
+                row.measured.get("thrown down: 1 - speed / terminal", -np.inf), 1.0 - float(speed[1])
+            )
             if speed[0] > 1.0 + TERMINAL_SLACK or speed[1] < 1.0 - TERMINAL_SLACK:
                 row.failures.append(f"d {diameter}: landed at {speed[0]:.6f} and {speed[1]:.6f} x the terminal speed")
         rows.append(row)
@@ -274,8 +295,10 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true", help="the CI subset")
     args = ap.parse_args(argv)
     rows = run_corners(args.device, args.quick) + run_limits(args.device, args.quick)
-    print(f"device {args.device}; limits: energy {ENERGY_SLACK} flight tolerances + 256 eps of its terms, "
-          f"terminal and wind {TERMINAL_SLACK:g}, float32 {F32_TOLERANCE:g} of the path flown + 4 ulp of it")
+    print(
+        f"device {args.device}; limits: energy {ENERGY_SLACK} flight tolerances + 256 eps of its terms, "
+        f"terminal and wind {TERMINAL_SLACK:g}, float32 {F32_TOLERANCE:g} of the path flown + 4 ulp of it"
+    )
     print(table(rows))
     return 0 if all(r.held for r in rows) else 1
 

@@ -62,25 +62,47 @@ def sweep_rss(scene_name: str, count: int, points: int, device: str, output: str
     results = wr.sweep(scene, params, ties, output, device, overwrite=True, progress=progress)
     seconds = time.perf_counter() - t0
     assert len(results) == points == len(samples), (len(results), len(samples))
-    return {"rss_before_MiB": before, "rss_MiB": samples, "rss_end_MiB": rss_mib(), "seconds": seconds,
-            "vmrss_end_MiB": rss_mib("VmRSS")}
+    return {
+        "rss_before_MiB": before,
+        "rss_MiB": samples,
+        "rss_end_MiB": rss_mib(),
+        "seconds": seconds,
+        "vmrss_end_MiB": rss_mib("VmRSS"),
+    }
 
 
 def summary(row: dict) -> str:
     """One line: RSS at the marks, the growth a point, the end."""
     rss = row["rss_MiB"]
     marks = ", ".join(f"point {m:,}: {rss[m - 1]:.0f}" for m in MARKS if m <= len(rss))
-    return (f"{row['mode']:6} {row['scene']} x{row['count']} pellets, {len(rss):,} points: RssAnon MiB before "
-            f"{row['rss_before_MiB']:.0f}, {marks}, after the sweep {row['rss_end_MiB']:.0f} (VmRSS "
-            f"{row['vmrss_end_MiB']:.0f}); growth {row['growth_KiB_per_point']:.1f} KiB a point; {row['seconds']:.0f} s")
+    return (
+        f"{row['mode']:6} {row['scene']} x{row['count']} pellets, {len(rss):,} points: RssAnon MiB before "
+        f"{row['rss_before_MiB']:.0f}, {marks}, after the sweep {row['rss_end_MiB']:.0f} (VmRSS "
+        f"{row['vmrss_end_MiB']:.0f}); growth {row['growth_KiB_per_point']:.1f} KiB a point; {row['seconds']:.0f} s"
+    )
 
 
 def measure(mode: str, args) -> dict:
     """One mode in a fresh process (this module's --child)."""
     folder = Path(args.out or tempfile.mkdtemp(prefix="wr-sweep-mem-"))
     output = str(folder / "sweep-memory.h5") if mode == "file" else ""
-    cmd = [sys.executable, "-m", "bench.sweep_memory", "--child", mode, "--scene", args.scene, "--count",
-           str(args.count), "--points", str(args.points), "--device", args.device, "--child-output", output]
+    cmd = [
+        sys.executable,
+        "-m",
+        "bench.sweep_memory",
+        "--child",
+        mode,
+        "--scene",
+        args.scene,
+        "--count",
+        str(args.count),
+        "--points",
+        str(args.points),
+        "--device",
+        args.device,
+        "--child-output",
+        output,
+    ]
     res = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
     if res.returncode != 0:
         raise SystemExit(res.stderr[-3000:])
@@ -96,8 +118,9 @@ def measure(mode: str, args) -> dict:
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m bench.sweep_memory", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        prog="python -m bench.sweep_memory", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     ap.add_argument("--modes", default="file,memory", help="file, memory or both (comma-separated)")
     ap.add_argument("--scene", default="hazard", choices=sorted(SCENES))
     ap.add_argument("--count", type=int, default=20, help="pellets a point")
@@ -112,8 +135,12 @@ def main(argv=None):
         return 0
     import warp_ricochet
 
-    record = {"date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "device": args.device,
-              "package": str(Path(warp_ricochet.__file__).parent), "rows": []}
+    record = {
+        "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+        "device": args.device,
+        "package": str(Path(warp_ricochet.__file__).parent),
+        "rows": [],
+    }
     for mode in args.modes.split(","):
         row = measure(mode, args)
         record["rows"].append(row)

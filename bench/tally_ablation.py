@@ -45,7 +45,13 @@ def variant_factory(variant: str, table_size: int = 0, table_probes: int = 0):
         if variant in ("as-is", "no-table"):
             return base
         fns = landing.make_landing_tally(precision)
-        Tally, scalar, vec3, map_cell, horizontal_distance = fns.Tally, fns.scalar, fns.vec3, fns.map_cell, fns.horizontal_distance
+        Tally, scalar, vec3, map_cell, horizontal_distance = (
+            fns.Tally,
+            fns.scalar,
+            fns.vec3,
+            fns.map_cell,
+            fns.horizontal_distance,
+        )
         energy_quanta, count_one = fns.energy_quanta, landing.count_one
         bin_of, table, copy_of = make_bin_of(), make_block_table(slots, probes), base.copy_of
         LATTICE, LEVEL_STEP = first_slot_steps(slots)
@@ -58,8 +64,9 @@ def variant_factory(variant: str, table_size: int = 0, table_probes: int = 0):
             return wp.int32(ALL)
 
         @wp.func
-        def add_landing(tally: Tally, row: wp.int32, surface: wp.int32, landing_range: scalar, position: vec3, v2: scalar,
-                        mask: wp.int32):
+        def add_landing(
+            tally: Tally, row: wp.int32, surface: wp.int32, landing_range: scalar, position: vec3, v2: scalar, mask: wp.int32
+        ):
             if not wp.static(EMPTY):
                 level = wp.int32(wp.bit_count(mask))
                 first = copy_of(row, tally.copy_mask) * tally.hist_stride
@@ -87,8 +94,13 @@ def variant_factory(variant: str, table_size: int = 0, table_probes: int = 0):
                             wp.atomic_add(tally.map_counts, key, 1)
                             wp.atomic_add(tally.map_energy, column, energy)
 
-        return SimpleNamespace(exceeded=exceeded if variant == "fixed-level" else base.exceeded, add_landing=add_landing,
-                               flush=base.flush, table=base.table, copy_of=copy_of)
+        return SimpleNamespace(
+            exceeded=exceeded if variant == "fixed-level" else base.exceeded,
+            add_landing=add_landing,
+            flush=base.flush,
+            table=base.table,
+            copy_of=copy_of,
+        )
 
     return make
 
@@ -125,7 +137,9 @@ def main(argv=None):
     parser.add_argument("--probes", type=int, default=0, help="probes of the block table (default: tallies.block.PROBES)")
     parser.add_argument("--cap", default="default", help="register cap of the core kernel: default, none or a number")
     parser.add_argument("--host-profile", action="store_true", help="a cProfile of one run with a map at the last size")
-    parser.add_argument("--copies", type=int, default=None, help="copies of the counts on CUDA (default: tallies.counts.CUDA_COPIES)")
+    parser.add_argument(
+        "--copies", type=int, default=None, help="copies of the counts on CUDA (default: tallies.counts.CUDA_COPIES)"
+    )
     args = parser.parse_args(argv)
     wr, wp = _wr()
     from warp_ricochet.tallies import counts
@@ -148,8 +162,10 @@ def main(argv=None):
             wr.run(sc, device=args.device)
             times[name], _ = _timed(lambda sc=sc: (wr.run(sc, device=args.device), wp.synchronize()), args.repeats)
         base = times[names[0]]
-        print(f"{args.variant} slots={args.slots or 'default'} probes={args.probes or 'default'} cap={args.cap} copies={counts.CUDA_COPIES} N={n:.0e}: statistics only {base * 1e3:.2f} ms, "
-              f"with a map {times[names[1]] * 1e3:.2f} ms ({times[names[1]] / base - 1:+.0%})")
+        print(
+            f"{args.variant} slots={args.slots or 'default'} probes={args.probes or 'default'} cap={args.cap} copies={counts.CUDA_COPIES} N={n:.0e}: statistics only {base * 1e3:.2f} ms, "
+            f"with a map {times[names[1]] * 1e3:.2f} ms ({times[names[1]] / base - 1:+.0%})"
+        )
         if wp.get_device(args.device).is_cuda:
             for name in names:
                 prof = profile(wr, wp, scene(n, CONFIGS[name]), args.device)
@@ -168,6 +184,7 @@ def main(argv=None):
             stats = pstats.Stats(pr)
             print(f"host profile, {name}, N={n:.0e}, 3 runs:")
             stats.sort_stats("cumtime").print_stats(25)
+
 
 if __name__ == "__main__":
     main()

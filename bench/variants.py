@@ -30,6 +30,7 @@ def main(argv=None):
     dev = wp.get_device(args.device)
     if not dev.is_cuda:
         raise SystemExit("bench.variants times kernels with CUDA events: it needs a CUDA device")
+
     def scene_of(n, precision="float32"):
         return paper_scene(n, precision, air=True, mu_s=0.5) if args.air else scene_for(n, precision)
 
@@ -46,30 +47,56 @@ def main(argv=None):
             cap = {"none": None, "default": "default"}[cap_text] if cap_text in ("none", "default") else int(cap_text)
             kernel = ricochet_kernel_for(dataclasses.replace(spec, fast_math=fast), cap)
             cap_text = cap_text + ("+fast" if fast else "")
-            launch = lambda: wp.launch(kernel, dim=threads, inputs=[0, rows, stage.source.struct, model.surfaces, model.physics, state.outputs, stage.release,
-                                                                   stage.tally.struct],
-                                       outputs=[state.partial_sums, state.partial_min, state.partial_max], device=dev,
-                                       block_dim=block_dim)
+            launch = lambda: wp.launch(
+                kernel,
+                dim=threads,
+                inputs=[
+                    0,
+                    rows,
+                    stage.source.struct,
+                    model.surfaces,
+                    model.physics,
+                    state.outputs,
+                    stage.release,
+                    stage.tally.struct,
+                ],
+                outputs=[state.partial_sums, state.partial_min, state.partial_max],
+                device=dev,
+                block_dim=block_dim,
+            )
             reduce = lambda: launch_reduce(state, rows, dev)
-            launch(); reduce(); wp.synchronize_device(dev)
+            launch()
+            reduce()
+            wp.synchronize_device(dev)
             times, rtimes = [], []
             for _ in range(args.repeats):
                 e0, e1, e2 = (wp.Event(dev, enable_timing=True) for _ in range(3))
-                wp.record_event(e0); launch(); wp.record_event(e1); reduce(); wp.record_event(e2)
+                wp.record_event(e0)
+                launch()
+                wp.record_event(e1)
+                reduce()
+                wp.record_event(e2)
                 wp.synchronize_event(e2)
                 times.append(wp.get_event_elapsed_time(e0, e1))
                 rtimes.append(wp.get_event_elapsed_time(e1, e2))
             t = statistics.median(times)
-            print(f"{precision} cap={cap_text:>4} block={block_dim:3d}: ricochet kernel {t:8.3f} ms = {rows / t * 1e3:.3e} pellets/s; "
-                  f"reduce {statistics.median(rtimes):.3f} ms", flush=True)
+            print(
+                f"{precision} cap={cap_text:>4} block={block_dim:3d}: ricochet kernel {t:8.3f} ms = {rows / t * 1e3:.3e} pellets/s; "
+                f"reduce {statistics.median(rtimes):.3f} ms",
+                flush=True,
+            )
     # end-to-end
     for m in (1e4, 1e6, n):
         sc = scene_of(int(m))
         wr.run(sc, device=args.device)
         ts = []
         import time
+
         for _ in range(args.repeats):
-            t0 = time.perf_counter(); wr.run(sc, device=args.device); wp.synchronize_device(dev); ts.append(time.perf_counter() - t0)
+            t0 = time.perf_counter()
+            wr.run(sc, device=args.device)
+            wp.synchronize_device(dev)
+            ts.append(time.perf_counter() - t0)
         t = statistics.median(ts)
         print(f"run() end to end N={int(m):,d}: {t * 1e3:.3f} ms = {m / t:.3e} pellets/s", flush=True)
 

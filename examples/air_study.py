@@ -26,8 +26,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 HERE = Path(__file__).resolve().parent
 COUNT = 450
-LIFTS = {"vacuum": None, "air, lift 0.5 S": {"lift": "linear", "lift_slope": 0.5},
-         "air, loth2008 (default)": {}, "air, lift min(0.09 + 0.6 S, 0.4)": {"lift": "sawicki2003", "lift_max": 0.4}}
+LIFTS = {
+    "vacuum": None,
+    "air, lift 0.5 S": {"lift": "linear", "lift_slope": 0.5},
+    "air, loth2008 (default)": {},
+    "air, lift min(0.09 + 0.6 S, 0.4)": {"lift": "sawicki2003", "lift_max": 0.4},
+}
 STATS = ("range_mean", "range_max", "range_min", "landing_WT")
 LABELS = {"range_mean": "<L> (m)", "range_max": "L+ (m)", "range_min": "L- (m)", "landing_WT": "landing <W_T> (J)"}
 
@@ -35,9 +39,14 @@ LABELS = {"range_mean": "<L> (m)", "range_max": "L+ (m)", "range_min": "L- (m)",
 def scene_for(mu_s, air, collisions, shots, precision):
     from warp_ricochet import load_scene
 
-    sets = [f"surfaces.0.mu_s={mu_s}", f"surfaces.0.mu_d={0.9 * mu_s}", f"shot.shots={shots}",
-            f"collisions.enabled={str(collisions).lower()}", f'numerics.precision="{precision}"',
-            'output.fields=["landing.range", "landing.velocity"]']
+    sets = [
+        f"surfaces.0.mu_s={mu_s}",
+        f"surfaces.0.mu_d={0.9 * mu_s}",
+        f"shot.shots={shots}",
+        f"collisions.enabled={str(collisions).lower()}",
+        f'numerics.precision="{precision}"',
+        'output.fields=["landing.range", "landing.velocity"]',
+    ]
     if air is not None:
         sets.append("air.density=1.225")
         sets += [f"air.{k}={json.dumps(v)}" for k, v in air.items()]
@@ -54,9 +63,13 @@ def per_shot(path, mass):
     energy = 0.5 * mass * np.einsum("spi,spi->sp", v, v)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # a shot where no pellet landed: NaN
-        return {"range_mean": np.nanmean(ranges, 1), "range_max": np.nanmax(ranges, 1),
-                "range_min": np.nanmin(ranges, 1), "landing_WT": np.nanmean(energy, 1),
-                "landed": np.isfinite(ranges).mean(1)}, ranges
+        return {
+            "range_mean": np.nanmean(ranges, 1),
+            "range_max": np.nanmax(ranges, 1),
+            "range_min": np.nanmin(ranges, 1),
+            "landing_WT": np.nanmean(energy, 1),
+            "landed": np.isfinite(ranges).mean(1),
+        }, ranges
 
 
 def interval(x):
@@ -68,6 +81,7 @@ def interval(x):
         return (float(x.mean()) if len(x) else math.nan), math.nan
     try:
         from scipy import stats
+
         quantile = stats.t.ppf(0.975, len(x) - 1)
     except ImportError:
         quantile = 1.959964
@@ -93,38 +107,52 @@ def run_all(args):
                 shots[mu_s, name, collisions], pooled[mu_s, name, collisions] = per_shot(path, mass)
                 path.unlink()
                 m = shots[mu_s, name, collisions]
-                print(f"mu_s {mu_s:4.2f} {name:34s} collisions {'on ' if collisions else 'off'}: <L> "
-                      f"{fmt(*interval(m['range_mean']))} m, L+ {fmt(*interval(m['range_max']))} m", flush=True)
+                print(
+                    f"mu_s {mu_s:4.2f} {name:34s} collisions {'on ' if collisions else 'off'}: <L> "
+                    f"{fmt(*interval(m['range_mean']))} m, L+ {fmt(*interval(m['range_max']))} m",
+                    flush=True,
+                )
     return shots, pooled
 
 
 def table(shots, args):
-    lines = [f"Shots of {COUNT} pellets: {args.shots} per row, {args.precision}, device {args.device}; "
-             "mean over shots ± 95% CI.", "",
-             "| μ_s | air | collisions | " + " | ".join(LABELS[s] for s in STATS) + " | landed |",
-             "|---|---|---|" + "---:|" * (len(STATS) + 1)]
+    lines = [
+        f"Shots of {COUNT} pellets: {args.shots} per row, {args.precision}, device {args.device}; mean over shots ± 95% CI.",
+        "",
+        "| μ_s | air | collisions | " + " | ".join(LABELS[s] for s in STATS) + " | landed |",
+        "|---|---|---|" + "---:|" * (len(STATS) + 1),
+    ]
     for (mu_s, name, collisions), m in shots.items():
         cells = [fmt(*interval(m[s])) for s in STATS] + [f"{np.mean(m['landed']):.3f}"]
         lines.append(f"| {mu_s:g} | {name} | {'on' if collisions else 'off'} | " + " | ".join(cells) + " |")
-    lines += ["", "What each neglect costs (paired differences over the same shots, ± 95% CI):", "",
-              "| μ_s | neglect | from → to | " + " | ".join("Δ" + LABELS[s] for s in STATS) + " |",
-              "|---|---|---|" + "---:|" * len(STATS)]
+    lines += [
+        "",
+        "What each neglect costs (paired differences over the same shots, ± 95% CI):",
+        "",
+        "| μ_s | neglect | from → to | " + " | ".join("Δ" + LABELS[s] for s in STATS) + " |",
+        "|---|---|---|" + "---:|" * len(STATS),
+    ]
     for mu_s in args.mu_s:
-        pairs = [("the air", ("vacuum", False), ("air, loth2008 (default)", False)),
-                 ("collisions (vacuum)", ("vacuum", False), ("vacuum", True)),
-                 ("collisions (in air)", ("air, loth2008 (default)", False), ("air, loth2008 (default)", True)),
-                 ("both", ("vacuum", False), ("air, loth2008 (default)", True))]
+        pairs = [
+            ("the air", ("vacuum", False), ("air, loth2008 (default)", False)),
+            ("collisions (vacuum)", ("vacuum", False), ("vacuum", True)),
+            ("collisions (in air)", ("air, loth2008 (default)", False), ("air, loth2008 (default)", True)),
+            ("both", ("vacuum", False), ("air, loth2008 (default)", True)),
+        ]
         for label, a, b in pairs:
             ma, mb = shots[(mu_s, *a)], shots[(mu_s, *b)]
             cells = [fmt(*interval(mb[s] - ma[s])) for s in STATS]
-            lines.append(f"| {mu_s:g} | {label} | {a[0]}, {'on' if a[1] else 'off'} → {b[0]}, "
-                         f"{'on' if b[1] else 'off'} | " + " | ".join(cells) + " |")
+            lines.append(
+                f"| {mu_s:g} | {label} | {a[0]}, {'on' if a[1] else 'off'} → {b[0]}, "
+                f"{'on' if b[1] else 'off'} | " + " | ".join(cells) + " |"
+            )
     return "\n".join(lines) + "\n"
 
 
 def plot(pooled, args):
     try:
         import matplotlib
+
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
@@ -136,8 +164,12 @@ def plot(pooled, args):
             if m != mu_s or name not in ("vacuum", "air, loth2008 (default)"):
                 continue
             r = ranges[np.isfinite(ranges) & (ranges > 0)]
-            ax.hist(r, bins=np.logspace(-3, 4, 70), histtype="step",
-                    label=f"{name.split(',')[0]}, collisions {'on' if collisions else 'off'}")
+            ax.hist(
+                r,
+                bins=np.logspace(-3, 4, 70),
+                histtype="step",
+                label=f"{name.split(',')[0]}, collisions {'on' if collisions else 'off'}",
+            )
         ax.set(xscale="log", yscale="log", xlabel="range L (m)", title=f"mu_s = {mu_s}")
     axes[0][0].set_ylabel("pellets")
     axes[0][0].legend(fontsize=7)

@@ -37,17 +37,32 @@ def main():
     rows, ranges = [], {}
     for mu_s in (0.0, 0.25, 0.5):
         for enabled in (False, True):
-            scene = load_scene(here / "paper.toml", [f"surfaces.0.mu_s={mu_s}", f"surfaces.0.mu_d={0.9 * mu_s}",
-                                                      f"collisions.enabled={str(enabled).lower()}",
-                                                      f"numerics.precision=\"{args.precision}\"",
-                                                      f"shot.shots={args.shots}", 'output.fields=["landing.range"]'])
+            scene = load_scene(
+                here / "paper.toml",
+                [
+                    f"surfaces.0.mu_s={mu_s}",
+                    f"surfaces.0.mu_d={0.9 * mu_s}",
+                    f"collisions.enabled={str(enabled).lower()}",
+                    f'numerics.precision="{args.precision}"',
+                    f"shot.shots={args.shots}",
+                    'output.fields=["landing.range"]',
+                ],
+            )
             path = os.path.join(args.out, f"mu{mu_s}-{'on' if enabled else 'off'}.h5")
             stats = api.run(scene, output=path, device=args.device, overwrite=True)
             with h5py.File(path, "r") as f:
                 ranges[mu_s, enabled] = f["pellets/landing/range"][()]
             rows.append((mu_s, enabled, stats))
-    keys = ("range_mean", "range_std", "range_max", "range_min", "post_mean_vt", "landing_mean_WT",
-            "collided_fraction", "pair_energy_lost_mean")
+    keys = (
+        "range_mean",
+        "range_std",
+        "range_max",
+        "range_min",
+        "post_mean_vt",
+        "landing_mean_WT",
+        "collided_fraction",
+        "pair_energy_lost_mean",
+    )
 
     def cell(stats, key):
         if key not in stats:
@@ -64,6 +79,7 @@ def main():
         print(f"| {mu_s:g} | {'on' if enabled else 'off (paper)'} | " + " | ".join(cell(s, k) for k in keys) + " |")
     try:
         import matplotlib
+
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:

@@ -35,17 +35,25 @@ def main():
 
     results = {p["surfaces.0.mu_s"]: s for p, s in wr.sweep(scene, SWEEP, TIE, device=args.device)}
     print("Checks (docs/paper-reproduction.md):")
-    for mu, key, paper_key in ((0.0, "range_mean", "range_mean"), (0.0, "range_max", "range_max"),
-                               (0.0, "range_min", "range_min"), (0.05, "range_slip_max", "range_max")):
+    for mu, key, paper_key in (
+        (0.0, "range_mean", "range_mean"),
+        (0.0, "range_max", "range_max"),
+        (0.0, "range_min", "range_min"),
+        (0.05, "range_slip_max", "range_max"),
+    ):
         ours, theirs = results[mu][key], paper_row(mu)[paper_key]
         print(f"  mu_s = {mu:4.2f} {key:15s} ours {ours:9.3f} m  paper {theirs:9.3f} m  {100 * (ours / theirs - 1):+.3f}%")
     stick = results[0.5]
-    print(f"  all-stick: <v_t> after / before = {stick['post_mean_vt'] / stick['pre_mean_vt']:.6f} (5/7 = {5 / 7:.6f}, "
-          f"eq. 29); the paper's 36.950 / 290.454 = {36.95 / 290.454:.3f}")
+    print(
+        f"  all-stick: <v_t> after / before = {stick['post_mean_vt'] / stick['pre_mean_vt']:.6f} (5/7 = {5 / 7:.6f}, "
+        f"eq. 29); the paper's 36.950 / 290.454 = {36.95 / 290.454:.3f}"
+    )
     bound = 0.01 * 411.48**2 / 9.81
     a = 0.045 * 1.01
-    print(f"  L+ bounds: E v^2/g = {bound:.2f} m (mu_s = 0); (E v^2/g)(sqrt(1+a^2)-a) = {bound * (math.sqrt(1 + a * a) - a):.2f} m "
-          f"(mu_s = 0.05 slip)")
+    print(
+        f"  L+ bounds: E v^2/g = {bound:.2f} m (mu_s = 0); (E v^2/g)(sqrt(1+a^2)-a) = {bound * (math.sqrt(1 + a * a) - a):.2f} m "
+        f"(mu_s = 0.05 slip)"
+    )
     print(f"  stick threshold at 45 degrees: mu_s = 2/(7(1+E)) = {2 / (7 * 1.01):.3f}")
 
     if args.seeds:

@@ -9,8 +9,10 @@ wp.config.log_level = wp.LOG_WARNING
 wp.init()
 
 # WARP_RICOCHET_TEST_DEVICES=cuda:0 limits the device tests (e.g. on a GPU host without Warp's CPU compiler)
-DEVICES = os.environ.get("WARP_RICOCHET_TEST_DEVICES", "").split(",") if os.environ.get("WARP_RICOCHET_TEST_DEVICES") else (
-    ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
+DEVICES = (
+    os.environ.get("WARP_RICOCHET_TEST_DEVICES", "").split(",")
+    if os.environ.get("WARP_RICOCHET_TEST_DEVICES")
+    else (["cpu"] + (["cuda:0"] if wp.is_cuda_available() else []))
 )
 
 

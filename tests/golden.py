@@ -23,15 +23,26 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 GOLDEN = Path(__file__).parent / "data" / "golden-cpu.json"
 
-COLLISIONS = ["collisions.enabled=true", "shot.shots=3", "shot.count=200",
-              'output.fields=["initial", "impact", "landing", "collisions", "release"]']
+COLLISIONS = [
+    "collisions.enabled=true",
+    "shot.shots=3",
+    "shot.count=200",
+    'output.fields=["initial", "impact", "landing", "collisions", "release"]',
+]
 CASES = {
     "paper-float32": ("examples/paper.toml", []),
     "paper-float64": ("examples/paper.toml", ['numerics.precision="float64"']),
     "steel-plate": ("examples/steel_plate.toml", []),
-    "spin-planes": ("examples/steel_plate.toml", ["shot.count=70000", "shot.spin=[300.0, -2000.0, 9000.0]",
-                                                  "physics.bounces=3", 'numerics.precision="float64"',
-                                                  'output.fields=["initial", "impact", "landing"]']),
+    "spin-planes": (
+        "examples/steel_plate.toml",
+        [
+            "shot.count=70000",
+            "shot.spin=[300.0, -2000.0, 9000.0]",
+            "physics.bounces=3",
+            'numerics.precision="float64"',
+            'output.fields=["initial", "impact", "landing"]',
+        ],
+    ),
     "collisions-float64": ("examples/paper.toml", COLLISIONS + ['numerics.precision="float64"']),
     "collisions-float32": ("examples/paper.toml", COLLISIONS),
 }
@@ -63,9 +74,11 @@ def digests(path) -> dict[str, str]:
     a run without collisions has no collision statistics)."""
     out = {}
     with h5py.File(path, "r") as f:
+
         def visit(name, obj):
             if isinstance(obj, h5py.Dataset):
                 out[f"pellets/{name}"] = _sha(obj[()])
+
         f["pellets"].visititems(visit)
         for name, ds in f["stats"].items():
             if not isinstance(ds, h5py.Dataset):  # /stats/quantiles, /stats/shots etc. (issue 15): not in the digests

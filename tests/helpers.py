@@ -14,9 +14,15 @@ import numpy as np
 import pytest
 
 PAPER_SHOT = {
-    "count": 450, "diameter": 0.0025, "density": 7000.0, "speed": 411.48,
-    "direction": [1.0, -1.0, 0.0], "direction_jitter": [0.1, 0.1, 0.1],
-    "envelope_radius": 0.025, "envelope_center": [0.0, 1.0, 0.0], "seed": 2021,
+    "count": 450,
+    "diameter": 0.0025,
+    "density": 7000.0,
+    "speed": 411.48,
+    "direction": [1.0, -1.0, 0.0],
+    "direction_jitter": [0.1, 0.1, 0.1],
+    "envelope_radius": 0.025,
+    "envelope_center": [0.0, 1.0, 0.0],
+    "seed": 2021,
 }
 GROUND = {"point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.01, "mu_s": 0.5, "mu_d": 0.45}
 
@@ -36,8 +42,18 @@ def make_scene(raw=None, precision="float32", **sections):
     return scene_from_dict(raw)
 
 
-def explicit_scene(tmp_path, position, velocity, angular_velocity=None, *, surfaces, precision="float64",
-                   diameter=0.0025, physics=None, name="pellets.npz"):
+def explicit_scene(
+    tmp_path,
+    position,
+    velocity,
+    angular_velocity=None,
+    *,
+    surfaces,
+    precision="float64",
+    diameter=0.0025,
+    physics=None,
+    name="pellets.npz",
+):
     """A Scene whose pellets come from a .npz file written in tmp_path."""
     path = tmp_path / name
     arrays = {"position": np.asarray(position, float), "velocity": np.asarray(velocity, float)}
@@ -108,8 +124,9 @@ def assert_same_run(path, ref, fields, progress=("segment_results",)):
             names = [[], []]
             for f, found in zip((a, b), names):
                 if group in f:
-                    f[group].visititems(lambda name, obj, found=found: found.append(name)
-                                        if isinstance(obj, h5py.Dataset) else None)
+                    f[group].visititems(
+                        lambda name, obj, found=found: found.append(name) if isinstance(obj, h5py.Dataset) else None
+                    )
             assert sorted(names[0]) == sorted(names[1]), group
             for name in names[1]:
                 x, y = a[group][name][()], b[group][name][()]

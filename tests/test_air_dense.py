@@ -21,8 +21,14 @@ def _landings(tmp_path, sets, name, device="cpu"):
         return {k: f["pellets/" + k][()].astype(float) for k in ("initial/position", "landing/position")}, stats
 
 
-FAR_APART = ["shot.count=120", "shot.envelope_radius=15.0", "air.density=1.225", "shot.spin=[0.0, 0.0, 2000.0]",
-             "physics.bounces=2", FIELDS]
+FAR_APART = [
+    "shot.count=120",
+    "shot.envelope_radius=15.0",
+    "air.density=1.225",
+    "shot.spin=[0.0, 0.0, 2000.0]",
+    "physics.bounces=2",
+    FIELDS,
+]
 
 
 def _far_apart_errors(tmp_path, device, precision, reference_precision, sets=()):
@@ -66,12 +72,21 @@ def _lattice(tmp_path, collisions, device):
     Magnus lift (topspin of 1.5e5 rad/s from the first, sticking, impact): it lands 79 us later."""
     z = np.arange(4.0)
     one = np.ones_like(z)
-    np.savez(tmp_path / "lattice.npz", position=np.stack([0 * z, one, z], 1),
-             velocity=np.stack([290.96 * one, -290.96 * one, 0 * z], 1), angular_velocity=np.stack([0 * z, 0 * z, -3e3 * one], 1))
-    raw = {"shot": {"file": str(tmp_path / "lattice.npz"), "diameter": 0.0025, "density": 7000.0},
-           "surfaces": [{"point": [0, 0, 0], "normal": [0, 1, 0], "restitution": 0.01, "mu_s": 0.28, "mu_d": 0.252}],
-           "physics": {"bounces": 2}, "air": {}, "numerics": {"precision": "float64", "flight_tolerance": 1e-12},
-           "output": {"fields": ["initial", "impact", "landing"]}, "collisions": {"enabled": collisions}}
+    np.savez(
+        tmp_path / "lattice.npz",
+        position=np.stack([0 * z, one, z], 1),
+        velocity=np.stack([290.96 * one, -290.96 * one, 0 * z], 1),
+        angular_velocity=np.stack([0 * z, 0 * z, -3e3 * one], 1),
+    )
+    raw = {
+        "shot": {"file": str(tmp_path / "lattice.npz"), "diameter": 0.0025, "density": 7000.0},
+        "surfaces": [{"point": [0, 0, 0], "normal": [0, 1, 0], "restitution": 0.01, "mu_s": 0.28, "mu_d": 0.252}],
+        "physics": {"bounces": 2},
+        "air": {},
+        "numerics": {"precision": "float64", "flight_tolerance": 1e-12},
+        "output": {"fields": ["initial", "impact", "landing"]},
+        "collisions": {"enabled": collisions},
+    }
     stats = wr.run(scene_from_dict(raw), tmp_path / "lattice.h5", device=device, overwrite=True)
     with h5py.File(tmp_path / "lattice.h5", "r") as f:
         return {k: f["pellets/" + k][()].astype(float) for k in ("initial/position", "impact/slipped", "landing/position")}, stats
@@ -90,12 +105,18 @@ def test_a_rigid_lattice_lands_where_the_core_lands_it(tmp_path, device):
 
 
 def _two_pellets(tmp_path, time_step, device):
-    np.savez(tmp_path / "two.npz", position=[[0.0, 1.0, 0.0], [0.0, 1.0, 5.0]],
-             velocity=[[300.0, -300.0, 0.0], [300.0, -290.0, 0.0]])
-    raw = {"shot": {"file": str(tmp_path / "two.npz"), "diameter": 0.0025, "density": 7000.0},
-           "surfaces": [{"point": [0, 0, 0], "normal": [0, 1, 0], "restitution": 0.5, "mu_s": 0.3}],
-           "physics": {"bounces": 1}, "air": {}, "numerics": {"precision": "float64"},
-           "output": {"fields": ["landing"]}, "collisions": {"enabled": time_step is not None}}
+    np.savez(
+        tmp_path / "two.npz", position=[[0.0, 1.0, 0.0], [0.0, 1.0, 5.0]], velocity=[[300.0, -300.0, 0.0], [300.0, -290.0, 0.0]]
+    )
+    raw = {
+        "shot": {"file": str(tmp_path / "two.npz"), "diameter": 0.0025, "density": 7000.0},
+        "surfaces": [{"point": [0, 0, 0], "normal": [0, 1, 0], "restitution": 0.5, "mu_s": 0.3}],
+        "physics": {"bounces": 1},
+        "air": {},
+        "numerics": {"precision": "float64"},
+        "output": {"fields": ["landing"]},
+        "collisions": {"enabled": time_step is not None},
+    }
     if time_step:
         raw["collisions"]["time_step"] = time_step
     wr.run(scene_from_dict(raw), tmp_path / "two.h5", device=device, overwrite=True)
@@ -116,8 +137,14 @@ def test_the_splitting_converges_with_the_step(tmp_path, device):
 def test_runs_in_air_are_the_same_bits_for_any_chunk_size(tmp_path, device, collisions):
     """Statistics and pellets of a run in air do not depend on the chunk size (nor on how many
     shots share a chunk)."""
-    sets = ["air.density=1.225", FIELDS, "shot.count=40", "shot.shots=6", f"collisions.enabled={str(collisions).lower()}",
-            "shot.envelope_radius=0.01"]
+    sets = [
+        "air.density=1.225",
+        FIELDS,
+        "shot.count=40",
+        "shot.shots=6",
+        f"collisions.enabled={str(collisions).lower()}",
+        "shot.envelope_radius=0.01",
+    ]
     small = wr.run(load_scene(PAPER, sets + ["numerics.chunk_size=1"]), tmp_path / "small.h5", device=device)
     big = wr.run(load_scene(PAPER, sets), tmp_path / "big.h5", device=device)
     assert small.keys() == big.keys() and "flight_steps_mean" in big
@@ -147,11 +174,20 @@ def test_in_air_every_cpu_schedule_gives_the_same_bits(tmp_path):
     from warp_ricochet.dense import phase
     from warp_ricochet.dense.phase import DenseOptions
 
-    sets = ["air.density=1.225", FIELDS, "shot.count=60", "shot.shots=2", "collisions.enabled=true",
-            'numerics.precision="float64"']
+    sets = [
+        "air.density=1.225",
+        FIELDS,
+        "shot.count=60",
+        "shot.shots=2",
+        "collisions.enabled=true",
+        'numerics.precision="float64"',
+    ]
     scene = load_scene(PAPER, sets)
-    for name, options in (("one", DenseOptions()), ("block", DenseOptions(cpu_steps="block")),
-                          ("kernels", DenseOptions(cpu_steps="kernels"))):
+    for name, options in (
+        ("one", DenseOptions()),
+        ("block", DenseOptions(cpu_steps="block")),
+        ("kernels", DenseOptions(cpu_steps="kernels")),
+    ):
         stats = api.run(scene, output=tmp_path / f"{name}.h5", device="cpu", dense_options=options)
         assert stats["pair_collisions"] > 10
     launched = []
@@ -159,7 +195,9 @@ def test_in_air_every_cpu_schedule_gives_the_same_bits(tmp_path):
         patch.setattr(phase, "HORIZON_PAIRS_PER_LAUNCH", 4 * 120)
         patch.setattr(phase, "SEPARATION_PELLETS_PER_LAUNCH", 7)
         launch = phase.DensePhase._launch
-        patch.setattr(phase.DensePhase, "_launch", lambda self, name, *a, **k: launched.append(name) or launch(self, name, *a, **k))
+        patch.setattr(
+            phase.DensePhase, "_launch", lambda self, name, *a, **k: launched.append(name) or launch(self, name, *a, **k)
+        )
         api.run(scene, output=tmp_path / "pieces.h5", device="cpu", dense_options=DenseOptions(cpu_steps="kernels"))
     assert launched.count("horizon_kernel") >= 8 and launched.count("separate_kernel") == 9  # (60 pellets: 30 partners)
     for name in ("block", "kernels", "pieces"):

@@ -11,8 +11,10 @@ import warp_ricochet as wr
 from warp_ricochet.reference import air as ref
 from warp_ricochet.scene import scene_from_dict
 
-SURFACES = [{"point": [0.0, 0.0, 0.0], "normal": [0.05, 1.0, 0.02], "restitution": 0.4, "mu_s": 0.3, "mu_d": 0.25},
-            {"point": [60.0, 0.0, 0.0], "normal": [-1.0, 0.1, 0.0], "restitution": 0.6, "mu_s": 0.2, "mu_d": 0.15}]
+SURFACES = [
+    {"point": [0.0, 0.0, 0.0], "normal": [0.05, 1.0, 0.02], "restitution": 0.4, "mu_s": 0.3, "mu_d": 0.25},
+    {"point": [60.0, 0.0, 0.0], "normal": [-1.0, 0.1, 0.0], "restitution": 0.6, "mu_s": 0.2, "mu_d": 0.15},
+]
 DIAMETER, DENSITY, GRAVITY = 0.0025, 7800.0, (0.0, -9.81, 0.0)
 
 
@@ -20,26 +22,41 @@ def _launches(n, seed):
     """Speeds 30 to 450 m/s, angles -60 to 40 degrees, some sideways, spins up to ~1e4 rad/s."""
     rng = np.random.default_rng(seed)
     speed, angle, azimuth = rng.uniform(30, 450, n), np.radians(rng.uniform(-60, 40, n)), rng.uniform(-0.3, 0.3, n)
-    velocity = np.stack([speed * np.cos(angle) * np.cos(azimuth), speed * np.sin(angle),
-                         speed * np.cos(angle) * np.sin(azimuth)], 1)
+    velocity = np.stack(
+        [speed * np.cos(angle) * np.cos(azimuth), speed * np.sin(angle), speed * np.cos(angle) * np.sin(azimuth)], 1
+    )
     position = np.stack([np.zeros(n), rng.uniform(0.5, 3.0, n), np.zeros(n)], 1)
     return position, velocity, rng.normal(0.0, 3000.0, (n, 3))
 
 
 def _run(tmp_path, position, velocity, spin, air, precision, name="air.h5", surfaces=SURFACES, device="cpu", **numerics):
     np.savez(tmp_path / "pellets.npz", position=position, velocity=velocity, angular_velocity=spin)
-    raw = {"shot": {"file": str(tmp_path / "pellets.npz"), "diameter": DIAMETER, "density": DENSITY},
-           "surfaces": surfaces, "physics": {"bounces": 1, "gravity": list(GRAVITY)},
-           "numerics": {"precision": precision, **numerics}, "output": {"fields": ["impact", "landing"]}}
+    raw = {
+        "shot": {"file": str(tmp_path / "pellets.npz"), "diameter": DIAMETER, "density": DENSITY},
+        "surfaces": surfaces,
+        "physics": {"bounces": 1, "gravity": list(GRAVITY)},
+        "numerics": {"precision": precision, **numerics},
+        "output": {"fields": ["impact", "landing"]},
+    }
     if air is not None:
         raw["air"] = air
     scene = scene_from_dict(raw)
     stats = wr.run(scene, tmp_path / name, device=device, overwrite=True)
     with h5py.File(tmp_path / name, "r") as f:
-        out = {k: f["pellets/" + k][()].astype(np.float64) for k in
-               ("impact/time", "impact/position", "impact/velocity", "impact/angular_velocity",
-                "impact/angular_velocity_before", "impact/surface",
-                "landing/time", "landing/position", "landing/velocity")}
+        out = {
+            k: f["pellets/" + k][()].astype(np.float64)
+            for k in (
+                "impact/time",
+                "impact/position",
+                "impact/velocity",
+                "impact/angular_velocity",
+                "impact/angular_velocity_before",
+                "impact/surface",
+                "landing/time",
+                "landing/position",
+                "landing/velocity",
+            )
+        }
     return scene, out, stats
 
 
@@ -48,12 +65,16 @@ def _planes(surfaces=SURFACES):
 
 
 @pytest.mark.parametrize("precision", ["float64", "float32"])
-@pytest.mark.parametrize("air", [
-    {"wind": [4.0, 0.0, -3.0]},
-    {"drag": "table", "drag_table": "gs", "lift": "sawicki2003", "spin_decay_law": "loth2008", "drag_factor": 1.1},
-    {"drag": "constant", "drag_coefficient": 0.47, "lift": "linear", "lift_slope": 0.8, "spin_decay": False},
-    {"magnus": False, "wind": [0.0, 0.0, 5.0]},
-], ids=["loth-wind", "gs-sawicki", "constant-linear", "no-magnus"])
+@pytest.mark.parametrize(
+    "air",
+    [
+        {"wind": [4.0, 0.0, -3.0]},
+        {"drag": "table", "drag_table": "gs", "lift": "sawicki2003", "spin_decay_law": "loth2008", "drag_factor": 1.1},
+        {"drag": "constant", "drag_coefficient": 0.47, "lift": "linear", "lift_slope": 0.8, "spin_decay": False},
+        {"magnus": False, "wind": [0.0, 0.0, 5.0]},
+    ],
+    ids=["loth-wind", "gs-sawicki", "constant-linear", "no-magnus"],
+)
 def test_landing_points_match_the_reference(tmp_path, device, precision, air):
     """Random launches: the first contact (from the launch) and the landing (from the kernel's own
     state after the impact, so the flight alone is compared) within 1e-4 of the distance flown
@@ -70,9 +91,16 @@ def test_landing_points_match_the_reference(tmp_path, device, precision, air):
         assert out["impact/surface"][i, 0] == first.plane
         flown = np.linalg.norm(first.x - position[i])
         assert np.linalg.norm(out["impact/position"][i, 0] - first.x) <= 1e-4 * flown, i
-        after = ref.fly_to_planes(out["impact/position"][i, 0], out["impact/velocity"][i, 0],
-                                  out["impact/angular_velocity"][i, 0], pellet, scene.air, GRAVITY, _planes(),
-                                  touching=first.plane)
+        after = ref.fly_to_planes(
+            out["impact/position"][i, 0],
+            out["impact/velocity"][i, 0],
+            out["impact/angular_velocity"][i, 0],
+            pellet,
+            scene.air,
+            GRAVITY,
+            _planes(),
+            touching=first.plane,
+        )
         if after is None:
             continue
         flown = np.linalg.norm(after.x - out["impact/position"][i, 0])
@@ -111,8 +139,16 @@ def test_thinning_the_density_alone_leaves_the_stokes_spin_decay(tmp_path, devic
     position, velocity, spin = _launches(8, seed=5)
     _s, vacuum, _ = _run(tmp_path, position, velocity, spin, None, "float64", "vacuum.h5", device=device)
     _s, thin, _ = _run(tmp_path, position, velocity, spin, {"density": 1.225e-12}, "float64", "thin.h5", device=device)
-    _s, still, _ = _run(tmp_path, position, velocity, spin, {"density": 1.225e-12, "spin_decay": False}, "float64",
-                        "still.h5", device=device)
+    _s, still, _ = _run(
+        tmp_path,
+        position,
+        velocity,
+        spin,
+        {"density": 1.225e-12, "spin_decay": False},
+        "float64",
+        "still.h5",
+        device=device,
+    )
     hit = np.isfinite(vacuum["impact/time"][:, 0])
     landed = np.isfinite(vacuum["landing/time"])
     assert hit.sum() >= 6 and landed.sum() >= 4
@@ -134,10 +170,21 @@ def test_a_dropped_pellet_lands_at_the_terminal_speed(tmp_path, device, precisio
     found by the reference) for each drag law."""
     ground = [{"point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.5, "mu_s": 0.2}]
     pellet = ref.Pellet(DIAMETER / 2, DENSITY)
-    for air in ({"magnus": False}, {"drag": "table", "magnus": False},
-                {"drag": "constant", "drag_coefficient": 0.47, "magnus": False}):
-        scene, out, _ = _run(tmp_path, [[0.0, 3000.0, 0.0]], [[0.0, 0.0, 0.0]], [[0.0, 0.0, 0.0]], air, precision,
-                             surfaces=ground, device=device)
+    for air in (
+        {"magnus": False},
+        {"drag": "table", "magnus": False},
+        {"drag": "constant", "drag_coefficient": 0.47, "magnus": False},
+    ):
+        scene, out, _ = _run(
+            tmp_path,
+            [[0.0, 3000.0, 0.0]],
+            [[0.0, 0.0, 0.0]],
+            [[0.0, 0.0, 0.0]],
+            air,
+            precision,
+            surfaces=ground,
+            device=device,
+        )
         terminal = ref.terminal_speed(pellet, scene.air)
         assert np.linalg.norm(out["impact/velocity"][0, 0] / 0.5) == pytest.approx(terminal, rel=2e-5), air
 
@@ -154,7 +201,7 @@ def test_the_air_never_adds_energy_without_wind(tmp_path, device, precision):
         mass = DENSITY * 4 / 3 * math.pi * (DIAMETER / 2) ** 3
         inertia = 0.4 * mass * (DIAMETER / 2) ** 2
 
-        def energy(x, v, w):
+        def energy(x, v, w, mass=mass, inertia=inertia):
             return 0.5 * mass * (v * v).sum(1) + 0.5 * inertia * (w * w).sum(1) + mass * 9.81 * x[:, 1]
 
         with h5py.File(tmp_path / "air.h5", "r") as f:
@@ -177,8 +224,16 @@ def test_a_pellet_leaving_a_plane_under_topspin_lift_comes_back_when_it_should(t
     position, velocity = [[0.0, r + 1e-3, 0.0]], [[200.0, -2.5, 0.0]]
     scene, out, _ = _run(tmp_path, position, velocity, [[0.0, 0.0, 0.0]], {}, precision, surfaces=ground, device=device)
     pellet = ref.Pellet(r, DENSITY)
-    after = ref.fly_to_planes(out["impact/position"][0, 0], out["impact/velocity"][0, 0],
-                              out["impact/angular_velocity"][0, 0], pellet, scene.air, GRAVITY, _planes(ground), touching=0)
+    after = ref.fly_to_planes(
+        out["impact/position"][0, 0],
+        out["impact/velocity"][0, 0],
+        out["impact/angular_velocity"][0, 0],
+        pellet,
+        scene.air,
+        GRAVITY,
+        _planes(ground),
+        touching=0,
+    )
     took = out["landing/time"][0] - out["impact/time"][0, 0]
     vacuum = 2 * out["impact/velocity"][0, 0, 1] / 9.81
     assert 0 < after.t < 0.5 * vacuum
@@ -190,11 +245,14 @@ def test_a_flight_given_up_is_counted_and_warned(tmp_path, device):
     by the stepper's stability (its drag time scale): more than MAX_FLIGHT_STEPS steps, so it is
     given up, counted in flights_unfinished, and the run warns in one line. (In float32 the fall
     reaches a speed where the drag rounds to exactly the weight, and steps grow without bound.)"""
-    np.savez(tmp_path / "p.npz", position=[[0.0, 1e6, 0.0]], velocity=[[0.0, 0.0, 0.0]],
-             angular_velocity=[[0.0, 0.0, 0.0]])
-    raw = {"shot": {"file": str(tmp_path / "p.npz"), "diameter": 2.5e-4, "density": DENSITY},
-           "surfaces": [{"point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.5, "mu_s": 0.2}],
-           "air": {"magnus": False}, "output": {"fields": []}, "numerics": {"precision": "float64"}}
+    np.savez(tmp_path / "p.npz", position=[[0.0, 1e6, 0.0]], velocity=[[0.0, 0.0, 0.0]], angular_velocity=[[0.0, 0.0, 0.0]])
+    raw = {
+        "shot": {"file": str(tmp_path / "p.npz"), "diameter": 2.5e-4, "density": DENSITY},
+        "surfaces": [{"point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.5, "mu_s": 0.2}],
+        "air": {"magnus": False},
+        "output": {"fields": []},
+        "numerics": {"precision": "float64"},
+    }
     with pytest.warns(wr.PrecisionWarning, match="given up"):
         stats = wr.run(scene_from_dict(raw), tmp_path / "o.h5", device=device, overwrite=True)
     assert stats["flights_unfinished"] == 1 and stats["hits"] == 0

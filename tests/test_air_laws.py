@@ -20,20 +20,21 @@ def _kernels(precision):
     dl, sl = make_drag_laws(precision), make_spin_laws(precision)
 
     @wp.kernel(enable_backward=False, module="unique")
-    def drag(mach: wp.array(dtype=scalar), re: wp.array(dtype=scalar), kn: wp.array(dtype=scalar),
-             out: wp.array(dtype=scalar)):
+    def drag(mach: wp.array(dtype=scalar), re: wp.array(dtype=scalar), kn: wp.array(dtype=scalar), out: wp.array(dtype=scalar)):
         i = wp.tid()
         out[i] = dl.loth_f(mach[i], re[i], kn[i])
 
     @wp.kernel(enable_backward=False, module="unique")
-    def table(mach: wp.array(dtype=scalar), machs: wp.array(dtype=scalar), cds: wp.array(dtype=scalar),
-              out: wp.array(dtype=scalar)):
+    def table(
+        mach: wp.array(dtype=scalar), machs: wp.array(dtype=scalar), cds: wp.array(dtype=scalar), out: wp.array(dtype=scalar)
+    ):
         i = wp.tid()
         out[i] = dl.table_cd(mach[i], machs, cds)
 
     @wp.kernel(enable_backward=False, module="unique")
-    def spin(inverse_s: wp.array(dtype=scalar), re: wp.array(dtype=scalar), re_r: wp.array(dtype=scalar),
-             out: wp.array2d(dtype=scalar)):
+    def spin(
+        inverse_s: wp.array(dtype=scalar), re: wp.array(dtype=scalar), re_r: wp.array(dtype=scalar), out: wp.array2d(dtype=scalar)
+    ):
         i = wp.tid()
         out[i, 0] = sl.loth2008_lift_ratio(inverse_s[i], re[i])
         out[i, 1] = sl.sawicki2003_lift_ratio(inverse_s[i], scalar(0.4))
@@ -60,8 +61,9 @@ def test_loth2021_drag_matches_the_reference(precision, device):
     1e-3 to 1e6 (both sides of 45: the rarefaction branch below)."""
     rng = np.random.default_rng(1)
     n = 4000
-    mach = np.concatenate([rng.uniform(0, 4, n - 600), np.repeat([0.8, 1.0, 1.5], 100) + rng.normal(0, 1e-3, 300),
-                           10.0 ** rng.uniform(-9, -1, 300)])
+    mach = np.concatenate(
+        [rng.uniform(0, 4, n - 600), np.repeat([0.8, 1.0, 1.5], 100) + rng.normal(0, 1e-3, 300), 10.0 ** rng.uniform(-9, -1, 300)]
+    )
     re = 10.0 ** rng.uniform(-3, 6, n)
     re[::7] = 45.0 * (1 + rng.normal(0, 1e-3, len(re[::7])))
     kn = math.sqrt(0.5 * math.pi * 1.4) * 1.789e-5 / (1.225 * 340.3 * 10.0 ** rng.uniform(-4, -2, n))
@@ -70,7 +72,11 @@ def test_loth2021_drag_matches_the_reference(precision, device):
     want = np.array([ref.loth2021_f(m, r, k) for m, r, k in zip(mach, re, kn)])
     err = _relative(got, want)
     assert np.isfinite(got).all()
-    assert err.max() < TOLERANCE[precision] * (10 if precision == "float32" else 1), (err.max(), mach[err.argmax()], re[err.argmax()])
+    assert err.max() < TOLERANCE[precision] * (10 if precision == "float32" else 1), (
+        err.max(),
+        mach[err.argmax()],
+        re[err.argmax()],
+    )
 
 
 def test_loth2021_limits():
@@ -110,9 +116,17 @@ def test_lift_and_spin_laws_match_the_reference(precision, device):
     re_r = 10.0 ** rng.uniform(-3, 7, n)
     _scalar, _drag, _table, spin = _kernels(precision)
     got = _run(spin, n, [1.0 / s, re, re_r], (n, 4), precision, device)
-    want = np.array([[ref.lift_ratio(a, b, "loth2008", cap=math.inf), ref.lift_ratio(a, b, "sawicki2003"),
-                      ref.rotation_factor(c, "dennis1980"), ref.rotation_factor(c, "loth2008")]
-                     for a, b, c in zip(s, re, re_r)])
+    want = np.array(
+        [
+            [
+                ref.lift_ratio(a, b, "loth2008", cap=math.inf),
+                ref.lift_ratio(a, b, "sawicki2003"),
+                ref.rotation_factor(c, "dennis1980"),
+                ref.rotation_factor(c, "loth2008"),
+            ]
+            for a, b, c in zip(s, re, re_r)
+        ]
+    )
     assert _relative(got, want).max() < TOLERANCE[precision] * (10 if precision == "float32" else 1)
 
 
@@ -151,8 +165,9 @@ def test_air_rates_match_the_reference_up_to_the_lift_cap(precision, lift, devic
     vec3, AirStruct = types.vec3, types.Air
 
     @wp.kernel(enable_backward=False, module="unique")
-    def rates(v: wp.array(dtype=vec3), w: wp.array(dtype=vec3), a: wp.array(dtype=vec3), dw: wp.array(dtype=vec3),
-              air_: AirStruct):
+    def rates(
+        v: wp.array(dtype=vec3), w: wp.array(dtype=vec3), a: wp.array(dtype=vec3), dw: wp.array(dtype=vec3), air_: AirStruct
+    ):
         i = wp.tid()
         acceleration, spin_change = laws.air_rates(v[i], w[i], air_)
         a[i] = acceleration

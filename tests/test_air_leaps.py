@@ -34,8 +34,14 @@ AIRS = {
 
 
 def _spec(air, precision="float64"):
-    return RunSpec(precision=precision, bounces=1, planes=1, collisions=True, flight="air",
-                   air_laws=(air.drag, air.lift if air.magnus else None, air.spin_decay_law if air.spin_decay else None))
+    return RunSpec(
+        precision=precision,
+        bounces=1,
+        planes=1,
+        collisions=True,
+        flight="air",
+        air_laws=(air.drag, air.lift if air.magnus else None, air.spin_decay_law if air.spin_decay else None),
+    )
 
 
 def _physics(air, precision, device):
@@ -70,8 +76,12 @@ def test_the_air_bound_covers_every_law(name, device):
 
     speeds = np.concatenate([[0.0], np.geomspace(1e-3, 2000.0, 400)])
     out = wp.zeros(len(speeds), dtype=wp.float64, device=device)
-    wp.launch(bounds, dim=len(speeds), inputs=[wp.array(speeds, dtype=wp.float64, device=device),
-                                                _physics(air, "float64", device), out], device=device)
+    wp.launch(
+        bounds,
+        dim=len(speeds),
+        inputs=[wp.array(speeds, dtype=wp.float64, device=device), _physics(air, "float64", device), out],
+        device=device,
+    )
     got = out.numpy()
     pellet = ref.Pellet(RADIUS, DENSITY)
     drag = np.array([np.linalg.norm(ref.drag_force(np.array([s, 0.0, 0.0]), RADIUS, air)) for s in speeds])
@@ -96,14 +106,26 @@ def _leap_kernels(device):
     vec3, Surfaces, Physics = t.vec3, t.Surfaces, t.Physics
 
     @wp.kernel(enable_backward=False, module="unique")
-    def pairs(d: wp.array(dtype=vec3), u: wp.array(dtype=vec3), bound: wp.array(dtype=wp.float64), reach: wp.float64,
-              margin: wp.float64, out: wp.array(dtype=wp.float64)):
+    def pairs(
+        d: wp.array(dtype=vec3),
+        u: wp.array(dtype=vec3),
+        bound: wp.array(dtype=wp.float64),
+        reach: wp.float64,
+        margin: wp.float64,
+        out: wp.array(dtype=wp.float64),
+    ):
         i = wp.tid()
         out[i] = leap.pair_leap(d[i], u[i], reach, margin, bound[i], wp.length(u[i]))
 
     @wp.kernel(enable_backward=False, module="unique")
-    def planes(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), bound: wp.array(dtype=wp.float64), surfaces: Surfaces,
-               physics: Physics, out: wp.array(dtype=wp.float64)):
+    def planes(
+        x: wp.array(dtype=vec3),
+        v: wp.array(dtype=vec3),
+        bound: wp.array(dtype=wp.float64),
+        surfaces: Surfaces,
+        physics: Physics,
+        out: wp.array(dtype=wp.float64),
+    ):
         i = wp.tid()
         out[i] = leap.plane_leap(x[i], v[i], bound[i], surfaces, physics)
 
@@ -114,8 +136,14 @@ vectors = st.tuples(*[st.floats(-1.0, 1.0)] * 3).filter(lambda v: np.linalg.norm
 
 
 @settings(max_examples=60, deadline=None)
-@given(direction=vectors, velocity=vectors, gap=st.floats(1e-6, 0.05), speed=st.floats(0.0, 300.0),
-       bound=st.floats(0.0, 1e4), margin=st.floats(1e-4, 5e-3))
+@given(
+    direction=vectors,
+    velocity=vectors,
+    gap=st.floats(1e-6, 0.05),
+    speed=st.floats(0.0, 300.0),
+    bound=st.floats(0.0, 1e4),
+    margin=st.floats(1e-4, 5e-3),
+)
 def test_a_leap_lets_no_pair_touch(direction, velocity, gap, speed, bound, margin):
     """However the air moves the pair off its straight line (up to bound t^2 / 2 towards each
     other), it stays apart for the whole leap: min over t of |d + u t| - bound t^2 / 2 >= 2R,
@@ -126,8 +154,19 @@ def test_a_leap_lets_no_pair_touch(direction, velocity, gap, speed, bound, margi
     d = np.array(direction) / np.linalg.norm(direction) * (reach + gap)
     u = np.array(velocity) / np.linalg.norm(velocity) * speed
     out = wp.zeros(1, dtype=wp.float64, device=device)
-    wp.launch(pairs, dim=1, inputs=[wp.array([d], dtype=wp.vec3d, device=device), wp.array([u], dtype=wp.vec3d, device=device),
-                                    wp.array([bound], dtype=wp.float64, device=device), reach, margin, out], device=device)
+    wp.launch(
+        pairs,
+        dim=1,
+        inputs=[
+            wp.array([d], dtype=wp.vec3d, device=device),
+            wp.array([u], dtype=wp.vec3d, device=device),
+            wp.array([bound], dtype=wp.float64, device=device),
+            reach,
+            margin,
+            out,
+        ],
+        device=device,
+    )
     leap = float(out.numpy()[0])
     assert leap > 0.0
     t = np.linspace(0.0, min(leap, 1e3), 20001)
@@ -136,8 +175,7 @@ def test_a_leap_lets_no_pair_touch(direction, velocity, gap, speed, bound, margi
 
 
 @settings(max_examples=60, deadline=None)
-@given(height=st.floats(0.0, 0.5), normal_speed=st.floats(-300.0, 300.0), bound=st.floats(0.0, 1e4),
-       tilt=st.floats(-0.9, 0.9))
+@given(height=st.floats(0.0, 0.5), normal_speed=st.floats(-300.0, 300.0), bound=st.floats(0.0, 1e4), tilt=st.floats(-0.9, 0.9))
 def test_a_leap_lets_no_pellet_meet_a_plane(height, normal_speed, bound, tilt):
     """With up to `bound` of air towards the plane besides gravity, the pellet's gap stays
     positive for the whole leap, and the leap ends where that worst gap closes (the earliest
@@ -155,9 +193,19 @@ def test_a_leap_lets_no_pellet_meet_a_plane(height, normal_speed, bound, tilt):
     x = normal * (RADIUS + height)
     v = normal * normal_speed + np.array([5.0, 0.0, 1.0]) - normal * (np.array([5.0, 0.0, 1.0]) @ normal)
     out = wp.zeros(1, dtype=wp.float64, device=device)
-    wp.launch(planes, dim=1, inputs=[wp.array([x], dtype=wp.vec3d, device=device), wp.array([v], dtype=wp.vec3d, device=device),
-                                     wp.array([bound], dtype=wp.float64, device=device), surfaces,
-                                     _physics(Air(), "float64", device), out], device=device)
+    wp.launch(
+        planes,
+        dim=1,
+        inputs=[
+            wp.array([x], dtype=wp.vec3d, device=device),
+            wp.array([v], dtype=wp.vec3d, device=device),
+            wp.array([bound], dtype=wp.float64, device=device),
+            surfaces,
+            _physics(Air(), "float64", device),
+            out,
+        ],
+        device=device,
+    )
     leap = float(out.numpy()[0])
     pull = float(np.dot(GRAVITY, normal)) - bound  # the worst acceleration along the normal
 
@@ -167,8 +215,11 @@ def test_a_leap_lets_no_pellet_meet_a_plane(height, normal_speed, bound, tilt):
             if normal_speed <= 0:
                 return 0.0
             return 2.0 * normal_speed / -pull if pull < 0 else math.inf
-        roots = [r.real for r in np.roots([0.5 * pull, normal_speed, h])
-                 if abs(r.imag) < 1e-12 and r.real >= 0 and pull * r.real + normal_speed <= 0]
+        roots = [
+            r.real
+            for r in np.roots([0.5 * pull, normal_speed, h])
+            if abs(r.imag) < 1e-12 and r.real >= 0 and pull * r.real + normal_speed <= 0
+        ]
         return min(roots) if roots else math.inf
 
     # where the worst gap closes, up to the rounding of the gap itself (a few ulp of R + height)
@@ -190,11 +241,15 @@ def _busy_lattice(tmp_path, collisions, device, leaps=True):
     velocity = np.concatenate([np.stack([290.96 * one, -290.96 * one, 0 * one], 1), [[0.0, 0.0, 0.5], [0.0, 0.0, -0.5]]])
     spin = np.concatenate([np.stack([0 * one, 0 * one, -3e3 * one], 1), np.zeros((2, 3))])
     np.savez(tmp_path / "busy.npz", position=position, velocity=velocity, angular_velocity=spin)
-    raw = {"shot": {"file": str(tmp_path / "busy.npz"), "diameter": 0.0025, "density": 7000.0},
-           "surfaces": [{"point": [0, 0, 0], "normal": [0, 1, 0], "restitution": 0.01, "mu_s": 0.28, "mu_d": 0.252}],
-           "physics": {"bounces": 1}, "air": {}, "numerics": {"precision": "float64"},
-           "output": {"fields": ["initial", "landing"]},
-           "collisions": {"enabled": collisions, "air_leaps": leaps}}
+    raw = {
+        "shot": {"file": str(tmp_path / "busy.npz"), "diameter": 0.0025, "density": 7000.0},
+        "surfaces": [{"point": [0, 0, 0], "normal": [0, 1, 0], "restitution": 0.01, "mu_s": 0.28, "mu_d": 0.252}],
+        "physics": {"bounces": 1},
+        "air": {},
+        "numerics": {"precision": "float64"},
+        "output": {"fields": ["initial", "landing"]},
+        "collisions": {"enabled": collisions, "air_leaps": leaps},
+    }
     from warp_ricochet.scene import scene_from_dict
 
     stats = wr.run(scene_from_dict(raw), tmp_path / "busy.h5", device=device, overwrite=True, sidecar=False)
@@ -221,15 +276,23 @@ def test_leaps_change_no_statistic_of_a_cloud(tmp_path):
     """The same 160 shots (the paper's, 120 pellets in a 17 mm envelope) with leaps and without:
     the ensemble's collided fraction, pair collisions and mean range agree within their
     confidence intervals (4 standard errors of the difference), and the leaps save most steps."""
-    sets = ["shot.count=120", "shot.envelope_radius=0.017", "shot.shots=160", "air.density=1.225", "collisions.enabled=true",
-            "surfaces.0.mu_s=0.5", "surfaces.0.mu_d=0.45", "output.fields=[]"]
+    sets = [
+        "shot.count=120",
+        "shot.envelope_radius=0.017",
+        "shot.shots=160",
+        "air.density=1.225",
+        "collisions.enabled=true",
+        "surfaces.0.mu_s=0.5",
+        "surfaces.0.mu_d=0.45",
+        "output.fields=[]",
+    ]
     runs = {}
     for leaps in ("true", "false"):
-        wr.run(load_scene(PAPER, sets + [f"collisions.air_leaps={leaps}"]), tmp_path / f"{leaps}.h5", device="cpu",
-               sidecar=False)
+        wr.run(load_scene(PAPER, sets + [f"collisions.air_leaps={leaps}"]), tmp_path / f"{leaps}.h5", device="cpu", sidecar=False)
         with h5py.File(tmp_path / f"{leaps}.h5", "r") as f:
-            runs[leaps] = {k: f["stats/shots/" + k][()] for k in ("collided_fraction", "pair_collisions", "range_mean",
-                                                                  "dense_steps_mean")}
+            runs[leaps] = {
+                k: f["stats/shots/" + k][()] for k in ("collided_fraction", "pair_collisions", "range_mean", "dense_steps_mean")
+            }
     for name in ("collided_fraction", "pair_collisions", "range_mean"):
         on, off = runs["true"][name], runs["false"][name]
         error = math.sqrt((on.var(ddof=1) + off.var(ddof=1)) / len(on))

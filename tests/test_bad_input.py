@@ -34,56 +34,146 @@ from warp_ricochet.scene.toml_out import (
 )
 
 PREFIX = "warp-ricochet: error: "
-SETTINGS = settings(max_examples=150, deadline=None, database=None,
-                    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+SETTINGS = settings(
+    max_examples=150,
+    deadline=None,
+    database=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
 
 # a small valid scene (the paper's, 64 pellets): every test below breaks exactly one thing in it
 VALID = {
-    "shot": {"count": 64, "diameter": 0.0025, "density": 7000.0, "speed": 411.48, "direction": [1.0, -1.0, 0.0],
-             "direction_jitter": [0.1, 0.1, 0.1], "envelope_radius": 0.025, "envelope_center": [0.0, 1.0, 0.0],
-             "spin": [0.0, 0.0, 0.0], "seed": 2021, "shots": 1},
-    "surfaces": [{"name": "ground", "point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.01,
-                  "mu_s": 0.5, "mu_d": 0.45}],
+    "shot": {
+        "count": 64,
+        "diameter": 0.0025,
+        "density": 7000.0,
+        "speed": 411.48,
+        "direction": [1.0, -1.0, 0.0],
+        "direction_jitter": [0.1, 0.1, 0.1],
+        "envelope_radius": 0.025,
+        "envelope_center": [0.0, 1.0, 0.0],
+        "spin": [0.0, 0.0, 0.0],
+        "seed": 2021,
+        "shots": 1,
+    },
+    "surfaces": [
+        {"name": "ground", "point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.01, "mu_s": 0.5, "mu_d": 0.45}
+    ],
     "physics": {"gravity": [0.0, -9.81, 0.0], "impact_duration": 1e-5, "bounces": 1},
     "numerics": {"precision": "float64", "chunk_size": 65536, "fast_math": True, "flight_tolerance": 1e-6},
     "output": {"fields": ["landing"]},
-    "collisions": {"enabled": False, "restitution": 0.9, "mu_s": 0.74, "mu_d": 0.57, "contact_duration": 1e-6,
-                   "time_step": 1e-6, "step_fraction": 0.25, "skin": 2.0, "rounds": 4, "max_neighbours": 32,
-                   "max_steps": 1000000, "frame_every": 0, "air_step_fraction": 0.01},
-    "air": {"density": 1.225, "viscosity": 1.789e-5, "sound_speed": 340.3, "wind": [0.0, 0.0, 0.0], "drag": "loth2021",
-            "drag_factor": 1.0, "magnus": True, "lift": "loth2008", "spin_decay": True, "spin_decay_law": "dennis1980"},
+    "collisions": {
+        "enabled": False,
+        "restitution": 0.9,
+        "mu_s": 0.74,
+        "mu_d": 0.57,
+        "contact_duration": 1e-6,
+        "time_step": 1e-6,
+        "step_fraction": 0.25,
+        "skin": 2.0,
+        "rounds": 4,
+        "max_neighbours": 32,
+        "max_steps": 1000000,
+        "frame_every": 0,
+        "air_step_fraction": 0.01,
+    },
+    "air": {
+        "density": 1.225,
+        "viscosity": 1.789e-5,
+        "sound_speed": 340.3,
+        "wind": [0.0, 0.0, 0.0],
+        "drag": "loth2021",
+        "drag_factor": 1.0,
+        "magnus": True,
+        "lift": "loth2008",
+        "spin_decay": True,
+        "spin_decay_law": "dennis1980",
+    },
 }
 
 # the domain, as documented: key -> (lowest, highest, lowest excluded)
-REALS = {"shot.diameter": (1e-6, 1.0, False), "shot.density": (1.0, 1e5, False), "shot.speed": (0.0, 1e5, True),
-         "shot.envelope_radius": (0.0, 1e6, False), "surfaces.0.restitution": (0.0, 1.0, False),
-         "surfaces.0.mu_s": (0.0, 100.0, False), "surfaces.0.mu_d": (0.0, 0.5, False),  # mu_d <= mu_s = 0.5
-         "physics.impact_duration": (0.0, 1.0, False),
-         "collisions.restitution": (0.0, 1.0, False), "collisions.mu_s": (0.0, 100.0, False),
-         "collisions.mu_d": (0.0, 0.74, False),  # mu_d <= mu_s = 0.74
-         "collisions.contact_duration": (0.0, 1.0, False), "collisions.time_step": (0.0, 1.0, True),
-         "collisions.step_fraction": (0.0, 1.0, True), "collisions.skin": (0.0, 10.0, True),
-         "collisions.air_step_fraction": (0.0, 1.0, True),
-         "air.density": (0.0, 100.0, False), "air.viscosity": (0.0, 1.0, True), "air.sound_speed": (1.0, 1e4, False),
-         "air.drag_factor": (0.0, 10.0, True), "numerics.flight_tolerance": (1e-12, 1e-2, False)}
-INTEGERS = {"shot.count": (1, 2**31 - 1), "shot.seed": (0, 2**31 - 1), "physics.bounces": (1, 16),
-            "numerics.chunk_size": (1, 2**31 - 1), "shot.shots": (1, 2**31 - 1), "collisions.rounds": (1, 64),
-            "collisions.max_neighbours": (1, 256), "collisions.max_steps": (1, 2**31 - 1),
-            "collisions.frame_every": (0, 2**31 - 1)}
-VECTORS = {"shot.direction": 1e6, "shot.direction_jitter": 1e6, "shot.envelope_center": 1e6, "shot.spin": 1e8,
-           "surfaces.0.point": 1e6, "surfaces.0.normal": 1e6, "physics.gravity": 1e4, "air.wind": 1e3}
-REQUIRED = ["shot.diameter", "shot.density", "shot.count", "shot.speed", "surfaces.0.point", "surfaces.0.normal",
-            "surfaces.0.restitution", "surfaces.0.mu_s"]
-TABLES = {"shot": list(VALID["shot"]) + ["file"], "surfaces.0": list(VALID["surfaces"][0]),
-          "physics": list(VALID["physics"]), "numerics": list(VALID["numerics"]), "output": ["path", "fields"],
-          "collisions": list(VALID["collisions"]),
-          "air": list(VALID["air"]) + ["drag_coefficient", "drag_table", "lift_slope", "lift_max"],
-          "": list(VALID)}
-FIELDS = {"initial", "impact", "landing"} | {f"{g}.{f}" for g, fs in {
-    "initial": ("position", "velocity", "angular_velocity"),
-    "impact": ("time", "position", "velocity_before", "angular_velocity_before", "velocity", "angular_velocity",
-               "slipped", "surface"),
-    "landing": ("time", "position", "velocity", "range", "surface")}.items() for f in fs}
+REALS = {
+    "shot.diameter": (1e-6, 1.0, False),
+    "shot.density": (1.0, 1e5, False),
+    "shot.speed": (0.0, 1e5, True),
+    "shot.envelope_radius": (0.0, 1e6, False),
+    "surfaces.0.restitution": (0.0, 1.0, False),
+    "surfaces.0.mu_s": (0.0, 100.0, False),
+    "surfaces.0.mu_d": (0.0, 0.5, False),  # mu_d <= mu_s = 0.5
+    "physics.impact_duration": (0.0, 1.0, False),
+    "collisions.restitution": (0.0, 1.0, False),
+    "collisions.mu_s": (0.0, 100.0, False),
+    "collisions.mu_d": (0.0, 0.74, False),  # mu_d <= mu_s = 0.74
+    "collisions.contact_duration": (0.0, 1.0, False),
+    "collisions.time_step": (0.0, 1.0, True),
+    "collisions.step_fraction": (0.0, 1.0, True),
+    "collisions.skin": (0.0, 10.0, True),
+    "collisions.air_step_fraction": (0.0, 1.0, True),
+    "air.density": (0.0, 100.0, False),
+    "air.viscosity": (0.0, 1.0, True),
+    "air.sound_speed": (1.0, 1e4, False),
+    "air.drag_factor": (0.0, 10.0, True),
+    "numerics.flight_tolerance": (1e-12, 1e-2, False),
+}
+INTEGERS = {
+    "shot.count": (1, 2**31 - 1),
+    "shot.seed": (0, 2**31 - 1),
+    "physics.bounces": (1, 16),
+    "numerics.chunk_size": (1, 2**31 - 1),
+    "shot.shots": (1, 2**31 - 1),
+    "collisions.rounds": (1, 64),
+    "collisions.max_neighbours": (1, 256),
+    "collisions.max_steps": (1, 2**31 - 1),
+    "collisions.frame_every": (0, 2**31 - 1),
+}
+VECTORS = {
+    "shot.direction": 1e6,
+    "shot.direction_jitter": 1e6,
+    "shot.envelope_center": 1e6,
+    "shot.spin": 1e8,
+    "surfaces.0.point": 1e6,
+    "surfaces.0.normal": 1e6,
+    "physics.gravity": 1e4,
+    "air.wind": 1e3,
+}
+REQUIRED = [
+    "shot.diameter",
+    "shot.density",
+    "shot.count",
+    "shot.speed",
+    "surfaces.0.point",
+    "surfaces.0.normal",
+    "surfaces.0.restitution",
+    "surfaces.0.mu_s",
+]
+TABLES = {
+    "shot": list(VALID["shot"]) + ["file"],
+    "surfaces.0": list(VALID["surfaces"][0]),
+    "physics": list(VALID["physics"]),
+    "numerics": list(VALID["numerics"]),
+    "output": ["path", "fields"],
+    "collisions": list(VALID["collisions"]),
+    "air": list(VALID["air"]) + ["drag_coefficient", "drag_table", "lift_slope", "lift_max"],
+    "": list(VALID),
+}
+FIELDS = {"initial", "impact", "landing"} | {
+    f"{g}.{f}"
+    for g, fs in {
+        "initial": ("position", "velocity", "angular_velocity"),
+        "impact": (
+            "time",
+            "position",
+            "velocity_before",
+            "angular_velocity_before",
+            "velocity",
+            "angular_velocity",
+            "slipped",
+            "surface",
+        ),
+        "landing": ("time", "position", "velocity", "range", "surface"),
+    }.items()
+    for f in fs
+}
 
 
 # ---------------------------------------------------------------------------------------------- harness
@@ -163,9 +253,9 @@ def assert_rejected(result, key, ws=None):
     assert out == ""
     assert len(lines) == 1 and lines[0].startswith(PREFIX), err
     assert "Traceback" not in err
-    message = lines[0][len(PREFIX):]
+    message = lines[0][len(PREFIX) :]
     assert message.startswith(f"{key} = "), (key, message)  # KEY = VALUE: what is allowed
-    assert ": " in message[len(key) + 3:], message
+    assert ": " in message[len(key) + 3 :], message
     if ws is not None:
         ws.untouched()
     return message
@@ -178,8 +268,12 @@ def run_args(ws, scene=None, *extra):
 # ---------------------------------------------------------------------------------------------- malformed values
 
 TEXT = st.text(alphabet=st.characters(blacklist_categories=("Cs",)), max_size=8)
-NOT_A_NUMBER = st.one_of(TEXT, st.booleans(), st.lists(st.floats(-10, 10), max_size=3),
-                         st.dictionaries(st.sampled_from("abc"), st.integers(0, 3), max_size=2))
+NOT_A_NUMBER = st.one_of(
+    TEXT,
+    st.booleans(),
+    st.lists(st.floats(-10, 10), max_size=3),
+    st.dictionaries(st.sampled_from("abc"), st.integers(0, 3), max_size=2),
+)
 NON_FINITE = st.sampled_from([math.nan, math.inf, -math.inf])
 
 
@@ -191,7 +285,7 @@ def bad_real(draw, lo, hi, lo_open):
     if kind == "nonfinite":
         return draw(NON_FINITE)
     if kind == "below":  # lo itself too where it is excluded
-        return draw(st.one_of(st.floats(-1e300, lo, exclude_max=not lo_open), st.integers(-2**63, math.ceil(lo) - 1)))
+        return draw(st.one_of(st.floats(-1e300, lo, exclude_max=not lo_open), st.integers(-(2**63), math.ceil(lo) - 1)))
     return draw(st.one_of(st.floats(hi, 1e300, exclude_min=True), st.integers(int(hi) + 1, 2**63 - 1)))
 
 
@@ -205,7 +299,7 @@ def bad_integer(draw, lo, hi):
         return draw(st.floats(-1e12, 1e12).filter(lambda x: not (x.is_integer() and lo <= x <= hi)))
     if kind == "nonfinite":
         return draw(NON_FINITE)
-    return draw(st.one_of(st.integers(-2**63, lo - 1), st.integers(hi + 1, 2**63 - 1)))
+    return draw(st.one_of(st.integers(-(2**63), lo - 1), st.integers(hi + 1, 2**63 - 1)))
 
 
 @st.composite
@@ -234,24 +328,54 @@ def malformed():
     cases += [st.tuples(st.just(k), bad_integer(*r)) for k, r in INTEGERS.items()]
     cases += [st.tuples(st.just(k), bad_vector(b)) for k, b in VECTORS.items()]
     cases += [
-        st.tuples(st.just("numerics.precision"), st.one_of(TEXT.filter(lambda s: s not in ("float32", "float64")),
-                                                           st.integers(), st.just(["float32"]))),
+        st.tuples(
+            st.just("numerics.precision"),
+            st.one_of(TEXT.filter(lambda s: s not in ("float32", "float64")), st.integers(), st.just(["float32"])),
+        ),
         st.tuples(st.just("numerics.fast_math"), st.one_of(TEXT, st.integers(), st.floats(), st.just([]))),
-        st.tuples(st.just("output.fields"), st.one_of(
-            st.lists(TEXT.filter(lambda s: s not in FIELDS), min_size=1, max_size=3),
-            st.lists(st.integers(), min_size=1, max_size=2), TEXT, st.integers(), st.just([[]]))),
+        st.tuples(
+            st.just("output.fields"),
+            st.one_of(
+                st.lists(TEXT.filter(lambda s: s not in FIELDS), min_size=1, max_size=3),
+                st.lists(st.integers(), min_size=1, max_size=2),
+                TEXT,
+                st.integers(),
+                st.just([[]]),
+            ),
+        ),
         st.tuples(st.just("output.path"), st.one_of(st.integers(), st.just(""), st.just([]), st.just("a\x00.h5"))),
         st.tuples(st.just("surfaces.0.name"), st.one_of(st.integers(), st.floats(), st.lists(TEXT, max_size=2))),
-        st.tuples(st.sampled_from(["air.drag", "air.lift", "air.spin_decay_law"]),
-                  st.one_of(TEXT.filter(lambda s: s not in ("loth2021", "constant", "table", "loth2008", "linear",
-                                                             "sawicki2003", "dennis1980")), st.integers(), st.just([]))),
+        st.tuples(
+            st.sampled_from(["air.drag", "air.lift", "air.spin_decay_law"]),
+            st.one_of(
+                TEXT.filter(
+                    lambda s: s not in ("loth2021", "constant", "table", "loth2008", "linear", "sawicki2003", "dennis1980")
+                ),
+                st.integers(),
+                st.just([]),
+            ),
+        ),
         st.tuples(st.sampled_from(["air.magnus", "air.spin_decay"]), st.one_of(TEXT, st.integers(), st.floats())),
-        st.tuples(st.just("air.drag_table"), st.one_of(
-            TEXT.filter(lambda s: s not in ("braun", "gs")), st.integers(), st.just([]), st.just([[0.0, 0.5]]),
-            st.just([[0.5, 0.5], [0.4, 0.6]]), st.just([[0.0, -1.0], [1.0, 0.5]]), st.just([[0.0, 0.5, 1.0], [1.0, 0.5]]))),
-        st.tuples(st.sampled_from(["shot", "physics", "numerics", "output", "surfaces.0", "air"]),
-                  st.one_of(TEXT, st.integers(), st.floats(), st.lists(st.integers(), max_size=2))),
-        st.tuples(st.just("surfaces"), st.one_of(TEXT, st.integers(), st.dictionaries(st.sampled_from("ab"), st.integers(), min_size=1, max_size=2))),
+        st.tuples(
+            st.just("air.drag_table"),
+            st.one_of(
+                TEXT.filter(lambda s: s not in ("braun", "gs")),
+                st.integers(),
+                st.just([]),
+                st.just([[0.0, 0.5]]),
+                st.just([[0.5, 0.5], [0.4, 0.6]]),
+                st.just([[0.0, -1.0], [1.0, 0.5]]),
+                st.just([[0.0, 0.5, 1.0], [1.0, 0.5]]),
+            ),
+        ),
+        st.tuples(
+            st.sampled_from(["shot", "physics", "numerics", "output", "surfaces.0", "air"]),
+            st.one_of(TEXT, st.integers(), st.floats(), st.lists(st.integers(), max_size=2)),
+        ),
+        st.tuples(
+            st.just("surfaces"),
+            st.one_of(TEXT, st.integers(), st.dictionaries(st.sampled_from("ab"), st.integers(), min_size=1, max_size=2)),
+        ),
     ]
     return st.one_of(cases)
 
@@ -285,8 +409,12 @@ def test_missing_keys_are_named(ws, key, via_set):
 
 
 @SETTINGS
-@given(table=st.sampled_from(sorted(TABLES)), name=st.from_regex(r"[a-z_][a-z0-9_-]{0,10}", fullmatch=True),
-       value=st.one_of(st.integers(), TEXT, st.booleans()), via_set=st.booleans())
+@given(
+    table=st.sampled_from(sorted(TABLES)),
+    name=st.from_regex(r"[a-z_][a-z0-9_-]{0,10}", fullmatch=True),
+    value=st.one_of(st.integers(), TEXT, st.booleans()),
+    via_set=st.booleans(),
+)
 def test_unknown_keys_are_named(ws, table, name, value, via_set):
     assume(name not in TABLES[table])
     key = f"{table}.{name}" if table else name
@@ -335,8 +463,11 @@ ARRAYS = ("position", "velocity", "angular_velocity")
 def bad_pellet_file(draw):
     """(arrays, the array the message must name, what is wrong)."""
     n = draw(st.integers(1, 6))
-    arrays = {"position": np.tile([0.0, 1.0, 0.0], (n, 1)), "velocity": np.tile([300.0, -300.0, 0.0], (n, 1)),
-              "angular_velocity": np.zeros((n, 3))}
+    arrays = {
+        "position": np.tile([0.0, 1.0, 0.0], (n, 1)),
+        "velocity": np.tile([300.0, -300.0, 0.0], (n, 1)),
+        "angular_velocity": np.zeros((n, 3)),
+    }
     name = draw(st.sampled_from(ARRAYS))
     defect = draw(st.sampled_from(["missing", "empty", "shape", "count", "dtype", "nonfinite", "bound"]))
     if defect == "missing":
@@ -353,8 +484,7 @@ def bad_pellet_file(draw):
         name = draw(st.sampled_from(ARRAYS[1:]))
         arrays[name] = np.ones((other, 3))
     elif defect == "dtype":
-        arrays[name] = draw(st.sampled_from([arrays[name].astype(bool), arrays[name].astype(complex),
-                                             arrays[name].astype(str)]))
+        arrays[name] = draw(st.sampled_from([arrays[name].astype(bool), arrays[name].astype(complex), arrays[name].astype(str)]))
     elif defect == "nonfinite":
         arrays[name] = arrays[name].copy()
         arrays[name][draw(st.integers(0, n - 1)), draw(st.integers(0, 2))] = draw(NON_FINITE)
@@ -401,9 +531,12 @@ def test_unreadable_pellet_files_are_one_line(ws, content, suffix):
 
 # ---------------------------------------------------------------------------------------------- output paths
 
+
 @SETTINGS
-@given(name=st.text(alphabet=st.characters(blacklist_categories=("Cs",), blacklist_characters="/"), min_size=1, max_size=12),
-       defect=st.sampled_from(["suffix", "nul", "no folder", "folder is a file", "is a folder"]))
+@given(
+    name=st.text(alphabet=st.characters(blacklist_categories=("Cs",), blacklist_characters="/"), min_size=1, max_size=12),
+    defect=st.sampled_from(["suffix", "nul", "no folder", "folder is a file", "is a folder"]),
+)
 def test_unusable_output_paths_are_one_line(ws, name, defect):
     assume(name not in (".", ".."))
     if defect == "suffix":
@@ -437,16 +570,25 @@ def test_nul_in_output_path_never_truncates_the_shorter_name(ws):
     victim = ws.root / "out.h5.partial"
     victim.write_bytes(b"chunks of an earlier run")
     ws.listing = sorted(os.listdir(ws.root))
-    assert_rejected(cli(["run", ws.scene, "--device", "cpu", "-o", f"{ws.output}\x00x.h5", "--overwrite"]),
-                    "output path", ws)
+    assert_rejected(cli(["run", ws.scene, "--device", "cpu", "-o", f"{ws.output}\x00x.h5", "--overwrite"]), "output path", ws)
     assert victim.read_bytes() == b"chunks of an earlier run"
 
 
 def test_chunk_size_beyond_memory_is_refused_before_any_file(ws):
     if chunks.host_memory_available() is None:
         pytest.skip("host memory cannot be read here")
-    result = cli(run_args(ws, None, "--set", "shot.count=2147483647", "--set", "numerics.chunk_size=2147483647",
-                          "--set", 'output.fields=["initial", "impact", "landing"]'))
+    result = cli(
+        run_args(
+            ws,
+            None,
+            "--set",
+            "shot.count=2147483647",
+            "--set",
+            "numerics.chunk_size=2147483647",
+            "--set",
+            'output.fields=["initial", "impact", "landing"]',
+        )
+    )
     assert "GiB" in assert_rejected(result, "numerics.chunk_size", ws)
 
 
@@ -454,8 +596,9 @@ def test_chunk_size_beyond_memory_counts_every_shot(ws, monkeypatch):
     """A chunk of many small shots: its pellets are count x shots (here a chunk of 1e6 pellets with
     every field, 0.26 GiB, where 0.1 GiB is free), not the 1,000 of one shot."""
     monkeypatch.setattr(chunks, "host_memory_available", lambda: 100 << 20)
-    result = cli(run_args(ws, None, "--set", "shot.count=1000", "--set", "shot.shots=1000",
-                          "--set", "numerics.chunk_size=1000000"))
+    result = cli(
+        run_args(ws, None, "--set", "shot.count=1000", "--set", "shot.shots=1000", "--set", "numerics.chunk_size=1000000")
+    )
     assert "a chunk of 1000000 pellets" in assert_rejected(result, "numerics.chunk_size", ws)
 
 
@@ -464,13 +607,23 @@ def test_a_hazard_map_beyond_memory_or_disk_is_refused_before_any_file(ws, monke
     1 GB file for 200 pellets, issue 24): its estimate is checked before any work, in one line
     naming the keys and the estimate, against host memory and the output's disk."""
     thresholds = "{" + ", ".join(f"t{i} = {1000.0 + i}" for i in range(30)) + "}"
-    args = run_args(ws, None, "--set", f"hazard.energy_density={thresholds}", "--set", "hazard.map_cell=0.1",
-                    "--set", "hazard.map_extent=[0.0, 200.0, -100.0, 100.0]")
+    args = run_args(
+        ws,
+        None,
+        "--set",
+        f"hazard.energy_density={thresholds}",
+        "--set",
+        "hazard.map_cell=0.1",
+        "--set",
+        "hazard.map_extent=[0.0, 200.0, -100.0, 100.0]",
+    )
     monkeypatch.setattr(chunks, "host_memory_available", lambda: 2 << 30)
     message = assert_rejected(cli(args), "hazard.map_cell", ws)
-    assert message.startswith("hazard.map_cell = 0.1: the hazard map of 4,000,000 cells (2,000 x 2,000 cells of "
-                              "hazard.map_cell over hazard.map_extent [0.0, 200.0, -100.0, 100.0]) x 31 thresholds "
-                              "needs up to 6.93 GB of host memory, 2.15 GB is free: a larger map_cell"), message
+    assert message.startswith(
+        "hazard.map_cell = 0.1: the hazard map of 4,000,000 cells (2,000 x 2,000 cells of "
+        "hazard.map_cell over hazard.map_extent [0.0, 200.0, -100.0, 100.0]) x 31 thresholds "
+        "needs up to 6.93 GB of host memory, 2.15 GB is free: a larger map_cell"
+    ), message
     monkeypatch.setattr(chunks, "host_memory_available", lambda: 1 << 40)
     monkeypatch.setattr(chunks, "free_bytes", lambda path: 1 << 30)
     assert "needs up to 3.22 GB on the output's disk, 1.07 GB is free" in assert_rejected(cli(args), "hazard.map_cell", ws)
@@ -493,13 +646,18 @@ def test_devices_that_do_not_exist_are_one_line(ws, name):
 
 
 @SETTINGS
-@given(spec=st.one_of(
-    st.builds(lambda k, t: f"{k}={t}", st.sampled_from(["surfaces.0.mu_s", "shot.seed"]),
-              TEXT.filter(lambda t: not any(c.isdigit() for c in t))),  # no numbers at all
-    st.builds(lambda a, b: f"surfaces.0.mu_s={a}:{b}:0", st.integers(0, 1), st.integers(0, 1)),  # step 0
-    st.builds(lambda v: f"surfaces.0.mu_s={v}", st.sampled_from(["nan", "inf", "-inf", "1e400", "0:nan:0.1"])),
-    st.builds(lambda v: f"surfaces.0.mu_s={v}", st.floats(100.0, 1e300, exclude_min=True).map(repr)),  # out of range
-))
+@given(
+    spec=st.one_of(
+        st.builds(
+            lambda k, t: f"{k}={t}",
+            st.sampled_from(["surfaces.0.mu_s", "shot.seed"]),
+            TEXT.filter(lambda t: not any(c.isdigit() for c in t)),
+        ),  # no numbers at all
+        st.builds(lambda a, b: f"surfaces.0.mu_s={a}:{b}:0", st.integers(0, 1), st.integers(0, 1)),  # step 0
+        st.builds(lambda v: f"surfaces.0.mu_s={v}", st.sampled_from(["nan", "inf", "-inf", "1e400", "0:nan:0.1"])),
+        st.builds(lambda v: f"surfaces.0.mu_s={v}", st.floats(100.0, 1e300, exclude_min=True).map(repr)),  # out of range
+    )
+)
 def test_malformed_sweeps_are_one_line(ws, spec):
     rc, out, err = cli(["sweep", ws.scene, "--device", "cpu", "-o", ws.output, "--overwrite", "--param", spec])
     key = spec.partition("=")[0]
@@ -507,14 +665,17 @@ def test_malformed_sweeps_are_one_line(ws, spec):
 
 
 @SETTINGS
-@given(tie=st.one_of(
-    st.builds(lambda f: f"surfaces.0.mu_d={f}*", st.sampled_from(["nan", "inf", "x", "1e400"])),
-    st.builds(lambda k: f"surfaces.0.mu_d=0.5*{k}", st.sampled_from(["shot.count", "physics.bounces"])),
-    st.builds(lambda f: f"surfaces.0.mu_d={f!r}*", st.floats(1.001, 1e300)),  # mu_d above mu_s
-))
+@given(
+    tie=st.one_of(
+        st.builds(lambda f: f"surfaces.0.mu_d={f}*", st.sampled_from(["nan", "inf", "x", "1e400"])),
+        st.builds(lambda k: f"surfaces.0.mu_d=0.5*{k}", st.sampled_from(["shot.count", "physics.bounces"])),
+        st.builds(lambda f: f"surfaces.0.mu_d={f!r}*", st.floats(1.001, 1e300)),  # mu_d above mu_s
+    )
+)
 def test_malformed_ties_are_one_line(ws, tie):
-    rc, out, err = cli(["sweep", ws.scene, "--device", "cpu", "-o", ws.output, "--overwrite",
-                        "--param", "surfaces.0.mu_s=0.1,0.2", "--tie", tie])
+    rc, out, err = cli(
+        ["sweep", ws.scene, "--device", "cpu", "-o", ws.output, "--overwrite", "--param", "surfaces.0.mu_s=0.1,0.2", "--tie", tie]
+    )
     lines = err.splitlines()
     assert rc == 2 and out == "" and len(lines) == 1 and lines[0].startswith(PREFIX), err
     assert "surfaces.0.mu_d" in lines[0] or "--tie" in lines[0]
@@ -534,18 +695,38 @@ def test_bad_input_end_to_end_is_exactly_one_stderr_line(tmp_path):
     valid.write_text(toml_document(VALID))
     out = tmp_path / "o.h5"
     out.write_bytes(b"keep")
-    for scene, extra, expected in ((with_file, [], "shot.file:velocity = (3, 3): "),
-                                   (valid, ["--set", "surfaces.0.restitution=nan"], "surfaces.0.restitution = nan: "),
-                                   (valid, ["--device", "cuda:9"], "device = 'cuda:9': ")):
-        proc = subprocess.run([sys.executable, "-m", "warp_ricochet.cli", "run", str(scene), "--device", "cpu",
-                               "-o", str(out), "--overwrite", *extra], capture_output=True, text=True, timeout=120)
+    for scene, extra, expected in (
+        (with_file, [], "shot.file:velocity = (3, 3): "),
+        (valid, ["--set", "surfaces.0.restitution=nan"], "surfaces.0.restitution = nan: "),
+        (valid, ["--device", "cuda:9"], "device = 'cuda:9': "),
+    ):
+        proc = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "warp_ricochet.cli",
+                "run",
+                str(scene),
+                "--device",
+                "cpu",
+                "-o",
+                str(out),
+                "--overwrite",
+                *extra,
+            ],
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
         assert proc.returncode == 2 and proc.stdout == ""
         assert len(proc.stderr.splitlines()) == 1 and proc.stderr.startswith(PREFIX + expected), proc.stderr
     assert out.read_bytes() == b"keep" and sorted(os.listdir(tmp_path)) == ["f.toml", "o.h5", "p.npz", "s.toml"]
 
 
-@pytest.mark.parametrize("key,value,law", [("air.drag_coefficient", 0.5, "air.drag"), ("air.drag_table", "gs", "air.drag"),
-                                           ("air.lift_slope", 1.0, "air.lift")])
+@pytest.mark.parametrize(
+    "key,value,law",
+    [("air.drag_coefficient", 0.5, "air.drag"), ("air.drag_table", "gs", "air.drag"), ("air.lift_slope", 1.0, "air.lift")],
+)
 def test_a_law_parameter_without_its_law_is_named(ws, key, value, law):
     """A parameter of a law the scene does not use is refused, naming the law it needs (it would
     be ignored silently); with its law it is taken. The constant law needs its coefficient."""
@@ -644,7 +825,8 @@ def test_a_pellet_files_declared_sizes_are_checked_before_reading(ws, monkeypatc
         for name in ("position", "velocity"):
             f.create_dataset(name, shape=(2**25, 3), dtype="f8", chunks=(2**25, 3))
     assert "storage chunks of 805,306,368 bytes" in assert_rejected(
-        cli(run_args(ws, None, "--set", f"shot={toml_value(shot)}")), "shot.file:position", ws)
+        cli(run_args(ws, None, "--set", f"shot={toml_value(shot)}")), "shot.file:position", ws
+    )
 
 
 def test_a_pellet_file_holding_less_than_it_declares_is_read_in_bounded_pieces(ws, monkeypatch):
@@ -660,7 +842,9 @@ def test_a_pellet_file_holding_less_than_it_declares_is_read_in_bounded_pieces(w
     ws.listing = sorted(os.listdir(ws.root))
     tracemalloc.start()
     try:
-        result = cli(run_args(ws, None, "--set", f"shot={toml_value({'file': str(path), 'diameter': 0.0025, 'density': 7000.0})}"))
+        result = cli(
+            run_args(ws, None, "--set", f"shot={toml_value({'file': str(path), 'diameter': 0.0025, 'density': 7000.0})}")
+        )
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()

@@ -25,11 +25,27 @@ SPEED_THRESHOLDS = (150.0, 200.0)  # m/s
 
 
 def _setup(quantum=QUANTUM):
-    return TallySetup(names=("slow", "fast"), kinds=("speed", "speed"), values=SPEED_THRESHOLDS,
-                      thresholds2=tuple(v * v for v in SPEED_THRESHOLDS), shooter=(0.0, 0.0, 0.0), up=(0.0, 0.0, 1.0),
-                      half_mass=HALF_MASS, area=1e-5, fractions=(), map_surface=0, map_origin=(0.0, 0.0, 0.0),
-                      map_u=(1.0, 0.0, 0.0), map_v=(0.0, 0.0, 1.0), map_u0=U0, map_v0=V0, map_cell=CELL, map_nu=NU,
-                      map_nv=NV, quantum=quantum)
+    return TallySetup(
+        names=("slow", "fast"),
+        kinds=("speed", "speed"),
+        values=SPEED_THRESHOLDS,
+        thresholds2=tuple(v * v for v in SPEED_THRESHOLDS),
+        shooter=(0.0, 0.0, 0.0),
+        up=(0.0, 0.0, 1.0),
+        half_mass=HALF_MASS,
+        area=1e-5,
+        fractions=(),
+        map_surface=0,
+        map_origin=(0.0, 0.0, 0.0),
+        map_u=(1.0, 0.0, 0.0),
+        map_v=(0.0, 0.0, 1.0),
+        map_u0=U0,
+        map_v0=V0,
+        map_cell=CELL,
+        map_nu=NU,
+        map_nv=NV,
+        quantum=quantum,
+    )
 
 
 @pytest.fixture(scope="module")
@@ -52,8 +68,14 @@ def _count(landings, device, slots, probes, totals=True, quantum=QUANTUM):
     Tally = make_landing_tally("float32").Tally
 
     @wp.kernel(module="unique", enable_backward=False)
-    def count(tally: Tally, ranges: wp.array(dtype=wp.float32), positions: wp.array(dtype=wp.vec3f),
-              v2s: wp.array(dtype=wp.float32), surfaces: wp.array(dtype=wp.int32), n: wp.int32):
+    def count(
+        tally: Tally,
+        ranges: wp.array(dtype=wp.float32),
+        positions: wp.array(dtype=wp.vec3f),
+        v2s: wp.array(dtype=wp.float32),
+        surfaces: wp.array(dtype=wp.int32),
+        n: wp.int32,
+    ):
         tid = wp.tid()
         fns.table(BEGIN, 0, wp.int64(0), 0)  # (with a map)
         for j in range(PER_THREAD):
@@ -67,8 +89,10 @@ def _count(landings, device, slots, probes, totals=True, quantum=QUANTUM):
     tally = DeviceTally(setup, "float32", wp.get_device(device), active=True)
     tally.start(None)
     threads = -(-n // (PER_THREAD * CUDA_BLOCK_DIM)) * CUDA_BLOCK_DIM  # whole blocks (the tables' barriers)
-    arrays = [wp.array(landings[k], dtype=t, device=device)
-              for k, t in (("range", wp.float32), ("position", wp.vec3f), ("v2", wp.float32), ("surface", wp.int32))]
+    arrays = [
+        wp.array(landings[k], dtype=t, device=device)
+        for k, t in (("range", wp.float32), ("position", wp.vec3f), ("v2", wp.float32), ("surface", wp.int32))
+    ]
     for _chunk in range(2):  # two chunks of the same landings: the totals hold twice the counts
         tally.before_chunk()
         wp.launch(count, dim=threads, inputs=[tally.struct, *arrays, n], device=device, block_dim=CUDA_BLOCK_DIM)
@@ -89,8 +113,7 @@ def _reference(landings, quantum=QUANTUM):
     fu = (p[:, 0].astype(np.float64) - U0) / CELL
     fv = (p[:, 2].astype(np.float64) - V0) / CELL
     inside = (fu >= 0) & (fv >= 0) & (fu < NU) & (fv < NV)
-    column = np.where(inside, np.floor(fv).clip(0, NV - 1).astype(int) * NU + np.floor(fu).clip(0, NU - 1).astype(int),
-                      NU * NV)
+    column = np.where(inside, np.floor(fv).clip(0, NV - 1).astype(int) * NU + np.floor(fu).clip(0, NU - 1).astype(int), NU * NV)
     column = np.where(surface == 0, column, NU * NV + 1)
     counts = np.zeros((3, NU * NV + 2), dtype=np.int64)
     np.add.at(counts, (level, column), 1)
@@ -117,8 +140,9 @@ def test_block_tables_count_what_numpy_counts(landings, device, quantum):
     for slots, probes in ((SLOTS, PROBES), (16, 2), (0, 0)):  # default, mostly overflowing, none
         got = _count(landings, device, slots, probes, quantum=quantum)
         for name in ("hist", "map_counts", "map_energy"):
-            np.testing.assert_array_equal(got[name].reshape(expected[name].shape), 2 * expected[name],
-                                          err_msg=f"{name}, {slots} slots, {probes} probes")
+            np.testing.assert_array_equal(
+                got[name].reshape(expected[name].shape), 2 * expected[name], err_msg=f"{name}, {slots} slots, {probes} probes"
+            )
 
 
 def test_counts_over_the_whole_span_of_the_bins_and_past_it(device):

@@ -29,8 +29,9 @@ PREFIX = "warp-ricochet: error: "
 
 
 def cli_subprocess(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "warp_ricochet.cli", *args], capture_output=True, text=True,
-                          cwd=cwd, timeout=120)
+    return subprocess.run(
+        [sys.executable, "-m", "warp_ricochet.cli", *args], capture_output=True, text=True, cwd=cwd, timeout=120
+    )
 
 
 def error_lines(err: str) -> list[str]:
@@ -54,8 +55,9 @@ def sweep_run(tmp_path_factory):
     capture = io.StringIO()
     old, sys.stdout = sys.stdout, capture
     try:
-        rc = main(["sweep", SCENE, *SMALL, "--param", "surfaces.0.mu_s=0:0.1:0.05", "--tie", "surfaces.0.mu_d=0.9*",
-                   "-o", str(path)])
+        rc = main(
+            ["sweep", SCENE, *SMALL, "--param", "surfaces.0.mu_s=0:0.1:0.05", "--tie", "surfaces.0.mu_d=0.9*", "-o", str(path)]
+        )
     finally:
         sys.stdout = old
     assert rc == 0
@@ -97,11 +99,14 @@ def test_run_refuses_to_overwrite_then_overwrites(tmp_path):
         assert f.attrs["status"] == "complete"
 
 
-@pytest.mark.parametrize("assignment, key", [
-    ("surfaces.0.restitution=1.5", "surfaces.0.restitution"),
-    ("shot.count=0", "shot.count"),
-    ("shot.no_such_key=1", "shot.no_such_key"),
-])
+@pytest.mark.parametrize(
+    "assignment, key",
+    [
+        ("surfaces.0.restitution=1.5", "surfaces.0.restitution"),
+        ("shot.count=0", "shot.count"),
+        ("shot.no_such_key=1", "shot.no_such_key"),
+    ],
+)
 def test_bad_set_is_one_line_and_writes_nothing(tmp_path, capsys, assignment, key):
     out = tmp_path / "bad.h5"
     assert main(["run", SCENE, "--device", "cpu", "--set", assignment, "-o", str(out)]) == 2
@@ -187,8 +192,12 @@ def test_sweep_writes_file_and_prints_three_tables(sweep_run):
     tables = table_blocks(out)
     assert sorted(tables) == ["Table 1", "Table 2", "Table 3"]
     for name in ("Table 1", "Table 2"):  # the pre-impact row, the same at every point, once; a post row per point
-        assert [r.split()[:2] for r in tables[name]] == [["all", "pre"], ["0.100", "post"], ["0.050", "post"],
-                                                          ["0.000", "post"]], tables[name]
+        assert [r.split()[:2] for r in tables[name]] == [
+            ["all", "pre"],
+            ["0.100", "post"],
+            ["0.050", "post"],
+            ["0.000", "post"],
+        ], tables[name]
     rows = tables["Table 3"]
     assert len(rows) == 3
     assert [r.split()[0] for r in rows] == ["0.100", "0.050", "0.000"]  # the paper's order: descending
@@ -250,8 +259,24 @@ def test_report_puts_vacuum_and_air_side_by_side(sweep_run, tmp_path, capsys):
     by mu_s, the same numbers as each file's own report; different sweeps are refused in one line."""
     vacuum, _ = sweep_run
     air = tmp_path / "air.h5"
-    assert main(["sweep", SCENE, *SMALL, "--set", "air.density=1.225", "--param", "surfaces.0.mu_s=0:0.1:0.05",
-                 "--tie", "surfaces.0.mu_d=0.9*", "-o", str(air)]) == 0
+    assert (
+        main(
+            [
+                "sweep",
+                SCENE,
+                *SMALL,
+                "--set",
+                "air.density=1.225",
+                "--param",
+                "surfaces.0.mu_s=0:0.1:0.05",
+                "--tie",
+                "surfaces.0.mu_d=0.9*",
+                "-o",
+                str(air),
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
     assert main(["report", str(vacuum), str(air)]) == 0
     out = capsys.readouterr().out
@@ -264,12 +289,13 @@ def test_report_puts_vacuum_and_air_side_by_side(sweep_run, tmp_path, capsys):
         want = {round(r["surfaces.0.mu_s"], 3): r["range_mean"] for r in read_results(path).rows}
         with h5py.File(path) as f:  # the distance from the shooter: each point's landing quantiles
             levels = list(f["runs/0000/stats/quantiles"].attrs["levels"])
-            far = {round(mu, 3): f[f"runs/{i:04d}/stats/quantiles/distance"][levels.index(0.999)]
-                   for i, mu in enumerate(f["sweep/surfaces.0.mu_s"][()])}
+            far = {
+                round(mu, 3): f[f"runs/{i:04d}/stats/quantiles/distance"][levels.index(0.999)]
+                for i, mu in enumerate(f["sweep/surfaces.0.mu_s"][()])
+            }
         for r in rows:
             assert float(r[column[f"<L> (m) {label}"]].replace(",", "")) == pytest.approx(want[float(r[0])], abs=5e-4)
-            assert float(r[column[f"distance P99.9 (m) {label}"]].replace(",", "")) == pytest.approx(
-                far[float(r[0])], abs=5e-4)
+            assert float(r[column[f"distance P99.9 (m) {label}"]].replace(",", "")) == pytest.approx(far[float(r[0])], abs=5e-4)
     assert float(rows[2][column["<L> (m) air"]]) < 0.5 * float(rows[2][column["<L> (m) vacuum"]].replace(",", ""))
     assert "distance: horizontal, from the shooter" in block[0]
     other = tmp_path / "other.h5"
@@ -286,8 +312,12 @@ def test_report_missing_and_bad_inputs(tmp_path, capsys):
     foreign = tmp_path / "foreign.h5"
     with h5py.File(foreign, "w") as f:
         f["x"] = 1
-    for path, words in ((tmp_path / "missing.h5", "does not exist"), (text, "not an HDF5 file"),
-                        (foreign, "not a warp-ricochet output file"), (tmp_path, "directory")):
+    for path, words in (
+        (tmp_path / "missing.h5", "does not exist"),
+        (text, "not an HDF5 file"),
+        (foreign, "not a warp-ricochet output file"),
+        (tmp_path, "directory"),
+    ):
         assert main(["report", str(path)]) == 2
         captured = capsys.readouterr()
         lines = captured.err.strip().splitlines()
@@ -304,8 +334,7 @@ def test_report_missing_file_end_to_end(tmp_path):
 # ---------------------------------------------------------------------------------------------- argparse
 
 
-@pytest.mark.parametrize("argv", [["--help"], ["run", "--help"], ["sweep", "--help"], ["report", "--help"],
-                                  ["--version"]])
+@pytest.mark.parametrize("argv", [["--help"], ["run", "--help"], ["sweep", "--help"], ["report", "--help"], ["--version"]])
 def test_help_and_version_exit_0(argv, capsys):
     with pytest.raises(SystemExit) as exc:
         main(argv)
@@ -315,9 +344,13 @@ def test_help_and_version_exit_0(argv, capsys):
 
 def test_usage_errors_are_one_line_exit_2(capsys):
     """The README's promise: argparse's errors too are one line `warp-ricochet: error: ...`, exit 2."""
-    for argv, words in (([], "COMMAND"), (["run"], "SCENE.toml"), (["sweep", SCENE], "--param"),
-                        (["report", "x.h5", "--format", "html"], "invalid choice: 'html'"),
-                        (["run", SCENE, "--bogus"], "unrecognized arguments: --bogus")):
+    for argv, words in (
+        ([], "COMMAND"),
+        (["run"], "SCENE.toml"),
+        (["sweep", SCENE], "--param"),
+        (["report", "x.h5", "--format", "html"], "invalid choice: 'html'"),
+        (["run", SCENE, "--bogus"], "unrecognized arguments: --bogus"),
+    ):
         with pytest.raises(SystemExit) as exc:
             main(argv)
         assert exc.value.code == 2
@@ -332,8 +365,11 @@ def test_help_end_to_end():
 
 
 def test_bad_param_and_tie_are_one_line(capsys):
-    for extra in (["--param", "surfaces.0.mu_s=0:0.1:-0.05"], ["--param", "surfaces.0.mu_s=0,0.1", "--tie", "x"],
-                  ["--param", "surfaces.0.mu_s=0.1", "--param", "surfaces.0.mu_s=0.2"]):
+    for extra in (
+        ["--param", "surfaces.0.mu_s=0:0.1:-0.05"],
+        ["--param", "surfaces.0.mu_s=0,0.1", "--tie", "x"],
+        ["--param", "surfaces.0.mu_s=0.1", "--param", "surfaces.0.mu_s=0.2"],
+    ):
         assert main(["sweep", SCENE, *SMALL, *extra]) == 2
         lines = capsys.readouterr().err.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith(PREFIX)
@@ -382,24 +418,37 @@ def test_frictional_case_and_tables_from_rows():
     assert frictional_case({"stick": 5.0, "slip": 0.0}) == "All-stick"
     assert frictional_case({"stick": 0.0, "slip": 5.0}) == "All-slip"
     assert frictional_case({"stick": 1200.0, "slip": 3.0}) == "Mixed: stick+slip (1,200 stick / 3 slip)"
-    rows = [{"surfaces.0.mu_s": mu, "pellets": 1.0, "stick": 1.0, "slip": 0.0, "post_norm_mean_omega": 29880.2391}
-            for mu in (0.0, 0.5)]
+    rows = [
+        {"surfaces.0.mu_s": mu, "pellets": 1.0, "stick": 1.0, "slip": 0.0, "post_norm_mean_omega": 29880.2391}
+        for mu in (0.0, 0.5)
+    ]
     text = format_tables(Results(rows=rows, params=["surfaces.0.mu_s"], meta={"kind": "sweep"}))
     assert "29,880.239" in text and "n/a" in text and "mu_s" in text
 
 
 def test_pre_impact_rows_are_shown_once_only_when_the_same_at_every_point():
     """Sweeping friction leaves the pre-impact means alone: one pre row; sweeping the speed does not."""
+
     def row(mu, speed):
         return {"surfaces.0.mu_s": mu, "pre_mean_vt": speed, "post_mean_vt": 0.7 * speed * (1 - mu)}
-    same = table_blocks(format_tables(Results(rows=[row(0.1, 290.0), row(0.0, 290.0)], params=["surfaces.0.mu_s"],
-                                              meta={"kind": "sweep"})))
-    assert [r.split()[:3] for r in same["Table 1"]] == [["all", "pre", "290.000"], ["0.100", "post", "182.700"],
-                                                        ["0.000", "post", "203.000"]]
-    differ = table_blocks(format_tables(Results(rows=[row(0.1, 290.0), row(0.0, 300.0)], params=["surfaces.0.mu_s"],
-                                                meta={"kind": "sweep"})))
-    assert [r.split()[:3] for r in differ["Table 1"]] == [["0.100", "pre", "290.000"], ["0.100", "post", "182.700"],
-                                                          ["0.000", "pre", "300.000"], ["0.000", "post", "210.000"]]
+
+    same = table_blocks(
+        format_tables(Results(rows=[row(0.1, 290.0), row(0.0, 290.0)], params=["surfaces.0.mu_s"], meta={"kind": "sweep"}))
+    )
+    assert [r.split()[:3] for r in same["Table 1"]] == [
+        ["all", "pre", "290.000"],
+        ["0.100", "post", "182.700"],
+        ["0.000", "post", "203.000"],
+    ]
+    differ = table_blocks(
+        format_tables(Results(rows=[row(0.1, 290.0), row(0.0, 300.0)], params=["surfaces.0.mu_s"], meta={"kind": "sweep"}))
+    )
+    assert [r.split()[:3] for r in differ["Table 1"]] == [
+        ["0.100", "pre", "290.000"],
+        ["0.100", "post", "182.700"],
+        ["0.000", "pre", "300.000"],
+        ["0.000", "post", "210.000"],
+    ]
 
 
 def test_paper_tables_are_consistent():
@@ -412,8 +461,12 @@ def test_paper_tables_are_consistent():
 
 
 def test_cli_imports_no_warp():
-    proc = subprocess.run([sys.executable, "-c", "import sys, warp_ricochet.cli, warp_ricochet.report; "
-                           "print('warp' in sys.modules)"], capture_output=True, text=True, timeout=60)
+    proc = subprocess.run(
+        [sys.executable, "-c", "import sys, warp_ricochet.cli, warp_ricochet.report; print('warp' in sys.modules)"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert proc.stdout.strip() == "False"
     assert cli.PROG == "warp-ricochet" and os.path.exists(SCENE)
 
@@ -425,10 +478,28 @@ def test_sigterm_marks_the_partial_file_interrupted(tmp_path):
     import h5py
 
     out = tmp_path / "long.h5"
-    proc = subprocess.Popen([sys.executable, "-m", "warp_ricochet.cli", "run", SCENE, "--device", "cpu",
-                             "--set", "shot.count=60000000", "--set", 'output.fields=["landing.range"]',
-                             "--set", "numerics.chunk_size=1000000", "-o", str(out)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "warp_ricochet.cli",
+            "run",
+            SCENE,
+            "--device",
+            "cpu",
+            "--set",
+            "shot.count=60000000",
+            "--set",
+            'output.fields=["landing.range"]',
+            "--set",
+            "numerics.chunk_size=1000000",
+            "-o",
+            str(out),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     partial = tmp_path / "long.h5.partial"
     deadline = time.time() + 60
     while time.time() < deadline:  # wait until some chunks are on disk
@@ -470,9 +541,11 @@ def test_quiet_and_verbose_set_the_logging_level(tmp_path):
     quiet = cli_subprocess("-q", "run", SCENE, *away)
     verbose = cli_subprocess("run", SCENE, *away, "--verbose")
     assert plain.returncode == quiet.returncode == verbose.returncode == 0
-    assert plain.stderr.splitlines() == ["warp-ricochet: warning: no pellet hit any surface (all 200 missed): check "
-                                         "shot.direction and the surfaces' points and normals (a plane is hit only "
-                                         "from the side its normal points to)"]
+    assert plain.stderr.splitlines() == [
+        "warp-ricochet: warning: no pellet hit any surface (all 200 missed): check "
+        "shot.direction and the surfaces' points and normals (a plane is hit only "
+        "from the side its normal points to)"
+    ]
     assert quiet.stderr == "" and quiet.stdout == plain.stdout
     info = [line for line in verbose.stderr.splitlines() if line.startswith("warp-ricochet: info: ")]
     assert info[0] == "warp-ricochet: info: 200 pellets on cpu, float32, in vacuum" and "pellets/s" in info[1]

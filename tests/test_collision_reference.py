@@ -31,8 +31,11 @@ PAIR = {"restitution": 0.5, "mu_s": 0.3, "mu_d": 0.2, "contact_duration": 1e-6}
 
 
 def make_scene(surfaces=(), gravity=GRAVITY, bounces=1, duration=0.0, **collisions):
-    raw = {"shot": {"count": 1, "diameter": D, "density": RHO, "speed": 1.0}, "surfaces": list(surfaces),
-           "physics": {"gravity": list(map(float, gravity)), "bounces": bounces, "impact_duration": duration}}
+    raw = {
+        "shot": {"count": 1, "diameter": D, "density": RHO, "speed": 1.0},
+        "surfaces": list(surfaces),
+        "physics": {"gravity": list(map(float, gravity)), "bounces": bounces, "impact_duration": duration},
+    }
     if collisions:
         raw["collisions"] = collisions
     return scene_from_dict(raw)
@@ -44,8 +47,22 @@ def unit(v):
 
 
 def law(xa, va, wa, xb, vb, wb, *, ma=MASS, mb=MASS, Ra=R, Rb=R, E=0.5, mu_s=0.3, mu_d=0.2):
-    return pair_law(xa, va, wa, xb, vb, wb, mass_a=ma, mass_b=mb, radius_a=Ra, radius_b=Rb, restitution=E,
-                    mu_s=mu_s, mu_d=mu_d, inertia_factor=K)
+    return pair_law(
+        xa,
+        va,
+        wa,
+        xb,
+        vb,
+        wb,
+        mass_a=ma,
+        mass_b=mb,
+        radius_a=Ra,
+        radius_b=Rb,
+        restitution=E,
+        mu_s=mu_s,
+        mu_d=mu_d,
+        inertia_factor=K,
+    )
 
 
 # ---------------------------------------------------------------- the pair law: invariants
@@ -81,19 +98,50 @@ def impacts(draw, overlap=True):
     if closing > 0:  # mirror the normal relative velocity so the spheres approach
         vb = vb - 2.0 * closing * n
     mu_s = draw(st.floats(0.0, 2.0))
-    return {"xa": xa, "va": va, "wa": draw(spin), "xb": xb, "vb": vb, "wb": draw(spin), "ma": ma, "mb": mb,
-            "Ra": Ra, "Rb": Rb, "E": draw(st.floats(0.0, 1.0)), "mu_s": mu_s, "mu_d": mu_s * draw(st.floats(0.0, 1.0)),
-            "n": n, "s": s}
+    return {
+        "xa": xa,
+        "va": va,
+        "wa": draw(spin),
+        "xb": xb,
+        "vb": vb,
+        "wb": draw(spin),
+        "ma": ma,
+        "mb": mb,
+        "Ra": Ra,
+        "Rb": Rb,
+        "E": draw(st.floats(0.0, 1.0)),
+        "mu_s": mu_s,
+        "mu_d": mu_s * draw(st.floats(0.0, 1.0)),
+        "n": n,
+        "s": s,
+    }
 
 
 def apply(c):
-    return law(c["xa"], c["va"], c["wa"], c["xb"], c["vb"], c["wb"], ma=c["ma"], mb=c["mb"], Ra=c["Ra"], Rb=c["Rb"],
-               E=c["E"], mu_s=c["mu_s"], mu_d=c["mu_d"])
+    return law(
+        c["xa"],
+        c["va"],
+        c["wa"],
+        c["xb"],
+        c["vb"],
+        c["wb"],
+        ma=c["ma"],
+        mb=c["mb"],
+        Ra=c["Ra"],
+        Rb=c["Rb"],
+        E=c["E"],
+        mu_s=c["mu_s"],
+        mu_d=c["mu_d"],
+    )
 
 
 def energy(c, va, wa, vb, wb):
-    return (0.5 * c["ma"] * va @ va + 0.5 * c["mb"] * vb @ vb
-            + 0.5 * K * c["ma"] * c["Ra"] ** 2 * wa @ wa + 0.5 * K * c["mb"] * c["Rb"] ** 2 * wb @ wb)
+    return (
+        0.5 * c["ma"] * va @ va
+        + 0.5 * c["mb"] * vb @ vb
+        + 0.5 * K * c["ma"] * c["Ra"] ** 2 * wa @ wa
+        + 0.5 * K * c["mb"] * c["Rb"] ** 2 * wb @ wb
+    )
 
 
 def contact_velocity(c, va, wa, vb, wb):
@@ -115,10 +163,18 @@ def test_pair_law_conserves_momenta_and_never_adds_energy(c):
     assert np.abs(p1 - p0).max() <= 1e-13 * scale + TINY
     # angular momentum about the origin, exactly also when overlapping (s < 1): the arms sum to d
     L0 = ma * np.cross(c["xa"], c["va"]) + mb * np.cross(c["xb"], c["vb"]) + Ia * c["wa"] + Ib * c["wb"]
-    L1 = ma * np.cross(c["xa"], r.velocity_a) + mb * np.cross(c["xb"], r.velocity_b) + Ia * r.angular_velocity_a \
+    L1 = (
+        ma * np.cross(c["xa"], r.velocity_a)
+        + mb * np.cross(c["xb"], r.velocity_b)
+        + Ia * r.angular_velocity_a
         + Ib * r.angular_velocity_b
-    lscale = (np.abs(c["xa"]).sum() + np.abs(c["xb"]).sum()) * scale + Ia * np.abs(c["wa"]).sum() \
-        + Ib * np.abs(c["wb"]).sum() + (c["Ra"] + c["Rb"]) * np.abs(impulse).sum()
+    )
+    lscale = (
+        (np.abs(c["xa"]).sum() + np.abs(c["xb"]).sum()) * scale
+        + Ia * np.abs(c["wa"]).sum()
+        + Ib * np.abs(c["wb"]).sum()
+        + (c["Ra"] + c["Rb"]) * np.abs(impulse).sum()
+    )
     assert np.abs(L1 - L0).max() <= 1e-13 * lscale + TINY
     # kinetic energy never rises; the closed-form loss is the drop, to rounding of the energies
     e0 = energy(c, c["va"], c["wa"], c["vb"], c["wb"])
@@ -213,8 +269,9 @@ def test_oblique_equal_spheres_without_spin_slipping():
     assert r.slipped
     np.testing.assert_allclose(r.velocity_b, p / 2, rtol=1e-13, atol=1e-13)
     np.testing.assert_allclose(r.velocity_a, [V, 0, 0] - p / 2, rtol=1e-13, atol=1e-13)
-    np.testing.assert_allclose(r.angular_velocity_b, 5.0 / 4.0 * mu_d * (1 + E) * un / R * np.array([0, 0, 1.0]),
-                               rtol=1e-13, atol=1e-9)
+    np.testing.assert_allclose(
+        r.angular_velocity_b, 5.0 / 4.0 * mu_d * (1 + E) * un / R * np.array([0, 0, 1.0]), rtol=1e-13, atol=1e-9
+    )
     u = r.velocity_b - r.velocity_a - R * np.cross(r.angular_velocity_b, n) - R * np.cross(r.angular_velocity_a, n)
     # u_t' = u_t + (k+1)/k * mu_d (1+E) u_n t  (along t, towards zero, not past it)
     assert u @ t == pytest.approx(-V * math.sin(theta) + 3.5 * mu_d * (1 + E) * un, rel=1e-12)
@@ -247,8 +304,17 @@ def test_infinite_mass_b_is_the_plane_law(c, mb):
         c["va"] = c["va"] - 2.0 * np.dot(c["va"], c["n"]) * c["n"]
     r = apply(c)
     assume(r.collided)
-    v, w, slipped = reference.impact_law(c["va"][None], c["wa"][None], -c["n"], radius=c["Ra"], restitution=c["E"],
-                                         mu_s=c["mu_s"], mu_d=c["mu_d"], gravity=(0.0, 0.0, 0.0), duration=0.0)
+    v, w, slipped = reference.impact_law(
+        c["va"][None],
+        c["wa"][None],
+        -c["n"],
+        radius=c["Ra"],
+        restitution=c["E"],
+        mu_s=c["mu_s"],
+        mu_d=c["mu_d"],
+        gravity=(0.0, 0.0, 0.0),
+        duration=0.0,
+    )
     # the stick/slip choice may differ only on its boundary, by rounding; elsewhere it must agree
     u = contact_velocity(c, c["va"], c["wa"], np.zeros(3), np.zeros(3))
     closing = -np.dot(u, c["n"])
@@ -359,8 +425,9 @@ def test_head_on_pair_collides_in_mid_air_then_lands_where_the_rebound_takes_it(
     np.testing.assert_allclose(out["impact.time"][:, 0], t_hit, rtol=1e-13)
     x_hit = V * tc - E * V * (t_hit - tc)
     np.testing.assert_allclose(out["impact.position"][:, 0, 0], [x_hit, L - x_hit], rtol=1e-12)
-    np.testing.assert_allclose(out["impact.velocity_before"][:, 0], [[-E * V, -9.81 * t_hit, 0], [E * V, -9.81 * t_hit, 0]],
-                               rtol=1e-12)
+    np.testing.assert_allclose(
+        out["impact.velocity_before"][:, 0], [[-E * V, -9.81 * t_hit, 0], [E * V, -9.81 * t_hit, 0]], rtol=1e-12
+    )
     # E = 0 on the ground: they stay there (rest), landing with zero range at the impact point
     np.testing.assert_array_equal(out["landing.surface"], [0, 0])
     np.testing.assert_allclose(out["landing.range"], 0.0, atol=1e-15)
@@ -440,9 +507,11 @@ def test_free_cloud_conserves_momenta_and_loses_energy_only_in_pair_collisions()
     L1 = MASS * np.cross(x, v).sum(0) + INERTIA * w.sum(0)
     lscale = MASS * (np.abs(position).sum(1) * np.abs(velocity).sum(1)).sum() + INERTIA * np.abs(spin).sum()
     np.testing.assert_allclose(L1 - L0, M * np.cross(xc * T + vc * T * T / 2, GRAVITY), rtol=0, atol=1e-12 * lscale)
+
     # energy: kinetic + potential drops by exactly the pair losses
     def total(x, v, w):
         return 0.5 * MASS * (v * v).sum() + 0.5 * INERTIA * (w * w).sum() - MASS * (x @ GRAVITY).sum()
+
     e0 = total(position, velocity, spin)
     assert stats["pair_energy_lost"] > 0.05 * e0
     assert total(x, v, w) == pytest.approx(e0 - stats["pair_energy_lost"], rel=1e-12)
@@ -462,7 +531,7 @@ def test_cloud_onto_the_ground_keeps_exact_caches_and_ends():
     out, stats = simulate_collisions(make_scene([GROUND], bounces=3), position, velocity, spin, **PAIR, check_caches=True)
     assert stats["pair_collisions"] > 0 and stats["landed"] + stats["escaped"] + stats["missed"] == len(position)
     hit = out["impact.surface"] >= 0
-    assert (out["impact.position"][hit][:, 1] == pytest.approx(R, rel=1e-9))
+    assert out["impact.position"][hit][:, 1] == pytest.approx(R, rel=1e-9)
 
 
 # ---------------------------------------------------------------- TC model, event cap, determinism
@@ -475,8 +544,9 @@ def test_zero_restitution_pellet_pressed_against_the_ground_ends(contact_duratio
     # collisions elastic, and every impact uses up a bounce, so it ends
     scene = make_scene([GROUND], bounces=16)
     pos, vel = [[0.0, R + 1e-4, 0.0], [0.0, 3 * R + 3e-4, 0.0]], [[0.0, -1.0, 0.0], [0.0, -3.0, 0.0]]
-    out, stats = simulate_collisions(scene, pos, vel, restitution=0.0, mu_s=0.5, contact_duration=contact_duration,
-                                     max_events=1000, check_caches=True)
+    out, stats = simulate_collisions(
+        scene, pos, vel, restitution=0.0, mu_s=0.5, contact_duration=contact_duration, max_events=1000, check_caches=True
+    )
     assert stats["pair_collisions"] >= 2 and stats["landed"] == 2
     assert (out["impact.surface"] == 0).all()  # all 16 bounces of both used up
     assert stats["pair_energy_lost"] > 0
@@ -494,14 +564,12 @@ def test_tc_model_makes_repeat_collisions_within_contact_duration_elastic(long_c
     tc = 10 * t_bc if long_contact else 0.1 * t_bc
     pos = [[-0.01, 0, 0], [D, 0, 0], [2 * D + delta, 0, 0]]
     vel = [[V, 0, 0], [0, 0, 0], [0, 0, 0]]
-    out, stats = simulate_collisions(make_scene(gravity=(0, 0, 0)), pos, vel, restitution=0.0, mu_s=0.0,
-                                     contact_duration=tc)
+    out, stats = simulate_collisions(make_scene(gravity=(0, 0, 0)), pos, vel, restitution=0.0, mu_s=0.0, contact_duration=tc)
     expected = [0, V / 2, V / 2] if long_contact else [V / 4, V / 4, V / 2]
     np.testing.assert_allclose(out["final.velocity"][:, 0], expected, atol=1e-12)
     assert stats["pair_collisions"] == (3 if long_contact else 4)
     first = (0.01 + D - D) / V  # a meets b
-    assert stats["pair_energy_lost"] == pytest.approx(
-        0.25 * MASS * V**2 * (1.0 if long_contact else 1.0 + 0.25), rel=1e-9)
+    assert stats["pair_energy_lost"] == pytest.approx(0.25 * MASS * V**2 * (1.0 if long_contact else 1.0 + 0.25), rel=1e-9)
     assert np.nanmin(out["collisions.last_time"]) == pytest.approx(first + t_bc, rel=1e-6)
 
 
@@ -527,8 +595,9 @@ def test_two_runs_are_identical():
 
 
 def head_on_loss(**kw):
-    _, stats = simulate_collisions(kw.pop("scene", make_scene(gravity=(0, 0, 0))), [[0, 0, 0], [0.1, 0, 0]],
-                                   [[1.0, 0, 0], [-1.0, 0, 0]], **kw)
+    _, stats = simulate_collisions(
+        kw.pop("scene", make_scene(gravity=(0, 0, 0))), [[0, 0, 0], [0.1, 0, 0]], [[1.0, 0, 0], [-1.0, 0, 0]], **kw
+    )
     return stats["pair_energy_lost"] / (0.5 * (MASS / 2) * 4.0)  # = 1 - E^2
 
 
@@ -539,8 +608,11 @@ def test_pair_parameters_from_keywords_collisions_or_scene():
     assert head_on_loss(scene=scene, collisions=section) == pytest.approx(1 - 0.6**2)
     assert head_on_loss(scene=scene, collisions=section, restitution=0.1) == pytest.approx(1 - 0.1**2)
     assert head_on_loss(restitution=0.0, mu_s=0.1) == pytest.approx(1.0)  # explicit mu_s: mu_d = mu_s
-    bare = SimpleNamespace(shot=SimpleNamespace(diameter=D, density=RHO), surfaces=(),
-                           physics=SimpleNamespace(gravity=(0, 0, 0), impact_duration=0.0, bounces=1))
+    bare = SimpleNamespace(
+        shot=SimpleNamespace(diameter=D, density=RHO),
+        surfaces=(),
+        physics=SimpleNamespace(gravity=(0, 0, 0), impact_duration=0.0, bounces=1),
+    )
     with pytest.raises(ValueError, match="restitution and mu_s"):
         head_on_loss(scene=bare)
     assert head_on_loss(scene=bare, restitution=1.0, mu_s=0.0) == pytest.approx(0.0, abs=1e-12)

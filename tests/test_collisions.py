@@ -26,15 +26,39 @@ _pair_law64 = make_pair_law(wp.float64)
 
 @wp.kernel(enable_backward=False)
 def _pair_kernel(
-    xa: wp.array(dtype=wp.vec3d), va: wp.array(dtype=wp.vec3d), wa: wp.array(dtype=wp.vec3d),
-    xb: wp.array(dtype=wp.vec3d), vb: wp.array(dtype=wp.vec3d), wb: wp.array(dtype=wp.vec3d),
-    radius: wp.float64, mass_a: wp.float64, mass_b: wp.float64, restitution: wp.float64, mu_s: wp.float64, mu_d: wp.float64,
-    va_out: wp.array(dtype=wp.vec3d), wa_out: wp.array(dtype=wp.vec3d), vb_out: wp.array(dtype=wp.vec3d), wb_out: wp.array(dtype=wp.vec3d),
+    xa: wp.array(dtype=wp.vec3d),
+    va: wp.array(dtype=wp.vec3d),
+    wa: wp.array(dtype=wp.vec3d),
+    xb: wp.array(dtype=wp.vec3d),
+    vb: wp.array(dtype=wp.vec3d),
+    wb: wp.array(dtype=wp.vec3d),
+    radius: wp.float64,
+    mass_a: wp.float64,
+    mass_b: wp.float64,
+    restitution: wp.float64,
+    mu_s: wp.float64,
+    mu_d: wp.float64,
+    va_out: wp.array(dtype=wp.vec3d),
+    wa_out: wp.array(dtype=wp.vec3d),
+    vb_out: wp.array(dtype=wp.vec3d),
+    wb_out: wp.array(dtype=wp.vec3d),
 ):
     i = wp.tid()
     a, b, c, d, _collided, _slipped = _pair_law64(
-        xa[i], va[i], wa[i], radius, mass_a, xb[i], vb[i], wb[i], radius, mass_b,
-        wp.float64(0.4), restitution, mu_s, mu_d,
+        xa[i],
+        va[i],
+        wa[i],
+        radius,
+        mass_a,
+        xb[i],
+        vb[i],
+        wb[i],
+        radius,
+        mass_b,
+        wp.float64(0.4),
+        restitution,
+        mu_s,
+        mu_d,
     )
     va_out[i] = a
     wa_out[i] = b
@@ -45,8 +69,9 @@ def _pair_kernel(
 def warp_pair_law(xa, va, wa, xb, vb, wb, *, radius, mass_a, mass_b, restitution, mu_s, mu_d):
     arrays = [wp.array(np.asarray(a, np.float64), dtype=wp.vec3d, device="cpu") for a in (xa, va, wa, xb, vb, wb)]
     outs = [wp.empty(len(xa), dtype=wp.vec3d, device="cpu") for _ in range(4)]
-    wp.launch(_pair_kernel, dim=len(xa), inputs=[*arrays, radius, mass_a, mass_b, restitution, mu_s, mu_d], outputs=outs,
-              device="cpu")
+    wp.launch(
+        _pair_kernel, dim=len(xa), inputs=[*arrays, radius, mass_a, mass_b, restitution, mu_s, mu_d], outputs=outs, device="cpu"
+    )
     return [o.numpy() for o in outs]
 
 
@@ -54,8 +79,18 @@ vectors = st.lists(st.floats(-50, 50), min_size=3, max_size=3)
 
 
 @settings(max_examples=60, deadline=None)
-@given(va=vectors, vb=vectors, wa=vectors, wb=vectors, direction=vectors, overlap=st.floats(0.7, 1.0),
-       restitution=st.floats(0, 1), mu_s=st.floats(0, 2), ratio=st.floats(0, 1), mass_ratio=st.floats(0.2, 5))
+@given(
+    va=vectors,
+    vb=vectors,
+    wa=vectors,
+    wb=vectors,
+    direction=vectors,
+    overlap=st.floats(0.7, 1.0),
+    restitution=st.floats(0, 1),
+    mu_s=st.floats(0, 2),
+    ratio=st.floats(0, 1),
+    mass_ratio=st.floats(0.2, 5),
+)
 def test_pair_law_matches_the_float64_reference(va, vb, wa, wb, direction, overlap, restitution, mu_s, ratio, mass_ratio):
     d = np.asarray(direction)
     if np.linalg.norm(d) < 1e-3:
@@ -66,9 +101,21 @@ def test_pair_law_matches_the_float64_reference(va, vb, wa, wb, direction, overl
     w_scale = 1e4  # rad/s: spins comparable to speeds / radius
     args = dict(radius=radius, mass_a=1e-4, mass_b=1e-4 * mass_ratio, restitution=restitution, mu_s=mu_s, mu_d=mu_s * ratio)
     got = warp_pair_law(xa, [va], np.asarray([wa]) * w_scale, xb, [vb], np.asarray([wb]) * w_scale, **args)
-    ref = reference_pair_law(xa, np.asarray([va]), np.asarray([wa]) * w_scale, xb, np.asarray([vb]), np.asarray([wb]) * w_scale,
-                             mass_a=args["mass_a"], mass_b=args["mass_b"], radius_a=radius, radius_b=radius,
-                             restitution=restitution, mu_s=mu_s, mu_d=mu_s * ratio)
+    ref = reference_pair_law(
+        xa,
+        np.asarray([va]),
+        np.asarray([wa]) * w_scale,
+        xb,
+        np.asarray([vb]),
+        np.asarray([wb]) * w_scale,
+        mass_a=args["mass_a"],
+        mass_b=args["mass_b"],
+        radius_a=radius,
+        radius_b=radius,
+        restitution=restitution,
+        mu_s=mu_s,
+        mu_d=mu_s * ratio,
+    )
     expected = [ref.velocity_a, ref.angular_velocity_a, ref.velocity_b, ref.angular_velocity_b]
     for g, e, scale in zip(got, expected, (1.0, 1 / radius, 1.0, 1 / radius)):
         np.testing.assert_allclose(g, e, rtol=1e-9, atol=1e-9 * 100 * scale)
@@ -77,7 +124,9 @@ def test_pair_law_matches_the_float64_reference(va, vb, wa, wb, direction, overl
     np.testing.assert_allclose(ma * got[0] + mb * got[2], ma * np.asarray([va]) + mb * np.asarray([vb]), atol=1e-15)
     inertia_a, inertia_b = 0.4 * ma * radius**2, 0.4 * mb * radius**2
     before = ma * np.dot(va, va) + mb * np.dot(vb, vb) + (inertia_a * np.dot(wa, wa) + inertia_b * np.dot(wb, wb)) * w_scale**2
-    after = ma * np.sum(got[0] ** 2) + mb * np.sum(got[2] ** 2) + inertia_a * np.sum(got[1] ** 2) + inertia_b * np.sum(got[3] ** 2)
+    after = (
+        ma * np.sum(got[0] ** 2) + mb * np.sum(got[2] ** 2) + inertia_a * np.sum(got[1] ** 2) + inertia_b * np.sum(got[3] ** 2)
+    )
     assert after <= before * (1 + 1e-12) + 1e-18
 
 
@@ -116,11 +165,19 @@ def test_a_cloud_too_sparse_to_touch_gives_the_collisions_off_result(tmp_path, d
 
 def _two_pellets(tmp_path, position, velocity, spin=None, surfaces=(), gravity=(0.0, -9.81, 0.0), **collisions):
     path = tmp_path / "two.npz"
-    np.savez(path, position=np.asarray(position, float), velocity=np.asarray(velocity, float),
-             angular_velocity=np.zeros((len(position), 3)) if spin is None else np.asarray(spin, float))
-    raw = {"shot": {"file": str(path), "diameter": 0.0025, "density": 7000.0},
-           "surfaces": list(surfaces), "physics": {"gravity": list(gravity), "bounces": 1},
-           "collisions": {"enabled": True, **collisions}, "numerics": {"precision": "float64"}}
+    np.savez(
+        path,
+        position=np.asarray(position, float),
+        velocity=np.asarray(velocity, float),
+        angular_velocity=np.zeros((len(position), 3)) if spin is None else np.asarray(spin, float),
+    )
+    raw = {
+        "shot": {"file": str(path), "diameter": 0.0025, "density": 7000.0},
+        "surfaces": list(surfaces),
+        "physics": {"gravity": list(gravity), "bounces": 1},
+        "collisions": {"enabled": True, **collisions},
+        "numerics": {"precision": "float64"},
+    }
     return make_scene(raw, precision="float64")
 
 
@@ -134,8 +191,9 @@ def test_two_pellets_against_the_event_driven_reference(tmp_path, device, spin, 
     spins = [[0.0, 0.0, 3000.0], [500.0, 0.0, -2000.0]] if spin else None
     scene = _two_pellets(tmp_path, position, velocity, spins, surfaces=[GROUND], restitution=0.8, mu_s=0.3, mu_d=0.2)
     pellets, stats = _write(scene, tmp_path / "two.h5", device)
-    ref, ref_stats = simulate_collisions(scene, np.asarray(position), np.asarray(velocity),
-                                         np.zeros((2, 3)) if spins is None else np.asarray(spins))
+    ref, ref_stats = simulate_collisions(
+        scene, np.asarray(position), np.asarray(velocity), np.zeros((2, 3)) if spins is None else np.asarray(spins)
+    )
     assert list(pellets["collisions.count"]) == list(ref["collisions.count"]) == [1, 1]
     np.testing.assert_allclose(pellets["collisions.last_time"], ref["collisions.last_time"], rtol=1e-12)
     for name in ("impact.velocity_before", "impact.velocity", "impact.angular_velocity", "landing.position", "landing.range"):
@@ -149,8 +207,9 @@ def test_dense_cloud_against_the_event_driven_reference(tmp_path, device):
     event taken in another order changes everything after it; docs/collisions.md.)"""
     scene = _paper_collisions(60)
     pellets, stats = _write(scene, tmp_path / "dense.h5", device)
-    ref, ref_stats = simulate_collisions(scene, pellets["initial.position"], pellets["initial.velocity"],
-                                         pellets["initial.angular_velocity"])
+    ref, ref_stats = simulate_collisions(
+        scene, pellets["initial.position"], pellets["initial.velocity"], pellets["initial.angular_velocity"]
+    )
     assert stats["pair_collisions"] == ref_stats["pair_collisions"] >= 10
     assert stats["skin_overrun_max"] == 0.0  # no pellet left its skin between list builds
     np.testing.assert_array_equal(pellets["collisions.count"], ref["collisions.count"])
@@ -256,8 +315,10 @@ def test_energy_never_rises_and_no_pellet_ends_inside_a_plane(tmp_path, device):
     launch = energy(pellets["initial.velocity"], pellets["initial.angular_velocity"], pellets["initial.position"][:, 1])
     release = energy(pellets["release.velocity"], pellets["release.angular_velocity"], pellets["release.position"][:, 1])
     before = pellets["impact.time"] <= pellets["release.time"][:, None]  # (NaN: no impact, False)
-    plane_losses = (energy(pellets["impact.velocity_before"], pellets["impact.angular_velocity_before"], 0.0)
-                    - energy(pellets["impact.velocity"], pellets["impact.angular_velocity"], 0.0))[before]
+    plane_losses = (
+        energy(pellets["impact.velocity_before"], pellets["impact.angular_velocity_before"], 0.0)
+        - energy(pellets["impact.velocity"], pellets["impact.angular_velocity"], 0.0)
+    )[before]
     assert before.any() and stats["pair_energy_lost"] > 0
     assert plane_losses.min() >= -1e-12 * launch.max()
     books = launch.sum() - release.sum() - stats["pair_energy_lost"] - plane_losses.sum()
@@ -337,8 +398,7 @@ def test_a_rebound_faster_than_the_step_allowed_for_ends_the_step_at_the_skin(tm
     position = [[0.0, 0.01, 0.0], [0.0, 0.02, 0.0], [0.05, 0.01, 0.0]]
     velocity = [[0.0, -10.0, 0.0]] * 3
     elastic = {**GROUND, "restitution": 1.0, "mu_s": 0.0, "mu_d": 0.0}
-    scene = _two_pellets(tmp_path, position, velocity, surfaces=[elastic], gravity=(0.0, 0.0, 0.0),
-                         restitution=0.5)
+    scene = _two_pellets(tmp_path, position, velocity, surfaces=[elastic], gravity=(0.0, 0.0, 0.0), restitution=0.5)
     pellets, stats = _write(scene, tmp_path / "rebound.h5", device)
     ref, ref_stats = simulate_collisions(scene, np.asarray(position), np.asarray(velocity), np.zeros((3, 3)))
     assert list(pellets["collisions.count"]) == list(ref["collisions.count"]) == [1, 1, 0]
@@ -378,8 +438,9 @@ def test_a_pellet_pressed_between_the_ground_and_another_ends(tmp_path, device):
     ground = dict(GROUND, restitution=0.5)
     position = [[0.0, 0.00125 + 1e-4, 0.0], [0.0, 0.02, 0.0]]
     velocity = [[0.0, -0.1, 0.0], [0.0, -3.0, 0.0]]
-    scene = _two_pellets(tmp_path, position, velocity, surfaces=[ground], restitution=0.0, mu_s=0.5, mu_d=0.4,
-                         contact_duration=1e-4)
+    scene = _two_pellets(
+        tmp_path, position, velocity, surfaces=[ground], restitution=0.0, mu_s=0.5, mu_d=0.4, contact_duration=1e-4
+    )
     pellets, _ = _write(scene, tmp_path / "squeeze.h5", device)
     ref, _ = simulate_collisions(scene, np.asarray(position), np.asarray(velocity), np.zeros((2, 3)))
     assert pellets["collisions.count"].sum() >= 2
@@ -472,7 +533,7 @@ def _lists_at_every_rebuild(scene, monkeypatch, cell_lists):
         grew = rebuild(self, pellets)
         count = self.cloud.neighbour_count.numpy()[:pellets]
         table = self.cloud.neighbours.numpy()[:pellets]
-        lists.append([tuple(sorted(table[i, :count[i]])) for i in range(pellets)])
+        lists.append([tuple(sorted(table[i, : count[i]])) for i in range(pellets)])
         return grew
 
     monkeypatch.setattr(DensePhase, "_rebuild", recording)
@@ -565,8 +626,10 @@ def test_only_runs_with_pair_collisions_have_collision_statistics(tmp_path):
 
     raw = paper_raw()
     raw["shot"]["count"] = 20
-    cases = {"off": make_scene(raw), "one-a-shot": make_scene(dict(raw, shot=dict(raw["shot"], count=1, shots=20)),
-                                                             collisions={"enabled": True})}
+    cases = {
+        "off": make_scene(raw),
+        "one-a-shot": make_scene(dict(raw, shot=dict(raw["shot"], count=1, shots=20)), collisions={"enabled": True}),
+    }
     cases["on"] = make_scene(raw, collisions={"enabled": True})
     for name, scene in cases.items():
         path = tmp_path / f"{name}.h5"
@@ -643,7 +706,7 @@ def test_a_shots_collision_totals_are_its_blocks_summed_in_order(monkeypatch, bl
         blocks = []
         for first in range(0, 60, block):
             total = 0.0
-            for x in lost[s, first:first + block]:
+            for x in lost[s, first : first + block]:
                 total += float(x)
             blocks.append(total)
         expected = blocks[0]

@@ -38,11 +38,11 @@ KINDS = {"python", "sh", "bash", "toml", "text"}
 # (page, a line of the block) -> why it is not run
 PYTHON_EXEMPT = {
     ("docs/output.md", "from paraview.simple import *"): "needs ParaView's pvpython (not on PyPI); tests/test_xdmf.py "
-                                                        "reads the same sidecar with VTK's vtkXdmfReader",
+    "reads the same sidecar with VTK's vtkXdmfReader",
     ("docs/output.md", "from MDAnalysis.coordinates.H5MD import H5MDReader"): "needs MDAnalysis (not a test "
-                                                                             "dependency) and a run with trajectory "
-                                                                             "frames; tests/test_h5md.py checks the H5MD "
-                                                                             "elements its reader uses",
+    "dependency) and a run with trajectory "
+    "frames; tests/test_h5md.py checks the H5MD "
+    "elements its reader uses",
 }
 # README Command line lines parsed but not run (a part of the line) -> why
 NOT_RUN = {
@@ -58,8 +58,7 @@ def blocks(page):
 
 
 def of_kind(*kinds):
-    return [pytest.param(page, text, id=f"{page}:{line}") for page in PAGES for lang, text, line in blocks(page)
-            if lang in kinds]
+    return [pytest.param(page, text, id=f"{page}:{line}") for page in PAGES for lang, text, line in blocks(page) if lang in kinds]
 
 
 def commands(text):
@@ -92,23 +91,36 @@ def test_every_block_is_of_a_kind_this_file_checks():
 def run_files(tmp_path_factory):
     """What docs/output.md reads: a finished run of the paper's scene (every default field), shot.h5."""
     d = tmp_path_factory.mktemp("docs-run")
-    proc = subprocess.run([sys.executable, "-m", "warp_ricochet.cli", "run", str(ROOT / "examples" / "paper.toml"),
-                           "--device", "cpu", "-o", "shot.h5"], cwd=d, capture_output=True, text=True, timeout=300,
-                          env=_env())
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "warp_ricochet.cli",
+            "run",
+            str(ROOT / "examples" / "paper.toml"),
+            "--device",
+            "cpu",
+            "-o",
+            "shot.h5",
+        ],
+        cwd=d,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=_env(),
+    )
     assert proc.returncode == 0, proc.stderr
     return d
 
 
 def _env():
-    return {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]),
-            "MPLBACKEND": "Agg"}
+    return {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]), "MPLBACKEND": "Agg"}
 
 
 def run_python(text, folder):
     script = folder / "block.py"
     script.write_text(text)
-    proc = subprocess.run([sys.executable, script.name], cwd=folder, capture_output=True, text=True, timeout=600,
-                          env=_env())
+    proc = subprocess.run([sys.executable, script.name], cwd=folder, capture_output=True, text=True, timeout=600, env=_env())
     assert proc.returncode == 0, f"{proc.stdout}\n{proc.stderr}"
     assert "Traceback" not in proc.stderr and "Warning" not in proc.stderr, proc.stderr
     return proc
@@ -137,16 +149,18 @@ def test_the_readmes_python_block_resumes_an_interrupted_sweep(tmp_path):
     after its first point (Ctrl-C in the progress callback) left sweep.h5.partial/."""
     text = next(t for lang, t, _ in blocks("README.md") if lang == "python")
     (tmp_path / "examples").symlink_to(ROOT / "examples")
-    interrupt = ("import warp_ricochet as wr\n"
-                 "scene = wr.load_scene('examples/paper.toml')\n"
-                 "def stop(done, total):\n"
-                 "    if done > total // 2:\n"
-                 "        raise KeyboardInterrupt\n"
-                 "try:\n"
-                 "    wr.sweep(scene, {'surfaces.0.mu_s': [0.0, 0.05, 0.5]}, [('surfaces.0.mu_d', 0.9, None)], "
-                 "'sweep.h5', progress=stop)\n"
-                 "except KeyboardInterrupt:\n"
-                 "    pass\n")
+    interrupt = (
+        "import warp_ricochet as wr\n"
+        "scene = wr.load_scene('examples/paper.toml')\n"
+        "def stop(done, total):\n"
+        "    if done > total // 2:\n"
+        "        raise KeyboardInterrupt\n"
+        "try:\n"
+        "    wr.sweep(scene, {'surfaces.0.mu_s': [0.0, 0.05, 0.5]}, [('surfaces.0.mu_d', 0.9, None)], "
+        "'sweep.h5', progress=stop)\n"
+        "except KeyboardInterrupt:\n"
+        "    pass\n"
+    )
     run_python(interrupt, tmp_path)
     assert (tmp_path / "sweep.h5.partial" / "0000.h5").exists() and not (tmp_path / "sweep.h5").exists()
     run_python(text, tmp_path)
@@ -202,8 +216,15 @@ def test_the_readmes_command_line_block_runs(tmp_path, monkeypatch, capsys):
         ran += 1
     out = capsys.readouterr().out
     assert ran >= 10 and "warp-ricochet " in out and "Warp " in out
-    for name in ("shot.h5", "shot.xmf", "sweep.h5", "sweep-air.h5", "my-scene.toml", "plots/shot-range.png",
-                 "plots/sweep+sweep-air-sweep-ranges.png"):
+    for name in (
+        "shot.h5",
+        "shot.xmf",
+        "sweep.h5",
+        "sweep-air.h5",
+        "my-scene.toml",
+        "plots/shot-range.png",
+        "plots/sweep+sweep-air-sweep-ranges.png",
+    ):
         assert (tmp_path / name).exists(), name
 
 

@@ -8,8 +8,8 @@ import math
 import h5py
 import numpy as np
 import pytest
-from scipy.stats import t as stats_t
 from helpers import assert_same_stats, interrupt_after
+from scipy.stats import t as stats_t
 
 import warp_ricochet as wr
 from warp_ricochet.cli import main as cli_main
@@ -21,8 +21,14 @@ from warp_ricochet.tallies.sums import statistics_from_arrays
 
 SCENE = "examples/paper.toml"
 COUNT, SHOTS = 30_000, 5  # 150,000 pellets: shots straddle chunks of 65,536
-BASE = [f"shot.count={COUNT}", f"shot.shots={SHOTS}", 'numerics.precision="float64"',
-        "surfaces.0.mu_s=0.2", "surfaces.0.mu_d=0.18", 'output.fields=["initial", "impact", "landing"]']
+BASE = [
+    f"shot.count={COUNT}",
+    f"shot.shots={SHOTS}",
+    'numerics.precision="float64"',
+    "surfaces.0.mu_s=0.2",
+    "surfaces.0.mu_d=0.18",
+    'output.fields=["initial", "impact", "landing"]',
+]
 
 
 def _coverage(draw, truth, ensembles=2000, shots=200):
@@ -34,11 +40,14 @@ def _coverage(draw, truth, ensembles=2000, shots=200):
     return covered / ensembles
 
 
-@pytest.mark.parametrize("name, draw, truth", [
-    ("normal", lambda rng, n: rng.normal(3.0, 2.0, n), 3.0),
-    ("exponential (skewed)", lambda rng, n: rng.exponential(5.0, n), 5.0),
-    ("uniform", lambda rng, n: rng.uniform(-1.0, 2.0, n), 0.5),
-])
+@pytest.mark.parametrize(
+    "name, draw, truth",
+    [
+        ("normal", lambda rng, n: rng.normal(3.0, 2.0, n), 3.0),
+        ("exponential (skewed)", lambda rng, n: rng.exponential(5.0, n), 5.0),
+        ("uniform", lambda rng, n: rng.uniform(-1.0, 2.0, n), 0.5),
+    ],
+)
 def test_intervals_cover_a_known_mean_at_their_level(name, draw, truth):
     """2,000 synthetic ensembles of 200 shots each: the 95% interval covers the true mean in 95% of
     them, within 3 binomial standard deviations (0.0146)."""
@@ -73,8 +82,11 @@ def test_per_shot_values_are_each_shots_numpy_statistics(multi):
     the intervals contain the mean of the per-shot values."""
     path, stats = multi
     with h5py.File(path, "r") as f:
-        p = {name: ds[()] for group in ("initial", "impact", "landing") for name, ds in
-             ((f"{group}.{k}", v) for k, v in f[f"pellets/{group}"].items())}
+        p = {
+            name: ds[()]
+            for group in ("initial", "impact", "landing")
+            for name, ds in ((f"{group}.{k}", v) for k, v in f[f"pellets/{group}"].items())
+        }
         mass, inertia = float(f["constants/mass"][()]), float(f["constants/inertia"][()])
         per_shot = {name: ds[()] for name, ds in f["stats/shots"].items() if not is_dimension(ds)}
         intervals = {name: (ds.attrs["ci_low"], ds.attrs["ci_high"]) for name, ds in f["stats"].items()
@@ -86,27 +98,42 @@ def test_per_shot_values_are_each_shots_numpy_statistics(multi):
         hit = p["impact.surface"][sl, 0] >= 0
         landed = p["landing.surface"][sl] >= 0
         ref = statistics_from_arrays(
-            pellets=COUNT, mass=mass, inertia=inertia, launch_velocity=p["initial.velocity"][sl],
-            launch_angular_velocity=p["initial.angular_velocity"][sl], hit=hit, normal=np.repeat(normals, COUNT, 0),
+            pellets=COUNT,
+            mass=mass,
+            inertia=inertia,
+            launch_velocity=p["initial.velocity"][sl],
+            launch_angular_velocity=p["initial.angular_velocity"][sl],
+            hit=hit,
+            normal=np.repeat(normals, COUNT, 0),
             velocity_before=p["impact.velocity_before"][sl, 0],
             angular_velocity_before=p["impact.angular_velocity_before"][sl, 0],
-            velocity_after=p["impact.velocity"][sl, 0], angular_velocity_after=p["impact.angular_velocity"][sl, 0],
-            slipped_first=p["impact.slipped"][sl, 0] == 1, landed=landed, range_=p["landing.range"][sl],
-            slipped_last=p["impact.slipped"][sl, 0] == 1, time_aloft=p["landing.time"][sl] - p["impact.time"][sl, 0],
-            landing_velocity=np.nan_to_num(p["landing.velocity"][sl]))
+            velocity_after=p["impact.velocity"][sl, 0],
+            angular_velocity_after=p["impact.angular_velocity"][sl, 0],
+            slipped_first=p["impact.slipped"][sl, 0] == 1,
+            landed=landed,
+            range_=p["landing.range"][sl],
+            slipped_last=p["impact.slipped"][sl, 0] == 1,
+            time_aloft=p["landing.time"][sl] - p["impact.time"][sl, 0],
+            landing_velocity=np.nan_to_num(p["landing.velocity"][sl]),
+        )
         for name, value in ref.items():
             if name == "flight_scale_max":  # not recomputable from the outputs (statistics_from_arrays gives NaN)
                 continue
             got = per_shot[name][s]
-            assert (math.isnan(got) and math.isnan(value)) or got == pytest.approx(value, rel=1e-9, abs=1e-9), \
-                (s, name, got, value)
+            assert (math.isnan(got) and math.isnan(value)) or got == pytest.approx(value, rel=1e-9, abs=1e-9), (
+                s,
+                name,
+                got,
+                value,
+            )
     for name, (low, high) in intervals.items():
         values = per_shot[name][np.isfinite(per_shot[name])]
         scale = SHOTS if STAT_KIND[name] == "total" else 1
         if len(values) >= 2:  # Student t over the shots, computed here with SciPy
             half = stats_t.ppf(0.975, len(values) - 1) * values.std(ddof=1) / math.sqrt(len(values))
-            assert (low, high) == pytest.approx((scale * (values.mean() - half), scale * (values.mean() + half)),
-                                                rel=1e-12, abs=1e-12), name
+            assert (low, high) == pytest.approx(
+                (scale * (values.mean() - half), scale * (values.mean() + half)), rel=1e-12, abs=1e-12
+            ), name
     assert stats["range_mean"] == pytest.approx(np.mean(per_shot["range_mean"]), rel=1e-3)
     assert stats.ensemble.shots == SHOTS and stats.ensemble.low["range_mean"] == intervals["range_mean"][0]
 
@@ -141,7 +168,7 @@ def test_summary_and_report_show_the_intervals(multi, capsys):
     table = {x.split()[0]: x.split() for x in text.split("95% confidence intervals")[1].split("\n\n")[0].splitlines()[3:]}
     columns = ("all shots", "mean over shots", "95% low", "95% high")
     for name, cells in table.items():  # every row's numbers apart: the value over all shots, the mean of
-        if "n/a" in cells[1:5]:        # the per-shot values and the interval around that mean
+        if "n/a" in cells[1:5]:  # the per-shot values and the interval around that mean
             continue
         value, centre, low, high = (float(c.replace(",", "")) for c in cells[1:5])
         assert low <= centre <= high, (name, cells)
@@ -151,8 +178,8 @@ def test_summary_and_report_show_the_intervals(multi, capsys):
         else:
             decimals = len(got["95% low"].partition(".")[2])
             want_low, want_high = stats.ensemble.low[name], stats.ensemble.high[name]
-            assert (low, high) == pytest.approx((want_low, want_high), abs=0.51 * 10.0 ** -decimals), name
-            assert value == pytest.approx(stats[name], abs=0.51 * 10.0 ** -decimals), name
+            assert (low, high) == pytest.approx((want_low, want_high), abs=0.51 * 10.0**-decimals), name
+            assert value == pytest.approx(stats[name], abs=0.51 * 10.0**-decimals), name
     assert table["range_mean"][-2:] == ["per", "shot"] and table["pellets"][1] == f"{int(stats['pellets']):,}"
     assert table["range_max"][-3:] == ["one", "shot's", "extreme"]
     assert float(table["range_max"][1]) >= float(table["range_max"][4])  # the extreme of all shots, said apart
@@ -168,8 +195,9 @@ def test_intervals_cover_on_real_runs():
     cover the 2,000-shot mean (its own error is a tenth of an interval's half width) in 95% of
     them, within 3 binomial standard deviations (0.065). (One shot's L+, skewness -3, needs about
     100 shots for that: docs/output.md.)"""
-    stats = wr.run(load_scene(SCENE, ["shot.count=50", "shot.shots=2000", "surfaces.0.mu_s=0.2",
-                                      "surfaces.0.mu_d=0.18"]), device="cpu")
+    stats = wr.run(
+        load_scene(SCENE, ["shot.count=50", "shot.shots=2000", "surfaces.0.mu_s=0.2", "surfaces.0.mu_d=0.18"]), device="cpu"
+    )
     for name in ("range_mean", "post_mean_vt"):
         values = stats.ensemble.per_shot[name]
         truth = values.mean()
@@ -203,8 +231,12 @@ def test_a_pellet_file_gives_the_same_per_shot_values(tmp_path, multi):
 
     with open(SCENE, "rb") as fh:
         raw = tomllib.load(fh)
-    raw["shot"] = {"file": str(tmp_path / "pellets.npz"), "shots": SHOTS, "diameter": raw["shot"]["diameter"],
-                   "density": raw["shot"]["density"]}
+    raw["shot"] = {
+        "file": str(tmp_path / "pellets.npz"),
+        "shots": SHOTS,
+        "diameter": raw["shot"]["diameter"],
+        "density": raw["shot"]["density"],
+    }
     raw["surfaces"][0].update(mu_s=0.2, mu_d=0.18)
     raw["numerics"].update(precision="float64", chunk_size=65536)
     raw["output"] = {"fields": ["landing.range"]}
@@ -220,8 +252,7 @@ def test_the_per_shot_pass_counts_no_landing_twice(tmp_path, collisions):
     """The per-shot pass runs the core with the landing tallies off: the histograms hold each
     landing once."""
     path = tmp_path / "q.h5"
-    stats = wr.run(load_scene(SCENE, ["shot.shots=4", "shot.count=100", f"collisions.enabled={collisions}"]), path,
-                   device="cpu")
+    stats = wr.run(load_scene(SCENE, ["shot.shots=4", "shot.count=100", f"collisions.enabled={collisions}"]), path, device="cpu")
     assert stats.ensemble is not None
     with h5py.File(path, "r") as f:
         assert (f["stats/histograms/counts"][()].sum(axis=1)[:2] == stats["landed"]).all()

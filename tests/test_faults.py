@@ -43,9 +43,20 @@ from warp_ricochet.tallies.reduce import SEGMENT
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = str(ROOT / "examples" / "paper.toml")
 CHUNKS = 24  # of 65,536 pellets (the smallest chunk): every kill lands between or inside chunks
-SETS = ["--set", f"shot.count={CHUNKS * SEGMENT - 1000}", "--set", "numerics.chunk_size=65536",
-        "--set", "numerics.precision='float64'", "--set", "surfaces.0.mu_s=0.05", "--set", "surfaces.0.mu_d=0.045",
-        "--set", 'output.fields=["landing.range", "impact.velocity", "initial.position"]']
+SETS = [
+    "--set",
+    f"shot.count={CHUNKS * SEGMENT - 1000}",
+    "--set",
+    "numerics.chunk_size=65536",
+    "--set",
+    "numerics.precision='float64'",
+    "--set",
+    "surfaces.0.mu_s=0.05",
+    "--set",
+    "surfaces.0.mu_d=0.045",
+    "--set",
+    'output.fields=["landing.range", "impact.velocity", "initial.position"]',
+]
 ARGS = ["--device", "cpu", *SETS]
 FIELDS = ("landing/range", "impact/velocity", "initial/position")
 PREFIX = "warp-ricochet: error: "
@@ -77,14 +88,20 @@ def check_partial(partial, reference, *, swmr):
         for name in FIELDS:
             assert f[f"pellets/{name}"].shape[0] >= rows
             np.testing.assert_array_equal(f[f"pellets/{name}"][:rows], b[f"pellets/{name}"][:rows], err_msg=name)
-        np.testing.assert_array_equal(f["progress/segment_results"][:rows // SEGMENT],
-                                      b["progress/segment_results"][:rows // SEGMENT])
+        np.testing.assert_array_equal(
+            f["progress/segment_results"][: rows // SEGMENT], b["progress/segment_results"][: rows // SEGMENT]
+        )
     return rows
 
 
 def start_run(out, *extra):
-    return subprocess.Popen([sys.executable, "-m", "warp_ricochet.cli", "run", SCENE, *ARGS, "-o", str(out), *extra],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=ENV)
+    return subprocess.Popen(
+        [sys.executable, "-m", "warp_ricochet.cli", "run", SCENE, *ARGS, "-o", str(out), *extra],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=ENV,
+    )
 
 
 # ---------------------------------------------------------------------------------------------- kills
@@ -146,6 +163,7 @@ def test_ctrl_c_after_any_chunk_then_resume_is_bitwise_identical(tmp_path, monke
             raise KeyboardInterrupt
 
     if at_chunk == 0:
+
         def interrupted(self, *args, **kwargs):
             raise KeyboardInterrupt
 
@@ -175,8 +193,9 @@ def test_sigterm_then_resume_from_the_command_line(tmp_path, reference):
     if proc.returncode == 0:
         pytest.skip("the run ended before SIGTERM")
     assert proc.returncode == 130
-    assert err.strip().splitlines()[-1] == (f"warp-ricochet: interrupted; the chunks completed are in {partial} "
-                                            "(warp-ricochet run ... --resume continues the run)")
+    assert err.strip().splitlines()[-1] == (
+        f"warp-ricochet: interrupted; the chunks completed are in {partial} (warp-ricochet run ... --resume continues the run)"
+    )
     with h5py.File(partial, "r") as f:
         assert f.attrs["status"] == "interrupted"
     check_partial(partial, reference, swmr=False)
@@ -203,21 +222,24 @@ def _older_partials(f):
     f["progress"].create_dataset("segment_results", data=old, maxshape=(None, old.shape[1]))
 
 
-@pytest.mark.parametrize("extra, edit, key", [
-    (["--set", "surfaces.0.mu_s=0.06"], None, "surfaces.0.mu_s = 0.06"),
-    (["--set", "shot.seed=7"], None, "shot.seed = 7"),
-    (["--set", "numerics.precision='float32'"], None, "numerics.precision = 'float32'"),
-    (["--set", "numerics.chunk_size=131072"], None, "numerics.chunk_size = 131072"),
-    (["--set", 'output.fields=["landing.range"]'], None, "output.fields = "),
-    ([], lambda f: f.attrs.__setitem__("device", "cuda:0"), "device = 'cpu'"),
-    ([], lambda f: f.attrs.__setitem__("warp_version", "1.18.0"), "warp_version = "),
-    ([], lambda f: f["progress/rows"].__setitem__((), 3 * SEGMENT + 5), "output path = "),
-    ([], lambda f: f["progress/segment_results"].resize(1, axis=0), "output path = "),
-    ([], lambda f: f["pellets/landing/range"].resize(10, axis=0), "output path = "),
-    ([], _older_partials, "output path = "),
-    ([], lambda f: f.attrs.__setitem__("kind", "sweep"), "output path = "),
-    ([], lambda f: f.__delitem__("progress"), "output path = "),
-])
+@pytest.mark.parametrize(
+    "extra, edit, key",
+    [
+        (["--set", "surfaces.0.mu_s=0.06"], None, "surfaces.0.mu_s = 0.06"),
+        (["--set", "shot.seed=7"], None, "shot.seed = 7"),
+        (["--set", "numerics.precision='float32'"], None, "numerics.precision = 'float32'"),
+        (["--set", "numerics.chunk_size=131072"], None, "numerics.chunk_size = 131072"),
+        (["--set", 'output.fields=["landing.range"]'], None, "output.fields = "),
+        ([], lambda f: f.attrs.__setitem__("device", "cuda:0"), "device = 'cpu'"),
+        ([], lambda f: f.attrs.__setitem__("warp_version", "1.18.0"), "warp_version = "),
+        ([], lambda f: f["progress/rows"].__setitem__((), 3 * SEGMENT + 5), "output path = "),
+        ([], lambda f: f["progress/segment_results"].resize(1, axis=0), "output path = "),
+        ([], lambda f: f["pellets/landing/range"].resize(10, axis=0), "output path = "),
+        ([], _older_partials, "output path = "),
+        ([], lambda f: f.attrs.__setitem__("kind", "sweep"), "output path = "),
+        ([], lambda f: f.__delitem__("progress"), "output path = "),
+    ],
+)
 def test_resume_refuses_a_different_run_in_one_line_and_changes_nothing(interrupted, extra, edit, key):
     out, _ = interrupted
     assert_resume_refused(["run", SCENE, *ARGS, *extra, "-o", out, "--resume"], out, edit, key)
@@ -259,10 +281,20 @@ def test_resume_of_a_pellet_file_run_checks_the_file(tmp_path):
     rng = np.random.default_rng(5)
     n = 3 * SEGMENT - 7
     pellets = tmp_path / "p.npz"
-    np.savez(pellets, position=rng.uniform([-1.0, 0.5, -1.0], [1.0, 3.0, 1.0], (n, 3)),
-             velocity=rng.normal([20.0, -10.0, 0.0], 5.0, (n, 3)), angular_velocity=rng.normal(0.0, 100.0, (n, 3)))
-    scene = load_scene(SCENE, [f"shot={{file='{pellets}', diameter=0.0025, density=7000.0}}", "numerics.chunk_size=65536",
-                               'output.fields=["landing.range", "impact.angular_velocity"]'])
+    np.savez(
+        pellets,
+        position=rng.uniform([-1.0, 0.5, -1.0], [1.0, 3.0, 1.0], (n, 3)),
+        velocity=rng.normal([20.0, -10.0, 0.0], 5.0, (n, 3)),
+        angular_velocity=rng.normal(0.0, 100.0, (n, 3)),
+    )
+    scene = load_scene(
+        SCENE,
+        [
+            f"shot={{file='{pellets}', diameter=0.0025, density=7000.0}}",
+            "numerics.chunk_size=65536",
+            'output.fields=["landing.range", "impact.angular_velocity"]',
+        ],
+    )
     full = wr.run(scene, tmp_path / "full.h5", device="cpu")
     out = tmp_path / "f.h5"
     interrupt_after(2, scene, out)
@@ -308,8 +340,9 @@ def test_no_room_for_the_output_is_refused_before_any_file(tmp_path, monkeypatch
     sweep = ["--param", "surfaces.0.mu_s=0.1,0.2"] if command == "sweep" else []
     assert main([command, SCENE, *ARGS, *sweep, "-o", str(out)]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and err.startswith(PREFIX + f"output path = '{out}': cannot fit: No space left on "
-                                                             "device (the output needs"), err
+    assert err.count("\n") == 1 and err.startswith(
+        PREFIX + f"output path = '{out}': cannot fit: No space left on device (the output needs"
+    ), err
     assert os.listdir(tmp_path) == []
 
 
@@ -365,8 +398,10 @@ def test_a_write_error_inside_hdf5_leaves_the_file_as_of_its_last_chunk(tmp_path
         if self.name == "/pellets/impact/velocity":
             count.append(1)
             if len(count) == 4:
-                raise RuntimeError("Can't write data (file write failed: time = now, filename = 'x', file descriptor "
-                                   "= 5, errno = 28, error message = 'No space left on device', buf = 0x0)")
+                raise RuntimeError(
+                    "Can't write data (file write failed: time = now, filename = 'x', file descriptor "
+                    "= 5, errno = 28, error message = 'No space left on device', buf = 0x0)"
+                )
         return real(self, key, value)
 
     monkeypatch.setattr(h5py.Dataset, "__setitem__", failing)
@@ -406,8 +441,14 @@ def test_a_real_full_disk_on_a_small_tmpfs(tmp_path, reference):
         pytest.skip("needs unshare and mount")
     mnt = tmp_path / "mnt"
     mnt.mkdir()
-    script = TMPFS_SCRIPT.format(size="100m", mnt=mnt, python=sys.executable, scene=SCENE, result=tmp_path / "result.h5",
-                                 args=" ".join(f"'{a}'" for a in ARGS))
+    script = TMPFS_SCRIPT.format(
+        size="100m",
+        mnt=mnt,
+        python=sys.executable,
+        scene=SCENE,
+        result=tmp_path / "result.h5",
+        args=" ".join(f"'{a}'" for a in ARGS),
+    )
     namespace = ["unshare", "-m"] if os.geteuid() == 0 else ["unshare", "-Urm"]  # unprivileged: a user namespace
     proc = subprocess.run([*namespace, "sh", "-c", script], capture_output=True, text=True, env=ENV, timeout=300)
     if proc.returncode in (77, 78) or proc.stderr.startswith("unshare"):
@@ -440,8 +481,13 @@ def test_a_read_only_folder_is_refused_in_one_line(tmp_path):
             if shutil.which("setpriv") is None:
                 pytest.skip("root without setpriv: cannot drop the capability to write anywhere")
             drop = "-dac_override,-dac_read_search"
-            proc = subprocess.run(["setpriv", f"--inh-caps={drop}", f"--bounding-set={drop}", sys.executable, "-m",
-                                   "warp_ricochet.cli", *argv], capture_output=True, text=True, env=ENV, timeout=120)
+            proc = subprocess.run(
+                ["setpriv", f"--inh-caps={drop}", f"--bounding-set={drop}", sys.executable, "-m", "warp_ricochet.cli", *argv],
+                capture_output=True,
+                text=True,
+                env=ENV,
+                timeout=120,
+            )
             rc, out, err = proc.returncode, proc.stdout, proc.stderr
         assert rc == 2 and out == "", err
         assert err.strip().splitlines() == [PREFIX + f"output path = '{folder / 'o.h5'}': not writable (permission denied)"]
@@ -460,6 +506,7 @@ def test_permission_denied_at_the_final_rename_is_one_line_and_keeps_the_result(
             if Path(dst) == out:
                 raise PermissionError(errno.EACCES, "Permission denied", str(src), None, str(dst))
             return real(src, dst, *args, **kwargs)
+
         return move
 
     monkeypatch.setattr(os, "link", denied(real_link))
@@ -554,6 +601,7 @@ def test_the_partial_appears_only_once_a_reader_can_open_it(tmp_path, monkeypatc
     real_publish = runfile.publish
     monkeypatch.setattr(runfile, "publish", publish)
     if setup_fails:
+
         def fail(group):
             raise OSError(errno.EIO, "set-up failed")
 
@@ -590,8 +638,7 @@ def test_200_immediate_opens_under_load_all_succeed(tmp_path):
 
     n = 200
     load = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(os.cpu_count() or 1)]
-    reader = subprocess.Popen([sys.executable, "-c", READER, str(tmp_path), str(n)], stdout=subprocess.PIPE,
-                              text=True, env=ENV)
+    reader = subprocess.Popen([sys.executable, "-c", READER, str(tmp_path), str(n)], stdout=subprocess.PIPE, text=True, env=ENV)
     answers = []
     try:
         for i in range(n):
@@ -636,18 +683,25 @@ def watchdog(fifo, after=5.0):
 
 SPECIAL_CASES = {  # argv given the folder and a FIFO in it: the expected message's start
     "scene": (lambda d, fifo: ["run", fifo, *ARGS], "scene = '{fifo}': is a FIFO (named pipe), not a regular file"),
-    "shot.file": (lambda d, fifo: ["run", SCENE, *ARGS, "--set", f"shot.file='{fifo}'", "--set", "shot.count=", "-o",
-                                   d / "o.h5"], None),
-    "output": (lambda d, fifo: ["run", SCENE, *ARGS, "-o", fifo, "--overwrite"],
-               "output path = '{fifo}': is a FIFO (named pipe), not a regular file"),
-    "partial": (lambda d, fifo: ["run", SCENE, *ARGS, "-o", fifo[: -len(".partial")], "--overwrite"],
-                "output path = '{out}': {name} is a FIFO (named pipe), not a regular file; remove it"),
-    "resumed partial": (lambda d, fifo: ["run", SCENE, *ARGS, "-o", fifo[: -len(".partial")], "--resume"],
-                        "output path = '{out}': {name} is a FIFO (named pipe), not a regular file; it cannot be resumed"),
+    "shot.file": (
+        lambda d, fifo: ["run", SCENE, *ARGS, "--set", f"shot.file='{fifo}'", "--set", "shot.count=", "-o", d / "o.h5"],
+        None,
+    ),
+    "output": (
+        lambda d, fifo: ["run", SCENE, *ARGS, "-o", fifo, "--overwrite"],
+        "output path = '{fifo}': is a FIFO (named pipe), not a regular file",
+    ),
+    "partial": (
+        lambda d, fifo: ["run", SCENE, *ARGS, "-o", fifo[: -len(".partial")], "--overwrite"],
+        "output path = '{out}': {name} is a FIFO (named pipe), not a regular file; remove it",
+    ),
+    "resumed partial": (
+        lambda d, fifo: ["run", SCENE, *ARGS, "-o", fifo[: -len(".partial")], "--resume"],
+        "output path = '{out}': {name} is a FIFO (named pipe), not a regular file; it cannot be resumed",
+    ),
     "report": (lambda d, fifo: ["report", fifo], "report = '{fifo}': is a FIFO (named pipe), not a regular file"),
     "xdmf": (lambda d, fifo: ["xdmf", fifo], "file = '{fifo}': is a FIFO (named pipe), not a regular file"),
-    "plot": (lambda d, fifo: ["plot", fifo, "-o", d / "plots"], "report = '{fifo}': is a FIFO (named pipe), not a "
-                                                                 "regular file"),
+    "plot": (lambda d, fifo: ["plot", fifo, "-o", d / "plots"], "report = '{fifo}': is a FIFO (named pipe), not a regular file"),
 }
 
 
@@ -657,15 +711,18 @@ def test_a_fifo_is_refused_in_one_line_without_opening_it(tmp_path, case):
     plot: refused in one line (exit 2) before it is opened (opening it would wait for a writer),
     nothing made."""
     make, message = SPECIAL_CASES[case]
-    name = {"shot.file": "pellets.npz", "partial": "o.h5.partial", "resumed partial": "o.h5.partial",
-            "scene": "scene.toml"}.get(case, "o.h5")
+    name = {"shot.file": "pellets.npz", "partial": "o.h5.partial", "resumed partial": "o.h5.partial", "scene": "scene.toml"}.get(
+        case, "o.h5"
+    )
     fifo = str(tmp_path / name)
     os.mkfifo(fifo)
     argv = make(tmp_path, fifo)
     if case == "shot.file":  # a scene whose pellets come from the file (shot.count, speed, seed... left out)
         scene = tmp_path / "scene.toml"
-        scene.write_text(f'[shot]\nfile = "{name}"\ndiameter = 0.0025\ndensity = 7000.0\n\n[[surfaces]]\n'
-                         'point = [0.0, 0.0, 0.0]\nnormal = [0.0, 1.0, 0.0]\nrestitution = 0.01\nmu_s = 0.5\n')
+        scene.write_text(
+            f'[shot]\nfile = "{name}"\ndiameter = 0.0025\ndensity = 7000.0\n\n[[surfaces]]\n'
+            "point = [0.0, 0.0, 0.0]\nnormal = [0.0, 1.0, 0.0]\nrestitution = 0.01\nmu_s = 0.5\n"
+        )
         argv = ["run", scene, "--device", "cpu", "-o", tmp_path / "o.h5"]
         message = "shot.file = '{fifo}': is a FIFO (named pipe), not a regular file"
     with watchdog(fifo) as fired:
@@ -686,12 +743,15 @@ def test_a_device_as_the_scene_is_refused_in_one_line():
 # ---------------------------------------------------------------------------------------------- report's status
 
 
-@pytest.mark.parametrize("writer, lock, says", [
-    ("alive", True, "running"),  # a run writing it: its process lives and holds its lock
-    ("alive", False, "gone"),  # (no lock: its process is another one with the same id)
-    ("dead", True, "gone"),  # a reader's lock keeps no dead writer "running"
-    ("dead", False, "gone"),  # killed (SIGKILL)
-])
+@pytest.mark.parametrize(
+    "writer, lock, says",
+    [
+        ("alive", True, "running"),  # a run writing it: its process lives and holds its lock
+        ("alive", False, "gone"),  # (no lock: its process is another one with the same id)
+        ("dead", True, "gone"),  # a reader's lock keeps no dead writer "running"
+        ("dead", False, "gone"),  # killed (SIGKILL)
+    ],
+)
 def test_report_tells_a_killed_run_from_a_running_one(tmp_path, writer, lock, says):
     """`report NAME.partial` of a file marked "running": "running" only while its writer's process
     lives and a lock is held on the file; else "not finished (the writer is gone ...)"."""
@@ -707,8 +767,7 @@ def test_report_tells_a_killed_run_from_a_running_one(tmp_path, writer, lock, sa
     with held(partial) if lock else contextlib.nullcontext():
         rc, text, err = cli(["report", partial])
     assert rc == 0, err
-    status = "running" if says == "running" else \
-        "not finished (the writer is gone: killed or crashed; --resume continues it)"
+    status = "running" if says == "running" else "not finished (the writer is gone: killed or crashed; --resume continues it)"
     assert f"| status: {status} |" in text, text.splitlines()[0]
 
 
@@ -737,8 +796,13 @@ def test_a_kill_between_the_rename_and_the_sidecar_is_recovered_by_xdmf(tmp_path
     for out in (killed, whole):
         out.parent.mkdir()
     argv = ["run", SCENE, "--device", "cpu", "--set", "shot.count=500"]
-    proc = subprocess.run([sys.executable, "-c", KILL_BEFORE_SIDECAR, *argv, "-o", str(killed)], env=ENV,
-                          capture_output=True, text=True, timeout=300)
+    proc = subprocess.run(
+        [sys.executable, "-c", KILL_BEFORE_SIDECAR, *argv, "-o", str(killed)],
+        env=ENV,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert proc.returncode == -signal.SIGKILL, proc.stderr
     assert killed.exists() and not killed.with_suffix(".xmf").exists()
     assert not Path(str(killed) + ".partial").exists()

@@ -14,11 +14,15 @@ def test_results_are_bitwise_the_recorded_ones(case, tmp_path):
     assert machines, "tests/data/golden-cpu.json is missing: python -m tests.golden record"
     here = golden.fingerprint()
     if here not in machines:
-        pytest.skip(f"no digests recorded on {here!r} (only on {sorted(machines)}): record this machine's "
-                    "with python -m tests.golden record, on code known to be right")
+        pytest.skip(
+            f"no digests recorded on {here!r} (only on {sorted(machines)}): record this machine's "
+            "with python -m tests.golden record, on code known to be right"
+        )
     if case not in machines[here]:
-        pytest.skip(f"no digests of {case!r} recorded on {here!r} (its results changed on purpose since: "
-                    "record them with python -m tests.golden record, on code known to be right)")
+        pytest.skip(
+            f"no digests of {case!r} recorded on {here!r} (its results changed on purpose since: "
+            "record them with python -m tests.golden record, on code known to be right)"
+        )
     got = golden.run_case(case, tmp_path)
     want = machines[here][case]
     missing = sorted(set(want) - set(got))

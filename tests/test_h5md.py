@@ -5,7 +5,6 @@ element by element from the spec's text, and once with MDAnalysis' H5MDReader wh
 import h5py
 import numpy as np
 import pytest
-
 from helpers import make_scene, paper_raw
 
 from warp_ricochet import api

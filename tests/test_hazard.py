@@ -17,8 +17,13 @@ from warp_ricochet.tallies.quantiles import binomial_point, danger_distance, nee
 
 # thresholds inside the landing distribution (E/A 2.2e5 to 2.9e5 J/m^2, speeds 190 to 225 m/s), so each
 # splits the landings and a wrong E/A or |v| would show
-HAZARD = {"energy_density": {"low": 237_000.0, "high": 267_000.0}, "speed": {"fast": 212.0},
-          "fractions": [0.01, 1e-6], "map_cell": 0.5, "map_extent": [100.0, 140.0, -20.0, 20.0]}
+HAZARD = {
+    "energy_density": {"low": 237_000.0, "high": 267_000.0},
+    "speed": {"fast": 212.0},
+    "fractions": [0.01, 1e-6],
+    "map_cell": 0.5,
+    "map_extent": [100.0, 140.0, -20.0, 20.0],
+}
 
 
 @pytest.fixture(scope="module")
@@ -34,9 +39,14 @@ def run_file(tmp_path_factory):
 def _per_pellet(f):
     r = f["pellets/landing/range"][()]
     landed = np.isfinite(r)
-    return {"landed": landed, "position": f["pellets/landing/position"][()][landed],
-            "velocity": f["pellets/landing/velocity"][()][landed], "energy": f["pellets/hazard/energy"][()][landed],
-            "density": f["pellets/hazard/energy_density"][()][landed], "exceeds": f["pellets/hazard/exceeds"][()][landed]}
+    return {
+        "landed": landed,
+        "position": f["pellets/landing/position"][()][landed],
+        "velocity": f["pellets/landing/velocity"][()][landed],
+        "energy": f["pellets/hazard/energy"][()][landed],
+        "density": f["pellets/hazard/energy_density"][()][landed],
+        "exceeds": f["pellets/hazard/exceeds"][()][landed],
+    }
 
 
 def test_per_pellet_energy_density_and_thresholds(run_file):
@@ -62,8 +72,22 @@ def test_maps_sum_to_the_per_pellet_totals(run_file):
     scene, path, stats = run_file
     with h5py.File(path, "r") as f:
         p = _per_pellet(f)
-        m = {name: f[f"hazard/map/{name}"][()] for name in ("count", "outside", "elsewhere", "energy", "above",
-                                                             "u_edges", "v_edges", "origin", "u_axis", "v_axis", "quantum")}
+        m = {
+            name: f[f"hazard/map/{name}"][()]
+            for name in (
+                "count",
+                "outside",
+                "elsewhere",
+                "energy",
+                "above",
+                "u_edges",
+                "v_edges",
+                "origin",
+                "u_axis",
+                "v_axis",
+                "quantum",
+            )
+        }
     assert m["count"].sum() + m["outside"] + m["elsewhere"] == stats["landed"]
     local = p["position"] - m["origin"]
     u, v = local @ m["u_axis"], local @ m["v_axis"]
@@ -94,8 +118,9 @@ def test_float32_map_cells_move_only_landings_at_a_cell_edge(tmp_path, device):
     stats = wr.run(scene, tmp_path / "run.h5", device=device)
     with h5py.File(tmp_path / "run.h5", "r") as f:
         p = _per_pellet(f)
-        m = {name: f[f"hazard/map/{name}"][()] for name in ("count", "outside", "u_edges", "v_edges", "origin", "u_axis",
-                                                             "v_axis")}
+        m = {
+            name: f[f"hazard/map/{name}"][()] for name in ("count", "outside", "u_edges", "v_edges", "origin", "u_axis", "v_axis")
+        }
     assert m["count"].sum() + m["outside"] == stats["landed"]
     local = p["position"].astype(np.float64) - m["origin"]
     fu, fv = (local @ m["u_axis"] - m["u_edges"][0]) / 0.5, (local @ m["v_axis"] - m["v_edges"][0]) / 0.5
@@ -152,8 +177,9 @@ def test_binomial_points_and_the_pellets_a_fraction_needs():
     for n, p, alpha in ((100, 0.01, 0.025), (5000, 0.001, 0.975), (2000, 0.3, 0.025), (10**9, 1e-3, 0.975)):
         assert abs(binomial_point(n, p, alpha) - sps.binom.ppf(alpha, n, p)) <= (1 if n * p > 1e5 else 0), (n, p)
     assert needed_landings(1e-3) == 3688 and needed_landings(1e-6) == 3_688_878
-    value, low, high, needed = danger_distance(np.bincount(bins.bin_index(np.arange(1, 101, dtype=np.float32)),
-                                                           minlength=bins.BINS), 1e-3)
+    value, low, high, needed = danger_distance(
+        np.bincount(bins.bin_index(np.arange(1, 101, dtype=np.float32)), minlength=bins.BINS), 1e-3
+    )
     assert math.isinf(high) and needed == 3688 and 99 <= value <= 100.1 and low <= 100
 
 
@@ -167,20 +193,23 @@ def test_binomial_points_are_scipys_in_the_exact_regime(log_n, log_p, upper):
     assert binomial_point(n, p, alpha) == sps.binom.ppf(alpha, n, p)
 
 
-@pytest.mark.parametrize("override, key", [
-    ("hazard.speed={a=-1.0}", "hazard.speed.a"),
-    ("hazard.energy_density=[1, 2]", "hazard.energy_density"),
-    ("hazard.fractions=[0.7]", "hazard.fractions"),
-    ("hazard.map_cell=1.0", "hazard.map_extent"),
-    ("hazard.map_extent=[1, 0, 0, 1]", "hazard.map_extent"),
-    ("hazard.colour=1", "hazard.colour"),
-    ('output.tail_distances=[5.0, 1.0]', "output.tail_distances"),
-    # contradictions (issue 24, item 7): an axis along the map surface's normal (all landings would fall
-    # outside a grid on another axis); no histograms for a [hazard] table's answers
-    ("hazard={map_cell = 1.0, map_extent = [0, 10, -5, 5], map_axis = [0, -3, 0]}", "hazard.map_axis"),
-    ("hazard={map_cell = 1.0, map_extent = [0, 10, -5, 5], map_axis = [1e-12, 1, 0]}", "hazard.map_axis"),
-    ("hazard={}", "output.quantiles"),  # (with --set output.quantiles=false below)
-])
+@pytest.mark.parametrize(
+    "override, key",
+    [
+        ("hazard.speed={a=-1.0}", "hazard.speed.a"),
+        ("hazard.energy_density=[1, 2]", "hazard.energy_density"),
+        ("hazard.fractions=[0.7]", "hazard.fractions"),
+        ("hazard.map_cell=1.0", "hazard.map_extent"),
+        ("hazard.map_extent=[1, 0, 0, 1]", "hazard.map_extent"),
+        ("hazard.colour=1", "hazard.colour"),
+        ("output.tail_distances=[5.0, 1.0]", "output.tail_distances"),
+        # contradictions (issue 24, item 7): an axis along the map surface's normal (all landings would fall
+        # outside a grid on another axis); no histograms for a [hazard] table's answers
+        ("hazard={map_cell = 1.0, map_extent = [0, 10, -5, 5], map_axis = [0, -3, 0]}", "hazard.map_axis"),
+        ("hazard={map_cell = 1.0, map_extent = [0, 10, -5, 5], map_axis = [1e-12, 1, 0]}", "hazard.map_axis"),
+        ("hazard={}", "output.quantiles"),  # (with --set output.quantiles=false below)
+    ],
+)
 def test_bad_hazard_keys_are_refused_in_one_line_before_any_work(tmp_path, override, key):
     out = tmp_path / "x.h5"
     extra = ["--set", "output.quantiles=false"] if key == "output.quantiles" else []
@@ -199,8 +228,11 @@ def test_a_map_axis_defaulting_to_a_shot_along_the_normal_is_required():
     assert make_scene(raw, hazard={**hazard, "map_axis": [0.0, 0.0, 1.0]}).hazard.map_axis == (0.0, 0.0, 1.0)
 
 
-@pytest.mark.parametrize("hazard", [None, {"fractions": [0.01]}, {"energy_density": {"corneal_abrasion": 1503.0}}],
-                         ids=["no table", "defaults", "one threshold"])
+@pytest.mark.parametrize(
+    "hazard",
+    [None, {"fractions": [0.01]}, {"energy_density": {"corneal_abrasion": 1503.0}}],
+    ids=["no table", "defaults", "one threshold"],
+)
 def test_setting_one_threshold_adds_it_to_the_scenes_in_run_and_sweep(tmp_path, hazard):
     """One rule for `run --set` and `sweep --param` (issue 24, item 7): a dotted key inside
     hazard.energy_density or hazard.speed sets that threshold among the scene's own, the defaults
@@ -227,18 +259,31 @@ def test_setting_one_threshold_adds_it_to_the_scenes_in_run_and_sweep(tmp_path, 
 def test_a_sweep_refuses_a_key_set_twice(tmp_path):
     """--param over a --set key, or --tie onto a swept or tied key: the later would silently win."""
     out = tmp_path / "x.h5"
-    for argv, key in ((["--set", "surfaces.0.mu_s=0.6", "--param", "surfaces.0.mu_s=0.5,0.6"], "surfaces.0.mu_s"),
-                      (["--param", "surfaces.0.mu_s=0.1,0.2", "--tie", "surfaces.0.mu_s=0.9*"], "--tie"),
-                      (["--param", "surfaces.0.mu_s=0.1,0.2", "--tie", "surfaces.0.mu_d=0.9*",
-                        "--tie", "surfaces.0.mu_d=0.8*"], "--tie")):
+    for argv, key in (
+        (["--set", "surfaces.0.mu_s=0.6", "--param", "surfaces.0.mu_s=0.5,0.6"], "surfaces.0.mu_s"),
+        (["--param", "surfaces.0.mu_s=0.1,0.2", "--tie", "surfaces.0.mu_s=0.9*"], "--tie"),
+        (["--param", "surfaces.0.mu_s=0.1,0.2", "--tie", "surfaces.0.mu_d=0.9*", "--tie", "surfaces.0.mu_d=0.8*"], "--tie"),
+    ):
         rc, stdout, stderr = cli(["sweep", "examples/paper.toml", *argv, "-o", out, "--device", "cpu"])
         assert rc == 2 and stderr.count("\n") == 1 and f": error: {key} = " in stderr and not out.exists(), stderr
 
 
 def test_the_summary_and_report_show_quantiles_tails_and_danger_distances(tmp_path):
     out = tmp_path / "run.h5"
-    rc, stdout, stderr = cli(["run", "examples/paper.toml", "--set", "shot.count=2000", "--set", "hazard.fractions=[0.01]",
-                              "-o", out, "--device", "cpu"])
+    rc, stdout, stderr = cli(
+        [
+            "run",
+            "examples/paper.toml",
+            "--set",
+            "shot.count=2000",
+            "--set",
+            "hazard.fractions=[0.01]",
+            "-o",
+            out,
+            "--device",
+            "cpu",
+        ]
+    )
     assert rc == 0, stderr
     rc, report, stderr = cli(["report", out])
     assert rc == 0, stderr

@@ -18,8 +18,20 @@ UP = np.array([0.0, 1.0, 0.0])
 
 
 def law(v, w, n=UP, *, device=DEVICES[0], precision="float64", E=0.01, mu_s=0.5, mu_d=0.45, gravity=G, duration=0.0):
-    return wr.impact(np.atleast_2d(v), np.atleast_2d(w), n, radius=R, density=RHO, restitution=E, mu_s=mu_s,
-                     mu_d=mu_d, gravity=gravity, duration=duration, device=device, precision=precision)
+    return wr.impact(
+        np.atleast_2d(v),
+        np.atleast_2d(w),
+        n,
+        radius=R,
+        density=RHO,
+        restitution=E,
+        mu_s=mu_s,
+        mu_d=mu_d,
+        gravity=gravity,
+        duration=duration,
+        device=device,
+        precision=precision,
+    )
 
 
 def energy(v, w):
@@ -79,8 +91,7 @@ def test_zero_slip_velocity_is_unchanged_tangentially_and_finite(device):
         np.testing.assert_allclose(w[0], w_in, rtol=1e-12)
         if mu_s > 0:
             assert not s[0]  # the (vanishing) sticking impulse is far inside the friction cone
-        rv, rw, _ = reference.impact_law(v_in[None], w_in[None], UP, radius=R, restitution=0.01, mu_s=mu_s,
-                                         mu_d=mu_s)
+        rv, rw, _ = reference.impact_law(v_in[None], w_in[None], UP, radius=R, restitution=0.01, mu_s=mu_s, mu_d=mu_s)
         np.testing.assert_allclose(v[0], rv[0], rtol=1e-12, atol=1e-12)
         np.testing.assert_allclose(w[0], rw[0], rtol=1e-12)
 
@@ -173,13 +184,20 @@ unit = st.tuples(*[st.floats(-1, 1, **finite)] * 3).filter(lambda t: np.linalg.n
 
 
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(v=vec, w=spin, n=unit, E=st.floats(0, 1), mu_s=st.floats(0, 10), frac=st.floats(0, 1),
-       duration=st.sampled_from([0.0, 1e-5, 1e-2]), precision=st.sampled_from(["float64", "float32"]))
+@given(
+    v=vec,
+    w=spin,
+    n=unit,
+    E=st.floats(0, 1),
+    mu_s=st.floats(0, 10),
+    frac=st.floats(0, 1),
+    duration=st.sampled_from([0.0, 1e-5, 1e-2]),
+    precision=st.sampled_from(["float64", "float32"]),
+)
 def test_invariants(device, v, w, n, E, mu_s, frac, duration, precision):
     v, w = np.array([v]), np.array([w])
     n = np.array(n) / np.linalg.norm(n)
-    v2, w2, s = law(v, w, n, E=E, mu_s=mu_s, mu_d=frac * mu_s, duration=duration, precision=precision,
-                    device=device)
+    v2, w2, s = law(v, w, n, E=E, mu_s=mu_s, mu_d=frac * mu_s, duration=duration, precision=precision, device=device)
     assert np.isfinite(v2).all() and np.isfinite(w2).all()
     eps = 1e-12 if precision == "float64" else 3e-6
     scale = np.linalg.norm(v) + R * np.linalg.norm(w) + 1e-30
@@ -217,24 +235,39 @@ def test_bad_arguments_name_the_key():
     with pytest.raises(wr.SceneError, match="velocity"):
         law([["a", "b", "c"]], [0, 0, 0])
     with pytest.raises(wr.SceneError, match="angular_velocity"):
-        wr.impact(np.zeros((2, 3)), np.zeros((3, 3)), UP, radius=R, density=RHO, restitution=0.1, mu_s=0.1, mu_d=0.1,
-                  device=DEVICES[0])
+        wr.impact(
+            np.zeros((2, 3)), np.zeros((3, 3)), UP, radius=R, density=RHO, restitution=0.1, mu_s=0.1, mu_d=0.1, device=DEVICES[0]
+        )
 
 
-@pytest.mark.parametrize("kwargs, key", [
-    (dict(v=[[1e39, -100.0, 0.0]]), "velocity"),
-    (dict(w=[[0.0, 0.0, 1e12]]), "angular_velocity"),
-    (dict(n="abc"), "normal"),
-    (dict(n=[["a", 1, 0]]), "normal"),
-    (dict(n=np.ones((5, 3))), "normal"),
-    (dict(radius=1e-46), "radius"),
-    (dict(gravity=(0.0, -9.81)), "gravity"),
-    (dict(duration=-1.0), "duration"),
-])
+@pytest.mark.parametrize(
+    "kwargs, key",
+    [
+        (dict(v=[[1e39, -100.0, 0.0]]), "velocity"),
+        (dict(w=[[0.0, 0.0, 1e12]]), "angular_velocity"),
+        (dict(n="abc"), "normal"),
+        (dict(n=[["a", 1, 0]]), "normal"),
+        (dict(n=np.ones((5, 3))), "normal"),
+        (dict(radius=1e-46), "radius"),
+        (dict(gravity=(0.0, -9.81)), "gravity"),
+        (dict(duration=-1.0), "duration"),
+    ],
+)
 def test_out_of_domain_arguments_are_one_line_errors(kwargs, key):
     args = dict(v=[[10.0, -10.0, 0.0]], w=[[0.0, 0.0, 0.0]], n=UP, radius=R, gravity=G, duration=0.0)
     args.update(kwargs)
     with pytest.raises(wr.SceneError) as err:
-        wr.impact(args["v"], args["w"], args["n"], radius=args["radius"], density=RHO, restitution=0.1, mu_s=0.1,
-                  mu_d=0.1, gravity=args["gravity"], duration=args["duration"], device=DEVICES[0])
+        wr.impact(
+            args["v"],
+            args["w"],
+            args["n"],
+            radius=args["radius"],
+            density=RHO,
+            restitution=0.1,
+            mu_s=0.1,
+            mu_d=0.1,
+            gravity=args["gravity"],
+            duration=args["duration"],
+            device=DEVICES[0],
+        )
     assert str(err.value).startswith(key) and "\n" not in str(err.value)

@@ -40,8 +40,18 @@ KINDS = {
     # in air (chunks of one segment on the CPU): 4 chunks, about 1.5 s on one core
     "core": (["shot.count=200000", "air.density=1.225", 'output.fields=["landing.range"]'], None, 200_000),
     # 2,348 shots of 20 pellets: a whole chunk of 2,048 shots and a short one
-    "shots": (["shot.count=20", "shot.shots=2348", "shot.envelope_center=[0.0, 0.05, 0.0]", "surfaces.0.restitution=0.5",
-               "numerics.chunk_size=40960", *COLLISIONS], None, 46_960),
+    "shots": (
+        [
+            "shot.count=20",
+            "shot.shots=2348",
+            "shot.envelope_center=[0.0, 0.05, 0.0]",
+            "surfaces.0.restitution=0.5",
+            "numerics.chunk_size=40960",
+            *COLLISIONS,
+        ],
+        None,
+        46_960,
+    ),
     # one shot of 1e5 pellets: its dense phase takes minutes (so no uninterrupted run to compare with;
     # signals in its first 1.5 s), in launches that only the stop flag ends; its launches not separated
     # (that is one launch too: test_a_large_shot_stops_from_the_command_line)
@@ -62,7 +72,9 @@ def same_results(a, b):
         assert fa.attrs["status"] == fb.attrs["status"] == "complete"
         names = []
         for group in ("pellets", "stats"):
-            fa[group].visititems(lambda name, obj, g=group: names.append(f"{g}/{name}") if isinstance(obj, h5py.Dataset) else None)
+            fa[group].visititems(
+                lambda name, obj, g=group: names.append(f"{g}/{name}") if isinstance(obj, h5py.Dataset) else None
+            )
         assert names
         for name in names:
             x, y = fa[name][()], fb[name][()]
@@ -104,8 +116,10 @@ def test_signals_at_random_moments(tmp_path, kind):
             assert lines[0] == f"warp-ricochet: interrupted; the run had completed: its result is in {out}"
             same_results(out, reference)
             continue
-        assert lines[0] == (f"warp-ricochet: interrupted; the chunks completed are in {partial} "
-                            "(warp-ricochet run ... --resume continues the run)"), lines
+        assert lines[0] == (
+            f"warp-ricochet: interrupted; the chunks completed are in {partial} "
+            "(warp-ricochet run ... --resume continues the run)"
+        ), lines
         with h5py.File(partial, "r") as f:
             assert f.attrs["status"] == "interrupted"
             rows, chunk = int(f["progress/rows"][()]), int(f["progress/chunk_rows"][()])
@@ -116,8 +130,10 @@ def test_signals_at_random_moments(tmp_path, kind):
             same_results(out, reference)
         else:
             partial.unlink()
-    print(f"{kind}: {len(latencies)} interrupted, {late} after the end; latency max {max(latencies):.3f} s, "
-          f"median {float(np.median(latencies)):.3f} s")
+    print(
+        f"{kind}: {len(latencies)} interrupted, {late} after the end; latency max {max(latencies):.3f} s, "
+        f"median {float(np.median(latencies)):.3f} s"
+    )
     assert len(latencies) >= TRIALS // 2  # (most signals land inside the run)
 
 
@@ -130,8 +146,13 @@ def test_a_large_shot_stops_from_the_command_line(tmp_path, signum, separate):
     out = tmp_path / "large.h5"
     partial = Path(str(out) + ".partial")
     args = argv("large", out, "--set", f"collisions.separate={separate}")
-    proc = subprocess.Popen([sys.executable, "-m", "warp_ricochet.cli", *args], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "warp_ricochet.cli", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
     deadline = time.time() + 60
     while not partial.exists() and time.time() < deadline and proc.poll() is None:
         time.sleep(0.02)
@@ -142,8 +163,9 @@ def test_a_large_shot_stops_from_the_command_line(tmp_path, signum, separate):
     latency = time.perf_counter() - sent
     assert proc.returncode == 130, err
     lines = [line for line in err.splitlines() if not line.startswith("warp-ricochet: warning: one shot")]
-    assert lines == [f"warp-ricochet: interrupted; the chunks completed are in {partial} "
-                     "(warp-ricochet run ... --resume continues the run)"], err  # (after the scene's warning)
+    assert lines == [
+        f"warp-ricochet: interrupted; the chunks completed are in {partial} (warp-ricochet run ... --resume continues the run)"
+    ], err  # (after the scene's warning)
     assert latency < MAX_LATENCY
     with h5py.File(partial, "r") as f:
         assert f.attrs["status"] == "interrupted" and f["progress/rows"][()] == 0
@@ -257,9 +279,13 @@ def test_a_signal_after_the_command_returned_exits_130(tmp_path, signum, when):
     """The command line (`cli.entry`) after `main` returned: while Python's exit functions run, a
     signal still gives exit status 130 and the one line (the interpreter's teardown is skipped)."""
     out = tmp_path / "late.h5"
-    proc = subprocess.run([sys.executable, "-c", LATE, str(int(signum)), when,
-                           *argv("core", out, "--set", "shot.count=100")],
-                          capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(ROOT)}, timeout=120)
+    proc = subprocess.run(
+        [sys.executable, "-c", LATE, str(int(signum)), when, *argv("core", out, "--set", "shot.count=100")],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        timeout=120,
+    )
     assert proc.returncode == 130, (proc.returncode, proc.stderr)
     assert proc.stderr.splitlines() == [f"warp-ricochet: interrupted; the run had completed: its result is in {out}"]
     assert out.exists() and "pellets" in proc.stdout  # (the summary was printed before)

@@ -28,8 +28,16 @@ D = 0.0025  # m, the paper's pellet diameter
 
 def launched(count, shots, radius, precision="float64", separate=True, scene=None):
     """(positions, velocities, redraws per shot) of a collision run's launch on the CPU."""
-    scene = scene or load_scene(SCENE, [f"shot.count={count}", f"shot.shots={shots}", f"shot.envelope_radius={radius}",
-                                        f'numerics.precision="{precision}"', "collisions.enabled=true"])
+    scene = scene or load_scene(
+        SCENE,
+        [
+            f"shot.count={count}",
+            f"shot.shots={shots}",
+            f"shot.envelope_radius={radius}",
+            f'numerics.precision="{precision}"',
+            "collisions.enabled=true",
+        ],
+    )
     precision = scene.numerics.precision
     model = Model.from_scene(scene, wp.get_device("cpu"))
     spec = RunSpec.of(scene, with_output=False)
@@ -42,8 +50,10 @@ def launched(count, shots, radius, precision="float64", separate=True, scene=Non
 
 
 def min_distance(positions, count):
-    return min(cKDTree(positions[s:s + count]).query(positions[s:s + count], k=2)[0][:, 1].min()
-               for s in range(0, len(positions), count))
+    return min(
+        cKDTree(positions[s : s + count]).query(positions[s : s + count], k=2)[0][:, 1].min()
+        for s in range(0, len(positions), count)
+    )
 
 
 @pytest.mark.parametrize("count, radius", [(450, 0.025), (450, 0.0153), (1000, 0.02)])
@@ -56,7 +66,7 @@ def test_no_pair_overlaps_and_the_rest_is_todays_sampling(count, radius):
     before, velocities_before, _, _ = launched(count, 4, radius, separate=False)
     assert min_distance(before, count) < D and redraws.max() >= 1
     for s in range(4):
-        p = positions[s * count:(s + 1) * count]
+        p = positions[s * count : (s + 1) * count]
         d2 = ((p[:, None, :] - p[None, :, :]) ** 2).sum(axis=2)
         d2[np.diag_indices(count)] = np.inf
         assert d2.min() >= D * D, (s, np.sqrt(d2.min()) / D)
@@ -92,8 +102,17 @@ def test_each_shot_depends_on_its_own_indices_only(tmp_path):
     three, _, _, _ = launched(450, 3, 0.025)
     five, _, _, _ = launched(450, 5, 0.025)
     np.testing.assert_array_equal(five[: 3 * 450], three)
-    scene = load_scene(SCENE, ["shot.count=450", "shot.shots=3", 'numerics.precision="float64"', "collisions.enabled=true",
-                               'output.fields=["initial.position"]', "collisions.time_step=1e-3"])
+    scene = load_scene(
+        SCENE,
+        [
+            "shot.count=450",
+            "shot.shots=3",
+            'numerics.precision="float64"',
+            "collisions.enabled=true",
+            'output.fields=["initial.position"]',
+            "collisions.time_step=1e-3",
+        ],
+    )
     wr.run(scene, tmp_path / "r.h5", device="cpu")
     with h5py.File(tmp_path / "r.h5", "r") as f:
         np.testing.assert_array_equal(f["pellets/initial/position"][()], three)
@@ -119,8 +138,9 @@ def test_an_envelope_too_dense_is_refused_in_one_line(tmp_path, capsys):
         load_scene(SCENE, ["collisions.enabled=true", "shot.envelope_radius=0.015"])
     load_scene(SCENE, ["shot.envelope_radius=0.015"])
     out = tmp_path / "dense.h5"
-    assert cli_main(["run", SCENE, "-o", str(out), "--set", "collisions.enabled=true",
-                     "--set", "shot.envelope_radius=0.015"]) == 2
+    assert (
+        cli_main(["run", SCENE, "-o", str(out), "--set", "collisions.enabled=true", "--set", "shot.envelope_radius=0.015"]) == 2
+    )
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "shot.envelope_radius = 0.015" in err and not out.exists()
 
@@ -145,8 +165,16 @@ def test_an_interrupt_stops_the_separation_at_once():
     from warp_ricochet import interrupts
 
     before, _, _, _ = launched(450, 2, 0.025, separate=False)
-    scene = load_scene(SCENE, ["shot.count=450", "shot.shots=2", "shot.envelope_radius=0.025",
-                               'numerics.precision="float64"', "collisions.enabled=true"])
+    scene = load_scene(
+        SCENE,
+        [
+            "shot.count=450",
+            "shot.shots=2",
+            "shot.envelope_radius=0.025",
+            'numerics.precision="float64"',
+            "collisions.enabled=true",
+        ],
+    )
     model = Model.from_scene(scene, wp.get_device("cpu"))
     dense = DensePhase(model, scene, RunSpec.of(scene, with_output=False), 900)
     source = PelletSource(scene, "float64", model.device, 900)
@@ -155,4 +183,3 @@ def test_an_interrupt_stops_the_separation_at_once():
         with pytest.raises(KeyboardInterrupt):
             dense.launch_shots(0, 2, source.struct, State(model, 900, ()).outputs)
     np.testing.assert_array_equal(dense.cloud.position.numpy()[:900], before)
-

@@ -67,8 +67,10 @@ def test_a_partial_removed_during_the_run_is_one_plain_line(tmp_path):
     with pytest.raises(wr.OutputError) as caught:
         wr.run(load_scene(SCENE, CHUNKED), out, device="cpu", progress=remove_after_first_chunk)
     text = str(caught.value)
-    assert text == (f"output path = {str(out)!r}: gone.h5.partial was removed during the run (by another process?); "
-                    "its results are lost: run it again")
+    assert text == (
+        f"output path = {str(out)!r}: gone.h5.partial was removed during the run (by another process?); "
+        "its results are lost: run it again"
+    )
     assert not out.exists()
 
 
@@ -79,8 +81,7 @@ def test_hdf5_open_errors_are_one_plain_line(tmp_path, monkeypatch):
     partial = Path(str(out) + ".partial")
     with open(partial, "r+b") as f:
         f.truncate(4096)
-    rc, _, err = cli(["run", SCENE, "--device", "cpu", *sum((["--set", s] for s in CHUNKED), []), "-o", out,
-                      "--resume"])
+    rc, _, err = cli(["run", SCENE, "--device", "cpu", *sum((["--set", s] for s in CHUNKED), []), "-o", out, "--resume"])
     one_line_error(rc, err, "cut.h5.partial cannot be resumed: HDF5 cannot open it (")
     for raw in ("Unable to", "errno =", "flags =", "[Errno"):
         assert raw not in err, err
@@ -101,12 +102,15 @@ def test_hdf5_open_errors_are_one_plain_line(tmp_path, monkeypatch):
         assert raw not in err, err
 
 
-@pytest.mark.parametrize("argv", [
-    ["run", SCENE, "--set", "k" * 100_000 + "=1"],
-    ["run", SCENE, "--set", "shot.count=" + "9" * 100_000],
-    ["sweep", SCENE, "--param", "surfaces.0.mu_s=" + "x" * 100_000],
-    ["run", "SCENE_FILE"],
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["run", SCENE, "--set", "k" * 100_000 + "=1"],
+        ["run", SCENE, "--set", "shot.count=" + "9" * 100_000],
+        ["sweep", SCENE, "--param", "surfaces.0.mu_s=" + "x" * 100_000],
+        ["run", "SCENE_FILE"],
+    ],
+)
 def test_huge_keys_and_values_are_not_echoed_whole(tmp_path, argv):
     if argv[1] == "SCENE_FILE":  # an unknown key of 100,000 characters in a scene file
         scene = tmp_path / "long.toml"
@@ -123,18 +127,23 @@ def test_report_and_plot_of_a_killed_runs_partial(tmp_path):
     interrupt_after(2, scene, out)
     partial = Path(str(out) + ".partial")
     # a writer killed while the file was open for writing (SWMR) leaves flags that refuse a plain open
-    code = ("import h5py, os, sys; f = h5py.File(sys.argv[1], 'r+', libver=('v110', 'latest'), locking=False); "
-            "f.swmr_mode = True; f.attrs['status'] = 'running'; f.flush(); os._exit(0)")
+    code = (
+        "import h5py, os, sys; f = h5py.File(sys.argv[1], 'r+', libver=('v110', 'latest'), locking=False); "
+        "f.swmr_mode = True; f.attrs['status'] = 'running'; f.flush(); os._exit(0)"
+    )
     subprocess.run([sys.executable, "-c", code, str(partial)], check=True)
     with pytest.raises(OSError):
         h5py.File(partial, "r").close()
     before = digest(partial)
     rc, out_text, err = cli(["report", partial])
     assert rc == 0, err
-    assert ("status: not finished (the writer is gone: killed or crashed; --resume continues it)" in out_text
-            and f"note: the run's writer is gone (killed or crashed): {2 * SEGMENT:,} of {scene.shot.count:,} pellets "
-            "complete (66.7%); the statistics are written when the run completes (warp-ricochet run ... --resume "
-            "continues it)" in out_text), out_text
+    assert (
+        "status: not finished (the writer is gone: killed or crashed; --resume continues it)" in out_text
+        and f"note: the run's writer is gone (killed or crashed): {2 * SEGMENT:,} of {scene.shot.count:,} pellets "
+        "complete (66.7%); the statistics are written when the run completes (warp-ricochet run ... --resume "
+        "continues it)"
+        in out_text
+    ), out_text
     rc, out_text, err = cli(["plot", partial, "-o", tmp_path / "plots"])  # plot opens it too
     assert rc == 0 and "wrote" in out_text, err
     assert digest(partial) == before
@@ -145,9 +154,12 @@ def test_a_scene_where_no_pellet_hits_anything_warns_in_one_line(tmp_path):
     with pytest.warns(wr.SceneWarning, match=r"no pellet hit any surface \(all 300 missed\)"):
         stats = wr.run(scene, device="cpu")
     assert stats["hits"] == 0
-    proc = subprocess.run([sys.executable, "-m", "warp_ricochet.cli", "run", SCENE, *SMALL, "--set",
-                           "surfaces.0.normal=[0, -1, 0]"], capture_output=True, text=True,
-                          env={**os.environ, "PYTHONPATH": str(ROOT)})
+    proc = subprocess.run(
+        [sys.executable, "-m", "warp_ricochet.cli", "run", SCENE, *SMALL, "--set", "surfaces.0.normal=[0, -1, 0]"],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
     assert proc.returncode == 0 and proc.stderr.startswith("warp-ricochet: warning: no pellet hit any surface (all 200")
     assert len(proc.stderr.splitlines()) == 1, proc.stderr
     with warnings.catch_warnings(record=True) as record:  # a scene with hits: no SceneWarning

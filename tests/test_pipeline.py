@@ -23,7 +23,9 @@ def read_pellets(path, group="/"):
     out = {}
     with h5py.File(path, "r") as f:
         g = f[group]["pellets"]
-        g.visititems(lambda name, obj: out.__setitem__(name.replace("/", "."), obj[()]) if isinstance(obj, h5py.Dataset) else None)
+        g.visititems(
+            lambda name, obj: out.__setitem__(name.replace("/", "."), obj[()]) if isinstance(obj, h5py.Dataset) else None
+        )
     return out
 
 
@@ -33,14 +35,18 @@ def read_pellets(path, group="/"):
 def test_single_pellet_flight_matches_closed_form(tmp_path, device):
     h, vx, vy, E = 2.0, 30.0, -40.0, 0.5
     R = 0.00125
-    scene = explicit_scene(tmp_path, [[0.0, h, 0.0]], [[vx, vy, 0.0]],
-                           surfaces=[{"point": [0, 0, 0], "normal": [0, 1, 0], "restitution": E, "mu_s": 0.0}],
-                           physics={"gravity": [0.0, -9.81, 0.0]})
+    scene = explicit_scene(
+        tmp_path,
+        [[0.0, h, 0.0]],
+        [[vx, vy, 0.0]],
+        surfaces=[{"point": [0, 0, 0], "normal": [0, 1, 0], "restitution": E, "mu_s": 0.0}],
+        physics={"gravity": [0.0, -9.81, 0.0]},
+    )
     out = tmp_path / "one.h5"
     stats = wr.run(scene, out, device=device)
     g = 9.81
     gap = h - R
-    t_hit = (-(-vy) + math.sqrt(vy * vy + 2 * g * gap)) / g  # gap - |vy| t - g t^2 / 2 = 0
+    t_hit = (vy + math.sqrt(vy * vy + 2 * g * gap)) / g  # gap - |vy| t - g t^2 / 2 = 0
     vy_hit = vy - g * t_hit
     t_star = 2 * E * -vy_hit / g  # eq. (40) as the tables use it: 2 v_n / g
     p = read_pellets(out)
@@ -55,8 +61,13 @@ def test_single_pellet_flight_matches_closed_form(tmp_path, device):
 
 def test_missed_and_escaped_pellets(tmp_path, device):
     # pellet 0 flies away from the plane (gravity zero): misses; pellet 1 hits, then never comes back
-    scene = explicit_scene(tmp_path, [[0, 1, 0], [0, 1, 0]], [[1, 1, 0], [1, -1, 0]],
-                           surfaces=[dict(GROUND)], physics={"gravity": [0.0, 0.0, 0.0]})
+    scene = explicit_scene(
+        tmp_path,
+        [[0, 1, 0], [0, 1, 0]],
+        [[1, 1, 0], [1, -1, 0]],
+        surfaces=[dict(GROUND)],
+        physics={"gravity": [0.0, 0.0, 0.0]},
+    )
     stats = wr.run(scene, tmp_path / "o.h5", device=device)
     p = read_pellets(tmp_path / "o.h5")
     assert stats["hits"] == 1 and stats["missed"] == 1 and stats["escaped"] == 1 and stats["landed"] == 0
@@ -89,8 +100,15 @@ def test_pipeline_matches_numpy_reference(tmp_path, device, precision):
     position = rng.uniform([-1.0, 0.5, -1.0], [1.0, 3.0, 1.0], size=(n, 3))
     velocity = rng.normal([20.0, -10.0, -5.0], 15.0, size=(n, 3))
     spin = rng.normal(0.0, 3000.0, size=(n, 3))
-    scene = explicit_scene(tmp_path, position, velocity, spin, surfaces=WALL_AND_GROUND, precision=precision,
-                           physics={"gravity": [0.5, -9.81, 0.2], "impact_duration": 1e-4, "bounces": 3})
+    scene = explicit_scene(
+        tmp_path,
+        position,
+        velocity,
+        spin,
+        surfaces=WALL_AND_GROUND,
+        precision=precision,
+        physics={"gravity": [0.5, -9.81, 0.2], "impact_duration": 1e-4, "bounces": 3},
+    )
     stats = wr.run(scene, tmp_path / "r.h5", device=device)
     p = read_pellets(tmp_path / "r.h5")
     ref, ref_stats = reference.simulate(scene, position, velocity, spin)
@@ -101,8 +119,15 @@ def test_pipeline_matches_numpy_reference(tmp_path, device, precision):
     assert (ref["impact.surface"][:, 1:] >= 0).mean() > 0.3  # multiple bounces really exercised
     assert set(np.unique(ref["landing.surface"])) >= {0, 1, 2}  # every plane is landed on
     rtol = 1e-9 if precision == "float64" else 2e-3
-    for name in ("impact.time", "impact.velocity", "impact.angular_velocity", "landing.time", "landing.range",
-                 "landing.position", "landing.velocity"):
+    for name in (
+        "impact.time",
+        "impact.velocity",
+        "impact.angular_velocity",
+        "landing.time",
+        "landing.range",
+        "landing.position",
+        "landing.velocity",
+    ):
         a, b = p[name][same], ref[name][same]
         finite = np.isfinite(b)
         assert (np.isfinite(a) == finite).all(), name
@@ -153,22 +178,33 @@ def test_same_results_for_any_chunk_size(tmp_path, device, precision):
             np.testing.assert_array_equal(arr, pellets0[name], err_msg=name)
     # the statistics-only kernel sums in another order on CUDA (per-thread partials): bitwise the
     # same for any chunk size, and equal to the per-pellet run's statistics up to rounding
-    only = [wr.run(make_scene(raw, precision, output={"fields": []}, numerics={"chunk_size": chunk} if chunk else {}),
-                   device=device) for chunk in (None, 65_536)]
+    only = [
+        wr.run(
+            make_scene(raw, precision, output={"fields": []}, numerics={"chunk_size": chunk} if chunk else {}),
+            device=device,
+        )
+        for chunk in (None, 65_536)
+    ]
     stats_equal(only[1], only[0])
     for k, value in only[0].items():
         assert value == pytest.approx(stats0[k], rel=1e-12 if precision == "float64" else 1e-5, nan_ok=True), k
 
 
 @settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(chunk=st.integers(1, 131_072), count=st.integers(131_073, 300_000), precision=st.sampled_from(["float32", "float64"]))
+@given(
+    chunk=st.integers(1, 131_072),
+    count=st.integers(131_073, 300_000),
+    precision=st.sampled_from(["float32", "float64"]),
+)
 def test_statistics_are_bitwise_the_same_for_any_chunk_size(device, chunk, count, precision):
     """Chunks round up to whole 65,536-pellet segments: at most 2 segments per chunk, more than 2
     segments of pellets, so the explicit chunk size always splits the run (against one chunk)."""
     raw = paper_raw()
     raw["shot"]["count"] = count
-    stats = [wr.run(make_scene(raw, precision, output={"fields": []}, numerics=numerics), device=device)
-             for numerics in ({}, {"chunk_size": chunk})]
+    stats = [
+        wr.run(make_scene(raw, precision, output={"fields": []}, numerics=numerics), device=device)
+        for numerics in ({}, {"chunk_size": chunk})
+    ]
     stats_equal(*stats)
 
 
@@ -242,10 +278,17 @@ def test_sweep_file_layout(tmp_path):
 
 
 REQUIRED = [
-    "pellets/initial/position", "pellets/initial/velocity", "pellets/initial/angular_velocity",
-    "pellets/impact/time", "pellets/impact/position", "pellets/impact/velocity",
-    "pellets/impact/angular_velocity", "pellets/impact/slipped",
-    "pellets/landing/time", "pellets/landing/position", "pellets/landing/range",
+    "pellets/initial/position",
+    "pellets/initial/velocity",
+    "pellets/initial/angular_velocity",
+    "pellets/impact/time",
+    "pellets/impact/position",
+    "pellets/impact/velocity",
+    "pellets/impact/angular_velocity",
+    "pellets/impact/slipped",
+    "pellets/landing/time",
+    "pellets/landing/position",
+    "pellets/landing/range",
 ]
 
 
@@ -263,8 +306,9 @@ def test_hdf5_layout(tmp_path):
             assert key in f.attrs, key
         assert f.attrs["status"] == "complete" and f.attrs["seed"] == 2021
         assert scene_from_dict(__import__("tomllib").loads(f.attrs["scene_toml"])).shot.count == 450
-        f["stats"].visititems(lambda name, ds: None if not isinstance(ds, h5py.Dataset) or "units" in ds.attrs
-                              else pytest.fail(name))
+        f["stats"].visititems(
+            lambda name, ds: None if not isinstance(ds, h5py.Dataset) or "units" in ds.attrs else pytest.fail(name)
+        )
         assert f["constants/mass"].attrs["units"] == "kg"
 
 
@@ -279,7 +323,6 @@ def test_existing_output_is_not_overwritten(tmp_path):
 
 
 # ---------------------------------------------------------------- CPU against GPU (runs where CUDA exists)
-
 
 
 @pytest.mark.skipif(
@@ -390,13 +433,14 @@ TWO_FLOORS = [
 @pytest.mark.parametrize("precision", ["float64", "float32"])
 def test_pellets_starting_on_or_in_a_plane_never_pass_through_it(tmp_path, device, precision):
     R = 0.00125
-    position = [[0.0, R, 0.0],  # resting on the upper floor
-                [0.0, 0.0005, 0.0],  # overlapping, moving away too slowly to separate
-                [0.0, 0.001, 0.0],  # overlapping, separates, comes back down
-                [0.0, R, 0.0]]  # touching, moving into it
+    position = [
+        [0.0, R, 0.0],  # resting on the upper floor
+        [0.0, 0.0005, 0.0],  # overlapping, moving away too slowly to separate
+        [0.0, 0.001, 0.0],  # overlapping, separates, comes back down
+        [0.0, R, 0.0],
+    ]  # touching, moving into it
     velocity = [[1.0, 0.0, 0.0], [1.0, 0.1, 0.0], [1.0, 1.0, 0.0], [1.0, -2.0, 0.0]]
-    scene = explicit_scene(tmp_path, position, velocity, surfaces=TWO_FLOORS, precision=precision,
-                           physics={"bounces": 2})
+    scene = explicit_scene(tmp_path, position, velocity, surfaces=TWO_FLOORS, precision=precision, physics={"bounces": 2})
     wr.run(scene, tmp_path / "o.h5", device=device)
     p = read_pellets(tmp_path / "o.h5")
     ref, _ = reference.simulate(scene, np.array(position), np.array(velocity), np.zeros((4, 3)))
@@ -414,8 +458,13 @@ def test_restitution_zero_ends_the_flight_on_the_surface(tmp_path, device):
     """E = 0: the pellet leaves with no normal speed, so it stays on the surface: a landing with
     range 0, not a second (fake) impact, and the slip branch keeps its pellets."""
     floor = [{"point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.0, "mu_s": 0.05, "mu_d": 0.04}]
-    scene = explicit_scene(tmp_path, [[0.0, 1.0, 0.0]] * 2, [[300.0, -300.0, 0.0], [100.0, -300.0, 0.0]],
-                           surfaces=floor, physics={"bounces": 2})
+    scene = explicit_scene(
+        tmp_path,
+        [[0.0, 1.0, 0.0]] * 2,
+        [[300.0, -300.0, 0.0], [100.0, -300.0, 0.0]],
+        surfaces=floor,
+        physics={"bounces": 2},
+    )
     stats = wr.run(scene, tmp_path / "o.h5", device=device)
     p = read_pellets(tmp_path / "o.h5")
     np.testing.assert_array_equal(p["impact.slipped"], [[1, -1], [1, -1]])

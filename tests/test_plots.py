@@ -104,8 +104,12 @@ def test_plot_without_matplotlib_is_one_line(files, tmp_path, monkeypatch, capsy
 def test_plot_bad_inputs_are_one_line(files, tmp_path, capsys):
     text = tmp_path / "x.h5"
     text.write_text("not hdf5")
-    for argv in (["plot", str(tmp_path / "missing.h5")], ["plot", str(text)],
-                 ["plot", str(files["run"]), "-o", str(text)], ["plot", str(files["run"]), str(files["run"])]):
+    for argv in (
+        ["plot", str(tmp_path / "missing.h5")],
+        ["plot", str(text)],
+        ["plot", str(files["run"]), "-o", str(text)],
+        ["plot", str(files["run"]), str(files["run"])],
+    ):
         assert main(argv) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and err[0].startswith(PREFIX), argv
@@ -154,9 +158,18 @@ def test_drawn_survival_curve_and_density_are_the_data():
 
     n = 30_000
     position = np.c_[rng.normal(100, 5, n), np.zeros(n), rng.normal(0, 10, n)]
-    landings = plotdata.Landings(position=position, distance=None, range=None, energy=rng.uniform(1, 2, n),
-                                 slipped=None, shooter=np.zeros(3), up=np.array([0.0, 1.0, 0.0]), planes=[],
-                                 rows=n, total=n)
+    landings = plotdata.Landings(
+        position=position,
+        distance=None,
+        range=None,
+        energy=rng.uniform(1, 2, n),
+        slipped=None,
+        shooter=np.zeros(3),
+        up=np.array([0.0, 1.0, 0.0]),
+        planes=[],
+        rows=n,
+        total=n,
+    )
     fig = Figure()
     a1, a2 = fig.subplots(2, 1)
     figures.landing_map(a1, a2, landings, np.array([1.0, 0, 0]), np.array([0, 0, -1.0]))
@@ -200,11 +213,16 @@ def _drawn(ax, handle, label) -> bool:
     style, colour = handle.get_linestyle(), handle.get_color()
     any_colour = label.startswith("danger distance")  # one entry a style, its lines in the thresholds' colours
     for line in ax.lines:
-        if line is not handle and len(line.get_xdata()) and line.get_linestyle() == style and (
-                any_colour or same_color(line.get_color(), colour)):
+        if (
+            line is not handle
+            and len(line.get_xdata())
+            and line.get_linestyle() == style
+            and (any_colour or same_color(line.get_color(), colour))
+        ):
             return True
-    return style == "-" and any(hasattr(c, "levels") and any(same_color(e, colour) for e in c.get_edgecolor())
-                                for c in ax.collections)  # a contour drawn in that colour
+    return style == "-" and any(
+        hasattr(c, "levels") and any(same_color(e, colour) for e in c.get_edgecolor()) for c in ax.collections
+    )  # a contour drawn in that colour
 
 
 def legend_entries(fig):
@@ -228,10 +246,22 @@ def _hazard_dict(names=("a", "b", "c", "eye"), extent=(40.0, 80.0, -5.0, 5.0), s
     edges = np.geomspace(1.0, 100.0, 401)
     distance_counts = np.zeros((len(names) + 1, 400), np.int64)
     distance_counts[-1, 300:350] = 10  # every landing above every threshold: identical curves
-    return {"edges": edges, "distance_counts": distance_counts, "names": list(names),
-            "threshold_speed": np.zeros(len(names), bool), "fractions": np.array([1e-3, 1e-6]),
-            "danger_distance": r, "ci_low": r - 0.5, "ci_high": r + 0.5, "map_count": count, "map_above": above,
-            "map_energy": np.zeros(len(names)), "map_u_edges": u, "map_v_edges": v, "map_outside": 0}
+    return {
+        "edges": edges,
+        "distance_counts": distance_counts,
+        "names": list(names),
+        "threshold_speed": np.zeros(len(names), bool),
+        "fractions": np.array([1e-3, 1e-6]),
+        "danger_distance": r,
+        "ci_low": r - 0.5,
+        "ci_high": r + 0.5,
+        "map_count": count,
+        "map_above": above,
+        "map_energy": np.zeros(len(names)),
+        "map_u_edges": u,
+        "map_v_edges": v,
+        "map_outside": 0,
+    }
 
 
 @pytest.mark.parametrize("plot", [p for p in PLOTS if p.kind == "run"], ids=lambda p: p.name)
@@ -260,8 +290,10 @@ def test_the_hazard_plots_merge_thresholds_that_coincide_and_fit_the_map():
     assert hazard_plots.draw_map(fig, d)
     entries, _ = legend_entries(fig)
     labels = [label for _, _, label in entries]
-    assert labels == ["a, b, c: where above; dashed: danger distance 59.5 m (p = 1e-06)",
-                      "eye: where above; dashed: danger distance 44 m (p = 0.001)"]  # no shooter: it is at u = 0
+    assert labels == [
+        "a, b, c: where above; dashed: danger distance 59.5 m (p = 1e-06)",
+        "eye: where above; dashed: danger distance 44 m (p = 0.001)",
+    ]  # no shooter: it is at u = 0
     assert all(_drawn(ax, h, label) for ax, h, label in entries)
     fig.draw_without_rendering()  # the constrained layout, as saved
     ax = fig.axes[0]
@@ -278,8 +310,11 @@ def test_the_hazard_plots_merge_thresholds_that_coincide_and_fit_the_map():
     assert hazard_plots.draw_survival(fig, _hazard_dict(same=4))
     entries, titles = legend_entries(fig)
     assert [label for _, _, label in entries] == [
-        "all landings", "above a, b, c, eye (every landing)", "danger distance, p = 0.001",
-        "danger distance, p = 1e-06"]
+        "all landings",
+        "above a, b, c, eye (every landing)",
+        "danger distance, p = 0.001",
+        "danger distance, p = 1e-06",
+    ]
     assert all(_drawn(ax, h, label) for ax, h, label in entries) and titles == [""]
     ax = fig.axes[0]
     assert ax.get_lines()[1].get_linestyle() != "-"  # dashed over the black curve it would hide

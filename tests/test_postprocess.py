@@ -41,9 +41,22 @@ def test_paper_comparison_only_where_the_scene_is_the_papers(tmp_path):
     """A sweep over mu_s and shot.speed: the paper's values beside ours at 411.48 m/s only; the
     other speed's points get one line naming the key that differs."""
     out = tmp_path / "speed.h5"
-    rc, text = run_main(["sweep", SCENE, *SMALL, "--param", "surfaces.0.mu_s=0,0.05", "--param",
-                         "shot.speed=300,411.48", "--tie", "surfaces.0.mu_d=0.9*surfaces.0.mu_s", "-o", str(out),
-                         "--paper"])
+    rc, text = run_main(
+        [
+            "sweep",
+            SCENE,
+            *SMALL,
+            "--param",
+            "surfaces.0.mu_s=0,0.05",
+            "--param",
+            "shot.speed=300,411.48",
+            "--tie",
+            "surfaces.0.mu_d=0.9*surfaces.0.mu_s",
+            "-o",
+            str(out),
+            "--paper",
+        ]
+    )
     assert rc == 0
     notes = [line for line in text.splitlines() if line.startswith("paper: ")]
     assert len(notes) == 1 and "2 of 4 points" in notes[0] and "shot.speed = 300.0 (paper: 411.48)" in notes[0]
@@ -73,18 +86,26 @@ def test_the_papers_scene_test():
     assert is_papers(base, {}, [])
     point = {"surfaces.0.mu_s": 0.2, "surfaces.0.mu_d": 0.18, "shot.count": 1000.0, "shot.seed": 7.0}
     assert is_papers(base, point, list(point))  # friction, count and seed do not matter
-    for key, value in (("shot.speed", 300.0), ("surfaces.0.restitution", 0.5), ("physics.bounces", 2.0),
-                       ("collisions.enabled", True), ("air.density", 1.0)):
+    for key, value in (
+        ("shot.speed", 300.0),
+        ("surfaces.0.restitution", 0.5),
+        ("physics.bounces", 2.0),
+        ("collisions.enabled", True),
+        ("air.density", 1.0),
+    ):
         diffs = differences(row_scene(base, {key: value}, [key]))
         assert diffs and diffs[0][0].startswith(key.split(".")[0]), key
     assert not is_papers("not toml [", {}, [])
 
 
 def test_report_paper_keeps_our_values_for_a_row_the_paper_lacks():
-    rows = [{"surfaces.0.mu_s": 0.42, "surfaces.0.mu_d": 0.378, "pellets": 1.0, "stick": 1.0, "slip": 0.0,
-             "range_mean": 123.0}]
-    results = Results(rows=rows, params=["surfaces.0.mu_s"], tied=["surfaces.0.mu_d"],
-                      meta={"kind": "sweep", "scene_toml": Path(SCENE).read_text()})
+    rows = [{"surfaces.0.mu_s": 0.42, "surfaces.0.mu_d": 0.378, "pellets": 1.0, "stick": 1.0, "slip": 0.0, "range_mean": 123.0}]
+    results = Results(
+        rows=rows,
+        params=["surfaces.0.mu_s"],
+        tied=["surfaces.0.mu_d"],
+        meta={"kind": "sweep", "scene_toml": Path(SCENE).read_text()},
+    )
     text = format_tables(results, paper=True)
     assert "123.000" in text and not paper_blocks(text)
     assert "paper: Zohdi (2021) has no row for mu_s = 0.42" in text
@@ -95,9 +116,24 @@ def test_report_paper_keeps_our_values_for_a_row_the_paper_lacks():
 
 def test_collision_statistics_in_the_summary_and_report(tmp_path):
     out = tmp_path / "c.h5"
-    rc, summary = run_main(["run", SCENE, "--device", "cpu", "--set", "shot.count=60", "--set", "shot.shots=2",
-                            "--set", "collisions.enabled=true", "--set", 'numerics.precision="float64"',
-                            "-o", str(out)])
+    rc, summary = run_main(
+        [
+            "run",
+            SCENE,
+            "--device",
+            "cpu",
+            "--set",
+            "shot.count=60",
+            "--set",
+            "shot.shots=2",
+            "--set",
+            "collisions.enabled=true",
+            "--set",
+            'numerics.precision="float64"',
+            "-o",
+            str(out),
+        ]
+    )
     assert rc == 0
     for label in ("collided (fraction)", "pair collisions", "energy lost in them", "dense steps mean/max"):
         assert label in summary
@@ -138,8 +174,7 @@ def test_example_command(tmp_path, capsys):
     assert main(["example", "steel_plate", "-o", str(target)]) == 0
     assert target.read_text() == example_text("steel_plate")
     capsys.readouterr()
-    for argv in (["example", "nope"], ["example", "paper", "-o", str(target)],
-                 ["example", "paper", "-o", str(tmp_path)]):
+    for argv in (["example", "nope"], ["example", "paper", "-o", str(target)], ["example", "paper", "-o", str(tmp_path)]):
         assert main(argv) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and err[0].startswith(PREFIX), argv

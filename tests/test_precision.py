@@ -16,9 +16,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import warp_ricochet as wr
-from warp_ricochet.reference.ballistic import sample_launch, simulate
 from warp_ricochet.errors import PrecisionWarning
 from warp_ricochet.physics.limits import POSITION_RESOLUTION, UNIT_ROUNDOFF
+from warp_ricochet.reference.ballistic import sample_launch, simulate
 from warp_ricochet.scene import load_scene
 from warp_ricochet.scene.vectors import HIGHEST, LOWEST, scale_exponent, scaled, unit_vector
 
@@ -61,8 +61,11 @@ def test_a_direction_scaled_by_a_power_of_two_gives_bitwise_the_same_pellets(tmp
     k = SCALE[precision]
     direction, jitter = [1.0, -1.0, 0.0], [0.1, 0.1, 0.1]
     wr.run(_paper(precision, direction=direction, direction_jitter=jitter), tmp_path / "a.h5", device=device)
-    wr.run(_paper(precision, direction=list(scaled(direction, k)), direction_jitter=list(scaled(jitter, k))),
-           tmp_path / "b.h5", device=device)
+    wr.run(
+        _paper(precision, direction=list(scaled(direction, k)), direction_jitter=list(scaled(jitter, k))),
+        tmp_path / "b.h5",
+        device=device,
+    )
     a, b = _pellets(tmp_path / "a.h5"), _pellets(tmp_path / "b.h5")
     assert sorted(a) == sorted(b) and len(a) > 10
     for name in a:
@@ -113,8 +116,7 @@ def far_scene(precision, count=200):
     """The issue's kind of scene: launched 1e6 m out, upwards, flights of about 6e5 s that end 1.6e8 m
     away, inside the documented domain."""
     raw = paper_raw(gravity=[0.0, -1e-3, 0.0], bounces=2)
-    raw["shot"].update(count=count, speed=400.0, direction=[1.0, 1.0, 0.0], envelope_center=[1e6, 1e6, 0.0],
-                       envelope_radius=10.0)
+    raw["shot"].update(count=count, speed=400.0, direction=[1.0, 1.0, 0.0], envelope_center=[1e6, 1e6, 0.0], envelope_radius=10.0)
     raw["output"] = {"fields": ["impact", "landing"]}
     return make_scene(raw, precision=precision)
 
@@ -148,8 +150,9 @@ def test_the_flight_scale_bounds_where_rounding_puts_a_pellet(tmp_path, precisio
 
 def test_the_flight_scale_is_that_of_the_float64_reference(tmp_path):
     scene = far_scene("float64", count=50)
-    scene = scene.replace(output=scene.output.__class__(fields=("initial.position", "initial.velocity",
-                                                                "initial.angular_velocity")))
+    scene = scene.replace(
+        output=scene.output.__class__(fields=("initial.position", "initial.velocity", "initial.angular_velocity"))
+    )
     stats = wr.run(scene, tmp_path / "f.h5", device="cpu")
     p = _pellets(tmp_path / "f.h5")
     _, ref_stats = simulate(scene, p["initial/position"], p["initial/velocity"], p["initial/angular_velocity"])
@@ -162,7 +165,8 @@ def test_the_cli_warns_in_one_line_naming_float64(tmp_path):
     with warnings.catch_warnings():  # as outside pytest, which records warnings and ignores this one
         warnings.simplefilter("always", PrecisionWarning)
         warnings.showwarning = lambda message, category, filename, lineno, file=None, line=None: sys.stderr.write(
-            warnings.formatwarning(message, category, filename, lineno, line))
+            warnings.formatwarning(message, category, filename, lineno, line)
+        )
         rc, stdout, err = cli(["run", path, "-o", tmp_path / "far.h5"])
     assert rc == 0 and "mean range" in stdout
     lines = [line for line in err.splitlines() if "flight_scale_max" in line]

@@ -33,8 +33,7 @@ def _reference(f, shooter, half_mass):
     up = np.array([0.0, 1.0, 0.0])
     horizontal = delta - (delta @ up)[:, None] * up
     speed = np.linalg.norm(v, axis=1)
-    return {"range": r[landed], "distance": np.linalg.norm(horizontal, axis=1), "speed": speed,
-            "energy": half_mass * speed**2}
+    return {"range": r[landed], "distance": np.linalg.norm(horizontal, axis=1), "speed": speed, "energy": half_mass * speed**2}
 
 
 def test_bins_are_log_spaced_with_the_stated_resolution():
@@ -49,7 +48,14 @@ def test_bins_are_log_spaced_with_the_stated_resolution():
     assert np.all((e[b] <= x) & (x < e[b + 1]))
     negative_nan = np.array([0xFFC00000], dtype=np.uint32).view(np.float32)[0]  # (x86's inf * 0)
     assert list(bins.bin_index([0.0, -1.0, 1e-30, 1e30, np.inf, np.nan, negative_nan])) == [
-        0, 0, 0, bins.BINS - 1, bins.BINS - 1, bins.BINS - 1, bins.BINS - 1]
+        0,
+        0,
+        0,
+        bins.BINS - 1,
+        bins.BINS - 1,
+        bins.BINS - 1,
+        bins.BINS - 1,
+    ]
 
 
 def test_the_kernels_bin_as_numpy_does(device):
@@ -82,14 +88,16 @@ def test_histogram_quantiles_hold_numpys_exact_quantiles(n, seed):
     assert rank(0.999999, 10**9) == 999_999_000 and rank(0.5, 3) == 2
 
 
-scenes = st.fixed_dictionaries({
-    "count": st.integers(50, 2500),
-    "seed": st.integers(0, 2**31 - 1),
-    "mu_s": st.floats(0.0, 0.6),
-    "jitter": st.floats(0.0, 0.3),
-    "speed": st.floats(20.0, 450.0),
-    "precision": st.sampled_from(["float32", "float64"]),
-})
+scenes = st.fixed_dictionaries(
+    {
+        "count": st.integers(50, 2500),
+        "seed": st.integers(0, 2**31 - 1),
+        "mu_s": st.floats(0.0, 0.6),
+        "jitter": st.floats(0.0, 0.3),
+        "speed": st.floats(20.0, 450.0),
+        "precision": st.sampled_from(["float32", "float64"]),
+    }
+)
 
 
 @given(case=scenes)
@@ -112,8 +120,9 @@ def test_run_quantiles_hold_the_exact_quantiles_of_its_pellets(case, tmp_path_fa
             true = np.quantile(values, LEVELS, method="inverted_cdf")
             _within(true, f[f"stats/quantiles/{name}"][()], f[f"stats/quantiles/lower/{name}"][()], name)
         used = f["stats/tail/distance"][()]
-        assert np.all((used >= scene.output.tail_distances) & (used <= np.asarray(scene.output.tail_distances)
-                                                                * (1 + bins.RELATIVE_WIDTH)))
+        assert np.all(
+            (used >= scene.output.tail_distances) & (used <= np.asarray(scene.output.tail_distances) * (1 + bins.RELATIVE_WIDTH))
+        )
         d = reference["distance"].astype(np.float32)  # binned as float32
         np.testing.assert_array_equal(f["stats/tail/count"][()], [(d >= e).sum() for e in used])
 
@@ -137,7 +146,7 @@ def big_scene():
 def test_counts_are_bitwise_the_same_for_any_chunk_size(big_scene, device):
     runs = [_tally_of(big_scene, chunk, device) for chunk in (65_536, 131_072, None)]
     (stats, first), *rest = runs
-    assert first.hist[: 2].sum(axis=1).tolist() == [stats["landed"]] * 2
+    assert first.hist[:2].sum(axis=1).tolist() == [stats["landed"]] * 2
     assert first.map_counts.sum() == stats["landed"]
     for _stats, other in rest:
         np.testing.assert_array_equal(other.flat(), first.flat())

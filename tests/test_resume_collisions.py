@@ -41,14 +41,28 @@ GRANULE = shot_granule(COUNT)  # shots per chunk
 CHUNK = COUNT * GRANULE  # pellets per chunk
 SHOTS = 2 * GRANULE + 3  # two whole chunks and a short last one
 CHUNK_ENDS = [CHUNK, 2 * CHUNK, SHOTS * COUNT]  # /progress/rows after each chunk
-OVERRIDES = [f"shot.count={COUNT}", f"shot.shots={SHOTS}", "shot.envelope_center=[0.0, 0.05, 0.0]",
-             "surfaces.0.restitution=0.5", "collisions.enabled=true", "collisions.time_step=5e-4", "collisions.rounds=1",
-             f"numerics.chunk_size={CHUNK}",
-             'output.fields=["initial.position", "impact.velocity", "landing.range", "landing.time", '
-             '"collisions.count", "collisions.last_time", "release.velocity"]']
+OVERRIDES = [
+    f"shot.count={COUNT}",
+    f"shot.shots={SHOTS}",
+    "shot.envelope_center=[0.0, 0.05, 0.0]",
+    "surfaces.0.restitution=0.5",
+    "collisions.enabled=true",
+    "collisions.time_step=5e-4",
+    "collisions.rounds=1",
+    f"numerics.chunk_size={CHUNK}",
+    'output.fields=["initial.position", "impact.velocity", "landing.range", "landing.time", '
+    '"collisions.count", "collisions.last_time", "release.velocity"]',
+]
 ARGS = ["--device", "cpu"] + [a for o in OVERRIDES for a in ("--set", o)]
-FIELDS = ("initial/position", "impact/velocity", "landing/range", "landing/time", "collisions/count",
-          "collisions/last_time", "release/velocity")
+FIELDS = (
+    "initial/position",
+    "impact/velocity",
+    "landing/range",
+    "landing/time",
+    "collisions/count",
+    "collisions/last_time",
+    "release/velocity",
+)
 ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
 
 
@@ -119,6 +133,7 @@ def test_ctrl_c_after_any_chunk_then_resume_is_bitwise_identical(tmp_path, monke
     /stats): k chunks complete, and the resumed run computes only the missing chunks."""
     out = tmp_path / "c.h5"
     if at_chunk == 0:
+
         def interrupted(self, *args, **kwargs):
             raise KeyboardInterrupt
 
@@ -172,8 +187,13 @@ def test_sigkill_then_resume_is_bitwise_identical(tmp_path, reference):
     that ended first is tried again (up to 3 times) before the test gives up."""
     for attempt in range(3):
         out = tmp_path / f"k{attempt}.h5"
-        proc = subprocess.Popen([sys.executable, "-m", "warp_ricochet.cli", "run", SCENE, *ARGS, "-o", str(out)],
-                                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=ENV)
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "warp_ricochet.cli", "run", SCENE, *ARGS, "-o", str(out)],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+            env=ENV,
+        )
         partial = Path(str(out) + ".partial")
         wait_for_a_chunk(proc, partial, timeout=120)
         proc.send_signal(signal.SIGKILL)
@@ -207,24 +227,41 @@ def interrupted(tmp_path, interrupted_once):
     return out, partial
 
 
-@pytest.mark.parametrize("extra, edit, start", [
-    (["--set", f"numerics.chunk_size={2 * CHUNK}"], None, f"numerics.chunk_size = {2 * CHUNK}: the interrupted run had {CHUNK}"),
-    (["--set", "collisions.restitution=0.5"], None, "collisions.restitution = 0.5: the interrupted run had 0.9"),
-    (["--set", f"shot.shots={SHOTS + 1}"], None, f"shot.shots = {SHOTS + 1}: the interrupted run had {SHOTS}"),
-    (["--set", "collisions.frame_every=8"], None, "collisions.frame_every = 8: must be 0 for --resume"),
-    ([], lambda f: f["progress/shot_totals"].resize(GRANULE - 1, axis=0),
-     f"output path = PARTIAL: is inconsistent ({GRANULE - 1} per-shot collision totals for {GRANULE} shots)"),
-    ([], lambda f: f["progress/chunk_rows"].__setitem__((), CHUNK // 2),
-     f"output path = PARTIAL: is inconsistent (chunk plan of {CHUNK // 2} pellets per chunk"),
-    ([], lambda f: f.__delitem__("progress/shot_totals"),
-     "output path = PARTIAL: holds no per-shot collision totals (written by an older version)"),
-])
+@pytest.mark.parametrize(
+    "extra, edit, start",
+    [
+        (
+            ["--set", f"numerics.chunk_size={2 * CHUNK}"],
+            None,
+            f"numerics.chunk_size = {2 * CHUNK}: the interrupted run had {CHUNK}",
+        ),
+        (["--set", "collisions.restitution=0.5"], None, "collisions.restitution = 0.5: the interrupted run had 0.9"),
+        (["--set", f"shot.shots={SHOTS + 1}"], None, f"shot.shots = {SHOTS + 1}: the interrupted run had {SHOTS}"),
+        (["--set", "collisions.frame_every=8"], None, "collisions.frame_every = 8: must be 0 for --resume"),
+        (
+            [],
+            lambda f: f["progress/shot_totals"].resize(GRANULE - 1, axis=0),
+            f"output path = PARTIAL: is inconsistent ({GRANULE - 1} per-shot collision totals for {GRANULE} shots)",
+        ),
+        (
+            [],
+            lambda f: f["progress/chunk_rows"].__setitem__((), CHUNK // 2),
+            f"output path = PARTIAL: is inconsistent (chunk plan of {CHUNK // 2} pellets per chunk",
+        ),
+        (
+            [],
+            lambda f: f.__delitem__("progress/shot_totals"),
+            "output path = PARTIAL: holds no per-shot collision totals (written by an older version)",
+        ),
+    ],
+)
 def test_resume_refuses_a_different_collision_run_in_one_line_and_changes_nothing(interrupted, extra, edit, start):
     """A different chunk size is refused like any other change of the scene (the chunk plan of the
     interrupted run is kept), as are trajectory frames and a partial whose records do not agree."""
     out, partial = interrupted
-    assert_resume_refused(["run", SCENE, *ARGS, *extra, "-o", out, "--resume"], out, edit,
-                          start.replace("PARTIAL", repr(str(partial))))
+    assert_resume_refused(
+        ["run", SCENE, *ARGS, *extra, "-o", out, "--resume"], out, edit, start.replace("PARTIAL", repr(str(partial)))
+    )
 
 
 def test_a_run_with_trajectory_frames_is_not_resumed(tmp_path):
@@ -234,9 +271,13 @@ def test_a_run_with_trajectory_frames_is_not_resumed(tmp_path):
     frames = load_scene(SCENE, raw)
     out = tmp_path / "f.h5"
     interrupt_after(1, frames, out)  # its only chunk complete, /stats not written
-    assert_resume_refused(["run", SCENE, "--device", "cpu", *(a for o in raw for a in ("--set", o)), "-o", out, "--resume"],
-                          out, None, "collisions.frame_every = 8: must be 0 for --resume (H5MD trajectory frames are "
-                                     "not resumed); --overwrite starts a run with frames again\n")
+    assert_resume_refused(
+        ["run", SCENE, "--device", "cpu", *(a for o in raw for a in ("--set", o)), "-o", out, "--resume"],
+        out,
+        None,
+        "collisions.frame_every = 8: must be 0 for --resume (H5MD trajectory frames are "
+        "not resumed); --overwrite starts a run with frames again\n",
+    )
     wr.run(frames, out, device="cpu", overwrite=True)
     with h5py.File(out, "r") as f:
         assert f["particles/pellets/position/value"].shape[0] > 1

@@ -88,14 +88,24 @@ def write_pellets(path, n=4, **changes):
 
 # ------------------------------------------------------------------------------------------------ loading
 
+
 def test_load_paper_scene(tmp_path):
     path = tmp_path / "paper.toml"
     path.write_text(PAPER_TOML)
     s = load_scene(path)
     assert s.source == str(path)
-    assert s.shot == Shot(diameter=0.0025, density=7000.0, count=450, speed=411.48, direction=(1.0, -1.0, 0.0),
-                          direction_jitter=(0.1, 0.1, 0.1), envelope_radius=0.025, envelope_center=(0.0, 1.0, 0.0),
-                          spin=(0.0, 0.0, 0.0), seed=2021)
+    assert s.shot == Shot(
+        diameter=0.0025,
+        density=7000.0,
+        count=450,
+        speed=411.48,
+        direction=(1.0, -1.0, 0.0),
+        direction_jitter=(0.1, 0.1, 0.1),
+        envelope_radius=0.025,
+        envelope_center=(0.0, 1.0, 0.0),
+        spin=(0.0, 0.0, 0.0),
+        seed=2021,
+    )
     assert s.surfaces == (Surface((0.0, 0.0, 0.0), (0.0, 1.0, 0.0), 0.01, 0.5, 0.45, "ground"),)
     assert s.physics == Physics((0.0, -9.81, 0.0), 1e-5, 1)
     assert s.numerics == Numerics()
@@ -172,10 +182,20 @@ def _write(tmp_path, text, name="scene.toml"):
 
 # ------------------------------------------------------------------------------------------------ overrides
 
+
 def test_overrides(tmp_path):
     path = _write(tmp_path, PAPER_TOML)
-    s = load_scene(path, ["shot.count=1000", "surfaces.0.mu_s=0.6", "physics.gravity=[0, -1, 0]",
-                          "output.path=out.h5", "numerics.precision=float64", "numerics.chunk_size = 64"])
+    s = load_scene(
+        path,
+        [
+            "shot.count=1000",
+            "surfaces.0.mu_s=0.6",
+            "physics.gravity=[0, -1, 0]",
+            "output.path=out.h5",
+            "numerics.precision=float64",
+            "numerics.chunk_size = 64",
+        ],
+    )
     assert s.shot.count == 1000 and s.surfaces[0].mu_s == 0.6 and s.physics.gravity == (0.0, -1.0, 0.0)
     assert s.output.path == "out.h5" and s.numerics == Numerics("float64", 64)
 
@@ -188,8 +208,18 @@ def test_apply_override_is_a_copy_and_creates_tables():
     assert set_dotted(raw, "a.b.c", [1])["a"] == {"b": {"c": [1]}}
 
 
-@pytest.mark.parametrize("assignment", ["surfaces.1.mu_s=0.3", "surfaces.x.mu_s=0.3", "surfaces.-1.mu_s=1",
-                                        "shot.count.x=1", "no_equals_sign", "shot..count=1", "=3"])
+@pytest.mark.parametrize(
+    "assignment",
+    [
+        "surfaces.1.mu_s=0.3",
+        "surfaces.x.mu_s=0.3",
+        "surfaces.-1.mu_s=1",
+        "shot.count.x=1",
+        "no_equals_sign",
+        "shot..count=1",
+        "=3",
+    ],
+)
 def test_bad_overrides(assignment):
     with pytest.raises(SceneError) as e:
         apply_override(paper(), assignment)
@@ -203,6 +233,7 @@ def test_override_index_into_missing_list():
 
 
 # ------------------------------------------------------------------------------------------------ sweeps, ties
+
 
 def test_parse_sweep_range():
     key, values = parse_sweep("surfaces.0.mu_s=0:0.5:0.05")
@@ -224,9 +255,27 @@ def test_parse_sweep_list():
     assert parse_sweep("x=0.3") == ("x", [0.3])
 
 
-@pytest.mark.parametrize("spec", ["x=0:1:0", "x=0:1:-0.1", "x=1:0:0.1", "x=0:1", "x=0:1:0.1:2", "x=a,b",
-                                  "x=0:1e6:0.001", "x=0:100000:1", "x=0:10000:1", "x=" + ",".join(["1"] * 10_001),
-                                  "x=nan,1", "x=0:inf:1", "nokey", "=1,2", "x=", "x=1,,2"])
+@pytest.mark.parametrize(
+    "spec",
+    [
+        "x=0:1:0",
+        "x=0:1:-0.1",
+        "x=1:0:0.1",
+        "x=0:1",
+        "x=0:1:0.1:2",
+        "x=a,b",
+        "x=0:1e6:0.001",
+        "x=0:100000:1",
+        "x=0:10000:1",
+        "x=" + ",".join(["1"] * 10_001),
+        "x=nan,1",
+        "x=0:inf:1",
+        "nokey",
+        "=1,2",
+        "x=",
+        "x=1,,2",
+    ],
+)
 def test_parse_sweep_errors(spec):
     with pytest.raises(SceneError) as e:
         parse_sweep(spec)
@@ -244,6 +293,7 @@ def test_parse_tie():
 
 
 # ------------------------------------------------------------------------------------------------ pellet files
+
 
 @pytest.mark.parametrize("suffix", [".npz", ".h5", ".hdf5"])
 def test_pellet_file(tmp_path, suffix):
@@ -281,19 +331,22 @@ def test_scene_with_pellet_file(tmp_path):
         scene_from_dict(raw, base_dir=tmp_path / "elsewhere")
 
 
-@pytest.mark.parametrize("name, changes, key", [
-    ("p.npz", {"velocity": np.zeros((5, 3))}, "shot.file:velocity"),
-    ("p.h5", {"position": np.zeros((4, 2))}, "shot.file:position"),
-    ("p.npz", {"position": np.zeros(12)}, "shot.file:position"),
-    ("p.npz", {"position": np.array([[0, 0, 0], [np.nan, 0, 0], [0, 0, 0], [0, 0, 0]])}, "shot.file:position"),
-    ("p.h5", {"velocity": np.full((4, 3), np.inf)}, "shot.file:velocity"),
-    ("p.npz", {"velocity": None}, "shot.file:velocity"),
-    ("p.h5", {"position": None}, "shot.file:position"),
-    ("p.npz", {"position": np.zeros((0, 3)), "velocity": np.zeros((0, 3))}, "shot.file:position"),
-    ("p.npz", {"angular_velocity": np.zeros((3, 3))}, "shot.file:angular_velocity"),
-    ("p.npz", {"position": np.array([["a", "b", "c"]] * 4)}, "shot.file:position"),
-    ("p.txt", {}, "shot.file"),
-])
+@pytest.mark.parametrize(
+    "name, changes, key",
+    [
+        ("p.npz", {"velocity": np.zeros((5, 3))}, "shot.file:velocity"),
+        ("p.h5", {"position": np.zeros((4, 2))}, "shot.file:position"),
+        ("p.npz", {"position": np.zeros(12)}, "shot.file:position"),
+        ("p.npz", {"position": np.array([[0, 0, 0], [np.nan, 0, 0], [0, 0, 0], [0, 0, 0]])}, "shot.file:position"),
+        ("p.h5", {"velocity": np.full((4, 3), np.inf)}, "shot.file:velocity"),
+        ("p.npz", {"velocity": None}, "shot.file:velocity"),
+        ("p.h5", {"position": None}, "shot.file:position"),
+        ("p.npz", {"position": np.zeros((0, 3)), "velocity": np.zeros((0, 3))}, "shot.file:position"),
+        ("p.npz", {"angular_velocity": np.zeros((3, 3))}, "shot.file:angular_velocity"),
+        ("p.npz", {"position": np.array([["a", "b", "c"]] * 4)}, "shot.file:position"),
+        ("p.txt", {}, "shot.file"),
+    ],
+)
 def test_bad_pellet_files(tmp_path, name, changes, key):
     write_pellets(tmp_path / name, **changes) if not name.endswith(".txt") else (tmp_path / name).write_text("x")
     with pytest.raises(SceneError) as e:
@@ -312,6 +365,7 @@ def test_unreadable_pellet_files(tmp_path):
 
 # ------------------------------------------------------------------------------------------------ bad scenes
 
+
 def _set(key, value):
     return lambda raw: set_dotted(raw, key, value)
 
@@ -323,6 +377,7 @@ def _delete(*keys):
             node = node[int(part)] if isinstance(node, list) else node[part]
         del node[keys[-1]]
         return raw
+
     return change
 
 
@@ -415,10 +470,10 @@ def test_messages():
 
 # ------------------------------------------------------------------------------------------------ fuzz
 
+
 def _known_keys():
     keys = list(PAPER) + ["numerics", "surfaces.0"]
-    for table, cls in [("shot", Shot), ("surfaces.0", Surface), ("physics", Physics), ("numerics", Numerics),
-                       ("output", Output)]:
+    for table, cls in [("shot", Shot), ("surfaces.0", Surface), ("physics", Physics), ("numerics", Numerics), ("output", Output)]:
         keys += [f"{table}.{f.name}" for f in dataclasses.fields(cls)]
     return keys
 
@@ -442,19 +497,22 @@ def test_junk_gives_scene_or_scene_error(key, value):
         assert scene_from_dict(result.to_dict()) == result
 
 
-@pytest.mark.parametrize("assignment, key", [
-    ("shot.speed=1e39", "shot.speed"),
-    ("shot.diameter=1e-46", "shot.diameter"),
-    ("shot.diameter=2.0", "shot.diameter"),
-    ("shot.density=1e9", "shot.density"),
-    ("shot.direction=[1e308, -1e308, 0]", "shot.direction"),
-    ("shot.envelope_radius=1e39", "shot.envelope_radius"),
-    ("shot.spin=[0, 0, 1e9]", "shot.spin"),
-    ("surfaces.0.point=[0, -1e39, 0]", "surfaces.0.point"),
-    ("surfaces.0.mu_s=1e6", "surfaces.0.mu_s"),
-    ("physics.gravity=[0, -1e5, 0]", "physics.gravity"),
-    ("physics.impact_duration=10.0", "physics.impact_duration"),
-])
+@pytest.mark.parametrize(
+    "assignment, key",
+    [
+        ("shot.speed=1e39", "shot.speed"),
+        ("shot.diameter=1e-46", "shot.diameter"),
+        ("shot.diameter=2.0", "shot.diameter"),
+        ("shot.density=1e9", "shot.density"),
+        ("shot.direction=[1e308, -1e308, 0]", "shot.direction"),
+        ("shot.envelope_radius=1e39", "shot.envelope_radius"),
+        ("shot.spin=[0, 0, 1e9]", "shot.spin"),
+        ("surfaces.0.point=[0, -1e39, 0]", "surfaces.0.point"),
+        ("surfaces.0.mu_s=1e6", "surfaces.0.mu_s"),
+        ("physics.gravity=[0, -1e5, 0]", "physics.gravity"),
+        ("physics.impact_duration=10.0", "physics.impact_duration"),
+    ],
+)
 def test_values_outside_the_physical_domain_are_rejected(tmp_path, assignment, key):
     """Finite in float64 is not enough: the domain keeps every float32 product finite."""
     path = tmp_path / "s.toml"
@@ -500,9 +558,12 @@ def test_an_integer_written_as_a_float_is_an_integer(tmp_path):
 def test_an_unknown_key_given_with_set_gets_a_suggestion(tmp_path):
     path = tmp_path / "s.toml"
     path.write_text(PAPER_TOML)
-    with pytest.raises(SceneError, match=r"^numerics\.precisoin = 'float64': unknown key; did you mean "
-                                         r"numerics\.precision\? allowed keys: precision, "):
-        load_scene(path, ["numerics.precisoin=\"float64\""])
+    with pytest.raises(
+        SceneError,
+        match=r"^numerics\.precisoin = 'float64': unknown key; did you mean "
+        r"numerics\.precision\? allowed keys: precision, ",
+    ):
+        load_scene(path, ['numerics.precisoin="float64"'])
 
 
 @pytest.mark.parametrize("layout", ["npz", "npz-fortran", "h5"])
@@ -513,8 +574,11 @@ def test_pellet_files_are_read_and_checked_in_pieces(tmp_path, monkeypatch, layo
 
     monkeypatch.setattr(pellets, "PIECE_ROWS", 4)
     rng = np.random.default_rng(7)
-    arrays = {"position": rng.normal(size=(11, 3)), "velocity": rng.normal(size=(11, 3)).astype(np.float32),
-              "angular_velocity": rng.integers(-5, 5, size=(11, 3))}
+    arrays = {
+        "position": rng.normal(size=(11, 3)),
+        "velocity": rng.normal(size=(11, 3)).astype(np.float32),
+        "angular_velocity": rng.integers(-5, 5, size=(11, 3)),
+    }
     order = "F" if layout == "npz-fortran" else "C"
     path = tmp_path / ("p.h5" if layout == "h5" else "p.npz")
 

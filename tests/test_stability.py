@@ -98,10 +98,12 @@ def test_the_collision_rules_catch_energy_gain_overlap_and_a_pellet_inside_the_p
 
     def overlap(b):
         b["release.position"][flying[1]] = b["release.position"][flying[0]] + [0.9 * stability.COLLISION_D, 0, 0]
+
     assert any("overlap" in f for f in failures(overlap))
 
     def sink(b):
         b["landing.position"][:, 1] = np.where(np.isfinite(b["landing.position"][:, 1]), 0.5e-3, np.nan)
+
     assert any("inside R of plane" in f for f in failures(sink))
 
 
@@ -114,12 +116,20 @@ def test_an_e0_impact_at_normal_incidence_rests_on_the_plane(tmp_path, device):
     speeds = np.geomspace(1e-6, 1e4, 41)
     R = 0.00125
     path = tmp_path / "p.npz"
-    np.savez(path, position=np.tile(R * normal, (len(speeds), 1)) + np.outer(np.linspace(0, 1, len(speeds)), [1, -0.3, 0]),
-             velocity=-speeds[:, None] * normal)
+    np.savez(
+        path,
+        position=np.tile(R * normal, (len(speeds), 1)) + np.outer(np.linspace(0, 1, len(speeds)), [1, -0.3, 0]),
+        velocity=-speeds[:, None] * normal,
+    )
     for precision in ("float32", "float64"):
-        scene = scene_from_dict({"shot": {"file": str(path), "diameter": 2 * R, "density": 7000.0},
-                                 "surfaces": [{"point": [0, 0, 0], "normal": list(normal), "restitution": 0.0, "mu_s": 0.3}],
-                                 "physics": {"gravity": [0, 0, 0], "bounces": 3}, "numerics": {"precision": precision}})
+        scene = scene_from_dict(
+            {
+                "shot": {"file": str(path), "diameter": 2 * R, "density": 7000.0},
+                "surfaces": [{"point": [0, 0, 0], "normal": list(normal), "restitution": 0.0, "mu_s": 0.3}],
+                "physics": {"gravity": [0, 0, 0], "bounces": 3},
+                "numerics": {"precision": precision},
+            }
+        )
         stats = wr.run(scene, tmp_path / f"{precision}.h5", device=device)
         import h5py
 
@@ -137,6 +147,15 @@ def test_reference_keeps_a_normal_impact_normal_on_a_tilted_plane():
 
     n = np.array([0.3, 1.0, 0.2]) / np.linalg.norm([0.3, 1.0, 0.2])
     for speed in (1e-6, 1.0, 1e4):
-        v, w, _ = reference.impact_law(-speed * n[None], np.zeros((1, 3)), n, radius=0.00125, restitution=0.0,
-                                       mu_s=0.5, mu_d=0.5, gravity=(0, -9.81, 0), duration=1e-3)
+        v, w, _ = reference.impact_law(
+            -speed * n[None],
+            np.zeros((1, 3)),
+            n,
+            radius=0.00125,
+            restitution=0.0,
+            mu_s=0.5,
+            mu_d=0.5,
+            gravity=(0, -9.81, 0),
+            duration=1e-3,
+        )
         assert np.abs(v).max() <= 1e-14 * speed and np.abs(w).max() <= 1e-14 * speed / 0.00125

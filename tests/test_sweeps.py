@@ -25,8 +25,16 @@ from warp_ricochet.tallies.reduce import SEGMENT
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = str(ROOT / "examples" / "paper.toml")
-SETS = ["--set", f"shot.count={12 * SEGMENT - 1000}", "--set", "numerics.chunk_size=65536",
-        "--set", "numerics.precision='float64'", "--set", 'output.fields=["landing.range", "initial.position"]']
+SETS = [
+    "--set",
+    f"shot.count={12 * SEGMENT - 1000}",
+    "--set",
+    "numerics.chunk_size=65536",
+    "--set",
+    "numerics.precision='float64'",
+    "--set",
+    'output.fields=["landing.range", "initial.position"]',
+]
 SWEEP = ["--param", "surfaces.0.mu_s=0,0.05,0.1", "--tie", "surfaces.0.mu_d=0.9*"]
 ARGS = [SCENE, "--device", "cpu", *SETS, *SWEEP]
 ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
@@ -81,8 +89,13 @@ def assert_same_sweep(path, ref):
 
 
 def start_sweep(out, *extra):
-    return subprocess.Popen([sys.executable, "-m", "warp_ricochet.cli", "sweep", *ARGS, "-o", str(out), *extra],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=ENV)
+    return subprocess.Popen(
+        [sys.executable, "-m", "warp_ricochet.cli", "sweep", *ARGS, "-o", str(out), *extra],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=ENV,
+    )
 
 
 def folder_digest(folder):
@@ -174,19 +187,21 @@ def interrupted(tmp_path):
 
     scene = load_scene(SCENE, SETS[1::2])
     with pytest.raises(KeyboardInterrupt) as caught:
-        wr.sweep(scene, {"surfaces.0.mu_s": [0, 0.05, 0.1]}, [("surfaces.0.mu_d", 0.9, None)], out, "cpu",
-                 progress=progress)
+        wr.sweep(scene, {"surfaces.0.mu_s": [0, 0.05, 0.1]}, [("surfaces.0.mu_d", 0.9, None)], out, "cpu", progress=progress)
     folder = Path(str(out) + ".partial")
     assert caught.value.partial_path == str(folder) and caught.value.resume_command == "sweep"
     assert (folder / "0000.h5").exists() and (folder / "0001.h5.partial").exists()
     return out, folder
 
 
-@pytest.mark.parametrize("extra, start", [
-    (["--set", "shot.seed=7"], "shot.seed = 7"),
-    (["--param", "surfaces.0.restitution=0.1,0.2"], "--param = surfaces.0.mu_s, surfaces.0.restitution"),
-    (["--tie", "surfaces.0.restitution=0.1*"], "--tie = "),
-])
+@pytest.mark.parametrize(
+    "extra, start",
+    [
+        (["--set", "shot.seed=7"], "shot.seed = 7"),
+        (["--param", "surfaces.0.restitution=0.1,0.2"], "--param = surfaces.0.mu_s, surfaces.0.restitution"),
+        (["--tie", "surfaces.0.restitution=0.1*"], "--tie = "),
+    ],
+)
 def test_resume_of_a_different_sweep_is_refused_and_touches_nothing(interrupted, extra, start):
     out, folder = interrupted
     before = folder_digest(folder)
@@ -202,8 +217,9 @@ def test_resume_with_other_values_is_refused_naming_the_first_that_differs(inter
     args = [a.replace("0,0.05,0.1", "0,0.06,0.1") for a in ARGS]
     rc, _, err = cli(["sweep", *args, "-o", out, "--resume"])
     assert rc == 2 and len(err.splitlines()) == 1
-    assert err.startswith(PREFIX + "surfaces.0.mu_s = 3 values, value 1 = 0.06: the interrupted sweep had 3 values, "
-                          "value 1 = 0.05"), err
+    assert err.startswith(
+        PREFIX + "surfaces.0.mu_s = 3 values, value 1 = 0.06: the interrupted sweep had 3 values, value 1 = 0.05"
+    ), err
     assert folder_digest(folder) == before
 
 
@@ -236,8 +252,7 @@ def test_resume_refusals_without_a_folder(tmp_path, interrupted):
 def test_interrupted_sweep_resumed_in_process_equals_reference(interrupted, reference):
     out, folder = interrupted
     scene = load_scene(SCENE, SETS[1::2])
-    results = wr.sweep(scene, {"surfaces.0.mu_s": [0, 0.05, 0.1]}, [("surfaces.0.mu_d", 0.9, None)], out, "cpu",
-                       resume=True)
+    results = wr.sweep(scene, {"surfaces.0.mu_s": [0, 0.05, 0.1]}, [("surfaces.0.mu_d", 0.9, None)], out, "cpu", resume=True)
     assert [p["surfaces.0.mu_s"] for p, _ in results] == [0, 0.05, 0.1] and not folder.exists()
     assert_same_sweep(out, reference)
     with h5py.File(out) as f:  # the copied points' dimensions are their own group's (io.dimensions)
@@ -247,8 +262,7 @@ def test_interrupted_sweep_resumed_in_process_equals_reference(interrupted, refe
     with h5py.File(reference) as f:
         for i, (_, stats) in enumerate(results):
             assert set(stats) == set(f["stats"])  # points read back from their files too
-            assert all(stats[k] == f[f"stats/{k}"][i] or (np.isnan(stats[k]) and np.isnan(f[f"stats/{k}"][i]))
-                       for k in stats)
+            assert all(stats[k] == f[f"stats/{k}"][i] or (np.isnan(stats[k]) and np.isnan(f[f"stats/{k}"][i])) for k in stats)
 
 
 # ---------------------------------------------------------------------------------------------- limits
@@ -266,15 +280,22 @@ def test_huge_products_are_refused_in_one_line_before_any_memory_is_spent(tmp_pa
         tracemalloc.stop()
     assert peak < 20e6, peak
     text = str(caught.value)
-    assert text == (f"--param = 2 keys: surfaces.0.mu_s (100,000 values) x surfaces.0.restitution (100,000 values) give "
-                    f"10,000,000,000 points; a sweep may have at most {MAX_SWEEP_POINTS:,} (MAX_SWEEP_POINTS)")
+    assert text == (
+        f"--param = 2 keys: surfaces.0.mu_s (100,000 values) x surfaces.0.restitution (100,000 values) give "
+        f"10,000,000,000 points; a sweep may have at most {MAX_SWEEP_POINTS:,} (MAX_SWEEP_POINTS)"
+    )
     assert list(tmp_path.iterdir()) == []
     # on the command line: one parameter over the limit, and a product over it
-    for params, start in ((["surfaces.0.mu_s=0:99999:1"], "surfaces.0.mu_s = 'surfaces.0.mu_s=0:99999:1': gives "
-                                                           "100,000 points; a sweep may have at most 10,000"),
-                          (["surfaces.0.mu_s=0:0.9999:0.0001", "surfaces.0.restitution=0:0.9999:0.0001"],
-                           "--param = 2 keys: surfaces.0.mu_s (10,000 values) x surfaces.0.restitution (10,000 values) "
-                           "give 100,000,000 points")):
+    for params, start in (
+        (
+            ["surfaces.0.mu_s=0:99999:1"],
+            "surfaces.0.mu_s = 'surfaces.0.mu_s=0:99999:1': gives 100,000 points; a sweep may have at most 10,000",
+        ),
+        (
+            ["surfaces.0.mu_s=0:0.9999:0.0001", "surfaces.0.restitution=0:0.9999:0.0001"],
+            "--param = 2 keys: surfaces.0.mu_s (10,000 values) x surfaces.0.restitution (10,000 values) give 100,000,000 points",
+        ),
+    ):
         argv = ["sweep", SCENE, "--device", "cpu", "-o", tmp_path / "y.h5"]
         for p in params:
             argv += ["--param", p]
@@ -292,15 +313,28 @@ def test_points_are_lazy_and_in_product_order():
 
 def test_a_bad_point_is_found_before_the_first_point_runs(tmp_path):
     out = tmp_path / "bad.h5"
-    rc, _, err = cli(["sweep", *ARGS[:-4], "--param", "surfaces.0.mu_s=0.1,0.2,-1", "--tie", "surfaces.0.mu_d=0.9*",
-                      "-o", out])
+    rc, _, err = cli(["sweep", *ARGS[:-4], "--param", "surfaces.0.mu_s=0.1,0.2,-1", "--tie", "surfaces.0.mu_d=0.9*", "-o", out])
     assert rc == 2 and len(err.splitlines()) == 1 and "surfaces.0.mu_s" in err and "-1" in err, err
     assert list(tmp_path.iterdir()) == []
 
 
 def test_trajectory_frames_are_refused_in_a_sweep_file(tmp_path):
-    rc, _, err = cli(["sweep", SCENE, "--device", "cpu", "--set", "collisions.enabled=true",
-                      "--set", "collisions.frame_every=10", "--param", "surfaces.0.restitution=0,0.1", "-o", tmp_path / "f.h5"])
+    rc, _, err = cli(
+        [
+            "sweep",
+            SCENE,
+            "--device",
+            "cpu",
+            "--set",
+            "collisions.enabled=true",
+            "--set",
+            "collisions.frame_every=10",
+            "--param",
+            "surfaces.0.restitution=0,0.1",
+            "-o",
+            tmp_path / "f.h5",
+        ]
+    )
     assert rc == 2 and len(err.splitlines()) == 1 and err.startswith(PREFIX + "collisions.frame_every = 10"), err
     assert list(tmp_path.iterdir()) == []
 
@@ -335,8 +369,7 @@ def test_a_sweep_keeps_no_point_s_landing_counts(tmp_path):
 
     tracemalloc.start()
     try:
-        results = wr.sweep(scene, {"surfaces.0.restitution": values}, output=tmp_path / "s.h5", device="cpu",
-                           progress=progress)
+        results = wr.sweep(scene, {"surfaces.0.restitution": values}, output=tmp_path / "s.h5", device="cpu", progress=progress)
     finally:
         tracemalloc.stop()
     assert len(traced) == len(values) and traced[-1] - traced[1] < 1e6, traced

@@ -29,8 +29,12 @@ pd = pytest.importorskip("pandas")
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = str(ROOT / "examples" / "paper.toml")
 PELLETS = 2 * SEGMENT + 5000  # three chunks of the smallest size
-SETS = [f"shot.count={PELLETS}", "numerics.chunk_size=65536", "numerics.precision='float64'",
-        'output.fields=["landing", "impact.velocity", "initial.position"]']
+SETS = [
+    f"shot.count={PELLETS}",
+    "numerics.chunk_size=65536",
+    "numerics.precision='float64'",
+    'output.fields=["landing", "impact.velocity", "initial.position"]',
+]
 ALL_SETS = ["shot.count=300", "physics.bounces=2", 'output.fields=["initial", "impact", "landing"]']
 
 
@@ -59,7 +63,7 @@ def assert_named_like_the_layout(path, group=""):
         fields = [p for p in variables if p.startswith(group + "pellets/")]
         assert fields
         for p in fields:
-            name = p[len(group + "pellets/"):].replace("/", ".")
+            name = p[len(group + "pellets/") :].replace("/", ".")
             assert variables[p].dims == field_dimensions(name), p
             assert variables[p].attrs["units"] == FIELDS[name].unit, p
             np.testing.assert_array_equal(variables[p].values, f[p][:], err_msg=p)
@@ -83,14 +87,31 @@ def test_xarray_with_h5netcdf_sees_named_dimensions_and_units(tmp_path):
 
 def test_collision_runs_with_frames_and_sweeps_have_no_anonymous_dimension(tmp_path):
     collide = tmp_path / "collide.h5"
-    wr.run(load_scene(PAPER, ["shot.count=40", "shot.shots=2", "collisions.enabled=true", "collisions.frame_every=200",
-                              'output.fields=["landing", "collisions", "release"]']), collide, device="cpu")
+    wr.run(
+        load_scene(
+            PAPER,
+            [
+                "shot.count=40",
+                "shot.shots=2",
+                "collisions.enabled=true",
+                "collisions.frame_every=200",
+                'output.fields=["landing", "collisions", "release"]',
+            ],
+        ),
+        collide,
+        device="cpu",
+    )
     variables = assert_named_like_the_layout(collide)
     assert variables["progress/shot_totals"].dims[0] == "shot"
     assert variables["particles/pellets/position/value"].dims == ("frame", "pellet", "xyz")
     sweep = tmp_path / "sweep.h5"
-    wr.sweep(load_scene(PAPER, ["shot.count=50", 'output.fields=["landing"]']), {"surfaces.0.mu_s": [0.0, 0.5]},
-             ties=[("surfaces.0.mu_d", 0.9, None)], output=sweep, device="cpu")
+    wr.sweep(
+        load_scene(PAPER, ["shot.count=50", 'output.fields=["landing"]']),
+        {"surfaces.0.mu_s": [0.0, 0.5]},
+        ties=[("surfaces.0.mu_d", 0.9, None)],
+        output=sweep,
+        device="cpu",
+    )
     variables = assert_named_like_the_layout(sweep, group="runs/0001/")
     assert variables["stats/range_mean"].dims == ("point",)
     assert variables["sweep/surfaces.0.mu_s"].dims == ("point",)
@@ -132,8 +153,12 @@ def test_open_run_reads_several_chunks_lazily_as_h5py_does(reference):
         velocity = run.impact.velocity
         assert isinstance(velocity.data, da.Array) and velocity.data.numblocks[0] == 3
         assert velocity.dims == ("pellet", "bounce", "xyz") and velocity.attrs["units"] == "m/s"
-        for group, name in (("landing", "range"), ("landing", "position"), ("impact", "velocity"),
-                            ("initial", "position")):
+        for group, name in (
+            ("landing", "range"),
+            ("landing", "position"),
+            ("impact", "velocity"),
+            ("initial", "position"),
+        ):
             np.testing.assert_array_equal(run[group][name].values, f[f"pellets/{group}/{name}"][:])
         mean = run.landing.range.where(run.landing.surface >= 0).mean()
         assert isinstance(mean.data, da.Array)
@@ -141,8 +166,17 @@ def test_open_run_reads_several_chunks_lazily_as_h5py_does(reference):
         assert run.stats.range_mean.item() == f["stats/range_mean"][()]
         table = run.dataframe("landing")
         assert len(table) == PELLETS and table.index.name == "pellet"
-        assert list(table.columns) == ["position_x", "position_y", "position_z", "range", "surface", "time",
-                                       "velocity_x", "velocity_y", "velocity_z"]
+        assert list(table.columns) == [
+            "position_x",
+            "position_y",
+            "position_z",
+            "range",
+            "surface",
+            "time",
+            "velocity_x",
+            "velocity_y",
+            "velocity_z",
+        ]
         assert table.attrs["units"]["velocity_z"] == "m/s"
         np.testing.assert_array_equal(table["position_z"].to_numpy(), f["pellets/landing/position"][:, 2])
         long = run.landing[["range"]].isel(pellet=slice(0, 10)).to_dataframe()
@@ -153,7 +187,7 @@ def test_open_run_reads_several_chunks_lazily_as_h5py_does(reference):
         assert isinstance(tree["pellets/landing/range"].data, da.Array)
         assert list(tree["pellets/impact"].ds.xyz.values) == ["x", "y", "z"]  # inherited from the root
         with pytest.raises(AttributeError, match="no per-pellet collisions"):
-            run.collisions
+            _ = run.collisions
 
 
 KILLED = textwrap.dedent("""
@@ -182,8 +216,9 @@ KILLED = textwrap.dedent("""
 def test_a_killed_run_reads_up_to_its_progress_and_its_resume_is_named_too(tmp_path, reference):
     out = tmp_path / "killed.h5"
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    proc = subprocess.run([sys.executable, "-c", KILLED, PAPER, str(out), *SETS], env=env, capture_output=True,
-                          text=True, timeout=300)
+    proc = subprocess.run(
+        [sys.executable, "-c", KILLED, PAPER, str(out), *SETS], env=env, capture_output=True, text=True, timeout=300
+    )
     assert proc.returncode == -signal.SIGKILL, proc.stderr
     partial = Path(str(out) + ".partial")
     with h5py.File(partial, "r", swmr=True) as f:
@@ -213,7 +248,6 @@ def test_open_run_refuses_what_is_not_a_run_file_in_one_line(tmp_path):
     assert "\n" not in str(info.value)
 
 
-
 def test_the_documented_examples_run(tmp_path, monkeypatch):
     """Every Python example of docs/output.md's "xarray and pandas" section, on a run file shot.h5."""
     text = (ROOT / "docs" / "output.md").read_text()
@@ -221,8 +255,11 @@ def test_the_documented_examples_run(tmp_path, monkeypatch):
     blocks = [b.split("```", 1)[0] for b in section.split("```python\n")[1:]]
     assert len(blocks) >= 3
     monkeypatch.chdir(tmp_path)
-    wr.run(load_scene(PAPER, ["shot.count=200", "physics.bounces=2", 'output.fields=["impact", "landing"]']),
-           "shot.h5", device="cpu")
+    wr.run(
+        load_scene(PAPER, ["shot.count=200", "physics.bounces=2", 'output.fields=["impact", "landing"]']),
+        "shot.h5",
+        device="cpu",
+    )
     for block in blocks:
         exec(compile(block, "docs/output.md", "exec"), {})  # raises if an example is wrong
 

@@ -8,7 +8,6 @@ import shutil
 import h5py
 import numpy as np
 import pytest
-
 from helpers import cli, interrupt_after, make_scene, paper_raw
 
 xdmf2 = pytest.importorskip("vtkmodules.vtkIOXdmf2")  # the vtk wheel's XDMF 2 reader, no rendering modules
@@ -109,8 +108,9 @@ def _check_clouds(blocks, g, suffix=""):
                 np.testing.assert_array_equal(got[key].reshape(value.shape), value, err_msg=f"{name}.{key}")
             else:  # speeds and energies: XDMF functions evaluated in the dataset's precision
                 rtol = 1e-13 if got[key].dtype == np.float64 else 1e-6
-                np.testing.assert_allclose(got[key].reshape(value.shape), value, rtol=rtol, atol=0,
-                                           equal_nan=True, err_msg=f"{name}.{key}")
+                np.testing.assert_allclose(
+                    got[key].reshape(value.shape), value, rtol=rtol, atol=0, equal_nan=True, err_msg=f"{name}.{key}"
+                )
 
 
 def _check_surfaces(ds, g):
@@ -158,8 +158,7 @@ def test_only_datasets_in_the_file_are_referenced(tmp_path):
 
 
 def test_trajectory_frames_are_time_steps(tmp_path):
-    scene = _scene(30, bounces=1, fields=ALL + ["collisions", "release"],
-                   collisions={"enabled": True, "frame_every": 8})
+    scene = _scene(30, bounces=1, fields=ALL + ["collisions", "release"], collisions={"enabled": True, "frame_every": 8})
     out = tmp_path / "frames.h5"
     api.run(scene, output=str(out), device="cpu")
     with h5py.File(out) as f:
@@ -184,8 +183,9 @@ def test_a_sweep_has_one_collection_per_point(tmp_path, monkeypatch):
     written = []
     monkeypatch.setattr(runfile, "write_xdmf", lambda path, **kw: written.append(str(path)) or write_xdmf(path, **kw))
     out = tmp_path / "sweep.h5"
-    api.sweep(_scene(20, bounces=1), {"surfaces.0.mu_s": [0.5, 0.2]}, [("surfaces.0.mu_d", 0.9, None)],
-              output=str(out), device="cpu")
+    api.sweep(
+        _scene(20, bounces=1), {"surfaces.0.mu_s": [0.5, 0.2]}, [("surfaces.0.mu_d", 0.9, None)], output=str(out), device="cpu"
+    )
     assert written == [str(out)]
     blocks, _ = _read(sidecar_path(out))
     assert len(blocks) == 2 * 4
@@ -220,8 +220,7 @@ def test_sidecar_rules(tmp_path):
 
     big = tmp_path / "big.h5"
     count = 3 * 65536 - 1000  # three chunks
-    scene = _scene(count, fields=["initial.position", "landing.position", "landing.range"],
-                   numerics={"chunk_size": 65536})
+    scene = _scene(count, fields=["initial.position", "landing.position", "landing.range"], numerics={"chunk_size": 65536})
     interrupt_after(2, scene, str(big))
     partial = tmp_path / "big.h5.partial"
     assert partial.exists() and not sidecar_path(big).exists()

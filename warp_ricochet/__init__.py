@@ -10,8 +10,20 @@ chunk loop, `spec` what a run compiles, `fields` the output fields; `api` and `c
 from ._version import __version__
 from .errors import OutputError, PrecisionWarning, RicochetError, SceneError, SceneWarning
 
-__all__ = ["__version__", "RicochetError", "SceneError", "OutputError", "PrecisionWarning", "SceneWarning", "STAT_UNITS",
-           "impact", "load_scene", "open_run", "run", "sweep"]
+__all__ = [
+    "__version__",
+    "RicochetError",
+    "SceneError",
+    "OutputError",
+    "PrecisionWarning",
+    "SceneWarning",
+    "STAT_UNITS",
+    "impact",
+    "load_scene",
+    "open_run",
+    "run",
+    "sweep",
+]
 
 
 def __getattr__(name):

@@ -23,8 +23,7 @@ from . import interrupts
 from .chunks import check_chunk_memory, check_tallies, plan_shots
 from .core.impact import impact_kernel_for
 from .device import resolve_device, warp
-from .errors import PrecisionWarning, SceneError, SceneWarning  # noqa: F401 - PrecisionWarning: part of the API
-from .errors import OutputError
+from .errors import OutputError, PrecisionWarning, SceneError, SceneWarning  # noqa: F401 - PrecisionWarning: part of the API
 from .fields import bytes_per_pellet
 from .io import resume, sweepdir
 from .io.runfile import OutputFile, check_output_path, check_resume_path, output_target
@@ -129,8 +128,13 @@ def impact(
         wp.array(v.astype(np_dtype), dtype=vec3, device=dev),
         wp.array(w.astype(np_dtype), dtype=vec3, device=dev),
         wp.array(n.astype(np_dtype), dtype=vec3, device=dev),
-        scalar(radius), scalar(SOLID_SPHERE_INERTIA_FACTOR), scalar(restitution),
-        scalar(mu_s), scalar(mu_d), vec3(*g), scalar(duration),
+        scalar(radius),
+        scalar(SOLID_SPHERE_INERTIA_FACTOR),
+        scalar(restitution),
+        scalar(mu_s),
+        scalar(mu_d),
+        vec3(*g),
+        scalar(duration),
     ]
     outputs = [
         wp.empty(rows, dtype=vec3, device=dev),
@@ -143,8 +147,10 @@ def impact(
 
 # --------------------------------------------------------------------------- scenes
 
-NO_HITS = ("no pellet hit any surface (all {:,} missed): check shot.direction and the surfaces' points and "
-           "normals (a plane is hit only from the side its normal points to)")
+NO_HITS = (
+    "no pellet hit any surface (all {:,} missed): check shot.direction and the surfaces' points and "
+    "normals (a plane is hit only from the side its normal points to)"
+)
 
 
 def check_resources(scenes, dev, output, rows_done=0, copies=1) -> None:
@@ -159,12 +165,20 @@ def check_resources(scenes, dev, output, rows_done=0, copies=1) -> None:
         if sc.pair_collisions and sc.collisions.frame_every and output is not None:
             shots = sc.shot.shots  # H5MD frames hold every pellet of the run at each frame
             if plan_shots(sc, dev, shots) < shots:
-                raise SceneError("collisions.frame_every", sc.collisions.frame_every,
-                                 f"trajectory frames need the whole run in one chunk, and its {shots} shots take "
-                                 "more: fewer shots, or numerics.chunk_size, or frame_every = 0")
+                raise SceneError(
+                    "collisions.frame_every",
+                    sc.collisions.frame_every,
+                    f"trajectory frames need the whole run in one chunk, and its {shots} shots take "
+                    "more: fewer shots, or numerics.chunk_size, or frame_every = 0",
+                )
     if output is not None:
-        need = copies * (tallies + sum((sc.shot.pellets - rows_done) * bytes_per_pellet(
-            sc.output.fields, sc.numerics.precision, sc.physics.bounces) for sc in scenes))
+        need = copies * (
+            tallies
+            + sum(
+                (sc.shot.pellets - rows_done) * bytes_per_pellet(sc.output.fields, sc.numerics.precision, sc.physics.bounces)
+                for sc in scenes
+            )
+        )
         try:
             check_space(output, need, "the output")
         except OSError as exc:  # bad input, found before any work (a disk filling during the run: exit 1)
@@ -178,15 +192,26 @@ def _compute(scene, dev, writer=None, progress=None, resumed=None, dense_options
     spec = RunSpec.of(scene, with_output=writer is not None)
     arrays = load_pellet_file(scene.shot.file) if scene.shot.file is not None else None
     frames = writer.append_frame if writer is not None and spec.collisions and scene.collisions.frame_every else None
-    log.info("%s pellets on %s, %s, %s%s%s", f"{scene.shot.pellets:,}", dev, scene.numerics.precision,
-             "in air" if scene.in_air else "in vacuum", ", pellet-pellet collisions" if spec.collisions else "",
-             f", resuming after {resumed.rows:,} rows" if resumed is not None else "")
+    log.info(
+        "%s pellets on %s, %s, %s%s%s",
+        f"{scene.shot.pellets:,}",
+        dev,
+        scene.numerics.precision,
+        "in air" if scene.in_air else "in vacuum",
+        ", pellet-pellet collisions" if spec.collisions else "",
+        f", resuming after {resumed.rows:,} rows" if resumed is not None else "",
+    )
     start = time.perf_counter()
-    stats = run_pipeline(scene, model, spec, arrays=arrays, sink=writer, resumed=resumed, progress=progress,
-                         options=dense_options, frames=frames)
+    stats = run_pipeline(
+        scene, model, spec, arrays=arrays, sink=writer, resumed=resumed, progress=progress, options=dense_options, frames=frames
+    )
     seconds = time.perf_counter() - start
-    log.info("%s pellets in %.3g s (%.3g pellets/s)", f"{int(stats['pellets']):,}", seconds,
-             stats["pellets"] / seconds if seconds > 0 else math.inf)
+    log.info(
+        "%s pellets in %.3g s (%.3g pellets/s)",
+        f"{int(stats['pellets']):,}",
+        seconds,
+        stats["pellets"] / seconds if seconds > 0 else math.inf,
+    )
     if writer is not None:
         writer.write_stats(stats)
     if stats["hits"] == 0 and stats["pellets"] > 0 and scene.surfaces:
@@ -199,14 +224,21 @@ def _run_one(scene, dev, group=None, progress=None, dense_options=None) -> dict:
     written there."""
     writer = None
     if group is not None:
-        writer = RunWriter(group, Model.from_scene(scene, dev), scene=scene, fields=scene.output.fields,
-                           pellets=scene.shot.pellets, stats=stat_names(scene.pair_collisions, scene.in_air))
+        writer = RunWriter(
+            group,
+            Model.from_scene(scene, dev),
+            scene=scene,
+            fields=scene.output.fields,
+            pellets=scene.shot.pellets,
+            stats=stat_names(scene.pair_collisions, scene.in_air),
+        )
     return _compute(scene, dev, writer, progress, dense_options=dense_options)
 
 
 @interrupts.honouring
-def run(scene, output=None, device=None, *, overwrite=False, progress=None, resume=False, dense_options=None,
-        sidecar=True) -> dict:
+def run(
+    scene, output=None, device=None, *, overwrite=False, progress=None, resume=False, dense_options=None, sidecar=True
+) -> dict:
     """Run a scene (a `Scene` or a TOML path); write HDF5 to `output` (or the scene's
     `output.path`) when given. Returns the statistics (SI units, see `tallies.sums.STAT_UNITS`).
     `resume`: continue the interrupted run left in OUTPUT.partial (see `io.resume`).
@@ -219,20 +251,30 @@ def run(scene, output=None, device=None, *, overwrite=False, progress=None, resu
     output = output if output is not None else scene.output.path
     if resume:
         if scene.pair_collisions and scene.collisions.frame_every:  # see io.resume: frames are not resumed
-            raise SceneError("collisions.frame_every", scene.collisions.frame_every,
-                             "must be 0 for --resume (H5MD trajectory frames are not resumed); --overwrite "
-                             "starts a run with frames again")
-        return _resume(scene, output, device, overwrite=overwrite, progress=progress, dense_options=dense_options,
-                       sidecar=sidecar)
+            raise SceneError(
+                "collisions.frame_every",
+                scene.collisions.frame_every,
+                "must be 0 for --resume (H5MD trajectory frames are not resumed); --overwrite starts a run with frames again",
+            )
+        return _resume(
+            scene, output, device, overwrite=overwrite, progress=progress, dense_options=dense_options, sidecar=sidecar
+        )
     if output is not None:
         check_output_path(output, overwrite)  # before any work
     dev = resolve_device(device)
     check_resources([scene], dev, output)
     if output is None:
         return _run_one(scene, dev, progress=progress, dense_options=dense_options)
-    with OutputFile(output, overwrite=overwrite, kind="run", device=str(dev), scene_toml=scene.to_toml(),
-                    seed=None if scene.shot.file else scene.shot.seed, precision=scene.numerics.precision,
-                    sidecar=sidecar) as out:
+    with OutputFile(
+        output,
+        overwrite=overwrite,
+        kind="run",
+        device=str(dev),
+        scene_toml=scene.to_toml(),
+        seed=None if scene.shot.file else scene.shot.seed,
+        precision=scene.numerics.precision,
+        sidecar=sidecar,
+    ) as out:
         return _run_one(scene, dev, out.h5, progress, dense_options)
 
 
@@ -255,8 +297,9 @@ def _resume(scene, output, device, *, overwrite, progress, dense_options, sideca
     out, _ = OutputFile.reopen(output, overwrite=overwrite, check=check, sidecar=sidecar)
     with out:
         plan = found["plan"]
-        writer = RunWriter.reopen(out.h5, fields=scene.output.fields, rows=plan.rows, segments=plan.segments,
-                                  shots=plan.shots, pieces=plan.pieces)
+        writer = RunWriter.reopen(
+            out.h5, fields=scene.output.fields, rows=plan.rows, segments=plan.segments, shots=plan.shots, pieces=plan.pieces
+        )
         resumed = Resumed(plan.rows, plan.segment_results, plan.shot_totals, plan.tally, plan.shot_partials)
         return _compute(found["scene"], dev, writer, progress, resumed, dense_options)
 
@@ -279,15 +322,18 @@ def _point_scenes(scene, points, with_output: bool) -> list:
             raw = set_dotted(raw, key, value)
         sc = scene_from_dict(raw)
         if with_output and sc.pair_collisions and sc.collisions.frame_every:
-            raise SceneError("collisions.frame_every", sc.collisions.frame_every,
-                             "must be 0 in a sweep written to a file (H5MD trajectory frames are written by `run`, "
-                             "one run per file)")
+            raise SceneError(
+                "collisions.frame_every",
+                sc.collisions.frame_every,
+                "must be 0 in a sweep written to a file (H5MD trajectory frames are written by `run`, one run per file)",
+            )
         scenes.append(sc)
     return scenes
 
 
-def sweep(scene, params: dict, ties=(), output=None, device=None, *, overwrite=False, progress=None,
-          dense_options=None, resume=False) -> list:
+def sweep(
+    scene, params: dict, ties=(), output=None, device=None, *, overwrite=False, progress=None, dense_options=None, resume=False
+) -> list:
     """Run `scene` at every point of a parameter sweep (e.g. the paper's mu_s in 0..0.5 with
     mu_d = 0.9 mu_s). Returns [(point, stats)]. With `output`, writes one HDF5 file: the sweep
     values in /sweep, each run in /runs/NNNN, and every statistic as an array in /stats; while it
@@ -307,9 +353,13 @@ def sweep(scene, params: dict, ties=(), output=None, device=None, *, overwrite=F
     if output is None:
         dev = resolve_device(device)
         check_resources(scenes, dev, None)
-        return [(points[i], _point_done(_run_one(sc, dev, None, _point_progress(progress, i, len(scenes)),
-                                                 dense_options), summary=True))
-                for i, sc in enumerate(scenes)]
+        return [
+            (
+                points[i],
+                _point_done(_run_one(sc, dev, None, _point_progress(progress, i, len(scenes)), dense_options), summary=True),
+            )
+            for i, sc in enumerate(scenes)
+        ]
     path = output_target(output) if resume else check_output_path(output, overwrite)  # before any work
     dev = resolve_device(device)
     manifest = sweepdir.make_manifest(scene.to_toml(), points, dev)
@@ -330,12 +380,20 @@ def sweep(scene, params: dict, ties=(), output=None, device=None, *, overwrite=F
             else:
                 if partial.exists() and not sweepdir.resumable_point(partial):  # no chunk in it: run it again
                     partial.unlink()
-                stats = _point_done(run(sc, point_path, dev, progress=step, dense_options=dense_options,
-                                        resume=partial.exists(), sidecar=False), summary=False)
+                stats = _point_done(
+                    run(sc, point_path, dev, progress=step, dense_options=dense_options, resume=partial.exists(), sidecar=False),
+                    summary=False,
+                )
             results.append((points[i], stats))
-        folder.assemble(points, [s for _, s in results], overwrite=overwrite, device=str(dev),
-                        scene_toml=scene.to_toml(), seed=None if scene.shot.file else scene.shot.seed,
-                        precision=scene.numerics.precision)
+        folder.assemble(
+            points,
+            [s for _, s in results],
+            overwrite=overwrite,
+            device=str(dev),
+            scene_toml=scene.to_toml(),
+            seed=None if scene.shot.file else scene.shot.seed,
+            precision=scene.numerics.precision,
+        )
     return results
 
 

@@ -30,8 +30,11 @@ def file_bytes_per_pellet(scene) -> int:
 
 def device_bytes_per_pellet(scene, fields) -> float:
     """Device bytes per pellet of a core chunk: outputs, statistics partials, pellet-file states."""
-    return (partial_bytes_per_pellet() + bytes_per_pellet(fields, scene.numerics.precision, scene.physics.bounces)
-            + file_bytes_per_pellet(scene))
+    return (
+        partial_bytes_per_pellet()
+        + bytes_per_pellet(fields, scene.numerics.precision, scene.physics.bounces)
+        + file_bytes_per_pellet(scene)
+    )
 
 
 def plan_rows(scene, device, pellets: int, fields) -> int:
@@ -44,8 +47,7 @@ def plan_rows(scene, device, pellets: int, fields) -> int:
         else:
             rows = CPU_AIR_CHUNK if scene.in_air else CPU_STATS_CHUNK
         if fields:
-            rows = min(rows, int(HOST_BUFFER_BYTES / bytes_per_pellet(fields, scene.numerics.precision,
-                                                                       scene.physics.bounces)))
+            rows = min(rows, int(HOST_BUFFER_BYTES / bytes_per_pellet(fields, scene.numerics.precision, scene.physics.bounces)))
     rows = max(SEGMENT, -(-rows // SEGMENT) * SEGMENT)  # whole segments: chunk-size invariance
     return min(rows, max(pellets, 1))
 
@@ -59,8 +61,11 @@ def plan_shots(scene, device, shots: int) -> int:
     if scene.numerics.chunk_size:
         pellets = scene.numerics.chunk_size
     elif device.is_cuda:
-        pellets = int(DEVICE_FRACTION * device.free_memory
-                      / (dense_bytes_per_pellet(scene.numerics.precision, scene.collisions.max_neighbours) + 64))
+        pellets = int(
+            DEVICE_FRACTION
+            * device.free_memory
+            / (dense_bytes_per_pellet(scene.numerics.precision, scene.collisions.max_neighbours) + 64)
+        )
     else:
         pellets = CPU_AIR_CHUNK if scene.in_air else CPU_CHUNK_PELLETS
     per_chunk = max(granule, (max(pellets // count, 1) // granule) * granule)
@@ -81,13 +86,18 @@ def check_chunk_memory(scene, dev, with_output: bool) -> None:
     if not dev.is_cuda:
         on_host, on_device = on_host + on_device, 0
     host_free = host_memory_available()
-    for need, free, where in ((rows * on_device, dev.free_memory if dev.is_cuda else None, f"on {dev.alias}"),
-                              (rows * on_host, host_free, "in host memory")):
+    for need, free, where in (
+        (rows * on_device, dev.free_memory if dev.is_cuda else None, f"on {dev.alias}"),
+        (rows * on_host, host_free, "in host memory"),
+    ):
         if free is not None and need > free:
             fits = int(free / max(need / rows, 1e-9)) // SEGMENT * SEGMENT
-            raise SceneError("numerics.chunk_size", chunk,
-                             f"a chunk of {rows} pellets needs {need / 2**30:.3g} GiB, {free / 2**30:.3g} GiB is free "
-                             f"{where}: give at most {fits} or leave it out (automatic)")
+            raise SceneError(
+                "numerics.chunk_size",
+                chunk,
+                f"a chunk of {rows} pellets needs {need / 2**30:.3g} GiB, {free / 2**30:.3g} GiB is free "
+                f"{where}: give at most {fits} or leave it out (automatic)",
+            )
 
 
 def check_tallies(scene, dev, output) -> int:
@@ -101,15 +111,18 @@ def check_tallies(scene, dev, output) -> int:
     if setup.has_map:
         hazard = scene.hazard
         key, value = "hazard.map_cell", hazard.map_cell
-        what = (f"the hazard map of {setup.cells:,} cells ({setup.map_nu:,} x {setup.map_nv:,} cells of hazard.map_cell "
-                f"over hazard.map_extent {list(hazard.map_extent)}) x {setup.levels - 1} thresholds needs")
+        what = (
+            f"the hazard map of {setup.cells:,} cells ({setup.map_nu:,} x {setup.map_nv:,} cells of hazard.map_cell "
+            f"over hazard.map_extent {list(hazard.map_extent)}) x {setup.levels - 1} thresholds needs"
+        )
         fix = "a larger map_cell, a smaller map_extent or fewer thresholds"
     else:
         key, value, what, fix = "output.quantiles", True, "the landing histograms need", "output.quantiles = false"
-    for need, free, where in ((host, host_memory_available(), "of host memory"),
-                              (device, dev.free_memory if dev.is_cuda else None, f"on {dev.alias}"),
-                              (file, None if output is None else free_bytes(output), "on the output's disk")):
+    for need, free, where in (
+        (host, host_memory_available(), "of host memory"),
+        (device, dev.free_memory if dev.is_cuda else None, f"on {dev.alias}"),
+        (file, None if output is None else free_bytes(output), "on the output's disk"),
+    ):
         if free is not None and need > free:
-            raise SceneError(key, value, f"{what} up to {size_text(need)} {where}, {size_text(free)} is "
-                                         f"free: {fix}")
+            raise SceneError(key, value, f"{what} up to {size_text(need)} {where}, {size_text(free)} is free: {fix}")
     return file

@@ -48,30 +48,42 @@ EPILOG = """examples:
 
 def _add_scene_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("scene", metavar="SCENE.toml", help="scene file (TOML; see examples/paper.toml)")
-    p.add_argument("-o", "--output", metavar="OUT.h5",
-                   help="HDF5 file to write (default: the scene's output.path; none: statistics only)")
-    p.add_argument("--device", metavar="DEVICE",
-                   help="Warp device: cpu, cuda or cuda:N (default: CUDA if present, else cpu)")
-    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
-                   help="override a scene value, e.g. --set shot.count=1000 --set surfaces.0.mu_s=0.2 "
-                        "(VALUE is a TOML value; repeatable)")
+    p.add_argument(
+        "-o", "--output", metavar="OUT.h5", help="HDF5 file to write (default: the scene's output.path; none: statistics only)"
+    )
+    p.add_argument("--device", metavar="DEVICE", help="Warp device: cpu, cuda or cuda:N (default: CUDA if present, else cpu)")
+    p.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override a scene value, e.g. --set shot.count=1000 --set surfaces.0.mu_s=0.2 (VALUE is a TOML value; repeatable)",
+    )
     p.add_argument("--overwrite", action="store_true", help="replace OUT.h5 if it exists")
 
 
 def _add_report_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--format", choices=("text", "markdown"), default="text",
-                   help="text (aligned columns, default) or markdown (GitHub tables)")
-    p.add_argument("--paper", action="store_true",
-                   help="also print the paper's values for the same mu_s and the relative differences of the ranges")
+    p.add_argument(
+        "--format",
+        choices=("text", "markdown"),
+        default="text",
+        help="text (aligned columns, default) or markdown (GitHub tables)",
+    )
+    p.add_argument(
+        "--paper",
+        action="store_true",
+        help="also print the paper's values for the same mu_s and the relative differences of the ranges",
+    )
 
 
 def _add_verbosity(p: argparse.ArgumentParser, default) -> None:
     """-q / -v, given before or after the command (the command's parser leaves them unset unless given)."""
     group = p.add_mutually_exclusive_group()
-    group.add_argument("-q", "--quiet", action="store_true", default=default,
-                       help="errors only: no warnings, no progress bar")
-    group.add_argument("-v", "--verbose", action="count", default=default,
-                       help="informational lines on stderr too (-vv: debugging lines)")
+    group.add_argument("-q", "--quiet", action="store_true", default=default, help="errors only: no warnings, no progress bar")
+    group.add_argument(
+        "-v", "--verbose", action="count", default=default, help="informational lines on stderr too (-vv: debugging lines)"
+    )
 
 
 class _Version(argparse.Action):
@@ -114,8 +126,9 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("--version", action=_Version, help="show the version of warp-ricochet and Warp, and the "
-                                                             "devices available, and exit")
+    parser.add_argument(
+        "--version", action=_Version, help="show the version of warp-ricochet and Warp, and the devices available, and exit"
+    )
     _add_verbosity(parser, None)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     _add_subparsers(sub)
@@ -124,44 +137,77 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _add_subparsers(sub) -> None:
 
-    p = sub.add_parser("run", help="run one scene and print a summary of its statistics",
-                       description="Run every pellet of a scene, write HDF5 (with -o) and print a summary.")
+    p = sub.add_parser(
+        "run",
+        help="run one scene and print a summary of its statistics",
+        description="Run every pellet of a scene, write HDF5 (with -o) and print a summary.",
+    )
     _add_scene_options(p)
-    p.add_argument("--resume", action="store_true",
-                   help="continue the interrupted run left in OUT.h5.partial (the same scene, --set overrides and "
-                        "device); the result is bitwise that of an uninterrupted run")
+    p.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue the interrupted run left in OUT.h5.partial (the same scene, --set overrides and "
+        "device); the result is bitwise that of an uninterrupted run",
+    )
     p.set_defaults(func=cmd_run)
 
-    p = sub.add_parser("sweep", help="run a scene over a parameter sweep and print Tables 1-3",
-                       description="Run a scene at every point of a parameter sweep, write one HDF5 file "
-                                   "(with -o) and print Tables 1-3 like `report`.",
-                       epilog="example: --param surfaces.0.mu_s=0:0.5:0.05 --tie surfaces.0.mu_d=0.9*",
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "sweep",
+        help="run a scene over a parameter sweep and print Tables 1-3",
+        description="Run a scene at every point of a parameter sweep, write one HDF5 file "
+        "(with -o) and print Tables 1-3 like `report`.",
+        epilog="example: --param surfaces.0.mu_s=0:0.5:0.05 --tie surfaces.0.mu_d=0.9*",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     _add_scene_options(p)
-    p.add_argument("--param", dest="params", action="append", required=True,
-                   metavar="KEY=START:STOP:STEP|a,b,c",
-                   help="a swept key: an inclusive range or a list of values (repeatable: cartesian product)")
-    p.add_argument("--tie", dest="ties", action="append", default=[], metavar="KEY=F*[PARAM]",
-                   help="set KEY to F times a swept parameter at each point (PARAM may be left out when "
-                        "one parameter is swept), e.g. surfaces.0.mu_d=0.9*")
-    p.add_argument("--resume", action="store_true",
-                   help="continue the interrupted sweep left in OUT.h5.partial/ (the same scene, --set, --param, "
-                        "--tie and device); the result is bitwise that of an uninterrupted sweep")
+    p.add_argument(
+        "--param",
+        dest="params",
+        action="append",
+        required=True,
+        metavar="KEY=START:STOP:STEP|a,b,c",
+        help="a swept key: an inclusive range or a list of values (repeatable: cartesian product)",
+    )
+    p.add_argument(
+        "--tie",
+        dest="ties",
+        action="append",
+        default=[],
+        metavar="KEY=F*[PARAM]",
+        help="set KEY to F times a swept parameter at each point (PARAM may be left out when "
+        "one parameter is swept), e.g. surfaces.0.mu_d=0.9*",
+    )
+    p.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue the interrupted sweep left in OUT.h5.partial/ (the same scene, --set, --param, "
+        "--tie and device); the result is bitwise that of an uninterrupted sweep",
+    )
     _add_report_options(p)
     p.set_defaults(func=cmd_sweep)
 
-    p = sub.add_parser("report", help="print Tables 1-3 of the paper from an output file",
-                       description="Print Tables 1-3 (Zohdi 2021 layout) from a run or sweep HDF5 file.")
-    p.add_argument("files", metavar="OUT.h5", nargs="+",
-                   help="a run or sweep file written by warp-ricochet; several: their Table 3 side by side "
-                        "(the same sweep, e.g. in vacuum and in air)")
+    p = sub.add_parser(
+        "report",
+        help="print Tables 1-3 of the paper from an output file",
+        description="Print Tables 1-3 (Zohdi 2021 layout) from a run or sweep HDF5 file.",
+    )
+    p.add_argument(
+        "files",
+        metavar="OUT.h5",
+        nargs="+",
+        help="a run or sweep file written by warp-ricochet; several: their Table 3 side by side "
+        "(the same sweep, e.g. in vacuum and in air)",
+    )
     _add_report_options(p)
     p.set_defaults(func=cmd_report)
 
-    p = sub.add_parser("xdmf", help="write the XDMF sidecar (OUT.xmf) that opens a run or sweep file in ParaView",
-                       description="Write OUT.xmf beside OUT.h5: an XDMF 2 description of its point clouds, surfaces "
-                                   "and trajectory frames that ParaView and VTK open (runs and sweeps write it when "
-                                   "they complete; docs/output.md, \"ParaView\").")
+    p = sub.add_parser(
+        "xdmf",
+        help="write the XDMF sidecar (OUT.xmf) that opens a run or sweep file in ParaView",
+        description="Write OUT.xmf beside OUT.h5: an XDMF 2 description of its point clouds, surfaces "
+        "and trajectory frames that ParaView and VTK open (runs and sweeps write it when "
+        'they complete; docs/output.md, "ParaView").',
+    )
     p.add_argument("file", metavar="OUT.h5", help="a run or sweep file written by warp-ricochet")
     p.add_argument("--overwrite", action="store_true", help="replace OUT.xmf if it exists")
     p.set_defaults(func=cmd_xdmf)
@@ -171,22 +217,29 @@ def _add_subparsers(sub) -> None:
 
 
 def _add_plot_and_example(sub) -> None:
-    p = sub.add_parser("plot", help="draw PNG plots of run and sweep files (needs the plot extra: matplotlib)",
-                       description="Write PNGs of run and sweep files: for a run, where pellets land seen from "
-                                   "above (density and energy), the range distribution with its survival curve, "
-                                   "energy against distance; for sweeps, <L> with the L- to L+ band over the "
-                                   "swept key and each point's survival curve (several sweeps side by side).",
-                       epilog="example: warp-ricochet plot sweep.h5 sweep-air.h5 -o plots/")
+    p = sub.add_parser(
+        "plot",
+        help="draw PNG plots of run and sweep files (needs the plot extra: matplotlib)",
+        description="Write PNGs of run and sweep files: for a run, where pellets land seen from "
+        "above (density and energy), the range distribution with its survival curve, "
+        "energy against distance; for sweeps, <L> with the L- to L+ band over the "
+        "swept key and each point's survival curve (several sweeps side by side).",
+        epilog="example: warp-ricochet plot sweep.h5 sweep-air.h5 -o plots/",
+    )
     p.add_argument("files", metavar="OUT.h5", nargs="+", help="run or sweep files written by warp-ricochet")
-    p.add_argument("-o", "--output", metavar="DIR", help="folder for the PNGs (made if missing; default: the "
-                                                           "first file's folder)")
+    p.add_argument(
+        "-o", "--output", metavar="DIR", help="folder for the PNGs (made if missing; default: the first file's folder)"
+    )
     p.add_argument("--overwrite", action="store_true", help="replace PNGs that exist")
     p.set_defaults(func=cmd_plot)
 
-    p = sub.add_parser("example", help="list the example scenes, or write or print one",
-                       description="Without NAME, list the example scenes installed with the package; with NAME, "
-                                   "print its TOML, or write it to PATH with -o.",
-                       epilog="example: warp-ricochet example paper -o paper.toml")
+    p = sub.add_parser(
+        "example",
+        help="list the example scenes, or write or print one",
+        description="Without NAME, list the example scenes installed with the package; with NAME, "
+        "print its TOML, or write it to PATH with -o.",
+        epilog="example: warp-ricochet example paper -o paper.toml",
+    )
     p.add_argument("name", metavar="NAME", nargs="?", help="an example's name (e.g. paper)")
     p.add_argument("-o", "--output", metavar="PATH", help="write the scene here instead of printing it")
     p.add_argument("--overwrite", action="store_true", help="replace PATH if it exists")
@@ -237,16 +290,18 @@ def cmd_sweep(args) -> int:
     from . import api
 
     with ProgressBar("sweep", enabled=False if args.quiet else None) as bar:
-        results = api.sweep(scene, params, ties, args.output, args.device, overwrite=args.overwrite, progress=bar,
-                            resume=args.resume)
+        results = api.sweep(
+            scene, params, ties, args.output, args.device, overwrite=args.overwrite, progress=bar, resume=args.resume
+        )
     output = args.output if args.output is not None else scene.output.path
     args.completed, args.completed_what = output, "sweep"  # a signal from here on: the sweep is complete
     interrupts.check(completed_path=output, completed_what="sweep")
     if output is not None:
         res = read_results(output)  # exactly what `report` prints
     else:
-        res = results_from_sweep(results, params, ties, meta={"device": _device_name(api, args.device),
-                                                               "scene_toml": scene.to_toml()})
+        res = results_from_sweep(
+            results, params, ties, meta={"device": _device_name(api, args.device), "scene_toml": scene.to_toml()}
+        )
     sys.stdout.write(format_tables(res, args.format, paper=args.paper))
     return 0
 
@@ -383,8 +438,7 @@ def _run_command(args) -> int:
     try:
         status = args.func(args)
         # a signal after the run's last safe point (while its summary was printed)
-        interrupts.check(completed_path=getattr(args, "completed", None),
-                         completed_what=getattr(args, "completed_what", "run"))
+        interrupts.check(completed_path=getattr(args, "completed", None), completed_what=getattr(args, "completed_what", "run"))
         return status
     except RicochetError as exc:  # before OSError: OutputError is both
         _error(str(exc))

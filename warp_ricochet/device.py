@@ -70,5 +70,7 @@ def resolve_device(name=None):
         return wp.get_device(str(name))
     except Exception:
         allowed = ", ".join(d.alias for d in wp.get_devices())
-        why = f" ({_INIT_NOTE.removeprefix('Warp CUDA warning: ')})" if "cuda" in str(name) and _CUDA_MISSING in _INIT_NOTE else ""
+        why = (
+            f" ({_INIT_NOTE.removeprefix('Warp CUDA warning: ')})" if "cuda" in str(name) and _CUDA_MISSING in _INIT_NOTE else ""
+        )
         raise RicochetError(f"device = {str(name)!r}: not available here{why}; available: {allowed}") from None

@@ -23,8 +23,9 @@ class OutputError(RicochetError, OSError):
 
 def in_use_error(shown: str, name: str) -> OutputError:
     """A partial file or sweep folder another process holds (a run or sweep writing it, a reader)."""
-    return OutputError(f"{shown}: {name} is in use by another process (a run or sweep writing it, or a reader); "
-                       "wait for it to finish or stop it")
+    return OutputError(
+        f"{shown}: {name} is in use by another process (a run or sweep writing it, or a reader); wait for it to finish or stop it"
+    )
 
 
 MAX_KEY = 200  # characters of a key shown in a message (a 100,000-character unknown key is not echoed whole)
@@ -40,8 +41,13 @@ def _short(value, limit: int = 60) -> str:
     return shorten(repr(value), limit)
 
 
-_SPECIAL = ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISSOCK, "a socket"),
-            (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"))
+_SPECIAL = (
+    (stat.S_ISDIR, "a directory"),
+    (stat.S_ISFIFO, "a FIFO (named pipe)"),
+    (stat.S_ISSOCK, "a socket"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+)
 
 
 def not_regular(path) -> str | None:

@@ -13,8 +13,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Field", "FIELDS", "GROUPS", "CORE_FIELDS", "COLLISION_FIELDS", "ALL_FIELDS", "core_fields",
-           "collision_fields", "default_fields", "HAZARD_FIELDS", "numpy_dtype", "shape", "bytes_per_pellet"]
+__all__ = [
+    "Field",
+    "FIELDS",
+    "GROUPS",
+    "CORE_FIELDS",
+    "COLLISION_FIELDS",
+    "ALL_FIELDS",
+    "core_fields",
+    "collision_fields",
+    "default_fields",
+    "HAZARD_FIELDS",
+    "numpy_dtype",
+    "shape",
+    "bytes_per_pellet",
+]
 
 INTEGER_KINDS = {"int8": np.int8, "int16": np.int16, "int32": np.int32}
 
@@ -42,34 +55,78 @@ class Field:
 
 
 _F = Field
-FIELDS: dict[str, Field] = {f.name: f for f in (
-    _F("initial.position", "vec3", False, "m", "launch", "centre at launch"),
-    _F("initial.velocity", "vec3", False, "m/s", "launch", "velocity at launch"),
-    _F("initial.angular_velocity", "vec3", False, "rad/s", "launch", "angular velocity at launch"),
-    _F("impact.time", "scalar", True, "s", "impact", "time of the impact since launch (NaN: no impact)"),
-    _F("impact.position", "vec3", True, "m", "impact", "centre at the impact"),
-    _F("impact.velocity_before", "vec3", True, "m/s", "impact", "velocity just before the impact"),
-    _F("impact.angular_velocity_before", "vec3", True, "rad/s", "impact", "angular velocity just before the impact"),
-    _F("impact.velocity", "vec3", True, "m/s", "impact", "velocity just after the impact (eq. 15)"),
-    _F("impact.angular_velocity", "vec3", True, "rad/s", "impact", "angular velocity just after the impact (eqs. 20, 24)"),
-    _F("impact.slipped", "int8", True, "1", "impact", "1 slip (eq. 22 met), 0 stick, -1 no impact"),
-    _F("impact.surface", "int16", True, "1", "impact", "index of the surface hit, -1 none"),
-    _F("landing.time", "scalar", False, "s", "landing", "landing time since launch (inf: never lands)"),
-    _F("landing.position", "vec3", False, "m", "landing", "centre at landing (NaN: never lands)"),
-    _F("landing.velocity", "vec3", False, "m/s", "landing", "velocity at landing"),
-    _F("landing.range", "scalar", False, "m", "landing", "distance from the last ricochet point to the landing point (eq. 42)"),
-    _F("landing.surface", "int16", False, "1", "landing", "index of the surface landed on, -1 none"),
-    _F("hazard.energy", "scalar", False, "J", "landing", "translational kinetic energy m |v|^2 / 2 at landing (NaN: never lands)"),
-    _F("hazard.energy_density", "scalar", False, "J/m^2", "landing", "energy density E / (pi R^2) at landing (NaN: never lands)"),
-    _F("hazard.exceeds", "int32", False, "1", "landing", "bit i set: at landing it exceeds hazard threshold i "
-                                                        "(/hazard/thresholds, in scene order); 0 when it never lands"),
-    _F("collisions.count", "int32", False, "1", "collide", "pellet-pellet collisions of the pellet"),
-    _F("collisions.last_time", "scalar", False, "s", "collide", "time of its last pellet-pellet collision since launch (NaN: none)"),
-    _F("release.time", "scalar", False, "s", "collide", "when the time stepping handed it to the exact flight (or its flight ended in it)"),
-    _F("release.position", "vec3", False, "m", "collide", "centre at release"),
-    _F("release.velocity", "vec3", False, "m/s", "collide", "velocity at release"),
-    _F("release.angular_velocity", "vec3", False, "rad/s", "collide", "angular velocity at release"),
-)}
+FIELDS: dict[str, Field] = {
+    f.name: f
+    for f in (
+        _F("initial.position", "vec3", False, "m", "launch", "centre at launch"),
+        _F("initial.velocity", "vec3", False, "m/s", "launch", "velocity at launch"),
+        _F("initial.angular_velocity", "vec3", False, "rad/s", "launch", "angular velocity at launch"),
+        _F("impact.time", "scalar", True, "s", "impact", "time of the impact since launch (NaN: no impact)"),
+        _F("impact.position", "vec3", True, "m", "impact", "centre at the impact"),
+        _F("impact.velocity_before", "vec3", True, "m/s", "impact", "velocity just before the impact"),
+        _F("impact.angular_velocity_before", "vec3", True, "rad/s", "impact", "angular velocity just before the impact"),
+        _F("impact.velocity", "vec3", True, "m/s", "impact", "velocity just after the impact (eq. 15)"),
+        _F("impact.angular_velocity", "vec3", True, "rad/s", "impact", "angular velocity just after the impact (eqs. 20, 24)"),
+        _F("impact.slipped", "int8", True, "1", "impact", "1 slip (eq. 22 met), 0 stick, -1 no impact"),
+        _F("impact.surface", "int16", True, "1", "impact", "index of the surface hit, -1 none"),
+        _F("landing.time", "scalar", False, "s", "landing", "landing time since launch (inf: never lands)"),
+        _F("landing.position", "vec3", False, "m", "landing", "centre at landing (NaN: never lands)"),
+        _F("landing.velocity", "vec3", False, "m/s", "landing", "velocity at landing"),
+        _F(
+            "landing.range",
+            "scalar",
+            False,
+            "m",
+            "landing",
+            "distance from the last ricochet point to the landing point (eq. 42)",
+        ),
+        _F("landing.surface", "int16", False, "1", "landing", "index of the surface landed on, -1 none"),
+        _F(
+            "hazard.energy",
+            "scalar",
+            False,
+            "J",
+            "landing",
+            "translational kinetic energy m |v|^2 / 2 at landing (NaN: never lands)",
+        ),
+        _F(
+            "hazard.energy_density",
+            "scalar",
+            False,
+            "J/m^2",
+            "landing",
+            "energy density E / (pi R^2) at landing (NaN: never lands)",
+        ),
+        _F(
+            "hazard.exceeds",
+            "int32",
+            False,
+            "1",
+            "landing",
+            "bit i set: at landing it exceeds hazard threshold i (/hazard/thresholds, in scene order); 0 when it never lands",
+        ),
+        _F("collisions.count", "int32", False, "1", "collide", "pellet-pellet collisions of the pellet"),
+        _F(
+            "collisions.last_time",
+            "scalar",
+            False,
+            "s",
+            "collide",
+            "time of its last pellet-pellet collision since launch (NaN: none)",
+        ),
+        _F(
+            "release.time",
+            "scalar",
+            False,
+            "s",
+            "collide",
+            "when the time stepping handed it to the exact flight (or its flight ended in it)",
+        ),
+        _F("release.position", "vec3", False, "m", "collide", "centre at release"),
+        _F("release.velocity", "vec3", False, "m/s", "collide", "velocity at release"),
+        _F("release.angular_velocity", "vec3", False, "rad/s", "collide", "angular velocity at release"),
+    )
+}
 
 # "group" -> its field names, in registry order (a scene may name a whole group in output.fields)
 GROUPS: dict[str, tuple[str, ...]] = {}

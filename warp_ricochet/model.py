@@ -38,14 +38,22 @@ class Model:
     types: object = field(repr=False)
 
     @classmethod
-    def from_scene(cls, scene, device) -> "Model":
+    def from_scene(cls, scene, device) -> Model:
         """The model of `scene` on `device`; recent ones are reused (their arrays never change)."""
         air = scene.air if scene.in_air else None
-        return _cached_model(scene.shot.diameter, scene.shot.density, scene.surfaces, scene.physics,
-                             scene.numerics.precision, device.alias, air, scene.numerics.flight_tolerance)
+        return _cached_model(
+            scene.shot.diameter,
+            scene.shot.density,
+            scene.surfaces,
+            scene.physics,
+            scene.numerics.precision,
+            device.alias,
+            air,
+            scene.numerics.flight_tolerance,
+        )
 
     @classmethod
-    def _build(cls, diameter, density, planes, physics_scene, precision, device, air=None, tolerance=1e-6) -> "Model":
+    def _build(cls, diameter, density, planes, physics_scene, precision, device, air=None, tolerance=1e-6) -> Model:
         t = types_for(precision)
         radius = 0.5 * diameter
         mass = density * 4.0 / 3.0 * math.pi * radius**3
@@ -67,9 +75,17 @@ class Model:
         physics.gravity = t.vec3(*physics_scene.gravity)
         physics.impact_duration = t.scalar(physics_scene.impact_duration)
         physics.air = air_struct(air, precision, device, radius, mass, physics_scene.gravity, tolerance)
-        return cls(device=device, precision=precision, radius=radius, mass=mass,
-                   inertia=SOLID_SPHERE_INERTIA_FACTOR * mass * radius**2, bounces=physics_scene.bounces,
-                   surfaces=surfaces, physics=physics, types=t)
+        return cls(
+            device=device,
+            precision=precision,
+            radius=radius,
+            mass=mass,
+            inertia=SOLID_SPHERE_INERTIA_FACTOR * mass * radius**2,
+            bounces=physics_scene.bounces,
+            surfaces=surfaces,
+            physics=physics,
+            types=t,
+        )
 
 
 @functools.lru_cache(maxsize=16)
@@ -120,9 +136,14 @@ class State:
     def __init__(self, model: Model, capacity: int, fields):
         self.capacity = capacity
         self.fields = tuple(fields)
-        self.arrays = {name: wp.empty((capacity, model.bounces) if FIELDS[name].per_bounce else capacity,
-                                      dtype=element_type(name, model.precision), device=model.device)
-                       for name in self.fields}
+        self.arrays = {
+            name: wp.empty(
+                (capacity, model.bounces) if FIELDS[name].per_bounce else capacity,
+                dtype=element_type(name, model.precision),
+                device=model.device,
+            )
+            for name in self.fields
+        }
         self.outputs = outputs_struct(model.precision, model.device, self.arrays)
         threads = threads_for(capacity)
         self.partial_sums = wp.empty((NUM_SUMS, threads), dtype=wp.float64, device=model.device)

@@ -36,31 +36,39 @@ from .launch.source import PelletSource
 from .model import State, reused_state
 from .physics.air_flight import MAX_FLIGHT_STEPS
 from .physics.limits import POSITION_RESOLUTION, UNIT_ROUNDOFF
-from .tallies.counts import DeviceTally, TallySetup, TallyTotals
 from .tallies.collisions import (
     OVERRUN_TOLERANCE,
     SHOT_TOTALS,
     SKIN_OVERRUN,
     collision_statistics,
 )
+from .tallies.counts import DeviceTally, TallySetup, TallyTotals
 from .tallies.ensemble import ensemble_of, has_ensemble, per_shot_statistics
 from .tallies.reduce import SEGMENT_WIDTH, launch_reduce, threads_for
 from .tallies.sums import combine, empty_totals, finalize
 
 log = logging.getLogger(__name__)  # `warp-ricochet -vv`: a line per chunk
 
-ONE_SHOT_COLLISIONS = ("one shot with pellet-pellet collisions is one sample of a chaotic cloud: on the paper's shot its "
-                       "mean range moves by a median 5% (up to 23%) when its launch moves by 1e-7, in float64 as in "
-                       "float32; set shot.shots = 200 or more for 95% intervals (docs/collisions.md)")
+ONE_SHOT_COLLISIONS = (
+    "one shot with pellet-pellet collisions is one sample of a chaotic cloud: on the paper's shot its "
+    "mean range moves by a median 5% (up to 23%) when its launch moves by 1e-7, in float64 as in "
+    "float32; set shot.shots = 200 or more for 95% intervals (docs/collisions.md)"
+)
 
-UNFINISHED_FLIGHTS = ("{:,} flights in air took more than {:,} integration steps and were given up (counted as "
-                      "escaped, in flights_unfinished): raise numerics.flight_tolerance or check the scene")
+UNFINISHED_FLIGHTS = (
+    "{:,} flights in air took more than {:,} integration steps and were given up (counted as "
+    "escaped, in flights_unfinished): raise numerics.flight_tolerance or check the scene"
+)
 
-COARSE_POSITIONS = ("{precision} resolves a flight's coordinates to {eps} of its scale: flight_scale_max = {scale:.3g} m "
-                    "gives {error:.3g} m, more than 1/{parts:g} of the pellet radius ({radius:.3g} m), so contacts and "
-                    "ranges are decided by rounding (docs/stability.md, \"Precision\"); {fix}")
-FIX = {"float32": "set numerics.precision = \"float64\"",
-       "float64": "even float64 cannot: shorten the flights or move the scene nearer the origin"}
+COARSE_POSITIONS = (
+    "{precision} resolves a flight's coordinates to {eps} of its scale: flight_scale_max = {scale:.3g} m "
+    "gives {error:.3g} m, more than 1/{parts:g} of the pellet radius ({radius:.3g} m), so contacts and "
+    'ranges are decided by rounding (docs/stability.md, "Precision"); {fix}'
+)
+FIX = {
+    "float32": 'set numerics.precision = "float64"',
+    "float64": "even float64 cannot: shorten the flights or move the scene nearer the origin",
+}
 
 _PINNED_POOL: dict = {}  # (name, shape, dtype, slot) -> pinned host array, reused: cudaHostAlloc is slow
 _DEVICE_LOCK = threading.Lock()  # one CUDA run at a time uses the pool and the reused state
@@ -114,8 +122,7 @@ class CoreStage:
         self.arrays, self.totals = self.state.arrays, None
         self.tally = landing_tally(scene, model, spec, arrays)
         self.count = scene.shot.count
-        self.shot_pass = (ShotPass(scene, model, spec, self.capacity // self.count + 1, arrays)
-                          if has_ensemble(scene) else None)
+        self.shot_pass = ShotPass(scene, model, spec, self.capacity // self.count + 1, arrays) if has_ensemble(scene) else None
 
     def chunks(self, done: int):
         for start in range(done, self.pellets, self.capacity):
@@ -126,11 +133,14 @@ class CoreStage:
         m = self.model
         self.source.load(start, rows)
         self.tally.before_chunk()
-        wp.launch(self.kernel, dim=threads_for(rows),
-                  inputs=[start, rows, self.source.struct, m.surfaces, m.physics, self.state.outputs, self.release,
-                          self.tally.struct],
-                  outputs=[self.state.partial_sums, self.state.partial_min, self.state.partial_max],
-                  device=m.device, block_dim=CUDA_BLOCK_DIM)
+        wp.launch(
+            self.kernel,
+            dim=threads_for(rows),
+            inputs=[start, rows, self.source.struct, m.surfaces, m.physics, self.state.outputs, self.release, self.tally.struct],
+            outputs=[self.state.partial_sums, self.state.partial_min, self.state.partial_max],
+            device=m.device,
+            block_dim=CUDA_BLOCK_DIM,
+        )
         self.tally.fold(rows, last=start + rows >= self.pellets)
         return launch_reduce(self.state, rows, m.device), 0
 
@@ -140,8 +150,15 @@ class CoreStage:
         if self.shot_pass is None:
             return None
         first = start // self.count
-        return self.shot_pass.launch(first, (start + rows) // self.count - first, self.source.struct,
-                                     self.state.outputs, self.release, self.tally.struct, start)
+        return self.shot_pass.launch(
+            first,
+            (start + rows) // self.count - first,
+            self.source.struct,
+            self.state.outputs,
+            self.release,
+            self.tally.struct,
+            start,
+        )
 
 
 class CollisionStage:
@@ -175,11 +192,23 @@ class CollisionStage:
         interrupts.check()  # (before the core kernel's pass over the chunk)
         slots = shots * self.stride
         self.tally.before_chunk()
-        wp.launch(self.kernel, dim=threads_for(slots),
-                  inputs=[0, slots, self.source.struct, m.surfaces, m.physics, self.state.outputs, self.dense.release,
-                          self.tally.struct],
-                  outputs=[self.state.partial_sums, self.state.partial_min, self.state.partial_max],
-                  device=m.device, block_dim=CUDA_BLOCK_DIM)
+        wp.launch(
+            self.kernel,
+            dim=threads_for(slots),
+            inputs=[
+                0,
+                slots,
+                self.source.struct,
+                m.surfaces,
+                m.physics,
+                self.state.outputs,
+                self.dense.release,
+                self.tally.struct,
+            ],
+            outputs=[self.state.partial_sums, self.state.partial_min, self.state.partial_max],
+            device=m.device,
+            block_dim=CUDA_BLOCK_DIM,
+        )
         self.tally.fold(slots, last=start + rows >= self.pellets)
         return launch_reduce(self.state, slots, m.device), shots
 
@@ -188,8 +217,15 @@ class CollisionStage:
         their pieces (rows of `shot_pass.rows`; None: no ensemble)."""
         if self.shot_pass is None:
             return None
-        return self.shot_pass.launch(start // self.count, rows // self.count, self.source.struct,
-                                     self.state.outputs, self.dense.release, self.tally.struct, start)
+        return self.shot_pass.launch(
+            start // self.count,
+            rows // self.count,
+            self.source.struct,
+            self.state.outputs,
+            self.dense.release,
+            self.tally.struct,
+            start,
+        )
 
 
 class HostSlot:
@@ -245,8 +281,13 @@ class HostSlot:
             wp.synchronize_event(self.event)
         totals = self.totals.numpy()[: self.shots].copy() if self.shots else None
         pieces = None if self.shot_pieces is None else self.piece_rows.numpy()[: self.shot_pieces].copy()
-        return ({name: arr.numpy() for name, arr in self.arrays.items()}, self.segments.numpy()[: self.segment_count],
-                totals, {name: arr.numpy() for name, arr in self.tally.items()} if self.with_tally else None, pieces)
+        return (
+            {name: arr.numpy() for name, arr in self.arrays.items()},
+            self.segments.numpy()[: self.segment_count],
+            totals,
+            {name: arr.numpy() for name, arr in self.tally.items()} if self.with_tally else None,
+            pieces,
+        )
 
 
 def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=None, options=None, frames=None) -> dict:
@@ -267,16 +308,23 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
     stats.tally = tally
     warn_coarse_positions(stats["flight_scale_max"], model.precision, model.radius)
     if spec.in_air and stats["flights_unfinished"] > 0:
-        warnings.warn(UNFINISHED_FLIGHTS.format(int(stats["flights_unfinished"]), MAX_FLIGHT_STEPS), PrecisionWarning,
-                      stacklevel=3)
+        warnings.warn(
+            UNFINISHED_FLIGHTS.format(int(stats["flights_unfinished"]), MAX_FLIGHT_STEPS), PrecisionWarning, stacklevel=3
+        )
     if spec.collisions:
         stats.update(collision_statistics(np.concatenate(tables) if tables else np.zeros((0, len(SHOT_TOTALS))), pellets))
         if stats["skin_overrun_max"] > OVERRUN_TOLERANCE:
             warnings.warn(SKIN_OVERRUN.format(stats["skin_overrun_max"]), PrecisionWarning, stacklevel=3)
     if stage.shot_pass is not None:
-        per_shot = per_shot_statistics(np.concatenate(pieces), stage.shot_pass.pieces, count=scene.shot.count,
-                                       mass=model.mass, inertia=model.inertia, air=spec.in_air,
-                                       shot_totals=np.concatenate(tables) if spec.collisions else None)
+        per_shot = per_shot_statistics(
+            np.concatenate(pieces),
+            stage.shot_pass.pieces,
+            count=scene.shot.count,
+            mass=model.mass,
+            inertia=model.inertia,
+            air=spec.in_air,
+            shot_totals=np.concatenate(tables) if spec.collisions else None,
+        )
         stats.ensemble = ensemble_of(per_shot, scene.shot.shots)
     return stats
 
@@ -287,9 +335,19 @@ def warn_coarse_positions(scale: float, precision: str, radius: float) -> bool:
     error = UNIT_ROUNDOFF[precision] * scale
     if not error > POSITION_RESOLUTION * radius:  # (NaN: no flight met a surface)
         return False
-    warnings.warn(COARSE_POSITIONS.format(precision=precision, eps="2^-24" if precision == "float32" else "2^-53",
-                                          scale=scale, error=error, parts=1 / POSITION_RESOLUTION, radius=radius,
-                                          fix=FIX[precision]), PrecisionWarning, stacklevel=4)
+    warnings.warn(
+        COARSE_POSITIONS.format(
+            precision=precision,
+            eps="2^-24" if precision == "float32" else "2^-53",
+            scale=scale,
+            error=error,
+            parts=1 / POSITION_RESOLUTION,
+            radius=radius,
+            fix=FIX[precision],
+        ),
+        PrecisionWarning,
+        stacklevel=4,
+    )
     return True
 
 

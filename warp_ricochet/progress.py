@@ -44,9 +44,18 @@ class ProgressBar:
         try:
             if self._bar is None or self._bar.total != total:
                 self.close()
-                self._bar = _Bar(total=total, initial=done, desc=self.label, unit=" pellets", unit_scale=True,
-                                 file=self.stream, mininterval=self.INTERVAL, smoothing=0, dynamic_ncols=True,
-                                 leave=True)
+                self._bar = _Bar(
+                    total=total,
+                    initial=done,
+                    desc=self.label,
+                    unit=" pellets",
+                    unit_scale=True,
+                    file=self.stream,
+                    mininterval=self.INTERVAL,
+                    smoothing=0,
+                    dynamic_ncols=True,
+                    leave=True,
+                )
             elif done > self._bar.n:
                 self._bar.update(done - self._bar.n)
             if total > 0 and done >= total:

@@ -40,18 +40,27 @@ class RunSpec:
     thresholds: int = 0
 
     @classmethod
-    def of(cls, scene, *, with_output: bool = True) -> "RunSpec":
+    def of(cls, scene, *, with_output: bool = True) -> RunSpec:
         """The spec of running `scene`, writing its output fields or (not with_output) statistics only."""
         precision = scene.numerics.precision
         air = scene.air if scene.in_air else None
-        laws = None if air is None else (air.drag, air.lift if air.magnus else None,
-                                         air.spin_decay_law if air.spin_decay else None)
-        return cls(precision=precision, bounces=scene.physics.bounces, planes=len(scene.surfaces),
-                   fields=tuple(scene.output.fields) if with_output else (), from_file=scene.shot.file is not None,
-                   fast_math=scene.numerics.fast_math and precision == "float32", collisions=scene.pair_collisions,
-                   flight="ballistic" if air is None else "air", air_laws=laws, tally=scene.output.quantiles,
-                   hazard_map=scene.output.quantiles and scene.hazard is not None and scene.hazard.has_map,
-                   thresholds=0 if scene.hazard is None else len(scene.hazard.thresholds))
+        laws = (
+            None if air is None else (air.drag, air.lift if air.magnus else None, air.spin_decay_law if air.spin_decay else None)
+        )
+        return cls(
+            precision=precision,
+            bounces=scene.physics.bounces,
+            planes=len(scene.surfaces),
+            fields=tuple(scene.output.fields) if with_output else (),
+            from_file=scene.shot.file is not None,
+            fast_math=scene.numerics.fast_math and precision == "float32",
+            collisions=scene.pair_collisions,
+            flight="ballistic" if air is None else "air",
+            air_laws=laws,
+            tally=scene.output.quantiles,
+            hazard_map=scene.output.quantiles and scene.hazard is not None and scene.hazard.has_map,
+            thresholds=0 if scene.hazard is None else len(scene.hazard.thresholds),
+        )
 
     @property
     def in_air(self) -> bool:

@@ -36,7 +36,14 @@ def impact_kernel_for(precision: str):
         if normal.shape[0] > 1:
             n = normal[i]
         v, w, s = impact_law(
-            velocity[i], angular_velocity[i], n, radius, inertia_factor, restitution, mu_s, mu_d,
+            velocity[i],
+            angular_velocity[i],
+            n,
+            radius,
+            inertia_factor,
+            restitution,
+            mu_s,
+            mu_d,
             wp.dot(gravity, n) * impact_duration,
         )
         velocity_after[i] = v

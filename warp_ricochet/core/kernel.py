@@ -31,7 +31,11 @@ def ricochet_kernel_for(spec, max_registers="default"):
     statistics segments hold whole shots and do not depend on the chunk size."""
     t = types_for(spec.precision)
     scalar, Surfaces, Physics = t.scalar, t.Surfaces, t.Physics
-    Source, Outputs, Release = make_source(spec.precision, spec.from_file).Source, make_outputs(spec.precision).Outputs, make_release(spec.precision)
+    Source, Outputs, Release = (
+        make_source(spec.precision, spec.from_file).Source,
+        make_outputs(spec.precision).Outputs,
+        make_release(spec.precision),
+    )
     acc_fns, ricochet_pellet = make_accumulators(spec.precision), make_ricochet_pellet(spec)
     Tally, landing = make_landing_tally(spec.precision).Tally, make_add_landing(spec.precision, spec.hazard_map, spec.thresholds)
     TABLE = spec.hazard_map  # the map's block table (`tallies.block`)
@@ -75,11 +79,24 @@ def ricochet_kernel_for(spec, max_registers="default"):
                     member = row - shot * release.shot_stride
                     if member < release.shot_count:
                         counts, acc, lo, hi, range_shift = ricochet_pellet(
-                            0, shot * release.shot_count + member, source, surfaces, physics, out, release, tally,
-                            counts, acc, lo, hi, range_shift)
+                            0,
+                            shot * release.shot_count + member,
+                            source,
+                            surfaces,
+                            physics,
+                            out,
+                            release,
+                            tally,
+                            counts,
+                            acc,
+                            lo,
+                            hi,
+                            range_shift,
+                        )
                 else:
                     counts, acc, lo, hi, range_shift = ricochet_pellet(
-                        first_index + row, row, source, surfaces, physics, out, release, tally, counts, acc, lo, hi, range_shift)
+                        first_index + row, row, source, surfaces, physics, out, release, tally, counts, acc, lo, hi, range_shift
+                    )
         if wp.static(TABLE):
             landing.flush(tally)
         acc_fns.store_partials(tid, counts, acc, lo, hi, range_shift, partial_sums, partial_min, partial_max)

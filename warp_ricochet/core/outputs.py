@@ -26,11 +26,22 @@ def make_outputs(precision: str) -> SimpleNamespace:
     """`Outputs` and its writers for one precision."""
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
-    members = {FIELDS[name].member: (wp.array2d if FIELDS[name].per_bounce else wp.array)(dtype=element_type(name, precision))
-               for name in CORE_FIELDS}
-    Outputs = wp.struct(type("Outputs", (), {"__annotations__": members, "__module__": __name__,
-                                             "__qualname__": f"Outputs_{precision}",
-                                             "__doc__": "Per-pellet results (chunk-local rows); an empty array is not written."}))
+    members = {
+        FIELDS[name].member: (wp.array2d if FIELDS[name].per_bounce else wp.array)(dtype=element_type(name, precision))
+        for name in CORE_FIELDS
+    }
+    Outputs = wp.struct(
+        type(
+            "Outputs",
+            (),
+            {
+                "__annotations__": members,
+                "__module__": __name__,
+                "__qualname__": f"Outputs_{precision}",
+                "__doc__": "Per-pellet results (chunk-local rows); an empty array is not written.",
+            },
+        )
+    )
 
     @wp.func
     def write_initial(out: Outputs, row: wp.int32, position: vec3, velocity: vec3, spin: vec3):
@@ -42,9 +53,19 @@ def make_outputs(precision: str) -> SimpleNamespace:
             out.initial_angular_velocity[row] = spin
 
     @wp.func
-    def write_impact(out: Outputs, row: wp.int32, bounce: wp.int32, time: scalar, position: vec3,
-                     velocity_before: vec3, angular_velocity_before: vec3, velocity: vec3, angular_velocity: vec3,
-                     slipped: wp.int32, surface: wp.int32):
+    def write_impact(
+        out: Outputs,
+        row: wp.int32,
+        bounce: wp.int32,
+        time: scalar,
+        position: vec3,
+        velocity_before: vec3,
+        angular_velocity_before: vec3,
+        velocity: vec3,
+        angular_velocity: vec3,
+        slipped: wp.int32,
+        surface: wp.int32,
+    ):
         if out.impact_time.shape[0] > 0:
             out.impact_time[row, bounce] = time
         if out.impact_position.shape[0] > 0:
@@ -69,8 +90,9 @@ def make_outputs(precision: str) -> SimpleNamespace:
         write_impact(out, row, bounce, scalar(wp.nan), missing, missing, missing, missing, missing, -1, -1)
 
     @wp.func
-    def write_landing(out: Outputs, row: wp.int32, time: scalar, position: vec3, velocity: vec3, landing_range: scalar,
-                      surface: wp.int32):
+    def write_landing(
+        out: Outputs, row: wp.int32, time: scalar, position: vec3, velocity: vec3, landing_range: scalar, surface: wp.int32
+    ):
         if out.landing_time.shape[0] > 0:
             out.landing_time[row] = time
         if out.landing_position.shape[0] > 0:
@@ -91,8 +113,14 @@ def make_outputs(precision: str) -> SimpleNamespace:
         if out.hazard_exceeds.shape[0] > 0:
             out.hazard_exceeds[row] = exceeds
 
-    return SimpleNamespace(Outputs=Outputs, write_initial=write_initial, write_impact=write_impact,
-                           mark_missing=mark_missing, write_landing=write_landing, write_hazard=write_hazard)
+    return SimpleNamespace(
+        Outputs=Outputs,
+        write_initial=write_initial,
+        write_impact=write_impact,
+        mark_missing=mark_missing,
+        write_landing=write_landing,
+        write_hazard=write_hazard,
+    )
 
 
 def outputs_struct(precision: str, device, arrays: dict):

@@ -29,7 +29,11 @@ def make_ricochet_pellet(spec):
     """`ricochet_pellet` for `spec`: with `spec.collisions` a pellet continues from the release."""
     t = types_for(spec.precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
-    src, outs, acc_fns = make_source(spec.precision, spec.from_file), make_outputs(spec.precision), make_accumulators(spec.precision)
+    src, outs, acc_fns = (
+        make_source(spec.precision, spec.from_file),
+        make_outputs(spec.precision),
+        make_accumulators(spec.precision),
+    )
     Source, Outputs, Release = src.Source, outs.Outputs, make_release(spec.precision)
     floats_t, extremes_t = acc_fns.floats_t, acc_fns.extremes_t
     F_RANGE_STICK, F_RANGE_SLIP = acc_fns.offsets.RANGE_STICK, acc_fns.offsets.RANGE_SLIP
@@ -38,13 +42,28 @@ def make_ricochet_pellet(spec):
     AIR = spec.flight == "air"
     rests, stays, impact, _meet, contact_point, landing_range = make_contact(spec.precision)
     RELEASE, WRITE, BOUNCES = spec.collisions, bool(spec.core_fields), spec.bounces
-    Tally, landing_tally = make_landing_tally(spec.precision).Tally, make_add_landing(spec.precision, spec.hazard_map, spec.thresholds)
+    Tally, landing_tally = (
+        make_landing_tally(spec.precision).Tally,
+        make_add_landing(spec.precision, spec.hazard_map, spec.thresholds),
+    )
     TALLY, HAZARD_OUT = spec.tally, any(f.startswith("hazard.") for f in spec.core_fields)
 
     @wp.func
-    def ricochet_pellet(index: wp.int32, row: wp.int32, source: Source, surfaces: Surfaces, physics: Physics,
-                        out: Outputs, release: Release, tally: Tally, counts: wp.vec4i, acc: floats_t, lo: extremes_t,
-                        hi: extremes_t, range_shift: scalar):
+    def ricochet_pellet(
+        index: wp.int32,
+        row: wp.int32,
+        source: Source,
+        surfaces: Surfaces,
+        physics: Physics,
+        out: Outputs,
+        release: Release,
+        tally: Tally,
+        counts: wp.vec4i,
+        acc: floats_t,
+        lo: extremes_t,
+        hi: extremes_t,
+        range_shift: scalar,
+    ):
         """Follow one pellet (global `index`, chunk row `row`) from its start to its landing;
         returns the thread's partials with it added."""
         position = vec3()
@@ -88,15 +107,22 @@ def make_ricochet_pellet(spec):
                 counts[0] += 1
                 counts[1] += release.first_slipped[row]
                 acc = acc_fns.add_first_impact_sums(
-                    acc, release.first_velocity_before[row], release.first_angular_velocity_before[row],
-                    release.first_velocity_after[row], release.first_angular_velocity_after[row],
-                    surfaces.normal[release.first_surface[row]], launch_v2, launch_w2)
+                    acc,
+                    release.first_velocity_before[row],
+                    release.first_angular_velocity_before[row],
+                    release.first_velocity_after[row],
+                    release.first_angular_velocity_after[row],
+                    surfaces.normal[release.first_surface[row]],
+                    launch_v2,
+                    launch_w2,
+                )
         first_bounce = impacts  # (bounces made in the dense phase are its outputs)
         for b in range(wp.static(BOUNCES)):  # unrolled (bounces <= 16)
             impacted = wp.int32(0)
             if state == FLYING and b >= first_bounce:
-                dt, k, position_then, velocity_then, spin_then, steps = flight.to_contact(position, velocity, spin,
-                                                                                          touching, surfaces, physics)
+                dt, k, position_then, velocity_then, spin_then, steps = flight.to_contact(
+                    position, velocity, spin, touching, surfaces, physics
+                )
                 if wp.static(AIR):
                     acc = acc_fns.add_flight_sums(acc, steps, k)
                 if k < 0:
@@ -115,13 +141,13 @@ def make_ricochet_pellet(spec):
                         impacted = 1
                         velocity_after, spin_after, slipped = impact(k, normal, velocity, spin, surfaces, physics)
                         if wp.static(WRITE):
-                            outs.write_impact(out, row, b, time, position, velocity, spin, velocity_after, spin_after,
-                                              slipped, k)
+                            outs.write_impact(out, row, b, time, position, velocity, spin, velocity_after, spin_after, slipped, k)
                         if b == 0:
                             counts[0] += 1
                             counts[1] += slipped
-                            acc = acc_fns.add_first_impact_sums(acc, velocity, spin, velocity_after, spin_after, normal,
-                                                                launch_v2, launch_w2)
+                            acc = acc_fns.add_first_impact_sums(
+                                acc, velocity, spin, velocity_after, spin_after, normal, launch_v2, launch_w2
+                            )
                         speed_before2 = wp.dot(velocity, velocity)
                         velocity = velocity_after
                         spin = spin_after
@@ -147,8 +173,9 @@ def make_ricochet_pellet(spec):
         if impacts > 0 and state != ESCAPED:
             k = resting_surface
             if state == FLYING:
-                dt, k_next, position_then, velocity_then, spin_then, steps = flight.to_contact(position, velocity, spin,
-                                                                                               touching, surfaces, physics)
+                dt, k_next, position_then, velocity_then, spin_then, steps = flight.to_contact(
+                    position, velocity, spin, touching, surfaces, physics
+                )
                 if wp.static(AIR):
                     acc = acc_fns.add_flight_sums(acc, steps, k_next)
                 k = k_next

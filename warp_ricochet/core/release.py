@@ -41,8 +41,9 @@ def make_release(precision: str):
     kinds = {"vec3": t.vec3, "scalar": t.scalar, "int32": wp.int32}
     members = {name: wp.array(dtype=kinds[kind]) for name, kind in RELEASE_ARRAYS.items()}
     members.update(shot_count=wp.int32, shot_stride=wp.int32)
-    return wp.struct(type("Release", (), {"__annotations__": members, "__module__": __name__,
-                                          "__qualname__": f"Release_{precision}"}))
+    return wp.struct(
+        type("Release", (), {"__annotations__": members, "__module__": __name__, "__qualname__": f"Release_{precision}"})
+    )
 
 
 @functools.cache

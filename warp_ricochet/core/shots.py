@@ -35,7 +35,11 @@ def shot_kernel_for(spec):
     spec = dataclasses.replace(spec, fields=(), tally=False, hazard_map=False)
     t = types_for(spec.precision)
     scalar, Surfaces, Physics = t.scalar, t.Surfaces, t.Physics
-    Source, Outputs, Release = make_source(spec.precision, spec.from_file).Source, make_outputs(spec.precision).Outputs, make_release(spec.precision)
+    Source, Outputs, Release = (
+        make_source(spec.precision, spec.from_file).Source,
+        make_outputs(spec.precision).Outputs,
+        make_release(spec.precision),
+    )
     acc_fns, ricochet_pellet = make_accumulators(spec.precision), make_ricochet_pellet(spec)
     Tally = make_landing_tally(spec.precision).Tally
     floats_t, extremes_t, inf = acc_fns.floats_t, acc_fns.extremes_t, acc_fns.inf
@@ -70,8 +74,8 @@ def shot_kernel_for(spec):
             if member < count:
                 index = (first_shot + shot) * count + member
                 counts, acc, lo, hi, range_shift = ricochet_pellet(
-                    index, index - row_offset, source, surfaces, physics, out, release, tally, counts, acc, lo, hi,
-                    range_shift)
+                    index, index - row_offset, source, surfaces, physics, out, release, tally, counts, acc, lo, hi, range_shift
+                )
         acc_fns.store_partials(tid, counts, acc, lo, hi, range_shift, partial_sums, partial_min, partial_max)
 
     return shot_pieces_kernel
@@ -90,8 +94,11 @@ class ShotPass:
         n = max(max_shots, 1) * self.pieces
         self.partial_sums, self.partial_min, self.partial_max, self.rows = _arrays(dev, n)
         # a pellet file: its own rows, the shots may start in an earlier chunk
-        self.source = (PelletSource(scene, model.precision, dev, max(max_shots, 1) * self.count, arrays)
-                       if arrays is not None and not spec.collisions else None)
+        self.source = (
+            PelletSource(scene, model.precision, dev, max(max_shots, 1) * self.count, arrays)
+            if arrays is not None and not spec.collisions
+            else None
+        )
 
     def launch(self, first_shot: int, shots: int, source, outputs, release, tally, row_offset: int) -> int:
         """Per-piece partials of shots [first_shot, first_shot + shots) into the first rows of
@@ -103,10 +110,13 @@ class ShotPass:
             self.source.load(first_shot * self.count, shots * self.count)
             source, row_offset = self.source.struct, first_shot * self.count
         m, pieces = self.model, shots * self.pieces
-        wp.launch(self.kernel, dim=pieces,
-                  inputs=[first_shot, self.count, self.pieces, row_offset, source, m.surfaces, m.physics, outputs,
-                          release, tally],
-                  outputs=[self.partial_sums, self.partial_min, self.partial_max], device=m.device)
+        wp.launch(
+            self.kernel,
+            dim=pieces,
+            inputs=[first_shot, self.count, self.pieces, row_offset, source, m.surfaces, m.physics, outputs, release, tally],
+            outputs=[self.partial_sums, self.partial_min, self.partial_max],
+            device=m.device,
+        )
         return pieces
 
 
@@ -127,8 +137,9 @@ def _arrays(dev, n: int):
     item = 8  # bytes of a float64
 
     def columns(first: int, width: int):
-        return wp.array(ptr=rows.ptr + first * item, dtype=wp.float64, shape=(width, n),
-                        strides=(item, SEGMENT_WIDTH * item), device=dev)
+        return wp.array(
+            ptr=rows.ptr + first * item, dtype=wp.float64, shape=(width, n), strides=(item, SEGMENT_WIDTH * item), device=dev
+        )
 
     out = (columns(0, NUM_SUMS), columns(NUM_SUMS, NUM_EXTREMES), columns(NUM_SUMS + NUM_EXTREMES, NUM_EXTREMES), rows)
     if dev.is_cuda:

@@ -54,8 +54,9 @@ def make_dense_air(spec) -> SimpleNamespace:
     LIFT = spec.air_laws[1] is not None
 
     @wp.func
-    def plane_rate(k: wp.int32, position: vec3, velocity: vec3, acceleration: vec3, reach_time: scalar,
-                   surfaces: Surfaces, physics: Physics):
+    def plane_rate(
+        k: wp.int32, position: vec3, velocity: vec3, acceleration: vec3, reach_time: scalar, surfaces: Surfaces, physics: Physics
+    ):
         """Plane k's share of air_rate: |a_air.n| / (|v.n| + speed floor) if the pellet can reach
         the plane within `reach_time` (s), else 0. Planes are one-sided: none behind the centre."""
         n = surfaces.normal[k]
@@ -63,7 +64,9 @@ def make_dense_air(spec) -> SimpleNamespace:
         if height < scalar(0.0):
             return scalar(0.0)
         speed = wp.length(velocity) + physics.air.speed_floor
-        reach = speed * reach_time + scalar(0.5) * (wp.length(physics.gravity) + wp.length(acceleration)) * reach_time * reach_time
+        reach = (
+            speed * reach_time + scalar(0.5) * (wp.length(physics.gravity) + wp.length(acceleration)) * reach_time * reach_time
+        )
         if height - physics.radius > reach:
             return scalar(0.0)
         return wp.abs(wp.dot(acceleration, n)) / (wp.abs(wp.dot(velocity, n)) + physics.air.speed_floor)
@@ -94,9 +97,14 @@ def make_dense_air(spec) -> SimpleNamespace:
         (its motion has changed by at most air_step_fraction since)."""
         if wp.int32(cloud.clock[i / pair.count, CLOCK_STEPS]) >= cloud.kick_due[i]:
             age = time - cloud.time[i]
-            cloud.air_rate[i] = air_rate(ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age),
-                                         ballistic_velocity(cloud.velocity[i], physics.gravity, age), cloud.angular_velocity[i],
-                                         pair, surfaces, physics)
+            cloud.air_rate[i] = air_rate(
+                ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age),
+                ballistic_velocity(cloud.velocity[i], physics.gravity, age),
+                cloud.angular_velocity[i],
+                pair,
+                surfaces,
+                physics,
+            )
         return cloud.air_rate[i]
 
     @wp.func
@@ -160,8 +168,17 @@ def make_dense_air(spec) -> SimpleNamespace:
         return position, velocity, spin
 
     @wp.func
-    def kick_steps(i: wp.int32, time: scalar, position: vec3, velocity: vec3, spin: vec3, pair: Pair, surfaces: Surfaces,
-                   physics: Physics, cloud: Cloud):
+    def kick_steps(
+        i: wp.int32,
+        time: scalar,
+        position: vec3,
+        velocity: vec3,
+        spin: vec3,
+        pair: Pair,
+        surfaces: Surfaces,
+        physics: Physics,
+        cloud: Cloud,
+    ):
         """How many of its shot's steps pellet i's kick lasts: to the next multiple of KICK_STEPS
         of the shot's steps (so a shot's pellets are kicked together, in the same steps), but
         no longer than `air_step_fraction` of the time the air takes to change its motion
@@ -201,9 +218,17 @@ def make_dense_air(spec) -> SimpleNamespace:
             return
         time = cloud.clock[s, CLOCK_TIME]
         age = time - cloud.time[i]
-        count = kick_steps(i, time, ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age),
-                           ballistic_velocity(cloud.velocity[i], physics.gravity, age), cloud.angular_velocity[i], pair,
-                           surfaces, physics, cloud)
+        count = kick_steps(
+            i,
+            time,
+            ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age),
+            ballistic_velocity(cloud.velocity[i], physics.gravity, age),
+            cloud.angular_velocity[i],
+            pair,
+            surfaces,
+            physics,
+            cloud,
+        )
         middle = time + scalar(0.5) * scalar(count) * cloud.clock[s, CLOCK_STEP]
         position, velocity, spin, error = drifted(cloud, i, time, middle, physics)
         cloud.air_time[i] = middle
@@ -221,5 +246,12 @@ def make_dense_air(spec) -> SimpleNamespace:
         cloud.kick_due[i] = 0
         cloud.position_error[i] = vec3()
 
-    return SimpleNamespace(air_rate=air_rate, pellet_rate=pellet_rate, acceleration_bound=acceleration_bound, kicked=kicked, drift_end=drift_end,
-                           kick_pellet=kick_pellet, air_until=air_until)
+    return SimpleNamespace(
+        air_rate=air_rate,
+        pellet_rate=pellet_rate,
+        acceleration_bound=acceleration_bound,
+        kicked=kicked,
+        drift_end=drift_end,
+        kick_pellet=kick_pellet,
+        air_until=air_until,
+    )

@@ -52,8 +52,9 @@ def make_checkpoint(spec) -> SimpleNamespace:
     LEAP_MAX = scalar(LEAP_MAX_VALUE)
 
     @wp.func(inline=True)
-    def horizon_pellet(i: wp.int32, begin: wp.int32, end: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics,
-                       cloud: Cloud):
+    def horizon_pellet(
+        i: wp.int32, begin: wp.int32, end: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud
+    ):
         """Per shot at each of its checkpoints: busy in its arrival window; after it, its next event over ALL
         its pairs (exact: their relative motion is linear; each pair once, O(count) per pellet)
         and planes, so that
@@ -112,8 +113,9 @@ def make_checkpoint(spec) -> SimpleNamespace:
         else:
             # plane contacts bound the jump (they do not keep a shot stepping: the core's flight does them)
             if begin == 1:
-                wait, k = next_contact(cloud.position[i], cloud.velocity[i], cloud.angular_velocity[i], cloud.touching[i],
-                                       surfaces, physics)
+                wait, k = next_contact(
+                    cloud.position[i], cloud.velocity[i], cloud.angular_velocity[i], cloud.touching[i], surfaces, physics
+                )
                 if k >= 0:
                     earliest = wp.min(earliest, cloud.time[i] + wait)
             wp.atomic_min(cloud.clock, s, CLOCK_NEXT, earliest)

@@ -15,7 +15,9 @@ NUM_FLAGS = 4
 # pair event left unresolved after the step's rounds (the step ends there), the largest overrun
 # of the skin (see prepare_pellet), and the earliest time a pellet changed in the step leaves its
 # skin (the step ends there too, and no event after it is applied)
-CLOCK_TIME, CLOCK_STEP, CLOCK_DRIFT, CLOCK_STEPS, CLOCK_END, CLOCK_WINDOW, CLOCK_NEXT, CLOCK_CUT, CLOCK_OVERRUN, CLOCK_SKIN = range(10)
+CLOCK_TIME, CLOCK_STEP, CLOCK_DRIFT, CLOCK_STEPS, CLOCK_END, CLOCK_WINDOW, CLOCK_NEXT, CLOCK_CUT, CLOCK_OVERRUN, CLOCK_SKIN = (
+    range(10)
+)
 # in air (dense.air): the shot's fastest air rate |a_air| / |u| (1/s); where its last leap began
 # (dense.leap)
 CLOCK_AIR, CLOCK_LEAP = 10, 11

@@ -38,7 +38,16 @@ from .state import dense_types
 def make_ends(spec) -> SimpleNamespace:
     """launch_pellet, start_shot, release_pellet, block_totals and shot_totals."""
     d = dense_types(spec)
-    scalar, vec3, Surfaces, Physics, Outputs, Source, Cloud, Pair = d.scalar, d.vec3, d.Surfaces, d.Physics, d.Outputs, d.Source, d.Cloud, d.Pair
+    scalar, vec3, Surfaces, Physics, Outputs, Source, Cloud, Pair = (
+        d.scalar,
+        d.vec3,
+        d.Surfaces,
+        d.Physics,
+        d.Outputs,
+        d.Source,
+        d.Cloud,
+        d.Pair,
+    )
     NEVER, WRITE = d.NEVER, bool(spec.core_fields)
     launch_state = make_source(spec.precision, spec.from_file).launch_state
     write_initial = make_outputs(spec.precision).write_initial
@@ -119,8 +128,9 @@ def make_ends(spec) -> SimpleNamespace:
                 d = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, -cloud.time[i]) - centre
                 spread += wp.dot(d, d)
                 flying += 1
-            wait, plane = next_contact(cloud.position[i], cloud.velocity[i], cloud.angular_velocity[i], wp.int32(-1),
-                                       surfaces, physics)
+            wait, plane = next_contact(
+                cloud.position[i], cloud.velocity[i], cloud.angular_velocity[i], wp.int32(-1), surfaces, physics
+            )
             if plane >= 0:
                 last_arrival = wp.max(last_arrival, wait)
         cloud.frame_spread[row] = spread
@@ -194,8 +204,9 @@ def make_ends(spec) -> SimpleNamespace:
         blocks[row, 2] = lost
 
     @wp.func
-    def shot_totals(s: wp.int32, pair: Pair, cloud: Cloud, blocks: wp.array2d(dtype=wp.float64),
-                    totals: wp.array2d(dtype=wp.float64)):
+    def shot_totals(
+        s: wp.int32, pair: Pair, cloud: Cloud, blocks: wp.array2d(dtype=wp.float64), totals: wp.array2d(dtype=wp.float64)
+    ):
         """A shot's totals, its blocks' (`block_totals`) added in block order (deterministic; for
         one block its sums in pellet order): pellets that collided, pair collisions, energy lost
         (J); then its steps, the time it stopped stepping (s), its largest skin overrun (half skins)."""
@@ -209,6 +220,12 @@ def make_ends(spec) -> SimpleNamespace:
         totals[s, 4] = wp.float64(cloud.clock[s, CLOCK_END])
         totals[s, 5] = wp.float64(cloud.clock[s, CLOCK_OVERRUN])
 
-    return SimpleNamespace(launch_pellet=launch_pellet, start_shot=start_shot, start_block=start_block,
-                           window_shot=window_shot, release_pellet=release_pellet, block_totals=block_totals,
-                           shot_totals=shot_totals)
+    return SimpleNamespace(
+        launch_pellet=launch_pellet,
+        start_shot=start_shot,
+        start_block=start_block,
+        window_shot=window_shot,
+        release_pellet=release_pellet,
+        block_totals=block_totals,
+        shot_totals=shot_totals,
+    )

@@ -24,7 +24,9 @@ def make_events(spec) -> SimpleNamespace:
     d = dense_types(spec)
     scalar, vec3, Surfaces, Physics, Outputs, Cloud, Pair = d.scalar, d.vec3, d.Surfaces, d.Physics, d.Outputs, d.Cloud, d.Pair
     CLOSING_TOLERANCE2 = d.CLOSING_TOLERANCE2
-    flight = make_flight(spec.precision, spec.static_planes, snap=spec.flight != "air")  # within a step: the exact ballistic flight
+    flight = make_flight(
+        spec.precision, spec.static_planes, snap=spec.flight != "air"
+    )  # within a step: the exact ballistic flight
     next_contact, advance = flight.next_contact, flight.advance
     _rests, _stays, _impact, meet_surface, contact_point, _range = make_contact(spec.precision)
     _entry, _return, _contact, ballistic_position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
@@ -37,9 +39,16 @@ def make_events(spec) -> SimpleNamespace:
 
     @wp.func
     def plane_outcome(
-        i: wp.int32, k: wp.int32, wait: scalar,
-        position: vec3, velocity: vec3, spin: vec3, time: scalar,
-        cloud: Cloud, surfaces: Surfaces, physics: Physics,
+        i: wp.int32,
+        k: wp.int32,
+        wait: scalar,
+        position: vec3,
+        velocity: vec3,
+        spin: vec3,
+        time: scalar,
+        cloud: Cloud,
+        surfaces: Surfaces,
+        physics: Physics,
     ):
         """What plane_contact does to pellet i, without doing it: its position, velocity and spin
         before and after, slipped, the contact time, whether it flies on, whether it is an impact
@@ -61,9 +70,17 @@ def make_events(spec) -> SimpleNamespace:
 
     @wp.func
     def plane_contact(
-        i: wp.int32, k: wp.int32, wait: scalar,
-        position: vec3, velocity: vec3, spin: vec3, time: scalar,
-        cloud: Cloud, surfaces: Surfaces, physics: Physics, out: Outputs,
+        i: wp.int32,
+        k: wp.int32,
+        wait: scalar,
+        position: vec3,
+        velocity: vec3,
+        spin: vec3,
+        time: scalar,
+        cloud: Cloud,
+        surfaces: Surfaces,
+        physics: Physics,
+        out: Outputs,
     ):
         """Pellet i (reference state at `time`) meets plane k `wait` later: an impact (eqs. 1-25,
         exactly as the core kernel), or the end of its flight (its contact after `bounces`
@@ -117,8 +134,9 @@ def make_events(spec) -> SimpleNamespace:
         return gap / (-du + wp.sqrt(disc))  # the smaller root, without cancellation
 
     @wp.func
-    def plane_contacts_until(i: wp.int32, step_end: scalar, most: wp.int32, cloud: Cloud, surfaces: Surfaces,
-                             physics: Physics, out: Outputs):
+    def plane_contacts_until(
+        i: wp.int32, step_end: scalar, most: wp.int32, cloud: Cloud, surfaces: Surfaces, physics: Physics, out: Outputs
+    ):
         """Pellet i's plane contacts up to `step_end` (at most `most`), applied to its reference
         state; it is marked stale if it had one. Returns how many it had."""
         position = cloud.position[i]
@@ -166,9 +184,27 @@ def make_events(spec) -> SimpleNamespace:
             va, wa = air.kicked(va, wa, when - cloud.air_time[a], physics)
             vb, wb = air.kicked(vb, wb, when - cloud.air_time[b], physics)
         va2, wa2, vb2, wb2, collided, _slipped = pair_law(
-            xa, va, wa, physics.radius, pair.mass, xb, vb, wb, physics.radius, pair.mass,
-            physics.inertia_factor, restitution, pair.mu_s, pair.mu_d,
+            xa,
+            va,
+            wa,
+            physics.radius,
+            pair.mass,
+            xb,
+            vb,
+            wb,
+            physics.radius,
+            pair.mass,
+            physics.inertia_factor,
+            restitution,
+            pair.mu_s,
+            pair.mu_d,
         )
         return xa, va, wa, xb, vb, wb, va2, wa2, vb2, wb2, collided
 
-    return SimpleNamespace(plane_outcome=plane_outcome, plane_contact=plane_contact, contact_time=contact_time, plane_contacts_until=plane_contacts_until, pair_outcome=pair_outcome)
+    return SimpleNamespace(
+        plane_outcome=plane_outcome,
+        plane_contact=plane_contact,
+        contact_time=contact_time,
+        plane_contacts_until=plane_contacts_until,
+        pair_outcome=pair_outcome,
+    )

@@ -139,8 +139,7 @@ def make_frame(spec) -> SimpleNamespace:
         return scalar(HORIZON_RADII) * radius / wp.max(speed + wp.sqrt(wp.length(physics.gravity) * radius), TINY_SPEED)
 
     @wp.func
-    def relative_to_frame(cloud: Cloud, physics: Physics, i: wp.int32, time: scalar, frame_point: vec3,
-                          frame_velocity: vec3):
+    def relative_to_frame(cloud: Cloud, physics: Physics, i: wp.int32, time: scalar, frame_point: vec3, frame_velocity: vec3):
         """Pellet i's position and velocity at `time` relative to a frame there (gravity cancels:
         between events the relative motion is a straight line)."""
         gravity = physics.gravity
@@ -155,8 +154,14 @@ def make_frame(spec) -> SimpleNamespace:
         clock."""
         gravity = physics.gravity
         time = cloud.clock[s, CLOCK_TIME]
-        return relative_to_frame(cloud, physics, i, time, drift_point(cloud, s, time, gravity),
-                                 ballistic_velocity(cloud.drift_velocity[s], gravity, time))
+        return relative_to_frame(
+            cloud,
+            physics,
+            i,
+            time,
+            drift_point(cloud, s, time, gravity),
+            ballistic_velocity(cloud.drift_velocity[s], gravity, time),
+        )
 
     @wp.func
     def skin_exit(cloud: Cloud, physics: Physics, i: wp.int32, s: wp.int32, position: vec3, velocity: vec3, time: scalar):
@@ -211,5 +216,19 @@ def make_frame(spec) -> SimpleNamespace:
         for n in range(cloud.neighbour_count[i]):
             cloud.stale[cloud.neighbours[i, n]] = 1
 
-    return SimpleNamespace(drift_point=drift_point, block_range=block_range, frame_block=frame_block, recentre=recentre,
-                           framed_shot=framed_shot, frame_shot=frame_shot, passing_time=passing_time, relative_to_frame=relative_to_frame, relative_to_drift=relative_to_drift, skin_exit=skin_exit, stepping=stepping, set_reference=set_reference, set_build_point=set_build_point, mark_stale=mark_stale)
+    return SimpleNamespace(
+        drift_point=drift_point,
+        block_range=block_range,
+        frame_block=frame_block,
+        recentre=recentre,
+        framed_shot=framed_shot,
+        frame_shot=frame_shot,
+        passing_time=passing_time,
+        relative_to_frame=relative_to_frame,
+        relative_to_drift=relative_to_drift,
+        skin_exit=skin_exit,
+        stepping=stepping,
+        set_reference=set_reference,
+        set_build_point=set_build_point,
+        mark_stale=mark_stale,
+    )

@@ -43,8 +43,14 @@ def make_setup_kernels(spec) -> SimpleNamespace:
         groups[i] = i / pair.count
 
     @wp.kernel(**opts)
-    def cell_lists_kernel(pair: Pair, physics: Physics, cloud: Cloud, bucket_end: wp.array(dtype=wp.int32),
-                          rows: wp.array(dtype=wp.int32), cells: wp.array(dtype=wp.vec3i)):
+    def cell_lists_kernel(
+        pair: Pair,
+        physics: Physics,
+        cloud: Cloud,
+        bucket_end: wp.array(dtype=wp.int32),
+        rows: wp.array(dtype=wp.int32),
+        cells: wp.array(dtype=wp.vec3i),
+    ):
         """The CPU's lists of every shot being rebuilt, in one launch (one thread)."""
         for s in range(pair.pellets / pair.count):
             if cloud.shot_flags[s, SHOT_REBUILD] != 0:
@@ -57,9 +63,19 @@ def make_setup_kernels(spec) -> SimpleNamespace:
             end_fns.launch_pellet(i, first_index, source, cloud, out)
 
     @wp.kernel(**opts)
-    def separate_kernel(begin: wp.int32, end: wp.int32, first_index: wp.int32, pair: Pair, physics: Physics,
-                        source: Source, cloud: Cloud, out: Outputs, redraws: wp.array(dtype=wp.int32),
-                        heads: wp.array(dtype=wp.int32), chain: wp.array(dtype=wp.int32)):
+    def separate_kernel(
+        begin: wp.int32,
+        end: wp.int32,
+        first_index: wp.int32,
+        pair: Pair,
+        physics: Physics,
+        source: Source,
+        cloud: Cloud,
+        out: Outputs,
+        redraws: wp.array(dtype=wp.int32),
+        heads: wp.array(dtype=wp.int32),
+        chain: wp.array(dtype=wp.int32),
+    ):
         """Each shot's pellets [begin, end) without overlaps at launch (one thread a shot)."""
         separate_shot(wp.tid(), begin, end, first_index, pair, physics, source, cloud, out, redraws, heads, chain)
 
@@ -100,11 +116,23 @@ def make_setup_kernels(spec) -> SimpleNamespace:
         end_fns.block_totals(wp.tid(), pair, cloud, blocks)
 
     @wp.kernel(**opts)
-    def shot_totals_kernel(pair: Pair, cloud: Cloud, blocks: wp.array2d(dtype=wp.float64),
-                           totals: wp.array2d(dtype=wp.float64)):
+    def shot_totals_kernel(pair: Pair, cloud: Cloud, blocks: wp.array2d(dtype=wp.float64), totals: wp.array2d(dtype=wp.float64)):
         end_fns.shot_totals(wp.tid(), pair, cloud, blocks, totals)
 
-    return SimpleNamespace(groups_kernel=groups_kernel, cell_lists_kernel=cell_lists_kernel, launch_kernel=launch_kernel, separate_kernel=separate_kernel, drift_kernel=drift_kernel, start_block_kernel=start_block_kernel, window_kernel=window_kernel, grid_points_kernel=grid_points_kernel, neighbours_kernel=neighbours_kernel, release_kernel=release_kernel, block_totals_kernel=block_totals_kernel, shot_totals_kernel=shot_totals_kernel)
+    return SimpleNamespace(
+        groups_kernel=groups_kernel,
+        cell_lists_kernel=cell_lists_kernel,
+        launch_kernel=launch_kernel,
+        separate_kernel=separate_kernel,
+        drift_kernel=drift_kernel,
+        start_block_kernel=start_block_kernel,
+        window_kernel=window_kernel,
+        grid_points_kernel=grid_points_kernel,
+        neighbours_kernel=neighbours_kernel,
+        release_kernel=release_kernel,
+        block_totals_kernel=block_totals_kernel,
+        shot_totals_kernel=shot_totals_kernel,
+    )
 
 
 @functools.cache
@@ -171,8 +199,9 @@ def make_step_kernels(spec) -> SimpleNamespace:
         step_fns.end_step_shot(wp.tid(), pair, cloud)
 
     @wp.kernel(**opts)
-    def block_kernel(steps: wp.int32, rounds: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud,
-                     out: Outputs):
+    def block_kernel(
+        steps: wp.int32, rounds: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs
+    ):
         """The CPU's block of steps in one launch (one thread): each step is the per-step
         kernels' work in their order. A CPU kernel runs its threads one after another anyway, so
         the results are those of the per-step kernels (tested), without 14 launches a step.
@@ -221,9 +250,20 @@ def make_step_kernels(spec) -> SimpleNamespace:
             leap_fns.leaped_shot(wp.tid(), pair, physics, cloud)
 
     @wp.kernel(**opts)
-    def phase_kernel(first_shot: wp.int32, end_shot: wp.int32, steps: wp.int32, rounds: wp.int32, pair: Pair,
-                     surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs, bucket_end: wp.array(dtype=wp.int32),
-                     rows: wp.array(dtype=wp.int32), cells: wp.array(dtype=wp.vec3i)):
+    def phase_kernel(
+        first_shot: wp.int32,
+        end_shot: wp.int32,
+        steps: wp.int32,
+        rounds: wp.int32,
+        pair: Pair,
+        surfaces: Surfaces,
+        physics: Physics,
+        cloud: Cloud,
+        out: Outputs,
+        bucket_end: wp.array(dtype=wp.int32),
+        rows: wp.array(dtype=wp.int32),
+        cells: wp.array(dtype=wp.vec3i),
+    ):
         """The CPU's whole dense phase of shots [first_shot, end_shot) in one launch (one
         thread): each shot, one after another, goes through what the host loop does with it (its
         lists, its checkpoint, a block of steps) until it is done; no host round trip between. A
@@ -257,4 +297,22 @@ def make_step_kernels(spec) -> SimpleNamespace:
                 else:
                     step_fns.block_shot(s, steps, rounds, pair, surfaces, physics, cloud, out)
 
-    return SimpleNamespace(frame_block_kernel=frame_block_kernel, framed_kernel=framed_kernel, bounds_kernel=bounds_kernel, kick_kernel=kick_kernel, plan_kernel=plan_kernel, prepare_kernel=prepare_kernel, choose_kernel=choose_kernel, resolve_kernel=resolve_kernel, finish_kernel=finish_kernel, end_step_kernel=end_step_kernel, block_kernel=block_kernel, now_kernel=now_kernel, horizon_kernel=horizon_kernel, settle_kernel=settle_kernel, leap_kernel=leap_kernel, leaped_kernel=leaped_kernel, phase_kernel=phase_kernel)
+    return SimpleNamespace(
+        frame_block_kernel=frame_block_kernel,
+        framed_kernel=framed_kernel,
+        bounds_kernel=bounds_kernel,
+        kick_kernel=kick_kernel,
+        plan_kernel=plan_kernel,
+        prepare_kernel=prepare_kernel,
+        choose_kernel=choose_kernel,
+        resolve_kernel=resolve_kernel,
+        finish_kernel=finish_kernel,
+        end_step_kernel=end_step_kernel,
+        block_kernel=block_kernel,
+        now_kernel=now_kernel,
+        horizon_kernel=horizon_kernel,
+        settle_kernel=settle_kernel,
+        leap_kernel=leap_kernel,
+        leaped_kernel=leaped_kernel,
+        phase_kernel=phase_kernel,
+    )

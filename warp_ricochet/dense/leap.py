@@ -91,8 +91,7 @@ def make_leap(spec) -> SimpleNamespace:
         return delay
 
     @wp.func
-    def plane_gap_leap(k: wp.int32, position: vec3, velocity: vec3, bound: scalar, surfaces: Surfaces,
-                       physics: Physics):
+    def plane_gap_leap(k: wp.int32, position: vec3, velocity: vec3, bound: scalar, surfaces: Surfaces, physics: Physics):
         """How long (s) the pellet cannot meet plane k with up to `bound` (m/s^2) of air towards it."""
         n = surfaces.normal[k]
         height = wp.dot(position - surfaces.point[k], n)
@@ -135,13 +134,13 @@ def make_leap(spec) -> SimpleNamespace:
         flying = wp.int32(1)
         for _ in range(wp.static(BOUNCES + 1)):
             if flying != 0 and time < end:
-                wait, k, x, v, w, _steps = to_contact_within(position, velocity, spin, touching, surfaces, physics,
-                                                             end - time)
+                wait, k, x, v, w, _steps = to_contact_within(position, velocity, spin, touching, surfaces, physics, end - time)
                 if k >= 0:
                     time = time + wait
                     air.air_until(cloud, i, time)
-                    position, velocity, spin, time, flying = plane_contact(i, k, scalar(0.0), x, v, w, time, cloud,
-                                                                           surfaces, physics, out)
+                    position, velocity, spin, time, flying = plane_contact(
+                        i, k, scalar(0.0), x, v, w, time, cloud, surfaces, physics, out
+                    )
                     touching = k
                 elif k == -1:
                     position = x

@@ -65,7 +65,11 @@ def make_lists(spec) -> SimpleNamespace:
     @wp.func
     def cell_bucket(cell: wp.vec3i, mask: wp.uint32):
         """A cell's bucket in a table of mask + 1 (a power of two) buckets."""
-        h = (wp.uint32(cell[0]) * wp.uint32(73856093)) ^ (wp.uint32(cell[1]) * wp.uint32(19349663)) ^ (wp.uint32(cell[2]) * wp.uint32(83492791))
+        h = (
+            (wp.uint32(cell[0]) * wp.uint32(73856093))
+            ^ (wp.uint32(cell[1]) * wp.uint32(19349663))
+            ^ (wp.uint32(cell[2]) * wp.uint32(83492791))
+        )
         return wp.int32(h & mask)
 
     @wp.func
@@ -92,8 +96,15 @@ def make_lists(spec) -> SimpleNamespace:
         cloud.neighbour_count[j] = found + 1
 
     @wp.func
-    def cell_lists_shot(s: wp.int32, pair: Pair, physics: Physics, cloud: Cloud, bucket_end: wp.array(dtype=wp.int32),
-                        rows: wp.array(dtype=wp.int32), cells: wp.array(dtype=wp.vec3i)):
+    def cell_lists_shot(
+        s: wp.int32,
+        pair: Pair,
+        physics: Physics,
+        cloud: Cloud,
+        bucket_end: wp.array(dtype=wp.int32),
+        rows: wp.array(dtype=wp.int32),
+        cells: wp.array(dtype=wp.vec3i),
+    ):
         """Shot s's lists on the CPU (one thread), in place of grid_points_kernel, wp.HashGrid and
         neighbours_kernel, whose CPU build has a fixed cost (two radix passes over 65,536 bins)
         larger than a shot's whole list build. The same lists (as sets: the same points, the
@@ -167,4 +178,11 @@ def make_lists(spec) -> SimpleNamespace:
                 wp.atomic_max(cloud.flags, FLAG_OVERFLOW, found)
                 cloud.neighbour_count[i] = capacity
 
-    return SimpleNamespace(grid_point_pellet=grid_point_pellet, grid_list=grid_list, cell_bucket=cell_bucket, cell_of=cell_of, list_pair=list_pair, cell_lists_shot=cell_lists_shot)
+    return SimpleNamespace(
+        grid_point_pellet=grid_point_pellet,
+        grid_list=grid_list,
+        cell_bucket=cell_bucket,
+        cell_of=cell_of,
+        list_pair=list_pair,
+        cell_lists_shot=cell_lists_shot,
+    )

@@ -31,8 +31,6 @@ from ..launch.packing import MAX_REDRAWS
 from ..tallies.collisions import SHOT_TOTALS
 from .constants import (
     BLOCK_STEPS,
-    HORIZON_PAIRS_PER_LAUNCH,
-    SEPARATION_PELLETS_PER_LAUNCH,
     CELL_REACHES,
     CLOCK_STEPS,
     CLOCK_TIME,
@@ -41,6 +39,8 @@ from .constants import (
     FLAG_STALL,
     FLAG_WIDENED,
     FLYING,
+    HORIZON_PAIRS_PER_LAUNCH,
+    SEPARATION_PELLETS_PER_LAUNCH,
 )
 from .kernels import make_setup_kernels, make_step_kernels
 from .schedule import separation_table
@@ -76,8 +76,9 @@ class DensePhase:
         self.rounds, self.block_steps = coll.rounds, coll.frame_every or BLOCK_STEPS
         self.kernels, self.in_air = {**vars(make_setup_kernels(spec)), **vars(make_step_kernels(spec))}, spec.in_air
         shots = -(-capacity // self.count)
-        self.cloud, self.field_arrays = allocate_cloud(model.precision, self.device, capacity, shots, self.count, coll.rounds,
-                                                       coll.max_neighbours, spec.collision_fields)
+        self.cloud, self.field_arrays = allocate_cloud(
+            model.precision, self.device, capacity, shots, self.count, coll.rounds, coll.max_neighbours, spec.collision_fields
+        )
         self.release = release_struct(model.precision, self.cloud, self.count)
         self.totals = wp.zeros((shots, len(SHOT_TOTALS)), dtype=wp.float64, device=self.device)
         self.sampled = not spec.from_file and coll.separate  # separated launches (a pellet file's are as given)
@@ -131,15 +132,15 @@ class DensePhase:
         self.threads = self._threads(shots * self.count)
         self._launch("launch_kernel", self.threads, [first_index, self.pair, source, self.cloud, outputs])
         if self.sampled:
-            args = [first_index, self.pair, self.model.physics, source, self.cloud, outputs, self.redraws, self.heads,
-                    self.chain]
+            args = [first_index, self.pair, self.model.physics, source, self.cloud, outputs, self.redraws, self.heads, self.chain]
             parts = pieces(self.count, SEPARATION_PELLETS_PER_LAUNCH)
             if self.stop is not None:  # the CPU: each launch reads the stop flag
                 for begin, end in parts:
                     self._long("separate_kernel", shots, [begin, end, *args])
             else:
-                in_pieces(self.device, [self._launch("separate_kernel", shots, [begin, end, *args], True)
-                                        for begin, end in parts])
+                in_pieces(
+                    self.device, [self._launch("separate_kernel", shots, [begin, end, *args], True) for begin, end in parts]
+                )
             check_redraws(self, shots)
 
     def _threads(self, pellets):
@@ -190,19 +191,29 @@ class DensePhase:
         m, c, p = self.model, self.cloud, self.pair
         partners = pieces(self.count // 2, max(1, HORIZON_PAIRS_PER_LAUNCH // max(p.pellets, 1)))
         self.now_command = self._launch("now_kernel", self.threads, [p, m.physics, c], True)
-        self.horizon_commands = [self._launch("horizon_kernel", self.threads, [1 + begin, 1 + end, p, m.surfaces, m.physics, c],
-                                              True) for begin, end in partners]
+        self.horizon_commands = [
+            self._launch("horizon_kernel", self.threads, [1 + begin, 1 + end, p, m.surfaces, m.physics, c], True)
+            for begin, end in partners
+        ]
         self.checkpoint_commands = [self._launch("settle_kernel", self.shots, [p, m.physics, c], True)]
         if self.in_air:  # (dense.leap)
-            self.checkpoint_commands += [self._launch("leap_kernel", self.threads, [p, m.surfaces, m.physics, c, self._outputs], True),
-                                         self._launch("leaped_kernel", self.shots, [p, m.physics, c], True)]
-        self.checkpoint_commands += [self._launch("frame_block_kernel", self.shots * p.frame_blocks, [p, m.physics, c], True),
-                                     self._launch("framed_kernel", self.shots, [p, m.physics, c], True)]
+            self.checkpoint_commands += [
+                self._launch("leap_kernel", self.threads, [p, m.surfaces, m.physics, c, self._outputs], True),
+                self._launch("leaped_kernel", self.shots, [p, m.physics, c], True),
+            ]
+        self.checkpoint_commands += [
+            self._launch("frame_block_kernel", self.shots * p.frame_blocks, [p, m.physics, c], True),
+            self._launch("framed_kernel", self.shots, [p, m.physics, c], True),
+        ]
         if self.cell_lists:
-            self.list_commands = [self._launch("cell_lists_kernel", 1, [p, m.physics, c, self.bucket_end, self.rows, self.cells], True)]
+            self.list_commands = [
+                self._launch("cell_lists_kernel", 1, [p, m.physics, c, self.bucket_end, self.rows, self.cells], True)
+            ]
         else:
-            self.list_commands = [self._launch("grid_points_kernel", self.threads, [p, m.physics, c], True),
-                                  self._launch("neighbours_kernel", self.threads, [self.grid.id, p, m.physics, c], True)]
+            self.list_commands = [
+                self._launch("grid_points_kernel", self.threads, [p, m.physics, c], True),
+                self._launch("neighbours_kernel", self.threads, [self.grid.id, p, m.physics, c], True),
+            ]
 
     def _checkpoint(self):
         """Each shot at its checkpoint: its horizon, and whether it stops, jumps or rebuilds;
@@ -252,9 +263,11 @@ class DensePhase:
         if self.fused:
             return [self._launch("block_kernel", 1, [self.block_steps, self.rounds, p, m.surfaces, m.physics, c, outputs], True)]
         threads = self.threads
-        commands = [self._launch("bounds_kernel", threads, [p, m.surfaces, m.physics, c], True),
-                    self._launch("plan_kernel", shots, [p, m.physics, c], True),
-                    self._launch("prepare_kernel", threads, [p, m.physics, c], True)]
+        commands = [
+            self._launch("bounds_kernel", threads, [p, m.surfaces, m.physics, c], True),
+            self._launch("plan_kernel", shots, [p, m.physics, c], True),
+            self._launch("prepare_kernel", threads, [p, m.physics, c], True),
+        ]
         if self.in_air:
             commands.append(self._launch("kick_kernel", threads, [p, m.surfaces, m.physics, c], True))
         for r in range(self.rounds):
@@ -326,8 +339,24 @@ def whole_phase(dense: DensePhase):
     first = 0
     while first < dense.shots:
         end = min(first + group, dense.shots)
-        dense._long("phase_kernel", 1, [first, end, dense.block_steps, dense.rounds, dense.pair, m.surfaces, m.physics, c,
-                                        dense._outputs, dense.bucket_end, dense.rows, dense.cells])
+        dense._long(
+            "phase_kernel",
+            1,
+            [
+                first,
+                end,
+                dense.block_steps,
+                dense.rounds,
+                dense.pair,
+                m.surfaces,
+                m.physics,
+                c,
+                dense._outputs,
+                dense.bucket_end,
+                dense.rows,
+                dense.cells,
+            ],
+        )
         if not dense._grew_lists():  # (else the same group again: its shots before the overflow are done)
             first = end
 
@@ -353,14 +382,20 @@ def separation_buffers(device, shots: int, count: int, sampled: bool):
     """The launch separation's arrays: the most redraws of each shot, its cell buckets and a chain
     entry a pellet (`dense.separation`; empty buckets and chain without sampled launches)."""
     table = separation_table(count) if sampled else 0
-    return (wp.zeros(shots, dtype=wp.int32, device=device), wp.empty(shots * table, dtype=wp.int32, device=device),
-            wp.empty(shots * count if sampled else 0, dtype=wp.int32, device=device))
+    return (
+        wp.zeros(shots, dtype=wp.int32, device=device),
+        wp.empty(shots * table, dtype=wp.int32, device=device),
+        wp.empty(shots * count if sampled else 0, dtype=wp.int32, device=device),
+    )
 
 
 def check_redraws(phase: DensePhase, shots: int):
     """Refuse (one line) shots where a pellet found no place free of overlaps (the scene check
     keeps this from happening below `launch.packing.MAX_PACKING`)."""
     if phase.sampled and int(phase.redraws.numpy()[:shots].max()) > MAX_REDRAWS:
-        raise SceneError("shot.envelope_radius", phase.envelope_radius,
-                         f"a pellet found no place free of overlaps in {MAX_REDRAWS:,} draws: the envelope is too "
-                         "dense to sample without overlaps; make it larger")
+        raise SceneError(
+            "shot.envelope_radius",
+            phase.envelope_radius,
+            f"a pellet found no place free of overlaps in {MAX_REDRAWS:,} draws: the envelope is too "
+            "dense to sample without overlaps; make it larger",
+        )

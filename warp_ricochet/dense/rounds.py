@@ -76,7 +76,9 @@ def make_rounds(spec) -> SimpleNamespace:
                 if cloud.phase[j] == FLYING:
                     other_time = cloud.time[j]
                     start = wp.max(time, other_time)  # both reference states hold from here
-                    d = ballistic_position(cloud.position[j], cloud.velocity[j], gravity, start - other_time) - ballistic_position(position, velocity, gravity, start - time)
+                    d = ballistic_position(
+                        cloud.position[j], cloud.velocity[j], gravity, start - other_time
+                    ) - ballistic_position(position, velocity, gravity, start - time)
                     vj = ballistic_velocity(cloud.velocity[j], gravity, start - other_time)
                     vi = ballistic_velocity(velocity, gravity, start - time)
                     delay = contact_time(d, vj - vi, reach2, wp.length(vi) + wp.length(vj))
@@ -99,7 +101,9 @@ def make_rounds(spec) -> SimpleNamespace:
                         exit = wp.min(exit, contact)
             elif best >= 0:
                 a = wp.min(i, best)
-                xa, _va, _wa, xb, _vb, _wb, va2, _wa2, vb2, _wb2, _collided = pair_outcome(a, wp.max(i, best), best_time, pair, physics, cloud)
+                xa, _va, _wa, xb, _vb, _wb, va2, _wa2, vb2, _wb2, _collided = pair_outcome(
+                    a, wp.max(i, best), best_time, pair, physics, cloud
+                )
                 if i == a:
                     exit = skin_exit(cloud, physics, i, s, xa, va2, best_time)
                 else:
@@ -128,8 +132,9 @@ def make_rounds(spec) -> SimpleNamespace:
         return wp.min(cut, cloud.clock[s, CLOCK_SKIN])
 
     @wp.func(inline=True)
-    def resolve_pellet(i: wp.int32, round: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud,
-                       out: Outputs):
+    def resolve_pellet(
+        i: wp.int32, round: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs
+    ):
         """Apply each pellet's event if it falls in the step: a plane event, or a pair event both
         pellets chose (mutual), applied by the lower row's thread to both. A pellet takes part in
         at most one event per round, so every state is read and written by one thread only.

@@ -36,14 +36,24 @@ def make_separation(spec) -> SimpleNamespace:
         little wider than a diameter: two pellets closer than a diameter are in neighbouring cells
         whatever the rounding."""
         q = position - centre
-        return wp.vec3i(wp.int32(wp.floor(wp.float64(q[0]) * inverse_cell)),
-                        wp.int32(wp.floor(wp.float64(q[1]) * inverse_cell)),
-                        wp.int32(wp.floor(wp.float64(q[2]) * inverse_cell)))
+        return wp.vec3i(
+            wp.int32(wp.floor(wp.float64(q[0]) * inverse_cell)),
+            wp.int32(wp.floor(wp.float64(q[1]) * inverse_cell)),
+            wp.int32(wp.floor(wp.float64(q[2]) * inverse_cell)),
+        )
 
     @wp.func
-    def overlaps_earlier(position: vec3, centre: vec3, inverse_cell: wp.float64, diameter2: scalar, base: wp.int32,
-                         table: wp.int32, heads: wp.array(dtype=wp.int32), chain: wp.array(dtype=wp.int32),
-                         cloud: Cloud):
+    def overlaps_earlier(
+        position: vec3,
+        centre: vec3,
+        inverse_cell: wp.float64,
+        diameter2: scalar,
+        base: wp.int32,
+        table: wp.int32,
+        heads: wp.array(dtype=wp.int32),
+        chain: wp.array(dtype=wp.int32),
+        cloud: Cloud,
+    ):
         """Whether `position` lies closer than a diameter to a pellet already placed in the shot:
         those are chained by cell (one diameter wide) into the shot's buckets `heads[base:base +
         table]`, so only the 27 cells around it are looked at (the same answer as comparing with
@@ -61,9 +71,20 @@ def make_separation(spec) -> SimpleNamespace:
         return hit
 
     @wp.func
-    def separate_shot(s: wp.int32, begin: wp.int32, end: wp.int32, first_index: wp.int32, pair: Pair, physics: Physics,
-                      source: Source, cloud: Cloud, out: Outputs, redraws: wp.array(dtype=wp.int32),
-                      heads: wp.array(dtype=wp.int32), chain: wp.array(dtype=wp.int32)):
+    def separate_shot(
+        s: wp.int32,
+        begin: wp.int32,
+        end: wp.int32,
+        first_index: wp.int32,
+        pair: Pair,
+        physics: Physics,
+        source: Source,
+        cloud: Cloud,
+        out: Outputs,
+        redraws: wp.array(dtype=wp.int32),
+        heads: wp.array(dtype=wp.int32),
+        chain: wp.array(dtype=wp.int32),
+    ):
         """One thread per shot of sampled launches: its pellets [begin, end) in order (a large
         shot in pieces, one launch each, the same as in one: the buckets and `redraws` carry
         over; the first piece begins at 0 and empties them), each redrawn
@@ -94,8 +115,9 @@ def make_separation(spec) -> SimpleNamespace:
                 clash = overlaps_earlier(position, centre, inverse_cell, diameter2, base, table, heads, chain, cloud)
                 while clash != 0 and attempt < wp.static(MAX_REDRAWS):
                     attempt += 1
-                    position = redraw_position(source.seed, first_index + i, attempt, source.envelope_center,
-                                               source.envelope_radius)
+                    position = redraw_position(
+                        source.seed, first_index + i, attempt, source.envelope_center, source.envelope_radius
+                    )
                     clash = overlaps_earlier(position, centre, inverse_cell, diameter2, base, table, heads, chain, cloud)
                 if attempt > 0:
                     cloud.position[i] = position

@@ -101,7 +101,9 @@ def make_state(precision: str):
         clock: wp.array2d(dtype=scalar)  # (shots, NUM_CLOCK)
         shot_flags: wp.array2d(dtype=wp.int32)
         flags: wp.array(dtype=wp.int32)
-        step_travel: wp.array(dtype=scalar)  # (shots,) m: the most a pellet moves in one step relative to its frame, when beyond half the skin
+        step_travel: wp.array(
+            dtype=scalar
+        )  # (shots,) m: the most a pellet moves in one step relative to its frame, when beyond half the skin
         half_skin: wp.array(dtype=scalar)  # (shots,) m: the shot's half skin (widened for a fixed step that outruns it)
         widest_half_skin: wp.array(dtype=scalar)  # (1,) m: the widest of them (the grid's cells)
         stop: wp.array(dtype=wp.int32)  # (1,) 1: the host asks the CPU's long launches to return (an interrupt)
@@ -139,21 +141,65 @@ def dense_types(spec) -> SimpleNamespace:
     Cloud, Pair = make_state(spec.precision)
     scalar = t.scalar
     return SimpleNamespace(
-        scalar=scalar, vec3=t.vec3, Surfaces=t.Surfaces, Physics=t.Physics, Cloud=Cloud, Pair=Pair,
-        Outputs=make_outputs(spec.precision).Outputs, Source=make_source(spec.precision, spec.from_file).Source,
-        NEVER=scalar(NEVER_VALUE), TINY_SPEED=scalar(TINY_SPEED_VALUE), QUIET_STEP=scalar(QUIET_STEP_VALUE),
+        scalar=scalar,
+        vec3=t.vec3,
+        Surfaces=t.Surfaces,
+        Physics=t.Physics,
+        Cloud=Cloud,
+        Pair=Pair,
+        Outputs=make_outputs(spec.precision).Outputs,
+        Source=make_source(spec.precision, spec.from_file).Source,
+        NEVER=scalar(NEVER_VALUE),
+        TINY_SPEED=scalar(TINY_SPEED_VALUE),
+        QUIET_STEP=scalar(QUIET_STEP_VALUE),
         CLOSING_TOLERANCE2=scalar((ROUNDING * EPSILON[spec.precision]) ** 2),
         opts={"module": "unique", "enable_backward": False},
     )
 
 
-VECTORS = ("position", "velocity", "angular_velocity", "ricochet_point", "first_velocity_before",
-           "first_angular_velocity_before", "first_velocity_after", "first_angular_velocity_after", "launch_velocity",
-           "launch_angular_velocity", "grid_point", "build_offset", "now_position", "now_velocity", "position_error")
-SCALARS = ("time", "ricochet_time", "energy_lost", "event_time", "event_exit", "last_collision", "now_speed", "now_bound",
-           "air_time", "air_rate")
-INTEGERS = ("phase", "end_surface", "touching", "impacts", "last_slipped", "first_surface", "first_slipped",
-            "collision_count", "event_partner", "stale", "neighbour_count", "kick_due")
+VECTORS = (
+    "position",
+    "velocity",
+    "angular_velocity",
+    "ricochet_point",
+    "first_velocity_before",
+    "first_angular_velocity_before",
+    "first_velocity_after",
+    "first_angular_velocity_after",
+    "launch_velocity",
+    "launch_angular_velocity",
+    "grid_point",
+    "build_offset",
+    "now_position",
+    "now_velocity",
+    "position_error",
+)
+SCALARS = (
+    "time",
+    "ricochet_time",
+    "energy_lost",
+    "event_time",
+    "event_exit",
+    "last_collision",
+    "now_speed",
+    "now_bound",
+    "air_time",
+    "air_rate",
+)
+INTEGERS = (
+    "phase",
+    "end_surface",
+    "touching",
+    "impacts",
+    "last_slipped",
+    "first_surface",
+    "first_slipped",
+    "collision_count",
+    "event_partner",
+    "stale",
+    "neighbour_count",
+    "kick_due",
+)
 # the dense phase's output arrays (fields.FIELDS, stage "collide"), by their Cloud members;
 # collisions.count is the Cloud's own collision_count
 OUTPUT_FIELDS = tuple(name for name in COLLISION_FIELDS if name != "collisions.count")
@@ -164,8 +210,7 @@ def frame_blocks(count: int) -> int:
     return max(1, -(-count // FRAME_BLOCK))  # (FRAME_BLOCK read here: a test sets it smaller)
 
 
-def allocate_cloud(precision: str, device, capacity: int, shots: int, count: int, rounds: int, max_neighbours: int,
-                   fields):
+def allocate_cloud(precision: str, device, capacity: int, shots: int, count: int, rounds: int, max_neighbours: int, fields):
     """A Cloud for up to `capacity` pellets in `shots` shots of `count`, with the output arrays of
     `fields` (others empty); returns it and {field: its device array}."""
     t = types_for(precision)
@@ -188,12 +233,17 @@ def allocate_cloud(precision: str, device, capacity: int, shots: int, count: int
             field_arrays[name] = a
     if "collisions.count" in fields:
         field_arrays["collisions.count"] = cloud.collision_count
-    for name, dtype in (("drift_origin", t.vec3), ("drift_velocity", t.vec3), ("step_travel", t.scalar),
-                        ("half_skin", t.scalar)):
+    for name, dtype in (("drift_origin", t.vec3), ("drift_velocity", t.vec3), ("step_travel", t.scalar), ("half_skin", t.scalar)):
         setattr(cloud, name, arr(dtype, shots))
     blocks = shots * frame_blocks(count)
-    for name, dtype in (("frame_position", t.vec3), ("frame_velocity", t.vec3), ("frame_speed", t.scalar),
-                        ("frame_spread", t.scalar), ("frame_arrival", t.scalar), ("frame_flying", wp.int32)):
+    for name, dtype in (
+        ("frame_position", t.vec3),
+        ("frame_velocity", t.vec3),
+        ("frame_speed", t.scalar),
+        ("frame_spread", t.scalar),
+        ("frame_arrival", t.scalar),
+        ("frame_flying", wp.int32),
+    ):
         setattr(cloud, name, arr(dtype, blocks))
     cloud.clock = arr(t.scalar, (shots, NUM_CLOCK))
     cloud.shot_flags = arr(wp.int32, (shots, NUM_SHOT_FLAGS))

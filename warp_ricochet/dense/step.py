@@ -41,7 +41,12 @@ def make_step(spec) -> SimpleNamespace:
     TINY_SPEED, QUIET_STEP, NEVER, BOUNCES = d.TINY_SPEED, d.QUIET_STEP, d.NEVER, spec.bounces
     _entry, _return, _contact, ballistic_position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
     fr, ro = make_frame(spec), make_rounds(spec)
-    stepping, relative_to_drift, relative_to_frame, drift_point = fr.stepping, fr.relative_to_drift, fr.relative_to_frame, fr.drift_point
+    stepping, relative_to_drift, relative_to_frame, drift_point = (
+        fr.stepping,
+        fr.relative_to_drift,
+        fr.relative_to_frame,
+        fr.drift_point,
+    )
     choose_pellet, resolve_pellet, step_end_of = ro.choose_pellet, ro.resolve_pellet, ro.step_end_of
     plane_contacts_until = make_events(spec).plane_contacts_until
     AIR = spec.in_air
@@ -66,8 +71,17 @@ def make_step(spec) -> SimpleNamespace:
                 wp.atomic_max(cloud.clock, s, wp.static(CLOCK_AIR), rate)
 
     @wp.func(inline=True)
-    def drift_and_edge(i: wp.int32, time: scalar, frame_point: vec3, frame_velocity: vec3, edge_distance: scalar,
-                       pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
+    def drift_and_edge(
+        i: wp.int32,
+        time: scalar,
+        frame_point: vec3,
+        frame_velocity: vec3,
+        edge_distance: scalar,
+        pair: Pair,
+        surfaces: Surfaces,
+        physics: Physics,
+        cloud: Cloud,
+    ):
         """For block_shot (its shot is stepping; the frame's point and velocity at the shot's
         clock, computed once a step): bounds_pellet's speed, without writing it, and whether the
         pellet is near the edge of its skin (beyond SKIN_EDGE of half the skin since the build):
@@ -83,7 +97,9 @@ def make_step(spec) -> SimpleNamespace:
             if wp.length(relative - cloud.build_offset[i]) > edge_distance:
                 edge = wp.int32(1)
             if wp.static(AIR):
-                rate = air.pellet_rate(i, time, pair, surfaces, physics, cloud)  # (as bounds_pellet: the same bits on every schedule)
+                rate = air.pellet_rate(
+                    i, time, pair, surfaces, physics, cloud
+                )  # (as bounds_pellet: the same bits on every schedule)
         return speed, edge, rate
 
     @wp.func(inline=True)
@@ -158,8 +174,16 @@ def make_step(spec) -> SimpleNamespace:
             cloud.shot_flags[s, SHOT_STALL] = CHECKPOINT  # wait for the horizon check and settle
 
     @wp.func
-    def block_shot(s: wp.int32, steps: wp.int32, rounds: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics,
-                   cloud: Cloud, out: Outputs):
+    def block_shot(
+        s: wp.int32,
+        steps: wp.int32,
+        rounds: wp.int32,
+        pair: Pair,
+        surfaces: Surfaces,
+        physics: Physics,
+        cloud: Cloud,
+        out: Outputs,
+    ):
         """On the CPU (one thread), up to `steps` steps of shot s: each step is the per-step
         kernels' work for its pellets, in their order; it ends early when the shot waits (a
         checkpoint, or a rebuild) or is done, and mid-step once `cloud.stop` is set (an interrupt:
@@ -183,8 +207,9 @@ def make_step(spec) -> SimpleNamespace:
             frame_velocity = ballistic_velocity(cloud.drift_velocity[s], physics.gravity, time)
             edge_distance = scalar(SKIN_EDGE) * cloud.half_skin[s]
             for i in range(first, last):
-                speed, near, pellet_rate = drift_and_edge(i, time, frame_point, frame_velocity, edge_distance, pair, surfaces,
-                                                            physics, cloud)
+                speed, near, pellet_rate = drift_and_edge(
+                    i, time, frame_point, frame_velocity, edge_distance, pair, surfaces, physics, cloud
+                )
                 drift = wp.max(drift, speed)
                 edge = wp.max(edge, near)
                 rate = wp.max(rate, pellet_rate)
@@ -222,4 +247,12 @@ def make_step(spec) -> SimpleNamespace:
                     finish_pellet(i, pair, surfaces, physics, cloud, out)
             end_step_shot(s, pair, cloud)
 
-    return SimpleNamespace(bounds_pellet=bounds_pellet, drift_and_edge=drift_and_edge, plan_shot=plan_shot, prepare_pellet=prepare_pellet, finish_pellet=finish_pellet, end_step_shot=end_step_shot, block_shot=block_shot)
+    return SimpleNamespace(
+        bounds_pellet=bounds_pellet,
+        drift_and_edge=drift_and_edge,
+        plan_shot=plan_shot,
+        prepare_pellet=prepare_pellet,
+        finish_pellet=finish_pellet,
+        end_step_shot=end_step_shot,
+        block_shot=block_shot,
+    )

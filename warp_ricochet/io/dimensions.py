@@ -51,8 +51,10 @@ RUN_DIMENSIONS = {
     **{f"stats/quantiles/{lower}{q}": ("level",) for q in ("range", "distance", "speed", "energy") for lower in ("", "lower/")},
     **{f"stats/tail/{name}": ("tail_distance",) for name in ("distance", "count", "fraction")},
     **{f"hazard/thresholds/{name}": ("threshold",) for name in ("name", "kind", "value", "speed", "landings")},
-    **{f"hazard/danger_distance/{name}": ("threshold", "fraction") for name in ("distance", "ci_low", "ci_high",
-                                                                                  "needed_landings")},
+    **{
+        f"hazard/danger_distance/{name}": ("threshold", "fraction")
+        for name in ("distance", "ci_low", "ci_high", "needed_landings")
+    },
     "hazard/danger_distance/fraction": ("fraction",),
     "hazard/map/count": ("map_v", "map_u"),
     "hazard/map/energy": ("map_v", "map_u"),
@@ -73,7 +75,7 @@ def dimensions_of(path: str, ds: h5py.Dataset) -> tuple[str, ...]:
     dataset the layout does not know, `xyz` for a last axis of 3 and `<path>_<axis>` (slashes as
     underscores: one dimension per dataset and axis) for the rest."""
     if path.startswith("pellets/") and path.count("/") == 2:
-        name = path[len("pellets/"):].replace("/", ".")
+        name = path[len("pellets/") :].replace("/", ".")
         if name in FIELDS:
             return field_dimensions(name)
     if path in RUN_DIMENSIONS:

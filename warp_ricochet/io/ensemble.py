@@ -38,5 +38,8 @@ def write_ensemble(group: h5py.Group, ensemble: Ensemble) -> None:
 
 def read_ensemble(stats_group: h5py.Group):
     """name -> (ci_low, ci_high) of a run's /stats (empty when it has no intervals)."""
-    return {name: (float(ds.attrs["ci_low"]), float(ds.attrs["ci_high"])) for name, ds in stats_group.items()
-            if isinstance(ds, h5py.Dataset) and "ci_low" in ds.attrs}
+    return {
+        name: (float(ds.attrs["ci_low"]), float(ds.attrs["ci_high"]))
+        for name, ds in stats_group.items()
+        if isinstance(ds, h5py.Dataset) and "ci_low" in ds.attrs
+    }

@@ -57,22 +57,24 @@ def create_frames(group, pellets: int, every: int):
     box.attrs["dimension"] = np.int32(3)
     box.attrs["boundary"] = np.array([b"none"] * 3, dtype="S4")
     particles.create_dataset("species", data=np.zeros(pellets, dtype=np.int32)).attrs["description"] = (
-        "0 for every pellet: the pellets of a run are identical")
-    particles.create_dataset("id", data=np.arange(pellets, dtype=np.int64)).attrs["description"] = (
-        "the pellet's row in /pellets")
+        "0 for every pellet: the pellets of a run are identical"
+    )
+    particles.create_dataset("id", data=np.arange(pellets, dtype=np.int64)).attrs["description"] = "the pellet's row in /pellets"
     position = particles.create_group("position")
     step = position.create_dataset("step", shape=(0,), maxshape=(None,), dtype=np.int64, chunks=(256,))
     time = position.create_dataset("time", shape=(0,), maxshape=(None,), dtype=np.float64, chunks=(256,))
-    value = position.create_dataset("value", shape=(0, pellets, 3), maxshape=(None, pellets, 3), dtype=np.float64,
-                                    chunks=(1, min(pellets, 65536), 3))
+    value = position.create_dataset(
+        "value", shape=(0, pellets, 3), maxshape=(None, pellets, 3), dtype=np.float64, chunks=(1, min(pellets, 65536), 3)
+    )
     time.attrs.create("unit", "s", dtype=_VL_ASCII)
     value.attrs.create("unit", "m", dtype=_VL_ASCII)
     for ds, unit in ((step, "1"), (time, "s"), (value, "m"), (particles["species"], "1"), (particles["id"], "1")):
         ds.attrs["units"] = unit  # the project's attribute; H5MD's is `unit`
     step.attrs["description"] = "steps of the dense phase"
     time.attrs["description"] = "time since launch"
-    value.attrs["description"] = (f"pellet centres every {every} steps of the dense phase (pellets whose flight "
-                                  "ended: where it ended)")
+    value.attrs["description"] = (
+        f"pellet centres every {every} steps of the dense phase (pellets whose flight ended: where it ended)"
+    )
 
 
 def append_frame(group, step: int, time: float, positions):

@@ -9,7 +9,7 @@ FORMAT_VERSIONS = (1, 2)  # those read (1: every dimension scale in the run's gr
 
 
 def file_kind(attrs) -> str | None:
-    """"run" or "sweep" for the root attributes (text) of a warp-ricochet output file, else None."""
+    """ "run" or "sweep" for the root attributes (text) of a warp-ricochet output file, else None."""
     kind = attrs.get("kind")
     return kind if attrs.get("format") == FORMAT_NAME and kind in KINDS else None
 
@@ -37,9 +37,7 @@ def open_checked(path, shown: str):
 
     import h5py
 
-    from ..errors import OutputError
-
-    from ..errors import not_regular
+    from ..errors import OutputError, not_regular
 
     path = os.fsdecode(path)
     if not_regular(path):  # (a FIFO would wait for a writer)

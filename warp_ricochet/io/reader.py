@@ -76,8 +76,10 @@ class Run:
             self.attrs = {k: _text(v) for k, v in self.file.attrs.items()}
             kind = self.attrs.get("kind")
             if file_kind(self.attrs) is None:
-                raise OutputError(f"open_run path = {self.path!r}: is not a warp-ricochet run or sweep file "
-                                  f"(format = {self.attrs.get('format')!r}, kind = {kind!r})")
+                raise OutputError(
+                    f"open_run path = {self.path!r}: is not a warp-ricochet run or sweep file "
+                    f"(format = {self.attrs.get('format')!r}, kind = {kind!r})"
+                )
             self.points = 0
             if kind == "sweep":
                 self.points = len(self.file["runs"]) if "runs" in self.file else 0
@@ -117,7 +119,7 @@ class Run:
             ds.refresh()
             dims = field_dimensions(f"{group}.{name}")
             data = da.from_array(ds, chunks=(max(1, chunk_rows),) + ds.shape[1:], lock=True, name=False)
-            variables[name] = _variable(ds, dims, data[:self.rows])
+            variables[name] = _variable(ds, dims, data[: self.rows])
         return xr.Dataset(variables, coords=self._xyz(variables), attrs=self._dataset_attrs(group))
 
     def _frames(self, g, chunk_rows: int):
@@ -128,8 +130,7 @@ class Run:
         for name, ds in g.items():
             ds.refresh()
             dims = RUN_DIMENSIONS[f"particles/pellets/position/{name}"]
-            data = da.from_array(ds, chunks=(1,) + ds.shape[1:], lock=True, name=False) \
-                if name == "value" else ds[()]
+            data = da.from_array(ds, chunks=(1,) + ds.shape[1:], lock=True, name=False) if name == "value" else ds[()]
             variables[name] = _variable(ds, dims, data)
         return xr.Dataset(variables, coords=self._xyz(variables), attrs=self._dataset_attrs("frames"))
 
@@ -178,8 +179,9 @@ class Run:
             groups = self.__dict__.get("groups", {})
             if name in groups:
                 return groups[name]
-            raise AttributeError(f"{name}: this run wrote no per-pellet {name} fields (output.fields; it has "
-                                 f"{sorted(groups) or 'none'})")
+            raise AttributeError(
+                f"{name}: this run wrote no per-pellet {name} fields (output.fields; it has {sorted(groups) or 'none'})"
+            )
         raise AttributeError(name)
 
     def __getitem__(self, name):
@@ -223,8 +225,10 @@ class Run:
         return False
 
     def __repr__(self):
-        return (f"<warp_ricochet Run {self.path!r}: status {self.status!r}, {self.rows} of {self.pellets} pellets "
-                f"complete, groups {sorted(self.groups)}>")
+        return (
+            f"<warp_ricochet Run {self.path!r}: status {self.status!r}, {self.rows} of {self.pellets} pellets "
+            f"complete, groups {sorted(self.groups)}>"
+        )
 
 
 def open_run(path, *, point: int | None = None, chunk_rows: int = DASK_ROWS) -> Run:

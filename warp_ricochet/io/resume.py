@@ -73,41 +73,57 @@ def verify(f, scene, dev, partial_name: str) -> tuple[int, int, int, int]:
     SceneError / OutputError (one line)."""
     attrs = {k: _text(v) for k, v in f.attrs.items()}
     if file_kind(attrs) != "run":
-        raise OutputError(f"output path = {partial_name!r}: is not a warp-ricochet run file (format = "
-                          f"{attrs.get('format')!r}, kind = {attrs.get('kind')!r}); it cannot be resumed")
+        raise OutputError(
+            f"output path = {partial_name!r}: is not a warp-ricochet run file (format = "
+            f"{attrs.get('format')!r}, kind = {attrs.get('kind')!r}); it cannot be resumed"
+        )
     if "progress" not in f:
-        raise OutputError(f"output path = {partial_name!r}: holds no resume data (interrupted while it was set up, before any "
-                          "chunk, or written by an older version); "
-                          "--overwrite starts the run again")
+        raise OutputError(
+            f"output path = {partial_name!r}: holds no resume data (interrupted while it was set up, before any "
+            "chunk, or written by an older version); "
+            "--overwrite starts the run again"
+        )
     for key, here in (("package_version", __version__), ("warp_version", wp.config.version)):
         if attrs.get(key) != here:
-            raise SceneError(key, here, f"the interrupted run used {attrs.get(key)!r}; resume needs the same "
-                                        "version (for bitwise-identical results)")
+            raise SceneError(
+                key,
+                here,
+                f"the interrupted run used {attrs.get(key)!r}; resume needs the same version (for bitwise-identical results)",
+            )
     difference = _first_difference(tomllib.loads(scene.to_toml()), tomllib.loads(attrs.get("scene_toml", "")))
     if difference is not None:
         key, here, there = difference
-        raise SceneError(key, here, f"the interrupted run had {there!r}; resume needs the same scene, seed and "
-                                    "--set overrides")
+        raise SceneError(key, here, f"the interrupted run had {there!r}; resume needs the same scene, seed and --set overrides")
     progress = f["progress"]
     there = (attrs.get("device"), _text(progress.attrs.get("device_name")))
     if there != (str(dev), dev.name):
-        raise SceneError("device", str(dev), f"the interrupted run ran on {there[0]!r} ({there[1]}); resume on the "
-                                             "same device (devices differ in the last bits)")
+        raise SceneError(
+            "device",
+            str(dev),
+            f"the interrupted run ran on {there[0]!r} ({there[1]}); resume on the same device (devices differ in the last bits)",
+        )
     if scene.shot.file is not None:
         st = os.stat(scene.shot.file)
-        if (st.st_size, st.st_mtime_ns) != (progress.attrs.get("pellet_file_size"),
-                                            progress.attrs.get("pellet_file_mtime_ns")):
-            raise SceneError("shot.file", scene.shot.file, "changed since the interrupted run (size or modification "
-                                                           "time); resume needs the same pellets")
-    if scene.pair_collisions and ("shot_totals" not in progress
-                                  or list(progress["shot_totals"].attrs.get("columns", [])) != list(SHOT_TOTALS)):
-        raise OutputError(f"output path = {partial_name!r}: holds no per-shot collision totals (written by an older "
-                          "version); --overwrite starts the run again")
+        if (st.st_size, st.st_mtime_ns) != (progress.attrs.get("pellet_file_size"), progress.attrs.get("pellet_file_mtime_ns")):
+            raise SceneError(
+                "shot.file",
+                scene.shot.file,
+                "changed since the interrupted run (size or modification time); resume needs the same pellets",
+            )
+    if scene.pair_collisions and (
+        "shot_totals" not in progress or list(progress["shot_totals"].attrs.get("columns", [])) != list(SHOT_TOTALS)
+    ):
+        raise OutputError(
+            f"output path = {partial_name!r}: holds no per-shot collision totals (written by an older "
+            "version); --overwrite starts the run again"
+        )
     results = progress.get("segment_results")
     width = results.shape[-1] if results is not None and results.ndim == 2 else 0
     if width != SEGMENT_WIDTH:
-        raise OutputError(f"output path = {partial_name!r}: holds statistics partials of another layout ({width} columns "
-                          f"for {SEGMENT_WIDTH}: written by an older version); --overwrite starts the run again")
+        raise OutputError(
+            f"output path = {partial_name!r}: holds statistics partials of another layout ({width} columns "
+            f"for {SEGMENT_WIDTH}: written by an older version); --overwrite starts the run again"
+        )
     rows, chunk = int(progress["rows"][()]), int(progress["chunk_rows"][()])
     pellets = int(f["constants/pellets"][()])
     if scene.pair_collisions:  # chunks of whole shots, a multiple of shot_granule shots but the last
@@ -159,14 +175,17 @@ def plan(f, scene, dev, partial_name: str) -> ResumePlan:
     totals = progress["shot_totals"][:shots] if scene.pair_collisions else None
     tally = tally_out.read_progress(progress, rows)
     if scene.output.quantiles and rows and tally is None:
-        raise OutputError(f"output path = {partial_name!r}: holds no landing counts for its {rows} rows complete; "
-                          "it cannot be resumed (--overwrite starts the run again)")
+        raise OutputError(
+            f"output path = {partial_name!r}: holds no landing counts for its {rows} rows complete; "
+            "it cannot be resumed (--overwrite starts the run again)"
+        )
     partials, pieces = None, 0
     if has_ensemble(scene):
         pieces = rows // scene.shot.count * pieces_per_shot(scene.shot.count)
         if "shot_partials" not in progress or len(progress["shot_partials"]) < pieces:
-            raise OutputError(f"output path = {partial_name!r}: is inconsistent (per-shot partials of fewer than "
-                              f"{rows // scene.shot.count} shots); it cannot be resumed")
+            raise OutputError(
+                f"output path = {partial_name!r}: is inconsistent (per-shot partials of fewer than "
+                f"{rows // scene.shot.count} shots); it cannot be resumed"
+            )
         partials = progress["shot_partials"][:pieces]
-    return ResumePlan(rows, chunk, segments, shots, progress["segment_results"][:segments], totals, tally, partials,
-                      pieces)
+    return ResumePlan(rows, chunk, segments, shots, progress["segment_results"][:segments], totals, tally, partials, pieces)

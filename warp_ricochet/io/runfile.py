@@ -52,8 +52,6 @@ from .h5open import FORMAT_NAME, FORMAT_VERSION, open_for_reading
 from .space import Reservation
 from .xdmf import check_sidecar, sidecar_path, write_xdmf
 
-from .locks import in_use, share, try_lock
-
 ABANDONED = False  # a file could not be closed: the HDF5 library must not run its exit handlers
 
 SWMR_FILE = {"libver": ("v110", "latest"), "locking": False}  # run files: SWMR-capable; our flock replaces HDF5's
@@ -70,8 +68,10 @@ def check_output_path(path, overwrite: bool) -> Path:
     if p.exists() and not overwrite:
         raise OutputError(f"{shown}: exists; pass --overwrite (overwrite=True) to replace it")
     if p.is_symlink() and not p.exists() and not overwrite:  # else found only when the run moves into place
-        raise OutputError(f"{shown}: is a dangling symbolic link (to {os.readlink(p)!r}); remove it, or pass "
-                          "--overwrite (overwrite=True) to replace the link")
+        raise OutputError(
+            f"{shown}: is a dangling symbolic link (to {os.readlink(p)!r}); remove it, or pass "
+            "--overwrite (overwrite=True) to replace the link"
+        )
     partial = p.with_name(p.name + ".partial")
     if partial.exists():
         if not partial.is_dir() and not_regular(partial):  # (checking its lock would open it)
@@ -79,10 +79,15 @@ def check_output_path(path, overwrite: bool) -> Path:
         if in_use(partial):
             raise in_use_error(shown, partial.name)
         if not overwrite:
-            what = ("the points of an earlier interrupted sweep", "sweep") if partial.is_dir() else \
-                ("the chunks of an earlier interrupted run", "run")
-            raise OutputError(f"{shown}: {partial.name} exists ({what[0]}); pass --resume (resume=True) to continue "
-                              f"that {what[1]}, --overwrite (overwrite=True) to replace it, or move it away")
+            what = (
+                ("the points of an earlier interrupted sweep", "sweep")
+                if partial.is_dir()
+                else ("the chunks of an earlier interrupted run", "run")
+            )
+            raise OutputError(
+                f"{shown}: {partial.name} exists ({what[0]}); pass --resume (resume=True) to continue "
+                f"that {what[1]}, --overwrite (overwrite=True) to replace it, or move it away"
+            )
     check_sidecar(p, overwrite, shown)
     parent = p.parent if str(p.parent) else Path(".")
     if not parent.exists():
@@ -145,14 +150,15 @@ class _PartialLock:
             self.fd = None
 
 
-_OPEN: dict[str, "OutputFile"] = {}  # HDF5 file name -> its OutputFile while open (for RunWriter)
+_OPEN: dict[str, OutputFile] = {}  # HDF5 file name -> its OutputFile while open (for RunWriter)
 
 
 class OutputFile:
     """An HDF5 output file; use as a context manager so its status is always recorded."""
 
-    def __init__(self, path, *, overwrite: bool, kind: str, device: str, scene_toml: str, seed=None,
-                 precision=None, sidecar: bool = True):
+    def __init__(
+        self, path, *, overwrite: bool, kind: str, device: str, scene_toml: str, seed=None, precision=None, sidecar: bool = True
+    ):
         self.path = check_output_path(path, overwrite)
         self.overwrite, self.sidecar = overwrite, sidecar
         self.partial = self.path.with_name(self.path.name + ".partial")
@@ -163,8 +169,10 @@ class OutputFile:
         self.staging = self.partial.with_name(self.partial.name + ".new") if self.watchable else self.partial
         shown = f"output path = {str(self.path)!r}"
         if self.watchable and self.partial.is_dir():  # never replaced by a run's partial, even with overwrite
-            raise OutputError(f"{shown}: {self.partial.name} is a sweep's folder (warp-ricochet sweep ... --resume "
-                              "continues it); remove it, or choose another output path")
+            raise OutputError(
+                f"{shown}: {self.partial.name} is a sweep's folder (warp-ricochet sweep ... --resume "
+                "continues it); remove it, or choose another output path"
+            )
         if self.staging.exists():  # a set-up file of a killed run, or (overwrite) a sweep's earlier partial
             _PartialLock(self.staging, shown).release()  # refused while someone has it open
             os.unlink(self.staging)
@@ -189,7 +197,7 @@ class OutputFile:
         attrs["warp_version"] = wp.config.version
         attrs["h5py_version"] = h5py.version.version
         attrs["device"] = device
-        attrs["created"] = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+        attrs["created"] = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
         attrs["scene_toml"] = scene_toml
         attrs["units"] = "SI (m, s, kg, J, rad/s)"
         if seed is not None:
@@ -219,22 +227,25 @@ class OutputFile:
             try:
                 f = open_for_reading(self.partial, locking=False)  # also with the flags of a killed writer set
             except OSError as exc:
-                raise OutputError(f"{shown}: {self.partial.name} cannot be resumed: HDF5 cannot open it "
-                                  f"({hdf5_reason(exc)}); --overwrite starts the run again") from None
+                raise OutputError(
+                    f"{shown}: {self.partial.name} cannot be resumed: HDF5 cannot open it "
+                    f"({hdf5_reason(exc)}); --overwrite starts the run again"
+                ) from None
             with f:
                 try:
                     found = check(f)
                 except (KeyError, ValueError, TypeError) as exc:
                     if isinstance(exc, RicochetError):
                         raise
-                    raise OutputError(f"{shown}: {self.partial.name} cannot be resumed: it lacks what a run file "
-                                      f"holds ({' '.join(str(exc).split())})") from None
+                    raise OutputError(
+                        f"{shown}: {self.partial.name} cannot be resumed: it lacks what a run file "
+                        f"holds ({' '.join(str(exc).split())})"
+                    ) from None
             try:
                 clear_status_flags(self.partial)
                 self.h5 = h5py.File(self.partial, "r+", **SWMR_FILE)
             except (OSError, ValueError) as exc:
-                raise OutputError(f"{shown}: {self.partial.name} cannot be reopened for writing "
-                                  f"({hdf5_reason(exc)})") from None
+                raise OutputError(f"{shown}: {self.partial.name} cannot be reopened for writing ({hdf5_reason(exc)})") from None
         except BaseException:
             self._lock.release()
             raise
@@ -295,8 +306,11 @@ class OutputFile:
                 except Exception as close_error:  # the library failed mid-close: keep the first error
                     abandon(self.h5)
                     if exc_type is None:
-                        raise OSError(errno.EIO, "the output file could not be closed: "
-                                      + " ".join(str(close_error).split()), str(self.staging)) from None
+                        raise OSError(
+                            errno.EIO,
+                            "the output file could not be closed: " + " ".join(str(close_error).split()),
+                            str(self.staging),
+                        ) from None
                     return False
             self.space.release()
             if self.staging != self.partial:  # failed during the set-up: closed now, so it opens
@@ -327,9 +341,11 @@ def publish_sidecar(path: Path, overwrite: bool) -> None:
     try:
         write_xdmf(path, overwrite=overwrite)
     except (OSError, RicochetError) as exc:
-        warnings.warn(f"{sidecar_path(path).name} (the XDMF sidecar for ParaView) was not written: "
-                      f"{' '.join(str(exc).split())}; `warp-ricochet xdmf {path}` writes it", stacklevel=2)
-
+        warnings.warn(
+            f"{sidecar_path(path).name} (the XDMF sidecar for ParaView) was not written: "
+            f"{' '.join(str(exc).split())}; `warp-ricochet xdmf {path}` writes it",
+            stacklevel=2,
+        )
 
 
 def publish(staging: Path, partial: Path, overwrite: bool, shown: str):
@@ -338,8 +354,7 @@ def publish(staging: Path, partial: Path, overwrite: bool, shown: str):
     try:
         _publish(staging, partial, overwrite, shown)
     except FileNotFoundError:  # removed by another process meanwhile
-        raise OutputError(f"{shown}: {staging.name} was removed during the set-up (by another process?); run it "
-                          "again") from None
+        raise OutputError(f"{shown}: {staging.name} was removed during the set-up (by another process?); run it again") from None
 
 
 def _publish(staging: Path, partial: Path, overwrite: bool, shown: str):
@@ -401,8 +416,10 @@ def _move(partial: Path, path: Path, overwrite: bool):
     try:
         _replace(partial, path, overwrite)
     except FileNotFoundError:  # removed by another process while the run wrote it: its rows are gone
-        raise OutputError(f"output path = {str(path)!r}: {partial.name} was removed during the run (by another "
-                          "process?); its results are lost: run it again") from None
+        raise OutputError(
+            f"output path = {str(path)!r}: {partial.name} was removed during the run (by another "
+            "process?); its results are lost: run it again"
+        ) from None
 
 
 def _replace(partial: Path, path: Path, overwrite: bool):
@@ -412,12 +429,12 @@ def _replace(partial: Path, path: Path, overwrite: bool):
     try:
         os.link(partial, path)  # atomic, and fails if the target appeared meanwhile
     except FileExistsError:
-        raise OutputError(f"output path = {str(path)!r}: appeared during the run; the result is in "
-                          f"{str(partial)!r}") from None
+        raise OutputError(f"output path = {str(path)!r}: appeared during the run; the result is in {str(partial)!r}") from None
     except OSError:  # no hard links here: check, then rename
         if path.exists():
-            raise OutputError(f"output path = {str(path)!r}: appeared during the run; the result is in "
-                              f"{str(partial)!r}") from None
+            raise OutputError(
+                f"output path = {str(path)!r}: appeared during the run; the result is in {str(partial)!r}"
+            ) from None
         os.replace(partial, path)
         return
     os.unlink(partial)
@@ -441,8 +458,5 @@ def check_resume_path(path, overwrite: bool) -> Path:
     if not os.access(partial, os.R_OK | os.W_OK) or not os.access(partial.parent, os.W_OK | os.X_OK):
         raise OutputError(f"{shown}: {partial.name} or its folder is not writable (permission denied)")
     if not h5py.is_hdf5(partial):
-        raise OutputError(f"{shown}: {partial.name} is not an HDF5 file; it cannot be resumed "
-                          "(--overwrite starts the run again)")
+        raise OutputError(f"{shown}: {partial.name} is not an HDF5 file; it cannot be resumed (--overwrite starts the run again)")
     return p
-
-

@@ -39,9 +39,12 @@ class Reservation:
             code = ctypes.get_errno()
             if code in (errno.ENOSPC, errno.EDQUOT):
                 free = free_bytes(self.path)
-                raise OSError(errno.ENOSPC, f"No space left on device ({what} needs {size_text(total)}"
-                                            + (f", {size_text(free)} is free)" if free is not None else ")"),
-                              str(self.path))
+                raise OSError(
+                    errno.ENOSPC,
+                    f"No space left on device ({what} needs {size_text(total)}"
+                    + (f", {size_text(free)} is free)" if free is not None else ")"),
+                    str(self.path),
+                )
             self.can_reserve = False  # e.g. EOPNOTSUPP: check instead
         check_space(self.path, need, what)
 
@@ -80,8 +83,11 @@ def check_space(path, need: int, what: str) -> None:
     """OSError(ENOSPC) naming the file if fewer than `need` (+ a margin) bytes are free next to it."""
     free = free_bytes(path)
     if free is not None and need + SPACE_MARGIN > free:
-        raise OSError(errno.ENOSPC, f"No space left on device ({what} needs {size_text(need + SPACE_MARGIN)}, "
-                                    f"{size_text(free)} is free)", os.fspath(path))
+        raise OSError(
+            errno.ENOSPC,
+            f"No space left on device ({what} needs {size_text(need + SPACE_MARGIN)}, {size_text(free)} is free)",
+            os.fspath(path),
+        )
 
 
 def size_text(n: float) -> str:
@@ -100,8 +106,10 @@ def host_memory_available():
             free = int(re.search(r"^MemAvailable:\s+(\d+) kB", f.read(), re.M).group(1)) * 1024
     except (OSError, AttributeError, ValueError):
         return None
-    for limit, usage in (("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current"),
-                         ("/sys/fs/cgroup/memory/memory.limit_in_bytes", "/sys/fs/cgroup/memory/memory.usage_in_bytes")):
+    for limit, usage in (
+        ("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current"),
+        ("/sys/fs/cgroup/memory/memory.limit_in_bytes", "/sys/fs/cgroup/memory/memory.usage_in_bytes"),
+    ):
         try:
             with open(limit) as a, open(usage) as b:
                 free = min(free, int(a.read()) - int(b.read()))

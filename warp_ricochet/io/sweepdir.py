@@ -27,7 +27,6 @@ from pathlib import Path
 
 from ..errors import OutputError, SceneError, in_use_error
 from ..scene.keys import _Shown
-
 from .atomic import replaced
 from .locks import try_lock
 
@@ -35,8 +34,18 @@ MANIFEST = "sweep.json"
 ASSEMBLY = "sweep.h5"
 FOLDER_FORMAT = "warp-ricochet sweep folder"
 FOLDER_VERSION = 1
-FILE_ATTRIBUTES = ("format", "format_version", "kind", "status", "package_version", "warp_version", "h5py_version",
-                   "device", "created", "units")  # root attributes of a run file that its group in a sweep lacks
+FILE_ATTRIBUTES = (
+    "format",
+    "format_version",
+    "kind",
+    "status",
+    "package_version",
+    "warp_version",
+    "h5py_version",
+    "device",
+    "created",
+    "units",
+)  # root attributes of a run file that its group in a sweep lacks
 _POINT = re.compile(r"^(\d{4,})\.h5$")
 
 
@@ -78,12 +87,16 @@ def make_manifest(scene_toml: str, points, dev) -> dict:
     from .._version import __version__
 
     return {
-        "format": FOLDER_FORMAT, "format_version": FOLDER_VERSION, "points": len(points),
+        "format": FOLDER_FORMAT,
+        "format_version": FOLDER_VERSION,
+        "points": len(points),
         "scene_toml": scene_toml,
         "parameters": dict(zip(points.keys, points.values)),
         "ties": [list(t) for t in points.ties],
-        "device": str(dev), "device_name": dev.name,
-        "package_version": __version__, "warp_version": wp.config.version,
+        "device": str(dev),
+        "device_name": dev.name,
+        "package_version": __version__,
+        "warp_version": wp.config.version,
     }
 
 
@@ -106,8 +119,10 @@ class SweepFolder:
         if self.path.exists() and not overwrite:
             raise OutputError(f"{shown}: exists; pass --overwrite (overwrite=True) to replace it with the resumed sweep")
         if folder.is_file():
-            raise OutputError(f"{shown}: {folder.name} is a run's partial file, not a sweep's folder; "
-                              "warp-ricochet run ... --resume continues it")
+            raise OutputError(
+                f"{shown}: {folder.name} is a run's partial file, not a sweep's folder; "
+                "warp-ricochet run ... --resume continues it"
+            )
         if not folder.is_dir():
             raise OutputError(f"{shown}: nothing to resume: {folder.name} does not exist")
         from .xdmf import check_sidecar
@@ -118,8 +133,10 @@ class SweepFolder:
             try:
                 there = json.loads((folder / MANIFEST).read_text())
             except (OSError, ValueError):
-                raise OutputError(f"{shown}: {folder.name} holds no readable {MANIFEST}: it is not a sweep's folder "
-                                  "and cannot be resumed (--overwrite starts the sweep again)") from None
+                raise OutputError(
+                    f"{shown}: {folder.name} holds no readable {MANIFEST}: it is not a sweep's folder "
+                    "and cannot be resumed (--overwrite starts the sweep again)"
+                ) from None
             _compare(self.manifest, there, f"{shown}: {folder.name}")
         except BaseException:
             self.close()
@@ -156,8 +173,7 @@ class SweepFolder:
             os.close(self.fd)  # drops the lock
             self.fd = None
 
-    def assemble(self, points, stats: list[dict], *, overwrite: bool, device: str, scene_toml: str, seed,
-                 precision) -> None:
+    def assemble(self, points, stats: list[dict], *, overwrite: bool, device: str, scene_toml: str, seed, precision) -> None:
         """Copy every point's run file into one sweep file, move it into place, remove the folder."""
         import h5py
         import numpy as np
@@ -166,8 +182,16 @@ class SweepFolder:
         from .writer import unit_of_key, write_stats_table
 
         target = self.folder / ASSEMBLY
-        with OutputFile(target, overwrite=True, kind="sweep", device=device, scene_toml=scene_toml, seed=seed,
-                        precision=precision, sidecar=False) as out:
+        with OutputFile(
+            target,
+            overwrite=True,
+            kind="sweep",
+            device=device,
+            scene_toml=scene_toml,
+            seed=seed,
+            precision=precision,
+            sidecar=False,
+        ) as out:
             sw = out.h5.create_group("sweep")
             columns = points.columns
             table = np.array([[p[key] for key in columns] for p in points], dtype=np.float64).reshape(-1, len(columns))
@@ -251,8 +275,11 @@ def read_point_stats(path: Path) -> dict:
     from ..tallies.sums import STAT_UNITS
 
     with h5py.File(path, "r") as f:
-        return {name: float(ds[()]) for name, ds in f["stats"].items()
-                if name in STAT_UNITS and isinstance(ds, h5py.Dataset) and ds.shape == ()}
+        return {
+            name: float(ds[()])
+            for name, ds in f["stats"].items()
+            if name in STAT_UNITS and isinstance(ds, h5py.Dataset) and ds.shape == ()
+        }
 
 
 def _compare(here: dict, there: dict, shown: str) -> None:
@@ -262,29 +289,45 @@ def _compare(here: dict, there: dict, shown: str) -> None:
     from .resume import _first_difference
 
     if there.get("format") != FOLDER_FORMAT:
-        raise OutputError(f"{shown} is not a warp-ricochet sweep folder (format = {there.get('format')!r}); it cannot "
-                          "be resumed (--overwrite starts the sweep again)")
+        raise OutputError(
+            f"{shown} is not a warp-ricochet sweep folder (format = {there.get('format')!r}); it cannot "
+            "be resumed (--overwrite starts the sweep again)"
+        )
     difference = _first_difference(tomllib.loads(here["scene_toml"]), tomllib.loads(str(there.get("scene_toml", ""))))
     if difference is not None:
         key, mine, theirs = difference
-        raise SceneError(key, mine, f"the interrupted sweep had {theirs!r}; resume needs the same scene, seed and "
-                                    "--set overrides")
+        raise SceneError(
+            key, mine, f"the interrupted sweep had {theirs!r}; resume needs the same scene, seed and --set overrides"
+        )
     mine, theirs = here["parameters"], there.get("parameters")
     if not isinstance(theirs, dict) or list(mine) != list(theirs):
-        raise SceneError("--param", _Shown(", ".join(mine)), f"the interrupted sweep swept {_keys(theirs)}; resume "
-                                                            "needs the same sweep")
+        raise SceneError(
+            "--param", _Shown(", ".join(mine)), f"the interrupted sweep swept {_keys(theirs)}; resume needs the same sweep"
+        )
     for key, values in mine.items():
         if values != theirs[key]:
             j = next((j for j, (a, b) in enumerate(zip(values, theirs[key])) if a != b), min(len(values), len(theirs[key])))
-            raise SceneError(key, _Shown(f"{len(values)} values" + (f", value {j} = {values[j]!r}" if j < len(values) else "")),
-                             f"the interrupted sweep had {len(theirs[key])} values"
-                             + (f", value {j} = {theirs[key][j]!r}" if j < len(theirs[key]) else "")
-                             + "; resume needs the same --param values")
-    for key, what in (("ties", "--tie"), ("device", "device"), ("device_name", "device"),
-                      ("package_version", "package_version"), ("warp_version", "warp_version")):
+            raise SceneError(
+                key,
+                _Shown(f"{len(values)} values" + (f", value {j} = {values[j]!r}" if j < len(values) else "")),
+                f"the interrupted sweep had {len(theirs[key])} values"
+                + (f", value {j} = {theirs[key][j]!r}" if j < len(theirs[key]) else "")
+                + "; resume needs the same --param values",
+            )
+    for key, what in (
+        ("ties", "--tie"),
+        ("device", "device"),
+        ("device_name", "device"),
+        ("package_version", "package_version"),
+        ("warp_version", "warp_version"),
+    ):
         if here.get(key) != there.get(key):
-            raise SceneError(what, here.get(key), f"the interrupted sweep had {there.get(key)!r}; resume needs the "
-                                                  "same sweep (scene, --param, --tie, device and versions)")
+            raise SceneError(
+                what,
+                here.get(key),
+                f"the interrupted sweep had {there.get(key)!r}; resume needs the "
+                "same sweep (scene, --param, --tie, device and versions)",
+            )
 
 
 def _keys(value) -> str:

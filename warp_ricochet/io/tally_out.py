@@ -28,30 +28,64 @@ def create(group, scene, model):
     setup = TallySetup.of(scene, model.mass, model.radius, 1.0)
     width = TallyTotals(setup).flat().size
     p = group["progress"]
-    _ds(p, "tally", shape=(2, width), dtype=np.int64, fillvalue=0, unit="1", chunks=(1, min(width, 1 << 20)),
-        compression="gzip", compression_opts=1,
-        doc="cumulative landing counts (warp_ricochet.tallies.counts.TallyTotals.flat) in two slots used in turn")
+    _ds(
+        p,
+        "tally",
+        shape=(2, width),
+        dtype=np.int64,
+        fillvalue=0,
+        unit="1",
+        chunks=(1, min(width, 1 << 20)),
+        compression="gzip",
+        compression_opts=1,
+        doc="cumulative landing counts (warp_ricochet.tallies.counts.TallyTotals.flat) in two slots used in turn",
+    )
     _ds(p, "tally_rows", np.full(2, -1, dtype=np.int64), unit="1", doc="rows each tally slot is complete for")
     n_levels, quant = len(LEVELS), group.create_group("stats/quantiles")
     quant.attrs["levels"] = np.asarray(LEVELS)
     quant.attrs["resolution"] = RESOLUTION
     for name, (unit, doc) in QUANTITIES.items():
-        for path, what in ((name, "upper edge of the bin holding the sample quantile X_(ceil(q n)) of the"),
-                           (f"lower/{name}", "lower edge of the bin holding the sample quantile of the")):
+        for path, what in (
+            (name, "upper edge of the bin holding the sample quantile X_(ceil(q n)) of the"),
+            (f"lower/{name}", "lower edge of the bin holding the sample quantile of the"),
+        ):
             ds = _ds(quant, path, np.full(n_levels, np.nan), unit=unit, doc=f"{what} {doc}, landed pellets")
             ds.attrs["levels"] = np.asarray(LEVELS)
             ds.attrs["resolution"] = RESOLUTION
     hist = group.create_group("stats/histograms")
-    _ds(hist, "counts", np.zeros((ROW_DISTANCE + setup.levels, BINS), dtype=np.int64), unit="1",
-        compression="gzip", compression_opts=1, doc="landings per bin; rows: " + HIST_ROWS).attrs["resolution"] = RESOLUTION
+    _ds(
+        hist,
+        "counts",
+        np.zeros((ROW_DISTANCE + setup.levels, BINS), dtype=np.int64),
+        unit="1",
+        compression="gzip",
+        compression_opts=1,
+        doc="landings per bin; rows: " + HIST_ROWS,
+    ).attrs["resolution"] = RESOLUTION
     _ds(hist, "edges", edges(), unit="m, m/s (by row)", doc="bin edges (BINS + 1): 0, the log-spaced span, inf")
     distances = scene.output.tail_distances
     tails = group.create_group("stats/tail")
-    _ds(tails, "distance", np.full(len(distances), np.nan), unit="m",
-        doc="output.tail_distances, each moved up to the nearest bin edge (at most 0.098% more)")
-    _ds(tails, "count", np.zeros(len(distances), dtype=np.int64), unit="1", doc="landings at or beyond the distance from the shooter")
-    _ds(tails, "fraction", np.full(len(distances), np.nan), unit="1",
-        doc="share of the landed pellets at or beyond the distance from the shooter")
+    _ds(
+        tails,
+        "distance",
+        np.full(len(distances), np.nan),
+        unit="m",
+        doc="output.tail_distances, each moved up to the nearest bin edge (at most 0.098% more)",
+    )
+    _ds(
+        tails,
+        "count",
+        np.zeros(len(distances), dtype=np.int64),
+        unit="1",
+        doc="landings at or beyond the distance from the shooter",
+    )
+    _ds(
+        tails,
+        "fraction",
+        np.full(len(distances), np.nan),
+        unit="1",
+        doc="share of the landed pellets at or beyond the distance from the shooter",
+    )
     if scene.hazard is not None:
         _create_hazard(group.create_group("hazard"), setup)
 
@@ -59,28 +93,56 @@ def create(group, scene, model):
 def _create_hazard(g, setup):
     t, f = len(setup.names), len(setup.fractions)
     th = g.create_group("thresholds")
-    _ds(th, "name", np.asarray(setup.names, dtype="S"), unit="", doc="threshold names, in the order of the bits of hazard.exceeds")
+    _ds(
+        th, "name", np.asarray(setup.names, dtype="S"), unit="", doc="threshold names, in the order of the bits of hazard.exceeds"
+    )
     _ds(th, "kind", np.asarray(setup.kinds, dtype="S"), unit="", doc="energy_density (J/m^2) or speed (m/s)")
     _ds(th, "value", np.asarray(setup.values, dtype=np.float64), unit="J/m^2 or m/s (by kind)", doc="threshold values")
-    _ds(th, "speed", np.sqrt(np.asarray(setup.thresholds2, dtype=np.float64)), unit="m/s",
-        doc="the same thresholds as landing speeds (E/A = m v^2 / (2 pi R^2))")
+    _ds(
+        th,
+        "speed",
+        np.sqrt(np.asarray(setup.thresholds2, dtype=np.float64)),
+        unit="m/s",
+        doc="the same thresholds as landing speeds (E/A = m v^2 / (2 pi R^2))",
+    )
     _ds(th, "landings", np.zeros(t, dtype=np.int64), unit="1", doc="landings at or above each threshold")
     d = g.create_group("danger_distance")
-    _ds(d, "fraction", np.asarray(setup.fractions, dtype=np.float64), unit="1", doc="p: the share of hazardous landings left beyond")
-    for name, doc in (("distance", "distance from the shooter containing all but p of the landings above the threshold "
-                                   "(upper edge of its bin)"),
-                      ("ci_low", "lower end of its 95% confidence interval (order statistics)"),
-                      ("ci_high", "upper end of its 95% confidence interval (inf: the run is too small for p)")):
+    _ds(
+        d,
+        "fraction",
+        np.asarray(setup.fractions, dtype=np.float64),
+        unit="1",
+        doc="p: the share of hazardous landings left beyond",
+    )
+    for name, doc in (
+        (
+            "distance",
+            "distance from the shooter containing all but p of the landings above the threshold (upper edge of its bin)",
+        ),
+        ("ci_low", "lower end of its 95% confidence interval (order statistics)"),
+        ("ci_high", "upper end of its 95% confidence interval (inf: the run is too small for p)"),
+    ):
         _ds(d, name, np.full((t, f), np.nan), unit="m", doc=doc + "; rows: thresholds, columns: fractions")
-    _ds(d, "needed_landings", np.zeros((t, f), dtype=np.int64), unit="1",
-        doc="landings above the threshold a bounded 95% interval needs at that p")
+    _ds(
+        d,
+        "needed_landings",
+        np.zeros((t, f), dtype=np.int64),
+        unit="1",
+        doc="landings above the threshold a bounded 95% interval needs at that p",
+    )
     if setup.has_map:
         m = g.create_group("map")
         shape = (setup.map_nv, setup.map_nu)
         _ds(m, "count", **_map_layer(shape, np.int64), unit="1", doc="landings per cell (rows v, columns u)")
         _ds(m, "outside", np.int64(0), unit="1", doc="landings on the map's surface outside the grid")
         _ds(m, "elsewhere", np.int64(0), unit="1", doc="landings on other surfaces")
-        _ds(m, "energy", **_map_layer(shape, np.float64), unit="J", doc="kinetic energy at landing per cell, summed (fixed point: `quantum`)")
+        _ds(
+            m,
+            "energy",
+            **_map_layer(shape, np.float64),
+            unit="J",
+            doc="kinetic energy at landing per cell, summed (fixed point: `quantum`)",
+        )
         _ds(m, "quantum", np.nan, unit="J", doc="the energy sums' unit: each landing's energy rounded to a multiple of it")
         _ds(m, "above", **_map_layer((t,) + shape, np.int64), unit="1", doc="landings above each threshold per cell")
         _ds(m, "u_edges", setup.map_u0 + setup.map_cell * np.arange(setup.map_nu + 1), unit="m", doc="cell edges along u")

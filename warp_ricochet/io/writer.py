@@ -22,11 +22,11 @@ from ..fields import FIELDS, numpy_dtype, shape
 from ..scene.schema import COMPRESSIONS
 from ..tallies.collisions import SHOT_TOTALS, SHOT_TOTALS_UNITS
 from ..tallies.ensemble import has_ensemble
-from .ensemble import create_ensemble_datasets, write_ensemble
 from ..tallies.reduce import SEGMENT, SEGMENT_WIDTH
 from ..tallies.sums import STAT_UNITS
 from . import h5md, tally_out
 from .dimensions import name_run_dimensions, name_sweep_dimensions
+from .ensemble import create_ensemble_datasets, write_ensemble
 from .runfile import _OPEN
 from .space import check_space
 
@@ -52,7 +52,6 @@ def _shown_name(group) -> str:
     """The name of the file `group` is in, as the user knows it (NAME.partial, not a set-up name)."""
     out = _OPEN.get(group.file.filename)
     return str(out.staging) if out is not None else group.file.filename
-
 
 
 class RunWriter:
@@ -137,9 +136,11 @@ class RunWriter:
 
     @staticmethod
     def _create_progress(g, model, scene):
-        g.attrs["description"] = ("rows complete (every /pellets dataset and statistics partial below them is "
-                                  "final), the chunk size, and the per-segment statistics partials, in pellet "
-                                  "order: what readers of a running run and --resume rely on")
+        g.attrs["description"] = (
+            "rows complete (every /pellets dataset and statistics partial below them is "
+            "final), the chunk size, and the per-segment statistics partials, in pellet "
+            "order: what readers of a running run and --resume rely on"
+        )
         g.attrs["segment_rows"] = SEGMENT
         g.attrs["device_name"] = model.device.name
         if scene.shot.file is not None:
@@ -149,22 +150,29 @@ class RunWriter:
         g.create_dataset("rows", data=np.int64(0)).attrs["units"] = "1"
         g.create_dataset("chunk_rows", data=np.int64(0)).attrs["units"] = "1"
         width = SEGMENT_WIDTH
-        ds = g.create_dataset("segment_results", shape=(0, width), maxshape=(None, width), chunks=(256, width),
-                              dtype="f8")
+        ds = g.create_dataset("segment_results", shape=(0, width), maxshape=(None, width), chunks=(256, width), dtype="f8")
         ds.attrs["units"] = "SI (sums of the quantities of warp_ricochet.tallies.sums.SUM_NAMES, then range minima and maxima, m)"
         if scene.pair_collisions:
-            ds = g.create_dataset("shot_totals", shape=(0, len(SHOT_TOTALS)), maxshape=(None, len(SHOT_TOTALS)),
-                                  chunks=(1024, len(SHOT_TOTALS)), dtype="f8")
+            ds = g.create_dataset(
+                "shot_totals",
+                shape=(0, len(SHOT_TOTALS)),
+                maxshape=(None, len(SHOT_TOTALS)),
+                chunks=(1024, len(SHOT_TOTALS)),
+                dtype="f8",
+            )
             ds.attrs["columns"] = list(SHOT_TOTALS)
             ds.attrs["units"] = SHOT_TOTALS_UNITS
-            ds.attrs["description"] = ("per shot: pellets that collided, pellet-pellet collisions counted by both "
-                                       "pellets, energy lost in them, steps and end time of its dense phase")
+            ds.attrs["description"] = (
+                "per shot: pellets that collided, pellet-pellet collisions counted by both "
+                "pellets, energy lost in them, steps and end time of its dense phase"
+            )
         if has_ensemble(scene):
-            ds = g.create_dataset("shot_partials", shape=(0, width), maxshape=(None, width), chunks=(256, width),
-                                  dtype="f8")
+            ds = g.create_dataset("shot_partials", shape=(0, width), maxshape=(None, width), chunks=(256, width), dtype="f8")
             ds.attrs["units"] = "as segment_results"
-            ds.attrs["description"] = ("per piece of 256 pellets of a shot (core.shots.PIECE), shots complete in "
-                                       "order: the statistics partials each shot's values in /stats/shots are made of")
+            ds.attrs["description"] = (
+                "per piece of 256 pellets of a shot (core.shots.PIECE), shots complete in "
+                "order: the statistics partials each shot's values in /stats/shots are made of"
+            )
 
     @staticmethod
     def _write_constants(g, model, scene, pellets):
@@ -194,8 +202,15 @@ class RunWriter:
                 arr = arr.reshape(len(planes), 3)
             s.create_dataset(name, data=arr).attrs["units"] = unit
 
-    def append(self, arrays: dict[str, np.ndarray], rows: int, segment_results: np.ndarray, shot_totals=None,
-               tally=None, shot_partials=None):
+    def append(
+        self,
+        arrays: dict[str, np.ndarray],
+        rows: int,
+        segment_results: np.ndarray,
+        shot_totals=None,
+        tally=None,
+        shot_partials=None,
+    ):
         """Append the first `rows` rows of each field's array, the chunk's segment results and (pair
         collisions) the totals of its shots, keep the landing counts so far (`tally`), and (several
         shots) the per-shot partials of the shots it completes; flush; then count the rows complete
@@ -212,8 +227,11 @@ class RunWriter:
             for name, ds in self.datasets.items():
                 ds.resize(stop, axis=0)
                 ds[start:stop] = arrays[name][:rows]
-            for ds, block in ((self.segment_results, segment_results), (self.shot_totals, shot_totals),
-                              (self.shot_partials, shot_partials)):
+            for ds, block in (
+                (self.segment_results, segment_results),
+                (self.shot_totals, shot_totals),
+                (self.shot_partials, shot_partials),
+            ):
                 if block is not None:
                     done = len(ds)
                     ds.resize(done + len(block), axis=0)
@@ -243,9 +261,21 @@ class RunWriter:
             raise _write_failure(exc, self.group) from None
 
 
-_KEY_UNITS = {"diameter": "m", "envelope_radius": "m", "density": "kg/m^3", "speed": "m/s", "impact_duration": "s",
-              "direction_jitter": "1", "restitution": "1", "mu_s": "1", "mu_d": "1", "count": "1", "seed": "1",
-              "bounces": "1", "chunk_size": "1"}
+_KEY_UNITS = {
+    "diameter": "m",
+    "envelope_radius": "m",
+    "density": "kg/m^3",
+    "speed": "m/s",
+    "impact_duration": "s",
+    "direction_jitter": "1",
+    "restitution": "1",
+    "mu_s": "1",
+    "mu_d": "1",
+    "count": "1",
+    "seed": "1",
+    "bounces": "1",
+    "chunk_size": "1",
+}
 
 
 def unit_of_key(key: str) -> str:

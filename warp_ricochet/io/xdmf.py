@@ -61,8 +61,7 @@ def check_sidecar(path, overwrite: bool, shown: str) -> None:
     """Refuse (OutputError) when the sidecar of `path` exists and `overwrite` is not given."""
     xmf = sidecar_path(path)
     if xmf.exists() and not overwrite:
-        raise OutputError(f"{shown}: {xmf.name} (its XDMF sidecar) exists; pass --overwrite (overwrite=True) to "
-                          "replace it")
+        raise OutputError(f"{shown}: {xmf.name} (its XDMF sidecar) exists; pass --overwrite (overwrite=True) to replace it")
 
 
 def write_xdmf(path, *, overwrite: bool = False) -> Path:
@@ -170,8 +169,9 @@ def _run(parent, group, h5name: str, name: str, suffix: str) -> None:
     if rows > 0:
         for cloud, stage, bounce in clouds:
             if FIELDS[f"{stage}.position"].path in group:
-                _cloud(run, ref, rows, cloud + suffix, stage, bounce, [e for e in extras if not e.startswith(stage + ".")],
-                       constants)
+                _cloud(
+                    run, ref, rows, cloud + suffix, stage, bounce, [e for e in extras if not e.startswith(stage + ".")], constants
+                )
     _surfaces(run, group, ref, rows, "surfaces" + suffix)
     _frames(run, group, ref, extras, "frames" + suffix)
 
@@ -201,7 +201,8 @@ class _Refs:
             return
         slab = ET.SubElement(parent, "DataItem", ItemType="HyperSlab", Type="HyperSlab", Dimensions=_dims(count))
         ET.SubElement(slab, "DataItem", Dimensions=f"3 {len(shape)}", Format="XML").text = " ".join(
-            str(v) for v in start + [1] * len(shape) + count)
+            str(v) for v in start + [1] * len(shape) + count
+        )
         slab.append(whole)
 
     def norm(self, parent, path, rows, fixed=None, scale=None):
@@ -218,8 +219,7 @@ class _Refs:
 def _data(ds, ref: str, shape) -> ET.Element:
     kind = ds.dtype.kind
     number = "Char" if (kind == "i" and ds.dtype.itemsize == 1) else _NUMBER_TYPES[kind]
-    item = ET.Element("DataItem", Dimensions=_dims(shape), NumberType=number, Precision=str(ds.dtype.itemsize),
-                      Format="HDF")
+    item = ET.Element("DataItem", Dimensions=_dims(shape), NumberType=number, Precision=str(ds.dtype.itemsize), Format="HDF")
     item.text = ref
     return item
 
@@ -260,8 +260,7 @@ def _cloud(parent, ref, rows, name, stage, bounce, extras, constants):
             ref.norm(_attribute(grid, _MAGNITUDES[base] + tail, "Scalar", field.unit), field.path, rows, fixed)
             energy, constant = _ENERGIES[base]
             if constant in constants:
-                ref.norm(_attribute(grid, energy + tail, "Scalar", "J"), field.path, rows, fixed,
-                         scale=0.5 * constants[constant])
+                ref.norm(_attribute(grid, energy + tail, "Scalar", "J"), field.path, rows, fixed, scale=0.5 * constants[constant])
     for extra in extras:
         ref.item(_attribute(grid, extra, "Scalar", FIELDS[extra].unit), FIELDS[extra].path, rows)
 
@@ -284,7 +283,7 @@ def _sample_box(group, rows) -> np.ndarray:
             continue
         ds = group[path]
         for start in starts:
-            block = np.asarray(ds[start:min(start + SAMPLE_BLOCK, rows)]).reshape(-1, 3)
+            block = np.asarray(ds[start : min(start + SAMPLE_BLOCK, rows)]).reshape(-1, 3)
             block = block[np.isfinite(block).all(axis=1)]
             if len(block):
                 lo, hi = np.minimum(lo, block.min(axis=0)), np.maximum(hi, block.max(axis=0))
@@ -331,11 +330,16 @@ def _surfaces(parent, group, ref, rows, name):
     grid = ET.SubElement(parent, "Grid", Name=name, GridType="Uniform")
     ET.SubElement(grid, "Topology", TopologyType="Quadrilateral", NumberOfElements=str(len(points)))
     geometry = ET.SubElement(grid, "Geometry", GeometryType="XYZ")
-    item = ET.SubElement(geometry, "DataItem", Dimensions=f"{len(corners)} 3", NumberType="Float", Precision="8",
-                         Format="XML")
+    item = ET.SubElement(geometry, "DataItem", Dimensions=f"{len(corners)} 3", NumberType="Float", Precision="8", Format="XML")
     item.text = "\n" + "\n".join(" ".join(repr(float(x)) for x in c) for c in corners) + "\n"
-    index = ET.SubElement(_attribute(grid, "surface", "Scalar", "1", "Cell"), "DataItem", Dimensions=str(len(points)),
-                          NumberType="Int", Precision="4", Format="XML")
+    index = ET.SubElement(
+        _attribute(grid, "surface", "Scalar", "1", "Cell"),
+        "DataItem",
+        Dimensions=str(len(points)),
+        NumberType="Int",
+        Precision="4",
+        Format="XML",
+    )
     index.text = " ".join(str(i) for i in range(len(points)))
     for name in ("restitution", "mu_s", "mu_d"):
         path = f"constants/surfaces/{name}"

@@ -28,7 +28,6 @@ stay. The envelope's packing fraction (pellet volume over envelope volume) may b
 `launch.packing.MAX_PACKING` (scene check).
 """
 
-
 import functools
 
 import warp as wp
@@ -120,8 +119,7 @@ def make_redraw(scalar):
     vec3 = wp.types.vector(3, scalar)
 
     @wp.func
-    def redraw_position(seed: wp.int32, index: wp.int32, attempt: wp.int32, envelope_center: vec3,
-                        envelope_radius: scalar):
+    def redraw_position(seed: wp.int32, index: wp.int32, attempt: wp.int32, envelope_center: vec3, envelope_radius: scalar):
         """Uniform in the envelope sphere, as `sample_pellet`'s position, from stream outputs
         k = 2 attempt + 2 and 2 attempt + 3 of pellet `index` of `seed` (m)."""
         key = mix64((wp.uint64(seed) << wp.uint64(32)) | wp.uint64(index))

@@ -53,8 +53,14 @@ def make_source(precision: str, from_file: bool) -> SimpleNamespace:
             spin = source.angular_velocity[row]
         else:
             position, velocity, spin = sample_pellet(
-                source.seed, index, source.speed, source.direction, source.jitter,
-                source.envelope_center, source.envelope_radius, source.spin,
+                source.seed,
+                index,
+                source.speed,
+                source.direction,
+                source.jitter,
+                source.envelope_center,
+                source.envelope_radius,
+                source.spin,
             )
         return position, velocity, spin
 

@@ -70,9 +70,11 @@ def make_drag_laws(precision: str):
         if s < SERIES_BELOW:
             return FM_SERIES / s + FM_LINEAR * s
         s2 = s * s
-        return ((scalar(1.0) + scalar(2.0) * s2) * wp.exp(-s2) / (s2 * s * SQRT_PI)
-                + (scalar(4.0) * s2 * s2 + scalar(4.0) * s2 - scalar(1.0)) * wp.erf(s) / (scalar(2.0) * s2 * s2)
-                + scalar(2.0) * SQRT_PI / (scalar(3.0) * s))
+        return (
+            (scalar(1.0) + scalar(2.0) * s2) * wp.exp(-s2) / (s2 * s * SQRT_PI)
+            + (scalar(4.0) * s2 * s2 + scalar(4.0) * s2 - scalar(1.0)) * wp.erf(s) / (scalar(2.0) * s2 * s2)
+            + scalar(2.0) * SQRT_PI / (scalar(3.0) * s)
+        )
 
     @wp.func
     def loth_low_f(mach: scalar, re: scalar, kn: scalar):
@@ -98,7 +100,8 @@ def make_drag_laws(precision: str):
             return loth_low_f(mach, re, kn)
         c_m, g_m, h_m = loth_factors(mach)
         return (scalar(1.0) + scalar(0.15) * wp.pow(re, scalar(0.687))) * h_m + re / scalar(24.0) * scalar(0.42) * c_m / (
-            scalar(1.0) + scalar(42500.0) / wp.pow(re, scalar(1.16) * c_m) + g_m / wp.sqrt(re))
+            scalar(1.0) + scalar(42500.0) / wp.pow(re, scalar(1.16) * c_m) + g_m / wp.sqrt(re)
+        )
 
     @wp.func
     def table_cd(mach: scalar, machs: wp.array(dtype=scalar), cds: wp.array(dtype=scalar)):
@@ -114,8 +117,7 @@ def make_drag_laws(precision: str):
         w = (mach - machs[k - 1]) / (machs[k] - machs[k - 1])
         return cds[k - 1] + w * (cds[k] - cds[k - 1])
 
-    return SimpleNamespace(loth_factors=loth_factors, free_molecular_cd=free_molecular_cd, loth_f=loth_f,
-                           table_cd=table_cd)
+    return SimpleNamespace(loth_factors=loth_factors, free_molecular_cd=free_molecular_cd, loth_f=loth_f, table_cd=table_cd)
 
 
 @functools.cache
@@ -131,8 +133,11 @@ def make_spin_laws(precision: str):
         """C_L/S of Loth (2008): 2 [1 - (0.675 + 0.15 (1 + tanh(0.28 (2S - 2)))) tanh(0.18 sqrt(Re))];
         Rubinow-Keller (2) as Re -> 0, about 0.5 at high Re and small S."""
         s = scalar(1.0) / wp.max(inverse_s, scalar(1e-6))  # (tanh saturates long before S = 1e6)
-        return scalar(2.0) * (scalar(1.0) - (scalar(0.675) + scalar(0.15) * (scalar(1.0) + wp.tanh(
-            scalar(0.28) * (scalar(2.0) * s - scalar(2.0))))) * wp.tanh(scalar(0.18) * wp.sqrt(re)))
+        return scalar(2.0) * (
+            scalar(1.0)
+            - (scalar(0.675) + scalar(0.15) * (scalar(1.0) + wp.tanh(scalar(0.28) * (scalar(2.0) * s - scalar(2.0)))))
+            * wp.tanh(scalar(0.18) * wp.sqrt(re))
+        )
 
     @wp.func
     def sawicki2003_lift_ratio(inverse_s: scalar, cl_max: scalar):
@@ -155,8 +160,12 @@ def make_spin_laws(precision: str):
         """h = 1 + 5 / (64 pi) Re_R^0.6 (Loth 2008)."""
         return scalar(1.0) + H_LOTH * wp.pow(re_r, scalar(0.6))
 
-    return SimpleNamespace(loth2008_lift_ratio=loth2008_lift_ratio, sawicki2003_lift_ratio=sawicki2003_lift_ratio,
-                           dennis1980_factor=dennis1980_factor, loth2008_factor=loth2008_factor)
+    return SimpleNamespace(
+        loth2008_lift_ratio=loth2008_lift_ratio,
+        sawicki2003_lift_ratio=sawicki2003_lift_ratio,
+        dennis1980_factor=dennis1980_factor,
+        loth2008_factor=loth2008_factor,
+    )
 
 
 @functools.cache
@@ -164,8 +173,11 @@ def make_air_laws(precision: str, drag: str, lift, spin_decay) -> SimpleNamespac
     """`air_rates(velocity, spin, air) -> (a_D + a_L, domega/dt)` for the laws chosen: drag one of
     DRAG_LAWS; lift one of LIFT_LAWS or None (no Magnus lift); spin_decay one of SPIN_DECAY_LAWS or
     None (spin unchanged in flight)."""
-    if drag not in DRAG_LAWS or (lift is not None and lift not in LIFT_LAWS) or (
-            spin_decay is not None and spin_decay not in SPIN_DECAY_LAWS):
+    if (
+        drag not in DRAG_LAWS
+        or (lift is not None and lift not in LIFT_LAWS)
+        or (spin_decay is not None and spin_decay not in SPIN_DECAY_LAWS)
+    ):
         raise ValueError(f"air laws {drag!r}, {lift!r}, {spin_decay!r}: see DRAG_LAWS, LIFT_LAWS, SPIN_DECAY_LAWS")
     t = types_for(precision)
     scalar, vec3, Air = t.scalar, t.vec3, t.Air
@@ -225,5 +237,10 @@ def make_air_laws(precision: str, drag: str, lift, spin_decay) -> SimpleNamespac
             spin_change = spin_rate(spin, air)
         return acceleration, spin_change
 
-    return SimpleNamespace(drag_acceleration=drag_acceleration, lift_acceleration=lift_acceleration,
-                           spin_rate=spin_rate, air_rates=air_rates, spins=SPIN is not None or LIFT is not None)
+    return SimpleNamespace(
+        drag_acceleration=drag_acceleration,
+        lift_acceleration=lift_acceleration,
+        spin_rate=spin_rate,
+        air_rates=air_rates,
+        spins=SPIN is not None or LIFT is not None,
+    )

@@ -38,16 +38,27 @@ def make_roots(precision: str) -> SimpleNamespace:
     ITERATIONS = 64 if precision == "float64" else 40
 
     @wp.func
-    def evaluate(theta: scalar, slope: wp.int32, sign: scalar, g0: scalar, s0: scalar, q0: scalar, g1: scalar,
-                 s1: scalar, q1: scalar):
+    def evaluate(
+        theta: scalar, slope: wp.int32, sign: scalar, g0: scalar, s0: scalar, q0: scalar, g1: scalar, s1: scalar, q1: scalar
+    ):
         value, derivative = hermite(theta, g0, s0, q0, g1, s1, q1)
         if slope != 0:
             return sign * derivative
         return sign * value
 
     @wp.func
-    def root(lo: scalar, hi: scalar, slope: wp.int32, sign: scalar, g0: scalar, s0: scalar, q0: scalar,
-             g1: scalar, s1: scalar, q1: scalar):
+    def root(
+        lo: scalar,
+        hi: scalar,
+        slope: wp.int32,
+        sign: scalar,
+        g0: scalar,
+        s0: scalar,
+        q0: scalar,
+        g1: scalar,
+        s1: scalar,
+        q1: scalar,
+    ):
         """The bracket's upper end once it is narrower than a few rounding errors of theta."""
         f_lo = evaluate(lo, slope, sign, g0, s0, q0, g1, s1, q1)
         f_hi = evaluate(hi, slope, sign, g0, s0, q0, g1, s1, q1)
@@ -86,8 +97,7 @@ def make_plane_search(precision: str, planes) -> SimpleNamespace:
     STATIC, TOLERANCE = planes, scalar(ROUNDING * EPSILON[precision])
 
     @wp.func
-    def start_plane(k: wp.int32, position: vec3, velocity: vec3, touching: wp.int32, surfaces: Surfaces,
-                    physics: Physics):
+    def start_plane(k: wp.int32, position: vec3, velocity: vec3, touching: wp.int32, surfaces: Surfaces, physics: Physics):
         """Plane k at a flight's start: 0 never met, 1 watched, 2 waiting for the turn, 3 met now."""
         normal = surfaces.normal[k]
         offset = position - surfaces.point[k]
@@ -100,8 +110,9 @@ def make_plane_search(precision: str, planes) -> SimpleNamespace:
                 state = wp.int32(2)
         elif height >= scalar(0.0):
             gap = height - physics.radius
-            if wp.abs(gap) <= TOLERANCE * (wp.abs(offset[0] * normal[0]) + wp.abs(offset[1] * normal[1])
-                                           + wp.abs(offset[2] * normal[2]) + physics.radius):
+            if wp.abs(gap) <= TOLERANCE * (
+                wp.abs(offset[0] * normal[0]) + wp.abs(offset[1] * normal[1]) + wp.abs(offset[2] * normal[2]) + physics.radius
+            ):
                 gap = scalar(0.0)  # touching, up to rounding
             state = wp.int32(1)
             if gap <= scalar(0.0):
@@ -155,8 +166,19 @@ def make_plane_search(precision: str, planes) -> SimpleNamespace:
         return theta, now_watched
 
     @wp.func
-    def search(h: scalar, x0: vec3, v0: vec3, a0: vec3, x1: vec3, v1: vec3, a1: vec3, watched: wp.int32,
-               waiting: wp.int32, surfaces: Surfaces, physics: Physics):
+    def search(
+        h: scalar,
+        x0: vec3,
+        v0: vec3,
+        a0: vec3,
+        x1: vec3,
+        v1: vec3,
+        a1: vec3,
+        watched: wp.int32,
+        waiting: wp.int32,
+        surfaces: Surfaces,
+        physics: Physics,
+    ):
         """The earliest contact on an accepted step from state 0 to state 1: (theta in [0, 1],
         plane; -1 and 2 for none) and the planes' states after the step."""
         best_theta = scalar(2.0)
@@ -174,9 +196,15 @@ def make_plane_search(precision: str, planes) -> SimpleNamespace:
             if watch != 0:
                 normal = surfaces.normal[k]
                 level = wp.dot(surfaces.point[k], normal) + physics.radius
-                theta, now_watched = plane_theta(watch, wp.dot(x0, normal) - level, h * wp.dot(v0, normal),
-                                                 h * h * wp.dot(a0, normal), wp.dot(x1, normal) - level,
-                                                 h * wp.dot(v1, normal), h * h * wp.dot(a1, normal))
+                theta, now_watched = plane_theta(
+                    watch,
+                    wp.dot(x0, normal) - level,
+                    h * wp.dot(v0, normal),
+                    h * h * wp.dot(a0, normal),
+                    wp.dot(x1, normal) - level,
+                    h * wp.dot(v1, normal),
+                    h * h * wp.dot(a1, normal),
+                )
                 if now_watched != 0:
                     watched = watched | bit
                     waiting = waiting & ~bit
@@ -236,8 +264,9 @@ def make_air_flight(precision: str, planes, laws: tuple) -> SimpleNamespace:
         return h * factor
 
     @wp.func
-    def to_contact_within(position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces,
-                          physics: Physics, latest: scalar):
+    def to_contact_within(
+        position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces, physics: Physics, latest: scalar
+    ):
         """(dt, plane, x, v, w, steps) at the next plane contact within `latest` (s); plane -1
         (none by then: the state `latest` later) or GAVE_UP with the state where the flight
         stopped."""
@@ -255,8 +284,9 @@ def make_air_flight(precision: str, planes, laws: tuple) -> SimpleNamespace:
             x1, v1, w1, a1, d1, error = stepper.step(position, velocity, spin, acceleration, spin_change, h, physics)
             steps += 1
             if error <= scalar(1.0):
-                theta, k, watched, waiting = search.search(h, position, velocity, acceleration, x1, v1, a1, watched,
-                                                           waiting, surfaces, physics)
+                theta, k, watched, waiting = search.search(
+                    h, position, velocity, acceleration, x1, v1, a1, watched, waiting, surfaces, physics
+                )
                 if k >= 0:
                     x, slope = dense.hermite_vec(theta, position, h * velocity, h * h * acceleration, x1, h * v1, h * h * a1)
                     w = dense.cubic_vec(theta, spin, h * spin_change, w1, h * d1)
@@ -274,8 +304,7 @@ def make_air_flight(precision: str, planes, laws: tuple) -> SimpleNamespace:
         return scalar(NO_CONTACT), stopped, position, velocity, spin, steps
 
     @wp.func
-    def to_contact(position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces,
-                   physics: Physics):
+    def to_contact(position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces, physics: Physics):
         """(dt, plane, x, v, w, steps) at the next plane contact; plane -1 (none before
         MAX_FLIGHT_TIME) or GAVE_UP with the state where the flight stopped."""
         return to_contact_within(position, velocity, spin, touching, surfaces, physics, LATEST)

@@ -16,7 +16,6 @@ than falling a rounding error onto it, and gravity along a plane does not give a
 of 1e17 s; a contact later than MAX_FLIGHT_TIME counts as none.
 """
 
-
 import functools
 
 import warp as wp
@@ -117,8 +116,9 @@ def make_ballistic(scalar, planes=None, snap=True):  # noqa: C901
             if centre_height >= scalar(0.0):  # one-sided: centre behind the plane never touches
                 gap = centre_height - radius
                 if wp.static(SNAP):  # the gap's rounding noise scales with sum |offset_k n_k|
-                    if wp.abs(gap) <= TOLERANCE * (wp.abs(offset[0] * normal[0]) + wp.abs(offset[1] * normal[1])
-                                                   + wp.abs(offset[2] * normal[2]) + radius):
+                    if wp.abs(gap) <= TOLERANCE * (
+                        wp.abs(offset[0] * normal[0]) + wp.abs(offset[1] * normal[1]) + wp.abs(offset[2] * normal[2]) + radius
+                    ):
                         gap = scalar(0.0)  # touching, up to rounding
                 t = entry_time(gap, normal_speed, half_normal_gravity)
         if t > LATEST:

@@ -40,8 +40,17 @@ def make_contact(precision: str):
     def impact(k: wp.int32, normal: vec3, velocity: vec3, spin: vec3, surfaces: Surfaces, physics: Physics):
         """The impact law (eqs. 1-25) at plane k of unit `normal`, gravity resisted during the
         contact (eq. 10): (velocity', spin', slipped)."""
-        return impact_law(velocity, spin, normal, physics.radius, physics.inertia_factor, surfaces.restitution[k],
-                          surfaces.mu_s[k], surfaces.mu_d[k], wp.dot(physics.gravity, normal) * physics.impact_duration)
+        return impact_law(
+            velocity,
+            spin,
+            normal,
+            physics.radius,
+            physics.inertia_factor,
+            surfaces.restitution[k],
+            surfaces.mu_s[k],
+            surfaces.mu_d[k],
+            wp.dot(physics.gravity, normal) * physics.impact_duration,
+        )
 
     @wp.func
     def meet_surface(k: wp.int32, velocity: vec3, spin: vec3, surfaces: Surfaces, physics: Physics):

@@ -44,11 +44,9 @@ def make_flight(precision: str, planes=None, model: str = "ballistic", laws=None
     _entry, _return, contact_time, position_at, velocity_at = make_ballistic(scalar, planes, snap)
 
     @wp.func
-    def next_contact(position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces,
-                     physics: Physics):
+    def next_contact(position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces, physics: Physics):
         """The exact parabola's next plane contact (eqs. 36-40): (dt, plane index)."""
-        return contact_time(position, velocity, physics.gravity, physics.radius, surfaces.point, surfaces.normal,
-                            touching)
+        return contact_time(position, velocity, physics.gravity, physics.radius, surfaces.point, surfaces.normal, touching)
 
     @wp.func
     def advance(position: vec3, velocity: vec3, spin: vec3, dt: scalar, physics: Physics):
@@ -56,8 +54,7 @@ def make_flight(precision: str, planes=None, model: str = "ballistic", laws=None
         return position_at(position, velocity, physics.gravity, dt), velocity_at(velocity, physics.gravity, dt), spin
 
     @wp.func
-    def to_contact(position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces,
-                   physics: Physics):
+    def to_contact(position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces, physics: Physics):
         """The next plane contact and the state there."""
         dt, k = next_contact(position, velocity, spin, touching, surfaces, physics)
         if k < 0:
@@ -65,8 +62,9 @@ def make_flight(precision: str, planes=None, model: str = "ballistic", laws=None
         position_then, velocity_then, spin_then = advance(position, velocity, spin, dt, physics)
         return dt, k, position_then, velocity_then, spin_then, wp.int32(0)
 
-    return SimpleNamespace(model=model, next_contact=next_contact, to_contact=to_contact, advance=advance,
-                           NO_CONTACT=NO_CONTACT, GAVE_UP=GAVE_UP)
+    return SimpleNamespace(
+        model=model, next_contact=next_contact, to_contact=to_contact, advance=advance, NO_CONTACT=NO_CONTACT, GAVE_UP=GAVE_UP
+    )
 
 
 def _air_flight(precision: str, planes, laws) -> SimpleNamespace:
@@ -75,11 +73,17 @@ def _air_flight(precision: str, planes, laws) -> SimpleNamespace:
     air = make_air_flight(precision, planes, tuple(laws))
 
     @wp.func
-    def next_contact(position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces,
-                     physics: Physics):
+    def next_contact(position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces, physics: Physics):
         """The integrated flight's next plane contact: (dt, plane index)."""
         dt, k, _x, _v, _w, _steps = air.to_contact(position, velocity, spin, touching, surfaces, physics)
         return dt, k
 
-    return SimpleNamespace(model="air", next_contact=next_contact, to_contact=air.to_contact, advance=air.advance,
-                           to_contact_within=air.to_contact_within, NO_CONTACT=NO_CONTACT, GAVE_UP=GAVE_UP)
+    return SimpleNamespace(
+        model="air",
+        next_contact=next_contact,
+        to_contact=air.to_contact,
+        advance=air.advance,
+        to_contact_within=air.to_contact_within,
+        NO_CONTACT=NO_CONTACT,
+        GAVE_UP=GAVE_UP,
+    )

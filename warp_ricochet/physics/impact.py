@@ -30,7 +30,6 @@ Tangential gravity during the contact is neglected, as in the paper (it is O(g d
 Pellet-pellet collisions (`physics.pair`) use the same stick-slip rule (`coulomb_impulse`).
 """
 
-
 import functools
 
 import warp as wp
@@ -92,9 +91,7 @@ def make_impact_law(scalar):
             return velocity, angular_velocity, wp.int32(0)
 
         # eq. (10): N* / m, clamped at zero (no adhesion)
-        normal_impulse = wp.max(
-            -(scalar(1.0) + restitution) * normal_speed - gravity_normal_impulse, scalar(0.0)
-        )
+        normal_impulse = wp.max(-(scalar(1.0) + restitution) * normal_speed - gravity_normal_impulse, scalar(0.0))
 
         # eqs. (4), (6): tangential velocity of the contact point p
         contact_velocity = velocity - radius * wp.cross(angular_velocity, normal)
@@ -109,9 +106,7 @@ def make_impact_law(scalar):
         tangential_velocity = velocity - normal_speed * normal
         velocity_after = tangential_velocity + friction_impulse - restitution * normal_speed * normal
         # eqs. (17), (20)/(24): omega' = omega + (r_cp x f dt)/I with r_cp = -R e_n
-        angular_velocity_after = angular_velocity + wp.cross(friction_impulse, normal) * (
-            scalar(1.0) / (inertia_factor * radius)
-        )
+        angular_velocity_after = angular_velocity + wp.cross(friction_impulse, normal) * (scalar(1.0) / (inertia_factor * radius))
         return velocity_after, angular_velocity_after, slipped
 
     return impact_law

@@ -30,8 +30,7 @@ A51, A52, A53, A54 = 19372.0 / 6561.0, -25360.0 / 2187.0, 64448.0 / 6561.0, -212
 A61, A62, A63, A64, A65 = 9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0, 49.0 / 176.0, -5103.0 / 18656.0
 B1, B3, B4, B5, B6 = 35.0 / 384.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0
 # fifth minus fourth order weights: the error estimate
-E1, E3, E4, E5, E6, E7 = (71.0 / 57600.0, -71.0 / 16695.0, 71.0 / 1920.0, -17253.0 / 339200.0, 22.0 / 525.0,
-                          -1.0 / 40.0)
+E1, E3, E4, E5, E6, E7 = (71.0 / 57600.0, -71.0 / 16695.0, 71.0 / 1920.0, -17253.0 / 339200.0, 22.0 / 525.0, -1.0 / 40.0)
 
 
 @functools.cache
@@ -56,8 +55,20 @@ def make_stepper(precision: str, laws: tuple) -> SimpleNamespace:
         return physics.gravity + acceleration, spin_change
 
     @wp.func
-    def combine(y: vec3, h: scalar, k1: vec3, k2: vec3, k3: vec3, k4: vec3, k5: vec3, w1: scalar, w2: scalar,
-                w3: scalar, w4: scalar, w5: scalar):
+    def combine(
+        y: vec3,
+        h: scalar,
+        k1: vec3,
+        k2: vec3,
+        k3: vec3,
+        k4: vec3,
+        k5: vec3,
+        w1: scalar,
+        w2: scalar,
+        w3: scalar,
+        w4: scalar,
+        w5: scalar,
+    ):
         """y + h (w1 k1 + ... + w5 k5)."""
         return y + h * (w1 * k1 + w2 * k2 + w3 * k3 + w4 * k4 + w5 * k5)
 
@@ -100,8 +111,10 @@ def make_stepper(precision: str, laws: tuple) -> SimpleNamespace:
         tolerance = air.tolerance
         position_error = h * (e1 * velocity + e3 * v3 + e4 * v4 + e5 * v5 + e6 * v6 + e7 * v7)
         velocity_error = h * (e1 * a1 + e3 * a3 + e4 * a4 + e5 * a5 + e6 * a6 + e7 * a7)
-        error = wp.max(wp.length(position_error) / (tolerance * (wp.length(x7 - position) + air.radius)),
-                       wp.length(velocity_error) / (tolerance * (wp.max(wp.length(velocity), wp.length(v7)) + air.speed_floor)))
+        error = wp.max(
+            wp.length(position_error) / (tolerance * (wp.length(x7 - position) + air.radius)),
+            wp.length(velocity_error) / (tolerance * (wp.max(wp.length(velocity), wp.length(v7)) + air.speed_floor)),
+        )
         if wp.static(SPIN_CHANGES):
             spin_error = h * (e1 * d1 + e3 * d3 + e4 * d4 + e5 * d5 + e6 * d6 + e7 * d7)
             spin_floor = air.speed_floor / air.radius

@@ -2,7 +2,6 @@
 mass, both spins, the relative slip velocity of the contact points, the same stick-slip rule
 `coulomb_impulse` and restitution on the normal relative velocity). See docs/collisions.md."""
 
-
 import functools
 
 import warp as wp
@@ -55,8 +54,10 @@ def make_pair_law(scalar):
             return velocity_a, angular_velocity_a, velocity_b, angular_velocity_b, wp.int32(0), wp.int32(0)
         normal = offset / distance
         scale = distance / (radius_a + radius_b)
-        relative = velocity_b - velocity_a - wp.cross(
-            (scale * radius_b) * angular_velocity_b + (scale * radius_a) * angular_velocity_a, normal
+        relative = (
+            velocity_b
+            - velocity_a
+            - wp.cross((scale * radius_b) * angular_velocity_b + (scale * radius_a) * angular_velocity_a, normal)
         )
         normal_speed = wp.dot(relative, normal)
         if normal_speed >= scalar(0.0):

@@ -18,7 +18,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import NamedTuple, Sequence
+from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 
@@ -30,6 +31,7 @@ GAMMA_AIR = 1.4  # ratio of specific heats of air, only in Loth 2021's low-Re (r
 # ---------------------------------------------------------------------------------------------
 # Drag coefficient laws [docs/air.md 1]
 # ---------------------------------------------------------------------------------------------
+
 
 def clift_gauvin_cd(re: float) -> float:
     """Clift & Gauvin (1970) standard sphere drag, Re < 3e5 [docs/air.md 1.2]:
@@ -59,8 +61,7 @@ def loth2021_factors(mach: float) -> tuple[float, float, float]:
 
 def _loth_high_f(re: float, c_m: float, g_m: float, h_m: float) -> float:
     """f = C_D Re / 24 of Loth 2021 eq. (8a), compression-dominated branch (Re > 45)."""
-    return ((1.0 + 0.15 * re**0.687) * h_m
-            + re / 24.0 * 0.42 * c_m / (1.0 + 42500.0 / re**(1.16 * c_m) + g_m / math.sqrt(re)))
+    return (1.0 + 0.15 * re**0.687) * h_m + re / 24.0 * 0.42 * c_m / (1.0 + 42500.0 / re ** (1.16 * c_m) + g_m / math.sqrt(re))
 
 
 def free_molecular_cd(s: float) -> float:
@@ -71,9 +72,11 @@ def free_molecular_cd(s: float) -> float:
     sp = math.sqrt(math.pi)
     if s < 3e-3:
         return (16.0 / (3.0 * sp) + 2.0 * sp / 3.0) / s + 16.0 * s / (15.0 * sp)
-    return ((1.0 + 2.0 * s * s) * math.exp(-s * s) / (s**3 * sp)
-            + (4.0 * s**4 + 4.0 * s * s - 1.0) * math.erf(s) / (2.0 * s**4)
-            + 2.0 * sp / (3.0 * s))
+    return (
+        (1.0 + 2.0 * s * s) * math.exp(-s * s) / (s**3 * sp)
+        + (4.0 * s**4 + 4.0 * s * s - 1.0) * math.erf(s) / (2.0 * s**4)
+        + 2.0 * sp / (3.0 * s)
+    )
 
 
 def _loth_low_f(mach: float, re: float, kn: float, gamma: float) -> float:
@@ -146,8 +149,9 @@ def lift_ratio(s: float, re: float, law: str = "loth2008", slope: float = 0.5, c
     return min(ratio, cap / s) if s > 0.0 else ratio  # every law: C_L <= cap
 
 
-def lift_coefficient(s: float, law: str = "loth2008", re: float = math.inf, slope: float = 0.5,
-                     cap: float | None = None) -> float:
+def lift_coefficient(
+    s: float, law: str = "loth2008", re: float = math.inf, slope: float = 0.5, cap: float | None = None
+) -> float:
     """C_L(S) of the lift laws [docs/air.md 2]; loth2008 at Reynolds number re (default: high-Re saturation)."""
     return s * lift_ratio(s, re, law, slope, cap)
 
@@ -181,9 +185,10 @@ def rotation_factor(re_r: float, law: str = "dennis1980") -> float:
 # Air, pellet
 # ---------------------------------------------------------------------------------------------
 
+
 @dataclasses.dataclass(frozen=True)
 class Pellet:
-    radius: float   # m
+    radius: float  # m
     density: float  # kg/m^3
 
     @property
@@ -202,6 +207,7 @@ def _as_pellet(pellet) -> Pellet:
 # ---------------------------------------------------------------------------------------------
 # Forces and equations of motion [docs/air.md 4, 6]
 # ---------------------------------------------------------------------------------------------
+
 
 def drag_force(u: np.ndarray, radius: float, air: Air) -> np.ndarray:
     """F_D = -1/2 rho C_D A |u| u * drag_factor, A = pi R^2 [docs/air.md 4].
@@ -268,17 +274,19 @@ def derivatives(t: float, y: np.ndarray, pellet, air: Air, gravity) -> np.ndarra
 # Flight to the planes
 # ---------------------------------------------------------------------------------------------
 
+
 class Contact(NamedTuple):
-    t: float            # s, time of contact from the start of the flight
-    plane: int          # index of the plane met
-    x: np.ndarray       # m, centre at contact
-    v: np.ndarray       # m/s
-    omega: np.ndarray   # rad/s
+    t: float  # s, time of contact from the start of the flight
+    plane: int  # index of the plane met
+    x: np.ndarray  # m, centre at contact
+    v: np.ndarray  # m/s
+    omega: np.ndarray  # rad/s
 
 
 def _gap_event(p, n, radius, direction=-1.0):
     def gap(t, y, *args):
         return (y[0] - p[0]) * n[0] + (y[1] - p[1]) * n[1] + (y[2] - p[2]) * n[2] - radius
+
     gap.terminal, gap.direction = True, direction
     return gap
 
@@ -286,6 +294,7 @@ def _gap_event(p, n, radius, direction=-1.0):
 def _normal_speed_event(n):
     def normal_speed(t, y, *args):
         return y[3] * n[0] + y[4] * n[1] + y[5] * n[2]
+
     normal_speed.terminal, normal_speed.direction = True, -1.0
     return normal_speed
 
@@ -294,8 +303,7 @@ def _integrate(y0, t0, t_max, events, pellet, air, gravity, rtol, atol, method="
     """Integrate to the first terminal event; returns (event index or -1, t, y)."""
     from scipy.integrate import solve_ivp
 
-    sol = solve_ivp(derivatives, (t0, t_max), y0, method=method, rtol=rtol, atol=atol,
-                    events=events, args=(pellet, air, gravity))
+    sol = solve_ivp(derivatives, (t0, t_max), y0, method=method, rtol=rtol, atol=atol, events=events, args=(pellet, air, gravity))
     if sol.status == -1:
         raise RuntimeError(sol.message)
     best = (-1, sol.t[-1], sol.y[:, -1])
@@ -305,8 +313,20 @@ def _integrate(y0, t0, t_max, events, pellet, air, gravity, rtol, atol, method="
     return best
 
 
-def fly_to_planes(x0, v0, w0, pellet, air: Air, gravity, planes, touching: int = -1,
-                  t_max: float = 1000.0, rtol: float = 1e-12, atol=None, method: str = "DOP853") -> Contact | None:
+def fly_to_planes(
+    x0,
+    v0,
+    w0,
+    pellet,
+    air: Air,
+    gravity,
+    planes,
+    touching: int = -1,
+    t_max: float = 1000.0,
+    rtol: float = 1e-12,
+    atol=None,
+    method: str = "DOP853",
+) -> Contact | None:
     """Integrate the flight until the pellet meets a plane, or None if none before t_max.
 
     planes: list of (point, unit normal towards the pellet). The pellet meets plane k when its gap
@@ -361,13 +381,22 @@ def trajectory(x0, v0, w0, pellet, air: Air, gravity, t_end: float, rtol: float 
     from scipy.integrate import solve_ivp
 
     y0 = np.concatenate([x0, v0, w0]).astype(float)
-    return solve_ivp(derivatives, (0.0, t_end), y0, method="DOP853", rtol=rtol, atol=atol,
-                     dense_output=True, args=(_as_pellet(pellet), air, gravity))
+    return solve_ivp(
+        derivatives,
+        (0.0, t_end),
+        y0,
+        method="DOP853",
+        rtol=rtol,
+        atol=atol,
+        dense_output=True,
+        args=(_as_pellet(pellet), air, gravity),
+    )
 
 
 # ---------------------------------------------------------------------------------------------
 # Terminal speed and maximum range
 # ---------------------------------------------------------------------------------------------
+
 
 def drag_magnitude(speed: float, pellet, air: Air) -> float:
     """|F_D| at relative speed `speed` (no spin)."""
@@ -381,26 +410,32 @@ def terminal_speed(pellet, air: Air, g: float = 9.81) -> float:
 
     pellet = _as_pellet(pellet)
     weight = pellet.mass * g
-    return brentq(lambda s: drag_magnitude(s, pellet, air) - weight, 1e-9, 3.0 * air.sound_speed,
-                  xtol=1e-14, rtol=1e-15)
+    return brentq(lambda s: drag_magnitude(s, pellet, air) - weight, 1e-9, 3.0 * air.sound_speed, xtol=1e-14, rtol=1e-15)
 
 
-def range_at(angle_deg: float, speed: float, pellet, air: Air, g: float = 9.81,
-             spin=(0.0, 0.0, 0.0)) -> Contact:
+def range_at(angle_deg: float, speed: float, pellet, air: Air, g: float = 9.81, spin=(0.0, 0.0, 0.0)) -> Contact:
     """Launch from flat ground (plane y = 0, pellet touching it) at angle_deg above horizontal;
     returns the landing contact (its x[0] is the range)."""
     pellet = _as_pellet(pellet)
     a = math.radians(angle_deg)
-    contact = fly_to_planes([0.0, pellet.radius, 0.0], [speed * math.cos(a), speed * math.sin(a), 0.0],
-                            spin, pellet, air, [0.0, -g, 0.0], [([0.0, 0.0, 0.0], [0.0, 1.0, 0.0])],
-                            touching=0)
+    contact = fly_to_planes(
+        [0.0, pellet.radius, 0.0],
+        [speed * math.cos(a), speed * math.sin(a), 0.0],
+        spin,
+        pellet,
+        air,
+        [0.0, -g, 0.0],
+        [([0.0, 0.0, 0.0], [0.0, 1.0, 0.0])],
+        touching=0,
+    )
     if contact is None:
         raise RuntimeError("no landing")
     return contact
 
 
-def max_range(speed: float, pellet, air: Air, g: float = 9.81, bounds=(5.0, 55.0),
-              step: float = 2.5) -> tuple[float, float, float]:
+def max_range(
+    speed: float, pellet, air: Air, g: float = 9.81, bounds=(5.0, 55.0), step: float = 2.5
+) -> tuple[float, float, float]:
     """Maximum range over launch angles: a coarse scan, then a bounded scalar minimisation.
     Returns (range m, best angle deg, time of flight s)."""
     from scipy.optimize import minimize_scalar
@@ -409,7 +444,8 @@ def max_range(speed: float, pellet, air: Air, g: float = 9.81, bounds=(5.0, 55.0
     ranges = [range_at(a, speed, pellet, air, g).x[0] for a in angles]
     i = int(np.argmax(ranges))
     lo, hi = angles[max(i - 1, 0)], angles[min(i + 1, len(angles) - 1)]
-    res = minimize_scalar(lambda a: -range_at(a, speed, pellet, air, g).x[0], bounds=(lo, hi),
-                          method="bounded", options={"xatol": 1e-3})
+    res = minimize_scalar(
+        lambda a: -range_at(a, speed, pellet, air, g).x[0], bounds=(lo, hi), method="bounded", options={"xatol": 1e-3}
+    )
     best = range_at(res.x, speed, pellet, air, g)
     return float(best.x[0]), float(res.x), float(best.t)

@@ -24,8 +24,19 @@ def _dot(a, b):
     return np.einsum("...i,...i->...", a, b)
 
 
-def impact_law(velocity, angular_velocity, normal, *, radius, restitution, mu_s, mu_d,
-               gravity=(0.0, -9.81, 0.0), duration=0.0, inertia_factor=SOLID_SPHERE_INERTIA_FACTOR):
+def impact_law(
+    velocity,
+    angular_velocity,
+    normal,
+    *,
+    radius,
+    restitution,
+    mu_s,
+    mu_d,
+    gravity=(0.0, -9.81, 0.0),
+    duration=0.0,
+    inertia_factor=SOLID_SPHERE_INERTIA_FACTOR,
+):
     """Eqs. (1)-(25) for (N, 3) states; `normal` (3,) or (N, 3) unit normals. Returns
     (velocity', angular_velocity', slipped). Pellets not moving into the plane are unchanged.
     restitution, mu_s, mu_d may be scalars or (N,) arrays."""
@@ -115,7 +126,9 @@ def next_contact(position, velocity, gravity, radius, points, normals, touching)
         if a < 0:
             with np.errstate(invalid="ignore"):
                 disc_in = b * b - 4.0 * a * c
-                t = np.where(inside, np.where(disc_in < 0, -b / (2.0 * a), -(b + np.sqrt(np.maximum(disc_in, 0.0))) / (2.0 * a)), t)
+                t = np.where(
+                    inside, np.where(disc_in < 0, -b / (2.0 * a), -(b + np.sqrt(np.maximum(disc_in, 0.0))) / (2.0 * a)), t
+                )
         rest = other & (c > 0)
         with np.errstate(divide="ignore", invalid="ignore"):
             if a == 0.0:
@@ -204,8 +217,17 @@ def simulate(scene, position, velocity, angular_velocity):
         active &= ~rests
         hit = meet & closing
         safe_n = np.where(hit[:, None], nrm, np.array([0.0, 1.0, 0.0]))
-        v2, w2, s2 = impact_law(v, w, safe_n, radius=radius, restitution=E[k], mu_s=mu_s[k], mu_d=mu_d[k],
-                                gravity=g, duration=scene.physics.impact_duration)
+        v2, w2, s2 = impact_law(
+            v,
+            w,
+            safe_n,
+            radius=radius,
+            restitution=E[k],
+            mu_s=mu_s[k],
+            mu_d=mu_d[k],
+            gravity=g,
+            duration=scene.physics.impact_duration,
+        )
         out["impact.time"][hit, bounce] = time[hit]
         out["impact.position"][hit, bounce] = r[hit]
         out["impact.velocity_before"][hit, bounce] = v[hit]
@@ -240,24 +262,37 @@ def simulate(scene, position, velocity, angular_velocity):
     land_vel = np.where(landed[:, None], v + g * dt[:, None], np.nan)
     land_time = time + dt
     contact = land_pos - radius * normals[np.maximum(k, 0)]
-    out.update({
-        "initial.position": np.asarray(position, np.float64),
-        "initial.velocity": launch_v,
-        "initial.angular_velocity": launch_w,
-        "landing.time": np.where(landed, land_time, np.inf),
-        "landing.position": land_pos,
-        "landing.velocity": land_vel,
-        "landing.range": np.where(landed, np.linalg.norm(contact - ricochet_point, axis=1), np.nan),
-        "landing.surface": np.where(landed, k, -1).astype(np.int16),
-    })
+    out.update(
+        {
+            "initial.position": np.asarray(position, np.float64),
+            "initial.velocity": launch_v,
+            "initial.angular_velocity": launch_w,
+            "landing.time": np.where(landed, land_time, np.inf),
+            "landing.position": land_pos,
+            "landing.velocity": land_vel,
+            "landing.range": np.where(landed, np.linalg.norm(contact - ricochet_point, axis=1), np.nan),
+            "landing.surface": np.where(landed, k, -1).astype(np.int16),
+        }
+    )
     hit_any = out["impact.surface"][:, 0] >= 0
     stats = statistics_from_arrays(
-        pellets=n, mass=mass, inertia=inertia, launch_velocity=launch_v, launch_angular_velocity=launch_w,
-        hit=hit_any, normal=first_normal,
-        velocity_before=out["impact.velocity_before"][:, 0], angular_velocity_before=out["impact.angular_velocity_before"][:, 0],
-        velocity_after=out["impact.velocity"][:, 0], angular_velocity_after=out["impact.angular_velocity"][:, 0],
-        slipped_first=out["impact.slipped"][:, 0] == 1, landed=landed, range_=out["landing.range"],
-        slipped_last=last_slipped, time_aloft=land_time - ricochet_time, landing_velocity=np.nan_to_num(land_vel),
+        pellets=n,
+        mass=mass,
+        inertia=inertia,
+        launch_velocity=launch_v,
+        launch_angular_velocity=launch_w,
+        hit=hit_any,
+        normal=first_normal,
+        velocity_before=out["impact.velocity_before"][:, 0],
+        angular_velocity_before=out["impact.angular_velocity_before"][:, 0],
+        velocity_after=out["impact.velocity"][:, 0],
+        angular_velocity_after=out["impact.angular_velocity"][:, 0],
+        slipped_first=out["impact.slipped"][:, 0] == 1,
+        landed=landed,
+        range_=out["landing.range"],
+        slipped_last=last_slipped,
+        time_aloft=land_time - ricochet_time,
+        landing_velocity=np.nan_to_num(land_vel),
         flight_scale=scale,
     )
     return out, stats

@@ -78,6 +78,7 @@ def _norm(a):
 
 class PairImpact(NamedTuple):
     """What `pair_law` returns: new states, and whether (and how) the spheres collided."""
+
     velocity_a: np.ndarray  # m/s
     angular_velocity_a: np.ndarray  # rad/s
     velocity_b: np.ndarray  # m/s
@@ -87,9 +88,23 @@ class PairImpact(NamedTuple):
     energy_lost: np.ndarray  # J, translational + rotational kinetic energy lost (>= 0)
 
 
-def pair_law(position_a, velocity_a, angular_velocity_a, position_b, velocity_b, angular_velocity_b, *,
-             mass_a, mass_b, radius_a, radius_b, restitution, mu_s, mu_d,
-             inertia_factor=SOLID_SPHERE_INERTIA_FACTOR) -> PairImpact:
+def pair_law(
+    position_a,
+    velocity_a,
+    angular_velocity_a,
+    position_b,
+    velocity_b,
+    angular_velocity_b,
+    *,
+    mass_a,
+    mass_b,
+    radius_a,
+    radius_b,
+    restitution,
+    mu_s,
+    mu_d,
+    inertia_factor=SOLID_SPHERE_INERTIA_FACTOR,
+) -> PairImpact:
     """Impact of sphere a on sphere b: the plane law (physics.impact) generalised to two spheres.
 
     Vectorised: vectors are (..., 3) arrays, the scalars broadcast against their leading shape.
@@ -119,11 +134,17 @@ def pair_law(position_a, velocity_a, angular_velocity_a, position_b, velocity_b,
         m*/2 [(1 - E^2) u_n^2 + f (2 |u_t| - f (k+s^2)/k)],  f = mu_d P_n/m*   (slip),
     which is >= 0 when mu_d <= mu_s and free of the cancellation of a difference of energies.
     """
-    xa, va, wa, xb, vb, wb = np.broadcast_arrays(*(np.asarray(x, np.float64) for x in (
-        position_a, velocity_a, angular_velocity_a, position_b, velocity_b, angular_velocity_b)))
+    xa, va, wa, xb, vb, wb = np.broadcast_arrays(
+        *(
+            np.asarray(x, np.float64)
+            for x in (position_a, velocity_a, angular_velocity_a, position_b, velocity_b, angular_velocity_b)
+        )
+    )
     lead = xa.shape[:-1]
-    ma, mb, Ra, Rb, E, mus, mud, k = (np.broadcast_to(np.asarray(x, np.float64), lead) for x in (
-        mass_a, mass_b, radius_a, radius_b, restitution, mu_s, mu_d, inertia_factor))
+    ma, mb, Ra, Rb, E, mus, mud, k = (
+        np.broadcast_to(np.asarray(x, np.float64), lead)
+        for x in (mass_a, mass_b, radius_a, radius_b, restitution, mu_s, mu_d, inertia_factor)
+    )
 
     offset = xb - xa
     distance = _norm(offset)
@@ -156,14 +177,18 @@ def pair_law(position_a, velocity_a, angular_velocity_a, position_b, velocity_b,
     wa2 = wa - (s * share_a / (k * Ra))[..., None] * moment
     wb2 = wb - (s * share_b / (k * Rb))[..., None] * moment
 
-    tangential_loss = np.where(slipped, kinetic * (2.0 * slip_speed - kinetic / stick_fraction),
-                               stick_fraction * slip_speed**2)
+    tangential_loss = np.where(slipped, kinetic * (2.0 * slip_speed - kinetic / stick_fraction), stick_fraction * slip_speed**2)
     lost = 0.5 * reduced * ((1.0 - E * E) * un * un + tangential_loss)
 
     c = collided[..., None]
     return PairImpact(
-        np.where(c, va2, va), np.where(c, wa2, wa), np.where(c, vb2, vb), np.where(c, wb2, wb),
-        collided, slipped, np.where(collided, lost, 0.0),
+        np.where(c, va2, va),
+        np.where(c, wa2, wa),
+        np.where(c, vb2, vb),
+        np.where(c, wb2, wb),
+        collided,
+        slipped,
+        np.where(collided, lost, 0.0),
     )
 
 
@@ -213,11 +238,16 @@ def _pair_parameters(scene, collisions, restitution, mu_s, mu_d, contact_duratio
     # which was checked against the section's mu_s only
     if mu_s is not None and mu_d is None:
         mu_d = mu_s
-    E, mu_s, mu_d, tc = (pick(restitution, "restitution"), pick(mu_s, "mu_s"), pick(mu_d, "mu_d"),
-                         pick(contact_duration, "contact_duration"))
+    E, mu_s, mu_d, tc = (
+        pick(restitution, "restitution"),
+        pick(mu_s, "mu_s"),
+        pick(mu_d, "mu_d"),
+        pick(contact_duration, "contact_duration"),
+    )
     if E is None or mu_s is None:
-        raise ValueError("simulate_collisions: the pair restitution and mu_s are needed (keywords, "
-                         "collisions=..., or scene.collisions)")
+        raise ValueError(
+            "simulate_collisions: the pair restitution and mu_s are needed (keywords, collisions=..., or scene.collisions)"
+        )
     mu_d = mu_s if mu_d is None else mu_d
     tc = 0.0 if tc is None else tc
     E, mu_s, mu_d, tc = float(E), float(mu_s), float(mu_d), float(tc)
@@ -265,9 +295,18 @@ class _Events:
             # after B impacts the next contact is the landing; without closing speed it rests there
             self.end_flight(p, time, r[0], v[0], k)
         else:
-            v2, w2, s2 = impact_law(v, self.w[sl], nrm, radius=self.radius, restitution=self.plane_E[k],
-                                    mu_s=self.plane_mu_s[k], mu_d=self.plane_mu_d[k], gravity=self.g,
-                                    duration=self.duration, inertia_factor=self.k)
+            v2, w2, s2 = impact_law(
+                v,
+                self.w[sl],
+                nrm,
+                radius=self.radius,
+                restitution=self.plane_E[k],
+                mu_s=self.plane_mu_s[k],
+                mu_d=self.plane_mu_d[k],
+                gravity=self.g,
+                duration=self.duration,
+                inertia_factor=self.k,
+            )
             b = self.impacts[p]
             self.out["impact.time"][p, b] = time
             self.out["impact.position"][p, b] = r[0]
@@ -302,11 +341,23 @@ class _Events:
         xj, vj = self.advance(j, time)
         # TC model: within contact_duration of a pellet's previous pair collision, elastic
         elastic = (time - self.pair_last[i] <= self.tc) or (time - self.pair_last[j] <= self.tc)
-        hit = pair_law(xi, vi, self.w[i], xj, vj, self.w[j], mass_a=self.mass, mass_b=self.mass,
-                       radius_a=self.radius, radius_b=self.radius, restitution=1.0 if elastic else self.E,
-                       mu_s=self.mu_s, mu_d=self.mu_d, inertia_factor=self.k)
-        for p, x, v, w in ((i, xi, hit.velocity_a, hit.angular_velocity_a),
-                           (j, xj, hit.velocity_b, hit.angular_velocity_b)):
+        hit = pair_law(
+            xi,
+            vi,
+            self.w[i],
+            xj,
+            vj,
+            self.w[j],
+            mass_a=self.mass,
+            mass_b=self.mass,
+            radius_a=self.radius,
+            radius_b=self.radius,
+            restitution=1.0 if elastic else self.E,
+            mu_s=self.mu_s,
+            mu_d=self.mu_d,
+            inertia_factor=self.k,
+        )
+        for p, x, v, w in ((i, xi, hit.velocity_a, hit.angular_velocity_a), (j, xj, hit.velocity_b, hit.angular_velocity_b)):
             if self.t0[p] != time:
                 # it has flown since its last event, so it no longer sits on the plane it left at
                 # that event: the gap is computed afresh (still touching up to rounding if it is)
@@ -322,7 +373,6 @@ class _Events:
             self.last_collision_time = time
         # re-basing both states at `time` also retires the event if the law found no approach
         self.refresh([i, j])
-
 
 
 class _Cloud(_Events):
@@ -417,10 +467,15 @@ class _Cloud(_Events):
         xk = self.r0[rows][:, None] + self.v0[rows][:, None] * dk + 0.5 * self.g * dk**2
         vk = self.v0[rows][:, None] + self.g * dk
         tau = pair_contact_time(
-            xq - xk, vq - vk, diameter=2.0 * self.radius,
-            position_scale=np.abs(xq).sum(-1) + np.abs(xk).sum(-1), speed_scale=_norm(vq) + _norm(vk))
-        live = (self.flying[rows][:, None] & (self.shot[rows][:, None] == self.shot[cols][None, :])
-                & (rows[:, None] != cols[None, :]))
+            xq - xk,
+            vq - vk,
+            diameter=2.0 * self.radius,
+            position_scale=np.abs(xq).sum(-1) + np.abs(xk).sum(-1),
+            speed_scale=_norm(vq) + _norm(vk),
+        )
+        live = (
+            self.flying[rows][:, None] & (self.shot[rows][:, None] == self.shot[cols][None, :]) & (rows[:, None] != cols[None, :])
+        )
         times[:, cols] = np.where(live, t_ref + tau, np.inf)
         return times
 
@@ -439,8 +494,9 @@ class _Cloud(_Events):
         for p in changed:
             if self.flying[p]:
                 sl = slice(p, p + 1)
-                dt, plane = next_contact(self.r0[sl], self.v0[sl], self.g, self.radius, self.points, self.normals,
-                                         self.touching[sl])
+                dt, plane = next_contact(
+                    self.r0[sl], self.v0[sl], self.g, self.radius, self.points, self.normals, self.touching[sl]
+                )
                 self.plane_dt[p], self.plane_k[p] = dt[0], plane[0]
                 self.plane_at[p] = self.t0[p] + dt[0] if plane[0] >= 0 else np.inf
             else:
@@ -463,7 +519,7 @@ class _Cloud(_Events):
             self.pair_q[better] = p
         # a pellet whose earliest partner changed may now have any other partner first: in full
         for start in range(0, len(dependants), ROW_CHUNK):
-            chunk = dependants[start:start + ROW_CHUNK]
+            chunk = dependants[start : start + ROW_CHUNK]
             self.pair_t[chunk], self.pair_q[chunk] = self._row_minima(chunk)
 
     def check_caches(self):
@@ -471,8 +527,7 @@ class _Cloud(_Events):
         for start in range(0, self.n, ROW_CHUNK):
             rows = np.arange(start, min(start + ROW_CHUNK, self.n))
             t, q = self._row_minima(rows)
-            assert np.array_equal(t, self.pair_t[rows]) and np.array_equal(q, self.pair_q[rows]), \
-                "pair-event cache out of date"
+            assert np.array_equal(t, self.pair_t[rows]) and np.array_equal(q, self.pair_q[rows]), "pair-event cache out of date"
 
     # ------------------------------------------------------------------ events
 
@@ -489,15 +544,29 @@ class _Cloud(_Events):
                     raise RuntimeError(
                         f"simulate_collisions: more than max_events = {max_events} pair events (t = {self.now:.9g} s, "
                         f"{self.pair_collisions} collisions); inelastic collapse suspected: raise contact_duration "
-                        f"(TC model) or max_events")
+                        f"(TC model) or max_events"
+                    )
                 self.pair_event(q, int(self.pair_q[q]))
             if check_caches:
                 self.check_caches()
 
 
-def simulate_collisions(scene, position, velocity, angular_velocity=None, shot_index=None, *,
-                        restitution=None, mu_s=None, mu_d=None, contact_duration=None, collisions=None,
-                        inertia_factor=SOLID_SPHERE_INERTIA_FACTOR, max_events=None, check_caches=False):
+def simulate_collisions(
+    scene,
+    position,
+    velocity,
+    angular_velocity=None,
+    shot_index=None,
+    *,
+    restitution=None,
+    mu_s=None,
+    mu_d=None,
+    contact_duration=None,
+    collisions=None,
+    inertia_factor=SOLID_SPHERE_INERTIA_FACTOR,
+    max_events=None,
+    check_caches=False,
+):
     """Follow pellets from launch to landing with pair collisions, event by event (float64).
 
     scene: a `Scene` (or any object with the same attributes): scene.shot.diameter (m) and
@@ -565,41 +634,55 @@ def simulate_collisions(scene, position, velocity, angular_velocity=None, shot_i
     final_time = np.where(cloud.flying, cloud.now, cloud.t0)
     for p in range(n):
         final_position[p], final_velocity[p] = cloud.advance(p, final_time[p])
-    out.update({
-        "initial.position": r,
-        "initial.velocity": v,
-        "initial.angular_velocity": w,
-        "landing.time": cloud.land_time,
-        "landing.position": cloud.land_position,
-        "landing.velocity": cloud.land_velocity,
-        "landing.range": cloud.land_range,
-        "landing.surface": cloud.land_surface,
-        "collisions.count": cloud.pair_count,
-        "collisions.last_time": np.where(cloud.pair_count > 0, cloud.pair_last, np.nan),
-        "final.time": final_time,
-        "final.position": final_position,
-        "final.velocity": final_velocity,
-        "final.angular_velocity": cloud.w.copy(),
-    })
+    out.update(
+        {
+            "initial.position": r,
+            "initial.velocity": v,
+            "initial.angular_velocity": w,
+            "landing.time": cloud.land_time,
+            "landing.position": cloud.land_position,
+            "landing.velocity": cloud.land_velocity,
+            "landing.range": cloud.land_range,
+            "landing.surface": cloud.land_surface,
+            "collisions.count": cloud.pair_count,
+            "collisions.last_time": np.where(cloud.pair_count > 0, cloud.pair_last, np.nan),
+            "final.time": final_time,
+            "final.position": final_position,
+            "final.velocity": final_velocity,
+            "final.angular_velocity": cloud.w.copy(),
+        }
+    )
     hit_any = out["impact.surface"][:, 0] >= 0
     stats = statistics_from_arrays(
-        pellets=n, mass=cloud.mass, inertia=cloud.inertia, launch_velocity=v, launch_angular_velocity=w,
-        hit=hit_any, normal=cloud.first_normal,
+        pellets=n,
+        mass=cloud.mass,
+        inertia=cloud.inertia,
+        launch_velocity=v,
+        launch_angular_velocity=w,
+        hit=hit_any,
+        normal=cloud.first_normal,
         velocity_before=out["impact.velocity_before"][:, 0],
         angular_velocity_before=out["impact.angular_velocity_before"][:, 0],
-        velocity_after=out["impact.velocity"][:, 0], angular_velocity_after=out["impact.angular_velocity"][:, 0],
-        slipped_first=out["impact.slipped"][:, 0] == 1, landed=cloud.landed, range_=cloud.land_range,
-        slipped_last=cloud.last_slipped, time_aloft=cloud.land_time - cloud.ricochet_time,
-        landing_velocity=np.nan_to_num(cloud.land_velocity), flight_scale=cloud.scale,
+        velocity_after=out["impact.velocity"][:, 0],
+        angular_velocity_after=out["impact.angular_velocity"][:, 0],
+        slipped_first=out["impact.slipped"][:, 0] == 1,
+        landed=cloud.landed,
+        range_=cloud.land_range,
+        slipped_last=cloud.last_slipped,
+        time_aloft=cloud.land_time - cloud.ricochet_time,
+        landing_velocity=np.nan_to_num(cloud.land_velocity),
+        flight_scale=cloud.scale,
     )
-    stats.update({
-        "collided_fraction": float((cloud.pair_count > 0).mean()) if n else math.nan,
-        "pair_energy_lost": cloud.pair_energy_lost,
-        "pair_energy_lost_mean": cloud.pair_energy_lost / n if n else math.nan,
-        "pair_collisions": float(cloud.pair_collisions),
-        "pair_events": float(cloud.pair_events),
-        "plane_events": float(cloud.plane_events),
-        "last_collision_time": cloud.last_collision_time,
-        "end_time": cloud.now,
-    })
+    stats.update(
+        {
+            "collided_fraction": float((cloud.pair_count > 0).mean()) if n else math.nan,
+            "pair_energy_lost": cloud.pair_energy_lost,
+            "pair_energy_lost_mean": cloud.pair_energy_lost / n if n else math.nan,
+            "pair_collisions": float(cloud.pair_collisions),
+            "pair_events": float(cloud.pair_events),
+            "plane_events": float(cloud.plane_events),
+            "last_collision_time": cloud.last_collision_time,
+            "end_time": cloud.now,
+        }
+    )
     return out, stats

@@ -4,14 +4,22 @@ Needs h5py and numpy only (never warp), so reports work without a device."""
 
 from .compare import format_side_by_side
 from .tables import (
-           ReportError,
-           Results,
-           format_run_summary,
-           format_tables,
-           frictional_case,
-           read_results,
-           results_from_sweep,
+    ReportError,
+    Results,
+    format_run_summary,
+    format_tables,
+    frictional_case,
+    read_results,
+    results_from_sweep,
 )
 
-__all__ = ["ReportError", "Results", "read_results", "results_from_sweep", "format_tables", "format_run_summary",
-           "frictional_case", "format_side_by_side"]
+__all__ = [
+    "ReportError",
+    "Results",
+    "read_results",
+    "results_from_sweep",
+    "format_tables",
+    "format_run_summary",
+    "frictional_case",
+    "format_side_by_side",
+]

@@ -10,12 +10,11 @@ import tomllib
 
 from .tables import NA, ReportError, Results, _label, _num, _param_formatter, _point_cells, _render, header_line
 
-COLUMNS = (("<L> (m)", "range_mean"), ("L+ (m)", "range_max"), ("L- (m)", "range_min"),
-           ("landing <W_T> (J)", "landing_mean_WT"))
+COLUMNS = (("<L> (m)", "range_mean"), ("L+ (m)", "range_max"), ("L- (m)", "range_min"), ("landing <W_T> (J)", "landing_mean_WT"))
 
 
 def file_label(results: Results) -> str:
-    """"air" for a scene with an [air] table of non-zero density, else "vacuum"."""
+    """ "air" for a scene with an [air] table of non-zero density, else "vacuum"."""
     try:
         scene = tomllib.loads(str(results.meta.get("scene_toml", "")))
     except ValueError:
@@ -71,8 +70,11 @@ def format_side_by_side(all_results: list[Results], fmt: str = "text") -> str:
     params = list(first.params)
     for results in all_results[1:]:
         if list(results.params) != params:
-            raise ReportError(results.meta.get("file", "?"), f"sweeps {results.params or 'nothing'}, not {params or 'nothing'} "
-                              "as the first file: side by side needs the same sweep")
+            raise ReportError(
+                results.meta.get("file", "?"),
+                f"sweeps {results.params or 'nothing'}, not {params or 'nothing'} "
+                "as the first file: side by side needs the same sweep",
+            )
     labels = _labels(all_results)
     formatters = {p: _param_formatter([r.get(p) for res in all_results for r in res.rows]) for p in params}
     by_point = [{_key(r, params): r for r in res.rows} for res in all_results]
@@ -93,8 +95,10 @@ def format_side_by_side(all_results: list[Results], fmt: str = "text") -> str:
         body.append(cells)
     title = "Table 3. Post-impact ricochet ranges, side by side: " + ", ".join(labels)
     if shown:
-        title += ("; range: eq. (42), from the last ricochet; distance: horizontal, from the shooter to the landing "
-                  "point (landing quantiles, bin upper edges, <= 0.1% above)")
+        title += (
+            "; range: eq. (42), from the last ricochet; distance: horizontal, from the shooter to the landing "
+            "point (landing quantiles, bin upper edges, <= 0.1% above)"
+        )
     blocks = [header_line(r) for r in all_results]
     blocks = ["\n".join(blocks), _render(title, headers, body, fmt, set(range(n)) if not params else set())]
     return "\n\n".join(blocks) + "\n"

@@ -9,8 +9,16 @@ import math
 
 import numpy as np
 
-__all__ = ["landing_map", "range_histogram", "survival_curve", "energy_distance", "sweep_band", "nice_step", "plain_log",
-           "SCATTER_MAX"]
+__all__ = [
+    "landing_map",
+    "range_histogram",
+    "survival_curve",
+    "energy_distance",
+    "sweep_band",
+    "nice_step",
+    "plain_log",
+    "SCATTER_MAX",
+]
 
 SCATTER_MAX = 20_000  # up to this many points are drawn one by one; more as binned densities
 SURVIVAL_POINTS = 4_000  # points of a drawn survival curve (the tail's ranks are kept exactly)
@@ -75,8 +83,9 @@ def _planes(ax, planes, shooter, up, e1, e2):
             continue
         p = point - shooter
         xy = (float(p @ e1), float(p @ e2))
-        ax.axline(xy, (xy[0] + float(t @ e1), xy[1] + float(t @ e2)), color=f"C{i % 10}", lw=2, ls="--",
-                  label=f"{name} (plane {i})")
+        ax.axline(
+            xy, (xy[0] + float(t @ e1), xy[1] + float(t @ e2)), color=f"C{i % 10}", lw=2, ls="--", label=f"{name} (plane {i})"
+        )
 
 
 def _edges(values, bins: int):
@@ -108,8 +117,9 @@ def landing_map(ax_overview, ax_zoom, landings, e1, e2, axis_names=("e1", "e2"))
         ax_overview.scatter(x, y, s=4, color="k", label="landings")
     elif n <= SCATTER_MAX:
         order = np.argsort(energy)
-        art = ax_overview.scatter(x[order], y[order], c=energy[order], s=6 if n > 2000 else 12, cmap="inferno",
-                                  norm=_norm(energy), edgecolors="none")
+        art = ax_overview.scatter(
+            x[order], y[order], c=energy[order], s=6 if n > 2000 else 12, cmap="inferno", norm=_norm(energy), edgecolors="none"
+        )
         ax_overview.figure.colorbar(art, ax=ax_overview, label="kinetic energy at landing (J)")
     else:
         cell = nice_step(max(float(np.ptp(x)), float(np.ptp(y))), bins)
@@ -185,29 +195,37 @@ def energy_distance(ax, distance, energy, slipped=None):
             for value, name, colour in ((0, "stuck at the first impact", "C0"), (1, "slipped at the first impact", "C1")):
                 sel = slipped == value
                 if sel.any():
-                    ax.scatter(distance[sel], energy[sel], s=size, color=colour, alpha=0.6, edgecolors="none",
-                               label=f"{name} ({int(sel.sum()):,})")
+                    ax.scatter(
+                        distance[sel],
+                        energy[sel],
+                        s=size,
+                        color=colour,
+                        alpha=0.6,
+                        edgecolors="none",
+                        label=f"{name} ({int(sel.sum()):,})",
+                    )
             ax.legend(loc="best", fontsize="small", markerscale=2)
         else:
             ax.scatter(distance, energy, s=size, alpha=0.6, edgecolors="none")
         if log:
             plain_log(ax, "y")
     else:
-        art = ax.hexbin(distance, np.log10(energy) if log else energy, gridsize=80, bins="log", mincnt=1,
-                        cmap="viridis")
+        art = ax.hexbin(distance, np.log10(energy) if log else energy, gridsize=80, bins="log", mincnt=1, cmap="viridis")
         ax.figure.colorbar(art, ax=ax, label="pellets per cell")
         if log:  # log10 of the energy binned: ticks at whole decades, labelled in J
             from matplotlib.ticker import FuncFormatter, MaxNLocator
 
             ax.yaxis.set_major_locator(MaxNLocator(integer=True))
-            ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: f"{10 ** v:.3g}"))
+            ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: f"{10**v:.3g}"))
     ax.set_xlabel("horizontal distance from the shooter to the landing point (m)")
     ax.set_ylabel("kinetic energy at landing (J)")
     ax.grid(alpha=0.3, which="both")
 
 
-PAPER_NOTE = ("Zohdi (2021), Table 3: <L> and L- to L+;\nits rows with sticking pellets (mu_s >= 0.05) do not\n"
-              "follow from its eqs. (27)-(29), whose 5/7 v_t we\ndraw: docs/paper-reproduction.md")
+PAPER_NOTE = (
+    "Zohdi (2021), Table 3: <L> and L- to L+;\nits rows with sticking pellets (mu_s >= 0.05) do not\n"
+    "follow from its eqs. (27)-(29), whose 5/7 v_t we\ndraw: docs/paper-reproduction.md"
+)
 
 
 def sweep_band(ax, x, mean, low, high, label=None, color=None, paper=None):
@@ -215,11 +233,16 @@ def sweep_band(ax, x, mean, low, high, label=None, color=None, paper=None):
     `paper`: optional (x, mean, low, high) of the paper's rows, drawn as markers with error bars."""
     order = np.argsort(x)
     x, mean, low, high = (np.asarray(a, dtype=np.float64)[order] for a in (x, mean, low, high))
-    line, = ax.plot(x, mean, marker="o", ms=4, label=f"mean range <L>, {label}" if label else "mean range <L>", color=color)
-    ax.fill_between(x, low, high, alpha=0.25, color=line.get_color(),
-                    label=f"shortest to longest, L- to L+, {label}" if label else "shortest to longest, L- to L+")
+    (line,) = ax.plot(x, mean, marker="o", ms=4, label=f"mean range <L>, {label}" if label else "mean range <L>", color=color)
+    ax.fill_between(
+        x,
+        low,
+        high,
+        alpha=0.25,
+        color=line.get_color(),
+        label=f"shortest to longest, L- to L+, {label}" if label else "shortest to longest, L- to L+",
+    )
     if paper is not None and len(paper[0]):
         px, pm, plo, phi = (np.asarray(a, dtype=np.float64) for a in paper)
-        ax.errorbar(px, pm, yerr=[pm - plo, phi - pm], fmt="s", color="k", mfc="none", ms=6, capsize=3,
-                    label=PAPER_NOTE)
+        ax.errorbar(px, pm, yerr=[pm - plo, phi - pm], fmt="s", color="k", mfc="none", ms=6, capsize=3, label=PAPER_NOTE)
     ax.grid(alpha=0.3)

@@ -42,9 +42,14 @@ def read_plot_data(group) -> dict:
     out = {"edges": group["stats/histograms/edges"][()], "distance_counts": group["stats/histograms/counts"][()][ROW_DISTANCE:]}
     h = group.get("hazard")
     if h is not None and "thresholds" in h:
-        out.update(names=[n.decode() for n in h["thresholds/name"][()]], threshold_speed=h["thresholds/speed"][()],
-                   fractions=h["danger_distance/fraction"][()], danger_distance=h["danger_distance/distance"][()],
-                   ci_low=h["danger_distance/ci_low"][()], ci_high=h["danger_distance/ci_high"][()])
+        out.update(
+            names=[n.decode() for n in h["thresholds/name"][()]],
+            threshold_speed=h["thresholds/speed"][()],
+            fractions=h["danger_distance/fraction"][()],
+            danger_distance=h["danger_distance/distance"][()],
+            ci_low=h["danger_distance/ci_low"][()],
+            ci_high=h["danger_distance/ci_high"][()],
+        )
         if "map" in h:
             m = h["map"]
             out.update({f"map_{k}": m[k][()] for k in ("count", "above", "energy", "u_edges", "v_edges", "outside")})
@@ -104,8 +109,9 @@ def draw_survival(fig, source, title="Landings beyond a distance from the shoote
             same = all_counts.tolist() == counts[index].tolist()
             label = "above " + ", ".join(names[shown[g]] for g in group) + (" (every landing)" if same else "")
             s = np.append(_survival(counts[index], total)[lo:hi], 0.0)
-            ax.step(x, np.maximum(s, 1e-12), where="post", color=colours[index], label=label,
-                    ls=(0, (6, 3)) if same else "-")  # dashed over the black curve it hides otherwise
+            ax.step(
+                x, np.maximum(s, 1e-12), where="post", color=colours[index], label=label, ls=(0, (6, 3)) if same else "-"
+            )  # dashed over the black curve it hides otherwise
             for j, p in enumerate(d["fractions"]):
                 r = d["danger_distance"][index, j]
                 if np.isfinite(r):
@@ -158,8 +164,9 @@ def draw_map(fig, source, title="Landings on the map") -> bool:
     u, v, count = d["map_u_edges"], d["map_v_edges"], d["map_count"]
     area = (u[1] - u[0]) * (v[1] - v[0])
     names = d.get("names", [])
-    layers = [np.concatenate([(d["map_above"][i] > 0).ravel(), d["danger_distance"][i], d["ci_high"][i]])
-              for i in range(len(names))]
+    layers = [
+        np.concatenate([(d["map_above"][i] > 0).ravel(), d["danger_distance"][i], d["ci_high"][i]]) for i in range(len(names))
+    ]
     groups = _same(layers)
     fig.set_size_inches(*_map_size(d, len(groups)))
     ax = fig.subplots()

@@ -38,16 +38,22 @@ def from_file(group) -> dict | None:
     if "stats/quantiles" not in group:
         return None
     q = group["stats/quantiles"]
-    out = {"levels": np.asarray(q.attrs["levels"]), "landed": int(group["stats/histograms/counts"][0].sum()),
-           "quantiles": {name: (q[name][()], q[f"lower/{name}"][()]) for name in ("range", "distance", "speed", "energy")},
-           "tail": {name: group[f"stats/tail/{name}"][()] for name in ("distance", "count", "fraction")}}
+    out = {
+        "levels": np.asarray(q.attrs["levels"]),
+        "landed": int(group["stats/histograms/counts"][0].sum()),
+        "quantiles": {name: (q[name][()], q[f"lower/{name}"][()]) for name in ("range", "distance", "speed", "energy")},
+        "tail": {name: group[f"stats/tail/{name}"][()] for name in ("distance", "count", "fraction")},
+    }
     if "hazard/danger_distance" in group:
         h = group["hazard"]
-        out["hazard"] = {"names": [n.decode() for n in h["thresholds/name"][()]],
-                         "kinds": [k.decode() for k in h["thresholds/kind"][()]], "values": h["thresholds/value"][()],
-                         "fractions": h["danger_distance/fraction"][()], "landings": h["thresholds/landings"][()],
-                         **{name: h[f"danger_distance/{name}"][()] for name in
-                            ("distance", "ci_low", "ci_high", "needed_landings")}}
+        out["hazard"] = {
+            "names": [n.decode() for n in h["thresholds/name"][()]],
+            "kinds": [k.decode() for k in h["thresholds/kind"][()]],
+            "values": h["thresholds/value"][()],
+            "fractions": h["danger_distance/fraction"][()],
+            "landings": h["thresholds/landings"][()],
+            **{name: h[f"danger_distance/{name}"][()] for name in ("distance", "ci_low", "ci_high", "needed_landings")},
+        }
     return out
 
 
@@ -60,16 +66,19 @@ def tally_lines(results: dict | None, pellets: float) -> list[str]:
     unresolved = [(name, q) for name, q in zip(SHOWN_LEVELS, results["levels"]) if results["landed"] * (1.0 - q) < 1.0]
     if unresolved and results["landed"]:
         name, q = unresolved[0]
-        lines[0] += (f"; from {name} on the largest value: a level q needs 1 / (1 - q) landings "
-                     f"({round(1.0 / (1.0 - q)):,} for {name}), this run has {results['landed']:,}")
+        lines[0] += (
+            f"; from {name} on the largest value: a level q needs 1 / (1 - q) landings "
+            f"({round(1.0 / (1.0 - q)):,} for {name}), this run has {results['landed']:,}"
+        )
     for name, (value, _lower) in results["quantiles"].items():
         lines.append(f"  {name:<9}" + " / ".join(_fmt(v) for v in value) + f" {units[name]}")
     tail = results["tail"]
     fractions = np.asarray(tail["fraction"], dtype=np.float64)
     split = (fractions > 0) & (fractions < 1)
     if split.any():
-        lines.append("landed beyond  " + ", ".join(f">={_fmt(d)} m: {_fmt(f)}" for d, f in
-                                                   zip(tail["distance"][split], fractions[split])))
+        lines.append(
+            "landed beyond  " + ", ".join(f">={_fmt(d)} m: {_fmt(f)}" for d, f in zip(tail["distance"][split], fractions[split]))
+        )
     elif len(fractions) and np.isfinite(fractions).all():
         within = [f"all >= {_fmt(tail['distance'][fractions == 1].max())} m"] if (fractions == 1).any() else []
         within += [f"none >= {_fmt(tail['distance'][fractions == 0].min())} m"] if (fractions == 0).any() else []
@@ -84,14 +93,20 @@ def tally_lines(results: dict | None, pellets: float) -> list[str]:
                 if hazard["landings"][i] == 0:
                     parts.append(f"p={p:g}: none above")
                     continue
-                text = (f"p={p:g}: {_fmt(hazard['distance'][i, j])} m "
-                        f"[{_fmt(hazard['ci_low'][i, j])}, {_fmt(hazard['ci_high'][i, j])}]")
+                text = (
+                    f"p={p:g}: {_fmt(hazard['distance'][i, j])} m "
+                    f"[{_fmt(hazard['ci_low'][i, j])}, {_fmt(hazard['ci_high'][i, j])}]"
+                )
                 if math.isinf(hazard["ci_high"][i, j]):
                     need = hazard["needed_landings"][i, j]
                     share = hazard["landings"][i] / pellets if pellets else math.nan
-                    text += (f" too few: needs {need:,} landings above it (about {need / share:,.0f} pellets)"
-                             if share > 0 else f" too few: needs {need:,} landings above it")
+                    text += (
+                        f" too few: needs {need:,} landings above it (about {need / share:,.0f} pellets)"
+                        if share > 0
+                        else f" too few: needs {need:,} landings above it"
+                    )
                 parts.append(text)
-            lines.append(f"  {name} ({_fmt(hazard['values'][i])} {unit}, {int(hazard['landings'][i]):,} landings): "
-                         + "; ".join(parts))
+            lines.append(
+                f"  {name} ({_fmt(hazard['values'][i])} {unit}, {int(hazard['landings'][i]):,} landings): " + "; ".join(parts)
+            )
     return lines

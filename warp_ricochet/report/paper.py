@@ -109,11 +109,13 @@ def _build_rows() -> dict[float, dict]:
     for mu_s, time, vt, vn, omega in TABLE1:
         phase = "pre" if time == TIME_PRE else "post"
         rows.setdefault(mu_s, {"mu_s": mu_s, "mu_d": round(MU_D_FACTOR * mu_s, 12)}).update(
-            {f"{phase}_mean_vt": vt, f"{phase}_mean_vn": vn, f"{phase}_norm_mean_omega": omega})
+            {f"{phase}_mean_vt": vt, f"{phase}_mean_vn": vn, f"{phase}_norm_mean_omega": omega}
+        )
     for mu_s, time, wt, wr, ratio_t, ratio_r in TABLE2:
         phase = "pre" if time == TIME_PRE else "post"
-        rows[mu_s].update({f"{phase}_mean_WT": wt, f"{phase}_mean_WR": wr,
-                           f"{phase}_ratio_WT": ratio_t, f"{phase}_ratio_WR": ratio_r})
+        rows[mu_s].update(
+            {f"{phase}_mean_WT": wt, f"{phase}_mean_WR": wr, f"{phase}_ratio_WT": ratio_t, f"{phase}_ratio_WR": ratio_r}
+        )
     for mu_s, mean, longest, shortest, case in TABLE3:
         rows[mu_s].update({"range_mean": mean, "range_max": longest, "range_min": shortest, "case": case})
     return rows

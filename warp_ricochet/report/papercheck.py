@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 import tomllib
+
 from ..errors import RicochetError
 
 __all__ = ["paper_scene", "signature", "row_scene", "differences", "is_papers"]

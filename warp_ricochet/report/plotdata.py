@@ -92,8 +92,10 @@ def _planes(group, scene) -> list:
     if points is None or normals is None:
         return []
     names = [s.get("name", "") for s in scene.get("surfaces", [])]
-    return [(names[i] if i < len(names) and names[i] else f"plane {i}", np.asarray(p, float), np.asarray(n, float))
-            for i, (p, n) in enumerate(zip(points, normals))]
+    return [
+        (names[i] if i < len(names) and names[i] else f"plane {i}", np.asarray(p, float), np.asarray(n, float))
+        for i, (p, n) in enumerate(zip(points, normals))
+    ]
 
 
 def read_landings(group) -> Landings | None:
@@ -117,11 +119,18 @@ def read_landings(group) -> Landings | None:
     rng = group.get("pellets/landing/range")
     slipped = group.get("pellets/impact/slipped")
     return Landings(
-        position=position[keep], distance=np.linalg.norm(horizontal, axis=1),
+        position=position[keep],
+        distance=np.linalg.norm(horizontal, axis=1),
         range=None if rng is None else np.asarray(rng[:rows], dtype=np.float64)[keep],
         energy=energy,
         slipped=None if slipped is None else np.asarray(slipped[:rows]).reshape(rows, -1)[keep, 0],
-        shooter=shooter, up=up, planes=_planes(group, scene), rows=rows, total=total, aim=_aim(group, scene, rows))
+        shooter=shooter,
+        up=up,
+        planes=_planes(group, scene),
+        rows=rows,
+        total=total,
+        aim=_aim(group, scene, rows),
+    )
 
 
 def top_view(landings: Landings, directions=None):

@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
@@ -164,8 +164,11 @@ def _log_if_wide(ax, axis: str, values) -> None:
 def _axis_label(key: str) -> str:
     """A swept key with its meaning and unit where known (friction coefficients are dimensionless)."""
     last = key.rsplit(".", 1)[-1]
-    names = {"mu_s": "static friction coefficient mu_s", "mu_d": "dynamic friction coefficient mu_d",
-             "restitution": "restitution E"}
+    names = {
+        "mu_s": "static friction coefficient mu_s",
+        "mu_d": "dynamic friction coefficient mu_d",
+        "restitution": "restitution E",
+    }
     return f"{names[last]} ({key})" if last in names else key
 
 
@@ -179,8 +182,7 @@ def draw_sweep_ranges(fig, sweeps) -> bool:
         paper = _paper_points(sweep, x)
         for i, (label, rows) in enumerate(_groups(sweep.results.rows, x, sweep.results.params)):
             series = [[r.get(k, math.nan) for r in rows] for k in (x, "range_mean", "range_min", "range_max")]
-            figures.sweep_band(ax, *series, label=label or None, color=f"C{i % 10}",
-                               paper=paper if i == 0 else None)
+            figures.sweep_band(ax, *series, label=label or None, color=f"C{i % 10}", paper=paper if i == 0 else None)
         drawn += [r.get(k, math.nan) for r in sweep.results.rows for k in ("range_min", "range_max")]
         drawn += [] if paper is None else [v for column in paper[1:] for v in column]
         ax.set_xlabel(_axis_label(x))
@@ -189,8 +191,9 @@ def draw_sweep_ranges(fig, sweeps) -> bool:
     axes[0].set_ylabel("ricochet range, eq. (42) (m)")
     for ax in axes:
         _log_if_wide(ax, "y", np.array(drawn, dtype=np.float64))
-    fig.suptitle("Mean ricochet range <L> with the L- to L+ band, over the sweep"
-                 + (" (panels on one scale)" if len(axes) > 1 else ""))
+    fig.suptitle(
+        "Mean ricochet range <L> with the L- to L+ band, over the sweep" + (" (panels on one scale)" if len(axes) > 1 else "")
+    )
     return True
 
 
@@ -233,8 +236,13 @@ PLOTS: list[Plot] = [
     Plot("landing-map", "run", (10.0, 9.0), draw_landing_map),
     Plot("range", "run", (12.0, 4.8), draw_range),
     Plot("energy-distance", "run", (8.0, 5.5), draw_energy_distance),
-    Plot("distance-survival", "run", (7.0, 4.5), hazard_plots.draw_survival,  # docs/hazard.md
-         "no landing histograms: output.quantiles = false"),
+    Plot(
+        "distance-survival",
+        "run",
+        (7.0, 4.5),
+        hazard_plots.draw_survival,  # docs/hazard.md
+        "no landing histograms: output.quantiles = false",
+    ),
     Plot("hazard-map", "run", (8.0, 6.0), hazard_plots.draw_map, "no hazard map: [hazard] map_cell and map_extent"),
     Plot("sweep-ranges", "sweep", (6.5, 5.0), draw_sweep_ranges),
     Plot("sweep-survival", "sweep", (6.5, 5.0), draw_sweep_survival),
@@ -292,8 +300,9 @@ def write_plots(paths, outdir=None, overwrite=False) -> list[tuple[str, str | No
     names = [png for png, _, _ in plan]
     if len(set(names)) < len(names):
         twice = next(n for n in names if names.count(n) > 1)
-        raise PlotError(f"output = {twice!r}: two inputs have the same file name; plot them one at a time "
-                        "into different folders (-o)")
+        raise PlotError(
+            f"output = {twice!r}: two inputs have the same file name; plot them one at a time into different folders (-o)"
+        )
     if not overwrite:
         for png, _, _ in plan:
             if os.path.lexists(png):
@@ -304,10 +313,14 @@ def write_plots(paths, outdir=None, overwrite=False) -> list[tuple[str, str | No
         for p in paths:
             files[p] = open_for_reading(p)  # (a killed run's partial: as a SWMR reader)
         for png, plot, inputs in plan:
-            fig = figure_class(figsize=(plot.size[0] * (len(inputs) if plot.kind == "sweep" else 1), plot.size[1]),
-                               dpi=DPI, layout="constrained")
-            source = (files[inputs[0]] if plot.kind == "run"
-                      else [Sweep(results[p], files[p], label) for p, label in _labels(inputs, results).items()])
+            fig = figure_class(
+                figsize=(plot.size[0] * (len(inputs) if plot.kind == "sweep" else 1), plot.size[1]), dpi=DPI, layout="constrained"
+            )
+            source = (
+                files[inputs[0]]
+                if plot.kind == "run"
+                else [Sweep(results[p], files[p], label) for p, label in _labels(inputs, results).items()]
+            )
             if not plot.draw(fig, source):
                 done.append((png, f"nothing to draw ({plot.missing})"))
                 continue
@@ -349,4 +362,3 @@ def _labels(paths, results) -> dict:
     if len(set(labels.values())) < len(labels):
         labels = {p: _stem(p) for p in paths}
     return labels
-

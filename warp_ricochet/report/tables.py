@@ -73,6 +73,7 @@ def _key_list(value) -> list[str]:
 
 def _sort_rows(rows: list[dict], params: list[str]) -> list[dict]:
     """Paper order: by the swept parameters, descending (the paper lists mu_s = 0.5 first); NaN last."""
+
     def key(row):
         out = []
         for p in params:
@@ -80,6 +81,7 @@ def _sort_rows(rows: list[dict], params: list[str]) -> list[dict]:
             v = float(v) if isinstance(v, (int, float)) else math.nan
             out.append((math.isnan(v), -v if not math.isnan(v) else 0.0))
         return out
+
     return sorted(rows, key=key) if params else list(rows)
 
 
@@ -96,8 +98,11 @@ def read_results(path) -> Results:
 
         found = folder_progress(path)
         if found is not None:
-            raise ReportError(path, f"is an unfinished sweep: {found[0]} of {found[1]} points complete (its tables are "
-                                    "written when every point is); warp-ricochet sweep ... --resume continues it")
+            raise ReportError(
+                path,
+                f"is an unfinished sweep: {found[0]} of {found[1]} points complete (its tables are "
+                "written when every point is); warp-ricochet sweep ... --resume continues it",
+            )
         raise ReportError(path, "is a directory, not an HDF5 file")
     if not_regular(path):  # (opening a FIFO would wait for a writer)
         raise ReportError(path, not_regular(path))
@@ -153,8 +158,9 @@ def _read_open_file(f, path, np) -> Results:
     attrs = {k: _text(v) for k, v in f.attrs.items()}
     if attrs.get("format") != FORMAT_NAME:
         found = attrs.get("format")
-        raise ReportError(path, "is not a warp-ricochet output file (root attribute format = "
-                          f"{found!r}, expected {FORMAT_NAME!r})")
+        raise ReportError(
+            path, f"is not a warp-ricochet output file (root attribute format = {found!r}, expected {FORMAT_NAME!r})"
+        )
     kind = attrs.get("kind")
     if kind not in KINDS:
         raise ReportError(path, f"has kind = {kind!r}; expected 'run' or 'sweep'")
@@ -172,8 +178,11 @@ def _read_open_file(f, path, np) -> Results:
         if math.isnan(row.get("pellets", math.nan)):  # statistics (and tallies) are written when the run completes
             meta["points_done"] = 0
             return Results(rows=[], meta=meta)
-        meta["intervals"] = {name: (float(ds.attrs["ci_low"]), float(ds.attrs["ci_high"]))
-                             for name, ds in stats_group.items() if isinstance(ds, h5py.Dataset) and "ci_low" in ds.attrs}
+        meta["intervals"] = {
+            name: (float(ds.attrs["ci_low"]), float(ds.attrs["ci_high"]))
+            for name, ds in stats_group.items()
+            if isinstance(ds, h5py.Dataset) and "ci_low" in ds.attrs
+        }
         shots_group = stats_group.get("shots")
         meta["shots"] = int(shots_group.attrs.get("shots", 0)) if isinstance(shots_group, h5py.Group) else 0
         meta["tally"] = from_file(f)
@@ -183,8 +192,7 @@ def _read_open_file(f, path, np) -> Results:
         raise ReportError(path, "is a sweep file without a /sweep group")
     params = _key_list(sweep.attrs.get("parameters"))
     tied = _key_list(sweep.attrs.get("tied"))
-    values = {key: np.asarray(ds[()], dtype=np.float64).reshape(-1) for key, ds in sweep.items()
-              if isinstance(ds, h5py.Dataset)}
+    values = {key: np.asarray(ds[()], dtype=np.float64).reshape(-1) for key, ds in sweep.items() if isinstance(ds, h5py.Dataset)}
     if not params:
         params = [k for k in values if k not in tied]
     missing = [p for p in params if p not in values]
@@ -301,8 +309,13 @@ def _render(title: str, headers: list[str], rows: list[list[str]], fmt: str, lef
 
     align = ["left" if i in left else "right" for i in range(len(headers))]
     if fmt == "markdown":
-        table = tabulate([[_markdown(c) for c in r] for r in rows], [_markdown(h) for h in headers], tablefmt="pipe",
-                         disable_numparse=True, colalign=align)
+        table = tabulate(
+            [[_markdown(c) for c in r] for r in rows],
+            [_markdown(h) for h in headers],
+            tablefmt="pipe",
+            disable_numparse=True,
+            colalign=align,
+        )
         return f"**{_markdown(title)}**\n\n{table}"
     table = tabulate(rows, headers, tablefmt="simple", disable_numparse=True, colalign=align)
     return "\n".join([title, *(line.rstrip() for line in table.splitlines())])
@@ -318,8 +331,7 @@ TABLE_TITLES = (
     "Table 3. Post-impact ricochet ranges.",
 )
 T1 = (("<v_t> (m/s)", "mean_vt"), ("<v_n> (m/s)", "mean_vn"), ("||<omega>|| (rad/s)", "norm_mean_omega"))
-T2 = (("<W_T> (J)", "mean_WT"), ("<W_R> (J)", "mean_WR"),
-      ("<W_T>/<W(t=0)>", "ratio_WT"), ("<W_R>/<W(t=0)>", "ratio_WR"))
+T2 = (("<W_T> (J)", "mean_WT"), ("<W_R> (J)", "mean_WR"), ("<W_T>/<W(t=0)>", "ratio_WT"), ("<W_R>/<W(t=0)>", "ratio_WR"))
 T3 = (("<L> (m)", "range_mean"), ("L+ (m)", "range_max"), ("L- (m)", "range_min"))
 
 
@@ -343,6 +355,7 @@ def _tables(rows, point_headers, point_cells, fmt, *, paper_rows=None) -> list[s
                 if paper:
                     cells.append(_num(theirs.get(f"{phase}_{stat}")))
             return cells
+
         pre = [values(mine, theirs, "pre") for mine, theirs in source]
         once = len(pre) > 1 and all(cells == pre[0] for cells in pre)
         body = [["all"] * n + ["pre"] + pre[0]] if once else []
@@ -357,16 +370,26 @@ def _tables(rows, point_headers, point_cells, fmt, *, paper_rows=None) -> list[s
     if not paper:
         headers = point_headers + [h for h, _ in T3] + ["Frictional case", "L+ slip (m)", "L+ stick (m)"]
         for row, _ in source:
-            body.append(point_cells(row, row) + [_num(row.get(stat)) for _, stat in T3]
-                        + [frictional_case(row), _num(row.get("range_slip_max")), _num(row.get("range_stick_max"))])
+            body.append(
+                point_cells(row, row)
+                + [_num(row.get(stat)) for _, stat in T3]
+                + [frictional_case(row), _num(row.get("range_slip_max")), _num(row.get("range_stick_max"))]
+            )
         out.append(_render(TABLE_TITLES[2], headers, body, fmt, left | {n + 3}))
     else:
-        headers = point_headers + [c for h, _ in T3 for c in (h, "paper")] + ["Frictional case", "paper"] + [
-            "ours vs paper " + h.split(" (")[0] for h, _ in T3]
+        headers = (
+            point_headers
+            + [c for h, _ in T3 for c in (h, "paper")]
+            + ["Frictional case", "paper"]
+            + ["ours vs paper " + h.split(" (")[0] for h, _ in T3]
+        )
         for mine, theirs in source:
-            body.append(point_cells(mine, mine) + [c for _, stat in T3 for c in (_num(mine.get(stat)), _num(theirs.get(stat)))]
-                        + [frictional_case(mine), theirs.get("case", NA)]
-                        + [_rel(mine.get(stat), theirs.get(stat)) for _, stat in T3])
+            body.append(
+                point_cells(mine, mine)
+                + [c for _, stat in T3 for c in (_num(mine.get(stat)), _num(theirs.get(stat)))]
+                + [frictional_case(mine), theirs.get("case", NA)]
+                + [_rel(mine.get(stat), theirs.get(stat)) for _, stat in T3]
+            )
         out.append(_render(TABLE_TITLES[2].rstrip(".") + suffix + ".", headers, body, fmt, left | {n + 6, n + 7}))
     return out
 
@@ -404,26 +427,39 @@ def _paper_blocks(results: Results, point_headers, point_cells, fmt) -> list[str
         row, diffs = other[0]
         key, ours, theirs = diffs[0]
         more = f" and {len(diffs) - 1} more key{'s' if len(diffs) > 2 else ''}" if len(diffs) > 1 else ""
-        which = "this run" if results.kind == "run" else (
-            "any point" if len(other) == len(results.rows) else f"{len(other)} of {len(results.rows)} points")
-        blocks.append(f"paper: the comparison with Zohdi (2021) does not apply to {which}: the scene differs from "
-                      f"the paper's (examples/paper.toml) in {key} = {_given(ours)} (paper: {_given(theirs)}){more}")
+        which = (
+            "this run"
+            if results.kind == "run"
+            else ("any point" if len(other) == len(results.rows) else f"{len(other)} of {len(results.rows)} points")
+        )
+        blocks.append(
+            f"paper: the comparison with Zohdi (2021) does not apply to {which}: the scene differs from "
+            f"the paper's (examples/paper.toml) in {key} = {_given(ours)} (paper: {_given(theirs)}){more}"
+        )
     if missing:
         values = ", ".join(f"{m:g}" for m in sorted(set(missing)))
         blocks.append(f"paper: Zohdi (2021) has no row for mu_s = {values} (it lists mu_s = 0, 0.05, ..., 0.5)")
     if matched:
-        blocks.append("The paper's values (Zohdi 2021, Tables 1-3) beside ours for the same mu_s; its Time "
-                      "0.000/0.010 is shown as pre/post. The paper's stick rows do not follow its eqs. (27)-(29); "
-                      "see warp_ricochet.report.paper. Last columns: relative difference (ours - paper) / paper.")
+        blocks.append(
+            "The paper's values (Zohdi 2021, Tables 1-3) beside ours for the same mu_s; its Time "
+            "0.000/0.010 is shown as pre/post. The paper's stick rows do not follow its eqs. (27)-(29); "
+            "see warp_ricochet.report.paper. Last columns: relative difference (ours - paper) / paper."
+        )
         blocks += _tables(None, point_headers, point_cells, fmt, paper_rows=matched)
     return blocks
 
 
-COLLISION_COLUMNS = (("collided", "collided_fraction", 4), ("pair collisions", "pair_collisions", 0),
-                     ("energy lost (J)", "pair_energy_lost", 4), ("lost per pellet (J)", "pair_energy_lost_mean", 6),
-                     ("dense steps mean", "dense_steps_mean", 1), ("dense steps max", "dense_steps_max", 0),
-                     ("dense time mean (s)", "dense_time_mean", 6), ("dense time max (s)", "dense_time_max", 6),
-                     ("skin overrun max", "skin_overrun_max", 2))
+COLLISION_COLUMNS = (
+    ("collided", "collided_fraction", 4),
+    ("pair collisions", "pair_collisions", 0),
+    ("energy lost (J)", "pair_energy_lost", 4),
+    ("lost per pellet (J)", "pair_energy_lost_mean", 6),
+    ("dense steps mean", "dense_steps_mean", 1),
+    ("dense steps max", "dense_steps_max", 0),
+    ("dense time mean (s)", "dense_time_mean", 6),
+    ("dense time max (s)", "dense_time_max", 6),
+    ("skin overrun max", "skin_overrun_max", 2),
+)
 
 
 def _collision_tables(rows, point_headers, point_cells, fmt) -> list[str]:
@@ -433,9 +469,16 @@ def _collision_tables(rows, point_headers, point_cells, fmt) -> list[str]:
         return []
     left = set(range(len(point_headers))) if point_headers == ["run"] else set()
     body = [point_cells(r, r) + [_num(r.get(stat), d) for _, stat, d in COLLISION_COLUMNS] for r in rows]
-    return [_render("Pellet-pellet collisions (fraction of pellets that collided, pair collisions, the energy they "
-                    "lost; the dense phase's steps and duration per shot; skin overrun in half skins).",
-                    point_headers + [h for h, _, _ in COLLISION_COLUMNS], body, fmt, left)]
+    return [
+        _render(
+            "Pellet-pellet collisions (fraction of pellets that collided, pair collisions, the energy they "
+            "lost; the dense phase's steps and duration per shot; skin overrun in half skins).",
+            point_headers + [h for h, _, _ in COLLISION_COLUMNS],
+            body,
+            fmt,
+            left,
+        )
+    ]
 
 
 def header_line(results: Results) -> str:
@@ -455,8 +498,13 @@ def header_line(results: Results) -> str:
         parts.append("run")
     parts.append(f"device: {meta.get('device', NA)}")
     parts.append(f"status: {meta.get('status', NA)}")
-    pellets = sorted({int(round(r["pellets"])) for r in results.rows
-                      if isinstance(r.get("pellets"), (int, float)) and math.isfinite(r["pellets"])})
+    pellets = sorted(
+        {
+            int(round(r["pellets"]))
+            for r in results.rows
+            if isinstance(r.get("pellets"), (int, float)) and math.isfinite(r["pellets"])
+        }
+    )
     text = ", ".join(f"{p:,}" for p in pellets) or NA
     parts.append(f"pellets: {text}" + (" per point" if results.kind == "sweep" and len(pellets) == 1 else ""))
     return " | ".join(parts)
@@ -478,9 +526,11 @@ def format_tables(results: Results, fmt: str = "text", paper: bool = False) -> s
         done, total = results.meta["rows_done"], results.meta["rows_total"]
         status = results.meta.get("status")
         said = "the run's writer is gone (killed or crashed)" if status == WRITER_GONE else f"status is {status!r}"
-        blocks.append(f"note: {said}: {done:,} of {total:,} pellets complete "
-                      f"({100 * done / max(total, 1):.1f}%); the statistics are written when the run completes "
-                      "(warp-ricochet run ... --resume continues it)")
+        blocks.append(
+            f"note: {said}: {done:,} of {total:,} pellets complete "
+            f"({100 * done / max(total, 1):.1f}%); the statistics are written when the run completes "
+            "(warp-ricochet run ... --resume continues it)"
+        )
     elif results.meta.get("status", "complete") != "complete":
         blocks.append(f"note: status is {results.meta.get('status')!r}; the tables show the points that finished")
     blocks += _tables(results.rows, point_headers, point_cells, fmt)
@@ -496,6 +546,7 @@ def format_tables(results: Results, fmt: str = "text", paper: bool = False) -> s
 
 def format_run_summary(stats: dict, output=None, device=None) -> str:
     """A short summary of one run's statistics, with units."""
+
     def unit(name):
         u = STAT_UNITS.get(name, ("", ""))[0]
         return "" if u == "1" else f" {u}"
@@ -540,8 +591,17 @@ def format_run_summary(stats: dict, output=None, device=None) -> str:
     return "\n".join(lines) + "\n"
 
 
-SUMMARY_INTERVALS = ("landed", "post_mean_vt", "range_mean", "range_std", "range_max", "range_min", "landing_mean_WT",
-                     "collided_fraction", "pair_energy_lost_mean")
+SUMMARY_INTERVALS = (
+    "landed",
+    "post_mean_vt",
+    "range_mean",
+    "range_std",
+    "range_max",
+    "range_min",
+    "landing_mean_WT",
+    "collided_fraction",
+    "pair_energy_lost_mean",
+)
 
 
 def _interval_decimals(value, low, high) -> int:
@@ -578,10 +638,13 @@ def format_intervals(row: dict, intervals: dict, shots: int, fmt: str, names=Non
             d = _interval_decimals(row[name], low, high)
             cells = [_num(row[name], d), _num(centre, d), _num(low, d), _num(high, d)]
         body.append([name, *cells, "" if unit == "1" else unit, over])
-    title = (f"95% confidence intervals over {shots:,} shots (Student t over the per-shot values in /stats/shots; "
-             "docs/output.md). \"all shots\": the statistic over every pellet of the run, for L+ and L- the "
-             "extreme of all shots, which lies outside the interval of one shot's extreme by design, and for "
-             "range_std the spread with the shots' differences; \"mean over shots\": the mean of the per-shot "
-             "values, the interval's centre.")
-    return _render(title, ["statistic", "all shots", "mean over shots", "95% low", "95% high", "unit", "interval of"],
-                   body, fmt, {0, 5, 6})
+    title = (
+        f"95% confidence intervals over {shots:,} shots (Student t over the per-shot values in /stats/shots; "
+        'docs/output.md). "all shots": the statistic over every pellet of the run, for L+ and L- the '
+        "extreme of all shots, which lies outside the interval of one shot's extreme by design, and for "
+        'range_std the spread with the shots\' differences; "mean over shots": the mean of the per-shot '
+        "values, the interval's centre."
+    )
+    return _render(
+        title, ["statistic", "all shots", "mean over shots", "95% low", "95% high", "unit", "interval of"], body, fmt, {0, 5, 6}
+    )

@@ -28,6 +28,7 @@ def _rule(rule):
     def deco(conv):
         conv.rule = rule
         return conv
+
     return deco
 
 
@@ -60,6 +61,7 @@ def _number(lo=None, hi=None, *, above=False, unit=""):
         if (lo is not None and (x <= lo if above else x < lo)) or (hi is not None and x > hi):
             raise _err(path, v, rule)
         return x
+
     return conv
 
 
@@ -73,6 +75,7 @@ def _range(lo, hi, *, above=False, unit=""):
         if x < lo or (above and x == lo) or x > hi:
             raise _err(path, v, rule)
         return x
+
     return conv
 
 
@@ -87,6 +90,7 @@ def _int(lo: int, hi: int):
         if isinstance(n, bool) or not isinstance(n, int) or not lo <= n <= hi:
             raise _err(path, v, rule)
         return int(n)
+
     return conv
 
 
@@ -113,18 +117,21 @@ def _vec3(*, nonzero=False, nonneg=False, scalar=False, unit="", bound=None):
         if bound is not None and max(map(abs, xs)) > bound:
             raise _err(path, v, f"each component must be within +-{bound:g}" + (f" {unit}" if unit else ""))
         return xs
+
     return conv
 
 
 def _str(choices=(), *, empty=False):
-    rule = ("must be one of " + ", ".join(map(repr, choices))) if choices else \
-        "must be a string" + ("" if empty else " (not empty)")
+    rule = (
+        ("must be one of " + ", ".join(map(repr, choices))) if choices else "must be a string" + ("" if empty else " (not empty)")
+    )
 
     @_rule(rule)
     def conv(v, path):
         if not isinstance(v, str) or (choices and v not in choices) or (not empty and not v):
             raise _err(path, v, rule)
         return v
+
     return conv
 
 
@@ -136,6 +143,7 @@ def _path():
         if not isinstance(v, str) or not v or "\0" in v:
             raise _err(path, v, rule)
         return v
+
     return conv
 
 
@@ -183,8 +191,11 @@ _SURFACE = {
     "mu_s": _range(0, MAX_FRICTION),
     "mu_d": _range(0, MAX_FRICTION),
 }
-_PHYSICS = {"gravity": _vec3(unit="m/s^2", bound=MAX_GRAVITY), "impact_duration": _range(0, MAX_IMPACT_DURATION, unit="s"),
-            "bounces": _int(1, 16)}
+_PHYSICS = {
+    "gravity": _vec3(unit="m/s^2", bound=MAX_GRAVITY),
+    "impact_duration": _range(0, MAX_IMPACT_DURATION, unit="s"),
+    "bounces": _int(1, 16),
+}
 _COLLISIONS = {
     "enabled": _bool,
     "separate": _bool,
@@ -203,11 +214,15 @@ _COLLISIONS = {
     "frame_every": _int(0, INT32_MAX),
 }
 FLOAT32_EXACT_STEPS = 2**24  # float32 counts every integer up to here
-_NUMERICS = {"precision": _str(("float32", "float64")), "chunk_size": _int(1, INT32_MAX), "fast_math": _bool,
-             "flight_tolerance": _range(1e-12, 1e-2)}
+_NUMERICS = {
+    "precision": _str(("float32", "float64")),
+    "chunk_size": _int(1, INT32_MAX),
+    "fast_math": _bool,
+    "flight_tolerance": _range(1e-12, 1e-2),
+}
 
 
-@_rule("must be \"braun\", \"gs\", or a list of at least 2 [Mach, C_D] pairs, Mach increasing in [0, 1e6], C_D > 0")
+@_rule('must be "braun", "gs", or a list of at least 2 [Mach, C_D] pairs, Mach increasing in [0, 1e6], C_D > 0')
 def _drag_table(v, path):
     rule = _drag_table.rule
     if isinstance(v, str):
@@ -222,8 +237,11 @@ def _drag_table(v, path):
             raise _err(path, v, f"pair {i} ({pair!r}) must be a [Mach, C_D] pair of numbers")
         mach, cd = (_finite(x, path, "must be finite") for x in pair)
         if not 0 <= mach <= MAX_TABLE_MACH or cd <= 0 or cd > 100 or (pairs and mach <= pairs[-1][0]):
-            raise _err(path, v, f"pair {i} ({pair!r}) must have Mach in [0, {MAX_TABLE_MACH:g}] and above the pair "
-                                "before, and C_D in (0, 100]")
+            raise _err(
+                path,
+                v,
+                f"pair {i} ({pair!r}) must have Mach in [0, {MAX_TABLE_MACH:g}] and above the pair before, and C_D in (0, 100]",
+            )
         pairs.append((mach, cd))
     return tuple(pairs)
 
@@ -248,6 +266,8 @@ _AIR = {
     "spin_decay": _bool,
     "spin_decay_law": _str(("dennis1980", "loth2008")),
 }
+
+
 @_rule("must be a list of at most 64 numbers in (0, 1e7] (m), increasing")
 def _distances(v, path):
     if isinstance(v, (list, tuple)) and len(v) > 64:  # (the length first: nothing per element of a long list)
@@ -261,8 +281,10 @@ def _distances(v, path):
 
 
 def _thresholds(unit, hi):
-    rule = (f"must be a table of name = value (names of letters, digits, _ and -; values in (0, {hi:g}] {unit}), "
-            "e.g. {corneal_abrasion = 1503.0}")
+    rule = (
+        f"must be a table of name = value (names of letters, digits, _ and -; values in (0, {hi:g}] {unit}), "
+        "e.g. {corneal_abrasion = 1503.0}"
+    )
 
     @_rule(rule)
     def conv(v, path):
@@ -281,6 +303,7 @@ def _thresholds(unit, hi):
                 raise _err(f"{path}.{name}", value, rule)
             out.append((name, x))
         return tuple(out)
+
     return conv
 
 
@@ -318,5 +341,14 @@ _OUTPUT = {"path": _path(), "fields": _fields, "quantiles": _bool, "tail_distanc
            "compression": _str(tuple(COMPRESSIONS))}
 _TOP = ("shot", "surfaces", "physics", "collisions", "air", "numerics", "output", "hazard")
 # table -> its schema (the top level: the names of the tables)
-SCHEMAS = {"shot": _SHOT, "surfaces": _SURFACE, "physics": _PHYSICS, "collisions": _COLLISIONS, "air": _AIR, "numerics": _NUMERICS,
-           "output": _OUTPUT, "hazard": _HAZARD, "": _TOP}
+SCHEMAS = {
+    "shot": _SHOT,
+    "surfaces": _SURFACE,
+    "physics": _PHYSICS,
+    "collisions": _COLLISIONS,
+    "air": _AIR,
+    "numerics": _NUMERICS,
+    "output": _OUTPUT,
+    "hazard": _HAZARD,
+    "": _TOP,
+}

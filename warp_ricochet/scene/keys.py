@@ -15,6 +15,7 @@ class _Missing:
 
 class _Shown:
     """A value shown by a given one-line text (for values whose repr spans lines or fails)."""
+
     def __init__(self, text):
         self.text = text
 
@@ -30,8 +31,9 @@ def err(key: str, value, allowed: str) -> SceneError:
     """SceneError whose message is guaranteed to be one line."""
     key = key if key.isprintable() else repr(key)[1:-1]
     if isinstance(value, (list, tuple, dict)) and len(value) > MAX_SHOWN_ITEMS:  # shown cut short: no repr of it all
-        items = list(itertools.islice(value.items(), MAX_SHOWN_ITEMS)) if isinstance(value, dict) else \
-            list(value[:MAX_SHOWN_ITEMS])
+        items = (
+            list(itertools.islice(value.items(), MAX_SHOWN_ITEMS)) if isinstance(value, dict) else list(value[:MAX_SHOWN_ITEMS])
+        )
         kind = "table" if isinstance(value, dict) else "list"
         value = _Shown(f"{kind} of {len(value):,} items: {repr(items)[1:-1]}, ...")
     try:
@@ -48,8 +50,7 @@ def err(key: str, value, allowed: str) -> SceneError:
 def quote(text: str) -> str:
     """TOML basic string."""
     esc = {'"': '\\"', "\\": "\\\\", "\n": "\\n", "\t": "\\t", "\r": "\\r", "\b": "\\b", "\f": "\\f"}
-    return '"' + "".join(esc.get(c) or (f"\\u{ord(c):04x}" if ord(c) < 0x20 or ord(c) == 0x7F else c)
-                         for c in text) + '"'
+    return '"' + "".join(esc.get(c) or (f"\\u{ord(c):04x}" if ord(c) < 0x20 or ord(c) == 0x7F else c) for c in text) + '"'
 
 
 def _bare(key) -> bool:
@@ -72,6 +73,4 @@ def suggest(key, allowed, path: str = "") -> str:
 def check_keys(raw: dict, path: str, allowed) -> None:
     for key in raw:
         if key not in allowed:
-            raise err(join(path, key), raw[key], f"unknown key; {suggest(key, allowed, path)}allowed keys: "
-                      + ", ".join(allowed))
-
+            raise err(join(path, key), raw[key], f"unknown key; {suggest(key, allowed, path)}allowed keys: " + ", ".join(allowed))

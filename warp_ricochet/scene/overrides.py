@@ -41,7 +41,7 @@ def set_dotted(raw: dict, key: str, value) -> dict:
             raise _err(key, value, f"cannot set it: {where} is not a table or array")
         elif not last and node.get(part) is None:
             nxt = parts[i + 1]
-            defaults = DEFAULT_TABLES.get(".".join(parts[:i + 1]), {})
+            defaults = DEFAULT_TABLES.get(".".join(parts[: i + 1]), {})
             node[part] = [] if nxt.isascii() and nxt.isdigit() else dict(defaults)
         if last:
             node[part] = value
@@ -121,4 +121,3 @@ def parse_tie(spec: str) -> tuple[str, float, str | None]:
     factor = 1.0 if not factor_text.strip() else float(_sweep_number(factor_text, key, spec))
     other = _dotted(other, spec, "tie") if other.strip() else None
     return key, factor, other
-

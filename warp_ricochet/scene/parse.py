@@ -16,7 +16,6 @@ from .convert import SCHEMAS
 from .keys import MISSING, _Shown, check_keys, err, join
 from .overrides import apply_override
 from .pellets import check_pellet_file, pellet_file_rows
-from .vectors import unit_vector
 from .schema import (
     CHECKPOINT_STEPS,
     FILE_EXCLUSIVE,
@@ -34,6 +33,7 @@ from .schema import (
     Shot,
     Surface,
 )
+from .vectors import unit_vector
 
 
 def _table(raw, path: str, schema: dict, required=()) -> dict:
@@ -93,8 +93,7 @@ def _collisions(raw) -> Collisions:
     return Collisions(**kw)
 
 
-_AIR_PARAMETERS = {"drag_coefficient": ("drag", "constant"), "drag_table": ("drag", "table"),
-                   "lift_slope": ("lift", "linear")}
+_AIR_PARAMETERS = {"drag_coefficient": ("drag", "constant"), "drag_table": ("drag", "table"), "lift_slope": ("lift", "linear")}
 
 
 def _air(raw):
@@ -104,9 +103,9 @@ def _air(raw):
     kw = _table(raw, "air", SCHEMAS["air"])
     for key, (law_key, law) in _AIR_PARAMETERS.items():
         if key in kw and kw.get(law_key, getattr(Air, law_key)) != law:
-            raise err(f"air.{key}", raw[key], f"only with air.{law_key} = \"{law}\"")
+            raise err(f"air.{key}", raw[key], f'only with air.{law_key} = "{law}"')
     if kw.get("drag") == "constant" and "drag_coefficient" not in kw:
-        raise err("air.drag_coefficient", MISSING, "is required with air.drag = \"constant\" (a number in (0, 100])")
+        raise err("air.drag_coefficient", MISSING, 'is required with air.drag = "constant" (a number in (0, 100])')
     return Air(**kw)
 
 
@@ -118,7 +117,9 @@ def _hazard(raw, surfaces: tuple, shot: Shot):
     hazard = Hazard(**kw)
     names = [t[0] for t in hazard.thresholds]
     if len(names) > MAX_THRESHOLDS:
-        raise err("hazard", f"{len(names)} thresholds", f"at most {MAX_THRESHOLDS} thresholds (energy_density and speed together)")
+        raise err(
+            "hazard", f"{len(names)} thresholds", f"at most {MAX_THRESHOLDS} thresholds (energy_density and speed together)"
+        )
     if len(set(names)) < len(names):
         twice = next(n for n in names if names.count(n) > 1)
         raise err("hazard", twice, "names a threshold twice (energy_density and speed together): give each a name of its own")
@@ -146,10 +147,18 @@ def _check_map_axis(hazard: Hazard, normal, shot: Shot) -> None:
     if math.hypot(*(x - along * n for x, n in zip(a, normal))) >= 1e-9 * math.hypot(*a):
         return
     if hazard.map_axis is not None:
-        raise err("hazard.map_axis", list(hazard.map_axis), f"is along the normal {list(normal)} of the map's surface "
-                  f"(hazard.map_surface = {hazard.map_surface}): give an axis in that plane")
-    raise err("hazard.map_axis", MISSING, f"is required: its default, shot.direction = {list(shot.direction)}, is along "
-              f"the normal of the map's surface (hazard.map_surface = {hazard.map_surface}); give an axis in that plane")
+        raise err(
+            "hazard.map_axis",
+            list(hazard.map_axis),
+            f"is along the normal {list(normal)} of the map's surface "
+            f"(hazard.map_surface = {hazard.map_surface}): give an axis in that plane",
+        )
+    raise err(
+        "hazard.map_axis",
+        MISSING,
+        f"is required: its default, shot.direction = {list(shot.direction)}, is along "
+        f"the normal of the map's surface (hazard.map_surface = {hazard.map_surface}); give an axis in that plane",
+    )
 
 
 MAX_MAP_CELLS = 4_000_000
@@ -159,8 +168,12 @@ def _numerics(raw) -> Numerics:
     numerics = Numerics(**_table(raw, "numerics", SCHEMAS["numerics"]))
     least = MIN_FLIGHT_TOLERANCE[numerics.precision]
     if numerics.flight_tolerance < least:
-        raise err("numerics.flight_tolerance", numerics.flight_tolerance, f"at least {least:g} with numerics.precision = "
-                  f"\"{numerics.precision}\" (it cannot resolve less)" + ("; use float64" if least > 1e-12 else ""))
+        raise err(
+            "numerics.flight_tolerance",
+            numerics.flight_tolerance,
+            f"at least {least:g} with numerics.precision = "
+            f'"{numerics.precision}" (it cannot resolve less)' + ("; use float64" if least > 1e-12 else ""),
+        )
     return numerics
 
 
@@ -181,41 +194,64 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
     planes = tuple(_surface(s, f"surfaces.{i}") for i, s in enumerate(surfaces))
     hazard = _hazard(raw.get("hazard"), planes, shot)
     if hazard is not None and output.get("quantiles") is False:
-        raise err("output.quantiles", _Shown("false"), "must be true with a [hazard] table: its thresholds' landings, danger "
-                  "distances and map are counted in the landing histograms (leave [hazard] out for none)")
+        raise err(
+            "output.quantiles",
+            _Shown("false"),
+            "must be true with a [hazard] table: its thresholds' landings, danger "
+            "distances and map are counted in the landing histograms (leave [hazard] out for none)",
+        )
     if "fields" not in output:
         output["fields"] = default_fields(pairs, hazard is not None)
     elif not pairs:
         extra = [f for f in output["fields"] if f in COLLISION_FIELDS]
         if extra:
-            raise err("output.fields", extra[0], "needs pellet-pellet collisions: collisions.enabled = true and "
-                       "more than one pellet per shot (shot.count > 1)")
+            raise err(
+                "output.fields",
+                extra[0],
+                "needs pellet-pellet collisions: collisions.enabled = true and more than one pellet per shot (shot.count > 1)",
+            )
     numerics = _numerics(raw.get("numerics"))
-    if pairs and shot.file is None and collisions.separate:  # sampled without overlaps (launch.sampling): the envelope must leave room
+    if (
+        pairs and shot.file is None and collisions.separate
+    ):  # sampled without overlaps (launch.sampling): the envelope must leave room
         fraction = packing_fraction(shot.count, shot.diameter, shot.envelope_radius)
         if fraction > MAX_PACKING:
             least = shot.envelope_radius * (fraction / MAX_PACKING) ** (1 / 3)
-            raise err("shot.envelope_radius", shot.envelope_radius,
-                      f"too small for {shot.count} pellets of {shot.diameter:g} m without overlaps (collisions on): "
-                      f"they fill {fraction:.3g} of it, at most {MAX_PACKING} can be sampled (random sequential "
-                      f"addition); at least {least:.4g} m")
+            raise err(
+                "shot.envelope_radius",
+                shot.envelope_radius,
+                f"too small for {shot.count} pellets of {shot.diameter:g} m without overlaps (collisions on): "
+                f"they fill {fraction:.3g} of it, at most {MAX_PACKING} can be sampled (random sequential "
+                f"addition); at least {least:.4g} m",
+            )
     if pairs and numerics.precision == "float32":
         # A shot's step counter is a float32 in a float32 run: it stops counting at 2^24, and a shot
         # stops (max_steps) only at a checkpoint, every frame_every steps (or CHECKPOINT_STEPS), so
         # the checkpoint at or after max_steps must come by then, or the shot never stops.
         every = collisions.frame_every or CHECKPOINT_STEPS
         if every > FLOAT32_EXACT_STEPS:
-            raise err("collisions.frame_every", collisions.frame_every, f"at most {FLOAT32_EXACT_STEPS:,} with "
-                       "numerics.precision = \"float32\" (a shot's step counter is exact up to 2^24); use float64")
+            raise err(
+                "collisions.frame_every",
+                collisions.frame_every,
+                f"at most {FLOAT32_EXACT_STEPS:,} with "
+                'numerics.precision = "float32" (a shot\'s step counter is exact up to 2^24); use float64',
+            )
         if -(-collisions.max_steps // every) * every > FLOAT32_EXACT_STEPS:
-            raise err("collisions.max_steps", collisions.max_steps, f"with numerics.precision = \"float32\", its "
-                       f"checkpoint (a multiple of {every} steps) must come by step {FLOAT32_EXACT_STEPS:,}, where the "
-                       "step counter stops being exact: at most "
-                       f"{FLOAT32_EXACT_STEPS // every * every:,}; use float64 for more")
+            raise err(
+                "collisions.max_steps",
+                collisions.max_steps,
+                f'with numerics.precision = "float32", its '
+                f"checkpoint (a multiple of {every} steps) must come by step {FLOAT32_EXACT_STEPS:,}, where the "
+                "step counter stops being exact: at most "
+                f"{FLOAT32_EXACT_STEPS // every * every:,}; use float64 for more",
+            )
     air = _air(raw.get("air"))
     if air is not None and len(surfaces) > MAX_PLANES_IN_AIR:
-        raise err("surfaces", f"{len(surfaces)} surfaces", f"at most {MAX_PLANES_IN_AIR} with [air] (a flight in "
-                   "air tracks its planes in the bits of an int32)")
+        raise err(
+            "surfaces",
+            f"{len(surfaces)} surfaces",
+            f"at most {MAX_PLANES_IN_AIR} with [air] (a flight in air tracks its planes in the bits of an int32)",
+        )
     return Scene(
         shot=shot,
         surfaces=planes,
@@ -242,8 +278,9 @@ def load_scene(path, overrides=()) -> Scene:
     except (OSError, ValueError) as exc:
         raise err("scene", str(path), f"cannot be read: {getattr(exc, 'strerror', None) or exc}") from None
     if len(text) > MAX_SCENE_CHARS:  # before the parser, whose time grows with the text (~10 s for 18 MB)
-        raise err("scene", str(path), f"has {len(text):,} characters; a scene is at most {MAX_SCENE_CHARS:,} "
-                  "(pellets go in shot.file)")
+        raise err(
+            "scene", str(path), f"has {len(text):,} characters; a scene is at most {MAX_SCENE_CHARS:,} (pellets go in shot.file)"
+        )
     try:
         raw = tomllib.loads(text)
     except (ValueError, RecursionError) as exc:
@@ -251,4 +288,3 @@ def load_scene(path, overrides=()) -> Scene:
     for assignment in overrides:
         raw = apply_override(raw, assignment)
     return dataclasses.replace(scene_from_dict(raw, base_dir=Path(path).parent), source=str(path))
-

@@ -93,8 +93,12 @@ class _H5:
         if not isinstance(ds, self.h5py.Dataset):
             return None
         if ds.chunks is not None and math.prod(ds.chunks) * ds.dtype.itemsize > MAX_H5_CHUNK_BYTES:
-            raise _err(f"shot.file:{name}", ds.chunks, f"storage chunks of {math.prod(ds.chunks) * ds.dtype.itemsize:,} "
-                       f"bytes are read whole: at most {MAX_H5_CHUNK_BYTES:,}")
+            raise _err(
+                f"shot.file:{name}",
+                ds.chunks,
+                f"storage chunks of {math.prod(ds.chunks) * ds.dtype.itemsize:,} "
+                f"bytes are read whole: at most {MAX_H5_CHUNK_BYTES:,}",
+            )
         return tuple(ds.shape), ds.dtype
 
     def pieces(self, name, n: int):
@@ -156,9 +160,13 @@ def _check_memory(path: str, n: int) -> None:
     need, free = n * HELD_BYTES_PER_PELLET, host_memory_available()
     if free is not None and need > HOST_FRACTION * free:
         most = int(HOST_FRACTION * free) // HELD_BYTES_PER_PELLET
-        raise _err("shot.file:position", (n, 3), f"{path} declares {n:,} pellets: a run holds them in "
-                   f"{need / 2**30:.3g} GiB (position, velocity, angular_velocity as float64), more than half the "
-                   f"{free / 2**30:.3g} GiB of host memory available: at most {most:,} pellets")
+        raise _err(
+            "shot.file:position",
+            (n, 3),
+            f"{path} declares {n:,} pellets: a run holds them in "
+            f"{need / 2**30:.3g} GiB (position, velocity, angular_velocity as float64), more than half the "
+            f"{free / 2**30:.3g} GiB of host memory available: at most {most:,} pellets",
+        )
 
 
 def _read(reader, n: int, keep: bool) -> dict:
@@ -184,8 +192,9 @@ def _read(reader, n: int, keep: bool) -> dict:
                     break
         if bad < n:
             if shown is None:  # (Fortran order: the pellet's three values from their columns)
-                shown = [float(np.asarray(v, dtype=np.float64)[bad - s]) for s, e, _c, v in reader.pieces(name, n)
-                         if s <= bad < e]
+                shown = [
+                    float(np.asarray(v, dtype=np.float64)[bad - s]) for s, e, _c, v in reader.pieces(name, n) if s <= bad < e
+                ]
             if not all(map(math.isfinite, shown)):
                 raise _err(key, shown, f"must be finite (pellet {bad})")
             raise _err(key, shown, f"each component must be within +-{bound:g} {unit} (pellet {bad})")

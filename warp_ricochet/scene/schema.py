@@ -34,16 +34,17 @@ FILE_EXCLUSIVE = ("speed", "direction", "direction_jitter", "envelope_radius", "
 @dataclass(frozen=True)
 class Shot:
     """The pellets: sampled from count/speed/direction/... or read from a pellet file (`file`, absolute path)."""
-    diameter: float                                   # m
-    density: float                                    # kg/m^3
-    count: int = 0                                    # pellets per shot
-    shots: int = 1                                    # independent shots of `count` pellets each
-    speed: float = 0.0                                # m/s
-    direction: Vec3 = (1.0, -1.0, 0.0)                # not normalised
+
+    diameter: float  # m
+    density: float  # kg/m^3
+    count: int = 0  # pellets per shot
+    shots: int = 1  # independent shots of `count` pellets each
+    speed: float = 0.0  # m/s
+    direction: Vec3 = (1.0, -1.0, 0.0)  # not normalised
     direction_jitter: Vec3 = (0.0, 0.0, 0.0)
-    envelope_radius: float = 0.0                      # m
-    envelope_center: Vec3 = (0.0, 0.0, 0.0)           # m
-    spin: Vec3 = (0.0, 0.0, 0.0)                      # rad/s
+    envelope_radius: float = 0.0  # m
+    envelope_center: Vec3 = (0.0, 0.0, 0.0)  # m
+    spin: Vec3 = (0.0, 0.0, 0.0)  # rad/s
     seed: int = 0
     file: str | None = None
 
@@ -56,6 +57,7 @@ class Shot:
 @dataclass(frozen=True)
 class Surface:
     """A plane through `point` (m) with unit `normal` pointing to the side the pellets come from."""
+
     point: Vec3
     normal: Vec3
     restitution: float
@@ -66,8 +68,8 @@ class Surface:
 
 @dataclass(frozen=True)
 class Physics:
-    gravity: Vec3 = (0.0, -9.81, 0.0)                 # m/s^2
-    impact_duration: float = 0.0                      # s
+    gravity: Vec3 = (0.0, -9.81, 0.0)  # m/s^2
+    impact_duration: float = 0.0  # s
     bounces: int = 1
 
 
@@ -78,21 +80,22 @@ class Physics:
 @dataclass(frozen=True)
 class Collisions:
     """Pellet-pellet collisions (the paper neglects them). Off unless `enabled`."""
+
     enabled: bool = False
-    restitution: float = 0.9                          # pair E, on the normal relative velocity
+    restitution: float = 0.9  # pair E, on the normal relative velocity
     mu_s: float = 0.74
-    mu_d: float | None = 0.57                         # <= mu_s; defaults to min(0.57, mu_s)
-    contact_duration: float = 1e-6                    # s, TC model: a pellet hit again within it rebounds elastically
-    time_step: float | None = None                    # s, fixed step of the dense phase; None adapts it
-    step_fraction: float = 0.25                       # adaptive step: closing displacement per step / diameter
-    air_step_fraction: float = 0.01                   # in air, adaptive step: at most this of |u| / |a_air| (dense/air.py)
-    air_leaps: bool = True                            # in air, leap to the next possible event past the arrival window (dense/leap.py)
-    skin: float = 2.25                                # neighbour-list skin, in diameters (9 x step_fraction: a list lasts a block of 8 steps, and one more)
-    rounds: int = 4                                   # event rounds per step (several contacts of one pellet)
-    max_neighbours: int = 32                          # per pellet in the neighbour list at first (grows when needed)
-    max_steps: int = 1_000_000                        # the dense phase stops (and says so) after these
-    frame_every: int = 0                              # H5MD trajectory frame every k steps (0: none)
-    separate: bool = True                             # sample each shot without overlaps (launch.sampling); false: as without collisions
+    mu_d: float | None = 0.57  # <= mu_s; defaults to min(0.57, mu_s)
+    contact_duration: float = 1e-6  # s, TC model: a pellet hit again within it rebounds elastically
+    time_step: float | None = None  # s, fixed step of the dense phase; None adapts it
+    step_fraction: float = 0.25  # adaptive step: closing displacement per step / diameter
+    air_step_fraction: float = 0.01  # in air, adaptive step: at most this of |u| / |a_air| (dense/air.py)
+    air_leaps: bool = True  # in air, leap to the next possible event past the arrival window (dense/leap.py)
+    skin: float = 2.25  # neighbour-list skin, in diameters (9 x step_fraction: a list lasts a block of 8 steps, and one more)
+    rounds: int = 4  # event rounds per step (several contacts of one pellet)
+    max_neighbours: int = 32  # per pellet in the neighbour list at first (grows when needed)
+    max_steps: int = 1_000_000  # the dense phase stops (and says so) after these
+    frame_every: int = 0  # H5MD trajectory frame every k steps (0: none)
+    separate: bool = True  # sample each shot without overlaps (launch.sampling); false: as without collisions
 
 
 # International Standard Atmosphere at sea level (15 C, 101,325 Pa): density 1.225 kg/m^3, sound speed
@@ -102,20 +105,21 @@ class Collisions:
 class Air:
     """Flight in air: drag, Magnus lift, spin decay, wind (docs/air.md). Absent: the vacuum's exact
     parabola. density = 0 is the vacuum too."""
-    density: float = 1.225                            # kg/m^3
-    viscosity: float = 1.789e-5                       # Pa s
-    sound_speed: float = 340.3                        # m/s
-    wind: Vec3 = (0.0, 0.0, 0.0)                      # m/s; drag and lift act on u = v - wind
-    drag: str = "loth2021"                            # "loth2021" | "constant" | "table"
-    drag_coefficient: float | None = None             # the constant law's C_D (required with it)
-    drag_table: str | tuple | None = None             # the table law's: "braun" (default), "gs", or ((mach, C_D), ...)
-    drag_factor: float = 1.0                          # multiplies C_D (shot programs: 0.90 to 1.15)
+
+    density: float = 1.225  # kg/m^3
+    viscosity: float = 1.789e-5  # Pa s
+    sound_speed: float = 340.3  # m/s
+    wind: Vec3 = (0.0, 0.0, 0.0)  # m/s; drag and lift act on u = v - wind
+    drag: str = "loth2021"  # "loth2021" | "constant" | "table"
+    drag_coefficient: float | None = None  # the constant law's C_D (required with it)
+    drag_table: str | tuple | None = None  # the table law's: "braun" (default), "gs", or ((mach, C_D), ...)
+    drag_factor: float = 1.0  # multiplies C_D (shot programs: 0.90 to 1.15)
     magnus: bool = True
-    lift: str = "loth2008"                            # "loth2008" | "linear" | "sawicki2003"
-    lift_slope: float | None = None                   # the linear law's C_L / S (default 0.5)
-    lift_max: float | None = None                     # the cap on C_L of every lift law (default: `cap`)
+    lift: str = "loth2008"  # "loth2008" | "linear" | "sawicki2003"
+    lift_slope: float | None = None  # the linear law's C_L / S (default 0.5)
+    lift_max: float | None = None  # the cap on C_L of every lift law (default: `cap`)
     spin_decay: bool = True
-    spin_decay_law: str = "dennis1980"                # "dennis1980" | "loth2008"
+    spin_decay_law: str = "dennis1980"  # "dennis1980" | "loth2008"
 
     @property
     def table(self):
@@ -147,9 +151,9 @@ MIN_FLIGHT_TOLERANCE = {"float32": 1e-6, "float64": 1e-12}  # what each precisio
 @dataclass(frozen=True)
 class Numerics:
     precision: str = "float32"
-    chunk_size: int | None = None                     # None: automatic
-    fast_math: bool = True                            # CUDA float32: approximate div/sqrt/sin (see README)
-    flight_tolerance: float = FLIGHT_TOLERANCE        # relative, of the integrated flight in air
+    chunk_size: int | None = None  # None: automatic
+    fast_math: bool = True  # CUDA float32: approximate div/sqrt/sin (see README)
+    flight_tolerance: float = FLIGHT_TOLERANCE  # relative, of the integrated flight in air
 
 
 # Tail fractions (share of landed pellets beyond these distances from the shooter), m
@@ -158,9 +162,9 @@ TAIL_DISTANCES = (1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0, 1000.0)
 
 @dataclass(frozen=True)
 class Output:
-    path: str | None = None                           # relative to the current working directory
+    path: str | None = None  # relative to the current working directory
     fields: tuple[str, ...] = default_fields(False, False)  # "group.field", canonical order
-    quantiles: bool = True                            # landing histograms: quantiles, tail fractions (docs/hazard.md)
+    quantiles: bool = True  # landing histograms: quantiles, tail fractions (docs/hazard.md)
     tail_distances: tuple[float, ...] = TAIL_DISTANCES  # m, from the shooter
     compression: str = "none"                         # of the per-pellet datasets: COMPRESSIONS (docs/output.md)
 
@@ -185,14 +189,15 @@ MAX_THRESHOLDS = 31  # a pellet's thresholds exceeded are the bits of an int32
 class Hazard:
     """Hazard thresholds, danger-distance fractions and the ground map (docs/hazard.md). Absent:
     no thresholds, no map (quantiles are still counted)."""
+
     energy_density: tuple[tuple[str, float], ...] = HAZARD_ENERGY_DENSITY  # (name, J/m^2)
-    speed: tuple[tuple[str, float], ...] = HAZARD_SPEED                    # (name, m/s)
-    fractions: tuple[float, ...] = (1e-3, 1e-6)       # p of the danger distances
-    shooter: Vec3 | None = None                       # m; None: shot.envelope_center (the origin for a pellet file)
-    map_cell: float | None = None                     # m, square cells; the map needs it and map_extent
+    speed: tuple[tuple[str, float], ...] = HAZARD_SPEED  # (name, m/s)
+    fractions: tuple[float, ...] = (1e-3, 1e-6)  # p of the danger distances
+    shooter: Vec3 | None = None  # m; None: shot.envelope_center (the origin for a pellet file)
+    map_cell: float | None = None  # m, square cells; the map needs it and map_extent
     map_extent: tuple[float, float, float, float] | None = None  # m: u_min, u_max, v_min, v_max
-    map_surface: int = 0                              # the surface the map lies on
-    map_axis: Vec3 | None = None                      # the grid's u axis (projected on the plane); None: shot.direction
+    map_surface: int = 0  # the surface the map lies on
+    map_axis: Vec3 | None = None  # the grid's u axis (projected on the plane); None: shot.direction
 
     @property
     def thresholds(self) -> tuple[tuple[str, str, float], ...]:
@@ -233,8 +238,13 @@ class Scene:
         if self.shot.file is not None:
             for key in FILE_EXCLUSIVE:
                 shot.pop(key, None)
-        out = {"shot": shot, "surfaces": [plain(s) for s in self.surfaces], "physics": plain(self.physics),
-               "numerics": plain(self.numerics), "output": plain(self.output)}
+        out = {
+            "shot": shot,
+            "surfaces": [plain(s) for s in self.surfaces],
+            "physics": plain(self.physics),
+            "numerics": plain(self.numerics),
+            "output": plain(self.output),
+        }
         if self.collisions.enabled:
             out["collisions"] = plain(self.collisions)
         if self.air is not None:
@@ -248,6 +258,5 @@ class Scene:
     def to_toml(self) -> str:
         return "\n".join(toml_lines(self.to_dict(), "")).lstrip("\n") + "\n"
 
-    def replace(self, **changes) -> "Scene":
+    def replace(self, **changes) -> Scene:
         return dataclasses.replace(self, **changes)
-

@@ -31,8 +31,11 @@ class SweepPoints:
         count = math.prod(len(v) for v in self.values)
         if count > MAX_SWEEP_POINTS:
             shown = " x ".join(f"{k} ({len(v):,} values)" for k, v in zip(self.keys, self.values))
-            raise _err("--param", _Shown(f"{len(self.keys)} keys"), f"{shown} give {count:,} points; a sweep may "
-                                                                    f"have at most {MAX_SWEEP_POINTS:,} (MAX_SWEEP_POINTS)")
+            raise _err(
+                "--param",
+                _Shown(f"{len(self.keys)} keys"),
+                f"{shown} give {count:,} points; a sweep may have at most {MAX_SWEEP_POINTS:,} (MAX_SWEEP_POINTS)",
+            )
         self.count = count
         self.ties = []
         for key, factor, src in ties:
@@ -43,8 +46,13 @@ class SweepPoints:
             if src not in self.keys:
                 raise _err("--tie", _Shown(f"{key}={factor}*{src}"), f"{src} is not a swept parameter")
             if key in self.keys or key in (t[0] for t in self.ties):
-                raise _err("--tie", _Shown(f"{key}={factor}*{src}"), f"{key} is already " + (
-                    "swept (--param)" if key in self.keys else "tied") + ": give each key one --param or --tie")
+                raise _err(
+                    "--tie",
+                    _Shown(f"{key}={factor}*{src}"),
+                    f"{key} is already "
+                    + ("swept (--param)" if key in self.keys else "tied")
+                    + ": give each key one --param or --tie",
+                )
             self.ties.append((key, factor, src))
 
     def __len__(self) -> int:
@@ -70,4 +78,3 @@ class SweepPoints:
     def columns(self) -> list[str]:
         """Every key set at a point: the swept keys, then the tied ones."""
         return self.keys + [t[0] for t in self.ties if t[0] not in self.keys]
-

@@ -10,8 +10,7 @@ from .keys import join, quote
 
 def plain(obj):
     if dataclasses.is_dataclass(obj):
-        return {f.name: plain(getattr(obj, f.name)) for f in dataclasses.fields(obj)
-                if getattr(obj, f.name) is not None}
+        return {f.name: plain(getattr(obj, f.name)) for f in dataclasses.fields(obj) if getattr(obj, f.name) is not None}
     return [plain(x) for x in obj] if isinstance(obj, (list, tuple)) else obj
 
 
@@ -34,6 +33,7 @@ def toml_value(v) -> str:
 def toml_lines(d: dict, prefix: str) -> list[str]:
     def is_aot(v):
         return isinstance(v, list) and v and all(isinstance(x, dict) for x in v)
+
     lines = [f"{join('', k)} = {toml_value(v)}" for k, v in d.items() if not isinstance(v, dict) and not is_aot(v)]
     for k, v in d.items():
         name = join(prefix, k)
@@ -43,4 +43,3 @@ def toml_lines(d: dict, prefix: str) -> list[str]:
             for item in v:
                 lines += ["", f"[[{name}]]", *toml_lines(item, name)]
     return lines
-

@@ -20,12 +20,18 @@ from .sums import FLIGHT_SCALE, NUM_COUNTS, NUM_EXTREMES, NUM_FLOATS, SUM
 
 # offsets into the float accumulator (counts are separate)
 OFFSETS = SimpleNamespace(
-    PRE=SUM["vt_pre"] - NUM_COUNTS, POST=SUM["vt_post"] - NUM_COUNTS,  # vt, vn, wx, wy, wz, v2, w2 each
-    V2_LAUNCH=SUM["v2_launch"] - NUM_COUNTS, W2_LAUNCH=SUM["w2_launch"] - NUM_COUNTS,
-    RANGE=SUM["range"] - NUM_COUNTS, RANGE2=SUM["range_m2"] - NUM_COUNTS,  # deviations from the thread's first range
-    RANGE_STICK=SUM["range_stick"] - NUM_COUNTS, RANGE_SLIP=SUM["range_slip"] - NUM_COUNTS,
-    TIME_ALOFT=SUM["time_aloft"] - NUM_COUNTS, V2_LANDING=SUM["v2_landing"] - NUM_COUNTS,
-    FLIGHT_STEPS=SUM["flight_steps"] - NUM_COUNTS, FLIGHT_UNFINISHED=SUM["flight_unfinished"] - NUM_COUNTS,
+    PRE=SUM["vt_pre"] - NUM_COUNTS,
+    POST=SUM["vt_post"] - NUM_COUNTS,  # vt, vn, wx, wy, wz, v2, w2 each
+    V2_LAUNCH=SUM["v2_launch"] - NUM_COUNTS,
+    W2_LAUNCH=SUM["w2_launch"] - NUM_COUNTS,
+    RANGE=SUM["range"] - NUM_COUNTS,
+    RANGE2=SUM["range_m2"] - NUM_COUNTS,  # deviations from the thread's first range
+    RANGE_STICK=SUM["range_stick"] - NUM_COUNTS,
+    RANGE_SLIP=SUM["range_slip"] - NUM_COUNTS,
+    TIME_ALOFT=SUM["time_aloft"] - NUM_COUNTS,
+    V2_LANDING=SUM["v2_landing"] - NUM_COUNTS,
+    FLIGHT_STEPS=SUM["flight_steps"] - NUM_COUNTS,
+    FLIGHT_UNFINISHED=SUM["flight_unfinished"] - NUM_COUNTS,
 )
 
 
@@ -55,8 +61,16 @@ def make_accumulators(precision: str) -> SimpleNamespace:
         return acc
 
     @wp.func
-    def add_first_impact_sums(acc: floats_t, velocity_before: vec3, spin_before: vec3, velocity_after: vec3,
-                              spin_after: vec3, normal: vec3, launch_v2: scalar, launch_w2: scalar):
+    def add_first_impact_sums(
+        acc: floats_t,
+        velocity_before: vec3,
+        spin_before: vec3,
+        velocity_after: vec3,
+        spin_after: vec3,
+        normal: vec3,
+        launch_v2: scalar,
+        launch_w2: scalar,
+    ):
         """The float sums of a pellet's first impact: the states before and after, its launch
         |v|^2 and |omega|^2 (its counts are the caller's)."""
         acc = add_impact_sums(acc, F_PRE, velocity_before, spin_before, normal)
@@ -91,9 +105,17 @@ def make_accumulators(precision: str) -> SimpleNamespace:
         return wp.max(wp.abs(position)) + dt * (wp.max(wp.abs(velocity)) + scalar(0.5) * dt * wp.max(wp.abs(gravity)))
 
     @wp.func
-    def store_partials(tid: wp.int32, counts: wp.vec4i, acc: floats_t, lo: extremes_t, hi: extremes_t,
-                       range_shift: scalar, partial_sums: wp.array2d(dtype=wp.float64),
-                       partial_min: wp.array2d(dtype=wp.float64), partial_max: wp.array2d(dtype=wp.float64)):
+    def store_partials(
+        tid: wp.int32,
+        counts: wp.vec4i,
+        acc: floats_t,
+        lo: extremes_t,
+        hi: extremes_t,
+        range_shift: scalar,
+        partial_sums: wp.array2d(dtype=wp.float64),
+        partial_min: wp.array2d(dtype=wp.float64),
+        partial_max: wp.array2d(dtype=wp.float64),
+    ):
         """Widen once per thread: float64 from here on. Ranges were summed as deviations from the
         thread's first range: the range row gets the plain sum back, the m2 row the squared
         deviations about the thread's mean (no cancellation; merged across threads by Chan)."""
@@ -112,8 +134,15 @@ def make_accumulators(precision: str) -> SimpleNamespace:
             partial_min[e, tid] = wp.float64(lo[e])
             partial_max[e, tid] = wp.float64(hi[e])
 
-    return SimpleNamespace(floats_t=floats_t, extremes_t=extremes_t, inf=scalar(math.inf), offsets=OFFSETS,
-                           flight_scale_index=FLIGHT_SCALE, flight_scale=flight_scale,
-                           add_first_impact_sums=add_first_impact_sums, add_landing_sums=add_landing_sums,
-                           add_flight_sums=add_flight_sums,
-                           store_partials=store_partials)
+    return SimpleNamespace(
+        floats_t=floats_t,
+        extremes_t=extremes_t,
+        inf=scalar(math.inf),
+        offsets=OFFSETS,
+        flight_scale_index=FLIGHT_SCALE,
+        flight_scale=flight_scale,
+        add_first_impact_sums=add_first_impact_sums,
+        add_landing_sums=add_landing_sums,
+        add_flight_sums=add_flight_sums,
+        store_partials=store_partials,
+    )

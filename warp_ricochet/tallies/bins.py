@@ -23,9 +23,11 @@ BINS = REGULAR + 2  # with the underflow (0) and overflow (BINS - 1) bins
 BASE = (127 + E_LO) << MANTISSA_BITS  # (float32 bits >> SHIFT) of 2^E_LO
 RELATIVE_WIDTH = 2.0**-MANTISSA_BITS
 ROW_RANGE, ROW_SPEED, ROW_DISTANCE = 0, 1, 2  # rows of the landing histograms: range, speed, distance by hazard level
-RESOLUTION = (f"log-spaced bins from the float32 bits (exponent and top {MANTISSA_BITS} mantissa bits): "
-              f"relative width <= 2^-{MANTISSA_BITS} = {RELATIVE_WIDTH:.4%}, span [2^{E_LO}, 2^{E_LO + OCTAVES}) "
-              "(SI units), counts below and above the span kept in the first and last bins")
+RESOLUTION = (
+    f"log-spaced bins from the float32 bits (exponent and top {MANTISSA_BITS} mantissa bits): "
+    f"relative width <= 2^-{MANTISSA_BITS} = {RELATIVE_WIDTH:.4%}, span [2^{E_LO}, 2^{E_LO + OCTAVES}) "
+    "(SI units), counts below and above the span kept in the first and last bins"
+)
 
 
 @functools.cache

@@ -37,6 +37,7 @@ def lattice_multiplier(slots: int = SLOTS) -> int:
     colliding cell offsets {(du, dv): du + B dv = 0 mod slots} has the longest shortest vector
     (Lagrange-Gauss reduction of its basis; ties: the smallest B): for SLOTS = 2048, B = 592 and no
     two cells less than 47.7 cells apart share a first slot (a cloud of ~1,800 cells in a disc)."""
+
     def shortest2(b: int) -> int:
         x, y = (slots, 0), (-b, 1)  # a basis of the lattice
         while True:
@@ -68,8 +69,9 @@ def make_block_table(slots: int = SLOTS, probes: int = PROBES):
     On the CPU, or with no slots or probes, nothing is aggregated: ADD returns 0, END 0 slots,
     LANE 0, STRIDE 1 (and no barrier)."""
     if slots & (slots - 1) or not 0 <= probes <= slots or slots * SLOT_BYTES > MAX_STATIC_SHARED:
-        raise ValueError(f"slots must be 0 or a power of two of at most {MAX_STATIC_SHARED} bytes, probes in "
-                         f"[0, slots]: {slots}, {probes}")
+        raise ValueError(
+            f"slots must be 0 or a power of two of at most {MAX_STATIC_SHARED} bytes, probes in [0, slots]: {slots}, {probes}"
+        )
     shift = 32 - max(slots.bit_length() - 1, 0)
     snippet = f"""
 #if defined(__CUDA_ARCH__) && {int(slots > 0 and probes > 0)}

@@ -13,10 +13,12 @@ SHOT_TOTALS_UNITS = "1, 1, J, 1, s, 1 (per shot, in shot order: the columns name
 
 # an overrun below this (in half skins) is rounding of the float32 positions the skin is measured from
 OVERRUN_TOLERANCE = 1.01
-SKIN_OVERRUN = ("a pellet moved {:.2f} half skins between neighbour-list builds (an event in a step, such as a plane "
-                "rebound, made it faster than the step allowed for): a pair contact beyond the lists could have been "
-                "missed; lower collisions.step_fraction, raise collisions.skin, or set a collisions.time_step short "
-                "enough for the rebound speed (docs/collisions.md)")
+SKIN_OVERRUN = (
+    "a pellet moved {:.2f} half skins between neighbour-list builds (an event in a step, such as a plane "
+    "rebound, made it faster than the step allowed for): a pair contact beyond the lists could have been "
+    "missed; lower collisions.step_fraction, raise collisions.skin, or set a collisions.time_step short "
+    "enough for the rebound speed (docs/collisions.md)"
+)
 
 
 def collision_statistics(table, pellets: int) -> dict:

@@ -62,15 +62,14 @@ class TallySetup:
         return np.argsort(np.asarray(self.thresholds2, dtype=np.float64), kind="stable")
 
     @classmethod
-    def of(cls, scene, mass: float, radius: float, launch_speed: float) -> "TallySetup":
+    def of(cls, scene, mass: float, radius: float, launch_speed: float) -> TallySetup:
         """The setup of `scene` for pellets of `mass` (kg) and `radius` (m); `launch_speed` (m/s): the
         largest launch speed (the map's energy unit is m launch_speed^2 / 2 / 2^24)."""
         hazard = scene.hazard
         area = math.pi * radius * radius
         thresholds = () if hazard is None else hazard.thresholds
         # E/A = m v^2 / (2 A): a threshold on E/A is one on v^2 = 2 A (E/A) / m
-        v2 = tuple(2.0 * area * value / mass if kind == "energy_density" else value * value
-                   for _name, kind, value in thresholds)
+        v2 = tuple(2.0 * area * value / mass if kind == "energy_density" else value * value for _name, kind, value in thresholds)
         shooter = scene.shot.envelope_center if scene.shot.file is None else (0.0, 0.0, 0.0)
         if hazard is not None and hazard.shooter is not None:
             shooter = hazard.shooter
@@ -78,11 +77,19 @@ class TallySetup:
         up = tuple(-g / np.linalg.norm(g)) if np.any(g) else (0.0, 0.0, 0.0)
         wind = scene.air.wind if scene.in_air else (0.0, 0.0, 0.0)
         reference = 0.5 * mass * (launch_speed + math.hypot(*wind)) ** 2
-        kw = dict(names=tuple(t[0] for t in thresholds), kinds=tuple(t[1] for t in thresholds),
-                  values=tuple(t[2] for t in thresholds), thresholds2=v2, shooter=tuple(map(float, shooter)),
-                  up=tuple(map(float, up)), half_mass=0.5 * mass, area=area,
-                  fractions=() if hazard is None else hazard.fractions, tail_distances=scene.output.tail_distances,
-                  quantum=reference / 2.0**ENERGY_QUANTUM_BITS if reference > 0 else 1e-30)
+        kw = dict(
+            names=tuple(t[0] for t in thresholds),
+            kinds=tuple(t[1] for t in thresholds),
+            values=tuple(t[2] for t in thresholds),
+            thresholds2=v2,
+            shooter=tuple(map(float, shooter)),
+            up=tuple(map(float, up)),
+            half_mass=0.5 * mass,
+            area=area,
+            fractions=() if hazard is None else hazard.fractions,
+            tail_distances=scene.output.tail_distances,
+            quantum=reference / 2.0**ENERGY_QUANTUM_BITS if reference > 0 else 1e-30,
+        )
         if hazard is not None and hazard.has_map:
             kw.update(_map_geometry(scene, hazard, np.asarray(shooter, dtype=np.float64)))
         return cls(**kw)
@@ -101,9 +108,17 @@ def _map_geometry(scene, hazard, shooter) -> dict:
     u /= np.linalg.norm(u)
     v = np.cross(n, u)
     (u0, u1, v0, v1), cell = hazard.map_extent, hazard.map_cell
-    return dict(map_surface=hazard.map_surface, map_origin=tuple(origin), map_u=tuple(u), map_v=tuple(v),
-                map_u0=u0, map_v0=v0, map_cell=cell, map_nu=math.ceil((u1 - u0) / cell - 1e-9),
-                map_nv=math.ceil((v1 - v0) / cell - 1e-9))
+    return dict(
+        map_surface=hazard.map_surface,
+        map_origin=tuple(origin),
+        map_u=tuple(u),
+        map_v=tuple(v),
+        map_u0=u0,
+        map_v0=v0,
+        map_cell=cell,
+        map_nu=math.ceil((u1 - u0) / cell - 1e-9),
+        map_nv=math.ceil((v1 - v0) / cell - 1e-9),
+    )
 
 
 def tally_bytes(setup: TallySetup, device, with_file: bool) -> tuple[int, int, int]:
@@ -176,8 +191,9 @@ def _pinned(device, arrays: dict) -> dict:
 
     key = (str(device), tuple((name, arr.shape, arr.dtype) for name, arr in arrays.items()))
     if key not in _POOL:
-        _POOL[key] = {name: wp.empty(arr.shape, dtype=arr.dtype, device="cpu", pinned=device.is_cuda)
-                      for name, arr in arrays.items()}
+        _POOL[key] = {
+            name: wp.empty(arr.shape, dtype=arr.dtype, device="cpu", pinned=device.is_cuda) for name, arr in arrays.items()
+        }
     return _POOL[key]
 
 
@@ -198,20 +214,29 @@ class DeviceTally:
         self.requested = None  # the event of `request`'s copies (CUDA)
         levels, width = setup.levels, setup.cells + 2
         mapped = active and setup.has_map
-        sizes = {"hist": (ROW_DISTANCE + levels) * BINS if active else 0,
-                 "map_counts": levels * width if mapped else 0, "map_energy": width if mapped else 0}
+        sizes = {
+            "hist": (ROW_DISTANCE + levels) * BINS if active else 0,
+            "map_counts": levels * width if mapped else 0,
+            "map_energy": width if mapped else 0,
+        }
         self.copies = copies_for(device, sizes["hist"] * 4)
         dtypes = {"hist": wp.int32, "map_counts": wp.int32, "map_energy": wp.int64}
-        self.counts = {name: _buffer(device, "counts " + name, size * (self.copies if name == "hist" else 1), dtypes[name])
-                       for name, size in sizes.items()}
+        self.counts = {
+            name: _buffer(device, "counts " + name, size * (self.copies if name == "hist" else 1), dtypes[name])
+            for name, size in sizes.items()
+        }
         bounds = np.cumsum([0, *sizes.values()])  # the totals: one array (one pack, one copy), a view a name
         self.flat = _buffer(device, "totals", int(bounds[-1]), wp.int64)
-        self.totals = {name: self.flat[int(bounds[i]):int(bounds[i + 1])] if sizes[name] else wp.zeros(0, dtype=wp.int64, device=device)
-                       for i, name in enumerate(sizes)}
+        self.totals = {
+            name: self.flat[int(bounds[i]) : int(bounds[i + 1])] if sizes[name] else wp.zeros(0, dtype=wp.int64, device=device)
+            for i, name in enumerate(sizes)
+        }
         capacity = SPARSE_CAPACITY if active else 0
-        self.sparse = {"count": _buffer(device, "sparse count", 1, wp.int32),
-                       "index": _buffer(device, "sparse index", capacity, wp.int32),
-                       "value": _buffer(device, "sparse value", capacity, wp.int64)}
+        self.sparse = {
+            "count": _buffer(device, "sparse count", 1, wp.int32),
+            "index": _buffer(device, "sparse index", capacity, wp.int32),
+            "value": _buffer(device, "sparse value", capacity, wp.int64),
+        }
         fns = make_landing_tally(precision)
         s = fns.Tally()
         s.hist, s.map_counts, s.map_energy = self.counts["hist"], self.counts["map_counts"], self.counts["map_energy"]
@@ -229,7 +254,7 @@ class DeviceTally:
         s.energy_scale = t.scalar(setup.half_mass / setup.quantum)
         self.struct = s
 
-    def start(self, totals: "TallyTotals | None", every_chunk: bool = False):
+    def start(self, totals: TallyTotals | None, every_chunk: bool = False):
         """Before a run's first chunk: its totals from `totals` (a resumed run's), else set by their
         first fold (`unset`), and its count arrays zero (unless a fold left them so); `every_chunk`:
         the totals are read after every chunk (a run with a file), so every fold folds them all."""
@@ -266,8 +291,13 @@ class DeviceTally:
         for name in names:
             total, add = self.totals[name], int(name not in self.unset)
             if total.size:
-                wp.launch(fold_kernel(), dim=total.size, inputs=[self.counts[name], total.size, add], outputs=[total],
-                          device=self.device)
+                wp.launch(
+                    fold_kernel(),
+                    dim=total.size,
+                    inputs=[self.counts[name], total.size, add],
+                    outputs=[total],
+                    device=self.device,
+                )
             self.unset.discard(name)
         if self.device.is_cuda:
             _CLEAN.update((str(self.device), "counts " + name) for name in names)
@@ -288,13 +318,18 @@ class DeviceTally:
             sparse["count"].zero_()
         _CLEAN.discard(key)
         if self.flat.size:
-            wp.launch(pack_kernel(), dim=self.flat.size, inputs=[self.flat],
-                      outputs=[sparse["count"], sparse["index"], sparse["value"]], device=self.device)
+            wp.launch(
+                pack_kernel(),
+                dim=self.flat.size,
+                inputs=[self.flat],
+                outputs=[sparse["count"], sparse["index"], sparse["value"]],
+                device=self.device,
+            )
         for name in ("count", "index", "value"):
             wp.copy(host[name], sparse[name])
         self.requested = self.device.stream.record_event() if self.device.is_cuda else None
 
-    def receive(self, tally: "TallyTotals"):
+    def receive(self, tally: TallyTotals):
         """The totals `request` queued, into `tally`, once copied; the dense arrays when more than
         SPARSE_CAPACITY elements are nonzero. The pairs' count is zeroed again after it is read,
         off the next run's path (the count is known zero in `_CLEAN`)."""
@@ -328,8 +363,11 @@ class TallyTotals:
     def __init__(self, setup: TallySetup):
         levels, width = setup.levels, setup.cells + 2
         self.setup = setup
-        self.shapes = {"hist": (ROW_DISTANCE + levels, BINS), "map_counts": (levels, width) if setup.has_map else (0, 0),
-                       "map_energy": (width,) if setup.has_map else (0,)}
+        self.shapes = {
+            "hist": (ROW_DISTANCE + levels, BINS),
+            "map_counts": (levels, width) if setup.has_map else (0, 0),
+            "map_energy": (width,) if setup.has_map else (0,),
+        }
         self._dense: dict | None = None
         self._pairs = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))  # (flat index, value), nonzero only
 
@@ -354,7 +392,7 @@ class TallyTotals:
 
     def _split(self, flat) -> dict:
         bounds = np.cumsum([0] + [int(np.prod(shape)) for shape in self.shapes.values()])
-        return {name: flat[bounds[i]:bounds[i + 1]].reshape(shape) for i, (name, shape) in enumerate(self.shapes.items())}
+        return {name: flat[bounds[i] : bounds[i + 1]].reshape(shape) for i, (name, shape) in enumerate(self.shapes.items())}
 
     def set(self, totals: dict):
         """The counts so far, from `DeviceTally.totals` ({name: flat int64 array}) copied to the host."""
@@ -370,7 +408,7 @@ class TallyTotals:
         """All counts in one int64 vector (what /progress keeps for --resume)."""
         return np.concatenate([self._arrays()[name].ravel() for name in COUNTS])
 
-    def load(self, flat) -> "TallyTotals":
+    def load(self, flat) -> TallyTotals:
         """Counts from `flat` (as `flat()` made them)."""
         self._dense = self._split(np.array(flat, dtype=np.int64))
         return self

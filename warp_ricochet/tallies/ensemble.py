@@ -36,16 +36,36 @@ from .sums import NUM_EXTREMES, NUM_SUMS, STAT_UNITS, SUM, finalize_rows
 LEVEL = 0.95
 PIECE = 256  # pellets of one shot a thread of `core.shots` follows (= reduce.PER_THREAD, not imported: reduce imports Warp)
 MAX_ENSEMBLE_SHOTS = 100_000  # per-shot values are kept on the host and in the file up to this many shots
-TOTALS = ("pellets", "hits", "missed", "stick", "slip", "landed", "escaped", "pair_collisions", "pair_energy_lost",
-          "flights_unfinished")
-EXTREMES = ("range_max", "range_min", "range_stick_max", "range_stick_min", "range_slip_max", "range_slip_min",
-            "dense_steps_max", "dense_time_max", "skin_overrun_max", "flight_scale_max")
+TOTALS = (
+    "pellets",
+    "hits",
+    "missed",
+    "stick",
+    "slip",
+    "landed",
+    "escaped",
+    "pair_collisions",
+    "pair_energy_lost",
+    "flights_unfinished",
+)
+EXTREMES = (
+    "range_max",
+    "range_min",
+    "range_stick_max",
+    "range_stick_min",
+    "range_slip_max",
+    "range_slip_min",
+    "dense_steps_max",
+    "dense_time_max",
+    "skin_overrun_max",
+    "flight_scale_max",
+)
 STAT_KIND = {name: "total" if name in TOTALS else "extreme" if name in EXTREMES else "mean" for name in STAT_UNITS}
 CI_METHOD = {
     "mean": "Student t 95% interval of the mean over shots of the per-shot value",
     "total": "shots x the Student t 95% interval of the per-shot mean (expected total of the run's shots)",
     "extreme": "Student t 95% interval of the mean over shots of the per-shot extreme (one shot's expected "
-               "extreme; the value is the extreme over all shots)",
+    "extreme; the value is the extreme over all shots)",
 }
 
 
@@ -78,13 +98,13 @@ def t_interval(values, level: float = LEVEL) -> tuple[float, float]:
     if len(x) < 2:
         return math.nan, math.nan
     mean = math.fsum(x) / len(x)
-    half = float(stats.t.ppf(0.5 + level / 2, len(x) - 1)) * math.sqrt(math.fsum((x - mean) ** 2) / (len(x) - 1)
-                                                                       / len(x))
+    half = float(stats.t.ppf(0.5 + level / 2, len(x) - 1)) * math.sqrt(math.fsum((x - mean) ** 2) / (len(x) - 1) / len(x))
     return mean - half, mean + half
 
 
-def per_shot_statistics(piece_rows, pieces: int, *, count: int, mass: float, inertia: float, air: bool = False,
-                        shot_totals=None) -> dict:
+def per_shot_statistics(
+    piece_rows, pieces: int, *, count: int, mass: float, inertia: float, air: bool = False, shot_totals=None
+) -> dict:
     """name -> (S,) values of each shot alone, from its pieces' partial rows (`core.shots`; `pieces`
     rows a shot, in order: sums added left to right, spreads merged as `sums.merged_m2`) and, with
     pair collisions, its row of per-shot totals (`collisions.collision_statistics` of that row)."""
@@ -93,8 +113,8 @@ def per_shot_statistics(piece_rows, pieces: int, *, count: int, mass: float, ine
     sums = rows[:, 0, :NUM_SUMS].copy()
     for k in range(1, pieces):
         sums += rows[:, k, :NUM_SUMS]
-    mins = rows[:, :, NUM_SUMS:NUM_SUMS + NUM_EXTREMES].min(axis=1)
-    maxs = rows[:, :, NUM_SUMS + NUM_EXTREMES:].max(axis=1)
+    mins = rows[:, :, NUM_SUMS : NUM_SUMS + NUM_EXTREMES].min(axis=1)
+    maxs = rows[:, :, NUM_SUMS + NUM_EXTREMES :].max(axis=1)
     n, total, m2 = (rows[:, :, SUM[key]] for key in ("landed", "range", "range_m2"))
     with np.errstate(divide="ignore", invalid="ignore"):
         mean = (total.sum(axis=1) / n.sum(axis=1))[:, None]
@@ -114,8 +134,10 @@ def _collision_rows(table, count: int) -> dict:
         "pair_collisions": col["pair_collisions"] / 2.0,
         "pair_energy_lost": col["pair_energy_lost"],
         "pair_energy_lost_mean": col["pair_energy_lost"] / count,
-        "dense_steps_max": col["dense_steps"], "dense_time_max": col["dense_end_time"],
-        "dense_steps_mean": col["dense_steps"], "dense_time_mean": col["dense_end_time"],
+        "dense_steps_max": col["dense_steps"],
+        "dense_time_max": col["dense_end_time"],
+        "dense_steps_mean": col["dense_steps"],
+        "dense_time_mean": col["dense_end_time"],
         "skin_overrun_max": col["skin_overrun"],
     }
     assert not len(table) or set(out) == set(collision_statistics(table[:1], count))

@@ -24,7 +24,6 @@ added to the maps once at the end of the block: the landings of a cloud are spre
 cells, whose atomics the L2 cache cannot merge); one that finds no slot there is added at once.
 """
 
-
 import functools
 from types import SimpleNamespace
 from typing import Any
@@ -118,8 +117,15 @@ def make_landing_tally(precision: str) -> SimpleNamespace:
         in the run's precision (float32: exact to a quantum below 2^24 quanta, the reference energy)."""
         return wp.int64(wp.round(tally.energy_scale * v2))
 
-    return SimpleNamespace(Tally=Tally, Thresholds=Thresholds, scalar=scalar, vec3=vec3, map_cell=map_cell,
-                           energy_quanta=energy_quanta, horizontal_distance=horizontal_distance)
+    return SimpleNamespace(
+        Tally=Tally,
+        Thresholds=Thresholds,
+        scalar=scalar,
+        vec3=vec3,
+        map_cell=map_cell,
+        energy_quanta=energy_quanta,
+        horizontal_distance=horizontal_distance,
+    )
 
 
 @functools.cache
@@ -153,8 +159,9 @@ def make_add_landing(precision: str, with_map: bool, thresholds: int = 0, slots:
         return ((row >> 5) + (row >> 16) * COPY_MIX) & copy_mask
 
     @wp.func
-    def add_landing(tally: Tally, row: wp.int32, surface: wp.int32, landing_range: scalar, position: vec3, v2: scalar,
-                    mask: wp.int32):
+    def add_landing(
+        tally: Tally, row: wp.int32, surface: wp.int32, landing_range: scalar, position: vec3, v2: scalar, mask: wp.int32
+    ):
         level = wp.int32(wp.bit_count(mask))  # the thresholds are nested: it exceeds the `level` lowest
         first = copy_of(row, tally.copy_mask) * tally.hist_stride
         one = wp.int32(1)
@@ -214,8 +221,12 @@ def pack_kernel():
     The pairs' order varies from run to run; their set does not."""
 
     @wp.kernel(enable_backward=False)
-    def pack(totals: wp.array(dtype=wp.int64), count: wp.array(dtype=wp.int32), index: wp.array(dtype=wp.int32),
-             value: wp.array(dtype=wp.int64)):
+    def pack(
+        totals: wp.array(dtype=wp.int64),
+        count: wp.array(dtype=wp.int32),
+        index: wp.array(dtype=wp.int32),
+        value: wp.array(dtype=wp.int64),
+    ):
         i = wp.tid()
         v = totals[i]
         if v != wp.int64(0):

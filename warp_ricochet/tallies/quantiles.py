@@ -23,10 +23,12 @@ import numpy as np
 from .bins import ROW_DISTANCE, ROW_RANGE, ROW_SPEED, edges
 
 LEVELS = (0.5, 0.75, 0.9, 0.99, 0.999, 0.999999)
-QUANTITIES = {"range": ("m", "range (eq. 42): last ricochet point to landing point"),
-              "distance": ("m", "horizontal distance from the shooter to the landing centre"),
-              "speed": ("m/s", "speed |v| at landing"),
-              "energy": ("J", "translational kinetic energy m |v|^2 / 2 at landing")}
+QUANTITIES = {
+    "range": ("m", "range (eq. 42): last ricochet point to landing point"),
+    "distance": ("m", "horizontal distance from the shooter to the landing centre"),
+    "speed": ("m/s", "speed |v| at landing"),
+    "energy": ("J", "translational kinetic energy m |v|^2 / 2 at landing"),
+}
 CONFIDENCE = 0.95
 Z_975 = 1.959963984540054  # the standard normal's 97.5% point
 EXACT_VARIANCE = 1e4  # above this n p (1 - p), binomial points by the normal approximation
@@ -45,7 +47,7 @@ def bins_of_ranks(counts, ranks) -> np.ndarray:
     if not nonzero.size:
         return np.full(len(ranks), counts.size)
     first = nonzero[0]
-    cumulative = np.cumsum(counts[first:nonzero[-1] + 1])
+    cumulative = np.cumsum(counts[first : nonzero[-1] + 1])
     return first + np.searchsorted(cumulative, np.asarray(ranks, dtype=np.int64), side="left")
 
 
@@ -72,10 +74,12 @@ def landing_quantiles(hist, half_mass: float, levels=LEVELS) -> dict:
     """{quantity: (value, lower)} of QUANTITIES from the histogram rows (distance: all levels)."""
     hist = np.asarray(hist)
     speed = quantiles(hist[ROW_SPEED], levels)
-    return {"range": quantiles(hist[ROW_RANGE], levels),
-            "distance": quantiles(hist[ROW_DISTANCE:].sum(axis=0), levels),
-            "speed": speed,
-            "energy": (half_mass * speed[0] ** 2, half_mass * speed[1] ** 2)}
+    return {
+        "range": quantiles(hist[ROW_RANGE], levels),
+        "distance": quantiles(hist[ROW_DISTANCE:].sum(axis=0), levels),
+        "speed": speed,
+        "energy": (half_mass * speed[0] ** 2, half_mass * speed[1] ** 2),
+    }
 
 
 def binomial_point(n: int, p: float, alpha: float) -> int:
@@ -143,19 +147,31 @@ def summarize(tally, landed: int) -> dict:
     distances (rows: thresholds in scene order, columns: fractions) and the map's layers."""
     setup, hist = tally.setup, tally.hist
     used, beyond = tail(hist[ROW_DISTANCE:].sum(axis=0), setup.tail_distances)
-    out = {"levels": np.asarray(LEVELS), "landed": landed, "quantiles": landing_quantiles(hist, setup.half_mass),
-           "tail": {"distance": used, "count": beyond, "fraction": beyond / landed if landed else np.full(len(used), np.nan)}}
+    out = {
+        "levels": np.asarray(LEVELS),
+        "landed": landed,
+        "quantiles": landing_quantiles(hist, setup.half_mass),
+        "tail": {"distance": used, "count": beyond, "fraction": beyond / landed if landed else np.full(len(used), np.nan)},
+    }
     if setup.names:
         by_threshold = hazard_distance_counts(hist, setup.order)
         shape = (len(setup.names), len(setup.fractions))
-        danger = {name: np.zeros(shape, dtype=np.int64 if name == "needed_landings" else np.float64)
-                  for name in ("distance", "ci_low", "ci_high", "needed_landings")}
+        danger = {
+            name: np.zeros(shape, dtype=np.int64 if name == "needed_landings" else np.float64)
+            for name in ("distance", "ci_low", "ci_high", "needed_landings")
+        }
         for i in range(shape[0]):
             for j, p in enumerate(setup.fractions):
                 for name, x in zip(danger, danger_distance(by_threshold[i], p)):
                     danger[name][i, j] = x
-        out["hazard"] = {"names": setup.names, "kinds": setup.kinds, "values": setup.values,
-                         "fractions": np.asarray(setup.fractions), "landings": by_threshold.sum(axis=1), **danger}
+        out["hazard"] = {
+            "names": setup.names,
+            "kinds": setup.kinds,
+            "values": setup.values,
+            "fractions": np.asarray(setup.fractions),
+            "landings": by_threshold.sum(axis=1),
+            **danger,
+        }
     if setup.has_map:
         shape, cells, counts = (setup.map_nv, setup.map_nu), setup.cells, tally.map_counts
         above, span = levels_at_or_above(counts[:, :cells])  # landings at level >= L per cell
@@ -163,8 +179,12 @@ def summarize(tally, landed: int) -> dict:
         for position, index in enumerate(setup.order):
             layers[index, span] = above[position + 1]
         layers = layers.reshape((len(setup.names),) + shape)
-        out["map"] = {"count": counts[:, :cells].sum(axis=0).reshape(shape), "outside": int(counts[:, cells].sum()),
-                      "elsewhere": int(counts[:, cells + 1].sum()),
-                      "energy": (tally.map_energy[:cells] * setup.quantum).reshape(shape), "quantum": setup.quantum,
-                      "above": layers}
+        out["map"] = {
+            "count": counts[:, :cells].sum(axis=0).reshape(shape),
+            "outside": int(counts[:, cells].sum()),
+            "elsewhere": int(counts[:, cells + 1].sum()),
+            "energy": (tally.map_energy[:cells] * setup.quantum).reshape(shape),
+            "quantum": setup.quantum,
+            "above": layers,
+        }
     return out

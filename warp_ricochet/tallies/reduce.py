@@ -86,6 +86,11 @@ def launch_reduce(state, rows: int, device) -> int:
     """Reduce the per-thread partials of a chunk of `rows` pellets into `state.segments`; returns
     the number of segments."""
     segments = threads_for(rows) // LANES
-    wp.launch(reduce_kernel(), dim=(segments, NUM_SUMS + NUM_EXTREMES),
-              inputs=[state.partial_sums, state.partial_min, state.partial_max], outputs=[state.segments], device=device)
+    wp.launch(
+        reduce_kernel(),
+        dim=(segments, NUM_SUMS + NUM_EXTREMES),
+        inputs=[state.partial_sums, state.partial_min, state.partial_max],
+        outputs=[state.segments],
+        device=device,
+    )
     return segments

@@ -25,11 +25,30 @@ import numpy as np
 # per thread, float64 from there on); stick = hits - slip, landed_stick = landed - landed_slip
 COUNT_NAMES = ("hits", "slip", "landed", "landed_slip")
 FLOAT_NAMES = (
-    "vt_pre", "vn_pre", "wx_pre", "wy_pre", "wz_pre", "v2_pre", "w2_pre",
-    "vt_post", "vn_post", "wx_post", "wy_post", "wz_post", "v2_post", "w2_post",
-    "v2_launch", "w2_launch",  # launch state of the pellets that hit
-    "range", "range_m2", "range_stick", "range_slip", "time_aloft", "v2_landing",
-    "flight_steps", "flight_unfinished",  # flight in air: integration steps, flights given up
+    "vt_pre",
+    "vn_pre",
+    "wx_pre",
+    "wy_pre",
+    "wz_pre",
+    "v2_pre",
+    "w2_pre",
+    "vt_post",
+    "vn_post",
+    "wx_post",
+    "wy_post",
+    "wz_post",
+    "v2_post",
+    "w2_post",
+    "v2_launch",
+    "w2_launch",  # launch state of the pellets that hit
+    "range",
+    "range_m2",
+    "range_stick",
+    "range_slip",
+    "time_aloft",
+    "v2_landing",
+    "flight_steps",
+    "flight_unfinished",  # flight in air: integration steps, flights given up
 )  # range_m2: sum of squared deviations of the ranges from their mean, merged with Chan's formula
 SUM_NAMES = COUNT_NAMES + FLOAT_NAMES
 SUM = {name: i for i, name in enumerate(SUM_NAMES)}
@@ -78,8 +97,11 @@ STAT_UNITS = {
     "range_slip_min": ("m", "L- of pellets whose last ricochet slipped"),
     "mean_time_aloft": ("s", "mean time from the last ricochet to landing"),
     "landing_mean_WT": ("J", "mean translational energy at landing"),
-    "flight_scale_max": ("m", "largest flight scale M = |x0| + |v0| t + |g| t^2 / 2 (largest components) of a flight "
-                              "that met a surface; positions are resolved to about eps M (docs/stability.md)"),
+    "flight_scale_max": (
+        "m",
+        "largest flight scale M = |x0| + |v0| t + |g| t^2 / 2 (largest components) of a flight "
+        "that met a surface; positions are resolved to about eps M (docs/stability.md)",
+    ),
     # runs with pellet-pellet collisions
     "collided_fraction": ("1", "fraction of the pellets that collided with another pellet"),
     "pair_collisions": ("1", "pellet-pellet collisions"),
@@ -89,14 +111,26 @@ STAT_UNITS = {
     "dense_time_max": ("s", "latest time a shot left the dense phase (s since launch)"),
     "dense_steps_mean": ("1", "time steps a shot took in the dense phase, mean over shots"),
     "dense_time_mean": ("s", "time a shot left the dense phase (s since launch), mean over shots"),
-    "skin_overrun_max": ("1", "largest distance a pellet moved between neighbour-list builds, in half skins, when "
-                              "above 1 (0 otherwise); above 1 a pair contact beyond the lists could have been missed"),
+    "skin_overrun_max": (
+        "1",
+        "largest distance a pellet moved between neighbour-list builds, in half skins, when "
+        "above 1 (0 otherwise); above 1 a pair contact beyond the lists could have been missed",
+    ),
     # runs in air
     "flight_steps_mean": ("1", "integration steps of a pellet's flights in air (after the dense phase), mean over pellets"),
     "flights_unfinished": ("1", "flights in air given up after MAX_FLIGHT_STEPS steps (counted as escaped)"),
 }
-COLLISION_STATS = ("collided_fraction", "pair_collisions", "pair_energy_lost", "pair_energy_lost_mean",
-                   "dense_steps_max", "dense_time_max", "dense_steps_mean", "dense_time_mean", "skin_overrun_max")
+COLLISION_STATS = (
+    "collided_fraction",
+    "pair_collisions",
+    "pair_energy_lost",
+    "pair_energy_lost_mean",
+    "dense_steps_max",
+    "dense_time_max",
+    "dense_steps_mean",
+    "dense_time_mean",
+    "skin_overrun_max",
+)
 AIR_STATS = ("flight_steps_mean", "flights_unfinished")
 
 
@@ -145,13 +179,22 @@ def merged_m2(segments) -> float:
 def finalize(totals, *, pellets: int, mass: float, inertia: float, air: bool = False) -> dict[str, float]:
     """Turn the reduced sums into the statistics of `STAT_UNITS` (NaN where a mean is empty)."""
     sums, mins, maxs, segments = totals
-    rows = finalize_rows(sums[None, :], mins[None, :], maxs[None, :], np.array([merged_m2(segments)]),
-                         pellets=pellets, mass=mass, inertia=inertia, air=air)
+    rows = finalize_rows(
+        sums[None, :],
+        mins[None, :],
+        maxs[None, :],
+        np.array([merged_m2(segments)]),
+        pellets=pellets,
+        mass=mass,
+        inertia=inertia,
+        air=air,
+    )
     return {name: float(values[0]) for name, values in rows.items()}
 
 
-def finalize_rows(sums, mins, maxs, range_m2, *, pellets: int, mass: float, inertia: float,
-                  air: bool = False) -> dict[str, np.ndarray]:
+def finalize_rows(
+    sums, mins, maxs, range_m2, *, pellets: int, mass: float, inertia: float, air: bool = False
+) -> dict[str, np.ndarray]:
     """`finalize` of many totals at once (rows: sums (K, NUM_SUMS), range minima and maxima
     (K, NUM_EXTREMES), merged range_m2 (K,)): name -> (K,) values, each row's bitwise as `finalize`
     gives it (elementwise IEEE operations; the norm row by row)."""
@@ -212,9 +255,25 @@ def finalize_rows(sums, mins, maxs, range_m2, *, pellets: int, mass: float, iner
 
 
 def statistics_from_arrays(
-    *, pellets, mass, inertia, launch_velocity, launch_angular_velocity, hit, normal,
-    velocity_before, angular_velocity_before, velocity_after, angular_velocity_after,
-    slipped_first, landed, range_, slipped_last, time_aloft, landing_velocity, flight_scale=None,
+    *,
+    pellets,
+    mass,
+    inertia,
+    launch_velocity,
+    launch_angular_velocity,
+    hit,
+    normal,
+    velocity_before,
+    angular_velocity_before,
+    velocity_after,
+    angular_velocity_after,
+    slipped_first,
+    landed,
+    range_,
+    slipped_last,
+    time_aloft,
+    landing_velocity,
+    flight_scale=None,
 ) -> dict[str, float]:
     """The same statistics from per-pellet float64 arrays (the NumPy reference path); flight_scale:
     each pellet's largest flight scale (m, NaN where none of its flights met a surface)."""
@@ -267,5 +326,4 @@ def statistics_from_arrays(
 def stat_names(collisions: bool, air: bool = False) -> tuple[str, ...]:
     """The statistics a run computes: those of `finalize`, with pair collisions COLLISION_STATS,
     in air AIR_STATS."""
-    return tuple(name for name in STAT_UNITS if (collisions or name not in COLLISION_STATS)
-                 and (air or name not in AIR_STATS))
+    return tuple(name for name in STAT_UNITS if (collisions or name not in COLLISION_STATS) and (air or name not in AIR_STATS))
