@@ -14,7 +14,6 @@ import tempfile
 import time
 
 import h5py
-import numpy as np
 
 from bench.__main__ import SCENE, _wr, device_info
 
@@ -28,10 +27,16 @@ def _h5py_write(arrays: dict, path: str, setting: str) -> float:
     with h5py.File(path, "w") as f:
         for name, a in arrays.items():
             rows = min(1 << 16, len(a))
-            ds = f.create_dataset(name, shape=(0,) + a.shape[1:], maxshape=(None,) + a.shape[1:],
-                                  chunks=(rows,) + a.shape[1:], dtype=a.dtype, **COMPRESSIONS[setting])
+            ds = f.create_dataset(
+                name,
+                shape=(0,) + a.shape[1:],
+                maxshape=(None,) + a.shape[1:],
+                chunks=(rows,) + a.shape[1:],
+                dtype=a.dtype,
+                **COMPRESSIONS[setting],
+            )
             for lo in range(0, len(a), 1 << 18):  # appended chunk by chunk, as the writer does
-                block = a[lo:lo + (1 << 18)]
+                block = a[lo : lo + (1 << 18)]
                 ds.resize(lo + len(block), axis=0)
                 ds[lo:] = block
     return time.perf_counter() - start
@@ -61,8 +66,11 @@ def main(argv=None):
             if arrays is None:
                 with h5py.File(out) as f:
                     arrays = {}
-                    f["pellets"].visititems(lambda k, o: arrays.__setitem__(k, o[()])
-                                            if isinstance(o, h5py.Dataset) and o.ndim and len(o) == n else None)
+                    f["pellets"].visititems(
+                        lambda k, o: (
+                            arrays.__setitem__(k, o[()]) if isinstance(o, h5py.Dataset) and o.ndim and len(o) == n else None
+                        )
+                    )
             base = base or size
             write = _h5py_write(arrays, os.path.join(tmp, "w.h5"), setting)
             print(f"{setting:8} {seconds:7.2f} {size / 1e6:8.1f} {base / size:6.2f} {write:12.2f}")

@@ -89,8 +89,9 @@ def test_per_shot_values_are_each_shots_numpy_statistics(multi):
         }
         mass, inertia = float(f["constants/mass"][()]), float(f["constants/inertia"][()])
         per_shot = {name: ds[()] for name, ds in f["stats/shots"].items() if not is_dimension(ds)}
-        intervals = {name: (ds.attrs["ci_low"], ds.attrs["ci_high"]) for name, ds in f["stats"].items()
-                     if isinstance(ds, h5py.Dataset)}
+        intervals = {
+            name: (ds.attrs["ci_low"], ds.attrs["ci_high"]) for name, ds in f["stats"].items() if isinstance(ds, h5py.Dataset)
+        }
         assert f["stats/shots"].attrs["shots"] == SHOTS and f["progress/shot_partials"].shape[0] == SHOTS * 118
     normals = np.array([[0.0, 1.0, 0.0]])
     for s in range(SHOTS):

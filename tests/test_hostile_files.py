@@ -23,8 +23,13 @@ def good(tmp_path_factory):
     raw["output"] = {"fields": ["initial", "impact", "landing"]}
     run, sweep = folder / "run.h5", folder / "sweep.h5"
     api.run(make_scene(raw, precision="float64"), output=str(run), device="cpu")
-    api.sweep(make_scene(raw, precision="float64"), {"surfaces.0.mu_s": [0.5, 0.2]}, [("surfaces.0.mu_d", 0.9, None)],
-              output=str(sweep), device="cpu")
+    api.sweep(
+        make_scene(raw, precision="float64"),
+        {"surfaces.0.mu_s": [0.5, 0.2]},
+        [("surfaces.0.mu_d", 0.9, None)],
+        output=str(sweep),
+        device="cpu",
+    )
     for p in folder.glob("*.xmf"):
         p.unlink()
     return run, sweep
@@ -54,12 +59,14 @@ def _data_offset(path, name):
 
 
 EDITS = {
-    "huge declared shape": lambda f: _replace(f, "pellets/landing/range", shape=(2**40,), maxshape=(None,),
-                                              chunks=(65536,), dtype="f8"),
-    "huge tally": lambda f: _replace(f, "progress/segment_results", shape=(2**30, 2**20), chunks=(1, 1024),
-                                     dtype="f8"),
-    "soft-link loop": lambda f: (f.__setitem__("stats/a", h5py.SoftLink("/stats/b")),
-                                 f.__setitem__("stats/b", h5py.SoftLink("/stats/a"))),
+    "huge declared shape": lambda f: _replace(
+        f, "pellets/landing/range", shape=(2**40,), maxshape=(None,), chunks=(65536,), dtype="f8"
+    ),
+    "huge tally": lambda f: _replace(f, "progress/segment_results", shape=(2**30, 2**20), chunks=(1, 1024), dtype="f8"),
+    "soft-link loop": lambda f: (
+        f.__setitem__("stats/a", h5py.SoftLink("/stats/b")),
+        f.__setitem__("stats/b", h5py.SoftLink("/stats/a")),
+    ),
     "external link": lambda f: f.__setitem__("pellets/landing/other", h5py.ExternalLink("elsewhere.h5", "/x")),
     "text statistic": lambda f: _replace(f, "stats/pellets", data="thirty"),
     "array statistic": lambda f: _replace(f, "stats/range_mean", data=np.zeros(5)),

@@ -77,8 +77,14 @@ def _expected(g, stage, bounce=None):
         elif base == "angular_velocity":
             out["spin" + tail] = _norm(value)
             out["energy_rotational" + tail] = 0.5 * inertia * _norm(value) ** 2
-    for extra in ("landing/range", "collisions/count", "collisions/last_time", "hazard/energy", "hazard/energy_density",
-                  "hazard/exceeds"):
+    for extra in (
+        "landing/range",
+        "collisions/count",
+        "collisions/last_time",
+        "hazard/energy",
+        "hazard/energy_density",
+        "hazard/exceeds",
+    ):
         if f"pellets/{extra}" in g and not extra.startswith(stage):
             out[extra.replace("/", ".")] = g[f"pellets/{extra}"][()]
     return out
@@ -309,8 +315,13 @@ def test_a_killed_runs_partial_opens_in_vtk_with_the_rows_complete(tmp_path):
     scene_file, out = tmp_path / "scene.toml", tmp_path / "killed.h5"
     scene_file.write_text(scene.to_toml())
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
-    proc = subprocess.run([sys.executable, "-c", KILL_AFTER_A_CHUNK, str(scene_file), str(out)], env=env,
-                          capture_output=True, text=True, timeout=300)
+    proc = subprocess.run(
+        [sys.executable, "-c", KILL_AFTER_A_CHUNK, str(scene_file), str(out)],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert proc.returncode == -signal.SIGKILL, proc.stderr
     partial = tmp_path / "killed.h5.partial"
     with pytest.raises(OSError, match="already open for write"):

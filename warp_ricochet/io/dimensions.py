@@ -121,8 +121,7 @@ def is_dimension(obj) -> bool:
     scale): readers that walk a group leave it out."""
     if not isinstance(obj, h5py.Dataset) or obj.attrs.get("CLASS") != b"DIMENSION_SCALE":
         return False
-    return obj.name.rsplit("/", 1)[-1] == "xyz" or bytes(obj.attrs.get("NAME", b"")).startswith(
-        NOT_A_VARIABLE.encode())
+    return obj.name.rsplit("/", 1)[-1] == "xyz" or bytes(obj.attrs.get("NAME", b"")).startswith(NOT_A_VARIABLE.encode())
 
 
 def name_run_dimensions(group: h5py.Group) -> None:
@@ -131,8 +130,7 @@ def name_run_dimensions(group: h5py.Group) -> None:
     found = []
 
     def visit(path, obj):
-        if isinstance(obj, h5py.Dataset) and obj.ndim and path.split("/", 1)[0] != "runs" \
-                and not is_dimension(obj):
+        if isinstance(obj, h5py.Dataset) and obj.ndim and path.split("/", 1)[0] != "runs" and not is_dimension(obj):
             found.append((path, obj))
 
     group.visititems(visit)

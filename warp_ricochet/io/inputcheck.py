@@ -70,14 +70,17 @@ def check_file(f: h5py.File) -> None:
 def _check(f: h5py.File) -> None:
     attrs = {k: _text(f.attrs[k]) for k in ("format", "kind", "format_version", "status") if k in f.attrs}
     if attrs.get("format") != FORMAT_NAME:
-        raise BadFile(f"is not a warp-ricochet output file (root attribute format = {attrs.get('format')!r}, "
-                      f"expected {FORMAT_NAME!r})")
+        raise BadFile(
+            f"is not a warp-ricochet output file (root attribute format = {attrs.get('format')!r}, expected {FORMAT_NAME!r})"
+        )
     if attrs.get("kind") not in KINDS:
         raise BadFile(f"has kind = {attrs.get('kind')!r}; expected one of {', '.join(map(repr, KINDS))}")
     version = attrs.get("format_version")
     if not isinstance(version, (int, np.integer)) or int(version) not in FORMAT_VERSIONS:
-        raise BadFile(f"has format_version = {version!r}; this warp-ricochet reads format_version "
-                      f"{' and '.join(map(str, FORMAT_VERSIONS))} (a newer warp-ricochet wrote it?)")
+        raise BadFile(
+            f"has format_version = {version!r}; this warp-ricochet reads format_version "
+            f"{' and '.join(map(str, FORMAT_VERSIONS))} (a newer warp-ricochet wrote it?)"
+        )
     _links(f)
     budget = [READ_TOTAL]
     size = os.path.getsize(f.filename)
@@ -129,8 +132,10 @@ def _object(name: str, obj, size: int, budget: list) -> None:
         raise BadFile(f"has /{name} of type {obj.dtype}; expected numbers")
     declared = int(np.prod(obj.shape, dtype=object)) * obj.dtype.itemsize if obj.shape is not None else 0
     if declared > max(MAX_DECLARED_BYTES, MAX_COMPRESSION * size):
-        raise BadFile(f"has /{name} declaring shape {obj.shape} of {obj.dtype} ({declared:.3g} bytes) in a file of "
-                      f"{size} bytes: damaged or forged")
+        raise BadFile(
+            f"has /{name} declaring shape {obj.shape} of {obj.dtype} ({declared:.3g} bytes) in a file of "
+            f"{size} bytes: damaged or forged"
+        )
     if declared <= READ_BYTES and declared <= budget[0]:
         budget[0] -= declared
         obj[()]  # raises for damaged data (a filter's or checksum's error)
@@ -157,7 +162,7 @@ def _run(group, where: str, status) -> None:
     top = INT32_MAX if pellets is None else pellets
     bounces = _count(group, "constants/bounces", where, MAX_BOUNCES)
     rows = _count(group, "progress/rows", where, top)
-    for name, field in FIELDS.items():
+    for field in FIELDS.values():
         ds = group.get(field.path)
         if ds is None:
             continue
@@ -165,10 +170,16 @@ def _run(group, where: str, status) -> None:
             raise BadFile(f"has {where}/{field.path} that is not a dataset")
         tail = ((bounces,) if field.per_bounce and bounces is not None else ()) + ((3,) if field.kind == "vec3" else ())
         ndim = 1 + field.per_bounce + (field.kind == "vec3")
-        if len(ds.shape) != ndim or (tail and ds.shape[-len(tail):] != tail) or ds.shape[0] > top \
-                or (rows is not None and ds.shape[0] < rows):
-            raise BadFile(f"has {where}/{field.path} of shape {ds.shape}; expected {_expected(ndim, tail)} rows, "
-                          f"at least /progress/rows = {rows} and at most /constants/pellets = {pellets}")
+        if (
+            len(ds.shape) != ndim
+            or (tail and ds.shape[-len(tail) :] != tail)
+            or ds.shape[0] > top
+            or (rows is not None and ds.shape[0] < rows)
+        ):
+            raise BadFile(
+                f"has {where}/{field.path} of shape {ds.shape}; expected {_expected(ndim, tail)} rows, "
+                f"at least /progress/rows = {rows} and at most /constants/pellets = {pellets}"
+            )
     if where:  # a sweep's points: checked by shape above; their statistics by the sweep's
         return
     values = {}

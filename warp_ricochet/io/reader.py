@@ -49,8 +49,9 @@ def _imports():
 
 def _variable(ds: h5py.Dataset, dims, data=None):
     xr, _ = _imports()
-    attrs = {k: _text(ds.attrs[k]) for k in ("units", "description", "columns", "ci_low", "ci_high", "ci_method")
-             if k in ds.attrs}
+    attrs = {
+        k: _text(ds.attrs[k]) for k in ("units", "description", "columns", "ci_low", "ci_high", "ci_method") if k in ds.attrs
+    }
     if data is None:
         data = ds[()]
         if ds.dtype.kind in "SO":  # text (the hazard thresholds' names and kinds)
@@ -157,8 +158,9 @@ class Run:
         if not sweep:  # the scalars (the landing tallies' groups below /stats are arrays: docs/hazard.md), and
             # in a run of several shots each statistic's per-shot values as shots_<name> (dimension shot)
             variables = {name: _variable(ds, ()) for name, ds in stats.items() if isinstance(ds, h5py.Dataset)}
-            variables.update({f"shots_{name}": _variable(ds, ("shot",)) for name, ds in stats.get("shots", {}).items()
-                              if not is_dimension(ds)})
+            variables.update(
+                {f"shots_{name}": _variable(ds, ("shot",)) for name, ds in stats.get("shots", {}).items() if not is_dimension(ds)}
+            )
             return xr.Dataset(variables, attrs=self._dataset_attrs("stats"))
         coords = {key: _variable(ds, ("point",)) for key, ds in self.file.get("sweep", {}).items()}
         variables = {name: _variable(ds, ("point",)) for name, ds in stats.items()}
@@ -207,8 +209,13 @@ class Run:
         """All of it as one xarray DataTree: /pellets/<group>, /stats, /constants, /hazard, /frames."""
         xr, _ = _imports()
         tree = {f"/pellets/{name}": ds.drop_vars("xyz", errors="ignore") for name, ds in self.groups.items()}
-        tree.update({"/stats": self.stats, "/constants": self.constants.drop_vars("xyz", errors="ignore"),
-                     "/hazard": self.hazard_results.drop_vars("xyz", errors="ignore")})
+        tree.update(
+            {
+                "/stats": self.stats,
+                "/constants": self.constants.drop_vars("xyz", errors="ignore"),
+                "/hazard": self.hazard_results.drop_vars("xyz", errors="ignore"),
+            }
+        )
         if self.frames is not None:
             tree["/frames"] = self.frames.drop_vars("xyz", errors="ignore")
         root = xr.Dataset(coords={"xyz": list(XYZ)}, attrs=self.attrs)

@@ -49,6 +49,7 @@ from .. import interrupts
 from .._version import __version__
 from ..errors import OutputError, RicochetError, hdf5_reason, in_use_error, not_regular
 from .h5open import FORMAT_NAME, FORMAT_VERSION, open_for_reading
+from .locks import in_use, share, try_lock
 from .space import Reservation
 from .xdmf import check_sidecar, sidecar_path, write_xdmf
 

@@ -74,9 +74,14 @@ class RunWriter:
         h5_rows = max(1, min(MAX_H5_CHUNK_ROWS, pellets))  # compute chunks are whole multiples of it
         for name in self.fields:
             empty = shape(name, 0, model.bounces)
-            ds = group.create_dataset(FIELDS[name].path, shape=empty, maxshape=(None,) + empty[1:],
-                                      chunks=(h5_rows,) + empty[1:], dtype=numpy_dtype(name, model.precision),
-                                      **COMPRESSIONS[scene.output.compression])
+            ds = group.create_dataset(
+                FIELDS[name].path,
+                shape=empty,
+                maxshape=(None,) + empty[1:],
+                chunks=(h5_rows,) + empty[1:],
+                dtype=numpy_dtype(name, model.precision),
+                **COMPRESSIONS[scene.output.compression],
+            )
             ds.attrs["units"] = FIELDS[name].unit
             ds.attrs["description"] = FIELDS[name].description
         self._create_progress(group.create_group("progress"), model, scene)

@@ -42,8 +42,14 @@ from .inputcheck import open_valid
 
 __all__ = ["sidecar_path", "write_xdmf", "xdmf_text"]
 
-EXTRAS = ("landing.range", "collisions.count", "collisions.last_time",  # per-pellet values shown on every cloud
-          "hazard.energy", "hazard.energy_density", "hazard.exceeds")
+EXTRAS = (
+    "landing.range",
+    "collisions.count",
+    "collisions.last_time",  # per-pellet values shown on every cloud
+    "hazard.energy",
+    "hazard.energy_density",
+    "hazard.exceeds",
+)
 SAMPLE_BLOCK = 1 << 16  # rows read at a time to size the surfaces (at most 16 blocks: bounded time)
 SAMPLE_BLOCKS = 16  # blocks read at most (spread over the file)
 _NUMBER_TYPES = {"f": "Float", "i": "Int", "u": "UInt"}
@@ -118,15 +124,20 @@ def _openable(src: Path, shown: str) -> None:
     fd = os.open(src, os.O_RDWR)
     try:
         if not try_lock(fd):
-            raise OutputError(f"{shown}: another process has it open (a run writing it?); ParaView cannot open a "
-                              "file being written: write its sidecar when the run has ended")
+            raise OutputError(
+                f"{shown}: another process has it open (a run writing it?); ParaView cannot open a "
+                "file being written: write its sidecar when the run has ended"
+            )
         clear_status_flags(src)
     except ValueError as exc:
         raise OutputError(f"{shown}: HDF5 cannot open it, and its superblock is not one we know ({exc})") from None
     finally:
         os.close(fd)
-    warnings.warn(f"{src.name}: its writer was killed; cleared the flags it left in the file (as h5clear -s "
-                  "does) so that ParaView can open it", stacklevel=3)
+    warnings.warn(
+        f"{src.name}: its writer was killed; cleared the flags it left in the file (as h5clear -s "
+        "does) so that ParaView can open it",
+        stacklevel=3,
+    )
 
 
 def _umask() -> int:

@@ -337,8 +337,13 @@ _HAZARD = {
     "map_surface": _int(0, 1_000_000),
     "map_axis": _vec3(nonzero=True, bound=MAX_COORDINATE),
 }
-_OUTPUT = {"path": _path(), "fields": _fields, "quantiles": _bool, "tail_distances": _distances,
-           "compression": _str(tuple(COMPRESSIONS))}
+_OUTPUT = {
+    "path": _path(),
+    "fields": _fields,
+    "quantiles": _bool,
+    "tail_distances": _distances,
+    "compression": _str(tuple(COMPRESSIONS)),
+}
 _TOP = ("shot", "surfaces", "physics", "collisions", "air", "numerics", "output", "hazard")
 # table -> its schema (the top level: the names of the tables)
 SCHEMAS = {

@@ -166,13 +166,15 @@ class Output:
     fields: tuple[str, ...] = default_fields(False, False)  # "group.field", canonical order
     quantiles: bool = True  # landing histograms: quantiles, tail fractions (docs/hazard.md)
     tail_distances: tuple[float, ...] = TAIL_DISTANCES  # m, from the shooter
-    compression: str = "none"                         # of the per-pellet datasets: COMPRESSIONS (docs/output.md)
+    compression: str = "none"  # of the per-pellet datasets: COMPRESSIONS (docs/output.md)
 
 
 # output.compression -> h5py's create_dataset filter options (shuffle: bytes grouped by significance first)
-COMPRESSIONS = {"none": {}, "lzf": {"compression": "lzf", "shuffle": True},
-                **{f"gzip-{level}": {"compression": "gzip", "compression_opts": level, "shuffle": True}
-                   for level in range(1, 10)}}
+COMPRESSIONS = {
+    "none": {},
+    "lzf": {"compression": "lzf", "shuffle": True},
+    **{f"gzip-{level}": {"compression": "gzip", "compression_opts": level, "shuffle": True} for level in range(1, 10)},
+}
 
 
 # Hazard thresholds (docs/hazard.md; ../shared/reference/air-and-hazard-sources.md). Energy density
