@@ -337,7 +337,7 @@ def test_no_room_for_the_output_is_refused_before_any_file(tmp_path, monkeypatch
     """An output that cannot fit is bad input, found before any work: one line, exit status 2."""
     monkeypatch.setattr(space, "free_bytes", lambda path: 10_000_000)
     out = tmp_path / "o.h5"
-    sweep = ["--param", "surfaces.0.mu_s=0.1,0.2"] if command == "sweep" else []
+    sweep = ["--param", "physics.impact_duration=0,1e-5"] if command == "sweep" else []  # (mu_s is --set)
     assert main([command, SCENE, *ARGS, *sweep, "-o", str(out)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith(
