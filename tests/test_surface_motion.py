@@ -36,6 +36,7 @@ def _kernels(precision):
         n: wp.array(dtype=vec3),
         applied: wp.array(dtype=vec3),
         alpha: wp.array(dtype=vec3),
+        gravity: wp.array(dtype=vec3),
         p: wp.array2d(dtype=scalar),  # mu_s, mu_d, c, rest_speed, rebound normal speed
         s: wp.array2d(dtype=scalar),
         vecs: wp.array2d(dtype=vec3),
@@ -56,7 +57,7 @@ def _kernels(precision):
         vecs[i, 2] = a
         vecs[i, 3] = dw
         s[i, 2] = needed
-        s[i, 3] = scalar(sm.surface_mode(v[i], w[i], n[i], applied[i], alpha[i], radius, k, mu_s, c, rest))
+        s[i, 3] = scalar(sm.surface_mode(v[i], w[i], n[i], applied[i], alpha[i], gravity[i], radius, k, mu_s, c, rest))
         t_slide, exact_slide = sm.slide_end(v[i], w[i], n[i], applied[i], radius, k, mu_d)
         s[i, 4] = t_slide
         s[i, 5] = exact_slide
@@ -85,7 +86,7 @@ def _kernels(precision):
     return scalar, vec3, probe, arc
 
 
-def probe(precision, device, *, x, v, w, n, applied, alpha=None, mu_s=0.5, mu_d=0.4, c=0.0, rest=0.0, rebound=0.0):
+def probe(precision, device, *, x, v, w, n, applied, alpha=None, gravity=None, mu_s=0.5, mu_d=0.4, c=0.0, rest=0.0, rebound=0.0):
     """Every law and closed form of physics.surface_motion at m cases; {name: float64 array}."""
     scalar, vec3, kernel, _arc = _kernels(precision)
     v = np.atleast_2d(np.asarray(v, float))
@@ -95,8 +96,9 @@ def probe(precision, device, *, x, v, w, n, applied, alpha=None, mu_s=0.5, mu_d=
         return np.broadcast_to(np.asarray(a, float), (m, 3)).copy()
 
     alpha = np.zeros((m, 3)) if alpha is None else alpha
+    gravity = applied if gravity is None else gravity  # (the closed forms take `applied` as gravity)
     params = np.stack([np.broadcast_to(np.asarray(q, float), (m,)) for q in (mu_s, mu_d, c, rest, rebound)], axis=1)
-    arrays = [wp.array(rows(a).astype(precision), dtype=vec3, device=device) for a in (x, v, w, n, applied, alpha)]
+    arrays = [wp.array(rows(a).astype(precision), dtype=vec3, device=device) for a in (x, v, w, n, applied, alpha, gravity)]
     s = wp.zeros((m, len(SCALARS)), dtype=scalar, device=device)
     vecs = wp.zeros((m, len(VECTORS)), dtype=vec3, device=device)
     wp.launch(
@@ -323,16 +325,12 @@ def test_switch_criteria(device):
     """Lift-off when the net normal force pulls away; rest below the rest speed where the slope
     cannot restart the pellet; separation above sqrt(2 R N/m)."""
     n = np.array([0.0, 1.0, 0.0])
-    rolling = dict(x=[0, R, 0], v=[[0.05, 0, 0]] * 5, w=np.cross(n, [0.05, 0, 0]) / R, n=n)
-    got = probe(
-        "float64",
-        device,
-        **rolling,
-        applied=[[0, -G, 0], [0, 0.1, 0], [0, -G, 0], [2, -G, 0], [0.9, -G, 0]],
-        c=0.1,
-        rest=[0.1, 0.1, 0.01, 0.1, 0.1],
-    )
-    assert got["mode"].tolist() == [REST, FLIGHT, ROLLING, ROLLING, REST]  # drive 2 > c N/m = 0.98 > 0.9
+    rolling = dict(x=[0, R, 0], v=[[0.05, 0, 0]] * 6, w=np.cross(n, [0.05, 0, 0]) / R, n=n)
+    slopes = [[0, -G, 0], [0, 0.1, 0], [0, -G, 0], [2, -G, 0], [0.9, -G, 0], [0, -G, 0]]
+    applied = slopes[:5] + [[-3, -G, 0]]  # the last: drag against the motion on a level plane
+    got = probe("float64", device, **rolling, applied=applied, gravity=slopes, c=0.1, rest=[0.1, 0.1, 0.01, 0.1, 0.1, 0.1])
+    # drive 2 > c N/m = 0.98 > 0.9; drag, which vanishes at rest, cannot restart a pellet
+    assert got["mode"].tolist() == [REST, FLIGHT, ROLLING, ROLLING, REST, REST]
     speed = math.sqrt(2 * R * G)
     got = probe(
         "float64", device, x=[0, R, 0], v=[[1, 0, 0]] * 2, w=0, n=n, applied=[0, -G, 0], rebound=[0.99 * speed, 1.01 * speed]

@@ -23,8 +23,9 @@ billiard-ball problem of Sommerfeld, Mechanics, section 26); derivations in docs
   (c = 0). The friction it needs, F/m = dv/dt - drive, must stay within mu_s N/m (else sliding).
   A rolling ball held back by c N as on a golf green: Penner, "The physics of putting", Can. J. Phys.
   80 (2002) 83, and "The run of a golf ball", Can. J. Phys. 80 (2002) 931.
-- Rest (4): speed <= rest_speed and the slope cannot restart it: |(g + a_air)_t| <= c N/m. (Static
-  friction cannot hold a sphere on a slope: it rolls; the rolling resistance can, up to c N.)
+- Rest (4): speed <= rest_speed and the slope cannot restart it: |g_t| <= c (-g . n) (static friction
+  cannot hold a sphere on a slope: it rolls; the rolling resistance can, up to c N; the air's forces
+  vanish on a pellet at rest).
 - Separation after an impact (5): the rebound leaves the plane only if its normal speed rises above
   one pellet radius against the net normal load, v_n' > sqrt(2 R N/m); below it the pellet stays on.
 
@@ -129,12 +130,19 @@ def make_surface_laws(precision: str) -> SimpleNamespace:
         return acceleration, spin_rate, wp.length(friction)
 
     @wp.func
+    def held(normal: vec3, gravity: vec3, rolling_resistance: scalar):
+        """Whether a pellet at rest stays so: |g_t| <= c N/m with N/m = -g . n. The air's forces
+        vanish at rest (no wind at the ground): drag only resists a motion, it cannot restart one."""
+        return wp.length(tangential(gravity, normal)) <= rolling_resistance * normal_load(normal, gravity)
+
+    @wp.func
     def surface_mode(
         velocity: vec3,
         spin: vec3,
         normal: vec3,
         applied: vec3,
         spin_rate_air: vec3,
+        gravity: vec3,
         radius: scalar,
         inertia_factor: scalar,
         mu_s: scalar,
@@ -142,16 +150,14 @@ def make_surface_laws(precision: str) -> SimpleNamespace:
         rest_speed: scalar,
     ):
         """FLIGHT (N <= 0), SLIDING (slip above rounding, or rolling would need more than mu_s N),
-        REST (speed <= rest_speed and |drive| <= c N), else ROLLING."""
+        REST (speed <= rest_speed and `held`), else ROLLING."""
         load = normal_load(normal, applied)
         if load <= ZERO:
             return wp.int32(FLIGHT)
         scale = wp.length(velocity) + radius * wp.length(spin)
         if wp.length(slip_velocity(velocity, spin, normal, radius)) > TOLERANCE * scale:
             return wp.int32(SLIDING)
-        if wp.length(tangential(velocity, normal)) <= rest_speed and wp.length(tangential(applied, normal)) <= (
-            rolling_resistance * load
-        ):
+        if wp.length(tangential(velocity, normal)) <= rest_speed and held(normal, gravity, rolling_resistance):
             return wp.int32(REST)
         _a, _w, friction = rolling_rates(velocity, normal, applied, spin_rate_air, radius, inertia_factor, rolling_resistance)
         if friction > mu_s * load:
@@ -180,6 +186,7 @@ def make_surface_laws(precision: str) -> SimpleNamespace:
         slip_velocity=slip_velocity,
         sliding_rates=sliding_rates,
         rolling_rates=rolling_rates,
+        held=held,
         surface_mode=surface_mode,
         separation_speed=separation_speed,
         separates=separates,
@@ -196,7 +203,7 @@ def make_surface_closed_forms(precision: str) -> SimpleNamespace:
     ONE = scalar(1.0)
     laws = make_surface_laws(precision)
     tangential, unit, normal_load, slip_velocity = laws.tangential, laws.unit, laws.normal_load, laws.slip_velocity
-    sliding_rates, rolling_rates, surface_mode = laws.sliding_rates, laws.rolling_rates, laws.surface_mode
+    sliding_rates, rolling_rates, surface_mode, held = laws.sliding_rates, laws.rolling_rates, laws.surface_mode, laws.held
 
     @wp.func
     def across(drive: vec3, direction: vec3, scale: scalar):
@@ -231,9 +238,9 @@ def make_surface_closed_forms(precision: str) -> SimpleNamespace:
         NEVER. Its speed changes at (g_t . v/|v| - c N/m) / (1 + k), constant when g_t is along v."""
         load = normal_load(normal, gravity)
         drive = tangential(gravity, normal)
-        held = wp.length(drive) <= rolling_resistance * load
+        holds = held(normal, gravity, rolling_resistance)
         speed = wp.length(tangential(velocity, normal))
-        if speed <= rest_speed and held:
+        if speed <= rest_speed and holds:
             return ZERO, wp.int32(1), ONE
         if speed <= ZERO:  # from rest, not held: rolls down the slope, faster and faster
             return scalar(NEVER), wp.int32(0), ONE
@@ -244,7 +251,7 @@ def make_surface_closed_forms(precision: str) -> SimpleNamespace:
         rate = (wp.dot(drive, direction) - rolling_resistance * load) / (ONE + inertia_factor)
         if rate >= ZERO:
             return scalar(NEVER), wp.int32(0), exact
-        if held:
+        if holds:
             return (speed - rest_speed) / (-rate), wp.int32(1), exact
         return speed / (-rate), wp.int32(0), exact
 
@@ -318,7 +325,7 @@ def make_surface_closed_forms(precision: str) -> SimpleNamespace:
         zero = vec3()
         for _phase in range(MAX_PHASES):
             mode = surface_mode(
-                velocity, spin, normal, gravity, zero, radius, inertia_factor, mu_s, rolling_resistance, rest_speed
+                velocity, spin, normal, gravity, zero, gravity, radius, inertia_factor, mu_s, rolling_resistance, rest_speed
             )
             if mode == FLIGHT or mode == REST:
                 return position, velocity, spin, elapsed, path, mode, wp.int32(1)

@@ -155,6 +155,12 @@ def _on_plane(y, plane: Plane, radius):
     return y
 
 
+def _held(y, plane: Plane, model: Model, ground: Ground) -> bool:
+    """Whether the slope cannot restart a pellet at rest: |g_t| <= c (-g . n) (no air force at rest)."""
+    g1, g2, gn = plane.components(model.g)
+    return math.hypot(g1, g2) <= ground.rolling_resistance * -gn
+
+
 def _surface_phase(y, t, t_max, plane, model, ground, rest_speed, rtol):
     """Slide or roll from y (on the plane) to the next switch; (phase, next mode, t, y)."""
     R = model.pellet.radius
@@ -168,9 +174,9 @@ def _surface_phase(y, t, t_max, plane, model, ground, rest_speed, rtol):
     slip = math.hypot(v1 - R * w2, v2 + R * w1)
     scale = math.hypot(v1, v2) + R * np.linalg.norm(y[6:9])
     rolling = slip <= 1e-12 * scale
-    held = math.hypot(g1, g2) <= ground.rolling_resistance * load
+    speed0 = math.hypot(v1, v2)
     if rolling:
-        if math.hypot(v1, v2) <= rest_speed and held:
+        if speed0 <= rest_speed * (1.0 + 1e-9) and _held(y, plane, model, ground):
             return None, "rest", t, y
         if surface_rates(y, plane, model, ground, True)[2] > ground.mu_s * load:
             rolling = False
@@ -183,7 +189,9 @@ def _surface_phase(y, t, t_max, plane, model, ground, rest_speed, rtol):
 
     events = [_event(lift, -1.0)]
     if rolling:
-        stop_speed = max(rest_speed, STOP) if held else STOP
+        # to the rest speed (where it rests if the slope cannot restart it), else on to a stop
+        resting = speed0 > rest_speed * (1.0 + 1e-9) and rest_speed > STOP
+        stop_speed = rest_speed if resting else STOP
 
         def speed(_t, y):
             return np.linalg.norm(y[3:6]) - stop_speed
@@ -213,9 +221,9 @@ def _surface_phase(y, t, t_max, plane, model, ground, rest_speed, rtol):
         wn = y_end[6:9] @ plane.n
         y_end[6:9] = plane.world(-a2 / R, a1 / R, wn)
         return phase, "surface", t_end, y_end
-    if i == 1 and held:
+    if i == 1 and _held(y_end, plane, model, ground):
         return phase, "rest", t_end, y_end
-    if i == 1:  # stopped on a slope too steep to rest on: rolls back from rest
+    if i == 1 and not resting:  # stopped on a slope too steep to rest on: rolls back from rest
         wn = y_end[6:9] @ plane.n
         y_end[3:6], y_end[6:9] = 0.0, wn * plane.n
     return phase, "surface", t_end, y_end
