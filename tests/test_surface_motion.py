@@ -141,7 +141,7 @@ def test_sliding_without_spin_rolls_at_five_sevenths(precision, device):
     np.testing.assert_allclose(got["elapsed"], t_roll + v0 / (c * G), rtol=CLOSE[precision])
     np.testing.assert_allclose(got["path"], got["end_x"][:, 0], rtol=CLOSE[precision])
     assert got["end_mode"].tolist() == [REST] * m and got["end_exact"].tolist() == [1] * m
-    for speed in v0[:2]:
+    for speed in v0:  # (187 m/s: the reference's slip once chattered about zero below its stop)
         r = ref.follow([0, R, 0], [speed, 0, 0], [0, 0, 0], radius=R, ground=ref.Ground(0.0, mu, mu, c))
         sliding, rolling = r.phases
         assert (sliding.mode, rolling.mode, r.state) == ("sliding", "rolling", "rest")
@@ -286,7 +286,8 @@ def _probe_cases(precision, device, cases):
 @pytest.mark.parametrize("precision", PRECISIONS)
 def test_closed_forms_rest_where_the_reference_does(precision, device):
     """follow_on_plane against reference.follow on seeded random planes of any orientation: the rest
-    position within 1e-4 of the path length (the issue's bar), the path and time alike."""
+    position within 2e-5 (float32) and 1e-9 (float64) of the path length (the issue asks 1e-4), the
+    path and the time alike."""
     cases = _fall_line_cases(np.random.default_rng(7), 24)
     stack, got = _probe_cases(precision, device, cases)
     n = stack["n"]
@@ -303,9 +304,9 @@ def test_closed_forms_rest_where_the_reference_does(precision, device):
             rest_speed=case["rest"],
         )
         assert r.state == "rest"
-        assert np.linalg.norm(got["end_x"][i] - r.x) <= 1e-4 * r.path_length, (i, got["end_x"][i], r.x)
-        assert got["path"][i] == pytest.approx(r.path_length, rel=1e-4)
-        assert got["elapsed"][i] == pytest.approx(r.t, rel=1e-4)
+        assert np.linalg.norm(got["end_x"][i] - r.x) <= CLOSE[precision] * r.path_length, (i, got["end_x"][i], r.x)
+        assert got["path"][i] == pytest.approx(r.path_length, rel=CLOSE[precision])
+        assert got["elapsed"][i] == pytest.approx(r.t, rel=CLOSE[precision])
 
 
 def test_a_drive_across_the_slip_is_left_to_integration(device):

@@ -23,7 +23,10 @@ from .air import Pellet, derivatives, drag_force, lift_force, spin_torque
 from .ballistic import impact_law
 
 INERTIA_FACTOR = 0.4  # I = 2/5 m R^2
-STOP = 1e-10  # m/s: a slip or a speed this small ends its phase (the state is then set exactly)
+# a slip or a speed below STOP times the phase's speed scale (|v| + R |omega| at its start) ends the
+# phase, the state then set exactly: well above the integrator's noise (rtol 1e-12), which near a
+# zero of the slip would otherwise chatter around it with the friction's direction
+STOP = 1e-9
 
 
 @dataclasses.dataclass(frozen=True)
@@ -161,6 +164,18 @@ def _held(y, plane: Plane, model: Model, ground: Ground) -> bool:
     return math.hypot(g1, g2) <= ground.rolling_resistance * -gn
 
 
+def _to_zero(y, t, dy, n, radius, speed):
+    """(t, y) moved on at the rates dy until the slip (speed False) or the speed (True), of size
+    STOP times its scale, reaches 0: the last 1e-9 of the phase, to first order."""
+    q, rate = (y[3:6], dy[3:6]) if speed else (y[3:6] - radius * np.cross(y[6:9], n), dy[3:6] - radius * np.cross(dy[6:9], n))
+    length = np.linalg.norm(q)
+    closing = q @ rate / length if length > 0.0 else 0.0
+    if closing >= 0.0:
+        return t, y
+    dt = length / -closing
+    return t + dt, y + dy * dt
+
+
 def _surface_phase(y, t, t_max, plane, model, ground, rest_speed, rtol):
     """Slide or roll from y (on the plane) to the next switch; (phase, next mode, t, y)."""
     R = model.pellet.radius
@@ -190,8 +205,8 @@ def _surface_phase(y, t, t_max, plane, model, ground, rest_speed, rtol):
     events = [_event(lift, -1.0)]
     if rolling:
         # to the rest speed (where it rests if the slope cannot restart it), else on to a stop
-        resting = speed0 > rest_speed * (1.0 + 1e-9) and rest_speed > STOP
-        stop_speed = rest_speed if resting else STOP
+        resting = speed0 > rest_speed * (1.0 + 1e-9) and rest_speed > STOP * scale
+        stop_speed = rest_speed if resting else STOP * scale
 
         def speed(_t, y):
             return np.linalg.norm(y[3:6]) - stop_speed
@@ -206,7 +221,7 @@ def _surface_phase(y, t, t_max, plane, model, ground, rest_speed, rtol):
         def slip_event(_t, y):
             a1, a2, _ = plane.components(y[3:6])
             b1, b2, _ = plane.components(y[6:9])
-            return math.hypot(a1 - R * b2, a2 + R * b1) - STOP
+            return math.hypot(a1 - R * b2, a2 + R * b1) - STOP * scale
 
         events.append(_event(slip_event, -1.0))
     (i, t_end, y_end), sol = _solve(rhs, y, t, t_max, events, rtol)
@@ -216,6 +231,8 @@ def _surface_phase(y, t, t_max, plane, model, ground, rest_speed, rtol):
         return phase, "moving", t_end, y_end
     if i == 0:
         return phase, "flight", t_end, y_end
+    if i == 1 and not (rolling and resting):  # a slip or a speed at STOP: on to 0
+        t_end, y_end = _to_zero(y_end, t_end, rhs(t_end, y_end), plane.n, R, rolling)
     if not rolling:  # the slip vanished: set it to zero exactly (omega_t = n x v / R)
         a1, a2, _ = plane.components(y_end[3:6])
         wn = y_end[6:9] @ plane.n
