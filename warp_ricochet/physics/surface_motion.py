@@ -4,8 +4,8 @@ A solid sphere (radius R, mass m, I = k m R^2, k = 2/5) touches a plane of unit 
 the pellet) with its centre at height R. Everything is per unit mass (accelerations in m/s^2):
 `applied` = g + a_air is the acceleration of every force but the plane's (gravity, drag and lift),
 `spin_rate_air` = T_air / I the air's torque. The plane supplies the normal load and friction.
-Classical rigid-body mechanics of a rolling sphere (e.g. Goldstein, Classical Mechanics; the
-billiard-ball problem of Sommerfeld, Mechanics, section 26); derivations in docs/ground.md 1-4.
+Newton's and Euler's equations of a rigid sphere with Coulomb friction at its contact point (the
+textbook "bowling ball" problem); each law is derived in docs/ground.md, sections 1-6.
 
 - Normal load (docs/ground.md 1): the centre keeps its height, so N/m = -(g + a_air) . n, clipped at
   0; N <= 0 is lift-off (the net normal force pulls the pellet away).
