@@ -414,3 +414,32 @@ def test_reference_invariants_with_impacts_and_air():
                     slip = y[3:6] - R * np.cross(y[6:9].T, n).T
                     assert (np.einsum("ij,i->j", slip, slip[:, 0]) >= -1e-9 * (slip[:, 0] @ slip[:, 0])).all()
                     assert (np.diff(np.linalg.norm(slip, axis=0)) <= 1e-9).all()
+
+
+def test_reference_applies_the_criteria():
+    """The reference: a drop separates while v_n' > sqrt(2 R g) (E = 0.2: 1 -> 0.2 -> 0.04 m/s, two
+    impacts; E = 0.1: one); a rolling pellet on a slope steeper than atan(7/2 mu_s) slides, at
+    g (sin - mu_d cos); strong backspin in air lifts a pellet off the plane (Magnus lift above g)."""
+    from warp_ricochet.scene.schema import Air
+
+    for restitution, impacts in ((0.2, 2), (0.1, 1)):
+        r = ref.follow([0, R, 0], [0, -1.0, 0], [0, 0, 0], radius=R, ground=ref.Ground(restitution, 0.5, 0.4, 0.1))
+        assert (r.state, r.impacts, r.x[1]) == ("rest", impacts, R)
+    theta = math.radians(70)
+    n = np.array([-math.sin(theta), math.cos(theta), 0.0])
+    down = np.array([-math.cos(theta), -math.sin(theta), 0.0])
+    v = 1.0 * down
+    r = ref.follow(R * n, v, np.cross(n, v) / R, radius=R, normal=n, ground=ref.Ground(0.0, 0.5, 0.4, 0.0), t_max=1.0)
+    assert r.state == "moving" and [p.mode for p in r.phases] == ["sliding"]
+    assert (r.v - v) @ down == pytest.approx(G * (math.sin(theta) - 0.4 * math.cos(theta)), rel=1e-10)
+    r = ref.follow(
+        [0, R, 0],
+        [187, 0, 0],
+        [0, 0, 1.5e5],
+        radius=R,
+        density=7000.0,
+        air=Air(),
+        ground=ref.Ground(0.3, 0.5, 0.4, 0.05),
+        rest_speed=0.13,
+    )
+    assert r.phases[0].mode == "flight" and r.impacts >= 1 and r.state == "rest"
