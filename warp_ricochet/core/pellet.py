@@ -15,6 +15,7 @@ import warp as wp
 from ..launch.source import make_source
 from ..physics.contact import make_contact
 from ..physics.flight import make_flight
+from ..physics.geometry import make_geometry
 from ..physics.types import types_for
 from ..tallies.accumulate import make_accumulators
 from ..tallies.landing import make_add_landing, make_landing_tally
@@ -41,6 +42,7 @@ def make_ricochet_pellet(spec):
     flight = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws)
     AIR = spec.flight == "air"
     rests, stays, impact, _meet, contact_point, landing_range = make_contact(spec.precision)
+    geo = make_geometry(spec.precision)
     RELEASE, WRITE, BOUNCES = spec.collisions, bool(spec.core_fields), spec.bounces
     Tally, landing_tally = (
         make_landing_tally(spec.precision).Tally,
@@ -112,7 +114,9 @@ def make_ricochet_pellet(spec):
                     release.first_angular_velocity_before[row],
                     release.first_velocity_after[row],
                     release.first_angular_velocity_after[row],
-                    surfaces.normal[release.first_surface[row]],
+                    # (a plane's normal is the same anywhere; a curved surface will need the release to keep
+                    # the first contact's point: ricochet_point is the last one's)
+                    geo.normal(surfaces, release.first_surface[row], release.ricochet_point[row]),
                     launch_v2,
                     launch_w2,
                 )
@@ -120,7 +124,7 @@ def make_ricochet_pellet(spec):
         for b in range(wp.static(BOUNCES)):  # unrolled (bounces <= 16)
             impacted = wp.int32(0)
             if state == FLYING and b >= first_bounce:
-                dt, k, position_then, velocity_then, spin_then, steps = flight.to_contact(
+                dt, k, normal, position_then, velocity_then, spin_then, steps = flight.to_contact(
                     position, velocity, spin, touching, surfaces, physics
                 )
                 if wp.static(AIR):
@@ -133,13 +137,13 @@ def make_ricochet_pellet(spec):
                     velocity = velocity_then
                     spin = spin_then
                     time = time + dt
-                    normal = surfaces.normal[k]
                     if rests(velocity, normal):
                         state = wp.int32(RESTING)
                         resting_surface = k
                     else:
                         impacted = 1
-                        velocity_after, spin_after, slipped = impact(k, normal, velocity, spin, surfaces, physics)
+                        material = geo.material(surfaces, k, position)
+                        velocity_after, spin_after, slipped = impact(material, normal, velocity, spin, physics)
                         if wp.static(WRITE):
                             outs.write_impact(out, row, b, time, position, velocity, spin, velocity_after, spin_after, slipped, k)
                         if b == 0:
@@ -173,7 +177,7 @@ def make_ricochet_pellet(spec):
         if impacts > 0 and state != ESCAPED:
             k = resting_surface
             if state == FLYING:
-                dt, k_next, position_then, velocity_then, spin_then, steps = flight.to_contact(
+                dt, k_next, _normal, position_then, velocity_then, spin_then, steps = flight.to_contact(
                     position, velocity, spin, touching, surfaces, physics
                 )
                 if wp.static(AIR):
@@ -189,7 +193,7 @@ def make_ricochet_pellet(spec):
                 landing_time = time
                 landing_position = position
                 landing_velocity = velocity
-                distance = landing_range(position, physics.radius, surfaces.normal[k], ricochet_point)
+                distance = landing_range(position, physics.radius, geo.normal(surfaces, k, position), ricochet_point)
                 counts[2] += 1
                 if wp.static(TALLY or HAZARD_OUT):
                     v2 = wp.dot(velocity, velocity)

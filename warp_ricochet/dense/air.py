@@ -32,6 +32,7 @@ import warp as wp
 from ..physics.air import make_air_laws
 from ..physics.ballistic import make_ballistic
 from ..physics.flight import make_flight
+from ..physics.geometry import make_geometry
 from .constants import CLOCK_STEP, CLOCK_STEPS, CLOCK_TIME, KICK_STEPS
 from .frame import make_frame
 from .state import dense_types
@@ -45,12 +46,12 @@ def make_dense_air(spec) -> SimpleNamespace:
     scalar, vec3, Surfaces, Physics, Cloud, Pair = d.scalar, d.vec3, d.Surfaces, d.Physics, d.Cloud, d.Pair
     TINY_RATE = 1e-30  # 1/s: no air (a pellet at rest in still air)
     laws = make_air_laws(spec.precision, *spec.air_laws)
-    _entry, _return, _contact, ballistic_position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
+    _entry, _return, ballistic_position, ballistic_velocity = make_ballistic(scalar)
     fr = make_frame(spec)
     stepping, set_reference = fr.stepping, fr.set_reference
     next_contact = make_flight(spec.precision, spec.static_planes, snap=spec.flight != "air").next_contact  # (the exact flight)
 
-    STATIC_PLANES = spec.static_planes
+    geo, STATIC_PLANES = make_geometry(spec.precision), spec.static_planes
     LIFT = spec.air_laws[1] is not None
 
     @wp.func
@@ -59,8 +60,7 @@ def make_dense_air(spec) -> SimpleNamespace:
     ):
         """Plane k's share of air_rate: |a_air.n| / (|v.n| + speed floor) if the pellet can reach
         the plane within `reach_time` (s), else 0. Planes are one-sided: none behind the centre."""
-        n = surfaces.normal[k]
-        height = wp.dot(position - surfaces.point[k], n)
+        height, _noise, n = geo.locate(surfaces, k, position)
         if height < scalar(0.0):
             return scalar(0.0)
         speed = wp.length(velocity) + physics.air.speed_floor
@@ -83,7 +83,7 @@ def make_dense_air(spec) -> SimpleNamespace:
         rate = wp.length(acceleration) / (wp.length(velocity - physics.air.wind) + physics.air.speed_floor)
         reach_time = pair.air_step_fraction / wp.max(rate, scalar(TINY_RATE))
         if wp.static(STATIC_PLANES is None):
-            for k in range(surfaces.normal.shape[0]):
+            for k in range(geo.count(surfaces)):
                 rate = wp.max(rate, plane_rate(k, position, velocity, acceleration, reach_time, surfaces, physics))
         else:
             for k in range(wp.static(STATIC_PLANES)):  # unrolled

@@ -44,7 +44,7 @@ def make_checkpoint(spec) -> SimpleNamespace:
     scalar, Surfaces, Physics, Cloud, Pair = d.scalar, d.Surfaces, d.Physics, d.Cloud, d.Pair
     NEVER = d.NEVER
     next_contact = make_flight(spec.precision, spec.static_planes, snap=spec.flight != "air").next_contact
-    _entry, _return, _contact, ballistic_position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
+    _entry, _return, ballistic_position, ballistic_velocity = make_ballistic(scalar)
     contact_time = make_events(spec).contact_time
     AIR, BOUNCES = spec.in_air, spec.bounces
     air = make_dense_air(spec) if AIR else None  # (their calls compile only in air)

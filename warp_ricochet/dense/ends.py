@@ -56,7 +56,7 @@ def make_ends(spec) -> SimpleNamespace:
     AIR = spec.in_air
     air = make_dense_air(spec) if AIR else None  # (its calls compile only in air)
     set_reference = make_frame(spec).set_reference
-    _entry, _return, _contact, ballistic_position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
+    _entry, _return, ballistic_position, ballistic_velocity = make_ballistic(scalar)
     fr = make_frame(spec)
     block_range, drift_point, passing_time = fr.block_range, fr.drift_point, fr.passing_time
 

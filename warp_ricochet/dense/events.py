@@ -11,6 +11,7 @@ from ..core.outputs import make_outputs
 from ..physics.ballistic import make_ballistic
 from ..physics.contact import make_contact
 from ..physics.flight import make_flight
+from ..physics.geometry import make_geometry
 from ..physics.pair import make_pair_law
 from .air import make_dense_air
 from .constants import ENDED
@@ -29,8 +30,8 @@ def make_events(spec) -> SimpleNamespace:
     )  # within a step: the exact ballistic flight
     next_contact, advance = flight.next_contact, flight.advance
     _rests, _stays, _impact, meet_surface, contact_point, _range = make_contact(spec.precision)
-    _entry, _return, _contact, ballistic_position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
-    pair_law = make_pair_law(scalar)
+    _entry, _return, ballistic_position, ballistic_velocity = make_ballistic(scalar)
+    pair_law, geo = make_pair_law(scalar), make_geometry(spec.precision)
     write_impact = make_outputs(spec.precision).write_impact
     fr = make_frame(spec)
     set_reference, mark_stale = fr.set_reference, fr.mark_stale
@@ -65,7 +66,7 @@ def make_events(spec) -> SimpleNamespace:
         if cloud.impacts[i] >= wp.static(BOUNCES):
             flying = wp.int32(0)  # the landing after the last ricochet
         else:  # an impact, or no closing speed: it stays on the surface (physics.contact)
-            velocity_after, spin_after, slipped, impacted, flying = meet_surface(k, velocity, spin, surfaces, physics)
+            velocity_after, spin_after, slipped, impacted, flying = meet_surface(k, position, velocity, spin, surfaces, physics)
         return position, velocity, spin, velocity_after, spin_after, slipped, time, flying, impacted
 
     @wp.func
@@ -91,7 +92,7 @@ def make_events(spec) -> SimpleNamespace:
         )
         if wp.static(AIR):
             air.air_until(cloud, i, time)
-        normal = surfaces.normal[k]
+        normal = geo.normal(surfaces, k, position)
         impacts = cloud.impacts[i]
         if impacted != 0:
             if wp.static(WRITE):

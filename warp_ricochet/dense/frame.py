@@ -29,7 +29,7 @@ def make_frame(spec) -> SimpleNamespace:
     d = dense_types(spec)
     scalar, vec3, Physics, Cloud, Pair = d.scalar, d.vec3, d.Physics, d.Cloud, d.Pair
     TINY_SPEED, NEVER = d.TINY_SPEED, d.NEVER
-    _entry, _return, _contact, ballistic_position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
+    _entry, _return, ballistic_position, ballistic_velocity = make_ballistic(scalar)
 
     @wp.func
     def drift_point(cloud: Cloud, shot: wp.int32, time: scalar, gravity: vec3):

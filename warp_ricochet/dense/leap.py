@@ -29,6 +29,7 @@ import warp as wp
 
 from ..physics.ballistic import make_ballistic
 from ..physics.flight import make_flight
+from ..physics.geometry import make_geometry
 from .air import make_dense_air
 from .constants import (
     CLOCK_LEAP,
@@ -51,12 +52,12 @@ def make_leap(spec) -> SimpleNamespace:
     scalar, vec3, Surfaces, Physics, Outputs, Cloud, Pair = d.scalar, d.vec3, d.Surfaces, d.Physics, d.Outputs, d.Cloud, d.Pair
     NEVER, CLOSING_TOLERANCE2, BOUNCES = d.NEVER, d.CLOSING_TOLERANCE2, spec.bounces
     TINY_ACCELERATION = scalar(TINY_ACCELERATION_VALUE)
-    entry_time, _return, _contact, ballistic_position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
+    entry_time, _return, ballistic_position, ballistic_velocity = make_ballistic(scalar)
     to_contact_within = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws).to_contact_within
     air, ev, fr = make_dense_air(spec), make_events(spec), make_frame(spec)
     contact_time, plane_contact = ev.contact_time, ev.plane_contact
     set_reference = fr.set_reference
-    STATIC_PLANES = spec.static_planes
+    geo, STATIC_PLANES = make_geometry(spec.precision), spec.static_planes
 
     @wp.func
     def pair_leap(d: vec3, u: vec3, reach: scalar, margin: scalar, bound: scalar, speeds: scalar):
@@ -93,8 +94,7 @@ def make_leap(spec) -> SimpleNamespace:
     @wp.func
     def plane_gap_leap(k: wp.int32, position: vec3, velocity: vec3, bound: scalar, surfaces: Surfaces, physics: Physics):
         """How long (s) the pellet cannot meet plane k with up to `bound` (m/s^2) of air towards it."""
-        n = surfaces.normal[k]
-        height = wp.dot(position - surfaces.point[k], n)
+        height, _noise, n = geo.locate(surfaces, k, position)
         if height < scalar(0.0):
             return NEVER  # planes are one-sided: never met from behind
         gap = wp.max(height - physics.radius, scalar(0.0))
@@ -108,7 +108,7 @@ def make_leap(spec) -> SimpleNamespace:
         """How long (s) the pellet cannot meet any plane (`plane_gap_leap`, every plane)."""
         delay = NEVER
         if wp.static(STATIC_PLANES is None):
-            for k in range(surfaces.normal.shape[0]):
+            for k in range(geo.count(surfaces)):
                 delay = wp.min(delay, plane_gap_leap(k, position, velocity, bound, surfaces, physics))
         else:
             for k in range(wp.static(STATIC_PLANES)):  # unrolled
@@ -134,7 +134,9 @@ def make_leap(spec) -> SimpleNamespace:
         flying = wp.int32(1)
         for _ in range(wp.static(BOUNCES + 1)):
             if flying != 0 and time < end:
-                wait, k, x, v, w, _steps = to_contact_within(position, velocity, spin, touching, surfaces, physics, end - time)
+                wait, k, _normal, x, v, w, _steps = to_contact_within(
+                    position, velocity, spin, touching, surfaces, physics, end - time
+                )
                 if k >= 0:
                     time = time + wait
                     air.air_until(cloud, i, time)

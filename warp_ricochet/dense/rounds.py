@@ -30,7 +30,7 @@ def make_rounds(spec) -> SimpleNamespace:
     scalar, Surfaces, Physics, Outputs, Cloud, Pair = d.scalar, d.Surfaces, d.Physics, d.Outputs, d.Cloud, d.Pair
     NEVER = d.NEVER
     next_contact = make_flight(spec.precision, spec.static_planes, snap=spec.flight != "air").next_contact
-    _entry, _return, _contact, ballistic_position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
+    _entry, _return, ballistic_position, ballistic_velocity = make_ballistic(scalar)
     ev, fr = make_events(spec), make_frame(spec)
     contact_time, plane_outcome, pair_outcome = ev.contact_time, ev.plane_outcome, ev.pair_outcome
     plane_contacts_until, mark_stale = ev.plane_contacts_until, fr.mark_stale

@@ -39,7 +39,7 @@ def make_step(spec) -> SimpleNamespace:
     d = dense_types(spec)
     scalar, vec3, Surfaces, Physics, Outputs, Cloud, Pair = d.scalar, d.vec3, d.Surfaces, d.Physics, d.Outputs, d.Cloud, d.Pair
     TINY_SPEED, QUIET_STEP, NEVER, BOUNCES = d.TINY_SPEED, d.QUIET_STEP, d.NEVER, spec.bounces
-    _entry, _return, _contact, ballistic_position, ballistic_velocity = make_ballistic(scalar, spec.static_planes)
+    _entry, _return, ballistic_position, ballistic_velocity = make_ballistic(scalar)
     fr, ro = make_frame(spec), make_rounds(spec)
     stepping, relative_to_drift, relative_to_frame, drift_point = (
         fr.stepping,

@@ -11,7 +11,8 @@ else the plane is watched from there. A watched plane is met where its gap n.(x 
 0, also inside a step whose ends are both clear of it (a graze: the gap's minimum on the step).
 Ties go to the lower index; a contact later than MAX_FLIGHT_TIME counts as none, and a flight
 that takes more than MAX_FLIGHT_STEPS steps is given up (plane -2, counted in the statistics).
-The planes' states live in the bits of an int32: at most `limits.MAX_PLANES_IN_AIR` planes.
+The planes' states live in the bits of an int32: at most `limits.MAX_PLANES_IN_AIR` planes. The
+planes are read through `physics.geometry` (heights at the start, a step's gaps, the contact's normal).
 """
 
 import functools
@@ -20,6 +21,7 @@ from types import SimpleNamespace
 import warp as wp
 
 from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT, ROUNDING
+from .geometry import make_geometry
 from .integrate import make_dense_output, make_stepper
 from .types import types_for
 
@@ -92,16 +94,14 @@ def make_plane_search(precision: str, planes) -> SimpleNamespace:
     contact on an accepted step); `planes`: fixed at code generation (unrolled) or None."""
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
-    roots = make_roots(precision)
+    roots, geo = make_roots(precision), make_geometry(precision, planes)
     hermite = make_dense_output(precision).hermite
     STATIC, TOLERANCE = planes, scalar(ROUNDING * EPSILON[precision])
 
     @wp.func
     def start_plane(k: wp.int32, position: vec3, velocity: vec3, touching: wp.int32, surfaces: Surfaces, physics: Physics):
         """Plane k at a flight's start: 0 never met, 1 watched, 2 waiting for the turn, 3 met now."""
-        normal = surfaces.normal[k]
-        offset = position - surfaces.point[k]
-        height = wp.dot(offset, normal)
+        height, noise, normal = geo.locate(surfaces, k, position)
         moving_away = wp.dot(velocity, normal) > scalar(0.0)
         state = wp.int32(0)
         if k == touching:
@@ -110,9 +110,7 @@ def make_plane_search(precision: str, planes) -> SimpleNamespace:
                 state = wp.int32(2)
         elif height >= scalar(0.0):
             gap = height - physics.radius
-            if wp.abs(gap) <= TOLERANCE * (
-                wp.abs(offset[0] * normal[0]) + wp.abs(offset[1] * normal[1]) + wp.abs(offset[2] * normal[2]) + physics.radius
-            ):
+            if wp.abs(gap) <= TOLERANCE * (noise + physics.radius):
                 gap = scalar(0.0)  # touching, up to rounding
             state = wp.int32(1)
             if gap <= scalar(0.0):
@@ -127,7 +125,7 @@ def make_plane_search(precision: str, planes) -> SimpleNamespace:
         watched = wp.int32(0)
         waiting = wp.int32(0)
         now = wp.int32(-1)
-        count = surfaces.point.shape[0]
+        count = geo.count(surfaces)
         if wp.static(STATIC is not None):
             count = wp.static(STATIC)
         for k in range(count):
@@ -183,7 +181,7 @@ def make_plane_search(precision: str, planes) -> SimpleNamespace:
         plane; -1 and 2 for none) and the planes' states after the step."""
         best_theta = scalar(2.0)
         best = wp.int32(-1)
-        count = surfaces.point.shape[0]
+        count = geo.count(surfaces)
         if wp.static(STATIC is not None):
             count = wp.static(STATIC)
         for k in range(count):
@@ -194,17 +192,8 @@ def make_plane_search(precision: str, planes) -> SimpleNamespace:
             elif (waiting & bit) != 0:
                 watch = wp.int32(2)
             if watch != 0:
-                normal = surfaces.normal[k]
-                level = wp.dot(surfaces.point[k], normal) + physics.radius
-                theta, now_watched = plane_theta(
-                    watch,
-                    wp.dot(x0, normal) - level,
-                    h * wp.dot(v0, normal),
-                    h * h * wp.dot(a0, normal),
-                    wp.dot(x1, normal) - level,
-                    h * wp.dot(v1, normal),
-                    h * h * wp.dot(a1, normal),
-                )
+                g0, s0, q0, g1, s1, q1 = geo.step_gaps(surfaces, k, physics.radius, h, x0, v0, a0, x1, v1, a1)
+                theta, now_watched = plane_theta(watch, g0, s0, q0, g1, s1, q1)
                 if now_watched != 0:
                     watched = watched | bit
                     waiting = waiting & ~bit
@@ -223,6 +212,7 @@ def make_air_flight(precision: str, planes, laws: tuple) -> SimpleNamespace:
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
     stepper, dense, search = make_stepper(precision, laws), make_dense_output(precision), make_plane_search(precision, planes)
+    geo = make_geometry(precision, planes)
     LATEST, MAX_STEPS = scalar(MAX_FLIGHT_TIME), MAX_FLIGHT_STEPS
     SPIN_CHANGES = laws[2] is not None
 
@@ -267,14 +257,14 @@ def make_air_flight(precision: str, planes, laws: tuple) -> SimpleNamespace:
     def to_contact_within(
         position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces, physics: Physics, latest: scalar
     ):
-        """(dt, plane, x, v, w, steps) at the next plane contact within `latest` (s); plane -1
-        (none by then: the state `latest` later) or GAVE_UP with the state where the flight
-        stopped."""
+        """(dt, plane, normal, x, v, w, steps) at the next plane contact within `latest` (s) (its
+        normal: the plane's there); plane -1 (none by then: the state `latest` later) or GAVE_UP
+        with the state where the flight stopped, normal 0."""
         watched, waiting, now = search.start(position, velocity, touching, surfaces, physics)
         if now >= 0:
-            return scalar(0.0), now, position, velocity, spin, wp.int32(0)
+            return scalar(0.0), now, geo.normal(surfaces, now, position), position, velocity, spin, wp.int32(0)
         if watched == 0 and waiting == 0 and latest >= LATEST:
-            return scalar(NO_CONTACT), wp.int32(-1), position, velocity, spin, wp.int32(0)
+            return scalar(NO_CONTACT), wp.int32(-1), vec3(), position, velocity, spin, wp.int32(0)
         acceleration, spin_change = stepper.rates(velocity, spin, physics)
         h = first_step(velocity, spin, acceleration, spin_change, physics)
         time = scalar(0.0)
@@ -290,7 +280,7 @@ def make_air_flight(precision: str, planes, laws: tuple) -> SimpleNamespace:
                 if k >= 0:
                     x, slope = dense.hermite_vec(theta, position, h * velocity, h * h * acceleration, x1, h * v1, h * h * a1)
                     w = dense.cubic_vec(theta, spin, h * spin_change, w1, h * d1)
-                    return time + theta * h, k, x, slope / h, w, steps
+                    return time + theta * h, k, geo.normal(surfaces, k, x), x, slope / h, w, steps
                 position = x1
                 velocity = v1
                 spin = w1
@@ -301,11 +291,11 @@ def make_air_flight(precision: str, planes, laws: tuple) -> SimpleNamespace:
         stopped = wp.int32(-1)
         if steps >= MAX_STEPS:
             stopped = wp.int32(GAVE_UP)
-        return scalar(NO_CONTACT), stopped, position, velocity, spin, steps
+        return scalar(NO_CONTACT), stopped, vec3(), position, velocity, spin, steps
 
     @wp.func
     def to_contact(position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces, physics: Physics):
-        """(dt, plane, x, v, w, steps) at the next plane contact; plane -1 (none before
+        """(dt, plane, normal, x, v, w, steps) at the next plane contact; plane -1 (none before
         MAX_FLIGHT_TIME) or GAVE_UP with the state where the flight stopped."""
         return to_contact_within(position, velocity, spin, touching, surfaces, physics, LATEST)
 

@@ -27,21 +27,14 @@ EPSILON = {"float32": 1.1920929e-07, "float64": 2.220446049250313e-16}
 
 
 @functools.cache
-def make_ballistic(scalar, planes=None, snap=True):  # noqa: C901
-    """Return the flight `@wp.func`s for a Warp scalar type.
-
-    `planes`: the number of planes when fixed at code generation (the loop over planes is then
-    unrolled and, for the plane just left, the choice of root folded away); None reads it from
-    the arrays at run time. `snap`: a gap within rounding noise of zero is taken as zero (below);
-    False for the dense phase in air, whose kicks move a pellet's reference state every few
-    steps: a snap at each would meet a plane early wherever the pellet comes within the noise
-    band of it (docs/air.md, section 3.2).
-    """
+def make_ballistic(scalar):
+    """Return the flight `@wp.func`s for a Warp scalar type: `entry_time` and `return_time` (the
+    roots of a gap's quadratic) and eq. (36)'s position and velocity. The search over the surfaces
+    is `physics.geometry.make_geometry(...).next_contact`, with the snap described above (`snap`
+    False for the dense phase in air, whose kicks move a pellet's reference state every few steps:
+    a snap at each would meet a plane early wherever the pellet comes within the noise band of it,
+    docs/air.md, section 3.2)."""
     vec3 = wp.types.vector(3, scalar)
-    STATIC_PLANES = planes
-    SNAP = snap
-    TOLERANCE = scalar(ROUNDING * EPSILON["float32" if scalar is wp.float32 else "float64"])
-    LATEST = scalar(MAX_FLIGHT_TIME)
 
     @wp.func
     def entry_time(gap: scalar, normal_speed: scalar, half_normal_gravity: scalar):
@@ -90,70 +83,6 @@ def make_ballistic(scalar, planes=None, snap=True):  # noqa: C901
         return scalar(NO_CONTACT)
 
     @wp.func
-    def plane_time(
-        k: wp.int32,
-        position: vec3,
-        velocity: vec3,
-        gravity: vec3,
-        radius: scalar,
-        points: wp.array(dtype=vec3),
-        normals: wp.array(dtype=vec3),
-        touching: wp.int32,
-    ):
-        """Time until the pellet meets plane k, or NO_CONTACT (also beyond MAX_FLIGHT_TIME)."""
-        normal = normals[k]
-        normal_speed = wp.dot(velocity, normal)
-        normal_gravity = wp.dot(gravity, normal)
-        if wp.abs(normal_gravity) <= TOLERANCE * (wp.abs(gravity[0]) + wp.abs(gravity[1]) + wp.abs(gravity[2])):
-            normal_gravity = scalar(0.0)  # gravity along the plane, up to rounding
-        half_normal_gravity = scalar(0.5) * normal_gravity
-        t = scalar(NO_CONTACT)
-        if k == touching:
-            t = return_time(normal_speed, half_normal_gravity)
-        else:
-            offset = position - points[k]
-            centre_height = wp.dot(offset, normal)
-            if centre_height >= scalar(0.0):  # one-sided: centre behind the plane never touches
-                gap = centre_height - radius
-                if wp.static(SNAP):  # the gap's rounding noise scales with sum |offset_k n_k|
-                    if wp.abs(gap) <= TOLERANCE * (
-                        wp.abs(offset[0] * normal[0]) + wp.abs(offset[1] * normal[1]) + wp.abs(offset[2] * normal[2]) + radius
-                    ):
-                        gap = scalar(0.0)  # touching, up to rounding
-                t = entry_time(gap, normal_speed, half_normal_gravity)
-        if t > LATEST:
-            t = scalar(NO_CONTACT)
-        return t
-
-    @wp.func
-    def next_contact(
-        position: vec3,  # m, pellet centre
-        velocity: vec3,  # m/s
-        gravity: vec3,  # m/s^2
-        radius: scalar,  # m
-        points: wp.array(dtype=vec3),
-        normals: wp.array(dtype=vec3),
-        touching: wp.int32,  # index of the plane the pellet is leaving, or -1
-    ):
-        """Return (time, plane index) of the next contact; index -1 when none (time NO_CONTACT).
-        Ties go to the lower index."""
-        best_time = scalar(NO_CONTACT)
-        best_plane = wp.int32(-1)
-        if wp.static(STATIC_PLANES is None):
-            for k in range(points.shape[0]):
-                t = plane_time(k, position, velocity, gravity, radius, points, normals, touching)
-                if t >= scalar(0.0) and (best_plane < 0 or t < best_time):
-                    best_time = t
-                    best_plane = wp.int32(k)
-        else:
-            for k in range(wp.static(STATIC_PLANES)):  # unrolled
-                t = plane_time(k, position, velocity, gravity, radius, points, normals, touching)
-                if t >= scalar(0.0) and (best_plane < 0 or t < best_time):
-                    best_time = t
-                    best_plane = wp.int32(k)
-        return best_time, best_plane
-
-    @wp.func
     def ballistic_position(position: vec3, velocity: vec3, gravity: vec3, t: scalar):
         """Eq. (36): r(t) = r0 + v0 t + g t^2 / 2."""
         return position + velocity * t + (scalar(0.5) * t * t) * gravity
@@ -163,4 +92,4 @@ def make_ballistic(scalar, planes=None, snap=True):  # noqa: C901
         """dr/dt of eq. (36)."""
         return velocity + gravity * t
 
-    return entry_time, return_time, next_contact, ballistic_position, ballistic_velocity
+    return entry_time, return_time, ballistic_position, ballistic_velocity

@@ -1,5 +1,6 @@
 """Where a pellet meets a plane: an impact (the law of `physics.impact`) or the end of its flight,
-and the range of eq. (42). The core kernel and the dense phase both decide with these functions.
+and the range of eq. (42). The core kernel and the dense phase both decide with these functions;
+the surface's normal and material at the contact come from `physics.geometry`.
 
 A pellet that meets a plane without closing speed beyond rounding noise rests on it: its flight
 ends there and it is not an impact (an overlapping pellet meets the plane at its apex, where v_n
@@ -12,6 +13,7 @@ import functools
 import warp as wp
 
 from .ballistic import EPSILON, ROUNDING
+from .geometry import make_geometry
 from .impact import make_impact_law
 from .types import types_for
 
@@ -20,8 +22,8 @@ from .types import types_for
 def make_contact(precision: str):
     """`rests`, `stays`, `impact`, `meet_surface`, `contact_point` and `landing_range` for one precision."""
     t = types_for(precision)
-    scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
-    impact_law = make_impact_law(scalar)
+    scalar, vec3, Surfaces, Material, Physics = t.scalar, t.vec3, t.Surfaces, t.Material, t.Physics
+    impact_law, geo = make_impact_law(scalar), make_geometry(precision)
     CLOSING_TOLERANCE2 = scalar((ROUNDING * EPSILON[precision]) ** 2)  # normal speeds within rounding of 0
 
     @wp.func
@@ -37,29 +39,30 @@ def make_contact(precision: str):
         return leaving_speed * leaving_speed <= CLOSING_TOLERANCE2 * speed_before2
 
     @wp.func
-    def impact(k: wp.int32, normal: vec3, velocity: vec3, spin: vec3, surfaces: Surfaces, physics: Physics):
-        """The impact law (eqs. 1-25) at plane k of unit `normal`, gravity resisted during the
-        contact (eq. 10): (velocity', spin', slipped)."""
+    def impact(material: Material, normal: vec3, velocity: vec3, spin: vec3, physics: Physics):
+        """The impact law (eqs. 1-25) on a surface of `material` and unit `normal` at the contact
+        (`physics.geometry`), gravity resisted during the contact (eq. 10): (velocity', spin', slipped)."""
         return impact_law(
             velocity,
             spin,
             normal,
             physics.radius,
             physics.inertia_factor,
-            surfaces.restitution[k],
-            surfaces.mu_s[k],
-            surfaces.mu_d[k],
+            material.restitution,
+            material.mu_s,
+            material.mu_d,
             wp.dot(physics.gravity, normal) * physics.impact_duration,
         )
 
     @wp.func
-    def meet_surface(k: wp.int32, velocity: vec3, spin: vec3, surfaces: Surfaces, physics: Physics):
-        """A pellet with `velocity` (m/s) and `spin` (rad/s) at plane k: returns (velocity',
-        spin', slipped, impacted, flies_on). Not an impact if it rests there (unchanged state)."""
-        normal = surfaces.normal[k]
+    def meet_surface(k: wp.int32, position: vec3, velocity: vec3, spin: vec3, surfaces: Surfaces, physics: Physics):
+        """A pellet at `position` (m) with `velocity` (m/s) and `spin` (rad/s) meets surface k:
+        returns (velocity', spin', slipped, impacted, flies_on). Not an impact if it rests there
+        (unchanged state)."""
+        normal = geo.normal(surfaces, k, position)
         if rests(velocity, normal):
             return velocity, spin, wp.int32(0), wp.int32(0), wp.int32(0)
-        velocity_after, spin_after, slipped = impact(k, normal, velocity, spin, surfaces, physics)
+        velocity_after, spin_after, slipped = impact(geo.material(surfaces, k, position), normal, velocity, spin, physics)
         flies_on = wp.int32(1)
         if stays(velocity_after, normal, wp.dot(velocity, velocity)):
             flies_on = wp.int32(0)

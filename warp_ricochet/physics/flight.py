@@ -4,9 +4,10 @@
 
 - `next_contact(position, velocity, spin, touching, surfaces, physics) -> (dt, k)`: the time (s)
   until the pellet meets a plane and the plane's index (k = -1, dt = NO_CONTACT: none);
-- `to_contact(position, velocity, spin, touching, surfaces, physics) -> (dt, k, position,
-  velocity, spin, steps)`: the same, the state there (unchanged when k = -1 in vacuum) and the
-  integration steps it took (0 in vacuum); k = GAVE_UP when an integration gave up;
+- `to_contact(position, velocity, spin, touching, surfaces, physics) -> (dt, k, normal, position,
+  velocity, spin, steps)`: the contact with its normal (the surface's there, `physics.geometry`;
+  0 when none), the state there (unchanged when k = -1 in vacuum) and the integration steps it
+  took (0 in vacuum); k = GAVE_UP when an integration gave up;
 - `advance(position, velocity, spin, dt, physics) -> (position, velocity, spin)`: the state `dt`
   later, with no contact in between.
 
@@ -25,6 +26,7 @@ import warp as wp
 
 from .air_flight import GAVE_UP, make_air_flight
 from .ballistic import NO_CONTACT, make_ballistic
+from .geometry import make_geometry
 from .types import types_for
 
 MODELS = ("ballistic", "air")
@@ -41,12 +43,13 @@ def make_flight(precision: str, planes=None, model: str = "ballistic", laws=None
         return _air_flight(precision, planes, laws)
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
-    _entry, _return, contact_time, position_at, velocity_at = make_ballistic(scalar, planes, snap)
+    _entry, _return, position_at, velocity_at = make_ballistic(scalar)
+    geo = make_geometry(precision, planes, snap)
 
     @wp.func
     def next_contact(position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces, physics: Physics):
         """The exact parabola's next plane contact (eqs. 36-40): (dt, plane index)."""
-        return contact_time(position, velocity, physics.gravity, physics.radius, surfaces.point, surfaces.normal, touching)
+        return geo.next_contact(surfaces, position, velocity, physics.gravity, physics.radius, touching)
 
     @wp.func
     def advance(position: vec3, velocity: vec3, spin: vec3, dt: scalar, physics: Physics):
@@ -55,12 +58,12 @@ def make_flight(precision: str, planes=None, model: str = "ballistic", laws=None
 
     @wp.func
     def to_contact(position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces, physics: Physics):
-        """The next plane contact and the state there."""
+        """The next plane contact, its normal and the state there."""
         dt, k = next_contact(position, velocity, spin, touching, surfaces, physics)
         if k < 0:
-            return dt, k, position, velocity, spin, wp.int32(0)
+            return dt, k, vec3(), position, velocity, spin, wp.int32(0)
         position_then, velocity_then, spin_then = advance(position, velocity, spin, dt, physics)
-        return dt, k, position_then, velocity_then, spin_then, wp.int32(0)
+        return dt, k, geo.normal(surfaces, k, position_then), position_then, velocity_then, spin_then, wp.int32(0)
 
     return SimpleNamespace(
         model=model, next_contact=next_contact, to_contact=to_contact, advance=advance, NO_CONTACT=NO_CONTACT, GAVE_UP=GAVE_UP
@@ -75,7 +78,7 @@ def _air_flight(precision: str, planes, laws) -> SimpleNamespace:
     @wp.func
     def next_contact(position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces, physics: Physics):
         """The integrated flight's next plane contact: (dt, plane index)."""
-        dt, k, _x, _v, _w, _steps = air.to_contact(position, velocity, spin, touching, surfaces, physics)
+        dt, k, _normal, _x, _v, _w, _steps = air.to_contact(position, velocity, spin, touching, surfaces, physics)
         return dt, k
 
     return SimpleNamespace(

@@ -1,7 +1,8 @@
 """The kernels' precision and the scene constants the laws read, as Warp structs (SI units).
 
 `types_for(precision)` gives the scalar and 3-vector types of "float32" or "float64" and the
-`Surfaces` (planes), `Air` (the air's constants, premultiplied for the laws of `physics.air`) and
+`Surfaces` (planes, read only through `physics.geometry`), `Material` (what a surface is made
+of at a point), `Air` (the air's constants, premultiplied for the laws of `physics.air`) and
 `Physics` (pellet, gravity, air) structs that `model.Model` fills once per scene and device.
 """
 
@@ -15,7 +16,7 @@ SCALARS = {"float32": wp.float32, "float64": wp.float64}
 
 @functools.cache
 def types_for(precision: str) -> SimpleNamespace:
-    """scalar, vec3, Surfaces and Physics of one precision ("float32" or "float64")."""
+    """scalar, vec3, Surfaces, Material, Air and Physics of one precision ("float32" or "float64")."""
     scalar = SCALARS[precision]
     vec3 = wp.types.vector(3, scalar)
 
@@ -28,6 +29,14 @@ def types_for(precision: str) -> SimpleNamespace:
         restitution: wp.array(dtype=scalar)
         mu_s: wp.array(dtype=scalar)
         mu_d: wp.array(dtype=scalar)
+
+    @wp.struct
+    class Material:
+        """A surface's material at a point (`physics.geometry.material`): restitution E, mu_s, mu_d."""
+
+        restitution: scalar
+        mu_s: scalar
+        mu_d: scalar
 
     @wp.struct
     class Air:
@@ -60,4 +69,6 @@ def types_for(precision: str) -> SimpleNamespace:
         impact_duration: scalar  # s, the paper's delta t
         air: Air
 
-    return SimpleNamespace(precision=precision, scalar=scalar, vec3=vec3, Surfaces=Surfaces, Air=Air, Physics=Physics)
+    return SimpleNamespace(
+        precision=precision, scalar=scalar, vec3=vec3, Surfaces=Surfaces, Material=Material, Air=Air, Physics=Physics
+    )

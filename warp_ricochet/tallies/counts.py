@@ -98,9 +98,9 @@ class TallySetup:
 def _map_geometry(scene, hazard, shooter) -> dict:
     """The grid on the map's plane: origin (the shooter projected on it), axes u (map_axis or the
     shot's direction, projected) and v = n x u, lower corner, cells (the extent rounded up to whole cells)."""
-    plane = scene.surfaces[hazard.map_surface]
-    n = np.asarray(plane.normal, dtype=np.float64)
-    origin = shooter - np.dot(shooter - np.asarray(plane.point), n) * n
+    from ..physics.geometry import project  # (imports warp: not at the top, as the rest of this module)
+
+    origin, n = project(scene.surfaces[hazard.map_surface], shooter)
     axis = np.asarray(hazard.map_axis or scene.shot.direction, dtype=np.float64)
     u = axis - np.dot(axis, n) * n
     if np.linalg.norm(u) < 1e-9 * np.linalg.norm(axis):  # the axis is normal to the plane: any in-plane axis

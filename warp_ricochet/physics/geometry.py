@@ -1,0 +1,161 @@
+"""The surfaces behind one interface: the only code that reads the `Surfaces` struct (SI units).
+
+Solvers (the core's flight and impacts, the dense phase's events, kicks and leaps) ask these
+`@wp.func`s about surface k, never its arrays, so that what a surface is (today an infinite
+one-sided plane: a point p and a unit normal n towards the pellets) can change in one place:
+
+- `count(surfaces)`: how many surfaces (loops over them are unrolled where `spec.static_planes`);
+- `locate(surfaces, k, x) -> (height, noise, normal)`: the signed distance (m) of a point x from
+  the surface along its normal (> 0 on the pellets' side; a sphere of radius R then has the gap
+  height - R), the scale of that distance's rounding noise (m; a plane: sum_i |(x - p)_i n_i|), and
+  the unit normal at the surface point nearest x;
+- `normal(surfaces, k, x) -> vec3`: that normal alone;
+- `material(surfaces, k, x) -> Material`: restitution E, mu_s and mu_d at the surface point
+  nearest x (a plane: one pair per surface);
+- `step_gaps(surfaces, k, radius, h, x0, v0, a0, x1, v1, a1)`: a sphere's gap at both ends of an
+  integration step of length h (s), with h and h^2 times its first and second time derivatives
+  (the Hermite data the integrated flight searches for contacts, `physics.air_flight`);
+- `contact_time(surfaces, k, ...)` and `next_contact(surfaces, ...)`: when the exact parabola of
+  eq. (36) meets surface k, and the earliest of all surfaces (the rules of `physics.ballistic`).
+
+A contact carries its normal: the flights' `to_contact` return (time, surface, normal, state)
+(`physics.flight`). The host sees the same planes through `project` (the hazard map's grid).
+Arithmetic is that of the code it replaced, operation for operation: results are bitwise those
+before (tests/test_golden.py). The small queries are force-inlined, as the reads they replace were.
+"""
+
+import functools
+from types import SimpleNamespace
+
+import numpy as np
+import warp as wp
+
+from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT, ROUNDING, make_ballistic
+from .types import types_for
+
+
+@functools.cache
+def make_geometry(precision: str, planes=None, snap: bool = True) -> SimpleNamespace:
+    """The geometry `@wp.func`s of one precision. `planes`: the number of surfaces when fixed at
+    code generation (the search over them unrolled), else None; `snap`: the parabola's search takes
+    a gap within rounding of zero as zero (`physics.ballistic.make_ballistic`)."""
+    t = types_for(precision)
+    scalar, vec3, Surfaces, Material = t.scalar, t.vec3, t.Surfaces, t.Material
+    entry_time, return_time, _position, _velocity = make_ballistic(scalar)
+    STATIC_PLANES, SNAP = planes, snap
+    TOLERANCE = scalar(ROUNDING * EPSILON[precision])
+    LATEST = scalar(MAX_FLIGHT_TIME)
+
+    @wp.func(inline=True)
+    def count(surfaces: Surfaces):
+        """The number of surfaces."""
+        return surfaces.point.shape[0]
+
+    @wp.func(inline=True)
+    def normal(surfaces: Surfaces, k: wp.int32, x: vec3):
+        """The unit normal (towards the pellets) of surface k at the point nearest x."""
+        return surfaces.normal[k]
+
+    @wp.func(inline=True)
+    def locate(surfaces: Surfaces, k: wp.int32, x: vec3):
+        """(height, noise, normal): x's signed distance from surface k (m), its rounding scale (m)
+        and the unit normal there. A plane: n.(x - p) and sum_i |(x - p)_i n_i|."""
+        n = surfaces.normal[k]
+        offset = x - surfaces.point[k]
+        noise = wp.abs(offset[0] * n[0]) + wp.abs(offset[1] * n[1]) + wp.abs(offset[2] * n[2])
+        return wp.dot(offset, n), noise, n
+
+    @wp.func(inline=True)
+    def material(surfaces: Surfaces, k: wp.int32, x: vec3):
+        """Surface k's material at the point nearest x: restitution, mu_s, mu_d."""
+        m = Material()
+        m.restitution = surfaces.restitution[k]
+        m.mu_s = surfaces.mu_s[k]
+        m.mu_d = surfaces.mu_d[k]
+        return m
+
+    @wp.func(inline=True)
+    def step_gaps(
+        surfaces: Surfaces, k: wp.int32, radius: scalar, h: scalar, x0: vec3, v0: vec3, a0: vec3, x1: vec3, v1: vec3, a1: vec3
+    ):
+        """A sphere's gap to surface k at a step's ends (states 0 and 1, h s apart) with h and h^2
+        times its first and second derivatives: (g0, h g0', h^2 g0'', g1, h g1', h^2 g1''). A
+        plane: g = n.x - (n.p + R), linear in x."""
+        n = surfaces.normal[k]
+        level = wp.dot(surfaces.point[k], n) + radius
+        return (
+            wp.dot(x0, n) - level,
+            h * wp.dot(v0, n),
+            h * h * wp.dot(a0, n),
+            wp.dot(x1, n) - level,
+            h * wp.dot(v1, n),
+            h * h * wp.dot(a1, n),
+        )
+
+    @wp.func
+    def contact_time(
+        surfaces: Surfaces,
+        k: wp.int32,
+        position: vec3,  # m, the sphere's centre
+        velocity: vec3,  # m/s
+        gravity: vec3,  # m/s^2
+        radius: scalar,  # m
+        touching: wp.int32,  # the surface it is leaving, or -1
+    ):
+        """Time (s) until the parabola of eq. (36) meets surface k, or NO_CONTACT (also beyond
+        MAX_FLIGHT_TIME). A plane's gap is the quadratic of `physics.ballistic`; one-sided."""
+        height, noise, n = locate(surfaces, k, position)
+        normal_speed = wp.dot(velocity, n)
+        normal_gravity = wp.dot(gravity, n)
+        if wp.abs(normal_gravity) <= TOLERANCE * (wp.abs(gravity[0]) + wp.abs(gravity[1]) + wp.abs(gravity[2])):
+            normal_gravity = scalar(0.0)  # gravity along the plane, up to rounding
+        half_normal_gravity = scalar(0.5) * normal_gravity
+        t = scalar(NO_CONTACT)
+        if k == touching:
+            t = return_time(normal_speed, half_normal_gravity)
+        elif height >= scalar(0.0):  # one-sided: centre behind the plane never touches
+            gap = height - radius
+            if wp.static(SNAP):  # the gap's rounding noise scales with sum |offset_k n_k|
+                if wp.abs(gap) <= TOLERANCE * (noise + radius):
+                    gap = scalar(0.0)  # touching, up to rounding
+            t = entry_time(gap, normal_speed, half_normal_gravity)
+        if t > LATEST:
+            t = scalar(NO_CONTACT)
+        return t
+
+    @wp.func
+    def next_contact(surfaces: Surfaces, position: vec3, velocity: vec3, gravity: vec3, radius: scalar, touching: wp.int32):
+        """(time, surface) of the parabola's next contact; surface -1 when none (time NO_CONTACT).
+        Ties go to the lower index."""
+        best_time = scalar(NO_CONTACT)
+        best_plane = wp.int32(-1)
+        if wp.static(STATIC_PLANES is None):
+            for k in range(count(surfaces)):
+                t = contact_time(surfaces, k, position, velocity, gravity, radius, touching)
+                if t >= scalar(0.0) and (best_plane < 0 or t < best_time):
+                    best_time = t
+                    best_plane = wp.int32(k)
+        else:
+            for k in range(wp.static(STATIC_PLANES)):  # unrolled
+                t = contact_time(surfaces, k, position, velocity, gravity, radius, touching)
+                if t >= scalar(0.0) and (best_plane < 0 or t < best_time):
+                    best_time = t
+                    best_plane = wp.int32(k)
+        return best_time, best_plane
+
+    return SimpleNamespace(
+        count=count,
+        normal=normal,
+        locate=locate,
+        material=material,
+        step_gaps=step_gaps,
+        contact_time=contact_time,
+        next_contact=next_contact,
+    )
+
+
+def project(surface, x):
+    """On the host, in float64: (foot, normal) of a scene's surface (a `scene.schema` plane) seen
+    from the point x (m): the point of the surface below x along its normal, and the unit normal."""
+    n = np.asarray(surface.normal, dtype=np.float64)
+    return x - np.dot(x - np.asarray(surface.point), n) * n, n
