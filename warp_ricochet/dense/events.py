@@ -25,9 +25,8 @@ def make_events(spec) -> SimpleNamespace:
     d = dense_types(spec)
     scalar, vec3, Surfaces, Physics, Outputs, Cloud, Pair = d.scalar, d.vec3, d.Surfaces, d.Physics, d.Outputs, d.Cloud, d.Pair
     CLOSING_TOLERANCE2 = d.CLOSING_TOLERANCE2
-    flight = make_flight(
-        spec.precision, spec.static_planes, snap=spec.flight != "air"
-    )  # within a step: the exact ballistic flight
+    # within a step: the exact ballistic flight
+    flight = make_flight(spec.precision, spec.static_planes, snap=spec.flight != "air")
     next_contact, advance = flight.next_contact, flight.advance
     _rests, _stays, _impact, meet_surface, contact_point, _range = make_contact(spec.precision)
     _entry, _return, ballistic_position, ballistic_velocity = make_ballistic(scalar)

@@ -101,9 +101,8 @@ def make_state(precision: str):
         clock: wp.array2d(dtype=scalar)  # (shots, NUM_CLOCK)
         shot_flags: wp.array2d(dtype=wp.int32)
         flags: wp.array(dtype=wp.int32)
-        step_travel: wp.array(
-            dtype=scalar
-        )  # (shots,) m: the most a pellet moves in one step relative to its frame, when beyond half the skin
+        # (shots,) m: the most a pellet moves in one step relative to its frame, when beyond half the skin
+        step_travel: wp.array(dtype=scalar)
         half_skin: wp.array(dtype=scalar)  # (shots,) m: the shot's half skin (widened for a fixed step that outruns it)
         widest_half_skin: wp.array(dtype=scalar)  # (1,) m: the widest of them (the grid's cells)
         stop: wp.array(dtype=wp.int32)  # (1,) 1: the host asks the CPU's long launches to return (an interrupt)

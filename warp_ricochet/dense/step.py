@@ -97,9 +97,8 @@ def make_step(spec) -> SimpleNamespace:
             if wp.length(relative - cloud.build_offset[i]) > edge_distance:
                 edge = wp.int32(1)
             if wp.static(AIR):
-                rate = air.pellet_rate(
-                    i, time, pair, surfaces, physics, cloud
-                )  # (as bounds_pellet: the same bits on every schedule)
+                # (as bounds_pellet: the same bits on every schedule)
+                rate = air.pellet_rate(i, time, pair, surfaces, physics, cloud)
         return speed, edge, rate
 
     @wp.func(inline=True)

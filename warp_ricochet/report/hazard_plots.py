@@ -109,9 +109,8 @@ def draw_survival(fig, source, title="Landings beyond a distance from the shoote
             same = all_counts.tolist() == counts[index].tolist()
             label = "above " + ", ".join(names[shown[g]] for g in group) + (" (every landing)" if same else "")
             s = np.append(_survival(counts[index], total)[lo:hi], 0.0)
-            ax.step(
-                x, np.maximum(s, 1e-12), where="post", color=colours[index], label=label, ls=(0, (6, 3)) if same else "-"
-            )  # dashed over the black curve it hides otherwise
+            dashes = (0, (6, 3)) if same else "-"  # dashed over the black curve it hides otherwise
+            ax.step(x, np.maximum(s, 1e-12), where="post", color=colours[index], label=label, ls=dashes)
             for j, p in enumerate(d["fractions"]):
                 r = d["danger_distance"][index, j]
                 if np.isfinite(r):
