@@ -107,7 +107,7 @@ def check_tallies(scene, dev, output) -> int:
     if not scene.output.quantiles:
         return 0
     setup = TallySetup.of(scene, 1.0, 1.0, 1.0)  # (the shapes do not depend on the pellets)
-    host, device, file = tally_bytes(setup, dev, output is not None)
+    host, device, file = tally_bytes(setup, dev, output is not None, scene.shot.pellets)
     if setup.has_map:
         hazard = scene.hazard
         key, value = "hazard.map_cell", hazard.map_cell

@@ -121,21 +121,36 @@ def _map_geometry(scene, hazard, shooter) -> dict:
     )
 
 
-def tally_bytes(setup: TallySetup, device, with_file: bool) -> tuple[int, int, int]:
-    """(host, device, file) bytes the landing tallies of a run on `device` take at most: every page
-    touched, as when landings cover the whole map (a sparse run's resident memory is less: 1e6 cells
-    x 31 thresholds, 200 pellets, CPU, with a file: 1.2 GB measured, 1.8 GB estimated). What is
-    alive at once at the end of a run: the device's counts (int32; the histograms in `copies_for`
-    copies) and int64 totals (F bytes); on the host the dense totals (F), with a file a host slot's
-    copy of them (one per slot: 2 on CUDA) and `flat()`'s for /progress (F each), on CUDA the dense
-    copy `receive` makes (F), and `quantiles.summarize`'s map layers ((levels + thresholds + 2)
-    int64 per cell); on the CPU the device's arrays are host memory too. The file: /progress/tally's
-    two slots (2F, gzip: at most that), the histogram counts and the map's count, energy and above
-    layers ((thresholds + 2) x 8 bytes per cell)."""
+GZIP_ZEROS = 128  # gzip level 1 stores runs of zeros at least this many times smaller (zlib: 228x)
+GZIP_WORD = 16  # bytes at most a nonzero int64 costs amid zeros at gzip level 1 (zlib: about 10)
+GZIP_OVERHEAD = 1 << 16  # a compressed dataset's chunk index and headers
+
+
+def gzip_bytes(words: int, nonzero: int) -> int:
+    """Bytes at most that `words` int64 holding at most `nonzero` nonzero ones take gzip-compressed
+    (level 1, as io.tally_out stores them): the zeros' runs plus each nonzero word, never more than
+    stored plainly."""
+    dense = 8 * words
+    return min(dense, dense // GZIP_ZEROS + GZIP_WORD * min(nonzero, words)) + GZIP_OVERHEAD
+
+
+def tally_bytes(setup: TallySetup, device, with_file: bool, pellets: int) -> tuple[int, int, int]:
+    """(host, device, file) bytes the landing tallies of a run of `pellets` on `device` take at
+    most. Memory: every page touched, as when landings cover the whole map (a sparse run's resident
+    memory is less: 1e6 cells x 31 thresholds, 200 pellets, CPU, with a file: 1.2 GB measured, 1.8
+    GB estimated). What is alive at once at the end of a run: the device's counts (int32; the
+    histograms in `copies_for` copies) and int64 totals (F bytes); on the host the dense totals (F),
+    with a file a host slot's copy of them (one per slot: 2 on CUDA) and `flat()`'s for /progress (F
+    each), on CUDA the dense copy `receive` makes (F), and `quantiles.summarize`'s map layers ((levels
+    + thresholds + 2) int64 per cell); on the CPU the device's arrays are host memory too. The file,
+    every dataset gzip-compressed (`gzip_bytes`): /progress/tally's two slots (a landing adds to at
+    most one bin of each histogram row and one cell of each map row), the histogram counts, and the
+    map's count, energy and above layers (at most one cell each a landing)."""
     levels, thresholds, cells = setup.levels, setup.levels - 1, setup.cells if setup.has_map else 0
     width = cells + 2 if setup.has_map else 0
     hist = (ROW_DISTANCE + levels) * BINS
-    flat = 8 * (hist + levels * width + width)
+    words = hist + levels * width + width
+    flat = 8 * words
     on_device = 4 * (hist * copies_for(device, hist * 4) + levels * width) + 8 * width + flat
     host = flat + 8 * (levels + thresholds + 2) * cells
     if with_file:
@@ -144,7 +159,12 @@ def tally_bytes(setup: TallySetup, device, with_file: bool) -> tuple[int, int, i
         host += flat
     else:
         host, on_device = host + on_device, 0
-    file = 2 * flat + 8 * hist + 8 * (thresholds + 2) * cells if with_file else 0
+    file = 0
+    if with_file:
+        touched = (ROW_DISTANCE + levels) + (levels + 1 if setup.has_map else 0)  # words a landing adds to
+        file = 2 * gzip_bytes(words, pellets * touched) + gzip_bytes(hist, pellets * (ROW_DISTANCE + levels))
+        if setup.has_map:
+            file += (thresholds + 2) * gzip_bytes(cells, pellets)
     return host, on_device, file
 
 
