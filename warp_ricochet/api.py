@@ -404,8 +404,7 @@ def _point_done(stats, summary: bool):
     summary's temporaries of megabytes leave, and the heap would grow a point at a time."""
     tally, stats.tally = stats.tally, None
     if summary and tally is not None:
-        results = summarize(tally, int(stats["landed"]))
-        results.pop("map", None)
+        results = summarize(tally, int(stats["landed"]), with_map=False)
         stats.summary = _plain(results)
     return stats
 

@@ -383,7 +383,7 @@ def _loop(stage, pellets, sink, resumed, progress):
         if sink is not None:
             sink.append(arrays, slot.rows, segment_results, shot_totals, tally, shot_rows)
         done += slot.rows
-        log.debug("%s of %s pellets complete", f"{done:,}", f"{pellets:,}")
+        log.debug("%d of %d pellets complete", done, pellets)
         if progress is not None:
             progress(done, pellets)
 

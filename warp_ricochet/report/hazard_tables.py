@@ -24,13 +24,14 @@ def _fmt(x) -> str:
 
 
 def from_run(stats) -> dict | None:
-    """The results of a run's landing counts (None when it counted none)."""
+    """The results of a run's landing counts (None when it counted none), for its summary lines:
+    without the map's layers."""
     tally = getattr(stats, "tally", None)
     if tally is None:
         return None
     from ..tallies.quantiles import summarize
 
-    return summarize(tally, int(stats["landed"]))
+    return summarize(tally, int(stats["landed"]), with_map=False)
 
 
 def from_file(group) -> dict | None:

@@ -141,10 +141,11 @@ def levels_at_or_above(by_level) -> tuple[np.ndarray, slice]:
     return np.cumsum(by_level[::-1, span], axis=0)[::-1], span
 
 
-def summarize(tally, landed: int) -> dict:
+def summarize(tally, landed: int, with_map: bool = True) -> dict:
     """The results of a run's landing counts (`counts.TallyTotals`), as plain arrays: quantiles
     {name: (value, lower)}, tail (distance used, count, fraction), and with thresholds the danger
-    distances (rows: thresholds in scene order, columns: fractions) and the map's layers."""
+    distances (rows: thresholds in scene order, columns: fractions) and, `with_map`, the map's
+    layers (cells x thresholds: the costly part for a large map)."""
     setup, hist = tally.setup, tally.hist
     used, beyond = tail(hist[ROW_DISTANCE:].sum(axis=0), setup.tail_distances)
     out = {
@@ -172,7 +173,7 @@ def summarize(tally, landed: int) -> dict:
             "landings": by_threshold.sum(axis=1),
             **danger,
         }
-    if setup.has_map:
+    if setup.has_map and with_map:
         shape, cells, counts = (setup.map_nv, setup.map_nu), setup.cells, tally.map_counts
         above, span = levels_at_or_above(counts[:, :cells])  # landings at level >= L per cell
         layers = np.zeros((len(setup.names), cells), dtype=np.int64)
