@@ -557,3 +557,21 @@ def test_quiet_and_verbose_set_the_logging_level(tmp_path):
     assert "debug" not in verbose.stderr
     both = cli_subprocess("run", SCENE, "-q", "-v")
     assert both.returncode == 2 and "not allowed with argument" in both.stderr
+
+
+def test_a_standard_output_that_cannot_be_written_ends_with_status_120(tmp_path):
+    """`entry` ends with os._exit, which flushes nothing: output left in the buffer that cannot be
+    written (a full disk: /dev/full) must still fail the command, with CPython's own status 120."""
+    script = (
+        "import warp_ricochet.cli as c\n"
+        "def main():\n"
+        "    print('x' * 100)  # (buffered: stdout is a file)\n"
+        "    return 0\n"
+        "c.main = main\n"
+        "c.entry()\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    env.pop("PYTHONUNBUFFERED", None)  # (buffered, as a plain shell runs it)
+    with open("/dev/full", "w") as full:
+        proc = subprocess.run([sys.executable, "-c", script], stdout=full, stderr=subprocess.PIPE, env=env, timeout=120)
+    assert proc.returncode == 120, proc.stderr

@@ -494,7 +494,8 @@ def entry() -> int:
     interrupts.honour_until_exit((signal.SIGINT, signal.SIGTERM))
     status = main()
     atexit._run_exitfuncs()  # (e.g. Warp's)
-    _flush_all()
+    if not _flush_all() and status == 0:
+        status = 120  # what CPython exits with when it cannot flush stdout at its end
     if interrupts.pending() and status == 0:  # (a failure's status and line stand)
         print(f"{PROG}: interrupted{_LATE['note']}", file=sys.stderr)
         _flush_all()
@@ -502,17 +503,20 @@ def entry() -> int:
     os._exit(status)  # (a signal from here on is recorded and dropped: the process is ending)
 
 
-def _flush_all() -> None:
-    """Flush Python's standard streams and the C library's (os._exit does neither)."""
+def _flush_all() -> bool:
+    """Flush Python's standard streams and the C library's (os._exit does neither); whether
+    standard output could be flushed."""
+    flushed = True
     for stream in (sys.stdout, sys.stderr):
         try:
             stream.flush()
         except (OSError, ValueError):
-            pass
+            flushed = flushed and stream is not sys.stdout
     try:
         ctypes.CDLL(None).fflush(None)
     except (OSError, AttributeError, TypeError):
         pass
+    return flushed
 
 
 if __name__ == "__main__":
