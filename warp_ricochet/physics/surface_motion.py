@@ -235,7 +235,8 @@ def make_surface_closed_forms(precision: str) -> SimpleNamespace:
     ):
         """(time, ends at rest, exact) of a rolling phase in vacuum: until the speed falls to
         rest_speed where the resistance can hold the pellet, else to 0 (it then rolls back), or
-        NEVER. Its speed changes at (g_t . v/|v| - c N/m) / (1 + k), constant when g_t is along v."""
+        NEVER. Its speed changes at (g_t . v/|v| - c N/m) / (1 + k), constant when g_t is along v;
+        v across g_t keeps a part across it, so never stops (exact only for c = 0: dv/dt = g_t/(1+k))."""
         load = normal_load(normal, gravity)
         drive = tangential(gravity, normal)
         holds = held(normal, gravity, rolling_resistance)
@@ -245,9 +246,11 @@ def make_surface_closed_forms(precision: str) -> SimpleNamespace:
         if speed <= ZERO:  # from rest, not held: rolls down the slope, faster and faster
             return scalar(NEVER), wp.int32(0), ONE
         direction = unit(tangential(velocity, normal))
+        if across(drive, direction, wp.length(gravity)) == 1:  # v across the drive line: never stops
+            if rolling_resistance > ZERO:  # the resistance turns with v: no closed form
+                return scalar(NEVER), wp.int32(0), ZERO
+            return scalar(NEVER), wp.int32(0), ONE  # c = 0: dv/dt = 5/7 g_t, constant, for ever
         exact = ONE
-        if rolling_resistance > ZERO:  # without resistance dv/dt = 5/7 g_t in any direction
-            exact = ONE - scalar(across(drive, direction, wp.length(gravity)))
         rate = (wp.dot(drive, direction) - rolling_resistance * load) / (ONE + inertia_factor)
         if rate >= ZERO:
             return scalar(NEVER), wp.int32(0), exact
