@@ -45,7 +45,6 @@ from .ballistic import EPSILON, ROUNDING
 from .types import types_for
 
 FLIGHT, SLIDING, ROLLING, REST = 0, 1, 2, 3  # the modes of `surface_mode`
-MODES = ("flight", "sliding", "rolling", "rest")
 NEVER = -1.0  # the time of a phase that does not end (on an infinite plane)
 MAX_PHASES = 4  # slide, roll, stop on a slope and roll back: `follow_on_plane` needs at most 3
 
@@ -361,9 +360,7 @@ def make_surface_closed_forms(precision: str) -> SimpleNamespace:
                 spin = wp.dot(spin, normal) * normal
         return position, velocity, spin, elapsed, path, wp.int32(ROLLING), wp.int32(0)
 
-    return SimpleNamespace(
-        slide_end=slide_end, roll_end=roll_end, asinh=asinh, arc_length=arc_length, follow_on_plane=follow_on_plane
-    )
+    return SimpleNamespace(slide_end=slide_end, roll_end=roll_end, arc_length=arc_length, follow_on_plane=follow_on_plane)
 
 
 def make_surface_motion(precision: str) -> SimpleNamespace:
