@@ -287,7 +287,7 @@ def _probe_cases(precision, device, cases):
 def test_closed_forms_rest_where_the_reference_does(precision, device):
     """follow_on_plane against reference.follow on seeded random planes of any orientation: the rest
     position within 2e-5 (float32) and 1e-9 (float64) of the path length (the issue asks 1e-4), the
-    path and the time alike."""
+    path and the time alike; v = 0 and omega = (omega . n) n there, though rest_speed > 0 in half."""
     cases = _fall_line_cases(np.random.default_rng(7), 24)
     stack, got = _probe_cases(precision, device, cases)
     n = stack["n"]
@@ -304,6 +304,10 @@ def test_closed_forms_rest_where_the_reference_does(precision, device):
             rest_speed=case["rest"],
         )
         assert r.state == "rest"
+        # at rest nothing moves (docs/ground.md 4), though it stopped at rest_speed: both zero v, omega_t
+        assert np.abs(got["end_v"][i]).max() == 0.0 and np.abs(r.v).max() == 0.0, (got["end_v"][i], r.v)
+        for spin, rounding in ((got["end_w"][i], CLOSE[precision]), (r.omega, 1e-15)):
+            assert np.abs(spin - (spin @ n[i]) * n[i]).max() <= rounding * np.abs(spin).max(), spin
         assert np.linalg.norm(got["end_x"][i] - r.x) <= CLOSE[precision] * r.path_length, (i, got["end_x"][i], r.x)
         assert got["path"][i] == pytest.approx(r.path_length, rel=CLOSE[precision])
         assert got["elapsed"][i] == pytest.approx(r.t, rel=CLOSE[precision])

@@ -319,7 +319,7 @@ def make_surface_closed_forms(precision: str) -> SimpleNamespace:
         """Chain the closed forms in vacuum from a pellet on the plane (normal speed 0).
 
         Returns (position, velocity, spin, elapsed s, path length m, mode, exact): mode REST or
-        FLIGHT: the pellet ends so; SLIDING or ROLLING with exact = 1: it moves on for ever (a
+        FLIGHT: the pellet ends so (at REST v = 0 and the spin keeps only its part along n); SLIDING or ROLLING with exact = 1: it moves on for ever (a
         slope too steep to stop on); exact = 0: the phase `mode` has a drive across its friction
         (no closed form): the state is where it begins."""
         elapsed = ZERO
@@ -329,7 +329,9 @@ def make_surface_closed_forms(precision: str) -> SimpleNamespace:
             mode = surface_mode(
                 velocity, spin, normal, gravity, zero, gravity, radius, inertia_factor, mu_s, rolling_resistance, rest_speed
             )
-            if mode == FLIGHT or mode == REST:
+            if mode == REST:  # at rest: no velocity, no rolling spin (docs/ground.md 4)
+                return position, vec3(), wp.dot(spin, normal) * normal, elapsed, path, mode, wp.int32(1)
+            if mode == FLIGHT:
                 return position, velocity, spin, elapsed, path, mode, wp.int32(1)
             duration = ZERO
             exact = ONE
@@ -354,7 +356,7 @@ def make_surface_closed_forms(precision: str) -> SimpleNamespace:
             if mode == SLIDING:  # the slip is zero now: remove its rounding (omega_t = n x v / R)
                 spin = wp.dot(spin, normal) * normal + wp.cross(normal, velocity) * (ONE / radius)
             elif at_rest == 1:
-                return position, velocity, spin, elapsed, path, wp.int32(REST), wp.int32(1)
+                return position, vec3(), wp.dot(spin, normal) * normal, elapsed, path, wp.int32(REST), wp.int32(1)
             else:  # stopped on a slope it cannot rest on: it rolls back from rest
                 velocity = vec3()
                 spin = wp.dot(spin, normal) * normal

@@ -346,5 +346,8 @@ def follow(
             phase, mode, t, y = _surface_phase(y, t, t_max, plane, model, ground, rest_speed, rtol)
             if phase is not None:
                 phases.append(phase)
+            if mode == "rest":  # at rest: no velocity, no rolling spin (docs/ground.md 4)
+                y = y.copy()
+                y[3:6], y[6:9] = 0.0, (y[6:9] @ plane.n) * plane.n
             if mode in ("rest", "moving"):
                 return result(mode)
