@@ -45,7 +45,6 @@ from .ballistic import EPSILON, ROUNDING
 from .types import types_for
 
 FLIGHT, SLIDING, ROLLING, REST = 0, 1, 2, 3  # the modes of `surface_mode`
-MODES = ("flight", "sliding", "rolling", "rest")
 NEVER = -1.0  # the time of a phase that does not end (on an infinite plane)
 MAX_PHASES = 4  # slide, roll, stop on a slope and roll back: `follow_on_plane` needs at most 3
 
@@ -235,7 +234,8 @@ def make_surface_closed_forms(precision: str) -> SimpleNamespace:
     ):
         """(time, ends at rest, exact) of a rolling phase in vacuum: until the speed falls to
         rest_speed where the resistance can hold the pellet, else to 0 (it then rolls back), or
-        NEVER. Its speed changes at (g_t . v/|v| - c N/m) / (1 + k), constant when g_t is along v."""
+        NEVER. Its speed changes at (g_t . v/|v| - c N/m) / (1 + k), constant when g_t is along v;
+        v across g_t keeps a part across it, so never stops (exact only for c = 0: dv/dt = g_t/(1+k))."""
         load = normal_load(normal, gravity)
         drive = tangential(gravity, normal)
         holds = held(normal, gravity, rolling_resistance)
@@ -245,9 +245,11 @@ def make_surface_closed_forms(precision: str) -> SimpleNamespace:
         if speed <= ZERO:  # from rest, not held: rolls down the slope, faster and faster
             return scalar(NEVER), wp.int32(0), ONE
         direction = unit(tangential(velocity, normal))
+        if across(drive, direction, wp.length(gravity)) == 1:  # v across the drive line: never stops
+            if rolling_resistance > ZERO:  # the resistance turns with v: no closed form
+                return scalar(NEVER), wp.int32(0), ZERO
+            return scalar(NEVER), wp.int32(0), ONE  # c = 0: dv/dt = 5/7 g_t, constant, for ever
         exact = ONE
-        if rolling_resistance > ZERO:  # without resistance dv/dt = 5/7 g_t in any direction
-            exact = ONE - scalar(across(drive, direction, wp.length(gravity)))
         rate = (wp.dot(drive, direction) - rolling_resistance * load) / (ONE + inertia_factor)
         if rate >= ZERO:
             return scalar(NEVER), wp.int32(0), exact
@@ -317,7 +319,7 @@ def make_surface_closed_forms(precision: str) -> SimpleNamespace:
         """Chain the closed forms in vacuum from a pellet on the plane (normal speed 0).
 
         Returns (position, velocity, spin, elapsed s, path length m, mode, exact): mode REST or
-        FLIGHT: the pellet ends so; SLIDING or ROLLING with exact = 1: it moves on for ever (a
+        FLIGHT: the pellet ends so (at REST v = 0 and the spin keeps only its part along n); SLIDING or ROLLING with exact = 1: it moves on for ever (a
         slope too steep to stop on); exact = 0: the phase `mode` has a drive across its friction
         (no closed form): the state is where it begins."""
         elapsed = ZERO
@@ -327,7 +329,9 @@ def make_surface_closed_forms(precision: str) -> SimpleNamespace:
             mode = surface_mode(
                 velocity, spin, normal, gravity, zero, gravity, radius, inertia_factor, mu_s, rolling_resistance, rest_speed
             )
-            if mode == FLIGHT or mode == REST:
+            if mode == REST:  # at rest: no velocity, no rolling spin (docs/ground.md 4)
+                return position, vec3(), wp.dot(spin, normal) * normal, elapsed, path, mode, wp.int32(1)
+            if mode == FLIGHT:
                 return position, velocity, spin, elapsed, path, mode, wp.int32(1)
             duration = ZERO
             exact = ONE
@@ -352,15 +356,13 @@ def make_surface_closed_forms(precision: str) -> SimpleNamespace:
             if mode == SLIDING:  # the slip is zero now: remove its rounding (omega_t = n x v / R)
                 spin = wp.dot(spin, normal) * normal + wp.cross(normal, velocity) * (ONE / radius)
             elif at_rest == 1:
-                return position, velocity, spin, elapsed, path, wp.int32(REST), wp.int32(1)
+                return position, vec3(), wp.dot(spin, normal) * normal, elapsed, path, wp.int32(REST), wp.int32(1)
             else:  # stopped on a slope it cannot rest on: it rolls back from rest
                 velocity = vec3()
                 spin = wp.dot(spin, normal) * normal
         return position, velocity, spin, elapsed, path, wp.int32(ROLLING), wp.int32(0)
 
-    return SimpleNamespace(
-        slide_end=slide_end, roll_end=roll_end, asinh=asinh, arc_length=arc_length, follow_on_plane=follow_on_plane
-    )
+    return SimpleNamespace(slide_end=slide_end, roll_end=roll_end, arc_length=arc_length, follow_on_plane=follow_on_plane)
 
 
 def make_surface_motion(precision: str) -> SimpleNamespace:

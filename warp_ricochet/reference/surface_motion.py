@@ -298,7 +298,7 @@ def follow(
 ) -> Result:
     """Follow one pellet (centre x0, velocity v0, spin omega0) over the plane until it rests.
 
-    A pellet at height R with no normal speed starts on the plane, one closing on it starts with an
+    A pellet at height R with no normal speed (within 1e-12 |v|, its rounding) starts on the plane, one closing on it starts with an
     impact. After an impact it leaves the plane if its rebound normal speed exceeds sqrt(2 R N/m)
     (N/m = -(g + a_air) . n), else its normal speed is dropped and it moves along the plane.
     `air`: a `scene.schema.Air` (with the pellet's `density`), None: the vacuum."""
@@ -307,7 +307,10 @@ def follow(
     t, impacts, phases = 0.0, 0, []
     gap, vn = (y[0:3] - plane.p) @ plane.n - radius, y[3:6] @ plane.n
     touching = abs(gap) <= 1e-12 * max(radius, np.abs(y[0:3] - plane.p).max())
-    mode = ("impact" if vn < 0.0 else "surface" if vn == 0.0 else "flight") if touching else "flight"
+    still = abs(vn) <= 1e-12 * np.linalg.norm(y[3:6])  # no normal speed but its rounding
+    mode = ("surface" if still else "impact" if vn < 0.0 else "flight") if touching else "flight"
+    if touching and still:
+        y = _on_plane(y, plane, radius)
 
     def result(state):
         return Result(state, t, y[0:3], y[3:6], y[6:9], float(y[9]), impacts, phases)
@@ -343,5 +346,8 @@ def follow(
             phase, mode, t, y = _surface_phase(y, t, t_max, plane, model, ground, rest_speed, rtol)
             if phase is not None:
                 phases.append(phase)
+            if mode == "rest":  # at rest: no velocity, no rolling spin (docs/ground.md 4)
+                y = y.copy()
+                y[3:6], y[6:9] = 0.0, (y[6:9] @ plane.n) * plane.n
             if mode in ("rest", "moving"):
                 return result(mode)
