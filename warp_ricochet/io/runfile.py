@@ -331,7 +331,7 @@ class OutputFile:
 
 def _name_writer(attrs) -> None:
     """Record the writing process (`writer_pid` on `writer_host`): `report` tells a run still
-    writing from one whose writer was killed (report.tables.writer_gone)."""
+    writing from one whose writer was killed (io.locks.writer_gone)."""
     attrs["writer_pid"] = os.getpid()
     attrs["writer_host"] = socket.gethostname()
 

@@ -13,13 +13,12 @@ from __future__ import annotations
 
 import math
 import os
-import socket
 from dataclasses import dataclass, field
 
 from ..errors import RicochetError, hdf5_reason, not_regular
 from ..io.h5open import FORMAT_NAME, KINDS, open_for_reading
 from ..io.inputcheck import BadFile, check_file
-from ..io.locks import in_use
+from ..io.locks import in_use, writer_gone
 from ..tallies.ensemble import STAT_KIND
 from ..tallies.sums import STAT_UNITS
 from .hazard_tables import from_file, from_run, tally_lines
@@ -114,7 +113,6 @@ def read_results(path) -> Results:
         raise ReportError(path, f"cannot be read: {exc.strerror or exc}") from None
     if not hdf5:
         raise ReportError(path, "is not an HDF5 file (expected a warp-ricochet .h5 output)")
-    held = in_use(path)  # (before HDF5 takes its own lock on it)
     try:
         with open_for_reading(path) as f:  # also a killed run's partial
             try:
@@ -126,30 +124,14 @@ def read_results(path) -> Results:
         raise
     except (OSError, KeyError, ValueError, TypeError) as exc:  # truncated or otherwise damaged files
         raise ReportError(path, f"cannot be read as a warp-ricochet file: {hdf5_reason(exc)}") from None
-    if results.meta.get("status") == "running" and writer_gone(results.meta, held):
+    # only a file marked "running" is tested for its writer's lock (after our read: a complete file
+    # is never locked here, so a reader opening it meanwhile is not refused)
+    if results.meta.get("status") == "running" and writer_gone(results.meta, in_use(path)):
         results.meta["status"] = WRITER_GONE
     return results
 
 
 WRITER_GONE = "not finished (the writer is gone: killed or crashed; --resume continues it)"
-
-
-def writer_gone(meta, held: bool) -> bool:
-    """Whether the writer of a file marked "running" is gone: a live writer holds its lock on the
-    file (io.runfile), and where the file names it (`writer_pid` on this `writer_host`) its process
-    exists (a reader's lock alone does not keep a dead writer "running")."""
-    if not held:
-        return True
-    pid, host = meta.get("writer_pid"), meta.get("writer_host")
-    if pid is None or host != socket.gethostname():
-        return False
-    try:
-        os.kill(int(pid), 0)
-    except ProcessLookupError:
-        return True
-    except (OSError, OverflowError, ValueError):  # (another user's process: alive)
-        return False
-    return False
 
 
 def _read_open_file(f, path, np) -> Results:
