@@ -77,8 +77,8 @@ def write_xdmf(path, *, overwrite: bool = False) -> Path:
     meanwhile without `overwrite`)."""
     src = Path(os.fsdecode(path))
     shown = f"file = {str(src)!r}"
-    if not_regular(src):
-        raise OutputError(f"{shown}: {not_regular(src)}")
+    if why := not_regular(src):
+        raise OutputError(f"{shown}: {why}")
     if not src.is_file():
         raise OutputError(f"{shown}: does not exist")
     check_sidecar(src, overwrite, shown)
