@@ -743,6 +743,33 @@ def test_a_device_as_the_scene_is_refused_in_one_line():
 # ---------------------------------------------------------------------------------------------- report's status
 
 
+def test_report_of_a_complete_file_takes_no_lock_a_reader_would_meet(tmp_path, monkeypatch):
+    """`report` of a complete file takes no exclusive lock on it (which would refuse an HDF5 reader
+    opening it at that instant, "unable to lock file"); with a SWMR reader holding it open it reports."""
+    import fcntl
+
+    from warp_ricochet.io import locks
+
+    out = tmp_path / "done.h5"
+    wr.run(load_scene(SCENE, SETS[1::2]), out, device="cpu")
+    refused, plain = [], fcntl.flock
+
+    def flock(fd, op):  # while an exclusive lock is held, a reader opens the file
+        plain(fd, op)
+        if op & fcntl.LOCK_EX:
+            try:
+                h5py.File(out, "r").close()
+            except OSError as exc:
+                refused.append(str(exc))
+
+    monkeypatch.setattr(locks.fcntl, "flock", flock)
+    with h5py.File(out, "r", swmr=True):
+        rc, text, err = cli(["report", out])
+    assert rc == 0 and "| status: complete |" in text, err
+    rc, text, err = cli(["report", out])
+    assert rc == 0 and not refused, refused
+
+
 @pytest.mark.parametrize(
     "writer, lock, says",
     [

@@ -3,6 +3,7 @@ reader) must see every point cloud with one point per pellet and arrays equal to
 (speeds and energies: NumPy float64 from the same datasets), the surfaces as quads on their planes,
 and the trajectory frames as time steps."""
 
+import contextlib
 import shutil
 
 import h5py
@@ -350,3 +351,65 @@ def test_the_hazard_at_landing_is_on_every_cloud(tmp_path):
                 want = f[f"pellets/hazard/{name}"][()]
                 np.testing.assert_array_equal(got[f"hazard.{name}"].reshape(want.shape), want, err_msg=name)
         assert f["pellets/hazard/exceeds"][()].any()
+
+
+LEAVE_FLAGS = """
+import os, sys, h5py
+f = h5py.File(sys.argv[1], "r+", libver="latest")
+f.attrs["status"], f.attrs["writer_pid"], f.attrs["writer_host"] = "running", int(sys.argv[2]), sys.argv[3]
+f.swmr_mode = True
+f.flush()
+os._exit(0)  # (as a killed writer: its superblock's status flags stay set)
+"""
+
+
+def _left_open(tmp_path, pid, host):
+    """A run file marked "running" by writer `pid` on `host`, its SWMR flags left set (HDF5 refuses a plain open)."""
+    import socket
+    import subprocess
+    import sys
+
+    out = tmp_path / "left.h5.partial"
+    api.run(_scene(), output=str(tmp_path / "left.h5"), device="cpu")
+    shutil.move(tmp_path / "left.h5", out)
+    subprocess.run([sys.executable, "-c", LEAVE_FLAGS, str(out), str(pid), host or socket.gethostname()], check=True)
+    with pytest.raises(OSError, match="already open for write"):
+        h5py.File(out, "r").close()
+    return out
+
+
+@pytest.mark.parametrize("case", ["held", "alive", "elsewhere", "read-only"])
+def test_the_flags_of_a_file_that_may_be_written_or_cannot_be_are_left(tmp_path, monkeypatch, case):
+    """`xdmf` clears a killed writer's flags only when no process holds the file, the writer it
+    records is not alive here nor on another host (a flock is local on NFS/Lustre), and the file is
+    writable: else one line, exit 2, nothing written."""
+    import os
+    import subprocess
+    import sys
+
+    from helpers import held
+
+    proc = subprocess.Popen([sys.executable, "-c", "0"])
+    proc.wait()  # (a writer that has ended)
+    pid = os.getpid() if case == "alive" else proc.pid
+    partial = _left_open(tmp_path, pid, "elsewhere.example" if case == "elsewhere" else None)
+    before = partial.read_bytes()
+    if case == "read-only":  # (as the file's mode would refuse a user; root is never refused)
+        plain = os.open
+
+        def refuse(path, flags, *args, **kwargs):
+            if flags & os.O_RDWR and os.fspath(path) == str(partial):
+                raise PermissionError(13, "Permission denied", str(path))
+            return plain(path, flags, *args, **kwargs)
+
+        monkeypatch.setattr(os, "open", refuse)
+    with held(partial) if case == "held" else contextlib.nullcontext():
+        code, out, err = cli(["xdmf", partial])
+    said = {
+        "held": "another process has it open",
+        "alive": "another process has it open",
+        "elsewhere": "its writer ran on host 'elsewhere.example'",
+        "read-only": "needs write access to it",
+    }[case]
+    assert code == 2 and said in err and len(err.strip().splitlines()) == 1, err
+    assert partial.read_bytes() == before and not sidecar_path(partial).exists()

@@ -29,27 +29,34 @@ def open_for_reading(path, **kwargs):
     return h5py.File(path, "r", swmr=True, **kwargs)
 
 
-def open_checked(path, shown: str):
-    """`open_for_reading(path)` for a user's path: a path that is no file, no HDF5 file, or that
-    HDF5 cannot open is refused in one line (OutputError, `shown`: the key and value, e.g.
-    "open_run path = 'x.h5'")."""
+def open_checked(path, shown: str, error=None):
+    """`open_for_reading(path)` for a user's path: a path that is no file, unreadable, no HDF5 file,
+    or that HDF5 cannot open is refused in one line (OutputError "<shown>: <problem>", `shown`: the
+    key and value, e.g. "open_run path = 'x.h5'"; or `error(problem)` where given)."""
     import os
 
     import h5py
 
     from ..errors import OutputError, not_regular
 
+    fail = error or (lambda problem: OutputError(f"{shown}: {problem}"))
     path = os.fsdecode(path)
-    if not_regular(path):  # (a FIFO would wait for a writer)
-        raise OutputError(f"{shown}: {not_regular(path)}")
+    if why := not_regular(path):  # (a FIFO would wait for a writer)
+        raise fail(why)
     if not os.path.isfile(path):
-        raise OutputError(f"{shown}: " + ("is a directory" if os.path.isdir(path) else "does not exist"))
-    if not h5py.is_hdf5(path):
-        raise OutputError(f"{shown}: is not an HDF5 file")
+        raise fail("is a directory" if os.path.isdir(path) else "does not exist")
+    try:
+        with open(path, "rb"):
+            pass
+        hdf5 = h5py.is_hdf5(path)
+    except OSError as exc:
+        raise fail(f"cannot be read: {exc.strerror or exc}") from None
+    if not hdf5:
+        raise fail("is not an HDF5 file (expected a warp-ricochet .h5 output)")
     try:
         return open_for_reading(path)
     except OSError as exc:
-        raise OutputError(f"{shown}: HDF5 cannot open it ({' '.join(str(exc).split())})") from None
+        raise fail(f"HDF5 cannot open it ({' '.join(str(exc).split())})") from None
 
 
 def rows_final(group, refresh: bool = False) -> int:

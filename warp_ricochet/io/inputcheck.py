@@ -38,16 +38,17 @@ class BadFile(ValueError):
     """A file refused by `check_file`: its message is the problem, in one line."""
 
 
-def open_valid(path, shown: str) -> h5py.File:
-    """`open_checked(path, shown)`, then `check_file`: the open file, or OutputError "<shown>: <problem>"."""
+def open_valid(path, shown: str, error=None) -> h5py.File:
+    """`open_checked(path, shown, error)`, then `check_file`: the open file, or OutputError
+    "<shown>: <problem>" (`error(problem)` where given)."""
     from ..errors import OutputError
 
-    f = open_checked(path, shown)
+    f = open_checked(path, shown, error)
     try:
         check_file(f)
     except BadFile as exc:
         f.close()
-        raise OutputError(f"{shown}: {exc}") from None
+        raise (error(str(exc)) if error else OutputError(f"{shown}: {exc}")) from None
     except BaseException:
         f.close()
         raise

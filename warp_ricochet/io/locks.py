@@ -40,3 +40,30 @@ def in_use(path) -> bool:
         return not try_lock(fd)
     finally:
         os.close(fd)
+
+
+def writer_state(meta) -> str:
+    """Where the writer a file records (root attributes `writer_pid` on `writer_host`, io.runfile)
+    is: "elsewhere" (another host: its lock may not be seen here, NFS/Lustre), "alive" or "dead"
+    (a process of this host), "unknown" (not recorded)."""
+    import socket
+
+    pid, host = meta.get("writer_pid"), meta.get("writer_host")
+    if host is not None and host != socket.gethostname():
+        return "elsewhere"
+    if pid is None or host is None:
+        return "unknown"
+    try:
+        os.kill(int(pid), 0)
+    except ProcessLookupError:
+        return "dead"
+    except (OSError, OverflowError, ValueError):  # (another user's process: alive)
+        return "alive"
+    return "alive"
+
+
+def writer_gone(meta, held: bool) -> bool:
+    """Whether the writer of a file marked "running" is gone: a live writer holds its lock on the
+    file (io.runfile), and where the file names it (`writer_pid` on this `writer_host`) its process
+    exists (a reader's lock alone does not keep a dead writer "running")."""
+    return not held or writer_state(meta) == "dead"

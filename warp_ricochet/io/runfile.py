@@ -64,8 +64,8 @@ def check_output_path(path, overwrite: bool) -> Path:
     p, shown = _target(path)
     if p.is_dir():
         raise OutputError(f"{shown}: is a directory")
-    if not_regular(p):  # (a FIFO, a device: never replaced, even with overwrite)
-        raise OutputError(f"{shown}: {not_regular(p)}")
+    if why := not_regular(p):  # (a FIFO, a device: never replaced, even with overwrite)
+        raise OutputError(f"{shown}: {why}")
     if p.exists() and not overwrite:
         raise OutputError(f"{shown}: exists; pass --overwrite (overwrite=True) to replace it")
     if p.is_symlink() and not p.exists() and not overwrite:  # else found only when the run moves into place
@@ -75,8 +75,8 @@ def check_output_path(path, overwrite: bool) -> Path:
         )
     partial = p.with_name(p.name + ".partial")
     if partial.exists():
-        if not partial.is_dir() and not_regular(partial):  # (checking its lock would open it)
-            raise OutputError(f"{shown}: {partial.name} {not_regular(partial)}; remove it")
+        if not partial.is_dir() and (why := not_regular(partial)):  # (checking its lock would open it)
+            raise OutputError(f"{shown}: {partial.name} {why}; remove it")
         if in_use(partial):
             raise in_use_error(shown, partial.name)
         if not overwrite:
@@ -331,7 +331,7 @@ class OutputFile:
 
 def _name_writer(attrs) -> None:
     """Record the writing process (`writer_pid` on `writer_host`): `report` tells a run still
-    writing from one whose writer was killed (report.tables.writer_gone)."""
+    writing from one whose writer was killed (io.locks.writer_gone)."""
     attrs["writer_pid"] = os.getpid()
     attrs["writer_host"] = socket.gethostname()
 
@@ -450,8 +450,8 @@ def check_resume_path(path, overwrite: bool) -> Path:
     partial = p.with_name(p.name + ".partial")
     if partial.is_dir():
         raise OutputError(f"{shown}: {partial.name} is a sweep's folder; warp-ricochet sweep ... --resume continues it")
-    if not_regular(partial):
-        raise OutputError(f"{shown}: {partial.name} {not_regular(partial)}; it cannot be resumed")
+    if why := not_regular(partial):
+        raise OutputError(f"{shown}: {partial.name} {why}; it cannot be resumed")
     if not partial.is_file():
         raise OutputError(f"{shown}: nothing to resume: {partial.name} does not exist")
     if in_use(partial):

@@ -77,8 +77,8 @@ def write_xdmf(path, *, overwrite: bool = False) -> Path:
     meanwhile without `overwrite`)."""
     src = Path(os.fsdecode(path))
     shown = f"file = {str(src)!r}"
-    if not_regular(src):
-        raise OutputError(f"{shown}: {not_regular(src)}")
+    if why := not_regular(src):
+        raise OutputError(f"{shown}: {why}")
     if not src.is_file():
         raise OutputError(f"{shown}: does not exist")
     check_sidecar(src, overwrite, shown)
@@ -109,10 +109,13 @@ def _openable(src: Path, shown: str) -> None:
     """Make a killed run's partial openable by any HDF5 reader: VTK's (ParaView's) opens files
     plainly, and HDF5 refuses a plain open of a file whose writer died ("already open for write"):
     its superblock's status flags are cleared, as `h5clear -s` does (`--resume` does it too), while
-    an exclusive lock shows that no run writes it; a file a run is writing is refused."""
+    an exclusive lock shows that no run writes it and the writer the file records (`writer_pid`,
+    `writer_host`) is not alive here nor on another host (whose lock is not seen here on NFS/Lustre);
+    a file a run may be writing is refused."""
     import h5py
 
-    from .locks import try_lock
+    from .h5open import open_for_reading
+    from .locks import try_lock, writer_state
     from .superblock import clear_status_flags
 
     try:
@@ -121,13 +124,31 @@ def _openable(src: Path, shown: str) -> None:
     except OSError as exc:
         if "already open for write" not in str(exc):
             raise OutputError(f"{shown}: HDF5 cannot open it ({' '.join(str(exc).split())})") from None
-    fd = os.open(src, os.O_RDWR)
+    busy = (
+        f"{shown}: another process has it open (a run writing it?); ParaView cannot open a "
+        "file being written: write its sidecar when the run has ended"
+    )
+    with open_for_reading(src) as f:  # (a flock is local only on NFS/Lustre: the writer the file records)
+        attrs = {k: f.attrs.get(k) for k in ("status", "writer_pid", "writer_host")}
+    attrs = {k: v.decode("utf-8", "replace") if isinstance(v, bytes) else v for k, v in attrs.items()}
+    where = writer_state(attrs) if attrs["status"] == "running" else "unknown"
+    if where == "elsewhere":
+        raise OutputError(
+            f"{shown}: its writer ran on host {attrs['writer_host']!r}, which may still write it; "
+            "write its sidecar when that run has ended (or there: h5clear -s, then xdmf)"
+        )
+    if where == "alive":
+        raise OutputError(busy)
+    try:
+        fd = os.open(src, os.O_RDWR)
+    except PermissionError:
+        raise OutputError(
+            f"{shown}: its writer was killed, and clearing the flags it left (so that ParaView can open "
+            "it) needs write access to it: make it writable, or run h5clear -s on it"
+        ) from None
     try:
         if not try_lock(fd):
-            raise OutputError(
-                f"{shown}: another process has it open (a run writing it?); ParaView cannot open a "
-                "file being written: write its sidecar when the run has ended"
-            )
+            raise OutputError(busy)
         clear_status_flags(src)
     except ValueError as exc:
         raise OutputError(f"{shown}: HDF5 cannot open it, and its superblock is not one we know ({exc})") from None

@@ -13,13 +13,11 @@ from __future__ import annotations
 
 import math
 import os
-import socket
 from dataclasses import dataclass, field
 
-from ..errors import RicochetError, hdf5_reason, not_regular
-from ..io.h5open import FORMAT_NAME, KINDS, open_for_reading
-from ..io.inputcheck import BadFile, check_file
-from ..io.locks import in_use
+from ..errors import RicochetError, hdf5_reason
+from ..io.inputcheck import open_valid
+from ..io.locks import in_use, writer_gone
 from ..tallies.ensemble import STAT_KIND
 from ..tallies.sums import STAT_UNITS
 from .hazard_tables import from_file, from_run, tally_lines
@@ -87,12 +85,9 @@ def _sort_rows(rows: list[dict], params: list[str]) -> list[dict]:
 
 def read_results(path) -> Results:
     """Read a warp-ricochet run or sweep file; raise `ReportError` (one line) for any unusable input."""
-    import h5py
     import numpy as np
 
     path = os.fspath(path)
-    if not os.path.exists(path):
-        raise ReportError(path, "does not exist")
     if os.path.isdir(path):
         from ..io.sweepdir import folder_progress
 
@@ -104,29 +99,16 @@ def read_results(path) -> Results:
                 "written when every point is); warp-ricochet sweep ... --resume continues it",
             )
         raise ReportError(path, "is a directory, not an HDF5 file")
-    if not_regular(path):  # (opening a FIFO would wait for a writer)
-        raise ReportError(path, not_regular(path))
     try:
-        with open(path, "rb"):
-            pass
-        hdf5 = h5py.is_hdf5(path)
-    except OSError as exc:
-        raise ReportError(path, f"cannot be read: {exc.strerror or exc}") from None
-    if not hdf5:
-        raise ReportError(path, "is not an HDF5 file (expected a warp-ricochet .h5 output)")
-    held = in_use(path)  # (before HDF5 takes its own lock on it)
-    try:
-        with open_for_reading(path) as f:  # also a killed run's partial
-            try:
-                check_file(f)
-            except BadFile as exc:
-                raise ReportError(path, str(exc)) from None
+        with open_valid(path, "", lambda problem: ReportError(path, problem)) as f:  # also a killed run's partial
             results = _read_open_file(f, path, np)
     except RicochetError:
         raise
     except (OSError, KeyError, ValueError, TypeError) as exc:  # truncated or otherwise damaged files
         raise ReportError(path, f"cannot be read as a warp-ricochet file: {hdf5_reason(exc)}") from None
-    if results.meta.get("status") == "running" and writer_gone(results.meta, held):
+    # only a file marked "running" is tested for its writer's lock (after our read: a complete file
+    # is never locked here, so a reader opening it meanwhile is not refused)
+    if results.meta.get("status") == "running" and writer_gone(results.meta, in_use(path)):
         results.meta["status"] = WRITER_GONE
     return results
 
@@ -134,36 +116,11 @@ def read_results(path) -> Results:
 WRITER_GONE = "not finished (the writer is gone: killed or crashed; --resume continues it)"
 
 
-def writer_gone(meta, held: bool) -> bool:
-    """Whether the writer of a file marked "running" is gone: a live writer holds its lock on the
-    file (io.runfile), and where the file names it (`writer_pid` on this `writer_host`) its process
-    exists (a reader's lock alone does not keep a dead writer "running")."""
-    if not held:
-        return True
-    pid, host = meta.get("writer_pid"), meta.get("writer_host")
-    if pid is None or host != socket.gethostname():
-        return False
-    try:
-        os.kill(int(pid), 0)
-    except ProcessLookupError:
-        return True
-    except (OSError, OverflowError, ValueError):  # (another user's process: alive)
-        return False
-    return False
-
-
 def _read_open_file(f, path, np) -> Results:
     import h5py
 
-    attrs = {k: _text(v) for k, v in f.attrs.items()}
-    if attrs.get("format") != FORMAT_NAME:
-        found = attrs.get("format")
-        raise ReportError(
-            path, f"is not a warp-ricochet output file (root attribute format = {found!r}, expected {FORMAT_NAME!r})"
-        )
-    kind = attrs.get("kind")
-    if kind not in KINDS:
-        raise ReportError(path, f"has kind = {kind!r}; expected 'run' or 'sweep'")
+    attrs = {k: _text(v) for k, v in f.attrs.items()}  # (format and kind: checked by io.inputcheck)
+    kind = attrs["kind"]
     status = attrs.get("status", "unknown")
     stats_group = f.get("stats")
     if not isinstance(stats_group, h5py.Group) or not len(stats_group):
@@ -187,9 +144,7 @@ def _read_open_file(f, path, np) -> Results:
         meta["shots"] = int(shots_group.attrs.get("shots", 0)) if isinstance(shots_group, h5py.Group) else 0
         meta["tally"] = from_file(f)
         return Results(rows=[row], meta=meta)
-    sweep = f.get("sweep")
-    if not isinstance(sweep, h5py.Group):
-        raise ReportError(path, "is a sweep file without a /sweep group")
+    sweep = f["sweep"]  # (a group: io.inputcheck)
     params = _key_list(sweep.attrs.get("parameters"))
     tied = _key_list(sweep.attrs.get("tied"))
     values = {key: np.asarray(ds[()], dtype=np.float64).reshape(-1) for key, ds in sweep.items() if isinstance(ds, h5py.Dataset)}
