@@ -102,7 +102,7 @@ def _physics(precision, air=None, device="cpu"):
 
 @pytest.mark.parametrize("precision", ["float32", "float64"])
 def test_the_point_queries_match_numpy(precision):
-    """locate (height n.(x - p), its rounding scale sum |(x - p)_i n_i|, the normal), normal,
+    """locate (height n.(x - p), its rounding scale sum (|x_i| + |p_i|) |n_i|, the normal), normal,
     material and step_gaps, for 4 random planes at 500 random points, within the precision's
     rounding of NumPy float64 on the same (rounded) inputs; the material exactly."""
     t = types_for(precision)
@@ -157,7 +157,7 @@ def test_the_point_queries_match_numpy(precision):
     eps = float(np.finfo(dtype).eps)
     p, nrm, x, v, a = (z.astype(np.float64) for z in (points, normals, x, v, a))
     offset = x[:n, None, :] - p[None]  # (n, planes, 3)
-    scale = np.abs(offset * nrm[None]).sum(-1)
+    scale = ((np.abs(x[:n, None, :]) + np.abs(p[None])) * np.abs(nrm[None])).sum(-1)
     np.testing.assert_allclose(heights[:, 0::2], (offset * nrm[None]).sum(-1), rtol=0, atol=4 * eps * (scale.max() + 1))
     np.testing.assert_allclose(heights[:, 1::2], scale, rtol=4 * eps)
     assert (got_normals[:, 0::2] == nrm[None]).all() and (got_normals[:, 1::2] == nrm[None]).all()
@@ -290,6 +290,39 @@ def test_a_contact_in_air_carries_its_normal():
     gap = ((positions[met] - points[k]) * normals[k]).sum(-1) - RADIUS
     assert (np.abs(gap) <= 1e-12).all(), np.abs(gap).max()
     assert (times[16:] > 0).all()
+
+
+FAR_PLANES = {  # (point, normal, position touching it, velocity): each met at once, as at the origin
+    "ground at y = 50 m": ((0.0, 50.0, 0.0), (0.0, 1.0, 0.0), (3.0, 50.0 + RADIUS, -2.0), (20.0, 0.0, 5.0)),
+    "wall at x = 15 m": ((15.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (15.0 - RADIUS, 1.0, 0.0), (0.01, 0.0, 20.0)),
+}
+
+
+@pytest.mark.parametrize("model", ["ballistic", "air"])
+@pytest.mark.parametrize("far", list(FAR_PLANES))
+def test_a_pellet_touching_a_plane_far_from_the_origin_meets_it_at_once(far, model):
+    """In float32 a pellet released touching a plane whose point is far from the origin (resting on
+    it, or moving into it) meets it at time 0, as it does the same plane through the origin: the
+    touching band counts the rounding of the coordinates, eps (|x_i| + |p_i|) (`physics.geometry`),
+    which here is 1e-6 m (ulp(50) / 3), far wider than 64 eps of the offset."""
+    from warp_ricochet.scene.schema import Air
+
+    point, normal, x, v = (np.array(z) for z in FAR_PLANES[far])
+    shifted = point - point * np.abs(normal)  # the same plane through the origin along its normal
+    for p, pos in ((point, x), (shifted, x - (point - shifted))):
+        out = _fly("float32", model, p[None], normal[None], pos[None], v[None], [-1], air=Air() if model == "air" else None)
+        times, _indices, _normals, _positions, flown = out
+        assert flown[0] == 0 and times[0] == 0.0, (p, times[0], flown[0])
+
+
+def test_the_reference_meets_a_plane_far_from_the_origin_at_once():
+    """reference.ballistic (float64) counts the coordinates' rounding in its touching band too: a
+    pellet resting on ground at y = 15 m (its gap 6e-16 m after rounding) lands at once."""
+    point, normal = np.array([[0.0, 15.0, 0.0]]), np.array([[0.0, 1.0, 0.0]])
+    x, v = np.array([[1.0, 15.0 + RADIUS, 0.0]]), np.array([[10.0, 0.0, 0.0]])
+    assert ((x - point) @ normal[0])[0] - RADIUS > 0.0  # (it is above the plane after rounding)
+    t, k = reference_next_contact(x, v, GRAVITY, RADIUS, point, normal, np.array([-1]))
+    assert k[0] == 0 and t[0] == 0.0, t
 
 
 def test_project_gives_the_foot_and_normal_of_a_plane():

@@ -31,11 +31,10 @@ import warp as wp
 
 from ..physics.air import make_air_laws
 from ..physics.ballistic import make_ballistic
-from ..physics.flight import make_flight
 from ..physics.geometry import make_geometry
 from .constants import CLOCK_STEP, CLOCK_STEPS, CLOCK_TIME, KICK_STEPS
 from .frame import make_frame
-from .state import dense_types
+from .state import dense_flight, dense_types
 
 
 @functools.cache
@@ -49,7 +48,7 @@ def make_dense_air(spec) -> SimpleNamespace:
     _entry, _return, ballistic_position, ballistic_velocity = make_ballistic(scalar)
     fr = make_frame(spec)
     stepping, set_reference = fr.stepping, fr.set_reference
-    next_contact = make_flight(spec.precision, spec.static_planes, snap=spec.flight != "air").next_contact  # (the exact flight)
+    next_contact = dense_flight(spec).next_contact  # (the exact flight)
 
     geo, STATIC_PLANES = make_geometry(spec.precision), spec.static_planes
     LIFT = spec.air_laws[1] is not None

@@ -7,7 +7,6 @@ from types import SimpleNamespace
 import warp as wp
 
 from ..physics.ballistic import make_ballistic
-from ..physics.flight import make_flight
 from .air import make_dense_air
 from .constants import (
     CHECKPOINT,
@@ -34,7 +33,7 @@ from .constants import (
 )
 from .events import make_events
 from .leap import make_leap
-from .state import dense_types
+from .state import dense_flight, dense_types
 
 
 @functools.cache
@@ -43,7 +42,7 @@ def make_checkpoint(spec) -> SimpleNamespace:
     d = dense_types(spec)
     scalar, Surfaces, Physics, Cloud, Pair = d.scalar, d.Surfaces, d.Physics, d.Cloud, d.Pair
     NEVER = d.NEVER
-    next_contact = make_flight(spec.precision, spec.static_planes, snap=spec.flight != "air").next_contact
+    next_contact = dense_flight(spec).next_contact
     _entry, _return, ballistic_position, ballistic_velocity = make_ballistic(scalar)
     contact_time = make_events(spec).contact_time
     AIR, BOUNCES = spec.in_air, spec.bounces

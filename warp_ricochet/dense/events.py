@@ -10,13 +10,12 @@ import warp as wp
 from ..core.outputs import make_outputs
 from ..physics.ballistic import make_ballistic
 from ..physics.contact import make_contact
-from ..physics.flight import make_flight
 from ..physics.geometry import make_geometry
 from ..physics.pair import make_pair_law
 from .air import make_dense_air
 from .constants import ENDED
 from .frame import make_frame
-from .state import dense_types
+from .state import dense_flight, dense_types
 
 
 @functools.cache
@@ -26,7 +25,7 @@ def make_events(spec) -> SimpleNamespace:
     scalar, vec3, Surfaces, Physics, Outputs, Cloud, Pair = d.scalar, d.vec3, d.Surfaces, d.Physics, d.Outputs, d.Cloud, d.Pair
     CLOSING_TOLERANCE2 = d.CLOSING_TOLERANCE2
     # within a step: the exact ballistic flight
-    flight = make_flight(spec.precision, spec.static_planes, snap=spec.flight != "air")
+    flight = dense_flight(spec)
     next_contact, advance = flight.next_contact, flight.advance
     _rests, _stays, _impact, meet_surface, contact_point, _range = make_contact(spec.precision)
     _entry, _return, ballistic_position, ballistic_velocity = make_ballistic(scalar)

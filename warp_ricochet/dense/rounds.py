@@ -8,7 +8,6 @@ from types import SimpleNamespace
 import warp as wp
 
 from ..physics.ballistic import make_ballistic
-from ..physics.flight import make_flight
 from .air import make_dense_air
 from .constants import (
     CLOCK_CUT,
@@ -20,7 +19,7 @@ from .constants import (
 )
 from .events import make_events
 from .frame import make_frame
-from .state import dense_types
+from .state import dense_flight, dense_types
 
 
 @functools.cache
@@ -29,7 +28,7 @@ def make_rounds(spec) -> SimpleNamespace:
     d = dense_types(spec)
     scalar, Surfaces, Physics, Outputs, Cloud, Pair = d.scalar, d.Surfaces, d.Physics, d.Outputs, d.Cloud, d.Pair
     NEVER = d.NEVER
-    next_contact = make_flight(spec.precision, spec.static_planes, snap=spec.flight != "air").next_contact
+    next_contact = dense_flight(spec).next_contact
     _entry, _return, ballistic_position, ballistic_velocity = make_ballistic(scalar)
     ev, fr = make_events(spec), make_frame(spec)
     contact_time, plane_outcome, pair_outcome = ev.contact_time, ev.plane_outcome, ev.pair_outcome

@@ -13,6 +13,7 @@ from ..core.release import RELEASE_ARRAYS, make_release
 from ..fields import COLLISION_FIELDS, FIELDS
 from ..launch.source import make_source
 from ..physics.ballistic import EPSILON, ROUNDING
+from ..physics.flight import make_flight
 from ..physics.types import types_for
 from .constants import (
     FRAME_BLOCK,
@@ -154,6 +155,13 @@ def dense_types(spec) -> SimpleNamespace:
         CLOSING_TOLERANCE2=scalar((ROUNDING * EPSILON[spec.precision]) ** 2),
         opts={"module": "unique", "enable_backward": False},
     )
+
+
+def dense_flight(spec) -> SimpleNamespace:
+    """The exact (ballistic) flight the dense phase uses between events: the touching band off
+    when it flies in air, whose kicks would meet a plane early within the band
+    (`physics.geometry`, docs/air.md, section 3.2)."""
+    return make_flight(spec.precision, spec.static_planes, snap=spec.flight != "air")
 
 
 VECTORS = (

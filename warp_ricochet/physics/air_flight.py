@@ -3,11 +3,11 @@ accepted step searched for plane contacts on its dense output, so a contact is l
 step's interpolant (to rounding) rather than stepped past.
 
 The rules at the planes are those of the exact flight (`physics.ballistic`): planes are one-sided
-(one with the pellet's centre behind it at the start is never met); a pellet touching or
-overlapping a plane, or leaving the plane it just hit, meets it at once if it is not moving away
-from it. Otherwise a plane it touches (the one it is leaving, or one it overlaps) waits until the
-pellet's normal velocity turns towards it: the pellet meets it then if it is still touching,
-else the plane is watched from there. A watched plane is met where its gap n.(x - p) - R reaches
+(one with the pellet's centre behind it at the start is never met); a pellet touching (within the
+touching band of `physics.geometry`) or overlapping a plane, or leaving the plane it just hit,
+meets it at once if it is not moving away from it. Otherwise a plane it touches (the one it is
+leaving, or one it overlaps) waits until the pellet's normal velocity turns towards it: the
+pellet meets it then if it is still touching, else the plane is watched from there. A watched plane is met where its gap n.(x - p) - R reaches
 0, also inside a step whose ends are both clear of it (a graze: the gap's minimum on the step).
 Ties go to the lower index; a contact later than MAX_FLIGHT_TIME counts as none, and a flight
 that takes more than MAX_FLIGHT_STEPS steps is given up (plane -2, counted in the statistics).
@@ -20,7 +20,7 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT, ROUNDING
+from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT
 from .geometry import make_geometry
 from .integrate import make_dense_output, make_stepper
 from .types import types_for
@@ -96,12 +96,12 @@ def make_plane_search(precision: str, planes) -> SimpleNamespace:
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
     roots, geo = make_roots(precision), make_geometry(precision, planes)
     hermite = make_dense_output(precision).hermite
-    STATIC, TOLERANCE = planes, scalar(ROUNDING * EPSILON[precision])
+    STATIC = planes
 
     @wp.func
     def start_plane(k: wp.int32, position: vec3, velocity: vec3, touching: wp.int32, surfaces: Surfaces, physics: Physics):
         """Plane k at a flight's start: 0 never met, 1 watched, 2 waiting for the turn, 3 met now."""
-        height, noise, normal = geo.locate(surfaces, k, position)
+        height, gap, normal = geo.gap(surfaces, k, position, physics.radius)
         moving_away = wp.dot(velocity, normal) > scalar(0.0)
         state = wp.int32(0)
         if k == touching:
@@ -109,9 +109,6 @@ def make_plane_search(precision: str, planes) -> SimpleNamespace:
             if moving_away:
                 state = wp.int32(2)
         elif height >= scalar(0.0):
-            gap = height - physics.radius
-            if wp.abs(gap) <= TOLERANCE * (noise + physics.radius):
-                gap = scalar(0.0)  # touching, up to rounding
             state = wp.int32(1)
             if gap <= scalar(0.0):
                 state = wp.int32(3)

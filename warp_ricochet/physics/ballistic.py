@@ -10,10 +10,10 @@ which is what the paper's tables use; eqs. (40) and (42) print a square root by 
 
 Planes are one-sided: a pellet whose centre is behind a plane does not interact with it.
 
-Rounding: a gap, or a normal gravity component, within rounding noise of zero (ROUNDING machine
-epsilons of its scale) is taken as zero, so a pellet resting on a tilted plane touches it rather
-than falling a rounding error onto it, and gravity along a plane does not give a time of flight
-of 1e17 s; a contact later than MAX_FLIGHT_TIME counts as none.
+Rounding: a normal gravity component within rounding noise of zero (ROUNDING machine epsilons of
+its scale) is taken as zero, so gravity along a plane does not give a time of flight of 1e17 s; a
+gap within rounding of zero is the touching band of `physics.geometry`; a contact later than
+MAX_FLIGHT_TIME counts as none.
 """
 
 import functools
@@ -30,10 +30,7 @@ EPSILON = {"float32": 1.1920929e-07, "float64": 2.220446049250313e-16}
 def make_ballistic(scalar):
     """Return the flight `@wp.func`s for a Warp scalar type: `entry_time` and `return_time` (the
     roots of a gap's quadratic) and eq. (36)'s position and velocity. The search over the surfaces
-    is `physics.geometry.make_geometry(...).next_contact`, with the snap described above (`snap`
-    False for the dense phase in air, whose kicks move a pellet's reference state every few steps:
-    a snap at each would meet a plane early wherever the pellet comes within the noise band of it,
-    docs/air.md, section 3.2)."""
+    is `physics.geometry.make_geometry(...).next_contact`."""
     vec3 = wp.types.vector(3, scalar)
 
     @wp.func

@@ -36,7 +36,7 @@ MODELS = ("ballistic", "air")
 def make_flight(precision: str, planes=None, model: str = "ballistic", laws=None, snap: bool = True) -> SimpleNamespace:
     """The flight functions of `model`; `planes`: the number of planes when fixed at code
     generation (loops over them unrolled), else None; `snap`: the ballistic model takes a gap
-    within rounding of zero as zero (`physics.ballistic.make_ballistic`)."""
+    within the touching band as zero (`physics.geometry`)."""
     if model not in MODELS:
         raise ValueError(f"flight model {model!r}: must be one of {MODELS}")
     if model == "air":

@@ -7,8 +7,10 @@ one-sided plane: a point p and a unit normal n towards the pellets) can change i
 - `count(surfaces)`: how many surfaces (loops over them are unrolled where `spec.static_planes`);
 - `locate(surfaces, k, x) -> (height, noise, normal)`: the signed distance (m) of a point x from
   the surface along its normal (> 0 on the pellets' side; a sphere of radius R then has the gap
-  height - R), the scale of that distance's rounding noise (m; a plane: sum_i |(x - p)_i n_i|), and
-  the unit normal at the surface point nearest x;
+  height - R), the scale of that distance's rounding noise (m; a plane: sum_i (|x_i| + |p_i|) |n_i|),
+  and the unit normal at the surface point nearest x;
+- `gap(surfaces, k, x, radius) -> (height, gap, normal)`: `locate` with a sphere's gap height - R,
+  snapped to 0 when within rounding of it (the touching band, below);
 - `normal(surfaces, k, x) -> vec3`: that normal alone;
 - `material(surfaces, k, x) -> Material`: restitution E, mu_s and mu_d at the surface point
   nearest x (a plane: one pair per surface);
@@ -17,6 +19,13 @@ one-sided plane: a point p and a unit normal n towards the pellets) can change i
   (the Hermite data the integrated flight searches for contacts, `physics.air_flight`);
 - `contact_time(surfaces, k, ...)` and `next_contact(surfaces, ...)`: when the exact parabola of
   eq. (36) meets surface k, and the earliest of all surfaces (the rules of `physics.ballistic`).
+
+Touching band: a gap within rounding noise of zero (|gap| <= ROUNDING eps (noise + R), noise as in
+`locate`: subtracting x and p rounds at eps (|x_i| + |p_i|) per component) is taken as zero, so a
+pellet resting on a tilted plane, or on one far from the origin, touches it rather than falling a
+rounding error onto it or through it. `snap` False turns the band off in the parabola's search: the
+dense phase in air, whose kicks move a pellet's reference state every few steps, would otherwise
+meet a plane early wherever the pellet comes within the band of it (docs/air.md, section 3.2).
 
 A contact carries its normal: the flights' `to_contact` return (time, surface, normal, state)
 (`physics.flight`). The host sees the same planes through `project` (the hazard map's grid).
@@ -38,7 +47,7 @@ from .types import types_for
 def make_geometry(precision: str, planes=None, snap: bool = True) -> SimpleNamespace:
     """The geometry `@wp.func`s of one precision. `planes`: the number of surfaces when fixed at
     code generation (the search over them unrolled), else None; `snap`: the parabola's search takes
-    a gap within rounding of zero as zero (`physics.ballistic.make_ballistic`)."""
+    a gap within the touching band as zero (module docstring)."""
     t = types_for(precision)
     scalar, vec3, Surfaces, Material = t.scalar, t.vec3, t.Surfaces, t.Material
     entry_time, return_time, _position, _velocity = make_ballistic(scalar)
@@ -59,11 +68,25 @@ def make_geometry(precision: str, planes=None, snap: bool = True) -> SimpleNames
     @wp.func(inline=True)
     def locate(surfaces: Surfaces, k: wp.int32, x: vec3):
         """(height, noise, normal): x's signed distance from surface k (m), its rounding scale (m)
-        and the unit normal there. A plane: n.(x - p) and sum_i |(x - p)_i n_i|."""
+        and the unit normal there. A plane: n.(x - p) and sum_i (|x_i| + |p_i|) |n_i|."""
         n = surfaces.normal[k]
-        offset = x - surfaces.point[k]
-        noise = wp.abs(offset[0] * n[0]) + wp.abs(offset[1] * n[1]) + wp.abs(offset[2] * n[2])
-        return wp.dot(offset, n), noise, n
+        p = surfaces.point[k]
+        noise = (
+            (wp.abs(x[0]) + wp.abs(p[0])) * wp.abs(n[0])
+            + (wp.abs(x[1]) + wp.abs(p[1])) * wp.abs(n[1])
+            + (wp.abs(x[2]) + wp.abs(p[2])) * wp.abs(n[2])
+        )
+        return wp.dot(x - p, n), noise, n
+
+    @wp.func(inline=True)
+    def gap(surfaces: Surfaces, k: wp.int32, x: vec3, radius: scalar):
+        """(height, gap, normal): `locate`'s height and normal, and a sphere's gap height - R,
+        0 within the touching band |gap| <= ROUNDING eps (noise + R)."""
+        height, noise, n = locate(surfaces, k, x)
+        g = height - radius
+        if wp.abs(g) <= TOLERANCE * (noise + radius):
+            g = scalar(0.0)  # touching, up to rounding
+        return height, g, n
 
     @wp.func(inline=True)
     def material(surfaces: Surfaces, k: wp.int32, x: vec3):
@@ -104,7 +127,7 @@ def make_geometry(precision: str, planes=None, snap: bool = True) -> SimpleNames
     ):
         """Time (s) until the parabola of eq. (36) meets surface k, or NO_CONTACT (also beyond
         MAX_FLIGHT_TIME). A plane's gap is the quadratic of `physics.ballistic`; one-sided."""
-        height, noise, n = locate(surfaces, k, position)
+        height, gap_snapped, n = gap(surfaces, k, position, radius)
         normal_speed = wp.dot(velocity, n)
         normal_gravity = wp.dot(gravity, n)
         if wp.abs(normal_gravity) <= TOLERANCE * (wp.abs(gravity[0]) + wp.abs(gravity[1]) + wp.abs(gravity[2])):
@@ -114,11 +137,10 @@ def make_geometry(precision: str, planes=None, snap: bool = True) -> SimpleNames
         if k == touching:
             t = return_time(normal_speed, half_normal_gravity)
         elif height >= scalar(0.0):  # one-sided: centre behind the plane never touches
-            gap = height - radius
-            if wp.static(SNAP):  # the gap's rounding noise scales with sum |offset_k n_k|
-                if wp.abs(gap) <= TOLERANCE * (noise + radius):
-                    gap = scalar(0.0)  # touching, up to rounding
-            t = entry_time(gap, normal_speed, half_normal_gravity)
+            g = height - radius
+            if wp.static(SNAP):
+                g = gap_snapped  # the touching band
+            t = entry_time(g, normal_speed, half_normal_gravity)
         if t > LATEST:
             t = scalar(NO_CONTACT)
         return t
@@ -147,6 +169,7 @@ def make_geometry(precision: str, planes=None, snap: bool = True) -> SimpleNames
         count=count,
         normal=normal,
         locate=locate,
+        gap=gap,
         material=material,
         step_gaps=step_gaps,
         contact_time=contact_time,

@@ -111,7 +111,8 @@ def next_contact(position, velocity, gravity, radius, points, normals, touching)
             a = 0.0  # gravity along the plane, up to rounding
         height = (position - p) @ nrm
         c = height - radius
-        c = np.where(np.abs(c) <= TOLERANCE * (np.abs((position - p) * nrm).sum(axis=1) + radius), 0.0, c)  # touching
+        noise = ((np.abs(position) + np.abs(np.asarray(p, np.float64))) * np.abs(nrm)).sum(axis=1)  # of x - p
+        c = np.where(np.abs(c) <= TOLERANCE * (noise + radius), 0.0, c)  # touching (physics.geometry's band)
         t = np.full(n_pellets, np.nan)
         # leaving the plane just hit: t* = -2 v_n / (g . e_n)   (eq. 40 as the tables use it)
         leave = touching == k
