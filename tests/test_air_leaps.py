@@ -182,14 +182,10 @@ def test_a_leap_lets_no_pellet_meet_a_plane(height, normal_speed, bound, tilt):
     root of h + v_n t + (g.n - bound) t^2 / 2, np.roots in float64)."""
     device = "cpu"
     _, planes = _leap_kernels(device)
-    from warp_ricochet.physics.types import types_for
+    from warp_ricochet.physics.types import surfaces_of
 
     normal = np.array([tilt, 1.0, 0.0]) / math.hypot(tilt, 1.0)
-    surfaces = types_for("float64").Surfaces()
-    for name, value in (("point", [[0.0, 0.0, 0.0]]), ("normal", [normal])):
-        setattr(surfaces, name, wp.array(value, dtype=wp.vec3d, device=device))
-    for name in ("restitution", "mu_s", "mu_d"):
-        setattr(surfaces, name, wp.array([0.5], dtype=wp.float64, device=device))
+    surfaces = surfaces_of("float64", [[0.0, 0.0, 0.0]], [normal], [[0.5, 0.5, 0.5]], device)
     x = normal * (RADIUS + height)
     v = normal * normal_speed + np.array([5.0, 0.0, 1.0]) - normal * (np.array([5.0, 0.0, 1.0]) @ normal)
     out = wp.zeros(1, dtype=wp.float64, device=device)

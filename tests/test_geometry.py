@@ -13,7 +13,7 @@ import pytest
 import warp as wp
 
 from warp_ricochet.physics.geometry import make_geometry, project
-from warp_ricochet.physics.types import types_for
+from warp_ricochet.physics.types import surfaces_of, types_for
 from warp_ricochet.reference.ballistic import next_contact as reference_next_contact
 
 PACKAGE = Path(__file__).resolve().parents[1] / "warp_ricochet"
@@ -46,7 +46,7 @@ def test_only_the_geometry_module_reads_the_surfaces():
     physics/geometry.py does (model.py fills the struct; reference/ is the independent NumPy
     reference and io/, report/ write and draw the scene's planes)."""
     fields = _surfaces_fields()
-    assert fields == {"point", "normal", "restitution", "mu_s", "mu_d"}, fields  # (the parse found the struct)
+    assert fields == {"point", "normal", "point_noise", "restitution", "mu_s", "mu_d"}, fields  # (the parse found the struct)
     assert len(_reads(GEOMETRY, fields)) >= 5  # (the test sees the reads where they are)
     offenders = []
     for package in KERNEL_PACKAGES:
@@ -78,13 +78,7 @@ def _random_planes(rng, count):
 
 
 def _surfaces(precision, points, normals, materials, device="cpu"):
-    t = types_for(precision)
-    surfaces = t.Surfaces()
-    surfaces.point = wp.array(points, dtype=t.vec3, device=device)
-    surfaces.normal = wp.array(normals, dtype=t.vec3, device=device)
-    for j, name in enumerate(("restitution", "mu_s", "mu_d")):
-        setattr(surfaces, name, wp.array(materials[:, j], dtype=t.scalar, device=device))
-    return surfaces
+    return surfaces_of(precision, points, normals, materials, device)
 
 
 def _physics(precision, air=None, device="cpu"):

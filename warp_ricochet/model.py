@@ -18,7 +18,7 @@ from .core.outputs import element_type, outputs_struct
 from .fields import FIELDS, bytes_per_pellet
 from .physics.air import GAMMA_AIR
 from .physics.impact import SOLID_SPHERE_INERTIA_FACTOR
-from .physics.types import types_for
+from .physics.types import surfaces_of, types_for
 from .tallies.reduce import LANES, SEGMENT_WIDTH, partial_bytes_per_pellet, threads_for
 from .tallies.sums import NUM_EXTREMES, NUM_SUMS
 
@@ -57,18 +57,13 @@ class Model:
         t = types_for(precision)
         radius = 0.5 * diameter
         mass = density * 4.0 / 3.0 * math.pi * radius**3
-        np_dtype = np.dtype(precision)
-
-        def column(values, dtype):
-            shape = (len(planes), 3) if dtype is t.vec3 else (len(planes),)
-            return wp.array(np.asarray(values, dtype=np_dtype).reshape(shape), dtype=dtype, device=device)
-
-        surfaces = t.Surfaces()
-        surfaces.point = column([p.point for p in planes], t.vec3)
-        surfaces.normal = column([p.normal for p in planes], t.vec3)
-        surfaces.restitution = column([p.restitution for p in planes], t.scalar)
-        surfaces.mu_s = column([p.mu_s for p in planes], t.scalar)
-        surfaces.mu_d = column([p.mu_d for p in planes], t.scalar)
+        surfaces = surfaces_of(
+            precision,
+            [p.point for p in planes],
+            [p.normal for p in planes],
+            [(p.restitution, p.mu_s, p.mu_d) for p in planes],
+            device,
+        )
         physics = t.Physics()
         physics.radius = t.scalar(radius)
         physics.inertia_factor = t.scalar(SOLID_SPHERE_INERTIA_FACTOR)

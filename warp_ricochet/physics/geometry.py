@@ -68,15 +68,11 @@ def make_geometry(precision: str, planes=None, snap: bool = True) -> SimpleNames
     @wp.func(inline=True)
     def locate(surfaces: Surfaces, k: wp.int32, x: vec3):
         """(height, noise, normal): x's signed distance from surface k (m), its rounding scale (m)
-        and the unit normal there. A plane: n.(x - p) and sum_i (|x_i| + |p_i|) |n_i|."""
+        and the unit normal there. A plane: n.(x - p) and sum_i |x_i| |n_i| + sum_i |p_i| |n_i|
+        (the second sum kept with the surfaces: `types.surfaces_of`)."""
         n = surfaces.normal[k]
-        p = surfaces.point[k]
-        noise = (
-            (wp.abs(x[0]) + wp.abs(p[0])) * wp.abs(n[0])
-            + (wp.abs(x[1]) + wp.abs(p[1])) * wp.abs(n[1])
-            + (wp.abs(x[2]) + wp.abs(p[2])) * wp.abs(n[2])
-        )
-        return wp.dot(x - p, n), noise, n
+        noise = wp.abs(x[0] * n[0]) + wp.abs(x[1] * n[1]) + wp.abs(x[2] * n[2]) + surfaces.point_noise[k]
+        return wp.dot(x - surfaces.point[k], n), noise, n
 
     @wp.func(inline=True)
     def gap(surfaces: Surfaces, k: wp.int32, x: vec3, radius: scalar):

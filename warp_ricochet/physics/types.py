@@ -9,6 +9,7 @@ of at a point), `Air` (the air's constants, premultiplied for the laws of `physi
 import functools
 from types import SimpleNamespace
 
+import numpy as np
 import warp as wp
 
 SCALARS = {"float32": wp.float32, "float64": wp.float64}
@@ -22,10 +23,12 @@ def types_for(precision: str) -> SimpleNamespace:
 
     @wp.struct
     class Surfaces:
-        """Planes: a point (m), the unit normal towards the pellets, E, mu_s, mu_d."""
+        """Planes: a point p (m), the unit normal n towards the pellets, E, mu_s, mu_d; and
+        sum_i |p_i| |n_i| (m), the point's part of a gap's rounding scale (`surfaces_of` sets it)."""
 
         point: wp.array(dtype=vec3)
         normal: wp.array(dtype=vec3)
+        point_noise: wp.array(dtype=scalar)
         restitution: wp.array(dtype=scalar)
         mu_s: wp.array(dtype=scalar)
         mu_d: wp.array(dtype=scalar)
@@ -72,3 +75,22 @@ def types_for(precision: str) -> SimpleNamespace:
     return SimpleNamespace(
         precision=precision, scalar=scalar, vec3=vec3, Surfaces=Surfaces, Material=Material, Air=Air, Physics=Physics
     )
+
+
+def surfaces_of(precision: str, points, normals, materials, device) -> object:
+    """The `Surfaces` struct of planes: points (m) and unit normals (P, 3), materials (P, 3) as
+    restitution, mu_s, mu_d; their point_noise sum_i |p_i| |n_i| computed here in float64, once, so
+    the kernels' rounding scale of a gap (`physics.geometry.locate`) adds it instead of p's terms."""
+    t = types_for(precision)
+    dtype = np.dtype(precision)
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+    materials = np.asarray(materials, dtype=np.float64).reshape(-1, 3)
+    surfaces = t.Surfaces()
+    surfaces.point = wp.array(points.astype(dtype), dtype=t.vec3, device=device)
+    surfaces.normal = wp.array(normals.astype(dtype), dtype=t.vec3, device=device)
+    noise = (np.abs(points.astype(dtype)).astype(np.float64) * np.abs(normals.astype(dtype))).sum(axis=1)
+    surfaces.point_noise = wp.array(noise.astype(dtype), dtype=t.scalar, device=device)
+    for j, name in enumerate(("restitution", "mu_s", "mu_d")):
+        setattr(surfaces, name, wp.array(materials[:, j].astype(dtype), dtype=t.scalar, device=device))
+    return surfaces
