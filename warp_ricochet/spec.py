@@ -24,7 +24,8 @@ class RunSpec:
     pellet-pellet collisions first; flight: the flight model (`physics.flight.MODELS`); air_laws:
     in air, (drag, lift or None, spin decay or None) of `physics.air`; tally: landing histograms
     (quantiles, danger distances, `tallies.landing`); hazard_map: the hazard map too; thresholds:
-    the number of hazard thresholds (compiled in: the landing code tests each one unrolled)."""
+    the number of hazard thresholds (compiled in: the landing code tests each one unrolled); until:
+    "landing" ends a pellet at its landing, "rest" follows it on until it stops (docs/ground.md)."""
 
     precision: str
     bounces: int
@@ -38,6 +39,7 @@ class RunSpec:
     tally: bool = False
     hazard_map: bool = False
     thresholds: int = 0
+    until: str = "landing"
 
     @classmethod
     def of(cls, scene, *, with_output: bool = True) -> RunSpec:
@@ -60,7 +62,13 @@ class RunSpec:
             tally=scene.output.quantiles,
             hazard_map=scene.output.quantiles and scene.hazard is not None and scene.hazard.has_map,
             thresholds=0 if scene.hazard is None else len(scene.hazard.thresholds),
+            until=scene.physics.until,
         )
+
+    @property
+    def to_rest(self) -> bool:
+        """Whether pellets are followed on from their landing until they stop."""
+        return self.until == "rest"
 
     @property
     def in_air(self) -> bool:

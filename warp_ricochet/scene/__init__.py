@@ -7,7 +7,8 @@ Layout of a scene file::
 
     [shot]        pellets: sampled (count, speed, direction, jitter, envelope, spin, seed) or read from `file`
     [[surfaces]]  planes: point, normal (towards the incoming pellets), restitution, mu_s, mu_d, name
-    [physics]     gravity, impact_duration (the paper's delta t), bounces
+    [physics]     gravity, impact_duration (the paper's delta t), bounces, until (rest or landing),
+                  rest_speed, max_impacts, max_steps (docs/ground.md)
     [collisions]  pellet-pellet collisions (off by default): enabled, restitution, mu_s, mu_d, and the
                   time stepping of the dense phase (see docs/collisions.md)
     [air]         flight in air (absent: vacuum): density, viscosity, sound_speed, wind, the drag, lift

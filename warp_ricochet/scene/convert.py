@@ -195,6 +195,10 @@ _PHYSICS = {
     "gravity": _vec3(unit="m/s^2", bound=MAX_GRAVITY),
     "impact_duration": _range(0, MAX_IMPACT_DURATION, unit="s"),
     "bounces": _int(1, 16),
+    "until": _str(("rest", "landing")),
+    "rest_speed": _range(0, MAX_SPEED, above=True, unit="m/s"),
+    "max_impacts": _int(1, 1_000_000),
+    "max_steps": _int(1, INT32_MAX),
 }
 _COLLISIONS = {
     "enabled": _bool,

@@ -68,9 +68,27 @@ class Surface:
 
 @dataclass(frozen=True)
 class Physics:
+    """`bounces`: the ricochets before the landing (the landing fields); `until`: "rest" follows every
+    pellet on to where it stops (docs/ground.md), "landing" ends it at the landing; `rest_speed` (m/s):
+    a pellet on a surface slower than it, and held there, is at rest (None: sqrt(10 g R / 7), the speed
+    below which a rolling pellet cannot climb a step of its own radius); `max_impacts`: the impacts a
+    pellet may make (its budget: past it, and past `max_steps` integration steps of its motion along
+    surfaces, it is "not finished")."""
+
     gravity: Vec3 = (0.0, -9.81, 0.0)  # m/s^2
     impact_duration: float = 0.0  # s
     bounces: int = 1
+    until: str = "rest"
+    rest_speed: float | None = None  # m/s
+    max_impacts: int = 1000
+    max_steps: int = 100_000
+
+    def rest_speed_for(self, radius: float) -> float:
+        """The rest speed (m/s) for a pellet of `radius` (m): the key's, else sqrt(10 |g| R / 7)."""
+        if self.rest_speed is not None:
+            return self.rest_speed
+        g = sum(x * x for x in self.gravity) ** 0.5
+        return (10.0 * g * radius / 7.0) ** 0.5
 
 
 # Steel on steel (docs/collisions.md): restitution 0.9 for hardened steel spheres at low speed
