@@ -69,6 +69,9 @@ class Model:
         physics.inertia_factor = t.scalar(SOLID_SPHERE_INERTIA_FACTOR)
         physics.gravity = t.vec3(*physics_scene.gravity)
         physics.impact_duration = t.scalar(physics_scene.impact_duration)
+        physics.rest_speed = t.scalar(physics_scene.rest_speed_for(radius))
+        physics.max_impacts = physics_scene.max_impacts
+        physics.max_steps = physics_scene.max_steps
         physics.air = air_struct(air, precision, device, radius, mass, physics_scene.gravity, tolerance)
         return cls(
             device=device,

@@ -25,7 +25,8 @@ class RunSpec:
     in air, (drag, lift or None, spin decay or None) of `physics.air`; tally: landing histograms
     (quantiles, danger distances, `tallies.landing`); hazard_map: the hazard map too; thresholds:
     the number of hazard thresholds (compiled in: the landing code tests each one unrolled); until:
-    "landing" ends a pellet at its landing, "rest" follows it on until it stops (docs/ground.md)."""
+    "landing" ends a pellet at its landing, "rest" follows it on until it stops (docs/ground.md); ground:
+    a surface has rough ground or a penetration law (`physics.ground`), applied at every impact."""
 
     precision: str
     bounces: int
@@ -40,6 +41,7 @@ class RunSpec:
     hazard_map: bool = False
     thresholds: int = 0
     until: str = "landing"
+    ground: bool = False
 
     @classmethod
     def of(cls, scene, *, with_output: bool = True) -> RunSpec:

@@ -78,9 +78,10 @@ def ricochet_kernel_for(spec, max_registers="default"):
                     shot = row / release.shot_stride
                     member = row - shot * release.shot_stride
                     if member < release.shot_count:
+                        pellet = shot * release.shot_count + member
                         counts, acc, lo, hi, range_shift = ricochet_pellet(
-                            0,
-                            shot * release.shot_count + member,
+                            release.first_pellet + pellet,
+                            pellet,
                             source,
                             surfaces,
                             physics,

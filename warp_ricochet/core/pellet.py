@@ -13,16 +13,21 @@ import functools
 import warp as wp
 
 from ..launch.source import make_source
+from ..physics.air_flight import GAVE_UP
 from ..physics.contact import make_contact
 from ..physics.flight import make_flight
 from ..physics.geometry import make_geometry
+from ..physics.ground import make_ground
 from ..physics.types import types_for
 from ..tallies.accumulate import make_accumulators
 from ..tallies.landing import make_add_landing, make_landing_tally
 from .outputs import make_outputs
 from .release import make_release
-
-FLYING, ESCAPED, RESTING = 0, 1, 2  # RESTING: met a surface without closing speed, it stays there
+from .rest import LANDING_EMBEDDED as EMBEDDED
+from .rest import LANDING_ESCAPED as ESCAPED
+from .rest import LANDING_FLYING as FLYING
+from .rest import LANDING_RESTING as RESTING
+from .rest import make_to_rest
 
 
 @functools.cache
@@ -42,7 +47,10 @@ def make_ricochet_pellet(spec):
     flight = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws)
     AIR = spec.flight == "air"
     rests, stays, impact, _meet, contact_point, landing_range = make_contact(spec.precision)
-    geo = make_geometry(spec.precision)
+    geo, ground = make_geometry(spec.precision), make_ground(spec.precision)
+    GROUND, TO_REST = spec.ground, spec.to_rest
+    follow = make_to_rest(spec) if TO_REST else None
+    start_mode = follow.start_mode if TO_REST else None
     RELEASE, WRITE, BOUNCES = spec.collisions, bool(spec.core_fields), spec.bounces
     Tally, landing_tally = (
         make_landing_tally(spec.precision).Tally,
@@ -75,6 +83,7 @@ def make_ricochet_pellet(spec):
         touching = wp.int32(-1)  # the plane it is leaving
         impacts = wp.int32(0)
         state = wp.int32(FLYING)
+        gave_up = wp.int32(0)  # its flight's integration gave up (state ESCAPED)
         resting_surface = wp.int32(-1)
         last_slipped = wp.int32(0)
         ricochet_point = vec3()  # m, the contact point of its last ricochet
@@ -131,6 +140,8 @@ def make_ricochet_pellet(spec):
                     acc = acc_fns.add_flight_sums(acc, steps, k)
                 if k < 0:
                     state = wp.int32(ESCAPED)  # it never meets a surface again
+                    if k == GAVE_UP:
+                        gave_up = wp.int32(1)
                 else:
                     hi[X_SCALE] = wp.max(hi[X_SCALE], flight_scale(position, velocity, dt, physics.gravity))
                     position = position_then
@@ -143,26 +154,36 @@ def make_ricochet_pellet(spec):
                     else:
                         impacted = 1
                         material = geo.material(surfaces, k, position)
-                        velocity_after, spin_after, slipped = impact(material, normal, velocity, spin, physics)
-                        if wp.static(WRITE):
-                            outs.write_impact(out, row, b, time, position, velocity, spin, velocity_after, spin_after, slipped, k)
-                        if b == 0:
-                            counts[0] += 1
-                            counts[1] += slipped
-                            acc = acc_fns.add_first_impact_sums(
-                                acc, velocity, spin, velocity_after, spin_after, normal, launch_v2, launch_w2
-                            )
-                        speed_before2 = wp.dot(velocity, velocity)
-                        velocity = velocity_after
-                        spin = spin_after
-                        touching = k
-                        impacts = impacts + 1
-                        last_slipped = slipped
-                        ricochet_point = contact_point(position, physics.radius, normal)
-                        ricochet_time = time
-                        if stays(velocity, normal, speed_before2):
-                            state = wp.int32(RESTING)
-                            resting_surface = k
+                        tilted = normal
+                        if wp.static(GROUND):  # rough ground and the ground's laws (physics.ground)
+                            material, tilted = ground.draw(material, normal, velocity, source.seed, index, impacts)
+                            if ground.embeds(material, velocity, tilted) != 0:
+                                state = wp.int32(EMBEDDED)  # it ends here: its landing if after a ricochet
+                                resting_surface = k
+                                impacted = 0
+                        if impacted != 0:
+                            velocity_after, spin_after, slipped = impact(material, tilted, velocity, spin, physics)
+                            if wp.static(WRITE):
+                                outs.write_impact(
+                                    out, row, b, time, position, velocity, spin, velocity_after, spin_after, slipped, k
+                                )
+                            if b == 0:
+                                counts[0] += 1
+                                counts[1] += slipped
+                                acc = acc_fns.add_first_impact_sums(
+                                    acc, velocity, spin, velocity_after, spin_after, normal, launch_v2, launch_w2
+                                )
+                            speed_before2 = wp.dot(velocity, velocity)
+                            velocity = velocity_after
+                            spin = spin_after
+                            touching = k
+                            impacts = impacts + 1
+                            last_slipped = slipped
+                            ricochet_point = contact_point(position, physics.radius, normal)
+                            ricochet_time = time
+                            if stays(velocity, normal, speed_before2):
+                                state = wp.int32(RESTING)
+                                resting_surface = k
             if wp.static(WRITE):
                 if impacted == 0 and b >= first_bounce:  # no impact at this bounce: mark it missing
                     outs.mark_missing(out, row, b)
@@ -183,10 +204,13 @@ def make_ricochet_pellet(spec):
                 if wp.static(AIR):
                     acc = acc_fns.add_flight_sums(acc, steps, k_next)
                 k = k_next
+                if k_next == GAVE_UP:
+                    gave_up = wp.int32(1)
                 if k >= 0:
                     hi[X_SCALE] = wp.max(hi[X_SCALE], flight_scale(position, velocity, dt, physics.gravity))
                     position = position_then
                     velocity = velocity_then
+                    spin = spin_then
                     time = time + dt
             if k >= 0:
                 landing_surface = k
@@ -214,6 +238,20 @@ def make_ricochet_pellet(spec):
                     acc[F_RANGE_STICK] += distance
                     lo[1] = wp.min(lo[1], distance)
                     hi[1] = wp.max(hi[1], distance)
+        if wp.static(TO_REST):  # on from the landing until it stops (core.rest)
+            rest_state, rest_position, rest_velocity, spin, rest_time, rest_impacts, rest_path, rest_steps = follow.to_rest(
+                start_mode(state, gave_up, landing_surface, resting_surface),
+                wp.max(landing_surface, resting_surface),
+                position,
+                velocity,
+                spin,
+                time,
+                impacts,
+                source.seed,
+                index,
+                surfaces,
+                physics,
+            )
         if wp.static(WRITE):
             outs.write_landing(out, row, landing_time, landing_position, landing_velocity, distance, landing_surface)
             if wp.static(HAZARD_OUT):

@@ -36,11 +36,12 @@ RELEASE_ARRAYS = {
 @functools.cache
 def make_release(precision: str):
     """The `Release` struct: the arrays above, and `shot_count` pellets per shot laid out in
-    `shot_stride` slots each (slot s * stride + k is pellet s * count + k; the rest is padding)."""
+    `shot_stride` slots each (slot s * stride + k is pellet s * count + k; the rest is padding);
+    `first_pellet` the global index of the chunk's first pellet."""
     t = types_for(precision)
     kinds = {"vec3": t.vec3, "scalar": t.scalar, "int32": wp.int32}
     members = {name: wp.array(dtype=kinds[kind]) for name, kind in RELEASE_ARRAYS.items()}
-    members.update(shot_count=wp.int32, shot_stride=wp.int32)
+    members.update(shot_count=wp.int32, shot_stride=wp.int32, first_pellet=wp.int32)
     return wp.struct(
         type("Release", (), {"__annotations__": members, "__module__": __name__, "__qualname__": f"Release_{precision}"})
     )

@@ -112,6 +112,7 @@ class DensePhase:
         pellets = shots * self.count
         c, p = self.cloud, self.pair
         self.shots, self._outputs = shots, outputs
+        self.release.first_pellet = first_index
         self.launch_shots(first_index, shots, source, outputs)
         start_shots(self, shots)
         if not self.cell_lists:

@@ -40,6 +40,8 @@ def types_for(precision: str) -> SimpleNamespace:
         restitution: scalar
         mu_s: scalar
         mu_d: scalar
+        rolling_resistance: scalar
+        ploughing: scalar
 
     @wp.struct
     class Air:
@@ -71,6 +73,9 @@ def types_for(precision: str) -> SimpleNamespace:
         gravity: vec3  # m/s^2
         impact_duration: scalar  # s, the paper's delta t
         air: Air
+        rest_speed: scalar  # m/s: on a surface, slower than it and held, a pellet is at rest
+        max_impacts: wp.int32  # a pellet's budget of impacts (until = "rest")
+        max_steps: wp.int32  # and of integration steps along surfaces
 
     return SimpleNamespace(
         precision=precision, scalar=scalar, vec3=vec3, Surfaces=Surfaces, Material=Material, Air=Air, Physics=Physics

@@ -1,0 +1,195 @@
+"""A pellet followed on from its landing until it stops (`physics.until = "rest"`, docs/ground.md).
+
+`make_to_rest(spec).to_rest(...)` moves one pellet through three modes until it ends:
+
+- CONTACT: it meets surface k with its velocity. No closing speed: it is on the surface. Else an
+  impact: the ground's draw for this impact (`physics.ground.draw`: rough ground's tilted normal and
+  scattered restitution and friction, keyed by (seed, pellet, impact)), then either it enters the
+  ground (`ground.embeds`: steeper than the critical angle, EMBEDDED) or the impact law
+  (`physics.contact.impact`, eqs. 1-25) gives its rebound. It leaves the surface if the rebound's
+  speed along the plane's own normal exceeds sqrt(2 R N/m) (`surface_motion.separates`, docs/ground.md
+  5, N from gravity and the air at the rebound); else that normal speed is dropped and it moves along
+  the surface (or, on water, `ground.sinks`, it is EMBEDDED).
+- SURFACE: it slides, rolls or ploughs along surface k (`physics.surface_follow.follow`) until it
+  rests (AT_REST), lifts off (FLIGHT), reaches another surface (CONTACT), moves on for ever on an
+  infinite plane (ESCAPED) or spends its steps (NOT_FINISHED).
+- FLIGHT: it flies from surface k to the next contact (`physics.flight`), or escapes.
+
+Budgets: `physics.max_impacts` impacts and `physics.max_steps` integration steps along surfaces; a
+pellet past either, or whose flight integration gave up, is NOT_FINISHED (never called at rest).
+"""
+
+import functools
+from types import SimpleNamespace
+
+import warp as wp
+
+from ..ends import AT_REST, EMBEDDED, ESCAPED, NOT_FINISHED
+from ..physics.air_flight import GAVE_UP
+from ..physics.contact import make_contact
+from ..physics.flight import make_flight
+from ..physics.geometry import make_geometry
+from ..physics.ground import make_ground
+from ..physics.integrate import make_stepper
+from ..physics.surface_follow import CONTACT as ENDS_IN_CONTACT
+from ..physics.surface_follow import FLIGHT as LIFTS_OFF
+from ..physics.surface_follow import FOREVER, REST, make_surface_follow
+from ..physics.surface_motion import make_surface_laws
+from ..physics.types import types_for
+
+CONTACT, SURFACE, FLIGHT = 0, 1, 2  # the modes of `to_rest`
+# what it ended as before: DONE_ESCAPED, DONE_NOT_FINISHED, DONE_EMBEDDED (ended in the core's landing part)
+DONE_ESCAPED, DONE_NOT_FINISHED, DONE_EMBEDDED = 4 + ESCAPED, 4 + NOT_FINISHED, 4 + EMBEDDED
+# core.pellet's states: RESTING met a surface without closing speed (it stays there), EMBEDDED entered the ground
+LANDING_FLYING, LANDING_ESCAPED, LANDING_RESTING, LANDING_EMBEDDED = 0, 1, 2, 3
+EVENTS_PER_IMPACT = 4  # a loop's iterations per impact allowed (a guard: contact, surface, flight, contact)
+
+
+@functools.cache
+def make_to_rest(spec) -> SimpleNamespace:
+    """`to_rest` and `applied` of a run spec (its precision, planes, flight model and air laws)."""
+    t = types_for(spec.precision)
+    scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
+    flight = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws)
+    surface = make_surface_follow(spec.precision, spec.static_planes, spec.flight, spec.air_laws)
+    rests, _stays, impact, _meet, _point, _range = make_contact(spec.precision)
+    geo, ground, laws = (
+        make_geometry(spec.precision, spec.static_planes),
+        make_ground(spec.precision),
+        make_surface_laws(spec.precision),
+    )
+    AIR = spec.in_air
+    rates = make_stepper(spec.precision, spec.air_laws).rates if AIR else None
+
+    @wp.func
+    def applied(velocity: vec3, spin: vec3, physics: Physics):
+        """g + a_air (m/s^2): every force on the pellet but a surface's, per unit mass."""
+        if wp.static(AIR):
+            acceleration, _spin_rate = rates(velocity, spin, physics)
+            return acceleration
+        return physics.gravity
+
+    @wp.func
+    def leaves(velocity: vec3, spin: vec3, normal: vec3, physics: Physics):
+        """Whether a rebound with `velocity` leaves the plane of `normal` (docs/ground.md 5)."""
+        load = laws.normal_load(normal, applied(velocity, spin, physics))
+        return laws.separates(wp.dot(velocity, normal), load, physics.radius)
+
+    @wp.func
+    def start_mode(state: wp.int32, gave_up: wp.int32, landing_surface: wp.int32, resting_surface: wp.int32):
+        """The mode a pellet goes on in after the core's landing part (core.pellet's `state`): at a
+        contact with its landing (or resting) surface, else done (escaped, given up or embedded)."""
+        mode = wp.int32(DONE_ESCAPED)
+        if gave_up != 0:
+            mode = wp.int32(DONE_NOT_FINISHED)
+        if state == LANDING_EMBEDDED:
+            mode = wp.int32(DONE_EMBEDDED)
+        elif state == LANDING_RESTING or (state == LANDING_FLYING and landing_surface >= 0):
+            mode = wp.int32(CONTACT)  # no closing speed: on the surface (a dense-phase landing has some)
+        return mode
+
+    @wp.func
+    def to_rest(
+        mode: wp.int32,
+        k: wp.int32,
+        position: vec3,
+        velocity: vec3,
+        spin: vec3,
+        time: scalar,
+        impacts: wp.int32,
+        seed: wp.int32,
+        pellet: wp.int32,
+        surfaces: Surfaces,
+        physics: Physics,
+    ):
+        """Follow a pellet from `mode` (CONTACT, SURFACE or FLIGHT, at or leaving surface k; or
+        `start_mode`'s done) to its end. Returns (end, position, velocity, spin, time, impacts, path
+        along surfaces m, steps): position and velocity NaN and time inf when it escaped."""
+        end = wp.int32(-1)
+        if mode >= DONE_ESCAPED:
+            end = mode - 4
+            if end == EMBEDDED:
+                impacts += 1  # the impact it entered the ground at
+        path = scalar(0.0)
+        steps = wp.int32(0)
+        events = wp.int32(0)
+        guard = EVENTS_PER_IMPACT * physics.max_impacts + 8
+        while end < 0:
+            events += 1
+            if events > guard:
+                end = wp.int32(NOT_FINISHED)
+            elif mode == CONTACT:
+                normal = geo.normal(surfaces, k, position)
+                if rests(velocity, normal):
+                    mode = wp.int32(SURFACE)
+                elif impacts >= physics.max_impacts:
+                    end = wp.int32(NOT_FINISHED)
+                else:
+                    material, tilted = ground.draw(geo.material(surfaces, k, position), normal, velocity, seed, pellet, impacts)
+                    impacts += 1
+                    if ground.embeds(material, velocity, tilted) != 0:
+                        end = wp.int32(EMBEDDED)
+                    else:
+                        velocity, spin, _slipped = impact(material, tilted, velocity, spin, physics)
+                        if leaves(velocity, spin, normal, physics) != 0:
+                            mode = wp.int32(FLIGHT)
+                        elif ground.sinks(material) != 0:
+                            end = wp.int32(EMBEDDED)
+                        else:
+                            velocity = velocity - wp.dot(velocity, normal) * normal
+                            mode = wp.int32(SURFACE)
+            elif mode == SURFACE:
+                material = geo.material(surfaces, k, position)
+                if ground.sinks(material) != 0:
+                    end = wp.int32(EMBEDDED)
+                else:
+                    position, velocity, spin, elapsed, length, ended, taken, k_next = surface.follow(
+                        position,
+                        velocity,
+                        spin,
+                        k,
+                        surfaces,
+                        physics,
+                        material.mu_s,
+                        material.mu_d,
+                        material.rolling_resistance,
+                        material.ploughing,
+                        physics.rest_speed,
+                        physics.max_steps - steps,
+                    )
+                    time += elapsed
+                    path += length
+                    steps += taken
+                    if ended == REST:
+                        end = wp.int32(AT_REST)
+                    elif ended == LIFTS_OFF:
+                        mode = wp.int32(FLIGHT)
+                    elif ended == ENDS_IN_CONTACT:
+                        k = k_next
+                        mode = wp.int32(CONTACT)
+                    elif ended == FOREVER:
+                        end = wp.int32(ESCAPED)
+                    else:
+                        end = wp.int32(NOT_FINISHED)
+            else:
+                dt, k_next, _normal, position_then, velocity_then, spin_then, _steps = flight.to_contact(
+                    position, velocity, spin, k, surfaces, physics
+                )
+                if k_next == GAVE_UP:
+                    end = wp.int32(NOT_FINISHED)
+                elif k_next < 0:
+                    end = wp.int32(ESCAPED)
+                else:
+                    position = position_then
+                    velocity = velocity_then
+                    spin = spin_then
+                    time += dt
+                    k = k_next
+                    mode = wp.int32(CONTACT)
+        if end == ESCAPED:
+            position = vec3(scalar(wp.nan))
+            velocity = vec3(scalar(wp.nan))
+            time = scalar(wp.inf)
+        return end, position, velocity, spin, time, impacts, path, steps
+
+    return SimpleNamespace(start_mode=start_mode, to_rest=to_rest, applied=applied, leaves=leaves)
