@@ -1,0 +1,114 @@
+"""Following every pellet to its end (`physics.until = "rest"`, docs/ground.md): throughput beside
+today's path (the landing) in one run, with impacts, integration steps and bytes per pellet.
+
+    python -m bench.rest throughput [--device cuda:0] [--sizes 1e6,1e8] [--repeats 3] [--out DIR]
+    python -m bench.rest collisions [--device cuda:0] [--shots 10000] [--count 450] [--out DIR]
+
+`throughput`: statistics-only runs of the paper's scene (examples/paper.toml, mu_s 0.5, float32):
+in vacuum and in sea-level air to the landing (today's path), and in air followed to rest on each
+ground of GROUNDS (a rigid plane: the scene's own surface, c = 0; and catalogue materials). Each
+row: seconds (median of --repeats after a warm-up), pellets/s, mean impacts and integration steps
+per pellet (/stats), and the device bytes per pellet of a statistics-only run (the per-thread
+partials: none per pellet). `collisions`: --shots shots of --count pellets with pellet-pellet
+collisions in sea-level air, to the landing and to rest on turf.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import warnings
+from pathlib import Path
+
+from bench.__main__ import _timed, _wr, device_info
+from bench.air import paper_scene
+
+# (label, in air, physics.until, more settings)
+CASES = (
+    ("vacuum, landing", False, "landing", ()),
+    ("air, landing", True, "landing", ()),
+    ("air, rest, rigid plane (c = 0)", True, "rest", ()),
+    ("air, rest, turf", True, "rest", ('surfaces.0.material="turf"',)),
+    ("air, rest, packed soil", True, "rest", ('surfaces.0.material="packed_soil"',)),
+    ("vacuum, rest, turf", False, "rest", ('surfaces.0.material="turf"',)),
+)
+
+
+def _row(label, n, stats, seconds, times):
+    row = {"case": label, "N": n, "seconds": seconds, "runs": times, "pellets_per_s": n / seconds}
+    for key in ("rest_impacts_mean", "rest_steps_mean", "flight_steps_mean", "rest_distance_mean", "rest_path_mean"):
+        if key in stats:
+            row[key] = float(stats[key])
+    for key, value in stats.items():
+        if key.startswith("ended_"):
+            row[key] = int(value)
+    return row
+
+
+def _print(row):
+    extra = ", ".join(f"{k} {v:.4g}" for k, v in row.items() if k not in ("case", "N", "seconds", "runs", "pellets_per_s"))
+    print(
+        f"{row['case']:34s} N {row['N']:.0e}: {row['seconds'] * 1e3:9.2f} ms, {row['pellets_per_s']:.3e} pellets/s; {extra}",
+        flush=True,
+    )
+
+
+def throughput(device, sizes, repeats):
+    wr, wp = _wr()
+    rows = []
+    for label, air, until, extra in CASES:
+        settings = [f'physics.until="{until}"', *extra]
+        wr.run(paper_scene(1000, air=air, mu_s=0.5, extra=settings), device=device)  # compile
+        for n in sizes:
+            scene = paper_scene(n, air=air, mu_s=0.5, extra=settings)
+            stats = wr.run(scene, device=device)
+            t, times = _timed(lambda scene=scene: (wr.run(scene, device=device), wp.synchronize_device(device)), repeats)
+            row = _row(label, n, stats, t, times)
+            rows.append(row)
+            _print(row)
+    return rows
+
+
+def collisions(device, shots, count, repeats):
+    wr, wp = _wr()
+    rows = []
+    for label, settings in (
+        ("collisions, air, landing", ['physics.until="landing"']),
+        ("collisions, air, rest, turf", ['physics.until="rest"', 'surfaces.0.material="turf"']),
+    ):
+        collided = [f"shot.shots={shots}", "collisions.enabled=true", "output.fields=[]"]
+        scene = paper_scene(count, "float32", air=True, mu_s=0.5, extra=collided + settings)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            stats = wr.run(scene, device=device)
+            t, times = _timed(lambda scene=scene: (wr.run(scene, device=device), wp.synchronize_device(device)), repeats)
+        row = _row(label, shots * count, stats, t, times)
+        rows.append(row)
+        _print(row)
+    return rows
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(prog="python -m bench.rest", description=__doc__.split("\n")[0])
+    parser.add_argument("what", choices=("throughput", "collisions"))
+    parser.add_argument("--device", default="cpu")
+    parser.add_argument("--sizes", default="1e5")
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--shots", type=int, default=10_000)
+    parser.add_argument("--count", type=int, default=450)
+    parser.add_argument("--out", type=Path)
+    args = parser.parse_args(argv)
+    _wr_mod, wp = _wr()
+    info = device_info(wp, args.device)
+    print(json.dumps(info), flush=True)
+    if args.what == "throughput":
+        rows = throughput(args.device, [int(float(s)) for s in args.sizes.split(",")], args.repeats)
+    else:
+        rows = collisions(args.device, args.shots, args.count, args.repeats)
+    if args.out:
+        args.out.mkdir(parents=True, exist_ok=True)
+        (args.out / f"rest-{args.what}.json").write_text(json.dumps({"device": info, "rows": rows}, indent=1))
+
+
+if __name__ == "__main__":
+    main()
