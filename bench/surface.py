@@ -136,12 +136,16 @@ def main(argv=None):
     parser.add_argument("--precision", default="float32", choices=("float32", "float64"))
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--max-steps", type=int, default=100000)
+    parser.add_argument("--tolerance", type=float, default=1e-6, help="the integrator's relative tolerance in air")
     args = parser.parse_args(argv)
     from warp_ricochet.scene.schema import Air
 
     wp.config.quiet = True
     device = wp.get_device(args.device)
-    print(f"device {device.name} ({platform.processor() or platform.machine()}), {args.precision}, N = {args.n}")
+    print(
+        f"device {device.name} ({platform.processor() or platform.machine()}), {args.precision}, N = {args.n}, "
+        f"tolerance {args.tolerance:g} in air"
+    )
     rng = np.random.default_rng(25)
     x, v, w = (np.asarray(q, float) for q in SECOND_CONTACT)
     jitter = 1.0 + 0.01 * rng.uniform(-1.0, 1.0, (args.n, 1))  # 1% spread in speed and spin
@@ -150,7 +154,7 @@ def main(argv=None):
     for air in (None, Air()):
         medium = "vacuum" if air is None else "air"
         for name, (mu_s, mu_d, c, b) in GROUNDS.items():
-            cache = setup(args.precision, planes, radius=R, air=air, device=args.device)
+            cache = setup(args.precision, planes, radius=R, air=air, tolerance=args.tolerance, device=args.device)
             kwargs = dict(radius=R, mu_s=mu_s, mu_d=mu_d, c=c, b=b, rest=REST_SPEED, air=air, device=args.device)
             kwargs.update(max_steps=args.max_steps, setup_cache=cache)
             follow_pellets(args.precision, planes, x, v * jitter, w * jitter, **kwargs)  # compile, warm up
