@@ -37,7 +37,7 @@ Closed forms (6): in vacuum the applied acceleration is g, constant. A sliding p
 accelerations when the drive g_t is along the slip (a level plane: g_t = 0), a rolling phase when g_t
 is along the velocity (or c = 0): `follow_on_plane` chains them to rest. A phase with a drive across
 the slip or the velocity turns the friction's direction as it goes: no closed form here, `exact` = 0
-(integrated later, as is everything in air).
+(integrated by `surface_follow`, as is everything in air).
 """
 
 import functools
