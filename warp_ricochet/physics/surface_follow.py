@@ -21,8 +21,9 @@ exact; the rest (a drive across the friction, sliding with ploughing) and everyt
 integrated with Dormand-Prince 5(4) steps (`physics.integrate`) at the flight's relative tolerance
 (`physics.air.tolerance`; VACUUM_TOLERANCE in vacuum). Events: the slip or the speed reaching its
 target (slide to roll; rest or stop) by steps aimed at it (never across: the friction's direction
-jumps there) and ended to first order within STOP of its scale; lift-off (N = 0) and loss of grip
-(|F| = mu_s N) by Illinois on the step's dense output; other surfaces by the flight's search
+jumps there) and ended to first order within BAND x the tolerance of its scale (at least STOP);
+lift-off (N = 0) and loss of grip (|F| = mu_s N) by Illinois on the step's dense output; other
+surfaces by the flight's search
 (`air_flight.make_plane_search`, at most limits.MAX_PLANES_IN_AIR surfaces in integrated phases).
 """
 
@@ -43,7 +44,10 @@ CONTACT, FOREVER, UNFINISHED = 4, 5, 6  # end codes beside surface_motion's FLIG
 ENDS = {FLIGHT: "flight", REST: "rest", CONTACT: "contact", FOREVER: "forever", UNFINISHED: "unfinished"}
 VACUUM_TOLERANCE = 1e-6  # the integrator's relative tolerance in vacuum (the flight's default)
 MAX_FOLLOW_PHASES = 32  # slide, roll, grip lost, ...: more phases than this end UNFINISHED
-STOP = {p: max(1e-9, ROUNDING * e) for p, e in EPSILON.items()}  # a slip or speed below STOP x its scale is 0
+# a slip or a speed within STOP x its scale of its target has reached it (the rest to first order);
+# integrated phases widen the band to BAND x the tolerance, below the integrator's own error
+STOP = {p: max(1e-9, ROUNDING * e) for p, e in EPSILON.items()}
+BAND = 0.1
 
 
 @functools.cache
@@ -435,14 +439,15 @@ def make_surface_integrator(precision: str, planes=None, model: str = "ballistic
         steps_left: wp.int32,
     ):
         """Integrate one sliding or rolling phase (`contact.rolling`) until its quantity (`target`)
-        reaches 0, `margin` reaches 0, or another surface is met. Returns (x, v, w, elapsed, path,
-        event, k_next, steps); event 0: the target reached, FLIGHT or 1 - SLIDING... see `follow`:
-        0 target, 1 margin, CONTACT, UNFINISHED."""
+        reaches `goal`, `margin` reaches 0, or another surface is met. Returns (x, v, w, elapsed,
+        path, event, k_next, steps); event 0: the target reached, 1: the margin, CONTACT, or
+        UNFINISHED (steps_left spent)."""
         radius = physics.radius
         floor = wp.sqrt(wp.length(physics.gravity) * radius) + scalar(1e-6)
         tolerance = scalar(VACUUM_TOLERANCE)
         if wp.static(AIR):
             tolerance = physics.air.tolerance
+        band = wp.max(STOP_FRACTION, scalar(BAND) * tolerance)
         watched, waiting, now = watch_start(position, velocity, k, surfaces, physics)
         if now >= 0:
             return position, velocity, spin, ZERO, ZERO, wp.int32(CONTACT), now, wp.int32(0)
@@ -456,14 +461,14 @@ def make_surface_integrator(precision: str, planes=None, model: str = "ballistic
         while steps < steps_left:
             q, rate, direction = target(velocity, spin, acceleration, spin_rate, contact, radius, goal)
             if rate < ZERO:
-                if q <= STOP_FRACTION * scale:  # the rest of the way to first order
+                if q <= band * scale:  # the rest of the way to first order
                     dt = q / (-rate)
                     position = position + velocity * dt
                     path += wp.length(velocity) * dt
                     velocity = velocity + acceleration * dt
                     spin = spin + spin_rate * dt
                     return position, velocity, spin, elapsed + dt, path, wp.int32(0), k, steps
-                h = wp.min(h, (q - HALF * STOP_FRACTION * scale) / (-rate))  # into the band's middle
+                h = wp.min(h, (q - HALF * band * scale) / (-rate))  # into the band's middle
             x1, v1, w1, a1, d1, ex, ev, ew = stages(position, velocity, spin, acceleration, spin_rate, h, physics, contact)
             steps += 1
             error = error_norm(position, velocity, spin, x1, v1, w1, ex, ev, ew, tolerance, floor, radius)
