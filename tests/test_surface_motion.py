@@ -37,7 +37,7 @@ def _kernels(precision):
         applied: wp.array(dtype=vec3),
         alpha: wp.array(dtype=vec3),
         gravity: wp.array(dtype=vec3),
-        p: wp.array2d(dtype=scalar),  # mu_s, mu_d, c, rest_speed, rebound normal speed
+        p: wp.array2d(dtype=scalar),  # mu_s, mu_d, c, rest_speed, rebound normal speed, ploughing b
         s: wp.array2d(dtype=scalar),
         vecs: wp.array2d(dtype=vec3),
     ):
@@ -46,18 +46,19 @@ def _kernels(precision):
         mu_d = p[i, 1]
         c = p[i, 2]
         rest = p[i, 3]
+        b = p[i, 5]
         radius, k = scalar(R), scalar(K)
         load = sm.normal_load(n[i], applied[i])
         s[i, 0] = load
         s[i, 1] = wp.length(sm.slip_velocity(v[i], w[i], n[i], radius))
-        a, dw = sm.sliding_rates(v[i], w[i], n[i], applied[i], alpha[i], radius, k, mu_d)
+        a, dw = sm.sliding_rates(v[i], w[i], n[i], applied[i], alpha[i], radius, k, mu_d, b)
         vecs[i, 0] = a
         vecs[i, 1] = dw
-        a, dw, needed = sm.rolling_rates(v[i], n[i], applied[i], alpha[i], radius, k, c)
+        a, dw, needed = sm.rolling_rates(v[i], n[i], applied[i], alpha[i], radius, k, c, b)
         vecs[i, 2] = a
         vecs[i, 3] = dw
         s[i, 2] = needed
-        s[i, 3] = scalar(sm.surface_mode(v[i], w[i], n[i], applied[i], alpha[i], gravity[i], radius, k, mu_s, c, rest))
+        s[i, 3] = scalar(sm.surface_mode(v[i], w[i], n[i], applied[i], alpha[i], gravity[i], radius, k, mu_s, c, b, rest))
         t_slide, exact_slide = sm.slide_end(v[i], w[i], n[i], applied[i], radius, k, mu_d)
         s[i, 4] = t_slide
         s[i, 5] = exact_slide
@@ -86,7 +87,9 @@ def _kernels(precision):
     return scalar, vec3, probe, arc
 
 
-def probe(precision, device, *, x, v, w, n, applied, alpha=None, gravity=None, mu_s=0.5, mu_d=0.4, c=0.0, rest=0.0, rebound=0.0):
+def probe(
+    precision, device, *, x, v, w, n, applied, alpha=None, gravity=None, mu_s=0.5, mu_d=0.4, c=0.0, rest=0.0, rebound=0.0, b=0.0
+):
     """Every law and closed form of physics.surface_motion at m cases; {name: float64 array}."""
     scalar, vec3, kernel, _arc = _kernels(precision)
     v = np.atleast_2d(np.asarray(v, float))
@@ -97,7 +100,7 @@ def probe(precision, device, *, x, v, w, n, applied, alpha=None, gravity=None, m
 
     alpha = np.zeros((m, 3)) if alpha is None else alpha
     gravity = applied if gravity is None else gravity  # (the closed forms take `applied` as gravity)
-    params = np.stack([np.broadcast_to(np.asarray(q, float), (m,)) for q in (mu_s, mu_d, c, rest, rebound)], axis=1)
+    params = np.stack([np.broadcast_to(np.asarray(q, float), (m,)) for q in (mu_s, mu_d, c, rest, rebound, b)], axis=1)
     arrays = [wp.array(rows(a).astype(precision), dtype=vec3, device=device) for a in (x, v, w, n, applied, alpha, gravity)]
     s = wp.zeros((m, len(SCALARS)), dtype=scalar, device=device)
     vecs = wp.zeros((m, len(VECTORS)), dtype=vec3, device=device)
@@ -210,8 +213,9 @@ def test_rolling_resistance_stops_where_the_closed_form_says(precision, device):
 
 @pytest.mark.parametrize("precision", PRECISIONS)
 def test_rates_match_the_reference_on_any_plane_in_air(precision, device):
-    """Sliding and rolling rates at random states on random planes, with a random air acceleration and
-    air torque: the Warp vector form against the reference's component form in the plane's frame."""
+    """Sliding and rolling rates at random states on random planes, with a random air acceleration,
+    air torque and ploughing (a third without): the Warp vector form against the reference's
+    component form in the plane's frame."""
     rng = np.random.default_rng(25)
     m = 200
     n = _random_normals(rng, m)
@@ -220,17 +224,17 @@ def test_rates_match_the_reference_on_any_plane_in_air(precision, device):
     v = rng.normal(0, 50, (m, 3))
     v -= np.einsum("ij,ij->i", v, n)[:, None] * n
     w = rng.normal(0, 1e4, (m, 3))
-    mu_d, c = 0.4, rng.uniform(0, 0.5, m)
-    got = probe(precision, device, x=R * n, v=v, w=w, n=n, applied=applied, alpha=alpha, mu_d=mu_d, c=c)
+    mu_d, c, b = 0.4, rng.uniform(0, 0.5, m), rng.uniform(0, 0.02, m) * (np.arange(m) % 3 != 0)
+    got = probe(precision, device, x=R * n, v=v, w=w, n=n, applied=applied, alpha=alpha, mu_d=mu_d, c=c, b=b)
     for i in range(m):
         plane = ref.Plane((0, 0, 0), n[i])
         model = ref.Model(R, 7000.0, (0, -G, 0), None)
         model.applied = lambda _v, _w, i=i: (applied[i], alpha[i])
         y = np.concatenate([R * n[i], v[i], w[i], [0.0]])
-        ground = ref.Ground(0.0, 0.5, mu_d, c[i])
+        ground = ref.Ground(0.0, 0.5, mu_d, c[i], b[i])
         slide, load, _ = ref.surface_rates(y, plane, model, ground, False)
         roll, _, needed = ref.surface_rates(y, plane, model, ground, True)
-        scale = np.abs(applied[i]).max() + R * np.abs(alpha[i]).max() + load
+        scale = np.abs(applied[i]).max() + R * np.abs(alpha[i]).max() + load + b[i] * (v[i] @ v[i])
         assert got["load"][i] == pytest.approx(load, rel=CLOSE[precision])
         np.testing.assert_allclose(got["slide_acc"][i], slide[3:6], atol=CLOSE[precision] * scale)
         np.testing.assert_allclose(got["slide_spin"][i], slide[6:9], atol=CLOSE[precision] * scale / R)

@@ -34,25 +34,20 @@ E1, E3, E4, E5, E6, E7 = (71.0 / 57600.0, -71.0 / 16695.0, 71.0 / 1920.0, -17253
 
 
 @functools.cache
-def make_stepper(precision: str, laws: tuple) -> SimpleNamespace:
-    """`rates(v, w, physics) -> (dv/dt, dw/dt)` and `step(x, v, w, a, dw, h, physics) -> (x', v',
-    w', a', dw', error)` for the air laws `laws` = (drag, lift or None, spin_decay or None)."""
+def make_dormand_prince(precision: str, rates, Context, spin_changes: bool) -> SimpleNamespace:
+    """`stages(x, v, w, a, dw, h, physics, context) -> (x', v', w', a', dw', x error, v error, w
+    error)`: one Dormand-Prince step of length h for the right-hand side `rates(v, w, physics,
+    context) -> (dv/dt, dw/dt)` (a `@wp.func`; `context` of the Warp type `Context` carries what
+    else it reads); `spin_changes` False: w is constant (its stages not computed)."""
     t = types_for(precision)
     scalar, vec3, Physics = t.scalar, t.vec3, t.Physics
-    air_rates = make_air_laws(precision, *laws).air_rates
-    SPIN_CHANGES = laws[2] is not None
+    SPIN_CHANGES = spin_changes
     c = {k: scalar(v) for k, v in globals().items() if k[0] in "ABE" and k[1:].isdigit()}
     a21, a31, a32, a41, a42, a43 = c["A21"], c["A31"], c["A32"], c["A41"], c["A42"], c["A43"]
     a51, a52, a53, a54 = c["A51"], c["A52"], c["A53"], c["A54"]
     a61, a62, a63, a64, a65 = c["A61"], c["A62"], c["A63"], c["A64"], c["A65"]
     b1, b3, b4, b5, b6 = c["B1"], c["B3"], c["B4"], c["B5"], c["B6"]
     e1, e3, e4, e5, e6, e7 = c["E1"], c["E3"], c["E4"], c["E5"], c["E6"], c["E7"]
-
-    @wp.func
-    def rates(velocity: vec3, spin: vec3, physics: Physics):
-        """dv/dt (m/s^2) and dw/dt (rad/s^2) in air."""
-        acceleration, spin_change = air_rates(velocity, spin, physics.air)
-        return physics.gravity + acceleration, spin_change
 
     @wp.func
     def combine(
@@ -73,50 +68,86 @@ def make_stepper(precision: str, laws: tuple) -> SimpleNamespace:
         return y + h * (w1 * k1 + w2 * k2 + w3 * k3 + w4 * k4 + w5 * k5)
 
     @wp.func
-    def step(position: vec3, velocity: vec3, spin: vec3, a1: vec3, d1: vec3, h: scalar, physics: Physics):
-        """One Dormand-Prince step of length h (s) from a state whose derivatives are (a1, d1):
-        the fifth-order state, its derivatives (the next step's first stage) and the error
-        estimate over tolerance (accept the step when it is at most 1)."""
+    def stages(position: vec3, velocity: vec3, spin: vec3, a1: vec3, d1: vec3, h: scalar, physics: Physics, context: Context):
+        """The fifth-order state, its derivatives (the next step's first stage) and the error
+        estimates of x, v and w (fifth minus fourth order)."""
         zero = vec3()
         v2 = velocity + (h * a21) * a1
         w2 = spin + (h * a21) * d1
-        a2, d2 = rates(v2, w2, physics)
+        a2, d2 = rates(v2, w2, physics, context)
         v3 = combine(velocity, h, a1, a2, zero, zero, zero, a31, a32, scalar(0.0), scalar(0.0), scalar(0.0))
         w3 = spin
         if wp.static(SPIN_CHANGES):
             w3 = combine(spin, h, d1, d2, zero, zero, zero, a31, a32, scalar(0.0), scalar(0.0), scalar(0.0))
-        a3, d3 = rates(v3, w3, physics)
+        a3, d3 = rates(v3, w3, physics, context)
         v4 = combine(velocity, h, a1, a2, a3, zero, zero, a41, a42, a43, scalar(0.0), scalar(0.0))
         w4 = spin
         if wp.static(SPIN_CHANGES):
             w4 = combine(spin, h, d1, d2, d3, zero, zero, a41, a42, a43, scalar(0.0), scalar(0.0))
-        a4, d4 = rates(v4, w4, physics)
+        a4, d4 = rates(v4, w4, physics, context)
         v5 = combine(velocity, h, a1, a2, a3, a4, zero, a51, a52, a53, a54, scalar(0.0))
         w5 = spin
         if wp.static(SPIN_CHANGES):
             w5 = combine(spin, h, d1, d2, d3, d4, zero, a51, a52, a53, a54, scalar(0.0))
-        a5, d5 = rates(v5, w5, physics)
+        a5, d5 = rates(v5, w5, physics, context)
         v6 = combine(velocity, h, a1, a2, a3, a4, a5, a61, a62, a63, a64, a65)
         w6 = spin
         if wp.static(SPIN_CHANGES):
             w6 = combine(spin, h, d1, d2, d3, d4, d5, a61, a62, a63, a64, a65)
-        a6, d6 = rates(v6, w6, physics)
+        a6, d6 = rates(v6, w6, physics, context)
         v7 = combine(velocity, h, a1, a3, a4, a5, a6, b1, b3, b4, b5, b6)
         w7 = spin
         if wp.static(SPIN_CHANGES):
             w7 = combine(spin, h, d1, d3, d4, d5, d6, b1, b3, b4, b5, b6)
         x7 = combine(position, h, velocity, v3, v4, v5, v6, b1, b3, b4, b5, b6)
-        a7, d7 = rates(v7, w7, physics)
-        air = physics.air
-        tolerance = air.tolerance
+        a7, d7 = rates(v7, w7, physics, context)
         position_error = h * (e1 * velocity + e3 * v3 + e4 * v4 + e5 * v5 + e6 * v6 + e7 * v7)
         velocity_error = h * (e1 * a1 + e3 * a3 + e4 * a4 + e5 * a5 + e6 * a6 + e7 * a7)
+        spin_error = vec3()
+        if wp.static(SPIN_CHANGES):
+            spin_error = h * (e1 * d1 + e3 * d3 + e4 * d4 + e5 * d5 + e6 * d6 + e7 * d7)
+        return x7, v7, w7, a7, d7, position_error, velocity_error, spin_error
+
+    return SimpleNamespace(stages=stages)
+
+
+@functools.cache
+def make_stepper(precision: str, laws: tuple) -> SimpleNamespace:
+    """`rates(v, w, physics) -> (dv/dt, dw/dt)` and `step(x, v, w, a, dw, h, physics) -> (x', v',
+    w', a', dw', error)` for the air laws `laws` = (drag, lift or None, spin_decay or None)."""
+    t = types_for(precision)
+    scalar, vec3, Physics = t.scalar, t.vec3, t.Physics
+    air_rates = make_air_laws(precision, *laws).air_rates
+    SPIN_CHANGES = laws[2] is not None
+
+    @wp.func
+    def rates(velocity: vec3, spin: vec3, physics: Physics):
+        """dv/dt (m/s^2) and dw/dt (rad/s^2) in air."""
+        acceleration, spin_change = air_rates(velocity, spin, physics.air)
+        return physics.gravity + acceleration, spin_change
+
+    @wp.func
+    def air_only(velocity: vec3, spin: vec3, physics: Physics, context: wp.int32):
+        """`rates` in the form `make_dormand_prince` takes."""
+        return rates(velocity, spin, physics)
+
+    stages = make_dormand_prince(precision, air_only, wp.int32, SPIN_CHANGES).stages
+
+    @wp.func
+    def step(position: vec3, velocity: vec3, spin: vec3, a1: vec3, d1: vec3, h: scalar, physics: Physics):
+        """One Dormand-Prince step of length h (s) from a state whose derivatives are (a1, d1):
+        the fifth-order state, its derivatives (the next step's first stage) and the error
+        estimate over tolerance (accept the step when it is at most 1)."""
+        x7, v7, w7, a7, d7, position_error, velocity_error, spin_error = stages(
+            position, velocity, spin, a1, d1, h, physics, wp.int32(0)
+        )
+        air = physics.air
+        tolerance = air.tolerance
         error = wp.max(
             wp.length(position_error) / (tolerance * (wp.length(x7 - position) + air.radius)),
             wp.length(velocity_error) / (tolerance * (wp.max(wp.length(velocity), wp.length(v7)) + air.speed_floor)),
         )
         if wp.static(SPIN_CHANGES):
-            spin_error = h * (e1 * d1 + e3 * d3 + e4 * d4 + e5 * d5 + e6 * d6 + e7 * d7)
             spin_floor = air.speed_floor / air.radius
             error = wp.max(error, wp.length(spin_error) / (tolerance * (wp.max(wp.length(spin), wp.length(w7)) + spin_floor)))
         return x7, v7, w7, a7, d7, error

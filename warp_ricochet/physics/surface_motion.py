@@ -23,6 +23,10 @@ textbook "bowling ball" problem); each law is derived in docs/ground.md, section
   (c = 0). The friction it needs, F/m = dv/dt - drive, must stay within mu_s N/m (else sliding).
   A rolling ball held back by c N as on a golf green: Penner, "The physics of putting", Can. J. Phys.
   80 (2002) 83, and "The run of a golf ball", Can. J. Phys. 80 (2002) 931.
+- Ploughing (8): a resisting acceleration b |v|^2 against the velocity (b = `ploughing`, 1/m), through
+  the centre (no torque), sliding and rolling, beside c N: Poncelet's F = A (c0 + c2 v^2). Rolling, a
+  sphere feels 5/7 of it, like c N. The closed forms here leave it out (b = 0); `surface_follow` has
+  rolling on a level plane with it in closed form and integrates the rest.
 - Rest (4): speed <= rest_speed and the slope cannot restart it: |g_t| <= c (-g . n) (static friction
   cannot hold a sphere on a slope: it rolls; the rolling resistance can, up to c N; the air's forces
   vanish on a pellet at rest).
@@ -33,7 +37,7 @@ Closed forms (6): in vacuum the applied acceleration is g, constant. A sliding p
 accelerations when the drive g_t is along the slip (a level plane: g_t = 0), a rolling phase when g_t
 is along the velocity (or c = 0): `follow_on_plane` chains them to rest. A phase with a drive across
 the slip or the velocity turns the friction's direction as it goes: no closed form here, `exact` = 0
-(integrated later, as is everything in air).
+(integrated by `surface_follow`, as is everything in air).
 """
 
 import functools
@@ -82,6 +86,12 @@ def make_surface_laws(precision: str) -> SimpleNamespace:
         return tangential(velocity - radius * wp.cross(spin, normal), normal)
 
     @wp.func
+    def plough(velocity: vec3, normal: vec3, ploughing: scalar):
+        """The ploughing resistance -b |v_t| v_t (m/s^2; b in 1/m): Poncelet's quadratic term."""
+        along = tangential(velocity, normal)
+        return -(ploughing * wp.length(along)) * along
+
+    @wp.func
     def sliding_rates(
         velocity: vec3,
         spin: vec3,
@@ -91,15 +101,17 @@ def make_surface_laws(precision: str) -> SimpleNamespace:
         radius: scalar,
         inertia_factor: scalar,
         mu_d: scalar,
+        ploughing: scalar,  # 1/m
     ):
         """(dv/dt, domega/dt) while sliding: Coulomb friction -mu_d N/m against the slip (against the
-        drive when there is no slip yet)."""
+        drive when there is no slip yet) and the ploughing resistance -b |v| v through the centre."""
+        drive = tangential(applied, normal) + plough(velocity, normal, ploughing)
         slip = slip_velocity(velocity, spin, normal, radius)
-        if wp.length(slip) <= ZERO:  # sliding from no slip (a slope too steep to roll on): it grows along the drive
-            slip = tangential(applied, normal)
+        if wp.length(slip) <= ZERO:  # sliding from no slip (rolling cannot hold): it grows along the drive
+            slip = drive
         friction = -(mu_d * normal_load(normal, applied)) * unit(slip)
         spin_rate = wp.cross(friction, normal) * (ONE / (inertia_factor * radius)) + spin_rate_air
-        return tangential(applied, normal) + friction, spin_rate
+        return drive + friction, spin_rate
 
     @wp.func
     def rolling_rates(
@@ -110,15 +122,17 @@ def make_surface_laws(precision: str) -> SimpleNamespace:
         radius: scalar,
         inertia_factor: scalar,
         rolling_resistance: scalar,
+        ploughing: scalar,  # 1/m
     ):
-        """(dv/dt, domega/dt, |F|/m) while rolling: the resisting force c N/m against the velocity,
-        the static friction F that keeps the slip zero and its size. At rest, the resistance holds
-        up to c N/m of the drive (so a pellet held by it does not move)."""
+        """(dv/dt, domega/dt, |F|/m) while rolling: the resisting force c N/m + b |v|^2 against the
+        velocity (rolling and ploughing resistance, through the centre), the static friction F that
+        keeps the slip zero and its size. At rest, the resistance holds up to c N/m of the drive
+        (so a pellet held by it does not move)."""
         load = normal_load(normal, applied)
         drive = tangential(applied, normal)
         resistance = vec3()
         if wp.length(tangential(velocity, normal)) > ZERO:
-            resistance = -(rolling_resistance * load) * unit(tangential(velocity, normal))
+            resistance = -(rolling_resistance * load) * unit(tangential(velocity, normal)) + plough(velocity, normal, ploughing)
         else:
             resistance = -wp.min(rolling_resistance * load, wp.length(drive)) * unit(drive)
         acceleration = (drive + resistance + (inertia_factor * radius) * wp.cross(spin_rate_air, normal)) * (
@@ -146,6 +160,7 @@ def make_surface_laws(precision: str) -> SimpleNamespace:
         inertia_factor: scalar,
         mu_s: scalar,
         rolling_resistance: scalar,
+        ploughing: scalar,
         rest_speed: scalar,
     ):
         """FLIGHT (N <= 0), SLIDING (slip above rounding, or rolling would need more than mu_s N),
@@ -158,7 +173,9 @@ def make_surface_laws(precision: str) -> SimpleNamespace:
             return wp.int32(SLIDING)
         if wp.length(tangential(velocity, normal)) <= rest_speed and held(normal, gravity, rolling_resistance):
             return wp.int32(REST)
-        _a, _w, friction = rolling_rates(velocity, normal, applied, spin_rate_air, radius, inertia_factor, rolling_resistance)
+        _a, _w, friction = rolling_rates(
+            velocity, normal, applied, spin_rate_air, radius, inertia_factor, rolling_resistance, ploughing
+        )
         if friction > mu_s * load:
             return wp.int32(SLIDING)
         return wp.int32(ROLLING)
@@ -182,6 +199,7 @@ def make_surface_laws(precision: str) -> SimpleNamespace:
         tangential=tangential,
         unit=unit,
         normal_load=normal_load,
+        plough=plough,
         slip_velocity=slip_velocity,
         sliding_rates=sliding_rates,
         rolling_rates=rolling_rates,
@@ -327,7 +345,7 @@ def make_surface_closed_forms(precision: str) -> SimpleNamespace:
         zero = vec3()
         for _phase in range(MAX_PHASES):
             mode = surface_mode(
-                velocity, spin, normal, gravity, zero, gravity, radius, inertia_factor, mu_s, rolling_resistance, rest_speed
+                velocity, spin, normal, gravity, zero, gravity, radius, inertia_factor, mu_s, rolling_resistance, ZERO, rest_speed
             )
             if mode == REST:  # at rest: no velocity, no rolling spin (docs/ground.md 4)
                 return position, vec3(), wp.dot(spin, normal) * normal, elapsed, path, mode, wp.int32(1)
@@ -340,11 +358,11 @@ def make_surface_closed_forms(precision: str) -> SimpleNamespace:
             spin_rate = vec3()
             if mode == SLIDING:
                 duration, exact = slide_end(velocity, spin, normal, gravity, radius, inertia_factor, mu_d)
-                acceleration, spin_rate = sliding_rates(velocity, spin, normal, gravity, zero, radius, inertia_factor, mu_d)
+                acceleration, spin_rate = sliding_rates(velocity, spin, normal, gravity, zero, radius, inertia_factor, mu_d, ZERO)
             else:
                 duration, at_rest, exact = roll_end(velocity, normal, gravity, inertia_factor, rolling_resistance, rest_speed)
                 acceleration, spin_rate, _f = rolling_rates(
-                    velocity, normal, gravity, zero, radius, inertia_factor, rolling_resistance
+                    velocity, normal, gravity, zero, radius, inertia_factor, rolling_resistance, ZERO
                 )
             if exact < ONE or duration < ZERO:
                 return position, velocity, spin, elapsed, path, mode, wp.int32(exact)
@@ -362,7 +380,9 @@ def make_surface_closed_forms(precision: str) -> SimpleNamespace:
                 spin = wp.dot(spin, normal) * normal
         return position, velocity, spin, elapsed, path, wp.int32(ROLLING), wp.int32(0)
 
-    return SimpleNamespace(slide_end=slide_end, roll_end=roll_end, arc_length=arc_length, follow_on_plane=follow_on_plane)
+    return SimpleNamespace(
+        across=across, slide_end=slide_end, roll_end=roll_end, arc_length=arc_length, follow_on_plane=follow_on_plane
+    )
 
 
 def make_surface_motion(precision: str) -> SimpleNamespace:

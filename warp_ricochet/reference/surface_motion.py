@@ -31,12 +31,14 @@ STOP = 1e-9
 
 @dataclasses.dataclass(frozen=True)
 class Ground:
-    """The plane's material: restitution, friction and the rolling resistance c (force c N)."""
+    """The plane's material: restitution, friction, the rolling resistance c (force c N) and the
+    ploughing resistance b (1/m: force b m |v|^2 against the velocity, through the centre)."""
 
     restitution: float = 0.01
     mu_s: float = 0.5
     mu_d: float = 0.45
     rolling_resistance: float = 0.0
+    ploughing: float = 0.0
 
 
 @dataclasses.dataclass
@@ -108,15 +110,19 @@ def surface_rates(y, plane: Plane, model: Model, ground: Ground, rolling: bool):
     w1, w2, _ = plane.components(omega)
     load = -gn
     speed = math.hypot(v1, v2)
+    p1, p2 = -ground.ploughing * speed * v1, -ground.ploughing * speed * v2  # -b |v| v, no torque
     if not rolling:
         s1, s2 = v1 - R * w2, v2 + R * w1
         slip = math.hypot(s1, s2)
+        if slip == 0.0:  # no slip yet: it grows along the drive without friction
+            s1, s2 = g1 + p1, g2 + p2
+            slip = math.hypot(s1, s2)
         f1, f2 = (-ground.mu_d * load * s1 / slip, -ground.mu_d * load * s2 / slip) if slip > 0.0 else (0.0, 0.0)
-        a1, a2, needed = g1 + f1, g2 + f2, 0.0
+        a1, a2, needed = g1 + p1 + f1, g2 + p2 + f2, 0.0
     else:
         c = ground.rolling_resistance
         if speed > 0.0:
-            r1, r2 = -c * load * v1 / speed, -c * load * v2 / speed
+            r1, r2 = -c * load * v1 / speed + p1, -c * load * v2 / speed + p2
         else:  # at rest the resistance holds up to c N
             drive = math.hypot(g1, g2)
             hold = min(c * load, drive) / drive if drive > 0.0 else 0.0

@@ -1,0 +1,649 @@
+"""A pellet's motion along the surface it lies on, until it rests, lifts off, meets another surface
+or spends its steps, as a `@wp.func` the core kernel calls (docs/ground.md 9).
+
+`make_surface_follow(precision, planes, model, laws)` (the arguments of `physics.flight.make_flight`)
+returns `follow(position, velocity, spin, k, surfaces, physics, mu_s, mu_d, rolling_resistance,
+ploughing, rest_speed, max_steps) -> (position, velocity, spin, elapsed, path, end, steps, k_next)`.
+The pellet touches surface k (gap 0; a normal speed or gap left by the caller is rounding and is
+dropped). It slides and rolls by the laws of `physics.surface_motion` (with the ploughing resistance
+b |v|^2 beside c N) until one of the end codes:
+
+- REST: its speed fell to rest_speed where the slope cannot restart it (v = 0, spin along n kept);
+- FLIGHT: the net normal force pulls it away (the caller flies it with touching = k);
+- CONTACT: it meets surface k_next (gap 0) while moving along k (the caller impacts it);
+- FOREVER: in vacuum, a phase of constant acceleration that never ends (it moves on for ever from
+  the state returned: a slope too steep to stop on);
+- UNFINISHED: max_steps integration steps spent (the state where they ran out).
+
+In vacuum the phases with constant accelerations (`surface_motion`'s closed forms, without
+ploughing) and rolling on a level plane with ploughing (v' = -(5/7)(c g + b v^2): tan/atan) are
+exact; the rest (a drive across the friction, sliding with ploughing) and everything in air is
+integrated with Dormand-Prince 5(4) steps (`physics.integrate`) at the flight's relative tolerance
+(`physics.air.tolerance`; VACUUM_TOLERANCE in vacuum). Events: the slip or the speed reaching its
+target (slide to roll; rest or stop) by steps aimed at it (never across: the friction's direction
+jumps there) and ended to first order within BAND x the tolerance of its scale (at least STOP);
+lift-off (N = 0) and loss of grip (|F| = mu_s N) by Illinois on the step's dense output; other
+surfaces by the flight's search
+(`air_flight.make_plane_search`, at most limits.MAX_PLANES_IN_AIR surfaces in integrated phases).
+"""
+
+import functools
+from types import SimpleNamespace
+
+import warp as wp
+
+from .air import make_air_laws
+from .air_flight import make_plane_search
+from .ballistic import EPSILON, ROUNDING
+from .geometry import make_geometry
+from .integrate import make_dense_output, make_dormand_prince
+from .surface_motion import FLIGHT, NEVER, REST, ROLLING, SLIDING, make_surface_motion
+from .types import types_for
+
+CONTACT, FOREVER, UNFINISHED = 4, 5, 6  # end codes beside surface_motion's FLIGHT (0) and REST (3)
+ENDS = {FLIGHT: "flight", REST: "rest", CONTACT: "contact", FOREVER: "forever", UNFINISHED: "unfinished"}
+VACUUM_TOLERANCE = 1e-6  # the integrator's relative tolerance in vacuum (the flight's default)
+MAX_FOLLOW_PHASES = 32  # slide, roll, grip lost, ...: more phases than this end UNFINISHED
+# a slip or a speed within STOP x its scale of its target has reached it (the rest to first order);
+# integrated phases widen the band to BAND x the tolerance, below the integrator's own error
+STOP = {p: max(1e-9, ROUNDING * e) for p, e in EPSILON.items()}
+BAND = 0.1
+
+
+@functools.cache
+def make_surface_rates(precision: str, model: str = "ballistic", laws=None) -> SimpleNamespace:
+    """The right-hand side of sliding and rolling (`surface_motion`'s rates with the air's forces in
+    `model` "air"), its Dormand-Prince step, the events' margins and roots, the step's error and path."""
+    t = types_for(precision)
+    scalar, vec3, Physics = t.scalar, t.vec3, t.Physics
+    AIR = model == "air"
+    sm, dense = make_surface_motion(precision), make_dense_output(precision)
+    air_rates = make_air_laws(precision, *laws).air_rates if AIR else None
+    ZERO, ONE, HALF = scalar(0.0), scalar(1.0), scalar(0.5)
+    THETA_TOLERANCE = scalar(4.0 * EPSILON[precision])
+    ITERATIONS = 64 if precision == "float64" else 40
+
+    @wp.struct
+    class Contact:
+        """What the surface rates read beside the state: the plane's normal and material, the mode."""
+
+        normal: vec3
+        mu_d: scalar
+        rolling_resistance: scalar
+        ploughing: scalar
+        rolling: wp.int32
+
+    @wp.func
+    def applied_at(velocity: vec3, spin: vec3, physics: Physics):
+        """(g + a_air, T_air / I): every force but the plane's, per unit mass."""
+        applied = physics.gravity
+        alpha = vec3()
+        if wp.static(AIR):
+            acceleration, alpha = air_rates(velocity, spin, physics.air)
+            applied = applied + acceleration
+        return applied, alpha
+
+    @wp.func
+    def rates(velocity: vec3, spin: vec3, physics: Physics, contact: Contact):
+        """(dv/dt, domega/dt) sliding or rolling (`surface_motion`), the air's forces included."""
+        applied, alpha = applied_at(velocity, spin, physics)
+        n = contact.normal
+        if contact.rolling != 0:
+            acceleration, spin_rate, _f = sm.rolling_rates(
+                velocity, n, applied, alpha, physics.radius, physics.inertia_factor, contact.rolling_resistance, contact.ploughing
+            )
+            return acceleration, spin_rate
+        return sm.sliding_rates(
+            velocity, spin, n, applied, alpha, physics.radius, physics.inertia_factor, contact.mu_d, contact.ploughing
+        )
+
+    stages = make_dormand_prince(precision, rates, Contact, True).stages
+
+    @wp.func
+    def margins(velocity: vec3, spin: vec3, physics: Physics, contact: Contact, mu_s: scalar):
+        """(N/m, the grip left mu_s N/m - |F|/m rolling; N/m sliding): a phase ends where either
+        falls to 0 (lift-off; loss of grip)."""
+        applied, alpha = applied_at(velocity, spin, physics)
+        load = -wp.dot(applied, contact.normal)
+        grip = load
+        if contact.rolling != 0:
+            _a, _w, friction = sm.rolling_rates(
+                velocity,
+                contact.normal,
+                applied,
+                alpha,
+                physics.radius,
+                physics.inertia_factor,
+                contact.rolling_resistance,
+                contact.ploughing,
+            )
+            grip = mu_s * wp.max(load, ZERO) - friction
+        return load, grip
+
+    @wp.func
+    def margin(velocity: vec3, spin: vec3, physics: Physics, contact: Contact, mu_s: scalar):
+        """How far the phase is from its end by the forces (> 0 inside): the lesser `margins`."""
+        load, grip = margins(velocity, spin, physics, contact, mu_s)
+        return wp.min(load, grip)
+
+    @wp.func
+    def lifts(velocity: vec3, spin: vec3, physics: Physics, contact: Contact, mu_s: scalar):
+        """At a `margin` root: 1 if the load ended the phase (lift-off), 0 if the grip did."""
+        load, grip = margins(velocity, spin, physics, contact, mu_s)
+        if load <= grip:
+            return wp.int32(1)
+        return wp.int32(0)
+
+    @wp.func
+    def margin_root(
+        h: scalar,
+        x0: vec3,
+        x1: vec3,
+        v0: vec3,
+        a0: vec3,
+        w0: vec3,
+        d0: vec3,
+        v1: vec3,
+        a1: vec3,
+        w1: vec3,
+        d1: vec3,
+        f1: scalar,
+        physics: Physics,
+        contact: Contact,
+        mu_s: scalar,
+    ):
+        """Where on the step `margin` falls from > 0 (theta = 0) to f1 <= 0 (theta = 1), on the
+        dense output (v: the quintic's slope, omega: the cubic Hermite; Illinois, the bracket's upper end)."""
+        lo = ZERO
+        hi = ONE
+        f_lo = margin(v0, w0, physics, contact, mu_s)
+        f_hi = f1
+        side = wp.int32(0)
+        for _ in range(ITERATIONS):
+            if hi - lo > THETA_TOLERANCE:
+                mid = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
+                if not (mid > lo and mid < hi):
+                    mid = HALF * (lo + hi)
+                _x, slope = dense.hermite_vec(mid, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
+                v = slope / h
+                w = dense.cubic_vec(mid, w0, h * d0, w1, h * d1)
+                f_mid = margin(v, w, physics, contact, mu_s)
+                if f_mid > ZERO:
+                    lo = mid
+                    f_lo = f_mid
+                    if side == 1:
+                        f_hi = HALF * f_hi
+                    side = wp.int32(1)
+                else:
+                    hi = mid
+                    f_hi = f_mid
+                    if side == -1:
+                        f_lo = HALF * f_lo
+                    side = wp.int32(-1)
+        return hi
+
+    @wp.func
+    def target(velocity: vec3, spin: vec3, acceleration: vec3, spin_rate: vec3, contact: Contact, radius: scalar, goal: scalar):
+        """(q, dq/dt, direction) of the quantity a phase ends at: sliding, the slip's size (its
+        direction: the slip's, or at zero slip its rate's); rolling, the speed minus `goal`."""
+        n = contact.normal
+        if contact.rolling != 0:
+            direction = sm.unit(velocity)
+            return wp.length(velocity) - goal, wp.dot(acceleration, direction), direction
+        slip = sm.slip_velocity(velocity, spin, n, radius)
+        rate = sm.tangential(acceleration - radius * wp.cross(spin_rate, n), n)
+        direction = sm.unit(slip)
+        if wp.length(slip) <= ZERO:
+            direction = sm.unit(rate)
+        return wp.length(slip), wp.dot(rate, direction), direction
+
+    @wp.func
+    def error_norm(
+        x0: vec3,
+        v0: vec3,
+        w0: vec3,
+        x1: vec3,
+        v1: vec3,
+        w1: vec3,
+        ex: vec3,
+        ev: vec3,
+        ew: vec3,
+        tolerance: scalar,
+        floor: scalar,
+        radius: scalar,
+    ):
+        """The step's error over tolerance, as `physics.integrate`'s: x, v and omega each over
+        tolerance x (the step's displacement + R, the speed + floor, the spin + floor / R)."""
+        error = wp.max(
+            wp.length(ex) / (tolerance * (wp.length(x1 - x0) + radius)),
+            wp.length(ev) / (tolerance * (wp.max(wp.length(v0), wp.length(v1)) + floor)),
+        )
+        return wp.max(error, wp.length(ew) / (tolerance * (wp.max(wp.length(w0), wp.length(w1)) + floor / radius)))
+
+    @wp.func
+    def simpson(h: scalar, theta: scalar, x0: vec3, v0: vec3, a0: vec3, x1: vec3, v1: vec3, a1: vec3):
+        """The path length over [0, theta] of a step: Simpson's rule on the dense output's speed."""
+        _xm, slope_m = dense.hermite_vec(HALF * theta, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
+        _xe, slope_e = dense.hermite_vec(theta, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
+        return theta / scalar(6.0) * (h * wp.length(v0) + scalar(4.0) * wp.length(slope_m) + wp.length(slope_e))
+
+    return SimpleNamespace(
+        Contact=Contact,
+        applied_at=applied_at,
+        rates=rates,
+        stages=stages,
+        margin=margin,
+        lifts=lifts,
+        margin_root=margin_root,
+        target=target,
+        error_norm=error_norm,
+        simpson=simpson,
+    )
+
+
+@functools.cache
+def make_surface_closed_phases(precision: str, planes=None) -> SimpleNamespace:
+    """The phases in vacuum in closed form, with the first other surface on their way: constant
+    accelerations (`surface_motion`) and rolling on a level plane with ploughing."""
+    t = types_for(precision)
+    scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
+    sm, geo = make_surface_motion(precision), make_geometry(precision, planes)
+    ZERO, ONE, HALF = scalar(0.0), scalar(1.0), scalar(0.5)
+    TOLERANCE = scalar(ROUNDING * EPSILON[precision])
+    STATIC = planes
+
+    @wp.func
+    def surface_count(surfaces: Surfaces):
+        """The number of surfaces (fixed at code generation when `planes` is given)."""
+        count = geo.count(surfaces)
+        if wp.static(STATIC is not None):
+            count = wp.static(STATIC)
+        return count
+
+    @wp.func
+    def contact_within(position: vec3, velocity: vec3, acceleration: vec3, k: wp.int32, surfaces: Surfaces, physics: Physics):
+        """(time, surface) of the first surface other than k that the path x + v t + a t^2 / 2
+        meets (the parabola's quadratic, `geometry.contact_time`), or (NEVER, -1)."""
+        best = scalar(NEVER)
+        best_k = wp.int32(-1)
+        for j in range(surface_count(surfaces)):
+            if j != k:
+                tj = geo.contact_time(surfaces, j, position, velocity, acceleration, physics.radius, wp.int32(-1))
+                if tj >= ZERO and (best_k < 0 or tj < best):
+                    best = tj
+                    best_k = wp.int32(j)
+        return best, best_k
+
+    @wp.func
+    def log1p(x: scalar):
+        """log(1 + x) for x >= 0, accurate for small x (Kahan)."""
+        w = ONE + x
+        if w == ONE:
+            return x
+        return wp.log(w) * x / (w - ONE)
+
+    @wp.func
+    def plough_roll(
+        velocity: vec3,
+        k: wp.int32,
+        position: vec3,
+        surfaces: Surfaces,
+        physics: Physics,
+        rolling_resistance: scalar,
+        ploughing: scalar,
+        goal: scalar,
+    ):
+        """Rolling on a level plane in vacuum with ploughing: v' = -(A + B v^2), A = c g/(1 + k),
+        B = b/(1 + k), along a fixed line: A + B v^2 = (A + B v0^2) exp(-2 B s) and t(v) =
+        atan(x)/sqrt(A B), x = (v0 - v) sqrt(A B)/(A + B v0 v) (t = (v0 - v)/(B v0 v) at A = 0).
+        To the speed `goal`, or to the first other surface on the line: (duration, distance, speed
+        then, surface met or -1)."""
+        v0 = wp.length(velocity)
+        direction = sm.unit(velocity)
+        share = ONE / (ONE + physics.inertia_factor)
+        a = share * rolling_resistance * wp.length(physics.gravity)
+        b = share * ploughing
+        distance = scalar(0.5) / b * log1p(b * (v0 * v0 - goal * goal) / (a + b * goal * goal))
+        if goal <= ZERO and a <= ZERO:
+            distance = scalar(NEVER)
+        met = wp.int32(-1)
+        for j in range(surface_count(surfaces)):
+            if j != k:
+                height, gap, n = geo.gap(surfaces, j, position, physics.radius)
+                closing = -wp.dot(direction, n)
+                if height >= ZERO and closing > ZERO:
+                    s = wp.max(gap, ZERO) / closing
+                    if distance < ZERO or s < distance:
+                        distance = s
+                        met = wp.int32(j)
+        if distance < ZERO:
+            return scalar(NEVER), scalar(NEVER), ZERO, met
+        v = goal
+        if met >= 0:  # the speed where it meets the surface
+            v = wp.sqrt(wp.max(((a + b * v0 * v0) * wp.exp(scalar(-2.0) * b * distance) - a) / b, ZERO))
+        root = wp.sqrt(a * b)
+        x = (v0 - v) * root / (a + b * v0 * v)
+        ratio = ONE  # atan(x) / x
+        if x > TOLERANCE:
+            ratio = wp.atan(x) / x
+        return (v0 - v) / (a + b * v0 * v) * ratio, distance, v, met
+
+    @wp.func
+    def rest_state(position: vec3, spin: vec3, normal: vec3, elapsed: scalar, path: scalar, steps: wp.int32, k: wp.int32):
+        """The end at rest: no velocity, the spin's part along n kept (docs/ground.md 4)."""
+        return position, vec3(), wp.dot(spin, normal) * normal, elapsed, path, wp.int32(REST), steps, k
+
+    @wp.func
+    def constant_phase(
+        position: vec3,
+        velocity: vec3,
+        spin: vec3,
+        k: wp.int32,
+        normal: vec3,
+        mode: wp.int32,
+        surfaces: Surfaces,
+        physics: Physics,
+        mu_d: scalar,
+        rolling_resistance: scalar,
+        rest_speed: scalar,
+    ):
+        """A vacuum phase without ploughing by `surface_motion`'s closed forms: (x, v, w, duration,
+        path, outcome, k_next), outcome 0: done, at its end (slip 0, or stopped: 1 at rest), CONTACT,
+        FOREVER; -1: no closed form (the state unchanged)."""
+        g = physics.gravity
+        radius, inertia = physics.radius, physics.inertia_factor
+        duration = ZERO
+        exact = ONE
+        at_rest = wp.int32(0)
+        acceleration = vec3()
+        spin_rate = vec3()
+        zero = vec3()
+        if mode == SLIDING:
+            duration, exact = sm.slide_end(velocity, spin, normal, g, radius, inertia, mu_d)
+            acceleration, spin_rate = sm.sliding_rates(velocity, spin, normal, g, zero, radius, inertia, mu_d, ZERO)
+        else:
+            duration, at_rest, exact = sm.roll_end(velocity, normal, g, inertia, rolling_resistance, rest_speed)
+            acceleration, spin_rate, _f = sm.rolling_rates(velocity, normal, g, zero, radius, inertia, rolling_resistance, ZERO)
+        if exact < ONE:
+            return position, velocity, spin, ZERO, ZERO, wp.int32(-1), k
+        t_c, k_c = contact_within(position, velocity, acceleration, k, surfaces, physics)
+        outcome = wp.int32(0)
+        if k_c >= 0 and (duration < ZERO or t_c <= duration):
+            duration = t_c
+            outcome = wp.int32(CONTACT)
+        elif duration < ZERO:
+            return position, velocity, spin, ZERO, ZERO, wp.int32(FOREVER), k
+        elif mode == ROLLING:
+            outcome = at_rest
+        path = sm.arc_length(velocity, acceleration, duration)
+        position = position + velocity * duration + (HALF * duration * duration) * acceleration
+        velocity = velocity + acceleration * duration
+        spin = spin + spin_rate * duration
+        return position, velocity, spin, duration, path, outcome, k_c
+
+    return SimpleNamespace(
+        surface_count=surface_count,
+        contact_within=contact_within,
+        plough_roll=plough_roll,
+        rest_state=rest_state,
+        constant_phase=constant_phase,
+    )
+
+
+@functools.cache
+def make_surface_integrator(precision: str, planes=None, model: str = "ballistic", laws=None) -> SimpleNamespace:
+    """`integrate_phase`: one sliding or rolling phase integrated to its end (module docstring)."""
+    t = types_for(precision)
+    scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
+    AIR = model == "air"
+    sm, geo, dense = make_surface_motion(precision), make_geometry(precision, planes), make_dense_output(precision)
+    search = make_plane_search(precision, planes)
+    r = make_surface_rates(precision, model, laws)
+    Contact, rates, stages, margin, margin_root = r.Contact, r.rates, r.stages, r.margin, r.margin_root
+    target, error_norm, simpson = r.target, r.error_norm, r.simpson
+    surface_count = make_surface_closed_phases(precision, planes).surface_count
+    ZERO, ONE, HALF = scalar(0.0), scalar(1.0), scalar(0.5)
+    STOP_FRACTION = scalar(STOP[precision])
+
+    @wp.func
+    def watch_start(position: vec3, velocity: vec3, k: wp.int32, surfaces: Surfaces, physics: Physics):
+        """(watched, waiting, met now or -1) of the surfaces other than k, as the flight's start:
+        touching one while closing on it meets it now; touching one while not, waits for the turn."""
+        watched = wp.int32(0)
+        waiting = wp.int32(0)
+        now = wp.int32(-1)
+        for j in range(surface_count(surfaces)):
+            if j != k:
+                height, gap, n = geo.gap(surfaces, j, position, physics.radius)
+                if height >= ZERO:
+                    if gap > ZERO:
+                        watched = watched | (wp.int32(1) << j)
+                    elif wp.dot(velocity, n) < ZERO:
+                        if now < 0:
+                            now = j
+                    else:
+                        waiting = waiting | (wp.int32(1) << j)
+        return watched, waiting, now
+
+    @wp.func
+    def integrate_phase(
+        position: vec3,
+        velocity: vec3,
+        spin: vec3,
+        k: wp.int32,
+        contact: Contact,
+        goal: scalar,
+        surfaces: Surfaces,
+        physics: Physics,
+        mu_s: scalar,
+        steps_left: wp.int32,
+    ):
+        """Integrate one sliding or rolling phase (`contact.rolling`) until its quantity (`target`)
+        reaches `goal`, `margin` reaches 0, or another surface is met. Returns (x, v, w, elapsed,
+        path, event, k_next, steps); event 0: the target reached, 1: the margin, CONTACT, or
+        UNFINISHED (steps_left spent)."""
+        radius = physics.radius
+        floor = wp.sqrt(wp.length(physics.gravity) * radius) + scalar(1e-6)
+        tolerance = scalar(VACUUM_TOLERANCE)
+        if wp.static(AIR):
+            tolerance = physics.air.tolerance
+        band = wp.max(STOP_FRACTION, scalar(BAND) * tolerance)
+        watched, waiting, now = watch_start(position, velocity, k, surfaces, physics)
+        if now >= 0:
+            return position, velocity, spin, ZERO, ZERO, wp.int32(CONTACT), now, wp.int32(0)
+        acceleration, spin_rate = rates(velocity, spin, physics, contact)
+        scale = wp.length(velocity) + radius * wp.length(spin) + floor
+        h = scalar(0.1) * wp.pow(tolerance, scalar(0.2)) * scale / (wp.length(acceleration) + floor / scalar(1e3))
+        elapsed = ZERO
+        path = ZERO
+        steps = wp.int32(0)
+        growth = scalar(5.0)  # the step's largest growth: 1 after a rejection (Hairer & Wanner's facmax)
+        while steps < steps_left:
+            q, rate, direction = target(velocity, spin, acceleration, spin_rate, contact, radius, goal)
+            if rate < ZERO:
+                if q <= band * scale:  # the rest of the way to first order
+                    dt = q / (-rate)
+                    position = position + velocity * dt
+                    path += wp.length(velocity) * dt
+                    velocity = velocity + acceleration * dt
+                    spin = spin + spin_rate * dt
+                    return position, velocity, spin, elapsed + dt, path, wp.int32(0), k, steps
+                h = wp.min(h, (q - HALF * band * scale) / (-rate))  # into the band's middle
+            x1, v1, w1, a1, d1, ex, ev, ew = stages(position, velocity, spin, acceleration, spin_rate, h, physics, contact)
+            steps += 1
+            error = error_norm(position, velocity, spin, x1, v1, w1, ex, ev, ew, tolerance, floor, radius)
+            if error > ONE:
+                h = h * wp.clamp(scalar(0.9) * wp.pow(error, scalar(-0.2)), scalar(0.2), ONE)
+                growth = ONE
+                continue
+            q1, _rate1, _d1 = target(v1, w1, a1, d1, contact, radius, goal)
+            crossed = q1 < ZERO
+            if contact.rolling == 0 or goal <= ZERO:  # the slip or the velocity reversed
+                after = sm.slip_velocity(v1, w1, contact.normal, radius)
+                if contact.rolling != 0:
+                    after = v1
+                crossed = wp.dot(after, direction) < ZERO and q > ZERO
+            if crossed:  # stepped past the switch, where the friction jumps: aim short of it
+                h = HALF * h
+                growth = ONE
+                continue
+            theta = scalar(2.0)
+            event = wp.int32(-1)
+            f1 = margin(v1, w1, physics, contact, mu_s)
+            if f1 <= ZERO:
+                theta = margin_root(
+                    h, position, x1, velocity, acceleration, spin, spin_rate, v1, a1, w1, d1, f1, physics, contact, mu_s
+                )
+                event = wp.int32(1)
+            theta_c, k_c, watched, waiting = search.search(
+                h, position, velocity, acceleration, x1, v1, a1, watched, waiting, surfaces, physics
+            )
+            if k_c >= 0 and theta_c <= theta:
+                theta = theta_c
+                event = wp.int32(CONTACT)
+            if event >= 0:
+                x, slope = dense.hermite_vec(theta, position, h * velocity, h * h * acceleration, x1, h * v1, h * h * a1)
+                w = dense.cubic_vec(theta, spin, h * spin_rate, w1, h * d1)
+                path += simpson(h, theta, position, velocity, acceleration, x1, v1, a1)
+                k_next = k
+                if event == CONTACT:
+                    k_next = k_c
+                return x, slope / h, w, elapsed + theta * h, path, event, k_next, steps
+            path += simpson(h, ONE, position, velocity, acceleration, x1, v1, a1)
+            elapsed += h
+            position = x1
+            velocity = v1
+            spin = w1
+            acceleration = a1
+            spin_rate = d1
+            h = h * wp.clamp(scalar(0.9) * wp.pow(wp.max(error, scalar(1e-10)), scalar(-0.2)), scalar(0.2), growth)
+            growth = scalar(5.0)
+        return position, velocity, spin, elapsed, path, wp.int32(UNFINISHED), k, steps
+
+    return SimpleNamespace(integrate_phase=integrate_phase)
+
+
+@functools.cache
+def make_surface_follow(precision: str, planes=None, model: str = "ballistic", laws=None) -> SimpleNamespace:
+    """`follow` (module docstring) for one precision, number of planes (None: read at run time) and
+    flight model ("ballistic": vacuum; "air" with `laws` = (drag, lift, spin_decay) of `physics.air`)."""
+    t = types_for(precision)
+    scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
+    AIR = model == "air"
+    sm, geo = make_surface_motion(precision), make_geometry(precision, planes)
+    r = make_surface_rates(precision, model, laws)
+    Contact, applied_at, lifts = r.Contact, r.applied_at, r.lifts
+    closed = make_surface_closed_phases(precision, planes)
+    plough_roll, rest_state, constant_phase = closed.plough_roll, closed.rest_state, closed.constant_phase
+    integrate_phase = make_surface_integrator(precision, planes, model, laws).integrate_phase
+    ZERO, ONE = scalar(0.0), scalar(1.0)
+
+    @wp.func
+    def follow(
+        position: vec3,
+        velocity: vec3,
+        spin: vec3,
+        k: wp.int32,
+        surfaces: Surfaces,
+        physics: Physics,
+        mu_s: scalar,
+        mu_d: scalar,
+        rolling_resistance: scalar,
+        ploughing: scalar,
+        rest_speed: scalar,
+        max_steps: wp.int32,
+    ):
+        """Follow the pellet along surface k from gap 0 (module docstring): (position, velocity,
+        spin, elapsed s, path length m, end code, integration steps, k_next: the surface met at
+        CONTACT, else k)."""
+        radius, inertia = physics.radius, physics.inertia_factor
+        g = physics.gravity
+        elapsed = ZERO
+        path = ZERO
+        steps = wp.int32(0)
+        forced = wp.int32(-1)  # the mode a phase must take after a loss of grip
+        for _phase in range(MAX_FOLLOW_PHASES):
+            height, _gap, n = geo.gap(surfaces, k, position, radius)
+            position = position - (height - radius) * n  # on the plane, and moving along it
+            velocity = sm.tangential(velocity, n)
+            applied, alpha = applied_at(velocity, spin, physics)
+            mode = sm.surface_mode(
+                velocity, spin, n, applied, alpha, g, radius, inertia, mu_s, rolling_resistance, ploughing, rest_speed
+            )
+            if forced >= 0 and mode == ROLLING:
+                mode = forced
+            forced = wp.int32(-1)
+            if mode == REST:
+                return rest_state(position, spin, n, elapsed, path, steps, k)
+            if mode == FLIGHT:
+                return position, velocity, spin, elapsed, path, wp.int32(FLIGHT), steps, k
+            holds = sm.held(n, g, rolling_resistance)
+            goal = ZERO
+            if mode == ROLLING and holds:
+                goal = rest_speed
+            outcome = wp.int32(-1)
+            k_c = wp.int32(-1)
+            if wp.static(not AIR):
+                if ploughing <= ZERO:
+                    position, velocity, spin, dt, dp, outcome, k_c = constant_phase(
+                        position, velocity, spin, k, n, mode, surfaces, physics, mu_d, rolling_resistance, rest_speed
+                    )
+                    elapsed += dt
+                    path += dp
+                elif mode == ROLLING and sm.across(g, n, wp.length(g)) == 0:  # level: g along n
+                    dt, ds, speed, k_c = plough_roll(
+                        velocity, k, position, surfaces, physics, rolling_resistance, ploughing, goal
+                    )
+                    if dt < ZERO:
+                        return position, velocity, spin, elapsed, path, wp.int32(FOREVER), steps, k
+                    direction = sm.unit(velocity)
+                    position = position + ds * direction
+                    velocity = speed * direction
+                    spin = wp.dot(spin, n) * n + wp.cross(n, velocity) * (ONE / radius)
+                    elapsed += dt
+                    path += ds
+                    outcome = wp.int32(0)
+                    if k_c >= 0:
+                        outcome = wp.int32(CONTACT)
+                    elif holds:
+                        outcome = wp.int32(1)
+            if outcome < 0:  # integrate the phase
+                contact = Contact()
+                contact.normal = n
+                contact.mu_d = mu_d
+                contact.rolling_resistance = rolling_resistance
+                contact.ploughing = ploughing
+                contact.rolling = wp.int32(0)
+                if mode == ROLLING:
+                    contact.rolling = wp.int32(1)
+                position, velocity, spin, dt, dp, event, k_c, taken = integrate_phase(
+                    position, velocity, spin, k, contact, goal, surfaces, physics, mu_s, max_steps - steps
+                )
+                elapsed += dt
+                path += dp
+                steps += taken
+                if event == UNFINISHED:
+                    return position, velocity, spin, elapsed, path, wp.int32(UNFINISHED), steps, k
+                outcome = event
+                if event == 1:  # lift-off, or rolling lost its grip
+                    if lifts(velocity, spin, physics, contact, mu_s) != 0:
+                        return position, sm.tangential(velocity, n), spin, elapsed, path, wp.int32(FLIGHT), steps, k
+                    forced = wp.int32(SLIDING)
+                    outcome = wp.int32(-1)
+                elif event == 0 and mode == ROLLING and holds and rest_speed > ZERO:
+                    outcome = wp.int32(1)
+            if outcome == CONTACT:
+                return position, velocity, spin, elapsed, path, wp.int32(CONTACT), steps, k_c
+            if outcome == FOREVER:
+                return position, velocity, spin, elapsed, path, wp.int32(FOREVER), steps, k
+            if outcome == 1:
+                return rest_state(position, spin, n, elapsed, path, steps, k)
+            if outcome == 0:
+                if mode == SLIDING:  # the slip is zero now: remove its rounding (omega_t = n x v / R)
+                    spin = wp.dot(spin, n) * n + wp.cross(n, velocity) * (ONE / radius)
+                else:  # stopped where the resistance cannot hold it: it rolls back from rest
+                    velocity = vec3()
+                    spin = wp.dot(spin, n) * n
+        return position, velocity, spin, elapsed, path, wp.int32(UNFINISHED), steps, k
+
+    return SimpleNamespace(follow=follow, Contact=Contact, rates=r.rates, integrate_phase=integrate_phase)
