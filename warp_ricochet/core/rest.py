@@ -11,7 +11,9 @@
   5, N from gravity and the air at the rebound); else that normal speed is dropped and it moves along
   the surface (or, on water, `ground.sinks`, it is EMBEDDED).
 - SURFACE: it slides, rolls or ploughs along surface k (`physics.surface_follow.follow`) until it
-  rests (AT_REST), lifts off (FLIGHT), reaches another surface (CONTACT), moves on for ever on an
+  rests (AT_REST), lifts off (FLIGHT: the net normal force pulls it away; it leaves with a normal
+  speed of LIFT_OFF (|v| + sqrt(g R)), 7.6e-6 of its speed, so that the flight, which takes a
+  pellet touching a plane without normal speed to be on it, sees it leave), reaches another surface (CONTACT), moves on for ever on an
   infinite plane (ESCAPED) or spends its steps (NOT_FINISHED).
 - FLIGHT: it flies from surface k to the next contact (`physics.flight`), or escapes.
 
@@ -26,6 +28,7 @@ import warp as wp
 
 from ..ends import AT_REST, EMBEDDED, ESCAPED, NOT_FINISHED
 from ..physics.air_flight import GAVE_UP
+from ..physics.ballistic import EPSILON, ROUNDING
 from ..physics.contact import make_contact
 from ..physics.flight import make_flight
 from ..physics.geometry import make_geometry
@@ -42,6 +45,7 @@ CONTACT, SURFACE, FLIGHT = 0, 1, 2  # the modes of `to_rest`
 DONE_ESCAPED, DONE_NOT_FINISHED, DONE_EMBEDDED = 4 + ESCAPED, 4 + NOT_FINISHED, 4 + EMBEDDED
 # core.pellet's states: RESTING met a surface without closing speed (it stays there), EMBEDDED entered the ground
 LANDING_FLYING, LANDING_ESCAPED, LANDING_RESTING, LANDING_EMBEDDED = 0, 1, 2, 3
+LIFT_OFF = ROUNDING * EPSILON["float32"]  # a lift-off's normal speed, of |v| + sqrt(g R): above rounding in both precisions
 EVENTS_PER_IMPACT = 4  # a loop's iterations per impact allowed (a guard: contact, surface, flight, contact)
 
 
@@ -162,7 +166,10 @@ def make_to_rest(spec) -> SimpleNamespace:
                     steps += taken
                     if ended == REST:
                         end = wp.int32(AT_REST)
-                    elif ended == LIFTS_OFF:
+                    elif ended == LIFTS_OFF:  # it leaves with the least normal speed its precision tells from 0
+                        normal = geo.normal(surfaces, k, position)
+                        scale = wp.length(velocity) + wp.sqrt(wp.length(physics.gravity) * physics.radius)
+                        velocity = laws.tangential(velocity, normal) + (LIFT_OFF * scale) * normal
                         mode = wp.int32(FLIGHT)
                     elif ended == ENDS_IN_CONTACT:
                         k = k_next
