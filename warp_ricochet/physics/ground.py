@@ -6,7 +6,7 @@
 - `draw(m, normal, velocity, seed, pellet, impact) -> (Material, vec3)`: rough ground. The local
   normal is tilted by an angle with the Rayleigh distribution of mode `m.roughness` (isotropic
   Gaussian slopes), towards an azimuth uniform in [0, 2 pi); a tilted normal the pellet would not
-  strike (v . n' >= 0) takes the mirrored azimuth, which it does strike (the two sum to
+  strike (v . n' >= 0) takes the opposite azimuth (+ pi), which it does strike (the two sum to
   2 cos(tilt) v . n < 0: a pellet meets the facets that face it). E is drawn from the two-sided
   exponential of Montaine et al. (arXiv 1104.0049) with mean m.restitution, below-mode width
   lambda_1 = restitution_scatter E and above-mode width lambda_1 / 3, clipped to [0, 1]; mu_s and
@@ -99,7 +99,7 @@ def make_ground(precision: str) -> SimpleNamespace:
     @wp.func
     def tilted(normal: vec3, velocity: vec3, roughness: scalar, u_tilt: scalar, u_azimuth: scalar):
         """The normal tilted by a Rayleigh angle of mode `roughness` towards a uniform azimuth, the
-        azimuth mirrored when the pellet would not strike it (unchanged if neither faces it)."""
+        opposite azimuth when the pellet would not strike it (unchanged if neither faces it)."""
         tilt = roughness * wp.sqrt(-scalar(2.0) * wp.log(u_tilt))
         azimuth = scalar(TWO_PI) * u_azimuth
         e1, e2 = tangents(normal)
