@@ -104,8 +104,8 @@ def _entry(sources, liquid=False, note="", **values) -> Entry:
 
 # Sources, cited as [key]; "estimate" marks values no source read for this package gives (docs/ground.md
 # says what could be read). Soil friction mu_s = tan(phi), phi the internal friction angle 30-35 deg of
-# sands and compacted soils (Terzaghi, Peck & Mesri, "Soil Mechanics in Engineering Practice", 3rd ed.,
-# 1996, table 20.5); mu_d = 0.9 mu_s as the paper's (Zohdi 2021) unless given.
+# sands and compacted soils (a textbook range, e.g. Terzaghi, Peck & Mesri, "Soil Mechanics in Engineering
+# Practice", 3rd ed., 1996: not read here); mu_d = 0.9 mu_s as the paper's (Zohdi 2021) unless given.
 _STIMP = "USGA Stimpmeter: c = 7 v0^2 / (10 g S), v0 = 1.83 m/s, S the stimp distance (Penner, Can. J. Phys. 80 (2002) 83)"
 _PONCELET = (
     "Poncelet F = A (c0 + c2 v^2); c2 = C rho_ground, C from 0.5 (a sphere's Newton drag, C_D ~ 1) to 2 "
@@ -121,9 +121,9 @@ _SCATTER = "Montaine et al., arXiv 1104.0049 (two exponentials, abstract read); 
 CATALOGUE = {
     "steel_plate": _entry(
         {
-            "restitution": "0.6 steel on steel at moderate speed (Goldsmith, Impact, 1960); 0.3 for a lead pellet: estimate",
+            "restitution": "far 0.6: steel on steel at moderate speed (Goldsmith, Impact, 1960: not read here); near 0.3, a deforming lead pellet: estimate",
             "mu_s": "near: dry steel 0.74/0.57 (Serway & Jewett, table 5.1); far: a smooth plate 0.2/0.15 (examples/steel_plate.toml, estimate)",
-            "rolling_resistance": "hardened steel ball on steel 0.001-0.002 (engineering tables, e.g. Hibbeler, Engineering Mechanics, sec. 8.8)",
+            "rolling_resistance": "a steel wheel or ball on steel: 0.001-0.002 (the usual engineering tables' range, not read here)",
             "roughness": "estimate: a rolled plate",
             "restitution_scatter": _SCATTER,
             "friction_scatter": "estimate",
@@ -156,7 +156,7 @@ CATALOGUE = {
     "packed_soil": _entry(
         {
             "restitution": "estimate",
-            "mu_s": "tan(30 deg) far, tan(35 deg) near (Terzaghi, Peck & Mesri 1996); mu_d = 0.9 mu_s",
+            "mu_s": "tan(30 deg) far, tan(35 deg) near (soil friction angles, Terzaghi, Peck & Mesri 1996, not read here); mu_d = 0.9 mu_s",
             "rolling_resistance": "estimate, between turf and sand",
             "ploughing": _PONCELET + "; rho 1800 kg/m^3",
             "ploughing_area": "estimate: a pellet ploughing 0.1-0.3 of its cross-section deep",
@@ -207,7 +207,7 @@ CATALOGUE = {
     "sand": _entry(
         {
             "restitution": "estimate",
-            "mu_s": "tan(30 deg) far, tan(35 deg) near (Terzaghi, Peck & Mesri 1996)",
+            "mu_s": "tan(30 deg) far, tan(35 deg) near (sand friction angles, Terzaghi, Peck & Mesri 1996, not read here)",
             "mu_d": "mu_s / 5 far, mu_s / 4 near: friction during penetration 4-5x lower than the sand's (Wright et al. 2020, abstract)",
             "rolling_resistance": "estimate: a ball rolling on loose sand",
             "ploughing": _PONCELET + "; rho 1600 kg/m^3",
@@ -249,7 +249,7 @@ CATALOGUE = {
     ),
     "water": _entry(
         {
-            "critical_angle": "Johnson & Reid 1975: theta_c = 18 deg / sqrt(SG) (as quoted by Nagahiro & Hayakawa, "
+            "critical_angle": "Johnson & Reid 1975 (not read here): theta_c = 18 deg / sqrt(SG), as quoted by Nagahiro & Hayakawa ("
             "arXiv physics/0411125, read)",
             "skip_loss": "the Birkhoff-Johnson skip model with the force at a fixed angle beta to the normal of the "
             "velocity: v_out / v_in = exp(-2 theta tan(beta)) (docs/ground.md); tan(beta) 0.5-2: estimate",
