@@ -92,6 +92,9 @@ def test_a_surface_without_a_material_is_todays_rigid_plane():
     assert "rolling_resistance" not in scene({"restitution": 0.2, "mu_s": 0.5}).to_toml()  # the echo unchanged
     with pytest.raises(SceneError, match=r"surfaces\.0\.restitution = \(missing\): is required"):
         scene({"mu_s": 0.5})
+    rolling = scene({"restitution": 0.2, "mu_s": 0.5, "rolling_resistance": 0.05}).surfaces  # a key on its own
+    got = ground_of(rolling, 0.00125, LEAD)
+    assert got["rolling_resistance"] == [0.05] and got["critical_angle"] == [0.5 * math.pi] and got["ploughing"] == [0.0]
 
 
 @pytest.mark.parametrize(
