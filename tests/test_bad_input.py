@@ -34,6 +34,11 @@ from warp_ricochet.scene.toml_out import (
 )
 
 PREFIX = "warp-ricochet: error: "
+MATERIALS = {
+    f"{m}{end}"
+    for m in ("steel_plate", "concrete", "packed_soil", "turf", "sand", "gravel", "water")
+    for end in ("", ":far", ":near")
+}
 SETTINGS = settings(
     max_examples=150,
     deadline=None,
@@ -100,6 +105,17 @@ REALS = {
     "surfaces.0.restitution": (0.0, 1.0, False),
     "surfaces.0.mu_s": (0.0, 100.0, False),
     "surfaces.0.mu_d": (0.0, 0.5, False),  # mu_d <= mu_s = 0.5
+    # the ground materials' keys (docs/ground.md, section 9), allowed on a surface without a material too
+    "surfaces.0.rolling_resistance": (0.0, 1.0, False),
+    "surfaces.0.ploughing": (0.0, 2e4, False),
+    "surfaces.0.ploughing_area": (0.0, 1.0, False),
+    "surfaces.0.critical_angle": (0.0, 90.0, False),
+    "surfaces.0.critical_angle_rise": (0.0, 90.0, False),
+    "surfaces.0.critical_speed": (0.0, 1e5, False),
+    "surfaces.0.roughness": (0.0, 15.0, False),
+    "surfaces.0.restitution_scatter": (0.0, 1.0, False),
+    "surfaces.0.friction_scatter": (0.0, 1.0, False),
+    "surfaces.0.skip_loss": (0.0, 10.0, False),
     "physics.impact_duration": (0.0, 1.0, False),
     "collisions.restitution": (0.0, 1.0, False),
     "collisions.mu_s": (0.0, 100.0, False),
@@ -345,6 +361,10 @@ def malformed():
         ),
         st.tuples(st.just("output.path"), st.one_of(st.integers(), st.just(""), st.just([]), st.just("a\x00.h5"))),
         st.tuples(st.just("surfaces.0.name"), st.one_of(st.integers(), st.floats(), st.lists(TEXT, max_size=2))),
+        st.tuples(
+            st.just("surfaces.0.material"),
+            st.one_of(TEXT.filter(lambda s: s not in MATERIALS), st.integers(), st.floats(), st.just(["turf"])),
+        ),
         st.tuples(
             st.sampled_from(["air.drag", "air.lift", "air.spin_decay_law"]),
             st.one_of(

@@ -13,7 +13,7 @@ import pytest
 import warp as wp
 
 from warp_ricochet.physics.geometry import make_geometry, project
-from warp_ricochet.physics.types import surfaces_of, types_for
+from warp_ricochet.physics.types import GROUND_FIELDS, surfaces_of, types_for
 from warp_ricochet.reference.ballistic import next_contact as reference_next_contact
 
 PACKAGE = Path(__file__).resolve().parents[1] / "warp_ricochet"
@@ -46,7 +46,10 @@ def test_only_the_geometry_module_reads_the_surfaces():
     physics/geometry.py does (model.py fills the struct; reference/ is the independent NumPy
     reference and io/, report/ write and draw the scene's planes)."""
     fields = _surfaces_fields()
-    assert fields == {"point", "normal", "point_noise", "restitution", "mu_s", "mu_d"}, fields  # (the parse found the struct)
+    ground = {*GROUND_FIELDS, "liquid"}  # the ground materials' (physics.types.Material)
+    assert fields == {"point", "normal", "point_noise", "restitution", "mu_s", "mu_d", *ground}, (
+        fields
+    )  # (the parse found the struct)
     assert len(_reads(GEOMETRY, fields)) >= 5  # (the test sees the reads where they are)
     offenders = []
     for package in KERNEL_PACKAGES:

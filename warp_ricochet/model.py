@@ -18,7 +18,8 @@ from .core.outputs import element_type, outputs_struct
 from .fields import FIELDS, bytes_per_pellet
 from .physics.air import GAMMA_AIR
 from .physics.impact import SOLID_SPHERE_INERTIA_FACTOR
-from .physics.types import surfaces_of, types_for
+from .physics.types import GROUND_FIELDS, surfaces_of, types_for
+from .scene.materials import critical_angle, is_liquid, ploughing_rate
 from .tallies.reduce import LANES, SEGMENT_WIDTH, partial_bytes_per_pellet, threads_for
 from .tallies.sums import NUM_EXTREMES, NUM_SUMS
 
@@ -63,6 +64,8 @@ class Model:
             [p.normal for p in planes],
             [(p.restitution, p.mu_s, p.mu_d) for p in planes],
             device,
+            ground=ground_of(planes, radius, density),
+            liquid=[is_liquid(p.material) for p in planes],
         )
         physics = t.Physics()
         physics.radius = t.scalar(radius)
@@ -89,6 +92,22 @@ class Model:
 @functools.lru_cache(maxsize=16)
 def _cached_model(diameter, density, surfaces, physics, precision, device_alias, air, tolerance) -> Model:
     return Model._build(diameter, density, surfaces, physics, precision, wp.get_device(device_alias), air, tolerance)
+
+
+def ground_of(planes, radius: float, density: float) -> dict:
+    """The kernels' ground values of a scene's surfaces (`types.GROUND_FIELDS`: angles in radians,
+    the ploughing b in 1/m for this pellet; scene.materials) for a pellet of `radius` (m) and
+    `density` (kg/m^3), in float64."""
+    out = {name: [] for name in GROUND_FIELDS}
+    for p in planes:
+        out["rolling_resistance"].append(p.ground("rolling_resistance"))
+        out["ploughing"].append(ploughing_rate(p.ground("ploughing"), p.ground("ploughing_area"), radius, density))
+        out["critical_angle"].append(critical_angle(p, density))
+        for name in ("critical_angle_rise", "roughness"):
+            out[name].append(math.radians(p.ground(name)))
+        for name in ("critical_speed", "restitution_scatter", "friction_scatter", "skip_loss"):
+            out[name].append(p.ground(name))
+    return out
 
 
 def air_struct(air, precision: str, device, radius: float, mass: float, gravity, tolerance: float):

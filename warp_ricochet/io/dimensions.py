@@ -23,6 +23,7 @@ import h5py
 import numpy as np
 
 from ..fields import FIELDS
+from ..scene.materials import GROUND_KEYS
 
 NOT_A_VARIABLE = "This is a netCDF dimension but not a netCDF variable."
 XYZ = ("x", "y", "z")
@@ -35,6 +36,7 @@ RUN_DIMENSIONS = {
     "constants/surfaces/restitution": ("surface",),
     "constants/surfaces/mu_s": ("surface",),
     "constants/surfaces/mu_d": ("surface",),
+    **{f"constants/surfaces/{key}": ("surface",) for key in GROUND_KEYS},  # ground materials (scene.materials)
     "progress/segment_results": ("segment", "segment_column"),
     "progress/shot_totals": ("shot", "shot_column"),
     "progress/shot_partials": ("shot_piece", "segment_column"),  # runs of several shots (tallies.ensemble)

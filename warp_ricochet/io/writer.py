@@ -19,6 +19,7 @@ import h5py
 import numpy as np
 
 from ..fields import FIELDS, numpy_dtype, shape
+from ..scene.materials import GROUND_KEYS, RANGES
 from ..scene.schema import COMPRESSIONS
 from ..tallies.collisions import SHOT_TOTALS, SHOT_TOTALS_UNITS
 from ..tallies.ensemble import has_ensemble
@@ -201,11 +202,13 @@ class RunWriter:
             ("restitution", "1", [p.restitution for p in planes]),
             ("mu_s", "1", [p.mu_s for p in planes]),
             ("mu_d", "1", [p.mu_d for p in planes]),
+            *((key, RANGES[key][2], [p.ground(key) for p in planes]) for key in GROUND_KEYS),
         ):
             arr = np.asarray(values, dtype=np.float64)
             if name in ("point", "normal"):
                 arr = arr.reshape(len(planes), 3)
             s.create_dataset(name, data=arr).attrs["units"] = unit
+        s.attrs["material"] = [p.material or "" for p in planes]  # catalogue names ("": a rigid plane)
 
     def append(
         self,
@@ -280,6 +283,7 @@ _KEY_UNITS = {
     "seed": "1",
     "bounces": "1",
     "chunk_size": "1",
+    **{key: unit for key, (_lo, _hi, unit, _why) in RANGES.items()},
 }
 
 

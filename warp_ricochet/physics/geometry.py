@@ -12,8 +12,8 @@ one-sided plane: a point p and a unit normal n towards the pellets) can change i
 - `gap(surfaces, k, x, radius) -> (height, gap, normal)`: `locate` with a sphere's gap height - R,
   snapped to 0 when within rounding of it (the touching band, below);
 - `normal(surfaces, k, x) -> vec3`: that normal alone;
-- `material(surfaces, k, x) -> Material`: restitution E, mu_s and mu_d at the surface point
-  nearest x (a plane: one pair per surface);
+- `material(surfaces, k, x) -> Material`: restitution E, mu_s, mu_d and the ground's laws
+  (`types.Material`) at the surface point nearest x (a plane: one material per surface);
 - `step_gaps(surfaces, k, radius, h, x0, v0, a0, x1, v1, a1)`: a sphere's gap at both ends of an
   integration step of length h (s), with h and h^2 times its first and second time derivatives
   (the Hermite data the integrated flight searches for contacts, `physics.air_flight`);
@@ -86,11 +86,22 @@ def make_geometry(precision: str, planes=None, snap: bool = True) -> SimpleNames
 
     @wp.func(inline=True)
     def material(surfaces: Surfaces, k: wp.int32, x: vec3):
-        """Surface k's material at the point nearest x: restitution, mu_s, mu_d."""
+        """Surface k's material at the point nearest x: restitution, mu_s, mu_d and the ground's
+        laws (`types.Material`; a plane: one material per surface)."""
         m = Material()
         m.restitution = surfaces.restitution[k]
         m.mu_s = surfaces.mu_s[k]
         m.mu_d = surfaces.mu_d[k]
+        m.rolling_resistance = surfaces.rolling_resistance[k]
+        m.ploughing = surfaces.ploughing[k]
+        m.critical_angle = surfaces.critical_angle[k]
+        m.critical_angle_rise = surfaces.critical_angle_rise[k]
+        m.critical_speed = surfaces.critical_speed[k]
+        m.roughness = surfaces.roughness[k]
+        m.restitution_scatter = surfaces.restitution_scatter[k]
+        m.friction_scatter = surfaces.friction_scatter[k]
+        m.skip_loss = surfaces.skip_loss[k]
+        m.liquid = surfaces.liquid[k]
         return m
 
     @wp.func(inline=True)

@@ -32,16 +32,35 @@ def types_for(precision: str) -> SimpleNamespace:
         restitution: wp.array(dtype=scalar)
         mu_s: wp.array(dtype=scalar)
         mu_d: wp.array(dtype=scalar)
+        rolling_resistance: wp.array(dtype=scalar)  # the Material's fields below, per surface
+        ploughing: wp.array(dtype=scalar)
+        critical_angle: wp.array(dtype=scalar)
+        critical_angle_rise: wp.array(dtype=scalar)
+        critical_speed: wp.array(dtype=scalar)
+        roughness: wp.array(dtype=scalar)
+        restitution_scatter: wp.array(dtype=scalar)
+        friction_scatter: wp.array(dtype=scalar)
+        skip_loss: wp.array(dtype=scalar)
+        liquid: wp.array(dtype=wp.int32)
 
     @wp.struct
     class Material:
-        """A surface's material at a point (`physics.geometry.material`): restitution E, mu_s, mu_d."""
+        """A surface's material at a point (`physics.geometry.material`; scene.materials, docs/ground.md),
+        in the kernels' units, for this pellet (`model.Model` converts the scene's)."""
 
-        restitution: scalar
+        restitution: scalar  # E
         mu_s: scalar
         mu_d: scalar
-        rolling_resistance: scalar
-        ploughing: scalar
+        rolling_resistance: scalar  # c: resisting force c N while rolling
+        ploughing: scalar  # 1/m: b of the resisting acceleration b |v|^2 (3 c2 f / (4 rho_p R))
+        critical_angle: scalar  # rad from the surface at zero speed (pi/2: never embeds; water: 18 deg / sqrt(SG))
+        critical_angle_rise: scalar  # rad s/m: theta_c(v) = critical_angle + rise min(v, critical_speed)
+        critical_speed: scalar  # m/s
+        roughness: scalar  # rad: the mode of the normal's Rayleigh tilt (physics.ground.draw)
+        restitution_scatter: scalar  # relative width of E's two-sided exponential
+        friction_scatter: scalar  # sigma of mu's log-normal factor
+        skip_loss: scalar  # water: tan(beta); a skip keeps exp(-2 theta skip_loss) of the speed
+        liquid: wp.int32  # 1: a pellet cannot stay on it (water): it skips or sinks
 
     @wp.struct
     class Air:
@@ -82,10 +101,27 @@ def types_for(precision: str) -> SimpleNamespace:
     )
 
 
-def surfaces_of(precision: str, points, normals, materials, device) -> object:
+# the Material's scalar fields after restitution, mu_s, mu_d, and their values on a rigid plane
+GROUND_FIELDS = (
+    "rolling_resistance",
+    "ploughing",
+    "critical_angle",
+    "critical_angle_rise",
+    "critical_speed",
+    "roughness",
+    "restitution_scatter",
+    "friction_scatter",
+    "skip_loss",
+)
+RIGID_PLANE = {name: 0.0 for name in GROUND_FIELDS} | {"critical_angle": 0.5 * np.pi}
+
+
+def surfaces_of(precision: str, points, normals, materials, device, ground=None, liquid=None) -> object:
     """The `Surfaces` struct of planes: points (m) and unit normals (P, 3), materials (P, 3) as
     restitution, mu_s, mu_d; their point_noise sum_i |p_i| |n_i| computed here in float64, once, so
-    the kernels' rounding scale of a gap (`physics.geometry.locate`) adds it instead of p's terms."""
+    the kernels' rounding scale of a gap (`physics.geometry.locate`) adds it instead of p's terms.
+    `ground`: {GROUND_FIELDS name: (P,) values in the kernels' units}, missing ones those of a rigid
+    plane (RIGID_PLANE); `liquid`: (P,) flags (default 0)."""
     t = types_for(precision)
     dtype = np.dtype(precision)
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
@@ -98,4 +134,10 @@ def surfaces_of(precision: str, points, normals, materials, device) -> object:
     surfaces.point_noise = wp.array(noise.astype(dtype), dtype=t.scalar, device=device)
     for j, name in enumerate(("restitution", "mu_s", "mu_d")):
         setattr(surfaces, name, wp.array(materials[:, j].astype(dtype), dtype=t.scalar, device=device))
+    ground = ground or {}
+    for name in GROUND_FIELDS:
+        values = np.broadcast_to(np.asarray(ground.get(name, RIGID_PLANE[name]), dtype=np.float64), len(points))
+        setattr(surfaces, name, wp.array(values.astype(dtype), dtype=t.scalar, device=device))
+    flags = np.zeros(len(points), dtype=np.int32) if liquid is None else np.asarray(liquid, dtype=np.int32).reshape(-1)
+    surfaces.liquid = wp.array(flags, dtype=wp.int32, device=device)
     return surfaces

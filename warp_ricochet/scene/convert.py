@@ -6,6 +6,7 @@ import math
 
 from ..fields import ALL_FIELDS, FIELDS, GROUPS
 from .keys import err as _err
+from .materials import RANGES
 from .schema import (
     COMPRESSIONS,
     INT32_MAX,
@@ -190,6 +191,8 @@ _SURFACE = {
     "restitution": _number(0, 1),
     "mu_s": _range(0, MAX_FRICTION),
     "mu_d": _range(0, MAX_FRICTION),
+    "material": _str(),  # a catalogue name (scene.materials), checked with a did-you-mean in scene.parse
+    **{key: _range(lo, hi, unit="" if unit == "1" else unit) for key, (lo, hi, unit, _why) in RANGES.items()},
 }
 _PHYSICS = {
     "gravity": _vec3(unit="m/s^2", bound=MAX_GRAVITY),

@@ -12,8 +12,9 @@ from ..errors import not_regular
 from ..fields import COLLISION_FIELDS, default_fields
 from ..launch.packing import MAX_PACKING, packing_fraction
 from ..physics.limits import MAX_PLANES_IN_AIR
+from . import materials
 from .convert import SCHEMAS
-from .keys import MISSING, _Shown, check_keys, err, join
+from .keys import MISSING, _Shown, check_keys, err, join, suggest
 from .overrides import apply_override
 from .pellets import check_pellet_file, pellet_file_rows
 from .schema import (
@@ -75,12 +76,33 @@ def _shot(raw, base_dir) -> Shot:
 
 
 def _surface(raw, path: str) -> Surface:
-    kw = _table(raw, path, SCHEMAS["surfaces"], required=("point", "normal", "restitution", "mu_s"))
+    material = raw.get("material") if isinstance(raw, dict) else None
+    required = ("point", "normal") if material is not None else ("point", "normal", "restitution", "mu_s")
+    kw = _table(raw, path, SCHEMAS["surfaces"], required=required)
     if abs(math.hypot(*kw["normal"]) - 1.0) > 1e-15:  # keeps normalisation idempotent (round trips)
         kw["normal"] = unit_vector(kw["normal"])  # scaled first: a tiny normal does not underflow
+    if material is not None:
+        kw = _with_material(kw, raw, path)
     if kw.setdefault("mu_d", kw["mu_s"]) > kw["mu_s"]:
         raise err(f"{path}.mu_d", raw["mu_d"], f"must be a number in [0, mu_s = {kw['mu_s']:g}]")
     return Surface(**kw)
+
+
+def _with_material(kw: dict, raw: dict, path: str) -> dict:
+    """The surface's keys with its catalogue material's values under the scene's own (scene.materials).
+    A mu_s lowered below the material's mu_d takes mu_d = mu_s (as without a material)."""
+    try:
+        values = materials.resolve(kw["material"])
+    except KeyError:
+        allowed = materials.names()
+        raise err(
+            f"{path}.material",
+            kw["material"],
+            f"unknown material; {suggest(kw['material'], allowed)}allowed: " + ", ".join(allowed),
+        ) from None
+    if "mu_s" in kw and "mu_d" not in kw:
+        values["mu_d"] = min(values["mu_d"], kw["mu_s"])
+    return {**values, **kw}
 
 
 def _collisions(raw) -> Collisions:

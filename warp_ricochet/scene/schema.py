@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 from ..fields import default_fields
 from ..physics.drag_tables import DRAG_TABLES
+from .materials import RIGID
 from .toml_out import plain, toml_lines
 
 Vec3 = tuple[float, float, float]
@@ -64,6 +65,25 @@ class Surface:
     mu_s: float
     mu_d: float | None = None
     name: str = ""
+    # ground materials (scene/materials.py, docs/ground.md): the catalogue name and every value it
+    # resolves to with the scene's overrides; None without `material` and the key (a rigid plane:
+    # scene.materials.RIGID)
+    material: str | None = None
+    rolling_resistance: float | None = None  # c: resisting force c N while rolling
+    ploughing: float | None = None  # kg/m^3: Poncelet's c2
+    ploughing_area: float | None = None  # fraction of the pellet's cross-section ploughing
+    critical_angle: float | None = None  # deg from the surface (water: Johnson's 18 deg / sqrt(SG) constant)
+    critical_angle_rise: float | None = None  # deg s/m
+    critical_speed: float | None = None  # m/s: the rise stops here
+    roughness: float | None = None  # deg: the mode of the normal's Rayleigh tilt
+    restitution_scatter: float | None = None  # relative
+    friction_scatter: float | None = None  # log-normal sigma
+    skip_loss: float | None = None  # water: tan(beta)
+
+    def ground(self, key: str) -> float:
+        """The value of a ground key (scene.materials.GROUND_KEYS): its own, else the rigid plane's."""
+        value = getattr(self, key)
+        return RIGID[key] if value is None else value
 
 
 @dataclass(frozen=True)
