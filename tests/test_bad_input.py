@@ -105,7 +105,7 @@ REALS = {
     "surfaces.0.restitution": (0.0, 1.0, False),
     "surfaces.0.mu_s": (0.0, 100.0, False),
     "surfaces.0.mu_d": (0.0, 0.5, False),  # mu_d <= mu_s = 0.5
-    # the ground materials' keys (docs/ground.md, section 9), allowed on a surface without a material too
+    # the ground materials' keys (docs/ground.md, section 10), allowed on a surface without a material too
     "surfaces.0.rolling_resistance": (0.0, 1.0, False),
     "surfaces.0.ploughing": (0.0, 2e4, False),
     "surfaces.0.ploughing_area": (0.0, 1.0, False),

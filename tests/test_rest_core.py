@@ -21,8 +21,8 @@ from warp_ricochet.spec import RunSpec
 
 wp.config.log_level = wp.LOG_WARNING
 PRECISIONS = ["float64", "float32"]
-# the rest position against the reference's, relative to its path length (the issue asks for 1e-4)
-CLOSE = {"float64": 1e-7, "float32": 1e-4}
+# the rest position against the reference's, relative to its path length (the issue asks for 1e-4):
+CLOSE = {"float64": 1e-5, "float32": 1e-4}  # integrated phases at the default tolerance (1e-6)
 STATES = {AT_REST: "rest", ESCAPED: "escaped", NOT_FINISHED: "moving"}
 
 
@@ -103,26 +103,32 @@ def _run(precision, normal, surface, air, cases):
 
 GROUNDS = [
     {"restitution": 0.3, "mu_s": 0.5, "mu_d": 0.45, "rolling_resistance": 0.05},
-    {"restitution": 0.1, "mu_s": 0.4, "mu_d": 0.35, "rolling_resistance": 0.1, "ploughing": 5.0},
+    # ploughing: Poncelet's c2 (kg/m^3) over a fraction of the cross-section: b = 3 c2 f / (4 rho R) = 5 / m
+    {"restitution": 0.1, "mu_s": 0.4, "mu_d": 0.35, "rolling_resistance": 0.1, "ploughing": 1750.0 / 3, "ploughing_area": 0.1},
 ]
+
+
+def _b(surface):
+    """The ploughing b (1/m) of a surface for the 2.5 mm, 7000 kg/m^3 pellet."""
+    return 3 * surface.get("ploughing", 0.0) * surface.get("ploughing_area", 0.0) / (4 * 7000.0 * 0.00125)
 
 
 @pytest.mark.parametrize("precision", PRECISIONS)
 @pytest.mark.parametrize("air", [False, True], ids=["vacuum", "air"])
 def test_rests_where_the_reference_does(precision, air):
     rng = np.random.default_rng(25 + air)
-    normal = (0.0, 1.0, 0.0) if not air else (0.05, 1.0, -0.03)
+    normal = (0.0, 1.0, 0.0) if not air else (0.02, 1.0, -0.01)  # tan(slope) 0.022 < c: it can rest
     for surface in GROUNDS:
         cases = _cases(rng, 6, normal)
         end, x, path, impacts = _run(precision, normal, surface, air, cases)
-        ground = ref.Ground(surface["restitution"], surface["mu_s"], surface["mu_d"], surface["rolling_resistance"])
-        if "ploughing" in surface:
-            ground = ref.Ground(**{**ground.__dict__, "ploughing": surface["ploughing"]})
+        ground = ref.Ground(surface["restitution"], surface["mu_s"], surface["mu_d"], surface["rolling_resistance"], _b(surface))
         for i, (x0, v0, w0) in enumerate(cases):
             r = ref.follow(
                 x0, v0, w0, radius=0.00125, normal=normal, ground=ground, rest_speed=0.2, air=Air(density=1.225) if air else None
             )
             assert STATES[int(end[i])] == r.state, (i, surface, r.state, end[i])
+            if r.state != "rest":
+                continue
             scale = max(r.path_length, 1e-3)
             assert np.linalg.norm(x[i] - r.x) <= CLOSE[precision] * scale, (i, surface, x[i], r.x, r.path_length)
             assert impacts[i] == r.impacts

@@ -16,6 +16,14 @@ MAX_STATIC_PLANES = 4  # scenes with more planes loop over them at run time
 PRECISIONS = ("float32", "float64")
 
 
+def _has_ground_laws(surface) -> bool:
+    """Whether a scene surface draws rough ground or has a penetration or skip law (physics.ground)."""
+    from .scene.materials import RIGID, is_liquid
+
+    keys = ("critical_angle", "roughness", "restitution_scatter", "friction_scatter")
+    return is_liquid(surface.material) or any(surface.ground(key) != RIGID[key] for key in keys)
+
+
 @dataclass(frozen=True)
 class RunSpec:
     """precision: "float32" or "float64"; bounces: ricochets followed; planes: surfaces in the
@@ -65,6 +73,7 @@ class RunSpec:
             hazard_map=scene.output.quantiles and scene.hazard is not None and scene.hazard.has_map,
             thresholds=0 if scene.hazard is None else len(scene.hazard.thresholds),
             until=scene.physics.until,
+            ground=any(_has_ground_laws(surface) for surface in scene.surfaces),
         )
 
     @property

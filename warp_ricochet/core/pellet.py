@@ -163,6 +163,10 @@ def make_ricochet_pellet(spec):
                                 impacted = 0
                         if impacted != 0:
                             velocity_after, spin_after, slipped = impact(material, tilted, velocity, spin, physics)
+                            if wp.static(GROUND):
+                                if material.liquid != 0:  # water: a skip (physics.ground)
+                                    velocity_after, spin_after = ground.skip(material, velocity, tilted, spin)
+                                    slipped = wp.int32(0)
                             if wp.static(WRITE):
                                 outs.write_impact(
                                     out, row, b, time, position, velocity, spin, velocity_after, spin_after, slipped, k

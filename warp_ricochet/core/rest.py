@@ -53,7 +53,7 @@ EVENTS_PER_IMPACT = 4  # a loop's iterations per impact allowed (a guard: contac
 def make_to_rest(spec) -> SimpleNamespace:
     """`to_rest` and `applied` of a run spec (its precision, planes, flight model and air laws)."""
     t = types_for(spec.precision)
-    scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
+    scalar, vec3, Surfaces, Physics, Material = t.scalar, t.vec3, t.Surfaces, t.Physics, t.Material
     flight = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws)
     surface = make_surface_follow(spec.precision, spec.static_planes, spec.flight, spec.air_laws)
     rests, _stays, impact, _meet, _point, _range = make_contact(spec.precision)
@@ -72,6 +72,15 @@ def make_to_rest(spec) -> SimpleNamespace:
             acceleration, _spin_rate = rates(velocity, spin, physics)
             return acceleration
         return physics.gravity
+
+    @wp.func
+    def bounce(material: Material, normal: vec3, velocity: vec3, spin: vec3, physics: Physics):
+        """The rebound off a surface of `material` and (drawn) `normal`: a skip off a liquid
+        (`ground.skip`), else the impact law; (velocity', spin')."""
+        if material.liquid != 0:
+            return ground.skip(material, velocity, normal, spin)
+        velocity_after, spin_after, _slipped = impact(material, normal, velocity, spin, physics)
+        return velocity_after, spin_after
 
     @wp.func
     def leaves(velocity: vec3, spin: vec3, normal: vec3, physics: Physics):
@@ -134,7 +143,7 @@ def make_to_rest(spec) -> SimpleNamespace:
                     if ground.embeds(material, velocity, tilted) != 0:
                         end = wp.int32(EMBEDDED)
                     else:
-                        velocity, spin, _slipped = impact(material, tilted, velocity, spin, physics)
+                        velocity, spin = bounce(material, tilted, velocity, spin, physics)
                         if leaves(velocity, spin, normal, physics) != 0:
                             mode = wp.int32(FLIGHT)
                         elif ground.sinks(material) != 0:
@@ -169,7 +178,7 @@ def make_to_rest(spec) -> SimpleNamespace:
                     elif ended == LIFTS_OFF:  # it leaves with the least normal speed its precision tells from 0
                         normal = geo.normal(surfaces, k, position)
                         scale = wp.length(velocity) + wp.sqrt(wp.length(physics.gravity) * physics.radius)
-                        velocity = laws.tangential(velocity, normal) + (LIFT_OFF * scale) * normal
+                        velocity = laws.tangential(velocity, normal) + (scalar(LIFT_OFF) * scale) * normal
                         mode = wp.int32(FLIGHT)
                     elif ended == ENDS_IN_CONTACT:
                         k = k_next
@@ -199,4 +208,4 @@ def make_to_rest(spec) -> SimpleNamespace:
             time = scalar(wp.inf)
         return end, position, velocity, spin, time, impacts, path, steps
 
-    return SimpleNamespace(start_mode=start_mode, to_rest=to_rest, applied=applied, leaves=leaves)
+    return SimpleNamespace(start_mode=start_mode, to_rest=to_rest, applied=applied, leaves=leaves, bounce=bounce)
