@@ -1,6 +1,6 @@
 """One pellet through the core: its start (a launch, or the dense phase's release), each bounce
 (the flight to the next surface, `physics.flight`, then an impact or the end of its flight there,
-`physics.contact`), and its landing (eq. 42), with its outputs written and its statistics added
+`physics.contact`), and its landing (eq. 42), with physics.until = "rest" where it ends (`ends`), with its outputs written and its statistics added
 to the thread's partials (`tallies.accumulate`).
 
 The partials are updated in this one function: helpers that take the partial vectors and return
@@ -12,6 +12,8 @@ import functools
 
 import warp as wp
 
+from ..ends import AT_REST, EMBEDDED
+from ..ends import ESCAPED as ENDED_ESCAPED
 from ..launch.source import make_source
 from ..physics.contact import make_contact
 from ..physics.flight import make_flight
@@ -19,6 +21,7 @@ from ..physics.geometry import make_geometry
 from ..physics.types import types_for
 from ..tallies.accumulate import make_accumulators
 from ..tallies.landing import make_add_landing, make_landing_tally
+from ..tallies.sums import REST as X_REST
 from .outputs import make_outputs
 from .release import make_release
 
@@ -49,6 +52,7 @@ def make_ricochet_pellet(spec):
         make_add_landing(spec.precision, spec.hazard_map, spec.thresholds),
     )
     TALLY, HAZARD_OUT = spec.tally, any(f.startswith("hazard.") for f in spec.core_fields)
+    TO_REST, horizontal_distance = spec.to_rest, make_landing_tally(spec.precision).horizontal_distance
 
     @wp.func
     def ricochet_pellet(
@@ -214,11 +218,39 @@ def make_ricochet_pellet(spec):
                     acc[F_RANGE_STICK] += distance
                     lo[1] = wp.min(lo[1], distance)
                     hi[1] = wp.max(hi[1], distance)
+        if wp.static(TO_REST):
+            # ---- placeholder until the continuation lands (issue 25 part 2 replaces this block) ----
+            # it defines where the pellet ends (`ends`): rest_state, rest_position (m), rest_velocity
+            # (m/s), rest_time (s), rest_impacts, rest_path (m); here: at rest where it landed, else escaped
+            rest_state = wp.int32(ENDED_ESCAPED)
+            rest_position = vec3(scalar(wp.nan))
+            rest_velocity = vec3(scalar(wp.nan))
+            rest_time = scalar(wp.inf)
+            rest_impacts = impacts
+            rest_path = scalar(0.0)
+            if landing_surface >= 0:
+                rest_state = wp.int32(AT_REST)
+                rest_position = landing_position
+                rest_velocity = vec3()
+                rest_time = landing_time
+            # ---- end of the placeholder ----
         if wp.static(WRITE):
             outs.write_landing(out, row, landing_time, landing_position, landing_velocity, distance, landing_surface)
             if wp.static(HAZARD_OUT):
                 energy = tally.half_mass * wp.dot(landing_velocity, landing_velocity)  # NaN: never landed
                 outs.write_hazard(out, row, energy, energy * tally.inverse_area, exceeds)
+        if wp.static(TO_REST):  # where it ends: its statistics, its rest distance's count, its outputs
+            rest_distance = scalar(wp.nan)  # m, from the shooter (horizontal), of a pellet that stopped
+            if rest_state == AT_REST or rest_state == EMBEDDED:
+                if wp.static(TALLY):
+                    rest_distance = landing_tally.add_rest(tally, row, rest_position)
+                else:
+                    rest_distance = horizontal_distance(tally, rest_position)
+                lo[X_REST] = wp.min(lo[X_REST], rest_distance)
+                hi[X_REST] = wp.max(hi[X_REST], rest_distance)
+            acc = acc_fns.add_rest_sums(acc, rest_state, rest_distance, rest_path, rest_impacts)
+            if wp.static(WRITE):
+                outs.write_rest(out, row, rest_state, rest_position, rest_velocity, rest_time, rest_impacts, rest_path)
         return counts, acc, lo, hi, range_shift
 
     return ricochet_pellet
