@@ -239,3 +239,18 @@ def test_a_not_finished_pellet_is_never_counted_at_rest():
     assert stats["rest_distance_mean"] == 10.0 and stats["rest_distance_std"] == math.sqrt(0.5)
     assert stats["rest_impacts_mean"] == 4.0
     assert "rest_at_rest" not in finalize((sums, mins, maxs, spread), pellets=10, mass=1.0, inertia=1.0)
+
+
+def test_the_rest_distance_is_from_the_hazard_shooter_where_given(tmp_path):
+    """With `[hazard] shooter` the rest distances (statistics and quantiles) are measured from it, as
+    the landing distances are."""
+    shooter = (5.0, 0.0, 3.0)
+    sets = ["shot.count=2000", "hazard.speed={fast=100.0}", f"hazard.shooter={list(shooter)}", *REST]
+    out = tmp_path / "shooter.h5"
+    stats = wr.run(load_scene(PAPER, sets), out, device="cpu")
+    with h5py.File(out, "r") as f:
+        position = f["pellets/rest/position"][()]
+    offset = position.astype(np.float64) - shooter
+    d = np.hypot(offset[:, 0], offset[:, 2])  # gravity along -y
+    assert stats["rest_distance_mean"] == pytest.approx(d.mean(), rel=1e-6)
+    assert stats["rest_distance_max"] == pytest.approx(d.max(), rel=1e-6)
