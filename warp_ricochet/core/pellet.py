@@ -36,7 +36,7 @@ def make_ricochet_pellet(spec):
     src, outs, acc_fns = (
         make_source(spec.precision, spec.from_file),
         make_outputs(spec.precision),
-        make_accumulators(spec.precision),
+        make_accumulators(spec.precision, spec.to_rest),
     )
     Source, Outputs, Release = src.Source, outs.Outputs, make_release(spec.precision)
     floats_t, extremes_t = acc_fns.floats_t, acc_fns.extremes_t

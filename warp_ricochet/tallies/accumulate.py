@@ -17,7 +17,7 @@ import warp as wp
 from ..ends import AT_REST, EMBEDDED, NOT_FINISHED
 from ..physics.air_flight import GAVE_UP
 from ..physics.types import types_for
-from .sums import FLIGHT_SCALE, NUM_COUNTS, NUM_EXTREMES, NUM_FLOATS, SUM
+from .sums import FLIGHT_SCALE, NUM_COUNTS, NUM_EXTREMES, NUM_FLOATS, REST, SUM
 
 # offsets into the float accumulator (counts are separate)
 OFFSETS = SimpleNamespace(
@@ -44,13 +44,21 @@ OFFSETS = SimpleNamespace(
 )
 
 
+# the rest sums and extreme are the last ones: a run that does not follow pellets to rest leaves them
+# out of its vectors (its registers and copies), and stores zeros and empty extremes for them
+assert SUM["end_stopped"] - NUM_COUNTS == NUM_FLOATS - 8 and REST == NUM_EXTREMES - 1
+
+
 @functools.cache
-def make_accumulators(precision: str) -> SimpleNamespace:
-    """The vector types of the partials and the functions that add to them and store them."""
+def make_accumulators(precision: str, rest: bool = False) -> SimpleNamespace:
+    """The vector types of the partials and the functions that add to them and store them; `rest`:
+    with the sums of where pellets end (physics.until = "rest", `add_rest_sums`)."""
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
-    floats_t = wp.types.vector(NUM_FLOATS, scalar)
-    extremes_t = wp.types.vector(NUM_EXTREMES, scalar)
+    n_floats, n_extremes = (NUM_FLOATS, NUM_EXTREMES) if rest else (OFFSETS.END_STOPPED, REST)
+    floats_t = wp.types.vector(n_floats, scalar)
+    extremes_t = wp.types.vector(n_extremes, scalar)
+    REST_ON, inf64 = rest, wp.float64(math.inf)
     F_PRE, F_POST, F_V2_LAUNCH, F_W2_LAUNCH = OFFSETS.PRE, OFFSETS.POST, OFFSETS.V2_LAUNCH, OFFSETS.W2_LAUNCH
     F_RANGE, F_RANGE2, F_TIME_ALOFT, F_V2_LANDING = OFFSETS.RANGE, OFFSETS.RANGE2, OFFSETS.TIME_ALOFT, OFFSETS.V2_LANDING
     F_FLIGHT_STEPS, F_FLIGHT_UNFINISHED = OFFSETS.FLIGHT_STEPS, OFFSETS.FLIGHT_UNFINISHED
@@ -110,7 +118,6 @@ def make_accumulators(precision: str) -> SimpleNamespace:
             acc[F_FLIGHT_UNFINISHED] += scalar(1.0)
         return acc
 
-    @wp.func
     def add_rest_sums(acc: floats_t, state: wp.int32, distance: scalar, path_length: scalar, impacts: wp.int32):
         """Where a pellet ends (`ends`): its impacts; stopped (at rest or embedded), its rest
         distance as a deviation from the thread's first (kept in END_SHIFT) and its path along
@@ -129,6 +136,8 @@ def make_accumulators(precision: str) -> SimpleNamespace:
         elif state == S_NOT_FINISHED:
             acc[F_END_NOT_FINISHED] += scalar(1.0)
         return acc
+
+    add_rest_sums = wp.func(add_rest_sums) if rest else None  # (only with the rest sums in the vector)
 
     @wp.func
     def flight_scale(position: vec3, velocity: vec3, dt: scalar, gravity: vec3):
@@ -154,7 +163,7 @@ def make_accumulators(precision: str) -> SimpleNamespace:
         deviations about the thread's mean (no cancellation; merged across threads by Chan)."""
         for c in range(num_counts):
             partial_sums[c, tid] = wp.float64(counts[c])
-        for f in range(num_floats):
+        for f in range(wp.static(n_floats)):
             partial_sums[num_counts + f, tid] = wp.float64(acc[f])
         landed = wp.float64(counts[2])
         deviations = wp.float64(acc[F_RANGE])
@@ -163,17 +172,23 @@ def make_accumulators(precision: str) -> SimpleNamespace:
         if counts[2] > 0:
             m2 = wp.max(wp.float64(acc[F_RANGE2]) - deviations * deviations / landed, wp.float64(0.0))
         partial_sums[num_counts + F_RANGE2, tid] = m2
-        stopped = wp.float64(acc[F_END_STOPPED])  # the rest distances likewise (from END_SHIFT; 0 kept there)
-        deviations = wp.float64(acc[F_END_DISTANCE])
-        partial_sums[num_counts + F_END_DISTANCE, tid] = stopped * wp.float64(acc[F_END_SHIFT]) + deviations
-        m2 = wp.float64(0.0)
-        if stopped > wp.float64(0.0):
-            m2 = wp.max(wp.float64(acc[F_END_DISTANCE2]) - deviations * deviations / stopped, wp.float64(0.0))
-        partial_sums[num_counts + F_END_DISTANCE2, tid] = m2
-        partial_sums[num_counts + F_END_SHIFT, tid] = wp.float64(0.0)
-        for e in range(num_extremes):
+        if wp.static(REST_ON):  # the rest distances likewise (from END_SHIFT; 0 kept there)
+            stopped = wp.float64(acc[F_END_STOPPED])
+            deviations = wp.float64(acc[F_END_DISTANCE])
+            partial_sums[num_counts + F_END_DISTANCE, tid] = stopped * wp.float64(acc[F_END_SHIFT]) + deviations
+            m2 = wp.float64(0.0)
+            if stopped > wp.float64(0.0):
+                m2 = wp.max(wp.float64(acc[F_END_DISTANCE2]) - deviations * deviations / stopped, wp.float64(0.0))
+            partial_sums[num_counts + F_END_DISTANCE2, tid] = m2
+            partial_sums[num_counts + F_END_SHIFT, tid] = wp.float64(0.0)
+        for f in range(wp.static(n_floats), num_floats):  # (none following pellets to rest)
+            partial_sums[num_counts + f, tid] = wp.float64(0.0)
+        for e in range(wp.static(n_extremes)):
             partial_min[e, tid] = wp.float64(lo[e])
             partial_max[e, tid] = wp.float64(hi[e])
+        for e in range(wp.static(n_extremes), num_extremes):
+            partial_min[e, tid] = inf64
+            partial_max[e, tid] = -inf64
 
     return SimpleNamespace(
         floats_t=floats_t,
