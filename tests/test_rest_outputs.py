@@ -62,6 +62,9 @@ def test_rest_fields_only_with_until_rest(tmp_path, plate):
         assert f["pellets/rest/state"].dtype == np.int8 and f["pellets/rest/impacts"].dtype == np.int32
         assert f["stats/rest_distance_mean"].attrs["units"] == "m"
         assert "rest_distance" in f["stats/quantiles"] and "rest_counts" in f["stats/histograms"]
+        # on the dimensions of the landing's (no scales of their own: io.dimensions)
+        assert sorted(f["stats/quantiles"]) == ["distance", "energy", "level", "lower", "range", "rest_distance", "speed"]
+        assert sorted(f["stats/histograms"]) == ["bin", "bin_edge", "counts", "edges", "histogram_row", "rest_counts"]
     assert set(REST_STATS) <= set(stats)
     landing = tmp_path / "landing.h5"
     stats = wr.run(load_scene(PAPER, ["shot.count=500"]), landing, device="cpu")  # paper.toml: until = "landing"
