@@ -257,3 +257,16 @@ def test_the_rest_distance_is_from_the_hazard_shooter_where_given(tmp_path):
     d = np.hypot(offset[:, 0], offset[:, 2])  # gravity along -y
     assert stats["rest_distance_mean"] == pytest.approx(d.mean(), rel=1e-6)
     assert stats["rest_distance_max"] == pytest.approx(d.max(), rel=1e-6)
+
+
+def test_a_sweep_file_holds_each_points_rest_statistics(tmp_path):
+    """A sweep followed to rest: /stats holds every rest statistic by point (with units), equal to
+    the point runs' own, and each /runs/NNNN its rest quantiles."""
+    out = tmp_path / "sweep.h5"
+    scene = load_scene(PAPER, ["shot.count=500", "surfaces.0.mu_d=0.15", *REST])
+    results = wr.sweep(scene, {"surfaces.0.mu_s": [0.2, 0.4]}, output=out, device="cpu")
+    with h5py.File(out, "r") as f:
+        for name in REST_STATS:
+            assert f[f"stats/{name}"].attrs["units"] == wr.STAT_UNITS[name][0], name
+            np.testing.assert_array_equal(f[f"stats/{name}"][()], [stats[name] for _, stats in results], err_msg=name)
+        assert all(np.isfinite(f[f"runs/{i:04d}/stats/quantiles/rest_distance"][()]).all() for i in range(2))
