@@ -2,8 +2,9 @@
 
 A thread's partials are `counts` (int32: hits, slip, landed, landed_slip), `acc` (the float sums
 in the working precision: at most PER_THREAD = 256 terms, a relative rounding error of order
-1e-6 in float32), `lo`/`hi` (range extremes: all, stick, slip; then `hi` the largest flight scale; then the rest distances) and `range_shift` (the thread's
-first range: ranges are summed as deviations from it). `store_partials` widens them to float64
+1e-6 in float32), `lo`/`hi` (range extremes: all, stick, slip; then `hi` the largest flight scale;
+then, following pellets to rest, the rest distances) and `range_shift` (the thread's first range:
+ranges are summed as deviations from it; the rest distances likewise from the sum END_SHIFT). `store_partials` widens them to float64
 once per thread; from there on everything is float64 (`tallies.reduce`). Each helper returns one
 vector (see `core.pellet` on why).
 """
