@@ -32,9 +32,9 @@ COLLISIONS = [
 CASES = {
     "paper-float32": ("examples/paper.toml", []),
     "paper-float64": ("examples/paper.toml", ['numerics.precision="float64"']),
-    "steel-plate": ("examples/steel_plate.toml", []),
+    "steel-plate": ("tests/data/golden_steel_plate.toml", []),
     "spin-planes": (
-        "examples/steel_plate.toml",
+        "tests/data/golden_steel_plate.toml",
         [
             "shot.count=70000",
             "shot.spin=[300.0, -2000.0, 9000.0]",

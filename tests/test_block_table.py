@@ -185,6 +185,9 @@ def test_the_host_fetches_the_device_totals_sparse_or_dense(landings, device, mo
     tally.request()
     tally.receive(host)
     for name, arr in tally.totals.items():
+        if name == "rest":  # (the rest distances' histogram: none without physics.until = "rest")
+            assert arr.size == 0
+            continue
         assert np.count_nonzero(arr.numpy()) > 7
         np.testing.assert_array_equal(getattr(host, name).reshape(-1), arr.numpy(), err_msg=name)
 

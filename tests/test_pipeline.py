@@ -171,7 +171,7 @@ def test_same_results_for_any_chunk_size(tmp_path, device, precision):
         path = tmp_path / f"c{i}.h5"
         results.append((wr.run(sc, path, device=device), read_pellets(path)))
     stats0, pellets0 = results[0]
-    assert len(pellets0) == 16 and (pellets0["impact.surface"] == 1).any()  # every field, both planes
+    assert len(pellets0) == 22 and (pellets0["impact.surface"] == 1).any()  # every field (rest: until = "rest"), both planes
     for stats, pellets in results[1:]:
         stats_equal(stats, stats0)
         for name, arr in pellets.items():

@@ -23,6 +23,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SCENE = str(ROOT / "examples" / "paper.toml")
 SMALL = ["--set", "shot.count=200", "--device", "cpu"]
 SWEEP = ["--param", "surfaces.0.mu_s=0:0.1:0.05", "--tie", "surfaces.0.mu_d=0.9*"]
+REST = ["--set", 'physics.until="rest"', "--set", 'output.fields=["initial", "impact", "landing", "rest"]']  # rest-distance
 HAZARD_MAP = ["--set", "hazard.map_cell=1.0", "--set", "hazard.map_extent=[100.0, 140.0, -20.0, 20.0]"]  # docs/hazard.md
 PREFIX = "warp-ricochet: error: "
 
@@ -37,7 +38,7 @@ def files(tmp_path_factory):
     """A run file, a sweep in vacuum and the same sweep in air, and a statistics-only run."""
     d = tmp_path_factory.mktemp("plots")
     out = {"run": d / "run.h5", "vacuum": d / "sweep.h5", "air": d / "sweep-air.h5", "stats": d / "stats.h5"}
-    assert quiet(["run", SCENE, *SMALL, *HAZARD_MAP, "-o", str(out["run"])]) == 0
+    assert quiet(["run", SCENE, *SMALL, *HAZARD_MAP, *REST, "-o", str(out["run"])]) == 0
     assert quiet(["sweep", SCENE, *SMALL, *SWEEP, "-o", str(out["vacuum"])]) == 0
     assert quiet(["sweep", SCENE, *SMALL, *SWEEP, "--set", "air.density=1.225", "-o", str(out["air"])]) == 0
     assert quiet(["run", SCENE, *SMALL, "--set", "output.fields=[]", "-o", str(out["stats"])]) == 0
@@ -120,7 +121,7 @@ def test_plot_of_a_statistics_only_run_skips_with_a_reason(files, tmp_path, caps
     assert main(["plot", str(files["stats"]), "-o", str(outdir)]) == 0
     lines = capsys.readouterr().out.splitlines()
     skipped = [line for line in lines if line.startswith("skipped ")]
-    assert len(skipped) == 4 and sum("no per-pellet" in line for line in skipped) == 3
+    assert len(skipped) == 5 and sum("no per-pellet" in line for line in skipped) == 4
     assert any("no hazard map" in line for line in skipped)
     # the distance survival curve comes from the on-device histograms (docs/hazard.md): drawn all the same
     assert [p.name for p in outdir.iterdir()] == ["stats-distance-survival.png"]

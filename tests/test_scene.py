@@ -61,7 +61,9 @@ bounces = 1
 fields = ["initial", "impact", "landing"]
 """
 PAPER = tomllib.loads(PAPER_TOML)
-ALL = tuple(f for f in CORE_FIELDS if not f.startswith("hazard."))  # the default: no hazard group
+ALL = tuple(
+    f for f in CORE_FIELDS if not f.startswith("hazard.")
+)  # the default: no hazard group (until = "rest": the rest group)
 
 
 def paper():
@@ -109,7 +111,7 @@ def test_load_paper_scene(tmp_path):
     assert s.surfaces == (Surface((0.0, 0.0, 0.0), (0.0, 1.0, 0.0), 0.01, 0.5, 0.45, "ground"),)
     assert s.physics == Physics((0.0, -9.81, 0.0), 1e-5, 1)
     assert s.numerics == Numerics()
-    assert s.output == Output(None, ALL)
+    assert s.output == Output(None, tuple(f for f in ALL if not f.startswith("rest.")))  # (the fields it names)
 
 
 def test_defaults():
@@ -464,7 +466,9 @@ def test_messages():
         scene_from_dict(set_dotted(paper(), "shot.direction", [math.nan, 1, 0]))
     with pytest.raises(SceneError, match="is required"):
         scene_from_dict(_delete("surfaces", "0", "mu_s")(paper()))
-    with pytest.raises(SceneError, match="allowed: initial, impact, landing, hazard, collisions, release, initial.position"):
+    with pytest.raises(
+        SceneError, match="allowed: initial, impact, landing, hazard, rest, collisions, release, initial.position"
+    ):
         scene_from_dict(set_dotted(paper(), "output.fields", ["x"]))
 
 

@@ -24,7 +24,7 @@ from .chunks import check_chunk_memory, check_tallies, plan_shots
 from .core.impact import impact_kernel_for
 from .device import resolve_device, warp
 from .errors import OutputError, PrecisionWarning, SceneError, SceneWarning  # noqa: F401 - PrecisionWarning: part of the API
-from .fields import bytes_per_pellet
+from .fields import REST_FIELDS, bytes_per_pellet
 from .io import resume, sweepdir
 from .io.runfile import OutputFile, check_output_path, check_resume_path, output_target
 from .io.space import check_space
@@ -160,6 +160,9 @@ def check_resources(scenes, dev, output, rows_done=0, copies=1) -> None:
     no file made."""
     tallies = 0  # bytes of the tallies' datasets
     for sc in scenes:
+        rest = [f for f in sc.output.fields if f in REST_FIELDS]
+        if rest and sc.physics.until != "rest":  # (a scene made in code: a loaded one is refused already)
+            raise SceneError("output.fields", rest[0], f'needs physics.until = "rest", not {sc.physics.until!r}')
         check_chunk_memory(sc, dev, output is not None)
         tallies += check_tallies(sc, dev, output)
         if sc.pair_collisions and sc.collisions.frame_every and output is not None:
@@ -230,7 +233,7 @@ def _run_one(scene, dev, group=None, progress=None, dense_options=None) -> dict:
             scene=scene,
             fields=scene.output.fields,
             pellets=scene.shot.pellets,
-            stats=stat_names(scene.pair_collisions, scene.in_air),
+            stats=stat_names(scene.pair_collisions, scene.in_air, scene.physics.until == "rest"),
         )
     return _compute(scene, dev, writer, progress, dense_options=dense_options)
 

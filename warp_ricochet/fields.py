@@ -2,8 +2,9 @@
 validation of `output.fields` and the writer's datasets are made.
 
 A field is named "group.name" (its HDF5 path is /pellets/group/name). Its `stage` says which part
-of the pipeline produces it: "launch", "impact" and "landing" fields are written by the core kernel
-(members of its Outputs struct, `core.types`), "collide" fields by the dense phase of pellet-pellet
+of the pipeline produces it: "launch", "impact", "landing" and "rest" fields are written by the core
+kernel (members of its Outputs struct, `core.types`; "rest" only in runs with physics.until = "rest",
+where each pellet ends: `ends`), "collide" fields by the dense phase of pellet-pellet
 collisions (only runs with collisions have them). Units are SI. This module imports nothing heavy.
 """
 
@@ -24,6 +25,7 @@ __all__ = [
     "collision_fields",
     "default_fields",
     "HAZARD_FIELDS",
+    "REST_FIELDS",
     "numpy_dtype",
     "shape",
     "bytes_per_pellet",
@@ -105,6 +107,26 @@ FIELDS: dict[str, Field] = {
             "landing",
             "bit i set: at landing it exceeds hazard threshold i (/hazard/thresholds, in scene order); 0 when it never lands",
         ),
+        _F(
+            "rest.position",
+            "vec3",
+            False,
+            "m",
+            "rest",
+            "centre where it ends: at rest, entering the ground, or when its budget ran out (NaN: escaped)",
+        ),
+        _F(
+            "rest.velocity",
+            "vec3",
+            False,
+            "m/s",
+            "rest",
+            "velocity where it ends: 0 at rest, the entry velocity when embedded (NaN: escaped)",
+        ),
+        _F("rest.time", "scalar", False, "s", "rest", "time it ends since launch (inf: escaped)"),
+        _F("rest.state", "int8", False, "1", "rest", "how it ends: the code of a name in the attribute states (ends.STATES)"),
+        _F("rest.impacts", "int32", False, "1", "rest", "all its impacts, the dense phase's included"),
+        _F("rest.path_length", "scalar", False, "m", "rest", "length of its path along surfaces (sliding, rolling, ploughing)"),
         _F("collisions.count", "int32", False, "1", "collide", "pellet-pellet collisions of the pellet"),
         _F(
             "collisions.last_time",
@@ -138,6 +160,8 @@ CORE_FIELDS = tuple(name for name, f in FIELDS.items() if f.stage != "collide")
 # written only when output.fields names them, or by default in a scene with a [hazard] table
 HAZARD_FIELDS = tuple(name for name in FIELDS if name.startswith("hazard."))
 COLLISION_FIELDS = tuple(name for name, f in FIELDS.items() if f.stage == "collide")
+# written only in runs with physics.until = "rest" (by default there)
+REST_FIELDS = tuple(name for name, f in FIELDS.items() if f.stage == "rest")
 ALL_FIELDS = CORE_FIELDS + COLLISION_FIELDS
 
 
@@ -151,10 +175,15 @@ def collision_fields(fields) -> tuple[str, ...]:
     return tuple(f for f in fields if FIELDS[f].stage == "collide")
 
 
-def default_fields(pair_collisions: bool, hazard: bool) -> tuple[str, ...]:
+def default_fields(pair_collisions: bool, hazard: bool, rest: bool = False) -> tuple[str, ...]:
     """output.fields when a scene names none: the core's (and the dense phase's with pair
-    collisions), the hazard group only in a scene with a [hazard] table."""
-    return tuple(f for f in (ALL_FIELDS if pair_collisions else CORE_FIELDS) if hazard or f not in HAZARD_FIELDS)
+    collisions), the hazard group only in a scene with a [hazard] table, the rest group only in a
+    run that follows pellets to rest (physics.until = "rest")."""
+    return tuple(
+        f
+        for f in (ALL_FIELDS if pair_collisions else CORE_FIELDS)
+        if (hazard or f not in HAZARD_FIELDS) and (rest or f not in REST_FIELDS)
+    )
 
 
 def numpy_dtype(name: str, precision: str) -> np.dtype:

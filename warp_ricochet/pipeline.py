@@ -304,7 +304,9 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
         else:
             stage = CoreStage(scene, model, spec, arrays, pellets)
         totals, tables, tally, pieces = _loop(stage, pellets, sink, resumed, progress)
-    stats = RunStats(finalize(totals, pellets=pellets, mass=model.mass, inertia=model.inertia, air=spec.in_air))
+    stats = RunStats(
+        finalize(totals, pellets=pellets, mass=model.mass, inertia=model.inertia, air=spec.in_air, rest=spec.to_rest)
+    )
     stats.tally = tally
     warn_coarse_positions(stats["flight_scale_max"], model.precision, model.radius)
     if spec.in_air and stats["flights_unfinished"] > 0:
@@ -323,6 +325,7 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
             mass=model.mass,
             inertia=model.inertia,
             air=spec.in_air,
+            rest=spec.to_rest,
             shot_totals=np.concatenate(tables) if spec.collisions else None,
         )
         stats.ensemble = ensemble_of(per_shot, scene.shot.shots)

@@ -36,7 +36,7 @@ def ricochet_kernel_for(spec, max_registers="default"):
         make_outputs(spec.precision).Outputs,
         make_release(spec.precision),
     )
-    acc_fns, ricochet_pellet = make_accumulators(spec.precision), make_ricochet_pellet(spec)
+    acc_fns, ricochet_pellet = make_accumulators(spec.precision, spec.to_rest), make_ricochet_pellet(spec)
     Tally, landing = make_landing_tally(spec.precision).Tally, make_add_landing(spec.precision, spec.hazard_map, spec.thresholds)
     TABLE = spec.hazard_map  # the map's block table (`tallies.block`)
     floats_t, extremes_t, inf = acc_fns.floats_t, acc_fns.extremes_t, acc_fns.inf

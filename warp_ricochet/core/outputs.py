@@ -1,5 +1,5 @@
 """The core kernel's per-pellet outputs: the `Outputs` struct, generated from the field registry
-(`fields.FIELDS`, the launch, impact and landing stages), and the functions that write one
+(`fields.FIELDS`, the launch, impact, landing and rest stages), and the functions that write one
 pellet's rows. An empty array is not written: a run allocates only the fields it asks for.
 """
 
@@ -113,8 +113,34 @@ def make_outputs(precision: str) -> SimpleNamespace:
         if out.hazard_exceeds.shape[0] > 0:
             out.hazard_exceeds[row] = exceeds
 
+    @wp.func
+    def write_rest(
+        out: Outputs,
+        row: wp.int32,
+        state: wp.int32,
+        position: vec3,
+        velocity: vec3,
+        time: scalar,
+        impacts: wp.int32,
+        path_length: scalar,
+    ):
+        """Where the pellet ends (`ends`: `state` one of its codes)."""
+        if out.rest_position.shape[0] > 0:
+            out.rest_position[row] = position
+        if out.rest_velocity.shape[0] > 0:
+            out.rest_velocity[row] = velocity
+        if out.rest_time.shape[0] > 0:
+            out.rest_time[row] = time
+        if out.rest_state.shape[0] > 0:
+            out.rest_state[row] = wp.int8(state)
+        if out.rest_impacts.shape[0] > 0:
+            out.rest_impacts[row] = impacts
+        if out.rest_path_length.shape[0] > 0:
+            out.rest_path_length[row] = path_length
+
     return SimpleNamespace(
         Outputs=Outputs,
+        write_rest=write_rest,
         write_initial=write_initial,
         write_impact=write_impact,
         mark_missing=mark_missing,

@@ -1,7 +1,7 @@
 """One pellet through the core: its start (a launch, or the dense phase's release), each bounce
 (the flight to the next surface, `physics.flight`, then an impact or the end of its flight there,
-`physics.contact`), and its landing (eq. 42), with its outputs written and its statistics added
-to the thread's partials (`tallies.accumulate`).
+`physics.contact`), its landing (eq. 42) and, with physics.until = "rest", where it ends (`ends`),
+with its outputs written and its statistics added to the thread's partials (`tallies.accumulate`).
 
 The partials are updated in this one function: helpers that take the partial vectors and return
 several of them (a tuple) through branches make the CUDA kernel much slower (bench/RESULTS.md,
@@ -12,6 +12,8 @@ import functools
 
 import warp as wp
 
+from ..ends import AT_REST as ENDED_AT_REST
+from ..ends import EMBEDDED as ENDED_EMBEDDED
 from ..launch.source import make_source
 from ..physics.air_flight import GAVE_UP
 from ..physics.contact import make_contact
@@ -21,6 +23,7 @@ from ..physics.ground import make_ground
 from ..physics.types import types_for
 from ..tallies.accumulate import make_accumulators
 from ..tallies.landing import make_add_landing, make_landing_tally
+from ..tallies.sums import REST as X_REST
 from .outputs import make_outputs
 from .release import make_release
 from .rest import LANDING_EMBEDDED as EMBEDDED
@@ -38,7 +41,7 @@ def make_ricochet_pellet(spec):
     src, outs, acc_fns = (
         make_source(spec.precision, spec.from_file),
         make_outputs(spec.precision),
-        make_accumulators(spec.precision),
+        make_accumulators(spec.precision, spec.to_rest),
     )
     Source, Outputs, Release = src.Source, outs.Outputs, make_release(spec.precision)
     floats_t, extremes_t = acc_fns.floats_t, acc_fns.extremes_t
@@ -57,6 +60,7 @@ def make_ricochet_pellet(spec):
         make_add_landing(spec.precision, spec.hazard_map, spec.thresholds),
     )
     TALLY, HAZARD_OUT = spec.tally, any(f.startswith("hazard.") for f in spec.core_fields)
+    TO_REST, horizontal_distance = spec.to_rest, make_landing_tally(spec.precision).horizontal_distance
 
     @wp.func
     def ricochet_pellet(
@@ -261,6 +265,18 @@ def make_ricochet_pellet(spec):
             if wp.static(HAZARD_OUT):
                 energy = tally.half_mass * wp.dot(landing_velocity, landing_velocity)  # NaN: never landed
                 outs.write_hazard(out, row, energy, energy * tally.inverse_area, exceeds)
+        if wp.static(TO_REST):  # where it ends: its statistics, its rest distance's count, its outputs
+            rest_distance = scalar(wp.nan)  # m, from the shooter (horizontal), of a pellet that stopped
+            if rest_state == ENDED_AT_REST or rest_state == ENDED_EMBEDDED:
+                if wp.static(TALLY):
+                    rest_distance = landing_tally.add_rest(tally, row, rest_position)
+                else:
+                    rest_distance = horizontal_distance(tally, rest_position)
+                lo[X_REST] = wp.min(lo[X_REST], rest_distance)
+                hi[X_REST] = wp.max(hi[X_REST], rest_distance)
+            acc = acc_fns.add_rest_sums(acc, rest_state, rest_distance, rest_path, rest_impacts)
+            if wp.static(WRITE):
+                outs.write_rest(out, row, rest_state, rest_position, rest_velocity, rest_time, rest_impacts, rest_path)
         return counts, acc, lo, hi, range_shift
 
     return ricochet_pellet

@@ -40,7 +40,7 @@ def shot_kernel_for(spec):
         make_outputs(spec.precision).Outputs,
         make_release(spec.precision),
     )
-    acc_fns, ricochet_pellet = make_accumulators(spec.precision), make_ricochet_pellet(spec)
+    acc_fns, ricochet_pellet = make_accumulators(spec.precision, spec.to_rest), make_ricochet_pellet(spec)
     Tally = make_landing_tally(spec.precision).Tally
     floats_t, extremes_t, inf = acc_fns.floats_t, acc_fns.extremes_t, acc_fns.inf
     piece = PIECE

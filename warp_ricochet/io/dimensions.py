@@ -50,7 +50,12 @@ RUN_DIMENSIONS = {
     "progress/tally_rows": ("tally_slot",),
     "stats/histograms/counts": ("histogram_row", "bin"),
     "stats/histograms/edges": ("bin_edge",),
-    **{f"stats/quantiles/{lower}{q}": ("level",) for q in ("range", "distance", "speed", "energy") for lower in ("", "lower/")},
+    "stats/histograms/rest_counts": ("bin",),  # physics.until = "rest"
+    **{
+        f"stats/quantiles/{lower}{q}": ("level",)
+        for q in ("range", "distance", "speed", "energy", "rest_distance")
+        for lower in ("", "lower/")
+    },
     **{f"stats/tail/{name}": ("tail_distance",) for name in ("distance", "count", "fraction")},
     **{f"hazard/thresholds/{name}": ("threshold",) for name in ("name", "kind", "value", "speed", "landings")},
     **{

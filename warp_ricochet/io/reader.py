@@ -50,7 +50,9 @@ def _imports():
 def _variable(ds: h5py.Dataset, dims, data=None):
     xr, _ = _imports()
     attrs = {
-        k: _text(ds.attrs[k]) for k in ("units", "description", "columns", "ci_low", "ci_high", "ci_method") if k in ds.attrs
+        k: _text(ds.attrs[k])
+        for k in ("units", "description", "columns", "ci_low", "ci_high", "ci_method", "states")
+        if k in ds.attrs
     }
     if data is None:
         data = ds[()]

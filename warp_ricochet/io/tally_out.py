@@ -12,7 +12,7 @@ import numpy as np
 
 from ..tallies.bins import BINS, RESOLUTION, ROW_DISTANCE, edges
 from ..tallies.counts import TallySetup, TallyTotals
-from ..tallies.quantiles import LEVELS, QUANTITIES, summarize
+from ..tallies.quantiles import LEVELS, QUANTITIES, REST_QUANTITIES, summarize
 
 HIST_ROWS = "range, speed, then distance of the landings exceeding 0, 1, ... thresholds (hazard levels)"
 
@@ -44,12 +44,13 @@ def create(group, scene, model):
     n_levels, quant = len(LEVELS), group.create_group("stats/quantiles")
     quant.attrs["levels"] = np.asarray(LEVELS)
     quant.attrs["resolution"] = RESOLUTION
-    for name, (unit, doc) in QUANTITIES.items():
+    rest = {name: (unit, doc, "") for name, (unit, doc) in REST_QUANTITIES.items()} if setup.rest else {}
+    for name, (unit, doc, whose) in {**{k: (*v, ", landed pellets") for k, v in QUANTITIES.items()}, **rest}.items():
         for path, what in (
             (name, "upper edge of the bin holding the sample quantile X_(ceil(q n)) of the"),
             (f"lower/{name}", "lower edge of the bin holding the sample quantile of the"),
         ):
-            ds = _ds(quant, path, np.full(n_levels, np.nan), unit=unit, doc=f"{what} {doc}, landed pellets")
+            ds = _ds(quant, path, np.full(n_levels, np.nan), unit=unit, doc=f"{what} {doc}{whose}")
             ds.attrs["levels"] = np.asarray(LEVELS)
             ds.attrs["resolution"] = RESOLUTION
     hist = group.create_group("stats/histograms")
@@ -62,6 +63,16 @@ def create(group, scene, model):
         compression_opts=1,
         doc="landings per bin; rows: " + HIST_ROWS,
     ).attrs["resolution"] = RESOLUTION
+    if setup.rest:
+        _ds(
+            hist,
+            "rest_counts",
+            np.zeros(BINS, dtype=np.int64),
+            unit="1",
+            compression="gzip",
+            compression_opts=1,
+            doc="pellets at rest or embedded per bin of their rest distance from the shooter (m)",
+        ).attrs["resolution"] = RESOLUTION
     _ds(hist, "edges", edges(), unit="m, m/s (by row)", doc="bin edges (BINS + 1): 0, the log-spaced span, inf")
     distances = scene.output.tail_distances
     tails = group.create_group("stats/tail")
@@ -183,6 +194,8 @@ def write_results(group, tally: TallyTotals, landed: int):
     """Fill the tally objects from the run's final counts (`tallies.quantiles.summarize`)."""
     results = summarize(tally, landed)
     group["stats/histograms/counts"][...] = tally.hist
+    if tally.setup.rest:
+        group["stats/histograms/rest_counts"][...] = tally.rest
     for name, (value, lower) in results["quantiles"].items():
         group[f"stats/quantiles/{name}"][...] = value
         group[f"stats/quantiles/lower/{name}"][...] = lower

@@ -18,6 +18,7 @@ import re
 import h5py
 import numpy as np
 
+from ..ends import STATES
 from ..fields import FIELDS, numpy_dtype, shape
 from ..scene.materials import GROUND_KEYS, RANGES
 from ..scene.schema import COMPRESSIONS
@@ -85,6 +86,8 @@ class RunWriter:
             )
             ds.attrs["units"] = FIELDS[name].unit
             ds.attrs["description"] = FIELDS[name].description
+            if name == "rest.state":  # its codes' names (`ends`)
+                ds.attrs["states"] = np.asarray(STATES, dtype="S")
         self._create_progress(group.create_group("progress"), model, scene)
         for name in stats:  # written at the end: NaN until then
             ds = group.create_dataset(f"stats/{name}", data=np.nan)

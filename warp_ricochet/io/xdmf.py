@@ -13,7 +13,8 @@ What it holds, per run (a run file's root, or each `/runs/NNNN` of a sweep, in i
 collection `point_NNNN`):
 - point clouds (Polyvertex, one vertex per pellet, row i = pellet i; NaN positions where there is
   no such point): `launch` (/pellets/initial), `impact_1` ... `impact_B` (the k-th ricochet),
-  `landing`, `release` (runs with pellet-pellet collisions), each with its group's datasets as
+  `landing`, `rest` (where each pellet ends, physics.until = "rest": its `state` code, names in
+  /pellets/rest/state's attribute `states`), `release` (runs with pellet-pellet collisions), each with its group's datasets as
   point data, the magnitudes of its vectors (`speed`, `spin`, m/s and rad/s), the energies
   `energy_translational` = m |v|^2 / 2 and `energy_rotational` = I |w|^2 / 2 (J; eq. 40's W_T and
   W_R per pellet), and `landing.range`, `collisions.count`, `collisions.last_time` and the hazard
@@ -197,7 +198,7 @@ def _run(parent, group, h5name: str, name: str, suffix: str) -> None:
     constants = {k: float(group[f"constants/{k}"][()]) for k in ("mass", "inertia") if f"constants/{k}" in group}
     bounces = int(group["constants/bounces"][()]) if "constants/bounces" in group else 0
     clouds = [("launch", "initial", None)] + [(f"impact_{b + 1}", "impact", b) for b in range(bounces)]
-    clouds += [("landing", "landing", None), ("release", "release", None)]
+    clouds += [("landing", "landing", None), ("rest", "rest", None), ("release", "release", None)]
     if rows > 0:
         for cloud, stage, bounce in clouds:
             if FIELDS[f"{stage}.position"].path in group:
@@ -309,7 +310,7 @@ def _sample_box(group, rows) -> np.ndarray:
     if len(starts) > SAMPLE_BLOCKS:
         starts = starts[np.linspace(0, len(starts) - 1, SAMPLE_BLOCKS).round().astype(int)]
     lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
-    for stage in ("initial", "impact", "landing", "release"):
+    for stage in ("initial", "impact", "landing", "rest", "release"):
         path = FIELDS[f"{stage}.position"].path
         if path not in group:
             continue

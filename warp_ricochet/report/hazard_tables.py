@@ -42,7 +42,11 @@ def from_file(group) -> dict | None:
     out = {
         "levels": np.asarray(q.attrs["levels"]),
         "landed": int(group["stats/histograms/counts"][0].sum()),
-        "quantiles": {name: (q[name][()], q[f"lower/{name}"][()]) for name in ("range", "distance", "speed", "energy")},
+        "quantiles": {
+            name: (q[name][()], q[f"lower/{name}"][()])
+            for name in ("range", "distance", "speed", "energy", "rest_distance")
+            if name in q
+        },
         "tail": {name: group[f"stats/tail/{name}"][()] for name in ("distance", "count", "fraction")},
     }
     if "hazard/danger_distance" in group:
@@ -62,7 +66,7 @@ def tally_lines(results: dict | None, pellets: float) -> list[str]:
     """Quantiles (one line per quantity), tail fractions and danger distances, compactly."""
     if results is None:
         return []
-    units = {"range": "m", "distance": "m", "speed": "m/s", "energy": "J"}
+    units = {"range": "m", "distance": "m", "speed": "m/s", "energy": "J", "rest_distance": "m"}
     lines = ["quantiles " + " / ".join(SHOWN_LEVELS) + f" (bin upper edges, <= {RELATIVE_WIDTH:.2%} above)"]
     unresolved = [(name, q) for name, q in zip(SHOWN_LEVELS, results["levels"]) if results["landed"] * (1.0 - q) < 1.0]
     if unresolved and results["landed"]:
@@ -71,8 +75,9 @@ def tally_lines(results: dict | None, pellets: float) -> list[str]:
             f"; from {name} on the largest value: a level q needs 1 / (1 - q) landings "
             f"({round(1.0 / (1.0 - q)):,} for {name}), this run has {results['landed']:,}"
         )
-    for name, (value, _lower) in results["quantiles"].items():
-        lines.append(f"  {name:<9}" + " / ".join(_fmt(v) for v in value) + f" {units[name]}")
+    for name, (value, _lower) in results["quantiles"].items():  # (rest_distance: of the pellets at rest or embedded)
+        label = f"{name:<9}" if len(name) < 9 else name + " "
+        lines.append(f"  {label}" + " / ".join(_fmt(v) for v in value) + f" {units[name]}")
     tail = results["tail"]
     fractions = np.asarray(tail["fraction"], dtype=np.float64)
     split = (fractions > 0) & (fractions < 1)

@@ -20,7 +20,7 @@ import numpy as np
 from ..errors import RicochetError
 from ..io.atomic import replaced
 from ..io.h5open import open_for_reading
-from . import figures, hazard_plots, plotdata
+from . import figures, hazard_plots, plotdata, rest
 from .compare import file_label
 from .paper import paper_row
 from .papercheck import is_papers
@@ -244,6 +244,13 @@ PLOTS: list[Plot] = [
         "no landing histograms: output.quantiles = false",
     ),
     Plot("hazard-map", "run", (8.0, 6.0), hazard_plots.draw_map, "no hazard map: [hazard] map_cell and map_extent"),
+    Plot(
+        "rest-distance",
+        "run",
+        (12.0, 5.0),
+        rest.draw_rest_distance,  # docs/ground.md
+        'no per-pellet rest and landing positions: physics.until = "rest", output.fields with "rest" and "landing"',
+    ),
     Plot("sweep-ranges", "sweep", (6.5, 5.0), draw_sweep_ranges),
     Plot("sweep-survival", "sweep", (6.5, 5.0), draw_sweep_survival),
 ]

@@ -23,6 +23,7 @@ from ..tallies.sums import STAT_UNITS
 from .hazard_tables import from_file, from_run, tally_lines
 from .paper import paper_row
 from .papercheck import differences, row_scene
+from .rest import not_finished_line, rest_block, rest_rows
 
 __all__ = ["ReportError", "Results", "read_results", "results_from_sweep", "format_tables", "format_run_summary"]
 
@@ -494,6 +495,8 @@ def format_tables(results: Results, fmt: str = "text", paper: bool = False) -> s
         blocks.append(format_intervals(results.rows[0], results.meta["intervals"], results.meta.get("shots", 0), fmt))
     if paper:
         blocks += _paper_blocks(results, point_headers, point_cells, fmt)
+    if results.kind == "run" and results.rows and rest_block(results.rows[0]):
+        blocks.append(rest_block(results.rows[0]))
     if results.meta.get("tally") is not None:
         blocks.append("\n".join(tally_lines(results.meta["tally"], results.rows[0].get("pellets", 0.0))))
     return "\n\n".join(blocks) + "\n"
@@ -527,6 +530,7 @@ def format_run_summary(stats: dict, output=None, device=None) -> str:
         ("L+ (longest)", val("range_max")),
         ("L- (shortest)", val("range_min")),
         ("mean W_T at landing", val("landing_mean_WT", 6)),
+        *rest_rows(stats),
     ]
     if math.isfinite(stats.get("collided_fraction", math.nan)):
         rows += [
@@ -538,6 +542,7 @@ def format_run_summary(stats: dict, output=None, device=None) -> str:
         ]
     width = max(len(k) for k, _ in rows)
     lines += [f"{k.ljust(width)}  {v}" for k, v in rows]
+    lines += [line for line in (not_finished_line(stats),) if line]
     lines += tally_lines(from_run(stats), stats.get("pellets", 0.0))
     ensemble = getattr(stats, "ensemble", None)
     if ensemble is not None:

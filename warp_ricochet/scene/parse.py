@@ -9,7 +9,7 @@ import tomllib
 from pathlib import Path
 
 from ..errors import not_regular
-from ..fields import COLLISION_FIELDS, default_fields
+from ..fields import COLLISION_FIELDS, REST_FIELDS, default_fields
 from ..launch.packing import MAX_PACKING, packing_fraction
 from ..physics.limits import MAX_PLANES_IN_AIR
 from . import materials
@@ -222,9 +222,16 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
             "must be true with a [hazard] table: its thresholds' landings, danger "
             "distances and map are counted in the landing histograms (leave [hazard] out for none)",
         )
+    physics = Physics(**_table(raw.get("physics"), "physics", SCHEMAS["physics"]))
     if "fields" not in output:
-        output["fields"] = default_fields(pairs, hazard is not None)
-    elif not pairs:
+        output["fields"] = default_fields(pairs, hazard is not None, physics.until == "rest")
+    elif physics.until != "rest" and any(f in REST_FIELDS for f in output["fields"]):
+        raise err(
+            "output.fields",
+            next(f for f in output["fields"] if f in REST_FIELDS),
+            'needs physics.until = "rest" (with "landing" no pellet is followed past its landing)',
+        )
+    if "fields" in output and not pairs:
         extra = [f for f in output["fields"] if f in COLLISION_FIELDS]
         if extra:
             raise err(
@@ -277,7 +284,7 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
     return Scene(
         shot=shot,
         surfaces=planes,
-        physics=Physics(**_table(raw.get("physics"), "physics", SCHEMAS["physics"])),
+        physics=physics,
         numerics=numerics,
         output=Output(**output),
         collisions=collisions,

@@ -201,7 +201,7 @@ TAIL_DISTANCES = (1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0, 1000.0)
 @dataclass(frozen=True)
 class Output:
     path: str | None = None  # relative to the current working directory
-    fields: tuple[str, ...] = default_fields(False, False)  # "group.field", canonical order
+    fields: tuple[str, ...] = default_fields(False, False, True)  # "group.field", canonical order (until = "rest")
     quantiles: bool = True  # landing histograms: quantiles, tail fractions (docs/hazard.md)
     tail_distances: tuple[float, ...] = TAIL_DISTANCES  # m, from the shooter
     compression: str = "none"  # of the per-pellet datasets: COMPRESSIONS (docs/output.md)

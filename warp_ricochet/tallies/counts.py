@@ -42,6 +42,7 @@ class TallySetup:
     map_nu: int = 0
     map_nv: int = 0
     quantum: float = 1.0  # J
+    rest: bool = False  # physics.until = "rest": the rest distances' histogram too (`rest` of the totals)
 
     @property
     def levels(self) -> int:
@@ -89,6 +90,7 @@ class TallySetup:
             fractions=() if hazard is None else hazard.fractions,
             tail_distances=scene.output.tail_distances,
             quantum=reference / 2.0**ENERGY_QUANTUM_BITS if reference > 0 else 1e-30,
+            rest=scene.physics.until == "rest",
         )
         if hazard is not None and hazard.has_map:
             kw.update(_map_geometry(scene, hazard, np.asarray(shooter, dtype=np.float64)))
@@ -148,7 +150,7 @@ def tally_bytes(setup: TallySetup, device, with_file: bool, pellets: int) -> tup
     map's count, energy and above layers (at most one cell each a landing)."""
     levels, thresholds, cells = setup.levels, setup.levels - 1, setup.cells if setup.has_map else 0
     width = cells + 2 if setup.has_map else 0
-    hist = (ROW_DISTANCE + levels) * BINS
+    hist = (ROW_DISTANCE + levels + int(setup.rest)) * BINS  # (with the rest distances' row)
     words = hist + levels * width + width
     flat = 8 * words
     on_device = 4 * (hist * copies_for(device, hist * 4) + levels * width) + 8 * width + flat
@@ -202,7 +204,8 @@ def _buffer(device, role: str, size: int, dtype):
 
 FOLD_LIMIT = (1 << 31) - 1  # pellets whose histogram counts may wait unfolded (int32 bins)
 SPARSE_CAPACITY = 1 << 16  # nonzero totals a run's end fetches as (index, value) pairs (`DeviceTally.request`)
-COUNTS = ("hist", "map_counts", "map_energy")  # the landing counts, in `TallyTotals.flat` order
+COUNTS = ("hist", "map_counts", "map_energy", "rest")  # the counts, in `TallyTotals.flat` order
+HISTOGRAMS = ("hist", "rest")  # the counts in copies, folded together
 
 
 def _pinned(device, arrays: dict) -> dict:
@@ -238,11 +241,12 @@ class DeviceTally:
             "hist": (ROW_DISTANCE + levels) * BINS if active else 0,
             "map_counts": levels * width if mapped else 0,
             "map_energy": width if mapped else 0,
+            "rest": BINS if active and setup.rest else 0,
         }
-        self.copies = copies_for(device, sizes["hist"] * 4)
-        dtypes = {"hist": wp.int32, "map_counts": wp.int32, "map_energy": wp.int64}
+        self.copies = copies_for(device, (sizes["hist"] + sizes["rest"]) * 4)
+        dtypes = {"hist": wp.int32, "map_counts": wp.int32, "map_energy": wp.int64, "rest": wp.int32}
         self.counts = {
-            name: _buffer(device, "counts " + name, size * (self.copies if name == "hist" else 1), dtypes[name])
+            name: _buffer(device, "counts " + name, size * (self.copies if name in HISTOGRAMS else 1), dtypes[name])
             for name, size in sizes.items()
         }
         bounds = np.cumsum([0, *sizes.values()])  # the totals: one array (one pack, one copy), a view a name
@@ -260,6 +264,7 @@ class DeviceTally:
         fns = make_landing_tally(precision)
         s = fns.Tally()
         s.hist, s.map_counts, s.map_energy = self.counts["hist"], self.counts["map_counts"], self.counts["map_energy"]
+        s.rest_hist = self.counts["rest"]
         s.hist_stride, s.copy_mask, s.map_width = sizes["hist"], self.copies - 1, width
         unused = (math.inf,) * (MAX_THRESHOLDS - len(setup.thresholds2))
         s.thresholds2 = fns.Thresholds(*(float(np.dtype(precision).type(v)) for v in setup.thresholds2), *unused)
@@ -306,7 +311,7 @@ class DeviceTally:
         self.unfolded += rows
         names = ["map_counts", "map_energy"]
         if last or self.every_chunk or self.unfolded + rows > FOLD_LIMIT:
-            names.append("hist")
+            names += HISTOGRAMS
             self.unfolded = 0
         for name in names:
             total, add = self.totals[name], int(name not in self.unset)
@@ -376,8 +381,9 @@ class DeviceTally:
 
 class TallyTotals:
     """The run's landing counts so far (int64): `hist` (rows: range, speed, distance by hazard
-    level; bins of `tallies.bins`), `map_counts` (level, cell; then outside, elsewhere) and
-    `map_energy` (per column, in quanta). Held as their nonzero elements after `scatter` (most
+    level; bins of `tallies.bins`), `map_counts` (level, cell; then outside, elsewhere),
+    `map_energy` (per column, in quanta) and, following pellets to rest, `rest` (the rest
+    distances from the shooter of the pellets at rest or embedded, bins of `tallies.bins`). Held as their nonzero elements after `scatter` (most
     bins and cells are empty), as dense arrays from the first read of one of them on."""
 
     def __init__(self, setup: TallySetup):
@@ -387,6 +393,7 @@ class TallyTotals:
             "hist": (ROW_DISTANCE + levels, BINS),
             "map_counts": (levels, width) if setup.has_map else (0, 0),
             "map_energy": (width,) if setup.has_map else (0,),
+            "rest": (BINS,) if setup.rest else (0,),
         }
         self._dense: dict | None = None
         self._pairs = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))  # (flat index, value), nonzero only
@@ -402,6 +409,10 @@ class TallyTotals:
     @property
     def map_energy(self) -> np.ndarray:
         return self._arrays()["map_energy"]
+
+    @property
+    def rest(self) -> np.ndarray:
+        return self._arrays()["rest"]
 
     def _arrays(self) -> dict:
         if self._dense is None:

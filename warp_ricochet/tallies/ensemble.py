@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .collisions import SHOT_TOTALS, collision_statistics
-from .sums import NUM_EXTREMES, NUM_SUMS, STAT_UNITS, SUM, finalize_rows
+from .sums import NUM_EXTREMES, NUM_SUMS, SPREADS, STAT_UNITS, SUM, finalize_rows
 
 LEVEL = 0.95
 PIECE = 256  # pellets of one shot a thread of `core.shots` follows (= reduce.PER_THREAD, not imported: reduce imports Warp)
@@ -47,6 +47,10 @@ TOTALS = (
     "pair_collisions",
     "pair_energy_lost",
     "flights_unfinished",
+    "rest_at_rest",
+    "rest_embedded",
+    "rest_escaped",
+    "rest_not_finished",
 )
 EXTREMES = (
     "range_max",
@@ -59,6 +63,8 @@ EXTREMES = (
     "dense_time_max",
     "skin_overrun_max",
     "flight_scale_max",
+    "rest_distance_max",
+    "rest_distance_min",
 )
 STAT_KIND = {name: "total" if name in TOTALS else "extreme" if name in EXTREMES else "mean" for name in STAT_UNITS}
 CI_METHOD = {
@@ -103,7 +109,7 @@ def t_interval(values, level: float = LEVEL) -> tuple[float, float]:
 
 
 def per_shot_statistics(
-    piece_rows, pieces: int, *, count: int, mass: float, inertia: float, air: bool = False, shot_totals=None
+    piece_rows, pieces: int, *, count: int, mass: float, inertia: float, air: bool = False, rest: bool = False, shot_totals=None
 ) -> dict:
     """name -> (S,) values of each shot alone, from its pieces' partial rows (`core.shots`; `pieces`
     rows a shot, in order: sums added left to right, spreads merged as `sums.merged_m2`) and, with
@@ -115,14 +121,21 @@ def per_shot_statistics(
         sums += rows[:, k, :NUM_SUMS]
     mins = rows[:, :, NUM_SUMS : NUM_SUMS + NUM_EXTREMES].min(axis=1)
     maxs = rows[:, :, NUM_SUMS + NUM_EXTREMES :].max(axis=1)
-    n, total, m2 = (rows[:, :, SUM[key]] for key in ("landed", "range", "range_m2"))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        mean = (total.sum(axis=1) / n.sum(axis=1))[:, None]
-        spread = np.where(n > 0, m2, 0.0).sum(axis=1) + np.where(n > 0, n * (total / n - mean) ** 2, 0.0).sum(axis=1)
-    out = finalize_rows(sums, mins, maxs, spread, pellets=count, mass=mass, inertia=inertia, air=air)
+    spread, rest_spread = (_merged_spread(rows, keys) for keys in SPREADS)
+    out = finalize_rows(
+        sums, mins, maxs, spread, pellets=count, mass=mass, inertia=inertia, air=air, rest_m2=rest_spread if rest else None
+    )
     if shot_totals is not None:
         out.update(_collision_rows(np.asarray(shot_totals, np.float64)[:shots], count))
     return out
+
+
+def _merged_spread(rows, keys) -> np.ndarray:
+    """(S,) squared deviations of each shot from its pieces' (count, sum, m2) rows `keys` (`sums.SPREADS`)."""
+    n, total, m2 = (rows[:, :, SUM[key]] for key in keys)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        mean = (total.sum(axis=1) / n.sum(axis=1))[:, None]
+        return np.where(n > 0, m2, 0.0).sum(axis=1) + np.where(n > 0, n * (total / n - mean) ** 2, 0.0).sum(axis=1)
 
 
 def _collision_rows(table, count: int) -> dict:

@@ -14,7 +14,9 @@ Per landed pellet (docs/hazard.md):
 - with a map: one count in (level, cell) of `map_counts` and its energy in `map_energy` as int64
   multiples of `quantum` J, on the map's surface (cell index, else the `outside` column CELLS; a
   landing on another surface in column CELLS + 1).
-Three histogram counts per landed pellet, each an atomic add on the device: the GPU's L2 cache
+Following pellets to rest (physics.until = "rest"), each pellet that stopped (at rest or embedded)
+is counted by its rest distance from the shooter (as the landing's distance) into `rest_hist`
+(`add_rest`). Three histogram counts per landed pellet, each an atomic add on the device: the GPU's L2 cache
 merges a warp's adds to the few busy bins of a narrow distribution. The histograms have COPIES
 copies on CUDA (`counts.copies_for`, a power of two), a warp's pellets counting into one copy
 chosen from its row, so that those few bins are not one address each for the whole GPU
@@ -83,6 +85,7 @@ def make_landing_tally(precision: str) -> SimpleNamespace:
         map_nu_cells: scalar  # map_nu, map_nv
         map_nv_cells: scalar
         energy_scale: scalar  # quanta / (m/s)^2: m / 2 / the map's energy quantum
+        rest_hist: wp.array(dtype=wp.int32)  # copies x BINS, flat: the rest distances (physics.until = "rest")
 
     @wp.func
     def horizontal_distance(tally: Tally, position: vec3):
@@ -178,6 +181,14 @@ def make_add_landing(precision: str, with_map: bool, thresholds: int = 0, slots:
                 wp.atomic_add(tally.map_energy, column, energy)
 
     @wp.func
+    def add_rest(tally: Tally, row: wp.int32, position: vec3):
+        """Count a pellet that stopped (at rest or embedded) at `position` by its horizontal distance
+        from the shooter (into its warp's copy of the rest histogram); returns the distance (m)."""
+        distance = horizontal_distance(tally, position)
+        count_one(tally.rest_hist, copy_of(row, tally.copy_mask) * BINS + bin_of(wp.float32(distance)))
+        return distance
+
+    @wp.func
     def flush(tally: Tally):
         """The block's table added to the maps (every thread of the block, at its end)."""
         slots_here = wp.int32(table(END, 0, wp.int64(0), 0))
@@ -187,7 +198,9 @@ def make_add_landing(precision: str, with_map: bool, thresholds: int = 0, slots:
                 wp.atomic_add(tally.map_counts, key, wp.int32(table(COUNT, s, wp.int64(0), 0)))
                 wp.atomic_add(tally.map_energy, key % tally.map_width, table(ENERGY, s, wp.int64(0), 0))
 
-    return SimpleNamespace(exceeded=exceeded, add_landing=add_landing, flush=flush, table=table, copy_of=copy_of)
+    return SimpleNamespace(
+        exceeded=exceeded, add_landing=add_landing, add_rest=add_rest, flush=flush, table=table, copy_of=copy_of
+    )
 
 
 @functools.cache

@@ -29,6 +29,10 @@ QUANTITIES = {
     "speed": ("m/s", "speed |v| at landing"),
     "energy": ("J", "translational kinetic energy m |v|^2 / 2 at landing"),
 }
+# following pellets to rest (physics.until = "rest"): from the rest histogram (`counts.TallyTotals.rest`)
+REST_QUANTITIES = {
+    "rest_distance": ("m", "horizontal distance from the shooter to where the pellet ended, pellets at rest or embedded"),
+}
 CONFIDENCE = 0.95
 Z_975 = 1.959963984540054  # the standard normal's 97.5% point
 EXACT_VARIANCE = 1e4  # above this n p (1 - p), binomial points by the normal approximation
@@ -143,7 +147,8 @@ def levels_at_or_above(by_level) -> tuple[np.ndarray, slice]:
 
 def summarize(tally, landed: int, with_map: bool = True) -> dict:
     """The results of a run's landing counts (`counts.TallyTotals`), as plain arrays: quantiles
-    {name: (value, lower)}, tail (distance used, count, fraction), and with thresholds the danger
+    {name: (value, lower)} (following pellets to rest, "rest_distance" too, over the `stopped`
+    pellets), tail (distance used, count, fraction), and with thresholds the danger
     distances (rows: thresholds in scene order, columns: fractions) and, `with_map`, the map's
     layers (cells x thresholds: the costly part for a large map)."""
     setup, hist = tally.setup, tally.hist
@@ -154,6 +159,9 @@ def summarize(tally, landed: int, with_map: bool = True) -> dict:
         "quantiles": landing_quantiles(hist, setup.half_mass),
         "tail": {"distance": used, "count": beyond, "fraction": beyond / landed if landed else np.full(len(used), np.nan)},
     }
+    if setup.rest:
+        out["quantiles"]["rest_distance"] = quantiles(tally.rest)
+        out["stopped"] = int(tally.rest.sum())
     if setup.names:
         by_threshold = hazard_distance_counts(hist, setup.order)
         shape = (len(setup.names), len(setup.fractions))

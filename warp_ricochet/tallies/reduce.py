@@ -37,7 +37,27 @@ def reduce_kernel():
     """One thread per (segment, row): the segment's LANES per-thread partials added in lane order."""
     lanes, num_sums, num_extremes = LANES, NUM_SUMS, NUM_EXTREMES
     ROW_LANDED, ROW_RANGE, ROW_M2 = SUM["landed"], SUM["range"], SUM["range_m2"]
+    ROW_STOPPED, ROW_REST, ROW_REST_M2 = SUM["end_stopped"], SUM["end_distance"], SUM["end_distance_m2"]
     inf64 = wp.float64(math.inf)
+
+    @wp.func
+    def merged_m2(partial_sums: wp.array2d(dtype=wp.float64), base: wp.int32, rows: wp.vec3i):
+        """Squared deviations about the segment mean of rows (count, sum, m2): the lanes' own,
+        plus n (mean_lane - mean)^2 (Chan et al.)."""
+        count = wp.float64(0.0)
+        total = wp.float64(0.0)
+        for lane in range(lanes):
+            count += partial_sums[rows[0], base + lane]
+            total += partial_sums[rows[1], base + lane]
+        m2 = wp.float64(0.0)
+        if count > wp.float64(0.0):
+            mean = total / count
+            for lane in range(lanes):
+                n = partial_sums[rows[0], base + lane]
+                if n > wp.float64(0.0):
+                    delta = partial_sums[rows[1], base + lane] / n - mean
+                    m2 += partial_sums[rows[2], base + lane] + n * delta * delta
+        return m2
 
     @wp.kernel(module="unique", enable_backward=False)
     def reduce_segments(
@@ -49,21 +69,9 @@ def reduce_kernel():
         seg, row = wp.tid()
         base = seg * lanes
         if row == ROW_M2:
-            # squared deviations about the segment mean: the lanes' own, plus n (mean_lane - mean)^2
-            count = wp.float64(0.0)
-            total = wp.float64(0.0)
-            for lane in range(lanes):
-                count += partial_sums[ROW_LANDED, base + lane]
-                total += partial_sums[ROW_RANGE, base + lane]
-            m2 = wp.float64(0.0)
-            if count > wp.float64(0.0):
-                mean = total / count
-                for lane in range(lanes):
-                    n = partial_sums[ROW_LANDED, base + lane]
-                    if n > wp.float64(0.0):
-                        delta = partial_sums[ROW_RANGE, base + lane] / n - mean
-                        m2 += partial_sums[ROW_M2, base + lane] + n * delta * delta
-            segments[seg, row] = m2
+            segments[seg, row] = merged_m2(partial_sums, base, wp.vec3i(ROW_LANDED, ROW_RANGE, ROW_M2))
+        elif row == ROW_REST_M2:
+            segments[seg, row] = merged_m2(partial_sums, base, wp.vec3i(ROW_STOPPED, ROW_REST, ROW_REST_M2))
         elif row < num_sums:
             total = wp.float64(0.0)
             for lane in range(lanes):

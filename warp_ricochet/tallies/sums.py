@@ -49,7 +49,15 @@ FLOAT_NAMES = (
     "v2_landing",
     "flight_steps",
     "flight_unfinished",  # flight in air: integration steps, flights given up
-)  # range_m2: sum of squared deviations of the ranges from their mean, merged with Chan's formula
+    "end_stopped",
+    "end_at_rest",
+    "end_not_finished",  # physics.until = "rest": pellets that stopped (at rest or embedded), at rest, not finished
+    "end_distance",
+    "end_distance_m2",
+    "end_shift",  # rest distances of the stopped pellets (as the ranges; end_shift: a thread's first, 0 once stored)
+    "end_path",
+    "end_impacts",  # path lengths along surfaces of the stopped pellets, impacts of all pellets
+)  # range_m2, end_distance_m2: squared deviations from their mean, merged with Chan's formula
 SUM_NAMES = COUNT_NAMES + FLOAT_NAMES
 SUM = {name: i for i, name in enumerate(SUM_NAMES)}
 NUM_SUMS = len(SUM_NAMES)
@@ -57,8 +65,11 @@ NUM_COUNTS = len(COUNT_NAMES)
 NUM_FLOATS = len(FLOAT_NAMES)
 # extremes of the range: all landed pellets, last ricochet stuck, last ricochet slipped; then the
 # flight scale (its maximum only: the precision rule, docs/stability.md "Precision")
-EXTREME_NAMES = ("all", "stick", "slip", "flight_scale")
+EXTREME_NAMES = ("all", "stick", "slip", "flight_scale", "rest")
 FLIGHT_SCALE = EXTREME_NAMES.index("flight_scale")
+REST = EXTREME_NAMES.index("rest")  # the rest distances of the stopped pellets (physics.until = "rest")
+# the (count, sum, squared deviations) rows whose spreads are merged by Chan's formula: ranges, rest distances
+SPREADS = (("landed", "range", "range_m2"), ("end_stopped", "end_distance", "end_distance_m2"))
 NUM_EXTREMES = len(EXTREME_NAMES)
 
 # name -> (unit, description) of every statistic `finalize` returns
@@ -119,7 +130,19 @@ STAT_UNITS = {
     # runs in air
     "flight_steps_mean": ("1", "integration steps of a pellet's flights in air (after the dense phase), mean over pellets"),
     "flights_unfinished": ("1", "flights in air given up after MAX_FLIGHT_STEPS steps (counted as escaped)"),
+    # runs that follow every pellet to where it ends (physics.until = "rest", `ends`, docs/ground.md)
+    "rest_at_rest": ("1", "pellets that ended at rest on a surface"),
+    "rest_embedded": ("1", "pellets that ended in water or soft ground"),
+    "rest_escaped": ("1", "pellets that never met a surface again"),
+    "rest_not_finished": ("1", "pellets whose budget of impacts and steps ran out first (never counted at rest)"),
+    "rest_distance_mean": ("m", "mean rest distance from the shooter (horizontal) of the pellets at rest or embedded"),
+    "rest_distance_std": ("m", "standard deviation of the rest distance"),
+    "rest_distance_max": ("m", "largest rest distance"),
+    "rest_distance_min": ("m", "smallest rest distance"),
+    "rest_path_mean": ("m", "mean path length along surfaces of the pellets at rest or embedded"),
+    "rest_impacts_mean": ("1", "mean number of impacts of a pellet, all pellets launched"),
 }
+REST_STATS = tuple(name for name in STAT_UNITS if name.startswith("rest_"))
 COLLISION_STATS = (
     "collided_fraction",
     "pair_collisions",
@@ -140,7 +163,7 @@ def empty_totals():
         np.zeros(NUM_SUMS),
         np.full(NUM_EXTREMES, math.inf),
         np.full(NUM_EXTREMES, -math.inf),
-        np.zeros((0, 3)),
+        np.zeros((0, 3 * len(SPREADS))),
     )
 
 
@@ -149,15 +172,15 @@ def combine(totals, segment_results):
     NUM_EXTREMES maxima) into running totals.
 
     Sums are added strictly left to right (np.cumsum is sequential), so they do not depend on how
-    the segments were split into chunks. Each segment's (landed, range sum, range_m2) is kept
-    (24 bytes per 65,536 pellets) for `finalize` to merge the spreads in one stable pass.
+    the segments were split into chunks. Each segment's (count, sum, m2) of each of SPREADS is kept
+    (48 bytes per 65,536 pellets) for `finalize` to merge the spreads in one stable pass.
     """
     sums, mins, maxs, segments = totals
     segment_sums = segment_results[:, :NUM_SUMS]
     segment_mins = segment_results[:, NUM_SUMS : NUM_SUMS + NUM_EXTREMES]
     segment_maxs = segment_results[:, NUM_SUMS + NUM_EXTREMES :]
     if len(segment_sums):
-        spread = segment_sums[:, [SUM["landed"], SUM["range"], SUM["range_m2"]]]
+        spread = segment_sums[:, [SUM[name] for names in SPREADS for name in names]]
         segments = np.vstack([segments, spread])
         sums = np.cumsum(np.vstack([sums[None, :], segment_sums]), axis=0)[-1]
         mins = np.minimum(mins, segment_mins.min(axis=0))
@@ -165,10 +188,11 @@ def combine(totals, segment_results):
     return sums, mins, maxs, segments
 
 
-def merged_m2(segments) -> float:
-    """Squared deviations about the overall mean from per-segment (n, sum, m2): the segments'
-    own plus n_s (mean_s - mean)^2 (Chan et al.: no cancellation, so numerically stable)."""
-    n, total, m2 = segments[:, 0], segments[:, 1], segments[:, 2]
+def merged_m2(segments, k: int = 0) -> float:
+    """Squared deviations about the overall mean from per-segment (n, sum, m2) (columns 3k to
+    3k + 2: SPREADS[k]): the segments' own plus n_s (mean_s - mean)^2 (Chan et al.: no
+    cancellation, so numerically stable)."""
+    n, total, m2 = segments[:, 3 * k], segments[:, 3 * k + 1], segments[:, 3 * k + 2]
     landed = n > 0
     if not landed.any():
         return 0.0
@@ -176,7 +200,7 @@ def merged_m2(segments) -> float:
     return float(m2[landed].sum() + (n[landed] * (total[landed] / n[landed] - mean) ** 2).sum())
 
 
-def finalize(totals, *, pellets: int, mass: float, inertia: float, air: bool = False) -> dict[str, float]:
+def finalize(totals, *, pellets: int, mass: float, inertia: float, air: bool = False, rest: bool = False) -> dict[str, float]:
     """Turn the reduced sums into the statistics of `STAT_UNITS` (NaN where a mean is empty)."""
     sums, mins, maxs, segments = totals
     rows = finalize_rows(
@@ -188,16 +212,18 @@ def finalize(totals, *, pellets: int, mass: float, inertia: float, air: bool = F
         mass=mass,
         inertia=inertia,
         air=air,
+        rest_m2=np.array([merged_m2(segments, 1)]) if rest else None,
     )
     return {name: float(values[0]) for name, values in rows.items()}
 
 
 def finalize_rows(
-    sums, mins, maxs, range_m2, *, pellets: int, mass: float, inertia: float, air: bool = False
+    sums, mins, maxs, range_m2, *, pellets: int, mass: float, inertia: float, air: bool = False, rest_m2=None
 ) -> dict[str, np.ndarray]:
     """`finalize` of many totals at once (rows: sums (K, NUM_SUMS), range minima and maxima
-    (K, NUM_EXTREMES), merged range_m2 (K,)): name -> (K,) values, each row's bitwise as `finalize`
-    gives it (elementwise IEEE operations; the norm row by row)."""
+    (K, NUM_EXTREMES), merged range_m2 (K,); with `rest_m2`, the merged end_distance_m2 (K,), the
+    statistics of where pellets end, REST_STATS): name -> (K,) values, each row's bitwise as
+    `finalize` gives it (elementwise IEEE operations; the norm row by row)."""
     s = {name: sums[:, i] for i, name in enumerate(SUM_NAMES)}
     s["range_m2"] = np.asarray(range_m2, np.float64)
     nan = np.full(len(sums), math.nan)
@@ -250,8 +276,30 @@ def finalize_rows(
     if air:
         out["flight_steps_mean"] = s["flight_steps"] / pellets if pellets else nan
         out["flights_unfinished"] = s["flight_unfinished"]
-    assert set(out) == set(stat_names(False, air)) - set(COLLISION_STATS)
+    if rest_m2 is not None:
+        s["end_distance_m2"] = np.asarray(rest_m2, np.float64)
+        out.update(_rest_rows(s, mins, maxs, pellets, mean, extreme, nan))
+    assert set(out) == set(stat_names(False, air, rest_m2 is not None)) - set(COLLISION_STATS)
     return out
+
+
+def _rest_rows(s, mins, maxs, pellets, mean, extreme, nan) -> dict[str, np.ndarray]:
+    """REST_STATS from the sums `s` (end_distance_m2 merged): embedded = stopped - at rest,
+    escaped = pellets - stopped - not finished."""
+    return {
+        "rest_at_rest": s["end_at_rest"],
+        "rest_embedded": s["end_stopped"] - s["end_at_rest"],
+        "rest_escaped": float(pellets) - s["end_stopped"] - s["end_not_finished"],
+        "rest_not_finished": s["end_not_finished"],
+        "rest_distance_mean": mean("end_distance", "end_stopped"),
+        "rest_distance_std": np.where(
+            s["end_stopped"] > 0, np.sqrt(np.maximum(mean("end_distance_m2", "end_stopped"), 0.0)), nan
+        ),
+        "rest_distance_max": extreme(maxs[:, REST], "end_stopped"),
+        "rest_distance_min": extreme(mins[:, REST], "end_stopped"),
+        "rest_path_mean": mean("end_path", "end_stopped"),
+        "rest_impacts_mean": s["end_impacts"] / pellets if pellets else nan,
+    }
 
 
 def statistics_from_arrays(
@@ -319,11 +367,15 @@ def statistics_from_arrays(
                 sums[SUM["landed_slip"]] = mask.sum()
         if mask.any():
             mins[j], maxs[j] = r[mask].min(), r[mask].max()
-    spread = np.array([[sums[SUM["landed"]], sums[SUM["range"]], sums[SUM["range_m2"]]]])
+    spread = np.array([[sums[SUM[name]] for names in SPREADS for name in names]])
     return finalize((sums, mins, maxs, spread), pellets=pellets, mass=mass, inertia=inertia)
 
 
-def stat_names(collisions: bool, air: bool = False) -> tuple[str, ...]:
+def stat_names(collisions: bool, air: bool = False, rest: bool = False) -> tuple[str, ...]:
     """The statistics a run computes: those of `finalize`, with pair collisions COLLISION_STATS,
-    in air AIR_STATS."""
-    return tuple(name for name in STAT_UNITS if (collisions or name not in COLLISION_STATS) and (air or name not in AIR_STATS))
+    in air AIR_STATS, followed to rest (physics.until = "rest") REST_STATS."""
+    return tuple(
+        name
+        for name in STAT_UNITS
+        if (collisions or name not in COLLISION_STATS) and (air or name not in AIR_STATS) and (rest or name not in REST_STATS)
+    )
