@@ -25,7 +25,7 @@ from warp_ricochet.tallies.sums import REST_STATS
 
 PAPER = "examples/paper.toml"
 PLATE = "examples/steel_plate.toml"  # two planes: some pellets never land (escaped)
-REST = ['physics.until="rest"', 'output.fields=["landing", "rest"]']
+REST = ['physics.until="rest"', 'output.fields=["landing", "rest"]', "surfaces.0.rolling_resistance=0.05"]  # c > 0: they stop
 
 
 @pytest.fixture(scope="module")
