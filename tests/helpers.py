@@ -24,7 +24,16 @@ PAPER_SHOT = {
     "envelope_center": [0.0, 1.0, 0.0],
     "seed": 2021,
 }
-GROUND = {"point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.01, "mu_s": 0.5, "mu_d": 0.45}
+# the paper's plane, with a rolling resistance so that pellets followed to rest (the default) stop
+# there rather than roll on for ever (docs/ground.md 12): the landing part is the paper's
+GROUND = {
+    "point": [0.0, 0.0, 0.0],
+    "normal": [0.0, 1.0, 0.0],
+    "restitution": 0.01,
+    "mu_s": 0.5,
+    "mu_d": 0.45,
+    "rolling_resistance": 0.05,
+}
 
 
 def paper_raw(**physics):
