@@ -32,11 +32,11 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from .air import make_air_laws
 from .air_flight import make_plane_search
 from .ballistic import EPSILON, ROUNDING
 from .geometry import make_geometry
 from .integrate import make_dense_output, make_dormand_prince
+from .surface_line import make_line_laws, make_surface_line
 from .surface_motion import FLIGHT, NEVER, REST, ROLLING, SLIDING, make_surface_motion
 from .types import types_for
 
@@ -56,9 +56,7 @@ def make_surface_rates(precision: str, model: str = "ballistic", laws=None) -> S
     `model` "air"), its Dormand-Prince step, the events' margins and roots, the step's error and path."""
     t = types_for(precision)
     scalar, vec3, Physics = t.scalar, t.vec3, t.Physics
-    AIR = model == "air"
     sm, dense = make_surface_motion(precision), make_dense_output(precision)
-    air_rates = make_air_laws(precision, *laws).air_rates if AIR else None
     ZERO, ONE, HALF = scalar(0.0), scalar(1.0), scalar(0.5)
     THETA_TOLERANCE = scalar(4.0 * EPSILON[precision])
     ITERATIONS = 64 if precision == "float64" else 40
@@ -73,15 +71,7 @@ def make_surface_rates(precision: str, model: str = "ballistic", laws=None) -> S
         ploughing: scalar
         rolling: wp.int32
 
-    @wp.func
-    def applied_at(velocity: vec3, spin: vec3, physics: Physics):
-        """(g + a_air, T_air / I): every force but the plane's, per unit mass."""
-        applied = physics.gravity
-        alpha = vec3()
-        if wp.static(AIR):
-            acceleration, alpha = air_rates(velocity, spin, physics.air)
-            applied = applied + acceleration
-        return applied, alpha
+    applied_at = make_line_laws(precision, model, laws).applied  # (g + a_air, T_air / I)
 
     @wp.func
     def rates(velocity: vec3, spin: vec3, physics: Physics, contact: Contact):
@@ -536,7 +526,10 @@ def make_surface_follow(precision: str, planes=None, model: str = "ballistic", l
     closed = make_surface_closed_phases(precision, planes)
     plough_roll, rest_state, constant_phase = closed.plough_roll, closed.rest_state, closed.constant_phase
     integrate_phase = make_surface_integrator(precision, planes, model, laws).integrate_phase
+    lines = make_surface_line(precision, planes, model, laws)
+    line_of, integrate_line = lines.line_of, lines.integrate_line
     ZERO, ONE = scalar(0.0), scalar(1.0)
+    STOP_FRACTION = scalar(STOP[precision])
 
     @wp.func
     def follow(
@@ -616,9 +609,25 @@ def make_surface_follow(precision: str, planes=None, model: str = "ballistic", l
                 contact.rolling = wp.int32(0)
                 if mode == ROLLING:
                     contact.rolling = wp.int32(1)
-                position, velocity, spin, dt, dp, event, k_c, taken = integrate_phase(
-                    position, velocity, spin, k, contact, goal, surfaces, physics, mu_s, max_steps - steps
+                tolerance = scalar(VACUUM_TOLERANCE)
+                if wp.static(AIR):
+                    tolerance = physics.air.tolerance
+                on_line, line = line_of(
+                    velocity, spin, n, contact.rolling, physics, mu_d, rolling_resistance, ploughing, tolerance
                 )
+                dt = ZERO
+                dp = ZERO
+                event = wp.int32(0)
+                taken = wp.int32(0)
+                if on_line != 0:  # one line of the plane: its own variable, few steps (surface_line)
+                    band = wp.max(STOP_FRACTION, scalar(BAND) * tolerance)
+                    position, velocity, spin, dt, dp, event, k_c, taken = integrate_line(
+                        position, velocity, spin, k, line, goal, surfaces, physics, mu_s, max_steps - steps, tolerance, band
+                    )
+                else:
+                    position, velocity, spin, dt, dp, event, k_c, taken = integrate_phase(
+                        position, velocity, spin, k, contact, goal, surfaces, physics, mu_s, max_steps - steps
+                    )
                 elapsed += dt
                 path += dp
                 steps += taken
