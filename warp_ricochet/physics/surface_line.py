@@ -188,8 +188,8 @@ def make_line_laws(precision: str, model: str = "ballistic", laws=None) -> Simpl
             ok = ok and wp.abs(wp.dot(physics.air.wind, line.lateral)) <= bound * scale
         w0 = wp.dot(spin, line.lateral)
         v0 = wp.dot(velocity, e)
-        q = v0 - radius * w0  # the slip along e; from none, it grows along the drive
-        if q == ZERO:
+        q = v0 - radius * w0  # the slip along e; from none (to rounding), it grows along the drive
+        if wp.abs(q) <= STOP_FRACTION * scale:
             a, _alpha = applied(velocity, spin, physics)
             q = wp.dot(a, e) - ploughing * wp.abs(v0) * v0
         line.sign = ONE
