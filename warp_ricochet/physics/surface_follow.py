@@ -19,7 +19,9 @@ In vacuum the phases with constant accelerations (`surface_motion`'s closed form
 ploughing) and rolling on a level plane with ploughing (v' = -(5/7)(c g + b v^2): tan/atan) are
 exact; the rest (a drive across the friction, sliding with ploughing) and everything in air is
 integrated with Dormand-Prince 5(4) steps (`physics.integrate`) at the flight's relative tolerance
-(`physics.air.tolerance`; VACUUM_TOLERANCE in vacuum). Events: the slip or the speed reaching its
+(`physics.air.tolerance`; VACUUM_TOLERANCE in vacuum): a phase along one line of the plane by
+`physics.surface_line` (a scalar motion in a variable in which A + B v^2 decays linearly), the
+others in 3-D as follows. Events: the slip or the speed reaching its
 target (slide to roll; rest or stop) by steps aimed at it (never across: the friction's direction
 jumps there) and ended to first order within BAND x the tolerance of its scale (at least STOP);
 lift-off (N = 0) and loss of grip (|F| = mu_s N) by Illinois on the step's dense output; other
