@@ -16,7 +16,8 @@ b |v|^2 beside c N) until one of the end codes:
 - UNFINISHED: max_steps integration steps spent (the state where they ran out).
 
 In vacuum the phases with constant accelerations (`surface_motion`'s closed forms, without
-ploughing) and rolling on a level plane with ploughing (v' = -(5/7)(c g + b v^2): tan/atan) are
+ploughing), rolling on a level plane with ploughing (v' = -(5/7)(c g + b v^2): tan/atan) and, with
+ploughing, sliding and rolling along one line of the plane (`surface_line`: tan, tanh, coth) are
 exact; the rest (a drive across the friction, sliding with ploughing) and everything in air is
 integrated with Dormand-Prince 5(4) steps (`physics.integrate`) at the flight's relative tolerance
 (`physics.air.tolerance`; VACUUM_TOLERANCE in vacuum): a phase along one line of the plane by
@@ -38,7 +39,7 @@ from .air_flight import make_plane_search
 from .ballistic import EPSILON, ROUNDING
 from .geometry import make_geometry
 from .integrate import make_dense_output, make_dormand_prince
-from .surface_line import make_line_laws, make_surface_line
+from .surface_line import make_line_closed_forms, make_line_laws, make_surface_line
 from .surface_motion import FLIGHT, NEVER, REST, ROLLING, SLIDING, make_surface_motion
 from .types import types_for
 
@@ -240,6 +241,7 @@ def make_surface_closed_phases(precision: str, planes=None) -> SimpleNamespace:
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
     sm, geo = make_surface_motion(precision), make_geometry(precision, planes)
+    log1p = make_line_laws(precision).log1p  # log(1 + x), Kahan
     ZERO, ONE, HALF = scalar(0.0), scalar(1.0), scalar(0.5)
     TOLERANCE = scalar(ROUNDING * EPSILON[precision])
     STATIC = planes
@@ -265,14 +267,6 @@ def make_surface_closed_phases(precision: str, planes=None) -> SimpleNamespace:
                     best = tj
                     best_k = wp.int32(j)
         return best, best_k
-
-    @wp.func
-    def log1p(x: scalar):
-        """log(1 + x) for x >= 0, accurate for small x (Kahan)."""
-        w = ONE + x
-        if w == ONE:
-            return x
-        return wp.log(w) * x / (w - ONE)
 
     @wp.func
     def plough_roll(
@@ -530,6 +524,7 @@ def make_surface_follow(precision: str, planes=None, model: str = "ballistic", l
     integrate_phase = make_surface_integrator(precision, planes, model, laws).integrate_phase
     lines = make_surface_line(precision, planes, model, laws)
     line_of, integrate_line = lines.line_of, lines.integrate_line
+    closed_line = make_line_closed_forms(precision, planes).closed_line
     ZERO, ONE = scalar(0.0), scalar(1.0)
     STOP_FRACTION = scalar(STOP[precision])
 
@@ -621,7 +616,15 @@ def make_surface_follow(precision: str, planes=None, model: str = "ballistic", l
                 dp = ZERO
                 event = wp.int32(0)
                 taken = wp.int32(0)
-                if on_line != 0:  # one line of the plane: its own variable, few steps (surface_line)
+                closed = wp.int32(0)
+                if wp.static(not AIR):
+                    if on_line != 0:  # in closed form on a line (surface_line), or integrated
+                        closed, position, velocity, spin, dt, dp, event, k_c, taken = closed_line(
+                            position, velocity, spin, k, line, goal, surfaces, physics
+                        )
+                if closed != 0:
+                    pass
+                elif on_line != 0:  # one line of the plane: its own variable, few steps (surface_line)
                     band = wp.max(STOP_FRACTION, scalar(BAND) * tolerance)
                     position, velocity, spin, dt, dp, event, k_c, taken = integrate_line(
                         position, velocity, spin, k, line, goal, surfaces, physics, mu_s, max_steps - steps, tolerance, band

@@ -27,9 +27,15 @@ at the phase's start (D at 0 and at v0); V is capped at max(|v0|, sqrt(g R)) so 
 precision. Events (the slip or the speed at its goal, lift-off or loss of grip, the other surfaces
 along the line) are roots on the step's cubic Hermite, then landed on by a step of that length from
 the step's start and finished to first order (Newton on the quantity: `land`).
+
+In vacuum with ploughing the phase has a closed form (`make_line_closed_forms`): v' = a - b v^2 gives
+v = V cot, V coth or V tanh of a linear function of t (and 1 / (1/v0 + b t) at a = 0), the distance
+ln sin, ln sinh or ln cosh of it over b, the spin linear in t; the slip's zero is found by Illinois
+iteration on these forms (a convex or concave function less a linear one: one sign change).
 """
 
 import functools
+import math
 from types import SimpleNamespace
 
 import warp as wp
@@ -133,11 +139,15 @@ def make_line_laws(precision: str, model: str = "ballistic", laws=None) -> Simpl
         d = line.scale * (y1 - y0)
         half = wp.sin(HALF * d)
         x = wp.cos(line.scale * y0) / wp.sin(line.scale * y0) * wp.sin(d) - scalar(2.0) * half * half
+        return line.inverse * log1p(x)
+
+    @wp.func
+    def log1p(x: scalar):
+        """log(1 + x) for x > -1, accurate for small x (Kahan)."""
         w = ONE + x
-        logs = x
-        if w != ONE:
-            logs = wp.log(w) * x / (w - ONE)  # log1p (Kahan)
-        return line.inverse * logs
+        if w == ONE:
+            return x
+        return wp.log(w) * x / (w - ONE)
 
     @wp.func
     def unwrap(raw: vec3, y0: scalar, line: Line):
@@ -214,6 +224,7 @@ def make_line_laws(precision: str, model: str = "ballistic", laws=None) -> Simpl
     return SimpleNamespace(
         Line=Line,
         applied=applied,
+        log1p=log1p,
         speed=speed,
         along=along,
         rates=rates,
@@ -528,3 +539,153 @@ def make_surface_line(precision: str, planes=None, model: str = "ballistic", law
         return position + state[0] * e, v * e, spin_out, elapsed, state[2], event, k_next, steps
 
     return SimpleNamespace(Line=Line, line_of=ll.line_of, integrate_line=integrate_line)
+
+
+@functools.cache
+def make_line_closed_forms(precision: str, planes=None) -> SimpleNamespace:
+    """A phase on a line in vacuum with ploughing in closed form (docs/ground.md 9): v' = a - b v^2
+    (sliding: a = g . e - sigma mu_d N/m, b the ploughing; rolling: both over 1 + k) with v >= 0,
+    the spin linear in t while sliding; `closed_line` returns `integrate_line`'s tuple with 0 steps,
+    after a flag (0 where the phase leaves these forms: v would reach 0 while sliding, another
+    surface would be met while sliding, or a rolling phase that does not slow down)."""
+    t = types_for(precision)
+    scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
+    ll, ev = make_line_laws(precision, "ballistic", None), make_line_events(precision, planes, "ballistic", None)
+    Line, reach, illinois, log1p = ll.Line, ev.reach, ev.illinois, ll.log1p
+    ZERO, ONE, HALF = scalar(0.0), scalar(1.0), scalar(0.5)
+    THETA_TOLERANCE = scalar(4.0 * EPSILON[precision])
+    TINY = scalar(4.0 * EPSILON[precision])
+    QUARTER_TURN = scalar(0.5 * math.pi)
+
+    @wp.func
+    def log_sinh(x: scalar):
+        """log(sinh(x)) for x > 0."""
+        if x < ONE:
+            return wp.log(wp.sinh(x))
+        return x + wp.log(HALF * (ONE - wp.exp(scalar(-2.0) * x)))
+
+    @wp.func
+    def log_cosh(x: scalar):
+        """log(cosh(x))."""
+        return x + wp.log(HALF * (ONE + wp.exp(scalar(-2.0) * x)))
+
+    @wp.func
+    def motion(v0: scalar, a: scalar, b: scalar, time: scalar):
+        """(v, s) at `time` of v' = a - b v^2 from v0 >= 0 (b > 0), while v >= 0, with V = sqrt(|a| / b),
+        k = sqrt(|a| b): a < 0, v = V cot(psi0 + k t), s = ln(sin(psi0 + k t) / sin(psi0)) / b,
+        psi0 = atan2(V, v0); a > 0, v = V coth(x0 + k t), s = ln(sinh(x) / sinh(x0)) / b above V, and
+        v = V tanh(x0 + k t), s = ln(cosh(x) / cosh(x0)) / b below it (x0 = atanh of V / v0, v0 / V);
+        a = 0, v = v0 / (1 + b v0 t), s = ln(1 + b v0 t) / b."""
+        if wp.abs(a) <= TINY * b * v0 * v0:
+            return v0 / (ONE + b * v0 * time), log1p(b * v0 * time) / b
+        speed = wp.sqrt(wp.abs(a) / b)
+        rate = wp.sqrt(wp.abs(a) * b)
+        if a < ZERO:
+            psi0 = wp.atan2(speed, v0)
+            d = rate * time
+            half = wp.sin(HALF * d)
+            x = wp.cos(psi0) / wp.sin(psi0) * wp.sin(d) - scalar(2.0) * half * half  # sin(psi)/sin(psi0) - 1
+            psi = psi0 + d
+            return speed * wp.cos(psi) / wp.sin(psi), log1p(x) / b
+        if v0 > speed:
+            x0 = HALF * wp.log((v0 + speed) / (v0 - speed))
+            x = x0 + rate * time
+            return speed / wp.tanh(x), (log_sinh(x) - log_sinh(x0)) / b
+        if v0 < speed:
+            x0 = HALF * wp.log((speed + v0) / (speed - v0))
+            x = x0 + rate * time
+            return speed * wp.tanh(x), (log_cosh(x) - log_cosh(x0)) / b
+        return speed, speed * time
+
+    @wp.func
+    def stop_time(v0: scalar, a: scalar, b: scalar):
+        """When v' = a - b v^2 brings v0 to 0 (a < 0: (pi/2 - psi0) / k), or -1 if it never does."""
+        if a >= ZERO or v0 <= ZERO:
+            return scalar(-1.0)
+        return (QUARTER_TURN - wp.atan2(wp.sqrt(-a / b), v0)) / wp.sqrt(-a * b)
+
+    @wp.func
+    def slide_end(v0: scalar, w0: scalar, a: scalar, b: scalar, line: Line, load: scalar, physics: Physics):
+        """(1, time) when the slip sigma (v - R w) falls to 0 (Illinois: it is v's convex or concave
+        closed form less a linear term, so it changes sign once on the bracket; from no slip, after
+        it has grown), or (0, 0) if v reaches 0 first. w = w0 + sigma mu_d (N/m) t / (k R)."""
+        fall = line.mu_d * load / physics.inertia_factor  # d(sigma R w)/dt
+        lo = ZERO
+        q_lo = line.sign * (v0 - physics.radius * w0)
+        hi = (wp.max(v0, wp.sqrt(wp.abs(a) / b)) + wp.abs(q_lo)) / fall
+        stop = stop_time(v0, a, b)
+        if stop >= ZERO:
+            hi = wp.min(hi, stop)
+        v_hi, _s = motion(v0, a, b, hi)
+        q_hi = q_lo + line.sign * (v_hi - v0) - fall * hi
+        q0 = q_lo
+        if q_lo <= ZERO:  # from no slip (to rounding) it grows first: a start of the bracket where q > 0
+            lo = hi
+            for _ in range(ITERATIONS):
+                if q_lo <= ZERO:
+                    lo = HALF * lo
+                    v_lo, _s_lo = motion(v0, a, b, lo)
+                    q_lo = q0 + line.sign * (v_lo - v0) - fall * lo
+        if q_lo <= ZERO or q_hi > ZERO:
+            return wp.int32(0), ZERO
+        side = wp.int32(0)
+        for _ in range(ITERATIONS * 2):
+            if hi - lo > THETA_TOLERANCE * hi:
+                mid = (lo * q_hi - hi * q_lo) / (q_hi - q_lo)
+                if not (mid > lo and mid < hi):
+                    mid = HALF * (lo + hi)
+                v_mid, _s_mid = motion(v0, a, b, mid)
+                q_mid = q0 + line.sign * (v_mid - v0) - fall * mid
+                lo, hi, q_lo, q_hi, side = illinois(lo, hi, q_lo, q_hi, side, mid, q_mid)
+        return wp.int32(1), hi
+
+    @wp.func
+    def closed_line(
+        position: vec3, velocity: vec3, spin: vec3, k: wp.int32, line: Line, goal: scalar, surfaces: Surfaces, physics: Physics
+    ):
+        """(flag, then `integrate_line`'s (x, v, w, elapsed, path, event, k_next, steps)): a sliding
+        phase to its slip's zero, a rolling one to `goal` (or to another surface on its way)."""
+        radius, inertia = physics.radius, physics.inertia_factor
+        e = line.direction
+        g = physics.gravity
+        load = wp.max(-wp.dot(g, line.normal), ZERO)
+        v0 = wp.dot(velocity, e)
+        w0 = wp.dot(spin, line.lateral)
+        a = wp.dot(g, e) - line.sign * line.mu_d * load
+        b = line.ploughing
+        if line.rolling != 0:
+            a = (wp.dot(g, e) - line.rolling_resistance * load) / (ONE + inertia)
+            b = line.ploughing / (ONE + inertia)
+        ahead, k_ahead, _behind, _k_behind = reach(position, k, surfaces, physics, line)
+        no = wp.int32(0)
+        if b <= ZERO or v0 < ZERO:
+            return no, position, velocity, spin, ZERO, ZERO, wp.int32(0), k, wp.int32(0)
+        if line.rolling != 0:
+            stop = stop_time(v0, a, b)
+            if stop < ZERO or goal < ZERO:  # does not slow down to rest: integrated
+                return no, position, velocity, spin, ZERO, ZERO, wp.int32(0), k, wp.int32(0)
+            speed = wp.sqrt(-a / b)
+            rate = wp.sqrt(-a * b)
+            psi0 = wp.atan2(speed, v0)
+            time = (wp.atan2(speed, goal) - psi0) / rate
+            v1, s1 = motion(v0, a, b, time)
+            v1 = goal
+            event = wp.int32(0)
+            k_next = k
+            if ahead < s1:  # met on the way: sin(psi) = sin(psi0) exp(b s)
+                psi = wp.asin(wp.min(wp.sin(psi0) * wp.exp(b * ahead), ONE))
+                time = (psi - psi0) / rate
+                v1 = speed * wp.cos(psi) / wp.sin(psi)
+                s1 = ahead
+                event = wp.int32(4)
+                k_next = k_ahead
+            spin1 = (v1 / radius) * line.lateral + line.rest_spin
+            return wp.int32(1), position + s1 * e, v1 * e, spin1, time, s1, event, k_next, wp.int32(0)
+        found, time = slide_end(v0, w0, a, b, line, load, physics)
+        v1, s1 = motion(v0, a, b, time)
+        if found == 0 or ahead < s1:
+            return no, position, velocity, spin, ZERO, ZERO, wp.int32(0), k, wp.int32(0)
+        w1 = w0 + line.sign * line.mu_d * load * time / (inertia * radius)
+        return wp.int32(1), position + s1 * e, v1 * e, w1 * line.lateral + line.rest_spin, time, s1, wp.int32(0), k, wp.int32(0)
+
+    return SimpleNamespace(motion=motion, closed_line=closed_line)
