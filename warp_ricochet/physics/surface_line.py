@@ -24,9 +24,15 @@ makes it linear in t where D = A + B v^2 with V^2 = |A| / B (v' = -(A + B v^2) g
 1 / v for v >> V and linear in v for v << V), so the Dormand-Prince pair takes few steps for what
 D departs from it (drag's Reynolds and Mach dependence, the lift's share of N). A and B are measured
 at the phase's start (D at 0 and at v0); V is capped at max(|v0|, sqrt(g R)) so that v keeps its
-precision. Events (the slip or the speed at its goal, lift-off or loss of grip, the other surfaces
-along the line) are roots on the step's cubic Hermite, then landed on by a step of that length from
-the step's start and finished to first order (Newton on the quantity: `land`).
+precision. The distance is carried as r = s less its closed-form part (ln sin(V y) - ln sin(V y0)) / B
+over each step (B that step's starting dy/dt, where within a factor 2 of the phase's; d ln sin(V y)/dt
+= v dy/dt), so dr/dt = v (1 - (dy/dt) / B) is small where the speed still falls like 1/t. Events (the
+slip or the speed at its goal, lift-off or loss of grip, the other surfaces along the line) are roots
+on the step's cubic Hermite (Illinois: Dowell & Jarratt, BIT 11 (1971) 168), then landed on by a step
+of that length from the step's start and finished to first order (Newton on the quantity: `land`).
+What is left stiff: a slide at the speed where the ploughing balances a friction that drives the
+pellet (topspin) relaxes to it at 2 b V, and DOPRI5's steps stay below its stability bound of about
+3.3 / (2 b V) (Hairer & Wanner, Solving ODEs II, IV.2).
 
 In vacuum with ploughing the phase has a closed form (`make_line_closed_forms`): v' = a - b v^2 gives
 v = V cot, V coth or V tanh of a linear function of t (and 1 / (1/v0 + b t) at a = 0), the distance
