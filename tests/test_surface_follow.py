@@ -340,9 +340,11 @@ def test_the_step_budget_ends_unfinished():
 
 @pytest.mark.parametrize("precision", PRECISIONS)
 def test_energy_never_rises_and_the_pellet_stays_on_the_plane(precision):
-    """The random cases stopped after 1, 2, 4, ... steps (UNFINISHED) and at their end: the energy
-    (kinetic, spin, height) never rises from one to the next (no wind); the centre is at height R."""
+    """The random cases, and those on a line in air, stopped after 1, 2, 4, ... steps (UNFINISHED)
+    and at their end: the energy (kinetic, spin, height) never rises from one to the next (no wind);
+    the centre is at height R."""
     cases = [case for case in _random_cases(8, 24) if case["air"] is not None or case["b"] > 0][:8]
+    cases += [case for case in _line_cases(9, 16) if case["air"] is not None][:6]
     budgets = [1, 2, 4, 8, 16, 32, 64, 100000]
     runs = [_follow_cases(precision, cases, max_steps=budget) for budget in budgets]
     for i, case in enumerate(cases):
