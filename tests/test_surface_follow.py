@@ -263,7 +263,7 @@ def test_motion_on_a_line_matches_the_reference_in_few_steps(precision):
     """Seeded random motions on a line (integrated in surface_line's variable, in vacuum in closed
     form): the reference's end, the rest position within 1e-4 of the path length, the path and time
     within 1e-4; in fewer steps than the 3-D integration took (at most 66 and 22 on average here,
-    where it took up to 117 and 41-45 on average; it also ended 2 of them UNFINISHED, sliding on
+    where it took up to 117 and 46 on average; it also ended 2 of them UNFINISHED, sliding on
     from a slip of rounding size); the vacuum's in 0 steps."""
     m = 16
     cases, want = _line_cases(9, m), _reference(9, m, True)
