@@ -53,10 +53,12 @@ def _print(row):
     )
 
 
-def throughput(device, sizes, repeats):
+def throughput(device, sizes, repeats, only=""):
     wr, wp = _wr()
     rows = []
     for label, air, until, extra in CASES:
+        if only not in label:
+            continue
         settings = [f'physics.until="{until}"', *extra]
         wr.run(paper_scene(1000, air=air, mu_s=0.5, extra=settings), device=device)  # compile
         for n in sizes:
@@ -96,13 +98,14 @@ def main(argv=None):
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--shots", type=int, default=10_000)
     parser.add_argument("--count", type=int, default=450)
+    parser.add_argument("--only", default="", help="throughput: only the cases whose label holds this")
     parser.add_argument("--out", type=Path)
     args = parser.parse_args(argv)
     _wr_mod, wp = _wr()
     info = device_info(wp, args.device)
     print(json.dumps(info), flush=True)
     if args.what == "throughput":
-        rows = throughput(args.device, [int(float(s)) for s in args.sizes.split(",")], args.repeats)
+        rows = throughput(args.device, [int(float(s)) for s in args.sizes.split(",")], args.repeats, args.only)
     else:
         rows = collisions(args.device, args.shots, args.count, args.repeats)
     if args.out:

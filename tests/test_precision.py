@@ -182,4 +182,6 @@ def test_the_examples_do_not_warn(example):
         warnings.simplefilter("error", PrecisionWarning)
         stats = wr.run(scene, None, device="cpu")
     # with room to spare: a quarter of the allowance at most
-    assert UNIT_ROUNDOFF[scene.numerics.precision] * stats["flight_scale_max"] < POSITION_RESOLUTION / 4 * 0.5 * scene.shot.diameter
+    assert (
+        UNIT_ROUNDOFF[scene.numerics.precision] * stats["flight_scale_max"] < POSITION_RESOLUTION / 4 * 0.5 * scene.shot.diameter
+    )
