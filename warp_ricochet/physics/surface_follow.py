@@ -16,13 +16,10 @@ b |v|^2 beside c N) until one of the end codes:
 - UNFINISHED: max_steps integration steps spent (the state where they ran out).
 
 In vacuum the phases with constant accelerations (`surface_motion`'s closed forms, without
-ploughing), rolling on a level plane with ploughing (v' = -(5/7)(c g + b v^2): tan/atan) and, with
-ploughing, sliding and rolling along one line of the plane (`surface_line`: tan, tanh, coth) are
+ploughing) and rolling on a level plane with ploughing (v' = -(5/7)(c g + b v^2): tan/atan) are
 exact; the rest (a drive across the friction, sliding with ploughing) and everything in air is
 integrated with Dormand-Prince 5(4) steps (`physics.integrate`) at the flight's relative tolerance
-(`physics.air.tolerance`; VACUUM_TOLERANCE in vacuum): a phase along one line of the plane by
-`physics.surface_line` (a scalar motion in a variable in which A + B v^2 decays linearly), the
-others in 3-D as follows. Events: the slip or the speed reaching its
+(`physics.air.tolerance`; VACUUM_TOLERANCE in vacuum). Events: the slip or the speed reaching its
 target (slide to roll; rest or stop) by steps aimed at it (never across: the friction's direction
 jumps there) and ended to first order within BAND x the tolerance of its scale (at least STOP);
 lift-off (N = 0) and loss of grip (|F| = mu_s N) by Illinois on the step's dense output; other
@@ -35,11 +32,11 @@ from types import SimpleNamespace
 
 import warp as wp
 
+from .air import make_air_laws
 from .air_flight import make_plane_search
 from .ballistic import EPSILON, ROUNDING
 from .geometry import make_geometry
 from .integrate import make_dense_output, make_dormand_prince
-from .surface_line import make_line_closed_forms, make_line_laws, make_surface_line
 from .surface_motion import FLIGHT, NEVER, REST, ROLLING, SLIDING, make_surface_motion
 from .types import types_for
 
@@ -59,7 +56,9 @@ def make_surface_rates(precision: str, model: str = "ballistic", laws=None) -> S
     `model` "air"), its Dormand-Prince step, the events' margins and roots, the step's error and path."""
     t = types_for(precision)
     scalar, vec3, Physics = t.scalar, t.vec3, t.Physics
+    AIR = model == "air"
     sm, dense = make_surface_motion(precision), make_dense_output(precision)
+    air_rates = make_air_laws(precision, *laws).air_rates if AIR else None
     ZERO, ONE, HALF = scalar(0.0), scalar(1.0), scalar(0.5)
     THETA_TOLERANCE = scalar(4.0 * EPSILON[precision])
     ITERATIONS = 64 if precision == "float64" else 40
@@ -74,7 +73,15 @@ def make_surface_rates(precision: str, model: str = "ballistic", laws=None) -> S
         ploughing: scalar
         rolling: wp.int32
 
-    applied_at = make_line_laws(precision, model, laws).applied  # (g + a_air, T_air / I)
+    @wp.func
+    def applied_at(velocity: vec3, spin: vec3, physics: Physics):
+        """(g + a_air, T_air / I): every force but the plane's, per unit mass."""
+        applied = physics.gravity
+        alpha = vec3()
+        if wp.static(AIR):
+            acceleration, alpha = air_rates(velocity, spin, physics.air)
+            applied = applied + acceleration
+        return applied, alpha
 
     @wp.func
     def rates(velocity: vec3, spin: vec3, physics: Physics, contact: Contact):
@@ -241,7 +248,6 @@ def make_surface_closed_phases(precision: str, planes=None) -> SimpleNamespace:
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
     sm, geo = make_surface_motion(precision), make_geometry(precision, planes)
-    log1p = make_line_laws(precision).log1p  # log(1 + x), Kahan
     ZERO, ONE, HALF = scalar(0.0), scalar(1.0), scalar(0.5)
     TOLERANCE = scalar(ROUNDING * EPSILON[precision])
     STATIC = planes
@@ -267,6 +273,14 @@ def make_surface_closed_phases(precision: str, planes=None) -> SimpleNamespace:
                     best = tj
                     best_k = wp.int32(j)
         return best, best_k
+
+    @wp.func
+    def log1p(x: scalar):
+        """log(1 + x) for x >= 0, accurate for small x (Kahan)."""
+        w = ONE + x
+        if w == ONE:
+            return x
+        return wp.log(w) * x / (w - ONE)
 
     @wp.func
     def plough_roll(
@@ -522,11 +536,7 @@ def make_surface_follow(precision: str, planes=None, model: str = "ballistic", l
     closed = make_surface_closed_phases(precision, planes)
     plough_roll, rest_state, constant_phase = closed.plough_roll, closed.rest_state, closed.constant_phase
     integrate_phase = make_surface_integrator(precision, planes, model, laws).integrate_phase
-    lines = make_surface_line(precision, planes, model, laws)
-    line_of, integrate_line = lines.line_of, lines.integrate_line
-    closed_line = make_line_closed_forms(precision, planes).closed_line
     ZERO, ONE = scalar(0.0), scalar(1.0)
-    STOP_FRACTION = scalar(STOP[precision])
 
     @wp.func
     def follow(
@@ -606,33 +616,9 @@ def make_surface_follow(precision: str, planes=None, model: str = "ballistic", l
                 contact.rolling = wp.int32(0)
                 if mode == ROLLING:
                     contact.rolling = wp.int32(1)
-                tolerance = scalar(VACUUM_TOLERANCE)
-                if wp.static(AIR):
-                    tolerance = physics.air.tolerance
-                on_line, line = line_of(
-                    velocity, spin, n, contact.rolling, physics, mu_d, rolling_resistance, ploughing, tolerance
+                position, velocity, spin, dt, dp, event, k_c, taken = integrate_phase(
+                    position, velocity, spin, k, contact, goal, surfaces, physics, mu_s, max_steps - steps
                 )
-                dt = ZERO
-                dp = ZERO
-                event = wp.int32(0)
-                taken = wp.int32(0)
-                closed = wp.int32(0)
-                if wp.static(not AIR):
-                    if on_line != 0:  # in closed form on a line (surface_line), or integrated
-                        closed, position, velocity, spin, dt, dp, event, k_c, taken = closed_line(
-                            position, velocity, spin, k, line, goal, surfaces, physics
-                        )
-                if closed != 0:
-                    pass
-                elif on_line != 0:  # one line of the plane: its own variable, few steps (surface_line)
-                    band = wp.max(STOP_FRACTION, scalar(BAND) * tolerance)
-                    position, velocity, spin, dt, dp, event, k_c, taken = integrate_line(
-                        position, velocity, spin, k, line, goal, surfaces, physics, mu_s, max_steps - steps, tolerance, band
-                    )
-                else:
-                    position, velocity, spin, dt, dp, event, k_c, taken = integrate_phase(
-                        position, velocity, spin, k, contact, goal, surfaces, physics, mu_s, max_steps - steps
-                    )
                 elapsed += dt
                 path += dp
                 steps += taken
