@@ -274,7 +274,7 @@ def make_ricochet_pellet(spec):
                     rest_distance = horizontal_distance(tally, rest_position)
                 lo[X_REST] = wp.min(lo[X_REST], rest_distance)
                 hi[X_REST] = wp.max(hi[X_REST], rest_distance)
-            acc = acc_fns.add_rest_sums(acc, rest_state, rest_distance, rest_path, rest_impacts)
+            acc = acc_fns.add_rest_sums(acc, rest_state, rest_distance, rest_path, rest_impacts, rest_steps)
             if wp.static(WRITE):
                 outs.write_rest(out, row, rest_state, rest_position, rest_velocity, rest_time, rest_impacts, rest_path)
         return counts, acc, lo, hi, range_shift

@@ -117,14 +117,15 @@ def make_to_rest(spec) -> SimpleNamespace:
     ):
         """Follow a pellet from `mode` (CONTACT, SURFACE or FLIGHT, at or leaving surface k; or
         `start_mode`'s done) to its end. Returns (end, position, velocity, spin, time, impacts, path
-        along surfaces m, steps): position and velocity NaN and time inf when it escaped."""
+        along surfaces m, integration steps along surfaces and in flight): position and velocity NaN and time inf when it escaped."""
         end = wp.int32(-1)
         if mode >= DONE_ESCAPED:
             end = mode - 4
             if end == EMBEDDED:
                 impacts += 1  # the impact it entered the ground at
         path = scalar(0.0)
-        steps = wp.int32(0)
+        steps = wp.int32(0)  # along surfaces (the budget's)
+        steps_in_air = wp.int32(0)
         events = wp.int32(0)
         guard = EVENTS_PER_IMPACT * physics.max_impacts + 8
         while end < 0:
@@ -188,9 +189,10 @@ def make_to_rest(spec) -> SimpleNamespace:
                     else:
                         end = wp.int32(NOT_FINISHED)
             else:
-                dt, k_next, _normal, position_then, velocity_then, spin_then, _steps = flight.to_contact(
+                dt, k_next, _normal, position_then, velocity_then, spin_then, flight_steps = flight.to_contact(
                     position, velocity, spin, k, surfaces, physics
                 )
+                steps_in_air += flight_steps
                 if k_next == GAVE_UP:
                     end = wp.int32(NOT_FINISHED)
                 elif k_next < 0:
@@ -206,6 +208,6 @@ def make_to_rest(spec) -> SimpleNamespace:
             position = vec3(scalar(wp.nan))
             velocity = vec3(scalar(wp.nan))
             time = scalar(wp.inf)
-        return end, position, velocity, spin, time, impacts, path, steps
+        return end, position, velocity, spin, time, impacts, path, steps + steps_in_air
 
     return SimpleNamespace(start_mode=start_mode, to_rest=to_rest, applied=applied, leaves=leaves, bounce=bounce)

@@ -43,6 +43,10 @@ def rest_rows(stats) -> list[tuple[str, str]]:
         ("rest distance max / min", f"{_m(g('rest_distance_max'))} / {_m(g('rest_distance_min'))}"),
         ("mean path on surfaces", _m(g("rest_path_mean"))),
         ("mean impacts", "n/a" if not math.isfinite(g("rest_impacts_mean", math.nan)) else f"{g('rest_impacts_mean'):.3f}"),
+        (
+            "mean steps after landing",
+            "n/a" if not math.isfinite(g("rest_steps_mean", math.nan)) else f"{g('rest_steps_mean'):.1f}",
+        ),
     ]
 
 

@@ -42,12 +42,13 @@ OFFSETS = SimpleNamespace(
     END_SHIFT=SUM["end_shift"] - NUM_COUNTS,
     END_PATH=SUM["end_path"] - NUM_COUNTS,
     END_IMPACTS=SUM["end_impacts"] - NUM_COUNTS,
+    END_STEPS=SUM["end_steps"] - NUM_COUNTS,
 )
 
 
 # the rest sums and extreme are the last ones: a run that does not follow pellets to rest leaves them
 # out of its vectors (its registers and copies), and stores zeros and empty extremes for them
-assert SUM["end_stopped"] - NUM_COUNTS == NUM_FLOATS - 8 and REST == NUM_EXTREMES - 1
+assert SUM["end_stopped"] - NUM_COUNTS == NUM_FLOATS - 9 and REST == NUM_EXTREMES - 1
 
 
 @functools.cache
@@ -65,7 +66,7 @@ def make_accumulators(precision: str, rest: bool = False) -> SimpleNamespace:
     F_FLIGHT_STEPS, F_FLIGHT_UNFINISHED = OFFSETS.FLIGHT_STEPS, OFFSETS.FLIGHT_UNFINISHED
     F_END_STOPPED, F_END_AT_REST, F_END_NOT_FINISHED = OFFSETS.END_STOPPED, OFFSETS.END_AT_REST, OFFSETS.END_NOT_FINISHED
     F_END_DISTANCE, F_END_DISTANCE2, F_END_SHIFT = OFFSETS.END_DISTANCE, OFFSETS.END_DISTANCE2, OFFSETS.END_SHIFT
-    F_END_PATH, F_END_IMPACTS = OFFSETS.END_PATH, OFFSETS.END_IMPACTS
+    F_END_PATH, F_END_IMPACTS, F_END_STEPS = OFFSETS.END_PATH, OFFSETS.END_IMPACTS, OFFSETS.END_STEPS
     S_AT_REST, S_EMBEDDED, S_NOT_FINISHED = AT_REST, EMBEDDED, NOT_FINISHED
     num_counts, num_floats, num_extremes = NUM_COUNTS, NUM_FLOATS, NUM_EXTREMES
 
@@ -119,11 +120,12 @@ def make_accumulators(precision: str, rest: bool = False) -> SimpleNamespace:
             acc[F_FLIGHT_UNFINISHED] += scalar(1.0)
         return acc
 
-    def add_rest_sums(acc: floats_t, state: wp.int32, distance: scalar, path_length: scalar, impacts: wp.int32):
-        """Where a pellet ends (`ends`): its impacts; stopped (at rest or embedded), its rest
+    def add_rest_sums(acc: floats_t, state: wp.int32, distance: scalar, path_length: scalar, impacts: wp.int32, steps: wp.int32):
+        """Where a pellet ends (`ends`): its impacts and integration steps after its landing; stopped (at rest or embedded), its rest
         distance as a deviation from the thread's first (kept in END_SHIFT) and its path along
         surfaces; its end state's count (extremes are the caller's)."""
         acc[F_END_IMPACTS] += scalar(impacts)
+        acc[F_END_STEPS] += scalar(steps)
         if state == S_AT_REST or state == S_EMBEDDED:
             if acc[F_END_STOPPED] == scalar(0.0):
                 acc[F_END_SHIFT] = distance

@@ -57,6 +57,7 @@ FLOAT_NAMES = (
     "end_shift",  # rest distances of the stopped pellets (as the ranges; end_shift: a thread's first, 0 once stored)
     "end_path",
     "end_impacts",  # path lengths along surfaces of the stopped pellets, impacts of all pellets
+    "end_steps",  # integration steps after the landing (flights in air and motion along surfaces), all pellets
 )  # range_m2, end_distance_m2: squared deviations from their mean, merged with Chan's formula
 SUM_NAMES = COUNT_NAMES + FLOAT_NAMES
 SUM = {name: i for i, name in enumerate(SUM_NAMES)}
@@ -141,6 +142,7 @@ STAT_UNITS = {
     "rest_distance_min": ("m", "smallest rest distance"),
     "rest_path_mean": ("m", "mean path length along surfaces of the pellets at rest or embedded"),
     "rest_impacts_mean": ("1", "mean number of impacts of a pellet, all pellets launched"),
+    "rest_steps_mean": ("1", "mean integration steps of a pellet after its landing (flights in air, motion along surfaces)"),
 }
 REST_STATS = tuple(name for name in STAT_UNITS if name.startswith("rest_"))
 COLLISION_STATS = (
@@ -299,6 +301,7 @@ def _rest_rows(s, mins, maxs, pellets, mean, extreme, nan) -> dict[str, np.ndarr
         "rest_distance_min": extreme(mins[:, REST], "end_stopped"),
         "rest_path_mean": mean("end_path", "end_stopped"),
         "rest_impacts_mean": s["end_impacts"] / pellets if pellets else nan,
+        "rest_steps_mean": s["end_steps"] / pellets if pellets else nan,
     }
 
 
