@@ -17,6 +17,13 @@
   infinite plane (ESCAPED) or spends its steps (NOT_FINISHED).
 - FLIGHT: it flies from surface k to the next contact (`physics.flight`), or escapes.
 
+Wind: on the ground a pellet sits within the roughness length z0 of the wind's logarithmic profile
+(u(z) = u*/kappa ln(z/z0), zero at z = z0; z0 is about 1 mm for smooth ground and 1-10 cm for grass:
+Stull, An Introduction to Boundary Layer Meteorology, 1988, chapter 9: not read here), so along a surface and at
+its rebounds' separation test the air is still: drag and lift act on the pellet's own velocity.
+Without this a wind stronger than the rolling resistance (4 m/s against c = 0.01 for a 2.79 mm lead
+pellet) rolls a pellet on for ever, which no flat field shows.
+
 Budgets: `physics.max_impacts` impacts and `physics.max_steps` integration steps along surfaces; a
 pellet past either, or whose flight integration gave up, is NOT_FINISHED (never called at rest).
 """
@@ -119,6 +126,8 @@ def make_to_rest(spec) -> SimpleNamespace:
         `start_mode`'s done) to its end. Returns (end, position, velocity, spin, time, impacts, path
         along surfaces m, integration steps along surfaces and in flight): position and velocity NaN and time inf when it escaped."""
         end = wp.int32(-1)
+        ground_air = physics  # on the ground: no wind (module docstring)
+        ground_air.air.wind = vec3()
         if mode >= DONE_ESCAPED:
             end = mode - 4
             if end == EMBEDDED:
@@ -145,7 +154,7 @@ def make_to_rest(spec) -> SimpleNamespace:
                         end = wp.int32(EMBEDDED)
                     else:
                         velocity, spin = bounce(material, tilted, velocity, spin, physics)
-                        if leaves(velocity, spin, normal, physics) != 0:
+                        if leaves(velocity, spin, normal, ground_air) != 0:
                             mode = wp.int32(FLIGHT)
                         elif ground.sinks(material) != 0:
                             end = wp.int32(EMBEDDED)
@@ -163,7 +172,7 @@ def make_to_rest(spec) -> SimpleNamespace:
                         spin,
                         k,
                         surfaces,
-                        physics,
+                        ground_air,
                         material.mu_s,
                         material.mu_d,
                         material.rolling_resistance,
