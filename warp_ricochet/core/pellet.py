@@ -1,7 +1,8 @@
 """One pellet through the core: its start (a launch, or the dense phase's release), each bounce
 (the flight to the next surface, `physics.flight`, then an impact or the end of its flight there,
-`physics.contact`), its landing (eq. 42) and, with physics.until = "rest", where it ends (`ends`),
-with its outputs written and its statistics added to the thread's partials (`tallies.accumulate`).
+`physics.contact`; on rough ground, water or soft ground the ground's draw, penetration and skip of
+`physics.ground` first), its landing (eq. 42) and, with physics.until = "rest", on from there to
+where it ends (`core.rest`, `ends`), with its outputs written and its statistics added to the thread's partials (`tallies.accumulate`).
 
 The partials are updated in this one function: helpers that take the partial vectors and return
 several of them (a tuple) through branches make the CUDA kernel much slower (bench/RESULTS.md,

@@ -58,7 +58,7 @@ EVENTS_PER_IMPACT = 4  # a loop's iterations per impact allowed (a guard: contac
 
 @functools.cache
 def make_to_rest(spec) -> SimpleNamespace:
-    """`to_rest` and `applied` of a run spec (its precision, planes, flight model and air laws)."""
+    """`start_mode` and `to_rest` of a run spec (its precision, planes, flight model and air laws)."""
     t = types_for(spec.precision)
     scalar, vec3, Surfaces, Physics, Material = t.scalar, t.vec3, t.Surfaces, t.Physics, t.Material
     flight = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws)
@@ -219,4 +219,4 @@ def make_to_rest(spec) -> SimpleNamespace:
             time = scalar(wp.inf)
         return end, position, velocity, spin, time, impacts, path, steps + steps_in_air
 
-    return SimpleNamespace(start_mode=start_mode, to_rest=to_rest, applied=applied, leaves=leaves, bounce=bounce)
+    return SimpleNamespace(start_mode=start_mode, to_rest=to_rest)
