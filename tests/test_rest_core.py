@@ -34,7 +34,7 @@ def _scene(precision, normal, surface, air):
         "numerics": {"precision": precision},
     }
     if air:
-        raw["air"] = {"density": 1.225}
+        raw["air"] = {"density": 1.225} if air is True else {"density": 1.225, "wind": list(air)}
     return scene_from_dict(raw)
 
 
@@ -122,6 +122,7 @@ def test_rests_where_the_reference_does(precision, air):
         cases = _cases(rng, 6, normal)
         end, x, path, impacts = _run(precision, normal, surface, air, cases)
         ground = ref.Ground(surface["restitution"], surface["mu_s"], surface["mu_d"], surface["rolling_resistance"], _b(surface))
+        compared = 0
         for i, (x0, v0, w0) in enumerate(cases):
             r = ref.follow(
                 x0, v0, w0, radius=0.00125, normal=normal, ground=ground, rest_speed=0.2, air=Air(density=1.225) if air else None
@@ -132,6 +133,8 @@ def test_rests_where_the_reference_does(precision, air):
             scale = max(r.path_length, 1e-3)
             assert np.linalg.norm(x[i] - r.x) <= CLOSE[precision] * scale, (i, surface, x[i], r.x, r.path_length)
             assert impacts[i] == r.impacts
+            compared += 1
+        assert compared == len(cases)  # every case rests (c > 0, slopes below atan(c)): all positions compared
 
 
 @pytest.mark.parametrize("precision", PRECISIONS)
@@ -143,3 +146,19 @@ def test_never_below_the_plane(precision):
     assert (end == AT_REST).all()
     eps = 1e-12 if precision == "float64" else 1e-5
     assert (x[:, 1] >= 0.00125 - eps * (1 + np.abs(x).max(axis=1))).all()
+
+
+@pytest.mark.parametrize("precision", PRECISIONS)
+def test_the_wind_does_not_blow_along_the_ground(precision):
+    """Along a surface the air is still (core/rest.py): pellets rolling on a plane of c = 0.01 under a
+    4 m/s wind (drag ~0.4 m/s^2 on them, above 5/7 c g) rest where they rest without it; with the
+    wind felt they would roll on until their budget ran out."""
+    rng = np.random.default_rng(3)
+    surface = {"restitution": 0.3, "mu_s": 0.5, "mu_d": 0.45, "rolling_resistance": 0.01}
+    cases = [
+        (np.array([0.0, 0.00125, 0.0]), np.array([rng.uniform(1, 30), 0.0, rng.uniform(-5, 5)]), np.zeros(3)) for _ in range(8)
+    ]
+    calm = _run(precision, (0.0, 1.0, 0.0), surface, True, cases)
+    windy = _run(precision, (0.0, 1.0, 0.0), surface, (4.0, 0.0, 3.0), cases)
+    assert (calm[0] == AT_REST).all() and (windy[0] == AT_REST).all()
+    np.testing.assert_array_equal(windy[1], calm[1])

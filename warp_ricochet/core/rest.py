@@ -126,8 +126,9 @@ def make_to_rest(spec) -> SimpleNamespace:
         `start_mode`'s done) to its end. Returns (end, position, velocity, spin, time, impacts, path
         along surfaces m, integration steps along surfaces and in flight): position and velocity NaN and time inf when it escaped."""
         end = wp.int32(-1)
-        ground_air = physics  # on the ground: no wind (module docstring)
-        ground_air.air.wind = vec3()
+        ground_air = physics  # on the ground: no wind (module docstring); in vacuum the same
+        if wp.static(AIR):
+            ground_air.air.wind = vec3()
         if mode >= DONE_ESCAPED:
             end = mode - 4
             if end == EMBEDDED:
