@@ -162,3 +162,35 @@ def test_the_wind_does_not_blow_along_the_ground(precision):
     windy = _run(precision, (0.0, 1.0, 0.0), surface, (4.0, 0.0, 3.0), cases)
     assert (calm[0] == AT_REST).all() and (windy[0] == AT_REST).all()
     np.testing.assert_array_equal(windy[1], calm[1])
+
+
+def test_water_embeds_steep_pellets_and_skips_shallow_ones():
+    """Runs to rest over water (`material = "water"`: Johnson's 18 deg / sqrt(SG), 6.8 deg for
+    7000 kg/m^3): the paper's 45 deg shot enters at its first impact; a shot 2 deg down skips,
+    losing speed at every skip, until it can no longer leave the surface and sinks: embedded."""
+    import warp_ricochet as wr
+
+    def run(direction, jitter):
+        raw = {
+            "shot": {
+                "count": 400,
+                "speed": 300.0,
+                "direction": direction,
+                "direction_jitter": jitter,
+                "diameter": 0.0025,
+                "density": 7000.0,
+            },
+            "surfaces": [{"point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "material": "water"}],
+            "physics": {"until": "rest"},
+            "output": {"fields": []},
+        }
+        raw["shot"]["envelope_center"] = [0.0, 1.0, 0.0]
+        return wr.run(scene_from_dict(raw), device="cpu")
+
+    steep = run([1.0, -1.0, 0.0], [0.1, 0.1, 0.1])
+    assert steep["rest_embedded"] == 400 and steep["rest_impacts_mean"] == 1.0
+    assert steep["entered"] == 400 and steep["missed"] == 0 and steep["hits"] == 0  # it hit, without a ricochet
+    shallow = run([1.0, -0.035, 0.0], [0.0, 0.002, 0.002])
+    assert shallow["entered"] == 0 and shallow["hits"] == 400
+    assert shallow["rest_embedded"] == 400 and shallow["rest_impacts_mean"] > 2.0
+    assert shallow["rest_distance_min"] > 28.0  # beyond the first contact, about 1 / tan(2 deg) = 28.6 m out

@@ -217,7 +217,7 @@ def _compute(scene, dev, writer=None, progress=None, resumed=None, dense_options
     )
     if writer is not None:
         writer.write_stats(stats)
-    if stats["hits"] == 0 and stats["pellets"] > 0 and scene.surfaces:
+    if stats["hits"] == 0 and stats.get("entered", 0) == 0 and stats["pellets"] > 0 and scene.surfaces:
         warnings.warn(NO_HITS.format(int(stats["pellets"])), SceneWarning, stacklevel=3)
     return stats
 

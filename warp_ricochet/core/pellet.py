@@ -47,6 +47,7 @@ def make_ricochet_pellet(spec):
     Source, Outputs, Release = src.Source, outs.Outputs, make_release(spec.precision)
     floats_t, extremes_t = acc_fns.floats_t, acc_fns.extremes_t
     F_RANGE_STICK, F_RANGE_SLIP = acc_fns.offsets.RANGE_STICK, acc_fns.offsets.RANGE_SLIP
+    F_ENTERED = acc_fns.offsets.ENTERED
     X_SCALE, flight_scale = acc_fns.flight_scale_index, acc_fns.flight_scale  # the precision rule's statistic
     flight = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws)
     AIR = spec.flight == "air"
@@ -166,6 +167,8 @@ def make_ricochet_pellet(spec):
                                 state = wp.int32(EMBEDDED)  # it ends here: its landing if after a ricochet
                                 resting_surface = k
                                 impacted = 0
+                                if impacts == 0:  # at its first impact: it hit, without a ricochet
+                                    acc[F_ENTERED] += scalar(1.0)
                         if impacted != 0:
                             velocity_after, spin_after, slipped = impact(material, tilted, velocity, spin, physics)
                             if wp.static(GROUND):

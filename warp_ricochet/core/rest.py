@@ -69,7 +69,7 @@ def make_to_rest(spec) -> SimpleNamespace:
         make_ground(spec.precision),
         make_surface_laws(spec.precision),
     )
-    AIR = spec.in_air
+    AIR, GROUND = spec.in_air, spec.ground
     rates = make_stepper(spec.precision, spec.air_laws).rates if AIR else None
 
     @wp.func
@@ -84,10 +84,21 @@ def make_to_rest(spec) -> SimpleNamespace:
     def bounce(material: Material, normal: vec3, velocity: vec3, spin: vec3, physics: Physics):
         """The rebound off a surface of `material` and (drawn) `normal`: a skip off a liquid
         (`ground.skip`), else the impact law; (velocity', spin')."""
-        if material.liquid != 0:
-            return ground.skip(material, velocity, normal, spin)
+        if wp.static(GROUND):
+            if material.liquid != 0:
+                return ground.skip(material, velocity, normal, spin)
         velocity_after, spin_after, _slipped = impact(material, normal, velocity, spin, physics)
         return velocity_after, spin_after
+
+    @wp.func
+    def drawn(material: Material, normal: vec3, velocity: vec3, seed: wp.int32, pellet: wp.int32, impact: wp.int32):
+        """(material, normal, enters): the ground's draw for this impact (`ground.draw`) and whether
+        the pellet enters the ground (`ground.embeds`); a scene without those laws (not
+        `spec.ground`) compiles to its inputs and 0."""
+        if wp.static(GROUND):
+            drawn_material, tilted = ground.draw(material, normal, velocity, seed, pellet, impact)
+            return drawn_material, tilted, ground.embeds(drawn_material, velocity, tilted)
+        return material, normal, wp.int32(0)
 
     @wp.func
     def leaves(velocity: vec3, spin: vec3, normal: vec3, physics: Physics):
@@ -149,9 +160,9 @@ def make_to_rest(spec) -> SimpleNamespace:
                 elif impacts >= physics.max_impacts:
                     end = wp.int32(NOT_FINISHED)
                 else:
-                    material, tilted = ground.draw(geo.material(surfaces, k, position), normal, velocity, seed, pellet, impacts)
+                    material, tilted, enters = drawn(geo.material(surfaces, k, position), normal, velocity, seed, pellet, impacts)
                     impacts += 1
-                    if ground.embeds(material, velocity, tilted) != 0:
+                    if enters != 0:
                         end = wp.int32(EMBEDDED)
                     else:
                         velocity, spin = bounce(material, tilted, velocity, spin, physics)

@@ -34,6 +34,7 @@ OFFSETS = SimpleNamespace(
     V2_LANDING=SUM["v2_landing"] - NUM_COUNTS,
     FLIGHT_STEPS=SUM["flight_steps"] - NUM_COUNTS,
     FLIGHT_UNFINISHED=SUM["flight_unfinished"] - NUM_COUNTS,
+    ENTERED=SUM["entered"] - NUM_COUNTS,
     END_STOPPED=SUM["end_stopped"] - NUM_COUNTS,  # physics.until = "rest": counts (exact: < 2^24 a thread)
     END_AT_REST=SUM["end_at_rest"] - NUM_COUNTS,
     END_NOT_FINISHED=SUM["end_not_finished"] - NUM_COUNTS,

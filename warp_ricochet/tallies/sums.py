@@ -49,6 +49,7 @@ FLOAT_NAMES = (
     "v2_landing",
     "flight_steps",
     "flight_unfinished",  # flight in air: integration steps, flights given up
+    "entered",  # pellets that entered the ground or water at their first impact (no ricochet)
     "end_stopped",
     "end_at_rest",
     "end_not_finished",  # physics.until = "rest": pellets that stopped (at rest or embedded), at rest, not finished
@@ -78,6 +79,7 @@ STAT_UNITS = {
     "pellets": ("1", "pellets launched"),
     "hits": ("1", "pellets that hit a surface"),
     "missed": ("1", "pellets that never hit a surface"),
+    "entered": ("1", "pellets that entered the ground or water at their first impact, without a ricochet (physics.ground)"),
     "stick": ("1", "first impacts that stuck (eq. 22 not met)"),
     "slip": ("1", "first impacts that slipped (eq. 22)"),
     "landed": ("1", "pellets that landed after their last ricochet"),
@@ -245,7 +247,8 @@ def finalize_rows(
     out = {
         "pellets": np.full(len(sums), float(pellets)),
         "hits": s["hits"],
-        "missed": float(pellets) - s["hits"],
+        "missed": float(pellets) - s["hits"] - s["entered"],
+        "entered": s["entered"],
         "stick": s["hits"] - s["slip"],
         "slip": s["slip"],
         "landed": s["landed"],
