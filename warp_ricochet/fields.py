@@ -37,7 +37,8 @@ INTEGER_KINDS = {"int8": np.int8, "int16": np.int16, "int32": np.int32}
 @dataclass(frozen=True)
 class Field:
     """One per-pellet output: `kind` is "vec3" or "scalar" (the run's precision) or an integer
-    kind; `per_bounce` fields have one entry per ricochet followed."""
+    kind; `per_bounce` fields have one entry per ricochet followed, `per_threshold` fields one per
+    hazard threshold (in scene order)."""
 
     name: str
     kind: str
@@ -45,6 +46,7 @@ class Field:
     unit: str
     stage: str
     description: str
+    per_threshold: bool = False
 
     @property
     def member(self) -> str:
@@ -106,6 +108,16 @@ FIELDS: dict[str, Field] = {
             "1",
             "landing",
             "bit i set: at landing it exceeds hazard threshold i (/hazard/thresholds, in scene order); 0 when it never lands",
+        ),
+        _F(
+            "hazard.reach",
+            "scalar",
+            False,
+            "m",
+            "landing",
+            "per threshold (scene order): the farthest horizontal distance from the shooter at which it is within body height "
+            "at or above the threshold, along its whole path (NaN: never; docs/hazard.md)",
+            per_threshold=True,
         ),
         _F(
             "rest.position",
@@ -191,11 +203,12 @@ def numpy_dtype(name: str, precision: str) -> np.dtype:
     return np.dtype(INTEGER_KINDS.get(kind, precision))
 
 
-def shape(name: str, rows: int, bounces: int) -> tuple[int, ...]:
+def shape(name: str, rows: int, bounces: int, thresholds: int = 0) -> tuple[int, ...]:
     f = FIELDS[name]
-    return (rows,) + ((bounces,) if f.per_bounce else ()) + ((3,) if f.kind == "vec3" else ())
+    columns = (bounces,) if f.per_bounce else (thresholds,) if f.per_threshold else ()
+    return (rows,) + columns + ((3,) if f.kind == "vec3" else ())
 
 
-def bytes_per_pellet(fields, precision: str, bounces: int) -> int:
+def bytes_per_pellet(fields, precision: str, bounces: int, thresholds: int = 0) -> int:
     """Bytes per pellet of these fields (on the device, and again on the host)."""
-    return sum(numpy_dtype(n, precision).itemsize * int(np.prod(shape(n, 1, bounces))) for n in fields)
+    return sum(numpy_dtype(n, precision).itemsize * int(np.prod(shape(n, 1, bounces, thresholds))) for n in fields)

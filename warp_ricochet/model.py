@@ -7,6 +7,7 @@ for the output fields the run asks for (none for a statistics-only run).
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from dataclasses import dataclass, field
@@ -15,7 +16,7 @@ import numpy as np
 import warp as wp
 
 from .core.outputs import element_type, outputs_struct
-from .fields import FIELDS, bytes_per_pellet
+from .fields import FIELDS, bytes_per_pellet, shape
 from .physics.air import GAMMA_AIR
 from .physics.impact import SOLID_SPHERE_INERTIA_FACTOR
 from .physics.types import GROUND_FIELDS, surfaces_of, types_for
@@ -37,12 +38,13 @@ class Model:
     surfaces: object  # physics.types Surfaces
     physics: object  # physics.types Physics
     types: object = field(repr=False)
+    thresholds: int = 0  # hazard thresholds (the columns of per-threshold fields)
 
     @classmethod
     def from_scene(cls, scene, device) -> Model:
         """The model of `scene` on `device`; recent ones are reused (their arrays never change)."""
         air = scene.air if scene.in_air else None
-        return _cached_model(
+        model = _cached_model(
             scene.shot.diameter,
             scene.shot.density,
             scene.surfaces,
@@ -52,6 +54,7 @@ class Model:
             air,
             scene.numerics.flight_tolerance,
         )
+        return dataclasses.replace(model, thresholds=0 if scene.hazard is None else len(scene.hazard.thresholds))
 
     @classmethod
     def _build(cls, diameter, density, planes, physics_scene, precision, device, air=None, tolerance=1e-6) -> Model:
@@ -155,7 +158,9 @@ class State:
         self.fields = tuple(fields)
         self.arrays = {
             name: wp.empty(
-                (capacity, model.bounces) if FIELDS[name].per_bounce else capacity,
+                shape(name, capacity, model.bounces, model.thresholds)[:2]
+                if FIELDS[name].per_bounce or FIELDS[name].per_threshold
+                else capacity,
                 dtype=element_type(name, model.precision),
                 device=model.device,
             )
@@ -181,7 +186,7 @@ def reused_state(model: Model, capacity: int, fields) -> State:
     """The last run's chunk buffers if they fit (device, precision, bounces, capacity, fields),
     else new ones, which replace them: one set is kept in all, so device memory does not grow with
     the runs of a sweep. Only for CUDA runs, one at a time (pipeline's lock)."""
-    key = (model.device.alias, model.precision, model.bounces, capacity, tuple(fields))
+    key = (model.device.alias, model.precision, model.bounces, model.thresholds, capacity, tuple(fields))
     if _LAST_STATE.get("key") != key:
         _LAST_STATE.clear()  # free the old buffers before allocating new ones
         _LAST_STATE.update(key=key, state=State(model, capacity, fields))

@@ -34,7 +34,8 @@ class RunSpec:
     (quantiles, danger distances, `tallies.landing`); hazard_map: the hazard map too; thresholds:
     the number of hazard thresholds (compiled in: the landing code tests each one unrolled); until:
     "landing" ends a pellet at its landing, "rest" follows it on until it stops (docs/ground.md); ground:
-    a surface has rough ground or a penetration law (`physics.ground`), applied at every impact."""
+    a surface has rough ground or a penetration law (`physics.ground`), applied at every impact;
+    places: the named places of the hazard (`tallies.path`)."""
 
     precision: str
     bounces: int
@@ -50,6 +51,7 @@ class RunSpec:
     thresholds: int = 0
     until: str = "landing"
     ground: bool = False
+    places: int = 0
 
     @classmethod
     def of(cls, scene, *, with_output: bool = True) -> RunSpec:
@@ -74,12 +76,21 @@ class RunSpec:
             thresholds=0 if scene.hazard is None else len(scene.hazard.thresholds),
             until=scene.physics.until,
             ground=any(_has_ground_laws(surface) for surface in scene.surfaces),
+            places=0 if scene.hazard is None else len(getattr(scene.hazard, "points", ())),
         )
 
     @property
     def to_rest(self) -> bool:
         """Whether pellets are followed on from their landing until they stop."""
         return self.until == "rest"
+
+    @property
+    def watch(self) -> tuple[int, int, bool]:
+        """(thresholds, places, map) of the hazard watched along the path (`tallies.path`): a scene
+        with thresholds and its tallies; (0, 0, False) compiles the watch away."""
+        if not (self.tally and self.thresholds > 0):
+            return (0, 0, False)
+        return (self.thresholds, self.places, self.hazard_map)
 
     @property
     def in_air(self) -> bool:

@@ -27,7 +27,9 @@ def make_outputs(precision: str) -> SimpleNamespace:
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
     members = {
-        FIELDS[name].member: (wp.array2d if FIELDS[name].per_bounce else wp.array)(dtype=element_type(name, precision))
+        FIELDS[name].member: (wp.array2d if FIELDS[name].per_bounce or FIELDS[name].per_threshold else wp.array)(
+            dtype=element_type(name, precision)
+        )
         for name in CORE_FIELDS
     }
     Outputs = wp.struct(
@@ -156,6 +158,6 @@ def outputs_struct(precision: str, device, arrays: dict):
         f = FIELDS[name]
         arr = arrays.get(name)
         if arr is None:
-            arr = wp.empty((0, 0) if f.per_bounce else 0, dtype=element_type(name, precision), device=device)
+            arr = wp.empty((0, 0) if f.per_bounce or f.per_threshold else 0, dtype=element_type(name, precision), device=device)
         setattr(outputs, f.member, arr)
     return outputs

@@ -24,6 +24,7 @@ from ..physics.ground import make_ground
 from ..physics.types import types_for
 from ..tallies.accumulate import make_accumulators
 from ..tallies.landing import make_add_landing, make_landing_tally
+from ..tallies.path import make_path_watch
 from ..tallies.sums import REST as X_REST
 from .outputs import make_outputs
 from .release import make_release
@@ -49,7 +50,8 @@ def make_ricochet_pellet(spec):
     F_RANGE_STICK, F_RANGE_SLIP = acc_fns.offsets.RANGE_STICK, acc_fns.offsets.RANGE_SLIP
     F_ENTERED = acc_fns.offsets.ENTERED
     X_SCALE, flight_scale = acc_fns.flight_scale_index, acc_fns.flight_scale  # the precision rule's statistic
-    flight = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws)
+    flight = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws, watch=spec.watch)
+    watcher = make_path_watch(spec.precision, *spec.watch)
     AIR = spec.flight == "air"
     rests, stays, impact, _meet, contact_point, landing_range = make_contact(spec.precision)
     geo, ground = make_geometry(spec.precision), make_ground(spec.precision)
@@ -96,6 +98,7 @@ def make_ricochet_pellet(spec):
         ricochet_time = scalar(0.0)
         launch_velocity = vec3()
         launch_spin = vec3()
+        track = watcher.start()  # the hazard along its path (`tallies.path`)
         if wp.static(RELEASE):  # where the dense phase left it (its flight may have ended there)
             position = release.position[row]
             velocity = release.velocity[row]
@@ -139,8 +142,8 @@ def make_ricochet_pellet(spec):
         for b in range(wp.static(BOUNCES)):  # unrolled (bounces <= 16)
             impacted = wp.int32(0)
             if state == FLYING and b >= first_bounce:
-                dt, k, normal, position_then, velocity_then, spin_then, steps = flight.to_contact(
-                    position, velocity, spin, touching, surfaces, physics
+                dt, k, normal, position_then, velocity_then, spin_then, steps, track = flight.to_contact_watched(
+                    position, velocity, spin, touching, surfaces, physics, track, tally
                 )
                 if wp.static(AIR):
                     acc = acc_fns.add_flight_sums(acc, steps, k)
@@ -210,8 +213,8 @@ def make_ricochet_pellet(spec):
         if impacts > 0 and state != ESCAPED:
             k = resting_surface
             if state == FLYING:
-                dt, k_next, _normal, position_then, velocity_then, spin_then, steps = flight.to_contact(
-                    position, velocity, spin, touching, surfaces, physics
+                dt, k_next, _normal, position_then, velocity_then, spin_then, steps, track = flight.to_contact_watched(
+                    position, velocity, spin, touching, surfaces, physics, track, tally
                 )
                 if wp.static(AIR):
                     acc = acc_fns.add_flight_sums(acc, steps, k_next)
@@ -251,22 +254,28 @@ def make_ricochet_pellet(spec):
                     lo[1] = wp.min(lo[1], distance)
                     hi[1] = wp.max(hi[1], distance)
         if wp.static(TO_REST):  # on from the landing until it stops (core.rest)
-            rest_state, rest_position, rest_velocity, spin, rest_time, rest_impacts, rest_path, rest_steps = follow.to_rest(
-                start_mode(state, gave_up, landing_surface, resting_surface),
-                wp.max(landing_surface, resting_surface),
-                position,
-                velocity,
-                spin,
-                time,
-                impacts,
-                source.seed,
-                index,
-                surfaces,
-                physics,
+            rest_state, rest_position, rest_velocity, spin, rest_time, rest_impacts, rest_path, rest_steps, track = (
+                follow.to_rest(
+                    start_mode(state, gave_up, landing_surface, resting_surface),
+                    wp.max(landing_surface, resting_surface),
+                    position,
+                    velocity,
+                    spin,
+                    time,
+                    impacts,
+                    source.seed,
+                    index,
+                    surfaces,
+                    physics,
+                    track,
+                    tally,
+                )
             )
+        watcher.finish(track, tally, row)
         if wp.static(WRITE):
             outs.write_landing(out, row, landing_time, landing_position, landing_velocity, distance, landing_surface)
             if wp.static(HAZARD_OUT):
+                watcher.write(track, out.hazard_reach, row)
                 energy = tally.half_mass * wp.dot(landing_velocity, landing_velocity)  # NaN: never landed
                 outs.write_hazard(out, row, energy, energy * tally.inverse_area, exceeds)
         if wp.static(TO_REST):  # where it ends: its statistics, its rest distance's count, its outputs

@@ -46,6 +46,7 @@ from ..physics.surface_follow import FLIGHT as LIFTS_OFF
 from ..physics.surface_follow import FOREVER, REST, make_surface_follow
 from ..physics.surface_motion import make_surface_laws
 from ..physics.types import types_for
+from ..tallies.path import make_path_watch
 
 CONTACT, SURFACE, FLIGHT = 0, 1, 2  # the modes of `to_rest`
 # what it ended as before: DONE_ESCAPED, DONE_NOT_FINISHED, DONE_EMBEDDED (ended in the core's landing part)
@@ -61,8 +62,10 @@ def make_to_rest(spec) -> SimpleNamespace:
     """`start_mode` and `to_rest` of a run spec (its precision, planes, flight model and air laws)."""
     t = types_for(spec.precision)
     scalar, vec3, Surfaces, Physics, Material = t.scalar, t.vec3, t.Surfaces, t.Physics, t.Material
-    flight = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws)
-    surface = make_surface_follow(spec.precision, spec.static_planes, spec.flight, spec.air_laws)
+    flight = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws, watch=spec.watch)
+    surface = make_surface_follow(spec.precision, spec.static_planes, spec.flight, spec.air_laws, watch=spec.watch)
+    watcher = make_path_watch(spec.precision, *spec.watch)
+    Track, Tally = watcher.Track, watcher.Tally
     rests, _stays, impact, _meet, _point, _range = make_contact(spec.precision)
     geo, ground, laws = (
         make_geometry(spec.precision, spec.static_planes),
@@ -132,10 +135,13 @@ def make_to_rest(spec) -> SimpleNamespace:
         pellet: wp.int32,
         surfaces: Surfaces,
         physics: Physics,
+        track: Track,
+        tally: Tally,
     ):
         """Follow a pellet from `mode` (CONTACT, SURFACE or FLIGHT, at or leaving surface k; or
-        `start_mode`'s done) to its end. Returns (end, position, velocity, spin, time, impacts, path
-        along surfaces m, integration steps along surfaces and in flight): position and velocity NaN and time inf when it escaped."""
+        `start_mode`'s done) to its end, its path watched (`tallies.path`). Returns (end, position,
+        velocity, spin, time, impacts, path along surfaces m, integration steps along surfaces and in
+        flight, track): position and velocity NaN and time inf when it escaped."""
         end = wp.int32(-1)
         ground_air = physics  # on the ground: no wind (module docstring); in vacuum the same
         if wp.static(AIR):
@@ -178,7 +184,7 @@ def make_to_rest(spec) -> SimpleNamespace:
                 if ground.sinks(material) != 0:
                     end = wp.int32(EMBEDDED)
                 else:
-                    position, velocity, spin, elapsed, length, ended, taken, k_next = surface.follow(
+                    position, velocity, spin, elapsed, length, ended, taken, k_next, track = surface.follow(
                         position,
                         velocity,
                         spin,
@@ -191,6 +197,8 @@ def make_to_rest(spec) -> SimpleNamespace:
                         material.ploughing,
                         physics.rest_speed,
                         physics.max_steps - steps,
+                        track,
+                        tally,
                     )
                     time += elapsed
                     path += length
@@ -210,8 +218,8 @@ def make_to_rest(spec) -> SimpleNamespace:
                     else:
                         end = wp.int32(NOT_FINISHED)
             else:
-                dt, k_next, _normal, position_then, velocity_then, spin_then, flight_steps = flight.to_contact(
-                    position, velocity, spin, k, surfaces, physics
+                dt, k_next, _normal, position_then, velocity_then, spin_then, flight_steps, track = flight.to_contact_watched(
+                    position, velocity, spin, k, surfaces, physics, track, tally
                 )
                 steps_in_air += flight_steps
                 if k_next == GAVE_UP:
@@ -229,6 +237,6 @@ def make_to_rest(spec) -> SimpleNamespace:
             position = vec3(scalar(wp.nan))
             velocity = vec3(scalar(wp.nan))
             time = scalar(wp.inf)
-        return end, position, velocity, spin, time, impacts, path, steps + steps_in_air
+        return end, position, velocity, spin, time, impacts, path, steps + steps_in_air, track
 
     return SimpleNamespace(start_mode=start_mode, to_rest=to_rest)

@@ -74,7 +74,8 @@ RUN_DIMENSIONS = {
 def field_dimensions(name: str) -> tuple[str, ...]:
     """The axes of per-pellet field `name` ("landing.position" -> ("pellet", "xyz"))."""
     f = FIELDS[name]
-    return ("pellet",) + (("bounce",) if f.per_bounce else ()) + (("xyz",) if f.kind == "vec3" else ())
+    columns = ("bounce",) if f.per_bounce else ("threshold",) if f.per_threshold else ()
+    return ("pellet",) + columns + (("xyz",) if f.kind == "vec3" else ())
 
 
 def dimensions_of(path: str, ds: h5py.Dataset) -> tuple[str, ...]:

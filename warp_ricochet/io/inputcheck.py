@@ -170,7 +170,7 @@ def _run(group, where: str, status) -> None:
         if not isinstance(ds, h5py.Dataset):
             raise BadFile(f"has {where}/{field.path} that is not a dataset")
         tail = ((bounces,) if field.per_bounce and bounces is not None else ()) + ((3,) if field.kind == "vec3" else ())
-        ndim = 1 + field.per_bounce + (field.kind == "vec3")
+        ndim = 1 + field.per_bounce + field.per_threshold + (field.kind == "vec3")
         if (
             len(ds.shape) != ndim
             or (tail and ds.shape[-len(tail) :] != tail)

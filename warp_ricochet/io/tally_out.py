@@ -10,11 +10,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..tallies.bins import BINS, RESOLUTION, ROW_DISTANCE, edges
+from ..tallies.bins import BINS, RESOLUTION, edges
 from ..tallies.counts import TallySetup, TallyTotals
 from ..tallies.quantiles import LEVELS, QUANTITIES, REST_QUANTITIES, summarize
 
 HIST_ROWS = "range, speed, then distance of the landings exceeding 0, 1, ... thresholds (hazard levels)"
+REACH_ROWS = ", then each threshold's reach along the path (thresholds in scene order; pellets with one)"
 
 
 def _ds(g, name, data=None, *, unit, doc, **kw):
@@ -57,11 +58,11 @@ def create(group, scene, model):
     _ds(
         hist,
         "counts",
-        np.zeros((ROW_DISTANCE + setup.levels, BINS), dtype=np.int64),
+        np.zeros((setup.hist_rows, BINS), dtype=np.int64),
         unit="1",
         compression="gzip",
         compression_opts=1,
-        doc="landings per bin; rows: " + HIST_ROWS,
+        doc="landings per bin; rows: " + HIST_ROWS + (REACH_ROWS if setup.path else ""),
     ).attrs["resolution"] = RESOLUTION
     if setup.rest:
         _ds(
@@ -102,7 +103,7 @@ def create(group, scene, model):
 
 
 def _create_hazard(g, setup):
-    t, f = len(setup.names), len(setup.fractions)
+    t = len(setup.names)
     th = g.create_group("thresholds")
     _ds(
         th, "name", np.asarray(setup.names, dtype="S"), unit="", doc="threshold names, in the order of the bits of hazard.exceeds"
@@ -117,30 +118,30 @@ def _create_hazard(g, setup):
         doc="the same thresholds as landing speeds (E/A = m v^2 / (2 pi R^2))",
     )
     _ds(th, "landings", np.zeros(t, dtype=np.int64), unit="1", doc="landings at or above each threshold")
-    d = g.create_group("danger_distance")
-    _ds(
-        d,
-        "fraction",
-        np.asarray(setup.fractions, dtype=np.float64),
-        unit="1",
-        doc="p: the share of hazardous landings left beyond",
-    )
-    for name, doc in (
-        (
-            "distance",
-            "distance from the shooter containing all but p of the landings above the threshold (upper edge of its bin)",
-        ),
-        ("ci_low", "lower end of its 95% confidence interval (order statistics)"),
-        ("ci_high", "upper end of its 95% confidence interval (inf: the run is too small for p)"),
-    ):
-        _ds(d, name, np.full((t, f), np.nan), unit="m", doc=doc + "; rows: thresholds, columns: fractions")
-    _ds(
-        d,
-        "needed_landings",
-        np.zeros((t, f), dtype=np.int64),
-        unit="1",
-        doc="landings above the threshold a bounded 95% interval needs at that p",
-    )
+    if setup.path:
+        _ds(
+            g,
+            "body_height",
+            np.float64(setup.body_height),
+            unit="m",
+            doc="a person's height: the path within it above the ground is watched",
+        )
+        _ds(
+            th,
+            "reaching",
+            np.zeros(t, dtype=np.int64),
+            unit="1",
+            doc="pellets within body height at or above each threshold somewhere on their path",
+        )
+        _create_danger(
+            g.create_group("danger_distance"),
+            setup,
+            "reach distances (farthest within body height above the threshold, along the path)",
+            "pellets reaching above the threshold",
+        )
+        _create_danger(g.create_group("landing_danger_distance"), setup, "landing distances", "landings above the threshold")
+    else:
+        _create_danger(g.create_group("danger_distance"), setup, "landing distances", "landings above the threshold")
     if setup.has_map:
         m = g.create_group("map")
         shape = (setup.map_nv, setup.map_nu)
@@ -162,6 +163,50 @@ def _create_hazard(g, setup):
         _ds(m, "u_axis", np.asarray(setup.map_u), unit="1", doc="unit vector of u (downrange)")
         _ds(m, "v_axis", np.asarray(setup.map_v), unit="1", doc="unit vector of v = normal x u")
         _ds(m, "surface", np.int64(setup.map_surface), unit="1", doc="index of the surface the map lies on")
+        if setup.path:
+            _ds(m, "passes", **_map_layer(shape, np.int64), unit="1", doc="passes through each cell's column within body height")
+            _ds(
+                m,
+                "exposure",
+                **_map_layer((t,) + shape, np.int64),
+                unit="1",
+                doc="passes through each cell's column within body height at or above each threshold (speed at entry)",
+            )
+            _ds(
+                m,
+                "exposure_outside",
+                np.zeros(t + 1, dtype=np.int64),
+                unit="1",
+                doc="passes within body height off the grid: all, then at or above each threshold",
+            )
+
+
+def _create_danger(d, setup, of: str, whose: str):
+    """The danger distances' datasets (thresholds x fractions) of the distances `of`."""
+    t, f = len(setup.names), len(setup.fractions)
+    _ds(
+        d,
+        "fraction",
+        np.asarray(setup.fractions, dtype=np.float64),
+        unit="1",
+        doc=f"p: the share of the {whose} left beyond",
+    )
+    for name, doc in (
+        (
+            "distance",
+            f"distance from the shooter containing all but p of the {whose} ({of}; upper edge of its bin)",
+        ),
+        ("ci_low", "lower end of its 95% confidence interval (order statistics)"),
+        ("ci_high", "upper end of its 95% confidence interval (inf: the run is too small for p)"),
+    ):
+        _ds(d, name, np.full((t, f), np.nan), unit="m", doc=doc + "; rows: thresholds, columns: fractions")
+    _ds(
+        d,
+        "needed_landings",
+        np.zeros((t, f), dtype=np.int64),
+        unit="1",
+        doc=f"{whose} a bounded 95% interval needs at that p",
+    )
 
 
 def _map_layer(shape, dtype) -> dict:
@@ -190,6 +235,9 @@ def read_progress(progress, rows: int):
     return progress["tally"][int(slots[0])] if len(slots) else None
 
 
+DANGER = ("distance", "ci_low", "ci_high", "needed_landings")
+
+
 def write_results(group, tally: TallyTotals, landed: int):
     """Fill the tally objects from the run's final counts (`tallies.quantiles.summarize`)."""
     results = summarize(tally, landed)
@@ -202,8 +250,13 @@ def write_results(group, tally: TallyTotals, landed: int):
     for name, values in results["tail"].items():
         group[f"stats/tail/{name}"][...] = values
     if "hazard" in results:
-        group["hazard/thresholds/landings"][...] = results["hazard"]["landings"]
-        for name in ("distance", "ci_low", "ci_high", "needed_landings"):
+        landing = results.get("landing_hazard")
+        if landing is not None:  # along the path: the reach's distances, beside the landings'
+            group["hazard/thresholds/reaching"][...] = results["hazard"]["landings"]
+            for name in DANGER:
+                group[f"hazard/landing_danger_distance/{name}"][...] = landing[name]
+        group["hazard/thresholds/landings"][...] = (landing or results["hazard"])["landings"]
+        for name in DANGER:
             group[f"hazard/danger_distance/{name}"][...] = results["hazard"][name]
     if "map" in results:
         for name, values in results["map"].items():

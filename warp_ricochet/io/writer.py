@@ -75,7 +75,7 @@ class RunWriter:
         self._write_constants(group.create_group("constants"), model, scene, pellets)
         h5_rows = max(1, min(MAX_H5_CHUNK_ROWS, pellets))  # compute chunks are whole multiples of it
         for name in self.fields:
-            empty = shape(name, 0, model.bounces)
+            empty = shape(name, 0, model.bounces, model.thresholds)
             ds = group.create_dataset(
                 FIELDS[name].path,
                 shape=empty,

@@ -203,9 +203,15 @@ def make_plane_search(precision: str, planes) -> SimpleNamespace:
 
 
 @functools.cache
-def make_air_flight(precision: str, planes, laws: tuple) -> SimpleNamespace:
+def make_air_flight(precision: str, planes, laws: tuple, watch: tuple = (0, 0, False)) -> SimpleNamespace:
     """`to_contact` and `advance` in air (the flight interface of `physics.flight`; the steps a
-    `to_contact` took are its sixth value), and `to_contact_within` (the flight up to a time)."""
+    `to_contact` took are its sixth value), `to_contact_within` (the flight up to a time) and
+    `to_contact_watched` (`to_contact` with each accepted step given to `tallies.path`'s watch of
+    `watch` = (thresholds, places, map))."""
+    from ..tallies.path import make_path_watch  # (tallies imports physics: not at the top)
+
+    watcher = make_path_watch(precision, *watch)
+    Track, Tally = watcher.Track, watcher.Tally
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
     stepper, dense, search = make_stepper(precision, laws), make_dense_output(precision), make_plane_search(precision, planes)
@@ -297,6 +303,53 @@ def make_air_flight(precision: str, planes, laws: tuple) -> SimpleNamespace:
         return to_contact_within(position, velocity, spin, touching, surfaces, physics, LATEST)
 
     @wp.func
+    def to_contact_watched(
+        position: vec3,
+        velocity: vec3,
+        spin: vec3,
+        touching: wp.int32,
+        surfaces: Surfaces,
+        physics: Physics,
+        track: Track,
+        tally: Tally,
+    ):
+        """`to_contact`, each accepted step's interpolant (to the contact) watched: its values and the track."""
+        watched, waiting, now = search.start(position, velocity, touching, surfaces, physics)
+        if now >= 0:
+            return scalar(0.0), now, geo.normal(surfaces, now, position), position, velocity, spin, wp.int32(0), track
+        if watched == 0 and waiting == 0:
+            return scalar(NO_CONTACT), wp.int32(-1), vec3(), position, velocity, spin, wp.int32(0), track
+        acceleration, spin_change = stepper.rates(velocity, spin, physics)
+        h = first_step(velocity, spin, acceleration, spin_change, physics)
+        time = scalar(0.0)
+        steps = wp.int32(0)
+        while steps < MAX_STEPS and time < LATEST:
+            x1, v1, w1, a1, d1, error = stepper.step(position, velocity, spin, acceleration, spin_change, h, physics)
+            steps += 1
+            if error <= scalar(1.0):
+                theta, k, watched, waiting = search.search(
+                    h, position, velocity, acceleration, x1, v1, a1, watched, waiting, surfaces, physics
+                )
+                d0, e0, d1s, e1 = h * velocity, h * h * acceleration, h * v1, h * h * a1
+                if k >= 0:
+                    track = watcher.segment(track, tally, position, d0, e0, x1, d1s, e1, h, theta)
+                    x, slope = dense.hermite_vec(theta, position, d0, e0, x1, d1s, e1)
+                    w = dense.cubic_vec(theta, spin, h * spin_change, w1, h * d1)
+                    return time + theta * h, k, geo.normal(surfaces, k, x), x, slope / h, w, steps, track
+                track = watcher.segment(track, tally, position, d0, e0, x1, d1s, e1, h, scalar(1.0))
+                position = x1
+                velocity = v1
+                spin = w1
+                acceleration = a1
+                spin_change = d1
+                time = time + h
+            h = next_step(h, error)
+        stopped = wp.int32(-1)
+        if steps >= MAX_STEPS:
+            stopped = wp.int32(GAVE_UP)
+        return scalar(NO_CONTACT), stopped, vec3(), position, velocity, spin, steps, track
+
+    @wp.func
     def advance(position: vec3, velocity: vec3, spin: vec3, dt: scalar, physics: Physics):
         """The state dt (s) later, no contact looked for."""
         acceleration, spin_change = stepper.rates(velocity, spin, physics)
@@ -317,4 +370,6 @@ def make_air_flight(precision: str, planes, laws: tuple) -> SimpleNamespace:
             h = next_step(h, error)
         return position, velocity, spin
 
-    return SimpleNamespace(to_contact=to_contact, to_contact_within=to_contact_within, advance=advance)
+    return SimpleNamespace(
+        to_contact=to_contact, to_contact_within=to_contact_within, advance=advance, to_contact_watched=to_contact_watched
+    )

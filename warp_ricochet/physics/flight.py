@@ -33,14 +33,21 @@ MODELS = ("ballistic", "air")
 
 
 @functools.cache
-def make_flight(precision: str, planes=None, model: str = "ballistic", laws=None, snap: bool = True) -> SimpleNamespace:
+def make_flight(
+    precision: str, planes=None, model: str = "ballistic", laws=None, snap: bool = True, watch: tuple = (0, 0, False)
+) -> SimpleNamespace:
     """The flight functions of `model`; `planes`: the number of planes when fixed at code
     generation (loops over them unrolled), else None; `snap`: the ballistic model takes a gap
-    within the touching band as zero (`physics.geometry`)."""
+    within the touching band as zero (`physics.geometry`); `watch`: (thresholds, places, map) of
+    the hazard watched along the path by `to_contact_watched` (`tallies.path`)."""
     if model not in MODELS:
         raise ValueError(f"flight model {model!r}: must be one of {MODELS}")
     if model == "air":
-        return _air_flight(precision, planes, laws)
+        return _air_flight(precision, planes, laws, watch)
+    from ..tallies.path import make_path_watch  # (tallies imports physics: not at the top)
+
+    watcher = make_path_watch(precision, *watch)
+    Track, Tally = watcher.Track, watcher.Tally
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
     _entry, _return, position_at, velocity_at = make_ballistic(scalar)
@@ -65,15 +72,38 @@ def make_flight(precision: str, planes=None, model: str = "ballistic", laws=None
         position_then, velocity_then, spin_then = advance(position, velocity, spin, dt, physics)
         return dt, k, geo.normal(surfaces, k, position_then), position_then, velocity_then, spin_then, wp.int32(0)
 
+    @wp.func
+    def to_contact_watched(
+        position: vec3,
+        velocity: vec3,
+        spin: vec3,
+        touching: wp.int32,
+        surfaces: Surfaces,
+        physics: Physics,
+        track: Track,
+        tally: Tally,
+    ):
+        """`to_contact`, the parabola to the contact watched (`tallies.path`): its values and the track."""
+        dt, k, normal, x, v, w, steps = to_contact(position, velocity, spin, touching, surfaces, physics)
+        if k >= 0:
+            track = watcher.parabola(track, tally, position, velocity, physics.gravity, dt)
+        return dt, k, normal, x, v, w, steps, track
+
     return SimpleNamespace(
-        model=model, next_contact=next_contact, to_contact=to_contact, advance=advance, NO_CONTACT=NO_CONTACT, GAVE_UP=GAVE_UP
+        model=model,
+        next_contact=next_contact,
+        to_contact=to_contact,
+        to_contact_watched=to_contact_watched,
+        advance=advance,
+        NO_CONTACT=NO_CONTACT,
+        GAVE_UP=GAVE_UP,
     )
 
 
-def _air_flight(precision: str, planes, laws) -> SimpleNamespace:
+def _air_flight(precision: str, planes, laws, watch) -> SimpleNamespace:
     t = types_for(precision)
     vec3, Surfaces, Physics = t.vec3, t.Surfaces, t.Physics
-    air = make_air_flight(precision, planes, tuple(laws))
+    air = make_air_flight(precision, planes, tuple(laws), watch)
 
     @wp.func
     def next_contact(position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces, physics: Physics):
@@ -85,6 +115,7 @@ def _air_flight(precision: str, planes, laws) -> SimpleNamespace:
         model="air",
         next_contact=next_contact,
         to_contact=air.to_contact,
+        to_contact_watched=air.to_contact_watched,
         advance=air.advance,
         to_contact_within=air.to_contact_within,
         NO_CONTACT=NO_CONTACT,

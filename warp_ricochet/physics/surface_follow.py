@@ -391,8 +391,15 @@ def make_surface_closed_phases(precision: str, planes=None) -> SimpleNamespace:
 
 
 @functools.cache
-def make_surface_integrator(precision: str, planes=None, model: str = "ballistic", laws=None) -> SimpleNamespace:
-    """`integrate_phase`: one sliding or rolling phase integrated to its end (module docstring)."""
+def make_surface_integrator(
+    precision: str, planes=None, model: str = "ballistic", laws=None, watch: tuple = (0, 0, False)
+) -> SimpleNamespace:
+    """`integrate_phase`: one sliding or rolling phase integrated to its end (module docstring),
+    each accepted step given to `tallies.path`'s watch of `watch` = (thresholds, places, map)."""
+    from ..tallies.path import make_path_watch  # (tallies imports physics: not at the top)
+
+    watcher = make_path_watch(precision, *watch)
+    Track, Tally = watcher.Track, watcher.Tally
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
     AIR = model == "air"
@@ -437,10 +444,12 @@ def make_surface_integrator(precision: str, planes=None, model: str = "ballistic
         physics: Physics,
         mu_s: scalar,
         steps_left: wp.int32,
+        track: Track,
+        tally: Tally,
     ):
         """Integrate one sliding or rolling phase (`contact.rolling`) until its quantity (`target`)
         reaches `goal`, `margin` reaches 0, or another surface is met. Returns (x, v, w, elapsed,
-        path, event, k_next, steps); event 0: the target reached, 1: the margin, CONTACT, or
+        path, event, k_next, steps, track); event 0: the target reached, 1: the margin, CONTACT, or
         UNFINISHED (steps_left spent)."""
         radius = physics.radius
         floor = wp.sqrt(wp.length(physics.gravity) * radius) + scalar(1e-6)
@@ -450,7 +459,7 @@ def make_surface_integrator(precision: str, planes=None, model: str = "ballistic
         band = wp.max(STOP_FRACTION, scalar(BAND) * tolerance)
         watched, waiting, now = watch_start(position, velocity, k, surfaces, physics)
         if now >= 0:
-            return position, velocity, spin, ZERO, ZERO, wp.int32(CONTACT), now, wp.int32(0)
+            return position, velocity, spin, ZERO, ZERO, wp.int32(CONTACT), now, wp.int32(0), track
         acceleration, spin_rate = rates(velocity, spin, physics, contact)
         scale = wp.length(velocity) + radius * wp.length(spin) + floor
         h = scalar(0.1) * wp.pow(tolerance, scalar(0.2)) * scale / (wp.length(acceleration) + floor / scalar(1e3))
@@ -463,11 +472,24 @@ def make_surface_integrator(precision: str, planes=None, model: str = "ballistic
             if rate < ZERO:
                 if q <= band * scale:  # the rest of the way to first order
                     dt = q / (-rate)
-                    position = position + velocity * dt
+                    moved = velocity * dt
+                    track = watcher.segment(
+                        track,
+                        tally,
+                        position,
+                        moved,
+                        acceleration * (dt * dt),
+                        position + moved,
+                        moved + acceleration * (dt * dt),
+                        acceleration * (dt * dt),
+                        dt,
+                        ONE,
+                    )
+                    position = position + moved
                     path += wp.length(velocity) * dt
                     velocity = velocity + acceleration * dt
                     spin = spin + spin_rate * dt
-                    return position, velocity, spin, elapsed + dt, path, wp.int32(0), k, steps
+                    return position, velocity, spin, elapsed + dt, path, wp.int32(0), k, steps, track
                 h = wp.min(h, (q - HALF * band * scale) / (-rate))  # into the band's middle
             x1, v1, w1, a1, d1, ex, ev, ew = stages(position, velocity, spin, acceleration, spin_rate, h, physics, contact)
             steps += 1
@@ -502,13 +524,17 @@ def make_surface_integrator(precision: str, planes=None, model: str = "ballistic
                 theta = theta_c
                 event = wp.int32(CONTACT)
             if event >= 0:
+                track = watcher.segment(
+                    track, tally, position, h * velocity, h * h * acceleration, x1, h * v1, h * h * a1, h, theta
+                )
                 x, slope = dense.hermite_vec(theta, position, h * velocity, h * h * acceleration, x1, h * v1, h * h * a1)
                 w = dense.cubic_vec(theta, spin, h * spin_rate, w1, h * d1)
                 path += simpson(h, theta, position, velocity, acceleration, x1, v1, a1)
                 k_next = k
                 if event == CONTACT:
                     k_next = k_c
-                return x, slope / h, w, elapsed + theta * h, path, event, k_next, steps
+                return x, slope / h, w, elapsed + theta * h, path, event, k_next, steps, track
+            track = watcher.segment(track, tally, position, h * velocity, h * h * acceleration, x1, h * v1, h * h * a1, h, ONE)
             path += simpson(h, ONE, position, velocity, acceleration, x1, v1, a1)
             elapsed += h
             position = x1
@@ -518,15 +544,22 @@ def make_surface_integrator(precision: str, planes=None, model: str = "ballistic
             spin_rate = d1
             h = h * wp.clamp(scalar(0.9) * wp.pow(wp.max(error, scalar(1e-10)), scalar(-0.2)), scalar(0.2), growth)
             growth = scalar(5.0)
-        return position, velocity, spin, elapsed, path, wp.int32(UNFINISHED), k, steps
+        return position, velocity, spin, elapsed, path, wp.int32(UNFINISHED), k, steps, track
 
     return SimpleNamespace(integrate_phase=integrate_phase)
 
 
 @functools.cache
-def make_surface_follow(precision: str, planes=None, model: str = "ballistic", laws=None) -> SimpleNamespace:
+def make_surface_follow(
+    precision: str, planes=None, model: str = "ballistic", laws=None, watch: tuple = (0, 0, False)
+) -> SimpleNamespace:
     """`follow` (module docstring) for one precision, number of planes (None: read at run time) and
-    flight model ("ballistic": vacuum; "air" with `laws` = (drag, lift, spin_decay) of `physics.air`)."""
+    flight model ("ballistic": vacuum; "air" with `laws` = (drag, lift, spin_decay) of `physics.air`);
+    the path is watched by `tallies.path`'s watch of `watch` = (thresholds, places, map)."""
+    from ..tallies.path import make_path_watch  # (tallies imports physics: not at the top)
+
+    watcher = make_path_watch(precision, *watch)
+    Track, Tally = watcher.Track, watcher.Tally
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
     AIR = model == "air"
@@ -535,7 +568,7 @@ def make_surface_follow(precision: str, planes=None, model: str = "ballistic", l
     Contact, applied_at, lifts = r.Contact, r.applied_at, r.lifts
     closed = make_surface_closed_phases(precision, planes)
     plough_roll, rest_state, constant_phase = closed.plough_roll, closed.rest_state, closed.constant_phase
-    integrate_phase = make_surface_integrator(precision, planes, model, laws).integrate_phase
+    integrate_phase = make_surface_integrator(precision, planes, model, laws, watch).integrate_phase
     ZERO, ONE = scalar(0.0), scalar(1.0)
 
     @wp.func
@@ -552,10 +585,12 @@ def make_surface_follow(precision: str, planes=None, model: str = "ballistic", l
         ploughing: scalar,
         rest_speed: scalar,
         max_steps: wp.int32,
+        track: Track,
+        tally: Tally,
     ):
         """Follow the pellet along surface k from gap 0 (module docstring): (position, velocity,
         spin, elapsed s, path length m, end code, integration steps, k_next: the surface met at
-        CONTACT, else k)."""
+        CONTACT, else k), and the watch's track."""
         radius, inertia = physics.radius, physics.inertia_factor
         g = physics.gravity
         elapsed = ZERO
@@ -574,9 +609,10 @@ def make_surface_follow(precision: str, planes=None, model: str = "ballistic", l
                 mode = forced
             forced = wp.int32(-1)
             if mode == REST:
-                return rest_state(position, spin, n, elapsed, path, steps, k)
+                x, v, w, e, p, c, st, kk = rest_state(position, spin, n, elapsed, path, steps, k)
+                return x, v, w, e, p, c, st, kk, track
             if mode == FLIGHT:
-                return position, velocity, spin, elapsed, path, wp.int32(FLIGHT), steps, k
+                return position, velocity, spin, elapsed, path, wp.int32(FLIGHT), steps, k, track
             holds = sm.held(n, g, rolling_resistance)
             goal = ZERO
             if mode == ROLLING and holds:
@@ -585,9 +621,13 @@ def make_surface_follow(precision: str, planes=None, model: str = "ballistic", l
             k_c = wp.int32(-1)
             if wp.static(not AIR):
                 if ploughing <= ZERO:
+                    x0, v0 = position, velocity
                     position, velocity, spin, dt, dp, outcome, k_c = constant_phase(
                         position, velocity, spin, k, n, mode, surfaces, physics, mu_d, rolling_resistance, rest_speed
                     )
+                    if dt > ZERO:  # constant acceleration: the Hermite quintic is the path itself
+                        e = (velocity - v0) * dt
+                        track = watcher.segment(track, tally, x0, v0 * dt, e, position, velocity * dt, e, dt, ONE)
                     elapsed += dt
                     path += dp
                 elif mode == ROLLING and sm.across(g, n, wp.length(g)) == 0:  # level: g along n
@@ -595,8 +635,19 @@ def make_surface_follow(precision: str, planes=None, model: str = "ballistic", l
                         velocity, k, position, surfaces, physics, rolling_resistance, ploughing, goal
                     )
                     if dt < ZERO:
-                        return position, velocity, spin, elapsed, path, wp.int32(FOREVER), steps, k
+                        return position, velocity, spin, elapsed, path, wp.int32(FOREVER), steps, k, track
                     direction = sm.unit(velocity)
+                    share = ONE / (ONE + inertia)
+                    track = watcher.line(
+                        track,
+                        tally,
+                        position,
+                        direction,
+                        ds,
+                        wp.length(velocity),
+                        share * rolling_resistance * wp.length(g),
+                        share * ploughing,
+                    )
                     position = position + ds * direction
                     velocity = speed * direction
                     spin = wp.dot(spin, n) * n + wp.cross(n, velocity) * (ONE / radius)
@@ -616,34 +667,35 @@ def make_surface_follow(precision: str, planes=None, model: str = "ballistic", l
                 contact.rolling = wp.int32(0)
                 if mode == ROLLING:
                     contact.rolling = wp.int32(1)
-                position, velocity, spin, dt, dp, event, k_c, taken = integrate_phase(
-                    position, velocity, spin, k, contact, goal, surfaces, physics, mu_s, max_steps - steps
+                position, velocity, spin, dt, dp, event, k_c, taken, track = integrate_phase(
+                    position, velocity, spin, k, contact, goal, surfaces, physics, mu_s, max_steps - steps, track, tally
                 )
                 elapsed += dt
                 path += dp
                 steps += taken
                 if event == UNFINISHED:
-                    return position, velocity, spin, elapsed, path, wp.int32(UNFINISHED), steps, k
+                    return position, velocity, spin, elapsed, path, wp.int32(UNFINISHED), steps, k, track
                 outcome = event
                 if event == 1:  # lift-off, or rolling lost its grip
                     if lifts(velocity, spin, physics, contact, mu_s) != 0:
-                        return position, sm.tangential(velocity, n), spin, elapsed, path, wp.int32(FLIGHT), steps, k
+                        return position, sm.tangential(velocity, n), spin, elapsed, path, wp.int32(FLIGHT), steps, k, track
                     forced = wp.int32(SLIDING)
                     outcome = wp.int32(-1)
                 elif event == 0 and mode == ROLLING and holds and rest_speed > ZERO:
                     outcome = wp.int32(1)
             if outcome == CONTACT:
-                return position, velocity, spin, elapsed, path, wp.int32(CONTACT), steps, k_c
+                return position, velocity, spin, elapsed, path, wp.int32(CONTACT), steps, k_c, track
             if outcome == FOREVER:
-                return position, velocity, spin, elapsed, path, wp.int32(FOREVER), steps, k
+                return position, velocity, spin, elapsed, path, wp.int32(FOREVER), steps, k, track
             if outcome == 1:
-                return rest_state(position, spin, n, elapsed, path, steps, k)
+                x, v, w, e, p, c, st, kk = rest_state(position, spin, n, elapsed, path, steps, k)
+                return x, v, w, e, p, c, st, kk, track
             if outcome == 0:
                 if mode == SLIDING:  # the slip is zero now: remove its rounding (omega_t = n x v / R)
                     spin = wp.dot(spin, n) * n + wp.cross(n, velocity) * (ONE / radius)
                 else:  # stopped where the resistance cannot hold it: it rolls back from rest
                     velocity = vec3()
                     spin = wp.dot(spin, n) * n
-        return position, velocity, spin, elapsed, path, wp.int32(UNFINISHED), steps, k
+        return position, velocity, spin, elapsed, path, wp.int32(UNFINISHED), steps, k, track
 
     return SimpleNamespace(follow=follow, Contact=Contact, rates=r.rates, integrate_phase=integrate_phase)

@@ -43,11 +43,29 @@ class TallySetup:
     map_nv: int = 0
     quantum: float = 1.0  # J
     rest: bool = False  # physics.until = "rest": the rest distances' histogram too (`rest` of the totals)
+    body_height: float = 1.8  # m (`tallies.path`)
+    ground_point: tuple = (0.0, 0.0, 0.0)  # m, on the hazard's ground plane (the map's surface, else surface 0)
+    ground_normal: tuple = (0.0, 0.0, 1.0)  # its normal / (normal . up)
+    places: tuple = ()  # ((name, (x, y, z) m, radius m), ...): the named places
 
     @property
     def levels(self) -> int:
         """Hazard levels: 0 to the number of thresholds (how many a landing exceeds)."""
         return len(self.thresholds2) + 1
+
+    @property
+    def path(self) -> bool:
+        """The hazard is watched along the path (`tallies.path`): a scene with thresholds."""
+        return len(self.thresholds2) > 0
+
+    @property
+    def hist_rows(self) -> int:
+        """Rows of `hist`: range, speed, distance by level, then each threshold's reach (with `path`)."""
+        return ROW_DISTANCE + self.levels + (len(self.thresholds2) if self.path else 0)
+
+    @property
+    def reach_row(self) -> int:
+        return ROW_DISTANCE + self.levels
 
     @property
     def cells(self) -> int:
@@ -92,9 +110,28 @@ class TallySetup:
             quantum=reference / 2.0**ENERGY_QUANTUM_BITS if reference > 0 else 1e-30,
             rest=scene.physics.until == "rest",
         )
+        if hazard is not None:
+            kw.update(_ground(scene, hazard, np.asarray(up, dtype=np.float64)))
         if hazard is not None and hazard.has_map:
             kw.update(_map_geometry(scene, hazard, np.asarray(shooter, dtype=np.float64)))
         return cls(**kw)
+
+
+def _ground(scene, hazard, up) -> dict:
+    """The hazard's ground plane (the map's surface) with its normal over its height per unit of
+    normal distance, body height and the named places (radius: area / (2 body height))."""
+    surface = scene.surfaces[hazard.map_surface]
+    n = np.asarray(surface.normal, dtype=np.float64)
+    n = n / np.linalg.norm(n)
+    rise = float(n @ up) if np.any(up) else 1.0
+    height = float(getattr(hazard, "body_height", 1.8))
+    places = tuple((p.name, tuple(map(float, p.position)), float(p.area) / (2.0 * height)) for p in getattr(hazard, "points", ()))
+    return dict(
+        body_height=height,
+        ground_point=tuple(map(float, surface.point)),
+        ground_normal=tuple(n / rise) if abs(rise) > 1e-12 else tuple(n),
+        places=places,
+    )
 
 
 def _map_geometry(scene, hazard, shooter) -> dict:
@@ -150,11 +187,12 @@ def tally_bytes(setup: TallySetup, device, with_file: bool, pellets: int) -> tup
     map's count, energy and above layers (at most one cell each a landing)."""
     levels, thresholds, cells = setup.levels, setup.levels - 1, setup.cells if setup.has_map else 0
     width = cells + 2 if setup.has_map else 0
-    hist = (ROW_DISTANCE + levels + int(setup.rest)) * BINS  # (with the rest distances' row)
-    words = hist + levels * width + width
+    hist = (setup.hist_rows + int(setup.rest)) * BINS  # (with the rest distances' row)
+    exposed = levels * width if setup.path else 0  # the passes' map (`tallies.path`)
+    words = hist + levels * width + width + exposed
     flat = 8 * words
-    on_device = 4 * (hist * copies_for(device, hist * 4) + levels * width) + 8 * width + flat
-    host = flat + 8 * (levels + thresholds + 2) * cells
+    on_device = 4 * (hist * copies_for(device, hist * 4) + levels * width + exposed) + 8 * width + flat
+    host = flat + 8 * (levels + thresholds + 2) * cells * (2 if setup.path else 1)
     if with_file:
         host += (2 if device.is_cuda else 1) * flat + flat
     if device.is_cuda:
@@ -166,7 +204,7 @@ def tally_bytes(setup: TallySetup, device, with_file: bool, pellets: int) -> tup
         touched = (ROW_DISTANCE + levels) + (levels + 1 if setup.has_map else 0)  # words a landing adds to
         file = 2 * gzip_bytes(words, pellets * touched) + gzip_bytes(hist, pellets * (ROW_DISTANCE + levels))
         if setup.has_map:
-            file += (thresholds + 2) * gzip_bytes(cells, pellets)
+            file += (thresholds + 2) * gzip_bytes(cells, pellets) * (2 if setup.path else 1)
     return host, on_device, file
 
 
@@ -204,7 +242,7 @@ def _buffer(device, role: str, size: int, dtype):
 
 FOLD_LIMIT = (1 << 31) - 1  # pellets whose histogram counts may wait unfolded (int32 bins)
 SPARSE_CAPACITY = 1 << 16  # nonzero totals a run's end fetches as (index, value) pairs (`DeviceTally.request`)
-COUNTS = ("hist", "map_counts", "map_energy", "rest")  # the counts, in `TallyTotals.flat` order
+COUNTS = ("hist", "map_counts", "map_energy", "rest", "exposure", "places")  # the counts, in `TallyTotals.flat` order
 HISTOGRAMS = ("hist", "rest")  # the counts in copies, folded together
 
 
@@ -238,13 +276,16 @@ class DeviceTally:
         levels, width = setup.levels, setup.cells + 2
         mapped = active and setup.has_map
         sizes = {
-            "hist": (ROW_DISTANCE + levels) * BINS if active else 0,
+            "hist": setup.hist_rows * BINS if active else 0,
             "map_counts": levels * width if mapped else 0,
             "map_energy": width if mapped else 0,
             "rest": BINS if active and setup.rest else 0,
+            "exposure": levels * width if mapped and setup.path else 0,
+            "places": levels * len(setup.places) if active and setup.path else 0,
         }
         self.copies = copies_for(device, (sizes["hist"] + sizes["rest"]) * 4)
-        dtypes = {"hist": wp.int32, "map_counts": wp.int32, "map_energy": wp.int64, "rest": wp.int32}
+        dtypes = {name: wp.int32 for name in sizes}
+        dtypes["map_energy"] = wp.int64
         self.counts = {
             name: _buffer(device, "counts " + name, size * (self.copies if name in HISTOGRAMS else 1), dtypes[name])
             for name, size in sizes.items()
@@ -265,6 +306,12 @@ class DeviceTally:
         s = fns.Tally()
         s.hist, s.map_counts, s.map_energy = self.counts["hist"], self.counts["map_counts"], self.counts["map_energy"]
         s.rest_hist = self.counts["rest"]
+        s.exposure, s.place_counts = self.counts["exposure"], self.counts["places"]
+        s.reach_row, s.body_height = setup.reach_row, t.scalar(setup.body_height)
+        s.ground_point, s.ground_normal = t.vec3(*setup.ground_point), t.vec3(*setup.ground_normal)
+        s.place_position = wp.array([p[1] for p in setup.places], dtype=t.vec3, device=device)
+        s.place_radius2 = wp.array([p[2] ** 2 for p in setup.places], dtype=t.scalar, device=device)
+        self.places = (s.place_position, s.place_radius2)  # (kept alive with the struct)
         s.hist_stride, s.copy_mask, s.map_width = sizes["hist"], self.copies - 1, width
         unused = (math.inf,) * (MAX_THRESHOLDS - len(setup.thresholds2))
         s.thresholds2 = fns.Thresholds(*(float(np.dtype(precision).type(v)) for v in setup.thresholds2), *unused)
@@ -309,7 +356,7 @@ class DeviceTally:
         from .landing import fold_kernel
 
         self.unfolded += rows
-        names = ["map_counts", "map_energy"]
+        names = ["map_counts", "map_energy", "exposure", "places"]
         if last or self.every_chunk or self.unfolded + rows > FOLD_LIMIT:
             names += HISTOGRAMS
             self.unfolded = 0
@@ -390,10 +437,12 @@ class TallyTotals:
         levels, width = setup.levels, setup.cells + 2
         self.setup = setup
         self.shapes = {
-            "hist": (ROW_DISTANCE + levels, BINS),
+            "hist": (setup.hist_rows, BINS),
             "map_counts": (levels, width) if setup.has_map else (0, 0),
             "map_energy": (width,) if setup.has_map else (0,),
             "rest": (BINS,) if setup.rest else (0,),
+            "exposure": (levels, width) if setup.has_map and setup.path else (0, 0),
+            "places": (levels, len(setup.places)) if setup.path else (0, 0),
         }
         self._dense: dict | None = None
         self._pairs = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))  # (flat index, value), nonzero only
@@ -413,6 +462,16 @@ class TallyTotals:
     @property
     def rest(self) -> np.ndarray:
         return self._arrays()["rest"]
+
+    @property
+    def exposure(self) -> np.ndarray:
+        """Passes within body height by level at entry (level, cell; then off the grid, unused)."""
+        return self._arrays()["exposure"]
+
+    @property
+    def points(self) -> np.ndarray:
+        """Pellets by their highest level at each named place (level, place)."""
+        return self._arrays()["places"]
 
     def _arrays(self) -> dict:
         if self._dense is None:

@@ -53,6 +53,13 @@ def count_one(hist: wp.array(dtype=wp.int32), index: wp.int32):
     ...
 
 
+@wp.func
+def copy_of(row: wp.int32, copy_mask: wp.int32):
+    """The histogram copy of a landing in chunk row `row`: its warp's (32 rows), offset by
+    COPY_MIX a segment of 2^16 rows, so that the segments in flight at once use different copies."""
+    return ((row >> 5) + (row >> 16) * COPY_MIX) & copy_mask
+
+
 @functools.cache
 def make_landing_tally(precision: str) -> SimpleNamespace:
     """The `Tally` struct of one precision and the functions that add a landing to it."""
@@ -86,6 +93,14 @@ def make_landing_tally(precision: str) -> SimpleNamespace:
         map_nv_cells: scalar
         energy_scale: scalar  # quanta / (m/s)^2: m / 2 / the map's energy quantum
         rest_hist: wp.array(dtype=wp.int32)  # copies x BINS, flat: the rest distances (physics.until = "rest")
+        reach_row: wp.int32  # hist's row of the reach of threshold 0 (`tallies.path`); those of the others follow
+        body_height: scalar  # m
+        ground_point: vec3  # m, a point of the hazard's ground plane
+        ground_normal: vec3  # its normal / (normal . up): x . it is a height along up
+        exposure: wp.array(dtype=wp.int32)  # levels x (cells + 2), flat: passes by level at entry
+        place_position: wp.array(dtype=vec3)  # m, the named places
+        place_radius2: wp.array(dtype=scalar)  # m^2, their radius squared
+        place_counts: wp.array(dtype=wp.int32)  # levels x places, flat: pellets by their highest level there
 
     @wp.func
     def horizontal_distance(tally: Tally, position: vec3):
@@ -154,12 +169,6 @@ def make_add_landing(precision: str, with_map: bool, thresholds: int = 0, slots:
             if v2 >= tally.thresholds2[i]:
                 mask = mask | (wp.int32(1) << i)
         return mask
-
-    @wp.func
-    def copy_of(row: wp.int32, copy_mask: wp.int32):
-        """The histogram copy of a landing in chunk row `row`: its warp's (32 rows), offset by
-        COPY_MIX a segment of 2^16 rows, so that the segments in flight at once use different copies."""
-        return ((row >> 5) + (row >> 16) * COPY_MIX) & copy_mask
 
     @wp.func
     def add_landing(

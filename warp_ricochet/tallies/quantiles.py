@@ -74,13 +74,14 @@ def tail(counts, distances) -> tuple[np.ndarray, np.ndarray]:
     return e[j], beyond[j]
 
 
-def landing_quantiles(hist, half_mass: float, levels=LEVELS) -> dict:
-    """{quantity: (value, lower)} of QUANTITIES from the histogram rows (distance: all levels)."""
+def landing_quantiles(hist, half_mass: float, levels=LEVELS, hazard_levels: int | None = None) -> dict:
+    """{quantity: (value, lower)} of QUANTITIES from the histogram rows (distance: its
+    `hazard_levels` rows, all after ROW_DISTANCE when None)."""
     hist = np.asarray(hist)
     speed = quantiles(hist[ROW_SPEED], levels)
     return {
         "range": quantiles(hist[ROW_RANGE], levels),
-        "distance": quantiles(hist[ROW_DISTANCE:].sum(axis=0), levels),
+        "distance": quantiles(distance_rows(hist, hazard_levels).sum(axis=0), levels),
         "speed": speed,
         "energy": (half_mass * speed[0] ** 2, half_mass * speed[1] ** 2),
     }
@@ -126,10 +127,17 @@ def danger_distance(counts, p: float) -> tuple[float, float, float, int]:
     return float(e[value_bin + 1]), float(low), float(high), needed
 
 
+def distance_rows(hist, hazard_levels: int | None = None) -> np.ndarray:
+    """The landing distance rows by hazard level (`hazard_levels` of them; None: all after
+    ROW_DISTANCE), without the reach rows that follow them (`tallies.path`)."""
+    end = None if hazard_levels is None else ROW_DISTANCE + hazard_levels
+    return np.asarray(hist)[ROW_DISTANCE:end]
+
+
 def hazard_distance_counts(hist, order) -> np.ndarray:
     """(thresholds, bins): the distance counts of the landings above each threshold (scene order),
     from the rows by level (a landing at level L exceeds the L lowest thresholds, `order`)."""
-    by_level = np.asarray(hist)[ROW_DISTANCE:]
+    by_level = distance_rows(hist, len(order) + 1)
     out = np.zeros((len(order), by_level.shape[1]), dtype=np.int64)
     above, span = levels_at_or_above(by_level)
     for position, index in enumerate(order):
@@ -152,48 +160,81 @@ def summarize(tally, landed: int, with_map: bool = True) -> dict:
     distances (rows: thresholds in scene order, columns: fractions) and, `with_map`, the map's
     layers (cells x thresholds: the costly part for a large map)."""
     setup, hist = tally.setup, tally.hist
-    used, beyond = tail(hist[ROW_DISTANCE:].sum(axis=0), setup.tail_distances)
+    used, beyond = tail(distance_rows(hist, setup.levels).sum(axis=0), setup.tail_distances)
     out = {
         "levels": np.asarray(LEVELS),
         "landed": landed,
-        "quantiles": landing_quantiles(hist, setup.half_mass),
+        "quantiles": landing_quantiles(hist, setup.half_mass, hazard_levels=setup.levels),
         "tail": {"distance": used, "count": beyond, "fraction": beyond / landed if landed else np.full(len(used), np.nan)},
     }
     if setup.rest:
         out["quantiles"]["rest_distance"] = quantiles(tally.rest)
         out["stopped"] = int(tally.rest.sum())
     if setup.names:
-        by_threshold = hazard_distance_counts(hist, setup.order)
-        shape = (len(setup.names), len(setup.fractions))
-        danger = {
-            name: np.zeros(shape, dtype=np.int64 if name == "needed_landings" else np.float64)
-            for name in ("distance", "ci_low", "ci_high", "needed_landings")
-        }
-        for i in range(shape[0]):
-            for j, p in enumerate(setup.fractions):
-                for name, x in zip(danger, danger_distance(by_threshold[i], p)):
-                    danger[name][i, j] = x
-        out["hazard"] = {
-            "names": setup.names,
-            "kinds": setup.kinds,
-            "values": setup.values,
-            "fractions": np.asarray(setup.fractions),
-            "landings": by_threshold.sum(axis=1),
-            **danger,
-        }
+        landing = _danger(setup, hazard_distance_counts(hist, setup.order))
+        out["hazard"] = landing
+        if setup.path:  # the danger distances from the reach along the path (`tallies.path`)
+            out["landing_hazard"] = landing
+            out["hazard"] = _danger(setup, np.asarray(hist)[setup.reach_row : setup.reach_row + len(setup.names)])
+            out["points"] = {"counts": tally.points}
     if setup.has_map and with_map:
         shape, cells, counts = (setup.map_nv, setup.map_nu), setup.cells, tally.map_counts
-        above, span = levels_at_or_above(counts[:, :cells])  # landings at level >= L per cell
-        layers = np.zeros((len(setup.names), cells), dtype=np.int64)
-        for position, index in enumerate(setup.order):
-            layers[index, span] = above[position + 1]
-        layers = layers.reshape((len(setup.names),) + shape)
         out["map"] = {
             "count": counts[:, :cells].sum(axis=0).reshape(shape),
             "outside": int(counts[:, cells].sum()),
             "elsewhere": int(counts[:, cells + 1].sum()),
             "energy": (tally.map_energy[:cells] * setup.quantum).reshape(shape),
             "quantum": setup.quantum,
-            "above": layers,
+            "above": threshold_layers(setup, counts),  # landings above each threshold per cell
         }
+        if setup.path:
+            out["map"].update(_exposure(setup, tally.exposure))
     return out
+
+
+def threshold_layers(setup, by_level) -> np.ndarray:
+    """(thresholds in scene order, nv, nu): per cell the counts above each threshold, from the
+    counts by level (level, column; the first `cells` columns are the grid's)."""
+    above, span = levels_at_or_above(by_level[:, : setup.cells])  # counts at level >= L per cell
+    layers = np.zeros((len(setup.names), setup.cells), dtype=np.int64)
+    for position, index in enumerate(setup.order):
+        layers[index, span] = above[position + 1]
+    return layers.reshape((len(setup.names), setup.map_nv, setup.map_nu))
+
+
+def _danger(setup, by_threshold) -> dict:
+    """The danger distances (thresholds x fractions) of distance counts by threshold (scene order)."""
+    shape = (len(setup.names), len(setup.fractions))
+    danger = {
+        name: np.zeros(shape, dtype=np.int64 if name == "needed_landings" else np.float64)
+        for name in ("distance", "ci_low", "ci_high", "needed_landings")
+    }
+    for i in range(shape[0]):
+        for j, p in enumerate(setup.fractions):
+            for name, x in zip(danger, danger_distance(by_threshold[i], p)):
+                danger[name][i, j] = x
+    return {
+        "names": setup.names,
+        "kinds": setup.kinds,
+        "values": setup.values,
+        "fractions": np.asarray(setup.fractions),
+        "landings": by_threshold.sum(axis=1),
+        **danger,
+    }
+
+
+def _exposure(setup, by_level) -> dict:
+    """The passes map (all within body height) and per threshold (scene order) the passes above it,
+    from the passes by level at entry (`tallies.path`), and the passes off the grid."""
+    shape, cells = (setup.map_nv, setup.map_nu), setup.cells
+    off = by_level[:, cells]
+    off_above = np.cumsum(off[::-1])[::-1]
+    outside = np.zeros(len(setup.names) + 1, dtype=np.int64)
+    outside[0] = off.sum()
+    for position, index in enumerate(setup.order):
+        outside[index + 1] = off_above[position + 1]
+    return {
+        "passes": by_level[:, :cells].sum(axis=0).reshape(shape),
+        "exposure": threshold_layers(setup, by_level),
+        "exposure_outside": outside,
+    }

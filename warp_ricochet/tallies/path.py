@@ -1,0 +1,421 @@
+"""The hazard along a pellet's path (docs/hazard.md, "Hazard along the path"), watched inside the
+core kernel as the pellet moves: per threshold its reach (the farthest horizontal distance from the
+shooter at which it is within body height with a speed at or above the threshold), its passes
+through the map's cell columns within body height (counted by their hazard level at entry, integer
+atomics) and its passages by the named places (its highest level there, counted once at its end).
+
+Within body height: the pellet's centre at most `body_height` above the hazard's ground plane
+(the map's surface, else surface 0), measured along `up`. A path is given to `segment` piece by
+piece as quintic Hermite segments in theta in [0, 1] (values x, first and second derivatives
+h v and h^2 a at both ends, h the segment's duration): an integration step's own interpolant in air
+and along surfaces (`physics.integrate`), and the exact path itself where that is a polynomial of
+degree <= 5 (a vacuum flight's parabola, eq. 36; a surface phase of constant acceleration), whose
+crossings are then found to rounding. Each segment is cut at its height's apex (in vacuum the speed's
+minimum too), and each piece in SUB parts; on a part the height and the speed are taken as
+monotone: its crossings of body height and of each threshold's speed are found by bisection on the
+interpolant. `line` takes a straight stretch whose speed falls by a known law (rolling with
+ploughing in vacuum, `physics.surface_follow.plough_roll`), with its crossings in closed form.
+
+A part within body height is walked as the chord of its ends across the map's cells (Amanatides &
+Woo, Eurographics 1987: a cell entered is counted once, with the level at its entry; the region off
+the grid is one more cell) and its chord's nearest approach to each named place's vertical is
+tested against the place's radius.
+"""
+
+import functools
+from types import SimpleNamespace
+
+import warp as wp
+
+from ..physics.integrate import make_dense_output
+from ..physics.types import types_for
+from .bins import BINS, make_bin_of
+from .landing import copy_of, count_one, make_landing_tally
+
+SUB = 4  # parts a segment's piece is cut in (the height and speed taken as monotone on each)
+NONE = -1  # the cell of a pellet above body height (no pass under way)
+NO_REACH = -1.0  # a reach not yet found (reported as NaN)
+
+
+@functools.cache
+def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool) -> SimpleNamespace:
+    """`Track` (a pellet's watch: reach per threshold in m, its level + 1 at each named place, the
+    cell of the pass under way) and the functions that update it: `start`, `segment`, `line`,
+    `finish`. With no thresholds the functions do nothing (compiled away)."""
+    t = types_for(precision)
+    scalar, vec3 = t.scalar, t.vec3
+    Tally = make_landing_tally(precision).Tally
+    hermite_vec = make_dense_output(precision).hermite_vec
+    bin_of = make_bin_of()
+    K, P, MAP, ON = max(thresholds, 1), max(points, 1), with_map, thresholds > 0
+    HAS_POINTS = points > 0
+    Reach = wp.types.vector(length=K, dtype=scalar)
+    Levels = wp.types.vector(length=P, dtype=wp.int32)
+    ITERATIONS = 30 if precision == "float32" else 60
+    ZERO, ONE = scalar(0.0), scalar(1.0)
+
+    @wp.struct
+    class Track:
+        reach: Reach  # m, per threshold in scene order (NO_REACH: none yet)
+        places: Levels  # per named place: 1 + its highest level there (0: never there)
+        cell: wp.int32  # the map column of the pass under way (NONE: above body height)
+
+    @wp.func
+    def start():
+        track = Track()
+        for i in range(wp.static(K)):
+            track.reach[i] = scalar(NO_REACH)
+        track.cell = wp.int32(NONE)
+        return track
+
+    @wp.func
+    def height(tally: Tally, x: vec3):
+        """m: how far the centre at x is above body height (<= 0: within it)."""
+        return wp.dot(x - tally.ground_point, tally.ground_normal) - tally.body_height
+
+    @wp.func
+    def level_at(lo: Reach, hi: Reach, lam: scalar):
+        """The thresholds exceeded at chord parameter lam (threshold i on [lo_i, hi_i])."""
+        level = wp.int32(0)
+        for i in range(wp.static(K)):
+            if lo[i] <= lam and lam <= hi[i]:
+                level += 1
+        return level
+
+    @wp.func
+    def column_of(tally: Tally, iu: wp.int32, iv: wp.int32):
+        """The map column of cell (iu, iv): the cell, or the off-grid column."""
+        column = tally.map_cells
+        if iu >= 0 and iv >= 0 and iu < tally.map_nu and iv < wp.int32(tally.map_nv_cells):
+            column = iv * tally.map_nu + iu
+        return column
+
+    @wp.func
+    def enter(track: Track, tally: Tally, column: wp.int32, level: wp.int32):
+        """Count a pass into `column` (if it is not the one under way)."""
+        if column != track.cell:
+            wp.atomic_add(tally.exposure, level * tally.map_width + column, wp.int32(1))
+            track.cell = column
+        return track
+
+    @wp.func
+    def cell_index(f: scalar, n: scalar):
+        """The cell along one axis of grid coordinate f (clamped off the grid to -1 or n)."""
+        return wp.int32(wp.clamp(wp.floor(f), scalar(-1.0), n))
+
+    @wp.func
+    def walk(track: Track, tally: Tally, xa: vec3, xb: vec3, lo: Reach, hi: Reach):
+        """Count the passes of the chord xa -> xb across the cells (in order along it)."""
+        fu0 = wp.dot(xa, tally.map_u_cell) - tally.map_u_start
+        fv0 = wp.dot(xa, tally.map_v_cell) - tally.map_v_start
+        du = wp.dot(xb, tally.map_u_cell) - tally.map_u_start - fu0
+        dv = wp.dot(xb, tally.map_v_cell) - tally.map_v_start - fv0
+        iu = cell_index(fu0, tally.map_nu_cells)
+        iv = cell_index(fv0, tally.map_nv_cells)
+        track = enter(track, tally, column_of(tally, iu, iv), level_at(lo, hi, ZERO))
+        step_u = wp.int32(1)
+        if du < ZERO:
+            step_u = wp.int32(-1)
+        step_v = wp.int32(1)
+        if dv < ZERO:
+            step_v = wp.int32(-1)
+        big = scalar(1e30)
+        next_u = big  # chord parameter of the next u (v) cell boundary
+        next_v = big
+        if du != ZERO:
+            next_u = (scalar(iu + wp.max(step_u, 0)) - fu0) / du
+        if dv != ZERO:
+            next_v = (scalar(iv + wp.max(step_v, 0)) - fv0) / dv
+        gone = wp.int32(0)  # the cells left on the way: at most |du| + |dv| + 2 inside the grid's span
+        budget = wp.int32(wp.abs(du) + wp.abs(dv)) + 4
+        while gone < budget and wp.min(next_u, next_v) <= ONE:
+            gone += 1
+            lam = ZERO
+            if next_u <= next_v:
+                lam = next_u
+                iu += step_u
+                next_u = next_u + ONE / wp.abs(du)
+            else:
+                lam = next_v
+                iv += step_v
+                next_v = next_v + ONE / wp.abs(dv)
+            if (iu < -1 or iu > tally.map_nu) or (iv < -1 or iv > wp.int32(tally.map_nv_cells)):
+                break  # off the grid for good: it counts as one off-grid cell
+            track = enter(track, tally, column_of(tally, iu, iv), level_at(lo, hi, lam))
+        return track
+
+    @wp.func
+    def near_places(track: Track, tally: Tally, xa: vec3, xb: vec3, lo: Reach, hi: Reach):
+        """The named places the chord xa -> xb comes within their radius of (horizontally): its
+        highest level on the stretch inside each place's circle."""
+        for p in range(wp.static(P)):
+            a = xa - tally.place_position[p]
+            d = xb - xa
+            a = a - wp.dot(a, tally.up) * tally.up
+            d = d - wp.dot(d, tally.up) * tally.up
+            dd = wp.dot(d, d)
+            ad = wp.dot(a, d)
+            c = wp.dot(a, a) - tally.place_radius2[p]
+            lam_in = ZERO
+            lam_out = ZERO
+            inside = wp.int32(0)
+            if dd > ZERO:
+                disc = ad * ad - dd * c
+                if disc >= ZERO:
+                    root = wp.sqrt(disc)
+                    lam_in = wp.max((-ad - root) / dd, ZERO)
+                    lam_out = wp.min((-ad + root) / dd, ONE)
+                    if lam_in <= lam_out:
+                        inside = 1
+            elif c <= ZERO:
+                inside = 1
+                lam_out = ONE
+            if inside != 0:
+                level = wp.max(level_at(lo, hi, lam_in), level_at(lo, hi, lam_out))
+                track.places[p] = wp.max(track.places[p], level + 1)
+        return track
+
+    @wp.func
+    def chord(track: Track, tally: Tally, xa: vec3, xb: vec3, lo: Reach, hi: Reach):
+        """A stretch within body height from xa to xb, threshold i exceeded on [lo_i, hi_i] of it."""
+        if wp.static(MAP):
+            track = walk(track, tally, xa, xb, lo, hi)
+        if wp.static(HAS_POINTS):
+            track = near_places(track, tally, xa, xb, lo, hi)
+        return track
+
+    @wp.func
+    def farther(track: Track, tally: Tally, i: wp.int32, x: vec3):
+        """reach_i at least the horizontal distance of x from the shooter."""
+        delta = x - tally.shooter
+        distance = wp.length(delta - wp.dot(delta, tally.up) * tally.up)
+        track.reach[i] = wp.max(track.reach[i], distance)
+        return track
+
+    @wp.func
+    def speed2_at(theta: scalar, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3, inv_h2: scalar):
+        _x, slope = hermite_vec(theta, x0, d0, e0, x1, d1, e1)
+        return wp.dot(slope, slope) * inv_h2
+
+    @wp.func
+    def height_at(tally: Tally, theta: scalar, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3):
+        x, slope = hermite_vec(theta, x0, d0, e0, x1, d1, e1)
+        return height(tally, x), wp.dot(slope, tally.ground_normal)
+
+    @wp.func
+    def height_root(
+        tally: Tally, a: scalar, b: scalar, rising: wp.int32, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3
+    ):
+        """Where the height (rising: from <= 0 to > 0; else from > 0 to <= 0) crosses body height on [a, b]."""
+        for _ in range(ITERATIONS):
+            m = scalar(0.5) * (a + b)
+            f, _slope = height_at(tally, m, x0, d0, e0, x1, d1, e1)
+            if (f > ZERO) == (rising != 0):
+                b = m
+            else:
+                a = m
+        return scalar(0.5) * (a + b)
+
+    @wp.func
+    def apex(tally: Tally, a: scalar, b: scalar, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3):
+        """Where the height's rate falls from > 0 to <= 0 on [a, b]."""
+        for _ in range(ITERATIONS):
+            m = scalar(0.5) * (a + b)
+            _f, rate = height_at(tally, m, x0, d0, e0, x1, d1, e1)
+            if rate > ZERO:
+                a = m
+            else:
+                b = m
+        return scalar(0.5) * (a + b)
+
+    @wp.func
+    def speed_root(
+        a: scalar, b: scalar, target: scalar, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3, inv_h2: scalar
+    ):
+        """Where v^2 crosses `target` on [a, b] (taken monotone; above at a or at b)."""
+        above_a = speed2_at(a, x0, d0, e0, x1, d1, e1, inv_h2) >= target
+        for _ in range(ITERATIONS):
+            m = scalar(0.5) * (a + b)
+            if (speed2_at(m, x0, d0, e0, x1, d1, e1, inv_h2) >= target) == above_a:
+                a = m
+            else:
+                b = m
+        if above_a:
+            return a
+        return b
+
+    @wp.func
+    def part(
+        track: Track,
+        tally: Tally,
+        a: scalar,
+        b: scalar,
+        x0: vec3,
+        d0: vec3,
+        e0: vec3,
+        x1: vec3,
+        d1: vec3,
+        e1: vec3,
+        inv_h2: scalar,
+    ):
+        """One part [a, b] of a segment (height and speed monotone on it)."""
+        fa, _ra = height_at(tally, a, x0, d0, e0, x1, d1, e1)
+        fb, _rb = height_at(tally, b, x0, d0, e0, x1, d1, e1)
+        if fa > ZERO and fb > ZERO:
+            track.cell = wp.int32(NONE)
+            return track
+        lo_t = a
+        hi_t = b
+        if fa > ZERO:
+            track.cell = wp.int32(NONE)  # a pass begins here
+            lo_t = height_root(tally, a, b, wp.int32(0), x0, d0, e0, x1, d1, e1)
+        if fb > ZERO:
+            hi_t = height_root(tally, a, b, wp.int32(1), x0, d0, e0, x1, d1, e1)
+        xa, _sa = hermite_vec(lo_t, x0, d0, e0, x1, d1, e1)
+        xb, _sb = hermite_vec(hi_t, x0, d0, e0, x1, d1, e1)
+        va = speed2_at(lo_t, x0, d0, e0, x1, d1, e1, inv_h2)
+        vb = speed2_at(hi_t, x0, d0, e0, x1, d1, e1, inv_h2)
+        span = hi_t - lo_t
+        lo = Reach()
+        hi = Reach()
+        for i in range(wp.static(K)):
+            target = tally.thresholds2[i]
+            lo[i] = ONE
+            hi[i] = ZERO  # empty
+            if va >= target and vb >= target:
+                lo[i] = ZERO
+                hi[i] = ONE
+                track = farther(track, tally, i, xa)
+                track = farther(track, tally, i, xb)
+            elif va >= target or vb >= target:
+                theta = speed_root(lo_t, hi_t, target, x0, d0, e0, x1, d1, e1, inv_h2)
+                xc, _sc = hermite_vec(theta, x0, d0, e0, x1, d1, e1)
+                lam = ZERO
+                if span > ZERO:
+                    lam = (theta - lo_t) / span
+                if va >= target:
+                    lo[i] = ZERO
+                    hi[i] = lam
+                    track = farther(track, tally, i, xa)
+                else:
+                    lo[i] = lam
+                    hi[i] = ONE
+                    track = farther(track, tally, i, xb)
+                track = farther(track, tally, i, xc)
+        track = chord(track, tally, xa, xb, lo, hi)
+        if fb > ZERO:
+            track.cell = wp.int32(NONE)  # the pass ends here
+        return track
+
+    @wp.func
+    def piece(
+        track: Track,
+        tally: Tally,
+        a: scalar,
+        b: scalar,
+        x0: vec3,
+        d0: vec3,
+        e0: vec3,
+        x1: vec3,
+        d1: vec3,
+        e1: vec3,
+        inv_h2: scalar,
+    ):
+        """[a, b] of a segment (no apex inside) in SUB parts."""
+        width = (b - a) / scalar(SUB)
+        for j in range(SUB):
+            end = a + scalar(j + 1) * width
+            if j == SUB - 1:
+                end = b
+            track = part(track, tally, a + scalar(j) * width, end, x0, d0, e0, x1, d1, e1, inv_h2)
+        return track
+
+    @wp.func
+    def segment(
+        track: Track, tally: Tally, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3, h: scalar, theta_end: scalar
+    ):
+        """Watch the segment's [0, theta_end] (x, h v, h^2 a at theta 0 and 1; h in s)."""
+        if wp.static(ON):
+            if h > ZERO and theta_end > ZERO:
+                inv_h2 = ONE / (h * h)
+                _f0, r0 = height_at(tally, ZERO, x0, d0, e0, x1, d1, e1)
+                _f1, r1 = height_at(tally, theta_end, x0, d0, e0, x1, d1, e1)
+                if r0 > ZERO and r1 <= ZERO:  # an apex inside: two pieces
+                    top = apex(tally, ZERO, theta_end, x0, d0, e0, x1, d1, e1)
+                    track = piece(track, tally, ZERO, top, x0, d0, e0, x1, d1, e1, inv_h2)
+                    track = piece(track, tally, top, theta_end, x0, d0, e0, x1, d1, e1, inv_h2)
+                else:
+                    track = piece(track, tally, ZERO, theta_end, x0, d0, e0, x1, d1, e1, inv_h2)
+        return track
+
+    @wp.func
+    def parabola(track: Track, tally: Tally, x0: vec3, v0: vec3, g: vec3, dt: scalar):
+        """Watch the exact flight x0 + v0 t + g t^2 / 2 over [0, dt] (eq. 36)."""
+        d0 = dt * v0
+        e0 = (dt * dt) * g
+        x1 = x0 + d0 + scalar(0.5) * e0
+        return segment(track, tally, x0, d0, e0, x1, d0 + e0, e0, dt, ONE)
+
+    @wp.func
+    def line(track: Track, tally: Tally, x0: vec3, direction: vec3, length: scalar, v0: scalar, a: scalar, b: scalar):
+        """Watch a straight stretch x0 + s direction, s in [0, length], along which the speed falls as
+        a + b v^2 = (a + b v0^2) exp(-2 b s) (b > 0): threshold v_i is crossed at
+        s_i = ln((a + b v0^2) / (a + b v_i^2)) / (2 b)."""
+        if wp.static(ON):
+            xb = x0 + length * direction
+            if height(tally, x0) > ZERO and height(tally, xb) > ZERO:
+                track.cell = wp.int32(NONE)
+                return track
+            lo = Reach()
+            hi = Reach()
+            for i in range(wp.static(K)):
+                target = tally.thresholds2[i]
+                lo[i] = ONE
+                hi[i] = ZERO
+                if v0 * v0 >= target and length > ZERO:
+                    s = wp.log((a + b * v0 * v0) / (a + b * target)) / (scalar(2.0) * b)
+                    lam = wp.min(s / length, ONE)
+                    lo[i] = ZERO
+                    hi[i] = lam
+                    track = farther(track, tally, i, x0)
+                    track = farther(track, tally, i, x0 + (lam * length) * direction)
+            track = chord(track, tally, x0, xb, lo, hi)
+        return track
+
+    @wp.func
+    def finish(track: Track, tally: Tally, row: wp.int32):
+        """Count the pellet's reaches (histogram rows reach_row + i of its warp's copy, chunk row
+        `row`) and its named places (`place_counts`, level x places)."""
+        if wp.static(ON):
+            first = copy_of(row, tally.copy_mask) * tally.hist_stride
+            for i in range(wp.static(K)):
+                if track.reach[i] >= ZERO:
+                    count_one(tally.hist, first + (tally.reach_row + i) * BINS + bin_of(wp.float32(track.reach[i])))
+            if wp.static(HAS_POINTS):
+                for p in range(wp.static(P)):
+                    if track.places[p] > 0:
+                        wp.atomic_add(tally.place_counts, (track.places[p] - 1) * wp.static(P) + p, wp.int32(1))
+
+    @wp.func
+    def write(track: Track, reach_out: wp.array2d(dtype=scalar), row: wp.int32):
+        """The pellet's reaches into its row of `reach_out` (NaN: none), if that is written."""
+        if wp.static(ON):
+            if reach_out.shape[0] > 0:
+                for i in range(wp.static(K)):
+                    value = track.reach[i]
+                    if value < ZERO:
+                        value = scalar(wp.nan)
+                    reach_out[row, i] = value
+
+    return SimpleNamespace(
+        write=write,
+        Track=Track,
+        Tally=Tally,
+        Reach=Reach,
+        start=start,
+        segment=segment,
+        parabola=parabola,
+        line=line,
+        finish=finish,
+        ON=ON,
+    )
