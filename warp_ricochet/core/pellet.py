@@ -40,31 +40,22 @@ def make_ricochet_pellet(spec):
     """`ricochet_pellet` for `spec`: with `spec.collisions` a pellet continues from the release."""
     t = types_for(spec.precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
-    src, outs, acc_fns = (
-        make_source(spec.precision, spec.from_file),
-        make_outputs(spec.precision),
-        make_accumulators(spec.precision, spec.to_rest),
-    )
+    src, outs = make_source(spec.precision, spec.from_file), make_outputs(spec.precision)
+    acc_fns = make_accumulators(spec.precision, spec.to_rest)
     Source, Outputs, Release = src.Source, outs.Outputs, make_release(spec.precision)
     floats_t, extremes_t = acc_fns.floats_t, acc_fns.extremes_t
-    F_RANGE_STICK, F_RANGE_SLIP = acc_fns.offsets.RANGE_STICK, acc_fns.offsets.RANGE_SLIP
-    F_ENTERED = acc_fns.offsets.ENTERED
+    F_RANGE_STICK, F_RANGE_SLIP, F_ENTERED = acc_fns.offsets.RANGE_STICK, acc_fns.offsets.RANGE_SLIP, acc_fns.offsets.ENTERED
     X_SCALE, flight_scale = acc_fns.flight_scale_index, acc_fns.flight_scale  # the precision rule's statistic
     flight = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws, watch=spec.watch)
     watcher = make_path_watch(spec.precision, *spec.watch)
-    AIR = spec.flight == "air"
     rests, stays, impact, _meet, contact_point, landing_range = make_contact(spec.precision)
     geo, ground = make_geometry(spec.precision), make_ground(spec.precision)
-    GROUND, TO_REST = spec.ground, spec.to_rest
-    follow = make_to_rest(spec) if TO_REST else None
-    start_mode = follow.start_mode if TO_REST else None
-    RELEASE, WRITE, BOUNCES = spec.collisions, bool(spec.core_fields), spec.bounces
-    Tally, landing_tally = (
-        make_landing_tally(spec.precision).Tally,
-        make_add_landing(spec.precision, spec.hazard_map, spec.thresholds),
-    )
+    follow = make_to_rest(spec) if spec.to_rest else None
+    RELEASE, WRITE, BOUNCES, AIR = spec.collisions, bool(spec.core_fields), spec.bounces, spec.flight == "air"
+    Tally = make_landing_tally(spec.precision).Tally
+    landing_tally = make_add_landing(spec.precision, spec.hazard_map, spec.thresholds)
     TALLY, HAZARD_OUT = spec.tally, any(f.startswith("hazard.") for f in spec.core_fields)
-    TO_REST, horizontal_distance = spec.to_rest, make_landing_tally(spec.precision).horizontal_distance
+    GROUND, TO_REST, horizontal_distance = spec.ground, spec.to_rest, make_landing_tally(spec.precision).horizontal_distance
 
     @wp.func
     def ricochet_pellet(
@@ -82,8 +73,7 @@ def make_ricochet_pellet(spec):
         hi: extremes_t,
         range_shift: scalar,
     ):
-        """Follow one pellet (global `index`, chunk row `row`) from its start to its landing;
-        returns the thread's partials with it added."""
+        """Follow one pellet (global `index`, chunk row `row`) from its start; returns the thread's partials with it added."""
         position = vec3()
         velocity = vec3()
         spin = vec3()
@@ -254,21 +244,13 @@ def make_ricochet_pellet(spec):
                     lo[1] = wp.min(lo[1], distance)
                     hi[1] = wp.max(hi[1], distance)
         if wp.static(TO_REST):  # on from the landing until it stops (core.rest)
+            mode, k_rest = (
+                follow.start_mode(state, gave_up, landing_surface, resting_surface),
+                wp.max(landing_surface, resting_surface),
+            )
             rest_state, rest_position, rest_velocity, spin, rest_time, rest_impacts, rest_path, rest_steps, track = (
                 follow.to_rest(
-                    start_mode(state, gave_up, landing_surface, resting_surface),
-                    wp.max(landing_surface, resting_surface),
-                    position,
-                    velocity,
-                    spin,
-                    time,
-                    impacts,
-                    source.seed,
-                    index,
-                    surfaces,
-                    physics,
-                    track,
-                    tally,
+                    mode, k_rest, position, velocity, spin, time, impacts, source.seed, index, surfaces, physics, track, tally
                 )
             )
         watcher.finish(track, tally, row)

@@ -609,8 +609,8 @@ def make_surface_follow(
                 mode = forced
             forced = wp.int32(-1)
             if mode == REST:
-                x, v, w, e, p, c, st, kk = rest_state(position, spin, n, elapsed, path, steps, k)
-                return x, v, w, e, p, c, st, kk, track
+                rx, rv, rw, re, rp, rc, rs, rk = rest_state(position, spin, n, elapsed, path, steps, k)
+                return rx, rv, rw, re, rp, rc, rs, rk, track
             if mode == FLIGHT:
                 return position, velocity, spin, elapsed, path, wp.int32(FLIGHT), steps, k, track
             holds = sm.held(n, g, rolling_resistance)
@@ -621,13 +621,14 @@ def make_surface_follow(
             k_c = wp.int32(-1)
             if wp.static(not AIR):
                 if ploughing <= ZERO:
-                    x0, v0 = position, velocity
+                    start_x = position
+                    start_v = velocity
                     position, velocity, spin, dt, dp, outcome, k_c = constant_phase(
                         position, velocity, spin, k, n, mode, surfaces, physics, mu_d, rolling_resistance, rest_speed
                     )
                     if dt > ZERO:  # constant acceleration: the Hermite quintic is the path itself
-                        e = (velocity - v0) * dt
-                        track = watcher.segment(track, tally, x0, v0 * dt, e, position, velocity * dt, e, dt, ONE)
+                        bend = (velocity - start_v) * dt  # h^2 a
+                        track = watcher.segment(track, tally, start_x, start_v * dt, bend, position, velocity * dt, bend, dt, ONE)
                     elapsed += dt
                     path += dp
                 elif mode == ROLLING and sm.across(g, n, wp.length(g)) == 0:  # level: g along n
@@ -688,8 +689,8 @@ def make_surface_follow(
             if outcome == FOREVER:
                 return position, velocity, spin, elapsed, path, wp.int32(FOREVER), steps, k, track
             if outcome == 1:
-                x, v, w, e, p, c, st, kk = rest_state(position, spin, n, elapsed, path, steps, k)
-                return x, v, w, e, p, c, st, kk, track
+                rx, rv, rw, re, rp, rc, rs, rk = rest_state(position, spin, n, elapsed, path, steps, k)
+                return rx, rv, rw, re, rp, rc, rs, rk, track
             if outcome == 0:
                 if mode == SLIDING:  # the slip is zero now: remove its rounding (omega_t = n x v / R)
                     spin = wp.dot(spin, n) * n + wp.cross(n, velocity) * (ONE / radius)

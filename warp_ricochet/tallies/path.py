@@ -38,20 +38,17 @@ NO_REACH = -1.0  # a reach not yet found (reported as NaN)
 
 
 @functools.cache
-def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool) -> SimpleNamespace:
-    """`Track` (a pellet's watch: reach per threshold in m, its level + 1 at each named place, the
-    cell of the pass under way) and the functions that update it: `start`, `segment`, `line`,
-    `finish`. With no thresholds the functions do nothing (compiled away)."""
+def make_path_cells(precision: str, thresholds: int, points: int, with_map: bool) -> SimpleNamespace:
+    """`Track` and `chord(track, tally, xa, xb, lo, hi)`: a stretch within body height from xa to
+    xb, threshold i exceeded on [lo_i, hi_i] of it, walked across the map's cells and tested
+    against the named places (module docstring)."""
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
     Tally = make_landing_tally(precision).Tally
-    hermite_vec = make_dense_output(precision).hermite_vec
-    bin_of = make_bin_of()
-    K, P, MAP, ON = max(thresholds, 1), max(points, 1), with_map, thresholds > 0
+    K, P, MAP = max(thresholds, 1), max(points, 1), with_map
     HAS_POINTS = points > 0
     Reach = wp.types.vector(length=K, dtype=scalar)
     Levels = wp.types.vector(length=P, dtype=wp.int32)
-    ITERATIONS = 30 if precision == "float32" else 60
     ZERO, ONE = scalar(0.0), scalar(1.0)
 
     @wp.struct
@@ -59,19 +56,6 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
         reach: Reach  # m, per threshold in scene order (NO_REACH: none yet)
         places: Levels  # per named place: 1 + its highest level there (0: never there)
         cell: wp.int32  # the map column of the pass under way (NONE: above body height)
-
-    @wp.func
-    def start():
-        track = Track()
-        for i in range(wp.static(K)):
-            track.reach[i] = scalar(NO_REACH)
-        track.cell = wp.int32(NONE)
-        return track
-
-    @wp.func
-    def height(tally: Tally, x: vec3):
-        """m: how far the centre at x is above body height (<= 0: within it)."""
-        return wp.dot(x - tally.ground_point, tally.ground_normal) - tally.body_height
 
     @wp.func
     def level_at(lo: Reach, hi: Reach, lam: scalar):
@@ -184,13 +168,24 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
             track = near_places(track, tally, xa, xb, lo, hi)
         return track
 
+    return SimpleNamespace(Track=Track, Tally=Tally, Reach=Reach, chord=chord)
+
+
+@functools.cache
+def make_path_roots(precision: str) -> SimpleNamespace:
+    """On a segment's Hermite quintic: the height over body height and its rate, v^2, and where
+    they cross (bisection, to rounding)."""
+    t = types_for(precision)
+    scalar, vec3 = t.scalar, t.vec3
+    Tally = make_landing_tally(precision).Tally
+    hermite_vec = make_dense_output(precision).hermite_vec
+    ITERATIONS = 30 if precision == "float32" else 60
+    ZERO = scalar(0.0)
+
     @wp.func
-    def farther(track: Track, tally: Tally, i: wp.int32, x: vec3):
-        """reach_i at least the horizontal distance of x from the shooter."""
-        delta = x - tally.shooter
-        distance = wp.length(delta - wp.dot(delta, tally.up) * tally.up)
-        track.reach[i] = wp.max(track.reach[i], distance)
-        return track
+    def height(tally: Tally, x: vec3):
+        """m: how far the centre at x is above body height (<= 0: within it)."""
+        return wp.dot(x - tally.ground_point, tally.ground_normal) - tally.body_height
 
     @wp.func
     def speed2_at(theta: scalar, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3, inv_h2: scalar):
@@ -243,6 +238,51 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
         if above_a:
             return a
         return b
+
+    return SimpleNamespace(
+        height=height, height_at=height_at, speed2_at=speed2_at, height_root=height_root, apex=apex, speed_root=speed_root
+    )
+
+
+@functools.cache
+def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool) -> SimpleNamespace:
+    """`Track` (a pellet's watch: reach per threshold in m, its level + 1 at each named place, the
+    cell of the pass under way) and the functions that update it: `start`, `segment`, `line`,
+    `finish`. With no thresholds the functions do nothing (compiled away)."""
+    t = types_for(precision)
+    scalar, vec3 = t.scalar, t.vec3
+    cells = make_path_cells(precision, thresholds, points, with_map)
+    Track, Tally, Reach, chord = cells.Track, cells.Tally, cells.Reach, cells.chord
+    hermite_vec = make_dense_output(precision).hermite_vec
+    r = make_path_roots(precision)
+    height, height_at, speed2_at, height_root, apex, speed_root = (
+        r.height,
+        r.height_at,
+        r.speed2_at,
+        r.height_root,
+        r.apex,
+        r.speed_root,
+    )
+    bin_of = make_bin_of()
+    K, P, ON = max(thresholds, 1), max(points, 1), thresholds > 0
+    HAS_POINTS = points > 0
+    ZERO, ONE = scalar(0.0), scalar(1.0)
+
+    @wp.func
+    def start():
+        track = Track()
+        for i in range(wp.static(K)):
+            track.reach[i] = scalar(NO_REACH)
+        track.cell = wp.int32(NONE)
+        return track
+
+    @wp.func
+    def farther(track: Track, tally: Tally, i: wp.int32, x: vec3):
+        """reach_i at least the horizontal distance of x from the shooter."""
+        delta = x - tally.shooter
+        distance = wp.length(delta - wp.dot(delta, tally.up) * tally.up)
+        track.reach[i] = wp.max(track.reach[i], distance)
+        return track
 
     @wp.func
     def part(
@@ -322,12 +362,14 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
         inv_h2: scalar,
     ):
         """[a, b] of a segment (no apex inside) in SUB parts."""
-        width = (b - a) / scalar(SUB)
-        for j in range(SUB):
-            end = a + scalar(j + 1) * width
-            if j == SUB - 1:
-                end = b
-            track = part(track, tally, a + scalar(j) * width, end, x0, d0, e0, x1, d1, e1, inv_h2)
+        width = (b - a) / scalar(wp.static(float(SUB)))
+        lo = a
+        for j in range(wp.static(SUB)):
+            hi = lo + width
+            if j == wp.static(SUB - 1):
+                hi = b
+            track = part(track, tally, lo, hi, x0, d0, e0, x1, d1, e1, inv_h2)
+            lo = hi
         return track
 
     @wp.func

@@ -1,0 +1,260 @@
+"""The hazard watched along a path (`tallies.path`) against closed forms in float64: the reach per
+threshold of random vacuum parabolas (their body-height and threshold crossings are quadratics'
+roots), the passes through a map's cells by level at entry, the named places, and rolling with
+ploughing (its speed as a function of distance in closed form)."""
+
+import math
+
+import numpy as np
+import pytest
+import warp as wp
+
+from warp_ricochet.physics.types import types_for
+from warp_ricochet.tallies.counts import DeviceTally, TallySetup
+from warp_ricochet.tallies.path import make_path_watch
+
+G = 9.81
+H = 1.8  # m, body height
+SPEEDS = (30.0, 80.0, 150.0)  # m/s, the thresholds
+
+
+def _setup(cell=0.5, extent=(0.0, 100.0, -10.0, 10.0), places=()):
+    nu, nv = math.ceil((extent[1] - extent[0]) / cell), math.ceil((extent[3] - extent[2]) / cell)
+    return TallySetup(
+        names=tuple(f"t{i}" for i in range(len(SPEEDS))),
+        kinds=("speed",) * len(SPEEDS),
+        values=SPEEDS,
+        thresholds2=tuple(s * s for s in SPEEDS),
+        shooter=(0.0, 0.0, 0.0),
+        up=(0.0, 1.0, 0.0),
+        half_mass=1e-4,
+        area=1e-5,
+        fractions=(1e-3,),
+        map_surface=0,
+        map_origin=(0.0, 0.0, 0.0),
+        map_u=(1.0, 0.0, 0.0),
+        map_v=(0.0, 0.0, 1.0),
+        map_u0=extent[0],
+        map_v0=extent[2],
+        map_cell=cell,
+        map_nu=nu,
+        map_nv=nv,
+        body_height=H,
+        ground_point=(0.0, 0.0, 0.0),
+        ground_normal=(0.0, 1.0, 0.0),
+        places=places,
+    )
+
+
+def _watch_kernel(precision, places):
+    t = types_for(precision)
+    w = make_path_watch(precision, len(SPEEDS), places, True)
+
+    @wp.kernel
+    def watch_parabolas(
+        tally: w.Tally,
+        x0: wp.array(dtype=t.vec3),
+        v0: wp.array(dtype=t.vec3),
+        g: t.vec3,
+        dt: wp.array(dtype=t.scalar),
+        reach_out: wp.array2d(dtype=t.scalar),
+    ):
+        i = wp.tid()
+        track = w.start()
+        track = w.parabola(track, tally, x0[i], v0[i], g, dt[i])
+        w.write(track, reach_out, i)
+        w.finish(track, tally, i)
+
+    @wp.kernel
+    def watch_lines(
+        tally: w.Tally,
+        x0: wp.array(dtype=t.vec3),
+        direction: t.vec3,
+        length: wp.array(dtype=t.scalar),
+        v0: wp.array(dtype=t.scalar),
+        a: t.scalar,
+        b: t.scalar,
+        reach_out: wp.array2d(dtype=t.scalar),
+    ):
+        i = wp.tid()
+        track = w.start()
+        track = w.line(track, tally, x0[i], direction, length[i], v0[i], a, b)
+        w.write(track, reach_out, i)
+
+    return watch_parabolas, watch_lines
+
+
+def _reference_reach(x0, v0, dt, v2):
+    """Reach of a parabola over [0, dt] for |v|^2 >= v2 within body height (float64 closed form)."""
+    y0, vy = x0[1], v0[1]
+    roots = [0.0, dt]
+    # y(t) = y0 + vy t - g t^2 / 2 = H and |v|^2 = vx^2 + vz^2 + (vy - g t)^2 = v2
+    for a, b, c in ((-0.5 * G, vy, y0 - H), (G * G, -2.0 * vy * G, v0 @ v0 - v2)):
+        disc = b * b - 4 * a * c
+        if disc >= 0:
+            roots += [(-b - s * math.sqrt(disc)) / (2 * a) for s in (1, -1)]
+    ts = sorted(r for r in roots if 0.0 <= r <= dt)
+    best = -1.0
+    for lo, hi in zip(ts[:-1], ts[1:]):
+        m = 0.5 * (lo + hi)
+        y = y0 + vy * m - 0.5 * G * m * m
+        v = v0 + np.array([0.0, -G * m, 0.0])
+        if y <= H and v @ v >= v2:
+            for s in (lo, hi):
+                p = x0 + v0 * s
+                best = max(best, math.hypot(p[0], p[2]))
+    return math.nan if best < 0 else best
+
+
+def _random_parabolas(rng, n):
+    x0 = np.column_stack([rng.uniform(-5, 20, n), rng.uniform(0.01, 3.0, n), rng.uniform(-3, 3, n)])
+    speed = rng.uniform(20.0, 250.0, n)
+    angle = np.radians(rng.uniform(-10.0, 25.0, n))
+    side = np.radians(rng.uniform(-5.0, 5.0, n))
+    v0 = speed[:, None] * np.column_stack([np.cos(angle) * np.cos(side), np.sin(angle), np.cos(angle) * np.sin(side)])
+    # until it comes back to y = 0 (its landing) or for at most 2 s
+    t_land = (v0[:, 1] + np.sqrt(v0[:, 1] ** 2 + 2 * G * x0[:, 1])) / G
+    return x0, v0, np.minimum(t_land, 2.0)
+
+
+def _run(kernel, setup, precision, device, inputs, n):
+    t = types_for(precision)
+    tally = DeviceTally(setup, precision, wp.get_device(device), active=True)
+    tally.start(None)
+    reach = wp.zeros((n, len(SPEEDS)), dtype=t.scalar, device=device)
+    wp.launch(kernel, dim=n, inputs=[tally.struct, *inputs], outputs=[reach], device=device)
+    return tally, reach.numpy().astype(np.float64)
+
+
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_reach_of_parabolas_is_the_closed_form(device, precision):
+    """Random vacuum flights (crossing body height up and down, thresholds on the way): the reach
+    per threshold within 1e-9 (float64) / 2e-5 (float32) of the path's length of its closed form."""
+    rng = np.random.default_rng(26)
+    n = 256
+    x0, v0, dt = _random_parabolas(rng, n)
+    t = types_for(precision)
+    parabolas, _lines = _watch_kernel(precision, 0)
+    inputs = [
+        wp.array(x0, dtype=t.vec3, device=device),
+        wp.array(v0, dtype=t.vec3, device=device),
+        t.vec3(0.0, -G, 0.0),
+        wp.array(dt, dtype=t.scalar, device=device),
+    ]
+    _tally, reach = _run(parabolas, _setup(), precision, device, inputs, n)
+    length = np.linalg.norm(v0, axis=1) * dt  # about the path's length
+    tolerance = 1e-9 if precision == "float64" else 2e-5
+    found = 0
+    for i in range(n):
+        for k, s in enumerate(SPEEDS):
+            want = _reference_reach(x0[i], v0[i], dt[i], s * s)
+            if math.isnan(want):
+                assert math.isnan(reach[i, k]), (i, k, reach[i, k])
+            else:
+                found += 1
+                assert abs(reach[i, k] - want) <= tolerance * length[i] + 1e-9, (i, k, reach[i, k], want)
+    assert found > n  # most flights reach above some threshold within body height
+
+
+def _reference_passes(x0, v0, dt, setup):
+    """(level, column) passes of level flights below body height (straight along x and z)."""
+    counts = np.zeros((setup.levels, setup.cells + 2), dtype=np.int64)
+    order = np.asarray(setup.thresholds2)
+    for x, v, d in zip(x0, v0, dt):
+        # the cell boundaries crossed along u (x) and v (z), as times
+        times = [0.0]
+        for axis, start, size in ((0, setup.map_u0, setup.map_cell), (2, setup.map_v0, setup.map_cell)):
+            if v[axis] != 0:
+                a, b = sorted(((x[axis] - start) / size, (x[axis] + v[axis] * d - start) / size))
+                times += [(start + j * size - x[axis]) / v[axis] for j in range(math.floor(a) + 1, math.floor(b) + 1)]
+        last = None
+        for s in sorted(times):
+            p = x + v * s + np.array([0.0, -0.5 * G * s * s, 0.0])
+            # the cell entered at s: its position just after the crossing
+            q = x + v * (s + 1e-9)
+            iu, iv = math.floor((q[0] - setup.map_u0) / setup.map_cell), math.floor((q[2] - setup.map_v0) / setup.map_cell)
+            column = iv * setup.map_nu + iu if 0 <= iu < setup.map_nu and 0 <= iv < setup.map_nv else setup.cells
+            if column != last:
+                speed2 = v @ v - 2 * v[1] * G * s + (G * s) ** 2
+                counts[int(np.sum(speed2 >= order)), column] += 1
+                last = column
+            del p
+    return counts
+
+
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_passes_are_the_cells_entered_by_level(device, precision):
+    """Low flights (all within body height) across a grid of 0.5 m cells, some off it: every cell
+    entered counted once with the level at its entry, as the closed form's crossings say."""
+    rng = np.random.default_rng(7)
+    n = 64
+    x0 = np.column_stack([rng.uniform(-4.0, 50.0, n), np.full(n, 1.0), rng.uniform(-12.0, 12.0, n)])
+    x0 += 1e-3 * rng.uniform(size=(n, 3))  # off the cell edges
+    speed = rng.uniform(20.0, 200.0, n)
+    side = np.radians(rng.uniform(-20.0, 20.0, n))
+    v0 = speed[:, None] * np.column_stack([np.cos(side), np.zeros(n), np.sin(side)])
+    dt = np.minimum(0.25, 30.0 / speed)  # it falls at most 0.31 m: within body height
+    t = types_for(precision)
+    setup = _setup()
+    parabolas, _lines = _watch_kernel(precision, 0)
+    inputs = [
+        wp.array(x0, dtype=t.vec3, device=device),
+        wp.array(v0, dtype=t.vec3, device=device),
+        t.vec3(0.0, -G, 0.0),
+        wp.array(dt, dtype=t.scalar, device=device),
+    ]
+    tally, _reach = _run(parabolas, setup, precision, device, inputs, n)
+    got = tally.counts["exposure"].numpy().reshape(setup.levels, setup.cells + 2).astype(np.int64)
+    want = _reference_passes(x0, v0, dt, setup)
+    assert got.sum() == want.sum()
+    np.testing.assert_array_equal(got, want)
+
+
+def test_places_count_the_pellets_that_pass_within_their_radius(device):
+    """Two places beside a straight low flight: the one within its radius counts the pellet once,
+    at the level it passes with; the one just outside does not."""
+    precision = "float64"
+    t = types_for(precision)
+    places = (("near", (20.0, 0.0, 0.3), 0.25), ("far", (20.0, 0.0, -0.3), 0.25))
+    setup = _setup(places=places)
+    parabolas, _lines = _watch_kernel(precision, len(places))
+    x0 = np.array([[0.0, 1.0, 0.1], [0.0, 1.0, 0.1]])
+    v0 = np.array([[100.0, 0.0, 0.0], [60.0, 0.0, 0.0]])  # above 80 m/s and between 30 and 80 m/s
+    inputs = [
+        wp.array(x0, dtype=t.vec3, device=device),
+        wp.array(v0, dtype=t.vec3, device=device),
+        t.vec3(0.0, -G, 0.0),
+        wp.array([0.5, 0.5], dtype=t.scalar, device=device),
+    ]
+    tally, _reach = _run(parabolas, setup, precision, device, inputs, 2)
+    counts = tally.counts["places"].numpy().reshape(setup.levels, len(places))
+    np.testing.assert_array_equal(counts[:, 1], 0)  # 0.4 m off: outside its 0.25 m
+    np.testing.assert_array_equal(counts[:, 0], [0, 1, 1, 0])  # levels 1 (60 m/s) and 2 (100 m/s)
+
+
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_rolling_with_ploughing_reaches_where_its_speed_falls_to_the_threshold(device, precision):
+    """v' = -(a + b v^2) along a line: the reach of threshold v_i is at
+    s_i = ln((a + b v0^2) / (a + b v_i^2)) / (2 b) (or the stretch's end)."""
+    t = types_for(precision)
+    a, b = 0.35, 0.02  # m/s^2, 1/m
+    v0 = np.array([200.0, 120.0, 50.0, 20.0])
+    length = np.array([40.0, 300.0, 300.0, 300.0])
+    x0 = np.array([[5.0, 0.00125, 0.0]] * 4)
+    _parabolas, lines = _watch_kernel(precision, 0)
+    inputs = [
+        wp.array(x0, dtype=t.vec3, device=device),
+        t.vec3(1.0, 0.0, 0.0),
+        wp.array(length, dtype=t.scalar, device=device),
+        wp.array(v0, dtype=t.scalar, device=device),
+        t.scalar(a),
+        t.scalar(b),
+    ]
+    _tally, reach = _run(lines, _setup(), precision, device, inputs, 4)
+    for i in range(4):
+        for k, s in enumerate(SPEEDS):
+            if v0[i] < s:
+                assert math.isnan(reach[i, k])
+            else:
+                d = min(math.log((a + b * v0[i] ** 2) / (a + b * s * s)) / (2 * b), length[i])
+                assert reach[i, k] == pytest.approx(5.0 + d, rel=1e-5 if precision == "float32" else 1e-12)
