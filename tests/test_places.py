@@ -1,0 +1,91 @@
+"""The person and the named places of issue 26 (docs/hazard.md, section 9): the scene keys
+hazard.body_height and [[hazard.points]], the statistics of tallies.points, their HDF5 datasets
+and the summary lines."""
+
+from __future__ import annotations
+
+import tomllib
+
+import pytest
+
+import warp_ricochet as wr
+from tests.helpers import cli, make_scene, paper_raw
+
+# the paper's shot (direction (1, -1, 0) onto the ground y = 0): u = x, v = n x u = -z
+MAP = {"map_cell": 1.0, "map_extent": [0.0, 200.0, -50.0, 50.0]}
+PLACES = [{"name": "car park", "position": [150.0, 0.0, 10.0]}, {"name": "footpath", "position": [50.0, 0.0, -3.0], "area": 0.5}]
+
+
+def test_places_and_body_height_are_read_with_their_defaults_and_round_trip():
+    scene = make_scene(hazard={**MAP, "points": PLACES})
+    assert scene.hazard.body_height == 1.8
+    assert [(p.name, p.position, p.area) for p in scene.hazard.points] == [
+        ("car park", (150.0, 0.0, 10.0), 0.7),
+        ("footpath", (50.0, 0.0, -3.0), 0.5),
+    ]
+    assert scene.hazard.radii == pytest.approx((0.7 / 3.6, 0.5 / 3.6), rel=1e-15)
+    again = wr.scene.scene_from_dict(tomllib.loads(scene.to_toml()))
+    assert again == scene and again.hazard.points == scene.hazard.points
+    tall = make_scene(hazard={**MAP, "points": PLACES, "body_height": 2.0})
+    assert tall.hazard.body_height == 2.0 and tall.hazard.radii[0] == pytest.approx(0.7 / 4.0)
+    plain = make_scene(hazard={})
+    assert plain.hazard.points == () and "points" not in plain.to_dict()["hazard"]
+
+
+@pytest.mark.parametrize(
+    "hazard, key, text",
+    [
+        ({"points": PLACES}, "hazard.map_cell", "is required with hazard.points"),
+        ({"map_cell": 1.0, "points": PLACES}, "hazard.map_extent", "(missing)"),
+        ({**MAP, "points": [{"name": "far", "position": [250.0, 0.0, 0.0]}]}, "hazard.points.0.position", "(u, v) = (250, 0)"),
+        # v = -z: z = 60 is v = -60, below v_min
+        (
+            {**MAP, "points": [PLACES[0], {"name": "side", "position": [10.0, 0.0, 60.0]}]},
+            "hazard.points.1.position",
+            "(10, -60)",
+        ),
+        ({**MAP, "points": [PLACES[0], {**PLACES[1], "name": "car park"}]}, "hazard.points.1.name", "a name of its own"),
+        ({**MAP, "points": [{"name": "", "position": [5.0, 0.0, 0.0]}]}, "hazard.points.0.name", "1 to 100 printable"),
+        ({**MAP, "points": [{"name": "a\nb", "position": [5.0, 0.0, 0.0]}]}, "hazard.points.0.name", "printable"),
+        ({**MAP, "points": [{"position": [5.0, 0.0, 0.0]}]}, "hazard.points.0.name", "(missing)"),
+        ({**MAP, "points": [{"name": "a"}]}, "hazard.points.0.position", "(missing)"),
+        ({**MAP, "points": [{"name": "a", "position": [5.0, 0.0, 0.0], "area": 0.0}]}, "hazard.points.0.area", "(0, 1e+06]"),
+        ({**MAP, "points": [{"name": "a", "position": [5.0, 0.0, 0.0], "aera": 1.0}]}, "hazard.points.0.aera", "did you mean"),
+        ({**MAP, "points": {"name": "a"}}, "hazard.points", "array of at most 64 tables"),
+        ({**MAP, "points": [3]}, "hazard.points.0", "must be a table"),
+        ({"body_height": 0.0}, "hazard.body_height", "(0, 1000] (m)"),
+        ({"body_height": float("nan")}, "hazard.body_height", "finite"),
+    ],
+)
+def test_bad_places_and_body_heights_are_refused_in_one_line(hazard, key, text):
+    with pytest.raises(wr.SceneError) as info:
+        make_scene(hazard=hazard)
+    message = str(info.value)
+    assert message.startswith(f"{key} = ") and text in message and "\n" not in message, message
+
+
+def test_a_place_off_the_map_is_refused_by_the_cli_before_any_work(tmp_path):
+    out = tmp_path / "x.h5"
+    place = '{name = "far", position = [150.0, 0.0, 0.0]}'
+    argv = ["run", "examples/paper.toml", "--set", "hazard.map_cell=1.0", "--set", "hazard.map_extent=[0, 100, -5, 5]"]
+    rc, stdout, stderr = cli([*argv, "--set", f"hazard.points=[{place}]", "-o", out, "--device", "cpu"])
+    assert rc == 2 and stderr.count("\n") == 1 and "hazard.points.0.position = [150.0, 0.0, 0.0]: lies at" in stderr
+    assert not out.exists()
+
+
+def test_set_and_sweep_reach_the_body_height_and_a_places_keys(tmp_path):
+    from warp_ricochet.api import _point_scenes
+    from warp_ricochet.scene import SweepPoints, load_scene
+    from warp_ricochet.scene.toml_out import toml_lines
+
+    raw = paper_raw()
+    raw["hazard"] = {**MAP, "points": PLACES}
+    path = tmp_path / "s.toml"
+    path.write_text("\n".join(toml_lines(raw, "")) + "\n")
+    scene = load_scene(path, ["hazard.body_height=1.5", "hazard.points.1.area=0.3", "hazard.points.0.position=[20.0, 0.0, 1.0]"])
+    assert scene.hazard.body_height == 1.5 and scene.hazard.points[1].area == 0.3
+    assert scene.hazard.points[0].position == (20.0, 0.0, 1.0)
+    swept = _point_scenes(load_scene(path), SweepPoints({"hazard.body_height": [1.2, 2.0], "hazard.points.0.area": [0.4]}), False)
+    assert [(s.hazard.body_height, s.hazard.points[0].area) for s in swept] == [(1.2, 0.4), (2.0, 0.4)]
+    with pytest.raises(wr.SceneError, match=r"^hazard.points.0.position = \[300.0, 0.0, 10.0\]: lies at"):
+        _point_scenes(load_scene(path), SweepPoints({"hazard.points.0.position.0": [300.0]}), False)
