@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import tomllib
 
+import numpy as np
 import pytest
 
 import warp_ricochet as wr
@@ -89,3 +90,84 @@ def test_set_and_sweep_reach_the_body_height_and_a_places_keys(tmp_path):
     assert [(s.hazard.body_height, s.hazard.points[0].area) for s in swept] == [(1.2, 0.4), (2.0, 0.4)]
     with pytest.raises(wr.SceneError, match=r"^hazard.points.0.position = \[300.0, 0.0, 10.0\]: lies at"):
         _point_scenes(load_scene(path), SweepPoints({"hazard.points.0.position.0": [300.0]}), False)
+
+
+def test_above_thresholds_sums_the_levels_above_each_thresholds_rank():
+    from warp_ricochet.tallies.points import above_thresholds
+
+    # 3 thresholds, scene order ranked (2, 0, 1) by speed: order = argsort = [1, 2, 0]
+    counts = np.array([[5, 0], [1, 2], [3, 0], [7, 4]])  # levels 0..3 x 2 places
+    got = above_thresholds(counts, np.array([1, 2, 0]))
+    # threshold 1 (rank 0): levels >= 1; threshold 2 (rank 1): >= 2; threshold 0 (rank 2): level 3
+    assert got.tolist() == [[7, 11, 10], [4, 6, 4]] and got.dtype == np.int64
+
+
+def test_clopper_pearson_is_scipys_exact_interval_and_solves_its_equations():
+    from decimal import Decimal, getcontext
+    from math import comb
+
+    from scipy.stats import binomtest
+
+    from warp_ricochet.tallies.points import clopper_pearson
+
+    getcontext().prec = 50
+    rng = np.random.default_rng(26)
+    for _ in range(200):
+        n = int(10 ** rng.uniform(0, 9))
+        m = np.array([0, n, *rng.integers(0, n + 1, 3), min(n, int(rng.integers(0, 5)))])
+        low, high = clopper_pearson(m, n)
+        for k, lo, hi in zip(m, low, high):
+            ref = binomtest(int(k), n).proportion_ci(0.95, method="exact")
+            np.testing.assert_allclose([lo, hi], [ref.low, ref.high], rtol=1e-9, atol=4e-12)  # (brentq: xtol 2e-12)
+            if 0 < k <= 3 < n:  # the defining equation of the upper end, in 50 digits: P(X <= k | high) = 2.5%
+                q = Decimal(float(hi))
+                cdf = sum(Decimal(comb(n, j)) * q**j * (1 - q) ** (n - j) for j in range(int(k) + 1))
+                assert float(cdf) == pytest.approx(0.025, rel=1e-7)  # (scipy's beta quantile: ~3e-9 of q at n ~ 1e9)
+    for n in (1, 7, 1000, 10**9):
+        low, high = clopper_pearson([0, n], n)
+        assert low[0] == 0.0 and high[0] == pytest.approx(1.0 - 0.025 ** (1.0 / n), rel=1e-12)
+        assert high[1] == 1.0 and low[1] == pytest.approx(0.025 ** (1.0 / n), rel=1e-12)
+    assert np.isnan(clopper_pearson([0], 0)).all()
+
+
+def test_place_statistics_against_a_decimal_reference():
+    from decimal import Decimal, getcontext
+
+    from warp_ricochet.tallies.points import clopper_pearson, place_statistics
+
+    getcontext().prec = 60
+    rng = np.random.default_rng(7)
+    for _ in range(50):
+        places, thresholds, per_shot = int(rng.integers(1, 5)), int(rng.integers(1, 5)), int(rng.integers(1, 2000))
+        shots = int(10 ** rng.uniform(0, 5))
+        n = per_shot * shots
+        counts = rng.multinomial(int(rng.integers(0, n + 1)), rng.dirichlet(np.ones(thresholds + 1)), size=places).T
+        order = rng.permutation(thresholds)
+        out = place_statistics(counts, order, n, per_shot)
+        for p in range(places):
+            for i in range(thresholds):
+                rank = int(np.flatnonzero(order == i)[0])
+                m = int(counts[rank + 1 :, p].sum())
+                low, high = (float(x[0]) for x in clopper_pearson([m], n))
+                assert out["pellets"][p, i] == m and out["fraction"][p, i] == m / n
+                assert out["expected_per_shot"][p, i] == pytest.approx(m / shots, rel=1e-14)
+                assert (out["expected_low"][p, i], out["expected_high"][p, i]) == (per_shot * low, per_shot * high)
+                for name, q in (("probability", m / n), ("ci_low", low), ("ci_high", high)):
+                    ref = float(1 - (1 - Decimal(q)) ** per_shot)
+                    assert out[name][p, i] == pytest.approx(ref, rel=1e-13, abs=1e-300), (name, q, per_shot)
+                assert out["ci_low"][p, i] <= out["probability"][p, i] <= out["ci_high"][p, i]
+                assert out["probability"][p, i] <= out["expected_per_shot"][p, i] * (1 + 1e-15)
+    assert (out["pellets_simulated"], out["pellets_per_shot"]) == (n, per_shot)
+
+
+def test_place_statistics_of_none_and_of_all():
+    from warp_ricochet.tallies.points import place_statistics
+
+    none = place_statistics(np.array([[0], [0]]), np.array([0]), 0, 10)
+    assert np.isnan(none["probability"]).all() and np.isnan(none["ci_high"]).all()
+    n, per_shot = 4000, 400
+    every = place_statistics(np.array([[0, 4000], [n, 0]]), np.array([0]), n, per_shot)
+    assert every["probability"].tolist() == [[1.0], [0.0]] and every["ci_high"][0, 0] == 1.0
+    assert every["ci_low"][1, 0] == 0.0
+    assert every["ci_high"][1, 0] == pytest.approx(1 - 0.025 ** (per_shot / n), rel=1e-12)
+    assert every["expected_per_shot"].tolist() == [[400.0], [0.0]]
