@@ -151,7 +151,7 @@ def test_place_statistics_against_a_decimal_reference():
                 low, high = (float(x[0]) for x in clopper_pearson([m], n))
                 assert out["pellets"][p, i] == m and out["fraction"][p, i] == m / n
                 assert out["expected_per_shot"][p, i] == pytest.approx(m / shots, rel=1e-14)
-                assert (out["expected_low"][p, i], out["expected_high"][p, i]) == (per_shot * low, per_shot * high)
+                assert (out["expected_ci_low"][p, i], out["expected_ci_high"][p, i]) == (per_shot * low, per_shot * high)
                 for name, q in (("probability", m / n), ("ci_low", low), ("ci_high", high)):
                     ref = float(1 - (1 - Decimal(q)) ** per_shot)
                     assert out[name][p, i] == pytest.approx(ref, rel=1e-13, abs=1e-300), (name, q, per_shot)
@@ -171,3 +171,102 @@ def test_place_statistics_of_none_and_of_all():
     assert every["ci_low"][1, 0] == 0.0
     assert every["ci_high"][1, 0] == pytest.approx(1 - 0.025 ** (per_shot / n), rel=1e-12)
     assert every["expected_per_shot"].tolist() == [[400.0], [0.0]]
+
+
+@pytest.fixture(scope="module")
+def places_file(tmp_path_factory):
+    """A run of the paper's shot with two named places, and the scene."""
+    raw = paper_raw()
+    raw["shot"]["count"] = 300
+    scene = make_scene(raw, "float64", hazard={**MAP, "points": PLACES, "body_height": 1.7, "fractions": [0.01]})
+    path = tmp_path_factory.mktemp("places") / "run.h5"
+    wr.run(scene, path, device="cpu")
+    return scene, path
+
+
+def test_a_run_file_holds_the_body_height_and_the_places(places_file):
+    import h5py
+
+    scene, path = places_file
+    with h5py.File(path, "r") as f:
+        h = f["hazard"]
+        assert h["body_height"][()] == 1.7 and h["body_height"].attrs["units"] == "m"
+        g = h["points"]
+        assert [n.decode() for n in g["name"][()]] == ["car park", "footpath"]
+        assert g["position"][()].tolist() == [[150.0, 0.0, 10.0], [50.0, 0.0, -3.0]]
+        assert g["area"][()].tolist() == [0.7, 0.5] and g["radius"][()].tolist() == [0.7 / 3.4, 0.5 / 3.4]
+        assert g.attrs["pellets_per_shot"] == 300 and g.attrs["confidence"] == 0.95
+        for name in ("pellets", "expected_per_shot", "expected_ci_low", "expected_ci_high", "probability", "ci_low", "ci_high"):
+            assert g[name].shape == (2, 4) and g[name].attrs["units"] == "1" and g[name].attrs["description"]
+        assert g["pellets"].dtype == np.int64
+        assert [d[0].name for d in g["probability"].dims] == ["/hazard/place", "/hazard/threshold"]
+        assert [d[0].name for d in g["position"].dims] == ["/hazard/place", "/xyz"]
+
+
+def _fill(path, counts):
+    """Write the places' statistics of `counts` (levels, places) into the run file, as write_results does."""
+    import h5py
+
+    from warp_ricochet.io.tally_out import write_places
+
+    with h5py.File(path, "r+") as f:
+        order = np.argsort(np.sqrt(f["hazard/thresholds/speed"][()]), kind="stable")
+        write_places(f["hazard/points"], counts, order, int(f["stats/pellets"][()]))
+    return order
+
+
+def test_the_places_statistics_are_written_and_read_back_by_report_and_open_run(places_file, tmp_path):
+    import shutil
+
+    import h5py
+
+    from warp_ricochet.report.hazard_tables import from_file, tally_lines
+    from warp_ricochet.tallies.points import place_statistics
+
+    scene, original = places_file
+    path = tmp_path / "run.h5"
+    shutil.copy(original, path)
+    counts = np.array([[100, 3], [50, 0], [0, 2], [7, 0], [1, 0]], dtype=np.int64)  # 5 levels x 2 places
+    order = _fill(path, counts)
+    expected = place_statistics(counts, order, 300, 300)
+    with h5py.File(path, "r") as f:
+        for name in ("pellets", "probability", "ci_low", "ci_high", "expected_per_shot", "expected_ci_low", "expected_ci_high"):
+            np.testing.assert_array_equal(f[f"hazard/points/{name}"][()], expected[name])
+        lines = tally_lines(from_file(f), 300)
+    head = lines.index(next(line for line in lines if line.startswith("probability of a hit at named places")))
+    assert "per shot of 300 pellets, from 300" in lines[head] and len(lines) == head + 2 + 8
+    names = [n for n, _kind, _value in scene.hazard.thresholds]
+    row = lines[head + 2 + names.index("skin_perforation")].split()  # car park, skin_perforation
+    m = int(expected["pellets"][0, names.index("skin_perforation")])
+    assert row[:4] == ["car", "park", "skin_perforation", f"{m:,}"], row
+    assert row[4] == f"{expected['probability'][0, 3]:.4g}" and row[5] == f"[{expected['ci_low'][0, 3]:.4g},"
+    rc, report, stderr = cli(["report", path])
+    assert rc == 0 and "\n".join(lines[head:]) in report, stderr
+    pytest.importorskip("xarray")
+    with wr.open_run(path) as run:
+        probability = run.hazard_results["points_probability"]
+        assert probability.dims == ("place", "threshold") and probability.attrs["units"] == "1"
+        np.testing.assert_array_equal(probability.values, expected["probability"])
+        assert list(run.hazard_results["points_name"].values) == ["car park", "footpath"]
+        assert float(run.hazard_results["body_height"]) == 1.7
+
+
+def test_the_run_summary_shows_the_places_table(places_file, monkeypatch):
+    """From the counts a run returns (`RunStats.tally`; summarize's "points", the kernel's)."""
+    from warp_ricochet.pipeline import RunStats
+    from warp_ricochet.report import format_run_summary
+    from warp_ricochet.tallies import quantiles
+    from warp_ricochet.tallies.counts import TallySetup, TallyTotals
+
+    scene, _path = places_file
+    counts = np.array([[0, 0], [0, 0], [0, 0], [0, 0], [2, 0]], dtype=np.int64)
+    plain = quantiles.summarize
+    monkeypatch.setattr(quantiles, "summarize", lambda *a, **k: {**plain(*a, **k), "points": {"counts": counts}})
+    stats = RunStats({"pellets": 600.0, "landed": 0.0})
+    stats.tally = TallyTotals(TallySetup.of(scene, 6.0e-5, 0.00125, 411.0))
+    text = format_run_summary(stats, scene=scene)
+    # every threshold at level 4: m = 2 of n = 600, N = 300: P = 1 - (1 - 1/300)^300
+    row = next(line for line in text.splitlines() if line.startswith("  car park  skin_perforation"))
+    assert f"{-np.expm1(300 * np.log1p(-2 / 600)):.4g} [" in row and "  1 [" in row, row
+    assert "footpath" in text and "per shot of 300 pellets, from 600" in text
+    assert "named places" not in format_run_summary(stats)  # (no scene: no names)

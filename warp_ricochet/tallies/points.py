@@ -21,6 +21,8 @@ from __future__ import annotations
 import numpy as np
 
 CONFIDENCE = 0.95
+# the statistics a run file keeps (/hazard/points, io.tally_out), each (places, thresholds)
+COLUMNS = ("pellets", "expected_per_shot", "expected_ci_low", "expected_ci_high", "probability", "ci_low", "ci_high")
 
 
 def above_thresholds(counts, order) -> np.ndarray:
@@ -57,7 +59,7 @@ def at_least_one(q, per_shot: int) -> np.ndarray:
 
 def place_statistics(counts, order, pellets: int, per_shot: int, confidence: float = CONFIDENCE) -> dict:
     """The statistics of the module's docstring, each (places, thresholds) (NaN when `pellets` is 0):
-    pellets (m), fraction (q) with fraction_low/high, expected_per_shot (E) with expected_low/high,
+    pellets (m), fraction (q) with fraction_low/high, expected_per_shot (E) with expected_ci_low/high,
     probability (P) with ci_low/high; and pellets_simulated (n), pellets_per_shot (N), confidence."""
     m = above_thresholds(counts, order)
     q = m / pellets if pellets > 0 else np.full(m.shape, np.nan)
@@ -68,8 +70,8 @@ def place_statistics(counts, order, pellets: int, per_shot: int, confidence: flo
         "fraction_low": low,
         "fraction_high": high,
         "expected_per_shot": per_shot * q,
-        "expected_low": per_shot * low,
-        "expected_high": per_shot * high,
+        "expected_ci_low": per_shot * low,
+        "expected_ci_high": per_shot * high,
         "probability": at_least_one(q, per_shot),
         "ci_low": at_least_one(low, per_shot),
         "ci_high": at_least_one(high, per_shot),
