@@ -203,19 +203,23 @@ def test_a_run_file_holds_the_body_height_and_the_places(places_file):
         assert [d[0].name for d in g["position"].dims] == ["/hazard/place", "/xyz"]
 
 
-def _fill(path, counts):
-    """Write the places' statistics of `counts` (levels, places) into the run file, as write_results does."""
+def _fill(path, scene, counts, monkeypatch, pellets=None):
+    """Write the run's results again as io.writer does at its end, from a TallyTotals whose point
+    passages by level are `counts` (levels, places): summarize's "points" (the kernel's)."""
     import h5py
 
-    from warp_ricochet.io.tally_out import write_places
+    from warp_ricochet.io import tally_out
+    from warp_ricochet.tallies.counts import TallySetup, TallyTotals
 
+    plain = tally_out.summarize
+    monkeypatch.setattr(tally_out, "summarize", lambda *a, **k: {**plain(*a, **k), "points": {"counts": counts}})
+    tally = TallyTotals(TallySetup.of(scene, 6.0e-5, 0.00125, 411.0))
     with h5py.File(path, "r+") as f:
-        order = np.argsort(np.sqrt(f["hazard/thresholds/speed"][()]), kind="stable")
-        write_places(f["hazard/points"], counts, order, int(f["stats/pellets"][()]))
-    return order
+        tally_out.write_results(f, tally, 0, pellets)
+    return tally.setup.order
 
 
-def test_the_places_statistics_are_written_and_read_back_by_report_and_open_run(places_file, tmp_path):
+def test_the_places_statistics_are_written_and_read_back_by_report_and_open_run(places_file, tmp_path, monkeypatch):
     import shutil
 
     import h5py
@@ -227,7 +231,7 @@ def test_the_places_statistics_are_written_and_read_back_by_report_and_open_run(
     path = tmp_path / "run.h5"
     shutil.copy(original, path)
     counts = np.array([[100, 3], [50, 0], [0, 2], [7, 0], [1, 0]], dtype=np.int64)  # 5 levels x 2 places
-    order = _fill(path, counts)
+    order = _fill(path, scene, counts, monkeypatch)  # n: /stats/pellets
     expected = place_statistics(counts, order, 300, 300)
     with h5py.File(path, "r") as f:
         for name in ("pellets", "probability", "ci_low", "ci_high", "expected_per_shot", "expected_ci_low", "expected_ci_high"):
@@ -270,3 +274,20 @@ def test_the_run_summary_shows_the_places_table(places_file, monkeypatch):
     assert f"{-np.expm1(300 * np.log1p(-2 / 600)):.4g} [" in row and "  1 [" in row, row
     assert "footpath" in text and "per shot of 300 pellets, from 600" in text
     assert "named places" not in format_run_summary(stats)  # (no scene: no names)
+
+
+def test_the_writer_takes_the_runs_pellets_for_n(places_file, tmp_path, monkeypatch):
+    import shutil
+
+    import h5py
+
+    from warp_ricochet.tallies.points import place_statistics
+
+    scene, original = places_file
+    path = tmp_path / "run.h5"
+    shutil.copy(original, path)
+    counts = np.array([[0, 0], [0, 0], [0, 0], [0, 0], [3, 0]], dtype=np.int64)
+    order = _fill(path, scene, counts, monkeypatch, pellets=900)
+    with h5py.File(path, "r") as f:
+        np.testing.assert_array_equal(f["hazard/points/ci_high"][()], place_statistics(counts, order, 900, 300)["ci_high"])
+        assert f["hazard/points/ci_high"][1, 0] == pytest.approx(1 - 0.025 ** (300 / 900), rel=1e-12)  # m = 0
