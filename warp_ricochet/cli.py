@@ -267,7 +267,7 @@ def cmd_run(args) -> int:
     output = args.output if args.output is not None else scene.output.path
     args.completed = output  # a signal from here on: the result is complete (None: statistics only)
     interrupts.check(completed_path=output)
-    sys.stdout.write(format_run_summary(stats, output, _device_name(api, args.device)))
+    sys.stdout.write(format_run_summary(stats, output, _device_name(api, args.device), scene))
     return 0
 
 

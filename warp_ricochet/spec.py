@@ -76,7 +76,7 @@ class RunSpec:
             thresholds=0 if scene.hazard is None else len(scene.hazard.thresholds),
             until=scene.physics.until,
             ground=any(_has_ground_laws(surface) for surface in scene.surfaces),
-            places=0 if scene.hazard is None else len(getattr(scene.hazard, "points", ())),
+            places=0 if scene.hazard is None else len(scene.hazard.points),
         )
 
     @property

@@ -68,6 +68,13 @@ RUN_DIMENSIONS = {
     "hazard/map/above": ("threshold", "map_v", "map_u"),
     "hazard/map/u_edges": ("map_u_edge",),
     "hazard/map/v_edges": ("map_v_edge",),
+    # named places (docs/hazard.md, section 9): the dimension `place` (a sweep's `point` is another)
+    **{f"hazard/points/{name}": ("place",) for name in ("name", "area", "radius")},
+    "hazard/points/position": ("place", "xyz"),
+    **{
+        f"hazard/points/{name}": ("place", "threshold")
+        for name in ("pellets", "expected_per_shot", "expected_ci_low", "expected_ci_high", "probability", "ci_low", "ci_high")
+    },
 }
 
 

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..tallies.bins import BINS, RESOLUTION, edges
 from ..tallies.counts import TallySetup, TallyTotals
+from ..tallies.points import CONFIDENCE, place_statistics
 from ..tallies.quantiles import LEVELS, QUANTITIES, REST_QUANTITIES, summarize
 
 HIST_ROWS = "range, speed, then distance of the landings exceeding 0, 1, ... thresholds (hazard levels)"
@@ -100,6 +101,7 @@ def create(group, scene, model):
     )
     if scene.hazard is not None:
         _create_hazard(group.create_group("hazard"), setup)
+        _create_places(group["hazard"], scene, len(setup.names))
 
 
 def _create_hazard(g, setup):
@@ -119,13 +121,6 @@ def _create_hazard(g, setup):
     )
     _ds(th, "landings", np.zeros(t, dtype=np.int64), unit="1", doc="landings at or above each threshold")
     if setup.path:
-        _ds(
-            g,
-            "body_height",
-            np.float64(setup.body_height),
-            unit="m",
-            doc="a person's height: the path within it above the ground is watched",
-        )
         _ds(
             th,
             "reaching",
@@ -238,8 +233,9 @@ def read_progress(progress, rows: int):
 DANGER = ("distance", "ci_low", "ci_high", "needed_landings")
 
 
-def write_results(group, tally: TallyTotals, landed: int):
-    """Fill the tally objects from the run's final counts (`tallies.quantiles.summarize`)."""
+def write_results(group, tally: TallyTotals, landed: int, pellets: int | None = None):
+    """Fill the tally objects from the run's final counts (`tallies.quantiles.summarize`);
+    `pellets`: the run's (n of the named places' statistics; None: /stats/pellets)."""
     results = summarize(tally, landed)
     group["stats/histograms/counts"][...] = tally.hist
     if tally.setup.rest:
@@ -261,3 +257,66 @@ def write_results(group, tally: TallyTotals, landed: int):
     if "map" in results:
         for name, values in results["map"].items():
             group[f"hazard/map/{name}"][...] = values
+    if "hazard/points" in group and "points" in results:
+        n = int(group["stats/pellets"][()]) if pellets is None else pellets
+        write_places(group["hazard/points"], results["points"]["counts"], tally.setup.order, n)
+
+
+# /hazard/points (docs/hazard.md, section 9): (unit, doc) of each statistic (tallies.points.COLUMNS), rows
+# places, columns thresholds
+PLACE_STATISTICS = {
+    "pellets": (
+        "1",
+        "m: pellets that came within the place's cylinder (body height, radius) above the threshold, each once",
+    ),
+    "expected_per_shot": ("1", "E = N m / n: pellets per shot passing there above the threshold (its expectation, exactly)"),
+    "expected_ci_low": ("1", "lower end of E's 95% interval: N times the Clopper-Pearson lower end of m / n"),
+    "expected_ci_high": ("1", "upper end of E's 95% interval: N times the Clopper-Pearson upper end of m / n"),
+    "probability": (
+        "1",
+        "P = 1 - (1 - m / n)^N: the probability that a shot sends at least one pellet there above the threshold "
+        "(pellets independent; with pellet-pellet collisions an estimate, and P <= E)",
+    ),
+    "ci_low": ("1", "lower end of P's 95% interval (Clopper-Pearson on m / n)"),
+    "ci_high": ("1", "upper end of P's 95% interval (Clopper-Pearson on m / n)"),
+}
+
+
+def _create_places(g, scene, thresholds: int):
+    """/hazard/body_height and, with named places, /hazard/points: their geometry now, their statistics
+    NaN (pellets 0) until the end. n (pellets simulated) is /stats/pellets; N the group's attribute."""
+    hazard = scene.hazard
+    _ds(
+        g,
+        "body_height",
+        hazard.body_height,
+        unit="m",
+        doc="a pellet's centre at most this far above the map's surface is within body height",
+    )
+    if not hazard.points:
+        return
+    p = g.create_group("points")
+    p.attrs["pellets_per_shot"] = np.int64(scene.shot.count)
+    p.attrs["confidence"] = CONFIDENCE
+    places = hazard.points
+    _ds(p, "name", np.asarray([x.name.encode("utf-8") for x in places], dtype="S"), unit="", doc="the places' names (UTF-8)")
+    _ds(p, "position", np.asarray([x.position for x in places], dtype=np.float64), unit="m", doc="where each person stands")
+    _ds(p, "area", np.asarray([x.area for x in places], dtype=np.float64), unit="m^2", doc="the area a person presents")
+    _ds(
+        p,
+        "radius",
+        np.asarray(hazard.radii, dtype=np.float64),
+        unit="m",
+        doc="of the person's vertical cylinder: area / (2 body_height)",
+    )
+    shape = (len(places), thresholds)
+    for name, (unit, doc) in PLACE_STATISTICS.items():
+        data = np.zeros(shape, dtype=np.int64) if name == "pellets" else np.full(shape, np.nan)
+        _ds(p, name, data, unit=unit, doc=doc + "; rows: places, columns: thresholds")
+
+
+def write_places(g, counts, order, pellets: int):
+    """Fill /hazard/points (group `g`) from the point passages by level (`TallyTotals.points`)."""
+    stats = place_statistics(counts, order, pellets, int(g.attrs["pellets_per_shot"]))
+    for name in PLACE_STATISTICS:
+        g[name][...] = stats[name]

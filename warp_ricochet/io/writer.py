@@ -264,7 +264,7 @@ class RunWriter:
             write_stats(self.group, stats)
             tally = getattr(stats, "tally", None)
             if tally is not None:
-                tally_out.write_results(self.group, tally, int(stats["landed"]))
+                tally_out.write_results(self.group, tally, int(stats["landed"]), int(stats["pellets"]))
             if getattr(stats, "ensemble", None) is not None:
                 write_ensemble(self.group, stats.ensemble)
             self.group.file.flush()

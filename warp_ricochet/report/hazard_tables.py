@@ -10,6 +10,7 @@ import math
 import numpy as np
 
 from ..tallies.bins import RELATIVE_WIDTH
+from ..tallies.points import COLUMNS as PLACE_COLUMNS
 
 SHOWN_LEVELS = ("P50", "P75", "P90", "P99", "P99.9", "1-1e-6")
 
@@ -23,15 +24,24 @@ def _fmt(x) -> str:
     return f"{x:.4g}"
 
 
-def from_run(stats) -> dict | None:
+def from_run(stats, scene=None) -> dict | None:
     """The results of a run's landing counts (None when it counted none), for its summary lines:
-    without the map's layers."""
+    without the map's layers; with `scene`'s named places, their statistics as "places"."""
     tally = getattr(stats, "tally", None)
     if tally is None:
         return None
+    from ..tallies.points import place_statistics
     from ..tallies.quantiles import summarize
 
-    return summarize(tally, int(stats["landed"]), with_map=False)
+    out = summarize(tally, int(stats["landed"]), with_map=False)
+    places = () if scene is None or scene.hazard is None else scene.hazard.points
+    if places and "points" in out:
+        per_shot = scene.shot.count
+        out["places"] = {
+            "names": [p.name for p in places],
+            **place_statistics(out["points"]["counts"], tally.setup.order, int(stats["pellets"]), per_shot),
+        }
+    return out
 
 
 def from_file(group) -> dict | None:
@@ -59,7 +69,43 @@ def from_file(group) -> dict | None:
             "landings": h["thresholds/landings"][()],
             **{name: h[f"danger_distance/{name}"][()] for name in ("distance", "ci_low", "ci_high", "needed_landings")},
         }
+    if "hazard/points" in group:
+        g = group["hazard/points"]
+        out["places"] = {
+            "names": [n.decode("utf-8", "replace") for n in g["name"][()]],
+            "pellets_per_shot": int(g.attrs["pellets_per_shot"]),
+            "pellets_simulated": int(np.nan_to_num(group["stats/pellets"][()])) if "stats/pellets" in group else 0,
+            **{name: g[name][()] for name in PLACE_COLUMNS},
+        }
     return out
+
+
+def place_lines(places: dict | None, thresholds) -> list[str]:
+    """The table "probability of a hit at named places": per place and threshold, the probability
+    that a shot sends a pellet above the threshold there (95% CI) and the pellets per shot."""
+    if not places or not len(places["names"]) or not len(thresholds):
+        return []
+    rows = []
+    for p, place in enumerate(places["names"]):
+        for i, threshold in enumerate(thresholds):
+            rows.append(
+                [
+                    place,
+                    threshold,
+                    f"{int(places['pellets'][p, i]):,}",
+                    f"{_fmt(places['probability'][p, i])} [{_fmt(places['ci_low'][p, i])}, {_fmt(places['ci_high'][p, i])}]",
+                    f"{_fmt(places['expected_per_shot'][p, i])} "
+                    f"[{_fmt(places['expected_ci_low'][p, i])}, {_fmt(places['expected_ci_high'][p, i])}]",
+                ]
+            )
+    header = ["place", "threshold", "pellets", "P(hit) per shot [95% CI]", "pellets per shot [95% CI]"]
+    widths = [max(len(r[k]) for r in [header, *rows]) for k in range(len(header))]
+    text = ["  " + "  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip() for r in [header, *rows]]
+    return [
+        f"probability of a hit at named places (per shot of {places['pellets_per_shot']:,} pellets, "
+        f"from {places['pellets_simulated']:,}; pellets independent, P <= pellets per shot)",
+        *text,
+    ]
 
 
 def tally_lines(results: dict | None, pellets: float) -> list[str]:
@@ -115,4 +161,5 @@ def tally_lines(results: dict | None, pellets: float) -> list[str]:
             lines.append(
                 f"  {name} ({_fmt(hazard['values'][i])} {unit}, {int(hazard['landings'][i]):,} landings): " + "; ".join(parts)
             )
+        lines += place_lines(results.get("places"), hazard["names"])
     return lines

@@ -502,8 +502,8 @@ def format_tables(results: Results, fmt: str = "text", paper: bool = False) -> s
     return "\n\n".join(blocks) + "\n"
 
 
-def format_run_summary(stats: dict, output=None, device=None) -> str:
-    """A short summary of one run's statistics, with units."""
+def format_run_summary(stats: dict, output=None, device=None, scene=None) -> str:
+    """A short summary of one run's statistics, with units (`scene`: its named places' names)."""
 
     def unit(name):
         u = STAT_UNITS.get(name, ("", ""))[0]
@@ -544,7 +544,7 @@ def format_run_summary(stats: dict, output=None, device=None) -> str:
     width = max(len(k) for k, _ in rows)
     lines += [f"{k.ljust(width)}  {v}" for k, v in rows]
     lines += [line for line in (not_finished_line(stats),) if line]
-    lines += tally_lines(from_run(stats), stats.get("pellets", 0.0))
+    lines += tally_lines(from_run(stats, scene), stats.get("pellets", 0.0))
     ensemble = getattr(stats, "ensemble", None)
     if ensemble is not None:
         intervals = {name: (ensemble.low[name], ensemble.high[name]) for name in ensemble.low}

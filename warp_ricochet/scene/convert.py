@@ -6,6 +6,7 @@ import math
 
 from ..fields import ALL_FIELDS, FIELDS, GROUPS
 from .keys import err as _err
+from .keys import join, table
 from .materials import RANGES
 from .schema import (
     COMPRESSIONS,
@@ -17,11 +18,13 @@ from .schema import (
     MAX_FRICTION,
     MAX_GRAVITY,
     MAX_IMPACT_DURATION,
+    MAX_PLACES,
     MAX_SPEED,
     MAX_SPIN,
     MAX_WIND,
     MIN_DENSITY,
     MIN_DIAMETER,
+    Place,
 )
 
 
@@ -334,6 +337,38 @@ def _extent(v, path):
     return xs
 
 
+MAX_PLACE_NAME = 100  # characters of a named place's name (one line of a table)
+
+
+@_rule(f"must be a string of 1 to {MAX_PLACE_NAME} printable characters")
+def _place_name(v, path):
+    if not isinstance(v, str) or not 0 < len(v) <= MAX_PLACE_NAME or not v.isprintable():
+        raise _err(path, v, _place_name.rule)
+    return v
+
+
+_PLACE = {
+    "name": _place_name,
+    "position": _vec3(unit="m", bound=MAX_COORDINATE),
+    "area": _range(0, 1e6, above=True, unit="m^2"),
+}
+
+
+@_rule(f"must be an array of at most {MAX_PLACES} tables [[hazard.points]] with name, position (m) and area (m^2)")
+def _places(v, path):
+    """Named places (schema.Place): each a table of _PLACE's keys (name and position required), the names distinct."""
+    if not isinstance(v, (list, tuple)) or len(v) > MAX_PLACES:
+        raise _err(path, v, _places.rule)
+    out = []
+    for i, raw in enumerate(v):
+        where = join(path, str(i))
+        kw = table(raw, where, _PLACE, required=("name", "position"))
+        if any(p.name == kw["name"] for p in out):
+            raise _err(join(where, "name"), kw["name"], "names another place too: give each place a name of its own")
+        out.append(Place(**kw))
+    return tuple(out)
+
+
 _HAZARD = {
     "energy_density": _thresholds("J/m^2", 1e12),
     "speed": _thresholds("m/s", MAX_SPEED),
@@ -343,6 +378,8 @@ _HAZARD = {
     "map_extent": _extent,
     "map_surface": _int(0, 1_000_000),
     "map_axis": _vec3(nonzero=True, bound=MAX_COORDINATE),
+    "body_height": _range(0, 1e3, above=True, unit="m"),
+    "points": _places,
 }
 _OUTPUT = {
     "path": _path(),

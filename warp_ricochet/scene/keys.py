@@ -74,3 +74,19 @@ def check_keys(raw: dict, path: str, allowed) -> None:
     for key in raw:
         if key not in allowed:
             raise err(join(path, key), raw[key], f"unknown key; {suggest(key, allowed, path)}allowed keys: " + ", ".join(allowed))
+
+
+def table(raw, path: str, schema: dict, required=()) -> dict:
+    """Validated values of the keys given in table `raw` by `schema` ({key: converter}; None counts
+    as absent; defaults are the dataclass's)."""
+    raw = {} if raw is None else raw
+    if not isinstance(raw, dict):
+        raise err(path, raw, "must be a table")
+    check_keys(raw, path, schema)
+    out = {}
+    for key, conv in schema.items():
+        if raw.get(key) is not None:
+            out[key] = conv(raw[key], join(path, key))
+        elif key in required:
+            raise err(join(path, key), MISSING, f"is required; it {conv.rule}")
+    return out

@@ -14,7 +14,8 @@ from ..launch.packing import MAX_PACKING, packing_fraction
 from ..physics.limits import MAX_PLANES_IN_AIR
 from . import materials
 from .convert import SCHEMAS
-from .keys import MISSING, _Shown, check_keys, err, join, suggest
+from .keys import MISSING, _Shown, check_keys, err, suggest
+from .keys import table as _table
 from .overrides import apply_override
 from .pellets import check_pellet_file, pellet_file_rows
 from .schema import (
@@ -35,21 +36,6 @@ from .schema import (
     Surface,
 )
 from .vectors import unit_vector
-
-
-def _table(raw, path: str, schema: dict, required=()) -> dict:
-    """Validated values of the keys given in table `raw` (None counts as absent); defaults are the dataclass's."""
-    raw = {} if raw is None else raw
-    if not isinstance(raw, dict):
-        raise err(path, raw, "must be a table")
-    check_keys(raw, path, schema)
-    out = {}
-    for key, conv in schema.items():
-        if raw.get(key) is not None:
-            out[key] = conv(raw[key], join(path, key))
-        elif key in required:
-            raise err(join(path, key), MISSING, f"is required; it {conv.rule}")
-    return out
 
 
 def _shot(raw, base_dir) -> Shot:
@@ -156,7 +142,43 @@ def _hazard(raw, surfaces: tuple, shot: Shot):
         if hazard.map_surface >= len(surfaces):
             raise err("hazard.map_surface", hazard.map_surface, f"must be the index of a surface (0 to {len(surfaces) - 1})")
         _check_map_axis(hazard, surfaces[hazard.map_surface].normal, shot)
+    if hazard.points:
+        _check_places(hazard, surfaces, shot)
     return hazard
+
+
+def _check_places(hazard: Hazard, surfaces: tuple, shot: Shot) -> None:
+    """Named places need the map and must lie inside its extent: their (u, v) as the map's grid has
+    them (tallies.counts._map_geometry: u = map_axis or shot.direction projected on the map's plane,
+    v = n x u, from the shooter's foot on the plane)."""
+    if not hazard.has_map:
+        key = "map_cell" if hazard.map_cell is None else "map_extent"
+        raise err(
+            f"hazard.{key}",
+            MISSING,
+            "is required with hazard.points (a named place lies on the map: give hazard.map_cell and hazard.map_extent)",
+        )
+    n = surfaces[hazard.map_surface].normal  # (unit: scene.parse._surface)
+    axis = hazard.map_axis or shot.direction
+    scale = max(map(abs, axis))
+    a = [x / scale for x in axis]
+    along = sum(x * y for x, y in zip(a, n))
+    u = [x - along * y for x, y in zip(a, n)]
+    length = math.hypot(*u)
+    u = [x / length for x in u]
+    v = [n[1] * u[2] - n[2] * u[1], n[2] * u[0] - n[0] * u[2], n[0] * u[1] - n[1] * u[0]]
+    shooter = hazard.shooter or (shot.envelope_center if shot.file is None else (0.0, 0.0, 0.0))
+    u0, u1, v0, v1 = hazard.map_extent
+    for i, place in enumerate(hazard.points):
+        d = [p - s for p, s in zip(place.position, shooter)]  # (u, v) of the foot of d on the plane: d's own
+        pu, pv = math.fsum(x * y for x, y in zip(d, u)), math.fsum(x * y for x, y in zip(d, v))
+        if not (u0 <= pu <= u1 and v0 <= pv <= v1):
+            raise err(
+                f"hazard.points.{i}.position",
+                list(place.position),
+                f"lies at (u, v) = ({pu:.6g}, {pv:.6g}) m on the map, outside hazard.map_extent "
+                f"{list(hazard.map_extent)}: a named place must lie on the map",
+            )
 
 
 def _check_map_axis(hazard: Hazard, normal, shot: Shot) -> None:

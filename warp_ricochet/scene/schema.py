@@ -224,6 +224,27 @@ HAZARD_ENERGY_DENSITY = (("corneal_abrasion", 1503.0), ("globe_rupture", 23771.0
 HAZARD_SPEED = (("skin_perforation", 101.0),)
 MAX_THRESHOLDS = 31  # a pellet's thresholds exceeded are the bits of an int32
 
+# A person (docs/hazard.md, section 9): a pellet whose centre is at most `body_height` above the
+# map's surface is within body height. 1.8 m: above the mean stature of adult men in the 2012 US
+# Army anthropometric survey (ANSUR II; Gordon et al. 2014, NATICK/TR-15/007: about 1.76 m, SD
+# about 0.07 m) and of nearly all women (about 1.63 m). The area a person presents at a named place,
+# 0.7 m^2 = 1.8 m x 0.39 m: the body's height times about its shoulder breadth, the rectangle around
+# the frontal silhouette (the silhouette itself is smaller: the default overstates a hit, never less).
+BODY_HEIGHT = 1.8  # m
+PERSON_AREA = 0.7  # m^2
+MAX_PLACES = 64  # named places of one scene (each pellet is tested against every one)
+
+
+@dataclass(frozen=True)
+class Place:
+    """A named place (`[[hazard.points]]`): a person standing at `position` (m; its (u, v) on the map),
+    presenting `area` (m^2): a vertical cylinder of the scene's body height and radius
+    area / (2 body_height) (`Hazard.radii`)."""
+
+    name: str
+    position: Vec3
+    area: float = PERSON_AREA
+
 
 @dataclass(frozen=True)
 class Hazard:
@@ -238,6 +259,14 @@ class Hazard:
     map_extent: tuple[float, float, float, float] | None = None  # m: u_min, u_max, v_min, v_max
     map_surface: int = 0  # the surface the map lies on
     map_axis: Vec3 | None = None  # the grid's u axis (projected on the plane); None: shot.direction
+    body_height: float = BODY_HEIGHT  # m, of a pellet's centre above the map's surface (along -g)
+    points: tuple[Place, ...] = ()  # named places (they need the map)
+
+    @property
+    def radii(self) -> tuple[float, ...]:
+        """The radius (m) of each named place's cylinder: area / (2 body_height), its side's area seen
+        from any horizontal direction being the place's area."""
+        return tuple(p.area / (2.0 * self.body_height) for p in self.points)
 
     @property
     def thresholds(self) -> tuple[tuple[str, str, float], ...]:
@@ -293,6 +322,8 @@ class Scene:
             out["hazard"] = plain(self.hazard)
             for key in ("energy_density", "speed"):  # inline tables {name = value}
                 out["hazard"][key] = dict(getattr(self.hazard, key))
+            if not self.hazard.points:  # (an array of tables [[hazard.points]] when given)
+                del out["hazard"]["points"]
         return out
 
     def to_toml(self) -> str:

@@ -124,8 +124,8 @@ def _ground(scene, hazard, up) -> dict:
     n = np.asarray(surface.normal, dtype=np.float64)
     n = n / np.linalg.norm(n)
     rise = float(n @ up) if np.any(up) else 1.0
-    height = float(getattr(hazard, "body_height", 1.8))
-    places = tuple((p.name, tuple(map(float, p.position)), float(p.area) / (2.0 * height)) for p in getattr(hazard, "points", ()))
+    height = float(hazard.body_height)
+    places = tuple((p.name, tuple(map(float, p.position)), float(r)) for p, r in zip(hazard.points, hazard.radii))
     return dict(
         body_height=height,
         ground_point=tuple(map(float, surface.point)),
