@@ -99,6 +99,8 @@ def create(group, scene, model):
     )
     if scene.hazard is not None:
         _create_hazard(group.create_group("hazard"), setup)
+        if scene.hazard.references:
+            _create_references(group["hazard"].create_group("references"), scene.hazard.references)
 
 
 def _create_hazard(g, setup):
@@ -162,6 +164,21 @@ def _create_hazard(g, setup):
         _ds(m, "u_axis", np.asarray(setup.map_u), unit="1", doc="unit vector of u (downrange)")
         _ds(m, "v_axis", np.asarray(setup.map_v), unit="1", doc="unit vector of v = normal x u")
         _ds(m, "surface", np.int64(setup.map_surface), unit="1", doc="index of the surface the map lies on")
+
+
+def _create_references(g, references):
+    """`[[hazard.references]]`: the distances `report --html` compares the danger distances with."""
+    _ds(g, "name", np.asarray([r.name.encode() for r in references], dtype="S"), unit="", doc="reference names, as in the scene")
+    _ds(
+        g,
+        "distance",
+        np.asarray([r.distance for r in references], dtype=np.float64),
+        unit="m",
+        doc="reference distances from the shooter (horizontal), as in the scene",
+    )
+    _ds(
+        g, "source", np.asarray([r.source.encode() for r in references], dtype="S"), unit="", doc="where each distance comes from"
+    )
 
 
 def _map_layer(shape, dtype) -> dict:

@@ -226,6 +226,16 @@ MAX_THRESHOLDS = 31  # a pellet's thresholds exceeded are the bits of an int32
 
 
 @dataclass(frozen=True)
+class Reference:
+    """A distance the report compares the danger distances with (`[[hazard.references]]`): a
+    regulator's fixed distance, a rule of thumb (docs/hazard.md, "The report")."""
+
+    name: str
+    distance: float  # m, from the shooter
+    source: str = ""
+
+
+@dataclass(frozen=True)
 class Hazard:
     """Hazard thresholds, danger-distance fractions and the ground map (docs/hazard.md). Absent:
     no thresholds, no map (quantiles are still counted)."""
@@ -238,6 +248,7 @@ class Hazard:
     map_extent: tuple[float, float, float, float] | None = None  # m: u_min, u_max, v_min, v_max
     map_surface: int = 0  # the surface the map lies on
     map_axis: Vec3 | None = None  # the grid's u axis (projected on the plane); None: shot.direction
+    references: tuple[Reference, ...] = ()  # distances the report compares with
 
     @property
     def thresholds(self) -> tuple[tuple[str, str, float], ...]:
@@ -293,6 +304,8 @@ class Scene:
             out["hazard"] = plain(self.hazard)
             for key in ("energy_density", "speed"):  # inline tables {name = value}
                 out["hazard"][key] = dict(getattr(self.hazard, key))
+            if not self.hazard.references:
+                del out["hazard"]["references"]
         return out
 
     def to_toml(self) -> str:
