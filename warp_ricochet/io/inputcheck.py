@@ -36,6 +36,7 @@ TEXT = (  # datasets of text in a run group
     "hazard/thresholds/kind",
     "hazard/references/name",
     "hazard/references/source",
+    "hazard/points/name",  # (issue 26 contract: the named places)
 )
 
 
