@@ -219,6 +219,7 @@ def test_the_readmes_command_line_block_runs(tmp_path, monkeypatch, capsys):
     for name in (
         "shot.h5",
         "shot.xmf",
+        "shot.html",
         "sweep.h5",
         "sweep-air.h5",
         "my-scene.toml",

@@ -2,7 +2,7 @@
 
     warp-ricochet run SCENE.toml [-o OUT.h5] [--device cpu|cuda|cuda:N] [--set KEY=VALUE ...] [--overwrite] [--resume]
     warp-ricochet sweep SCENE.toml --param KEY=START:STOP:STEP|a,b,c [--tie KEY=F*[PARAM] ...] [-o OUT.h5] ...
-    warp-ricochet report OUT.h5 [OUT2.h5 ...] [--format text|markdown] [--paper]
+    warp-ricochet report OUT.h5 [OUT2.h5 ...] [--format text|markdown] [--paper] [--html OUT.html [--overwrite]]
     warp-ricochet xdmf OUT.h5 [--overwrite]
     warp-ricochet plot OUT.h5 [OUT2.h5 ...] [-o DIR] [--overwrite]
     warp-ricochet example [NAME] [-o PATH] [--overwrite]
@@ -199,6 +199,12 @@ def _add_subparsers(sub) -> None:
         "(the same sweep, e.g. in vacuum and in air)",
     )
     _add_report_options(p)
+    p.add_argument(
+        "--html",
+        metavar="OUT.html",
+        help="write a self-contained HTML report of one run file instead (figures embedded; needs the report extra)",
+    )
+    p.add_argument("--overwrite", action="store_true", help="with --html: replace OUT.html if it exists")
     p.set_defaults(func=cmd_report)
 
     p = sub.add_parser(
@@ -309,6 +315,8 @@ def cmd_sweep(args) -> int:
 def cmd_report(args) -> int:
     from .report import ReportError, format_side_by_side, format_tables, read_results
 
+    if args.html is not None:
+        return _html_report(args)
     results = [read_results(path) for path in args.files]
     if len(results) == 1:
         sys.stdout.write(format_tables(results[0], args.format, paper=args.paper))
@@ -316,6 +324,17 @@ def cmd_report(args) -> int:
         raise ReportError(args.files[1], "--paper compares one file with the paper; give one file")
     else:
         sys.stdout.write(format_side_by_side(results, args.format))
+    return 0
+
+
+def _html_report(args) -> int:
+    from .report.html import HtmlError, write_html
+
+    if len(args.files) > 1:
+        raise HtmlError(args.html, f"the HTML report is of one run file; {len(args.files)} were given")
+    if args.paper or args.format != "text":
+        raise HtmlError(args.html, "--paper and --format are for the text report; give them without --html")
+    print(f"wrote {write_html(args.files[0], args.html, overwrite=args.overwrite)}")
     return 0
 
 

@@ -31,7 +31,13 @@ MAX_DECLARED_BYTES = 1 << 30  # a dataset may declare this much whatever the fil
 MAX_COMPRESSION = 4096  # ... and beyond it at most this many times the file's size (deflate: ~1032 at most)
 READ_BYTES = 1 << 20  # datasets this small are read once, to find damaged data
 READ_TOTAL = 64 << 20  # at most this much in all
-TEXT = ("hazard/thresholds/name", "hazard/thresholds/kind", "hazard/points/name")  # datasets of text in a run group
+TEXT = (  # datasets of text in a run group
+    "hazard/thresholds/name",
+    "hazard/thresholds/kind",
+    "hazard/references/name",
+    "hazard/references/source",
+    "hazard/points/name",  # (issue 26 contract: the named places)
+)
 
 
 class BadFile(ValueError):

@@ -102,6 +102,8 @@ def create(group, scene, model):
     if scene.hazard is not None:
         _create_hazard(group.create_group("hazard"), setup)
         _create_places(group["hazard"], scene, len(setup.names))
+        if scene.hazard.references:
+            _create_references(group["hazard"].create_group("references"), scene.hazard.references)
 
 
 def _create_hazard(g, setup):
@@ -201,6 +203,21 @@ def _create_danger(d, setup, of: str, whose: str):
         np.zeros((t, f), dtype=np.int64),
         unit="1",
         doc=f"{whose} a bounded 95% interval needs at that p",
+    )
+
+
+def _create_references(g, references):
+    """`[[hazard.references]]`: the distances `report --html` compares the danger distances with."""
+    _ds(g, "name", np.asarray([r.name.encode() for r in references], dtype="S"), unit="", doc="reference names, as in the scene")
+    _ds(
+        g,
+        "distance",
+        np.asarray([r.distance for r in references], dtype=np.float64),
+        unit="m",
+        doc="reference distances from the shooter (horizontal), as in the scene",
+    )
+    _ds(
+        g, "source", np.asarray([r.source.encode() for r in references], dtype="S"), unit="", doc="where each distance comes from"
     )
 
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import math
 
 from ..fields import ALL_FIELDS, FIELDS, GROUPS
+from .keys import MISSING, check_keys, join, table
 from .keys import err as _err
-from .keys import join, table
 from .materials import RANGES
 from .schema import (
     COMPRESSIONS,
@@ -25,6 +25,7 @@ from .schema import (
     MIN_DENSITY,
     MIN_DIAMETER,
     Place,
+    Reference,
 )
 
 
@@ -369,6 +370,30 @@ def _places(v, path):
     return tuple(out)
 
 
+_REFERENCE = {"name": _str(), "distance": _range(0, MAX_COORDINATE, above=True, unit="m"), "source": _str(empty=True)}
+
+
+@_rule("must be an array of tables [[hazard.references]], each with name, distance (m) and source")
+def _references(v, path):
+    """Reference distances the report compares the danger distances with (docs/hazard.md, "The report")."""
+    if not isinstance(v, (list, tuple)):
+        raise _err(path, v, _references.rule)
+    out = []
+    for i, item in enumerate(v):
+        where = f"{path}.{i}"
+        if not isinstance(item, dict):
+            raise _err(where, item, "must be a table with name, distance (m) and source")
+        check_keys(item, where, _REFERENCE)
+        for key in ("name", "distance"):
+            if item.get(key) is None:
+                raise _err(f"{where}.{key}", MISSING, f"is required; it {_REFERENCE[key].rule}")
+        kw = {key: conv(item[key], f"{where}.{key}") for key, conv in _REFERENCE.items() if item.get(key) is not None}
+        if any(r.name == kw["name"] for r in out):
+            raise _err(f"{where}.name", kw["name"], "names a reference twice: give each its own name")
+        out.append(Reference(**kw))
+    return tuple(out)
+
+
 _HAZARD = {
     "energy_density": _thresholds("J/m^2", 1e12),
     "speed": _thresholds("m/s", MAX_SPEED),
@@ -380,6 +405,7 @@ _HAZARD = {
     "map_axis": _vec3(nonzero=True, bound=MAX_COORDINATE),
     "body_height": _range(0, 1e3, above=True, unit="m"),
     "points": _places,
+    "references": _references,
 }
 _OUTPUT = {
     "path": _path(),

@@ -247,6 +247,16 @@ class Place:
 
 
 @dataclass(frozen=True)
+class Reference:
+    """A distance the report compares the danger distances with (`[[hazard.references]]`): a
+    regulator's fixed distance, a rule of thumb (docs/hazard.md, "The report")."""
+
+    name: str
+    distance: float  # m, from the shooter
+    source: str = ""
+
+
+@dataclass(frozen=True)
 class Hazard:
     """Hazard thresholds, danger-distance fractions and the ground map (docs/hazard.md). Absent:
     no thresholds, no map (quantiles are still counted)."""
@@ -267,6 +277,8 @@ class Hazard:
         """The radius (m) of each named place's cylinder: area / (2 body_height), its side's area seen
         from any horizontal direction being the place's area."""
         return tuple(p.area / (2.0 * self.body_height) for p in self.points)
+
+    references: tuple[Reference, ...] = ()  # distances the report compares with
 
     @property
     def thresholds(self) -> tuple[tuple[str, str, float], ...]:
@@ -324,6 +336,8 @@ class Scene:
                 out["hazard"][key] = dict(getattr(self.hazard, key))
             if not self.hazard.points:  # (an array of tables [[hazard.points]] when given)
                 del out["hazard"]["points"]
+            if not self.hazard.references:
+                del out["hazard"]["references"]
         return out
 
     def to_toml(self) -> str:

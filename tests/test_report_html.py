@@ -1,0 +1,267 @@
+"""`warp-ricochet report RUN.h5 --html` (issue 26, part 3; docs/hazard.md, "The report"): the scene key
+`[[hazard.references]]` and its datasets, the page's text against the run file's numbers (always),
+the page opened in headless Chromium (a screenshot that is not blank, the numbers in its DOM text;
+skipped only without `chromium`), the named places and outlines when the file has them, and bad
+input refused in one line before anything is written."""
+
+import html.parser
+import math
+import shutil
+import subprocess
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+import warp_ricochet as wr
+from tests.helpers import cli
+from warp_ricochet.errors import SceneError
+from warp_ricochet.report import html as report_html
+from warp_ricochet.report.html_data import fmt, journee_distance
+from warp_ricochet.scene import load_scene, scene_from_dict
+
+ROOT = Path(__file__).resolve().parents[1]
+SHORT = 50.0  # m: a reference every bounded danger distance of the run lies beyond
+
+
+@pytest.fixture(scope="module")
+def run_file(tmp_path_factory):
+    """A real run of examples/hazard.toml (14 shots: 3,920 pellets, enough to bound p = 1e-3 of the
+    corneal threshold; to rest, on the CPU) with two references."""
+    refs = "[{name = 'CPSA shot fall', distance = 275.0, source = 'CPSA'}, {name = 'short', distance = 50.0}]"
+    scene = load_scene(
+        ROOT / "examples" / "hazard.toml",
+        ["shot.shots=14", 'output.fields=["landing", "hazard", "rest"]', f"hazard.references={refs}"],
+    )
+    path = tmp_path_factory.mktemp("html") / "run.h5"
+    wr.run(scene, path, device="cpu")
+    return path
+
+
+class _Text(html.parser.HTMLParser):
+    """The text of a page (scripts and styles left out) and its tables' rows as lists of cell texts."""
+
+    def __init__(self):
+        super().__init__()
+        self.parts, self.rows, self._skip, self._cell = [], [], 0, None
+
+    def handle_starttag(self, tag, attrs):
+        if tag in ("style", "script"):
+            self._skip += 1
+        elif tag == "tr":
+            self.rows.append([])
+        elif tag in ("td", "th"):
+            self._cell = []
+
+    def handle_endtag(self, tag):
+        if tag in ("style", "script"):
+            self._skip -= 1
+        elif tag in ("td", "th") and self._cell is not None:
+            self.rows[-1].append(" ".join("".join(self._cell).split()))
+            self._cell = None
+
+    def handle_data(self, data):
+        if not self._skip:
+            self.parts.append(data)
+            if self._cell is not None:
+                self._cell.append(data + " ")
+
+    @property
+    def text(self):
+        return " ".join(" ".join(self.parts).split())
+
+
+def _parse(text):
+    p = _Text()
+    p.feed(text)
+    return p
+
+
+def _numbers(path):
+    """The run's danger distances, intervals, quantiles and tail fractions as the page formats them."""
+    with h5py.File(path, "r") as f:
+        d = {k: f[f"hazard/danger_distance/{k}"][()] for k in ("distance", "ci_low", "ci_high")}
+        out = [fmt(x) for x in d["distance"].ravel()]
+        out += [f"[{fmt(lo)}, {fmt(hi)}]" for lo, hi in zip(d["ci_low"].ravel(), d["ci_high"].ravel())]
+        out += [fmt(x) for x in f["stats/quantiles/distance"][()]] + [fmt(x) for x in f["stats/quantiles/rest_distance"][()]]
+        out += [fmt(x) for x in f["stats/tail/fraction"][()]]
+        out.append(f"{int(f['stats/pellets'][()]):,}")
+    return out
+
+
+# ---------------------------------------------------------------------------------------------- the key
+
+
+def test_references_key_round_trips_and_bad_values_are_one_line():
+    refs = "[{name = 'CPSA', distance = 275.0, source = 'CPSA guidance'}, {name = 'BSA', distance = 274.32}]"
+    scene = load_scene(ROOT / "examples" / "hazard.toml", [f"hazard.references={refs}"])
+    assert [(r.name, r.distance, r.source) for r in scene.hazard.references] == [
+        ("CPSA", 275.0, "CPSA guidance"),
+        ("BSA", 274.32, ""),
+    ]
+    import tomllib
+
+    assert scene_from_dict(tomllib.loads(scene.to_toml())) == scene
+    assert "references" not in load_scene(ROOT / "examples" / "hazard.toml", ["hazard.references=[]"]).to_toml()
+    for bad, key in (
+        ("[{name = 'a'}]", "hazard.references.0.distance"),
+        ("[{name = 'a', distance = -1.0}]", "hazard.references.0.distance"),
+        ("[{name = 'a', distance = 1.0, src = 'x'}]", "hazard.references.0.src"),
+        ("[{name = 'a', distance = 1.0}, {name = 'a', distance = 2.0}]", "hazard.references.1.name"),
+        ("[{name = '', distance = 1.0}]", "hazard.references.0.name"),
+        ("[1]", "hazard.references.0"),
+        ("3", "hazard.references"),
+    ):
+        with pytest.raises(SceneError) as exc:
+            load_scene(ROOT / "examples" / "hazard.toml", [f"hazard.references={bad}"])
+        message = str(exc.value)
+        assert message.startswith(key + " =") and "\n" not in message, message
+
+
+def test_references_are_written_into_the_run_file(run_file):
+    with h5py.File(run_file, "r") as f:
+        g = f["hazard/references"]
+        assert [n.decode() for n in g["name"][()]] == ["CPSA shot fall", "short"]
+        assert g["distance"][()].tolist() == [275.0, 50.0]
+        assert [s.decode() for s in g["source"][()]] == ["CPSA", ""]
+        for name in ("name", "distance", "source"):
+            assert "units" in g[name].attrs and g[name].attrs["description"]
+        assert g["distance"].attrs["units"] == "m"
+
+
+def test_journees_rule_is_2200_yards_per_inch():
+    assert journee_distance(0.0254) == pytest.approx(2200 * 0.9144)  # 1 inch shot: 2,200 yd
+    assert journee_distance(0.1 * 0.0254) == pytest.approx(201.168)  # 0.1 in: 220 yd
+
+
+# ------------------------------------------------------------------------------------------ the page
+
+
+def test_the_page_holds_the_runs_numbers_and_the_comparisons(run_file, tmp_path):
+    out = tmp_path / "report.html"
+    rc, stdout, err = cli(["report", run_file, "--html", out])
+    assert (rc, err) == (0, "") and stdout == f"wrote {out}\n"
+    page = _parse(out.read_text())
+    for number in _numbers(run_file):
+        assert number in page.text, number
+    with h5py.File(run_file, "r") as f:
+        diameter = 2 * f["constants/radius"][()]
+        d = {k: f[f"hazard/danger_distance/{k}"][()] for k in ("distance", "ci_low", "ci_high")}
+        names = [n.decode() for n in f["hazard/thresholds/name"][()]]
+        landings = f["hazard/thresholds/landings"][()]
+    journee = journee_distance(diameter)
+    assert f"{fmt(journee)} m" in page.text and "2200 x shot diameter in inches" in page.text
+    header = next(r for r in page.rows if r[:2] == ["threshold", "p"])
+    columns = {
+        name: header.index(next(h for h in header if h.startswith(name))) for name in ("CPSA shot fall", "short", "Journee")
+    }
+    rows = [r for r in page.rows if len(r) == len(header) and r[0] in names]
+    assert len(rows) == d["distance"].size
+    for row in rows:
+        i, j = names.index(row[0]), [f"{p:g}" for p in (1e-3, 1e-5)].index(row[1])
+        x, lo, hi = d["distance"][i, j], d["ci_low"][i, j], d["ci_high"][i, j]
+        assert landings[i] > 0 and row[2] == fmt(x)
+        for name, reference in (("CPSA shot fall", 275.0), ("short", SHORT), ("Journee", journee)):
+            cell = row[columns[name]]
+            expected = "inside" if hi < reference else "OUTSIDE" if lo > reference else "undecided"
+            side = "beyond" if x > reference else "short of"
+            assert cell == f"{expected} {fmt(abs(x - reference))} m ({fmt(abs(100 * (x - reference) / reference))}%) {side} it", (
+                cell
+            )
+    assert any(r[columns["short"]].startswith("OUTSIDE") for r in rows)  # (the test sees each verdict)
+    assert any(r[columns["CPSA shot fall"]].startswith("inside") for r in rows)
+    assert "Pellets do not collide" in page.text and "float32" in page.text  # the limits that apply
+    assert page.text.count("data:image/png") == 0 and out.read_text().count('src="data:image/png;base64,') == 3
+
+
+def test_the_named_places_and_the_outlines_when_the_file_has_them(run_file, tmp_path, monkeypatch):
+    run = tmp_path / "run.h5"
+    shutil.copy(run_file, run)
+    with h5py.File(run, "a") as f:  # /hazard/points as issue 26's contract lays it out
+        g, k = f.create_group("hazard/points"), len(f["hazard/thresholds/name"])
+        g["name"] = np.asarray([b"footpath", b"car park"])
+        g["position"] = np.asarray([[60.0, 0.0, 2.0], [75.0, 0.0, -3.0]])
+        g["area"] = np.full(2, 0.7)
+        g["radius"] = np.full(2, 0.7 / 3.6)
+        g["pellets"] = np.arange(2 * k, dtype=np.int64).reshape(2, k)
+        g["probability"] = np.linspace(0.01, 0.3, 2 * k).reshape(2, k)
+        g["ci_low"], g["ci_high"] = g["probability"][()] / 2, g["probability"][()] * 2
+        g["expected_per_shot"] = g["probability"][()] * 1.5
+        g.attrs["pellets_per_shot"] = 280
+
+    class Square:
+        exterior = type("Ring", (), {"coords": [(50.0, -2.0), (70.0, -2.0), (70.0, 2.0), (50.0, 2.0), (50.0, -2.0)]})()
+
+    drawn = []
+    monkeypatch.setattr(
+        report_html, "outline_polygons", lambda group: drawn.append(group.name) or [("corneal_abrasion", 1e-3, Square())]
+    )
+    out = tmp_path / "places.html"
+    report_html.write_html(run, out)
+    page = _parse(out.read_text())
+    assert drawn == ["/"] and "the danger-area outlines" in page.text
+    with h5py.File(run, "r") as f:
+        for k, name in enumerate(["footpath", "car park"]):
+            row = next(r for r in page.rows if r and r[0] == name)
+            for i in range(len(f["hazard/thresholds/name"])):
+                p, lo, hi = (f[f"hazard/points/{n}"][k, i] for n in ("probability", "ci_low", "ci_high"))
+                assert row[3 + i].startswith(f"{fmt(p)} [{fmt(lo)}, {fmt(hi)}]"), row
+
+
+# ------------------------------------------------------------------------------------------ bad input
+
+
+def test_bad_html_paths_and_runs_are_refused_in_one_line(run_file, tmp_path):
+    existing = tmp_path / "old.html"
+    existing.write_text("keep me")
+    unfinished = tmp_path / "unfinished.h5"
+    shutil.copy(run_file, unfinished)
+    with h5py.File(unfinished, "a") as f:
+        f["stats/pellets"][()] = math.nan  # as a run that has not finished leaves it
+        f.attrs["status"] = "running"
+    cases = [
+        (["report", run_file, "--html", tmp_path], "is a folder"),
+        (["report", run_file, "--html", existing], "exists; give --overwrite"),
+        (["report", run_file, "--html", tmp_path / "no" / "r.html"], "does not exist"),
+        (["report", unfinished, "--html", tmp_path / "u.html"], "holds no results"),
+        (["report", tmp_path / "missing.h5", "--html", tmp_path / "m.html"], "missing.h5"),
+        (["report", run_file, run_file, "--html", tmp_path / "two.html"], "of one run file"),
+    ]
+    for argv, said in cases:
+        rc, out, err = cli(argv)
+        assert rc == 2 and out == "" and err.count("\n") == 1 and err.startswith("warp-ricochet: error: "), (argv, err)
+        assert said in err, (argv, err)
+    assert existing.read_text() == "keep me"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["old.html", "unfinished.h5"]  # nothing else written
+    rc, _, err = cli(["report", run_file, "--html", existing, "--overwrite"])
+    assert rc == 0 and existing.read_text().startswith("<!DOCTYPE html>")
+
+
+# ------------------------------------------------------------------------------------------ the browser
+
+
+def _chromium():
+    return shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+@pytest.mark.skipif(_chromium() is None, reason="Debian's chromium is not installed (apt-get install chromium)")
+def test_the_page_in_headless_chromium(run_file, tmp_path):
+    from matplotlib.image import imread
+
+    out = tmp_path / "report.html"
+    report_html.write_html(run_file, out)
+    browser = [_chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars"]
+    png = tmp_path / "shot.png"
+    subprocess.run(
+        [*browser, f"--screenshot={png}", "--window-size=1200,3000", out.as_uri()], check=True, capture_output=True, timeout=120
+    )
+    pixels = imread(png)[..., :3]
+    assert pixels.shape[:2] == (3000, 1200)
+    assert pixels.std() > 0.05  # not blank: text, tables and figures
+    assert pixels[:1500].std() > 0.05 and pixels[1500:].std() > 0.05  # the whole height drawn
+    dom = subprocess.run([*browser, "--dump-dom", out.as_uri()], check=True, capture_output=True, text=True, timeout=120).stdout
+    text = _parse(dom).text
+    for number in _numbers(run_file):
+        assert number in text, number
+    assert "How far pellets stay dangerous" in text and "CPSA shot fall" in text

@@ -1,0 +1,193 @@
+"""`warp-ricochet report RUN.h5 --html OUT.html`: one self-contained HTML page a range-safety
+reviewer reads (docs/hazard.md, "The report"): the scene, the answers with their 95% intervals, the
+map (with the danger-area outlines when `outline_polygons` gives them) and the plots as embedded
+PNGs, the probabilities at named places, the numerical settings, the model's limits, and the
+danger distances against reference distances. Rendered by the jinja2 template
+`templates/report.html.j2` (package data) from `html_data`'s dicts. Needs jinja2 and matplotlib
+(`pip install 'warp-ricochet[report]'`), h5py and numpy; never warp.
+"""
+
+from __future__ import annotations
+
+import base64
+import datetime
+import io
+import os
+
+import numpy as np
+
+from ..errors import RicochetError
+from ..io.atomic import replaced
+from ..io.h5open import open_for_reading
+from . import hazard_plots, html_data, rest
+from .plotdata import scene_dict
+from .tables import read_results
+
+EXTRA = "pip install 'warp-ricochet[report]'"
+DPI = 110
+
+
+class HtmlError(RicochetError):
+    """The HTML report cannot be written where asked (one line)."""
+
+    def __init__(self, path, problem: str):
+        super().__init__(f"--html = {str(path)!r}: {problem}")
+
+
+def outline_polygons(group):
+    """HOOK for the danger-area outlines (issue 26 part 2): [(threshold name, p, polygon)] in the
+    map's (u, v) metres, a polygon being a shapely Polygon or MultiPolygon (anything with
+    `exterior.coords`, or `geoms` of such), or None when there are none. Uses
+    `warp_ricochet.export.outlines(group)` when that function exists; until then None, and the map
+    shows what the file has (landings and the danger-distance circles)."""
+    try:
+        from .. import export  # (issue 26 part 2; absent before it lands)
+    except ImportError:
+        return None
+    outlines = getattr(export, "outlines", None)
+    return None if outlines is None else outlines(group)
+
+
+def _rings(polygon):
+    """The exterior rings (k, 2) of a Polygon or MultiPolygon."""
+    parts = getattr(polygon, "geoms", None) or [polygon]
+    return [np.asarray(p.exterior.coords, dtype=np.float64)[:, :2] for p in parts]
+
+
+def _png(fig) -> str:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=DPI)
+    return base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def _map_extras(fig, f, outlines):
+    """The outlines and the named places on the hazard map (`draw_map`'s figure)."""
+    ax = fig.axes[0]
+    for k, (name, p, polygon) in enumerate(outlines or []):
+        for j, ring in enumerate(_rings(polygon)):
+            ax.plot(
+                ring[:, 0], ring[:, 1], color=f"C{(k + 1) % 10}", lw=1.6, label=f"outline {name}, p = {p:g}" if j == 0 else None
+            )
+    if "hazard/points" in f and "hazard/map/origin" in f:
+        m = f["hazard/map"]
+        offset = np.asarray(f["hazard/points/position"][()], dtype=np.float64) - m["origin"][()]
+        u, v = offset @ m["u_axis"][()], offset @ m["v_axis"][()]
+        ax.plot(u, v, ls="", marker="^", color="C3", markersize=7)
+        for x, y, name in zip(u, v, html_data._names(f["hazard/points/name"])):
+            ax.annotate(name, (x, y), textcoords="offset points", xytext=(4, 4), fontsize=8, color="C3")
+    if outlines:  # draw_map's legend again, with the outlines' entries
+        for legend in list(fig.legends):
+            legend.remove()
+        fig.legend(fontsize=7, loc="outside lower center", frameon=False)
+
+
+def figures(f) -> list[dict]:
+    """The report's figures as base64 PNGs: [{title, png, caption}], those the run can draw."""
+    from .plots import require_matplotlib
+
+    figure_class = require_matplotlib()
+    out = []
+    outlines = outline_polygons(f)
+    fig = figure_class(figsize=(8.0, 6.0), layout="constrained")
+    if hazard_plots.draw_map(fig, f, "Landings on the map"):
+        _map_extras(fig, f, outlines)
+        caption = (
+            "Grey: landings per square metre (log scale). Coloured contours: where landings above each threshold "
+            "occur; dashed circles: each threshold's danger distance at the smallest p the run bounds."
+        )
+        if outlines:
+            caption += " Solid coloured lines: the danger-area outlines."
+        if "hazard/points" in f:
+            caption += " Red triangles: the named places."
+        out.append({"title": "The map", "png": _png(fig), "caption": caption})
+    fig = figure_class(figsize=(7.5, 4.6), layout="constrained")
+    if hazard_plots.draw_survival(fig, f):
+        caption = (
+            "The share of landed pellets at or beyond each distance from the shooter, all of them and those above "
+            "each threshold (log scale); vertical lines: the danger distances."
+        )
+        out.append({"title": "Landings beyond a distance", "png": _png(fig), "caption": caption})
+    fig = figure_class(figsize=(12.0, 5.0), layout="constrained")
+    if rest.draw_rest_distance(fig, f):
+        caption = "Left: where each pellet ends against where it first landed; right: the share of pellets at least this far."
+        out.append({"title": "Where the pellets end", "png": _png(fig), "caption": caption})
+    return out
+
+
+def _environment():
+    try:
+        import jinja2
+    except ImportError:
+        raise HtmlError("", f"the HTML report needs jinja2, which is not installed: {EXTRA}") from None
+    return jinja2.Environment(
+        loader=jinja2.PackageLoader("warp_ricochet.report", "templates"),
+        autoescape=True,
+        undefined=jinja2.StrictUndefined,
+        trim_blocks=True,
+        lstrip_blocks=True,
+    )
+
+
+def check_output(path, overwrite: bool) -> str:
+    """The HTML path, or a one-line HtmlError: a folder, a missing folder, an existing file without
+    `overwrite`."""
+    path = os.fspath(path)
+    if os.path.isdir(path):
+        raise HtmlError(path, "is a folder; give the HTML file's name (e.g. report.html)")
+    folder = os.path.dirname(path) or "."
+    if not os.path.isdir(folder):
+        raise HtmlError(path, f"its folder {folder!r} does not exist")
+    if os.path.lexists(path) and not overwrite:
+        raise HtmlError(path, "exists; give --overwrite to replace it")
+    return path
+
+
+def context(path, f, results) -> dict:
+    """Everything the template shows, from the run file `f` (open) and its `read_results`."""
+    scene = scene_dict(f)
+    stats = results.rows[0]
+    tally = results.meta.get("tally")
+    danger = html_data.danger_rows(f, stats.get("pellets", 0.0))
+    refs = html_data.references(f)
+    return {
+        "file": os.path.basename(os.fspath(path)),
+        "path": os.path.abspath(os.fspath(path)),
+        "created": str(results.meta.get("created", "n/a")),
+        "made": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC"),
+        "status": str(results.meta.get("status", "n/a")),
+        "version": str(results.meta.get("package_version", "n/a")),
+        "warp": str(results.meta.get("warp_version", "n/a")),
+        "scene": html_data.scene_words(f, scene, stats),
+        "danger": danger,
+        "levels": list(html_data.SHOWN_LEVELS),
+        "quantiles": html_data.quantile_rows(tally),
+        "landed": f"{int(stats.get('landed', 0)):,}",
+        "tail": html_data.tail_rows(tally),
+        "points": html_data.point_rows(f),
+        "references": refs,
+        "comparison": html_data.comparison(f, refs),
+        "settings": html_data.settings(f, scene, stats),
+        "warning": rest.not_finished_line(stats),
+        "limits": html_data.limit_flags(scene, bool(danger and danger["reach"])),
+        "figures": figures(f),
+        "scene_toml": html_data._text(f.attrs.get("scene_toml", "")),
+    }
+
+
+def write_html(run, out, overwrite: bool = False) -> str:
+    """Write the report of run file `run` to `out`; returns `out`. Every input is checked, and the
+    page rendered in memory, before `out` is written (whole, through a temporary file beside it)."""
+    out = check_output(out, overwrite)
+    env = _environment()
+    results = read_results(run)  # one line for a missing, damaged or foreign file
+    if results.kind != "run":
+        raise HtmlError(out, f"{os.fspath(run)!r} is a {results.kind} file; the HTML report is of one run file")
+    if not results.rows:
+        raise HtmlError(
+            out, f"{os.fspath(run)!r} holds no results (status {results.meta.get('status')!r}): the run did not finish"
+        )
+    with open_for_reading(run) as f:
+        page = env.get_template("report.html.j2").render(**context(run, f, results))
+    with replaced(out) as tmp, open(tmp, "w", encoding="utf-8") as fh:
+        fh.write(page)
+    return out
