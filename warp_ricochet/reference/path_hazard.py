@@ -33,7 +33,8 @@ import numpy as np
 STEP = 1e-3  # m of path between samples
 MIN_SAMPLES = 64  # a phase's samples at least
 MAX_SAMPLES = 400_000  # a phase's samples at most (a longer phase is sampled more coarsely)
-BISECTIONS = 80  # halvings of a change's interval (to 1e-15 of a phase's duration, or the float64 spacing)
+BISECTIONS = 80  # halvings of a change's interval at most (to the float64 spacing)
+RESOLUTION = 1e-13  # m: a change's interval is halved until the pellet moves less than this across it
 OUTSIDE = -1  # the column of a position over the plane but off the grid
 
 
@@ -190,11 +191,13 @@ def _extrema(path, k, t, values, function, near, window):
 
     out = []
     d = np.diff(values)
+    close = (
+        np.min(np.abs(np.subtract.outer(values, np.asarray(list(near), float))), axis=1) <= window
+        if len(near)
+        else values < -np.inf
+    )
     for sign in (1.0, -1.0):  # minima, then maxima
-        j = np.flatnonzero((sign * d[:-1] < 0) & (sign * d[1:] > 0)) + 1
-        for i in j:
-            if not any(abs(values[i] - level) <= window for level in near):
-                continue
+        for i in np.flatnonzero((sign * d[:-1] < 0) & (sign * d[1:] > 0) & close[1:-1]) + 1:
             r = minimize_scalar(
                 lambda s, sign=sign: sign * float(function(*path.state(k, s))[0]),
                 bounds=(t[i - 1], t[i + 1]),
@@ -205,13 +208,13 @@ def _extrema(path, k, t, values, function, near, window):
     return out
 
 
-def _bisect(path, k, ta, tb, key):
+def _bisect(path, k, ta, tb, key, dt=0.0):
     """(t_a', t_b'): the two ends, within float spacing (or BISECTIONS halvings), of one change of
     `key(x, v)` between ta and tb (key(ta) != key(tb)); the change nearest ta where there are several."""
     ka = key(*path.state(k, ta))
     for _ in range(BISECTIONS):
         tm = 0.5 * (ta + tb)
-        if tm <= ta or tm >= tb:
+        if tm <= ta or tm >= tb or tb - ta <= dt:
             break
         if key(*path.state(k, tm)) == ka:
             ta = tm
@@ -220,17 +223,18 @@ def _bisect(path, k, ta, tb, key):
     return ta, tb
 
 
-def _max_over(path, inside, value, extra=()):
+def _max_over(path, inside, value, samples, arrays=None):
     """The largest `value(x, v)` over the points of the path where `inside(x, v)` holds (NaN if
     none): over the samples in the set, the set's ends refined by bisection, and the refined
-    interior maxima of `value`. `extra`: per segment, times to sample too."""
+    interior maxima of `value`. `samples`: `_sampled`'s; `arrays`: per segment (inside, value) at
+    them, when already computed."""
     from scipy.optimize import minimize_scalar
 
     best = -math.inf
     for k in range(len(path.segments)):
-        t = np.unique(np.concatenate([_samples(path, k), np.asarray(extra[k] if extra else [], float)]))
-        x, v = path.state(k, t)
-        ins, val = inside(x, v), value(x, v)
+        t, x, v = samples[k]
+        ins, val = arrays[k] if arrays is not None else (inside(x, v), value(x, v))
+        dt = RESOLUTION / max(np.linalg.norm(v, axis=1).max(), 1e-30)
         if ins.any():
             best = max(best, float(val[ins].max()))
         for j in np.flatnonzero(ins[:-1] != ins[1:]):  # the set's ends: the inside point of each change
@@ -238,7 +242,7 @@ def _max_over(path, inside, value, extra=()):
             def key(x, v):
                 return bool(inside(x, v)[0])
 
-            ta, tb = _bisect(path, k, t[j], t[j + 1], key)
+            ta, tb = _bisect(path, k, t[j], t[j + 1], key, dt)
             edge = ta if ins[j] else tb
             xe, ve = path.state(k, edge)
             if inside(xe, ve)[0]:
@@ -257,9 +261,10 @@ def _max_over(path, inside, value, extra=()):
     return best if best > -math.inf else math.nan
 
 
-def _hidden(path, m: _Measures, hazard: Hazard):
-    """Per segment: the refined extrema near the levels that matter (body height, thresholds,
-    cell edges, point radii), where an excursion could hide between samples."""
+def _sampled(path: Path, hazard: Hazard):
+    """Per segment: (t, x, v) at its samples and at the refined extrema near the levels that matter
+    (body height, thresholds, cell edges, point radii), where an excursion could hide between samples."""
+    m = _Measures(hazard)
     out = []
     for k in range(len(path.segments)):
         t = _samples(path, k)
@@ -286,37 +291,44 @@ def _hidden(path, m: _Measures, hazard: Hazard):
                 )
         for position, radius in hazard.points:
             found += _extrema(path, k, t, m.distance(x, position), lambda x, v, p=position: m.distance(x, p), [radius], window)
-        out.append(found)
+        if found:
+            t = np.concatenate([t, found])
+            x, v = np.concatenate([x, path.state(k, found)[0]]), np.concatenate([v, path.state(k, found)[1]])
+            t, first = np.unique(t, return_index=True)
+            x, v = x[first], v[first]
+        out.append((t, x, v))
     return out
 
 
-def reach(path: Path, hazard: Hazard, extra=None) -> np.ndarray:
+def reach(path: Path, hazard: Hazard, samples=None) -> np.ndarray:
     """reach_i (m) per threshold in scene order, NaN where the pellet is never within body height
     at or above v_i."""
     m = _Measures(hazard)
-    extra = _hidden(path, m, hazard) if extra is None else extra
+    samples = _sampled(path, hazard) if samples is None else samples
+    measured = [(m.height(x), np.linalg.norm(v, axis=1), m.distance(x)) for _t, x, v in samples]
     out = []
     for speed in hazard.speeds:
 
         def inside(x, v, speed=speed):
             return (m.height(x) <= hazard.body_height) & (np.linalg.norm(v, axis=1) >= speed)
 
-        out.append(_max_over(path, inside, lambda x, v: m.distance(x), extra))
+        arrays = [((h <= hazard.body_height) & (speed_ >= speed), d) for h, speed_, d in measured]
+        out.append(_max_over(path, inside, lambda x, v: m.distance(x), samples, arrays))
     return np.asarray(out)
 
 
-def point_levels(path: Path, hazard: Hazard, extra=None) -> list:
+def point_levels(path: Path, hazard: Hazard, samples=None) -> list:
     """Per named point: the highest level over the path's stretches within the point's radius of its
     vertical and within body height (None if it never comes there)."""
     m = _Measures(hazard)
-    extra = _hidden(path, m, hazard) if extra is None else extra
+    samples = _sampled(path, hazard) if samples is None else samples
     out = []
     for position, radius in hazard.points:
 
         def inside(x, v, position=position, radius=radius):
             return (m.height(x) <= hazard.body_height) & (m.distance(x, position) <= radius)
 
-        top = _max_over(path, inside, lambda x, v: np.linalg.norm(v, axis=1), extra)
+        top = _max_over(path, inside, lambda x, v: np.linalg.norm(v, axis=1), samples)
         out.append(None if math.isnan(top) else int(hazard.level(top)))
     return out
 
@@ -338,17 +350,17 @@ def _depth(m: _Measures, hazard: Hazard, x, state):
     return np.where(state == -2, -up, np.minimum(up, np.where(state == OUTSIDE, off_grid, in_cell)))
 
 
-def _changes(key, ta, tb, sa, sb, out, depth=BISECTIONS):
-    """Every change of key(t) between ta and tb seen by recursive halving: (t, new state) in order."""
+def _changes(key, ta, tb, sa, sb, out, dt, depth=BISECTIONS):
+    """Every change of key(t) between ta and tb seen by recursive halving to dt: (t, new state) in order."""
     tm = 0.5 * (ta + tb)
-    if depth == 0 or tm <= ta or tm >= tb:
+    if depth == 0 or tm <= ta or tm >= tb or tb - ta <= dt:
         out.append((tb, sb))
         return
     sm = key(tm)
     if sm != sa:
-        _changes(key, ta, tm, sa, sm, out, depth - 1)
+        _changes(key, ta, tm, sa, sm, out, dt, depth - 1)
     if sm != sb:
-        _changes(key, tm, tb, sm, sb, out, depth - 1)
+        _changes(key, tm, tb, sm, sb, out, dt, depth - 1)
 
 
 def _around(hazard: Hazard, x, du, dv):
@@ -361,20 +373,20 @@ def _levels(hazard: Hazard, speed, dv):
     return frozenset(range(int(hazard.level(speed - dv)), int(hazard.level(speed + dv)) + 1))
 
 
-def passes(path: Path, hazard: Hazard, tolerance=(0.0, 0.0), extra=None) -> list:
+def passes(path: Path, hazard: Hazard, tolerance=(0.0, 0.0), samples=None) -> list:
     """The path's passes (module docstring) and, with a tolerance (dx m, dv m/s), the near-misses
     within it as ghost passes; in time order."""
     m, g = _Measures(hazard), hazard.grid
     dx, dv = tolerance
-    extra = _hidden(path, m, hazard) if extra is None else extra
+    samples = _sampled(path, hazard) if samples is None else samples
     stretches = []  # (t, k, state, x, v): the start of each stretch of one state
     depth = []  # the deepest sample of each stretch
     ghosts = []
     for k in range(len(path.segments)):
-        t = np.unique(np.concatenate([_samples(path, k), np.asarray(extra[k], float)]))
-        x, v = path.state(k, t)
+        t, x, v = samples[k]
         s = _state(m, hazard, x)
         d = _depth(m, hazard, x, s)
+        dt = RESOLUTION / max(np.linalg.norm(v, axis=1).max(), 1e-30)
 
         def key(tm, k=k):
             return int(_state(m, hazard, path.state(k, tm)[0])[0])
@@ -385,7 +397,7 @@ def passes(path: Path, hazard: Hazard, tolerance=(0.0, 0.0), extra=None) -> list
         for j in range(len(t)):
             if j and s[j] != s[j - 1]:
                 found = []
-                _changes(key, t[j - 1], t[j], int(s[j - 1]), int(s[j]), found)
+                _changes(key, t[j - 1], t[j], int(s[j - 1]), int(s[j]), found, dt)
                 for tc, sc in found:
                     xc, vc = path.state(k, tc)
                     stretches.append((tc, k, sc, xc[0], vc[0]))
@@ -432,27 +444,27 @@ class PathHazard:
     length: float  # m, the path's length
 
 
-def hazard_of(path: Path, hazard: Hazard, tolerance=(0.0, 0.0), rounding=(0.0, 0.0)) -> PathHazard:
+def hazard_of(path: Path, hazard: Hazard, tolerance=(0.0, 0.0), rounding=(0.0, 0.0), samples=None) -> PathHazard:
     """The reach, passes (with `tolerance`) and point levels of a path; the reach again with the body
     height and thresholds moved by `rounding` (dx m, dv m/s) against and for the pellet, whose
-    spread shows a reach a rounding could move by more than that (a stretch grazing body height)."""
-    m = _Measures(hazard)
-    extra = _hidden(path, m, hazard)
+    spread shows a reach a rounding could move by more than that (a stretch grazing body height).
+    `samples`: `_sampled(path, hazard)` when already made (they depend on neither)."""
+    samples = _sampled(path, hazard) if samples is None else samples
     moved = [
         reach(
             path,
             dataclasses.replace(
                 hazard, body_height=hazard.body_height + s * rounding[0], speeds=tuple(np.add(hazard.speeds, -s * rounding[1]))
             ),
-            extra,
+            samples,
         )
         for s in (-1.0, 1.0)
     ]
     return PathHazard(
-        reach=reach(path, hazard, extra),
+        reach=reach(path, hazard, samples),
         reach_low=moved[0],
         reach_high=moved[1],
-        passes=passes(path, hazard, tolerance, extra) if hazard.grid is not None else [],
-        points=point_levels(path, hazard, extra),
+        passes=passes(path, hazard, tolerance, samples) if hazard.grid is not None else [],
+        points=point_levels(path, hazard, samples),
         length=sum(path.length(k) for k in range(len(path.segments))),
     )
