@@ -168,7 +168,117 @@ def make_path_cells(precision: str, thresholds: int, points: int, with_map: bool
             track = near_places(track, tally, xa, xb, lo, hi)
         return track
 
-    return SimpleNamespace(Track=Track, Tally=Tally, Reach=Reach, chord=chord)
+    return SimpleNamespace(
+        Track=Track,
+        Tally=Tally,
+        Reach=Reach,
+        chord=chord,
+        near_places=near_places,
+        enter=enter,
+        column_of=column_of,
+        cell_index=cell_index,
+    )
+
+
+@functools.cache
+def make_path_curve(precision: str, thresholds: int, points: int, with_map: bool) -> SimpleNamespace:
+    """`curve(track, tally, a, b, x0, d0, e0, x1, d1, e1, inv_h2)`: the passes of a segment's
+    stretch [a, b] within body height, walked across the map's cells along its Hermite quintic
+    (each cell edge crossed found by bisection; u and v taken as monotone on the stretch), each
+    cell entered counted with the level of the speed there."""
+    t = types_for(precision)
+    scalar, vec3 = t.scalar, t.vec3
+    cells = make_path_cells(precision, thresholds, points, with_map)
+    Track, Tally, enter, column_of, cell_index = cells.Track, cells.Tally, cells.enter, cells.column_of, cells.cell_index
+    dense = make_dense_output(precision)
+    speed2_at = make_path_roots(precision).speed2_at
+    K = max(thresholds, 1)
+    ITERATIONS = 30 if precision == "float32" else 60
+    ZERO, ONE, HALF = scalar(0.0), scalar(1.0), scalar(0.5)
+
+    @wp.func
+    def level_of(tally: Tally, speed2: scalar):
+        level = wp.int32(0)
+        for i in range(wp.static(K)):
+            if speed2 >= tally.thresholds2[i]:
+                level += 1
+        return level
+
+    @wp.func
+    def crossing(a: scalar, b: scalar, edge: scalar, g0: scalar, s0: scalar, q0: scalar, g1: scalar, s1: scalar, q1: scalar):
+        """Where the quintic (g0, s0, q0; g1, s1, q1), below `edge` at a, reaches it on [a, b]."""
+        for _ in range(ITERATIONS):
+            m = HALF * (a + b)
+            value, _slope = dense.hermite(m, g0, s0, q0, g1, s1, q1)
+            if value < edge:
+                a = m
+            else:
+                b = m
+        return b
+
+    @wp.func
+    def curve(
+        track: Track,
+        tally: Tally,
+        a: scalar,
+        b: scalar,
+        x0: vec3,
+        d0: vec3,
+        e0: vec3,
+        x1: vec3,
+        d1: vec3,
+        e1: vec3,
+        inv_h2: scalar,
+    ):
+        ua = wp.dot(x0, tally.map_u_cell) - tally.map_u_start
+        ub = wp.dot(x1, tally.map_u_cell) - tally.map_u_start
+        va = wp.dot(x0, tally.map_v_cell) - tally.map_v_start
+        vb = wp.dot(x1, tally.map_v_cell) - tally.map_v_start
+        su0, qu0 = wp.dot(d0, tally.map_u_cell), wp.dot(e0, tally.map_u_cell)
+        su1, qu1 = wp.dot(d1, tally.map_u_cell), wp.dot(e1, tally.map_u_cell)
+        sv0, qv0 = wp.dot(d0, tally.map_v_cell), wp.dot(e0, tally.map_v_cell)
+        sv1, qv1 = wp.dot(d1, tally.map_v_cell), wp.dot(e1, tally.map_v_cell)
+        fu, _du = dense.hermite(a, ua, su0, qu0, ub, su1, qu1)
+        fv, _dv = dense.hermite(a, va, sv0, qv0, vb, sv1, qv1)
+        fu_end, _du1 = dense.hermite(b, ua, su0, qu0, ub, su1, qu1)
+        fv_end, _dv1 = dense.hermite(b, va, sv0, qv0, vb, sv1, qv1)
+        iu = cell_index(fu, tally.map_nu_cells)
+        iv = cell_index(fv, tally.map_nv_cells)
+        track = enter(track, tally, column_of(tally, iu, iv), level_of(tally, speed2_at(a, x0, d0, e0, x1, d1, e1, inv_h2)))
+        step_u = wp.int32(1)
+        if fu_end < fu:
+            step_u = wp.int32(-1)
+        step_v = wp.int32(1)
+        if fv_end < fv:
+            step_v = wp.int32(-1)
+        theta = a
+        budget = wp.int32(wp.abs(fu_end - fu) + wp.abs(fv_end - fv)) + 4
+        for _ in range(budget):
+            edge_u = scalar(iu + wp.max(step_u, 0))
+            edge_v = scalar(iv + wp.max(step_v, 0))
+            su = scalar(step_u)
+            sv = scalar(step_v)
+            at_u = b + ONE  # none
+            at_v = b + ONE
+            if (fu - edge_u) * su < ZERO and (fu_end - edge_u) * su >= ZERO:
+                at_u = crossing(theta, b, su * edge_u, su * ua, su * su0, su * qu0, su * ub, su * su1, su * qu1)
+            if (fv - edge_v) * sv < ZERO and (fv_end - edge_v) * sv >= ZERO:
+                at_v = crossing(theta, b, sv * edge_v, sv * va, sv * sv0, sv * qv0, sv * vb, sv * sv1, sv * qv1)
+            if at_u > b and at_v > b:
+                break
+            if at_u <= at_v:
+                theta = at_u
+                iu += step_u
+                fu = edge_u
+            else:
+                theta = at_v
+                iv += step_v
+                fv = edge_v
+            level = level_of(tally, speed2_at(theta, x0, d0, e0, x1, d1, e1, inv_h2))
+            track = enter(track, tally, column_of(tally, iu, iv), level)
+        return track
+
+    return SimpleNamespace(curve=curve)
 
 
 @functools.cache
@@ -253,6 +363,8 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
     scalar, vec3 = t.scalar, t.vec3
     cells = make_path_cells(precision, thresholds, points, with_map)
     Track, Tally, Reach, chord = cells.Track, cells.Tally, cells.Reach, cells.chord
+    near_places, curve = cells.near_places, make_path_curve(precision, thresholds, points, with_map).curve
+    MAP = with_map
     hermite_vec = make_dense_output(precision).hermite_vec
     r = make_path_roots(precision)
     height, height_at, speed2_at, height_root, apex, speed_root = (
@@ -342,7 +454,10 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
                     hi[i] = ONE
                     track = farther(track, tally, i, xb)
                 track = farther(track, tally, i, xc)
-        track = chord(track, tally, xa, xb, lo, hi)
+        if wp.static(MAP):
+            track = curve(track, tally, lo_t, hi_t, x0, d0, e0, x1, d1, e1, inv_h2)
+        if wp.static(HAS_POINTS):
+            track = near_places(track, tally, xa, xb, lo, hi)
         if fb > ZERO:
             track.cell = wp.int32(NONE)  # the pass ends here
         return track
