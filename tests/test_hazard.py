@@ -138,7 +138,9 @@ def test_danger_distances_hold_numpys_quantiles_of_the_hazardous_landings(run_fi
     scene, path, stats = run_file
     with h5py.File(path, "r") as f:
         p = _per_pellet(f)
-        d = {name: f[f"hazard/danger_distance/{name}"][()] for name in ("distance", "ci_low", "ci_high", "needed_landings")}
+        d = {
+            name: f[f"hazard/landing_danger_distance/{name}"][()] for name in ("distance", "ci_low", "ci_high", "needed_landings")
+        }
         landings = f["hazard/thresholds/landings"][()]
     delta = p["position"] - np.asarray(scene.shot.envelope_center)
     distance = np.hypot(delta[:, 0], delta[:, 2])  # gravity along -y
@@ -155,6 +157,28 @@ def test_danger_distances_hold_numpys_quantiles_of_the_hazardous_landings(run_fi
             assert d["ci_low"][bit, j] <= true <= d["ci_high"][bit, j]
             assert d["needed_landings"][bit, j] == needed_landings(fraction)
             assert math.isinf(d["ci_high"][bit, j]) == (len(hazardous) < needed_landings(fraction))
+
+
+def test_danger_distances_are_numpys_quantiles_of_the_per_pellet_reach(run_file):
+    """Along the path (issue 26): /hazard/danger_distance from the reach histograms against NumPy's
+    quantiles of /pellets/hazard/reach, the pellets reaching above each threshold counted."""
+    scene, path, _stats = run_file
+    with h5py.File(path, "r") as f:
+        reach = f["pellets/hazard/reach"][()].astype(np.float64)
+        d = {name: f[f"hazard/danger_distance/{name}"][()] for name in ("distance", "ci_low", "ci_high")}
+        reaching = f["hazard/thresholds/reaching"][()]
+    assert reach.shape == (scene.shot.pellets, len(scene.hazard.thresholds))
+    for i in range(reach.shape[1]):
+        above = reach[np.isfinite(reach[:, i]), i]
+        assert reaching[i] == len(above)
+        for j, fraction in enumerate(scene.hazard.fractions):
+            if not len(above):
+                assert np.isnan(d["distance"][i, j])
+                continue
+            true = np.quantile(above, 1 - fraction, method="inverted_cdf")
+            value = d["distance"][i, j]
+            assert value / (1 + bins.RELATIVE_WIDTH) * (1 - 1e-7) <= true <= value * (1 + 1e-7), (i, fraction)
+            assert d["ci_low"][i, j] <= true <= d["ci_high"][i, j]
 
 
 def test_confidence_intervals_cover_a_known_quantile_95_percent_of_the_time():
@@ -343,8 +367,10 @@ def test_the_tally_estimate_bounds_what_a_run_allocates_and_writes(tmp_path):
     wr.run(scene, out, device="cpu")
     pellets = scene.shot.pellets * bytes_per_pellet(scene.output.fields, "float64", 1)
     file = tally_bytes(setup, cpu, True, scene.shot.pellets)[2]
-    assert out.stat().st_size <= pellets + file < 8 * (len(setup.names) + 2) * setup.cells / 10  # a bound, not dense
-    assert out.stat().st_size < 8 * (len(setup.names) + 2) * setup.cells / 10  # dense layers: 10 times more
+    # the landing layers (count, energy, above) and the passes' (passes, exposure: any cell a pellet crosses)
+    dense = 8 * ((len(setup.names) + 2) + (len(setup.names) + 1)) * setup.cells
+    assert out.stat().st_size <= pellets + file < dense  # a bound, not more than dense
+    assert out.stat().st_size < dense / 10  # compressed: dense layers take 10 times more
     with h5py.File(out, "r") as f:
         assert f["hazard/map/above"].compression == "gzip"
         assert f["hazard/map/count"][()].sum() + f["hazard/map/outside"][()] + f["hazard/map/elsewhere"][()] == 2000

@@ -57,12 +57,17 @@ RUN_DIMENSIONS = {
         for lower in ("", "lower/")
     },
     **{f"stats/tail/{name}": ("tail_distance",) for name in ("distance", "count", "fraction")},
-    **{f"hazard/thresholds/{name}": ("threshold",) for name in ("name", "kind", "value", "speed", "landings")},
+    **{f"hazard/thresholds/{name}": ("threshold",) for name in ("name", "kind", "value", "speed", "landings", "reaching")},
     **{
-        f"hazard/danger_distance/{name}": ("threshold", "fraction")
+        f"hazard/{group}/{name}": ("threshold", "fraction")
         for name in ("distance", "ci_low", "ci_high", "needed_landings")
+        for group in ("danger_distance", "landing_danger_distance")
     },
     "hazard/danger_distance/fraction": ("fraction",),
+    "hazard/landing_danger_distance/fraction": ("fraction",),
+    "hazard/map/passes": ("map_v", "map_u"),
+    "hazard/map/exposure": ("threshold", "map_v", "map_u"),
+    "hazard/map/exposure_outside": ("all_then_threshold",),
     "hazard/map/count": ("map_v", "map_u"),
     "hazard/map/energy": ("map_v", "map_u"),
     "hazard/map/above": ("threshold", "map_v", "map_u"),

@@ -61,14 +61,23 @@ def from_file(group) -> dict | None:
     }
     if "hazard/danger_distance" in group:
         h = group["hazard"]
-        out["hazard"] = {
+        along = "landing_danger_distance" in h  # the danger distances are the reach's (issue 26)
+        threshold = {
             "names": [n.decode() for n in h["thresholds/name"][()]],
             "kinds": [k.decode() for k in h["thresholds/kind"][()]],
             "values": h["thresholds/value"][()],
-            "fractions": h["danger_distance/fraction"][()],
-            "landings": h["thresholds/landings"][()],
-            **{name: h[f"danger_distance/{name}"][()] for name in ("distance", "ci_low", "ci_high", "needed_landings")},
         }
+        for key, group_name, counted in (
+            ("hazard", "danger_distance", "reaching" if along else "landings"),
+            ("landing_hazard", "landing_danger_distance", "landings"),
+        ):
+            if group_name in h:
+                out[key] = {
+                    **threshold,
+                    "fractions": h[f"{group_name}/fraction"][()],
+                    "landings": h[f"thresholds/{counted}"][()],
+                    **{name: h[f"{group_name}/{name}"][()] for name in DANGER},
+                }
     if "hazard/points" in group:
         g = group["hazard/points"]
         out["places"] = {
@@ -108,6 +117,38 @@ def place_lines(places: dict | None, thresholds) -> list[str]:
     ]
 
 
+DANGER = ("distance", "ci_low", "ci_high", "needed_landings")
+
+
+def danger_lines(hazard: dict, pellets: float, title: str, counted: str) -> list[str]:
+    """A title, then per threshold its danger distances at each p with their 95% intervals (`counted`:
+    what its count counts, "landings" or "pellets")."""
+    lines = [title]
+    for i, name in enumerate(hazard["names"]):
+        unit = "J/m^2" if hazard["kinds"][i] == "energy_density" else "m/s"
+        parts = []
+        for j, p in enumerate(hazard["fractions"]):
+            if hazard["landings"][i] == 0:
+                parts.append(f"p={p:g}: none above")
+                continue
+            text = (
+                f"p={p:g}: {_fmt(hazard['distance'][i, j])} m [{_fmt(hazard['ci_low'][i, j])}, {_fmt(hazard['ci_high'][i, j])}]"
+            )
+            if math.isinf(hazard["ci_high"][i, j]):
+                need = hazard["needed_landings"][i, j]
+                share = hazard["landings"][i] / pellets if pellets else math.nan
+                text += (
+                    f" too few: needs {need:,} {counted} above it (about {need / share:,.0f} pellets)"
+                    if share > 0
+                    else f" too few: needs {need:,} {counted} above it"
+                )
+            parts.append(text)
+        lines.append(
+            f"  {name} ({_fmt(hazard['values'][i])} {unit}, {int(hazard['landings'][i]):,} {counted}): " + "; ".join(parts)
+        )
+    return lines
+
+
 def tally_lines(results: dict | None, pellets: float) -> list[str]:
     """Quantiles (one line per quantity), tail fractions and danger distances, compactly."""
     if results is None:
@@ -135,31 +176,15 @@ def tally_lines(results: dict | None, pellets: float) -> list[str]:
         within = [f"all >= {_fmt(tail['distance'][fractions == 1].max())} m"] if (fractions == 1).any() else []
         within += [f"none >= {_fmt(tail['distance'][fractions == 0].min())} m"] if (fractions == 0).any() else []
         lines.append("landed beyond  " + ", ".join(within))
-    hazard = results.get("hazard")
+    hazard, landing = results.get("hazard"), results.get("landing_hazard")
     if hazard is not None:
-        lines.append("danger distance (all but p of the landings above the threshold; 95% CI)")
-        for i, name in enumerate(hazard["names"]):
-            unit = "J/m^2" if hazard["kinds"][i] == "energy_density" else "m/s"
-            parts = []
-            for j, p in enumerate(hazard["fractions"]):
-                if hazard["landings"][i] == 0:
-                    parts.append(f"p={p:g}: none above")
-                    continue
-                text = (
-                    f"p={p:g}: {_fmt(hazard['distance'][i, j])} m "
-                    f"[{_fmt(hazard['ci_low'][i, j])}, {_fmt(hazard['ci_high'][i, j])}]"
-                )
-                if math.isinf(hazard["ci_high"][i, j]):
-                    need = hazard["needed_landings"][i, j]
-                    share = hazard["landings"][i] / pellets if pellets else math.nan
-                    text += (
-                        f" too few: needs {need:,} landings above it (about {need / share:,.0f} pellets)"
-                        if share > 0
-                        else f" too few: needs {need:,} landings above it"
-                    )
-                parts.append(text)
-            lines.append(
-                f"  {name} ({_fmt(hazard['values'][i])} {unit}, {int(hazard['landings'][i]):,} landings): " + "; ".join(parts)
+        if landing is None:
+            lines += danger_lines(
+                hazard, pellets, "danger distance (all but p of the landings above the threshold; 95% CI)", "landings"
             )
+        else:
+            title = "danger distance along the path (all but p of the pellets within body height above the threshold; 95% CI)"
+            lines += danger_lines(hazard, pellets, title, "pellets")
+            lines += danger_lines(landing, pellets, "landing distance of the landings above the threshold (95% CI)", "landings")
         lines += place_lines(results.get("places"), hazard["names"])
     return lines

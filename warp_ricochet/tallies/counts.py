@@ -204,7 +204,9 @@ def tally_bytes(setup: TallySetup, device, with_file: bool, pellets: int) -> tup
         touched = (ROW_DISTANCE + levels) + (levels + 1 if setup.has_map else 0)  # words a landing adds to
         file = 2 * gzip_bytes(words, pellets * touched) + gzip_bytes(hist, pellets * (ROW_DISTANCE + levels))
         if setup.has_map:
-            file += (thresholds + 2) * gzip_bytes(cells, pellets) * (2 if setup.path else 1)
+            file += (thresholds + 2) * gzip_bytes(cells, pellets)
+            if setup.path:  # the passes' layers: a pellet passes many cells, any of them may be nonzero
+                file += (thresholds + 1) * gzip_bytes(cells, cells)
     return host, on_device, file
 
 

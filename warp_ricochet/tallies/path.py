@@ -111,7 +111,7 @@ def make_path_cells(precision: str, thresholds: int, points: int, with_map: bool
         if dv != ZERO:
             next_v = (scalar(iv + wp.max(step_v, 0)) - fv0) / dv
         gone = wp.int32(0)  # the cells left on the way: at most |du| + |dv| + 2 inside the grid's span
-        budget = wp.int32(wp.abs(du) + wp.abs(dv)) + 4
+        budget = wp.int32(wp.min(wp.abs(du) + wp.abs(dv), scalar(1e9))) + 4
         while gone < budget and wp.min(next_u, next_v) <= ONE:
             gone += 1
             lam = ZERO
@@ -252,8 +252,12 @@ def make_path_curve(precision: str, thresholds: int, points: int, with_map: bool
         if fv_end < fv:
             step_v = wp.int32(-1)
         theta = a
-        budget = wp.int32(wp.abs(fu_end - fu) + wp.abs(fv_end - fv)) + 4
+        budget = wp.int32(wp.min(wp.abs(fu_end - fu) + wp.abs(fv_end - fv), scalar(1e9))) + 4
+        nu = wp.int32(tally.map_nu_cells)
+        nv = wp.int32(tally.map_nv_cells)
         for _ in range(budget):
+            if (iu >= nu and step_u > 0) or (iu < 0 and step_u < 0) or (iv >= nv and step_v > 0) or (iv < 0 and step_v < 0):
+                break  # off the grid and moving away from it: no cell to enter on this stretch
             edge_u = scalar(iu + wp.max(step_u, 0))
             edge_v = scalar(iv + wp.max(step_v, 0))
             su = scalar(step_u)

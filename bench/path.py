@@ -1,0 +1,97 @@
+"""The hazard watched along the path (docs/hazard.md, "The hazard along the path"): its cost beside
+the same statistics-only run followed to rest without it, in one run, and a device's per-pellet
+reach and maps for a comparison with the CPU's.
+
+    python -m bench.path cost [--device cuda:0] [--sizes 1e8,1e9] [--repeats 2] [--out DIR]
+    python -m bench.path check [--device cuda:0] [--count 20000] [--out DIR]
+
+`cost`: the paper's scene in sea-level air (examples/paper.toml, mu_s 0.5, float32) followed to
+rest on a plane with rolling resistance 0.05, statistics only: without a [hazard] table (no
+thresholds: the watch compiled away), with the four default thresholds (reach and its histograms),
+and with them and a map of 0.5 m cells over 0-400 m downrange and 50 m either side (passes by level,
+160,000 cells). Each row: seconds (median of --repeats after a warm-up), pellets/s and the cost
+over the run without the hazard. `check`: `count` pellets of that scene in float64 with per-pellet
+reach and the maps, written to DIR/check-DEVICE.npz.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+from bench.__main__ import _timed, _wr, device_info
+from bench.air import paper_scene
+
+BASE = ('physics.until="rest"', "surfaces.0.rolling_resistance=0.05")
+HAZARD = ("hazard.fractions=[1e-3, 1e-6]",)
+MAP = ("hazard.map_cell=0.5", "hazard.map_extent=[0.0, 400.0, -50.0, 50.0]")
+CASES = (("to rest, no hazard", ()), ("to rest, reach", HAZARD), ("to rest, reach + map", HAZARD + MAP))
+
+
+def cost(device, sizes, repeats):
+    wr, wp = _wr()
+    rows = []
+    for n in sizes:
+        base = None
+        for label, extra in CASES:
+            settings = [*BASE, *extra]
+            wr.run(paper_scene(1000, air=True, mu_s=0.5, extra=settings), device=device)  # compile
+            scene = paper_scene(n, air=True, mu_s=0.5, extra=settings)
+            t, times = _timed(lambda scene=scene: (wr.run(scene, device=device), wp.synchronize_device(device)), repeats)
+            base = t if base is None else base
+            row = {"case": label, "N": n, "seconds": t, "runs": times, "pellets_per_s": n / t, "over_base": t / base - 1.0}
+            rows.append(row)
+            print(
+                f"{label:24s} N {n:.0e}: {t:8.3f} s, {n / t:.3e} pellets/s, {100 * row['over_base']:+.1f}% over no hazard",
+                flush=True,
+            )
+    return rows
+
+
+def check(device, count, out):
+    wr, _wp = _wr()
+    import h5py
+
+    scene = paper_scene(count, "float64", air=True, mu_s=0.5, fields=("hazard", "rest"), extra=[*BASE, *HAZARD, *MAP])
+    path = Path(out or ".") / f"check-{device.replace(':', '')}.h5"
+    wr.run(scene, path, device=device, overwrite=True)
+    with h5py.File(path, "r") as f:
+        arrays = {
+            "reach": f["pellets/hazard/reach"][()],
+            "rest": f["pellets/rest/position"][()],
+            "passes": f["hazard/map/passes"][()],
+            "exposure": f["hazard/map/exposure"][()],
+            "danger": f["hazard/danger_distance/distance"][()],
+        }
+    path.unlink()
+    np.savez_compressed(Path(out or ".") / f"check-{device.replace(':', '')}.npz", **arrays)
+    print(f"{device}: {count} pellets, passes {arrays['passes'].sum():,}, danger distances {arrays['danger'].ravel()}")
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(prog="python -m bench.path", description=__doc__.split("\n")[0])
+    parser.add_argument("what", choices=("cost", "check"))
+    parser.add_argument("--device", default="cpu")
+    parser.add_argument("--sizes", default="1e6")
+    parser.add_argument("--repeats", type=int, default=2)
+    parser.add_argument("--count", type=int, default=20_000)
+    parser.add_argument("--out", type=Path)
+    args = parser.parse_args(argv)
+    _wr_mod, wp = _wr()
+    info = device_info(wp, args.device)
+    print(json.dumps(info), flush=True)
+    if args.out:
+        args.out.mkdir(parents=True, exist_ok=True)
+    if args.what == "check":
+        check(args.device, args.count, args.out)
+        return
+    rows = cost(args.device, [int(float(s)) for s in args.sizes.split(",")], args.repeats)
+    if args.out:
+        (args.out / "path-cost.json").write_text(json.dumps({"device": info, "rows": rows}, indent=1))
+
+
+if __name__ == "__main__":
+    main()
