@@ -32,6 +32,7 @@ MAX_COMPRESSION = 4096  # ... and beyond it at most this many times the file's s
 READ_BYTES = 1 << 20  # datasets this small are read once, to find damaged data
 READ_TOTAL = 64 << 20  # at most this much in all
 TEXT = ("hazard/thresholds/name", "hazard/thresholds/kind")  # datasets of text in a run group
+TEXT += ("hazard/site/crs", "hazard/site/crs_wkt")  # [hazard.site]: the CRS as given and as WKT
 
 
 class BadFile(ValueError):

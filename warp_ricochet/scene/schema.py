@@ -226,6 +226,15 @@ MAX_THRESHOLDS = 31  # a pellet's thresholds exceeded are the bits of an int32
 
 
 @dataclass(frozen=True)
+class Site:
+    """[hazard.site]: where the map lies on a site plan (docs/hazard.md, "Outlines and GIS files")."""
+
+    crs: str  # a CRS pyproj knows by an authority code, e.g. "EPSG:32630"
+    shooter: tuple[float, float]  # the shooter's position in `crs`: [easting, northing] or [lon, lat]
+    azimuth: float = 0.0  # deg clockwise from north (grid north of a projected CRS, true north of a geographic one)
+
+
+@dataclass(frozen=True)
 class Hazard:
     """Hazard thresholds, danger-distance fractions and the ground map (docs/hazard.md). Absent:
     no thresholds, no map (quantiles are still counted)."""
@@ -238,6 +247,7 @@ class Hazard:
     map_extent: tuple[float, float, float, float] | None = None  # m: u_min, u_max, v_min, v_max
     map_surface: int = 0  # the surface the map lies on
     map_axis: Vec3 | None = None  # the grid's u axis (projected on the plane); None: shot.direction
+    site: Site | None = None  # georeference of the map (needs pyproj: the gis extra)
 
     @property
     def thresholds(self) -> tuple[tuple[str, str, float], ...]:
