@@ -448,3 +448,13 @@ def test_without_pyproj_a_site_is_refused_with_what_to_install(monkeypatch):
         wr.SceneError, match=r"^hazard\.site\.crs = 'EPSG:32630': needs pyproj to be checked \(pyproj is missing\)"
     ):
         load_scene(HAZARD_TOML, [f"hazard.site={_toml(UTM)}"])
+
+
+def test_open_run_reads_the_site(runs):
+    xr = pytest.importorskip("xarray", reason="xarray is not installed (the test extra)")
+    import warp_ricochet as wr
+
+    run = wr.open_run(runs.site)
+    site = run.hazard_results
+    assert isinstance(site, xr.Dataset) and str(site["site_crs"].values) == "EPSG:32630"
+    assert site["site_local"].dims == ("site_dl", "site_uv1") and site["site_shooter"].dims == ("site_xy",)

@@ -235,14 +235,15 @@ def write_geotiff(path, data: MapData, geo) -> None:
     import rasterio
 
     crs, affine, tags = raster_frame(data, geo)
-    names = list(data.layers)
-    stack = np.stack([np.asarray(data.layers[n])[::-1] for n in names])  # (row 0: highest v)
-    dtype = "int32" if np.issubdtype(stack.dtype, np.integer) and stack.max(initial=0) <= INT32_MAX else "float64"
-    profile = dict(driver="GTiff", width=stack.shape[2], height=stack.shape[1], count=len(names), dtype=dtype)
-    with rasterio.open(path, "w", **profile, crs=crs, transform=affine, nodata=None, compress="deflate") as out:
-        out.write(stack.astype(dtype))
+    layers = [np.asarray(a) for a in data.layers.values()]
+    whole = all(np.issubdtype(a.dtype, np.integer) for a in layers)
+    dtype = "int32" if whole and max(int(a.max(initial=0)) for a in layers) <= INT32_MAX else "float64"
+    nv, nu = layers[0].shape
+    profile = dict(driver="GTiff", width=nu, height=nv, count=len(layers), dtype=dtype, nodata=None, compress="deflate")
+    with rasterio.open(path, "w", **profile, crs=crs, transform=affine) as out:
         out.update_tags(**tags)
-        for band, name in enumerate(names, start=1):
+        for band, (name, layer) in enumerate(zip(data.layers, layers), start=1):  # (one band at a time)
+            out.write(layer[::-1].astype(dtype), band)  # (row 0: highest v)
             out.set_band_description(band, name)
 
 

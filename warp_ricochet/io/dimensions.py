@@ -68,6 +68,8 @@ RUN_DIMENSIONS = {
     "hazard/map/above": ("threshold", "map_v", "map_u"),
     "hazard/map/u_edges": ("map_u_edge",),
     "hazard/map/v_edges": ("map_v_edge",),
+    "hazard/site/shooter": ("site_xy",),  # [hazard.site] (gis.site): the CRS's x, y
+    "hazard/site/local": ("site_dl", "site_uv1"),  # rows d, l; columns u, v, 1
 }
 
 
