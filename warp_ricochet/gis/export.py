@@ -88,8 +88,8 @@ def read_map(path) -> MapData:
     shown = f"export {os.fsdecode(path)!r}"
     with open_valid(path, shown) as f:
         attrs = {k: _text(v) for k, v in f.attrs.items() if k in ("kind", "format", "status")}
-        if file_kind(attrs) != "run":
-            raise ExportError(f"{shown}: is not a run file (a sweep's points have no map of their own); export a run")
+        if file_kind(attrs) != "run":  # (check_file let through a run or a sweep)
+            raise ExportError(f"{shown}: is a sweep file; export takes a run file (run the point's scene on its own)")
         if attrs.get("status") != "complete":
             raise ExportError(f"{shown}: the run is not complete (status {attrs.get('status')!r}); export a completed run")
         if "hazard/map" not in f:
