@@ -6,6 +6,7 @@
     warp-ricochet xdmf OUT.h5 [--overwrite]
     warp-ricochet plot OUT.h5 [OUT2.h5 ...] [-o DIR] [--overwrite]
     warp-ricochet example [NAME] [-o PATH] [--overwrite]
+    warp-ricochet export RUN.h5 [--geojson OUT.geojson] [--geotiff OUT.tif] [--p P ...] [--overwrite]
     warp-ricochet --version | [-q|--quiet] [-v|--verbose] COMMAND ...
 
 `--quiet` and `--verbose` (before or after COMMAND) set the level of the package's `logging` loggers
@@ -40,7 +41,8 @@ EPILOG = """examples:
   warp-ricochet report sweep.h5 --paper
   warp-ricochet xdmf run.h5          # run.xmf: open it in ParaView
   warp-ricochet plot sweep.h5 -o plots/
-  warp-ricochet example paper -o my-scene.toml"""
+  warp-ricochet example paper -o my-scene.toml
+  warp-ricochet export run.h5 --geojson danger.geojson --geotiff map.tif"""
 
 
 # ---------------------------------------------------------------------------------------------- parser
@@ -251,6 +253,28 @@ def _add_plot_and_example(sub) -> None:
     p.add_argument("--overwrite", action="store_true", help="replace PATH if it exists")
     p.set_defaults(func=cmd_example)
 
+    p = sub.add_parser(
+        "export",
+        help="write a run's danger-area outlines (GeoJSON) and map layers (GeoTIFF) (needs the gis extra)",
+        description="Write the danger-area outline of every threshold and containment p of a run with a "
+        "hazard map as GeoJSON, and its map layers as a GeoTIFF: in the site's CRS when the scene "
+        'gives [hazard.site], else in local coordinates (docs/hazard.md, "Outlines and GIS files").',
+        epilog="example: warp-ricochet export run.h5 --geojson danger.geojson --geotiff map.tif --p 1e-3",
+    )
+    p.add_argument("file", metavar="RUN.h5", help="a run file written by warp-ricochet, with a hazard map")
+    p.add_argument("--geojson", metavar="OUT.geojson", help="the outlines: one feature per threshold and p")
+    p.add_argument("--geotiff", metavar="OUT.tif", help="the map layers: landings, passes, exposure per threshold")
+    p.add_argument(
+        "--p",
+        dest="fractions",
+        action="append",
+        type=float,
+        metavar="P",
+        help="a containment p in (0, 1): the share of the exposure left outside (repeatable; default: the run's hazard.fractions)",
+    )
+    p.add_argument("--overwrite", action="store_true", help="replace output files that exist")
+    p.set_defaults(func=cmd_export)
+
 
 # ---------------------------------------------------------------------------------------------- commands
 
@@ -369,6 +393,16 @@ def cmd_example(args) -> int:
 
     write_example(text, args.output, overwrite=args.overwrite)
     print(f"wrote {args.output}")
+    return 0
+
+
+def cmd_export(args) -> int:
+    try:
+        from .gis.export import export
+    except ImportError as exc:
+        raise RicochetError(f"export needs the gis extra ({exc.name} is missing): pip install 'warp-ricochet[gis]'") from None
+    for path in export(args.file, args.geojson, args.geotiff, args.fractions, overwrite=args.overwrite):
+        print(f"wrote {path}")
     return 0
 
 

@@ -80,6 +80,8 @@ RUN_DIMENSIONS = {
         f"hazard/points/{name}": ("place", "threshold")
         for name in ("pellets", "expected_per_shot", "expected_ci_low", "expected_ci_high", "probability", "ci_low", "ci_high")
     },
+    "hazard/site/shooter": ("site_xy",),  # [hazard.site] (gis.site): the CRS's x, y
+    "hazard/site/local": ("site_dl", "site_uv1"),  # rows d, l; columns u, v, 1
 }
 
 

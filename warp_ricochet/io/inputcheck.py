@@ -38,6 +38,7 @@ TEXT = (  # datasets of text in a run group
     "hazard/references/source",
     "hazard/points/name",  # (issue 26 contract: the named places)
 )
+TEXT += ("hazard/site/crs", "hazard/site/crs_wkt")  # [hazard.site]: the CRS as given and as WKT
 
 
 class BadFile(ValueError):

@@ -56,8 +56,8 @@ def _variable(ds: h5py.Dataset, dims, data=None):
     }
     if data is None:
         data = ds[()]
-        if ds.dtype.kind in "SO":  # text (the hazard thresholds' names and kinds)
-            data = np.asarray(_text(np.asarray(data, dtype=object)), dtype=str)
+        if ds.dtype.kind in "SO":  # text (the hazard thresholds' names and kinds, the site's CRS)
+            data = np.asarray(_text(data if ds.ndim == 0 else np.asarray(data, dtype=object)), dtype=str)
     return xr.Variable(dims, data, attrs=attrs)
 
 

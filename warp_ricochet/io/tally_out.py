@@ -104,6 +104,8 @@ def create(group, scene, model):
         _create_places(group["hazard"], scene, len(setup.names))
         if scene.hazard.references:
             _create_references(group["hazard"].create_group("references"), scene.hazard.references)
+        if scene.hazard.site is not None:
+            _create_site(group["hazard"].create_group("site"), scene.hazard.site, setup)
 
 
 def _create_hazard(g, setup):
@@ -218,6 +220,29 @@ def _create_references(g, references):
     )
     _ds(
         g, "source", np.asarray([r.source.encode() for r in references], dtype="S"), unit="", doc="where each distance comes from"
+    )
+
+
+def _create_site(g, site, setup):
+    """[hazard.site] and the map's horizontal frame: all `warp-ricochet export` needs to place the map."""
+    from ..gis.site import local_matrix, parse_crs  # (pyproj: the gis extra, which a site needs)
+
+    _ds(g, "crs", site.crs, unit="", doc="the site's CRS as given (hazard.site.crs)")
+    _ds(g, "crs_wkt", parse_crs(site.crs)[0].to_wkt(), unit="", doc="the same CRS as WKT2 (pyproj)")
+    _ds(g, "shooter", np.asarray(site.shooter), unit="CRS units", doc="the shooter in the CRS: [easting, northing] or [lon, lat]")
+    _ds(
+        g,
+        "azimuth",
+        site.azimuth,
+        unit="deg",
+        doc="the map's u axis, clockwise from grid north (projected CRS) or true north (geographic CRS)",
+    )
+    _ds(
+        g,
+        "local",
+        local_matrix(setup),
+        unit="1, m (last column)",
+        doc="(d, l) = local @ (u, v, 1): horizontal metres from the shooter, d along u, l to its left",
     )
 
 

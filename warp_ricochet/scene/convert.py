@@ -26,6 +26,7 @@ from .schema import (
     MIN_DIAMETER,
     Place,
     Reference,
+    Site,
 )
 
 
@@ -394,6 +395,46 @@ def _references(v, path):
     return tuple(out)
 
 
+# [hazard.site]: the map's georeference (docs/hazard.md, "Outlines and GIS files"); the CRS is checked
+# with pyproj (the gis extra) when the scene is read, before any work
+CRS_RULE = 'must be a projected or geographic CRS pyproj knows by an authority code, e.g. "EPSG:32630"'
+SHOOTER_RULE = "must be a list of 2 numbers: the shooter's [easting, northing] (projected CRS) or [lon, lat] (geographic)"
+AZIMUTH_RULE = "must be a number in [0, 360) (deg clockwise from north)"
+
+
+@_rule("must be a table: crs, shooter and azimuth (docs/hazard.md)")
+def _site(raw, path):
+    """The validated [hazard.site] table (a Site); refuses a CRS pyproj does not know, or any CRS
+    when pyproj is missing."""
+    if not isinstance(raw, dict):
+        raise _err(path, raw, "must be a table with keys crs, shooter and azimuth")
+    keys = {"crs": CRS_RULE, "shooter": SHOOTER_RULE, "azimuth": AZIMUTH_RULE}
+    check_keys(raw, path, keys)
+    for key in ("crs", "shooter"):
+        if raw.get(key) is None:
+            raise _err(join(path, key), MISSING, f"is required; it {keys[key]}")
+    crs, shooter = raw["crs"], raw["shooter"]
+    if not isinstance(crs, str) or not crs.strip():
+        raise _err(join(path, "crs"), crs, CRS_RULE)
+    if not isinstance(shooter, (list, tuple)) or len(shooter) != 2:
+        raise _err(join(path, "shooter"), shooter, SHOOTER_RULE)
+    xy = tuple(_finite(x, join(path, "shooter"), SHOOTER_RULE) for x in shooter)
+    azimuth = 0.0 if raw.get("azimuth") is None else _finite(raw["azimuth"], join(path, "azimuth"), AZIMUTH_RULE)
+    if not 0.0 <= azimuth < 360.0:
+        raise _err(join(path, "azimuth"), raw["azimuth"], AZIMUTH_RULE)
+    try:
+        from ..gis.site import check_site  # (pyproj: the gis extra)
+    except ImportError as exc:
+        raise _err(
+            join(path, "crs"), crs, f"needs pyproj to be checked ({exc.name} is missing): pip install 'warp-ricochet[gis]'"
+        ) from None
+    problem = check_site(crs, xy)
+    if problem is not None:
+        key, why = problem
+        raise _err(join(path, key), crs if key == "crs" else list(shooter), why)
+    return Site(crs=crs, shooter=xy, azimuth=azimuth)
+
+
 _HAZARD = {
     "energy_density": _thresholds("J/m^2", 1e12),
     "speed": _thresholds("m/s", MAX_SPEED),
@@ -406,6 +447,7 @@ _HAZARD = {
     "body_height": _range(0, 1e3, above=True, unit="m"),
     "points": _places,
     "references": _references,
+    "site": _site,
 }
 _OUTPUT = {
     "path": _path(),

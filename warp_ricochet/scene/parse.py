@@ -142,6 +142,8 @@ def _hazard(raw, surfaces: tuple, shot: Shot):
         if hazard.map_surface >= len(surfaces):
             raise err("hazard.map_surface", hazard.map_surface, f"must be the index of a surface (0 to {len(surfaces) - 1})")
         _check_map_axis(hazard, surfaces[hazard.map_surface].normal, shot)
+    elif hazard.site is not None:
+        raise err("hazard.site", "(a table)", "needs a map to place: give hazard.map_cell and hazard.map_extent")
     if hazard.points:
         _check_places(hazard, surfaces, shot)
     return hazard

@@ -257,6 +257,15 @@ class Reference:
 
 
 @dataclass(frozen=True)
+class Site:
+    """[hazard.site]: where the map lies on a site plan (docs/hazard.md, "Outlines and GIS files")."""
+
+    crs: str  # a CRS pyproj knows by an authority code, e.g. "EPSG:32630"
+    shooter: tuple[float, float]  # the shooter's position in `crs`: [easting, northing] or [lon, lat]
+    azimuth: float = 0.0  # deg clockwise from north (grid north of a projected CRS, true north of a geographic one)
+
+
+@dataclass(frozen=True)
 class Hazard:
     """Hazard thresholds, danger-distance fractions and the ground map (docs/hazard.md). Absent:
     no thresholds, no map (quantiles are still counted)."""
@@ -279,6 +288,7 @@ class Hazard:
         return tuple(p.area / (2.0 * self.body_height) for p in self.points)
 
     references: tuple[Reference, ...] = ()  # distances the report compares with
+    site: Site | None = None  # georeference of the map (needs pyproj: the gis extra)
 
     @property
     def thresholds(self) -> tuple[tuple[str, str, float], ...]:
