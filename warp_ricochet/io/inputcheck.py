@@ -31,7 +31,7 @@ MAX_DECLARED_BYTES = 1 << 30  # a dataset may declare this much whatever the fil
 MAX_COMPRESSION = 4096  # ... and beyond it at most this many times the file's size (deflate: ~1032 at most)
 READ_BYTES = 1 << 20  # datasets this small are read once, to find damaged data
 READ_TOTAL = 64 << 20  # at most this much in all
-TEXT = ("hazard/thresholds/name", "hazard/thresholds/kind")  # datasets of text in a run group
+TEXT = ("hazard/thresholds/name", "hazard/thresholds/kind", "hazard/bound/threshold")  # datasets of text in a run group
 
 
 class BadFile(ValueError):

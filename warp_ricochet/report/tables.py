@@ -545,6 +545,8 @@ def format_run_summary(stats: dict, output=None, device=None) -> str:
     lines += [f"{k.ljust(width)}  {v}" for k, v in rows]
     lines += [line for line in (not_finished_line(stats),) if line]
     lines += tally_lines(from_run(stats), stats.get("pellets", 0.0))
+    if getattr(stats, "bound", None) is not None:  # [hazard.bound]: the pellets it took, the final interval
+        lines += ["", stats.bound.summary()]
     ensemble = getattr(stats, "ensemble", None)
     if ensemble is not None:
         intervals = {name: (ensemble.low[name], ensemble.high[name]) for name in ensemble.low}

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 from ..fields import ALL_FIELDS, FIELDS, GROUPS
+from .keys import MISSING, check_keys, join
 from .keys import err as _err
 from .materials import RANGES
 from .schema import (
@@ -22,6 +23,7 @@ from .schema import (
     MAX_WIND,
     MIN_DENSITY,
     MIN_DIAMETER,
+    Bound,
 )
 
 
@@ -334,6 +336,35 @@ def _extent(v, path):
     return xs
 
 
+@_rule("must be a number in (0, 1): the fraction p of the pellets above the threshold left beyond the danger distance")
+def _probability(v, path):
+    x = _finite(v, path, _probability.rule)
+    if not 0 < x < 1:
+        raise _err(path, v, _probability.rule)
+    return x
+
+
+_BOUND = {
+    "threshold": _str(),  # a threshold's name: checked against the scene's in scene.parse
+    "fraction": _probability,
+    "width": _range(0, MAX_COORDINATE, above=True, unit="m"),
+    "max_pellets": _int(1, INT32_MAX),
+}
+BOUND_REQUIRED = ("threshold", "fraction", "width", "max_pellets")
+
+
+@_rule("must be a table (keys: " + ", ".join(_BOUND) + ")")
+def _bound(v, path):
+    """[hazard.bound]: its keys' values (`schema.Bound`; checked against the scene in scene.parse)."""
+    if not isinstance(v, dict):
+        raise _err(path, v, _bound.rule)
+    check_keys(v, path, _BOUND)
+    for key in BOUND_REQUIRED:
+        if v.get(key) is None:
+            raise _err(join(path, key), MISSING, f"is required; it {_BOUND[key].rule}")
+    return Bound(**{key: conv(v[key], join(path, key)) for key, conv in _BOUND.items()})
+
+
 _HAZARD = {
     "energy_density": _thresholds("J/m^2", 1e12),
     "speed": _thresholds("m/s", MAX_SPEED),
@@ -343,6 +374,7 @@ _HAZARD = {
     "map_extent": _extent,
     "map_surface": _int(0, 1_000_000),
     "map_axis": _vec3(nonzero=True, bound=MAX_COORDINATE),
+    "bound": _bound,
 }
 _OUTPUT = {
     "path": _path(),

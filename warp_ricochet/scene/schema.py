@@ -226,6 +226,17 @@ MAX_THRESHOLDS = 31  # a pellet's thresholds exceeded are the bits of an int32
 
 
 @dataclass(frozen=True)
+class Bound:
+    """[hazard.bound]: run until the 95% interval of the danger distance of `threshold` at `fraction`
+    is finite and narrower than `width` (m), adding shots, at most `max_pellets` pellets (docs/hazard.md)."""
+
+    threshold: str
+    fraction: float
+    width: float  # m
+    max_pellets: int
+
+
+@dataclass(frozen=True)
 class Hazard:
     """Hazard thresholds, danger-distance fractions and the ground map (docs/hazard.md). Absent:
     no thresholds, no map (quantiles are still counted)."""
@@ -238,6 +249,7 @@ class Hazard:
     map_extent: tuple[float, float, float, float] | None = None  # m: u_min, u_max, v_min, v_max
     map_surface: int = 0  # the surface the map lies on
     map_axis: Vec3 | None = None  # the grid's u axis (projected on the plane); None: shot.direction
+    bound: Bound | None = None  # run until the danger distance is bounded (`warp_ricochet.bound`)
 
     @property
     def thresholds(self) -> tuple[tuple[str, str, float], ...]:
