@@ -104,15 +104,16 @@ def test_the_bits_do_not_depend_on_the_chunk_size(tmp_path):
         assert len(f["progress/segment_results"]) == 6
 
 
-@pytest.mark.parametrize("chunks", [1, 2, 3])
+@pytest.mark.parametrize("chunks", [1, 2, 3, 4])
 def test_resume_continues_to_the_uninterrupted_bits(tmp_path, chunks):
-    """Interrupted inside a stretch (1, 3: 65,536 or 135,536 pellets) or at a check (2: 140,000)."""
+    """Interrupted inside a stretch between checks (1, 3: 65,536 or 135,536 pellets) or at a check
+    (2, 4: 70,000 or 140,000, where a segment count from the run's start would be one short)."""
     scene = bounded(count=70_000, shots=1, width=1e-3, max_pellets=210_000, chunk=65_536)
     ref, out = tmp_path / "ref.h5", tmp_path / "out.h5"
     wr.run(scene, ref, device="cpu")
     interrupt_after(chunks, scene, out)
     with h5py.File(str(out) + ".partial", "r") as f:
-        assert f["progress/rows"][()] == (65_536, 70_000, 135_536)[chunks - 1]
+        assert f["progress/rows"][()] == (65_536, 70_000, 135_536, 140_000)[chunks - 1]
     stats = wr.run(scene, out, device="cpu", resume=True)
     assert stats.bound.pellets == 210_000 and stats.bound.checks == 3
     assert_same_run(out, ref, ["landing/range", "landing/position"])
