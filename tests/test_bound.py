@@ -20,11 +20,14 @@ from warp_ricochet.io.bound_out import read
 HAZARD = {"energy_density": {"low": 237_000.0}, "speed": {"fast": 212.0}, "fractions": [0.01]}
 
 
-def bounded(count=100, shots=2, width=1.0, max_pellets=20_000, chunk=None, **bound):
+def bounded(count=100, shots=2, width=1.0, max_pellets=20_000, chunk=None, bound=True, **tables):
     raw = paper_raw(until="landing")
     raw["shot"].update(count=count, shots=shots)
-    hazard = {**HAZARD, "bound": {"threshold": "low", "fraction": 0.01, "width": width, "max_pellets": max_pellets, **bound}}
-    return make_scene(raw, hazard=hazard, output={"fields": ["landing"]}, numerics={"chunk_size": chunk} if chunk else {})
+    hazard = {**HAZARD, "bound": {"threshold": "low", "fraction": 0.01, "width": width, "max_pellets": max_pellets}}
+    if not bound:
+        del hazard["bound"]
+    numerics = {"chunk_size": chunk} if chunk else {}
+    return make_scene(raw, hazard=hazard, output={"fields": ["landing"]}, numerics=numerics, **tables)
 
 
 def test_checks_follow_the_shots_and_the_budget_only():
@@ -76,6 +79,9 @@ def test_a_spent_budget_says_not_bounded(tmp_path):
     assert b.final_width >= 0.0625
     with h5py.File(tmp_path / "run.h5", "r") as f:
         assert not f["hazard/bound/met"][()] and f["hazard/bound/pellets"][()] == 1_000
+    rc, out, _ = cli(["report", tmp_path / "run.h5"])  # the file's report says it too
+    assert rc == 0 and out.rstrip().endswith("not below 0.01 m; raise max_pellets or the width")
+    assert "NOT BOUNDED: the budget of 1,000 pellets (10 shots, 8 checks) is spent" in out
     # the command line says it plainly, and so does the summary
     rc, out, err = cli(
         ["run", _toml(tmp_path), "--device", "cpu", "--set", "hazard.bound.width=0.01", "--set", "hazard.bound.max_pellets=400"]
@@ -117,6 +123,26 @@ def test_resume_continues_to_the_uninterrupted_bits(tmp_path, chunks):
     stats = wr.run(scene, out, device="cpu", resume=True)
     assert stats.bound.pellets == 210_000 and stats.bound.checks == 3
     assert_same_run(out, ref, ["landing/range", "landing/position"])
+
+
+def test_shots_are_added_whole_with_pair_collisions(tmp_path):
+    """With pair collisions a shot's pellets meet each other: the run adds whole shots, and stops
+    after S with the pellets and collisions of an ordinary run of S shots; --resume goes on to
+    the uninterrupted bits (the shots' collision totals too)."""
+    collisions = {"collisions": {"enabled": True}}
+    scene = bounded(count=24, shots=4, max_pellets=24 * 12 + 5, **collisions)
+    ref, plain, out = tmp_path / "ref.h5", tmp_path / "plain.h5", tmp_path / "out.h5"
+    stats = wr.run(scene, ref, device="cpu")
+    assert not stats.bound.met and stats.bound.shots == 12 and stats["pellets"] == 288  # checks: 4, 5, 6, 7, 8, 10, 12
+    assert stats.bound.checks == 7 and stats["pair_collisions"] > 0
+    other = wr.run(bounded(count=24, shots=12, bound=False, **collisions), plain, device="cpu")
+    assert other["pair_collisions"] == stats["pair_collisions"]
+    with h5py.File(ref, "r") as a, h5py.File(plain, "r") as p:
+        np.testing.assert_array_equal(a["pellets/landing/range"][()], p["pellets/landing/range"][()])
+        np.testing.assert_array_equal(a["progress/shot_totals"][()], p["progress/shot_totals"][()])
+    interrupt_after(3, scene, out)  # after the third check
+    wr.run(scene, out, device="cpu", resume=True)
+    assert_same_run(out, ref, ["landing/range"], progress=("segment_results", "shot_totals"))
 
 
 def test_resume_of_a_run_that_met_its_bound_at_the_interruption(tmp_path):

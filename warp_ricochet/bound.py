@@ -30,9 +30,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
-from .dense.schedule import segments_of_shots
 from .tallies.quantiles import summarize
-from .tallies.reduce import SEGMENT
 
 GROWTH = 4  # a check adds shots // GROWTH shots (at least one): a quarter more
 
@@ -68,6 +66,9 @@ class BoundPlan:
     def segments(self, rows: int, pair_collisions: bool) -> int:
         """Statistics segments of the first `rows` pellets (a check or a chunk's end): each stretch
         between checks starts its own segments (of pellets; with pair collisions, of shots' slots)."""
+        from .dense.schedule import segments_of_shots  # (imports Warp: `report` reads a bound without it)
+        from .tallies.reduce import SEGMENT
+
         total, start = 0, 0
         for stop in self.checks():
             n = min(rows, stop) - start
@@ -131,6 +132,16 @@ class BoundResult:
     ci_low: float
     ci_high: float
     checks: int
+
+    @classmethod
+    def of(cls, values: dict) -> BoundResult:
+        """The outcome from /hazard/bound's values (`io.bound_out.read`)."""
+        kw = {f.name: values[f.name] for f in dataclasses.fields(cls)}
+        for name in ("max_pellets", "pellets", "shots", "checks"):
+            kw[name] = int(kw[name])
+        for name in ("fraction", "width", "distance", "ci_low", "ci_high"):
+            kw[name] = float(kw[name])
+        return cls(**{**kw, "met": bool(kw["met"])})
 
     @property
     def final_width(self) -> float:
