@@ -145,6 +145,19 @@ def test_shots_are_added_whole_with_pair_collisions(tmp_path):
     assert_same_run(out, ref, ["landing/range"], progress=("segment_results", "shot_totals"))
 
 
+def test_a_threshold_never_reached_is_not_bounded(tmp_path):
+    raw = paper_raw(until="landing")
+    raw["shot"].update(count=100, shots=1)
+    hazard = {
+        **HAZARD,
+        "speed": {"fast": 1000.0},
+        "bound": {"threshold": "fast", "fraction": 0.01, "width": 5.0, "max_pellets": 300},
+    }
+    with pytest.warns(PrecisionWarning, match="no pellet above fast: no danger distance"):
+        stats = wr.run(make_scene(raw, hazard=hazard, output={"fields": []}), device="cpu")
+    assert not stats.bound.met and stats.bound.pellets == 300 and np.isnan(stats.bound.distance)
+
+
 def test_resume_of_a_run_that_met_its_bound_at_the_interruption(tmp_path):
     scene = bounded(width=1.0)
     ref, out = tmp_path / "ref.h5", tmp_path / "out.h5"

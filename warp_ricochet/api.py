@@ -201,7 +201,7 @@ def _compute(scene, dev, writer=None, progress=None, resumed=None, dense_options
     frames = writer.append_frame if writer is not None and spec.collisions and scene.collisions.frame_every else None
     log.info(
         "%s pellets on %s, %s, %s%s%s",
-        f"{scene.shot.pellets:,}",
+        f"{scene.shot.pellets:,}" if plan is None else f"up to {scene.shot.pellets:,} (until bounded)",
         dev,
         scene.numerics.precision,
         "in air" if scene.in_air else "in vacuum",

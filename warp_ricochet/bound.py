@@ -150,6 +150,8 @@ class BoundResult:
 
     def interval_text(self) -> str:
         """The danger distance and its interval, in words."""
+        if math.isnan(self.distance):
+            return f"no pellet above {self.threshold}: no danger distance, width nan m"
         return (
             f"danger distance of {self.threshold} at p = {self.fraction:g}: {self.distance:.6g} m, 95% interval "
             f"[{self.ci_low:.6g}, {self.ci_high:.6g}] m, width {self.final_width:.4g} m"
