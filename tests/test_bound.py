@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import warp_ricochet as wr
-from tests.helpers import assert_same_run, cli, interrupt_after, make_scene, paper_raw
+from tests.helpers import assert_resume_refused, assert_same_run, cli, interrupt_after, make_scene, paper_raw
 from warp_ricochet.bound import BoundPlan
 from warp_ricochet.errors import PrecisionWarning, SceneError
 from warp_ricochet.io.bound_out import read
@@ -38,6 +38,10 @@ def test_checks_follow_the_shots_and_the_budget_only():
     big = BoundPlan.of(bounded(count=70_000, shots=1, max_pellets=210_000))
     assert big.checks() == [70_000, 140_000, 210_000]
     assert [big.segments(n, False) for n in (65_536, 70_000, 135_536, 140_000, 210_000)] == [1, 2, 3, 4, 6]
+    # where a chunk can end (what --resume accepts as rows complete)
+    ends = (0, 65_536, 70_000, 135_536, 140_000, 210_000)
+    assert all(big.chunk_end(n, False) for n in ends)
+    assert not any(big.chunk_end(n, False) for n in (1, 65_535, 69_999, 131_072, 200_000, 210_001))
 
 
 def test_a_bound_met_stops_the_run_early(tmp_path):
@@ -125,6 +129,19 @@ def test_resume_continues_to_the_uninterrupted_bits(tmp_path, chunks):
     assert_same_run(out, ref, ["landing/range", "landing/position"])
 
 
+def test_resume_refuses_rows_that_no_chunk_ends_at(tmp_path):
+    scene = bounded(count=70_000, shots=1, width=1e-3, max_pellets=210_000, chunk=65_536)
+    path, out = tmp_path / "scene.toml", tmp_path / "out.h5"
+    path.write_text(scene.to_toml())
+    interrupt_after(1, scene, out)
+
+    def edit(f):
+        f["progress/rows"][()] = 65_535
+
+    argv = ["run", path, "-o", out, "--device", "cpu", "--resume"]
+    assert_resume_refused(argv, out, edit, f"output path = '{out}.partial': is inconsistent (65535 rows complete, neither")
+
+
 def test_shots_are_added_whole_with_pair_collisions(tmp_path):
     """With pair collisions a shot's pellets meet each other: the run adds whole shots, and stops
     after S with the pellets and collisions of an ordinary run of S shots; --resume goes on to
@@ -141,6 +158,8 @@ def test_shots_are_added_whole_with_pair_collisions(tmp_path):
         np.testing.assert_array_equal(a["pellets/landing/range"][()], p["pellets/landing/range"][()])
         np.testing.assert_array_equal(a["progress/shot_totals"][()], p["progress/shot_totals"][()])
     interrupt_after(3, scene, out)  # after the third check
+    with h5py.File(str(out) + ".partial", "r") as f:
+        assert f["progress/rows"][()] == 6 * 24
     wr.run(scene, out, device="cpu", resume=True)
     assert_same_run(out, ref, ["landing/range"], progress=("segment_results", "shot_totals"))
 

@@ -78,6 +78,20 @@ class BoundPlan:
             start = stop
         return total
 
+    def chunk_end(self, rows: int, pair_collisions: bool) -> bool:
+        """Whether `rows` pellets can end a chunk of this run: at a check, or whole statistics
+        segments (with pair collisions whole shots of them, `dense.schedule.shot_granule`) past one."""
+        from .dense.schedule import shot_granule
+        from .tallies.reduce import SEGMENT
+
+        checks = self.checks()
+        if rows in checks or not 0 < rows < checks[-1]:
+            return rows in checks or rows == 0
+        past = rows - max([0, *(n for n in checks if n < rows)])
+        if pair_collisions:
+            return past % self.count == 0 and (past // self.count) % shot_granule(self.count) == 0
+        return past % SEGMENT == 0
+
     def result(self, tally, pellets: int, checks: int) -> BoundResult:
         """The outcome of the check after `pellets` pellets, from the run's tally totals."""
         b = self.bound

@@ -141,8 +141,8 @@ def verify(f, scene, dev, partial_name: str) -> tuple[int, int, int, int]:
     if not 0 <= rows <= pellets or pellets != planned(scene).shot.pellets:
         damaged = f"{rows} rows complete of {pellets}"
     elif bounded is not None:
-        if rows % (scene.shot.count if scene.pair_collisions else 1):
-            damaged = f"{rows} rows complete in a run of whole shots of {scene.shot.count}"
+        if not bounded.chunk_end(rows, scene.pair_collisions):
+            damaged = f"{rows} rows complete, neither a check of its bound nor whole chunks past one"
     elif rows and (chunk <= 0 or (chunk % unit and chunk < pellets) or (rows % chunk and rows != pellets)):
         damaged = f"chunk plan of {chunk} pellets per chunk with {rows} rows complete"
     elif len(progress["segment_results"]) < segments:
