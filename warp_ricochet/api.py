@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from . import interrupts
+from .bound import BoundPlan, planned
 from .chunks import check_chunk_memory, check_tallies, plan_shots
 from .core.impact import impact_kernel_for
 from .device import resolve_device, warp
@@ -157,7 +158,8 @@ def check_resources(scenes, dev, output, rows_done=0, copies=1) -> None:
     """Before any work: every explicit chunk size fits in memory, and the output (less `rows_done`
     rows already written, for a resumed run; `copies` times: a sweep's points, then the sweep file
     made of them) fits on its disk: else a one-line error (OutputError: bad input, exit status 2),
-    no file made."""
+    no file made. A bounded run is checked as the run of its budget (`bound.planned`)."""
+    scenes = [planned(sc) for sc in scenes]
     tallies = 0  # bytes of the tallies' datasets
     for sc in scenes:
         rest = [f for f in sc.output.fields if f in REST_FIELDS]
@@ -190,14 +192,16 @@ def check_resources(scenes, dev, output, rows_done=0, copies=1) -> None:
 
 def _compute(scene, dev, writer=None, progress=None, resumed=None, dense_options=None) -> dict:
     """Run `scene` on `dev` through the pipeline, its chunks to `writer` when given; returns the
-    statistics (written to the writer too)."""
+    statistics (written to the writer too). A bounded run (`bound`) runs as its budget's scene, to
+    the first check that meets its bound."""
+    plan, scene = BoundPlan.of(scene), planned(scene)
     model = Model.from_scene(scene, dev)
     spec = RunSpec.of(scene, with_output=writer is not None)
     arrays = load_pellet_file(scene.shot.file) if scene.shot.file is not None else None
     frames = writer.append_frame if writer is not None and spec.collisions and scene.collisions.frame_every else None
     log.info(
         "%s pellets on %s, %s, %s%s%s",
-        f"{scene.shot.pellets:,}",
+        f"{scene.shot.pellets:,}" if plan is None else f"up to {scene.shot.pellets:,} (until bounded)",
         dev,
         scene.numerics.precision,
         "in air" if scene.in_air else "in vacuum",
@@ -206,7 +210,16 @@ def _compute(scene, dev, writer=None, progress=None, resumed=None, dense_options
     )
     start = time.perf_counter()
     stats = run_pipeline(
-        scene, model, spec, arrays=arrays, sink=writer, resumed=resumed, progress=progress, options=dense_options, frames=frames
+        scene,
+        model,
+        spec,
+        arrays=arrays,
+        sink=writer,
+        resumed=resumed,
+        progress=progress,
+        options=dense_options,
+        frames=frames,
+        plan=plan,
     )
     seconds = time.perf_counter() - start
     log.info(
@@ -217,6 +230,8 @@ def _compute(scene, dev, writer=None, progress=None, resumed=None, dense_options
     )
     if writer is not None:
         writer.write_stats(stats)
+    if stats.bound is not None and not stats.bound.met:
+        warnings.warn(stats.bound.summary(), PrecisionWarning, stacklevel=3)
     if stats["hits"] == 0 and stats.get("entered", 0) == 0 and stats["pellets"] > 0 and scene.surfaces:
         warnings.warn(NO_HITS.format(int(stats["pellets"])), SceneWarning, stacklevel=3)
     return stats
@@ -227,13 +242,15 @@ def _run_one(scene, dev, group=None, progress=None, dense_options=None) -> dict:
     written there."""
     writer = None
     if group is not None:
+        work = planned(scene)  # (a bounded run: its budget's layout, the scene asked recorded)
         writer = RunWriter(
             group,
-            Model.from_scene(scene, dev),
-            scene=scene,
+            Model.from_scene(work, dev),
+            scene=work,
             fields=scene.output.fields,
-            pellets=scene.shot.pellets,
+            pellets=work.shot.pellets,
             stats=stat_names(scene.pair_collisions, scene.in_air, scene.physics.until == "rest"),
+            scene_toml=scene.to_toml(),
         )
     return _compute(scene, dev, writer, progress, dense_options=dense_options)
 
@@ -292,7 +309,7 @@ def _resume(scene, output, device, *, overwrite, progress, dense_options, sideca
     def check(f):
         plan = resume.plan(f, scene, dev, str(path) + ".partial")
         same_chunks = scene  # the same chunk plan as before (the automatic size depends on free memory)
-        if plan.chunk:
+        if plan.chunk and BoundPlan.of(scene) is None:  # (a bounded run's bits do not depend on it: `bound`)
             same_chunks = scene.replace(numerics=dataclasses.replace(scene.numerics, chunk_size=plan.chunk))
         check_resources([same_chunks], dev, output, rows_done=plan.rows)
         found.update(plan=plan, scene=same_chunks)

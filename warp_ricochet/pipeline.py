@@ -96,6 +96,7 @@ class RunStats(dict):
     tally = None
     ensemble = None
     summary = None
+    bound = None  # a bounded run's outcome (`bound.BoundResult`)
 
 
 def landing_tally(scene, model, spec, arrays) -> DeviceTally:
@@ -113,7 +114,7 @@ class CoreStage:
 
     def __init__(self, scene, model, spec, arrays, pellets):
         dev = model.device
-        self.model, self.pellets = model, pellets
+        self.model, self.pellets, self.stop = model, pellets, pellets
         self.capacity = plan_rows(scene, dev, pellets, spec.fields)
         self.state = (reused_state if dev.is_cuda else State)(model, self.capacity, spec.core_fields)
         self.source = PelletSource(scene, model.precision, dev, self.capacity, arrays)
@@ -125,8 +126,9 @@ class CoreStage:
         self.shot_pass = ShotPass(scene, model, spec, self.capacity // self.count + 1, arrays) if has_ensemble(scene) else None
 
     def chunks(self, done: int):
-        for start in range(done, self.pellets, self.capacity):
-            yield start, min(self.capacity, self.pellets - start)
+        """(start, rows) of the chunks from `done` to `stop` (the run's end, or its next check)."""
+        for start in range(done, self.stop, self.capacity):
+            yield start, min(self.capacity, self.stop - start)
 
     def compute(self, start: int, rows: int):
         """Launch the chunk's kernels; returns (segments, shots) of results to copy."""
@@ -141,7 +143,7 @@ class CoreStage:
             device=m.device,
             block_dim=CUDA_BLOCK_DIM,
         )
-        self.tally.fold(rows, last=start + rows >= self.pellets)
+        self.tally.fold(rows, last=start + rows >= self.stop)
         return launch_reduce(self.state, rows, m.device), 0
 
     def shot_rows(self, start: int, rows: int):
@@ -166,7 +168,7 @@ class CollisionStage:
 
     def __init__(self, scene, model, spec, arrays, pellets, options=None, frames=None):
         dev = model.device
-        self.model, self.pellets, self.frames = model, pellets, frames
+        self.model, self.pellets, self.stop, self.frames = model, pellets, pellets, frames
         self.count = scene.shot.count
         self.shots = pellets // self.count
         self.per_chunk = plan_shots(scene, dev, self.shots)
@@ -181,8 +183,10 @@ class CollisionStage:
         self.shot_pass = ShotPass(scene, model, spec, self.per_chunk) if has_ensemble(scene) else None
 
     def chunks(self, done: int):
-        for first in range(done // self.count, self.shots, self.per_chunk):
-            yield first * self.count, min(self.per_chunk, self.shots - first) * self.count
+        """(start, rows) of the chunks of whole shots from `done` to `stop` (the run's end, or its next check)."""
+        shots = self.stop // self.count
+        for first in range(done // self.count, shots, self.per_chunk):
+            yield first * self.count, min(self.per_chunk, shots - first) * self.count
 
     def compute(self, start: int, rows: int):
         m = self.model
@@ -209,7 +213,7 @@ class CollisionStage:
             device=m.device,
             block_dim=CUDA_BLOCK_DIM,
         )
-        self.tally.fold(slots, last=start + rows >= self.pellets)
+        self.tally.fold(slots, last=start + rows >= self.stop)
         return launch_reduce(self.state, slots, m.device), shots
 
     def shot_rows(self, start: int, rows: int):
@@ -290,11 +294,13 @@ class HostSlot:
         )
 
 
-def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=None, options=None, frames=None) -> dict:
+def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=None, options=None, frames=None, plan=None) -> dict:
     """Every pellet of `scene` through `model`'s device as `spec` compiles it; returns the statistics.
     arrays: a pellet file's launch states; sink: receives each chunk (`append(arrays, rows,
     segment_results, shot_totals, tally, shot_partials)`); resumed: a `Resumed`; progress(done, total); options: the
-    dense phase's `DenseOptions`; frames(step, time, positions): trajectory frames."""
+    dense phase's `DenseOptions`; frames(step, time, positions): trajectory frames; plan: a bounded
+    run's checks (`bound.BoundPlan`; `scene` is then its budget's, `bound.planned`): the run stops at
+    the first check that meets the bound, its outcome in the statistics' `bound`."""
     with interrupts.honoured(), _DEVICE_LOCK if model.device.is_cuda else contextlib.nullcontext():
         pellets = scene.shot.pellets
         if spec.collisions:
@@ -303,11 +309,11 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
             stage = CollisionStage(scene, model, spec, arrays, pellets, options, frames)
         else:
             stage = CoreStage(scene, model, spec, arrays, pellets)
-        totals, tables, tally, pieces = _loop(stage, pellets, sink, resumed, progress)
+        totals, tables, tally, pieces, pellets, outcome = _loop(stage, pellets, sink, resumed, progress, plan)
     stats = RunStats(
         finalize(totals, pellets=pellets, mass=model.mass, inertia=model.inertia, air=spec.in_air, rest=spec.to_rest)
     )
-    stats.tally = tally
+    stats.tally, stats.bound = tally, outcome
     warn_coarse_positions(stats["flight_scale_max"], model.precision, model.radius)
     if spec.in_air and stats["flights_unfinished"] > 0:
         warnings.warn(
@@ -328,7 +334,7 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
             rest=spec.to_rest,
             shot_totals=np.concatenate(tables) if spec.collisions else None,
         )
-        stats.ensemble = ensemble_of(per_shot, scene.shot.shots)
+        stats.ensemble = ensemble_of(per_shot, pellets // scene.shot.count)
     return stats
 
 
@@ -354,9 +360,10 @@ def warn_coarse_positions(scale: float, precision: str, radius: float) -> bool:
     return True
 
 
-def _loop(stage, pellets, sink, resumed, progress):
+def _loop(stage, pellets, sink, resumed, progress, plan=None):
     """The chunk loop; returns the folded statistics totals, the shots' totals tables and the
-    landing counts (None when not counted) and the per-shot partials (`core.shots`), in shot order."""
+    landing counts (None when not counted), the per-shot partials (`core.shots`), in shot order,
+    the pellets complete and, with a `plan` (`bound.BoundPlan`), the outcome of its last check."""
     totals, tables, pieces, done = empty_totals(), [], [], 0
     tally = TallyTotals(stage.tally.setup) if stage.tally.active else None
     loaded = None  # the resumed run's landing counts
@@ -390,25 +397,48 @@ def _loop(stage, pellets, sink, resumed, progress):
         if progress is not None:
             progress(done, pellets)
 
-    pending = None
-    for i, (start, rows) in enumerate(stage.chunks(done)):
-        interrupts.check()
-        segments, shots = stage.compute(start, rows)
-        shot_pieces = stage.shot_rows(start, rows)
-        slot = slots[i % len(slots)]
-        if pending is slot:  # CPU: one slot, consume before reuse
-            consume(pending)
-            pending = None
-        slot.fill(stage, rows, segments, shots, with_tally=sink is not None, shot_pieces=shot_pieces)
+    def finish(pending):
+        """Consume the last chunk queued, the tally totals fetched with it (a sink had them chunk by chunk)."""
+        fetch = tally is not None and sink is None
+        if fetch:
+            stage.tally.request()  # queued behind the last chunk: one wait for both
         if pending is not None:
-            consume(pending)  # host work on the previous chunk while the device runs this one
-        pending = slot
-    fetch = tally is not None and sink is None  # (a sink had them chunk by chunk)
-    if fetch:
-        stage.tally.request()  # queued behind the last chunk: one wait for both
-    if pending is not None:
-        consume(pending)
-    if fetch:
-        stage.tally.receive(tally)
+            consume(pending)
+        if fetch:
+            stage.tally.receive(tally)
+
+    pending, outcome, chunks = None, None, 0
+    every = [pellets] if plan is None else plan.checks()
+    for number, stop in enumerate(every, start=1):
+        if stop < done:  # (a resumed run's checks passed)
+            continue
+        if plan is not None and stop == done:  # resumed at a check: its outcome again, from the counts kept
+            outcome = plan.result(tally, done, number)
+            if outcome.met:
+                break
+            continue
+        stage.stop, begin = stop, done
+        for start, rows in stage.chunks(begin):
+            interrupts.check()
+            segments, shots = stage.compute(start, rows)
+            shot_pieces = stage.shot_rows(start, rows)
+            slot = slots[chunks % len(slots)]
+            chunks += 1
+            if pending is slot:  # CPU: one slot, consume before reuse
+                consume(pending)
+                pending = None
+            slot.fill(stage, rows, segments, shots, with_tally=sink is not None, shot_pieces=shot_pieces)
+            if pending is not None:
+                consume(pending)  # host work on the previous chunk while the device runs this one
+            pending = slot
+        if plan is not None:  # a check: every chunk before it consumed, the totals read
+            finish(pending)
+            pending = None
+            outcome = plan.result(tally, done, number)
+            log.info("check %d after %s pellets: %s", number, f"{done:,}", outcome.interval_text())
+            if outcome.met:
+                break
+    if plan is None:
+        finish(pending)
     interrupts.check()
-    return totals, tables, tally, pieces
+    return totals, tables, tally, pieces, done, outcome

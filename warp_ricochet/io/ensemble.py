@@ -23,16 +23,19 @@ def create_ensemble_datasets(group: h5py.Group, stats, shots: int) -> None:
         ds.attrs["ci_low"] = np.nan
         ds.attrs["ci_high"] = np.nan
         ds.attrs["ci_method"] = CI_METHOD[STAT_KIND[name]]
-        values = per_shot.create_dataset(name, shape=(shots,), dtype="f8", fillvalue=np.nan)
+        values = per_shot.create_dataset(name, shape=(shots,), maxshape=(None,), dtype="f8", fillvalue=np.nan)
         values.attrs["units"], values.attrs["description"] = STAT_UNITS[name]
 
 
 def write_ensemble(group: h5py.Group, ensemble: Ensemble) -> None:
-    """Fill what `create_ensemble_datasets` made (attributes modified in place)."""
+    """Fill what `create_ensemble_datasets` made (attributes modified in place), the per-shot
+    datasets cut to the shots run (a bounded run's are made for its budget)."""
+    group["stats/shots"].attrs.modify("shots", ensemble.shots)
     for name, values in ensemble.per_shot.items():
         ds = group[f"stats/{name}"]
         ds.attrs.modify("ci_low", np.float64(ensemble.low[name]))
         ds.attrs.modify("ci_high", np.float64(ensemble.high[name]))
+        group[f"stats/shots/{name}"].resize((len(values),))
         group[f"stats/shots/{name}"][:] = values
 
 

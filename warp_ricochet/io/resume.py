@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import warp as wp
 
 from .._version import __version__
+from ..bound import BoundPlan, planned
 from ..dense.schedule import segments_of_shots, shot_granule
 from ..errors import OutputError, SceneError
 from ..tallies.collisions import SHOT_TOTALS
@@ -126,6 +127,7 @@ def verify(f, scene, dev, partial_name: str) -> tuple[int, int, int, int]:
         )
     rows, chunk = int(progress["rows"][()]), int(progress["chunk_rows"][()])
     pellets = int(f["constants/pellets"][()])
+    bounded = BoundPlan.of(scene)  # (chunks end at its checks too, and segments start there)
     if scene.pair_collisions:  # chunks of whole shots, a multiple of shot_granule shots but the last
         count = scene.shot.count
         shots, unit = rows // count, count * shot_granule(count)
@@ -133,9 +135,14 @@ def verify(f, scene, dev, partial_name: str) -> tuple[int, int, int, int]:
     else:
         shots, unit = 0, SEGMENT
         segments = math.ceil(rows / SEGMENT)
+    if bounded is not None:
+        segments = bounded.segments(rows, scene.pair_collisions)
     damaged = None
-    if not 0 <= rows <= pellets or pellets != scene.shot.pellets:
+    if not 0 <= rows <= pellets or pellets != planned(scene).shot.pellets:
         damaged = f"{rows} rows complete of {pellets}"
+    elif bounded is not None:
+        if not bounded.chunk_end(rows, scene.pair_collisions):
+            damaged = f"{rows} rows complete, neither a check of its bound nor whole chunks past one"
     elif rows and (chunk <= 0 or (chunk % unit and chunk < pellets) or (rows % chunk and rows != pellets)):
         damaged = f"chunk plan of {chunk} pellets per chunk with {rows} rows complete"
     elif len(progress["segment_results"]) < segments:
@@ -180,7 +187,7 @@ def plan(f, scene, dev, partial_name: str) -> ResumePlan:
             "it cannot be resumed (--overwrite starts the run again)"
         )
     partials, pieces = None, 0
-    if has_ensemble(scene):
+    if has_ensemble(planned(scene)):
         pieces = rows // scene.shot.count * pieces_per_shot(scene.shot.count)
         if "shot_partials" not in progress or len(progress["shot_partials"]) < pieces:
             raise OutputError(

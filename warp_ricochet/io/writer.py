@@ -26,7 +26,7 @@ from ..tallies.collisions import SHOT_TOTALS, SHOT_TOTALS_UNITS
 from ..tallies.ensemble import has_ensemble
 from ..tallies.reduce import SEGMENT, SEGMENT_WIDTH
 from ..tallies.sums import STAT_UNITS
-from . import h5md, tally_out
+from . import bound_out, h5md, tally_out
 from .dimensions import name_run_dimensions, name_sweep_dimensions
 from .ensemble import create_ensemble_datasets, write_ensemble
 from .runfile import _OPEN
@@ -62,13 +62,14 @@ class RunWriter:
     statistics partials of every complete chunk and, in a run with pair collisions, the per-shot
     totals its collision statistics are made of)."""
 
-    def __init__(self, group: h5py.Group, model, *, scene, fields, pellets: int, stats):
+    def __init__(self, group: h5py.Group, model, *, scene, fields, pellets: int, stats, scene_toml=None):
         """`fields`: the per-pellet fields written; `stats`: the names of the statistics the run
-        computes (`tallies.sums.stat_names`)."""
+        computes (`tallies.sums.stat_names`); `scene_toml`: the scene recorded, when not `scene`'s
+        (a bounded run is laid out as its budget's: `bound.planned`)."""
         self.group = group
         self.fields = tuple(fields)
         self.rows = 0
-        group.attrs["scene_toml"] = scene.to_toml()
+        group.attrs["scene_toml"] = scene.to_toml() if scene_toml is None else scene_toml
         group.attrs["precision"] = model.precision
         if scene.shot.file is None:
             group.attrs["seed"] = scene.shot.seed
@@ -98,6 +99,8 @@ class RunWriter:
             h5md.create_frames(group, pellets, scene.collisions.frame_every)
         if scene.output.quantiles:
             tally_out.create(group, scene, model)
+        if scene.hazard is not None and scene.hazard.bound is not None:
+            bound_out.create(group, scene.hazard.bound)
         name_run_dimensions(group)  # before SWMR: attaching a scale writes attributes
         self._open_datasets()
         self._start_watching()
@@ -267,6 +270,8 @@ class RunWriter:
                 tally_out.write_results(self.group, tally, int(stats["landed"]), int(stats["pellets"]))
             if getattr(stats, "ensemble", None) is not None:
                 write_ensemble(self.group, stats.ensemble)
+            if getattr(stats, "bound", None) is not None:
+                bound_out.write(self.group, stats.bound)
             self.group.file.flush()
         except (OSError, RuntimeError) as exc:
             raise _write_failure(exc, self.group) from None

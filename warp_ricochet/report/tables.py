@@ -15,7 +15,9 @@ import math
 import os
 from dataclasses import dataclass, field
 
+from ..bound import BoundResult
 from ..errors import RicochetError, hdf5_reason
+from ..io import bound_out
 from ..io.inputcheck import open_valid
 from ..io.locks import in_use, writer_gone
 from ..tallies.ensemble import STAT_KIND
@@ -144,6 +146,7 @@ def _read_open_file(f, path, np) -> Results:
         shots_group = stats_group.get("shots")
         meta["shots"] = int(shots_group.attrs.get("shots", 0)) if isinstance(shots_group, h5py.Group) else 0
         meta["tally"] = from_file(f)
+        meta["bound"] = bound_out.read(f)  # [hazard.bound]: its outcome (None without)
         return Results(rows=[row], meta=meta)
     sweep = f["sweep"]  # (a group: io.inputcheck)
     params = _key_list(sweep.attrs.get("parameters"))
@@ -499,6 +502,8 @@ def format_tables(results: Results, fmt: str = "text", paper: bool = False) -> s
         blocks.append(rest_block(results.rows[0]))
     if results.meta.get("tally") is not None:
         blocks.append("\n".join(tally_lines(results.meta["tally"], results.rows[0].get("pellets", 0.0))))
+    if results.meta.get("bound") is not None:
+        blocks.append(BoundResult.of(results.meta["bound"]).summary())
     return "\n\n".join(blocks) + "\n"
 
 
@@ -545,6 +550,8 @@ def format_run_summary(stats: dict, output=None, device=None, scene=None) -> str
     lines += [f"{k.ljust(width)}  {v}" for k, v in rows]
     lines += [line for line in (not_finished_line(stats),) if line]
     lines += tally_lines(from_run(stats, scene), stats.get("pellets", 0.0))
+    if getattr(stats, "bound", None) is not None:  # [hazard.bound]: the pellets it took, the final interval
+        lines += ["", stats.bound.summary()]
     ensemble = getattr(stats, "ensemble", None)
     if ensemble is not None:
         intervals = {name: (ensemble.low[name], ensemble.high[name]) for name in ensemble.low}

@@ -27,6 +27,7 @@ from .schema import (
     Place,
     Reference,
     Site,
+    Bound,
 )
 
 
@@ -435,6 +436,35 @@ def _site(raw, path):
     return Site(crs=crs, shooter=xy, azimuth=azimuth)
 
 
+@_rule("must be a number in (0, 1): the fraction p of the pellets above the threshold left beyond the danger distance")
+def _probability(v, path):
+    x = _finite(v, path, _probability.rule)
+    if not 0 < x < 1:
+        raise _err(path, v, _probability.rule)
+    return x
+
+
+_BOUND = {
+    "threshold": _str(),  # a threshold's name: checked against the scene's in scene.parse
+    "fraction": _probability,
+    "width": _range(0, MAX_COORDINATE, above=True, unit="m"),
+    "max_pellets": _int(1, INT32_MAX),
+}
+BOUND_REQUIRED = ("threshold", "fraction", "width", "max_pellets")
+
+
+@_rule("must be a table (keys: " + ", ".join(_BOUND) + ")")
+def _bound(v, path):
+    """[hazard.bound]: its keys' values (`schema.Bound`; checked against the scene in scene.parse)."""
+    if not isinstance(v, dict):
+        raise _err(path, v, _bound.rule)
+    check_keys(v, path, _BOUND)
+    for key in BOUND_REQUIRED:
+        if v.get(key) is None:
+            raise _err(join(path, key), MISSING, f"is required; it {_BOUND[key].rule}")
+    return Bound(**{key: conv(v[key], join(path, key)) for key, conv in _BOUND.items()})
+
+
 _HAZARD = {
     "energy_density": _thresholds("J/m^2", 1e12),
     "speed": _thresholds("m/s", MAX_SPEED),
@@ -448,6 +478,7 @@ _HAZARD = {
     "points": _places,
     "references": _references,
     "site": _site,
+    "bound": _bound,
 }
 _OUTPUT = {
     "path": _path(),

@@ -210,6 +210,41 @@ def _check_map_axis(hazard: Hazard, normal, shot: Shot) -> None:
 MAX_MAP_CELLS = 4_000_000
 
 
+def _check_bound(hazard, shot: Shot, collisions: Collisions) -> None:
+    """[hazard.bound] against the rest of the scene (docs/hazard.md, "Running until the answer is
+    bounded"): a threshold of the scene, shots to add, and a budget that holds the first check."""
+    bound = None if hazard is None else hazard.bound
+    if bound is None:
+        return
+    names = [t[0] for t in hazard.thresholds]
+    if bound.threshold not in names:
+        allowed = ", ".join(names) if names else "none: the scene has no thresholds"
+        raise err(
+            "hazard.bound.threshold",
+            bound.threshold,
+            f"must name a threshold of the scene; {suggest(bound.threshold, names)}allowed: {allowed}",
+        )
+    if shot.file is not None:
+        raise err(
+            "shot.file",
+            shot.file,
+            "not allowed with [hazard.bound]: a pellet file's pellets are fixed, and a bounded run adds shots",
+        )
+    first = shot.count * shot.shots
+    if bound.max_pellets < first:
+        raise err(
+            "hazard.bound.max_pellets",
+            bound.max_pellets,
+            f"must be at least shot.count x shot.shots = {first} (the pellets of the run's first check) and at most {INT32_MAX}",
+        )
+    if collisions.enabled and shot.count > 1 and collisions.frame_every:
+        raise err(
+            "collisions.frame_every",
+            collisions.frame_every,
+            "must be 0 with [hazard.bound] (trajectory frames need the whole run in one chunk, and a bounded run checks between chunks)",
+        )
+
+
 def _numerics(raw) -> Numerics:
     numerics = Numerics(**_table(raw, "numerics", SCHEMAS["numerics"]))
     least = MIN_FLIGHT_TOLERANCE[numerics.precision]
@@ -239,6 +274,7 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
     output = _table(raw.get("output"), "output", SCHEMAS["output"])
     planes = tuple(_surface(s, f"surfaces.{i}") for i, s in enumerate(surfaces))
     hazard = _hazard(raw.get("hazard"), planes, shot)
+    _check_bound(hazard, shot, collisions)
     if hazard is not None and output.get("quantiles") is False:
         raise err(
             "output.quantiles",

@@ -266,6 +266,17 @@ class Site:
 
 
 @dataclass(frozen=True)
+class Bound:
+    """[hazard.bound]: run until the 95% interval of the danger distance of `threshold` at `fraction`
+    is finite and narrower than `width` (m), adding shots, at most `max_pellets` pellets (docs/hazard.md)."""
+
+    threshold: str
+    fraction: float
+    width: float  # m
+    max_pellets: int
+
+
+@dataclass(frozen=True)
 class Hazard:
     """Hazard thresholds, danger-distance fractions and the ground map (docs/hazard.md). Absent:
     no thresholds, no map (quantiles are still counted)."""
@@ -289,6 +300,7 @@ class Hazard:
 
     references: tuple[Reference, ...] = ()  # distances the report compares with
     site: Site | None = None  # georeference of the map (needs pyproj: the gis extra)
+    bound: Bound | None = None  # run until the danger distance is bounded (`warp_ricochet.bound`)
 
     @property
     def thresholds(self) -> tuple[tuple[str, str, float], ...]:

@@ -1,0 +1,241 @@
+"""Runs that go on until the danger distance is bounded ([hazard.bound], issue 26 part 1,
+warp_ricochet.bound): a bound met stops the run early, a budget spent says "not bounded", the
+shots added are the pellets an ordinary run of as many shots has, the bits do not depend on the
+chunk size, --resume continues to the bits of an uninterrupted run, and bad input is refused."""
+
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+import warp_ricochet as wr
+from tests.helpers import assert_resume_refused, assert_same_run, cli, interrupt_after, make_scene, paper_raw
+from warp_ricochet.bound import BoundPlan
+from warp_ricochet.errors import PrecisionWarning, SceneError
+from warp_ricochet.io.bound_out import read
+
+# the paper's shot in vacuum to its landing: landings above `low` need 368 for p = 0.01, so the
+# interval is infinite for the first checks; it then narrows to one bin (0.0625 m at 124 m)
+HAZARD = {"energy_density": {"low": 237_000.0}, "speed": {"fast": 212.0}, "fractions": [0.01]}
+
+
+def bounded(count=100, shots=2, width=1.0, max_pellets=20_000, chunk=None, bound=True, **tables):
+    raw = paper_raw(until="landing")
+    raw["shot"].update(count=count, shots=shots)
+    hazard = {**HAZARD, "bound": {"threshold": "low", "fraction": 0.01, "width": width, "max_pellets": max_pellets}}
+    if not bound:
+        del hazard["bound"]
+    numerics = {"chunk_size": chunk} if chunk else {}
+    return make_scene(raw, hazard=hazard, output={"fields": ["landing"]}, numerics=numerics, **tables)
+
+
+def test_checks_follow_the_shots_and_the_budget_only():
+    plan = BoundPlan.of(bounded(count=100, shots=2, max_pellets=2_050))
+    assert plan.checks() == [200, 300, 400, 500, 600, 700, 800, 1000, 1200, 1500, 1800, 2000]
+    assert BoundPlan.of(bounded(shots=3, max_pellets=300)).checks() == [300]
+    # segments: each stretch between checks starts its own (65,536 pellets a segment)
+    big = BoundPlan.of(bounded(count=70_000, shots=1, max_pellets=210_000))
+    assert big.checks() == [70_000, 140_000, 210_000]
+    assert [big.segments(n, False) for n in (65_536, 70_000, 135_536, 140_000, 210_000)] == [1, 2, 3, 4, 6]
+    # where a chunk can end (what --resume accepts as rows complete)
+    ends = (0, 65_536, 70_000, 135_536, 140_000, 210_000)
+    assert all(big.chunk_end(n, False) for n in ends)
+    assert not any(big.chunk_end(n, False) for n in (1, 65_535, 69_999, 131_072, 200_000, 210_001))
+
+
+def test_a_bound_met_stops_the_run_early(tmp_path):
+    out = tmp_path / "run.h5"
+    stats = wr.run(bounded(width=1.0), out, device="cpu")
+    b = stats.bound
+    # 368 landings above `low` (0.39 of the pellets) bound the interval: the fourth check, 5 shots
+    assert b.met and b.pellets == 500 and b.shots == 5 and b.checks == 4 and stats["pellets"] == 500
+    assert np.isfinite(b.ci_high) and b.ci_high - b.ci_low < 1.0 and b.ci_low <= b.distance <= b.ci_high
+    with h5py.File(out, "r") as f:
+        found = read(f)
+        assert f["constants/pellets"][()] == 500 and f["pellets/landing/range"].shape == (500,)
+        assert f["stats/shots/range_mean"].shape == (5,) and f["stats/shots"].attrs["shots"] == 5
+        for name in ("threshold", "fraction", "width", "max_pellets", "met", "pellets", "final_width"):
+            assert "units" in f[f"hazard/bound/{name}"].attrs and f[f"hazard/bound/{name}"].attrs["description"]
+    assert found["met"] and found["pellets"] == 500 and found["shots"] == 5 and found["threshold"] == "low"
+    assert found["width"] == 1.0 and found["max_pellets"] == 20_000 and found["final_width"] == b.ci_high - b.ci_low
+    # the interval of the file's own danger distance (summarize's) at the same p is the one the run stopped on
+    with h5py.File(out, "r") as f:
+        assert f["hazard/danger_distance/ci_high"][0, 0] == b.ci_high
+    # its pellets are those of an ordinary run of as many shots: shots are added, pellet by index
+    plain = tmp_path / "plain.h5"
+    raw = paper_raw(until="landing")
+    raw["shot"].update(count=100, shots=5)
+    wr.run(make_scene(raw, hazard=HAZARD, output={"fields": ["landing"]}), plain, device="cpu")
+    with h5py.File(out, "r") as a, h5py.File(plain, "r") as p:
+        for name in ("range", "position", "velocity"):
+            np.testing.assert_array_equal(a[f"pellets/landing/{name}"][()], p[f"pellets/landing/{name}"][()])
+        np.testing.assert_array_equal(a["stats/histograms/counts"][()], p["stats/histograms/counts"][()])
+        np.testing.assert_allclose(a["stats/range_mean"][()], p["stats/range_mean"][()], rtol=1e-12)
+
+
+def test_a_spent_budget_says_not_bounded(tmp_path):
+    # below one bin's width (0.0625 m at 124 m): never bounded
+    with pytest.warns(PrecisionWarning, match="NOT BOUNDED"):
+        stats = wr.run(bounded(width=0.01, max_pellets=1_050), tmp_path / "run.h5", device="cpu")
+    b = stats.bound
+    assert not b.met and b.pellets == 1_000 and b.shots == 10 and stats["pellets"] == 1_000
+    assert b.final_width >= 0.0625
+    with h5py.File(tmp_path / "run.h5", "r") as f:
+        assert not f["hazard/bound/met"][()] and f["hazard/bound/pellets"][()] == 1_000
+    rc, out, _ = cli(["report", tmp_path / "run.h5"])  # the file's report says it too
+    assert rc == 0 and out.rstrip().endswith("not below 0.01 m; raise max_pellets or the width")
+    assert "NOT BOUNDED: the budget of 1,000 pellets (10 shots, 8 checks) is spent" in out
+    # the command line says it plainly, and so does the summary
+    rc, out, err = cli(
+        ["run", _toml(tmp_path), "--device", "cpu", "--set", "hazard.bound.width=0.01", "--set", "hazard.bound.max_pellets=400"]
+    )
+    assert rc == 0
+    assert "NOT BOUNDED: the budget of 400 pellets (4 shots, 3 checks) is spent" in out
+    assert "width inf m, not below 0.01 m; raise max_pellets or the width" in out
+    rc, out, err = cli(["run", _toml(tmp_path), "--device", "cpu"])
+    assert rc == 0 and "bounded after 500 pellets (5 shots, 4 checks)" in out and "< 1 m" in out
+
+
+def _toml(tmp_path) -> Path:
+    path = tmp_path / "scene.toml"
+    path.write_text(bounded().to_toml())
+    return path
+
+
+def test_the_bits_do_not_depend_on_the_chunk_size(tmp_path):
+    # shots of 70,000 pellets: chunks of 65,536 cut each stretch between checks in two
+    small, whole = tmp_path / "small.h5", tmp_path / "whole.h5"
+    for chunk, out in ((65_536, small), (1 << 20, whole)):
+        stats = wr.run(bounded(count=70_000, shots=1, width=1e-3, max_pellets=210_000, chunk=chunk), out, device="cpu")
+        assert stats.bound.pellets == 210_000 and not stats.bound.met
+    assert_same_run(small, whole, ["landing/range", "landing/position"])
+    with h5py.File(small, "r") as f:
+        assert len(f["progress/segment_results"]) == 6
+
+
+@pytest.mark.parametrize("chunks", [1, 2, 3, 4])
+def test_resume_continues_to_the_uninterrupted_bits(tmp_path, chunks):
+    """Interrupted inside a stretch between checks (1, 3: 65,536 or 135,536 pellets) or at a check
+    (2, 4: 70,000 or 140,000, where a segment count from the run's start would be one short)."""
+    scene = bounded(count=70_000, shots=1, width=1e-3, max_pellets=210_000, chunk=65_536)
+    ref, out = tmp_path / "ref.h5", tmp_path / "out.h5"
+    wr.run(scene, ref, device="cpu")
+    interrupt_after(chunks, scene, out)
+    with h5py.File(str(out) + ".partial", "r") as f:
+        assert f["progress/rows"][()] == (65_536, 70_000, 135_536, 140_000)[chunks - 1]
+    stats = wr.run(scene, out, device="cpu", resume=True)
+    assert stats.bound.pellets == 210_000 and stats.bound.checks == 3
+    assert_same_run(out, ref, ["landing/range", "landing/position"])
+
+
+def test_resume_refuses_rows_that_no_chunk_ends_at(tmp_path):
+    scene = bounded(count=70_000, shots=1, width=1e-3, max_pellets=210_000, chunk=65_536)
+    path, out = tmp_path / "scene.toml", tmp_path / "out.h5"
+    path.write_text(scene.to_toml())
+    interrupt_after(1, scene, out)
+
+    def edit(f):
+        f["progress/rows"][()] = 65_535
+
+    argv = ["run", path, "-o", out, "--device", "cpu", "--resume"]
+    assert_resume_refused(argv, out, edit, f"output path = '{out}.partial': is inconsistent (65535 rows complete, neither")
+
+
+def test_shots_are_added_whole_with_pair_collisions(tmp_path):
+    """With pair collisions a shot's pellets meet each other: the run adds whole shots, and stops
+    after S with the pellets and collisions of an ordinary run of S shots; --resume goes on to
+    the uninterrupted bits (the shots' collision totals too)."""
+    collisions = {"collisions": {"enabled": True}}
+    scene = bounded(count=24, shots=4, max_pellets=24 * 12 + 5, **collisions)
+    ref, plain, out = tmp_path / "ref.h5", tmp_path / "plain.h5", tmp_path / "out.h5"
+    stats = wr.run(scene, ref, device="cpu")
+    assert not stats.bound.met and stats.bound.shots == 12 and stats["pellets"] == 288  # checks: 4, 5, 6, 7, 8, 10, 12
+    assert stats.bound.checks == 7 and stats["pair_collisions"] > 0
+    other = wr.run(bounded(count=24, shots=12, bound=False, **collisions), plain, device="cpu")
+    assert other["pair_collisions"] == stats["pair_collisions"]
+    with h5py.File(ref, "r") as a, h5py.File(plain, "r") as p:
+        np.testing.assert_array_equal(a["pellets/landing/range"][()], p["pellets/landing/range"][()])
+        np.testing.assert_array_equal(a["progress/shot_totals"][()], p["progress/shot_totals"][()])
+    interrupt_after(3, scene, out)  # after the third check
+    with h5py.File(str(out) + ".partial", "r") as f:
+        assert f["progress/rows"][()] == 6 * 24
+    wr.run(scene, out, device="cpu", resume=True)
+    assert_same_run(out, ref, ["landing/range"], progress=("segment_results", "shot_totals"))
+
+
+def test_a_threshold_never_reached_is_not_bounded(tmp_path):
+    raw = paper_raw(until="landing")
+    raw["shot"].update(count=100, shots=1)
+    hazard = {
+        **HAZARD,
+        "speed": {"fast": 1000.0},
+        "bound": {"threshold": "fast", "fraction": 0.01, "width": 5.0, "max_pellets": 300},
+    }
+    with pytest.warns(PrecisionWarning, match="no pellet above fast: no danger distance"):
+        stats = wr.run(make_scene(raw, hazard=hazard, output={"fields": []}), device="cpu")
+    assert not stats.bound.met and stats.bound.pellets == 300 and np.isnan(stats.bound.distance)
+
+
+def test_resume_of_a_run_that_met_its_bound_at_the_interruption(tmp_path):
+    scene = bounded(width=1.0)
+    ref, out = tmp_path / "ref.h5", tmp_path / "out.h5"
+    wr.run(scene, ref, device="cpu")
+    interrupt_after(4, scene, out)  # the fourth check's chunk is kept: it met the bound
+    stats = wr.run(scene, out, device="cpu", resume=True)
+    assert stats.bound.met and stats.bound.pellets == 500
+    assert_same_run(out, ref, ["landing/range"])
+
+
+@pytest.mark.parametrize(
+    ("bound", "key", "allowed"),
+    [
+        (
+            {"threshold": "lo"},
+            "hazard.bound.threshold = 'lo'",
+            "must name a threshold of the scene; did you mean low? allowed: low, fast",
+        ),
+        ({"fraction": 1.0}, "hazard.bound.fraction = 1.0", "must be a number in (0, 1)"),
+        ({"fraction": 0}, "hazard.bound.fraction = 0", "must be a number in (0, 1)"),
+        ({"width": 0.0}, "hazard.bound.width = 0.0", "must be a number in (0, 1e+06] (m)"),
+        ({"width": "1 m"}, "hazard.bound.width = '1 m'", "must be a number in (0, 1e+06] (m)"),
+        ({"max_pellets": 199}, "hazard.bound.max_pellets = 199", "must be at least shot.count x shot.shots = 200"),
+        ({"max_pellets": 1.5}, "hazard.bound.max_pellets = 1.5", "must be an integer in [1, 2147483647]"),
+        ({"max_pellets": None}, "hazard.bound.max_pellets = (missing)", "is required; it must be an integer"),
+        ({"budget": 3}, "hazard.bound.budget = 3", "unknown key; allowed keys: threshold, fraction, width, max_pellets"),
+    ],
+)
+def test_bad_input_is_refused_in_one_line(bound, key, allowed):
+    raw = paper_raw(until="landing")
+    raw["shot"].update(count=100, shots=2)
+    table = {"threshold": "low", "fraction": 0.01, "width": 1.0, "max_pellets": 1000, **bound}
+    with pytest.raises(SceneError) as info:
+        make_scene(raw, hazard={**HAZARD, "bound": {k: v for k, v in table.items() if v is not None}})
+    text = str(info.value)
+    assert text.startswith(key) and allowed in text and "\n" not in text, text
+
+
+def test_the_command_line_refuses_before_any_work(tmp_path):
+    scene, out = _toml(tmp_path), tmp_path / "x.h5"
+    for setting, start in (
+        ("hazard.bound.width=-1", "hazard.bound.width = -1: must be a number in (0, 1e+06] (m)"),
+        ("hazard.bound.threshold='eye'", "hazard.bound.threshold = 'eye': must name a threshold of the scene"),
+        ("shot.shots=300", "hazard.bound.max_pellets = 20000: must be at least shot.count x shot.shots = 30000"),
+        ("collisions={enabled = true, frame_every = 5}", "collisions.frame_every = 5: must be 0 with [hazard.bound]"),
+    ):
+        rc, stdout, err = cli(["run", scene, "-o", out, "--device", "cpu", "--set", setting])
+        assert rc == 2 and stdout == "" and len(err.splitlines()) == 1, err
+        assert err.startswith("warp-ricochet: error: " + start), err
+        assert not out.exists() and not Path(str(out) + ".partial").exists()
+
+
+def test_a_pellet_file_is_refused(tmp_path):
+    from tests.helpers import explicit_scene
+
+    plain = explicit_scene(tmp_path, [[0.0, 1.0, 0.0]] * 4, [[100.0, -100.0, 0.0]] * 4, surfaces=[paper_raw()["surfaces"][0]])
+    raw = plain.to_dict()
+    raw["hazard"] = {**HAZARD, "bound": {"threshold": "low", "fraction": 0.01, "width": 1.0, "max_pellets": 100}}
+    from warp_ricochet.scene import scene_from_dict
+
+    with pytest.raises(SceneError, match=r"^shot.file = .*not allowed with \[hazard.bound\]: a pellet file's pellets are fixed"):
+        scene_from_dict(raw)
