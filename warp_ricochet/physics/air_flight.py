@@ -331,12 +331,14 @@ def make_air_flight(precision: str, planes, laws: tuple, watch: tuple = (0, 0, F
                     h, position, velocity, acceleration, x1, v1, a1, watched, waiting, surfaces, physics
                 )
                 d0, e0, d1s, e1 = h * velocity, h * h * acceleration, h * v1, h * h * a1
+                end = scalar(1.0)
                 if k >= 0:
-                    track = watcher.segment(track, tally, position, d0, e0, x1, d1s, e1, h, theta)
+                    end = theta
+                track = watcher.segment(track, tally, position, d0, e0, x1, d1s, e1, h, end)
+                if k >= 0:
                     x, slope = dense.hermite_vec(theta, position, d0, e0, x1, d1s, e1)
                     w = dense.cubic_vec(theta, spin, h * spin_change, w1, h * d1)
                     return time + theta * h, k, geo.normal(surfaces, k, x), x, slope / h, w, steps, track
-                track = watcher.segment(track, tally, position, d0, e0, x1, d1s, e1, h, scalar(1.0))
                 position = x1
                 velocity = v1
                 spin = w1

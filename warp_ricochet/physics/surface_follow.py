@@ -523,10 +523,11 @@ def make_surface_integrator(
             if k_c >= 0 and theta_c <= theta:
                 theta = theta_c
                 event = wp.int32(CONTACT)
+            end = ONE
             if event >= 0:
-                track = watcher.segment(
-                    track, tally, position, h * velocity, h * h * acceleration, x1, h * v1, h * h * a1, h, theta
-                )
+                end = theta
+            track = watcher.segment(track, tally, position, h * velocity, h * h * acceleration, x1, h * v1, h * h * a1, h, end)
+            if event >= 0:
                 x, slope = dense.hermite_vec(theta, position, h * velocity, h * h * acceleration, x1, h * v1, h * h * a1)
                 w = dense.cubic_vec(theta, spin, h * spin_rate, w1, h * d1)
                 path += simpson(h, theta, position, velocity, acceleration, x1, v1, a1)
@@ -534,7 +535,6 @@ def make_surface_integrator(
                 if event == CONTACT:
                     k_next = k_c
                 return x, slope / h, w, elapsed + theta * h, path, event, k_next, steps, track
-            track = watcher.segment(track, tally, position, h * velocity, h * h * acceleration, x1, h * v1, h * h * a1, h, ONE)
             path += simpson(h, ONE, position, velocity, acceleration, x1, v1, a1)
             elapsed += h
             position = x1

@@ -24,10 +24,10 @@ from .schema import (
     MAX_WIND,
     MIN_DENSITY,
     MIN_DIAMETER,
+    Bound,
     Place,
     Reference,
     Site,
-    Bound,
 )
 
 

@@ -14,6 +14,7 @@ import numpy as np
 
 from .bins import BINS, ROW_DISTANCE
 
+PATH_PARTS = 4  # parts a path segment's piece is cut in (`tallies.path`: height and speed monotone on each)
 ENERGY_QUANTUM_BITS = 24  # the map's energy unit: the reference energy / 2^24
 
 
@@ -310,6 +311,7 @@ class DeviceTally:
         s.rest_hist = self.counts["rest"]
         s.exposure, s.place_counts = self.counts["exposure"], self.counts["places"]
         s.reach_row, s.body_height = setup.reach_row, t.scalar(setup.body_height)
+        s.path_thresholds, s.path_parts = (len(setup.thresholds2) if setup.path else 0), PATH_PARTS
         s.ground_point, s.ground_normal = t.vec3(*setup.ground_point), t.vec3(*setup.ground_normal)
         s.place_position = wp.array([p[1] for p in setup.places], dtype=t.vec3, device=device)
         s.place_radius2 = wp.array([p[2] ** 2 for p in setup.places], dtype=t.scalar, device=device)

@@ -94,6 +94,8 @@ def make_landing_tally(precision: str) -> SimpleNamespace:
         energy_scale: scalar  # quanta / (m/s)^2: m / 2 / the map's energy quantum
         rest_hist: wp.array(dtype=wp.int32)  # copies x BINS, flat: the rest distances (physics.until = "rest")
         reach_row: wp.int32  # hist's row of the reach of threshold 0 (`tallies.path`); those of the others follow
+        path_thresholds: wp.int32  # thresholds watched along the path (`tallies.path`; 0: none)
+        path_parts: wp.int32  # parts a path segment's piece is cut in (`tallies.path.SUB`)
         body_height: scalar  # m
         ground_point: vec3  # m, a point of the hazard's ground plane
         ground_normal: vec3  # its normal / (normal . up): x . it is a height along up

@@ -11,7 +11,7 @@ h v and h^2 a at both ends, h the segment's duration): an integration step's own
 and along surfaces (`physics.integrate`), and the exact path itself where that is a polynomial of
 degree <= 5 (a vacuum flight's parabola, eq. 36; a surface phase of constant acceleration), whose
 crossings are then found to rounding. Each segment is cut at its height's apex (in vacuum the speed's
-minimum too), and each piece in SUB parts; on a part the height and the speed are taken as
+minimum too), and each piece in `counts.PATH_PARTS` parts; on a part the height and the speed are taken as
 monotone: its crossings of body height and of each threshold's speed are found by bisection on the
 interpolant. `line` takes a straight stretch whose speed falls by a known law (rolling with
 ploughing in vacuum, `physics.surface_follow.plough_roll`), with its crossings in closed form.
@@ -32,7 +32,6 @@ from ..physics.types import types_for
 from .bins import BINS, make_bin_of
 from .landing import copy_of, count_one, make_landing_tally
 
-SUB = 4  # parts a segment's piece is cut in (the height and speed taken as monotone on each)
 NONE = -1  # the cell of a pellet above body height (no pass under way)
 NO_REACH = -1.0  # a reach not yet found (reported as NaN)
 
@@ -61,7 +60,7 @@ def make_path_cells(precision: str, thresholds: int, points: int, with_map: bool
     def level_at(lo: Reach, hi: Reach, lam: scalar):
         """The thresholds exceeded at chord parameter lam (threshold i on [lo_i, hi_i])."""
         level = wp.int32(0)
-        for i in range(wp.static(K)):
+        for i in range(wp.static(K)):  # (a straight stretch's: a few call sites)
             if lo[i] <= lam and lam <= hi[i]:
                 level += 1
         return level
@@ -192,14 +191,13 @@ def make_path_curve(precision: str, thresholds: int, points: int, with_map: bool
     Track, Tally, enter, column_of, cell_index = cells.Track, cells.Tally, cells.enter, cells.column_of, cells.cell_index
     dense = make_dense_output(precision)
     speed2_at = make_path_roots(precision).speed2_at
-    K = max(thresholds, 1)
     ITERATIONS = 30 if precision == "float32" else 60
     ZERO, ONE, HALF = scalar(0.0), scalar(1.0), scalar(0.5)
 
     @wp.func
     def level_of(tally: Tally, speed2: scalar):
         level = wp.int32(0)
-        for i in range(wp.static(K)):
+        for i in range(tally.path_thresholds):
             if speed2 >= tally.thresholds2[i]:
                 level += 1
         return level
@@ -434,7 +432,7 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
         span = hi_t - lo_t
         lo = Reach()
         hi = Reach()
-        for i in range(wp.static(K)):
+        for i in range(tally.path_thresholds):
             target = tally.thresholds2[i]
             lo[i] = ONE
             hi[i] = ZERO  # empty
@@ -467,46 +465,36 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
         return track
 
     @wp.func
-    def piece(
-        track: Track,
-        tally: Tally,
-        a: scalar,
-        b: scalar,
-        x0: vec3,
-        d0: vec3,
-        e0: vec3,
-        x1: vec3,
-        d1: vec3,
-        e1: vec3,
-        inv_h2: scalar,
-    ):
-        """[a, b] of a segment (no apex inside) in SUB parts."""
-        width = (b - a) / scalar(wp.static(float(SUB)))
-        lo = a
-        for j in range(wp.static(SUB)):
-            hi = lo + width
-            if j == wp.static(SUB - 1):
-                hi = b
-            track = part(track, tally, lo, hi, x0, d0, e0, x1, d1, e1, inv_h2)
-            lo = hi
-        return track
-
-    @wp.func
     def segment(
         track: Track, tally: Tally, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3, h: scalar, theta_end: scalar
     ):
-        """Watch the segment's [0, theta_end] (x, h v, h^2 a at theta 0 and 1; h in s)."""
+        """Watch the segment's [0, theta_end] (x, h v, h^2 a at theta 0 and 1; h in s): cut at its
+        height's apex, each piece in `tally.path_parts` parts (loops, not unrolled: one copy of the
+        part's code wherever a segment is watched)."""
         if wp.static(ON):
             if h > ZERO and theta_end > ZERO:
                 inv_h2 = ONE / (h * h)
                 _f0, r0 = height_at(tally, ZERO, x0, d0, e0, x1, d1, e1)
                 _f1, r1 = height_at(tally, theta_end, x0, d0, e0, x1, d1, e1)
+                top = theta_end
+                pieces = wp.int32(1)
                 if r0 > ZERO and r1 <= ZERO:  # an apex inside: two pieces
                     top = apex(tally, ZERO, theta_end, x0, d0, e0, x1, d1, e1)
-                    track = piece(track, tally, ZERO, top, x0, d0, e0, x1, d1, e1, inv_h2)
-                    track = piece(track, tally, top, theta_end, x0, d0, e0, x1, d1, e1, inv_h2)
-                else:
-                    track = piece(track, tally, ZERO, theta_end, x0, d0, e0, x1, d1, e1, inv_h2)
+                    pieces = wp.int32(2)
+                parts = tally.path_parts
+                for j in range(pieces * parts):
+                    start = ZERO
+                    end = top
+                    if j >= parts:
+                        start = top
+                        end = theta_end
+                    width = (end - start) / scalar(parts)
+                    k = j % parts
+                    lo = start + scalar(k) * width
+                    hi = lo + width
+                    if k == parts - 1:
+                        hi = end
+                    track = part(track, tally, lo, hi, x0, d0, e0, x1, d1, e1, inv_h2)
         return track
 
     @wp.func
