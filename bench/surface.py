@@ -34,7 +34,8 @@ def laws_of(air):
 def kernel(precision, planes, model, laws):
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
-    follow = make_surface_follow(precision, planes, model, laws).follow
+    fns = make_surface_follow(precision, planes, model, laws)
+    follow, start, Tally = fns.follow, fns.start, fns.Tally  # (the hazard's watch: none here)
 
     @wp.kernel(enable_backward=False, module="unique")
     def run(
@@ -53,8 +54,8 @@ def kernel(precision, planes, model, laws):
         out_i: wp.array2d(dtype=wp.int32),  # end, steps, k_next
     ):
         i = wp.tid()
-        xe, ve, we, elapsed, path, end, steps, k_next = follow(
-            x[i], v[i], w[i], k[i], surfaces, physics, p[i, 0], p[i, 1], p[i, 2], p[i, 3], p[i, 4], max_steps[i]
+        xe, ve, we, elapsed, path, end, steps, k_next, _track = follow(
+            x[i], v[i], w[i], k[i], surfaces, physics, p[i, 0], p[i, 1], p[i, 2], p[i, 3], p[i, 4], max_steps[i], start(), Tally()
         )
         out_x[i] = xe
         out_v[i] = ve

@@ -642,11 +642,11 @@ def test_a_hazard_map_beyond_memory_or_disk_is_refused_before_any_file(ws, monke
     assert message.startswith(
         "hazard.map_cell = 0.1: the hazard map of 4,000,000 cells (2,000 x 2,000 cells of "
         "hazard.map_cell over hazard.map_extent [0.0, 200.0, -100.0, 100.0]) x 31 thresholds "
-        "needs up to 6.93 GB of host memory, 2.15 GB is free: a larger map_cell"
+        "needs up to 13.7 GB of host memory, 2.15 GB is free: a larger map_cell"
     ), message
     monkeypatch.setattr(chunks, "host_memory_available", lambda: 1 << 40)
     monkeypatch.setattr(chunks, "free_bytes", lambda path: 1 << 20)  # the map's layers are gzip: 200 landings need little
-    assert "needs up to 27.7 MB on the output's disk, 1.05 MB is free" in assert_rejected(cli(args), "hazard.map_cell", ws)
+    assert "needs up to 1.07 GB on the output's disk, 1.05 MB is free" in assert_rejected(cli(args), "hazard.map_cell", ws)
 
 
 # ---------------------------------------------------------------------------------------------- devices

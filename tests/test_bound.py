@@ -15,8 +15,9 @@ from warp_ricochet.bound import BoundPlan
 from warp_ricochet.errors import PrecisionWarning, SceneError
 from warp_ricochet.io.bound_out import read
 
-# the paper's shot in vacuum to its landing: landings above `low` need 368 for p = 0.01, so the
-# interval is infinite for the first checks; it then narrows to one bin (0.0625 m at 124 m)
+# the paper's shot in vacuum to its landing: every pellet is within body height above `low` at its
+# launch (1 m up at 411 m/s), and 368 reaching above it bound p = 0.01, so the interval is infinite
+# for the first two checks; it then narrows to one bin (0.0625 m at 124 m)
 HAZARD = {"energy_density": {"low": 237_000.0}, "speed": {"fast": 212.0}, "fractions": [0.01]}
 
 
@@ -48,16 +49,16 @@ def test_a_bound_met_stops_the_run_early(tmp_path):
     out = tmp_path / "run.h5"
     stats = wr.run(bounded(width=1.0), out, device="cpu")
     b = stats.bound
-    # 368 landings above `low` (0.39 of the pellets) bound the interval: the fourth check, 5 shots
-    assert b.met and b.pellets == 500 and b.shots == 5 and b.checks == 4 and stats["pellets"] == 500
+    # 368 pellets reaching above `low` (all of them) bound the interval: the third check, 4 shots
+    assert b.met and b.pellets == 400 and b.shots == 4 and b.checks == 3 and stats["pellets"] == 400
     assert np.isfinite(b.ci_high) and b.ci_high - b.ci_low < 1.0 and b.ci_low <= b.distance <= b.ci_high
     with h5py.File(out, "r") as f:
         found = read(f)
-        assert f["constants/pellets"][()] == 500 and f["pellets/landing/range"].shape == (500,)
-        assert f["stats/shots/range_mean"].shape == (5,) and f["stats/shots"].attrs["shots"] == 5
+        assert f["constants/pellets"][()] == 400 and f["pellets/landing/range"].shape == (400,)
+        assert f["stats/shots/range_mean"].shape == (4,) and f["stats/shots"].attrs["shots"] == 4
         for name in ("threshold", "fraction", "width", "max_pellets", "met", "pellets", "final_width"):
             assert "units" in f[f"hazard/bound/{name}"].attrs and f[f"hazard/bound/{name}"].attrs["description"]
-    assert found["met"] and found["pellets"] == 500 and found["shots"] == 5 and found["threshold"] == "low"
+    assert found["met"] and found["pellets"] == 400 and found["shots"] == 4 and found["threshold"] == "low"
     assert found["width"] == 1.0 and found["max_pellets"] == 20_000 and found["final_width"] == b.ci_high - b.ci_low
     # the interval of the file's own danger distance (summarize's) at the same p is the one the run stopped on
     with h5py.File(out, "r") as f:
@@ -65,7 +66,7 @@ def test_a_bound_met_stops_the_run_early(tmp_path):
     # its pellets are those of an ordinary run of as many shots: shots are added, pellet by index
     plain = tmp_path / "plain.h5"
     raw = paper_raw(until="landing")
-    raw["shot"].update(count=100, shots=5)
+    raw["shot"].update(count=100, shots=4)
     wr.run(make_scene(raw, hazard=HAZARD, output={"fields": ["landing"]}), plain, device="cpu")
     with h5py.File(out, "r") as a, h5py.File(plain, "r") as p:
         for name in ("range", "position", "velocity"):
@@ -88,13 +89,13 @@ def test_a_spent_budget_says_not_bounded(tmp_path):
     assert "NOT BOUNDED: the budget of 1,000 pellets (10 shots, 8 checks) is spent" in out
     # the command line says it plainly, and so does the summary
     rc, out, err = cli(
-        ["run", _toml(tmp_path), "--device", "cpu", "--set", "hazard.bound.width=0.01", "--set", "hazard.bound.max_pellets=400"]
+        ["run", _toml(tmp_path), "--device", "cpu", "--set", "hazard.bound.width=0.01", "--set", "hazard.bound.max_pellets=300"]
     )
     assert rc == 0
-    assert "NOT BOUNDED: the budget of 400 pellets (4 shots, 3 checks) is spent" in out
+    assert "NOT BOUNDED: the budget of 300 pellets (3 shots, 2 checks) is spent" in out
     assert "width inf m, not below 0.01 m; raise max_pellets or the width" in out
     rc, out, err = cli(["run", _toml(tmp_path), "--device", "cpu"])
-    assert rc == 0 and "bounded after 500 pellets (5 shots, 4 checks)" in out and "< 1 m" in out
+    assert rc == 0 and "bounded after 400 pellets (4 shots, 3 checks)" in out and "< 1 m" in out
 
 
 def _toml(tmp_path) -> Path:
@@ -181,9 +182,9 @@ def test_resume_of_a_run_that_met_its_bound_at_the_interruption(tmp_path):
     scene = bounded(width=1.0)
     ref, out = tmp_path / "ref.h5", tmp_path / "out.h5"
     wr.run(scene, ref, device="cpu")
-    interrupt_after(4, scene, out)  # the fourth check's chunk is kept: it met the bound
+    interrupt_after(3, scene, out)  # the third check's chunk is kept: it met the bound
     stats = wr.run(scene, out, device="cpu", resume=True)
-    assert stats.bound.met and stats.bound.pellets == 500
+    assert stats.bound.met and stats.bound.pellets == 400
     assert_same_run(out, ref, ["landing/range"])
 
 

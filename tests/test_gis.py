@@ -27,7 +27,7 @@ from warp_ricochet.gis.site import LEVEL, Georeference, local_matrix  # noqa: E4
 HAZARD_TOML = Path(__file__).resolve().parents[1] / "examples" / "hazard.toml"
 UTM = {"crs": "EPSG:32630", "shooter": [620000.0, 5700000.0], "azimuth": 37.0}
 # the hazard example, small, its map wide enough to hold nearly every landing
-SMALL = ("shot.shots=20", "hazard.map_extent=[-10.0, 200.0, -30.0, 30.0]", "hazard.map_cell=1.0", "shot.seed=7")
+SMALL = ("shot.shots=20", "hazard.map_extent=[-10.0, 340.0, -40.0, 40.0]", "hazard.map_cell=1.0", "shot.seed=7")
 
 
 def _centres(shape_vu, u0=0.0, v0=0.0, cell=1.0):
@@ -217,6 +217,9 @@ def runs(tmp_path_factory):
         k, nv, nu = m["above"].shape
         made = np.zeros((k, nv, nu), np.int64)
         made[:, 5:9, 100:110] = 7 * np.arange(k, 0, -1)[:, None, None]  # a block downrange, off the landings' peak
+        for name in ("exposure", "exposure_outside", "passes"):  # (a run's own: replaced by these)
+            if name in m:
+                del m[name]
         m.create_dataset("exposure", data=made)
         m.create_dataset("exposure_outside", data=np.array([60, 50, 1, 0, 0], np.int64)[: k + 1])
         m.create_dataset("passes", data=made[0] + 1)
@@ -249,6 +252,13 @@ def _map(path):
         }
 
 
+def _exposed(layers, i):
+    """(counts per cell, total) of the passes above threshold i: a run's own exposure layers
+    (issue 26), the outlines' basis."""
+    counts = layers["exposure"][i]
+    return counts, int(counts.sum() + layers["exposure_outside"][1 + i])
+
+
 def test_the_site_is_written_into_the_run_file(runs):
     _, info = _map(runs.site)
     assert info["site"]["crs"].decode() == "EPSG:32630" and info["site"]["azimuth"] == 37.0
@@ -271,8 +281,8 @@ def test_geojson_and_geotiff_of_a_run_with_a_site_open_in_geopandas_and_rasterio
     u0, v0, cell = layers["u_edges"][0], layers["v_edges"][0], layers["u_edges"][1] - layers["u_edges"][0]
     for _, row in frame.iterrows():
         i = info["names"].index(row["threshold"])
-        assert row["basis"] == "landings" and row["pellets"] == 20 * 280
-        counts, total = layers["above"][i], int(info["landings"][i])
+        assert row["basis"] == "exposure" and row["pellets"] == 20 * 280
+        counts, total = _exposed(layers, i)
         assert row["total"] == total and row["contained"]
         assert row.geometry.is_valid and row.geometry.geom_type == "MultiPolygon"
         left, inside = _left_out(row.geometry, counts, total - counts.sum(), u0, v0, cell, geo.to_crs)
@@ -280,10 +290,12 @@ def test_geojson_and_geotiff_of_a_run_with_a_site_open_in_geopandas_and_rasterio
         assert inside.flat[np.argmax(counts)]
         assert math.isclose(row["area_m2"], inside.sum() * cell**2)
     with rasterio.open(tif) as r:
-        assert r.crs.to_epsg() == 32630 and r.count == 1 + len(info["names"]) and r.nodata is None
-        assert r.descriptions[0] == "landings per cell" and r.descriptions[1] == f"landings above {info['names'][0]}"
+        bands = list(r.descriptions)
+        assert r.crs.to_epsg() == 32630 and r.count == 2 + 2 * len(info["names"]) and r.nodata is None
+        assert bands[0] == "landings per cell" and f"landings above {info['names'][0]}" in bands
         np.testing.assert_array_equal(r.read(1)[::-1], layers["count"])
-        np.testing.assert_array_equal(r.read(2)[::-1], layers["above"][0])
+        np.testing.assert_array_equal(r.read(bands.index(f"landings above {info['names'][0]}") + 1)[::-1], layers["above"][0])
+        np.testing.assert_array_equal(r.read(bands.index(f"passes above {info['names'][0]}") + 1)[::-1], layers["exposure"][0])
         # the centre of cell (row j, column i) of the map, through the raster's affine and through pyproj
         j, i = np.unravel_index(np.argmax(layers["count"]), layers["count"].shape)
         x, y = r.xy(r.height - 1 - j, i)
@@ -331,9 +343,9 @@ def test_a_run_without_a_site_is_written_in_local_metres(runs, tmp_path):
     u0, v0, cell = layers["u_edges"][0], layers["v_edges"][0], 1.0
     for _, row in frame.iterrows():
         i = info["names"].index(row["threshold"])
-        counts = layers["above"][i]
-        left, inside = _left_out(row.geometry, counts, info["landings"][i] - counts.sum(), u0, v0, cell)
-        assert left == row["outside"] <= row["p"] * info["landings"][i] and inside.flat[np.argmax(counts)]
+        counts, total = _exposed(layers, i)
+        left, inside = _left_out(row.geometry, counts, total - counts.sum(), u0, v0, cell)
+        assert left == row["outside"] <= row["p"] * total and inside.flat[np.argmax(counts)]
     with rasterio.open(tif) as r:
         assert tuple(r.transform)[:6] == (cell, 0.0, u0, 0.0, -cell, layers["v_edges"][-1])
         assert "local engineering coordinates" in r.tags()["CRS_NOTE"] and "local map" in r.crs.to_wkt()
@@ -359,9 +371,9 @@ def test_a_geographic_site_writes_lon_lat_outlines_and_a_local_projection_raster
     (x0, x1), (y0, y1) = frame.total_bounds.reshape(2, 2).T
     assert -3.21 < x0 < x1 < -3.18 and 51.49 < y0 < y1 < 51.51  # lon first
     row = frame.iloc[0]
-    counts = layers["above"][0]
+    counts, total = _exposed(layers, info["names"].index(row["threshold"]))
     left, inside = _left_out(
-        row.geometry, counts, info["landings"][0] - counts.sum(), layers["u_edges"][0], layers["v_edges"][0], 1.0, geo.to_crs
+        row.geometry, counts, total - counts.sum(), layers["u_edges"][0], layers["v_edges"][0], 1.0, geo.to_crs
     )
     assert left == row["outside"] and inside.flat[np.argmax(counts)]
     with rasterio.open(tif) as r:

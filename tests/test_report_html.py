@@ -188,6 +188,7 @@ def test_the_named_places_and_the_outlines_when_the_file_has_them(run_file, tmp_
         g["probability"] = np.linspace(0.01, 0.3, 2 * k).reshape(2, k)
         g["ci_low"], g["ci_high"] = g["probability"][()] / 2, g["probability"][()] * 2
         g["expected_per_shot"] = g["probability"][()] * 1.5
+        g["expected_ci_low"], g["expected_ci_high"] = g["expected_per_shot"][()] / 2, g["expected_per_shot"][()] * 2
         g.attrs["pellets_per_shot"] = 280
 
     class Square:

@@ -41,7 +41,8 @@ def _scene(precision, normal, surface, air):
 @functools.cache
 def _kernel(spec):
     """A kernel following pellets from a flight (no surface left) with `to_rest` of `spec`."""
-    to_rest = make_to_rest(spec).to_rest
+    fns = make_to_rest(spec)
+    to_rest, start, Tally = fns.to_rest, fns.start, fns.Tally  # (the hazard's watch: none here)
     t = types_for(spec.precision)
     vec3, scalar, Surfaces, Physics = t.vec3, t.scalar, t.Surfaces, t.Physics
 
@@ -58,8 +59,8 @@ def _kernel(spec):
         impacts_out: wp.array(dtype=wp.int32),
     ):
         i = wp.tid()
-        end, x, _v, _w, _t, impacts, path, _steps = to_rest(
-            FLIGHT, -1, x_in[i], v_in[i], w_in[i], scalar(0.0), 0, 1, i, surfaces, physics
+        end, x, _v, _w, _t, impacts, path, _steps, _track = to_rest(
+            FLIGHT, -1, x_in[i], v_in[i], w_in[i], scalar(0.0), 0, 1, i, surfaces, physics, start(), Tally()
         )
         end_out[i] = end
         x_out[i] = x

@@ -239,4 +239,4 @@ def make_to_rest(spec) -> SimpleNamespace:
             time = scalar(wp.inf)
         return end, position, velocity, spin, time, impacts, path, steps + steps_in_air, track
 
-    return SimpleNamespace(start_mode=start_mode, to_rest=to_rest)
+    return SimpleNamespace(start_mode=start_mode, to_rest=to_rest, Tally=Tally, start=watcher.start)

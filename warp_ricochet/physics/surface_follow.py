@@ -699,4 +699,12 @@ def make_surface_follow(
                     spin = wp.dot(spin, n) * n
         return position, velocity, spin, elapsed, path, wp.int32(UNFINISHED), steps, k, track
 
-    return SimpleNamespace(follow=follow, Contact=Contact, rates=r.rates, integrate_phase=integrate_phase)
+    return SimpleNamespace(
+        follow=follow,
+        Contact=Contact,
+        rates=r.rates,
+        integrate_phase=integrate_phase,
+        Track=Track,
+        Tally=Tally,
+        start=watcher.start,
+    )

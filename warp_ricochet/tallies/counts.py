@@ -121,15 +121,16 @@ class TallySetup:
 def _ground(scene, hazard, up) -> dict:
     """The hazard's ground plane (the map's surface) with its normal over its height per unit of
     normal distance, body height and the named places (radius: area / (2 body height))."""
-    surface = scene.surfaces[hazard.map_surface]
-    n = np.asarray(surface.normal, dtype=np.float64)
+    from ..physics.geometry import project  # (imports warp: not at the top, as the rest of this module)
+
+    point, n = project(scene.surfaces[hazard.map_surface], np.zeros(3))
     n = n / np.linalg.norm(n)
     rise = float(n @ up) if np.any(up) else 1.0
     height = float(hazard.body_height)
     places = tuple((p.name, tuple(map(float, p.position)), float(r)) for p, r in zip(hazard.points, hazard.radii))
     return dict(
         body_height=height,
-        ground_point=tuple(map(float, surface.point)),
+        ground_point=tuple(map(float, point)),
         ground_normal=tuple(n / rise) if abs(rise) > 1e-12 else tuple(n),
         places=places,
     )
