@@ -27,6 +27,7 @@ from types import SimpleNamespace
 
 import warp as wp
 
+from ..physics.ballistic import EPSILON
 from ..physics.integrate import make_dense_output
 from ..physics.types import types_for
 from .bins import BINS, make_bin_of
@@ -82,9 +83,13 @@ def make_path_cells(precision: str, thresholds: int, points: int, with_map: bool
         return track
 
     @wp.func
-    def cell_index(f: scalar, n: scalar):
-        """The cell along one axis of grid coordinate f (clamped off the grid to -1 or n)."""
-        return wp.int32(wp.clamp(wp.floor(f), scalar(-1.0), n))
+    def cell_index(f: scalar, n: scalar, step: wp.int32):
+        """The cell along one axis of grid coordinate f (clamped off the grid to -1 or n) that a
+        motion of sign `step` is in just after f: on an edge, the one it moves into."""
+        cell = wp.floor(f)
+        if step < 0:
+            cell = wp.ceil(f) - scalar(1.0)
+        return wp.int32(wp.clamp(cell, scalar(-1.0), n))
 
     @wp.func
     def walk(track: Track, tally: Tally, xa: vec3, xb: vec3, lo: Reach, hi: Reach):
@@ -93,15 +98,15 @@ def make_path_cells(precision: str, thresholds: int, points: int, with_map: bool
         fv0 = wp.dot(xa, tally.map_v_cell) - tally.map_v_start
         du = wp.dot(xb, tally.map_u_cell) - tally.map_u_start - fu0
         dv = wp.dot(xb, tally.map_v_cell) - tally.map_v_start - fv0
-        iu = cell_index(fu0, tally.map_nu_cells)
-        iv = cell_index(fv0, tally.map_nv_cells)
-        track = enter(track, tally, column_of(tally, iu, iv), level_at(lo, hi, ZERO))
         step_u = wp.int32(1)
         if du < ZERO:
             step_u = wp.int32(-1)
         step_v = wp.int32(1)
         if dv < ZERO:
             step_v = wp.int32(-1)
+        iu = cell_index(fu0, tally.map_nu_cells, step_u)
+        iv = cell_index(fv0, tally.map_nv_cells, step_v)
+        track = enter(track, tally, column_of(tally, iu, iv), level_at(lo, hi, ZERO))
         big = scalar(1e30)
         next_u = big  # chord parameter of the next u (v) cell boundary
         next_v = big
@@ -193,6 +198,7 @@ def make_path_curve(precision: str, thresholds: int, points: int, with_map: bool
     speed2_at = make_path_roots(precision).speed2_at
     ITERATIONS = 30 if precision == "float32" else 60
     ZERO, ONE, HALF = scalar(0.0), scalar(1.0), scalar(0.5)
+    TOLERANCE = scalar(4.0 * EPSILON[precision])
 
     @wp.func
     def level_of(tally: Tally, speed2: scalar):
@@ -204,14 +210,26 @@ def make_path_curve(precision: str, thresholds: int, points: int, with_map: bool
 
     @wp.func
     def crossing(a: scalar, b: scalar, edge: scalar, g0: scalar, s0: scalar, q0: scalar, g1: scalar, s1: scalar, q1: scalar):
-        """Where the quintic (g0, s0, q0; g1, s1, q1), below `edge` at a, reaches it on [a, b]."""
+        """Where the quintic (g0, s0, q0; g1, s1, q1), below `edge` at a and not at b, reaches it on
+        [a, b]: Newton's steps kept in the shrinking bracket (a bisection where one would leave it),
+        to rounding."""
+        fa, _sa = dense.hermite(a, g0, s0, q0, g1, s1, q1)
+        fb, _sb = dense.hermite(b, g0, s0, q0, g1, s1, q1)
+        m = a + (b - a) * wp.clamp((edge - fa) / (fb - fa), ZERO, ONE)  # the chord's guess
         for _ in range(ITERATIONS):
-            m = HALF * (a + b)
-            value, _slope = dense.hermite(m, g0, s0, q0, g1, s1, q1)
+            value, slope = dense.hermite(m, g0, s0, q0, g1, s1, q1)
             if value < edge:
                 a = m
             else:
                 b = m
+            step = m
+            if slope > ZERO:
+                step = m - (value - edge) / slope
+            if not (step > a and step < b):
+                step = HALF * (a + b)
+            if wp.abs(step - m) <= TOLERANCE * (ONE + wp.abs(m)) or b - a <= TOLERANCE:
+                return wp.clamp(step, a, b)
+            m = step
         return b
 
     @wp.func
@@ -240,15 +258,15 @@ def make_path_curve(precision: str, thresholds: int, points: int, with_map: bool
         fv, _dv = dense.hermite(a, va, sv0, qv0, vb, sv1, qv1)
         fu_end, _du1 = dense.hermite(b, ua, su0, qu0, ub, su1, qu1)
         fv_end, _dv1 = dense.hermite(b, va, sv0, qv0, vb, sv1, qv1)
-        iu = cell_index(fu, tally.map_nu_cells)
-        iv = cell_index(fv, tally.map_nv_cells)
-        track = enter(track, tally, column_of(tally, iu, iv), level_of(tally, speed2_at(a, x0, d0, e0, x1, d1, e1, inv_h2)))
         step_u = wp.int32(1)
         if fu_end < fu:
             step_u = wp.int32(-1)
         step_v = wp.int32(1)
         if fv_end < fv:
             step_v = wp.int32(-1)
+        iu = cell_index(fu, tally.map_nu_cells, step_u)
+        iv = cell_index(fv, tally.map_nv_cells, step_v)
+        track = enter(track, tally, column_of(tally, iu, iv), level_of(tally, speed2_at(a, x0, d0, e0, x1, d1, e1, inv_h2)))
         theta = a
         budget = wp.int32(wp.min(wp.abs(fu_end - fu) + wp.abs(fv_end - fv), scalar(1e9))) + 4
         nu = wp.int32(tally.map_nu_cells)
@@ -465,6 +483,19 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
         return track
 
     @wp.func
+    def turns(tally: Tally, theta_end: scalar, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3):
+        """1 if the segment's motion along the map's u or v axis (with a map or places) differs in
+        sign at its ends (it may turn back on [0, theta_end]), else 0."""
+        out = wp.int32(0)
+        if wp.static(MAP or HAS_POINTS):
+            _x, slope = hermite_vec(theta_end, x0, d0, e0, x1, d1, e1)
+            if wp.dot(d0, tally.map_u_cell) * wp.dot(slope, tally.map_u_cell) <= ZERO:
+                out = wp.int32(1)
+            if wp.dot(d0, tally.map_v_cell) * wp.dot(slope, tally.map_v_cell) <= ZERO:
+                out = wp.int32(1)
+        return out
+
+    @wp.func
     def segment(
         track: Track, tally: Tally, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3, h: scalar, theta_end: scalar
     ):
@@ -474,14 +505,21 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
         if wp.static(ON):
             if h > ZERO and theta_end > ZERO:
                 inv_h2 = ONE / (h * h)
-                _f0, r0 = height_at(tally, ZERO, x0, d0, e0, x1, d1, e1)
-                _f1, r1 = height_at(tally, theta_end, x0, d0, e0, x1, d1, e1)
+                f0, r0 = height_at(tally, ZERO, x0, d0, e0, x1, d1, e1)
+                f1, r1 = height_at(tally, theta_end, x0, d0, e0, x1, d1, e1)
+                crest = r0 > ZERO and r1 <= ZERO  # the height's maximum inside
+                trough = r0 < ZERO and r1 > ZERO  # its minimum inside
                 top = theta_end
                 pieces = wp.int32(1)
-                if r0 > ZERO and r1 <= ZERO:  # an apex inside: two pieces
+                parts = tally.path_parts
+                if f0 > ZERO and f1 > ZERO and not trough:  # above body height throughout
+                    track.cell = wp.int32(NONE)
+                    pieces = wp.int32(0)
+                elif f0 <= ZERO and f1 <= ZERO and not crest and turns(tally, theta_end, x0, d0, e0, x1, d1, e1) == 0:
+                    parts = wp.int32(1)  # within it throughout, no turn back along the map's axes: one part
+                elif crest:  # an apex inside: two pieces
                     top = apex(tally, ZERO, theta_end, x0, d0, e0, x1, d1, e1)
                     pieces = wp.int32(2)
-                parts = tally.path_parts
                 for j in range(pieces * parts):
                     start = ZERO
                     end = top
