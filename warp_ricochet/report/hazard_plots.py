@@ -39,20 +39,34 @@ def read_plot_data(group) -> dict:
         return {}
     from ..tallies.bins import ROW_DISTANCE
 
-    out = {"edges": group["stats/histograms/edges"][()], "distance_counts": group["stats/histograms/counts"][()][ROW_DISTANCE:]}
     h = group.get("hazard")
+    levels = len(h["thresholds/name"]) + 1 if h is not None and "thresholds" in h else None
+    counts = group["stats/histograms/counts"][()]  # (then, with thresholds, each one's reach: not landings)
+    out = {
+        "edges": group["stats/histograms/edges"][()],
+        "distance_counts": counts[ROW_DISTANCE : None if levels is None else ROW_DISTANCE + levels],
+    }
     if h is not None and "thresholds" in h:
+        danger = "landing_danger_distance" if "landing_danger_distance" in h else "danger_distance"  # the landings'
         out.update(
             names=[n.decode() for n in h["thresholds/name"][()]],
             threshold_speed=h["thresholds/speed"][()],
-            fractions=h["danger_distance/fraction"][()],
-            danger_distance=h["danger_distance/distance"][()],
-            ci_low=h["danger_distance/ci_low"][()],
-            ci_high=h["danger_distance/ci_high"][()],
+            fractions=h[f"{danger}/fraction"][()],
+            danger_distance=h[f"{danger}/distance"][()],
+            ci_low=h[f"{danger}/ci_low"][()],
+            ci_high=h[f"{danger}/ci_high"][()],
         )
         if "map" in h:
             m = h["map"]
             out.update({f"map_{k}": m[k][()] for k in ("count", "above", "energy", "u_edges", "v_edges", "outside")})
+            if "exposure" in m and danger == "landing_danger_distance":  # along the path (docs/hazard.md 11)
+                out.update(
+                    map_passes=m["passes"][()],
+                    map_exposure=m["exposure"][()],
+                    map_passes_outside=int(m["exposure_outside"][0]),
+                    reach_distance=h["danger_distance/distance"][()],
+                    reach_ci_high=h["danger_distance/ci_high"][()],
+                )
     return out
 
 
@@ -160,6 +174,16 @@ def draw_map(fig, source, title="Landings on the map") -> bool:
     d = read_plot_data(source)
     if "map_count" not in d:
         return False
+    what, outside = "landings", d.get("map_outside", 0)
+    if "map_passes" in d:  # along the path: the passes within body height, the reach's danger distances
+        d = {
+            **d,
+            "map_count": d["map_passes"],
+            "map_above": d["map_exposure"],
+            "danger_distance": d["reach_distance"],
+            "ci_high": d["reach_ci_high"],
+        }
+        what, outside, title = "passes", d["map_passes_outside"], "Passes within body height on the map"
     u, v, count = d["map_u_edges"], d["map_v_edges"], d["map_count"]
     area = (u[1] - u[0]) * (v[1] - v[0])
     names = d.get("names", [])
@@ -173,7 +197,7 @@ def draw_map(fig, source, title="Landings on the map") -> bool:
     if np.isfinite(density).any():
         mesh = ax.pcolormesh(u, v, density, norm=LogNorm(), cmap="Greys", shading="flat")
         aspect = (v[-1] - v[0]) / (u[-1] - u[0])  # the axes keep equal scales: a flat grid, a short bar
-        fig.colorbar(mesh, ax=ax, label="landings per m$^2$", shrink=min(1.0, max(0.3, 1.6 * aspect)))
+        fig.colorbar(mesh, ax=ax, label=f"{what} per m$^2$", shrink=min(1.0, max(0.3, 1.6 * aspect)))
     colours = _colours(len(groups))
     uc, vc = 0.5 * (u[1:] + u[:-1]), 0.5 * (v[1:] + v[:-1])
     angle = np.linspace(0, 2 * np.pi, 361)
@@ -185,7 +209,7 @@ def draw_map(fig, source, title="Landings on the map") -> bool:
             ax.contour(uc, vc, (layer > 0).astype(float), levels=[0.5], colors=[colour], linewidths=1.0)
         bounded = np.flatnonzero(np.isfinite(d["ci_high"][i]))  # the smallest p this run can answer
         if layer.max() == 0:
-            label = f"{name}: no landing above"
+            label = f"{name}: none above"
         elif len(bounded):
             j = bounded[np.argmin(d["fractions"][bounded])]
             r = d["danger_distance"][i, j]
@@ -193,7 +217,7 @@ def draw_map(fig, source, title="Landings on the map") -> bool:
             label = f"danger distance {r:.4g} m (p = {d['fractions'][j]:g})"
             label = f"{name}: where above; dashed: {label}" if contour else f"{name}: {label}"
         else:
-            label = f"{name}: where above (too few landings for a danger distance)"
+            label = f"{name}: where above (too few {what} for a danger distance)"
         ax.plot([], [], color=colour, label=label)
     if u[0] <= 0 <= u[-1] and v[0] <= 0 <= v[-1]:
         ax.plot([0], [0], marker="*", color="C3", ls="", label="shooter")
@@ -202,7 +226,7 @@ def draw_map(fig, source, title="Landings on the map") -> bool:
     ax.set_aspect("equal")
     ax.set_xlabel("u: downrange from the shooter (m)")
     ax.set_ylabel("v: cross-range (m)")
-    ax.set_title(f"{title} ({int(count.sum()):,} in the grid, {int(d.get('map_outside', 0)):,} outside)", fontsize=10)
+    ax.set_title(f"{title} ({int(count.sum()):,} in the grid, {int(outside):,} outside)", fontsize=10)
     if ax.get_legend_handles_labels()[0]:
-        fig.legend(fontsize=7, loc="outside lower center", frameon=False)
+        fig.legend(fontsize=7, loc="outside lower center", frameon=False, ncol=2)
     return True

@@ -35,17 +35,32 @@ class HtmlError(RicochetError):
 
 
 def outline_polygons(group):
-    """HOOK for the danger-area outlines (issue 26 part 2): [(threshold name, p, polygon)] in the
-    map's (u, v) metres, a polygon being a shapely Polygon or MultiPolygon (anything with
-    `exterior.coords`, or `geoms` of such), or None when there are none. Uses
-    `warp_ricochet.export.outlines(group)` when that function exists; until then None, and the map
-    shows what the file has (landings and the danger-distance circles)."""
+    """The danger-area outlines (docs/hazard.md section 10, `gis.outline`): [(threshold name, p,
+    polygon)] in the map's (u, v) metres, from the exposure layers (a run's passes; an older run's
+    landings above each threshold), the outlines the map holds at each of its p; None without the
+    `gis` extra, a map or any contained outline."""
     try:
-        from .. import export  # (issue 26 part 2; absent before it lands)
+        from ..gis.outline import outline
     except ImportError:
         return None
-    outlines = getattr(export, "outlines", None)
-    return None if outlines is None else outlines(group)
+    if "hazard/map" not in group or "hazard/thresholds" not in group:
+        return None
+    m, th = group["hazard/map"], group["hazard/thresholds"]
+    names = [n.decode() if isinstance(n, bytes) else str(n) for n in th["name"][()]]
+    if "exposure" in m:
+        counts, off_grid = m["exposure"][()], m["exposure_outside"][()][1:]
+    else:
+        counts = m["above"][()]
+        off_grid = th["landings"][()] - counts.sum(axis=(1, 2))
+    u_edges, v_edges = m["u_edges"][()], m["v_edges"][()]
+    cell = float(u_edges[1] - u_edges[0])
+    out = []
+    for i, name in enumerate(names):
+        for p in group["hazard/danger_distance/fraction"][()]:
+            o = outline(counts[i], int(off_grid[i]), float(p), float(u_edges[0]), float(v_edges[0]), cell)
+            if o.geometry is not None:
+                out.append((name, float(p), o.geometry))
+    return out or None
 
 
 def _rings(polygon):
@@ -78,7 +93,7 @@ def _map_extras(fig, f, outlines):
     if outlines:  # draw_map's legend again, with the outlines' entries
         for legend in list(fig.legends):
             legend.remove()
-        fig.legend(fontsize=7, loc="outside lower center", frameon=False)
+        fig.legend(fontsize=7, loc="outside lower center", frameon=False, ncol=2)
 
 
 def figures(f) -> list[dict]:
@@ -91,8 +106,9 @@ def figures(f) -> list[dict]:
     fig = figure_class(figsize=(8.0, 6.0), layout="constrained")
     if hazard_plots.draw_map(fig, f, "Landings on the map"):
         _map_extras(fig, f, outlines)
+        what = "passes within body height" if "hazard/map/passes" in f else "landings"
         caption = (
-            "Grey: landings per square metre (log scale). Coloured contours: where landings above each threshold "
+            f"Grey: {what} per square metre (log scale). Coloured contours: where {what} above each threshold "
             "occur; dashed circles: each threshold's danger distance at the smallest p the run bounds."
         )
         if outlines:
@@ -104,7 +120,8 @@ def figures(f) -> list[dict]:
     if hazard_plots.draw_survival(fig, f):
         caption = (
             "The share of landed pellets at or beyond each distance from the shooter, all of them and those above "
-            "each threshold (log scale); vertical lines: the danger distances."
+            "each threshold (log scale); vertical lines: the danger distances of the landings (along the path, "
+            "the danger distances above are the reach's)."
         )
         out.append({"title": "Landings beyond a distance", "png": _png(fig), "caption": caption})
     fig = figure_class(figsize=(12.0, 5.0), layout="constrained")
