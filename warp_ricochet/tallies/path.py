@@ -1,8 +1,8 @@
-"""The hazard along a pellet's path (docs/hazard.md, "Hazard along the path"), watched inside the
-core kernel as the pellet moves: per threshold its reach (the farthest horizontal distance from the
-shooter at which it is within body height with a speed at or above the threshold), its passes
-through the map's cell columns within body height (counted by their hazard level at entry, integer
-atomics) and its passages by the named places (its highest level there, counted once at its end).
+"""The hazard along a pellet's path (docs/hazard.md section 11), watched inside the core kernel as
+the pellet moves: per threshold its reach (the farthest horizontal distance from the shooter at
+which it is within body height with a speed at or above the threshold), its passes through the
+map's cell columns within body height (counted by their hazard level at entry, integer atomics) and
+its passages by the named places (its highest level there, counted once at its end).
 
 Within body height: the pellet's centre at most `body_height` above the hazard's ground plane
 (the map's surface, else surface 0), measured along `up`. A path is given to `segment` piece by
@@ -10,16 +10,19 @@ piece as quintic Hermite segments in theta in [0, 1] (values x, first and second
 h v and h^2 a at both ends, h the segment's duration): an integration step's own interpolant in air
 and along surfaces (`physics.integrate`), and the exact path itself where that is a polynomial of
 degree <= 5 (a vacuum flight's parabola, eq. 36; a surface phase of constant acceleration), whose
-crossings are then found to rounding. Each segment is cut at its height's apex (in vacuum the speed's
-minimum too), and each piece in `counts.PATH_PARTS` parts; on a part the height and the speed are taken as
-monotone: its crossings of body height and of each threshold's speed are found by bisection on the
-interpolant. `line` takes a straight stretch whose speed falls by a known law (rolling with
-ploughing in vacuum, `physics.surface_follow.plough_roll`), with its crossings in closed form.
+crossings are then found to rounding. A segment above body height at both ends with no trough is
+skipped; one within it at both ends with no crest (and no turn back along the map's axes) is one
+part; any other is cut at its height's apex (in vacuum the speed's minimum too) and each piece in
+`counts.PATH_PARTS` parts. On a part the height and the speed are taken as monotone: their
+crossings of body height and of each threshold's speed are found by bisection on the interpolant.
+`line` takes a straight stretch whose speed falls by a known law (rolling with ploughing in vacuum,
+`physics.surface_follow.plough_roll`), with its crossings in closed form.
 
-A part within body height is walked as the chord of its ends across the map's cells (Amanatides &
-Woo, Eurographics 1987: a cell entered is counted once, with the level at its entry; the region off
-the grid is one more cell) and its chord's nearest approach to each named place's vertical is
-tested against the place's radius.
+A part within body height is walked across the map's cells along its curve (`make_path_curve`:
+each edge crossed found by Newton's steps in the bracket; a straight stretch by Amanatides & Woo,
+Eurographics 1987): a cell entered is counted once, with the level at its entry, the region off the
+grid being one more cell. The part's chord's nearest approach to each named place's vertical is
+tested against the place's radius. Loops, not unrolled: the watch is inlined at every call site.
 """
 
 import functools
