@@ -4,7 +4,8 @@ precisions) run to rest through `warp_ricochet.run`, each pellet's reach distanc
 (/pellets/hazard/reach) lie within CLOSE of its path length of the reference's, and the exposure
 maps (/hazard/map/passes, exposure, exposure_outside) equal the sum over the pellets of the
 reference's passes, but for the passes the reference flags as within a rounding of a cell edge, of
-body height or of a threshold speed (bounded, not equal: listed in the failure message)."""
+body height or of a threshold speed (bounded, not equal: listed in the failure message); and the
+pellets past each named place above each threshold (/hazard/points/pellets) are the reference's."""
 
 import math
 
@@ -46,6 +47,12 @@ SCENES = {  # (plane normal, ground, air, launched from the plane)
     "sliding": ((0.0, 1.0, 0.0), PLOUGHED, False, True),
 }
 PELLETS = 8
+# named places along the launches' directions (within 30 deg of +x), of radii 1.5 to 30 m (area / (2 x 1.8
+# m)): wider than a person, so that most pellets pass some of them at several levels
+PLACES = [
+    {"name": f"p{i}", "position": [x, 0.0, z], "area": 3.6 * r}
+    for i, (x, z, r) in enumerate([(3.0, 0.0, 1.5), (8.0, 1.0, 3.0), (15.0, -2.0, 6.0), (30.0, 3.0, 12.0), (70.0, 0.0, 30.0)])
+]
 
 
 def _launches(kind, rng, n, normal):
@@ -82,7 +89,7 @@ def _run(tmp_path, kind, precision, launches):
         "surfaces": [{"point": [0.0, 0.0, 0.0], "normal": list(normal), **ground}],
         "physics": {"impact_duration": 0.0, "until": "rest", "rest_speed": 0.2},
         "numerics": {"precision": precision},
-        "hazard": {"speed": dict(SPEEDS), "shooter": list(SHOOTER), **MAP},
+        "hazard": {"speed": dict(SPEEDS), "shooter": list(SHOOTER), **MAP, "points": PLACES},
         "output": {"fields": ["rest", "hazard"]},
     }
     if air:
@@ -132,6 +139,7 @@ def _hazard(f, normal):
         body_height=float(f["hazard/body_height"][()]),
         speeds=tuple(f["hazard/thresholds/speed"][()]),
         grid=grid,
+        points=tuple((tuple(x), float(r)) for x, r in zip(f["hazard/points/position"][()], f["hazard/points/radius"][()])),
     )
 
 
@@ -176,6 +184,7 @@ def test_reach_and_exposure_match_the_brute_force_sampler(tmp_path, kind, precis
         position = f["pellets/rest/position"][()].astype(float)
         hazard = _hazard(f, normal)
         reach = f["pellets/hazard/reach"][()].astype(float)
+        places = f["hazard/points/pellets"][()]  # (places, thresholds): pellets passing above each
         kernel = {
             "passes": f["hazard/map/passes"][()],
             "exposure": f["hazard/map/exposure"][()],
@@ -183,7 +192,7 @@ def test_reach_and_exposure_match_the_brute_force_sampler(tmp_path, kind, precis
         }
     order = np.argsort(np.asarray(hazard.speeds), kind="stable")
     references = _reference(kind, launches, hazard)
-    passes, flagged, bounded = [], [], []
+    passes, flagged, bounded, levels = [], [], [], []
     for i, (r, path, samples) in enumerate(references):
         assert r.state == "rest"
         scale = max(r.path_length, 1e-3)
@@ -204,6 +213,7 @@ def test_reach_and_exposure_match_the_brute_force_sampler(tmp_path, kind, precis
                 assert abs(reach[i, j] - want) <= tolerance[0], (i, j, reach[i, j], want, r.path_length)
         passes += h.passes
         flagged += [(i, p) for p in h.passes if not p.certain]
+        levels.append(ph.point_levels(path, hazard, samples))
     lower, upper = _bounds(passes, hazard, order)
     for name in ("passes", "exposure", "outside"):
         got = np.asarray(kernel[name], dtype=np.int64)
@@ -213,6 +223,17 @@ def test_reach_and_exposure_match_the_brute_force_sampler(tmp_path, kind, precis
             [(tuple(b), got[tuple(b)], lower[name][tuple(b)], upper[name][tuple(b)]) for b in bad[:10]],
             flagged,
         )
+    # the named places: per place and threshold, the pellets whose highest level there is above it
+    rank = np.empty(len(order), dtype=int)
+    rank[order] = np.arange(len(order))
+    want = np.array(
+        [
+            [sum(1 for pellet in levels if pellet[k] is not None and pellet[k] > rank[i]) for i in range(len(order))]
+            for k in range(len(PLACES))
+        ]
+    )
+    np.testing.assert_array_equal(places, want)
+    assert np.count_nonzero(want) >= 3, want  # (the places see pellets at several thresholds)
     certain = sum(p.certain for p in passes)
     print(f"{kind} {precision}: {len(passes)} passes, {certain} certain, flagged {flagged}, reach bounded {bounded}")
     assert certain >= 0.8 * len(passes)  # the comparison is exact on most passes
