@@ -181,6 +181,7 @@ def make_path_cells(precision: str, thresholds: int, points: int, with_map: bool
         Reach=Reach,
         chord=chord,
         near_places=near_places,
+        level_at=level_at,
         enter=enter,
         column_of=column_of,
         cell_index=cell_index,
@@ -189,27 +190,20 @@ def make_path_cells(precision: str, thresholds: int, points: int, with_map: bool
 
 @functools.cache
 def make_path_curve(precision: str, thresholds: int, points: int, with_map: bool) -> SimpleNamespace:
-    """`curve(track, tally, a, b, x0, d0, e0, x1, d1, e1, inv_h2)`: the passes of a segment's
+    """`curve(track, tally, a, b, x0, d0, e0, x1, d1, e1, lo, hi)`: the passes of a segment's
     stretch [a, b] within body height, walked across the map's cells along its Hermite quintic
-    (each cell edge crossed found by bisection; u and v taken as monotone on the stretch), each
-    cell entered counted with the level of the speed there."""
+    (each cell edge crossed found by Newton's steps in the bracket; u and v taken as monotone on the
+    stretch), each cell entered counted with the level there: threshold i is exceeded on [lo_i,
+    hi_i] of the stretch (as fractions of it, from the part's speed crossings)."""
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
     cells = make_path_cells(precision, thresholds, points, with_map)
     Track, Tally, enter, column_of, cell_index = cells.Track, cells.Tally, cells.enter, cells.column_of, cells.cell_index
+    Reach, level_at = cells.Reach, cells.level_at
     dense = make_dense_output(precision)
-    speed2_at = make_path_roots(precision).speed2_at
     ITERATIONS = 30 if precision == "float32" else 60
     ZERO, ONE, HALF = scalar(0.0), scalar(1.0), scalar(0.5)
     TOLERANCE = scalar(4.0 * EPSILON[precision])
-
-    @wp.func
-    def level_of(tally: Tally, speed2: scalar):
-        level = wp.int32(0)
-        for i in range(tally.path_thresholds):
-            if speed2 >= tally.thresholds2[i]:
-                level += 1
-        return level
 
     @wp.func
     def crossing(a: scalar, b: scalar, edge: scalar, g0: scalar, s0: scalar, q0: scalar, g1: scalar, s1: scalar, q1: scalar):
@@ -247,8 +241,10 @@ def make_path_curve(precision: str, thresholds: int, points: int, with_map: bool
         x1: vec3,
         d1: vec3,
         e1: vec3,
-        inv_h2: scalar,
+        lo: Reach,
+        hi: Reach,
     ):
+        span = b - a
         ua = wp.dot(x0, tally.map_u_cell) - tally.map_u_start
         ub = wp.dot(x1, tally.map_u_cell) - tally.map_u_start
         va = wp.dot(x0, tally.map_v_cell) - tally.map_v_start
@@ -269,7 +265,7 @@ def make_path_curve(precision: str, thresholds: int, points: int, with_map: bool
             step_v = wp.int32(-1)
         iu = cell_index(fu, tally.map_nu_cells, step_u)
         iv = cell_index(fv, tally.map_nv_cells, step_v)
-        track = enter(track, tally, column_of(tally, iu, iv), level_of(tally, speed2_at(a, x0, d0, e0, x1, d1, e1, inv_h2)))
+        track = enter(track, tally, column_of(tally, iu, iv), level_at(lo, hi, ZERO))
         theta = a
         budget = wp.int32(wp.min(wp.abs(fu_end - fu) + wp.abs(fv_end - fv), scalar(1e9))) + 4
         nu = wp.int32(tally.map_nu_cells)
@@ -297,7 +293,10 @@ def make_path_curve(precision: str, thresholds: int, points: int, with_map: bool
                 theta = at_v
                 iv += step_v
                 fv = edge_v
-            level = level_of(tally, speed2_at(theta, x0, d0, e0, x1, d1, e1, inv_h2))
+            lam = ZERO
+            if span > ZERO:
+                lam = (theta - a) / span
+            level = level_at(lo, hi, lam)
             track = enter(track, tally, column_of(tally, iu, iv), level)
         return track
 
@@ -478,7 +477,7 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
                     track = farther(track, tally, i, xb)
                 track = farther(track, tally, i, xc)
         if wp.static(MAP):
-            track = curve(track, tally, lo_t, hi_t, x0, d0, e0, x1, d1, e1, inv_h2)
+            track = curve(track, tally, lo_t, hi_t, x0, d0, e0, x1, d1, e1, lo, hi)
         if wp.static(HAS_POINTS):
             track = near_places(track, tally, xa, xb, lo, hi)
         if fb > ZERO:
