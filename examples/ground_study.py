@@ -6,8 +6,9 @@ sea-level air, the field shot and the hazard scene, each followed to rest on eve
 
 Every number comes from the run files (statistics only): landing and rest distances from the shooter
 (quantiles of the on-device histograms, /stats/quantiles), the end states (/stats/rest_*), mean
-impacts, and for the hazard scene the danger distances of its thresholds (/hazard/danger_distance,
-judged at the landing as today: docs/hazard.md). A ground replaces the scene's surface 0 whole
+impacts, and for the hazard scene the danger distances of its thresholds at p = 1e-3: of the
+landings (/hazard/landing_danger_distance) and along the path at body height (/hazard/danger_distance,
+docs/hazard.md section 11). A ground replaces the scene's surface 0 whole
 (restitution and friction included). Writes table.md under --out and prints it.
 """
 
@@ -67,8 +68,9 @@ def measure(scene, device):
                 "rest P50": q["rest_distance"][levels.index(0.5)],
                 "rest P99": q["rest_distance"][levels.index(0.99)],
                 "rest max": stats["rest_distance_max"],
-                # p = 1e-3 of the landings above each threshold (the first of /hazard/fraction)
-                "danger": f["hazard/danger_distance/distance"][:, 0].tolist() if "hazard" in f else [],
+                # p = 1e-3 (the first of hazard.fractions) of the landings above each threshold, and of the reach
+                "danger": f["hazard/landing_danger_distance/distance"][:, 0].tolist() if "hazard" in f else [],
+                "reach": f["hazard/danger_distance/distance"][:, 0].tolist() if "hazard" in f else [],
             }
     pellets = stats["pellets"]
     for state in ("at_rest", "embedded", "escaped", "not_finished"):
@@ -89,17 +91,18 @@ def main(argv=None):
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--out", type=Path, default=Path("ground-study"))
     args = parser.parse_args(argv)
-    head = "| scene | ground | landing P50 / P99 (m) | rest P50 / P99 / max (m) | at rest / embedded / escaped / not finished | impacts | path on ground (m) | danger distances at landing, p = 1e-3 (m) |"
-    lines = [head, "|" + "---|" * 8]
+    head = "| scene | ground | landing P50 / P99 (m) | rest P50 / P99 / max (m) | at rest / embedded / escaped / not finished | impacts | path on ground (m) | danger distances at landing, p = 1e-3 (m) | along the path (m) |"
+    lines = [head, "|" + "---|" * 9]
     for name in SCENES:
         for ground in ((None,) if name.startswith("paper") else ()) + GROUNDS:
             row = measure(scene_for(name, ground, args.pellets, args.shots), args.device)
             label = ground or "its own rigid plane"
             ends = " / ".join(f"{row[s]:.3f}" for s in ("at_rest", "embedded", "escaped", "not_finished"))
             danger = ", ".join(fmt(x) for x in row["danger"]) or "-"
+            reach = ", ".join(fmt(x) for x in row["reach"]) or "-"
             line = (
                 f"| {name} | {label} | {fmt(row['landing P50'])} / {fmt(row['landing P99'])} | {fmt(row['rest P50'])} / "
-                f"{fmt(row['rest P99'])} / {fmt(row['rest max'])} | {ends} | {row['impacts']:.2f} | {fmt(row['path'])} | {danger} |"
+                f"{fmt(row['rest P99'])} / {fmt(row['rest max'])} | {ends} | {row['impacts']:.2f} | {fmt(row['path'])} | {danger} | {reach} |"
             )
             lines.append(line)
             print(line, flush=True)
