@@ -117,6 +117,17 @@ def _random_parabolas(rng, n):
     return x0, v0, np.minimum(t_land, 2.0)
 
 
+def _flights(x0, v0, dt, precision, device):
+    """The parabola kernel's inputs: launches (m, m/s) flown for dt (s) under g along -y."""
+    t = types_for(precision)
+    return [
+        wp.array(x0, dtype=t.vec3, device=device),
+        wp.array(v0, dtype=t.vec3, device=device),
+        t.vec3(0.0, -G, 0.0),
+        wp.array(np.asarray(dt, dtype=np.float64), dtype=t.scalar, device=device),
+    ]
+
+
 def _run(kernel, setup, precision, device, inputs, n):
     t = types_for(precision)
     tally = DeviceTally(setup, precision, wp.get_device(device), active=True)
@@ -133,14 +144,8 @@ def test_reach_of_parabolas_is_the_closed_form(device, precision):
     rng = np.random.default_rng(26)
     n = 256
     x0, v0, dt = _random_parabolas(rng, n)
-    t = types_for(precision)
     parabolas, _lines = _watch_kernel(precision, 0)
-    inputs = [
-        wp.array(x0, dtype=t.vec3, device=device),
-        wp.array(v0, dtype=t.vec3, device=device),
-        t.vec3(0.0, -G, 0.0),
-        wp.array(dt, dtype=t.scalar, device=device),
-    ]
+    inputs = _flights(x0, v0, dt, precision, device)
     _tally, reach = _run(parabolas, _setup(), precision, device, inputs, n)
     length = np.linalg.norm(v0, axis=1) * dt  # about the path's length
     tolerance = 1e-9 if precision == "float64" else 2e-5
@@ -194,15 +199,9 @@ def test_passes_are_the_cells_entered_by_level(device, precision):
     side = np.radians(rng.uniform(-20.0, 20.0, n))
     v0 = speed[:, None] * np.column_stack([np.cos(side), np.zeros(n), np.sin(side)])
     dt = np.minimum(0.25, 30.0 / speed)  # it falls at most 0.31 m: within body height
-    t = types_for(precision)
     setup = _setup()
     parabolas, _lines = _watch_kernel(precision, 0)
-    inputs = [
-        wp.array(x0, dtype=t.vec3, device=device),
-        wp.array(v0, dtype=t.vec3, device=device),
-        t.vec3(0.0, -G, 0.0),
-        wp.array(dt, dtype=t.scalar, device=device),
-    ]
+    inputs = _flights(x0, v0, dt, precision, device)
     tally, _reach = _run(parabolas, setup, precision, device, inputs, n)
     got = tally.counts["exposure"].numpy().reshape(setup.levels, setup.cells + 2).astype(np.int64)
     want = _reference_passes(x0, v0, dt, setup)
@@ -214,18 +213,12 @@ def test_places_count_the_pellets_that_pass_within_their_radius(device):
     """Two places beside a straight low flight: the one within its radius counts the pellet once,
     at the level it passes with; the one just outside does not."""
     precision = "float64"
-    t = types_for(precision)
     places = (("near", (20.0, 0.0, 0.3), 0.25), ("far", (20.0, 0.0, -0.3), 0.25))
     setup = _setup(places=places)
     parabolas, _lines = _watch_kernel(precision, len(places))
     x0 = np.array([[0.0, 1.0, 0.1], [0.0, 1.0, 0.1]])
     v0 = np.array([[100.0, 0.0, 0.0], [60.0, 0.0, 0.0]])  # above 80 m/s and between 30 and 80 m/s
-    inputs = [
-        wp.array(x0, dtype=t.vec3, device=device),
-        wp.array(v0, dtype=t.vec3, device=device),
-        t.vec3(0.0, -G, 0.0),
-        wp.array([0.5, 0.5], dtype=t.scalar, device=device),
-    ]
+    inputs = _flights(x0, v0, [0.5, 0.5], precision, device)
     tally, _reach = _run(parabolas, setup, precision, device, inputs, 2)
     counts = tally.counts["places"].numpy().reshape(setup.levels, len(places))
     np.testing.assert_array_equal(counts[:, 1], 0)  # 0.4 m off: outside its 0.25 m

@@ -388,6 +388,7 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
     near_places, curve = cells.near_places, make_path_curve(precision, thresholds, points, with_map).curve
     MAP = with_map
     hermite_vec = make_dense_output(precision).hermite_vec
+    horizontal_distance = make_landing_tally(precision).horizontal_distance
     r = make_path_roots(precision)
     height, height_at, speed2_at, height_root, apex, speed_root = (
         r.height,
@@ -412,10 +413,8 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
 
     @wp.func
     def farther(track: Track, tally: Tally, i: wp.int32, x: vec3):
-        """reach_i at least the horizontal distance of x from the shooter."""
-        delta = x - tally.shooter
-        distance = wp.length(delta - wp.dot(delta, tally.up) * tally.up)
-        track.reach[i] = wp.max(track.reach[i], distance)
+        """reach_i at least the horizontal distance of x from the shooter (`landing.horizontal_distance`)."""
+        track.reach[i] = wp.max(track.reach[i], horizontal_distance(tally, x))
         return track
 
     @wp.func
