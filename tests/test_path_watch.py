@@ -80,6 +80,7 @@ def _watch_kernel(precision, places):
         track = w.start()
         track = w.line(track, tally, x0[i], direction, length[i], v0[i], a, b)
         w.write(track, reach_out, i)
+        w.finish(track, tally, i)
 
     return watch_parabolas, watch_lines
 
@@ -134,6 +135,7 @@ def _run(kernel, setup, precision, device, inputs, n):
     tally.start(None)
     reach = wp.zeros((n, len(SPEEDS)), dtype=t.scalar, device=device)
     wp.launch(kernel, dim=n, inputs=[tally.struct, *inputs], outputs=[reach], device=device)
+    tally.resolve()
     return tally, reach.numpy().astype(np.float64)
 
 

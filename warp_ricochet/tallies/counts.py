@@ -306,11 +306,13 @@ class DeviceTally:
             "index": _buffer(device, "sparse index", capacity, wp.int32),
             "value": _buffer(device, "sparse value", capacity, wp.int64),
         }
+        runs = levels * setup.map_nv * (setup.map_nu + 1) if mapped and setup.path else 0
+        self.runs = _buffer(device, "runs", runs, wp.int32)  # (`runs_kernel` leaves it zero)
         fns = make_landing_tally(precision)
         s = fns.Tally()
         s.hist, s.map_counts, s.map_energy = self.counts["hist"], self.counts["map_counts"], self.counts["map_energy"]
         s.rest_hist = self.counts["rest"]
-        s.exposure, s.place_counts = self.counts["exposure"], self.counts["places"]
+        s.exposure, s.place_counts, s.exposure_runs = self.counts["exposure"], self.counts["places"], self.runs
         s.reach_row, s.body_height = setup.reach_row, t.scalar(setup.body_height)
         s.path_thresholds, s.path_parts = (len(setup.thresholds2) if setup.path else 0), PATH_PARTS
         s.ground_point, s.ground_normal = t.vec3(*setup.ground_point), t.vec3(*setup.ground_normal)
@@ -343,10 +345,29 @@ class DeviceTally:
         for name in COUNTS:
             if self.device.is_cuda and (str(self.device), "counts " + name) not in _CLEAN:  # (CPU: fresh zeros)
                 self.counts[name].zero_()
+        if self.device.is_cuda and (str(self.device), "runs") not in _CLEAN:
+            self.runs.zero_()
         if totals is None:
             self.unset = set(COUNTS)
         else:
             wp.copy(self.flat, wp.array(totals.flat(), dtype=wp.int64, device="cpu"))
+
+    def resolve(self):
+        """The chunk's runs of passes along the map's rows (`tallies.path.flush`) added into its
+        exposure counts, one entry a cell of each run, and zeroed."""
+        if self.runs.size:
+            import warp as wp
+
+            from .landing import runs_kernel
+
+            setup = self.setup
+            wp.launch(
+                runs_kernel(),
+                dim=setup.levels * setup.map_nv,
+                inputs=[self.runs, setup.map_nu, setup.map_nv, setup.cells + 2],
+                outputs=[self.counts["exposure"]],
+                device=self.device,
+            )
 
     def fold(self, rows: int, last: bool):
         """After a chunk's kernel (`rows` pellets; `last`: the totals are read after it): its map
@@ -360,6 +381,7 @@ class DeviceTally:
 
         from .landing import fold_kernel
 
+        self.resolve()
         self.unfolded += rows
         names = ["map_counts", "map_energy", "exposure", "places"]
         if last or self.every_chunk or self.unfolded + rows > FOLD_LIMIT:
@@ -378,6 +400,7 @@ class DeviceTally:
             self.unset.discard(name)
         if self.device.is_cuda:
             _CLEAN.update((str(self.device), "counts " + name) for name in names)
+            _CLEAN.add((str(self.device), "runs"))
 
     def request(self):
         """Queue the totals' copy to the host behind the work already queued (no wait). Only their

@@ -100,6 +100,7 @@ def make_landing_tally(precision: str) -> SimpleNamespace:
         ground_point: vec3  # m, a point of the hazard's ground plane
         ground_normal: vec3  # its normal / (normal . up): x . it is a height along up
         exposure: wp.array(dtype=wp.int32)  # levels x (cells + 2), flat: passes by level at entry
+        exposure_runs: wp.array(dtype=wp.int32)  # levels x nv x (nu + 1), flat: runs of passes along u, differenced
         place_position: wp.array(dtype=vec3)  # m, the named places
         place_radius2: wp.array(dtype=scalar)  # m^2, their radius squared
         place_counts: wp.array(dtype=wp.int32)  # levels x places, flat: pellets by their highest level there
@@ -236,6 +237,31 @@ def fold_kernel():
             totals[i] += total
 
     return fold
+
+
+@functools.cache
+def runs_kernel():
+    """runs(runs, nu, nv, width, counts): one thread a (level, row) of the map: the row's runs of
+    passes along u (+1 at a run's first cell and -1 past its last, `tallies.path.flush`) summed
+    along it into counts[level * width + row * nu + iu], and zeroed."""
+
+    @wp.kernel(enable_backward=False)
+    def runs(diff: wp.array(dtype=wp.int32), nu: wp.int32, nv: wp.int32, width: wp.int32, counts: wp.array(dtype=wp.int32)):
+        k = wp.tid()
+        level = k / nv
+        row = k - level * nv
+        first = k * (nu + 1)
+        running = wp.int32(0)
+        for iu in range(nu):
+            value = diff[first + iu]
+            if value != 0:
+                running += value
+                diff[first + iu] = 0
+            if running != 0:
+                counts[level * width + row * nu + iu] += running
+        diff[first + nu] = 0
+
+    return runs
 
 
 @functools.cache

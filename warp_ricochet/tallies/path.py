@@ -19,9 +19,11 @@ crossings of body height and of each threshold's speed are found by bisection on
 `physics.surface_follow.plough_roll`), with its crossings in closed form.
 
 A part within body height is walked across the map's cells along its curve (`make_path_curve`:
-each edge crossed found by Newton's steps in the bracket; a straight stretch by Amanatides & Woo,
-Eurographics 1987): a cell entered is counted once, with the level at its entry, the region off the
-grid being one more cell. The part's chord's nearest approach to each named place's vertical is
+row by row along the axis it moves farther along, each edge of the other axis crossed found by
+Newton's steps in the bracket; a straight stretch by Amanatides & Woo, Eurographics 1987): a cell
+entered is counted once, with the level at its entry, the region off the grid being one more cell.
+Consecutive entries along a map row at one level are counted as one run (`flush`: +1 and -1 at its
+ends in `exposure_runs`, summed along the rows by `landing.runs_kernel` after each chunk). The part's chord's nearest approach to each named place's vertical is
 tested against the place's radius. Loops, not unrolled: the watch is inlined at every call site.
 """
 
@@ -59,6 +61,10 @@ def make_path_cells(precision: str, thresholds: int, points: int, with_map: bool
         reach: Reach  # m, per threshold in scene order (NO_REACH: none yet)
         places: Levels  # per named place: 1 + its highest level there (0: never there)
         cell: wp.int32  # the map column of the pass under way (NONE: above body height)
+        run_row: wp.int32  # the pending run of entries (`enter`): its row (NONE: no run)
+        run_lo: wp.int32  # its first and last cell along u
+        run_hi: wp.int32
+        run_level: wp.int32  # the level of its entries
 
     @wp.func
     def level_at(lo: Reach, hi: Reach, lam: scalar):
@@ -78,11 +84,39 @@ def make_path_cells(precision: str, thresholds: int, points: int, with_map: bool
         return column
 
     @wp.func
-    def enter(track: Track, tally: Tally, column: wp.int32, level: wp.int32):
-        """Count a pass into `column` (if it is not the one under way)."""
+    def flush(track: Track, tally: Tally):
+        """Count the pending run: one entry into each of its cells (a cell alone into `exposure`,
+        a longer run as +1 and -1 at its ends in its row of `exposure_runs`)."""
+        if track.run_row != NONE:
+            row = track.run_row
+            if track.run_lo == track.run_hi:
+                column = row * tally.map_nu + track.run_lo
+                wp.atomic_add(tally.exposure, track.run_level * tally.map_width + column, wp.int32(1))
+            else:
+                first = (track.run_level * wp.int32(tally.map_nv_cells) + row) * (tally.map_nu + 1)
+                wp.atomic_add(tally.exposure_runs, first + track.run_lo, wp.int32(1))
+                wp.atomic_add(tally.exposure_runs, first + track.run_hi + 1, wp.int32(-1))
+            track.run_row = wp.int32(NONE)
+        return track
+
+    @wp.func
+    def enter(track: Track, tally: Tally, iu: wp.int32, iv: wp.int32, level: wp.int32):
+        """Count a pass into cell (iu, iv)'s column (if it is not the one under way): off the grid
+        at once, else into the pending run when it extends it along its row at its level."""
+        column = column_of(tally, iu, iv)
         if column != track.cell:
-            wp.atomic_add(tally.exposure, level * tally.map_width + column, wp.int32(1))
             track.cell = column
+            if column == tally.map_cells:
+                wp.atomic_add(tally.exposure, level * tally.map_width + column, wp.int32(1))
+            elif track.run_row == iv and track.run_level == level and (iu == track.run_hi + 1 or iu == track.run_lo - 1):
+                track.run_lo = wp.min(track.run_lo, iu)
+                track.run_hi = wp.max(track.run_hi, iu)
+            else:
+                track = flush(track, tally)
+                track.run_row = iv
+                track.run_lo = iu
+                track.run_hi = iu
+                track.run_level = level
         return track
 
     @wp.func
@@ -109,7 +143,7 @@ def make_path_cells(precision: str, thresholds: int, points: int, with_map: bool
             step_v = wp.int32(-1)
         iu = cell_index(fu0, tally.map_nu_cells, step_u)
         iv = cell_index(fv0, tally.map_nv_cells, step_v)
-        track = enter(track, tally, column_of(tally, iu, iv), level_at(lo, hi, ZERO))
+        track = enter(track, tally, iu, iv, level_at(lo, hi, ZERO))
         big = scalar(1e30)
         next_u = big  # chord parameter of the next u (v) cell boundary
         next_v = big
@@ -118,7 +152,7 @@ def make_path_cells(precision: str, thresholds: int, points: int, with_map: bool
         if dv != ZERO:
             next_v = (scalar(iv + wp.max(step_v, 0)) - fv0) / dv
         gone = wp.int32(0)  # the cells left on the way: at most |du| + |dv| + 2 inside the grid's span
-        budget = wp.int32(wp.min(wp.abs(du) + wp.abs(dv), scalar(1e9))) + 4
+        budget = wp.int32(wp.min(wp.abs(du) + wp.abs(dv), scalar(tally.map_nu) + tally.map_nv_cells)) + 4
         while gone < budget and wp.min(next_u, next_v) <= ONE:
             gone += 1
             lam = ZERO
@@ -132,7 +166,7 @@ def make_path_cells(precision: str, thresholds: int, points: int, with_map: bool
                 next_v = next_v + ONE / wp.abs(dv)
             if (iu < -1 or iu > tally.map_nu) or (iv < -1 or iv > wp.int32(tally.map_nv_cells)):
                 break  # off the grid for good: it counts as one off-grid cell
-            track = enter(track, tally, column_of(tally, iu, iv), level_at(lo, hi, lam))
+            track = enter(track, tally, iu, iv, level_at(lo, hi, lam))
         return track
 
     @wp.func
@@ -183,6 +217,7 @@ def make_path_cells(precision: str, thresholds: int, points: int, with_map: bool
         near_places=near_places,
         level_at=level_at,
         enter=enter,
+        flush=flush,
         column_of=column_of,
         cell_index=cell_index,
     )
@@ -191,19 +226,32 @@ def make_path_cells(precision: str, thresholds: int, points: int, with_map: bool
 @functools.cache
 def make_path_curve(precision: str, thresholds: int, points: int, with_map: bool) -> SimpleNamespace:
     """`curve(track, tally, a, b, x0, d0, e0, x1, d1, e1, lo, hi)`: the passes of a segment's
-    stretch [a, b] within body height, walked across the map's cells along its Hermite quintic
-    (each cell edge crossed found by Newton's steps in the bracket; u and v taken as monotone on the
-    stretch), each cell entered counted with the level there: threshold i is exceeded on [lo_i,
-    hi_i] of the stretch (as fractions of it, from the part's speed crossings)."""
+    stretch [a, b] within body height, walked across the map's cells along its Hermite quintic (u
+    and v taken as monotone on the stretch): row by row along the major axis p (the one it moves
+    farther along), each edge of the minor axis q crossed found by Newton's steps in the bracket,
+    the cells between two crossings those whose p edges lie between them. Each cell entered counts
+    with the level at its entry: threshold i is exceeded on [lo_i, hi_i] of the stretch (as
+    fractions of it, from the part's speed crossings), mapped to an interval of p edges."""
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
     cells = make_path_cells(precision, thresholds, points, with_map)
-    Track, Tally, enter, column_of, cell_index = cells.Track, cells.Tally, cells.enter, cells.column_of, cells.cell_index
+    Track, Tally, enter, cell_index = cells.Track, cells.Tally, cells.enter, cells.cell_index
     Reach, level_at = cells.Reach, cells.level_at
     dense = make_dense_output(precision)
     ITERATIONS = 30 if precision == "float32" else 60
-    ZERO, ONE, HALF = scalar(0.0), scalar(1.0), scalar(0.5)
+    K = max(thresholds, 1)
+    ZERO, ONE, HALF, BIG = scalar(0.0), scalar(1.0), scalar(0.5), scalar(1e30)
     TOLERANCE = scalar(4.0 * EPSILON[precision])
+
+    @wp.func
+    def enter_pq(track: Track, tally: Tally, swap: wp.bool, ip: wp.int32, iq: wp.int32, level: wp.int32):
+        """`enter` cell (ip, iq) of the (major, minor) axes: (iu, iv), or (iv, iu) when `swap`."""
+        iu = ip
+        iv = iq
+        if swap:
+            iu = iq
+            iv = ip
+        return enter(track, tally, iu, iv, level)
 
     @wp.func
     def crossing(a: scalar, b: scalar, edge: scalar, g0: scalar, s0: scalar, q0: scalar, g1: scalar, s1: scalar, q1: scalar):
@@ -230,6 +278,40 @@ def make_path_curve(precision: str, thresholds: int, points: int, with_map: bool
         return b
 
     @wp.func
+    def signed_edges(
+        a: scalar,
+        span: scalar,
+        lo: Reach,
+        hi: Reach,
+        sp: scalar,
+        p0: scalar,
+        ps0: scalar,
+        pq0: scalar,
+        p1: scalar,
+        ps1: scalar,
+        pq1: scalar,
+    ):
+        """Threshold i's stretch [lo_i, hi_i] as an interval of sp p (the major coordinate, rising on
+        the stretch): an edge crossed inside it is entered at that level. Ends at the stretch's own
+        ends are open (every edge crossed lies inside them)."""
+        glo = Reach()
+        ghi = Reach()
+        for i in range(wp.static(K)):
+            glo[i] = -BIG
+            ghi[i] = BIG
+            if lo[i] > hi[i]:
+                glo[i] = BIG  # never exceeded on the stretch
+                ghi[i] = -BIG
+            else:
+                if lo[i] > ZERO:
+                    value, _slope = dense.hermite(a + lo[i] * span, p0, ps0, pq0, p1, ps1, pq1)
+                    glo[i] = sp * value
+                if hi[i] < ONE:
+                    value, _slope = dense.hermite(a + hi[i] * span, p0, ps0, pq0, p1, ps1, pq1)
+                    ghi[i] = sp * value
+        return glo, ghi
+
+    @wp.func
     def curve(
         track: Track,
         tally: Tally,
@@ -245,59 +327,93 @@ def make_path_curve(precision: str, thresholds: int, points: int, with_map: bool
         hi: Reach,
     ):
         span = b - a
-        ua = wp.dot(x0, tally.map_u_cell) - tally.map_u_start
-        ub = wp.dot(x1, tally.map_u_cell) - tally.map_u_start
-        va = wp.dot(x0, tally.map_v_cell) - tally.map_v_start
-        vb = wp.dot(x1, tally.map_v_cell) - tally.map_v_start
-        su0, qu0 = wp.dot(d0, tally.map_u_cell), wp.dot(e0, tally.map_u_cell)
-        su1, qu1 = wp.dot(d1, tally.map_u_cell), wp.dot(e1, tally.map_u_cell)
-        sv0, qv0 = wp.dot(d0, tally.map_v_cell), wp.dot(e0, tally.map_v_cell)
-        sv1, qv1 = wp.dot(d1, tally.map_v_cell), wp.dot(e1, tally.map_v_cell)
-        fu, _du = dense.hermite(a, ua, su0, qu0, ub, su1, qu1)
-        fv, _dv = dense.hermite(a, va, sv0, qv0, vb, sv1, qv1)
-        fu_end, _du1 = dense.hermite(b, ua, su0, qu0, ub, su1, qu1)
-        fv_end, _dv1 = dense.hermite(b, va, sv0, qv0, vb, sv1, qv1)
-        step_u = wp.int32(1)
-        if fu_end < fu:
-            step_u = wp.int32(-1)
-        step_v = wp.int32(1)
-        if fv_end < fv:
-            step_v = wp.int32(-1)
-        iu = cell_index(fu, tally.map_nu_cells, step_u)
-        iv = cell_index(fv, tally.map_nv_cells, step_v)
-        track = enter(track, tally, column_of(tally, iu, iv), level_at(lo, hi, ZERO))
+        # the major axis p (the one it moves farther along) and the minor q, as u or v
+        axis_p = tally.map_u_cell
+        axis_q = tally.map_v_cell
+        start_p = tally.map_u_start
+        start_q = tally.map_v_start
+        np_cells = tally.map_nu_cells
+        nq_cells = tally.map_nv_cells
+        du = wp.abs(wp.dot(x1 - x0, tally.map_u_cell))
+        dv = wp.abs(wp.dot(x1 - x0, tally.map_v_cell))
+        swap = dv > du
+        if swap:
+            axis_p = tally.map_v_cell
+            axis_q = tally.map_u_cell
+            start_p = tally.map_v_start
+            start_q = tally.map_u_start
+            np_cells = tally.map_nv_cells
+            nq_cells = tally.map_nu_cells
+        p0, p1 = wp.dot(x0, axis_p) - start_p, wp.dot(x1, axis_p) - start_p
+        q0, q1 = wp.dot(x0, axis_q) - start_q, wp.dot(x1, axis_q) - start_q
+        ps0, pq0, ps1, pq1 = wp.dot(d0, axis_p), wp.dot(e0, axis_p), wp.dot(d1, axis_p), wp.dot(e1, axis_p)
+        qs0, qq0, qs1, qq1 = wp.dot(d0, axis_q), wp.dot(e0, axis_q), wp.dot(d1, axis_q), wp.dot(e1, axis_q)
+        fp, _sp = dense.hermite(a, p0, ps0, pq0, p1, ps1, pq1)
+        fq, _sq = dense.hermite(a, q0, qs0, qq0, q1, qs1, qq1)
+        fp_end, _sp1 = dense.hermite(b, p0, ps0, pq0, p1, ps1, pq1)
+        fq_end, _sq1 = dense.hermite(b, q0, qs0, qq0, q1, qs1, qq1)
+        step_p = wp.int32(1)
+        if fp_end < fp:
+            step_p = wp.int32(-1)
+        step_q = wp.int32(1)
+        if fq_end < fq:
+            step_q = wp.int32(-1)
+        sp = scalar(step_p)
+        sq = scalar(step_q)
+        ip = cell_index(fp, np_cells, step_p)
+        iq = cell_index(fq, nq_cells, step_q)
+        track = enter_pq(track, tally, swap, ip, iq, level_at(lo, hi, ZERO))
+        glo, ghi = signed_edges(a, span, lo, hi, sp, p0, ps0, pq0, p1, ps1, pq1)
         theta = a
-        budget = wp.int32(wp.min(wp.abs(fu_end - fu) + wp.abs(fv_end - fv), scalar(1e9))) + 4
-        nu = wp.int32(tally.map_nu_cells)
-        nv = wp.int32(tally.map_nv_cells)
-        for _ in range(budget):
-            if (iu >= nu and step_u > 0) or (iu < 0 and step_u < 0) or (iv >= nv and step_v > 0) or (iv < 0 and step_v < 0):
-                break  # off the grid and moving away from it: no cell to enter on this stretch
-            edge_u = scalar(iu + wp.max(step_u, 0))
-            edge_v = scalar(iv + wp.max(step_v, 0))
-            su = scalar(step_u)
-            sv = scalar(step_v)
-            at_u = b + ONE  # none
-            at_v = b + ONE
-            if (fu - edge_u) * su < ZERO and (fu_end - edge_u) * su >= ZERO:
-                at_u = crossing(theta, b, su * edge_u, su * ua, su * su0, su * qu0, su * ub, su * su1, su * qu1)
-            if (fv - edge_v) * sv < ZERO and (fv_end - edge_v) * sv >= ZERO:
-                at_v = crossing(theta, b, sv * edge_v, sv * va, sv * sv0, sv * qv0, sv * vb, sv * sv1, sv * qv1)
-            if at_u > b and at_v > b:
+        budget = wp.int32(wp.min(wp.abs(fp_end - fp) + wp.abs(fq_end - fq), scalar(tally.map_nu) + tally.map_nv_cells)) + 4
+        nq = wp.int32(nq_cells)
+        n_p = wp.int32(np_cells)
+        for _ in range(budget):  # a row of cells along p each, then into the next along q
+            edge_q = scalar(iq + wp.max(step_q, 0))
+            at_q = b + ONE  # none
+            if (iq >= nq and step_q > 0) or (iq < 0 and step_q < 0):
+                break  # off the grid along q and moving away: every cell left is off-grid
+            if (fq - edge_q) * sq < ZERO and (fq_end - edge_q) * sq >= ZERO:
+                at_q = crossing(theta, b, sq * edge_q, sq * q0, sq * qs0, sq * qq0, sq * q1, sq * qs1, sq * qq1)
+            row_end = fp_end
+            if at_q <= b:
+                row_end, _slope = dense.hermite(at_q, p0, ps0, pq0, p1, ps1, pq1)
+            ip_end = cell_index(row_end, np_cells, step_p)
+            while (ip_end - ip) * step_p > 0:  # the cells entered across p's edges
+                ip += step_p
+                g = scalar(ip)  # sp times the edge entered
+                if step_p < 0:
+                    g = -scalar(ip + 1)
+                level = wp.int32(0)
+                more = scalar((ip_end - ip) * step_p)  # cells after this one at its level, in its run
+                for i in range(wp.static(K)):
+                    if glo[i] <= g and g <= ghi[i]:
+                        level += 1
+                    if glo[i] > g:  # edges g + k below glo: k <= ceil(glo - g) - 1
+                        more = wp.min(more, wp.ceil(glo[i] - g) - ONE)
+                    if ghi[i] >= g:  # edges g + k up to ghi: k <= floor(ghi - g)
+                        more = wp.min(more, wp.floor(ghi[i] - g))
+                track = enter_pq(track, tally, swap, ip, iq, level)
+                if not swap and track.run_row == iq and more >= ONE:  # a run along u on the grid: the rest at once
+                    last = ip + step_p * wp.int32(more)
+                    if step_p > 0:
+                        last = wp.min(last, n_p - 1)
+                    else:
+                        last = wp.max(last, 0)
+                    if (last - ip) * step_p > 0:
+                        track.run_lo = wp.min(track.run_lo, last)
+                        track.run_hi = wp.max(track.run_hi, last)
+                        track.cell = iq * n_p + last
+                        ip = last
+            if at_q > b:
                 break
-            if at_u <= at_v:
-                theta = at_u
-                iu += step_u
-                fu = edge_u
-            else:
-                theta = at_v
-                iv += step_v
-                fv = edge_v
+            theta = at_q
+            iq += step_q
+            fq = edge_q
             lam = ZERO
             if span > ZERO:
                 lam = (theta - a) / span
-            level = level_at(lo, hi, lam)
-            track = enter(track, tally, column_of(tally, iu, iv), level)
+            track = enter_pq(track, tally, swap, ip, iq, level_at(lo, hi, lam))
         return track
 
     return SimpleNamespace(curve=curve)
@@ -377,6 +493,27 @@ def make_path_roots(precision: str) -> SimpleNamespace:
 
 
 @functools.cache
+def make_path_write(precision: str, thresholds: int, points: int, with_map: bool):
+    """`write(track, reach_out, row)`: the pellet's reaches into its row of `reach_out` (m; NaN:
+    none), if that is written (nothing without thresholds)."""
+    scalar = types_for(precision).scalar
+    Track = make_path_cells(precision, thresholds, points, with_map).Track
+    K, ON, ZERO = max(thresholds, 1), thresholds > 0, scalar(0.0)
+
+    @wp.func
+    def write(track: Track, reach_out: wp.array2d(dtype=scalar), row: wp.int32):
+        if wp.static(ON):
+            if reach_out.shape[0] > 0:
+                for i in range(wp.static(K)):
+                    value = track.reach[i]
+                    if value < ZERO:
+                        value = scalar(wp.nan)
+                    reach_out[row, i] = value
+
+    return write
+
+
+@functools.cache
 def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool) -> SimpleNamespace:
     """`Track` (a pellet's watch: reach per threshold in m, its level + 1 at each named place, the
     cell of the pass under way) and the functions that update it: `start`, `segment`, `line`,
@@ -386,18 +523,13 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
     cells = make_path_cells(precision, thresholds, points, with_map)
     Track, Tally, Reach, chord = cells.Track, cells.Tally, cells.Reach, cells.chord
     near_places, curve = cells.near_places, make_path_curve(precision, thresholds, points, with_map).curve
+    flush = cells.flush
     MAP = with_map
     hermite_vec = make_dense_output(precision).hermite_vec
     horizontal_distance = make_landing_tally(precision).horizontal_distance
     r = make_path_roots(precision)
-    height, height_at, speed2_at, height_root, apex, speed_root = (
-        r.height,
-        r.height_at,
-        r.speed2_at,
-        r.height_root,
-        r.apex,
-        r.speed_root,
-    )
+    height, height_at, speed2_at, height_root = r.height, r.height_at, r.speed2_at, r.height_root
+    apex, speed_root = r.apex, r.speed_root
     bin_of = make_bin_of()
     K, P, ON = max(thresholds, 1), max(points, 1), thresholds > 0
     HAS_POINTS = points > 0
@@ -409,6 +541,7 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
         for i in range(wp.static(K)):
             track.reach[i] = scalar(NO_REACH)
         track.cell = wp.int32(NONE)
+        track.run_row = wp.int32(NONE)
         return track
 
     @wp.func
@@ -575,6 +708,8 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
         """Count the pellet's reaches (histogram rows reach_row + i of its warp's copy, chunk row
         `row`) and its named places (`place_counts`, level x places)."""
         if wp.static(ON):
+            if wp.static(MAP):
+                track = flush(track, tally)
             first = copy_of(row, tally.copy_mask) * tally.hist_stride
             for i in range(wp.static(K)):
                 if track.reach[i] >= ZERO:
@@ -584,19 +719,8 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
                     if track.places[p] > 0:
                         wp.atomic_add(tally.place_counts, (track.places[p] - 1) * wp.static(P) + p, wp.int32(1))
 
-    @wp.func
-    def write(track: Track, reach_out: wp.array2d(dtype=scalar), row: wp.int32):
-        """The pellet's reaches into its row of `reach_out` (NaN: none), if that is written."""
-        if wp.static(ON):
-            if reach_out.shape[0] > 0:
-                for i in range(wp.static(K)):
-                    value = track.reach[i]
-                    if value < ZERO:
-                        value = scalar(wp.nan)
-                    reach_out[row, i] = value
-
     return SimpleNamespace(
-        write=write,
+        write=make_path_write(precision, thresholds, points, with_map),
         Track=Track,
         Tally=Tally,
         Reach=Reach,
