@@ -21,7 +21,7 @@ from warp_ricochet.scene import COLLISION_FIELDS
 
 wp.config.log_level = wp.LOG_WARNING
 
-_pair_law64 = make_pair_law(wp.float64)
+_pair_law64 = make_pair_law("float64")
 
 
 @wp.kernel(enable_backward=False)

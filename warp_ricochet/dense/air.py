@@ -30,27 +30,23 @@ from types import SimpleNamespace
 import warp as wp
 
 from ..physics.air import make_air_laws
-from ..physics.ballistic import make_ballistic
-from ..physics.geometry import make_geometry
 from .constants import CLOCK_STEP, CLOCK_STEPS, CLOCK_TIME, KICK_STEPS
 from .frame import make_frame
-from .state import dense_flight, dense_types
+from .kit import dense_kit
 
 
 @functools.cache
 def make_dense_air(spec) -> SimpleNamespace:
     """`air_rate`, `acceleration_bound`, `kicked`, `drift_end`, `kick_pellet` and `air_until` for a
     spec in air."""
-    d = dense_types(spec)
-    scalar, vec3, Surfaces, Physics, Cloud, Pair = d.scalar, d.vec3, d.Surfaces, d.Physics, d.Cloud, d.Pair
+    kit = dense_kit(spec)
+    scalar, vec3, Surfaces, Physics, Cloud, Pair = kit.scalar, kit.vec3, kit.Surfaces, kit.Physics, kit.Cloud, kit.Pair
+    ballistic_position, ballistic_velocity = kit.ballistic.position, kit.ballistic.velocity
+    next_contact, geo, STATIC_PLANES = kit.flight.next_contact, kit.geo, kit.STATIC_PLANES  # (the exact flight)
     TINY_RATE = 1e-30  # 1/s: no air (a pellet at rest in still air)
-    laws = make_air_laws(spec.precision, *spec.air_laws)
-    _entry, _return, ballistic_position, ballistic_velocity = make_ballistic(scalar)
+    laws = make_air_laws(kit.precision, *spec.air_laws)
     fr = make_frame(spec)
     stepping, set_reference = fr.stepping, fr.set_reference
-    next_contact = dense_flight(spec).next_contact  # (the exact flight)
-
-    geo, STATIC_PLANES = make_geometry(spec.precision), spec.static_planes
     LIFT = spec.air_laws[1] is not None
 
     @wp.func

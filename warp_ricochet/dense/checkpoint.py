@@ -6,7 +6,6 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from ..physics.ballistic import make_ballistic
 from .air import make_dense_air
 from .constants import (
     CHECKPOINT,
@@ -32,20 +31,19 @@ from .constants import (
     SHOT_STALL,
 )
 from .events import make_events
+from .kit import dense_kit
 from .leap import make_leap
-from .state import dense_flight, dense_types
 
 
 @functools.cache
 def make_checkpoint(spec) -> SimpleNamespace:
     """horizon_pellet, now_pellet and settle_shot."""
-    d = dense_types(spec)
-    scalar, Surfaces, Physics, Cloud, Pair = d.scalar, d.Surfaces, d.Physics, d.Cloud, d.Pair
-    NEVER = d.NEVER
-    next_contact = dense_flight(spec).next_contact
-    _entry, _return, ballistic_position, ballistic_velocity = make_ballistic(scalar)
+    kit = dense_kit(spec)
+    scalar, Surfaces, Physics, Cloud, Pair = kit.scalar, kit.Surfaces, kit.Physics, kit.Cloud, kit.Pair
+    NEVER, AIR, BOUNCES = kit.NEVER, kit.AIR, kit.BOUNCES
+    ballistic_position, ballistic_velocity = kit.ballistic.position, kit.ballistic.velocity
+    next_contact = kit.flight.next_contact
     contact_time = make_events(spec).contact_time
-    AIR, BOUNCES = spec.in_air, spec.bounces
     air = make_dense_air(spec) if AIR else None  # (their calls compile only in air)
     lp = make_leap(spec) if AIR else None
     LEAP_MAX = scalar(LEAP_MAX_VALUE)

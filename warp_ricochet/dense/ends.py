@@ -7,10 +7,7 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from ..core.outputs import make_outputs
 from ..launch.source import make_source
-from ..physics.ballistic import make_ballistic
-from ..physics.flight import make_flight
 from .air import make_dense_air
 from .constants import (
     CHECKPOINT,
@@ -31,34 +28,23 @@ from .constants import (
     SHOT_STALL,
 )
 from .frame import make_frame
-from .state import dense_types
+from .kit import dense_kit
 
 
 @functools.cache
 def make_ends(spec) -> SimpleNamespace:
     """launch_pellet, start_shot, release_pellet, block_totals and shot_totals."""
-    d = dense_types(spec)
-    scalar, vec3, Surfaces, Physics, Outputs, Source, Cloud, Pair = (
-        d.scalar,
-        d.vec3,
-        d.Surfaces,
-        d.Physics,
-        d.Outputs,
-        d.Source,
-        d.Cloud,
-        d.Pair,
-    )
-    NEVER, WRITE = d.NEVER, bool(spec.core_fields)
-    launch_state = make_source(spec.precision, spec.from_file).launch_state
-    write_initial = make_outputs(spec.precision).write_initial
+    kit = dense_kit(spec)
+    scalar, vec3, Surfaces, Physics, Cloud, Pair = kit.scalar, kit.vec3, kit.Surfaces, kit.Physics, kit.Cloud, kit.Pair
+    Outputs, Source, NEVER, WRITE, AIR = kit.Outputs, kit.Source, kit.NEVER, kit.WRITE, kit.AIR
+    ballistic_position, ballistic_velocity = kit.ballistic.position, kit.ballistic.velocity
+    launch_state = make_source(kit.precision, spec.from_file).launch_state
+    write_initial = kit.outputs.write_initial
     # the arrival window: from each pellet's first contact in its own flight (in air: integrated)
-    next_contact = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws).next_contact
-    AIR = spec.in_air
+    next_contact = kit.run_flight.next_contact
     air = make_dense_air(spec) if AIR else None  # (its calls compile only in air)
-    set_reference = make_frame(spec).set_reference
-    _entry, _return, ballistic_position, ballistic_velocity = make_ballistic(scalar)
     fr = make_frame(spec)
-    block_range, drift_point, passing_time = fr.block_range, fr.drift_point, fr.passing_time
+    set_reference, block_range, drift_point, passing_time = fr.set_reference, fr.block_range, fr.drift_point, fr.passing_time
 
     @wp.func
     def launch_pellet(i: wp.int32, first_index: wp.int32, source: Source, cloud: Cloud, out: Outputs):

@@ -7,33 +7,28 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from ..core.outputs import make_outputs
-from ..physics.ballistic import make_ballistic
 from ..physics.contact import make_contact
-from ..physics.geometry import make_geometry
 from ..physics.pair import make_pair_law
 from .air import make_dense_air
 from .constants import ENDED
 from .frame import make_frame
-from .state import dense_flight, dense_types
+from .kit import dense_kit
 
 
 @functools.cache
 def make_events(spec) -> SimpleNamespace:
     """The event functions of the dense phase."""
-    d = dense_types(spec)
-    scalar, vec3, Surfaces, Physics, Outputs, Cloud, Pair = d.scalar, d.vec3, d.Surfaces, d.Physics, d.Outputs, d.Cloud, d.Pair
-    CLOSING_TOLERANCE2 = d.CLOSING_TOLERANCE2
+    kit = dense_kit(spec)
+    scalar, vec3, Surfaces, Physics = kit.scalar, kit.vec3, kit.Surfaces, kit.Physics
+    Outputs, Cloud, Pair = kit.Outputs, kit.Cloud, kit.Pair
+    CLOSING_TOLERANCE2, BOUNCES, WRITE, AIR = kit.CLOSING_TOLERANCE2, kit.BOUNCES, kit.WRITE, kit.AIR
+    ballistic_position, ballistic_velocity = kit.ballistic.position, kit.ballistic.velocity
     # within a step: the exact ballistic flight
-    flight = dense_flight(spec)
-    next_contact, advance = flight.next_contact, flight.advance
-    _rests, _stays, _impact, meet_surface, contact_point, _range = make_contact(spec.precision)
-    _entry, _return, ballistic_position, ballistic_velocity = make_ballistic(scalar)
-    pair_law, geo = make_pair_law(scalar), make_geometry(spec.precision)
-    write_impact = make_outputs(spec.precision).write_impact
+    next_contact, advance, geo = kit.flight.next_contact, kit.flight.advance, kit.geo
+    _rests, _stays, _impact, meet_surface, contact_point, _range = make_contact(kit.precision)
+    pair_law, write_impact = make_pair_law(kit.precision), kit.outputs.write_impact
     fr = make_frame(spec)
     set_reference, mark_stale = fr.set_reference, fr.mark_stale
-    BOUNCES, WRITE, AIR = spec.bounces, bool(spec.core_fields), spec.in_air
     air = make_dense_air(spec) if AIR else None  # (its calls compile only in air)
 
     @wp.func

@@ -7,7 +7,6 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from ..physics.ballistic import make_ballistic
 from .constants import (
     CLOCK_SPEED,
     CLOCK_TIME,
@@ -20,16 +19,16 @@ from .constants import (
     SHOT_REBUILD,
     SHOT_STALL,
 )
-from .state import dense_types
+from .kit import dense_kit
 
 
 @functools.cache
 def make_frame(spec) -> SimpleNamespace:
     """The frame functions of the dense phase."""
-    d = dense_types(spec)
-    scalar, vec3, Physics, Cloud, Pair = d.scalar, d.vec3, d.Physics, d.Cloud, d.Pair
-    TINY_SPEED, NEVER = d.TINY_SPEED, d.NEVER
-    _entry, _return, ballistic_position, ballistic_velocity = make_ballistic(scalar)
+    kit = dense_kit(spec)
+    scalar, vec3, Physics, Cloud, Pair = kit.scalar, kit.vec3, kit.Physics, kit.Cloud, kit.Pair
+    TINY_SPEED, NEVER = kit.TINY_SPEED, kit.NEVER
+    ballistic_position, ballistic_velocity = kit.ballistic.position, kit.ballistic.velocity
 
     @wp.func
     def drift_point(cloud: Cloud, shot: wp.int32, time: scalar, gravity: vec3):

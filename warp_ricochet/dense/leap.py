@@ -27,9 +27,6 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from ..physics.ballistic import make_ballistic
-from ..physics.flight import make_flight
-from ..physics.geometry import make_geometry
 from .air import make_dense_air
 from .constants import (
     CLOCK_LEAP,
@@ -42,22 +39,22 @@ from .constants import (
 )
 from .events import make_events
 from .frame import make_frame
-from .state import dense_types
+from .kit import dense_kit
 
 
 @functools.cache
 def make_leap(spec) -> SimpleNamespace:
     """pair_leap, plane_leap, leap_pellet and leaped_shot, for a spec in air."""
-    d = dense_types(spec)
-    scalar, vec3, Surfaces, Physics, Outputs, Cloud, Pair = d.scalar, d.vec3, d.Surfaces, d.Physics, d.Outputs, d.Cloud, d.Pair
-    NEVER, CLOSING_TOLERANCE2, BOUNCES = d.NEVER, d.CLOSING_TOLERANCE2, spec.bounces
+    kit = dense_kit(spec)
+    scalar, vec3, Surfaces, Physics = kit.scalar, kit.vec3, kit.Surfaces, kit.Physics
+    Outputs, Cloud, Pair = kit.Outputs, kit.Cloud, kit.Pair
+    NEVER, CLOSING_TOLERANCE2, BOUNCES = kit.NEVER, kit.CLOSING_TOLERANCE2, kit.BOUNCES
     TINY_ACCELERATION = scalar(TINY_ACCELERATION_VALUE)
-    entry_time, _return, ballistic_position, ballistic_velocity = make_ballistic(scalar)
-    to_contact_within = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws).to_contact_within
+    entry_time, geo, STATIC_PLANES = kit.ballistic.entry_time, kit.geo, kit.STATIC_PLANES
+    to_contact_within = kit.run_flight.to_contact_within
     air, ev, fr = make_dense_air(spec), make_events(spec), make_frame(spec)
     contact_time, plane_contact = ev.contact_time, ev.plane_contact
     set_reference = fr.set_reference
-    geo, STATIC_PLANES = make_geometry(spec.precision), spec.static_planes
 
     @wp.func
     def pair_leap(d: vec3, u: vec3, reach: scalar, margin: scalar, bound: scalar, speeds: scalar):

@@ -10,14 +10,14 @@ import warp as wp
 
 from .constants import CELL_MARGIN, CLOCK_TIME, FLAG_OVERFLOW, FLYING, SHOT_DONE, SHOT_REBUILD
 from .frame import make_frame
-from .state import dense_types
+from .kit import dense_kit
 
 
 @functools.cache
 def make_lists(spec) -> SimpleNamespace:
     """The list builders of the dense phase."""
-    d = dense_types(spec)
-    scalar, vec3, Physics, Cloud, Pair = d.scalar, d.vec3, d.Physics, d.Cloud, d.Pair
+    kit = dense_kit(spec)
+    scalar, vec3, Physics, Cloud, Pair = kit.scalar, kit.vec3, kit.Physics, kit.Cloud, kit.Pair
     fr = make_frame(spec)
     set_build_point, drift_point = fr.set_build_point, fr.drift_point
 

@@ -7,7 +7,6 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from ..physics.ballistic import make_ballistic
 from .air import make_dense_air
 from .constants import (
     CLOCK_CUT,
@@ -19,22 +18,21 @@ from .constants import (
 )
 from .events import make_events
 from .frame import make_frame
-from .state import dense_flight, dense_types
+from .kit import dense_kit
 
 
 @functools.cache
 def make_rounds(spec) -> SimpleNamespace:
     """choose_pellet, step_end_of and resolve_pellet."""
-    d = dense_types(spec)
-    scalar, Surfaces, Physics, Outputs, Cloud, Pair = d.scalar, d.Surfaces, d.Physics, d.Outputs, d.Cloud, d.Pair
-    NEVER = d.NEVER
-    next_contact = dense_flight(spec).next_contact
-    _entry, _return, ballistic_position, ballistic_velocity = make_ballistic(scalar)
+    kit = dense_kit(spec)
+    scalar, Surfaces, Physics, Outputs, Cloud, Pair = kit.scalar, kit.Surfaces, kit.Physics, kit.Outputs, kit.Cloud, kit.Pair
+    NEVER, AIR, BOUNCES = kit.NEVER, kit.AIR, kit.BOUNCES
+    ballistic_position, ballistic_velocity = kit.ballistic.position, kit.ballistic.velocity
+    next_contact = kit.flight.next_contact
     ev, fr = make_events(spec), make_frame(spec)
     contact_time, plane_outcome, pair_outcome = ev.contact_time, ev.plane_outcome, ev.pair_outcome
     plane_contacts_until, mark_stale = ev.plane_contacts_until, fr.mark_stale
     stepping, skin_exit, set_reference = fr.stepping, fr.skin_exit, fr.set_reference
-    AIR, BOUNCES = spec.in_air, spec.bounces
     air = make_dense_air(spec) if AIR else None  # (its calls compile only in air)
 
     @wp.func(inline=True)

@@ -11,22 +11,21 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from ..core.outputs import make_outputs
 from ..launch.packing import MAX_REDRAWS
 from ..launch.sampling import make_redraw
 from .constants import CELL_MARGIN
+from .kit import dense_kit
 from .lists import make_lists
-from .state import dense_types
 
 
 @functools.cache
 def make_separation(spec) -> SimpleNamespace:
     """separate_shot for a spec (does nothing for pellets from a file: they are used as given)."""
-    d = dense_types(spec)
-    scalar, vec3, Physics, Outputs, Source, Cloud, Pair = d.scalar, d.vec3, d.Physics, d.Outputs, d.Source, d.Cloud, d.Pair
-    WRITE = bool(spec.core_fields)
-    write_initial = make_outputs(spec.precision).write_initial
-    redraw_position = make_redraw(scalar)
+    kit = dense_kit(spec)
+    scalar, vec3, Physics, Outputs = kit.scalar, kit.vec3, kit.Physics, kit.Outputs
+    Source, Cloud, Pair = kit.Source, kit.Cloud, kit.Pair
+    WRITE, write_initial = kit.WRITE, kit.outputs.write_initial
+    redraw_position = make_redraw(kit.precision)
     cell_bucket = make_lists(spec).cell_bucket
     SAMPLED = not spec.from_file
 

@@ -1,29 +1,16 @@
 """The dense phase's state: the `Cloud` (per-pellet and per-shot arrays) and `Pair` (the pair law's and
-the stepping's parameters) structs, the types and constants its `@wp.func`s share, and their
-allocation on the host.
+the stepping's parameters) structs, and their allocation on the host (what the stages' factories
+share beside them: `dense.kit`).
 """
 
 import functools
-from types import SimpleNamespace
 
 import warp as wp
 
-from ..core.outputs import make_outputs
 from ..core.release import RELEASE_ARRAYS, make_release
 from ..fields import COLLISION_FIELDS, FIELDS
-from ..launch.source import make_source
-from ..physics.ballistic import EPSILON, ROUNDING
-from ..physics.flight import make_flight
 from ..physics.types import types_for
-from .constants import (
-    FRAME_BLOCK,
-    NEVER_VALUE,
-    NUM_CLOCK,
-    NUM_FLAGS,
-    NUM_SHOT_FLAGS,
-    QUIET_STEP_VALUE,
-    TINY_SPEED_VALUE,
-)
+from .constants import FRAME_BLOCK, NUM_CLOCK, NUM_FLAGS, NUM_SHOT_FLAGS
 from .schedule import shot_stride
 
 
@@ -132,36 +119,6 @@ def make_state(precision: str):
         span: wp.int32  # pellets per thread of the per-pellet kernels: 1 on CUDA, many on the CPU
 
     return Cloud, Pair
-
-
-@functools.cache
-def dense_types(spec) -> SimpleNamespace:
-    """What the dense phase's function factories share: types, structs and scalar constants."""
-    t = types_for(spec.precision)
-    Cloud, Pair = make_state(spec.precision)
-    scalar = t.scalar
-    return SimpleNamespace(
-        scalar=scalar,
-        vec3=t.vec3,
-        Surfaces=t.Surfaces,
-        Physics=t.Physics,
-        Cloud=Cloud,
-        Pair=Pair,
-        Outputs=make_outputs(spec.precision).Outputs,
-        Source=make_source(spec.precision, spec.from_file).Source,
-        NEVER=scalar(NEVER_VALUE),
-        TINY_SPEED=scalar(TINY_SPEED_VALUE),
-        QUIET_STEP=scalar(QUIET_STEP_VALUE),
-        CLOSING_TOLERANCE2=scalar((ROUNDING * EPSILON[spec.precision]) ** 2),
-        opts={"module": "unique", "enable_backward": False},
-    )
-
-
-def dense_flight(spec) -> SimpleNamespace:
-    """The exact (ballistic) flight the dense phase uses between events: the touching band off
-    when it flies in air, whose kicks would meet a plane early within the band
-    (`physics.geometry`, docs/air.md, section 3.2)."""
-    return make_flight(spec.precision, spec.static_planes, snap=spec.flight != "air")
 
 
 VECTORS = (

@@ -7,7 +7,6 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from ..physics.ballistic import make_ballistic
 from .air import make_dense_air
 from .constants import (
     CHECKPOINT,
@@ -29,17 +28,18 @@ from .constants import (
 )
 from .events import make_events
 from .frame import make_frame
+from .kit import dense_kit
 from .rounds import make_rounds
-from .state import dense_types
 
 
 @functools.cache
 def make_step(spec) -> SimpleNamespace:
     """The step functions of the dense phase."""
-    d = dense_types(spec)
-    scalar, vec3, Surfaces, Physics, Outputs, Cloud, Pair = d.scalar, d.vec3, d.Surfaces, d.Physics, d.Outputs, d.Cloud, d.Pair
-    TINY_SPEED, QUIET_STEP, NEVER, BOUNCES = d.TINY_SPEED, d.QUIET_STEP, d.NEVER, spec.bounces
-    _entry, _return, ballistic_position, ballistic_velocity = make_ballistic(scalar)
+    kit = dense_kit(spec)
+    scalar, vec3, Surfaces, Physics = kit.scalar, kit.vec3, kit.Surfaces, kit.Physics
+    Outputs, Cloud, Pair = kit.Outputs, kit.Cloud, kit.Pair
+    TINY_SPEED, QUIET_STEP, NEVER, BOUNCES, AIR = kit.TINY_SPEED, kit.QUIET_STEP, kit.NEVER, kit.BOUNCES, kit.AIR
+    ballistic_velocity = kit.ballistic.velocity
     fr, ro = make_frame(spec), make_rounds(spec)
     stepping, relative_to_drift, relative_to_frame, drift_point = (
         fr.stepping,
@@ -49,7 +49,6 @@ def make_step(spec) -> SimpleNamespace:
     )
     choose_pellet, resolve_pellet, step_end_of = ro.choose_pellet, ro.resolve_pellet, ro.step_end_of
     plane_contacts_until = make_events(spec).plane_contacts_until
-    AIR = spec.in_air
     air = make_dense_air(spec) if AIR else None  # (its calls compile only in air)
 
     @wp.func(inline=True)

@@ -1,0 +1,63 @@
+"""How the dense phase is put together (issue 27, part 1): every stage starts from one namespace
+(`dense.kit`), the physics factories are keyed by the precision string alone, and the precision has
+one owner per layer. Its results are held bitwise by tests/test_golden.py and tests/test_collisions.py."""
+
+import dataclasses
+import importlib
+import inspect
+import pkgutil
+import re
+from pathlib import Path
+
+import warp_ricochet.dense as dense
+import warp_ricochet.launch.sampling as sampling
+import warp_ricochet.physics as physics
+from warp_ricochet.dense.kit import dense_kit
+from warp_ricochet.model import Model
+from warp_ricochet.physics.ballistic import make_ballistic
+from warp_ricochet.spec import RunSpec
+
+DENSE = Path(dense.__file__).parent
+
+
+def _factories(package):
+    """Every `make_*` function of a package's modules."""
+    for info in pkgutil.iter_modules(package.__path__):
+        module = importlib.import_module(f"{package.__name__}.{info.name}")
+        for name, f in vars(module).items():
+            f = inspect.unwrap(f) if callable(f) else f
+            if name.startswith("make_") and inspect.isfunction(f) and f.__module__ == module.__name__:
+                yield module.__name__, name, f
+
+
+def test_dense_stages_take_their_types_and_physics_from_the_kit():
+    shared = re.compile(r"\b(dense_types|dense_flight|make_ballistic|make_geometry|make_flight|make_outputs)\(")
+    copied = {p.name: shared.findall(p.read_text()) for p in DENSE.glob("*.py") if p.name != "kit.py"}
+    assert not {name: calls for name, calls in copied.items() if calls}
+    for path in DENSE.glob("*.py"):
+        factories = re.findall(r"^def make_\w+\(spec\)", path.read_text(), flags=re.M)
+        assert len(re.findall(r"^    kit = dense_kit\(spec\)$", path.read_text(), flags=re.M)) == len(factories), path.name
+
+
+def test_physics_factories_are_keyed_by_the_precision_string():
+    found = list(_factories(physics)) + [
+        (sampling.__name__, n, inspect.unwrap(getattr(sampling, n))) for n in ("make_sampler", "make_redraw")
+    ]
+    assert len(found) > 20
+    for module, name, f in found:
+        first = next(iter(inspect.signature(f).parameters))
+        assert first == "precision", f"{module}.{name} is keyed by {first!r}"
+    assert make_ballistic("float64") is make_ballistic("float64")
+
+
+def test_the_kit_is_built_once_per_spec_and_holds_its_precisions_physics():
+    spec = RunSpec(precision="float64", bounces=1, planes=1, collisions=True)
+    kit = dense_kit(spec)
+    assert kit is dense_kit(dataclasses.replace(spec))
+    assert kit.ballistic is make_ballistic("float64") and kit.precision == "float64"
+    assert dense_kit(dataclasses.replace(spec, precision="float32")).scalar.__name__ == "float32"
+
+
+def test_a_model_reads_its_precision_from_its_types():
+    assert "precision" not in {f.name for f in dataclasses.fields(Model)}
+    assert isinstance(inspect.getattr_static(Model, "precision"), property)
