@@ -61,3 +61,23 @@ def test_the_kit_is_built_once_per_spec_and_holds_its_precisions_physics():
 def test_a_model_reads_its_precision_from_its_types():
     assert "precision" not in {f.name for f in dataclasses.fields(Model)}
     assert isinstance(inspect.getattr_static(Model, "precision"), property)
+
+
+def test_the_clouds_arrays_are_grouped_by_stage_and_sized_by_pellet_shot_or_block():
+    from warp_ricochet.core.release import RELEASE_ARRAYS
+    from warp_ricochet.dense.state import allocate_cloud, make_state, release_struct
+
+    Cloud = make_state("float64")[0]
+    groups = {name for name, var in Cloud.vars.items() if isinstance(var.type, type(Cloud))}
+    assert groups == {"state", "collisions", "event", "air", "now", "lists", "written", "frame", "clock"}
+    assert set(Cloud.vars) - groups == {"shot_flags", "flags", "stop"}
+    assert list(Cloud.vars["state"].type.vars) == list(RELEASE_ARRAYS)
+    clock = Cloud.vars["clock"].type.vars
+    assert len(clock) == 13 and all(var.type.ndim == 1 for var in clock.values())  # named, one a shot
+    cloud, arrays = allocate_cloud("float64", "cpu", 50, 2, 25, 3, 7, ("release.position", "collisions.count"))
+    assert cloud.state.position.shape == (50,) and cloud.lists.neighbours.shape == (50, 7)
+    assert cloud.clock.time.shape == (2,) and cloud.frame.drift_origin.shape == (2,) and cloud.lists.half_skin.shape == (2,)
+    assert cloud.frame.position.shape == (2,) and cloud.event.round_applied.shape == (3,)  # one frame block a shot
+    assert cloud.written.release_position.shape == (50,) and cloud.written.release_time.shape == (0,)
+    assert arrays == {"release.position": cloud.written.release_position, "collisions.count": cloud.collisions.count}
+    assert release_struct("float64", cloud, 25).position.ptr == cloud.state.position.ptr

@@ -11,16 +11,8 @@ from ..launch.source import make_source
 from .air import make_dense_air
 from .constants import (
     CHECKPOINT,
-    CLOCK_CUT,
-    CLOCK_END,
-    CLOCK_NEXT,
-    CLOCK_OVERRUN,
-    CLOCK_SKIN,
-    CLOCK_STEPS,
-    CLOCK_WINDOW,
     FLYING,
     FRAME_START,
-    NUM_CLOCK,
     SHOT_BUSY,
     SHOT_DONE,
     SHOT_FRAME,
@@ -52,49 +44,57 @@ def make_ends(spec) -> SimpleNamespace:
         position, velocity, spin = launch_state(source, first_index + i, i)
         if wp.static(WRITE):
             write_initial(out, i, position, velocity, spin)  # (bounces without an impact: the core kernel marks them)
-        cloud.position[i] = position
-        cloud.velocity[i] = velocity
-        cloud.angular_velocity[i] = spin
-        cloud.launch_velocity[i] = velocity
-        cloud.launch_angular_velocity[i] = spin
-        cloud.time[i] = scalar(0.0)
-        cloud.phase[i] = FLYING
-        cloud.end_surface[i] = -1
-        cloud.touching[i] = -1
-        cloud.impacts[i] = 0
-        cloud.last_slipped[i] = 0
-        cloud.ricochet_point[i] = vec3()
-        cloud.ricochet_time[i] = scalar(0.0)
-        cloud.first_surface[i] = -1
-        cloud.first_slipped[i] = 0
-        cloud.collision_count[i] = 0
-        cloud.energy_lost[i] = scalar(0.0)
-        cloud.air_time[i] = scalar(0.0)
-        cloud.kick_due[i] = 0
-        cloud.air_rate[i] = scalar(0.0)
-        cloud.position_error[i] = vec3()
-        cloud.last_collision[i] = scalar(wp.nan)
-        cloud.neighbour_count[i] = 0
-        cloud.stale[i] = 1
-        cloud.event_partner[i] = -1
-        cloud.event_time[i] = NEVER
+        cloud.state.position[i] = position
+        cloud.state.velocity[i] = velocity
+        cloud.state.angular_velocity[i] = spin
+        cloud.state.launch_velocity[i] = velocity
+        cloud.state.launch_angular_velocity[i] = spin
+        cloud.state.time[i] = scalar(0.0)
+        cloud.state.phase[i] = FLYING
+        cloud.state.end_surface[i] = -1
+        cloud.state.touching[i] = -1
+        cloud.state.impacts[i] = 0
+        cloud.state.last_slipped[i] = 0
+        cloud.state.ricochet_point[i] = vec3()
+        cloud.state.ricochet_time[i] = scalar(0.0)
+        cloud.state.first_surface[i] = -1
+        cloud.state.first_slipped[i] = 0
+        cloud.collisions.count[i] = 0
+        cloud.collisions.energy_lost[i] = scalar(0.0)
+        cloud.air.time[i] = scalar(0.0)
+        cloud.air.kick_due[i] = 0
+        cloud.air.rate[i] = scalar(0.0)
+        cloud.air.position_error[i] = vec3()
+        cloud.collisions.last_time[i] = scalar(wp.nan)
+        cloud.lists.neighbour_count[i] = 0
+        cloud.event.stale[i] = 1
+        cloud.event.partner[i] = -1
+        cloud.event.time[i] = NEVER
 
     @wp.func
     def start_shot(s: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
         """One thread per shot: the clock starts at 0; the co-moving frame at the launch and the
         arrival window are due (`dense.frame`, then `start_block` and `window_shot`)."""
-        for c in range(wp.static(NUM_CLOCK)):
-            cloud.clock[s, c] = scalar(0.0)
-        cloud.clock[s, CLOCK_NEXT] = NEVER
-        cloud.clock[s, CLOCK_CUT] = NEVER
-        cloud.clock[s, CLOCK_SKIN] = NEVER
+        cloud.clock.time[s] = scalar(0.0)
+        cloud.clock.step[s] = scalar(0.0)
+        cloud.clock.drift[s] = scalar(0.0)
+        cloud.clock.steps[s] = scalar(0.0)
+        cloud.clock.end[s] = scalar(0.0)
+        cloud.clock.window[s] = scalar(0.0)
+        cloud.clock.overrun[s] = scalar(0.0)
+        cloud.clock.air[s] = scalar(0.0)
+        cloud.clock.leap[s] = scalar(0.0)
+        cloud.clock.speed[s] = scalar(0.0)
+        cloud.clock.next[s] = NEVER
+        cloud.clock.cut[s] = NEVER
+        cloud.clock.skin[s] = NEVER
         cloud.shot_flags[s, SHOT_FRAME] = FRAME_START
         cloud.shot_flags[s, SHOT_STALL] = CHECKPOINT  # the launch is its first checkpoint
         cloud.shot_flags[s, SHOT_DONE] = 0
         cloud.shot_flags[s, SHOT_BUSY] = 0
         cloud.shot_flags[s, SHOT_REBUILD] = 1
-        cloud.half_skin[s] = pair.half_skin
-        cloud.step_travel[s] = scalar(0.0)
+        cloud.lists.half_skin[s] = pair.half_skin
+        cloud.lists.step_travel[s] = scalar(0.0)
 
     @wp.func
     def start_block(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, row: wp.int32):
@@ -110,18 +110,21 @@ def make_ends(spec) -> SimpleNamespace:
         flying = wp.int32(0)
         last_arrival = scalar(0.0)
         for i in range(first, last):
-            if cloud.phase[i] == FLYING:
-                d = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, -cloud.time[i]) - centre
+            if cloud.state.phase[i] == FLYING:
+                d = (
+                    ballistic_position(cloud.state.position[i], cloud.state.velocity[i], physics.gravity, -cloud.state.time[i])
+                    - centre
+                )
                 spread += wp.dot(d, d)
                 flying += 1
             wait, plane = next_contact(
-                cloud.position[i], cloud.velocity[i], cloud.angular_velocity[i], wp.int32(-1), surfaces, physics
+                cloud.state.position[i], cloud.state.velocity[i], cloud.state.angular_velocity[i], wp.int32(-1), surfaces, physics
             )
             if plane >= 0:
                 last_arrival = wp.max(last_arrival, wait)
-        cloud.frame_spread[row] = spread
-        cloud.frame_flying[row] = flying
-        cloud.frame_arrival[row] = last_arrival
+        cloud.frame.spread[row] = spread
+        cloud.frame.flying[row] = flying
+        cloud.frame.arrival[row] = last_arrival
 
     @wp.func
     def window_shot(pair: Pair, physics: Physics, cloud: Cloud, s: wp.int32):
@@ -131,14 +134,14 @@ def make_ends(spec) -> SimpleNamespace:
         if cloud.shot_flags[s, SHOT_FRAME] != wp.static(FRAME_START):
             return
         row = s * pair.frame_blocks
-        spread = cloud.frame_spread[row]
-        flying = cloud.frame_flying[row]
-        last_arrival = cloud.frame_arrival[row]
+        spread = cloud.frame.spread[row]
+        flying = cloud.frame.flying[row]
+        last_arrival = cloud.frame.arrival[row]
         for b in range(1, pair.frame_blocks):
-            spread += cloud.frame_spread[row + b]
-            flying += cloud.frame_flying[row + b]
-            last_arrival = wp.max(last_arrival, cloud.frame_arrival[row + b])
-        cloud.clock[s, CLOCK_WINDOW] = last_arrival + passing_time(pair, physics, cloud, s, spread, flying)
+            spread += cloud.frame.spread[row + b]
+            flying += cloud.frame.flying[row + b]
+            last_arrival = wp.max(last_arrival, cloud.frame.arrival[row + b])
+        cloud.clock.window[s] = last_arrival + passing_time(pair, physics, cloud, s, spread, flying)
         cloud.shot_flags[s, SHOT_FRAME] = 0
 
     @wp.func
@@ -146,29 +149,29 @@ def make_ends(spec) -> SimpleNamespace:
         """The release outputs: each pellet's state when its shot left the dense phase (or where
         its flight ended in it), and the time of its last pair collision."""
         s = i / pair.count
-        time = cloud.time[i]
-        position = cloud.position[i]
-        velocity = cloud.velocity[i]
-        if cloud.phase[i] == FLYING:
-            time = cloud.clock[s, CLOCK_END]
-            age = time - cloud.time[i]
-            position = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age)
-            velocity = ballistic_velocity(cloud.velocity[i], physics.gravity, age)
+        time = cloud.state.time[i]
+        position = cloud.state.position[i]
+        velocity = cloud.state.velocity[i]
+        if cloud.state.phase[i] == FLYING:
+            time = cloud.clock.end[s]
+            age = time - cloud.state.time[i]
+            position = ballistic_position(cloud.state.position[i], cloud.state.velocity[i], physics.gravity, age)
+            velocity = ballistic_velocity(cloud.state.velocity[i], physics.gravity, age)
             if wp.static(AIR):  # the end of its drift, the air up to now; the core flies on from here
                 position, velocity, spin = air.drift_end(cloud, i, time, time, physics)
                 air.air_until(cloud, i, time)
                 set_reference(cloud, i, position, velocity, spin, time)
-                cloud.touching[i] = -1  # (off the plane it left: the core's flight starts from the gap)
-        if cloud.release_time.shape[0] > 0:
-            cloud.release_time[i] = time
-        if cloud.release_position.shape[0] > 0:
-            cloud.release_position[i] = position
-        if cloud.release_velocity.shape[0] > 0:
-            cloud.release_velocity[i] = velocity
-        if cloud.release_angular_velocity.shape[0] > 0:
-            cloud.release_angular_velocity[i] = cloud.angular_velocity[i]
-        if cloud.collisions_last_time.shape[0] > 0:
-            cloud.collisions_last_time[i] = cloud.last_collision[i]
+                cloud.state.touching[i] = -1  # (off the plane it left: the core's flight starts from the gap)
+        if cloud.written.release_time.shape[0] > 0:
+            cloud.written.release_time[i] = time
+        if cloud.written.release_position.shape[0] > 0:
+            cloud.written.release_position[i] = position
+        if cloud.written.release_velocity.shape[0] > 0:
+            cloud.written.release_velocity[i] = velocity
+        if cloud.written.release_angular_velocity.shape[0] > 0:
+            cloud.written.release_angular_velocity[i] = cloud.state.angular_velocity[i]
+        if cloud.written.collisions_last_time.shape[0] > 0:
+            cloud.written.collisions_last_time[i] = cloud.collisions.last_time[i]
 
     @wp.func
     def block_totals(row: wp.int32, pair: Pair, cloud: Cloud, blocks: wp.array2d(dtype=wp.float64)):
@@ -180,11 +183,11 @@ def make_ends(spec) -> SimpleNamespace:
         collisions = wp.float64(0.0)
         lost = wp.float64(0.0)
         for i in range(first, last):
-            c = cloud.collision_count[i]
+            c = cloud.collisions.count[i]
             if c > 0:
                 collided += wp.float64(1.0)
             collisions += wp.float64(c)
-            lost += wp.float64(cloud.energy_lost[i])
+            lost += wp.float64(cloud.collisions.energy_lost[i])
         blocks[row, 0] = collided
         blocks[row, 1] = collisions
         blocks[row, 2] = lost
@@ -202,9 +205,9 @@ def make_ends(spec) -> SimpleNamespace:
             for b in range(1, pair.frame_blocks):
                 total += blocks[row + b, k]
             totals[s, k] = total
-        totals[s, 3] = wp.float64(cloud.clock[s, CLOCK_STEPS])
-        totals[s, 4] = wp.float64(cloud.clock[s, CLOCK_END])
-        totals[s, 5] = wp.float64(cloud.clock[s, CLOCK_OVERRUN])
+        totals[s, 3] = wp.float64(cloud.clock.steps[s])
+        totals[s, 4] = wp.float64(cloud.clock.end[s])
+        totals[s, 5] = wp.float64(cloud.clock.overrun[s])
 
     return SimpleNamespace(
         launch_pellet=launch_pellet,

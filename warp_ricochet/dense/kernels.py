@@ -173,7 +173,7 @@ def make_step_kernels(spec) -> SimpleNamespace:
 
     @wp.kernel(**hot)
     def choose_kernel(round: wp.int32, look: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
-        if round > 0 and look == 0 and cloud.round_applied[round - 1] == 0:
+        if round > 0 and look == 0 and cloud.event.round_applied[round - 1] == 0:
             return  # a round after one that applied nothing: no pellet is stale, every choice is the same
         t = wp.tid()
         for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
@@ -181,7 +181,7 @@ def make_step_kernels(spec) -> SimpleNamespace:
 
     @wp.kernel(**hot)
     def resolve_kernel(round: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs):
-        if round > 0 and cloud.round_applied[round - 1] == 0:
+        if round > 0 and cloud.event.round_applied[round - 1] == 0:
             return  # a round after one that applied nothing has nothing to apply
         t = wp.tid()
         for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):

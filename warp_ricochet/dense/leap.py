@@ -29,8 +29,6 @@ import warp as wp
 
 from .air import make_dense_air
 from .constants import (
-    CLOCK_LEAP,
-    CLOCK_TIME,
     FLYING,
     FRAME_RECENTRE,
     SHOT_FRAME,
@@ -118,14 +116,14 @@ def make_leap(spec) -> SimpleNamespace:
         the integrated flight, its contacts on the way applied as in a step; its reference state
         and air time move to where it is then."""
         s = i / pair.count
-        if cloud.phase[i] != FLYING or cloud.shot_flags[s, SHOT_LEAP] == 0:
+        if cloud.state.phase[i] != FLYING or cloud.shot_flags[s, SHOT_LEAP] == 0:
             return
-        start = cloud.clock[s, CLOCK_LEAP]
-        end = cloud.clock[s, CLOCK_TIME]
+        start = cloud.clock.leap[s]
+        end = cloud.clock.time[s]
         position, velocity, spin = air.drift_end(cloud, i, start, start, physics)
         set_reference(cloud, i, position, velocity, spin, start)
         air.air_until(cloud, i, start)
-        cloud.touching[i] = -1  # (off any plane it left: plane times from the gap)
+        cloud.state.touching[i] = -1  # (off any plane it left: plane times from the gap)
         time = start
         touching = wp.int32(-1)
         flying = wp.int32(1)
@@ -148,11 +146,11 @@ def make_leap(spec) -> SimpleNamespace:
                     time = end
                 else:
                     flying = wp.int32(0)  # given up: it stays at the leap's start (set above), stepped on from there
-        if cloud.phase[i] == FLYING and time > start:
+        if cloud.state.phase[i] == FLYING and time > start:
             set_reference(cloud, i, position, velocity, spin, time)
             air.air_until(cloud, i, time)
-            cloud.touching[i] = -1
-        cloud.stale[i] = 1
+            cloud.state.touching[i] = -1
+        cloud.event.stale[i] = 1
 
     @wp.func
     def leaped_shot(s: wp.int32, pair: Pair, physics: Physics, cloud: Cloud):

@@ -32,8 +32,6 @@ from ..tallies.collisions import SHOT_TOTALS
 from .constants import (
     BLOCK_STEPS,
     CELL_REACHES,
-    CLOCK_STEPS,
-    CLOCK_TIME,
     FLAG_OVERFLOW,
     FLAG_REMAINING,
     FLAG_STALL,
@@ -179,7 +177,7 @@ class DensePhase:
             c.flags.zero_()
             if flags[FLAG_STALL]:
                 if flags[FLAG_WIDENED]:  # the grid's cells follow the widest reach (a shot's skin widened)
-                    self.reach = 2.0 * self.model.radius + 2.0 * float(c.widest_half_skin.numpy()[0])
+                    self.reach = 2.0 * self.model.radius + 2.0 * float(c.lists.widest_half_skin.numpy()[0])
                 if self._rebuild(pellets):
                     commands = self._step_commands(pellets, shots, outputs)
                     self.graph = None
@@ -236,7 +234,7 @@ class DensePhase:
                 # (one shot: no groups; a grouped build costs twice as much on the CPU, and a grouped
                 # query of an ungrouped grid filters nothing)
                 groups = self.groups[:pellets] if pellets > self.count else None
-                self.grid.build(self.cloud.grid_point[:pellets], CELL_REACHES * self.reach, groups=groups)
+                self.grid.build(self.cloud.lists.grid_point[:pellets], CELL_REACHES * self.reach, groups=groups)
                 self.list_commands[1].launch()
             if not self._grew_lists():
                 return grew
@@ -253,7 +251,7 @@ class DensePhase:
         found = int(c.flags.numpy()[FLAG_OVERFLOW])
         if found == 0:
             return False
-        c.neighbours = wp.zeros((self.capacity, int(found * 1.25) + 1), dtype=wp.int32, device=self.device)
+        c.lists.neighbours = wp.zeros((self.capacity, int(found * 1.25) + 1), dtype=wp.int32, device=self.device)
         c.flags[FLAG_OVERFLOW:].zero_()
         return True
 
@@ -365,15 +363,15 @@ def whole_phase(dense: DensePhase):
 def take_frame(dense, pellets: int, frames):
     """A trajectory frame at a checkpoint every `block_steps` steps (one shot): each pellet's
     centre then (where its flight ended, for those that ended), to `frames(step, time, positions)`."""
-    clock = dense.cloud.clock.numpy()[0]
-    steps = int(clock[CLOCK_STEPS])
+    clock = dense.cloud.clock
+    steps = int(clock.steps.numpy()[0])
     if steps % dense.block_steps or steps == dense.last_frame_step:
         return  # a block cut short by a list rebuild: not a frame
     dense.last_frame_step = steps
-    now = float(clock[CLOCK_TIME])
+    now = float(clock.time.numpy()[0])
     c = dense.cloud
-    x, v, t = c.position.numpy()[:pellets], c.velocity.numpy()[:pellets], c.time.numpy()[:pellets]
-    flying = c.phase.numpy()[:pellets] == FLYING
+    x, v, t = c.state.position.numpy()[:pellets], c.state.velocity.numpy()[:pellets], c.state.time.numpy()[:pellets]
+    flying = c.state.phase.numpy()[:pellets] == FLYING
     g = np.asarray(dense.model.physics.gravity, np.float64)
     age = np.where(flying, now - t, 0.0)[:, None]
     frames(steps, now, x + v * age + 0.5 * g * age**2)

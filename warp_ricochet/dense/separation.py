@@ -64,7 +64,7 @@ def make_separation(spec) -> SimpleNamespace:
                 for dz in range(-1, 2):
                     j = heads[base + cell_bucket(c + wp.vec3i(dx, dy, dz), wp.uint32(table - 1))]
                     while j >= 0 and hit == 0:
-                        if wp.length_sq(position - cloud.position[j]) < diameter2:
+                        if wp.length_sq(position - cloud.state.position[j]) < diameter2:
                             hit = wp.int32(1)
                         j = chain[j]
         return hit
@@ -109,7 +109,7 @@ def make_separation(spec) -> SimpleNamespace:
                 i = first + k
                 if cloud.stop[0] != 0:  # an interrupt (the host abandons the chunk)
                     return
-                position = cloud.position[i]
+                position = cloud.state.position[i]
                 attempt = wp.int32(0)
                 clash = overlaps_earlier(position, centre, inverse_cell, diameter2, base, table, heads, chain, cloud)
                 while clash != 0 and attempt < wp.static(MAX_REDRAWS):
@@ -119,9 +119,9 @@ def make_separation(spec) -> SimpleNamespace:
                     )
                     clash = overlaps_earlier(position, centre, inverse_cell, diameter2, base, table, heads, chain, cloud)
                 if attempt > 0:
-                    cloud.position[i] = position
+                    cloud.state.position[i] = position
                     if wp.static(WRITE):
-                        write_initial(out, i, position, cloud.velocity[i], cloud.angular_velocity[i])
+                        write_initial(out, i, position, cloud.state.velocity[i], cloud.state.angular_velocity[i])
                 bucket = base + cell_bucket(cell_of(position, centre, inverse_cell), wp.uint32(table - 1))
                 chain[i] = heads[bucket]
                 heads[bucket] = i
