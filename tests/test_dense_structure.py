@@ -9,9 +9,14 @@ import pkgutil
 import re
 from pathlib import Path
 
+import numpy as np
+import pytest
+import warp as wp
+
 import warp_ricochet.dense as dense
 import warp_ricochet.launch.sampling as sampling
 import warp_ricochet.physics as physics
+from warp_ricochet.dense.constants import FLYING
 from warp_ricochet.dense.kit import dense_kit
 from warp_ricochet.model import Model
 from warp_ricochet.physics.ballistic import make_ballistic
@@ -81,3 +86,40 @@ def test_the_clouds_arrays_are_grouped_by_stage_and_sized_by_pellet_shot_or_bloc
     assert cloud.written.release_position.shape == (50,) and cloud.written.release_time.shape == (0,)
     assert arrays == {"release.position": cloud.written.release_position, "collisions.count": cloud.collisions.count}
     assert release_struct("float64", cloud, 25).position.ptr == cloud.state.position.ptr
+
+
+def _host_frame(x, v, t, phase, now, g):
+    """The trajectory frame as the host computed it before it was taken on the device (NumPy)."""
+    age = np.where(phase == FLYING, now - t, 0.0)[:, None]
+    return x + v * age + 0.5 * np.asarray(g, np.float64) * age**2
+
+
+@pytest.mark.parametrize("precision", ["float32", "float64"])
+def test_trajectory_frames_on_the_device_are_the_host_formulas_bits(precision):
+    from warp_ricochet.dense.kernels import make_setup_kernels
+    from warp_ricochet.dense.state import allocate_cloud
+    from warp_ricochet.physics.types import types_for
+
+    n, dtype, t = 4000, np.dtype(precision), types_for(precision)
+    rng = np.random.default_rng(27)
+    spec = RunSpec(precision=precision, bounces=1, planes=1, collisions=True)
+    cloud, _ = allocate_cloud(precision, "cpu", n, 2, n // 2, 1, 4, ())
+    scale = 10.0 ** rng.uniform(-3, 4, (n, 1))  # positions of every magnitude, ages up to 30 s
+    x, v = (rng.standard_normal((n, 3)) * scale).astype(dtype), (rng.standard_normal((n, 3)) * 300.0).astype(dtype)
+    times, phase = rng.uniform(0.0, 30.0, n).astype(dtype), rng.integers(0, 2, n).astype(np.int32)
+    now = dtype.type(rng.uniform(0.0, 30.0))
+    for array, value in (
+        (cloud.state.position, x),
+        (cloud.state.velocity, v),
+        (cloud.state.time, times),
+        (cloud.state.phase, phase),
+    ):
+        array.assign(value)
+    cloud.clock.time.assign(np.array([now, now + 1], dtype))  # (the first shot's clock is the frame's)
+    physics = t.Physics()
+    physics.gravity = t.vec3(0.3, -9.81, 0.07)
+    points = wp.empty(n, dtype=wp.vec3d, device="cpu")
+    wp.launch(make_setup_kernels(spec).trajectory_frame_kernel, n, [physics, cloud, points], device="cpu")
+    want = _host_frame(x, v, times, phase, float(now), physics.gravity)
+    assert want.dtype == np.float64
+    np.testing.assert_array_equal(points.numpy(), want)

@@ -1,6 +1,6 @@
 """The start and the end of the dense phase: each pellet's launch, each shot's clock, frame and
-arrival window, the release (each pellet's state when its shot stopped stepping) and each shot's
-totals."""
+arrival window, the release (each pellet's state when its shot stopped stepping), each shot's
+totals, and the pellets' centres for a trajectory frame (taken on the device; the host copies them)."""
 
 import functools
 from types import SimpleNamespace
@@ -145,6 +145,19 @@ def make_ends(spec) -> SimpleNamespace:
         cloud.shot_flags[s, SHOT_FRAME] = 0
 
     @wp.func
+    def trajectory_point(i: wp.int32, physics: Physics, cloud: Cloud, points: wp.array(dtype=wp.vec3d)):
+        """Pellet i's centre (m, float64) at the first shot's clock, for a trajectory frame: eq. (36)
+        from its reference state if it flies, else where its flight ended. The host's NumPy
+        arithmetic it replaced, operation for operation: the age and x + v age in the run's
+        precision, then the gravity term in float64 (exact there for float32 inputs)."""
+        age = scalar(0.0)
+        if cloud.state.phase[i] == FLYING:
+            age = cloud.clock.time[0] - cloud.state.time[i]
+        moved = cloud.state.position[i] + cloud.state.velocity[i] * age
+        half_gravity = wp.float64(0.5) * wp.vec3d(physics.gravity)
+        points[i] = wp.vec3d(moved) + half_gravity * wp.float64(age * age)
+
+    @wp.func
     def release_pellet(i: wp.int32, pair: Pair, physics: Physics, cloud: Cloud):
         """The release outputs: each pellet's state when its shot left the dense phase (or where
         its flight ended in it), and the time of its last pair collision."""
@@ -215,6 +228,7 @@ def make_ends(spec) -> SimpleNamespace:
         start_block=start_block,
         window_shot=window_shot,
         release_pellet=release_pellet,
+        trajectory_point=trajectory_point,
         block_totals=block_totals,
         shot_totals=shot_totals,
     )

@@ -111,6 +111,11 @@ def make_setup_kernels(spec) -> SimpleNamespace:
             end_fns.release_pellet(i, pair, physics, cloud)
 
     @wp.kernel(**opts)
+    def trajectory_frame_kernel(physics: Physics, cloud: Cloud, points: wp.array(dtype=wp.vec3d)):
+        """One thread a pellet: its centre for a trajectory frame (dense.ends.trajectory_point)."""
+        end_fns.trajectory_point(wp.tid(), physics, cloud, points)
+
+    @wp.kernel(**opts)
     def block_totals_kernel(pair: Pair, cloud: Cloud, blocks: wp.array2d(dtype=wp.float64)):
         """One thread a block of a shot (frame blocks): its collision totals."""
         end_fns.block_totals(wp.tid(), pair, cloud, blocks)
@@ -130,6 +135,7 @@ def make_setup_kernels(spec) -> SimpleNamespace:
         grid_points_kernel=grid_points_kernel,
         neighbours_kernel=neighbours_kernel,
         release_kernel=release_kernel,
+        trajectory_frame_kernel=trajectory_frame_kernel,
         block_totals_kernel=block_totals_kernel,
         shot_totals_kernel=shot_totals_kernel,
     )

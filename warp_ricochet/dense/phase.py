@@ -22,7 +22,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
 import warp as wp
 
 from .. import interrupts
@@ -36,7 +35,6 @@ from .constants import (
     FLAG_REMAINING,
     FLAG_STALL,
     FLAG_WIDENED,
-    FLYING,
     HORIZON_PAIRS_PER_LAUNCH,
     SEPARATION_PELLETS_PER_LAUNCH,
 )
@@ -101,6 +99,7 @@ class DensePhase:
         self.reach = 2.0 * model.radius + coll.skin * 2.0 * model.radius
         self.graph = None
         self.last_frame_step = None
+        self.frame_points = None  # (capacity,) float64 centres of a trajectory frame (take_frame)
         self.stop = self.cloud.stop.numpy() if cpu else None  # (a view: the host sets it, a launch reads it)
 
     def run(self, first_index: int, shots: int, source, outputs, frames=None):
@@ -361,20 +360,19 @@ def whole_phase(dense: DensePhase):
 
 
 def take_frame(dense, pellets: int, frames):
-    """A trajectory frame at a checkpoint every `block_steps` steps (one shot): each pellet's
-    centre then (where its flight ended, for those that ended), to `frames(step, time, positions)`."""
+    """A trajectory frame at a checkpoint every `block_steps` steps (of the first shot): each pellet's
+    centre then (where its flight ended, for those that ended), to `frames(step, time, positions)`;
+    the centres are computed on the device (`trajectory_frame_kernel`), the host copies them."""
     clock = dense.cloud.clock
     steps = int(clock.steps.numpy()[0])
     if steps % dense.block_steps or steps == dense.last_frame_step:
         return  # a block cut short by a list rebuild: not a frame
     dense.last_frame_step = steps
     now = float(clock.time.numpy()[0])
-    c = dense.cloud
-    x, v, t = c.state.position.numpy()[:pellets], c.state.velocity.numpy()[:pellets], c.state.time.numpy()[:pellets]
-    flying = c.state.phase.numpy()[:pellets] == FLYING
-    g = np.asarray(dense.model.physics.gravity, np.float64)
-    age = np.where(flying, now - t, 0.0)[:, None]
-    frames(steps, now, x + v * age + 0.5 * g * age**2)
+    if dense.frame_points is None:
+        dense.frame_points = wp.empty(dense.capacity, dtype=wp.vec3d, device=dense.device)
+    dense._launch("trajectory_frame_kernel", pellets, [dense.model.physics, dense.cloud, dense.frame_points])
+    frames(steps, now, dense.frame_points.numpy()[:pellets].copy())  # (a copy: CPU arrays share memory)
 
 
 def separation_buffers(device, shots: int, count: int, sampled: bool):
