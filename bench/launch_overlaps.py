@@ -41,12 +41,12 @@ def launches(count, shots, envelope_radius, device):
     state = State(model, count * shots, spec.core_fields)
     dense.sampled = False  # today's sampling, unseparated (a run without collisions)
     dense.launch_shots(0, shots, source.struct, state.outputs)
-    before = dense.cloud.position.numpy()[: count * shots].copy()
+    before = dense.cloud.state.position.numpy()[: count * shots].copy()
     dense.sampled = True
     wp.synchronize_device(dev)
     start = time.perf_counter()
     dense.launch_shots(0, shots, source.struct, state.outputs)
-    after = dense.cloud.position.numpy()[: count * shots].copy()
+    after = dense.cloud.state.position.numpy()[: count * shots].copy()
     elapsed = time.perf_counter() - start
     redraws = dense.redraws.numpy()[:shots].copy()
     return before, after, redraws, elapsed, scene

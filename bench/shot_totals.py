@@ -36,8 +36,8 @@ def measure(device: str, n: int):
         for block in (1 << 30, default):
             state.FRAME_BLOCK = block  # (read when the phase's buffers are made)
             dense = DensePhase(model, scene, spec, n)
-            dense.cloud.collision_count.assign(counts)
-            dense.cloud.energy_lost.assign(lost)
+            dense.cloud.collisions.count.assign(counts)
+            dense.cloud.collisions.energy_lost.assign(lost)
             times = []
             for _ in range(6):
                 wp.synchronize()

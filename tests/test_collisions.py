@@ -21,7 +21,7 @@ from warp_ricochet.scene import COLLISION_FIELDS
 
 wp.config.log_level = wp.LOG_WARNING
 
-_pair_law64 = make_pair_law(wp.float64)
+_pair_law64 = make_pair_law("float64")
 
 
 @wp.kernel(enable_backward=False)
@@ -267,15 +267,19 @@ def test_free_cloud_conserves_momentum_and_loses_energy_only_in_collisions(devic
     dense = DensePhase(model, scene, dataclasses.replace(RunSpec.of(scene), fields=("initial.position",)), 80)
     dense.run(0, 1, PelletSource(scene, "float64", model.device, 80).struct, state.outputs)
     c = dense.cloud
-    assert c.neighbours.shape[1] > 32  # grew
+    assert c.lists.neighbours.shape[1] > 32  # grew
     g = np.asarray(scene.physics.gravity)
-    now = float(c.clock.numpy()[0, 0])
-    age = (now - c.time.numpy())[:, None]
-    x = c.position.numpy() + c.velocity.numpy() * age + 0.5 * g * age**2
-    v = c.velocity.numpy() + g * age
-    w = c.angular_velocity.numpy()
-    x0, v0, w0 = state.arrays["initial.position"].numpy(), c.launch_velocity.numpy(), c.launch_angular_velocity.numpy()
-    assert c.collision_count.numpy().sum() > 20
+    now = float(c.clock.time.numpy()[0])
+    age = (now - c.state.time.numpy())[:, None]
+    x = c.state.position.numpy() + c.state.velocity.numpy() * age + 0.5 * g * age**2
+    v = c.state.velocity.numpy() + g * age
+    w = c.state.angular_velocity.numpy()
+    x0, v0, w0 = (
+        state.arrays["initial.position"].numpy(),
+        c.state.launch_velocity.numpy(),
+        c.state.launch_angular_velocity.numpy(),
+    )
+    assert c.collisions.count.numpy().sum() > 20
     m, inertia = model.mass, model.inertia
     np.testing.assert_allclose(v.sum(0), v0.sum(0) + len(v) * g * now, rtol=0, atol=1e-10 * np.abs(v0).sum())
 
@@ -284,7 +288,7 @@ def test_free_cloud_conserves_momentum_and_loses_energy_only_in_collisions(devic
 
     scale = m * np.abs(x0 - x0.mean(0)).max() * np.abs(v0).max() * len(v0)
     np.testing.assert_allclose(angular_momentum(x, v, w), angular_momentum(x0, v0, w0), rtol=0, atol=1e-10 * scale)
-    lost = c.energy_lost.numpy().sum()
+    lost = c.collisions.energy_lost.numpy().sum()
     assert lost > 0
 
     def energy(vel, spin):
@@ -417,9 +421,9 @@ def test_a_pellet_found_beyond_its_skin_is_reported(tmp_path, device, monkeypatc
 
     def plant(self, commands):
         if not planted:
-            offsets = self.cloud.build_offset.numpy().copy()
-            offsets[0, 0] += 3.0 * float(self.cloud.half_skin.numpy()[0])
-            self.cloud.build_offset.assign(offsets)
+            offsets = self.cloud.lists.build_offset.numpy().copy()
+            offsets[0, 0] += 3.0 * float(self.cloud.lists.half_skin.numpy()[0])
+            self.cloud.lists.build_offset.assign(offsets)
             planted.append(True)
         block(self, commands)
 
@@ -531,8 +535,8 @@ def _lists_at_every_rebuild(scene, monkeypatch, cell_lists):
 
     def recording(self, pellets):
         grew = rebuild(self, pellets)
-        count = self.cloud.neighbour_count.numpy()[:pellets]
-        table = self.cloud.neighbours.numpy()[:pellets]
+        count = self.cloud.lists.neighbour_count.numpy()[:pellets]
+        table = self.cloud.lists.neighbours.numpy()[:pellets]
         lists.append([tuple(sorted(table[i, : count[i]])) for i in range(pellets)])
         return grew
 
@@ -577,7 +581,7 @@ def test_kept_events_are_those_a_new_search_finds(tmp_path, device, monkeypatch)
     step_commands = DensePhase._step_commands
 
     def search_every_step(self, pellets, shots, outputs):
-        stale = wp.launch(_all_stale, dim=pellets, inputs=[self.cloud.stale], device=self.device, record_cmd=True)
+        stale = wp.launch(_all_stale, dim=pellets, inputs=[self.cloud.event.stale], device=self.device, record_cmd=True)
         return [stale, *step_commands(self, pellets, shots, outputs)]
 
     monkeypatch.setattr(DensePhase, "_step_commands", search_every_step)
@@ -660,9 +664,9 @@ def test_a_shot_in_several_frame_blocks_takes_its_mean_and_the_same_bits_on_ever
     assert dense.pair.frame_blocks == 4
     dense.launch_shots(0, 3, PelletSource(scene, "float64", model.device, 180).struct, State(model, 180, ()).outputs)
     start_shots(dense, 3)
-    x, v = dense.cloud.position.numpy().reshape(3, 60, 3), dense.cloud.velocity.numpy().reshape(3, 60, 3)
-    np.testing.assert_allclose(dense.cloud.drift_origin.numpy(), x.mean(axis=1), rtol=1e-14, atol=1e-15)
-    np.testing.assert_allclose(dense.cloud.drift_velocity.numpy(), v.mean(axis=1), rtol=1e-14, atol=1e-12)
+    x, v = dense.cloud.state.position.numpy().reshape(3, 60, 3), dense.cloud.state.velocity.numpy().reshape(3, 60, 3)
+    np.testing.assert_allclose(dense.cloud.frame.drift_origin.numpy(), x.mean(axis=1), rtol=1e-14, atol=1e-15)
+    np.testing.assert_allclose(dense.cloud.frame.drift_velocity.numpy(), v.mean(axis=1), rtol=1e-14, atol=1e-12)
     assert np.all(dense.cloud.shot_flags.numpy()[:, SHOT_FRAME] == 0)  # taken
     one = _write(scene, tmp_path / "one.h5", "cpu", DenseOptions())
     kernels = _write(scene, tmp_path / "kernels.h5", "cpu", DenseOptions(cpu_steps="kernels"))
@@ -678,7 +682,6 @@ def test_a_shots_collision_totals_are_its_blocks_summed_in_order(monkeypatch, bl
     NumPy's, the energy lost each block's float64 sum in pellet order, added in block order (with
     one block, the whole shot's sum in pellet order: as before the blocks)."""
     from warp_ricochet.dense import state
-    from warp_ricochet.dense.constants import CLOCK_END, CLOCK_OVERRUN, CLOCK_STEPS
     from warp_ricochet.dense.phase import DensePhase
     from warp_ricochet.launch.source import PelletSource
     from warp_ricochet.model import Model, State
@@ -690,15 +693,15 @@ def test_a_shots_collision_totals_are_its_blocks_summed_in_order(monkeypatch, bl
     dense = DensePhase(model, scene, RunSpec.of(scene, with_output=False), 180)
     assert dense.pair.frame_blocks == (4 if block == 16 else 1)
     dense.run(0, 3, PelletSource(scene, "float64", model.device, 180).struct, State(model, 180, ()).outputs)
-    assert dense.cloud.collision_count.numpy().sum() > 10
+    assert dense.cloud.collisions.count.numpy().sum() > 10
     # then totals of counts and energies of every magnitude (sums whose rounding depends on their order)
     rng = np.random.default_rng(7)
-    dense.cloud.collision_count.assign(rng.integers(0, 4, 180).astype(np.int32))
-    dense.cloud.energy_lost.assign(rng.random(180) * 10.0 ** rng.uniform(-9, 0, 180))
+    dense.cloud.collisions.count.assign(rng.integers(0, 4, 180).astype(np.int32))
+    dense.cloud.collisions.energy_lost.assign(rng.random(180) * 10.0 ** rng.uniform(-9, 0, 180))
     dense._launch("block_totals_kernel", 3 * dense.pair.frame_blocks, [dense.pair, dense.cloud, dense.block_totals])
     dense._launch("shot_totals_kernel", 3, [dense.pair, dense.cloud, dense.block_totals, dense.totals])
-    counts = dense.cloud.collision_count.numpy().reshape(3, 60)
-    lost = dense.cloud.energy_lost.numpy().astype(np.float64).reshape(3, 60)
+    counts = dense.cloud.collisions.count.numpy().reshape(3, 60)
+    lost = dense.cloud.collisions.energy_lost.numpy().astype(np.float64).reshape(3, 60)
     totals = dense.totals.numpy()
     np.testing.assert_array_equal(totals[:, 0], (counts > 0).sum(axis=1))
     np.testing.assert_array_equal(totals[:, 1], counts.sum(axis=1))
@@ -713,5 +716,6 @@ def test_a_shots_collision_totals_are_its_blocks_summed_in_order(monkeypatch, bl
         for x in blocks[1:]:
             expected += x
         assert totals[s, 2] == expected
-    clock = dense.cloud.clock.numpy()[:, [CLOCK_STEPS, CLOCK_END, CLOCK_OVERRUN]]
+    clock = dense.cloud.clock
+    clock = np.stack([clock.steps.numpy(), clock.end.numpy(), clock.overrun.numpy()], axis=1)
     np.testing.assert_array_equal(totals[:, 3:], clock)

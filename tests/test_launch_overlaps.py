@@ -46,7 +46,7 @@ def launched(count, shots, radius, precision="float64", separate=True, scene=Non
     source = PelletSource(scene, precision, model.device, count * shots)
     dense.launch_shots(0, shots, source.struct, State(model, count * shots, ()).outputs)
     n = count * shots
-    return dense.cloud.position.numpy()[:n], dense.cloud.velocity.numpy()[:n], dense.redraws.numpy()[:shots], dense
+    return dense.cloud.state.position.numpy()[:n], dense.cloud.state.velocity.numpy()[:n], dense.redraws.numpy()[:shots], dense
 
 
 def min_distance(positions, count):
@@ -182,4 +182,4 @@ def test_an_interrupt_stops_the_separation_at_once():
         interrupts._requested.append(signal.SIGINT)
         with pytest.raises(KeyboardInterrupt):
             dense.launch_shots(0, 2, source.struct, State(model, 900, ()).outputs)
-    np.testing.assert_array_equal(dense.cloud.position.numpy()[:900], before)
+    np.testing.assert_array_equal(dense.cloud.state.position.numpy()[:900], before)

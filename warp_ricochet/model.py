@@ -27,10 +27,10 @@ from .tallies.sums import NUM_EXTREMES, NUM_SUMS
 
 @dataclass
 class Model:
-    """Scene constants on one device, in the kernels' structs (SI units)."""
+    """Scene constants on one device, in the kernels' structs (SI units). Its precision is its
+    `types`' (`physics.types.types_for`), read from the scene's numerics.precision."""
 
     device: object  # wp.Device
-    precision: str
     radius: float  # m
     mass: float  # kg
     inertia: float  # kg m^2, I = k m R^2
@@ -39,6 +39,11 @@ class Model:
     physics: object  # physics.types Physics
     types: object = field(repr=False)
     thresholds: int = 0  # hazard thresholds (the columns of per-threshold fields)
+
+    @property
+    def precision(self) -> str:
+        """The kernels' precision, "float32" or "float64" (its `types`')."""
+        return self.types.precision
 
     @classmethod
     def from_scene(cls, scene, device) -> Model:
@@ -81,7 +86,6 @@ class Model:
         physics.air = air_struct(air, precision, device, radius, mass, physics_scene.gravity, tolerance)
         return cls(
             device=device,
-            precision=precision,
             radius=radius,
             mass=mass,
             inertia=SOLID_SPHERE_INERTIA_FACTOR * mass * radius**2,

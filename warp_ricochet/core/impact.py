@@ -13,7 +13,7 @@ def impact_kernel_for(precision: str):
     """One thread per state: the law of eqs. 1-25 on a pellet about to hit a plane."""
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
-    impact_law = make_impact_law(scalar)
+    impact_law = make_impact_law(precision)
 
     @wp.kernel(module="unique", enable_backward=False)
     def impact_kernel(

@@ -56,7 +56,9 @@ docs/collisions.md for what this neglects. At each checkpoint a shot past that w
 next event over all its pairs and planes and jumps to it, so a pair of rebounds converging slowly
 for tens of milliseconds does not cost tens of thousands of small steps.
 
-Modules, one stage each: `state` (the Cloud and Pair structs, their allocation), `frame` (each
+Modules, one stage each: `kit` (`dense_kit(spec)`: the namespace every stage's factory starts from:
+types, structs, constants, eq. 36, the geometry and the flights), `state` (the Cloud and Pair
+structs, the Cloud's arrays grouped by the stage that owns them, their allocation), `frame` (each
 shot's co-moving frame, reference states), `events` (plane and pair contacts), `rounds` (finding
 and applying a step's events), `lists` (neighbour lists), `step` (a step; the CPU's block),
 `checkpoint` (a shot's horizon, stop or jump), `leap` (in air, the jump: the pellets flown through

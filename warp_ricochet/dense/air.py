@@ -2,7 +2,7 @@
 parabola (so pair and plane contact times stay exact), and the air's own flow (drag, lift and
 spin decay, no gravity: `physics.air`) acts in kicks, half an interval's worth at each end
 (K(H/2) D(H) K(H/2): second order in H). Each pellet keeps the time up to which it has had the air
-(`Cloud.air_time`) and the step of its shot at which its next kick is due (`Cloud.kick_due`). A
+(`Cloud.air.time`) and the step of its shot at which its next kick is due (`Cloud.air.kick_due`). A
 kick (`kick_pellet`, at a step's start) gives it the air up to the middle of its next interval:
 up to the shot's next multiple of KICK_STEPS steps (so a shot's pellets are kicked together, in
 the same steps), sooner where `air_step_fraction` of its own air rate, its next plane contact or
@@ -30,27 +30,23 @@ from types import SimpleNamespace
 import warp as wp
 
 from ..physics.air import make_air_laws
-from ..physics.ballistic import make_ballistic
-from ..physics.geometry import make_geometry
-from .constants import CLOCK_STEP, CLOCK_STEPS, CLOCK_TIME, KICK_STEPS
+from .constants import KICK_STEPS
 from .frame import make_frame
-from .state import dense_flight, dense_types
+from .kit import dense_kit
 
 
 @functools.cache
 def make_dense_air(spec) -> SimpleNamespace:
     """`air_rate`, `acceleration_bound`, `kicked`, `drift_end`, `kick_pellet` and `air_until` for a
     spec in air."""
-    d = dense_types(spec)
-    scalar, vec3, Surfaces, Physics, Cloud, Pair = d.scalar, d.vec3, d.Surfaces, d.Physics, d.Cloud, d.Pair
+    kit = dense_kit(spec)
+    scalar, vec3, Surfaces, Physics, Cloud, Pair = kit.scalar, kit.vec3, kit.Surfaces, kit.Physics, kit.Cloud, kit.Pair
+    ballistic_position, ballistic_velocity = kit.ballistic.position, kit.ballistic.velocity
+    next_contact, geo, STATIC_PLANES = kit.flight.next_contact, kit.geo, kit.STATIC_PLANES  # (the exact flight)
     TINY_RATE = 1e-30  # 1/s: no air (a pellet at rest in still air)
-    laws = make_air_laws(spec.precision, *spec.air_laws)
-    _entry, _return, ballistic_position, ballistic_velocity = make_ballistic(scalar)
+    laws = make_air_laws(kit.precision, *spec.air_laws)
     fr = make_frame(spec)
     stepping, set_reference = fr.stepping, fr.set_reference
-    next_contact = dense_flight(spec).next_contact  # (the exact flight)
-
-    geo, STATIC_PLANES = make_geometry(spec.precision), spec.static_planes
     LIFT = spec.air_laws[1] is not None
 
     @wp.func
@@ -94,17 +90,17 @@ def make_dense_air(spec) -> SimpleNamespace:
         """Pellet i's `air_rate` at the shot's clock `time` (s), for the step's bound: found
         anew in a step that kicks it (kept for its kick), else the one found at its last kick
         (its motion has changed by at most air_step_fraction since)."""
-        if wp.int32(cloud.clock[i / pair.count, CLOCK_STEPS]) >= cloud.kick_due[i]:
-            age = time - cloud.time[i]
-            cloud.air_rate[i] = air_rate(
-                ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age),
-                ballistic_velocity(cloud.velocity[i], physics.gravity, age),
-                cloud.angular_velocity[i],
+        if wp.int32(cloud.clock.steps[i / pair.count]) >= cloud.air.kick_due[i]:
+            age = time - cloud.state.time[i]
+            cloud.air.rate[i] = air_rate(
+                ballistic_position(cloud.state.position[i], cloud.state.velocity[i], physics.gravity, age),
+                ballistic_velocity(cloud.state.velocity[i], physics.gravity, age),
+                cloud.state.angular_velocity[i],
                 pair,
                 surfaces,
                 physics,
             )
-        return cloud.air_rate[i]
+        return cloud.air.rate[i]
 
     @wp.func
     def acceleration_bound(speed: scalar, physics: Physics):
@@ -142,18 +138,18 @@ def make_dense_air(spec) -> SimpleNamespace:
     @wp.func
     def drifted(cloud: Cloud, i: wp.int32, time: scalar, until: scalar, physics: Physics):
         """`drift_end`'s state, and the rounding its position lost (m): the displacement is added
-        to the reference position with the error the last kick kept (`Cloud.position_error`),
+        to the reference position with the error the last kick kept (`Cloud.air.position_error`),
         compensated (Kahan summation), so the thousands of kicks of a flight do not accumulate
         rounding in the position (in float32, ulp(10 m) = 1e-6 m a kick: a random walk that a
         grazing landing turns into millimetres)."""
-        age = time - cloud.time[i]
-        velocity = ballistic_velocity(cloud.velocity[i], physics.gravity, age)
-        spin = cloud.angular_velocity[i]
+        age = time - cloud.state.time[i]
+        velocity = ballistic_velocity(cloud.state.velocity[i], physics.gravity, age)
+        spin = cloud.state.angular_velocity[i]
         acceleration, spin_change = laws.air_rates(velocity, spin, physics.air)
-        lag = scalar(0.5) * (cloud.time[i] + time) - cloud.air_time[i]
-        moved = cloud.velocity[i] * age + (scalar(0.5) * age * age) * physics.gravity + (lag * age) * acceleration
-        position, error = two_sum(cloud.position[i], moved + cloud.position_error[i])
-        velocity, spin = kicked_from(velocity, spin, acceleration, spin_change, until - cloud.air_time[i], physics)
+        lag = scalar(0.5) * (cloud.state.time[i] + time) - cloud.air.time[i]
+        moved = cloud.state.velocity[i] * age + (scalar(0.5) * age * age) * physics.gravity + (lag * age) * acceleration
+        position, error = two_sum(cloud.state.position[i], moved + cloud.air.position_error[i])
+        velocity, spin = kicked_from(velocity, spin, acceleration, spin_change, until - cloud.air.time[i], physics)
         return position, velocity, spin, error
 
     @wp.func
@@ -187,17 +183,17 @@ def make_dense_air(spec) -> SimpleNamespace:
         if pair.fixed_step > scalar(0.0):
             return wp.int32(1)
         s = i / pair.count
-        steps = wp.int32(cloud.clock[s, CLOCK_STEPS])
+        steps = wp.int32(cloud.clock.steps[s])
         aligned = (steps / KICK_STEPS + 1) * KICK_STEPS - steps
-        rate = cloud.air_rate[i]  # (pellet_rate's, found in this step: the pellet is due)
+        rate = cloud.air.rate[i]  # (pellet_rate's, found in this step: the pellet is due)
         falling = wp.length(physics.gravity) / (wp.length(velocity - physics.air.wind) + physics.air.speed_floor)
         interval = pair.air_step_fraction / wp.max(wp.max(rate, falling), scalar(TINY_RATE))
         wait, k = next_contact(position, velocity, spin, wp.int32(-1), surfaces, physics)
         if k >= 0:
             interval = wp.min(interval, wait)
-        if cloud.stale[i] == 0 and cloud.event_partner[i] >= 0:
-            interval = wp.min(interval, cloud.event_time[i] - time)
-        within = interval / cloud.clock[s, CLOCK_STEP]
+        if cloud.event.stale[i] == 0 and cloud.event.partner[i] >= 0:
+            interval = wp.min(interval, cloud.event.time[i] - time)
+        within = interval / cloud.clock.step[s]
         if within >= scalar(aligned):
             return aligned
         return wp.max(wp.int32(within), wp.int32(1))
@@ -212,38 +208,38 @@ def make_dense_air(spec) -> SimpleNamespace:
         s = i / pair.count
         if not stepping(cloud, i, s):
             return
-        steps = wp.int32(cloud.clock[s, CLOCK_STEPS])
-        if steps < cloud.kick_due[i]:
+        steps = wp.int32(cloud.clock.steps[s])
+        if steps < cloud.air.kick_due[i]:
             return
-        time = cloud.clock[s, CLOCK_TIME]
-        age = time - cloud.time[i]
+        time = cloud.clock.time[s]
+        age = time - cloud.state.time[i]
         count = kick_steps(
             i,
             time,
-            ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age),
-            ballistic_velocity(cloud.velocity[i], physics.gravity, age),
-            cloud.angular_velocity[i],
+            ballistic_position(cloud.state.position[i], cloud.state.velocity[i], physics.gravity, age),
+            ballistic_velocity(cloud.state.velocity[i], physics.gravity, age),
+            cloud.state.angular_velocity[i],
             pair,
             surfaces,
             physics,
             cloud,
         )
-        middle = time + scalar(0.5) * scalar(count) * cloud.clock[s, CLOCK_STEP]
+        middle = time + scalar(0.5) * scalar(count) * cloud.clock.step[s]
         position, velocity, spin, error = drifted(cloud, i, time, middle, physics)
-        cloud.air_time[i] = middle
-        cloud.kick_due[i] = steps + count
+        cloud.air.time[i] = middle
+        cloud.air.kick_due[i] = steps + count
         set_reference(cloud, i, position, velocity, spin, time)
-        cloud.position_error[i] = error
-        cloud.touching[i] = -1  # (its reference state is off the plane it left: plane times from the gap)
-        cloud.stale[i] = 1
+        cloud.air.position_error[i] = error
+        cloud.state.touching[i] = -1  # (its reference state is off the plane it left: plane times from the gap)
+        cloud.event.stale[i] = 1
 
     @wp.func
     def air_until(cloud: Cloud, i: wp.int32, time: scalar):
         """Pellet i has had the air up to `time` (s: an event's, its release's): its next step
         kicks it; its new reference position keeps no rounding error (below an ulp)."""
-        cloud.air_time[i] = time
-        cloud.kick_due[i] = 0
-        cloud.position_error[i] = vec3()
+        cloud.air.time[i] = time
+        cloud.air.kick_due[i] = 0
+        cloud.air.position_error[i] = vec3()
 
     return SimpleNamespace(
         air_rate=air_rate,

@@ -1,5 +1,5 @@
-"""Constants of the dense phase: pellet phases, the global and per-shot flags, the per-shot clock's
-slots, and the stepping's tuning (see docs/collisions.md)."""
+"""Constants of the dense phase: pellet phases, the global and per-shot flags, and the stepping's
+tuning (see docs/collisions.md). Each shot's clock is `state.make_state`'s `Clock`."""
 
 from ..scene import CHECKPOINT_STEPS
 
@@ -8,22 +8,6 @@ FLYING, ENDED = 0, 1  # pellet phases; ENDED: landed after its last ricochet, or
 # shot's skin widened
 FLAG_STALL, FLAG_REMAINING, FLAG_OVERFLOW, FLAG_WIDENED = 0, 1, 2, 3
 NUM_FLAGS = 4
-# per-shot clock (scalar array, shots x NUM_CLOCK): time, step, speed bound relative to the drift, steps
-# taken, the time the shot stopped stepping, the end of its arrival window (the last first contact
-# of its undisturbed pellets, plus the time the cloud takes to pass a point: 4 rms radii / speed),
-# the soonest event of all (any pair of the shot, or a plane; horizon_kernel), and the earliest
-# pair event left unresolved after the step's rounds (the step ends there), the largest overrun
-# of the skin (see prepare_pellet), and the earliest time a pellet changed in the step leaves its
-# skin (the step ends there too, and no event after it is applied)
-CLOCK_TIME, CLOCK_STEP, CLOCK_DRIFT, CLOCK_STEPS, CLOCK_END, CLOCK_WINDOW, CLOCK_NEXT, CLOCK_CUT, CLOCK_OVERRUN, CLOCK_SKIN = (
-    range(10)
-)
-# in air (dense.air): the shot's fastest air rate |a_air| / |u| (1/s); where its last leap began
-# (dense.leap)
-CLOCK_AIR, CLOCK_LEAP = 10, 11
-# the mean speed of the shot's flying pellets at its launch (dense.frame, for the arrival window)
-CLOCK_SPEED = 12
-NUM_CLOCK = 13
 # a step cut at an unresolved event still advances by this fraction of itself (a pair the law does
 # not collide, e.g. one closing within rounding, can never stop the clock)
 MIN_CUT_FRACTION = 1.0 / 64.0

@@ -1,29 +1,18 @@
 """The start and the end of the dense phase: each pellet's launch, each shot's clock, frame and
-arrival window, the release (each pellet's state when its shot stopped stepping) and each shot's
-totals."""
+arrival window, the release (each pellet's state when its shot stopped stepping), each shot's
+totals, and the pellets' centres for a trajectory frame (taken on the device; the host copies them)."""
 
 import functools
 from types import SimpleNamespace
 
 import warp as wp
 
-from ..core.outputs import make_outputs
 from ..launch.source import make_source
-from ..physics.ballistic import make_ballistic
-from ..physics.flight import make_flight
 from .air import make_dense_air
 from .constants import (
     CHECKPOINT,
-    CLOCK_CUT,
-    CLOCK_END,
-    CLOCK_NEXT,
-    CLOCK_OVERRUN,
-    CLOCK_SKIN,
-    CLOCK_STEPS,
-    CLOCK_WINDOW,
     FLYING,
     FRAME_START,
-    NUM_CLOCK,
     SHOT_BUSY,
     SHOT_DONE,
     SHOT_FRAME,
@@ -31,34 +20,23 @@ from .constants import (
     SHOT_STALL,
 )
 from .frame import make_frame
-from .state import dense_types
+from .kit import dense_kit
 
 
 @functools.cache
 def make_ends(spec) -> SimpleNamespace:
     """launch_pellet, start_shot, release_pellet, block_totals and shot_totals."""
-    d = dense_types(spec)
-    scalar, vec3, Surfaces, Physics, Outputs, Source, Cloud, Pair = (
-        d.scalar,
-        d.vec3,
-        d.Surfaces,
-        d.Physics,
-        d.Outputs,
-        d.Source,
-        d.Cloud,
-        d.Pair,
-    )
-    NEVER, WRITE = d.NEVER, bool(spec.core_fields)
-    launch_state = make_source(spec.precision, spec.from_file).launch_state
-    write_initial = make_outputs(spec.precision).write_initial
+    kit = dense_kit(spec)
+    scalar, vec3, Surfaces, Physics, Cloud, Pair = kit.scalar, kit.vec3, kit.Surfaces, kit.Physics, kit.Cloud, kit.Pair
+    Outputs, Source, NEVER, WRITE, AIR = kit.Outputs, kit.Source, kit.NEVER, kit.WRITE, kit.AIR
+    ballistic_position, ballistic_velocity = kit.ballistic.position, kit.ballistic.velocity
+    launch_state = make_source(kit.precision, spec.from_file).launch_state
+    write_initial = kit.outputs.write_initial
     # the arrival window: from each pellet's first contact in its own flight (in air: integrated)
-    next_contact = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws).next_contact
-    AIR = spec.in_air
+    next_contact = kit.run_flight.next_contact
     air = make_dense_air(spec) if AIR else None  # (its calls compile only in air)
-    set_reference = make_frame(spec).set_reference
-    _entry, _return, ballistic_position, ballistic_velocity = make_ballistic(scalar)
     fr = make_frame(spec)
-    block_range, drift_point, passing_time = fr.block_range, fr.drift_point, fr.passing_time
+    set_reference, block_range, drift_point, passing_time = fr.set_reference, fr.block_range, fr.drift_point, fr.passing_time
 
     @wp.func
     def launch_pellet(i: wp.int32, first_index: wp.int32, source: Source, cloud: Cloud, out: Outputs):
@@ -66,49 +44,57 @@ def make_ends(spec) -> SimpleNamespace:
         position, velocity, spin = launch_state(source, first_index + i, i)
         if wp.static(WRITE):
             write_initial(out, i, position, velocity, spin)  # (bounces without an impact: the core kernel marks them)
-        cloud.position[i] = position
-        cloud.velocity[i] = velocity
-        cloud.angular_velocity[i] = spin
-        cloud.launch_velocity[i] = velocity
-        cloud.launch_angular_velocity[i] = spin
-        cloud.time[i] = scalar(0.0)
-        cloud.phase[i] = FLYING
-        cloud.end_surface[i] = -1
-        cloud.touching[i] = -1
-        cloud.impacts[i] = 0
-        cloud.last_slipped[i] = 0
-        cloud.ricochet_point[i] = vec3()
-        cloud.ricochet_time[i] = scalar(0.0)
-        cloud.first_surface[i] = -1
-        cloud.first_slipped[i] = 0
-        cloud.collision_count[i] = 0
-        cloud.energy_lost[i] = scalar(0.0)
-        cloud.air_time[i] = scalar(0.0)
-        cloud.kick_due[i] = 0
-        cloud.air_rate[i] = scalar(0.0)
-        cloud.position_error[i] = vec3()
-        cloud.last_collision[i] = scalar(wp.nan)
-        cloud.neighbour_count[i] = 0
-        cloud.stale[i] = 1
-        cloud.event_partner[i] = -1
-        cloud.event_time[i] = NEVER
+        cloud.state.position[i] = position
+        cloud.state.velocity[i] = velocity
+        cloud.state.angular_velocity[i] = spin
+        cloud.state.launch_velocity[i] = velocity
+        cloud.state.launch_angular_velocity[i] = spin
+        cloud.state.time[i] = scalar(0.0)
+        cloud.state.phase[i] = FLYING
+        cloud.state.end_surface[i] = -1
+        cloud.state.touching[i] = -1
+        cloud.state.impacts[i] = 0
+        cloud.state.last_slipped[i] = 0
+        cloud.state.ricochet_point[i] = vec3()
+        cloud.state.ricochet_time[i] = scalar(0.0)
+        cloud.state.first_surface[i] = -1
+        cloud.state.first_slipped[i] = 0
+        cloud.collisions.count[i] = 0
+        cloud.collisions.energy_lost[i] = scalar(0.0)
+        cloud.air.time[i] = scalar(0.0)
+        cloud.air.kick_due[i] = 0
+        cloud.air.rate[i] = scalar(0.0)
+        cloud.air.position_error[i] = vec3()
+        cloud.collisions.last_time[i] = scalar(wp.nan)
+        cloud.lists.neighbour_count[i] = 0
+        cloud.event.stale[i] = 1
+        cloud.event.partner[i] = -1
+        cloud.event.time[i] = NEVER
 
     @wp.func
     def start_shot(s: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
         """One thread per shot: the clock starts at 0; the co-moving frame at the launch and the
         arrival window are due (`dense.frame`, then `start_block` and `window_shot`)."""
-        for c in range(wp.static(NUM_CLOCK)):
-            cloud.clock[s, c] = scalar(0.0)
-        cloud.clock[s, CLOCK_NEXT] = NEVER
-        cloud.clock[s, CLOCK_CUT] = NEVER
-        cloud.clock[s, CLOCK_SKIN] = NEVER
+        cloud.clock.time[s] = scalar(0.0)
+        cloud.clock.step[s] = scalar(0.0)
+        cloud.clock.drift[s] = scalar(0.0)
+        cloud.clock.steps[s] = scalar(0.0)
+        cloud.clock.end[s] = scalar(0.0)
+        cloud.clock.window[s] = scalar(0.0)
+        cloud.clock.overrun[s] = scalar(0.0)
+        cloud.clock.air[s] = scalar(0.0)
+        cloud.clock.leap[s] = scalar(0.0)
+        cloud.clock.speed[s] = scalar(0.0)
+        cloud.clock.next[s] = NEVER
+        cloud.clock.cut[s] = NEVER
+        cloud.clock.skin[s] = NEVER
         cloud.shot_flags[s, SHOT_FRAME] = FRAME_START
         cloud.shot_flags[s, SHOT_STALL] = CHECKPOINT  # the launch is its first checkpoint
         cloud.shot_flags[s, SHOT_DONE] = 0
         cloud.shot_flags[s, SHOT_BUSY] = 0
         cloud.shot_flags[s, SHOT_REBUILD] = 1
-        cloud.half_skin[s] = pair.half_skin
-        cloud.step_travel[s] = scalar(0.0)
+        cloud.lists.half_skin[s] = pair.half_skin
+        cloud.lists.step_travel[s] = scalar(0.0)
 
     @wp.func
     def start_block(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, row: wp.int32):
@@ -124,18 +110,21 @@ def make_ends(spec) -> SimpleNamespace:
         flying = wp.int32(0)
         last_arrival = scalar(0.0)
         for i in range(first, last):
-            if cloud.phase[i] == FLYING:
-                d = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, -cloud.time[i]) - centre
+            if cloud.state.phase[i] == FLYING:
+                d = (
+                    ballistic_position(cloud.state.position[i], cloud.state.velocity[i], physics.gravity, -cloud.state.time[i])
+                    - centre
+                )
                 spread += wp.dot(d, d)
                 flying += 1
             wait, plane = next_contact(
-                cloud.position[i], cloud.velocity[i], cloud.angular_velocity[i], wp.int32(-1), surfaces, physics
+                cloud.state.position[i], cloud.state.velocity[i], cloud.state.angular_velocity[i], wp.int32(-1), surfaces, physics
             )
             if plane >= 0:
                 last_arrival = wp.max(last_arrival, wait)
-        cloud.frame_spread[row] = spread
-        cloud.frame_flying[row] = flying
-        cloud.frame_arrival[row] = last_arrival
+        cloud.frame.spread[row] = spread
+        cloud.frame.flying[row] = flying
+        cloud.frame.arrival[row] = last_arrival
 
     @wp.func
     def window_shot(pair: Pair, physics: Physics, cloud: Cloud, s: wp.int32):
@@ -145,44 +134,57 @@ def make_ends(spec) -> SimpleNamespace:
         if cloud.shot_flags[s, SHOT_FRAME] != wp.static(FRAME_START):
             return
         row = s * pair.frame_blocks
-        spread = cloud.frame_spread[row]
-        flying = cloud.frame_flying[row]
-        last_arrival = cloud.frame_arrival[row]
+        spread = cloud.frame.spread[row]
+        flying = cloud.frame.flying[row]
+        last_arrival = cloud.frame.arrival[row]
         for b in range(1, pair.frame_blocks):
-            spread += cloud.frame_spread[row + b]
-            flying += cloud.frame_flying[row + b]
-            last_arrival = wp.max(last_arrival, cloud.frame_arrival[row + b])
-        cloud.clock[s, CLOCK_WINDOW] = last_arrival + passing_time(pair, physics, cloud, s, spread, flying)
+            spread += cloud.frame.spread[row + b]
+            flying += cloud.frame.flying[row + b]
+            last_arrival = wp.max(last_arrival, cloud.frame.arrival[row + b])
+        cloud.clock.window[s] = last_arrival + passing_time(pair, physics, cloud, s, spread, flying)
         cloud.shot_flags[s, SHOT_FRAME] = 0
+
+    @wp.func
+    def trajectory_point(i: wp.int32, physics: Physics, cloud: Cloud, points: wp.array(dtype=wp.vec3d)):
+        """Pellet i's centre (m, float64) at the first shot's clock, for a trajectory frame: eq. (36)
+        from its reference state if it flies, else where its flight ended. The host's NumPy
+        arithmetic it replaced, operation for operation: the age and x + v age in the run's
+        precision, then the gravity term in float64 (exact there for float32 inputs)."""
+        age = scalar(0.0)
+        if cloud.state.phase[i] == FLYING:
+            age = cloud.clock.time[0] - cloud.state.time[i]
+        moved = cloud.state.position[i] + cloud.state.velocity[i] * age
+        half_gravity = wp.float64(0.5) * wp.vec3d(physics.gravity)
+        points[i] = wp.vec3d(moved) + half_gravity * wp.float64(age * age)
 
     @wp.func
     def release_pellet(i: wp.int32, pair: Pair, physics: Physics, cloud: Cloud):
         """The release outputs: each pellet's state when its shot left the dense phase (or where
         its flight ended in it), and the time of its last pair collision."""
         s = i / pair.count
-        time = cloud.time[i]
-        position = cloud.position[i]
-        velocity = cloud.velocity[i]
-        if cloud.phase[i] == FLYING:
-            time = cloud.clock[s, CLOCK_END]
-            age = time - cloud.time[i]
-            position = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, age)
-            velocity = ballistic_velocity(cloud.velocity[i], physics.gravity, age)
+        time = cloud.state.time[i]
+        position = cloud.state.position[i]
+        velocity = cloud.state.velocity[i]
+        if cloud.state.phase[i] == FLYING:
+            time = cloud.clock.end[s]
+            age = time - cloud.state.time[i]
+            position = ballistic_position(cloud.state.position[i], cloud.state.velocity[i], physics.gravity, age)
+            velocity = ballistic_velocity(cloud.state.velocity[i], physics.gravity, age)
             if wp.static(AIR):  # the end of its drift, the air up to now; the core flies on from here
                 position, velocity, spin = air.drift_end(cloud, i, time, time, physics)
                 air.air_until(cloud, i, time)
                 set_reference(cloud, i, position, velocity, spin, time)
-                cloud.touching[i] = -1  # (off the plane it left: the core's flight starts from the gap)
-        if cloud.release_time.shape[0] > 0:
-            cloud.release_time[i] = time
-        if cloud.release_position.shape[0] > 0:
-            cloud.release_position[i] = position
-        if cloud.release_velocity.shape[0] > 0:
-            cloud.release_velocity[i] = velocity
-        if cloud.release_angular_velocity.shape[0] > 0:
-            cloud.release_angular_velocity[i] = cloud.angular_velocity[i]
-        if cloud.collisions_last_time.shape[0] > 0:
-            cloud.collisions_last_time[i] = cloud.last_collision[i]
+                cloud.state.touching[i] = -1  # (off the plane it left: the core's flight starts from the gap)
+        if cloud.written.release_time.shape[0] > 0:
+            cloud.written.release_time[i] = time
+        if cloud.written.release_position.shape[0] > 0:
+            cloud.written.release_position[i] = position
+        if cloud.written.release_velocity.shape[0] > 0:
+            cloud.written.release_velocity[i] = velocity
+        if cloud.written.release_angular_velocity.shape[0] > 0:
+            cloud.written.release_angular_velocity[i] = cloud.state.angular_velocity[i]
+        if cloud.written.collisions_last_time.shape[0] > 0:
+            cloud.written.collisions_last_time[i] = cloud.collisions.last_time[i]
 
     @wp.func
     def block_totals(row: wp.int32, pair: Pair, cloud: Cloud, blocks: wp.array2d(dtype=wp.float64)):
@@ -194,11 +196,11 @@ def make_ends(spec) -> SimpleNamespace:
         collisions = wp.float64(0.0)
         lost = wp.float64(0.0)
         for i in range(first, last):
-            c = cloud.collision_count[i]
+            c = cloud.collisions.count[i]
             if c > 0:
                 collided += wp.float64(1.0)
             collisions += wp.float64(c)
-            lost += wp.float64(cloud.energy_lost[i])
+            lost += wp.float64(cloud.collisions.energy_lost[i])
         blocks[row, 0] = collided
         blocks[row, 1] = collisions
         blocks[row, 2] = lost
@@ -216,9 +218,9 @@ def make_ends(spec) -> SimpleNamespace:
             for b in range(1, pair.frame_blocks):
                 total += blocks[row + b, k]
             totals[s, k] = total
-        totals[s, 3] = wp.float64(cloud.clock[s, CLOCK_STEPS])
-        totals[s, 4] = wp.float64(cloud.clock[s, CLOCK_END])
-        totals[s, 5] = wp.float64(cloud.clock[s, CLOCK_OVERRUN])
+        totals[s, 3] = wp.float64(cloud.clock.steps[s])
+        totals[s, 4] = wp.float64(cloud.clock.end[s])
+        totals[s, 5] = wp.float64(cloud.clock.overrun[s])
 
     return SimpleNamespace(
         launch_pellet=launch_pellet,
@@ -226,6 +228,7 @@ def make_ends(spec) -> SimpleNamespace:
         start_block=start_block,
         window_shot=window_shot,
         release_pellet=release_pellet,
+        trajectory_point=trajectory_point,
         block_totals=block_totals,
         shot_totals=shot_totals,
     )

@@ -7,33 +7,28 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from ..core.outputs import make_outputs
-from ..physics.ballistic import make_ballistic
 from ..physics.contact import make_contact
-from ..physics.geometry import make_geometry
 from ..physics.pair import make_pair_law
 from .air import make_dense_air
 from .constants import ENDED
 from .frame import make_frame
-from .state import dense_flight, dense_types
+from .kit import dense_kit
 
 
 @functools.cache
 def make_events(spec) -> SimpleNamespace:
     """The event functions of the dense phase."""
-    d = dense_types(spec)
-    scalar, vec3, Surfaces, Physics, Outputs, Cloud, Pair = d.scalar, d.vec3, d.Surfaces, d.Physics, d.Outputs, d.Cloud, d.Pair
-    CLOSING_TOLERANCE2 = d.CLOSING_TOLERANCE2
+    kit = dense_kit(spec)
+    scalar, vec3, Surfaces, Physics = kit.scalar, kit.vec3, kit.Surfaces, kit.Physics
+    Outputs, Cloud, Pair = kit.Outputs, kit.Cloud, kit.Pair
+    CLOSING_TOLERANCE2, BOUNCES, WRITE, AIR = kit.CLOSING_TOLERANCE2, kit.BOUNCES, kit.WRITE, kit.AIR
+    ballistic_position, ballistic_velocity = kit.ballistic.position, kit.ballistic.velocity
     # within a step: the exact ballistic flight
-    flight = dense_flight(spec)
-    next_contact, advance = flight.next_contact, flight.advance
-    _rests, _stays, _impact, meet_surface, contact_point, _range = make_contact(spec.precision)
-    _entry, _return, ballistic_position, ballistic_velocity = make_ballistic(scalar)
-    pair_law, geo = make_pair_law(scalar), make_geometry(spec.precision)
-    write_impact = make_outputs(spec.precision).write_impact
+    next_contact, advance, geo = kit.flight.next_contact, kit.flight.advance, kit.geo
+    _rests, _stays, _impact, meet_surface, contact_point, _range = make_contact(kit.precision)
+    pair_law, write_impact = make_pair_law(kit.precision), kit.outputs.write_impact
     fr = make_frame(spec)
     set_reference, mark_stale = fr.set_reference, fr.mark_stale
-    BOUNCES, WRITE, AIR = spec.bounces, bool(spec.core_fields), spec.in_air
     air = make_dense_air(spec) if AIR else None  # (its calls compile only in air)
 
     @wp.func
@@ -55,13 +50,13 @@ def make_events(spec) -> SimpleNamespace:
         position, velocity, spin = advance(position, velocity, spin, wait, physics)
         time = time + wait
         if wp.static(AIR):  # the air up to the contact (dense.air)
-            velocity, spin = air.kicked(velocity, spin, time - cloud.air_time[i], physics)
+            velocity, spin = air.kicked(velocity, spin, time - cloud.air.time[i], physics)
         flying = wp.int32(1)
         impacted = wp.int32(0)
         velocity_after = velocity
         spin_after = spin
         slipped = wp.int32(0)
-        if cloud.impacts[i] >= wp.static(BOUNCES):
+        if cloud.state.impacts[i] >= wp.static(BOUNCES):
             flying = wp.int32(0)  # the landing after the last ricochet
         else:  # an impact, or no closing speed: it stays on the surface (physics.contact)
             velocity_after, spin_after, slipped, impacted, flying = meet_surface(k, position, velocity, spin, surfaces, physics)
@@ -91,27 +86,27 @@ def make_events(spec) -> SimpleNamespace:
         if wp.static(AIR):
             air.air_until(cloud, i, time)
         normal = geo.normal(surfaces, k, position)
-        impacts = cloud.impacts[i]
+        impacts = cloud.state.impacts[i]
         if impacted != 0:
             if wp.static(WRITE):
                 write_impact(out, i, impacts, time, position, velocity, spin, velocity_after, spin_after, slipped, k)
             if impacts == 0:
-                cloud.first_surface[i] = k
-                cloud.first_slipped[i] = slipped
-                cloud.first_velocity_before[i] = velocity
-                cloud.first_angular_velocity_before[i] = spin
-                cloud.first_velocity_after[i] = velocity_after
-                cloud.first_angular_velocity_after[i] = spin_after
-            cloud.impacts[i] = impacts + 1
-            cloud.last_slipped[i] = slipped
-            cloud.ricochet_point[i] = contact_point(position, radius, normal)
-            cloud.ricochet_time[i] = time
-            cloud.touching[i] = k
+                cloud.state.first_surface[i] = k
+                cloud.state.first_slipped[i] = slipped
+                cloud.state.first_velocity_before[i] = velocity
+                cloud.state.first_angular_velocity_before[i] = spin
+                cloud.state.first_velocity_after[i] = velocity_after
+                cloud.state.first_angular_velocity_after[i] = spin_after
+            cloud.state.impacts[i] = impacts + 1
+            cloud.state.last_slipped[i] = slipped
+            cloud.state.ricochet_point[i] = contact_point(position, radius, normal)
+            cloud.state.ricochet_time[i] = time
+            cloud.state.touching[i] = k
             velocity = velocity_after
             spin = spin_after
         if flying == 0:
-            cloud.phase[i] = ENDED
-            cloud.end_surface[i] = k
+            cloud.state.phase[i] = ENDED
+            cloud.state.end_surface[i] = k
             set_reference(cloud, i, position, velocity, spin, time)
         return position, velocity, spin, time, flying
 
@@ -138,15 +133,15 @@ def make_events(spec) -> SimpleNamespace:
     ):
         """Pellet i's plane contacts up to `step_end` (at most `most`), applied to its reference
         state; it is marked stale if it had one. Returns how many it had."""
-        position = cloud.position[i]
-        velocity = cloud.velocity[i]
-        spin = cloud.angular_velocity[i]
-        time = cloud.time[i]
+        position = cloud.state.position[i]
+        velocity = cloud.state.velocity[i]
+        spin = cloud.state.angular_velocity[i]
+        time = cloud.state.time[i]
         flying = wp.int32(1)
         contacts = wp.int32(0)
         for _ in range(wp.static(BOUNCES + 1)):
             if flying != 0 and contacts < most:
-                wait, k = next_contact(position, velocity, spin, cloud.touching[i], surfaces, physics)
+                wait, k = next_contact(position, velocity, spin, cloud.state.touching[i], surfaces, physics)
                 if k >= 0 and time + wait <= step_end:
                     position, velocity, spin, time, flying = plane_contact(
                         i, k, wait, position, velocity, spin, time, cloud, surfaces, physics, out
@@ -165,23 +160,23 @@ def make_events(spec) -> SimpleNamespace:
         gravity = physics.gravity
         # TC model: a pellet hit again within the contact duration rebounds elastically
         restitution = pair.restitution
-        last_a = cloud.last_collision[a]
-        last_b = cloud.last_collision[b]
+        last_a = cloud.collisions.last_time[a]
+        last_b = cloud.collisions.last_time[b]
         if (not wp.isnan(last_a) and when - last_a <= pair.contact_duration) or (
             not wp.isnan(last_b) and when - last_b <= pair.contact_duration
         ):  # (<=, as reference.collisions)
             restitution = scalar(1.0)
-        age_a = when - cloud.time[a]
-        age_b = when - cloud.time[b]
-        xa = ballistic_position(cloud.position[a], cloud.velocity[a], gravity, age_a)
-        va = ballistic_velocity(cloud.velocity[a], gravity, age_a)
-        wa = cloud.angular_velocity[a]
-        xb = ballistic_position(cloud.position[b], cloud.velocity[b], gravity, age_b)
-        vb = ballistic_velocity(cloud.velocity[b], gravity, age_b)
-        wb = cloud.angular_velocity[b]
+        age_a = when - cloud.state.time[a]
+        age_b = when - cloud.state.time[b]
+        xa = ballistic_position(cloud.state.position[a], cloud.state.velocity[a], gravity, age_a)
+        va = ballistic_velocity(cloud.state.velocity[a], gravity, age_a)
+        wa = cloud.state.angular_velocity[a]
+        xb = ballistic_position(cloud.state.position[b], cloud.state.velocity[b], gravity, age_b)
+        vb = ballistic_velocity(cloud.state.velocity[b], gravity, age_b)
+        wb = cloud.state.angular_velocity[b]
         if wp.static(AIR):  # the air up to the contact (dense.air)
-            va, wa = air.kicked(va, wa, when - cloud.air_time[a], physics)
-            vb, wb = air.kicked(vb, wb, when - cloud.air_time[b], physics)
+            va, wa = air.kicked(va, wa, when - cloud.air.time[a], physics)
+            vb, wb = air.kicked(vb, wb, when - cloud.air.time[b], physics)
         va2, wa2, vb2, wb2, collided, _slipped = pair_law(
             xa,
             va,

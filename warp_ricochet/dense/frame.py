@@ -7,10 +7,7 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from ..physics.ballistic import make_ballistic
 from .constants import (
-    CLOCK_SPEED,
-    CLOCK_TIME,
     FLAG_STALL,
     FLYING,
     FRAME_START,
@@ -20,21 +17,21 @@ from .constants import (
     SHOT_REBUILD,
     SHOT_STALL,
 )
-from .state import dense_types
+from .kit import dense_kit
 
 
 @functools.cache
 def make_frame(spec) -> SimpleNamespace:
     """The frame functions of the dense phase."""
-    d = dense_types(spec)
-    scalar, vec3, Physics, Cloud, Pair = d.scalar, d.vec3, d.Physics, d.Cloud, d.Pair
-    TINY_SPEED, NEVER = d.TINY_SPEED, d.NEVER
-    _entry, _return, ballistic_position, ballistic_velocity = make_ballistic(scalar)
+    kit = dense_kit(spec)
+    scalar, vec3, Physics, Cloud, Pair = kit.scalar, kit.vec3, kit.Physics, kit.Cloud, kit.Pair
+    TINY_SPEED, NEVER = kit.TINY_SPEED, kit.NEVER
+    ballistic_position, ballistic_velocity = kit.ballistic.position, kit.ballistic.velocity
 
     @wp.func
     def drift_point(cloud: Cloud, shot: wp.int32, time: scalar, gravity: vec3):
         """The shot's co-moving reference point: its mean launch state in free flight."""
-        return ballistic_position(cloud.drift_origin[shot], cloud.drift_velocity[shot], gravity, time)
+        return ballistic_position(cloud.frame.drift_origin[shot], cloud.frame.drift_velocity[shot], gravity, time)
 
     @wp.func
     def block_range(pair: Pair, s: wp.int32, b: wp.int32):
@@ -52,24 +49,24 @@ def make_frame(spec) -> SimpleNamespace:
         if cloud.shot_flags[s, SHOT_FRAME] == 0:
             return
         gravity = physics.gravity
-        time = cloud.clock[s, CLOCK_TIME]
+        time = cloud.clock.time[s]
         first, last = block_range(pair, s, row - s * pair.frame_blocks)
         position_sum = vec3()
         velocity_sum = vec3()
         speed_sum = scalar(0.0)
         flying = wp.int32(0)
         for i in range(first, last):
-            if cloud.phase[i] == FLYING:
-                age = time - cloud.time[i]
-                position_sum += ballistic_position(cloud.position[i], cloud.velocity[i], gravity, age)
-                velocity_now = ballistic_velocity(cloud.velocity[i], gravity, age)
+            if cloud.state.phase[i] == FLYING:
+                age = time - cloud.state.time[i]
+                position_sum += ballistic_position(cloud.state.position[i], cloud.state.velocity[i], gravity, age)
+                velocity_now = ballistic_velocity(cloud.state.velocity[i], gravity, age)
                 velocity_sum += velocity_now
                 speed_sum += wp.length(velocity_now)
                 flying += 1
-        cloud.frame_position[row] = position_sum
-        cloud.frame_velocity[row] = velocity_sum
-        cloud.frame_speed[row] = speed_sum
-        cloud.frame_flying[row] = flying
+        cloud.frame.position[row] = position_sum
+        cloud.frame.velocity[row] = velocity_sum
+        cloud.frame.speed[row] = speed_sum
+        cloud.frame.flying[row] = flying
 
     @wp.func
     def recentre(pair: Pair, physics: Physics, cloud: Cloud, s: wp.int32):
@@ -78,38 +75,38 @@ def make_frame(spec) -> SimpleNamespace:
         pellets at its clock. Returns the flying count and their mean speed (not the speed of
         their mean: a head-on pair has none)."""
         gravity = physics.gravity
-        time = cloud.clock[s, CLOCK_TIME]
+        time = cloud.clock.time[s]
         row = s * pair.frame_blocks
-        position_sum = cloud.frame_position[row]
-        velocity_sum = cloud.frame_velocity[row]
-        speed_sum = cloud.frame_speed[row]
-        flying = cloud.frame_flying[row]
+        position_sum = cloud.frame.position[row]
+        velocity_sum = cloud.frame.velocity[row]
+        speed_sum = cloud.frame.speed[row]
+        flying = cloud.frame.flying[row]
         for b in range(1, pair.frame_blocks):
-            position_sum += cloud.frame_position[row + b]
-            velocity_sum += cloud.frame_velocity[row + b]
-            speed_sum += cloud.frame_speed[row + b]
-            flying += cloud.frame_flying[row + b]
+            position_sum += cloud.frame.position[row + b]
+            velocity_sum += cloud.frame.velocity[row + b]
+            speed_sum += cloud.frame.speed[row + b]
+            flying += cloud.frame.flying[row + b]
         speed = scalar(0.0)
         if flying > 0:
             inverse = scalar(1.0) / scalar(flying)
             mean_position = position_sum * inverse
             velocity = velocity_sum * inverse - gravity * time
-            cloud.drift_velocity[s] = velocity
-            cloud.drift_origin[s] = mean_position - velocity * time - (scalar(0.5) * time * time) * gravity
+            cloud.frame.drift_velocity[s] = velocity
+            cloud.frame.drift_origin[s] = mean_position - velocity * time - (scalar(0.5) * time * time) * gravity
             speed = speed_sum * inverse
         return flying, speed
 
     @wp.func
     def framed_shot(pair: Pair, physics: Physics, cloud: Cloud, s: wp.int32):
         """After its blocks' sums: a shot whose frame was due (a checkpoint, a leap) takes it, and
-        its lists are rebuilt in it; at the launch the frame and the mean speed (CLOCK_SPEED, for
+        its lists are rebuilt in it; at the launch the frame and the mean speed (`clock.speed`, for
         the arrival window: `dense.ends`)."""
         due = cloud.shot_flags[s, SHOT_FRAME]
         if due == 0:
             return
         flying, speed = recentre(pair, physics, cloud, s)
         if due == wp.static(FRAME_START):
-            cloud.clock[s, CLOCK_SPEED] = speed
+            cloud.clock.speed[s] = speed
             return  # (the window's pass clears the flag)
         cloud.shot_flags[s, SHOT_FRAME] = 0
         if flying > 0:
@@ -130,12 +127,12 @@ def make_frame(spec) -> SimpleNamespace:
     def passing_time(pair: Pair, physics: Physics, cloud: Cloud, s: wp.int32, spread: scalar, flying: wp.int32):
         """The time the shot's flying pellets take to pass a point: HORIZON_RADII rms radii about
         the frame's point (`spread`: the sum of their squared distances from it, m^2) over their
-        mean speed (CLOCK_SPEED), or over the free-fall speed over the cloud's size for a cloud at
+        mean speed (`clock.speed`), or over the free-fall speed over the cloud's size for a cloud at
         rest."""
         if flying == 0:
             return scalar(0.0)
         radius = wp.sqrt(spread / scalar(flying))
-        speed = cloud.clock[s, CLOCK_SPEED]
+        speed = cloud.clock.speed[s]
         return scalar(HORIZON_RADII) * radius / wp.max(speed + wp.sqrt(wp.length(physics.gravity) * radius), TINY_SPEED)
 
     @wp.func
@@ -143,9 +140,9 @@ def make_frame(spec) -> SimpleNamespace:
         """Pellet i's position and velocity at `time` relative to a frame there (gravity cancels:
         between events the relative motion is a straight line)."""
         gravity = physics.gravity
-        age = time - cloud.time[i]
-        relative = ballistic_position(cloud.position[i], cloud.velocity[i], gravity, age) - frame_point
-        relative_velocity = ballistic_velocity(cloud.velocity[i], gravity, age) - frame_velocity
+        age = time - cloud.state.time[i]
+        relative = ballistic_position(cloud.state.position[i], cloud.state.velocity[i], gravity, age) - frame_point
+        relative_velocity = ballistic_velocity(cloud.state.velocity[i], gravity, age) - frame_velocity
         return relative, relative_velocity
 
     @wp.func
@@ -153,14 +150,14 @@ def make_frame(spec) -> SimpleNamespace:
         """Pellet i's position and velocity relative to its shot's co-moving frame, at the shot's
         clock."""
         gravity = physics.gravity
-        time = cloud.clock[s, CLOCK_TIME]
+        time = cloud.clock.time[s]
         return relative_to_frame(
             cloud,
             physics,
             i,
             time,
             drift_point(cloud, s, time, gravity),
-            ballistic_velocity(cloud.drift_velocity[s], gravity, time),
+            ballistic_velocity(cloud.frame.drift_velocity[s], gravity, time),
         )
 
     @wp.func
@@ -169,9 +166,9 @@ def make_frame(spec) -> SimpleNamespace:
         its shot's skin from where its list was built (relative to the frame its motion is a
         straight line: gravity cancels); `time` if it is there already and moving out."""
         gravity = physics.gravity
-        moved = position - drift_point(cloud, s, time, gravity) - cloud.build_offset[i]
-        relative_velocity = velocity - ballistic_velocity(cloud.drift_velocity[s], gravity, time)
-        half_skin = cloud.half_skin[s]
+        moved = position - drift_point(cloud, s, time, gravity) - cloud.lists.build_offset[i]
+        relative_velocity = velocity - ballistic_velocity(cloud.frame.drift_velocity[s], gravity, time)
+        half_skin = cloud.lists.half_skin[s]
         a = wp.dot(relative_velocity, relative_velocity)
         b = wp.dot(moved, relative_velocity)
         c = wp.dot(moved, moved) - half_skin * half_skin
@@ -189,32 +186,35 @@ def make_frame(spec) -> SimpleNamespace:
     @wp.func
     def stepping(cloud: Cloud, i: wp.int32, s: wp.int32):
         """Pellet i of shot s takes part in this step."""
-        return cloud.phase[i] == FLYING and cloud.shot_flags[s, SHOT_DONE] == 0 and cloud.shot_flags[s, SHOT_STALL] == 0
+        return cloud.state.phase[i] == FLYING and cloud.shot_flags[s, SHOT_DONE] == 0 and cloud.shot_flags[s, SHOT_STALL] == 0
 
     @wp.func
     def set_reference(cloud: Cloud, i: wp.int32, position: vec3, velocity: vec3, spin: vec3, time: scalar):
         """Pellet i's new reference state (its flight from here is the parabola of eq. 36)."""
-        cloud.position[i] = position
-        cloud.velocity[i] = velocity
-        cloud.angular_velocity[i] = spin
-        cloud.time[i] = time
+        cloud.state.position[i] = position
+        cloud.state.velocity[i] = velocity
+        cloud.state.angular_velocity[i] = spin
+        cloud.state.time[i] = time
 
     @wp.func
     def set_build_point(cloud: Cloud, physics: Physics, i: wp.int32, time: scalar, origin: vec3):
         """Pellet i's co-moving grid point at its shot's clock (`origin`: the drift point then),
         which its skin is measured from until the next build."""
-        relative = ballistic_position(cloud.position[i], cloud.velocity[i], physics.gravity, time - cloud.time[i]) - origin
-        cloud.build_offset[i] = relative
-        cloud.grid_point[i] = relative
+        relative = (
+            ballistic_position(cloud.state.position[i], cloud.state.velocity[i], physics.gravity, time - cloud.state.time[i])
+            - origin
+        )
+        cloud.lists.build_offset[i] = relative
+        cloud.lists.grid_point[i] = relative
         return relative
 
     @wp.func
     def mark_stale(cloud: Cloud, i: wp.int32):
         """Pellet i changed (or ended): its event, and its neighbours', are found again (the
         lists are symmetric, so every pellet that could have chosen i is marked)."""
-        cloud.stale[i] = 1
-        for n in range(cloud.neighbour_count[i]):
-            cloud.stale[cloud.neighbours[i, n]] = 1
+        cloud.event.stale[i] = 1
+        for n in range(cloud.lists.neighbour_count[i]):
+            cloud.event.stale[cloud.lists.neighbours[i, n]] = 1
 
     return SimpleNamespace(
         drift_point=drift_point,

@@ -17,11 +17,11 @@ from .checkpoint import make_checkpoint
 from .constants import FLAG_OVERFLOW, SHOT_DONE, SHOT_LEAP, SHOT_REBUILD, SHOT_STALL
 from .ends import make_ends
 from .frame import make_frame
+from .kit import dense_kit
 from .leap import make_leap
 from .lists import make_lists
 from .rounds import make_rounds
 from .separation import make_separation
-from .state import dense_types
 from .step import make_step
 
 STEP_MAX_REGISTERS = 40  # CUDA registers a thread of a step's per-pellet kernels (bench/RESULTS.md)
@@ -30,9 +30,9 @@ STEP_MAX_REGISTERS = 40  # CUDA registers a thread of a step's per-pellet kernel
 @functools.cache
 def make_setup_kernels(spec) -> SimpleNamespace:
     """Kernels of the launch, the lists, the release and the totals."""
-    d = dense_types(spec)
-    Surfaces, Physics, Outputs, Source, Cloud, Pair = d.Surfaces, d.Physics, d.Outputs, d.Source, d.Cloud, d.Pair
-    opts = d.opts
+    kit = dense_kit(spec)
+    Surfaces, Physics, Outputs, Source, Cloud, Pair = kit.Surfaces, kit.Physics, kit.Outputs, kit.Source, kit.Cloud, kit.Pair
+    opts = kit.opts
     end_fns, list_fns = make_ends(spec), make_lists(spec)
     separate_shot = make_separation(spec).separate_shot
 
@@ -111,6 +111,11 @@ def make_setup_kernels(spec) -> SimpleNamespace:
             end_fns.release_pellet(i, pair, physics, cloud)
 
     @wp.kernel(**opts)
+    def trajectory_frame_kernel(physics: Physics, cloud: Cloud, points: wp.array(dtype=wp.vec3d)):
+        """One thread a pellet: its centre for a trajectory frame (dense.ends.trajectory_point)."""
+        end_fns.trajectory_point(wp.tid(), physics, cloud, points)
+
+    @wp.kernel(**opts)
     def block_totals_kernel(pair: Pair, cloud: Cloud, blocks: wp.array2d(dtype=wp.float64)):
         """One thread a block of a shot (frame blocks): its collision totals."""
         end_fns.block_totals(wp.tid(), pair, cloud, blocks)
@@ -130,6 +135,7 @@ def make_setup_kernels(spec) -> SimpleNamespace:
         grid_points_kernel=grid_points_kernel,
         neighbours_kernel=neighbours_kernel,
         release_kernel=release_kernel,
+        trajectory_frame_kernel=trajectory_frame_kernel,
         block_totals_kernel=block_totals_kernel,
         shot_totals_kernel=shot_totals_kernel,
     )
@@ -138,13 +144,12 @@ def make_setup_kernels(spec) -> SimpleNamespace:
 @functools.cache
 def make_step_kernels(spec) -> SimpleNamespace:
     """Kernels of a step, of a checkpoint, and of the CPU's block and whole phase."""
-    d = dense_types(spec)
-    Surfaces, Physics, Outputs, Cloud, Pair = d.Surfaces, d.Physics, d.Outputs, d.Cloud, d.Pair
-    opts = d.opts
+    kit = dense_kit(spec)
+    Surfaces, Physics, Outputs, Cloud, Pair, AIR = kit.Surfaces, kit.Physics, kit.Outputs, kit.Cloud, kit.Pair, kit.AIR
+    opts = kit.opts
     hot = {**opts, "cuda_max_registers": STEP_MAX_REGISTERS}  # (ignored on the CPU)
     step_fns, round_fns, checkpoint_fns, list_fns = make_step(spec), make_rounds(spec), make_checkpoint(spec), make_lists(spec)
     frame_fns = make_frame(spec)
-    AIR = spec.in_air
     air = make_dense_air(spec) if AIR else None
     leap_fns = make_leap(spec) if AIR else None
 
@@ -174,7 +179,7 @@ def make_step_kernels(spec) -> SimpleNamespace:
 
     @wp.kernel(**hot)
     def choose_kernel(round: wp.int32, look: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
-        if round > 0 and look == 0 and cloud.round_applied[round - 1] == 0:
+        if round > 0 and look == 0 and cloud.event.round_applied[round - 1] == 0:
             return  # a round after one that applied nothing: no pellet is stale, every choice is the same
         t = wp.tid()
         for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
@@ -182,7 +187,7 @@ def make_step_kernels(spec) -> SimpleNamespace:
 
     @wp.kernel(**hot)
     def resolve_kernel(round: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs):
-        if round > 0 and cloud.round_applied[round - 1] == 0:
+        if round > 0 and cloud.event.round_applied[round - 1] == 0:
             return  # a round after one that applied nothing has nothing to apply
         t = wp.tid()
         for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):

@@ -27,13 +27,8 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from ..physics.ballistic import make_ballistic
-from ..physics.flight import make_flight
-from ..physics.geometry import make_geometry
 from .air import make_dense_air
 from .constants import (
-    CLOCK_LEAP,
-    CLOCK_TIME,
     FLYING,
     FRAME_RECENTRE,
     SHOT_FRAME,
@@ -42,22 +37,22 @@ from .constants import (
 )
 from .events import make_events
 from .frame import make_frame
-from .state import dense_types
+from .kit import dense_kit
 
 
 @functools.cache
 def make_leap(spec) -> SimpleNamespace:
     """pair_leap, plane_leap, leap_pellet and leaped_shot, for a spec in air."""
-    d = dense_types(spec)
-    scalar, vec3, Surfaces, Physics, Outputs, Cloud, Pair = d.scalar, d.vec3, d.Surfaces, d.Physics, d.Outputs, d.Cloud, d.Pair
-    NEVER, CLOSING_TOLERANCE2, BOUNCES = d.NEVER, d.CLOSING_TOLERANCE2, spec.bounces
+    kit = dense_kit(spec)
+    scalar, vec3, Surfaces, Physics = kit.scalar, kit.vec3, kit.Surfaces, kit.Physics
+    Outputs, Cloud, Pair = kit.Outputs, kit.Cloud, kit.Pair
+    NEVER, CLOSING_TOLERANCE2, BOUNCES = kit.NEVER, kit.CLOSING_TOLERANCE2, kit.BOUNCES
     TINY_ACCELERATION = scalar(TINY_ACCELERATION_VALUE)
-    entry_time, _return, ballistic_position, ballistic_velocity = make_ballistic(scalar)
-    to_contact_within = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws).to_contact_within
+    entry_time, geo, STATIC_PLANES = kit.ballistic.entry_time, kit.geo, kit.STATIC_PLANES
+    to_contact_within = kit.run_flight.to_contact_within
     air, ev, fr = make_dense_air(spec), make_events(spec), make_frame(spec)
     contact_time, plane_contact = ev.contact_time, ev.plane_contact
     set_reference = fr.set_reference
-    geo, STATIC_PLANES = make_geometry(spec.precision), spec.static_planes
 
     @wp.func
     def pair_leap(d: vec3, u: vec3, reach: scalar, margin: scalar, bound: scalar, speeds: scalar):
@@ -121,14 +116,14 @@ def make_leap(spec) -> SimpleNamespace:
         the integrated flight, its contacts on the way applied as in a step; its reference state
         and air time move to where it is then."""
         s = i / pair.count
-        if cloud.phase[i] != FLYING or cloud.shot_flags[s, SHOT_LEAP] == 0:
+        if cloud.state.phase[i] != FLYING or cloud.shot_flags[s, SHOT_LEAP] == 0:
             return
-        start = cloud.clock[s, CLOCK_LEAP]
-        end = cloud.clock[s, CLOCK_TIME]
+        start = cloud.clock.leap[s]
+        end = cloud.clock.time[s]
         position, velocity, spin = air.drift_end(cloud, i, start, start, physics)
         set_reference(cloud, i, position, velocity, spin, start)
         air.air_until(cloud, i, start)
-        cloud.touching[i] = -1  # (off any plane it left: plane times from the gap)
+        cloud.state.touching[i] = -1  # (off any plane it left: plane times from the gap)
         time = start
         touching = wp.int32(-1)
         flying = wp.int32(1)
@@ -151,11 +146,11 @@ def make_leap(spec) -> SimpleNamespace:
                     time = end
                 else:
                     flying = wp.int32(0)  # given up: it stays at the leap's start (set above), stepped on from there
-        if cloud.phase[i] == FLYING and time > start:
+        if cloud.state.phase[i] == FLYING and time > start:
             set_reference(cloud, i, position, velocity, spin, time)
             air.air_until(cloud, i, time)
-            cloud.touching[i] = -1
-        cloud.stale[i] = 1
+            cloud.state.touching[i] = -1
+        cloud.event.stale[i] = 1
 
     @wp.func
     def leaped_shot(s: wp.int32, pair: Pair, physics: Physics, cloud: Cloud):

@@ -8,16 +8,16 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from .constants import CELL_MARGIN, CLOCK_TIME, FLAG_OVERFLOW, FLYING, SHOT_DONE, SHOT_REBUILD
+from .constants import CELL_MARGIN, FLAG_OVERFLOW, FLYING, SHOT_DONE, SHOT_REBUILD
 from .frame import make_frame
-from .state import dense_types
+from .kit import dense_kit
 
 
 @functools.cache
 def make_lists(spec) -> SimpleNamespace:
     """The list builders of the dense phase."""
-    d = dense_types(spec)
-    scalar, vec3, Physics, Cloud, Pair = d.scalar, d.vec3, d.Physics, d.Cloud, d.Pair
+    kit = dense_kit(spec)
+    scalar, vec3, Physics, Cloud, Pair = kit.scalar, kit.vec3, kit.Physics, kit.Cloud, kit.Pair
     fr = make_frame(spec)
     set_build_point, drift_point = fr.set_build_point, fr.drift_point
 
@@ -29,7 +29,7 @@ def make_lists(spec) -> SimpleNamespace:
         s = i / pair.count
         if cloud.shot_flags[s, SHOT_REBUILD] == 0:
             return
-        time = cloud.clock[s, CLOCK_TIME]
+        time = cloud.clock.time[s]
         set_build_point(cloud, physics, i, time, drift_point(cloud, s, time, physics.gravity))
 
     @wp.func
@@ -39,28 +39,28 @@ def make_lists(spec) -> SimpleNamespace:
         s = i / pair.count
         if cloud.shot_flags[s, SHOT_REBUILD] == 0:
             return
-        cloud.neighbour_count[i] = 0
-        if cloud.phase[i] != FLYING or cloud.shot_flags[s, SHOT_DONE] != 0:
+        cloud.lists.neighbour_count[i] = 0
+        if cloud.state.phase[i] != FLYING or cloud.shot_flags[s, SHOT_DONE] != 0:
             return
-        point = cloud.grid_point[i]
-        reach = scalar(2.0) * (physics.radius + cloud.half_skin[s])
+        point = cloud.lists.grid_point[i]
+        reach = scalar(2.0) * (physics.radius + cloud.lists.half_skin[s])
         reach2 = reach * reach
-        capacity = cloud.neighbours.shape[1]
+        capacity = cloud.lists.neighbours.shape[1]
         found = wp.int32(0)
         query = wp.hash_grid_query(grid, point, reach, s)  # grouped: pellets of shot s only
         j = wp.int32(0)
         while wp.hash_grid_query_next(query, j):
-            if j != i and cloud.phase[j] == FLYING:
-                d = cloud.grid_point[j] - point
+            if j != i and cloud.state.phase[j] == FLYING:
+                d = cloud.lists.grid_point[j] - point
                 if wp.dot(d, d) <= reach2:  # the query returns candidates: filter by distance
                     if found < capacity:
-                        cloud.neighbours[i, found] = j
+                        cloud.lists.neighbours[i, found] = j
                     found += 1
         if found > capacity:
             wp.atomic_max(cloud.flags, FLAG_OVERFLOW, found)
             found = capacity
-        cloud.neighbour_count[i] = found
-        cloud.stale[i] = 1  # a new list: its earliest event is found again
+        cloud.lists.neighbour_count[i] = found
+        cloud.event.stale[i] = 1  # a new list: its earliest event is found again
 
     @wp.func
     def cell_bucket(cell: wp.vec3i, mask: wp.uint32):
@@ -86,14 +86,14 @@ def make_lists(spec) -> SimpleNamespace:
     @wp.func
     def list_pair(cloud: Cloud, i: wp.int32, j: wp.int32, capacity: wp.int32):
         """i and j are neighbours: each goes on the other's list (counted beyond its capacity)."""
-        found = cloud.neighbour_count[i]
+        found = cloud.lists.neighbour_count[i]
         if found < capacity:
-            cloud.neighbours[i, found] = j
-        cloud.neighbour_count[i] = found + 1
-        found = cloud.neighbour_count[j]
+            cloud.lists.neighbours[i, found] = j
+        cloud.lists.neighbour_count[i] = found + 1
+        found = cloud.lists.neighbour_count[j]
         if found < capacity:
-            cloud.neighbours[j, found] = i
-        cloud.neighbour_count[j] = found + 1
+            cloud.lists.neighbours[j, found] = i
+        cloud.lists.neighbour_count[j] = found + 1
 
     @wp.func
     def cell_lists_shot(
@@ -116,12 +116,12 @@ def make_lists(spec) -> SimpleNamespace:
         `cloud.stop` is set (an interrupt)."""
         buckets = bucket_end.shape[0] - 1
         mask = wp.uint32(buckets - 1)
-        capacity = cloud.neighbours.shape[1]
+        capacity = cloud.lists.neighbours.shape[1]
         first = s * pair.count
-        time = cloud.clock[s, CLOCK_TIME]
+        time = cloud.clock.time[s]
         origin = drift_point(cloud, s, time, physics.gravity)
         done = cloud.shot_flags[s, SHOT_DONE] != 0
-        reach = scalar(2.0) * (physics.radius + cloud.half_skin[s])
+        reach = scalar(2.0) * (physics.radius + cloud.lists.half_skin[s])
         reach2 = reach * reach
         inverse = wp.float64(1.0) / (wp.float64(reach) * wp.float64(CELL_MARGIN))
         for b in range(buckets + 1):
@@ -129,9 +129,9 @@ def make_lists(spec) -> SimpleNamespace:
         for k in range(pair.count):
             i = first + k
             relative = set_build_point(cloud, physics, i, time, origin)
-            cloud.neighbour_count[i] = 0
-            if cloud.phase[i] == FLYING and not done:
-                cloud.stale[i] = 1  # a new list: its earliest event is found again
+            cloud.lists.neighbour_count[i] = 0
+            if cloud.state.phase[i] == FLYING and not done:
+                cloud.event.stale[i] = 1  # a new list: its earliest event is found again
                 cell = cell_of(relative, inverse)
                 cells[i] = cell
                 b = cell_bucket(cell, mask)
@@ -141,7 +141,7 @@ def make_lists(spec) -> SimpleNamespace:
         # (bucket_end[b] is where bucket b starts; filling moves it to where b ends)
         for k in range(pair.count):
             i = first + k
-            if cloud.phase[i] == FLYING and not done:
+            if cloud.state.phase[i] == FLYING and not done:
                 b = cell_bucket(cells[i], mask)
                 rows[bucket_end[b]] = i
                 bucket_end[b] = bucket_end[b] + 1
@@ -149,9 +149,9 @@ def make_lists(spec) -> SimpleNamespace:
             i = first + k
             if cloud.stop[0] != 0:  # an interrupt: the host abandons the chunk
                 return
-            if cloud.phase[i] != FLYING or done:
+            if cloud.state.phase[i] != FLYING or done:
                 continue
-            point = cloud.grid_point[i]
+            point = cloud.lists.grid_point[i]
             cell = cells[i]
             # the cells around it from its own on (dz, dy, dx after 0, 0, 0): each pair once
             for dz in range(2):
@@ -168,15 +168,15 @@ def make_lists(spec) -> SimpleNamespace:
                         for m in range(start, bucket_end[b]):
                             j = rows[m]
                             if (j > i or not own) and cells[j] == around:
-                                d = cloud.grid_point[j] - point
+                                d = cloud.lists.grid_point[j] - point
                                 if wp.dot(d, d) <= reach2:
                                     list_pair(cloud, i, j, capacity)
         for k in range(pair.count):
             i = first + k
-            found = cloud.neighbour_count[i]
+            found = cloud.lists.neighbour_count[i]
             if found > capacity:
                 wp.atomic_max(cloud.flags, FLAG_OVERFLOW, found)
-                cloud.neighbour_count[i] = capacity
+                cloud.lists.neighbour_count[i] = capacity
 
     return SimpleNamespace(
         grid_point_pellet=grid_point_pellet,

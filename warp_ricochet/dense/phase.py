@@ -22,7 +22,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
 import warp as wp
 
 from .. import interrupts
@@ -32,13 +31,10 @@ from ..tallies.collisions import SHOT_TOTALS
 from .constants import (
     BLOCK_STEPS,
     CELL_REACHES,
-    CLOCK_STEPS,
-    CLOCK_TIME,
     FLAG_OVERFLOW,
     FLAG_REMAINING,
     FLAG_STALL,
     FLAG_WIDENED,
-    FLYING,
     HORIZON_PAIRS_PER_LAUNCH,
     SEPARATION_PELLETS_PER_LAUNCH,
 )
@@ -103,6 +99,7 @@ class DensePhase:
         self.reach = 2.0 * model.radius + coll.skin * 2.0 * model.radius
         self.graph = None
         self.last_frame_step = None
+        self.frame_points = None  # (capacity,) float64 centres of a trajectory frame (take_frame)
         self.stop = self.cloud.stop.numpy() if cpu else None  # (a view: the host sets it, a launch reads it)
 
     def run(self, first_index: int, shots: int, source, outputs, frames=None):
@@ -179,7 +176,7 @@ class DensePhase:
             c.flags.zero_()
             if flags[FLAG_STALL]:
                 if flags[FLAG_WIDENED]:  # the grid's cells follow the widest reach (a shot's skin widened)
-                    self.reach = 2.0 * self.model.radius + 2.0 * float(c.widest_half_skin.numpy()[0])
+                    self.reach = 2.0 * self.model.radius + 2.0 * float(c.lists.widest_half_skin.numpy()[0])
                 if self._rebuild(pellets):
                     commands = self._step_commands(pellets, shots, outputs)
                     self.graph = None
@@ -236,7 +233,7 @@ class DensePhase:
                 # (one shot: no groups; a grouped build costs twice as much on the CPU, and a grouped
                 # query of an ungrouped grid filters nothing)
                 groups = self.groups[:pellets] if pellets > self.count else None
-                self.grid.build(self.cloud.grid_point[:pellets], CELL_REACHES * self.reach, groups=groups)
+                self.grid.build(self.cloud.lists.grid_point[:pellets], CELL_REACHES * self.reach, groups=groups)
                 self.list_commands[1].launch()
             if not self._grew_lists():
                 return grew
@@ -253,7 +250,7 @@ class DensePhase:
         found = int(c.flags.numpy()[FLAG_OVERFLOW])
         if found == 0:
             return False
-        c.neighbours = wp.zeros((self.capacity, int(found * 1.25) + 1), dtype=wp.int32, device=self.device)
+        c.lists.neighbours = wp.zeros((self.capacity, int(found * 1.25) + 1), dtype=wp.int32, device=self.device)
         c.flags[FLAG_OVERFLOW:].zero_()
         return True
 
@@ -363,20 +360,19 @@ def whole_phase(dense: DensePhase):
 
 
 def take_frame(dense, pellets: int, frames):
-    """A trajectory frame at a checkpoint every `block_steps` steps (one shot): each pellet's
-    centre then (where its flight ended, for those that ended), to `frames(step, time, positions)`."""
-    clock = dense.cloud.clock.numpy()[0]
-    steps = int(clock[CLOCK_STEPS])
+    """A trajectory frame at a checkpoint every `block_steps` steps (of the first shot): each pellet's
+    centre then (where its flight ended, for those that ended), to `frames(step, time, positions)`;
+    the centres are computed on the device (`trajectory_frame_kernel`), the host copies them."""
+    clock = dense.cloud.clock
+    steps = int(clock.steps.numpy()[0])
     if steps % dense.block_steps or steps == dense.last_frame_step:
         return  # a block cut short by a list rebuild: not a frame
     dense.last_frame_step = steps
-    now = float(clock[CLOCK_TIME])
-    c = dense.cloud
-    x, v, t = c.position.numpy()[:pellets], c.velocity.numpy()[:pellets], c.time.numpy()[:pellets]
-    flying = c.phase.numpy()[:pellets] == FLYING
-    g = np.asarray(dense.model.physics.gravity, np.float64)
-    age = np.where(flying, now - t, 0.0)[:, None]
-    frames(steps, now, x + v * age + 0.5 * g * age**2)
+    now = float(clock.time.numpy()[0])
+    if dense.frame_points is None:
+        dense.frame_points = wp.empty(dense.capacity, dtype=wp.vec3d, device=dense.device)
+    dense._launch("trajectory_frame_kernel", pellets, [dense.model.physics, dense.cloud, dense.frame_points])
+    frames(steps, now, dense.frame_points.numpy()[:pellets].copy())  # (a copy: CPU arrays share memory)
 
 
 def separation_buffers(device, shots: int, count: int, sampled: bool):

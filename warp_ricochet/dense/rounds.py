@@ -7,34 +7,28 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from ..physics.ballistic import make_ballistic
 from .air import make_dense_air
 from .constants import (
-    CLOCK_CUT,
-    CLOCK_SKIN,
-    CLOCK_STEP,
-    CLOCK_TIME,
     FLYING,
     MIN_CUT_FRACTION,
 )
 from .events import make_events
 from .frame import make_frame
-from .state import dense_flight, dense_types
+from .kit import dense_kit
 
 
 @functools.cache
 def make_rounds(spec) -> SimpleNamespace:
     """choose_pellet, step_end_of and resolve_pellet."""
-    d = dense_types(spec)
-    scalar, Surfaces, Physics, Outputs, Cloud, Pair = d.scalar, d.Surfaces, d.Physics, d.Outputs, d.Cloud, d.Pair
-    NEVER = d.NEVER
-    next_contact = dense_flight(spec).next_contact
-    _entry, _return, ballistic_position, ballistic_velocity = make_ballistic(scalar)
+    kit = dense_kit(spec)
+    scalar, Surfaces, Physics, Outputs, Cloud, Pair = kit.scalar, kit.Surfaces, kit.Physics, kit.Outputs, kit.Cloud, kit.Pair
+    NEVER, AIR, BOUNCES = kit.NEVER, kit.AIR, kit.BOUNCES
+    ballistic_position, ballistic_velocity = kit.ballistic.position, kit.ballistic.velocity
+    next_contact = kit.flight.next_contact
     ev, fr = make_events(spec), make_frame(spec)
     contact_time, plane_outcome, pair_outcome = ev.contact_time, ev.plane_outcome, ev.pair_outcome
     plane_contacts_until, mark_stale = ev.plane_contacts_until, fr.mark_stale
     stepping, skin_exit, set_reference = fr.stepping, fr.skin_exit, fr.set_reference
-    AIR, BOUNCES = spec.in_air, spec.bounces
     air = make_dense_air(spec) if AIR else None  # (its calls compile only in air)
 
     @wp.func(inline=True)
@@ -52,33 +46,35 @@ def make_rounds(spec) -> SimpleNamespace:
         skin limit at its own time: the step ends there, and the next one is sized by the air
         for the motion after it (a slow rebound under a strong lift returns within microseconds). A round after one that applied
         nothing has nothing to do (no pellet is stale, every choice is the same)."""
-        if cloud.stale[i] == 0 and cloud.event_partner[i] == -1:
+        if cloud.event.stale[i] == 0 and cloud.event.partner[i] == -1:
             return  # nothing ahead
         s = i / pair.count
         if not stepping(cloud, i, s):
             return
-        if cloud.stale[i] != 0:
-            cloud.stale[i] = 0
+        if cloud.event.stale[i] != 0:
+            cloud.event.stale[i] = 0
             gravity = physics.gravity
-            position = cloud.position[i]
-            velocity = cloud.velocity[i]
-            time = cloud.time[i]
-            wait, k = next_contact(position, velocity, cloud.angular_velocity[i], cloud.touching[i], surfaces, physics)
+            position = cloud.state.position[i]
+            velocity = cloud.state.velocity[i]
+            time = cloud.state.time[i]
+            wait, k = next_contact(
+                position, velocity, cloud.state.angular_velocity[i], cloud.state.touching[i], surfaces, physics
+            )
             best_time = NEVER
             best = wp.int32(-1)
             if k >= 0:
                 best_time = time + wait
                 best = -2 - k
             reach2 = scalar(4.0) * physics.radius * physics.radius
-            for n in range(cloud.neighbour_count[i]):
-                j = cloud.neighbours[i, n]
-                if cloud.phase[j] == FLYING:
-                    other_time = cloud.time[j]
+            for n in range(cloud.lists.neighbour_count[i]):
+                j = cloud.lists.neighbours[i, n]
+                if cloud.state.phase[j] == FLYING:
+                    other_time = cloud.state.time[j]
                     start = wp.max(time, other_time)  # both reference states hold from here
                     d = ballistic_position(
-                        cloud.position[j], cloud.velocity[j], gravity, start - other_time
+                        cloud.state.position[j], cloud.state.velocity[j], gravity, start - other_time
                     ) - ballistic_position(position, velocity, gravity, start - time)
-                    vj = ballistic_velocity(cloud.velocity[j], gravity, start - other_time)
+                    vj = ballistic_velocity(cloud.state.velocity[j], gravity, start - other_time)
                     vi = ballistic_velocity(velocity, gravity, start - time)
                     delay = contact_time(d, vj - vi, reach2, wp.length(vi) + wp.length(vj))
                     if delay >= scalar(0.0):
@@ -86,13 +82,13 @@ def make_rounds(spec) -> SimpleNamespace:
                         if when < best_time or (when == best_time and best >= 0 and j < best):
                             best_time = when
                             best = j
-            cloud.event_time[i] = best_time
-            cloud.event_partner[i] = best
+            cloud.event.time[i] = best_time
+            cloud.event.partner[i] = best
             exit = NEVER
-            if best <= -2 and cloud.impacts[i] < wp.static(BOUNCES):
+            if best <= -2 and cloud.state.impacts[i] < wp.static(BOUNCES):
                 # (the contact after the last ricochet ends the flight: no skin after it, no outcome to find)
                 at, _v, _w, velocity_after, _w_after, _slipped, contact, flying, impacted = plane_outcome(
-                    i, k, wait, position, velocity, cloud.angular_velocity[i], time, cloud, surfaces, physics
+                    i, k, wait, position, velocity, cloud.state.angular_velocity[i], time, cloud, surfaces, physics
                 )
                 if flying != 0 and impacted != 0:
                     exit = skin_exit(cloud, physics, i, s, at, velocity_after, contact)
@@ -107,28 +103,28 @@ def make_rounds(spec) -> SimpleNamespace:
                     exit = skin_exit(cloud, physics, i, s, xa, va2, best_time)
                 else:
                     exit = skin_exit(cloud, physics, i, s, xb, vb2, best_time)
-            cloud.event_exit[i] = exit
-        step_start = cloud.clock[s, wp.static(CLOCK_TIME)]
-        step_end = step_start + cloud.clock[s, wp.static(CLOCK_STEP)]
-        if cloud.event_time[i] <= step_end:
+            cloud.event.exit_time[i] = exit
+        step_start = cloud.clock.time[s]
+        step_end = step_start + cloud.clock.step[s]
+        if cloud.event.time[i] <= step_end:
             # (after the last round too: finish_kernel applies the plane contacts left in the step)
             # (an atomic only where it can lower the shot's value)
-            if cloud.event_exit[i] < cloud.clock[s, wp.static(CLOCK_SKIN)]:
-                wp.atomic_min(cloud.clock, s, wp.static(CLOCK_SKIN), cloud.event_exit[i])
-            if look != 0 and cloud.event_partner[i] >= 0 and cloud.event_time[i] < step_end:
-                cut = wp.max(cloud.event_time[i], step_start)
-                if cut < cloud.clock[s, wp.static(CLOCK_CUT)]:
-                    wp.atomic_min(cloud.clock, s, wp.static(CLOCK_CUT), cut)
+            if cloud.event.exit_time[i] < cloud.clock.skin[s]:
+                wp.atomic_min(cloud.clock.skin, s, cloud.event.exit_time[i])
+            if look != 0 and cloud.event.partner[i] >= 0 and cloud.event.time[i] < step_end:
+                cut = wp.max(cloud.event.time[i], step_start)
+                if cut < cloud.clock.cut[s]:
+                    wp.atomic_min(cloud.clock.cut, s, cut)
 
     @wp.func
     def step_end_of(cloud: Cloud, s: wp.int32):
         """Where the shot's step ends: its full step, or the earliest pair event its rounds left
         unresolved (but at least MIN_CUT_FRACTION of the step), or the earliest time a pellet
         changed in the step leaves its skin (no minimum there: no pellet outruns its list)."""
-        time = cloud.clock[s, CLOCK_TIME]
-        step = cloud.clock[s, CLOCK_STEP]
-        cut = time + wp.max(wp.min(step, cloud.clock[s, CLOCK_CUT] - time), step * scalar(MIN_CUT_FRACTION))
-        return wp.min(cut, cloud.clock[s, CLOCK_SKIN])
+        time = cloud.clock.time[s]
+        step = cloud.clock.step[s]
+        cut = time + wp.max(wp.min(step, cloud.clock.cut[s] - time), step * scalar(MIN_CUT_FRACTION))
+        return wp.min(cut, cloud.clock.skin[s])
 
     @wp.func(inline=True)
     def resolve_pellet(
@@ -144,22 +140,19 @@ def make_rounds(spec) -> SimpleNamespace:
         s = i / pair.count
         if not stepping(cloud, i, s):
             return
-        partner = cloud.event_partner[i]
+        partner = cloud.event.partner[i]
         if partner == -1 or (partner >= 0 and partner < i):
             return
-        step_start = cloud.clock[s, CLOCK_TIME]
-        step_end = step_start + cloud.clock[s, CLOCK_STEP]
-        # (wp.static for CLOCK_SKIN here: Warp 1.19 merges a module constant used inside a branch
-        # that returns into a variable set only on that path, and a later use on another path
-        # read it unset: a wrong index into the clock)
-        skin_limit = cloud.clock[s, wp.static(CLOCK_SKIN)]
-        when = cloud.event_time[i]
+        step_start = cloud.clock.time[s]
+        step_end = step_start + cloud.clock.step[s]
+        skin_limit = cloud.clock.skin[s]
+        when = cloud.event.time[i]
         if partner <= -2:
             if when <= step_end and when <= skin_limit:
                 if plane_contacts_until(i, step_end, 1, cloud, surfaces, physics, out) > 0:  # the one it chose
-                    cloud.round_applied[round] = 1
+                    cloud.event.round_applied[round] = 1
             return
-        if when >= step_end or cloud.event_partner[partner] != i or cloud.phase[partner] != FLYING:
+        if when >= step_end or cloud.event.partner[partner] != i or cloud.state.phase[partner] != FLYING:
             return
         a = i
         b = partner
@@ -172,14 +165,14 @@ def make_rounds(spec) -> SimpleNamespace:
             before = pair.mass * (wp.dot(va, va) + wp.dot(vb, vb)) + pair.inertia * (wp.dot(wa, wa) + wp.dot(wb, wb))
             after = pair.mass * (wp.dot(va2, va2) + wp.dot(vb2, vb2)) + pair.inertia * (wp.dot(wa2, wa2) + wp.dot(wb2, wb2))
             half = scalar(0.25) * (before - after)
-            cloud.energy_lost[a] = cloud.energy_lost[a] + half
-            cloud.energy_lost[b] = cloud.energy_lost[b] + half
-            cloud.collision_count[a] = cloud.collision_count[a] + 1
-            cloud.collision_count[b] = cloud.collision_count[b] + 1
-            cloud.last_collision[a] = when
-            cloud.last_collision[b] = when
-            cloud.touching[a] = -1  # they may have left the plane: plane times from the actual gap
-            cloud.touching[b] = -1
+            cloud.collisions.energy_lost[a] = cloud.collisions.energy_lost[a] + half
+            cloud.collisions.energy_lost[b] = cloud.collisions.energy_lost[b] + half
+            cloud.collisions.count[a] = cloud.collisions.count[a] + 1
+            cloud.collisions.count[b] = cloud.collisions.count[b] + 1
+            cloud.collisions.last_time[a] = when
+            cloud.collisions.last_time[b] = when
+            cloud.state.touching[a] = -1  # they may have left the plane: plane times from the actual gap
+            cloud.state.touching[b] = -1
         # (a pair the law does not collide, grazing within rounding, moves its reference states to
         # `when` too: found again from there, it is no longer closing, and the clock moves on)
         set_reference(cloud, a, xa, va2, wa2, when)
@@ -187,7 +180,7 @@ def make_rounds(spec) -> SimpleNamespace:
         if wp.static(AIR):  # (pair_outcome gave them the air up to the contact)
             air.air_until(cloud, a, when)
             air.air_until(cloud, b, when)
-        cloud.round_applied[round] = 1
+        cloud.event.round_applied[round] = 1
         mark_stale(cloud, a)
         mark_stale(cloud, b)
 

@@ -11,22 +11,21 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from ..core.outputs import make_outputs
 from ..launch.packing import MAX_REDRAWS
 from ..launch.sampling import make_redraw
 from .constants import CELL_MARGIN
+from .kit import dense_kit
 from .lists import make_lists
-from .state import dense_types
 
 
 @functools.cache
 def make_separation(spec) -> SimpleNamespace:
     """separate_shot for a spec (does nothing for pellets from a file: they are used as given)."""
-    d = dense_types(spec)
-    scalar, vec3, Physics, Outputs, Source, Cloud, Pair = d.scalar, d.vec3, d.Physics, d.Outputs, d.Source, d.Cloud, d.Pair
-    WRITE = bool(spec.core_fields)
-    write_initial = make_outputs(spec.precision).write_initial
-    redraw_position = make_redraw(scalar)
+    kit = dense_kit(spec)
+    scalar, vec3, Physics, Outputs = kit.scalar, kit.vec3, kit.Physics, kit.Outputs
+    Source, Cloud, Pair = kit.Source, kit.Cloud, kit.Pair
+    WRITE, write_initial = kit.WRITE, kit.outputs.write_initial
+    redraw_position = make_redraw(kit.precision)
     cell_bucket = make_lists(spec).cell_bucket
     SAMPLED = not spec.from_file
 
@@ -65,7 +64,7 @@ def make_separation(spec) -> SimpleNamespace:
                 for dz in range(-1, 2):
                     j = heads[base + cell_bucket(c + wp.vec3i(dx, dy, dz), wp.uint32(table - 1))]
                     while j >= 0 and hit == 0:
-                        if wp.length_sq(position - cloud.position[j]) < diameter2:
+                        if wp.length_sq(position - cloud.state.position[j]) < diameter2:
                             hit = wp.int32(1)
                         j = chain[j]
         return hit
@@ -110,7 +109,7 @@ def make_separation(spec) -> SimpleNamespace:
                 i = first + k
                 if cloud.stop[0] != 0:  # an interrupt (the host abandons the chunk)
                     return
-                position = cloud.position[i]
+                position = cloud.state.position[i]
                 attempt = wp.int32(0)
                 clash = overlaps_earlier(position, centre, inverse_cell, diameter2, base, table, heads, chain, cloud)
                 while clash != 0 and attempt < wp.static(MAX_REDRAWS):
@@ -120,9 +119,9 @@ def make_separation(spec) -> SimpleNamespace:
                     )
                     clash = overlaps_earlier(position, centre, inverse_cell, diameter2, base, table, heads, chain, cloud)
                 if attempt > 0:
-                    cloud.position[i] = position
+                    cloud.state.position[i] = position
                     if wp.static(WRITE):
-                        write_initial(out, i, position, cloud.velocity[i], cloud.angular_velocity[i])
+                        write_initial(out, i, position, cloud.state.velocity[i], cloud.state.angular_velocity[i])
                 bucket = base + cell_bucket(cell_of(position, centre, inverse_cell), wp.uint32(table - 1))
                 chain[i] = heads[bucket]
                 heads[bucket] = i

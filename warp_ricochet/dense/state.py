@@ -1,29 +1,22 @@
 """The dense phase's state: the `Cloud` (per-pellet and per-shot arrays) and `Pair` (the pair law's and
-the stepping's parameters) structs, the types and constants its `@wp.func`s share, and their
-allocation on the host.
+the stepping's parameters) structs, and their allocation on the host (what the stages' factories
+share beside them: `dense.kit`).
+
+The Cloud's arrays are grouped by the stage that owns them, one nested struct each: `state` (each
+pellet's reference state and record, handed to the core), `collisions`, `event` (`dense.rounds`),
+`air` (`dense.air`), `now` (`dense.checkpoint`), `lists` (`dense.lists`, the skin), `written` (the
+output fields), `frame` (`dense.frame`) and `clock` (each shot's clock, by name); beside them the
+per-shot and global flags and the host's stop.
 """
 
 import functools
-from types import SimpleNamespace
 
 import warp as wp
 
-from ..core.outputs import make_outputs
 from ..core.release import RELEASE_ARRAYS, make_release
 from ..fields import COLLISION_FIELDS, FIELDS
-from ..launch.source import make_source
-from ..physics.ballistic import EPSILON, ROUNDING
-from ..physics.flight import make_flight
 from ..physics.types import types_for
-from .constants import (
-    FRAME_BLOCK,
-    NEVER_VALUE,
-    NUM_CLOCK,
-    NUM_FLAGS,
-    NUM_SHOT_FLAGS,
-    QUIET_STEP_VALUE,
-    TINY_SPEED_VALUE,
-)
+from .constants import FRAME_BLOCK, NUM_FLAGS, NUM_SHOT_FLAGS
 from .schedule import shot_stride
 
 
@@ -34,10 +27,10 @@ def make_state(precision: str):
     scalar, vec3 = t.scalar, t.vec3
 
     @wp.struct
-    class Cloud:
-        """Per-pellet and per-shot arrays of the dense phase (`collisions`). Each pellet's state is
-        a reference state (position, velocity at `time`), valid until its next event: the core
-        kernel continues from it exactly as from a launch (`core.release`)."""
+    class PelletState:
+        """Each pellet's reference state (position, velocity at `time`), valid until its next
+        event, and its record: what the core kernel continues from exactly as from a launch
+        (`core.release.RELEASE_ARRAYS`, the same names). The launch and the events write it."""
 
         position: wp.array(dtype=vec3)  # m, at `time` (or where the flight ended, ENDED)
         velocity: wp.array(dtype=vec3)  # m/s
@@ -58,54 +51,119 @@ def make_state(precision: str):
         first_angular_velocity_after: wp.array(dtype=vec3)
         launch_velocity: wp.array(dtype=vec3)
         launch_angular_velocity: wp.array(dtype=vec3)
-        collision_count: wp.array(dtype=wp.int32)
-        last_collision: wp.array(dtype=scalar)  # s since launch, NaN: never
+
+    @wp.struct
+    class Collisions:
+        """Each pellet's pair collisions (`dense.events`)."""
+
+        count: wp.array(dtype=wp.int32)
+        last_time: wp.array(dtype=scalar)  # s since launch, NaN: never
         energy_lost: wp.array(dtype=scalar)  # J, half of each of its pair collisions' losses
-        air_time: wp.array(dtype=scalar)  # s: in air, the air has acted on it up to this time (dense.air)
-        air_rate: wp.array(dtype=scalar)  # 1/s: in air, its air rate at its last kick (dense.air)
-        position_error: wp.array(dtype=vec3)  # m: in air, the rounding its position lost at its last kick (dense.air)
-        # each pellet's earliest event (plane or listed pair), kept until it or a neighbour changes
-        event_time: wp.array(dtype=scalar)  # s since launch
-        event_partner: wp.array(dtype=wp.int32)  # pellet row, -2 - plane, -1 none
-        event_exit: wp.array(dtype=scalar)  # s: when the pellet would leave its skin after that event
+
+    @wp.struct
+    class Events:
+        """Each pellet's earliest event (plane or listed pair), kept until it or a neighbour
+        changes (`dense.rounds`)."""
+
+        time: wp.array(dtype=scalar)  # s since launch
+        partner: wp.array(dtype=wp.int32)  # pellet row, -2 - plane, -1 none
+        exit_time: wp.array(dtype=scalar)  # s: when the pellet would leave its skin after that event
         stale: wp.array(dtype=wp.int32)  # 1: the event above must be found again
-        kick_due: wp.array(dtype=wp.int32)  # in air: it is kicked at the start of its shot's step of this count (dense.air)
         round_applied: wp.array(dtype=wp.int32)  # (rounds,) 1: round r of this step applied an event
-        # states at a shot's checkpoint (horizon_kernel: each is read by O(count) pairs)
-        now_position: wp.array(dtype=vec3)
-        now_velocity: wp.array(dtype=vec3)
-        now_speed: wp.array(dtype=scalar)
-        now_bound: wp.array(dtype=scalar)  # m/s^2, in air: the most the air can accelerate it in a leap (dense.leap)
-        # neighbour lists
-        grid_point: wp.array(dtype=vec3)
+
+    @wp.struct
+    class AirState:
+        """In air, each pellet's kicks (`dense.air`)."""
+
+        time: wp.array(dtype=scalar)  # s: the air has acted on it up to this time
+        rate: wp.array(dtype=scalar)  # 1/s: its air rate at its last kick
+        position_error: wp.array(dtype=vec3)  # m: the rounding its position lost at its last kick
+        kick_due: wp.array(dtype=wp.int32)  # it is kicked at the start of its shot's step of this count
+
+    @wp.struct
+    class Now:
+        """Each pellet's state at its shot's checkpoint (`dense.checkpoint`: each is read by O(count) pairs)."""
+
+        position: wp.array(dtype=vec3)
+        velocity: wp.array(dtype=vec3)
+        speed: wp.array(dtype=scalar)
+        bound: wp.array(dtype=scalar)  # m/s^2, in air: the most the air can accelerate it in a leap (dense.leap)
+
+    @wp.struct
+    class Lists:
+        """Neighbour lists (`dense.lists`) and the skin they are built with."""
+
+        grid_point: wp.array(dtype=vec3)  # co-moving coordinates at the build
         build_offset: wp.array(dtype=vec3)
         neighbours: wp.array2d(dtype=wp.int32)
         neighbour_count: wp.array(dtype=wp.int32)
-        # release outputs (empty unless asked for)
+        # (shots,) m: the most a pellet moves in one step relative to its frame, when beyond half the skin
+        step_travel: wp.array(dtype=scalar)
+        half_skin: wp.array(dtype=scalar)  # (shots,) m: the shot's half skin (widened for a fixed step that outruns it)
+        widest_half_skin: wp.array(dtype=scalar)  # (1,) m: the widest of them (the grid's cells)
+
+    @wp.struct
+    class Written:
+        """The dense phase's own output fields (fields.COLLISION_FIELDS by their members; empty
+        unless asked for), written at release (`dense.ends`)."""
+
         release_time: wp.array(dtype=scalar)
         release_position: wp.array(dtype=vec3)
         release_velocity: wp.array(dtype=vec3)
         release_angular_velocity: wp.array(dtype=vec3)
         collisions_last_time: wp.array(dtype=scalar)
-        # shots
+
+    @wp.struct
+    class Frame:
+        """Each shot's co-moving frame (`dense.frame`): its ballistic drift (shots,), and per block
+        of a shot (shots x Pair.frame_blocks) its flying pellets' sums (position m, velocity m/s,
+        speed m/s, squared distance from the frame's point m^2), their count, and the latest first
+        contact among them (s)."""
+
         drift_origin: wp.array(dtype=vec3)
         drift_velocity: wp.array(dtype=vec3)
-        # per block of a shot (dense.frame: shots x Pair.frame_blocks): its flying pellets' sums
-        # (position m, velocity m/s, speed m/s, squared distance from the frame's point m^2), their
-        # count, and the latest first contact among them (s)
-        frame_position: wp.array(dtype=vec3)
-        frame_velocity: wp.array(dtype=vec3)
-        frame_speed: wp.array(dtype=scalar)
-        frame_spread: wp.array(dtype=scalar)
-        frame_arrival: wp.array(dtype=scalar)
-        frame_flying: wp.array(dtype=wp.int32)
-        clock: wp.array2d(dtype=scalar)  # (shots, NUM_CLOCK)
-        shot_flags: wp.array2d(dtype=wp.int32)
-        flags: wp.array(dtype=wp.int32)
-        # (shots,) m: the most a pellet moves in one step relative to its frame, when beyond half the skin
-        step_travel: wp.array(dtype=scalar)
-        half_skin: wp.array(dtype=scalar)  # (shots,) m: the shot's half skin (widened for a fixed step that outruns it)
-        widest_half_skin: wp.array(dtype=scalar)  # (1,) m: the widest of them (the grid's cells)
+        position: wp.array(dtype=vec3)
+        velocity: wp.array(dtype=vec3)
+        speed: wp.array(dtype=scalar)
+        spread: wp.array(dtype=scalar)
+        arrival: wp.array(dtype=scalar)
+        flying: wp.array(dtype=wp.int32)
+
+    @wp.struct
+    class Clock:
+        """Each shot's clock (shots,) (`dense.step`, `dense.checkpoint`)."""
+
+        time: wp.array(dtype=scalar)  # s since launch
+        step: wp.array(dtype=scalar)  # s: the step being taken
+        drift: wp.array(dtype=scalar)  # m/s: its pellets' largest speed relative to the drift
+        steps: wp.array(dtype=scalar)  # steps taken
+        end: wp.array(dtype=scalar)  # s: when the shot stopped stepping
+        # s: the end of its arrival window (the last first contact of its undisturbed pellets, plus
+        # the time the cloud takes to pass a point: HORIZON_RADII rms radii / speed)
+        window: wp.array(dtype=scalar)
+        next: wp.array(dtype=scalar)  # s: the soonest event of all (any pair of the shot, or a plane; horizon)
+        cut: wp.array(dtype=scalar)  # s: the earliest pair event left unresolved after the step's rounds
+        overrun: wp.array(dtype=scalar)  # m: the largest overrun of the skin (step.prepare_pellet)
+        skin: wp.array(dtype=scalar)  # s: the earliest time a pellet changed in the step leaves its skin
+        air: wp.array(dtype=scalar)  # 1/s, in air: its fastest air rate |a_air| / |u| (dense.air)
+        leap: wp.array(dtype=scalar)  # s, in air: where its last leap began (dense.leap)
+        speed: wp.array(dtype=scalar)  # m/s: the mean speed of its flying pellets at its launch (dense.frame)
+
+    @wp.struct
+    class Cloud:
+        """The dense phase's arrays, by the stage that owns them (`collisions`)."""
+
+        state: PelletState
+        collisions: Collisions
+        event: Events
+        air: AirState
+        now: Now
+        lists: Lists
+        written: Written
+        frame: Frame
+        clock: Clock
+        shot_flags: wp.array2d(dtype=wp.int32)  # (shots, NUM_SHOT_FLAGS)
+        flags: wp.array(dtype=wp.int32)  # (NUM_FLAGS,)
         stop: wp.array(dtype=wp.int32)  # (1,) 1: the host asks the CPU's long launches to return (an interrupt)
 
     @wp.struct
@@ -124,7 +182,7 @@ def make_state(precision: str):
         fixed_step: scalar  # s, 0: adaptive
         step_fraction: scalar
         air_step_fraction: scalar  # in air: the adaptive step is at most this of |u| / |a_air|
-        half_skin: scalar  # m, the configured one (a shot's own may widen: Cloud.half_skin)
+        half_skin: scalar  # m, the configured one (a shot's own may widen: Cloud.lists.half_skin)
         leaps: wp.int32  # in air: 1, a shot past its arrival window leaps to its next possible event (dense.leap)
         max_steps: scalar
         block_steps: wp.int32  # a shot's checkpoints (settling, frames) are every this many of its steps
@@ -134,82 +192,12 @@ def make_state(precision: str):
     return Cloud, Pair
 
 
-@functools.cache
-def dense_types(spec) -> SimpleNamespace:
-    """What the dense phase's function factories share: types, structs and scalar constants."""
-    t = types_for(spec.precision)
-    Cloud, Pair = make_state(spec.precision)
-    scalar = t.scalar
-    return SimpleNamespace(
-        scalar=scalar,
-        vec3=t.vec3,
-        Surfaces=t.Surfaces,
-        Physics=t.Physics,
-        Cloud=Cloud,
-        Pair=Pair,
-        Outputs=make_outputs(spec.precision).Outputs,
-        Source=make_source(spec.precision, spec.from_file).Source,
-        NEVER=scalar(NEVER_VALUE),
-        TINY_SPEED=scalar(TINY_SPEED_VALUE),
-        QUIET_STEP=scalar(QUIET_STEP_VALUE),
-        CLOSING_TOLERANCE2=scalar((ROUNDING * EPSILON[spec.precision]) ** 2),
-        opts={"module": "unique", "enable_backward": False},
-    )
-
-
-def dense_flight(spec) -> SimpleNamespace:
-    """The exact (ballistic) flight the dense phase uses between events: the touching band off
-    when it flies in air, whose kicks would meet a plane early within the band
-    (`physics.geometry`, docs/air.md, section 3.2)."""
-    return make_flight(spec.precision, spec.static_planes, snap=spec.flight != "air")
-
-
-VECTORS = (
-    "position",
-    "velocity",
-    "angular_velocity",
-    "ricochet_point",
-    "first_velocity_before",
-    "first_angular_velocity_before",
-    "first_velocity_after",
-    "first_angular_velocity_after",
-    "launch_velocity",
-    "launch_angular_velocity",
-    "grid_point",
-    "build_offset",
-    "now_position",
-    "now_velocity",
-    "position_error",
-)
-SCALARS = (
-    "time",
-    "ricochet_time",
-    "energy_lost",
-    "event_time",
-    "event_exit",
-    "last_collision",
-    "now_speed",
-    "now_bound",
-    "air_time",
-    "air_rate",
-)
-INTEGERS = (
-    "phase",
-    "end_surface",
-    "touching",
-    "impacts",
-    "last_slipped",
-    "first_surface",
-    "first_slipped",
-    "collision_count",
-    "event_partner",
-    "stale",
-    "neighbour_count",
-    "kick_due",
-)
-# the dense phase's output arrays (fields.FIELDS, stage "collide"), by their Cloud members;
-# collisions.count is the Cloud's own collision_count
+# the dense phase's output arrays (fields.FIELDS, stage "collide") in Cloud.written, by their
+# members; collisions.count is the Cloud's own collisions.count
 OUTPUT_FIELDS = tuple(name for name in COLLISION_FIELDS if name != "collisions.count")
+# the groups of per-shot and per-block arrays, and the members of other groups that are per shot
+PER_SHOT, PER_BLOCK = ("clock",), ("frame",)
+SHOT_MEMBERS = {("lists", "step_travel"), ("lists", "half_skin"), ("frame", "drift_origin"), ("frame", "drift_velocity")}
 
 
 def frame_blocks(count: int) -> int:
@@ -219,44 +207,32 @@ def frame_blocks(count: int) -> int:
 
 def allocate_cloud(precision: str, device, capacity: int, shots: int, count: int, rounds: int, max_neighbours: int, fields):
     """A Cloud for up to `capacity` pellets in `shots` shots of `count`, with the output arrays of
-    `fields` (others empty); returns it and {field: its device array}."""
-    t = types_for(precision)
-    kinds = {"vec3": t.vec3, "scalar": t.scalar}
-
-    def arr(dtype, shape=capacity):
-        return wp.zeros(shape, dtype=dtype, device=device)
-
-    cloud = make_state(precision)[0]()
-    for names, dtype in ((VECTORS, t.vec3), (SCALARS, t.scalar), (INTEGERS, wp.int32)):
-        for name in names:
-            setattr(cloud, name, arr(dtype))
-    cloud.neighbours = arr(wp.int32, (capacity, max_neighbours))
-    cloud.round_applied = arr(wp.int32, max(rounds, 1))
-    field_arrays = {}
-    for name in OUTPUT_FIELDS:
-        a = arr(kinds[FIELDS[name].kind], capacity if name in fields else 0)
-        setattr(cloud, FIELDS[name].member, a)
-        if name in fields:
-            field_arrays[name] = a
+    `fields` (others empty); returns it and {field: its device array}. Each group's arrays are
+    one a pellet, a shot (PER_SHOT, SHOT_MEMBERS) or a frame block (PER_BLOCK), but for those
+    sized below."""
+    Cloud = make_state(precision)[0]
+    sizes = {
+        ("lists", "neighbours"): (capacity, max_neighbours),
+        ("lists", "widest_half_skin"): 1,
+        ("event", "round_applied"): max(rounds, 1),
+    }
+    sizes |= {("written", FIELDS[name].member): capacity if name in fields else 0 for name in OUTPUT_FIELDS}
+    cloud = Cloud()
+    for group, var in Cloud.vars.items():
+        if not isinstance(var.type, type(Cloud)):  # (a group: a nested struct)
+            continue
+        part = var.type()
+        for name, member in var.type.vars.items():
+            size = shots if group in PER_SHOT or (group, name) in SHOT_MEMBERS else capacity
+            size = shots * frame_blocks(count) if group in PER_BLOCK and (group, name) not in SHOT_MEMBERS else size
+            setattr(part, name, wp.zeros(sizes.get((group, name), size), dtype=member.type.dtype, device=device))
+        setattr(cloud, group, part)
+    cloud.shot_flags = wp.zeros((shots, NUM_SHOT_FLAGS), dtype=wp.int32, device=device)
+    cloud.flags = wp.zeros(NUM_FLAGS, dtype=wp.int32, device=device)
+    cloud.stop = wp.zeros(1, dtype=wp.int32, device=device)
+    field_arrays = {name: getattr(cloud.written, FIELDS[name].member) for name in OUTPUT_FIELDS if name in fields}
     if "collisions.count" in fields:
-        field_arrays["collisions.count"] = cloud.collision_count
-    for name, dtype in (("drift_origin", t.vec3), ("drift_velocity", t.vec3), ("step_travel", t.scalar), ("half_skin", t.scalar)):
-        setattr(cloud, name, arr(dtype, shots))
-    blocks = shots * frame_blocks(count)
-    for name, dtype in (
-        ("frame_position", t.vec3),
-        ("frame_velocity", t.vec3),
-        ("frame_speed", t.scalar),
-        ("frame_spread", t.scalar),
-        ("frame_arrival", t.scalar),
-        ("frame_flying", wp.int32),
-    ):
-        setattr(cloud, name, arr(dtype, blocks))
-    cloud.clock = arr(t.scalar, (shots, NUM_CLOCK))
-    cloud.shot_flags = arr(wp.int32, (shots, NUM_SHOT_FLAGS))
-    cloud.flags = arr(wp.int32, NUM_FLAGS)
-    cloud.widest_half_skin = arr(t.scalar, 1)
-    cloud.stop = arr(wp.int32, 1)
+        field_arrays["collisions.count"] = cloud.collisions.count
     return cloud, field_arrays
 
 
@@ -289,7 +265,7 @@ def release_struct(precision: str, cloud, count: int):
     """The core kernel's view of a cloud (`core.release`): the same arrays, and the shot layout."""
     release = make_release(precision)()
     for name in RELEASE_ARRAYS:
-        setattr(release, name, getattr(cloud, name))
+        setattr(release, name, getattr(cloud.state, name))
     release.shot_count = count
     release.shot_stride = shot_stride(count)
     return release

@@ -7,18 +7,9 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from ..physics.ballistic import make_ballistic
 from .air import make_dense_air
 from .constants import (
     CHECKPOINT,
-    CLOCK_AIR,
-    CLOCK_CUT,
-    CLOCK_DRIFT,
-    CLOCK_OVERRUN,
-    CLOCK_SKIN,
-    CLOCK_STEP,
-    CLOCK_STEPS,
-    CLOCK_TIME,
     FLAG_STALL,
     FLYING,
     SHOT_DONE,
@@ -29,17 +20,18 @@ from .constants import (
 )
 from .events import make_events
 from .frame import make_frame
+from .kit import dense_kit
 from .rounds import make_rounds
-from .state import dense_types
 
 
 @functools.cache
 def make_step(spec) -> SimpleNamespace:
     """The step functions of the dense phase."""
-    d = dense_types(spec)
-    scalar, vec3, Surfaces, Physics, Outputs, Cloud, Pair = d.scalar, d.vec3, d.Surfaces, d.Physics, d.Outputs, d.Cloud, d.Pair
-    TINY_SPEED, QUIET_STEP, NEVER, BOUNCES = d.TINY_SPEED, d.QUIET_STEP, d.NEVER, spec.bounces
-    _entry, _return, ballistic_position, ballistic_velocity = make_ballistic(scalar)
+    kit = dense_kit(spec)
+    scalar, vec3, Surfaces, Physics = kit.scalar, kit.vec3, kit.Surfaces, kit.Physics
+    Outputs, Cloud, Pair = kit.Outputs, kit.Cloud, kit.Pair
+    TINY_SPEED, QUIET_STEP, NEVER, BOUNCES, AIR = kit.TINY_SPEED, kit.QUIET_STEP, kit.NEVER, kit.BOUNCES, kit.AIR
+    ballistic_velocity = kit.ballistic.velocity
     fr, ro = make_frame(spec), make_rounds(spec)
     stepping, relative_to_drift, relative_to_frame, drift_point = (
         fr.stepping,
@@ -49,7 +41,6 @@ def make_step(spec) -> SimpleNamespace:
     )
     choose_pellet, resolve_pellet, step_end_of = ro.choose_pellet, ro.resolve_pellet, ro.step_end_of
     plane_contacts_until = make_events(spec).plane_contacts_until
-    AIR = spec.in_air
     air = make_dense_air(spec) if AIR else None  # (its calls compile only in air)
 
     @wp.func(inline=True)
@@ -63,12 +54,12 @@ def make_step(spec) -> SimpleNamespace:
         _relative, relative_velocity = relative_to_drift(cloud, physics, i, s)
         # (an atomic only where it can raise the shot's value: most pellets' cannot, and skip it)
         speed = wp.length(relative_velocity)
-        if speed > cloud.clock[s, wp.static(CLOCK_DRIFT)]:
-            wp.atomic_max(cloud.clock, s, wp.static(CLOCK_DRIFT), speed)
+        if speed > cloud.clock.drift[s]:
+            wp.atomic_max(cloud.clock.drift, s, speed)
         if wp.static(AIR):
-            rate = air.pellet_rate(i, cloud.clock[s, CLOCK_TIME], pair, surfaces, physics, cloud)
-            if rate > cloud.clock[s, wp.static(CLOCK_AIR)]:
-                wp.atomic_max(cloud.clock, s, wp.static(CLOCK_AIR), rate)
+            rate = air.pellet_rate(i, cloud.clock.time[s], pair, surfaces, physics, cloud)
+            if rate > cloud.clock.air[s]:
+                wp.atomic_max(cloud.clock.air, s, rate)
 
     @wp.func(inline=True)
     def drift_and_edge(
@@ -91,10 +82,10 @@ def make_step(spec) -> SimpleNamespace:
         speed = scalar(0.0)
         edge = wp.int32(0)
         rate = scalar(0.0)
-        if cloud.phase[i] == FLYING:
+        if cloud.state.phase[i] == FLYING:
             relative, relative_velocity = relative_to_frame(cloud, physics, i, time, frame_point, frame_velocity)
             speed = wp.length(relative_velocity)
-            if wp.length(relative - cloud.build_offset[i]) > edge_distance:
+            if wp.length(relative - cloud.lists.build_offset[i]) > edge_distance:
                 edge = wp.int32(1)
             if wp.static(AIR):
                 # (as bounds_pellet: the same bits on every schedule)
@@ -106,24 +97,24 @@ def make_step(spec) -> SimpleNamespace:
         """Shot s's step, fixed or adaptive (a pair closes by at most
         step_fraction of a diameter in a step; the list lasts SKIN_STEPS steps at these speeds)."""
         cloud.shot_flags[s, SHOT_REBUILD] = 0  # (built before this block)
-        for r in range(cloud.round_applied.shape[0]):
-            cloud.round_applied[r] = 0  # (every shot's thread writes the same)
+        for r in range(cloud.event.round_applied.shape[0]):
+            cloud.event.round_applied[r] = 0  # (every shot's thread writes the same)
         if cloud.shot_flags[s, SHOT_DONE] != 0 or cloud.shot_flags[s, SHOT_STALL] != 0:
             return
         step = pair.fixed_step
         if step <= scalar(0.0):
             diameter = scalar(2.0) * physics.radius
-            drift = wp.max(cloud.clock[s, CLOCK_DRIFT], TINY_SPEED)
+            drift = wp.max(cloud.clock.drift[s], TINY_SPEED)
             step = wp.min(pair.step_fraction * diameter / (scalar(2.0) * drift), pair.half_skin / (scalar(SKIN_STEPS) * drift))
             step = wp.min(step, QUIET_STEP)
             if wp.static(AIR):
-                step = wp.min(step, pair.air_step_fraction / wp.max(cloud.clock[s, CLOCK_AIR], TINY_SPEED))
+                step = wp.min(step, pair.air_step_fraction / wp.max(cloud.clock.air[s], TINY_SPEED))
         if wp.static(AIR):
-            cloud.clock[s, CLOCK_AIR] = scalar(0.0)
-        cloud.clock[s, CLOCK_STEP] = step
-        cloud.clock[s, CLOCK_DRIFT] = scalar(0.0)
-        cloud.clock[s, CLOCK_CUT] = NEVER
-        cloud.clock[s, CLOCK_SKIN] = NEVER
+            cloud.clock.air[s] = scalar(0.0)
+        cloud.clock.step[s] = step
+        cloud.clock.drift[s] = scalar(0.0)
+        cloud.clock.cut[s] = NEVER
+        cloud.clock.skin[s] = NEVER
 
     @wp.func(inline=True)
     def prepare_pellet(i: wp.int32, pair: Pair, physics: Physics, cloud: Cloud):
@@ -135,19 +126,19 @@ def make_step(spec) -> SimpleNamespace:
         s = i / pair.count
         if not stepping(cloud, i, s):
             return
-        step = cloud.clock[s, CLOCK_STEP]
+        step = cloud.clock.step[s]
         relative, relative_velocity = relative_to_drift(cloud, physics, i, s)
-        moved = relative - cloud.build_offset[i]  # since the build
-        half_skin = cloud.half_skin[s]
+        moved = relative - cloud.lists.build_offset[i]  # since the build
+        half_skin = cloud.lists.half_skin[s]
         overrun = wp.length(moved) / half_skin
         if overrun > scalar(1.0):
-            wp.atomic_max(cloud.clock, s, CLOCK_OVERRUN, overrun)
+            wp.atomic_max(cloud.clock.overrun, s, overrun)
         if wp.length(moved + relative_velocity * step) > half_skin:
             cloud.shot_flags[s, SHOT_STALL] = 1
             cloud.flags[FLAG_STALL] = 1
             travel = wp.length(relative_velocity) * step
             if travel > half_skin:  # one step alone outruns the skin (a fixed step): it must grow
-                wp.atomic_max(cloud.step_travel, s, travel)
+                wp.atomic_max(cloud.lists.step_travel, s, travel)
 
     @wp.func(inline=True)
     def finish_pellet(i: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud, out: Outputs):
@@ -157,7 +148,7 @@ def make_step(spec) -> SimpleNamespace:
         if not stepping(cloud, i, s):
             return
         step_end = step_end_of(cloud, s)
-        if cloud.event_partner[i] != -1 and cloud.event_time[i] <= step_end:
+        if cloud.event.partner[i] != -1 and cloud.event.time[i] <= step_end:
             plane_contacts_until(i, step_end, wp.static(BOUNCES + 1), cloud, surfaces, physics, out)
 
     @wp.func(inline=True)
@@ -166,9 +157,9 @@ def make_step(spec) -> SimpleNamespace:
         own steps it waits at a checkpoint."""
         if cloud.shot_flags[s, SHOT_DONE] != 0 or cloud.shot_flags[s, SHOT_STALL] != 0:
             return
-        cloud.clock[s, CLOCK_TIME] = step_end_of(cloud, s)
-        steps = cloud.clock[s, CLOCK_STEPS] + scalar(1.0)
-        cloud.clock[s, CLOCK_STEPS] = steps
+        cloud.clock.time[s] = step_end_of(cloud, s)
+        steps = cloud.clock.steps[s] + scalar(1.0)
+        cloud.clock.steps[s] = steps
         if wp.int32(steps) % pair.block_steps == 0:
             cloud.shot_flags[s, SHOT_STALL] = CHECKPOINT  # wait for the horizon check and settle
 
@@ -201,10 +192,10 @@ def make_step(spec) -> SimpleNamespace:
             drift = scalar(0.0)
             edge = wp.int32(0)
             rate = scalar(0.0)
-            time = cloud.clock[s, CLOCK_TIME]
+            time = cloud.clock.time[s]
             frame_point = drift_point(cloud, s, time, physics.gravity)
-            frame_velocity = ballistic_velocity(cloud.drift_velocity[s], physics.gravity, time)
-            edge_distance = scalar(SKIN_EDGE) * cloud.half_skin[s]
+            frame_velocity = ballistic_velocity(cloud.frame.drift_velocity[s], physics.gravity, time)
+            edge_distance = scalar(SKIN_EDGE) * cloud.lists.half_skin[s]
             for i in range(first, last):
                 speed, near, pellet_rate = drift_and_edge(
                     i, time, frame_point, frame_velocity, edge_distance, pair, surfaces, physics, cloud
@@ -212,9 +203,9 @@ def make_step(spec) -> SimpleNamespace:
                 drift = wp.max(drift, speed)
                 edge = wp.max(edge, near)
                 rate = wp.max(rate, pellet_rate)
-            wp.atomic_max(cloud.clock, s, CLOCK_DRIFT, drift)
+            wp.atomic_max(cloud.clock.drift, s, drift)
             if wp.static(AIR):
-                wp.atomic_max(cloud.clock, s, CLOCK_AIR, rate)
+                wp.atomic_max(cloud.clock.air, s, rate)
             plan_shot(s, pair, physics, cloud)
             if edge != 0 or pair.fixed_step > scalar(0.0):
                 for i in range(first, last):
@@ -227,22 +218,22 @@ def make_step(spec) -> SimpleNamespace:
             # once, after reading the shot's flags and clock (step_end_of is never after the full
             # step). round_applied is this shot's alone here: a round after one in which the
             # shot applied nothing is skipped, as the per-step kernels skip one nobody applied in.
-            step_end = cloud.clock[s, CLOCK_TIME] + cloud.clock[s, CLOCK_STEP]
+            step_end = cloud.clock.time[s] + cloud.clock.step[s]
             for r in range(rounds):
                 if cloud.stop[0] != 0:
                     return
-                if r == 0 or cloud.round_applied[r - 1] != 0:
+                if r == 0 or cloud.event.round_applied[r - 1] != 0:
                     for i in range(first, last):
-                        if cloud.stale[i] != 0 or cloud.event_time[i] <= step_end:
+                        if cloud.event.stale[i] != 0 or cloud.event.time[i] <= step_end:
                             choose_pellet(i, 0, pair, surfaces, physics, cloud)
                     for i in range(first, last):
-                        if cloud.stale[i] != 0 or cloud.event_time[i] <= step_end:
+                        if cloud.event.stale[i] != 0 or cloud.event.time[i] <= step_end:
                             resolve_pellet(i, r, pair, surfaces, physics, cloud, out)
             for i in range(first, last):
-                if cloud.stale[i] != 0 or cloud.event_time[i] <= step_end:
+                if cloud.event.stale[i] != 0 or cloud.event.time[i] <= step_end:
                     choose_pellet(i, 1, pair, surfaces, physics, cloud)
             for i in range(first, last):
-                if cloud.stale[i] != 0 or cloud.event_time[i] <= step_end:
+                if cloud.event.stale[i] != 0 or cloud.event.time[i] <= step_end:
                     finish_pellet(i, pair, surfaces, physics, cloud, out)
             end_step_shot(s, pair, cloud)
 

@@ -32,6 +32,8 @@ import functools
 
 import warp as wp
 
+from ..physics.types import types_for
+
 GOLDEN = wp.constant(wp.uint64(0x9E3779B97F4A7C15))  # 2^64 / golden ratio: the SplitMix64 increment
 MIX1 = wp.constant(wp.uint64(0xBF58476D1CE4E5B9))
 MIX2 = wp.constant(wp.uint64(0x94D049BB133111EB))
@@ -64,9 +66,10 @@ def reference_uniforms(seed: int, index: int):
 
 
 @functools.cache
-def make_sampler(scalar):
-    """Return the `@wp.func` that samples one pellet for a Warp scalar type."""
-    vec3 = wp.types.vector(3, scalar)
+def make_sampler(precision: str):
+    """Return the `@wp.func` that samples one pellet, of one precision ("float32" or "float64")."""
+    t = types_for(precision)
+    scalar, vec3 = t.scalar, t.vec3
 
     @wp.func
     def sample_pellet(
@@ -114,9 +117,10 @@ def make_sampler(scalar):
 
 
 @functools.cache
-def make_redraw(scalar):
-    """Return the `@wp.func` that draws attempt r >= 1 of a new position of pellet `index`."""
-    vec3 = wp.types.vector(3, scalar)
+def make_redraw(precision: str):
+    """Return the `@wp.func` that draws attempt r >= 1 of a new position of pellet `index` (one precision)."""
+    t = types_for(precision)
+    scalar, vec3 = t.scalar, t.vec3
 
     @wp.func
     def redraw_position(seed: wp.int32, index: wp.int32, attempt: wp.int32, envelope_center: vec3, envelope_radius: scalar):

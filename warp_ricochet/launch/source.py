@@ -23,7 +23,7 @@ def make_source(precision: str, from_file: bool) -> SimpleNamespace:
     struct's arrays (chunk-local rows), else sampled from the seed and the global index."""
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
-    sample_pellet = make_sampler(scalar)
+    sample_pellet = make_sampler(precision)
     FROM_FILE = from_file
 
     @wp.struct

@@ -17,8 +17,11 @@ MAX_FLIGHT_TIME counts as none.
 """
 
 import functools
+from types import SimpleNamespace
 
 import warp as wp
+
+from .types import types_for
 
 NO_CONTACT = -1.0  # returned as the time when a pellet never meets a plane
 MAX_FLIGHT_TIME = 1.0e6  # s: a later contact counts as none (keeps every float32 product finite)
@@ -27,11 +30,12 @@ EPSILON = {"float32": 1.1920929e-07, "float64": 2.220446049250313e-16}
 
 
 @functools.cache
-def make_ballistic(scalar):
-    """Return the flight `@wp.func`s for a Warp scalar type: `entry_time` and `return_time` (the
-    roots of a gap's quadratic) and eq. (36)'s position and velocity. The search over the surfaces
-    is `physics.geometry.make_geometry(...).next_contact`."""
-    vec3 = wp.types.vector(3, scalar)
+def make_ballistic(precision: str) -> SimpleNamespace:
+    """The flight `@wp.func`s of one precision ("float32" or "float64"): `entry_time` and
+    `return_time` (the roots of a gap's quadratic) and eq. (36)'s `position` and `velocity`. The
+    search over the surfaces is `physics.geometry.make_geometry(...).next_contact`."""
+    t = types_for(precision)
+    scalar, vec3 = t.scalar, t.vec3
 
     @wp.func
     def entry_time(gap: scalar, normal_speed: scalar, half_normal_gravity: scalar):
@@ -89,4 +93,6 @@ def make_ballistic(scalar):
         """dr/dt of eq. (36)."""
         return velocity + gravity * t
 
-    return entry_time, return_time, ballistic_position, ballistic_velocity
+    return SimpleNamespace(
+        entry_time=entry_time, return_time=return_time, position=ballistic_position, velocity=ballistic_velocity
+    )

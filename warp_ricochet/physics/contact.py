@@ -23,7 +23,7 @@ def make_contact(precision: str):
     """`rests`, `stays`, `impact`, `meet_surface`, `contact_point` and `landing_range` for one precision."""
     t = types_for(precision)
     scalar, vec3, Surfaces, Material, Physics = t.scalar, t.vec3, t.Surfaces, t.Material, t.Physics
-    impact_law, geo = make_impact_law(scalar), make_geometry(precision)
+    impact_law, geo = make_impact_law(precision), make_geometry(precision)
     CLOSING_TOLERANCE2 = scalar((ROUNDING * EPSILON[precision]) ** 2)  # normal speeds within rounding of 0
 
     @wp.func

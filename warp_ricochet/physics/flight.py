@@ -50,7 +50,8 @@ def make_flight(
     Track, Tally = watcher.Track, watcher.Tally
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
-    _entry, _return, position_at, velocity_at = make_ballistic(scalar)
+    ballistic = make_ballistic(precision)
+    position_at, velocity_at = ballistic.position, ballistic.velocity
     geo = make_geometry(precision, planes, snap)
 
     @wp.func

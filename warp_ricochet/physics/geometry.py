@@ -50,7 +50,8 @@ def make_geometry(precision: str, planes=None, snap: bool = True) -> SimpleNames
     a gap within the touching band as zero (module docstring)."""
     t = types_for(precision)
     scalar, vec3, Surfaces, Material = t.scalar, t.vec3, t.Surfaces, t.Material
-    entry_time, return_time, _position, _velocity = make_ballistic(scalar)
+    ballistic = make_ballistic(precision)
+    entry_time, return_time = ballistic.entry_time, ballistic.return_time
     STATIC_PLANES, SNAP = planes, snap
     TOLERANCE = scalar(ROUNDING * EPSILON[precision])
     LATEST = scalar(MAX_FLIGHT_TIME)

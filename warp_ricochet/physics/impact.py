@@ -34,13 +34,16 @@ import functools
 
 import warp as wp
 
+from .types import types_for
+
 SOLID_SPHERE_INERTIA_FACTOR = 0.4  # I = 2/5 m R^2 (eq. 17)
 
 
 @functools.cache
-def make_coulomb_impulse(scalar):
+def make_coulomb_impulse(precision: str):
     """The stick-slip friction rule shared by the plane law and the pair law (eqs. 18-23)."""
-    vec3 = wp.types.vector(3, scalar)
+    t = types_for(precision)
+    scalar, vec3 = t.scalar, t.vec3
 
     @wp.func
     def coulomb_impulse(
@@ -65,10 +68,11 @@ def make_coulomb_impulse(scalar):
 
 
 @functools.cache
-def make_impact_law(scalar):
-    """Return the `@wp.func` impact law for a Warp scalar type (wp.float32 or wp.float64)."""
-    vec3 = wp.types.vector(3, scalar)
-    coulomb_impulse = make_coulomb_impulse(scalar)
+def make_impact_law(precision: str):
+    """Return the `@wp.func` impact law of one precision ("float32" or "float64")."""
+    t = types_for(precision)
+    scalar, vec3 = t.scalar, t.vec3
+    coulomb_impulse = make_coulomb_impulse(precision)
 
     @wp.func
     def impact_law(

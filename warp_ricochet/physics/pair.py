@@ -7,11 +7,12 @@ import functools
 import warp as wp
 
 from .impact import make_coulomb_impulse
+from .types import types_for
 
 
 @functools.cache
-def make_pair_law(scalar):
-    """Return the `@wp.func` pair law (pellet-pellet impact) for a Warp scalar type.
+def make_pair_law(precision: str):
+    """Return the `@wp.func` pair law (pellet-pellet impact) of one precision ("float32" or "float64").
 
     Spheres a and b; n = (x_b - x_a) / d. The contact arms are scaled so they sum to d
     (s = d / (R_a + R_b), arms s R_a n and -s R_b n): angular momentum is then conserved exactly
@@ -26,8 +27,9 @@ def make_pair_law(scalar):
     Linear and angular momentum are conserved; energy never rises (the impulse is at most the
     sticking one). As m_b -> inf this is the plane law with normal -n and no gravity term.
     """
-    vec3 = wp.types.vector(3, scalar)
-    coulomb_impulse = make_coulomb_impulse(scalar)
+    t = types_for(precision)
+    scalar, vec3 = t.scalar, t.vec3
+    coulomb_impulse = make_coulomb_impulse(precision)
 
     @wp.func
     def pair_law(
