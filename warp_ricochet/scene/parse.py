@@ -72,14 +72,14 @@ def _surface(raw, path: str) -> Surface:
         kw = _with_material(kw, raw, path)
     if kw.setdefault("mu_d", kw["mu_s"]) > kw["mu_s"]:
         raise err(f"{path}.mu_d", raw["mu_d"], f"must be a number in [0, mu_s = {kw['mu_s']:g}]")
-    return Surface(**_plate(kw, path))
+    return Surface(**_plate(kw, raw, path))
 
 
 # the keys each kind of surface takes beside the plane's (docs/geometry.md)
 PLATE_KEYS = {"plane": (), "rectangle": ("axis_u", "size", "two_sided"), "disc": ("radius", "two_sided")}
 
 
-def _plate(kw: dict, path: str) -> dict:
+def _plate(kw: dict, raw: dict, path: str) -> dict:
     """A surface's kind and its plate keys checked together: each kind's keys required (two_sided
     optional), no other kind's; a rectangle's axis_u perpendicular to its normal (within
     PERPENDICULAR) and made a unit vector. A plane keeps no kind (None), a one-sided plate no two_sided."""
@@ -87,7 +87,7 @@ def _plate(kw: dict, path: str) -> dict:
     for key in ("axis_u", "size", "radius", "two_sided"):
         if key in kw and key not in PLATE_KEYS[kind]:
             owners = [k for k, keys in PLATE_KEYS.items() if key in keys]
-            raise err(f"{path}.{key}", kw[key], f"is a key of kind = {' or '.join(map(repr, owners))} only (this is a {kind!r})")
+            raise err(f"{path}.{key}", raw[key], f"is a key of kind = {' or '.join(map(repr, owners))} only (this is a {kind!r})")
     for key in PLATE_KEYS[kind]:
         if key != "two_sided" and key not in kw:
             raise err(f"{path}.{key}", MISSING, f"is required for kind = {kind!r}; it {SCHEMAS['surfaces'][key].rule}")
@@ -98,7 +98,7 @@ def _plate(kw: dict, path: str) -> dict:
         if abs(math.hypot(*u) - 1.0) > 1e-15:
             u = unit_vector(u)
         if abs(sum(a * b for a, b in zip(u, n))) > PERPENDICULAR:
-            raise err(f"{path}.axis_u", kw["axis_u"], f"must be perpendicular to the normal {list(n)} (in the plate's plane)")
+            raise err(f"{path}.axis_u", raw["axis_u"], f"must be perpendicular to the normal {list(n)} (in the plate's plane)")
         kw["axis_u"] = u
     if not kw.get("two_sided", True):
         del kw["two_sided"]
