@@ -47,7 +47,8 @@ def test_only_the_geometry_module_reads_the_surfaces():
     reference and io/, report/ write and draw the scene's planes)."""
     fields = _surfaces_fields()
     ground = {*GROUND_FIELDS, "liquid"}  # the ground materials' (physics.types.Material)
-    assert fields == {"point", "normal", "point_noise", "restitution", "mu_s", "mu_d", *ground}, (
+    plates = {"kind", "axis_u", "axis_v", "half_u", "half_v", "two_sided"}  # (physics.types: read with plates only)
+    assert fields == {"point", "normal", "point_noise", "restitution", "mu_s", "mu_d", *ground, *plates}, (
         fields
     )  # (the parse found the struct)
     assert len(_reads(GEOMETRY, fields)) >= 5  # (the test sees the reads where they are)

@@ -74,6 +74,7 @@ class Model:
             device,
             ground=ground_of(planes, radius, density),
             liquid=[is_liquid(p.material) for p in planes],
+            plates=[plate_of(p) for p in planes],
         )
         physics = t.Physics()
         physics.radius = t.scalar(radius)
@@ -99,6 +100,16 @@ class Model:
 @functools.lru_cache(maxsize=16)
 def _cached_model(diameter, density, surfaces, physics, precision, device_alias, air, tolerance) -> Model:
     return Model._build(diameter, density, surfaces, physics, precision, wp.get_device(device_alias), air, tolerance)
+
+
+def plate_of(surface):
+    """`types.plate_arrays`' entry of a scene surface: None for a plane, else (kind, axis_u,
+    half_u, half_v, two_sided); a disc's radius is both half sides."""
+    if surface.is_plane:
+        return None
+    if surface.kind == "disc":
+        return (surface.kind, (0.0, 0.0, 0.0), surface.radius, surface.radius, surface.two_sided)
+    return (surface.kind, surface.axis_u, 0.5 * surface.size[0], 0.5 * surface.size[1], surface.two_sided)
 
 
 def ground_of(planes, radius: float, density: float) -> dict:

@@ -35,7 +35,8 @@ class RunSpec:
     the number of hazard thresholds (compiled in: the landing code tests each one unrolled); until:
     "landing" ends a pellet at its landing, "rest" follows it on until it stops (docs/ground.md); ground:
     a surface has rough ground or a penetration law (`physics.ground`), applied at every impact;
-    places: the named places of the hazard (`tallies.path`)."""
+    places: the named places of the hazard (`tallies.path`); plates: a surface is a finite plate
+    (`physics.geometry`: its code compiled in only then)."""
 
     precision: str
     bounces: int
@@ -52,6 +53,7 @@ class RunSpec:
     until: str = "landing"
     ground: bool = False
     places: int = 0
+    plates: bool = False
 
     @classmethod
     def of(cls, scene, *, with_output: bool = True) -> RunSpec:
@@ -77,6 +79,7 @@ class RunSpec:
             until=scene.physics.until,
             ground=any(_has_ground_laws(surface) for surface in scene.surfaces),
             places=0 if scene.hazard is None else len(scene.hazard.points),
+            plates=any(not surface.is_plane for surface in scene.surfaces),
         )
 
     @property

@@ -46,10 +46,10 @@ def make_ricochet_pellet(spec):
     floats_t, extremes_t = acc_fns.floats_t, acc_fns.extremes_t
     F_RANGE_STICK, F_RANGE_SLIP, F_ENTERED = acc_fns.offsets.RANGE_STICK, acc_fns.offsets.RANGE_SLIP, acc_fns.offsets.ENTERED
     X_SCALE, flight_scale = acc_fns.flight_scale_index, acc_fns.flight_scale  # the precision rule's statistic
-    flight = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws, watch=spec.watch)
+    flight = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws, watch=spec.watch, plates=spec.plates)
     watcher = make_path_watch(spec.precision, *spec.watch)
     rests, stays, impact, _meet, contact_point, landing_range = make_contact(spec.precision)
-    geo, ground = make_geometry(spec.precision), make_ground(spec.precision)
+    geo, ground = make_geometry(spec.precision, plates=spec.plates), make_ground(spec.precision)
     follow = make_to_rest(spec) if spec.to_rest else None
     RELEASE, WRITE, BOUNCES, AIR = spec.collisions, bool(spec.core_fields), spec.bounces, spec.flight == "air"
     Tally = make_landing_tally(spec.precision).Tally

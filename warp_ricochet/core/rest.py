@@ -62,13 +62,15 @@ def make_to_rest(spec) -> SimpleNamespace:
     """`start_mode` and `to_rest` of a run spec (its precision, planes, flight model and air laws)."""
     t = types_for(spec.precision)
     scalar, vec3, Surfaces, Physics, Material = t.scalar, t.vec3, t.Surfaces, t.Physics, t.Material
-    flight = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws, watch=spec.watch)
-    surface = make_surface_follow(spec.precision, spec.static_planes, spec.flight, spec.air_laws, watch=spec.watch)
+    flight = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws, watch=spec.watch, plates=spec.plates)
+    surface = make_surface_follow(
+        spec.precision, spec.static_planes, spec.flight, spec.air_laws, watch=spec.watch, plates=spec.plates
+    )
     watcher = make_path_watch(spec.precision, *spec.watch)
     Track, Tally = watcher.Track, watcher.Tally
     rests, _stays, impact, _meet, _point, _range = make_contact(spec.precision)
     geo, ground, laws = (
-        make_geometry(spec.precision, spec.static_planes),
+        make_geometry(spec.precision, spec.static_planes, plates=spec.plates),
         make_ground(spec.precision),
         make_surface_laws(spec.precision),
     )

@@ -89,14 +89,15 @@ def make_roots(precision: str) -> SimpleNamespace:
 
 
 @functools.cache
-def make_plane_search(precision: str, planes) -> SimpleNamespace:
+def make_plane_search(precision: str, planes, plates: bool = False) -> SimpleNamespace:
     """`start(...)` (the planes' states at a flight's start) and `search(...)` (the earliest
-    contact on an accepted step); `planes`: fixed at code generation (unrolled) or None."""
+    contact on an accepted step); `planes`: fixed at code generation (unrolled) or None; `plates`:
+    surfaces may be finite plates (module docstring)."""
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
-    roots, geo = make_roots(precision), make_geometry(precision, planes)
-    hermite = make_dense_output(precision).hermite
-    STATIC = planes
+    roots, geo = make_roots(precision), make_geometry(precision, planes, True, plates)
+    hermite, hermite_vec = make_dense_output(precision).hermite, make_dense_output(precision).hermite_vec
+    STATIC, PLATES = planes, plates
 
     @wp.func
     def start_plane(k: wp.int32, position: vec3, velocity: vec3, touching: wp.int32, surfaces: Surfaces, physics: Physics):
@@ -117,6 +118,15 @@ def make_plane_search(precision: str, planes) -> SimpleNamespace:
         return state
 
     @wp.func
+    def start_plate(k: wp.int32, position: vec3, velocity: vec3, touching: wp.int32, surfaces: Surfaces, physics: Physics):
+        """`start_plane` where k may be a plate: one overlapping its plane beside it is watched."""
+        state = start_plane(k, position, velocity, touching, surfaces, physics)
+        if state == 3 or state == 2:
+            if k != touching and not geo.inside(surfaces, k, position):
+                state = wp.int32(1)
+        return state
+
+    @wp.func
     def start(position: vec3, velocity: vec3, touching: wp.int32, surfaces: Surfaces, physics: Physics):
         """(watched, waiting) bit masks, and the first plane met at once (-1 none)."""
         watched = wp.int32(0)
@@ -126,7 +136,10 @@ def make_plane_search(precision: str, planes) -> SimpleNamespace:
         if wp.static(STATIC is not None):
             count = wp.static(STATIC)
         for k in range(count):
-            state = start_plane(k, position, velocity, touching, surfaces, physics)
+            if wp.static(PLATES):
+                state = start_plate(k, position, velocity, touching, surfaces, physics)
+            else:
+                state = start_plane(k, position, velocity, touching, surfaces, physics)
             if state == 1:
                 watched = watched | (wp.int32(1) << k)
             elif state == 2:
@@ -161,6 +174,16 @@ def make_plane_search(precision: str, planes) -> SimpleNamespace:
         return theta, now_watched
 
     @wp.func
+    def plate_theta(k: wp.int32, watch: wp.int32, x: vec3, theta: scalar, now_watched: wp.int32, surfaces: Surfaces):
+        """A step's crossing (theta, with the step's point x there) of surface k's plane kept if x is
+        on it (a plate; a waiting plate turns to watched where it is not)."""
+        if theta <= scalar(1.0) and not geo.inside(surfaces, k, x):
+            theta = scalar(2.0)
+            if watch == 2:
+                now_watched = wp.int32(1)
+        return theta, now_watched
+
+    @wp.func
     def search(
         h: scalar,
         x0: vec3,
@@ -190,7 +213,17 @@ def make_plane_search(precision: str, planes) -> SimpleNamespace:
                 watch = wp.int32(2)
             if watch != 0:
                 g0, s0, q0, g1, s1, q1 = geo.step_gaps(surfaces, k, physics.radius, h, x0, v0, a0, x1, v1, a1)
-                theta, now_watched = plane_theta(watch, g0, s0, q0, g1, s1, q1)
+                if wp.static(PLATES):  # a plate not clear of its plane at the start (beside it, behind it): not this step
+                    theta = scalar(2.0)
+                    now_watched = wp.int32(0)
+                    plate = geo.is_plate(surfaces, k)
+                    if not (plate and watch == 1 and g0 <= scalar(0.0)):
+                        theta, now_watched = plane_theta(watch, g0, s0, q0, g1, s1, q1)
+                    if plate and theta <= scalar(1.0):
+                        x, _slope = hermite_vec(theta, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
+                        theta, now_watched = plate_theta(k, watch, x, theta, now_watched, surfaces)
+                else:
+                    theta, now_watched = plane_theta(watch, g0, s0, q0, g1, s1, q1)
                 if now_watched != 0:
                     watched = watched | bit
                     waiting = waiting & ~bit
@@ -203,7 +236,7 @@ def make_plane_search(precision: str, planes) -> SimpleNamespace:
 
 
 @functools.cache
-def make_air_flight(precision: str, planes, laws: tuple, watch: tuple = (0, 0, False)) -> SimpleNamespace:
+def make_air_flight(precision: str, planes, laws: tuple, watch: tuple = (0, 0, False), plates: bool = False) -> SimpleNamespace:
     """`to_contact` and `advance` in air (the flight interface of `physics.flight`; the steps a
     `to_contact` took are its sixth value), `to_contact_within` (the flight up to a time) and
     `to_contact_watched` (`to_contact` with each accepted step given to `tallies.path`'s watch of
@@ -214,8 +247,8 @@ def make_air_flight(precision: str, planes, laws: tuple, watch: tuple = (0, 0, F
     Track, Tally = watcher.Track, watcher.Tally
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
-    stepper, dense, search = make_stepper(precision, laws), make_dense_output(precision), make_plane_search(precision, planes)
-    geo = make_geometry(precision, planes)
+    stepper, dense = make_stepper(precision, laws), make_dense_output(precision)
+    search, geo = make_plane_search(precision, planes, plates), make_geometry(precision, planes, True, plates)
     LATEST, MAX_STEPS = scalar(MAX_FLIGHT_TIME), MAX_FLIGHT_STEPS
     SPIN_CHANGES = laws[2] is not None
 

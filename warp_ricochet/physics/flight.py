@@ -34,16 +34,23 @@ MODELS = ("ballistic", "air")
 
 @functools.cache
 def make_flight(
-    precision: str, planes=None, model: str = "ballistic", laws=None, snap: bool = True, watch: tuple = (0, 0, False)
+    precision: str,
+    planes=None,
+    model: str = "ballistic",
+    laws=None,
+    snap: bool = True,
+    watch: tuple = (0, 0, False),
+    plates: bool = False,
 ) -> SimpleNamespace:
     """The flight functions of `model`; `planes`: the number of planes when fixed at code
     generation (loops over them unrolled), else None; `snap`: the ballistic model takes a gap
     within the touching band as zero (`physics.geometry`); `watch`: (thresholds, places, map) of
-    the hazard watched along the path by `to_contact_watched` (`tallies.path`)."""
+    the hazard watched along the path by `to_contact_watched` (`tallies.path`); `plates`: surfaces
+    may be finite plates (`physics.geometry`)."""
     if model not in MODELS:
         raise ValueError(f"flight model {model!r}: must be one of {MODELS}")
     if model == "air":
-        return _air_flight(precision, planes, laws, watch)
+        return _air_flight(precision, planes, laws, watch, plates)
     from ..tallies.path import make_path_watch  # (tallies imports physics: not at the top)
 
     watcher = make_path_watch(precision, *watch)
@@ -52,7 +59,7 @@ def make_flight(
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
     ballistic = make_ballistic(precision)
     position_at, velocity_at = ballistic.position, ballistic.velocity
-    geo = make_geometry(precision, planes, snap)
+    geo = make_geometry(precision, planes, snap, plates)
 
     @wp.func
     def next_contact(position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces, physics: Physics):
@@ -101,10 +108,10 @@ def make_flight(
     )
 
 
-def _air_flight(precision: str, planes, laws, watch) -> SimpleNamespace:
+def _air_flight(precision: str, planes, laws, watch, plates) -> SimpleNamespace:
     t = types_for(precision)
     vec3, Surfaces, Physics = t.vec3, t.Surfaces, t.Physics
-    air = make_air_flight(precision, planes, tuple(laws), watch)
+    air = make_air_flight(precision, planes, tuple(laws), watch, plates)
 
     @wp.func
     def next_contact(position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces, physics: Physics):

@@ -27,6 +27,13 @@ rounding error onto it or through it. `snap` False turns the band off in the par
 dense phase in air, whose kicks move a pellet's reference state every few steps, would otherwise
 meet a plane early wherever the pellet comes within the band of it (docs/air.md, section 3.2).
 
+Plates (`plates` True, docs/geometry.md): a surface of kind rectangle or disc is the part of its
+plane around its point within half sides along axes u, v = n x u (`inside`: the pellet's centre
+projected along n); a two-sided one turns n, the height and the normal towards the pellet's side
+(`side`). The parabola meets a plate where the plane's quadratic gives the entering root and that
+root's point is inside (`plate_time`); the integrated flight checks its step's crossing the same
+way (`physics.air_flight`). Plane-only kernels compile none of it: they read no plate arrays.
+
 A contact carries its normal: the flights' `to_contact` return (time, surface, normal, state)
 (`physics.flight`). The host sees the same planes through `project` (the hazard map's grid).
 Arithmetic is that of the code it replaced, operation for operation: results are bitwise those
@@ -40,19 +47,25 @@ import numpy as np
 import warp as wp
 
 from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT, ROUNDING, make_ballistic
-from .types import types_for
+from .types import KINDS, types_for
+
+
+def make_geometry(precision: str, planes=None, snap: bool = True, plates: bool = False) -> SimpleNamespace:
+    """The geometry `@wp.func`s of one precision. `planes`: the number of surfaces when fixed at
+    code generation (the search over them unrolled), else None; `snap`: the parabola's search takes
+    a gap within the touching band as zero (module docstring); `plates`: surfaces may be plates.
+    One cached set per value of the four, however they are passed."""
+    return _make_geometry(precision, planes, bool(snap), bool(plates))
 
 
 @functools.cache
-def make_geometry(precision: str, planes=None, snap: bool = True) -> SimpleNamespace:
-    """The geometry `@wp.func`s of one precision. `planes`: the number of surfaces when fixed at
-    code generation (the search over them unrolled), else None; `snap`: the parabola's search takes
-    a gap within the touching band as zero (module docstring)."""
+def _make_geometry(precision: str, planes, snap: bool, plates: bool) -> SimpleNamespace:
     t = types_for(precision)
     scalar, vec3, Surfaces, Material = t.scalar, t.vec3, t.Surfaces, t.Material
     ballistic = make_ballistic(precision)
-    entry_time, return_time = ballistic.entry_time, ballistic.return_time
-    STATIC_PLANES, SNAP = planes, snap
+    entry_time, return_time, _position = ballistic.entry_time, ballistic.return_time, ballistic.position
+    STATIC_PLANES, SNAP, PLATES = planes, snap, plates
+    RECTANGLE = KINDS["rectangle"]
     TOLERANCE = scalar(ROUNDING * EPSILON[precision])
     LATEST = scalar(MAX_FLIGHT_TIME)
 
@@ -62,16 +75,53 @@ def make_geometry(precision: str, planes=None, snap: bool = True) -> SimpleNames
         return surfaces.point.shape[0]
 
     @wp.func(inline=True)
+    def side(surfaces: Surfaces, k: wp.int32, x: vec3):
+        """-1 where x is behind a two-sided plate k (its normal then turns to face x), else 1."""
+        s = scalar(1.0)
+        if surfaces.two_sided[k] != 0 and wp.dot(x - surfaces.point[k], surfaces.normal[k]) < scalar(0.0):
+            s = scalar(-1.0)
+        return s
+
+    @wp.func(inline=True)
+    def is_plate(surfaces: Surfaces, k: wp.int32):
+        """Whether surface k is a plate (not an infinite plane)."""
+        return surfaces.kind[k] != 0
+
+    @wp.func(inline=True)
+    def reach(surfaces: Surfaces, k: wp.int32, x: vec3):
+        """A distance (m) from x beyond which every point is off plate k: |x - p| + a/2 + b/2."""
+        return wp.length(x - surfaces.point[k]) + surfaces.half_u[k] + surfaces.half_v[k]
+
+    @wp.func
+    def inside(surfaces: Surfaces, k: wp.int32, x: vec3):
+        """Whether x projected along surface k's normal lies on it (a plane: always; a rectangle:
+        |u.(x - p)| <= a/2 and |v.(x - p)| <= b/2; a disc: (u.d)^2 + (v.d)^2 <= r^2)."""
+        kind = surfaces.kind[k]
+        if kind == 0:
+            return True
+        d = x - surfaces.point[k]
+        a = wp.dot(d, surfaces.axis_u[k])
+        b = wp.dot(d, surfaces.axis_v[k])
+        if kind == RECTANGLE:
+            return wp.abs(a) <= surfaces.half_u[k] and wp.abs(b) <= surfaces.half_v[k]
+        return a * a + b * b <= surfaces.half_u[k] * surfaces.half_u[k]
+
+    @wp.func(inline=True)
     def normal(surfaces: Surfaces, k: wp.int32, x: vec3):
         """The unit normal (towards the pellets) of surface k at the point nearest x."""
+        if wp.static(PLATES):
+            return side(surfaces, k, x) * surfaces.normal[k]
         return surfaces.normal[k]
 
     @wp.func(inline=True)
     def locate(surfaces: Surfaces, k: wp.int32, x: vec3):
         """(height, noise, normal): x's signed distance from surface k (m), its rounding scale (m)
         and the unit normal there. A plane: n.(x - p) and sum_i |x_i| |n_i| + sum_i |p_i| |n_i|
-        (the second sum kept with the surfaces: `types.surfaces_of`)."""
+        (the second sum kept with the surfaces: `types.surfaces_of`); a plate: its plane's, n
+        turned towards x when two-sided."""
         n = surfaces.normal[k]
+        if wp.static(PLATES):
+            n = side(surfaces, k, x) * n
         noise = wp.abs(x[0] * n[0]) + wp.abs(x[1] * n[1]) + wp.abs(x[2] * n[2]) + surfaces.point_noise[k]
         return wp.dot(x - surfaces.point[k], n), noise, n
 
@@ -111,8 +161,10 @@ def make_geometry(precision: str, planes=None, snap: bool = True) -> SimpleNames
     ):
         """A sphere's gap to surface k at a step's ends (states 0 and 1, h s apart) with h and h^2
         times its first and second derivatives: (g0, h g0', h^2 g0'', g1, h g1', h^2 g1''). A
-        plane: g = n.x - (n.p + R), linear in x."""
+        plane: g = n.x - (n.p + R), linear in x (a two-sided plate: n towards x0)."""
         n = surfaces.normal[k]
+        if wp.static(PLATES):
+            n = side(surfaces, k, x0) * n
         level = wp.dot(surfaces.point[k], n) + radius
         return (
             wp.dot(x0, n) - level,
@@ -122,6 +174,46 @@ def make_geometry(precision: str, planes=None, snap: bool = True) -> SimpleNames
             h * wp.dot(v1, n),
             h * h * wp.dot(a1, n),
         )
+
+    @wp.func
+    def plate_time(
+        surfaces: Surfaces, k: wp.int32, position: vec3, velocity: vec3, gravity: vec3, radius: scalar, touching: wp.int32
+    ):
+        """`contact_time` of plate k: the plane's entering root (its quadratic's, at most one per
+        face), kept if the centre is `inside` there. A pellet in front within R of the plane beside
+        the plate comes back over it at the larger root; a two-sided plate is also met on its other
+        face, after the pellet passed its plane beside it (the root of height = -R rising again)."""
+        height, gap_snapped, n = gap(surfaces, k, position, radius)
+        normal_speed = wp.dot(velocity, n)
+        normal_gravity = wp.dot(gravity, n)
+        if wp.abs(normal_gravity) <= TOLERANCE * (wp.abs(gravity[0]) + wp.abs(gravity[1]) + wp.abs(gravity[2])):
+            normal_gravity = scalar(0.0)
+        half = scalar(0.5) * normal_gravity
+        t = scalar(NO_CONTACT)
+        if k == touching:
+            t = return_time(normal_speed, half)
+        elif height >= scalar(0.0):
+            g = height - radius
+            if wp.static(SNAP):
+                g = gap_snapped
+            if g > scalar(0.0) or inside(surfaces, k, position):
+                t = entry_time(g, normal_speed, half)
+            elif normal_speed > scalar(0.0) and half < scalar(0.0):  # beside it, within R of its plane
+                disc = normal_speed * normal_speed - scalar(4.0) * half * g
+                if disc >= scalar(0.0):
+                    t = -(normal_speed + wp.sqrt(disc)) / (scalar(2.0) * half)
+        if t >= scalar(0.0):
+            if not inside(surfaces, k, _position(position, velocity, gravity, t)):
+                t = scalar(NO_CONTACT)
+        if surfaces.two_sided[k] != 0 and k != touching and normal_speed < scalar(0.0) and half > scalar(0.0):
+            disc = normal_speed * normal_speed - scalar(4.0) * half * (height + radius)
+            if disc >= scalar(0.0):
+                back = (wp.sqrt(disc) - normal_speed) / (scalar(2.0) * half)
+                if (t < scalar(0.0) or back < t) and inside(surfaces, k, _position(position, velocity, gravity, back)):
+                    t = back
+        if t > LATEST:
+            t = scalar(NO_CONTACT)
+        return t
 
     @wp.func
     def contact_time(
@@ -135,6 +227,9 @@ def make_geometry(precision: str, planes=None, snap: bool = True) -> SimpleNames
     ):
         """Time (s) until the parabola of eq. (36) meets surface k, or NO_CONTACT (also beyond
         MAX_FLIGHT_TIME). A plane's gap is the quadratic of `physics.ballistic`; one-sided."""
+        if wp.static(PLATES):
+            if surfaces.kind[k] != 0:
+                return plate_time(surfaces, k, position, velocity, gravity, radius, touching)
         height, gap_snapped, n = gap(surfaces, k, position, radius)
         normal_speed = wp.dot(velocity, n)
         normal_gravity = wp.dot(gravity, n)
@@ -174,6 +269,10 @@ def make_geometry(precision: str, planes=None, snap: bool = True) -> SimpleNames
         return best_time, best_plane
 
     return SimpleNamespace(
+        side=side,
+        inside=inside,
+        is_plate=is_plate,
+        reach=reach,
         count=count,
         normal=normal,
         locate=locate,
@@ -187,6 +286,9 @@ def make_geometry(precision: str, planes=None, snap: bool = True) -> SimpleNames
 
 def project(surface, x):
     """On the host, in float64: (foot, normal) of a scene's surface (a `scene.schema` plane) seen
-    from the point x (m): the point of the surface below x along its normal, and the unit normal."""
+    from the point x (m): the point of the surface below x along its normal, and the unit normal.
+    A plate is refused (the hazard's ground is a plane: `scene.parse` checks hazard.map_surface)."""
+    if not surface.is_plane:
+        raise ValueError(f"project: surface {surface.name!r} is a {surface.kind}, not a plane")
     n = np.asarray(surface.normal, dtype=np.float64)
     return x - np.dot(x - np.asarray(surface.point), n) * n, n

@@ -37,10 +37,12 @@ from .air_flight import make_plane_search
 from .ballistic import EPSILON, ROUNDING
 from .geometry import make_geometry
 from .integrate import make_dense_output, make_dormand_prince
+from .plate_edge import make_plate_edge
 from .surface_motion import FLIGHT, NEVER, REST, ROLLING, SLIDING, make_surface_motion
 from .types import types_for
 
 CONTACT, FOREVER, UNFINISHED = 4, 5, 6  # end codes beside surface_motion's FLIGHT (0) and REST (3)
+EDGE = 7  # a phase's end over a plate's edge (`plate_edge`): `follow` ends it in FLIGHT
 ENDS = {FLIGHT: "flight", REST: "rest", CONTACT: "contact", FOREVER: "forever", UNFINISHED: "unfinished"}
 VACUUM_TOLERANCE = 1e-6  # the integrator's relative tolerance in vacuum (the flight's default)
 MAX_FOLLOW_PHASES = 32  # slide, roll, grip lost, ...: more phases than this end UNFINISHED
@@ -242,15 +244,15 @@ def make_surface_rates(precision: str, model: str = "ballistic", laws=None) -> S
 
 
 @functools.cache
-def make_surface_closed_phases(precision: str, planes=None) -> SimpleNamespace:
+def make_surface_closed_phases(precision: str, planes=None, plates: bool = False) -> SimpleNamespace:
     """The phases in vacuum in closed form, with the first other surface on their way: constant
     accelerations (`surface_motion`) and rolling on a level plane with ploughing."""
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
-    sm, geo = make_surface_motion(precision), make_geometry(precision, planes)
+    sm, geo, edge = make_surface_motion(precision), make_geometry(precision, planes, True, plates), make_plate_edge(precision)
     ZERO, ONE, HALF = scalar(0.0), scalar(1.0), scalar(0.5)
     TOLERANCE = scalar(ROUNDING * EPSILON[precision])
-    STATIC = planes
+    STATIC, PLATES = planes, plates
 
     @wp.func
     def surface_count(surfaces: Surfaces):
@@ -297,7 +299,7 @@ def make_surface_closed_phases(precision: str, planes=None) -> SimpleNamespace:
         B = b/(1 + k), along a fixed line: A + B v^2 = (A + B v0^2) exp(-2 B s) and t(v) =
         atan(x)/sqrt(A B), x = (v0 - v) sqrt(A B)/(A + B v0 v) (t = (v0 - v)/(B v0 v) at A = 0).
         To the speed `goal`, or to the first other surface on the line: (duration, distance, speed
-        then, surface met or -1)."""
+        then, surface met or -1; -EDGE: over plate k's edge)."""
         v0 = wp.length(velocity)
         direction = sm.unit(velocity)
         share = ONE / (ONE + physics.inertia_factor)
@@ -314,12 +316,26 @@ def make_surface_closed_phases(precision: str, planes=None) -> SimpleNamespace:
                 if height >= ZERO and closing > ZERO:
                     s = wp.max(gap, ZERO) / closing
                     if distance < ZERO or s < distance:
-                        distance = s
-                        met = wp.int32(j)
+                        if wp.static(PLATES):  # a plate is met only where the line crosses it
+                            if geo.inside(surfaces, j, position + s * direction):
+                                distance = s
+                                met = wp.int32(j)
+                        else:
+                            distance = s
+                            met = wp.int32(j)
+        if wp.static(PLATES):
+            if geo.is_plate(surfaces, k):  # over its edge first?
+                off = edge.leave_time(surfaces, k, position, direction, vec3(), distance)
+                if off >= ZERO and (distance < ZERO or off < distance):
+                    distance = off
+                    met = wp.int32(-EDGE)
         if distance < ZERO:
             return scalar(NEVER), scalar(NEVER), ZERO, met
         v = goal
-        if met >= 0:  # the speed where it meets the surface
+        if wp.static(PLATES):
+            if met != -1:  # the speed where it meets the surface or leaves the plate
+                v = wp.sqrt(wp.max(((a + b * v0 * v0) * wp.exp(scalar(-2.0) * b * distance) - a) / b, ZERO))
+        elif met >= 0:  # the speed where it meets the surface
             v = wp.sqrt(wp.max(((a + b * v0 * v0) * wp.exp(scalar(-2.0) * b * distance) - a) / b, ZERO))
         root = wp.sqrt(a * b)
         x = (v0 - v) * root / (a + b * v0 * v)
@@ -349,7 +365,7 @@ def make_surface_closed_phases(precision: str, planes=None) -> SimpleNamespace:
     ):
         """A vacuum phase without ploughing by `surface_motion`'s closed forms: (x, v, w, duration,
         path, outcome, k_next), outcome 0: done, at its end (slip 0, or stopped: 1 at rest), CONTACT,
-        FOREVER; -1: no closed form (the state unchanged)."""
+        FOREVER, EDGE (plate k's); -1: no closed form (the state unchanged)."""
         g = physics.gravity
         radius, inertia = physics.radius, physics.inertia_factor
         duration = ZERO
@@ -368,6 +384,16 @@ def make_surface_closed_phases(precision: str, planes=None) -> SimpleNamespace:
             return position, velocity, spin, ZERO, ZERO, wp.int32(-1), k
         t_c, k_c = contact_within(position, velocity, acceleration, k, surfaces, physics)
         outcome = wp.int32(0)
+        if wp.static(PLATES):
+            if geo.is_plate(surfaces, k):  # over its edge first? (the end of the phase, or its contact)
+                end = duration
+                if k_c >= 0 and (duration < ZERO or t_c <= duration):
+                    end = t_c
+                off = edge.leave_time(surfaces, k, position, velocity, acceleration, end)
+                if off >= ZERO and (end < ZERO or off < end):
+                    x = position + velocity * off + (HALF * off * off) * acceleration
+                    path = sm.arc_length(velocity, acceleration, off)
+                    return x, velocity + acceleration * off, spin + spin_rate * off, off, path, wp.int32(EDGE), k
         if k_c >= 0 and (duration < ZERO or t_c <= duration):
             duration = t_c
             outcome = wp.int32(CONTACT)
@@ -392,7 +418,7 @@ def make_surface_closed_phases(precision: str, planes=None) -> SimpleNamespace:
 
 @functools.cache
 def make_surface_integrator(
-    precision: str, planes=None, model: str = "ballistic", laws=None, watch: tuple = (0, 0, False)
+    precision: str, planes=None, model: str = "ballistic", laws=None, watch: tuple = (0, 0, False), plates: bool = False
 ) -> SimpleNamespace:
     """`integrate_phase`: one sliding or rolling phase integrated to its end (module docstring),
     each accepted step given to `tallies.path`'s watch of `watch` = (thresholds, places, map)."""
@@ -403,13 +429,14 @@ def make_surface_integrator(
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
     AIR = model == "air"
-    sm, geo, dense = make_surface_motion(precision), make_geometry(precision, planes), make_dense_output(precision)
-    search = make_plane_search(precision, planes)
+    sm, dense = make_surface_motion(precision), make_dense_output(precision)
+    geo, search = make_geometry(precision, planes, True, plates), make_plane_search(precision, planes, plates)
     r = make_surface_rates(precision, model, laws)
     Contact, rates, stages, margin, margin_root = r.Contact, r.rates, r.stages, r.margin, r.margin_root
     target, error_norm, simpson = r.target, r.error_norm, r.simpson
-    surface_count = make_surface_closed_phases(precision, planes).surface_count
+    surface_count = make_surface_closed_phases(precision, planes, plates).surface_count
     ZERO, ONE, HALF = scalar(0.0), scalar(1.0), scalar(0.5)
+    PLATES, edge = plates, make_plate_edge(precision)
     STOP_FRACTION = scalar(STOP[precision])
 
     @wp.func
@@ -422,6 +449,9 @@ def make_surface_integrator(
         for j in range(surface_count(surfaces)):
             if j != k:
                 height, gap, n = geo.gap(surfaces, j, position, physics.radius)
+                if wp.static(PLATES):  # beside a plate, within R of its plane: watched
+                    if gap <= ZERO and not geo.inside(surfaces, j, position):
+                        gap = scalar(1.0)
                 if height >= ZERO:
                     if gap > ZERO:
                         watched = watched | (wp.int32(1) << j)
@@ -449,8 +479,8 @@ def make_surface_integrator(
     ):
         """Integrate one sliding or rolling phase (`contact.rolling`) until its quantity (`target`)
         reaches `goal`, `margin` reaches 0, or another surface is met. Returns (x, v, w, elapsed,
-        path, event, k_next, steps, track); event 0: the target reached, 1: the margin, CONTACT, or
-        UNFINISHED (steps_left spent)."""
+        path, event, k_next, steps, track); event 0: the target reached, 1: the margin, CONTACT, EDGE
+        (over plate k's edge), or UNFINISHED (steps_left spent)."""
         radius = physics.radius
         floor = wp.sqrt(wp.length(physics.gravity) * radius) + scalar(1e-6)
         tolerance = scalar(VACUUM_TOLERANCE)
@@ -523,6 +553,12 @@ def make_surface_integrator(
             if k_c >= 0 and theta_c <= theta:
                 theta = theta_c
                 event = wp.int32(CONTACT)
+            if wp.static(PLATES):
+                if geo.is_plate(surfaces, k):  # over its edge first?
+                    off = edge.leave_theta(surfaces, k, position, h * velocity, h * h * acceleration, x1, h * v1, h * h * a1)
+                    if off <= theta:
+                        theta = off
+                        event = wp.int32(EDGE)
             end = ONE
             if event >= 0:
                 end = theta
@@ -551,7 +587,7 @@ def make_surface_integrator(
 
 @functools.cache
 def make_surface_follow(
-    precision: str, planes=None, model: str = "ballistic", laws=None, watch: tuple = (0, 0, False)
+    precision: str, planes=None, model: str = "ballistic", laws=None, watch: tuple = (0, 0, False), plates: bool = False
 ) -> SimpleNamespace:
     """`follow` (module docstring) for one precision, number of planes (None: read at run time) and
     flight model ("ballistic": vacuum; "air" with `laws` = (drag, lift, spin_decay) of `physics.air`);
@@ -563,12 +599,13 @@ def make_surface_follow(
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
     AIR = model == "air"
-    sm, geo = make_surface_motion(precision), make_geometry(precision, planes)
+    sm, geo = make_surface_motion(precision), make_geometry(precision, planes, True, plates)
     r = make_surface_rates(precision, model, laws)
     Contact, applied_at, lifts = r.Contact, r.applied_at, r.lifts
-    closed = make_surface_closed_phases(precision, planes)
+    closed = make_surface_closed_phases(precision, planes, plates)
     plough_roll, rest_state, constant_phase = closed.plough_roll, closed.rest_state, closed.constant_phase
-    integrate_phase = make_surface_integrator(precision, planes, model, laws, watch).integrate_phase
+    integrate_phase = make_surface_integrator(precision, planes, model, laws, watch, plates).integrate_phase
+    PLATES = plates
     ZERO, ONE = scalar(0.0), scalar(1.0)
 
     @wp.func
@@ -601,6 +638,9 @@ def make_surface_follow(
             height, _gap, n = geo.gap(surfaces, k, position, radius)
             position = position - (height - radius) * n  # on the plane, and moving along it
             velocity = sm.tangential(velocity, n)
+            if wp.static(PLATES):
+                if not geo.inside(surfaces, k, position):  # off a plate's edge: it flies on
+                    return position, velocity, spin, elapsed, path, wp.int32(FLIGHT), steps, k, track
             applied, alpha = applied_at(velocity, spin, physics)
             mode = sm.surface_mode(
                 velocity, spin, n, applied, alpha, g, radius, inertia, mu_s, rolling_resistance, ploughing, rest_speed
@@ -686,6 +726,9 @@ def make_surface_follow(
                     outcome = wp.int32(1)
             if outcome == CONTACT:
                 return position, velocity, spin, elapsed, path, wp.int32(CONTACT), steps, k_c, track
+            if wp.static(PLATES):
+                if outcome == EDGE or k_c == -EDGE:  # over a plate's edge: it flies on from there
+                    return position, sm.tangential(velocity, n), spin, elapsed, path, wp.int32(FLIGHT), steps, k, track
             if outcome == FOREVER:
                 return position, velocity, spin, elapsed, path, wp.int32(FOREVER), steps, k, track
             if outcome == 1:

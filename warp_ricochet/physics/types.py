@@ -42,6 +42,14 @@ def types_for(precision: str) -> SimpleNamespace:
         friction_scatter: wp.array(dtype=scalar)
         skip_loss: wp.array(dtype=scalar)
         liquid: wp.array(dtype=wp.int32)
+        # plates (read only by kernels compiled with plates, `geometry.make_geometry`): KINDS code,
+        # unit in-plane axes u and v = n x u, half sides along them (m; a disc: its radius twice)
+        kind: wp.array(dtype=wp.int32)
+        axis_u: wp.array(dtype=vec3)
+        axis_v: wp.array(dtype=vec3)
+        half_u: wp.array(dtype=scalar)
+        half_v: wp.array(dtype=scalar)
+        two_sided: wp.array(dtype=wp.int32)  # 1: met from either face
 
     @wp.struct
     class Material:
@@ -114,14 +122,34 @@ GROUND_FIELDS = (
     "skip_loss",
 )
 RIGID_PLANE = {name: 0.0 for name in GROUND_FIELDS} | {"critical_angle": 0.5 * np.pi}
+KINDS = {"plane": 0, "rectangle": 1, "disc": 2}  # Surfaces.kind's codes (scene: [[surfaces]] kind)
 
 
-def surfaces_of(precision: str, points, normals, materials, device, ground=None, liquid=None) -> object:
+def plate_arrays(normals, plates) -> dict:
+    """Surfaces' plate arrays in float64 from unit normals (P, 3) and `plates`: per surface None (a
+    plane) or (kind, axis_u, half_u, half_v, two_sided); u is made exactly perpendicular to n here."""
+    normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+    plates = [None] * len(normals) if plates is None else list(plates)
+    out = {"kind": [], "axis_u": [], "axis_v": [], "half_u": [], "half_v": [], "two_sided": []}
+    for n, plate in zip(normals, plates):
+        kind, u, half_u, half_v, two_sided = plate or ("plane", (0.0, 0.0, 0.0), 0.0, 0.0, False)
+        u = np.asarray(u, dtype=np.float64)
+        if kind == "disc":  # any in-plane axis
+            u = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+        if kind != "plane":
+            u = u - np.dot(u, n) * n
+            u = u / np.linalg.norm(u)
+        for key, value in zip(out, (KINDS[kind], u, np.cross(n, u), half_u, half_v, int(bool(two_sided)))):
+            out[key].append(value)
+    return {key: np.asarray(values) for key, values in out.items()}
+
+
+def surfaces_of(precision: str, points, normals, materials, device, ground=None, liquid=None, plates=None) -> object:
     """The `Surfaces` struct of planes: points (m) and unit normals (P, 3), materials (P, 3) as
     restitution, mu_s, mu_d; their point_noise sum_i |p_i| |n_i| computed here in float64, once, so
     the kernels' rounding scale of a gap (`physics.geometry.locate`) adds it instead of p's terms.
     `ground`: {GROUND_FIELDS name: (P,) values in the kernels' units}, missing ones those of a rigid
-    plane (RIGID_PLANE); `liquid`: (P,) flags (default 0)."""
+    plane (RIGID_PLANE); `liquid`: (P,) flags (default 0); `plates`: as `plate_arrays` (default: planes)."""
     t = types_for(precision)
     dtype = np.dtype(precision)
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
@@ -140,4 +168,11 @@ def surfaces_of(precision: str, points, normals, materials, device, ground=None,
         setattr(surfaces, name, wp.array(values.astype(dtype), dtype=t.scalar, device=device))
     flags = np.zeros(len(points), dtype=np.int32) if liquid is None else np.asarray(liquid, dtype=np.int32).reshape(-1)
     surfaces.liquid = wp.array(flags, dtype=wp.int32, device=device)
+    shapes = plate_arrays(normals, plates)
+    for name in ("kind", "two_sided"):
+        setattr(surfaces, name, wp.array(shapes[name].astype(np.int32), dtype=wp.int32, device=device))
+    for name in ("axis_u", "axis_v"):
+        setattr(surfaces, name, wp.array(shapes[name].reshape(-1, 3).astype(dtype), dtype=t.vec3, device=device))
+    for name in ("half_u", "half_v"):
+        setattr(surfaces, name, wp.array(shapes[name].astype(dtype), dtype=t.scalar, device=device))
     return surfaces

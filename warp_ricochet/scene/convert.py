@@ -24,6 +24,7 @@ from .schema import (
     MAX_WIND,
     MIN_DENSITY,
     MIN_DIAMETER,
+    SURFACE_KINDS,
     Bound,
     Place,
     Reference,
@@ -161,6 +162,17 @@ def _bool(v, path):
     return v
 
 
+@_rule(f"must be a list of 2 numbers in (0, {2 * MAX_COORDINATE:g}] (m)")
+def _size(v, path):
+    rule = _size.rule
+    if not (isinstance(v, (list, tuple)) and len(v) == 2):
+        raise _err(path, v, rule)
+    xs = tuple(_finite(x, path, rule) for x in v)
+    if not all(0 < x <= 2 * MAX_COORDINATE for x in xs):
+        raise _err(path, v, rule)
+    return xs
+
+
 @_rule("must be a list of field names")
 def _fields(v, path):
     if not isinstance(v, (list, tuple)):
@@ -198,6 +210,11 @@ _SURFACE = {
     "mu_s": _range(0, MAX_FRICTION),
     "mu_d": _range(0, MAX_FRICTION),
     "material": _str(),  # a catalogue name (scene.materials), checked with a did-you-mean in scene.parse
+    "kind": _str(SURFACE_KINDS),  # plates' keys checked together in scene.parse._plate
+    "axis_u": _vec3(nonzero=True, bound=MAX_COORDINATE),
+    "size": _size,
+    "radius": _range(0, MAX_COORDINATE, above=True, unit="m"),
+    "two_sided": _bool,
     **{key: _range(lo, hi, unit="" if unit == "1" else unit) for key, (lo, hi, unit, _why) in RANGES.items()},
 }
 _PHYSICS = {

@@ -25,6 +25,7 @@ from .schema import (
     INT32_MAX,
     MAX_THRESHOLDS,
     MIN_FLIGHT_TOLERANCE,
+    PERPENDICULAR,
     Air,
     Collisions,
     Hazard,
@@ -71,7 +72,37 @@ def _surface(raw, path: str) -> Surface:
         kw = _with_material(kw, raw, path)
     if kw.setdefault("mu_d", kw["mu_s"]) > kw["mu_s"]:
         raise err(f"{path}.mu_d", raw["mu_d"], f"must be a number in [0, mu_s = {kw['mu_s']:g}]")
-    return Surface(**kw)
+    return Surface(**_plate(kw, raw, path))
+
+
+# the keys each kind of surface takes beside the plane's (docs/geometry.md)
+PLATE_KEYS = {"plane": (), "rectangle": ("axis_u", "size", "two_sided"), "disc": ("radius", "two_sided")}
+
+
+def _plate(kw: dict, raw: dict, path: str) -> dict:
+    """A surface's kind and its plate keys checked together: each kind's keys required (two_sided
+    optional), no other kind's; a rectangle's axis_u perpendicular to its normal (within
+    PERPENDICULAR) and made a unit vector. A plane keeps no kind (None), a one-sided plate no two_sided."""
+    kind = kw.pop("kind", "plane")
+    for key in ("axis_u", "size", "radius", "two_sided"):
+        if key in kw and key not in PLATE_KEYS[kind]:
+            owners = [k for k, keys in PLATE_KEYS.items() if key in keys]
+            raise err(f"{path}.{key}", raw[key], f"is a key of kind = {' or '.join(map(repr, owners))} only (this is a {kind!r})")
+    for key in PLATE_KEYS[kind]:
+        if key != "two_sided" and key not in kw:
+            raise err(f"{path}.{key}", MISSING, f"is required for kind = {kind!r}; it {SCHEMAS['surfaces'][key].rule}")
+    if kind == "plane":
+        return kw
+    if "axis_u" in kw:
+        u, n = kw["axis_u"], kw["normal"]
+        if abs(math.hypot(*u) - 1.0) > 1e-15:
+            u = unit_vector(u)
+        if abs(sum(a * b for a, b in zip(u, n))) > PERPENDICULAR:
+            raise err(f"{path}.axis_u", raw["axis_u"], f"must be perpendicular to the normal {list(n)} (in the plate's plane)")
+        kw["axis_u"] = u
+    if not kw.get("two_sided", True):
+        del kw["two_sided"]
+    return {**kw, "kind": kind}
 
 
 def _with_material(kw: dict, raw: dict, path: str) -> dict:
@@ -146,6 +177,13 @@ def _hazard(raw, surfaces: tuple, shot: Shot):
         raise err("hazard.site", "(a table)", "needs a map to place: give hazard.map_cell and hazard.map_extent")
     if hazard.points:
         _check_places(hazard, surfaces, shot)
+    if hazard.map_surface < len(surfaces) and not surfaces[hazard.map_surface].is_plane:
+        raise err(
+            "hazard.map_surface",
+            hazard.map_surface,
+            f"must be a plane: surface {hazard.map_surface} is a {surfaces[hazard.map_surface].kind} "
+            "(the hazard's ground, its map and places lie on an infinite plane)",
+        )
     return hazard
 
 
@@ -273,6 +311,14 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
     pairs = collisions.enabled and shot.count > 1  # as Scene.pair_collisions: the run has a dense phase
     output = _table(raw.get("output"), "output", SCHEMAS["output"])
     planes = tuple(_surface(s, f"surfaces.{i}") for i, s in enumerate(surfaces))
+    plate = next((i for i, s in enumerate(planes) if not s.is_plane), None)
+    if pairs and plate is not None:
+        raise err(
+            f"surfaces.{plate}.kind",
+            planes[plate].kind,
+            'must be "plane" with pellet-pellet collisions (collisions.enabled and shot.count > 1): '
+            "the dense phase meets infinite planes only",
+        )
     hazard = _hazard(raw.get("hazard"), planes, shot)
     _check_bound(hazard, shot, collisions)
     if hazard is not None and output.get("quantiles") is False:

@@ -26,6 +26,8 @@ MAX_IMPACT_DURATION = 1.0  # s
 MAX_AIR_DENSITY = 100.0  # kg/m^3: gases (the laws of docs/air.md are for a gas)
 MAX_WIND = 1e3  # m/s, each component
 
+SURFACE_KINDS = ("plane", "rectangle", "disc")  # [[surfaces]] kind (docs/geometry.md)
+PERPENDICULAR = 1e-9  # a rectangle's axis_u within this (cosine) of perpendicular to its normal
 FLOAT32_EXACT_STEPS = 2**24  # float32 counts every integer up to here
 CHECKPOINT_STEPS = 8  # a shot's steps between checkpoints when collisions.frame_every is 0 (dense.constants.BLOCK_STEPS)
 # shot keys that a pellet file replaces
@@ -57,7 +59,9 @@ class Shot:
 
 @dataclass(frozen=True)
 class Surface:
-    """A plane through `point` (m) with unit `normal` pointing to the side the pellets come from."""
+    """A plane through `point` (m) with unit `normal` pointing to the side the pellets come from; or,
+    with `kind`, a finite plate in that plane centred on `point` (docs/geometry.md): a "rectangle" of
+    sides `size` (m) along the unit `axis_u` and normal x axis_u, or a "disc" of `radius` (m)."""
 
     point: Vec3
     normal: Vec3
@@ -79,6 +83,16 @@ class Surface:
     restitution_scatter: float | None = None  # relative
     friction_scatter: float | None = None  # log-normal sigma
     skip_loss: float | None = None  # water: tan(beta)
+    kind: str | None = None  # None: an infinite plane ("plane"); "rectangle" or "disc": a plate
+    axis_u: Vec3 | None = None  # a rectangle's first side (unit, perpendicular to normal)
+    size: tuple[float, float] | None = None  # m: a rectangle's sides along axis_u and normal x axis_u
+    radius: float | None = None  # m: a disc's
+    two_sided: bool | None = None  # True: a plate met from either face; None: from the normal's side only
+
+    @property
+    def is_plane(self) -> bool:
+        """An infinite plane (no `kind`, or kind = "plane")."""
+        return self.kind is None
 
     def ground(self, key: str) -> float:
         """The value of a ground key (scene.materials.GROUND_KEYS): its own, else the rigid plane's."""
