@@ -303,3 +303,22 @@ def test_compressed_runs_resume_bitwise_and_read_the_same(tmp_path, reference, c
         assert packed < sum(ref[f"pellets/{n}"].id.get_storage_size() for n in fields)
     with wr.open_run(out) as run, h5py.File(reference) as ref:
         np.testing.assert_array_equal(run.impact.velocity.values, ref["pellets/impact/velocity"][()])
+
+
+def test_plate_shapes_have_named_dimensions(tmp_path):
+    """/constants/surfaces/{kind, axis_u, size, two_sided} of a run with a finite plate open in
+    xarray + h5netcdf on the `surface`, `xyz` and `side` dimensions, with their units."""
+    from helpers import make_scene, paper_raw
+
+    raw = paper_raw()
+    raw["shot"]["count"] = 32
+    plate = {"kind": "rectangle", "point": [4.0, 1.0, 0.0], "normal": [-1.0, 0.0, 0.0], "axis_u": [0.0, 0.0, 1.0]}
+    raw["surfaces"] = [raw["surfaces"][0], {**plate, "size": [2.0, 1.0], "restitution": 0.3, "mu_s": 0.2}]
+    raw["output"] = {"fields": ["landing"]}
+    path = tmp_path / "plate.h5"
+    wr.run(make_scene(raw, precision="float64"), path, device="cpu")
+    variables = assert_named_like_the_layout(path)
+    assert variables["constants/surfaces/size"].dims == ("surface", "side")
+    assert variables["constants/surfaces/size"].attrs["units"] == "m"
+    assert variables["constants/surfaces/axis_u"].dims == ("surface", "xyz")
+    assert list(variables["constants/surfaces/kind"].values) == [0, 1]

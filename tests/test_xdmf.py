@@ -413,3 +413,50 @@ def test_the_flags_of_a_file_that_may_be_written_or_cannot_be_are_left(tmp_path,
     }[case]
     assert code == 2 and said in err and len(err.strip().splitlines()) == 1, err
     assert partial.read_bytes() == before and not sidecar_path(partial).exists()
+
+
+def test_finite_plates_are_drawn_as_their_triangles(tmp_path):
+    """A plane, a rectangle and a disc: the plane stays one quad in `surfaces`, the plates are
+    triangles in `plates` (2 and DISC_SIDES), on their planes and within their outlines, with their
+    surface's index and coefficients as cell data; /constants/surfaces keeps their shapes."""
+    from warp_ricochet.io.xdmf import DISC_SIDES
+
+    raw = paper_raw()
+    raw["shot"]["count"] = 64
+    rect = {"kind": "rectangle", "point": [4.0, 1.0, 0.5], "normal": [-1.0, 0.0, 0.0], "axis_u": [0.0, 0.0, 1.0]}
+    rect.update(size=[2.0, 1.0], restitution=0.3, mu_s=0.2)
+    disc = {
+        "kind": "disc",
+        "point": [6.0, 0.5, -1.0],
+        "normal": [0.0, 1.0, 0.0],
+        "radius": 0.75,
+        "two_sided": True,
+        "restitution": 0.6,
+        "mu_s": 0.4,
+    }
+    raw["surfaces"] = [raw["surfaces"][0], rect, disc]
+    raw["output"] = {"fields": ["landing"]}
+    scene = make_scene(raw, precision="float64")
+    api.run(scene, tmp_path / "plates.h5", device="cpu")
+    with h5py.File(tmp_path / "plates.h5") as f:
+        g = f[next(iter(f))] if "constants" not in f else f
+        s = g["constants/surfaces"]
+        np.testing.assert_array_equal(s["kind"][()], [0, 1, 2])
+        np.testing.assert_array_equal(s["size"][()], [[0.0, 0.0], [2.0, 1.0], [1.5, 1.5]])
+        np.testing.assert_array_equal(s["two_sided"][()], [0, 0, 1])
+        restitution = s["restitution"][()]
+    blocks, _steps = _read(tmp_path / "plates.xmf")
+    assert blocks["surfaces"].GetNumberOfCells() == 1
+    plates = blocks["plates"]
+    assert plates.GetNumberOfCells() == 2 + DISC_SIDES
+    cells = _arrays(plates, cells=True)
+    np.testing.assert_array_equal(cells["surface"], [1, 1] + [2] * DISC_SIDES)
+    np.testing.assert_array_equal(cells["restitution"], restitution[cells["surface"]])
+    corners = vtk_to_numpy(plates.GetPoints().GetData()).reshape(-1, 3, 3)
+    rect_corners, disc_corners = corners[:2].reshape(-1, 3), corners[2:].reshape(-1, 3)
+    np.testing.assert_allclose(rect_corners[:, 0], 4.0, rtol=0, atol=1e-12)
+    assert np.allclose(np.abs(rect_corners[:, 2] - 0.5).max(), 1.0) and np.allclose(np.abs(rect_corners[:, 1] - 1.0).max(), 0.5)
+    np.testing.assert_allclose(disc_corners[:, 1], 0.5, rtol=0, atol=1e-12)
+    assert np.hypot(disc_corners[:, 0] - 6.0, disc_corners[:, 2] + 1.0).max() <= 0.75 + 1e-12
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])  # counter-clockwise about each normal
+    assert np.all(normals[:2] @ [-1.0, 0.0, 0.0] > 0) and np.all(normals[2:] @ [0.0, 1.0, 0.0] > 0)

@@ -36,6 +36,10 @@ RUN_DIMENSIONS = {
     "constants/surfaces/restitution": ("surface",),
     "constants/surfaces/mu_s": ("surface",),
     "constants/surfaces/mu_d": ("surface",),
+    "constants/surfaces/kind": ("surface",),  # with finite plates (docs/geometry.md)
+    "constants/surfaces/axis_u": ("surface", "xyz"),
+    "constants/surfaces/size": ("surface", "side"),
+    "constants/surfaces/two_sided": ("surface",),
     **{f"constants/surfaces/{key}": ("surface",) for key in GROUND_KEYS},  # ground materials (scene.materials)
     "progress/segment_results": ("segment", "segment_column"),
     "progress/shot_totals": ("shot", "shot_column"),

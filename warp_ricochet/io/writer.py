@@ -56,6 +56,25 @@ def _shown_name(group) -> str:
     return str(out.staging) if out is not None else group.file.filename
 
 
+def _write_plates(group, surfaces):
+    """The finite plates' shapes beside the planes' (docs/geometry.md): `kind` (the code of
+    `physics.types.KINDS`, named in its attribute `kinds`), `axis_u`, `size` (m; a disc: its
+    diameter twice) and `two_sided`, a plane's entries zero."""
+    from ..physics.types import KINDS
+
+    kinds = [KINDS[p.kind or "plane"] for p in surfaces]
+    axes = [p.axis_u if p.axis_u is not None else (0.0, 0.0, 0.0) for p in surfaces]
+    sizes = [p.size if p.size is not None else (2.0 * (p.radius or 0.0),) * 2 for p in surfaces]
+    for name, unit, data in (
+        ("kind", "1", np.asarray(kinds, dtype=np.int32)),
+        ("axis_u", "1", np.asarray(axes, dtype=np.float64).reshape(len(surfaces), 3)),
+        ("size", "m", np.asarray(sizes, dtype=np.float64).reshape(len(surfaces), 2)),
+        ("two_sided", "1", np.asarray([bool(p.two_sided) for p in surfaces], dtype=np.int8)),
+    ):
+        group.create_dataset(name, data=data).attrs["units"] = unit
+    group["kind"].attrs["kinds"] = list(KINDS)
+
+
 class RunWriter:
     """Writes one run into `group`: constants, per-pellet chunks, statistics, and the progress a
     reader or `--resume` relies on (/progress: the rows complete, the chunk size, the per-segment
@@ -215,6 +234,8 @@ class RunWriter:
                 arr = arr.reshape(len(planes), 3)
             s.create_dataset(name, data=arr).attrs["units"] = unit
         s.attrs["material"] = [p.material or "" for p in planes]  # catalogue names ("": a rigid plane)
+        if any(p.kind for p in planes):
+            _write_plates(s, planes)
 
     def append(
         self,

@@ -352,32 +352,83 @@ def quad_corners(point, normal, positions) -> np.ndarray:
 
 def _surfaces(parent, group, ref, rows, name):
     """The planes as finite quads, with their index and coefficients as cell data (none for a
-    scene without planes)."""
+    scene without planes); the finite plates as triangles in a grid of their own (`_plates`)."""
     if "constants/surfaces/point" not in group:
         return
     points, normals = group["constants/surfaces/point"][()], group["constants/surfaces/normal"][()]
-    if len(points) == 0:
+    planes = np.arange(len(points))
+    if "constants/surfaces/kind" in group:
+        _plates(parent, group, name.replace("surfaces", "plates"))
+        planes = np.flatnonzero(group["constants/surfaces/kind"][()] == 0)
+    if len(planes) == 0:
         return
     sample = _sample_box(group, rows)
-    corners = np.concatenate([quad_corners(p, n, sample) for p, n in zip(points, normals)])
+    corners = np.concatenate([quad_corners(points[i], normals[i], sample) for i in planes])
     grid = ET.SubElement(parent, "Grid", Name=name, GridType="Uniform")
-    ET.SubElement(grid, "Topology", TopologyType="Quadrilateral", NumberOfElements=str(len(points)))
+    ET.SubElement(grid, "Topology", TopologyType="Quadrilateral", NumberOfElements=str(len(planes)))
     geometry = ET.SubElement(grid, "Geometry", GeometryType="XYZ")
     item = ET.SubElement(geometry, "DataItem", Dimensions=f"{len(corners)} 3", NumberType="Float", Precision="8", Format="XML")
     item.text = "\n" + "\n".join(" ".join(repr(float(x)) for x in c) for c in corners) + "\n"
-    index = ET.SubElement(
-        _attribute(grid, "surface", "Scalar", "1", "Cell"),
+    _cell_values(grid, "surface", planes)
+    for key in ("restitution", "mu_s", "mu_d"):
+        path = f"constants/surfaces/{key}"
+        if path in ref and len(planes) == len(points):
+            ref.item(_attribute(grid, key, "Scalar", "1", "Cell"), path)
+        elif path in ref:
+            _cell_values(grid, key, group[path][()][planes])
+
+
+def _cell_values(grid, key, values):
+    """Cell data `key` written into the sidecar itself (integers, or float64 values)."""
+    integer = np.asarray(values).dtype.kind in "iu"
+    data = ET.SubElement(
+        _attribute(grid, key, "Scalar", "1", "Cell"),
         "DataItem",
-        Dimensions=str(len(points)),
-        NumberType="Int",
-        Precision="4",
+        Dimensions=str(len(values)),
+        NumberType="Int" if integer else "Float",
+        Precision="4" if integer else "8",
         Format="XML",
     )
-    index.text = " ".join(str(i) for i in range(len(points)))
-    for name in ("restitution", "mu_s", "mu_d"):
-        path = f"constants/surfaces/{name}"
-        if path in ref:
-            ref.item(_attribute(grid, name, "Scalar", "1", "Cell"), path)
+    data.text = " ".join(str(int(x)) if integer else repr(float(x)) for x in values)
+
+
+DISC_SIDES = 48  # triangles of a disc's fan in the sidecar
+
+
+def plate_triangles(point, normal, axis_u, size, kind) -> np.ndarray:
+    """The triangles (T, 3, 3) of a plate (docs/geometry.md), counter-clockwise about its normal:
+    a rectangle (kind 1) of sides `size` along axis_u and normal x axis_u as 2, a disc (kind 2) of
+    diameter size[0] as a fan of DISC_SIDES inscribed in it."""
+    p, n, u = (np.asarray(x, dtype=np.float64) for x in (point, normal, axis_u))
+    n = n / np.linalg.norm(n)
+    if kind == 2:
+        u, v = plane_basis(n)
+        angles = 2.0 * np.pi * np.arange(DISC_SIDES + 1) / DISC_SIDES
+        rim = p + 0.5 * size[0] * (np.cos(angles)[:, None] * u + np.sin(angles)[:, None] * v)
+        return np.stack([np.broadcast_to(p, (DISC_SIDES, 3)), rim[:-1], rim[1:]], axis=1)
+    v = np.cross(n, u)
+    a, b = 0.5 * size[0] * u, 0.5 * size[1] * v
+    c = [p - a - b, p + a - b, p + a + b, p - a + b]
+    return np.array([[c[0], c[1], c[2]], [c[0], c[2], c[3]]])
+
+
+def _plates(parent, group, name):
+    """The finite plates as triangles, with their surface's index and coefficients as cell data."""
+    s = group["constants/surfaces"]
+    kinds = s["kind"][()]
+    which = np.flatnonzero(kinds != 0)
+    if not len(which):
+        return
+    parts = [plate_triangles(s["point"][i], s["normal"][i], s["axis_u"][i], s["size"][i], kinds[i]) for i in which]
+    owner = np.concatenate([np.full(len(t), i) for i, t in zip(which, parts)])
+    corners = np.concatenate(parts).reshape(-1, 3)
+    grid = ET.SubElement(parent, "Grid", Name=name, GridType="Uniform")
+    ET.SubElement(grid, "Topology", TopologyType="Triangle", NumberOfElements=str(len(owner)))
+    geometry = ET.SubElement(grid, "Geometry", GeometryType="XYZ")
+    item = ET.SubElement(geometry, "DataItem", Dimensions=f"{len(corners)} 3", NumberType="Float", Precision="8", Format="XML")
+    item.text = "\n" + "\n".join(" ".join(repr(float(x)) for x in c) for c in corners) + "\n"
+    for key in ("surface", "restitution", "mu_s", "mu_d"):
+        _cell_values(grid, key, owner if key == "surface" else s[key][()][owner])
 
 
 # ------------------------------------------------------------------------------------------ frames
