@@ -268,3 +268,20 @@ def test_the_page_in_headless_chromium(run_file, tmp_path):
     for number in _numbers(run_file):
         assert number in text, number
     assert "How far pellets stay dangerous" in text and "CPSA shot fall" in text
+
+
+def test_a_plate_is_named_by_its_shape_and_the_limits_say_so(tmp_path):
+    """The scene's surfaces table names each surface's shape (docs/geometry.md) and the limits
+    section says plates are met inside their outline only."""
+    raw = load_scene(ROOT / "examples" / "paper.toml", ["shot.count=64"]).to_dict()
+    plate = {"kind": "rectangle", "point": [4.0, 1.0, 0.0], "normal": [-1.0, 0.0, 0.0], "axis_u": [0.0, 0.0, 1.0]}
+    raw["surfaces"].append({**plate, "name": "plate", "size": [2.0, 1.0], "restitution": 0.3, "mu_s": 0.2})
+    path, out = tmp_path / "plate.h5", tmp_path / "plate.html"
+    wr.run(scene_from_dict(raw), path, device="cpu")
+    rc, _stdout, err = cli(["report", path, "--html", out])
+    assert (rc, err) == (0, "")
+    page = _parse(out.read_text())
+    shapes = {r[1]: r[2] for r in page.rows if len(r) > 2 and r[0] in ("0", "1")}
+    assert shapes["plate"] == "rectangle 2 m x 1 m, met from its normal's side"
+    assert list(shapes.values())[0] == "infinite plane"
+    assert "finite flat plates" in page.text

@@ -125,6 +125,18 @@ def _height(scene: dict, centre) -> str:
     return f"{fmt((centre - point) @ normal / np.linalg.norm(normal))} m above {name}"
 
 
+def _shape(surface: dict) -> str:
+    """A surface's kind in words (docs/geometry.md): its size, and the faces pellets meet."""
+    kind = surface.get("kind") or "plane"
+    sides = "either face" if surface.get("two_sided") else "its normal's side"
+    if kind == "rectangle":
+        a, b = surface["size"]
+        return f"rectangle {fmt(a)} m x {fmt(b)} m, met from {sides}"
+    if kind == "disc":
+        return f"disc of radius {fmt(surface['radius'])} m, met from {sides}"
+    return "infinite plane"
+
+
 def _surfaces(f, scene: dict) -> list[dict]:
     rows = []
     given = scene.get("surfaces", [])
@@ -133,6 +145,7 @@ def _surfaces(f, scene: dict) -> list[dict]:
         row = {
             "index": i,
             "name": s.get("name") or f"surface {i}",
+            "shape": _shape(s),
             "material": s.get("material") or "rigid plane (no catalogue material)",
             "point": ", ".join(fmt(x) for x in s.get("point", ())),
             "normal": ", ".join(fmt(x) for x in s.get("normal", ())),
@@ -357,5 +370,6 @@ def limit_flags(scene: dict, reach: bool) -> dict:
         "landing": scene.get("physics", {}).get("until", "rest") == "landing",
         "reach": reach,
         "materials": any(s.get("material") for s in scene.get("surfaces", [])),
+        "plates": any((s.get("kind") or "plane") != "plane" for s in scene.get("surfaces", [])),
         "levels": list(SHOWN_LEVELS),
     }
