@@ -11,9 +11,12 @@ import pytest
 rasterio = pytest.importorskip("rasterio", reason="the gis extra (rasterio) is not installed")
 pytest.importorskip("pyproj", reason="the gis extra (pyproj) is not installed")
 
+from helpers import cli, paper_raw  # noqa: E402
 from rasterio.transform import Affine  # noqa: E402
 
-from warp_ricochet.scene.terrain import load_terrain, read_raster  # noqa: E402
+from warp_ricochet.errors import SceneError  # noqa: E402
+from warp_ricochet.scene import load_scene, scene_from_dict  # noqa: E402
+from warp_ricochet.scene.terrain import load_terrain, place_terrain, read_raster  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 TRAP_FIELD = ROOT / "warp_ricochet" / "examples" / "terrain" / "trap_field.asc"
@@ -134,3 +137,122 @@ def test_the_trap_field_raster_is_the_script_s():
     assert len(triangles) == 2 * 60 * 20
     crest = vertices[np.isclose(vertices[:, 0], 152.5)]
     np.testing.assert_allclose(crest[:, 2] - (120.0 - 0.02 * 152.5), 4.0, atol=1e-9)  # the berm
+
+
+SITE = {"crs": "EPSG:32630", "shooter": [500_100.0, 4_200_050.0], "azimuth": 30.0}
+
+
+def terrain_scene(path, site=False, **keys):
+    """The paper's scene with a terrain (surface 1) from `path`; with `site`, a map placed by SITE."""
+    raw = paper_raw()
+    raw["surfaces"].append({"kind": "terrain", "file": str(path), "material": "turf", **keys})
+    if site:
+        raw["hazard"] = {"map_cell": 1.0, "map_extent": [-50.0, 200.0, -100.0, 100.0], "site": dict(SITE)}
+    return raw
+
+
+def test_terrain_is_placed_at_its_point_in_the_scene_s_axes(tmp_path):
+    path = plane_raster(tmp_path, west=500_000.0, north=4_200_024.0)
+    keys = dict(point=[3.0, -1.0, 2.0], origin=[500_000.0, 4_200_000.0], elevation=40.0, axis_u=[0.0, 0.0, 2.0])
+    scene = scene_from_dict(terrain_scene(path, **keys))
+    terrain = scene.surfaces[1]
+    assert terrain.kind == "terrain" and terrain.normal == (0.0, 1.0, 0.0)  # up = -gravity by default
+    assert terrain.file == str(path) and terrain.axis_u == (0.0, 0.0, 1.0)
+    assert scene_from_dict(scene.to_dict()) == scene  # round trip
+    vertices, triangles = place_terrain(scene, 1)
+    local, same = load_terrain(path, origin=(500_000.0, 4_200_000.0), elevation=40.0)
+    np.testing.assert_array_equal(triangles, same)
+    east, north, up = np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])  # north = up x east
+    np.testing.assert_allclose(
+        vertices,
+        [3.0, -1.0, 2.0] + np.outer(local[:, 0], east) + np.outer(local[:, 1], north) + np.outer(local[:, 2], up),
+        rtol=0,
+        atol=1e-12,
+    )
+    corners = vertices[triangles]
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    assert (normals @ up > 0).all()  # outward: up, the side pellets meet
+    assert vertices[np.argmin(np.linalg.norm(local[:, :2], axis=1)), 1] == pytest.approx(
+        -1.0 + tilted(1.0, 1.0) - 40.0, abs=1e-12
+    )
+
+
+def test_terrain_through_the_site_s_crs_round_trips_to_a_millimetre(tmp_path):
+    from warp_ricochet.gis.site import Georeference, local_matrix
+    from warp_ricochet.tallies.counts import TallySetup
+
+    path = plane_raster(tmp_path, west=500_080.0, north=4_200_070.0, rows=20, cols=30, cell=5.0)
+    with rasterio.open(path, "r+") as dst:
+        dst.crs = rasterio.crs.CRS.from_epsg(32630)
+    scene = scene_from_dict(terrain_scene(path, site=True, point=[0.0, 2.0, 0.0], elevation=40.0))
+    vertices, _ = place_terrain(scene, 1)
+    xyz, _ = load_terrain(path, origin=(0.0, 0.0))  # the raster's own (x, y, z), same order
+    setup = TallySetup.of(scene, 1.0, 1.0, 1.0)
+    geo = Georeference(SITE["crs"], SITE["shooter"], SITE["azimuth"], local_matrix(setup))
+    offset = vertices - np.asarray(setup.map_origin)
+    x, y = geo.to_crs(offset @ np.asarray(setup.map_u), offset @ np.asarray(setup.map_v))  # as the GIS outputs
+    assert np.hypot(x - xyz[:, 0], y - xyz[:, 1]).max() < 1e-6  # (measured 4e-9 m; the issue asks 1 mm)
+    np.testing.assert_allclose(vertices[:, 1], 2.0 + xyz[:, 2] - 40.0, rtol=0, atol=1e-9)  # heights along up
+
+
+def one_line(raw, key, match):
+    with pytest.raises(SceneError, match=match) as info:
+        scene_from_dict(raw)
+    assert "\n" not in str(info.value) and str(info.value).startswith(key)
+
+
+def test_terrain_keys_are_checked_in_one_line(tmp_path):
+    good = plane_raster(tmp_path)
+    text = tmp_path / "not.tif"
+    text.write_text("not a raster\n")
+    one_line(terrain_scene(text), "surfaces.1.file", "is not a raster")
+    one_line(terrain_scene(tmp_path / "absent.tif"), "surfaces.1.file", "is not a file")
+    nodata = write_tif(tmp_path / "none.tif", np.full((3, 3), -1.0), 0.0, 3.0, 1.0, nodata=-1.0)
+    one_line(terrain_scene(nodata), "surfaces.1.file", "no valid sample")
+    flat = write_tif(tmp_path / "flat.tif", [[5.0, 5.0, 7.0], [5.0, 6.0, 5.0]], 0.0, 2.0, 1.0)
+    one_line(terrain_scene(flat, nodata=5.0), "surfaces.1.file", "has no cell of four valid samples")  # the key's nodata
+    raw = terrain_scene(good)
+    del raw["surfaces"][1]["file"]
+    one_line(raw, "surfaces.1.file", "is required for kind = 'terrain'")
+    one_line(terrain_scene(good, size=[1.0, 1.0]), "surfaces.1.size", "is a key of kind = 'rectangle' only")
+    one_line(terrain_scene(good, origin=[1.0]), "surfaces.1.origin", "list of 2 numbers")
+    one_line(terrain_scene(good, axis_u=[1.0, 1.0, 0.0]), "surfaces.1.axis_u", "perpendicular to the terrain's up")
+    plane = paper_raw()
+    plane["surfaces"][0]["file"] = str(good)
+    one_line(plane, "surfaces.0.file", "is a key of kind = 'terrain' only")
+    one_line(terrain_scene(good, site=True), "surfaces.1.file", "has no CRS")
+    with rasterio.open(good, "r+") as dst:
+        dst.crs = rasterio.crs.CRS.from_epsg(32631)
+    one_line(terrain_scene(good, site=True), "surfaces.1.file", "is in EPSG:32631, not in the site's crs")
+    one_line(terrain_scene(good, site=True, origin=[0.0, 0.0]), "surfaces.1.origin", "not allowed with")
+    one_line(terrain_scene(good, site=True, normal=[1.0, 0.0, 0.0], axis_u=None), "surfaces.1.normal", "must be the scene's up")
+    raw = terrain_scene(good)
+    raw["physics"]["gravity"] = [0.0, 0.0, 0.0]
+    one_line(raw, "surfaces.1.normal", "is required for a terrain with zero gravity")
+    raw = terrain_scene(good)
+    raw["hazard"] = {"map_surface": 1}
+    one_line(raw, "hazard.map_surface", "must be a plane")
+
+
+def test_a_terrain_scene_is_refused_at_run_time_before_any_work(tmp_path):
+    (tmp_path / "terrain").mkdir()
+    scene_file = tmp_path / "trap.toml"
+    (tmp_path / "terrain" / "field.asc").write_bytes(TRAP_FIELD.read_bytes())
+    raw = terrain_scene("terrain/field.asc", origin=[500_000.0, 4_200_000.0])
+    scene = scene_from_dict(raw, base_dir=tmp_path)  # (a relative file: from the scene's folder)
+    assert scene.surfaces[1].file == str(tmp_path / "terrain" / "field.asc")
+    scene_file.write_text(scene.to_toml())
+    assert load_scene(scene_file) == scene.replace(source=str(scene_file))
+    out = tmp_path / "out.h5"
+    rc, stdout, stderr = cli(["run", scene_file, "-o", out, "--device", "cpu"])
+    assert rc == 2 and stdout == ""
+    assert stderr.count("\n") == 1 and "surfaces.1.kind" in stderr and "terrain needs the mesh kind" in stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["terrain", "trap.toml"]  # no output, no partial
+
+
+def test_a_rectangle_still_needs_its_axis(tmp_path):
+    raw = paper_raw()
+    raw["surfaces"].append(
+        {"kind": "rectangle", "point": [5.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "size": [1.0, 1.0], "material": "steel_plate"}
+    )
+    one_line(raw, "surfaces.1.axis_u", "is required for kind = 'rectangle'")  # (terrain's axis_u is optional, not a rectangle's)

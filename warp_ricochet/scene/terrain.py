@@ -8,6 +8,7 @@ keeps its accuracy."""
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass
 
@@ -113,3 +114,109 @@ def raster_triangles(raster: Raster, origin, elevation: float = 0.0):
     index = np.cumsum(used) - 1
     vertices = np.stack([x.ravel()[used], y.ravel()[used], raster.z.ravel()[used] - float(elevation)], 1)
     return vertices, index[tris].astype(np.int32)
+
+
+def same_crs(raster_crs: str | None, site_crs: str) -> str | None:
+    """None, or why a raster's CRS disagrees with the site's (pyproj's equality, axis order aside)."""
+    import pyproj
+
+    if raster_crs is None:
+        return f"has no CRS; with [hazard.site] it must be in the site's crs {site_crs!r}"
+    if not pyproj.CRS.from_user_input(raster_crs).equals(pyproj.CRS.from_user_input(site_crs), ignore_axis_order=True):
+        return f"is in {raster_crs}, not in the site's crs {site_crs!r} (hazard.site.crs): reproject it (gdalwarp -t_srs)"
+    return None
+
+
+def up_of(gravity) -> tuple[float, float, float] | None:
+    """The scene's up, -g made unit; None for zero gravity."""
+    g = math.hypot(*gravity)
+    return None if g == 0.0 else tuple(0.0 - x / g for x in gravity)  # (0.0 -: no negative zeros)
+
+
+def place_terrain(scene, index: int):
+    """(vertices float64 (n, 3) in scene coordinates, triangles int32 (m, 3)) of terrain surface
+    `index` of `scene`. Without [hazard.site]: point + e axis_u + n (normal x axis_u) + h normal,
+    (e, n, h) from `load_terrain` (the raster's (origin, elevation) at `point`). With a site: the
+    raster's (x, y) through the site's transform (gis.site.Georeference, as the GIS outputs) onto
+    the hazard's map, then at height point.up + z - elevation along up (-gravity)."""
+    s = scene.surfaces[index]
+    raster = read_raster(s.file, s.nodata)
+    up = np.asarray(s.normal, dtype=np.float64)
+    site = None if scene.hazard is None else scene.hazard.site
+    if site is None:
+        local, tris = raster_triangles(raster, s.origin or raster.corner, s.elevation or 0.0)
+        east = np.asarray(s.axis_u or (1.0, 0.0, 0.0), dtype=np.float64)
+        frame = np.stack([east, np.cross(up, east), up])
+        return np.asarray(s.point, dtype=np.float64) + local @ frame, tris
+    from ..gis.site import Georeference, local_matrix
+    from ..tallies.counts import TallySetup
+
+    setup = TallySetup.of(scene, 1.0, 1.0, 1.0)  # (the map's frame does not depend on the pellet)
+    geo = Georeference(site.crs, site.shooter, site.azimuth, local_matrix(setup))
+    local, tris = raster_triangles(raster, (0.0, 0.0), s.elevation or 0.0)  # (CRS coordinates in full)
+    u, v = geo.to_local(local[:, 0], local[:, 1])
+    foot = np.asarray(setup.map_origin) + np.outer(u, setup.map_u) + np.outer(v, setup.map_v)
+    height = np.dot(s.point, up) + local[:, 2] - foot @ up
+    return foot + np.outer(height, up), tris
+
+
+TERRAIN_OPTIONAL = ("axis_u", "origin", "elevation", "nodata")  # terrain's keys beside `file` (and point, normal)
+
+
+def check_terrain(surface, path: str, physics, hazard, base_dir):
+    """A parsed surface, a terrain one completed and checked (one SceneError line each): its file
+    resolved against `base_dir` and read (a raster with valid cells, in the site's CRS when
+    [hazard.site] places it); `normal` (its up) -g unit by default (required with zero gravity),
+    along -g with a site; `axis_u` (its east, [1, 0, 0] by default) perpendicular to the normal, and
+    with `origin` not allowed with a site (the site places the raster's x, y)."""
+    from dataclasses import replace
+
+    from .keys import MISSING, err
+    from .schema import PERPENDICULAR
+    from .vectors import unit_vector
+
+    if surface.kind != "terrain":
+        return surface
+    site = None if hazard is None else hazard.site
+    up, normal = up_of(physics.gravity), surface.normal
+    if not any(normal):
+        if up is None:
+            raise err(f"{path}.normal", MISSING, "is required for a terrain with zero gravity (its up: a list of 3 numbers)")
+        normal = up
+    if site is not None:
+        for key in ("axis_u", "origin"):
+            if getattr(surface, key) is not None:
+                raise err(
+                    f"{path}.{key}", list(getattr(surface, key)), "not allowed with [hazard.site]: the site places the raster"
+                )
+        if up is None or abs(sum(a * b for a, b in zip(normal, up)) - 1.0) > PERPENDICULAR:
+            raise err(f"{path}.normal", list(normal), f"must be the scene's up (-gravity: {up}) with [hazard.site]")
+    east = unit_vector(surface.axis_u) if surface.axis_u is not None else None
+    if abs(sum(a * b for a, b in zip(east or (1.0, 0.0, 0.0), normal))) > PERPENDICULAR:
+        shown = MISSING if east is None else list(surface.axis_u)
+        raise err(
+            f"{path}.axis_u", shown, f"must be perpendicular to the terrain's up {list(normal)} (its east; default [1, 0, 0])"
+        )
+    file = os.path.abspath(os.path.join(os.fspath(base_dir), surface.file))
+    try:
+        raster = read_raster(file, surface.nodata)
+        raster_triangles(raster, surface.origin or raster.corner)
+        why = None if site is None else same_crs(raster.crs, site.crs)
+    except ValueError as exc:
+        why = str(exc)
+    if why is not None:
+        raise err(f"{path}.file", surface.file, why)
+    return replace(surface, file=file, normal=normal, axis_u=east)
+
+
+def refuse_terrain(scene) -> None:
+    """Until the mesh kind carries terrain to the device: a SceneError (one line) for a scene with one."""
+    from ..errors import SceneError
+
+    for i, s in enumerate(scene.surfaces):
+        if s.kind == "terrain":
+            raise SceneError(
+                f"surfaces.{i}.kind",
+                s.kind,
+                "cannot run yet: terrain needs the mesh kind (triangle meshes on the device); it is parsed and checked only",
+            )
