@@ -3,6 +3,7 @@ raster's triangles equal the analytic surface they sample, the same wherever the
 map (the local origin), with holes at nodata; placed through a site's CRS to 1 mm; scene keys
 checked in one line, and a terrain refused at run time until the mesh kind carries it."""
 
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -256,3 +257,9 @@ def test_a_rectangle_still_needs_its_axis(tmp_path):
         {"kind": "rectangle", "point": [5.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "size": [1.0, 1.0], "material": "steel_plate"}
     )
     one_line(raw, "surfaces.1.axis_u", "is required for kind = 'rectangle'")  # (terrain's axis_u is optional, not a rectangle's)
+
+
+def test_a_terrain_without_the_gis_extra_is_one_line(tmp_path, monkeypatch):
+    good = plane_raster(tmp_path)
+    monkeypatch.setitem(sys.modules, "rasterio", None)  # (import rasterio raises ImportError)
+    one_line(terrain_scene(good), "surfaces.1.file", "needs rasterio to be read .* pip install 'warp-ricochet\\[gis\\]'")

@@ -50,9 +50,11 @@ def read_raster(path, nodata: float | None = None) -> Raster:
     """The first band of the raster at `path`, its nodata (and `nodata`, when given) as NaN. Raises
     ValueError with a one-line reason for a file that is not a raster, an empty or rotated raster,
     one of more than MAX_SAMPLES samples, or one with no valid sample."""
-    import rasterio
-    from rasterio.errors import RasterioError
-
+    try:
+        import rasterio
+        from rasterio.errors import RasterioError
+    except ImportError as exc:
+        raise ValueError(f"needs rasterio to be read ({exc.name} is missing): pip install 'warp-ricochet[gis]'") from None
     path = os.fspath(path)
     if not os.path.isfile(path):
         raise ValueError("is not a file")
