@@ -162,15 +162,27 @@ def _bool(v, path):
     return v
 
 
-@_rule(f"must be a list of 2 numbers in (0, {2 * MAX_COORDINATE:g}] (m)")
-def _size(v, path):
-    rule = _size.rule
+def _two(v, path, rule, ok):
+    """A list of 2 finite numbers, each `ok`."""
     if not (isinstance(v, (list, tuple)) and len(v) == 2):
         raise _err(path, v, rule)
     xs = tuple(_finite(x, path, rule) for x in v)
-    if not all(0 < x <= 2 * MAX_COORDINATE for x in xs):
+    if not all(map(ok, xs)):
         raise _err(path, v, rule)
     return xs
+
+
+@_rule(f"must be a list of 2 numbers in (0, {2 * MAX_COORDINATE:g}] (m)")
+def _size(v, path):
+    return _two(v, path, _size.rule, lambda x: 0 < x <= 2 * MAX_COORDINATE)
+
+
+MAX_MAP_COORDINATE = 1e8  # a raster's CRS coordinates (terrain's origin): UTM northings reach 1e7 m
+
+
+@_rule(f"must be a list of 2 numbers, each within +-{MAX_MAP_COORDINATE:g} (the raster's CRS units)")
+def _pair(v, path):
+    return _two(v, path, _pair.rule, lambda x: abs(x) <= MAX_MAP_COORDINATE)
 
 
 @_rule("must be a list of field names")
@@ -215,6 +227,10 @@ _SURFACE = {
     "size": _size,
     "radius": _range(0, MAX_COORDINATE, above=True, unit="m"),
     "two_sided": _bool,
+    "file": _path(),  # terrain's raster, relative to the scene's folder (scene.terrain)
+    "origin": _pair,
+    "elevation": _range(-MAX_COORDINATE, MAX_COORDINATE, unit="m"),
+    "nodata": _number(),
     **{key: _range(lo, hi, unit="" if unit == "1" else unit) for key, (lo, hi, unit, _why) in RANGES.items()},
 }
 _PHYSICS = {

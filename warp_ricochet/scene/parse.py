@@ -36,6 +36,7 @@ from .schema import (
     Shot,
     Surface,
 )
+from .terrain import TERRAIN_OPTIONAL, check_terrain
 from .vectors import unit_vector
 
 
@@ -64,9 +65,10 @@ def _shot(raw, base_dir) -> Shot:
 
 def _surface(raw, path: str) -> Surface:
     material = raw.get("material") if isinstance(raw, dict) else None
-    required = ("point", "normal") if material is not None else ("point", "normal", "restitution", "mu_s")
+    placed = () if isinstance(raw, dict) and raw.get("kind") == "terrain" else ("point", "normal")  # (scene.terrain)
+    required = placed if material is not None else (*placed, "restitution", "mu_s")
     kw = _table(raw, path, SCHEMAS["surfaces"], required=required)
-    if abs(math.hypot(*kw["normal"]) - 1.0) > 1e-15:  # keeps normalisation idempotent (round trips)
+    if "normal" in kw and abs(math.hypot(*kw["normal"]) - 1.0) > 1e-15:  # keeps normalisation idempotent (round trips)
         kw["normal"] = unit_vector(kw["normal"])  # scaled first: a tiny normal does not underflow
     if material is not None:
         kw = _with_material(kw, raw, path)
@@ -76,7 +78,13 @@ def _surface(raw, path: str) -> Surface:
 
 
 # the keys each kind of surface takes beside the plane's (docs/geometry.md)
-PLATE_KEYS = {"plane": (), "rectangle": ("axis_u", "size", "two_sided"), "disc": ("radius", "two_sided")}
+PLATE_KEYS = {
+    "plane": (),
+    "rectangle": ("axis_u", "size", "two_sided"),
+    "disc": ("radius", "two_sided"),
+    "terrain": ("file", "axis_u", "origin", "elevation", "nodata"),
+}
+OPTIONAL_KEYS = {"rectangle": ("two_sided",), "disc": ("two_sided",), "terrain": TERRAIN_OPTIONAL}
 
 
 def _plate(kw: dict, raw: dict, path: str) -> dict:
@@ -84,15 +92,17 @@ def _plate(kw: dict, raw: dict, path: str) -> dict:
     optional), no other kind's; a rectangle's axis_u perpendicular to its normal (within
     PERPENDICULAR) and made a unit vector. A plane keeps no kind (None), a one-sided plate no two_sided."""
     kind = kw.pop("kind", "plane")
-    for key in ("axis_u", "size", "radius", "two_sided"):
+    for key in ("axis_u", "size", "radius", "two_sided", "file", "origin", "elevation", "nodata"):
         if key in kw and key not in PLATE_KEYS[kind]:
             owners = [k for k, keys in PLATE_KEYS.items() if key in keys]
             raise err(f"{path}.{key}", raw[key], f"is a key of kind = {' or '.join(map(repr, owners))} only (this is a {kind!r})")
     for key in PLATE_KEYS[kind]:
-        if key != "two_sided" and key not in kw:
+        if key not in OPTIONAL_KEYS.get(kind, ()) and key not in kw:
             raise err(f"{path}.{key}", MISSING, f"is required for kind = {kind!r}; it {SCHEMAS['surfaces'][key].rule}")
     if kind == "plane":
         return kw
+    if kind == "terrain":  # placed and read once gravity and the site are known (scene.terrain.check_terrain)
+        return {"point": (0.0, 0.0, 0.0), "normal": (0.0, 0.0, 0.0), **kw, "kind": kind}
     if "axis_u" in kw:
         u, n = kw["axis_u"], kw["normal"]
         if abs(math.hypot(*u) - 1.0) > 1e-15:
@@ -380,6 +390,7 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
                 "step counter stops being exact: at most "
                 f"{FLOAT32_EXACT_STEPS // every * every:,}; use float64 for more",
             )
+    planes = tuple(check_terrain(s, f"surfaces.{i}", physics, hazard, base_dir) for i, s in enumerate(planes))
     air = _air(raw.get("air"))
     if air is not None and len(surfaces) > MAX_PLANES_IN_AIR:
         raise err(

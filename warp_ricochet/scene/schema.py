@@ -26,7 +26,7 @@ MAX_IMPACT_DURATION = 1.0  # s
 MAX_AIR_DENSITY = 100.0  # kg/m^3: gases (the laws of docs/air.md are for a gas)
 MAX_WIND = 1e3  # m/s, each component
 
-SURFACE_KINDS = ("plane", "rectangle", "disc")  # [[surfaces]] kind (docs/geometry.md)
+SURFACE_KINDS = ("plane", "rectangle", "disc", "terrain")  # [[surfaces]] kind (docs/geometry.md)
 PERPENDICULAR = 1e-9  # a rectangle's axis_u within this (cosine) of perpendicular to its normal
 FLOAT32_EXACT_STEPS = 2**24  # float32 counts every integer up to here
 CHECKPOINT_STEPS = 8  # a shot's steps between checkpoints when collisions.frame_every is 0 (dense.constants.BLOCK_STEPS)
@@ -83,11 +83,17 @@ class Surface:
     restitution_scatter: float | None = None  # relative
     friction_scatter: float | None = None  # log-normal sigma
     skip_loss: float | None = None  # water: tan(beta)
-    kind: str | None = None  # None: an infinite plane ("plane"); "rectangle" or "disc": a plate
+    kind: str | None = None  # None: an infinite plane ("plane"); "rectangle" or "disc": a plate; "terrain"
     axis_u: Vec3 | None = None  # a rectangle's first side (unit, perpendicular to normal)
     size: tuple[float, float] | None = None  # m: a rectangle's sides along axis_u and normal x axis_u
     radius: float | None = None  # m: a disc's
     two_sided: bool | None = None  # True: a plate met from either face; None: from the normal's side only
+    # terrain (scene.terrain): its raster (absolute path), the raster's (x, y) and elevation (m) placed
+    # at `point` (None: its stored corner, 0), a value taken as nodata; `normal` is its up
+    file: str | None = None
+    origin: tuple[float, float] | None = None
+    elevation: float | None = None
+    nodata: float | None = None
 
     @property
     def is_plane(self) -> bool:
