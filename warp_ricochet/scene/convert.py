@@ -162,10 +162,10 @@ def _bool(v, path):
     return v
 
 
-@_rule(f"must be a list of 2 numbers in (0, {2 * MAX_COORDINATE:g}] (m)")
+@_rule(f"must be a list of 2 (a rectangle) or 3 (a box) numbers in (0, {2 * MAX_COORDINATE:g}] (m)")
 def _size(v, path):
     rule = _size.rule
-    if not (isinstance(v, (list, tuple)) and len(v) == 2):
+    if not (isinstance(v, (list, tuple)) and len(v) in (2, 3)):
         raise _err(path, v, rule)
     xs = tuple(_finite(x, path, rule) for x in v)
     if not all(0 < x <= 2 * MAX_COORDINATE for x in xs):
@@ -215,6 +215,7 @@ _SURFACE = {
     "size": _size,
     "radius": _range(0, MAX_COORDINATE, above=True, unit="m"),
     "two_sided": _bool,
+    "file": _path(),  # a mesh's (scene.triangles), relative to the scene file
     **{key: _range(lo, hi, unit="" if unit == "1" else unit) for key, (lo, hi, unit, _why) in RANGES.items()},
 }
 _PHYSICS = {

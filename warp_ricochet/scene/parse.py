@@ -36,6 +36,7 @@ from .schema import (
     Shot,
     Surface,
 )
+from .triangles import load_mesh
 from .vectors import unit_vector
 
 
@@ -62,21 +63,35 @@ def _shot(raw, base_dir) -> Shot:
     return Shot(**kw)
 
 
-def _surface(raw, path: str) -> Surface:
+def _surface(raw, path: str, base_dir=".") -> Surface:
     material = raw.get("material") if isinstance(raw, dict) else None
-    required = ("point", "normal") if material is not None else ("point", "normal", "restitution", "mu_s")
+    mesh = isinstance(raw, dict) and raw.get("kind") == "mesh"  # placed by an optional point; no normal
+    required = ("point", "normal")[2 * mesh :] + (() if material is not None else ("restitution", "mu_s"))
     kw = _table(raw, path, SCHEMAS["surfaces"], required=required)
+    if mesh:  # the triangles carry their normals: a mesh's own is unused (kept for round trips)
+        kw = {"point": (0.0, 0.0, 0.0), "normal": (0.0, 0.0, 1.0), **kw}
     if abs(math.hypot(*kw["normal"]) - 1.0) > 1e-15:  # keeps normalisation idempotent (round trips)
         kw["normal"] = unit_vector(kw["normal"])  # scaled first: a tiny normal does not underflow
     if material is not None:
         kw = _with_material(kw, raw, path)
     if kw.setdefault("mu_d", kw["mu_s"]) > kw["mu_s"]:
         raise err(f"{path}.mu_d", raw["mu_d"], f"must be a number in [0, mu_s = {kw['mu_s']:g}]")
-    return Surface(**_plate(kw, raw, path))
+    kw = _plate(kw, raw, path)
+    if mesh:
+        kw["file"] = os.path.abspath(os.path.join(os.fspath(base_dir), kw["file"]))
+        load_mesh(kw["file"], f"{path}.file", kw["point"])  # checked now: one line, before any work
+    return Surface(**kw)
 
 
 # the keys each kind of surface takes beside the plane's (docs/geometry.md)
-PLATE_KEYS = {"plane": (), "rectangle": ("axis_u", "size", "two_sided"), "disc": ("radius", "two_sided")}
+PLATE_KEYS = {
+    "plane": (),
+    "rectangle": ("axis_u", "size", "two_sided"),
+    "disc": ("radius", "two_sided"),
+    "box": ("axis_u", "size"),
+    "mesh": ("file",),
+}
+SIDES = {"rectangle": 2, "box": 3}  # the numbers in a size
 
 
 def _plate(kw: dict, raw: dict, path: str) -> dict:
@@ -84,7 +99,7 @@ def _plate(kw: dict, raw: dict, path: str) -> dict:
     optional), no other kind's; a rectangle's axis_u perpendicular to its normal (within
     PERPENDICULAR) and made a unit vector. A plane keeps no kind (None), a one-sided plate no two_sided."""
     kind = kw.pop("kind", "plane")
-    for key in ("axis_u", "size", "radius", "two_sided"):
+    for key in ("axis_u", "size", "radius", "two_sided", "file"):
         if key in kw and key not in PLATE_KEYS[kind]:
             owners = [k for k, keys in PLATE_KEYS.items() if key in keys]
             raise err(f"{path}.{key}", raw[key], f"is a key of kind = {' or '.join(map(repr, owners))} only (this is a {kind!r})")
@@ -93,6 +108,8 @@ def _plate(kw: dict, raw: dict, path: str) -> dict:
             raise err(f"{path}.{key}", MISSING, f"is required for kind = {kind!r}; it {SCHEMAS['surfaces'][key].rule}")
     if kind == "plane":
         return kw
+    if "size" in kw and len(kw["size"]) != SIDES[kind]:
+        raise err(f"{path}.size", raw["size"], f"must be a list of {SIDES[kind]} numbers for kind = {kind!r}")
     if "axis_u" in kw:
         u, n = kw["axis_u"], kw["normal"]
         if abs(math.hypot(*u) - 1.0) > 1e-15:
@@ -310,7 +327,7 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
     shot = _shot(raw["shot"], base_dir)
     pairs = collisions.enabled and shot.count > 1  # as Scene.pair_collisions: the run has a dense phase
     output = _table(raw.get("output"), "output", SCHEMAS["output"])
-    planes = tuple(_surface(s, f"surfaces.{i}") for i, s in enumerate(surfaces))
+    planes = tuple(_surface(s, f"surfaces.{i}", base_dir) for i, s in enumerate(surfaces))
     plate = next((i for i, s in enumerate(planes) if not s.is_plane), None)
     if pairs and plate is not None:
         raise err(
@@ -387,6 +404,7 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
             f"{len(surfaces)} surfaces",
             f"at most {MAX_PLANES_IN_AIR} with [air] (a flight in air tracks its planes in the bits of an int32)",
         )
+    _check_meshes(planes, physics, air)
     return Scene(
         shot=shot,
         surfaces=planes,
@@ -397,6 +415,23 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
         air=air,
         hazard=hazard,
     )
+
+
+def _check_meshes(surfaces: tuple, physics: Physics, air) -> None:
+    """Triangles (boxes, meshes) are met by the vacuum's flight until landing only (docs/geometry.md)."""
+    mesh = next((i for i, s in enumerate(surfaces) if s.is_mesh), None)
+    if mesh is not None and physics.until == "rest":
+        raise err(
+            "physics.until",
+            "rest",
+            f'must be "landing" with surface {mesh} of kind = {surfaces[mesh].kind!r}: motion along triangles is not modelled yet',
+        )
+    if mesh is not None and air is not None and not air.still:
+        raise err(
+            "air",
+            "(a table)",
+            f"must be left out with surface {mesh} of kind = {surfaces[mesh].kind!r}: triangles are met in vacuum only yet",
+        )
 
 
 MAX_SCENE_CHARS = 1 << 20  # a scene's text; the largest valid one (a drag table of 1,024 pairs) is ~40 kB

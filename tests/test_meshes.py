@@ -1,0 +1,105 @@
+"""Triangle surfaces (docs/geometry.md, "Meshes and boxes"): meshes read from files and closed boxes.
+
+Their scene keys are checked in one line each; a closed box's 12 triangles face outwards."""
+
+import numpy as np
+import pytest
+
+from warp_ricochet.errors import SceneError
+from warp_ricochet.scene import scene_from_dict
+from warp_ricochet.scene.triangles import TriangleSurface, box_triangles, load_mesh
+
+trimesh = pytest.importorskip("trimesh")
+
+MATERIAL = {"restitution": 0.5, "mu_s": 0.3}
+SQUARE = np.array([[0.0, 0.0, 0.0], [100.0, 0.0, 0.0], [100.0, 100.0, 0.0], [0.0, 100.0, 0.0]])  # z = 0, up +z
+
+
+def _write(path, vertices, faces):
+    trimesh.Trimesh(vertices=vertices, faces=faces, process=False).export(path)
+    return str(path)
+
+
+def _raw(surfaces, **physics):
+    shot = {"count": 4, "diameter": 0.0025, "density": 7000.0, "speed": 300.0, "direction": [1.0, 0.0, -0.05]}
+    shot |= {"envelope_radius": 0.01, "envelope_center": [0.0, 0.0, 1.0]}
+    return {"shot": shot, "surfaces": surfaces, "physics": {"until": "landing", "gravity": [0, 0, -9.81], **physics}}
+
+
+@pytest.mark.parametrize("suffix", ["stl", "obj", "ply"])
+def test_a_mesh_file_is_read_into_scene_coordinates(tmp_path, suffix):
+    path = _write(tmp_path / f"square.{suffix}", SQUARE, [[0, 1, 2], [0, 2, 3]])
+    mesh = load_mesh(path, "surfaces.0.file", offset=(1.0, 2.0, 3.0))
+    assert mesh.vertices.dtype == np.float64 and mesh.triangles.dtype == np.int32
+    corners = np.unique(np.round(mesh.vertices, 9), axis=0)
+    assert np.array_equal(corners, np.unique(SQUARE + [1.0, 2.0, 3.0], axis=0))
+    assert np.allclose(mesh.normals(), [0.0, 0.0, 1.0])  # counter-clockwise from above: up
+    scene = scene_from_dict(_raw([{"kind": "mesh", "file": f"square.{suffix}", "point": [1, 2, 3], **MATERIAL}]), tmp_path)
+    assert scene.surfaces[0].is_mesh and scene.surfaces[0].file == path
+
+
+def test_a_box_is_closed_and_faces_outwards():
+    box = box_triangles((1.0, 2.0, 3.0), (0.0, 0.0, 2.0), (1.0, 1.0, 0.0), (1.0, 2.0, 3.0))
+    centroids = box.vertices[box.triangles].mean(axis=1)
+    assert len(box.triangles) == 12 and (np.einsum("ij,ij->i", box.normals(), centroids - [1.0, 2.0, 3.0]) > 0).all()
+    edges = np.sort(box.triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    assert (np.unique(edges, axis=0, return_counts=True)[1] == 2).all()  # every edge shared by two triangles
+    assert np.isclose(abs(np.linalg.det(box.vertices[[4, 2, 1]] - box.vertices[0])), 1.0 * 2.0 * 3.0)
+
+
+@pytest.mark.parametrize(
+    ("vertices", "triangles", "message"),
+    [
+        (np.zeros((0, 3)), np.zeros((0, 3), np.int32), "at least one triangle"),
+        ([[0, 0, 0], [1, 0, 0], [0, np.nan, 0]], [[0, 1, 2]], "finite vertices"),
+        ([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 3]], "vertex index outside 0 to 2"),
+        ([[0, 0, 0], [1, 0, 0], [2, 0, 0]], [[0, 1, 2]], "no triangle of nonzero area"),
+    ],
+)
+def test_a_bad_mesh_is_one_line(vertices, triangles, message):
+    surface = TriangleSurface(np.asarray(vertices, float), np.asarray(triangles, np.int32), "m.stl")
+    with pytest.raises(SceneError, match=message) as caught:
+        surface.check("surfaces.0.file")
+    assert "\n" not in str(caught.value) and str(caught.value).startswith("surfaces.0.file")
+
+
+@pytest.mark.parametrize(
+    ("surface", "key", "message"),
+    [
+        ({"kind": "mesh", "file": "nowhere.stl"}, "surfaces.0.file", "existing mesh file"),
+        ({"kind": "mesh", "file": "junk.stl"}, "surfaces.0.file", "at least one triangle"),
+        ({"kind": "mesh"}, "surfaces.0.file", "required for kind = 'mesh'"),
+        ({"kind": "mesh", "file": "square.stl", "radius": 1.0}, "surfaces.0.radius", "of kind = 'disc' only"),
+        (
+            {"kind": "box", "point": [0, 0, 0], "normal": [0, 0, 1], "axis_u": [1, 0, 0], "size": [1, 1]},
+            "surfaces.0.size",
+            "3 numbers",
+        ),
+        (
+            {"kind": "box", "point": [0, 0, 0], "normal": [0, 0, 1], "axis_u": [0, 0, 1], "size": [1, 1, 1]},
+            "surfaces.0.axis_u",
+            "perpendicular",
+        ),
+        (
+            {"kind": "rectangle", "point": [0, 0, 0], "normal": [0, 0, 1], "axis_u": [1, 0, 0], "size": [1, 1, 1]},
+            "surfaces.0.size",
+            "2 numbers",
+        ),
+    ],
+)
+def test_bad_mesh_keys_are_one_line_errors(tmp_path, surface, key, message):
+    _write(tmp_path / "square.stl", SQUARE, [[0, 1, 2], [0, 2, 3]])
+    (tmp_path / "junk.stl").write_text("not a mesh")
+    with pytest.raises(SceneError, match=message) as caught:
+        scene_from_dict(_raw([surface | MATERIAL]), tmp_path)
+    assert "\n" not in str(caught.value) and str(caught.value).startswith(key)
+
+
+def test_meshes_refuse_what_they_do_not_model_yet(tmp_path):
+    box = {"kind": "box", "point": [5, 0, 0], "normal": [0, 0, 1], "axis_u": [1, 0, 0], "size": [1, 1, 1], **MATERIAL}
+    with pytest.raises(SceneError, match='^physics.until .*must be "landing"'):
+        scene_from_dict(_raw([box], until="rest"), tmp_path)
+    with pytest.raises(SceneError, match="^air .*vacuum only"):
+        scene_from_dict(_raw([box]) | {"air": {"density": 1.2}}, tmp_path)
+    with pytest.raises(SceneError, match='^surfaces.0.kind .*must be "plane" with pellet-pellet collisions'):
+        scene_from_dict(_raw([box]) | {"collisions": {"enabled": True}}, tmp_path)
