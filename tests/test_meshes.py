@@ -2,8 +2,11 @@
 
 Their scene keys are checked in one line each; a closed box's 12 triangles face outwards."""
 
+import dataclasses
+
 import numpy as np
 import pytest
+from helpers import explicit_scene
 
 from warp_ricochet.errors import SceneError
 from warp_ricochet.scene import scene_from_dict
@@ -103,3 +106,72 @@ def test_meshes_refuse_what_they_do_not_model_yet(tmp_path):
         scene_from_dict(_raw([box]) | {"air": {"density": 1.2}}, tmp_path)
     with pytest.raises(SceneError, match='^surfaces.0.kind .*must be "plane" with pellet-pellet collisions'):
         scene_from_dict(_raw([box]) | {"collisions": {"enabled": True}}, tmp_path)
+
+
+def _landings(tmp_path, x, v, surfaces, precision="float64", name="run"):
+    """Per pellet: (surface of its first impact, its centre there, landing position), in vacuum,
+    landing at the second impact."""
+    import h5py
+
+    from warp_ricochet.api import run
+
+    physics = {"gravity": [0.0, 0.0, -9.81], "until": "landing", "bounces": 1}
+    scene = explicit_scene(tmp_path, x, v, surfaces=surfaces, physics=physics, precision=precision, name=f"{name}.npz")
+    scene = scene.replace(
+        output=dataclasses.replace(scene.output, fields=("impact.surface", "impact.position", "landing.position"))
+    )
+    run(scene, tmp_path / f"{name}.h5", device="cpu", overwrite=True)
+    with h5py.File(tmp_path / f"{name}.h5") as f:
+        first = f["pellets/impact/surface"][()].reshape(len(x), -1)[:, 0]
+        return first, f["pellets/impact/position"][()].reshape(len(x), -1, 3)[:, 0], f["pellets/landing/position"][()]
+
+
+def _tilted_square(tmp_path, normal, point, half=1.0e4):
+    """A two-triangle square of side 2 half on the plane (point, normal), written as an STL."""
+    n = np.asarray(normal, float) / np.linalg.norm(normal)
+    u = np.cross(n, [0.0, 1.0, 0.0])
+    u /= np.linalg.norm(u)
+    w = np.cross(n, u)
+    corners = np.asarray(point) + half * np.array([-u - w, u - w, u + w, -u + w])
+    return _write(tmp_path / "square.stl", corners, [[0, 1, 2], [0, 2, 3]]), n
+
+
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_a_two_triangle_mesh_lands_where_its_plane_does(tmp_path, precision):
+    """Issue 27, part 4: within 1e-6 relative of the analytic plane in float64 (float32: 1e-4)."""
+    path, n = _tilted_square(tmp_path, [0.05, -0.1, 1.0], [3.0, -2.0, 0.5])
+    rng = np.random.default_rng(7)
+    count = 2000
+    x = np.c_[rng.uniform(-1, 1, count), rng.uniform(-1, 1, count), rng.uniform(1.0, 3.0, count)]
+    v = np.c_[rng.normal(0, 60, count), rng.normal(0, 60, count), rng.uniform(-40, 40, count)]
+    plane = {"point": [3.0, -2.0, 0.5], "normal": list(n), **MATERIAL}
+    hit_plane, _, at_plane = _landings(tmp_path, x, v, [plane], precision, "plane")
+    hit_mesh, _, at_mesh = _landings(tmp_path, x, v, [{"kind": "mesh", "file": path, **MATERIAL}], precision, "mesh")
+    assert (hit_plane == 0).all() and (hit_mesh == 0).all() and not np.isnan(at_plane).any()
+    error = np.linalg.norm(at_mesh - at_plane, axis=1) / np.linalg.norm(at_plane - x, axis=1)
+    assert error.max() <= (1e-6 if precision == "float64" else 1e-3), error.max()  # float32: vertices at 1e4 m
+
+
+def _aimed(targets, v, radius=0.00125, gravity=9.81, time=0.05):
+    """Launch positions whose centres, with velocities v, cross the points `targets` after `time`."""
+    g = np.array([0.0, 0.0, -gravity])
+    return targets - v * time - 0.5 * g * time**2
+
+
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_pellets_aimed_at_shared_edges_and_vertices_do_not_pass(tmp_path, precision):
+    """Centres aimed exactly at the diagonal shared by the two triangles and at their shared vertices
+    (at the surface offset by R and at the surface itself): every one meets the mesh."""
+    half = 8.0
+    corners = np.array([[-half, -half, 0.0], [half, -half, 0.0], [half, half, 0.0], [-half, half, 0.0]])
+    path = _write(tmp_path / "square.stl", corners, [[0, 1, 2], [0, 2, 3]])
+    rng = np.random.default_rng(3)
+    s = np.r_[rng.uniform(-half, half, 400), -half, half, 0.0]
+    for level in (0.00125, 0.0):
+        targets = np.c_[s, s, np.full(len(s), level)]
+        v = np.c_[rng.normal(0, 20, len(s)), rng.normal(0, 20, len(s)), rng.uniform(-80, -1, len(s))]
+        hit, at, _ = _landings(
+            tmp_path, _aimed(targets, v), v, [{"kind": "mesh", "file": path, **MATERIAL}], precision, f"edge{level}"
+        )
+        assert (hit == 0).all(), np.flatnonzero(hit != 0)
+        assert (at[:, 2] >= -1e-6).all() and (np.abs(at[:, 2] - 0.00125) <= 1e-5).sum() > 300

@@ -111,3 +111,13 @@ def box_triangles(point, normal, axis_u, size, source: str = "box") -> TriangleS
     half = 0.5 * np.asarray(size, dtype=np.float64)
     vertices = np.asarray(point, dtype=np.float64) + (_CORNERS * half) @ axes
     return TriangleSurface(vertices, _CUBE.copy(), source)
+
+
+def triangles_of(surface) -> TriangleSurface | None:
+    """The triangles of a scene surface (`scene.schema.Surface`): a box's 12, a mesh's file's
+    (moved by its point), None for a plane or a plate."""
+    if surface.kind == "box":
+        return box_triangles(surface.point, surface.normal, surface.axis_u, surface.size, source=f"box {surface.name!r}")
+    if surface.kind == "mesh":
+        return load_mesh(surface.file, "file", surface.point)
+    return None
