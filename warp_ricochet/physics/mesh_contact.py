@@ -35,7 +35,8 @@ FLOAT32_SLACK = 2.0**-20  # relative: the BVH's float32 boxes against the kernel
 
 @functools.cache
 def make_mesh_contact(precision: str) -> SimpleNamespace:
-    """`mesh_time(surfaces, k, x, v, g, R)` and `mesh_normal(surfaces, k, x)` of one precision."""
+    """`mesh_time(surfaces, k, x, v, g, R)`, `mesh_normal(surfaces, k, x)` and the helpers the air's
+    search shares (`vertices`, `inside`, `l1`, `single`) of one precision."""
     t = types_for(precision)
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
     ballistic = make_ballistic(precision)
@@ -51,6 +52,11 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
         b = surfaces.mesh_points[first + wp.mesh_get_index(mesh, 3 * face + 1)]
         c = surfaces.mesh_points[first + wp.mesh_get_index(mesh, 3 * face + 2)]
         return a, b, c
+
+    @wp.func
+    def single(x: vec3):
+        """x in float32 (the BVH's queries)."""
+        return wp.vec3f(wp.float32(x[0]), wp.float32(x[1]), wp.float32(x[2]))
 
     @wp.func
     def l1(x: vec3):
@@ -172,10 +178,7 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
             spread = scalar(FLOAT32_SLACK) * (l1(a) + l1(b))
             a = a - vec3(spread, spread, spread)
             b = b + vec3(spread, spread, spread)
-            query = wp.mesh_query_aabb(
-                surfaces.mesh[k], wp.vec3f(wp.float32(a[0]), wp.float32(a[1]), wp.float32(a[2])),
-                wp.vec3f(wp.float32(b[0]), wp.float32(b[1]), wp.float32(b[2]))
-            )  # fmt: skip
+            query = wp.mesh_query_aabb(surfaces.mesh[k], single(a), single(b))
             while wp.mesh_query_aabb_next(query, face):
                 when = triangle_time(surfaces, k, face, x, v, g, radius)
                 if when >= scalar(0.0) and (best < scalar(0.0) or when < best):
@@ -191,11 +194,10 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
     def mesh_normal(surfaces: Surfaces, k: wp.int32, x: vec3):
         """The unit normal of the triangle of mesh k nearest x (the BVH's closest point, float32);
         the surface's own normal if the query finds none."""
-        point = wp.vec3f(wp.float32(x[0]), wp.float32(x[1]), wp.float32(x[2]))
-        query = wp.mesh_query_point_no_sign(surfaces.mesh[k], point, wp.float32(1.0e30))
+        query = wp.mesh_query_point_no_sign(surfaces.mesh[k], single(x), wp.float32(1.0e30))
         if not query.result:
             return surfaces.normal[k]
         a, b, c = vertices(surfaces, k, query.face)
         return wp.normalize(wp.cross(b - a, c - a))
 
-    return SimpleNamespace(mesh_time=mesh_time, mesh_normal=mesh_normal, triangle_time=triangle_time, inside=inside)
+    return SimpleNamespace(mesh_time=mesh_time, mesh_normal=mesh_normal, vertices=vertices, inside=inside, l1=l1, single=single)

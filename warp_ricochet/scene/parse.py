@@ -404,7 +404,7 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
             f"{len(surfaces)} surfaces",
             f"at most {MAX_PLANES_IN_AIR} with [air] (a flight in air tracks its planes in the bits of an int32)",
         )
-    _check_meshes(planes, physics, air)
+    _check_meshes(planes, physics)
     return Scene(
         shot=shot,
         surfaces=planes,
@@ -417,20 +417,14 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
     )
 
 
-def _check_meshes(surfaces: tuple, physics: Physics, air) -> None:
-    """Triangles (boxes, meshes) are met by the vacuum's flight until landing only (docs/geometry.md)."""
+def _check_meshes(surfaces: tuple, physics: Physics) -> None:
+    """Triangles (boxes, meshes) are met by the flights until landing only (docs/geometry.md)."""
     mesh = next((i for i, s in enumerate(surfaces) if s.is_mesh), None)
     if mesh is not None and physics.until == "rest":
         raise err(
             "physics.until",
             "rest",
             f'must be "landing" with surface {mesh} of kind = {surfaces[mesh].kind!r}: motion along triangles is not modelled yet',
-        )
-    if mesh is not None and air is not None and not air.still:
-        raise err(
-            "air",
-            "(a table)",
-            f"must be left out with surface {mesh} of kind = {surfaces[mesh].kind!r}: triangles are met in vacuum only yet",
         )
 
 
