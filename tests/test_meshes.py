@@ -178,3 +178,48 @@ def test_pellets_aimed_at_shared_edges_and_vertices_do_not_pass(tmp_path, precis
         )
         assert (hit == 0).all(), np.flatnonzero(hit != 0)
         assert (at[:, 2] >= -1e-6).all() and (np.abs(at[:, 2] - 0.00125) <= 1e-5).sum() > 300
+
+
+BOX = {"point": [0.3, -0.2, 1.5], "normal": [0.2, 0.1, 1.0], "axis_u": [1.0, 0.5, -0.25], "size": [1.2, 0.8, 0.5]}
+
+
+def _box_shots(rng, count, box):
+    """(x0, v) of pellets whose centres, unhindered, would reach points of a closed box 0.05 s
+    later: random points inside it from random directions all around, and exactly its edges and
+    vertices (and points of its faces) with velocities there in their inward cones."""
+    tri = box_triangles(box["point"], box["normal"], box["axis_u"], box["size"])
+    axes = np.stack([tri.vertices[4] - tri.vertices[0], tri.vertices[2] - tri.vertices[0], tri.vertices[1] - tri.vertices[0]])
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)  # rows u, v, n
+    half = 0.5 * np.asarray(box["size"])
+    n = count // 2
+    inner = rng.uniform(-1, 1, (n, 3)) * half
+    way = rng.normal(size=(n, 3))
+    signs = rng.choice([-1.0, 0.0, 1.0], size=(count - n, 3))  # 0: anywhere along that axis
+    signs[(signs == 0).all(axis=1), 0] = 1.0
+    on = np.where(signs == 0, rng.uniform(-1, 1, signs.shape), signs) * half
+    cone = np.abs(rng.normal(size=signs.shape)) * signs + np.where(signs == 0, 0.3 * rng.normal(size=signs.shape), 0.0)
+    local = np.r_[inner, on]
+    outward = np.r_[-way, cone]
+    speed = rng.uniform(30.0, 300.0, (count, 1))
+    v = -speed * (outward / np.linalg.norm(outward, axis=1, keepdims=True)) @ axes - np.array([0.0, 0.0, -9.81]) * 0.05
+    return _aimed(np.asarray(box["point"]) + local @ axes, v), v, axes, half  # v at the target: in the cone
+
+
+def _inside_box(points, box, axes, half, slack):
+    """Whether centres lie inside the box by more than `slack` (m)."""
+    local = (points - np.asarray(box["point"])) @ axes.T
+    return (np.abs(local) < half - slack).all(axis=1)
+
+
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_no_pellet_fired_at_a_closed_box_ends_inside(tmp_path, precision):
+    """Issue 27, part 4: pellets fired at a closed box from all sides (and exactly at its edges and
+    vertices) all meet it, and no centre is inside it at an impact or the landing after it."""
+    rng = np.random.default_rng(11)
+    x, v, axes, half = _box_shots(rng, 20000, BOX)
+    hit, first, landing = _landings(tmp_path, x, v, [{"kind": "box", **BOX, **MATERIAL}], precision, "box")
+    slack = 1e-9 if precision == "float64" else 1e-5
+    assert (hit == 0).all(), np.flatnonzero(hit != 0)[:10]
+    assert not _inside_box(first, BOX, axes, half, slack).any()
+    landed = ~np.isnan(landing).any(axis=1)
+    assert landed.sum() > 100 and not _inside_box(landing[landed], BOX, axes, half, slack).any()
