@@ -394,7 +394,8 @@ def make_air_flight(precision: str, planes, laws: tuple, watch: tuple = (0, 0, F
                 if k >= 0:
                     x, slope = dense.hermite_vec(theta, position, h * velocity, h * h * acceleration, x1, h * v1, h * h * a1)
                     w = dense.cubic_vec(theta, spin, h * spin_change, w1, h * d1)
-                    return time + theta * h, k, geo.normal(surfaces, k, x), x, slope / h, w, steps
+                    n = geo.contact_normal(surfaces, k, x, slope / h, physics.radius)
+                    return time + theta * h, k, n, x, slope / h, w, steps
                 position = x1
                 velocity = v1
                 spin = w1
@@ -449,7 +450,8 @@ def make_air_flight(precision: str, planes, laws: tuple, watch: tuple = (0, 0, F
                 if k >= 0:
                     x, slope = dense.hermite_vec(theta, position, d0, e0, x1, d1s, e1)
                     w = dense.cubic_vec(theta, spin, h * spin_change, w1, h * d1)
-                    return time + theta * h, k, geo.normal(surfaces, k, x), x, slope / h, w, steps, track
+                    n = geo.contact_normal(surfaces, k, x, slope / h, physics.radius)
+                    return time + theta * h, k, n, x, slope / h, w, steps, track
                 position = x1
                 velocity = v1
                 spin = w1

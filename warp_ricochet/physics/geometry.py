@@ -124,6 +124,8 @@ def _make_geometry(precision: str, planes, snap: bool, plates: int) -> SimpleNam
             return side(surfaces, k, x) * surfaces.normal[k]
         return surfaces.normal[k]
 
+    contact_normal = _contact_normal(precision, normal, WITH_MESHES)
+
     @wp.func(inline=True)
     def locate(surfaces: Surfaces, k: wp.int32, x: vec3):
         """(height, noise, normal): x's signed distance from surface k (m), its rounding scale (m)
@@ -289,6 +291,7 @@ def _make_geometry(precision: str, planes, snap: bool, plates: int) -> SimpleNam
         reach=reach,
         count=count,
         normal=normal,
+        contact_normal=contact_normal,
         locate=locate,
         gap=gap,
         material=material,
@@ -296,6 +299,25 @@ def _make_geometry(precision: str, planes, snap: bool, plates: int) -> SimpleNam
         contact_time=contact_time,
         next_contact=next_contact,
     )
+
+
+def _contact_normal(precision: str, normal, with_meshes: bool):
+    """`contact_normal(surfaces, k, x, v, radius)`: the unit normal of a contact with surface k at
+    centre x, velocity v: `normal`'s; a mesh's: of the triangle touched there that v approaches
+    most steeply (`physics.mesh_contact.contact_normal`)."""
+    t = types_for(precision)
+    Surfaces, vec3, scalar = t.Surfaces, t.vec3, t.scalar
+    MESH, meshes = KINDS["mesh"], make_mesh_contact(precision)
+
+    @wp.func(inline=True)
+    def contact_normal(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, radius: scalar):
+        """The unit normal of a contact with surface k at x, velocity v (`_contact_normal`)."""
+        if wp.static(with_meshes):
+            if surfaces.kind[k] == MESH:
+                return meshes.contact_normal(surfaces, k, x, v, radius)
+        return normal(surfaces, k, x)
+
+    return contact_normal
 
 
 def project(surface, x):

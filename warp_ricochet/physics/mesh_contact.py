@@ -200,4 +200,45 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
         a, b, c = vertices(surfaces, k, query.face)
         return wp.normalize(wp.cross(b - a, c - a))
 
-    return SimpleNamespace(mesh_time=mesh_time, mesh_normal=mesh_normal, vertices=vertices, inside=inside, l1=l1, single=single)
+    @wp.func
+    def contact_normal(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, radius: scalar):
+        """The normal of a contact of mesh k at centre x with velocity v: of the triangles the
+        sphere touches there (centre 0 to R in front of its plane, within R of it beside its edges),
+        the one v approaches most steeply (at an edge or a vertex, the face met head-on); the
+        nearest triangle's (`mesh_normal`) if none is closing."""
+        low, high = surfaces.mesh_low[k], surfaces.mesh_high[k]
+        slack = scalar(FLOAT32_SLACK) * (l1(low) + l1(high) + l1(x)) + TOLERANCE * radius
+        grow = radius + slack
+        query = wp.mesh_query_aabb(surfaces.mesh[k], single(x - vec3(grow, grow, grow)), single(x + vec3(grow, grow, grow)))
+        face = wp.int32(0)
+        best = vec3()
+        steepest = scalar(0.0)
+        while wp.mesh_query_aabb_next(query, face):
+            a, b, c = vertices(surfaces, k, face)
+            n = wp.cross(b - a, c - a)
+            if wp.length(n) > scalar(0.0):
+                n = wp.normalize(n)
+                height = wp.dot(x - a, n)
+                closing = wp.dot(v, n)
+                if height >= -slack and height <= grow and closing < steepest:
+                    y = x - n * height  # the edge functions within R of the triangle
+                    e0 = wp.dot(n, wp.cross(b - a, y - a)) / wp.length(b - a)
+                    e1 = wp.dot(n, wp.cross(c - b, y - b)) / wp.length(c - b)
+                    e2 = wp.dot(n, wp.cross(a - c, y - c)) / wp.length(a - c)
+                    if wp.min(wp.min(e0, e1), e2) >= -grow:
+                        steepest = closing
+                        best = n
+        if steepest < scalar(0.0):
+            return best
+        return mesh_normal(surfaces, k, x)
+
+    return SimpleNamespace(
+        mesh_time=mesh_time,
+        mesh_normal=mesh_normal,
+        contact_normal=contact_normal,
+        vertices=vertices,
+        triangle_time=triangle_time,
+        inside=inside,
+        l1=l1,
+        single=single,
+    )
