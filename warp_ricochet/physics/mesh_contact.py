@@ -16,7 +16,7 @@ The BVH only proposes triangles; every test is on the kernel-precision vertices:
   behind the plane: its descending crossing) with the centre projected inside the triangle, or at
   the latest where the centre itself descends through the triangle (h = 0) inside it: a sphere that
   grazes an edge or a vertex is stopped there, so that a closed mesh is never crossed;
-- inside: the three edge functions n.((b - a) x (y - a)) are >= -ROUNDING eps |b - a| (|y|_1 +
+- inside: the three edge functions n.((b - a) x (y - a)) are >= -EDGE_ROUNDING eps |b - a| (|y|_1 +
   |a|_1) (inclusive, so a centre on a shared edge or vertex is inside its neighbours too).
 """
 
@@ -30,6 +30,7 @@ from .types import types_for
 
 SAGITTA = 1.0 / 16.0  # a chord's sagitta, as a fraction of the mesh's bounding-box diagonal
 MAX_CHORDS = 1024  # past it the chords are longer and their boxes grown by their larger sagitta
+EDGE_ROUNDING = 8.0  # the inside test's tolerance, in machine epsilons of its operands' scale
 FLOAT32_SLACK = 2.0**-20  # relative: the BVH's float32 boxes against the kernel's vertices
 
 
@@ -42,6 +43,7 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
     ballistic = make_ballistic(precision)
     entry_time, position = ballistic.entry_time, ballistic.position
     TOLERANCE = scalar(ROUNDING * EPSILON[precision])
+    EDGE = scalar(EDGE_ROUNDING * EPSILON[precision])
     LATEST = scalar(MAX_FLIGHT_TIME)
 
     @wp.func
@@ -66,7 +68,7 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
     def edge_in(n: vec3, p: vec3, q: vec3, y: vec3):
         """y on the inner side of edge p -> q (counter-clockwise about n), inclusive within rounding."""
         e = q - p
-        return wp.dot(n, wp.cross(e, y - p)) >= -TOLERANCE * wp.length(e) * (l1(y) + l1(p))
+        return wp.dot(n, wp.cross(e, y - p)) >= -EDGE * wp.length(e) * (l1(y) + l1(p))
 
     @wp.func
     def inside(n: vec3, a: vec3, b: vec3, c: vec3, y: vec3):
