@@ -198,3 +198,21 @@ def test_a_pellet_grazing_a_box_edge_bounces_off_the_face_it_meets(tmp_path):
     pick = [426431, 492834]
     hit, first, _ = _landings(tmp_path, x[pick], v[pick], [{"kind": "box", **BOX, **MATERIAL}], "float32", "graze")
     assert (hit == 0).all() and not np.isnan(first).any() and not inside_box(first, BOX, 1e-5).any()
+
+
+def test_the_command_line_refuses_a_bad_mesh_in_one_line_and_runs_a_good_one(tmp_path):
+    from helpers import cli
+
+    from warp_ricochet.scene.toml_out import toml_lines
+
+    _write(tmp_path / "square.stl", SQUARE - [50.0, 50.0, 0.0], [[0, 1, 2], [0, 2, 3]])
+    (tmp_path / "junk.obj").write_text("v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n")  # one triangle of zero area
+    for name, expected in (("junk.obj", 2), ("square.stl", 0)):
+        raw = _raw([{"kind": "mesh", "file": name, **MATERIAL}])
+        (tmp_path / "scene.toml").write_text("\n".join(toml_lines(raw, "")))
+        rc, _out, err = cli(["run", tmp_path / "scene.toml", "--device", "cpu", "-o", tmp_path / "out.h5"])
+        assert rc == expected, err
+        if expected:
+            assert err.count("\n") == 1 and "surfaces.0.file" in err and "nonzero area" in err, err
+            assert not (tmp_path / "out.h5").exists()
+    assert (tmp_path / "out.h5").exists()
