@@ -128,8 +128,7 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
 
     @wp.func
     def window(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, g: vec3, grow: scalar):
-        """A time (s) after which the parabola's centre stays off mesh k's box grown by `grow`
-        (0: it never comes near), at most MAX_FLIGHT_TIME."""
+        """A time (s) after which the centre stays off mesh k's box grown by `grow` (0: never near)."""
         low = surfaces.mesh_low[k] - vec3(grow, grow, grow)
         high = surfaces.mesh_high[k] + vec3(grow, grow, grow)
         gravity = wp.length(g)
@@ -194,8 +193,7 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
 
     @wp.func
     def mesh_normal(surfaces: Surfaces, k: wp.int32, x: vec3):
-        """The unit normal of the triangle of mesh k nearest x (the BVH's closest point, float32);
-        the surface's own normal if the query finds none."""
+        """The unit normal of the triangle of mesh k nearest x (the BVH's closest point, float32)."""
         query = wp.mesh_query_point_no_sign(surfaces.mesh[k], single(x), wp.float32(1.0e30))
         if not query.result:
             return surfaces.normal[k]
@@ -204,10 +202,8 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
 
     @wp.func
     def contact_normal(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, radius: scalar):
-        """The normal of a contact of mesh k at centre x with velocity v: of the triangles the
-        sphere touches there (centre 0 to R in front of its plane, within R of it beside its edges),
-        the one v approaches most steeply (at an edge or a vertex, the face met head-on); the
-        nearest triangle's (`mesh_normal`) if none is closing."""
+        """The normal of the triangle touched at x (centre 0 to R in front, within R beside its
+        edges) that v approaches most steeply; else the nearest triangle's (`mesh_normal`)."""
         low, high = surfaces.mesh_low[k], surfaces.mesh_high[k]
         slack = scalar(FLOAT32_SLACK) * (l1(low) + l1(high) + l1(x)) + TOLERANCE * radius
         grow = radius + slack
@@ -234,13 +230,5 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
             return best
         return mesh_normal(surfaces, k, x)
 
-    return SimpleNamespace(
-        mesh_time=mesh_time,
-        mesh_normal=mesh_normal,
-        contact_normal=contact_normal,
-        vertices=vertices,
-        triangle_time=triangle_time,
-        inside=inside,
-        l1=l1,
-        single=single,
-    )
+    helpers = {"vertices": vertices, "inside": inside, "l1": l1, "single": single}  # the air's search shares them
+    return SimpleNamespace(mesh_time=mesh_time, mesh_normal=mesh_normal, contact_normal=contact_normal, **helpers)
