@@ -215,12 +215,12 @@ def test_terrain_keys_are_checked_in_one_line(tmp_path):
     raw = terrain_scene(good)
     del raw["surfaces"][1]["file"]
     one_line(raw, "surfaces.1.file", "is required for kind = 'terrain'")
-    one_line(terrain_scene(good, size=[1.0, 1.0]), "surfaces.1.size", "is a key of kind = 'rectangle' only")
+    one_line(terrain_scene(good, size=[1.0, 1.0]), "surfaces.1.size", "is a key of kind = 'rectangle' or 'box' only")
     one_line(terrain_scene(good, origin=[1.0]), "surfaces.1.origin", "list of 2 numbers")
     one_line(terrain_scene(good, axis_u=[1.0, 1.0, 0.0]), "surfaces.1.axis_u", "perpendicular to the terrain's up")
     plane = paper_raw()
     plane["surfaces"][0]["file"] = str(good)
-    one_line(plane, "surfaces.0.file", "is a key of kind = 'terrain' only")
+    one_line(plane, "surfaces.0.file", "is a key of kind = 'terrain' or 'mesh' only")
     one_line(terrain_scene(good, site=True), "surfaces.1.file", "has no CRS")
     with rasterio.open(good, "r+") as dst:
         dst.crs = rasterio.crs.CRS.from_epsg(32631)

@@ -442,7 +442,7 @@ def test_finite_plates_are_drawn_as_their_triangles(tmp_path):
         g = f[next(iter(f))] if "constants" not in f else f
         s = g["constants/surfaces"]
         np.testing.assert_array_equal(s["kind"][()], [0, 1, 2])
-        np.testing.assert_array_equal(s["size"][()], [[0.0, 0.0], [2.0, 1.0], [1.5, 1.5]])
+        np.testing.assert_array_equal(s["size"][()], [[0.0, 0.0, 0.0], [2.0, 1.0, 0.0], [1.5, 1.5, 0.0]])
         np.testing.assert_array_equal(s["two_sided"][()], [0, 0, 1])
         restitution = s["restitution"][()]
     blocks, _steps = _read(tmp_path / "plates.xmf")

@@ -21,6 +21,7 @@ from .physics.air import GAMMA_AIR
 from .physics.impact import SOLID_SPHERE_INERTIA_FACTOR
 from .physics.types import GROUND_FIELDS, surfaces_of, types_for
 from .scene.materials import critical_angle, is_liquid, ploughing_rate
+from .scene.triangles import triangles_of
 from .tallies.reduce import LANES, SEGMENT_WIDTH, partial_bytes_per_pellet, threads_for
 from .tallies.sums import NUM_EXTREMES, NUM_SUMS
 
@@ -75,6 +76,7 @@ class Model:
             ground=ground_of(planes, radius, density),
             liquid=[is_liquid(p.material) for p in planes],
             plates=[plate_of(p) for p in planes],
+            meshes=[triangles_of(p) for p in planes],
         )
         physics = t.Physics()
         physics.radius = t.scalar(radius)
@@ -107,6 +109,8 @@ def plate_of(surface):
     half_u, half_v, two_sided); a disc's radius is both half sides."""
     if surface.is_plane:
         return None
+    if surface.is_mesh:
+        return ("mesh", (0.0, 0.0, 0.0), 0.0, 0.0, False)
     if surface.kind == "disc":
         return (surface.kind, (0.0, 0.0, 0.0), surface.radius, surface.radius, surface.two_sided)
     return (surface.kind, surface.axis_u, 0.5 * surface.size[0], 0.5 * surface.size[1], surface.two_sided)

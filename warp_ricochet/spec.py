@@ -24,6 +24,9 @@ def _has_ground_laws(surface) -> bool:
     return is_liquid(surface.material) or any(surface.ground(key) != RIGID[key] for key in keys)
 
 
+MESHES = 2  # RunSpec.plates when the scene has triangles: the geometry's plate and mesh code
+
+
 @dataclass(frozen=True)
 class RunSpec:
     """precision: "float32" or "float64"; bounces: ricochets followed; planes: surfaces in the
@@ -36,7 +39,8 @@ class RunSpec:
     "landing" ends a pellet at its landing, "rest" follows it on until it stops (docs/ground.md); ground:
     a surface has rough ground or a penetration law (`physics.ground`), applied at every impact;
     places: the named places of the hazard (`tallies.path`); plates: a surface is a finite plate
-    (`physics.geometry`: its code compiled in only then)."""
+    (`physics.geometry`: its code compiled in only then); MESHES (2): a surface is a box or a mesh
+    (`physics.mesh_contact` compiled in too)."""
 
     precision: str
     bounces: int
@@ -53,7 +57,7 @@ class RunSpec:
     until: str = "landing"
     ground: bool = False
     places: int = 0
-    plates: bool = False
+    plates: bool | int = False
 
     @classmethod
     def of(cls, scene, *, with_output: bool = True) -> RunSpec:
@@ -79,7 +83,7 @@ class RunSpec:
             until=scene.physics.until,
             ground=any(_has_ground_laws(surface) for surface in scene.surfaces),
             places=0 if scene.hazard is None else len(scene.hazard.points),
-            plates=any(not surface.is_plane for surface in scene.surfaces),
+            plates=MESHES if any(s.is_mesh for s in scene.surfaces) else any(not s.is_plane for s in scene.surfaces),
         )
 
     @property

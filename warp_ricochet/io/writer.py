@@ -57,22 +57,26 @@ def _shown_name(group) -> str:
 
 
 def _write_plates(group, surfaces):
-    """The finite plates' shapes beside the planes' (docs/geometry.md): `kind` (the code of
-    `physics.types.KINDS`, named in its attribute `kinds`), `axis_u`, `size` (m; a disc: its
-    diameter twice) and `two_sided`, a plane's entries zero."""
-    from ..physics.types import KINDS
+    """The shapes of a scene's surfaces of other kinds beside the planes' (docs/geometry.md): `kind`
+    (its index in `scene.schema.SURFACE_KINDS`, named in its attribute `kinds`), `axis_u`, `size`
+    (m, 3 a surface: a rectangle's 2 sides, a disc's diameter twice, a box's 3 sides; zeros
+    elsewhere) and `two_sided`, a plane's entries zero."""
+    from ..scene.schema import SURFACE_KINDS
 
-    kinds = [KINDS[p.kind or "plane"] for p in surfaces]
+    kinds = [SURFACE_KINDS.index(p.kind or "plane") for p in surfaces]
     axes = [p.axis_u if p.axis_u is not None else (0.0, 0.0, 0.0) for p in surfaces]
-    sizes = [p.size if p.size is not None else (2.0 * (p.radius or 0.0),) * 2 for p in surfaces]
+    sizes = np.zeros((len(surfaces), 3))
+    for i, p in enumerate(surfaces):
+        shape = p.size if p.size is not None else (2.0 * (p.radius or 0.0),) * 2
+        sizes[i, : len(shape)] = shape
     for name, unit, data in (
         ("kind", "1", np.asarray(kinds, dtype=np.int32)),
         ("axis_u", "1", np.asarray(axes, dtype=np.float64).reshape(len(surfaces), 3)),
-        ("size", "m", np.asarray(sizes, dtype=np.float64).reshape(len(surfaces), 2)),
+        ("size", "m", sizes),
         ("two_sided", "1", np.asarray([bool(p.two_sided) for p in surfaces], dtype=np.int8)),
     ):
         group.create_dataset(name, data=data).attrs["units"] = unit
-    group["kind"].attrs["kinds"] = list(KINDS)
+    group["kind"].attrs["kinds"] = list(SURFACE_KINDS)
 
 
 class RunWriter:

@@ -359,7 +359,7 @@ def _surfaces(parent, group, ref, rows, name):
     planes = np.arange(len(points))
     if "constants/surfaces/kind" in group:
         _plates(parent, group, name.replace("surfaces", "plates"))
-        planes = np.flatnonzero(group["constants/surfaces/kind"][()] == 0)
+        planes = np.flatnonzero(group["constants/surfaces/kind"][()] == 0)  # (SURFACE_KINDS' indices)
     if len(planes) == 0:
         return
     sample = _sample_box(group, rows)
@@ -416,7 +416,7 @@ def _plates(parent, group, name):
     """The finite plates as triangles, with their surface's index and coefficients as cell data."""
     s = group["constants/surfaces"]
     kinds = s["kind"][()]
-    which = np.flatnonzero(kinds != 0)
+    which = np.flatnonzero((kinds == 1) | (kinds == 2))  # rectangles and discs (boxes and meshes: not drawn yet)
     if not len(which):
         return
     parts = [plate_triangles(s["point"][i], s["normal"][i], s["axis_u"][i], s["size"][i], kinds[i]) for i in which]

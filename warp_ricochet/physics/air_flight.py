@@ -21,8 +21,9 @@ from types import SimpleNamespace
 import warp as wp
 
 from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT
-from .geometry import make_geometry
+from .geometry import MESHES, make_geometry
 from .integrate import make_dense_output, make_stepper
+from .mesh_contact import FLOAT32_SLACK, make_mesh_contact
 from .types import types_for
 
 MAX_FLIGHT_STEPS = 1 << 16  # per flight between contacts
@@ -97,7 +98,8 @@ def make_plane_search(precision: str, planes, plates: bool = False) -> SimpleNam
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
     roots, geo = make_roots(precision), make_geometry(precision, planes, True, plates)
     hermite, hermite_vec = make_dense_output(precision).hermite, make_dense_output(precision).hermite_vec
-    STATIC, PLATES = planes, plates
+    STATIC, PLATES, WITH_MESHES = planes, plates, plates >= MESHES
+    meshes = make_mesh_contact(precision)
 
     @wp.func
     def start_plane(k: wp.int32, position: vec3, velocity: vec3, touching: wp.int32, surfaces: Surfaces, physics: Physics):
@@ -138,6 +140,9 @@ def make_plane_search(precision: str, planes, plates: bool = False) -> SimpleNam
         for k in range(count):
             if wp.static(PLATES):
                 state = start_plate(k, position, velocity, touching, surfaces, physics)
+                if wp.static(WITH_MESHES):
+                    if meshes.is_mesh(surfaces, k):
+                        state = wp.int32(1)  # watched: `mesh_theta` applies the rules per triangle
             else:
                 state = start_plane(k, position, velocity, touching, surfaces, physics)
             if state == 1:
@@ -184,6 +189,74 @@ def make_plane_search(precision: str, planes, plates: bool = False) -> SimpleNam
         return theta, now_watched
 
     @wp.func
+    def triangle_theta(
+        surfaces: Surfaces,
+        k: wp.int32,
+        face: wp.int32,
+        h: scalar,
+        x0: vec3,
+        v0: vec3,
+        a0: vec3,
+        x1: vec3,
+        v1: vec3,
+        a1: vec3,
+        radius: scalar,
+    ):
+        """Where on the step triangle `face` of mesh k is met (2: not): its plane offset by R as a
+        plane's (watched from in front, waiting where the centre starts within R of it), then the
+        triangle itself from in front, each kept where the interpolant's centre is inside it."""
+        a, b, c = meshes.vertices(surfaces, k, face)
+        n = wp.cross(b - a, c - a)
+        if wp.length(n) == scalar(0.0):
+            return scalar(2.0)
+        n = wp.normalize(n)
+        level = wp.dot(a, n)
+        g0, s0, q0 = wp.dot(x0, n) - level, h * wp.dot(v0, n), h * h * wp.dot(a0, n)
+        g1, s1, q1 = wp.dot(x1, n) - level, h * wp.dot(v1, n), h * h * wp.dot(a1, n)
+        theta = scalar(2.0)
+        if g0 > radius:
+            theta, _watched = plane_theta(1, g0 - radius, s0, q0, g1 - radius, s1, q1)
+        elif g0 >= scalar(0.0):
+            if s0 <= scalar(0.0):
+                theta = scalar(0.0)  # touching or overlapping it, closing: met now
+            else:
+                theta, _watched = plane_theta(2, g0 - radius, s0, q0, g1 - radius, s1, q1)
+        if theta <= scalar(1.0):
+            x, _slope = hermite_vec(theta, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
+            if not meshes.inside(n, a, b, c, x):
+                theta = scalar(2.0)
+        if g0 > scalar(0.0):  # the centre reaching the triangle itself
+            through, _watched = plane_theta(1, g0, s0, q0, g1, s1, q1)
+            if through < theta:
+                x, _slope = hermite_vec(through, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
+                if meshes.inside(n, a, b, c, x):
+                    theta = through
+        return theta
+
+    @wp.func
+    def mesh_theta(
+        surfaces: Surfaces, k: wp.int32, h: scalar, x0: vec3, v0: vec3, a0: vec3, x1: vec3, v1: vec3, a1: vec3, radius: scalar
+    ):
+        """The earliest theta on the step where mesh k is met (2: none): the triangles whose boxes
+        meet the box of the step's quintic Bezier control points grown by R (the curve lies in
+        their hull), each by `triangle_theta`."""
+        d0, dd0, d1, dd1 = h * v0, h * h * a0, h * v1, h * h * a1
+        p1, p2 = x0 + d0 / scalar(5.0), x0 + scalar(0.4) * d0 + dd0 / scalar(20.0)
+        p3, p4 = x1 - scalar(0.4) * d1 + dd1 / scalar(20.0), x1 - d1 / scalar(5.0)
+        low = wp.min(wp.min(wp.min(x0, x1), wp.min(p1, p2)), wp.min(p3, p4))
+        high = wp.max(wp.max(wp.max(x0, x1), wp.max(p1, p2)), wp.max(p3, p4))
+        mesh, mesh_low, mesh_high = meshes.bounds(surfaces, k)
+        grow = radius + scalar(FLOAT32_SLACK) * (meshes.l1(low) + meshes.l1(high) + meshes.l1(mesh_low) + meshes.l1(mesh_high))
+        query = wp.mesh_query_aabb(
+            mesh, meshes.single(low - vec3(grow, grow, grow)), meshes.single(high + vec3(grow, grow, grow))
+        )
+        best = scalar(2.0)
+        face = wp.int32(0)
+        while wp.mesh_query_aabb_next(query, face):
+            best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius))
+        return best
+
+    @wp.func
     def search(
         h: scalar,
         x0: vec3,
@@ -224,6 +297,10 @@ def make_plane_search(precision: str, planes, plates: bool = False) -> SimpleNam
                         theta, now_watched = plate_theta(k, watch, x, theta, now_watched, surfaces)
                 else:
                     theta, now_watched = plane_theta(watch, g0, s0, q0, g1, s1, q1)
+                if wp.static(WITH_MESHES):
+                    if meshes.is_mesh(surfaces, k):  # (its plate answer above is not used)
+                        theta = mesh_theta(surfaces, k, h, x0, v0, a0, x1, v1, a1, physics.radius)
+                        now_watched = wp.int32(0)
                 if now_watched != 0:
                     watched = watched | bit
                     waiting = waiting & ~bit
@@ -316,7 +393,8 @@ def make_air_flight(precision: str, planes, laws: tuple, watch: tuple = (0, 0, F
                 if k >= 0:
                     x, slope = dense.hermite_vec(theta, position, h * velocity, h * h * acceleration, x1, h * v1, h * h * a1)
                     w = dense.cubic_vec(theta, spin, h * spin_change, w1, h * d1)
-                    return time + theta * h, k, geo.normal(surfaces, k, x), x, slope / h, w, steps
+                    n = geo.contact_normal(surfaces, k, x, slope / h, physics.radius)
+                    return time + theta * h, k, n, x, slope / h, w, steps
                 position = x1
                 velocity = v1
                 spin = w1
@@ -371,7 +449,8 @@ def make_air_flight(precision: str, planes, laws: tuple, watch: tuple = (0, 0, F
                 if k >= 0:
                     x, slope = dense.hermite_vec(theta, position, d0, e0, x1, d1s, e1)
                     w = dense.cubic_vec(theta, spin, h * spin_change, w1, h * d1)
-                    return time + theta * h, k, geo.normal(surfaces, k, x), x, slope / h, w, steps, track
+                    n = geo.contact_normal(surfaces, k, x, slope / h, physics.radius)
+                    return time + theta * h, k, n, x, slope / h, w, steps, track
                 position = x1
                 velocity = v1
                 spin = w1

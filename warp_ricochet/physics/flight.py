@@ -78,7 +78,8 @@ def make_flight(
         if k < 0:
             return dt, k, vec3(), position, velocity, spin, wp.int32(0)
         position_then, velocity_then, spin_then = advance(position, velocity, spin, dt, physics)
-        return dt, k, geo.normal(surfaces, k, position_then), position_then, velocity_then, spin_then, wp.int32(0)
+        n = geo.contact_normal(surfaces, k, position_then, velocity_then, physics.radius)
+        return dt, k, n, position_then, velocity_then, spin_then, wp.int32(0)
 
     @wp.func
     def to_contact_watched(

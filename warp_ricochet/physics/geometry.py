@@ -27,6 +27,10 @@ rounding error onto it or through it. `snap` False turns the band off in the par
 dense phase in air, whose kicks move a pellet's reference state every few steps, would otherwise
 meet a plane early wherever the pellet comes within the band of it (docs/air.md, section 3.2).
 
+Meshes (`plates` MESHES, docs/geometry.md): surfaces of kind mesh (boxes too) answer
+`contact_time` and `normal` (`physics.mesh_contact`); the motion along surfaces, the air's search
+and the dense phase, which read `locate`, `gap`, `inside` and `step_gaps`, refuse them (scene.parse).
+
 Plates (`plates` True, docs/geometry.md): a surface of kind rectangle or disc is the part of its
 plane around its point within half sides along axes u, v = n x u (`inside`: the pellet's centre
 projected along n); a two-sided one turns n, the height and the normal towards the pellet's side
@@ -47,25 +51,29 @@ import numpy as np
 import warp as wp
 
 from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT, ROUNDING, make_ballistic
+from .mesh_contact import make_mesh_contact
 from .types import KINDS, types_for
+
+MESHES = 2  # `plates` when meshes are compiled in too (spec.MESHES)
 
 
 def make_geometry(precision: str, planes=None, snap: bool = True, plates: bool = False) -> SimpleNamespace:
     """The geometry `@wp.func`s of one precision. `planes`: the number of surfaces when fixed at
     code generation (the search over them unrolled), else None; `snap`: the parabola's search takes
-    a gap within the touching band as zero (module docstring); `plates`: surfaces may be plates.
+    a gap within the touching band as zero (module docstring); `plates`: surfaces may be plates
+    (True), or plates and meshes (MESHES, 2: `physics.mesh_contact`).
     One cached set per value of the four, however they are passed."""
-    return _make_geometry(precision, planes, bool(snap), bool(plates))
+    return _make_geometry(precision, planes, bool(snap), min(int(plates), MESHES))
 
 
 @functools.cache
-def _make_geometry(precision: str, planes, snap: bool, plates: bool) -> SimpleNamespace:
+def _make_geometry(precision: str, planes, snap: bool, plates: int) -> SimpleNamespace:
     t = types_for(precision)
     scalar, vec3, Surfaces, Material = t.scalar, t.vec3, t.Surfaces, t.Material
     ballistic = make_ballistic(precision)
     entry_time, return_time, _position = ballistic.entry_time, ballistic.return_time, ballistic.position
-    STATIC_PLANES, SNAP, PLATES = planes, snap, plates
-    RECTANGLE = KINDS["rectangle"]
+    STATIC_PLANES, SNAP, PLATES, WITH_MESHES = planes, snap, plates > 0, plates >= MESHES
+    RECTANGLE, MESH, meshes = KINDS["rectangle"], KINDS["mesh"], make_mesh_contact(precision)
     TOLERANCE = scalar(ROUNDING * EPSILON[precision])
     LATEST = scalar(MAX_FLIGHT_TIME)
 
@@ -109,9 +117,14 @@ def _make_geometry(precision: str, planes, snap: bool, plates: bool) -> SimpleNa
     @wp.func(inline=True)
     def normal(surfaces: Surfaces, k: wp.int32, x: vec3):
         """The unit normal (towards the pellets) of surface k at the point nearest x."""
+        if wp.static(WITH_MESHES):
+            if surfaces.kind[k] == MESH:
+                return meshes.mesh_normal(surfaces, k, x)
         if wp.static(PLATES):
             return side(surfaces, k, x) * surfaces.normal[k]
         return surfaces.normal[k]
+
+    contact_normal = _contact_normal(precision, normal, WITH_MESHES)
 
     @wp.func(inline=True)
     def locate(surfaces: Surfaces, k: wp.int32, x: vec3):
@@ -227,6 +240,9 @@ def _make_geometry(precision: str, planes, snap: bool, plates: bool) -> SimpleNa
     ):
         """Time (s) until the parabola of eq. (36) meets surface k, or NO_CONTACT (also beyond
         MAX_FLIGHT_TIME). A plane's gap is the quadratic of `physics.ballistic`; one-sided."""
+        if wp.static(WITH_MESHES):
+            if surfaces.kind[k] == MESH:
+                return meshes.mesh_time(surfaces, k, position, velocity, gravity, radius)  # touching: not needed
         if wp.static(PLATES):
             if surfaces.kind[k] != 0:
                 return plate_time(surfaces, k, position, velocity, gravity, radius, touching)
@@ -275,6 +291,7 @@ def _make_geometry(precision: str, planes, snap: bool, plates: bool) -> SimpleNa
         reach=reach,
         count=count,
         normal=normal,
+        contact_normal=contact_normal,
         locate=locate,
         gap=gap,
         material=material,
@@ -282,6 +299,25 @@ def _make_geometry(precision: str, planes, snap: bool, plates: bool) -> SimpleNa
         contact_time=contact_time,
         next_contact=next_contact,
     )
+
+
+def _contact_normal(precision: str, normal, with_meshes: bool):
+    """`contact_normal(surfaces, k, x, v, radius)`: the unit normal of a contact with surface k at
+    centre x, velocity v: `normal`'s; a mesh's: of the triangle touched there that v approaches
+    most steeply (`physics.mesh_contact.contact_normal`)."""
+    t = types_for(precision)
+    Surfaces, vec3, scalar = t.Surfaces, t.vec3, t.scalar
+    MESH, meshes = KINDS["mesh"], make_mesh_contact(precision)
+
+    @wp.func(inline=True)
+    def contact_normal(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, radius: scalar):
+        """The unit normal of a contact with surface k at x, velocity v (`_contact_normal`)."""
+        if wp.static(with_meshes):
+            if surfaces.kind[k] == MESH:
+                return meshes.contact_normal(surfaces, k, x, v, radius)
+        return normal(surfaces, k, x)
+
+    return contact_normal
 
 
 def project(surface, x):

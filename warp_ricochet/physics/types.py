@@ -7,6 +7,7 @@ of at a point), `Air` (the air's constants, premultiplied for the laws of `physi
 """
 
 import functools
+import weakref
 from types import SimpleNamespace
 
 import numpy as np
@@ -50,6 +51,14 @@ def types_for(precision: str) -> SimpleNamespace:
         half_u: wp.array(dtype=scalar)
         half_v: wp.array(dtype=scalar)
         two_sided: wp.array(dtype=wp.int32)  # 1: met from either face
+        # meshes (read only by kernels compiled with meshes, `physics.mesh_contact`): per surface its
+        # wp.Mesh id (0: none), the index of its first vertex in mesh_points, its bounding box (m);
+        # mesh_points: every mesh's vertices (m) in the kernel's precision
+        mesh: wp.array(dtype=wp.uint64)
+        mesh_first: wp.array(dtype=wp.int32)
+        mesh_low: wp.array(dtype=vec3)
+        mesh_high: wp.array(dtype=vec3)
+        mesh_points: wp.array(dtype=vec3)
 
     @wp.struct
     class Material:
@@ -122,7 +131,7 @@ GROUND_FIELDS = (
     "skip_loss",
 )
 RIGID_PLANE = {name: 0.0 for name in GROUND_FIELDS} | {"critical_angle": 0.5 * np.pi}
-KINDS = {"plane": 0, "rectangle": 1, "disc": 2}  # Surfaces.kind's codes (scene: [[surfaces]] kind)
+KINDS = {"plane": 0, "rectangle": 1, "disc": 2, "mesh": 3}  # Surfaces.kind's codes (scene: [[surfaces]] kind; a box is a mesh)
 
 
 def plate_arrays(normals, plates) -> dict:
@@ -136,7 +145,7 @@ def plate_arrays(normals, plates) -> dict:
         u = np.asarray(u, dtype=np.float64)
         if kind == "disc":  # any in-plane axis
             u = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
-        if kind != "plane":
+        if kind not in ("plane", "mesh"):
             u = u - np.dot(u, n) * n
             u = u / np.linalg.norm(u)
         for key, value in zip(out, (KINDS[kind], u, np.cross(n, u), half_u, half_v, int(bool(two_sided)))):
@@ -144,7 +153,47 @@ def plate_arrays(normals, plates) -> dict:
     return {key: np.asarray(values) for key, values in out.items()}
 
 
-def surfaces_of(precision: str, points, normals, materials, device, ground=None, liquid=None, plates=None) -> object:
+_HELD = {}  # id of a Surfaces struct: the wp.Mesh objects its ids name (released with the struct)
+
+
+def mesh_fields(surfaces, precision: str, meshes, device) -> None:
+    """Set the Surfaces' mesh arrays from `meshes`: per surface None or triangles (an object with
+    `vertices` float64 (n, 3) and `triangles` int32 (m, 3): `scene.triangles.TriangleSurface`);
+    each gets a wp.Mesh (float32 BVH), kept alive as long as `surfaces`."""
+    t, dtype = types_for(precision), np.dtype(precision)
+    ids, first, low, high, points, held = [], [], [], [], [np.zeros((0, 3))], []
+    count = 0
+    for triangles in meshes:
+        ids.append(0 if triangles is None else None)
+        first.append(count)
+        if triangles is None:
+            low.append(np.zeros(3))
+            high.append(np.zeros(3))
+            continue
+        vertices = np.asarray(triangles.vertices, dtype=np.float64).astype(dtype)
+        mesh = wp.Mesh(
+            points=wp.array(vertices.astype(np.float32), dtype=wp.vec3, device=device),
+            indices=wp.array(
+                np.ascontiguousarray(triangles.triangles, dtype=np.int32).reshape(-1), dtype=wp.int32, device=device
+            ),
+        )
+        held.append(mesh)
+        ids[-1] = mesh.id
+        low.append(vertices.min(axis=0))
+        high.append(vertices.max(axis=0))
+        points.append(vertices)
+        count += len(vertices)
+    surfaces.mesh = wp.array(np.asarray(ids, dtype=np.uint64), dtype=wp.uint64, device=device)
+    surfaces.mesh_first = wp.array(np.asarray(first, dtype=np.int32), dtype=wp.int32, device=device)
+    for name, values in (("mesh_low", low), ("mesh_high", high)):
+        setattr(surfaces, name, wp.array(np.asarray(values).reshape(-1, 3).astype(dtype), dtype=t.vec3, device=device))
+    surfaces.mesh_points = wp.array(np.concatenate(points).astype(dtype), dtype=t.vec3, device=device)
+    if held:
+        _HELD[id(surfaces)] = held
+        weakref.finalize(surfaces, _HELD.pop, id(surfaces), None)
+
+
+def surfaces_of(precision: str, points, normals, materials, device, ground=None, liquid=None, plates=None, meshes=None) -> object:
     """The `Surfaces` struct of planes: points (m) and unit normals (P, 3), materials (P, 3) as
     restitution, mu_s, mu_d; their point_noise sum_i |p_i| |n_i| computed here in float64, once, so
     the kernels' rounding scale of a gap (`physics.geometry.locate`) adds it instead of p's terms.
@@ -175,4 +224,5 @@ def surfaces_of(precision: str, points, normals, materials, device, ground=None,
         setattr(surfaces, name, wp.array(shapes[name].reshape(-1, 3).astype(dtype), dtype=t.vec3, device=device))
     for name in ("half_u", "half_v"):
         setattr(surfaces, name, wp.array(shapes[name].astype(dtype), dtype=t.scalar, device=device))
+    mesh_fields(surfaces, precision, [None] * len(points) if meshes is None else meshes, device)
     return surfaces

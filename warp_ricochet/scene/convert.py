@@ -162,9 +162,9 @@ def _bool(v, path):
     return v
 
 
-def _two(v, path, rule, ok):
-    """A list of 2 finite numbers, each `ok`."""
-    if not (isinstance(v, (list, tuple)) and len(v) == 2):
+def _two(v, path, rule, ok, lengths=(2,)):
+    """A list of `lengths` finite numbers, each `ok`."""
+    if not (isinstance(v, (list, tuple)) and len(v) in lengths):
         raise _err(path, v, rule)
     xs = tuple(_finite(x, path, rule) for x in v)
     if not all(map(ok, xs)):
@@ -172,9 +172,9 @@ def _two(v, path, rule, ok):
     return xs
 
 
-@_rule(f"must be a list of 2 numbers in (0, {2 * MAX_COORDINATE:g}] (m)")
+@_rule(f"must be a list of 2 (a rectangle) or 3 (a box) numbers in (0, {2 * MAX_COORDINATE:g}] (m)")
 def _size(v, path):
-    return _two(v, path, _size.rule, lambda x: 0 < x <= 2 * MAX_COORDINATE)
+    return _two(v, path, _size.rule, lambda x: 0 < x <= 2 * MAX_COORDINATE, lengths=(2, 3))
 
 
 MAX_MAP_COORDINATE = 1e8  # a raster's CRS coordinates (terrain's origin): UTM northings reach 1e7 m
@@ -227,7 +227,7 @@ _SURFACE = {
     "size": _size,
     "radius": _range(0, MAX_COORDINATE, above=True, unit="m"),
     "two_sided": _bool,
-    "file": _path(),  # terrain's raster, relative to the scene's folder (scene.terrain)
+    "file": _path(),  # a mesh's (scene.triangles) or terrain's raster (scene.terrain), relative to the scene's folder
     "origin": _pair,
     "elevation": _range(-MAX_COORDINATE, MAX_COORDINATE, unit="m"),
     "nodata": _number(),

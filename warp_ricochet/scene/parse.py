@@ -37,6 +37,7 @@ from .schema import (
     Surface,
 )
 from .terrain import TERRAIN_OPTIONAL, check_terrain
+from .triangles import load_mesh
 from .vectors import unit_vector
 
 
@@ -63,18 +64,26 @@ def _shot(raw, base_dir) -> Shot:
     return Shot(**kw)
 
 
-def _surface(raw, path: str) -> Surface:
+def _surface(raw, path: str, base_dir=".") -> Surface:
     material = raw.get("material") if isinstance(raw, dict) else None
-    placed = () if isinstance(raw, dict) and raw.get("kind") == "terrain" else ("point", "normal")  # (scene.terrain)
+    kind = raw.get("kind") if isinstance(raw, dict) else None
+    mesh = kind == "mesh"  # placed by an optional point; no normal
+    placed = () if kind in ("terrain", "mesh") else ("point", "normal")  # (scene.terrain, scene.triangles)
     required = placed if material is not None else (*placed, "restitution", "mu_s")
     kw = _table(raw, path, SCHEMAS["surfaces"], required=required)
+    if mesh:  # the triangles carry their normals: a mesh's own is unused (kept for round trips)
+        kw = {"point": (0.0, 0.0, 0.0), "normal": (0.0, 0.0, 1.0), **kw}
     if "normal" in kw and abs(math.hypot(*kw["normal"]) - 1.0) > 1e-15:  # keeps normalisation idempotent (round trips)
         kw["normal"] = unit_vector(kw["normal"])  # scaled first: a tiny normal does not underflow
     if material is not None:
         kw = _with_material(kw, raw, path)
     if kw.setdefault("mu_d", kw["mu_s"]) > kw["mu_s"]:
         raise err(f"{path}.mu_d", raw["mu_d"], f"must be a number in [0, mu_s = {kw['mu_s']:g}]")
-    return Surface(**_plate(kw, raw, path))
+    kw = _plate(kw, raw, path)
+    if mesh:
+        kw["file"] = os.path.abspath(os.path.join(os.fspath(base_dir), kw["file"]))
+        load_mesh(kw["file"], f"{path}.file", kw["point"])  # checked now: one line, before any work
+    return Surface(**kw)
 
 
 # the keys each kind of surface takes beside the plane's (docs/geometry.md)
@@ -83,8 +92,11 @@ PLATE_KEYS = {
     "rectangle": ("axis_u", "size", "two_sided"),
     "disc": ("radius", "two_sided"),
     "terrain": ("file", "axis_u", "origin", "elevation", "nodata"),
+    "box": ("axis_u", "size"),
+    "mesh": ("file",),
 }
 OPTIONAL_KEYS = {"rectangle": ("two_sided",), "disc": ("two_sided",), "terrain": TERRAIN_OPTIONAL}
+SIDES = {"rectangle": 2, "box": 3}  # the numbers in a size
 
 
 def _plate(kw: dict, raw: dict, path: str) -> dict:
@@ -103,6 +115,8 @@ def _plate(kw: dict, raw: dict, path: str) -> dict:
         return kw
     if kind == "terrain":  # placed and read once gravity and the site are known (scene.terrain.check_terrain)
         return {"point": (0.0, 0.0, 0.0), "normal": (0.0, 0.0, 0.0), **kw, "kind": kind}
+    if "size" in kw and len(kw["size"]) != SIDES[kind]:
+        raise err(f"{path}.size", raw["size"], f"must be a list of {SIDES[kind]} numbers for kind = {kind!r}")
     if "axis_u" in kw:
         u, n = kw["axis_u"], kw["normal"]
         if abs(math.hypot(*u) - 1.0) > 1e-15:
@@ -320,7 +334,7 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
     shot = _shot(raw["shot"], base_dir)
     pairs = collisions.enabled and shot.count > 1  # as Scene.pair_collisions: the run has a dense phase
     output = _table(raw.get("output"), "output", SCHEMAS["output"])
-    planes = tuple(_surface(s, f"surfaces.{i}") for i, s in enumerate(surfaces))
+    planes = tuple(_surface(s, f"surfaces.{i}", base_dir) for i, s in enumerate(surfaces))
     plate = next((i for i, s in enumerate(planes) if not s.is_plane), None)
     if pairs and plate is not None:
         raise err(
@@ -398,6 +412,7 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
             f"{len(surfaces)} surfaces",
             f"at most {MAX_PLANES_IN_AIR} with [air] (a flight in air tracks its planes in the bits of an int32)",
         )
+    _check_meshes(planes, physics)
     return Scene(
         shot=shot,
         surfaces=planes,
@@ -408,6 +423,17 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
         air=air,
         hazard=hazard,
     )
+
+
+def _check_meshes(surfaces: tuple, physics: Physics) -> None:
+    """Triangles (boxes, meshes) are met by the flights until landing only (docs/geometry.md)."""
+    mesh = next((i for i, s in enumerate(surfaces) if s.is_mesh), None)
+    if mesh is not None and physics.until == "rest":
+        raise err(
+            "physics.until",
+            "rest",
+            f'must be "landing" with surface {mesh} of kind = {surfaces[mesh].kind!r}: motion along triangles is not modelled yet',
+        )
 
 
 MAX_SCENE_CHARS = 1 << 20  # a scene's text; the largest valid one (a drag table of 1,024 pairs) is ~40 kB

@@ -26,7 +26,7 @@ MAX_IMPACT_DURATION = 1.0  # s
 MAX_AIR_DENSITY = 100.0  # kg/m^3: gases (the laws of docs/air.md are for a gas)
 MAX_WIND = 1e3  # m/s, each component
 
-SURFACE_KINDS = ("plane", "rectangle", "disc", "terrain")  # [[surfaces]] kind (docs/geometry.md)
+SURFACE_KINDS = ("plane", "rectangle", "disc", "box", "mesh", "terrain")  # [[surfaces]] kind (docs/geometry.md)
 PERPENDICULAR = 1e-9  # a rectangle's axis_u within this (cosine) of perpendicular to its normal
 FLOAT32_EXACT_STEPS = 2**24  # float32 counts every integer up to here
 CHECKPOINT_STEPS = 8  # a shot's steps between checkpoints when collisions.frame_every is 0 (dense.constants.BLOCK_STEPS)
@@ -61,7 +61,9 @@ class Shot:
 class Surface:
     """A plane through `point` (m) with unit `normal` pointing to the side the pellets come from; or,
     with `kind`, a finite plate in that plane centred on `point` (docs/geometry.md): a "rectangle" of
-    sides `size` (m) along the unit `axis_u` and normal x axis_u, or a "disc" of `radius` (m)."""
+    sides `size` (m) along the unit `axis_u` and normal x axis_u, or a "disc" of `radius` (m); or
+    triangles (scene.triangles): a "box" (centre `point`, sides `size` along axis_u, normal x axis_u
+    and normal) or a "mesh" read from `file`, its vertices moved by `point`."""
 
     point: Vec3
     normal: Vec3
@@ -88,9 +90,9 @@ class Surface:
     size: tuple[float, float] | None = None  # m: a rectangle's sides along axis_u and normal x axis_u
     radius: float | None = None  # m: a disc's
     two_sided: bool | None = None  # True: a plate met from either face; None: from the normal's side only
-    # terrain (scene.terrain): its raster (absolute path), the raster's (x, y) and elevation (m) placed
-    # at `point` (None: its stored corner, 0), a value taken as nodata; `normal` is its up
-    file: str | None = None
+    file: str | None = None  # a mesh's file (absolute; its vertices moved by `point`) or terrain's raster
+    # terrain (scene.terrain): the raster's (x, y) and elevation (m) placed at `point` (None: its
+    # stored corner, 0), a value taken as nodata; `normal` is its up
     origin: tuple[float, float] | None = None
     elevation: float | None = None
     nodata: float | None = None
@@ -99,6 +101,11 @@ class Surface:
     def is_plane(self) -> bool:
         """An infinite plane (no `kind`, or kind = "plane")."""
         return self.kind is None
+
+    @property
+    def is_mesh(self) -> bool:
+        """Made of triangles (a box or a mesh: `scene.triangles`)."""
+        return self.kind in ("box", "mesh")
 
     def ground(self, key: str) -> float:
         """The value of a ground key (scene.materials.GROUND_KEYS): its own, else the rigid plane's."""

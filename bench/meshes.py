@@ -1,0 +1,159 @@
+"""Benchmarks of triangle meshes (docs/geometry.md, "Meshes and boxes"), figures, not tests:
+
+  box    pellets fired at a closed box from all sides, half exactly at its edges and vertices
+         (issue 27, part 4: 1e7 of them), in chunks: how many meet it, how many centres are inside
+         it at an impact or a landing (must be 0), and pellets/s of the runs
+  plane  the paper's shot (statistics only) on its plane and on a two-triangle mesh of that
+         plane (2e4 m square): pellets/s of each and their ratio (issue 27, part 5: at most 3x)
+
+    python -m bench.meshes box [--n 1e7] [--chunk 1e6] [--precision float32] [--device cpu]
+    python -m bench.meshes plane [--n 1e6] [--precision float32] [--device cpu] [--repeats 3]
+
+`box_shots` is also the tests' (tests/test_meshes.py). Figures: bench/RESULTS.md.
+"""
+
+import argparse
+import platform
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+GRAVITY = np.array([0.0, 0.0, -9.81])
+AHEAD = 0.05  # s: the pellets reach their targets this long after launch
+BOX = {"point": [0.3, -0.2, 1.5], "normal": [0.2, 0.1, 1.0], "axis_u": [1.0, 0.5, -0.25], "size": [1.2, 0.8, 0.5]}
+MATERIAL = {"restitution": 0.5, "mu_s": 0.3}
+
+
+def aimed(targets, v, time=AHEAD):
+    """Launch positions whose centres, with launch velocities v, pass the points `targets` after
+    `time` (s) in vacuum (eq. 36 backwards)."""
+    return targets - v * time - 0.5 * GRAVITY * time**2
+
+
+def box_axes(box):
+    """The box's unit axes (rows u, v, n) and half sides (m), as `scene.triangles.box_triangles`."""
+    from warp_ricochet.scene.triangles import box_triangles
+
+    tri = box_triangles(box["point"], box["normal"], box["axis_u"], box["size"])
+    axes = np.stack([tri.vertices[4] - tri.vertices[0], tri.vertices[2] - tri.vertices[0], tri.vertices[1] - tri.vertices[0]])
+    return axes / np.linalg.norm(axes, axis=1, keepdims=True), 0.5 * np.asarray(box["size"], dtype=np.float64)
+
+
+def box_shots(rng, count, box=BOX):
+    """(x0, v0) of pellets whose centres, unhindered, reach points of a closed box AHEAD s later:
+    half random points inside it from random directions all around, half exactly its edges,
+    vertices and face points with velocities there in their inward cones."""
+    axes, half = box_axes(box)
+    n = count // 2
+    inner = rng.uniform(-1, 1, (n, 3)) * half
+    way = rng.normal(size=(n, 3))
+    signs = rng.choice([-1.0, 0.0, 1.0], size=(count - n, 3))  # 0: anywhere along that axis
+    signs[(signs == 0).all(axis=1), 0] = 1.0
+    on = np.where(signs == 0, rng.uniform(-1, 1, signs.shape), signs) * half
+    cone = np.abs(rng.normal(size=signs.shape)) * signs + np.where(signs == 0, 0.3 * rng.normal(size=signs.shape), 0.0)
+    outward = np.r_[-way, cone]
+    speed = rng.uniform(30.0, 300.0, (count, 1))
+    v = (
+        -speed * (outward / np.linalg.norm(outward, axis=1, keepdims=True)) @ axes - GRAVITY * AHEAD
+    )  # v0: in the cone at the target
+    return aimed(np.asarray(box["point"]) + np.r_[inner, on] @ axes, v), v
+
+
+def inside_box(points, box, slack):
+    """Whether centres lie inside the box by more than `slack` (m)."""
+    axes, half = box_axes(box)
+    return (np.abs((points - np.asarray(box["point"])) @ axes.T) < half - slack).all(axis=1)
+
+
+def _box_run(folder, x, v, precision, device, name):
+    """(first surface, first impact centre, landing centre, seconds) of one run at the box."""
+    import h5py
+
+    from warp_ricochet.api import run
+    from warp_ricochet.scene import scene_from_dict
+
+    np.savez(folder / f"{name}.npz", position=x, velocity=v)
+    raw = {
+        "shot": {"file": str(folder / f"{name}.npz"), "diameter": 0.0025, "density": 7000.0},
+        "surfaces": [{"kind": "box", **BOX, **MATERIAL}],
+        "physics": {"gravity": list(GRAVITY), "until": "landing", "bounces": 1},
+        "numerics": {"precision": precision},
+        "output": {"fields": ["impact.surface", "impact.position", "landing.position"]},
+    }
+    start = time.perf_counter()
+    run(scene_from_dict(raw), folder / f"{name}.h5", device=device, overwrite=True)
+    seconds = time.perf_counter() - start
+    with h5py.File(folder / f"{name}.h5") as f:
+        surface = f["pellets/impact/surface"][()].reshape(len(x), -1)[:, 0]
+        return surface, f["pellets/impact/position"][()].reshape(len(x), -1, 3)[:, 0], f["pellets/landing/position"][()], seconds
+
+
+def box(n, chunk, precision, device, seed=27):
+    rng = np.random.default_rng(seed)
+    slack = 1e-9 if precision == "float64" else 1e-5
+    met = inside = landed = 0
+    seconds = 0.0
+    with tempfile.TemporaryDirectory() as folder:
+        folder = Path(folder)
+        _box_run(folder, *box_shots(rng, 1000), precision, device, "warm")  # compiles
+        done = 0
+        while done < n:
+            x, v = box_shots(rng, min(chunk, n - done))
+            surface, first, landing, took = _box_run(folder, x, v, precision, device, "chunk")
+            ok = ~np.isnan(landing).any(axis=1)
+            met += int((surface == 0).sum())
+            inside += int(inside_box(first, BOX, slack).sum() + inside_box(landing[ok], BOX, slack).sum())
+            landed += int(ok.sum())
+            seconds += took
+            done += len(x)
+    print(f"box, {precision}, {device}: {n:,} pellets, {met:,} meet it, {landed:,} land again, {inside} centres inside")
+    print(
+        f"  runs (with per-pellet output) {seconds:.1f} s: {n / seconds:.3g} pellets/s  [{platform.processor() or platform.machine()}]"
+    )
+
+
+def plane(n, precision, device, repeats):
+    import trimesh
+
+    import warp_ricochet as wr
+    from warp_ricochet.scene import load_scene
+
+    sets = [f"shot.count={n}", f"numerics.precision={precision}", "output.fields=[]"]
+    with tempfile.TemporaryDirectory() as folder:
+        square = np.array([[-1, 0, 1], [1, 0, 1], [1, 0, -1], [-1, 0, -1]], dtype=np.float64) * 1.0e4  # y = 0, up +y
+        trimesh.Trimesh(vertices=square, faces=[[0, 1, 2], [0, 2, 3]], process=False).export(Path(folder) / "plane.stl")
+        mesh = ['surfaces.0.kind="mesh"', f'surfaces.0.file="{Path(folder) / "plane.stl"}"']
+        times = {}
+        for label, extra in (("plane", []), ("mesh", mesh)):
+            scene = load_scene(ROOT / "examples" / "paper.toml", sets + extra)
+            wr.run(scene, None, device=device)  # warm-up: compiles
+            runs = []
+            for _ in range(repeats):
+                start = time.perf_counter()
+                wr.run(scene, None, device=device)
+                runs.append(time.perf_counter() - start)
+            times[label] = float(np.median(runs))
+            print(f"{label}: {n / times[label]:.3g} pellets/s ({times[label] * 1e3:.1f} ms, median of {repeats})")
+    print(f"mesh / plane time: {times['mesh'] / times['plane']:.2f}x  [{precision}, {device}]")
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(prog="python -m bench.meshes", description=__doc__.split("\n\n")[0])
+    parser.add_argument("what", choices=("box", "plane"))
+    parser.add_argument("--n", type=float, default=1e6)
+    parser.add_argument("--chunk", type=float, default=1e6)
+    parser.add_argument("--precision", default="float32", choices=("float32", "float64"))
+    parser.add_argument("--device", default="cpu")
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args(argv)
+    if args.what == "box":
+        box(int(args.n), int(args.chunk), args.precision, args.device)
+    else:
+        plane(int(args.n), args.precision, args.device, args.repeats)
+
+
+if __name__ == "__main__":
+    main()

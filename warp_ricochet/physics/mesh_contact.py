@@ -1,0 +1,245 @@
+"""The exact parabola of eq. (36) against a triangle mesh (boxes, meshes: docs/geometry.md, "Meshes
+and boxes"); read only through `physics.geometry` (kernels compiled with meshes).
+
+A mesh surface k holds a `wp.Mesh` (float32 BVH: `Surfaces.mesh`) and its vertices in the kernel's
+precision (`mesh_points` from `mesh_first[k]`), with their bounding box (`mesh_low`, `mesh_high`).
+The BVH only proposes triangles; every test is on the kernel-precision vertices:
+
+- the flight's time window near the mesh: until the centre, falling along gravity, is below the box
+  by R (no gravity: the slab test of the straight line against the box grown by R);
+- split into chords, each short enough that the parabola lies within its sagitta |g| h^2 / 8 of it
+  (a chord per SAGITTA of the box's diagonal, at most MAX_CHORDS); each chord's box grown by
+  R + sagitta + float32 slack is queried (`wp.mesh_query_aabb`), in time order, until a contact
+  found lies within the chords searched;
+- a triangle (a, b, c) with unit normal n = (b - a) x (c - a) / |.| is met where the centre's
+  height h = n.(x - a) closes through R (the plane's quadratic, `ballistic.entry_time`; from
+  behind the plane: its descending crossing) with the centre projected inside the triangle, or at
+  the latest where the centre itself descends through the triangle (h = 0) inside it: a sphere that
+  grazes an edge or a vertex is stopped there, so that a closed mesh is never crossed;
+- inside: the three edge functions n.((b - a) x (y - a)) are >= -EDGE_ROUNDING eps |b - a| (|y|_1 +
+  |a|_1) (inclusive, so a centre on a shared edge or vertex is inside its neighbours too).
+"""
+
+import functools
+from types import SimpleNamespace
+
+import warp as wp
+
+from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT, ROUNDING, make_ballistic
+from .types import KINDS, types_for
+
+SAGITTA = 1.0 / 16.0  # a chord's sagitta, as a fraction of the mesh's bounding-box diagonal
+MAX_CHORDS = 1024  # past it the chords are longer and their boxes grown by their larger sagitta
+EDGE_ROUNDING = 8.0  # the inside test's tolerance, in machine epsilons of its operands' scale
+FLOAT32_SLACK = 2.0**-20  # relative: the BVH's float32 boxes against the kernel's vertices
+
+
+@functools.cache
+def make_mesh_contact(precision: str) -> SimpleNamespace:
+    """`mesh_time(surfaces, k, x, v, g, R)`, `mesh_normal(surfaces, k, x)` and the helpers the air's
+    search shares (`vertices`, `inside`, `l1`, `single`) of one precision."""
+    t = types_for(precision)
+    scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
+    ballistic = make_ballistic(precision)
+    entry_time, position = ballistic.entry_time, ballistic.position
+    TOLERANCE = scalar(ROUNDING * EPSILON[precision])
+    EDGE = scalar(EDGE_ROUNDING * EPSILON[precision])
+    LATEST = scalar(MAX_FLIGHT_TIME)
+    MESH = KINDS["mesh"]
+
+    @wp.func
+    def vertices(surfaces: Surfaces, k: wp.int32, face: wp.int32):
+        """Triangle `face` of mesh k: its three vertices (m)."""
+        first, mesh = surfaces.mesh_first[k], surfaces.mesh[k]
+        a = surfaces.mesh_points[first + wp.mesh_get_index(mesh, 3 * face)]
+        b = surfaces.mesh_points[first + wp.mesh_get_index(mesh, 3 * face + 1)]
+        c = surfaces.mesh_points[first + wp.mesh_get_index(mesh, 3 * face + 2)]
+        return a, b, c
+
+    @wp.func
+    def single(x: vec3):
+        """x in float32 (the BVH's queries)."""
+        return wp.vec3f(wp.float32(x[0]), wp.float32(x[1]), wp.float32(x[2]))
+
+    @wp.func
+    def l1(x: vec3):
+        return wp.abs(x[0]) + wp.abs(x[1]) + wp.abs(x[2])
+
+    @wp.func
+    def edge_in(n: vec3, p: vec3, q: vec3, y: vec3):
+        """y on the inner side of edge p -> q (counter-clockwise about n), inclusive within rounding."""
+        e = q - p
+        return wp.dot(n, wp.cross(e, y - p)) >= -EDGE * wp.length(e) * (l1(y) + l1(p))
+
+    @wp.func
+    def inside(n: vec3, a: vec3, b: vec3, c: vec3, y: vec3):
+        """y projected along n onto triangle (a, b, c) lies on it (edges and vertices included)."""
+        return edge_in(n, a, b, y) and edge_in(n, b, c, y) and edge_in(n, c, a, y)
+
+    @wp.func
+    def descending(c: scalar, speed: scalar, half: scalar):
+        """First t >= 0 where c + speed t + half t^2 decreases through 0, or NO_CONTACT."""
+        if c > scalar(0.0):
+            return entry_time(c, speed, half)
+        if c == scalar(0.0):
+            if speed < scalar(0.0):
+                return scalar(0.0)
+            if half < scalar(0.0):
+                return -speed / half
+            return scalar(NO_CONTACT)
+        if speed > scalar(0.0) and half < scalar(0.0):
+            disc = speed * speed - scalar(4.0) * half * c
+            if disc >= scalar(0.0):
+                return -(speed + wp.sqrt(disc)) / (scalar(2.0) * half)
+        return scalar(NO_CONTACT)
+
+    @wp.func
+    def triangle_time(surfaces: Surfaces, k: wp.int32, face: wp.int32, x: vec3, v: vec3, g: vec3, radius: scalar):
+        """When the parabola meets triangle `face` of mesh k (module docstring), or NO_CONTACT."""
+        a, b, c = vertices(surfaces, k, face)
+        n = wp.cross(b - a, c - a)
+        size = wp.length(n)
+        if size == scalar(0.0):
+            return scalar(NO_CONTACT)
+        n = n / size
+        height = wp.dot(x - a, n)
+        noise = wp.abs(x[0] * n[0]) + wp.abs(x[1] * n[1]) + wp.abs(x[2] * n[2])
+        noise += wp.abs(a[0] * n[0]) + wp.abs(a[1] * n[1]) + wp.abs(a[2] * n[2])
+        speed = wp.dot(v, n)
+        half = scalar(0.5) * wp.dot(g, n)
+        if wp.abs(half) <= TOLERANCE * l1(g):
+            half = scalar(0.0)  # gravity along the triangle, up to rounding
+        gap = height - radius
+        if wp.abs(gap) <= TOLERANCE * (noise + radius):
+            gap = scalar(0.0)  # the touching band
+        best = scalar(NO_CONTACT)
+        if height >= scalar(0.0):
+            best = entry_time(gap, speed, half)  # the plane's rule, overlapping included
+        else:
+            best = descending(gap, speed, half)
+        if best >= scalar(0.0) and not inside(n, a, b, c, position(x, v, g, best)):
+            best = scalar(NO_CONTACT)
+        if wp.abs(height) <= TOLERANCE * noise:
+            height = scalar(0.0)
+        through = descending(height, speed, half)  # the centre reaching the triangle itself
+        if through >= scalar(0.0) and (best < scalar(0.0) or through < best):
+            if inside(n, a, b, c, position(x, v, g, through)):
+                best = through
+        return best
+
+    @wp.func
+    def window(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, g: vec3, grow: scalar):
+        """A time (s) after which the centre stays off mesh k's box grown by `grow` (0: never near)."""
+        low = surfaces.mesh_low[k] - vec3(grow, grow, grow)
+        high = surfaces.mesh_high[k] + vec3(grow, grow, grow)
+        gravity = wp.length(g)
+        if gravity > scalar(0.0):  # below the box along gravity and falling: never back
+            down = g / gravity
+            floor = scalar(0.0)
+            for i in range(3):  # the box's farthest corner along gravity
+                floor = floor + wp.max(low[i] * down[i], high[i] * down[i])
+            depth = floor - wp.dot(x, down)  # how far it may fall before it is past the box
+            speed = wp.dot(v, down)
+            if depth < scalar(0.0) and speed >= scalar(0.0):
+                return scalar(0.0)
+            disc = speed * speed + scalar(2.0) * gravity * wp.max(depth, scalar(0.0))
+            return wp.min((wp.sqrt(disc) - speed) / gravity, LATEST)
+        last = LATEST  # a straight line: the slab test
+        for i in range(3):
+            if v[i] == scalar(0.0):
+                if x[i] < low[i] or x[i] > high[i]:
+                    return scalar(0.0)
+            else:
+                last = wp.min(last, wp.max((low[i] - x[i]) / v[i], (high[i] - x[i]) / v[i]))
+        return wp.max(last, scalar(0.0))
+
+    @wp.func
+    def mesh_time(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, g: vec3, radius: scalar):
+        """Time (s) until the parabola of eq. (36) meets mesh k, or NO_CONTACT: its chords' boxes
+        queried in time order (module docstring)."""
+        low, high = surfaces.mesh_low[k], surfaces.mesh_high[k]
+        slack = scalar(FLOAT32_SLACK) * (l1(low) + l1(high) + scalar(1.0e-30))
+        end = window(surfaces, k, x, v, g, radius + slack)
+        best = scalar(NO_CONTACT)
+        if end <= scalar(0.0):
+            return best
+        gravity = wp.length(g)
+        chords = wp.int32(1)
+        if gravity > scalar(0.0):  # sagitta |g| h^2 / 8 at most SAGITTA of the diagonal
+            target = wp.max(scalar(SAGITTA) * wp.length(high - low), radius)
+            wanted = end * wp.sqrt(gravity / (scalar(8.0) * target))
+            chords = wp.int32(wp.min(wanted, scalar(MAX_CHORDS))) + 1
+        h = end / scalar(chords)
+        grow = radius + slack + scalar(0.125) * gravity * h * h
+        start = x
+        face = wp.int32(0)
+        for i in range(chords):
+            stop = position(x, v, g, h * scalar(i + 1))
+            a = wp.min(start, stop) - vec3(grow, grow, grow)
+            b = wp.max(start, stop) + vec3(grow, grow, grow)
+            spread = scalar(FLOAT32_SLACK) * (l1(a) + l1(b))
+            a = a - vec3(spread, spread, spread)
+            b = b + vec3(spread, spread, spread)
+            query = wp.mesh_query_aabb(surfaces.mesh[k], single(a), single(b))
+            while wp.mesh_query_aabb_next(query, face):
+                when = triangle_time(surfaces, k, face, x, v, g, radius)
+                if when >= scalar(0.0) and (best < scalar(0.0) or when < best):
+                    best = when
+            if best >= scalar(0.0) and best <= h * scalar(i + 1):
+                break
+            start = stop
+        if best > LATEST:
+            best = scalar(NO_CONTACT)
+        return best
+
+    @wp.func
+    def mesh_normal(surfaces: Surfaces, k: wp.int32, x: vec3):
+        """The unit normal of the triangle of mesh k nearest x (the BVH's closest point, float32)."""
+        query = wp.mesh_query_point_no_sign(surfaces.mesh[k], single(x), wp.float32(1.0e30))
+        if not query.result:
+            return surfaces.normal[k]
+        a, b, c = vertices(surfaces, k, query.face)
+        return wp.normalize(wp.cross(b - a, c - a))
+
+    @wp.func
+    def contact_normal(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, radius: scalar):
+        """The normal of the triangle touched at x (centre 0 to R in front, within R beside its
+        edges) that v approaches most steeply; else the nearest triangle's (`mesh_normal`)."""
+        low, high = surfaces.mesh_low[k], surfaces.mesh_high[k]
+        slack = scalar(FLOAT32_SLACK) * (l1(low) + l1(high) + l1(x)) + TOLERANCE * radius
+        grow = radius + slack
+        query = wp.mesh_query_aabb(surfaces.mesh[k], single(x - vec3(grow, grow, grow)), single(x + vec3(grow, grow, grow)))
+        face = wp.int32(0)
+        best = vec3()
+        steepest = scalar(0.0)
+        while wp.mesh_query_aabb_next(query, face):
+            a, b, c = vertices(surfaces, k, face)
+            n = wp.cross(b - a, c - a)
+            if wp.length(n) > scalar(0.0):
+                n = wp.normalize(n)
+                height = wp.dot(x - a, n)
+                closing = wp.dot(v, n)
+                if height >= -slack and height <= grow and closing < steepest:
+                    y = x - n * height  # the edge functions within R of the triangle
+                    e0 = wp.dot(n, wp.cross(b - a, y - a)) / wp.length(b - a)
+                    e1 = wp.dot(n, wp.cross(c - b, y - b)) / wp.length(c - b)
+                    e2 = wp.dot(n, wp.cross(a - c, y - c)) / wp.length(a - c)
+                    if wp.min(wp.min(e0, e1), e2) >= -grow:
+                        steepest = closing
+                        best = n
+        if steepest < scalar(0.0):
+            return best
+        return mesh_normal(surfaces, k, x)
+
+    @wp.func
+    def is_mesh(surfaces: Surfaces, k: wp.int32):
+        """Whether surface k is a mesh (a box is one)."""
+        return surfaces.kind[k] == MESH
+
+    @wp.func
+    def bounds(surfaces: Surfaces, k: wp.int32):
+        """Mesh k's `wp.Mesh` id and its vertices' box (m): (id, low, high)."""
+        return surfaces.mesh[k], surfaces.mesh_low[k], surfaces.mesh_high[k]
+
+    helpers = {"vertices": vertices, "inside": inside, "l1": l1, "single": single, "is_mesh": is_mesh, "bounds": bounds}
+    return SimpleNamespace(mesh_time=mesh_time, mesh_normal=mesh_normal, contact_normal=contact_normal, **helpers)
