@@ -153,7 +153,8 @@ def test_no_collision_table_without_collisions(tmp_path):
 
 
 def test_every_example_scene_is_installed_once():
-    """The package's example scenes are the checkout's examples/*.toml (links, one copy)."""
+    """The package's example scenes are the checkout's examples/*.toml (links, one copy); its
+    example rasters ship as package data."""
     package = ROOT / "warp_ricochet" / "examples"
     scenes = sorted(p.name for p in (ROOT / "examples").glob("*.toml"))
     assert sorted(p.name for p in package.glob("*.toml")) == scenes
@@ -161,7 +162,8 @@ def test_every_example_scene_is_installed_once():
         assert (package / name).resolve() == (ROOT / "examples" / name).resolve(), name
     assert [name for name, _ in examples()] == [n[:-5] for n in scenes]
     data = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]
-    assert data["warp_ricochet.examples"] == ["*.toml"]
+    assert data["warp_ricochet.examples"] == ["*.toml", "terrain/*.asc"]  # the scenes, and the trap field's raster
+    assert (package / "terrain" / "trap_field.asc").is_file()
 
 
 def test_example_command(tmp_path, capsys):

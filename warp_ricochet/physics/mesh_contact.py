@@ -35,6 +35,26 @@ FLOAT32_SLACK = 2.0**-20  # relative: the BVH's float32 boxes against the kernel
 
 
 @functools.cache
+def make_mesh_lookup(precision: str) -> SimpleNamespace:
+    """`is_mesh(surfaces, k)` and `bounds(surfaces, k)` -> (wp.Mesh id, low, high): what the air's
+    search asks of a mesh surface beside its triangles."""
+    t = types_for(precision)
+    Surfaces, MESH = t.Surfaces, KINDS["mesh"]
+
+    @wp.func
+    def is_mesh(surfaces: Surfaces, k: wp.int32):
+        """Whether surface k is a mesh (a box is one)."""
+        return surfaces.kind[k] == MESH
+
+    @wp.func
+    def bounds(surfaces: Surfaces, k: wp.int32):
+        """Mesh k's `wp.Mesh` id and its vertices' box (m): (id, low, high)."""
+        return surfaces.mesh[k], surfaces.mesh_low[k], surfaces.mesh_high[k]
+
+    return SimpleNamespace(is_mesh=is_mesh, bounds=bounds)
+
+
+@functools.cache
 def make_mesh_contact(precision: str) -> SimpleNamespace:
     """`mesh_time(surfaces, k, x, v, g, R)`, `mesh_normal(surfaces, k, x)` and the helpers the air's
     search shares (`vertices`, `inside`, `l1`, `single`) of one precision."""
@@ -45,7 +65,6 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
     TOLERANCE = scalar(ROUNDING * EPSILON[precision])
     EDGE = scalar(EDGE_ROUNDING * EPSILON[precision])
     LATEST = scalar(MAX_FLIGHT_TIME)
-    MESH = KINDS["mesh"]
 
     @wp.func
     def vertices(surfaces: Surfaces, k: wp.int32, face: wp.int32):
@@ -231,15 +250,5 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
             return best
         return mesh_normal(surfaces, k, x)
 
-    @wp.func
-    def is_mesh(surfaces: Surfaces, k: wp.int32):
-        """Whether surface k is a mesh (a box is one)."""
-        return surfaces.kind[k] == MESH
-
-    @wp.func
-    def bounds(surfaces: Surfaces, k: wp.int32):
-        """Mesh k's `wp.Mesh` id and its vertices' box (m): (id, low, high)."""
-        return surfaces.mesh[k], surfaces.mesh_low[k], surfaces.mesh_high[k]
-
-    helpers = {"vertices": vertices, "inside": inside, "l1": l1, "single": single, "is_mesh": is_mesh, "bounds": bounds}
+    helpers = {"vertices": vertices, "inside": inside, "l1": l1, "single": single, **vars(make_mesh_lookup(precision))}
     return SimpleNamespace(mesh_time=mesh_time, mesh_normal=mesh_normal, contact_normal=contact_normal, **helpers)
