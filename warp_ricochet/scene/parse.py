@@ -311,14 +311,6 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
     pairs = collisions.enabled and shot.count > 1  # as Scene.pair_collisions: the run has a dense phase
     output = _table(raw.get("output"), "output", SCHEMAS["output"])
     planes = tuple(_surface(s, f"surfaces.{i}") for i, s in enumerate(surfaces))
-    plate = next((i for i, s in enumerate(planes) if not s.is_plane), None)
-    if pairs and plate is not None:
-        raise err(
-            f"surfaces.{plate}.kind",
-            planes[plate].kind,
-            'must be "plane" with pellet-pellet collisions (collisions.enabled and shot.count > 1): '
-            "the dense phase meets infinite planes only",
-        )
     hazard = _hazard(raw.get("hazard"), planes, shot)
     _check_bound(hazard, shot, collisions)
     if hazard is not None and output.get("quantiles") is False:
