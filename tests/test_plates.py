@@ -365,3 +365,50 @@ def test_with_collisions_a_small_plate_is_hit_as_the_lines_cross_it(tmp_path, pr
     np.testing.assert_array_equal(first_on[clear & ~hits], 1)  # passed by, onto the ground
     np.testing.assert_array_equal(first_on[calm], first_off[calm])
     assert abs(int((first_on == 0).sum()) - int((first_off == 0).sum())) <= (~calm).sum()
+
+
+def test_a_leap_ends_before_a_pellet_behind_a_one_sided_plate_can_come_onto_it(device):
+    """dense.leap's plane_leap: a pellet below a level one-sided disc, beside it, rising, may pass
+    its plane and fall back onto its top: the leap ends no later than its centre can be R above
+    the plane (gravity, and the air's bound pushing it up); below a plane, or falling, never."""
+    import dataclasses
+
+    import warp as wp
+    from test_air_leaps import _physics, _spec
+
+    from warp_ricochet.dense.leap import make_leap
+    from warp_ricochet.physics.types import surfaces_of, types_for
+    from warp_ricochet.scene.schema import Air
+
+    t = types_for("float64")
+    plane_leap = make_leap(dataclasses.replace(_spec(Air()), plates=True)).plane_leap
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def planes(
+        x: wp.array(dtype=wp.vec3d),
+        v: wp.array(dtype=wp.vec3d),
+        bound: wp.array(dtype=wp.float64),
+        surfaces: t.Surfaces,
+        physics: t.Physics,
+        out: wp.array(dtype=wp.float64),
+    ):
+        i = wp.tid()
+        out[i] = plane_leap(x[i], v[i], bound[i], surfaces, physics)
+
+    x = np.array([[0.4, 0.5, 0.0], [0.4, 0.5, 0.0], [0.4, 0.5, 0.0]])
+    v = np.array([[0.0, 5.0, 0.0], [0.0, 5.0, 0.0], [0.0, -5.0, 0.0]])
+    bound = np.array([0.0, 3.0, 0.0])
+    delays = {}
+    for kind, plate in (("disc", ("disc", (1.0, 0.0, 0.0), 0.25, 0.25, False)), ("plane", None)):
+        surfaces = surfaces_of("float64", [[0.0, 1.0, 0.0]], [[0.0, 1.0, 0.0]], [[0.5, 0.5, 0.5]], device, plates=[plate])
+        out = wp.zeros(3, dtype=wp.float64, device=device)
+        arrays = [wp.array(a, dtype=wp.vec3d, device=device) for a in (x, v)] + [wp.array(bound, dtype=wp.float64, device=device)]
+        wp.launch(planes, dim=3, inputs=[*arrays, surfaces, _physics(Air(), "float64", device), out], device=device)
+        delays[kind] = out.numpy()
+    rise = 1.0 + RADIUS - 0.5  # (centre from 0.5 to R above the plane at 1)
+    for k in (0, 1):
+        a = 9.81 - bound[k]  # net downward acceleration
+        exact = (5.0 - math.sqrt(25.0 - 2.0 * a * rise)) / a
+        assert 0.0 < delays["disc"][k] <= exact * (1 + 1e-12)
+    assert delays["disc"][1] < delays["disc"][0]
+    assert delays["disc"][2] >= 1e30 and (delays["plane"] >= 1e30).all()  # NEVER
