@@ -36,6 +36,27 @@ from .rest import make_to_rest
 
 
 @functools.cache
+def make_first_normal(precision: str, plates: bool):
+    """`first_normal(surfaces, release, row)`: the normal of a released pellet's first impact, the
+    face it closed on (its velocity before against it). A plane's normal is the same anywhere; a
+    two-sided plate's depends on the side, and the contact point kept (`ricochet_point`, the last
+    impact's) lies in its plane, on neither side. A curved surface will need the first point."""
+    t = types_for(precision)
+    scalar, Surfaces, Release = t.scalar, t.Surfaces, make_release(precision)
+    geo, PLATES = make_geometry(precision, plates=plates), plates
+
+    @wp.func(inline=True)
+    def first_normal(surfaces: Surfaces, release: Release, row: wp.int32):
+        n = geo.normal(surfaces, release.first_surface[row], release.ricochet_point[row])
+        if wp.static(PLATES):
+            if wp.dot(n, release.first_velocity_before[row]) > scalar(0.0):
+                n = -n
+        return n
+
+    return first_normal
+
+
+@functools.cache
 def make_ricochet_pellet(spec):
     """`ricochet_pellet` for `spec`: with `spec.collisions` a pellet continues from the release."""
     t = types_for(spec.precision)
@@ -50,7 +71,7 @@ def make_ricochet_pellet(spec):
     watcher = make_path_watch(spec.precision, *spec.watch)
     rests, stays, impact, _meet, contact_point, landing_range = make_contact(spec.precision)
     geo, ground = make_geometry(spec.precision, plates=spec.plates), make_ground(spec.precision)
-    follow = make_to_rest(spec) if spec.to_rest else None
+    follow, first_normal = make_to_rest(spec) if spec.to_rest else None, make_first_normal(spec.precision, spec.plates)
     RELEASE, WRITE, BOUNCES, AIR = spec.collisions, bool(spec.core_fields), spec.bounces, spec.flight == "air"
     Tally = make_landing_tally(spec.precision).Tally
     landing_tally = make_add_landing(spec.precision, spec.hazard_map, spec.thresholds)
@@ -122,9 +143,7 @@ def make_ricochet_pellet(spec):
                     release.first_angular_velocity_before[row],
                     release.first_velocity_after[row],
                     release.first_angular_velocity_after[row],
-                    # (a plane's normal is the same anywhere; a curved surface will need the release to keep
-                    # the first contact's point: ricochet_point is the last one's)
-                    geo.normal(surfaces, release.first_surface[row], release.ricochet_point[row]),
+                    first_normal(surfaces, release, row),
                     launch_v2,
                     launch_w2,
                 )

@@ -25,7 +25,7 @@ def make_events(spec) -> SimpleNamespace:
     ballistic_position, ballistic_velocity = kit.ballistic.position, kit.ballistic.velocity
     # within a step: the exact ballistic flight
     next_contact, advance, geo = kit.flight.next_contact, kit.flight.advance, kit.geo
-    _rests, _stays, _impact, meet_surface, contact_point, _range = make_contact(kit.precision)
+    _rests, _stays, _impact, meet_surface, contact_point, _range = make_contact(kit.precision, kit.PLATES)
     pair_law, write_impact = make_pair_law(kit.precision), kit.outputs.write_impact
     fr = make_frame(spec)
     set_reference, mark_stale = fr.set_reference, fr.mark_stale

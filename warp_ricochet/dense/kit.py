@@ -4,7 +4,8 @@ One namespace holds the types and structs (`scalar`, `vec3`, `Surfaces`, `Physic
 `Outputs`, `Source`), the scalar constants, the physics every stage calls (`ballistic`: eq. 36 and
 the roots of `physics.ballistic`; `geo`: the surfaces of `physics.geometry`; `flight`: the exact
 flight between events; `run_flight`: the run's own flight, integrated in air), the output writers
-and the spec's switches. The physics factories are keyed by the precision string alone.
+and the spec's switches (`PLATES`: the scene has finite plates, whose rules `geo` and the flights then
+compile in: docs/geometry.md). The physics factories are keyed by the precision string alone.
 """
 
 import functools
@@ -46,12 +47,13 @@ def dense_kit(spec) -> SimpleNamespace:
         CLOSING_TOLERANCE2=scalar((ROUNDING * EPSILON[precision]) ** 2),
         opts={"module": "unique", "enable_backward": False},
         ballistic=make_ballistic(precision),
-        geo=make_geometry(precision),
-        flight=make_flight(precision, spec.static_planes, snap=spec.flight != "air"),
-        run_flight=make_flight(precision, spec.static_planes, spec.flight, spec.air_laws),
+        geo=make_geometry(precision, plates=spec.plates),
+        flight=make_flight(precision, spec.static_planes, snap=spec.flight != "air", plates=spec.plates),
+        run_flight=make_flight(precision, spec.static_planes, spec.flight, spec.air_laws, plates=spec.plates),
         outputs=outputs,
         AIR=spec.in_air,
         BOUNCES=spec.bounces,
         WRITE=bool(spec.core_fields),
         STATIC_PLANES=spec.static_planes,
+        PLATES=spec.plates,
     )

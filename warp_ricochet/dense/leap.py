@@ -48,7 +48,7 @@ def make_leap(spec) -> SimpleNamespace:
     Outputs, Cloud, Pair = kit.Outputs, kit.Cloud, kit.Pair
     NEVER, CLOSING_TOLERANCE2, BOUNCES = kit.NEVER, kit.CLOSING_TOLERANCE2, kit.BOUNCES
     TINY_ACCELERATION = scalar(TINY_ACCELERATION_VALUE)
-    entry_time, geo, STATIC_PLANES = kit.ballistic.entry_time, kit.geo, kit.STATIC_PLANES
+    entry_time, geo, STATIC_PLANES, PLATES = kit.ballistic.entry_time, kit.geo, kit.STATIC_PLANES, kit.PLATES
     to_contact_within = kit.run_flight.to_contact_within
     air, ev, fr = make_dense_air(spec), make_events(spec), make_frame(spec)
     contact_time, plane_contact = ev.contact_time, ev.plane_contact
@@ -88,8 +88,17 @@ def make_leap(spec) -> SimpleNamespace:
 
     @wp.func
     def plane_gap_leap(k: wp.int32, position: vec3, velocity: vec3, bound: scalar, surfaces: Surfaces, physics: Physics):
-        """How long (s) the pellet cannot meet plane k with up to `bound` (m/s^2) of air towards it."""
+        """How long (s) the pellet cannot meet plane k with up to `bound` (m/s^2) of air towards it.
+        A plate is met no sooner than its plane; one behind a one-sided plate may pass beside it
+        to its front and come back onto it, no sooner than its centre rises R in front of it."""
         height, _noise, n = geo.locate(surfaces, k, position)
+        if wp.static(PLATES):
+            if height < scalar(0.0) and geo.is_plate(surfaces, k):
+                rise = physics.radius - height  # (its centre's way to R in front, against n)
+                ahead = entry_time(rise, -wp.dot(velocity, n), scalar(-0.5) * (wp.dot(physics.gravity, n) + bound))
+                if ahead < scalar(0.0):
+                    return NEVER
+                return ahead
         if height < scalar(0.0):
             return NEVER  # planes are one-sided: never met from behind
         gap = wp.max(height - physics.radius, scalar(0.0))

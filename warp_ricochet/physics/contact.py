@@ -18,12 +18,18 @@ from .impact import make_impact_law
 from .types import types_for
 
 
+def make_contact(precision: str, plates: bool = False):
+    """`rests`, `stays`, `impact`, `meet_surface`, `contact_point` and `landing_range` for one
+    precision; `plates`: surfaces may be finite plates (`meet_surface` then turns a two-sided
+    plate's normal towards the pellet, `physics.geometry`). One cached set per value of the two."""
+    return _make_contact(precision, bool(plates))
+
+
 @functools.cache
-def make_contact(precision: str):
-    """`rests`, `stays`, `impact`, `meet_surface`, `contact_point` and `landing_range` for one precision."""
+def _make_contact(precision: str, plates: bool):
     t = types_for(precision)
     scalar, vec3, Surfaces, Material, Physics = t.scalar, t.vec3, t.Surfaces, t.Material, t.Physics
-    impact_law, geo = make_impact_law(precision), make_geometry(precision)
+    impact_law, geo = make_impact_law(precision), make_geometry(precision, plates=plates)
     CLOSING_TOLERANCE2 = scalar((ROUNDING * EPSILON[precision]) ** 2)  # normal speeds within rounding of 0
 
     @wp.func

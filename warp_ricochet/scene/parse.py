@@ -335,13 +335,13 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
     pairs = collisions.enabled and shot.count > 1  # as Scene.pair_collisions: the run has a dense phase
     output = _table(raw.get("output"), "output", SCHEMAS["output"])
     planes = tuple(_surface(s, f"surfaces.{i}", base_dir) for i, s in enumerate(surfaces))
-    plate = next((i for i, s in enumerate(planes) if not s.is_plane), None)
-    if pairs and plate is not None:
+    solid = next((i for i, s in enumerate(planes) if s.kind in ("box", "mesh", "terrain")), None)
+    if pairs and solid is not None:
         raise err(
-            f"surfaces.{plate}.kind",
-            planes[plate].kind,
-            'must be "plane" with pellet-pellet collisions (collisions.enabled and shot.count > 1): '
-            "the dense phase meets infinite planes only",
+            f"surfaces.{solid}.kind",
+            planes[solid].kind,
+            'must be "plane", "rectangle" or "disc" with pellet-pellet collisions (collisions.enabled and '
+            "shot.count > 1): the dense phase meets no triangles",
         )
     hazard = _hazard(raw.get("hazard"), planes, shot)
     _check_bound(hazard, shot, collisions)
