@@ -1,7 +1,7 @@
 """Terrain from raster elevation models (issue 27, parts 2 and 4; docs/geometry.md, "Terrain"): the
 raster's triangles equal the analytic surface they sample, the same wherever the raster lies on the
 map (the local origin), with holes at nodata; placed through a site's CRS to 1 mm; scene keys
-checked in one line, and a terrain refused at run time until the mesh kind carries it."""
+checked in one line; runs on the triangles of the mesh kind give the analytic plane's impacts."""
 
 import sys
 from pathlib import Path
@@ -12,11 +12,11 @@ import pytest
 rasterio = pytest.importorskip("rasterio", reason="the gis extra (rasterio) is not installed")
 pytest.importorskip("pyproj", reason="the gis extra (pyproj) is not installed")
 
-from helpers import cli, paper_raw  # noqa: E402
+from helpers import paper_raw  # noqa: E402
 from rasterio.transform import Affine  # noqa: E402
 
 from warp_ricochet.errors import SceneError  # noqa: E402
-from warp_ricochet.scene import load_scene, scene_from_dict  # noqa: E402
+from warp_ricochet.scene import scene_from_dict  # noqa: E402
 from warp_ricochet.scene.terrain import load_terrain, place_terrain, read_raster  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -144,8 +144,9 @@ SITE = {"crs": "EPSG:32630", "shooter": [500_100.0, 4_200_050.0], "azimuth": 30.
 
 
 def terrain_scene(path, site=False, **keys):
-    """The paper's scene with a terrain (surface 1) from `path`; with `site`, a map placed by SITE."""
-    raw = paper_raw()
+    """The paper's scene, to the landing (triangles are met until landing only), with a terrain
+    (surface 1) from `path`; with `site`, a map placed by SITE."""
+    raw = paper_raw(until="landing")
     raw["surfaces"].append({"kind": "terrain", "file": str(path), "material": "turf", **keys})
     if site:
         raw["hazard"] = {"map_cell": 1.0, "map_extent": [-50.0, 200.0, -100.0, 100.0], "site": dict(SITE)}
@@ -235,20 +236,55 @@ def test_terrain_keys_are_checked_in_one_line(tmp_path):
     one_line(raw, "hazard.map_surface", "must be a plane")
 
 
-def test_a_terrain_scene_is_refused_at_run_time_before_any_work(tmp_path):
-    (tmp_path / "terrain").mkdir()
-    scene_file = tmp_path / "trap.toml"
-    (tmp_path / "terrain" / "field.asc").write_bytes(TRAP_FIELD.read_bytes())
-    raw = terrain_scene("terrain/field.asc", origin=[500_000.0, 4_200_000.0])
-    scene = scene_from_dict(raw, base_dir=tmp_path)  # (a relative file: from the scene's folder)
-    assert scene.surfaces[1].file == str(tmp_path / "terrain" / "field.asc")
-    scene_file.write_text(scene.to_toml())
-    assert load_scene(scene_file) == scene.replace(source=str(scene_file))
-    out = tmp_path / "out.h5"
-    rc, stdout, stderr = cli(["run", scene_file, "-o", out, "--device", "cpu"])
-    assert rc == 2 and stdout == ""
-    assert stderr.count("\n") == 1 and "surfaces.1.kind" in stderr and "terrain needs the mesh kind" in stderr
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["terrain", "trap.toml"]  # no output, no partial
+def _first_impacts(raw, tmp_path, name):
+    """Per pellet of a run of `raw` (float64, to the landing): its first impact's position and velocity."""
+    import h5py
+
+    import warp_ricochet as wr
+
+    raw = {**raw, "physics": {**raw["physics"], "until": "landing", "bounces": 1}, "output": {"fields": ["impact"]}}
+    raw["numerics"] = {"precision": "float64"}
+    wr.run(scene_from_dict(raw), tmp_path / name, device="cpu")
+    with h5py.File(tmp_path / name) as f:
+        return f["pellets/impact/position"][:, 0], f["pellets/impact/velocity"][:, 0]
+
+
+RIGID = {"restitution": 0.3, "mu_s": 0.4}
+
+
+def test_a_run_on_a_heightfield_of_a_tilted_plane_is_the_run_on_the_plane(tmp_path):
+    """The shot's first impacts on the raster of a tilted plane (its triangles on the device) are
+    those on the analytic plane through three of its vertices, to 1e-9 of their size (float64)."""
+    keys = dict(point=[-5.0, -1.5, -12.0], elevation=39.82, **RIGID)
+    raw = paper_raw(until="landing")
+    raw["shot"]["count"] = 200
+    raw["surfaces"] = [{"kind": "terrain", "file": str(plane_raster(tmp_path)), **keys}]
+    vertices, triangles = place_terrain(scene_from_dict(raw), 0)
+    a, b, c = vertices[triangles[0]]
+    normal = np.cross(b - a, c - a)
+    plane = {**paper_raw(), "surfaces": [{"point": list(a), "normal": list(normal / np.linalg.norm(normal)), **RIGID}]}
+    plane["shot"]["count"] = 200
+    on_terrain, v_terrain = _first_impacts(raw, tmp_path, "terrain.h5")
+    on_plane, v_plane = _first_impacts(plane, tmp_path, "plane.h5")
+    assert np.isfinite(on_plane).all() and (on_plane[:, 0] > -3.0).all()  # all on the raster's extent
+    np.testing.assert_allclose(on_terrain, on_plane, rtol=0, atol=1e-9 * np.abs(on_plane).max())
+    np.testing.assert_allclose(v_terrain, v_plane, rtol=0, atol=1e-9 * np.abs(v_plane).max())
+
+
+def test_a_raster_at_utm_scale_runs_as_the_same_raster_at_the_origin(tmp_path):
+    """The same heights stored at (5e5, 4.2e6) with that origin, and at 0: the same impacts, bit for bit."""
+    raw = paper_raw()
+    raw["shot"]["count"] = 100
+    far = plane_raster(tmp_path, west=500_000.0, north=4_200_024.0, name="far.tif")
+    near = plane_raster(tmp_path, name="near.tif")
+    keys = dict(point=[-5.0, -1.5, -12.0], elevation=39.82, **RIGID)
+    raw["surfaces"] = [{"kind": "terrain", "file": str(far), "origin": [500_000.0, 4_200_024.0], **keys}]
+    got = _first_impacts(raw, tmp_path, "far.h5")
+    raw["surfaces"] = [{"kind": "terrain", "file": str(near), **keys}]
+    want = _first_impacts(raw, tmp_path, "near.h5")
+    for x, y in zip(got, want):
+        assert np.isfinite(y).all()
+        np.testing.assert_array_equal(x, y)
 
 
 def test_a_rectangle_still_needs_its_axis(tmp_path):

@@ -37,7 +37,6 @@ from .pipeline import Resumed
 from .pipeline import run as run_pipeline
 from .scene import Scene, SweepPoints, load_pellet_file, load_scene, scene_from_dict, set_dotted
 from .scene import schema as domain
-from .scene.terrain import refuse_terrain
 from .spec import RunSpec
 from .tallies.quantiles import summarize
 from .tallies.sums import stat_names
@@ -160,8 +159,6 @@ def check_resources(scenes, dev, output, rows_done=0, copies=1) -> None:
     rows already written, for a resumed run; `copies` times: a sweep's points, then the sweep file
     made of them) fits on its disk: else a one-line error (OutputError: bad input, exit status 2),
     no file made. A bounded run is checked as the run of its budget (`bound.planned`)."""
-    for sc in scenes:
-        refuse_terrain(sc)
     scenes = [planned(sc) for sc in scenes]
     tallies = 0  # bytes of the tallies' datasets
     for sc in scenes:

@@ -21,7 +21,7 @@ from .physics.air import GAMMA_AIR
 from .physics.impact import SOLID_SPHERE_INERTIA_FACTOR
 from .physics.types import GROUND_FIELDS, surfaces_of, types_for
 from .scene.materials import critical_angle, is_liquid, ploughing_rate
-from .scene.triangles import triangles_of
+from .scene.triangles import TriangleSurface, triangles_of
 from .tallies.reduce import LANES, SEGMENT_WIDTH, partial_bytes_per_pellet, threads_for
 from .tallies.sums import NUM_EXTREMES, NUM_SUMS
 
@@ -48,8 +48,25 @@ class Model:
 
     @classmethod
     def from_scene(cls, scene, device) -> Model:
-        """The model of `scene` on `device`; recent ones are reused (their arrays never change)."""
+        """The model of `scene` on `device`; recent ones are reused (their arrays never change),
+        but for a scene with terrain, placed from the whole scene (its site) each time."""
         air = scene.air if scene.in_air else None
+        if any(s.kind == "terrain" for s in scene.surfaces):
+            meshes = [
+                terrain_triangles(scene, i) if s.kind == "terrain" else triangles_of(s) for i, s in enumerate(scene.surfaces)
+            ]
+            model = Model._build(
+                scene.shot.diameter,
+                scene.shot.density,
+                scene.surfaces,
+                scene.physics,
+                scene.numerics.precision,
+                wp.get_device(device.alias),
+                air,
+                scene.numerics.flight_tolerance,
+                meshes=meshes,
+            )
+            return dataclasses.replace(model, thresholds=0 if scene.hazard is None else len(scene.hazard.thresholds))
         model = _cached_model(
             scene.shot.diameter,
             scene.shot.density,
@@ -63,7 +80,7 @@ class Model:
         return dataclasses.replace(model, thresholds=0 if scene.hazard is None else len(scene.hazard.thresholds))
 
     @classmethod
-    def _build(cls, diameter, density, planes, physics_scene, precision, device, air=None, tolerance=1e-6) -> Model:
+    def _build(cls, diameter, density, planes, physics_scene, precision, device, air=None, tolerance=1e-6, meshes=None) -> Model:
         t = types_for(precision)
         radius = 0.5 * diameter
         mass = density * 4.0 / 3.0 * math.pi * radius**3
@@ -76,7 +93,7 @@ class Model:
             ground=ground_of(planes, radius, density),
             liquid=[is_liquid(p.material) for p in planes],
             plates=[plate_of(p) for p in planes],
-            meshes=[triangles_of(p) for p in planes],
+            meshes=[triangles_of(p) for p in planes] if meshes is None else meshes,
         )
         physics = t.Physics()
         physics.radius = t.scalar(radius)
@@ -102,6 +119,15 @@ class Model:
 @functools.lru_cache(maxsize=16)
 def _cached_model(diameter, density, surfaces, physics, precision, device_alias, air, tolerance) -> Model:
     return Model._build(diameter, density, surfaces, physics, precision, wp.get_device(device_alias), air, tolerance)
+
+
+def terrain_triangles(scene, index: int):
+    """Terrain surface `index` of `scene` as triangles in scene coordinates (`scene.terrain.place_terrain`)."""
+    from .scene.terrain import place_terrain
+
+    vertices, triangles = place_terrain(scene, index)
+    name = scene.surfaces[index].name or f"surfaces.{index}"
+    return TriangleSurface(vertices, triangles.astype(np.int32), f"terrain {name!r}").check(f"surfaces.{index}.file")
 
 
 def plate_of(surface):

@@ -104,8 +104,8 @@ class Surface:
 
     @property
     def is_mesh(self) -> bool:
-        """Made of triangles (a box or a mesh: `scene.triangles`)."""
-        return self.kind in ("box", "mesh")
+        """Made of triangles (a box, a mesh: `scene.triangles`; a terrain: `scene.terrain`)."""
+        return self.kind in ("box", "mesh", "terrain")
 
     def ground(self, key: str) -> float:
         """The value of a ground key (scene.materials.GROUND_KEYS): its own, else the rigid plane's."""

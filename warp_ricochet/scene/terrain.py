@@ -209,16 +209,3 @@ def check_terrain(surface, path: str, physics, hazard, base_dir):
     if why is not None:
         raise err(f"{path}.file", surface.file, why)
     return replace(surface, file=file, normal=normal, axis_u=east)
-
-
-def refuse_terrain(scene) -> None:
-    """Until the mesh kind carries terrain to the device: a SceneError (one line) for a scene with one."""
-    from ..errors import SceneError
-
-    for i, s in enumerate(scene.surfaces):
-        if s.kind == "terrain":
-            raise SceneError(
-                f"surfaces.{i}.kind",
-                s.kind,
-                "cannot run yet: terrain needs the mesh kind (triangle meshes on the device); it is parsed and checked only",
-            )
