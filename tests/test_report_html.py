@@ -276,12 +276,16 @@ def test_a_plate_is_named_by_its_shape_and_the_limits_say_so(tmp_path):
     raw = load_scene(ROOT / "examples" / "paper.toml", ["shot.count=64"]).to_dict()
     plate = {"kind": "rectangle", "point": [4.0, 1.0, 0.0], "normal": [-1.0, 0.0, 0.0], "axis_u": [0.0, 0.0, 1.0]}
     raw["surfaces"].append({**plate, "name": "plate", "size": [2.0, 1.0], "restitution": 0.3, "mu_s": 0.2})
+    box = {"kind": "box", "point": [9.0, 1.0, 0.0], "normal": [0.0, 1.0, 0.0], "axis_u": [1.0, 0.0, 0.0]}
+    raw["surfaces"].append({**box, "name": "berm", "size": [4.0, 30.0, 2.0], "restitution": 0.3, "mu_s": 0.2})
+    raw["physics"]["until"] = "landing"
     path, out = tmp_path / "plate.h5", tmp_path / "plate.html"
     wr.run(scene_from_dict(raw), path, device="cpu")
     rc, _stdout, err = cli(["report", path, "--html", out])
     assert (rc, err) == (0, "")
     page = _parse(out.read_text())
-    shapes = {r[1]: r[2] for r in page.rows if len(r) > 2 and r[0] in ("0", "1")}
+    shapes = {r[1]: r[2] for r in page.rows if len(r) > 2 and r[0] in ("0", "1", "2")}
     assert shapes["plate"] == "rectangle 2 m x 1 m, met from its normal's side"
+    assert shapes["berm"] == "box 4 m x 30 m x 2 m (12 triangles)"
     assert list(shapes.values())[0] == "infinite plane"
-    assert "finite flat plates" in page.text
+    assert "finite flat plates" in page.text and "surfaces of triangles" in page.text

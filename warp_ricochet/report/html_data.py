@@ -8,6 +8,7 @@ function the tests format the file's numbers with too. Needs h5py and numpy only
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 
@@ -134,6 +135,12 @@ def _shape(surface: dict) -> str:
         return f"rectangle {fmt(a)} m x {fmt(b)} m, met from {sides}"
     if kind == "disc":
         return f"disc of radius {fmt(surface['radius'])} m, met from {sides}"
+    if kind == "box":
+        a, b, c = surface["size"]
+        return f"box {fmt(a)} m x {fmt(b)} m x {fmt(c)} m (12 triangles)"
+    if kind in ("mesh", "terrain"):
+        what = "triangle mesh" if kind == "mesh" else "terrain raster, as triangles"
+        return f"{what} from {os.path.basename(str(surface.get('file', '')))}"
     return "infinite plane"
 
 
@@ -370,6 +377,7 @@ def limit_flags(scene: dict, reach: bool) -> dict:
         "landing": scene.get("physics", {}).get("until", "rest") == "landing",
         "reach": reach,
         "materials": any(s.get("material") for s in scene.get("surfaces", [])),
-        "plates": any((s.get("kind") or "plane") != "plane" for s in scene.get("surfaces", [])),
+        "plates": any((s.get("kind") or "plane") in ("rectangle", "disc") for s in scene.get("surfaces", [])),
+        "triangles": any(s.get("kind") in ("box", "mesh", "terrain") for s in scene.get("surfaces", [])),
         "levels": list(SHOWN_LEVELS),
     }
