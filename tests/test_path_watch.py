@@ -189,16 +189,18 @@ def _reference_passes(x0, v0, dt, setup):
     return counts
 
 
-@pytest.mark.parametrize("precision", ["float64", "float32"])
-def test_passes_are_the_cells_entered_by_level(device, precision):
+@pytest.mark.parametrize("precision,heading", [("float64", 0.0), ("float32", 0.0), ("float64", 90.0), ("float64", 200.0)])
+def test_passes_are_the_cells_entered_by_level(device, precision, heading):
     """Low flights (all within body height) across a grid of 0.5 m cells, some off it: every cell
-    entered counted once with the level at its entry, as the closed form's crossings say."""
+    entered counted once with the level at its entry, as the closed form's crossings say; headed
+    along +u (runs along the rows), along v (walked along v, rows crossed at every cell) and back
+    along -u, +-20 degrees."""
     rng = np.random.default_rng(7)
     n = 64
     x0 = np.column_stack([rng.uniform(-4.0, 50.0, n), np.full(n, 1.0), rng.uniform(-12.0, 12.0, n)])
     x0 += 1e-3 * rng.uniform(size=(n, 3))  # off the cell edges
     speed = rng.uniform(20.0, 200.0, n)
-    side = np.radians(rng.uniform(-20.0, 20.0, n))
+    side = np.radians(heading + rng.uniform(-20.0, 20.0, n))
     v0 = speed[:, None] * np.column_stack([np.cos(side), np.zeros(n), np.sin(side)])
     dt = np.minimum(0.25, 30.0 / speed)  # it falls at most 0.31 m: within body height
     setup = _setup()
