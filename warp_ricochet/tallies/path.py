@@ -327,23 +327,17 @@ def make_path_curve(precision: str, thresholds: int, points: int, with_map: bool
         hi: Reach,
     ):
         span = b - a
-        # the major axis p (the one it moves farther along) and the minor q, as u or v
-        axis_p = tally.map_u_cell
-        axis_q = tally.map_v_cell
-        start_p = tally.map_u_start
-        start_q = tally.map_v_start
-        np_cells = tally.map_nu_cells
-        nq_cells = tally.map_nv_cells
-        du = wp.abs(wp.dot(x1 - x0, tally.map_u_cell))
-        dv = wp.abs(wp.dot(x1 - x0, tally.map_v_cell))
-        swap = dv > du
-        if swap:
-            axis_p = tally.map_v_cell
-            axis_q = tally.map_u_cell
-            start_p = tally.map_v_start
-            start_q = tally.map_u_start
-            np_cells = tally.map_nv_cells
-            nq_cells = tally.map_nu_cells
+        # the major axis p (the one it moves farther along) and the minor q: (u, v), or (v, u) when `swap`
+        swap = wp.abs(wp.dot(x1 - x0, tally.map_v_cell)) > wp.abs(wp.dot(x1 - x0, tally.map_u_cell))
+        axis_p, axis_q = wp.where(swap, tally.map_v_cell, tally.map_u_cell), wp.where(swap, tally.map_u_cell, tally.map_v_cell)
+        start_p, start_q = (
+            wp.where(swap, tally.map_v_start, tally.map_u_start),
+            wp.where(swap, tally.map_u_start, tally.map_v_start),
+        )
+        np_cells, nq_cells = (
+            wp.where(swap, tally.map_nv_cells, tally.map_nu_cells),
+            wp.where(swap, tally.map_nu_cells, tally.map_nv_cells),
+        )
         p0, p1 = wp.dot(x0, axis_p) - start_p, wp.dot(x1, axis_p) - start_p
         q0, q1 = wp.dot(x0, axis_q) - start_q, wp.dot(x1, axis_q) - start_q
         ps0, pq0, ps1, pq1 = wp.dot(d0, axis_p), wp.dot(e0, axis_p), wp.dot(d1, axis_p), wp.dot(e1, axis_p)
