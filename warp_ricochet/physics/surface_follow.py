@@ -73,7 +73,8 @@ def make_surface_rates(precision: str, model: str = "ballistic", laws=None) -> S
         ploughing: scalar
         rolling: wp.int32
 
-    applied_at = make_line_laws(precision, model, laws).applied  # (g + a_air, T_air / I)
+    line_laws = make_line_laws(precision, model, laws)
+    applied_at, maths = line_laws.applied, line_laws.maths  # (g + a_air, T_air / I); Illinois
 
     @wp.func
     def rates(velocity: vec3, spin: vec3, physics: Physics, contact: Contact):
@@ -153,25 +154,11 @@ def make_surface_rates(precision: str, model: str = "ballistic", laws=None) -> S
         side = wp.int32(0)
         for _ in range(ITERATIONS):
             if hi - lo > THETA_TOLERANCE:
-                mid = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
-                if not (mid > lo and mid < hi):
-                    mid = HALF * (lo + hi)
+                mid = maths.secant(lo, hi, f_lo, f_hi)
                 _x, slope = dense.hermite_vec(mid, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
                 v = slope / h
                 w = dense.cubic_vec(mid, w0, h * d0, w1, h * d1)
-                f_mid = margin(v, w, physics, contact, mu_s)
-                if f_mid > ZERO:
-                    lo = mid
-                    f_lo = f_mid
-                    if side == 1:
-                        f_hi = HALF * f_hi
-                    side = wp.int32(1)
-                else:
-                    hi = mid
-                    f_hi = f_mid
-                    if side == -1:
-                        f_lo = HALF * f_lo
-                    side = wp.int32(-1)
+                lo, hi, f_lo, f_hi, side = maths.illinois(lo, hi, f_lo, f_hi, side, mid, margin(v, w, physics, contact, mu_s))
         return hi
 
     @wp.func

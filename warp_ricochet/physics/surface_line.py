@@ -141,37 +141,53 @@ def make_line_maths(precision: str, noise: tuple = (0.0, 0.0)) -> SimpleNamespac
         return x * log_ratio(x)
 
     @wp.func
+    def phi2_series(x: scalar):
+        """The sum of x^j / (j + 2)!, j <= 10 (Horner): phi2 for |x| <= 1 (to 2e-9), and phi1 = 1 + x phi2."""
+        s = F12
+        s = F11 + x * s
+        s = F10 + x * s
+        s = F9 + x * s
+        s = F8 + x * s
+        s = F7 + x * s
+        s = F6 + x * s
+        s = F5 + x * s
+        s = F4 + x * s
+        s = F3 + x * s
+        return F2 + x * s
+
+    @wp.func
     def phi1(x: scalar):
         """(e^x - 1) / x (1 at x = 0)."""
-        if wp.abs(x) <= HALF:  # sum of x^j / (j + 1)!, j <= 9 (Horner)
-            s = F10
-            s = F9 + x * s
-            s = F8 + x * s
-            s = F7 + x * s
-            s = F6 + x * s
-            s = F5 + x * s
-            s = F4 + x * s
-            s = F3 + x * s
-            s = F2 + x * s
-            return ONE + x * s
+        if wp.abs(x) <= HALF:
+            return ONE + x * phi2_series(x)
         return (exp_(x) - ONE) / x
 
     @wp.func
     def phi2(x: scalar):
         """(e^x - 1 - x) / x^2 (1/2 at x = 0)."""
-        if wp.abs(x) <= ONE:  # sum of x^j / (j + 2)!, j <= 10 (Horner)
-            s = F12
-            s = F11 + x * s
-            s = F10 + x * s
-            s = F9 + x * s
-            s = F8 + x * s
-            s = F7 + x * s
-            s = F6 + x * s
-            s = F5 + x * s
-            s = F4 + x * s
-            s = F3 + x * s
-            return F2 + x * s
+        if wp.abs(x) <= ONE:
+            return phi2_series(x)
         return (phi1(x) - ONE) / x
+
+    @wp.func
+    def secant(lo: scalar, hi: scalar, f_lo: scalar, f_hi: scalar):
+        """The regula falsi point of a bracket (f_lo > 0 >= f_hi), or its middle."""
+        mid = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
+        if not (mid > lo and mid < hi):
+            mid = HALF * (lo + hi)
+        return mid
+
+    @wp.func
+    def illinois(lo: scalar, hi: scalar, f_lo: scalar, f_hi: scalar, side: wp.int32, at: scalar, f: scalar):
+        """The bracket (lo, hi, f_lo, f_hi, side) updated by f at `at`, the kept end's value halved
+        after two moves to the same side (Illinois: Dowell & Jarratt, BIT 11 (1971) 168)."""
+        if f > ZERO:
+            if side == 1:
+                f_hi = HALF * f_hi
+            return at, hi, f, f_hi, wp.int32(1)
+        if side == -1:
+            f_lo = HALF * f_lo
+        return lo, at, f_lo, f, wp.int32(-1)
 
     @wp.func
     def atan_ratio(z: scalar):
@@ -197,7 +213,16 @@ def make_line_maths(precision: str, noise: tuple = (0.0, 0.0)) -> SimpleNamespac
         return a / r
 
     return SimpleNamespace(
-        exp=exp_, log=log_, sqrt=sqrt_, log_ratio=log_ratio, log1p=log1p, phi1=phi1, phi2=phi2, atan_ratio=atan_ratio
+        exp=exp_,
+        log=log_,
+        sqrt=sqrt_,
+        log_ratio=log_ratio,
+        log1p=log1p,
+        phi1=phi1,
+        phi2=phi2,
+        atan_ratio=atan_ratio,
+        secant=secant,
+        illinois=illinois,
     )
 
 
@@ -428,7 +453,7 @@ def make_surface_line(
     Line, along, freeze, reach, frozen_time, m = ll.Line, ll.along, ll.freeze, ll.reach, ll.frozen_time, ll.maths
     reference = ll.reference
     state_at, stages = st.state_at, st.stages
-    ZERO, ONE, TWO, HALF = scalar(0.0), scalar(1.0), scalar(2.0), scalar(0.5)
+    ZERO, ONE, TWO = scalar(0.0), scalar(1.0), scalar(2.0)
     STOP_FRACTION = scalar(max(1e-9, ROUNDING * EPSILON[precision]))
     FAR = scalar(1e30)
 
@@ -504,27 +529,14 @@ def make_surface_line(
         tiny = STOP_FRACTION * wp.length(physics.gravity)
         for _ in range(LANDINGS):
             if hi - lo > STOP_FRACTION * (hi + physics.radius) and -m_hi > tiny:
-                mid = (lo * m_hi - hi * m_lo) / (m_hi - m_lo)
-                if not (mid > lo and mid < hi):
-                    mid = HALF * (lo + hi)
+                mid = m.secant(lo, hi, m_lo, m_hi)
                 _x2, z, w, _f2, _d2, _ex2, _ez2, _ew2 = stages(vec3(), vec3(), vec3(w0, ZERO, ZERO), f0, d0, mid, physics, line)
                 taken += 1
                 _e, _v, _w, _dc, _dw, load, grip = state_at(z, w, physics, line, mu_s)
-                q = wp.min(load, grip)
-                if q > ZERO:
-                    lo = mid
-                    m_lo = q
-                    if side == 1:
-                        m_hi = HALF * m_hi
-                    side = wp.int32(1)
-                else:
-                    hi = mid
-                    m_hi = q
+                lo, hi, m_lo, m_hi, side = m.illinois(lo, hi, m_lo, m_hi, side, mid, wp.min(load, grip))
+                if hi == mid:
                     z_hi = z
                     w_hi = w
-                    if side == -1:
-                        m_lo = HALF * m_lo
-                    side = wp.int32(-1)
         return hi, z_hi, w_hi, taken
 
     return SimpleNamespace(
@@ -598,22 +610,9 @@ def make_line_integrator(
         side = wp.int32(0)
         for _ in range(AIMS):
             if hi - lo > STOP_FRACTION * hi:
-                mid = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
-                if not (mid > lo and mid < hi):
-                    mid = HALF * (lo + hi)
+                mid = m.secant(lo, hi, f_lo, f_hi)
                 f = slip_ahead(mid, v, w, dwdt, line, radius) - goal
-                if f > ZERO:
-                    lo = mid
-                    f_lo = f
-                    if side == 1:
-                        f_hi = HALF * f_hi
-                    side = wp.int32(1)
-                else:
-                    hi = mid
-                    f_hi = f
-                    if side == -1:
-                        f_lo = HALF * f_lo
-                    side = wp.int32(-1)
+                lo, hi, f_lo, f_hi, side = m.illinois(lo, hi, f_lo, f_hi, side, mid, f)
         return lo
 
     @wp.func
