@@ -18,7 +18,9 @@ freezes D = D_n + B (E - E_n) + G s (D_n at its start; rolling, B the secant of 
 first between v / 2 and v, G = 0; sliding, B that secant at the step's w and G the drift of D with
 w over the last step), whose solution, written without cancellation, is
 
-    E_ref(s) = E_n - 2 s (D_n phi1(-2 B s) + G s phi2(-2 B s))   (phi1 = (e^x - 1)/x, phi2 = (phi1 - 1)/x),
+    E_ref(s) = E_n - 2 s (D_n phi1(-2 B s) + G s phi2(-2 B s))   (phi1 = (e^x - 1)/x, phi2 = (phi1 - 1)/x;
+                                                                  beyond 2 B s = 1, E* + (E_n - E*) e^(-2 B s)
+                                                                  - 2 G s^2 phi2, E* = -A / B),
     E_ref(s) = 2 A d phi1(2 B d),  d = s* - s                   (A = D_n - B E_n > 0, then G = 0: s* the
                                                                   frozen stop, E_n / (2 A) L(B E_n / A),
                                                                   L(x) = log1p(x) / x),
@@ -314,6 +316,9 @@ def make_line_laws(precision: str, model: str = "ballistic", laws=None, noise: t
             d = line.stop - s
             return TWO * line.offset * d * m.phi1(TWO * b * d)
         x = -TWO * b * s
+        if x < -ONE:  # far along: from the frozen terminal E* = -A / B, without E_n's cancellation
+            terminal = -line.offset / b
+            return terminal + (line.energy - terminal) * m.exp(x) - TWO * line.drift * s * s * m.phi2(x)
         return line.energy - TWO * s * (line.decel * m.phi1(x) + line.drift * s * m.phi2(x))
 
     @wp.func
