@@ -19,7 +19,9 @@ In vacuum the phases with constant accelerations (`surface_motion`'s closed form
 ploughing) and rolling on a level plane with ploughing (v' = -(5/7)(c g + b v^2): tan/atan) are
 exact; the rest (a drive across the friction, sliding with ploughing) and everything in air is
 integrated with Dormand-Prince 5(4) steps (`physics.integrate`) at the flight's relative tolerance
-(`physics.air.tolerance`; VACUUM_TOLERANCE in vacuum). Events: the slip or the speed reaching its
+(`physics.air.tolerance`; VACUUM_TOLERANCE in vacuum): a phase along one line of the plane (a level
+plane, or along a slope's fall line) over the distance around the closed form of v' = -(A + B v^2)
+(`physics.surface_line`, few steps; exact in vacuum), the others in 3-D as follows. Events: the slip or the speed reaching its
 target (slide to roll; rest or stop) by steps aimed at it (never across: the friction's direction
 jumps there) and ended to first order within BAND x the tolerance of its scale (at least STOP);
 lift-off (N = 0) and loss of grip (|F| = mu_s N) by Illinois on the step's dense output; other
@@ -32,12 +34,12 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from .air import make_air_laws
 from .air_flight import make_plane_search
 from .ballistic import EPSILON, ROUNDING
 from .geometry import make_geometry
 from .integrate import make_dense_output, make_dormand_prince
 from .plate_edge import make_plate_edge
+from .surface_line import HANDOVER, make_line_integrator, make_line_laws
 from .surface_motion import FLIGHT, NEVER, REST, ROLLING, SLIDING, make_surface_motion
 from .types import types_for
 
@@ -58,9 +60,7 @@ def make_surface_rates(precision: str, model: str = "ballistic", laws=None) -> S
     `model` "air"), its Dormand-Prince step, the events' margins and roots, the step's error and path."""
     t = types_for(precision)
     scalar, vec3, Physics = t.scalar, t.vec3, t.Physics
-    AIR = model == "air"
     sm, dense = make_surface_motion(precision), make_dense_output(precision)
-    air_rates = make_air_laws(precision, *laws).air_rates if AIR else None
     ZERO, ONE, HALF = scalar(0.0), scalar(1.0), scalar(0.5)
     THETA_TOLERANCE = scalar(4.0 * EPSILON[precision])
     ITERATIONS = 64 if precision == "float64" else 40
@@ -75,15 +75,8 @@ def make_surface_rates(precision: str, model: str = "ballistic", laws=None) -> S
         ploughing: scalar
         rolling: wp.int32
 
-    @wp.func
-    def applied_at(velocity: vec3, spin: vec3, physics: Physics):
-        """(g + a_air, T_air / I): every force but the plane's, per unit mass."""
-        applied = physics.gravity
-        alpha = vec3()
-        if wp.static(AIR):
-            acceleration, alpha = air_rates(velocity, spin, physics.air)
-            applied = applied + acceleration
-        return applied, alpha
+    line_laws = make_line_laws(precision, model, laws)
+    applied_at, maths = line_laws.applied, line_laws.maths  # (g + a_air, T_air / I); Illinois
 
     @wp.func
     def rates(velocity: vec3, spin: vec3, physics: Physics, contact: Contact):
@@ -163,25 +156,11 @@ def make_surface_rates(precision: str, model: str = "ballistic", laws=None) -> S
         side = wp.int32(0)
         for _ in range(ITERATIONS):
             if hi - lo > THETA_TOLERANCE:
-                mid = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
-                if not (mid > lo and mid < hi):
-                    mid = HALF * (lo + hi)
+                mid = maths.secant(lo, hi, f_lo, f_hi)
                 _x, slope = dense.hermite_vec(mid, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
                 v = slope / h
                 w = dense.cubic_vec(mid, w0, h * d0, w1, h * d1)
-                f_mid = margin(v, w, physics, contact, mu_s)
-                if f_mid > ZERO:
-                    lo = mid
-                    f_lo = f_mid
-                    if side == 1:
-                        f_hi = HALF * f_hi
-                    side = wp.int32(1)
-                else:
-                    hi = mid
-                    f_hi = f_mid
-                    if side == -1:
-                        f_lo = HALF * f_lo
-                    side = wp.int32(-1)
+                lo, hi, f_lo, f_hi, side = maths.illinois(lo, hi, f_lo, f_hi, side, mid, margin(v, w, physics, contact, mu_s))
         return hi
 
     @wp.func
@@ -605,7 +584,9 @@ def make_surface_follow(
     closed = make_surface_closed_phases(precision, planes, plates)
     plough_roll, rest_state, constant_phase = closed.plough_roll, closed.rest_state, closed.constant_phase
     integrate_phase = make_surface_integrator(precision, planes, model, laws, watch, plates).integrate_phase
-    PLATES = plates
+    PLATES, LINES = plates, not plates  # a plate's edges are met by the phase integrator only
+    lines = make_line_integrator(precision, planes, model, laws, watch)
+    line_of, integrate_line = lines.line_of, lines.integrate_line
     ZERO, ONE = scalar(0.0), scalar(1.0)
 
     @wp.func
@@ -708,12 +689,40 @@ def make_surface_follow(
                 contact.rolling = wp.int32(0)
                 if mode == ROLLING:
                     contact.rolling = wp.int32(1)
-                position, velocity, spin, dt, dp, event, k_c, taken, track = integrate_phase(
-                    position, velocity, spin, k, contact, goal, surfaces, physics, mu_s, max_steps - steps, track, tally
-                )
-                elapsed += dt
-                path += dp
-                steps += taken
+                tolerance = scalar(VACUUM_TOLERANCE)
+                if wp.static(AIR):
+                    tolerance = physics.air.tolerance
+                event = wp.int32(HANDOVER)
+                if wp.static(LINES):
+                    on_line, line = line_of(
+                        velocity, spin, n, contact.rolling, physics, mu_d, rolling_resistance, ploughing, tolerance
+                    )
+                    if on_line != 0:  # along one line of the plane: over the distance (surface_line)
+                        position, velocity, spin, dt, dp, event, k_c, taken, track = integrate_line(
+                            position,
+                            velocity,
+                            spin,
+                            k,
+                            line,
+                            goal,
+                            surfaces,
+                            physics,
+                            mu_s,
+                            max_steps - steps,
+                            tolerance,
+                            track,
+                            tally,
+                        )
+                        elapsed += dt
+                        path += dp
+                        steps += taken
+                if event == HANDOVER:
+                    position, velocity, spin, dt, dp, event, k_c, taken, track = integrate_phase(
+                        position, velocity, spin, k, contact, goal, surfaces, physics, mu_s, max_steps - steps, track, tally
+                    )
+                    elapsed += dt
+                    path += dp
+                    steps += taken
                 if event == UNFINISHED:
                     return position, velocity, spin, elapsed, path, wp.int32(UNFINISHED), steps, k, track
                 outcome = event
