@@ -12,6 +12,7 @@ import warp as wp
 
 from ..physics.types import types_for
 from ..scene.vectors import scale_exponent, scaled
+from ..struct_refs import read_only
 from .sampling import make_sampler
 
 ARRAYS = ("position", "velocity", "angular_velocity")
@@ -64,6 +65,7 @@ def make_source(precision: str, from_file: bool) -> SimpleNamespace:
             )
         return position, velocity, spin
 
+    read_only(Source)
     return SimpleNamespace(Source=Source, launch_state=launch_state)
 
 

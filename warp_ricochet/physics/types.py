@@ -13,6 +13,8 @@ from types import SimpleNamespace
 import numpy as np
 import warp as wp
 
+from ..struct_refs import read_only
+
 SCALARS = {"float32": wp.float32, "float64": wp.float64}
 
 
@@ -113,6 +115,8 @@ def types_for(precision: str) -> SimpleNamespace:
         max_impacts: wp.int32  # a pellet's budget of impacts (until = "rest")
         max_steps: wp.int32  # and of integration steps along surfaces
 
+    read_only(Surfaces)
+    read_only(Physics)
     return SimpleNamespace(
         precision=precision, scalar=scalar, vec3=vec3, Surfaces=Surfaces, Material=Material, Air=Air, Physics=Physics
     )

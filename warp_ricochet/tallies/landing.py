@@ -33,6 +33,7 @@ from typing import Any
 import warp as wp
 
 from ..physics.types import types_for
+from ..struct_refs import read_only
 from .bins import BINS, ROW_DISTANCE, ROW_RANGE, ROW_SPEED, make_bin_of
 from .block import ADD, COUNT, END, ENERGY, KEY, LANE, PROBES, SLOTS, STRIDE, first_slot_steps, make_block_table
 
@@ -138,6 +139,7 @@ def make_landing_tally(precision: str) -> SimpleNamespace:
         in the run's precision (float32: exact to a quantum below 2^24 quanta, the reference energy)."""
         return wp.int64(wp.round(tally.energy_scale * v2))
 
+    read_only(Tally)
     return SimpleNamespace(
         Tally=Tally,
         Thresholds=Thresholds,
