@@ -8,8 +8,8 @@ azimuth phi = 2 pi u_b around the aim, and the direction d = a + rho (cos(phi) e
 
 The frame e1, e2 is Duff et al.'s branchless orthonormal basis ("Building an orthonormal basis,
 revisited", JCGT 6(1), 2017): continuous away from a_z = -1 and exact in rounding for every unit aim,
-a_z = 0 and the poles included. The aim is normalised first, so it may be any nonzero vector (the
-`Source`'s direction, scaled by a power of two on the host). All in the working precision.
+a_z = 0 and the poles included. The aim must be a unit vector (`launch.source` normalises the shot's
+direction on the host, in float64, for a scene with a pattern). All in the working precision.
 """
 
 import functools
@@ -29,9 +29,9 @@ def make_pattern_direction(precision: str):
 
     @wp.func
     def pattern_direction(aim: vec3, spread: scalar, u_a: scalar, u_b: scalar):
-        """The aim turned by a polar angle drawn from the pattern (u_a) at azimuth 2 pi u_b (unnormalised)."""
+        """The unit aim turned by a polar angle drawn from the pattern (u_a) at azimuth 2 pi u_b (unnormalised)."""
         one = scalar(1.0)
-        a = aim / wp.length(aim)
+        a = aim
         sign = wp.where(a[2] >= scalar(0.0), one, -one)
         k = -one / (sign + a[2])
         b = a[0] * a[1] * k

@@ -11,7 +11,7 @@ import numpy as np
 import warp as wp
 
 from ..physics.types import types_for
-from ..scene.vectors import scale_exponent, scaled
+from ..scene.vectors import scale_exponent, scaled, unit_vector
 from .sampling import make_sampler
 
 ARRAYS = ("position", "velocity", "angular_velocity")
@@ -86,6 +86,8 @@ class PelletSource:
         # without underflow, and ordinary directions are left as they are (scene.vectors)
         k = scale_exponent(shot.direction, shot.direction_jitter)
         struct.direction = t.vec3(*scaled(shot.direction, k))
+        if shot.pattern is not None:  # the pattern's draw turns a unit aim (launch.pattern)
+            struct.direction = t.vec3(*unit_vector(shot.direction))
         struct.jitter = t.vec3(*scaled(shot.direction_jitter, k))
         struct.envelope_center = t.vec3(*shot.envelope_center)
         struct.envelope_radius = t.scalar(shot.envelope_radius)

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..physics.ballistic import MAX_FLIGHT_TIME, ROUNDING
 from ..physics.impact import SOLID_SPHERE_INERTIA_FACTOR
-from ..scene.vectors import scale_exponent, scaled
+from ..scene.vectors import scale_exponent, scaled, unit_vector
 from ..tallies.sums import statistics_from_arrays
 from .launch import pattern_directions
 
@@ -158,7 +158,8 @@ def sample_launch(shot, rng: np.random.Generator):
     offset = np.stack([ring * np.cos(azimuth), ring * np.sin(azimuth), r * z], axis=1)
     k = scale_exponent(shot.direction, shot.direction_jitter)  # as the kernels: no underflow in |d|^2
     if shot.pattern is not None:  # a choke's pattern (launch.pattern)
-        d = pattern_directions(scaled(shot.direction, k), shot.pattern_spread, rng.uniform(0.0, 1.0, n), rng.uniform(0.0, 1.0, n))
+        u_a, u_b = rng.uniform(0.0, 1.0, n), rng.uniform(0.0, 1.0, n)
+        d = pattern_directions(unit_vector(shot.direction), shot.pattern_spread, u_a, u_b)
     else:
         jitter = np.asarray(scaled(shot.direction_jitter, k)) * rng.uniform(-1.0, 1.0, (n, 3))
         d = np.asarray(scaled(shot.direction, k)) + jitter

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..scene.vectors import scale_exponent, scaled
+from ..scene.vectors import scale_exponent, scaled, unit_vector
 
 _MIX1, _MIX2 = np.uint64(0xBF58476D1CE4E5B9), np.uint64(0x94D049BB133111EB)
 _GOLDEN = 0x9E3779B97F4A7C15
@@ -37,10 +37,9 @@ def uniforms(seed: int, index) -> np.ndarray:
 
 
 def pattern_directions(aim, spread: float, u_a, u_b) -> np.ndarray:
-    """(n, 3) unnormalised directions: `aim` (3,) or (n, 3), nonzero, turned by tan(theta) = spread
+    """(n, 3) unnormalised directions: the unit `aim` (3,) or (n, 3) turned by tan(theta) = spread
     sqrt(-2 ln(1 - u_a)) at azimuth 2 pi u_b in Duff et al.'s frame (as `launch.pattern`)."""
-    aim = np.asarray(aim, np.float64)
-    a = aim / np.linalg.norm(aim, axis=-1, keepdims=True)
+    a = np.asarray(aim, np.float64)
     x, y, z = a[..., 0], a[..., 1], a[..., 2]
     sign = np.where(z >= 0.0, 1.0, -1.0)
     k = -1.0 / (sign + z)
@@ -61,8 +60,8 @@ def launch_states(shot, index) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     offset = np.stack([ring * np.cos(azimuth), ring * np.sin(azimuth), r * z], axis=1)
     k = scale_exponent(shot.direction, shot.direction_jitter)  # as `launch.source`
     direction = np.asarray(scaled(shot.direction, k))
-    if shot.pattern is not None:
-        d = pattern_directions(direction, shot.pattern_spread, u[:, 3], u[:, 4])
+    if shot.pattern is not None:  # the aim normalised on the host, as `launch.source`
+        d = pattern_directions(unit_vector(shot.direction), shot.pattern_spread, u[:, 3], u[:, 4])
     else:
         d = direction + np.asarray(scaled(shot.direction_jitter, k)) * (2.0 * u[:, 3:6] - 1.0)
     velocity = d * (shot.speed / np.linalg.norm(d, axis=1))[:, None]
