@@ -4,6 +4,7 @@ NumPy reference and against the law, and bad input in one line."""
 
 import functools
 import math
+import tomllib
 
 import h5py
 import numpy as np
@@ -17,6 +18,7 @@ from warp_ricochet.errors import SceneError
 from warp_ricochet.launch.source import PelletSource, make_source
 from warp_ricochet.physics.types import types_for
 from warp_ricochet.reference import launch as reference
+from warp_ricochet.report.html_data import scene_words
 from warp_ricochet.scene import scene_from_dict
 from warp_ricochet.scene.patterns import CHOKES, PATTERN_DISTANCE, PATTERN_RADIUS, inside_fraction, pattern_spread
 
@@ -63,6 +65,9 @@ def test_the_percentage_inside_30_inches_at_40_yards_in_air_is_the_published_one
         hits = f["pellets/impact/position"][:, 0].astype(np.float64)
         on_board = f["pellets/impact/surface"][:, 0] == 0
         assert f["constants/pattern"][()] == CHOKES[choke] and f["constants/pattern"].attrs["units"] == "percent"
+        launch = scene_words(f, tomllib.loads(f.attrs["scene_toml"]), {})["launch"]  # the HTML report's words
+        assert f"{CHOKES[choke]:g}% in a 30-inch circle at 40 yards" in launch and "jitter" not in launch
+        assert (f"{choke} choke" in launch) == ("choke" in pattern)
     assert on_board.all()  # the board holds the whole pattern: the percentage is of every pellet
     yz = hits[:, 1:]
     centre = yz.mean(axis=0)
