@@ -49,7 +49,7 @@ def board_scene(n, pattern):
 
 # n = 2^15 pellets a choke: the binomial standard error of a percentage is at most 100 sqrt(0.25 / n) = 0.28
 # points, so the 2-point tolerance is 7 standard errors: an exact model fails by chance with p < 1e-11, and a
-# model 3 points off passes by chance with p < 1e-4
+# model 3 points off passes by chance with p < 2e-4
 BOARD_PELLETS = 1 << 15
 
 
