@@ -223,6 +223,10 @@ class RunWriter:
         scalar("gravity", np.asarray(scene.physics.gravity), "m/s^2", "gravity vector")
         scalar("impact_duration", scene.physics.impact_duration, "s", "delta t of eq. (1)")
         scalar("bounces", scene.physics.bounces, "1", "ricochets followed per pellet")
+        if scene.shot.pattern is not None:  # a choke's pattern (scene.patterns); its name in the scene's TOML
+            scalar("pattern", scene.shot.pattern, "percent", "of the charge inside a 30-inch circle at 40 yards")
+            spread = "spread of the directions about the aim: standard deviation of tan(polar angle) per axis (~ rad)"
+            scalar("pattern_spread", scene.shot.pattern_spread, "1", spread)
         s = g.create_group("surfaces")
         planes = scene.surfaces
         for name, unit, values in (
@@ -309,6 +313,7 @@ _KEY_UNITS = {
     "speed": "m/s",
     "impact_duration": "s",
     "direction_jitter": "1",
+    "pattern": "percent",
     "restitution": "1",
     "mu_s": "1",
     "mu_d": "1",

@@ -17,7 +17,8 @@ cos) run in the working precision, so a float64 run agrees between CPU and GPU t
   iterations a GPU warp would have to wait out for its slowest lane;
 - direction: d = direction + jitter * u, u uniform in [-1, 1]^3, then n = d / |d|
   (the paper's d = (1 +- 0.1, -1 +- 0.1, 0 +- 0.1)); `launch.source` scales direction and jitter
-  together by a power of two on the host (`scene.vectors`), so |d|^2 does not underflow;
+  together by a power of two on the host (`scene.vectors`), so |d|^2 does not underflow; or, in a
+  scene with a choke's pattern (compiled in only then), d = `launch.pattern`'s draw from u4, u5;
 - velocity = speed * n; angular velocity = spin.
 
 With pellet-pellet collisions a shot is sampled without overlaps (`dense.separation`): a
@@ -33,6 +34,7 @@ import functools
 import warp as wp
 
 from ..physics.types import types_for
+from .pattern import make_pattern_direction
 
 GOLDEN = wp.constant(wp.uint64(0x9E3779B97F4A7C15))  # 2^64 / golden ratio: the SplitMix64 increment
 MIX1 = wp.constant(wp.uint64(0xBF58476D1CE4E5B9))
@@ -66,10 +68,12 @@ def reference_uniforms(seed: int, index: int):
 
 
 @functools.cache
-def make_sampler(precision: str):
-    """Return the `@wp.func` that samples one pellet, of one precision ("float32" or "float64")."""
+def make_sampler(precision: str, pattern: bool = False):
+    """Return the `@wp.func` that samples one pellet, of one precision ("float32" or "float64");
+    `pattern`: directions from the shot pattern of spread `spread` (else from the jitter)."""
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
+    PATTERN, pattern_direction = pattern, make_pattern_direction(precision)
 
     @wp.func
     def sample_pellet(
@@ -81,6 +85,7 @@ def make_sampler(precision: str):
         envelope_center: vec3,  # m
         envelope_radius: scalar,  # m
         spin: vec3,  # rad/s
+        spread: scalar,  # the pattern's (tan theta per axis), read only with PATTERN
     ):
         """Return (position, velocity, angular_velocity) of pellet `index`."""
         key = mix64((wp.uint64(seed) << wp.uint64(32)) | wp.uint64(index))
@@ -102,10 +107,14 @@ def make_sampler(precision: str):
         r = wp.cbrt(u3)
         ring = r * wp.sqrt(wp.max(one - z * z, scalar(0.0)))
         offset = vec3(ring * wp.cos(azimuth), ring * wp.sin(azimuth), r * z)
-        jx = two * u4 - one
-        jy = two * u5 - one
-        jz = two * u6 - one
-        d = direction + wp.cw_mul(jitter, vec3(jx, jy, jz))
+        d = vec3()
+        if wp.static(PATTERN):
+            d = pattern_direction(direction, spread, u4, u5)
+        else:
+            jx = two * u4 - one
+            jy = two * u5 - one
+            jz = two * u6 - one
+            d = direction + wp.cw_mul(jitter, vec3(jx, jy, jz))
         position = envelope_center + envelope_radius * offset
         length = wp.length(d)
         velocity = vec3(scalar(0.0), scalar(0.0), scalar(0.0))

@@ -11,7 +11,7 @@ import numpy as np
 import warp as wp
 
 from ..physics.types import types_for
-from ..scene.vectors import scale_exponent, scaled
+from ..scene.vectors import scale_exponent, scaled, unit_vector
 from ..struct_refs import read_only
 from .sampling import make_sampler
 
@@ -19,12 +19,13 @@ ARRAYS = ("position", "velocity", "angular_velocity")
 
 
 @functools.cache
-def make_source(precision: str, from_file: bool) -> SimpleNamespace:
+def make_source(precision: str, from_file: bool, pattern: bool = False) -> SimpleNamespace:
     """The `Source` struct and `launch_state` of one precision; `from_file`: states read from the
-    struct's arrays (chunk-local rows), else sampled from the seed and the global index."""
+    struct's arrays (chunk-local rows), else sampled from the seed and the global index (`pattern`:
+    directions from the shot's pattern)."""
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
-    sample_pellet = make_sampler(precision)
+    sample_pellet = make_sampler(precision, pattern)
     FROM_FILE = from_file
 
     @wp.struct
@@ -38,6 +39,7 @@ def make_source(precision: str, from_file: bool) -> SimpleNamespace:
         envelope_center: vec3  # m
         envelope_radius: scalar  # m
         spin: vec3  # rad/s
+        spread: scalar  # the pattern's (scene.patterns), 0 without one
         position: wp.array(dtype=vec3)  # chunk-local explicit states (empty when sampling)
         velocity: wp.array(dtype=vec3)
         angular_velocity: wp.array(dtype=vec3)
@@ -62,6 +64,7 @@ def make_source(precision: str, from_file: bool) -> SimpleNamespace:
                 source.envelope_center,
                 source.envelope_radius,
                 source.spin,
+                source.spread,
             )
         return position, velocity, spin
 
@@ -78,17 +81,20 @@ class PelletSource:
         self.precision = precision
         shot = scene.shot
         t = types_for(precision)
-        struct = make_source(precision, self.from_file).Source()
+        struct = make_source(precision, self.from_file, shot.pattern is not None).Source()
         struct.seed = shot.seed
         struct.speed = t.scalar(shot.speed)
         # scaled together by a power of two (exact): the kernel forms |d|^2 of d = direction + jitter u
         # without underflow, and ordinary directions are left as they are (scene.vectors)
         k = scale_exponent(shot.direction, shot.direction_jitter)
         struct.direction = t.vec3(*scaled(shot.direction, k))
+        if shot.pattern is not None:  # the pattern's draw turns a unit aim (launch.pattern)
+            struct.direction = t.vec3(*unit_vector(shot.direction))
         struct.jitter = t.vec3(*scaled(shot.direction_jitter, k))
         struct.envelope_center = t.vec3(*shot.envelope_center)
         struct.envelope_radius = t.scalar(shot.envelope_radius)
         struct.spin = t.vec3(*shot.spin)
+        struct.spread = t.scalar(shot.pattern_spread or 0.0)
         rows = capacity if self.from_file else 0
         for name in ARRAYS:
             setattr(struct, name, wp.empty(rows, dtype=t.vec3, device=device))

@@ -13,8 +13,9 @@ import numpy as np
 
 from ..physics.ballistic import MAX_FLIGHT_TIME, ROUNDING
 from ..physics.impact import SOLID_SPHERE_INERTIA_FACTOR
-from ..scene.vectors import scale_exponent, scaled
+from ..scene.vectors import scale_exponent, scaled, unit_vector
 from ..tallies.sums import statistics_from_arrays
+from .launch import pattern_directions
 
 TOLERANCE = ROUNDING * np.finfo(np.float64).eps  # rounding noise, relative (physics.ballistic's rule in float64)
 CLOSING_TOLERANCE = TOLERANCE  # normal speeds within rounding noise of 0 do not close
@@ -156,7 +157,12 @@ def sample_launch(shot, rng: np.random.Generator):
     ring = r * np.sqrt(1.0 - z * z)
     offset = np.stack([ring * np.cos(azimuth), ring * np.sin(azimuth), r * z], axis=1)
     k = scale_exponent(shot.direction, shot.direction_jitter)  # as the kernels: no underflow in |d|^2
-    d = np.asarray(scaled(shot.direction, k)) + np.asarray(scaled(shot.direction_jitter, k)) * rng.uniform(-1.0, 1.0, (n, 3))
+    if shot.pattern is not None:  # a choke's pattern (launch.pattern)
+        u_a, u_b = rng.uniform(0.0, 1.0, n), rng.uniform(0.0, 1.0, n)
+        d = pattern_directions(unit_vector(shot.direction), shot.pattern_spread, u_a, u_b)
+    else:
+        jitter = np.asarray(scaled(shot.direction_jitter, k)) * rng.uniform(-1.0, 1.0, (n, 3))
+        d = np.asarray(scaled(shot.direction, k)) + jitter
     velocity = shot.speed * d / np.linalg.norm(d, axis=1)[:, None]
     position = np.asarray(shot.envelope_center) + shot.envelope_radius * offset
     spin = np.broadcast_to(np.asarray(shot.spin, np.float64), (n, 3)).copy()

@@ -87,10 +87,13 @@ def scene_words(f, scene: dict, stats: dict) -> dict:
         d = np.asarray(shot.get("direction", (1, -1, 0)), dtype=np.float64)
         elevation = math.degrees(math.asin(float(np.clip(d @ up / np.linalg.norm(d), -1, 1))))
         centre = np.asarray(shot.get("envelope_center", (0, 0, 0)), dtype=np.float64)
+        spread = f"direction jitter {', '.join(fmt(x) for x in np.atleast_1d(shot.get('direction_jitter', 0)))}"
+        if "pattern" in f["constants"]:  # a choke's pattern (scene.patterns) in place of the jitter
+            percent = f"{fmt(float(f['constants/pattern'][()]))}% in a 30-inch circle at 40 yards"
+            spread = f"{shot['choke']} choke, {percent}" if "choke" in shot else f"a pattern of {percent}"
         out["launch"] = (
             f"at {fmt(shot.get('speed'))} m/s, {fmt(abs(elevation))} degrees {'above' if elevation >= 0 else 'below'} level, "
-            f"from {_height(scene, centre)} (envelope radius {fmt(shot.get('envelope_radius', 0))} m, "
-            f"direction jitter {', '.join(fmt(x) for x in np.atleast_1d(shot.get('direction_jitter', 0)))})"
+            f"from {_height(scene, centre)} (envelope radius {fmt(shot.get('envelope_radius', 0))} m, {spread})"
         )
     else:
         out["launch"] = "as given in the pellet file"

@@ -8,6 +8,7 @@ from ..fields import ALL_FIELDS, FIELDS, GROUPS
 from .keys import MISSING, check_keys, join, table
 from .keys import err as _err
 from .materials import RANGES
+from .patterns import check_choke
 from .schema import (
     COMPRESSIONS,
     INT32_MAX,
@@ -200,6 +201,20 @@ def _fields(v, path):
     return tuple(f for f in ALL_FIELDS if f in chosen)
 
 
+def _open_range(lo, hi, *, unit=""):
+    """A number in the open interval (lo, hi)."""
+    rule = f"must be a number in ({lo:g}, {hi:g})" + (f" ({unit})" if unit else "")
+
+    @_rule(rule)
+    def conv(v, path):
+        x = _finite(v, path, rule)
+        if not lo < x < hi:
+            raise _err(path, v, rule)
+        return x
+
+    return conv
+
+
 _SHOT = {
     "count": _int(1, INT32_MAX),
     "shots": _int(1, INT32_MAX),
@@ -213,6 +228,8 @@ _SHOT = {
     "spin": _vec3(unit="rad/s", bound=MAX_SPIN),
     "seed": _int(0, INT32_MAX),
     "file": _path(),
+    "choke": check_choke,  # scene.patterns: a choke's pattern, or `pattern` itself (docs/scenes.md)
+    "pattern": _open_range(0, 100, unit="percent of the charge in a 30-inch circle at 40 yards"),
 }
 _SURFACE = {
     "name": _str(empty=True),

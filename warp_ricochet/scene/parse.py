@@ -17,6 +17,7 @@ from .convert import SCHEMAS
 from .keys import MISSING, _Shown, check_keys, err, suggest
 from .keys import table as _table
 from .overrides import apply_override
+from .patterns import resolve_pattern
 from .pellets import check_pellet_file, pellet_file_rows
 from .schema import (
     CHECKPOINT_STEPS,
@@ -42,7 +43,7 @@ from .vectors import unit_vector
 
 
 def _shot(raw, base_dir) -> Shot:
-    kw = _table(raw, "shot", SCHEMAS["shot"], required=("diameter", "density"))
+    kw = resolve_pattern(_table(raw, "shot", SCHEMAS["shot"], required=("diameter", "density")), raw)
     if "file" not in kw:
         for key in ("count", "speed"):
             if key not in kw:

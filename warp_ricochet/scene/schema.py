@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from ..fields import default_fields
 from ..physics.drag_tables import DRAG_TABLES
 from .materials import RIGID
+from .patterns import pattern_spread
 from .toml_out import plain, toml_lines
 
 Vec3 = tuple[float, float, float]
@@ -50,11 +51,18 @@ class Shot:
     spin: Vec3 = (0.0, 0.0, 0.0)  # rad/s
     seed: int = 0
     file: str | None = None
+    choke: str | None = None  # scene.patterns.CHOKES: gives `pattern`
+    pattern: float | None = None  # percent of the charge in a 30-inch circle at 40 yards (replaces the jitter)
 
     @property
     def pellets(self) -> int:
         """All pellets of the run: count per shot times shots."""
         return self.count * self.shots
+
+    @property
+    def pattern_spread(self) -> float | None:
+        """The pattern's angular spread (tan of the polar angle per axis, ~ rad; scene.patterns), else None."""
+        return None if self.pattern is None else pattern_spread(self.pattern)
 
 
 @dataclass(frozen=True)
@@ -368,6 +376,8 @@ class Scene:
         if self.shot.file is not None:
             for key in FILE_EXCLUSIVE:
                 shot.pop(key, None)
+        if self.shot.choke is not None:  # (its pattern follows from it)
+            del shot["pattern"]
         out = {
             "shot": shot,
             "surfaces": [plain(s) for s in self.surfaces],

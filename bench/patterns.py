@@ -1,0 +1,82 @@
+"""What drawing directions from a choke's pattern (`launch.pattern`) costs beside today's jitter
+(issue 28: at most 10% on a GPU at 1e8 pellets), figures, not tests.
+
+The paper's scene (examples/paper.toml), statistics only, run twice per precision in one process:
+as it is (d = direction + jitter u) and with `shot.choke = "modified"` in place of the jitter (the
+only difference: the compiled-in pattern draw); in vacuum, where the rest of a pellet's work is the
+least and the sampling's share the largest, and with --air in sea-level air too. Each is compiled
+first (a small run, not timed); then the two alternate, `--repeats` times, and the median of each
+is reported with the device named.
+
+    python -m bench.patterns [--device cuda:0] [--pellets 1e8] [--precisions float32,float64] [--repeats 5] [--air]
+
+Figures: bench/RESULTS.md ("Shot patterns: sampling cost").
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from bench.__main__ import SCENE, _wr, device_info
+
+SAMPLINGS = {
+    "jitter (today)": (),
+    "pattern (modified choke)": ("shot.direction_jitter=0", 'shot.choke="modified"'),
+}
+
+
+def scene(n: int, precision: str, sampling, air: bool):
+    """The paper's scene with n pellets, statistics only, in `precision`, with `sampling`'s keys."""
+    from warp_ricochet.scene import load_scene
+
+    sets = [f"shot.count={n}", f'numerics.precision="{precision}"', "output.fields=[]", *sampling]
+    return load_scene(SCENE, [*sets, "air.density=1.225"] if air else sets)
+
+
+def compare(device: str, n: int, precision: str, repeats: int, air: bool) -> dict:
+    """Median seconds of each sampling's run (alternating, after a compile run) and their ratio."""
+    wr, wp = _wr()
+    scenes = {name: scene(n, precision, keys, air) for name, keys in SAMPLINGS.items()}
+    for keys in SAMPLINGS.values():
+        wr.run(scene(1000, precision, keys, air), device=device)  # compile
+    times = {name: [] for name in scenes}
+    for _ in range(repeats):
+        for name, s in scenes.items():
+            wp.synchronize_device(device)
+            start = time.perf_counter()
+            stats = wr.run(s, device=device)
+            wp.synchronize_device(device)
+            times[name].append(time.perf_counter() - start)
+            assert stats["pellets"] == n
+    median = {name: float(np.median(t)) for name, t in times.items()}
+    today, pattern = median.values()
+    return {"precision": precision, "air": air, "N": n, **median, "pattern / today": pattern / today}
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--device", default=None, help="a Warp device (default: CUDA if present, else the CPU)")
+    parser.add_argument("--pellets", type=float, default=1e8)
+    parser.add_argument("--precisions", default="float32,float64")
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--air", action="store_true", help="in sea-level air too")
+    args = parser.parse_args(argv)
+    _, wp = _wr()
+    device = args.device or ("cuda:0" if wp.is_cuda_available() else "cpu")
+    info = device_info(wp, device)
+    print(f"device: {info['name']} ({info['device']}), Warp {info['warp']}, host {info['host']}, {info['cpu_count']} cores")
+    names = list(SAMPLINGS)
+    print(f"| flight | precision | N | {names[0]}, s | {names[1]}, s | pattern / today |")
+    print("| --- | --- | ---: | ---: | ---: | ---: |")
+    for air in (False, True) if args.air else (False,):
+        for precision in args.precisions.split(","):
+            row = compare(device, int(args.pellets), precision, args.repeats, air)
+            cells = (f"{row[names[0]]:.4g}", f"{row[names[1]]:.4g}", f"{row['pattern / today']:.3f}")
+            print(f"| {'air' if air else 'vacuum'} | {precision} | {row['N']:.3g} | " + " | ".join(cells) + " |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
