@@ -22,6 +22,7 @@ from ..ends import STATES
 from ..fields import FIELDS, numpy_dtype, shape
 from ..scene.materials import GROUND_KEYS, RANGES
 from ..scene.schema import COMPRESSIONS
+from ..scene.units import unit_of
 from ..tallies.collisions import SHOT_TOTALS, SHOT_TOTALS_UNITS
 from ..tallies.ensemble import has_ensemble
 from ..tallies.reduce import SEGMENT, SEGMENT_WIDTH
@@ -302,27 +303,9 @@ class RunWriter:
             raise _write_failure(exc, self.group) from None
 
 
-_KEY_UNITS = {
-    "diameter": "m",
-    "envelope_radius": "m",
-    "density": "kg/m^3",
-    "speed": "m/s",
-    "impact_duration": "s",
-    "direction_jitter": "1",
-    "restitution": "1",
-    "mu_s": "1",
-    "mu_d": "1",
-    "count": "1",
-    "seed": "1",
-    "bounces": "1",
-    "chunk_size": "1",
-    **{key: unit for key, (_lo, _hi, unit, _why) in RANGES.items()},
-}
-
-
 def unit_of_key(key: str) -> str:
-    """The SI unit of a scalar scene key such as "surfaces.0.mu_s" (swept values)."""
-    return _KEY_UNITS.get(key.rsplit(".", 1)[-1], "see the scene key")
+    """The SI unit of a scalar scene key such as "surfaces.0.mu_s" (swept values; scene.units.KEY_UNITS)."""
+    return unit_of(key) or "see the scene key"
 
 
 def write_stats(group: h5py.Group, stats: dict):

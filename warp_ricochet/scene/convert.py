@@ -30,6 +30,7 @@ from .schema import (
     Reference,
     Site,
 )
+from .units import to_unit
 
 
 def _rule(rule):
@@ -44,11 +45,17 @@ def _is_number(v) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
+def _is_scalar(v) -> bool:
+    """A number, or a string that may be a number with its unit (scene.units)."""
+    return _is_number(v) or isinstance(v, str)
+
+
 def _finite(v, path: str, rule: str) -> float:
-    if not _is_number(v):
+    """A finite float; a string is a value with its unit, converted to the key's (scene.units.KEY_UNITS)."""
+    if not _is_scalar(v):
         raise _err(path, v, rule)
     try:
-        x = float(v)
+        x = to_unit(v, path, rule) if isinstance(v, str) else float(v)
     except OverflowError:
         x = math.inf
     if not math.isfinite(x):
@@ -107,15 +114,10 @@ def _vec3(*, nonzero=False, nonneg=False, scalar=False, unit="", bound=None):
 
     @_rule(rule)
     def conv(v, path):
-        if scalar and _is_number(v):
+        if scalar and _is_scalar(v):
             xs = (_finite(v, path, rule),) * 3
-        elif isinstance(v, (list, tuple)) and len(v) == 3 and all(map(_is_number, v)):
-            try:
-                xs = tuple(map(float, v))
-            except OverflowError:
-                xs = (math.inf,)
-            if not all(map(math.isfinite, xs)):
-                raise _err(path, v, "must be finite")
+        elif isinstance(v, (list, tuple)) and len(v) == 3 and all(map(_is_scalar, v)):
+            xs = tuple(_finite(x, path, rule) for x in v)
         else:
             raise _err(path, v, rule)
         if nonzero and not any(xs):
@@ -318,7 +320,7 @@ _AIR = {
 def _distances(v, path):
     if isinstance(v, (list, tuple)) and len(v) > 64:  # (the length first: nothing per element of a long list)
         raise _err(path, v, _distances.rule)
-    if not isinstance(v, (list, tuple)) or not all(map(_is_number, v)):
+    if not isinstance(v, (list, tuple)) or not all(map(_is_scalar, v)):
         raise _err(path, v, _distances.rule)
     xs = tuple(_finite(x, path, _distances.rule) for x in v)
     if any(x <= 0 or x > 1e7 for x in xs) or any(b <= a for a, b in zip(xs, xs[1:])):
@@ -365,7 +367,7 @@ def _fractions(v, path):
 
 @_rule("must be a list of 4 numbers [u_min, u_max, v_min, v_max] (m), each min below its max")
 def _extent(v, path):
-    if not isinstance(v, (list, tuple)) or len(v) != 4 or not all(map(_is_number, v)):
+    if not isinstance(v, (list, tuple)) or len(v) != 4 or not all(map(_is_scalar, v)):
         raise _err(path, v, _extent.rule)
     xs = tuple(_finite(x, path, _extent.rule) for x in v)
     if xs[0] >= xs[1] or xs[2] >= xs[3] or max(map(abs, xs)) > MAX_COORDINATE:
