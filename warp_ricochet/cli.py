@@ -7,6 +7,7 @@
     warp-ricochet plot OUT.h5 [OUT2.h5 ...] [-o DIR] [--overwrite]
     warp-ricochet example [NAME] [-o PATH] [--overwrite]
     warp-ricochet export RUN.h5 [--geojson OUT.geojson] [--geotiff OUT.tif] [--p P ...] [--overwrite]
+    warp-ricochet loads
     warp-ricochet --version | [-q|--quiet] [-v|--verbose] COMMAND ...
 
 `--quiet` and `--verbose` (before or after COMMAND) set the level of the package's `logging` loggers
@@ -275,6 +276,15 @@ def _add_plot_and_example(sub) -> None:
     p.add_argument("--overwrite", action="store_true", help="replace output files that exist")
     p.set_defaults(func=cmd_export)
 
+    p = sub.add_parser(
+        "loads",
+        help="list the shot-load catalogue: shot sizes per numbering system and materials, with sources",
+        description="List what [shot] load = {size, material, charge} takes: the shot sizes of each numbering "
+        "system (US, UK, IT) in mm and inches, and the materials with their densities, each with its "
+        'published source (docs/scenes.md, "Shot loads").',
+    )
+    p.set_defaults(func=cmd_loads)
+
 
 # ---------------------------------------------------------------------------------------------- commands
 
@@ -403,6 +413,13 @@ def cmd_export(args) -> int:
         raise RicochetError(f"export needs the gis extra ({exc.name} is missing): pip install 'warp-ricochet[gis]'") from None
     for path in export(args.file, args.geojson, args.geotiff, args.fractions, overwrite=args.overwrite):
         print(f"wrote {path}")
+    return 0
+
+
+def cmd_loads(args) -> int:
+    from .scene.loads import catalogue_lines
+
+    print("\n".join(catalogue_lines()))
     return 0
 
 

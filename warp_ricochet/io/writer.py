@@ -80,6 +80,23 @@ def _write_plates(group, surfaces):
     group["kind"].attrs["kinds"] = list(SURFACE_KINDS)
 
 
+def _write_load(group, shot) -> None:
+    """[shot] load (scene.loads): its keys as given (the charge in kg), the diameter, density and count
+    the shot has (the load's, or the scene's own where it gives them), each number's unit beside it
+    (`NAME_units`), and the published tables its size and material come from."""
+    from ..scene.loads import sources_of
+
+    load = dict(shot.load)
+    for key in ("size", "material"):
+        if key in load:
+            group.attrs[key] = load[key]
+    values = {"charge": load.get("charge"), "diameter": shot.diameter, "density": shot.density, "count": shot.count}
+    for key, unit in (("charge", "kg"), ("diameter", "m"), ("density", "kg/m^3"), ("count", "1")):
+        if values[key] is not None:
+            group.attrs[key], group.attrs[f"{key}_units"] = values[key], unit
+    group.attrs["sources"] = sources_of(shot.load)
+
+
 class RunWriter:
     """Writes one run into `group`: constants, per-pellet chunks, statistics, and the progress a
     reader or `--resume` relies on (/progress: the rows complete, the chunk size, the per-segment
@@ -224,6 +241,8 @@ class RunWriter:
         scalar("gravity", np.asarray(scene.physics.gravity), "m/s^2", "gravity vector")
         scalar("impact_duration", scene.physics.impact_duration, "s", "delta t of eq. (1)")
         scalar("bounces", scene.physics.bounces, "1", "ricochets followed per pellet")
+        if scene.shot.load is not None:
+            _write_load(g.create_group("load"), scene.shot)
         s = g.create_group("surfaces")
         planes = scene.surfaces
         for name, unit, values in (

@@ -12,6 +12,7 @@ import os
 
 import numpy as np
 
+from ..scene.loads import describe_load
 from .hazard_tables import SHOWN_LEVELS, _fmt
 
 YARD, INCH = 0.9144, 0.0254  # m (exact, international yard and inch, 1959)
@@ -83,6 +84,8 @@ def scene_words(f, scene: dict, stats: dict) -> dict:
         f"mass {fmt(1e3 * mass)} g",
         "seed": str(shot.get("seed", f.attrs.get("seed", "n/a"))),
     }
+    if isinstance(shot.get("load"), dict):  # [shot] load (scene.loads): named as the scene gives it
+        out["pellet"] = f"{describe_load(shot['load'])}: {out['pellet']}"
     if shot.get("file") is None:
         d = np.asarray(shot.get("direction", (1, -1, 0)), dtype=np.float64)
         elevation = math.degrees(math.asin(float(np.clip(d @ up / np.linalg.norm(d), -1, 1))))

@@ -7,6 +7,7 @@ import math
 from ..fields import ALL_FIELDS, FIELDS, GROUPS
 from .keys import MISSING, check_keys, join, table
 from .keys import err as _err
+from .loads import LOAD_RULE, check_load
 from .materials import RANGES
 from .schema import (
     COMPRESSIONS,
@@ -216,6 +217,16 @@ _SHOT = {
     "seed": _int(0, INT32_MAX),
     "file": _path(),
 }
+MAX_CHARGE = 100.0  # kg, a shot's charge (shot.load.charge)
+
+
+@_rule(LOAD_RULE)
+def _load(v, path):
+    """shot.load (scene.loads): its size, material and charge validated, the size's diameter found."""
+    return check_load(v, path, _range(0, MAX_CHARGE, above=True, unit="kg"), _SHOT["diameter"])
+
+
+_SHOT["load"] = _load
 _SURFACE = {
     "name": _str(empty=True),
     "point": _vec3(unit="m", bound=MAX_COORDINATE),

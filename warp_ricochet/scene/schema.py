@@ -50,6 +50,9 @@ class Shot:
     spin: Vec3 = (0.0, 0.0, 0.0)  # rad/s
     seed: int = 0
     file: str | None = None
+    # the shot load the diameter, density and count came from (scene.loads): (("size", "US 7.5"),
+    # ("material", "lead"), ("charge", kg)), the keys given; None without [shot] load
+    load: tuple | None = None
 
     @property
     def pellets(self) -> int:
@@ -365,6 +368,8 @@ class Scene:
     def to_dict(self) -> dict:
         """Plain TOML-able dict (None omitted, tuples as lists); scene_from_dict(s.to_dict()) == s."""
         shot = plain(self.shot)
+        if self.shot.load is not None:  # an inline table {size = ..., material = ..., charge = kg}
+            shot["load"] = dict(self.shot.load)
         if self.shot.file is not None:
             for key in FILE_EXCLUSIVE:
                 shot.pop(key, None)

@@ -33,6 +33,7 @@ KEY_UNITS = {
     "shot.envelope_center": "m",
     "shot.spin": "rad/s",
     "shot.load.charge": "kg",
+    "shot.load.size": "m",  # a size given as its diameter ("2.4 mm"; scene.loads)
     "surfaces.*.point": "m",
     "surfaces.*.restitution": "1",
     "surfaces.*.mu_s": "1",
@@ -140,7 +141,6 @@ def registry():
             lines.append("radian = [angle] = rad" if line.startswith("radian = [] = rad") else line)
     ureg = pint.UnitRegistry(None, cache_folder=None)
     ureg.load_definitions(lines)
-    ureg.define("fps = foot / second")
     ureg._build_cache()
     return ureg
 
@@ -160,16 +160,19 @@ def to_unit(value: str, key: str, rule: str) -> float:
     found = _VALUE.fullmatch(value)
     if found is None:
         raise err(key, value, f"{rule}, or a number with a unit of {_expected(target)}, e.g. {_example(target)!r}")
-    number = float(found["number"])  # (inf for 1e999: refused by the key's own check)
     whole, num, den = found["number"], found["num"], found["over"] or found["den"]
     if den is not None and int(den) == 0:
         raise err(key, value, f"divides by zero; {rule}")
-    if num is not None:
-        if not whole.isdigit():
-            raise err(key, value, f"a mixed number is a whole number and a fraction, e.g. '1 1/8 oz'; {rule}")
-        number += int(num) / int(den)
-    elif den is not None:
-        number /= int(den)
+    try:
+        number = Decimal(whole)
+        if num is not None:
+            if not whole.isdigit():
+                raise err(key, value, f"a mixed number is a whole number and a fraction, e.g. '1 1/8 oz'; {rule}")
+            number += Decimal(num) / Decimal(den)
+        elif den is not None:
+            number /= Decimal(den)
+    except ArithmeticError:  # (an exponent past Decimal's: refused by the key's own check)
+        return math.inf
     text = (found["unit"] or "").strip().replace("°", " deg ")
     if not text:
         return float(number)
@@ -187,8 +190,8 @@ def to_unit(value: str, key: str, rule: str) -> float:
         )
     factor = Decimal(f"{given.to(wanted.units).magnitude:.15g}")  # (pint's chains of factors, to their exact decimals)
     try:
-        return float(Decimal(found["number"]) * factor) if den is None else number * float(factor)
-    except ArithmeticError:  # (an exponent past Decimal's: refused by the key's own check)
+        return float(number * factor)
+    except ArithmeticError:
         return math.inf
 
 
