@@ -142,3 +142,98 @@ def test_every_numeric_key_has_a_unit_and_the_one_its_rule_states():
             checked += 1
     assert checked >= 50
     assert all(unit_of(k.replace("*", "0")) == u for k, u in KEY_UNITS.items())
+
+
+# ---------------------------------------------------------------------------------------------- --units imperial
+
+STATS = {
+    "pellets": 100,
+    "hits": 100,
+    "stick": 10,
+    "slip": 90,
+    "landed": 100,
+    "missed": 0,
+    "escaped": 0,
+    "pre_mean_vt": 411.48,
+    "post_mean_vt": 30.48,
+    "pre_mean_vn": 304.8,
+    "post_mean_vn": 3.048,
+    "range_mean": 91.44,
+    "range_max": 182.88,
+    "range_min": 9.144,
+    "landing_mean_WT": 1.5,
+}
+
+
+def test_imperial_summaries_print_yards_and_feet_per_second_and_keep_joules():
+    from warp_ricochet import display
+    from warp_ricochet.report import format_run_summary
+
+    metric = format_run_summary(STATS)
+    with display.using("imperial"):
+        imperial = format_run_summary(STATS)
+    assert "mean range <L>       91.440 m\n" in metric and "mean v_t pre/post    411.480 m/s / 30.480 m/s" in metric
+    assert "mean range <L>       100.000 yd\n" in imperial and "L- (shortest)        10.000 yd" in imperial
+    assert "mean v_t pre/post    1,350.000 ft/s / 100.000 ft/s" in imperial
+    assert "mean W_T at landing  1.500000 J" in imperial and "1.500000 J" in metric
+    assert format_run_summary(STATS) == metric  # (the system is the block's only)
+
+
+def test_imperial_tables_convert_values_and_headers_and_swept_keys():
+    from warp_ricochet import display
+    from warp_ricochet.report import format_tables, results_from_sweep
+
+    res = results_from_sweep([({"shot.speed": 411.48}, STATS), ({"shot.speed": 304.8}, STATS)], ["shot.speed"])
+    metric = format_tables(res)
+    with display.using("imperial"):
+        text = format_tables(res, "markdown")
+    assert "<L> (m)" in metric and "(yd)" not in metric and "speed (" not in metric  # (metric: as before)
+    table3 = text.split("Table 3")[1]
+    assert "|   speed (ft/s) |   \\<L\\> (yd) |   L+ (yd) |   L- (yd) |" in table3
+    assert "|      1,350.000 |      100.000 |   200.000 |    10.000 |" in table3
+    assert "\\<W_T\\> (J)" in text  # energies stay in joules
+
+
+def test_imperial_danger_distances_quantiles_and_bounds():
+    import numpy as np
+
+    from warp_ricochet import display
+    from warp_ricochet.bound import BoundResult
+    from warp_ricochet.report.hazard_tables import tally_lines
+
+    results = {
+        "levels": [0.5, 0.75, 0.9, 0.99, 0.999, 1 - 1e-6],
+        "landed": 10**7,
+        "quantiles": {"distance": (np.array([9.144, 18.288, 27.432, 36.576, 45.72, 54.864]), None)},
+        "tail": {"distance": np.array([9.144, 91.44]), "fraction": np.array([0.5, 0.0])},
+        "hazard": {
+            "names": ["eye"],
+            "kinds": ["energy_density"],
+            "fractions": [1e-3],
+            "landings": np.array([5000]),
+            "values": np.array([1503.0]),
+            "distance": np.array([[91.44]]),
+            "ci_low": np.array([[82.296]]),
+            "ci_high": np.array([[100.584]]),
+            "needed_landings": np.array([[0]]),
+        },
+    }
+    with display.using("imperial"):
+        lines = tally_lines(results, 1e7)
+        bound = BoundResult("eye", 1e-3, 9.144, 1000, 800, 8, True, 91.44, 82.296, 100.584, 3).summary()
+    assert "  distance 10 / 20 / 30 / 40 / 50 / 60 yd" in lines
+    assert "landed beyond  >=10 yd: 0.5" in lines
+    assert "  eye (1503 J/m^2, 5,000 landings): p=0.001: 100 yd [90, 110]" in lines
+    assert bound.endswith("95% interval [90, 110] yd, width 20 yd < 10 yd")
+    assert "p=0.001: 91.44 m [82.3, 100.6]" in "\n".join(tally_lines(results, 1e7))
+
+
+def test_paper_comparison_is_refused_in_imperial_in_one_line(tmp_path, capsys):
+    from warp_ricochet.cli import main
+
+    assert main(["report", str(tmp_path / "none.h5"), "--paper", "--units", "imperial"]) == 2
+    err = capsys.readouterr().err
+    assert (
+        err
+        == "warp-ricochet: error: --units = 'imperial': --paper compares with the paper's tables in SI; give it without --units\n"
+    )
