@@ -1,5 +1,6 @@
 """The units summaries and reports are printed in: metric (SI, the default) or imperial (`--units
-imperial`): distances in yards, speeds in feet per second, areas in square feet. Energies stay in
+imperial`): distances in yards (heights in feet and small lengths in inches where a caller asks: `SHORT`), speeds in
+feet per second, areas in square feet. Energies stay in
 joules (J, and J/m^2 for the energy densities: the hazard thresholds are published in them), times
 in seconds, spins in rad/s. Files are SI whatever the choice; this module only changes what is
 printed, at the points where a number and its unit are formatted together.
@@ -14,7 +15,7 @@ import contextvars
 import re
 
 SYSTEMS = ("metric", "imperial")
-YARD, FOOT = 0.9144, 0.3048  # m, exact (the international yard and foot, 1959)
+YARD, FOOT, INCH = 0.9144, 0.3048, 0.0254  # m, exact (the international yard, foot and inch, 1959)
 # SI unit -> (imperial unit, factor from SI)
 IMPERIAL = {"m": ("yd", 1.0 / YARD), "m/s": ("ft/s", 1.0 / FOOT), "m^2": ("ft^2", 1.0 / FOOT**2), "m/s^2": ("ft/s^2", 1.0 / FOOT)}
 _SYSTEM = contextvars.ContextVar("warp_ricochet_units", default="metric")
@@ -68,3 +69,6 @@ def row(values: dict, units: dict) -> dict:
     if not imperial():
         return dict(values)
     return {name: value(x, units[name]) if name in units else x for name, x in values.items()}
+
+
+SHORT = {"ft": FOOT, "in": INCH}  # the units of heights and small lengths (the HTML report's scene)
