@@ -110,10 +110,6 @@ LOAD_RULE = 'must be a table {size = "US 7.5", material = "lead", charge = "1 1/
 _FRACTIONS = {"½": ".5", " 1/2": ".5", "-1/2": ".5"}
 
 
-def size_names(system: str) -> list[str]:
-    return list(SYSTEMS[system][1])
-
-
 def diameter_of(size: str, path: str, as_length) -> float:
     """The diameter (m) of a size "SYSTEM NUMBER", or of a length with its unit ("2.4 mm"), which
     `as_length(text, path)` (shot.diameter's converter) converts and checks."""

@@ -88,6 +88,8 @@ def parse_sweep(spec: str) -> tuple[str, list[float]]:
     if not eq:
         raise _err("sweep", spec, "must be KEY=start:stop:step or KEY=a,b,c")
     key = _dotted(key, spec, "sweep")
+    if ":" not in rhs and rhs.count(",") >= MAX_SWEEP_POINTS:  # (before anything per value)
+        raise _err(key, spec, f"gives {rhs.count(',') + 1:,} points; a sweep may have at most {MAX_SWEEP_POINTS:,}")
     texts = [split_unit(t) for t in rhs.split(":" if ":" in rhs else ",")]
     units = {unit for _, unit in texts if unit}
     if len(units) > 1:
@@ -97,8 +99,6 @@ def parse_sweep(spec: str) -> tuple[str, list[float]]:
         _, values = parse_sweep(f"{key}={(':' if ':' in rhs else ',').join(t for t, _ in texts)}")
         return key, [to_unit(f"{v!r} {unit}", key, f"a value of --param {key}") for v in values]
     if ":" not in rhs:
-        if rhs.count(",") >= MAX_SWEEP_POINTS:
-            raise _err(key, spec, f"gives {rhs.count(',') + 1:,} points; a sweep may have at most {MAX_SWEEP_POINTS:,}")
         values = [_sweep_number(t, key, spec) for t in rhs.split(",")]
         if not all(isinstance(v, int) for v in values):
             values = [float(v) for v in values]
