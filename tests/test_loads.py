@@ -194,3 +194,16 @@ def test_the_loads_command_lists_every_size_and_material_with_sources(capsys):
         assert f"{name:<16} {material.density:7,.0f} kg/m^3" in out and material.source.url in out
     for sources, table, _unit in SYSTEMS.values():
         assert all(s.url in out for s in sources) and len(table) >= 10
+
+
+def test_a_runs_file_holds_its_load(tmp_path):
+    """The run writes /constants/load (a small run on the CPU: the paper's scene, 20 pellets)."""
+    import warp_ricochet as wr
+
+    scene = shot_with({"size": "UK 7", "material": "lead", "charge": "28 g"}, count=20)
+    wr.run(scene, tmp_path / "run.h5", device="cpu")
+    with h5py.File(tmp_path / "run.h5", "r") as f:
+        a = dict(f["constants/load"].attrs)
+        toml = f.attrs["scene_toml"]
+    assert (a["size"], a["charge"], a["count"], a["diameter"], a["density"]) == ("UK 7", 0.028, 20, 0.002413, 11100.0)
+    assert tomllib.loads(toml)["shot"]["load"] == {"size": "UK 7", "material": "lead", "charge": 0.028}
