@@ -199,7 +199,7 @@ def test_resume_of_a_run_that_met_its_bound_at_the_interruption(tmp_path):
         ({"fraction": 1.0}, "hazard.bound.fraction = 1.0", "must be a number in (0, 1)"),
         ({"fraction": 0}, "hazard.bound.fraction = 0", "must be a number in (0, 1)"),
         ({"width": 0.0}, "hazard.bound.width = 0.0", "must be a number in (0, 1e+06] (m)"),
-        ({"width": "1 m"}, "hazard.bound.width = '1 m'", "must be a number in (0, 1e+06] (m)"),
+        ({"width": "1 s"}, "hazard.bound.width = '1 s'", "hazard.bound.width takes a length (m); 's' is a time"),
         ({"max_pellets": 199}, "hazard.bound.max_pellets = 199", "must be at least shot.count x shot.shots = 200"),
         ({"max_pellets": 1.5}, "hazard.bound.max_pellets = 1.5", "must be an integer in [1, 2147483647]"),
         ({"max_pellets": None}, "hazard.bound.max_pellets = (missing)", "is required; it must be an integer"),

@@ -157,7 +157,7 @@ def test_a_runs_polar_angles_follow_the_law_and_do_not_depend_on_the_chunks(tmp_
         ({"choke": "extra full"}, "shot.choke", "'cylinder', 'skeet', 'improved cylinder'"),
         ({"pattern": 0}, "shot.pattern", "(0, 100)"),
         ({"pattern": 100}, "shot.pattern", "(0, 100)"),
-        ({"pattern": "60%"}, "shot.pattern", "(0, 100)"),
+        ({"pattern": "60 m"}, "shot.pattern", "(percent)"),
         ({"choke": "full", "pattern": 70}, "shot.pattern", "not allowed together with shot.choke"),
         ({"choke": "full", "direction_jitter": [0.1, 0.1, 0.1]}, "shot.direction_jitter", "must be 0 with shot.choke"),
         ({"pattern": 55, "direction_jitter": 0.01}, "shot.direction_jitter", "must be 0 with shot.pattern"),

@@ -175,6 +175,24 @@ def test_the_page_holds_the_runs_numbers_and_the_comparisons(run_file, tmp_path)
     assert page.text.count("data:image/png") == 0 and out.read_text().count('src="data:image/png;base64,') == 3
 
 
+def test_units_imperial_gives_the_pages_lengths_in_yards_and_speeds_in_feet_per_second(run_file, tmp_path):
+    out = tmp_path / "imperial.html"
+    rc, _stdout, err = cli(["report", run_file, "--html", out, "--units", "imperial"])
+    assert (rc, err) == (0, "")
+    page = _parse(out.read_text())
+    with h5py.File(run_file, "r") as f:
+        d = f["hazard/danger_distance/distance"][()]
+        diameter = 2 * f["constants/radius"][()]
+        speed = f["hazard/thresholds/speed"][()]
+    header = next(r for r in page.rows if r[:2] == ["threshold", "value"])
+    assert header[2] == "as a speed (ft/s)" and header[5:7] == ["danger distance (yd)", "95% interval (yd)"]
+    rows = [r for r in page.rows if len(r) == len(header) and r[4] in ("0.001", "1e-05")]
+    assert rows and {r[5] for r in rows} <= {fmt(x / 0.9144) for x in d.ravel()} | {"none above"}
+    assert {r[2] for r in rows} <= {fmt(v / 0.3048) for v in speed}
+    assert f"{journee_distance(diameter) / 0.9144:.4g} yd" in page.text and "--units imperial" in page.text
+    assert " m/s" not in page.text.split("TOML")[0] and "launched at " in page.text and " ft above " in page.text
+
+
 def test_the_named_places_and_the_outlines_when_the_file_has_them(run_file, tmp_path, monkeypatch):
     run = tmp_path / "run.h5"
     shutil.copy(run_file, run)

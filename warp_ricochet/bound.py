@@ -30,6 +30,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
+from . import display
 from .tallies.quantiles import summarize
 
 GROWTH = 4  # a check adds shots // GROWTH shots (at least one): a quarter more
@@ -164,11 +165,13 @@ class BoundResult:
 
     def interval_text(self) -> str:
         """The danger distance and its interval, in words."""
+        m = display.unit("m")  # (m, or yd with --units imperial: `display`)
         if math.isnan(self.distance):
-            return f"no pellet above {self.threshold}: no danger distance, width nan m"
+            return f"no pellet above {self.threshold}: no danger distance, width nan {m}"
+        low, high = (display.value(x, "m") for x in (self.ci_low, self.ci_high))
         return (
-            f"danger distance of {self.threshold} at p = {self.fraction:g}: {self.distance:.6g} m, 95% interval "
-            f"[{self.ci_low:.6g}, {self.ci_high:.6g}] m, width {self.final_width:.4g} m"
+            f"danger distance of {self.threshold} at p = {self.fraction:g}: {display.text(self.distance, 'm', '.6g')}, "
+            f"95% interval [{low:.6g}, {high:.6g}] {m}, width {display.text(self.final_width, 'm')}"
         )
 
     def summary(self) -> str:
@@ -176,8 +179,8 @@ class BoundResult:
         what = self.interval_text()
         run = f"{self.pellets:,} pellets ({self.shots:,} shots, {self.checks} checks)"
         if self.met:
-            return f"bounded after {run}: {what} < {self.width:g} m"
+            return f"bounded after {run}: {what} < {display.text(self.width, 'm', 'g')}"
         return (
             f"NOT BOUNDED: the budget of {run} is spent (hazard.bound.max_pellets = {self.max_pellets:,}): {what}, "
-            f"not below {self.width:g} m; raise max_pellets or the width"
+            f"not below {display.text(self.width, 'm', 'g')}; raise max_pellets or the width"
         )

@@ -1,12 +1,14 @@
 """The `warp-ricochet` command: run a scene, sweep parameters, report Tables 1-3 of Zohdi (2021).
 
     warp-ricochet run SCENE.toml [-o OUT.h5] [--device cpu|cuda|cuda:N] [--set KEY=VALUE ...] [--overwrite] [--resume]
+                      [--units metric|imperial]
     warp-ricochet sweep SCENE.toml --param KEY=START:STOP:STEP|a,b,c [--tie KEY=F*[PARAM] ...] [-o OUT.h5] ...
-    warp-ricochet report OUT.h5 [OUT2.h5 ...] [--format text|markdown] [--paper] [--html OUT.html [--overwrite]]
+    warp-ricochet report OUT.h5 [OUT2.h5 ...] [--format text|markdown] [--paper] [--html OUT.html [--overwrite]] [--units ...]
     warp-ricochet xdmf OUT.h5 [--overwrite]
     warp-ricochet plot OUT.h5 [OUT2.h5 ...] [-o DIR] [--overwrite]
     warp-ricochet example [NAME] [-o PATH] [--overwrite]
     warp-ricochet export RUN.h5 [--geojson OUT.geojson] [--geotiff OUT.tif] [--p P ...] [--overwrite]
+    warp-ricochet loads
     warp-ricochet --version | [-q|--quiet] [-v|--verbose] COMMAND ...
 
 `--quiet` and `--verbose` (before or after COMMAND) set the level of the package's `logging` loggers
@@ -29,7 +31,7 @@ import sys
 import threading
 import warnings
 
-from . import interrupts
+from . import display, interrupts
 from ._version import __version__
 from .errors import MAX_MESSAGE, RicochetError, SceneError, shorten
 
@@ -76,6 +78,16 @@ def _add_report_options(p: argparse.ArgumentParser) -> None:
         "--paper",
         action="store_true",
         help="also print the paper's values for the same mu_s and the relative differences of the ranges",
+    )
+
+
+def _add_units(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--units",
+        choices=("metric", "imperial"),
+        default="metric",
+        help="units of the printed summary and tables: metric (SI, default) or imperial (distances in yards, "
+        "speeds in ft/s; energies stay in J); files are SI either way",
     )
 
 
@@ -151,6 +163,7 @@ def _add_subparsers(sub) -> None:
         help="continue the interrupted run left in OUT.h5.partial (the same scene, --set overrides and "
         "device); the result is bitwise that of an uninterrupted run",
     )
+    _add_units(p)
     p.set_defaults(func=cmd_run)
 
     p = sub.add_parser(
@@ -186,6 +199,7 @@ def _add_subparsers(sub) -> None:
         "--tie and device); the result is bitwise that of an uninterrupted sweep",
     )
     _add_report_options(p)
+    _add_units(p)
     p.set_defaults(func=cmd_sweep)
 
     p = sub.add_parser(
@@ -207,6 +221,7 @@ def _add_subparsers(sub) -> None:
         help="write a self-contained HTML report of one run file instead (figures embedded; needs the report extra)",
     )
     p.add_argument("--overwrite", action="store_true", help="with --html: replace OUT.html if it exists")
+    _add_units(p)
     p.set_defaults(func=cmd_report)
 
     p = sub.add_parser(
@@ -274,6 +289,15 @@ def _add_plot_and_example(sub) -> None:
     )
     p.add_argument("--overwrite", action="store_true", help="replace output files that exist")
     p.set_defaults(func=cmd_export)
+
+    p = sub.add_parser(
+        "loads",
+        help="list the shot-load catalogue: shot sizes per numbering system and materials, with sources",
+        description="List what [shot] load = {size, material, charge} takes: the shot sizes of each numbering "
+        "system (US, UK, IT) in mm and inches, and the materials with their densities, each with its "
+        'published source (docs/scenes.md, "Shot loads").',
+    )
+    p.set_defaults(func=cmd_loads)
 
 
 # ---------------------------------------------------------------------------------------------- commands
@@ -406,6 +430,13 @@ def cmd_export(args) -> int:
     return 0
 
 
+def cmd_loads(args) -> int:
+    from .scene.loads import catalogue_lines
+
+    print("\n".join(catalogue_lines()))
+    return 0
+
+
 # ---------------------------------------------------------------------------------------------- main
 
 
@@ -489,7 +520,12 @@ def main(argv=None) -> int:
 def _run_command(args) -> int:
     """The subcommand; every failure as one line on stderr and an exit status."""
     try:
-        status = args.func(args)
+        if getattr(args, "paper", False) and getattr(args, "units", "metric") != "metric":
+            raise RicochetError(
+                f"--units = {args.units!r}: --paper compares with the paper's tables in SI; give it without --units"
+            )
+        with display.using(getattr(args, "units", None)):  # what is printed; files stay SI
+            status = args.func(args)
         # a signal after the run's last safe point (while its summary was printed)
         interrupts.check(completed_path=getattr(args, "completed", None), completed_what=getattr(args, "completed_what", "run"))
         return status

@@ -22,6 +22,7 @@ from ..ends import STATES
 from ..fields import FIELDS, numpy_dtype, shape
 from ..scene.materials import GROUND_KEYS, RANGES
 from ..scene.schema import COMPRESSIONS
+from ..scene.units import unit_of
 from ..tallies.collisions import SHOT_TOTALS, SHOT_TOTALS_UNITS
 from ..tallies.ensemble import has_ensemble
 from ..tallies.reduce import SEGMENT, SEGMENT_WIDTH
@@ -77,6 +78,23 @@ def _write_plates(group, surfaces):
     ):
         group.create_dataset(name, data=data).attrs["units"] = unit
     group["kind"].attrs["kinds"] = list(SURFACE_KINDS)
+
+
+def _write_load(group, shot) -> None:
+    """[shot] load (scene.loads): its keys as given (the charge in kg), the diameter, density and count
+    the shot has (the load's, or the scene's own where it gives them), each number's unit beside it
+    (`NAME_units`), and the published tables its size and material come from."""
+    from ..scene.loads import sources_of
+
+    load = dict(shot.load)
+    for key in ("size", "material"):
+        if key in load:
+            group.attrs[key] = load[key]
+    values = {"charge": load.get("charge"), "diameter": shot.diameter, "density": shot.density, "count": shot.count}
+    for key, unit in (("charge", "kg"), ("diameter", "m"), ("density", "kg/m^3"), ("count", "1")):
+        if values[key] is not None:
+            group.attrs[key], group.attrs[f"{key}_units"] = values[key], unit
+    group.attrs["sources"] = sources_of(shot.load)
 
 
 class RunWriter:
@@ -227,6 +245,8 @@ class RunWriter:
             scalar("pattern", scene.shot.pattern, "percent", "of the charge inside a 30-inch circle at 40 yards")
             spread = "spread of the directions about the aim: standard deviation of tan(polar angle) per axis (~ rad)"
             scalar("pattern_spread", scene.shot.pattern_spread, "1", spread)
+        if scene.shot.load is not None:
+            _write_load(g.create_group("load"), scene.shot)
         s = g.create_group("surfaces")
         planes = scene.surfaces
         for name, unit, values in (
@@ -306,28 +326,9 @@ class RunWriter:
             raise _write_failure(exc, self.group) from None
 
 
-_KEY_UNITS = {
-    "diameter": "m",
-    "envelope_radius": "m",
-    "density": "kg/m^3",
-    "speed": "m/s",
-    "impact_duration": "s",
-    "direction_jitter": "1",
-    "pattern": "percent",
-    "restitution": "1",
-    "mu_s": "1",
-    "mu_d": "1",
-    "count": "1",
-    "seed": "1",
-    "bounces": "1",
-    "chunk_size": "1",
-    **{key: unit for key, (_lo, _hi, unit, _why) in RANGES.items()},
-}
-
-
 def unit_of_key(key: str) -> str:
-    """The SI unit of a scalar scene key such as "surfaces.0.mu_s" (swept values)."""
-    return _KEY_UNITS.get(key.rsplit(".", 1)[-1], "see the scene key")
+    """The SI unit of a scalar scene key such as "surfaces.0.mu_s" (swept values; scene.units.KEY_UNITS)."""
+    return unit_of(key) or "see the scene key"
 
 
 def write_stats(group: h5py.Group, stats: dict):

@@ -8,7 +8,8 @@ import math
 import os
 import tomllib
 
-from .tables import NA, ReportError, Results, _label, _num, _param_formatter, _point_cells, _render, header_line
+from .. import display
+from .tables import NA, ReportError, Results, _num, _param_formatter, _point_cells, _render, header_line, param_header, shown_rows
 
 COLUMNS = (("<L> (m)", "range_mean"), ("L+ (m)", "range_max"), ("L- (m)", "range_min"), ("landing <W_T> (J)", "landing_mean_WT"))
 
@@ -76,14 +77,15 @@ def format_side_by_side(all_results: list[Results], fmt: str = "text") -> str:
                 "as the first file: side by side needs the same sweep",
             )
     labels = _labels(all_results)
-    formatters = {p: _param_formatter([r.get(p) for res in all_results for r in res.rows]) for p in params}
-    by_point = [{_key(r, params): r for r in res.rows} for res in all_results]
+    shown = [shown_rows(res.rows, params) for res in all_results]  # (the printed units: `display`)
+    formatters = {p: _param_formatter([r.get(p) for rows in shown for r in rows]) for p in params}
+    by_point = [{_key(r, params): s for r, s in zip(res.rows, rows)} for res, rows in zip(all_results, shown)]
     keys = list(dict.fromkeys(_key(r, params) for res in all_results for r in res.rows))
-    headers = [_label(p, params) for p in params] or ["run"]
+    headers = [param_header(p, params) for p in params] or ["run"]
     n = len(headers)
     distances = [_distances(res) for res in all_results]
-    shown = [c for c, _ in DISTANCE_LEVELS if any(c in d for dist in distances for d in dist.values())]
-    headers += [f"{h} {label}" for label in labels for h in [h for h, _ in COLUMNS] + shown]
+    columns = [c for c, _ in DISTANCE_LEVELS if any(c in d for dist in distances for d in dist.values())]
+    headers += [f"{h} {label}" for label in labels for h in [h for h, _ in COLUMNS] + columns]
     body = []
     for key in keys:
         sample = next(rows[key] for rows in by_point if key in rows)
@@ -91,10 +93,10 @@ def format_side_by_side(all_results: list[Results], fmt: str = "text") -> str:
         for rows, dist in zip(by_point, distances):
             row = rows.get(key)
             cells += [_num(row.get(stat)) if row is not None else NA for _, stat in COLUMNS]
-            cells += [_num(dist.get(key, {}).get(c)) for c in shown]
+            cells += [_num(display.value(dist.get(key, {}).get(c), "m")) for c in columns]
         body.append(cells)
     title = "Table 3. Post-impact ricochet ranges, side by side: " + ", ".join(labels)
-    if shown:
+    if columns:
         title += (
             "; range: eq. (42), from the last ricochet; distance: horizontal, from the shooter to the landing "
             "point (landing quantiles, bin upper edges, <= 0.1% above)"

@@ -9,10 +9,16 @@ import math
 
 import numpy as np
 
+from .. import display
 from ..tallies.bins import RELATIVE_WIDTH
 from ..tallies.points import COLUMNS as PLACE_COLUMNS
 
 SHOWN_LEVELS = ("P50", "P75", "P90", "P99", "P99.9", "1-1e-6")
+
+
+def _dist(x) -> str:
+    """A distance (m) and its unit as printed (`display`)."""
+    return f"{_fmt(display.value(x, 'm'))} {display.unit('m')}"
 
 
 def _fmt(x) -> str:
@@ -125,15 +131,14 @@ def danger_lines(hazard: dict, pellets: float, title: str, counted: str) -> list
     what its count counts, "landings" or "pellets")."""
     lines = [title]
     for i, name in enumerate(hazard["names"]):
-        unit = "J/m^2" if hazard["kinds"][i] == "energy_density" else "m/s"
+        si = "J/m^2" if hazard["kinds"][i] == "energy_density" else "m/s"
         parts = []
         for j, p in enumerate(hazard["fractions"]):
             if hazard["landings"][i] == 0:
                 parts.append(f"p={p:g}: none above")
                 continue
-            text = (
-                f"p={p:g}: {_fmt(hazard['distance'][i, j])} m [{_fmt(hazard['ci_low'][i, j])}, {_fmt(hazard['ci_high'][i, j])}]"
-            )
+            low, high = (_fmt(display.value(hazard[k][i, j], "m")) for k in ("ci_low", "ci_high"))
+            text = f"p={p:g}: {_fmt(display.value(hazard['distance'][i, j], 'm'))} {display.unit('m')} [{low}, {high}]"
             if math.isinf(hazard["ci_high"][i, j]):
                 need = hazard["needed_landings"][i, j]
                 share = hazard["landings"][i] / pellets if pellets else math.nan
@@ -144,7 +149,8 @@ def danger_lines(hazard: dict, pellets: float, title: str, counted: str) -> list
                 )
             parts.append(text)
         lines.append(
-            f"  {name} ({_fmt(hazard['values'][i])} {unit}, {int(hazard['landings'][i]):,} {counted}): " + "; ".join(parts)
+            f"  {name} ({_fmt(display.value(hazard['values'][i], si))} {display.unit(si)}, "
+            f"{int(hazard['landings'][i]):,} {counted}): " + "; ".join(parts)
         )
     return lines
 
@@ -164,17 +170,19 @@ def tally_lines(results: dict | None, pellets: float) -> list[str]:
         )
     for name, (value, _lower) in results["quantiles"].items():  # (rest_distance: of the pellets at rest or embedded)
         label = f"{name:<9}" if len(name) < 9 else name + " "
-        lines.append(f"  {label}" + " / ".join(_fmt(v) for v in value) + f" {units[name]}")
+        lines.append(
+            f"  {label}" + " / ".join(_fmt(display.value(v, units[name])) for v in value) + f" {display.unit(units[name])}"
+        )
     tail = results["tail"]
     fractions = np.asarray(tail["fraction"], dtype=np.float64)
     split = (fractions > 0) & (fractions < 1)
     if split.any():
         lines.append(
-            "landed beyond  " + ", ".join(f">={_fmt(d)} m: {_fmt(f)}" for d, f in zip(tail["distance"][split], fractions[split]))
+            "landed beyond  " + ", ".join(f">={_dist(d)}: {_fmt(f)}" for d, f in zip(tail["distance"][split], fractions[split]))
         )
     elif len(fractions) and np.isfinite(fractions).all():
-        within = [f"all >= {_fmt(tail['distance'][fractions == 1].max())} m"] if (fractions == 1).any() else []
-        within += [f"none >= {_fmt(tail['distance'][fractions == 0].min())} m"] if (fractions == 0).any() else []
+        within = [f"all >= {_dist(tail['distance'][fractions == 1].max())}"] if (fractions == 1).any() else []
+        within += [f"none >= {_dist(tail['distance'][fractions == 0].min())}"] if (fractions == 0).any() else []
         lines.append("landed beyond  " + ", ".join(within))
     hazard, landing = results.get("hazard"), results.get("landing_hazard")
     if hazard is not None:

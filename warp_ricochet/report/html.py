@@ -16,6 +16,7 @@ import os
 
 import numpy as np
 
+from .. import display
 from ..errors import RicochetError
 from ..io.atomic import replaced
 from ..io.h5open import open_for_reading
@@ -136,13 +137,15 @@ def _environment():
         import jinja2
     except ImportError:
         raise HtmlError("", f"the HTML report needs jinja2, which is not installed: {EXTRA}") from None
-    return jinja2.Environment(
+    env = jinja2.Environment(
         loader=jinja2.PackageLoader("warp_ricochet.report", "templates"),
         autoescape=True,
         undefined=jinja2.StrictUndefined,
         trim_blocks=True,
         lstrip_blocks=True,
     )
+    env.globals.update(unit=display.unit, length=lambda x: display.value(x, "m"))  # (--units: `display`)
+    return env
 
 
 def check_output(path, overwrite: bool) -> str:
@@ -188,6 +191,7 @@ def context(path, f, results) -> dict:
         "limits": html_data.limit_flags(scene, bool(danger and danger["reach"])),
         "figures": figures(f),
         "scene_toml": html_data._text(f.attrs.get("scene_toml", "")),
+        "imperial": display.imperial(),
     }
 
 

@@ -12,6 +12,8 @@ import os
 
 import numpy as np
 
+from .. import display
+from ..scene.loads import describe_load
 from .hazard_tables import SHOWN_LEVELS, _fmt
 
 YARD, INCH = 0.9144, 0.0254  # m (exact, international yard and inch, 1959)
@@ -30,6 +32,16 @@ def fmt(x) -> str:
     if math.isfinite(x) and 1e4 <= abs(x) < 1e9:
         return f"{x:,.0f}"
     return _fmt(x)
+
+
+def dist(x) -> str:
+    """A length (m) as the page prints it (`display`: m, or yd with --units imperial), without its unit."""
+    return fmt(display.value(x, "m"))
+
+
+def _short(x, imperial_unit: str) -> str:
+    """A height or small length (m): "1.2 m", or in ft or in with --units imperial (`display.short`)."""
+    return f"{fmt(x)} m" if not display.imperial() else f"{fmt(float(x) / display.SHORT[imperial_unit])} {imperial_unit}"
 
 
 def journee_distance(diameter: float) -> float:
@@ -83,6 +95,8 @@ def scene_words(f, scene: dict, stats: dict) -> dict:
         f"mass {fmt(1e3 * mass)} g",
         "seed": str(shot.get("seed", f.attrs.get("seed", "n/a"))),
     }
+    if isinstance(shot.get("load"), dict):  # [shot] load (scene.loads): named as the scene gives it
+        out["pellet"] = f"{describe_load(shot['load'])}: {out['pellet']}"
     if shot.get("file") is None:
         d = np.asarray(shot.get("direction", (1, -1, 0)), dtype=np.float64)
         elevation = math.degrees(math.asin(float(np.clip(d @ up / np.linalg.norm(d), -1, 1))))
@@ -92,8 +106,10 @@ def scene_words(f, scene: dict, stats: dict) -> dict:
             percent = f"{fmt(float(f['constants/pattern'][()]))}% in a 30-inch circle at 40 yards"
             spread = f"{shot['choke']} choke, {percent}" if "choke" in shot else f"a pattern of {percent}"
         out["launch"] = (
-            f"at {fmt(shot.get('speed'))} m/s, {fmt(abs(elevation))} degrees {'above' if elevation >= 0 else 'below'} level, "
-            f"from {_height(scene, centre)} (envelope radius {fmt(shot.get('envelope_radius', 0))} m, {spread})"
+            f"at {fmt(display.value(shot.get('speed'), 'm/s'))} {display.unit('m/s')}, "
+            f"{fmt(abs(elevation))} degrees {'above' if elevation >= 0 else 'below'} level, "
+            f"from {_height(scene, centre)} (envelope radius {_short(shot.get('envelope_radius', 0), 'in')}, "
+            f"{spread})"
         )
     else:
         out["launch"] = "as given in the pellet file"
@@ -104,8 +120,8 @@ def scene_words(f, scene: dict, stats: dict) -> dict:
     else:
         wind = np.asarray(air.get("wind", (0, 0, 0)), dtype=np.float64)
         out["air"] = (
-            f"density {fmt(air.get('density'))} kg/m³, wind {fmt(np.linalg.norm(wind))} m/s "
-            f"({', '.join(fmt(w) for w in wind)}), drag {air.get('drag', 'loth2021')}, lift {air.get('lift', 'loth2008')}"
+            f"density {fmt(air.get('density'))} kg/m³, wind {fmt(display.value(np.linalg.norm(wind), 'm/s'))} "
+            f"{display.unit('m/s')} ({', '.join(fmt(display.value(w, 'm/s')) for w in wind)}), drag {air.get('drag', 'loth2021')}, lift {air.get('lift', 'loth2008')}"
             f"{'' if air.get('magnus', True) else ' (Magnus lift off)'}"
         )
     physics = scene.get("physics", {})
@@ -126,7 +142,7 @@ def _height(scene: dict, centre) -> str:
     point = np.asarray(surfaces[0].get("point", (0, 0, 0)), dtype=np.float64)
     normal = np.asarray(surfaces[0].get("normal", (0, 1, 0)), dtype=np.float64)
     name = surfaces[0].get("name") or "surface 0"
-    return f"{fmt((centre - point) @ normal / np.linalg.norm(normal))} m above {name}"
+    return f"{_short((centre - point) @ normal / np.linalg.norm(normal), 'ft')} above {name}"
 
 
 def _shape(surface: dict) -> str:
@@ -157,7 +173,7 @@ def _surfaces(f, scene: dict) -> list[dict]:
             "name": s.get("name") or f"surface {i}",
             "shape": _shape(s),
             "material": s.get("material") or "rigid plane (no catalogue material)",
-            "point": ", ".join(fmt(x) for x in s.get("point", ())),
+            "point": ", ".join(dist(x) for x in s.get("point", ())),
             "normal": ", ".join(fmt(x) for x in s.get("normal", ())),
         }
         for key in ("restitution", "mu_s", "mu_d"):
@@ -182,13 +198,13 @@ def danger_rows(f, pellets: float) -> dict | None:
     d = {k: h[f"danger_distance/{k}"][()] for k in ("distance", "ci_low", "ci_high", "needed_landings")}
     rows = []
     for i, name in enumerate(names):
-        unit = "J/m²" if kinds[i] == "energy_density" else "m/s"
+        unit = "J/m²" if kinds[i] == "energy_density" else display.unit("m/s")
         cells = []
         for j, p in enumerate(fractions):
             cell = {
                 "p": f"{p:g}",
-                "distance": fmt(d["distance"][i, j]),
-                "ci": f"[{fmt(d['ci_low'][i, j])}, {fmt(d['ci_high'][i, j])}]",
+                "distance": dist(d["distance"][i, j]),
+                "ci": f"[{dist(d['ci_low'][i, j])}, {dist(d['ci_high'][i, j])}]",
             }
             cell["note"] = ""
             if counted[i] == 0:
@@ -197,14 +213,15 @@ def danger_rows(f, pellets: float) -> dict | None:
                 need, share = int(d["needed_landings"][i, j]), counted[i] / pellets if pellets else 0.0
                 cell["note"] = f"too few: needs {need:,} above it" + (f" (about {need / share:,.0f} pellets)" if share else "")
             cells.append(cell)
-        speed, count = fmt(h["thresholds/speed"][i]), f"{int(counted[i]):,}"
-        rows.append({"name": name, "value": f"{fmt(values[i])} {unit}", "speed": speed, "count": count, "cells": cells})
+        speed, count = fmt(display.value(h["thresholds/speed"][i], "m/s")), f"{int(counted[i]):,}"
+        value = values[i] if kinds[i] == "energy_density" else display.value(values[i], "m/s")
+        rows.append({"name": name, "value": f"{fmt(value)} {unit}", "speed": speed, "count": count, "cells": cells})
     what = (
         "pellets that pass within body height above the threshold anywhere along their path (their reach)"
         if reach
         else "landings above the threshold (where a pellet first comes down: a proxy for one that would strike a person there)"
     )
-    body = f"{fmt(h['body_height'][()])} m" if "body_height" in h else None
+    body = _short(h["body_height"][()], "ft") if "body_height" in h else None
     return {"fractions": [f"{p:g}" for p in fractions], "rows": rows, "what": what, "reach": reach, "body_height": body}
 
 
@@ -225,9 +242,9 @@ def quantile_rows(results: dict | None) -> list[dict]:
         rows.append(
             {
                 "name": words.get(name, name),
-                "unit": units.get(name, ""),
-                "upper": [fmt(v) for v in value],
-                "lower": [fmt(v) for v in lower],
+                "unit": display.unit(units.get(name, "")),
+                "upper": [fmt(display.value(v, units.get(name, ""))) for v in value],
+                "lower": [fmt(display.value(v, units.get(name, ""))) for v in lower],
             }
         )
     return rows
@@ -238,7 +255,7 @@ def tail_rows(results: dict | None) -> list[dict]:
         return []
     t = results["tail"]
     return [
-        {"distance": fmt(d), "count": f"{int(c):,}", "fraction": fmt(x)}
+        {"distance": dist(d), "count": f"{int(c):,}", "fraction": fmt(x)}
         for d, c, x in zip(t["distance"], t["count"], t["fraction"])
     ]
 
@@ -261,8 +278,8 @@ def point_rows(f) -> dict | None:
         rows.append(
             {
                 "name": name,
-                "position": ", ".join(fmt(x) for x in g["position"][k]),
-                "area": fmt(g["area"][k]) if "area" in g else "n/a",
+                "position": ", ".join(dist(x) for x in g["position"][k]),
+                "area": fmt(display.value(g["area"][k], "m^2")) if "area" in g else "n/a",
                 "cells": cells,
             }
         )
@@ -297,7 +314,9 @@ def verdict(distance: float, low: float, high: float, reference: float) -> dict:
     if not math.isfinite(distance):
         return {"verdict": "n/a", "by": "no pellet above", "css": "na"}
     diff = distance - reference
-    by = f"{fmt(abs(diff))} m ({fmt(abs(100.0 * diff / reference))}%) {'beyond' if diff > 0 else 'short of'} it"
+    by = (
+        f"{dist(abs(diff))} {display.unit('m')} ({fmt(abs(100.0 * diff / reference))}%) {'beyond' if diff > 0 else 'short of'} it"
+    )
     if high < reference:
         return {"verdict": "inside", "by": by, "css": "inside"}
     if low > reference:
@@ -320,13 +339,13 @@ def comparison(f, refs: list[dict]) -> dict | None:
             x, lo, hi = (math.nan,) * 3 if counted[i] == 0 else (float(d[k][i, j]) for k in ("distance", "ci_low", "ci_high"))
             verdicts = [verdict(x, lo, hi, ref["distance"]) for ref in refs]
             rows.append(
-                {"threshold": name, "p": f"{p:g}", "distance": fmt(x), "ci": f"[{fmt(lo)}, {fmt(hi)}]", "verdicts": verdicts}
+                {"threshold": name, "p": f"{p:g}", "distance": dist(x), "ci": f"[{dist(lo)}, {dist(hi)}]", "verdicts": verdicts}
             )
     shown = []
     for k, ref in enumerate(refs):
         seen = [row["verdicts"][k]["verdict"] for row in rows]
         tally = ", ".join(f"{seen.count(v)} {v}" for v in ("inside", "OUTSIDE", "undecided") if v in seen) or "nothing to compare"
-        shown.append({"name": ref["name"], "distance": fmt(ref["distance"]), "source": ref["source"], "tally": tally})
+        shown.append({"name": ref["name"], "distance": dist(ref["distance"]), "source": ref["source"], "tally": tally})
     return {"references": shown, "rows": rows}
 
 
@@ -354,7 +373,9 @@ def settings(f, scene: dict, stats: dict) -> list[tuple[str, str]]:
         ),
         (
             "physics.rest_speed",
-            "default (docs/ground.md)" if physics.get("rest_speed") is None else f"{fmt(physics['rest_speed'])} m/s",
+            "default (docs/ground.md)"
+            if physics.get("rest_speed") is None
+            else f"{fmt(display.value(physics['rest_speed'], 'm/s'))} {display.unit('m/s')}",
         ),
         ("numerics.flight_tolerance (relative, flight in air)", fmt(numerics.get("flight_tolerance", math.nan))),
         ("numerics.fast_math", str(numerics.get("fast_math", True)).lower()),

@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 
+from .. import display
 from ..ends import AT_REST, EMBEDDED, STATES, STOPPED
 
 NOT_FINISHED_WARNING = (
@@ -22,7 +23,8 @@ def _count(x) -> str:
 
 
 def _m(x, decimals: int = 3) -> str:
-    return "n/a" if x is None or not math.isfinite(x) else f"{x:.{decimals}f} m"
+    """A distance (m) as printed (`display`: m, or yd with --units imperial)."""
+    return "n/a" if x is None or not math.isfinite(x) else display.text(x, "m", f".{decimals}f")
 
 
 def has_rest(stats) -> bool:

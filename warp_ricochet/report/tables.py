@@ -15,11 +15,13 @@ import math
 import os
 from dataclasses import dataclass, field
 
+from .. import display
 from ..bound import BoundResult
 from ..errors import RicochetError, hdf5_reason
 from ..io import bound_out
 from ..io.inputcheck import open_valid
 from ..io.locks import in_use, writer_gone
+from ..scene.units import unit_of
 from ..tallies.ensemble import STAT_KIND
 from ..tallies.sums import STAT_UNITS
 from .hazard_tables import from_file, from_run, tally_lines
@@ -267,6 +269,7 @@ def _render(title: str, headers: list[str], rows: list[list[str]], fmt: str, lef
     from tabulate import tabulate
 
     align = ["left" if i in left else "right" for i in range(len(headers))]
+    headers = [display.header(h) for h in headers]  # (a unit in parentheses: as printed, `display`)
     if fmt == "markdown":
         table = tabulate(
             [[_markdown(c) for c in r] for r in rows],
@@ -278,6 +281,21 @@ def _render(title: str, headers: list[str], rows: list[list[str]], fmt: str, lef
         return f"**{_markdown(title)}**\n\n{table}"
     table = tabulate(rows, headers, tablefmt="simple", disable_numparse=True, colalign=align)
     return "\n".join([title, *(line.rstrip() for line in table.splitlines())])
+
+
+STAT_SI_UNITS = {name: unit for name, (unit, _doc) in STAT_UNITS.items()}
+
+
+def shown_rows(rows, params) -> list[dict]:
+    """The rows in the printed units (`display`): statistics and swept keys."""
+    units = {**STAT_SI_UNITS, **{p: unit_of(p) or "" for p in params}}
+    return [display.row(r, units) for r in rows]
+
+
+def param_header(key: str, params: list[str]) -> str:
+    """A swept key's column header (`_label`), with its unit where it is printed in another than SI."""
+    si = unit_of(key) or ""
+    return _label(key, params) + (f" ({display.unit(si)})" if display.unit(si) != si else "")
 
 
 def _point_cells(row, params, formatters) -> list[str]:
@@ -474,8 +492,9 @@ def format_tables(results: Results, fmt: str = "text", paper: bool = False) -> s
     if fmt not in ("text", "markdown"):
         raise ValueError(f"fmt must be 'text' or 'markdown', not {fmt!r}")
     params = list(results.params)
-    formatters = {p: _param_formatter([r.get(p) for r in results.rows]) for p in params}
-    point_headers = [_label(p, params) for p in params] or ["run"]
+    rows = shown_rows(results.rows, params)  # (SI: results.rows, for the paper's and the per-file blocks)
+    formatters = {p: _param_formatter([r.get(p) for r in rows]) for p in params}
+    point_headers = [param_header(p, params) for p in params] or ["run"]
 
     def point_cells(row, _values):
         return _point_cells(row, params, formatters)
@@ -492,8 +511,8 @@ def format_tables(results: Results, fmt: str = "text", paper: bool = False) -> s
         )
     elif results.meta.get("status", "complete") != "complete":
         blocks.append(f"note: status is {results.meta.get('status')!r}; the tables show the points that finished")
-    blocks += _tables(results.rows, point_headers, point_cells, fmt)
-    blocks += _collision_tables(results.rows, point_headers, point_cells, fmt)
+    blocks += _tables(rows, point_headers, point_cells, fmt)
+    blocks += _collision_tables(rows, point_headers, point_cells, fmt)
     if results.meta.get("intervals") and len(results.rows) == 1:
         blocks.append(format_intervals(results.rows[0], results.meta["intervals"], results.meta.get("shots", 0), fmt))
     if paper:
@@ -511,11 +530,11 @@ def format_run_summary(stats: dict, output=None, device=None, scene=None) -> str
     """A short summary of one run's statistics, with units (`scene`: its named places' names)."""
 
     def unit(name):
-        u = STAT_UNITS.get(name, ("", ""))[0]
+        u = display.unit(STAT_UNITS.get(name, ("", ""))[0])
         return "" if u == "1" else f" {u}"
 
     def val(name, decimals=3):
-        return _num(stats.get(name), decimals) + unit(name)
+        return _num(display.value(stats.get(name), STAT_SI_UNITS.get(name, "")), decimals) + unit(name)
 
     lines = []
     if output is not None:
@@ -595,16 +614,18 @@ def format_intervals(row: dict, intervals: dict, shots: int, fmt: str, names=Non
     for name in names or STAT_UNITS:
         if name not in intervals or name not in row:
             continue
-        low, high = intervals[name]
-        unit = STAT_UNITS[name][0]
+        si = STAT_UNITS[name][0]
+        unit = display.unit(si)
+        low, high = (display.value(x, si) for x in intervals[name])
+        x = display.value(row[name], si)
         kind = STAT_KIND.get(name)
         over = {"extreme": "one shot's extreme", "total": "total of all shots"}.get(kind, "per shot")
         centre = 0.5 * (float(low) + float(high))  # Student t: symmetric about the mean over shots
         if kind == "total" and unit == "1":  # counts
-            cells = [_count(row[name]), _count(centre), _count(low), _count(high)]
+            cells = [_count(x), _count(centre), _count(low), _count(high)]
         else:
-            d = _interval_decimals(row[name], low, high)
-            cells = [_num(row[name], d), _num(centre, d), _num(low, d), _num(high, d)]
+            d = _interval_decimals(x, low, high)
+            cells = [_num(x, d), _num(centre, d), _num(low, d), _num(high, d)]
         body.append([name, *cells, "" if unit == "1" else unit, over])
     title = (
         f"95% confidence intervals over {shots:,} shots (Student t over the per-shot values in /stats/shots; "

@@ -7,6 +7,7 @@ import math
 from ..fields import ALL_FIELDS, FIELDS, GROUPS
 from .keys import MISSING, check_keys, join, table
 from .keys import err as _err
+from .loads import LOAD_RULE, check_load
 from .materials import RANGES
 from .patterns import check_choke
 from .schema import (
@@ -31,6 +32,7 @@ from .schema import (
     Reference,
     Site,
 )
+from .units import to_unit
 
 
 def _rule(rule):
@@ -45,11 +47,17 @@ def _is_number(v) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
+def _is_scalar(v) -> bool:
+    """A number, or a string that may be a number with its unit (scene.units)."""
+    return _is_number(v) or isinstance(v, str)
+
+
 def _finite(v, path: str, rule: str) -> float:
-    if not _is_number(v):
+    """A finite float; a string is a value with its unit, converted to the key's (scene.units.KEY_UNITS)."""
+    if not _is_scalar(v):
         raise _err(path, v, rule)
     try:
-        x = float(v)
+        x = to_unit(v, path, rule) if isinstance(v, str) else float(v)
     except OverflowError:
         x = math.inf
     if not math.isfinite(x):
@@ -108,15 +116,10 @@ def _vec3(*, nonzero=False, nonneg=False, scalar=False, unit="", bound=None):
 
     @_rule(rule)
     def conv(v, path):
-        if scalar and _is_number(v):
+        if scalar and _is_scalar(v):
             xs = (_finite(v, path, rule),) * 3
-        elif isinstance(v, (list, tuple)) and len(v) == 3 and all(map(_is_number, v)):
-            try:
-                xs = tuple(map(float, v))
-            except OverflowError:
-                xs = (math.inf,)
-            if not all(map(math.isfinite, xs)):
-                raise _err(path, v, "must be finite")
+        elif isinstance(v, (list, tuple)) and len(v) == 3 and all(map(_is_scalar, v)):
+            xs = tuple(_finite(x, path, rule) for x in v)
         else:
             raise _err(path, v, rule)
         if nonzero and not any(xs):
@@ -229,8 +232,18 @@ _SHOT = {
     "seed": _int(0, INT32_MAX),
     "file": _path(),
     "choke": check_choke,  # scene.patterns: a choke's pattern, or `pattern` itself (docs/scenes.md)
-    "pattern": _open_range(0, 100, unit="percent of the charge in a 30-inch circle at 40 yards"),
+    "pattern": _open_range(0, 100, unit="percent"),  # of the charge in a 30-inch circle at 40 yards
 }
+MAX_CHARGE = 100.0  # kg, a shot's charge (shot.load.charge)
+
+
+@_rule(LOAD_RULE)
+def _load(v, path):
+    """shot.load (scene.loads): its size, material and charge validated, the size's diameter found."""
+    return check_load(v, path, _range(0, MAX_CHARGE, above=True, unit="kg"), _SHOT["diameter"])
+
+
+_SHOT["load"] = _load
 _SURFACE = {
     "name": _str(empty=True),
     "point": _vec3(unit="m", bound=MAX_COORDINATE),
@@ -335,7 +348,7 @@ _AIR = {
 def _distances(v, path):
     if isinstance(v, (list, tuple)) and len(v) > 64:  # (the length first: nothing per element of a long list)
         raise _err(path, v, _distances.rule)
-    if not isinstance(v, (list, tuple)) or not all(map(_is_number, v)):
+    if not isinstance(v, (list, tuple)) or not all(map(_is_scalar, v)):
         raise _err(path, v, _distances.rule)
     xs = tuple(_finite(x, path, _distances.rule) for x in v)
     if any(x <= 0 or x > 1e7 for x in xs) or any(b <= a for a, b in zip(xs, xs[1:])):
@@ -382,7 +395,7 @@ def _fractions(v, path):
 
 @_rule("must be a list of 4 numbers [u_min, u_max, v_min, v_max] (m), each min below its max")
 def _extent(v, path):
-    if not isinstance(v, (list, tuple)) or len(v) != 4 or not all(map(_is_number, v)):
+    if not isinstance(v, (list, tuple)) or len(v) != 4 or not all(map(_is_scalar, v)):
         raise _err(path, v, _extent.rule)
     xs = tuple(_finite(x, path, _extent.rule) for x in v)
     if xs[0] >= xs[1] or xs[2] >= xs[3] or max(map(abs, xs)) > MAX_COORDINATE:

@@ -10,6 +10,7 @@ from decimal import Decimal, InvalidOperation
 from .keys import err as _err
 from .schema import HAZARD_ENERGY_DENSITY, HAZARD_SPEED
 from .sweep import MAX_SWEEP_POINTS
+from .units import split_unit, to_unit
 
 
 def _dotted(key: str, spec: str, what: str) -> str:
@@ -80,14 +81,24 @@ def _sweep_number(text: str, key: str, spec: str):
 
 
 def parse_sweep(spec: str) -> tuple[str, list[float]]:
-    """ "KEY=start:stop:step" (inclusive; ints stay ints) or "KEY=a,b,c" -> (KEY, values)."""
+    """ "KEY=start:stop:step" (inclusive; ints stay ints) or "KEY=a,b,c" -> (KEY, values). One unit
+    may be written, once or after every number ("30:50:10 yd"): the values are made in it, then
+    converted to the key's (scene.units)."""
     key, eq, rhs = str(spec).partition("=")
     if not eq:
         raise _err("sweep", spec, "must be KEY=start:stop:step or KEY=a,b,c")
     key = _dotted(key, spec, "sweep")
+    if ":" not in rhs and rhs.count(",") >= MAX_SWEEP_POINTS:  # (before anything per value)
+        raise _err(key, spec, f"gives {rhs.count(',') + 1:,} points; a sweep may have at most {MAX_SWEEP_POINTS:,}")
+    texts = [split_unit(t) for t in rhs.split(":" if ":" in rhs else ",")]
+    units = {unit for _, unit in texts if unit}
+    if len(units) > 1:
+        raise _err(key, spec, "must write one unit for all its values (once, or after each), e.g. 30:50:10 yd")
+    if units:
+        unit = units.pop()
+        _, values = parse_sweep(f"{key}={(':' if ':' in rhs else ',').join(t for t, _ in texts)}")
+        return key, [to_unit(f"{v!r} {unit}", key, f"a value of --param {key}") for v in values]
     if ":" not in rhs:
-        if rhs.count(",") >= MAX_SWEEP_POINTS:
-            raise _err(key, spec, f"gives {rhs.count(',') + 1:,} points; a sweep may have at most {MAX_SWEEP_POINTS:,}")
         values = [_sweep_number(t, key, spec) for t in rhs.split(",")]
         if not all(isinstance(v, int) for v in values):
             values = [float(v) for v in values]

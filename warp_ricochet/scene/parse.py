@@ -16,6 +16,7 @@ from . import materials
 from .convert import SCHEMAS
 from .keys import MISSING, _Shown, check_keys, err, suggest
 from .keys import table as _table
+from .loads import apply_load, required
 from .overrides import apply_override
 from .patterns import resolve_pattern
 from .pellets import check_pellet_file, pellet_file_rows
@@ -43,11 +44,17 @@ from .vectors import unit_vector
 
 
 def _shot(raw, base_dir) -> Shot:
-    kw = resolve_pattern(_table(raw, "shot", SCHEMAS["shot"], required=("diameter", "density")), raw)
+    kw = _table(raw, "shot", SCHEMAS["shot"])
+    if "load" in kw:  # the pellets' size, material and charge (scene.loads), under the scene's own keys
+        kw = apply_load(kw, raw, INT32_MAX)
+    for key in ("diameter", "density"):
+        required(kw, key, SCHEMAS["shot"][key].rule)
+    kw = resolve_pattern(kw, raw)
     if "file" not in kw:
         for key in ("count", "speed"):
             if key not in kw:
-                raise err(f"shot.{key}", MISSING, f"is required without shot.file; it {SCHEMAS['shot'][key].rule}")
+                also = " (or shot.load.charge)" if key == "count" else ""
+                raise err(f"shot.{key}", MISSING, f"is required without shot.file{also}; it {SCHEMAS['shot'][key].rule}")
         if kw["count"] * kw.get("shots", 1) > INT32_MAX:
             raise err("shot.shots", kw["shots"], f"times shot.count ({kw['count']}) must be at most {INT32_MAX} pellets")
         return Shot(**kw)

@@ -45,7 +45,6 @@ CHOKES = {
     "improved modified": 65.0,
     "full": 70.0,
 }
-PATTERN_UNITS = {"shot.pattern": "percent"}  # for scene.units.KEY_UNITS (issue 28, wired at the merge)
 
 
 def pattern_spread(percent: float) -> float:

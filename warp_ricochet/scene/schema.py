@@ -53,6 +53,9 @@ class Shot:
     file: str | None = None
     choke: str | None = None  # scene.patterns.CHOKES: gives `pattern`
     pattern: float | None = None  # percent of the charge in a 30-inch circle at 40 yards (replaces the jitter)
+    # the shot load the diameter, density and count came from (scene.loads): (("size", "US 7.5"),
+    # ("material", "lead"), ("charge", kg)), the keys given; None without [shot] load
+    load: tuple | None = None
 
     @property
     def pellets(self) -> int:
@@ -373,6 +376,8 @@ class Scene:
     def to_dict(self) -> dict:
         """Plain TOML-able dict (None omitted, tuples as lists); scene_from_dict(s.to_dict()) == s."""
         shot = plain(self.shot)
+        if self.shot.load is not None:  # an inline table {size = ..., material = ..., charge = kg}
+            shot["load"] = dict(self.shot.load)
         if self.shot.file is not None:
             for key in FILE_EXCLUSIVE:
                 shot.pop(key, None)
