@@ -40,7 +40,8 @@ class RunSpec:
     a surface has rough ground or a penetration law (`physics.ground`), applied at every impact;
     places: the named places of the hazard (`tallies.path`); plates: a surface is a finite plate
     (`physics.geometry`: its code compiled in only then); MESHES (2): a surface is a box or a mesh
-    (`physics.mesh_contact` compiled in too)."""
+    (`physics.mesh_contact` compiled in too); stations: each shot's start and aim from its station
+    (`launch.stations`)."""
 
     precision: str
     bounces: int
@@ -58,6 +59,7 @@ class RunSpec:
     ground: bool = False
     places: int = 0
     plates: bool | int = False
+    stations: bool = False
 
     @classmethod
     def of(cls, scene, *, with_output: bool = True) -> RunSpec:
@@ -84,6 +86,7 @@ class RunSpec:
             ground=any(_has_ground_laws(surface) for surface in scene.surfaces),
             places=0 if scene.hazard is None else len(scene.hazard.points),
             plates=MESHES if any(s.is_mesh for s in scene.surfaces) else any(not s.is_plane for s in scene.surfaces),
+            stations=bool(scene.stations),
         )
 
     @property
