@@ -111,6 +111,9 @@ def test_per_station_results_sum_to_the_combined_for_any_chunk_size(big_scene):
     np.testing.assert_array_equal(sum(p.tally.flat() for p in parts), one.tally.flat())
     assert all(p.tally.map_counts.sum() > 0 for p in parts)
     assert max(p["range_max"] for p in parts) == one["range_max"]
+    for part, (first, end) in zip(parts, shot_ranges(big_scene)):  # intervals over each station's shots
+        assert part.ensemble.shots == end - first
+        np.testing.assert_array_equal(part.ensemble.per_shot["range_mean"], one.ensemble.per_shot["range_mean"][first:end])
 
 
 def test_a_resumed_station_run_is_bitwise_the_uninterrupted_one(tmp_path, big_scene):
@@ -127,6 +130,7 @@ def test_a_resumed_station_run_is_bitwise_the_uninterrupted_one(tmp_path, big_sc
         assert a["stats/range_mean"][()] == b["stats/range_mean"][()]
         assert a["stations"].attrs["order"].tolist() == ["left", "mid", "right"]
         assert a["stations/right"].attrs["shots"] == 100
+        np.testing.assert_array_equal(a["stations/right/stats/shots/landed"][()], a["stats/shots/landed"][100:])
 
 
 def test_run_summary_and_report_list_each_station_and_the_combined(tmp_path):
@@ -139,6 +143,7 @@ def test_run_summary_and_report_list_each_station_and_the_combined(tmp_path):
     for text in (summary, report):
         block = text[text.index("Stations") :].splitlines()
         assert [line.split()[0] for line in block[3:7]] == ["left", "mid", "right", "combined"]
+        assert "distance P99 (m)" in block[1]
 
 
 @pytest.mark.parametrize(
@@ -170,6 +175,15 @@ def test_bad_station_input_is_one_line_before_any_work(tmp_path, edit, start):
         scene_from_dict(raw, tmp_path)
     text = str(info.value)
     assert len(text.splitlines()) == 1 and text.startswith(start), text
+
+
+def test_a_bad_station_is_refused_by_the_cli_in_one_line_and_writes_nothing(tmp_path):
+    scene_path = tmp_path / "s.toml"
+    scene_path.write_text(make_scene(station_raw()).to_toml().replace("azimuth = [-30.0, 30.0]", "azimuth = [0.0, 361.0]"))
+    rc, stdout, err = cli(["run", str(scene_path), "-o", str(tmp_path / "s.h5"), "--device", "cpu"])
+    assert rc == 2 and stdout == "" and len(err.splitlines()) == 1
+    assert err.startswith("warp-ricochet: error: stations.0.azimuth = [0.0, 361.0]: is an arc 361 degrees wide"), err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.toml"]
 
 
 @pytest.mark.parametrize("name", ["trap_field", "skeet_field", "sporting_layout"])

@@ -36,7 +36,7 @@ from .launch.source import PelletSource
 from .model import State, reused_state
 from .physics.air_flight import MAX_FLIGHT_STEPS
 from .physics.limits import POSITION_RESOLUTION, UNIT_ROUNDOFF
-from .scene.stations import pellet_ends
+from .scene.stations import pellet_ends, shot_ranges
 from .tallies.by_station import StationFold
 from .tallies.collisions import (
     OVERRUN_TOLERANCE,
@@ -344,6 +344,9 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
             shot_totals=np.concatenate(tables) if spec.collisions else None,
         )
         stats.ensemble = ensemble_of(per_shot, pellets // scene.shot.count)
+        for (first, end), part in zip(shot_ranges(scene), (stats.stations or {}).values()):  # each station's shots
+            if end - first > 1:
+                part.ensemble = ensemble_of({name: v[first:end] for name, v in per_shot.items()}, end - first)
     return stats
 
 

@@ -2,8 +2,9 @@
 
 /stations/<name> holds the station's description (attributes, SI: position m, azimuth and elevation
 deg as the scene gives them, aim, aim_sigma deg, weight, first_shot, shots, pellets) and its own
-/stats (the scalars of the run's /stats, of its pellets alone) and, with landing tallies, the
-run's tally layout (histograms, quantiles, tails, hazard and map) of its pellets alone. The
+/stats (the scalars of the run's /stats, of its pellets alone, with their intervals over the
+station's shots and /stats/shots when it fires more than one) and, with landing tallies, the run's
+tally layout (histograms, quantiles, tails, hazard and map) of its pellets alone. The
 combined results stay where a plain run has them. For --resume, /progress/station_tally keeps the
 run's cumulative landing counts at each station's end (row k, once station k is complete;
 /progress/station_tally_rows: the rows it is complete for, -1 before).
@@ -15,8 +16,10 @@ import numpy as np
 
 from ..scene.stations import pellet_ends, shot_ranges
 from ..tallies.counts import TallySetup, TallyTotals
+from ..tallies.ensemble import has_ensemble
 from ..tallies.sums import STAT_UNITS
 from . import tally_out
+from .ensemble import create_ensemble_datasets, write_ensemble
 
 
 def create(group, scene, model, stats) -> None:
@@ -46,6 +49,8 @@ def create(group, scene, model, stats) -> None:
             ds.attrs["units"], ds.attrs["description"] = STAT_UNITS[name]
         if scene.output.quantiles:
             tally_out.create(g, scene, model, progress=False)
+        if has_ensemble(scene) and end - first > 1:
+            create_ensemble_datasets(g, stats, end - first)
     if scene.output.quantiles:
         width = TallyTotals(TallySetup.of(scene, model.mass, model.radius, 1.0)).flat().size
         p = group["progress"]
@@ -88,3 +93,5 @@ def write(group, stats) -> None:
                 g[f"stats/{key}"][()] = float(value)
         if values.tally is not None:
             tally_out.write_results(g, values.tally, int(values["landed"]), int(values["pellets"]))
+        if values.ensemble is not None:
+            write_ensemble(g, values.ensemble)

@@ -12,13 +12,26 @@ COLUMNS = (  # (header, statistic, decimals)
     ("mean range <L> (m)", "range_mean", 3),
     ("L+ (m)", "range_max", 3),
     ("mean W_T at landing (J)", "landing_mean_WT", 6),
+    ("distance P99 (m)", "distance_p99", 1),  # from the landing tallies: the bin's upper edge
 )
+P99 = 3  # LEVELS.index(0.99) (tallies.quantiles)
+
+
+def _with_p99(stats) -> dict:
+    """The statistics with `distance_p99` from their landing counts (NaN without)."""
+    out = dict(stats)
+    tally = getattr(stats, "tally", None)
+    if tally is not None:
+        from ..tallies.quantiles import summarize
+
+        out["distance_p99"] = float(summarize(tally, int(stats["landed"]))["quantiles"]["distance"][0][P99])
+    return out
 
 
 def rows_of_run(stats) -> list[tuple[str, dict]]:
     """[(name, statistics)] of each station of a run's statistics (`pipeline.RunStats.stations`), then the combined."""
     stations = getattr(stats, "stations", None) or {}
-    return [*stations.items(), ("combined", stats)] if stations else []
+    return [(name, _with_p99(part)) for name, part in [*stations.items(), ("combined", stats)]] if stations else []
 
 
 def rows_of_file(f) -> list[tuple[str, dict]]:
@@ -28,7 +41,10 @@ def rows_of_file(f) -> list[tuple[str, dict]]:
         return []
 
     def read(group):
-        return {name: float(group[f"stats/{name}"][()]) for _h, name, _d in COLUMNS if f"stats/{name}" in group}
+        out = {name: float(group[f"stats/{name}"][()]) for _h, name, _d in COLUMNS if f"stats/{name}" in group}
+        if "stats/quantiles/distance" in group:
+            out["distance_p99"] = float(group["stats/quantiles/distance"][P99])
+        return out
 
     return [*((str(name), read(top[str(name)])) for name in top.attrs["order"]), ("combined", read(f))]
 
