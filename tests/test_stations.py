@@ -79,6 +79,22 @@ def test_uniform_arcs_stay_in_their_range_and_are_uniform():
         assert ((counts - expected) ** 2 / expected).sum() < 43.8  # the 0.999 quantile of chi2(19)
 
 
+def test_with_a_site_azimuths_are_from_north_as_the_sites():
+    """[hazard.site] azimuth 37: the downrange axis is at 37 degrees from north, so a station's
+    azimuth 37 aims down it, 127 a quarter turn clockwise (to the right: -y)."""
+    pytest.importorskip("pyproj")
+    ahead = {"name": "ahead", "position": [0.0, 0.0, 1.5], "azimuth": 37.0}
+    right = {"name": "right", "position": [0.0, 0.0, 1.5], "azimuth": 127.0}
+    raw = station_raw(shots=2, stations=[ahead, right])
+    raw["hazard"] = {
+        "map_cell": 10.0,
+        "map_extent": [0.0, 100.0, -50.0, 50.0],
+        "site": {"crs": "EPSG:32630", "shooter": [500000.0, 4200000.0], "azimuth": 37.0},
+    }
+    _k, _p, aim = reference_aims(make_scene(raw, precision="float64"), range(2))
+    np.testing.assert_allclose(aim, [[1.0, 0.0, 0.0], [0.0, -1.0, 0.0]], atol=1e-15)
+
+
 def test_a_normal_aim_is_truncated_to_its_arc():
     raw = station_raw(shots=4000, stations=[{**STATIONS[0], "aim": "normal", "aim_sigma": 10.0}])
     _k, _p, aim = reference_aims(make_scene(raw, precision="float64"), range(4000))
@@ -116,11 +132,20 @@ def test_per_station_results_sum_to_the_combined_for_any_chunk_size(big_scene):
         np.testing.assert_array_equal(part.ensemble.per_shot["range_mean"], one.ensemble.per_shot["range_mean"][first:end])
 
 
-def test_a_resumed_station_run_is_bitwise_the_uninterrupted_one(tmp_path, big_scene):
+@pytest.fixture(scope="module")
+def chunked(big_scene, tmp_path_factory):
+    """The big scene in chunks of 65,536 pellets (left, mid, then right in two), and its run file."""
     scene = big_scene.replace(numerics=dataclasses.replace(big_scene.numerics, chunk_size=65_536))
-    ref, out = tmp_path / "ref.h5", tmp_path / "out.h5"
+    ref = tmp_path_factory.mktemp("stations") / "ref.h5"
     wr.run(scene, ref, device="cpu")
-    interrupt_after(3, scene, out)  # (left, mid, then the first chunk of right)
+    return scene, ref
+
+
+@pytest.mark.parametrize("chunks", [2, 3])  # stopped at mid's end, then inside right
+def test_a_resumed_station_run_is_bitwise_the_uninterrupted_one(tmp_path, chunked, chunks):
+    scene, ref = chunked
+    out = tmp_path / "out.h5"
+    interrupt_after(chunks, scene, out)
     wr.run(scene, out, device="cpu", resume=True)
     with h5py.File(out) as a, h5py.File(ref) as b:
         for name in ("left", "mid", "right"):

@@ -390,7 +390,8 @@ def _loop(stage, pellets, sink, resumed, progress, plan=None, fold=None):
         if resumed.shot_partials is not None:
             pieces.append(resumed.shot_partials)
         if fold is not None:
-            fold.resume(resumed.rows, resumed.segment_results, resumed.station_tally)
+            width = 0 if tally is None else sum(int(np.prod(shape)) for shape in tally.shapes.values())
+            fold.resume(resumed.rows, resumed.segment_results, resumed.station_tally, width)
     if tally is not None:
         stage.tally.start(loaded, every_chunk=sink is not None)
     cuda = stage.model.device.is_cuda

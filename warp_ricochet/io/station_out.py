@@ -77,11 +77,16 @@ def store_progress(group, tally, stop: int, ends) -> None:
 
 
 def read_progress(progress, rows: int) -> dict:
-    """station -> the counts at its end, for the stations complete by `rows`."""
+    """station -> the run's counts at its end as (index, value) of their nonzero elements, for the
+    stations complete by `rows` (read a row at a time: a dense row can be hundreds of MB)."""
     if "station_tally_rows" not in progress:
         return {}
-    held = progress["station_tally_rows"][()]
-    return {int(k): progress["station_tally"][int(k)] for k in np.flatnonzero((held >= 0) & (held <= rows))}
+    held, out = progress["station_tally_rows"][()], {}
+    for k in np.flatnonzero((held >= 0) & (held <= rows)):
+        row = progress["station_tally"][int(k)]
+        index = np.flatnonzero(row)
+        out[int(k)] = (index, row[index])
+    return out
 
 
 def write(group, stats) -> None:
