@@ -48,22 +48,6 @@ def test_allocation_is_proportional_contiguous_and_exact():
     assert shot_ranges(scene) == [(0, 10), (10, 20), (20, 40)]
 
 
-def test_launch_states_are_the_reference_aims_at_the_stations(tmp_path):
-    """Kernel (float64, no jitter, no envelope) against `reference_aims`: each pellet starts at its
-    shot's station and flies along its shot's aim."""
-    raw = station_raw()
-    raw["output"] = {"fields": ["initial.position", "initial.velocity"]}
-    scene = make_scene(raw, precision="float64")
-    wr.run(scene, tmp_path / "a.h5", device="cpu")
-    with h5py.File(tmp_path / "a.h5") as f:
-        position, velocity = f["pellets/initial/position"][()], f["pellets/initial/velocity"][()]
-    shots = np.arange(len(position)) // scene.shot.count
-    k, where, aim = reference_aims(scene, range(scene.shot.shots))
-    np.testing.assert_array_equal(position, where[shots])
-    np.testing.assert_allclose(velocity / scene.shot.speed, aim[shots], rtol=0, atol=1e-13)
-    assert k.tolist() == [0] * 10 + [1] * 10 + [2] * 20
-
-
 def test_uniform_arcs_stay_in_their_range_and_are_uniform():
     raw = station_raw(shots=20000, stations=[STATIONS[0]])
     scene = make_scene(raw, precision="float64")
@@ -158,12 +142,24 @@ def test_a_resumed_station_run_is_bitwise_the_uninterrupted_one(tmp_path, chunke
         np.testing.assert_array_equal(a["stations/right/stats/shots/landed"][()], a["stats/shots/landed"][100:])
 
 
-def test_run_summary_and_report_list_each_station_and_the_combined(tmp_path):
-    scene_path = tmp_path / "s.toml"
-    scene_path.write_text(make_scene(station_raw()).to_toml())
-    out = tmp_path / "s.h5"
+def test_launch_states_are_the_reference_aims_and_the_cli_lists_each_station(tmp_path):
+    """Kernel against `reference_aims` (no jitter, no envelope): each pellet starts at its shot's
+    station and flies along its shot's aim; `run`'s summary and `report` list each station and the
+    combined."""
+    raw = station_raw()
+    raw["output"] = {"fields": ["initial.position", "initial.velocity"]}
+    scene = make_scene(raw)
+    scene_path, out = tmp_path / "s.toml", tmp_path / "s.h5"
+    scene_path.write_text(scene.to_toml())
     rc, summary, _err = cli(["run", str(scene_path), "-o", str(out), "--device", "cpu"])
     assert rc == 0
+    with h5py.File(out) as f:
+        position, velocity = f["pellets/initial/position"][()], f["pellets/initial/velocity"][()]
+    shots = np.arange(len(position)) // scene.shot.count
+    k, where, aim = reference_aims(scene, range(scene.shot.shots))
+    np.testing.assert_array_equal(position, where[shots].astype(np.float32))
+    np.testing.assert_allclose(velocity / scene.shot.speed, aim[shots], rtol=0, atol=2e-6)  # (float32)
+    assert k.tolist() == [0] * 10 + [1] * 10 + [2] * 20
     rc, report, _err = cli(["report", str(out)])
     for text in (summary, report):
         block = text[text.index("Stations") :].splitlines()
