@@ -214,3 +214,28 @@ def test_example_fields_run_with_few_shots(tmp_path, name):
     stats = wr.run(scene, device="cpu")
     assert stats["pellets"] == scene.shot.pellets and len(stats.stations) == len(scene.stations)
     assert math.isfinite(stats["range_mean"]) and stats["landed"] > 0
+
+
+def test_a_station_under_a_terrain_ground_is_refused():
+    """The first surface a terrain (the trap field's raster, ground falling 2% east from 120 m): a
+    station 1.7 m above it loads, one 0.8 m under it is refused in one line."""
+    from warp_ricochet.errors import SceneError
+    from warp_ricochet.scene import scene_from_dict
+
+    raw = station_raw(stations=[dict(STATIONS[0], position=[10.0, -50.0, 1.5])])
+    raw["physics"]["until"] = "landing"
+    raw["surfaces"] = [
+        {
+            "kind": "terrain",
+            "file": str(ROOT / "warp_ricochet/examples/terrain/trap_field.asc"),
+            "elevation": 120.0,
+            "restitution": 0.3,
+            "mu_s": 0.4,
+        }
+    ]
+    assert scene_from_dict(raw).stations[0].position[2] == 1.5
+    raw["stations"][0]["position"] = [10.0, -50.0, -1.0]
+    with pytest.raises(
+        SceneError, match=r"^stations\.0\.position = \[10\.0, -50\.0, -1\.0\]: is 0\.8 m below the ground \(surfaces\.0"
+    ):
+        scene_from_dict(raw)

@@ -148,7 +148,7 @@ def check_stations(stations, shot, raw_shot: dict, surfaces, physics, hazard) ->
     sampled shots (no shot.file) around each station (no shot.envelope_center), gravity defines the
     horizontal, a downrange axis, and no station below the ground: behind the plane of the hazard
     map's surface (hazard.map_surface), else of the first surface (its normal: the side pellets come
-    from). Only plane-like grounds (plane, rectangle, disc) are checked."""
+    from), or under a terrain's triangles there; other kinds (box, mesh) are not checked."""
     if shot.file is not None:
         raise err(
             "shot.file", shot.file, "not allowed with [[stations]]: stations sample each shot's aim (a pellet file fixes it)"
@@ -180,11 +180,14 @@ def check_stations(stations, shot, raw_shot: dict, surfaces, physics, hazard) ->
         key = "hazard.map_axis" if hazard is not None and hazard.map_axis is not None else "shot.direction"
         raise err(key, list(hazard.map_axis if key == "hazard.map_axis" else shot.direction), str(exc)) from None
     index = hazard.map_surface if hazard is not None else 0
-    if not surfaces or index >= len(surfaces) or surfaces[index].kind not in (None, "plane", "rectangle", "disc"):
+    if not surfaces or index >= len(surfaces) or surfaces[index].kind not in (None, "plane", "rectangle", "disc", "terrain"):
         return
     ground = surfaces[index]
     for i, s in enumerate(stations):
-        height = float(np.dot(np.subtract(s.position, ground.point), ground.normal))
+        if ground.kind == "terrain":
+            height = terrain_height(s.position, surfaces, index, hazard)
+        else:
+            height = float(np.dot(np.subtract(s.position, ground.point), ground.normal))
         if height < 0.0:
             raise err(
                 f"stations.{i}.position",
@@ -192,6 +195,35 @@ def check_stations(stations, shot, raw_shot: dict, surfaces, physics, hazard) ->
                 f"is {-height:.4g} m below the ground (surfaces.{index}, the {'hazard map' if hazard else 'first'} "
                 "surface, on the side its normal points away from); a station stands on or above it",
             )
+
+
+def terrain_height(position, surfaces, index: int, hazard) -> float:
+    """Height (m) of `position` above terrain surface `index` along its up (its normal), at the
+    triangle under it (`scene.terrain.place_terrain`); 0 where no triangle lies under it (off the raster)."""
+    from types import SimpleNamespace
+
+    from .terrain import place_terrain
+
+    vertices, triangles = place_terrain(SimpleNamespace(surfaces=surfaces, hazard=hazard), index)
+    up = np.asarray(surfaces[index].normal, dtype=np.float64)
+    e1 = np.cross(up, [1.0, 0.0, 0.0] if abs(up[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(up, e1)
+    flat = vertices @ np.stack([e1, e2], axis=1)  # (n, 2) horizontal coordinates
+    p = np.asarray(position, dtype=np.float64)
+    a, b, c = (flat[triangles[:, k]] for k in range(3))
+    q = np.array([p @ e1, p @ e2])
+    det = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        wb = ((q[0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (q[1] - a[:, 1])) / det
+        wc = ((b[:, 0] - a[:, 0]) * (q[1] - a[:, 1]) - (q[0] - a[:, 0]) * (b[:, 1] - a[:, 1])) / det
+    inside = np.flatnonzero((det != 0) & (wb >= -1e-12) & (wc >= -1e-12) & (wb + wc <= 1 + 1e-12))
+    if not len(inside):
+        return 0.0
+    t = triangles[inside[0]]
+    z = vertices[t] @ up
+    ground = z[0] + wb[inside[0]] * (z[1] - z[0]) + wc[inside[0]] * (z[2] - z[0])
+    return float(p @ up - ground)
 
 
 def frame(shot, physics, hazard) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
