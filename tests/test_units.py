@@ -239,19 +239,11 @@ def test_paper_comparison_is_refused_in_imperial_in_one_line(tmp_path, capsys):
     )
 
 
-def test_a_new_key_takes_units_once_registered_in_key_units(monkeypatch):
-    """How the keys of other tables join (docs/scenes.md, "Units"): a percentage, angles per station."""
-    from warp_ricochet.scene import units
-
-    monkeypatch.setitem(KEY_UNITS, "shot.pattern", "percent")
-    monkeypatch.setitem(KEY_UNITS, "stations.*.azimuth", "deg")
-    units._unit_of.cache_clear()
-    try:
-        assert to_unit("60 %", "shot.pattern", "rule") == 60.0 and to_unit("60", "shot.pattern", "rule") == 60.0
-        assert to_unit("0.5 rad", "stations.3.azimuth", "rule") == pytest.approx(math.degrees(0.5), rel=1e-12)
-        with pytest.raises(SceneError, match=r"stations.3.azimuth takes an angle \(deg\); 'm' is a length"):
-            to_unit("3 m", "stations.3.azimuth", "rule")
-    finally:
-        monkeypatch.undo()
-        units._unit_of.cache_clear()
-    assert unit_of("shot.pattern") is None
+def test_pattern_and_station_keys_take_units():
+    """The keys of the pattern and stations tables (docs/scenes.md, "Units"): a percentage, angles
+    and positions per station."""
+    assert to_unit("60 %", "shot.pattern", "rule") == 60.0 and to_unit("60", "shot.pattern", "rule") == 60.0
+    assert to_unit("0.5 rad", "stations.3.azimuth", "rule") == pytest.approx(math.degrees(0.5), rel=1e-12)
+    assert to_unit("40 yd", "stations.0.position", "rule") == pytest.approx(36.576, rel=1e-15)
+    with pytest.raises(SceneError, match=r"stations.3.azimuth takes an angle \(deg\); 'm' is a length"):
+        to_unit("3 m", "stations.3.azimuth", "rule")

@@ -320,7 +320,7 @@ def _resume(scene, output, device, *, overwrite, progress, dense_options, sideca
         writer = RunWriter.reopen(
             out.h5, fields=scene.output.fields, rows=plan.rows, segments=plan.segments, shots=plan.shots, pieces=plan.pieces
         )
-        resumed = Resumed(plan.rows, plan.segment_results, plan.shot_totals, plan.tally, plan.shot_partials)
+        resumed = Resumed(plan.rows, plan.segment_results, plan.shot_totals, plan.tally, plan.shot_partials, plan.station_tally)
         return _compute(found["scene"], dev, writer, progress, resumed, dense_options)
 
 

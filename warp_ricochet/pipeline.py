@@ -36,6 +36,8 @@ from .launch.source import PelletSource
 from .model import State, reused_state
 from .physics.air_flight import MAX_FLIGHT_STEPS
 from .physics.limits import POSITION_RESOLUTION, UNIT_ROUNDOFF
+from .scene.stations import pellet_ends, shot_ranges
+from .tallies.by_station import StationFold
 from .tallies.collisions import (
     OVERRUN_TOLERANCE,
     SHOT_TOTALS,
@@ -85,6 +87,7 @@ class Resumed:
     shot_totals: np.ndarray | None = None
     tally: np.ndarray | None = None  # the landing counts of those rows (`TallyTotals.flat`)
     shot_partials: np.ndarray | None = None
+    station_tally: dict | None = None  # station runs: station -> the landing counts at its end (`by_station`)
 
 
 class RunStats(dict):
@@ -97,6 +100,7 @@ class RunStats(dict):
     ensemble = None
     summary = None
     bound = None  # a bounded run's outcome (`bound.BoundResult`)
+    stations = None  # [[stations]]: {name: RunStats of that station's pellets alone} (`tallies.by_station`)
 
 
 def landing_tally(scene, model, spec, arrays) -> DeviceTally:
@@ -309,11 +313,16 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
             stage = CollisionStage(scene, model, spec, arrays, pellets, options, frames)
         else:
             stage = CoreStage(scene, model, spec, arrays, pellets)
-        totals, tables, tally, pieces, pellets, outcome = _loop(stage, pellets, sink, resumed, progress, plan)
-    stats = RunStats(
-        finalize(totals, pellets=pellets, mass=model.mass, inertia=model.inertia, air=spec.in_air, rest=spec.to_rest)
-    )
+        fold = StationFold(pellet_ends(scene)) if scene.stations else None
+        totals, tables, tally, pieces, pellets, outcome = _loop(stage, pellets, sink, resumed, progress, plan, fold)
+    kw = dict(mass=model.mass, inertia=model.inertia, air=spec.in_air, rest=spec.to_rest)
+    stats = RunStats(finalize(totals, pellets=pellets, **kw))
     stats.tally, stats.bound = tally, outcome
+    if fold is not None:
+        stats.stations = {}
+        for station, (values, counts) in zip(scene.stations, fold.results(tally, pellets, **kw)):
+            stats.stations[station.name] = RunStats(values)
+            stats.stations[station.name].tally = counts
     warn_coarse_positions(stats["flight_scale_max"], model.precision, model.radius)
     if spec.in_air and stats["flights_unfinished"] > 0:
         warnings.warn(
@@ -335,6 +344,9 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
             shot_totals=np.concatenate(tables) if spec.collisions else None,
         )
         stats.ensemble = ensemble_of(per_shot, pellets // scene.shot.count)
+        for (first, end), part in zip(shot_ranges(scene), (stats.stations or {}).values()):  # each station's shots
+            if end - first > 1:
+                part.ensemble = ensemble_of({name: v[first:end] for name, v in per_shot.items()}, end - first)
     return stats
 
 
@@ -360,10 +372,12 @@ def warn_coarse_positions(scale: float, precision: str, radius: float) -> bool:
     return True
 
 
-def _loop(stage, pellets, sink, resumed, progress, plan=None):
+def _loop(stage, pellets, sink, resumed, progress, plan=None, fold=None):
     """The chunk loop; returns the folded statistics totals, the shots' totals tables and the
     landing counts (None when not counted), the per-shot partials (`core.shots`), in shot order,
-    the pellets complete and, with a `plan` (`bound.BoundPlan`), the outcome of its last check."""
+    the pellets complete and, with a `plan` (`bound.BoundPlan`), the outcome of its last check.
+    With a `fold` (`tallies.by_station.StationFold`) each station's shots are a stretch of their own,
+    the fold given each chunk's partials and the counts at each station's end."""
     totals, tables, pieces, done = empty_totals(), [], [], 0
     tally = TallyTotals(stage.tally.setup) if stage.tally.active else None
     loaded = None  # the resumed run's landing counts
@@ -375,6 +389,9 @@ def _loop(stage, pellets, sink, resumed, progress, plan=None):
             loaded = tally.load(resumed.tally)
         if resumed.shot_partials is not None:
             pieces.append(resumed.shot_partials)
+        if fold is not None:
+            width = 0 if tally is None else sum(int(np.prod(shape)) for shape in tally.shapes.values())
+            fold.resume(resumed.rows, resumed.segment_results, resumed.station_tally, width)
     if tally is not None:
         stage.tally.start(loaded, every_chunk=sink is not None)
     cuda = stage.model.device.is_cuda
@@ -384,6 +401,8 @@ def _loop(stage, pellets, sink, resumed, progress, plan=None):
         nonlocal totals, done
         arrays, segment_results, shot_totals, counts, shot_rows = slot.results()
         totals = combine(totals, segment_results)
+        if fold is not None:
+            fold.add(done, segment_results)
         if shot_totals is not None:
             tables.append(shot_totals)
         if tally is not None and counts is not None:
@@ -408,7 +427,7 @@ def _loop(stage, pellets, sink, resumed, progress, plan=None):
             stage.tally.receive(tally)
 
     pending, outcome, chunks = None, None, 0
-    every = [pellets] if plan is None else plan.checks()
+    every = plan.checks() if plan is not None else (fold.ends if fold is not None else [pellets])
     for number, stop in enumerate(every, start=1):
         if stop < done:  # (a resumed run's checks passed)
             continue
@@ -431,6 +450,10 @@ def _loop(stage, pellets, sink, resumed, progress, plan=None):
             if pending is not None:
                 consume(pending)  # host work on the previous chunk while the device runs this one
             pending = slot
+        if fold is not None:  # a station's end: every chunk before it consumed, the counts read
+            finish(pending)
+            pending = None
+            fold.snapshot(done, tally)
         if plan is not None:  # a check: every chunk before it consumed, the totals read
             finish(pending)
             pending = None
@@ -438,7 +461,7 @@ def _loop(stage, pellets, sink, resumed, progress, plan=None):
             log.info("check %d after %s pellets: %s", number, f"{done:,}", outcome.interval_text())
             if outcome.met:
                 break
-    if plan is None:
+    if plan is None and fold is None:
         finish(pending)
     interrupts.check()
     return totals, tables, tally, pieces, done, outcome

@@ -41,7 +41,8 @@ class RunSpec:
     places: the named places of the hazard (`tallies.path`); plates: a surface is a finite plate
     (`physics.geometry`: its code compiled in only then); MESHES (2): a surface is a box or a mesh
     (`physics.mesh_contact` compiled in too); pattern: the pellets' directions drawn from a choke's
-    pattern (`launch.pattern`), not from the jitter."""
+    pattern (`launch.pattern`), not from the jitter; stations: each shot's start and aim from its
+    station (`launch.stations`)."""
 
     precision: str
     bounces: int
@@ -60,6 +61,7 @@ class RunSpec:
     places: int = 0
     plates: bool | int = False
     pattern: bool = False
+    stations: bool = False
 
     @classmethod
     def of(cls, scene, *, with_output: bool = True) -> RunSpec:
@@ -87,6 +89,7 @@ class RunSpec:
             places=0 if scene.hazard is None else len(scene.hazard.points),
             plates=MESHES if any(s.is_mesh for s in scene.surfaces) else any(not s.is_plane for s in scene.surfaces),
             pattern=scene.shot.pattern is not None,
+            stations=bool(scene.stations),
         )
 
     @property

@@ -32,7 +32,7 @@ def ricochet_kernel_for(spec, max_registers="default"):
     t = types_for(spec.precision)
     scalar, Surfaces, Physics = t.scalar, t.Surfaces, t.Physics
     Source, Outputs, Release = (
-        make_source(spec.precision, spec.from_file, spec.pattern).Source,
+        make_source(spec.precision, spec.from_file, spec.pattern, spec.stations).Source,
         make_outputs(spec.precision).Outputs,
         make_release(spec.precision),
     )

@@ -61,7 +61,7 @@ def make_ricochet_pellet(spec):
     """`ricochet_pellet` for `spec`: with `spec.collisions` a pellet continues from the release."""
     t = types_for(spec.precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
-    src, outs = make_source(spec.precision, spec.from_file, spec.pattern), make_outputs(spec.precision)
+    src, outs = make_source(spec.precision, spec.from_file, spec.pattern, spec.stations), make_outputs(spec.precision)
     acc_fns = make_accumulators(spec.precision, spec.to_rest)
     Source, Outputs, Release = src.Source, outs.Outputs, make_release(spec.precision)
     floats_t, extremes_t = acc_fns.floats_t, acc_fns.extremes_t

@@ -36,7 +36,7 @@ def shot_kernel_for(spec):
     t = types_for(spec.precision)
     scalar, Surfaces, Physics = t.scalar, t.Surfaces, t.Physics
     Source, Outputs, Release = (
-        make_source(spec.precision, spec.from_file, spec.pattern).Source,
+        make_source(spec.precision, spec.from_file, spec.pattern, spec.stations).Source,
         make_outputs(spec.precision).Outputs,
         make_release(spec.precision),
     )

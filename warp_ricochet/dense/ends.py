@@ -30,7 +30,7 @@ def make_ends(spec) -> SimpleNamespace:
     scalar, vec3, Surfaces, Physics, Cloud, Pair = kit.scalar, kit.vec3, kit.Surfaces, kit.Physics, kit.Cloud, kit.Pair
     Outputs, Source, NEVER, WRITE, AIR = kit.Outputs, kit.Source, kit.NEVER, kit.WRITE, kit.AIR
     ballistic_position, ballistic_velocity = kit.ballistic.position, kit.ballistic.velocity
-    launch_state = make_source(kit.precision, spec.from_file, spec.pattern).launch_state
+    launch_state = make_source(kit.precision, spec.from_file, spec.pattern, spec.stations).launch_state
     write_initial = kit.outputs.write_initial
     # the arrival window: from each pellet's first contact in its own flight (in air: integrated)
     next_contact = kit.run_flight.next_contact

@@ -40,7 +40,7 @@ def dense_kit(spec) -> SimpleNamespace:
         Cloud=Cloud,
         Pair=Pair,
         Outputs=outputs.Outputs,
-        Source=make_source(precision, spec.from_file, spec.pattern).Source,
+        Source=make_source(precision, spec.from_file, spec.pattern, spec.stations).Source,
         NEVER=scalar(NEVER_VALUE),
         TINY_SPEED=scalar(TINY_SPEED_VALUE),
         QUIET_STEP=scalar(QUIET_STEP_VALUE),

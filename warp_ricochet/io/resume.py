@@ -35,10 +35,12 @@ from .._version import __version__
 from ..bound import BoundPlan, planned
 from ..dense.schedule import segments_of_shots, shot_granule
 from ..errors import OutputError, SceneError
+from ..scene.stations import pellet_ends
+from ..tallies.by_station import segments_of
 from ..tallies.collisions import SHOT_TOTALS
 from ..tallies.ensemble import has_ensemble, pieces_per_shot
 from ..tallies.reduce import SEGMENT, SEGMENT_WIDTH
-from . import tally_out
+from . import station_out, tally_out
 from .h5open import file_kind
 
 
@@ -137,13 +139,15 @@ def verify(f, scene, dev, partial_name: str) -> tuple[int, int, int, int]:
         segments = math.ceil(rows / SEGMENT)
     if bounded is not None:
         segments = bounded.segments(rows, scene.pair_collisions)
+    if scene.stations:  # (chunks end at each station's end, and segments start there)
+        segments = segments_of(pellet_ends(scene), rows)
     damaged = None
     if not 0 <= rows <= pellets or pellets != planned(scene).shot.pellets:
         damaged = f"{rows} rows complete of {pellets}"
     elif bounded is not None:
         if not bounded.chunk_end(rows, scene.pair_collisions):
             damaged = f"{rows} rows complete, neither a check of its bound nor whole chunks past one"
-    elif rows and (chunk <= 0 or (chunk % unit and chunk < pellets) or (rows % chunk and rows != pellets)):
+    elif rows and not scene.stations and (chunk <= 0 or (chunk % unit and chunk < pellets) or (rows % chunk and rows != pellets)):
         damaged = f"chunk plan of {chunk} pellets per chunk with {rows} rows complete"
     elif len(progress["segment_results"]) < segments:
         damaged = f"{len(progress['segment_results'])} segment results for {segments} segments"
@@ -172,6 +176,7 @@ class ResumePlan:
     tally: object = None  # the landing counts of the rows complete (`io.tally_out.read_progress`)
     shot_partials: object = None  # per-shot partials of the complete shots (runs of several shots)
     pieces: int = 0
+    station_tally: dict | None = None  # station runs: the counts at each complete station's end
 
 
 def plan(f, scene, dev, partial_name: str) -> ResumePlan:
@@ -195,4 +200,7 @@ def plan(f, scene, dev, partial_name: str) -> ResumePlan:
                 f"{rows // scene.shot.count} shots); it cannot be resumed"
             )
         partials = progress["shot_partials"][:pieces]
-    return ResumePlan(rows, chunk, segments, shots, progress["segment_results"][:segments], totals, tally, partials, pieces)
+    stations = station_out.read_progress(progress, rows) if scene.stations else None
+    return ResumePlan(
+        rows, chunk, segments, shots, progress["segment_results"][:segments], totals, tally, partials, pieces, stations
+    )

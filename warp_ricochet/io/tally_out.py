@@ -25,11 +25,16 @@ def _ds(g, name, data=None, *, unit, doc, **kw):
     return ds
 
 
-def create(group, scene, model):
-    """Every tally object of a run of `scene` (its shapes; values NaN or 0 until the end)."""
+def create(group, scene, model, progress: bool = True):
+    """Every tally object of a run of `scene` (its shapes; values NaN or 0 until the end); without
+    `progress`, not the counts kept for --resume (a station's group: `io.station_out`)."""
     setup = TallySetup.of(scene, model.mass, model.radius, 1.0)
-    width = TallyTotals(setup).flat().size
-    p = group["progress"]
+    if progress:
+        _create_progress(group["progress"], TallyTotals(setup).flat().size)
+    _create_results(group, scene, setup)
+
+
+def _create_progress(p, width: int):
     _ds(
         p,
         "tally",
@@ -43,6 +48,9 @@ def create(group, scene, model):
         doc="cumulative landing counts (warp_ricochet.tallies.counts.TallyTotals.flat) in two slots used in turn",
     )
     _ds(p, "tally_rows", np.full(2, -1, dtype=np.int64), unit="1", doc="rows each tally slot is complete for")
+
+
+def _create_results(group, scene, setup):
     n_levels, quant = len(LEVELS), group.create_group("stats/quantiles")
     quant.attrs["levels"] = np.asarray(LEVELS)
     quant.attrs["resolution"] = RESOLUTION

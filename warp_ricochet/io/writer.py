@@ -27,7 +27,7 @@ from ..tallies.collisions import SHOT_TOTALS, SHOT_TOTALS_UNITS
 from ..tallies.ensemble import has_ensemble
 from ..tallies.reduce import SEGMENT, SEGMENT_WIDTH
 from ..tallies.sums import STAT_UNITS
-from . import bound_out, h5md, tally_out
+from . import bound_out, h5md, station_out, tally_out
 from .dimensions import name_run_dimensions, name_sweep_dimensions
 from .ensemble import create_ensemble_datasets, write_ensemble
 from .runfile import _OPEN
@@ -142,6 +142,8 @@ class RunWriter:
             tally_out.create(group, scene, model)
         if scene.hazard is not None and scene.hazard.bound is not None:
             bound_out.create(group, scene.hazard.bound)
+        if scene.stations:
+            station_out.create(group, scene, model, stats)
         name_run_dimensions(group)  # before SWMR: attaching a scale writes attributes
         self._open_datasets()
         self._start_watching()
@@ -181,6 +183,8 @@ class RunWriter:
         self.segment_results = g["progress/segment_results"]
         self.shot_totals = g.get("progress/shot_totals")  # runs with pair collisions
         self.shot_partials = g.get("progress/shot_partials")  # runs of several shots (tallies.ensemble)
+        order = g["stations"].attrs["order"] if "stations" in g else []
+        self.station_ends = np.cumsum([int(g[f"stations/{name}"].attrs["pellets"]) for name in order]).tolist()
 
     def _start_watching(self):
         out = _OPEN.get(self.group.file.filename)
@@ -303,6 +307,7 @@ class RunWriter:
                 self.chunk_rows[()] = rows
             if tally is not None:
                 tally_out.store_progress(self.group, tally, stop)
+                station_out.store_progress(self.group, tally, stop, self.station_ends)
             self.group.file.flush()
             self.progress_rows[()] = stop
             self.group.file.flush()
@@ -321,6 +326,8 @@ class RunWriter:
                 write_ensemble(self.group, stats.ensemble)
             if getattr(stats, "bound", None) is not None:
                 bound_out.write(self.group, stats.bound)
+            if getattr(stats, "stations", None) is not None:
+                station_out.write(self.group, stats)
             self.group.file.flush()
         except (OSError, RuntimeError) as exc:
             raise _write_failure(exc, self.group) from None

@@ -14,19 +14,22 @@ from ..physics.types import types_for
 from ..scene.vectors import scale_exponent, scaled, unit_vector
 from ..struct_refs import read_only
 from .sampling import make_sampler
+from .stations import make_station_aim, station_table
 
 ARRAYS = ("position", "velocity", "angular_velocity")
 
 
 @functools.cache
-def make_source(precision: str, from_file: bool, pattern: bool = False) -> SimpleNamespace:
+def make_source(precision: str, from_file: bool, pattern: bool = False, stations: bool = False) -> SimpleNamespace:
     """The `Source` struct and `launch_state` of one precision; `from_file`: states read from the
     struct's arrays (chunk-local rows), else sampled from the seed and the global index (`pattern`:
-    directions from the shot's pattern)."""
+    directions from the shot's pattern; `stations`: each shot's envelope centre and aim from its
+    station, `launch.stations`)."""
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
     sample_pellet = make_sampler(precision, pattern)
-    FROM_FILE = from_file
+    station_aim = make_station_aim(precision)
+    FROM_FILE, STATIONS = from_file, stations
 
     @wp.struct
     class Source:
@@ -43,6 +46,13 @@ def make_source(precision: str, from_file: bool, pattern: bool = False) -> Simpl
         position: wp.array(dtype=vec3)  # chunk-local explicit states (empty when sampling)
         velocity: wp.array(dtype=vec3)
         angular_velocity: wp.array(dtype=vec3)
+        count: wp.int32  # pellets per shot
+        station_first: wp.array(dtype=wp.int32)  # `launch.stations.station_table` (empty without stations)
+        station_position: wp.array(dtype=vec3)
+        station_azimuth: wp.array(dtype=wp.vec2d)
+        station_elevation: wp.array(dtype=wp.vec2d)
+        station_sigma: wp.array(dtype=wp.float64)
+        station_axes: wp.mat33d
 
     @wp.func
     def launch_state(source: Source, index: wp.int32, row: wp.int32):
@@ -55,17 +65,40 @@ def make_source(precision: str, from_file: bool, pattern: bool = False) -> Simpl
             velocity = source.velocity[row]
             spin = source.angular_velocity[row]
         else:
-            position, velocity, spin = sample_pellet(
-                source.seed,
-                index,
-                source.speed,
-                source.direction,
-                source.jitter,
-                source.envelope_center,
-                source.envelope_radius,
-                source.spin,
-                source.spread,
-            )
+            if wp.static(STATIONS):
+                _k, center, aim = station_aim(
+                    source.seed,
+                    index // source.count,
+                    source.station_first,
+                    source.station_position,
+                    source.station_azimuth,
+                    source.station_elevation,
+                    source.station_sigma,
+                    source.station_axes,
+                )
+                position, velocity, spin = sample_pellet(
+                    source.seed,
+                    index,
+                    source.speed,
+                    aim,
+                    source.jitter,
+                    center,
+                    source.envelope_radius,
+                    source.spin,
+                    source.spread,
+                )
+            else:
+                position, velocity, spin = sample_pellet(
+                    source.seed,
+                    index,
+                    source.speed,
+                    source.direction,
+                    source.jitter,
+                    source.envelope_center,
+                    source.envelope_radius,
+                    source.spin,
+                    source.spread,
+                )
         return position, velocity, spin
 
     read_only(Source)
@@ -81,7 +114,7 @@ class PelletSource:
         self.precision = precision
         shot = scene.shot
         t = types_for(precision)
-        struct = make_source(precision, self.from_file, shot.pattern is not None).Source()
+        struct = make_source(precision, self.from_file, shot.pattern is not None, bool(scene.stations)).Source()
         struct.seed = shot.seed
         struct.speed = t.scalar(shot.speed)
         # scaled together by a power of two (exact): the kernel forms |d|^2 of d = direction + jitter u
@@ -95,6 +128,12 @@ class PelletSource:
         struct.envelope_radius = t.scalar(shot.envelope_radius)
         struct.spin = t.vec3(*shot.spin)
         struct.spread = t.scalar(shot.pattern_spread or 0.0)
+        struct.count = shot.count
+        if scene.stations:  # a unit aim: the jitter as given (docs/scenes.md)
+            struct.jitter = t.vec3(*shot.direction_jitter)
+        self.stations = station_table(scene, precision, device)  # (kept alive with the struct)
+        for name, value in self.stations.items():
+            setattr(struct, name, value)
         rows = capacity if self.from_file else 0
         for name in ARRAYS:
             setattr(struct, name, wp.empty(rows, dtype=t.vec3, device=device))

@@ -28,6 +28,9 @@ from .hazard_tables import from_file, from_run, tally_lines
 from .paper import paper_row
 from .papercheck import differences, row_scene
 from .rest import not_finished_line, rest_block, rest_rows
+from .stations import rows_of_file as station_rows_of_file
+from .stations import rows_of_run as station_rows_of_run
+from .stations import station_block
 
 __all__ = ["ReportError", "Results", "read_results", "results_from_sweep", "format_tables", "format_run_summary"]
 
@@ -149,6 +152,7 @@ def _read_open_file(f, path, np) -> Results:
         meta["shots"] = int(shots_group.attrs.get("shots", 0)) if isinstance(shots_group, h5py.Group) else 0
         meta["tally"] = from_file(f)
         meta["bound"] = bound_out.read(f)  # [hazard.bound]: its outcome (None without)
+        meta["stations"] = station_rows_of_file(f)
         return Results(rows=[row], meta=meta)
     sweep = f["sweep"]  # (a group: io.inputcheck)
     params = _key_list(sweep.attrs.get("parameters"))
@@ -523,6 +527,8 @@ def format_tables(results: Results, fmt: str = "text", paper: bool = False) -> s
         blocks.append("\n".join(tally_lines(results.meta["tally"], results.rows[0].get("pellets", 0.0))))
     if results.meta.get("bound") is not None:
         blocks.append(BoundResult.of(results.meta["bound"]).summary())
+    if results.meta.get("stations"):
+        blocks.append(station_block(results.meta["stations"], fmt))
     return "\n\n".join(blocks) + "\n"
 
 
@@ -571,6 +577,8 @@ def format_run_summary(stats: dict, output=None, device=None, scene=None) -> str
     lines += tally_lines(from_run(stats, scene), stats.get("pellets", 0.0))
     if getattr(stats, "bound", None) is not None:  # [hazard.bound]: the pellets it took, the final interval
         lines += ["", stats.bound.summary()]
+    if getattr(stats, "stations", None):
+        lines += ["", station_block(station_rows_of_run(stats))]
     ensemble = getattr(stats, "ensemble", None)
     if ensemble is not None:
         intervals = {name: (ensemble.low[name], ensemble.high[name]) for name in ensemble.low}

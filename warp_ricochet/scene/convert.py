@@ -550,7 +550,17 @@ _OUTPUT = {
     "tail_distances": _distances,
     "compression": _str(tuple(COMPRESSIONS)),
 }
-_TOP = ("shot", "surfaces", "physics", "collisions", "air", "numerics", "output", "hazard")
+_TOP = (
+    "shot",
+    "surfaces",
+    "physics",
+    "collisions",
+    "air",
+    "numerics",
+    "output",
+    "hazard",
+    "stations",
+)  # stations: scene.stations
 # table -> its schema (the top level: the names of the tables)
 SCHEMAS = {
     "shot": _SHOT,

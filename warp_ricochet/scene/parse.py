@@ -38,6 +38,7 @@ from .schema import (
     Shot,
     Surface,
 )
+from .stations import check_stations, parse_stations
 from .terrain import TERRAIN_OPTIONAL, check_terrain
 from .triangles import load_mesh
 from .vectors import unit_vector
@@ -421,6 +422,10 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
             f"at most {MAX_PLANES_IN_AIR} with [air] (a flight in air tracks its planes in the bits of an int32)",
         )
     _check_meshes(planes, physics)
+    stations = parse_stations(raw.get("stations"))
+    if stations:
+        _check_station_run(shot, pairs, hazard)
+        check_stations(stations, shot, raw["shot"], planes, physics, hazard)
     return Scene(
         shot=shot,
         surfaces=planes,
@@ -430,7 +435,19 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
         collisions=collisions,
         air=air,
         hazard=hazard,
+        stations=stations,
     )
+
+
+def _check_station_run(shot: Shot, pairs: bool, hazard) -> None:
+    """What a station scene cannot be run with (yet): pellet-pellet collisions (the dense phase
+    samples each shot around shot.envelope_center) and a bounded run (its checks are shots)."""
+    if pairs:
+        raise err(
+            "collisions.enabled", True, "must be false with [[stations]] (the dense phase does not yet place shots at stations)"
+        )
+    if hazard is not None and hazard.bound is not None:
+        raise err("hazard.bound", "[hazard.bound]", "not allowed with [[stations]] (a bounded run's checks are not station ends)")
 
 
 def _check_meshes(surfaces: tuple, physics: Physics) -> None:

@@ -361,6 +361,7 @@ class Scene:
     collisions: Collisions = Collisions()
     air: Air | None = None
     hazard: Hazard | None = None
+    stations: tuple = ()  # scene.stations.Station: [[stations]] (empty: one shooter, shot.direction)
 
     @property
     def in_air(self) -> bool:
@@ -402,6 +403,9 @@ class Scene:
                 del out["hazard"]["points"]
             if not self.hazard.references:
                 del out["hazard"]["references"]
+        if self.stations:  # (each shot starts at its station: no envelope_center)
+            shot.pop("envelope_center", None)
+            out["stations"] = [plain(s) for s in self.stations]
         return out
 
     def to_toml(self) -> str:

@@ -30,6 +30,11 @@ KEY_UNITS = {
     "shot.speed": "m/s",
     "shot.direction_jitter": "1",
     "shot.pattern": "percent",  # of the charge in a 30-inch circle at 40 yards (scene.patterns)
+    "stations.*.position": "m",  # [[stations]] (scene.stations)
+    "stations.*.azimuth": "deg",
+    "stations.*.elevation": "deg",
+    "stations.*.aim_sigma": "deg",
+    "stations.*.weight": "1",
     "shot.envelope_radius": "m",
     "shot.envelope_center": "m",
     "shot.spin": "rad/s",
