@@ -239,3 +239,16 @@ def test_a_station_under_a_terrain_ground_is_refused():
         SceneError, match=r"^stations\.0\.position = \[10\.0, -50\.0, -1\.0\]: is 0\.8 m below the ground \(surfaces\.0"
     ):
         scene_from_dict(raw)
+
+
+def test_the_station_table_prints_lengths_in_the_chosen_units():
+    from warp_ricochet import display
+    from warp_ricochet.report.stations import station_block
+
+    rows = [("post 1", {"pellets": 10, "range_mean": 9.144, "range_max": 0.9144, "distance_p99": 91.44, "landing_mean_WT": 0.5})]
+    metric = station_block(rows)
+    with display.using("imperial"):
+        imperial = station_block(rows)
+    assert "L+ (m)" in metric and "9.144" in metric and "0.5" in metric
+    assert "L+ (yd)" in imperial and "10.000" in imperial and "1.000" in imperial and "100.0" in imperial
+    assert "(J)" in imperial and "0.500000" in imperial  # energies stay in joules

@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import math
 
-COLUMNS = (  # (header, statistic, decimals)
+from .. import display
+
+COLUMNS = (  # (header, statistic, decimals); headers in SI, printed in the chosen units (`display`)
     ("pellets", "pellets", 0),
     ("hits", "hits", 0),
     ("landed", "landed", 0),
@@ -14,6 +16,7 @@ COLUMNS = (  # (header, statistic, decimals)
     ("mean W_T at landing (J)", "landing_mean_WT", 6),
     ("distance P99 (m)", "distance_p99", 1),  # from the landing tallies: the bin's upper edge
 )
+UNITS = {"range_mean": "m", "range_max": "m", "distance_p99": "m"}
 P99 = 3  # LEVELS.index(0.99) (tallies.quantiles)
 
 
@@ -59,8 +62,10 @@ def station_block(rows, fmt: str = "text") -> str:
         value = float(value) if value is not None else math.nan
         return "n/a" if not math.isfinite(value) else f"{value:,.{decimals}f}"
 
-    body = [[name, *(cell(stats.get(key), d) for _h, key, d in COLUMNS)] for name, stats in rows]
-    headers = ["station", *(h for h, _k, _d in COLUMNS)]
+    body = [
+        [name, *(cell(display.value(stats.get(key), UNITS.get(key, "")), d) for _h, key, d in COLUMNS)] for name, stats in rows
+    ]
+    headers = ["station", *(display.header(h) for h, _k, _d in COLUMNS)]
     table = tabulate(body, headers, tablefmt="pipe" if fmt == "markdown" else "simple", disable_numparse=True)
     title = "Stations (each alone, then combined: the run's statistics above)"
     return f"**{title}**\n\n{table}" if fmt == "markdown" else f"{title}\n{table}"
