@@ -8,6 +8,9 @@ least and the sampling's share the largest, and with --air in sea-level air too.
 first (a small run, not timed); then the two alternate, `--repeats` times, and the median of each
 is reported with the device named.
 
+The third sampling adds [[stations]] (two, at the paper's launch point, aims drawn over 2 degrees of
+azimuth and elevation per shot: `launch.stations`) to the pattern, its pellets in two shots.
+
     python -m bench.patterns [--device cuda:0] [--pellets 1e8] [--precisions float32,float64] [--repeats 5] [--air]
 
 Figures: bench/RESULTS.md ("Shot patterns: sampling cost").
@@ -25,15 +28,32 @@ from bench.__main__ import SCENE, _wr, device_info
 SAMPLINGS = {
     "jitter (today)": (),
     "pattern (modified choke)": ("shot.direction_jitter=0", 'shot.choke="modified"'),
+    # two stations at the paper's launch point, aims within 1 degree of its direction, and the pattern
+    "stations + pattern": ("shot.direction_jitter=0", 'shot.choke="modified"', "STATIONS"),
 }
+STATIONS = [  # [[stations]] of the third sampling: the paper's envelope centre, 45 degrees down
+    {"name": name, "position": [0.0, 1.0, 0.0], "azimuth": [-1.0, 1.0], "elevation": [-46.0, -44.0]} for name in ("a", "b")
+]
 
 
 def scene(n: int, precision: str, sampling, air: bool):
     """The paper's scene with n pellets, statistics only, in `precision`, with `sampling`'s keys."""
-    from warp_ricochet.scene import load_scene
+    import tomllib
 
-    sets = [f"shot.count={n}", f'numerics.precision="{precision}"', "output.fields=[]", *sampling]
-    return load_scene(SCENE, [*sets, "air.density=1.225"] if air else sets)
+    from warp_ricochet.scene import scene_from_dict
+    from warp_ricochet.scene.overrides import apply_override
+
+    stations = "STATIONS" in sampling
+    count, shots = (n // 2, 2) if stations else (n, 1)  # a shot a station
+    sets = [f"shot.count={count}", f"shot.shots={shots}", f'numerics.precision="{precision}"', "output.fields=[]"]
+    sets += [s for s in sampling if s != "STATIONS"] + (["air.density=1.225"] if air else [])
+    raw = tomllib.loads(SCENE.read_text())
+    for assignment in sets:
+        raw = apply_override(raw, assignment)
+    if stations:  # a station's position replaces the envelope's centre
+        del raw["shot"]["envelope_center"]
+        raw["stations"] = STATIONS
+    return scene_from_dict(raw, SCENE.parent)
 
 
 def compare(device: str, n: int, precision: str, repeats: int, air: bool) -> dict:
@@ -52,8 +72,8 @@ def compare(device: str, n: int, precision: str, repeats: int, air: bool) -> dic
             times[name].append(time.perf_counter() - start)
             assert stats["pellets"] == n
     median = {name: float(np.median(t)) for name, t in times.items()}
-    today, pattern = median.values()
-    return {"precision": precision, "air": air, "N": n, **median, "pattern / today": pattern / today}
+    today = median[next(iter(median))]
+    return {"precision": precision, "air": air, "N": n, **median, **{f"{k} / today": v / today for k, v in median.items()}}
 
 
 def main(argv=None):
@@ -69,12 +89,18 @@ def main(argv=None):
     info = device_info(wp, device)
     print(f"device: {info['name']} ({info['device']}), Warp {info['warp']}, host {info['host']}, {info['cpu_count']} cores")
     names = list(SAMPLINGS)
-    print(f"| flight | precision | N | {names[0]}, s | {names[1]}, s | pattern / today |")
-    print("| --- | --- | ---: | ---: | ---: | ---: |")
+    print(
+        "| flight | precision | N | "
+        + " | ".join(f"{k}, s" for k in names)
+        + " | "
+        + " | ".join(f"{k} / today" for k in names[1:])
+        + " |"
+    )
+    print("| --- | --- | ---: |" + " ---: |" * (2 * len(names) - 1))
     for air in (False, True) if args.air else (False,):
         for precision in args.precisions.split(","):
             row = compare(device, int(args.pellets), precision, args.repeats, air)
-            cells = (f"{row[names[0]]:.4g}", f"{row[names[1]]:.4g}", f"{row['pattern / today']:.3f}")
+            cells = [f"{row[k]:.4g}" for k in names] + [f"{row[f'{k} / today']:.3f}" for k in names[1:]]
             print(f"| {'air' if air else 'vacuum'} | {precision} | {row['N']:.3g} | " + " | ".join(cells) + " |", flush=True)
 
 
