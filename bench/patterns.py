@@ -8,10 +8,11 @@ least and the sampling's share the largest, and with --air in sea-level air too.
 first (a small run, not timed); then the two alternate, `--repeats` times, and the median of each
 is reported with the device named.
 
-The third sampling adds [[stations]] (two, at the paper's launch point, aims drawn over 2 degrees of
-azimuth and elevation per shot: `launch.stations`) to the pattern, its pellets in two shots.
+With --per-shot every run is made of shots of SHOT pellets (with their per-shot statistics, as a
+range study's), and a third sampling adds [[stations]] (two, at the paper's launch point, aims drawn
+over 2 degrees of azimuth and elevation per shot: `launch.stations`) to the pattern.
 
-    python -m bench.patterns [--device cuda:0] [--pellets 1e8] [--precisions float32,float64] [--repeats 5] [--air]
+    python -m bench.patterns [--device cuda:0] [--pellets 1e8] [--precisions float32,float64] [--repeats 5] [--air] [--per-shot]
 
 Figures: bench/RESULTS.md ("Shot patterns: sampling cost").
 """
@@ -31,20 +32,22 @@ SAMPLINGS = {
     # two stations at the paper's launch point, aims within 1 degree of its direction, and the pattern
     "stations + pattern": ("shot.direction_jitter=0", 'shot.choke="modified"', "STATIONS"),
 }
+SHOT = 500  # pellets a shot of the --per-shot runs (stations need shots: a station fires whole shots)
 STATIONS = [  # [[stations]] of the third sampling: the paper's envelope centre, 45 degrees down
     {"name": name, "position": [0.0, 1.0, 0.0], "azimuth": [-1.0, 1.0], "elevation": [-46.0, -44.0]} for name in ("a", "b")
 ]
 
 
-def scene(n: int, precision: str, sampling, air: bool):
-    """The paper's scene with n pellets, statistics only, in `precision`, with `sampling`'s keys."""
+def scene(n: int, precision: str, sampling, air: bool, per_shot: bool = False):
+    """The paper's scene with n pellets, statistics only, in `precision`, with `sampling`'s keys; as
+    one shot, or (`per_shot`) as shots of SHOT pellets with their per-shot statistics."""
     import tomllib
 
     from warp_ricochet.scene import scene_from_dict
     from warp_ricochet.scene.overrides import apply_override
 
     stations = "STATIONS" in sampling
-    count, shots = (n // 2, 2) if stations else (n, 1)  # a shot a station
+    count, shots = (SHOT, max(2, n // SHOT)) if per_shot else (n, 1)
     sets = [f"shot.count={count}", f"shot.shots={shots}", f'numerics.precision="{precision}"', "output.fields=[]"]
     sets += [s for s in sampling if s != "STATIONS"] + (["air.density=1.225"] if air else [])
     raw = tomllib.loads(SCENE.read_text())
@@ -56,12 +59,13 @@ def scene(n: int, precision: str, sampling, air: bool):
     return scene_from_dict(raw, SCENE.parent)
 
 
-def compare(device: str, n: int, precision: str, repeats: int, air: bool) -> dict:
+def compare(device: str, n: int, precision: str, repeats: int, air: bool, per_shot: bool) -> dict:
     """Median seconds of each sampling's run (alternating, after a compile run) and their ratio."""
     wr, wp = _wr()
-    scenes = {name: scene(n, precision, keys, air) for name, keys in SAMPLINGS.items()}
-    for keys in SAMPLINGS.values():
-        wr.run(scene(1000, precision, keys, air), device=device)  # compile
+    samplings = {k: v for k, v in SAMPLINGS.items() if per_shot or "STATIONS" not in v}
+    scenes = {name: scene(n, precision, keys, air, per_shot) for name, keys in samplings.items()}
+    for keys in samplings.values():
+        wr.run(scene(1000, precision, keys, air, per_shot), device=device)  # compile
     times = {name: [] for name in scenes}
     for _ in range(repeats):
         for name, s in scenes.items():
@@ -70,7 +74,7 @@ def compare(device: str, n: int, precision: str, repeats: int, air: bool) -> dic
             stats = wr.run(s, device=device)
             wp.synchronize_device(device)
             times[name].append(time.perf_counter() - start)
-            assert stats["pellets"] == n
+            assert stats["pellets"] == (n if not per_shot else SHOT * max(2, n // SHOT))
     median = {name: float(np.median(t)) for name, t in times.items()}
     today = median[next(iter(median))]
     return {"precision": precision, "air": air, "N": n, **median, **{f"{k} / today": v / today for k, v in median.items()}}
@@ -83,12 +87,13 @@ def main(argv=None):
     parser.add_argument("--precisions", default="float32,float64")
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--air", action="store_true", help="in sea-level air too")
+    parser.add_argument("--per-shot", action="store_true", help=f"shots of {SHOT} pellets (per-shot statistics), and stations")
     args = parser.parse_args(argv)
     _, wp = _wr()
     device = args.device or ("cuda:0" if wp.is_cuda_available() else "cpu")
     info = device_info(wp, device)
     print(f"device: {info['name']} ({info['device']}), Warp {info['warp']}, host {info['host']}, {info['cpu_count']} cores")
-    names = list(SAMPLINGS)
+    names = [k for k, v in SAMPLINGS.items() if args.per_shot or "STATIONS" not in v]
     print(
         "| flight | precision | N | "
         + " | ".join(f"{k}, s" for k in names)
@@ -99,7 +104,7 @@ def main(argv=None):
     print("| --- | --- | ---: |" + " ---: |" * (2 * len(names) - 1))
     for air in (False, True) if args.air else (False,):
         for precision in args.precisions.split(","):
-            row = compare(device, int(args.pellets), precision, args.repeats, air)
+            row = compare(device, int(args.pellets), precision, args.repeats, air, args.per_shot)
             cells = [f"{row[k]:.4g}" for k in names] + [f"{row[f'{k} / today']:.3f}" for k in names[1:]]
             print(f"| {'air' if air else 'vacuum'} | {precision} | {row['N']:.3g} | " + " | ".join(cells) + " |", flush=True)
 
