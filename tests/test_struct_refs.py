@@ -74,8 +74,9 @@ def test_registered_structs_are_passed_by_reference():
 
     t = types_for("float32")
     structs = (t.Surfaces, t.Physics, make_landing_tally("float32").Tally, make_source("float32", False).Source)
-    assert all(struct_refs.by_reference(s) for s in structs)
-    assert not struct_refs.by_reference(t.Air)
+    assert all(struct_refs.by_reference(s, "cuda") for s in structs)
+    assert not struct_refs.by_reference(t.Air, "cuda")
+    assert not any(struct_refs.by_reference(s, "cpu") for s in structs)
     if not struct_refs.enabled():
         pytest.skip("WARP_RICOCHET_STRUCT_REFS=0")
     assert struct_refs.install()  # warp 1.19's line is found
@@ -102,9 +103,9 @@ def test_a_function_reads_a_struct_by_reference_and_changes_nothing():
     out = wp.zeros(2, dtype=wp.float64, device="cpu")
     wp.launch(distances, dim=2, inputs=[tally, wp.array(x, dtype=wp.vec3d, device="cpu"), out], device="cpu")
     assert out.numpy().tolist() == [5.0, 0.0]
-    if struct_refs.install():  # the function is generated with its Tally by reference
+    if struct_refs.install():  # CUDA code takes its Tally by reference, CPU code by value
         from warp._src.context import ModuleBuilder
 
         module = distances.module
-        source = ModuleBuilder(module, module.options).codegen("cpu")
-        assert re.search(r"Tally_\w+& var_tally", source)
+        assert re.search(r"Tally_\w+& var_tally", ModuleBuilder(module, module.options).codegen("cuda"))
+        assert re.search(r"Tally_\w+ var_tally", ModuleBuilder(module, module.options).codegen("cpu"))

@@ -4,8 +4,8 @@ Warp 1.19 declares a struct argument of a `@wp.func` by value (NVIDIA/warp issue
 call of a function that takes the landing `Tally` (about 800 bytes), `Surfaces`, `Physics` or
 `Source` copies the whole struct, on CUDA through local memory. `read_only(struct)` registers
 such a struct and `install()` rewrites the one line of warp's `codegen_func` that declares a
-function's arguments, so that an argument of a registered type is declared `T& var`: the same
-values, read in place. This is only sound for structs that no function writes:
+function's arguments, so that in CUDA code an argument of a registered type is declared `T& var`:
+the same values, read in place (CPU code keeps the copies: `by_reference`). This is only sound for structs that no function writes:
 tests/test_struct_refs.py checks every `@wp.func` of the package for an assignment to a field of
 such an argument. Kernels' arguments are not affected (they are declared elsewhere).
 
@@ -34,9 +34,11 @@ def enabled() -> bool:
     return os.environ.get("WARP_RICOCHET_STRUCT_REFS", "1") != "0"
 
 
-def by_reference(struct_type) -> bool:
-    """Whether a function argument of `struct_type` is declared by reference."""
-    return id(struct_type) in _REGISTERED
+def by_reference(struct_type, device: str = "cuda") -> bool:
+    """Whether a function argument of `struct_type` is declared by reference in code for `device`
+    ("cpu" or "cuda"): registered structs in CUDA code only. On the CPU the references made clang
+    compile the core kernel about 35% slower (11.8 -> 16.4 s) for no measured gain (bench/RESULTS.md)."""
+    return device == "cuda" and id(struct_type) in _REGISTERED
 
 
 def read_only(struct_type):
