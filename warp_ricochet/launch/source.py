@@ -14,7 +14,7 @@ from ..physics.types import types_for
 from ..scene.vectors import scale_exponent, scaled, unit_vector
 from ..struct_refs import read_only
 from .sampling import make_sampler
-from .stations import make_station_aim, station_table
+from .stations import launch_shot_aims, station_table
 
 ARRAYS = ("position", "velocity", "angular_velocity")
 
@@ -28,7 +28,6 @@ def make_source(precision: str, from_file: bool, pattern: bool = False, stations
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
     sample_pellet = make_sampler(precision, pattern)
-    station_aim = make_station_aim(precision)
     FROM_FILE, STATIONS = from_file, stations
 
     @wp.struct
@@ -47,12 +46,9 @@ def make_source(precision: str, from_file: bool, pattern: bool = False, stations
         velocity: wp.array(dtype=vec3)
         angular_velocity: wp.array(dtype=vec3)
         count: wp.int32  # pellets per shot
-        station_first: wp.array(dtype=wp.int32)  # `launch.stations.station_table` (empty without stations)
-        station_position: wp.array(dtype=vec3)
-        station_azimuth: wp.array(dtype=wp.vec2d)
-        station_elevation: wp.array(dtype=wp.vec2d)
-        station_sigma: wp.array(dtype=wp.float64)
-        station_axes: wp.mat33d
+        shot_first: wp.int32  # with stations: the first shot of the chunk (`PelletSource.load`)
+        shot_center: wp.array(dtype=vec3)  # m: its shots' stations' positions, from shot_first on
+        shot_aim: wp.array(dtype=vec3)  # their unit aims (launch.stations; empty without stations)
 
     @wp.func
     def launch_state(source: Source, index: wp.int32, row: wp.int32):
@@ -66,16 +62,8 @@ def make_source(precision: str, from_file: bool, pattern: bool = False, stations
             spin = source.angular_velocity[row]
         else:
             if wp.static(STATIONS):
-                _k, center, aim = station_aim(
-                    source.seed,
-                    index // source.count,
-                    source.station_first,
-                    source.station_position,
-                    source.station_azimuth,
-                    source.station_elevation,
-                    source.station_sigma,
-                    source.station_axes,
-                )
+                shot = index // source.count - source.shot_first
+                center, aim = source.shot_center[shot], source.shot_aim[shot]
                 position, velocity, spin = sample_pellet(
                     source.seed,
                     index,
@@ -131,9 +119,11 @@ class PelletSource:
         struct.count = shot.count
         if scene.stations:  # a unit aim: the jitter as given (docs/scenes.md)
             struct.jitter = t.vec3(*shot.direction_jitter)
-        self.stations = station_table(scene, precision, device)  # (kept alive with the struct)
-        for name, value in self.stations.items():
-            setattr(struct, name, value)
+        self.stations = station_table(scene, precision, device) if scene.stations else None
+        shots = capacity // max(shot.count, 1) + 2 if scene.stations else 0  # a chunk's shots, at most
+        struct.shot_center = wp.empty(shots, dtype=t.vec3, device=device)
+        struct.shot_aim = wp.empty(shots, dtype=t.vec3, device=device)
+        self.device = device
         rows = capacity if self.from_file else 0
         for name in ARRAYS:
             setattr(struct, name, wp.empty(rows, dtype=t.vec3, device=device))
@@ -144,7 +134,14 @@ class PelletSource:
         return self.arrays is not None
 
     def load(self, start: int, rows: int) -> None:
-        """Copy the pellet file's rows [start, start + rows) to the device (no-op when sampling)."""
+        """Ready the launch of pellets [start, start + rows): with stations, the aims of their shots
+        (`launch.stations.shot_aims`, once a shot instead of once a pellet); from a pellet file, copy
+        its rows to the device; else nothing."""
+        if self.stations is not None and rows > 0:
+            count = self.struct.count
+            first, last = start // count, (start + rows - 1) // count
+            self.struct.shot_first = first
+            launch_shot_aims(self.stations, self.struct, first, last - first + 1, self.precision, self.device)
         if not self.from_file:
             return
         dtype = np.dtype(self.precision)

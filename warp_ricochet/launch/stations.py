@@ -85,6 +85,47 @@ def make_station_aim(precision: str):
     return station_aim
 
 
+@functools.cache
+def make_shot_aims(precision: str):
+    """The kernel that writes shots [first_shot, first_shot + n)'s station positions and unit aims
+    (`station_aim`), one thread a shot."""
+    t = types_for(precision)
+    vec3, station_aim = t.vec3, make_station_aim(precision)
+
+    @wp.kernel
+    def shot_aims(
+        seed: wp.int32,
+        first_shot: wp.int32,
+        first_in: wp.array(dtype=wp.int32),
+        position_in: wp.array(dtype=vec3),
+        azimuth_in: wp.array(dtype=wp.vec2d),
+        elevation_in: wp.array(dtype=wp.vec2d),
+        sigma_in: wp.array(dtype=wp.float64),
+        axes: wp.mat33d,
+        center_out: wp.array(dtype=vec3),
+        aim_out: wp.array(dtype=vec3),
+    ):
+        j = wp.tid()
+        _k, center, aim = station_aim(seed, first_shot + j, first_in, position_in, azimuth_in, elevation_in, sigma_in, axes)
+        center_out[j] = center
+        aim_out[j] = aim
+
+    return shot_aims
+
+
+def launch_shot_aims(table: dict, source, first: int, shots: int, precision: str, device) -> None:
+    """Fill `source.shot_center` and `source.shot_aim` with the `shots` shots from `first` on (no
+    host sync: queued before the chunk's kernels on the device's stream)."""
+    inputs = [table[k] for k in ("station_first", "station_position", "station_azimuth", "station_elevation", "station_sigma")]
+    wp.launch(
+        make_shot_aims(precision),
+        dim=shots,
+        inputs=[source.seed, first, *inputs, table["station_axes"]],
+        outputs=[source.shot_center, source.shot_aim],
+        device=device,
+    )
+
+
 def station_table(scene, precision: str, device) -> dict:
     """The device arrays and frame `station_aim` reads (empty arrays for a scene without stations)."""
     t = types_for(precision)
