@@ -252,3 +252,16 @@ def test_the_station_table_prints_lengths_in_the_chosen_units():
     assert "L+ (m)" in metric and "9.144" in metric and "0.5" in metric
     assert "L+ (yd)" in imperial and "10.000" in imperial and "1.000" in imperial and "100.0" in imperial
     assert "(J)" in imperial and "0.500000" in imperial  # energies stay in joules
+
+
+def test_the_html_report_lists_the_stations(tmp_path):
+    """The report says the shots leave from the stations (not from shot.direction) and lists them."""
+    from warp_ricochet.report.html import write_html
+
+    scene = wr.load_scene(ROOT / "examples" / "trap_field.toml", ["shot.count=20", "shot.shots=5", "output.fields=[]"])
+    wr.run(scene, tmp_path / "t.h5", device="cpu")
+    write_html(tmp_path / "t.h5", tmp_path / "t.html")
+    text = (tmp_path / "t.html").read_text()
+    assert "from 5 stations (below), each shot aimed within its station" in text
+    assert text.count("-30 to 30 (60 wide)") == 5 and text.count("3 to 15 (12 wide)") == 5
+    assert "0 degrees above level" not in text

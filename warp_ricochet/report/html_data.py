@@ -111,6 +111,13 @@ def scene_words(f, scene: dict, stats: dict) -> dict:
             f"from {_height(scene, centre)} (envelope radius {_short(shot.get('envelope_radius', 0), 'in')}, "
             f"{spread})"
         )
+        if scene.get("stations"):  # each shot from its station, aimed over its arc (scene.stations)
+            out["launch"] = (
+                f"at {fmt(display.value(shot.get('speed'), 'm/s'))} {display.unit('m/s')} from "
+                f"{len(scene['stations'])} stations (below), each shot aimed within its station's arc of fire "
+                f"(envelope radius {_short(shot.get('envelope_radius', 0), 'in')}, {spread})"
+            )
+            out["stations"] = [_station_row(scene, st) for st in scene["stations"]]
     else:
         out["launch"] = "as given in the pellet file"
     out["surfaces"] = _surfaces(f, scene)
@@ -134,6 +141,26 @@ def scene_words(f, scene: dict, stats: dict) -> dict:
     collisions = scene.get("collisions", {})
     out["collisions"] = "simulated" if collisions.get("enabled") else "not simulated (pellets pass through each other)"
     return out
+
+
+def _station_row(scene: dict, station: dict) -> dict:
+    """A [[stations]] entry in words: its height above the first surface, arcs (deg), aim, weight."""
+
+    def arc(value):
+        lo, hi = (value, value) if np.isscalar(value) else value
+        return f"{fmt(lo)}" if lo == hi else f"{fmt(lo)} to {fmt(hi)} ({fmt(hi - lo)} wide)"
+
+    aim = station.get("aim", "uniform")
+    if aim == "normal":
+        aim = f"normal, sigma {fmt(station.get('aim_sigma'))} deg"
+    return {
+        "name": station.get("name", ""),
+        "height": _height(scene, np.asarray(station.get("position", (0, 0, 0)), dtype=np.float64)),
+        "azimuth": arc(station.get("azimuth", 0.0)),
+        "elevation": arc(station.get("elevation", 0.0)),
+        "aim": aim,
+        "weight": fmt(station.get("weight", 1.0)),
+    }
 
 
 def _height(scene: dict, centre) -> str:
