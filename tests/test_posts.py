@@ -296,7 +296,7 @@ def test_posts_refuse_what_they_do_not_model_yet():
 
 def test_the_command_line_refuses_a_flat_post_and_runs_and_reports_a_good_one(tmp_path):
     """A post of zero radius: one line, exit status 2, no output; a good one runs, its shape kept
-    in /constants/surfaces (diameter twice, length) and named in the report."""
+    in /constants/surfaces (diameter twice, length), named in the HTML report's surfaces and limits."""
     from warp_ricochet.report.html_data import _shape
     from warp_ricochet.scene.toml_out import toml_lines
 
@@ -313,3 +313,6 @@ def test_the_command_line_refuses_a_flat_post_and_runs_and_reports_a_good_one(tm
         assert kinds[f["constants/surfaces/kind"][1]] == "cylinder"
         np.testing.assert_array_equal(f["constants/surfaces/size"][1], [0.2, 0.2, 2.0])
     assert _shape(POST) == "post (cylinder) of radius 0.1 m and length 2 m, closed by its caps"
+    rc, _out, err = cli(["report", out, "--html", tmp_path / "report.html"])
+    page = (tmp_path / "report.html").read_text()
+    assert rc == 0 and _shape(POST) in page and "posts (closed cylinders" in page, err
