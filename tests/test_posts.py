@@ -316,3 +316,47 @@ def test_the_command_line_refuses_a_flat_post_and_runs_and_reports_a_good_one(tm
     rc, _out, err = cli(["report", out, "--html", tmp_path / "report.html"])
     page = (tmp_path / "report.html").read_text()
     assert rc == 0 and _shape(POST) in page and "posts (closed cylinders" in page, err
+
+
+def _post_shots(rng, count, post):
+    """(x0, v0) of pellets whose centres, unhindered, reach points of a post 0.05 s later: half
+    random points inside it from all round, half exactly on its rims, side and caps with velocities
+    there pointing into it."""
+    from bench.meshes import aimed
+
+    p, a, r, length = _frame(post)
+    u = np.cross(a, [1.0, 0.0, 0.0])
+    u /= np.linalg.norm(u)
+    w = np.cross(a, u)
+    n = count // 2
+    angle = rng.uniform(0, 2 * np.pi, count)
+    radial = np.outer(np.cos(angle), u) + np.outer(np.sin(angle), w)
+    spot = np.r_[r * np.sqrt(rng.uniform(0, 1, n)), rng.choice([r, r, -1.0], count - n)]  # -1: on a cap
+    z = np.r_[rng.uniform(0, length, n), rng.choice([0.0, length, -1.0], count - n)]  # -1: on the side
+    on_cap, on_side = spot < 0, z < 0
+    spot[on_cap] = r * np.sqrt(rng.uniform(0, 1, on_cap.sum()))
+    z[on_side] = rng.uniform(0, length, on_side.sum())
+    targets = p + spot[:, None] * radial + np.outer(z, a)
+    inward = rng.normal(size=(count, 3))
+    rim = np.arange(count) >= n
+    cap_sign = np.where(z == length, -1.0, np.where(z == 0.0, 1.0, 0.0))  # into the post across a cap
+    side_in = np.where(spot == r, -1.0, 0.0)  # across the side
+    along = np.abs(rng.normal(size=count)) * cap_sign + np.where(cap_sign == 0, 0.3 * rng.normal(size=count), 0.0)
+    across = np.abs(rng.normal(size=count)) * side_in + np.where(side_in == 0, 0.3 * rng.normal(size=count), 0.0)
+    inward[rim] = (np.outer(along, a) + across[:, None] * radial + 0.3 * np.cross(a, radial) * rng.normal(size=(count, 1)))[rim]
+    v = 50.0 * inward / np.linalg.norm(inward, axis=1)[:, None] - GRAVITY * 0.05
+    return aimed(targets, v), v
+
+
+@pytest.mark.parametrize("precision", PRECISIONS)
+def test_no_pellet_fired_at_a_post_ends_inside(tmp_path, precision):
+    """20,000 pellets fired at a tilted post from all round, half of them exactly at its rims, side
+    and caps: all meet it, none with its centre inside it at the impact or the landing after it."""
+    post = _post((0.3, -0.2, 1.5), np.array([0.2, 0.1, 1.0]) / np.linalg.norm([0.2, 0.1, 1.0]), radius=0.2, length=0.8)
+    x, v = _post_shots(np.random.default_rng(31), 20000, post)
+    first, at, _after, landing = _run(tmp_path, x, v, [post], precision)
+    slack = 1e-9 if precision == "float64" else 1e-5
+    assert (first == 0).all(), np.flatnonzero(first != 0)[:10]
+    assert not _inside(post, at, slack).any()
+    landed = ~np.isnan(landing).any(axis=1)
+    assert not _inside(post, landing[landed], slack).any()

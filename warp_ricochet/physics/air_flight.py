@@ -210,8 +210,9 @@ def make_solid_search(precision: str) -> SimpleNamespace:
             return best
         r, length, axis = surfaces.half_u[k], surfaces.half_v[k], surfaces.normal[k]
         d0, e0, d1, e1 = h * v0, h * h * a0, h * v1, h * h * a1
-        best = posts.side_theta(surfaces, k, r + radius, x0, d0, e0, x1, d1, e1)
-        best = wp.min(best, posts.side_theta(surfaces, k, r, x0, d0, e0, x1, d1, e1))
+        slack = posts.slack(surfaces, k, x0)
+        best = posts.side_theta(surfaces, k, r + radius, slack, x0, d0, e0, x1, d1, e1)
+        best = wp.min(best, posts.side_theta(surfaces, k, r, slack, x0, d0, e0, x1, d1, e1))
         for j in range(2):
             n = axis
             level = wp.dot(surfaces.point[k], axis) + length
@@ -225,7 +226,7 @@ def make_solid_search(precision: str) -> SimpleNamespace:
                     cap = through
                 if cap < best:
                     x, _slope = hermite_vec(cap, x0, d0, e0, x1, d1, e1)
-                    if posts.on_cap(surfaces, k, x):
+                    if posts.on_cap(surfaces, k, x, slack):
                         best = cap
         return best
 

@@ -32,7 +32,7 @@ import warp as wp
 
 from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT, ROUNDING, make_ballistic
 from .integrate import make_dense_output
-from .mesh_contact import make_mesh_contact
+from .mesh_contact import EDGE_ROUNDING, make_mesh_contact
 from .types import KINDS, types_for
 
 SIDE_SAMPLES = 16  # equal parts of an air step searched for the side's crossing
@@ -52,7 +52,7 @@ def _post_shape(precision: str) -> SimpleNamespace:
     t = types_for(precision)
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
     ZERO, HALF, ONE = scalar(0.0), scalar(0.5), scalar(1.0)
-    POST = KINDS["cylinder"]
+    POST, EDGE, l1 = KINDS["cylinder"], scalar(EDGE_ROUNDING * EPSILON[precision]), make_mesh_contact(precision).l1
 
     @wp.func
     def is_post(surfaces: Surfaces, k: wp.int32):
@@ -65,9 +65,9 @@ def _post_shape(precision: str) -> SimpleNamespace:
         return d - wp.dot(d, a) * a
 
     @wp.func
-    def along(z: scalar, length: scalar):
-        """Whether an axial coordinate lies on the post's length."""
-        return z >= ZERO and z <= length
+    def along(z: scalar, length: scalar, slack: scalar):
+        """Whether an axial coordinate lies on the post's length (inclusive within `slack`, m)."""
+        return z >= -slack and z <= length + slack
 
     @wp.func
     def post_normal(surfaces: Surfaces, k: wp.int32, x: vec3):
@@ -99,11 +99,20 @@ def _post_shape(precision: str) -> SimpleNamespace:
         return centre - e, centre + e
 
     @wp.func
-    def on_cap(surfaces: Surfaces, k: wp.int32, x: vec3):
-        """Whether x projected along post k's axis lies on its caps (rho <= r)."""
-        return wp.length(across(x - surfaces.point[k], surfaces.normal[k])) <= surfaces.half_u[k]
+    def on_cap(surfaces: Surfaces, k: wp.int32, x: vec3, slack: scalar):
+        """Whether x projected along post k's axis lies on its caps (rho <= r + slack)."""
+        return wp.length(across(x - surfaces.point[k], surfaces.normal[k])) <= surfaces.half_u[k] + slack
 
-    return SimpleNamespace(is_post=is_post, across=across, along=along, post_normal=post_normal, post_box=post_box, on_cap=on_cap)
+    @wp.func
+    def slack(surfaces: Surfaces, k: wp.int32, x: vec3):
+        """The rounding allowed the inside tests of post k near a flight from x (m): EDGE_ROUNDING
+        eps (|x - p|_1 + |p|_1 + L + r), the scale of the contact's coordinates and their sums."""
+        p = surfaces.point[k]
+        return EDGE * (l1(x - p) + l1(p) + surfaces.half_v[k] + surfaces.half_u[k])
+
+    return SimpleNamespace(
+        is_post=is_post, across=across, along=along, post_normal=post_normal, post_box=post_box, on_cap=on_cap, slack=slack
+    )
 
 
 @functools.cache
@@ -139,24 +148,36 @@ def _post_vacuum(precision: str) -> SimpleNamespace:
         return hi
 
     @wp.func
-    def entering(lo: scalar, hi: scalar, A: vec3, B: vec3, C: vec3, ss: scalar, z0: scalar, w: scalar, q: scalar, length: scalar):
+    def entering(
+        lo: scalar,
+        hi: scalar,
+        A: vec3,
+        B: vec3,
+        C: vec3,
+        ss: scalar,
+        z0: scalar,
+        w: scalar,
+        q: scalar,
+        length: scalar,
+        slack: scalar,
+    ):
         """On a piece [lo, hi] where f is monotone: its root if f falls through 0 there with z on
         the length, else NO_CONTACT."""
         if hi > lo and side_value(lo, 0, ONE, A, B, C, ss) > ZERO and side_value(hi, 0, ONE, A, B, C, ss) <= ZERO:
             root = bisect(lo, hi, 0, ONE, A, B, C, ss)
-            if along(z0 + root * (w + root * q), length):
+            if along(z0 + root * (w + root * q), length, slack):
                 return root
         return scalar(NO_CONTACT)
 
     @wp.func
-    def side_time(d0: vec3, v: vec3, g: vec3, a: vec3, s: scalar, inner: scalar, length: scalar):
+    def side_time(d0: vec3, v: vec3, g: vec3, a: vec3, s: scalar, inner: scalar, length: scalar, slack: scalar):
         """First t >= 0 where the centre (d0 from the base, velocity v, gravity g) closes to s of
         the axis a with z on the length (met at once where rho in [inner, s], closing), or NO_CONTACT."""
         A, B, C = across(d0, a), across(v, a), HALF * across(g, a)
         z0, w, q = wp.dot(d0, a), wp.dot(v, a), HALF * wp.dot(g, a)
         ss = s * s
         f0, ab = wp.dot(A, A) - ss, wp.dot(A, B)
-        if f0 <= ZERO and ab < ZERO and along(z0, length) and wp.dot(A, A) >= inner * inner:
+        if f0 <= ZERO and ab < ZERO and along(z0, length, slack) and wp.dot(A, A) >= inner * inner:
             return ZERO  # touching or overlapping the side, closing
         if l1(C) <= TOLERANCE * l1(g):  # gravity along the axis: a straight line across it
             if f0 > ZERO and ab < ZERO:
@@ -165,7 +186,7 @@ def _post_vacuum(precision: str) -> SimpleNamespace:
                 room = (s - wp.length(miss)) * (s + wp.length(miss))
                 if room >= ZERO:
                     root = wp.max(ZERO, closest - wp.sqrt(room / wp.dot(B, B)))
-                    if along(z0 + root * (w + root * q), length):
+                    if along(z0 + root * (w + root * q), length, slack):
                         return root
             return scalar(NO_CONTACT)
         c, b, a0 = wp.length(C), wp.length(B), wp.length(A)
@@ -197,11 +218,11 @@ def _post_vacuum(precision: str) -> SimpleNamespace:
                     turn = bisect(piece, top, 1, ONE, A, B, C, ss)
                 if turn >= ZERO:
                     if found < ZERO:
-                        found = entering(lo, turn, A, B, C, ss, z0, w, q, length)
+                        found = entering(lo, turn, A, B, C, ss, z0, w, q, length, slack)
                     lo = turn
                 piece = top
         if found < ZERO:
-            found = entering(lo, end, A, B, C, ss, z0, w, q, length)
+            found = entering(lo, end, A, B, C, ss, z0, w, q, length, slack)
         return found
 
     @wp.func
@@ -218,8 +239,9 @@ def _post_vacuum(precision: str) -> SimpleNamespace:
         """When the parabola of eq. (36) first meets post k (module docstring), or NO_CONTACT."""
         p, a, r, length = surfaces.point[k], surfaces.normal[k], surfaces.half_u[k], surfaces.half_v[k]
         d = x - p
-        best = side_time(d, v, g, a, r + radius, r, length)
-        inner = side_time(d, v, g, a, r, r, length)
+        tolerance = shape.slack(surfaces, k, x)
+        best = side_time(d, v, g, a, r + radius, r, length, tolerance)
+        inner = side_time(d, v, g, a, r, r, length, tolerance)
         if inner >= ZERO and (best < ZERO or inner < best):
             best = inner
         z, w, q = wp.dot(d, a), wp.dot(v, a), HALF * wp.dot(g, a)
@@ -237,7 +259,7 @@ def _post_vacuum(precision: str) -> SimpleNamespace:
                 offset = ZERO
             cap = cap_time(sign * (z - base), sign * w, sign * q, offset, over)
             if cap >= ZERO and (best < ZERO or cap < best):
-                if wp.length(across(d + cap * (v + HALF * cap * g), a)) <= r:
+                if wp.length(across(d + cap * (v + HALF * cap * g), a)) <= r + tolerance:
                     best = cap
         if best > LATEST:
             best = scalar(NO_CONTACT)
@@ -306,14 +328,16 @@ def _post_air(precision: str) -> SimpleNamespace:
         return hi
 
     @wp.func
-    def side_theta(surfaces: Surfaces, k: wp.int32, s: scalar, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3):
+    def side_theta(
+        surfaces: Surfaces, k: wp.int32, s: scalar, slack: scalar, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3
+    ):
         """The first theta in [0, 1] on a step's Hermite where the centre closes to s of post k's
         axis with z on its length (met at once where rho in [r, s], closing), or 2."""
         p, a, r, length = surfaces.point[k], surfaces.normal[k], surfaces.half_u[k], surfaces.half_v[k]
         ss = s * s
         f_lo = hermite_side(ZERO, 0, ONE, p, a, ss, x0, d0, e0, x1, d1, e1)
         df_lo = hermite_side(ZERO, 1, ONE, p, a, ss, x0, d0, e0, x1, d1, e1)
-        if f_lo <= ZERO and df_lo < ZERO and along(wp.dot(x0 - p, a), length) and f_lo + ss >= r * r:
+        if f_lo <= ZERO and df_lo < ZERO and along(wp.dot(x0 - p, a), length, slack) and f_lo + ss >= r * r:
             return ZERO
         best = TWO
         lo = ZERO
@@ -331,7 +355,7 @@ def _post_air(precision: str) -> SimpleNamespace:
                         root = hermite_bisect(lo, bottom, 0, ONE, p, a, ss, x0, d0, e0, x1, d1, e1)
                 if root <= ONE:
                     x, _dx = hermite_vec(root, x0, d0, e0, x1, d1, e1)
-                    if along(wp.dot(x - p, a), length):
+                    if along(wp.dot(x - p, a), length, slack):
                         best = root
                 lo = hi
                 f_lo = f_hi
