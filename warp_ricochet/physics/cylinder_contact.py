@@ -10,6 +10,8 @@ it where, first:
 - at the latest, the centre itself reaches the side (rho = r, z in [0, L]) or a cap (height 0,
   rho <= r): a sphere passing the rim with its centre beyond it, within R of the rim, flies by
   (edges are no contacts, as on plates), but its centre never passes into the post.
+"On the length" and "over a cap" are inclusive within `slack` (EDGE_ROUNDING eps of the coordinates'
+scale), so that a centre crossing exactly at a rim is on both faces.
 Vacuum (`post_time`): on the parabola of eq. (36), rho^2 - s^2 (s = r + R or r) is a quartic in t
 whose t^4 and t^3 terms vanish when gravity is along the axis (a vertical post): then a quadratic,
 solved in closed form (one entering root, from the closest approach: t_c - sqrt((s^2 - m^2) / |B|^2)
