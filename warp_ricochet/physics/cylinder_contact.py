@@ -17,8 +17,8 @@ whose t^4 and t^3 terms vanish when gravity is along the axis (a vertical post):
 solved in closed form (one entering root, from the closest approach: t_c - sqrt((s^2 - m^2) / |B|^2)
 with m = |A + B t_c| formed as a vector, so that it keeps eps |x| at a post far from the centre). Otherwise its roots are isolated exactly: the quadratic
 second derivative's roots split [0, T] into pieces where the cubic derivative is monotone, whose
-roots (bisected) split it into pieces where the quartic is monotone, each holding at most one
-entering root (bisected to rounding of t); T bounds every root (|P(t)| >= |C| t^2 - |B| t - |A|).
+roots (bracketed, Illinois) split it into pieces where the quartic is monotone, each holding at
+most one entering root (found, bracketed, to rounding of t); T bounds every root (|P(t)| >= |C| t^2 - |B| t - |A|).
 Caps: the plane's quadratic (`ballistic.entry_time`, `mesh_contact.descending`).
 Air (`side_theta`, with the caps as faces in `physics.air_flight`): rho^2 - s^2 on the step's
 quintic Hermite, sampled at SIDE_SAMPLES equal parts: a part whose end is inside, or whose slope
@@ -139,14 +139,29 @@ def _post_vacuum(precision: str) -> SimpleNamespace:
     @wp.func
     def bisect(lo: scalar, hi: scalar, slope: wp.int32, sign: scalar, A: vec3, B: vec3, C: vec3, ss: scalar):
         """Where sign f (or sign f') falls from > 0 at lo to <= 0 at hi: hi once the bracket is
-        within rounding of t."""
+        within rounding of t (Illinois: regula falsi halving a stuck end's value, a midpoint where
+        the secant leaves the bracket; as `air_flight.make_roots`)."""
+        f_lo = side_value(lo, slope, sign, A, B, C, ss)
+        f_hi = side_value(hi, slope, sign, A, B, C, ss)
+        stuck = wp.int32(0)
         for _ in range(ITERATIONS):
             if hi - lo > RESOLUTION * hi:
-                mid = HALF * (lo + hi)
-                if side_value(mid, slope, sign, A, B, C, ss) > ZERO:
+                mid = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
+                if not (mid > lo and mid < hi):
+                    mid = HALF * (lo + hi)
+                f_mid = side_value(mid, slope, sign, A, B, C, ss)
+                if f_mid > ZERO:
                     lo = mid
+                    f_lo = f_mid
+                    if stuck == 1:
+                        f_hi = HALF * f_hi
+                    stuck = wp.int32(1)
                 else:
                     hi = mid
+                    f_hi = f_mid
+                    if stuck == -1:
+                        f_lo = HALF * f_lo
+                    stuck = wp.int32(-1)
         return hi
 
     @wp.func
