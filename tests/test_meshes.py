@@ -73,7 +73,7 @@ def test_a_bad_mesh_is_one_line(vertices, triangles, message):
         ({"kind": "mesh", "file": "nowhere.stl"}, "surfaces.0.file", "existing mesh file"),
         ({"kind": "mesh", "file": "junk.stl"}, "surfaces.0.file", "at least one triangle"),
         ({"kind": "mesh"}, "surfaces.0.file", "required for kind = 'mesh'"),
-        ({"kind": "mesh", "file": "square.stl", "radius": 1.0}, "surfaces.0.radius", "of kind = 'disc' only"),
+        ({"kind": "mesh", "file": "square.stl", "radius": 1.0}, "surfaces.0.radius", "of kind = 'disc' or 'cylinder' only"),
         (
             {"kind": "box", "point": [0, 0, 0], "normal": [0, 0, 1], "axis_u": [1, 0, 0], "size": [1, 1]},
             "surfaces.0.size",

@@ -132,13 +132,15 @@ def terrain_triangles(scene, index: int):
 
 def plate_of(surface):
     """`types.plate_arrays`' entry of a scene surface: None for a plane, else (kind, axis_u,
-    half_u, half_v, two_sided); a disc's radius is both half sides."""
+    half_u, half_v, two_sided); a disc's radius is both half sides, a cylinder's (radius, length)."""
     if surface.is_plane:
         return None
     if surface.is_mesh:
         return ("mesh", (0.0, 0.0, 0.0), 0.0, 0.0, False)
     if surface.kind == "disc":
         return (surface.kind, (0.0, 0.0, 0.0), surface.radius, surface.radius, surface.two_sided)
+    if surface.kind == "cylinder":  # half_u: its radius, half_v: its length
+        return (surface.kind, (0.0, 0.0, 0.0), surface.radius, surface.length, False)
     return (surface.kind, surface.axis_u, 0.5 * surface.size[0], 0.5 * surface.size[1], surface.two_sided)
 
 

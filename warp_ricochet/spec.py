@@ -39,7 +39,7 @@ class RunSpec:
     "landing" ends a pellet at its landing, "rest" follows it on until it stops (docs/ground.md); ground:
     a surface has rough ground or a penetration law (`physics.ground`), applied at every impact;
     places: the named places of the hazard (`tallies.path`); plates: a surface is a finite plate
-    (`physics.geometry`: its code compiled in only then); MESHES (2): a surface is a box or a mesh
+    (`physics.geometry`: its code compiled in only then); MESHES (2): a surface is a box, a mesh or a post
     (`physics.mesh_contact` compiled in too); pattern: the pellets' directions drawn from a choke's
     pattern (`launch.pattern`), not from the jitter; stations: each shot's start and aim from its
     station (`launch.stations`)."""
@@ -87,7 +87,7 @@ class RunSpec:
             until=scene.physics.until,
             ground=any(_has_ground_laws(surface) for surface in scene.surfaces),
             places=0 if scene.hazard is None else len(scene.hazard.points),
-            plates=MESHES if any(s.is_mesh for s in scene.surfaces) else any(not s.is_plane for s in scene.surfaces),
+            plates=MESHES if any(s.is_solid for s in scene.surfaces) else any(not s.is_plane for s in scene.surfaces),
             pattern=scene.shot.pattern is not None,
             stations=bool(scene.stations),
         )

@@ -60,15 +60,15 @@ def _shown_name(group) -> str:
 def _write_plates(group, surfaces):
     """The shapes of a scene's surfaces of other kinds beside the planes' (docs/geometry.md): `kind`
     (its index in `scene.schema.SURFACE_KINDS`, named in its attribute `kinds`), `axis_u`, `size`
-    (m, 3 a surface: a rectangle's 2 sides, a disc's diameter twice, a box's 3 sides; zeros
-    elsewhere) and `two_sided`, a plane's entries zero."""
+    (m, 3 a surface: a rectangle's 2 sides, a disc's diameter twice, a box's 3 sides, a cylinder's
+    diameter twice and its length; zeros elsewhere) and `two_sided`, a plane's entries zero."""
     from ..scene.schema import SURFACE_KINDS
 
     kinds = [SURFACE_KINDS.index(p.kind or "plane") for p in surfaces]
     axes = [p.axis_u if p.axis_u is not None else (0.0, 0.0, 0.0) for p in surfaces]
     sizes = np.zeros((len(surfaces), 3))
     for i, p in enumerate(surfaces):
-        shape = p.size if p.size is not None else (2.0 * (p.radius or 0.0),) * 2
+        shape = p.size if p.size is not None else (2.0 * (p.radius or 0.0),) * 2 + ((p.length,) if p.length else ())
         sizes[i, : len(shape)] = shape
     for name, unit, data in (
         ("kind", "1", np.asarray(kinds, dtype=np.int32)),

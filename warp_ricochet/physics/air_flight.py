@@ -21,6 +21,7 @@ from types import SimpleNamespace
 import warp as wp
 
 from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT
+from .cylinder_contact import make_cylinder_contact
 from .geometry import MESHES, make_geometry
 from .integrate import make_dense_output, make_stepper
 from .mesh_contact import FLOAT32_SLACK, make_mesh_contact
@@ -33,7 +34,8 @@ GAVE_UP = -2  # the plane index of a flight given up after MAX_FLIGHT_STEPS
 @functools.cache
 def make_roots(precision: str) -> SimpleNamespace:
     """`root(lo, hi, slope, sign, g0, s0, q0, g1, s1, q1)`: where the quintic gap on a step (or,
-    `slope`, its derivative), times `sign`, falls from > 0 at lo to <= 0 at hi (Illinois)."""
+    `slope`, its derivative), times `sign`, falls from > 0 at lo to <= 0 at hi (Illinois); and
+    `plane_theta` (where on the step a plane's gap is met)."""
     t = types_for(precision)
     scalar = t.scalar
     hermite = make_dense_output(precision).hermite
@@ -86,7 +88,168 @@ def make_roots(precision: str) -> SimpleNamespace:
                     side = wp.int32(-1)
         return hi
 
-    return SimpleNamespace(root=root)
+    @wp.func
+    def plane_theta(watch: wp.int32, g0: scalar, s0: scalar, q0: scalar, g1: scalar, s1: scalar, q1: scalar):
+        """Where on the step a plane's gap (values g, h n.v and h^2 n.a at its ends) is met, 2 if
+        not; and whether a waiting plane turned to watched. watch: 1 watched, 2 waiting."""
+        theta = scalar(2.0)
+        now_watched = wp.int32(0)
+        low = scalar(0.0)
+        if watch == 2 and s1 < scalar(0.0):  # its normal velocity turned towards it in this step
+            turn = root(scalar(0.0), scalar(1.0), 1, scalar(1.0), g0, s0, q0, g1, s1, q1)
+            gap_turn, _slope = hermite(turn, g0, s0, q0, g1, s1, q1)
+            if gap_turn <= scalar(0.0):
+                theta = turn
+            else:
+                now_watched = wp.int32(1)
+                low = turn
+        if watch == 1 or now_watched != 0:
+            if g1 <= scalar(0.0):
+                theta = root(low, scalar(1.0), 0, scalar(1.0), g0, s0, q0, g1, s1, q1)
+            elif s0 < scalar(0.0) and s1 > scalar(0.0):  # a minimum inside: a graze?
+                bottom = root(scalar(0.0), scalar(1.0), 1, scalar(-1.0), g0, s0, q0, g1, s1, q1)
+                gap_bottom, _slope = hermite(bottom, g0, s0, q0, g1, s1, q1)
+                if gap_bottom <= scalar(0.0):
+                    theta = root(scalar(0.0), bottom, 0, scalar(1.0), g0, s0, q0, g1, s1, q1)
+        return theta, now_watched
+
+    return SimpleNamespace(root=root, plane_theta=plane_theta)
+
+
+@functools.cache
+def make_solid_search(precision: str) -> SimpleNamespace:
+    """`mesh_theta(...)` and `post_theta(...)`: where on an accepted step a mesh or a post is met
+    (`physics.mesh_contact`, `physics.cylinder_contact`)."""
+    t = types_for(precision)
+    scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
+    plane_theta, hermite_vec = make_roots(precision).plane_theta, make_dense_output(precision).hermite_vec
+    meshes, posts = make_mesh_contact(precision), make_cylinder_contact(precision)
+
+    @wp.func
+    def bezier_box(h: scalar, x0: vec3, v0: vec3, a0: vec3, x1: vec3, v1: vec3, a1: vec3):
+        """The box (low, high) of the step's quintic Bezier control points: the curve lies in it."""
+        d0, dd0, d1, dd1 = h * v0, h * h * a0, h * v1, h * h * a1
+        p1, p2 = x0 + d0 / scalar(5.0), x0 + scalar(0.4) * d0 + dd0 / scalar(20.0)
+        p3, p4 = x1 - scalar(0.4) * d1 + dd1 / scalar(20.0), x1 - d1 / scalar(5.0)
+        low = wp.min(wp.min(wp.min(x0, x1), wp.min(p1, p2)), wp.min(p3, p4))
+        high = wp.max(wp.max(wp.max(x0, x1), wp.max(p1, p2)), wp.max(p3, p4))
+        return low, high
+
+    @wp.func
+    def face_thetas(
+        n: vec3, level: scalar, h: scalar, x0: vec3, v0: vec3, a0: vec3, x1: vec3, v1: vec3, a1: vec3, radius: scalar
+    ):
+        """Where on the step a face of unit normal n in the plane n.x = level is met, before its
+        inside test (2: not): its plane offset by R as a plane's (watched from in front, waiting
+        where the centre starts within R of it, met at once if touching and closing), and the
+        plane itself met by the centre from in front."""
+        g0, s0, q0 = wp.dot(x0, n) - level, h * wp.dot(v0, n), h * h * wp.dot(a0, n)
+        g1, s1, q1 = wp.dot(x1, n) - level, h * wp.dot(v1, n), h * h * wp.dot(a1, n)
+        theta = scalar(2.0)
+        if g0 > radius:
+            theta, _watched = plane_theta(1, g0 - radius, s0, q0, g1 - radius, s1, q1)
+        elif g0 >= scalar(0.0):
+            if s0 <= scalar(0.0):
+                theta = scalar(0.0)  # touching or overlapping it, closing: met now
+            else:
+                theta, _watched = plane_theta(2, g0 - radius, s0, q0, g1 - radius, s1, q1)
+        through = scalar(2.0)
+        if g0 > scalar(0.0):  # the centre reaching the face itself
+            through, _watched = plane_theta(1, g0, s0, q0, g1, s1, q1)
+        return theta, through
+
+    @wp.func
+    def triangle_theta(
+        surfaces: Surfaces,
+        k: wp.int32,
+        face: wp.int32,
+        h: scalar,
+        x0: vec3,
+        v0: vec3,
+        a0: vec3,
+        x1: vec3,
+        v1: vec3,
+        a1: vec3,
+        radius: scalar,
+    ):
+        """Where on the step triangle `face` of mesh k is met (2: not): `face_thetas`, each kept
+        where the interpolant's centre is inside the triangle."""
+        a, b, c = meshes.vertices(surfaces, k, face)
+        n = wp.cross(b - a, c - a)
+        if wp.length(n) == scalar(0.0):
+            return scalar(2.0)
+        n = wp.normalize(n)
+        theta, through = face_thetas(n, wp.dot(a, n), h, x0, v0, a0, x1, v1, a1, radius)
+        if theta <= scalar(1.0):
+            x, _slope = hermite_vec(theta, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
+            if not meshes.inside(n, a, b, c, x):
+                theta = scalar(2.0)
+        if through < theta:
+            x, _slope = hermite_vec(through, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
+            if meshes.inside(n, a, b, c, x):
+                theta = through
+        return theta
+
+    @wp.func
+    def post_theta(
+        surfaces: Surfaces, k: wp.int32, h: scalar, x0: vec3, v0: vec3, a0: vec3, x1: vec3, v1: vec3, a1: vec3, radius: scalar
+    ):
+        """The earliest theta on the step where post k is met (2: none; `physics.cylinder_contact`):
+        none where the box of the step's quintic Bezier control points grown by R misses the
+        post's box; else its side (offset by R, then the centre's) and its caps as faces kept
+        where the centre is over them."""
+        low, high = bezier_box(h, x0, v0, a0, x1, v1, a1)
+        post_low, post_high = posts.post_box(surfaces, k)
+        grow = radius + scalar(FLOAT32_SLACK) * (meshes.l1(low) + meshes.l1(high))
+        best = scalar(2.0)
+        near = True
+        for i in range(3):
+            if low[i] - grow > post_high[i] or high[i] + grow < post_low[i]:
+                near = False
+        if not near:
+            return best
+        r, length, axis = surfaces.half_u[k], surfaces.half_v[k], surfaces.normal[k]
+        d0, e0, d1, e1 = h * v0, h * h * a0, h * v1, h * h * a1
+        slack = posts.slack(surfaces, k, x0)
+        best = posts.side_theta(surfaces, k, r + radius, slack, x0, d0, e0, x1, d1, e1)
+        best = wp.min(best, posts.side_theta(surfaces, k, r, slack, x0, d0, e0, x1, d1, e1))
+        for j in range(2):
+            n = axis
+            level = wp.dot(surfaces.point[k], axis) + length
+            if j == 1:
+                n = -axis
+                level = -wp.dot(surfaces.point[k], axis)
+            theta, through = face_thetas(n, level, h, x0, v0, a0, x1, v1, a1, radius)
+            for m in range(2):
+                cap = theta
+                if m == 1:
+                    cap = through
+                if cap < best:
+                    x, _slope = hermite_vec(cap, x0, d0, e0, x1, d1, e1)
+                    if posts.on_cap(surfaces, k, x, slack):
+                        best = cap
+        return best
+
+    @wp.func
+    def mesh_theta(
+        surfaces: Surfaces, k: wp.int32, h: scalar, x0: vec3, v0: vec3, a0: vec3, x1: vec3, v1: vec3, a1: vec3, radius: scalar
+    ):
+        """The earliest theta on the step where mesh k is met (2: none): the triangles whose boxes
+        meet the box of the step's quintic Bezier control points grown by R (the curve lies in
+        their hull), each by `triangle_theta`."""
+        low, high = bezier_box(h, x0, v0, a0, x1, v1, a1)
+        mesh, mesh_low, mesh_high = meshes.bounds(surfaces, k)
+        grow = radius + scalar(FLOAT32_SLACK) * (meshes.l1(low) + meshes.l1(high) + meshes.l1(mesh_low) + meshes.l1(mesh_high))
+        query = wp.mesh_query_aabb(
+            mesh, meshes.single(low - vec3(grow, grow, grow)), meshes.single(high + vec3(grow, grow, grow))
+        )
+        best = scalar(2.0)
+        face = wp.int32(0)
+        while wp.mesh_query_aabb_next(query, face):
+            best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius))
+        return best
+
+    return SimpleNamespace(mesh_theta=mesh_theta, post_theta=post_theta)
 
 
 @functools.cache
@@ -97,9 +260,10 @@ def make_plane_search(precision: str, planes, plates: bool = False) -> SimpleNam
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
     roots, geo = make_roots(precision), make_geometry(precision, planes, True, plates)
-    hermite, hermite_vec = make_dense_output(precision).hermite, make_dense_output(precision).hermite_vec
+    hermite_vec = make_dense_output(precision).hermite_vec
     STATIC, PLATES, WITH_MESHES = planes, plates, plates >= MESHES
-    meshes = make_mesh_contact(precision)
+    meshes, posts, solids = make_mesh_contact(precision), make_cylinder_contact(precision), make_solid_search(precision)
+    plane_theta = roots.plane_theta
 
     @wp.func
     def start_plane(k: wp.int32, position: vec3, velocity: vec3, touching: wp.int32, surfaces: Surfaces, physics: Physics):
@@ -141,8 +305,8 @@ def make_plane_search(precision: str, planes, plates: bool = False) -> SimpleNam
             if wp.static(PLATES):
                 state = start_plate(k, position, velocity, touching, surfaces, physics)
                 if wp.static(WITH_MESHES):
-                    if meshes.is_mesh(surfaces, k):
-                        state = wp.int32(1)  # watched: `mesh_theta` applies the rules per triangle
+                    if meshes.is_mesh(surfaces, k) or posts.is_post(surfaces, k):
+                        state = wp.int32(1)  # watched: `mesh_theta`, `post_theta` apply their rules
             else:
                 state = start_plane(k, position, velocity, touching, surfaces, physics)
             if state == 1:
@@ -154,31 +318,6 @@ def make_plane_search(precision: str, planes, plates: bool = False) -> SimpleNam
         return watched, waiting, now
 
     @wp.func
-    def plane_theta(watch: wp.int32, g0: scalar, s0: scalar, q0: scalar, g1: scalar, s1: scalar, q1: scalar):
-        """Where on the step a plane's gap (values g, h n.v and h^2 n.a at its ends) is met, 2 if
-        not; and whether a waiting plane turned to watched. watch: 1 watched, 2 waiting."""
-        theta = scalar(2.0)
-        now_watched = wp.int32(0)
-        low = scalar(0.0)
-        if watch == 2 and s1 < scalar(0.0):  # its normal velocity turned towards it in this step
-            turn = roots.root(scalar(0.0), scalar(1.0), 1, scalar(1.0), g0, s0, q0, g1, s1, q1)
-            gap_turn, _slope = hermite(turn, g0, s0, q0, g1, s1, q1)
-            if gap_turn <= scalar(0.0):
-                theta = turn
-            else:
-                now_watched = wp.int32(1)
-                low = turn
-        if watch == 1 or now_watched != 0:
-            if g1 <= scalar(0.0):
-                theta = roots.root(low, scalar(1.0), 0, scalar(1.0), g0, s0, q0, g1, s1, q1)
-            elif s0 < scalar(0.0) and s1 > scalar(0.0):  # a minimum inside: a graze?
-                bottom = roots.root(scalar(0.0), scalar(1.0), 1, scalar(-1.0), g0, s0, q0, g1, s1, q1)
-                gap_bottom, _slope = hermite(bottom, g0, s0, q0, g1, s1, q1)
-                if gap_bottom <= scalar(0.0):
-                    theta = roots.root(scalar(0.0), bottom, 0, scalar(1.0), g0, s0, q0, g1, s1, q1)
-        return theta, now_watched
-
-    @wp.func
     def plate_theta(k: wp.int32, watch: wp.int32, x: vec3, theta: scalar, now_watched: wp.int32, surfaces: Surfaces):
         """A step's crossing (theta, with the step's point x there) of surface k's plane kept if x is
         on it (a plate; a waiting plate turns to watched where it is not)."""
@@ -187,74 +326,6 @@ def make_plane_search(precision: str, planes, plates: bool = False) -> SimpleNam
             if watch == 2:
                 now_watched = wp.int32(1)
         return theta, now_watched
-
-    @wp.func
-    def triangle_theta(
-        surfaces: Surfaces,
-        k: wp.int32,
-        face: wp.int32,
-        h: scalar,
-        x0: vec3,
-        v0: vec3,
-        a0: vec3,
-        x1: vec3,
-        v1: vec3,
-        a1: vec3,
-        radius: scalar,
-    ):
-        """Where on the step triangle `face` of mesh k is met (2: not): its plane offset by R as a
-        plane's (watched from in front, waiting where the centre starts within R of it), then the
-        triangle itself from in front, each kept where the interpolant's centre is inside it."""
-        a, b, c = meshes.vertices(surfaces, k, face)
-        n = wp.cross(b - a, c - a)
-        if wp.length(n) == scalar(0.0):
-            return scalar(2.0)
-        n = wp.normalize(n)
-        level = wp.dot(a, n)
-        g0, s0, q0 = wp.dot(x0, n) - level, h * wp.dot(v0, n), h * h * wp.dot(a0, n)
-        g1, s1, q1 = wp.dot(x1, n) - level, h * wp.dot(v1, n), h * h * wp.dot(a1, n)
-        theta = scalar(2.0)
-        if g0 > radius:
-            theta, _watched = plane_theta(1, g0 - radius, s0, q0, g1 - radius, s1, q1)
-        elif g0 >= scalar(0.0):
-            if s0 <= scalar(0.0):
-                theta = scalar(0.0)  # touching or overlapping it, closing: met now
-            else:
-                theta, _watched = plane_theta(2, g0 - radius, s0, q0, g1 - radius, s1, q1)
-        if theta <= scalar(1.0):
-            x, _slope = hermite_vec(theta, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
-            if not meshes.inside(n, a, b, c, x):
-                theta = scalar(2.0)
-        if g0 > scalar(0.0):  # the centre reaching the triangle itself
-            through, _watched = plane_theta(1, g0, s0, q0, g1, s1, q1)
-            if through < theta:
-                x, _slope = hermite_vec(through, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
-                if meshes.inside(n, a, b, c, x):
-                    theta = through
-        return theta
-
-    @wp.func
-    def mesh_theta(
-        surfaces: Surfaces, k: wp.int32, h: scalar, x0: vec3, v0: vec3, a0: vec3, x1: vec3, v1: vec3, a1: vec3, radius: scalar
-    ):
-        """The earliest theta on the step where mesh k is met (2: none): the triangles whose boxes
-        meet the box of the step's quintic Bezier control points grown by R (the curve lies in
-        their hull), each by `triangle_theta`."""
-        d0, dd0, d1, dd1 = h * v0, h * h * a0, h * v1, h * h * a1
-        p1, p2 = x0 + d0 / scalar(5.0), x0 + scalar(0.4) * d0 + dd0 / scalar(20.0)
-        p3, p4 = x1 - scalar(0.4) * d1 + dd1 / scalar(20.0), x1 - d1 / scalar(5.0)
-        low = wp.min(wp.min(wp.min(x0, x1), wp.min(p1, p2)), wp.min(p3, p4))
-        high = wp.max(wp.max(wp.max(x0, x1), wp.max(p1, p2)), wp.max(p3, p4))
-        mesh, mesh_low, mesh_high = meshes.bounds(surfaces, k)
-        grow = radius + scalar(FLOAT32_SLACK) * (meshes.l1(low) + meshes.l1(high) + meshes.l1(mesh_low) + meshes.l1(mesh_high))
-        query = wp.mesh_query_aabb(
-            mesh, meshes.single(low - vec3(grow, grow, grow)), meshes.single(high + vec3(grow, grow, grow))
-        )
-        best = scalar(2.0)
-        face = wp.int32(0)
-        while wp.mesh_query_aabb_next(query, face):
-            best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius))
-        return best
 
     @wp.func
     def search(
@@ -299,7 +370,10 @@ def make_plane_search(precision: str, planes, plates: bool = False) -> SimpleNam
                     theta, now_watched = plane_theta(watch, g0, s0, q0, g1, s1, q1)
                 if wp.static(WITH_MESHES):
                     if meshes.is_mesh(surfaces, k):  # (its plate answer above is not used)
-                        theta = mesh_theta(surfaces, k, h, x0, v0, a0, x1, v1, a1, physics.radius)
+                        theta = solids.mesh_theta(surfaces, k, h, x0, v0, a0, x1, v1, a1, physics.radius)
+                        now_watched = wp.int32(0)
+                    elif posts.is_post(surfaces, k):
+                        theta = solids.post_theta(surfaces, k, h, x0, v0, a0, x1, v1, a1, physics.radius)
                         now_watched = wp.int32(0)
                 if now_watched != 0:
                     watched = watched | bit

@@ -27,8 +27,8 @@ rounding error onto it or through it. `snap` False turns the band off in the par
 dense phase in air, whose kicks move a pellet's reference state every few steps, would otherwise
 meet a plane early wherever the pellet comes within the band of it (docs/air.md, section 3.2).
 
-Meshes (`plates` MESHES, docs/geometry.md): surfaces of kind mesh (boxes too) answer
-`contact_time` and `normal` (`physics.mesh_contact`); the motion along surfaces, the air's search
+Meshes (`plates` MESHES, docs/geometry.md): surfaces of kind mesh (boxes too) and posts (cylinders)
+answer `contact_time` and `normal` (`physics.mesh_contact`, `physics.cylinder_contact`); the motion along surfaces, the air's search
 and the dense phase, which read `locate`, `gap`, `inside` and `step_gaps`, refuse them (scene.parse).
 
 Plates (`plates` True, docs/geometry.md): a surface of kind rectangle or disc is the part of its
@@ -51,6 +51,7 @@ import numpy as np
 import warp as wp
 
 from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT, ROUNDING, make_ballistic
+from .cylinder_contact import make_cylinder_contact
 from .mesh_contact import make_mesh_contact
 from .types import KINDS, types_for
 
@@ -73,7 +74,7 @@ def _make_geometry(precision: str, planes, snap: bool, plates: int) -> SimpleNam
     ballistic = make_ballistic(precision)
     entry_time, return_time, _position = ballistic.entry_time, ballistic.return_time, ballistic.position
     STATIC_PLANES, SNAP, PLATES, WITH_MESHES = planes, snap, plates > 0, plates >= MESHES
-    RECTANGLE, MESH, meshes = KINDS["rectangle"], KINDS["mesh"], make_mesh_contact(precision)
+    RECTANGLE, MESH, solids = KINDS["rectangle"], KINDS["mesh"], _solids(precision)
     TOLERANCE = scalar(ROUNDING * EPSILON[precision])
     LATEST = scalar(MAX_FLIGHT_TIME)
 
@@ -118,8 +119,8 @@ def _make_geometry(precision: str, planes, snap: bool, plates: int) -> SimpleNam
     def normal(surfaces: Surfaces, k: wp.int32, x: vec3):
         """The unit normal (towards the pellets) of surface k at the point nearest x."""
         if wp.static(WITH_MESHES):
-            if surfaces.kind[k] == MESH:
-                return meshes.mesh_normal(surfaces, k, x)
+            if surfaces.kind[k] >= MESH:  # a mesh or a post
+                return solids.normal(surfaces, k, x)
         if wp.static(PLATES):
             return side(surfaces, k, x) * surfaces.normal[k]
         return surfaces.normal[k]
@@ -241,8 +242,8 @@ def _make_geometry(precision: str, planes, snap: bool, plates: int) -> SimpleNam
         """Time (s) until the parabola of eq. (36) meets surface k, or NO_CONTACT (also beyond
         MAX_FLIGHT_TIME). A plane's gap is the quadratic of `physics.ballistic`; one-sided."""
         if wp.static(WITH_MESHES):
-            if surfaces.kind[k] == MESH:
-                return meshes.mesh_time(surfaces, k, position, velocity, gravity, radius)  # touching: not needed
+            if surfaces.kind[k] >= MESH:  # a mesh or a post
+                return solids.time(surfaces, k, position, velocity, gravity, radius)  # touching: not needed
         if wp.static(PLATES):
             if surfaces.kind[k] != 0:
                 return plate_time(surfaces, k, position, velocity, gravity, radius, touching)
@@ -299,6 +300,31 @@ def _make_geometry(precision: str, planes, snap: bool, plates: int) -> SimpleNam
         contact_time=contact_time,
         next_contact=next_contact,
     )
+
+
+@functools.cache
+def _solids(precision: str) -> SimpleNamespace:
+    """`time(surfaces, k, x, v, g, R)` and `normal(surfaces, k, x)` of a mesh or a post k
+    (`physics.mesh_contact`, `physics.cylinder_contact`)."""
+    t = types_for(precision)
+    Surfaces, vec3, scalar = t.Surfaces, t.vec3, t.scalar
+    meshes, posts = make_mesh_contact(precision), make_cylinder_contact(precision)
+
+    @wp.func
+    def solid_time(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, g: vec3, radius: scalar):
+        """When the parabola of eq. (36) meets mesh or post k, or NO_CONTACT."""
+        if posts.is_post(surfaces, k):
+            return posts.post_time(surfaces, k, x, v, g, radius)
+        return meshes.mesh_time(surfaces, k, x, v, g, radius)
+
+    @wp.func
+    def solid_normal(surfaces: Surfaces, k: wp.int32, x: vec3):
+        """The unit normal of mesh or post k at the point nearest x."""
+        if posts.is_post(surfaces, k):
+            return posts.post_normal(surfaces, k, x)
+        return meshes.mesh_normal(surfaces, k, x)
+
+    return SimpleNamespace(time=solid_time, normal=solid_normal)
 
 
 def _contact_normal(precision: str, normal, with_meshes: bool):

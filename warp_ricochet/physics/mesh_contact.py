@@ -57,7 +57,7 @@ def make_mesh_lookup(precision: str) -> SimpleNamespace:
 @functools.cache
 def make_mesh_contact(precision: str) -> SimpleNamespace:
     """`mesh_time(surfaces, k, x, v, g, R)`, `mesh_normal(surfaces, k, x)` and the helpers the air's
-    search shares (`vertices`, `inside`, `l1`, `single`) of one precision."""
+    search and posts share (`vertices`, `inside`, `l1`, `single`, `descending`) of one precision."""
     t = types_for(precision)
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
     ballistic = make_ballistic(precision)
@@ -250,5 +250,12 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
             return best
         return mesh_normal(surfaces, k, x)
 
-    helpers = {"vertices": vertices, "inside": inside, "l1": l1, "single": single, **vars(make_mesh_lookup(precision))}
+    helpers = {
+        "vertices": vertices,
+        "inside": inside,
+        "l1": l1,
+        "single": single,
+        "descending": descending,
+        **vars(make_mesh_lookup(precision)),
+    }
     return SimpleNamespace(mesh_time=mesh_time, mesh_normal=mesh_normal, contact_normal=contact_normal, **helpers)

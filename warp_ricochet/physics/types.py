@@ -135,7 +135,13 @@ GROUND_FIELDS = (
     "skip_loss",
 )
 RIGID_PLANE = {name: 0.0 for name in GROUND_FIELDS} | {"critical_angle": 0.5 * np.pi}
-KINDS = {"plane": 0, "rectangle": 1, "disc": 2, "mesh": 3}  # Surfaces.kind's codes (scene: [[surfaces]] kind; a box is a mesh)
+KINDS = {
+    "plane": 0,
+    "rectangle": 1,
+    "disc": 2,
+    "mesh": 3,
+    "cylinder": 4,
+}  # Surfaces.kind's codes ([[surfaces]] kind; a box is a mesh)
 
 
 def plate_arrays(normals, plates) -> dict:
@@ -147,7 +153,7 @@ def plate_arrays(normals, plates) -> dict:
     for n, plate in zip(normals, plates):
         kind, u, half_u, half_v, two_sided = plate or ("plane", (0.0, 0.0, 0.0), 0.0, 0.0, False)
         u = np.asarray(u, dtype=np.float64)
-        if kind == "disc":  # any in-plane axis
+        if kind in ("disc", "cylinder"):  # any in-plane axis (a cylinder's normal: its axis)
             u = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
         if kind not in ("plane", "mesh"):
             u = u - np.dot(u, n) * n

@@ -184,6 +184,8 @@ def _shape(surface: dict) -> str:
     if kind == "box":
         a, b, c = surface["size"]
         return f"box {fmt(a)} m x {fmt(b)} m x {fmt(c)} m (12 triangles)"
+    if kind == "cylinder":
+        return f"post (cylinder) of radius {fmt(surface['radius'])} m and length {fmt(surface['length'])} m, closed by its caps"
     if kind in ("mesh", "terrain"):
         what = "triangle mesh" if kind == "mesh" else "terrain raster, as triangles"
         return f"{what} from {os.path.basename(str(surface.get('file', '')))}"
@@ -430,5 +432,6 @@ def limit_flags(scene: dict, reach: bool) -> dict:
         "materials": any(s.get("material") for s in scene.get("surfaces", [])),
         "plates": any((s.get("kind") or "plane") in ("rectangle", "disc") for s in scene.get("surfaces", [])),
         "triangles": any(s.get("kind") in ("box", "mesh", "terrain") for s in scene.get("surfaces", [])),
+        "posts": any(s.get("kind") == "cylinder" for s in scene.get("surfaces", [])),
         "levels": list(SHOWN_LEVELS),
     }

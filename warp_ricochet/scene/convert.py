@@ -256,6 +256,7 @@ _SURFACE = {
     "axis_u": _vec3(nonzero=True, bound=MAX_COORDINATE),
     "size": _size,
     "radius": _range(0, MAX_COORDINATE, above=True, unit="m"),
+    "length": _range(0, MAX_COORDINATE, above=True, unit="m"),
     "two_sided": _bool,
     "file": _path(),  # a mesh's (scene.triangles) or terrain's raster (scene.terrain), relative to the scene's folder
     "origin": _pair,

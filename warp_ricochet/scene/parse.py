@@ -103,6 +103,7 @@ PLATE_KEYS = {
     "terrain": ("file", "axis_u", "origin", "elevation", "nodata"),
     "box": ("axis_u", "size"),
     "mesh": ("file",),
+    "cylinder": ("radius", "length"),
 }
 OPTIONAL_KEYS = {"rectangle": ("two_sided",), "disc": ("two_sided",), "terrain": TERRAIN_OPTIONAL}
 SIDES = {"rectangle": 2, "box": 3}  # the numbers in a size
@@ -113,7 +114,7 @@ def _plate(kw: dict, raw: dict, path: str) -> dict:
     optional), no other kind's; a rectangle's axis_u perpendicular to its normal (within
     PERPENDICULAR) and made a unit vector. A plane keeps no kind (None), a one-sided plate no two_sided."""
     kind = kw.pop("kind", "plane")
-    for key in ("axis_u", "size", "radius", "two_sided", "file", "origin", "elevation", "nodata"):
+    for key in ("axis_u", "size", "radius", "length", "two_sided", "file", "origin", "elevation", "nodata"):
         if key in kw and key not in PLATE_KEYS[kind]:
             owners = [k for k, keys in PLATE_KEYS.items() if key in keys]
             raise err(f"{path}.{key}", raw[key], f"is a key of kind = {' or '.join(map(repr, owners))} only (this is a {kind!r})")
@@ -344,13 +345,13 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
     pairs = collisions.enabled and shot.count > 1  # as Scene.pair_collisions: the run has a dense phase
     output = _table(raw.get("output"), "output", SCHEMAS["output"])
     planes = tuple(_surface(s, f"surfaces.{i}", base_dir) for i, s in enumerate(surfaces))
-    solid = next((i for i, s in enumerate(planes) if s.kind in ("box", "mesh", "terrain")), None)
+    solid = next((i for i, s in enumerate(planes) if s.is_solid), None)
     if pairs and solid is not None:
         raise err(
             f"surfaces.{solid}.kind",
             planes[solid].kind,
             'must be "plane", "rectangle" or "disc" with pellet-pellet collisions (collisions.enabled and '
-            "shot.count > 1): the dense phase meets no triangles",
+            "shot.count > 1): the dense phase meets no triangles or posts",
         )
     hazard = _hazard(raw.get("hazard"), planes, shot)
     _check_bound(hazard, shot, collisions)
@@ -451,13 +452,14 @@ def _check_station_run(shot: Shot, pairs: bool, hazard) -> None:
 
 
 def _check_meshes(surfaces: tuple, physics: Physics) -> None:
-    """Triangles (boxes, meshes) are met by the flights until landing only (docs/geometry.md)."""
-    mesh = next((i for i, s in enumerate(surfaces) if s.is_mesh), None)
+    """Triangles (boxes, meshes) and posts are met by the flights until landing only (docs/geometry.md)."""
+    mesh = next((i for i, s in enumerate(surfaces) if s.is_solid), None)
     if mesh is not None and physics.until == "rest":
+        along = "a post" if surfaces[mesh].kind == "cylinder" else "triangles"
         raise err(
             "physics.until",
             "rest",
-            f'must be "landing" with surface {mesh} of kind = {surfaces[mesh].kind!r}: motion along triangles is not modelled yet',
+            f'must be "landing" with surface {mesh} of kind = {surfaces[mesh].kind!r}: motion along {along} is not modelled yet',
         )
 
 

@@ -27,7 +27,7 @@ MAX_IMPACT_DURATION = 1.0  # s
 MAX_AIR_DENSITY = 100.0  # kg/m^3: gases (the laws of docs/air.md are for a gas)
 MAX_WIND = 1e3  # m/s, each component
 
-SURFACE_KINDS = ("plane", "rectangle", "disc", "box", "mesh", "terrain")  # [[surfaces]] kind (docs/geometry.md)
+SURFACE_KINDS = ("plane", "rectangle", "disc", "box", "mesh", "terrain", "cylinder")  # [[surfaces]] kind (docs/geometry.md)
 PERPENDICULAR = 1e-9  # a rectangle's axis_u within this (cosine) of perpendicular to its normal
 FLOAT32_EXACT_STEPS = 2**24  # float32 counts every integer up to here
 CHECKPOINT_STEPS = 8  # a shot's steps between checkpoints when collisions.frame_every is 0 (dense.constants.BLOCK_STEPS)
@@ -74,7 +74,8 @@ class Surface:
     with `kind`, a finite plate in that plane centred on `point` (docs/geometry.md): a "rectangle" of
     sides `size` (m) along the unit `axis_u` and normal x axis_u, or a "disc" of `radius` (m); or
     triangles (scene.triangles): a "box" (centre `point`, sides `size` along axis_u, normal x axis_u
-    and normal) or a "mesh" read from `file`, its vertices moved by `point`."""
+    and normal) or a "mesh" read from `file`, its vertices moved by `point`; or a "cylinder" (a post:
+    base centre `point`, axis `normal` from base to top, `radius` and `length`, m)."""
 
     point: Vec3
     normal: Vec3
@@ -99,7 +100,8 @@ class Surface:
     kind: str | None = None  # None: an infinite plane ("plane"); "rectangle" or "disc": a plate; "terrain"
     axis_u: Vec3 | None = None  # a rectangle's first side (unit, perpendicular to normal)
     size: tuple[float, float] | None = None  # m: a rectangle's sides along axis_u and normal x axis_u
-    radius: float | None = None  # m: a disc's
+    radius: float | None = None  # m: a disc's, a cylinder's
+    length: float | None = None  # m: a cylinder's, along its axis (`normal`) from its base centre `point`
     two_sided: bool | None = None  # True: a plate met from either face; None: from the normal's side only
     file: str | None = None  # a mesh's file (absolute; its vertices moved by `point`) or terrain's raster
     # terrain (scene.terrain): the raster's (x, y) and elevation (m) placed at `point` (None: its
@@ -117,6 +119,11 @@ class Surface:
     def is_mesh(self) -> bool:
         """Made of triangles (a box, a mesh: `scene.triangles`; a terrain: `scene.terrain`)."""
         return self.kind in ("box", "mesh", "terrain")
+
+    @property
+    def is_solid(self) -> bool:
+        """Met only until landing, and not by the dense phase: triangles (`is_mesh`) or a post."""
+        return self.is_mesh or self.kind == "cylinder"
 
     def ground(self, key: str) -> float:
         """The value of a ground key (scene.materials.GROUND_KEYS): its own, else the rigid plane's."""
