@@ -5,9 +5,15 @@
          it at an impact or a landing (must be 0), and pellets/s of the runs
   plane  the paper's shot (statistics only) on its plane and on a two-triangle mesh of that
          plane (2e4 m square): pellets/s of each and their ratio (issue 27, part 5: at most 3x)
+  terrain  the paper's shot (statistics only) over a synthetic terrain of 1,002,528 triangles
+         (`terrain_raster`: 708 x 708 cells of 0.5 m, 0.5 m waves, a GeoTIFF in a temporary
+         folder) beside its flat plane, in vacuum and in air (issue 27, part 5: at least 2e8
+         pellets/s in vacuum and 1e8 in air on an H200)
 
     python -m bench.meshes box [--n 1e7] [--chunk 1e6] [--precision float32] [--device cpu]
     python -m bench.meshes plane [--n 1e6] [--precision float32] [--device cpu] [--repeats 3]
+    python -m bench.meshes terrain [--n 1e6] [--precision float32] [--device cpu] [--repeats 3] [--cells 708]
+                                   [--flights vacuum,air]
 
 `box_shots` is also the tests' (tests/test_meshes.py). Figures: bench/RESULTS.md.
 """
@@ -140,17 +146,98 @@ def plane(n, precision, device, repeats):
     print(f"mesh / plane time: {times['mesh'] / times['plane']:.2f}x  [{precision}, {device}]")
 
 
+CELL = 0.5  # m: the synthetic terrain's pixel
+
+
+def terrain_raster(folder, cells=708):
+    """A GeoTIFF of (cells + 1)^2 samples (2 cells^2 triangles) at CELL m, written in `folder`:
+    gentle relief about 0 (0.5 m waves of 240 m east and 180 m north: slopes below 0.022, a few
+    times the paper's ricochet angle of 0.014 rad); its corner at (0, 0) of its CRS, north up.
+    Returns its path."""
+    import rasterio
+    from rasterio.transform import Affine
+
+    east = CELL * (np.arange(cells + 1) + 0.5)
+    north = -CELL * (np.arange(cells + 1) + 0.5)[:, None]
+    z = 0.5 * np.sin(2 * np.pi * east / 240.0) * np.cos(2 * np.pi * north / 180.0)
+    path = Path(folder) / "terrain.tif"
+    profile = {"driver": "GTiff", "width": cells + 1, "height": cells + 1, "count": 1, "dtype": "float32"}
+    with rasterio.open(path, "w", **profile, transform=Affine(CELL, 0.0, 0.0, 0.0, -CELL, 0.0)) as out:
+        out.write(z.astype(np.float32), 1)
+    return path
+
+
+def _paper(n, precision, air, surfaces=None):
+    """The paper's scene (examples/paper.toml), statistics only, `n` pellets, in vacuum or in sea-level air."""
+    import tomllib
+
+    from warp_ricochet.scene import scene_from_dict
+
+    raw = tomllib.loads((ROOT / "examples" / "paper.toml").read_text())
+    raw["shot"]["count"] = n
+    raw["numerics"]["precision"] = precision
+    raw["output"] = {"fields": []}
+    if surfaces is not None:
+        raw["surfaces"] = surfaces
+    if air:
+        raw["air"] = {}
+    return scene_from_dict(raw)
+
+
+def terrain(n, precision, device, repeats, cells=708, flights=("vacuum", "air")):
+    """The paper's shot over `terrain_raster` (its launch point 20 m from the raster's west edge,
+    half way along it; a plane 5 m below catches what leaves it) and on its plane: pellets/s."""
+
+    with tempfile.TemporaryDirectory() as folder:
+        start = time.perf_counter()
+        raster = terrain_raster(folder, cells)
+        made = time.perf_counter() - start
+        half = 0.5 * CELL * (cells + 1)
+        ground = {"kind": "terrain", "file": str(raster), "origin": [20.0, -half], "restitution": 0.01, "mu_s": 0.5}
+        catch = {"point": [0.0, -5.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.01, "mu_s": 0.5}
+        print(f"terrain: {2 * cells * cells:,} triangles, raster written in {made:.2f} s  [{precision}, {device}]")
+        for air in (flight == "air" for flight in flights):
+            times = {}
+            for label, surfaces in (("plane", None), ("terrain", [ground | {"mu_d": 0.45}, catch | {"mu_d": 0.45}])):
+                setup, _ = _timed(_paper(1, precision, air, surfaces), device, 1)  # (also compiles)
+                total, stats = _timed(_paper(n, precision, air, surfaces), device, repeats)
+                times[label] = total - setup
+                print(
+                    f"  {'air' if air else 'vacuum'}, {label}: {n / times[label]:.3g} pellets/s without the set-up"
+                    f" ({total * 1e3:.1f} ms a run of {n:,}, set-up (a run of 1) {setup * 1e3:.1f} ms; median of {repeats});"
+                    f" {stats['hits'] / n:.3f} hit, {stats['landed'] / n:.3f} land, mean range {stats['range_mean']:.1f} m"
+                )
+            print(f"  {'air' if air else 'vacuum'}: terrain / plane time {times['terrain'] / times['plane']:.2f}x")
+
+
+def _timed(scene, device, repeats):
+    """(The median wall time (s) of `repeats` runs of `scene` after one warm-up, its statistics)."""
+    import warp_ricochet as wr
+
+    wr.run(scene, None, device=device)
+    runs = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        stats = wr.run(scene, None, device=device)
+        runs.append(time.perf_counter() - start)
+    return float(np.median(runs)), stats
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(prog="python -m bench.meshes", description=__doc__.split("\n\n")[0])
-    parser.add_argument("what", choices=("box", "plane"))
+    parser.add_argument("what", choices=("box", "plane", "terrain"))
     parser.add_argument("--n", type=float, default=1e6)
     parser.add_argument("--chunk", type=float, default=1e6)
     parser.add_argument("--precision", default="float32", choices=("float32", "float64"))
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--cells", type=int, default=708, help="terrain: cells per side (2 cells^2 triangles)")
+    parser.add_argument("--flights", default="vacuum,air", help="terrain: vacuum, air or both (comma-separated)")
     args = parser.parse_args(argv)
     if args.what == "box":
         box(int(args.n), int(args.chunk), args.precision, args.device)
+    elif args.what == "terrain":
+        terrain(int(args.n), args.precision, args.device, args.repeats, args.cells, args.flights.split(","))
     else:
         plane(int(args.n), args.precision, args.device, args.repeats)
 

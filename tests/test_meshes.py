@@ -218,3 +218,17 @@ def test_the_command_line_refuses_a_bad_mesh_in_one_line_and_runs_a_good_one(tmp
             assert err.count("\n") == 1 and "surfaces.0.file" in err and "nonzero area" in err, err
             assert not (tmp_path / "out.h5").exists()
     assert (tmp_path / "out.h5").exists()
+
+
+def test_the_benchmarks_terrain_is_the_raster_it_claims(tmp_path):
+    """`bench.meshes terrain_raster`: (cells + 1)^2 samples read back as 2 cells^2 triangles of
+    CELL m, heights within 0.5 m of 0 and slopes below 0.022 (a few times the paper's ricochet angle)."""
+    pytest.importorskip("rasterio")
+    from bench.meshes import CELL, terrain_raster
+    from warp_ricochet.scene.terrain import load_terrain
+
+    vertices, triangles = load_terrain(terrain_raster(tmp_path, cells=40))
+    assert len(triangles) == 2 * 40 * 40 and len(vertices) == 41 * 41
+    assert np.abs(vertices[:, 2]).max() <= 0.5 and np.ptp(vertices[:, 0]) == 40 * CELL
+    n = TriangleSurface(vertices, triangles, "bench").normals()
+    assert (n[:, 2] > 0).all() and np.hypot(n[:, 0], n[:, 1]).max() / n[:, 2].min() < 0.022

@@ -460,3 +460,78 @@ def test_finite_plates_are_drawn_as_their_triangles(tmp_path):
     assert np.hypot(disc_corners[:, 0] - 6.0, disc_corners[:, 2] + 1.0).max() <= 0.75 + 1e-12
     normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])  # counter-clockwise about each normal
     assert np.all(normals[:2] @ [-1.0, 0.0, 0.0] > 0) and np.all(normals[2:] @ [0.0, 1.0, 0.0] > 0)
+
+
+def test_a_post_is_drawn_as_its_side_and_caps(tmp_path):
+    """A post (kind = "cylinder") in `plates`: DISC_SIDES quads of side and two fans of DISC_SIDES,
+    on its cylinder and caps, wound counter-clockwise seen from outside."""
+    from warp_ricochet.io.xdmf import DISC_SIDES
+
+    raw = paper_raw()
+    raw["shot"]["count"] = 64
+    post = {"kind": "cylinder", "point": [5.0, 0.0, 0.5], "normal": [0.0, 1.0, 0.0], "radius": 0.2, "length": 1.5}
+    post.update(restitution=0.3, mu_s=0.2)
+    raw["surfaces"] = [raw["surfaces"][0], post]
+    raw["physics"]["until"] = "landing"
+    raw["output"] = {"fields": ["landing"]}
+    api.run(make_scene(raw, precision="float64"), tmp_path / "post.h5", device="cpu")
+    blocks, _steps = _read(tmp_path / "post.xmf")
+    plates = blocks["plates"]
+    assert plates.GetNumberOfCells() == 4 * DISC_SIDES
+    np.testing.assert_array_equal(_arrays(plates, cells=True)["surface"], [1] * (4 * DISC_SIDES))
+    corners = vtk_to_numpy(plates.GetPoints().GetData()).reshape(-1, 3, 3)
+    points = corners.reshape(-1, 3)
+    radial = np.hypot(points[:, 0] - 5.0, points[:, 2] - 0.5)
+    assert radial.max() <= 0.2 + 1e-12 and points[:, 1].min() >= -1e-12 and points[:, 1].max() <= 1.5 + 1e-12
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    outward = corners.mean(axis=1) - [5.0, 0.75, 0.5]
+    assert np.all(np.einsum("ij,ij->i", normals, outward) > 0)
+
+
+def test_boxes_meshes_and_terrain_are_drawn_from_the_file(tmp_path):
+    """Issue 27, part 5: a box, a small mesh and the shipped terrain (warp_ricochet/examples/terrain/
+    trap_field.asc): each surface's triangles are stored once in /geometry/surface_I (float64 m,
+    int32) as the run used them, and vtkXdmfReader's `geometry_I` block has their count, corners
+    and bounds; the sidecar references them (it stays small)."""
+    from importlib.resources import files
+
+    trimesh = pytest.importorskip("trimesh")
+    from warp_ricochet.model import terrain_triangles
+    from warp_ricochet.scene.triangles import box_triangles, load_mesh
+
+    tetra = np.array([[30.0, 0.0, -2.0], [32.0, 0.0, -2.0], [31.0, 0.0, 0.0], [31.0, 2.0, -1.0]])
+    faces = [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]]
+    mesh_path = tmp_path / "tetra.ply"
+    trimesh.Trimesh(vertices=tetra, faces=faces, process=False).export(mesh_path)
+    raster = str(files("warp_ricochet") / "examples" / "terrain" / "trap_field.asc")
+    raw = paper_raw(until="landing")
+    raw["shot"]["count"] = 16
+    box = {"kind": "box", "point": [20.0, 1.0, 0.0], "normal": [0.0, 1.0, 0.0], "axis_u": [1.0, 0.0, 0.0], "size": [1, 2, 3]}
+    terrain = {"kind": "terrain", "file": raster, "origin": [500_010.0, 4_200_050.0], "elevation": 119.8}
+    surfaces = [box, {"kind": "mesh", "file": str(mesh_path), "point": [0.0, 0.5, 0.0]}, terrain]
+    raw["surfaces"] = [{**s, "name": f"s{i}", "restitution": 0.5, "mu_s": 0.2} for i, s in enumerate(surfaces)] + raw["surfaces"]
+    raw["output"] = {"fields": ["landing"]}
+    scene = make_scene(raw, precision="float64")
+    api.run(scene, tmp_path / "geo.h5", device="cpu")
+    used = [
+        box_triangles(box["point"], box["normal"], box["axis_u"], box["size"]),
+        load_mesh(str(mesh_path), "file", (0.0, 0.5, 0.0)),
+        terrain_triangles(scene, 2),
+    ]
+    assert len(used[2].triangles) == 2 * 60 * 20  # (61 x 21 samples)
+    blocks, _steps = _read(tmp_path / "geo.xmf")
+    assert "geometry_3" not in blocks and blocks["surfaces"].GetNumberOfCells() == 1  # the plane: a quad
+    with h5py.File(tmp_path / "geo.h5") as f:
+        for i, mesh in enumerate(used):
+            g = f[f"geometry/surface_{i}"]
+            assert g.attrs["name"] == f"s{i}" and g["vertices"].attrs["units"] == "m"
+            assert g["vertices"].dtype == np.float64 and g["triangles"].dtype == np.int32
+            np.testing.assert_array_equal(g["vertices"][()], mesh.vertices)
+            np.testing.assert_array_equal(g["triangles"][()], mesh.triangles)
+            ds = blocks[f"geometry_{i}"]
+            assert ds.GetNumberOfCells() == len(mesh.triangles)
+            np.testing.assert_allclose(np.reshape(ds.GetBounds(), (3, 2)).T, [mesh.vertices.min(0), mesh.vertices.max(0)])
+            points = vtk_to_numpy(ds.GetPoints().GetData())
+            cells = vtk_to_numpy(ds.GetCells().GetConnectivityArray())
+            np.testing.assert_array_equal(points[cells.reshape(-1, 3)], mesh.vertices[mesh.triangles])
+    assert (tmp_path / "geo.xmf").stat().st_size < 20_000

@@ -40,6 +40,7 @@ class Model:
     physics: object  # physics.types Physics
     types: object = field(repr=False)
     thresholds: int = 0  # hazard thresholds (the columns of per-threshold fields)
+    meshes: tuple = field(default=(), repr=False)  # per surface: its TriangleSurface, or None (plane, plate)
 
     @property
     def precision(self) -> str:
@@ -84,6 +85,7 @@ class Model:
         t = types_for(precision)
         radius = 0.5 * diameter
         mass = density * 4.0 / 3.0 * math.pi * radius**3
+        meshes = [triangles_of(p) for p in planes] if meshes is None else meshes
         surfaces = surfaces_of(
             precision,
             [p.point for p in planes],
@@ -93,7 +95,7 @@ class Model:
             ground=ground_of(planes, radius, density),
             liquid=[is_liquid(p.material) for p in planes],
             plates=[plate_of(p) for p in planes],
-            meshes=[triangles_of(p) for p in planes] if meshes is None else meshes,
+            meshes=meshes,
         )
         physics = t.Physics()
         physics.radius = t.scalar(radius)
@@ -113,6 +115,7 @@ class Model:
             surfaces=surfaces,
             physics=physics,
             types=t,
+            meshes=tuple(meshes),
         )
 
 

@@ -108,6 +108,9 @@ def dimensions_of(path: str, ds: h5py.Dataset) -> tuple[str, ...]:
         return RUN_DIMENSIONS[path]
     if path.startswith("stats/shots/"):  # each statistic's per-shot values
         return ("shot",)
+    if path.startswith("geometry/") and path.count("/") == 2:  # a mesh's vertices (m, xyz), triangles (corners)
+        surface, name = path.split("/")[1:]
+        return (f"{surface}_vertex", "xyz") if name == "vertices" else (f"{surface}_triangle", "corner")
     base = path.replace("/", "_")
     return tuple("xyz" if n == 3 and axis == ds.ndim - 1 else f"{base}_{axis}" for axis, n in enumerate(ds.shape))
 

@@ -80,6 +80,21 @@ def _write_plates(group, surfaces):
     group["kind"].attrs["kinds"] = list(SURFACE_KINDS)
 
 
+def _write_geometry(group, surfaces, meshes) -> None:
+    """The triangles the run used for its boxes, meshes and terrain (docs/output.md), once each:
+    `surface_I/vertices` (m, float64 (n, 3), scene coordinates) and `surface_I/triangles` (int32
+    (m, 3) vertex indices, counter-clockwise seen from the side pellets meet), I the surface's index;
+    attributes `surface` (I), `name` and `kind`."""
+    for i, (surface, mesh) in enumerate(zip(surfaces, meshes)):
+        if mesh is None:
+            continue
+        g = group.create_group(f"surface_{i}")
+        g.attrs.update(surface=i, name=surface.name or "", kind=surface.kind)
+        for name, unit, data in (("vertices", "m", mesh.vertices), ("triangles", "1", mesh.triangles)):
+            ds = g.create_dataset(name, data=np.ascontiguousarray(data, dtype=np.float64 if name == "vertices" else np.int32))
+            ds.attrs["units"] = unit
+
+
 def _write_load(group, shot) -> None:
     """[shot] load (scene.loads): its keys as given (the charge in kg), the diameter, density and count
     the shot has (the load's, or the scene's own where it gives them), each number's unit beside it
@@ -268,6 +283,8 @@ class RunWriter:
         s.attrs["material"] = [p.material or "" for p in planes]  # catalogue names ("": a rigid plane)
         if any(p.kind for p in planes):
             _write_plates(s, planes)
+        if any(m is not None for m in model.meshes):
+            _write_geometry(g.parent.create_group("geometry"), planes, model.meshes)
 
     def append(
         self,

@@ -22,6 +22,8 @@ collection `point_NNNN`):
 - `surfaces`: each plane as a finite quad (cell data: `surface` index, `restitution`, `mu_s`, `mu_d`),
   centred where the plane meets the pellets: it spans the plane's point and the projections onto
   the plane of the box around the launch, impact and landing positions, 10 % wider on each side;
+- `geometry_I`: surface I's triangles when it is a box, a mesh or a terrain (/geometry/surface_I,
+  the triangles the run used, stored once in the HDF5 file);
 - `frames` (runs with H5MD trajectory frames): a temporal collection, one grid per frame at its
   time (s), with the pellets' `id` and the per-pellet values above, so ParaView animates the shot.
 """
@@ -206,6 +208,7 @@ def _run(parent, group, h5name: str, name: str, suffix: str) -> None:
                     run, ref, rows, cloud + suffix, stage, bounce, [e for e in extras if not e.startswith(stage + ".")], constants
                 )
     _surfaces(run, group, ref, rows, "surfaces" + suffix)
+    _geometry(run, group, ref, suffix)
     _frames(run, group, ref, extras, "frames" + suffix)
 
 
@@ -398,9 +401,11 @@ DISC_SIDES = 48  # triangles of a disc's fan in the sidecar
 def plate_triangles(point, normal, axis_u, size, kind) -> np.ndarray:
     """The triangles (T, 3, 3) of a plate (docs/geometry.md), counter-clockwise about its normal:
     a rectangle (kind 1) of sides `size` along axis_u and normal x axis_u as 2, a disc (kind 2) of
-    diameter size[0] as a fan of DISC_SIDES inscribed in it."""
+    diameter size[0] as a fan of DISC_SIDES inscribed in it; a post (kind 6: `post_triangles`)."""
     p, n, u = (np.asarray(x, dtype=np.float64) for x in (point, normal, axis_u))
     n = n / np.linalg.norm(n)
+    if kind == 6:
+        return post_triangles(p, n, 0.5 * size[0], size[2])
     if kind == 2:
         u, v = plane_basis(n)
         angles = 2.0 * np.pi * np.arange(DISC_SIDES + 1) / DISC_SIDES
@@ -412,11 +417,25 @@ def plate_triangles(point, normal, axis_u, size, kind) -> np.ndarray:
     return np.array([[c[0], c[1], c[2]], [c[0], c[2], c[3]]])
 
 
+def post_triangles(base, axis, radius, length) -> np.ndarray:
+    """A post's triangles (docs/geometry.md "Posts"): its side as DISC_SIDES quads (two triangles
+    each) and its caps as fans, all counter-clockwise seen from outside; `axis` unit, from the base's
+    centre to the top's."""
+    u, v = plane_basis(axis)
+    angles = 2.0 * np.pi * np.arange(DISC_SIDES + 1) / DISC_SIDES
+    ring = radius * (np.cos(angles)[:, None] * u + np.sin(angles)[:, None] * v)
+    low, high = base + ring, base + length * axis + ring
+    side = np.concatenate([np.stack([low[:-1], low[1:], high[1:]], axis=1), np.stack([low[:-1], high[1:], high[:-1]], axis=1)])
+    top = np.stack([np.broadcast_to(base + length * axis, (DISC_SIDES, 3)), high[:-1], high[1:]], axis=1)
+    bottom = np.stack([np.broadcast_to(base, (DISC_SIDES, 3)), low[1:], low[:-1]], axis=1)
+    return np.concatenate([side, top, bottom])
+
+
 def _plates(parent, group, name):
-    """The finite plates as triangles, with their surface's index and coefficients as cell data."""
+    """The finite plates and posts as triangles, with their surface's index and coefficients as cell data."""
     s = group["constants/surfaces"]
     kinds = s["kind"][()]
-    which = np.flatnonzero((kinds == 1) | (kinds == 2))  # rectangles and discs (boxes and meshes: not drawn yet)
+    which = np.flatnonzero((kinds == 1) | (kinds == 2) | (kinds == 6))  # plates, posts (boxes, meshes, terrain: `_geometry`)
     if not len(which):
         return
     parts = [plate_triangles(s["point"][i], s["normal"][i], s["axis_u"][i], s["size"][i], kinds[i]) for i in which]
@@ -429,6 +448,27 @@ def _plates(parent, group, name):
     item.text = "\n" + "\n".join(" ".join(repr(float(x)) for x in c) for c in corners) + "\n"
     for key in ("surface", "restitution", "mu_s", "mu_d"):
         _cell_values(grid, key, owner if key == "surface" else s[key][()][owner])
+
+
+def _geometry(parent, group, ref, suffix):
+    """The boxes, meshes and terrain as the triangles the run used: one grid `geometry_I` per
+    surface I, its topology and points references to /geometry/surface_I (stored once in the HDF5
+    file, so a terrain of 1e6 triangles adds no data to the sidecar); the surface's index, name and
+    coefficients as Information."""
+    if "geometry" not in group:
+        return
+    s = group["constants/surfaces"]
+    meshes = {int(g.attrs["surface"]): key for key, g in group["geometry"].items() if "surface" in g.attrs}
+    for i, key in sorted(meshes.items()):  # (the group also holds their dimension scales)
+        g = group["geometry"][key]
+        grid = ET.SubElement(parent, "Grid", Name=f"geometry_{i}{suffix}", GridType="Uniform")
+        info = {"surface": str(i), "name": str(g.attrs["name"]), "kind": str(g.attrs["kind"])}
+        info.update({k: repr(float(s[k][i])) for k in ("restitution", "mu_s", "mu_d") if k in s})
+        for name, value in info.items():
+            ET.SubElement(grid, "Information", Name=name, Value=value)
+        count = str(g["triangles"].shape[0])
+        ref.item(ET.SubElement(grid, "Topology", TopologyType="Triangle", NumberOfElements=count), f"geometry/{key}/triangles")
+        ref.item(ET.SubElement(grid, "Geometry", GeometryType="XYZ"), f"geometry/{key}/vertices")
 
 
 # ------------------------------------------------------------------------------------------ frames

@@ -176,15 +176,31 @@ def flight_scale(position, velocity, gravity, dt):
     return np.abs(position).max(axis=-1) + dt * (np.abs(velocity).max(axis=-1) + 0.5 * dt * g)
 
 
-def simulate(scene, position, velocity, angular_velocity):
-    """Follow pellets from launch to landing (float64). Returns (per-pellet dict, statistics)."""
+def plane_contact(scene):
+    """The next contact of `simulate` with the scene's surfaces taken as planes: a function of
+    (position, velocity, touching) giving (time, surface, its unit normal (N, 3)) (`next_contact`)."""
+    radius = 0.5 * scene.shot.diameter
+    g = np.asarray(scene.physics.gravity, np.float64)
+    points = np.array([s.point for s in scene.surfaces], np.float64).reshape(-1, 3)
+    normals = np.array([s.normal for s in scene.surfaces], np.float64).reshape(-1, 3)
+
+    def contact(r, v, touching):
+        dt, k = next_contact(r, v, g, radius, points, normals, touching)
+        return dt, k, normals[np.maximum(k, 0)] if len(normals) else np.zeros_like(r)
+
+    return contact
+
+
+def simulate(scene, position, velocity, angular_velocity, contact=None):
+    """Follow pellets from launch to landing (float64). Returns (per-pellet dict, statistics).
+    `contact`: the next contact (`plane_contact`'s signature; default: every surface a plane;
+    reference.shapes: plates and triangles)."""
     radius = 0.5 * scene.shot.diameter
     mass = scene.shot.density * 4.0 / 3.0 * math.pi * radius**3
     inertia = SOLID_SPHERE_INERTIA_FACTOR * mass * radius**2
     g = np.asarray(scene.physics.gravity, np.float64)
     planes = scene.surfaces
-    points = np.array([s.point for s in planes], np.float64).reshape(-1, 3)
-    normals = np.array([s.normal for s in planes], np.float64).reshape(-1, 3)
+    contact = plane_contact(scene) if contact is None else contact
     E = np.array([s.restitution for s in planes] + [0.0])  # index -1 -> dummy
     mu_s = np.array([s.mu_s for s in planes] + [0.0])
     mu_d = np.array([s.mu_d for s in planes] + [0.0])
@@ -205,14 +221,15 @@ def simulate(scene, position, velocity, angular_velocity):
     impacts = np.zeros(n, int)
     resting = np.zeros(n, bool)  # met a surface without closing speed: the flight ends there
     resting_surface = np.full(n, -1)
+    resting_normal = np.zeros((n, 3))
     scale = np.full(n, np.nan)  # each pellet's largest flight scale (m)
     for bounce in range(B):
-        dt, k = next_contact(r, v, g, radius, points, normals, touching)
+        dt, k, normal_k = contact(r, v, touching)
         meet = active & (k >= 0)
         active &= meet
         dt = np.where(meet, dt, 0.0)
         scale = np.where(meet, np.fmax(scale, flight_scale(r, v, g, dt)), scale)
-        nrm = np.where(meet[:, None], normals[k], 0.0)
+        nrm = np.where(meet[:, None], normal_k, 0.0)
         r = np.where(meet[:, None], r + v * dt[:, None] + 0.5 * g * dt[:, None] ** 2, r)
         v = np.where(meet[:, None], v + g * dt[:, None], v)
         time = time + dt
@@ -221,6 +238,7 @@ def simulate(scene, position, velocity, angular_velocity):
         rests = meet & ~closing
         resting |= rests
         resting_surface = np.where(rests, k, resting_surface)
+        resting_normal = np.where(rests[:, None], nrm, resting_normal)
         active &= ~rests
         hit = meet & closing
         safe_n = np.where(hit[:, None], nrm, np.array([0.0, 1.0, 0.0]))
@@ -258,8 +276,9 @@ def simulate(scene, position, velocity, angular_velocity):
         stays = hit & (leaving**2 <= CLOSING_TOLERANCE**2 * speed_before2)
         resting |= stays
         resting_surface = np.where(stays, k, resting_surface)
+        resting_normal = np.where(stays[:, None], nrm, resting_normal)
         active &= ~stays
-    dt, k = next_contact(r, v, g, radius, points, normals, touching)
+    dt, k, normal_k = contact(r, v, touching)
     flying_lands = active & (k >= 0)
     dt = np.where(flying_lands, dt, 0.0)
     scale = np.where(flying_lands, np.fmax(scale, flight_scale(r, v, g, dt)), scale)
@@ -268,7 +287,7 @@ def simulate(scene, position, velocity, angular_velocity):
     land_pos = np.where(landed[:, None], r + v * dt[:, None] + 0.5 * g * dt[:, None] ** 2, np.nan)
     land_vel = np.where(landed[:, None], v + g * dt[:, None], np.nan)
     land_time = time + dt
-    contact = land_pos - radius * normals[np.maximum(k, 0)]
+    touch = land_pos - radius * np.where(resting[:, None], resting_normal, normal_k)
     out.update(
         {
             "initial.position": np.asarray(position, np.float64),
@@ -277,7 +296,7 @@ def simulate(scene, position, velocity, angular_velocity):
             "landing.time": np.where(landed, land_time, np.inf),
             "landing.position": land_pos,
             "landing.velocity": land_vel,
-            "landing.range": np.where(landed, np.linalg.norm(contact - ricochet_point, axis=1), np.nan),
+            "landing.range": np.where(landed, np.linalg.norm(touch - ricochet_point, axis=1), np.nan),
             "landing.surface": np.where(landed, k, -1).astype(np.int16),
         }
     )
