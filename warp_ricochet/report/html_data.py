@@ -94,6 +94,7 @@ def scene_words(f, scene: dict, stats: dict) -> dict:
         "pellet": f"{fmt(2e3 * radius)} mm {kind + ' ' if kind else ''}spheres, density {density:,.0f} kg/m³, "
         f"mass {fmt(1e3 * mass)} g",
         "seed": str(shot.get("seed", f.attrs.get("seed", "n/a"))),
+        "stations": [],  # [[stations]] in words (`_station_row`), none without them
     }
     if isinstance(shot.get("load"), dict):  # [shot] load (scene.loads): named as the scene gives it
         out["pellet"] = f"{describe_load(shot['load'])}: {out['pellet']}"
