@@ -318,9 +318,9 @@ def make_air_flight(precision: str, planes, laws: tuple, watch: tuple = (0, 0, F
     `to_contact` took are its sixth value), `to_contact_within` (the flight up to a time) and
     `to_contact_watched` (`to_contact` with each accepted step given to `tallies.path`'s watch of
     `watch` = (thresholds, places, map))."""
-    from ..tallies.path import make_path_watch  # (tallies imports physics: not at the top)
+    from ..tallies.path import make_path_roots, make_path_watch  # (tallies imports physics: not at the top)
 
-    watcher = make_path_watch(precision, *watch)
+    watcher, ground = make_path_watch(precision, *watch), make_path_roots(precision)
     Track, Tally = watcher.Track, watcher.Tally
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
@@ -370,8 +370,10 @@ def make_air_flight(precision: str, planes, laws: tuple, watch: tuple = (0, 0, F
         """The flight to the next plane contact within `latest` (s): `loop(position, velocity, spin,
         touching, surfaces, physics, latest, track, tally)` -> (dt, plane, normal, x, v, w, steps,
         track). One loop for both builds: with WATCH (`tallies.path`'s watch) each accepted step's
-        interpolant up to the contact is given to the watch; without it (track and tally unused
-        int32s) the code is that of the flight alone (`wp.static`)."""
+        interpolant up to the contact is given to the watch, and a flight with no plane left to meet
+        is flown on, watched, until it is below the hazard's ground plane falling (`ground.below`,
+        to `ground_theta` of its last step); without it (track and tally unused int32s) the code is
+        that of the flight alone."""
         TrackT, TallyT = (Track, Tally) if WATCH else (wp.int32, wp.int32)
 
         @wp.func
@@ -390,7 +392,11 @@ def make_air_flight(precision: str, planes, laws: tuple, watch: tuple = (0, 0, F
             if now >= 0:
                 return scalar(0.0), now, geo.normal(surfaces, now, position), position, velocity, spin, wp.int32(0), track
             if watched == 0 and waiting == 0 and latest >= LATEST:
-                return scalar(NO_CONTACT), wp.int32(-1), vec3(), position, velocity, spin, wp.int32(0), track
+                stop = True
+                if wp.static(WATCH):
+                    stop = ground.below(tally, position, velocity)
+                if stop:
+                    return scalar(NO_CONTACT), wp.int32(-1), vec3(), position, velocity, spin, wp.int32(0), track
             acceleration, spin_change = stepper.rates(velocity, spin, physics)
             h = first_step(velocity, spin, acceleration, spin_change, physics)
             time = scalar(0.0)
@@ -406,9 +412,15 @@ def make_air_flight(precision: str, planes, laws: tuple, watch: tuple = (0, 0, F
                     if wp.static(WATCH):
                         d0, e0, d1s, e1 = h * velocity, h * h * acceleration, h * v1, h * h * a1
                         end = scalar(1.0)
+                        gone = False
                         if k >= 0:
                             end = theta
+                        elif watched == 0 and waiting == 0 and latest >= LATEST and ground.below(tally, x1, v1):
+                            end = ground.ground_theta(tally, position, d0, e0, x1, d1s, e1)
+                            gone = True  # it escapes: nothing left to meet, below the ground
                         track = watcher.segment(track, tally, position, d0, e0, x1, d1s, e1, h, end)
+                        if gone:
+                            return scalar(NO_CONTACT), wp.int32(-1), vec3(), x1, v1, w1, steps, track
                     if k >= 0:
                         x, slope = dense.hermite_vec(theta, position, h * velocity, h * h * acceleration, x1, h * v1, h * h * a1)
                         w = dense.cubic_vec(theta, spin, h * spin_change, w1, h * d1)
