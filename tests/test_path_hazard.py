@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import warp_ricochet as wr
+from warp_ricochet.ends import ESCAPED
 from warp_ricochet.reference import path_hazard as ph
 from warp_ricochet.reference import surface_motion as ref
 from warp_ricochet.scene import scene_from_dict
@@ -173,15 +174,10 @@ def _bounds(passes, hazard, order):
     return lower, upper
 
 
-@pytest.mark.parametrize("precision", PRECISIONS)
-@pytest.mark.parametrize("kind", list(SCENES))
-def test_reach_and_exposure_match_the_brute_force_sampler(tmp_path, kind, precision):
-    rng = np.random.default_rng({"vacuum": 26, "air": 27, "sliding": 28}[kind])
-    normal = SCENES[kind][0]
-    launches = _launches(kind, rng, PELLETS, normal)
-    out = _run(tmp_path, kind, precision, launches)
+def _compare(out, normal, launches, paths, precision, least_places=3):
+    """The run file's reach, maps and named places against the sampler's on `paths` ((path, samples,
+    path length) per launch); returns the sampler's passes."""
     with h5py.File(out, "r") as f:
-        position = f["pellets/rest/position"][()].astype(float)
         hazard = _hazard(f, normal)
         reach = f["pellets/hazard/reach"][()].astype(float)
         places = f["hazard/points/pellets"][()]  # (places, thresholds): pellets passing above each
@@ -191,13 +187,9 @@ def test_reach_and_exposure_match_the_brute_force_sampler(tmp_path, kind, precis
             "outside": f["hazard/map/exposure_outside"][()],
         }
     order = np.argsort(np.asarray(hazard.speeds), kind="stable")
-    references = _reference(kind, launches, hazard)
     passes, flagged, bounded, levels = [], [], [], []
-    for i, (r, path, samples) in enumerate(references):
-        assert r.state == "rest"
-        scale = max(r.path_length, 1e-3)
-        # the same pellet: it rests where the reference's does (tests/test_rest_core.py's bound)
-        assert np.linalg.norm(position[i] - r.x) <= CLOSE[precision] * scale, (i, position[i], r.x, r.path_length)
+    for i, (path, samples, length) in enumerate(paths):
+        scale = max(length, 1e-3)
         tolerance = (CLOSE[precision] * scale, CLOSE[precision] * np.linalg.norm(launches[i][1]))
         rounding = (ROUNDING[precision] * scale, ROUNDING[precision] * np.linalg.norm(launches[i][1]))
         h = ph.hazard_of(path, hazard, tolerance, rounding, samples)
@@ -210,7 +202,7 @@ def test_reach_and_exposure_match_the_brute_force_sampler(tmp_path, kind, precis
                 bounded.append((i, j, low, high, reach[i, j]))
                 assert low - tolerance[0] <= reach[i, j] <= high + tolerance[0], (i, j, reach[i, j], low, high)
             else:
-                assert abs(reach[i, j] - want) <= tolerance[0], (i, j, reach[i, j], want, r.path_length)
+                assert abs(reach[i, j] - want) <= tolerance[0], (i, j, reach[i, j], want, length)
         passes += h.passes
         flagged += [(i, p) for p in h.passes if not p.certain]
         levels.append(ph.point_levels(path, hazard, samples))
@@ -233,7 +225,63 @@ def test_reach_and_exposure_match_the_brute_force_sampler(tmp_path, kind, precis
         ]
     )
     np.testing.assert_array_equal(places, want)
-    assert np.count_nonzero(want) >= 3, want  # (the places see pellets at several thresholds)
+    assert np.count_nonzero(want) >= least_places, want  # (the places see pellets at several thresholds)
     certain = sum(p.certain for p in passes)
-    print(f"{kind} {precision}: {len(passes)} passes, {certain} certain, flagged {flagged}, reach bounded {bounded}")
+    print(f"{precision}: {len(passes)} passes, {certain} certain, flagged {flagged}, reach bounded {bounded}")
     assert certain >= 0.8 * len(passes)  # the comparison is exact on most passes
+    return passes
+
+
+@pytest.mark.parametrize("precision", PRECISIONS)
+@pytest.mark.parametrize("kind", list(SCENES))
+def test_reach_and_exposure_match_the_brute_force_sampler(tmp_path, kind, precision):
+    rng = np.random.default_rng({"vacuum": 26, "air": 27, "sliding": 28}[kind])
+    normal = SCENES[kind][0]
+    launches = _launches(kind, rng, PELLETS, normal)
+    out = _run(tmp_path, kind, precision, launches)
+    with h5py.File(out, "r") as f:
+        position = f["pellets/rest/position"][()].astype(float)
+        hazard = _hazard(f, normal)
+    references = _reference(kind, launches, hazard)
+    for i, (r, _path, _samples) in enumerate(references):
+        assert r.state == "rest"
+        # the same pellet: it rests where the reference's does (tests/test_rest_core.py's bound)
+        assert np.linalg.norm(position[i] - r.x) <= CLOSE[precision] * max(r.path_length, 1e-3), (i, position[i], r.x)
+    _compare(out, normal, launches, [(p, s, r.path_length) for r, p, s in references], precision)
+
+
+def _escapes(rng, n, normal):
+    """Launch states of flights that never meet the plane: centres 0.05-2 m behind it (below the
+    ground: a one-sided plane is not met from behind), 5-60 m/s within 30 deg of +x, from 5 deg down
+    to 25 deg up: most rise through the plane and fall back through it, some stay below it."""
+    normal = np.asarray(normal, float) / np.linalg.norm(normal)
+    out = []
+    for _ in range(n):
+        turn, angle = math.radians(rng.uniform(-30, 30)), math.radians(rng.uniform(-5, 25))
+        along = np.array([math.cos(turn), 0.0, math.sin(turn)])
+        along -= (along @ normal) * normal
+        along /= np.linalg.norm(along)
+        x = -rng.uniform(0.05, 2.0) * normal
+        out.append((x, rng.uniform(5, 60) * (math.cos(angle) * along + math.sin(angle) * normal), rng.normal(0, 500, 3)))
+    return out
+
+
+@pytest.mark.parametrize("precision", PRECISIONS)
+@pytest.mark.parametrize("kind", ["vacuum", "air"])
+def test_escapes_are_watched_until_below_the_ground(tmp_path, kind, precision):
+    """A flight that never meets a surface (it escapes) is watched until its centre falls below the
+    hazard's ground plane (docs/hazard.md section 11): the sampler's reach, passes and places on the
+    escape path of `reference.path_hazard.escape_path`."""
+    rng = np.random.default_rng({"vacuum": 36, "air": 37}[kind])
+    normal = SCENES[kind][0]
+    launches = _escapes(rng, PELLETS, normal)
+    out = _run(tmp_path, kind, precision, launches)
+    with h5py.File(out, "r") as f:
+        assert (f["pellets/rest/state"][()] == ESCAPED).all()
+        hazard = _hazard(f, normal)
+    air = Air(density=1.225) if SCENES[kind][2] else None
+    paths = [ph.escape_path(x, v, w, hazard, radius=R, density=DENSITY, air=air) for x, v, w in launches]
+    lengths = [sum(p.length(k) for k in range(len(p.segments))) for p in paths]
+    assert sum(length > 1.0 for length in lengths) >= PELLETS // 2, lengths  # most come above the ground
+    paths = [(p, ph._sampled(p, hazard), length) for p, length in zip(paths, lengths)]
+    assert len(_compare(out, normal, launches, paths, precision, least_places=1)) >= 10

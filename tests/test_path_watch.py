@@ -11,7 +11,7 @@ import warp as wp
 
 from warp_ricochet.physics.types import types_for
 from warp_ricochet.tallies.counts import DeviceTally, TallySetup
-from warp_ricochet.tallies.path import make_path_watch
+from warp_ricochet.tallies.path import make_path_roots, make_path_watch
 
 G = 9.81
 H = 1.8  # m, body height
@@ -161,6 +161,46 @@ def test_reach_of_parabolas_is_the_closed_form(device, precision):
                 found += 1
                 assert abs(reach[i, k] - want) <= tolerance * length[i] + 1e-9, (i, k, reach[i, k], want)
     assert found > n  # most flights reach above some threshold within body height
+
+
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_escapes_are_watched_until_below_the_ground(device, precision):
+    """Random vacuum flights that meet no surface (`escape_time`), from 2 m below to 3 m above the ground
+    plane y = 0, up to 60 degrees up: watched until they fall below the plane (the later root of
+    y(t) = 0), or, never above it, to their apex; the reach per threshold as the closed form's of
+    that flight (`_reference_reach`), within the parabolas' tolerance."""
+    rng = np.random.default_rng(29)
+    n = 256
+    t = types_for(precision)
+    w = make_path_watch(precision, len(SPEEDS), 0, False)  # (the reach alone: a shorter compilation)
+    roots = make_path_roots(precision)
+
+    @wp.kernel
+    def watch_escapes(
+        tally: w.Tally, x0: wp.array(dtype=t.vec3), v0: wp.array(dtype=t.vec3), g: t.vec3, reach_out: wp.array2d(dtype=t.scalar)
+    ):
+        i = wp.tid()
+        track = w.parabola(w.start(), tally, x0[i], v0[i], g, roots.escape_time(tally, x0[i], v0[i], g))
+        w.write(track, reach_out, i)
+
+    x0 = np.column_stack([rng.uniform(-5, 20, n), rng.uniform(-2.0, 3.0, n), rng.uniform(-3, 3, n)])
+    angle = np.radians(rng.uniform(-10.0, 60.0, n))
+    v0 = rng.uniform(5.0, 250.0, n)[:, None] * np.column_stack([np.cos(angle), np.sin(angle), np.zeros(n)])
+    disc = v0[:, 1] ** 2 + 2 * G * x0[:, 1]
+    end = np.where(disc >= 0, (v0[:, 1] + np.sqrt(np.maximum(disc, 0))) / G, v0[:, 1] / G)  # the later root, or the apex
+    _tally, reach = _run(watch_escapes, _setup(), precision, device, _flights(x0, v0, end, precision, device)[:3], n)
+    length = np.linalg.norm(v0, axis=1) * np.maximum(end, 0.0)
+    tolerance = 1e-9 if precision == "float64" else 2e-5
+    found = 0
+    for i in range(n):
+        for k, s in enumerate(SPEEDS):
+            want = _reference_reach(x0[i], v0[i], end[i], s * s) if end[i] > 0 else math.nan  # below, falling: none
+            if math.isnan(want):
+                assert math.isnan(reach[i, k]), (i, k, reach[i, k], end[i])
+            else:
+                found += 1
+                assert abs(reach[i, k] - want) <= tolerance * length[i] + 1e-9, (i, k, reach[i, k], want)
+    assert found > n and (end <= 0).sum() > 5 and (disc < 0).sum() > 5  # (all three cases drawn)
 
 
 def _reference_passes(x0, v0, dt, setup):

@@ -392,9 +392,9 @@ def make_air_flight(precision: str, planes, laws: tuple, watch: tuple = (0, 0, F
     `to_contact` took are its sixth value), `to_contact_within` (the flight up to a time) and
     `to_contact_watched` (`to_contact` with each accepted step given to `tallies.path`'s watch of
     `watch` = (thresholds, places, map))."""
-    from ..tallies.path import make_path_watch  # (tallies imports physics: not at the top)
+    from ..tallies.path import make_path_roots, make_path_watch  # (tallies imports physics: not at the top)
 
-    watcher = make_path_watch(precision, *watch)
+    watcher, ground = make_path_watch(precision, *watch), make_path_roots(precision)
     Track, Tally = watcher.Track, watcher.Tally
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
@@ -440,6 +440,82 @@ def make_air_flight(precision: str, planes, laws: tuple, watch: tuple = (0, 0, F
             factor = wp.clamp(scalar(0.9) * wp.pow(error, scalar(-0.2)), scalar(0.2), scalar(5.0))
         return h * factor
 
+    def make_flight_loop(WATCH: bool):
+        """The flight to the next plane contact within `latest` (s): `loop(position, velocity, spin,
+        touching, surfaces, physics, latest, track, tally)` -> (dt, plane, normal, x, v, w, steps,
+        track). One loop for both builds: with WATCH (`tallies.path`'s watch) each accepted step's
+        interpolant up to the contact is given to the watch, and a flight with no plane left to meet
+        is flown on, watched, until it is below the hazard's ground plane falling (`ground.below`,
+        to `ground_theta` of its last step); without it (track and tally unused int32s) the code is
+        that of the flight alone."""
+        TrackT, TallyT = (Track, Tally) if WATCH else (wp.int32, wp.int32)
+
+        @wp.func
+        def loop(
+            position: vec3,
+            velocity: vec3,
+            spin: vec3,
+            touching: wp.int32,
+            surfaces: Surfaces,
+            physics: Physics,
+            latest: scalar,
+            track: TrackT,
+            tally: TallyT,
+        ):
+            watched, waiting, now = search.start(position, velocity, touching, surfaces, physics)
+            if now >= 0:
+                return scalar(0.0), now, geo.normal(surfaces, now, position), position, velocity, spin, wp.int32(0), track
+            if watched == 0 and waiting == 0 and latest >= LATEST:
+                stop = True
+                if wp.static(WATCH):
+                    stop = ground.below(tally, position, velocity)
+                if stop:
+                    return scalar(NO_CONTACT), wp.int32(-1), vec3(), position, velocity, spin, wp.int32(0), track
+            acceleration, spin_change = stepper.rates(velocity, spin, physics)
+            h = first_step(velocity, spin, acceleration, spin_change, physics)
+            time = scalar(0.0)
+            steps = wp.int32(0)
+            while steps < MAX_STEPS and time < latest:
+                h = wp.min(h, latest - time)
+                x1, v1, w1, a1, d1, error = stepper.step(position, velocity, spin, acceleration, spin_change, h, physics)
+                steps += 1
+                if error <= scalar(1.0):
+                    theta, k, watched, waiting = search.search(
+                        h, position, velocity, acceleration, x1, v1, a1, watched, waiting, surfaces, physics
+                    )
+                    if wp.static(WATCH):
+                        d0, e0, d1s, e1 = h * velocity, h * h * acceleration, h * v1, h * h * a1
+                        end = scalar(1.0)
+                        gone = False
+                        if k >= 0:
+                            end = theta
+                        elif watched == 0 and waiting == 0 and latest >= LATEST and ground.below(tally, x1, v1):
+                            end = ground.ground_theta(tally, position, d0, e0, x1, d1s, e1)
+                            gone = True  # it escapes: nothing left to meet, below the ground
+                        track = watcher.segment(track, tally, position, d0, e0, x1, d1s, e1, h, end)
+                        if gone:
+                            return scalar(NO_CONTACT), wp.int32(-1), vec3(), x1, v1, w1, steps, track
+                    if k >= 0:
+                        x, slope = dense.hermite_vec(theta, position, h * velocity, h * h * acceleration, x1, h * v1, h * h * a1)
+                        w = dense.cubic_vec(theta, spin, h * spin_change, w1, h * d1)
+                        n = geo.contact_normal(surfaces, k, x, slope / h, physics.radius)
+                        return time + theta * h, k, n, x, slope / h, w, steps, track
+                    position = x1
+                    velocity = v1
+                    spin = w1
+                    acceleration = a1
+                    spin_change = d1
+                    time = time + h
+                h = next_step(h, error)
+            stopped = wp.int32(-1)
+            if steps >= MAX_STEPS:
+                stopped = wp.int32(GAVE_UP)
+            return scalar(NO_CONTACT), stopped, vec3(), position, velocity, spin, steps, track
+
+        return loop
+
+    flight_loop, watched_loop = make_flight_loop(False), make_flight_loop(watcher.ON)
+
     @wp.func
     def to_contact_within(
         position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces, physics: Physics, latest: scalar
@@ -447,39 +523,10 @@ def make_air_flight(precision: str, planes, laws: tuple, watch: tuple = (0, 0, F
         """(dt, plane, normal, x, v, w, steps) at the next plane contact within `latest` (s) (its
         normal: the plane's there); plane -1 (none by then: the state `latest` later) or GAVE_UP
         with the state where the flight stopped, normal 0."""
-        watched, waiting, now = search.start(position, velocity, touching, surfaces, physics)
-        if now >= 0:
-            return scalar(0.0), now, geo.normal(surfaces, now, position), position, velocity, spin, wp.int32(0)
-        if watched == 0 and waiting == 0 and latest >= LATEST:
-            return scalar(NO_CONTACT), wp.int32(-1), vec3(), position, velocity, spin, wp.int32(0)
-        acceleration, spin_change = stepper.rates(velocity, spin, physics)
-        h = first_step(velocity, spin, acceleration, spin_change, physics)
-        time = scalar(0.0)
-        steps = wp.int32(0)
-        while steps < MAX_STEPS and time < latest:
-            h = wp.min(h, latest - time)
-            x1, v1, w1, a1, d1, error = stepper.step(position, velocity, spin, acceleration, spin_change, h, physics)
-            steps += 1
-            if error <= scalar(1.0):
-                theta, k, watched, waiting = search.search(
-                    h, position, velocity, acceleration, x1, v1, a1, watched, waiting, surfaces, physics
-                )
-                if k >= 0:
-                    x, slope = dense.hermite_vec(theta, position, h * velocity, h * h * acceleration, x1, h * v1, h * h * a1)
-                    w = dense.cubic_vec(theta, spin, h * spin_change, w1, h * d1)
-                    n = geo.contact_normal(surfaces, k, x, slope / h, physics.radius)
-                    return time + theta * h, k, n, x, slope / h, w, steps
-                position = x1
-                velocity = v1
-                spin = w1
-                acceleration = a1
-                spin_change = d1
-                time = time + h
-            h = next_step(h, error)
-        stopped = wp.int32(-1)
-        if steps >= MAX_STEPS:
-            stopped = wp.int32(GAVE_UP)
-        return scalar(NO_CONTACT), stopped, vec3(), position, velocity, spin, steps
+        dt, k, n, x, v, w, steps, _track = flight_loop(
+            position, velocity, spin, touching, surfaces, physics, latest, wp.int32(0), wp.int32(0)
+        )
+        return dt, k, n, x, v, w, steps
 
     @wp.func
     def to_contact(position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces, physics: Physics):
@@ -498,44 +545,11 @@ def make_air_flight(precision: str, planes, laws: tuple, watch: tuple = (0, 0, F
         track: Track,
         tally: Tally,
     ):
-        """`to_contact`, each accepted step's interpolant (to the contact) watched: its values and the track."""
-        watched, waiting, now = search.start(position, velocity, touching, surfaces, physics)
-        if now >= 0:
-            return scalar(0.0), now, geo.normal(surfaces, now, position), position, velocity, spin, wp.int32(0), track
-        if watched == 0 and waiting == 0:
-            return scalar(NO_CONTACT), wp.int32(-1), vec3(), position, velocity, spin, wp.int32(0), track
-        acceleration, spin_change = stepper.rates(velocity, spin, physics)
-        h = first_step(velocity, spin, acceleration, spin_change, physics)
-        time = scalar(0.0)
-        steps = wp.int32(0)
-        while steps < MAX_STEPS and time < LATEST:
-            x1, v1, w1, a1, d1, error = stepper.step(position, velocity, spin, acceleration, spin_change, h, physics)
-            steps += 1
-            if error <= scalar(1.0):
-                theta, k, watched, waiting = search.search(
-                    h, position, velocity, acceleration, x1, v1, a1, watched, waiting, surfaces, physics
-                )
-                d0, e0, d1s, e1 = h * velocity, h * h * acceleration, h * v1, h * h * a1
-                end = scalar(1.0)
-                if k >= 0:
-                    end = theta
-                track = watcher.segment(track, tally, position, d0, e0, x1, d1s, e1, h, end)
-                if k >= 0:
-                    x, slope = dense.hermite_vec(theta, position, d0, e0, x1, d1s, e1)
-                    w = dense.cubic_vec(theta, spin, h * spin_change, w1, h * d1)
-                    n = geo.contact_normal(surfaces, k, x, slope / h, physics.radius)
-                    return time + theta * h, k, n, x, slope / h, w, steps, track
-                position = x1
-                velocity = v1
-                spin = w1
-                acceleration = a1
-                spin_change = d1
-                time = time + h
-            h = next_step(h, error)
-        stopped = wp.int32(-1)
-        if steps >= MAX_STEPS:
-            stopped = wp.int32(GAVE_UP)
-        return scalar(NO_CONTACT), stopped, vec3(), position, velocity, spin, steps, track
+        """`to_contact`, watched (`make_flight_loop`; without thresholds the flight alone): its values and the track."""
+        if wp.static(watcher.ON):
+            return watched_loop(position, velocity, spin, touching, surfaces, physics, LATEST, track, tally)
+        dt, k, n, x, v, w, steps = to_contact_within(position, velocity, spin, touching, surfaces, physics, LATEST)
+        return dt, k, n, x, v, w, steps, track
 
     @wp.func
     def advance(position: vec3, velocity: vec3, spin: vec3, dt: scalar, physics: Physics):

@@ -51,9 +51,9 @@ def make_flight(
         raise ValueError(f"flight model {model!r}: must be one of {MODELS}")
     if model == "air":
         return _air_flight(precision, planes, laws, watch, plates)
-    from ..tallies.path import make_path_watch  # (tallies imports physics: not at the top)
+    from ..tallies.path import make_path_roots, make_path_watch  # (tallies imports physics: not at the top)
 
-    watcher = make_path_watch(precision, *watch)
+    watcher, ground = make_path_watch(precision, *watch), make_path_roots(precision)
     Track, Tally = watcher.Track, watcher.Tally
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
@@ -92,10 +92,14 @@ def make_flight(
         track: Track,
         tally: Tally,
     ):
-        """`to_contact`, the parabola to the contact watched (`tallies.path`): its values and the track."""
+        """`to_contact`, the parabola to the contact watched (`tallies.path`), or an escape's until it
+        falls below the hazard's ground plane: its values and the track."""
         dt, k, normal, x, v, w, steps = to_contact(position, velocity, spin, touching, surfaces, physics)
-        if k >= 0:
-            track = watcher.parabola(track, tally, position, velocity, physics.gravity, dt)
+        if wp.static(watcher.ON):
+            watched = dt
+            if k < 0:
+                watched = ground.escape_time(tally, position, velocity, physics.gravity)
+            track = watcher.parabola(track, tally, position, velocity, physics.gravity, watched)  # (one call: inlined once)
         return dt, k, normal, x, v, w, steps, track
 
     return SimpleNamespace(

@@ -30,6 +30,9 @@ import math
 
 import numpy as np
 
+from .air import derivatives
+from .surface_motion import Model, _event, _solve
+
 STEP = 1e-3  # m of path between samples
 MIN_SAMPLES = 64  # a phase's samples at least
 MAX_SAMPLES = 400_000  # a phase's samples at most (a longer phase is sampled more coarsely)
@@ -134,6 +137,41 @@ def parabola(x0, v0, t_end, gravity=(0.0, -9.81, 0.0)) -> Path:
 
     def y(t):
         return x0[:, None] + v0[:, None] * t + 0.5 * g[:, None] * t * t, v0[:, None] + g[:, None] * t
+
+    return Path([(0.0, float(t_end), y)])
+
+
+def escape_path(x0, v0, omega0, hazard: Hazard, *, radius, density, gravity=(0.0, -9.81, 0.0), air=None, t_max=1e4) -> Path:
+    """The path of a flight that meets no surface (an escape; docs/hazard.md section 11) up to where
+    its watch stops: its centre's height over the hazard's plane falling through 0, or, if it starts
+    below the plane and never comes above it, its height's apex (none if it starts below and
+    falling). Found by SciPy's events on `surface_motion`'s flight (DOP853, rtol 1e-12; `air`: a
+    `scene.schema.Air`); in vacuum the path is then the exact parabola to there."""
+    model = Model(radius, density, gravity, air)
+    n, p = np.asarray(hazard.normal, float), np.asarray(hazard.point, float)
+    n = n / (n @ np.asarray(hazard.up, float))  # x.n: a height along up
+
+    def height(_t, y):
+        return (y[0:3] - p) @ n
+
+    def apex_below(_t, y):  # its height's rate, while below the plane
+        return y[3:6] @ n if height(_t, y) < 0.0 else 1.0
+
+    def rhs(_t, y):
+        if model.air is None:
+            return np.concatenate([y[3:6], model.g, np.zeros(4)])
+        return np.concatenate([derivatives(_t, y[:9], model.pellet, model.air, model.g), [0.0]])
+
+    y0 = np.concatenate([np.asarray(x0, float), np.asarray(v0, float), np.asarray(omega0, float), [0.0]])
+    if height(0.0, y0) < 0.0 and y0[3:6] @ n <= 0.0:
+        return Path([])
+    (_i, t_end, _y), sol = _solve(rhs, y0, 0.0, t_max, [_event(height, -1.0), _event(apex_below, -1.0)], 1e-12)
+    if model.air is None:
+        return parabola(x0, v0, t_end, gravity)
+
+    def y(t):
+        out = sol(t)
+        return out[0:3], out[3:6]
 
     return Path([(0.0, float(t_end), y)])
 

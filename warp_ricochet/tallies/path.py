@@ -16,7 +16,8 @@ part; any other is cut at its height's apex (in vacuum the speed's minimum too) 
 `counts.PATH_PARTS` parts. On a part the height and the speed are taken as monotone: their
 crossings of body height and of each threshold's speed are found by bisection on the interpolant.
 `line` takes a straight stretch whose speed falls by a known law (rolling with ploughing in vacuum,
-`physics.surface_follow.plough_roll`), with its crossings in closed form.
+`physics.surface_follow.plough_roll`), with its crossings in closed form. A flight that escapes is
+watched until its centre falls below the ground plane (`escape_time`, `below`, `ground_theta`).
 
 A part within body height is walked across the map's cells along its curve (`make_path_curve`:
 row by row along the axis it moves farther along, each edge of the other axis crossed found by
@@ -32,7 +33,7 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from ..physics.ballistic import EPSILON
+from ..physics.ballistic import EPSILON, MAX_FLIGHT_TIME
 from ..physics.integrate import make_dense_output
 from ..physics.types import types_for
 from .bins import BINS, make_bin_of
@@ -481,8 +482,67 @@ def make_path_roots(precision: str) -> SimpleNamespace:
             return a
         return b
 
+    @wp.func
+    def ground_theta(tally: Tally, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3):
+        """On a step that ends below the hazard's ground plane and falling: where an escape's watch
+        stops (docs/hazard.md section 11): its crossing of the plane from above if it starts above
+        it, else its height's apex if it starts rising, else 0 (bisection, to rounding)."""
+        f0, r0 = height_at(tally, ZERO, x0, d0, e0, x1, d1, e1)
+        a = ZERO
+        b = scalar(1.0)
+        if f0 + tally.body_height >= ZERO:
+            for _ in range(ITERATIONS):
+                m = scalar(0.5) * (a + b)
+                f, _rate = height_at(tally, m, x0, d0, e0, x1, d1, e1)
+                if f + tally.body_height >= ZERO:
+                    a = m
+                else:
+                    b = m
+            return a
+        if r0 > ZERO:
+            return apex(tally, a, b, x0, d0, e0, x1, d1, e1)
+        return ZERO
+
+    @wp.func
+    def below(tally: Tally, x: vec3, v: vec3):
+        """Whether the centre is below the hazard's ground plane and not rising: an escaping flight's
+        watch ends there (no person stands below the ground; docs/hazard.md section 11)."""
+        n = tally.ground_normal
+        return wp.dot(x - tally.ground_point, n) < ZERO and wp.dot(v, n) <= ZERO
+
+    @wp.func
+    def escape_time(tally: Tally, x0: vec3, v0: vec3, g: vec3):
+        """s: how long a vacuum flight that meets no surface again is watched, until its centre goes
+        below the hazard's ground plane falling: the later root of its height there, c + b t + a t^2
+        = 0 (a = n.g / 2 < 0; the root in the form without cancellation); a flight never above the
+        plane up to its height's apex (<= 0, none, if falling); one whose gravity does not point
+        into the plane for MAX_FLIGHT_TIME, as long as a contact is looked for."""
+        n = tally.ground_normal
+        c = wp.dot(x0 - tally.ground_point, n)
+        b = wp.dot(v0, n)
+        a = scalar(0.5) * wp.dot(g, n)
+        dt = scalar(MAX_FLIGHT_TIME)
+        if a < ZERO:
+            dt = -b / (scalar(2.0) * a)  # the apex
+            disc = b * b - scalar(4.0) * a * c
+            if disc >= ZERO:
+                root = wp.sqrt(disc)
+                if b >= ZERO:
+                    dt = (b + root) / (scalar(-2.0) * a)
+                else:
+                    dt = scalar(2.0) * c / (root - b)
+        return dt
+
     return SimpleNamespace(
-        height=height, height_at=height_at, speed2_at=speed2_at, height_root=height_root, apex=apex, speed_root=speed_root
+        below=below,
+        escape_time=escape_time,
+        height=height,
+        height_at=height_at,
+        speed2_at=speed2_at,
+        height_root=height_root,
+        apex=apex,
+        speed_root=speed_root,
+        ground_theta=ground_theta,
     )
 
 
@@ -515,9 +575,8 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
     cells = make_path_cells(precision, thresholds, points, with_map)
-    Track, Tally, Reach, chord = cells.Track, cells.Tally, cells.Reach, cells.chord
+    Track, Tally, Reach, chord, flush = cells.Track, cells.Tally, cells.Reach, cells.chord, cells.flush
     near_places, curve = cells.near_places, make_path_curve(precision, thresholds, points, with_map).curve
-    flush = cells.flush
     MAP = with_map
     hermite_vec = make_dense_output(precision).hermite_vec
     horizontal_distance = make_landing_tally(precision).horizontal_distance
@@ -525,8 +584,7 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
     height, height_at, speed2_at, height_root = r.height, r.height_at, r.speed2_at, r.height_root
     apex, speed_root = r.apex, r.speed_root
     bin_of = make_bin_of()
-    K, P, ON = max(thresholds, 1), max(points, 1), thresholds > 0
-    HAS_POINTS = points > 0
+    K, P, ON, HAS_POINTS = max(thresholds, 1), max(points, 1), thresholds > 0, points > 0
     ZERO, ONE = scalar(0.0), scalar(1.0)
 
     @wp.func
