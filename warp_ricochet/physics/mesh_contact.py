@@ -8,7 +8,8 @@ The BVH only proposes triangles; every test is on the kernel-precision vertices:
 - the flight's time window near the mesh: until the centre, falling along gravity, is below the box
   by R (no gravity: the slab test of the straight line against the box grown by R);
 - split into chords, each short enough that the parabola lies within its sagitta |g| h^2 / 8 of it
-  (a chord per SAGITTA of the box's diagonal, at most MAX_CHORDS); each chord's box grown by
+  (a chord per SAGITTA of the box's diagonal) and at most CHORD_EDGES median triangle edges long
+  (so a chord's box holds a few triangles, not a strip of a terrain), at most MAX_CHORDS; each chord's box grown by
   R + sagitta + float32 slack is queried (`wp.mesh_query_aabb`), in time order, until a contact
   found lies within the chords searched;
 - a triangle (a, b, c) with unit normal n = (b - a) x (c - a) / |.| is met where the centre's
@@ -30,6 +31,7 @@ from .types import KINDS, types_for
 
 SAGITTA = 1.0 / 16.0  # a chord's sagitta, as a fraction of the mesh's bounding-box diagonal
 MAX_CHORDS = 1024  # past it the chords are longer and their boxes grown by their larger sagitta
+CHORD_EDGES = 4.0  # a chord's length at most this many of the mesh's median triangle edge
 EDGE_ROUNDING = 8.0  # the inside test's tolerance, in machine epsilons of its operands' scale
 FLOAT32_SLACK = 2.0**-20  # relative: the BVH's float32 boxes against the kernel's vertices
 
@@ -183,11 +185,14 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
         if end <= scalar(0.0):
             return best
         gravity = wp.length(g)
-        chords = wp.int32(1)
-        if gravity > scalar(0.0):  # sagitta |g| h^2 / 8 at most SAGITTA of the diagonal
+        # a chord at most CHORD_EDGES of the triangles' median edge long (its box then holds a few
+        # triangles, not a strip of the mesh) ...
+        span = wp.length(v) * end + scalar(0.5) * gravity * end * end  # >= the arc's length
+        wanted = span / (scalar(CHORD_EDGES) * wp.max(surfaces.mesh_edge[k], radius))
+        if gravity > scalar(0.0):  # ... and of sagitta |g| h^2 / 8 at most SAGITTA of the diagonal
             target = wp.max(scalar(SAGITTA) * wp.length(high - low), radius)
-            wanted = end * wp.sqrt(gravity / (scalar(8.0) * target))
-            chords = wp.int32(wp.min(wanted, scalar(MAX_CHORDS))) + 1
+            wanted = wp.max(wanted, end * wp.sqrt(gravity / (scalar(8.0) * target)))
+        chords = wp.int32(wp.min(wanted, scalar(MAX_CHORDS))) + 1
         h = end / scalar(chords)
         grow = radius + slack + scalar(0.125) * gravity * h * h
         start = x

@@ -54,12 +54,14 @@ def types_for(precision: str) -> SimpleNamespace:
         half_v: wp.array(dtype=scalar)
         two_sided: wp.array(dtype=wp.int32)  # 1: met from either face
         # meshes (read only by kernels compiled with meshes, `physics.mesh_contact`): per surface its
-        # wp.Mesh id (0: none), the index of its first vertex in mesh_points, its bounding box (m);
+        # wp.Mesh id (0: none), the index of its first vertex in mesh_points, its bounding box (m),
+        # its triangles' median edge (m);
         # mesh_points: every mesh's vertices (m) in the kernel's precision
         mesh: wp.array(dtype=wp.uint64)
         mesh_first: wp.array(dtype=wp.int32)
         mesh_low: wp.array(dtype=vec3)
         mesh_high: wp.array(dtype=vec3)
+        mesh_edge: wp.array(dtype=scalar)  # m: the median edge of its triangles (the chords' scale)
         mesh_points: wp.array(dtype=vec3)
 
     @wp.struct
@@ -171,7 +173,7 @@ def mesh_fields(surfaces, precision: str, meshes, device) -> None:
     `vertices` float64 (n, 3) and `triangles` int32 (m, 3): `scene.triangles.TriangleSurface`);
     each gets a wp.Mesh (float32 BVH), kept alive as long as `surfaces`."""
     t, dtype = types_for(precision), np.dtype(precision)
-    ids, first, low, high, points, held = [], [], [], [], [np.zeros((0, 3))], []
+    ids, first, low, high, edge, points, held = [], [], [], [], [], [np.zeros((0, 3))], []
     count = 0
     for triangles in meshes:
         ids.append(0 if triangles is None else None)
@@ -179,8 +181,11 @@ def mesh_fields(surfaces, precision: str, meshes, device) -> None:
         if triangles is None:
             low.append(np.zeros(3))
             high.append(np.zeros(3))
+            edge.append(0.0)
             continue
         vertices = np.asarray(triangles.vertices, dtype=np.float64).astype(dtype)
+        corners = np.asarray(triangles.vertices, dtype=np.float64)[np.asarray(triangles.triangles, dtype=np.int64)]
+        edge.append(float(np.median(np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2))))
         mesh = wp.Mesh(
             points=wp.array(vertices.astype(np.float32), dtype=wp.vec3, device=device),
             indices=wp.array(
@@ -197,6 +202,7 @@ def mesh_fields(surfaces, precision: str, meshes, device) -> None:
     surfaces.mesh_first = wp.array(np.asarray(first, dtype=np.int32), dtype=wp.int32, device=device)
     for name, values in (("mesh_low", low), ("mesh_high", high)):
         setattr(surfaces, name, wp.array(np.asarray(values).reshape(-1, 3).astype(dtype), dtype=t.vec3, device=device))
+    surfaces.mesh_edge = wp.array(np.asarray(edge, dtype=dtype), dtype=t.scalar, device=device)
     surfaces.mesh_points = wp.array(np.concatenate(points).astype(dtype), dtype=t.vec3, device=device)
     if held:
         _HELD[id(surfaces)] = held
