@@ -185,9 +185,7 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
         if end <= scalar(0.0):
             return best
         gravity = wp.length(g)
-        # a chord at most CHORD_EDGES of the triangles' median edge long (its box then holds a few
-        # triangles, not a strip of the mesh) ...
-        span = wp.length(v) * end + scalar(0.5) * gravity * end * end  # >= the arc's length
+        span = wp.length(v) * end + scalar(0.5) * gravity * end * end  # >= the arc: CHORD_EDGES edges a chord ...
         wanted = span / (scalar(CHORD_EDGES) * wp.max(surfaces.mesh_edge[k], radius))
         if gravity > scalar(0.0):  # ... and of sagitta |g| h^2 / 8 at most SAGITTA of the diagonal
             target = wp.max(scalar(SAGITTA) * wp.length(high - low), radius)

@@ -46,6 +46,7 @@ KEY_UNITS = {
     "surfaces.*.mu_d": "1",
     "surfaces.*.size": "m",
     "surfaces.*.radius": "m",
+    "surfaces.*.length": "m",  # a post's (kind = "cylinder")
     "surfaces.*.elevation": "m",
     **{f"surfaces.*.{key}": unit for key, (_lo, _hi, unit, _why) in RANGES.items()},
     "physics.gravity": "m/s^2",
