@@ -234,7 +234,8 @@ def test_a_pellet_rolls_off_a_plates_edge_and_flies_on(tmp_path, precision, air)
 @pytest.mark.parametrize(
     ("surface", "key"),
     [
-        ({"kind": "cylinder"}, "surfaces.0.kind"),
+        ({"kind": "cone"}, "surfaces.0.kind"),
+        ({"kind": "cylinder"}, "surfaces.0.radius"),
         ({"kind": "rectangle", "size": [1.0, 1.0]}, "surfaces.0.axis_u"),
         ({"kind": "rectangle", "axis_u": [0.0, 1.0, 0.0], "size": [0.0, 1.0]}, "surfaces.0.size"),
         ({"kind": "rectangle", "axis_u": [0.0, 1.0, 0.0], "size": [1.0]}, "surfaces.0.size"),

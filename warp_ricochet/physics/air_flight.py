@@ -208,17 +208,17 @@ def make_solid_search(precision: str) -> SimpleNamespace:
                 near = False
         if not near:
             return best
-        r, length, axis = surfaces.half_u[k], surfaces.half_v[k], surfaces.normal[k]
+        base, axis, r, length = posts.post_frame(surfaces, k)
         d0, e0, d1, e1 = h * v0, h * h * a0, h * v1, h * h * a1
         slack = posts.slack(surfaces, k, x0)
         best = posts.side_theta(surfaces, k, r + radius, slack, x0, d0, e0, x1, d1, e1)
         best = wp.min(best, posts.side_theta(surfaces, k, r, slack, x0, d0, e0, x1, d1, e1))
         for j in range(2):
             n = axis
-            level = wp.dot(surfaces.point[k], axis) + length
+            level = wp.dot(base, axis) + length
             if j == 1:
                 n = -axis
-                level = -wp.dot(surfaces.point[k], axis)
+                level = -wp.dot(base, axis)
             theta, through = face_thetas(n, level, h, x0, v0, a0, x1, v1, a1, radius)
             for m in range(2):
                 cap = theta

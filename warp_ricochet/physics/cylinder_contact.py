@@ -89,6 +89,11 @@ def _post_shape(precision: str) -> SimpleNamespace:
         return n
 
     @wp.func
+    def post_frame(surfaces: Surfaces, k: wp.int32):
+        """Post k's base centre p (m), unit axis a, radius r (m) and length L (m)."""
+        return surfaces.point[k], surfaces.normal[k], surfaces.half_u[k], surfaces.half_v[k]
+
+    @wp.func
     def post_box(surfaces: Surfaces, k: wp.int32):
         """Post k's bounding box (m): (low, high)."""
         a, r, length = surfaces.normal[k], surfaces.half_u[k], surfaces.half_v[k]
@@ -113,7 +118,14 @@ def _post_shape(precision: str) -> SimpleNamespace:
         return EDGE * (l1(x - p) + l1(p) + surfaces.half_v[k] + surfaces.half_u[k])
 
     return SimpleNamespace(
-        is_post=is_post, across=across, along=along, post_normal=post_normal, post_box=post_box, on_cap=on_cap, slack=slack
+        is_post=is_post,
+        across=across,
+        along=along,
+        post_frame=post_frame,
+        post_normal=post_normal,
+        post_box=post_box,
+        on_cap=on_cap,
+        slack=slack,
     )
 
 
