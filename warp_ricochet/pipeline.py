@@ -313,7 +313,7 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
             stage = CollisionStage(scene, model, spec, arrays, pellets, options, frames)
         else:
             stage = CoreStage(scene, model, spec, arrays, pellets)
-        fold = StationFold(pellet_ends(scene)) if scene.stations else None
+        fold = StationFold(pellet_ends(scene), scene.shot.count, spec.collisions) if scene.stations else None
         totals, tables, tally, pieces, pellets, outcome = _loop(stage, pellets, sink, resumed, progress, plan, fold)
     kw = dict(mass=model.mass, inertia=model.inertia, air=spec.in_air, rest=spec.to_rest)
     stats = RunStats(finalize(totals, pellets=pellets, **kw))
@@ -329,7 +329,10 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
             UNFINISHED_FLIGHTS.format(int(stats["flights_unfinished"]), MAX_FLIGHT_STEPS), PrecisionWarning, stacklevel=3
         )
     if spec.collisions:
-        stats.update(collision_statistics(np.concatenate(tables) if tables else np.zeros((0, len(SHOT_TOTALS))), pellets))
+        table = np.concatenate(tables) if tables else np.zeros((0, len(SHOT_TOTALS)))
+        stats.update(collision_statistics(table, pellets))
+        for (first, end), part in zip(shot_ranges(scene), (stats.stations or {}).values()):  # each station's shots
+            part.update(collision_statistics(table[first:end], int(part["pellets"])))
         if stats["skin_overrun_max"] > OVERRUN_TOLERANCE:
             warnings.warn(SKIN_OVERRUN.format(stats["skin_overrun_max"]), PrecisionWarning, stacklevel=3)
     if stage.shot_pass is not None:
@@ -341,7 +344,7 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
             inertia=model.inertia,
             air=spec.in_air,
             rest=spec.to_rest,
-            shot_totals=np.concatenate(tables) if spec.collisions else None,
+            shot_totals=table if spec.collisions else None,
         )
         stats.ensemble = ensemble_of(per_shot, pellets // scene.shot.count)
         for (first, end), part in zip(shot_ranges(scene), (stats.stations or {}).values()):  # each station's shots

@@ -28,6 +28,7 @@ def make_separation(spec) -> SimpleNamespace:
     redraw_position = make_redraw(kit.precision)
     cell_bucket = make_lists(spec).cell_bucket
     SAMPLED = not spec.from_file
+    STATIONS = SAMPLED and spec.stations
 
     @wp.func
     def cell_of(position: vec3, centre: vec3, inverse_cell: wp.float64):
@@ -90,12 +91,15 @@ def make_separation(spec) -> SimpleNamespace:
         (`launch.sampling.redraw_position`) while it overlaps an earlier one, then chained into the
         shot's cell buckets (`heads`: `heads.shape[0] / shots` a shot, a power of two; `chain`: one
         a pellet); `redraws[s]`: the most attempts a pellet took, MAX_REDRAWS + 1 when one still
-        overlaps."""
+        overlaps. Redraws fill the shot's envelope: around its station with [[stations]]
+        (`source.shot_center`, `launch.source`), else around shot.envelope_center."""
         diameter = scalar(2.0) * physics.radius
         diameter2 = diameter * diameter
         inverse_cell = wp.float64(1.0) / (wp.float64(CELL_MARGIN) * wp.float64(diameter))
-        centre = source.envelope_center
         first = s * pair.count
+        centre = source.envelope_center
+        if wp.static(STATIONS):  # the shot's station (`PelletSource.load` filled the chunk's shots)
+            centre = source.shot_center[(first_index + first) / pair.count - source.shot_first]
         table = heads.shape[0] / redraws.shape[0]
         base = s * table
         worst = wp.int32(0)
@@ -114,9 +118,7 @@ def make_separation(spec) -> SimpleNamespace:
                 clash = overlaps_earlier(position, centre, inverse_cell, diameter2, base, table, heads, chain, cloud)
                 while clash != 0 and attempt < wp.static(MAX_REDRAWS):
                     attempt += 1
-                    position = redraw_position(
-                        source.seed, first_index + i, attempt, source.envelope_center, source.envelope_radius
-                    )
+                    position = redraw_position(source.seed, first_index + i, attempt, centre, source.envelope_radius)
                     clash = overlaps_earlier(position, centre, inverse_cell, diameter2, base, table, heads, chain, cloud)
                 if attempt > 0:
                     cloud.state.position[i] = position

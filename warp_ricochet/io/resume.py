@@ -140,7 +140,7 @@ def verify(f, scene, dev, partial_name: str) -> tuple[int, int, int, int]:
     if bounded is not None:
         segments = bounded.segments(rows, scene.pair_collisions)
     if scene.stations:  # (chunks end at each station's end, and segments start there)
-        segments = segments_of(pellet_ends(scene), rows)
+        segments = segments_of(pellet_ends(scene), rows, scene.shot.count, scene.pair_collisions)
     damaged = None
     if not 0 <= rows <= pellets or pellets != planned(scene).shot.pellets:
         damaged = f"{rows} rows complete of {pellets}"

@@ -5,7 +5,9 @@ chunk loop ends a stretch at every station end (chunks never cross one) and star
 statistics segments at its first pellet, so a chunk belongs to one station and every segment holds
 the same pellets for any chunk size and on resume. A station's statistics fold its segments in
 pellet order (`sums.combine`), as the run's fold all of them: both are chunk-invariant. Its landing
-counts are the run's cumulative counts (int64) at its end less those at its start: exact.
+counts are the run's cumulative counts (int64) at its end less those at its start: exact. With
+pair collisions a chunk's segments are of its shots' slots (`dense.schedule`), so a station's
+stretch of n pellets holds `segments_of_shots(n / count, count)` of them (`stretch_segments`).
 """
 
 from __future__ import annotations
@@ -15,8 +17,15 @@ import math
 
 import numpy as np
 
+from ..dense.schedule import segments_of_shots
 from .reduce import SEGMENT
 from .sums import combine, empty_totals, finalize
+
+
+def stretch_segments(pellets: int, count: int, pair_collisions: bool) -> int:
+    """Statistics segments of a stretch of `pellets` pellets that starts a chunk: of pellets, or with
+    pair collisions of its whole shots' slots (`dense.schedule.segments_of_shots`)."""
+    return segments_of_shots(pellets // count, count) if pair_collisions else math.ceil(pellets / SEGMENT)
 
 
 class StationFold:
@@ -25,8 +34,9 @@ class StationFold:
     the previous station's end: a map of 1e6 cells x 31 thresholds is 248 MB dense, and each
     station's counts are held sparse, the run's last cumulative counts alone dense)."""
 
-    def __init__(self, ends):
+    def __init__(self, ends, count: int = 1, pair_collisions: bool = False):
         self.ends = list(ends)
+        self.count, self.pair_collisions = count, pair_collisions
         self.totals = [empty_totals() for _ in self.ends]
         self.counts: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self.previous = None  # the run's counts at the last station's end (dense)
@@ -45,7 +55,7 @@ class StationFold:
             n = min(rows, end) - begin
             if n <= 0:
                 break
-            segments = -(-n // SEGMENT)
+            segments = stretch_segments(n, self.count, self.pair_collisions)
             self.totals[k] = combine(self.totals[k], results[used : used + segments])
             used, begin = used + segments, end
         for k in sorted(snapshots or {}):
@@ -87,13 +97,14 @@ class StationFold:
         return out
 
 
-def segments_of(ends, rows: int) -> int:
-    """Statistics segments of the first `rows` pellets of a station run (each station its own)."""
+def segments_of(ends, rows: int, count: int = 1, pair_collisions: bool = False) -> int:
+    """Statistics segments of the first `rows` pellets of a station run (each station its own;
+    `count` pellets a shot, `stretch_segments`)."""
     total, begin = 0, 0
     for end in ends:
         n = min(rows, end) - begin
         if n <= 0:
             break
-        total += math.ceil(n / SEGMENT)
+        total += stretch_segments(n, count, pair_collisions)
         begin = end
     return total
