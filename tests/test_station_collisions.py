@@ -11,10 +11,10 @@ import h5py
 import numpy as np
 import pytest
 from helpers import make_scene, stats_equal
-from test_stations import resume_matches, station_raw
+from test_stations import resume_matches, run_to_file, station_raw
 
 import warp_ricochet as wr
-from warp_ricochet.scene.stations import reference_aims, shot_ranges
+from warp_ricochet.scene.stations import reference_aims, shot_pieces
 from warp_ricochet.tallies.by_station import segments_of, stretch_segments
 
 FIELDS = ["initial.position", "initial.velocity", "collisions.count", "landing.range"]
@@ -79,9 +79,7 @@ def test_a_fixed_station_is_bitwise_the_plain_shot_placed_there(tmp_path, precis
 @pytest.fixture(scope="module")
 def posts(tmp_path_factory):
     """Three stations (2, 2 and 4 shots), collisions on, and the run file of one uninterrupted run."""
-    scene = make_scene(collision_raw(), precision="float64")
-    ref = tmp_path_factory.mktemp("posts") / "ref.h5"
-    return scene, ref, wr.run(scene, ref, device="cpu")
+    return run_to_file(tmp_path_factory, collision_raw(), "posts")
 
 
 def test_per_station_collision_results_sum_to_the_combined_for_two_chunk_sizes(posts):
@@ -101,7 +99,7 @@ def test_per_station_collision_results_sum_to_the_combined_for_two_chunk_sizes(p
     assert sum(p["collided_fraction"] * p["pellets"] for p in parts) == pytest.approx(one["collided_fraction"] * 320)
     assert max(p["dense_steps_max"] for p in parts) == one["dense_steps_max"]
     np.testing.assert_array_equal(sum(p.tally.flat() for p in parts), one.tally.flat())
-    for part, (first, end) in zip(parts, shot_ranges(scene)):  # intervals over each station's own shots
+    for part, (first, end, _k) in zip(parts, shot_pieces(scene)):  # intervals over each station's own shots
         np.testing.assert_array_equal(part.ensemble.per_shot["range_mean"], one.ensemble.per_shot["range_mean"][first:end])
 
 

@@ -12,7 +12,7 @@ import pytest
 from helpers import cli, interrupt_after, make_scene, stats_equal
 
 import warp_ricochet as wr
-from warp_ricochet.scene.stations import allocate, reference_aims, shot_ranges
+from warp_ricochet.scene.stations import allocate, reference_aims, shot_pieces
 
 ROOT = Path(__file__).resolve().parents[1]
 GROUND = {"point": [0.0, 0.0, 0.0], "normal": [0.0, 0.0, 1.0], "restitution": 0.3, "mu_s": 0.4}
@@ -45,7 +45,7 @@ def test_allocation_is_proportional_contiguous_and_exact():
     assert allocate([1, 1, 2], 40) == [10, 10, 20]
     assert allocate([1, 1, 1], 10) == [4, 3, 3]  # the remainder's tie to the earlier station
     scene = make_scene(station_raw(), precision="float64")
-    assert shot_ranges(scene) == [(0, 10), (10, 20), (20, 40)]
+    assert shot_pieces(scene) == [(0, 10, 0), (10, 20, 1), (20, 40, 2)]
 
 
 def test_uniform_arcs_stay_in_their_range_and_are_uniform():
@@ -111,7 +111,7 @@ def test_per_station_results_sum_to_the_combined_for_any_chunk_size(big_scene):
     np.testing.assert_array_equal(sum(p.tally.flat() for p in parts), one.tally.flat())
     assert all(p.tally.map_counts.sum() > 0 for p in parts)
     assert max(p["range_max"] for p in parts) == one["range_max"]
-    for part, (first, end) in zip(parts, shot_ranges(big_scene)):  # intervals over each station's shots
+    for part, (first, end, _k) in zip(parts, shot_pieces(big_scene)):  # intervals over each station's shots
         assert part.ensemble.shots == end - first
         np.testing.assert_array_equal(part.ensemble.per_shot["range_mean"], one.ensemble.per_shot["range_mean"][first:end])
 
@@ -123,6 +123,13 @@ def chunked(big_scene, tmp_path_factory):
     ref = tmp_path_factory.mktemp("stations") / "ref.h5"
     wr.run(scene, ref, device="cpu")
     return scene, ref
+
+
+def run_to_file(tmp_path_factory, raw, name):
+    """(the float64 scene of `raw`, its run file, its statistics) of one uninterrupted run."""
+    scene = make_scene(raw, precision="float64")
+    ref = tmp_path_factory.mktemp(name) / "ref.h5"
+    return scene, ref, wr.run(scene, ref, device="cpu")
 
 
 def resume_matches(tmp_path, scene, ref, chunks, station_keys, keys):

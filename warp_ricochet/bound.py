@@ -31,6 +31,7 @@ import math
 from dataclasses import dataclass
 
 from . import display
+from .scene.stations import shot_pieces
 from .tallies.quantiles import summarize
 
 GROWTH = 4  # a check adds shots // GROWTH shots (at least one): a quarter more
@@ -52,8 +53,8 @@ class BoundPlan:
         bound = None if scene.hazard is None else scene.hazard.bound
         if bound is None:
             return None
-        count = scene.shot.count
-        return cls(bound, count, scene.shot.shots, max(scene.shot.shots, bound.max_pellets // count))
+        count, first = scene.shot.count, scene.bound_first or scene.shot.shots  # (the same for `planned(scene)`)
+        return cls(bound, count, first, max(first, bound.max_pellets // count))
 
     def checks(self) -> list[int]:
         """The pellets complete at each check, increasing; the last is the budget's."""
@@ -79,13 +80,14 @@ class BoundPlan:
             start = stop
         return total
 
-    def chunk_end(self, rows: int, pair_collisions: bool) -> bool:
+    def chunk_end(self, rows: int, pair_collisions: bool, ends=None) -> bool:
         """Whether `rows` pellets can end a chunk of this run: at a check, or whole statistics
-        segments (with pair collisions whole shots of them, `dense.schedule.shot_granule`) past one."""
+        segments (with pair collisions whole shots of them, `dense.schedule.shot_granule`) past one
+        (`ends`: where chunks restart instead of the checks: a station run's pieces, `station_pieces`)."""
         from .dense.schedule import shot_granule
         from .tallies.reduce import SEGMENT
 
-        checks = self.checks()
+        checks = self.checks() if ends is None else list(ends)
         if rows in checks or not 0 < rows < checks[-1]:
             return rows in checks or rows == 0
         past = rows - max([0, *(n for n in checks if n < rows)])
@@ -104,11 +106,24 @@ class BoundPlan:
 
 
 def planned(scene):
-    """The scene a bounded run is planned as (its budget's shots); `scene` itself without a bound."""
+    """The scene a bounded run is planned as (its budget's shots, remembering its own in
+    `bound_first`); `scene` itself without a bound."""
     plan = BoundPlan.of(scene)
     if plan is None or plan.budget == scene.shot.shots:
         return scene
-    return scene.replace(shot=dataclasses.replace(scene.shot, shots=plan.budget))
+    return scene.replace(shot=dataclasses.replace(scene.shot, shots=plan.budget), bound_first=plan.first)
+
+
+def station_pieces(scene) -> list[tuple[int, int, int]]:
+    """[(first shot, end shot, station)] of a station run (`scene.stations.shot_pieces`): a bounded
+    run's are cut at its checks (the same for `scene` and `planned(scene)`), others one a station."""
+    plan = BoundPlan.of(scene)
+    return shot_pieces(planned(scene), None if plan is None else [n // plan.count for n in plan.checks()])
+
+
+def piece_ends(scene) -> list[int]:
+    """The pellets complete at the end of each of a station run's pieces (`station_pieces`)."""
+    return [end * scene.shot.count for _first, end, _k in station_pieces(scene)]
 
 
 class _WithFractions:

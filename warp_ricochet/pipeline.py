@@ -25,6 +25,7 @@ import numpy as np
 import warp as wp
 
 from . import interrupts
+from .bound import station_pieces
 from .chunks import plan_rows, plan_shots
 from .core.kernel import CUDA_BLOCK_DIM, ricochet_kernel_for
 from .core.release import empty_release
@@ -36,7 +37,7 @@ from .launch.source import PelletSource
 from .model import State, reused_state
 from .physics.air_flight import MAX_FLIGHT_STEPS
 from .physics.limits import POSITION_RESOLUTION, UNIT_ROUNDOFF
-from .scene.stations import pellet_ends, shot_ranges
+from .scene.stations import station_shots
 from .tallies.by_station import StationFold
 from .tallies.collisions import (
     OVERRUN_TOLERANCE,
@@ -87,7 +88,7 @@ class Resumed:
     shot_totals: np.ndarray | None = None
     tally: np.ndarray | None = None  # the landing counts of those rows (`TallyTotals.flat`)
     shot_partials: np.ndarray | None = None
-    station_tally: dict | None = None  # station runs: station -> the landing counts at its end (`by_station`)
+    station_tally: dict | None = None  # station runs: piece -> the landing counts at its end (`by_station`)
 
 
 class RunStats(dict):
@@ -313,16 +314,17 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
             stage = CollisionStage(scene, model, spec, arrays, pellets, options, frames)
         else:
             stage = CoreStage(scene, model, spec, arrays, pellets)
-        fold = StationFold(pellet_ends(scene), scene.shot.count, spec.collisions) if scene.stations else None
+        layout = station_pieces(scene) if scene.stations else []
+        fold = StationFold(layout, len(scene.stations), scene.shot.count, spec.collisions) if scene.stations else None
         totals, tables, tally, pieces, pellets, outcome = _loop(stage, pellets, sink, resumed, progress, plan, fold)
     kw = dict(mass=model.mass, inertia=model.inertia, air=spec.in_air, rest=spec.to_rest)
     stats = RunStats(finalize(totals, pellets=pellets, **kw))
     stats.tally, stats.bound = tally, outcome
     if fold is not None:
         stats.stations = {}
-        for station, (values, counts) in zip(scene.stations, fold.results(tally, pellets, **kw)):
-            stats.stations[station.name] = RunStats(values)
-            stats.stations[station.name].tally = counts
+        for k, values, counts in fold.results(tally, pellets, **kw):
+            stats.stations[scene.stations[k].name] = RunStats(values)
+            stats.stations[scene.stations[k].name].tally = counts
     warn_coarse_positions(stats["flight_scale_max"], model.precision, model.radius)
     if spec.in_air and stats["flights_unfinished"] > 0:
         warnings.warn(
@@ -331,8 +333,8 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
     if spec.collisions:
         table = np.concatenate(tables) if tables else np.zeros((0, len(SHOT_TOTALS)))
         stats.update(collision_statistics(table, pellets))
-        for (first, end), part in zip(shot_ranges(scene), (stats.stations or {}).values()):  # each station's shots
-            part.update(collision_statistics(table[first:end], int(part["pellets"])))
+        for k, part in _station_parts(scene, stats):  # each station's shots
+            part.update(collision_statistics(table[station_shots(layout, k, len(table))], int(part["pellets"])))
         if stats["skin_overrun_max"] > OVERRUN_TOLERANCE:
             warnings.warn(SKIN_OVERRUN.format(stats["skin_overrun_max"]), PrecisionWarning, stacklevel=3)
     if stage.shot_pass is not None:
@@ -347,10 +349,17 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
             shot_totals=table if spec.collisions else None,
         )
         stats.ensemble = ensemble_of(per_shot, pellets // scene.shot.count)
-        for (first, end), part in zip(shot_ranges(scene), (stats.stations or {}).values()):  # each station's shots
-            if end - first > 1:
-                part.ensemble = ensemble_of({name: v[first:end] for name, v in per_shot.items()}, end - first)
+        for k, part in _station_parts(scene, stats):  # each station's shots
+            shots = station_shots(layout, k, stats.ensemble.shots)
+            if len(shots) > 1:
+                part.ensemble = ensemble_of({name: v[shots] for name, v in per_shot.items()}, len(shots))
     return stats
+
+
+def _station_parts(scene, stats):
+    """(station index, its RunStats) of each station with results (`RunStats.stations`)."""
+    index = {s.name: k for k, s in enumerate(scene.stations)}
+    return [(index[name], part) for name, part in (stats.stations or {}).items()]
 
 
 def warn_coarse_positions(scale: float, precision: str, radius: float) -> bool:
@@ -379,8 +388,8 @@ def _loop(stage, pellets, sink, resumed, progress, plan=None, fold=None):
     """The chunk loop; returns the folded statistics totals, the shots' totals tables and the
     landing counts (None when not counted), the per-shot partials (`core.shots`), in shot order,
     the pellets complete and, with a `plan` (`bound.BoundPlan`), the outcome of its last check.
-    With a `fold` (`tallies.by_station.StationFold`) each station's shots are a stretch of their own,
-    the fold given each chunk's partials and the counts at each station's end."""
+    With a `fold` (`tallies.by_station.StationFold`) each piece of a station's shots is a stretch of
+    its own, the fold given each chunk's partials and the counts at each piece's end."""
     totals, tables, pieces, done = empty_totals(), [], [], 0
     tally = TallyTotals(stage.tally.setup) if stage.tally.active else None
     loaded = None  # the resumed run's landing counts
@@ -430,11 +439,13 @@ def _loop(stage, pellets, sink, resumed, progress, plan=None, fold=None):
             stage.tally.receive(tally)
 
     pending, outcome, chunks = None, None, 0
-    every = plan.checks() if plan is not None else (fold.ends if fold is not None else [pellets])
-    for number, stop in enumerate(every, start=1):
+    checks = plan.checks() if plan is not None else []
+    every = fold.ends if fold is not None else (checks or [pellets])  # (a station run's pieces end at its checks too)
+    for stop in every:
+        number = checks.index(stop) + 1 if stop in checks else 0  # a check of the bound
         if stop < done:  # (a resumed run's checks passed)
             continue
-        if plan is not None and stop == done:  # resumed at a check: its outcome again, from the counts kept
+        if number and stop == done:  # resumed at a check: its outcome again, from the counts kept
             outcome = plan.result(tally, done, number)
             if outcome.met:
                 break
@@ -453,13 +464,12 @@ def _loop(stage, pellets, sink, resumed, progress, plan=None, fold=None):
             if pending is not None:
                 consume(pending)  # host work on the previous chunk while the device runs this one
             pending = slot
-        if fold is not None:  # a station's end: every chunk before it consumed, the counts read
+        if fold is not None or number:  # a piece's end or a check: every chunk before it consumed, the counts read
             finish(pending)
             pending = None
+        if fold is not None:
             fold.snapshot(done, tally)
-        if plan is not None:  # a check: every chunk before it consumed, the totals read
-            finish(pending)
-            pending = None
+        if number:
             outcome = plan.result(tally, done, number)
             log.info("check %d after %s pellets: %s", number, f"{done:,}", outcome.interval_text())
             if outcome.met:

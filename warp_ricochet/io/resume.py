@@ -32,10 +32,9 @@ from dataclasses import dataclass
 import warp as wp
 
 from .._version import __version__
-from ..bound import BoundPlan, planned
+from ..bound import BoundPlan, piece_ends, planned
 from ..dense.schedule import segments_of_shots, shot_granule
 from ..errors import OutputError, SceneError
-from ..scene.stations import pellet_ends
 from ..tallies.by_station import segments_of
 from ..tallies.collisions import SHOT_TOTALS
 from ..tallies.ensemble import has_ensemble, pieces_per_shot
@@ -139,13 +138,14 @@ def verify(f, scene, dev, partial_name: str) -> tuple[int, int, int, int]:
         segments = math.ceil(rows / SEGMENT)
     if bounded is not None:
         segments = bounded.segments(rows, scene.pair_collisions)
-    if scene.stations:  # (chunks end at each station's end, and segments start there)
-        segments = segments_of(pellet_ends(scene), rows, scene.shot.count, scene.pair_collisions)
+    ends = piece_ends(scene) if scene.stations else None
+    if scene.stations:  # (chunks end at each piece's end, and segments start there)
+        segments = segments_of(ends, rows, scene.shot.count, scene.pair_collisions)
     damaged = None
     if not 0 <= rows <= pellets or pellets != planned(scene).shot.pellets:
         damaged = f"{rows} rows complete of {pellets}"
     elif bounded is not None:
-        if not bounded.chunk_end(rows, scene.pair_collisions):
+        if not bounded.chunk_end(rows, scene.pair_collisions, ends):
             damaged = f"{rows} rows complete, neither a check of its bound nor whole chunks past one"
     elif rows and not scene.stations and (chunk <= 0 or (chunk % unit and chunk < pellets) or (rows % chunk and rows != pellets)):
         damaged = f"chunk plan of {chunk} pellets per chunk with {rows} rows complete"
@@ -176,7 +176,7 @@ class ResumePlan:
     tally: object = None  # the landing counts of the rows complete (`io.tally_out.read_progress`)
     shot_partials: object = None  # per-shot partials of the complete shots (runs of several shots)
     pieces: int = 0
-    station_tally: dict | None = None  # station runs: the counts at each complete station's end
+    station_tally: dict | None = None  # station runs: the counts at each complete piece's end
 
 
 def plan(f, scene, dev, partial_name: str) -> ResumePlan:

@@ -198,8 +198,7 @@ class RunWriter:
         self.segment_results = g["progress/segment_results"]
         self.shot_totals = g.get("progress/shot_totals")  # runs with pair collisions
         self.shot_partials = g.get("progress/shot_partials")  # runs of several shots (tallies.ensemble)
-        order = g["stations"].attrs["order"] if "stations" in g else []
-        self.station_ends = np.cumsum([int(g[f"stations/{name}"].attrs["pellets"]) for name in order]).tolist()
+        self.station_ends = g["stations"].attrs["piece_ends"].tolist() if "stations" in g else []  # (io.station_out)
 
     def _start_watching(self):
         out = _OPEN.get(self.group.file.filename)

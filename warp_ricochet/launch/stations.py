@@ -1,7 +1,7 @@
 """A shot's station and aim in the kernels (docs/scenes.md, "Stations, arcs of fire and aim error").
 
-Shot j = index // shot.count belongs to the station whose contiguous range of shots holds it
-(`scene.stations.allocate`: in proportion to the weights). Its aim comes from the counter-based
+Shot j = index // shot.count belongs to the station of the piece (a contiguous range of shots) that
+holds it (`bound.station_pieces`: one piece a station, or a bounded run's cut at its checks). Its aim comes from the counter-based
 stream of `launch.sampling` in a key space of its own: key = mix64(seed * 2^32 + 2^31 + j). A
 pellet's key is mix64(seed * 2^32 + i) with i < 2^31, so no shot shares a key with a pellet (mix64
 is a bijection), and the aim depends on (seed, j) alone: the same for every pellet of the shot, any
@@ -25,8 +25,9 @@ import math
 import numpy as np
 import warp as wp
 
+from ..bound import station_pieces
 from ..physics.types import types_for
-from ..scene.stations import SHOT_KEY_BIT, azimuth_offset, frame, shot_ranges
+from ..scene.stations import SHOT_KEY_BIT, azimuth_offset, frame
 from .sampling import GOLDEN, UNIT24, mix64
 
 SQRT2 = 1.4142135623730951
@@ -54,8 +55,8 @@ def _coordinate(lo: wp.float64, hi: wp.float64, sigma: wp.float64, bits: wp.uint
 
 @functools.cache
 def make_station_aim(precision: str):
-    """The `@wp.func` station_aim(seed, shot, first, position, azimuth, elevation, sigma, frame) ->
-    (station index, position (m), unit aim), in `precision`."""
+    """The `@wp.func` station_aim(seed, shot, first, owner, position, azimuth, elevation, sigma,
+    frame) -> (station index, position (m), unit aim), in `precision`."""
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
 
@@ -63,17 +64,19 @@ def make_station_aim(precision: str):
     def station_aim(
         seed: wp.int32,
         shot: wp.int32,
-        first: wp.array(dtype=wp.int32),  # first shot of each station, increasing
+        first: wp.array(dtype=wp.int32),  # first shot of each piece, increasing
+        owner: wp.array(dtype=wp.int32),  # each piece's station
         position: wp.array(dtype=vec3),  # m
         azimuth: wp.array(dtype=wp.vec2d),  # rad (min, max), from the downrange axis
         elevation: wp.array(dtype=wp.vec2d),  # rad (min, max)
         sigma: wp.array(dtype=wp.float64),  # rad; 0: uniform
         axes: wp.mat33d,  # rows f, r, up
     ):
-        k = wp.int32(0)
-        for s in range(1, first.shape[0]):
-            if shot >= first[s]:
-                k = s
+        piece = wp.int32(0)
+        for p in range(1, first.shape[0]):
+            if shot >= first[p]:
+                piece = p
+        k = owner[piece]
         key = mix64((wp.uint64(seed) << wp.uint64(32)) | (wp.uint64(SHOT_KEY_BIT) + wp.uint64(shot)))
         z = mix64(key + GOLDEN)
         a = _coordinate(azimuth[k][0], azimuth[k][1], sigma[k], wp.uint32(z) >> wp.uint32(8))
@@ -97,6 +100,7 @@ def make_shot_aims(precision: str):
         seed: wp.int32,
         first_shot: wp.int32,
         first_in: wp.array(dtype=wp.int32),
+        owner_in: wp.array(dtype=wp.int32),
         position_in: wp.array(dtype=vec3),
         azimuth_in: wp.array(dtype=wp.vec2d),
         elevation_in: wp.array(dtype=wp.vec2d),
@@ -106,7 +110,9 @@ def make_shot_aims(precision: str):
         aim_out: wp.array(dtype=vec3),
     ):
         j = wp.tid()
-        _k, center, aim = station_aim(seed, first_shot + j, first_in, position_in, azimuth_in, elevation_in, sigma_in, axes)
+        _k, center, aim = station_aim(
+            seed, first_shot + j, first_in, owner_in, position_in, azimuth_in, elevation_in, sigma_in, axes
+        )
         center_out[j] = center
         aim_out[j] = aim
 
@@ -116,7 +122,10 @@ def make_shot_aims(precision: str):
 def launch_shot_aims(table: dict, source, first: int, shots: int, precision: str, device) -> None:
     """Fill `source.shot_center` and `source.shot_aim` with the `shots` shots from `first` on (no
     host sync: queued before the chunk's kernels on the device's stream)."""
-    inputs = [table[k] for k in ("station_first", "station_position", "station_azimuth", "station_elevation", "station_sigma")]
+    inputs = [
+        table[k]
+        for k in ("station_first", "station_owner", "station_position", "station_azimuth", "station_elevation", "station_sigma")
+    ]
     wp.launch(
         make_shot_aims(precision),
         dim=shots,
@@ -132,10 +141,11 @@ def station_table(scene, precision: str, device) -> dict:
     stations = scene.stations
     offset = azimuth_offset(scene.hazard) if stations else 0.0
     axes = np.stack(frame(scene.shot, scene.physics, scene.hazard)) if stations else np.eye(3)
-    first = [a for a, _b in shot_ranges(scene)] if stations else []
+    pieces = station_pieces(scene) if stations else []
     radians = [[math.radians(x - offset) for x in s.azimuth] for s in stations]
     return dict(
-        station_first=wp.array(first, dtype=wp.int32, device=device),
+        station_first=wp.array([a for a, _b, _k in pieces], dtype=wp.int32, device=device),
+        station_owner=wp.array([k for _a, _b, k in pieces], dtype=wp.int32, device=device),
         station_position=wp.array([s.position for s in stations], dtype=t.vec3, device=device),
         station_azimuth=wp.array(np.reshape(radians, (-1, 2)), dtype=wp.vec2d, device=device),
         station_elevation=wp.array(

@@ -425,7 +425,6 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
     _check_meshes(planes, physics)
     stations = parse_stations(raw.get("stations"))
     if stations:
-        _check_station_run(hazard)
         check_stations(stations, shot, raw["shot"], planes, physics, hazard)
     return Scene(
         shot=shot,
@@ -438,13 +437,6 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
         hazard=hazard,
         stations=stations,
     )
-
-
-def _check_station_run(hazard) -> None:
-    """What a station scene cannot be run with: a bounded run (its checks are not station ends:
-    stations fire contiguous ranges of shots, so a run stopped early holds the first stations only)."""
-    if hazard is not None and hazard.bound is not None:
-        raise err("hazard.bound", "[hazard.bound]", "not allowed with [[stations]] (a bounded run's checks are not station ends)")
 
 
 def _check_meshes(surfaces: tuple, physics: Physics) -> None:

@@ -369,6 +369,7 @@ class Scene:
     air: Air | None = None
     hazard: Hazard | None = None
     stations: tuple = ()  # scene.stations.Station: [[stations]] (empty: one shooter, shot.direction)
+    bound_first: int = dataclasses.field(default=0, compare=False)  # `bound.planned`: the scene's shot.shots
 
     @property
     def in_air(self) -> bool:

@@ -11,15 +11,20 @@ so a station's azimuth A is A - site.azimuth from it. `elevation` is above the h
 perpendicular to gravity). The aim is d = cos(e) (cos(a) f + sin(a) r) + sin(e) up, f the
 downrange axis, up = -g / |g|, r = f x up (to the right of f seen from above).
 
-Shots: station k fires a contiguous range of shots, n_k of shot.shots in proportion to the weights
-by the largest-remainder (Hamilton) method, in scene order: shot j belongs to one station for any
-chunking, and each station's tallies are sums over whole chunks (`pipeline`).
+Shots (`shot_pieces`): station k fires a contiguous range of shots, n_k of shot.shots in proportion
+to the weights by the largest-remainder (Hamilton) method, in scene order. A bounded run
+([hazard.bound]) is cut at its checks instead: between two checks each station fires a contiguous
+range, its shots of that stretch of a weighted sequence every prefix of which is within one shot of
+the weights' proportions (`interleaved`), so a run stopped at any check has fired every station by
+its weight. Either way shot j belongs to one station for any chunking, and each station's tallies
+are sums over whole chunks (`pipeline`, `tallies.by_station`).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from fractions import Fraction
 
 import numpy as np
 
@@ -137,7 +142,8 @@ def allocate(weights, shots: int) -> list[int]:
 
 
 def check_stations(stations, shot, raw_shot: dict, surfaces, physics, hazard) -> None:
-    """A station scene's cross-key rules, before any work: each station fires at least one shot,
+    """A station scene's cross-key rules, before any work: each station fires at least one shot
+    (with [hazard.bound], at the first check),
     sampled shots (no shot.file) around each station (no shot.envelope_center), gravity defines the
     horizontal, a downrange axis, and no station below the ground: behind the plane of the hazard
     map's surface (hazard.map_surface), else of the first surface (its normal: the side pellets come
@@ -152,7 +158,21 @@ def check_stations(stations, shot, raw_shot: dict, surfaces, physics, hazard) ->
             raw_shot["envelope_center"],
             "not allowed with [[stations]]: each shot starts at its station's position",
         )
-    counts = allocate([s.weight for s in stations], shot.shots)
+    weights = [s.weight for s in stations]
+    bound = None if hazard is None else hazard.bound
+    if bound is None:
+        counts = allocate(weights, shot.shots)
+    else:  # (its first check's shots of the weighted sequence, computed up to its budget)
+        budget = max(shot.shots, bound.max_pellets // shot.count)
+        if min(period(weights), budget) > MAX_INTERLEAVED:
+            raise err(
+                "hazard.bound.max_pellets",
+                bound.max_pellets,
+                f"gives {budget:,} shots, and the stations' weights repeat only after {period(weights):,}: "
+                f"at most {MAX_INTERLEAVED:,} shots of the weighted sequence are computed (weights in small "
+                "integer ratios, such as 1, 2, 1.5, repeat sooner)",
+            )
+        counts = interleave_counts(weights, [shot.shots])[0]
     if min(counts) < 1:
         k = counts.index(0)
         raise err(
@@ -238,29 +258,97 @@ def azimuth_offset(hazard) -> float:
     return 0.0 if hazard is None or hazard.site is None else float(hazard.site.azimuth)
 
 
-def shot_ranges(scene) -> list[tuple[int, int]]:
-    """[(first shot, end shot)] of each station, contiguous in scene order."""
-    counts = allocate([s.weight for s in scene.stations], scene.shot.shots)
-    ends = np.cumsum(counts).tolist()
-    return [(end - n, end) for n, end in zip(counts, ends)]
+MAX_INTERLEAVED = 1 << 20  # shots of the weighted sequence computed on the host (`interleave_counts`)
 
 
-def pellet_ends(scene) -> list[int]:
-    """The pellets complete at the end of each station's shots (the run's checks)."""
-    return [end * scene.shot.count for _first, end in shot_ranges(scene)]
+def _integer_weights(weights) -> list[int]:
+    """The weights as coprime integers in the same ratios (exact: a float is a binary fraction)."""
+    fractions = [Fraction(w) for w in weights]
+    scale = math.lcm(*(f.denominator for f in fractions))
+    integers = [int(f * scale) for f in fractions]
+    g = math.gcd(*integers)
+    return [w // g for w in integers]
+
+
+def period(weights) -> int:
+    """Shots after which the weighted sequence repeats: the sum of the coprime integer weights."""
+    return sum(_integer_weights(weights))
+
+
+def interleaved(weights, shots: int):
+    """The stations of the first `shots` shots of the weighted sequence (a generator): Tijdeman's
+    solution of the chairman assignment problem (R. Tijdeman, "The chairman assignment problem",
+    Discrete Math. 32 (1980) 323-330). Shot n (1-based) goes, among the stations k with
+    n p_k - c_k >= 1/(2m - 2) (c_k: its shots so far, p_k its share, m stations), to the one whose
+    deadline (c_k + 1 - 1/(2m - 2)) / p_k is earliest, ties to the earlier station; then every
+    prefix of n shots gives each station within 1 - 1/(2m - 2) < 1 shot of n p_k. In integers (the
+    weights made coprime integers w, W their sum), and periodic: after W shots c = w exactly."""
+    w = _integer_weights(weights)
+    m, total = len(w), sum(w)
+    q = max(2 * m - 2, 1)
+    c = [0] * m
+    for n in range(1, shots + 1):
+        best = -1
+        for k in range(m):  # eligible: (n w_k - c_k W) q >= W; earliest (q c_k + q - 1) / w_k
+            if (n * w[k] - c[k] * total) * q >= total and (
+                best < 0 or (q * c[k] + q - 1) * w[best] < (q * c[best] + q - 1) * w[k]
+            ):
+                best = k
+        c[best] += 1
+        yield best
+
+
+def interleave_counts(weights, points) -> list[list[int]]:
+    """Each station's shots among the first n of the weighted sequence (`interleaved`), for each n
+    of the increasing `points`: whole periods in closed form, the rest counted."""
+    w, size = _integer_weights(weights), period(weights)
+    wanted = sorted({n % size for n in points})
+    at, c = {0: [0] * len(w)}, [0] * len(w)
+    for n, k in enumerate(interleaved(weights, wanted[-1]), start=1):
+        c[k] += 1
+        at[n] = list(c)
+    return [[(n // size) * wk + ck for wk, ck in zip(w, at[n % size])] for n in points]
+
+
+def shot_pieces(scene, checks=None) -> list[tuple[int, int, int]]:
+    """[(first shot, end shot, station)] in shot order: each station fires contiguous shots.
+    Without `checks`: one piece a station in scene order, their shots by `allocate`. With `checks`
+    (a bounded run's, in shots, increasing: `bound.station_pieces`): between two checks each
+    station fires, in scene order, its shots of that stretch of the weighted sequence
+    (`interleave_counts`), so a run stopped at a check has fired each station's share within one shot."""
+    weights = [s.weight for s in scene.stations]
+    if checks is None:
+        counts = [allocate(weights, scene.shot.shots)]
+    else:
+        counts = interleave_counts(weights, checks)
+    out, start, before = [], 0, [0] * len(weights)
+    for now in counts:
+        for k, (a, b) in enumerate(zip(before, now)):
+            if b > a:
+                out.append((start, start + b - a, k))
+                start += b - a
+        before = now
+    return out
+
+
+def station_shots(pieces, k: int, shots: int | None = None) -> np.ndarray:
+    """The shots (increasing) station k fires in `pieces`, of the first `shots` (None: all)."""
+    ranges = [np.arange(a, b if shots is None else min(b, shots)) for a, b, owner in pieces if owner == k]
+    return np.concatenate(ranges) if ranges else np.zeros(0, dtype=np.int64)
 
 
 SHOT_KEY_BIT = 1 << 31  # a shot's stream is keyed (seed, 2^31 + shot): never a pellet's (seed, index < 2^31)
 
 
-def reference_aims(scene, shots) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def reference_aims(scene, shots, pieces=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(station index, position (m), unit aim direction) of each shot in `shots`, in float64 and
-    pure Python/NumPy: what `launch.stations` draws (the test's reference)."""
+    pure Python/NumPy: what `launch.stations` draws (the test's reference; `pieces`: a bounded
+    run's, `bound.station_pieces`, else `shot_pieces(scene)`)."""
     from math import erf, sqrt
     from statistics import NormalDist
 
     f, r, up = frame(scene.shot, scene.physics, scene.hazard)
-    ranges = shot_ranges(scene)
+    pieces = shot_pieces(scene) if pieces is None else pieces
     offset = azimuth_offset(scene.hazard)
     mask, golden, unit = (1 << 64) - 1, 0x9E3779B97F4A7C15, 2.0**-24
 
@@ -283,7 +371,7 @@ def reference_aims(scene, shots) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
     out_k, out_p, out_d = [], [], []
     for shot in shots:
-        k = next(i for i, (a, b) in enumerate(ranges) if a <= shot < b)
+        k = next(owner for a, b, owner in pieces if a <= shot < b)
         s = scene.stations[k]
         z = mix((mix(((scene.shot.seed << 32) | (SHOT_KEY_BIT + shot)) & mask) + golden) & mask)
         sigma = None if s.aim_sigma is None else math.radians(s.aim_sigma)
