@@ -257,8 +257,8 @@ def test_energy_never_rises_on_a_line_and_the_pellet_stays_on_the_plane(precisio
 
 def test_rough_ground_motions_go_over_the_distance():
     """The rough cases (a slip across the velocity, a spin about n) are followed over the distance,
-    not in 3-D: in at most 3.2 x the steps of the same cases without those parts, float64 (2.75 x;
+    not in 3-D: in at most 2.6 x the steps of the same cases without those parts, float64 (2.2 x;
     in 3-D they took 3.9 x, and one of them ran out of phases)."""
     straight, rough = ([_follow("float64", case)["steps"] for case in _line_cases(25, 12, r)] for r in (False, True))
     print(f"steps: on the line {np.mean(straight):.1f}, rough {np.mean(rough):.1f}")
-    assert np.sum(rough) <= 3.2 * np.sum(straight)
+    assert np.sum(rough) <= 2.6 * np.sum(straight)
