@@ -34,11 +34,13 @@ E1, E3, E4, E5, E6, E7 = (71.0 / 57600.0, -71.0 / 16695.0, 71.0 / 1920.0, -17253
 
 
 @functools.cache
-def make_dormand_prince(precision: str, rates, Context, spin_changes: bool) -> SimpleNamespace:
+def make_dormand_prince(precision: str, rates, Context, spin_changes: bool, state=None) -> SimpleNamespace:
     """`stages(x, v, w, a, dw, h, physics, context) -> (x', v', w', a', dw', x error, v error, w
     error)`: one Dormand-Prince step of length h for the right-hand side `rates(v, w, physics,
     context) -> (dv/dt, dw/dt)` (a `@wp.func`; `context` of the Warp type `Context` carries what
-    else it reads); `spin_changes` False: w is constant (its stages not computed)."""
+    else it reads); `spin_changes` False: w is constant (its stages not computed). With `state` (a
+    Warp vector type): `stages(y, f, h, physics, context) -> (y', f', error)` for dy/dt =
+    rates(y, physics, context) = f."""
     t = types_for(precision)
     scalar, vec3, Physics = t.scalar, t.vec3, t.Physics
     SPIN_CHANGES = spin_changes
@@ -48,6 +50,22 @@ def make_dormand_prince(precision: str, rates, Context, spin_changes: bool) -> S
     a61, a62, a63, a64, a65 = c["A61"], c["A62"], c["A63"], c["A64"], c["A65"]
     b1, b3, b4, b5, b6 = c["B1"], c["B3"], c["B4"], c["B5"], c["B6"]
     e1, e3, e4, e5, e6, e7 = c["E1"], c["E3"], c["E4"], c["E5"], c["E6"], c["E7"]
+
+    if state is not None:
+
+        @wp.func
+        def state_stages(y: state, f1: state, h: scalar, physics: Physics, context: Context):
+            """y and its rates at h and the error estimate (fifth minus fourth order)."""
+            f2 = rates(y + (h * a21) * f1, physics, context)
+            f3 = rates(y + h * (a31 * f1 + a32 * f2), physics, context)
+            f4 = rates(y + h * (a41 * f1 + a42 * f2 + a43 * f3), physics, context)
+            f5 = rates(y + h * (a51 * f1 + a52 * f2 + a53 * f3 + a54 * f4), physics, context)
+            f6 = rates(y + h * (a61 * f1 + a62 * f2 + a63 * f3 + a64 * f4 + a65 * f5), physics, context)
+            y7 = y + h * (b1 * f1 + b3 * f3 + b4 * f4 + b5 * f5 + b6 * f6)
+            f7 = rates(y7, physics, context)
+            return y7, f7, h * (e1 * f1 + e3 * f3 + e4 * f4 + e5 * f5 + e6 * f6 + e7 * f7)
+
+        return SimpleNamespace(stages=state_stages)
 
     @wp.func
     def combine(
