@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed-stamp
 DEVICE ?=
 DEMO_OUT ?= demo-output
 
-.PHONY: demo test lint format bench clean
+.PHONY: demo test test-all lint format bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -33,6 +33,10 @@ demo: $(STAMP)
 
 # lint and format check (ruff, pinned in the test extra) first: CI fails on either
 test: lint
+	$(PY) -m pytest -n 2 -q -m "not slow"
+
+# every test, the slow ones of tests/slow.txt too (run before each stop; about 20 min on 2 cores)
+test-all: lint
 	$(PY) -m pytest -n 2 -q
 
 lint: $(STAMP)
