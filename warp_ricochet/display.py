@@ -47,6 +47,8 @@ def value(x, si_unit: str):
     """A value of `si_unit` in the unit it is printed in (None, NaN and non-numbers pass)."""
     if not imperial() or si_unit not in IMPERIAL or isinstance(x, bool):
         return x
+    if isinstance(x, (tuple, list)):  # a vector (a swept shot.envelope_center)
+        return tuple(value(v, si_unit) for v in x)
     try:
         return float(x) * IMPERIAL[si_unit][1]
     except (TypeError, ValueError):

@@ -183,10 +183,13 @@ def home_of(path: str, name: str) -> str:
 
 
 def name_sweep_dimensions(root: h5py.Group) -> None:
-    """Attach the dimension `point` (the sweep's points) to the arrays of /sweep and /stats: the
-    sweep file's one dimension in its root (the two groups share it)."""
+    """Attach the dimension `point` (the sweep's points) to the arrays of /sweep and /stats, and
+    `xyz` to a swept vector's components ((points, 3) in /sweep): the sweep file's dimensions, in
+    its root (the groups share them)."""
     for name in ("sweep", "stats"):
         if name in root:
             for ds in root[name].values():
                 if isinstance(ds, h5py.Dataset) and ds.ndim == 1:
                     attach(root, ds, ("point",))
+                elif isinstance(ds, h5py.Dataset) and name == "sweep" and ds.ndim == 2 and ds.shape[1] == 3:
+                    attach(root, ds, ("point", "xyz"))

@@ -109,9 +109,11 @@ def _check(f: h5py.File) -> None:
             raise BadFile(f"has /runs/{name} that is not a group")
         _run(group, f"/runs/{name}", group.attrs.get("status", status))
     for where in ("sweep", "stats"):
+        shapes = ((points,), (points, 3)) if where == "sweep" else ((points,),)  # /sweep: a vector key's (points, 3)
         for name, ds in (f.get(where) or {}).items():
-            if isinstance(ds, h5py.Dataset) and ds.shape != (points,) and not _dimension(ds):
-                raise BadFile(f"has /{where}/{name} of shape {ds.shape}; a sweep of {points} points has ({points},)")
+            if isinstance(ds, h5py.Dataset) and ds.shape not in shapes and not _dimension(ds):
+                allowed = f"({points},)" + (f" or ({points}, 3)" if where == "sweep" else "")
+                raise BadFile(f"has /{where}/{name} of shape {ds.shape}; a sweep of {points} points has {allowed}")
 
 
 def _links(f: h5py.File) -> None:
@@ -209,10 +211,12 @@ def _expected(ndim: int, tail: tuple) -> str:
 
 def _points(f) -> int:
     sweep = f["sweep"]
-    lengths = {ds.shape for ds in sweep.values() if isinstance(ds, h5py.Dataset) and not _dimension(ds)}
-    if len(lengths) != 1 or len(next(iter(lengths))) != 1:
-        raise BadFile(f"has /sweep datasets of shapes {sorted(lengths)}; expected one (points,) for all")
-    return next(iter(lengths))[0]
+    shapes = {ds.shape for ds in sweep.values() if isinstance(ds, h5py.Dataset) and not _dimension(ds)}
+    bad = [s for s in shapes if not s or s[1:] not in ((), (3,))]  # a scalar key's (points,), a vector key's (points, 3)
+    lengths = {s[0] for s in shapes if s}
+    if bad or len(lengths) != 1:
+        raise BadFile(f"has /sweep datasets of shapes {sorted(shapes)}; expected (points,) or (points, 3) for all")
+    return lengths.pop()
 
 
 def _text(value):

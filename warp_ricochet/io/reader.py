@@ -164,12 +164,13 @@ class Run:
                 {f"shots_{name}": _variable(ds, ("shot",)) for name, ds in stats.get("shots", {}).items() if not is_dimension(ds)}
             )
             return xr.Dataset(variables, attrs=self._dataset_attrs("stats"))
-        coords = {key: _variable(ds, ("point",)) for key, ds in self.file.get("sweep", {}).items()}
+        # the swept values as coordinates: a vector key's (point, xyz)
+        coords = {key: _variable(ds, ("point", "xyz")[: ds.ndim]) for key, ds in self.file.get("sweep", {}).items()}
         variables = {name: _variable(ds, ("point",)) for name, ds in stats.items()}
         attrs = self._dataset_attrs("stats")
         if "sweep" in self.file:
             attrs.update({k: _text(v) for k, v in self.file["sweep"].attrs.items()})
-        return xr.Dataset(variables, coords=coords, attrs=attrs)
+        return xr.Dataset(variables, coords={**coords, **self._xyz(coords)}, attrs=attrs)
 
     def _dataset_attrs(self, group: str) -> dict:
         return {"source": f"{self.path}: {group}", "status": str(self.status), "rows": self.rows}

@@ -194,9 +194,9 @@ class SweepFolder:
         ) as out:
             sw = out.h5.create_group("sweep")
             columns = points.columns
-            table = np.array([[p[key] for key in columns] for p in points], dtype=np.float64).reshape(-1, len(columns))
-            for j, key in enumerate(columns):
-                sw.create_dataset(key, data=table[:, j]).attrs["units"] = unit_of_key(key)
+            for key in columns:  # (P,), or (P, 3) for a vector key (shot.envelope_center, surfaces.0.normal)
+                values = np.array([p[key] for p in points], dtype=np.float64)
+                sw.create_dataset(key, data=values).attrs["units"] = unit_of_key(key)
             sw.attrs["parameters"] = list(points.keys)
             sw.attrs["tied"] = [t[0] for t in points.ties]
             for i in range(len(stats)):

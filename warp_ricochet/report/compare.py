@@ -32,7 +32,14 @@ def _labels(all_results) -> list[str]:
 
 
 def _key(row, params):
-    return tuple(round(float(row.get(p, math.nan)), 12) for p in params)
+    """A point's swept values, rounded (a vector key's as a tuple of its components)."""
+    return tuple(_rounded(row.get(p, math.nan)) for p in params)
+
+
+def _rounded(value):
+    if hasattr(value, "__len__"):  # a tuple, or a row of a (points, 3) array
+        return tuple(round(float(x), 12) for x in value)
+    return round(float(value), 12)
 
 
 DISTANCE_LEVELS = (("distance P50 (m)", 0.5), ("distance P99.9 (m)", 0.999))  # from the shooter: landing tallies
@@ -52,7 +59,7 @@ def _distances(results: Results) -> dict:
             if results.kind == "run":
                 groups = [((), f)]
             else:
-                values = [np.asarray(f["sweep"][p][()], dtype=np.float64).reshape(-1) for p in params]
+                values = [np.asarray(f["sweep"][p][()], dtype=np.float64) for p in params]  # (points,) or (points, 3)
                 groups = [(_key(dict(zip(params, v)), params), f.get(f"runs/{i:04d}")) for i, v in enumerate(zip(*values))]
             for key, group in groups:
                 q = group.get("stats/quantiles/distance") if isinstance(group, h5py.Group) else None

@@ -128,9 +128,16 @@ def _read_note(landings) -> str:
 # ---------------------------------------------------------------------------------------------- sweep plots
 
 
-def _x_param(results: Results) -> str:
-    keys = [p for p in results.params if p.rsplit(".", 1)[-1] == "mu_s"]
-    return keys[0] if keys else results.params[0]
+def _x_param(results: Results) -> str | None:
+    """The swept key to plot against: mu_s, else the first number swept; None when only vectors
+    (shot.envelope_center) are swept."""
+    scalars = [p for p in results.params if not any(isinstance(r.get(p), (tuple, list)) for r in results.rows)]
+    keys = [p for p in scalars if p.rsplit(".", 1)[-1] == "mu_s"]
+    return (keys or scalars or [None])[0]
+
+
+def _shown(value) -> str:
+    return f"({', '.join(f'{x:g}' for x in value)})" if isinstance(value, (tuple, list)) else f"{value:g}"
 
 
 def _groups(rows, x, params):
@@ -140,7 +147,7 @@ def _groups(rows, x, params):
     for row in rows:
         key = tuple(row.get(p) for p in others)
         out.setdefault(key, []).append(row)
-    return [(", ".join(f"{p.rsplit('.', 1)[-1]} = {v:g}" for p, v in zip(others, key)), rs) for key, rs in out.items()]
+    return [(", ".join(f"{p.rsplit('.', 1)[-1]} = {_shown(v)}" for p, v in zip(others, key)), rs) for key, rs in out.items()]
 
 
 def _paper_points(sweep: Sweep, x: str):
@@ -175,6 +182,8 @@ def _axis_label(key: str) -> str:
 def draw_sweep_ranges(fig, sweeps) -> bool:
     """The paper's study as one figure: <L> against the swept key, the L- to L+ band; one panel a
     file, all on one y axis (logarithmic when the ranges drawn span more than a factor 10)."""
+    if any(_x_param(sweep.results) is None for sweep in sweeps):
+        return False
     axes = np.atleast_1d(fig.subplots(1, len(sweeps), sharey=True))
     drawn = []
     for ax, sweep in zip(axes, sweeps):
@@ -204,6 +213,8 @@ def draw_sweep_survival(fig, sweeps) -> bool:
     from matplotlib.cm import ScalarMappable
     from matplotlib.colors import Normalize
 
+    if any(_x_param(sweep.results) is None for sweep in sweeps):
+        return False
     drawn, spans = False, []
     axes = np.atleast_1d(fig.subplots(1, len(sweeps)))
     for ax, sweep in zip(axes, sweeps):
@@ -232,6 +243,8 @@ def draw_sweep_survival(fig, sweeps) -> bool:
 
 # ---------------------------------------------------------------------------------------------- registry
 
+NO_X = "no swept number to plot against: a file sweeps vector keys (shot.envelope_center) only"
+
 PLOTS: list[Plot] = [
     Plot("landing-map", "run", (10.0, 9.0), draw_landing_map),
     Plot("range", "run", (12.0, 4.8), draw_range),
@@ -251,8 +264,8 @@ PLOTS: list[Plot] = [
         rest.draw_rest_distance,  # docs/ground.md
         'no per-pellet rest and landing positions: physics.until = "rest", output.fields with "rest" and "landing"',
     ),
-    Plot("sweep-ranges", "sweep", (6.5, 5.0), draw_sweep_ranges),
-    Plot("sweep-survival", "sweep", (6.5, 5.0), draw_sweep_survival),
+    Plot("sweep-ranges", "sweep", (6.5, 5.0), draw_sweep_ranges, NO_X),
+    Plot("sweep-survival", "sweep", (6.5, 5.0), draw_sweep_survival, NO_X),
 ]
 
 

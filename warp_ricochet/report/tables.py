@@ -157,7 +157,7 @@ def _read_open_file(f, path, np) -> Results:
     sweep = f["sweep"]  # (a group: io.inputcheck)
     params = _key_list(sweep.attrs.get("parameters"))
     tied = _key_list(sweep.attrs.get("tied"))
-    values = {key: np.asarray(ds[()], dtype=np.float64).reshape(-1) for key, ds in sweep.items() if isinstance(ds, h5py.Dataset)}
+    values = {key: np.asarray(ds[()], dtype=np.float64) for key, ds in sweep.items() if isinstance(ds, h5py.Dataset)}
     if not params:
         params = [k for k in values if k not in tied]
     missing = [p for p in params if p not in values]
@@ -172,8 +172,8 @@ def _read_open_file(f, path, np) -> Results:
             row[name] = float(arr[i]) if i < arr.size else math.nan
         if math.isnan(row.get("pellets", math.nan)):
             continue  # a point the (interrupted) sweep never ran
-        for key, arr in values.items():
-            row[key] = float(arr[i]) if i < arr.size else math.nan
+        for key, arr in values.items():  # (points,), or (points, 3) for a vector key: a tuple
+            row[key] = math.nan if i >= len(arr) else float(arr[i]) if arr.ndim == 1 else tuple(arr[i].tolist())
         rows.append(row)
     meta["points"], meta["points_done"] = points, len(rows)
     return Results(rows=_sort_rows(rows, params), meta=meta, params=params, tied=tied)
@@ -219,7 +219,11 @@ def _count(x) -> str:
 
 
 def _param_formatter(values):
-    """3 decimals like the paper when that is exact for every value, else the shortest exact form."""
+    """3 decimals like the paper when that is exact for every value, else the shortest exact form;
+    a vector's (a swept shot.envelope_center) as "(x, y, z)", its components so."""
+    if any(isinstance(v, (tuple, list)) for v in values):
+        one = _param_formatter([x for v in values if isinstance(v, (tuple, list)) for x in v])
+        return lambda v: "(" + ", ".join(map(one, v)) + ")" if isinstance(v, (tuple, list)) else one(v)
     finite = [float(v) for v in values if isinstance(v, (int, float)) and math.isfinite(v)]
     if all(abs(v - round(v, 3)) <= 1e-12 * max(1.0, abs(v)) for v in finite):
         return lambda v: _num(v, 3)
