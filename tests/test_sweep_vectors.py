@@ -15,6 +15,7 @@ from warp_ricochet.io.inputcheck import BadFile, check_file
 from warp_ricochet.report import format_tables, read_results
 from warp_ricochet.report.compare import format_side_by_side
 from warp_ricochet.scene import load_scene
+from warp_ricochet.scene.sweep import SweepPoints
 
 SCENE = str(Path(__file__).resolve().parents[1] / "examples" / "paper.toml")
 CENTRES = [[0.0, 1.0, 0.0], [0.0, 2.0, 0.5]]
@@ -106,3 +107,8 @@ def test_plots_draw_against_the_swept_number_and_skip_a_vector_only_sweep(mixed,
     assert done and all(why is None for why in done.values()), done
     done = dict(write_plots([centres], tmp_path / "centres"))
     assert done and all("no swept number" in why for why in done.values()), done
+
+
+def test_a_tie_to_a_vector_key_is_refused_in_one_line():
+    with pytest.raises(wr.SceneError, match=r"^--tie = .*shot.envelope_center is swept over vectors; a tie follows a number$"):
+        SweepPoints({"shot.envelope_center": CENTRES}, [("shot.envelope_radius", 0.5, None)])

@@ -45,6 +45,8 @@ class SweepPoints:
                 src = self.keys[0]
             if src not in self.keys:
                 raise _err("--tie", _Shown(f"{key}={factor}*{src}"), f"{src} is not a swept parameter")
+            if any(isinstance(v, (list, tuple)) for v in self.values[self.keys.index(src)]):
+                raise _err("--tie", _Shown(f"{key}={factor}*{src}"), f"{src} is swept over vectors; a tie follows a number")
             if key in self.keys or key in (t[0] for t in self.ties):
                 raise _err(
                     "--tie",
