@@ -41,7 +41,8 @@ def mixed(tmp_path_factory):
 @pytest.fixture(scope="module")
 def centres(tmp_path_factory):
     """The centre swept alone: 2 points."""
-    return _sweep(tmp_path_factory.mktemp("vec") / "centres.h5", {"shot.envelope_center": CENTRES})
+    given = [["0 yd", "100 cm", 0], CENTRES[1]]  # with units, as a scene may give it (docs/scenes.md)
+    return _sweep(tmp_path_factory.mktemp("vec") / "centres.h5", {"shot.envelope_center": given})
 
 
 def _dims(ds) -> list[str]:
@@ -57,6 +58,12 @@ def test_a_vector_key_is_written_points_by_3_and_a_scalar_key_points(mixed):
         assert e.shape == (4,) and e[()].tolist() == RESTITUTION * 2 and _dims(e) == ["point"]
         check_file(f)  # the file check passes (the sweep raised no warning: above)
     assert mixed.with_suffix(".xmf").is_file()  # the sidecar is written
+
+
+def test_a_vector_given_with_units_is_written_as_numbers_in_the_key_s_unit(centres):
+    with h5py.File(centres) as f:
+        assert f["sweep/shot.envelope_center"][()].tolist() == CENTRES
+    assert SweepPoints({"shot.speed": ["1350 ft/s", 400]})[0] == {"shot.speed": 1350 * 0.3048}
 
 
 def test_the_file_check_still_refuses_other_shapes(mixed, tmp_path):

@@ -12,6 +12,7 @@ import math
 
 from .keys import _Shown
 from .keys import err as _err
+from .units import to_unit, unit_of
 
 MAX_SWEEP_POINTS = 10_000  # points of one sweep (each is a run group of the sweep file)
 
@@ -22,7 +23,7 @@ class SweepPoints:
 
     def __init__(self, params: dict, ties=()):
         self.keys = list(params)
-        self.values = [list(params[k]) for k in self.keys]
+        self.values = [[_in_unit(k, v) for v in params[k]] for k in self.keys]
         if not self.keys:
             raise _err("--param", "(none)", "a sweep needs at least one swept key")
         for key, values in zip(self.keys, self.values):
@@ -80,3 +81,14 @@ class SweepPoints:
     def columns(self) -> list[str]:
         """Every key set at a point: the swept keys, then the tied ones."""
         return self.keys + [t[0] for t in self.ties if t[0] not in self.keys]
+
+
+def _in_unit(key: str, value):
+    """A swept value written with its unit ("1350 ft/s"; in a vector, ["0 yd", "4 ft", 0]) as the
+    number it means in the key's unit, as the scene reads it (scene.units), so that the points, the
+    manifest and /sweep hold numbers; any other value as given."""
+    if isinstance(value, (list, tuple)):
+        return [_in_unit(key, v) for v in value]
+    if isinstance(value, str) and unit_of(key) is not None:
+        return to_unit(value, key, f"a value of --param {key}")
+    return value
