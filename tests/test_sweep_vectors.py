@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import warp_ricochet as wr
+from tests.helpers import cli
 from warp_ricochet.io.inputcheck import BadFile, check_file
 from warp_ricochet.report import format_tables, read_results
 from warp_ricochet.report.compare import format_side_by_side
@@ -119,3 +120,31 @@ def test_plots_draw_against_the_swept_number_and_skip_a_vector_only_sweep(mixed,
 def test_a_tie_to_a_vector_key_is_refused_in_one_line():
     with pytest.raises(wr.SceneError, match=r"^--tie = .*shot.envelope_center is swept over vectors; a tie follows a number$"):
         SweepPoints({"shot.envelope_center": CENTRES}, [("shot.envelope_radius", 0.5, None)])
+
+
+def test_the_cli_sweeps_a_vector_given_as_a_toml_array(tmp_path):
+    out = tmp_path / "cli.h5"
+    spec = 'shot.envelope_center=[[0, 1, 0], [0, "200 cm", 0.5]]'
+    rc, text, err = cli(["sweep", SCENE, "--device", "cpu", "--set", "shot.count=8", "--param", spec, "-o", out, "-q"])
+    assert (rc, err) == (0, "")
+    assert "2 points over shot.envelope_center" in text and "(0.000, 2.000, 0.500)" in text
+    with h5py.File(out) as f:
+        assert f["sweep/shot.envelope_center"][()].tolist() == CENTRES
+    assert out.with_suffix(".xmf").is_file()
+
+
+@pytest.mark.parametrize(
+    "spec, problem",
+    [
+        ("shot.envelope_center=[", "must be KEY=[v1, v2, ...], a TOML array"),
+        ("shot.envelope_center=[]", "must be KEY=[v1, v2, ...], a TOML array"),
+        ("shot.envelope_center=[[0, 1, 0]]\ny = 2", "must be KEY=[v1, v2, ...], a TOML array"),
+        ("shot.envelope_center=[[0, 1]]", "must be a list of 3 numbers (m)"),
+        ('physics.until=["landing", "rest"]', "a sweep written to a file takes numbers or vectors of 3 numbers"),
+    ],
+)
+def test_bad_arrays_and_values_no_number_are_refused_before_any_work(tmp_path, spec, problem):
+    out = tmp_path / "bad.h5"
+    rc, text, err = cli(["sweep", SCENE, "--device", "cpu", "--set", "shot.count=8", "--param", spec, "-o", out, "-q"])
+    assert rc == 2 and text == "" and err.count("\n") == 1 and problem in err, err
+    assert list(tmp_path.iterdir()) == []

@@ -370,6 +370,8 @@ def sweep(
     if resume and output is None:
         raise SceneError("--resume", "no output", "needs the output file of the interrupted sweep (-o or output.path)")
     scenes = _point_scenes(scene, points, output is not None)
+    if output is not None:
+        _numbers_only(points)
     if output is None:
         dev = resolve_device(device)
         check_resources(scenes, dev, None)
@@ -415,6 +417,19 @@ def sweep(
             precision=scene.numerics.precision,
         )
     return results
+
+
+def _numbers_only(points) -> None:
+    """A sweep file's /sweep holds numbers, or vectors of 3 (docs/output.md): any other value
+    (physics.until = "rest") is refused before any work."""
+    for key, values in zip(points.keys, points.values):
+        for v in values:
+            if not (_is_number(v) or isinstance(v, (list, tuple)) and len(v) == 3 and all(map(_is_number, v))):
+                raise SceneError(key, v, "a sweep written to a file takes numbers or vectors of 3 numbers (its /sweep)")
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
 def _point_done(stats, summary: bool):

@@ -80,14 +80,32 @@ def _sweep_number(text: str, key: str, spec: str):
     return x
 
 
+def _sweep_array(key: str, spec: str, rhs: str) -> list:
+    """ "KEY=[[0, 1, 0], [0, 2, 0]]": the values as a TOML array, for a vector key (a value written
+    with its unit is converted by scene.sweep)."""
+    rule = "must be KEY=[v1, v2, ...], a TOML array of the values, e.g. shot.envelope_center=[[0, 1, 0], [0, 2, 0]]"
+    try:
+        parsed = tomllib.loads("v = " + rhs)
+    except (ValueError, RecursionError):
+        raise _err(key, spec, rule) from None
+    values = parsed["v"]
+    if list(parsed) != ["v"] or not isinstance(values, list) or not values:
+        raise _err(key, spec, rule)
+    if len(values) > MAX_SWEEP_POINTS:
+        raise _err(key, spec, f"gives {len(values):,} points; a sweep may have at most {MAX_SWEEP_POINTS:,}")
+    return values
+
+
 def parse_sweep(spec: str) -> tuple[str, list[float]]:
-    """ "KEY=start:stop:step" (inclusive; ints stay ints) or "KEY=a,b,c" -> (KEY, values). One unit
-    may be written, once or after every number ("30:50:10 yd"): the values are made in it, then
-    converted to the key's (scene.units)."""
+    """ "KEY=start:stop:step" (inclusive; ints stay ints), "KEY=a,b,c" or, for vectors, a TOML array
+    "KEY=[[0, 1, 0], [0, 2, 0]]" -> (KEY, values). One unit may be written, once or after every
+    number ("30:50:10 yd"): the values are made in it, then converted to the key's (scene.units)."""
     key, eq, rhs = str(spec).partition("=")
     if not eq:
         raise _err("sweep", spec, "must be KEY=start:stop:step or KEY=a,b,c")
     key = _dotted(key, spec, "sweep")
+    if rhs.lstrip().startswith("["):
+        return key, _sweep_array(key, spec, rhs)
     if ":" not in rhs and rhs.count(",") >= MAX_SWEEP_POINTS:  # (before anything per value)
         raise _err(key, spec, f"gives {rhs.count(',') + 1:,} points; a sweep may have at most {MAX_SWEEP_POINTS:,}")
     texts = [split_unit(t) for t in rhs.split(":" if ":" in rhs else ",")]
