@@ -9,7 +9,7 @@ import tomllib
 from pathlib import Path
 
 from ..errors import not_regular
-from ..fields import COLLISION_FIELDS, REST_FIELDS, default_fields
+from ..fields import COLLISION_FIELDS, FIELDS, REST_FIELDS, default_fields
 from ..launch.packing import MAX_PACKING, packing_fraction
 from ..physics.limits import MAX_PLANES_IN_AIR
 from . import materials
@@ -363,8 +363,16 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
             "distances and map are counted in the landing histograms (leave [hazard] out for none)",
         )
     physics = Physics(**_table(raw.get("physics"), "physics", SCHEMAS["physics"]))
+    unwatched = hazard is not None and not hazard.thresholds  # (a per-threshold field would have no column)
     if "fields" not in output:
-        output["fields"] = default_fields(pairs, hazard is not None, physics.until == "rest")
+        fields = default_fields(pairs, hazard is not None, physics.until == "rest")
+        output["fields"] = tuple(f for f in fields if not (unwatched and FIELDS[f].per_threshold))
+    elif unwatched and any(FIELDS[f].per_threshold for f in output["fields"]):
+        raise err(
+            "output.fields",
+            next(f for f in output["fields"] if FIELDS[f].per_threshold),
+            "has a column per hazard threshold: give a threshold (hazard.energy_density or hazard.speed) or leave it out",
+        )
     elif physics.until != "rest" and any(f in REST_FIELDS for f in output["fields"]):
         raise err(
             "output.fields",
