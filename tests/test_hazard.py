@@ -374,3 +374,22 @@ def test_the_tally_estimate_bounds_what_a_run_allocates_and_writes(tmp_path):
     with h5py.File(out, "r") as f:
         assert f["hazard/map/above"].compression == "gzip"
         assert f["hazard/map/count"][()].sum() + f["hazard/map/outside"][()] + f["hazard/map/elsewhere"][()] == 2000
+
+
+def test_a_hazard_without_thresholds_writes_its_map_and_no_reach(tmp_path):
+    """A [hazard] table with no threshold once failed to write (/pellets/hazard/reach, one column per
+    threshold, had none); naming that field then is one line."""
+    from warp_ricochet.errors import SceneError
+    from warp_ricochet.scene import scene_from_dict
+
+    raw = paper_raw(until="landing")
+    raw["shot"]["count"] = 20
+    raw["hazard"] = {"map_cell": 0.5, "map_extent": [-5.0, 140.0, -25.0, 25.0], "energy_density": [], "speed": []}
+    wr.run(scene_from_dict(raw), tmp_path / "run.h5", device="cpu")
+    with h5py.File(tmp_path / "run.h5") as f:
+        assert "reach" not in f["pellets/hazard"] and "energy" in f["pellets/hazard"]
+        assert f["hazard/map/count"][()].sum() + f["hazard/map/outside"][()] == 20
+    raw["output"] = {"fields": ["landing.position", "hazard.reach"]}
+    with pytest.raises(SceneError, match="^output.fields .*has a column per hazard threshold") as info:
+        scene_from_dict(raw)
+    assert "\n" not in str(info.value)

@@ -349,8 +349,10 @@ def _contact_normal(precision: str, normal, with_meshes: bool):
 def project(surface, x):
     """On the host, in float64: (foot, normal) of a scene's surface (a `scene.schema` plane) seen
     from the point x (m): the point of the surface below x along its normal, and the unit normal.
-    A plate is refused (the hazard's ground is a plane: `scene.parse` checks hazard.map_surface)."""
-    if not surface.is_plane:
+    A terrain is seen as its horizontal plane, through its `point` perpendicular to its up (`normal`,
+    -g/|g|: the site grid a terrain's map lies on, docs/hazard.md section 5). A plate is refused (the
+    hazard's ground is a plane or a terrain: `scene.parse` checks hazard.map_surface)."""
+    if not (surface.is_plane or surface.kind == "terrain"):
         raise ValueError(f"project: surface {surface.name!r} is a {surface.kind}, not a plane")
     n = np.asarray(surface.normal, dtype=np.float64)
     return x - np.dot(x - np.asarray(surface.point), n) * n, n

@@ -9,7 +9,7 @@ import tomllib
 from pathlib import Path
 
 from ..errors import not_regular
-from ..fields import COLLISION_FIELDS, REST_FIELDS, default_fields
+from ..fields import COLLISION_FIELDS, FIELDS, REST_FIELDS, default_fields
 from ..launch.packing import MAX_PACKING, packing_fraction
 from ..physics.limits import MAX_PLANES_IN_AIR
 from . import materials
@@ -39,7 +39,7 @@ from .schema import (
     Surface,
 )
 from .stations import check_stations, parse_stations
-from .terrain import TERRAIN_OPTIONAL, check_terrain
+from .terrain import TERRAIN_OPTIONAL, check_terrain, up_of
 from .triangles import load_mesh
 from .vectors import unit_vector
 
@@ -206,17 +206,26 @@ def _hazard(raw, surfaces: tuple, shot: Shot):
             raise err("hazard.map_cell", cell, f"makes {cells:,} cells of hazard.map_extent; at most {MAX_MAP_CELLS:,}")
         if hazard.map_surface >= len(surfaces):
             raise err("hazard.map_surface", hazard.map_surface, f"must be the index of a surface (0 to {len(surfaces) - 1})")
-        _check_map_axis(hazard, surfaces[hazard.map_surface].normal, shot)
+        if surfaces[hazard.map_surface].kind != "terrain":  # (a terrain's up is known later: check_terrain_ground)
+            _check_map_axis(hazard, surfaces[hazard.map_surface].normal, shot)
     elif hazard.site is not None:
         raise err("hazard.site", "(a table)", "needs a map to place: give hazard.map_cell and hazard.map_extent")
-    if hazard.points:
-        _check_places(hazard, surfaces, shot)
-    if hazard.map_surface < len(surfaces) and not surfaces[hazard.map_surface].is_plane:
+    ground = surfaces[hazard.map_surface] if hazard.map_surface < len(surfaces) else None
+    if ground is not None and ground.kind == "terrain" and (hazard.thresholds or hazard.points):
         raise err(
             "hazard.map_surface",
             hazard.map_surface,
-            f"must be a plane: surface {hazard.map_surface} is a {surfaces[hazard.map_surface].kind} "
-            "(the hazard's ground, its map and places lie on an infinite plane)",
+            "is a terrain: its landing map is counted, but not yet the hazard along the path above it "
+            "(docs/hazard.md section 11): give hazard.energy_density = [] and hazard.speed = [] and no hazard.points",
+        )
+    if hazard.points:
+        _check_places(hazard, surfaces, shot)
+    if ground is not None and not (ground.is_plane or ground.kind == "terrain"):
+        raise err(
+            "hazard.map_surface",
+            hazard.map_surface,
+            f"must be a plane or a terrain: surface {hazard.map_surface} is a {ground.kind} "
+            "(the hazard's ground, its map and places lie on an infinite plane or a terrain's site grid)",
         )
     return hazard
 
@@ -253,6 +262,21 @@ def _check_places(hazard: Hazard, surfaces: tuple, shot: Shot) -> None:
                 f"lies at (u, v) = ({pu:.6g}, {pv:.6g}) m on the map, outside hazard.map_extent "
                 f"{list(hazard.map_extent)}: a named place must lie on the map",
             )
+
+
+def _check_terrain_ground(hazard: Hazard, terrain, shot: Shot, physics) -> None:
+    """A terrain as the hazard's ground: its map lies on the horizontal site grid, perpendicular to
+    up = -g/|g|, so the terrain's up (`normal`) must be that up; the map's axis must not be vertical."""
+    up = up_of(physics.gravity)
+    if up is not None and abs(sum(a * b for a, b in zip(terrain.normal, up)) - 1.0) > PERPENDICULAR:
+        raise err(
+            f"surfaces.{hazard.map_surface}.normal",
+            list(terrain.normal),
+            f"must be the scene's up (-gravity: {list(up)}) for a terrain that is the hazard's ground "
+            "(its map lies on the horizontal site grid)",
+        )
+    if hazard.has_map:
+        _check_map_axis(hazard, terrain.normal, shot)
 
 
 def _check_map_axis(hazard: Hazard, normal, shot: Shot) -> None:
@@ -363,8 +387,16 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
             "distances and map are counted in the landing histograms (leave [hazard] out for none)",
         )
     physics = Physics(**_table(raw.get("physics"), "physics", SCHEMAS["physics"]))
+    unwatched = hazard is not None and not hazard.thresholds  # (a per-threshold field would have no column)
     if "fields" not in output:
-        output["fields"] = default_fields(pairs, hazard is not None, physics.until == "rest")
+        fields = default_fields(pairs, hazard is not None, physics.until == "rest")
+        output["fields"] = tuple(f for f in fields if not (unwatched and FIELDS[f].per_threshold))
+    elif unwatched and any(FIELDS[f].per_threshold for f in output["fields"]):
+        raise err(
+            "output.fields",
+            next(f for f in output["fields"] if FIELDS[f].per_threshold),
+            "has a column per hazard threshold: give a threshold (hazard.energy_density or hazard.speed) or leave it out",
+        )
     elif physics.until != "rest" and any(f in REST_FIELDS for f in output["fields"]):
         raise err(
             "output.fields",
@@ -415,6 +447,8 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
                 f"{FLOAT32_EXACT_STEPS // every * every:,}; use float64 for more",
             )
     planes = tuple(check_terrain(s, f"surfaces.{i}", physics, hazard, base_dir) for i, s in enumerate(planes))
+    if hazard is not None and hazard.map_surface < len(planes) and planes[hazard.map_surface].kind == "terrain":
+        _check_terrain_ground(hazard, planes[hazard.map_surface], shot, physics)
     air = _air(raw.get("air"))
     if air is not None and len(surfaces) > MAX_PLANES_IN_AIR:
         raise err(
