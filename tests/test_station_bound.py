@@ -37,12 +37,12 @@ def bounded_raw(width=60.0, shots=4, max_pellets=20_000, weights=WEIGHTS):
 @pytest.mark.parametrize("seed", range(4))
 def test_every_prefix_of_the_weighted_sequence_is_within_one_shot_of_the_weights(seed):
     """Tijdeman's bound, 1 - 1/(2m - 2) for m stations, for every prefix of 600 shots, with integer
-    and binary-fraction weights (exact arithmetic)."""
+    and decimal weights, read as written (exact arithmetic)."""
     rng = random.Random(seed)
     for _ in range(25):
         m = rng.randint(1, 8)
         weights = [rng.choice([rng.randint(1, 9), rng.uniform(0.1, 5.0)]) for _ in range(m)]
-        share = [Fraction(w) / sum(map(Fraction, weights)) for w in weights]
+        share = [Fraction(repr(w)) / sum(Fraction(repr(v)) for v in weights) for w in weights]
         bound = 1 - Fraction(1, 2 * m - 2) if m > 1 else 0
         c = [0] * m
         for n, k in enumerate(interleaved(weights, 600), start=1):
@@ -127,7 +127,8 @@ def test_weights_that_repeat_too_late_for_the_budget_are_refused_in_one_line():
     from warp_ricochet.scene import scene_from_dict
 
     with pytest.raises(SceneError) as info:
-        scene_from_dict(bounded_raw(weights=(1.0, 0.7, 1.0), max_pellets=2**30))
+        scene_from_dict(bounded_raw(weights=(1.0, 1.234567, 1.0), max_pellets=2**30))
     text = str(info.value)
     assert len(text.splitlines()) == 1 and text.startswith("hazard.bound.max_pellets = 1073741824: gives 21,474,836 shots")
-    assert scene_from_dict(bounded_raw(weights=(1.0, 0.7, 1.0))).stations[1].weight == 0.7  # (a budget of 400 shots)
+    assert scene_from_dict(bounded_raw(weights=(1.0, 1.234567, 1.0))).stations[1].weight == 1.234567  # (400 shots)
+    assert period([0.7, 0.3]) == 10 and scene_from_dict(bounded_raw(weights=(0.7, 0.3), max_pellets=2**30))

@@ -262,8 +262,10 @@ MAX_INTERLEAVED = 1 << 20  # shots of the weighted sequence computed on the host
 
 
 def _integer_weights(weights) -> list[int]:
-    """The weights as coprime integers in the same ratios (exact: a float is a binary fraction)."""
-    fractions = [Fraction(w) for w in weights]
+    """The weights as coprime integers in the same ratios, each weight read as the decimal it was
+    written as (the shortest decimal that reads back as its float: 0.7 is 7/10, not the binary
+    fraction 3152519739159347/2^52), so that weights such as 0.7 and 0.3 repeat after 10 shots."""
+    fractions = [Fraction(repr(float(w))) for w in weights]
     scale = math.lcm(*(f.denominator for f in fractions))
     integers = [int(f * scale) for f in fractions]
     g = math.gcd(*integers)
