@@ -15,8 +15,8 @@ its part along n: the rest is n x v / R), with
     dpsi/ds = a_l / v^2,  dX/ds = cos psi - 1,  dY/ds = sin psi,  domega/ds = (domega/dt) / v,
 
 a_l the acceleration across e. Built not `rough` (a scene without rough ground: `spec.RunSpec.rough`),
-only straight phases are taken (`line_of` hands the others to 3-D) and y = (Z, t, s, omega): the same
-steps bitwise, three components fewer. The laws are `surface_motion`'s (docs/ground.md 2-3 and 8), the
+only straight phases are taken (`line_of` hands the others to 3-D): y = (Z, t, s, omega), the laws
+along e as scalars (`along`), the frame kept: the same steps to rounding, at less cost. The laws are `surface_motion`'s (docs/ground.md 2-3 and 8), the
 friction -mu_d N/m along the slip v e - R omega x n (or, where a stage's slip has turned past its
 direction at the step's start, along that). Along e, D = -dv/dt:
 
@@ -151,7 +151,7 @@ def make_line_laws(
         N/m sliding) at speed v along e(psi) with spin omega (rolling: omega_t = n x v / R): the laws
         of `surface_motion` (docs/ground.md 2-3, 8), the sliding friction against the slip, or
         against `line.slip` where a stage's slip has turned past it. N/m here is -(g + a_air) . n
-        unclipped (< 0: lift-off), the friction's load clipped at 0."""
+        unclipped (< 0: lift-off), the friction's load clipped at 0. Not `rough`, no acceleration across e."""
         radius, k, n = physics.radius, physics.inertia_factor, line.normal
         e, lateral = heading(psi, line)
         velocity = v * e
@@ -160,6 +160,16 @@ def make_line_laws(
         a, alpha = applied(velocity, spin, physics)
         pressed = -wp.dot(a, n)
         load = wp.max(pressed, ZERO)
+        if wp.static(not ROUGH):
+            if v > ZERO:  # one line: the parts along e as scalars (the rolling friction F/m = held e)
+                drive = wp.dot(a, e) - line.ploughing * v * v
+                if line.rolling != 0:
+                    resisted = drive - line.rolling_resistance * load
+                    dv = (resisted + k * radius * wp.dot(alpha, lateral)) / (ONE + k)
+                    held = dv - resisted
+                    return dv, ZERO, alpha - (held / (k * radius)) * lateral, pressed, mu_s * load - wp.abs(held)
+                slid = -(line.mu_d * load) * line.slip
+                return drive + wp.dot(slid, e), ZERO, wp.cross(slid, n) * (ONE / (k * radius)) + alpha, pressed, pressed
         grip = pressed
         acceleration = vec3()
         spin_rate = vec3()
@@ -320,11 +330,6 @@ def make_line_steps(
         return ZERO
 
     @wp.func
-    def turned(y: state, line: Line):
-        """(e, l) at the step's point (`heading`)."""
-        return ll.heading(psi_of(y), line)
-
-    @wp.func
     def moved(position: vec3, y: state, line: Line):
         """The position at the step's point: x_n + (s + X) e_n + Y l_n (not `rough`: x_n + s e_n)."""
         if wp.static(ROUGH):
@@ -378,7 +383,6 @@ def make_line_steps(
     return SimpleNamespace(
         state=state,
         spin_in=spin_in,
-        turned=turned,
         moved=moved,
         start=start,
         psi_of=psi_of,
@@ -396,7 +400,7 @@ def make_surface_line(
     laws=None,
     watch: tuple = (0, 0, False),
     noise: tuple = (0.0, 0.0),
-    rough: bool = True,
+    rough=True,
 ) -> SimpleNamespace:
     """The helpers of `integrate_line` (module docstring), each accepted step given to
     `tallies.path`'s watch of `watch`; not `rough`, for straight phases only."""
@@ -472,10 +476,12 @@ def make_surface_line(
     @wp.func
     def watch_step(track: Track, tally: Tally, x0: vec3, x1: vec3, line: Line, h: scalar, dt: scalar, v0: scalar, v1: scalar, d1: scalar):  # fmt: skip
         """Give the step (path h from x0 to x1) to the watch: along its chord, under the frozen law
-        (A, B > 0), else the time Hermite of its ends."""
-        e = x1 - x0
-        if wp.length(e) > ZERO:
-            e = e * (ONE / wp.length(e))
+        (A, B > 0), else the time Hermite of its ends (not `rough`: the chord is along e)."""
+        e = line.direction
+        if wp.static(ROUGH):
+            e = x1 - x0
+            if wp.length(e) > ZERO:
+                e = e * (ONE / wp.length(e))
         if line.stops != 0 and line.slope > ZERO:
             return watcher.line(track, tally, x0, e, h, v0, line.offset, line.slope)
         d0 = (dt * v0) * e
@@ -550,7 +556,6 @@ def make_surface_line(
         first_rates=first_rates,
         state=state,
         state_at=state_at,
-        turned=st.turned,
         moved=st.moved,
         start=st.start,
         psi_of=st.psi_of,
@@ -569,18 +574,19 @@ def make_line_integrator(
     laws=None,
     watch: tuple = (0, 0, False),
     noise: tuple = (0.0, 0.0),
-    rough: bool = True,
+    rough=True,
 ) -> SimpleNamespace:
     """`integrate_line`: `surface_follow`'s integrate_phase for a phase over the distance (module
     docstring); not `rough`, straight phases only (`line_of` refuses the rest), with the heading
     and the offset compiled away."""
     sl = make_surface_line(precision, planes, model, laws, watch, noise, rough)
+    ROUGH = rough
     m, Line, Track, Tally = sl.maths, sl.Line, sl.Track, sl.Tally
-    along, freeze, reach, stages, state_at = sl.along, sl.freeze, sl.reach, sl.stages, sl.state_at
+    along, heading, freeze, reach, stages, state_at = sl.along, sl.heading, sl.freeze, sl.reach, sl.stages, sl.state_at
     ahead_of, target, step_error, step_time, watch_step, land_margin = (
         sl.ahead_of, sl.target, sl.step_error, sl.step_time, sl.watch_step, sl.land_margin
     )  # fmt: skip
-    spin_of, first_rates, start, turned, moved, psi_of = sl.spin_of, sl.first_rates, sl.start, sl.turned, sl.moved, sl.psi_of
+    spin_of, first_rates, start, moved, psi_of = sl.spin_of, sl.first_rates, sl.start, sl.moved, sl.psi_of
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
     ZERO, ONE, TWO, HALF = scalar(0.0), scalar(1.0), scalar(2.0), scalar(0.5)
@@ -727,7 +733,7 @@ def make_line_integrator(
             e1, v1, w1, dec1, dl1, dw1, load1, grip1 = state_at(y1, physics, line, mu_s)
             error = step_error(energy, e1, v1, spin, w1, error_vector, h, line, tolerance, floor, radius)
             dt = step_time(v, h, y1[1], line)
-            head1, lateral1 = turned(y1, line)
+            head1, lateral1 = heading(psi_of(y1), line)
             if not (error <= ONE):
                 h = h * wp.clamp(scalar(0.9) * wp.pow(error, scalar(-0.2)), scalar(0.2), ONE)
                 growth = ONE
@@ -746,16 +752,17 @@ def make_line_integrator(
                 h, y1, taken = land_margin(h, wp.min(load, grip), margin1, y0, f0, physics, line, mu_s)
                 steps += taken
                 e1, v1, w1, dec1, dl1, dw1, load1, grip1 = state_at(y1, physics, line, mu_s)
-                head1, lateral1 = turned(y1, line)
+                head1, lateral1 = heading(psi_of(y1), line)
                 dt = step_time(v, h, y1[1], line)
                 event = wp.int32(1)
                 to_contact = False
             x1 = moved(position, y1, line)
-            if not to_contact:  # curved onto another surface: the 3-D integrator finds where
-                after, _k = ahead_of(x1, k, surfaces, physics, head1)
-                if after <= ZERO:
-                    event = wp.int32(HANDOVER)
-                    break
+            if wp.static(ROUGH):
+                if not to_contact:  # curved onto another surface: the 3-D integrator finds where
+                    after, _k = ahead_of(x1, k, surfaces, physics, head1)
+                    if after <= ZERO:
+                        event = wp.int32(HANDOVER)
+                        break
             track = watch_step(track, tally, position, x1, line, h, dt, v, v1, dec1)
             position = x1
             s += h
@@ -764,8 +771,9 @@ def make_line_integrator(
                 drift = (dec1 - decel - line.slope * (e1 - energy)) / h
             elif wp.abs(e1 - energy) > scalar(0.05) * energy:
                 slope = (dec1 - decel) / (e1 - energy)
-            line.direction = head1 * (ONE / wp.length(head1))  # the next step's frame
-            line.lateral = wp.cross(n, line.direction)
+            if wp.static(ROUGH):  # the next step's frame (not rough: the line's)
+                line.direction = head1 * (ONE / wp.length(head1))
+                line.lateral = wp.cross(n, line.direction)
             energy = e1
             v = v1
             spin = w1
