@@ -31,10 +31,10 @@ def laws_of(air):
 
 
 @functools.cache
-def kernel(precision, planes, model, laws):
+def kernel(precision, planes, model, laws, rough=True):
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
-    fns = make_surface_follow(precision, planes, model, laws)
+    fns = make_surface_follow(precision, planes, model, laws, rough=rough)
     follow, start, Tally = fns.follow, fns.start, fns.Tally  # (the hazard's watch: none here)
 
     @wp.kernel(enable_backward=False, module="unique")
@@ -87,10 +87,10 @@ def setup(precision, planes, *, radius, gravity=(0.0, -9.81, 0.0), air=None, tol
 
 def follow_pellets(
     precision, planes, x, v, w, *, radius, k=0, mu_s=0.5, mu_d=0.4, c=0.0, b=0.0, rest=0.0, max_steps=100000,
-    gravity=(0.0, -9.81, 0.0), air=None, tolerance=1e-6, static=False, device="cpu", setup_cache=None,
+    gravity=(0.0, -9.81, 0.0), air=None, tolerance=1e-6, static=False, device="cpu", setup_cache=None, rough=True,
 ):  # fmt: skip
     """`follow` of m pellets (x, v, w broadcast to (m, 3); k, mu_s, ... to (m,)): a dict of float64
-    arrays x, v, w, elapsed, path and int arrays end, steps, k_next."""
+    arrays x, v, w, elapsed, path and int arrays end, steps, k_next; `rough`: `make_surface_follow`'s."""
     model, laws = ("ballistic", None) if air is None else ("air", laws_of(air))
     t = types_for(precision)
     m = max([len(np.atleast_2d(q)) for q in (x, v, w)] + [np.size(q) for q in (k, mu_s, mu_d, c, b, rest, max_steps)])
@@ -109,7 +109,7 @@ def follow_pellets(
     inputs += [wp.array(np.broadcast_to(np.asarray(k, np.int32), (m,)).copy(), dtype=wp.int32, device=device)]
     steps = wp.array(np.broadcast_to(np.asarray(max_steps, np.int32), (m,)).copy(), dtype=wp.int32, device=device)
     inputs += [wp.array(params.astype(precision), device=device), steps, surfaces, physics]
-    run = kernel(precision, len(planes) if static else None, model, laws)
+    run = kernel(precision, len(planes) if static else None, model, laws, rough)
     wp.launch(run, dim=m, inputs=inputs, outputs=[out_x, out_v, out_w, out_s, out_i], device=device)
     s, ints = out_s.numpy().astype(float), out_i.numpy()
     return dict(

@@ -12,10 +12,11 @@ import warp as wp
 
 from bench.surface import REST_SPEED, SECOND_CONTACT, R, follow_pellets, setup
 from warp_ricochet.physics.surface_follow import REST
-from warp_ricochet.physics.surface_line import make_line_integrator, make_line_maths
+from warp_ricochet.physics.surface_line import make_line_integrator, make_line_maths, make_line_steps
 from warp_ricochet.physics.types import types_for
 from warp_ricochet.reference import surface_motion as ref
 from warp_ricochet.scene.schema import Air
+from warp_ricochet.spec import RunSpec
 
 SLOPPY = 2.0**-21.4  # __logf's absolute error over [0.5, 2] (CUDA C Programming Guide, table of intrinsics)
 NOISES = [(0.0, 0.0), (1e-6, SLOPPY), (-1e-6, -SLOPPY)]
@@ -262,3 +263,41 @@ def test_rough_ground_motions_go_over_the_distance():
     straight, rough = ([_follow("float64", case)["steps"] for case in _line_cases(25, 12, r)] for r in (False, True))
     print(f"steps: on the line {np.mean(straight):.1f}, rough {np.mean(rough):.1f}")
     assert np.sum(rough) <= 2.6 * np.sum(straight)
+
+
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_a_scene_without_rough_ground_takes_the_straight_step(precision):
+    """Built for ground without roughness (`rough` False: 6 components, no heading, the laws along e
+    as scalars), the line cases rest where the SciPy reference does (1e-4 of the path) and where the
+    9-component step rests them to rounding (float64 2e-13 of the path, float32 3e-6: a slide's end
+    moves by the speed's rounding); the rough cases leave the line there (3-D, in more steps; one of
+    them runs out of phases there) and those at rest rest where the reference does."""
+    assert len(make_line_steps(precision, rough=False).state()) == 6
+    assert len(make_line_steps(precision).state()) == 9
+    rounding = {"float64": 1e-11, "float32": 2e-5}[precision]
+    for case, (state, x, path, t) in zip(_line_cases(25, 12), _reference(25, 12), strict=True):
+        full, straight = _follow(precision, case), _follow(precision, case, rough=False)
+        assert state == "rest" and int(straight["end"]) == REST
+        assert np.linalg.norm(straight["x"] - x) <= 1e-4 * path and straight["elapsed"] == pytest.approx(t, rel=1e-4)
+        assert np.linalg.norm(straight["x"] - full["x"]) <= rounding * path
+    steps, rested = [], 0
+    for case, (state, x, path, _t) in zip(_line_cases(25, 12, True), _reference(25, 12, True), strict=True):
+        out = _follow(precision, case, rough=False)
+        if int(out["end"]) == REST:
+            rested += 1
+            assert state == "rest" and np.linalg.norm(out["x"] - x) <= 1e-4 * path
+        steps.append(out["steps"] - _follow(precision, case)["steps"])
+    assert rested >= 11 and np.mean(steps) > 10  # in 3-D: more steps than over the distance
+
+
+def test_only_rough_ground_compiles_the_heading():
+    """`RunSpec.rough`: a surface with a roughness above 0 (turf), not the rigid plane nor a
+    material whose roughness is set to 0."""
+    from bench.air import paper_scene
+
+    def rough(*extra):
+        return RunSpec.of(paper_scene(10, extra=['physics.until="rest"', *extra])).rough
+
+    assert not rough()
+    assert rough('surfaces.0.material="turf"')
+    assert not rough('surfaces.0.material="turf"', "surfaces.0.roughness=0.0")

@@ -38,7 +38,8 @@ class RunSpec:
     the number of hazard thresholds (compiled in: the landing code tests each one unrolled); until:
     "landing" ends a pellet at its landing, "rest" follows it on until it stops (docs/ground.md); ground:
     a surface has rough ground or a penetration law (`physics.ground`), applied at every impact;
-    places: the named places of the hazard (`tallies.path`); plates: a surface is a finite plate
+    rough: a surface has rough ground (a roughness above 0: phases off one line are followed over
+    the distance, `physics.surface_line`; else those few go in 3-D); places: the named places of the hazard (`tallies.path`); plates: a surface is a finite plate
     (`physics.geometry`: its code compiled in only then); MESHES (2): a surface is a box, a mesh or a post
     (`physics.mesh_contact` compiled in too); pattern: the pellets' directions drawn from a choke's
     pattern (`launch.pattern`), not from the jitter; stations: each shot's start and aim from its
@@ -58,6 +59,7 @@ class RunSpec:
     thresholds: int = 0
     until: str = "landing"
     ground: bool = False
+    rough: bool = False
     places: int = 0
     plates: bool | int = False
     pattern: bool = False
@@ -86,6 +88,7 @@ class RunSpec:
             thresholds=0 if scene.hazard is None else len(scene.hazard.thresholds),
             until=scene.physics.until,
             ground=any(_has_ground_laws(surface) for surface in scene.surfaces),
+            rough=any(surface.ground("roughness") > 0.0 for surface in scene.surfaces),
             places=0 if scene.hazard is None else len(scene.hazard.points),
             plates=MESHES if any(s.is_solid for s in scene.surfaces) else any(not s.is_plane for s in scene.surfaces),
             pattern=scene.shot.pattern is not None,

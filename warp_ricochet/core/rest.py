@@ -64,7 +64,7 @@ def make_to_rest(spec) -> SimpleNamespace:
     scalar, vec3, Surfaces, Physics, Material = t.scalar, t.vec3, t.Surfaces, t.Physics, t.Material
     flight = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws, watch=spec.watch, plates=spec.plates)
     surface = make_surface_follow(
-        spec.precision, spec.static_planes, spec.flight, spec.air_laws, watch=spec.watch, plates=spec.plates
+        spec.precision, spec.static_planes, spec.flight, spec.air_laws, watch=spec.watch, plates=spec.plates, rough=spec.rough
     )
     watcher = make_path_watch(spec.precision, *spec.watch)
     Track, Tally = watcher.Track, watcher.Tally

@@ -566,11 +566,18 @@ def make_surface_integrator(
 
 @functools.cache
 def make_surface_follow(
-    precision: str, planes=None, model: str = "ballistic", laws=None, watch: tuple = (0, 0, False), plates: bool = False
+    precision: str,
+    planes=None,
+    model: str = "ballistic",
+    laws=None,
+    watch: tuple = (0, 0, False),
+    plates: bool = False,
+    rough: bool = True,
 ) -> SimpleNamespace:
     """`follow` (module docstring) for one precision, number of planes (None: read at run time) and
     flight model ("ballistic": vacuum; "air" with `laws` = (drag, lift, spin_decay) of `physics.air`);
-    the path is watched by `tallies.path`'s watch of `watch` = (thresholds, places, map)."""
+    the path is watched by `tallies.path`'s watch of `watch` = (thresholds, places, map); not
+    `rough` (no rough ground), only straight phases go over the distance (`surface_line`)."""
     from ..tallies.path import make_path_watch  # (tallies imports physics: not at the top)
 
     watcher = make_path_watch(precision, *watch)
@@ -585,7 +592,7 @@ def make_surface_follow(
     plough_roll, rest_state, constant_phase = closed.plough_roll, closed.rest_state, closed.constant_phase
     integrate_phase = make_surface_integrator(precision, planes, model, laws, watch, plates).integrate_phase
     PLATES, LINES = plates, not plates  # a plate's edges are met by the phase integrator only
-    lines = make_line_integrator(precision, planes, model, laws, watch)
+    lines = make_line_integrator(precision, planes, model, laws, watch, rough=rough)
     line_of, integrate_line = lines.line_of, lines.integrate_line
     ZERO, ONE = scalar(0.0), scalar(1.0)
 

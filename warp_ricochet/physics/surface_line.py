@@ -14,7 +14,9 @@ its part along n: the rest is n x v / R), with
 
     dpsi/ds = a_l / v^2,  dX/ds = cos psi - 1,  dY/ds = sin psi,  domega/ds = (domega/dt) / v,
 
-a_l the acceleration across e. The laws are `surface_motion`'s (docs/ground.md 2-3 and 8), the
+a_l the acceleration across e. Built not `rough` (a scene without rough ground: `spec.RunSpec.rough`),
+only straight phases are taken (`line_of` hands the others to 3-D): y = (Z, t, s, omega), the laws
+along e as scalars (`along`), the frame kept: the same steps to rounding, at less cost. The laws are `surface_motion`'s (docs/ground.md 2-3 and 8), the
 friction -mu_d N/m along the slip v e - R omega x n (or, where a stage's slip has turned past its
 direction at the step's start, along that). Along e, D = -dv/dt:
 
@@ -81,15 +83,18 @@ BAND = 0.1  # events end within BAND x the tolerance of their scale (surface_fol
 # (turf: 80.4 steps a pellet aimed at 1, 62.3 at 1/2, 58.2 at 0.7, 59.3 at 0.8)
 SHORT = 0.7
 MAX_TURN = 0.25  # rad: the heading turns by at most this in a step (its sin and cos by series)
-STATE = 9  # (Z, t, s, psi, X, Y, omega): make_line_steps
+STATE, STRAIGHT = 9, 6  # (Z, t, s, psi, X, Y, omega), not rough (Z, t, s, omega): make_line_steps
 
 
 @functools.cache
-def make_line_laws(precision: str, model: str = "ballistic", laws=None, noise: tuple = (0.0, 0.0)) -> SimpleNamespace:
-    """The `Line`, the laws along it (`along`), the frozen law (`reference`) and `line_of`."""
+def make_line_laws(
+    precision: str, model: str = "ballistic", laws=None, noise: tuple = (0.0, 0.0), rough: bool = True
+) -> SimpleNamespace:
+    """The `Line`, the laws along it (`along`), the frozen law (`reference`) and `line_of`; not
+    `rough`, only straight phases are taken (the heading compiled away: module docstring)."""
     t = types_for(precision)
     scalar, vec3, Physics = t.scalar, t.vec3, t.Physics
-    AIR = model == "air"
+    AIR, ROUGH = model == "air", rough
     sm, m = make_surface_motion(precision), make_line_maths(precision, noise)
     air_rates = make_air_laws(precision, *laws).air_rates if AIR else None
     ZERO, ONE, TWO = scalar(0.0), scalar(1.0), scalar(2.0)
@@ -132,7 +137,10 @@ def make_line_laws(precision: str, model: str = "ballistic", laws=None, noise: t
 
     @wp.func
     def heading(psi: scalar, line: Line):
-        """(e, l) turned by psi about n from the step's frame: e = cos psi e_n + sin psi l_n (|psi| <= 1/4)."""
+        """(e, l) turned by psi about n from the step's frame: e = cos psi e_n + sin psi l_n (|psi| <= 1/4;
+        not `rough`, psi = 0: the frame)."""
+        if wp.static(not ROUGH):
+            return line.direction, line.lateral
         c, s = m.turn(psi)
         e = line.direction + c * line.direction + s * line.lateral
         return e, wp.cross(line.normal, e)
@@ -143,7 +151,7 @@ def make_line_laws(precision: str, model: str = "ballistic", laws=None, noise: t
         N/m sliding) at speed v along e(psi) with spin omega (rolling: omega_t = n x v / R): the laws
         of `surface_motion` (docs/ground.md 2-3, 8), the sliding friction against the slip, or
         against `line.slip` where a stage's slip has turned past it. N/m here is -(g + a_air) . n
-        unclipped (< 0: lift-off), the friction's load clipped at 0."""
+        unclipped (< 0: lift-off), the friction's load clipped at 0. Not `rough`, no acceleration across e."""
         radius, k, n = physics.radius, physics.inertia_factor, line.normal
         e, lateral = heading(psi, line)
         velocity = v * e
@@ -152,6 +160,16 @@ def make_line_laws(precision: str, model: str = "ballistic", laws=None, noise: t
         a, alpha = applied(velocity, spin, physics)
         pressed = -wp.dot(a, n)
         load = wp.max(pressed, ZERO)
+        if wp.static(not ROUGH):
+            if v > ZERO:  # one line: the parts along e as scalars (the rolling friction F/m = held e)
+                drive = wp.dot(a, e) - line.ploughing * v * v
+                if line.rolling != 0:
+                    resisted = drive - line.rolling_resistance * load
+                    dv = (resisted + k * radius * wp.dot(alpha, lateral)) / (ONE + k)
+                    held = dv - resisted
+                    return dv, ZERO, alpha - (held / (k * radius)) * lateral, pressed, mu_s * load - wp.abs(held)
+                slid = -(line.mu_d * load) * line.slip
+                return drive + wp.dot(slid, e), ZERO, wp.cross(slid, n) * (ONE / (k * radius)) + alpha, pressed, pressed
         grip = pressed
         acceleration = vec3()
         spin_rate = vec3()
@@ -163,8 +181,9 @@ def make_line_laws(precision: str, model: str = "ballistic", laws=None, noise: t
         else:
             side = line.slip
             slip = sm.slip_velocity(velocity, spin, n, radius)
-            if wp.dot(slip, side) > ZERO and line.straight == 0:
-                side = sm.unit(slip)
+            if wp.static(ROUGH):
+                if wp.dot(slip, side) > ZERO and line.straight == 0:
+                    side = sm.unit(slip)
             friction = -(line.mu_d * load) * side
             acceleration = sm.tangential(a, n) + sm.plough(velocity, n, line.ploughing) + friction
             spin_rate = wp.cross(friction, n) * (ONE / (k * radius)) + alpha
@@ -256,6 +275,8 @@ def make_line_laws(precision: str, model: str = "ballistic", laws=None, noise: t
         if wp.abs(wp.dot(slip, line.lateral)) <= bound * scale and radius * wp.abs(wp.dot(spin, normal)) <= bound * scale:
             line.straight = wp.int32(1)  # within the bound: on one line, the parts across e dropped
             slip = wp.dot(slip, e) * e
+        if wp.static(not ROUGH):
+            ok = ok and line.straight != 0  # off the line: in 3-D (surface_follow.integrate_phase)
         line.slip = sm.unit(slip)
         if wp.length(slip) <= STOP_FRACTION * scale:  # from none, the slip grows along the drive
             line.slip = e
@@ -281,20 +302,47 @@ def make_line_laws(precision: str, model: str = "ballistic", laws=None, noise: t
 
 
 @functools.cache
-def make_line_steps(precision: str, model: str = "ballistic", laws=None, noise: tuple = (0.0, 0.0)) -> SimpleNamespace:
-    """The state over the distance, y = (Z, t, s, psi, X, Y, omega) (module docstring), its rates,
-    their Dormand-Prince 5(4) step and the state (E, v, omega, D, ...) at a step's point."""
+def make_line_steps(
+    precision: str, model: str = "ballistic", laws=None, noise: tuple = (0.0, 0.0), rough: bool = True
+) -> SimpleNamespace:
+    """The state over the distance, y = (Z, t, s, psi, X, Y, omega) (module docstring; not `rough`,
+    (Z, t, s, omega): psi = X = Y = 0), its rates, their Dormand-Prince 5(4) step and the state (E,
+    v, omega, D, ...) at a step's point."""
     t = types_for(precision)
     scalar, vec3, Physics = t.scalar, t.vec3, t.Physics
-    state = wp.types.vector(length=STATE, dtype=scalar)
-    ll = make_line_laws(precision, model, laws, noise)
+    ROUGH = rough
+    W = 6 if rough else 3  # omega's first component
+    state = wp.types.vector(length=STATE if rough else STRAIGHT, dtype=scalar)
+    ll = make_line_laws(precision, model, laws, noise, rough)
     Line, along, reference, m = ll.Line, ll.along, ll.reference, ll.maths
     ZERO, ONE, TWO = scalar(0.0), scalar(1.0), scalar(2.0)
 
     @wp.func
     def spin_in(y: state):
         """omega, the state's last three components."""
-        return vec3(y[6], y[7], y[8])
+        return vec3(y[W], y[W + 1], y[W + 2])
+
+    @wp.func
+    def psi_of(y: state):
+        """The heading psi (not `rough`: 0)."""
+        if wp.static(ROUGH):
+            return y[3]
+        return ZERO
+
+    @wp.func
+    def moved(position: vec3, y: state, line: Line):
+        """The position at the step's point: x_n + (s + X) e_n + Y l_n (not `rough`: x_n + s e_n)."""
+        if wp.static(ROUGH):
+            return position + (y[2] + y[4]) * line.direction + y[5] * line.lateral
+        return position + y[2] * line.direction
+
+    @wp.func
+    def start(spin: vec3):
+        """y at the step's start: 0 but omega = spin."""
+        if wp.static(ROUGH):
+            return state(ZERO, ZERO, ZERO, ZERO, ZERO, ZERO, spin[0], spin[1], spin[2])
+        else:
+            return state(ZERO, ZERO, ZERO, spin[0], spin[1], spin[2])
 
     @wp.func
     def state_at(y: state, physics: Physics, line: Line, mu_s: scalar):
@@ -304,7 +352,7 @@ def make_line_steps(precision: str, model: str = "ballistic", laws=None, noise: 
         energy = reference(s, line) + y[0] / m.exp(TWO * line.slope * s)
         v = m.sqrt(energy)
         spin = spin_in(y)
-        dv, dl, dw, load, grip = along(v, y[3], spin, physics, line, mu_s)
+        dv, dl, dw, load, grip = along(v, psi_of(y), spin, physics, line, mu_s)
         return energy, v, spin, -dv, dl, dw, load, grip
 
     @wp.func
@@ -323,22 +371,39 @@ def make_line_steps(precision: str, model: str = "ballistic", laws=None, noise: 
         if line.rolling != 0:
             dw = wp.dot(dw, line.normal) * line.normal
         dw = dw * slow
-        bend, sway = m.turn(y[3])
-        return state(
-            -TWO * remainder * m.exp(TWO * line.slope * y[2]), late, ONE, lateral * slow * slow, bend, sway, dw[0], dw[1], dw[2]
-        )
+        decay = -TWO * remainder * m.exp(TWO * line.slope * y[2])
+        if wp.static(not ROUGH):
+            return state(decay, late, ONE, dw[0], dw[1], dw[2])
+        else:
+            bend, sway = m.turn(y[3])
+            return state(decay, late, ONE, lateral * slow * slow, bend, sway, dw[0], dw[1], dw[2])
 
     stages = make_dormand_prince(precision, rates, Line, True, state).stages
 
-    return SimpleNamespace(state=state, spin_in=spin_in, state_at=state_at, rates=rates, stages=stages)
+    return SimpleNamespace(
+        state=state,
+        spin_in=spin_in,
+        moved=moved,
+        start=start,
+        psi_of=psi_of,
+        state_at=state_at,
+        rates=rates,
+        stages=stages,
+    )
 
 
 @functools.cache
 def make_surface_line(
-    precision: str, planes=None, model: str = "ballistic", laws=None, watch: tuple = (0, 0, False), noise: tuple = (0.0, 0.0)
+    precision: str,
+    planes=None,
+    model: str = "ballistic",
+    laws=None,
+    watch: tuple = (0, 0, False),
+    noise: tuple = (0.0, 0.0),
+    rough=True,
 ) -> SimpleNamespace:
     """The helpers of `integrate_line` (module docstring), each accepted step given to
-    `tallies.path`'s watch of `watch`."""
+    `tallies.path`'s watch of `watch`; not `rough`, for straight phases only."""
     from ..tallies.path import make_path_watch  # (tallies imports physics: not at the top)
 
     watcher = make_path_watch(precision, *watch)
@@ -347,7 +412,8 @@ def make_surface_line(
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
     STATIC = planes
     geo = make_geometry(precision, planes)
-    ll, st = make_line_laws(precision, model, laws, noise), make_line_steps(precision, model, laws, noise)
+    ll, st = make_line_laws(precision, model, laws, noise, rough), make_line_steps(precision, model, laws, noise, rough)
+    ROUGH = rough
     Line, m, state, state_at, stages = ll.Line, ll.maths, st.state, st.state_at, st.stages
     reference, frozen_time = ll.reference, ll.frozen_time
     ZERO, ONE, TWO = scalar(0.0), scalar(1.0), scalar(2.0)
@@ -390,9 +456,13 @@ def make_surface_line(
         heading's over 1 + floor / v (a velocity's direction, as the 3-D integrator's); X's and
         Y's over h + R; omega's over |omega| + floor / R. The distance s is exact; t does not feed back."""
         out = wp.abs(error[0]) / m.exp(TWO * line.slope * h) / (tolerance * (wp.max(e0, e1) + floor * floor))
-        out = wp.max(out, wp.abs(error[3]) / (tolerance * (ONE + floor / wp.max(v1, line.least))))
-        out = wp.max(out, wp.max(wp.abs(error[4]), wp.abs(error[5])) / (tolerance * (h + radius)))
-        spin_error = wp.length(vec3(error[6], error[7], error[8]))
+        spin_error = ZERO
+        if wp.static(not ROUGH):
+            spin_error = wp.length(vec3(error[3], error[4], error[5]))
+        else:
+            out = wp.max(out, wp.abs(error[3]) / (tolerance * (ONE + floor / wp.max(v1, line.least))))
+            out = wp.max(out, wp.max(wp.abs(error[4]), wp.abs(error[5])) / (tolerance * (h + radius)))
+            spin_error = wp.length(vec3(error[6], error[7], error[8]))
         return wp.max(out, spin_error / (tolerance * (wp.max(wp.length(w0), wp.length(w1)) + floor / radius)))
 
     @wp.func
@@ -406,10 +476,12 @@ def make_surface_line(
     @wp.func
     def watch_step(track: Track, tally: Tally, x0: vec3, x1: vec3, line: Line, h: scalar, dt: scalar, v0: scalar, v1: scalar, d1: scalar):  # fmt: skip
         """Give the step (path h from x0 to x1) to the watch: along its chord, under the frozen law
-        (A, B > 0), else the time Hermite of its ends."""
-        e = x1 - x0
-        if wp.length(e) > ZERO:
-            e = e * (ONE / wp.length(e))
+        (A, B > 0), else the time Hermite of its ends (not `rough`: the chord is along e)."""
+        e = line.direction
+        if wp.static(ROUGH):
+            e = x1 - x0
+            if wp.length(e) > ZERO:
+                e = e * (ONE / wp.length(e))
         if line.stops != 0 and line.slope > ZERO:
             return watcher.line(track, tally, x0, e, h, v0, line.offset, line.slope)
         d0 = (dt * v0) * e
@@ -460,7 +532,10 @@ def make_surface_line(
         if line.rolling != 0:
             dw = wp.dot(dw, line.normal) * line.normal
         dw = dw * slow
-        return state(ZERO, late, ONE, dl * slow * slow, ZERO, ZERO, dw[0], dw[1], dw[2])
+        if wp.static(not ROUGH):
+            return state(ZERO, late, ONE, dw[0], dw[1], dw[2])
+        else:
+            return state(ZERO, late, ONE, dl * slow * slow, ZERO, ZERO, dw[0], dw[1], dw[2])
 
     return SimpleNamespace(
         Line=Line,
@@ -481,6 +556,9 @@ def make_surface_line(
         first_rates=first_rates,
         state=state,
         state_at=state_at,
+        moved=st.moved,
+        start=st.start,
+        psi_of=st.psi_of,
         stages=stages,
         maths=m,
         Track=Track,
@@ -490,16 +568,25 @@ def make_surface_line(
 
 @functools.cache
 def make_line_integrator(
-    precision: str, planes=None, model: str = "ballistic", laws=None, watch: tuple = (0, 0, False), noise: tuple = (0.0, 0.0)
+    precision: str,
+    planes=None,
+    model: str = "ballistic",
+    laws=None,
+    watch: tuple = (0, 0, False),
+    noise: tuple = (0.0, 0.0),
+    rough=True,
 ) -> SimpleNamespace:
-    """`integrate_line`: `surface_follow`'s integrate_phase for a phase over the distance (module docstring)."""
-    sl = make_surface_line(precision, planes, model, laws, watch, noise)
-    m, Line, Track, Tally, state = sl.maths, sl.Line, sl.Track, sl.Tally, sl.state
+    """`integrate_line`: `surface_follow`'s integrate_phase for a phase over the distance (module
+    docstring); not `rough`, straight phases only (`line_of` refuses the rest), with the heading
+    and the offset compiled away."""
+    sl = make_surface_line(precision, planes, model, laws, watch, noise, rough)
+    ROUGH = rough
+    m, Line, Track, Tally = sl.maths, sl.Line, sl.Track, sl.Tally
     along, heading, freeze, reach, stages, state_at = sl.along, sl.heading, sl.freeze, sl.reach, sl.stages, sl.state_at
     ahead_of, target, step_error, step_time, watch_step, land_margin = (
         sl.ahead_of, sl.target, sl.step_error, sl.step_time, sl.watch_step, sl.land_margin
     )  # fmt: skip
-    spin_of, first_rates = sl.spin_of, sl.first_rates
+    spin_of, first_rates, start, moved, psi_of = sl.spin_of, sl.first_rates, sl.start, sl.moved, sl.psi_of
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
     ZERO, ONE, TWO, HALF = scalar(0.0), scalar(1.0), scalar(2.0), scalar(0.5)
@@ -639,22 +726,19 @@ def make_line_integrator(
             if h >= ahead:
                 h = ahead
                 to_contact = True
-            y0 = state()
-            y0[6] = spin[0]
-            y0[7] = spin[1]
-            y0[8] = spin[2]
+            y0 = start(spin)
             f0 = first_rates(v, dl, dw, line)
             y1, _f1, error_vector = stages(y0, f0, h, physics, line)
             steps += 1
             e1, v1, w1, dec1, dl1, dw1, load1, grip1 = state_at(y1, physics, line, mu_s)
             error = step_error(energy, e1, v1, spin, w1, error_vector, h, line, tolerance, floor, radius)
             dt = step_time(v, h, y1[1], line)
-            head1, lateral1 = heading(y1[3], line)
+            head1, lateral1 = heading(psi_of(y1), line)
             if not (error <= ONE):
                 h = h * wp.clamp(scalar(0.9) * wp.pow(error, scalar(-0.2)), scalar(0.2), ONE)
                 growth = ONE
                 continue
-            if wp.abs(y1[3]) > scalar(MAX_TURN):  # turned too far for the series: a shorter step
+            if wp.abs(psi_of(y1)) > scalar(MAX_TURN):  # turned too far for the series: a shorter step
                 h = HALF * h
                 growth = ONE
                 continue
@@ -668,16 +752,17 @@ def make_line_integrator(
                 h, y1, taken = land_margin(h, wp.min(load, grip), margin1, y0, f0, physics, line, mu_s)
                 steps += taken
                 e1, v1, w1, dec1, dl1, dw1, load1, grip1 = state_at(y1, physics, line, mu_s)
-                head1, lateral1 = heading(y1[3], line)
+                head1, lateral1 = heading(psi_of(y1), line)
                 dt = step_time(v, h, y1[1], line)
                 event = wp.int32(1)
                 to_contact = False
-            x1 = position + (y1[2] + y1[4]) * e + y1[5] * line.lateral
-            if not to_contact:  # curved onto another surface: the 3-D integrator finds where
-                after, _k = ahead_of(x1, k, surfaces, physics, head1)
-                if after <= ZERO:
-                    event = wp.int32(HANDOVER)
-                    break
+            x1 = moved(position, y1, line)
+            if wp.static(ROUGH):
+                if not to_contact:  # curved onto another surface: the 3-D integrator finds where
+                    after, _k = ahead_of(x1, k, surfaces, physics, head1)
+                    if after <= ZERO:
+                        event = wp.int32(HANDOVER)
+                        break
             track = watch_step(track, tally, position, x1, line, h, dt, v, v1, dec1)
             position = x1
             s += h
@@ -686,8 +771,9 @@ def make_line_integrator(
                 drift = (dec1 - decel - line.slope * (e1 - energy)) / h
             elif wp.abs(e1 - energy) > scalar(0.05) * energy:
                 slope = (dec1 - decel) / (e1 - energy)
-            line.direction = head1 * (ONE / wp.length(head1))  # the next step's frame
-            line.lateral = wp.cross(n, line.direction)
+            if wp.static(ROUGH):  # the next step's frame (not rough: the line's)
+                line.direction = head1 * (ONE / wp.length(head1))
+                line.lateral = wp.cross(n, line.direction)
             energy = e1
             v = v1
             spin = w1
