@@ -358,3 +358,25 @@ def test_compared_sweep_panels_have_one_scale_and_the_paper_is_explained(files):
     finally:
         for s in sweeps:
             s.file.close()
+
+
+def test_the_landing_map_draws_only_planes_as_lines_and_names_other_kinds():
+    """A vertical plane is drawn as its line on the ground; a vertical plate or a terrain is not drawn
+    as an infinite plane (the legend names it by its kind)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from warp_ricochet.report.figures import _planes
+
+    up, shooter = np.array([0.0, 1.0, 0.0]), np.zeros(3)
+    e1, e2 = np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, -1.0])
+    wall, plate, field = (np.array([50.0, 0.0, 0.0]), np.array([-1.0, 0.0, 0.0])), np.array([20.0, 1.0, 0.0]), np.zeros(3)
+    planes = [("wall", *wall, "plane"), ("gong", plate, np.array([-1.0, 0.0, 0.0]), "rectangle"), ("field", field, up, "terrain")]
+    fig, ax = plt.subplots()
+    _planes(ax, planes, shooter, up, e1, e2)
+    labels = [line.get_label() for line in ax.get_lines()]
+    assert labels == ["wall (plane 0)", "gong: rectangle (surface 1, not drawn)", "field: terrain (surface 2, not drawn)"]
+    assert [line.get_label() for line in ax.get_lines() if line.get_xydata().size] == ["wall (plane 0)"]
+    plt.close(fig)

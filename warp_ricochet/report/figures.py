@@ -72,8 +72,12 @@ def _norm(values):
 
 def _planes(ax, planes, shooter, up, e1, e2):
     """Non-horizontal planes as the line where each meets the horizontal through its point; horizontal
-    planes named in the legend."""
-    for i, (name, point, normal) in enumerate(planes):
+    planes named in the legend, and the other kinds (plates, boxes, posts, meshes, terrain: finite or
+    not flat, so no line) by their kind."""
+    for i, (name, point, normal, kind) in enumerate(planes):
+        if kind != "plane":
+            ax.plot([], [], " ", label=f"{name}: {kind} (surface {i}, not drawn)")
+            continue
         n = normal / np.linalg.norm(normal)
         t = np.cross(up, n)
         if np.linalg.norm(t) < 1e-6:  # horizontal: the ground, seen face on

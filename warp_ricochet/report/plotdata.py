@@ -91,9 +91,16 @@ def _planes(group, scene) -> list:
     normals = _value(group, "constants/surfaces/normal")
     if points is None or normals is None:
         return []
-    names = [s.get("name", "") for s in scene.get("surfaces", [])]
+    surfaces = scene.get("surfaces", [])
+    names = [s.get("name", "") for s in surfaces]
+    kinds = [s.get("kind", "plane") for s in surfaces]
     return [
-        (names[i] if i < len(names) and names[i] else f"plane {i}", np.asarray(p, float), np.asarray(n, float))
+        (
+            names[i] if i < len(names) and names[i] else f"plane {i}",
+            np.asarray(p, float),
+            np.asarray(n, float),
+            kinds[i] if i < len(kinds) else "plane",
+        )
         for i, (p, n) in enumerate(zip(points, normals))
     ]
 
