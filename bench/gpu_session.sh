@@ -10,6 +10,7 @@
 #   tallies: statistics only before this work (.gpu/old, a git archive of 27e7781) beside now, with
 #          quantiles and hazard maps
 #   tallies-collisions: collisions 10,000 x 450 old beside new, the launch overlaps, the safety study
+#   sampling (issue 28), rest, rest-collisions (issue 25), terrain (issue 27), profile-map (issue 26: ncu)
 #   interrupts: signal-to-exit latency of collision runs on CUDA (10,000 paper shots, one shot of 3e6)
 #   collisions: the collision, stability and pipeline tests on CUDA; Warp's DEM example and the dense phase in the
 #          same run (1e6 pellets: rounds 4, 2, 1, float64; 10,000 shots x 450); where the dense phase's time goes
@@ -78,4 +79,24 @@ fi
 if [[ $what == interrupts ]]; then
   timeout 300 python3 -m bench.interrupts --device cuda:0 --kinds paper-shots,shot --trials 8 --out "$out" 2>&1 | quiet \
     | tee "$out/interrupts.txt"
+fi
+if [[ $what == sampling ]]; then  # issue 28: the pattern's cost beside today's jitter and beside the same cone
+  timeout 240 python3 -m bench.patterns --device cuda:0 --pellets 1e8 --precisions float32,float64 --repeats 7 --alone 2>&1 | quiet | tee "$out/patterns.txt"
+  timeout 120 python3 -m bench.patterns --device cuda:0 --pellets 1e8 --precisions float32 --repeats 5 --per-shot 2>&1 | quiet | tee "$out/patterns-per-shot.txt"
+fi
+if [[ $what == rest ]]; then  # issue 25: followed to rest, statistics only and 10,000 collision shots
+  timeout 240 python3 -m bench.rest throughput --device cuda:0 --sizes 1e6,1e7 --repeats 3 --out "$out/rest" 2>&1 | quiet | tee "$out/rest-throughput.txt"
+fi
+if [[ $what == rest-collisions ]]; then
+  timeout 420 python3 -m bench.rest collisions --device cuda:0 --shots 10000 --repeats 1 --out "$out/rest" 2>&1 | quiet | tee "$out/rest-collisions.txt"
+fi
+if [[ $what == terrain ]]; then  # issue 27: a terrain of 1e6 triangles beside the plane
+  timeout 150 python3 -m bench.meshes terrain --device cuda:0 --n 1e7 --repeats 3 --precision float32 2>&1 | quiet | tee "$out/terrain.txt"
+fi
+if [[ $what == profile-map ]]; then  # issue 26: the map case's core kernel in Nsight Compute
+  timeout 150 /usr/local/cuda/bin/ncu -k regex:ricochet_kernel -c 1 --section SpeedOfLight --section LaunchStats \
+    --section Occupancy --section WarpStateStats --section SourceCounters --section MemoryWorkloadAnalysis --import-source yes -o "$out/map" \
+    python3 -m bench.profile_map --device cuda:0 --n 2e5 2>&1 | tail -5 | tee "$out/profile-map.txt"
+  /usr/local/cuda/bin/ncu -i "$out/map.ncu-rep" --page details > "$out/map-details.txt" 2>&1
+  /usr/local/cuda/bin/ncu -i "$out/map.ncu-rep" --page source --csv --print-source cuda > "$out/map-source.csv" 2>&1
 fi

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import time
 import warnings
 from pathlib import Path
 
@@ -82,7 +83,9 @@ def collisions(device, shots, count, repeats):
         scene = paper_scene(count, "float32", air=True, mu_s=0.5, extra=collided + settings)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
+            started = time.perf_counter()
             stats = wr.run(scene, device=device)
+            print(f"{label}: the first run (compiling) took {time.perf_counter() - started:.1f} s", flush=True)
             t, times = _timed(lambda scene=scene: (wr.run(scene, device=device), wp.synchronize_device(device)), repeats)
         row = _row(label, shots * count, stats, t, times)
         rows.append(row)
