@@ -50,7 +50,7 @@ def test_only_the_geometry_module_reads_the_surfaces():
     fields = _surfaces_fields()
     ground = {*GROUND_FIELDS, "liquid"}  # the ground materials' (physics.types.Material)
     plates = {"kind", "axis_u", "axis_v", "half_u", "half_v", "two_sided"}  # (physics.types: read with plates only)
-    meshes = {"mesh", "mesh_first", "mesh_low", "mesh_high", "mesh_points", "mesh_edge"}  # (read with meshes only)
+    meshes = {"mesh", "mesh_first", "mesh_low", "mesh_high", "mesh_points", "mesh_edge", "mesh_faces"}  # (read with meshes only)
     assert fields == {"point", "normal", "point_noise", "restitution", "mu_s", "mu_d", *ground, *plates, *meshes}, (
         fields
     )  # (the parse found the struct)

@@ -3,6 +3,7 @@
 Their scene keys are checked in one line each; a closed box's 12 triangles face outwards."""
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -188,6 +189,30 @@ def test_no_pellet_fired_at_a_closed_box_ends_inside(tmp_path, precision):
     assert not inside_box(first, BOX, slack).any()
     landed = ~np.isnan(landing).any(axis=1)
     assert landed.sum() > 100 and not inside_box(landing[landed], BOX, slack).any()
+
+
+@pytest.mark.parametrize("air", [None, {"density": 1.225}], ids=["vacuum", "air"])
+def test_a_small_mesh_tested_whole_meets_what_its_bvh_finds(tmp_path, air):
+    """A mesh of at most FEW_FACES triangles has every triangle tested; the same box with tiny
+    triangles added deep inside it (never reached), too many to test whole, is searched through its
+    BVH: the same first surface, impact centre and landing for every pellet, bit for bit."""
+    from warp_ricochet.physics.mesh_contact import FEW_FACES
+
+    box = box_triangles(BOX["point"], BOX["normal"], BOX["axis_u"], BOX["size"])
+    rng = np.random.default_rng(5)
+    inner = np.asarray(BOX["point"]) + 1e-3 * rng.uniform(-1, 1, (3 * FEW_FACES, 3))
+    faces = np.r_[box.triangles, len(box.vertices) + np.arange(3 * FEW_FACES).reshape(-1, 3)]
+    assert len(box.triangles) <= FEW_FACES < len(faces)
+    whole = _write(tmp_path / "box.obj", box.vertices, box.triangles)
+    searched = _write(tmp_path / "box_inside.obj", np.r_[box.vertices, inner], faces)
+    x, v = box_shots(np.random.default_rng(9), 3000 if air is None else 300, BOX)
+    runs = [
+        _landings(tmp_path, x, v, [{"kind": "mesh", "file": f, **MATERIAL}], "float64", Path(f).stem, air)
+        for f in (whole, searched)
+    ]
+    assert (runs[0][0] == 0).all()
+    for a, b in zip(*runs):
+        np.testing.assert_array_equal(a, b)
 
 
 def test_a_pellet_grazing_a_box_edge_bounces_off_the_face_it_meets(tmp_path):

@@ -24,7 +24,7 @@ from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT
 from .cylinder_contact import make_cylinder_contact
 from .geometry import MESHES, make_geometry
 from .integrate import make_dense_output, make_stepper
-from .mesh_contact import FLOAT32_SLACK, make_mesh_contact
+from .mesh_contact import FEW_FACES, FLOAT32_SLACK, make_mesh_contact
 from .types import types_for
 
 MAX_FLIGHT_STEPS = 1 << 16  # per flight between contacts
@@ -237,13 +237,18 @@ def make_solid_search(precision: str) -> SimpleNamespace:
         """The earliest theta on the step where mesh k is met (2: none): the triangles whose boxes
         meet the box of the step's quintic Bezier control points grown by R (the curve lies in
         their hull), each by `triangle_theta`."""
+        best = scalar(2.0)
+        faces = surfaces.mesh_faces[k]
+        if faces <= FEW_FACES:  # a small mesh: every triangle (`mesh_contact`)
+            for face in range(faces):
+                best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius))
+            return best
         low, high = bezier_box(h, x0, v0, a0, x1, v1, a1)
         mesh, mesh_low, mesh_high = meshes.bounds(surfaces, k)
         grow = radius + scalar(FLOAT32_SLACK) * (meshes.l1(low) + meshes.l1(high) + meshes.l1(mesh_low) + meshes.l1(mesh_high))
         query = wp.mesh_query_aabb(
             mesh, meshes.single(low - vec3(grow, grow, grow)), meshes.single(high + vec3(grow, grow, grow))
         )
-        best = scalar(2.0)
         face = wp.int32(0)
         while wp.mesh_query_aabb_next(query, face):
             best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius))

@@ -19,6 +19,10 @@ The BVH only proposes triangles; every test is on the kernel-precision vertices:
   grazes an edge or a vertex is stopped there, so that a closed mesh is never crossed;
 - inside: the three edge functions n.((b - a) x (y - a)) are >= -EDGE_ROUNDING eps |b - a| (|y|_1 +
   |a|_1) (inclusive, so a centre on a shared edge or vertex is inside its neighbours too).
+
+A mesh of at most FEW_FACES triangles (a box, a plane's two) has every triangle tested instead of the
+chords' candidates: the same earliest contact (the chords' boxes only exclude triangles that cannot be
+met), without the BVH's traversals.
 """
 
 import functools
@@ -34,6 +38,7 @@ MAX_CHORDS = 1024  # past it the chords are longer and their boxes grown by thei
 CHORD_EDGES = 4.0  # a chord's length at most this many of the mesh's median triangle edge
 EDGE_ROUNDING = 8.0  # the inside test's tolerance, in machine epsilons of its operands' scale
 FLOAT32_SLACK = 2.0**-20  # relative: the BVH's float32 boxes against the kernel's vertices
+FEW_FACES = 16  # a mesh of at most this many triangles is searched whole, without its BVH
 
 
 @functools.cache
@@ -140,12 +145,20 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
             best = descending(gap, speed, half)
         if best >= scalar(0.0) and not inside(n, a, b, c, position(x, v, g, best)):
             best = scalar(NO_CONTACT)
+        if best >= scalar(0.0):  # (the centre reaches the triangle itself no earlier)
+            return best
         if wp.abs(height) <= TOLERANCE * noise:
             height = scalar(0.0)
         through = descending(height, speed, half)  # the centre reaching the triangle itself
-        if through >= scalar(0.0) and (best < scalar(0.0) or through < best):
-            if inside(n, a, b, c, position(x, v, g, through)):
-                best = through
+        if through >= scalar(0.0) and inside(n, a, b, c, position(x, v, g, through)):
+            best = through
+        return best
+
+    @wp.func
+    def earlier(best: scalar, when: scalar):
+        """The earlier of two contact times, NO_CONTACT (< 0) for none."""
+        if when >= scalar(0.0) and (best < scalar(0.0) or when < best):
+            return when
         return best
 
     @wp.func
@@ -184,6 +197,11 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
         best = scalar(NO_CONTACT)
         if end <= scalar(0.0):
             return best
+        faces = surfaces.mesh_faces[k]
+        if faces <= FEW_FACES:
+            for face in range(faces):
+                best = earlier(best, triangle_time(surfaces, k, face, x, v, g, radius))
+            return wp.where(best > LATEST, scalar(NO_CONTACT), best)
         gravity = wp.length(g)
         span = wp.length(v) * end + scalar(0.5) * gravity * end * end  # >= the arc: CHORD_EDGES edges a chord ...
         wanted = span / (scalar(CHORD_EDGES) * wp.max(surfaces.mesh_edge[k], radius))
@@ -204,9 +222,7 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
             b = b + vec3(spread, spread, spread)
             query = wp.mesh_query_aabb(surfaces.mesh[k], single(a), single(b))
             while wp.mesh_query_aabb_next(query, face):
-                when = triangle_time(surfaces, k, face, x, v, g, radius)
-                if when >= scalar(0.0) and (best < scalar(0.0) or when < best):
-                    best = when
+                best = earlier(best, triangle_time(surfaces, k, face, x, v, g, radius))
             if best >= scalar(0.0) and best <= h * scalar(i + 1):
                 break
             start = stop
@@ -224,31 +240,52 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
         return wp.normalize(wp.cross(b - a, c - a))
 
     @wp.func
+    def steeper(
+        surfaces: Surfaces,
+        k: wp.int32,
+        face: wp.int32,
+        x: vec3,
+        v: vec3,
+        slack: scalar,
+        grow: scalar,
+        steepest: scalar,
+        best: vec3,
+    ):
+        """(closing speed, normal) of triangle `face` if x touches it (0 to R in front, within R
+        beside its edges) and v approaches it more steeply than `steepest`, else the arguments."""
+        a, b, c = vertices(surfaces, k, face)
+        n = wp.cross(b - a, c - a)
+        if wp.length(n) > scalar(0.0):
+            n = wp.normalize(n)
+            height = wp.dot(x - a, n)
+            closing = wp.dot(v, n)
+            if height >= -slack and height <= grow and closing < steepest:
+                y = x - n * height  # the edge functions within R of the triangle
+                e0 = wp.dot(n, wp.cross(b - a, y - a)) / wp.length(b - a)
+                e1 = wp.dot(n, wp.cross(c - b, y - b)) / wp.length(c - b)
+                e2 = wp.dot(n, wp.cross(a - c, y - c)) / wp.length(a - c)
+                if wp.min(wp.min(e0, e1), e2) >= -grow:
+                    return closing, n
+        return steepest, best
+
+    @wp.func
     def contact_normal(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, radius: scalar):
         """The normal of the triangle touched at x (centre 0 to R in front, within R beside its
         edges) that v approaches most steeply; else the nearest triangle's (`mesh_normal`)."""
         low, high = surfaces.mesh_low[k], surfaces.mesh_high[k]
         slack = scalar(FLOAT32_SLACK) * (l1(low) + l1(high) + l1(x)) + TOLERANCE * radius
         grow = radius + slack
-        query = wp.mesh_query_aabb(surfaces.mesh[k], single(x - vec3(grow, grow, grow)), single(x + vec3(grow, grow, grow)))
-        face = wp.int32(0)
         best = vec3()
         steepest = scalar(0.0)
-        while wp.mesh_query_aabb_next(query, face):
-            a, b, c = vertices(surfaces, k, face)
-            n = wp.cross(b - a, c - a)
-            if wp.length(n) > scalar(0.0):
-                n = wp.normalize(n)
-                height = wp.dot(x - a, n)
-                closing = wp.dot(v, n)
-                if height >= -slack and height <= grow and closing < steepest:
-                    y = x - n * height  # the edge functions within R of the triangle
-                    e0 = wp.dot(n, wp.cross(b - a, y - a)) / wp.length(b - a)
-                    e1 = wp.dot(n, wp.cross(c - b, y - b)) / wp.length(c - b)
-                    e2 = wp.dot(n, wp.cross(a - c, y - c)) / wp.length(a - c)
-                    if wp.min(wp.min(e0, e1), e2) >= -grow:
-                        steepest = closing
-                        best = n
+        faces = surfaces.mesh_faces[k]
+        if faces <= FEW_FACES:
+            for face in range(faces):
+                steepest, best = steeper(surfaces, k, face, x, v, slack, grow, steepest, best)
+        else:
+            query = wp.mesh_query_aabb(surfaces.mesh[k], single(x - vec3(grow, grow, grow)), single(x + vec3(grow, grow, grow)))
+            face = wp.int32(0)
+            while wp.mesh_query_aabb_next(query, face):
+                steepest, best = steeper(surfaces, k, face, x, v, slack, grow, steepest, best)
         if steepest < scalar(0.0):
             return best
         return mesh_normal(surfaces, k, x)

@@ -62,6 +62,7 @@ def types_for(precision: str) -> SimpleNamespace:
         mesh_low: wp.array(dtype=vec3)
         mesh_high: wp.array(dtype=vec3)
         mesh_edge: wp.array(dtype=scalar)  # m: the median edge of its triangles (the chords' scale)
+        mesh_faces: wp.array(dtype=wp.int32)  # its triangles (0: not a mesh)
         mesh_points: wp.array(dtype=vec3)
 
     @wp.struct
@@ -173,11 +174,12 @@ def mesh_fields(surfaces, precision: str, meshes, device) -> None:
     `vertices` float64 (n, 3) and `triangles` int32 (m, 3): `scene.triangles.TriangleSurface`);
     each gets a wp.Mesh (float32 BVH), kept alive as long as `surfaces`."""
     t, dtype = types_for(precision), np.dtype(precision)
-    ids, first, low, high, edge, points, held = [], [], [], [], [], [np.zeros((0, 3))], []
+    ids, first, low, high, edge, faces, points, held = [], [], [], [], [], [], [np.zeros((0, 3))], []
     count = 0
     for triangles in meshes:
         ids.append(0 if triangles is None else None)
         first.append(count)
+        faces.append(0 if triangles is None else len(triangles.triangles))
         if triangles is None:
             low.append(np.zeros(3))
             high.append(np.zeros(3))
@@ -203,6 +205,7 @@ def mesh_fields(surfaces, precision: str, meshes, device) -> None:
     for name, values in (("mesh_low", low), ("mesh_high", high)):
         setattr(surfaces, name, wp.array(np.asarray(values).reshape(-1, 3).astype(dtype), dtype=t.vec3, device=device))
     surfaces.mesh_edge = wp.array(np.asarray(edge, dtype=dtype), dtype=t.scalar, device=device)
+    surfaces.mesh_faces = wp.array(np.asarray(faces, dtype=np.int32), dtype=wp.int32, device=device)
     surfaces.mesh_points = wp.array(np.concatenate(points).astype(dtype), dtype=t.vec3, device=device)
     if held:
         _HELD[id(surfaces)] = held
