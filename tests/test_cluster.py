@@ -1,0 +1,101 @@
+"""Studies on Dask (issue 29; docs/cluster.md): a run's stretches computed on a real LocalCluster of
+2 single-threaded worker processes and folded on the client give bitwise the serial run's /stats,
+/progress partials, landing tallies and hazard map, for runs without and with pellet-pellet
+collisions, a sweep, and a run whose worker is killed in the middle of a task."""
+
+import os
+
+import h5py
+import numpy as np
+import pytest
+from distributed import Client, LocalCluster
+from helpers import assert_same_run, paper_raw, stats_equal
+
+import warp_ricochet as wr
+from warp_ricochet import cluster
+from warp_ricochet.scene import scene_from_dict
+
+
+@pytest.fixture(scope="module")
+def client():
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0") as local:
+        with Client(local) as c:
+            yield c
+
+
+def scene_of(count=450, shots=60, **sections):
+    raw = paper_raw(until="landing")
+    raw["shot"].update(count=count, shots=shots)
+    raw.update(sections)
+    raw.setdefault("numerics", {})["chunk_size"] = 65536  # serial chunks of one segment: many chunks
+    raw["output"] = {"fields": []}  # statistics, tallies and maps (per-pellet fields: refused on a cluster)
+    return scene_from_dict(raw)
+
+
+HAZARD = {"map_cell": 0.5, "map_extent": [-5.0, 140.0, -25.0, 25.0], "speed": {"skin": 60.0}}
+
+
+@pytest.mark.parametrize(
+    "sections",
+    [
+        {},
+        {"hazard": HAZARD},
+        {"collisions": {"enabled": True, "time_step": 5e-4, "rounds": 1}, "shot": "collisions"},
+    ],
+    ids=["plain", "hazard-map", "collisions"],
+)
+def test_a_run_on_a_cluster_is_bitwise_the_serial_run(tmp_path, client, sections):
+    kw = dict(sections)
+    if kw.pop("shot", None) == "collisions":
+        scene = scene_of(count=30, shots=300, **kw)  # 9000 pellets: several tasks of whole granules of shots
+    else:
+        scene = scene_of(**kw)
+    serial, spread = tmp_path / "serial.h5", tmp_path / "cluster.h5"
+    ref = wr.run(scene, serial, device="cpu")
+    got = wr.run(scene, spread, device="cpu", client=client)
+    assert stats_equal(dict(ref), dict(got))
+    assert_same_run(spread, serial, fields=(), progress=("segment_results",))
+    if ref.tally is not None:
+        np.testing.assert_array_equal(ref.tally.flat(), got.tally.flat())
+    if "hazard" in sections:
+        with h5py.File(spread) as f:
+            assert f["hazard/map/count"][()].sum() > 0  # the map was counted, not left empty
+
+
+def test_a_sweep_on_a_cluster_is_bitwise_the_serial_sweep(tmp_path, client):
+    scene = scene_of(shots=20)
+    params = {"surfaces.0.mu_s": [0.2, 0.35, 0.5]}
+    ties = [("surfaces.0.mu_d", 0.9, "surfaces.0.mu_s")]
+    ref = wr.sweep(scene, params, ties, tmp_path / "serial.h5", device="cpu")
+    got = wr.sweep(scene, params, ties, tmp_path / "cluster.h5", device="cpu", client=client)
+    for (p, a), (q, b) in zip(ref, got):
+        assert p == q and stats_equal(dict(a), dict(b))
+    with h5py.File(tmp_path / "serial.h5") as a, h5py.File(tmp_path / "cluster.h5") as b:
+        names = []
+        a["stats"].visititems(lambda name, obj: names.append(name) if isinstance(obj, h5py.Dataset) else None)
+        assert names and sorted(names) == sorted(n for n in b["stats"] if isinstance(b["stats"][n], h5py.Dataset))
+        for name in names:  # every statistic of every point, and its interval's attributes (NaN equal to NaN)
+            np.testing.assert_array_equal(b["stats"][name][()], a["stats"][name][()], err_msg=name)
+            for key, value in a["stats"][name].attrs.items():
+                if key in ("DIMENSION_LIST", "REFERENCE_LIST"):  # (HDF5 references: not values)
+                    continue
+                np.testing.assert_array_equal(b["stats"][name].attrs[key], value, err_msg=f"{name} {key}")
+
+
+def test_a_worker_killed_mid_task_costs_a_retry_not_the_run(tmp_path, client, monkeypatch):
+    scene = scene_of(shots=600)  # 270,000 pellets: 5 tasks of whole segments
+    ref = wr.run(scene, device="cpu")
+    marker = tmp_path / "killed"
+    real = cluster.run_range
+
+    def dying(scene, device, start, stop, options=None, marker=str(marker)):
+        if start > 0 and not os.path.exists(marker):  # the first task after the first: its worker dies (as OOM kills)
+            open(marker, "w").close()
+            os.kill(os.getpid(), 9)
+        return real(scene, device, start, stop, options)
+
+    monkeypatch.setattr(cluster, "run_range", dying)
+    got = wr.run(scene, device="cpu", client=client)
+    assert marker.exists()  # a worker was killed
+    assert stats_equal(dict(ref), dict(got))
+    np.testing.assert_array_equal(ref.tally.flat(), got.tally.flat())
