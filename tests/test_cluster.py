@@ -9,7 +9,7 @@ import h5py
 import numpy as np
 import pytest
 from distributed import Client, LocalCluster
-from helpers import assert_same_run, paper_raw, stats_equal
+from helpers import assert_same_run, cli, paper_raw, stats_equal
 
 import warp_ricochet as wr
 from warp_ricochet import cluster
@@ -99,3 +99,13 @@ def test_a_worker_killed_mid_task_costs_a_retry_not_the_run(tmp_path, client, mo
     assert marker.exists()  # a worker was killed
     assert stats_equal(dict(ref), dict(got))
     np.testing.assert_array_equal(ref.tally.flat(), got.tally.flat())
+
+
+def test_a_scheduler_that_cannot_be_reached_is_one_line_before_any_work(tmp_path, monkeypatch):
+    monkeypatch.setattr(cluster, "CONNECT_TIMEOUT", "1s")
+    out = tmp_path / "run.h5"
+    rc, stdout, stderr = cli(["run", "examples/paper.toml", "--scheduler", "tcp://127.0.0.1:9", "-o", out])
+    assert rc == 2, stderr
+    assert len(stderr.strip().splitlines()) == 1, stderr
+    assert "--scheduler = 'tcp://127.0.0.1:9': cannot be reached (Timed out trying to connect" in stderr
+    assert not out.exists() and not os.path.exists(str(out) + ".partial")
