@@ -9,7 +9,7 @@ import h5py
 import numpy as np
 import pytest
 from distributed import Client, LocalCluster
-from helpers import assert_same_run, cli, paper_raw, stats_equal
+from helpers import assert_same_run, cli, make_scene, paper_raw, stats_equal
 
 import warp_ricochet as wr
 from warp_ricochet import cluster
@@ -111,8 +111,62 @@ def test_a_worker_killed_mid_task_costs_a_retry_not_the_run(tmp_path, client, mo
 def test_a_scheduler_that_cannot_be_reached_is_one_line_before_any_work(tmp_path, monkeypatch):
     monkeypatch.setattr(cluster, "CONNECT_TIMEOUT", "1s")
     out = tmp_path / "run.h5"
-    rc, stdout, stderr = cli(["run", "examples/paper.toml", "--scheduler", "tcp://127.0.0.1:9", "-o", out])
+    rc, stdout, stderr = cli(
+        ["run", "examples/paper.toml", "--set", "output.fields=[]", "--scheduler", "tcp://127.0.0.1:9", "-o", out]
+    )
     assert rc == 2, stderr
     assert len(stderr.strip().splitlines()) == 1, stderr
     assert "--scheduler = 'tcp://127.0.0.1:9': cannot be reached (Timed out trying to connect" in stderr
     assert not out.exists() and not os.path.exists(str(out) + ".partial")
+
+
+def test_a_bounded_station_run_on_a_cluster_stops_at_the_serial_check_with_its_bits(client):
+    """Tasks a check at a time, cut at every station's piece: the outcome, each station's results
+    and the counts are the serial run's."""
+    from test_station_bound import bounded_raw
+
+    raw = bounded_raw()
+    raw["output"] = {"fields": []}
+    scene = make_scene(raw, precision="float64")
+    ref = wr.run(scene, device="cpu")
+    got = wr.run(scene, device="cpu", client=client)
+    assert got.bound == ref.bound and got.bound.met and stats_equal(dict(ref), dict(got))
+    np.testing.assert_array_equal(ref.tally.flat(), got.tally.flat())
+    for name, part in ref.stations.items():
+        assert stats_equal(dict(part), dict(got.stations[name]))
+        np.testing.assert_array_equal(part.tally.flat(), got.stations[name].tally.flat())
+
+
+def test_per_pellet_fields_on_a_cluster_are_refused_in_one_line_before_any_work(tmp_path):
+    out = tmp_path / "run.h5"
+    rc, _stdout, stderr = cli(["run", "examples/paper.toml", "--cluster", "local:1", "-o", out])
+    assert rc == 2 and len(stderr.strip().splitlines()) == 1, stderr
+    assert stderr.startswith("warp-ricochet: error: output.fields = ['initial.position'") and cluster.NO_FIELDS in stderr
+    assert not out.exists() and not os.path.exists(str(out) + ".partial")
+
+
+def test_an_interrupted_run_on_a_cluster_resumes_bitwise(tmp_path, client, monkeypatch):
+    """Ctrl-C after the first task is committed: the others cancelled, the file resumable; --resume
+    on the cluster gives the serial run's file."""
+    from warp_ricochet.io.writer import RunWriter
+
+    monkeypatch.setattr(cluster, "TASKS_PER_WORKER", 2)  # 270,000 pellets: 3 tasks
+    scene = scene_of(shots=600)
+    serial, out = tmp_path / "serial.h5", tmp_path / "out.h5"
+    wr.run(scene, serial, device="cpu")
+    real, calls = RunWriter.append, []
+
+    def append(self, *args, **kw):
+        calls.append(args[1])
+        if len(calls) == 2:  # (the second task's results, before they are written)
+            raise KeyboardInterrupt
+        return real(self, *args, **kw)
+
+    monkeypatch.setattr(RunWriter, "append", append)
+    with pytest.raises(KeyboardInterrupt):
+        wr.run(scene, out, device="cpu", client=client)
+    monkeypatch.setattr(RunWriter, "append", real)
+    with h5py.File(str(out) + ".partial") as f:
+        assert f["progress/rows"][()] == calls[0] < scene.shot.pellets
+    wr.run(scene, out, device="cpu", client=client, resume=True)
+    assert_same_run(out, serial, fields=(), progress=("segment_results",))

@@ -293,7 +293,7 @@ def run(
     output = output if output is not None else scene.output.path
     study = None if client is None else _study(client, device, progress, dense_options)
     if study is not None:
-        study.check(scene)  # before any work
+        study.check(scene, output)  # before any work
         progress = None
     if resume:
         if scene.pair_collisions and scene.collisions.frame_every:  # see io.resume: frames are not resumed
@@ -419,7 +419,7 @@ def sweep(
     if output is not None:
         _numbers_only(points)
     for sc in scenes if study is not None else ():
-        study.check(sc)  # before any work
+        study.check(sc, output)  # before any work
     if output is None:
         dev = resolve_device(device) if study is None else study.remote
         check_resources(scenes, dev, None)

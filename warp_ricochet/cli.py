@@ -320,12 +320,15 @@ def _device_name(api, name, client=None) -> str:
     return str(api.resolve_device(name))
 
 
-def _client(args):
+def _client(args, scene=None):
     """The Dask client of --cluster or --scheduler (its dashboard's address on stderr), before any
     work and before Warp starts here; a null context without them."""
     if args.cluster is None and args.scheduler is None:
         return contextlib.nullcontext()
-    from .cluster import session
+    from .cluster import refuse, session
+
+    if scene is not None:  # (a sweep's points are checked by `api.sweep`, before any work too)
+        refuse(scene, args.output if args.output is not None else scene.output.path)
 
     return session(args.cluster, args.scheduler, args.device, announce=None if args.quiet else sys.stderr)
 
@@ -339,7 +342,7 @@ def cmd_run(args) -> int:
     from . import api
 
     interrupts.check()
-    with _client(args) as client, ProgressBar("run", enabled=False if args.quiet else None) as bar:
+    with _client(args, scene) as client, ProgressBar("run", enabled=False if args.quiet else None) as bar:
         stats = api.run(
             scene, args.output, args.device, overwrite=args.overwrite, progress=bar, resume=args.resume, client=client
         )
@@ -369,7 +372,7 @@ def cmd_sweep(args) -> int:
     ties = [parse_tie(spec) for spec in args.ties]
     from . import api
 
-    with _client(args) as client, ProgressBar("sweep", enabled=False if args.quiet else None) as bar:
+    with _client(args, scene) as client, ProgressBar("sweep", enabled=False if args.quiet else None) as bar:
         results = api.sweep(
             scene,
             params,

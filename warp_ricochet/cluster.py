@@ -49,6 +49,17 @@ class RemoteDevice:
         return self.alias
 
 
+def refuse(scene, output=None) -> None:
+    """Refuse in one line what a cluster does not run yet: per-pellet fields or H5MD frames written
+    to `output` (without an output neither is computed)."""
+    if output is None:
+        return
+    if scene.output.fields:
+        raise SceneError("output.fields", list(scene.output.fields), NO_FIELDS)
+    if scene.pair_collisions and scene.collisions.frame_every:
+        raise SceneError("collisions.frame_every", scene.collisions.frame_every, "must be 0 on a cluster (H5MD frames)")
+
+
 def parse_cluster(value: str) -> int:
     """Workers of `--cluster local:N` (N >= 1); else one line (SceneError)."""
     found = re.fullmatch(r"local:(\d+)", str(value).strip())
@@ -136,12 +147,9 @@ class Study:
 
         return dataclasses.replace(Model.from_scene(scene, resolve_device("cpu")), device=self.remote)
 
-    def check(self, scene) -> None:
-        """Refuse what a cluster does not run yet, in one line, before any work."""
-        if scene.output.fields:
-            raise SceneError("output.fields", list(scene.output.fields), NO_FIELDS)
-        if scene.pair_collisions and scene.collisions.frame_every:
-            raise SceneError("collisions.frame_every", scene.collisions.frame_every, "must be 0 on a cluster (H5MD frames)")
+    def check(self, scene, output=None) -> None:
+        """`refuse`, before any work."""
+        refuse(scene, output)
 
     def take(self, scene, done: int = 0) -> dict:
         """The job of `scene` submitted before (`submit(scene, key=...)`, a sweep's points), else submitted now."""
