@@ -3,6 +3,7 @@
 /progress partials, landing tallies and hazard map, for runs without and with pellet-pellet
 collisions, a sweep, and a run whose worker is killed in the middle of a task."""
 
+import gc
 import os
 
 import h5py
@@ -30,12 +31,12 @@ def few_tasks(monkeypatch):
     monkeypatch.setattr(cluster, "TASKS_PER_WORKER", 1)
 
 
-def scene_of(count=450, shots=60, **sections):
+def scene_of(count=450, shots=60, fields=(), **sections):
     raw = paper_raw(until="landing")
     raw["shot"].update(count=count, shots=shots)
     raw.update(sections)
     raw.setdefault("numerics", {})["chunk_size"] = 65536  # serial chunks of one segment: many chunks
-    raw["output"] = {"fields": []}  # statistics, tallies and maps (per-pellet fields: refused on a cluster)
+    raw["output"] = {"fields": list(fields)}  # statistics, tallies and maps (per-pellet fields: shards)
     return scene_from_dict(raw)
 
 
@@ -95,11 +96,11 @@ def test_a_worker_killed_mid_task_costs_a_retry_not_the_run(tmp_path, client, mo
     marker = tmp_path / "killed"
     real = cluster.run_range
 
-    def dying(scene, device, start, stop, options=None, marker=str(marker)):
+    def dying(scene, device, start, stop, options=None, shards=None, marker=str(marker)):
         if start > 0 and not os.path.exists(marker):  # the first task after the first: its worker dies (as OOM kills)
             open(marker, "w").close()
             os.kill(os.getpid(), 9)
-        return real(scene, device, start, stop, options)
+        return real(scene, device, start, stop, options, shards)
 
     monkeypatch.setattr(cluster, "run_range", dying)
     got = wr.run(scene, device="cpu", client=client)
@@ -137,28 +138,26 @@ def test_a_bounded_station_run_on_a_cluster_stops_at_the_serial_check_with_its_b
         np.testing.assert_array_equal(part.tally.flat(), got.stations[name].tally.flat())
 
 
-def test_per_pellet_fields_on_a_cluster_are_refused_in_one_line_before_any_work(tmp_path):
-    out = tmp_path / "run.h5"
-    rc, _stdout, stderr = cli(["run", "examples/paper.toml", "--cluster", "local:1", "-o", out])
+def test_per_pellet_fields_of_a_sweep_on_a_cluster_are_refused_in_one_line_before_any_work(tmp_path):
+    out = tmp_path / "sweep.h5"
+    argv = ["sweep", "examples/paper.toml", "--param", "surfaces.0.mu_s=0.3,0.5", "--tie", "surfaces.0.mu_d=0.9*"]
+    rc, _stdout, stderr = cli([*argv, "--cluster", "local:1", "-o", out])
     assert rc == 2 and len(stderr.strip().splitlines()) == 1, stderr
-    assert stderr.startswith("warp-ricochet: error: output.fields = ['initial.position'") and cluster.NO_FIELDS in stderr
+    assert stderr.startswith("warp-ricochet: error: output.fields = ['initial.position'")
+    assert cluster.NO_FIELDS.format("a sweep") in stderr and "Dask dashboard" not in stderr  # (no cluster started)
     assert not out.exists() and not os.path.exists(str(out) + ".partial")
 
 
-def test_an_interrupted_run_on_a_cluster_resumes_bitwise(tmp_path, client, monkeypatch):
-    """Ctrl-C after the first task is committed: the others cancelled, the file resumable; --resume
-    on the cluster gives the serial run's file."""
+def interrupt_at_the_second_task(monkeypatch, scene, out, client) -> int:
+    """Run `scene` to `out` on the cluster, Ctrl-C when the second task's results reach the writer
+    (before they are written); returns the rows of the first, committed."""
     from warp_ricochet.io.writer import RunWriter
 
-    monkeypatch.setattr(cluster, "TASKS_PER_WORKER", 2)  # 270,000 pellets: 3 tasks
-    scene = scene_of(shots=600)
-    serial, out = tmp_path / "serial.h5", tmp_path / "out.h5"
-    wr.run(scene, serial, device="cpu")
     real, calls = RunWriter.append, []
 
     def append(self, *args, **kw):
         calls.append(args[1])
-        if len(calls) == 2:  # (the second task's results, before they are written)
+        if len(calls) == 2:
             raise KeyboardInterrupt
         return real(self, *args, **kw)
 
@@ -166,7 +165,72 @@ def test_an_interrupted_run_on_a_cluster_resumes_bitwise(tmp_path, client, monke
     with pytest.raises(KeyboardInterrupt):
         wr.run(scene, out, device="cpu", client=client)
     monkeypatch.setattr(RunWriter, "append", real)
+    return calls[0]
+
+
+def test_an_interrupted_run_on_a_cluster_resumes_bitwise(tmp_path, client, monkeypatch):
+    """Ctrl-C after the first task is committed: the others cancelled, the file resumable; --resume
+    on the cluster gives the serial run's file."""
+    monkeypatch.setattr(cluster, "TASKS_PER_WORKER", 2)  # 270,000 pellets: 3 tasks
+    scene = scene_of(shots=600)
+    serial, out = tmp_path / "serial.h5", tmp_path / "out.h5"
+    wr.run(scene, serial, device="cpu")
+    rows = interrupt_at_the_second_task(monkeypatch, scene, out, client)
     with h5py.File(str(out) + ".partial") as f:
-        assert f["progress/rows"][()] == calls[0] < scene.shot.pellets
+        assert f["progress/rows"][()] == rows < scene.shot.pellets
     wr.run(scene, out, device="cpu", client=client, resume=True)
     assert_same_run(out, serial, fields=(), progress=("segment_results",))
+
+
+FIELDS = ("initial", "landing")
+FIELD_PATHS = ("initial/position", "initial/velocity", "landing/position", "landing/velocity", "landing/surface")
+
+
+def fields_scene():
+    return scene_of(shots=600, fields=FIELDS)  # 270,000 pellets: 3 tasks of 131,072, 131,072 and 7,856 rows
+
+
+def test_per_pellet_fields_on_a_cluster_are_shards_read_as_one_dataset(tmp_path, client, monkeypatch):
+    """Each task writes its shard; the run file's virtual datasets over them read as the serial
+    run's rows through h5py, open_run and the XDMF sidecar; a missing shard is an error, not zeros."""
+    monkeypatch.setattr(cluster, "TASKS_PER_WORKER", 2)
+    scene = fields_scene()
+    serial, out = tmp_path / "serial.h5", tmp_path / "out.h5"
+    wr.run(scene, serial, device="cpu")
+    wr.run(scene, out, device="cpu", client=client)
+    assert_same_run(out, serial, fields=FIELD_PATHS)
+    shards = tmp_path / "out.h5.shards"
+    with h5py.File(out) as f:
+        ds = f["pellets/landing/position"]
+        assert ds.is_virtual and [m.file_name for m in ds.virtual_sources()] == [
+            str(shards / f"rows-{a:012d}-{b:012d}.h5") for a, b in ((0, 131072), (131072, 262144), (262144, 270000))
+        ]
+    del ds
+    with wr.open_run(out) as run, h5py.File(serial) as f:
+        np.testing.assert_array_equal(run.landing.position.values, f["pellets/landing/position"][()])
+    gc.collect()  # (an open dataset keeps its sources open, and a moved shard would still be read)
+    shards.rename(tmp_path / "moved")
+    with h5py.File(out) as f:  # h5py alone: the fill value, never a zero that reads as a result
+        assert np.isnan(f["pellets/landing/position"][0]).all() and (f["pellets/landing/surface"][:5] == -1).all()
+    with pytest.raises(wr.OutputError, match="over a shard that is missing, .*rows-000000000000-000000131072.h5 .moved"):
+        wr.open_run(out)
+    (tmp_path / "moved").rename(shards)
+    pytest.importorskip("vtk")  # (last: VTK's reader keeps the shards open)
+    from test_xdmf import _check_clouds, _read
+
+    blocks, _steps = _read(tmp_path / "out.xmf")
+    with h5py.File(out) as f:
+        _check_clouds(blocks, f)
+
+
+def test_an_interrupted_run_with_shards_resumes_from_its_committed_shards(tmp_path, client, monkeypatch):
+    monkeypatch.setattr(cluster, "TASKS_PER_WORKER", 2)
+    scene = fields_scene()
+    serial, out = tmp_path / "serial.h5", tmp_path / "out.h5"
+    wr.run(scene, serial, device="cpu")
+    interrupt_at_the_second_task(monkeypatch, scene, out, client)
+    with pytest.raises(wr.SceneError, match="--resume = 'without a cluster': the run was begun on one"):
+        wr.run(scene, out, device="cpu", resume=True)
+    monkeypatch.setattr(cluster, "TASKS_PER_WORKER", 8)  # (the shards' bounds are the interrupted run's)
+    wr.run(scene, out, device="cpu", client=client, resume=True)
+    assert_same_run(out, serial, fields=FIELD_PATHS)

@@ -13,6 +13,7 @@ import dataclasses
 import logging
 import math
 import os
+import shutil
 import time
 import warnings
 from pathlib import Path
@@ -190,10 +191,11 @@ def check_resources(scenes, dev, output, rows_done=0, copies=1) -> None:
             raise OutputError(f"output path = {os.fsdecode(output)!r}: cannot fit: {exc.strerror}") from None
 
 
-def _compute(scene, dev, writer=None, progress=None, resumed=None, dense_options=None, study=None) -> dict:
+def _compute(scene, dev, writer=None, progress=None, resumed=None, dense_options=None, study=None, job=None) -> dict:
     """Run `scene` on `dev` through the pipeline, its chunks to `writer` when given; returns the
     statistics (written to the writer too). A bounded run (`bound`) runs as its budget's scene, to
-    the first check that meets its bound. `study`: on a cluster's workers (`cluster.Study`)."""
+    the first check that meets its bound. `study`: on a cluster's workers (`cluster.Study`), its
+    `job` submitted already when given."""
     asked, plan, scene = scene, BoundPlan.of(scene), planned(scene)
     model = Model.from_scene(scene, dev) if study is None else study.model(scene)
     spec = RunSpec.of(scene, with_output=writer is not None)
@@ -210,7 +212,7 @@ def _compute(scene, dev, writer=None, progress=None, resumed=None, dense_options
     )
     start = time.perf_counter()
     if study is not None:
-        job = study.take(asked, resumed.rows if resumed is not None else 0)
+        job = job if job is not None else study.take(asked, resumed.rows if resumed is not None else 0)
         stats = study.fold(job, model, spec, sink=writer, resumed=resumed)
     else:
         stats = run_pipeline(
@@ -241,12 +243,16 @@ def _compute(scene, dev, writer=None, progress=None, resumed=None, dense_options
     return stats
 
 
-def _run_one(scene, dev, group=None, progress=None, dense_options=None, study=None) -> dict:
+def _run_one(scene, dev, group=None, progress=None, dense_options=None, study=None, shards=None) -> dict:
     """One scene on `dev`: statistics, and with `group` (an HDF5 group) its pellets and statistics
-    written there; `study`: on a cluster (`cluster.Study`)."""
-    writer = None
+    written there; `study`: on a cluster (`cluster.Study`), its per-pellet fields written by the
+    tasks to the folder `shards` (`io.shards`)."""
+    writer = job = None
     if group is not None:
         work = planned(scene)  # (a bounded run: its budget's layout, the scene asked recorded)
+        if shards is not None:  # the tasks' bounds name the shards the file's virtual datasets read
+            job = study.take(scene, shards=shards)
+            shards = (shards, job["bounds"])
         writer = RunWriter(
             group,
             Model.from_scene(work, dev) if study is None else study.model(work),
@@ -255,8 +261,9 @@ def _run_one(scene, dev, group=None, progress=None, dense_options=None, study=No
             pellets=work.shot.pellets,
             stats=stat_names(scene.pair_collisions, scene.in_air, scene.physics.until == "rest"),
             scene_toml=scene.to_toml(),
+            shards=shards,
         )
-    return _compute(scene, dev, writer, progress, dense_options=dense_options, study=study)
+    return _compute(scene, dev, writer, progress, dense_options=dense_options, study=study, job=job)
 
 
 def _study(client, device, progress, dense_options):
@@ -314,8 +321,11 @@ def run(
         )
     if output is not None:
         check_output_path(output, overwrite)  # before any work
+    folder = None if study is None or output is None or not scene.output.fields else shard_folder(output, overwrite)
     dev = resolve_device(device) if study is None else study.remote
     check_resources([scene], dev, output)
+    if folder is not None and folder.exists():  # (--overwrite: the old run's shards)
+        shutil.rmtree(folder)
     if output is None:
         return _run_one(scene, dev, progress=progress, dense_options=dense_options, study=study)
     with OutputFile(
@@ -328,7 +338,7 @@ def run(
         precision=scene.numerics.precision,
         sidecar=sidecar,
     ) as out:
-        return _run_one(scene, dev, out.h5, progress, dense_options, study)
+        return _run_one(scene, dev, out.h5, progress, dense_options, study, folder)
 
 
 def _resume(scene, output, device, *, overwrite, progress, dense_options, sidecar=True, study=None) -> dict:
@@ -345,7 +355,7 @@ def _resume(scene, output, device, *, overwrite, progress, dense_options, sideca
         if plan.chunk and BoundPlan.of(scene) is None:  # (a bounded run's bits do not depend on it: `bound`)
             same_chunks = scene.replace(numerics=dataclasses.replace(scene.numerics, chunk_size=plan.chunk))
         check_resources([same_chunks], dev, output, rows_done=plan.rows)
-        found.update(plan=plan, scene=same_chunks)
+        found.update(plan=plan, scene=same_chunks, shards=resumed_shards(f, scene, study is not None))
 
     out, _ = OutputFile.reopen(output, overwrite=overwrite, check=check, sidecar=sidecar)
     with out:
@@ -354,7 +364,40 @@ def _resume(scene, output, device, *, overwrite, progress, dense_options, sideca
             out.h5, fields=scene.output.fields, rows=plan.rows, segments=plan.segments, shots=plan.shots, pieces=plan.pieces
         )
         resumed = Resumed(plan.rows, plan.segment_results, plan.shot_totals, plan.tally, plan.shot_partials, plan.station_tally)
-        return _compute(found["scene"], dev, writer, progress, resumed, dense_options, study)
+        job = None
+        if found["shards"] is not None:  # the tasks left, with the bounds that name their shards
+            folder, bounds = found["shards"]
+            job = study.take(found["scene"], plan.rows, shards=folder, bounds=[b for b in bounds if b[0] >= plan.rows])
+        return _compute(found["scene"], dev, writer, progress, resumed, dense_options, study, job)
+
+
+def shard_folder(output, overwrite: bool):
+    """The shards' folder of a run on a cluster with per-pellet fields (`io.shards`): one there
+    already is refused without `overwrite` (one line, before any work)."""
+    from .io.shards import folder_of
+
+    folder = folder_of(output)
+    if (folder.exists() or folder.is_symlink()) and not overwrite:
+        raise OutputError(
+            f"output path = {os.fspath(output)!r}: its shards' folder {str(folder)!r} exists; --overwrite replaces it"
+        )
+    return folder
+
+
+def resumed_shards(f, scene, on_cluster: bool):
+    """(folder, [(start, stop)]) of an interrupted run whose fields are in shards, else None; a run
+    begun on a cluster with per-pellet fields resumes on one, and only such a run does (one line)."""
+    from .io.shards import BOUNDS, FOLDER
+
+    attrs = f["progress"].attrs
+    sharded = BOUNDS in attrs
+    if on_cluster and scene.output.fields and not sharded:
+        raise SceneError("--resume", "on a cluster", "the run was begun without one (its fields in the file): resume it so")
+    if sharded and not on_cluster:
+        raise SceneError(
+            "--resume", "without a cluster", "the run was begun on one (its fields in shards): give --cluster or --scheduler"
+        )
+    return (str(attrs[FOLDER]), [(int(a), int(b)) for a, b in attrs[BOUNDS]]) if sharded else None
 
 
 def sweep_points(params: dict, ties=()) -> SweepPoints:
@@ -419,7 +462,7 @@ def sweep(
     if output is not None:
         _numbers_only(points)
     for sc in scenes if study is not None else ():
-        study.check(sc, output)  # before any work
+        study.check(sc, output, sweep=True)  # before any work
     if output is None:
         dev = resolve_device(device) if study is None else study.remote
         check_resources(scenes, dev, None)

@@ -1,15 +1,15 @@
 """Studies on Dask (`distributed`): a run's or a sweep's pellets as tasks on a cluster's workers,
 folded on the client in the serial run's order (docs/cluster.md).
 
-`connect` starts a `LocalCluster` (a `LocalCUDACluster` from dask-cuda, one worker a GPU, when the
+`session` starts a `LocalCluster` (a `LocalCUDACluster` from dask-cuda, one worker a GPU, when the
 device is CUDA) or reaches an existing scheduler, before this process touches Warp: a CUDA context
 made first would put every worker on GPU 0. `Study` submits each run's stretches (`tasks.run_range`)
 and folds what they return as the chunk loop folds its chunks (`pipeline._loop`): the segments'
 statistics partials in segment order, the shots' tables and per-shot partials in shot order, the
 landing counts (int64) summed, a station run's pieces and a bounded run's checks at their ends;
 so `/stats`, tallies and maps are bitwise those of the serial run on the same kind of device, for
-any number of workers. The writer receives each task's results in order, as a chunk's.
-"""
+any number of workers. The writer receives each task's results in order, as a chunk's; per-pellet
+fields go from the workers to shards the run file reads as virtual datasets (`io.shards`)."""
 
 from __future__ import annotations
 
@@ -30,7 +30,7 @@ log = logging.getLogger(__name__)
 TASKS_PER_WORKER = 4  # stretches a run is cut into, per worker (a killed worker's task is redone)
 CONNECT_TIMEOUT = "10s"  # how long a scheduler is given to answer
 NO_FIELDS = (
-    "per-pellet fields are not written from a cluster yet (each worker's shard: docs/cluster.md); "
+    "per-pellet fields of {} are not written from a cluster yet (docs/cluster.md); "
     "drop output.fields or run without --cluster/--scheduler"
 )
 
@@ -49,13 +49,13 @@ class RemoteDevice:
         return self.alias
 
 
-def refuse(scene, output=None) -> None:
-    """Refuse in one line what a cluster does not run yet: per-pellet fields or H5MD frames written
-    to `output` (without an output neither is computed)."""
+def refuse(scene, output=None, sweep=False) -> None:
+    """Refuse in one line what a cluster does not run yet: per-pellet fields of a sweep or of a
+    bounded run, or H5MD frames, written to `output` (without an output none is computed)."""
     if output is None:
         return
-    if scene.output.fields:
-        raise SceneError("output.fields", list(scene.output.fields), NO_FIELDS)
+    if scene.output.fields and (sweep or scene.hazard is not None and scene.hazard.bound is not None):
+        raise SceneError("output.fields", list(scene.output.fields), NO_FIELDS.format("a sweep" if sweep else "a bounded run"))
     if scene.pair_collisions and scene.collisions.frame_every:
         raise SceneError("collisions.frame_every", scene.collisions.frame_every, "must be 0 on a cluster (H5MD frames)")
 
@@ -147,34 +147,41 @@ class Study:
 
         return dataclasses.replace(Model.from_scene(scene, resolve_device("cpu")), device=self.remote)
 
-    def check(self, scene, output=None) -> None:
+    def check(self, scene, output=None, sweep=False) -> None:
         """`refuse`, before any work."""
-        refuse(scene, output)
+        refuse(scene, output, sweep)
 
-    def take(self, scene, done: int = 0) -> dict:
-        """The job of `scene` submitted before (`submit(scene, key=...)`, a sweep's points), else submitted now."""
-        job = self.pending.pop(scene.to_toml(), None) if not done else None
-        return job if job is not None else self.submit(scene, done)
+    def take(self, scene, done: int = 0, shards=None, bounds=None) -> dict:
+        """The job of `scene` submitted ahead (a sweep's points), else `submit`ted now."""
+        job = self.pending.pop(scene.to_toml(), None) if not done and shards is None else None
+        return job if job is not None else self.submit(scene, done, shards=shards, bounds=bounds)
 
-    def _submit(self, scene, bounds) -> list:
+    def _submit(self, scene, bounds, shards=None) -> list:
         futures = [
-            self.client.submit(run_range, scene, self.device, a, b, self.options, pure=False, retries=0) for a, b in bounds
+            self.client.submit(run_range, scene, self.device, a, b, self.options, shards, pure=False, retries=0)
+            for a, b in bounds
         ]
         self.futures += [(f, b - a) for f, (a, b) in zip(futures, bounds)]
         return futures
 
-    def submit(self, scene, done: int = 0, ahead: bool = False) -> dict:
+    def submit(self, scene, done: int = 0, ahead: bool = False, shards=None, bounds=None) -> dict:
         """Submit `scene`'s tasks (a bounded run's: `bound.planned`'s scene) from pellet `done`;
-        returns the job `fold` takes (`ahead`: kept for `take` too)."""
+        returns the job `fold` takes (`ahead`: kept for `take` too). `shards`: the folder the
+        tasks write their per-pellet fields to; `bounds`: the tasks' [start, stop) (a resumed
+        sharded run's, its shards' names), else cut here."""
         from .bound import BoundPlan, planned
 
         plan, work = BoundPlan.of(scene), planned(scene)
         size = math.ceil(max(work.shot.pellets - done, 1) / (TASKS_PER_WORKER * workers_of(self.client)))
-        job = {"scene": work, "plan": plan, "size": size, "unit": unit_of(work), "submitted": {}}
+        job = {"scene": work, "plan": plan, "size": size, "unit": unit_of(work), "submitted": {}, "bounds": []}
         self.total += work.shot.pellets - done
         if plan is None:
             for begin, stop in _stretches(work, done):
-                job["submitted"][stop] = self._submit(work, task_bounds(begin, stop, job["unit"], size))
+                cut = (
+                    task_bounds(begin, stop, job["unit"], size) if bounds is None else [b for b in bounds if begin <= b[0] < stop]
+                )
+                job["bounds"] += cut
+                job["submitted"][stop] = self._submit(work, cut, shards)
         if ahead:
             self.pending[scene.to_toml()] = job
         return job

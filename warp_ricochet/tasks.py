@@ -52,9 +52,10 @@ def task_bounds(begin: int, end: int, unit: int, size: int) -> list[tuple[int, i
     return [(a, min(a + size, end)) for a in range(begin, end, size)]
 
 
-def run_range(scene, device, start: int, stop: int, options=None) -> Partial:
+def run_range(scene, device, start: int, stop: int, options=None, shards=None) -> Partial:
     """Pellets [start, stop) of `scene` (a bounded run's budget scene, `bound.planned`) on `device`
-    (a name, resolved here on the worker); `options`: the dense phase's `DenseOptions`."""
+    (a name, resolved here on the worker); `options`: the dense phase's `DenseOptions`; `shards`:
+    the folder its per-pellet fields are written to, a shard of its own (`io.shards`)."""
     from .device import resolve_device
     from .model import Model
     from .pipeline import _DEVICE_LOCK, Resumed, _loop, make_stage
@@ -63,13 +64,25 @@ def run_range(scene, device, start: int, stop: int, options=None) -> Partial:
 
     dev = resolve_device(device)
     model = Model.from_scene(scene, dev)
-    spec = RunSpec.of(scene, with_output=False)
+    spec = RunSpec.of(scene, with_output=shards is not None)
     arrays = load_pellet_file(scene.shot.file) if scene.shot.file is not None else None
     kept: list = []
+    sink = None
+    if shards is not None:
+        from .io.shards import ShardSink, shard_path
+
+        sink = ShardSink(shard_path(shards, start, stop), spec.fields, model, stop - start, scene.output.compression)
     with _DEVICE_LOCK if dev.is_cuda else contextlib.nullcontext():
         stage = make_stage(scene, model, spec, arrays, scene.shot.pellets, options)
         resumed = Resumed(start, np.zeros((0, SEGMENT_WIDTH)))
-        _totals, tables, tally, pieces, done, _ = _loop(stage, stop, None, resumed, None, kept=kept)
+        try:
+            _totals, tables, tally, pieces, done, _ = _loop(stage, stop, sink, resumed, None, kept=kept)
+        except BaseException:
+            if sink is not None:
+                sink.close(complete=False)
+            raise
+    if sink is not None:
+        sink.close(complete=True)
     assert done == stop, (done, stop)
     counts = None
     if tally is not None:
