@@ -234,3 +234,19 @@ def test_an_interrupted_run_with_shards_resumes_from_its_committed_shards(tmp_pa
     monkeypatch.setattr(cluster, "TASKS_PER_WORKER", 8)  # (the shards' bounds are the interrupted run's)
     wr.run(scene, out, device="cpu", client=client, resume=True)
     assert_same_run(out, serial, fields=FIELD_PATHS)
+
+
+def test_a_local_cluster_of_gpus_without_dask_cuda_is_one_line(tmp_path):
+    try:  # (CI has no dask-cuda: the refusal is what a GPU host without it sees)
+        import dask_cuda  # noqa: F401
+    except ImportError:
+        pass
+    else:
+        pytest.skip("dask-cuda is installed here")
+    rc, _stdout, stderr = cli(
+        ["run", "examples/paper.toml", "--set", "output.fields=[]", "--cluster", "local:2", "--device", "cuda"]
+    )
+    assert rc == 2 and stderr.strip().splitlines() == [
+        "warp-ricochet: error: --cluster = 'local:2': one worker a GPU needs dask-cuda "
+        "(pip install 'warp-ricochet[dask-cuda]'), or --device cpu"
+    ]

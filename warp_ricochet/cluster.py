@@ -29,6 +29,7 @@ log = logging.getLogger(__name__)
 
 TASKS_PER_WORKER = 4  # stretches a run is cut into, per worker (a killed worker's task is redone)
 CONNECT_TIMEOUT = "10s"  # how long a scheduler is given to answer
+NO_DASK_CUDA = "one worker a GPU needs dask-cuda (pip install 'warp-ricochet[dask-cuda]')"
 NO_FIELDS = (
     "per-pellet fields of {} are not written from a cluster yet (docs/cluster.md); "
     "drop output.fields or run without --cluster/--scheduler"
@@ -100,12 +101,16 @@ def session(cluster=None, scheduler=None, device=None, announce=None):
         if cluster is not None:
             workers = parse_cluster(cluster)
             if _cuda_wanted(device):
-                from dask_cuda import LocalCUDACluster  # (imported only here: CI has no GPU)
-
+                try:
+                    from dask_cuda import LocalCUDACluster  # (imported only here: CI has no GPU)
+                except ImportError:
+                    raise SceneError("--cluster", cluster, f"{NO_DASK_CUDA}, or --device cpu") from None
                 local = LocalCUDACluster(n_workers=workers, threads_per_worker=1, dashboard_address=":0")
             else:
                 local = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0")
             client = stack.enter_context(Client(stack.enter_context(local)))
+            if device is None and workers > 1 and remote_device(client, None).is_cuda:  # (no dask-cuda here)
+                raise SceneError("--cluster", cluster, f"the workers' device is CUDA: {NO_DASK_CUDA}, or --device cpu")
         else:
             try:
                 client = stack.enter_context(Client(str(scheduler), timeout=CONNECT_TIMEOUT))
@@ -117,9 +122,14 @@ def session(cluster=None, scheduler=None, device=None, announce=None):
         yield client
 
 
+def remote_device(client, device=None) -> RemoteDevice:
+    """`device` as a worker of the client's resolves it (`tasks.describe_device`)."""
+    return RemoteDevice(*client.submit(describe_device, device, pure=False).result())
+
+
 def remote_name(client, device=None) -> str:
-    """The alias of `device` on the client's workers (`tasks.describe_device`)."""
-    return client.submit(describe_device, device, pure=False).result()[0]
+    """The alias of `device` on the client's workers."""
+    return remote_device(client, device).alias
 
 
 def workers_of(client) -> int:
@@ -134,7 +144,7 @@ class Study:
 
     def __init__(self, client, device=None, progress=None, options=None):
         self.client, self.device, self.progress, self.options = client, device, progress, options
-        self.remote = RemoteDevice(*client.submit(describe_device, device, pure=False).result())
+        self.remote = remote_device(client, device)
         self.futures: list = []  # (future, pellets) of every task submitted
         self.total = 0
         self.pending: dict = {}  # scene TOML -> a job submitted ahead (`take`)
