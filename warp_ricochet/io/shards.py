@@ -48,6 +48,13 @@ def create_virtual(group, name: str, model, pellets: int, folder, bounds) -> h5p
     return group.create_virtual_dataset(FIELDS[name].path, layout, fillvalue=fill_value(dtype))
 
 
+def record(progress, shards) -> None:
+    """Keep a sharded run's (folder, [(start, stop)]) in its /progress group (None: not sharded)."""
+    if shards is not None:
+        progress.attrs[FOLDER] = str(shards[0])
+        progress.attrs[BOUNDS] = np.asarray(shards[1], dtype=np.int64).reshape(-1, 2)
+
+
 def missing(group, rows: int) -> tuple[str, str] | None:
     """(dataset, shard) of the first virtual per-pellet dataset of `group` whose shard holding some
     of its first `rows` rows is not there; None when every one is."""

@@ -31,7 +31,7 @@ from . import bound_out, h5md, station_out, tally_out
 from .dimensions import name_run_dimensions, name_sweep_dimensions
 from .ensemble import create_ensemble_datasets, write_ensemble
 from .runfile import _OPEN
-from .shards import BOUNDS, FOLDER, create_virtual
+from .shards import create_virtual, record
 from .space import check_space
 
 MAX_H5_CHUNK_ROWS = 1 << 16
@@ -152,9 +152,7 @@ class RunWriter:
             if name == "rest.state":  # its codes' names (`ends`)
                 ds.attrs["states"] = np.asarray(STATES, dtype="S")
         self._create_progress(group.create_group("progress"), model, scene)
-        if shards is not None:
-            group["progress"].attrs[FOLDER] = str(shards[0])
-            group["progress"].attrs[BOUNDS] = np.asarray(shards[1], dtype=np.int64).reshape(-1, 2)
+        record(group["progress"], shards)
         for name in stats:  # written at the end: NaN until then
             ds = group.create_dataset(f"stats/{name}", data=np.nan)
             ds.attrs["units"], ds.attrs["description"] = STAT_UNITS[name]
