@@ -75,7 +75,10 @@ def test_a_sweep_on_a_cluster_is_bitwise_the_serial_sweep(tmp_path, client):
     params = {"surfaces.0.mu_s": [0.2, 0.35, 0.5]}
     ties = [("surfaces.0.mu_d", 0.9, "surfaces.0.mu_s")]
     ref = wr.sweep(scene, params, ties, tmp_path / "serial.h5", device="cpu")
-    got = wr.sweep(scene, params, ties, tmp_path / "cluster.h5", device="cpu", client=client)
+    seen = []  # one progress for the whole sweep, fed as tasks finish
+    got = wr.sweep(scene, params, ties, tmp_path / "cluster.h5", device="cpu", client=client, progress=lambda *a: seen.append(a))
+    assert seen[-1] == (3 * scene.shot.pellets,) * 2 and {total for _, total in seen} == {seen[-1][1]}
+    assert [done for done, _ in seen] == sorted(done for done, _ in seen)
     for (p, a), (q, b) in zip(ref, got):
         assert p == q and stats_equal(dict(a), dict(b))
     with h5py.File(tmp_path / "serial.h5") as a, h5py.File(tmp_path / "cluster.h5") as b:

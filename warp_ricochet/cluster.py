@@ -145,8 +145,8 @@ class Study:
     def __init__(self, client, device=None, progress=None, options=None):
         self.client, self.device, self.progress, self.options = client, device, progress, options
         self.remote = remote_device(client, device)
-        self.futures: list = []  # (future, pellets) of every task submitted
-        self.total = 0
+        self.futures: dict = {}  # key -> (future, pellets) of every task submitted and not folded yet
+        self.total = self.folded = 0  # pellets submitted, folded
         self.pending: dict = {}  # scene TOML -> a job submitted ahead (`take`)
 
     def model(self, scene):
@@ -171,7 +171,7 @@ class Study:
             self.client.submit(run_range, scene, self.device, a, b, self.options, shards, pure=False, retries=0)
             for a, b in bounds
         ]
-        self.futures += [(f, b - a) for f, (a, b) in zip(futures, bounds)]
+        self.futures.update((f.key, (f, b - a)) for f, (a, b) in zip(futures, bounds))
         return futures
 
     def submit(self, scene, done: int = 0, ahead: bool = False, shards=None, bounds=None) -> dict:
@@ -204,17 +204,20 @@ class Study:
             self._report()
             interrupts.check()
             with contextlib.suppress(TimeoutError):
-                wait([f for f, _ in self.futures if not f.done()], timeout=0.2, return_when="FIRST_COMPLETED")
+                wait([f for f, _ in self.futures.values() if not f.done()], timeout=0.2, return_when="FIRST_COMPLETED")
+        part = future.result()
+        self.folded += self.futures.pop(future.key)[1]  # (its result no longer held on the cluster)
         self._report()
-        return future.result()
+        return part
 
     def _report(self):
         if self.progress is not None:
-            self.progress(sum(n for f, n in self.futures if f.done()), max(self.total, 1))
+            done = self.folded + sum(n for f, n in self.futures.values() if f.done())
+            self.progress(done, max(self.total, 1))
 
     def cancel(self):
         """Cancel every task not finished (an interruption or a failure)."""
-        self.client.cancel([f for f, _ in self.futures if not f.done()])
+        self.client.cancel([f for f, _ in self.futures.values() if not f.done()])
 
     def fold(self, job, model, spec, sink=None, resumed=None):
         """The run's statistics (`pipeline.results`) from its tasks, each handed in order to
@@ -284,8 +287,8 @@ def _fold(study, job, model, spec, sink, resumed, fold):
         futures = job["submitted"].get(stop)
         if futures is None:  # a bounded run: its tasks a check at a time
             futures = study._submit(scene, task_bounds(begin, stop, job["unit"], job["size"]))
-        for future in futures:
-            part = study.result(future)
+        while futures:  # (each dropped once folded: its result leaves the cluster's memory)
+            part = study.result(futures.pop(0))
             assert part.start == done, (part.start, done)
             totals = combine(totals, part.segment_results)
             if fold is not None:
