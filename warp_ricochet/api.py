@@ -13,6 +13,7 @@ import dataclasses
 import logging
 import math
 import os
+import shutil
 import time
 import warnings
 from pathlib import Path
@@ -190,12 +191,13 @@ def check_resources(scenes, dev, output, rows_done=0, copies=1) -> None:
             raise OutputError(f"output path = {os.fsdecode(output)!r}: cannot fit: {exc.strerror}") from None
 
 
-def _compute(scene, dev, writer=None, progress=None, resumed=None, dense_options=None) -> dict:
+def _compute(scene, dev, writer=None, progress=None, resumed=None, dense_options=None, study=None, job=None) -> dict:
     """Run `scene` on `dev` through the pipeline, its chunks to `writer` when given; returns the
     statistics (written to the writer too). A bounded run (`bound`) runs as its budget's scene, to
-    the first check that meets its bound."""
-    plan, scene = BoundPlan.of(scene), planned(scene)
-    model = Model.from_scene(scene, dev)
+    the first check that meets its bound. `study`: on a cluster's workers (`cluster.Study`), its
+    `job` submitted already when given."""
+    asked, plan, scene = scene, BoundPlan.of(scene), planned(scene)
+    model = Model.from_scene(scene, dev) if study is None else study.model(scene)
     spec = RunSpec.of(scene, with_output=writer is not None)
     arrays = load_pellet_file(scene.shot.file) if scene.shot.file is not None else None
     frames = writer.append_frame if writer is not None and spec.collisions and scene.collisions.frame_every else None
@@ -209,18 +211,22 @@ def _compute(scene, dev, writer=None, progress=None, resumed=None, dense_options
         f", resuming after {resumed.rows:,} rows" if resumed is not None else "",
     )
     start = time.perf_counter()
-    stats = run_pipeline(
-        scene,
-        model,
-        spec,
-        arrays=arrays,
-        sink=writer,
-        resumed=resumed,
-        progress=progress,
-        options=dense_options,
-        frames=frames,
-        plan=plan,
-    )
+    if study is not None:
+        job = job if job is not None else study.take(asked, resumed.rows if resumed is not None else 0)
+        stats = study.fold(job, model, spec, sink=writer, resumed=resumed)
+    else:
+        stats = run_pipeline(
+            scene,
+            model,
+            spec,
+            arrays=arrays,
+            sink=writer,
+            resumed=resumed,
+            progress=progress,
+            options=dense_options,
+            frames=frames,
+            plan=plan,
+        )
     seconds = time.perf_counter() - start
     log.info(
         "%s pellets in %.3g s (%.3g pellets/s)",
@@ -237,27 +243,48 @@ def _compute(scene, dev, writer=None, progress=None, resumed=None, dense_options
     return stats
 
 
-def _run_one(scene, dev, group=None, progress=None, dense_options=None) -> dict:
+def _run_one(scene, dev, group=None, progress=None, dense_options=None, study=None, shards=None) -> dict:
     """One scene on `dev`: statistics, and with `group` (an HDF5 group) its pellets and statistics
-    written there."""
-    writer = None
+    written there; `study`: on a cluster (`cluster.Study`), its per-pellet fields written by the
+    tasks to the folder `shards` (`io.shards`)."""
+    writer = job = None
     if group is not None:
         work = planned(scene)  # (a bounded run: its budget's layout, the scene asked recorded)
+        if shards is not None:  # the tasks' bounds name the shards the file's virtual datasets read
+            job = study.take(scene, shards=shards)
+            shards = (shards, job["bounds"])
         writer = RunWriter(
             group,
-            Model.from_scene(work, dev),
+            Model.from_scene(work, dev) if study is None else study.model(work),
             scene=work,
             fields=scene.output.fields,
             pellets=work.shot.pellets,
             stats=stat_names(scene.pair_collisions, scene.in_air, scene.physics.until == "rest"),
             scene_toml=scene.to_toml(),
+            shards=shards,
         )
-    return _compute(scene, dev, writer, progress, dense_options=dense_options)
+    return _compute(scene, dev, writer, progress, dense_options=dense_options, study=study, job=job)
+
+
+def _study(client, device, progress, dense_options):
+    """A `cluster.Study` on `client` (a `distributed.Client`, or a Study already: a sweep's points)."""
+    from .cluster import Study
+
+    return client if isinstance(client, Study) else Study(client, device, progress, dense_options)
 
 
 @interrupts.honouring
 def run(
-    scene, output=None, device=None, *, overwrite=False, progress=None, resume=False, dense_options=None, sidecar=True
+    scene,
+    output=None,
+    device=None,
+    *,
+    overwrite=False,
+    progress=None,
+    resume=False,
+    dense_options=None,
+    sidecar=True,
+    client=None,
 ) -> dict:
     """Run a scene (a `Scene` or a TOML path); write HDF5 to `output` (or the scene's
     `output.path`) when given. Returns the statistics (SI units, see `tallies.sums.STAT_UNITS`).
@@ -265,10 +292,16 @@ def run(
     `dense_options`: how the CPU runs the dense phase (`dense.phase.DenseOptions`; the results
     are the same for every choice). Ctrl-C raises KeyboardInterrupt at the next safe point
     (`interrupts`), the completed chunks kept in OUTPUT.partial. `sidecar`: write OUTPUT.xmf (XDMF,
-    for ParaView) when the run is published (a sweep's points do not: the sweep file gets one)."""
+    for ParaView) when the run is published (a sweep's points do not: the sweep file gets one).
+    `client`: a `distributed.Client`, the run's stretches computed on its workers and folded here,
+    bitwise as a serial run on their kind of device (`cluster`, docs/cluster.md)."""
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
     output = output if output is not None else scene.output.path
+    study = None if client is None else _study(client, device, progress, dense_options)
+    if study is not None:
+        study.check(scene, output)  # before any work
+        progress = None
     if resume:
         if scene.pair_collisions and scene.collisions.frame_every:  # see io.resume: frames are not resumed
             raise SceneError(
@@ -277,14 +310,24 @@ def run(
                 "must be 0 for --resume (H5MD trajectory frames are not resumed); --overwrite starts a run with frames again",
             )
         return _resume(
-            scene, output, device, overwrite=overwrite, progress=progress, dense_options=dense_options, sidecar=sidecar
+            scene,
+            output,
+            device,
+            overwrite=overwrite,
+            progress=progress,
+            dense_options=dense_options,
+            sidecar=sidecar,
+            study=study,
         )
     if output is not None:
         check_output_path(output, overwrite)  # before any work
-    dev = resolve_device(device)
+    folder = None if study is None or output is None or not scene.output.fields else shard_folder(output, overwrite)
+    dev = resolve_device(device) if study is None else study.remote
     check_resources([scene], dev, output)
+    if folder is not None and folder.exists():  # (--overwrite: the old run's shards)
+        shutil.rmtree(folder)
     if output is None:
-        return _run_one(scene, dev, progress=progress, dense_options=dense_options)
+        return _run_one(scene, dev, progress=progress, dense_options=dense_options, study=study)
     with OutputFile(
         output,
         overwrite=overwrite,
@@ -295,15 +338,15 @@ def run(
         precision=scene.numerics.precision,
         sidecar=sidecar,
     ) as out:
-        return _run_one(scene, dev, out.h5, progress, dense_options)
+        return _run_one(scene, dev, out.h5, progress, dense_options, study, folder)
 
 
-def _resume(scene, output, device, *, overwrite, progress, dense_options, sidecar=True) -> dict:
+def _resume(scene, output, device, *, overwrite, progress, dense_options, sidecar=True, study=None) -> dict:
     """Continue the run left in OUTPUT.partial; returns its statistics (as `run`)."""
     if output is None:
         raise SceneError("--resume", "no output", "needs the output file of the interrupted run (-o or output.path)")
     path = check_resume_path(output, overwrite)  # before any work
-    dev = resolve_device(device)
+    dev = resolve_device(device) if study is None else study.remote
     found = {}
 
     def check(f):
@@ -312,7 +355,7 @@ def _resume(scene, output, device, *, overwrite, progress, dense_options, sideca
         if plan.chunk and BoundPlan.of(scene) is None:  # (a bounded run's bits do not depend on it: `bound`)
             same_chunks = scene.replace(numerics=dataclasses.replace(scene.numerics, chunk_size=plan.chunk))
         check_resources([same_chunks], dev, output, rows_done=plan.rows)
-        found.update(plan=plan, scene=same_chunks)
+        found.update(plan=plan, scene=same_chunks, shards=resumed_shards(f, scene, study is not None))
 
     out, _ = OutputFile.reopen(output, overwrite=overwrite, check=check, sidecar=sidecar)
     with out:
@@ -321,7 +364,40 @@ def _resume(scene, output, device, *, overwrite, progress, dense_options, sideca
             out.h5, fields=scene.output.fields, rows=plan.rows, segments=plan.segments, shots=plan.shots, pieces=plan.pieces
         )
         resumed = Resumed(plan.rows, plan.segment_results, plan.shot_totals, plan.tally, plan.shot_partials, plan.station_tally)
-        return _compute(found["scene"], dev, writer, progress, resumed, dense_options)
+        job = None
+        if found["shards"] is not None:  # the tasks left, with the bounds that name their shards
+            folder, bounds = found["shards"]
+            job = study.take(found["scene"], plan.rows, shards=folder, bounds=[b for b in bounds if b[0] >= plan.rows])
+        return _compute(found["scene"], dev, writer, progress, resumed, dense_options, study, job)
+
+
+def shard_folder(output, overwrite: bool):
+    """The shards' folder of a run on a cluster with per-pellet fields (`io.shards`): one there
+    already is refused without `overwrite` (one line, before any work)."""
+    from .io.shards import folder_of
+
+    folder = folder_of(output)
+    if (folder.exists() or folder.is_symlink()) and not overwrite:
+        raise OutputError(
+            f"output path = {os.fspath(output)!r}: its shards' folder {str(folder)!r} exists; --overwrite replaces it"
+        )
+    return folder
+
+
+def resumed_shards(f, scene, on_cluster: bool):
+    """(folder, [(start, stop)]) of an interrupted run whose fields are in shards, else None; a run
+    begun on a cluster with per-pellet fields resumes on one, and only such a run does (one line)."""
+    from .io.shards import BOUNDS, FOLDER
+
+    attrs = f["progress"].attrs
+    sharded = BOUNDS in attrs
+    if on_cluster and scene.output.fields and not sharded:
+        raise SceneError("--resume", "on a cluster", "the run was begun without one (its fields in the file): resume it so")
+    if sharded and not on_cluster:
+        raise SceneError(
+            "--resume", "without a cluster", "the run was begun on one (its fields in shards): give --cluster or --scheduler"
+        )
+    return (str(attrs[FOLDER]), [(int(a), int(b)) for a, b in attrs[BOUNDS]]) if sharded else None
 
 
 def sweep_points(params: dict, ties=()) -> SweepPoints:
@@ -352,7 +428,17 @@ def _point_scenes(scene, points, with_output: bool) -> list:
 
 
 def sweep(
-    scene, params: dict, ties=(), output=None, device=None, *, overwrite=False, progress=None, dense_options=None, resume=False
+    scene,
+    params: dict,
+    ties=(),
+    output=None,
+    device=None,
+    *,
+    overwrite=False,
+    progress=None,
+    dense_options=None,
+    resume=False,
+    client=None,
 ) -> list:
     """Run `scene` at every point of a parameter sweep (e.g. the paper's mu_s in 0..0.5 with
     mu_d = 0.9 mu_s). Returns [(point, stats)]. With `output`, writes one HDF5 file: the sweep
@@ -362,28 +448,37 @@ def sweep(
     point) once it is done, so a sweep's memory stays flat (bench/sweep_memory.py): with `output`
     the file holds them and their results; without, each point's `stats.summary` holds their
     results (`tallies.quantiles.summarize`, arrays as lists) but the map's, which only a sweep file
-    keeps."""
+    keeps. `client`: a `distributed.Client`, every point's stretches submitted at once to its
+    workers (`run`'s `client`), one progress for the whole sweep."""
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
     output = output if output is not None else scene.output.path
     points = sweep_points(params, ties)
+    study = None if client is None else _study(client, device, progress, dense_options)
+    progress = progress if study is None else None
     if resume and output is None:
         raise SceneError("--resume", "no output", "needs the output file of the interrupted sweep (-o or output.path)")
     scenes = _point_scenes(scene, points, output is not None)
     if output is not None:
         _numbers_only(points)
+    for sc in scenes if study is not None else ():
+        study.check(sc, output, sweep=True)  # before any work
     if output is None:
-        dev = resolve_device(device)
+        dev = resolve_device(device) if study is None else study.remote
         check_resources(scenes, dev, None)
+        for sc in scenes if study is not None else ():
+            study.submit(sc, ahead=True)
         return [
             (
                 points[i],
-                _point_done(_run_one(sc, dev, None, _point_progress(progress, i, len(scenes)), dense_options), summary=True),
+                _point_done(
+                    _run_one(sc, dev, None, _point_progress(progress, i, len(scenes)), dense_options, study), summary=True
+                ),
             )
             for i, sc in enumerate(scenes)
         ]
     path = output_target(output) if resume else check_output_path(output, overwrite)  # before any work
-    dev = resolve_device(device)
+    dev = resolve_device(device) if study is None else study.remote
     manifest = sweepdir.make_manifest(scene.to_toml(), points, dev)
     if resume:
         folder = sweepdir.SweepFolder(path, manifest, resume=True, overwrite=overwrite)  # refuses, changing nothing
@@ -394,6 +489,9 @@ def sweep(
         folder = sweepdir.SweepFolder(path, manifest, resume=False, overwrite=overwrite)
     with _sweep_kept(folder):
         results = []
+        for i, sc in enumerate(scenes if study is not None else ()):  # every point not begun, submitted at once
+            if not folder.point(i).exists() and not Path(str(folder.point(i)) + ".partial").exists():
+                study.submit(sc, ahead=True)
         for i, sc in enumerate(scenes):
             point_path, step = folder.point(i), _point_progress(progress, i, len(scenes))
             partial = Path(str(point_path) + ".partial")
@@ -403,7 +501,16 @@ def sweep(
                 if partial.exists() and not sweepdir.resumable_point(partial):  # no chunk in it: run it again
                     partial.unlink()
                 stats = _point_done(
-                    run(sc, point_path, dev, progress=step, dense_options=dense_options, resume=partial.exists(), sidecar=False),
+                    run(
+                        sc,
+                        point_path,
+                        dev,
+                        progress=step,
+                        dense_options=dense_options,
+                        resume=partial.exists(),
+                        sidecar=False,
+                        client=study,
+                    ),
                     summary=False,
                 )
             results.append((points[i], stats))

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import atexit
+import contextlib
 import ctypes
 import logging
 import os
@@ -65,6 +66,14 @@ def _add_scene_options(p: argparse.ArgumentParser) -> None:
         help="override a scene value, e.g. --set shot.count=1000 --set surfaces.0.mu_s=0.2 (VALUE is a TOML value; repeatable)",
     )
     p.add_argument("--overwrite", action="store_true", help="replace OUT.h5 if it exists")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument(
+        "--cluster",
+        metavar="local:N",
+        help="compute on a new Dask cluster of N workers on this machine (one a GPU with a CUDA device); "
+        "bitwise the serial result (docs/cluster.md)",
+    )
+    where.add_argument("--scheduler", metavar="ADDRESS", help="compute on the Dask cluster whose scheduler is at ADDRESS")
 
 
 def _add_report_options(p: argparse.ArgumentParser) -> None:
@@ -303,8 +312,25 @@ def _add_plot_and_example(sub) -> None:
 # ---------------------------------------------------------------------------------------------- commands
 
 
-def _device_name(api, name) -> str:
+def _device_name(api, name, client=None) -> str:
+    if client is not None:  # the workers' device (this process may have none)
+        from .cluster import remote_name
+
+        return remote_name(client, name)
     return str(api.resolve_device(name))
+
+
+def _client(args, scene=None, sweep=False):
+    """The Dask client of --cluster or --scheduler (its dashboard's address on stderr), before any
+    work and before Warp starts here; a null context without them."""
+    if args.cluster is None and args.scheduler is None:
+        return contextlib.nullcontext()
+    from .cluster import refuse, session
+
+    if scene is not None:  # (a sweep's points are checked by `api.sweep`, before any work too)
+        refuse(scene, args.output if args.output is not None else scene.output.path, sweep)
+
+    return session(args.cluster, args.scheduler, args.device, announce=None if args.quiet else sys.stderr)
 
 
 def cmd_run(args) -> int:
@@ -316,12 +342,15 @@ def cmd_run(args) -> int:
     from . import api
 
     interrupts.check()
-    with ProgressBar("run", enabled=False if args.quiet else None) as bar:
-        stats = api.run(scene, args.output, args.device, overwrite=args.overwrite, progress=bar, resume=args.resume)
+    with _client(args, scene) as client, ProgressBar("run", enabled=False if args.quiet else None) as bar:
+        stats = api.run(
+            scene, args.output, args.device, overwrite=args.overwrite, progress=bar, resume=args.resume, client=client
+        )
+        device = _device_name(api, args.device, client)
     output = args.output if args.output is not None else scene.output.path
     args.completed = output  # a signal from here on: the result is complete (None: statistics only)
     interrupts.check(completed_path=output)
-    sys.stdout.write(format_run_summary(stats, output, _device_name(api, args.device), scene))
+    sys.stdout.write(format_run_summary(stats, output, device, scene))
     return 0
 
 
@@ -343,19 +372,26 @@ def cmd_sweep(args) -> int:
     ties = [parse_tie(spec) for spec in args.ties]
     from . import api
 
-    with ProgressBar("sweep", enabled=False if args.quiet else None) as bar:
+    with _client(args, scene, sweep=True) as client, ProgressBar("sweep", enabled=False if args.quiet else None) as bar:
         results = api.sweep(
-            scene, params, ties, args.output, args.device, overwrite=args.overwrite, progress=bar, resume=args.resume
+            scene,
+            params,
+            ties,
+            args.output,
+            args.device,
+            overwrite=args.overwrite,
+            progress=bar,
+            resume=args.resume,
+            client=client,
         )
+        device = _device_name(api, args.device, client)
     output = args.output if args.output is not None else scene.output.path
     args.completed, args.completed_what = output, "sweep"  # a signal from here on: the sweep is complete
     interrupts.check(completed_path=output, completed_what="sweep")
     if output is not None:
         res = read_results(output)  # exactly what `report` prints
     else:
-        res = results_from_sweep(
-            results, params, ties, meta={"device": _device_name(api, args.device), "scene_toml": scene.to_toml()}
-        )
+        res = results_from_sweep(results, params, ties, meta={"device": device, "scene_toml": scene.to_toml()})
     sys.stdout.write(format_tables(res, args.format, paper=args.paper))
     return 0
 

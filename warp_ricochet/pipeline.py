@@ -104,14 +104,18 @@ class RunStats(dict):
     stations = None  # [[stations]]: {name: RunStats of that station's pellets alone} (`tallies.by_station`)
 
 
-def landing_tally(scene, model, spec, arrays) -> DeviceTally:
-    """The device tally of a run (active with spec.tally; its struct is passed either way)."""
+def landing_setup(scene, model, arrays) -> TallySetup:
+    """The landing tallies' setup of a run (`arrays`: a pellet file's launch states, or None)."""
     if arrays is not None:
         launch_speed = float(np.sqrt((np.asarray(arrays["velocity"], dtype=np.float64) ** 2).sum(axis=1)).max(initial=0.0))
     else:
         launch_speed = scene.shot.speed
-    setup = TallySetup.of(scene, model.mass, model.radius, launch_speed)
-    return DeviceTally(setup, model.precision, model.device, spec.tally)
+    return TallySetup.of(scene, model.mass, model.radius, launch_speed)
+
+
+def landing_tally(scene, model, spec, arrays) -> DeviceTally:
+    """The device tally of a run (active with spec.tally; its struct is passed either way)."""
+    return DeviceTally(landing_setup(scene, model, arrays), model.precision, model.device, spec.tally)
 
 
 class CoreStage:
@@ -308,15 +312,40 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
     the first check that meets the bound, its outcome in the statistics' `bound`."""
     with interrupts.honoured(), _DEVICE_LOCK if model.device.is_cuda else contextlib.nullcontext():
         pellets = scene.shot.pellets
-        if spec.collisions:
-            if scene.shot.shots == 1:
-                warnings.warn(ONE_SHOT_COLLISIONS, ChaosWarning, stacklevel=3)
-            stage = CollisionStage(scene, model, spec, arrays, pellets, options, frames)
-        else:
-            stage = CoreStage(scene, model, spec, arrays, pellets)
-        layout = station_pieces(scene) if scene.stations else []
-        fold = StationFold(layout, len(scene.stations), scene.shot.count, spec.collisions) if scene.stations else None
+        warn_one_shot(scene, spec)
+        stage = make_stage(scene, model, spec, arrays, pellets, options, frames)
+        layout, fold = station_fold(scene, spec)
         totals, tables, tally, pieces, pellets, outcome = _loop(stage, pellets, sink, resumed, progress, plan, fold)
+    shot_pieces = None if stage.shot_pass is None else stage.shot_pass.pieces
+    return results(scene, model, spec, (totals, tables, tally, pieces, pellets, outcome), fold, layout, shot_pieces)
+
+
+def warn_one_shot(scene, spec) -> None:
+    """ONE_SHOT_COLLISIONS, for a run of one shot with pair collisions."""
+    if spec.collisions and scene.shot.shots == 1:
+        warnings.warn(ONE_SHOT_COLLISIONS, ChaosWarning, stacklevel=4)
+
+
+def make_stage(scene, model, spec, arrays, pellets, options=None, frames=None):
+    """The stage computing `scene`'s chunks: whole shots with pair collisions, else pellet rows."""
+    if spec.collisions:
+        return CollisionStage(scene, model, spec, arrays, pellets, options, frames)
+    return CoreStage(scene, model, spec, arrays, pellets)
+
+
+def station_fold(scene, spec):
+    """(layout, fold) of a run with [[stations]] (`bound.station_pieces`, `StationFold`); ([], None) without."""
+    if not scene.stations:
+        return [], None
+    layout = station_pieces(scene)
+    return layout, StationFold(layout, len(scene.stations), scene.shot.count, spec.collisions)
+
+
+def results(scene, model, spec, folded, fold, layout, shot_pieces) -> RunStats:
+    """The statistics of a run from what its chunks folded to (`_loop`'s results: totals, shot
+    totals tables, landing counts, per-shot partials, pellets complete, a bound's outcome), its
+    stations' `fold` and `layout`, and `shot_pieces` (pieces a shot, `core.shots`; None: one shot)."""
+    totals, tables, tally, pieces, pellets, outcome = folded
     kw = dict(mass=model.mass, inertia=model.inertia, air=spec.in_air, rest=spec.to_rest)
     stats = RunStats(finalize(totals, pellets=pellets, **kw))
     stats.tally, stats.bound = tally, outcome
@@ -328,7 +357,7 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
     warn_coarse_positions(stats["flight_scale_max"], model.precision, model.radius)
     if spec.in_air and stats["flights_unfinished"] > 0:
         warnings.warn(
-            UNFINISHED_FLIGHTS.format(int(stats["flights_unfinished"]), MAX_FLIGHT_STEPS), PrecisionWarning, stacklevel=3
+            UNFINISHED_FLIGHTS.format(int(stats["flights_unfinished"]), MAX_FLIGHT_STEPS), PrecisionWarning, stacklevel=4
         )
     if spec.collisions:
         table = np.concatenate(tables) if tables else np.zeros((0, len(SHOT_TOTALS)))
@@ -336,11 +365,11 @@ def run(scene, model, spec, *, arrays=None, sink=None, resumed=None, progress=No
         for k, part in _station_parts(scene, stats):  # each station's shots
             part.update(collision_statistics(table[station_shots(layout, k, len(table))], int(part["pellets"])))
         if stats["skin_overrun_max"] > OVERRUN_TOLERANCE:
-            warnings.warn(SKIN_OVERRUN.format(stats["skin_overrun_max"]), PrecisionWarning, stacklevel=3)
-    if stage.shot_pass is not None:
+            warnings.warn(SKIN_OVERRUN.format(stats["skin_overrun_max"]), PrecisionWarning, stacklevel=4)
+    if shot_pieces is not None:
         per_shot = per_shot_statistics(
             np.concatenate(pieces),
-            stage.shot_pass.pieces,
+            shot_pieces,
             count=scene.shot.count,
             mass=model.mass,
             inertia=model.inertia,
@@ -379,17 +408,30 @@ def warn_coarse_positions(scale: float, precision: str, radius: float) -> bool:
             fix=FIX[precision],
         ),
         PrecisionWarning,
-        stacklevel=4,
+        stacklevel=5,
     )
     return True
 
 
-def _loop(stage, pellets, sink, resumed, progress, plan=None, fold=None):
+def stretch_end(fold, plan, tally, done: int, number: int):
+    """At a stretch's end (`done` pellets): a station piece's counts kept (`fold`), and check
+    `number` of a bounded run's `plan` made: its outcome (None: not a check)."""
+    if fold is not None:
+        fold.snapshot(done, tally)
+    if not number:
+        return None
+    outcome = plan.result(tally, done, number)
+    log.info("check %d after %s pellets: %s", number, f"{done:,}", outcome.interval_text())
+    return outcome
+
+
+def _loop(stage, pellets, sink, resumed, progress, plan=None, fold=None, kept=None):
     """The chunk loop; returns the folded statistics totals, the shots' totals tables and the
     landing counts (None when not counted), the per-shot partials (`core.shots`), in shot order,
     the pellets complete and, with a `plan` (`bound.BoundPlan`), the outcome of its last check.
     With a `fold` (`tallies.by_station.StationFold`) each piece of a station's shots is a stretch of
-    its own, the fold given each chunk's partials and the counts at each piece's end."""
+    its own, the fold given each chunk's partials and the counts at each piece's end. `kept`: a list
+    given each chunk's segment results, copied (a cluster's task returns them: `tasks`)."""
     totals, tables, pieces, done = empty_totals(), [], [], 0
     tally = TallyTotals(stage.tally.setup) if stage.tally.active else None
     loaded = None  # the resumed run's landing counts
@@ -413,6 +455,8 @@ def _loop(stage, pellets, sink, resumed, progress, plan=None, fold=None):
         nonlocal totals, done
         arrays, segment_results, shot_totals, counts, shot_rows = slot.results()
         totals = combine(totals, segment_results)
+        if kept is not None:
+            kept.append(segment_results.copy())
         if fold is not None:
             fold.add(done, segment_results)
         if shot_totals is not None:
@@ -467,13 +511,9 @@ def _loop(stage, pellets, sink, resumed, progress, plan=None, fold=None):
         if fold is not None or number:  # a piece's end or a check: every chunk before it consumed, the counts read
             finish(pending)
             pending = None
-        if fold is not None:
-            fold.snapshot(done, tally)
-        if number:
-            outcome = plan.result(tally, done, number)
-            log.info("check %d after %s pellets: %s", number, f"{done:,}", outcome.interval_text())
-            if outcome.met:
-                break
+        outcome = stretch_end(fold, plan, tally, done, number) or outcome
+        if number and outcome.met:
+            break
     if plan is None and fold is None:
         finish(pending)
     interrupts.check()

@@ -24,6 +24,7 @@ import numpy as np
 from ..fields import FIELDS
 from .dimensions import is_dimension as _dimension
 from .h5open import FORMAT_NAME, FORMAT_VERSIONS, KINDS, open_checked
+from .shards import missing
 
 INT32_MAX = 2**31 - 1  # the most pellets a run has (scene.schema: shot.count x shot.shots)
 MAX_BOUNCES = 1 << 16  # ricochets followed, well above any scene's physics.bounces
@@ -191,6 +192,12 @@ def _run(group, where: str, status) -> None:
                 f"has {where}/{field.path} of shape {ds.shape}; expected {_expected(ndim, tail)} rows, "
                 f"at least /progress/rows = {rows} and at most /constants/pellets = {pellets}"
             )
+    gone = missing(group, rows if rows is not None else top)
+    if gone is not None:
+        raise BadFile(
+            f"has {where}/{gone[0]} over a shard that is missing, {gone[1]} (moved or deleted?): "
+            "its rows would read as fill values"
+        )
     if where:  # a sweep's points: checked by shape above; their statistics by the sweep's
         return
     values = {}

@@ -31,6 +31,7 @@ from . import bound_out, h5md, station_out, tally_out
 from .dimensions import name_run_dimensions, name_sweep_dimensions
 from .ensemble import create_ensemble_datasets, write_ensemble
 from .runfile import _OPEN
+from .shards import create_virtual, record
 from .space import check_space
 
 MAX_H5_CHUNK_ROWS = 1 << 16
@@ -118,10 +119,12 @@ class RunWriter:
     statistics partials of every complete chunk and, in a run with pair collisions, the per-shot
     totals its collision statistics are made of)."""
 
-    def __init__(self, group: h5py.Group, model, *, scene, fields, pellets: int, stats, scene_toml=None):
+    def __init__(self, group: h5py.Group, model, *, scene, fields, pellets: int, stats, scene_toml=None, shards=None):
         """`fields`: the per-pellet fields written; `stats`: the names of the statistics the run
         computes (`tallies.sums.stat_names`); `scene_toml`: the scene recorded, when not `scene`'s
-        (a bounded run is laid out as its budget's: `bound.planned`)."""
+        (a bounded run is laid out as its budget's: `bound.planned`); `shards`: (folder, [(start,
+        stop)]) of a run on a cluster, its fields virtual datasets over the tasks' shards
+        (`io.shards`), not appended here."""
         self.group = group
         self.fields = tuple(fields)
         self.rows = 0
@@ -133,19 +136,23 @@ class RunWriter:
         h5_rows = max(1, min(MAX_H5_CHUNK_ROWS, pellets))  # compute chunks are whole multiples of it
         for name in self.fields:
             empty = shape(name, 0, model.bounces, model.thresholds)
-            ds = group.create_dataset(
-                FIELDS[name].path,
-                shape=empty,
-                maxshape=(None,) + empty[1:],
-                chunks=(h5_rows,) + empty[1:],
-                dtype=numpy_dtype(name, model.precision),
-                **COMPRESSIONS[scene.output.compression],
-            )
+            if shards is not None:
+                ds = create_virtual(group, name, model, pellets, *shards)
+            else:
+                ds = group.create_dataset(
+                    FIELDS[name].path,
+                    shape=empty,
+                    maxshape=(None,) + empty[1:],
+                    chunks=(h5_rows,) + empty[1:],
+                    dtype=numpy_dtype(name, model.precision),
+                    **COMPRESSIONS[scene.output.compression],
+                )
             ds.attrs["units"] = FIELDS[name].unit
             ds.attrs["description"] = FIELDS[name].description
             if name == "rest.state":  # its codes' names (`ends`)
                 ds.attrs["states"] = np.asarray(STATES, dtype="S")
         self._create_progress(group.create_group("progress"), model, scene)
+        record(group["progress"], shards)
         for name in stats:  # written at the end: NaN until then
             ds = group.create_dataset(f"stats/{name}", data=np.nan)
             ds.attrs["units"], ds.attrs["description"] = STAT_UNITS[name]
@@ -192,7 +199,7 @@ class RunWriter:
 
     def _open_datasets(self):
         g = self.group
-        self.datasets = {name: g[FIELDS[name].path] for name in self.fields}
+        self.datasets = {name: g[FIELDS[name].path] for name in self.fields if not g[FIELDS[name].path].is_virtual}
         self.progress_rows = g["progress/rows"]
         self.chunk_rows = g["progress/chunk_rows"]
         self.segment_results = g["progress/segment_results"]

@@ -1,0 +1,255 @@
+"""Studies on Dask (issue 29; docs/cluster.md): a run's stretches computed on a real LocalCluster of
+2 single-threaded worker processes and folded on the client give bitwise the serial run's /stats,
+/progress partials, landing tallies and hazard map, for runs without and with pellet-pellet
+collisions, a sweep, and a run whose worker is killed in the middle of a task."""
+
+import gc
+import os
+
+import h5py
+import numpy as np
+import pytest
+from distributed import Client, LocalCluster
+from helpers import assert_same_run, cli, make_scene, paper_raw, stats_equal
+
+import warp_ricochet as wr
+from warp_ricochet import cluster
+from warp_ricochet.scene import scene_from_dict
+
+
+@pytest.fixture(scope="module")
+def client():
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0") as local:
+        with Client(local) as c:
+            yield c
+
+
+@pytest.fixture(autouse=True)
+def few_tasks(monkeypatch):
+    """A task a worker: tasks of several segments each, so a fold in any other grouping than the
+    serial run's segment order would change the sums' bits."""
+    monkeypatch.setattr(cluster, "TASKS_PER_WORKER", 1)
+
+
+def scene_of(count=450, shots=60, fields=(), **sections):
+    raw = paper_raw(until="landing")
+    raw["shot"].update(count=count, shots=shots)
+    raw.update(sections)
+    raw.setdefault("numerics", {})["chunk_size"] = 65536  # serial chunks of one segment: many chunks
+    raw["output"] = {"fields": list(fields)}  # statistics, tallies and maps (per-pellet fields: shards)
+    return scene_from_dict(raw)
+
+
+HAZARD = {"map_cell": 0.5, "map_extent": [-5.0, 140.0, -25.0, 25.0], "speed": {"skin": 60.0}}
+
+
+@pytest.mark.parametrize(
+    "sections",
+    [
+        {},
+        {"hazard": HAZARD},
+        {"collisions": {"enabled": True, "time_step": 5e-4, "rounds": 1}, "shot": "collisions"},
+    ],
+    ids=["plain", "hazard-map", "collisions"],
+)
+def test_a_run_on_a_cluster_is_bitwise_the_serial_run(tmp_path, client, sections):
+    kw = dict(sections)
+    if kw.pop("shot", None) == "collisions":
+        scene = scene_of(count=30, shots=300, **kw)  # 9000 pellets: several tasks of whole granules of shots
+    else:
+        scene = scene_of(shots=600 if not kw else 300, **kw)  # 270,000 (135,000) pellets: 2 tasks of 3 (2) segments and 2 (1)
+    serial, spread = tmp_path / "serial.h5", tmp_path / "cluster.h5"
+    ref = wr.run(scene, serial, device="cpu")
+    got = wr.run(scene, spread, device="cpu", client=client)
+    assert stats_equal(dict(ref), dict(got))
+    assert_same_run(spread, serial, fields=(), progress=("segment_results",))
+    if ref.tally is not None:
+        np.testing.assert_array_equal(ref.tally.flat(), got.tally.flat())
+    if "hazard" in sections:
+        with h5py.File(spread) as f:
+            assert f["hazard/map/count"][()].sum() > 0  # the map was counted, not left empty
+
+
+def test_a_sweep_on_a_cluster_is_bitwise_the_serial_sweep(tmp_path, client):
+    scene = scene_of(shots=20)
+    params = {"surfaces.0.mu_s": [0.2, 0.35, 0.5]}
+    ties = [("surfaces.0.mu_d", 0.9, "surfaces.0.mu_s")]
+    ref = wr.sweep(scene, params, ties, tmp_path / "serial.h5", device="cpu")
+    seen = []  # one progress for the whole sweep, fed as tasks finish
+    got = wr.sweep(scene, params, ties, tmp_path / "cluster.h5", device="cpu", client=client, progress=lambda *a: seen.append(a))
+    assert seen[-1] == (3 * scene.shot.pellets,) * 2 and {total for _, total in seen} == {seen[-1][1]}
+    assert [done for done, _ in seen] == sorted(done for done, _ in seen)
+    for (p, a), (q, b) in zip(ref, got):
+        assert p == q and stats_equal(dict(a), dict(b))
+    with h5py.File(tmp_path / "serial.h5") as a, h5py.File(tmp_path / "cluster.h5") as b:
+        names = []
+        a["stats"].visititems(lambda name, obj: names.append(name) if isinstance(obj, h5py.Dataset) else None)
+        assert names and sorted(names) == sorted(n for n in b["stats"] if isinstance(b["stats"][n], h5py.Dataset))
+        for name in names:  # every statistic of every point, and its interval's attributes (NaN equal to NaN)
+            np.testing.assert_array_equal(b["stats"][name][()], a["stats"][name][()], err_msg=name)
+            for key, value in a["stats"][name].attrs.items():
+                if key in ("DIMENSION_LIST", "REFERENCE_LIST"):  # (HDF5 references: not values)
+                    continue
+                np.testing.assert_array_equal(b["stats"][name].attrs[key], value, err_msg=f"{name} {key}")
+
+
+def test_a_worker_killed_mid_task_costs_a_retry_not_the_run(tmp_path, client, monkeypatch):
+    scene = scene_of(shots=600)  # 270,000 pellets: 5 tasks of whole segments
+    ref = wr.run(scene, device="cpu")
+    marker = tmp_path / "killed"
+    real = cluster.run_range
+
+    def dying(scene, device, start, stop, options=None, shards=None, marker=str(marker)):
+        if start > 0 and not os.path.exists(marker):  # the first task after the first: its worker dies (as OOM kills)
+            open(marker, "w").close()
+            os.kill(os.getpid(), 9)
+        return real(scene, device, start, stop, options, shards)
+
+    monkeypatch.setattr(cluster, "run_range", dying)
+    got = wr.run(scene, device="cpu", client=client)
+    assert marker.exists()  # a worker was killed
+    assert stats_equal(dict(ref), dict(got))
+    np.testing.assert_array_equal(ref.tally.flat(), got.tally.flat())
+
+
+def test_a_scheduler_that_cannot_be_reached_is_one_line_before_any_work(tmp_path, monkeypatch):
+    monkeypatch.setattr(cluster, "CONNECT_TIMEOUT", "1s")
+    out = tmp_path / "run.h5"
+    rc, stdout, stderr = cli(
+        ["run", "examples/paper.toml", "--set", "output.fields=[]", "--scheduler", "tcp://127.0.0.1:9", "-o", out]
+    )
+    assert rc == 2, stderr
+    assert len(stderr.strip().splitlines()) == 1, stderr
+    assert "--scheduler = 'tcp://127.0.0.1:9': cannot be reached (Timed out trying to connect" in stderr
+    assert not out.exists() and not os.path.exists(str(out) + ".partial")
+
+
+def test_a_bounded_station_run_on_a_cluster_stops_at_the_serial_check_with_its_bits(client):
+    """Tasks a check at a time, cut at every station's piece: the outcome, each station's results
+    and the counts are the serial run's."""
+    from test_station_bound import bounded_raw
+
+    raw = bounded_raw()
+    raw["output"] = {"fields": []}
+    scene = make_scene(raw, precision="float64")
+    ref = wr.run(scene, device="cpu")
+    got = wr.run(scene, device="cpu", client=client)
+    assert got.bound == ref.bound and got.bound.met and stats_equal(dict(ref), dict(got))
+    np.testing.assert_array_equal(ref.tally.flat(), got.tally.flat())
+    for name, part in ref.stations.items():
+        assert stats_equal(dict(part), dict(got.stations[name]))
+        np.testing.assert_array_equal(part.tally.flat(), got.stations[name].tally.flat())
+
+
+def test_per_pellet_fields_of_a_sweep_on_a_cluster_are_refused_in_one_line_before_any_work(tmp_path):
+    out = tmp_path / "sweep.h5"
+    argv = ["sweep", "examples/paper.toml", "--param", "surfaces.0.mu_s=0.3,0.5", "--tie", "surfaces.0.mu_d=0.9*"]
+    rc, _stdout, stderr = cli([*argv, "--cluster", "local:1", "-o", out])
+    assert rc == 2 and len(stderr.strip().splitlines()) == 1, stderr
+    assert stderr.startswith("warp-ricochet: error: output.fields = ['initial.position'")
+    assert cluster.NO_FIELDS.format("a sweep") in stderr and "Dask dashboard" not in stderr  # (no cluster started)
+    assert not out.exists() and not os.path.exists(str(out) + ".partial")
+
+
+def interrupt_at_the_second_task(monkeypatch, scene, out, client) -> int:
+    """Run `scene` to `out` on the cluster, Ctrl-C when the second task's results reach the writer
+    (before they are written); returns the rows of the first, committed."""
+    from warp_ricochet.io.writer import RunWriter
+
+    real, calls = RunWriter.append, []
+
+    def append(self, *args, **kw):
+        calls.append(args[1])
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(self, *args, **kw)
+
+    monkeypatch.setattr(RunWriter, "append", append)
+    with pytest.raises(KeyboardInterrupt):
+        wr.run(scene, out, device="cpu", client=client)
+    monkeypatch.setattr(RunWriter, "append", real)
+    return calls[0]
+
+
+def test_an_interrupted_run_on_a_cluster_resumes_bitwise(tmp_path, client, monkeypatch):
+    """Ctrl-C after the first task is committed: the others cancelled, the file resumable; --resume
+    on the cluster gives the serial run's file."""
+    monkeypatch.setattr(cluster, "TASKS_PER_WORKER", 2)  # 270,000 pellets: 3 tasks
+    scene = scene_of(shots=600)
+    serial, out = tmp_path / "serial.h5", tmp_path / "out.h5"
+    wr.run(scene, serial, device="cpu")
+    rows = interrupt_at_the_second_task(monkeypatch, scene, out, client)
+    with h5py.File(str(out) + ".partial") as f:
+        assert f["progress/rows"][()] == rows < scene.shot.pellets
+    wr.run(scene, out, device="cpu", client=client, resume=True)
+    assert_same_run(out, serial, fields=(), progress=("segment_results",))
+
+
+FIELDS = ("initial", "landing")
+FIELD_PATHS = ("initial/position", "initial/velocity", "landing/position", "landing/velocity", "landing/surface")
+
+
+def fields_scene():
+    return scene_of(shots=600, fields=FIELDS)  # 270,000 pellets: 3 tasks of 131,072, 131,072 and 7,856 rows
+
+
+def test_per_pellet_fields_on_a_cluster_are_shards_read_as_one_dataset(tmp_path, client, monkeypatch):
+    """Each task writes its shard; the run file's virtual datasets over them read as the serial
+    run's rows through h5py, open_run and the XDMF sidecar; a missing shard is an error, not zeros."""
+    monkeypatch.setattr(cluster, "TASKS_PER_WORKER", 2)
+    scene = fields_scene()
+    serial, out = tmp_path / "serial.h5", tmp_path / "out.h5"
+    wr.run(scene, serial, device="cpu")
+    wr.run(scene, out, device="cpu", client=client)
+    assert_same_run(out, serial, fields=FIELD_PATHS)
+    shards = tmp_path / "out.h5.shards"
+    with h5py.File(out) as f:
+        ds = f["pellets/landing/position"]
+        assert ds.is_virtual and [m.file_name for m in ds.virtual_sources()] == [
+            str(shards / f"rows-{a:012d}-{b:012d}.h5") for a, b in ((0, 131072), (131072, 262144), (262144, 270000))
+        ]
+    del ds
+    with wr.open_run(out) as run, h5py.File(serial) as f:
+        np.testing.assert_array_equal(run.landing.position.values, f["pellets/landing/position"][()])
+    gc.collect()  # (an open dataset keeps its sources open, and a moved shard would still be read)
+    shards.rename(tmp_path / "moved")
+    with h5py.File(out) as f:  # h5py alone: the fill value, never a zero that reads as a result
+        assert np.isnan(f["pellets/landing/position"][0]).all() and (f["pellets/landing/surface"][:5] == -1).all()
+    with pytest.raises(wr.OutputError, match="over a shard that is missing, .*rows-000000000000-000000131072.h5 .moved"):
+        wr.open_run(out)
+    (tmp_path / "moved").rename(shards)
+    pytest.importorskip("vtk")  # (last: VTK's reader keeps the shards open)
+    from test_xdmf import _check_clouds, _read
+
+    blocks, _steps = _read(tmp_path / "out.xmf")
+    with h5py.File(out) as f:
+        _check_clouds(blocks, f)
+
+
+def test_an_interrupted_run_with_shards_resumes_from_its_committed_shards(tmp_path, client, monkeypatch):
+    monkeypatch.setattr(cluster, "TASKS_PER_WORKER", 2)
+    scene = fields_scene()
+    serial, out = tmp_path / "serial.h5", tmp_path / "out.h5"
+    wr.run(scene, serial, device="cpu")
+    interrupt_at_the_second_task(monkeypatch, scene, out, client)
+    with pytest.raises(wr.SceneError, match="--resume = 'without a cluster': the run was begun on one"):
+        wr.run(scene, out, device="cpu", resume=True)
+    monkeypatch.setattr(cluster, "TASKS_PER_WORKER", 8)  # (the shards' bounds are the interrupted run's)
+    wr.run(scene, out, device="cpu", client=client, resume=True)
+    assert_same_run(out, serial, fields=FIELD_PATHS)
+
+
+def test_a_local_cluster_of_gpus_without_dask_cuda_is_one_line(tmp_path):
+    try:  # (CI has no dask-cuda: the refusal is what a GPU host without it sees)
+        import dask_cuda  # noqa: F401
+    except ImportError:
+        pass
+    else:
+        pytest.skip("dask-cuda is installed here")
+    rc, _stdout, stderr = cli(
+        ["run", "examples/paper.toml", "--set", "output.fields=[]", "--cluster", "local:2", "--device", "cuda"]
+    )
+    assert rc == 2 and stderr.strip().splitlines() == [
+        "warp-ricochet: error: --cluster = 'local:2': one worker a GPU needs dask-cuda "
+        "(pip install 'warp-ricochet[dask-cuda]'), or --device cpu"
+    ]

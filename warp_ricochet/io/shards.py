@@ -1,0 +1,103 @@
+"""Per-pellet output of a run on a cluster (docs/cluster.md): each task's worker writes its stretch's
+rows into a shard of its own, OUT.h5.shards/rows-A-B.h5 (`ShardSink`), and the run file presents
+every field as one HDF5 virtual dataset over the shards (`create_virtual`), made with the file (a
+SWMR file takes no new objects later) from the run's task bounds, which /progress keeps for
+--resume. Sources are named by absolute path; rows whose shard is missing read as the fill value
+(NaN, or -1 for integers), never as zeros, and every reader of the package refuses a file whose
+committed rows have a shard missing (`missing`, through `inputcheck`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from ..fields import FIELDS, numpy_dtype, shape
+from ..scene.schema import COMPRESSIONS
+
+BOUNDS = "shard_bounds"  # /progress attribute: the tasks' [start, stop) rows, (K, 2)
+FOLDER = "shard_folder"  # /progress attribute: the shards' folder (absolute)
+
+
+def folder_of(output) -> Path:
+    """The shards' folder of run file `output`: OUT.h5.shards beside it, absolute."""
+    return Path(os.path.abspath(os.fspath(output) + ".shards"))
+
+
+def shard_path(folder, start: int, stop: int) -> str:
+    return os.path.join(os.fspath(folder), f"rows-{start:012d}-{stop:012d}.h5")
+
+
+def fill_value(dtype) -> float | int:
+    """What a row of a missing shard reads as: NaN, or -1 for an integer field (never a result)."""
+    return np.nan if np.dtype(dtype).kind == "f" else -1
+
+
+def create_virtual(group, name: str, model, pellets: int, folder, bounds) -> h5py.Dataset:
+    """Field `name` of a run of `pellets` rows as a virtual dataset over the shards of `bounds`."""
+    tail = shape(name, 0, model.bounces, model.thresholds)[1:]
+    dtype = numpy_dtype(name, model.precision)
+    layout = h5py.VirtualLayout(shape=(pellets,) + tail, dtype=dtype)
+    for start, stop in bounds:
+        source = h5py.VirtualSource(shard_path(folder, start, stop), FIELDS[name].path, shape=(stop - start,) + tail)
+        layout[start:stop] = source
+    return group.create_virtual_dataset(FIELDS[name].path, layout, fillvalue=fill_value(dtype))
+
+
+def record(progress, shards) -> None:
+    """Keep a sharded run's (folder, [(start, stop)]) in its /progress group (None: not sharded)."""
+    if shards is not None:
+        progress.attrs[FOLDER] = str(shards[0])
+        progress.attrs[BOUNDS] = np.asarray(shards[1], dtype=np.int64).reshape(-1, 2)
+
+
+def missing(group, rows: int) -> tuple[str, str] | None:
+    """(dataset, shard) of the first virtual per-pellet dataset of `group` whose shard holding some
+    of its first `rows` rows is not there; None when every one is."""
+    for field in FIELDS.values():
+        ds = group.get(field.path)
+        if not isinstance(ds, h5py.Dataset) or not ds.is_virtual:
+            continue
+        for mapping in ds.virtual_sources():
+            first = mapping.vspace.get_select_bounds()[0][0]
+            if first < rows and not os.path.exists(mapping.file_name):
+                return field.path, mapping.file_name
+    return None
+
+
+class ShardSink:
+    """A task's shard: the per-pellet rows of its chunks (`pipeline._loop`'s sink), written to
+    PATH.partial and renamed PATH when the task is complete (a rerun task starts it again)."""
+
+    def __init__(self, path: str, fields, model, rows: int, compression: str):
+        self.path, self.rows, self.done = path, rows, 0
+        os.makedirs(os.path.dirname(path), exist_ok=True)
+        self.file = h5py.File(path + ".partial", "w")
+        self.datasets = {}
+        for name in fields:
+            full = shape(name, rows, model.bounces, model.thresholds)
+            self.datasets[name] = self.file.create_dataset(
+                FIELDS[name].path,
+                shape=full,
+                chunks=(max(1, min(rows, 1 << 16)),) + full[1:] if rows else None,
+                dtype=numpy_dtype(name, model.precision),
+                **COMPRESSIONS[compression],
+            )
+
+    def append(self, arrays, rows, segment_results, shot_totals=None, tally=None, shot_partials=None):
+        for name, ds in self.datasets.items():
+            ds[self.done : self.done + rows] = arrays[name][:rows]
+        self.done += rows
+
+    def close(self, complete: bool):
+        self.file.close()
+        if complete:
+            assert self.done == self.rows, (self.done, self.rows)
+            os.replace(self.path + ".partial", self.path)
+        else:
+            with contextlib.suppress(OSError):
+                os.unlink(self.path + ".partial")
