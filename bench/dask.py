@@ -50,8 +50,14 @@ def _cluster(workers: int, device: str):
     from distributed import Client, LocalCluster
 
     if device.startswith("cuda"):
-        from dask_cuda import LocalCUDACluster
-
+        try:
+            from dask_cuda import LocalCUDACluster
+        except ImportError:
+            if workers != 1:
+                raise
+            print("dask-cuda is not installed: one worker process on the one GPU (a LocalCluster)")
+            cluster = LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0")
+            return cluster, Client(cluster)
         cluster = LocalCUDACluster(n_workers=workers, threads_per_worker=1, dashboard_address=":0")
     else:
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0")

@@ -10,7 +10,8 @@
 #   tallies: statistics only before this work (.gpu/old, a git archive of 27e7781) beside now, with
 #          quantiles and hazard maps
 #   tallies-collisions: collisions 10,000 x 450 old beside new, the launch overlaps, the safety study
-#   sampling (issue 28), rest, rest-collisions (issue 25), terrain (issue 27), profile-map (issue 26: ncu)
+#   sampling (issue 28), rest, rest-collisions (issue 25), terrain, meshes (issue 27), profile-map (issue 26: ncu),
+#   dask (issue 29: the wheels of distributed in .whl, installed into /tmp/site first)
 #   interrupts: signal-to-exit latency of collision runs on CUDA (10,000 paper shots, one shot of 3e6)
 #   collisions: the collision, stability and pipeline tests on CUDA; Warp's DEM example and the dense phase in the
 #          same run (1e6 pellets: rounds 4, 2, 1, float64; 10,000 shots x 450); where the dense phase's time goes
@@ -99,4 +100,12 @@ if [[ $what == profile-map ]]; then  # issue 26: the map case's core kernel in N
     python3 -m bench.profile_map --device cuda:0 --n 2e5 2>&1 | tail -5 | tee "$out/profile-map.txt"
   /usr/local/cuda/bin/ncu -i "$out/map.ncu-rep" --page details > "$out/map-details.txt" 2>&1
   /usr/local/cuda/bin/ncu -i "$out/map.ncu-rep" --page source --csv --print-source cuda > "$out/map-source.csv" 2>&1
+fi
+if [[ $what == meshes ]]; then  # issue 27: a mesh of the plane beside the plane; the box from all sides
+  timeout 150 python3 -m bench.meshes plane --device cuda:0 --n 1e8 --repeats 5 2>&1 | quiet | tee "$out/meshes-plane.txt"
+  timeout 150 python3 -m bench.meshes box --device cuda:0 --n 1e7 --chunk 1e6 2>&1 | quiet | tee "$out/meshes-box.txt"
+fi
+if [[ $what == dask ]]; then  # issue 29: a run through a one-worker cluster against the direct run (wheels in .whl)
+  timeout 300 python3 -m bench.dask overhead --device cuda:0 --study collisions --shots 10000 --air --repeats 3 2>&1 | quiet | tee "$out/dask-collisions.txt"
+  timeout 120 python3 -m bench.dask overhead --device cuda:0 --pellets 1e9 --repeats 3 2>&1 | quiet | tee "$out/dask-statistics.txt"
 fi
