@@ -197,3 +197,31 @@ def test_no_pellet_rests_below_a_bumpy_terrain_nor_gains_energy(tmp_path):
     g = 9.81
     landing = 0.5 * (end["landing.velocity"] ** 2).sum(axis=1) + g * end["landing.position"][:, 1]
     assert (g * where[:, 1] <= landing).all()
+
+
+@pytest.mark.filterwarnings("ignore:no pellet hit any surface")  # (they start on it, rolling)
+def test_pellets_rolling_through_vertices_and_along_edges_rest_where_the_plane_rests_them(tmp_path):
+    """Pellets rolling from a vertex of a grid of 0.5 m cells along its lines, its diagonals and
+    through its vertices (directions (1, 0), (1, 1), (2, 1), (1, 2), ...): at each vertex the path
+    goes on into the triangle ahead, not one it touches behind; the plane's rest positions."""
+    import h5py
+    from helpers import explicit_scene
+
+    import warp_ricochet as wr
+
+    angles = np.arctan2([0, 1, 1, 2, 1, -1, 3, 0], [1, 1, 2, 1, 0, 1, 1, -1])
+    n = len(angles)
+    x0 = np.c_[np.zeros(n), np.full(n, R), np.zeros(n)]
+    v0 = 4.0 * np.c_[np.cos(angles), np.zeros(n), np.sin(angles)]
+    w0 = np.cross([0.0, 1.0, 0.0], v0) / R  # rolling
+    ground = {**GROUND, "rolling_resistance": 0.1}
+    mesh = {**ground, "kind": "mesh", "file": _grid(tmp_path / "grid.stl", 20.0, 80)}
+    ends = {}
+    for name, surface in (("mesh", mesh), ("plane", ground)):
+        scene = explicit_scene(tmp_path, x0, v0, w0, surfaces=[surface], physics={"until": "rest"}, name=f"{name}.npz")
+        scene = scene_from_dict({**scene.to_dict(), "output": {"fields": ["rest"]}})
+        wr.run(scene, tmp_path / f"{name}.h5", device="cpu", overwrite=True)
+        with h5py.File(tmp_path / f"{name}.h5") as f:
+            ends[name] = {f"rest.{k}": f[f"pellets/rest/{k}"][()] for k in f["pellets/rest"]}
+    assert (ends["plane"]["rest.path_length"] > 8.0).all()
+    _same_rest(ends["mesh"], ends["plane"])
