@@ -2,6 +2,8 @@
 triangles"): meshes, boxes and terrain give the rest positions of the planes they lie on, a pellet
 rolls over a box's edge onto the ground, and none ends inside a box or below a terrain."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from helpers import paper_raw
@@ -225,3 +227,26 @@ def test_pellets_rolling_through_vertices_and_along_edges_rest_where_the_plane_r
             ends[name] = {f"rest.{k}": f[f"pellets/rest/{k}"][()] for k in f["pellets/rest"]}
     assert (ends["plane"]["rest.path_length"] > 8.0).all()
     _same_rest(ends["mesh"], ends["plane"])
+
+
+def test_the_trap_field_followed_to_rest_ends_every_pellet(tmp_path):
+    """The trap-field study's low shot (4 of 300, -3 to 3 deg, in air) to rest on the shipped
+    terrain: every pellet ends at rest; some of them in the pocket where the ditch's V meets its
+    west end (without the POCKET rule 5 of 1,200 crossed its faces until max_steps)."""
+    import sys
+
+    import h5py
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
+    from trap_field_study import scene as trap_scene
+
+    import warp_ricochet as wr
+
+    raw = trap_scene(4, (-3.0, 3.0)).to_dict()
+    raw["physics"] = {**raw["physics"], "until": "rest"}
+    raw["output"] = {"fields": ["rest"]}
+    wr.run(scene_from_dict(raw), tmp_path / "trap.h5", device="cpu")
+    with h5py.File(tmp_path / "trap.h5") as f:
+        state, where = f["pellets/rest/state"][()], f["pellets/rest/position"][()]
+    assert (state == 0).all(), np.flatnonzero(state)
+    assert 0.1 < np.mean(where[:, 0] < 142.5) < 0.4  # short of the berm's crest

@@ -43,7 +43,7 @@ from .plate_edge import make_plate_edge
 from .surface_line import HANDOVER, make_line_integrator
 from .surface_motion import FLIGHT, NEVER, REST, ROLLING, SLIDING, make_surface_motion
 from .surface_rates import make_surface_rates
-from .triangle_follow import CHANGE, make_triangle_follow
+from .triangle_follow import CHANGE, POCKET, make_triangle_follow
 from .types import types_for
 
 CONTACT, FOREVER, UNFINISHED = 4, 5, 6  # end codes beside surface_motion's FLIGHT (0) and REST (3)
@@ -480,6 +480,7 @@ def make_surface_follow(
         steps = wp.int32(0)
         forced = wp.int32(-1)  # the mode a phase must take after a loss of grip
         face = wp.int32(-1)  # on a mesh: the triangle it moves along (physics.triangle_follow)
+        slow = wp.int32(0)  # crossings in a row at the rest speed or less
         n = vec3()
         if wp.static(WITH_MESHES):
             if meshes.is_mesh(surfaces, k):
@@ -628,9 +629,16 @@ def make_surface_follow(
                                 physics,
                                 rest_speed,
                             )
-                            steps += 1
+                    if ended == CHANGE and wp.length(velocity) <= rest_speed:  # a slow crossing
+                        slow += 1
+                        if slow >= POCKET:  # in a pocket of triangles it cannot climb out of: at rest
+                            ended = wp.int32(REST)
+                    elif ended == CHANGE:
+                        slow = wp.int32(0)
+                    if ended != FLIGHT:  # (a crossing is no phase: its cost is a step of the budget)
+                        steps += 1
                     if ended == CHANGE:
-                        phase -= 1  # (a crossing is no phase: its cost is a step of the budget)
+                        phase -= 1
                         if steps >= max_steps:
                             return position, velocity, spin, elapsed, path, wp.int32(UNFINISHED), steps, k, track, n
                         continue

@@ -20,7 +20,9 @@ velocity's speed along the neighbour's normal n' and N' the load on it (`surface
   gravity, the kinetic energy that takes; a rolling pellet rolls on (its spin about the normal
   kept, its rolling spin that of its new velocity): the energy never rises. A pellet that changes plane
   into a concave crease at rest speed or less, pushed into it by both faces' slopes, rests there
-  (REST: it cannot climb a step of its radius, `physics.rest_speed`).
+  (REST: it cannot climb a step of its radius, `physics.rest_speed`); so does one that changes plane
+  POCKET times in a row at the rest speed or less (a pocket of several triangles, as the corner
+  where a valley meets a slope; `physics.surface_follow`).
 
 Each change of plane is one step of the pellet's budget (`physics.max_steps`), so a pellet crossing
 many nearly coplanar triangles (a terrain's cells) costs one BVH query and one phase per triangle.
@@ -38,6 +40,7 @@ from .types import types_for
 
 CHANGE = -1  # `cross`: the pellet goes on along the neighbour (the other codes: surface_follow's)
 CONTACT = 4  # surface_follow.CONTACT (an impact on the neighbour)
+POCKET = 16  # changes of plane in a row at the rest speed or less that end at rest (surface_follow)
 
 
 @functools.cache
