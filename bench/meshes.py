@@ -9,11 +9,16 @@
          (`terrain_raster`: 708 x 708 cells of 0.5 m, 0.5 m waves, a GeoTIFF in a temporary
          folder) beside its flat plane, in vacuum and in air (issue 27, part 5: at least 2e8
          pellets/s in vacuum and 1e8 in air on an H200)
+  rest   the trap field on the shipped terrain (examples/trap_field_study.py's scene: #7.5 lead at
+         400 m/s in sea-level air, a station 10 m from the raster's west edge) followed to rest
+         (`until = "rest"`, docs/geometry.md "Rest on triangles") beside the same shot on a level
+         plane of turf: seconds, pellets/s, where the pellets end and their mean steps
 
     python -m bench.meshes box [--n 1e7] [--chunk 1e6] [--precision float32] [--device cpu]
     python -m bench.meshes plane [--n 1e6] [--precision float32] [--device cpu] [--repeats 3]
     python -m bench.meshes terrain [--n 1e6] [--precision float32] [--device cpu] [--repeats 3] [--cells 708]
                                    [--flights vacuum,air]
+    python -m bench.meshes rest [--n 1200] [--device cpu] [--repeats 3]
 
 `box_shots` is also the tests' (tests/test_meshes.py). Figures: bench/RESULTS.md.
 """
@@ -216,22 +221,57 @@ def terrain(n, precision, device, repeats, cells=708, flights=("vacuum", "air"))
                 print(f"  {'air' if air else 'vacuum'}: terrain / plane time {times['terrain'] / times['plane']:.2f}x")
 
 
-def _timed(scene, device, repeats):
+def rest(n, device, repeats):
+    """The trap-field study's shot (`n` pellets, 5-15 deg, float64) to rest on its terrain and on a
+    level plane of turf: wall time (median of `repeats` after a warm-up), where they end, steps."""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "examples"))
+    from trap_field_study import scene as trap_scene
+
+    from warp_ricochet.scene import scene_from_dict
+
+    base = trap_scene(max(1, n // 300), (5.0, 15.0)).to_dict()
+    base["physics"] = {**base["physics"], "until": "rest"}
+    base["output"] = {"fields": ["rest"]}
+    level = {"name": "level turf", "point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "material": "turf"}
+    for label, surfaces in (("terrain", base["surfaces"]), ("plane", [level])):
+        scene = scene_from_dict({**base, "surfaces": surfaces})
+        with tempfile.TemporaryDirectory() as folder:
+            out = Path(folder) / "rest.h5"
+            seconds, stats = _timed(scene, device, repeats, out)
+            import h5py
+
+            with h5py.File(out) as f:
+                state, where = f["pellets/rest/state"][()], f["pellets/rest/position"][()]
+        count = len(state)
+        ends = ", ".join(
+            f"{name} {np.mean(state == code):.3f}" for code, name in enumerate(("at rest", "embedded", "escaped", "not finished"))
+        )
+        reach = where[state <= 1, 0]
+        print(
+            f"{label}: {count} pellets in {seconds:.2f} s ({count / seconds:.3g} pellets/s; median of {repeats}); {ends};"
+            f" rest x mean {reach.mean():.1f} m, 99% {np.quantile(reach, 0.99):.1f} m, max {reach.max():.1f} m;"
+            f" {stats.get('rest_steps_mean', float('nan')):.1f} steps/pellet  [{device}]"
+        )
+
+
+def _timed(scene, device, repeats, out=None):
     """(The median wall time (s) of `repeats` runs of `scene` after one warm-up, its statistics)."""
     import warp_ricochet as wr
 
-    wr.run(scene, None, device=device)
+    wr.run(scene, out, device=device, overwrite=True)
     runs = []
     for _ in range(repeats):
         start = time.perf_counter()
-        stats = wr.run(scene, None, device=device)
+        stats = wr.run(scene, out, device=device, overwrite=True)
         runs.append(time.perf_counter() - start)
     return float(np.median(runs)), stats
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(prog="python -m bench.meshes", description=__doc__.split("\n\n")[0])
-    parser.add_argument("what", choices=("box", "plane", "terrain"))
+    parser.add_argument("what", choices=("box", "plane", "terrain", "rest"))
     parser.add_argument("--n", type=float, default=1e6)
     parser.add_argument("--chunk", type=float, default=1e6)
     parser.add_argument("--precision", default="float32", choices=("float32", "float64"))
@@ -242,6 +282,8 @@ def main(argv=None):
     args = parser.parse_args(argv)
     if args.what == "box":
         box(int(args.n), int(args.chunk), args.precision, args.device)
+    elif args.what == "rest":
+        rest(int(args.n), args.device, args.repeats)
     elif args.what == "terrain":
         terrain(int(args.n), args.precision, args.device, args.repeats, args.cells, args.flights.split(","))
     else:

@@ -54,7 +54,7 @@ def kernel(precision, planes, model, laws, rough=True):
         out_i: wp.array2d(dtype=wp.int32),  # end, steps, k_next
     ):
         i = wp.tid()
-        xe, ve, we, elapsed, path, end, steps, k_next, _track = follow(
+        xe, ve, we, elapsed, path, end, steps, k_next, _track, _normal = follow(
             x[i], v[i], w[i], k[i], surfaces, physics, p[i, 0], p[i, 1], p[i, 2], p[i, 3], p[i, 4], max_steps[i], start(), Tally()
         )
         out_x[i] = xe

@@ -4,7 +4,8 @@ make_trap_field.py: ground falling 2% down range, a 4 m berm 152.5 m from its we
 10 m from that edge on its centre line, #7.5 lead shot (2.4 mm) at 400 m/s in sea-level air, aimed
 at the elevations trap targets fly at; each pellet's first impact: short of the berm's crest, on the
 berm's back slope, or beyond (on the falling ground, or past the raster's end: a plane 20 m below
-the raster catches those). To the first impact only: motion along triangles is not modelled yet.
+the raster catches those). To the first impact; followed to rest (`physics.until = "rest"`), the
+berm holds far less of the low shot (docs/geometry.md, "Example: does the trap field's berm ...").
 
     python examples/trap_field_study.py [--shots 20] [--device cpu] [--elevation 5 15]
 """

@@ -162,7 +162,7 @@ def make_to_rest(spec) -> SimpleNamespace:
             if events > guard:
                 end = wp.int32(NOT_FINISHED)
             elif mode == CONTACT:
-                normal = geo.normal(surfaces, k, position)
+                normal = geo.contact_normal(surfaces, k, position, velocity, physics.radius)  # a mesh's: the face met
                 if rests(velocity, normal):
                     mode = wp.int32(SURFACE)
                 elif impacts >= physics.max_impacts:
@@ -186,7 +186,7 @@ def make_to_rest(spec) -> SimpleNamespace:
                 if ground.sinks(material) != 0:
                     end = wp.int32(EMBEDDED)
                 else:
-                    position, velocity, spin, elapsed, length, ended, taken, k_next, track = surface.follow(
+                    position, velocity, spin, elapsed, length, ended, taken, k_next, track, normal = surface.follow(
                         position,
                         velocity,
                         spin,
@@ -208,7 +208,6 @@ def make_to_rest(spec) -> SimpleNamespace:
                     if ended == REST:
                         end = wp.int32(AT_REST)
                     elif ended == LIFTS_OFF:  # it leaves with the least normal speed its precision tells from 0
-                        normal = geo.normal(surfaces, k, position)
                         scale = wp.length(velocity) + wp.sqrt(wp.length(physics.gravity) * physics.radius)
                         velocity = laws.tangential(velocity, normal) + (scalar(LIFT_OFF) * scale) * normal
                         mode = wp.int32(FLIGHT)

@@ -52,7 +52,7 @@ import warp as wp
 
 from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT, ROUNDING, make_ballistic
 from .cylinder_contact import make_cylinder_contact
-from .mesh_contact import make_mesh_contact
+from .mesh_contact import make_mesh_contact, make_mesh_faces
 from .types import KINDS, types_for
 
 MESHES = 2  # `plates` when meshes are compiled in too (spec.MESHES)
@@ -124,8 +124,6 @@ def _make_geometry(precision: str, planes, snap: bool, plates: int) -> SimpleNam
         if wp.static(PLATES):
             return side(surfaces, k, x) * surfaces.normal[k]
         return surfaces.normal[k]
-
-    contact_normal = _contact_normal(precision, normal, WITH_MESHES)
 
     @wp.func(inline=True)
     def locate(surfaces: Surfaces, k: wp.int32, x: vec3):
@@ -286,13 +284,14 @@ def _make_geometry(precision: str, planes, snap: bool, plates: int) -> SimpleNam
         return best_time, best_plane
 
     return SimpleNamespace(
+        **_faces(precision, gap, inside, reach, WITH_MESHES),
         side=side,
         inside=inside,
         is_plate=is_plate,
         reach=reach,
         count=count,
         normal=normal,
-        contact_normal=contact_normal,
+        contact_normal=_contact_normal(precision, normal, WITH_MESHES),
         locate=locate,
         gap=gap,
         material=material,
@@ -356,3 +355,42 @@ def project(surface, x):
         raise ValueError(f"project: surface {surface.name!r} is a {surface.kind}, not a plane")
     n = np.asarray(surface.normal, dtype=np.float64)
     return x - np.dot(x - np.asarray(surface.point), n) * n, n
+
+
+def _faces(precision: str, gap, inside, reach, with_meshes: bool) -> dict:
+    """`face_gap`, `on_face`, `face_reach`: `gap`, `inside`, `reach` of triangle `face` of mesh k
+    (`physics.triangle_follow`; face < 0: of surface k itself)."""
+    t = types_for(precision)
+    Surfaces, vec3, scalar = t.Surfaces, t.vec3, t.scalar
+    meshes, WITH_MESHES = make_mesh_faces(precision), with_meshes
+    TOLERANCE = scalar(ROUNDING * EPSILON[precision])
+
+    @wp.func(inline=True)
+    def face_gap(surfaces: Surfaces, k: wp.int32, face: wp.int32, x: vec3, radius: scalar):
+        """`gap` on triangle `face` of mesh k (its plane: `mesh_contact.face_plane`); face < 0: `gap`."""
+        if wp.static(WITH_MESHES):
+            if face >= 0:
+                height, noise, n = meshes.face_plane(surfaces, k, face, x)
+                g = height - radius
+                if wp.abs(g) <= TOLERANCE * (noise + radius):
+                    g = scalar(0.0)
+                return height, g, n
+        return gap(surfaces, k, x, radius)
+
+    @wp.func(inline=True)
+    def on_face(surfaces: Surfaces, k: wp.int32, face: wp.int32, x: vec3):
+        """`inside` triangle `face` of mesh k (`mesh_contact.on_face`); face < 0: `inside` surface k."""
+        if wp.static(WITH_MESHES):
+            if face >= 0:
+                return meshes.on_face(surfaces, k, face, x)
+        return inside(surfaces, k, x)
+
+    @wp.func(inline=True)
+    def face_reach(surfaces: Surfaces, k: wp.int32, face: wp.int32, x: vec3):
+        """`reach` of triangle `face` of mesh k; face < 0: of plate k."""
+        if wp.static(WITH_MESHES):
+            if face >= 0:
+                return meshes.face_reach(surfaces, k, face, x)
+        return reach(surfaces, k, x)
+
+    return {"face_gap": face_gap, "on_face": on_face, "face_reach": face_reach}

@@ -299,3 +299,35 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
         **vars(make_mesh_lookup(precision)),
     }
     return SimpleNamespace(mesh_time=mesh_time, mesh_normal=mesh_normal, contact_normal=contact_normal, **helpers)
+
+
+@functools.cache
+def make_mesh_faces(precision: str) -> SimpleNamespace:
+    """`face_plane`, `on_face` and `face_reach` of one triangle of a mesh (`physics.triangle_follow`)."""
+    t = types_for(precision)
+    vec3, Surfaces = t.vec3, t.Surfaces
+    mc = make_mesh_contact(precision)
+    vertices, inside = mc.vertices, mc.inside
+
+    @wp.func
+    def face_plane(surfaces: Surfaces, k: wp.int32, face: wp.int32, x: vec3):
+        """(height, noise, normal) of x over triangle `face` of mesh k's plane, as `geometry.locate`'s."""
+        a, b, c = vertices(surfaces, k, face)
+        n = wp.normalize(wp.cross(b - a, c - a))
+        noise = wp.abs(x[0] * n[0]) + wp.abs(x[1] * n[1]) + wp.abs(x[2] * n[2])
+        noise += wp.abs(a[0] * n[0]) + wp.abs(a[1] * n[1]) + wp.abs(a[2] * n[2])
+        return wp.dot(x - a, n), noise, n
+
+    @wp.func
+    def on_face(surfaces: Surfaces, k: wp.int32, face: wp.int32, x: vec3):
+        """Whether x projected along triangle `face`'s normal lies on it (`inside`)."""
+        a, b, c = vertices(surfaces, k, face)
+        return inside(wp.normalize(wp.cross(b - a, c - a)), a, b, c, x)
+
+    @wp.func
+    def face_reach(surfaces: Surfaces, k: wp.int32, face: wp.int32, x: vec3):
+        """A distance (m) from x beyond which every point is off triangle `face`."""
+        a, b, c = vertices(surfaces, k, face)
+        return wp.length(x - a) + wp.length(b - a) + wp.length(c - a)
+
+    return SimpleNamespace(face_plane=face_plane, on_face=on_face, face_reach=face_reach)

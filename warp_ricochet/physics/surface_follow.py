@@ -36,11 +36,14 @@ import warp as wp
 
 from .air_flight import make_plane_search
 from .ballistic import EPSILON, ROUNDING
-from .geometry import make_geometry
-from .integrate import make_dense_output, make_dormand_prince
+from .geometry import MESHES, make_geometry
+from .integrate import make_dense_output
+from .mesh_contact import make_mesh_lookup
 from .plate_edge import make_plate_edge
-from .surface_line import HANDOVER, make_line_integrator, make_line_laws
+from .surface_line import HANDOVER, make_line_integrator
 from .surface_motion import FLIGHT, NEVER, REST, ROLLING, SLIDING, make_surface_motion
+from .surface_rates import make_surface_rates
+from .triangle_follow import CHANGE, POCKET, make_triangle_follow
 from .types import types_for
 
 CONTACT, FOREVER, UNFINISHED = 4, 5, 6  # end codes beside surface_motion's FLIGHT (0) and REST (3)
@@ -55,183 +58,19 @@ BAND = 0.1
 
 
 @functools.cache
-def make_surface_rates(precision: str, model: str = "ballistic", laws=None) -> SimpleNamespace:
-    """The right-hand side of sliding and rolling (`surface_motion`'s rates with the air's forces in
-    `model` "air"), its Dormand-Prince step, the events' margins and roots, the step's error and path."""
-    t = types_for(precision)
-    scalar, vec3, Physics = t.scalar, t.vec3, t.Physics
-    sm, dense = make_surface_motion(precision), make_dense_output(precision)
-    ZERO, ONE, HALF = scalar(0.0), scalar(1.0), scalar(0.5)
-    THETA_TOLERANCE = scalar(4.0 * EPSILON[precision])
-    ITERATIONS = 64 if precision == "float64" else 40
-
-    @wp.struct
-    class Contact:
-        """What the surface rates read beside the state: the plane's normal and material, the mode."""
-
-        normal: vec3
-        mu_d: scalar
-        rolling_resistance: scalar
-        ploughing: scalar
-        rolling: wp.int32
-
-    line_laws = make_line_laws(precision, model, laws)
-    applied_at, maths = line_laws.applied, line_laws.maths  # (g + a_air, T_air / I); Illinois
-
-    @wp.func
-    def rates(velocity: vec3, spin: vec3, physics: Physics, contact: Contact):
-        """(dv/dt, domega/dt) sliding or rolling (`surface_motion`), the air's forces included."""
-        applied, alpha = applied_at(velocity, spin, physics)
-        n = contact.normal
-        if contact.rolling != 0:
-            acceleration, spin_rate, _f = sm.rolling_rates(
-                velocity, n, applied, alpha, physics.radius, physics.inertia_factor, contact.rolling_resistance, contact.ploughing
-            )
-            return acceleration, spin_rate
-        return sm.sliding_rates(
-            velocity, spin, n, applied, alpha, physics.radius, physics.inertia_factor, contact.mu_d, contact.ploughing
-        )
-
-    stages = make_dormand_prince(precision, rates, Contact, True).stages
-
-    @wp.func
-    def margins(velocity: vec3, spin: vec3, physics: Physics, contact: Contact, mu_s: scalar):
-        """(N/m, the grip left mu_s N/m - |F|/m rolling; N/m sliding): a phase ends where either
-        falls to 0 (lift-off; loss of grip)."""
-        applied, alpha = applied_at(velocity, spin, physics)
-        load = -wp.dot(applied, contact.normal)
-        grip = load
-        if contact.rolling != 0:
-            _a, _w, friction = sm.rolling_rates(
-                velocity,
-                contact.normal,
-                applied,
-                alpha,
-                physics.radius,
-                physics.inertia_factor,
-                contact.rolling_resistance,
-                contact.ploughing,
-            )
-            grip = mu_s * wp.max(load, ZERO) - friction
-        return load, grip
-
-    @wp.func
-    def margin(velocity: vec3, spin: vec3, physics: Physics, contact: Contact, mu_s: scalar):
-        """How far the phase is from its end by the forces (> 0 inside): the lesser `margins`."""
-        load, grip = margins(velocity, spin, physics, contact, mu_s)
-        return wp.min(load, grip)
-
-    @wp.func
-    def lifts(velocity: vec3, spin: vec3, physics: Physics, contact: Contact, mu_s: scalar):
-        """At a `margin` root: 1 if the load ended the phase (lift-off), 0 if the grip did."""
-        load, grip = margins(velocity, spin, physics, contact, mu_s)
-        if load <= grip:
-            return wp.int32(1)
-        return wp.int32(0)
-
-    @wp.func
-    def margin_root(
-        h: scalar,
-        x0: vec3,
-        x1: vec3,
-        v0: vec3,
-        a0: vec3,
-        w0: vec3,
-        d0: vec3,
-        v1: vec3,
-        a1: vec3,
-        w1: vec3,
-        d1: vec3,
-        f1: scalar,
-        physics: Physics,
-        contact: Contact,
-        mu_s: scalar,
-    ):
-        """Where on the step `margin` falls from > 0 (theta = 0) to f1 <= 0 (theta = 1), on the
-        dense output (v: the quintic's slope, omega: the cubic Hermite; Illinois, the bracket's upper end)."""
-        lo = ZERO
-        hi = ONE
-        f_lo = margin(v0, w0, physics, contact, mu_s)
-        f_hi = f1
-        side = wp.int32(0)
-        for _ in range(ITERATIONS):
-            if hi - lo > THETA_TOLERANCE:
-                mid = maths.secant(lo, hi, f_lo, f_hi)
-                _x, slope = dense.hermite_vec(mid, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
-                v = slope / h
-                w = dense.cubic_vec(mid, w0, h * d0, w1, h * d1)
-                lo, hi, f_lo, f_hi, side = maths.illinois(lo, hi, f_lo, f_hi, side, mid, margin(v, w, physics, contact, mu_s))
-        return hi
-
-    @wp.func
-    def target(velocity: vec3, spin: vec3, acceleration: vec3, spin_rate: vec3, contact: Contact, radius: scalar, goal: scalar):
-        """(q, dq/dt, direction) of the quantity a phase ends at: sliding, the slip's size (its
-        direction: the slip's, or at zero slip its rate's); rolling, the speed minus `goal`."""
-        n = contact.normal
-        if contact.rolling != 0:
-            direction = sm.unit(velocity)
-            return wp.length(velocity) - goal, wp.dot(acceleration, direction), direction
-        slip = sm.slip_velocity(velocity, spin, n, radius)
-        rate = sm.tangential(acceleration - radius * wp.cross(spin_rate, n), n)
-        direction = sm.unit(slip)
-        if wp.length(slip) <= ZERO:
-            direction = sm.unit(rate)
-        return wp.length(slip), wp.dot(rate, direction), direction
-
-    @wp.func
-    def error_norm(
-        x0: vec3,
-        v0: vec3,
-        w0: vec3,
-        x1: vec3,
-        v1: vec3,
-        w1: vec3,
-        ex: vec3,
-        ev: vec3,
-        ew: vec3,
-        tolerance: scalar,
-        floor: scalar,
-        radius: scalar,
-    ):
-        """The step's error over tolerance, as `physics.integrate`'s: x, v and omega each over
-        tolerance x (the step's displacement + R, the speed + floor, the spin + floor / R)."""
-        error = wp.max(
-            wp.length(ex) / (tolerance * (wp.length(x1 - x0) + radius)),
-            wp.length(ev) / (tolerance * (wp.max(wp.length(v0), wp.length(v1)) + floor)),
-        )
-        return wp.max(error, wp.length(ew) / (tolerance * (wp.max(wp.length(w0), wp.length(w1)) + floor / radius)))
-
-    @wp.func
-    def simpson(h: scalar, theta: scalar, x0: vec3, v0: vec3, a0: vec3, x1: vec3, v1: vec3, a1: vec3):
-        """The path length over [0, theta] of a step: Simpson's rule on the dense output's speed."""
-        _xm, slope_m = dense.hermite_vec(HALF * theta, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
-        _xe, slope_e = dense.hermite_vec(theta, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
-        return theta / scalar(6.0) * (h * wp.length(v0) + scalar(4.0) * wp.length(slope_m) + wp.length(slope_e))
-
-    return SimpleNamespace(
-        Contact=Contact,
-        applied_at=applied_at,
-        rates=rates,
-        stages=stages,
-        margin=margin,
-        lifts=lifts,
-        margin_root=margin_root,
-        target=target,
-        error_norm=error_norm,
-        simpson=simpson,
-    )
-
-
-@functools.cache
 def make_surface_closed_phases(precision: str, planes=None, plates: bool = False) -> SimpleNamespace:
     """The phases in vacuum in closed form, with the first other surface on their way: constant
     accelerations (`surface_motion`) and rolling on a level plane with ploughing."""
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
-    sm, geo, edge = make_surface_motion(precision), make_geometry(precision, planes, True, plates), make_plate_edge(precision)
+    sm, geo, edge = (
+        make_surface_motion(precision),
+        make_geometry(precision, planes, True, plates),
+        make_plate_edge(precision, plates),
+    )
     ZERO, ONE, HALF = scalar(0.0), scalar(1.0), scalar(0.5)
     TOLERANCE = scalar(ROUNDING * EPSILON[precision])
-    STATIC, PLATES = planes, plates
+    STATIC, PLATES, WITH_MESHES, meshes = planes, plates, plates >= MESHES, make_mesh_lookup(precision)
 
     @wp.func
     def surface_count(surfaces: Surfaces):
@@ -267,6 +106,7 @@ def make_surface_closed_phases(precision: str, planes=None, plates: bool = False
     def plough_roll(
         velocity: vec3,
         k: wp.int32,
+        face: wp.int32,
         position: vec3,
         surfaces: Surfaces,
         physics: Physics,
@@ -278,7 +118,7 @@ def make_surface_closed_phases(precision: str, planes=None, plates: bool = False
         B = b/(1 + k), along a fixed line: A + B v^2 = (A + B v0^2) exp(-2 B s) and t(v) =
         atan(x)/sqrt(A B), x = (v0 - v) sqrt(A B)/(A + B v0 v) (t = (v0 - v)/(B v0 v) at A = 0).
         To the speed `goal`, or to the first other surface on the line: (duration, distance, speed
-        then, surface met or -1; -EDGE: over plate k's edge)."""
+        then, surface met or -1; -EDGE: over plate k's edge, or triangle `face`'s of mesh k)."""
         v0 = wp.length(velocity)
         direction = sm.unit(velocity)
         share = ONE / (ONE + physics.inertia_factor)
@@ -292,11 +132,18 @@ def make_surface_closed_phases(precision: str, planes=None, plates: bool = False
             if j != k:
                 height, gap, n = geo.gap(surfaces, j, position, physics.radius)
                 closing = -wp.dot(direction, n)
+                solid = False
+                if wp.static(WITH_MESHES):  # a mesh: its contact along the line (no gravity)
+                    solid = meshes.is_mesh(surfaces, j)
+                    if solid:
+                        gap = geo.contact_time(surfaces, j, position, direction, vec3(), physics.radius, wp.int32(-1))
+                        height = gap
+                        closing = ONE
                 if height >= ZERO and closing > ZERO:
                     s = wp.max(gap, ZERO) / closing
                     if distance < ZERO or s < distance:
                         if wp.static(PLATES):  # a plate is met only where the line crosses it
-                            if geo.inside(surfaces, j, position + s * direction):
+                            if solid or geo.inside(surfaces, j, position + s * direction):
                                 distance = s
                                 met = wp.int32(j)
                         else:
@@ -304,7 +151,7 @@ def make_surface_closed_phases(precision: str, planes=None, plates: bool = False
                             met = wp.int32(j)
         if wp.static(PLATES):
             if geo.is_plate(surfaces, k):  # over its edge first?
-                off = edge.leave_time(surfaces, k, position, direction, vec3(), distance)
+                off = edge.leave_time(surfaces, k, face, position, direction, vec3(), distance)
                 if off >= ZERO and (distance < ZERO or off < distance):
                     distance = off
                     met = wp.int32(-EDGE)
@@ -334,6 +181,7 @@ def make_surface_closed_phases(precision: str, planes=None, plates: bool = False
         velocity: vec3,
         spin: vec3,
         k: wp.int32,
+        face: wp.int32,
         normal: vec3,
         mode: wp.int32,
         surfaces: Surfaces,
@@ -344,7 +192,7 @@ def make_surface_closed_phases(precision: str, planes=None, plates: bool = False
     ):
         """A vacuum phase without ploughing by `surface_motion`'s closed forms: (x, v, w, duration,
         path, outcome, k_next), outcome 0: done, at its end (slip 0, or stopped: 1 at rest), CONTACT,
-        FOREVER, EDGE (plate k's); -1: no closed form (the state unchanged)."""
+        FOREVER, EDGE (plate k's, or triangle `face`'s of mesh k); -1: no closed form (the state unchanged)."""
         g = physics.gravity
         radius, inertia = physics.radius, physics.inertia_factor
         duration = ZERO
@@ -368,7 +216,7 @@ def make_surface_closed_phases(precision: str, planes=None, plates: bool = False
                 end = duration
                 if k_c >= 0 and (duration < ZERO or t_c <= duration):
                     end = t_c
-                off = edge.leave_time(surfaces, k, position, velocity, acceleration, end)
+                off = edge.leave_time(surfaces, k, face, position, velocity, acceleration, end)
                 if off >= ZERO and (end < ZERO or off < end):
                     x = position + velocity * off + (HALF * off * off) * acceleration
                     path = sm.arc_length(velocity, acceleration, off)
@@ -415,7 +263,8 @@ def make_surface_integrator(
     target, error_norm, simpson = r.target, r.error_norm, r.simpson
     surface_count = make_surface_closed_phases(precision, planes, plates).surface_count
     ZERO, ONE, HALF = scalar(0.0), scalar(1.0), scalar(0.5)
-    PLATES, edge = plates, make_plate_edge(precision)
+    PLATES, edge = plates, make_plate_edge(precision, plates)
+    WITH_MESHES, meshes = plates >= MESHES, make_mesh_lookup(precision)
     STOP_FRACTION = scalar(STOP[precision])
 
     @wp.func
@@ -428,8 +277,12 @@ def make_surface_integrator(
         for j in range(surface_count(surfaces)):
             if j != k:
                 height, gap, n = geo.gap(surfaces, j, position, physics.radius)
-                if wp.static(PLATES):  # beside a plate, within R of its plane: watched
+                if wp.static(PLATES):  # beside a plate, within R of its plane, or a mesh: watched
                     if gap <= ZERO and not geo.inside(surfaces, j, position):
+                        gap = scalar(1.0)
+                if wp.static(WITH_MESHES):
+                    if meshes.is_mesh(surfaces, j):
+                        height = scalar(1.0)
                         gap = scalar(1.0)
                 if height >= ZERO:
                     if gap > ZERO:
@@ -447,6 +300,7 @@ def make_surface_integrator(
         velocity: vec3,
         spin: vec3,
         k: wp.int32,
+        face: wp.int32,
         contact: Contact,
         goal: scalar,
         surfaces: Surfaces,
@@ -459,7 +313,7 @@ def make_surface_integrator(
         """Integrate one sliding or rolling phase (`contact.rolling`) until its quantity (`target`)
         reaches `goal`, `margin` reaches 0, or another surface is met. Returns (x, v, w, elapsed,
         path, event, k_next, steps, track); event 0: the target reached, 1: the margin, CONTACT, EDGE
-        (over plate k's edge), or UNFINISHED (steps_left spent)."""
+        (over plate k's edge, or triangle `face`'s of mesh k), or UNFINISHED (steps_left spent)."""
         radius = physics.radius
         floor = wp.sqrt(wp.length(physics.gravity) * radius) + scalar(1e-6)
         tolerance = scalar(VACUUM_TOLERANCE)
@@ -534,8 +388,10 @@ def make_surface_integrator(
                 event = wp.int32(CONTACT)
             if wp.static(PLATES):
                 if geo.is_plate(surfaces, k):  # over its edge first?
-                    off = edge.leave_theta(surfaces, k, position, h * velocity, h * h * acceleration, x1, h * v1, h * h * a1)
-                    if off <= theta:
+                    off = edge.leave_theta(
+                        surfaces, k, face, position, h * velocity, h * h * acceleration, x1, h * v1, h * h * a1
+                    )
+                    if off <= ONE and off <= theta:  # (2: the step ends on it)
                         theta = off
                         event = wp.int32(EDGE)
             end = ONE
@@ -592,6 +448,7 @@ def make_surface_follow(
     plough_roll, rest_state, constant_phase = closed.plough_roll, closed.rest_state, closed.constant_phase
     integrate_phase = make_surface_integrator(precision, planes, model, laws, watch, plates).integrate_phase
     PLATES, LINES = plates, not plates  # a plate's edges are met by the phase integrator only
+    WITH_MESHES, meshes, tri = plates >= MESHES, make_mesh_lookup(precision), make_triangle_follow(precision)
     lines = make_line_integrator(precision, planes, model, laws, watch, rough=rough)
     line_of, integrate_line = lines.line_of, lines.integrate_line
     ZERO, ONE = scalar(0.0), scalar(1.0)
@@ -615,20 +472,31 @@ def make_surface_follow(
     ):
         """Follow the pellet along surface k from gap 0 (module docstring): (position, velocity,
         spin, elapsed s, path length m, end code, integration steps, k_next: the surface met at
-        CONTACT, else k), and the watch's track."""
+        CONTACT, else k), the watch's track and the normal of the surface (triangle) it ended on."""
         radius, inertia = physics.radius, physics.inertia_factor
         g = physics.gravity
         elapsed = ZERO
         path = ZERO
         steps = wp.int32(0)
         forced = wp.int32(-1)  # the mode a phase must take after a loss of grip
-        for _phase in range(MAX_FOLLOW_PHASES):
-            height, _gap, n = geo.gap(surfaces, k, position, radius)
+        face = wp.int32(-1)  # on a mesh: the triangle it moves along (physics.triangle_follow)
+        slow = wp.int32(0)  # crossings in a row at the rest speed or less
+        n = vec3()
+        if wp.static(WITH_MESHES):
+            if meshes.is_mesh(surfaces, k):
+                face = tri.start_face(surfaces, k, position, radius)
+                if face < 0:  # beside every triangle: it flies on
+                    n = geo.normal(surfaces, k, position)
+                    return position, velocity, spin, elapsed, path, wp.int32(FLIGHT), steps, k, track, n
+        phase = wp.int32(0)
+        while phase < MAX_FOLLOW_PHASES:
+            phase += 1
+            height, _gap, n = geo.face_gap(surfaces, k, face, position, radius)
             position = position - (height - radius) * n  # on the plane, and moving along it
             velocity = sm.tangential(velocity, n)
             if wp.static(PLATES):
-                if not geo.inside(surfaces, k, position):  # off a plate's edge: it flies on
-                    return position, velocity, spin, elapsed, path, wp.int32(FLIGHT), steps, k, track
+                if not geo.on_face(surfaces, k, face, position):  # off a plate's edge: it flies on
+                    return position, velocity, spin, elapsed, path, wp.int32(FLIGHT), steps, k, track, n
             applied, alpha = applied_at(velocity, spin, physics)
             mode = sm.surface_mode(
                 velocity, spin, n, applied, alpha, g, radius, inertia, mu_s, rolling_resistance, ploughing, rest_speed
@@ -638,9 +506,9 @@ def make_surface_follow(
             forced = wp.int32(-1)
             if mode == REST:
                 rx, rv, rw, re, rp, rc, rs, rk = rest_state(position, spin, n, elapsed, path, steps, k)
-                return rx, rv, rw, re, rp, rc, rs, rk, track
+                return rx, rv, rw, re, rp, rc, rs, rk, track, n
             if mode == FLIGHT:
-                return position, velocity, spin, elapsed, path, wp.int32(FLIGHT), steps, k, track
+                return position, velocity, spin, elapsed, path, wp.int32(FLIGHT), steps, k, track, n
             holds = sm.held(n, g, rolling_resistance)
             goal = ZERO
             if mode == ROLLING and holds:
@@ -652,7 +520,7 @@ def make_surface_follow(
                     start_x = position
                     start_v = velocity
                     position, velocity, spin, dt, dp, outcome, k_c = constant_phase(
-                        position, velocity, spin, k, n, mode, surfaces, physics, mu_d, rolling_resistance, rest_speed
+                        position, velocity, spin, k, face, n, mode, surfaces, physics, mu_d, rolling_resistance, rest_speed
                     )
                     if dt > ZERO:  # constant acceleration: the Hermite quintic is the path itself
                         bend = (velocity - start_v) * dt  # h^2 a
@@ -661,10 +529,10 @@ def make_surface_follow(
                     path += dp
                 elif mode == ROLLING and sm.across(g, n, wp.length(g)) == 0:  # level: g along n
                     dt, ds, speed, k_c = plough_roll(
-                        velocity, k, position, surfaces, physics, rolling_resistance, ploughing, goal
+                        velocity, k, face, position, surfaces, physics, rolling_resistance, ploughing, goal
                     )
                     if dt < ZERO:
-                        return position, velocity, spin, elapsed, path, wp.int32(FOREVER), steps, k, track
+                        return position, velocity, spin, elapsed, path, wp.int32(FOREVER), steps, k, track, n
                     direction = sm.unit(velocity)
                     share = ONE / (ONE + inertia)
                     track = watcher.line(
@@ -725,38 +593,73 @@ def make_surface_follow(
                         steps += taken
                 if event == HANDOVER:
                     position, velocity, spin, dt, dp, event, k_c, taken, track = integrate_phase(
-                        position, velocity, spin, k, contact, goal, surfaces, physics, mu_s, max_steps - steps, track, tally
+                        position, velocity, spin, k, face, contact, goal, surfaces, physics, mu_s, max_steps - steps, track, tally
                     )
                     elapsed += dt
                     path += dp
                     steps += taken
                 if event == UNFINISHED:
-                    return position, velocity, spin, elapsed, path, wp.int32(UNFINISHED), steps, k, track
+                    return position, velocity, spin, elapsed, path, wp.int32(UNFINISHED), steps, k, track, n
                 outcome = event
                 if event == 1:  # lift-off, or rolling lost its grip
                     if lifts(velocity, spin, physics, contact, mu_s) != 0:
-                        return position, sm.tangential(velocity, n), spin, elapsed, path, wp.int32(FLIGHT), steps, k, track
+                        return position, sm.tangential(velocity, n), spin, elapsed, path, wp.int32(FLIGHT), steps, k, track, n
                     forced = wp.int32(SLIDING)
                     outcome = wp.int32(-1)
                 elif event == 0 and mode == ROLLING and holds and rest_speed > ZERO:
                     outcome = wp.int32(1)
             if outcome == CONTACT:
-                return position, velocity, spin, elapsed, path, wp.int32(CONTACT), steps, k_c, track
+                return position, velocity, spin, elapsed, path, wp.int32(CONTACT), steps, k_c, track, n
             if wp.static(PLATES):
                 if outcome == EDGE or k_c == -EDGE:  # over a plate's edge: it flies on from there
-                    return position, sm.tangential(velocity, n), spin, elapsed, path, wp.int32(FLIGHT), steps, k, track
+                    ended = wp.int32(FLIGHT)
+                    if wp.static(WITH_MESHES):
+                        if face >= 0:  # over a triangle's: on along its neighbour, or off (triangle_follow)
+                            pushed, _alpha = applied_at(velocity, spin, physics)
+                            ended, face, position, velocity, spin = tri.cross(
+                                surfaces,
+                                k,
+                                face,
+                                position,
+                                velocity,
+                                spin,
+                                n,
+                                wp.int32(mode == ROLLING),
+                                pushed,
+                                physics,
+                                rest_speed,
+                            )
+                    if ended == CHANGE and wp.length(velocity) <= rest_speed:  # a slow crossing
+                        slow += 1
+                        if slow >= POCKET:  # in a pocket of triangles it cannot climb out of: at rest
+                            ended = wp.int32(REST)
+                    elif ended == CHANGE:
+                        slow = wp.int32(0)
+                    if ended != FLIGHT:  # (a crossing is no phase: its cost is a step of the budget)
+                        steps += 1
+                    if ended == CHANGE:
+                        phase -= 1
+                        if steps >= max_steps:
+                            return position, velocity, spin, elapsed, path, wp.int32(UNFINISHED), steps, k, track, n
+                        continue
+                    if ended == REST:
+                        outcome = wp.int32(1)
+                    elif ended == CONTACT:
+                        return position, velocity, spin, elapsed, path, wp.int32(CONTACT), steps, k, track, n
+                    else:
+                        return position, sm.tangential(velocity, n), spin, elapsed, path, wp.int32(FLIGHT), steps, k, track, n
             if outcome == FOREVER:
-                return position, velocity, spin, elapsed, path, wp.int32(FOREVER), steps, k, track
+                return position, velocity, spin, elapsed, path, wp.int32(FOREVER), steps, k, track, n
             if outcome == 1:
                 rx, rv, rw, re, rp, rc, rs, rk = rest_state(position, spin, n, elapsed, path, steps, k)
-                return rx, rv, rw, re, rp, rc, rs, rk, track
+                return rx, rv, rw, re, rp, rc, rs, rk, track, n
             if outcome == 0:
                 if mode == SLIDING:  # the slip is zero now: remove its rounding (omega_t = n x v / R)
                     spin = wp.dot(spin, n) * n + wp.cross(n, velocity) * (ONE / radius)
                 else:  # stopped where the resistance cannot hold it: it rolls back from rest
                     velocity = vec3()
                     spin = wp.dot(spin, n) * n
-        return position, velocity, spin, elapsed, path, wp.int32(UNFINISHED), steps, k, track
+        return position, velocity, spin, elapsed, path, wp.int32(UNFINISHED), steps, k, track, n
 
     return SimpleNamespace(
         follow=follow,

@@ -474,14 +474,14 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
 
 
 def _check_meshes(surfaces: tuple, physics: Physics) -> None:
-    """Triangles (boxes, meshes) and posts are met by the flights until landing only (docs/geometry.md)."""
-    mesh = next((i for i, s in enumerate(surfaces) if s.is_solid), None)
-    if mesh is not None and physics.until == "rest":
-        along = "a post" if surfaces[mesh].kind == "cylinder" else "triangles"
+    """Posts are met by the flights until landing only; triangles (boxes, meshes, terrain) are
+    followed to rest too (docs/geometry.md)."""
+    post = next((i for i, s in enumerate(surfaces) if s.kind == "cylinder"), None)
+    if post is not None and physics.until == "rest":
         raise err(
             "physics.until",
             "rest",
-            f'must be "landing" with surface {mesh} of kind = {surfaces[mesh].kind!r}: motion along {along} is not modelled yet',
+            f'must be "landing" with surface {post} of kind = "cylinder": motion along a post is not modelled yet',
         )
 
 
