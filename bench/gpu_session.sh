@@ -109,3 +109,6 @@ if [[ $what == dask ]]; then  # issue 29: a run through a one-worker cluster aga
   timeout 300 python3 -m bench.dask overhead --device cuda:0 --study collisions --shots 10000 --air --repeats 3 2>&1 | quiet | tee "$out/dask-collisions.txt"
   timeout 120 python3 -m bench.dask overhead --device cuda:0 --pellets 1e9 --repeats 3 2>&1 | quiet | tee "$out/dask-statistics.txt"
 fi
+if [[ $what == mesh-rest ]]; then  # issue 27: the trap field's shot to rest on its terrain beside a level plane (float64)
+  timeout 320 python3 -m bench.meshes rest --device cuda:0 --n 30000 --repeats 1 2>&1 | quiet | tee "$out/meshes-rest.txt"
+fi

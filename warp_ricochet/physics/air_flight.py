@@ -238,7 +238,7 @@ def make_solid_search(precision: str) -> SimpleNamespace:
         meet the box of the step's quintic Bezier control points grown by R (the curve lies in
         their hull), each by `triangle_theta`."""
         best = scalar(2.0)
-        faces = surfaces.mesh_faces[k]
+        faces = meshes.faces(surfaces, k)
         if faces <= FEW_FACES:  # a small mesh: every triangle (`mesh_contact`)
             for face in range(faces):
                 best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius))

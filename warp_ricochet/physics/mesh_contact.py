@@ -43,8 +43,8 @@ FEW_FACES = 16  # a mesh of at most this many triangles is searched whole, witho
 
 @functools.cache
 def make_mesh_lookup(precision: str) -> SimpleNamespace:
-    """`is_mesh(surfaces, k)` and `bounds(surfaces, k)` -> (wp.Mesh id, low, high): what the air's
-    search asks of a mesh surface beside its triangles."""
+    """`is_mesh(surfaces, k)`, `bounds(surfaces, k)` -> (wp.Mesh id, low, high) and `faces(surfaces, k)`:
+    what the air's search asks of a mesh surface beside its triangles."""
     t = types_for(precision)
     Surfaces, MESH = t.Surfaces, KINDS["mesh"]
 
@@ -58,20 +58,22 @@ def make_mesh_lookup(precision: str) -> SimpleNamespace:
         """Mesh k's `wp.Mesh` id and its vertices' box (m): (id, low, high)."""
         return surfaces.mesh[k], surfaces.mesh_low[k], surfaces.mesh_high[k]
 
-    return SimpleNamespace(is_mesh=is_mesh, bounds=bounds)
+    @wp.func
+    def faces(surfaces: Surfaces, k: wp.int32):
+        """Mesh k's triangles (at most FEW_FACES: tested whole, without the BVH)."""
+        return surfaces.mesh_faces[k]
+
+    return SimpleNamespace(is_mesh=is_mesh, bounds=bounds, faces=faces)
 
 
 @functools.cache
-def make_mesh_contact(precision: str) -> SimpleNamespace:
-    """`mesh_time(surfaces, k, x, v, g, R)`, `mesh_normal(surfaces, k, x)` and the helpers the air's
-    search and posts share (`vertices`, `inside`, `l1`, `single`, `descending`) of one precision."""
+def make_triangle_basics(precision: str) -> SimpleNamespace:
+    """`vertices`, `single`, `l1`, `inside` and `descending`: a mesh's triangles and the tests on them
+    that its contacts, the air's search, posts and the motion along triangles share (one precision)."""
     t = types_for(precision)
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
-    ballistic = make_ballistic(precision)
-    entry_time, position = ballistic.entry_time, ballistic.position
-    TOLERANCE = scalar(ROUNDING * EPSILON[precision])
+    entry_time = make_ballistic(precision).entry_time
     EDGE = scalar(EDGE_ROUNDING * EPSILON[precision])
-    LATEST = scalar(MAX_FLIGHT_TIME)
 
     @wp.func
     def vertices(surfaces: Surfaces, k: wp.int32, face: wp.int32):
@@ -118,6 +120,22 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
             if disc >= scalar(0.0):
                 return -(speed + wp.sqrt(disc)) / (scalar(2.0) * half)
         return scalar(NO_CONTACT)
+
+    return SimpleNamespace(vertices=vertices, single=single, l1=l1, inside=inside, descending=descending)
+
+
+@functools.cache
+def make_mesh_contact(precision: str) -> SimpleNamespace:
+    """`mesh_time(surfaces, k, x, v, g, R)`, `mesh_normal(surfaces, k, x)` and the helpers the air's
+    search and posts share (`vertices`, `inside`, `l1`, `single`, `descending`) of one precision."""
+    t = types_for(precision)
+    scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
+    ballistic = make_ballistic(precision)
+    entry_time, position = ballistic.entry_time, ballistic.position
+    TOLERANCE = scalar(ROUNDING * EPSILON[precision])
+    LATEST = scalar(MAX_FLIGHT_TIME)
+    basics = make_triangle_basics(precision)
+    vertices, single, l1, inside, descending = basics.vertices, basics.single, basics.l1, basics.inside, basics.descending
 
     @wp.func
     def triangle_time(surfaces: Surfaces, k: wp.int32, face: wp.int32, x: vec3, v: vec3, g: vec3, radius: scalar):
@@ -290,14 +308,7 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
             return best
         return mesh_normal(surfaces, k, x)
 
-    helpers = {
-        "vertices": vertices,
-        "inside": inside,
-        "l1": l1,
-        "single": single,
-        "descending": descending,
-        **vars(make_mesh_lookup(precision)),
-    }
+    helpers = {**vars(basics), **vars(make_mesh_lookup(precision))}
     return SimpleNamespace(mesh_time=mesh_time, mesh_normal=mesh_normal, contact_normal=contact_normal, **helpers)
 
 

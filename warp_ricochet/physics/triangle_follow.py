@@ -55,7 +55,7 @@ def make_triangle_follow(precision: str) -> SimpleNamespace:
     @wp.func
     def slack(surfaces: Surfaces, k: wp.int32, x: vec3, radius: scalar):
         """The BVH's float32 rounding at x (m), as `mesh_contact.contact_normal`'s."""
-        low, high = surfaces.mesh_low[k], surfaces.mesh_high[k]
+        _mesh, low, high = mc.bounds(surfaces, k)
         return scalar(FLOAT32_SLACK) * (mc.l1(low) + mc.l1(high) + mc.l1(x)) + TOLERANCE * radius
 
     @wp.func
@@ -83,7 +83,8 @@ def make_triangle_follow(precision: str) -> SimpleNamespace:
         """Of mesh k's triangles other than `skip` over which the contact point y lies within `grow`
         of its plane, the one y moving along v stays on longest (`exit_time`): the one the path goes
         on into, not one it touches at an edge or a vertex behind it; -1 if none."""
-        query = wp.mesh_query_aabb(surfaces.mesh[k], mc.single(y - vec3(grow, grow, grow)), mc.single(y + vec3(grow, grow, grow)))
+        mesh, _low, _high = mc.bounds(surfaces, k)
+        query = wp.mesh_query_aabb(mesh, mc.single(y - vec3(grow, grow, grow)), mc.single(y + vec3(grow, grow, grow)))
         face = wp.int32(0)
         best = wp.int32(-1)
         longest = ZERO
@@ -107,7 +108,8 @@ def make_triangle_follow(precision: str) -> SimpleNamespace:
         grow = slack(surfaces, k, x, radius)
         low = -grow
         high = radius + grow
-        query = wp.mesh_query_aabb(surfaces.mesh[k], mc.single(x - vec3(high, high, high)), mc.single(x + vec3(high, high, high)))
+        mesh, _low, _high = mc.bounds(surfaces, k)
+        query = wp.mesh_query_aabb(mesh, mc.single(x - vec3(high, high, high)), mc.single(x + vec3(high, high, high)))
         face = wp.int32(0)
         best = wp.int32(-1)
         least = ZERO
