@@ -23,7 +23,7 @@ import numpy as np
 
 from . import interrupts
 from .errors import SceneError
-from .tasks import Partial, describe_device, run_range, task_bounds, unit_of
+from .tasks import Partial, describe_device, release, run_range, task_bounds, unit_of
 
 log = logging.getLogger(__name__)
 
@@ -232,6 +232,8 @@ class Study:
         except BaseException:
             self.cancel()
             raise
+        if not self.futures:  # the study's last run: the workers' kept stages freed (`tasks.Kept`)
+            self.client.run(release)
         from .tallies.ensemble import has_ensemble, pieces_per_shot
 
         shot_pieces = pieces_per_shot(scene.shot.count) if has_ensemble(scene) else None
