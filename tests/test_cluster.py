@@ -113,6 +113,33 @@ def test_a_worker_killed_mid_task_costs_a_retry_not_the_run(tmp_path, client, mo
     np.testing.assert_array_equal(ref.tally.flat(), got.tally.flat())
 
 
+def test_a_run_is_cut_into_whole_chunks_whose_stages_its_workers_keep_and_free(client, monkeypatch):
+    """Tasks of at least one serial chunk (not TASKS_PER_WORKER a worker, each a share of one), each
+    worker's stage kept from task to task and freed at the end; the serial run's bits."""
+    monkeypatch.setattr(cluster, "TASKS_PER_WORKER", 4)
+    scene = scene_of(shots=2000)  # 900,000 pellets
+    scene = scene.replace(numerics=dataclasses.replace(scene.numerics, chunk_size=1 << 18))
+    ref = wr.run(scene, device="cpu")
+    real_range, real_result, parts = cluster.run_range, cluster.Study.result, []
+
+    def noting(scene, device, start, stop, options=None, shards=None):
+        from warp_ricochet.tasks import Kept
+
+        before = Kept.entry
+        part = real_range(scene, device, start, stop, options, shards)
+        part.reused = before is not None and Kept.entry[2] is before[2]
+        return part
+
+    monkeypatch.setattr(cluster, "run_range", noting)
+    monkeypatch.setattr(cluster.Study, "result", lambda self, f: parts.append(real_result(self, f)) or parts[-1])
+    got = wr.run(scene, device="cpu", client=client)
+    assert [(p.start, p.stop) for p in parts] == [(0, 262144), (262144, 524288), (524288, 786432), (786432, 900000)]
+    assert sum(p.reused for p in parts) >= len(parts) - 2  # each of the 2 workers made one stage at most
+    assert set(client.run(lambda: tasks.Kept.entry is None).values()) == {True}
+    assert stats_equal(dict(ref), dict(got))
+    np.testing.assert_array_equal(ref.tally.flat(), got.tally.flat())
+
+
 @pytest.mark.parametrize("collisions", [False, True], ids=["plain", "collisions"])
 def test_a_stage_kept_for_a_runs_next_task_gives_the_bits_of_a_new_one_and_no_other_run_gets_it(collisions):
     """A worker's tasks of one run, the last first (a retried task comes late), on the stage the

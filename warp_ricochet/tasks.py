@@ -52,6 +52,24 @@ def unit_of(scene) -> int:
     return SEGMENT
 
 
+def chunk_of(scene, device, fields=()) -> int:
+    """Pellets of one chunk of `scene`'s serial run on `device` (a worker's, `cluster.RemoteDevice`:
+    its kind and free memory), writing `fields` (`chunks.plan_rows`, `chunks.plan_shots`)."""
+    from .chunks import plan_rows, plan_shots
+
+    if scene.pair_collisions:
+        return plan_shots(scene, device, scene.shot.shots) * scene.shot.count
+    return plan_rows(scene, device, scene.shot.pellets, fields)
+
+
+def task_size(pellets: int, workers: int, per_worker: int, chunk: int) -> int:
+    """Pellets a task of a run of `pellets` on `workers`: `per_worker` tasks a worker, but none
+    smaller than one `chunk` of the serial run's unless a worker's share is (a stretch shorter than
+    a chunk pays a chunk's fixed costs for less of its work)."""
+    pellets = max(pellets, 1)
+    return max(-(-pellets // (per_worker * workers)), min(chunk, -(-pellets // workers)))
+
+
 def task_bounds(begin: int, end: int, unit: int, size: int) -> list[tuple[int, int]]:
     """[start, stop) stretches of at most `size` pellets (rounded up to whole `unit`s) from `begin`
     (a stretch's start) to `end`: every start is `begin` plus whole units."""
