@@ -233,7 +233,7 @@ class Study:
             self.cancel()
             raise
         if not self.futures:  # the study's last run: the workers' kept stages freed (`tasks.Kept`)
-            self.client.run(release)
+            self.client.run(release, on_error="ignore")  # (a worker gone meanwhile frees its own)
         from .tallies.ensemble import has_ensemble, pieces_per_shot
 
         shot_pieces = pieces_per_shot(scene.shot.count) if has_ensemble(scene) else None
