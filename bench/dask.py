@@ -1,7 +1,7 @@
 """Studies on Dask (issue 29, docs/cluster.md): what going through a cluster costs and gains.
 
     python -m bench.dask sweep [--points 16] [--shots 40] [--workers 2] [--device cpu] [--repeats 3]
-    python -m bench.dask overhead [--study statistics|collisions] [--pellets N] [--shots N] [--device cuda:0]
+    python -m bench.dask overhead [--study statistics|collisions] [--pellets N] [--shots N] [--split 4] [--device cuda:0]
 
 `sweep`: a sweep of `--points` values of mu_s (the paper's scene, `--shots` shots of 450 pellets a
 point, statistics only) run serially, then on a local cluster of `--workers` single-threaded
@@ -11,9 +11,10 @@ empty tasks, and the sweep's time against its tasks' own (each task times itself
 
 `overhead`: one run on a cluster of one worker against the same run direct in this process (the
 issue's 5% goal on one GPU): `statistics`, `--pellets` pellets statistics-only (1e9 on a GPU), or
-`collisions`, `--shots` shots of 450 pellets with pair collisions (10,000 on a GPU). The cluster
-runs first and is closed before this process touches Warp's device (a CUDA context made before it
-would put its worker on GPU 0).
+`collisions`, `--shots` shots of 450 pellets with pair collisions (10,000 on a GPU); the tasks the
+cluster's run was cut into; and the direct run in the chunks of `--split` tasks' stretches (the
+cost of cutting a run, without Dask). The cluster runs first and is closed before this process
+touches Warp's device (a CUDA context made before it would put its worker on GPU 0).
 """
 
 from __future__ import annotations
@@ -141,23 +142,42 @@ def cmd_sweep(args) -> None:
 
 
 def cmd_overhead(args) -> None:
+    import dataclasses
     import warnings
 
     import warp_ricochet as wr
+    from warp_ricochet import cluster as cl
+    from warp_ricochet import tasks
 
     warnings.simplefilter("ignore")
     if args.study == "collisions":
         scene = paper_scene(args.shots, collisions=True, air=args.air)
     else:
         scene = paper_scene(0, pellets=args.pellets, air=args.air)
+    seen: list[tuple] = []  # the last run's tasks (start, stop)
+    real = cl.Study.result
+
+    def result(self, future):
+        part = real(self, future)
+        seen.append((part.start, part.stop))
+        return part
+
     local, client = _cluster(1, args.device)
     with local, client:
-        on_cluster, got = _timed(lambda: wr.run(scene, device=args.device, client=client), args.repeats)
+        cl.Study.result = result
+        on_cluster, got = _timed(lambda: (seen.clear(), wr.run(scene, device=args.device, client=client))[1], args.repeats)
+        cl.Study.result = real
     direct, ref = _timed(lambda: wr.run(scene, device=args.device), args.repeats)
     print(f"device {args.device}; {args.study}: {scene.shot.pellets:,} pellets ({scene.shot.shots:,} shots)")
     print(f"direct           {direct:8.3f} s")
-    print(f"1-worker cluster {on_cluster:8.3f} s  overhead {100 * (on_cluster / direct - 1):+.1f}%")
+    print(f"1-worker cluster {on_cluster:8.3f} s  overhead {100 * (on_cluster / direct - 1):+.1f}%, {len(seen)} task(s) {seen}")
     print(f"bitwise equal    {_same(dict(ref), dict(got))}")
+    if args.split > 1:  # the serial run in the chunks of `split` tasks: what cutting a run costs without Dask
+        unit = tasks.unit_of(scene)
+        size = tasks.task_bounds(0, scene.shot.pellets, unit, -(-scene.shot.pellets // args.split))[0][1]
+        cut = scene.replace(numerics=dataclasses.replace(scene.numerics, chunk_size=size))
+        split, _ = _timed(lambda: wr.run(cut, device=args.device), args.repeats)
+        print(f"direct, chunks of {size:,} ({args.split} tasks' stretches) {split:8.3f} s  {100 * (split / direct - 1):+.1f}%")
 
 
 def main(argv=None) -> None:
@@ -181,6 +201,7 @@ def main(argv=None) -> None:
     o.add_argument("--air", action="store_true", help="in sea-level air")
     o.add_argument("--device", default="cpu")
     o.add_argument("--repeats", type=int, default=3)
+    o.add_argument("--split", type=int, default=4, help="also time the direct run in the chunks of this many tasks (0: not)")
     o.set_defaults(func=cmd_overhead)
     args = p.parse_args(argv)
     if getattr(args, "pellets", None) is not None:

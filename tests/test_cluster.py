@@ -3,6 +3,7 @@
 /progress partials, landing tallies and hazard map, for runs without and with pellet-pellet
 collisions, a sweep, and a run whose worker is killed in the middle of a task."""
 
+import dataclasses
 import gc
 import os
 
@@ -13,7 +14,7 @@ from distributed import Client, LocalCluster
 from helpers import assert_same_run, cli, make_scene, paper_raw, stats_equal
 
 import warp_ricochet as wr
-from warp_ricochet import cluster
+from warp_ricochet import cluster, tasks
 from warp_ricochet.scene import scene_from_dict
 
 
@@ -110,6 +111,65 @@ def test_a_worker_killed_mid_task_costs_a_retry_not_the_run(tmp_path, client, mo
     assert marker.exists()  # a worker was killed
     assert stats_equal(dict(ref), dict(got))
     np.testing.assert_array_equal(ref.tally.flat(), got.tally.flat())
+
+
+def test_a_run_is_cut_into_whole_chunks_whose_stages_its_workers_keep_and_free(client, monkeypatch):
+    """Tasks of at least one serial chunk (not TASKS_PER_WORKER a worker, each a share of one), each
+    worker's stage kept from task to task and freed at the end; the serial run's bits."""
+    monkeypatch.setattr(cluster, "TASKS_PER_WORKER", 4)
+    scene = scene_of(shots=2000)  # 900,000 pellets
+    scene = scene.replace(numerics=dataclasses.replace(scene.numerics, chunk_size=1 << 18))
+    ref = wr.run(scene, device="cpu")
+    real_range, real_result, parts = cluster.run_range, cluster.Study.result, []
+
+    def noting(scene, device, start, stop, options=None, shards=None):
+        from warp_ricochet.tasks import Kept
+
+        before = Kept.entry
+        part = real_range(scene, device, start, stop, options, shards)
+        part.reused = before is not None and Kept.entry[2] is before[2]
+        return part
+
+    monkeypatch.setattr(cluster, "run_range", noting)
+    monkeypatch.setattr(cluster.Study, "result", lambda self, f: parts.append(real_result(self, f)) or parts[-1])
+    got = wr.run(scene, device="cpu", client=client)
+    assert [(p.start, p.stop) for p in parts] == [(0, 262144), (262144, 524288), (524288, 786432), (786432, 900000)]
+    assert sum(p.reused for p in parts) >= len(parts) - 2  # each of the 2 workers made one stage at most
+    assert set(client.run(lambda: tasks.Kept.entry is None).values()) == {True}
+    assert stats_equal(dict(ref), dict(got))
+    np.testing.assert_array_equal(ref.tally.flat(), got.tally.flat())
+
+
+@pytest.mark.parametrize("collisions", [False, True], ids=["plain", "collisions"])
+def test_a_stage_kept_for_a_runs_next_task_gives_the_bits_of_a_new_one_and_no_other_run_gets_it(collisions):
+    """A worker's tasks of one run, the last first (a retried task comes late), on the stage the
+    first made: the bits of a stage each; a task of another scene makes its own."""
+    if collisions:  # 63,000 pellets: 2 tasks, a granule of 2048 shots and 52 shots
+        scene = scene_of(count=30, shots=2100, collisions={"enabled": True, "time_step": 5e-4, "rounds": 1})
+    else:  # 135,000 pellets: 3 tasks of a segment, or less
+        scene = scene_of(shots=300)
+    other = scene.replace(surfaces=(dataclasses.replace(scene.surfaces[0], mu_s=0.3),))
+    bounds = tasks.task_bounds(0, scene.shot.pellets, tasks.unit_of(scene), tasks.unit_of(scene))
+    fresh = []
+    for a, b in bounds:
+        tasks.release()
+        fresh.append(tasks.run_range(scene, "cpu", a, b))
+    kept, stages = [], []
+    for a, b in reversed(bounds):
+        kept.insert(0, tasks.run_range(scene, "cpu", a, b))
+        stages.append(tasks.Kept.entry[2])
+    assert len(bounds) > 1 and all(stage is stages[0] for stage in stages)
+    theirs = tasks.run_range(other, "cpu", *bounds[-1])
+    assert tasks.Kept.entry[2] is not stages[0]
+    tasks.release()
+    assert tasks.Kept.entry is None
+    pairs = [*zip(fresh, kept), (tasks.run_range(other, "cpu", *bounds[-1]), theirs)]
+    for new, old in pairs:
+        for name in ("segment_results", "shot_totals", "shot_partials"):
+            a, b = getattr(new, name), getattr(old, name)
+            assert (a is None) == (b is None) and (a is None or a.tobytes() == b.tobytes()), name
+        assert all(x.tobytes() == y.tobytes() for x, y in zip(new.tally, old.tally))
+    assert fresh[-1].tally[1].tobytes() != theirs.tally[1].tobytes()  # (another scene: other results)
 
 
 def test_a_scheduler_that_cannot_be_reached_is_one_line_before_any_work(tmp_path, monkeypatch):

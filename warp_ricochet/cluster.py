@@ -16,18 +16,17 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import logging
-import math
 import re
 
 import numpy as np
 
 from . import interrupts
 from .errors import SceneError
-from .tasks import Partial, describe_device, run_range, task_bounds, unit_of
+from .tasks import Partial, chunk_of, describe_device, release, run_range, task_bounds, task_size, unit_of
 
 log = logging.getLogger(__name__)
 
-TASKS_PER_WORKER = 4  # stretches a run is cut into, per worker (a killed worker's task is redone)
+TASKS_PER_WORKER = 4  # stretches a run is cut into, per worker (a killed worker's task is redone), each a chunk at least
 CONNECT_TIMEOUT = "10s"  # how long a scheduler is given to answer
 NO_DASK_CUDA = "one worker a GPU needs dask-cuda (pip install 'warp-ricochet[dask-cuda]')"
 NO_FIELDS = (
@@ -182,7 +181,8 @@ class Study:
         from .bound import BoundPlan, planned
 
         plan, work = BoundPlan.of(scene), planned(scene)
-        size = math.ceil(max(work.shot.pellets - done, 1) / (TASKS_PER_WORKER * workers_of(self.client)))
+        chunk = chunk_of(work, self.remote, work.output.fields if shards is not None else ())
+        size = task_size(work.shot.pellets - done, workers_of(self.client), TASKS_PER_WORKER, chunk)
         job = {"scene": work, "plan": plan, "size": size, "unit": unit_of(work), "submitted": {}, "bounds": []}
         self.total += work.shot.pellets - done
         if plan is None:
@@ -232,6 +232,8 @@ class Study:
         except BaseException:
             self.cancel()
             raise
+        if not self.futures:  # the study's last run: the workers' kept stages freed (`tasks.Kept`)
+            self.client.run(release, on_error="ignore")  # (a worker gone meanwhile frees its own)
         from .tallies.ensemble import has_ensemble, pieces_per_shot
 
         shot_pieces = pieces_per_shot(scene.shot.count) if has_ensemble(scene) else None
