@@ -385,15 +385,18 @@ def test_per_pellet_fields_of_a_sweep_on_a_cluster_are_its_points_shards_read_as
 
 
 def test_an_interrupted_sweep_with_shards_resumes_from_its_committed_shards(tmp_path, client, monkeypatch):
-    """Ctrl-C at point 1's second task: --resume on the cluster keeps point 0 and point 1's first
-    shard (not computed again) and gives the serial sweep's fields."""
+    """Ctrl-C at point 0's second task: --resume on the cluster keeps point 0's first shard (not
+    computed again), runs point 1 again (the shards its tasks wrote ahead removed first) and gives
+    the serial sweep's fields; without a cluster it is refused before any work."""
     serial, out = tmp_path / "serial.h5", tmp_path / "out.h5"
     sweep_with_fields(serial)
-    assert interrupt_at_task(monkeypatch, 4, lambda: sweep_with_fields(out, client)) == [65536, 1964, 65536, 1964]
-    first = tmp_path / "out.h5.shards" / "0001" / "rows-000000000000-000000065536.h5"
+    assert interrupt_at_task(monkeypatch, 2, lambda: sweep_with_fields(out, client)) == [65536, 1964]
+    first = out.parent / "out.h5.shards" / "0000" / "rows-000000000000-000000065536.h5"
     written = first.stat().st_mtime_ns
+    (out.parent / "out.h5.shards" / "0001").mkdir(exist_ok=True)
+    (out.parent / "out.h5.shards" / "0001" / "stale.h5").touch()
     with pytest.raises(wr.SceneError, match="--resume = 'without a cluster': the run was begun on one"):
         sweep_with_fields(out, resume=True)  # (before any work)
     sweep_with_fields(out, client, resume=True)
-    assert first.stat().st_mtime_ns == written
+    assert first.stat().st_mtime_ns == written and not (out.parent / "out.h5.shards" / "0001" / "stale.h5").exists()
     assert_same_sweep_fields(out, serial)
