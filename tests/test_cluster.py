@@ -5,6 +5,7 @@ collisions, a sweep, and a run whose worker is killed in the middle of a task.""
 
 import dataclasses
 import gc
+import importlib.util
 import os
 
 import h5py
@@ -201,34 +202,41 @@ def test_a_bounded_station_run_on_a_cluster_stops_at_the_serial_check_with_its_b
         np.testing.assert_array_equal(part.tally.flat(), got.stations[name].tally.flat())
 
 
-def test_per_pellet_fields_of_a_sweep_on_a_cluster_are_refused_in_one_line_before_any_work(tmp_path):
+def test_per_pellet_fields_of_a_bounded_sweep_on_a_cluster_are_refused_in_one_line_before_any_work(tmp_path, client):
+    from test_station_bound import bounded_raw
+
+    raw = bounded_raw()
+    raw["output"] = {"fields": ["landing"]}
     out = tmp_path / "sweep.h5"
-    argv = ["sweep", "examples/paper.toml", "--param", "surfaces.0.mu_s=0.3,0.5", "--tie", "surfaces.0.mu_d=0.9*"]
-    rc, _stdout, stderr = cli([*argv, "--cluster", "local:1", "-o", out])
-    assert rc == 2 and len(stderr.strip().splitlines()) == 1, stderr
-    assert stderr.startswith("warp-ricochet: error: output.fields = ['initial.position'")
-    assert cluster.NO_FIELDS.format("a sweep") in stderr and "Dask dashboard" not in stderr  # (no cluster started)
-    assert not out.exists() and not os.path.exists(str(out) + ".partial")
+    with pytest.raises(wr.SceneError, match="output.fields = .*" + cluster.NO_FIELDS.replace("(", ".").replace(")", ".")):
+        wr.sweep(make_scene(raw), {"shot.seed": [1, 2]}, output=out, device="cpu", client=client)
+    assert not out.exists() and not os.path.exists(str(out) + ".partial") and not os.path.exists(str(out) + ".shards")
 
 
-def interrupt_at_the_second_task(monkeypatch, scene, out, client) -> int:
-    """Run `scene` to `out` on the cluster, Ctrl-C when the second task's results reach the writer
-    (before they are written); returns the rows of the first, committed."""
+def interrupt_at_task(monkeypatch, number, start) -> list:
+    """Call `start`, Ctrl-C when the `number`th task's results reach a writer (before they are
+    written); returns the rows of every task that reached one."""
     from warp_ricochet.io.writer import RunWriter
 
     real, calls = RunWriter.append, []
 
     def append(self, *args, **kw):
         calls.append(args[1])
-        if len(calls) == 2:
+        if len(calls) == number:
             raise KeyboardInterrupt
         return real(self, *args, **kw)
 
     monkeypatch.setattr(RunWriter, "append", append)
     with pytest.raises(KeyboardInterrupt):
-        wr.run(scene, out, device="cpu", client=client)
+        start()
     monkeypatch.setattr(RunWriter, "append", real)
-    return calls[0]
+    return calls
+
+
+def interrupt_at_the_second_task(monkeypatch, scene, out, client) -> int:
+    """Run `scene` to `out` on the cluster, Ctrl-C when the second task's results reach the writer
+    (before they are written); returns the rows of the first, committed."""
+    return interrupt_at_task(monkeypatch, 2, lambda: wr.run(scene, out, device="cpu", client=client))[0]
 
 
 def test_an_interrupted_run_on_a_cluster_resumes_bitwise(tmp_path, client, monkeypatch):
@@ -313,3 +321,82 @@ def test_a_local_cluster_of_gpus_without_dask_cuda_is_one_line(tmp_path):
         "warp-ricochet: error: --cluster = 'local:2': one worker a GPU needs dask-cuda "
         "(pip install 'warp-ricochet[dask-cuda]'), or --device cpu"
     ]
+
+
+def sweep_with_fields(out, client=None, **kw):
+    """A 2-point sweep of 67,500 pellets a point with per-pellet fields: on a cluster 2 tasks a
+    point, of 65,536 and 1,964 rows (a shard each)."""
+    scene = scene_of(shots=150, fields=FIELDS)
+    ties = [("surfaces.0.mu_d", 0.9, "surfaces.0.mu_s")]
+    return wr.sweep(scene, {"surfaces.0.mu_s": [0.2, 0.5]}, ties, out, device="cpu", client=client, **kw)
+
+
+def assert_same_sweep_fields(out, serial):
+    with h5py.File(out) as a, h5py.File(serial) as b:
+        for i in range(2):
+            for name in FIELD_PATHS:
+                x, y = a[f"runs/{i:04d}/pellets/{name}"], b[f"runs/{i:04d}/pellets/{name}"]
+                assert x.is_virtual and not y.is_virtual and x.dtype == y.dtype
+                np.testing.assert_array_equal(x[()], y[()], err_msg=f"{i} {name}")
+
+
+def test_per_pellet_fields_of_a_sweep_on_a_cluster_are_its_points_shards_read_as_the_serial_sweeps(tmp_path, client, monkeypatch):
+    """Each point's run file, and its /runs/NNNN in the sweep file, presents its fields as virtual
+    datasets over its shards (OUT.h5.shards/NNNN/), bitwise the serial sweep's through h5py,
+    open_run and the XDMF sidecar; a missing shard of one point is refused in one line by the
+    readers; an OUT.h5.shards there already, before any work."""
+    serial, out = tmp_path / "serial.h5", tmp_path / "out.h5"
+    ref = sweep_with_fields(serial)
+    real, cut = cluster.Study._submit, []
+    monkeypatch.setattr(
+        cluster.Study, "_submit", lambda self, sc, bounds, shards=None: cut.extend(bounds) or real(self, sc, bounds, shards)
+    )
+    got = sweep_with_fields(out, client)
+    assert cut == [(0, 65536), (65536, 67500)] * 2  # every point's tasks, submitted once (ahead)
+    assert all(stats_equal(dict(a), dict(b)) for (_, a), (_, b) in zip(ref, got))
+    assert_same_sweep_fields(out, serial)
+    shards = tmp_path / "out.h5.shards"
+    with h5py.File(out) as f:
+        assert [m.file_name for m in f["runs/0001/pellets/landing/position"].virtual_sources()] == [
+            str(shards / "0001" / f"rows-{a:012d}-{b:012d}.h5") for a, b in ((0, 65536), (65536, 67500))
+        ]
+    for i in range(2):
+        with wr.open_run(out, point=i) as run, h5py.File(serial) as f:
+            np.testing.assert_array_equal(run.landing.position.values, f[f"runs/{i:04d}/pellets/landing/position"][()])
+    gc.collect()  # (an open dataset keeps its sources open)
+    gone = shards / "0001" / "rows-000000065536-000000067500.h5"
+    gone.rename(tmp_path / "moved.h5")
+    with pytest.raises(wr.OutputError, match="runs/0001/pellets/initial/position over a shard that is missing, .*0001/rows-0"):
+        wr.open_run(out, point=0)  # (the file is checked whole: any point's missing shard)
+    rc, _stdout, stderr = cli(["report", out])
+    assert rc == 2 and len(stderr.strip().splitlines()) == 1 and str(gone) in stderr, stderr
+    (tmp_path / "moved.h5").rename(gone)
+    if importlib.util.find_spec("vtk") is not None:  # the sweep's XDMF sidecar reads them too
+        from test_xdmf import _check_clouds, _read
+
+        blocks, _steps = _read(tmp_path / "out.xmf")
+        with h5py.File(out) as f:
+            for point in ("0000", "0001"):
+                _check_clouds(blocks, f[f"runs/{point}"], suffix=f" point_{point}")
+    (tmp_path / "new.h5.shards").mkdir()
+    with pytest.raises(wr.OutputError, match="new.h5.shards' exists; --overwrite replaces it"):  # (before any work)
+        sweep_with_fields(tmp_path / "new.h5", client)
+    assert not os.path.exists(tmp_path / "new.h5.partial")
+
+
+def test_an_interrupted_sweep_with_shards_resumes_from_its_committed_shards(tmp_path, client, monkeypatch):
+    """Ctrl-C at point 0's second task: --resume on the cluster keeps point 0's first shard (not
+    computed again), runs point 1 again (the shards its tasks wrote ahead removed first) and gives
+    the serial sweep's fields; without a cluster it is refused before any work."""
+    serial, out = tmp_path / "serial.h5", tmp_path / "out.h5"
+    sweep_with_fields(serial)
+    assert interrupt_at_task(monkeypatch, 2, lambda: sweep_with_fields(out, client)) == [65536, 1964]
+    first = out.parent / "out.h5.shards" / "0000" / "rows-000000000000-000000065536.h5"
+    written = first.stat().st_mtime_ns
+    (out.parent / "out.h5.shards" / "0001").mkdir(exist_ok=True)
+    (out.parent / "out.h5.shards" / "0001" / "stale.h5").touch()
+    with pytest.raises(wr.SceneError, match="--resume = 'without a cluster': the run was begun on one"):
+        sweep_with_fields(out, resume=True)  # (before any work)
+    sweep_with_fields(out, client, resume=True)
+    assert first.stat().st_mtime_ns == written and not (out.parent / "out.h5.shards" / "0001" / "stale.h5").exists()
+    assert_same_sweep_fields(out, serial)

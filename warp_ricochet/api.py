@@ -29,6 +29,7 @@ from .errors import OutputError, PrecisionWarning, SceneError, SceneWarning  # n
 from .fields import REST_FIELDS, bytes_per_pellet
 from .io import resume, sweepdir
 from .io.runfile import OutputFile, check_output_path, check_resume_path, output_target
+from .io.shards import folder_of as shards_of
 from .io.space import check_space
 from .io.writer import RunWriter
 from .model import Model
@@ -285,6 +286,7 @@ def run(
     dense_options=None,
     sidecar=True,
     client=None,
+    _shards=None,
 ) -> dict:
     """Run a scene (a `Scene` or a TOML path); write HDF5 to `output` (or the scene's
     `output.path`) when given. Returns the statistics (SI units, see `tallies.sums.STAT_UNITS`).
@@ -294,7 +296,8 @@ def run(
     (`interrupts`), the completed chunks kept in OUTPUT.partial. `sidecar`: write OUTPUT.xmf (XDMF,
     for ParaView) when the run is published (a sweep's points do not: the sweep file gets one).
     `client`: a `distributed.Client`, the run's stretches computed on its workers and folded here,
-    bitwise as a serial run on their kind of device (`cluster`, docs/cluster.md)."""
+    bitwise as a serial run on their kind of device (`cluster`, docs/cluster.md). `_shards`: the
+    folder of the shards of a sweep's point, readied by `sweep` (default OUT.h5.shards, checked)."""
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
     output = output if output is not None else scene.output.path
@@ -321,10 +324,10 @@ def run(
         )
     if output is not None:
         check_output_path(output, overwrite)  # before any work
-    folder = None if study is None or output is None or not scene.output.fields else shard_folder(output, overwrite)
+    folder = None if study is None or output is None or not scene.output.fields else _shards or shard_folder(output, overwrite)
     dev = resolve_device(device) if study is None else study.remote
     check_resources([scene], dev, output)
-    if folder is not None and folder.exists():  # (--overwrite: the old run's shards)
+    if folder is not None and _shards is None and folder.exists():  # (--overwrite: the old run's shards)
         shutil.rmtree(folder)
     if output is None:
         return _run_one(scene, dev, progress=progress, dense_options=dense_options, study=study)
@@ -374,9 +377,7 @@ def _resume(scene, output, device, *, overwrite, progress, dense_options, sideca
 def shard_folder(output, overwrite: bool):
     """The shards' folder of a run on a cluster with per-pellet fields (`io.shards`): one there
     already is refused without `overwrite` (one line, before any work)."""
-    from .io.shards import folder_of
-
-    folder = folder_of(output)
+    folder = shards_of(output)
     if (folder.exists() or folder.is_symlink()) and not overwrite:
         raise OutputError(
             f"output path = {os.fspath(output)!r}: its shards' folder {str(folder)!r} exists; --overwrite replaces it"
@@ -449,7 +450,8 @@ def sweep(
     the file holds them and their results; without, each point's `stats.summary` holds their
     results (`tallies.quantiles.summarize`, arrays as lists) but the map's, which only a sweep file
     keeps. `client`: a `distributed.Client`, every point's stretches submitted at once to its
-    workers (`run`'s `client`), one progress for the whole sweep."""
+    workers (`run`'s `client`), one progress for the whole sweep; per-pellet fields then go to
+    shards, OUT.h5.shards/NNNN/ a point's, that its /runs/NNNN reads as virtual datasets."""
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
     output = output if output is not None else scene.output.path
@@ -462,7 +464,7 @@ def sweep(
     if output is not None:
         _numbers_only(points)
     for sc in scenes if study is not None else ():
-        study.check(sc, output, sweep=True)  # before any work
+        study.check(sc, output)  # before any work
     if output is None:
         dev = resolve_device(device) if study is None else study.remote
         check_resources(scenes, dev, None)
@@ -480,18 +482,31 @@ def sweep(
     path = output_target(output) if resume else check_output_path(output, overwrite)  # before any work
     dev = resolve_device(device) if study is None else study.remote
     manifest = sweepdir.make_manifest(scene.to_toml(), points, dev)
+    # on a cluster, per-pellet fields in shards: OUT.h5.shards/NNNN/ a point's, named by absolute path
+    # in the virtual datasets of its run file, and so of /runs/NNNN in the sweep file (`io.shards`)
+    sharded = study is not None and any(sc.output.fields for sc in scenes)
     if resume:
         folder = sweepdir.SweepFolder(path, manifest, resume=True, overwrite=overwrite)  # refuses, changing nothing
         with _sweep_kept(folder, close=False):
             check_resources([sc for i, sc in enumerate(scenes) if not folder.point(i).exists()], dev, output, copies=2)
+            _check_partials(folder, scenes, study is not None)
+        shards = shards_of(path) if sharded else None
     else:
         check_resources(scenes, dev, output, copies=2)
+        shards = shard_folder(path, overwrite) if sharded else None  # (one there refused without --overwrite)
         folder = sweepdir.SweepFolder(path, manifest, resume=False, overwrite=overwrite)
+        if shards is not None and shards.exists():  # (--overwrite: the old sweep's shards)
+            shutil.rmtree(shards)
     with _sweep_kept(folder):
         results = []
         for i, sc in enumerate(scenes if study is not None else ()):  # every point not begun, submitted at once
-            if not folder.point(i).exists() and not Path(str(folder.point(i)) + ".partial").exists():
-                study.submit(sc, ahead=True)
+            point_shards = None if shards is None else shards / sweepdir.point_name(i)
+            if _begun(folder, i):
+                continue
+            if point_shards is not None and point_shards.exists():  # an interrupted sweep's, its point not begun
+                shutil.rmtree(point_shards)
+            if not Path(str(folder.point(i)) + ".partial").exists():
+                study.submit(sc, ahead=True, shards=point_shards)
         for i, sc in enumerate(scenes):
             point_path, step = folder.point(i), _point_progress(progress, i, len(scenes))
             partial = Path(str(point_path) + ".partial")
@@ -510,6 +525,7 @@ def sweep(
                         resume=partial.exists(),
                         sidecar=False,
                         client=study,
+                        _shards=None if shards is None else shards / sweepdir.point_name(i),
                     ),
                     summary=False,
                 )
@@ -524,6 +540,24 @@ def sweep(
             precision=scene.numerics.precision,
         )
     return results
+
+
+def _begun(folder, index: int) -> bool:
+    """Whether point `index` of a sweep's folder is complete, or resumable (`sweepdir.resumable_point`)."""
+    partial = Path(str(folder.point(index)) + ".partial")
+    return folder.point(index).exists() or partial.exists() and sweepdir.resumable_point(partial)
+
+
+def _check_partials(folder, scenes, on_cluster: bool) -> None:
+    """Before any work: every interrupted point resumes as it was begun, on a cluster or not, when
+    its fields are in shards or in its file (`resumed_shards`, one line)."""
+    from .io.h5open import open_for_reading
+
+    for i, sc in enumerate(scenes):
+        partial = Path(str(folder.point(i)) + ".partial")
+        if not folder.point(i).exists() and partial.exists() and sweepdir.resumable_point(partial):
+            with open_for_reading(partial, locking=False) as f:
+                resumed_shards(f, sc, on_cluster)
 
 
 def _numbers_only(points) -> None:

@@ -320,7 +320,7 @@ def _device_name(api, name, client=None) -> str:
     return str(api.resolve_device(name))
 
 
-def _client(args, scene=None, sweep=False):
+def _client(args, scene=None):
     """The Dask client of --cluster or --scheduler (its dashboard's address on stderr), before any
     work and before Warp starts here; a null context without them."""
     if args.cluster is None and args.scheduler is None:
@@ -328,7 +328,7 @@ def _client(args, scene=None, sweep=False):
     from .cluster import refuse, session
 
     if scene is not None:  # (a sweep's points are checked by `api.sweep`, before any work too)
-        refuse(scene, args.output if args.output is not None else scene.output.path, sweep)
+        refuse(scene, args.output if args.output is not None else scene.output.path)
 
     return session(args.cluster, args.scheduler, args.device, announce=None if args.quiet else sys.stderr)
 
@@ -372,7 +372,7 @@ def cmd_sweep(args) -> int:
     ties = [parse_tie(spec) for spec in args.ties]
     from . import api
 
-    with _client(args, scene, sweep=True) as client, ProgressBar("sweep", enabled=False if args.quiet else None) as bar:
+    with _client(args, scene) as client, ProgressBar("sweep", enabled=False if args.quiet else None) as bar:
         results = api.sweep(
             scene,
             params,

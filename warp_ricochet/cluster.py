@@ -30,7 +30,7 @@ TASKS_PER_WORKER = 4  # stretches a run is cut into, per worker (a killed worker
 CONNECT_TIMEOUT = "10s"  # how long a scheduler is given to answer
 NO_DASK_CUDA = "one worker a GPU needs dask-cuda (pip install 'warp-ricochet[dask-cuda]')"
 NO_FIELDS = (
-    "per-pellet fields of {} are not written from a cluster yet (docs/cluster.md); "
+    "per-pellet fields of a bounded run are not written from a cluster yet (docs/cluster.md); "
     "drop output.fields or run without --cluster/--scheduler"
 )
 
@@ -49,13 +49,13 @@ class RemoteDevice:
         return self.alias
 
 
-def refuse(scene, output=None, sweep=False) -> None:
-    """Refuse in one line what a cluster does not run yet: per-pellet fields of a sweep or of a
-    bounded run, or H5MD frames, written to `output` (without an output none is computed)."""
+def refuse(scene, output=None) -> None:
+    """Refuse in one line what a cluster does not run yet: per-pellet fields of a bounded run, or
+    H5MD frames, written to `output` (without an output none is computed)."""
     if output is None:
         return
-    if scene.output.fields and (sweep or scene.hazard is not None and scene.hazard.bound is not None):
-        raise SceneError("output.fields", list(scene.output.fields), NO_FIELDS.format("a sweep" if sweep else "a bounded run"))
+    if scene.output.fields and scene.hazard is not None and scene.hazard.bound is not None:
+        raise SceneError("output.fields", list(scene.output.fields), NO_FIELDS)
     if scene.pair_collisions and scene.collisions.frame_every:
         raise SceneError("collisions.frame_every", scene.collisions.frame_every, "must be 0 on a cluster (H5MD frames)")
 
@@ -156,13 +156,14 @@ class Study:
 
         return dataclasses.replace(Model.from_scene(scene, resolve_device("cpu")), device=self.remote)
 
-    def check(self, scene, output=None, sweep=False) -> None:
+    def check(self, scene, output=None) -> None:
         """`refuse`, before any work."""
-        refuse(scene, output, sweep)
+        refuse(scene, output)
 
     def take(self, scene, done: int = 0, shards=None, bounds=None) -> dict:
-        """The job of `scene` submitted ahead (a sweep's points), else `submit`ted now."""
-        job = self.pending.pop(scene.to_toml(), None) if not done and shards is None else None
+        """The job of `scene` (and shards' folder) submitted ahead (a sweep's points), else
+        `submit`ted now."""
+        job = self.pending.pop(_ahead(scene, shards), None) if not done and bounds is None else None
         return job if job is not None else self.submit(scene, done, shards=shards, bounds=bounds)
 
     def _submit(self, scene, bounds, shards=None) -> list:
@@ -193,7 +194,7 @@ class Study:
                 job["bounds"] += cut
                 job["submitted"][stop] = self._submit(work, cut, shards)
         if ahead:
-            self.pending[scene.to_toml()] = job
+            self.pending[_ahead(scene, shards)] = job
         return job
 
     def result(self, future) -> Partial:
@@ -238,6 +239,11 @@ class Study:
 
         shot_pieces = pieces_per_shot(scene.shot.count) if has_ensemble(scene) else None
         return results(scene, model, spec, folded, fold, layout, shot_pieces)
+
+
+def _ahead(scene, shards) -> tuple:
+    """What a job submitted ahead is kept under: its scene and its shards' folder."""
+    return scene.to_toml(), None if shards is None else str(shards)
 
 
 def _stretches(scene, done: int):
