@@ -323,6 +323,28 @@ def test_a_local_cluster_of_gpus_without_dask_cuda_is_one_line(tmp_path):
     ]
 
 
+def test_one_local_worker_on_cuda_needs_no_dask_cuda_and_a_workers_error_is_one_line(tmp_path):
+    """`--cluster local:1 --device cuda` is one plain worker process (it computes on cuda:0, as a
+    direct run does); where there is no GPU, the worker's error reaches the user as the one line a
+    direct run prints, without the worker's log and traceback."""
+    try:
+        import dask_cuda  # noqa: F401
+    except ImportError:
+        pass
+    else:
+        pytest.skip("dask-cuda is installed here")
+    import warp as wp
+
+    if wp.is_cuda_available():
+        pytest.skip("a GPU is here")
+    rc, _stdout, stderr = cli(
+        ["run", "examples/paper.toml", "--set", "output.fields=[]", "--cluster", "local:1", "--device", "cuda"]
+    )
+    lines = [line for line in stderr.strip().splitlines() if not line.startswith("Dask dashboard: ")]
+    assert rc == 2 and len(lines) == 1, stderr
+    assert lines[0].startswith("warp-ricochet: error: device = 'cuda': not available here"), stderr
+
+
 def sweep_with_fields(out, client=None, **kw):
     """A 2-point sweep of 67,500 pellets a point with per-pellet fields: on a cluster 2 tasks a
     point, of 65,536 and 1,964 rows (a shard each)."""

@@ -28,6 +28,7 @@ log = logging.getLogger(__name__)
 
 TASKS_PER_WORKER = 4  # stretches a run is cut into, per worker (a killed worker's task is redone), each a chunk at least
 CONNECT_TIMEOUT = "10s"  # how long a scheduler is given to answer
+QUIET = logging.CRITICAL  # a local cluster's own logs: a task's error reaches the user as one line, not the worker's traceback
 NO_DASK_CUDA = "one worker a GPU needs dask-cuda (pip install 'warp-ricochet[dask-cuda]')"
 NO_FIELDS = (
     "per-pellet fields of a bounded run are not written from a cluster yet (docs/cluster.md); "
@@ -99,14 +100,19 @@ def session(cluster=None, scheduler=None, device=None, announce=None):
     with contextlib.ExitStack() as stack:
         if cluster is not None:
             workers = parse_cluster(cluster)
+            local = None
             if _cuda_wanted(device):
                 try:
                     from dask_cuda import LocalCUDACluster  # (imported only here: CI has no GPU)
                 except ImportError:
-                    raise SceneError("--cluster", cluster, f"{NO_DASK_CUDA}, or --device cpu") from None
-                local = LocalCUDACluster(n_workers=workers, threads_per_worker=1, dashboard_address=":0")
-            else:
-                local = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0")
+                    if workers > 1:  # (one plain worker process computes on cuda:0, as a direct run does)
+                        raise SceneError("--cluster", cluster, f"{NO_DASK_CUDA}, or --device cpu") from None
+                else:
+                    local = LocalCUDACluster(n_workers=workers, threads_per_worker=1, dashboard_address=":0", silence_logs=QUIET)
+            if local is None:
+                local = LocalCluster(
+                    n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=QUIET
+                )
             client = stack.enter_context(Client(stack.enter_context(local)))
             if device is None and workers > 1 and remote_device(client, None).is_cuda:  # (no dask-cuda here)
                 raise SceneError("--cluster", cluster, f"the workers' device is CUDA: {NO_DASK_CUDA}, or --device cpu")
