@@ -11,7 +11,7 @@
 #          quantiles and hazard maps
 #   tallies-collisions: collisions 10,000 x 450 old beside new, the launch overlaps, the safety study
 #   sampling (issue 28), rest, rest-collisions (issue 25), terrain, meshes (issue 27), profile-map (issue 26: ncu),
-#   dask (issue 29: the wheels of distributed in .whl, installed into /tmp/site first)
+#   dask (issue 29), terrain, mesh-rest and meshes need the wheels of bench/gpu_wheels.sh installed into /tmp/site first
 #   interrupts: signal-to-exit latency of collision runs on CUDA (10,000 paper shots, one shot of 3e6)
 #   collisions: the collision, stability and pipeline tests on CUDA; Warp's DEM example and the dense phase in the
 #          same run (1e6 pellets: rounds 4, 2, 1, float64; 10,000 shots x 450); where the dense phase's time goes
