@@ -6,6 +6,8 @@ collisions, a sweep, and a run whose worker is killed in the middle of a task.""
 import dataclasses
 import gc
 import os
+import socket
+import threading
 
 import h5py
 import numpy as np
@@ -15,6 +17,7 @@ from helpers import assert_same_run, cli, make_scene, paper_raw, stats_equal
 
 import warp_ricochet as wr
 from warp_ricochet import cluster, tasks
+from warp_ricochet.errors import SceneError
 from warp_ricochet.scene import scene_from_dict
 
 
@@ -182,6 +185,40 @@ def test_a_scheduler_that_cannot_be_reached_is_one_line_before_any_work(tmp_path
     assert len(stderr.strip().splitlines()) == 1, stderr
     assert "--scheduler = 'tcp://127.0.0.1:9': cannot be reached (Timed out trying to connect" in stderr
     assert not out.exists() and not os.path.exists(str(out) + ".partial")
+
+
+def test_a_port_that_accepts_but_is_no_scheduler_is_one_line_not_a_hang(tmp_path, monkeypatch):
+    monkeypatch.setattr(cluster, "CONNECT_TIMEOUT", "1s")
+    listener = socket.create_server(("127.0.0.1", 0))  # accepts (the backlog) and never answers
+    address = f"tcp://127.0.0.1:{listener.getsockname()[1]}"
+    out, ended = tmp_path / "run.h5", []
+    argv = ["run", "examples/paper.toml", "--set", "output.fields=[]", "--scheduler", address, "-o", out]
+    thread = threading.Thread(target=lambda: ended.append(cli(argv)), daemon=True)  # (a hang: left behind)
+    thread.start()
+    thread.join(30)
+    listener.close()
+    assert ended, "the command still waits on a port that never answers"
+    rc, _stdout, stderr = ended[0]
+    assert rc == 2 and stderr.strip().splitlines() == [
+        f"warp-ricochet: error: --scheduler = '{address}': cannot be reached (no Dask scheduler answered within 1 s)"
+    ]
+    assert not out.exists() and not os.path.exists(str(out) + ".partial")
+
+
+def test_a_worker_address_is_refused_as_no_scheduler(monkeypatch):
+    monkeypatch.setattr(cluster, "CONNECT_TIMEOUT", "5s")
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0") as local:
+        address = next(iter(local.scheduler_info["workers"]))
+        with pytest.raises(SceneError, match="is not a Dask scheduler [(]it answers as Worker[)]"):
+            with cluster.session(scheduler=address):
+                pass
+
+
+@pytest.mark.parametrize("value", ["local:0", "local:-1", "local:abc", f"local:{(os.cpu_count() or 1) + 1}", "local:99999999999"])
+def test_a_local_cluster_of_no_workers_or_more_than_the_cores_is_one_line(value):
+    with pytest.raises(SceneError, match=f"must be local:N, 1 <= N <= {os.cpu_count() or 1} workers"):
+        cluster.parse_cluster(value)  # (local:99999999999 once built its worker specs until the OOM killer came)
+    assert cluster.parse_cluster(f"local:{os.cpu_count() or 1}") == (os.cpu_count() or 1)
 
 
 def test_a_bounded_station_run_on_a_cluster_stops_at_the_serial_check_with_its_bits(client):
