@@ -323,6 +323,19 @@ def test_per_pellet_fields_on_a_cluster_are_shards_read_as_one_dataset(tmp_path,
         _check_clouds(blocks, f)
 
 
+def test_overwrite_replaces_a_file_or_a_link_where_the_shards_folder_goes(tmp_path, client):
+    """Once "Not a directory" (a file there) and "Cannot call rmtree on a symbolic link", no key named."""
+    scene, out, shards = scene_of(shots=2, fields=("landing",)), tmp_path / "out.h5", tmp_path / "out.h5.shards"
+    shards.write_text("not a folder")
+    wr.run(scene, out, device="cpu", client=client, overwrite=True)
+    assert shards.is_dir() and [p.name for p in shards.iterdir()] == ["rows-000000000000-000000000900.h5"]
+    elsewhere = tmp_path / "elsewhere"
+    shards.rename(elsewhere)
+    shards.symlink_to(elsewhere)
+    wr.run(scene, out, device="cpu", client=client, overwrite=True)
+    assert shards.is_dir() and not shards.is_symlink() and (elsewhere / "rows-000000000000-000000000900.h5").exists()
+
+
 def test_an_interrupted_run_with_shards_resumes_from_its_committed_shards(tmp_path, client, monkeypatch):
     monkeypatch.setattr(cluster, "TASKS_PER_WORKER", 2)
     scene = fields_scene()
