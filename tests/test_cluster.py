@@ -221,6 +221,14 @@ def test_a_local_cluster_of_no_workers_or_more_than_the_cores_is_one_line(value)
     assert cluster.parse_cluster(f"local:{os.cpu_count() or 1}") == (os.cpu_count() or 1)
 
 
+def test_a_device_the_workers_lack_is_one_line_with_no_worker_traceback(client):
+    """Once the worker's "Compute Failed" log and traceback came on stderr above the line (-q too)."""
+    with pytest.raises(wr.RicochetError, match="^device = 'tpu': not available here; available: cpu"):
+        cluster.remote_device(client, "tpu")
+    logs = [msg for records in client.get_worker_logs().values() for _level, msg in records]
+    assert not [msg for msg in logs if "describe_device" in msg], logs
+
+
 def test_a_bounded_station_run_on_a_cluster_stops_at_the_serial_check_with_its_bits(client):
     """Tasks a check at a time, cut at every station's piece: the outcome, each station's results
     and the counts are the serial run's."""

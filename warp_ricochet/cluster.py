@@ -23,7 +23,7 @@ import re
 import numpy as np
 
 from . import interrupts
-from .errors import SceneError
+from .errors import RicochetError, SceneError
 from .tasks import Partial, chunk_of, describe_device, release, run_range, task_bounds, task_size, unit_of
 
 log = logging.getLogger(__name__)
@@ -153,8 +153,12 @@ def session(cluster=None, scheduler=None, device=None, announce=None):
 
 
 def remote_device(client, device=None) -> RemoteDevice:
-    """`device` as a worker of the client's resolves it (`tasks.describe_device`)."""
-    return RemoteDevice(*client.submit(describe_device, device, pure=False).result())
+    """`device` as a worker of the client's resolves it (`tasks.describe_device`); one it does not
+    have: its one line (RicochetError)."""
+    found = client.submit(describe_device, device, pure=False).result()
+    if found[0] is None:
+        raise RicochetError(found[1])
+    return RemoteDevice(*found)
 
 
 def remote_name(client, device=None) -> str:
