@@ -5,6 +5,7 @@ collisions, a sweep, and a run whose worker is killed in the middle of a task.""
 
 import dataclasses
 import gc
+import logging
 import os
 import socket
 import threading
@@ -227,6 +228,14 @@ def test_a_device_the_workers_lack_is_one_line_with_no_worker_traceback(client):
         cluster.remote_device(client, "tpu")
     logs = [msg for records in client.get_worker_logs().values() for _level, msg in records]
     assert not [msg for msg in logs if "describe_device" in msg], logs
+
+
+def test_a_local_cluster_s_workers_log_errors_only():
+    """Once each task cancelled by Ctrl-C wrote "distributed.worker.state_machine - WARNING - Async
+    instruction ... ended with CancelledError" above the command's line, -q too."""
+    with cluster.session(cluster="local:1") as client:
+        levels = client.run(lambda: [h.level for h in logging.getLogger("distributed").handlers])  # (where records print)
+    assert list(levels.values()) == [[logging.ERROR]]
 
 
 def test_a_bounded_station_run_on_a_cluster_stops_at_the_serial_check_with_its_bits(client):

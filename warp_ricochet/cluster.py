@@ -30,6 +30,7 @@ log = logging.getLogger(__name__)
 
 TASKS_PER_WORKER = 4  # stretches a run is cut into, per worker (a killed worker's task is redone), each a chunk at least
 CONNECT_TIMEOUT = "10s"  # how long a scheduler is given to answer
+QUIET = logging.ERROR  # a local cluster's log level: its workers' WARNINGs (a task cancelled by Ctrl-C) are noise
 NO_DASK_CUDA = "one worker a GPU needs dask-cuda (pip install 'warp-ricochet[dask-cuda]')"
 NO_FIELDS = (
     "per-pellet fields of {} are not written from a cluster yet (docs/cluster.md); "
@@ -134,9 +135,11 @@ def session(cluster=None, scheduler=None, device=None, announce=None):
                     from dask_cuda import LocalCUDACluster  # (imported only here: CI has no GPU)
                 except ImportError:
                     raise SceneError("--cluster", cluster, f"{NO_DASK_CUDA}, or --device cpu") from None
-                local = LocalCUDACluster(n_workers=workers, threads_per_worker=1, dashboard_address=":0")
+                local = LocalCUDACluster(n_workers=workers, threads_per_worker=1, dashboard_address=":0", silence_logs=QUIET)
             else:
-                local = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0")
+                local = LocalCluster(
+                    n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=QUIET
+                )
             client = stack.enter_context(Client(stack.enter_context(local)))
             if device is None and workers > 1 and remote_device(client, None).is_cuda:  # (no dask-cuda here)
                 raise SceneError("--cluster", cluster, f"the workers' device is CUDA: {NO_DASK_CUDA}, or --device cpu")
