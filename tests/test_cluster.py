@@ -238,6 +238,26 @@ def test_a_local_cluster_s_workers_log_errors_only():
     assert list(levels.values()) == [[logging.ERROR]]
 
 
+def test_a_scheduler_without_workers_is_one_line_not_a_hang(monkeypatch):
+    monkeypatch.setattr(cluster, "CONNECT_TIMEOUT", "1s")
+    ended = []
+
+    def reach(address):
+        try:
+            with cluster.session(scheduler=address) as client:
+                cluster.remote_device(client)  # (once: waited for a worker forever)
+        except SceneError as exc:
+            ended.append(str(exc))
+
+    with LocalCluster(n_workers=0, processes=False, dashboard_address=":0") as local:
+        thread = threading.Thread(target=reach, args=(local.scheduler_address,), daemon=True)  # (a hang: left behind)
+        thread.start()
+        thread.join(30)
+        assert ended == [
+            f"--scheduler = {local.scheduler_address!r}: has no worker (none joined within 1s): start `dask worker ADDRESS`"
+        ]
+
+
 def test_a_bounded_station_run_on_a_cluster_stops_at_the_serial_check_with_its_bits(client):
     """Tasks a check at a time, cut at every station's piece: the outcome, each station's results
     and the counts are the serial run's."""

@@ -150,6 +150,12 @@ def session(cluster=None, scheduler=None, device=None, announce=None):
             except (OSError, TimeoutError, ValueError) as exc:
                 why = " ".join(str(exc).split())[:160] or type(exc).__name__
                 raise SceneError("--scheduler", scheduler, f"cannot be reached ({why})") from None
+            try:  # (a scheduler without workers: the first task would wait forever, deaf to Ctrl-C)
+                client.wait_for_workers(1, timeout=CONNECT_TIMEOUT)
+            except TimeoutError:
+                raise SceneError(
+                    "--scheduler", scheduler, f"has no worker (none joined within {CONNECT_TIMEOUT}): start `dask worker ADDRESS`"
+                ) from None
         if announce is not None:
             print(f"Dask dashboard: {client.dashboard_link}", file=announce)
         yield client
