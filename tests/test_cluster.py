@@ -6,7 +6,10 @@ collisions, a sweep, and a run whose worker is killed in the middle of a task.""
 import dataclasses
 import gc
 import importlib.util
+import logging
 import os
+import socket
+import threading
 
 import h5py
 import numpy as np
@@ -16,6 +19,7 @@ from helpers import assert_same_run, cli, make_scene, paper_raw, stats_equal
 
 import warp_ricochet as wr
 from warp_ricochet import cluster, tasks
+from warp_ricochet.errors import SceneError
 from warp_ricochet.scene import scene_from_dict
 
 
@@ -185,6 +189,77 @@ def test_a_scheduler_that_cannot_be_reached_is_one_line_before_any_work(tmp_path
     assert not out.exists() and not os.path.exists(str(out) + ".partial")
 
 
+def test_a_port_that_accepts_but_is_no_scheduler_is_one_line_not_a_hang(tmp_path, monkeypatch):
+    monkeypatch.setattr(cluster, "CONNECT_TIMEOUT", "1s")
+    listener = socket.create_server(("127.0.0.1", 0))  # accepts (the backlog) and never answers
+    address = f"tcp://127.0.0.1:{listener.getsockname()[1]}"
+    out, ended = tmp_path / "run.h5", []
+    argv = ["run", "examples/paper.toml", "--set", "output.fields=[]", "--scheduler", address, "-o", out]
+    thread = threading.Thread(target=lambda: ended.append(cli(argv)), daemon=True)  # (a hang: left behind)
+    thread.start()
+    thread.join(30)
+    listener.close()
+    assert ended, "the command still waits on a port that never answers"
+    rc, _stdout, stderr = ended[0]
+    assert rc == 2 and stderr.strip().splitlines() == [
+        f"warp-ricochet: error: --scheduler = '{address}': cannot be reached (no Dask scheduler answered within 1 s)"
+    ]
+    assert not out.exists() and not os.path.exists(str(out) + ".partial")
+
+
+def test_a_worker_address_is_refused_as_no_scheduler(monkeypatch):
+    monkeypatch.setattr(cluster, "CONNECT_TIMEOUT", "5s")
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0") as local:
+        address = next(iter(local.scheduler_info["workers"]))
+        with pytest.raises(SceneError, match="is not a Dask scheduler [(]it answers as Worker[)]"):
+            with cluster.session(scheduler=address):
+                pass
+
+
+@pytest.mark.parametrize("value", ["local:0", "local:-1", "local:abc", f"local:{(os.cpu_count() or 1) + 1}", "local:99999999999"])
+def test_a_local_cluster_of_no_workers_or_more_than_the_cores_is_one_line(value):
+    with pytest.raises(SceneError, match=f"must be local:N, 1 <= N <= {os.cpu_count() or 1} workers"):
+        cluster.parse_cluster(value)  # (local:99999999999 once built its worker specs until the OOM killer came)
+    assert cluster.parse_cluster(f"local:{os.cpu_count() or 1}") == (os.cpu_count() or 1)
+
+
+def test_a_device_the_workers_lack_is_one_line_with_no_worker_traceback(client):
+    """Once the worker's "Compute Failed" log and traceback came on stderr above the line (-q too)."""
+    with pytest.raises(wr.RicochetError, match="^device = 'tpu': not available here; available: cpu"):
+        cluster.remote_device(client, "tpu")
+    logs = [msg for records in client.get_worker_logs().values() for _level, msg in records]
+    assert not [msg for msg in logs if "describe_device" in msg], logs
+
+
+def test_a_local_cluster_s_workers_log_nothing_of_their_own():
+    """Once each task cancelled by Ctrl-C wrote "distributed.worker.state_machine - WARNING - Async
+    instruction ... ended with CancelledError" above the command's line, -q too, and a failed task
+    its "Compute Failed" record and traceback above the one-line error the client prints."""
+    with cluster.session(cluster="local:1") as client:
+        levels = client.run(lambda: [h.level for h in logging.getLogger("distributed").handlers])  # (where records print)
+    assert list(levels.values()) == [[logging.CRITICAL]]
+
+
+def test_a_scheduler_without_workers_is_one_line_not_a_hang(monkeypatch):
+    monkeypatch.setattr(cluster, "CONNECT_TIMEOUT", "1s")
+    ended = []
+
+    def reach(address):
+        try:
+            with cluster.session(scheduler=address) as client:
+                cluster.remote_device(client)  # (once: waited for a worker forever)
+        except SceneError as exc:
+            ended.append(str(exc))
+
+    with LocalCluster(n_workers=0, processes=False, dashboard_address=":0") as local:
+        thread = threading.Thread(target=reach, args=(local.scheduler_address,), daemon=True)  # (a hang: left behind)
+        thread.start()
+        thread.join(30)
+        assert ended == [
+            f"--scheduler = {local.scheduler_address!r}: has no worker (none joined within 1s): start `dask worker ADDRESS`"
+        ]
+
+
 def test_a_bounded_station_run_on_a_cluster_stops_at_the_serial_check_with_its_bits(client):
     """Tasks a check at a time, cut at every station's piece: the outcome, each station's results
     and the counts are the serial run's."""
@@ -292,6 +367,19 @@ def test_per_pellet_fields_on_a_cluster_are_shards_read_as_one_dataset(tmp_path,
     blocks, _steps = _read(tmp_path / "out.xmf")
     with h5py.File(out) as f:
         _check_clouds(blocks, f)
+
+
+def test_overwrite_replaces_a_file_or_a_link_where_the_shards_folder_goes(tmp_path, client):
+    """Once "Not a directory" (a file there) and "Cannot call rmtree on a symbolic link", no key named."""
+    scene, out, shards = scene_of(shots=2, fields=("landing",)), tmp_path / "out.h5", tmp_path / "out.h5.shards"
+    shards.write_text("not a folder")
+    wr.run(scene, out, device="cpu", client=client, overwrite=True)
+    assert shards.is_dir() and [p.name for p in shards.iterdir()] == ["rows-000000000000-000000000900.h5"]
+    elsewhere = tmp_path / "elsewhere"
+    shards.rename(elsewhere)
+    shards.symlink_to(elsewhere)
+    wr.run(scene, out, device="cpu", client=client, overwrite=True)
+    assert shards.is_dir() and not shards.is_symlink() and (elsewhere / "rows-000000000000-000000000900.h5").exists()
 
 
 def test_an_interrupted_run_with_shards_resumes_from_its_committed_shards(tmp_path, client, monkeypatch):

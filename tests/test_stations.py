@@ -192,6 +192,12 @@ def test_launch_states_are_the_reference_aims_and_the_cli_lists_each_station(tmp
         (lambda r: r["stations"][1].pop("aim_sigma"), "stations.1.aim_sigma = (missing)"),
         (lambda r: r["stations"][2].update(weight=0), "stations.2.weight = 0: must be a number > 0"),
         (lambda r: r["shot"].update(shots=2), "shot.shots = 2: gives stations.1"),
+        (lambda r: r["stations"][0].update(weight=1e308), "stations.0.weight = 1e+308: must be a number > 0 and at most 1e+06"),
+        (  # (once "raise shot.shots to 3 or more": it had 40)
+            lambda r: r["stations"][0].update(weight=1e-3),
+            "shot.shots = 40: gives stations.0 ('left') no shot by the weights; at least one per station "
+            "(3,001 shots give every station one; or raise that station's weight)",
+        ),
         (lambda r: r["shot"].update(envelope_center=[0, 0, 1]), "shot.envelope_center = [0, 0, 1]: not allowed"),
     ],
 )

@@ -213,6 +213,16 @@ def test_terrain_keys_are_checked_in_one_line(tmp_path):
     one_line(terrain_scene(nodata), "surfaces.1.file", "no valid sample")
     flat = write_tif(tmp_path / "flat.tif", [[5.0, 5.0, 7.0], [5.0, 6.0, 5.0]], 0.0, 2.0, 1.0)
     one_line(terrain_scene(flat, nodata=5.0), "surfaces.1.file", "has no cell of four valid samples")  # the key's nodata
+    unflagged = write_tif(
+        tmp_path / "unflagged.tif", [[5.0, 5.0, 5.0], [5.0, 5.0, -3.4028234663852886e38], [5.0] * 3], 0.0, 3.0, 1.0
+    )
+    one_line(  # (once a terrain of one triangle fan 3e38 m high: every pellet "missed", no error)
+        terrain_scene(unflagged),
+        "surfaces.1.file",
+        "has a sample of -3.40282e[+]38 m [(]row 1, column 2[)]; elevations are within [+]-1e[+]06 m: a nodata value the "
+        "raster does not flag[?] give nodata = -3.4028234663852886e[+]38$",
+    )
+    scene_from_dict(terrain_scene(unflagged, nodata=-3.4028234663852886e38))  # (the hint's value: accepted)
     raw = terrain_scene(good)
     del raw["surfaces"][1]["file"]
     one_line(raw, "surfaces.1.file", "is required for kind = 'terrain'")

@@ -327,7 +327,11 @@ def run(
     folder = None if study is None or output is None or not scene.output.fields else _shards or shard_folder(output, overwrite)
     dev = resolve_device(device) if study is None else study.remote
     check_resources([scene], dev, output)
-    if folder is not None and _shards is None and folder.exists():  # (--overwrite: the old run's shards)
+    if (
+        folder is not None and _shards is None and (folder.is_symlink() or folder.is_file())
+    ):  # (--overwrite: not the link's target)
+        folder.unlink()
+    elif folder is not None and _shards is None and folder.exists():  # (--overwrite: the old run's shards)
         shutil.rmtree(folder)
     if output is None:
         return _run_one(scene, dev, progress=progress, dense_options=dense_options, study=study)

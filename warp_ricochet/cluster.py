@@ -13,15 +13,17 @@ fields go from the workers to shards the run file reads as virtual datasets (`io
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import dataclasses
 import logging
+import os
 import re
 
 import numpy as np
 
 from . import interrupts
-from .errors import SceneError
+from .errors import RicochetError, SceneError
 from .tasks import Partial, chunk_of, describe_device, release, run_range, task_bounds, task_size, unit_of
 
 log = logging.getLogger(__name__)
@@ -62,11 +64,38 @@ def refuse(scene, output=None) -> None:
 
 
 def parse_cluster(value: str) -> int:
-    """Workers of `--cluster local:N` (N >= 1); else one line (SceneError)."""
+    """Workers of `--cluster local:N` (1 <= N <= this machine's cores: each worker is a
+    single-threaded process, and a huge N would exhaust the memory); else one line (SceneError)."""
     found = re.fullmatch(r"local:(\d+)", str(value).strip())
-    if found is None or int(found.group(1)) < 1:
-        raise SceneError("--cluster", value, "must be local:N, N >= 1 workers on this machine")
+    cores = os.cpu_count() or 1
+    if found is None or not 1 <= int(found.group(1)) <= cores:
+        raise SceneError("--cluster", value, f"must be local:N, 1 <= N <= {cores} workers (this machine's cores)")
     return int(found.group(1))
+
+
+def _probe(address: str, seconds: float) -> None:
+    """Refuse (SceneError) an address that does not answer Dask's `identity` as a scheduler within
+    `seconds`: `distributed.Client` waits forever on a port that accepts but never answers (an
+    HTTP server), past its own timeout and deaf to Ctrl-C."""
+
+    async def identity():
+        from distributed.comm import connect
+
+        comm = await connect(address, timeout=seconds)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    try:
+        reply = asyncio.run(asyncio.wait_for(identity(), seconds + 1))  # (connect times out first)
+    except Exception as exc:  # (whatever the peer sends: msgpack's errors, a closed stream)
+        why = " ".join(str(exc).split())[:160] or f"no Dask scheduler answered within {seconds:g} s"
+        raise SceneError("--scheduler", address, f"cannot be reached ({why})") from None
+    kind = reply.get("type") if isinstance(reply, dict) else None
+    if kind != "Scheduler":
+        raise SceneError("--scheduler", address, f"is not a Dask scheduler (it answers as {kind or 'something else'})")
 
 
 def _cuda_wanted(device) -> bool:
@@ -90,6 +119,7 @@ def session(cluster=None, scheduler=None, device=None, announce=None):
     at `scheduler`; a scheduler that does not answer: one line (SceneError), before any work. The
     dashboard's address is written to `announce` (a stream) when given. Both closed at the end."""
     try:
+        from dask.utils import parse_timedelta
         from distributed import Client, LocalCluster
     except ImportError:
         raise SceneError(
@@ -117,19 +147,30 @@ def session(cluster=None, scheduler=None, device=None, announce=None):
             if device is None and workers > 1 and remote_device(client, None).is_cuda:  # (no dask-cuda here)
                 raise SceneError("--cluster", cluster, f"the workers' device is CUDA: {NO_DASK_CUDA}, or --device cpu")
         else:
+            _probe(str(scheduler), parse_timedelta(CONNECT_TIMEOUT))
             try:
                 client = stack.enter_context(Client(str(scheduler), timeout=CONNECT_TIMEOUT))
             except (OSError, TimeoutError, ValueError) as exc:
                 why = " ".join(str(exc).split())[:160] or type(exc).__name__
                 raise SceneError("--scheduler", scheduler, f"cannot be reached ({why})") from None
+            try:  # (a scheduler without workers: the first task would wait forever, deaf to Ctrl-C)
+                client.wait_for_workers(1, timeout=CONNECT_TIMEOUT)
+            except TimeoutError:
+                raise SceneError(
+                    "--scheduler", scheduler, f"has no worker (none joined within {CONNECT_TIMEOUT}): start `dask worker ADDRESS`"
+                ) from None
         if announce is not None:
             print(f"Dask dashboard: {client.dashboard_link}", file=announce)
         yield client
 
 
 def remote_device(client, device=None) -> RemoteDevice:
-    """`device` as a worker of the client's resolves it (`tasks.describe_device`)."""
-    return RemoteDevice(*client.submit(describe_device, device, pure=False).result())
+    """`device` as a worker of the client's resolves it (`tasks.describe_device`); one it does not
+    have: its one line (RicochetError)."""
+    found = client.submit(describe_device, device, pure=False).result()
+    if found[0] is None:
+        raise RicochetError(found[1])
+    return RemoteDevice(*found)
 
 
 def remote_name(client, device=None) -> str:

@@ -34,6 +34,7 @@ from .schema import MAX_COORDINATE
 
 AIMS = ("uniform", "normal")
 KEYS = ("name", "position", "azimuth", "elevation", "aim", "aim_sigma", "weight")
+MAX_WEIGHT = 1e6  # (shots * weight / sum of weights stays finite: 1e308 overflowed `allocate`)
 MAX_SIGMA = 90.0  # deg
 
 
@@ -107,9 +108,9 @@ def _station(raw, path: str) -> Station:
             raise err(join(path, "aim_sigma"), raw["aim_sigma"], sigma_rule)
     elif sigma is not None:
         raise err(join(path, "aim_sigma"), sigma, 'is only for aim = "normal" (a uniform aim has no spread of its own)')
-    weight_rule = "must be a number > 0 (the station's share of the shots)"
+    weight_rule = f"must be a number > 0 and at most {MAX_WEIGHT:g} (the station's share of the shots)"
     weight = _number(raw.get("weight", 1.0), join(path, "weight"), weight_rule)
-    if not weight > 0.0:
+    if not 0.0 < weight <= MAX_WEIGHT:
         raise err(join(path, "weight"), raw.get("weight"), weight_rule)
     return Station(name, position, azimuth, elevation, aim, sigma, weight)
 
@@ -139,6 +140,16 @@ def allocate(weights, shots: int) -> list[int]:
     for k in order[: shots - sum(counts)]:
         counts[k] += 1
     return counts
+
+
+def enough_shots(weights) -> int:
+    """Shots that give every station one: n with n w_k / sum(w) >= 1 for the least weight (its
+    Hamilton quota at least 1; the weighted sequence's counts lie within one shot of n p_k, above
+    0 there), and at least one a station."""
+    need = max(len(weights), math.ceil(math.fsum(weights) / min(weights)))
+    while min(allocate(weights, need)) < 1:  # (the quotient's rounding)
+        need += 1
+    return need
 
 
 def check_stations(stations, shot, raw_shot: dict, surfaces, physics, hazard) -> None:
@@ -179,7 +190,7 @@ def check_stations(stations, shot, raw_shot: dict, surfaces, physics, hazard) ->
             "shot.shots",
             shot.shots,
             f"gives stations.{k} ({stations[k].name!r}) no shot by the weights; at least one per station "
-            f"(raise shot.shots to {len(stations)} or more, or that station's weight)",
+            f"({enough_shots(weights):,} shots give every station one; or raise that station's weight)",
         )
     if not any(physics.gravity):
         raise err(

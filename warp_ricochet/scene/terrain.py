@@ -46,10 +46,13 @@ class Raster:
         return np.broadcast_to(x, (rows, cols)), np.broadcast_to(y[:, None], (rows, cols))
 
 
+MAX_ELEVATION = 1e6  # m: a valid sample's |z| (the scene's coordinates: schema.MAX_COORDINATE)
+
+
 def read_raster(path, nodata: float | None = None) -> Raster:
     """The first band of the raster at `path`, its nodata (and `nodata`, when given) as NaN. Raises
     ValueError with a one-line reason for a file that is not a raster, an empty or rotated raster,
-    one of more than MAX_SAMPLES samples, or one with no valid sample."""
+    one of more than MAX_SAMPLES samples, one with no valid sample or with one beyond MAX_ELEVATION."""
     try:
         import rasterio
         from rasterio.errors import RasterioError
@@ -77,6 +80,13 @@ def read_raster(path, nodata: float | None = None) -> Raster:
         z[z == nodata] = np.nan
     if np.isnan(z).all():
         raise ValueError(f"has no valid sample (all {z.size:,} are nodata)")
+    far = np.nanargmax(np.abs(z))
+    if abs(z.flat[far]) > MAX_ELEVATION:  # (float32 GeoTIFFs often mark nodata -3.4e38 without the tag)
+        value = float(z.flat[far])
+        raise ValueError(
+            f"has a sample of {value:g} m (row {far // z.shape[1]}, column {far % z.shape[1]}); elevations are within "
+            f"+-{MAX_ELEVATION:g} m: a nodata value the raster does not flag? give nodata = {value!r}"
+        )
     return Raster(z, float(t.a), float(t.e), float(t.c), float(t.f), crs)
 
 
