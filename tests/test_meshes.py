@@ -57,6 +57,11 @@ def test_a_box_is_closed_and_faces_outwards():
     [
         (np.zeros((0, 3)), np.zeros((0, 3), np.int32), "at least one triangle"),
         ([[0, 0, 0], [1, 0, 0], [0, np.nan, 0]], [[0, 1, 2]], "finite vertices"),
+        (
+            [[0, 0, 0], [1, 0, 0], [0, 1, 1e30]],
+            [[0, 1, 2]],
+            r"vertex 2 at \[0.0, 1.0, 1e\+30\] m; vertices must be within \+-1e\+06 m",
+        ),
         ([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 3]], "vertex index outside 0 to 2"),
         ([[0, 0, 0], [1, 0, 0], [2, 0, 0]], [[0, 1, 2]], "no triangle of nonzero area"),
     ],

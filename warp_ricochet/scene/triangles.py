@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .keys import err
+from .schema import MAX_COORDINATE
 
 MAX_TRIANGLES = 2**28  # 3 indices each must fit an int32 index buffer (wp.Mesh)
 
@@ -26,8 +27,8 @@ class TriangleSurface:
     source: str
 
     def check(self, key: str) -> TriangleSurface:
-        """Itself, or the one-line SceneError naming `key`: an empty mesh, non-finite vertices,
-        indices out of range, or no triangle of nonzero area."""
+        """Itself, or the one-line SceneError naming `key`: an empty mesh, non-finite vertices or
+        vertices beyond MAX_COORDINATE, indices out of range, or no triangle of nonzero area."""
         v, f = self.vertices, self.triangles
         if v.ndim != 2 or v.shape[1] != 3 or f.ndim != 2 or f.shape[1] != 3 or len(v) == 0 or len(f) == 0:
             raise err(key, self.source, f"must hold at least one triangle (it has {len(v)} vertices, {len(f)} triangles)")
@@ -35,6 +36,11 @@ class TriangleSurface:
             raise err(key, self.source, f"has {len(f):,} triangles; at most {MAX_TRIANGLES:,}")
         if not np.isfinite(v).all():
             raise err(key, self.source, f"must have finite vertices (vertex {int(np.argmin(np.isfinite(v).all(axis=1)))} is not)")
+        if np.abs(v).max() > MAX_COORDINATE:  # (as every scene coordinate: one far vertex spoils float32)
+            far = int(np.argmax(np.abs(v).max(axis=1)))
+            raise err(
+                key, self.source, f"has vertex {far} at {v[far].tolist()} m; vertices must be within +-{MAX_COORDINATE:g} m"
+            )
         if f.min() < 0 or f.max() >= len(v):
             bad = int(np.argmax((f < 0).any(axis=1) | (f >= len(v)).any(axis=1)))
             raise err(key, self.source, f"has triangle {bad} with a vertex index outside 0 to {len(v) - 1}")
