@@ -2,6 +2,7 @@
 
     python -m bench.dask sweep [--points 16] [--shots 40] [--workers 2] [--device cpu] [--repeats 3]
     python -m bench.dask overhead [--study statistics|collisions] [--pellets N] [--shots N] [--split 4] [--device cuda:0]
+    python -m bench.dask scaling --study collisions|sweep-rest|statistics|exposure [--workers 1,2] [--device cuda:0]
 
 `sweep`: a sweep of `--points` values of mu_s (the paper's scene, `--shots` shots of 450 pellets a
 point, statistics only) run serially, then on a local cluster of `--workers` single-threaded
@@ -13,8 +14,21 @@ empty tasks, and the sweep's time against its tasks' own (each task times itself
 issue's 5% goal on one GPU): `statistics`, `--pellets` pellets statistics-only (1e9 on a GPU), or
 `collisions`, `--shots` shots of 450 pellets with pair collisions (10,000 on a GPU); the tasks the
 cluster's run was cut into; and the direct run in the chunks of `--split` tasks' stretches (the
-cost of cutting a run, without Dask). The cluster runs first and is closed before this process
+cost of cutting a run, without Dask). Each timed run follows a `--pause` (a run on its own: the
+client's batched stream holds a submission for up to 10 ms after its last message), and the
+cluster's runs are also timed back to back. The cluster runs first and is closed before this process
 touches Warp's device (a CUDA context made before it would put its worker on GPU 0).
+
+`scaling` (issue 30, several GPUs of one host): one study on local clusters of each of `--workers`
+workers in turn (`warp_ricochet.cluster.session`: a `LocalCUDACluster`, one worker a GPU, on CUDA),
+then (`--direct`) the same study direct in this process: median wall time of `--repeats` after a
+warm-up (the cluster's start not counted), the speed-up and scaling efficiency against the first
+worker count, and the results checked bitwise equal. Studies: `collisions`, `--shots` shots of 450
+in sea-level air with pair collisions (`--rest`: followed to rest on turf); `sweep-rest`, the
+paper's scene in air followed to rest on turf at `--points` (a square number) points of mu_s x
+muzzle speed, `--pellets` a point; `statistics`, `--points` runs of `--pellets` in vacuum (a sweep
+of mu_s); `exposure`, the same in air to rest with the hazard along the path and its exposure map
+(`bench.path`'s map of 0.5 m cells).
 """
 
 from __future__ import annotations
@@ -65,14 +79,24 @@ def _cluster(workers: int, device: str):
     return cluster, Client(cluster)
 
 
-def _timed(fn, repeats: int):
-    fn()  # warm-up: kernels compiled or loaded, models built
+def _timed(fn, repeats: int, warm: bool = True, pause: float = 0.0):
+    """(median seconds, last result) of `repeats` calls of `fn`, each after `pause` seconds (not
+    timed), after a warm-up call."""
+    if warm:
+        fn()  # warm-up: kernels compiled or loaded, models built
     times, result = [], None
     for _ in range(repeats):
+        time.sleep(pause)
         start = time.perf_counter()
         result = fn()
         times.append(time.perf_counter() - start)
     return statistics.median(times), result
+
+
+def _visible():
+    import os
+
+    return os.environ.get("CUDA_VISIBLE_DEVICES", "(all)")
 
 
 def _nothing(i):
@@ -165,12 +189,15 @@ def cmd_overhead(args) -> None:
     local, client = _cluster(1, args.device)
     with local, client:
         cl.Study.result = result
-        on_cluster, got = _timed(lambda: (seen.clear(), wr.run(scene, device=args.device, client=client))[1], args.repeats)
+        run = lambda: (seen.clear(), wr.run(scene, device=args.device, client=client))[1]  # noqa: E731
+        on_cluster, got = _timed(run, args.repeats, pause=args.pause)
+        back_to_back, _ = _timed(run, args.repeats, warm=False)
         cl.Study.result = real
-    direct, ref = _timed(lambda: wr.run(scene, device=args.device), args.repeats)
+    direct, ref = _timed(lambda: wr.run(scene, device=args.device), args.repeats, pause=args.pause)
     print(f"device {args.device}; {args.study}: {scene.shot.pellets:,} pellets ({scene.shot.shots:,} shots)")
     print(f"direct           {direct:8.3f} s")
     print(f"1-worker cluster {on_cluster:8.3f} s  overhead {100 * (on_cluster / direct - 1):+.1f}%, {len(seen)} task(s) {seen}")
+    print(f"  back to back   {back_to_back:8.3f} s  overhead {100 * (back_to_back / direct - 1):+.1f}% (no pause between runs)")
     print(f"bitwise equal    {_same(dict(ref), dict(got))}")
     if args.split > 1:  # the serial run in the chunks of `split` tasks: what cutting a run costs without Dask
         unit = tasks.unit_of(scene)
@@ -178,6 +205,92 @@ def cmd_overhead(args) -> None:
         cut = scene.replace(numerics=dataclasses.replace(scene.numerics, chunk_size=size))
         split, _ = _timed(lambda: wr.run(cut, device=args.device), args.repeats)
         print(f"direct, chunks of {size:,} ({args.split} tasks' stretches) {split:8.3f} s  {100 * (split / direct - 1):+.1f}%")
+
+
+def _equal(a, b) -> bool:
+    """Bitwise equal statistics (dicts of numbers or arrays; NaN equal to NaN)."""
+    a, b = dict(a), dict(b)
+    if a.keys() != b.keys():
+        return False
+    for k in a:
+        x, y = np.asarray(a[k]), np.asarray(b[k])
+        if x.shape != y.shape or x.dtype.kind != y.dtype.kind:
+            return False
+        if x.dtype.kind == "f":
+            if not np.array_equal(x, y, equal_nan=True):  # (NaN == NaN; otherwise == on floats is bitwise but for 0.0 and -0.0)
+                return False
+        elif not np.array_equal(x, y):
+            return False
+    return True
+
+
+def _same_study(a, b) -> bool:
+    if isinstance(a, list):  # a sweep: [(point, stats)]
+        return len(a) == len(b) and all(pa == pb and _equal(sa, sb) for (pa, sa), (pb, sb) in zip(a, b))
+    return _equal(a, b)
+
+
+def scaling_study(args):
+    """(what, pellets, fn(client=None)): the study `bench.dask scaling` times."""
+    import warp_ricochet as wr
+    from bench.air import paper_scene as scene_of
+
+    rest = ['physics.until="rest"', 'surfaces.0.material="turf"']
+    if args.study == "collisions":
+        extra = [f"shot.shots={args.shots}", "collisions.enabled=true", *(rest if args.rest else [])]
+        scene = scene_of(450, air=True, mu_s=0.5, extra=extra)
+        what = f"{args.shots:,} shots of 450 in air with collisions" + (", to rest on turf" if args.rest else "")
+        return what, scene.shot.pellets, lambda client=None: wr.run(scene, device=args.device, client=client)
+    side = max(1, round(args.points**0.5))
+    if args.study == "sweep-rest":
+        scene = scene_of(args.pellets, air=True, mu_s=0.5, extra=rest)
+        params = {"surfaces.0.mu_s": list(np.linspace(0.1, 0.5, side)), "shot.speed": list(np.linspace(300.0, 450.0, side))}
+        what = f"{side * side}-point sweep (mu_s x speed) in air to rest on turf, {args.pellets:,} pellets a point"
+    else:
+        from bench.path import BASE, HAZARD, MAP
+
+        map_ = [*BASE, *HAZARD, *MAP] if args.study == "exposure" else []
+        scene = scene_of(args.pellets, air=args.study == "exposure", mu_s=0.5, extra=map_)
+        params = {"surfaces.0.mu_s": list(np.linspace(0.1, 0.5, args.points))}
+        what = f"{args.points} runs of {args.pellets:,} pellets, " + (
+            "in air to rest with the exposure map" if map_ else "statistics only in vacuum"
+        )
+        side = args.points
+    ties = [("surfaces.0.mu_d", 0.9, "surfaces.0.mu_s")]
+    points = side * side if args.study == "sweep-rest" else side
+    return what, points * args.pellets, lambda client=None: wr.sweep(scene, params, ties, device=args.device, client=client)
+
+
+def cmd_scaling(args) -> None:
+    import warnings
+
+    from warp_ricochet.cluster import session
+
+    warnings.simplefilter("ignore")
+    what, pellets, study = scaling_study(args)
+    print(f"device {args.device}; {what} ({pellets:,} pellets)", flush=True)
+    rows, first = [], None
+    for n in args.workers:
+        with session(cluster=f"local:{n}", device=args.device) as client:
+            seen = client.run(_visible)
+            print(f"{n} worker(s), CUDA_VISIBLE_DEVICES: {sorted(seen.values())}", flush=True)
+            started = time.perf_counter()
+            study(client)
+            warm = time.perf_counter() - started
+            seconds, got = _timed(lambda client=client: study(client), args.repeats, warm=False)
+        first = got if first is None else first
+        rows.append((f"{n} worker(s)", n, seconds, got))
+        print(f"{n} worker(s): warm-up {warm:.2f} s, then {seconds:.3f} s", flush=True)
+    if args.direct:
+        seconds, got = _timed(lambda: study(None), args.repeats)
+        rows.append(("direct", 1, seconds, got))
+    base_n, base_t = rows[0][1], rows[0][2]
+    for label, n, seconds, got in rows:
+        speedup = base_t / seconds
+        print(
+            f"{label:14s} {seconds:9.3f} s  {pellets / seconds:.3e} pellets/s  speed-up {speedup:5.2f}x  "
+            f"efficiency {100 * speedup * base_n / n:5.1f}%  bitwise equal to {rows[0][0]}: {_same_study(first, got)}"
+        )
 
 
 def main(argv=None) -> None:
@@ -201,8 +314,20 @@ def main(argv=None) -> None:
     o.add_argument("--air", action="store_true", help="in sea-level air")
     o.add_argument("--device", default="cpu")
     o.add_argument("--repeats", type=int, default=3)
+    o.add_argument("--pause", type=float, default=0.05, help="seconds between timed runs (a run alone; also timed without)")
     o.add_argument("--split", type=int, default=4, help="also time the direct run in the chunks of this many tasks (0: not)")
     o.set_defaults(func=cmd_overhead)
+    c = sub.add_parser("scaling")
+    c.add_argument("--study", choices=("collisions", "sweep-rest", "statistics", "exposure"), default="collisions")
+    c.add_argument("--workers", type=lambda v: [int(x) for x in v.split(",")], default=[1, 2])
+    c.add_argument("--shots", type=int, default=10000)
+    c.add_argument("--rest", action="store_true", help="collisions: followed to rest on turf")
+    c.add_argument("--points", type=int, default=64)
+    c.add_argument("--pellets", type=float, default=1e5)
+    c.add_argument("--direct", action="store_true", help="also the study direct in this process (last)")
+    c.add_argument("--device", default="cuda:0")
+    c.add_argument("--repeats", type=int, default=2)
+    c.set_defaults(func=cmd_scaling)
     args = p.parse_args(argv)
     if getattr(args, "pellets", None) is not None:
         args.pellets = int(args.pellets)

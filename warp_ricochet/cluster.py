@@ -164,23 +164,30 @@ def session(cluster=None, scheduler=None, device=None, announce=None):
         yield client
 
 
+def describe_workers(client, device=None) -> tuple[RemoteDevice, int]:
+    """`device` as the client's workers resolve it (`tasks.describe_device` on every worker, the
+    least free memory of them) and how many workers there are; one a worker lacks: its one line
+    (RicochetError). Asked through `client.run`, a direct call to the workers rather than a task:
+    a task's submission would hold the run's own tasks in the client's batched stream for up to
+    its 10 ms interval. With no worker yet, a task waits for one."""
+    found = list(client.run(describe_device, device).values())
+    if not found:
+        found = [client.submit(describe_device, device, pure=False).result()]
+    lacking = [f for f in found if f[0] is None]
+    if lacking:
+        raise RicochetError(lacking[0][1])
+    alias, name, is_cuda, _ = found[0]
+    return RemoteDevice(alias, name, is_cuda, min(f[3] for f in found)), len(found)
+
+
 def remote_device(client, device=None) -> RemoteDevice:
-    """`device` as a worker of the client's resolves it (`tasks.describe_device`); one it does not
-    have: its one line (RicochetError)."""
-    found = client.submit(describe_device, device, pure=False).result()
-    if found[0] is None:
-        raise RicochetError(found[1])
-    return RemoteDevice(*found)
+    """`device` as the client's workers resolve it (`describe_workers`)."""
+    return describe_workers(client, device)[0]
 
 
 def remote_name(client, device=None) -> str:
     """The alias of `device` on the client's workers."""
     return remote_device(client, device).alias
-
-
-def workers_of(client) -> int:
-    """The workers the client's scheduler has now (at least 1)."""
-    return max(1, len(client.scheduler_info().get("workers", {})))
 
 
 class Study:
@@ -190,7 +197,7 @@ class Study:
 
     def __init__(self, client, device=None, progress=None, options=None):
         self.client, self.device, self.progress, self.options = client, device, progress, options
-        self.remote = remote_device(client, device)
+        self.remote, self.workers = describe_workers(client, device)  # (workers: the tasks' sizes only)
         self.futures: dict = {}  # key -> (future, pellets) of every task submitted and not folded yet
         self.total = self.folded = 0  # pellets submitted, folded
         self.pending: dict = {}  # scene TOML -> a job submitted ahead (`take`)
@@ -230,7 +237,7 @@ class Study:
 
         plan, work = BoundPlan.of(scene), planned(scene)
         chunk = chunk_of(work, self.remote, work.output.fields if shards is not None else ())
-        size = task_size(work.shot.pellets - done, workers_of(self.client), TASKS_PER_WORKER, chunk)
+        size = task_size(work.shot.pellets - done, self.workers, TASKS_PER_WORKER, chunk)
         job = {"scene": work, "plan": plan, "size": size, "unit": unit_of(work), "submitted": {}, "bounds": []}
         self.total += work.shot.pellets - done
         if plan is None:
