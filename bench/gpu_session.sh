@@ -111,19 +111,20 @@ if [[ $what == dask ]]; then  # issue 29: a run through a one-worker cluster aga
 fi
 if [[ $what == gpus-a || $what == gpus-b || $what == gpus-c ]]; then  # issue 30 (and 29): one and two GPUs through dask-cuda
   nvidia-smi topo -m > "$out/topology.txt" 2>&1
+  gpus=$(nvidia-smi -L | wc -l); workers=$(seq -s, 1 "$gpus")  # 1,2 on nvidia-h200-x2; 1 on one GPU
   nvidia-smi --query-gpu=index,utilization.gpu,memory.used --format=csv -l 1 > "$out/smi-$what.csv" 2>&1 &
   smi=$!
 fi
 if [[ $what == gpus-a ]]; then  # the 1e9 statistics run through one worker; 10,000 collision shots on 1 and 2 GPUs
   timeout 120 python3 -m bench.dask overhead --device cuda:0 --pellets 1e9 --repeats 5 2>&1 | quiet | tee "$out/dask-statistics.txt"
-  timeout 400 python3 -m bench.dask scaling --study collisions --shots 10000 --workers 1,2 --direct --repeats 3 2>&1 | quiet | tee "$out/scaling-collisions.txt"
+  timeout 400 python3 -m bench.dask scaling --study collisions --shots 10000 --workers $workers --direct --repeats 3 2>&1 | quiet | tee "$out/scaling-collisions.txt"
 fi
 if [[ $what == gpus-b ]]; then  # a 64-point sweep to rest; 1e10 pellets statistics only (5 runs of 2e9)
-  timeout 420 python3 -m bench.dask scaling --study sweep-rest --points 64 --pellets 1e5 --workers 1,2 --direct --repeats 2 2>&1 | quiet | tee "$out/scaling-sweep-rest.txt"
-  timeout 150 python3 -m bench.dask scaling --study statistics --points 5 --pellets 2e9 --workers 1,2 --direct --repeats 3 2>&1 | quiet | tee "$out/scaling-statistics.txt"
+  timeout 420 python3 -m bench.dask scaling --study sweep-rest --points 64 --pellets 1e5 --workers $workers --direct --repeats 2 2>&1 | quiet | tee "$out/scaling-sweep-rest.txt"
+  timeout 150 python3 -m bench.dask scaling --study statistics --points 5 --pellets 2e9 --workers $workers --direct --repeats 3 2>&1 | quiet | tee "$out/scaling-statistics.txt"
 fi
 if [[ $what == gpus-c ]]; then  # the exposure map along the path, 2 runs of 1e7
-  timeout 500 python3 -m bench.dask scaling --study exposure --points 2 --pellets 1e7 --workers 1,2 --repeats 1 2>&1 | quiet | tee "$out/scaling-exposure.txt"
+  timeout 500 python3 -m bench.dask scaling --study exposure --points 2 --pellets 1e7 --workers $workers --repeats 1 2>&1 | quiet | tee "$out/scaling-exposure.txt"
 fi
 if [[ $what == gpus-a || $what == gpus-b || $what == gpus-c ]]; then kill $smi; fi
 if [[ $what == mesh-rest ]]; then  # issue 27: the trap field's shot to rest on its terrain beside a level plane (float64)
