@@ -2,6 +2,7 @@
 
     python -m bench.dask sweep [--points 16] [--shots 40] [--workers 2] [--device cpu] [--repeats 3]
     python -m bench.dask overhead [--study statistics|collisions] [--pellets N] [--shots N] [--split 4] [--device cuda:0]
+    python -m bench.dask trace [--pellets 1e9] [--device cuda:0]
     python -m bench.dask scaling --study collisions|sweep-rest|statistics|exposure [--workers 1,2] [--device cuda:0]
 
 `sweep`: a sweep of `--points` values of mu_s (the paper's scene, `--shots` shots of 450 pellets a
@@ -293,6 +294,84 @@ def cmd_scaling(args) -> None:
         )
 
 
+_PHASES: dict = {}
+
+
+def _traced_range(*args, **kwargs):
+    """`tasks.run_range` on a worker, with the seconds of its phases (`bench.dask trace`)."""
+    from warp_ricochet import pipeline, tasks
+
+    if not _PHASES.get("patched"):
+        for name in ("make_stage", "_loop"):
+            real = getattr(pipeline, name)
+
+            def timed(*a, _real=real, _name=name, **kw):
+                start = time.perf_counter()
+                try:
+                    return _real(*a, **kw)
+                finally:
+                    _PHASES[_name] = _PHASES.get(_name, 0.0) + time.perf_counter() - start
+
+            setattr(pipeline, name, timed)
+        _PHASES["patched"] = True
+    for name in ("make_stage", "_loop"):
+        _PHASES[name] = 0.0
+    started = time.time()
+    part = tasks.run_range(*args, **kwargs)
+    part.trace = {"start": started, "end": time.time(), **{k: _PHASES[k] for k in ("make_stage", "_loop")}}
+    return part
+
+
+def cmd_trace(args) -> None:
+    """Where a statistics-only run's time goes through a one-worker cluster: per task, when the
+    worker began and ended it (from the client's submission), its stage's build and its chunk loop,
+    and when the client had its result; then the study's end."""
+    import warnings
+
+    import warp_ricochet as wr
+    from warp_ricochet import cluster as cl
+    from warp_ricochet.cluster import session
+
+    warnings.simplefilter("ignore")
+    scene = paper_scene(0, pellets=args.pellets)
+    got: list = []
+    real_result = cl.Study.result
+
+    def result(self, future):
+        part = real_result(self, future)
+        got.append((part, time.time()))
+        return part
+
+    with session(cluster="local:1", device=args.device) as client:
+        cl.run_range, cl.Study.result = _traced_range, result
+        for repeat in range(args.repeats + 1):
+            got.clear()
+            time.sleep(0.05)
+            t0 = time.time()
+            wr.run(scene, device=args.device, client=client)
+            t1 = time.time()
+            ms = lambda t: 1e3 * (t - t0)  # noqa: E731
+            print(f"run {repeat} ({'warm-up' if repeat == 0 else 'timed'}): {ms(t1):.1f} ms")
+            for part, arrived in got:
+                tr = part.trace
+                print(
+                    f"  task [{part.start:,}, {part.stop:,}): worker {ms(tr['start']):7.1f} -> {ms(tr['end']):7.1f} ms "
+                    f"(stage {1e3 * tr['make_stage']:.1f} ms, loop {1e3 * tr['_loop']:.1f} ms), "
+                    f"result at the client {ms(arrived):7.1f} ms"
+                )
+    for repeat in range(args.repeats + 1):
+        time.sleep(0.05)
+        t0 = time.perf_counter()
+        part = _traced_range(scene, args.device, 0, scene.shot.pellets)
+        print(
+            f"direct range {repeat}: {1e3 * (time.perf_counter() - t0):.1f} ms (stage {1e3 * part.trace['make_stage']:.1f} ms, "
+            f"loop {1e3 * part.trace['_loop']:.1f} ms)"
+        )
+        t0 = time.perf_counter()
+        wr.run(scene, device=args.device)
+        print(f"direct run {repeat}: {1e3 * (time.perf_counter() - t0):.1f} ms")
+
+
 def main(argv=None) -> None:
     p = argparse.ArgumentParser(
         prog="python -m bench.dask", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -328,6 +407,11 @@ def main(argv=None) -> None:
     c.add_argument("--device", default="cuda:0")
     c.add_argument("--repeats", type=int, default=2)
     c.set_defaults(func=cmd_scaling)
+    t = sub.add_parser("trace")
+    t.add_argument("--pellets", type=float, default=1e9)
+    t.add_argument("--device", default="cuda:0")
+    t.add_argument("--repeats", type=int, default=2)
+    t.set_defaults(func=cmd_trace)
     args = p.parse_args(argv)
     if getattr(args, "pellets", None) is not None:
         args.pellets = int(args.pellets)
