@@ -14,7 +14,7 @@
          (`until = "rest"`, docs/geometry.md "Rest on triangles") beside the same shot on a level
          plane of turf: seconds, pellets/s, where the pellets end and their mean steps
 
-    python -m bench.meshes box [--n 1e7] [--chunk 1e6] [--precision float32] [--device cpu]
+    python -m bench.meshes box [--n 1e7] [--chunk 1e6] [--jitter 1e-5] [--precision float32] [--device cpu]
     python -m bench.meshes plane [--n 1e6] [--precision float32] [--device cpu] [--repeats 3]
     python -m bench.meshes terrain [--n 1e6] [--precision float32] [--device cpu] [--repeats 3] [--cells 708]
                                    [--flights vacuum,air]
@@ -102,7 +102,11 @@ def _box_run(folder, x, v, precision, device, name):
         return surface, f["pellets/impact/position"][()].reshape(len(x), -1, 3)[:, 0], f["pellets/landing/position"][()], seconds
 
 
-def box(n, chunk, precision, device, seed=27):
+def box(n, chunk, precision, device, seed=27, jitter=0.0):
+    """`n` pellets at the box in chunks of `chunk` (`box_shots`); `jitter`: each launch position
+    moved by up to that fraction of its coordinates, so pellets aimed at an edge or a vertex pass
+    within a fraction of a millimetre of it, inside or outside (a sphere of radius R = 1.25 mm
+    that passes outside within R touches it)."""
     rng = np.random.default_rng(seed)
     slack = 1e-9 if precision == "float64" else 1e-5
     met = inside = landed = 0
@@ -113,6 +117,7 @@ def box(n, chunk, precision, device, seed=27):
         done = 0
         while done < n:
             x, v = box_shots(rng, min(chunk, n - done))
+            x = x + rng.uniform(-1.0, 1.0, x.shape) * jitter * np.abs(x)
             surface, first, landing, took = _box_run(folder, x, v, precision, device, "chunk")
             ok = ~np.isnan(landing).any(axis=1)
             met += int((surface == 0).sum())
@@ -120,7 +125,7 @@ def box(n, chunk, precision, device, seed=27):
             landed += int(ok.sum())
             seconds += took
             done += len(x)
-    print(f"box, {precision}, {device}: {n:,} pellets, {met:,} meet it, {landed:,} land again, {inside} centres inside")
+    print(f"box, {precision}, {device}, jitter {jitter:g}: {n:,} pellets, {met:,} meet it, {landed:,} land again, {inside} centres inside")
     print(
         f"  runs (with per-pellet output) {seconds:.1f} s: {n / seconds:.3g} pellets/s  [{platform.processor() or platform.machine()}]"
     )
@@ -277,11 +282,12 @@ def main(argv=None):
     parser.add_argument("--precision", default="float32", choices=("float32", "float64"))
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--jitter", type=float, default=0.0, help="box: launch positions moved by up to this fraction")
     parser.add_argument("--cells", type=int, default=708, help="terrain: cells per side (2 cells^2 triangles)")
     parser.add_argument("--flights", default="vacuum,air", help="terrain: vacuum, air or both (comma-separated)")
     args = parser.parse_args(argv)
     if args.what == "box":
-        box(int(args.n), int(args.chunk), args.precision, args.device)
+        box(int(args.n), int(args.chunk), args.precision, args.device, jitter=args.jitter)
     elif args.what == "rest":
         rest(int(args.n), args.device, args.repeats)
     elif args.what == "terrain":
