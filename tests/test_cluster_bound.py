@@ -2,7 +2,8 @@
 tasks, submitted a check at a time on a real LocalCluster of 2 single-threaded workers, write their
 shards, and the run file presents the pellets of the checks run as one dataset per field, bitwise
 the serial bounded run's (h5py, open_run, xarray, the XDMF sidecar), also after Ctrl-C or a SIGKILL
-and --resume, and for a sweep of bounded points."""
+and --resume, for a sweep of bounded points, with stations and with the budget spent; the last step,
+cutting the file's datasets to the checks run, leaves the closed file as it was if it fails."""
 
 import errno
 import gc
@@ -51,15 +52,15 @@ def bounded_scene():
     return make_scene(raw, hazard=hazard, output={"fields": list(FIELDS)}, numerics={"chunk_size": 65_536})
 
 
-def small_scene():
+def small_scene(width=1.0, max_pellets=20_000):
     """Shots of 100 pellets, checks at 200, 300, 400, ... pellets (a task each): the third meets
-    the width (test_bound.py), of a budget of 20,000 pellets."""
+    the width of 1 m (test_bound.py), of a budget of 20,000 pellets."""
     raw = paper_raw(until="landing")
     raw["shot"].update(count=100, shots=2)
     hazard = {
         "energy_density": {"low": 237_000.0},
         "fractions": [0.01],
-        "bound": {"threshold": "low", "fraction": 0.01, "width": 1.0, "max_pellets": 20_000},
+        "bound": {"threshold": "low", "fraction": 0.01, "width": width, "max_pellets": max_pellets},
     }
     return make_scene(raw, hazard=hazard, output={"fields": ["landing"]})
 
@@ -212,3 +213,34 @@ def test_a_cut_that_fails_leaves_the_closed_run_file_as_it_was(tmp_path, client,
         assert f.attrs["status"] == "complete" and f["progress/rows"][()] == 400
         assert calls and {len(ds) for ds in f["pellets/landing"].values()} == {20_000}  # (the budget's tasks: not cut)
         assert f["progress"].attrs[BOUNDS][-1].tolist() == [18_800, 20_000]  # (the last check)
+
+
+def test_a_bounded_station_run_with_fields_on_a_cluster_is_the_serial_runs(tmp_path, client):
+    """Stations: tasks cut at every station's piece and check; the fields of the pieces run."""
+    from test_station_bound import bounded_raw
+
+    raw = bounded_raw()
+    raw["output"] = {"fields": ["landing"]}
+    scene, serial, out = make_scene(raw, precision="float64"), tmp_path / "serial.h5", tmp_path / "out.h5"
+    ref = wr.run(scene, serial, device="cpu")
+    got = wr.run(scene, out, device="cpu", client=client)
+    assert got.bound == ref.bound and got.bound.met and ref.bound.pellets < ref.bound.max_pellets
+    assert_same_run(out, serial, fields=("landing/position", "landing/range"))
+    with h5py.File(out) as f:
+        bounds = f["progress"].attrs[BOUNDS].tolist()
+        assert bounds[-1][1] == ref.bound.pellets and len(bounds) > ref.bound.checks  # (pieces within checks)
+        assert len(f["pellets/landing/range"].virtual_sources()) == len(bounds)
+
+
+def test_a_bounded_run_that_spends_its_budget_keeps_every_task_s_shard(tmp_path, client):
+    """Not bounded: the run goes to its budget (1,000 pellets, 8 checks), its datasets as made."""
+    scene = small_scene(width=0.01, max_pellets=1_050)  # (below one bin's width: never met)
+    serial, out = tmp_path / "serial.h5", tmp_path / "out.h5"
+    with pytest.warns(wr.PrecisionWarning, match="NOT BOUNDED"):
+        ref = wr.run(scene, serial, device="cpu")
+    with pytest.warns(wr.PrecisionWarning, match="NOT BOUNDED"):
+        got = wr.run(scene, out, device="cpu", client=client)
+    assert got.bound == ref.bound and not got.bound.met and got.bound.pellets == 1_000
+    assert_same_run(out, serial, fields=("landing/position", "landing/range"))
+    with h5py.File(out) as f:
+        assert len(f["pellets/landing/range"].virtual_sources()) == 8 == len(os.listdir(str(out) + ".shards"))
