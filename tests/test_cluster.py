@@ -277,17 +277,6 @@ def test_a_bounded_station_run_on_a_cluster_stops_at_the_serial_check_with_its_b
         np.testing.assert_array_equal(part.tally.flat(), got.stations[name].tally.flat())
 
 
-def test_per_pellet_fields_of_a_bounded_sweep_on_a_cluster_are_refused_in_one_line_before_any_work(tmp_path, client):
-    from test_station_bound import bounded_raw
-
-    raw = bounded_raw()
-    raw["output"] = {"fields": ["landing"]}
-    out = tmp_path / "sweep.h5"
-    with pytest.raises(wr.SceneError, match="output.fields = .*" + cluster.NO_FIELDS.replace("(", ".").replace(")", ".")):
-        wr.sweep(make_scene(raw), {"shot.seed": [1, 2]}, output=out, device="cpu", client=client)
-    assert not out.exists() and not os.path.exists(str(out) + ".partial") and not os.path.exists(str(out) + ".shards")
-
-
 def interrupt_at_task(monkeypatch, number, start) -> list:
     """Call `start`, Ctrl-C when the `number`th task's results reach a writer (before they are
     written); returns the rows of every task that reached one."""

@@ -32,10 +32,6 @@ TASKS_PER_WORKER = 4  # stretches a run is cut into, per worker (a killed worker
 CONNECT_TIMEOUT = "10s"  # how long a scheduler is given to answer
 QUIET = logging.CRITICAL  # a local cluster's own logs: a task's error reaches the user as one line, not the worker's traceback
 NO_DASK_CUDA = "one worker a GPU needs dask-cuda (pip install 'warp-ricochet[dask-cuda]')"
-NO_FIELDS = (
-    "per-pellet fields of a bounded run are not written from a cluster yet (docs/cluster.md); "
-    "drop output.fields or run without --cluster/--scheduler"
-)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -53,13 +49,9 @@ class RemoteDevice:
 
 
 def refuse(scene, output=None) -> None:
-    """Refuse in one line what a cluster does not run yet: per-pellet fields of a bounded run, or
-    H5MD frames, written to `output` (without an output none is computed)."""
-    if output is None:
-        return
-    if scene.output.fields and scene.hazard is not None and scene.hazard.bound is not None:
-        raise SceneError("output.fields", list(scene.output.fields), NO_FIELDS)
-    if scene.pair_collisions and scene.collisions.frame_every:
+    """Refuse in one line what a cluster does not run yet: H5MD frames written to `output` (without
+    an output none is computed)."""
+    if output is not None and scene.pair_collisions and scene.collisions.frame_every:
         raise SceneError("collisions.frame_every", scene.collisions.frame_every, "must be 0 on a cluster (H5MD frames)")
 
 
@@ -232,20 +224,19 @@ class Study:
         """Submit `scene`'s tasks (a bounded run's: `bound.planned`'s scene) from pellet `done`;
         returns the job `fold` takes (`ahead`: kept for `take` too). `shards`: the folder the
         tasks write their per-pellet fields to; `bounds`: the tasks' [start, stop) (a resumed
-        sharded run's, its shards' names), else cut here."""
+        sharded run's, its shards' names), else cut here: a bounded run's up to its budget, each
+        check's submitted by `fold` once the check before is not met."""
         from .bound import BoundPlan, planned
 
         plan, work = BoundPlan.of(scene), planned(scene)
         chunk = chunk_of(work, self.remote, work.output.fields if shards is not None else ())
         size = task_size(work.shot.pellets - done, self.workers, TASKS_PER_WORKER, chunk)
-        job = {"scene": work, "plan": plan, "size": size, "unit": unit_of(work), "submitted": {}, "bounds": []}
+        job = {"scene": work, "plan": plan, "unit": unit_of(work), "submitted": {}, "bounds": [], "shards": shards}
         self.total += work.shot.pellets - done
-        if plan is None:
-            for begin, stop in _stretches(work, done):
-                cut = (
-                    task_bounds(begin, stop, job["unit"], size) if bounds is None else [b for b in bounds if begin <= b[0] < stop]
-                )
-                job["bounds"] += cut
+        for begin, stop in _stretches(work, done):
+            cut = task_bounds(begin, stop, job["unit"], size) if bounds is None else [b for b in bounds if begin <= b[0] < stop]
+            job["bounds"] += cut
+            if plan is None:
                 job["submitted"][stop] = self._submit(work, cut, shards)
         if ahead:
             self.pending[_ahead(scene, shards)] = job
@@ -348,7 +339,7 @@ def _fold(study, job, model, spec, sink, resumed, fold):
         number = checks.index(stop) + 1 if stop in checks else 0
         futures = job["submitted"].get(stop)
         if futures is None:  # a bounded run: its tasks a check at a time
-            futures = study._submit(scene, task_bounds(begin, stop, job["unit"], job["size"]))
+            futures = study._submit(scene, [b for b in job["bounds"] if begin <= b[0] < stop], job["shards"])
         while futures:  # (each dropped once folded: its result leaves the cluster's memory)
             part = study.result(futures.pop(0))
             assert part.start == done, (part.start, done)

@@ -162,6 +162,7 @@ class OutputFile:
     ):
         self.path = check_output_path(path, overwrite)
         self.overwrite, self.sidecar = overwrite, sidecar
+        self.finishing = []  # callables(path) run on the closed file of a complete run, before it moves into place
         self.partial = self.path.with_name(self.path.name + ".partial")
         self.watchable = kind == "run"  # SWMR: a run file can be read while it is written
         self.broken = False
@@ -219,6 +220,7 @@ class OutputFile:
         self = cls.__new__(cls)
         self.path = check_resume_path(path, overwrite)
         self.overwrite, self.sidecar = overwrite, sidecar
+        self.finishing = []
         self.partial = self.staging = self.path.with_name(self.path.name + ".partial")
         self.watchable = True
         self.broken = False
@@ -321,6 +323,8 @@ class OutputFile:
                 except OutputError:  # NAME.partial appeared meanwhile: ours holds no chunk
                     os.unlink(self.staging)
             if exc_type is None:
+                for step in self.finishing:  # (one that fails leaves NAME.partial complete, as closed)
+                    step(self.partial)
                 move_into_place(self.partial, self.path, self.overwrite)
         finally:
             self._lock.release()

@@ -5,12 +5,16 @@ SWMR file takes no new objects later) from the run's task bounds, which /progres
 --resume. Sources are named by absolute path; rows whose shard is missing read as the fill value
 (NaN, or -1 for integers), never as zeros, and every reader of the package refuses a file whose
 committed rows have a shard missing (`missing`, through `inputcheck`).
+
+A bounded run's (`bound`) datasets are made over its budget's tasks, growable as the serial run's;
+once it stopped at a check, `cut` makes them present the rows it ran: their tasks' shards only.
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
+import shutil
 from pathlib import Path
 
 import h5py
@@ -18,6 +22,7 @@ import numpy as np
 
 from ..fields import FIELDS, numpy_dtype, shape
 from ..scene.schema import COMPRESSIONS
+from .atomic import replaced
 
 BOUNDS = "shard_bounds"  # /progress attribute: the tasks' [start, stop) rows, (K, 2)
 FOLDER = "shard_folder"  # /progress attribute: the shards' folder (absolute)
@@ -37,15 +42,70 @@ def fill_value(dtype) -> float | int:
     return np.nan if np.dtype(dtype).kind == "f" else -1
 
 
-def create_virtual(group, name: str, model, pellets: int, folder, bounds) -> h5py.Dataset:
-    """Field `name` of a run of `pellets` rows as a virtual dataset over the shards of `bounds`."""
+def create_virtual(group, name: str, model, pellets: int, folder, bounds, growing: bool = False) -> h5py.Dataset:
+    """Field `name` of a run of `pellets` rows as a virtual dataset over the shards of `bounds`;
+    `growing`: its rows unlimited (a bounded run's, `cut` when it stops: the serial run's are)."""
     tail = shape(name, 0, model.bounces, model.thresholds)[1:]
-    dtype = numpy_dtype(name, model.precision)
-    layout = h5py.VirtualLayout(shape=(pellets,) + tail, dtype=dtype)
+    return _virtual(group, name, tail, numpy_dtype(name, model.precision), pellets, folder, bounds, growing)
+
+
+def _virtual(group, name: str, tail: tuple, dtype, pellets: int, folder, bounds, growing: bool) -> h5py.Dataset:
+    layout = h5py.VirtualLayout(shape=(pellets,) + tail, dtype=dtype, maxshape=((None,) if growing else (pellets,)) + tail)
     for start, stop in bounds:
         source = h5py.VirtualSource(shard_path(folder, start, stop), FIELDS[name].path, shape=(stop - start,) + tail)
         layout[start:stop] = source
     return group.create_virtual_dataset(FIELDS[name].path, layout, fillvalue=fill_value(dtype))
+
+
+def cut(path, group: str = "/") -> None:
+    """Make the sharded fields of the run in `group` of the closed run file `path` (a bounded run's,
+    made over its budget's tasks) present its rows complete (`/progress/rows`: the checks it ran):
+    virtual datasets over those tasks' shards, their attributes and dimensions kept, and the shards
+    of any task past them removed. The file is edited as a copy moved onto it (`atomic.replaced`):
+    a kill or an error leaves it as it was closed (complete, its fields the budget's rows)."""
+    with h5py.File(path, "r", locking=False) as f:
+        g = f[group]
+        if BOUNDS not in g["progress"].attrs:
+            return
+        rows, folder = int(g["progress/rows"][()]), g["progress"].attrs[FOLDER]
+        bounds = [(int(a), int(b)) for a, b in g["progress"].attrs[BOUNDS]]
+        names = [n for n, field in FIELDS.items() if _is_virtual(g.get(field.path)) and len(g[field.path]) != rows]
+    kept, dropped = [b for b in bounds if b[1] <= rows], [b for b in bounds if b[1] > rows]
+    assert sum(b - a for a, b in kept) == rows, (rows, kept)  # (tasks never cross a check)
+    if names:
+        with replaced(path) as tmp:
+            shutil.copyfile(path, tmp)
+            with h5py.File(tmp, "r+", locking=False) as f:
+                g = f[group]
+                for name in names:
+                    _recut(g, name, rows, folder, kept)
+                record(g["progress"], (folder, kept))
+    for a, b in dropped:  # (none is written: a check's tasks are submitted once the one before is not met)
+        for stale in (shard_path(folder, a, b), shard_path(folder, a, b) + ".partial"):
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(stale)
+
+
+def _is_virtual(ds) -> bool:
+    return isinstance(ds, h5py.Dataset) and ds.is_virtual
+
+
+def _recut(g, name: str, rows: int, folder, bounds) -> None:
+    """Field `name` of run group `g` made again as a virtual dataset of `rows` rows over `bounds`,
+    with its attributes and dimension scales."""
+    old = g[FIELDS[name].path]
+    tail, dtype = old.shape[1:], old.dtype
+    attrs = {k: v for k, v in old.attrs.items() if k != "DIMENSION_LIST"}
+    scales = [list(dim.values()) for dim in old.dims]
+    for dim, found in zip(old.dims, scales):  # (each scale lists the datasets attached: detached first)
+        for scale in found:
+            dim.detach_scale(scale)
+    del old, g[FIELDS[name].path]
+    ds = _virtual(g, name, tail, dtype, rows, folder, bounds, growing=True)
+    ds.attrs.update(attrs)
+    for dim, found in zip(ds.dims, scales):
+        for scale in found:
+            dim.attach_scale(scale)
 
 
 def record(progress, shards) -> None:

@@ -31,7 +31,7 @@ from . import bound_out, h5md, station_out, tally_out
 from .dimensions import name_run_dimensions, name_sweep_dimensions
 from .ensemble import create_ensemble_datasets, write_ensemble
 from .runfile import _OPEN
-from .shards import create_virtual, record
+from .shards import BOUNDS, create_virtual, cut, record
 from .space import check_space
 
 MAX_H5_CHUNK_ROWS = 1 << 16
@@ -124,7 +124,7 @@ class RunWriter:
         computes (`tallies.sums.stat_names`); `scene_toml`: the scene recorded, when not `scene`'s
         (a bounded run is laid out as its budget's: `bound.planned`); `shards`: (folder, [(start,
         stop)]) of a run on a cluster, its fields virtual datasets over the tasks' shards
-        (`io.shards`), not appended here."""
+        (`io.shards`), not appended here (a bounded run's over its budget's, `cut` at the end)."""
         self.group = group
         self.fields = tuple(fields)
         self.rows = 0
@@ -137,7 +137,7 @@ class RunWriter:
         for name in self.fields:
             empty = shape(name, 0, model.bounces, model.thresholds)
             if shards is not None:
-                ds = create_virtual(group, name, model, pellets, *shards)
+                ds = create_virtual(group, name, model, pellets, *shards, growing=_bounded(scene))
             else:
                 ds = group.create_dataset(
                     FIELDS[name].path,
@@ -162,7 +162,7 @@ class RunWriter:
             h5md.create_frames(group, pellets, scene.collisions.frame_every)
         if scene.output.quantiles:
             tally_out.create(group, scene, model)
-        if scene.hazard is not None and scene.hazard.bound is not None:
+        if _bounded(scene):
             bound_out.create(group, scene.hazard.bound)
         if scene.stations:
             station_out.create(group, scene, model, stats)
@@ -349,11 +349,24 @@ class RunWriter:
                 write_ensemble(self.group, stats.ensemble)
             if getattr(stats, "bound", None) is not None:
                 bound_out.write(self.group, stats.bound)
+                _cut_when_closed(self.group)
             if getattr(stats, "stations", None) is not None:
                 station_out.write(self.group, stats)
             self.group.file.flush()
         except (OSError, RuntimeError) as exc:
             raise _write_failure(exc, self.group) from None
+
+
+def _bounded(scene) -> bool:
+    return scene.hazard is not None and scene.hazard.bound is not None
+
+
+def _cut_when_closed(group) -> None:
+    """A bounded run's sharded fields made over its budget's tasks: `shards.cut` to the checks run
+    once its file is closed (SWMR: no new object before), before it moves into place."""
+    out = _OPEN.get(group.file.filename)
+    if out is not None and BOUNDS in group["progress"].attrs:
+        out.finishing.append(lambda path, name=group.name: cut(path, name))
 
 
 def unit_of_key(key: str) -> str:
