@@ -274,9 +274,11 @@ def test_a_sweep_keeps_each_points_intervals(tmp_path):
         assert np.isnan(low[1]) and np.isnan(high[1])
 
 
-def test_a_piece_is_a_core_thread_of_pellets():
-    """core.shots follows PIECE pellets a thread, as the core kernel's threads do (short sums)."""
+def test_a_piece_is_a_core_thread_of_pellets_cut_into_whole_sub_pieces():
+    """A stored piece holds PIECE pellets, as a core kernel's thread does (short sums); core.shots
+    follows SUB of them a thread, whole sub-pieces merged in order."""
+    from warp_ricochet.core.shots import SUB, SUB_PIECES
     from warp_ricochet.tallies.ensemble import PIECE
     from warp_ricochet.tallies.reduce import PER_THREAD
 
-    assert PIECE == PER_THREAD
+    assert PIECE == PER_THREAD and SUB * SUB_PIECES == PIECE

@@ -1,14 +1,19 @@
 """Per-shot statistics partials of a run of several shots (`shot.shots`), for the ensemble's
 confidence intervals (`tallies.ensemble`).
 
-A second, statistics-only pass of the core over the pellets of each complete shot: one thread per
-*piece* (`tallies.ensemble.PIECE` = 256 consecutive pellets of one shot, the last piece of a shot shorter), each
-follows its pellets in order through `core.pellet.ricochet_pellet` (from the launch, or from the
-dense phase's release in a run with pair collisions) and stores its partials as the core kernel's
-threads do (`tallies.accumulate.store_partials`). A piece's partials depend only on its pellets,
-never on the chunk or on the other shots, so per-shot values are bitwise the same for any chunk
-size and after --resume. Rows are (shot, piece) in order, SEGMENT_WIDTH columns like a statistics
-segment's: sums, range minima, range maxima.
+A second, statistics-only pass of the core over the pellets of each complete shot, by *pieces*
+(`tallies.ensemble.PIECE` = 256 consecutive pellets of one shot, the last piece of a shot shorter)
+cut into SUB_PIECES sub-pieces of SUB consecutive pellets: one thread a sub-piece follows its
+pellets in order through `core.pellet.ricochet_pellet` (from the launch, or from the dense phase's
+release in a run with pair collisions) and stores its partials as the core kernel's threads do
+(`tallies.accumulate.store_partials`); a piece's row is then its sub-pieces' partials merged in
+order as a statistics segment's lanes are (`tallies.reduce.reduce_kernel`: sums, Chan's squared
+deviations, extremes). Threads of 32 pellets rather than 256 keep a GPU busy with 8x fewer shots:
+a pellet followed to rest takes tens of steps, and one thread a piece left 20,000 threads for
+10,000 shots. A piece's partials depend only on its pellets, never on the chunk or on the other
+shots, so per-shot values are bitwise the same for any chunk size and after --resume. Rows are
+(shot, piece) in order, SEGMENT_WIDTH columns like a statistics segment's: sums, range minima,
+range maxima.
 """
 
 import dataclasses
@@ -21,11 +26,14 @@ from ..physics.types import types_for
 from ..tallies.accumulate import make_accumulators
 from ..tallies.ensemble import PIECE, pieces_per_shot
 from ..tallies.landing import make_landing_tally
-from ..tallies.reduce import SEGMENT_WIDTH
+from ..tallies.reduce import SEGMENT_WIDTH, reduce_kernel
 from ..tallies.sums import NUM_EXTREMES, NUM_SUMS
 from .outputs import make_outputs
 from .pellet import make_ricochet_pellet
 from .release import make_release
+
+SUB = 32  # pellets a thread follows
+SUB_PIECES = PIECE // SUB  # threads a piece
 
 
 @functools.cache
@@ -43,7 +51,7 @@ def shot_kernel_for(spec):
     acc_fns, ricochet_pellet = make_accumulators(spec.precision, spec.to_rest), make_ricochet_pellet(spec)
     Tally = make_landing_tally(spec.precision).Tally
     floats_t, extremes_t, inf = acc_fns.floats_t, acc_fns.extremes_t, acc_fns.inf
-    piece = PIECE
+    piece, sub, subs = PIECE, SUB, SUB_PIECES
 
     @wp.kernel(module="unique", enable_backward=False)
     def shot_pieces_kernel(
@@ -57,20 +65,21 @@ def shot_kernel_for(spec):
         out: Outputs,
         release: Release,
         tally: Tally,  # not counted into (the spec's tally is off)
-        partial_sums: wp.array2d(dtype=wp.float64),  # (NUM_SUMS, pieces of the launch)
+        partial_sums: wp.array2d(dtype=wp.float64),  # (NUM_SUMS, sub-pieces of the launch)
         partial_min: wp.array2d(dtype=wp.float64),
         partial_max: wp.array2d(dtype=wp.float64),
     ):
         tid = wp.tid()
-        shot = tid // pieces
-        k = tid - shot * pieces
+        k = tid // subs  # the piece (of the launch's shots) and the sub-piece in it
+        shot = k // pieces
+        first = (k - shot * pieces) * piece + (tid - k * subs) * sub
         counts = wp.vec4i()
         acc = floats_t()
         lo = extremes_t(inf)
         hi = extremes_t(-inf)
         range_shift = scalar(0.0)
-        for j in range(piece):
-            member = k * piece + j
+        for j in range(sub):
+            member = first + j
             if member < count:
                 index = (first_shot + shot) * count + member
                 counts, acc, lo, hi, range_shift = ricochet_pellet(
@@ -82,8 +91,9 @@ def shot_kernel_for(spec):
 
 
 class ShotPass:
-    """Launches the per-piece kernel for the shots a chunk completes and keeps their rows on the
-    device (`rows`, (pieces, SEGMENT_WIDTH) float64) until the host copies them."""
+    """Launches the per-sub-piece kernel for the shots a chunk completes and merges each piece's
+    sub-pieces, keeping their rows on the device (`rows`, (pieces, SEGMENT_WIDTH) float64) until
+    the host copies them."""
 
     def __init__(self, scene, model, spec, max_shots: int, arrays=None):
         self.model, self.spec = model, spec
@@ -93,6 +103,7 @@ class ShotPass:
         dev = model.device
         n = max(max_shots, 1) * self.pieces
         self.partial_sums, self.partial_min, self.partial_max, self.rows = _arrays(dev, n)
+        self.merge = reduce_kernel(SUB_PIECES)
         # a pellet file: its own rows, the shots may start in an earlier chunk
         self.source = (
             PelletSource(scene, model.precision, dev, max(max_shots, 1) * self.count, arrays)
@@ -112,9 +123,16 @@ class ShotPass:
         m, pieces = self.model, shots * self.pieces
         wp.launch(
             self.kernel,
-            dim=pieces,
+            dim=pieces * SUB_PIECES,
             inputs=[first_shot, self.count, self.pieces, row_offset, source, m.surfaces, m.physics, outputs, release, tally],
             outputs=[self.partial_sums, self.partial_min, self.partial_max],
+            device=m.device,
+        )
+        wp.launch(
+            self.merge,
+            dim=(pieces, NUM_SUMS + NUM_EXTREMES),
+            inputs=[self.partial_sums, self.partial_min, self.partial_max],
+            outputs=[self.rows],
             device=m.device,
         )
         return pieces
@@ -124,24 +142,22 @@ _KEPT: dict = {}  # CUDA: the last pass's device rows, reused by the next of the
 
 
 def _arrays(dev, n: int):
-    """The per-piece partials of up to `n` pieces as the kernel writes them (sums, minima, maxima:
-    a column a piece) and as the host takes them (`rows`: a piece a row, SEGMENT_WIDTH columns),
-    float64: the first three are strided views of `rows`. On CUDA the last pass's if they have this
-    size (one run at a time: pipeline's lock), so a run does not allocate them again."""
+    """The partials of up to `n` pieces' sub-pieces as the kernel writes them (sums, minima,
+    maxima: a column a sub-piece) and the pieces' rows as the host takes them (`rows`: a piece a
+    row, SEGMENT_WIDTH columns), float64. On CUDA the last pass's if they have this size (one run
+    at a time: pipeline's lock), so a run does not allocate them again."""
     key = (dev.alias, n)
     if key in _KEPT:
         return _KEPT[key]
     if dev.is_cuda:
         _KEPT.clear()  # (the old ones freed before the new ones are made)
-    rows = wp.empty((n, SEGMENT_WIDTH), dtype=wp.float64, device=dev)
-    item = 8  # bytes of a float64
-
-    def columns(first: int, width: int):
-        return wp.array(
-            ptr=rows.ptr + first * item, dtype=wp.float64, shape=(width, n), strides=(item, SEGMENT_WIDTH * item), device=dev
-        )
-
-    out = (columns(0, NUM_SUMS), columns(NUM_SUMS, NUM_EXTREMES), columns(NUM_SUMS + NUM_EXTREMES, NUM_EXTREMES), rows)
+    width = n * SUB_PIECES
+    out = (
+        wp.empty((NUM_SUMS, width), dtype=wp.float64, device=dev),
+        wp.empty((NUM_EXTREMES, width), dtype=wp.float64, device=dev),
+        wp.empty((NUM_EXTREMES, width), dtype=wp.float64, device=dev),
+        wp.empty((n, SEGMENT_WIDTH), dtype=wp.float64, device=dev),
+    )
     if dev.is_cuda:
         _KEPT[key] = out
     return out

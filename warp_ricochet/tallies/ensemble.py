@@ -34,7 +34,7 @@ from .collisions import SHOT_TOTALS, collision_statistics
 from .sums import NUM_EXTREMES, NUM_SUMS, SPREADS, STAT_UNITS, SUM, finalize_rows
 
 LEVEL = 0.95
-PIECE = 256  # pellets of one shot a thread of `core.shots` follows (= reduce.PER_THREAD, not imported: reduce imports Warp)
+PIECE = 256  # pellets of one shot a stored piece holds (= reduce.PER_THREAD, not imported: reduce imports Warp; `core.shots`)
 MAX_ENSEMBLE_SHOTS = 100_000  # per-shot values are kept on the host and in the file up to this many shots
 TOTALS = (
     "pellets",
