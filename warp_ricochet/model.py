@@ -203,8 +203,8 @@ class State:
     """Per-pellet device buffers of one chunk of up to `capacity` pellets (core kernel rows), for
     the core `fields` only, and the statistics partials of its threads and segments."""
 
-    def __init__(self, model: Model, capacity: int, fields):
-        self.capacity = capacity
+    def __init__(self, model: Model, capacity: int, fields, lanes: int = LANES):
+        self.capacity, self.lanes = capacity, lanes
         self.fields = tuple(fields)
         self.arrays = {
             name: wp.empty(
@@ -217,27 +217,27 @@ class State:
             for name in self.fields
         }
         self.outputs = outputs_struct(model.precision, model.device, self.arrays)
-        threads = threads_for(capacity)
+        threads = threads_for(capacity, lanes)
         self.partial_sums = wp.empty((NUM_SUMS, threads), dtype=wp.float64, device=model.device)
         self.partial_min = wp.empty((NUM_EXTREMES, threads), dtype=wp.float64, device=model.device)
         self.partial_max = wp.empty((NUM_EXTREMES, threads), dtype=wp.float64, device=model.device)
-        self.segments = wp.empty((threads // LANES, SEGMENT_WIDTH), dtype=wp.float64, device=model.device)
+        self.segments = wp.empty((threads // lanes, SEGMENT_WIDTH), dtype=wp.float64, device=model.device)
 
     @staticmethod
-    def bytes_per_pellet(precision: str, fields, bounces: int) -> float:
+    def bytes_per_pellet(precision: str, fields, bounces: int, lanes: int = LANES) -> float:
         """Device bytes per pellet: the output fields plus the partial statistics."""
-        return partial_bytes_per_pellet() + bytes_per_pellet(fields, precision, bounces)
+        return partial_bytes_per_pellet(lanes) + bytes_per_pellet(fields, precision, bounces)
 
 
 _LAST_STATE: dict = {}
 
 
-def reused_state(model: Model, capacity: int, fields) -> State:
+def reused_state(model: Model, capacity: int, fields, lanes: int = LANES) -> State:
     """The last run's chunk buffers if they fit (device, precision, bounces, capacity, fields),
     else new ones, which replace them: one set is kept in all, so device memory does not grow with
     the runs of a sweep. Only for CUDA runs, one at a time (pipeline's lock)."""
-    key = (model.device.alias, model.precision, model.bounces, model.thresholds, capacity, tuple(fields))
+    key = (model.device.alias, model.precision, model.bounces, model.thresholds, capacity, tuple(fields), lanes)
     if _LAST_STATE.get("key") != key:
         _LAST_STATE.clear()  # free the old buffers before allocating new ones
-        _LAST_STATE.update(key=key, state=State(model, capacity, fields))
+        _LAST_STATE.update(key=key, state=State(model, capacity, fields, lanes))
     return _LAST_STATE["state"]

@@ -47,7 +47,7 @@ from .tallies.collisions import (
 )
 from .tallies.counts import DeviceTally, TallySetup, TallyTotals
 from .tallies.ensemble import ensemble_of, has_ensemble, per_shot_statistics
-from .tallies.reduce import SEGMENT_WIDTH, launch_reduce, threads_for
+from .tallies.reduce import SEGMENT_WIDTH, lanes_for, launch_reduce, threads_for
 from .tallies.sums import combine, empty_totals, finalize
 
 log = logging.getLogger(__name__)  # `warp-ricochet -vv`: a line per chunk
@@ -125,7 +125,7 @@ class CoreStage:
         dev = model.device
         self.model, self.pellets, self.stop = model, pellets, pellets
         self.capacity = plan_rows(scene, dev, pellets, spec.fields)
-        self.state = (reused_state if dev.is_cuda else State)(model, self.capacity, spec.core_fields)
+        self.state = (reused_state if dev.is_cuda else State)(model, self.capacity, spec.core_fields, lanes_for(spec.to_rest))
         self.source = PelletSource(scene, model.precision, dev, self.capacity, arrays)
         self.kernel = ricochet_kernel_for(spec)
         self.release = empty_release(model.precision, dev.alias)
@@ -146,14 +146,14 @@ class CoreStage:
         self.tally.before_chunk()
         wp.launch(
             self.kernel,
-            dim=threads_for(rows),
+            dim=threads_for(rows, self.state.lanes),
             inputs=[start, rows, self.source.struct, m.surfaces, m.physics, self.state.outputs, self.release, self.tally.struct],
             outputs=[self.state.partial_sums, self.state.partial_min, self.state.partial_max],
             device=m.device,
             block_dim=CUDA_BLOCK_DIM,
         )
         self.tally.fold(rows, last=start + rows >= self.stop)
-        return launch_reduce(self.state, rows, m.device), 0
+        return launch_reduce(self.state, rows, m.device, self.state.lanes), 0
 
     def shot_rows(self, start: int, rows: int):
         """Launch the per-piece partials of the shots this chunk completes; returns their pieces
@@ -182,7 +182,7 @@ class CollisionStage:
         self.shots = pellets // self.count
         self.per_chunk = plan_shots(scene, dev, self.shots)
         self.stride = shot_stride(self.count)
-        self.state = State(model, self.per_chunk * self.stride, spec.core_fields)
+        self.state = State(model, self.per_chunk * self.stride, spec.core_fields, lanes_for(spec.to_rest))
         self.dense = DensePhase(model, scene, spec, self.per_chunk * self.count, options)
         self.source = PelletSource(scene, model.precision, dev, self.per_chunk * self.count, arrays)
         self.kernel = ricochet_kernel_for(spec)
@@ -207,7 +207,7 @@ class CollisionStage:
         self.tally.before_chunk()
         wp.launch(
             self.kernel,
-            dim=threads_for(slots),
+            dim=threads_for(slots, self.state.lanes),
             inputs=[
                 0,
                 slots,
@@ -223,7 +223,7 @@ class CollisionStage:
             block_dim=CUDA_BLOCK_DIM,
         )
         self.tally.fold(slots, last=start + rows >= self.stop)
-        return launch_reduce(self.state, slots, m.device), shots
+        return launch_reduce(self.state, slots, m.device, self.state.lanes), shots
 
     def shot_rows(self, start: int, rows: int):
         """Launch the per-piece partials of the chunk's shots, continued from their release; returns

@@ -1,6 +1,7 @@
 """The fused ricochet kernel: a thin loop over the pellets of one chunk (`core.pellet` does the
-work), one thread per LANES-interleaved set of PER_THREAD pellets, ending in the thread's
-statistics partials (`tallies`).
+work), one thread per lane-interleaved set of pellets of a segment (LANES threads of PER_THREAD
+pellets, or REST_LANES threads for pellets followed to rest: `tallies.reduce`), ending in the
+thread's statistics partials (`tallies`).
 """
 
 import functools
@@ -12,7 +13,7 @@ from ..physics.types import types_for
 from ..tallies.accumulate import make_accumulators
 from ..tallies.block import BEGIN
 from ..tallies.landing import make_add_landing, make_landing_tally
-from ..tallies.reduce import LANES, PER_THREAD, SEGMENT
+from ..tallies.reduce import SEGMENT, lanes_for
 from .outputs import make_outputs
 from .pellet import make_ricochet_pellet
 from .release import make_release
@@ -41,7 +42,8 @@ def ricochet_kernel_for(spec, max_registers="default"):
     TABLE = spec.hazard_map  # the map's block table (`tallies.block`)
     floats_t, extremes_t, inf = acc_fns.floats_t, acc_fns.extremes_t, acc_fns.inf
     RELEASE = spec.collisions
-    lanes, per_thread, segment = LANES, PER_THREAD, SEGMENT
+    lanes, segment = lanes_for(spec.to_rest), SEGMENT
+    per_thread = segment // lanes
     cap = CUDA_MAX_REGISTERS[spec.precision, spec.fast_math] if max_registers == "default" else max_registers
     options = {} if cap is None else {"cuda_max_registers": cap}
     if spec.fast_math:

@@ -5,7 +5,10 @@ touches consecutive pellets (coalesced), and handles PER_THREAD of them. A segme
 SEGMENT = LANES * PER_THREAD pellets of one group of LANES threads. Chunks start on segment
 boundaries, so segment k always holds the same pellets and the reduction order (pellet order
 within a thread, lane order within a segment, segment order on the host, `sums.combine`) is
-independent of the chunk size.
+independent of the chunk size. Pellets followed to rest (tens of integration steps each) are
+spread wider: REST_LANES threads a segment of the same SEGMENT pellets, SEGMENT // REST_LANES a
+thread (`lanes_for`), so that a run of 1e6 pellets has 62,500 threads rather than 3,906 to keep a
+GPU's multiprocessors busy; their partials take 24 bytes a pellet instead of 1.5.
 """
 
 import functools
@@ -18,24 +21,31 @@ from .sums import NUM_EXTREMES, NUM_SUMS, SUM
 LANES = 256
 PER_THREAD = 256
 SEGMENT = LANES * PER_THREAD
+REST_LANES = 4096  # threads a segment of a run followed to rest (16 pellets a thread)
 SEGMENT_WIDTH = NUM_SUMS + 2 * NUM_EXTREMES  # a segment's results: sums, minima, maxima
 
 
-def threads_for(rows: int) -> int:
-    """Threads (a whole number of LANES groups) that cover `rows` pellets."""
-    segments = -(-rows // (LANES * PER_THREAD))
-    return max(segments, 1) * LANES
+def lanes_for(to_rest: bool) -> int:
+    """Threads a segment: REST_LANES for pellets followed to rest, else LANES."""
+    return REST_LANES if to_rest else LANES
 
 
-def partial_bytes_per_pellet() -> float:
+def threads_for(rows: int, lanes: int = LANES) -> int:
+    """Threads (a whole number of groups of `lanes`) that cover `rows` pellets."""
+    segments = -(-rows // SEGMENT)
+    return max(segments, 1) * lanes
+
+
+def partial_bytes_per_pellet(lanes: int = LANES) -> float:
     """Device bytes per pellet of the per-thread partials (float64 sums, minima and maxima)."""
-    return SEGMENT_WIDTH * 8 / PER_THREAD
+    return SEGMENT_WIDTH * 8 * lanes / SEGMENT
 
 
 @functools.cache
-def reduce_kernel():
-    """One thread per (segment, row): the segment's LANES per-thread partials added in lane order."""
-    lanes, num_sums, num_extremes = LANES, NUM_SUMS, NUM_EXTREMES
+def reduce_kernel(lanes: int = LANES):
+    """One thread per (segment, row): the segment's `lanes` per-thread partials added in lane order
+    (a statistics segment's LANES; `core.shots`: a piece's sub-pieces)."""
+    num_sums, num_extremes = NUM_SUMS, NUM_EXTREMES
     ROW_LANDED, ROW_RANGE, ROW_M2 = SUM["landed"], SUM["range"], SUM["range_m2"]
     ROW_STOPPED, ROW_REST, ROW_REST_M2 = SUM["end_stopped"], SUM["end_distance"], SUM["end_distance_m2"]
     inf64 = wp.float64(math.inf)
@@ -90,12 +100,12 @@ def reduce_kernel():
     return reduce_segments
 
 
-def launch_reduce(state, rows: int, device) -> int:
-    """Reduce the per-thread partials of a chunk of `rows` pellets into `state.segments`; returns
-    the number of segments."""
-    segments = threads_for(rows) // LANES
+def launch_reduce(state, rows: int, device, lanes: int = LANES) -> int:
+    """Reduce the per-thread partials (`lanes` a segment) of a chunk of `rows` pellets into
+    `state.segments`; returns the number of segments."""
+    segments = threads_for(rows, lanes) // lanes
     wp.launch(
-        reduce_kernel(),
+        reduce_kernel(lanes),
         dim=(segments, NUM_SUMS + NUM_EXTREMES),
         inputs=[state.partial_sums, state.partial_min, state.partial_max],
         outputs=[state.segments],
