@@ -91,6 +91,14 @@ fi
 if [[ $what == rest-collisions ]]; then
   timeout 420 python3 -m bench.rest collisions --device cuda:0 --shots 10000 --repeats 1 --out "$out/rest" 2>&1 | quiet | tee "$out/rest-collisions.txt"
 fi
+if [[ $what == rest-kernels ]]; then  # issue 25: each kernel's share of 10,000 shots to rest (collisions, ensemble pass)
+  timeout 540 python3 -m bench.rest kernels --device cuda:0 --shots 10000 --out "$out/rest" 2>&1 | quiet | tee "$out/rest-kernels.txt"
+fi
+if [[ $what == rest-layout ]]; then  # issue 25: threads of 16 pellets to rest, sub-pieces of 32 (.gpu/old: the tree before)
+  timeout 300 python3 -m bench.rest kernels --device cuda:0 --shots 10000 --only "collisions, air, rest" 2>&1 | quiet | tee "$out/rest-layout-kernels.txt"
+  timeout 280 bench/side_by_side.sh .gpu/old . 1 python3 -m bench.rest throughput --device cuda:0 --sizes 1e6,1e7 --repeats 3 \
+    --only "air, rest, turf" 2>&1 | tee "$out/rest-layout-throughput.txt"
+fi
 if [[ $what == terrain ]]; then  # issue 27: a terrain of 1e6 triangles beside the plane
   timeout 150 python3 -m bench.meshes terrain --device cuda:0 --n 1e7 --repeats 3 --precision float32 2>&1 | quiet | tee "$out/terrain.txt"
 fi

@@ -125,7 +125,9 @@ def box(n, chunk, precision, device, seed=27, jitter=0.0):
             landed += int(ok.sum())
             seconds += took
             done += len(x)
-    print(f"box, {precision}, {device}, jitter {jitter:g}: {n:,} pellets, {met:,} meet it, {landed:,} land again, {inside} centres inside")
+    print(
+        f"box, {precision}, {device}, jitter {jitter:g}: {n:,} pellets, {met:,} meet it, {landed:,} land again, {inside} centres inside"
+    )
     print(
         f"  runs (with per-pellet output) {seconds:.1f} s: {n / seconds:.3g} pellets/s  [{platform.processor() or platform.machine()}]"
     )

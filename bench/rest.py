@@ -3,6 +3,7 @@ today's path (the landing) in one run, with impacts, integration steps and bytes
 
     python -m bench.rest throughput [--device cuda:0] [--sizes 1e6,1e8] [--repeats 3] [--out DIR]
     python -m bench.rest collisions [--device cuda:0] [--shots 10000] [--count 450] [--out DIR]
+    python -m bench.rest kernels [--device cuda:0] [--shots 10000] [--count 450]
 
 `throughput`: statistics-only runs of the paper's scene (examples/paper.toml, mu_s 0.5, float32):
 in vacuum and in sea-level air to the landing (today's path), and in air followed to rest on each
@@ -10,7 +11,10 @@ ground of GROUNDS (a rigid plane: the scene's own surface, c = 0; and catalogue 
 row: seconds (median of --repeats after a warm-up), pellets/s, mean impacts and integration steps
 per pellet (/stats), and the device bytes per pellet of a statistics-only run (the per-thread
 partials: none per pellet). `collisions`: --shots shots of --count pellets with pellet-pellet
-collisions in sea-level air, to the landing and to rest on turf.
+collisions in sea-level air, to the landing and to rest on turf. `kernels`: where the GPU's time
+goes in runs of --shots shots of --count pellets in air on turf (with and without collisions, to the
+landing and to rest; and the same pellets as one shot, without the per-shot pass of the ensemble):
+each kernel's total time and launches, from Warp's CUDA activity timing (`wp.timing_begin`).
 """
 
 from __future__ import annotations
@@ -93,15 +97,55 @@ def collisions(device, shots, count, repeats):
     return rows
 
 
+def kernels(device, shots, count, only=""):
+    wr, wp = _wr()
+    rows = []
+    cases = (
+        ("collisions, air, rest, turf", shots, count, ["collisions.enabled=true", 'physics.until="rest"']),
+        ("collisions, air, landing", shots, count, ["collisions.enabled=true", 'physics.until="landing"']),
+        ("shots, air, rest, turf", shots, count, ['physics.until="rest"']),
+        ("one shot, air, rest, turf", 1, shots * count, ['physics.until="rest"']),
+    )
+    for label, n_shots, n_count, settings in cases:
+        if only not in label:
+            continue
+        extra = [f"shot.shots={n_shots}", "output.fields=[]", 'surfaces.0.material="turf"', *settings]
+        scene = paper_scene(n_count, "float32", air=True, mu_s=0.5, extra=extra)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            started = time.perf_counter()
+            wr.run(scene, device=device)
+            compiled = time.perf_counter() - started
+            wp.synchronize_device(device)
+            wp.timing_begin(cuda_filter=wp.TIMING_KERNEL)
+            started = time.perf_counter()
+            wr.run(scene, device=device)
+            wp.synchronize_device(device)
+            seconds = time.perf_counter() - started
+            results = wp.timing_end()
+        spent: dict = {}
+        for r in results:
+            total, launches = spent.get(r.name, (0.0, 0))
+            spent[r.name] = (total + r.elapsed / 1e3, launches + 1)
+        top = sorted(spent.items(), key=lambda kv: -kv[1][0])
+        print(
+            f"{label}: {n_shots:,} x {n_count:,} pellets, run {seconds:.2f} s (first run {compiled:.1f} s), kernels {sum(t for t, _ in spent.values()):.2f} s"
+        )
+        for name, (total, launches) in top[:8]:
+            print(f"   {total:8.3f} s  {launches:6d} launches  {name[:110]}")
+        rows.append({"case": label, "seconds": seconds, "kernels": {k: v for k, v in top}})
+    return rows
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(prog="python -m bench.rest", description=__doc__.split("\n")[0])
-    parser.add_argument("what", choices=("throughput", "collisions"))
+    parser.add_argument("what", choices=("throughput", "collisions", "kernels"))
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--sizes", default="1e5")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--shots", type=int, default=10_000)
     parser.add_argument("--count", type=int, default=450)
-    parser.add_argument("--only", default="", help="throughput: only the cases whose label holds this")
+    parser.add_argument("--only", default="", help="throughput, kernels: only the cases whose label holds this")
     parser.add_argument("--out", type=Path)
     args = parser.parse_args(argv)
     _wr_mod, wp = _wr()
@@ -109,6 +153,8 @@ def main(argv=None):
     print(json.dumps(info), flush=True)
     if args.what == "throughput":
         rows = throughput(args.device, [int(float(s)) for s in args.sizes.split(",")], args.repeats, args.only)
+    elif args.what == "kernels":
+        rows = kernels(args.device, args.shots, args.count, args.only)
     else:
         rows = collisions(args.device, args.shots, args.count, args.repeats)
     if args.out:
