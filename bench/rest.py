@@ -116,6 +116,7 @@ def kernels(device, shots, count, only=""):
             started = time.perf_counter()
             wr.run(scene, device=device)
             compiled = time.perf_counter() - started
+            print(f"{label}: the first run (compiling) took {compiled:.1f} s", flush=True)
             wp.synchronize_device(device)
             wp.timing_begin(cuda_filter=wp.TIMING_KERNEL)
             started = time.perf_counter()
@@ -132,7 +133,7 @@ def kernels(device, shots, count, only=""):
             f"{label}: {n_shots:,} x {n_count:,} pellets, run {seconds:.2f} s (first run {compiled:.1f} s), kernels {sum(t for t, _ in spent.values()):.2f} s"
         )
         for name, (total, launches) in top[:8]:
-            print(f"   {total:8.3f} s  {launches:6d} launches  {name[:110]}")
+            print(f"   {total:8.3f} s  {launches:6d} launches  {name[:110]}", flush=True)
         rows.append({"case": label, "seconds": seconds, "kernels": {k: v for k, v in top}})
     return rows
 
