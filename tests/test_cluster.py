@@ -46,6 +46,8 @@ def scene_of(count=450, shots=60, fields=(), **sections):
     return scene_from_dict(raw)
 
 
+SCENE_FILE = os.path.join(os.path.dirname(__file__), "..", "examples", "paper.toml")
+SMALL_CPU = ["--set", "shot.count=200", "--device", "cpu", "-q"]
 HAZARD = {"map_cell": 0.5, "map_extent": [-5.0, 140.0, -25.0, 25.0], "speed": {"skin": 60.0}}
 
 
@@ -380,6 +382,33 @@ def test_overwrite_replaces_a_file_or_a_link_where_the_shards_folder_goes(tmp_pa
     shards.symlink_to(elsewhere)
     wr.run(scene, out, device="cpu", client=client, overwrite=True)
     assert shards.is_dir() and not shards.is_symlink() and (elsewhere / "rows-000000000000-000000000900.h5").exists()
+
+
+def test_overwrite_by_a_run_without_shards_removes_the_replaced_files_shards_and_nothing_else(tmp_path, client):
+    """A serial `run`/`sweep --overwrite` onto a file whose fields were in OUT.h5.shards removes that
+    folder once the new file is in place (once left behind); without --overwrite, or a folder of
+    that name the replaced file does not read, is kept."""
+    scene = scene_of(shots=2, fields=("landing",))
+    out, shards = tmp_path / "out.h5", tmp_path / "out.h5.shards"
+    wr.run(scene, out, device="cpu", client=client)
+    assert (shards / "rows-000000000000-000000000900.h5").exists()
+    rc, _, err = cli(["run", SCENE_FILE, *SMALL_CPU, "-o", out])  # refused: nothing changes
+    assert rc == 2 and "exists" in err and shards.is_dir()
+    rc, _, err = cli(["run", SCENE_FILE, *SMALL_CPU, "-o", out, "--overwrite"])
+    assert rc == 0 and not shards.exists() and not os.path.lexists(shards), err
+    with wr.open_run(out) as run:  # the new file, its fields in it
+        assert run.landing.position.values.shape == (200, 3)
+    (shards).mkdir()  # a folder of that name the file does not read: never removed
+    (shards / "mine.txt").write_text("kept")
+    assert cli(["run", SCENE_FILE, *SMALL_CPU, "-o", out, "--overwrite"])[0] == 0
+    assert (shards / "mine.txt").read_text() == "kept"
+    sweep, sweep_shards, mu = tmp_path / "sweep.h5", tmp_path / "sweep.h5.shards", {"surfaces.0.mu_s": [0.5, 0.6]}
+    wr.sweep(scene, mu, (), sweep, device="cpu", client=client)
+    assert sorted(p.name for p in sweep_shards.iterdir()) == ["0000", "0001"]
+    wr.sweep(scene, mu, (), sweep, device="cpu", overwrite=True)
+    assert not sweep_shards.exists()
+    with h5py.File(sweep) as f:
+        assert not f["runs/0001/pellets/landing/position"].is_virtual
 
 
 def test_an_interrupted_run_with_shards_resumes_from_its_committed_shards(tmp_path, client, monkeypatch):

@@ -30,6 +30,8 @@ from .fields import REST_FIELDS, bytes_per_pellet
 from .io import resume, sweepdir
 from .io.runfile import OutputFile, check_output_path, check_resume_path, output_target
 from .io.shards import folder_of as shards_of
+from .io.shards import owned as owned_shards
+from .io.shards import remove as remove_shards
 from .io.space import check_space
 from .io.writer import RunWriter
 from .model import Model
@@ -327,14 +329,13 @@ def run(
     folder = None if study is None or output is None or not scene.output.fields else _shards or shard_folder(output, overwrite)
     dev = resolve_device(device) if study is None else study.remote
     check_resources([scene], dev, output)
-    if (
-        folder is not None and _shards is None and (folder.is_symlink() or folder.is_file())
-    ):  # (--overwrite: not the link's target)
-        folder.unlink()
-    elif folder is not None and _shards is None and folder.exists():  # (--overwrite: the old run's shards)
-        shutil.rmtree(folder)
+    if folder is not None and _shards is None:  # (--overwrite: the old run's shards; a link, not its target)
+        remove_shards(folder)
     if output is None:
         return _run_one(scene, dev, progress=progress, dense_options=dense_options, study=study)
+    # --overwrite of a file whose fields were in shards, by a run that writes none there: its shards
+    # go once the new file has replaced it (an interrupted or failed run leaves the old file whole)
+    stale = owned_shards(output) if overwrite and folder is None else None
     with OutputFile(
         output,
         overwrite=overwrite,
@@ -345,7 +346,10 @@ def run(
         precision=scene.numerics.precision,
         sidecar=sidecar,
     ) as out:
-        return _run_one(scene, dev, out.h5, progress, dense_options, study, folder)
+        stats = _run_one(scene, dev, out.h5, progress, dense_options, study, folder)
+    if stale is not None:
+        remove_shards(stale)
+    return stats
 
 
 def _resume(scene, output, device, *, overwrite, progress, dense_options, sidecar=True, study=None) -> dict:
@@ -494,10 +498,11 @@ def sweep(
         with _sweep_kept(folder, close=False):
             check_resources([sc for i, sc in enumerate(scenes) if not folder.point(i).exists()], dev, output, copies=2)
             _check_partials(folder, scenes, study is not None)
-        shards = shards_of(path) if sharded else None
+        shards, stale = shards_of(path) if sharded else None, None
     else:
         check_resources(scenes, dev, output, copies=2)
         shards = shard_folder(path, overwrite) if sharded else None  # (one there refused without --overwrite)
+        stale = owned_shards(path) if overwrite and not sharded else None  # (as `run`'s: removed once replaced)
         folder = sweepdir.SweepFolder(path, manifest, resume=False, overwrite=overwrite)
         if shards is not None and shards.exists():  # (--overwrite: the old sweep's shards)
             shutil.rmtree(shards)
@@ -543,6 +548,8 @@ def sweep(
             seed=None if scene.shot.file else scene.shot.seed,
             precision=scene.numerics.precision,
         )
+    if stale is not None:
+        remove_shards(stale)
     return results
 
 
