@@ -8,6 +8,7 @@ import gc
 import importlib.util
 import logging
 import os
+import shutil
 import socket
 import threading
 
@@ -15,7 +16,7 @@ import h5py
 import numpy as np
 import pytest
 from distributed import Client, LocalCluster
-from helpers import assert_same_run, cli, make_scene, paper_raw, stats_equal
+from helpers import assert_same_run, cli, interrupt_after, make_scene, paper_raw, stats_equal
 
 import warp_ricochet as wr
 from warp_ricochet import cluster, tasks
@@ -409,6 +410,44 @@ def test_overwrite_by_a_run_without_shards_removes_the_replaced_files_shards_and
     assert not sweep_shards.exists()
     with h5py.File(sweep) as f:
         assert not f["runs/0001/pellets/landing/position"].is_virtual
+
+
+def test_every_check_of_the_outputs_comes_before_the_cluster_starts(tmp_path, monkeypatch):
+    """With --cluster, an existing file, XDMF sidecar or shards' folder, a --resume with nothing to
+    resume or of a run begun without a cluster, and a sweep's bad point are one line (exit 2)
+    before the cluster starts (they came after its seconds of start-up), nothing made."""
+
+    def no_cluster(*args, **kwargs):
+        raise AssertionError("the cluster was started before the checks")
+
+    monkeypatch.setattr(cluster, "session", no_cluster)
+    scene = scene_of(shots=600, fields=("landing",))  # 270,000 pellets, chunks of 65,536
+    toml, out = tmp_path / "scene.toml", tmp_path / "out.h5"
+    toml.write_text(scene.to_toml())
+    run = ["run", toml, "--device", "cpu", "--cluster", "local:1", "-o", out]
+    sweep = ["sweep", toml, "--device", "cpu", "--cluster", "local:1", "-o", out, "--param", "surfaces.0.mu_s=0.5,0.6"]
+    sidecar, shards = tmp_path / "out.xmf", tmp_path / "out.h5.shards"
+    cases = [
+        (lambda: out.write_bytes(b""), run, "output path = '{out}': exists; pass --overwrite"),
+        (lambda: sidecar.write_text(""), run, "output path = '{out}': out.xmf (its XDMF sidecar) exists"),
+        (lambda: sidecar.write_text(""), sweep, "output path = '{out}': out.xmf (its XDMF sidecar) exists"),
+        (shards.mkdir, run, "its shards' folder '{out}.shards' exists; --overwrite replaces it"),
+        (shards.mkdir, sweep, "its shards' folder '{out}.shards' exists; --overwrite replaces it"),
+        (None, [*run, "--resume"], "nothing to resume: out.h5.partial does not exist"),
+        (None, [*sweep, "--resume"], "nothing to resume: out.h5.partial does not exist"),
+        (None, [*sweep[:-1], "surfaces.0.mu_s=0.5,0.1"], "surfaces.0.mu_d = 0.45: must be a number in [0, mu_s = 0.1]"),
+        (lambda: interrupt_after(2, scene, out), [*run, "--resume"], "--resume = 'on a cluster': the run was begun without one"),
+    ]
+    for make, argv, want in cases:
+        for path in tmp_path.iterdir():
+            if path != toml:
+                shutil.rmtree(path) if path.is_dir() else path.unlink()
+        if make is not None:
+            make()
+        before = sorted(os.listdir(tmp_path))
+        rc, _, err = cli(argv)
+        assert rc == 2 and err.count("\n") == 1 and want.format(out=out) in err, (argv, err)
+        assert sorted(os.listdir(tmp_path)) == before, argv
 
 
 def test_an_interrupted_run_with_shards_resumes_from_its_committed_shards(tmp_path, client, monkeypatch):

@@ -303,17 +303,11 @@ def run(
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
     output = output if output is not None else scene.output.path
+    check_run(scene, output, overwrite=overwrite, resume=resume, on_cluster=client is not None)  # before any work
     study = None if client is None else _study(client, device, progress, dense_options)
     if study is not None:
-        study.check(scene, output)  # before any work
         progress = None
     if resume:
-        if scene.pair_collisions and scene.collisions.frame_every:  # see io.resume: frames are not resumed
-            raise SceneError(
-                "collisions.frame_every",
-                scene.collisions.frame_every,
-                "must be 0 for --resume (H5MD trajectory frames are not resumed); --overwrite starts a run with frames again",
-            )
         return _resume(
             scene,
             output,
@@ -324,8 +318,6 @@ def run(
             sidecar=sidecar,
             study=study,
         )
-    if output is not None:
-        check_output_path(output, overwrite)  # before any work
     folder = None if study is None or output is None or not scene.output.fields else _shards or shard_folder(output, overwrite)
     dev = resolve_device(device) if study is None else study.remote
     check_resources([scene], dev, output)
@@ -350,6 +342,41 @@ def run(
     if stale is not None:
         remove_shards(stale)
     return stats
+
+
+def check_run(scene, output=None, *, overwrite=False, resume=False, on_cluster=False) -> None:
+    """`run`'s checks that need no device, each one line before any work (the command line makes
+    them before it starts a cluster): what a cluster does not run yet, what --resume needs (an
+    interrupted run begun as this one is, on a cluster or not), and the output: the file, its
+    .partial, its XDMF sidecar and, for per-pellet fields on a cluster, its shards' folder."""
+    if on_cluster:
+        from .cluster import refuse
+
+        refuse(scene, output)
+    if not resume:
+        if output is not None:
+            check_output_path(output, overwrite)
+            if on_cluster and scene.output.fields:
+                shard_folder(output, overwrite)
+        return
+    if output is None:
+        raise SceneError("--resume", "no output", "needs the output file of the interrupted run (-o or output.path)")
+    if scene.pair_collisions and scene.collisions.frame_every:  # see io.resume: frames are not resumed
+        raise SceneError(
+            "collisions.frame_every",
+            scene.collisions.frame_every,
+            "must be 0 for --resume (H5MD trajectory frames are not resumed); --overwrite starts a run with frames again",
+        )
+    path = check_resume_path(output, overwrite)
+    from .io.h5open import open_for_reading
+
+    try:  # (a partial HDF5 cannot open or that lacks /progress: refused in its line by OutputFile.reopen)
+        with open_for_reading(Path(str(path) + ".partial"), locking=False) as f:
+            resumed_shards(f, scene, on_cluster)
+    except SceneError:
+        raise
+    except (OSError, KeyError, ValueError, TypeError):
+        pass
 
 
 def _resume(scene, output, device, *, overwrite, progress, dense_options, sidecar=True, study=None) -> dict:
@@ -463,16 +490,9 @@ def sweep(
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
     output = output if output is not None else scene.output.path
-    points = sweep_points(params, ties)
+    points, scenes = check_sweep(scene, params, ties, output, overwrite=overwrite, resume=resume, on_cluster=client is not None)
     study = None if client is None else _study(client, device, progress, dense_options)
     progress = progress if study is None else None
-    if resume and output is None:
-        raise SceneError("--resume", "no output", "needs the output file of the interrupted sweep (-o or output.path)")
-    scenes = _point_scenes(scene, points, output is not None)
-    if output is not None:
-        _numbers_only(points)
-    for sc in scenes if study is not None else ():
-        study.check(sc, output)  # before any work
     if output is None:
         dev = resolve_device(device) if study is None else study.remote
         check_resources(scenes, dev, None)
@@ -551,6 +571,31 @@ def sweep(
     if stale is not None:
         remove_shards(stale)
     return results
+
+
+def check_sweep(scene, params: dict, ties=(), output=None, *, overwrite=False, resume=False, on_cluster=False):
+    """`sweep`'s checks that need no device, as `check_run`'s: the points and every point's scene,
+    what a cluster does not run yet, and the output (the file, its folder to resume or replace,
+    its XDMF sidecar and, for per-pellet fields on a cluster, its shards' folder). Returns
+    (points, their scenes)."""
+    points = sweep_points(params, ties)
+    if resume and output is None:
+        raise SceneError("--resume", "no output", "needs the output file of the interrupted sweep (-o or output.path)")
+    scenes = _point_scenes(scene, points, output is not None)
+    if output is not None:
+        _numbers_only(points)
+    if on_cluster:
+        from .cluster import refuse
+
+        for sc in scenes:
+            refuse(sc, output)
+    if output is not None and resume:
+        sweepdir.check_resumable(output_target(output), overwrite)
+    elif output is not None:
+        path = check_output_path(output, overwrite)
+        if on_cluster and any(sc.output.fields for sc in scenes):
+            shard_folder(path, overwrite)
+    return points, scenes
 
 
 def _begun(folder, index: int) -> bool:

@@ -210,10 +210,6 @@ class Study:
 
         return dataclasses.replace(Model.from_scene(scene, resolve_device("cpu")), device=self.remote)
 
-    def check(self, scene, output=None) -> None:
-        """`refuse`, before any work."""
-        refuse(scene, output)
-
     def take(self, scene, done: int = 0, shards=None, bounds=None) -> dict:
         """The job of `scene` (and shards' folder) submitted ahead (a sweep's points), else
         `submit`ted now."""
