@@ -383,6 +383,13 @@ def test_overwrite_replaces_a_file_or_a_link_where_the_shards_folder_goes(tmp_pa
     shards.symlink_to(elsewhere)
     wr.run(scene, out, device="cpu", client=client, overwrite=True)
     assert shards.is_dir() and not shards.is_symlink() and (elsewhere / "rows-000000000000-000000000900.h5").exists()
+    sweep, sweep_shards, mu = tmp_path / "sweep.h5", tmp_path / "sweep.h5.shards", {"surfaces.0.mu_s": [0.5, 0.6]}
+    for make in (lambda: sweep_shards.write_text("not a folder"), lambda: sweep_shards.symlink_to(elsewhere)):
+        make()
+        wr.sweep(scene, mu, (), sweep, device="cpu", client=client, overwrite=True)  # (a sweep's too)
+        assert sorted(p.name for p in sweep_shards.iterdir()) == ["0000", "0001"] and not sweep_shards.is_symlink()
+        shutil.rmtree(sweep_shards)
+    assert (elsewhere / "rows-000000000000-000000000900.h5").exists()
 
 
 def test_overwrite_by_a_run_without_shards_removes_the_replaced_files_shards_and_nothing_else(tmp_path, client):

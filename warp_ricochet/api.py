@@ -524,8 +524,8 @@ def sweep(
         shards = shard_folder(path, overwrite) if sharded else None  # (one there refused without --overwrite)
         stale = owned_shards(path) if overwrite and not sharded else None  # (as `run`'s: removed once replaced)
         folder = sweepdir.SweepFolder(path, manifest, resume=False, overwrite=overwrite)
-        if shards is not None and shards.exists():  # (--overwrite: the old sweep's shards)
-            shutil.rmtree(shards)
+        if shards is not None:  # (--overwrite: the old sweep's shards; a link, not its target)
+            remove_shards(shards)
     with _sweep_kept(folder):
         results = []
         for i, sc in enumerate(scenes if study is not None else ()):  # every point not begun, submitted at once
