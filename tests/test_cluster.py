@@ -457,6 +457,37 @@ def test_every_check_of_the_outputs_comes_before_the_cluster_starts(tmp_path, mo
         assert sorted(os.listdir(tmp_path)) == before, argv
 
 
+@pytest.mark.parametrize(
+    "argv, want",
+    [
+        (["--workers", "0"], "argument --workers: '0': must be a whole number in [1, 2147483647]"),
+        (["--workers", "1,,2"], "argument --workers: '': must be a whole number"),
+        (["--workers", "1,99999"], "--cluster = 'local:99999': must be local:N"),
+        (["--repeats", "0"], "argument --repeats: '0': must be a whole number"),
+        (["--pellets", "nan"], "argument --pellets: 'nan': must be a whole number"),
+        (["--shots", "1e8"], "argument --shots: '1e8': must be a whole number in [1, 4772185]"),
+        (["--study", "sweep-rest", "--points", "10"], "--points = 10: must be a square number"),
+        (["--study", "statistics", "--points", "20000"], "--points = 20000: must be at most 10,000"),
+        (["--study", "statistics", "--rest"], "--rest = True: is for --study collisions"),
+    ],
+)
+def test_bench_dask_scaling_refuses_odd_options_in_one_line_before_any_cluster(argv, want, monkeypatch, capsys):
+    """`python -m bench.dask scaling` with options it cannot run: one line, exit 2, no cluster
+    started (once tracebacks, or a refusal after the first worker count's whole study)."""
+    from bench import dask as bench_dask
+
+    def no_cluster(*args, **kwargs):
+        raise AssertionError("a cluster was started before the checks")
+
+    monkeypatch.setattr(cluster, "session", no_cluster)
+    with pytest.raises(SystemExit) as exc:
+        bench_dask.main(["scaling", "--device", "cpu", *argv])
+    err = capsys.readouterr().err
+    assert (
+        exc.value.code == 2 and err.count("\n") == 1 and err.startswith("python -m bench.dask scaling: error: ") and want in err
+    ), err
+
+
 def test_an_interrupted_run_with_shards_resumes_from_its_committed_shards(tmp_path, client, monkeypatch):
     monkeypatch.setattr(cluster, "TASKS_PER_WORKER", 2)
     scene = fields_scene()
