@@ -226,6 +226,22 @@ def test_a_local_cluster_of_no_workers_or_more_than_the_cores_is_one_line(value)
     assert cluster.parse_cluster(f"local:{os.cpu_count() or 1}") == (os.cpu_count() or 1)
 
 
+@pytest.mark.parametrize("where", [{"cluster": "local:1"}, {"scheduler": "tcp://127.0.0.1:1"}])
+def test_a_device_no_worker_can_have_is_one_line_before_the_cluster_starts(where, monkeypatch):
+    """`--device bogus` with --cluster was refused by the workers after the cluster's start (2-3 s)."""
+    import distributed
+
+    def started(*args, **kwargs):
+        raise AssertionError("a cluster was started or reached before the device's name was checked")
+
+    monkeypatch.setattr(distributed, "LocalCluster", started)
+    monkeypatch.setattr(cluster, "_probe", started)
+    for device in ("bogus", "cuda:x", "cpu ", "CPU"):
+        with pytest.raises(SceneError, match=r"--device = .*: must be cpu, cuda or cuda:N"):
+            with cluster.session(device=device, **where):
+                pass
+
+
 def test_a_device_the_workers_lack_is_one_line_with_no_worker_traceback(client):
     """Once the worker's "Compute Failed" log and traceback came on stderr above the line (-q too)."""
     with pytest.raises(wr.RicochetError, match="^device = 'tpu': not available here; available: cpu"):

@@ -73,6 +73,13 @@ def parse_cluster(value: str) -> int:
     return int(found.group(1))
 
 
+def check_device(device) -> None:
+    """Refuse (SceneError) a `--device` no worker can have, before a cluster starts: Warp's
+    devices are cpu, cuda and cuda:N (whether the workers have it, only they can say)."""
+    if device is not None and re.fullmatch(r"cpu|cuda(:\d+)?", str(device)) is None:
+        raise SceneError("--device", device, "must be cpu, cuda or cuda:N (N: a GPU's number)")
+
+
 def _probe(address: str, seconds: float) -> None:
     """Refuse (SceneError) an address that does not answer Dask's `identity` as a scheduler within
     `seconds`: `distributed.Client` waits forever on a port that accepts but never answers (an
@@ -127,6 +134,7 @@ def session(cluster=None, scheduler=None, device=None, announce=None):
             cluster or scheduler,
             "needs Dask's distributed (pip install 'warp-ricochet[dask]')",
         ) from None
+    check_device(device)
     with contextlib.ExitStack() as stack:
         if cluster is not None:
             workers = parse_cluster(cluster)
