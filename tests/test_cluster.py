@@ -504,6 +504,32 @@ def test_bench_dask_scaling_refuses_odd_options_in_one_line_before_any_cluster(a
     ), err
 
 
+def test_a_fifo_where_the_shards_folder_goes_is_refused_before_the_cluster_and_never_opened(tmp_path, monkeypatch):
+    """A FIFO at OUT.h5.shards: `run --cluster ... --overwrite` once started the cluster, then hung
+    for good in rmtree (which opens it), deaf to SIGTERM; now one line before the cluster starts
+    (as a FIFO at the output path), and `io.shards.remove` unlinks whatever is not a folder."""
+    from test_faults import watchdog
+
+    from warp_ricochet.io import shards as io_shards
+
+    def no_cluster(*args, **kwargs):
+        raise AssertionError("the cluster was started before the checks")
+
+    monkeypatch.setattr(cluster, "session", no_cluster)
+    out, fifo = tmp_path / "o.h5", tmp_path / "o.h5.shards"
+    os.mkfifo(fifo)
+    with watchdog(fifo) as fired:
+        rc, _, err = cli(["run", SCENE_FILE, *SMALL_CPU, "--cluster", "local:1", "-o", out, "--overwrite"])
+    assert not fired and rc == 2, err
+    assert (
+        err
+        == f"warp-ricochet: error: output path = '{out}': its shards' folder '{fifo}' is a FIFO (named pipe), not a regular file; remove it\n"
+    )
+    with watchdog(fifo) as fired:
+        io_shards.remove(fifo)
+    assert not fired and not os.path.lexists(fifo)
+
+
 def test_an_interrupted_run_with_shards_resumes_from_its_committed_shards(tmp_path, client, monkeypatch):
     monkeypatch.setattr(cluster, "TASKS_PER_WORKER", 2)
     scene = fields_scene()

@@ -25,7 +25,7 @@ from .bound import BoundPlan, planned
 from .chunks import check_chunk_memory, check_tallies, plan_shots
 from .core.impact import impact_kernel_for
 from .device import resolve_device, warp
-from .errors import OutputError, PrecisionWarning, SceneError, SceneWarning  # noqa: F401 - PrecisionWarning: part of the API
+from .errors import OutputError, PrecisionWarning, SceneError, SceneWarning, not_regular  # noqa: F401 - PrecisionWarning: part of the API
 from .fields import REST_FIELDS, bytes_per_pellet
 from .io import resume, sweepdir
 from .io.runfile import OutputFile, check_output_path, check_resume_path, output_target
@@ -413,6 +413,8 @@ def shard_folder(output, overwrite: bool):
     """The shards' folder of a run on a cluster with per-pellet fields (`io.shards`): one there
     already is refused without `overwrite` (one line, before any work)."""
     folder = shards_of(output)
+    if not folder.is_dir() and (why := not_regular(folder)):  # (a FIFO, a device: never replaced, as the output)
+        raise OutputError(f"output path = {os.fspath(output)!r}: its shards' folder {str(folder)!r} {why}; remove it")
     if (folder.exists() or folder.is_symlink()) and not overwrite:
         raise OutputError(
             f"output path = {os.fspath(output)!r}: its shards' folder {str(folder)!r} exists; --overwrite replaces it"

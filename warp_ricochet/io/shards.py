@@ -61,8 +61,9 @@ def _names(path: Path, folder: Path) -> bool:
 
 
 def remove(folder: Path) -> None:
-    """Remove a shards' folder; a link or file in its place: the link or file, never a link's target."""
-    if folder.is_symlink() or folder.is_file():
+    """Remove a shards' folder; anything else in its place (a link, a file): that, never a link's
+    target (rmtree opens what it is given, and opening a FIFO waits for a writer)."""
+    if folder.is_symlink() or folder.exists() and not folder.is_dir():
         folder.unlink()
     elif folder.exists():
         shutil.rmtree(folder)
