@@ -435,10 +435,23 @@ def test_overwrite_by_a_run_without_shards_removes_the_replaced_files_shards_and
         assert not f["runs/0001/pellets/landing/position"].is_virtual
 
 
+def interrupt_sweep(scene, out):
+    """A serial sweep of mu_s = 0.5, 0.6 to `out`, Ctrl-C after its first chunk (point 0 resumable)."""
+    seen = []
+
+    def progress(done, total):
+        seen.append(done)
+        if len(seen) == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        wr.sweep(scene, {"surfaces.0.mu_s": [0.5, 0.6]}, (), out, device="cpu", progress=progress)
+
+
 def test_every_check_of_the_outputs_comes_before_the_cluster_starts(tmp_path, monkeypatch):
     """With --cluster, an existing file, XDMF sidecar or shards' folder, a --resume with nothing to
-    resume or of a run begun without a cluster, and a sweep's bad point are one line (exit 2)
-    before the cluster starts (they came after its seconds of start-up), nothing made."""
+    resume or of a run or sweep begun without a cluster, and a sweep's bad point are one line
+    (exit 2) before the cluster starts (they came after its seconds of start-up), nothing made."""
 
     def no_cluster(*args, **kwargs):
         raise AssertionError("the cluster was started before the checks")
@@ -460,6 +473,7 @@ def test_every_check_of_the_outputs_comes_before_the_cluster_starts(tmp_path, mo
         (None, [*sweep, "--resume"], "nothing to resume: out.h5.partial does not exist"),
         (None, [*sweep[:-1], "surfaces.0.mu_s=0.5,0.1"], "surfaces.0.mu_d = 0.45: must be a number in [0, mu_s = 0.1]"),
         (lambda: interrupt_after(2, scene, out), [*run, "--resume"], "--resume = 'on a cluster': the run was begun without one"),
+        (lambda: interrupt_sweep(scene, out), [*sweep, "--resume"], "--resume = 'on a cluster': the run was begun without one"),
     ]
     for make, argv, want in cases:
         for path in tmp_path.iterdir():

@@ -519,7 +519,6 @@ def sweep(
         folder = sweepdir.SweepFolder(path, manifest, resume=True, overwrite=overwrite)  # refuses, changing nothing
         with _sweep_kept(folder, close=False):
             check_resources([sc for i, sc in enumerate(scenes) if not folder.point(i).exists()], dev, output, copies=2)
-            _check_partials(folder, scenes, study is not None)
         shards, stale = shards_of(path) if sharded else None, None
     else:
         check_resources(scenes, dev, output, copies=2)
@@ -592,7 +591,9 @@ def check_sweep(scene, params: dict, ties=(), output=None, *, overwrite=False, r
         for sc in scenes:
             refuse(sc, output)
     if output is not None and resume:
-        sweepdir.check_resumable(output_target(output), overwrite)
+        path = output_target(output)
+        sweepdir.check_resumable(path, overwrite)
+        _check_partials(sweepdir.folder_of(path), scenes, on_cluster)
     elif output is not None:
         path = check_output_path(output, overwrite)
         if on_cluster and any(sc.output.fields for sc in scenes):
@@ -606,14 +607,15 @@ def _begun(folder, index: int) -> bool:
     return folder.point(index).exists() or partial.exists() and sweepdir.resumable_point(partial)
 
 
-def _check_partials(folder, scenes, on_cluster: bool) -> None:
-    """Before any work: every interrupted point resumes as it was begun, on a cluster or not, when
-    its fields are in shards or in its file (`resumed_shards`, one line)."""
+def _check_partials(folder: Path, scenes, on_cluster: bool) -> None:
+    """Before any work: every interrupted point in a sweep's `folder` resumes as it was begun, on a
+    cluster or not, when its fields are in shards or in its file (`resumed_shards`, one line)."""
     from .io.h5open import open_for_reading
 
     for i, sc in enumerate(scenes):
-        partial = Path(str(folder.point(i)) + ".partial")
-        if not folder.point(i).exists() and partial.exists() and sweepdir.resumable_point(partial):
+        point = folder / (sweepdir.point_name(i) + ".h5")
+        partial = Path(str(point) + ".partial")
+        if not point.exists() and partial.exists() and sweepdir.resumable_point(partial):
             with open_for_reading(partial, locking=False) as f:
                 resumed_shards(f, sc, on_cluster)
 
