@@ -552,6 +552,11 @@ def test_an_interrupted_run_with_shards_resumes_from_its_committed_shards(tmp_pa
     interrupt_at_the_second_task(monkeypatch, scene, out, client)
     with pytest.raises(wr.SceneError, match="--resume = 'without a cluster': the run was begun on one"):
         wr.run(scene, out, device="cpu", resume=True)
+    first = tmp_path / "out.h5.shards" / "rows-000000000000-000000131072.h5"  # (its committed rows)
+    first.rename(tmp_path / "moved.h5")  # once resumed to a file whose rows 0-131071 read as NaN
+    with pytest.raises(wr.OutputError, match=f"--resume = '{first}': a shard of the interrupted run's committed rows is missing"):
+        wr.run(scene, out, device="cpu", client=client, resume=True)
+    (tmp_path / "moved.h5").rename(first)
     monkeypatch.setattr(cluster, "TASKS_PER_WORKER", 8)  # (the shards' bounds are the interrupted run's)
     wr.run(scene, out, device="cpu", client=client, resume=True)
     assert_same_run(out, serial, fields=FIELD_PATHS)
@@ -654,6 +659,19 @@ def test_per_pellet_fields_of_a_sweep_on_a_cluster_are_its_points_shards_read_as
     with pytest.raises(wr.OutputError, match="new.h5.shards' exists; --overwrite replaces it"):  # (before any work)
         sweep_with_fields(tmp_path / "new.h5", client)
     assert not os.path.exists(tmp_path / "new.h5.partial")
+
+
+def test_a_sweep_whose_complete_points_shards_are_gone_is_not_resumed(tmp_path, client, monkeypatch):
+    """Ctrl-C at point 1's first task, point 0 complete: with point 0's shards gone, --resume once
+    assembled a sweep file whose /runs/0000 rows read as NaN; it is refused before any work."""
+    out = tmp_path / "out.h5"
+    assert interrupt_at_task(monkeypatch, 3, lambda: sweep_with_fields(out, client)) == [65536, 1964, 65536]
+    assert (tmp_path / "out.h5.partial" / "0000.h5").is_file()
+    (tmp_path / "out.h5.shards" / "0000").rename(tmp_path / "moved")
+    gone = tmp_path / "out.h5.shards" / "0000" / "rows-000000000000-000000065536.h5"
+    with pytest.raises(wr.OutputError, match=f"--resume = '{gone}': a shard of the interrupted sweep's complete point 0"):
+        sweep_with_fields(out, client, resume=True)
+    assert not out.exists() and (tmp_path / "out.h5.partial" / "0001.h5.partial").exists()
 
 
 def test_an_interrupted_sweep_with_shards_resumes_from_its_committed_shards(tmp_path, client, monkeypatch):

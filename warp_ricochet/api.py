@@ -424,8 +424,9 @@ def shard_folder(output, overwrite: bool):
 
 def resumed_shards(f, scene, on_cluster: bool):
     """(folder, [(start, stop)]) of an interrupted run whose fields are in shards, else None; a run
-    begun on a cluster with per-pellet fields resumes on one, and only such a run does (one line)."""
-    from .io.shards import BOUNDS, FOLDER
+    begun on a cluster with per-pellet fields resumes on one, and only such a run does, and only
+    with the shards of its committed rows where they were written (one line)."""
+    from .io.shards import BOUNDS, FOLDER, missing
 
     attrs = f["progress"].attrs
     sharded = BOUNDS in attrs
@@ -434,6 +435,12 @@ def resumed_shards(f, scene, on_cluster: bool):
     if sharded and not on_cluster:
         raise SceneError(
             "--resume", "without a cluster", "the run was begun on one (its fields in shards): give --cluster or --scheduler"
+        )
+    gone = missing(f, int(f["progress/rows"][()])) if sharded else None
+    if gone is not None:  # (its rows would read as fill values in the result: io.shards)
+        raise OutputError(
+            f"--resume = {gone[1]!r}: a shard of the interrupted run's committed rows is missing (moved or "
+            "deleted?); put it back, or --overwrite starts the run again"
         )
     return (str(attrs[FOLDER]), [(int(a), int(b)) for a, b in attrs[BOUNDS]]) if sharded else None
 
@@ -609,13 +616,23 @@ def _begun(folder, index: int) -> bool:
 
 def _check_partials(folder: Path, scenes, on_cluster: bool) -> None:
     """Before any work: every interrupted point in a sweep's `folder` resumes as it was begun, on a
-    cluster or not, when its fields are in shards or in its file (`resumed_shards`, one line)."""
+    cluster or not, when its fields are in shards or in its file (`resumed_shards`, one line); on a
+    cluster, every complete point kept has its shards where they were written."""
     from .io.h5open import open_for_reading
+    from .io.shards import missing
 
     for i, sc in enumerate(scenes):
         point = folder / (sweepdir.point_name(i) + ".h5")
         partial = Path(str(point) + ".partial")
-        if not point.exists() and partial.exists() and sweepdir.resumable_point(partial):
+        if on_cluster and point.is_file():
+            with open_for_reading(point, locking=False) as f:
+                gone = missing(f, sc.shot.pellets)
+            if gone is not None:  # (the sweep file would read its rows as fill values: io.shards)
+                raise OutputError(
+                    f"--resume = {gone[1]!r}: a shard of the interrupted sweep's complete point {i} is missing "
+                    "(moved or deleted?); put it back, or --overwrite starts the sweep again"
+                )
+        elif not point.exists() and partial.exists() and sweepdir.resumable_point(partial):
             with open_for_reading(partial, locking=False) as f:
                 resumed_shards(f, sc, on_cluster)
 
