@@ -242,6 +242,30 @@ def test_a_device_no_worker_can_have_is_one_line_before_the_cluster_starts(where
                 pass
 
 
+def test_ctrl_c_while_the_local_cluster_starts_ends_the_command_before_any_work(tmp_path, monkeypatch):
+    """A request (Ctrl-C, SIGTERM) that came while the cluster started was acted on at the first
+    fold, after the run's file was made and every task submitted (a 2e7-pellet run on 2 workers
+    kept two finished tasks' shards); it ends the command as soon as the cluster is up."""
+    import signal
+
+    import distributed
+
+    from warp_ricochet import interrupts
+
+    real = distributed.LocalCluster
+
+    def started(*args, **kwargs):
+        local = real(*args, **kwargs)
+        interrupts._record(signal.SIGINT, None)  # (as the handler does for a Ctrl-C meanwhile)
+        return local
+
+    monkeypatch.setattr(distributed, "LocalCluster", started)
+    out = tmp_path / "out.h5"
+    rc, _, err = cli(["run", SCENE_FILE, *SMALL_CPU, "--cluster", "local:1", "-o", out])
+    assert rc == 130 and err == "warp-ricochet: interrupted\n", err
+    assert os.listdir(tmp_path) == []
+
+
 def test_a_device_the_workers_lack_is_one_line_with_no_worker_traceback(client):
     """Once the worker's "Compute Failed" log and traceback came on stderr above the line (-q too)."""
     with pytest.raises(wr.RicochetError, match="^device = 'tpu': not available here; available: cpu"):

@@ -169,6 +169,7 @@ def session(cluster=None, scheduler=None, device=None, announce=None):
                 ) from None
         if announce is not None:
             print(f"Dask dashboard: {client.dashboard_link}", file=announce)
+        interrupts.check()  # (Ctrl-C while the cluster started: before any work, nothing written)
         yield client
 
 
