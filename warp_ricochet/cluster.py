@@ -169,7 +169,8 @@ def session(cluster=None, scheduler=None, device=None, announce=None):
                 ) from None
         if announce is not None:
             print(f"Dask dashboard: {client.dashboard_link}", file=announce)
-        interrupts.check()  # (Ctrl-C while the cluster started: before any work, nothing written)
+        if interrupts.pending():  # a Ctrl-C while the cluster started: before any work, nothing written
+            interrupts.check()  # (not an earlier command's request, acted on already)
         yield client
 
 
