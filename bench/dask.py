@@ -35,7 +35,9 @@ of mu_s); `exposure`, the same in air to rest with the hazard along the path and
 from __future__ import annotations
 
 import argparse
+import math
 import statistics
+import sys
 import time
 
 import numpy as np
@@ -372,10 +374,58 @@ def cmd_trace(args) -> None:
         print(f"direct run {repeat}: {1e3 * (time.perf_counter() - t0):.1f} ms")
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse, its usage errors as one line (`python -m bench.dask ...: error: ...`), exit 2."""
+
+    def error(self, message):
+        print(f"{self.prog}: error: {' '.join(message.split())} (see {self.prog} --help)", file=sys.stderr)
+        raise SystemExit(2)
+
+
+MAX_COUNT = 2**31 - 1  # (a scene's shot.count and shot.shots: int32)
+
+
+def _count(text: str, top: int = MAX_COUNT) -> int:
+    """A whole number in [1, top], also written as a float (1e5)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and 1 <= value <= top and value == int(value)):
+        raise argparse.ArgumentTypeError(f"{text!r}: must be a whole number in [1, {top}]")
+    return int(value)
+
+
+def _shots(text: str) -> int:
+    """Shots of 450 pellets: at most MAX_COUNT pellets in all."""
+    return _count(text, MAX_COUNT // 450)
+
+
+def _counts(text: str) -> list[int]:
+    """Comma-separated whole numbers >= 1 (worker counts)."""
+    return [_count(part) for part in text.split(",")]
+
+
+def check_scaling(args) -> None:
+    """Refuse in one line (SceneError), before any cluster starts, what `scaling` cannot run: a
+    worker count no local cluster takes (`cluster.parse_cluster`), a sweep of more points than a
+    sweep takes or (sweep-rest) of a non-square number, --rest without the collisions study."""
+    from warp_ricochet.cluster import parse_cluster
+    from warp_ricochet.errors import SceneError
+    from warp_ricochet.scene.sweep import MAX_SWEEP_POINTS
+
+    for n in args.workers:
+        parse_cluster(f"local:{n}")
+    if args.study != "collisions" and args.points > MAX_SWEEP_POINTS:
+        raise SceneError("--points", args.points, f"must be at most {MAX_SWEEP_POINTS:,} (a sweep's points)")
+    if args.study == "sweep-rest" and math.isqrt(args.points) ** 2 != args.points:
+        raise SceneError("--points", args.points, "must be a square number for --study sweep-rest (mu_s x speed), e.g. 64")
+    if args.rest and args.study != "collisions":
+        raise SceneError("--rest", True, f"is for --study collisions; --study {args.study} does not take it")
+
+
 def main(argv=None) -> None:
-    p = argparse.ArgumentParser(
-        prog="python -m bench.dask", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
+    p = _Parser(prog="python -m bench.dask", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="command", required=True)
     s = sub.add_parser("sweep")
     s.add_argument("--points", type=int, default=16)
@@ -398,15 +448,15 @@ def main(argv=None) -> None:
     o.set_defaults(func=cmd_overhead)
     c = sub.add_parser("scaling")
     c.add_argument("--study", choices=("collisions", "sweep-rest", "statistics", "exposure"), default="collisions")
-    c.add_argument("--workers", type=lambda v: [int(x) for x in v.split(",")], default=[1, 2])
-    c.add_argument("--shots", type=int, default=10000)
+    c.add_argument("--workers", type=_counts, default=[1, 2])
+    c.add_argument("--shots", type=_shots, default=10000)
     c.add_argument("--rest", action="store_true", help="collisions: followed to rest on turf")
-    c.add_argument("--points", type=int, default=64)
-    c.add_argument("--pellets", type=float, default=1e5)
+    c.add_argument("--points", type=_count, default=64)
+    c.add_argument("--pellets", type=_count, default=100_000)
     c.add_argument("--direct", action="store_true", help="also the study direct in this process (last)")
     c.add_argument("--device", default="cuda:0")
-    c.add_argument("--repeats", type=int, default=2)
-    c.set_defaults(func=cmd_scaling)
+    c.add_argument("--repeats", type=_count, default=2)
+    c.set_defaults(func=cmd_scaling, check=check_scaling)
     t = sub.add_parser("trace")
     t.add_argument("--pellets", type=float, default=1e9)
     t.add_argument("--device", default="cuda:0")
@@ -415,7 +465,15 @@ def main(argv=None) -> None:
     args = p.parse_args(argv)
     if getattr(args, "pellets", None) is not None:
         args.pellets = int(args.pellets)
-    args.func(args)
+    from warp_ricochet.errors import RicochetError
+
+    try:
+        if getattr(args, "check", None) is not None:
+            args.check(args)
+        args.func(args)
+    except RicochetError as exc:  # (a scene the options make that is not valid: its one line)
+        print(f"{p.prog} {args.command}: error: {exc}", file=sys.stderr)
+        raise SystemExit(2) from None
 
 
 if __name__ == "__main__":

@@ -8,6 +8,7 @@ import gc
 import importlib.util
 import logging
 import os
+import shutil
 import socket
 import threading
 
@@ -15,7 +16,7 @@ import h5py
 import numpy as np
 import pytest
 from distributed import Client, LocalCluster
-from helpers import assert_same_run, cli, make_scene, paper_raw, stats_equal
+from helpers import assert_same_run, cli, interrupt_after, make_scene, paper_raw, stats_equal
 
 import warp_ricochet as wr
 from warp_ricochet import cluster, tasks
@@ -46,6 +47,8 @@ def scene_of(count=450, shots=60, fields=(), **sections):
     return scene_from_dict(raw)
 
 
+SCENE_FILE = os.path.join(os.path.dirname(__file__), "..", "examples", "paper.toml")
+SMALL_CPU = ["--set", "shot.count=200", "--device", "cpu", "-q"]
 HAZARD = {"map_cell": 0.5, "map_extent": [-5.0, 140.0, -25.0, 25.0], "speed": {"skin": 60.0}}
 
 
@@ -223,6 +226,48 @@ def test_a_local_cluster_of_no_workers_or_more_than_the_cores_is_one_line(value)
     assert cluster.parse_cluster(f"local:{os.cpu_count() or 1}") == (os.cpu_count() or 1)
 
 
+@pytest.mark.parametrize("where", [{"cluster": "local:1"}, {"scheduler": "tcp://127.0.0.1:1"}])
+def test_a_device_no_worker_can_have_is_one_line_before_the_cluster_starts(where, monkeypatch):
+    """`--device bogus` with --cluster was refused by the workers after the cluster's start (2-3 s)."""
+    import distributed
+
+    def started(*args, **kwargs):
+        raise AssertionError("a cluster was started or reached before the device's name was checked")
+
+    monkeypatch.setattr(distributed, "LocalCluster", started)
+    monkeypatch.setattr(cluster, "_probe", started)
+    for device in ("bogus", "cuda:x", "cpu ", "CPU"):
+        with pytest.raises(SceneError, match=r"--device = .*: must be cpu, cuda or cuda:N"):
+            with cluster.session(device=device, **where):
+                pass
+
+
+def test_ctrl_c_while_the_local_cluster_starts_ends_the_command_before_any_work(tmp_path, monkeypatch):
+    """A request (Ctrl-C, SIGTERM) that came while the cluster started was acted on at the first
+    fold, after the run's file was made and every task submitted (a 2e7-pellet run on 2 workers
+    kept two finished tasks' shards); it ends the command as soon as the cluster is up."""
+    import signal
+
+    import distributed
+
+    from warp_ricochet import interrupts
+
+    real = distributed.LocalCluster
+
+    def started(*args, **kwargs):
+        local = real(*args, **kwargs)
+        interrupts._record(signal.SIGINT, None)  # (as the handler does for a Ctrl-C meanwhile)
+        return local
+
+    monkeypatch.setattr(distributed, "LocalCluster", started)
+    monkeypatch.setattr(interrupts, "_requested", [])  # (the request left to no later test)
+    monkeypatch.setattr(interrupts, "_raised", False)
+    out = tmp_path / "out.h5"
+    rc, _, err = cli(["run", SCENE_FILE, *SMALL_CPU, "--cluster", "local:1", "-o", out])
+    assert rc == 130 and err == "warp-ricochet: interrupted\n", err
+    assert os.listdir(tmp_path) == []
+
+
 def test_a_device_the_workers_lack_is_one_line_with_no_worker_traceback(client):
     """Once the worker's "Compute Failed" log and traceback came on stderr above the line (-q too)."""
     with pytest.raises(wr.RicochetError, match="^device = 'tpu': not available here; available: cpu"):
@@ -369,6 +414,149 @@ def test_overwrite_replaces_a_file_or_a_link_where_the_shards_folder_goes(tmp_pa
     shards.symlink_to(elsewhere)
     wr.run(scene, out, device="cpu", client=client, overwrite=True)
     assert shards.is_dir() and not shards.is_symlink() and (elsewhere / "rows-000000000000-000000000900.h5").exists()
+    sweep, sweep_shards, mu = tmp_path / "sweep.h5", tmp_path / "sweep.h5.shards", {"surfaces.0.mu_s": [0.5, 0.6]}
+    for make in (lambda: sweep_shards.write_text("not a folder"), lambda: sweep_shards.symlink_to(elsewhere)):
+        make()
+        wr.sweep(scene, mu, (), sweep, device="cpu", client=client, overwrite=True)  # (a sweep's too)
+        assert sorted(p.name for p in sweep_shards.iterdir()) == ["0000", "0001"] and not sweep_shards.is_symlink()
+        shutil.rmtree(sweep_shards)
+    assert (elsewhere / "rows-000000000000-000000000900.h5").exists()
+
+
+def test_overwrite_by_a_run_without_shards_removes_the_replaced_files_shards_and_nothing_else(tmp_path, client):
+    """A serial `run`/`sweep --overwrite` onto a file whose fields were in OUT.h5.shards removes that
+    folder once the new file is in place (once left behind); without --overwrite, or a folder of
+    that name the replaced file does not read, is kept."""
+    scene = scene_of(shots=2, fields=("landing",))
+    out, shards = tmp_path / "out.h5", tmp_path / "out.h5.shards"
+    wr.run(scene, out, device="cpu", client=client)
+    assert (shards / "rows-000000000000-000000000900.h5").exists()
+    rc, _, err = cli(["run", SCENE_FILE, *SMALL_CPU, "-o", out])  # refused: nothing changes
+    assert rc == 2 and "exists" in err and shards.is_dir()
+    rc, _, err = cli(["run", SCENE_FILE, *SMALL_CPU, "-o", out, "--overwrite"])
+    assert rc == 0 and not shards.exists() and not os.path.lexists(shards), err
+    with wr.open_run(out) as run:  # the new file, its fields in it
+        assert run.landing.position.values.shape == (200, 3)
+    (shards).mkdir()  # a folder of that name the file does not read: never removed
+    (shards / "mine.txt").write_text("kept")
+    assert cli(["run", SCENE_FILE, *SMALL_CPU, "-o", out, "--overwrite"])[0] == 0
+    assert (shards / "mine.txt").read_text() == "kept"
+    sweep, sweep_shards, mu = tmp_path / "sweep.h5", tmp_path / "sweep.h5.shards", {"surfaces.0.mu_s": [0.5, 0.6]}
+    wr.sweep(scene, mu, (), sweep, device="cpu", client=client)
+    assert sorted(p.name for p in sweep_shards.iterdir()) == ["0000", "0001"]
+    wr.sweep(scene, mu, (), sweep, device="cpu", overwrite=True)
+    assert not sweep_shards.exists()
+    with h5py.File(sweep) as f:
+        assert not f["runs/0001/pellets/landing/position"].is_virtual
+
+
+def interrupt_sweep(scene, out):
+    """A serial sweep of mu_s = 0.5, 0.6 to `out`, Ctrl-C after its first chunk (point 0 resumable)."""
+    seen = []
+
+    def progress(done, total):
+        seen.append(done)
+        if len(seen) == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        wr.sweep(scene, {"surfaces.0.mu_s": [0.5, 0.6]}, (), out, device="cpu", progress=progress)
+
+
+def test_every_check_of_the_outputs_comes_before_the_cluster_starts(tmp_path, monkeypatch):
+    """With --cluster, an existing file, XDMF sidecar or shards' folder, a --resume with nothing to
+    resume or of a run or sweep begun without a cluster, and a sweep's bad point are one line
+    (exit 2) before the cluster starts (they came after its seconds of start-up), nothing made."""
+
+    def no_cluster(*args, **kwargs):
+        raise AssertionError("the cluster was started before the checks")
+
+    monkeypatch.setattr(cluster, "session", no_cluster)
+    scene = scene_of(shots=600, fields=("landing",))  # 270,000 pellets, chunks of 65,536
+    toml, out = tmp_path / "scene.toml", tmp_path / "out.h5"
+    toml.write_text(scene.to_toml())
+    run = ["run", toml, "--device", "cpu", "--cluster", "local:1", "-o", out]
+    sweep = ["sweep", toml, "--device", "cpu", "--cluster", "local:1", "-o", out, "--param", "surfaces.0.mu_s=0.5,0.6"]
+    sidecar, shards = tmp_path / "out.xmf", tmp_path / "out.h5.shards"
+    cases = [
+        (lambda: out.write_bytes(b""), run, "output path = '{out}': exists; pass --overwrite"),
+        (lambda: sidecar.write_text(""), run, "output path = '{out}': out.xmf (its XDMF sidecar) exists"),
+        (lambda: sidecar.write_text(""), sweep, "output path = '{out}': out.xmf (its XDMF sidecar) exists"),
+        (shards.mkdir, run, "its shards' folder '{out}.shards' exists; --overwrite replaces it"),
+        (shards.mkdir, sweep, "its shards' folder '{out}.shards' exists; --overwrite replaces it"),
+        (None, [*run, "--resume"], "nothing to resume: out.h5.partial does not exist"),
+        (None, [*sweep, "--resume"], "nothing to resume: out.h5.partial does not exist"),
+        (None, [*sweep[:-1], "surfaces.0.mu_s=0.5,0.1"], "surfaces.0.mu_d = 0.45: must be a number in [0, mu_s = 0.1]"),
+        (lambda: interrupt_after(2, scene, out), [*run, "--resume"], "--resume = 'on a cluster': the run was begun without one"),
+        (lambda: interrupt_sweep(scene, out), [*sweep, "--resume"], "--resume = 'on a cluster': the run was begun without one"),
+    ]
+    for make, argv, want in cases:
+        for path in tmp_path.iterdir():
+            if path != toml:
+                shutil.rmtree(path) if path.is_dir() else path.unlink()
+        if make is not None:
+            make()
+        before = sorted(os.listdir(tmp_path))
+        rc, _, err = cli(argv)
+        assert rc == 2 and err.count("\n") == 1 and want.format(out=out) in err, (argv, err)
+        assert sorted(os.listdir(tmp_path)) == before, argv
+
+
+@pytest.mark.parametrize(
+    "argv, want",
+    [
+        (["--workers", "0"], "argument --workers: '0': must be a whole number in [1, 2147483647]"),
+        (["--workers", "1,,2"], "argument --workers: '': must be a whole number"),
+        (["--workers", "1,99999"], "--cluster = 'local:99999': must be local:N"),
+        (["--repeats", "0"], "argument --repeats: '0': must be a whole number"),
+        (["--pellets", "nan"], "argument --pellets: 'nan': must be a whole number"),
+        (["--shots", "1e8"], "argument --shots: '1e8': must be a whole number in [1, 4772185]"),
+        (["--study", "sweep-rest", "--points", "10"], "--points = 10: must be a square number"),
+        (["--study", "statistics", "--points", "20000"], "--points = 20000: must be at most 10,000"),
+        (["--study", "statistics", "--rest"], "--rest = True: is for --study collisions"),
+    ],
+)
+def test_bench_dask_scaling_refuses_odd_options_in_one_line_before_any_cluster(argv, want, monkeypatch, capsys):
+    """`python -m bench.dask scaling` with options it cannot run: one line, exit 2, no cluster
+    started (once tracebacks, or a refusal after the first worker count's whole study)."""
+    from bench import dask as bench_dask
+
+    def no_cluster(*args, **kwargs):
+        raise AssertionError("a cluster was started before the checks")
+
+    monkeypatch.setattr(cluster, "session", no_cluster)
+    with pytest.raises(SystemExit) as exc:
+        bench_dask.main(["scaling", "--device", "cpu", *argv])
+    err = capsys.readouterr().err
+    assert (
+        exc.value.code == 2 and err.count("\n") == 1 and err.startswith("python -m bench.dask scaling: error: ") and want in err
+    ), err
+
+
+def test_a_fifo_where_the_shards_folder_goes_is_refused_before_the_cluster_and_never_opened(tmp_path, monkeypatch):
+    """A FIFO at OUT.h5.shards: `run --cluster ... --overwrite` once started the cluster, then hung
+    for good in rmtree (which opens it), deaf to SIGTERM; now one line before the cluster starts
+    (as a FIFO at the output path), and `io.shards.remove` unlinks whatever is not a folder."""
+    from test_faults import watchdog
+
+    from warp_ricochet.io import shards as io_shards
+
+    def no_cluster(*args, **kwargs):
+        raise AssertionError("the cluster was started before the checks")
+
+    monkeypatch.setattr(cluster, "session", no_cluster)
+    out, fifo = tmp_path / "o.h5", tmp_path / "o.h5.shards"
+    os.mkfifo(fifo)
+    with watchdog(fifo) as fired:
+        rc, _, err = cli(["run", SCENE_FILE, *SMALL_CPU, "--cluster", "local:1", "-o", out, "--overwrite"])
+    assert not fired and rc == 2, err
+    assert (
+        err
+        == f"warp-ricochet: error: output path = '{out}': its shards' folder '{fifo}' is a FIFO (named pipe), not a regular file; remove it\n"
+    )
+    with watchdog(fifo) as fired:
+        io_shards.remove(fifo)
+    assert not fired and not os.path.lexists(fifo)
 
 
 def test_an_interrupted_run_with_shards_resumes_from_its_committed_shards(tmp_path, client, monkeypatch):
@@ -379,6 +567,11 @@ def test_an_interrupted_run_with_shards_resumes_from_its_committed_shards(tmp_pa
     interrupt_at_the_second_task(monkeypatch, scene, out, client)
     with pytest.raises(wr.SceneError, match="--resume = 'without a cluster': the run was begun on one"):
         wr.run(scene, out, device="cpu", resume=True)
+    first = tmp_path / "out.h5.shards" / "rows-000000000000-000000131072.h5"  # (its committed rows)
+    first.rename(tmp_path / "moved.h5")  # once resumed to a file whose rows 0-131071 read as NaN
+    with pytest.raises(wr.OutputError, match=f"--resume = '{first}': a shard of the interrupted run's committed rows is missing"):
+        wr.run(scene, out, device="cpu", client=client, resume=True)
+    (tmp_path / "moved.h5").rename(first)
     monkeypatch.setattr(cluster, "TASKS_PER_WORKER", 8)  # (the shards' bounds are the interrupted run's)
     wr.run(scene, out, device="cpu", client=client, resume=True)
     assert_same_run(out, serial, fields=FIELD_PATHS)
@@ -481,6 +674,19 @@ def test_per_pellet_fields_of_a_sweep_on_a_cluster_are_its_points_shards_read_as
     with pytest.raises(wr.OutputError, match="new.h5.shards' exists; --overwrite replaces it"):  # (before any work)
         sweep_with_fields(tmp_path / "new.h5", client)
     assert not os.path.exists(tmp_path / "new.h5.partial")
+
+
+def test_a_sweep_whose_complete_points_shards_are_gone_is_not_resumed(tmp_path, client, monkeypatch):
+    """Ctrl-C at point 1's first task, point 0 complete: with point 0's shards gone, --resume once
+    assembled a sweep file whose /runs/0000 rows read as NaN; it is refused before any work."""
+    out = tmp_path / "out.h5"
+    assert interrupt_at_task(monkeypatch, 3, lambda: sweep_with_fields(out, client)) == [65536, 1964, 65536]
+    assert (tmp_path / "out.h5.partial" / "0000.h5").is_file()
+    (tmp_path / "out.h5.shards" / "0000").rename(tmp_path / "moved")
+    gone = tmp_path / "out.h5.shards" / "0000" / "rows-000000000000-000000065536.h5"
+    with pytest.raises(wr.OutputError, match=f"--resume = '{gone}': a shard of the interrupted sweep's complete point 0"):
+        sweep_with_fields(out, client, resume=True)
+    assert not out.exists() and (tmp_path / "out.h5.partial" / "0001.h5.partial").exists()
 
 
 def test_an_interrupted_sweep_with_shards_resumes_from_its_committed_shards(tmp_path, client, monkeypatch):

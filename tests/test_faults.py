@@ -701,7 +701,7 @@ SPECIAL_CASES = {  # argv given the folder and a FIFO in it: the expected messag
     ),
     "report": (lambda d, fifo: ["report", fifo], "report = '{fifo}': is a FIFO (named pipe), not a regular file"),
     "xdmf": (lambda d, fifo: ["xdmf", fifo], "file = '{fifo}': is a FIFO (named pipe), not a regular file"),
-    "plot": (lambda d, fifo: ["plot", fifo, "-o", d / "plots"], "report = '{fifo}': is a FIFO (named pipe), not a regular file"),
+    "plot": (lambda d, fifo: ["plot", fifo, "-o", d / "plots"], "plot = '{fifo}': is a FIFO (named pipe), not a regular file"),
 }
 
 

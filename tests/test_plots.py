@@ -116,6 +116,45 @@ def test_plot_bad_inputs_are_one_line(files, tmp_path, capsys):
         assert len(err) == 1 and err[0].startswith(PREFIX), argv
 
 
+def test_every_plot_error_names_plots_own_argument(files, tmp_path, capsys):
+    """Each one-line error of `plot` names what the user typed (an input file as `plot = PATH`, the
+    folder as `-o = DIR`), never `report`'s key or an internal `output`; nothing is written."""
+    run, text, missing = str(files["run"]), tmp_path / "x.h5", str(tmp_path / "missing.h5")
+    text.write_text("not hdf5")
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "run.h5").write_bytes(files["run"].read_bytes())
+    beside = tmp_path / "beside"
+    beside.mkdir()
+    (beside / "run.h5").write_bytes(files["run"].read_bytes())
+    (beside / "run-range.png").write_bytes(b"old")
+    (tmp_path / "full").mkdir()
+    (tmp_path / "full" / "run-range.png").write_bytes(b"old")
+    cases = [
+        (["plot", missing], f"plot = {missing!r}: does not exist"),
+        (["plot", str(text)], f"plot = {str(text)!r}: is not an HDF5 file"),
+        (["plot", str(tmp_path / "a" / "b.h5")], f"plot = {str(tmp_path / 'a' / 'b.h5')!r}: does not exist"),
+        (["plot", run, "-o", str(text)], f"-o = {str(text)!r}: is not a folder"),
+        (["plot", run, "--output", str(tmp_path / "no" / "pngs")], f"-o = {str(tmp_path / 'no' / 'pngs')!r}: its parent folder"),
+        (["plot", run, run], f"plot = {run!r}: is given twice"),
+        (["plot", run, str(other / "run.h5")], f"plot = {str(other / 'run.h5')!r}: has the file name of {run!r}"),
+        (
+            ["plot", run, "-o", str(tmp_path / "full")],
+            f"-o = {str(tmp_path / 'full')!r}: run-range.png exists in it; give --overwrite",
+        ),
+        (
+            ["plot", str(beside / "run.h5")],
+            f"plot = {str(beside / 'run.h5')!r}: run-range.png exists beside it; give --overwrite",
+        ),
+    ]
+    for argv, want in cases:
+        before = sorted(str(p) for p in tmp_path.rglob("*"))
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith(PREFIX + want), (argv, err)
+        assert sorted(str(p) for p in tmp_path.rglob("*")) == before, argv
+
+
 def test_plot_of_a_statistics_only_run_skips_with_a_reason(files, tmp_path, capsys):
     outdir = tmp_path / "png"
     assert main(["plot", str(files["stats"]), "-o", str(outdir)]) == 0

@@ -25,11 +25,13 @@ from .bound import BoundPlan, planned
 from .chunks import check_chunk_memory, check_tallies, plan_shots
 from .core.impact import impact_kernel_for
 from .device import resolve_device, warp
-from .errors import OutputError, PrecisionWarning, SceneError, SceneWarning  # noqa: F401 - PrecisionWarning: part of the API
+from .errors import OutputError, PrecisionWarning, SceneError, SceneWarning, not_regular  # noqa: F401 - PrecisionWarning: part of the API
 from .fields import REST_FIELDS, bytes_per_pellet
 from .io import resume, sweepdir
 from .io.runfile import OutputFile, check_output_path, check_resume_path, output_target
 from .io.shards import folder_of as shards_of
+from .io.shards import owned as owned_shards
+from .io.shards import remove as remove_shards
 from .io.space import check_space
 from .io.writer import RunWriter
 from .model import Model
@@ -301,17 +303,11 @@ def run(
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
     output = output if output is not None else scene.output.path
+    check_run(scene, output, overwrite=overwrite, resume=resume, on_cluster=client is not None)  # before any work
     study = None if client is None else _study(client, device, progress, dense_options)
     if study is not None:
-        study.check(scene, output)  # before any work
         progress = None
     if resume:
-        if scene.pair_collisions and scene.collisions.frame_every:  # see io.resume: frames are not resumed
-            raise SceneError(
-                "collisions.frame_every",
-                scene.collisions.frame_every,
-                "must be 0 for --resume (H5MD trajectory frames are not resumed); --overwrite starts a run with frames again",
-            )
         return _resume(
             scene,
             output,
@@ -322,19 +318,16 @@ def run(
             sidecar=sidecar,
             study=study,
         )
-    if output is not None:
-        check_output_path(output, overwrite)  # before any work
     folder = None if study is None or output is None or not scene.output.fields else _shards or shard_folder(output, overwrite)
     dev = resolve_device(device) if study is None else study.remote
     check_resources([scene], dev, output)
-    if (
-        folder is not None and _shards is None and (folder.is_symlink() or folder.is_file())
-    ):  # (--overwrite: not the link's target)
-        folder.unlink()
-    elif folder is not None and _shards is None and folder.exists():  # (--overwrite: the old run's shards)
-        shutil.rmtree(folder)
+    if folder is not None and _shards is None:  # (--overwrite: the old run's shards; a link, not its target)
+        remove_shards(folder)
     if output is None:
         return _run_one(scene, dev, progress=progress, dense_options=dense_options, study=study)
+    # --overwrite of a file whose fields were in shards, by a run that writes none there: its shards
+    # go once the new file has replaced it (an interrupted or failed run leaves the old file whole)
+    stale = owned_shards(output) if overwrite and folder is None else None
     with OutputFile(
         output,
         overwrite=overwrite,
@@ -345,7 +338,45 @@ def run(
         precision=scene.numerics.precision,
         sidecar=sidecar,
     ) as out:
-        return _run_one(scene, dev, out.h5, progress, dense_options, study, folder)
+        stats = _run_one(scene, dev, out.h5, progress, dense_options, study, folder)
+    if stale is not None:
+        remove_shards(stale)
+    return stats
+
+
+def check_run(scene, output=None, *, overwrite=False, resume=False, on_cluster=False) -> None:
+    """`run`'s checks that need no device, each one line before any work (the command line makes
+    them before it starts a cluster): what a cluster does not run yet, what --resume needs (an
+    interrupted run begun as this one is, on a cluster or not), and the output: the file, its
+    .partial, its XDMF sidecar and, for per-pellet fields on a cluster, its shards' folder."""
+    if on_cluster:
+        from .cluster import refuse
+
+        refuse(scene, output)
+    if not resume:
+        if output is not None:
+            check_output_path(output, overwrite)
+            if on_cluster and scene.output.fields:
+                shard_folder(output, overwrite)
+        return
+    if output is None:
+        raise SceneError("--resume", "no output", "needs the output file of the interrupted run (-o or output.path)")
+    if scene.pair_collisions and scene.collisions.frame_every:  # see io.resume: frames are not resumed
+        raise SceneError(
+            "collisions.frame_every",
+            scene.collisions.frame_every,
+            "must be 0 for --resume (H5MD trajectory frames are not resumed); --overwrite starts a run with frames again",
+        )
+    path = check_resume_path(output, overwrite)
+    from .io.h5open import open_for_reading
+
+    try:  # (a partial HDF5 cannot open or that lacks /progress: refused in its line by OutputFile.reopen)
+        with open_for_reading(Path(str(path) + ".partial"), locking=False) as f:
+            resumed_shards(f, scene, on_cluster)
+    except SceneError:
+        raise
+    except (OSError, KeyError, ValueError, TypeError):
+        pass
 
 
 def _resume(scene, output, device, *, overwrite, progress, dense_options, sidecar=True, study=None) -> dict:
@@ -382,6 +413,8 @@ def shard_folder(output, overwrite: bool):
     """The shards' folder of a run on a cluster with per-pellet fields (`io.shards`): one there
     already is refused without `overwrite` (one line, before any work)."""
     folder = shards_of(output)
+    if not folder.is_dir() and (why := not_regular(folder)):  # (a FIFO, a device: never replaced, as the output)
+        raise OutputError(f"output path = {os.fspath(output)!r}: its shards' folder {str(folder)!r} {why}; remove it")
     if (folder.exists() or folder.is_symlink()) and not overwrite:
         raise OutputError(
             f"output path = {os.fspath(output)!r}: its shards' folder {str(folder)!r} exists; --overwrite replaces it"
@@ -391,8 +424,9 @@ def shard_folder(output, overwrite: bool):
 
 def resumed_shards(f, scene, on_cluster: bool):
     """(folder, [(start, stop)]) of an interrupted run whose fields are in shards, else None; a run
-    begun on a cluster with per-pellet fields resumes on one, and only such a run does (one line)."""
-    from .io.shards import BOUNDS, FOLDER
+    begun on a cluster with per-pellet fields resumes on one, and only such a run does, and only
+    with the shards of its committed rows where they were written (one line)."""
+    from .io.shards import BOUNDS, FOLDER, missing
 
     attrs = f["progress"].attrs
     sharded = BOUNDS in attrs
@@ -401,6 +435,12 @@ def resumed_shards(f, scene, on_cluster: bool):
     if sharded and not on_cluster:
         raise SceneError(
             "--resume", "without a cluster", "the run was begun on one (its fields in shards): give --cluster or --scheduler"
+        )
+    gone = missing(f, int(f["progress/rows"][()])) if sharded else None
+    if gone is not None:  # (its rows would read as fill values in the result: io.shards)
+        raise OutputError(
+            f"--resume = {gone[1]!r}: a shard of the interrupted run's committed rows is missing (moved or "
+            "deleted?); put it back, or --overwrite starts the run again"
         )
     return (str(attrs[FOLDER]), [(int(a), int(b)) for a, b in attrs[BOUNDS]]) if sharded else None
 
@@ -459,16 +499,9 @@ def sweep(
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
     output = output if output is not None else scene.output.path
-    points = sweep_points(params, ties)
+    points, scenes = check_sweep(scene, params, ties, output, overwrite=overwrite, resume=resume, on_cluster=client is not None)
     study = None if client is None else _study(client, device, progress, dense_options)
     progress = progress if study is None else None
-    if resume and output is None:
-        raise SceneError("--resume", "no output", "needs the output file of the interrupted sweep (-o or output.path)")
-    scenes = _point_scenes(scene, points, output is not None)
-    if output is not None:
-        _numbers_only(points)
-    for sc in scenes if study is not None else ():
-        study.check(sc, output)  # before any work
     if output is None:
         dev = resolve_device(device) if study is None else study.remote
         check_resources(scenes, dev, None)
@@ -493,14 +526,14 @@ def sweep(
         folder = sweepdir.SweepFolder(path, manifest, resume=True, overwrite=overwrite)  # refuses, changing nothing
         with _sweep_kept(folder, close=False):
             check_resources([sc for i, sc in enumerate(scenes) if not folder.point(i).exists()], dev, output, copies=2)
-            _check_partials(folder, scenes, study is not None)
-        shards = shards_of(path) if sharded else None
+        shards, stale = shards_of(path) if sharded else None, None
     else:
         check_resources(scenes, dev, output, copies=2)
         shards = shard_folder(path, overwrite) if sharded else None  # (one there refused without --overwrite)
+        stale = owned_shards(path) if overwrite and not sharded else None  # (as `run`'s: removed once replaced)
         folder = sweepdir.SweepFolder(path, manifest, resume=False, overwrite=overwrite)
-        if shards is not None and shards.exists():  # (--overwrite: the old sweep's shards)
-            shutil.rmtree(shards)
+        if shards is not None:  # (--overwrite: the old sweep's shards; a link, not its target)
+            remove_shards(shards)
     with _sweep_kept(folder):
         results = []
         for i, sc in enumerate(scenes if study is not None else ()):  # every point not begun, submitted at once
@@ -543,7 +576,36 @@ def sweep(
             seed=None if scene.shot.file else scene.shot.seed,
             precision=scene.numerics.precision,
         )
+    if stale is not None:
+        remove_shards(stale)
     return results
+
+
+def check_sweep(scene, params: dict, ties=(), output=None, *, overwrite=False, resume=False, on_cluster=False):
+    """`sweep`'s checks that need no device, as `check_run`'s: the points and every point's scene,
+    what a cluster does not run yet, and the output (the file, its folder to resume or replace,
+    its XDMF sidecar and, for per-pellet fields on a cluster, its shards' folder). Returns
+    (points, their scenes)."""
+    points = sweep_points(params, ties)
+    if resume and output is None:
+        raise SceneError("--resume", "no output", "needs the output file of the interrupted sweep (-o or output.path)")
+    scenes = _point_scenes(scene, points, output is not None)
+    if output is not None:
+        _numbers_only(points)
+    if on_cluster:
+        from .cluster import refuse
+
+        for sc in scenes:
+            refuse(sc, output)
+    if output is not None and resume:
+        path = output_target(output)
+        sweepdir.check_resumable(path, overwrite)
+        _check_partials(sweepdir.folder_of(path), scenes, on_cluster)
+    elif output is not None:
+        path = check_output_path(output, overwrite)
+        if on_cluster and any(sc.output.fields for sc in scenes):
+            shard_folder(path, overwrite)
+    return points, scenes
 
 
 def _begun(folder, index: int) -> bool:
@@ -552,14 +614,25 @@ def _begun(folder, index: int) -> bool:
     return folder.point(index).exists() or partial.exists() and sweepdir.resumable_point(partial)
 
 
-def _check_partials(folder, scenes, on_cluster: bool) -> None:
-    """Before any work: every interrupted point resumes as it was begun, on a cluster or not, when
-    its fields are in shards or in its file (`resumed_shards`, one line)."""
+def _check_partials(folder: Path, scenes, on_cluster: bool) -> None:
+    """Before any work: every interrupted point in a sweep's `folder` resumes as it was begun, on a
+    cluster or not, when its fields are in shards or in its file (`resumed_shards`, one line); on a
+    cluster, every complete point kept has its shards where they were written."""
     from .io.h5open import open_for_reading
+    from .io.shards import missing
 
     for i, sc in enumerate(scenes):
-        partial = Path(str(folder.point(i)) + ".partial")
-        if not folder.point(i).exists() and partial.exists() and sweepdir.resumable_point(partial):
+        point = folder / (sweepdir.point_name(i) + ".h5")
+        partial = Path(str(point) + ".partial")
+        if on_cluster and point.is_file():
+            with open_for_reading(point, locking=False) as f:
+                gone = missing(f, sc.shot.pellets)
+            if gone is not None:  # (the sweep file would read its rows as fill values: io.shards)
+                raise OutputError(
+                    f"--resume = {gone[1]!r}: a shard of the interrupted sweep's complete point {i} is missing "
+                    "(moved or deleted?); put it back, or --overwrite starts the sweep again"
+                )
+        elif not point.exists() and partial.exists() and sweepdir.resumable_point(partial):
             with open_for_reading(partial, locking=False) as f:
                 resumed_shards(f, sc, on_cluster)
 

@@ -25,6 +25,7 @@ import argparse
 import atexit
 import contextlib
 import ctypes
+import functools
 import logging
 import os
 import signal
@@ -320,16 +321,16 @@ def _device_name(api, name, client=None) -> str:
     return str(api.resolve_device(name))
 
 
-def _client(args, scene=None):
+def _client(args, check=None):
     """The Dask client of --cluster or --scheduler (its dashboard's address on stderr), before any
-    work and before Warp starts here; a null context without them."""
+    work and before Warp starts here, after `check()` (the command's checks that need no device:
+    a refusal comes before the cluster starts); a null context without them."""
     if args.cluster is None and args.scheduler is None:
         return contextlib.nullcontext()
-    from .cluster import refuse, session
+    from .cluster import session
 
-    if scene is not None:  # (a sweep's points are checked by `api.sweep`, before any work too)
-        refuse(scene, args.output if args.output is not None else scene.output.path)
-
+    if check is not None:
+        check()
     return session(args.cluster, args.scheduler, args.device, announce=None if args.quiet else sys.stderr)
 
 
@@ -342,12 +343,13 @@ def cmd_run(args) -> int:
     from . import api
 
     interrupts.check()
-    with _client(args, scene) as client, ProgressBar("run", enabled=False if args.quiet else None) as bar:
+    output = args.output if args.output is not None else scene.output.path
+    check = functools.partial(api.check_run, scene, output, overwrite=args.overwrite, resume=args.resume, on_cluster=True)
+    with _client(args, check) as client, ProgressBar("run", enabled=False if args.quiet else None) as bar:
         stats = api.run(
             scene, args.output, args.device, overwrite=args.overwrite, progress=bar, resume=args.resume, client=client
         )
         device = _device_name(api, args.device, client)
-    output = args.output if args.output is not None else scene.output.path
     args.completed = output  # a signal from here on: the result is complete (None: statistics only)
     interrupts.check(completed_path=output)
     sys.stdout.write(format_run_summary(stats, output, device, scene))
@@ -372,7 +374,10 @@ def cmd_sweep(args) -> int:
     ties = [parse_tie(spec) for spec in args.ties]
     from . import api
 
-    with _client(args, scene) as client, ProgressBar("sweep", enabled=False if args.quiet else None) as bar:
+    output = args.output if args.output is not None else scene.output.path
+    kw = dict(overwrite=args.overwrite, resume=args.resume, on_cluster=True)
+    check = functools.partial(api.check_sweep, scene, params, ties, output, **kw)
+    with _client(args, check) as client, ProgressBar("sweep", enabled=False if args.quiet else None) as bar:
         results = api.sweep(
             scene,
             params,
@@ -385,7 +390,6 @@ def cmd_sweep(args) -> int:
             client=client,
         )
         device = _device_name(api, args.device, client)
-    output = args.output if args.output is not None else scene.output.path
     args.completed, args.completed_what = output, "sweep"  # a signal from here on: the sweep is complete
     interrupts.check(completed_path=output, completed_what="sweep")
     if output is not None:

@@ -65,6 +65,13 @@ def parse_cluster(value: str) -> int:
     return int(found.group(1))
 
 
+def check_device(device) -> None:
+    """Refuse (SceneError) a `--device` no worker can have, before a cluster starts: Warp's
+    devices are cpu, cuda and cuda:N (whether the workers have it, only they can say)."""
+    if device is not None and re.fullmatch(r"cpu|cuda(:\d+)?", str(device)) is None:
+        raise SceneError("--device", device, "must be cpu, cuda or cuda:N (N: a GPU's number)")
+
+
 def _probe(address: str, seconds: float) -> None:
     """Refuse (SceneError) an address that does not answer Dask's `identity` as a scheduler within
     `seconds`: `distributed.Client` waits forever on a port that accepts but never answers (an
@@ -119,6 +126,7 @@ def session(cluster=None, scheduler=None, device=None, announce=None):
             cluster or scheduler,
             "needs Dask's distributed (pip install 'warp-ricochet[dask]')",
         ) from None
+    check_device(device)
     with contextlib.ExitStack() as stack:
         if cluster is not None:
             workers = parse_cluster(cluster)
@@ -153,6 +161,8 @@ def session(cluster=None, scheduler=None, device=None, announce=None):
                 ) from None
         if announce is not None:
             print(f"Dask dashboard: {client.dashboard_link}", file=announce)
+        if interrupts.pending():  # a Ctrl-C while the cluster started: before any work, nothing written
+            interrupts.check()  # (not an earlier command's request, acted on already)
         yield client
 
 
@@ -201,10 +211,6 @@ class Study:
         from .model import Model
 
         return dataclasses.replace(Model.from_scene(scene, resolve_device("cpu")), device=self.remote)
-
-    def check(self, scene, output=None) -> None:
-        """`refuse`, before any work."""
-        refuse(scene, output)
 
     def take(self, scene, done: int = 0, shards=None, bounds=None) -> dict:
         """The job of `scene` (and shards' folder) submitted ahead (a sweep's points), else

@@ -33,6 +33,46 @@ def folder_of(output) -> Path:
     return Path(os.path.abspath(os.fspath(output) + ".shards"))
 
 
+def owned(output) -> Path | None:
+    """OUT.h5.shards when run or sweep file `output`, or its OUT.h5.partial (a run's file, or a
+    sweep's folder of point files), reads rows from it (a `/progress` `shard_folder` naming it, or
+    a sweep point's folder in it); else None, also when they cannot be read (kept on doubt)."""
+    folder = folder_of(output)
+    if not (folder.is_dir() or folder.is_symlink()):
+        return None
+    partial = Path(str(folder)[: -len(".shards")] + ".partial")
+    files = [Path(str(folder)[: -len(".shards")]), partial] + (sorted(partial.glob("*.h5*")) if partial.is_dir() else [])
+    return folder if any(path.is_file() and _names(path, folder) for path in files) else None
+
+
+def _names(path: Path, folder: Path) -> bool:
+    """Whether the run or sweep file `path` reads rows from shards in `folder`."""
+    from .h5open import open_for_reading
+
+    try:
+        with open_for_reading(path, locking=False) as f:
+            runs = f.get("runs")
+            for group in [f] + (list(runs.values()) if isinstance(runs, h5py.Group) else []):
+                progress = group.get("progress") if isinstance(group, h5py.Group) else None
+                named = progress.attrs.get(FOLDER) if isinstance(progress, h5py.Group) else None
+                if named is not None:
+                    named = Path(named.decode() if isinstance(named, bytes) else str(named))
+                    if folder in (named, named.parent):
+                        return True
+    except (OSError, ValueError, KeyError, TypeError, UnicodeDecodeError):
+        return False
+    return False
+
+
+def remove(folder: Path) -> None:
+    """Remove a shards' folder; anything else in its place (a link, a file): that, never a link's
+    target (rmtree opens what it is given, and opening a FIFO waits for a writer)."""
+    if folder.is_symlink() or folder.exists() and not folder.is_dir():
+        folder.unlink()
+    elif folder.exists():
+        shutil.rmtree(folder)
+
+
 def shard_path(folder, start: int, stop: int) -> str:
     return os.path.join(os.fspath(folder), f"rows-{start:012d}-{stop:012d}.h5")
 

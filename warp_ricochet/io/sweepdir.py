@@ -100,6 +100,23 @@ def make_manifest(scene_toml: str, points, dev) -> dict:
     }
 
 
+def check_resumable(path: Path, overwrite: bool) -> None:
+    """Refuse (one line) a sweep file `path` to resume whose folder is missing or a run's partial,
+    or whose file or XDMF sidecar exists without `overwrite` (the manifest: `SweepFolder`)."""
+    folder, shown = folder_of(path), f"output path = {str(path)!r}"
+    if path.exists() and not overwrite:
+        raise OutputError(f"{shown}: exists; pass --overwrite (overwrite=True) to replace it with the resumed sweep")
+    if folder.is_file():
+        raise OutputError(
+            f"{shown}: {folder.name} is a run's partial file, not a sweep's folder; warp-ricochet run ... --resume continues it"
+        )
+    if not folder.is_dir():
+        raise OutputError(f"{shown}: nothing to resume: {folder.name} does not exist")
+    from .xdmf import check_sidecar
+
+    check_sidecar(path, overwrite, shown)  # NAME.xmf is written at the end
+
+
 class SweepFolder:
     """The folder of a sweep being written, locked while open (`close()` releases it)."""
 
@@ -116,18 +133,7 @@ class SweepFolder:
     def _check_resume(self, overwrite: bool):
         """Refuse, changing nothing, a folder that is missing, in use or of another sweep."""
         folder, shown = self.folder, self.shown
-        if self.path.exists() and not overwrite:
-            raise OutputError(f"{shown}: exists; pass --overwrite (overwrite=True) to replace it with the resumed sweep")
-        if folder.is_file():
-            raise OutputError(
-                f"{shown}: {folder.name} is a run's partial file, not a sweep's folder; "
-                "warp-ricochet run ... --resume continues it"
-            )
-        if not folder.is_dir():
-            raise OutputError(f"{shown}: nothing to resume: {folder.name} does not exist")
-        from .xdmf import check_sidecar
-
-        check_sidecar(self.path, overwrite, shown)  # NAME.xmf is written at the end
+        check_resumable(self.path, overwrite)
         self.fd = lock_folder(folder, shown)
         try:
             try:

@@ -24,7 +24,7 @@ from . import figures, hazard_plots, plotdata, rest
 from .compare import file_label
 from .paper import paper_row
 from .papercheck import is_papers
-from .tables import Results, read_results
+from .tables import ReportError, Results, read_results
 
 __all__ = ["Plot", "PLOTS", "DPI", "PlotError", "register", "require_matplotlib", "planned", "write_plots"]
 
@@ -282,9 +282,17 @@ def _stem(path) -> str:
     return name[:-3] if name.endswith(".h5") else os.path.splitext(name)[0]
 
 
+def _read(path) -> Results:
+    """`read_results(path)`, its one-line error naming plot's input (`plot = PATH`), not `report`'s."""
+    try:
+        return read_results(path)
+    except ReportError as exc:
+        raise PlotError(f"plot = {exc.path!r}: {exc.problem}") from None
+
+
 def planned(paths, outdir, results=None) -> list[tuple[str, Plot, list]]:
     """[(png path, plot, the input files it draws from)] for input `paths` (their `Results` when read)."""
-    results = results or [read_results(p) for p in paths]
+    results = results or [_read(p) for p in paths]
     runs = [p for p, r in zip(paths, results) if r.kind == "run"]
     sweeps = [p for p, r in zip(paths, results) if r.kind == "sweep"]
     out = []
@@ -297,12 +305,37 @@ def planned(paths, outdir, results=None) -> list[tuple[str, Plot, list]]:
     return out
 
 
-def _check_outdir(outdir) -> None:
+def _check_outdir(outdir, shown: str) -> None:
+    """Refuse a PNG folder that is a file or whose parent is missing; `shown`: the key and value named."""
     if os.path.exists(outdir) and not os.path.isdir(outdir):
-        raise PlotError(f"-o = {outdir!r}: is not a folder")
+        raise PlotError(f"{shown}: is not a folder; give a folder for the PNGs (made if missing)")
     parent = os.path.dirname(os.path.abspath(outdir))
     if not os.path.exists(outdir) and not os.path.isdir(parent):
-        raise PlotError(f"-o = {outdir!r}: its parent folder does not exist")
+        raise PlotError(f"{shown}: its parent folder does not exist; give a folder in an existing one")
+
+
+def _check_plan(plan, given: bool, overwrite: bool) -> None:
+    """Refuse two inputs whose PNGs would have the same names, and (without `overwrite`) a PNG
+    that exists, naming what the user gave: -o DIR (`given`), else the input beside which it goes."""
+    first: dict = {}
+    for png, _, inputs in plan:
+        if png in first:
+            a, b = first[png][0], inputs[0]
+            if os.path.abspath(a) == os.path.abspath(b):
+                raise PlotError(f"plot = {b!r}: is given twice; give each file once")
+            raise PlotError(
+                f"plot = {b!r}: has the file name of {a!r}, so their PNGs would have the same names; "
+                "plot them one at a time into different folders (-o)"
+            )
+        first[png] = inputs
+    if overwrite:
+        return
+    for png, _, inputs in plan:
+        if os.path.lexists(png):
+            name = os.path.basename(png)
+            if given:
+                raise PlotError(f"-o = {os.path.dirname(png)!r}: {name} exists in it; give --overwrite to replace it")
+            raise PlotError(f"plot = {inputs[0]!r}: {name} exists beside it; give --overwrite to replace it, or -o DIR")
 
 
 def write_plots(paths, outdir=None, overwrite=False) -> list[tuple[str, str | None]]:
@@ -313,24 +346,18 @@ def write_plots(paths, outdir=None, overwrite=False) -> list[tuple[str, str | No
     folder and the first PNG are written, so a file that fails while drawn leaves nothing behind."""
     figure_class = require_matplotlib()
     paths = [os.fspath(p) for p in paths]
-    outdir = os.fspath(outdir) if outdir is not None else (os.path.dirname(paths[0]) or ".")
-    _check_outdir(outdir)
-    results = {p: read_results(p) for p in paths}
+    results = {p: _read(p) for p in paths}  # (first: the default folder is the first input's)
+    given = outdir is not None
+    outdir = os.fspath(outdir) if given else (os.path.dirname(paths[0]) or ".")
+    _check_outdir(outdir, f"-o = {outdir!r}" if given else f"plot = {paths[0]!r}")
     plan = planned(paths, outdir, [results[p] for p in paths])
-    names = [png for png, _, _ in plan]
-    if len(set(names)) < len(names):
-        twice = next(n for n in names if names.count(n) > 1)
-        raise PlotError(
-            f"output = {twice!r}: two inputs have the same file name; plot them one at a time into different folders (-o)"
-        )
-    if not overwrite:
-        for png, _, _ in plan:
-            if os.path.lexists(png):
-                raise PlotError(f"output = {png!r}: exists; give --overwrite to replace it")
+    _check_plan(plan, given, overwrite)
     done, drawn = [], []
     files = {}
+    inputs = []  # (the input(s) being opened or drawn, named if one is damaged)
     try:
         for p in paths:
+            inputs = [p]
             files[p] = open_for_reading(p)  # (a killed run's partial: as a SWMR reader)
         for png, plot, inputs in plan:
             fig = figure_class(
@@ -351,7 +378,10 @@ def write_plots(paths, outdir=None, overwrite=False) -> list[tuple[str, str | No
             raise
         from ..errors import hdf5_reason
 
-        raise PlotError(f"plot failed: an input is damaged ({hdf5_reason(exc)})") from None
+        shown = ", ".join(map(repr, inputs))
+        raise PlotError(
+            f"plot = {shown}: {'is' if len(inputs) == 1 else 'one is'} damaged; the plot failed ({hdf5_reason(exc)})"
+        ) from None
     finally:
         _LANDINGS.clear()
         for f in files.values():

@@ -41,6 +41,7 @@ class ReportError(RicochetError):
     """A report input cannot be used (missing, unreadable, not HDF5, not a warp-ricochet file)."""
 
     def __init__(self, path, problem: str):
+        self.path, self.problem = str(path), problem  # (`plot` names its own input: report.plots)
         super().__init__(f"report = {str(path)!r}: {problem}")
 
 
