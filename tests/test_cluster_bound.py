@@ -17,7 +17,7 @@ import h5py
 import numpy as np
 import pytest
 import test_cluster
-from helpers import assert_same_run, make_scene, paper_raw, stats_equal
+from helpers import assert_opens_in_xarray, assert_same_run, make_scene, paper_raw, stats_equal
 
 import warp_ricochet as wr
 from warp_ricochet import cluster
@@ -118,6 +118,7 @@ def test_per_pellet_fields_of_a_bounded_run_on_a_cluster_are_the_serial_runs(tmp
             assert dict(a.sizes) == dict(b.sizes) == {"pellet": 2 * SHOT, "xyz": 3}
             assert {k: v.dims for k, v in a.items()} == {k: v.dims for k, v in b.items()}
             np.testing.assert_array_equal(a["position"].values, b["position"].values)
+    assert_opens_in_xarray(out)  # every group, /hazard/bound too
     pytest.importorskip("vtk")  # (last: VTK's reader keeps the shards open)
     from test_xdmf import _check_clouds, _read
 
@@ -191,6 +192,7 @@ def test_per_pellet_fields_of_a_bounded_sweep_on_a_cluster_are_the_serial_sweeps
                 ]
                 np.testing.assert_array_equal(x[()], y[()], err_msg=f"{i} {name}")
             assert len(list(shards.iterdir())) == 3
+    assert_opens_in_xarray(tmp_path / "out.h5")  # (each point's /runs/NNNN/hazard/bound too)
 
 
 def test_a_cut_that_fails_leaves_the_closed_run_file_as_it_was(tmp_path, client, monkeypatch):
