@@ -221,6 +221,40 @@ def test_resume_of_a_run_that_met_its_bound_at_the_interruption(tmp_path):
     assert_same_run(out, ref, ["landing/range"])
 
 
+def test_a_complete_file_killed_before_its_move_resumes_to_its_end(tmp_path, monkeypatch):
+    """Stopped after its file was closed, before the move into place: OUT.h5.partial is complete,
+    /constants/pellets the 400 pellets run, not the budget's 20,000. --resume once refused it as
+    inconsistent; it meets the bound again at once, from the counts kept, and finishes the file."""
+    from warp_ricochet.io import runfile
+
+    scene = bounded(width=1.0)
+    ref, out = tmp_path / "ref.h5", tmp_path / "out.h5"
+    wr.run(scene, ref, device="cpu")
+
+    def killed(*args):
+        raise KeyboardInterrupt
+
+    with monkeypatch.context() as m:
+        m.setattr(runfile, "move_into_place", killed)
+        with pytest.raises(KeyboardInterrupt):
+            wr.run(scene, out, device="cpu")
+    with h5py.File(str(out) + ".partial", "r") as f:
+        assert f.attrs["status"] == "complete" and f["constants/pellets"][()] == 400 and not out.exists()
+    other = tmp_path / "other.h5"  # (the same file saying the bound was not met there: refused)
+    Path(str(other) + ".partial").write_bytes(Path(str(out) + ".partial").read_bytes())
+
+    def unmet(f):
+        f["hazard/bound/met"][()] = False
+
+    argv = ["run", _toml(tmp_path), "-o", other, "--device", "cpu", "--resume"]
+    start = f"output path = '{other}.partial': is inconsistent (400 pellets in /constants/pellets for a run of 20000, no bound"
+    assert_resume_refused(argv, other, unmet, start)
+    stats = wr.run(scene, out, device="cpu", resume=True)
+    assert stats.bound.met and stats.bound.pellets == 400 and stats.bound.checks == 3
+    assert_same_run(out, ref, ["landing/range", "landing/position"])
+    assert not Path(str(out) + ".partial").exists()
+
+
 @pytest.mark.parametrize(
     ("bound", "key", "allowed"),
     [

@@ -217,6 +217,32 @@ def test_a_cut_that_fails_leaves_the_closed_run_file_as_it_was(tmp_path, client,
         assert f["progress"].attrs[BOUNDS][-1].tolist() == [18_800, 20_000]  # (the last check)
 
 
+@pytest.mark.parametrize("stop", ["cut", "move"])
+def test_a_complete_bounded_run_stopped_before_its_move_resumes_to_its_end(tmp_path, client, monkeypatch, stop):
+    """Stopped after its file was closed: its fields' cut failed (a full disk), or it was killed after
+    the cut, before the move into place. --resume on the cluster meets the bound again at once, runs
+    no task, cuts what is not cut and moves the file into place: the serial run's bits, 3 shards."""
+    from warp_ricochet.io import runfile
+
+    def fails(*args):
+        raise OSError(errno.ENOSPC, "No space left on device") if stop == "cut" else KeyboardInterrupt
+
+    serial, out = tmp_path / "serial.h5", tmp_path / "out.h5"
+    wr.run(small_scene(), serial, device="cpu")
+    with monkeypatch.context() as m:
+        m.setattr(*((shards, "_recut") if stop == "cut" else (runfile, "move_into_place")), fails)
+        with pytest.raises(OSError if stop == "cut" else KeyboardInterrupt):
+            wr.run(small_scene(), out, device="cpu", client=client)
+    with h5py.File(str(out) + ".partial") as f:
+        assert f.attrs["status"] == "complete" and len(f["pellets/landing/range"]) == (20_000 if stop == "cut" else 400)
+    stats = wr.run(small_scene(), out, device="cpu", client=client, resume=True)
+    assert stats.bound.met and stats.bound.pellets == 400
+    assert_same_run(out, serial, fields=("landing/position", "landing/range"))
+    with h5py.File(out) as f:
+        assert f["progress"].attrs[BOUNDS].tolist() == [[0, 200], [200, 300], [300, 400]]
+    assert len(os.listdir(str(out) + ".shards")) == 3
+
+
 def test_a_bounded_station_run_with_fields_on_a_cluster_is_the_serial_runs(tmp_path, client):
     """Stations: tasks cut at every station's piece and check; the fields of the pieces run."""
     from test_station_bound import bounded_raw
