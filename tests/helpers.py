@@ -144,6 +144,27 @@ def assert_same_run(path, ref, fields, progress=("segment_results",)):
             np.testing.assert_array_equal(a[f"progress/{name}"][()], b[f"progress/{name}"][()], err_msg=name)
 
 
+def assert_opens_in_xarray(path) -> dict:
+    """xarray's own reader (`open_datatree`, h5netcdf) opens every group of the file at `path`, with
+    no anonymous dimension, and reads every variable as h5py does (text as text); returns
+    {path in the file: xarray Variable}."""
+    xr = pytest.importorskip("xarray")
+    pytest.importorskip("h5netcdf")
+    found = {}
+    with xr.open_datatree(path, engine="h5netcdf") as tree, h5py.File(path, "r") as f:
+        for node in tree.subtree:
+            for name, var in node.to_dataset(inherit=False).variables.items():
+                where = f"{node.path.rstrip('/')}/{name}".lstrip("/")
+                ds = f[where]
+                assert var.shape == ds.shape and not any(d.startswith("phony_dim") for d in var.dims), (where, var.dims)
+                if h5py.check_string_dtype(ds.dtype):
+                    assert np.asarray(var.values).astype(str).tolist() == np.asarray(ds.asstr()[()], dtype=str).tolist(), where
+                else:
+                    np.testing.assert_array_equal(var.values, ds[()], err_msg=where)
+                found[where] = xr.Variable(var.dims, var.values, var.attrs)  # (in memory: holds no file open)
+    return found
+
+
 def wait_for_a_chunk(proc, partial, timeout=60.0):
     """Wait until the run `proc` (a subprocess) writing `partial` has committed a chunk
     (/progress/rows > 0, read as a SWMR reader), or has ended, or `timeout` s have passed."""

@@ -10,7 +10,15 @@ import numpy as np
 import pytest
 
 import warp_ricochet as wr
-from tests.helpers import assert_resume_refused, assert_same_run, cli, interrupt_after, make_scene, paper_raw
+from tests.helpers import (
+    assert_opens_in_xarray,
+    assert_resume_refused,
+    assert_same_run,
+    cli,
+    interrupt_after,
+    make_scene,
+    paper_raw,
+)
 from warp_ricochet.bound import BoundPlan
 from warp_ricochet.errors import PrecisionWarning, SceneError
 from warp_ricochet.io.bound_out import read
@@ -56,7 +64,7 @@ def test_a_bound_met_stops_the_run_early(tmp_path):
         found = read(f)
         assert f["constants/pellets"][()] == 400 and f["pellets/landing/range"].shape == (400,)
         assert f["stats/shots/range_mean"].shape == (4,) and f["stats/shots"].attrs["shots"] == 4
-        for name in ("threshold", "fraction", "width", "max_pellets", "met", "pellets", "final_width"):
+        for name in ("threshold_name", "p", "width", "max_pellets", "met", "pellets", "final_width"):
             assert "units" in f[f"hazard/bound/{name}"].attrs and f[f"hazard/bound/{name}"].attrs["description"]
     assert found["met"] and found["pellets"] == 400 and found["shots"] == 4 and found["threshold"] == "low"
     assert found["width"] == 1.0 and found["max_pellets"] == 20_000 and found["final_width"] == b.ci_high - b.ci_low
@@ -96,6 +104,31 @@ def test_a_spent_budget_says_not_bounded(tmp_path):
     assert "width inf m, not below 0.01 m; raise max_pellets or the width" in out
     rc, out, err = cli(["run", _toml(tmp_path), "--device", "cpu"])
     assert rc == 0 and "bounded after 400 pellets (4 shots, 3 checks)" in out and "< 1 m" in out
+
+
+def test_every_group_of_a_bounded_run_file_opens_in_xarray_and_old_files_still_read(tmp_path):
+    """The settings `threshold` and `fraction` of /hazard/bound were once stored under those names,
+    the names of dimensions of /hazard: h5netcdf took the scalars for their coordinates and failed
+    ("Illegal slicing argument for scalar dataspace"), so xarray's open_datatree failed on every
+    bounded run file. Stored as `threshold_name` and `p`, every group opens with the file's values;
+    `read`, open_run and `report` still read a file of the old names."""
+    out, old = tmp_path / "run.h5", tmp_path / "old.h5"
+    wr.run(bounded(width=1.0), out, device="cpu")
+    variables = assert_opens_in_xarray(out)
+    assert variables["hazard/bound/threshold_name"].values.item() == b"low" and variables["hazard/bound/p"].values == 0.01
+    assert variables["hazard/bound/pellets"].values == 400 and variables["hazard/danger_distance/distance"].dims[0] == "threshold"
+    with h5py.File(out, "r") as f:
+        now = read(f)
+    old.write_bytes(out.read_bytes())
+    with h5py.File(old, "r+") as f:  # the layout before
+        f.move("hazard/bound/threshold_name", "hazard/bound/threshold")
+        f.move("hazard/bound/p", "hazard/bound/fraction")
+    with h5py.File(old, "r") as f:
+        assert read(f) == now and now["threshold"] == "low" and now["fraction"] == 0.01
+    with wr.open_run(old) as run:
+        assert run.hazard_results.bound_threshold.item() == "low" and run.hazard_results.bound_met.item()
+    rc, text, _ = cli(["report", old])
+    assert rc == 0 and "bounded after 400 pellets (4 shots, 3 checks)" in text
 
 
 def _toml(tmp_path) -> Path:
@@ -186,6 +219,40 @@ def test_resume_of_a_run_that_met_its_bound_at_the_interruption(tmp_path):
     stats = wr.run(scene, out, device="cpu", resume=True)
     assert stats.bound.met and stats.bound.pellets == 400
     assert_same_run(out, ref, ["landing/range"])
+
+
+def test_a_complete_file_killed_before_its_move_resumes_to_its_end(tmp_path, monkeypatch):
+    """Stopped after its file was closed, before the move into place: OUT.h5.partial is complete,
+    /constants/pellets the 400 pellets run, not the budget's 20,000. --resume once refused it as
+    inconsistent; it meets the bound again at once, from the counts kept, and finishes the file."""
+    from warp_ricochet.io import runfile
+
+    scene = bounded(width=1.0)
+    ref, out = tmp_path / "ref.h5", tmp_path / "out.h5"
+    wr.run(scene, ref, device="cpu")
+
+    def killed(*args):
+        raise KeyboardInterrupt
+
+    with monkeypatch.context() as m:
+        m.setattr(runfile, "move_into_place", killed)
+        with pytest.raises(KeyboardInterrupt):
+            wr.run(scene, out, device="cpu")
+    with h5py.File(str(out) + ".partial", "r") as f:
+        assert f.attrs["status"] == "complete" and f["constants/pellets"][()] == 400 and not out.exists()
+    other = tmp_path / "other.h5"  # (the same file saying the bound was not met there: refused)
+    Path(str(other) + ".partial").write_bytes(Path(str(out) + ".partial").read_bytes())
+
+    def unmet(f):
+        f["hazard/bound/met"][()] = False
+
+    argv = ["run", _toml(tmp_path), "-o", other, "--device", "cpu", "--resume"]
+    start = f"output path = '{other}.partial': is inconsistent (400 pellets in /constants/pellets for a run of 20000, no bound"
+    assert_resume_refused(argv, other, unmet, start)
+    stats = wr.run(scene, out, device="cpu", resume=True)
+    assert stats.bound.met and stats.bound.pellets == 400 and stats.bound.checks == 3
+    assert_same_run(out, ref, ["landing/range", "landing/position"])
+    assert not Path(str(out) + ".partial").exists()
 
 
 @pytest.mark.parametrize(

@@ -16,7 +16,7 @@ import h5py
 import numpy as np
 import pytest
 from distributed import Client, LocalCluster
-from helpers import assert_same_run, cli, interrupt_after, make_scene, paper_raw, stats_equal
+from helpers import assert_opens_in_xarray, assert_same_run, cli, interrupt_after, make_scene, paper_raw, stats_equal
 
 import warp_ricochet as wr
 from warp_ricochet import cluster, tasks
@@ -395,6 +395,7 @@ def test_per_pellet_fields_on_a_cluster_are_shards_read_as_one_dataset(tmp_path,
     with pytest.raises(wr.OutputError, match="over a shard that is missing, .*rows-000000000000-000000131072.h5 .moved"):
         wr.open_run(out)
     (tmp_path / "moved").rename(shards)
+    assert_opens_in_xarray(out)  # (xarray's reader: every group, the shards' values)
     pytest.importorskip("vtk")  # (last: VTK's reader keeps the shards open)
     from test_xdmf import _check_clouds, _read
 
@@ -663,6 +664,7 @@ def test_per_pellet_fields_of_a_sweep_on_a_cluster_are_its_points_shards_read_as
     rc, _stdout, stderr = cli(["report", out])
     assert rc == 2 and len(stderr.strip().splitlines()) == 1 and str(gone) in stderr, stderr
     (tmp_path / "moved.h5").rename(gone)
+    assert_opens_in_xarray(out)  # (xarray's reader: every point's group, the shards' values)
     if importlib.util.find_spec("vtk") is not None:  # the sweep's XDMF sidecar reads them too
         from test_xdmf import _check_clouds, _read
 

@@ -17,7 +17,7 @@ import h5py
 import numpy as np
 import pytest
 import test_cluster
-from helpers import assert_same_run, make_scene, paper_raw, stats_equal
+from helpers import assert_opens_in_xarray, assert_same_run, make_scene, paper_raw, stats_equal
 
 import warp_ricochet as wr
 from warp_ricochet import cluster
@@ -118,6 +118,7 @@ def test_per_pellet_fields_of_a_bounded_run_on_a_cluster_are_the_serial_runs(tmp
             assert dict(a.sizes) == dict(b.sizes) == {"pellet": 2 * SHOT, "xyz": 3}
             assert {k: v.dims for k, v in a.items()} == {k: v.dims for k, v in b.items()}
             np.testing.assert_array_equal(a["position"].values, b["position"].values)
+    assert_opens_in_xarray(out)  # every group, /hazard/bound too
     pytest.importorskip("vtk")  # (last: VTK's reader keeps the shards open)
     from test_xdmf import _check_clouds, _read
 
@@ -191,6 +192,7 @@ def test_per_pellet_fields_of_a_bounded_sweep_on_a_cluster_are_the_serial_sweeps
                 ]
                 np.testing.assert_array_equal(x[()], y[()], err_msg=f"{i} {name}")
             assert len(list(shards.iterdir())) == 3
+    assert_opens_in_xarray(tmp_path / "out.h5")  # (each point's /runs/NNNN/hazard/bound too)
 
 
 def test_a_cut_that_fails_leaves_the_closed_run_file_as_it_was(tmp_path, client, monkeypatch):
@@ -213,6 +215,32 @@ def test_a_cut_that_fails_leaves_the_closed_run_file_as_it_was(tmp_path, client,
         assert f.attrs["status"] == "complete" and f["progress/rows"][()] == 400
         assert calls and {len(ds) for ds in f["pellets/landing"].values()} == {20_000}  # (the budget's tasks: not cut)
         assert f["progress"].attrs[BOUNDS][-1].tolist() == [18_800, 20_000]  # (the last check)
+
+
+@pytest.mark.parametrize("stop", ["cut", "move"])
+def test_a_complete_bounded_run_stopped_before_its_move_resumes_to_its_end(tmp_path, client, monkeypatch, stop):
+    """Stopped after its file was closed: its fields' cut failed (a full disk), or it was killed after
+    the cut, before the move into place. --resume on the cluster meets the bound again at once, runs
+    no task, cuts what is not cut and moves the file into place: the serial run's bits, 3 shards."""
+    from warp_ricochet.io import runfile
+
+    def fails(*args):
+        raise OSError(errno.ENOSPC, "No space left on device") if stop == "cut" else KeyboardInterrupt
+
+    serial, out = tmp_path / "serial.h5", tmp_path / "out.h5"
+    wr.run(small_scene(), serial, device="cpu")
+    with monkeypatch.context() as m:
+        m.setattr(*((shards, "_recut") if stop == "cut" else (runfile, "move_into_place")), fails)
+        with pytest.raises(OSError if stop == "cut" else KeyboardInterrupt):
+            wr.run(small_scene(), out, device="cpu", client=client)
+    with h5py.File(str(out) + ".partial") as f:
+        assert f.attrs["status"] == "complete" and len(f["pellets/landing/range"]) == (20_000 if stop == "cut" else 400)
+    stats = wr.run(small_scene(), out, device="cpu", client=client, resume=True)
+    assert stats.bound.met and stats.bound.pellets == 400
+    assert_same_run(out, serial, fields=("landing/position", "landing/range"))
+    with h5py.File(out) as f:
+        assert f["progress"].attrs[BOUNDS].tolist() == [[0, 200], [200, 300], [300, 400]]
+    assert len(os.listdir(str(out) + ".shards")) == 3
 
 
 def test_a_bounded_station_run_with_fields_on_a_cluster_is_the_serial_runs(tmp_path, client):

@@ -10,7 +10,7 @@ from fractions import Fraction
 import h5py
 import numpy as np
 import pytest
-from helpers import make_scene, stats_equal
+from helpers import assert_opens_in_xarray, make_scene, stats_equal
 from test_stations import STATIONS, resume_matches, run_to_file, station_raw
 
 import warp_ricochet as wr
@@ -105,6 +105,11 @@ def test_a_bounded_station_run_stops_with_every_station_by_its_weight(stopped):
         assert f["stations"].attrs["piece_ends"].tolist()[:4] == [50, 100, 200, 250]
         assert f["stations/left/stats/pellets"][()] == 100 and f["hazard/bound/pellets"][()] == 400
         np.testing.assert_array_equal(f["stations/mid"].attrs["pieces"], [[a, b] for a, b, owner in pieces if owner == 1])
+    variables = assert_opens_in_xarray(ref)  # (xarray: every group, /hazard/bound too)
+    # a station's datasets are named as the run's, each station's dimensions its own (its shots)
+    for name in ("hazard/map/energy", "hazard/map/exposure_outside", "hazard/danger_distance/distance", "stats/shots/hits"):
+        assert variables[f"stations/right/{name}"].dims == variables[name].dims, name
+    assert variables["stations/left/stats/shots/hits"].shape == (2,) and variables["stats/shots/hits"].shape == (8,)
 
 
 def test_a_bounded_station_run_is_the_same_for_two_chunk_sizes(stopped):

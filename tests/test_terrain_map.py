@@ -10,7 +10,7 @@ rasterio = pytest.importorskip("rasterio", reason="the gis extra (rasterio) is n
 pytest.importorskip("pyproj", reason="the gis extra (pyproj) is not installed")
 
 import h5py  # noqa: E402
-from helpers import paper_raw  # noqa: E402
+from helpers import assert_opens_in_xarray, paper_raw  # noqa: E402
 from test_terrain import SITE, one_line, write_tif  # noqa: E402
 
 import warp_ricochet as wr  # noqa: E402
@@ -69,6 +69,7 @@ def test_a_flat_raster_s_map_is_the_plane_s(tmp_path):
         assert np.abs(x[:, None] - edges[None, :]).min() > 1e-9  # (so the maps must agree cell by cell)
     for key, value in want.items():
         np.testing.assert_array_equal(got[key], value, err_msg=key)
+    assert "geometry/surface_0/triangles" in assert_opens_in_xarray(terrain)  # (xarray: the terrain's triangles, the map)
 
 
 def test_a_tilted_raster_counts_the_landings_horizontal_projections(tmp_path):

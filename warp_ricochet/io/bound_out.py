@@ -1,6 +1,11 @@
 """A bounded run's settings and outcome in its run file: /hazard/bound (docs/hazard.md, "Running
 until the answer is bounded"; `warp_ricochet.bound`). Made with the run (SWMR: no objects later),
-the settings at once, the outcome at its end, when /constants/pellets becomes the pellets run."""
+the settings at once, the outcome at its end, when /constants/pellets becomes the pellets run.
+
+The settings `threshold` and `fraction` are stored as `threshold_name` and `p`: /hazard holds the
+dimensions `threshold` and `fraction` (`io.dimensions`), and netCDF readers (h5netcdf, so xarray's
+open_datatree) take a dataset of a dimension's name in that group or below for its coordinate: a
+scalar there cannot be read ("Illegal slicing argument for scalar dataspace")."""
 
 from __future__ import annotations
 
@@ -8,23 +13,26 @@ import numpy as np
 
 from .tally_out import _ds
 
+STORED = {"threshold": "threshold_name", "fraction": "p"}  # setting -> its dataset (files before: the setting's name)
+
 
 def create(group, bound) -> None:
     """/hazard/bound with the settings of `bound` (scene.schema.Bound) and the outcome's datasets
     (NaN, 0 or false until the run ends)."""
     g = group.require_group("hazard").create_group("bound")
     g.attrs["description"] = (
-        "the run went on, adding shots, until the 95% interval of the danger distance of `threshold` at "
-        "`fraction` was finite and narrower than `width`, or until `max_pellets` (hazard.bound)"
+        "the run went on, adding shots, until the 95% interval of the danger distance of `threshold_name` at "
+        "`p` was finite and narrower than `width`, or until `max_pellets` (hazard.bound)"
     )
     _ds(
         g,
-        "threshold",
+        STORED["threshold"],
         np.bytes_(bound.threshold),
         unit="",
         doc="the threshold whose danger distance is bounded (hazard.bound.threshold)",
     )
-    _ds(g, "fraction", np.float64(bound.fraction), unit="1", doc="p: the share of the pellets above the threshold left beyond it")
+    doc = "p: the share of the pellets above the threshold left beyond it (hazard.bound.fraction)"
+    _ds(g, STORED["fraction"], np.float64(bound.fraction), unit="1", doc=doc)
     _ds(g, "width", np.float64(bound.width), unit="m", doc="the 95% interval's ci_high - ci_low had to be below this")
     _ds(g, "max_pellets", np.int64(bound.max_pellets), unit="1", doc="the budget: the run stops at the last whole shot within it")
     _ds(
@@ -52,9 +60,13 @@ def write(group, result) -> None:
 
 
 def read(group) -> dict | None:
-    """{name: value} of /hazard/bound (None when the run had no bound)."""
+    """{name: value} of /hazard/bound, the settings by their keys (`threshold`, `fraction`: also in
+    files written before they were stored as STORED); None when the run had no bound."""
     if "hazard/bound" not in group:
         return None
     out = {name: ds[()] for name, ds in group["hazard/bound"].items()}
+    for key, name in STORED.items():
+        if name in out:
+            out[key] = out.pop(name)
     out["threshold"] = out["threshold"].decode()
     return out

@@ -96,10 +96,19 @@ def field_dimensions(name: str) -> tuple[str, ...]:
     return ("pellet",) + columns + (("xyz",) if f.kind == "vec3" else ())
 
 
+def in_station(path: str) -> tuple[str, str] | None:
+    """(`stations/<name>`, the rest) of a path below a station's group, which holds the run's
+    layout of its own pellets (`io.station_out`); None for any other path."""
+    parts = path.split("/", 2)
+    return ("/".join(parts[:2]), parts[2]) if parts[0] == "stations" and len(parts) == 3 else None
+
+
 def dimensions_of(path: str, ds: h5py.Dataset) -> tuple[str, ...]:
-    """The axes of the dataset at `path` (relative to its run group): from the layout, else, for a
-    dataset the layout does not know, `xyz` for a last axis of 3 and `<path>_<axis>` (slashes as
-    underscores: one dimension per dataset and axis) for the rest."""
+    """The axes of the dataset at `path` (relative to its run group; a station's as the run's):
+    from the layout, else, for a dataset the layout does not know, `xyz` for a last axis of 3 and
+    `<path>_<axis>` (slashes as underscores: one dimension per dataset and axis) for the rest."""
+    if (station := in_station(path)) is not None:
+        return dimensions_of(station[1], ds)
     if path.startswith("pellets/") and path.count("/") == 2:
         name = path[len("pellets/") :].replace("/", ".")
         if name in FIELDS:
@@ -175,7 +184,11 @@ RUN_GROUP_DIMENSIONS = ("pellet", "bounce", "xyz", "frame")  # in the run's grou
 def home_of(path: str, name: str) -> str:
     """The group (relative to the run's) holding the dimension `name` of the dataset at `path`: the
     run's ("") for RUN_GROUP_DIMENSIONS, the H5MD frames' and a dataset's of the run's group; else
-    the dataset's top group, its second below /stats."""
+    the dataset's top group, its second below /stats; below a station's group, that group's
+    (`stations/<name>/hazard/threshold`: a station's shots and map are its own)."""
+    if (station := in_station(path)) is not None:
+        home = home_of(station[1], name)
+        return f"{station[0]}/{home}" if home else ""
     parts = path.split("/")[:-1]
     if name in RUN_GROUP_DIMENSIONS or not parts or parts[0] == "particles":
         return ""

@@ -40,7 +40,7 @@ TEXT = (  # datasets of text in a run group
     "hazard/points/name",  # (issue 26 contract: the named places)
 )
 TEXT += ("hazard/site/crs", "hazard/site/crs_wkt")  # [hazard.site]: the CRS as given and as WKT
-TEXT += ("hazard/bound/threshold",)  # [hazard.bound]
+TEXT += ("hazard/bound/threshold_name", "hazard/bound/threshold")  # [hazard.bound] (and its files before: io.bound_out)
 
 
 class BadFile(ValueError):

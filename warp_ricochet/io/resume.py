@@ -141,9 +141,11 @@ def verify(f, scene, dev, partial_name: str) -> tuple[int, int, int, int]:
     ends = piece_ends(scene) if scene.stations else None
     if scene.stations:  # (chunks end at each piece's end, and segments start there)
         segments = segments_of(ends, rows, scene.shot.count, scene.pair_collisions)
-    damaged = None
-    if not 0 <= rows <= pellets or pellets != planned(scene).shot.pellets:
+    damaged, budget = None, planned(scene).shot.pellets
+    if not 0 <= rows <= pellets:
         damaged = f"{rows} rows complete of {pellets}"
+    elif pellets != budget and not _stopped(f, bounded, rows):
+        damaged = f"{pellets} pellets in /constants/pellets for a run of {budget}" + (", no bound met there" if bounded else "")
     elif bounded is not None:
         if not bounded.chunk_end(rows, scene.pair_collisions, ends):
             damaged = f"{rows} rows complete, neither a check of its bound nor whole chunks past one"
@@ -160,6 +162,18 @@ def verify(f, scene, dev, partial_name: str) -> tuple[int, int, int, int]:
     if damaged:
         raise OutputError(f"output path = {partial_name!r}: is inconsistent ({damaged}); it cannot be resumed")
     return rows, chunk, segments, shots
+
+
+def _stopped(f, bounded, rows: int) -> bool:
+    """Whether bounded run file `f` records that the run met its bound at `rows`, a check: its
+    outcome written (`io.bound_out.write`: /constants/pellets and /hazard/bound/pellets the pellets
+    run, /hazard/bound/met), then the file closed but not moved into place (killed, or its fields'
+    `shards.cut` failed). Resumed, it meets the bound again at once from the counts kept (the
+    pipeline's loop), and is finished as it would have been."""
+    if bounded is None or rows not in bounded.checks() or "hazard/bound" not in f:
+        return False
+    b = f["hazard/bound"]
+    return int(f["constants/pellets"][()]) == int(b["pellets"][()]) == rows and bool(b["met"][()])
 
 
 @dataclass
