@@ -24,6 +24,16 @@ CUDA_MAX_REGISTERS = {("float32", False): 80, ("float32", True): None, ("float64
 CUDA_BLOCK_DIM = 256  # threads per CUDA block of the ricochet kernel
 
 
+def kernel_options(spec, max_registers="default") -> dict:
+    """`wp.kernel`'s options for a kernel that follows `spec`'s pellets (the core's, `core.shots`'):
+    its register cap (CUDA_MAX_REGISTERS, or `max_registers`) and fast maths."""
+    cap = CUDA_MAX_REGISTERS[spec.precision, spec.fast_math] if max_registers == "default" else max_registers
+    options = {} if cap is None else {"cuda_max_registers": cap}
+    if spec.fast_math:
+        options["module_options"] = {"fast_math": True}
+    return options
+
+
 @functools.cache
 def ricochet_kernel_for(spec, max_registers="default"):
     """The core kernel of `spec` (a `spec.RunSpec`): statistics-only kernels carry no output code;
@@ -44,10 +54,7 @@ def ricochet_kernel_for(spec, max_registers="default"):
     RELEASE = spec.collisions
     lanes, segment = lanes_for(spec.to_rest), SEGMENT
     per_thread = segment // lanes
-    cap = CUDA_MAX_REGISTERS[spec.precision, spec.fast_math] if max_registers == "default" else max_registers
-    options = {} if cap is None else {"cuda_max_registers": cap}
-    if spec.fast_math:
-        options["module_options"] = {"fast_math": True}
+    options = kernel_options(spec, max_registers)
 
     @wp.kernel(module="unique", enable_backward=False, **options)
     def ricochet_kernel(

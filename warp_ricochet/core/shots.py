@@ -28,6 +28,7 @@ from ..tallies.ensemble import PIECE, pieces_per_shot
 from ..tallies.landing import make_landing_tally
 from ..tallies.reduce import SEGMENT_WIDTH, reduce_kernel
 from ..tallies.sums import NUM_EXTREMES, NUM_SUMS
+from .kernel import kernel_options
 from .outputs import make_outputs
 from .pellet import make_ricochet_pellet
 from .release import make_release
@@ -53,7 +54,7 @@ def shot_kernel_for(spec):
     floats_t, extremes_t, inf = acc_fns.floats_t, acc_fns.extremes_t, acc_fns.inf
     piece, sub, subs = PIECE, SUB, SUB_PIECES
 
-    @wp.kernel(module="unique", enable_backward=False)
+    @wp.kernel(module="unique", enable_backward=False, **kernel_options(spec))  # (the core kernel's maths and registers)
     def shot_pieces_kernel(
         first_shot: wp.int32,  # global index of the first shot
         count: wp.int32,  # pellets per shot
