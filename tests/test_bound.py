@@ -3,6 +3,7 @@ warp_ricochet.bound): a bound met stops the run early, a budget spent says "not 
 shots added are the pellets an ordinary run of as many shots has, the bits do not depend on the
 chunk size, --resume continues to the bits of an uninterrupted run, and bad input is refused."""
 
+import warnings
 from pathlib import Path
 
 import h5py
@@ -104,6 +105,20 @@ def test_a_spent_budget_says_not_bounded(tmp_path):
     assert "width inf m, not below 0.01 m; raise max_pellets or the width" in out
     rc, out, err = cli(["run", _toml(tmp_path), "--device", "cpu"])
     assert rc == 0 and "bounded after 400 pellets (4 shots, 3 checks)" in out and "< 1 m" in out
+
+
+def test_a_sweep_names_the_point_a_spent_budget_belongs_to(tmp_path):
+    """A sweep of bounded runs warns NOT BOUNDED for each point that spent its budget, naming it:
+    the points' warnings are otherwise alike, and the sweep's tables do not show the bounds."""
+    scene = bounded(width=0.01, max_pellets=200)  # (one check, never met)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        wr.sweep(scene, {"shot.speed": [400.0, 420.0]}, output=tmp_path / "sweep.h5", device="cpu")
+    said = [str(w.message) for w in caught if issubclass(w.category, PrecisionWarning)]
+    assert [m.split(": NOT BOUNDED: ")[0] for m in said] == [
+        "sweep point 0 (shot.speed = 400.0)",
+        "sweep point 1 (shot.speed = 420.0)",
+    ]
 
 
 def test_every_group_of_a_bounded_run_file_opens_in_xarray_and_old_files_still_read(tmp_path):
