@@ -107,6 +107,13 @@ def test_a_spent_budget_says_not_bounded(tmp_path):
     assert rc == 0 and "bounded after 400 pellets (4 shots, 3 checks)" in out and "< 1 m" in out
 
 
+def test_a_budget_of_one_check_says_one_shot_and_one_check(tmp_path):
+    """A budget of one shot is one check: the summary reads "(1 shot, 1 check)", not "1 checks"."""
+    with pytest.warns(PrecisionWarning, match=r"NOT BOUNDED: the budget of 100 pellets \(1 shot, 1 check\) is spent"):
+        stats = wr.run(bounded(shots=1, width=0.01, max_pellets=100), tmp_path / "run.h5", device="cpu")
+    assert stats.bound.checks == 1 and stats.bound.shots == 1
+
+
 def test_a_sweep_names_the_point_a_spent_budget_belongs_to(tmp_path):
     """A sweep of bounded runs warns NOT BOUNDED for each point that spent its budget, naming it:
     the points' warnings are otherwise alike, and the sweep's tables do not show the bounds."""
