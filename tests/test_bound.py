@@ -114,6 +114,18 @@ def test_a_budget_of_one_check_says_one_shot_and_one_check(tmp_path):
     assert stats.bound.checks == 1 and stats.bound.shots == 1
 
 
+def test_the_html_report_states_the_bound_and_the_shots_run(tmp_path):
+    """`report --html` of a bounded run says, in its summary, whether the bound was met (a warning
+    when not), and counts the shots run, not the first check's `shot.shots`."""
+    with pytest.warns(PrecisionWarning, match="NOT BOUNDED"):
+        wr.run(bounded(width=0.01, max_pellets=300), tmp_path / "run.h5", device="cpu")
+    rc, _out, err = cli(["report", tmp_path / "run.h5", "--html", tmp_path / "run.html"])
+    assert (rc, err) == (0, "")
+    page = " ".join((tmp_path / "run.html").read_text().split())
+    assert '<li class="warning">NOT BOUNDED: the budget of 300 pellets (3 shots, 2 checks) is spent' in page
+    assert "3 shots of 100 pellets" in page and "2 shots of 100 pellets" not in page
+
+
 def test_a_sweep_names_the_point_a_spent_budget_belongs_to(tmp_path):
     """A sweep of bounded runs warns NOT BOUNDED for each point that spent its budget, naming it:
     the points' warnings are otherwise alike, and the sweep's tables do not show the bounds."""
