@@ -24,6 +24,7 @@
 """
 
 import argparse
+import math
 import platform
 import tempfile
 import time
@@ -276,6 +277,17 @@ def _timed(scene, device, repeats, out=None):
     return float(np.median(runs)), stats
 
 
+def _fraction(text: str) -> float:
+    """--jitter: a fraction in [0, 1) (1 or more could move a launch position through the origin)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 0.0 <= value < 1.0:
+        raise argparse.ArgumentTypeError(f"{text!r}: must be a fraction in [0, 1)")
+    return value
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(prog="python -m bench.meshes", description=__doc__.split("\n\n")[0])
     parser.add_argument("what", choices=("box", "plane", "terrain", "rest"))
@@ -284,7 +296,7 @@ def main(argv=None):
     parser.add_argument("--precision", default="float32", choices=("float32", "float64"))
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--jitter", type=float, default=0.0, help="box: launch positions moved by up to this fraction")
+    parser.add_argument("--jitter", type=_fraction, default=0.0, help="box: launch positions moved by up to this fraction")
     parser.add_argument("--cells", type=int, default=708, help="terrain: cells per side (2 cells^2 triangles)")
     parser.add_argument("--flights", default="vacuum,air", help="terrain: vacuum, air or both (comma-separated)")
     args = parser.parse_args(argv)

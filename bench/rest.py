@@ -27,6 +27,7 @@ from pathlib import Path
 
 from bench.__main__ import _timed, _wr, device_info
 from bench.air import paper_scene
+from bench.dask import _count
 
 # (label, in air, physics.until, more settings)
 CASES = (
@@ -143,9 +144,9 @@ def main(argv=None):
     parser.add_argument("what", choices=("throughput", "collisions", "kernels"))
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--sizes", default="1e5")
-    parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--shots", type=int, default=10_000)
-    parser.add_argument("--count", type=int, default=450)
+    parser.add_argument("--repeats", type=_count, default=3)
+    parser.add_argument("--shots", type=_count, default=10_000)
+    parser.add_argument("--count", type=_count, default=450)
     parser.add_argument("--only", default="", help="throughput, kernels: only the cases whose label holds this")
     parser.add_argument("--out", type=Path)
     args = parser.parse_args(argv)

@@ -3,6 +3,7 @@ warp_ricochet.bound): a bound met stops the run early, a budget spent says "not 
 shots added are the pellets an ordinary run of as many shots has, the bits do not depend on the
 chunk size, --resume continues to the bits of an uninterrupted run, and bad input is refused."""
 
+import warnings
 from pathlib import Path
 
 import h5py
@@ -104,6 +105,39 @@ def test_a_spent_budget_says_not_bounded(tmp_path):
     assert "width inf m, not below 0.01 m; raise max_pellets or the width" in out
     rc, out, err = cli(["run", _toml(tmp_path), "--device", "cpu"])
     assert rc == 0 and "bounded after 400 pellets (4 shots, 3 checks)" in out and "< 1 m" in out
+
+
+def test_a_budget_of_one_check_says_one_shot_and_one_check(tmp_path):
+    """A budget of one shot is one check: the summary reads "(1 shot, 1 check)", not "1 checks"."""
+    with pytest.warns(PrecisionWarning, match=r"NOT BOUNDED: the budget of 100 pellets \(1 shot, 1 check\) is spent"):
+        stats = wr.run(bounded(shots=1, width=0.01, max_pellets=100), tmp_path / "run.h5", device="cpu")
+    assert stats.bound.checks == 1 and stats.bound.shots == 1
+
+
+def test_the_html_report_states_the_bound_and_the_shots_run(tmp_path):
+    """`report --html` of a bounded run says, in its summary, whether the bound was met (a warning
+    when not), and counts the shots run, not the first check's `shot.shots`."""
+    with pytest.warns(PrecisionWarning, match="NOT BOUNDED"):
+        wr.run(bounded(width=0.01, max_pellets=300), tmp_path / "run.h5", device="cpu")
+    rc, _out, err = cli(["report", tmp_path / "run.h5", "--html", tmp_path / "run.html"])
+    assert (rc, err) == (0, "")
+    page = " ".join((tmp_path / "run.html").read_text().split())
+    assert '<li class="warning">NOT BOUNDED: the budget of 300 pellets (3 shots, 2 checks) is spent' in page
+    assert "3 shots of 100 pellets" in page and "2 shots of 100 pellets" not in page
+
+
+def test_a_sweep_names_the_point_a_spent_budget_belongs_to(tmp_path):
+    """A sweep of bounded runs warns NOT BOUNDED for each point that spent its budget, naming it:
+    the points' warnings are otherwise alike, and the sweep's tables do not show the bounds."""
+    scene = bounded(width=0.01, max_pellets=200)  # (one check, never met)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        wr.sweep(scene, {"shot.speed": [400.0, 420.0]}, output=tmp_path / "sweep.h5", device="cpu")
+    said = [str(w.message) for w in caught if issubclass(w.category, PrecisionWarning)]
+    assert [m.split(": NOT BOUNDED: ")[0] for m in said] == [
+        "sweep point 0 (shot.speed = 400.0)",
+        "sweep point 1 (shot.speed = 420.0)",
+    ]
 
 
 def test_every_group_of_a_bounded_run_file_opens_in_xarray_and_old_files_still_read(tmp_path):

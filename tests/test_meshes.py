@@ -261,3 +261,25 @@ def test_the_benchmarks_terrain_is_the_raster_it_claims(tmp_path):
     assert np.abs(vertices[:, 2]).max() <= 0.5 and np.ptp(vertices[:, 0]) == 40 * CELL
     n = TriangleSurface(vertices, triangles, "bench").normals()
     assert (n[:, 2] > 0).all() and np.hypot(n[:, 0], n[:, 1]).max() / n[:, 2].min() < 0.022
+
+
+@pytest.mark.parametrize(
+    ("argv", "want"),
+    [
+        (["bench.meshes", "box", "--jitter", "nan"], "argument --jitter: 'nan': must be a fraction in [0, 1)"),
+        (["bench.meshes", "box", "--jitter", "-0.1"], "argument --jitter: '-0.1': must be a fraction in [0, 1)"),
+        (["bench.meshes", "box", "--jitter", "1"], "argument --jitter: '1': must be a fraction in [0, 1)"),
+        (["bench.rest", "kernels", "--shots", "0"], "argument --shots: '0': must be a whole number in [1, "),
+        (["bench.rest", "kernels", "--count", "1.5"], "argument --count: '1.5': must be a whole number in [1, "),
+    ],
+)
+def test_the_benchmarks_refuse_odd_options_in_one_line(argv, want, capsys):
+    """`python -m bench.meshes box --jitter` and `bench.rest kernels`' counts: argparse's usage and
+    one line, exit 2, before any work (a NaN jitter or 0 shots once ran the warm-up and ended in a traceback)."""
+    import importlib
+
+    module = importlib.import_module(argv[0])
+    with pytest.raises(SystemExit) as exc:
+        module.main(argv[1:])
+    err = capsys.readouterr().err
+    assert exc.value.code == 2 and err.splitlines()[-1].startswith(f"python -m {argv[0]}: error: {want}"), err

@@ -419,3 +419,25 @@ def test_the_landing_map_draws_only_planes_as_lines_and_names_other_kinds():
     assert labels == ["wall (plane 0)", "gong: rectangle (surface 1, not drawn)", "field: terrain (surface 2, not drawn)"]
     assert [line.get_label() for line in ax.get_lines() if line.get_xydata().size] == ["wall (plane 0)"]
     plt.close(fig)
+
+
+def test_plot_of_an_unfinished_run_skips_the_plots_of_its_counts(tmp_path, capsys):
+    """An interrupted run's file holds its first chunk's pellets but no landing counts yet (written
+    when the run completes): the survival curve and the map are skipped with that reason, not drawn
+    empty ("none landed"); the plots of its pellets are drawn."""
+    scene = wr.load_scene(SCENE, ["shot.count=140000", "numerics.chunk_size=65536", *HAZARD_MAP[1::2]])
+
+    def stop(done, total):
+        if done > 0:  # (Ctrl-C after the first chunk)
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        wr.run(scene, tmp_path / "run.h5", device="cpu", progress=stop)
+    outdir = tmp_path / "png"
+    assert main(["plot", str(tmp_path / "run.h5.partial"), "-o", str(outdir)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    unfinished = "nothing to draw (status 'interrupted': the run's counts are written when it completes)"
+    assert [line for line in lines if "survival" in line or "hazard-map" in line] == [
+        f"skipped {outdir / f'run.h5-{name}.png'}: {unfinished}" for name in ("distance-survival", "hazard-map")
+    ]
+    assert sorted(p.name for p in outdir.iterdir()) == [f"run.h5-{n}.png" for n in ("energy-distance", "landing-map", "range")]

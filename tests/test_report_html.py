@@ -6,6 +6,7 @@ input refused in one line before anything is written."""
 
 import html.parser
 import math
+import re
 import shutil
 import subprocess
 from pathlib import Path
@@ -288,22 +289,40 @@ def test_the_page_in_headless_chromium(run_file, tmp_path):
     assert "How far pellets stay dangerous" in text and "CPSA shot fall" in text
 
 
-def test_a_plate_is_named_by_its_shape_and_the_limits_say_so(tmp_path):
-    """The scene's surfaces table names each surface's shape (docs/geometry.md) and the limits
-    section says plates are met inside their outline only."""
+def _berm_page(tmp_path, until: str, *more) -> str:
+    """The HTML report of 64 pellets of the paper's scene with surfaces `more` and a box (the
+    berm) behind them, followed to `until`."""
     raw = load_scene(ROOT / "examples" / "paper.toml", ["shot.count=64"]).to_dict()
-    plate = {"kind": "rectangle", "point": [4.0, 1.0, 0.0], "normal": [-1.0, 0.0, 0.0], "axis_u": [0.0, 0.0, 1.0]}
-    raw["surfaces"].append({**plate, "name": "plate", "size": [2.0, 1.0], "restitution": 0.3, "mu_s": 0.2})
     box = {"kind": "box", "point": [9.0, 1.0, 0.0], "normal": [0.0, 1.0, 0.0], "axis_u": [1.0, 0.0, 0.0]}
-    raw["surfaces"].append({**box, "name": "berm", "size": [4.0, 30.0, 2.0], "restitution": 0.3, "mu_s": 0.2})
-    raw["physics"]["until"] = "landing"
-    path, out = tmp_path / "plate.h5", tmp_path / "plate.html"
+    for surface in (*more, {**box, "name": "berm", "size": [4.0, 30.0, 2.0]}):
+        raw["surfaces"].append({**surface, "restitution": 0.3, "mu_s": 0.2})
+    raw["physics"]["until"] = until
+    path, out = tmp_path / "berm.h5", tmp_path / "berm.html"
     wr.run(scene_from_dict(raw), path, device="cpu")
     rc, _stdout, err = cli(["report", path, "--html", out])
     assert (rc, err) == (0, "")
-    page = _parse(out.read_text())
+    return out.read_text()
+
+
+def test_a_plate_is_named_by_its_shape_and_the_limits_say_so(tmp_path):
+    """The scene's surfaces table names each surface's shape (docs/geometry.md) and the limits
+    section says plates are met inside their outline only."""
+    plate = {"kind": "rectangle", "point": [4.0, 1.0, 0.0], "normal": [-1.0, 0.0, 0.0], "axis_u": [0.0, 0.0, 1.0]}
+    page = _parse(_berm_page(tmp_path, "landing", {**plate, "name": "plate", "size": [2.0, 1.0]}))
     shapes = {r[1]: r[2] for r in page.rows if len(r) > 2 and r[0] in ("0", "1", "2")}
     assert shapes["plate"] == "rectangle 2 m x 1 m, met from its normal's side"
     assert shapes["berm"] == "box 4 m x 30 m x 2 m (12 triangles)"
     assert list(shapes.values())[0] == "infinite plane"
     assert "finite flat plates" in page.text and "surfaces of triangles" in page.text
+
+
+def test_the_limits_name_the_surfaces_section_and_follow_triangles_to_rest(tmp_path):
+    """The limits point to the section whose table lists the surfaces, and do not say a box is
+    followed to the landing only in a run that follows it to rest (docs/geometry.md, "Rest on
+    triangles")."""
+    page = _berm_page(tmp_path, "rest")
+    section = re.search(r"not listed in section (\d+)", page).group(1)
+    heading = re.search(rf"<h2>{section}\. ([^<]*)</h2>(.*?)<h2>", page, re.S)
+    assert "berm" in heading.group(2) and "box 4 m x 30 m x 2 m" in heading.group(2)  # the surfaces' table
+    text = _parse(page).text
+    assert "surfaces of triangles" in text and "terrain: followed to the landing only" not in text

@@ -507,15 +507,12 @@ def sweep(
         check_resources(scenes, dev, None)
         for sc in scenes if study is not None else ():
             study.submit(sc, ahead=True)
-        return [
-            (
-                points[i],
-                _point_done(
-                    _run_one(sc, dev, None, _point_progress(progress, i, len(scenes)), dense_options, study), summary=True
-                ),
-            )
-            for i, sc in enumerate(scenes)
-        ]
+        results = []
+        for i, sc in enumerate(scenes):
+            with _point_warnings(i, points[i]):
+                stats = _run_one(sc, dev, None, _point_progress(progress, i, len(scenes)), dense_options, study)
+            results.append((points[i], _point_done(stats, summary=True)))
+        return results
     path = output_target(output) if resume else check_output_path(output, overwrite)  # before any work
     dev = resolve_device(device) if study is None else study.remote
     manifest = sweepdir.make_manifest(scene.to_toml(), points, dev)
@@ -552,8 +549,8 @@ def sweep(
             else:
                 if partial.exists() and not sweepdir.resumable_point(partial):  # no chunk in it: run it again
                     partial.unlink()
-                stats = _point_done(
-                    run(
+                with _point_warnings(i, points[i]):
+                    stats = run(
                         sc,
                         point_path,
                         dev,
@@ -563,9 +560,8 @@ def sweep(
                         sidecar=False,
                         client=study,
                         _shards=None if shards is None else shards / sweepdir.point_name(i),
-                    ),
-                    summary=False,
-                )
+                    )
+                stats = _point_done(stats, summary=False)
             results.append((points[i], stats))
         folder.assemble(
             points,
@@ -669,6 +665,20 @@ def _plain(value):
     if isinstance(value, tuple):
         return tuple(_plain(v) for v in value)
     return value.tolist() if isinstance(value, np.ndarray) else value
+
+
+@contextlib.contextmanager
+def _point_warnings(index: int, point: dict):
+    """The warnings of a sweep's point (a NOT BOUNDED budget, a precision warning) issued again with
+    the point named, `sweep point 1 (air.density = 1.3): ...`: a sweep's are otherwise alike."""
+    caught = []
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            yield
+    finally:  # (also those of a point that failed or was interrupted)
+        shown = ", ".join(f"{key} = {value}" for key, value in point.items())
+        for w in caught:
+            warnings.warn_explicit(f"sweep point {index} ({shown}): {w.message}", w.category, w.filename, w.lineno)
 
 
 def _point_progress(progress, index: int, points: int):

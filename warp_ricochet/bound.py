@@ -192,7 +192,7 @@ class BoundResult:
     def summary(self) -> str:
         """One line: how many pellets it took, and the final interval (or that it is not bounded)."""
         what = self.interval_text()
-        run = f"{self.pellets:,} pellets ({self.shots:,} shots, {self.checks} checks)"
+        run = f"{self.pellets:,} pellets ({self.shots:,} shot{'s' * (self.shots != 1)}, {self.checks} check{'s' * (self.checks != 1)})"
         if self.met:
             return f"bounded after {run}: {what} < {display.text(self.width, 'm', 'g')}"
         return (

@@ -17,6 +17,7 @@ import os
 import numpy as np
 
 from .. import display
+from ..bound import BoundResult
 from ..errors import RicochetError
 from ..io.atomic import replaced
 from ..io.h5open import open_for_reading
@@ -188,6 +189,7 @@ def context(path, f, results) -> dict:
         "comparison": html_data.comparison(f, refs),
         "settings": html_data.settings(f, scene, stats),
         "warning": rest.not_finished_line(stats),
+        "bound": None if results.meta.get("bound") is None else BoundResult.of(results.meta["bound"]),
         "limits": html_data.limit_flags(scene, bool(danger and danger["reach"])),
         "figures": figures(f),
         "scene_toml": html_data._text(f.attrs.get("scene_toml", "")),

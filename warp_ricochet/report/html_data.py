@@ -83,6 +83,8 @@ def scene_words(f, scene: dict, stats: dict) -> dict:
     kind = metal(density)
     pellets = int(stats.get("pellets", 0))
     shots, count = int(shot.get("shots", 1)), int(shot.get("count", pellets))
+    if "hazard/bound/shots" in f:  # [hazard.bound]: the shots run, not the first check's (`shot.shots`)
+        shots = int(f["hazard/bound/shots"][()])
     out = {
         "diameter_mm": fmt(2e3 * radius),
         "pellets": f"{pellets:,}",

@@ -55,6 +55,7 @@ class Plot:
     size: tuple[float, float]
     draw: Callable
     missing: str = "no per-pellet landing data in the file"
+    counts: bool = False  # drawn from the run's counts, written when it completes (not an unfinished run's)
 
 
 def require_matplotlib():
@@ -255,8 +256,9 @@ PLOTS: list[Plot] = [
         (7.0, 4.5),
         hazard_plots.draw_survival,  # docs/hazard.md
         "no landing histograms: output.quantiles = false",
+        counts=True,
     ),
-    Plot("hazard-map", "run", (8.0, 6.0), hazard_plots.draw_map, "no hazard map: [hazard] map_cell and map_extent"),
+    Plot("hazard-map", "run", (8.0, 6.0), hazard_plots.draw_map, "no hazard map: [hazard] map_cell and map_extent", True),
     Plot(
         "rest-distance",
         "run",
@@ -368,6 +370,10 @@ def write_plots(paths, outdir=None, overwrite=False) -> list[tuple[str, str | No
                 if plot.kind == "run"
                 else [Sweep(results[p], files[p], label) for p, label in _labels(inputs, results).items()]
             )
+            status = results[inputs[0]].meta.get("status", "complete")
+            if plot.counts and status != "complete":  # (zeros until then: not "none landed")
+                done.append((png, f"nothing to draw (status {status!r}: the run's counts are written when it completes)"))
+                continue
             if not plot.draw(fig, source):
                 done.append((png, f"nothing to draw ({plot.missing})"))
                 continue
