@@ -144,8 +144,8 @@ def test_report_and_plot_of_a_killed_runs_partial(tmp_path):
         "continues it)"
         in out_text
     ), out_text
-    rc, out_text, err = cli(["plot", partial, "-o", tmp_path / "plots"])  # plot opens it too
-    assert rc == 0 and "wrote" in out_text, err
+    rc, out_text, err = cli(["plot", partial, "-o", tmp_path / "plots"])  # plot opens it too (what needs the
+    assert rc == 0 and ("wrote" in out_text or "skipped" in out_text), err  # run's final counts is skipped)
     assert digest(partial) == before
 
 
