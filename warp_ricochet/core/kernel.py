@@ -80,8 +80,7 @@ def ricochet_kernel_for(spec, max_registers="default"):
         range_shift = scalar(0.0)
         if wp.static(TABLE):  # every thread of the block: launches cover whole blocks
             landing.table(BEGIN, 0, wp.int64(0), 0)
-        # (a bound known only at run time: Warp unrolls a loop of at most 16 constant iterations,
-        # which would copy the whole pellet 16 times into a to-rest kernel)
+        # (a bound known at run time only: Warp unrolls constant loops of up to 16 iterations)
         last = wp.min(per_thread, (count - group * segment - lane + lanes - 1) // lanes)
         for j in range(last):
             row = group * segment + j * lanes + lane

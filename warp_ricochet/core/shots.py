@@ -8,9 +8,8 @@ pellets in order through `core.pellet.ricochet_pellet` (from the launch, or from
 release in a run with pair collisions) and stores its partials as the core kernel's threads do
 (`tallies.accumulate.store_partials`); a piece's row is then its sub-pieces' partials merged in
 order as a statistics segment's lanes are (`tallies.reduce.reduce_kernel`: sums, Chan's squared
-deviations, extremes). Threads of 32 pellets rather than 256 keep a GPU busy with 8x fewer shots:
-a pellet followed to rest takes tens of steps, and one thread a piece left 20,000 threads for
-10,000 shots. A piece's partials depend only on its pellets, never on the chunk or on the other
+deviations, extremes), so that a GPU is kept busy by a few thousand shots of pellets followed to
+rest (tens of integration steps each). A piece's partials depend only on its pellets, never on the chunk or on the other
 shots, so per-shot values are bitwise the same for any chunk size and after --resume. Rows are
 (shot, piece) in order, SEGMENT_WIDTH columns like a statistics segment's: sums, range minima,
 range maxima.

@@ -6,9 +6,9 @@ SEGMENT = LANES * PER_THREAD pellets of one group of LANES threads. Chunks start
 boundaries, so segment k always holds the same pellets and the reduction order (pellet order
 within a thread, lane order within a segment, segment order on the host, `sums.combine`) is
 independent of the chunk size. Pellets followed to rest (tens of integration steps each) are
-spread wider: REST_LANES threads a segment of the same SEGMENT pellets, SEGMENT // REST_LANES a
-thread (`lanes_for`), so that a run of 1e6 pellets has 62,500 threads rather than 3,906 to keep a
-GPU's multiprocessors busy; their partials take 24 bytes a pellet instead of 1.5.
+spread wider, to keep a GPU's multiprocessors busy from fewer pellets: REST_LANES threads a
+segment of the same SEGMENT pellets, SEGMENT // REST_LANES a thread (`lanes_for`); their partials
+take 24 bytes a pellet (1.5 with LANES).
 """
 
 import functools
