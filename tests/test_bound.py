@@ -20,6 +20,7 @@ from tests.helpers import (
     make_scene,
     paper_raw,
 )
+from warp_ricochet import display
 from warp_ricochet.bound import BoundPlan
 from warp_ricochet.errors import PrecisionWarning, SceneError
 from warp_ricochet.io.bound_out import read
@@ -91,6 +92,8 @@ def test_a_spent_budget_says_not_bounded(tmp_path):
     b = stats.bound
     assert not b.met and b.pellets == 1_000 and b.shots == 10 and stats["pellets"] == 1_000
     assert b.final_width >= 0.0625
+    with display.using("imperial"):  # the width asked, in yards to 4 digits as every distance (was 0.0109361 yd)
+        assert b.summary().endswith("not below 0.01094 yd; raise max_pellets or the width")
     with h5py.File(tmp_path / "run.h5", "r") as f:
         assert not f["hazard/bound/met"][()] and f["hazard/bound/pellets"][()] == 1_000
     rc, out, _ = cli(["report", tmp_path / "run.h5"])  # the file's report says it too

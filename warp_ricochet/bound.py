@@ -194,8 +194,8 @@ class BoundResult:
         what = self.interval_text()
         run = f"{self.pellets:,} pellets ({self.shots:,} shot{'s' * (self.shots != 1)}, {self.checks} check{'s' * (self.checks != 1)})"
         if self.met:
-            return f"bounded after {run}: {what} < {display.text(self.width, 'm', 'g')}"
+            return f"bounded after {run}: {what} < {display.text(self.width, 'm')}"
         return (
             f"NOT BOUNDED: the budget of {run} is spent (hazard.bound.max_pellets = {self.max_pellets:,}): {what}, "
-            f"not below {display.text(self.width, 'm', 'g')}; raise max_pellets or the width"
+            f"not below {display.text(self.width, 'm')}; raise max_pellets or the width"
         )
