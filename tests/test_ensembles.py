@@ -76,6 +76,19 @@ def multi(tmp_path_factory):
     return path, stats
 
 
+def test_the_summary_of_a_run_to_rest_gives_the_rest_distances_intervals():
+    """`run`'s summary printed the rest distance of several shots without its interval (`report`
+    had it): its rows now come with the range's."""
+    from warp_ricochet.report.tables import SUMMARY_INTERVALS, format_intervals
+
+    row = {"range_mean": 40.0, "rest_distance_mean": 45.0, "rest_distance_max": 90.0, "rest_not_finished": 0.0}
+    intervals = {name: (0.9 * x, 1.1 * x) for name, x in row.items()}
+    text = format_intervals(row, intervals, 3, "text", SUMMARY_INTERVALS)
+    rows = {line.split()[0]: line.split() for line in text.splitlines() if line.split() and line.split()[0] in row}
+    assert rows["rest_distance_mean"][-2:] == ["per", "shot"] and rows["rest_distance_max"][-3:] == ["one", "shot's", "extreme"]
+    assert set(rows) == set(row)
+
+
 def test_per_shot_values_are_each_shots_numpy_statistics(multi):
     """/stats/shots/<name>[s] is the statistic of shot s's pellets alone (NumPy from its per-pellet
     outputs), for shots inside one chunk and across two; /stats keeps the whole run's values, and

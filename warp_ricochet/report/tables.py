@@ -601,6 +601,9 @@ SUMMARY_INTERVALS = (
     "landing_mean_WT",
     "collided_fraction",
     "pair_energy_lost_mean",
+    "rest_distance_mean",
+    "rest_distance_max",
+    "rest_not_finished",
 )
 
 
