@@ -106,10 +106,6 @@ def _nothing(i):
     return i
 
 
-def _same(a, b) -> bool:
-    return all(a[k] == b[k] or (a[k] != a[k] and b[k] != b[k]) for k in b)
-
-
 def cmd_sweep(args) -> None:
     import warnings
 
@@ -152,7 +148,7 @@ def cmd_sweep(args) -> None:
         ntasks = len(spent)
         task_time = sum(spent)
     serial, ref = _timed(lambda: wr.sweep(scene, params, ties, device=args.device), args.repeats)
-    same = all(_same(dict(a), dict(b)) for (_, a), (_, b) in zip(ref, got))
+    same = _same_study(ref, got)
     pellets = args.points * scene.shot.pellets
     where = "in air" if args.air else "in vacuum"
     print(
@@ -201,7 +197,7 @@ def cmd_overhead(args) -> None:
     print(f"direct           {direct:8.3f} s")
     print(f"1-worker cluster {on_cluster:8.3f} s  overhead {100 * (on_cluster / direct - 1):+.1f}%, {len(seen)} task(s) {seen}")
     print(f"  back to back   {back_to_back:8.3f} s  overhead {100 * (back_to_back / direct - 1):+.1f}% (no pause between runs)")
-    print(f"bitwise equal    {_same(dict(ref), dict(got))}")
+    print(f"bitwise equal    {_equal(ref, got)}")
     if args.split > 1:  # the serial run in the chunks of `split` tasks: what cutting a run costs without Dask
         unit = tasks.unit_of(scene)
         size = tasks.task_bounds(0, scene.shot.pellets, unit, -(-scene.shot.pellets // args.split))[0][1]
