@@ -513,7 +513,7 @@ def sweep(
                 stats = _run_one(sc, dev, None, _point_progress(progress, i, len(scenes)), dense_options, study)
             results.append((points[i], _point_done(stats, summary=True)))
         return results
-    path = output_target(output) if resume else check_output_path(output, overwrite)  # before any work
+    path = output_target(output)  # (checked by check_sweep)
     dev = resolve_device(device) if study is None else study.remote
     manifest = sweepdir.make_manifest(scene.to_toml(), points, dev)
     # on a cluster, per-pellet fields in shards: OUT.h5.shards/NNNN/ a point's, named by absolute path
