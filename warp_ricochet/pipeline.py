@@ -29,7 +29,7 @@ from .bound import station_pieces
 from .chunks import plan_rows, plan_shots
 from .core.kernel import CUDA_BLOCK_DIM, ricochet_kernel_for
 from .core.release import empty_release
-from .core.shots import ShotPass
+from .core.shots import ShotPass, ThreadPieces
 from .dense.phase import DensePhase
 from .dense.schedule import shot_stride
 from .errors import ChaosWarning, PrecisionWarning
@@ -189,7 +189,13 @@ class CollisionStage:
         self.arrays = {**self.state.arrays, **self.dense.field_arrays}
         self.totals = self.dense.totals
         self.tally = landing_tally(scene, model, spec, arrays)
-        self.shot_pass = ShotPass(scene, model, spec, self.per_chunk) if has_ensemble(scene) else None
+        self.shot_pass = None
+        if has_ensemble(scene):
+            self.shot_pass = (
+                ThreadPieces(scene, model, self.state, self.stride, self.per_chunk)
+                if spec.thread_pieces
+                else ShotPass(scene, model, spec, self.per_chunk)
+            )
 
     def chunks(self, done: int):
         """(start, rows) of the chunks of whole shots from `done` to `stop` (the run's end, or its next check)."""

@@ -24,6 +24,16 @@ def _has_ground_laws(surface) -> bool:
     return is_liquid(surface.material) or any(surface.ground(key) != RIGID[key] for key in keys)
 
 
+def _thread_pieces(scene) -> bool:
+    """Whether the core's threads hold consecutive slots of one shot (`RunSpec.thread_pieces`): pair
+    collisions followed to rest, shots of at least a thread's slots (the shot-padded layout's stride
+    is a power of two, a piece's pellets a multiple of a thread's)."""
+    from .dense.schedule import shot_stride
+    from .tallies.reduce import REST_PER_THREAD
+
+    return scene.pair_collisions and scene.physics.until == "rest" and shot_stride(scene.shot.count) >= REST_PER_THREAD
+
+
 MESHES = 2  # RunSpec.plates when the scene has triangles: the geometry's plate and mesh code
 
 
@@ -43,7 +53,9 @@ class RunSpec:
     (`physics.geometry`: its code compiled in only then); MESHES (2): a surface is a box, a mesh or a post
     (`physics.mesh_contact` compiled in too); pattern: the pellets' directions drawn from a choke's
     pattern (`launch.pattern`), not from the jitter; stations: each shot's start and aim from its
-    station (`launch.stations`)."""
+    station (`launch.stations`); thread_pieces: each core thread follows consecutive slots of one
+    piece of one shot, so the per-shot partials come from the core's threads (`core.shots`: pair
+    collisions followed to rest)."""
 
     precision: str
     bounces: int
@@ -64,6 +76,7 @@ class RunSpec:
     plates: bool | int = False
     pattern: bool = False
     stations: bool = False
+    thread_pieces: bool = False
 
     @classmethod
     def of(cls, scene, *, with_output: bool = True) -> RunSpec:
@@ -93,6 +106,7 @@ class RunSpec:
             plates=MESHES if any(s.is_solid for s in scene.surfaces) else any(not s.is_plane for s in scene.surfaces),
             pattern=scene.shot.pattern is not None,
             stations=bool(scene.stations),
+            thread_pieces=_thread_pieces(scene),
         )
 
     @property

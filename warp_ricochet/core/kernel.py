@@ -1,7 +1,7 @@
 """The fused ricochet kernel: a thin loop over the pellets of one chunk (`core.pellet` does the
 work), one thread per lane-interleaved set of pellets of a segment (LANES threads of PER_THREAD
-pellets, or REST_LANES threads for pellets followed to rest: `tallies.reduce`), ending in the
-thread's statistics partials (`tallies`).
+pellets, or REST_LANES threads for pellets followed to rest: `tallies.reduce`; consecutive slots
+with `spec.thread_pieces`), ending in the thread's statistics partials (`tallies`).
 """
 
 import functools
@@ -51,7 +51,7 @@ def ricochet_kernel_for(spec, max_registers="default"):
     Tally, landing = make_landing_tally(spec.precision).Tally, make_add_landing(spec.precision, spec.hazard_map, spec.thresholds)
     TABLE = spec.hazard_map  # the map's block table (`tallies.block`)
     floats_t, extremes_t, inf = acc_fns.floats_t, acc_fns.extremes_t, acc_fns.inf
-    RELEASE = spec.collisions
+    RELEASE, CONSECUTIVE = spec.collisions, spec.thread_pieces
     lanes, segment = lanes_for(spec.to_rest), SEGMENT
     per_thread = segment // lanes
     options = kernel_options(spec, max_registers)
@@ -81,9 +81,15 @@ def ricochet_kernel_for(spec, max_registers="default"):
         if wp.static(TABLE):  # every thread of the block: launches cover whole blocks
             landing.table(BEGIN, 0, wp.int64(0), 0)
         # (a bound known at run time only: Warp unrolls constant loops of up to 16 iterations)
-        last = wp.min(per_thread, (count - group * segment - lane + lanes - 1) // lanes)
+        if wp.static(CONSECUTIVE):
+            last = wp.max(wp.min(per_thread, count - group * segment - lane * per_thread), 0)
+        else:
+            last = wp.min(per_thread, (count - group * segment - lane + lanes - 1) // lanes)
         for j in range(last):
-            row = group * segment + j * lanes + lane
+            if wp.static(CONSECUTIVE):  # a thread's slots lie in one piece of one shot (`core.shots`)
+                row = group * segment + lane * per_thread + j
+            else:
+                row = group * segment + j * lanes + lane
             if row < count:
                 if wp.static(RELEASE):  # slot -> pellet; padding slots hold none
                     shot = row / release.shot_stride

@@ -13,6 +13,10 @@ rest (tens of integration steps each). A piece's partials depend only on its pel
 shots, so per-shot values are bitwise the same for any chunk size and after --resume. Rows are
 (shot, piece) in order, SEGMENT_WIDTH columns like a statistics segment's: sums, range minima,
 range maxima.
+
+Runs with pair collisions followed to rest (`spec.thread_pieces`) need no second pass: the core
+kernel's threads follow consecutive slots of one piece, and `ThreadPieces` merges their partials
+into the same rows (with another grouping of the sums than `ShotPass`'s, so other last bits).
 """
 
 import dataclasses
@@ -25,7 +29,7 @@ from ..physics.types import types_for
 from ..tallies.accumulate import make_accumulators
 from ..tallies.ensemble import PIECE, pieces_per_shot
 from ..tallies.landing import make_landing_tally
-from ..tallies.reduce import SEGMENT_WIDTH, reduce_kernel
+from ..tallies.reduce import SEGMENT, SEGMENT_WIDTH, reduce_kernel
 from ..tallies.sums import NUM_EXTREMES, NUM_SUMS
 from .kernel import kernel_options
 from .outputs import make_outputs
@@ -131,9 +135,41 @@ class ShotPass:
         wp.launch(
             self.merge,
             dim=(pieces, NUM_SUMS + NUM_EXTREMES),
-            inputs=[self.partial_sums, self.partial_min, self.partial_max],
+            inputs=[self.partial_sums, self.partial_min, self.partial_max, 1, SUB_PIECES, 0],
             outputs=[self.rows],
             device=m.device,
+        )
+        return pieces
+
+
+class ThreadPieces:
+    """Per-piece partials of a chunk's shots merged from the core kernel's own threads, with no second
+    pass over the pellets (`spec.thread_pieces`: a thread follows consecutive slots of one piece of
+    one shot in the shot-padded layout of `stride` slots a shot). Piece p of shot s is the
+    threads from column (s * stride + p * PIECE) / per_thread, PIECE / per_thread of them (a
+    shot's stride of them when it is shorter), merged in order as `ShotPass` merges its
+    sub-pieces; `rows` as `ShotPass.rows`."""
+
+    def __init__(self, scene, model, state, stride: int, max_shots: int):
+        per_thread = SEGMENT // state.lanes
+        self.state, self.device = state, model.device
+        self.pieces = pieces_per_shot(scene.shot.count)
+        self.cols = (stride // per_thread, PIECE // per_thread)
+        self.merge = reduce_kernel(min(PIECE, stride) // per_thread)
+        self.rows = wp.empty((max(max_shots, 1) * self.pieces, SEGMENT_WIDTH), dtype=wp.float64, device=model.device)
+
+    def launch(self, first_shot: int, shots: int, *_args) -> int:
+        """Per-piece partials of the chunk's `shots` shots (from its core launch) into the first rows
+        of `rows`; returns the pieces."""
+        if shots <= 0:
+            return 0
+        pieces, st = shots * self.pieces, self.state
+        wp.launch(
+            self.merge,
+            dim=(pieces, NUM_SUMS + NUM_EXTREMES),
+            inputs=[st.partial_sums, st.partial_min, st.partial_max, self.pieces, *self.cols],
+            outputs=[self.rows],
+            device=self.device,
         )
         return pieces
 

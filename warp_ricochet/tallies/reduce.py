@@ -21,7 +21,8 @@ from .sums import NUM_EXTREMES, NUM_SUMS, SUM
 LANES = 256
 PER_THREAD = 256
 SEGMENT = LANES * PER_THREAD
-REST_LANES = 4096  # threads a segment of a run followed to rest (16 pellets a thread)
+REST_LANES = 4096  # threads a segment of a run followed to rest
+REST_PER_THREAD = SEGMENT // REST_LANES  # (16 pellets a thread)
 SEGMENT_WIDTH = NUM_SUMS + 2 * NUM_EXTREMES  # a segment's results: sums, minima, maxima
 
 
@@ -44,7 +45,9 @@ def partial_bytes_per_pellet(lanes: int = LANES) -> float:
 @functools.cache
 def reduce_kernel(lanes: int = LANES):
     """One thread per (segment, row): the segment's `lanes` per-thread partials added in lane order
-    (a statistics segment's LANES; `core.shots`: a piece's sub-pieces)."""
+    (a statistics segment's LANES; `core.shots`: a piece's sub-pieces or threads). Segment k's
+    partials start at column (k // pieces) * shot_cols + (k % pieces) * piece_cols (a statistics
+    segment: pieces 1, shot_cols lanes)."""
     num_sums, num_extremes = NUM_SUMS, NUM_EXTREMES
     ROW_LANDED, ROW_RANGE, ROW_M2 = SUM["landed"], SUM["range"], SUM["range_m2"]
     ROW_STOPPED, ROW_REST, ROW_REST_M2 = SUM["end_stopped"], SUM["end_distance"], SUM["end_distance_m2"]
@@ -74,10 +77,14 @@ def reduce_kernel(lanes: int = LANES):
         partial_sums: wp.array2d(dtype=wp.float64),
         partial_min: wp.array2d(dtype=wp.float64),
         partial_max: wp.array2d(dtype=wp.float64),
+        pieces: wp.int32,
+        shot_cols: wp.int32,
+        piece_cols: wp.int32,
         segments: wp.array2d(dtype=wp.float64),  # (segments, SEGMENT_WIDTH): sums, minima, maxima
     ):
         seg, row = wp.tid()
-        base = seg * lanes
+        shot = seg // pieces
+        base = shot * shot_cols + (seg - shot * pieces) * piece_cols
         if row == ROW_M2:
             segments[seg, row] = merged_m2(partial_sums, base, wp.vec3i(ROW_LANDED, ROW_RANGE, ROW_M2))
         elif row == ROW_REST_M2:
@@ -107,7 +114,7 @@ def launch_reduce(state, rows: int, device, lanes: int = LANES) -> int:
     wp.launch(
         reduce_kernel(lanes),
         dim=(segments, NUM_SUMS + NUM_EXTREMES),
-        inputs=[state.partial_sums, state.partial_min, state.partial_max],
+        inputs=[state.partial_sums, state.partial_min, state.partial_max, 1, lanes, 0],
         outputs=[state.segments],
         device=device,
     )
