@@ -94,6 +94,12 @@ fi
 if [[ $what == rest-kernels ]]; then  # issue 25: each kernel's share of 10,000 shots to rest (collisions, ensemble pass)
   timeout 540 python3 -m bench.rest kernels --device cuda:0 --shots 10000 --out "$out/rest" 2>&1 | quiet | tee "$out/rest-kernels.txt"
 fi
+if [[ $what == thread-pieces ]]; then  # issue 25: per-shot partials from the core's threads (.gpu/old: the second pass)
+  for tree in . .gpu/old . .gpu/old; do  # each tree twice, alternating (the first of each compiles)
+    (cd $tree && PYTHONPATH=$PWD:$PYTHONPATH timeout 280 python3 -m bench.rest kernels --device cuda:0 --shots 10000 \
+      --only "collisions, air, rest" 2>&1 | quiet | sed "s|^|$tree: |" | tee -a "$out/pieces.txt")
+  done
+fi
 if [[ $what == rest-layout ]]; then  # issue 25: threads of 16 pellets to rest, sub-pieces of 32 (.gpu/old: the tree before)
   timeout 330 python3 -m bench.rest kernels --device cuda:0 --shots 10000 --only "collisions, air, rest" 2>&1 | quiet | tee "$out/rest-layout-kernels.txt"
   timeout 280 bench/side_by_side.sh .gpu/old . 1 python3 -m bench.rest throughput --device cuda:0 --sizes 1e6,1e7 --repeats 3 \

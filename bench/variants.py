@@ -1,6 +1,6 @@
 """Kernel-only timings of the ricochet kernel variants on one device (CUDA events), to choose
 the register cap, and the end-to-end time of `run` at the same N. CUDA only.
-Run: python -m bench.variants --device cuda:0 [--air] [--caps none,80,64]"""
+Run: python -m bench.variants --device cuda:0 [--air] [--rest turf] [--caps none,80,64] [--no-run]"""
 
 import argparse
 import dataclasses
@@ -16,6 +16,8 @@ def main(argv=None):
     ap.add_argument("--air", action="store_true", help="the paper's scene in sea-level air (mu_s 0.5, as bench.air)")
     ap.add_argument("--precisions", default="float32,float64")
     ap.add_argument("--block-dims", default="256", help="CUDA block sizes to try for the ricochet kernel")
+    ap.add_argument("--rest", default="", help="with --air: follow the pellets to rest on this ground material")
+    ap.add_argument("--no-run", action="store_true", help="the kernel variants only, not run() end to end")
     args = ap.parse_args(argv)
     from bench.__main__ import _wr, scene_for
     from bench.air import paper_scene
@@ -32,7 +34,8 @@ def main(argv=None):
         raise SystemExit("bench.variants times kernels with CUDA events: it needs a CUDA device")
 
     def scene_of(n, precision="float32"):
-        return paper_scene(n, precision, air=True, mu_s=0.5) if args.air else scene_for(n, precision)
+        rest = ['physics.until="rest"', f'surfaces.0.material="{args.rest}"'] if args.rest else []
+        return paper_scene(n, precision, air=True, mu_s=0.5, extra=rest) if args.air else scene_for(n, precision)
 
     for precision in args.precisions.split(","):
         scene = scene_of(n, precision)
@@ -40,7 +43,7 @@ def main(argv=None):
         spec = RunSpec.of(scene, with_output=False)
         stage = CoreStage(scene, model, spec, None, n)  # its buffers and source, statistics only
         rows, state = min(stage.capacity, n), stage.state
-        threads = threads_for(rows)
+        threads = threads_for(rows, state.lanes)
         for cap_text, block_dim in [(c, int(b)) for c in args.caps.split(",") for b in args.block_dims.split(",")]:
             fast = cap_text.endswith("+fast")
             cap_text = cap_text.removesuffix("+fast")
@@ -64,7 +67,7 @@ def main(argv=None):
                 device=dev,
                 block_dim=block_dim,
             )
-            reduce = lambda: launch_reduce(state, rows, dev)
+            reduce = lambda: launch_reduce(state, rows, dev, state.lanes)
             launch()
             reduce()
             wp.synchronize_device(dev)
@@ -86,7 +89,7 @@ def main(argv=None):
                 flush=True,
             )
     # end-to-end
-    for m in (1e4, 1e6, n):
+    for m in () if args.no_run else (1e4, 1e6, n):
         sc = scene_of(int(m))
         wr.run(sc, device=args.device)
         ts = []
