@@ -75,7 +75,7 @@ def test_the_clouds_arrays_are_grouped_by_stage_and_sized_by_pellet_shot_or_bloc
     Cloud = make_state("float64")[0]
     groups = {name for name, var in Cloud.vars.items() if isinstance(var.type, type(Cloud))}
     assert groups == {"state", "collisions", "event", "air", "now", "lists", "written", "frame", "clock"}
-    assert set(Cloud.vars) - groups == {"shot_flags", "flags", "stop"}
+    assert set(Cloud.vars) - groups == {"shot_flags", "flags", "stop", "keys"}
     assert list(Cloud.vars["state"].type.vars) == list(RELEASE_ARRAYS)
     clock = Cloud.vars["clock"].type.vars
     assert len(clock) == 13 and all(var.type.ndim == 1 for var in clock.values())  # named, one a shot

@@ -27,7 +27,7 @@ from ..tallies.landing import make_add_landing, make_landing_tally
 from ..tallies.path import make_path_watch
 from ..tallies.sums import REST as X_REST
 from .outputs import make_outputs
-from .release import make_release
+from .release import ENTERED_GROUND, make_release
 from .rest import LANDING_EMBEDDED as EMBEDDED
 from .rest import LANDING_ESCAPED as ESCAPED
 from .rest import LANDING_FLYING as FLYING
@@ -95,9 +95,7 @@ def make_ricochet_pellet(spec):
         range_shift: scalar,
     ):
         """Follow one pellet (global `index`, chunk row `row`) from its start; returns the thread's partials with it added."""
-        position = vec3()
-        velocity = vec3()
-        spin = vec3()
+        position, velocity, spin = vec3(), vec3(), vec3()
         time = scalar(0.0)
         touching = wp.int32(-1)  # the plane it is leaving
         impacts = wp.int32(0)
@@ -122,8 +120,8 @@ def make_ricochet_pellet(spec):
             last_slipped = release.last_slipped[row]
             ricochet_point = release.ricochet_point[row]
             ricochet_time = release.ricochet_time[row]
-            if release.phase[row] != 0:
-                state = wp.int32(RESTING)
+            if release.phase[row] != 0:  # its flight ended: on a surface, or in the ground (dense.events)
+                state = wp.where(release.phase[row] == ENTERED_GROUND, wp.int32(EMBEDDED), wp.int32(RESTING))
                 resting_surface = release.end_surface[row]
         else:
             position, velocity, spin = src.launch_state(source, index, row)
@@ -147,6 +145,8 @@ def make_ricochet_pellet(spec):
                     launch_v2,
                     launch_w2,
                 )
+            elif state == EMBEDDED:  # it entered the ground at its first impact, without a ricochet
+                acc[F_ENTERED] += scalar(1.0)
         first_bounce = impacts  # (bounces made in the dense phase are its outputs)
         for b in range(wp.static(BOUNCES)):  # unrolled (bounces <= 16)
             impacted = wp.int32(0)

@@ -9,13 +9,15 @@ import warp as wp
 
 from ..physics.types import types_for
 
+FLIGHT_ENDED, ENTERED_GROUND = 1, 2  # `phase` values beside 0 (flying): dense.constants' ENDED, ENTERED
+
 # member -> element kind ("vec3", "scalar", "int32"), per pellet
 RELEASE_ARRAYS = {
     "position": "vec3",  # m, at `time` (or where the flight ended)
     "velocity": "vec3",  # m/s
     "angular_velocity": "vec3",  # rad/s
     "time": "scalar",  # s since launch
-    "phase": "int32",  # 0 flying, 1 its flight ended (landed, or at rest on a surface)
+    "phase": "int32",  # 0 flying, 1 its flight ended (landed, or at rest on a surface), 2 it entered the ground
     "end_surface": "int32",  # where it ended, -1
     "touching": "int32",  # the plane just left, -1
     "impacts": "int32",  # plane impacts so far

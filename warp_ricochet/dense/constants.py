@@ -1,9 +1,12 @@
 """Constants of the dense phase: pellet phases, the global and per-shot flags, and the stepping's
 tuning (see docs/collisions.md). Each shot's clock is `state.make_state`'s `Clock`."""
 
+from ..core.release import ENTERED_GROUND, FLIGHT_ENDED
 from ..scene import CHECKPOINT_STEPS
 
-FLYING, ENDED = 0, 1  # pellet phases; ENDED: landed after its last ricochet, or at rest on a surface
+# pellet phases; ENDED: landed after its last ricochet, or at rest on a surface; ENTERED: its flight
+# ended in the ground (a penetration law, or sunk in water: physics.ground)
+FLYING, ENDED, ENTERED = 0, FLIGHT_ENDED, ENTERED_GROUND
 # global flags (int32 array): a shot waits for a rebuild; shots still stepping; list overflow; a
 # shot's skin widened
 FLAG_STALL, FLAG_REMAINING, FLAG_OVERFLOW, FLAG_WIDENED = 0, 1, 2, 3

@@ -1,6 +1,11 @@
 """A pellet's events in the dense phase: a plane contact (an impact, eqs. 1-25, or the end of its
 flight, by the rules of `physics.contact`), and a pair contact (the pair law of `physics.pair`)
-at the exact time two reference states meet."""
+at the exact time two reference states meet.
+
+A scene with the ground's laws (`spec.ground`: rough ground, a critical angle, water) applies them
+at the dense phase's impacts as the core does at its own (`core.pellet`): the draw keyed by (seed,
+global pellet index, impact), entry into the ground (the flight ends, phase ENTERED) and the skip
+off water (`physics.ground`)."""
 
 import functools
 from types import SimpleNamespace
@@ -8,9 +13,10 @@ from types import SimpleNamespace
 import warp as wp
 
 from ..physics.contact import make_contact
+from ..physics.ground import make_ground
 from ..physics.pair import make_pair_law
 from .air import make_dense_air
-from .constants import ENDED
+from .constants import ENDED, ENTERED
 from .frame import make_frame
 from .kit import dense_kit
 
@@ -25,11 +31,36 @@ def make_events(spec) -> SimpleNamespace:
     ballistic_position, ballistic_velocity = kit.ballistic.position, kit.ballistic.velocity
     # within a step: the exact ballistic flight
     next_contact, advance, geo = kit.flight.next_contact, kit.flight.advance, kit.geo
-    _rests, _stays, _impact, meet_surface, contact_point, _range = make_contact(kit.precision, kit.PLATES)
+    rests, stays, impact, meet_surface, contact_point, _range = make_contact(kit.precision, kit.PLATES)
+    ground, GROUND = make_ground(kit.precision), kit.GROUND
     pair_law, write_impact = make_pair_law(kit.precision), kit.outputs.write_impact
     fr = make_frame(spec)
     set_reference, mark_stale = fr.set_reference, fr.mark_stale
     air = make_dense_air(spec) if AIR else None  # (its calls compile only in air)
+
+    @wp.func
+    def meet_ground(
+        i: wp.int32, k: wp.int32, position: vec3, velocity: vec3, spin: vec3, cloud: Cloud, surfaces: Surfaces, physics: Physics
+    ):
+        """`physics.contact.meet_surface` with the ground's laws (module docstring): (velocity',
+        spin', slipped, impacted: 1 an impact, 0 none, ENTERED the pellet entered the ground, flies_on)."""
+        normal = geo.normal(surfaces, k, position)
+        if rests(velocity, normal):
+            return velocity, spin, wp.int32(0), wp.int32(0), wp.int32(0)
+        pellet = cloud.keys[1] + i
+        material, tilted = ground.draw(
+            geo.material(surfaces, k, position), normal, velocity, cloud.keys[0], pellet, cloud.state.impacts[i]
+        )
+        if ground.embeds(material, velocity, tilted) != 0:
+            return velocity, spin, wp.int32(0), wp.int32(ENTERED), wp.int32(0)
+        velocity_after, spin_after, slipped = impact(material, tilted, velocity, spin, physics)
+        if material.liquid != 0:
+            velocity_after, spin_after = ground.skip(material, velocity, tilted, spin)
+            slipped = wp.int32(0)
+        flies_on = wp.int32(1)
+        if stays(velocity_after, normal, wp.dot(velocity, velocity)):
+            flies_on = wp.int32(0)
+        return velocity_after, spin_after, slipped, wp.int32(1), flies_on
 
     @wp.func
     def plane_outcome(
@@ -46,7 +77,7 @@ def make_events(spec) -> SimpleNamespace:
     ):
         """What plane_contact does to pellet i, without doing it: its position, velocity and spin
         before and after, slipped, the contact time, whether it flies on, whether it is an impact
-        (not the end of its flight)."""
+        (1; 0 the end of its flight; ENTERED it entered the ground)."""
         position, velocity, spin = advance(position, velocity, spin, wait, physics)
         time = time + wait
         if wp.static(AIR):  # the air up to the contact (dense.air)
@@ -58,6 +89,10 @@ def make_events(spec) -> SimpleNamespace:
         slipped = wp.int32(0)
         if cloud.state.impacts[i] >= wp.static(BOUNCES):
             flying = wp.int32(0)  # the landing after the last ricochet
+        elif wp.static(GROUND):
+            velocity_after, spin_after, slipped, impacted, flying = meet_ground(
+                i, k, position, velocity, spin, cloud, surfaces, physics
+            )
         else:  # an impact, or no closing speed: it stays on the surface (physics.contact)
             velocity_after, spin_after, slipped, impacted, flying = meet_surface(k, position, velocity, spin, surfaces, physics)
         return position, velocity, spin, velocity_after, spin_after, slipped, time, flying, impacted
@@ -87,7 +122,7 @@ def make_events(spec) -> SimpleNamespace:
             air.air_until(cloud, i, time)
         normal = geo.normal(surfaces, k, position)
         impacts = cloud.state.impacts[i]
-        if impacted != 0:
+        if impacted == 1:
             if wp.static(WRITE):
                 write_impact(out, i, impacts, time, position, velocity, spin, velocity_after, spin_after, slipped, k)
             if impacts == 0:
@@ -106,6 +141,8 @@ def make_events(spec) -> SimpleNamespace:
             spin = spin_after
         if flying == 0:
             cloud.state.phase[i] = ENDED
+            if impacted == ENTERED:
+                cloud.state.phase[i] = ENTERED
             cloud.state.end_surface[i] = k
             set_reference(cloud, i, position, velocity, spin, time)
         return position, velocity, spin, time, flying

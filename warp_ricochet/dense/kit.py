@@ -56,4 +56,5 @@ def dense_kit(spec) -> SimpleNamespace:
         WRITE=bool(spec.core_fields),
         STATIC_PLANES=spec.static_planes,
         PLATES=spec.plates,
+        GROUND=spec.ground,
     )

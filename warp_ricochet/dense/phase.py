@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
 import warp as wp
 
 from .. import interrupts
@@ -110,6 +111,7 @@ class DensePhase:
         c, p = self.cloud, self.pair
         self.shots, self._outputs = shots, outputs
         self.release.first_pellet = first_index
+        c.keys.assign(np.array([source.seed, first_index], dtype=np.int32))  # (the ground's draws: dense.events)
         self.launch_shots(first_index, shots, source, outputs)
         start_shots(self, shots)
         if not self.cell_lists:

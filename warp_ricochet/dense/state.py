@@ -165,6 +165,7 @@ def make_state(precision: str):
         shot_flags: wp.array2d(dtype=wp.int32)  # (shots, NUM_SHOT_FLAGS)
         flags: wp.array(dtype=wp.int32)  # (NUM_FLAGS,)
         stop: wp.array(dtype=wp.int32)  # (1,) 1: the host asks the CPU's long launches to return (an interrupt)
+        keys: wp.array(dtype=wp.int32)  # (2,) the run's seed, the chunk's first pellet's global index (the ground's draws)
 
     @wp.struct
     class Pair:
@@ -230,6 +231,7 @@ def allocate_cloud(precision: str, device, capacity: int, shots: int, count: int
     cloud.shot_flags = wp.zeros((shots, NUM_SHOT_FLAGS), dtype=wp.int32, device=device)
     cloud.flags = wp.zeros(NUM_FLAGS, dtype=wp.int32, device=device)
     cloud.stop = wp.zeros(1, dtype=wp.int32, device=device)
+    cloud.keys = wp.zeros(2, dtype=wp.int32, device=device)
     field_arrays = {name: getattr(cloud.written, FIELDS[name].member) for name in OUTPUT_FIELDS if name in fields}
     if "collisions.count" in fields:
         field_arrays["collisions.count"] = cloud.collisions.count
