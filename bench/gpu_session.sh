@@ -100,6 +100,13 @@ if [[ $what == thread-pieces ]]; then  # issue 25: per-shot partials from the co
       --only "collisions, air, rest" 2>&1 | quiet | sed "s|^|$tree: |" | tee -a "$out/pieces.txt")
   done
 fi
+if [[ $what == hazard-example ]]; then  # issue 26: the hazard example whole (2,000 shots of 280 to rest, the map), twice
+  for i in 1 2; do
+    started=$(date +%s%N)
+    python3 -m warp_ricochet.cli run examples/hazard.toml --device cuda:0 -o /tmp/hazard-$i.h5 --overwrite 2>&1 | quiet | tee -a "$out/hazard-example.txt"
+    echo "run $i: $((($(date +%s%N) - started) / 1000000)) ms wall" | tee -a "$out/hazard-example.txt"
+  done
+fi
 if [[ $what == rest-layout ]]; then  # issue 25: threads of 16 pellets to rest, sub-pieces of 32 (.gpu/old: the tree before)
   timeout 330 python3 -m bench.rest kernels --device cuda:0 --shots 10000 --only "collisions, air, rest" 2>&1 | quiet | tee "$out/rest-layout-kernels.txt"
   timeout 280 bench/side_by_side.sh .gpu/old . 1 python3 -m bench.rest throughput --device cuda:0 --sizes 1e6,1e7 --repeats 3 \

@@ -12,7 +12,7 @@ from warp_ricochet.scene import load_scene
 SCENE = "examples/paper.toml"
 
 
-def _run(tmp_path, material, collisions, fields):
+def _run(tmp_path, material, collisions, fields, device):
     overrides = [
         "shot.shots=3",
         "shot.count=40",
@@ -23,7 +23,7 @@ def _run(tmp_path, material, collisions, fields):
         f"output.fields={fields}",
     ]
     path = tmp_path / f"{material}-{collisions}.h5"
-    stats = wr.run(load_scene(SCENE, overrides), path, device="cpu")
+    stats = wr.run(load_scene(SCENE, overrides), path, device=device)
     with h5py.File(path, "r") as f:
         arrays = {
             name: f[f"pellets/{name}"][()] for name in ("rest/position", "rest/state", "impact/velocity", "initial/position")
@@ -33,10 +33,10 @@ def _run(tmp_path, material, collisions, fields):
     return stats, arrays
 
 
-def test_pellets_the_dense_phase_leaves_alone_end_as_without_collisions_on_rough_turf(tmp_path):
+def test_pellets_the_dense_phase_leaves_alone_end_as_without_collisions_on_rough_turf(tmp_path, device):
     fields = '["initial.position", "impact.velocity", "rest", "collisions.count"]'
-    _, dense = _run(tmp_path, "turf", "true", fields)
-    _, core = _run(tmp_path, "turf", "false", fields.replace(', "collisions.count"', ""))
+    _, dense = _run(tmp_path, "turf", "true", fields, device)
+    _, core = _run(tmp_path, "turf", "false", fields.replace(', "collisions.count"', ""), device)
     alone = dense["collisions/count"] == 0
     assert alone.sum() >= 60  # (most of the paper's 40 pellets a shot meet no other)
     np.testing.assert_array_equal(dense["rest/state"][alone], core["rest/state"][alone])
@@ -48,8 +48,8 @@ def test_pellets_the_dense_phase_leaves_alone_end_as_without_collisions_on_rough
     assert (moved <= 1e-4 * travelled).all(), (moved.max(), travelled.min())
 
 
-def test_a_steep_shot_enters_water_at_its_first_impact_in_the_dense_phase(tmp_path):
-    with_dense, _ = _run(tmp_path, "water", "true", '["initial.position", "impact.velocity", "rest", "collisions.count"]')
-    without, _ = _run(tmp_path, "water", "false", '["initial.position", "impact.velocity", "rest"]')
+def test_a_steep_shot_enters_water_at_its_first_impact_in_the_dense_phase(tmp_path, device):
+    with_dense, _ = _run(tmp_path, "water", "true", '["initial.position", "impact.velocity", "rest", "collisions.count"]', device)
+    without, _ = _run(tmp_path, "water", "false", '["initial.position", "impact.velocity", "rest"]', device)
     assert with_dense["entered"] == without["entered"] == 120
     assert with_dense["rest_embedded"] == 120 and with_dense["hits"] == 0

@@ -31,12 +31,12 @@ def _overrides(count, shots, *extra):
 
 
 @pytest.mark.parametrize("count", [40, 300])  # one piece a shot of 64 slots; two pieces of 512 slots
-def test_per_shot_values_from_the_core_threads_equal_the_second_pass(monkeypatch, count):
+def test_per_shot_values_from_the_core_threads_equal_the_second_pass(monkeypatch, count, device):
     scene = load_scene(SCENE, _overrides(count, 5))
     assert RunSpec.of(scene).thread_pieces
-    core = wr.run(scene, device="cpu")
+    core = wr.run(scene, device=device)
     monkeypatch.setattr(spec_module, "_thread_pieces", lambda scene: False)
-    second = wr.run(scene, device="cpu")
+    second = wr.run(scene, device=device)
     assert core["rest_at_rest"] + core["rest_embedded"] > 0 and core.ensemble.shots == 5
     for name, values in second.ensemble.per_shot.items():
         np.testing.assert_allclose(core.ensemble.per_shot[name], values, rtol=1e-12, atol=1e-9, err_msg=name)
