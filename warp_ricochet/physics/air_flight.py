@@ -22,6 +22,7 @@ import warp as wp
 
 from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT
 from .cylinder_contact import make_cylinder_contact
+from .edge_contact import make_edge_contact
 from .geometry import MESHES, make_geometry
 from .integrate import make_dense_output, make_stepper
 from .mesh_contact import FEW_FACES, FLOAT32_SLACK, make_mesh_contact
@@ -123,7 +124,7 @@ def make_solid_search(precision: str) -> SimpleNamespace:
     t = types_for(precision)
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
     plane_theta, hermite_vec = make_roots(precision).plane_theta, make_dense_output(precision).hermite_vec
-    meshes, posts = make_mesh_contact(precision), make_cylinder_contact(precision)
+    meshes, posts, edges = make_mesh_contact(precision), make_cylinder_contact(precision), make_edge_contact(precision)
 
     @wp.func
     def bezier_box(h: scalar, x0: vec3, v0: vec3, a0: vec3, x1: vec3, v1: vec3, a1: vec3):
@@ -172,12 +173,14 @@ def make_solid_search(precision: str) -> SimpleNamespace:
         a1: vec3,
         radius: scalar,
     ):
-        """Where on the step triangle `face` of mesh k is met (2: not): `face_thetas`, each kept
-        where the interpolant's centre is inside the triangle."""
+        """Where on the step triangle `face` of mesh k, or an edge or corner it owns
+        (`edge_contact.features_theta`), is met (2: not): `face_thetas`, each kept where the
+        interpolant's centre is inside the triangle."""
+        best = edges.features_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius)
         a, b, c = meshes.vertices(surfaces, k, face)
         n = wp.cross(b - a, c - a)
         if wp.length(n) == scalar(0.0):
-            return scalar(2.0)
+            return best
         n = wp.normalize(n)
         theta, through = face_thetas(n, wp.dot(a, n), h, x0, v0, a0, x1, v1, a1, radius)
         if theta <= scalar(1.0):
@@ -188,7 +191,9 @@ def make_solid_search(precision: str) -> SimpleNamespace:
             x, _slope = hermite_vec(through, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
             if meshes.inside(n, a, b, c, x):
                 theta = through
-        return theta
+        if theta <= best:  # ties: the face
+            return theta
+        return best
 
     @wp.func
     def post_theta(

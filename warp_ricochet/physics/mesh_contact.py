@@ -206,49 +206,6 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
         return wp.max(last, scalar(0.0))
 
     @wp.func
-    def mesh_time(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, g: vec3, radius: scalar):
-        """Time (s) until the parabola of eq. (36) meets mesh k, or NO_CONTACT: its chords' boxes
-        queried in time order (module docstring)."""
-        low, high = surfaces.mesh_low[k], surfaces.mesh_high[k]
-        slack = scalar(FLOAT32_SLACK) * (l1(low) + l1(high) + scalar(1.0e-30))
-        end = window(surfaces, k, x, v, g, radius + slack)
-        best = scalar(NO_CONTACT)
-        if end <= scalar(0.0):
-            return best
-        faces = surfaces.mesh_faces[k]
-        if faces <= FEW_FACES:
-            for face in range(faces):
-                best = earlier(best, triangle_time(surfaces, k, face, x, v, g, radius))
-            return wp.where(best > LATEST, scalar(NO_CONTACT), best)
-        gravity = wp.length(g)
-        span = wp.length(v) * end + scalar(0.5) * gravity * end * end  # >= the arc: CHORD_EDGES edges a chord ...
-        wanted = span / (scalar(CHORD_EDGES) * wp.max(surfaces.mesh_edge[k], radius))
-        if gravity > scalar(0.0):  # ... and of sagitta |g| h^2 / 8 at most SAGITTA of the diagonal
-            target = wp.max(scalar(SAGITTA) * wp.length(high - low), radius)
-            wanted = wp.max(wanted, end * wp.sqrt(gravity / (scalar(8.0) * target)))
-        chords = wp.int32(wp.min(wanted, scalar(MAX_CHORDS))) + 1
-        h = end / scalar(chords)
-        grow = radius + slack + scalar(0.125) * gravity * h * h
-        start = x
-        face = wp.int32(0)
-        for i in range(chords):
-            stop = position(x, v, g, h * scalar(i + 1))
-            a = wp.min(start, stop) - vec3(grow, grow, grow)
-            b = wp.max(start, stop) + vec3(grow, grow, grow)
-            spread = scalar(FLOAT32_SLACK) * (l1(a) + l1(b))
-            a = a - vec3(spread, spread, spread)
-            b = b + vec3(spread, spread, spread)
-            query = wp.mesh_query_aabb(surfaces.mesh[k], single(a), single(b))
-            while wp.mesh_query_aabb_next(query, face):
-                best = earlier(best, triangle_time(surfaces, k, face, x, v, g, radius))
-            if best >= scalar(0.0) and best <= h * scalar(i + 1):
-                break
-            start = stop
-        if best > LATEST:
-            best = scalar(NO_CONTACT)
-        return best
-
-    @wp.func
     def mesh_normal(surfaces: Surfaces, k: wp.int32, x: vec3):
         """The unit normal of the triangle of mesh k nearest x (the BVH's closest point, float32)."""
         query = wp.mesh_query_point_no_sign(surfaces.mesh[k], single(x), wp.float32(1.0e30))
@@ -309,7 +266,72 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
         return mesh_normal(surfaces, k, x)
 
     helpers = {**vars(basics), **vars(make_mesh_lookup(precision))}
-    return SimpleNamespace(mesh_time=mesh_time, mesh_normal=mesh_normal, contact_normal=contact_normal, **helpers)
+    return SimpleNamespace(
+        triangle_time=triangle_time,
+        earlier=earlier,
+        window=window,
+        mesh_normal=mesh_normal,
+        contact_normal=contact_normal,
+        **helpers,
+    )
+
+
+@functools.cache
+def make_mesh_search(precision: str, face_time) -> SimpleNamespace:
+    """`mesh_time(surfaces, k, x, v, g, R)`: the earliest of `face_time(surfaces, k, face, x, v, g, R)`
+    (a `@wp.func`: when the parabola meets what triangle `face` holds, or NO_CONTACT) over the
+    triangles the chords' boxes find (every one of a small mesh; module docstring)."""
+    t = types_for(precision)
+    scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
+    position = make_ballistic(precision).position
+    LATEST = scalar(MAX_FLIGHT_TIME)
+    mc = make_mesh_contact(precision)
+    single, l1, earlier, window = mc.single, mc.l1, mc.earlier, mc.window
+
+    @wp.func
+    def mesh_time(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, g: vec3, radius: scalar):
+        """Time (s) until the parabola of eq. (36) meets mesh k, or NO_CONTACT: its chords' boxes
+        queried in time order (module docstring), each candidate triangle by `face_time`."""
+        low, high = surfaces.mesh_low[k], surfaces.mesh_high[k]
+        slack = scalar(FLOAT32_SLACK) * (l1(low) + l1(high) + scalar(1.0e-30))
+        end = window(surfaces, k, x, v, g, radius + slack)
+        best = scalar(NO_CONTACT)
+        if end <= scalar(0.0):
+            return best
+        faces = surfaces.mesh_faces[k]
+        if faces <= FEW_FACES:
+            for face in range(faces):
+                best = earlier(best, face_time(surfaces, k, face, x, v, g, radius))
+            return wp.where(best > LATEST, scalar(NO_CONTACT), best)
+        gravity = wp.length(g)
+        span = wp.length(v) * end + scalar(0.5) * gravity * end * end  # >= the arc: CHORD_EDGES edges a chord ...
+        wanted = span / (scalar(CHORD_EDGES) * wp.max(surfaces.mesh_edge[k], radius))
+        if gravity > scalar(0.0):  # ... and of sagitta |g| h^2 / 8 at most SAGITTA of the diagonal
+            target = wp.max(scalar(SAGITTA) * wp.length(high - low), radius)
+            wanted = wp.max(wanted, end * wp.sqrt(gravity / (scalar(8.0) * target)))
+        chords = wp.int32(wp.min(wanted, scalar(MAX_CHORDS))) + 1
+        h = end / scalar(chords)
+        grow = radius + slack + scalar(0.125) * gravity * h * h
+        start = x
+        face = wp.int32(0)
+        for i in range(chords):
+            stop = position(x, v, g, h * scalar(i + 1))
+            a = wp.min(start, stop) - vec3(grow, grow, grow)
+            b = wp.max(start, stop) + vec3(grow, grow, grow)
+            spread = scalar(FLOAT32_SLACK) * (l1(a) + l1(b))
+            a = a - vec3(spread, spread, spread)
+            b = b + vec3(spread, spread, spread)
+            query = wp.mesh_query_aabb(surfaces.mesh[k], single(a), single(b))
+            while wp.mesh_query_aabb_next(query, face):
+                best = earlier(best, face_time(surfaces, k, face, x, v, g, radius))
+            if best >= scalar(0.0) and best <= h * scalar(i + 1):
+                break
+            start = stop
+        if best > LATEST:
+            best = scalar(NO_CONTACT)
+        return best
+
+    return SimpleNamespace(mesh_time=mesh_time)
 
 
 @functools.cache
