@@ -194,3 +194,26 @@ def test_pellets_aimed_near_a_box_edge_all_meet_it_in_float32(tmp_path, jitter):
     with redirect_stdout(out):
         box(100_000, 100_000, "float32", "cpu", seed=29, jitter=jitter)
     assert "100,000 pellets, 100,000 meet it" in out.getvalue() and " 0 centres inside" in out.getvalue(), out.getvalue()
+
+
+def test_in_thin_air_the_edges_are_met_where_the_vacuum_reference_meets_them(tmp_path):
+    """The integrated flight (air of 1e-6 kg/m^3: its path within nanometres of the parabola)
+    meets paths beside a box's edges and corners on its steps' interpolants where the float64
+    vacuum reference does; none passes by."""
+    import h5py
+
+    from warp_ricochet.api import run
+    from warp_ricochet.scene import scene_from_dict
+
+    x, v = _near_features(np.random.default_rng(30), 200, (0.2, 0.9))
+    physics = {"gravity": list(GRAVITY), "until": "landing", "bounces": 1}
+    scene = explicit_scene(tmp_path, x, v, surfaces=[{"kind": "box", **BOX, **MATERIAL}], physics=physics)
+    scene = scene_from_dict({**scene.to_dict(), "air": {"density": 1e-6}})
+    assert scene.in_air
+    run(scene, tmp_path / "air.h5", device="cpu", overwrite=True)
+    with h5py.File(tmp_path / "air.h5") as f:
+        surface = f["pellets/impact/surface"][()].reshape(len(x))
+        centre = f["pellets/impact/position"][()].reshape(len(x), 3)
+    assert (surface == 0).all()
+    want = np.array([_reference(*pair)[1] for pair in zip(x, v)])
+    assert np.abs(centre - want).max() <= 1e-6, np.abs(centre - want).max()

@@ -172,11 +172,13 @@ def make_solid_search(precision: str) -> SimpleNamespace:
         v1: vec3,
         a1: vec3,
         radius: scalar,
+        low: vec3,
+        high: vec3,
     ):
         """Where on the step triangle `face` of mesh k, or an edge or corner it owns
-        (`edge_contact.features_theta`), is met (2: not): `face_thetas`, each kept where the
-        interpolant's centre is inside the triangle."""
-        best = edges.features_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius)
+        (`edge_contact.features_theta`, within the box (low, high) of the step), is met (2: not):
+        `face_thetas`, each kept where the interpolant's centre is inside the triangle."""
+        best = edges.features_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius, low, high)
         a, b, c = meshes.vertices(surfaces, k, face)
         n = wp.cross(b - a, c - a)
         if wp.length(n) == scalar(0.0):
@@ -244,11 +246,11 @@ def make_solid_search(precision: str) -> SimpleNamespace:
         their hull), each by `triangle_theta`."""
         best = scalar(2.0)
         faces = meshes.faces(surfaces, k)
+        low, high = bezier_box(h, x0, v0, a0, x1, v1, a1)
         if faces <= FEW_FACES:  # a small mesh: every triangle (`mesh_contact`)
             for face in range(faces):
-                best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius))
+                best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius, low, high))
             return best
-        low, high = bezier_box(h, x0, v0, a0, x1, v1, a1)
         mesh, mesh_low, mesh_high = meshes.bounds(surfaces, k)
         grow = radius + scalar(FLOAT32_SLACK) * (meshes.l1(low) + meshes.l1(high) + meshes.l1(mesh_low) + meshes.l1(mesh_high))
         query = wp.mesh_query_aabb(
@@ -256,7 +258,7 @@ def make_solid_search(precision: str) -> SimpleNamespace:
         )
         face = wp.int32(0)
         while wp.mesh_query_aabb_next(query, face):
-            best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius))
+            best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius, low, high))
         return best
 
     return SimpleNamespace(mesh_theta=mesh_theta, post_theta=post_theta)

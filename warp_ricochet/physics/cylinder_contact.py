@@ -25,6 +25,8 @@ quintic Hermite, sampled at SIDE_SAMPLES equal parts: a part whose end is inside
 turns from closing to opening with its minimum inside (a graze), is bisected to rounding of theta.
 A dip in and out within one part between two such samples is not seen (the parts are 1/16 of a
 step the integrator keeps within its error tolerance).
+The side's searches (`side_time`, `line_theta`) also meet a mesh's convex edges (r = 0) and corners
+(a = 0: rho the distance from p) (`physics.edge_contact`).
 """
 
 import functools
@@ -201,7 +203,8 @@ def _post_vacuum(precision: str) -> SimpleNamespace:
     @wp.func
     def side_time(d0: vec3, v: vec3, g: vec3, a: vec3, s: scalar, inner: scalar, length: scalar, slack: scalar):
         """First t >= 0 where the centre (d0 from the base, velocity v, gravity g) closes to s of
-        the axis a with z on the length (met at once where rho in [inner, s], closing), or NO_CONTACT."""
+        the axis a with z on the length (met at once where rho in [inner, s], closing), or NO_CONTACT
+        (a = 0: of the point itself)."""
         A, B, C = across(d0, a), across(v, a), HALF * across(g, a)
         z0, w, q = wp.dot(d0, a), wp.dot(v, a), HALF * wp.dot(g, a)
         ss = s * s

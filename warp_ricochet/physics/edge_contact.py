@@ -25,7 +25,7 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from .ballistic import EPSILON, NO_CONTACT, ROUNDING
+from .ballistic import EPSILON, NO_CONTACT, ROUNDING, make_ballistic
 from .cylinder_contact import make_cylinder_contact
 from .mesh_contact import EDGE_ROUNDING, FEW_FACES, FLOAT32_SLACK, make_mesh_contact, make_mesh_search
 from .types import types_for
@@ -36,10 +36,16 @@ def make_edge_contact(precision: str) -> SimpleNamespace:
     """`mesh_time` (faces, edges and corners), `features_theta` and `contact_normal` (module docstring)."""
     t = types_for(precision)
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
-    ZERO, TWO = scalar(0.0), scalar(2.0)
+    ZERO, ONE, TWO = scalar(0.0), scalar(1.0), scalar(2.0)
     mc, posts = make_mesh_contact(precision), make_cylinder_contact(precision)
     side_time, line_theta, l1, earlier = posts.side_time, posts.line_theta, mc.l1, mc.earlier
+    position = make_ballistic(precision).position
     EDGE, TOLERANCE = scalar(EDGE_ROUNDING * EPSILON[precision]), scalar(ROUNDING * EPSILON[precision])
+
+    @wp.func
+    def ends(surfaces: Surfaces, e: wp.int32):
+        """Edge e's end points (m)."""
+        return surfaces.edge_ends[2 * e], surfaces.edge_ends[2 * e + 1]
 
     @wp.func
     def edge(surfaces: Surfaces, e: wp.int32):
@@ -51,27 +57,105 @@ def make_edge_contact(precision: str) -> SimpleNamespace:
     @wp.func
     def owned(surfaces: Surfaces, k: wp.int32, face: wp.int32):
         """The edges and corners triangle `face` of mesh k owns (-1: none)."""
-        row = surfaces.face_first[k] + face
-        return surfaces.face_edges[row], surfaces.face_corners[row]
+        first = surfaces.face_first[k]
+        if first < 0:  # a mesh without (a terrain)
+            return wp.vec3i(-1, -1, -1), wp.vec3i(-1, -1, -1)
+        return surfaces.face_edges[first + face], surfaces.face_corners[first + face]
 
     @wp.func
-    def features_time(surfaces: Surfaces, k: wp.int32, face: wp.int32, x: vec3, v: vec3, g: vec3, radius: scalar):
-        """When the parabola of eq. (36) first meets an edge or corner triangle `face` owns, or NO_CONTACT."""
-        edges, corners = owned(surfaces, k, face)
+    def apart(p: vec3, q: vec3, low: vec3, high: vec3, grow: scalar):
+        """Whether the box of the segment p-q grown by `grow` (m) misses the box (low, high)."""
+        out = wp.bool(False)
+        for i in range(3):
+            if wp.min(p[i], q[i]) - grow > high[i] or wp.max(p[i], q[i]) + grow < low[i]:
+                out = True
+        return out
+
+    @wp.func
+    def segment_gap(p: vec3, q: vec3, c0: vec3, c1: vec3):
+        """The least distance (m) between the segments p-q and c0-c1, either of them a point
+        (Ericson, Real-Time Collision Detection, 2005, 5.1.9)."""
+        d1, d2, r = q - p, c1 - c0, p - c0
+        a, e, f = wp.dot(d1, d1), wp.dot(d2, d2), wp.dot(d2, r)
+        s = ZERO
+        u = ZERO
+        if a > ZERO and e == ZERO:
+            s = wp.clamp(-wp.dot(d1, r) / a, ZERO, ONE)
+        elif a == ZERO and e > ZERO:
+            u = wp.clamp(f / e, ZERO, ONE)
+        elif a > ZERO:
+            c, b = wp.dot(d1, r), wp.dot(d1, d2)
+            denominator = a * e - b * b
+            if denominator > ZERO:
+                s = wp.clamp((b * f - c * e) / denominator, ZERO, ONE)
+            u = (b * s + f) / e
+            if u < ZERO:
+                u = ZERO
+                s = wp.clamp(-c / a, ZERO, ONE)
+            elif u > ONE:
+                u = ONE
+                s = wp.clamp((b - c) / a, ZERO, ONE)
+        return wp.length(p + s * d1 - (c0 + u * d2))
+
+    @wp.func
+    def features_time(
+        surfaces: Surfaces,
+        k: wp.int32,
+        face: wp.int32,
+        x: vec3,
+        v: vec3,
+        g: vec3,
+        radius: scalar,
+        start: scalar,
+        stop: scalar,
+    ):
+        """When the parabola of eq. (36) first meets an edge or corner triangle `face` owns, or
+        NO_CONTACT; one that the chord from `start` to `stop` (s) passes farther from than R, its
+        sagitta |g| (stop - start)^2 / 8 and rounding is not met in that time and is skipped
+        (stop < start: none is)."""
         best = scalar(NO_CONTACT)
+        if stop < start:
+            return best
+        edges, corners = owned(surfaces, k, face)
+        if wp.max(wp.max(edges[0], edges[1]), wp.max(wp.max(edges[2], corners[0]), wp.max(corners[1], corners[2]))) < 0:
+            return best
+        c0, c1 = position(x, v, g, start), position(x, v, g, stop)
+        reach = radius + scalar(0.125) * wp.length(g) * (stop - start) * (stop - start)
+        reach += EDGE * (l1(c0) + l1(c1) + radius)
+        low, high = wp.min(c0, c1), wp.max(c0, c1)
         for j in range(3):
             if edges[j] >= 0:
-                p, a, length = edge(surfaces, edges[j])
-                best = earlier(best, side_time(x - p, v, g, a, radius, ZERO, length, EDGE * (l1(x - p) + l1(p) + length)))
+                p, q = ends(surfaces, edges[j])
+                near = reach + EDGE * (l1(p) + l1(q))
+                if not apart(p, q, low, high, near) and segment_gap(p, q, c0, c1) <= near:
+                    length = wp.length(q - p)
+                    slack = EDGE * (l1(x - p) + l1(p) + length)
+                    best = earlier(best, side_time(x - p, v, g, (q - p) / length, radius, ZERO, length, slack))
             if corners[j] >= 0:
                 c = surfaces.corner_points[corners[j]]
-                best = earlier(best, side_time(x - c, v, g, vec3(), radius, ZERO, ZERO, EDGE * (l1(x - c) + l1(c))))
+                near = reach + EDGE * l1(c)
+                if not apart(c, c, low, high, near) and segment_gap(c, c, c0, c1) <= near:
+                    best = earlier(best, side_time(x - c, v, g, vec3(), radius, ZERO, ZERO, EDGE * (l1(x - c) + l1(c))))
         return best
 
     @wp.func
-    def face_time(surfaces: Surfaces, k: wp.int32, face: wp.int32, x: vec3, v: vec3, g: vec3, radius: scalar):
-        """The earlier of triangle `face` (`mesh_contact`) and its edges and corners; ties: the face."""
-        return earlier(mc.triangle_time(surfaces, k, face, x, v, g, radius), features_time(surfaces, k, face, x, v, g, radius))
+    def face_time(
+        surfaces: Surfaces,
+        k: wp.int32,
+        face: wp.int32,
+        x: vec3,
+        v: vec3,
+        g: vec3,
+        radius: scalar,
+        start: scalar,
+        stop: scalar,
+    ):
+        """The earlier of triangle `face` (`mesh_contact`) and its edges and corners met before it
+        (in [start, stop] s: `features_time`); ties: the face."""
+        best = mc.triangle_time(surfaces, k, face, x, v, g, radius)
+        if best >= ZERO:
+            stop = wp.min(stop, best)
+        return earlier(best, features_time(surfaces, k, face, x, v, g, radius, start, stop))
 
     @wp.func
     def features_theta(
@@ -86,36 +170,33 @@ def make_edge_contact(precision: str) -> SimpleNamespace:
         v1: vec3,
         a1: vec3,
         radius: scalar,
+        low: vec3,
+        high: vec3,
     ):
-        """The first theta in [0, 1] on an air step where an edge or corner triangle `face` owns is met (2: none)."""
+        """The first theta in [0, 1] on an air step where an edge or corner triangle `face` owns is
+        met (2: none); one whose box grown by R and rounding misses the box (low, high) that holds
+        the step's interpolant is skipped."""
         edges, corners = owned(surfaces, k, face)
         d0, e0, d1, e1 = h * v0, h * h * a0, h * v1, h * h * a1
+        grow = radius + EDGE * (l1(low) + l1(high) + radius)
         best = TWO
         for j in range(3):
             if edges[j] >= 0:
                 p, a, length = edge(surfaces, edges[j])
-                slack = EDGE * (l1(x0 - p) + l1(p) + length)
-                best = wp.min(best, line_theta(p, a, ZERO, length, radius, slack, x0, d0, e0, x1, d1, e1))
+                if not apart(p, p + length * a, low, high, grow + EDGE * (l1(p) + length)):
+                    slack = EDGE * (l1(x0 - p) + l1(p) + length)
+                    best = wp.min(best, line_theta(p, a, ZERO, length, radius, slack, x0, d0, e0, x1, d1, e1))
             if corners[j] >= 0:
                 c = surfaces.corner_points[corners[j]]
-                slack = EDGE * (l1(x0 - c) + l1(c))
-                best = wp.min(best, line_theta(c, vec3(), ZERO, ZERO, radius, slack, x0, d0, e0, x1, d1, e1))
+                if not apart(c, c, low, high, grow + EDGE * l1(c)):
+                    slack = EDGE * (l1(x0 - c) + l1(c))
+                    best = wp.min(best, line_theta(c, vec3(), ZERO, ZERO, radius, slack, x0, d0, e0, x1, d1, e1))
         return best
 
     @wp.func
-    def nearest(
-        surfaces: Surfaces, k: wp.int32, face: wp.int32, x: vec3, slack: scalar, grow: scalar, found: scalar, radial: vec3
-    ):
+    def nearest(surfaces: Surfaces, k: wp.int32, face: wp.int32, x: vec3, found: scalar, radial: vec3):
         """(distance, unit direction) from the nearest point of the edges and corners triangle
-        `face` owns to x, if nearer than `found`; and whether x is over the triangle (projected
-        inside it, -slack to `grow` = R + slack in front of it)."""
-        a, b, c = mc.vertices(surfaces, k, face)
-        n = wp.cross(b - a, c - a)
-        over = wp.bool(False)
-        if wp.length(n) > ZERO:
-            n = wp.normalize(n)
-            height = wp.dot(x - a, n)
-            over = height >= -slack and height <= grow and mc.inside(n, a, b, c, x)
+        `face` owns to x, if nearer than `found`; else (found, radial)."""
         edges, corners = owned(surfaces, k, face)
         for j in range(3):
             r = vec3()
@@ -130,31 +211,30 @@ def make_edge_contact(precision: str) -> SimpleNamespace:
                 if wp.length(r) < found and wp.length(r) > ZERO:
                     found = wp.length(r)
                     radial = r / found
-        return found, radial, over
+        return found, radial
 
     @wp.func
     def contact_normal(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, radius: scalar):
         """The unit normal of a contact with mesh k at centre x, velocity v (module docstring)."""
+        n, over = mc.touched(surfaces, k, x, v, radius)
+        if over:
+            return n
         mesh, low, high = mc.bounds(surfaces, k)
-        slack = scalar(FLOAT32_SLACK) * (l1(low) + l1(high) + l1(x)) + TOLERANCE * radius
-        grow = radius + slack
+        grow = radius + scalar(FLOAT32_SLACK) * (l1(low) + l1(high) + l1(x)) + TOLERANCE * radius
         found = grow
         radial = vec3()
-        over = wp.bool(False)
         faces = mc.faces(surfaces, k)
         if faces <= FEW_FACES:
             for face in range(faces):
-                found, radial, on = nearest(surfaces, k, face, x, slack, grow, found, radial)
-                over = over or on
+                found, radial = nearest(surfaces, k, face, x, found, radial)
         else:
             query = wp.mesh_query_aabb(mesh, mc.single(x - vec3(grow, grow, grow)), mc.single(x + vec3(grow, grow, grow)))
             face = wp.int32(0)
             while wp.mesh_query_aabb_next(query, face):
-                found, radial, on = nearest(surfaces, k, face, x, slack, grow, found, radial)
-                over = over or on
-        if found < grow and not over:
+                found, radial = nearest(surfaces, k, face, x, found, radial)
+        if found < grow:
             return radial
-        return mc.contact_normal(surfaces, k, x, v, radius)
+        return n
 
     mesh_time = make_mesh_search(precision, face_time).mesh_time
     return SimpleNamespace(mesh_time=mesh_time, features_theta=features_theta, contact_normal=contact_normal)

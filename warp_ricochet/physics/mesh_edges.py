@@ -36,8 +36,9 @@ def convex_features(vertices, triangles) -> dict:
     stop = ids[:, [1, 2, 0]].reshape(-1)
     third = ids[:, [2, 0, 1]].reshape(-1)
     face = np.repeat(np.arange(m), 3)
-    key = np.stack([np.minimum(start, stop), np.maximum(start, stop)], axis=1)
-    unique, which, count = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    key = np.minimum(start, stop) * len(points) + np.maximum(start, stop)  # (< 2^63: at most 2^30 points)
+    unique, which, count = np.unique(key, return_inverse=True, return_counts=True)
+    unique = np.stack([unique // len(points), unique % len(points)], axis=1)
     which = which.reshape(-1)
     order = np.argsort(which, kind="stable")  # the directed edges grouped by undirected edge
     first = np.r_[0, np.cumsum(count)[:-1]]

@@ -67,7 +67,7 @@ def types_for(precision: str) -> SimpleNamespace:
         mesh_points: wp.array(dtype=vec3)
         # a mesh's convex and border edges and their corners (`physics.mesh_edges`, read by
         # `physics.edge_contact`): per surface the row of its first triangle in face_edges and
-        # face_corners, which hold per triangle the edges and corners it owns (-1: none);
+        # face_corners (-1: none at all), which hold per triangle the edges and corners it owns (-1: none);
         # edge_ends: two end points (m) per edge; corner_points (m)
         face_first: wp.array(dtype=wp.int32)
         face_edges: wp.array(dtype=wp.vec3i)
@@ -225,14 +225,15 @@ def mesh_fields(surfaces, precision: str, meshes, device) -> None:
 
 def _feature_fields(surfaces, precision: str, meshes, device) -> None:
     """Set the Surfaces' edge and corner arrays (`physics.mesh_edges.convex_features`) of `meshes`,
-    their indices made global."""
+    their indices made global; face_first -1 for a surface without (a plane, a plate, a terrain)."""
     t, dtype = types_for(precision), np.dtype(precision)
     face_first, face_edges, face_corners, ends, corners = [], [np.zeros((0, 3), np.int32)], [np.zeros((0, 3), np.int32)], [], []
     rows = edge_count = corner_count = 0
     for triangles in meshes:
-        face_first.append(rows)
-        if triangles is None:
+        if triangles is None or not getattr(triangles, "edges", True):
+            face_first.append(-1)  # none
             continue
+        face_first.append(rows)
         found = convex_features(triangles.vertices, triangles.triangles)
         face_edges.append(np.where(found["face_edges"] >= 0, found["face_edges"] + edge_count, -1))
         face_corners.append(np.where(found["face_corners"] >= 0, found["face_corners"] + corner_count, -1))
