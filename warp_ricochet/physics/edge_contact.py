@@ -65,11 +65,8 @@ def make_edge_contact(precision: str) -> SimpleNamespace:
     @wp.func
     def apart(p: vec3, q: vec3, low: vec3, high: vec3, grow: scalar):
         """Whether the box of the segment p-q grown by `grow` (m) misses the box (low, high)."""
-        out = wp.bool(False)
-        for i in range(3):
-            if wp.min(p[i], q[i]) - grow > high[i] or wp.max(p[i], q[i]) + grow < low[i]:
-                out = True
-        return out
+        a, b = wp.min(p, q) - vec3(grow, grow, grow), wp.max(p, q) + vec3(grow, grow, grow)
+        return a[0] > high[0] or a[1] > high[1] or a[2] > high[2] or b[0] < low[0] or b[1] < low[1] or b[2] < low[2]
 
     @wp.func
     def segment_gap(p: vec3, q: vec3, c0: vec3, c1: vec3):
@@ -117,23 +114,20 @@ def make_edge_contact(precision: str) -> SimpleNamespace:
         if stop < start:
             return best
         edges, corners = owned(surfaces, k, face)
-        if wp.max(wp.max(edges[0], edges[1]), wp.max(wp.max(edges[2], corners[0]), wp.max(corners[1], corners[2]))) < 0:
-            return best
+        _mesh, mesh_low, mesh_high = mc.bounds(surfaces, k)
         c0, c1 = position(x, v, g, start), position(x, v, g, stop)
-        reach = radius + scalar(0.125) * wp.length(g) * (stop - start) * (stop - start)
-        reach += EDGE * (l1(c0) + l1(c1) + radius)
+        near = radius + scalar(0.125) * wp.length(g) * (stop - start) * (stop - start)  # (rounding: the
+        near += EDGE * (l1(c0) + l1(c1) + radius + scalar(2.0) * (l1(mesh_low) + l1(mesh_high)))  # mesh's scale)
         low, high = wp.min(c0, c1), wp.max(c0, c1)
         for j in range(3):
             if edges[j] >= 0:
                 p, q = ends(surfaces, edges[j])
-                near = reach + EDGE * (l1(p) + l1(q))
                 if not apart(p, q, low, high, near) and segment_gap(p, q, c0, c1) <= near:
                     length = wp.length(q - p)
                     slack = EDGE * (l1(x - p) + l1(p) + length)
                     best = earlier(best, side_time(x - p, v, g, (q - p) / length, radius, ZERO, length, slack))
             if corners[j] >= 0:
                 c = surfaces.corner_points[corners[j]]
-                near = reach + EDGE * l1(c)
                 if not apart(c, c, low, high, near) and segment_gap(c, c, c0, c1) <= near:
                     best = earlier(best, side_time(x - c, v, g, vec3(), radius, ZERO, ZERO, EDGE * (l1(x - c) + l1(c))))
         return best
