@@ -111,7 +111,7 @@ def make_edge_contact(precision: str) -> SimpleNamespace:
         sagitta |g| (stop - start)^2 / 8 and rounding is not met in that time and is skipped
         (stop < start: none is)."""
         best = scalar(NO_CONTACT)
-        if stop < start:
+        if stop < start or surfaces.face_first[k] < 0:  # (no edges: a terrain)
             return best
         edges, corners = owned(surfaces, k, face)
         _mesh, mesh_low, mesh_high = mc.bounds(surfaces, k)
@@ -170,10 +170,12 @@ def make_edge_contact(precision: str) -> SimpleNamespace:
         """The first theta in [0, 1] on an air step where an edge or corner triangle `face` owns is
         met (2: none); one whose box grown by R and rounding misses the box (low, high) that holds
         the step's interpolant is skipped."""
+        best = TWO
+        if surfaces.face_first[k] < 0:  # no edges (a terrain)
+            return best
         edges, corners = owned(surfaces, k, face)
         d0, e0, d1, e1 = h * v0, h * h * a0, h * v1, h * h * a1
         grow = radius + EDGE * (l1(low) + l1(high) + radius)
-        best = TWO
         for j in range(3):
             if edges[j] >= 0:
                 p, a, length = edge(surfaces, edges[j])
