@@ -185,9 +185,11 @@ def test_pellets_aimed_at_shared_edges_and_vertices_do_not_pass(tmp_path, precis
 @pytest.mark.parametrize("precision", ["float64", "float32"])
 def test_no_pellet_fired_at_a_closed_box_ends_inside(tmp_path, precision):
     """Issue 27, part 4: pellets fired at a closed box from all sides (and exactly at its edges and
-    vertices) all meet it, and no centre is inside it at an impact or the landing after it."""
+    vertices) all meet it, and no centre is inside it at an impact or the landing after it (on the
+    box or on the ground below it)."""
     x, v = box_shots(np.random.default_rng(11), 20000, BOX)
-    hit, first, landing = _landings(tmp_path, x, v, [{"kind": "box", **BOX, **MATERIAL}], precision, "box")
+    ground = {"point": [0.0, 0.0, 0.0], "normal": [0.0, 0.0, 1.0], **MATERIAL}
+    hit, first, landing = _landings(tmp_path, x, v, [{"kind": "box", **BOX, **MATERIAL}, ground], precision, "box")
     slack = 1e-9 if precision == "float64" else 1e-5
     assert (hit == 0).all(), np.flatnonzero(hit != 0)[:10]
     assert not inside_box(first, BOX, slack).any()

@@ -130,7 +130,8 @@ def terrain_triangles(scene, index: int):
 
     vertices, triangles = place_terrain(scene, index)
     name = scene.surfaces[index].name or f"surfaces.{index}"
-    return TriangleSurface(vertices, triangles.astype(np.int32), f"terrain {name!r}").check(f"surfaces.{index}.file")
+    surface = TriangleSurface(vertices, triangles.astype(np.int32), f"terrain {name!r}", edges=False)
+    return surface.check(f"surfaces.{index}.file")
 
 
 def plate_of(surface):

@@ -22,6 +22,7 @@ import warp as wp
 
 from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT
 from .cylinder_contact import make_cylinder_contact
+from .edge_contact import make_edge_contact
 from .geometry import MESHES, make_geometry
 from .integrate import make_dense_output, make_stepper
 from .mesh_contact import FEW_FACES, FLOAT32_SLACK, make_mesh_contact
@@ -123,7 +124,7 @@ def make_solid_search(precision: str) -> SimpleNamespace:
     t = types_for(precision)
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
     plane_theta, hermite_vec = make_roots(precision).plane_theta, make_dense_output(precision).hermite_vec
-    meshes, posts = make_mesh_contact(precision), make_cylinder_contact(precision)
+    meshes, posts, edges = make_mesh_contact(precision), make_cylinder_contact(precision), make_edge_contact(precision)
 
     @wp.func
     def bezier_box(h: scalar, x0: vec3, v0: vec3, a0: vec3, x1: vec3, v1: vec3, a1: vec3):
@@ -171,13 +172,17 @@ def make_solid_search(precision: str) -> SimpleNamespace:
         v1: vec3,
         a1: vec3,
         radius: scalar,
+        low: vec3,
+        high: vec3,
     ):
-        """Where on the step triangle `face` of mesh k is met (2: not): `face_thetas`, each kept
-        where the interpolant's centre is inside the triangle."""
+        """Where on the step triangle `face` of mesh k, or an edge or corner it owns
+        (`edge_contact.features_theta`, within the box (low, high) of the step), is met (2: not):
+        `face_thetas`, each kept where the interpolant's centre is inside the triangle."""
+        best = edges.features_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius, low, high)
         a, b, c = meshes.vertices(surfaces, k, face)
         n = wp.cross(b - a, c - a)
         if wp.length(n) == scalar(0.0):
-            return scalar(2.0)
+            return best
         n = wp.normalize(n)
         theta, through = face_thetas(n, wp.dot(a, n), h, x0, v0, a0, x1, v1, a1, radius)
         if theta <= scalar(1.0):
@@ -188,7 +193,9 @@ def make_solid_search(precision: str) -> SimpleNamespace:
             x, _slope = hermite_vec(through, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
             if meshes.inside(n, a, b, c, x):
                 theta = through
-        return theta
+        if theta <= best:  # ties: the face
+            return theta
+        return best
 
     @wp.func
     def post_theta(
@@ -239,11 +246,11 @@ def make_solid_search(precision: str) -> SimpleNamespace:
         their hull), each by `triangle_theta`."""
         best = scalar(2.0)
         faces = meshes.faces(surfaces, k)
+        low, high = bezier_box(h, x0, v0, a0, x1, v1, a1)
         if faces <= FEW_FACES:  # a small mesh: every triangle (`mesh_contact`)
             for face in range(faces):
-                best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius))
+                best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius, low, high))
             return best
-        low, high = bezier_box(h, x0, v0, a0, x1, v1, a1)
         mesh, mesh_low, mesh_high = meshes.bounds(surfaces, k)
         grow = radius + scalar(FLOAT32_SLACK) * (meshes.l1(low) + meshes.l1(high) + meshes.l1(mesh_low) + meshes.l1(mesh_high))
         query = wp.mesh_query_aabb(
@@ -251,7 +258,7 @@ def make_solid_search(precision: str) -> SimpleNamespace:
         )
         face = wp.int32(0)
         while wp.mesh_query_aabb_next(query, face):
-            best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius))
+            best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius, low, high))
         return best
 
     return SimpleNamespace(mesh_theta=mesh_theta, post_theta=post_theta)

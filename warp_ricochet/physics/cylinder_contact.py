@@ -25,6 +25,8 @@ quintic Hermite, sampled at SIDE_SAMPLES equal parts: a part whose end is inside
 turns from closing to opening with its minimum inside (a graze), is bisected to rounding of theta.
 A dip in and out within one part between two such samples is not seen (the parts are 1/16 of a
 step the integrator keeps within its error tolerance).
+The side's searches (`side_time`, `line_theta`) also meet a mesh's convex edges (r = 0) and corners
+(a = 0: rho the distance from p) (`physics.edge_contact`).
 """
 
 import functools
@@ -201,7 +203,8 @@ def _post_vacuum(precision: str) -> SimpleNamespace:
     @wp.func
     def side_time(d0: vec3, v: vec3, g: vec3, a: vec3, s: scalar, inner: scalar, length: scalar, slack: scalar):
         """First t >= 0 where the centre (d0 from the base, velocity v, gravity g) closes to s of
-        the axis a with z on the length (met at once where rho in [inner, s], closing), or NO_CONTACT."""
+        the axis a with z on the length (met at once where rho in [inner, s], closing), or NO_CONTACT
+        (a = 0: of the point itself)."""
         A, B, C = across(d0, a), across(v, a), HALF * across(g, a)
         z0, w, q = wp.dot(d0, a), wp.dot(v, a), HALF * wp.dot(g, a)
         ss = s * s
@@ -294,7 +297,7 @@ def _post_vacuum(precision: str) -> SimpleNamespace:
             best = scalar(NO_CONTACT)
         return best
 
-    return SimpleNamespace(post_time=post_time)
+    return SimpleNamespace(post_time=post_time, side_time=side_time)
 
 
 @functools.cache
@@ -357,12 +360,22 @@ def _post_air(precision: str) -> SimpleNamespace:
         return hi
 
     @wp.func
-    def side_theta(
-        surfaces: Surfaces, k: wp.int32, s: scalar, slack: scalar, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3
+    def line_theta(
+        p: vec3,
+        a: vec3,
+        r: scalar,
+        length: scalar,
+        s: scalar,
+        slack: scalar,
+        x0: vec3,
+        d0: vec3,
+        e0: vec3,
+        x1: vec3,
+        d1: vec3,
+        e1: vec3,
     ):
-        """The first theta in [0, 1] on a step's Hermite where the centre closes to s of post k's
-        axis with z on its length (met at once where rho in [r, s], closing), or 2."""
-        p, a, r, length = surfaces.point[k], surfaces.normal[k], surfaces.half_u[k], surfaces.half_v[k]
+        """`side_theta` of the axis from p along the unit a (a = 0: the point p itself) of radius r
+        and length L (m): rho is the distance across a (a = 0: |x - p|)."""
         ss = s * s
         f_lo = hermite_side(ZERO, 0, ONE, p, a, ss, x0, d0, e0, x1, d1, e1)
         df_lo = hermite_side(ZERO, 1, ONE, p, a, ss, x0, d0, e0, x1, d1, e1)
@@ -391,4 +404,13 @@ def _post_air(precision: str) -> SimpleNamespace:
                 df_lo = df_hi
         return best
 
-    return SimpleNamespace(side_theta=side_theta)
+    @wp.func
+    def side_theta(
+        surfaces: Surfaces, k: wp.int32, s: scalar, slack: scalar, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3
+    ):
+        """The first theta in [0, 1] on a step's Hermite where the centre closes to s of post k's
+        axis with z on its length (met at once where rho in [r, s], closing), or 2."""
+        p, a, r, length = surfaces.point[k], surfaces.normal[k], surfaces.half_u[k], surfaces.half_v[k]
+        return line_theta(p, a, r, length, s, slack, x0, d0, e0, x1, d1, e1)
+
+    return SimpleNamespace(side_theta=side_theta, line_theta=line_theta)

@@ -28,7 +28,8 @@ dense phase in air, whose kicks move a pellet's reference state every few steps,
 meet a plane early wherever the pellet comes within the band of it (docs/air.md, section 3.2).
 
 Meshes (`plates` MESHES, docs/geometry.md): surfaces of kind mesh (boxes too) and posts (cylinders)
-answer `contact_time` and `normal` (`physics.mesh_contact`, `physics.cylinder_contact`); the motion along surfaces, the air's search
+answer `contact_time` and `normal` (`physics.mesh_contact` with `physics.edge_contact`'s convex edges and
+corners, `physics.cylinder_contact`); the motion along surfaces, the air's search
 and the dense phase, which read `locate`, `gap`, `inside` and `step_gaps`, refuse them (scene.parse).
 
 Plates (`plates` True, docs/geometry.md): a surface of kind rectangle or disc is the part of its
@@ -52,6 +53,7 @@ import warp as wp
 
 from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT, ROUNDING, make_ballistic
 from .cylinder_contact import make_cylinder_contact
+from .edge_contact import make_edge_contact
 from .mesh_contact import make_mesh_contact, make_mesh_faces
 from .types import KINDS, types_for
 
@@ -307,7 +309,11 @@ def _solids(precision: str) -> SimpleNamespace:
     (`physics.mesh_contact`, `physics.cylinder_contact`)."""
     t = types_for(precision)
     Surfaces, vec3, scalar = t.Surfaces, t.vec3, t.scalar
-    meshes, posts = make_mesh_contact(precision), make_cylinder_contact(precision)
+    meshes, posts, mesh_normal = (
+        make_edge_contact(precision),
+        make_cylinder_contact(precision),
+        make_mesh_contact(precision).mesh_normal,
+    )
 
     @wp.func
     def solid_time(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, g: vec3, radius: scalar):
@@ -321,7 +327,7 @@ def _solids(precision: str) -> SimpleNamespace:
         """The unit normal of mesh or post k at the point nearest x."""
         if posts.is_post(surfaces, k):
             return posts.post_normal(surfaces, k, x)
-        return meshes.mesh_normal(surfaces, k, x)
+        return mesh_normal(surfaces, k, x)
 
     return SimpleNamespace(time=solid_time, normal=solid_normal)
 
@@ -329,10 +335,11 @@ def _solids(precision: str) -> SimpleNamespace:
 def _contact_normal(precision: str, normal, with_meshes: bool):
     """`contact_normal(surfaces, k, x, v, radius)`: the unit normal of a contact with surface k at
     centre x, velocity v: `normal`'s; a mesh's: of the triangle touched there that v approaches
-    most steeply (`physics.mesh_contact.contact_normal`)."""
+    most steeply, or radial from an edge or corner it touches beside every triangle
+    (`physics.edge_contact.contact_normal`)."""
     t = types_for(precision)
     Surfaces, vec3, scalar = t.Surfaces, t.vec3, t.scalar
-    MESH, meshes = KINDS["mesh"], make_mesh_contact(precision)
+    MESH, meshes = KINDS["mesh"], make_edge_contact(precision)
 
     @wp.func(inline=True)
     def contact_normal(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, radius: scalar):

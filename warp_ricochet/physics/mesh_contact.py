@@ -23,6 +23,8 @@ The BVH only proposes triangles; every test is on the kernel-precision vertices:
 A mesh of at most FEW_FACES triangles (a box, a plane's two) has every triangle tested instead of the
 chords' candidates: the same earliest contact (the chords' boxes only exclude triangles that cannot be
 met), without the BVH's traversals.
+`make_mesh_search` runs that search with a given per-triangle test: `physics.edge_contact`'s adds
+the mesh's convex edges and corners each triangle owns to its face.
 """
 
 import functools
@@ -132,7 +134,7 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
     ballistic = make_ballistic(precision)
     entry_time, position = ballistic.entry_time, ballistic.position
-    TOLERANCE = scalar(ROUNDING * EPSILON[precision])
+    TOLERANCE, EDGE = scalar(ROUNDING * EPSILON[precision]), scalar(EDGE_ROUNDING * EPSILON[precision])
     LATEST = scalar(MAX_FLIGHT_TIME)
     basics = make_triangle_basics(precision)
     vertices, single, l1, inside, descending = basics.vertices, basics.single, basics.l1, basics.inside, basics.descending
@@ -206,9 +208,138 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
         return wp.max(last, scalar(0.0))
 
     @wp.func
+    def mesh_normal(surfaces: Surfaces, k: wp.int32, x: vec3):
+        """The unit normal of the triangle of mesh k nearest x (the BVH's closest point, float32)."""
+        query = wp.mesh_query_point_no_sign(surfaces.mesh[k], single(x), wp.float32(1.0e30))
+        if not query.result:
+            return surfaces.normal[k]
+        a, b, c = vertices(surfaces, k, query.face)
+        return wp.normalize(wp.cross(b - a, c - a))
+
+    @wp.func
+    def steeper(
+        surfaces: Surfaces,
+        k: wp.int32,
+        face: wp.int32,
+        x: vec3,
+        v: vec3,
+        slack: scalar,
+        grow: scalar,
+        fine: scalar,
+        steepest: scalar,
+        best: vec3,
+        over: wp.bool,
+    ):
+        """(closing speed, normal) of triangle `face` if x touches it (0 to R in front, within R
+        beside its edges) and v approaches it more steeply than `steepest`, else the arguments;
+        and `over` or'ed with whether x is over it as a face contact leaves it (R or 0 in front,
+        within `slack`; beside it within `fine`)."""
+        a, b, c = vertices(surfaces, k, face)
+        n = wp.cross(b - a, c - a)
+        if wp.length(n) > scalar(0.0):
+            n = wp.normalize(n)
+            height = wp.dot(x - a, n)
+            closing = wp.dot(v, n)
+            if height >= -slack and height <= grow:
+                y = x - n * height  # the edge functions within R of the triangle
+                e0 = wp.dot(n, wp.cross(b - a, y - a)) / wp.length(b - a)
+                e1 = wp.dot(n, wp.cross(c - b, y - b)) / wp.length(c - b)
+                e2 = wp.dot(n, wp.cross(a - c, y - c)) / wp.length(a - c)
+                beside = wp.min(wp.min(e0, e1), e2)
+                if beside >= -fine and (height <= slack or height >= grow - scalar(2.0) * slack):
+                    over = True  # as the faces' two rules leave a centre: R or 0 in front
+                if closing < steepest and beside >= -grow:
+                    return closing, n, over
+        return steepest, best, over
+
+    @wp.func
+    def touched(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, radius: scalar):
+        """(`contact_normal`, whether x is over a triangle of mesh k as its contact leaves it: R or
+        0 (within the BVH's rounding) in front of it, projected on it within EDGE_ROUNDING eps of
+        the coordinates)."""
+        low, high = surfaces.mesh_low[k], surfaces.mesh_high[k]
+        slack = scalar(FLOAT32_SLACK) * (l1(low) + l1(high) + l1(x)) + TOLERANCE * radius
+        fine = EDGE * (l1(low) + l1(high) + l1(x)) + TOLERANCE * radius
+        grow = radius + slack
+        best = vec3()
+        steepest = scalar(0.0)
+        over = wp.bool(False)
+        faces = surfaces.mesh_faces[k]
+        if faces <= FEW_FACES:
+            for face in range(faces):
+                steepest, best, over = steeper(surfaces, k, face, x, v, slack, grow, fine, steepest, best, over)
+        else:
+            query = wp.mesh_query_aabb(surfaces.mesh[k], single(x - vec3(grow, grow, grow)), single(x + vec3(grow, grow, grow)))
+            face = wp.int32(0)
+            while wp.mesh_query_aabb_next(query, face):
+                steepest, best, over = steeper(surfaces, k, face, x, v, slack, grow, fine, steepest, best, over)
+        if steepest < scalar(0.0):
+            return best, over
+        return mesh_normal(surfaces, k, x), over
+
+    @wp.func
+    def contact_normal(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, radius: scalar):
+        """The normal of the triangle touched at x (centre 0 to R in front, within R beside its
+        edges) that v approaches most steeply; else the nearest triangle's (`mesh_normal`)."""
+        n, _over = touched(surfaces, k, x, v, radius)
+        return n
+
+    helpers = {**vars(basics), **vars(make_mesh_lookup(precision))}
+    return SimpleNamespace(
+        triangle_time=triangle_time,
+        earlier=earlier,
+        window=window,
+        mesh_normal=mesh_normal,
+        touched=touched,
+        contact_normal=contact_normal,
+        **helpers,
+    )
+
+
+@functools.cache
+def make_mesh_search(precision: str, face_time) -> SimpleNamespace:
+    """`mesh_time(surfaces, k, x, v, g, R)`: the earliest of `face_time(surfaces, k, face, x, v, g, R,
+    start, stop)` (a `@wp.func`: when the parabola meets what triangle `face` holds, or NO_CONTACT;
+    it may skip what it holds that is met only outside [start, stop] s) over the triangles the
+    chords' boxes find (their chord's times; a small mesh: every triangle, until the window's end
+    or the earliest contact found before it; module docstring)."""
+    t = types_for(precision)
+    scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
+    position = make_ballistic(precision).position
+    LATEST = scalar(MAX_FLIGHT_TIME)
+    mc = make_mesh_contact(precision)
+    single, l1, earlier, window = mc.single, mc.l1, mc.earlier, mc.window
+
+    @wp.func
+    def near(low: vec3, high: vec3, grow: scalar, x: vec3, v: vec3, g: vec3, end: scalar):
+        """(start, stop) s: the times within [0, end] where the centre is within the cylinder along
+        gravity around the box (low, high) grown by `grow` (m): across gravity the path is a
+        straight line (stop < start: never; no gravity: [0, end])."""
+        gravity = wp.length(g)
+        start = scalar(0.0)
+        stop = end
+        if gravity > scalar(0.0):
+            down = g / gravity
+            d = x - scalar(0.5) * (low + high)
+            d = d - wp.dot(d, down) * down
+            u = v - wp.dot(v, down) * down
+            reach = scalar(0.5) * wp.length(high - low) + grow
+            a, b, c = wp.dot(u, u), wp.dot(d, u), wp.dot(d, d) - reach * reach
+            if a > scalar(0.0):
+                disc = b * b - a * c
+                if disc < scalar(0.0):
+                    stop = scalar(-1.0)
+                else:
+                    start = wp.max(start, (-b - wp.sqrt(disc)) / a)
+                    stop = wp.min(stop, (wp.sqrt(disc) - b) / a)
+            elif c > scalar(0.0):
+                stop = scalar(-1.0)
+        return start, stop
+
+    @wp.func
     def mesh_time(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, g: vec3, radius: scalar):
         """Time (s) until the parabola of eq. (36) meets mesh k, or NO_CONTACT: its chords' boxes
-        queried in time order (module docstring)."""
+        queried in time order (module docstring), each candidate triangle by `face_time`."""
         low, high = surfaces.mesh_low[k], surfaces.mesh_high[k]
         slack = scalar(FLOAT32_SLACK) * (l1(low) + l1(high) + scalar(1.0e-30))
         end = window(surfaces, k, x, v, g, radius + slack)
@@ -217,8 +348,11 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
             return best
         faces = surfaces.mesh_faces[k]
         if faces <= FEW_FACES:
+            after, until = near(low, high, radius + slack, x, v, g, end)
             for face in range(faces):
-                best = earlier(best, triangle_time(surfaces, k, face, x, v, g, radius))
+                if best >= scalar(0.0):
+                    until = wp.min(best, until)
+                best = earlier(best, face_time(surfaces, k, face, x, v, g, radius, after, until))
             return wp.where(best > LATEST, scalar(NO_CONTACT), best)
         gravity = wp.length(g)
         span = wp.length(v) * end + scalar(0.5) * gravity * end * end  # >= the arc: CHORD_EDGES edges a chord ...
@@ -240,7 +374,7 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
             b = b + vec3(spread, spread, spread)
             query = wp.mesh_query_aabb(surfaces.mesh[k], single(a), single(b))
             while wp.mesh_query_aabb_next(query, face):
-                best = earlier(best, triangle_time(surfaces, k, face, x, v, g, radius))
+                best = earlier(best, face_time(surfaces, k, face, x, v, g, radius, h * scalar(i), h * scalar(i + 1)))
             if best >= scalar(0.0) and best <= h * scalar(i + 1):
                 break
             start = stop
@@ -248,68 +382,7 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
             best = scalar(NO_CONTACT)
         return best
 
-    @wp.func
-    def mesh_normal(surfaces: Surfaces, k: wp.int32, x: vec3):
-        """The unit normal of the triangle of mesh k nearest x (the BVH's closest point, float32)."""
-        query = wp.mesh_query_point_no_sign(surfaces.mesh[k], single(x), wp.float32(1.0e30))
-        if not query.result:
-            return surfaces.normal[k]
-        a, b, c = vertices(surfaces, k, query.face)
-        return wp.normalize(wp.cross(b - a, c - a))
-
-    @wp.func
-    def steeper(
-        surfaces: Surfaces,
-        k: wp.int32,
-        face: wp.int32,
-        x: vec3,
-        v: vec3,
-        slack: scalar,
-        grow: scalar,
-        steepest: scalar,
-        best: vec3,
-    ):
-        """(closing speed, normal) of triangle `face` if x touches it (0 to R in front, within R
-        beside its edges) and v approaches it more steeply than `steepest`, else the arguments."""
-        a, b, c = vertices(surfaces, k, face)
-        n = wp.cross(b - a, c - a)
-        if wp.length(n) > scalar(0.0):
-            n = wp.normalize(n)
-            height = wp.dot(x - a, n)
-            closing = wp.dot(v, n)
-            if height >= -slack and height <= grow and closing < steepest:
-                y = x - n * height  # the edge functions within R of the triangle
-                e0 = wp.dot(n, wp.cross(b - a, y - a)) / wp.length(b - a)
-                e1 = wp.dot(n, wp.cross(c - b, y - b)) / wp.length(c - b)
-                e2 = wp.dot(n, wp.cross(a - c, y - c)) / wp.length(a - c)
-                if wp.min(wp.min(e0, e1), e2) >= -grow:
-                    return closing, n
-        return steepest, best
-
-    @wp.func
-    def contact_normal(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, radius: scalar):
-        """The normal of the triangle touched at x (centre 0 to R in front, within R beside its
-        edges) that v approaches most steeply; else the nearest triangle's (`mesh_normal`)."""
-        low, high = surfaces.mesh_low[k], surfaces.mesh_high[k]
-        slack = scalar(FLOAT32_SLACK) * (l1(low) + l1(high) + l1(x)) + TOLERANCE * radius
-        grow = radius + slack
-        best = vec3()
-        steepest = scalar(0.0)
-        faces = surfaces.mesh_faces[k]
-        if faces <= FEW_FACES:
-            for face in range(faces):
-                steepest, best = steeper(surfaces, k, face, x, v, slack, grow, steepest, best)
-        else:
-            query = wp.mesh_query_aabb(surfaces.mesh[k], single(x - vec3(grow, grow, grow)), single(x + vec3(grow, grow, grow)))
-            face = wp.int32(0)
-            while wp.mesh_query_aabb_next(query, face):
-                steepest, best = steeper(surfaces, k, face, x, v, slack, grow, steepest, best)
-        if steepest < scalar(0.0):
-            return best
-        return mesh_normal(surfaces, k, x)
-
-    helpers = {**vars(basics), **vars(make_mesh_lookup(precision))}
-    return SimpleNamespace(mesh_time=mesh_time, mesh_normal=mesh_normal, contact_normal=contact_normal, **helpers)
+    return SimpleNamespace(mesh_time=mesh_time)
 
 
 @functools.cache

@@ -14,6 +14,7 @@ import numpy as np
 import warp as wp
 
 from ..struct_refs import read_only
+from .mesh_edges import convex_features
 
 SCALARS = {"float32": wp.float32, "float64": wp.float64}
 
@@ -64,6 +65,15 @@ def types_for(precision: str) -> SimpleNamespace:
         mesh_edge: wp.array(dtype=scalar)  # m: the median edge of its triangles (the chords' scale)
         mesh_faces: wp.array(dtype=wp.int32)  # its triangles (0: not a mesh)
         mesh_points: wp.array(dtype=vec3)
+        # a mesh's convex and border edges and their corners (`physics.mesh_edges`, read by
+        # `physics.edge_contact`): per surface the row of its first triangle in face_edges and
+        # face_corners (-1: none at all), which hold per triangle the edges and corners it owns (-1: none);
+        # edge_ends: two end points (m) per edge; corner_points (m)
+        face_first: wp.array(dtype=wp.int32)
+        face_edges: wp.array(dtype=wp.vec3i)
+        face_corners: wp.array(dtype=wp.vec3i)
+        edge_ends: wp.array(dtype=vec3)
+        corner_points: wp.array(dtype=vec3)
 
     @wp.struct
     class Material:
@@ -207,9 +217,38 @@ def mesh_fields(surfaces, precision: str, meshes, device) -> None:
     surfaces.mesh_edge = wp.array(np.asarray(edge, dtype=dtype), dtype=t.scalar, device=device)
     surfaces.mesh_faces = wp.array(np.asarray(faces, dtype=np.int32), dtype=wp.int32, device=device)
     surfaces.mesh_points = wp.array(np.concatenate(points).astype(dtype), dtype=t.vec3, device=device)
+    _feature_fields(surfaces, precision, meshes, device)
     if held:
         _HELD[id(surfaces)] = held
         weakref.finalize(surfaces, _HELD.pop, id(surfaces), None)
+
+
+def _feature_fields(surfaces, precision: str, meshes, device) -> None:
+    """Set the Surfaces' edge and corner arrays (`physics.mesh_edges.convex_features`) of `meshes`,
+    their indices made global; face_first -1 for a surface without (a plane, a plate, a terrain)."""
+    t, dtype = types_for(precision), np.dtype(precision)
+    face_first, face_edges, face_corners, ends, corners = [], [np.zeros((0, 3), np.int32)], [np.zeros((0, 3), np.int32)], [], []
+    rows = edge_count = corner_count = 0
+    for triangles in meshes:
+        if triangles is None or not getattr(triangles, "edges", True):
+            face_first.append(-1)  # none
+            continue
+        face_first.append(rows)
+        found = convex_features(triangles.vertices, triangles.triangles)
+        face_edges.append(np.where(found["face_edges"] >= 0, found["face_edges"] + edge_count, -1))
+        face_corners.append(np.where(found["face_corners"] >= 0, found["face_corners"] + corner_count, -1))
+        ends.append(found["edges"].reshape(-1, 3))
+        corners.append(found["corners"])
+        rows, edge_count, corner_count = (
+            rows + len(triangles.triangles),
+            edge_count + len(found["edges"]),
+            corner_count + len(found["corners"]),
+        )
+    surfaces.face_first = wp.array(np.asarray(face_first, dtype=np.int32), dtype=wp.int32, device=device)
+    surfaces.face_edges = wp.array(np.concatenate(face_edges).astype(np.int32), dtype=wp.vec3i, device=device)
+    surfaces.face_corners = wp.array(np.concatenate(face_corners).astype(np.int32), dtype=wp.vec3i, device=device)
+    for name, values in (("edge_ends", ends), ("corner_points", corners)):
+        setattr(surfaces, name, wp.array(np.concatenate([np.zeros((0, 3)), *values]).astype(dtype), dtype=t.vec3, device=device))
 
 
 def surfaces_of(precision: str, points, normals, materials, device, ground=None, liquid=None, plates=None, meshes=None) -> object:

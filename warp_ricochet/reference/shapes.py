@@ -10,7 +10,13 @@ back face met once the centre has passed to that side); a plate's face is not me
 starts with the centre behind its plane (the plane's rule), a triangle's is (from behind, over its
 plane and falling back onto it). A triangle is inside when its three edge functions
 ((b - a) x (y - a)).n are >= 0; it is also met where the centre itself reaches its plane inside it
-(h = -R: the kernels' second rule, for convex edges). Planes keep `reference.ballistic`'s rules. Impacts, landings and statistics are `reference.ballistic.simulate`'s.
+(h = -R: the kernels' second rule, for convex edges). A box's or a mesh's kept edges and corners
+(`physics.mesh_edges`, the host's classification) are met where the centre's distance from the
+segment (a corner: from the point) falls through R: per pellet the real roots of the quartic
+|P(t)|^2 - R^2 (P the part of x(t) - p across the edge) by `numpy.roots`, the first falling one
+with the projection on the segment, or at once where it starts within R, closing; its normal is
+radial; at equal times a face wins. Planes keep `reference.ballistic`'s rules. Impacts, landings
+and statistics are `reference.ballistic.simulate`'s.
 """
 
 from __future__ import annotations
@@ -18,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..physics.ballistic import MAX_FLIGHT_TIME
+from ..physics.mesh_edges import convex_features
 from ..scene.terrain import place_terrain
 from ..scene.triangles import triangles_of
 from .ballistic import next_contact, simulate
@@ -86,6 +93,48 @@ def _inside(faces, f, y):
     return (np.abs(a) <= faces["half"][f][0]) & (np.abs(b) <= faces["half"][f][1])
 
 
+def features_of(scene) -> list:
+    """(surface index, p (3,), unit a (3,) or 0 for a corner, length L (m)) of every kept edge and
+    corner of the scene's boxes and meshes."""
+    rows = []
+    for i, s in enumerate(scene.surfaces):
+        if s.kind in ("box", "mesh"):
+            mesh = triangles_of(s)
+            found = convex_features(mesh.vertices, mesh.triangles)
+            for p, q in found["edges"]:
+                rows.append((i, p, (q - p) / np.linalg.norm(q - p), float(np.linalg.norm(q - p))))
+            rows += [(i, c, np.zeros(3), 0.0) for c in found["corners"]]
+    return rows
+
+
+def _on(d, v, g, a, length, t):
+    """Whether the centre's projection on the axis a at time t lies on [0, L] (within rounding)."""
+    z = (d + v * t + 0.5 * g * t * t) @ a
+    return -1e-12 * (1.0 + length) <= z <= length + 1e-12 * (1.0 + length)
+
+
+def feature_root(r, v, g, radius, p, a, length):
+    """Per pellet the first time t >= 0 where the centre's distance from the segment p + s a, s in
+    [0, L] (a = 0: the point p) falls through R (NaN: none)."""
+    out = np.full(len(r), np.nan)
+    C = 0.5 * (g - (g @ a) * a)
+    for i in range(len(r)):
+        d = r[i] - p
+        A, B = d - (d @ a) * a, v[i] - (v[i] @ a) * a
+        if A @ A <= radius * radius and A @ B < 0 and _on(d, v[i], g, a, length, 0.0):
+            out[i] = 0.0
+            continue
+        c = np.array([C @ C, 2 * B @ C, B @ B + 2 * A @ C, 2 * A @ B, A @ A - radius * radius])
+        roots = np.roots(np.trim_zeros(c, "f"))
+        real = np.sort(roots.real[(np.abs(roots.imag) <= 1e-9 * (1.0 + np.abs(roots.real))) & (roots.real >= 0)])
+        for t in real:
+            falling = 4 * c[0] * t**3 + 3 * c[1] * t**2 + 2 * c[2] * t + c[3] < 0
+            if falling and t <= MAX_FLIGHT_TIME and _on(d, v[i], g, a, length, t):
+                out[i] = t
+                break
+    return out
+
+
 def shape_contact(scene):
     """`reference.ballistic.plane_contact` for a scene with plates and meshes: the first contact,
     over the planes (`next_contact`) and every face (the module's rules)."""
@@ -94,7 +143,7 @@ def shape_contact(scene):
     planes = [i for i, s in enumerate(scene.surfaces) if s.is_plane]
     points = np.array([scene.surfaces[i].point for i in planes], np.float64).reshape(-1, 3)
     normals = np.array([scene.surfaces[i].normal for i in planes], np.float64).reshape(-1, 3)
-    faces = faces_of(scene)
+    faces, features = faces_of(scene), features_of(scene)
 
     def contact(r, v, touching):
         n_pellets = len(r)
@@ -118,6 +167,13 @@ def shape_contact(scene):
                 better = np.isfinite(t) & (t < best_t) & _inside(faces, f, y)
                 best_t, best_k = np.where(better, t, best_t), np.where(better, faces["surface"][f], best_k)
                 best_n = np.where(better[:, None], n, best_n)
+        for k, p, a, length in features:
+            t = feature_root(r, v, g, radius, p, a, length)
+            better = np.isfinite(t) & (t < best_t)
+            y = r + v * np.nan_to_num(t)[:, None] + 0.5 * g * (np.nan_to_num(t) ** 2)[:, None]
+            out = y - (p + np.clip((y - p) @ a, 0.0, length)[:, None] * a)
+            best_t, best_k = np.where(better, t, best_t), np.where(better, k, best_k)
+            best_n = np.where(better[:, None], out / np.linalg.norm(out, axis=1, keepdims=True).clip(1e-300), best_n)
         return np.where(best_k >= 0, best_t, np.nan), best_k, best_n
 
     return contact

@@ -20,11 +20,13 @@ MAX_TRIANGLES = 2**28  # 3 indices each must fit an int32 index buffer (wp.Mesh)
 class TriangleSurface:
     """A triangle mesh: `vertices` float64 (n, 3), m, in scene coordinates; `triangles` int32 (m, 3),
     counter-clockwise seen from the side pellets meet (outward normals); `source`: where it came
-    from, for messages."""
+    from, for messages; `edges`: its convex edges and corners are contacts of their own
+    (`physics.edge_contact`; a terrain's are not: docs/geometry.md, "Meshes and boxes")."""
 
     vertices: np.ndarray
     triangles: np.ndarray
     source: str
+    edges: bool = True
 
     def check(self, key: str) -> TriangleSurface:
         """Itself, or the one-line SceneError naming `key`: an empty mesh, non-finite vertices or

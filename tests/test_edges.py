@@ -1,0 +1,219 @@
+"""Contacts with a mesh's convex edges and corners (docs/geometry.md, "Meshes and boxes"; issue 27,
+sections 3-4): which edges are kept, and the flight against a box's edges and corners beside an
+independent float64 reference (the distance of the parabola from the box, sampled and root-found)."""
+
+import numpy as np
+import pytest
+import warp as wp
+from helpers import explicit_scene
+from scipy.optimize import brentq
+
+from bench.meshes import AHEAD, BOX, GRAVITY, aimed, inside_box
+from warp_ricochet.physics.mesh_edges import convex_features
+from warp_ricochet.scene.triangles import box_triangles
+
+MATERIAL = {"restitution": 0.5, "mu_s": 0.3}
+RADIUS = 0.00125  # m: the pellets' (diameter 2.5 mm)
+
+
+def test_a_box_keeps_its_12_edges_and_8_corners_and_a_flat_square_its_border():
+    box = box_triangles(BOX["point"], BOX["normal"], BOX["axis_u"], BOX["size"])
+    found = convex_features(box.vertices, box.triangles)
+    assert len(found["edges"]) == 12 and len(found["corners"]) == 8
+    lengths = np.sort(np.linalg.norm(found["edges"][:, 1] - found["edges"][:, 0], axis=1))
+    np.testing.assert_allclose(lengths, np.repeat(np.sort(BOX["size"]), 4))  # no face diagonal
+    for name, total in (("face_edges", 12), ("face_corners", 8)):  # each owned by one triangle
+        owned = found[name][found[name] >= 0]
+        assert len(owned) == total and len(np.unique(owned)) == total
+    unmerged = convex_features(box.vertices[box.triangles].reshape(-1, 3), np.arange(36).reshape(-1, 3))
+    assert len(unmerged["edges"]) == 12 and len(unmerged["corners"]) == 8  # an STL's copies are one point
+    inverted = convex_features(box.vertices, box.triangles[:, ::-1])  # a room seen from inside: all concave
+    assert len(inverted["edges"]) == 0 and len(inverted["corners"]) == 0
+    square = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]])
+    flat = convex_features(square, [[0, 1, 2], [0, 2, 3]])
+    assert len(flat["edges"]) == 4 and len(flat["corners"]) == 4  # its border, not its diagonal
+    ridge = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 1e-3], [1.0, 1.0, 1e-3], [0.0, 2.0, 0.0], [1.0, 2.0, 0.0]])
+    roof = [[0, 1, 3], [0, 3, 2], [2, 3, 5], [2, 5, 4]]
+    assert len(convex_features(ridge, roof)["edges"]) == 7  # the border's 6 and the ridge
+    ridge[2:4, 2] = -1e-3
+    assert len(convex_features(ridge, roof)["edges"]) == 6  # a valley: the border only
+
+
+def _frame():
+    """The box's unit axes (rows u, v, n), half sides and centre, from its keys alone."""
+    n = np.asarray(BOX["normal"], float)
+    n /= np.linalg.norm(n)
+    u = np.asarray(BOX["axis_u"], float)
+    u -= u @ n * n
+    u /= np.linalg.norm(u)
+    return np.stack([u, np.cross(n, u), n]), 0.5 * np.asarray(BOX["size"], float), np.asarray(BOX["point"], float)
+
+
+def _offset(x):
+    """The vector from the box's nearest point to x (zero inside)."""
+    axes, half, centre = _frame()
+    local = (x - centre) @ axes.T
+    return (local - np.clip(local, -half, half)) @ axes
+
+
+def _reference(x0, v0, until=1.2 * AHEAD):
+    """(time, centre, unit normal) where the centre first comes within R of the box before `until`
+    (s), or None: sampled every R / 10 of the path, the first crossing found by Brent's method."""
+    times = np.arange(0.0, until, 0.1 * RADIUS / (np.linalg.norm(v0) + abs(GRAVITY[2]) * until))
+    path = x0 + np.outer(times, v0) + 0.5 * np.outer(times**2, GRAVITY)
+    gap = np.linalg.norm(_offset(path), axis=1) - RADIUS
+    if not (gap <= 0).any():
+        return None
+    j = int(np.argmax(gap <= 0))
+    if j == 0:
+        return 0.0, x0, _offset(x0) / np.linalg.norm(_offset(x0))
+
+    def f(t):
+        return np.linalg.norm(_offset(x0 + v0 * t + 0.5 * GRAVITY * t * t)) - RADIUS
+
+    t = brentq(f, times[j - 1], times[j], xtol=1e-16, rtol=1e-15)
+    x = x0 + v0 * t + 0.5 * GRAVITY * t * t
+    return t, x, _offset(x) / np.linalg.norm(_offset(x))
+
+
+def _near_features(rng, count, reach):
+    """(x0, v0) of pellets whose straight paths pass closest, AHEAD s after launch, at `reach`
+    (a fraction of R: (low, high)) from a random edge or corner of the box, in its outer wedge
+    (beside every face), moving across the direction to it."""
+    axes, half, centre = _frame()
+    signs = rng.choice([-1.0, 1.0], size=(count, 3))
+    free = rng.integers(0, 4, count)  # 0-2: an edge along that axis; 3: a corner
+    on = signs * half
+    wedge = signs * rng.uniform(0.2, 1.0, (count, 3))
+    for axis in range(3):
+        pick = free == axis
+        on[pick, axis] = rng.uniform(-0.9, 0.9, pick.sum()) * half[axis]
+        wedge[pick, axis] = 0.0
+    w = wedge / np.linalg.norm(wedge, axis=1, keepdims=True)
+    targets = centre + (on + RADIUS * rng.uniform(*reach, (count, 1)) * w) @ axes
+    across = rng.normal(size=(count, 3))
+    across -= (across * w).sum(axis=1, keepdims=True) * w
+    v = rng.uniform(30.0, 300.0, (count, 1)) * (across / np.linalg.norm(across, axis=1, keepdims=True)) @ axes
+    v -= GRAVITY * AHEAD  # the velocity across it at the target, as `aimed` flies it
+    return aimed(targets, v), v
+
+
+def _contacts(tmp_path, precision, x, v):
+    """(time, normal) of each pellet's first contact with the box, by the kernels (time < 0: none)."""
+    from warp_ricochet.model import Model
+    from warp_ricochet.physics.flight import make_flight
+    from warp_ricochet.physics.geometry import MESHES
+
+    scene = explicit_scene(
+        tmp_path, x, v, surfaces=[{"kind": "box", **BOX, **MATERIAL}], precision=precision, physics={"gravity": list(GRAVITY)}
+    )
+    model = Model.from_scene(scene, wp.get_device("cpu"))
+    t = model.types
+    flight = make_flight(precision, None, "ballistic", plates=MESHES)
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def first(
+        surfaces: t.Surfaces,
+        physics: t.Physics,
+        x: wp.array(dtype=t.vec3),
+        v: wp.array(dtype=t.vec3),
+        times: wp.array(dtype=t.scalar),
+        normals: wp.array(dtype=t.vec3),
+    ):
+        i = wp.tid()
+        dt, k, n, _x, _v, _w, _steps = flight.to_contact(x[i], v[i], t.vec3(), wp.int32(-1), surfaces, physics)
+        times[i] = wp.where(k == 0, dt, t.scalar(-1.0))
+        normals[i] = n
+
+    arrays = [wp.array(a.astype(precision), dtype=t.vec3, device="cpu") for a in (x, v)]
+    times = wp.zeros(len(x), dtype=t.scalar, device="cpu")
+    normals = wp.zeros(len(x), dtype=t.vec3, device="cpu")
+    wp.launch(first, dim=len(x), inputs=[model.surfaces, model.physics, *arrays], outputs=[times, normals], device="cpu")
+    return times.numpy().astype(np.float64), normals.numpy().astype(np.float64)
+
+
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_paths_beside_a_box_edge_or_corner_meet_it_where_the_reference_does(tmp_path, precision):
+    """Paths passing 0.2 R to 0.9 R from an edge or a corner, beside every face (where the faces'
+    R-offsets leave a gap), meet it where the float64 reference does, with its radial normal;
+    paths passing 1.05 R to 2 R from it meet nothing."""
+    rng = np.random.default_rng(27)
+    x, v = _near_features(rng, 400, (0.2, 0.9))
+    far_x, far_v = _near_features(rng, 400, (1.05, 2.0))
+    times, normals = _contacts(tmp_path, precision, np.r_[x, far_x], np.r_[v, far_v])
+    want = [_reference(*pair) for pair in zip(x, v)]
+    assert all(w is not None for w in want)
+    tolerance = {"float64": (1e-9, 1e-6), "float32": (2e-5, 2e-2)}[precision]  # m, normal
+    beside = 0
+    for i, (_t, centre, n) in enumerate(want):
+        assert times[i] >= 0, i
+        got = x[i] + v[i] * times[i] + 0.5 * GRAVITY * times[i] ** 2
+        assert np.linalg.norm(got - centre) <= tolerance[0], (i, got - centre)
+        assert np.linalg.norm(normals[i] - n) <= tolerance[1], (i, normals[i], n)
+        beside += np.abs(n @ _frame()[0].T).max() < 0.999  # a radial normal, not a face's
+    assert beside > 100  # (the rest meet a face first: 148 of 400)
+    assert all(_reference(*pair) is None for pair in zip(far_x, far_v))
+    assert (times[len(x) :] < 0).all(), np.flatnonzero(times[len(x) :] >= 0)
+
+
+def test_an_edge_impact_leaves_the_edge_and_never_gains_energy(tmp_path):
+    """The pellets of the test above, flown with the impact law: each rebound moves away from the
+    box's nearest point and the energy (translational and rotational) never rises."""
+    import h5py
+
+    from warp_ricochet.api import run
+
+    x, v = _near_features(np.random.default_rng(28), 1000, (0.2, 0.9))
+    physics = {"gravity": list(GRAVITY), "until": "landing", "bounces": 1}
+    scene = explicit_scene(tmp_path, x, v, surfaces=[{"kind": "box", **BOX, **MATERIAL}], physics=physics)
+    run(scene, tmp_path / "edges.h5", device="cpu", overwrite=True)
+    with h5py.File(tmp_path / "edges.h5") as f:
+        group = f["pellets/impact"]
+        centre, before, after, spin = (
+            group[name][()].reshape(len(x), 3) for name in ("position", "velocity_before", "velocity", "angular_velocity")
+        )
+    inertia = 0.4 * RADIUS**2  # I / m of a solid sphere
+    assert ((after**2).sum(axis=1) + inertia * (spin**2).sum(axis=1) <= (before**2).sum(axis=1) * (1 + 1e-12)).all()
+    out = _offset(centre)
+    assert ((after * out).sum(axis=1) > 0).all()
+    assert not inside_box(centre, BOX, 1e-9).any()
+
+
+@pytest.mark.parametrize("jitter", [1e-5, 1e-4])
+def test_pellets_aimed_near_a_box_edge_all_meet_it_in_float32(tmp_path, jitter):
+    """`bench.meshes box` at a small size: launch positions moved by up to `jitter` of their
+    coordinates, so that those aimed at an edge or a corner pass within a fraction of a millimetre
+    of it; all meet the box and no centre is inside it (without the edges' contacts, of these
+    100,000 at jitter 1e-4, some pass by)."""
+    import io
+    from contextlib import redirect_stdout
+
+    from bench.meshes import box
+
+    out = io.StringIO()
+    with redirect_stdout(out):
+        box(100_000, 100_000, "float32", "cpu", seed=29, jitter=jitter)
+    assert "100,000 pellets, 100,000 meet it" in out.getvalue() and " 0 centres inside" in out.getvalue(), out.getvalue()
+
+
+def test_in_thin_air_the_edges_are_met_where_the_vacuum_reference_meets_them(tmp_path):
+    """The integrated flight (air of 1e-6 kg/m^3: its path within nanometres of the parabola)
+    meets paths beside a box's edges and corners on its steps' interpolants where the float64
+    vacuum reference does; none passes by."""
+    import h5py
+
+    from warp_ricochet.api import run
+    from warp_ricochet.scene import scene_from_dict
+
+    x, v = _near_features(np.random.default_rng(30), 200, (0.2, 0.9))
+    physics = {"gravity": list(GRAVITY), "until": "landing", "bounces": 1}
+    scene = explicit_scene(tmp_path, x, v, surfaces=[{"kind": "box", **BOX, **MATERIAL}], physics=physics)
+    scene = scene_from_dict({**scene.to_dict(), "air": {"density": 1e-6}})
+    assert scene.in_air
+    run(scene, tmp_path / "air.h5", device="cpu", overwrite=True)
+    with h5py.File(tmp_path / "air.h5") as f:
+        surface = f["pellets/impact/surface"][()].reshape(len(x))
+        centre = f["pellets/impact/position"][()].reshape(len(x), 3)
+    assert (surface == 0).all()
+    want = np.array([_reference(*pair)[1] for pair in zip(x, v)])
+    assert np.abs(centre - want).max() <= 1e-6, np.abs(centre - want).max()
