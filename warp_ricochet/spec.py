@@ -43,7 +43,7 @@ class RunSpec:
     (`physics.geometry`: its code compiled in only then); MESHES (2): a surface is a box, a mesh or a post
     (`physics.mesh_contact` compiled in too); pattern: the pellets' directions drawn from a choke's
     pattern (`launch.pattern`), not from the jitter; stations: each shot's start and aim from its
-    station (`launch.stations`)."""
+    station (`launch.stations`); terrain_ground: the hazard's ground is a terrain (`tallies.terrain_walk`)."""
 
     precision: str
     bounces: int
@@ -64,6 +64,7 @@ class RunSpec:
     plates: bool | int = False
     pattern: bool = False
     stations: bool = False
+    terrain_ground: bool = False
 
     @classmethod
     def of(cls, scene, *, with_output: bool = True) -> RunSpec:
@@ -93,6 +94,7 @@ class RunSpec:
             plates=MESHES if any(s.is_solid for s in scene.surfaces) else any(not s.is_plane for s in scene.surfaces),
             pattern=scene.shot.pattern is not None,
             stations=bool(scene.stations),
+            terrain_ground=scene.hazard is not None and scene.surfaces[scene.hazard.map_surface].kind == "terrain",
         )
 
     @property
@@ -101,12 +103,12 @@ class RunSpec:
         return self.until == "rest"
 
     @property
-    def watch(self) -> tuple[int, int, bool]:
-        """(thresholds, places, map) of the hazard watched along the path (`tallies.path`): a scene
-        with thresholds and its tallies; (0, 0, False) compiles the watch away."""
+    def watch(self) -> tuple[int, int, bool, bool]:
+        """(thresholds, places, map, terrain) of the hazard watched along the path (`tallies.path`):
+        a scene with thresholds and its tallies; (0, 0, False, False) compiles the watch away."""
         if not (self.tally and self.thresholds > 0):
-            return (0, 0, False)
-        return (self.thresholds, self.places, self.hazard_map)
+            return (0, 0, False, False)
+        return (self.thresholds, self.places, self.hazard_map, self.terrain_ground)
 
     @property
     def in_air(self) -> bool:
