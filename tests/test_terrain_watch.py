@@ -7,6 +7,7 @@ point found among the mesh's triangles); and the grid the watch reads from a ras
 placed mesh's."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -30,6 +31,7 @@ MAP = dict(cell=1.0, extent=(-10.0, 120.0, -30.0, 30.0))
 PLACES = (("hilltop", (40.0, 0.0, 0.0), 4.0), ("berm", (70.0, 0.0, 5.0), 6.0), ("far", (95.0, 0.0, -3.0), 8.0))
 CLOSE = {"float64": 1e-5, "float32": 1e-4}  # the reach against the sampler, of the path length (issue 26)
 ROUNDING = {"float64": 1e-9, "float32": 1e-6}
+TRAP_FIELD = Path(__file__).resolve().parents[1] / "warp_ricochet" / "examples" / "terrain" / "trap_field.asc"
 
 
 def _grid(height, hole=False):
@@ -220,3 +222,117 @@ def test_a_hill_and_a_berm_match_the_brute_force_sampler(precision):
     ]
     got_places = [places[level:].sum(axis=0) for level in range(1, len(SPEEDS) + 1)]
     np.testing.assert_array_equal(got_places, want)
+
+
+def test_the_grid_read_from_a_raster_is_its_placed_mesh():
+    """The trap field's raster, placed at its station: the watch's grid holds every mesh vertex (an
+    affine grid to 1e-9 m, heights (v - point).up), and its height between vertices is the
+    sampler's triangle's (`reference.terrain`, another implementation) to 1e-9 m."""
+    from warp_ricochet.model import terrain_triangles
+    from warp_ricochet.scene import scene_from_dict
+    from warp_ricochet.tallies.terrain_ground import terrain_grid
+
+    raw = {
+        "shot": {"count": 1, "diameter": 0.0024, "density": 11340.0, "speed": 100.0, "direction": [1.0, 0.0, 0.0]},
+        "surfaces": [
+            {
+                "kind": "terrain",
+                "file": str(TRAP_FIELD),
+                "origin": [500_010.0, 4_200_050.0],
+                "elevation": 119.8,
+                "material": "turf",
+            }
+        ],
+        "hazard": {"speed": {"fast": 50.0}},
+    }
+    scene = scene_from_dict(raw)
+    mesh = terrain_triangles(scene, 0)
+    grid = terrain_grid(scene.surfaces[0], mesh.vertices, (0.0, 0.0, 0.0), UP)
+    assert grid.deviation <= 1e-9 and grid.z.shape == (21, 61)
+    np.testing.assert_allclose(np.sort(grid.z[np.isfinite(grid.z)]), np.sort(mesh.vertices[:, 1]), rtol=0, atol=1e-12)
+    rng = np.random.default_rng(3)
+    x = np.column_stack([rng.uniform(-20.0, 300.0, 2000), np.zeros(2000), rng.uniform(-60.0, 60.0, 2000)])
+    want = TerrainHeight(mesh.vertices, mesh.triangles, (0.0, 0.0, 0.0), UP)(x)
+    np.testing.assert_allclose(grid.height(x), want, rtol=0, atol=1e-9)
+    assert (want != 0.0).sum() > 1000 and (want == 0.0).sum() > 100  # (on the raster and off it)
+
+
+def _flat_raster(path):
+    """A GeoTIFF of a level plane at 10 m: 300 m x 80 m of 5 m cells, its north-west corner at (0, 80)."""
+    import rasterio
+    from rasterio.transform import Affine
+
+    with rasterio.open(
+        path, "w", driver="GTiff", width=61, height=17, count=1, dtype="float64", transform=Affine(5.0, 0, 0, 0, -5.0, 80.0)
+    ) as dst:
+        dst.write(np.full((17, 61), 10.0), 1)
+    return path
+
+
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_a_run_over_a_flat_raster_is_watched_as_over_its_plane(tmp_path, monkeypatch, precision):
+    """A shot in air followed to rest (flights, bounces, slides and rolls on the triangles) over a
+    raster of a level plane, watched over the raster's triangles and, the same run, over the plane
+    itself (the plane code, `RunSpec.terrain_ground` off): the same reach per pellet to 1e-9 of the
+    path (float32: 1e-5), the same exposure maps and places. (Against a run on the analytic plane
+    the paths themselves differ: the triangles' contacts move a sliding pellet's speed by ~1e-4.)"""
+    import dataclasses
+
+    import h5py
+
+    import warp_ricochet as wr
+    from warp_ricochet import spec
+    from warp_ricochet.scene import scene_from_dict
+
+    pytest.importorskip("rasterio", reason="the gis extra (rasterio) is not installed")
+    raster = str(_flat_raster(tmp_path / "flat.tif"))
+    ground = {"restitution": 0.3, "mu_s": 0.5, "mu_d": 0.45, "rolling_resistance": 0.3}
+    raw = {
+        "shot": {
+            "count": 60,
+            "diameter": 0.0024,
+            "density": 11340.0,
+            "speed": 150.0,
+            "direction": [1.0, -0.02, 0.0],
+            "direction_jitter": [0.0, 0.05, 0.05],
+            "envelope_center": [0.0, 1.5, 0.0],
+            "seed": 5,
+        },
+        "surfaces": [
+            {"kind": "terrain", "file": raster, "origin": [0.0, 40.0], "elevation": 10.0, "point": [-10.0, 0.0, 0.0], **ground}
+        ],
+        "physics": {"until": "rest", "bounces": 3, "impact_duration": 1e-5},
+        "air": {},
+        "hazard": {
+            "speed": {"fast": 100.0, "slow": 20.0},
+            "map_cell": 1.0,
+            "map_extent": [-5.0, 250.0, -30.0, 30.0],
+            "shooter": [0.0, 0.0, 0.0],
+            "points": [{"name": "p", "position": [60.0, 0.0, 0.0], "area": 20.0}],
+        },
+        "numerics": {"precision": precision},
+        "output": {"fields": ["hazard", "rest"]},
+    }
+    names = ("pellets/hazard/reach", "hazard/map/exposure", "hazard/map/exposure_outside", "hazard/points/pellets")
+    out = {}
+    of = spec.RunSpec.of.__func__
+
+    def plane_watch(cls, scene, **kw):
+        return dataclasses.replace(of(cls, scene, **kw), terrain_ground=False)
+
+    for name in ("terrain", "plane"):
+        if name == "plane":
+            monkeypatch.setattr(spec.RunSpec, "of", classmethod(plane_watch))
+        wr.run(scene_from_dict(raw), tmp_path / f"{name}.h5", device="cpu")
+        with h5py.File(tmp_path / f"{name}.h5") as f:
+            out[name] = {k: f[k][()] for k in (*names, "pellets/rest/position")}
+    got, want = out["terrain"], out["plane"]
+    np.testing.assert_array_equal(got["pellets/rest/position"], want["pellets/rest/position"])  # (the same paths)
+    assert np.abs(want["pellets/rest/position"][:, 0]).max() < 280.0  # (all at rest on the raster)
+    reach = want["pellets/hazard/reach"]
+    assert np.isfinite(reach).sum() > 200  # (every pellet within body height above most thresholds)
+    close = (1e-9 if precision == "float64" else 1e-5) * 250.0
+    np.testing.assert_allclose(got["pellets/hazard/reach"], reach, rtol=0, atol=close)
+    for name in names[1:]:
+        np.testing.assert_array_equal(got[name], want[name])
+    assert want["hazard/map/exposure"].sum() > 5000 and want["hazard/points/pellets"].sum() > 20
