@@ -6,6 +6,7 @@ hill, a berm and a nodata hole, against the float64 brute-force path sampler
 point found among the mesh's triangles); and the grid the watch reads from a raster file is the
 placed mesh's."""
 
+import functools
 import math
 from pathlib import Path
 
@@ -20,6 +21,7 @@ from warp_ricochet.reference import path_hazard as ph
 from warp_ricochet.reference.terrain import TerrainHeight
 from warp_ricochet.scene.terrain import grid_triangles
 from warp_ricochet.tallies.counts import DeviceTally, TallySetup
+from warp_ricochet.tallies.path import make_path_watch
 from warp_ricochet.tallies.terrain_ground import TerrainGrid
 
 G = 9.81
@@ -87,25 +89,68 @@ def _setup(grid=None, normal=(0.0, 1.0, 0.0), places=PLACES):
     )
 
 
-def _watch(precision, setup, x0, v0, dt):
-    """Per flight its reach (n, K) and the chunk's counts: passes by level and column, places."""
+def _watch(precision, setup, x0, v0, dt, curve=None):
+    """Per flight its reach (n, K) and the chunk's counts: passes by level and column, places. The
+    flights: vacuum parabolas from x0 with v0 for dt s, or with `curve` (c, (n, 3) m/s^3) the cubics
+    x0 + v0 t + g t^2 / 2 + c t^3 given as one Hermite segment each (`_segment_kernel`)."""
     t = types_for(precision)
-    watch, _lines = _watch_kernel(precision, len(setup.places), setup.terrain is not None)
     n = len(x0)
+    if curve is None:
+        watch, _lines = _watch_kernel(precision, len(setup.places), setup.terrain is not None)
+        inputs = [
+            wp.array(x0, dtype=t.vec3, device="cpu"),
+            wp.array(v0, dtype=t.vec3, device="cpu"),
+            t.vec3(0.0, -G, 0.0),
+            wp.array(np.asarray(dt, dtype=np.float64), dtype=t.scalar, device="cpu"),
+        ]
+    else:
+        watch = _segment_kernel(precision, len(setup.places))
+        h = np.asarray(dt, dtype=np.float64)[:, None]
+        x1, v1 = _cubic(x0, v0, curve, h)
+        g = np.array([0.0, -G, 0.0])
+        data = [x0, h * v0, h * h * np.broadcast_to(g, x0.shape), x1, h * v1, h * h * (g + 6.0 * curve * h)]
+        inputs = [wp.array(a, dtype=t.vec3, device="cpu") for a in data] + [wp.array(h[:, 0], dtype=t.scalar, device="cpu")]
     tally = DeviceTally(setup, precision, wp.get_device("cpu"), active=True)
     tally.start(None)
     reach = wp.zeros((n, len(SPEEDS)), dtype=t.scalar, device="cpu")
-    inputs = [
-        wp.array(x0, dtype=t.vec3, device="cpu"),
-        wp.array(v0, dtype=t.vec3, device="cpu"),
-        t.vec3(0.0, -G, 0.0),
-        wp.array(np.asarray(dt, dtype=np.float64), dtype=t.scalar, device="cpu"),
-    ]
     wp.launch(watch, dim=n, inputs=[tally.struct, *inputs], outputs=[reach], device="cpu")
     tally.resolve()
     passes = tally.counts["exposure"].numpy().reshape(setup.levels, setup.cells + 2).astype(np.int64)
     places = tally.counts["places"].numpy().reshape(setup.levels, len(setup.places)).astype(np.int64)
     return reach.numpy().astype(np.float64), passes, places
+
+
+def _cubic(x0, v0, c, t):
+    """Position and velocity at t of x0 + v0 t + g t^2 / 2 + c t^3 (g along -y)."""
+    g = np.array([0.0, -G, 0.0])
+    return x0 + v0 * t + 0.5 * g * t * t + c * t**3, v0 + g * t + 3.0 * c * t * t
+
+
+@functools.cache
+def _segment_kernel(precision, places):
+    """A kernel watching one Hermite segment (x, h v, h^2 a at its ends; h s) a pellet, over the terrain."""
+    t = types_for(precision)
+    w = make_path_watch(precision, len(SPEEDS), places, True, True)
+
+    @wp.kernel
+    def watch_segments(
+        tally: w.Tally,
+        x0: wp.array(dtype=t.vec3),
+        d0: wp.array(dtype=t.vec3),
+        e0: wp.array(dtype=t.vec3),
+        x1: wp.array(dtype=t.vec3),
+        d1: wp.array(dtype=t.vec3),
+        e1: wp.array(dtype=t.vec3),
+        h: wp.array(dtype=t.scalar),
+        reach_out: wp.array2d(dtype=t.scalar),
+    ):
+        i = wp.tid()
+        track = w.start()
+        track = w.segment(track, tally, x0[i], d0[i], e0[i], x1[i], d1[i], e1[i], h[i], t.scalar(1.0))
+        w.write(track, reach_out, i)
+        w.finish(track, tally, i)
+
+    return watch_segments
 
 
 def _flights(rng, n, ground):
@@ -162,19 +207,27 @@ def _exposure(passes, setup, order):
 
 
 @pytest.mark.parametrize("precision", ["float64", "float32"])
-def test_a_hill_and_a_berm_match_the_brute_force_sampler(precision):
+@pytest.mark.parametrize("flight", ["parabola", "curve"])
+def test_a_hill_and_a_berm_match_the_brute_force_sampler(precision, flight):
     """(c) A hill, a berm and a nodata hole: every reach within CLOSE of the path length of the
     sampler's, every cell of the passes and exposure maps within the sampler's bounds (equal but
     for passes it flags within a rounding of an edge, of body height or of a threshold), and the
-    named places' counts the sampler's."""
+    named places' counts the sampler's. Vacuum parabolas, and cubics bent along and across the line
+    of fire given as one Hermite segment each (as an integration step's interpolant: their grid
+    coordinates, not linear in time, cross the triangles' edges at the quintic's roots)."""
     grid = _grid(_hill, hole=True)
     vertices, triangles = _mesh(grid)
     terrain = TerrainHeight(vertices, triangles, (0.0, 0.0, 0.0), UP)
     rng = np.random.default_rng(28)
     n = 24
     x0, v0, dt = _flights(rng, n, terrain)
+    curve = None
+    if flight == "curve":  # slowing down by up to a quarter of the speed along x, bent by up to 5 m/s^3 across
+        curve = np.column_stack(
+            [-rng.uniform(0.0, 0.08, n) * v0[:, 0] / dt**2, rng.uniform(-3.0, 3.0, n), rng.uniform(-5.0, 5.0, n)]
+        )
     setup = _setup(grid)
-    reach, passes, places = _watch(precision, setup, x0, v0, dt)
+    reach, passes, places = _watch(precision, setup, x0, v0, dt, curve)
     g = ph.Grid(
         (0.0, 0.0, 0.0),
         (1.0, 0.0, 0.0),
@@ -192,6 +245,8 @@ def test_a_hill_and_a_berm_match_the_brute_force_sampler(precision):
     found, all_passes, levels = 0, [], []
     for i in range(n):
         path = ph.parabola(x0[i], v0[i], dt[i], (0.0, -G, 0.0))
+        if curve is not None:
+            path = ph.Path([(0.0, float(dt[i]), lambda t, i=i: tuple(a.T for a in _cubic(x0[i], v0[i], curve[i], t[:, None])))])
         length = path.length(0)
         tolerance = (CLOSE[precision] * length, CLOSE[precision] * np.linalg.norm(v0[i]))
         rounding = (ROUNDING[precision] * length, ROUNDING[precision] * np.linalg.norm(v0[i]))

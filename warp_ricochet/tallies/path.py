@@ -636,8 +636,10 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
                 if wp.static(TERRAIN):
                     if not terrain.high(tally, theta_end, x0, d0, e0, x1, d1, e1):
                         walk = terrain.begin(tally, theta_end, x0, d0, e0, x1, d1, e1)
-                        for _ in range(walk.budget):
+                        for k in range(walk.budget):
                             walk = terrain.next_piece(tally, walk, theta_end, x0, d0, e0, x1, d1, e1)
+                            if k == walk.budget - 1:  # (budget spent, a turning curve: the rest over this plane)
+                                walk.end = theta_end
                             _x, rate = hermite_vec(walk.start, x0, d0, e0, x1, d1, e1)
                             track = span(
                                 track, tally, walk.gp, walk.gn, walk.start, walk.end, rate, x0, d0, e0, x1, d1, e1, inv_h2
