@@ -391,3 +391,29 @@ def test_a_run_over_a_flat_raster_is_watched_as_over_its_plane(tmp_path, monkeyp
     for name in names[1:]:
         np.testing.assert_array_equal(got[name], want[name])
     assert want["hazard/map/exposure"].sum() > 5000 and want["hazard/points/pellets"].sum() > 20
+
+
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_a_rolling_stretch_is_judged_over_the_terrain_below_it(precision):
+    """A straight stretch of rolling with ploughing (`line`) 2.5 m above the base plane: over a
+    raster 1 m high it is within body height (1.5 m above the ground) and reaches where its speed
+    falls to each threshold; over the base plane alone (2.5 m > 1.8 m) it reaches nowhere."""
+    t = types_for(precision)
+    a, b = 0.35, 0.02  # m/s^2, 1/m: v' = -(a + b v^2) along the line
+    x0 = np.array([[5.0, 2.5, 0.0]])
+    v0 = np.array([120.0])
+    reach = {}
+    for name, grid in (("raised", _grid(lambda x, z: 1.0 + 0.0 * x * z)), ("base", None)):
+        setup = _setup(grid, places=())
+        _parabolas, lines = _watch_kernel(precision, 0, grid is not None)
+        tally = DeviceTally(setup, precision, wp.get_device("cpu"), active=True)
+        tally.start(None)
+        out = wp.zeros((1, len(SPEEDS)), dtype=t.scalar, device="cpu")
+        inputs = [wp.array(x0, dtype=t.vec3, device="cpu"), t.vec3(1.0, 0.0, 0.0), wp.array([40.0], dtype=t.scalar, device="cpu")]
+        inputs += [wp.array(v0, dtype=t.scalar, device="cpu"), t.scalar(a), t.scalar(b)]
+        wp.launch(lines, dim=1, inputs=[tally.struct, *inputs], outputs=[out], device="cpu")
+        reach[name] = out.numpy()[0].astype(np.float64)
+    assert np.isnan(reach["base"]).all()
+    for k, s in enumerate(SPEEDS):
+        d = min(math.log((a + b * 120.0**2) / (a + b * s * s)) / (2 * b), 40.0)
+        assert reach["raised"][k] == pytest.approx(5.0 + d, rel=1e-5 if precision == "float32" else 1e-12)
