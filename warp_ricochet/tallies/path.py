@@ -625,6 +625,33 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
         return track
 
     @wp.func
+    def terrain_span(
+        track: Track,
+        tally: Tally,
+        a: scalar,
+        b: scalar,
+        x0: vec3,
+        d0: vec3,
+        e0: vec3,
+        x1: vec3,
+        d1: vec3,
+        e1: vec3,
+        inv_h2: scalar,
+    ):
+        """Watch [a, b] of a segment over the terrain: piece by piece across its triangles
+        (`tallies.terrain_walk`), each over its plane (`span`)."""
+        walk = terrain.begin(tally, a, b, x0, d0, e0, x1, d1, e1)
+        for k in range(walk.budget):
+            walk = terrain.next_piece(tally, walk, b, x0, d0, e0, x1, d1, e1)
+            if k == walk.budget - 1:  # (budget spent, a turning curve: the rest over this plane)
+                walk.end = b
+            _x, rate = hermite_vec(walk.start, x0, d0, e0, x1, d1, e1)
+            track = span(track, tally, walk.gp, walk.gn, walk.start, walk.end, rate, x0, d0, e0, x1, d1, e1, inv_h2)
+            if walk.end >= b:
+                break
+        return track
+
+    @wp.func
     def segment(
         track: Track, tally: Tally, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3, h: scalar, theta_end: scalar
     ):
@@ -634,20 +661,17 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
             if h > ZERO and theta_end > ZERO:
                 inv_h2 = ONE / (h * h)
                 if wp.static(TERRAIN):
-                    if not terrain.high(tally, theta_end, x0, d0, e0, x1, d1, e1):
-                        walk = terrain.begin(tally, theta_end, x0, d0, e0, x1, d1, e1)
-                        for k in range(walk.budget):
-                            walk = terrain.next_piece(tally, walk, theta_end, x0, d0, e0, x1, d1, e1)
-                            if k == walk.budget - 1:  # (budget spent, a turning curve: the rest over this plane)
-                                walk.end = theta_end
-                            _x, rate = hermite_vec(walk.start, x0, d0, e0, x1, d1, e1)
-                            track = span(
-                                track, tally, walk.gp, walk.gn, walk.start, walk.end, rate, x0, d0, e0, x1, d1, e1, inv_h2
-                            )
-                            if walk.end >= theta_end:
-                                break
-                    else:
-                        track.cell = wp.int32(NONE)
+                    first, last = terrain.window(tally, theta_end, x0, d0, e0, x1, d1, e1)
+                    for stretch in range(2):  # [0, first], then [last, theta_end]; above body height between
+                        a = ZERO
+                        b = first
+                        if stretch == 1:
+                            a = last
+                            b = theta_end
+                            if first < last:
+                                track.cell = wp.int32(NONE)
+                        if b > a:
+                            track = terrain_span(track, tally, a, b, x0, d0, e0, x1, d1, e1, inv_h2)
                 else:
                     track = span(
                         track, tally, tally.ground_point, tally.ground_normal, ZERO, theta_end, d0, x0, d0, e0, x1, d1, e1, inv_h2

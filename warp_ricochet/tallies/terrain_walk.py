@@ -22,6 +22,7 @@ import warp as wp
 from ..physics.integrate import make_dense_output
 from ..physics.types import types_for
 from .landing import make_landing_tally
+from .path_roots import make_path_roots
 
 HEADER = 18  # scalars of `Tally.terrain` before the heights (`terrain_ground.TerrainGrid.packed`)
 TRIANGLE_A, TRIANGLE_B, SQUARE = 0, 1, 2  # a cell's part the walk is in (SQUARE: base-plane ground)
@@ -29,25 +30,15 @@ C_UP, C_DOWN, R_UP, R_DOWN, DIAGONAL = 0, 1, 2, 3, 4  # the edge a piece ends at
 
 
 @functools.cache
-def make_terrain_walk(precision: str, crossing) -> SimpleNamespace:
-    """`Walk` and `high`, `begin`, `next_piece`, `height` over `Tally.terrain` (module docstring);
-    `crossing`: `tallies.path.make_path_curve`'s root of a quintic reaching an edge."""
+def make_terrain_ground(precision: str) -> SimpleNamespace:
+    """The grid's cells and triangles over `Tally.terrain` (module docstring): `plane` of a cell's
+    part, `index` and `settle` (the cell and part a motion is in), `vec_at`, `height` of a point
+    above body height over the ground below it, `window` of a segment possibly within it."""
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
     Tally = make_landing_tally(precision).Tally
-    hermite = make_dense_output(precision).hermite
+    roots = make_path_roots(precision)
     ZERO, ONE = scalar(0.0), scalar(1.0)
-
-    @wp.struct
-    class Walk:
-        start: scalar  # the piece [start, end] of the segment (theta)
-        end: scalar
-        gp: vec3  # its ground plane: a point, the normal / (normal . up)
-        gn: vec3
-        i: wp.int32  # the cell the walk is in after `end` (row, column; -1 or n: off the grid)
-        j: wp.int32
-        part: wp.int32  # TRIANGLE_A, TRIANGLE_B or SQUARE
-        budget: wp.int32  # pieces at most
 
     @wp.func
     def vec_at(tally: Tally, k: wp.int32):
@@ -106,6 +97,71 @@ def make_terrain_walk(precision: str, crossing) -> SimpleNamespace:
         return part
 
     @wp.func
+    def window(tally: Tally, theta_end: scalar, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3):
+        """(first, last): the segment is above body height over the terrain's highest point (the top
+        plane, above every ground) on (first, last), so only [0, first] and [last, theta_end] need
+        the walk; (theta_end, theta_end): all of it (a height with a trough, or never that high).
+        Bisection on the height above the top plane, cut at its apex (a unimodal height)."""
+        gp = vec_at(tally, 0) + tally.terrain[17] * tally.up
+        gn = tally.up
+        f0, s0 = roots.height_at(tally, gp, gn, ZERO, x0, d0, e0, x1, d1, e1)
+        f1, r1 = roots.height_at(tally, gp, gn, theta_end, x0, d0, e0, x1, d1, e1)
+        first = theta_end
+        last = theta_end
+        if not (s0 < ZERO and r1 > ZERO):
+            top = ZERO  # the highest point: falling throughout
+            if s0 > ZERO and r1 <= ZERO:
+                top = roots.apex(tally, gp, gn, ZERO, theta_end, x0, d0, e0, x1, d1, e1)
+            elif s0 > ZERO:
+                top = theta_end
+            f_top, _r = roots.height_at(tally, gp, gn, top, x0, d0, e0, x1, d1, e1)
+            if f_top > ZERO:
+                first = ZERO
+                if f0 <= ZERO:
+                    first = roots.height_root(tally, gp, gn, ZERO, top, wp.int32(1), x0, d0, e0, x1, d1, e1)
+                if f1 <= ZERO:
+                    last = roots.height_root(tally, gp, gn, top, theta_end, wp.int32(0), x0, d0, e0, x1, d1, e1)
+        return first, last
+
+    @wp.func
+    def height(tally: Tally, x: vec3):
+        """m: how far the centre at x is above body height over the terrain below it (<= 0: within)."""
+        o = vec_at(tally, 0)
+        fc = wp.dot(x - o, vec_at(tally, 3))
+        fr = wp.dot(x - o, vec_at(tally, 6))
+        i = index(fr, tally.terrain[15] - ONE, True)
+        j = index(fc, tally.terrain[16] - ONE, True)
+        gp, gn = plane(tally, i, j, settle(tally, i, j, fc - fr, True))
+        return wp.dot(x - gp, gn) - tally.body_height
+
+    return SimpleNamespace(vec_at=vec_at, valid=valid, plane=plane, index=index, settle=settle, window=window, height=height)
+
+
+@functools.cache
+def make_terrain_walk(precision: str, crossing) -> SimpleNamespace:
+    """`Walk`, `begin` and `next_piece` (the pieces of a segment, module docstring), with
+    `make_terrain_ground`'s `window` and `height`; `crossing`: `tallies.path.make_path_curve`'s root
+    of a quintic reaching an edge."""
+    t = types_for(precision)
+    scalar, vec3 = t.scalar, t.vec3
+    Tally = make_landing_tally(precision).Tally
+    hermite = make_dense_output(precision).hermite
+    ground = make_terrain_ground(precision)
+    vec_at, plane, index, settle = ground.vec_at, ground.plane, ground.index, ground.settle
+    ZERO, ONE = scalar(0.0), scalar(1.0)
+
+    @wp.struct
+    class Walk:
+        start: scalar  # the piece [start, end] of the segment (theta)
+        end: scalar
+        gp: vec3  # its ground plane: a point, the normal / (normal . up)
+        gn: vec3
+        i: wp.int32  # the cell the walk is in after `end` (row, column; -1 or n: off the grid)
+        j: wp.int32
+        part: wp.int32  # TRIANGLE_A, TRIANGLE_B or SQUARE
+        budget: wp.int32  # pieces at most
+
+    @wp.func
     def along(w: vec3, o: scalar, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3):
         """A grid coordinate (x . w - o) along the segment: its Hermite data at theta 0 and 1."""
         return wp.dot(x0, w) - o, wp.dot(d0, w), wp.dot(e0, w), wp.dot(x1, w) - o, wp.dot(d1, w), wp.dot(e1, w)
@@ -137,22 +193,15 @@ def make_terrain_walk(precision: str, crossing) -> SimpleNamespace:
         return exit, kind
 
     @wp.func
-    def high(tally: Tally, theta_end: scalar, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3):
-        """Whether the segment stays above body height over the terrain's highest point (no trough
-        inside, both ends higher): nothing to watch."""
-        g0, s0, q0, g1, s1, q1 = along(tally.up, wp.dot(vec_at(tally, 0), tally.up), x0, d0, e0, x1, d1, e1)
-        h1, r1 = hermite(theta_end, g0, s0, q0, g1, s1, q1)
-        level = tally.terrain[17] + tally.body_height
-        return g0 > level and h1 > level and not (s0 < ZERO and r1 > ZERO)
-
-    @wp.func
-    def begin(tally: Tally, theta_end: scalar, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3):
-        """The walk at the segment's start (theta 0): its cell and part, its budget of pieces."""
+    def begin(tally: Tally, theta_start: scalar, theta_end: scalar, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3):
+        """The walk of [theta_start, theta_end] at its start: its cell and part, its budget of pieces."""
         o = vec_at(tally, 0)
         c0, cs0, cq0, c1, cs1, cq1 = along(vec_at(tally, 3), wp.dot(o, vec_at(tally, 3)), x0, d0, e0, x1, d1, e1)
         r0, rs0, rq0, r1, rs1, rq1 = along(vec_at(tally, 6), wp.dot(o, vec_at(tally, 6)), x0, d0, e0, x1, d1, e1)
         c_end, _c = hermite(theta_end, c0, cs0, cq0, c1, cs1, cq1)
         r_end, _r = hermite(theta_end, r0, rs0, rq0, r1, rs1, rq1)
+        c0, _cs = hermite(theta_start, c0, cs0, cq0, c1, cs1, cq1)  # (at 0: c0 itself)
+        r0, _rs = hermite(theta_start, r0, rs0, rq0, r1, rs1, rq1)
         rows = tally.terrain[15] - ONE  # cells along each axis
         cols = tally.terrain[16] - ONE
         w = Walk()
@@ -161,7 +210,7 @@ def make_terrain_walk(precision: str, crossing) -> SimpleNamespace:
         w.part = settle(tally, w.i, w.j, c0 - r0, c_end - r_end >= c0 - r0)
         spread = wp.min(wp.abs(c_end - c0) + wp.abs(r_end - r0), scalar(2.0) * (rows + cols))
         w.budget = wp.int32(scalar(2.0) * spread) + 4
-        w.end = ZERO
+        w.end = theta_start
         return w
 
     @wp.func
@@ -239,15 +288,4 @@ def make_terrain_walk(precision: str, crossing) -> SimpleNamespace:
                 break
         return w
 
-    @wp.func
-    def height(tally: Tally, x: vec3):
-        """m: how far the centre at x is above body height over the terrain below it (<= 0: within)."""
-        o = vec_at(tally, 0)
-        fc = wp.dot(x - o, vec_at(tally, 3))
-        fr = wp.dot(x - o, vec_at(tally, 6))
-        i = index(fr, tally.terrain[15] - ONE, True)
-        j = index(fc, tally.terrain[16] - ONE, True)
-        gp, gn = plane(tally, i, j, settle(tally, i, j, fc - fr, True))
-        return wp.dot(x - gp, gn) - tally.body_height
-
-    return SimpleNamespace(Walk=Walk, high=high, begin=begin, next_piece=next_piece, height=height)
+    return SimpleNamespace(Walk=Walk, window=ground.window, begin=begin, next_piece=next_piece, height=ground.height)
