@@ -97,6 +97,13 @@ def hazard_study(args) -> None:
                         f"  {name:18s} p = {p:g}: along the path {d['distance'][i, j]:7.1f} m "
                         f"[{d['ci_low'][i, j]:.1f}, {d['ci_high'][i, j]:.1f}], landings {o['distance'][i, j]:7.1f} m"
                     )
+            reach, below = f["pellets/hazard/reach"][:, 0], f["pellets/rest/position"][:, 1] < -10.0
+            if below.any():  # resting on the plane 20 m below: off the raster, below its base plane (within body height)
+                print(
+                    f"  {below.mean():.1%} rest off the raster, on the plane 20 m below; 99th percentile of the "
+                    f"{names[0]} reach: {np.nanquantile(reach[~below], 0.99):.1f} m of those on the raster, "
+                    f"{np.nanquantile(reach[below], 0.99):.1f} m of those off it"
+                )
 
 
 def main(argv=None) -> None:
