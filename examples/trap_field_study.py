@@ -8,6 +8,10 @@ the raster catches those). To the first impact; followed to rest (`physics.until
 berm holds far less of the low shot (docs/geometry.md, "Example: does the trap field's berm ...").
 
     python examples/trap_field_study.py [--shots 20] [--device cpu] [--elevation 5 15]
+
+With --hazard, each pellet is followed to rest and the hazard along its path is watched above the
+terrain (docs/hazard.md section 11): the danger distances of the eye's and the skin's thresholds,
+beside the same shot over a level plane of turf at the station's ground.
 """
 
 import argparse
@@ -23,7 +27,19 @@ STATION = (500_010.0, 4_200_050.0, 119.8)  # the raster's (east, north) of the s
 CREST, BACK_FOOT = 142.5, 152.5  # m down range from the station: the berm's crest and its back slope's foot
 
 
-def scene(shots: int, elevation: tuple[float, float], seed: int = 1):
+HAZARD = {  # docs/hazard.md section 3: the eye's lowest threshold and the skin's
+    "energy_density": {"corneal_abrasion": 1503.0},
+    "speed": {"skin_perforation": 101.0},
+    "fractions": [1e-2, 1e-3],
+    "shooter": [0.0, 0.0, 0.0],  # the station's foot
+    "map_cell": 5.0,
+    "map_extent": [-10.0, 300.0, -60.0, 60.0],
+}
+
+
+def scene(shots: int, elevation: tuple[float, float], seed: int = 1, hazard: bool = False, level: bool = False):
+    """The study's scene; `hazard`: to rest, watched along the path (HAZARD); `level`: over a level
+    plane of turf at the station's ground instead of the raster."""
     low, high = np.radians(elevation)
     mid, half = 0.5 * (low + high), 0.5 * (high - low)
     raw = {
@@ -55,7 +71,39 @@ def scene(shots: int, elevation: tuple[float, float], seed: int = 1):
         "numerics": {"precision": "float64"},
         "output": {"fields": ["impact"]},
     }
+    if hazard:
+        raw.update(hazard=HAZARD, physics={"until": "rest", "bounces": 3}, output={"fields": ["hazard", "rest"]})
+    if level:
+        raw["surfaces"] = [{"name": "level turf", "point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "material": "turf"}]
     return scene_from_dict(raw)
+
+
+def hazard_study(args) -> None:
+    """The danger distances (reach along the path, and of the landings) on the raster and on a level plane."""
+    import h5py
+
+    for level in (False, True):
+        out = f"{args.out[:-3]}_{'level' if level else 'terrain'}.h5"
+        wr.run(scene(args.shots, tuple(args.elevation), hazard=True, level=level), out, device=args.device, overwrite=True)
+        with h5py.File(out) as f:
+            names = [n.decode() for n in f["hazard/thresholds/name"][()]]
+            fractions = f["hazard/danger_distance/fraction"][()]
+            print(f"{'level plane' if level else 'the raster'}: {f['pellets/hazard/reach'].shape[0]} pellets to rest")
+            for i, name in enumerate(names):
+                for j, p in enumerate(fractions):
+                    d = f["hazard/danger_distance"]
+                    o = f["hazard/landing_danger_distance"]
+                    print(
+                        f"  {name:18s} p = {p:g}: along the path {d['distance'][i, j]:7.1f} m "
+                        f"[{d['ci_low'][i, j]:.1f}, {d['ci_high'][i, j]:.1f}], landings {o['distance'][i, j]:7.1f} m"
+                    )
+            reach, below = f["pellets/hazard/reach"][:, 0], f["pellets/rest/position"][:, 1] < -10.0
+            if below.any():  # resting on the plane 20 m below: off the raster, below its base plane (within body height)
+                print(
+                    f"  {below.mean():.1%} rest off the raster, on the plane 20 m below; 99th percentile of the "
+                    f"{names[0]} reach: {np.nanquantile(reach[~below], 0.99):.1f} m of those on the raster, "
+                    f"{np.nanquantile(reach[below], 0.99):.1f} m of those off it"
+                )
 
 
 def main(argv=None) -> None:
@@ -64,7 +112,11 @@ def main(argv=None) -> None:
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--elevation", type=float, nargs=2, default=(5.0, 15.0), metavar=("LOW", "HIGH"))
     parser.add_argument("--out", default="trap_field.h5")
+    parser.add_argument("--hazard", action="store_true", help="to rest, the danger distances along the path (docs/hazard.md 11)")
     args = parser.parse_args(argv)
+    if args.hazard:
+        hazard_study(args)
+        return
     import h5py
 
     sc = scene(args.shots, tuple(args.elevation))

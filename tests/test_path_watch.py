@@ -46,9 +46,9 @@ def _setup(cell=0.5, extent=(0.0, 100.0, -10.0, 10.0), places=()):
     )
 
 
-def _watch_kernel(precision, places):
+def _watch_kernel(precision, places, terrain=False):
     t = types_for(precision)
-    w = make_path_watch(precision, len(SPEEDS), places, True)
+    w = make_path_watch(precision, len(SPEEDS), places, True, terrain)
 
     @wp.kernel
     def watch_parabolas(

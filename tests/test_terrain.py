@@ -241,9 +241,6 @@ def test_terrain_keys_are_checked_in_one_line(tmp_path):
     raw = terrain_scene(good)
     raw["physics"]["gravity"] = [0.0, 0.0, 0.0]
     one_line(raw, "surfaces.1.normal", "is required for a terrain with zero gravity")
-    raw = terrain_scene(good)
-    raw["hazard"] = {"map_surface": 1}
-    one_line(raw, "hazard.map_surface", "not yet the hazard along the path above it")
 
 
 def _first_impacts(raw, tmp_path, name):

@@ -102,11 +102,10 @@ def test_a_terrain_ground_s_refusals_are_one_line(tmp_path):
         raw["hazard"] = hazard
         return raw
 
-    one_line(
-        scene({"map_surface": 0}), "hazard.map_surface", "not yet the hazard along the path above it"
-    )  # (default thresholds)
-    places = {**MAP, "points": [{"name": "path", "position": [50.0, 0.0, 0.0], "area": 1.0}]}
-    one_line(scene(places), "hazard.map_surface", "and no hazard.points")
+    watched = scene_from_dict(scene({"map_surface": 0}))  # (thresholds: the hazard along the path above it)
+    assert watched.hazard.thresholds and watched.surfaces[0].kind == "terrain"
+    places = {**MAP, "points": [{"name": "path", "position": [500.0, 0.0, 0.0], "area": 1.0}]}
+    one_line(scene(places), "hazard.points.0.position", "outside hazard.map_extent")
     one_line(scene(MAP, normal=[0.0, 0.6, 0.8], axis_u=[1.0, 0.0, 0.0]), "surfaces.0.normal", "must be the scene's up")
     one_line(scene({**MAP, "map_axis": [0.0, 1.0, 0.0]}), "hazard.map_axis", "is along the normal")
 

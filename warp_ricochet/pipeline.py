@@ -49,6 +49,7 @@ from .tallies.counts import DeviceTally, TallySetup, TallyTotals
 from .tallies.ensemble import ensemble_of, has_ensemble, per_shot_statistics
 from .tallies.reduce import SEGMENT_WIDTH, lanes_for, launch_reduce, threads_for
 from .tallies.sums import combine, empty_totals, finalize
+from .tallies.terrain_ground import with_terrain
 
 log = logging.getLogger(__name__)  # `warp-ricochet -vv`: a line per chunk
 
@@ -110,7 +111,7 @@ def landing_setup(scene, model, arrays) -> TallySetup:
         launch_speed = float(np.sqrt((np.asarray(arrays["velocity"], dtype=np.float64) ** 2).sum(axis=1)).max(initial=0.0))
     else:
         launch_speed = scene.shot.speed
-    return TallySetup.of(scene, model.mass, model.radius, launch_speed)
+    return with_terrain(TallySetup.of(scene, model.mass, model.radius, launch_speed), scene, model)
 
 
 def landing_tally(scene, model, spec, arrays) -> DeviceTally:

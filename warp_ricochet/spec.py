@@ -55,7 +55,7 @@ class RunSpec:
     pattern (`launch.pattern`), not from the jitter; stations: each shot's start and aim from its
     station (`launch.stations`); thread_pieces: each core thread follows consecutive slots of one
     piece of one shot, so the per-shot partials come from the core's threads (`core.shots`: pair
-    collisions followed to rest)."""
+    collisions followed to rest); terrain_ground: the hazard's ground is a terrain (`tallies.terrain_walk`)."""
 
     precision: str
     bounces: int
@@ -77,6 +77,7 @@ class RunSpec:
     pattern: bool = False
     stations: bool = False
     thread_pieces: bool = False
+    terrain_ground: bool = False
 
     @classmethod
     def of(cls, scene, *, with_output: bool = True) -> RunSpec:
@@ -107,6 +108,7 @@ class RunSpec:
             pattern=scene.shot.pattern is not None,
             stations=bool(scene.stations),
             thread_pieces=_thread_pieces(scene),
+            terrain_ground=scene.hazard is not None and scene.surfaces[scene.hazard.map_surface].kind == "terrain",
         )
 
     @property
@@ -115,12 +117,12 @@ class RunSpec:
         return self.until == "rest"
 
     @property
-    def watch(self) -> tuple[int, int, bool]:
-        """(thresholds, places, map) of the hazard watched along the path (`tallies.path`): a scene
-        with thresholds and its tallies; (0, 0, False) compiles the watch away."""
+    def watch(self) -> tuple[int, int, bool, bool]:
+        """(thresholds, places, map, terrain) of the hazard watched along the path (`tallies.path`):
+        a scene with thresholds and its tallies; (0, 0, False, False) compiles the watch away."""
         if not (self.tally and self.thresholds > 0):
-            return (0, 0, False)
-        return (self.thresholds, self.places, self.hazard_map)
+            return (0, 0, False, False)
+        return (self.thresholds, self.places, self.hazard_map, self.terrain_ground)
 
     @property
     def in_air(self) -> bool:

@@ -72,7 +72,8 @@ class Grid:
 class Hazard:
     """What the hazard along a path is measured against (SI): the shooter, `up` (unit), the hazard's
     plane (point, normal), the body height H, the threshold speeds in scene order, the grid (or
-    None) and the named points ((x, y, z), radius m)."""
+    None), the named points ((x, y, z), radius m) and a terrain on the plane (None, or a callable
+    giving the ground's height above the plane under points: `reference.terrain.TerrainHeight`)."""
 
     shooter: tuple
     up: tuple
@@ -82,6 +83,7 @@ class Hazard:
     speeds: tuple
     grid: Grid | None = None
     points: tuple = ()
+    terrain: object = None
 
     def level(self, speed):
         """The number of thresholds the speed reaches (|v| >= v_i)."""
@@ -207,8 +209,9 @@ class _Measures:
         self.shooter = np.asarray(hazard.shooter, float)
 
     def height(self, x):
-        """m, above the plane along up: (x - p).n / (n.up)."""
-        return (x - self.p) @ self.n / (self.n @ self.up)
+        """m, above the ground along up: (x - p).n / (n.up), less the terrain's height there."""
+        h = (x - self.p) @ self.n / (self.n @ self.up)
+        return h if self.h.terrain is None else h - self.h.terrain(x)
 
     def distance(self, x, origin=None):
         """m, horizontal (perpendicular to up) from `origin` (the shooter)."""

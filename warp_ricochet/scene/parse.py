@@ -211,14 +211,7 @@ def _hazard(raw, surfaces: tuple, shot: Shot):
     elif hazard.site is not None:
         raise err("hazard.site", "(a table)", "needs a map to place: give hazard.map_cell and hazard.map_extent")
     ground = surfaces[hazard.map_surface] if hazard.map_surface < len(surfaces) else None
-    if ground is not None and ground.kind == "terrain" and (hazard.thresholds or hazard.points):
-        raise err(
-            "hazard.map_surface",
-            hazard.map_surface,
-            "is a terrain: its landing map is counted, but not yet the hazard along the path above it "
-            "(docs/hazard.md section 11): give hazard.energy_density = [] and hazard.speed = [] and no hazard.points",
-        )
-    if hazard.points:
+    if hazard.points and not (ground is not None and ground.kind == "terrain"):  # (a terrain's: check_terrain_ground)
         _check_places(hazard, surfaces, shot)
     if ground is not None and not (ground.is_plane or ground.kind == "terrain"):
         raise err(
@@ -266,7 +259,8 @@ def _check_places(hazard: Hazard, surfaces: tuple, shot: Shot) -> None:
 
 def _check_terrain_ground(hazard: Hazard, terrain, shot: Shot, physics) -> None:
     """A terrain as the hazard's ground: its map lies on the horizontal site grid, perpendicular to
-    up = -g/|g|, so the terrain's up (`normal`) must be that up; the map's axis must not be vertical."""
+    up = -g/|g|, so the terrain's up (`normal`) must be that up; the map's axis must not be vertical;
+    named places must lie on the map (their (u, v) on the terrain's base plane)."""
     up = up_of(physics.gravity)
     if up is not None and abs(sum(a * b for a, b in zip(terrain.normal, up)) - 1.0) > PERPENDICULAR:
         raise err(
@@ -277,6 +271,8 @@ def _check_terrain_ground(hazard: Hazard, terrain, shot: Shot, physics) -> None:
         )
     if hazard.has_map:
         _check_map_axis(hazard, terrain.normal, shot)
+    if hazard.points:
+        _check_places(hazard, {hazard.map_surface: terrain}, shot)
 
 
 def _check_map_axis(hazard: Hazard, normal, shot: Shot) -> None:

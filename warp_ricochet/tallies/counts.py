@@ -8,7 +8,7 @@ What is counted, and how, is `tallies.landing`; what the counts mean, docs/hazar
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -48,6 +48,7 @@ class TallySetup:
     ground_point: tuple = (0.0, 0.0, 0.0)  # m, on the hazard's ground plane (the map's surface, else surface 0)
     ground_normal: tuple = (0.0, 0.0, 1.0)  # its normal / (normal . up)
     places: tuple = ()  # ((name, (x, y, z) m, radius m), ...): the named places
+    terrain: object = field(default=None, compare=False, repr=False)  # the ground's `terrain_ground.TerrainGrid`
 
     @property
     def levels(self) -> int:
@@ -318,7 +319,8 @@ class DeviceTally:
         s.ground_point, s.ground_normal = t.vec3(*setup.ground_point), t.vec3(*setup.ground_normal)
         s.place_position = wp.array([p[1] for p in setup.places], dtype=t.vec3, device=device)
         s.place_radius2 = wp.array([p[2] ** 2 for p in setup.places], dtype=t.scalar, device=device)
-        self.places = (s.place_position, s.place_radius2)  # (kept alive with the struct)
+        s.terrain = wp.array(setup.terrain.packed() if setup.terrain is not None else [], dtype=t.scalar, device=device)
+        self.places = (s.place_position, s.place_radius2, s.terrain)  # (kept alive with the struct)
         s.hist_stride, s.copy_mask, s.map_width = sizes["hist"], self.copies - 1, width
         unused = (math.inf,) * (MAX_THRESHOLDS - len(setup.thresholds2))
         s.thresholds2 = fns.Thresholds(*(float(np.dtype(precision).type(v)) for v in setup.thresholds2), *unused)

@@ -105,6 +105,7 @@ def make_landing_tally(precision: str) -> SimpleNamespace:
         place_position: wp.array(dtype=vec3)  # m, the named places
         place_radius2: wp.array(dtype=scalar)  # m^2, their radius squared
         place_counts: wp.array(dtype=wp.int32)  # levels x places, flat: pellets by their highest level there
+        terrain: wp.array(dtype=scalar)  # the hazard's ground as a terrain (`tallies.terrain_walk`; empty: a plane)
 
     @wp.func
     def horizontal_distance(tally: Tally, position: vec3):

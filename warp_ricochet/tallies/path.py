@@ -33,11 +33,13 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from ..physics.ballistic import EPSILON, MAX_FLIGHT_TIME
+from ..physics.ballistic import EPSILON
 from ..physics.integrate import make_dense_output
 from ..physics.types import types_for
 from .bins import BINS, make_bin_of
 from .landing import copy_of, count_one, make_landing_tally
+from .path_roots import make_path_roots
+from .terrain_walk import make_terrain_walk
 
 NONE = -1  # the cell of a pellet above body height (no pass under way)
 NO_REACH = -1.0  # a reach not yet found (reported as NaN)
@@ -411,139 +413,7 @@ def make_path_curve(precision: str, thresholds: int, points: int, with_map: bool
             track = enter_pq(track, tally, swap, ip, iq, level_at(lo, hi, lam))
         return track
 
-    return SimpleNamespace(curve=curve)
-
-
-@functools.cache
-def make_path_roots(precision: str) -> SimpleNamespace:
-    """On a segment's Hermite quintic: the height over body height and its rate, v^2, and where
-    they cross (bisection, to rounding)."""
-    t = types_for(precision)
-    scalar, vec3 = t.scalar, t.vec3
-    Tally = make_landing_tally(precision).Tally
-    hermite_vec = make_dense_output(precision).hermite_vec
-    ITERATIONS = 30 if precision == "float32" else 60
-    ZERO = scalar(0.0)
-
-    @wp.func
-    def height(tally: Tally, x: vec3):
-        """m: how far the centre at x is above body height (<= 0: within it)."""
-        return wp.dot(x - tally.ground_point, tally.ground_normal) - tally.body_height
-
-    @wp.func
-    def speed2_at(theta: scalar, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3, inv_h2: scalar):
-        _x, slope = hermite_vec(theta, x0, d0, e0, x1, d1, e1)
-        return wp.dot(slope, slope) * inv_h2
-
-    @wp.func
-    def height_at(tally: Tally, theta: scalar, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3):
-        x, slope = hermite_vec(theta, x0, d0, e0, x1, d1, e1)
-        return height(tally, x), wp.dot(slope, tally.ground_normal)
-
-    @wp.func
-    def height_root(
-        tally: Tally, a: scalar, b: scalar, rising: wp.int32, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3
-    ):
-        """Where the height (rising: from <= 0 to > 0; else from > 0 to <= 0) crosses body height on [a, b]."""
-        for _ in range(ITERATIONS):
-            m = scalar(0.5) * (a + b)
-            f, _slope = height_at(tally, m, x0, d0, e0, x1, d1, e1)
-            if (f > ZERO) == (rising != 0):
-                b = m
-            else:
-                a = m
-        return scalar(0.5) * (a + b)
-
-    @wp.func
-    def apex(tally: Tally, a: scalar, b: scalar, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3):
-        """Where the height's rate falls from > 0 to <= 0 on [a, b]."""
-        for _ in range(ITERATIONS):
-            m = scalar(0.5) * (a + b)
-            _f, rate = height_at(tally, m, x0, d0, e0, x1, d1, e1)
-            if rate > ZERO:
-                a = m
-            else:
-                b = m
-        return scalar(0.5) * (a + b)
-
-    @wp.func
-    def speed_root(
-        a: scalar, b: scalar, target: scalar, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3, inv_h2: scalar
-    ):
-        """Where v^2 crosses `target` on [a, b] (taken monotone; above at a or at b)."""
-        above_a = speed2_at(a, x0, d0, e0, x1, d1, e1, inv_h2) >= target
-        for _ in range(ITERATIONS):
-            m = scalar(0.5) * (a + b)
-            if (speed2_at(m, x0, d0, e0, x1, d1, e1, inv_h2) >= target) == above_a:
-                a = m
-            else:
-                b = m
-        if above_a:
-            return a
-        return b
-
-    @wp.func
-    def ground_theta(tally: Tally, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3):
-        """On a step that ends below the hazard's ground plane and falling: where an escape's watch
-        stops (docs/hazard.md section 11): its crossing of the plane from above if it starts above
-        it, else its height's apex if it starts rising, else 0 (bisection, to rounding)."""
-        f0, r0 = height_at(tally, ZERO, x0, d0, e0, x1, d1, e1)
-        a = ZERO
-        b = scalar(1.0)
-        if f0 + tally.body_height >= ZERO:
-            for _ in range(ITERATIONS):
-                m = scalar(0.5) * (a + b)
-                f, _rate = height_at(tally, m, x0, d0, e0, x1, d1, e1)
-                if f + tally.body_height >= ZERO:
-                    a = m
-                else:
-                    b = m
-            return a
-        if r0 > ZERO:
-            return apex(tally, a, b, x0, d0, e0, x1, d1, e1)
-        return ZERO
-
-    @wp.func
-    def below(tally: Tally, x: vec3, v: vec3):
-        """Whether the centre is below the hazard's ground plane and not rising: an escaping flight's
-        watch ends there (no person stands below the ground; docs/hazard.md section 11)."""
-        n = tally.ground_normal
-        return wp.dot(x - tally.ground_point, n) < ZERO and wp.dot(v, n) <= ZERO
-
-    @wp.func
-    def escape_time(tally: Tally, x0: vec3, v0: vec3, g: vec3):
-        """s: how long a vacuum flight that meets no surface again is watched, until its centre goes
-        below the hazard's ground plane falling: the later root of its height there, c + b t + a t^2
-        = 0 (a = n.g / 2 < 0; the root in the form without cancellation); a flight never above the
-        plane up to its height's apex (<= 0, none, if falling); one whose gravity does not point
-        into the plane for MAX_FLIGHT_TIME, as long as a contact is looked for."""
-        n = tally.ground_normal
-        c = wp.dot(x0 - tally.ground_point, n)
-        b = wp.dot(v0, n)
-        a = scalar(0.5) * wp.dot(g, n)
-        dt = scalar(MAX_FLIGHT_TIME)
-        if a < ZERO:
-            dt = -b / (scalar(2.0) * a)  # the apex
-            disc = b * b - scalar(4.0) * a * c
-            if disc >= ZERO:
-                root = wp.sqrt(disc)
-                if b >= ZERO:
-                    dt = (b + root) / (scalar(-2.0) * a)
-                else:
-                    dt = scalar(2.0) * c / (root - b)
-        return dt
-
-    return SimpleNamespace(
-        below=below,
-        escape_time=escape_time,
-        height=height,
-        height_at=height_at,
-        speed2_at=speed2_at,
-        height_root=height_root,
-        apex=apex,
-        speed_root=speed_root,
-        ground_theta=ground_theta,
-    )
+    return SimpleNamespace(curve=curve, crossing=crossing)
 
 
 @functools.cache
@@ -568,33 +438,22 @@ def make_path_write(precision: str, thresholds: int, points: int, with_map: bool
 
 
 @functools.cache
-def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool) -> SimpleNamespace:
-    """`Track` (a pellet's watch: reach per threshold in m, its level + 1 at each named place, the
-    cell of the pass under way) and the functions that update it: `start`, `segment`, `line`,
-    `finish`. With no thresholds the functions do nothing (compiled away)."""
+def make_path_span(precision: str, thresholds: int, points: int, with_map: bool) -> SimpleNamespace:
+    """`span(track, tally, gp, gn, start, end, rate, x0, d0, e0, x1, d1, e1, inv_h2)`: watch [start,
+    end] of a segment over the ground plane (gp, gn), in parts (`part`); `farther` (a reach at
+    least a point's distance)."""
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
     cells = make_path_cells(precision, thresholds, points, with_map)
-    Track, Tally, Reach, chord, flush = cells.Track, cells.Tally, cells.Reach, cells.chord, cells.flush
+    Track, Tally, Reach = cells.Track, cells.Tally, cells.Reach
     near_places, curve = cells.near_places, make_path_curve(precision, thresholds, points, with_map).curve
     MAP = with_map
     hermite_vec = make_dense_output(precision).hermite_vec
     horizontal_distance = make_landing_tally(precision).horizontal_distance
     r = make_path_roots(precision)
-    height, height_at, speed2_at, height_root = r.height, r.height_at, r.speed2_at, r.height_root
-    apex, speed_root = r.apex, r.speed_root
-    bin_of = make_bin_of()
-    K, P, ON, HAS_POINTS = max(thresholds, 1), max(points, 1), thresholds > 0, points > 0
+    height_at, speed2_at, height_root, apex, speed_root = r.height_at, r.speed2_at, r.height_root, r.apex, r.speed_root
+    HAS_POINTS = points > 0
     ZERO, ONE = scalar(0.0), scalar(1.0)
-
-    @wp.func
-    def start():
-        track = Track()
-        for i in range(wp.static(K)):
-            track.reach[i] = scalar(NO_REACH)
-        track.cell = wp.int32(NONE)
-        track.run_row = wp.int32(NONE)
-        return track
 
     @wp.func
     def farther(track: Track, tally: Tally, i: wp.int32, x: vec3):
@@ -606,6 +465,8 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
     def part(
         track: Track,
         tally: Tally,
+        gp: vec3,
+        gn: vec3,
         a: scalar,
         b: scalar,
         x0: vec3,
@@ -616,9 +477,9 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
         e1: vec3,
         inv_h2: scalar,
     ):
-        """One part [a, b] of a segment (height and speed monotone on it)."""
-        fa, _ra = height_at(tally, a, x0, d0, e0, x1, d1, e1)
-        fb, _rb = height_at(tally, b, x0, d0, e0, x1, d1, e1)
+        """One part [a, b] of a segment (height over the plane (gp, gn) and speed monotone on it)."""
+        fa, _ra = height_at(tally, gp, gn, a, x0, d0, e0, x1, d1, e1)
+        fb, _rb = height_at(tally, gp, gn, b, x0, d0, e0, x1, d1, e1)
         if fa > ZERO and fb > ZERO:
             track.cell = wp.int32(NONE)
             return track
@@ -626,9 +487,9 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
         hi_t = b
         if fa > ZERO:
             track.cell = wp.int32(NONE)  # a pass begins here
-            lo_t = height_root(tally, a, b, wp.int32(0), x0, d0, e0, x1, d1, e1)
+            lo_t = height_root(tally, gp, gn, a, b, wp.int32(0), x0, d0, e0, x1, d1, e1)
         if fb > ZERO:
-            hi_t = height_root(tally, a, b, wp.int32(1), x0, d0, e0, x1, d1, e1)
+            hi_t = height_root(tally, gp, gn, a, b, wp.int32(1), x0, d0, e0, x1, d1, e1)
         xa, _sa = hermite_vec(lo_t, x0, d0, e0, x1, d1, e1)
         xb, _sb = hermite_vec(hi_t, x0, d0, e0, x1, d1, e1)
         va = speed2_at(lo_t, x0, d0, e0, x1, d1, e1, inv_h2)
@@ -669,56 +530,152 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
         return track
 
     @wp.func
-    def turns(tally: Tally, theta_end: scalar, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3):
+    def turns(tally: Tally, theta_end: scalar, rate: vec3, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3):
         """1 if the segment's motion along the map's u or v axis (with a map or places) differs in
-        sign at its ends (it may turn back on [0, theta_end]), else 0."""
+        sign at the start (its slope `rate` there) and at theta_end (it may turn back between), else 0."""
         out = wp.int32(0)
         if wp.static(MAP or HAS_POINTS):
             _x, slope = hermite_vec(theta_end, x0, d0, e0, x1, d1, e1)
-            if wp.dot(d0, tally.map_u_cell) * wp.dot(slope, tally.map_u_cell) <= ZERO:
+            if wp.dot(rate, tally.map_u_cell) * wp.dot(slope, tally.map_u_cell) <= ZERO:
                 out = wp.int32(1)
-            if wp.dot(d0, tally.map_v_cell) * wp.dot(slope, tally.map_v_cell) <= ZERO:
+            if wp.dot(rate, tally.map_v_cell) * wp.dot(slope, tally.map_v_cell) <= ZERO:
                 out = wp.int32(1)
         return out
+
+    @wp.func
+    def span(
+        track: Track,
+        tally: Tally,
+        gp: vec3,
+        gn: vec3,
+        start: scalar,
+        theta_end: scalar,
+        rate: vec3,
+        x0: vec3,
+        d0: vec3,
+        e0: vec3,
+        x1: vec3,
+        d1: vec3,
+        e1: vec3,
+        inv_h2: scalar,
+    ):
+        """Watch [start, theta_end] of a segment over the ground plane (gp, gn) (`rate`: its slope
+        at start): cut at its height's apex, each piece in `tally.path_parts` parts (loops, not
+        unrolled: one copy of the part's code wherever a segment is watched)."""
+        f0, r0 = height_at(tally, gp, gn, start, x0, d0, e0, x1, d1, e1)
+        f1, r1 = height_at(tally, gp, gn, theta_end, x0, d0, e0, x1, d1, e1)
+        crest = r0 > ZERO and r1 <= ZERO  # the height's maximum inside
+        trough = r0 < ZERO and r1 > ZERO  # its minimum inside
+        top = theta_end
+        pieces = wp.int32(1)
+        parts = tally.path_parts
+        if f0 > ZERO and f1 > ZERO and not trough:  # above body height throughout
+            track.cell = wp.int32(NONE)
+            pieces = wp.int32(0)
+        elif f0 <= ZERO and f1 <= ZERO and not crest and turns(tally, theta_end, rate, x0, d0, e0, x1, d1, e1) == 0:
+            parts = wp.int32(1)  # within it throughout, no turn back along the map's axes: one part
+        elif crest:  # an apex inside: two pieces
+            top = apex(tally, gp, gn, start, theta_end, x0, d0, e0, x1, d1, e1)
+            pieces = wp.int32(2)
+        for j in range(pieces * parts):
+            first = start
+            end = top
+            if j >= parts:
+                first = top
+                end = theta_end
+            width = (end - first) / scalar(parts)
+            k = j % parts
+            lo = first + scalar(k) * width
+            hi = lo + width
+            if k == parts - 1:
+                hi = end
+            track = part(track, tally, gp, gn, lo, hi, x0, d0, e0, x1, d1, e1, inv_h2)
+        return track
+
+    return SimpleNamespace(span=span, farther=farther)
+
+
+@functools.cache
+def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool, terrain: bool = False) -> SimpleNamespace:
+    """`Track` (a pellet's watch: reach per threshold in m, its level + 1 at each named place, the
+    cell of the pass under way) and the functions that update it: `start`, `segment`, `line`,
+    `finish`. With no thresholds the functions do nothing (compiled away); `terrain`: the hazard's
+    ground is the terrain in `Tally.terrain` (`tallies.terrain_walk`), not its ground plane."""
+    t = types_for(precision)
+    scalar, vec3 = t.scalar, t.vec3
+    cells = make_path_cells(precision, thresholds, points, with_map)
+    Track, Tally, Reach, chord, flush = cells.Track, cells.Tally, cells.Reach, cells.chord, cells.flush
+    MAP, TERRAIN = with_map, terrain
+    terrain = make_terrain_walk(precision, make_path_curve(precision, thresholds, points, with_map).crossing)
+    hermite_vec = make_dense_output(precision).hermite_vec
+    height = make_path_roots(precision).height
+    spans = make_path_span(precision, thresholds, points, with_map)
+    span, farther = spans.span, spans.farther
+    bin_of = make_bin_of()
+    K, P, ON, HAS_POINTS = max(thresholds, 1), max(points, 1), thresholds > 0, points > 0
+    ZERO, ONE = scalar(0.0), scalar(1.0)
+
+    @wp.func
+    def start():
+        track = Track()
+        for i in range(wp.static(K)):
+            track.reach[i] = scalar(NO_REACH)
+        track.cell = wp.int32(NONE)
+        track.run_row = wp.int32(NONE)
+        return track
+
+    @wp.func
+    def terrain_span(
+        track: Track,
+        tally: Tally,
+        a: scalar,
+        b: scalar,
+        x0: vec3,
+        d0: vec3,
+        e0: vec3,
+        x1: vec3,
+        d1: vec3,
+        e1: vec3,
+        inv_h2: scalar,
+    ):
+        """Watch [a, b] of a segment over the terrain: piece by piece across its triangles
+        (`tallies.terrain_walk`), each over its plane (`span`)."""
+        walk = terrain.begin(tally, a, b, x0, d0, e0, x1, d1, e1)
+        for k in range(walk.budget):
+            walk = terrain.next_piece(tally, walk, b, x0, d0, e0, x1, d1, e1)
+            if k == walk.budget - 1:  # (budget spent, a turning curve: the rest over this plane)
+                walk.end = b
+            _x, rate = hermite_vec(walk.start, x0, d0, e0, x1, d1, e1)
+            track = span(track, tally, walk.gp, walk.gn, walk.start, walk.end, rate, x0, d0, e0, x1, d1, e1, inv_h2)
+            if walk.end >= b:
+                break
+        return track
 
     @wp.func
     def segment(
         track: Track, tally: Tally, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3, h: scalar, theta_end: scalar
     ):
-        """Watch the segment's [0, theta_end] (x, h v, h^2 a at theta 0 and 1; h in s): cut at its
-        height's apex, each piece in `tally.path_parts` parts (loops, not unrolled: one copy of the
-        part's code wherever a segment is watched)."""
+        """Watch the segment's [0, theta_end] (x, h v, h^2 a at theta 0 and 1; h in s): `span` over
+        the ground plane, or over a terrain's triangles (`tallies.terrain_walk`)."""
         if wp.static(ON):
             if h > ZERO and theta_end > ZERO:
                 inv_h2 = ONE / (h * h)
-                f0, r0 = height_at(tally, ZERO, x0, d0, e0, x1, d1, e1)
-                f1, r1 = height_at(tally, theta_end, x0, d0, e0, x1, d1, e1)
-                crest = r0 > ZERO and r1 <= ZERO  # the height's maximum inside
-                trough = r0 < ZERO and r1 > ZERO  # its minimum inside
-                top = theta_end
-                pieces = wp.int32(1)
-                parts = tally.path_parts
-                if f0 > ZERO and f1 > ZERO and not trough:  # above body height throughout
-                    track.cell = wp.int32(NONE)
-                    pieces = wp.int32(0)
-                elif f0 <= ZERO and f1 <= ZERO and not crest and turns(tally, theta_end, x0, d0, e0, x1, d1, e1) == 0:
-                    parts = wp.int32(1)  # within it throughout, no turn back along the map's axes: one part
-                elif crest:  # an apex inside: two pieces
-                    top = apex(tally, ZERO, theta_end, x0, d0, e0, x1, d1, e1)
-                    pieces = wp.int32(2)
-                for j in range(pieces * parts):
-                    start = ZERO
-                    end = top
-                    if j >= parts:
-                        start = top
-                        end = theta_end
-                    width = (end - start) / scalar(parts)
-                    k = j % parts
-                    lo = start + scalar(k) * width
-                    hi = lo + width
-                    if k == parts - 1:
-                        hi = end
-                    track = part(track, tally, lo, hi, x0, d0, e0, x1, d1, e1, inv_h2)
+                if wp.static(TERRAIN):
+                    first, last = terrain.window(tally, theta_end, x0, d0, e0, x1, d1, e1)
+                    for stretch in range(2):  # [0, first], then [last, theta_end]; above body height between
+                        a = ZERO
+                        b = first
+                        if stretch == 1:
+                            a = last
+                            b = theta_end
+                            if first < last:
+                                track.cell = wp.int32(NONE)
+                        if b > a:
+                            track = terrain_span(track, tally, a, b, x0, d0, e0, x1, d1, e1, inv_h2)
+                else:
+                    track = span(
+                        track, tally, tally.ground_point, tally.ground_normal, ZERO, theta_end, d0, x0, d0, e0, x1, d1, e1, inv_h2
+                    )
         return track
 
     @wp.func
@@ -736,7 +693,12 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
         s_i = ln((a + b v0^2) / (a + b v_i^2)) / (2 b)."""
         if wp.static(ON):
             xb = x0 + length * direction
-            if height(tally, x0) > ZERO and height(tally, xb) > ZERO:
+            ha = height(tally, x0)
+            hb = height(tally, xb)
+            if wp.static(TERRAIN):  # (its ends' heights over the terrain below them)
+                ha = terrain.height(tally, x0)
+                hb = terrain.height(tally, xb)
+            if ha > ZERO and hb > ZERO:
                 track.cell = wp.int32(NONE)
                 return track
             lo = Reach()
