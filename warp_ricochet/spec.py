@@ -108,7 +108,7 @@ class RunSpec:
             pattern=scene.shot.pattern is not None,
             stations=bool(scene.stations),
             thread_pieces=_thread_pieces(scene),
-            terrain_ground=scene.hazard is not None and scene.surfaces[scene.hazard.map_surface].kind == "terrain",
+            terrain_ground=scene.terrain_ground,
         )
 
     @property

@@ -377,6 +377,12 @@ class Scene:
         return self.air is not None and not self.air.still
 
     @property
+    def terrain_ground(self) -> bool:
+        """The hazard's ground (`hazard.map_surface`) is a terrain: the hazard is watched above its
+        triangles (`tallies.terrain_ground`)."""
+        return self.hazard is not None and self.surfaces[self.hazard.map_surface].kind == "terrain"
+
+    @property
     def pair_collisions(self) -> bool:
         """Pellets of a shot can meet each other: collisions enabled and more than one pellet per
         shot (the run goes through the dense phase, `pipeline.CollisionStage`)."""

@@ -95,7 +95,7 @@ def with_terrain(setup, scene, model):
     """`setup` (a `counts.TallySetup`) with the TerrainGrid of the hazard's ground when that is a
     terrain watched along the path (`model.meshes`: its placed triangles), else `setup`."""
     hazard = scene.hazard
-    if hazard is None or not setup.path or scene.surfaces[hazard.map_surface].kind != "terrain":
+    if not (setup.path and scene.terrain_ground):
         return setup
     grid = terrain_grid(
         scene.surfaces[hazard.map_surface], model.meshes[hazard.map_surface].vertices, setup.ground_point, setup.up
