@@ -311,8 +311,12 @@ def test_with_collisions_a_sparse_cloud_meets_plates_as_without(tmp_path, precis
     assert (first == 0).sum() > 20 and (first == 1).sum() > 20
     for name, value in off.items():
         np.testing.assert_array_equal(on[name], value, err_msg=name)
-    for key, value in stats_off.items():  # (the first impacts' sums from the release: its normals)
-        assert stats[key] == pytest.approx(value, rel=1e-12, abs=1e-12, nan_ok=True), key
+    # (the first impacts' sums from the release: its normals.) Followed to rest with collisions, a
+    # core thread sums 16 consecutive pellets (`RunSpec.thread_pieces`); the core alone strides its
+    # threads' pellets 4,096 apart: float32's per-thread sums round otherwise (3.5e-8 relative here)
+    rel = 1e-12 if precision == "float64" else 1e-6
+    for key, value in stats_off.items():
+        assert stats[key] == pytest.approx(value, rel=rel, abs=1e-12, nan_ok=True), key
 
 
 @pytest.mark.parametrize(("precision", "bound"), [("float32", 1e-3), ("float64", 1e-5)])
