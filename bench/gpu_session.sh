@@ -126,6 +126,17 @@ if [[ $what == meshes ]]; then  # issue 27: a mesh of the plane beside the plane
   timeout 150 python3 -m bench.meshes plane --device cuda:0 --n 1e8 --repeats 5 2>&1 | quiet | tee "$out/meshes-plane.txt"
   timeout 150 python3 -m bench.meshes box --device cuda:0 --n 1e7 --chunk 1e6 2>&1 | quiet | tee "$out/meshes-box.txt"
 fi
+if [[ $what == edges ]]; then  # issue 27: edge and corner contacts: the box from all sides, near its edges; the plane as a mesh
+  for jitter in 0 1e-5 1e-4; do
+    timeout 150 python3 -m bench.meshes box --device cuda:0 --n 1e7 --chunk 1e6 --jitter $jitter 2>&1 | quiet | tee -a "$out/edges-box.txt"
+  done
+  timeout 150 python3 -m bench.meshes plane --device cuda:0 --n 1e8 --repeats 5 2>&1 | quiet | tee "$out/edges-plane.txt"
+fi
+if [[ $what == cuda-tests ]]; then  # this session's new tests on the GPU (CUDA only)
+  python3 -c "import pytest, scipy; print('pytest', pytest.__version__)" 2>&1 | tee "$out/cuda-tests.txt"
+  WARP_RICOCHET_TEST_DEVICES=cuda:0 timeout 540 python3 -m pytest -q -n 6 -p no:cacheprovider -m "not slow" \
+    tests/test_thread_pieces.py tests/test_dense_ground.py 2>&1 | tail -15 | tee -a "$out/cuda-tests.txt"
+fi
 if [[ $what == dask ]]; then  # issue 29: a run through a one-worker cluster against the direct run (wheels in .whl)
   timeout 300 python3 -m bench.dask overhead --device cuda:0 --study collisions --shots 10000 --air --repeats 3 2>&1 | quiet | tee "$out/dask-collisions.txt"
   timeout 120 python3 -m bench.dask overhead --device cuda:0 --pellets 1e9 --repeats 3 2>&1 | quiet | tee "$out/dask-statistics.txt"
