@@ -20,7 +20,7 @@ from ..physics.air_flight import GAVE_UP
 from ..physics.contact import make_contact
 from ..physics.flight import make_flight
 from ..physics.geometry import make_geometry
-from ..physics.ground import make_ground
+from ..physics.ground_contact import make_ground_contact
 from ..physics.types import types_for
 from ..tallies.accumulate import make_accumulators
 from ..tallies.landing import make_add_landing, make_landing_tally
@@ -69,14 +69,14 @@ def make_ricochet_pellet(spec):
     X_SCALE, flight_scale = acc_fns.flight_scale_index, acc_fns.flight_scale  # the precision rule's statistic
     flight = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws, watch=spec.watch, plates=spec.plates)
     watcher = make_path_watch(spec.precision, *spec.watch)
-    rests, stays, impact, _meet, contact_point, landing_range = make_contact(spec.precision)
-    geo, ground = make_geometry(spec.precision, plates=spec.plates), make_ground(spec.precision)
+    rests, stays, _impact, _meet, contact_point, landing_range = make_contact(spec.precision)
+    geo, ground_contact = make_geometry(spec.precision, plates=spec.plates), make_ground_contact(spec.precision, spec.ground)
     follow, first_normal = make_to_rest(spec) if spec.to_rest else None, make_first_normal(spec.precision, spec.plates)
     RELEASE, WRITE, BOUNCES, AIR = spec.collisions, bool(spec.core_fields), spec.bounces, spec.flight == "air"
     Tally = make_landing_tally(spec.precision).Tally
     landing_tally = make_add_landing(spec.precision, spec.hazard_map, spec.thresholds)
     TALLY, HAZARD_OUT = spec.tally, any(f.startswith("hazard.") for f in spec.core_fields)
-    GROUND, TO_REST, horizontal_distance = spec.ground, spec.to_rest, make_landing_tally(spec.precision).horizontal_distance
+    TO_REST, horizontal_distance = spec.to_rest, make_landing_tally(spec.precision).horizontal_distance
 
     @wp.func
     def ricochet_pellet(
@@ -171,22 +171,19 @@ def make_ricochet_pellet(spec):
                         resting_surface = k
                     else:
                         impacted = 1
-                        material = geo.material(surfaces, k, position)
-                        tilted = normal
-                        if wp.static(GROUND):  # rough ground and the ground's laws (physics.ground)
-                            material, tilted = ground.draw(material, normal, velocity, source.seed, index, impacts)
-                            if ground.embeds(material, velocity, tilted) != 0:
-                                state = wp.int32(EMBEDDED)  # it ends here: its landing if after a ricochet
-                                resting_surface = k
-                                impacted = 0
-                                if impacts == 0:  # at its first impact: it hit, without a ricochet
-                                    acc[F_ENTERED] += scalar(1.0)
+                        material, tilted, enters = ground_contact.drawn(  # rough ground, entry (physics.ground)
+                            geo.material(surfaces, k, position), normal, velocity, source.seed, index, impacts
+                        )
+                        if enters != 0:
+                            state = wp.int32(EMBEDDED)  # it ends here: its landing if after a ricochet
+                            resting_surface = k
+                            impacted = 0
+                            if impacts == 0:  # at its first impact: it hit, without a ricochet
+                                acc[F_ENTERED] += scalar(1.0)
                         if impacted != 0:
-                            velocity_after, spin_after, slipped = impact(material, tilted, velocity, spin, physics)
-                            if wp.static(GROUND):
-                                if material.liquid != 0:  # water: a skip (physics.ground)
-                                    velocity_after, spin_after = ground.skip(material, velocity, tilted, spin)
-                                    slipped = wp.int32(0)
+                            velocity_after, spin_after, slipped = ground_contact.rebound(
+                                material, tilted, velocity, spin, physics
+                            )
                             if wp.static(WRITE):
                                 outs.write_impact(
                                     out, row, b, time, position, velocity, spin, velocity_after, spin_after, slipped, k

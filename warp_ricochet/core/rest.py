@@ -40,6 +40,7 @@ from ..physics.contact import make_contact
 from ..physics.flight import make_flight
 from ..physics.geometry import make_geometry
 from ..physics.ground import make_ground
+from ..physics.ground_contact import make_ground_contact
 from ..physics.integrate import make_stepper
 from ..physics.surface_follow import CONTACT as ENDS_IN_CONTACT
 from ..physics.surface_follow import FLIGHT as LIFTS_OFF
@@ -61,20 +62,21 @@ EVENTS_PER_IMPACT = 4  # a loop's iterations per impact allowed (a guard: contac
 def make_to_rest(spec) -> SimpleNamespace:
     """`start_mode` and `to_rest` of a run spec (its precision, planes, flight model and air laws)."""
     t = types_for(spec.precision)
-    scalar, vec3, Surfaces, Physics, Material = t.scalar, t.vec3, t.Surfaces, t.Physics, t.Material
+    scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
     flight = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws, watch=spec.watch, plates=spec.plates)
     surface = make_surface_follow(
         spec.precision, spec.static_planes, spec.flight, spec.air_laws, watch=spec.watch, plates=spec.plates, rough=spec.rough
     )
     watcher = make_path_watch(spec.precision, *spec.watch)
     Track, Tally = watcher.Track, watcher.Tally
-    rests, _stays, impact, _meet, _point, _range = make_contact(spec.precision)
+    rests = make_contact(spec.precision)[0]
+    ground_contact = make_ground_contact(spec.precision, spec.ground)
     geo, ground, laws = (
         make_geometry(spec.precision, spec.static_planes, plates=spec.plates),
         make_ground(spec.precision),
         make_surface_laws(spec.precision),
     )
-    AIR, GROUND = spec.in_air, spec.ground
+    AIR = spec.in_air
     rates = make_stepper(spec.precision, spec.air_laws).rates if AIR else None
 
     @wp.func
@@ -84,26 +86,6 @@ def make_to_rest(spec) -> SimpleNamespace:
             acceleration, _spin_rate = rates(velocity, spin, physics)
             return acceleration
         return physics.gravity
-
-    @wp.func
-    def bounce(material: Material, normal: vec3, velocity: vec3, spin: vec3, physics: Physics):
-        """The rebound off a surface of `material` and (drawn) `normal`: a skip off a liquid
-        (`ground.skip`), else the impact law; (velocity', spin')."""
-        if wp.static(GROUND):
-            if material.liquid != 0:
-                return ground.skip(material, velocity, normal, spin)
-        velocity_after, spin_after, _slipped = impact(material, normal, velocity, spin, physics)
-        return velocity_after, spin_after
-
-    @wp.func
-    def drawn(material: Material, normal: vec3, velocity: vec3, seed: wp.int32, pellet: wp.int32, impact: wp.int32):
-        """(material, normal, enters): the ground's draw for this impact (`ground.draw`) and whether
-        the pellet enters the ground (`ground.embeds`); a scene without those laws (not
-        `spec.ground`) compiles to its inputs and 0."""
-        if wp.static(GROUND):
-            drawn_material, tilted = ground.draw(material, normal, velocity, seed, pellet, impact)
-            return drawn_material, tilted, ground.embeds(drawn_material, velocity, tilted)
-        return material, normal, wp.int32(0)
 
     @wp.func
     def leaves(velocity: vec3, spin: vec3, normal: vec3, physics: Physics):
@@ -168,12 +150,14 @@ def make_to_rest(spec) -> SimpleNamespace:
                 elif impacts >= physics.max_impacts:
                     end = wp.int32(NOT_FINISHED)
                 else:
-                    material, tilted, enters = drawn(geo.material(surfaces, k, position), normal, velocity, seed, pellet, impacts)
+                    material, tilted, enters = ground_contact.drawn(
+                        geo.material(surfaces, k, position), normal, velocity, seed, pellet, impacts
+                    )
                     impacts += 1
                     if enters != 0:
                         end = wp.int32(EMBEDDED)
                     else:
-                        velocity, spin = bounce(material, tilted, velocity, spin, physics)
+                        velocity, spin, _slipped = ground_contact.rebound(material, tilted, velocity, spin, physics)
                         if leaves(velocity, spin, normal, ground_air) != 0:
                             mode = wp.int32(FLIGHT)
                         elif ground.sinks(material) != 0:

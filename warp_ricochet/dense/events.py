@@ -13,7 +13,7 @@ from types import SimpleNamespace
 import warp as wp
 
 from ..physics.contact import make_contact
-from ..physics.ground import make_ground
+from ..physics.ground_contact import make_ground_contact
 from ..physics.pair import make_pair_law
 from .air import make_dense_air
 from .constants import ENDED, ENTERED
@@ -31,8 +31,8 @@ def make_events(spec) -> SimpleNamespace:
     ballistic_position, ballistic_velocity = kit.ballistic.position, kit.ballistic.velocity
     # within a step: the exact ballistic flight
     next_contact, advance, geo = kit.flight.next_contact, kit.flight.advance, kit.geo
-    rests, stays, impact, meet_surface, contact_point, _range = make_contact(kit.precision, kit.PLATES)
-    ground, GROUND = make_ground(kit.precision), kit.GROUND
+    rests, stays, _impact, meet_surface, contact_point, _range = make_contact(kit.precision, kit.PLATES)
+    ground_contact, GROUND = make_ground_contact(kit.precision, kit.GROUND), kit.GROUND
     pair_law, write_impact = make_pair_law(kit.precision), kit.outputs.write_impact
     fr = make_frame(spec)
     set_reference, mark_stale = fr.set_reference, fr.mark_stale
@@ -47,16 +47,13 @@ def make_events(spec) -> SimpleNamespace:
         normal = geo.normal(surfaces, k, position)
         if rests(velocity, normal):
             return velocity, spin, wp.int32(0), wp.int32(0), wp.int32(0)
-        pellet = cloud.keys[1] + i
-        material, tilted = ground.draw(
-            geo.material(surfaces, k, position), normal, velocity, cloud.keys[0], pellet, cloud.state.impacts[i]
+        pellet, impacts = cloud.keys[1] + i, cloud.state.impacts[i]
+        material, tilted, enters = ground_contact.drawn(
+            geo.material(surfaces, k, position), normal, velocity, cloud.keys[0], pellet, impacts
         )
-        if ground.embeds(material, velocity, tilted) != 0:
+        if enters != 0:
             return velocity, spin, wp.int32(0), wp.int32(ENTERED), wp.int32(0)
-        velocity_after, spin_after, slipped = impact(material, tilted, velocity, spin, physics)
-        if material.liquid != 0:
-            velocity_after, spin_after = ground.skip(material, velocity, tilted, spin)
-            slipped = wp.int32(0)
+        velocity_after, spin_after, slipped = ground_contact.rebound(material, tilted, velocity, spin, physics)
         flies_on = wp.int32(1)
         if stays(velocity_after, normal, wp.dot(velocity, velocity)):
             flies_on = wp.int32(0)
