@@ -37,6 +37,22 @@ def _thread_pieces(scene) -> bool:
 MESHES = 2  # RunSpec.plates when the scene has triangles: the geometry's plate and mesh code
 
 
+def _plates(scene) -> bool | int:
+    """`RunSpec.plates`: False (planes only), True (plates) or MESHES or'ed with what the scene's
+    solids do not need compiled in (`physics.geometry`: NO_POSTS, SMALL, NO_EDGES)."""
+    from .physics.geometry import NO_EDGES, NO_POSTS, SMALL
+    from .physics.mesh_contact import FEW_FACES
+    from .scene.triangles import triangles_of
+
+    solids = [s for s in scene.surfaces if s.is_solid]
+    if not solids:
+        return any(not s.is_plane for s in scene.surfaces)
+    meshes = [s for s in solids if s.kind in ("box", "mesh")]  # (a terrain is large, without edges)
+    small = all(s.kind != "terrain" for s in solids) and all(len(triangles_of(s).triangles) <= FEW_FACES for s in meshes)
+    flags = (0 if any(s.kind == "cylinder" for s in solids) else NO_POSTS) | (SMALL if small else 0)
+    return MESHES | flags | (0 if meshes else NO_EDGES)
+
+
 @dataclass(frozen=True)
 class RunSpec:
     """precision: "float32" or "float64"; bounces: ricochets followed; planes: surfaces in the
@@ -50,7 +66,7 @@ class RunSpec:
     a surface has rough ground or a penetration law (`physics.ground`), applied at every impact;
     rough: a surface has rough ground (a roughness above 0: phases off one line are followed over
     the distance, `physics.surface_line`; else those few go in 3-D); places: the named places of the hazard (`tallies.path`); plates: a surface is a finite plate
-    (`physics.geometry`: its code compiled in only then); MESHES (2): a surface is a box, a mesh or a post
+    (`physics.geometry`: its code compiled in only then); MESHES (2): a surface is a box, a mesh or a post (or'ed with the solids' code left out: `_plates`)
     (`physics.mesh_contact` compiled in too); pattern: the pellets' directions drawn from a choke's
     pattern (`launch.pattern`), not from the jitter; stations: each shot's start and aim from its
     station (`launch.stations`); thread_pieces: each core thread follows consecutive slots of one
@@ -104,7 +120,7 @@ class RunSpec:
             ground=any(_has_ground_laws(surface) for surface in scene.surfaces),
             rough=any(surface.ground("roughness") > 0.0 for surface in scene.surfaces),
             places=0 if scene.hazard is None else len(scene.hazard.points),
-            plates=MESHES if any(s.is_solid for s in scene.surfaces) else any(not s.is_plane for s in scene.surfaces),
+            plates=_plates(scene),
             pattern=scene.shot.pattern is not None,
             stations=bool(scene.stations),
             thread_pieces=_thread_pieces(scene),

@@ -235,7 +235,8 @@ def _post_vacuum(precision: str) -> SimpleNamespace:
         lo = ZERO
         piece = ZERO
         found = scalar(NO_CONTACT)
-        for j in range(3):
+        pieces = wp.int32(3)  # a run-time loop: one copy of its body in the kernel
+        for j in range(pieces):
             top = end
             if j == 0:
                 top = first

@@ -32,12 +32,14 @@ from .types import types_for
 
 
 @functools.cache
-def make_edge_contact(precision: str) -> SimpleNamespace:
-    """`mesh_time` (faces, edges and corners), `features_theta` and `contact_normal` (module docstring)."""
+def make_edge_contact(precision: str, large: bool = True, edges: bool = True) -> SimpleNamespace:
+    """`mesh_time` (faces, edges and corners), `features_theta` and `contact_normal` (module
+    docstring). `large` False: every mesh has at most FEW_FACES triangles (no BVH queries compiled
+    in); `edges` False: no mesh owns edges or corners (their tests compiled out)."""
     t = types_for(precision)
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
     ZERO, ONE, TWO = scalar(0.0), scalar(1.0), scalar(2.0)
-    mc, posts = make_mesh_contact(precision), make_cylinder_contact(precision)
+    mc, posts = make_mesh_contact(precision, large), make_cylinder_contact(precision)
     side_time, line_theta, l1, earlier = posts.side_time, posts.line_theta, mc.l1, mc.earlier
     position = make_ballistic(precision).position
     EDGE, TOLERANCE = scalar(EDGE_ROUNDING * EPSILON[precision]), scalar(ROUNDING * EPSILON[precision])
@@ -119,37 +121,30 @@ def make_edge_contact(precision: str) -> SimpleNamespace:
         near = radius + scalar(0.125) * wp.length(g) * (stop - start) * (stop - start)  # (rounding: the
         near += EDGE * (l1(c0) + l1(c1) + radius + scalar(2.0) * (l1(mesh_low) + l1(mesh_high)))  # mesh's scale)
         low, high = wp.min(c0, c1), wp.max(c0, c1)
-        for j in range(3):
-            if edges[j] >= 0:
-                p, q = ends(surfaces, edges[j])
+        features = wp.int32(6)  # a run-time loop (edges 0-2, corners 3-5): one copy of the quartic
+        for j in range(features):
+            index = wp.int32(-1)
+            p = vec3()
+            q = vec3()
+            if j < 3:
+                index = edges[j]
+                if index >= 0:
+                    p, q = ends(surfaces, index)
+            else:
+                index = corners[j - 3]
+                if index >= 0:
+                    p = surfaces.corner_points[index]
+                    q = p
+            if index >= 0:
                 if not apart(p, q, low, high, near) and segment_gap(p, q, c0, c1) <= near:
                     length = wp.length(q - p)
-                    slack = EDGE * (l1(x - p) + l1(p) + length)
-                    best = earlier(best, side_time(x - p, v, g, (q - p) / length, radius, ZERO, length, slack))
-            if corners[j] >= 0:
-                c = surfaces.corner_points[corners[j]]
-                if not apart(c, c, low, high, near) and segment_gap(c, c, c0, c1) <= near:
-                    best = earlier(best, side_time(x - c, v, g, vec3(), radius, ZERO, ZERO, EDGE * (l1(x - c) + l1(c))))
+                    axis = vec3()  # a corner: a post of zero axis
+                    slack = EDGE * (l1(x - p) + l1(p))
+                    if j < 3:
+                        axis = (q - p) / length
+                        slack = EDGE * (l1(x - p) + l1(p) + length)
+                    best = earlier(best, side_time(x - p, v, g, axis, radius, ZERO, length, slack))
         return best
-
-    @wp.func
-    def face_time(
-        surfaces: Surfaces,
-        k: wp.int32,
-        face: wp.int32,
-        x: vec3,
-        v: vec3,
-        g: vec3,
-        radius: scalar,
-        start: scalar,
-        stop: scalar,
-    ):
-        """The earlier of triangle `face` (`mesh_contact`) and its edges and corners met before it
-        (in [start, stop] s: `features_time`); ties: the face."""
-        best = mc.triangle_time(surfaces, k, face, x, v, g, radius)
-        if best >= ZERO:
-            stop = wp.min(stop, best)
-        return earlier(best, features_time(surfaces, k, face, x, v, g, radius, start, stop))
 
     @wp.func
     def features_theta(
@@ -213,17 +208,17 @@ def make_edge_contact(precision: str) -> SimpleNamespace:
     def contact_normal(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, radius: scalar):
         """The unit normal of a contact with mesh k at centre x, velocity v (module docstring)."""
         n, over = mc.touched(surfaces, k, x, v, radius)
-        if over:
+        if over or not wp.static(edges):
             return n
         mesh, low, high = mc.bounds(surfaces, k)
         grow = radius + scalar(FLOAT32_SLACK) * (l1(low) + l1(high) + l1(x)) + TOLERANCE * radius
         found = grow
         radial = vec3()
         faces = mc.faces(surfaces, k)
-        if faces <= FEW_FACES:
+        if faces <= FEW_FACES or not wp.static(large):
             for face in range(faces):
                 found, radial = nearest(surfaces, k, face, x, found, radial)
-        else:
+        elif wp.static(large):
             query = wp.mesh_query_aabb(mesh, mc.single(x - vec3(grow, grow, grow)), mc.single(x + vec3(grow, grow, grow)))
             face = wp.int32(0)
             while wp.mesh_query_aabb_next(query, face):
@@ -232,5 +227,5 @@ def make_edge_contact(precision: str) -> SimpleNamespace:
             return radial
         return n
 
-    mesh_time = make_mesh_search(precision, face_time).mesh_time
+    mesh_time = make_mesh_search(precision, mc.triangle_time, features_time if edges else None, large).mesh_time
     return SimpleNamespace(mesh_time=mesh_time, features_theta=features_theta, contact_normal=contact_normal)

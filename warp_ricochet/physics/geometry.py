@@ -57,16 +57,21 @@ from .edge_contact import make_edge_contact
 from .mesh_contact import make_mesh_contact, make_mesh_faces
 from .types import KINDS, types_for
 
-MESHES = 2  # `plates` when meshes are compiled in too (spec.MESHES)
+MESHES = 2  # `plates` when meshes are compiled in too (spec.MESHES): all their kinds' code
+# with MESHES, what the scene's solids do not need, left out of the kernels (spec.solids):
+NO_POSTS = 4  # no post (cylinder)
+SMALL = 8  # every mesh has at most mesh_contact.FEW_FACES triangles: no BVH query in its search
+NO_EDGES = 16  # no mesh owns edges or corners (terrain only): no edge or corner contact
 
 
 def make_geometry(precision: str, planes=None, snap: bool = True, plates: bool = False) -> SimpleNamespace:
     """The geometry `@wp.func`s of one precision. `planes`: the number of surfaces when fixed at
     code generation (the search over them unrolled), else None; `snap`: the parabola's search takes
     a gap within the touching band as zero (module docstring); `plates`: surfaces may be plates
-    (True), or plates and meshes (MESHES, 2: `physics.mesh_contact`).
+    (True), or plates and meshes (MESHES, 2: `physics.mesh_contact`; or'ed with NO_POSTS, SMALL and
+    NO_EDGES to leave out what the scene does not need).
     One cached set per value of the four, however they are passed."""
-    return _make_geometry(precision, planes, bool(snap), min(int(plates), MESHES))
+    return _make_geometry(precision, planes, bool(snap), int(plates))
 
 
 @functools.cache
@@ -76,7 +81,7 @@ def _make_geometry(precision: str, planes, snap: bool, plates: int) -> SimpleNam
     ballistic = make_ballistic(precision)
     entry_time, return_time, _position = ballistic.entry_time, ballistic.return_time, ballistic.position
     STATIC_PLANES, SNAP, PLATES, WITH_MESHES = planes, snap, plates > 0, plates >= MESHES
-    RECTANGLE, MESH, solids = KINDS["rectangle"], KINDS["mesh"], _solids(precision)
+    RECTANGLE, MESH, solids = KINDS["rectangle"], KINDS["mesh"], _solids(precision, *_needs(plates))
     TOLERANCE = scalar(ROUNDING * EPSILON[precision])
     LATEST = scalar(MAX_FLIGHT_TIME)
 
@@ -293,7 +298,7 @@ def _make_geometry(precision: str, planes, snap: bool, plates: int) -> SimpleNam
         reach=reach,
         count=count,
         normal=normal,
-        contact_normal=_contact_normal(precision, normal, WITH_MESHES),
+        contact_normal=_contact_normal(precision, normal, WITH_MESHES, *_needs(plates)[1:]),
         locate=locate,
         gap=gap,
         material=material,
@@ -303,14 +308,20 @@ def _make_geometry(precision: str, planes, snap: bool, plates: int) -> SimpleNam
     )
 
 
+def _needs(plates: int) -> tuple:
+    """(posts, large meshes, edges): the solids' code a kernel of `plates` compiles in."""
+    return not plates & NO_POSTS, not plates & SMALL, not plates & NO_EDGES
+
+
 @functools.cache
-def _solids(precision: str) -> SimpleNamespace:
+def _solids(precision: str, with_posts: bool = True, large: bool = True, edges: bool = True) -> SimpleNamespace:
     """`time(surfaces, k, x, v, g, R)` and `normal(surfaces, k, x)` of a mesh or a post k
-    (`physics.mesh_contact`, `physics.cylinder_contact`)."""
+    (`physics.mesh_contact`, `physics.cylinder_contact`); posts, large meshes' BVH queries and
+    edges compiled in only as asked (`_needs`)."""
     t = types_for(precision)
     Surfaces, vec3, scalar = t.Surfaces, t.vec3, t.scalar
     meshes, posts, mesh_normal = (
-        make_edge_contact(precision),
+        make_edge_contact(precision, large, edges),
         make_cylinder_contact(precision),
         make_mesh_contact(precision).mesh_normal,
     )
@@ -318,28 +329,30 @@ def _solids(precision: str) -> SimpleNamespace:
     @wp.func
     def solid_time(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, g: vec3, radius: scalar):
         """When the parabola of eq. (36) meets mesh or post k, or NO_CONTACT."""
-        if posts.is_post(surfaces, k):
-            return posts.post_time(surfaces, k, x, v, g, radius)
+        if wp.static(with_posts):
+            if posts.is_post(surfaces, k):
+                return posts.post_time(surfaces, k, x, v, g, radius)
         return meshes.mesh_time(surfaces, k, x, v, g, radius)
 
     @wp.func
     def solid_normal(surfaces: Surfaces, k: wp.int32, x: vec3):
         """The unit normal of mesh or post k at the point nearest x."""
-        if posts.is_post(surfaces, k):
-            return posts.post_normal(surfaces, k, x)
+        if wp.static(with_posts):
+            if posts.is_post(surfaces, k):
+                return posts.post_normal(surfaces, k, x)
         return mesh_normal(surfaces, k, x)
 
     return SimpleNamespace(time=solid_time, normal=solid_normal)
 
 
-def _contact_normal(precision: str, normal, with_meshes: bool):
+def _contact_normal(precision: str, normal, with_meshes: bool, large: bool = True, edges: bool = True):
     """`contact_normal(surfaces, k, x, v, radius)`: the unit normal of a contact with surface k at
     centre x, velocity v: `normal`'s; a mesh's: of the triangle touched there that v approaches
     most steeply, or radial from an edge or corner it touches beside every triangle
     (`physics.edge_contact.contact_normal`)."""
     t = types_for(precision)
     Surfaces, vec3, scalar = t.Surfaces, t.vec3, t.scalar
-    MESH, meshes = KINDS["mesh"], make_edge_contact(precision)
+    MESH, meshes = KINDS["mesh"], make_edge_contact(precision, large, edges)
 
     @wp.func(inline=True)
     def contact_normal(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, radius: scalar):

@@ -127,9 +127,10 @@ def make_triangle_basics(precision: str) -> SimpleNamespace:
 
 
 @functools.cache
-def make_mesh_contact(precision: str) -> SimpleNamespace:
+def make_mesh_contact(precision: str, large: bool = True) -> SimpleNamespace:
     """`mesh_time(surfaces, k, x, v, g, R)`, `mesh_normal(surfaces, k, x)` and the helpers the air's
-    search and posts share (`vertices`, `inside`, `l1`, `single`, `descending`) of one precision."""
+    search and posts share (`vertices`, `inside`, `l1`, `single`, `descending`) of one precision.
+    `large` False: every mesh has at most FEW_FACES triangles (`touched` compiles no BVH query)."""
     t = types_for(precision)
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
     ballistic = make_ballistic(precision)
@@ -265,10 +266,10 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
         steepest = scalar(0.0)
         over = wp.bool(False)
         faces = surfaces.mesh_faces[k]
-        if faces <= FEW_FACES:
+        if faces <= FEW_FACES or not wp.static(large):
             for face in range(faces):
                 steepest, best, over = steeper(surfaces, k, face, x, v, slack, grow, fine, steepest, best, over)
-        else:
+        elif wp.static(large):
             query = wp.mesh_query_aabb(surfaces.mesh[k], single(x - vec3(grow, grow, grow)), single(x + vec3(grow, grow, grow)))
             face = wp.int32(0)
             while wp.mesh_query_aabb_next(query, face):
@@ -297,18 +298,21 @@ def make_mesh_contact(precision: str) -> SimpleNamespace:
 
 
 @functools.cache
-def make_mesh_search(precision: str, face_time) -> SimpleNamespace:
-    """`mesh_time(surfaces, k, x, v, g, R)`: the earliest of `face_time(surfaces, k, face, x, v, g, R,
-    start, stop)` (a `@wp.func`: when the parabola meets what triangle `face` holds, or NO_CONTACT;
-    it may skip what it holds that is met only outside [start, stop] s) over the triangles the
-    chords' boxes find (their chord's times; a small mesh: every triangle, until the window's end
-    or the earliest contact found before it; module docstring)."""
+def make_mesh_search(precision: str, face_time, features_time=None, large: bool = True) -> SimpleNamespace:
+    """`mesh_time(surfaces, k, x, v, g, R)`: the earliest of `face_time(surfaces, k, face, x, v, g, R)`
+    (a `@wp.func`: when the parabola meets triangle `face`, or NO_CONTACT) and, with
+    `features_time(surfaces, k, face, x, v, g, R, start, stop)` (what else the triangle owns, met
+    in [start, stop] s, else NO_CONTACT), of that, over the triangles the chords' boxes find (their
+    chord's times) or, for a small mesh, every triangle: its faces first, then their features
+    until the earliest face contact (at equal times the face; module docstring). `large` False:
+    every mesh is small (no chords' BVH queries compiled in)."""
     t = types_for(precision)
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
     position = make_ballistic(precision).position
     LATEST = scalar(MAX_FLIGHT_TIME)
-    mc = make_mesh_contact(precision)
+    mc = make_mesh_contact(precision, large)
     single, l1, earlier, window = mc.single, mc.l1, mc.earlier, mc.window
+    FEATURES = features_time is not None
 
     @wp.func
     def near(low: vec3, high: vec3, grow: scalar, x: vec3, v: vec3, g: vec3, end: scalar):
@@ -337,23 +341,11 @@ def make_mesh_search(precision: str, face_time) -> SimpleNamespace:
         return start, stop
 
     @wp.func
-    def mesh_time(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, g: vec3, radius: scalar):
-        """Time (s) until the parabola of eq. (36) meets mesh k, or NO_CONTACT: its chords' boxes
-        queried in time order (module docstring), each candidate triangle by `face_time`."""
+    def chords_time(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, g: vec3, radius: scalar, end: scalar, slack: scalar):
+        """`mesh_time` of a mesh of more than FEW_FACES triangles: its chords' boxes queried in time
+        order over the window [0, end] s (module docstring)."""
         low, high = surfaces.mesh_low[k], surfaces.mesh_high[k]
-        slack = scalar(FLOAT32_SLACK) * (l1(low) + l1(high) + scalar(1.0e-30))
-        end = window(surfaces, k, x, v, g, radius + slack)
         best = scalar(NO_CONTACT)
-        if end <= scalar(0.0):
-            return best
-        faces = surfaces.mesh_faces[k]
-        if faces <= FEW_FACES:
-            after, until = near(low, high, radius + slack, x, v, g, end)
-            for face in range(faces):
-                if best >= scalar(0.0):
-                    until = wp.min(best, until)
-                best = earlier(best, face_time(surfaces, k, face, x, v, g, radius, after, until))
-            return wp.where(best > LATEST, scalar(NO_CONTACT), best)
         gravity = wp.length(g)
         span = wp.length(v) * end + scalar(0.5) * gravity * end * end  # >= the arc: CHORD_EDGES edges a chord ...
         wanted = span / (scalar(CHORD_EDGES) * wp.max(surfaces.mesh_edge[k], radius))
@@ -374,13 +366,41 @@ def make_mesh_search(precision: str, face_time) -> SimpleNamespace:
             b = b + vec3(spread, spread, spread)
             query = wp.mesh_query_aabb(surfaces.mesh[k], single(a), single(b))
             while wp.mesh_query_aabb_next(query, face):
-                best = earlier(best, face_time(surfaces, k, face, x, v, g, radius, h * scalar(i), h * scalar(i + 1)))
+                when = face_time(surfaces, k, face, x, v, g, radius)
+                if wp.static(FEATURES):  # what it owns, met before it within this chord
+                    until = h * scalar(i + 1)
+                    if when >= scalar(0.0):
+                        until = wp.min(until, when)
+                    when = earlier(when, features_time(surfaces, k, face, x, v, g, radius, h * scalar(i), until))
+                best = earlier(best, when)
             if best >= scalar(0.0) and best <= h * scalar(i + 1):
                 break
             start = stop
-        if best > LATEST:
-            best = scalar(NO_CONTACT)
         return best
+
+    @wp.func
+    def mesh_time(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, g: vec3, radius: scalar):
+        """Time (s) until the parabola of eq. (36) meets mesh k, or NO_CONTACT (module docstring)."""
+        low, high = surfaces.mesh_low[k], surfaces.mesh_high[k]
+        slack = scalar(FLOAT32_SLACK) * (l1(low) + l1(high) + scalar(1.0e-30))
+        end = window(surfaces, k, x, v, g, radius + slack)
+        best = scalar(NO_CONTACT)
+        if end <= scalar(0.0):
+            return best
+        faces = surfaces.mesh_faces[k]
+        if wp.static(large):
+            if faces > FEW_FACES:
+                best = chords_time(surfaces, k, x, v, g, radius, end, slack)
+                return wp.where(best > LATEST, scalar(NO_CONTACT), best)
+        for face in range(faces):  # a small mesh: every triangle, then what they own
+            best = earlier(best, face_time(surfaces, k, face, x, v, g, radius))
+        if wp.static(FEATURES):
+            after, until = near(low, high, radius + slack, x, v, g, end)
+            if best >= scalar(0.0):
+                until = wp.min(best, until)
+            for face in range(faces):
+                best = earlier(best, features_time(surfaces, k, face, x, v, g, radius, after, until))
+        return wp.where(best > LATEST, scalar(NO_CONTACT), best)
 
     return SimpleNamespace(mesh_time=mesh_time)
 

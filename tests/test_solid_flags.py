@@ -1,0 +1,50 @@
+"""What a scene's solids compile into its kernels (`spec._plates`, `physics.geometry`'s NO_POSTS,
+SMALL and NO_EDGES): only the code they need, and all of it whenever they need it."""
+
+from pathlib import Path
+
+from warp_ricochet.physics.geometry import MESHES, NO_EDGES, NO_POSTS, SMALL, _needs
+from warp_ricochet.scene import scene_from_dict
+from warp_ricochet.spec import RunSpec
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "warp_ricochet" / "examples"
+GROUND = {"point": [0.0, 0.0, 0.0], "normal": [0.0, 0.0, 1.0], "restitution": 0.5, "mu_s": 0.2}
+BOX = {"kind": "box", "point": [5.0, 0.0, 0.5], "normal": [0.0, 0.0, 1.0], "axis_u": [1.0, 0.0, 0.0], "size": [1.0, 1.0, 1.0]}
+POST = {"kind": "cylinder", "point": [10.0, 0.0, 0.0], "normal": [0.0, 0.0, 1.0], "radius": 0.1, "length": 2.0}
+PLATE = {"kind": "rectangle", "point": [5.0, 0.0, 0.0], "normal": [0.0, 0.0, 1.0], "axis_u": [1.0, 0.0, 0.0], "size": [2.0, 2.0]}
+
+
+def _strip(folder: Path, triangles: int) -> str:
+    """An OBJ file of a strip of `triangles` triangles in the plane z = 0 (normals +z)."""
+    columns = triangles // 2 + 1
+    lines = [f"v {i} {j} 0" for i in range(columns) for j in (0, 1)]
+    lines += [f"f {2 * i + 1} {2 * i + 3} {2 * i + 4}\nf {2 * i + 1} {2 * i + 4} {2 * i + 2}" for i in range(columns - 1)]
+    path = folder / f"strip{triangles}.obj"
+    path.write_text("\n".join(lines) + "\n")
+    return str(path)
+
+
+def _plates(surfaces):
+    shot = {"count": 4, "diameter": 0.0025, "density": 7000.0, "speed": 300.0, "direction": [1.0, 0.0, 0.0]}
+    shot |= {"envelope_radius": 0.01, "envelope_center": [0.0, 0.0, 1.0]}
+    raw = {"shot": shot, "surfaces": surfaces, "physics": {"until": "landing", "gravity": [0, 0, -9.81]}}
+    return RunSpec.of(scene_from_dict(raw), with_output=False).plates
+
+
+def test_each_scene_compiles_the_solids_it_has(tmp_path):
+    small, large = _strip(tmp_path, 2), _strip(tmp_path, 40)
+    mesh = {**GROUND, "kind": "mesh", "point": [0.0, 0.0, 0.0]}
+    assert not _plates([GROUND])
+    assert _plates([GROUND, {**PLATE, **{k: GROUND[k] for k in ("restitution", "mu_s")}}]) is True
+    cases = [
+        ([GROUND, {**BOX, "restitution": 0.5, "mu_s": 0.2}], MESHES | NO_POSTS | SMALL),
+        ([GROUND, {**mesh, "file": small}], MESHES | NO_POSTS | SMALL),
+        ([GROUND, {**mesh, "file": large}], MESHES | NO_POSTS),
+        ([GROUND, {**POST, "restitution": 0.5, "mu_s": 0.2}], MESHES | SMALL | NO_EDGES),
+        ([GROUND, {**POST, "restitution": 0.5, "mu_s": 0.2}, {**mesh, "file": large}], MESHES),
+    ]
+    for surfaces, expected in cases:
+        assert _plates(surfaces) == expected, surfaces
+    terrain = {**GROUND, "kind": "terrain", "file": str(EXAMPLES / "terrain" / "trap_field.asc"), "normal": [0.0, 0.0, 1.0]}
+    assert _plates([terrain, GROUND]) == MESHES | NO_POSTS | NO_EDGES
+    assert _needs(MESHES) == (True, True, True)  # MESHES alone: everything, as before the flags
