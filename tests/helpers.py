@@ -13,6 +13,28 @@ import h5py
 import numpy as np
 import pytest
 
+
+def busy_lattice(path):
+    """A pellet file (npz): 20 pellets 10 cm apart fired as the paper's at the ground plane y = 0
+    with topspin (none meets another) and, below the ground (never meeting it), a slow pair that
+    meets 97 ms later: it keeps a collision run's shot in the dense phase, which leaps past its
+    arrival window in air while the 20 fly on (tests/test_air_leaps.py). Returns the scene's
+    tables of it in air (shot, surfaces, physics, air, numerics: float64)."""
+    grid = np.stack(np.meshgrid(np.arange(5) * 0.1, np.arange(4) * 0.1, indexing="ij"), -1).reshape(-1, 2)
+    one = np.ones(len(grid))
+    position = np.concatenate([np.stack([grid[:, 0], one, grid[:, 1]], 1), [[0.2, -0.05, 0.15], [0.2, -0.05, 0.25]]])
+    velocity = np.concatenate([np.stack([290.96 * one, -290.96 * one, 0 * one], 1), [[0.0, 0.0, 0.5], [0.0, 0.0, -0.5]]])
+    spin = np.concatenate([np.stack([0 * one, 0 * one, -3e3 * one], 1), np.zeros((2, 3))])
+    np.savez(path, position=position, velocity=velocity, angular_velocity=spin)
+    return {
+        "shot": {"file": str(path), "diameter": 0.0025, "density": 7000.0},
+        "surfaces": [{"point": [0, 0, 0], "normal": [0, 1, 0], "restitution": 0.01, "mu_s": 0.28, "mu_d": 0.252}],
+        "physics": {"bounces": 1},
+        "air": {},
+        "numerics": {"precision": "float64"},
+    }
+
+
 PAPER_SHOT = {
     "count": 450,
     "diameter": 0.0025,

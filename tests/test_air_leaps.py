@@ -14,6 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import warp_ricochet as wr
+from tests.helpers import busy_lattice
 from warp_ricochet.model import air_struct
 from warp_ricochet.reference import air as ref
 from warp_ricochet.scene import load_scene
@@ -231,18 +232,8 @@ def _busy_lattice(tmp_path, collisions, device, leaps=True):
     """20 pellets 10 cm apart, fired as the paper's at the surface with topspin (none meets
     another), and below the surface (never meeting it) a slow pair that meets 97 ms later: it
     keeps the shot in the dense phase, which leaps past its arrival window while the 20 land."""
-    grid = np.stack(np.meshgrid(np.arange(5) * 0.1, np.arange(4) * 0.1, indexing="ij"), -1).reshape(-1, 2)
-    one = np.ones(len(grid))
-    position = np.concatenate([np.stack([grid[:, 0], one, grid[:, 1]], 1), [[0.2, -0.05, 0.15], [0.2, -0.05, 0.25]]])
-    velocity = np.concatenate([np.stack([290.96 * one, -290.96 * one, 0 * one], 1), [[0.0, 0.0, 0.5], [0.0, 0.0, -0.5]]])
-    spin = np.concatenate([np.stack([0 * one, 0 * one, -3e3 * one], 1), np.zeros((2, 3))])
-    np.savez(tmp_path / "busy.npz", position=position, velocity=velocity, angular_velocity=spin)
     raw = {
-        "shot": {"file": str(tmp_path / "busy.npz"), "diameter": 0.0025, "density": 7000.0},
-        "surfaces": [{"point": [0, 0, 0], "normal": [0, 1, 0], "restitution": 0.01, "mu_s": 0.28, "mu_d": 0.252}],
-        "physics": {"bounces": 1},
-        "air": {},
-        "numerics": {"precision": "float64"},
+        **busy_lattice(tmp_path / "busy.npz"),
         "output": {"fields": ["initial", "landing"]},
         "collisions": {"enabled": collisions, "air_leaps": leaps},
     }

@@ -74,7 +74,7 @@ def test_the_clouds_arrays_are_grouped_by_stage_and_sized_by_pellet_shot_or_bloc
 
     Cloud = make_state("float64")[0]
     groups = {name for name, var in Cloud.vars.items() if isinstance(var.type, type(Cloud))}
-    assert groups == {"state", "collisions", "event", "air", "now", "lists", "written", "frame", "clock"}
+    assert groups == {"state", "collisions", "event", "air", "now", "lists", "written", "frame", "clock", "watch"}
     assert set(Cloud.vars) - groups == {"shot_flags", "flags", "stop", "keys"}
     assert list(Cloud.vars["state"].type.vars) == list(RELEASE_ARRAYS)
     clock = Cloud.vars["clock"].type.vars
@@ -86,6 +86,10 @@ def test_the_clouds_arrays_are_grouped_by_stage_and_sized_by_pellet_shot_or_bloc
     assert cloud.written.release_position.shape == (50,) and cloud.written.release_time.shape == (0,)
     assert arrays == {"release.position": cloud.written.release_position, "collisions.count": cloud.collisions.count}
     assert release_struct("float64", cloud, 25).position.ptr == cloud.state.position.ptr
+    assert cloud.watch.reach.shape == (0, 1) and cloud.watch.ints.shape == (0, 6)  # (no hazard watched)
+    watched, _ = allocate_cloud("float64", "cpu", 50, 2, 25, 3, 7, (), (4, 2))  # (4 thresholds, 2 places)
+    assert watched.watch.reach.shape == (50, 4) and watched.watch.ints.shape == (50, 7)
+    assert release_struct("float64", watched, 25).watch_ints.ptr == watched.watch.ints.ptr
 
 
 def _host_frame(x, v, t, phase, now, g):

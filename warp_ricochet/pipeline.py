@@ -208,10 +208,10 @@ class CollisionStage:
         m = self.model
         shots = rows // self.count
         self.source.load(start, rows)
-        self.dense.run(start, shots, self.source.struct, self.state.outputs, frames=self.frames)
+        self.tally.before_chunk()  # (the dense phase counts into it too: the hazard along the path)
+        self.dense.run(start, shots, self.source.struct, self.state.outputs, frames=self.frames, tally=self.tally.struct)
         interrupts.check()  # (before the core kernel's pass over the chunk)
         slots = shots * self.stride
-        self.tally.before_chunk()
         wp.launch(
             self.kernel,
             dim=threads_for(slots, self.state.lanes),

@@ -25,6 +25,7 @@ from ..physics.types import types_for
 from ..tallies.accumulate import make_accumulators
 from ..tallies.landing import make_add_landing, make_landing_tally
 from ..tallies.path import make_path_watch
+from ..tallies.path_keep import make_path_keep
 from ..tallies.sums import REST as X_REST
 from .outputs import make_outputs
 from .release import ENTERED_GROUND, make_release
@@ -69,6 +70,7 @@ def make_ricochet_pellet(spec):
     X_SCALE, flight_scale = acc_fns.flight_scale_index, acc_fns.flight_scale  # the precision rule's statistic
     flight = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws, watch=spec.watch, plates=spec.plates)
     watcher = make_path_watch(spec.precision, *spec.watch)
+    load_track = make_path_keep(spec.precision, *spec.watch[:3])[0]
     rests, stays, _impact, _meet, contact_point, landing_range = make_contact(spec.precision)
     geo, ground_contact = make_geometry(spec.precision, plates=spec.plates), make_ground_contact(spec.precision, spec.ground)
     follow, first_normal = make_to_rest(spec) if spec.to_rest else None, make_first_normal(spec.precision, spec.plates)
@@ -109,6 +111,8 @@ def make_ricochet_pellet(spec):
         launch_spin = vec3()
         track = watcher.start()  # the hazard along its path (`tallies.path`)
         if wp.static(RELEASE):  # where the dense phase left it (its flight may have ended there)
+            if wp.static(watcher.ON):  # its watch so far: the dense phase's (`dense.watch`)
+                track = load_track(release.watch_reach, release.watch_ints, row)
             position = release.position[row]
             velocity = release.velocity[row]
             spin = release.angular_velocity[row]

@@ -39,11 +39,13 @@ RELEASE_ARRAYS = {
 def make_release(precision: str):
     """The `Release` struct: the arrays above, and `shot_count` pellets per shot laid out in
     `shot_stride` slots each (slot s * stride + k is pellet s * count + k; the rest is padding);
-    `first_pellet` the global index of the chunk's first pellet."""
+    `first_pellet` the global index of the chunk's first pellet; `watch_reach` and `watch_ints`
+    each pellet's hazard watch at the release (`tallies.path_keep`; empty when none is watched)."""
     t = types_for(precision)
     kinds = {"vec3": t.vec3, "scalar": t.scalar, "int32": wp.int32}
     members = {name: wp.array(dtype=kinds[kind]) for name, kind in RELEASE_ARRAYS.items()}
     members.update(shot_count=wp.int32, shot_stride=wp.int32, first_pellet=wp.int32)
+    members.update(watch_reach=wp.array2d(dtype=t.scalar), watch_ints=wp.array2d(dtype=wp.int32))
     return wp.struct(
         type("Release", (), {"__annotations__": members, "__module__": __name__, "__qualname__": f"Release_{precision}"})
     )
@@ -57,4 +59,6 @@ def empty_release(precision: str, device_alias: str):
     release = make_release(precision)()
     for name, kind in RELEASE_ARRAYS.items():
         setattr(release, name, wp.empty(0, dtype=kinds[kind], device=device_alias))
+    release.watch_reach = wp.empty((0, 1), dtype=t.scalar, device=device_alias)
+    release.watch_ints = wp.empty((0, 1), dtype=wp.int32, device=device_alias)
     return release

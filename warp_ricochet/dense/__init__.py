@@ -62,6 +62,7 @@ structs, the Cloud's arrays grouped by the stage that owns them, their allocatio
 shot's co-moving frame, reference states), `events` (plane and pair contacts), `rounds` (finding
 and applying a step's events), `lists` (neighbour lists), `step` (a step; the CPU's block),
 `checkpoint` (a shot's horizon, stop or jump), `leap` (in air, the jump: the pellets flown through
-it), `air` (the air's kicks), `ends` (launch, release, totals), `kernels` (thin
-kernels), `phase` (the host loop), `schedule` (shots onto chunks and threads), `constants`.
+it), `air` (the air's kicks), `ends` (launch, release, totals), `watch` (the hazard along each
+pellet's path, kept from its launch and handed to the core), `kernels` (thin kernels), `phase`
+(the host loop), `schedule` (shots onto chunks and threads), `constants`.
 """

@@ -33,6 +33,7 @@ from ..physics.air import make_air_laws
 from .constants import KICK_STEPS
 from .frame import make_frame
 from .kit import dense_kit
+from .watch import make_dense_watch
 
 
 @functools.cache
@@ -48,6 +49,7 @@ def make_dense_air(spec) -> SimpleNamespace:
     fr = make_frame(spec)
     stepping, set_reference = fr.stepping, fr.set_reference
     LIFT = spec.air_laws[1] is not None
+    watch = make_dense_watch(spec)
 
     @wp.func
     def plane_rate(
@@ -226,6 +228,7 @@ def make_dense_air(spec) -> SimpleNamespace:
         )
         middle = time + scalar(0.5) * scalar(count) * cloud.clock.step[s]
         position, velocity, spin, error = drifted(cloud, i, time, middle, physics)
+        watch.to(cloud, physics, i, position, time)  # (the hazard along its drift)
         cloud.air.time[i] = middle
         cloud.air.kick_due[i] = steps + count
         set_reference(cloud, i, position, velocity, spin, time)

@@ -21,6 +21,7 @@ from .constants import (
 )
 from .frame import make_frame
 from .kit import dense_kit
+from .watch import make_dense_watch
 
 
 @functools.cache
@@ -37,6 +38,7 @@ def make_ends(spec) -> SimpleNamespace:
     air = make_dense_air(spec) if AIR else None  # (its calls compile only in air)
     fr = make_frame(spec)
     set_reference, block_range, drift_point, passing_time = fr.set_reference, fr.block_range, fr.drift_point, fr.passing_time
+    watch = make_dense_watch(spec)
 
     @wp.func
     def launch_pellet(i: wp.int32, first_index: wp.int32, source: Source, cloud: Cloud, out: Outputs):
@@ -51,6 +53,7 @@ def make_ends(spec) -> SimpleNamespace:
         cloud.state.launch_angular_velocity[i] = spin
         cloud.state.time[i] = scalar(0.0)
         cloud.state.phase[i] = FLYING
+        watch.launch(cloud, i)
         cloud.state.end_surface[i] = -1
         cloud.state.touching[i] = -1
         cloud.state.impacts[i] = 0
@@ -172,6 +175,7 @@ def make_ends(spec) -> SimpleNamespace:
             velocity = ballistic_velocity(cloud.state.velocity[i], physics.gravity, age)
             if wp.static(AIR):  # the end of its drift, the air up to now; the core flies on from here
                 position, velocity, spin = air.drift_end(cloud, i, time, time, physics)
+                watch.to(cloud, physics, i, position, time)  # (the hazard along its drift; the core goes on)
                 air.air_until(cloud, i, time)
                 set_reference(cloud, i, position, velocity, spin, time)
                 cloud.state.touching[i] = -1  # (off the plane it left: the core's flight starts from the gap)

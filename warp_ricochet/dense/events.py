@@ -19,6 +19,7 @@ from .air import make_dense_air
 from .constants import ENDED, ENTERED
 from .frame import make_frame
 from .kit import dense_kit
+from .watch import make_dense_watch
 
 
 @functools.cache
@@ -37,6 +38,7 @@ def make_events(spec) -> SimpleNamespace:
     fr = make_frame(spec)
     set_reference, mark_stale = fr.set_reference, fr.mark_stale
     air = make_dense_air(spec) if AIR else None  # (its calls compile only in air)
+    watch = make_dense_watch(spec)
 
     @wp.func
     def meet_ground(
@@ -112,9 +114,11 @@ def make_events(spec) -> SimpleNamespace:
         exactly as the core kernel), or the end of its flight (its contact after `bounces`
         ricochets, or no closing speed). Returns the new reference state and whether it flies on."""
         radius = physics.radius
+        x0, v0, w0, t0 = position, velocity, spin, time
         position, velocity, spin, velocity_after, spin_after, slipped, time, flying, impacted = plane_outcome(
             i, k, wait, position, velocity, spin, time, cloud, surfaces, physics
         )
+        watch.arc(cloud, physics, i, x0, v0, w0, t0, position, time)  # (the hazard along its path to the contact)
         if wp.static(AIR):
             air.air_until(cloud, i, time)
         normal = geo.normal(surfaces, k, position)

@@ -38,6 +38,7 @@ from .constants import (
 from .events import make_events
 from .frame import make_frame
 from .kit import dense_kit
+from .watch import make_dense_watch
 
 
 @functools.cache
@@ -49,7 +50,8 @@ def make_leap(spec) -> SimpleNamespace:
     NEVER, CLOSING_TOLERANCE2, BOUNCES = kit.NEVER, kit.CLOSING_TOLERANCE2, kit.BOUNCES
     TINY_ACCELERATION = scalar(TINY_ACCELERATION_VALUE)
     entry_time, geo, STATIC_PLANES, PLATES = kit.ballistic.entry_time, kit.geo, kit.STATIC_PLANES, kit.PLATES
-    to_contact_within = kit.run_flight.to_contact_within
+    flight_within = make_dense_watch(spec).flight_within  # (the integrated flight, its path watched)
+    watch_to = make_dense_watch(spec).to
     air, ev, fr = make_dense_air(spec), make_events(spec), make_frame(spec)
     contact_time, plane_contact = ev.contact_time, ev.plane_contact
     set_reference = fr.set_reference
@@ -130,6 +132,7 @@ def make_leap(spec) -> SimpleNamespace:
         start = cloud.clock.leap[s]
         end = cloud.clock.time[s]
         position, velocity, spin = air.drift_end(cloud, i, start, start, physics)
+        watch_to(cloud, physics, i, position, start)  # (the hazard along its drift)
         set_reference(cloud, i, position, velocity, spin, start)
         air.air_until(cloud, i, start)
         cloud.state.touching[i] = -1  # (off any plane it left: plane times from the gap)
@@ -138,8 +141,8 @@ def make_leap(spec) -> SimpleNamespace:
         flying = wp.int32(1)
         for _ in range(wp.static(BOUNCES + 1)):
             if flying != 0 and time < end:
-                wait, k, _normal, x, v, w, _steps = to_contact_within(
-                    position, velocity, spin, touching, surfaces, physics, end - time
+                wait, k, _normal, x, v, w, _steps = flight_within(
+                    cloud, i, position, velocity, spin, touching, surfaces, physics, end - time
                 )
                 if k >= 0:
                     time = time + wait

@@ -74,7 +74,15 @@ class DensePhase:
         self.kernels, self.in_air = {**vars(make_setup_kernels(spec)), **vars(make_step_kernels(spec))}, spec.in_air
         shots = -(-capacity // self.count)
         self.cloud, self.field_arrays = allocate_cloud(
-            model.precision, self.device, capacity, shots, self.count, coll.rounds, coll.max_neighbours, spec.collision_fields
+            model.precision,
+            self.device,
+            capacity,
+            shots,
+            self.count,
+            coll.rounds,
+            coll.max_neighbours,
+            spec.collision_fields,
+            spec.watch,
         )
         self.release = release_struct(model.precision, self.cloud, self.count)
         self.totals = wp.zeros((shots, len(SHOT_TOTALS)), dtype=wp.float64, device=self.device)
@@ -103,12 +111,15 @@ class DensePhase:
         self.frame_points = None  # (capacity,) float64 centres of a trajectory frame (take_frame)
         self.stop = self.cloud.stop.numpy() if cpu else None  # (a view: the host sets it, a launch reads it)
 
-    def run(self, first_index: int, shots: int, source, outputs, frames=None):
+    def run(self, first_index: int, shots: int, source, outputs, frames=None, tally=None):
         """Launch `shots` whole shots (global pellet index `first_index` on), step them until no
         pair can touch again, and leave the release state for the core kernel (`self.release`).
-        `frames(step, time, positions)` receives trajectory frames at checkpoints."""
+        `frames(step, time, positions)` receives trajectory frames at checkpoints; `tally`: the
+        run's `Tally` struct, which the hazard along the path counts into (`dense.watch`)."""
         pellets = shots * self.count
         c, p = self.cloud, self.pair
+        if tally is not None:
+            c.watch.tally = tally
         self.shots, self._outputs = shots, outputs
         self.release.first_pellet = first_index
         c.keys.assign(np.array([source.seed, first_index], dtype=np.int32))  # (the ground's draws: dense.events)

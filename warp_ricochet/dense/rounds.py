@@ -15,6 +15,7 @@ from .constants import (
 from .events import make_events
 from .frame import make_frame
 from .kit import dense_kit
+from .watch import make_dense_watch
 
 
 @functools.cache
@@ -30,6 +31,7 @@ def make_rounds(spec) -> SimpleNamespace:
     plane_contacts_until, mark_stale = ev.plane_contacts_until, fr.mark_stale
     stepping, skin_exit, set_reference = fr.stepping, fr.skin_exit, fr.set_reference
     air = make_dense_air(spec) if AIR else None  # (its calls compile only in air)
+    watch = make_dense_watch(spec)
 
     @wp.func(inline=True)
     def choose_pellet(i: wp.int32, look: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
@@ -175,6 +177,8 @@ def make_rounds(spec) -> SimpleNamespace:
             cloud.state.touching[b] = -1
         # (a pair the law does not collide, grazing within rounding, moves its reference states to
         # `when` too: found again from there, it is no longer closing, and the clock moves on)
+        watch.to(cloud, physics, a, xa, when)  # (the hazard along their paths to the contact)
+        watch.to(cloud, physics, b, xb, when)
         set_reference(cloud, a, xa, va2, wa2, when)
         set_reference(cloud, b, xb, vb2, wb2, when)
         if wp.static(AIR):  # (pair_outcome gave them the air up to the contact)

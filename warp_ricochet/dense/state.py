@@ -5,8 +5,9 @@ share beside them: `dense.kit`).
 The Cloud's arrays are grouped by the stage that owns them, one nested struct each: `state` (each
 pellet's reference state and record, handed to the core), `collisions`, `event` (`dense.rounds`),
 `air` (`dense.air`), `now` (`dense.checkpoint`), `lists` (`dense.lists`, the skin), `written` (the
-output fields), `frame` (`dense.frame`) and `clock` (each shot's clock, by name); beside them the
-per-shot and global flags and the host's stop.
+output fields), `frame` (`dense.frame`), `clock` (each shot's clock, by name) and `watch` (each
+pellet's hazard watch and the tally it counts into: `dense.watch`); beside them the per-shot and
+global flags and the host's stop.
 """
 
 import functools
@@ -16,6 +17,8 @@ import warp as wp
 from ..core.release import RELEASE_ARRAYS, make_release
 from ..fields import COLLISION_FIELDS, FIELDS
 from ..physics.types import types_for
+from ..tallies.landing import make_landing_tally
+from ..tallies.path_keep import kept_shapes
 from .constants import FRAME_BLOCK, NUM_FLAGS, NUM_SHOT_FLAGS
 from .schedule import shot_stride
 
@@ -150,6 +153,15 @@ def make_state(precision: str):
         speed: wp.array(dtype=scalar)  # m/s: the mean speed of its flying pellets at its launch (dense.frame)
 
     @wp.struct
+    class Watch:
+        """Each pellet's hazard watch along its path (`tallies.path_keep`: empty when the run
+        watches none) and the run's tally its passes count into (`dense.watch`)."""
+
+        reach: wp.array2d(dtype=scalar)
+        ints: wp.array2d(dtype=wp.int32)
+        tally: make_landing_tally(precision).Tally
+
+    @wp.struct
     class Cloud:
         """The dense phase's arrays, by the stage that owns them (`collisions`)."""
 
@@ -162,6 +174,7 @@ def make_state(precision: str):
         written: Written
         frame: Frame
         clock: Clock
+        watch: Watch
         shot_flags: wp.array2d(dtype=wp.int32)  # (shots, NUM_SHOT_FLAGS)
         flags: wp.array(dtype=wp.int32)  # (NUM_FLAGS,)
         stop: wp.array(dtype=wp.int32)  # (1,) 1: the host asks the CPU's long launches to return (an interrupt)
@@ -206,11 +219,13 @@ def frame_blocks(count: int) -> int:
     return max(1, -(-count // FRAME_BLOCK))  # (FRAME_BLOCK read here: a test sets it smaller)
 
 
-def allocate_cloud(precision: str, device, capacity: int, shots: int, count: int, rounds: int, max_neighbours: int, fields):
+def allocate_cloud(
+    precision: str, device, capacity: int, shots: int, count: int, rounds: int, max_neighbours: int, fields, watch=(0, 0)
+):
     """A Cloud for up to `capacity` pellets in `shots` shots of `count`, with the output arrays of
-    `fields` (others empty); returns it and {field: its device array}. Each group's arrays are
-    one a pellet, a shot (PER_SHOT, SHOT_MEMBERS) or a frame block (PER_BLOCK), but for those
-    sized below."""
+    `fields` (others empty) and the hazard watch of `watch` (`spec.watch`: thresholds, places);
+    returns it and {field: its device array}. Each group's arrays are one a pellet, a shot
+    (PER_SHOT, SHOT_MEMBERS) or a frame block (PER_BLOCK), but for those sized below."""
     Cloud = make_state(precision)[0]
     sizes = {
         ("lists", "neighbours"): (capacity, max_neighbours),
@@ -220,7 +235,7 @@ def allocate_cloud(precision: str, device, capacity: int, shots: int, count: int
     sizes |= {("written", FIELDS[name].member): capacity if name in fields else 0 for name in OUTPUT_FIELDS}
     cloud = Cloud()
     for group, var in Cloud.vars.items():
-        if not isinstance(var.type, type(Cloud)):  # (a group: a nested struct)
+        if not isinstance(var.type, type(Cloud)) or group == "watch":  # (a group: a nested struct)
             continue
         part = var.type()
         for name, member in var.type.vars.items():
@@ -228,6 +243,10 @@ def allocate_cloud(precision: str, device, capacity: int, shots: int, count: int
             size = shots * frame_blocks(count) if group in PER_BLOCK and (group, name) not in SHOT_MEMBERS else size
             setattr(part, name, wp.zeros(sizes.get((group, name), size), dtype=member.type.dtype, device=device))
         setattr(cloud, group, part)
+    cloud.watch = Cloud.vars["watch"].type()  # (its tally: the run's, set by `DensePhase.run`)
+    reach, ints = kept_shapes(capacity, *watch[:2])
+    cloud.watch.reach = wp.zeros(reach, dtype=types_for(precision).scalar, device=device)
+    cloud.watch.ints = wp.zeros(ints, dtype=wp.int32, device=device)
     cloud.shot_flags = wp.zeros((shots, NUM_SHOT_FLAGS), dtype=wp.int32, device=device)
     cloud.flags = wp.zeros(NUM_FLAGS, dtype=wp.int32, device=device)
     cloud.stop = wp.zeros(1, dtype=wp.int32, device=device)
@@ -268,6 +287,7 @@ def release_struct(precision: str, cloud, count: int):
     release = make_release(precision)()
     for name in RELEASE_ARRAYS:
         setattr(release, name, getattr(cloud.state, name))
+    release.watch_reach, release.watch_ints = cloud.watch.reach, cloud.watch.ints
     release.shot_count = count
     release.shot_stride = shot_stride(count)
     return release

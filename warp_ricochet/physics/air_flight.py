@@ -403,7 +403,7 @@ def make_air_flight(precision: str, planes, laws: tuple, watch: tuple = (0, 0, F
     """`to_contact` and `advance` in air (the flight interface of `physics.flight`; the steps a
     `to_contact` took are its sixth value), `to_contact_within` (the flight up to a time) and
     `to_contact_watched` (`to_contact` with each accepted step given to `tallies.path`'s watch of
-    `watch` = (thresholds, places, map))."""
+    `watch` = (thresholds, places, map)); `watched_loop` (`make_flight_loop`'s, watched when `watch` is)."""
     from ..tallies.path import make_path_roots, make_path_watch  # (tallies imports physics: not at the top)
 
     watcher, ground = make_path_watch(precision, *watch), make_path_roots(precision)
@@ -585,5 +585,9 @@ def make_air_flight(precision: str, planes, laws: tuple, watch: tuple = (0, 0, F
         return position, velocity, spin
 
     return SimpleNamespace(
-        to_contact=to_contact, to_contact_within=to_contact_within, advance=advance, to_contact_watched=to_contact_watched
+        to_contact=to_contact,
+        to_contact_within=to_contact_within,
+        advance=advance,
+        to_contact_watched=to_contact_watched,
+        watched_loop=watched_loop,
     )
