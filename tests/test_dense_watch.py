@@ -75,10 +75,10 @@ def _scene(collisions, air=False, wall=False):
     return scene_from_dict(raw)
 
 
-def _run(tmp_path, name, scene, options=None):
-    """Run `scene` to tmp_path/name.h5: {dataset path: its values} of the pellets and the hazard."""
+def _run(tmp_path, name, scene, options=None, device="cpu"):
+    """Run `scene` to tmp_path/name.h5 on `device`: {dataset path: its values} of the pellets and the hazard."""
     path = tmp_path / f"{name}.h5"
-    wr.run(scene, path, device="cpu", dense_options=options)
+    wr.run(scene, path, device=device, dense_options=options)
     found = {}
     with h5py.File(path, "r") as f:
         for group in ("pellets", "hazard"):
@@ -89,9 +89,9 @@ def _run(tmp_path, name, scene, options=None):
 
 
 @pytest.mark.parametrize("air", [False, True], ids=["vacuum", "air"])
-def test_pellets_that_meet_none_watch_as_without_collisions(tmp_path, air):
-    dense = _run(tmp_path, "dense", _scene(True, air))
-    core = _run(tmp_path, "core", _scene(False, air))
+def test_pellets_that_meet_none_watch_as_without_collisions(tmp_path, air, device):
+    dense = _run(tmp_path, "dense", _scene(True, air), device=device)
+    core = _run(tmp_path, "core", _scene(False, air), device=device)
     assert dense["pellets/collisions/count"].sum() == 0
     # the dense phase flies them far: its release is past the first impact (about 43 m out)
     release = np.linalg.norm(dense["pellets/release/position"][:, [0, 2]], axis=1)
@@ -107,9 +107,9 @@ def test_pellets_that_meet_none_watch_as_without_collisions(tmp_path, air):
     assert dense["hazard/map/exposure"].sum() > (3_000 if air else 10_000)
 
 
-def test_a_pellet_thrown_back_inside_the_dense_phase_gets_the_reach_of_its_farthest_point(tmp_path):
-    dense = _run(tmp_path, "dense", _scene(True, wall=True))
-    core = _run(tmp_path, "core", _scene(False, wall=True))
+def test_a_pellet_thrown_back_inside_the_dense_phase_gets_the_reach_of_its_farthest_point(tmp_path, device):
+    dense = _run(tmp_path, "dense", _scene(True, wall=True), device=device)
+    core = _run(tmp_path, "core", _scene(False, wall=True), device=device)
     assert dense["pellets/collisions/count"].sum() == 0
     # every pellet meets the wall first (it is within body height, at 280-300 m/s) and leaves it
     # below 250 m/s, towards the shooter: its "fast" reach is the wall's contact, not the release's
