@@ -259,3 +259,34 @@ def test_a_box_run_is_the_same_bits_in_one_chunk_and_after_a_resume(tmp_path):
     interrupt_after(1, _chunked(CHUNK), tmp_path / "resumed.h5")
     wr.run(_chunked(CHUNK), tmp_path / "resumed.h5", device="cpu", resume=True)
     assert_same_run(tmp_path / "resumed.h5", reference, FIELDS)
+
+
+def test_first_impact_statistics_of_pellets_met_on_a_box_then_the_ground_in_the_dense_phase(tmp_path):
+    """Two pellets hit the box's front face and then the ground while two others, lobbed high, keep
+    the shot in the dense phase: the first impacts' statistics (normal and tangential speeds before
+    and after) are those of the run without collisions. The first impact's normal is kept at that
+    impact: the box's face, not the box's triangle nearest the last impact's point on the ground."""
+    x = [[0.0, 1.0, 0.3], [0.0, 1.0, -0.3], [0.0, 1.0, -5.0], [0.0, 1.0, 5.0]]
+    v = [[60.0, 0.0, 0.0], [60.0, 1.0, 0.0], [0.0, 20.0, 3.0], [1.0, 20.0, -3.0]]
+    np.savez(tmp_path / "four.npz", position=np.array(x), velocity=np.array(v))
+    stats, surfaces = [], []
+    for collisions in (True, False):
+        raw = {
+            "shot": {"file": str(tmp_path / "four.npz"), "diameter": 2 * R, "density": 7000.0},
+            "surfaces": [GROUND, {**BOX, **LOSSY}],
+            "physics": {"until": "landing", "bounces": 3, "impact_duration": 1e-5},
+            "numerics": {"precision": "float64"},
+            "collisions": {"enabled": collisions, "separate": False},
+            "output": {"fields": ["impact.surface", "landing"] + (["release.position"] if collisions else [])},
+        }
+        stats.append(wr.run(scene_from_dict(raw), tmp_path / f"four-{collisions}.h5", device="cpu"))
+        surfaces.append(_read(tmp_path / f"four-{collisions}.h5", ("impact",))["impact/surface"])
+    with h5py.File(tmp_path / "four-True.h5") as f:
+        released = f["pellets/release/position"][:2]
+    assert (released[:, 1] < 0.01).all() and (surfaces[0][:2, :2] == [1, 0]).all()  # box, then ground: in the dense phase
+    np.testing.assert_array_equal(surfaces[0], surfaces[1])
+    assert stats[0]["pair_collisions"] == 0
+    first = [k for k in stats[1] if k.startswith(("pre_", "post_"))]
+    assert len(first) >= 4
+    for k in first:
+        assert stats[0][k] == pytest.approx(stats[1][k], rel=1e-9, abs=1e-9), k

@@ -141,6 +141,7 @@ def make_events(spec) -> SimpleNamespace:
                 cloud.state.first_angular_velocity_before[i] = spin
                 cloud.state.first_velocity_after[i] = velocity_after
                 cloud.state.first_angular_velocity_after[i] = spin_after
+                cloud.state.first_normal[i] = normal
             cloud.state.impacts[i] = impacts + 1
             cloud.state.last_slipped[i] = slipped
             cloud.state.ricochet_point[i] = contact_point(position, radius, normal)
