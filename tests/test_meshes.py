@@ -105,13 +105,10 @@ def test_bad_mesh_keys_are_one_line_errors(tmp_path, surface, key, message):
     assert "\n" not in str(caught.value) and str(caught.value).startswith(key)
 
 
-def test_meshes_refuse_what_they_do_not_model_yet(tmp_path):
+def test_meshes_are_met_until_rest_and_with_collisions(tmp_path):
     box = {"kind": "box", "point": [5, 0, 0], "normal": [0, 0, 1], "axis_u": [1, 0, 0], "size": [1, 1, 1], **MATERIAL}
     assert scene_from_dict(_raw([box], until="rest"), tmp_path).physics.until == "rest"  # (tests/test_mesh_rest.py)
-    with pytest.raises(
-        SceneError, match='^surfaces.0.kind .*must be "plane", "rectangle" or "disc" with pellet-pellet collisions'
-    ):
-        scene_from_dict(_raw([box]) | {"collisions": {"enabled": True}}, tmp_path)
+    assert scene_from_dict(_raw([box]) | {"collisions": {"enabled": True}}, tmp_path).pair_collisions  # (test_dense_solids.py)
 
 
 def _landings(tmp_path, x, v, surfaces, precision="float64", name="run", air=None):

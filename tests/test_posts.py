@@ -285,11 +285,13 @@ def test_bad_post_keys_are_one_line_errors(change, key, message):
 
 
 def test_posts_refuse_what_they_do_not_model_yet():
-    """Motion along a post (`until = "rest"`), the dense phase's collisions, a post as the hazard's ground."""
+    """Motion along a post (`until = "rest"`, also with collisions), a post as the hazard's ground;
+    the dense phase's collisions until landing are met (tests/test_dense_solids.py)."""
     with pytest.raises(SceneError, match='^physics.until .*must be "landing" .*motion along a post'):
         scene_from_dict(_raw([GROUND, POST], until="rest"))
-    with pytest.raises(SceneError, match="^surfaces.1.kind .*with pellet-pellet collisions"):
-        scene_from_dict(_raw([GROUND, POST]) | {"collisions": {"enabled": True}})
+    with pytest.raises(SceneError, match='^physics.until .*must be "landing" .*motion along a post'):
+        scene_from_dict(_raw([GROUND, POST], until="rest") | {"collisions": {"enabled": True}})
+    assert scene_from_dict(_raw([GROUND, POST]) | {"collisions": {"enabled": True}}).pair_collisions
     with pytest.raises(SceneError, match="^hazard.map_surface .*must be a plane"):
         scene_from_dict(_raw([POST, GROUND]) | {"hazard": {"speed": {"fast": 50.0}}})
 

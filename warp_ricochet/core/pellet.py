@@ -37,22 +37,17 @@ from .rest import make_to_rest
 
 
 @functools.cache
-def make_first_normal(precision: str, plates: bool):
+def make_first_normal(precision: str):
     """`first_normal(surfaces, release, row)`: the normal of a released pellet's first impact, the
-    face it closed on (its velocity before against it). A plane's normal is the same anywhere; a
-    two-sided plate's depends on the side, and the contact point kept (`ricochet_point`, the last
-    impact's) lies in its plane, on neither side. A curved surface will need the first point."""
+    dense phase's contact normal there (`geometry.contact_normal`: a plane's, a two-sided plate's
+    face closed on, a mesh's face, edge or corner met, a post's side or cap), kept at that impact:
+    the last impact's point (`ricochet_point`) may lie elsewhere, on another surface."""
     t = types_for(precision)
-    scalar, Surfaces, Release = t.scalar, t.Surfaces, make_release(precision)
-    geo, PLATES = make_geometry(precision, plates=plates), plates
+    Surfaces, Release = t.Surfaces, make_release(precision)
 
     @wp.func(inline=True)
     def first_normal(surfaces: Surfaces, release: Release, row: wp.int32):
-        n = geo.normal(surfaces, release.first_surface[row], release.ricochet_point[row])
-        if wp.static(PLATES):
-            if wp.dot(n, release.first_velocity_before[row]) > scalar(0.0):
-                n = -n
-        return n
+        return release.first_normal[row]
 
     return first_normal
 
@@ -73,7 +68,7 @@ def make_ricochet_pellet(spec):
     load_track = make_path_keep(spec.precision, *spec.watch[:3])[0]
     rests, stays, _impact, _meet, contact_point, landing_range = make_contact(spec.precision)
     geo, ground_contact = make_geometry(spec.precision, plates=spec.plates), make_ground_contact(spec.precision, spec.ground)
-    follow, first_normal = make_to_rest(spec) if spec.to_rest else None, make_first_normal(spec.precision, spec.plates)
+    follow, first_normal = make_to_rest(spec) if spec.to_rest else None, make_first_normal(spec.precision)
     RELEASE, WRITE, BOUNCES, AIR = spec.collisions, bool(spec.core_fields), spec.bounces, spec.flight == "air"
     Tally = make_landing_tally(spec.precision).Tally
     landing_tally = make_add_landing(spec.precision, spec.hazard_map, spec.thresholds)

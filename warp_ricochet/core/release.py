@@ -30,6 +30,7 @@ RELEASE_ARRAYS = {
     "first_angular_velocity_before": "vec3",
     "first_velocity_after": "vec3",
     "first_angular_velocity_after": "vec3",
+    "first_normal": "vec3",  # the first impact's normal (`geometry.contact_normal`: a mesh's face met)
     "launch_velocity": "vec3",
     "launch_angular_velocity": "vec3",
 }

@@ -30,6 +30,7 @@ from types import SimpleNamespace
 import warp as wp
 
 from ..physics.air import make_air_laws
+from ..physics.geometry import MESHES
 from .constants import KICK_STEPS
 from .frame import make_frame
 from .kit import dense_kit
@@ -50,14 +51,20 @@ def make_dense_air(spec) -> SimpleNamespace:
     stepping, set_reference = fr.stepping, fr.set_reference
     LIFT = spec.air_laws[1] is not None
     watch = make_dense_watch(spec)
+    SOLIDS = spec.plates >= MESHES  # meshes and posts (physics.geometry)
 
     @wp.func
     def plane_rate(
         k: wp.int32, position: vec3, velocity: vec3, acceleration: vec3, reach_time: scalar, surfaces: Surfaces, physics: Physics
     ):
         """Plane k's share of air_rate: |a_air.n| / (|v.n| + speed floor) if the pellet can reach
-        the plane within `reach_time` (s), else 0. Planes are one-sided: none behind the centre."""
+        the plane within `reach_time` (s), else 0. Planes are one-sided: none behind the centre.
+        A mesh or a post: its clearance from the centre and its normal at the nearest point."""
         height, _noise, n = geo.locate(surfaces, k, position)
+        if wp.static(SOLIDS):
+            if geo.is_solid(surfaces, k):
+                height = geo.clearance(surfaces, k, position)
+                n = geo.normal(surfaces, k, position)
         if height < scalar(0.0):
             return scalar(0.0)
         speed = wp.length(velocity) + physics.air.speed_floor

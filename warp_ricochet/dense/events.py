@@ -42,11 +42,19 @@ def make_events(spec) -> SimpleNamespace:
 
     @wp.func
     def meet_ground(
-        i: wp.int32, k: wp.int32, position: vec3, velocity: vec3, spin: vec3, cloud: Cloud, surfaces: Surfaces, physics: Physics
+        i: wp.int32,
+        k: wp.int32,
+        position: vec3,
+        velocity: vec3,
+        spin: vec3,
+        normal: vec3,
+        cloud: Cloud,
+        surfaces: Surfaces,
+        physics: Physics,
     ):
-        """`physics.contact.meet_surface` with the ground's laws (module docstring): (velocity',
-        spin', slipped, impacted: 1 an impact, 0 none, ENTERED the pellet entered the ground, flies_on)."""
-        normal = geo.normal(surfaces, k, position)
+        """`physics.contact.meet_surface` with the ground's laws (module docstring), on surface k
+        of unit `normal` there: (velocity', spin', slipped, impacted: 1 an impact, 0 none, ENTERED
+        the pellet entered the ground, flies_on)."""
         if rests(velocity, normal):
             return velocity, spin, wp.int32(0), wp.int32(0), wp.int32(0)
         pellet, impacts = cloud.keys[1] + i, cloud.state.impacts[i]
@@ -76,11 +84,13 @@ def make_events(spec) -> SimpleNamespace:
     ):
         """What plane_contact does to pellet i, without doing it: its position, velocity and spin
         before and after, slipped, the contact time, whether it flies on, whether it is an impact
-        (1; 0 the end of its flight; ENTERED it entered the ground)."""
+        (1; 0 the end of its flight; ENTERED it entered the ground). The contact's normal is the
+        core's (`geometry.contact_normal`: on a mesh the face met, on a post its side or a cap)."""
         position, velocity, spin = advance(position, velocity, spin, wait, physics)
         time = time + wait
         if wp.static(AIR):  # the air up to the contact (dense.air)
             velocity, spin = air.kicked(velocity, spin, time - cloud.air.time[i], physics)
+        normal = geo.contact_normal(surfaces, k, position, velocity, physics.radius)
         flying = wp.int32(1)
         impacted = wp.int32(0)
         velocity_after = velocity
@@ -90,10 +100,12 @@ def make_events(spec) -> SimpleNamespace:
             flying = wp.int32(0)  # the landing after the last ricochet
         elif wp.static(GROUND):
             velocity_after, spin_after, slipped, impacted, flying = meet_ground(
-                i, k, position, velocity, spin, cloud, surfaces, physics
+                i, k, position, velocity, spin, normal, cloud, surfaces, physics
             )
         else:  # an impact, or no closing speed: it stays on the surface (physics.contact)
-            velocity_after, spin_after, slipped, impacted, flying = meet_surface(k, position, velocity, spin, surfaces, physics)
+            velocity_after, spin_after, slipped, impacted, flying = meet_surface(
+                k, position, velocity, spin, normal, surfaces, physics
+            )
         return position, velocity, spin, velocity_after, spin_after, slipped, time, flying, impacted
 
     @wp.func
@@ -121,7 +133,7 @@ def make_events(spec) -> SimpleNamespace:
         watch.arc(cloud, physics, i, x0, v0, w0, t0, position, time)  # (the hazard along its path to the contact)
         if wp.static(AIR):
             air.air_until(cloud, i, time)
-        normal = geo.normal(surfaces, k, position)
+        normal = geo.contact_normal(surfaces, k, position, velocity, radius)  # (as in plane_outcome)
         impacts = cloud.state.impacts[i]
         if impacted == 1:
             if wp.static(WRITE):
@@ -133,6 +145,7 @@ def make_events(spec) -> SimpleNamespace:
                 cloud.state.first_angular_velocity_before[i] = spin
                 cloud.state.first_velocity_after[i] = velocity_after
                 cloud.state.first_angular_velocity_after[i] = spin_after
+                cloud.state.first_normal[i] = normal
             cloud.state.impacts[i] = impacts + 1
             cloud.state.last_slipped[i] = slipped
             cloud.state.ricochet_point[i] = contact_point(position, radius, normal)

@@ -14,7 +14,9 @@ ballistic path from that state by at most A t^2 / 2 in a time t, so
   straight line's closest approach, or the time it comes within 2R + M (M: the shot's half skin),
   up to sqrt(2 M / A), whichever is latest (`pair_leap`);
 - a pellet that may rebound (fewer than `bounces` impacts) cannot meet a plane while its gap under
-  gravity and A towards the plane stays positive (`plane_leap`: physics.ballistic's entry time);
+  gravity and A towards the plane stays positive (`plane_leap`: physics.ballistic's entry time),
+  nor a mesh or a post while it cannot close its clearance to it (`geometry.clearance`) less R at
+  its whole speed under |g| + A;
 - a pellet after its last impact may land in the leap: its flight ends there, as in a step.
 No impact can fall inside a leap by these bounds; one found there anyway (rounding) is applied as
 in a step (`events.plane_contact`). They rest on the drag growing with speed (every drag law of
@@ -27,6 +29,7 @@ from types import SimpleNamespace
 
 import warp as wp
 
+from ..physics.geometry import MESHES
 from .air import make_dense_air
 from .constants import (
     FLYING,
@@ -49,6 +52,7 @@ def make_leap(spec) -> SimpleNamespace:
     Outputs, Cloud, Pair = kit.Outputs, kit.Cloud, kit.Pair
     NEVER, CLOSING_TOLERANCE2, BOUNCES = kit.NEVER, kit.CLOSING_TOLERANCE2, kit.BOUNCES
     TINY_ACCELERATION = scalar(TINY_ACCELERATION_VALUE)
+    SOLIDS = kit.PLATES >= MESHES  # meshes and posts (physics.geometry)
     entry_time, geo, STATIC_PLANES, PLATES = kit.ballistic.entry_time, kit.geo, kit.STATIC_PLANES, kit.PLATES
     flight_within = make_dense_watch(spec).flight_within  # (the integrated flight, its path watched)
     watch_to = make_dense_watch(spec).to
@@ -92,7 +96,17 @@ def make_leap(spec) -> SimpleNamespace:
     def plane_gap_leap(k: wp.int32, position: vec3, velocity: vec3, bound: scalar, surfaces: Surfaces, physics: Physics):
         """How long (s) the pellet cannot meet plane k with up to `bound` (m/s^2) of air towards it.
         A plate is met no sooner than its plane; one behind a one-sided plate may pass beside it
-        to its front and come back onto it, no sooner than its centre rises R in front of it."""
+        to its front and come back onto it, no sooner than its centre rises R in front of it. A
+        mesh or a post no sooner than the pellet closes its clearance less R at its whole speed,
+        under |g| and `bound` towards it."""
+        if wp.static(SOLIDS):
+            if geo.is_solid(surfaces, k):
+                gap = wp.max(geo.clearance(surfaces, k, position) - physics.radius, scalar(0.0))
+                pull = scalar(-0.5) * (wp.length(physics.gravity) + bound)
+                delay = entry_time(gap, -wp.length(velocity), pull)
+                if delay < scalar(0.0):
+                    return NEVER
+                return delay
         height, _noise, n = geo.locate(surfaces, k, position)
         if wp.static(PLATES):
             if height < scalar(0.0) and geo.is_plate(surfaces, k):

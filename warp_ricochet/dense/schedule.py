@@ -34,8 +34,8 @@ def separation_table(count: int) -> int:
 
 def dense_bytes_per_pellet(precision: str, max_neighbours: int) -> int:
     """Bytes per pellet of the dense phase's CUDA arrays (the chunk plan on a GPU), release
-    outputs included: 18 vectors, 10 scalars, 12 integers (the grid's group among them), the
+    outputs included: 19 vectors, 10 scalars, 12 integers (the grid's group among them), the
     neighbour list, the launch separation's chain and cell buckets (5 integers at most), and
     wp.HashGrid's per-point buffers."""
     size = 4 if precision == "float32" else 8
-    return 3 * size * 18 + size * 10 + 4 * (12 + 5 + max_neighbours) + HASH_GRID_BYTES
+    return 3 * size * 19 + size * 10 + 4 * (12 + 5 + max_neighbours) + HASH_GRID_BYTES

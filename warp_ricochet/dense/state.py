@@ -52,6 +52,7 @@ def make_state(precision: str):
         first_angular_velocity_before: wp.array(dtype=vec3)
         first_velocity_after: wp.array(dtype=vec3)
         first_angular_velocity_after: wp.array(dtype=vec3)
+        first_normal: wp.array(dtype=vec3)  # the first impact's (its contact normal)
         launch_velocity: wp.array(dtype=vec3)
         launch_angular_velocity: wp.array(dtype=vec3)
 

@@ -20,8 +20,8 @@ from .types import types_for
 
 def make_contact(precision: str, plates: bool = False):
     """`rests`, `stays`, `impact`, `meet_surface`, `contact_point` and `landing_range` for one
-    precision; `plates`: surfaces may be finite plates (`meet_surface` then turns a two-sided
-    plate's normal towards the pellet, `physics.geometry`). One cached set per value of the two."""
+    precision; `plates`: surfaces may be finite plates (the geometry `meet_surface` reads the
+    material through; its caller gives the normal). One cached set per value of the two."""
     return _make_contact(precision, bool(plates))
 
 
@@ -61,11 +61,10 @@ def _make_contact(precision: str, plates: bool):
         )
 
     @wp.func
-    def meet_surface(k: wp.int32, position: vec3, velocity: vec3, spin: vec3, surfaces: Surfaces, physics: Physics):
-        """A pellet at `position` (m) with `velocity` (m/s) and `spin` (rad/s) meets surface k:
-        returns (velocity', spin', slipped, impacted, flies_on). Not an impact if it rests there
-        (unchanged state)."""
-        normal = geo.normal(surfaces, k, position)
+    def meet_surface(k: wp.int32, position: vec3, velocity: vec3, spin: vec3, normal: vec3, surfaces: Surfaces, physics: Physics):
+        """A pellet at `position` (m) with `velocity` (m/s) and `spin` (rad/s) meets surface k of
+        unit `normal` there (`geometry.contact_normal`: a mesh's is the face met): returns
+        (velocity', spin', slipped, impacted, flies_on). Not an impact if it rests there (unchanged state)."""
         if rests(velocity, normal):
             return velocity, spin, wp.int32(0), wp.int32(0), wp.int32(0)
         velocity_after, spin_after, slipped = impact(geo.material(surfaces, k, position), normal, velocity, spin, physics)

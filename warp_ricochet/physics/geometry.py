@@ -29,8 +29,9 @@ meet a plane early wherever the pellet comes within the band of it (docs/air.md,
 
 Meshes (`plates` MESHES, docs/geometry.md): surfaces of kind mesh (boxes too) and posts (cylinders)
 answer `contact_time` and `normal` (`physics.mesh_contact` with `physics.edge_contact`'s convex edges and
-corners, `physics.cylinder_contact`); the motion along surfaces, the air's search
-and the dense phase, which read `locate`, `gap`, `inside` and `step_gaps`, refuse them (scene.parse).
+corners, `physics.cylinder_contact`), `is_solid` and `clearance` (a lower bound on the distance to
+them: the dense phase's air step and leaps); `locate`, `gap`, `inside` and `step_gaps` read their
+`point` and `normal` only (the motion along triangles, the air's search: `face_gap`, `physics.air_flight`).
 
 Plates (`plates` True, docs/geometry.md): a surface of kind rectangle or disc is the part of its
 plane around its point within half sides along axes u, v = n x u (`inside`: the pellet's centre
@@ -54,7 +55,7 @@ import warp as wp
 from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT, ROUNDING, make_ballistic
 from .cylinder_contact import make_cylinder_contact
 from .edge_contact import make_edge_contact
-from .mesh_contact import make_mesh_contact, make_mesh_faces
+from .mesh_contact import FLOAT32_SLACK, make_mesh_contact, make_mesh_faces, make_triangle_basics
 from .types import KINDS, types_for
 
 MESHES = 2  # `plates` when meshes are compiled in too (spec.MESHES): all their kinds' code
@@ -295,6 +296,8 @@ def _make_geometry(precision: str, planes, snap: bool, plates: int) -> SimpleNam
         side=side,
         inside=inside,
         is_plate=is_plate,
+        is_solid=solids.is_solid,
+        clearance=solids.clearance,
         reach=reach,
         count=count,
         normal=normal,
@@ -315,9 +318,9 @@ def _needs(plates: int) -> tuple:
 
 @functools.cache
 def _solids(precision: str, with_posts: bool = True, large: bool = True, edges: bool = True) -> SimpleNamespace:
-    """`time(surfaces, k, x, v, g, R)` and `normal(surfaces, k, x)` of a mesh or a post k
-    (`physics.mesh_contact`, `physics.cylinder_contact`); posts, large meshes' BVH queries and
-    edges compiled in only as asked (`_needs`)."""
+    """`time(surfaces, k, x, v, g, R)`, `normal(surfaces, k, x)` and `clearance(surfaces, k, x)` of
+    a mesh or a post k (`physics.mesh_contact`, `physics.cylinder_contact`), and `is_solid(surfaces, k)`;
+    posts, large meshes' BVH queries and edges compiled in only as asked (`_needs`)."""
     t = types_for(precision)
     Surfaces, vec3, scalar = t.Surfaces, t.vec3, t.scalar
     meshes, posts, mesh_normal = (
@@ -325,6 +328,12 @@ def _solids(precision: str, with_posts: bool = True, large: bool = True, edges: 
         make_cylinder_contact(precision),
         make_mesh_contact(precision).mesh_normal,
     )
+    basics, MESH = make_triangle_basics(precision), KINDS["mesh"]
+
+    @wp.func(inline=True)
+    def is_solid(surfaces: Surfaces, k: wp.int32):
+        """Whether surface k is a mesh or a post."""
+        return surfaces.kind[k] >= MESH
 
     @wp.func
     def solid_time(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, g: vec3, radius: scalar):
@@ -342,7 +351,31 @@ def _solids(precision: str, with_posts: bool = True, large: bool = True, edges: 
                 return posts.post_normal(surfaces, k, x)
         return mesh_normal(surfaces, k, x)
 
-    return SimpleNamespace(time=solid_time, normal=solid_normal)
+    @wp.func
+    def solid_clearance(surfaces: Surfaces, k: wp.int32, x: vec3):
+        """A lower bound (m) on the distance from x to mesh or post k: to the post's bounding box;
+        to the mesh's point nearest x (the BVH's float32 query, evaluated on the kernel's vertices),
+        less FLOAT32_SLACK of the coordinates' scale (the float32 triangles' rounding)."""
+        zero = scalar(0.0)
+        if wp.static(with_posts):
+            if posts.is_post(surfaces, k):
+                low, high = posts.post_box(surfaces, k)
+                out = vec3(
+                    wp.max(wp.max(low[0] - x[0], x[0] - high[0]), zero),
+                    wp.max(wp.max(low[1] - x[1], x[1] - high[1]), zero),
+                    wp.max(wp.max(low[2] - x[2], x[2] - high[2]), zero),
+                )
+                return wp.length(out)
+        query = wp.mesh_query_point_no_sign(surfaces.mesh[k], basics.single(x), wp.float32(1.0e30))
+        if not query.result:
+            return zero
+        a, b, c = basics.vertices(surfaces, k, query.face)
+        u, v = scalar(query.u), scalar(query.v)
+        nearest = u * a + v * b + (scalar(1.0) - u - v) * c  # (wp.mesh_eval_position's weights)
+        scale = basics.l1(x) + basics.l1(surfaces.mesh_low[k]) + basics.l1(surfaces.mesh_high[k])
+        return wp.max(wp.length(x - nearest) - scalar(FLOAT32_SLACK) * scale, zero)
+
+    return SimpleNamespace(time=solid_time, normal=solid_normal, clearance=solid_clearance, is_solid=is_solid)
 
 
 def _contact_normal(precision: str, normal, with_meshes: bool, large: bool = True, edges: bool = True):

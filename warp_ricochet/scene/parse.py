@@ -365,14 +365,6 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
     pairs = collisions.enabled and shot.count > 1  # as Scene.pair_collisions: the run has a dense phase
     output = _table(raw.get("output"), "output", SCHEMAS["output"])
     planes = tuple(_surface(s, f"surfaces.{i}", base_dir) for i, s in enumerate(surfaces))
-    solid = next((i for i, s in enumerate(planes) if s.is_solid), None)
-    if pairs and solid is not None:
-        raise err(
-            f"surfaces.{solid}.kind",
-            planes[solid].kind,
-            'must be "plane", "rectangle" or "disc" with pellet-pellet collisions (collisions.enabled and '
-            "shot.count > 1): the dense phase meets no triangles or posts",
-        )
     hazard = _hazard(raw.get("hazard"), planes, shot)
     _check_bound(hazard, shot, collisions)
     if hazard is not None and output.get("quantiles") is False:
