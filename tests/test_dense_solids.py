@@ -193,7 +193,7 @@ def _clouds(rng, box, per_shot=120, speed=150.0):
     return np.concatenate(x), np.concatenate(v)
 
 
-def test_dense_clouds_fired_at_a_closed_box_never_end_inside_it(tmp_path):
+def test_dense_clouds_fired_at_a_closed_box_never_end_inside_it(tmp_path, device):
     """Issue 27: five clouds of 120 pellets, with collisions, at a closed box's face, edge and
     vertices from all around: they collide (with each other and the rebounds), no centre is inside
     the box at an impact or the landing, and no impact gains kinetic energy (translation and spin)."""
@@ -209,7 +209,7 @@ def test_dense_clouds_fired_at_a_closed_box_never_end_inside_it(tmp_path):
         "collisions": {"enabled": True},
         "output": {"fields": ["impact", "landing", "collisions.count"]},
     }
-    stats = wr.run(scene_from_dict(raw), tmp_path / "clouds.h5", device="cpu")
+    stats = wr.run(scene_from_dict(raw), tmp_path / "clouds.h5", device=device)
     out = _read(tmp_path / "clouds.h5", ("impact", "landing", "collisions"))
     assert stats["pair_collisions"] > 500 and (out["collisions/count"] > 0).sum() > 300  # (measured 933, 566)
     first = out["impact/surface"][:, 0]

@@ -120,7 +120,9 @@ def test_a_pellet_thrown_back_inside_the_dense_phase_gets_the_reach_of_its_farth
     assert (release < wall_distance - 0.5).all(), release.max()
     fast = list(SPEEDS).index("fast")
     np.testing.assert_allclose(dense["pellets/hazard/reach"][:, fast], wall_distance, rtol=1e-12)
-    np.testing.assert_array_equal(dense["pellets/hazard/reach"], core["pellets/hazard/reach"])
+    # bitwise on the CPU; on CUDA the two kernels' fused multiply-adds differ by an ulp (measured)
+    reach, expected = dense["pellets/hazard/reach"], core["pellets/hazard/reach"]
+    np.testing.assert_allclose(reach, expected, rtol=0 if device == "cpu" else 1e-15, atol=0, equal_nan=True)
     for name in ("hazard/map/exposure", "hazard/map/exposure_outside", "hazard/points/pellets"):
         np.testing.assert_array_equal(dense[name], core[name], err_msg=name)
 
