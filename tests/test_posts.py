@@ -285,9 +285,14 @@ def test_bad_post_keys_are_one_line_errors(change, key, message):
 
 
 def test_posts_refuse_what_they_do_not_model_yet():
-    """Motion along a post (`until = "rest"`), the dense phase's collisions, a post as the hazard's ground."""
-    with pytest.raises(SceneError, match='^physics.until .*must be "landing" .*motion along a post'):
-        scene_from_dict(_raw([GROUND, POST], until="rest"))
+    """A leaning post followed to rest (motion along its side), the dense phase's collisions, a post
+    as the hazard's ground. A post along gravity (either way up) is followed to rest."""
+    leaning = POST | {"normal": [0.0, 0.01, 1.0]}
+    with pytest.raises(SceneError, match='^surfaces.1.normal .*leans 0.57.* degrees .*"rest" a post must stand along'):
+        scene_from_dict(_raw([GROUND, leaning], until="rest"))
+    scene_from_dict(_raw([GROUND, leaning]))  # until landing: met
+    for axis in ([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [0.0, 1e-7, 1.0]):
+        scene_from_dict(_raw([GROUND, POST | {"normal": axis}], until="rest"))
     with pytest.raises(SceneError, match="^surfaces.1.kind .*with pellet-pellet collisions"):
         scene_from_dict(_raw([GROUND, POST]) | {"collisions": {"enabled": True}})
     with pytest.raises(SceneError, match="^hazard.map_surface .*must be a plane"):
