@@ -76,7 +76,7 @@ def test_a_pellet_dropped_on_a_cap_rests_on_it_or_rolls_off_its_rim_where_the_cl
     c g) from the axis, t the fall's time."""
     speeds = np.array([0.06, 0.12, 0.2, 0.6, 0.75, 0.9])
     out = _drops(tmp_path, speeds, precision)
-    tolerance = 1e-9 if precision == "float64" else 2e-5
+    tolerance = 1e-12 if precision == "float64" else 1e-6
     assert (out["rest.state"] == AT_REST).all(), out["rest.state"]
     assert (out["impact.surface"][:, 0] == 0).all()  # the first impact: on the post's cap
     assert (out["rest.position"][:, 2] > L_POST).sum() == 3  # 3 rest on the cap, 3 on the ground
@@ -95,7 +95,7 @@ def test_a_pellet_dropped_on_a_cap_rests_on_it_or_rolls_off_its_rim_where_the_cl
         up = LIFT_OFF * (u + math.sqrt(G * R))  # the lift-off's normal speed (core.rest)
         down = R_POST + u * (up + math.sqrt(up * up + 2.0 * G * L_POST)) / G
         beyond = down + (u * u - REST_SPEED**2) / (2.0 * GROUND_C * G / (1.0 + K))
-        np.testing.assert_allclose(at, [beyond, 0.0, R], atol=100 * tolerance)
+        np.testing.assert_allclose(at, [beyond, 0.0, R], atol=10 * tolerance)
 
 
 def _shot(n=60, seed=3):
@@ -207,3 +207,26 @@ def test_pellets_rolling_into_a_posts_foot_bounce_off_its_side(tmp_path, ground,
     assert (state == AT_REST).all() and np.allclose(at[:, 2], R, atol=1e-9)
     assert (np.hypot(at[:, 0], at[:, 1]) > R_POST).all()
     assert (at[np.abs(y) < R_POST / 2, 0] < 0.0).all()  # on the near side of its axis
+
+
+@pytest.mark.parametrize("air", [False, True])
+def test_pellets_rolling_up_a_slope_into_a_post_bounce_off_it(tmp_path, air):
+    """A post standing on a 10-degree slope (c = 0.5 holds a pellet on it), its base 5 cm under the
+    slope: 30 pellets rolling up at 4 m/s from 0.5 m below it, aimed within r/2 of its axis, start
+    below its base's plane, meet its side (in air: the integrated phase watches the post from the
+    start) and rest below it, none inside it; through it they would rest 1.1 m up the slope."""
+    slope = math.radians(10.0)
+    uphill, normal = np.array([math.cos(slope), 0.0, math.sin(slope)]), np.array([-math.sin(slope), 0.0, math.cos(slope)])
+    n = 30
+    x0 = -0.5 * uphill + np.c_[np.zeros(n), np.linspace(-0.05, 0.05, n), np.zeros(n)] + (R + 1e-5) * normal
+    v0 = np.tile(4.0 * uphill, (n, 1))
+    w0 = np.tile(np.cross(normal, 4.0 * uphill) / R, (n, 1))
+    ground = GROUND | {"normal": normal.tolist(), "restitution": 0.3, "rolling_resistance": 0.5}
+    post = POST | {"point": [0.0, 0.0, -0.05], "restitution": 0.5, "mu_s": 0.3, "mu_d": 0.27}
+    scene = explicit_scene(tmp_path, x0, v0, w0, surfaces=[ground, post], physics=PHYSICS)
+    scene = scene_from_dict({**scene.to_dict(), "output": {"fields": ["rest"]}} | ({"air": AIR} if air else {}))
+    run(scene, tmp_path / "slope.h5", device="cpu", overwrite=True)
+    with h5py.File(tmp_path / "slope.h5") as f:
+        state, at = f["pellets/rest/state"][()], f["pellets/rest/position"][()]
+    assert (state == AT_REST).all() and (at[:, 0] < 0.0).all()
+    assert (np.hypot(at[:, 0], at[:, 1]) > R_POST).all()
