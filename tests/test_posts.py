@@ -321,6 +321,7 @@ def test_the_command_line_refuses_a_flat_post_and_runs_and_reports_a_good_one(tm
     rc, _out, err = cli(["report", out, "--html", tmp_path / "report.html"])
     page = (tmp_path / "report.html").read_text()
     assert rc == 0 and _shape(POST) in page and "posts (closed cylinders" in page, err
+    assert "only those along gravity followed to rest" in " ".join(page.split())
 
 
 def _post_shots(rng, count, post):

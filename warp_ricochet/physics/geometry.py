@@ -29,8 +29,9 @@ meet a plane early wherever the pellet comes within the band of it (docs/air.md,
 
 Meshes (`plates` MESHES, docs/geometry.md): surfaces of kind mesh (boxes too) and posts (cylinders)
 answer `contact_time` and `normal` (`physics.mesh_contact` with `physics.edge_contact`'s convex edges and
-corners, `physics.cylinder_contact`); the motion along surfaces, the air's search
-and the dense phase, which read `locate`, `gap`, `inside` and `step_gaps`, refuse them (scene.parse).
+corners, `physics.cylinder_contact`); the motion along surfaces reads them through `face_gap`,
+`on_face` and `face_reach` (a triangle, or a post's cap: `_faces`); the air's search asks
+`physics.mesh_contact` and `physics.cylinder_contact` itself; the dense phase refuses them (scene.parse).
 
 Plates (`plates` True, docs/geometry.md): a surface of kind rectangle or disc is the part of its
 plane around its point within half sides along axes u, v = n x u (`inside`: the pellet's centre

@@ -122,7 +122,7 @@ class Surface:
 
     @property
     def is_solid(self) -> bool:
-        """Met only until landing, and not by the dense phase: triangles (`is_mesh`) or a post."""
+        """Not met by the dense phase: triangles (`is_mesh`) or a post."""
         return self.is_mesh or self.kind == "cylinder"
 
     def ground(self, key: str) -> float:
