@@ -230,3 +230,27 @@ def test_pellets_rolling_up_a_slope_into_a_post_bounce_off_it(tmp_path, air):
         state, at = f["pellets/rest/state"][()], f["pellets/rest/position"][()]
     assert (state == AT_REST).all() and (at[:, 0] < 0.0).all()
     assert (np.hypot(at[:, 0], at[:, 1]) > R_POST).all()
+
+
+@pytest.mark.parametrize("air", [False, True])
+def test_a_pellet_stopped_at_a_posts_side_falls_along_it_and_rests_at_its_foot(tmp_path, air):
+    """Pellets fired at 20 m/s straight at a post's axis (heights 0.05, 0.5 and 1.1 m) whose side
+    has restitution 0 and no friction: the impact leaves them no speed from the side, they leave
+    it (no load: its axis is along gravity) with the lift-off speed, fall along it (in the time a
+    fall takes) without meeting it again, and rest on the ground touching its foot (rho = r + R, to
+    the lift-off's drift)."""
+    x0 = np.c_[np.full(3, 9.0), np.zeros(3), [0.05, 0.5, 1.1]]
+    v0 = np.tile([20.0, 0.0, 0.0], (3, 1))
+    post = SHOT_POST | {"restitution": 0.0, "mu_s": 0.0, "mu_d": 0.0}
+    scene = explicit_scene(tmp_path, x0, v0, surfaces=[SHOT_GROUND, post], physics=PHYSICS)
+    scene = scene_from_dict({**scene.to_dict(), "output": {"fields": ["rest", "landing"]}} | ({"air": AIR} if air else {}))
+    run(scene, tmp_path / "foot.h5", device="cpu", overwrite=True)
+    with h5py.File(tmp_path / "foot.h5") as f:
+        state, at, impacts = f["pellets/rest/state"][()], f["pellets/rest/position"][()], f["pellets/rest/impacts"][()]
+        time = f["pellets/rest/time"][()]
+    assert (state == AT_REST).all() and (impacts <= 5).all(), impacts
+    fall = (10.0 - R_POST - R - 9.0) / 20.0 + np.sqrt(2.0 * (x0[:, 2] - R) / G)  # s: to the side, then down
+    assert (time >= fall).all(), time - fall  # (moved down at once, they would rest ~0.1 to 0.5 s early)
+    np.testing.assert_allclose(at[:, 2], R, atol=1e-12)
+    gap = np.hypot(at[:, 0] - 10.0, at[:, 1]) - R_POST - R
+    assert (gap >= -1e-12).all() and (gap <= 1e-5).all(), gap
