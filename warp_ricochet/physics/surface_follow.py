@@ -5,8 +5,9 @@ or spends its steps, as a `@wp.func` the core kernel calls (docs/ground.md 9).
 returns `follow(position, velocity, spin, k, surfaces, physics, mu_s, mu_d, rolling_resistance,
 ploughing, rest_speed, max_steps) -> (position, velocity, spin, elapsed, path, end, steps, k_next)`.
 The pellet touches surface k (gap 0; a normal speed or gap left by the caller is rounding and is
-dropped); on a post, one of its caps, followed as a disc plate (on its side it flies on at once). It slides and rolls by the laws of `physics.surface_motion` (with the ploughing resistance
-b |v|^2 beside c N) until one of the end codes:
+dropped); on a post, one of its caps, followed as a disc plate (from its side it flies on at once).
+It slides and rolls by the laws of `physics.surface_motion` (with the ploughing resistance b |v|^2
+beside c N) until one of the end codes:
 
 - REST: its speed fell to rest_speed where the slope cannot restart it (v = 0, spin along n kept);
 - FLIGHT: the net normal force pulls it away (the caller flies it with touching = k);
