@@ -285,11 +285,16 @@ def test_bad_post_keys_are_one_line_errors(change, key, message):
 
 
 def test_posts_refuse_what_they_do_not_model_yet():
-    """Motion along a post (`until = "rest"`, also with collisions), a post as the hazard's ground;
-    the dense phase's collisions until landing are met (tests/test_dense_solids.py)."""
-    with pytest.raises(SceneError, match='^physics.until .*must be "landing" .*motion along a post'):
-        scene_from_dict(_raw([GROUND, POST], until="rest"))
-    with pytest.raises(SceneError, match='^physics.until .*must be "landing" .*motion along a post'):
+    """A leaning post followed to rest (motion along its side), a post followed to rest with the
+    dense phase's collisions, a post as the hazard's ground. A post along gravity (either way up) is
+    followed to rest; the dense phase's collisions until landing are met (tests/test_dense_solids.py)."""
+    leaning = POST | {"normal": [0.0, 0.01, 1.0]}
+    with pytest.raises(SceneError, match='^surfaces.1.normal .*leans 0.57.* degrees .*"rest" a post must stand along'):
+        scene_from_dict(_raw([GROUND, leaning], until="rest"))
+    scene_from_dict(_raw([GROUND, leaning]))  # until landing: met
+    for axis in ([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [0.0, 1e-7, 1.0]):
+        scene_from_dict(_raw([GROUND, POST | {"normal": axis}], until="rest"))
+    with pytest.raises(SceneError, match='^physics.until .*must be "landing" .*collisions'):
         scene_from_dict(_raw([GROUND, POST], until="rest") | {"collisions": {"enabled": True}})
     assert scene_from_dict(_raw([GROUND, POST]) | {"collisions": {"enabled": True}}).pair_collisions
     with pytest.raises(SceneError, match="^hazard.map_surface .*must be a plane"):
@@ -318,6 +323,7 @@ def test_the_command_line_refuses_a_flat_post_and_runs_and_reports_a_good_one(tm
     rc, _out, err = cli(["report", out, "--html", tmp_path / "report.html"])
     page = (tmp_path / "report.html").read_text()
     assert rc == 0 and _shape(POST) in page and "posts (closed cylinders" in page, err
+    assert "only those along gravity followed to rest" in " ".join(page.split())
 
 
 def _post_shots(rng, count, post):

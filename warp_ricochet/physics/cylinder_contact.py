@@ -25,6 +25,8 @@ quintic Hermite, sampled at SIDE_SAMPLES equal parts: a part whose end is inside
 turns from closing to opening with its minimum inside (a graze), is bisected to rounding of theta.
 A dip in and out within one part between two such samples is not seen (the parts are 1/16 of a
 step the integrator keeps within its error tolerance).
+Followed to rest (`physics.surface_follow`): a pellet on a cap moves along it as along a disc plate
+(`cap_face`, `cap_plane`; `geometry.face_gap`); on the side it flies on (the caller's lift-off).
 The side's searches (`side_time`, `line_theta`) also meet a mesh's convex edges (r = 0) and corners
 (a = 0: rho the distance from p) (`physics.edge_contact`).
 """
@@ -39,20 +41,22 @@ from .integrate import make_dense_output
 from .mesh_contact import EDGE_ROUNDING, make_mesh_contact
 from .types import KINDS, types_for
 
+TOP_CAP, BOTTOM_CAP = -2, -3  # a post's caps as the faces a pellet moves along (`cap_face`, `cap_plane`)
 SIDE_SAMPLES = 16  # equal parts of an air step searched for the side's crossing
 BISECTIONS = {"float32": 48, "float64": 96}  # at most: halvings of [0, T] to rounding of t
 
 
 @functools.cache
 def make_cylinder_contact(precision: str) -> SimpleNamespace:
-    """`is_post`, `post_time`, `post_normal`, `post_box`, `on_cap` and `side_theta` (module
-    docstring) of one precision."""
+    """`is_post`, `post_time`, `post_normal`, `post_box`, `on_cap`, `cap_face`, `cap_plane` and
+    `side_theta` (module docstring) of one precision."""
     return SimpleNamespace(**vars(_post_shape(precision)), **vars(_post_vacuum(precision)), **vars(_post_air(precision)))
 
 
 @functools.cache
 def _post_shape(precision: str) -> SimpleNamespace:
-    """What a post is: `is_post`, `across`, `along`, `post_normal`, `post_box`, `on_cap`."""
+    """What a post is: `is_post`, `across`, `along`, `post_normal`, `post_box`, `on_cap`,
+    `cap_face`, `cap_plane`."""
     t = types_for(precision)
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
     ZERO, HALF, ONE = scalar(0.0), scalar(0.5), scalar(1.0)
@@ -119,10 +123,39 @@ def _post_shape(precision: str) -> SimpleNamespace:
         p = surfaces.point[k]
         return EDGE * (l1(x - p) + l1(p) + surfaces.half_v[k] + surfaces.half_u[k])
 
+    @wp.func
+    def cap_face(surfaces: Surfaces, k: wp.int32, x: vec3):
+        """The face of post k a pellet centred at x touches: TOP_CAP or BOTTOM_CAP where `post_normal`
+        is the axis (+a or -a), else -1 (the side)."""
+        along_axis = wp.dot(post_normal(surfaces, k, x), surfaces.normal[k])  # 1, -1, or 0 (radial)
+        face = wp.int32(-1)
+        if along_axis > HALF:
+            face = wp.int32(TOP_CAP)
+        elif along_axis < -HALF:
+            face = wp.int32(BOTTOM_CAP)
+        return face
+
+    @wp.func
+    def cap_plane(surfaces: Surfaces, k: wp.int32, face: wp.int32, x: vec3):
+        """(height, noise, normal) of x over cap `face` of post k: its plane through p + L a (top,
+        normal a) or p (bottom, normal -a), as `geometry.locate` of a plane (noise: the rounding
+        scale sum_i |x_i n_i| + |c_i n_i| of the signed distance from the cap's centre c)."""
+        a = surfaces.normal[k]
+        c = vec3(surfaces.point[k])
+        n = -a
+        if face == TOP_CAP:
+            n = a
+            c = c + surfaces.half_v[k] * a
+        noise = wp.abs(x[0] * n[0]) + wp.abs(x[1] * n[1]) + wp.abs(x[2] * n[2])
+        noise += wp.abs(c[0] * n[0]) + wp.abs(c[1] * n[1]) + wp.abs(c[2] * n[2])
+        return wp.dot(x - c, n), noise, n
+
     return SimpleNamespace(
         is_post=is_post,
         across=across,
         along=along,
+        cap_face=cap_face,
+        cap_plane=cap_plane,
         post_frame=post_frame,
         post_normal=post_normal,
         post_box=post_box,

@@ -30,8 +30,10 @@ meet a plane early wherever the pellet comes within the band of it (docs/air.md,
 Meshes (`plates` MESHES, docs/geometry.md): surfaces of kind mesh (boxes too) and posts (cylinders)
 answer `contact_time` and `normal` (`physics.mesh_contact` with `physics.edge_contact`'s convex edges and
 corners, `physics.cylinder_contact`), `is_solid` and `clearance` (a lower bound on the distance to
-them: the dense phase's air step and leaps); `locate`, `gap`, `inside` and `step_gaps` read their
-`point` and `normal` only (the motion along triangles, the air's search: `face_gap`, `physics.air_flight`).
+them: the dense phase's air step and leaps); the motion along surfaces reads them through `face_gap`,
+`on_face` and `face_reach` (a triangle, or a post's cap: `_faces`); `locate`, `gap`, `inside` and
+`step_gaps` read their `point` and `normal` only; the air's search asks `physics.mesh_contact` and
+`physics.cylinder_contact` itself.
 
 Plates (`plates` True, docs/geometry.md): a surface of kind rectangle or disc is the part of its
 plane around its point within half sides along axes u, v = n x u (`inside`: the pellet's centre
@@ -292,7 +294,7 @@ def _make_geometry(precision: str, planes, snap: bool, plates: int) -> SimpleNam
         return best_time, best_plane
 
     return SimpleNamespace(
-        **_faces(precision, gap, inside, reach, WITH_MESHES),
+        **_faces(precision, gap, inside, reach, WITH_MESHES, _needs(plates)[0]),
         side=side,
         inside=inside,
         is_plate=is_plate,
@@ -309,6 +311,11 @@ def _make_geometry(precision: str, planes, snap: bool, plates: int) -> SimpleNam
         contact_time=contact_time,
         next_contact=next_contact,
     )
+
+
+def has_posts(plates) -> bool:
+    """Whether kernels of `plates` compile posts in (MESHES without NO_POSTS)."""
+    return plates >= MESHES and not plates & NO_POSTS
 
 
 def _needs(plates: int) -> tuple:
@@ -410,32 +417,49 @@ def project(surface, x):
     return x - np.dot(x - np.asarray(surface.point), n) * n, n
 
 
-def _faces(precision: str, gap, inside, reach, with_meshes: bool) -> dict:
+def _faces(precision: str, gap, inside, reach, with_meshes: bool, with_posts: bool = True) -> dict:
     """`face_gap`, `on_face`, `face_reach`: `gap`, `inside`, `reach` of triangle `face` of mesh k
-    (`physics.triangle_follow`; face < 0: of surface k itself)."""
+    (`physics.triangle_follow`), or of cap `face` (TOP_CAP, BOTTOM_CAP) of post k, a disc of its
+    radius (`cylinder_contact.cap_plane`, `on_cap`; `reach` of a post is its caps'); face -1: of
+    surface k itself."""
     t = types_for(precision)
     Surfaces, vec3, scalar = t.Surfaces, t.vec3, t.scalar
     meshes, WITH_MESHES = make_mesh_faces(precision), with_meshes
+    WITH_POSTS, posts = with_meshes and with_posts, make_cylinder_contact(precision)
     TOLERANCE = scalar(ROUNDING * EPSILON[precision])
 
     @wp.func(inline=True)
+    def band(g: scalar, noise: scalar, radius: scalar):
+        """A gap g (m) snapped to 0 within the touching band (`gap`)."""
+        if wp.abs(g) <= TOLERANCE * (noise + radius):
+            g = scalar(0.0)
+        return g
+
+    @wp.func(inline=True)
     def face_gap(surfaces: Surfaces, k: wp.int32, face: wp.int32, x: vec3, radius: scalar):
-        """`gap` on triangle `face` of mesh k (its plane: `mesh_contact.face_plane`); face < 0: `gap`."""
+        """`gap` on triangle `face` of mesh k (its plane: `mesh_contact.face_plane`), on a post's cap
+        (face < -1: `cylinder_contact.cap_plane`); face -1: `gap`."""
         if wp.static(WITH_MESHES):
             if face >= 0:
                 height, noise, n = meshes.face_plane(surfaces, k, face, x)
-                g = height - radius
-                if wp.abs(g) <= TOLERANCE * (noise + radius):
-                    g = scalar(0.0)
-                return height, g, n
+                return height, band(height - radius, noise, radius), n
+        if wp.static(WITH_POSTS):
+            if face < -1:  # a post's cap
+                height, noise, n = posts.cap_plane(surfaces, k, face, x)
+                return height, band(height - radius, noise, radius), n
         return gap(surfaces, k, x, radius)
 
     @wp.func(inline=True)
     def on_face(surfaces: Surfaces, k: wp.int32, face: wp.int32, x: vec3):
-        """`inside` triangle `face` of mesh k (`mesh_contact.on_face`); face < 0: `inside` surface k."""
+        """`inside` triangle `face` of mesh k (`mesh_contact.on_face`); over a post's cap (face < -1:
+        within the slack its flights meet the cap with, `cylinder_contact.slack`); face -1: `inside`
+        surface k."""
         if wp.static(WITH_MESHES):
             if face >= 0:
                 return meshes.on_face(surfaces, k, face, x)
+        if wp.static(WITH_POSTS):
+            if face < -1:
+                return posts.on_cap(surfaces, k, x, posts.slack(surfaces, k, x))
         return inside(surfaces, k, x)
 
     @wp.func(inline=True)

@@ -5,8 +5,9 @@ or spends its steps, as a `@wp.func` the core kernel calls (docs/ground.md 9).
 returns `follow(position, velocity, spin, k, surfaces, physics, mu_s, mu_d, rolling_resistance,
 ploughing, rest_speed, max_steps) -> (position, velocity, spin, elapsed, path, end, steps, k_next)`.
 The pellet touches surface k (gap 0; a normal speed or gap left by the caller is rounding and is
-dropped). It slides and rolls by the laws of `physics.surface_motion` (with the ploughing resistance
-b |v|^2 beside c N) until one of the end codes:
+dropped); on a post, one of its caps, followed as a disc plate (from its side it flies on at once).
+It slides and rolls by the laws of `physics.surface_motion` (with the ploughing resistance b |v|^2
+beside c N) until one of the end codes:
 
 - REST: its speed fell to rest_speed where the slope cannot restart it (v = 0, spin along n kept);
 - FLIGHT: the net normal force pulls it away (the caller flies it with touching = k);
@@ -36,7 +37,8 @@ import warp as wp
 
 from .air_flight import make_plane_search
 from .ballistic import EPSILON, ROUNDING
-from .geometry import MESHES, make_geometry
+from .cylinder_contact import make_cylinder_contact
+from .geometry import MESHES, has_posts, make_geometry
 from .integrate import make_dense_output
 from .mesh_contact import make_mesh_lookup
 from .plate_edge import make_plate_edge
@@ -71,6 +73,7 @@ def make_surface_closed_phases(precision: str, planes=None, plates: bool = False
     ZERO, ONE, HALF = scalar(0.0), scalar(1.0), scalar(0.5)
     TOLERANCE = scalar(ROUNDING * EPSILON[precision])
     STATIC, PLATES, WITH_MESHES, meshes = planes, plates, plates >= MESHES, make_mesh_lookup(precision)
+    WITH_POSTS, posts = has_posts(plates), make_cylinder_contact(precision)
 
     @wp.func
     def surface_count(surfaces: Surfaces):
@@ -133,8 +136,10 @@ def make_surface_closed_phases(precision: str, planes=None, plates: bool = False
                 height, gap, n = geo.gap(surfaces, j, position, physics.radius)
                 closing = -wp.dot(direction, n)
                 solid = False
-                if wp.static(WITH_MESHES):  # a mesh: its contact along the line (no gravity)
+                if wp.static(WITH_MESHES):  # a mesh or a post: its contact along the line (no gravity)
                     solid = meshes.is_mesh(surfaces, j)
+                    if wp.static(WITH_POSTS):
+                        solid = solid or posts.is_post(surfaces, j)
                     if solid:
                         gap = geo.contact_time(surfaces, j, position, direction, vec3(), physics.radius, wp.int32(-1))
                         height = gap
@@ -265,6 +270,7 @@ def make_surface_integrator(
     ZERO, ONE, HALF = scalar(0.0), scalar(1.0), scalar(0.5)
     PLATES, edge = plates, make_plate_edge(precision, plates)
     WITH_MESHES, meshes = plates >= MESHES, make_mesh_lookup(precision)
+    WITH_POSTS, posts = has_posts(plates), make_cylinder_contact(precision)
     STOP_FRACTION = scalar(STOP[precision])
 
     @wp.func
@@ -281,7 +287,10 @@ def make_surface_integrator(
                     if gap <= ZERO and not geo.inside(surfaces, j, position):
                         gap = scalar(1.0)
                 if wp.static(WITH_MESHES):
-                    if meshes.is_mesh(surfaces, j):
+                    solid = meshes.is_mesh(surfaces, j)
+                    if wp.static(WITH_POSTS):
+                        solid = solid or posts.is_post(surfaces, j)
+                    if solid:  # watched: the search applies its rules
                         height = scalar(1.0)
                         gap = scalar(1.0)
                 if height >= ZERO:
@@ -449,6 +458,7 @@ def make_surface_follow(
     integrate_phase = make_surface_integrator(precision, planes, model, laws, watch, plates).integrate_phase
     PLATES, LINES = plates, not plates  # a plate's edges are met by the phase integrator only
     WITH_MESHES, meshes, tri = plates >= MESHES, make_mesh_lookup(precision), make_triangle_follow(precision)
+    WITH_POSTS, posts = has_posts(plates), make_cylinder_contact(precision)
     lines = make_line_integrator(precision, planes, model, laws, watch, rough=rough)
     line_of, integrate_line = lines.line_of, lines.integrate_line
     ZERO, ONE = scalar(0.0), scalar(1.0)
@@ -486,6 +496,12 @@ def make_surface_follow(
             if meshes.is_mesh(surfaces, k):
                 face = tri.start_face(surfaces, k, position, radius)
                 if face < 0:  # beside every triangle: it flies on
+                    n = geo.normal(surfaces, k, position)
+                    return position, velocity, spin, elapsed, path, wp.int32(FLIGHT), steps, k, track, n
+        if wp.static(WITH_POSTS):
+            if posts.is_post(surfaces, k):
+                face = posts.cap_face(surfaces, k, position)  # a cap: as a disc plate
+                if face == -1:  # the side: it flies on (docs/geometry.md, "Posts (cylinders)")
                     n = geo.normal(surfaces, k, position)
                     return position, velocity, spin, elapsed, path, wp.int32(FLIGHT), steps, k, track, n
         phase = wp.int32(0)
