@@ -79,14 +79,23 @@ def _read(path: str, stamp: tuple) -> tuple:
     return vertices, triangles
 
 
+def file_stamp(path: str) -> tuple | None:
+    """(modification time in ns, size in bytes) of the file `path`, None if it cannot be read: what
+    tells an edited mesh file from the one a cache read."""
+    try:
+        status = os.stat(path)
+    except OSError:
+        return None
+    return status.st_mtime_ns, status.st_size
+
+
 def load_mesh(path: str, key: str, offset=(0.0, 0.0, 0.0)) -> TriangleSurface:
     """The checked TriangleSurface of the mesh file `path` moved by `offset` (m); `key` names the
     scene key in its one-line errors (a missing file, one that is not a mesh, `check`'s)."""
     if not os.path.isfile(path):
         raise err(key, path, "must be an existing mesh file (STL, OBJ or PLY)")
-    status = os.stat(path)
     try:
-        vertices, triangles = _read(path, (status.st_mtime_ns, status.st_size))
+        vertices, triangles = _read(path, file_stamp(path))
     except Exception as exc:  # the reader's one line, under this key
         raise err(key, path, str(exc).split(": ", 2)[-1]) from None
     if len(triangles) and (triangles.min() < 0 or triangles.max() > np.iinfo(np.int32).max):
