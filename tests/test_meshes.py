@@ -79,6 +79,7 @@ def test_a_bad_mesh_is_one_line(vertices, triangles, message):
     [
         ({"kind": "mesh", "file": "nowhere.stl"}, "surfaces.0.file", "existing mesh file"),
         ({"kind": "mesh", "file": "junk.stl"}, "surfaces.0.file", "at least one triangle"),
+        ({"kind": "mesh", "file": "junk.toml"}, "surfaces.0.file", r"must be a triangle mesh \(STL, OBJ or PLY\) .*: file_type"),
         ({"kind": "mesh"}, "surfaces.0.file", "required for kind = 'mesh'"),
         ({"kind": "mesh", "file": "square.stl", "radius": 1.0}, "surfaces.0.radius", "of kind = 'disc' or 'cylinder' only"),
         (
@@ -101,6 +102,7 @@ def test_a_bad_mesh_is_one_line(vertices, triangles, message):
 def test_bad_mesh_keys_are_one_line_errors(tmp_path, surface, key, message):
     _write(tmp_path / "square.stl", SQUARE, [[0, 1, 2], [0, 2, 3]])
     (tmp_path / "junk.stl").write_text("not a mesh")
+    (tmp_path / "junk.toml").write_text("[shot]")  # (trimesh reads no .toml: what is allowed, then its reason)
     with pytest.raises(SceneError, match=message) as caught:
         scene_from_dict(_raw([surface | MATERIAL]), tmp_path)
     assert "\n" not in str(caught.value) and str(caught.value).startswith(key)
