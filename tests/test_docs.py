@@ -23,6 +23,7 @@ import shlex
 import shutil
 import subprocess
 import sys
+import textwrap
 import tomllib
 from pathlib import Path
 
@@ -240,4 +241,31 @@ def test_toml_block_is_a_scene_fragment_that_loads(page, text):
     scene = tomllib.loads((ROOT / "examples" / "paper.toml").read_text())
     for table, values in fragment.items():  # its tables laid over the paper's scene
         scene.setdefault(table, {}).update(values)
+    scene_from_dict(scene)  # every key known, every value allowed
+
+
+# indented (4-space) examples of a surface, the pages' other way to show one: `[[surfaces]]` and its keys
+SURFACE_EXAMPLE = re.compile(r"^    \[\[surfaces\]\]\n(?:    .*\n)+", re.M)
+
+
+def surface_examples():
+    return [
+        pytest.param(page, m.group(0), id=f"{page}:{text.count(chr(10), 0, m.start()) + 1}")
+        for page in PAGES
+        for text in [(ROOT / page).read_text()]
+        for m in SURFACE_EXAMPLE.finditer(text)
+    ]
+
+
+@pytest.mark.parametrize("page, text", surface_examples())
+def test_an_indented_surface_example_is_a_surface_that_loads(page, text):
+    """Added to the paper's scene, an example surface loads (one reading a file is only parsed: its
+    file, berm.stl or a raster, is the reader's)."""
+    from warp_ricochet.scene import scene_from_dict
+
+    (surface,) = tomllib.loads(textwrap.dedent(text))["surfaces"]  # valid TOML as written
+    if "file" in surface:
+        return
+    scene = tomllib.loads((ROOT / "examples" / "paper.toml").read_text())
+    scene["surfaces"].append(surface)
     scene_from_dict(scene)  # every key known, every value allowed

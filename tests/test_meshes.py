@@ -3,6 +3,7 @@
 Their scene keys are checked in one line each; a closed box's 12 triangles face outwards."""
 
 import dataclasses
+import os
 from pathlib import Path
 
 import numpy as np
@@ -78,6 +79,7 @@ def test_a_bad_mesh_is_one_line(vertices, triangles, message):
     [
         ({"kind": "mesh", "file": "nowhere.stl"}, "surfaces.0.file", "existing mesh file"),
         ({"kind": "mesh", "file": "junk.stl"}, "surfaces.0.file", "at least one triangle"),
+        ({"kind": "mesh", "file": "junk.toml"}, "surfaces.0.file", r"must be a triangle mesh \(STL, OBJ or PLY\) .*: file_type"),
         ({"kind": "mesh"}, "surfaces.0.file", "required for kind = 'mesh'"),
         ({"kind": "mesh", "file": "square.stl", "radius": 1.0}, "surfaces.0.radius", "of kind = 'disc' or 'cylinder' only"),
         (
@@ -100,6 +102,7 @@ def test_a_bad_mesh_is_one_line(vertices, triangles, message):
 def test_bad_mesh_keys_are_one_line_errors(tmp_path, surface, key, message):
     _write(tmp_path / "square.stl", SQUARE, [[0, 1, 2], [0, 2, 3]])
     (tmp_path / "junk.stl").write_text("not a mesh")
+    (tmp_path / "junk.toml").write_text("[shot]")  # (trimesh reads no .toml: what is allowed, then its reason)
     with pytest.raises(SceneError, match=message) as caught:
         scene_from_dict(_raw([surface | MATERIAL]), tmp_path)
     assert "\n" not in str(caught.value) and str(caught.value).startswith(key)
@@ -282,3 +285,21 @@ def test_the_benchmarks_refuse_odd_options_in_one_line(argv, want, capsys):
         module.main(argv[1:])
     err = capsys.readouterr().err
     assert exc.value.code == 2 and err.splitlines()[-1].startswith(f"python -m {argv[0]}: error: {want}"), err
+
+
+def test_a_mesh_file_edited_between_runs_is_read_again(tmp_path):
+    """A model is reused only while its mesh files are unchanged: the same scene after its file is
+    rewritten in the same process (a notebook's second run) takes the new triangles, as a new
+    process would (before, the cached model kept the old ones while `RunSpec` read the new file)."""
+    from warp_ricochet.device import resolve_device
+    from warp_ricochet.model import Model
+
+    path = _write(tmp_path / "square.obj", SQUARE, [[0, 1, 2], [0, 2, 3]])
+    raw = _raw([{"kind": "mesh", "file": "square.obj", **MATERIAL}])
+    device = resolve_device("cpu")
+    before = Model.from_scene(scene_from_dict(raw, tmp_path), device).meshes[0].vertices
+    _write(path, SQUARE + [0.0, 0.0, -2.0], [[0, 1, 2], [0, 2, 3]])
+    stamp = Path(path).stat()
+    os.utime(path, ns=(stamp.st_atime_ns, stamp.st_mtime_ns + 10**9))  # (a coarse clock: a new time)
+    after = Model.from_scene(scene_from_dict(raw, tmp_path), device).meshes[0].vertices
+    assert np.array_equal(before[:, 2], np.zeros(4)) and np.array_equal(after[:, 2], np.full(4, -2.0))

@@ -326,3 +326,15 @@ def test_the_limits_name_the_surfaces_section_and_follow_triangles_to_rest(tmp_p
     assert "berm" in heading.group(2) and "box 4 m x 30 m x 2 m" in heading.group(2)  # the surfaces' table
     text = _parse(page).text
     assert "surfaces of triangles" in text and "terrain: followed to the landing only" not in text
+
+
+def test_a_mesh_first_is_not_given_a_normal_it_does_not_have():
+    """A mesh takes no `normal` (its triangles carry theirs; the scene keeps a default +z): the
+    launch height above a mesh ground is along up (-gravity), and its table row shows no normal."""
+    from warp_ricochet.report.html_data import _height, _surfaces
+
+    ground = {"name": "mound", "kind": "mesh", "file": "mound.stl", "point": [0.0, 0.5, 0.0], "normal": [0.0, 0.0, 1.0]}
+    scene = {"surfaces": [ground], "physics": {"gravity": [0.0, -9.81, 0.0]}}
+    assert _height(scene, np.array([0.0, 2.0, 3.0])) == "1.5 m above mound"  # (before: along +z, 3 m)
+    (row,) = _surfaces({}, scene)
+    assert row["normal"] == "its triangles'" and row["shape"] == "triangle mesh from mound.stl"

@@ -270,3 +270,21 @@ def test_a_sweep_file_holds_each_points_rest_statistics(tmp_path):
             assert f[f"stats/{name}"].attrs["units"] == wr.STAT_UNITS[name][0], name
             np.testing.assert_array_equal(f[f"stats/{name}"][()], [stats[name] for _, stats in results], err_msg=name)
         assert all(np.isfinite(f[f"runs/{i:04d}/stats/quantiles/rest_distance"][()]).all() for i in range(2))
+
+
+def test_the_plot_draws_pellets_embedded_at_their_first_impact(tmp_path):
+    """Pellets fired steeply into water embed at their first impact and never land: the plot's
+    survival of the rest distance counts them (its quantiles do), without a legend warning."""
+    import warnings
+
+    figure = pytest.importorskip("matplotlib.figure")
+    path = tmp_path / "pond.h5"
+    scene = load_scene(PAPER, ["shot.count=40", 'surfaces.0.material="water"', "shot.direction=[1.0, -1.0, 0.0]", *REST])
+    stats = wr.run(scene, path, device="cpu")
+    assert stats["rest_embedded"] == 40 and stats["landed"] == 0
+    fig = figure.Figure()
+    with h5py.File(path, "r") as f, warnings.catch_warnings():
+        warnings.simplefilter("error")  # (before: "No artists with labels found to put in legend")
+        assert draw_rest_distance(fig, f)
+    (rest,) = fig.axes[1].get_lines()
+    assert rest.get_label() == "rest (40)"

@@ -21,7 +21,7 @@ from .physics.air import GAMMA_AIR
 from .physics.impact import SOLID_SPHERE_INERTIA_FACTOR
 from .physics.types import GROUND_FIELDS, surfaces_of, types_for
 from .scene.materials import critical_angle, is_liquid, ploughing_rate
-from .scene.triangles import TriangleSurface, triangles_of
+from .scene.triangles import TriangleSurface, file_stamp, triangles_of
 from .tallies.reduce import LANES, SEGMENT_WIDTH, partial_bytes_per_pellet, threads_for
 from .tallies.sums import NUM_EXTREMES, NUM_SUMS
 
@@ -49,8 +49,9 @@ class Model:
 
     @classmethod
     def from_scene(cls, scene, device) -> Model:
-        """The model of `scene` on `device`; recent ones are reused (their arrays never change),
-        but for a scene with terrain, placed from the whole scene (its site) each time."""
+        """The model of `scene` on `device`; recent ones are reused (their arrays never change)
+        while their mesh files are unchanged, but for a scene with terrain, placed from the whole
+        scene (its site) each time."""
         air = scene.air if scene.in_air else None
         if any(s.kind == "terrain" for s in scene.surfaces):
             meshes = [
@@ -77,6 +78,7 @@ class Model:
             device.alias,
             air,
             scene.numerics.flight_tolerance,
+            tuple(file_stamp(s.file) if s.kind == "mesh" else None for s in scene.surfaces),
         )
         return dataclasses.replace(model, thresholds=0 if scene.hazard is None else len(scene.hazard.thresholds))
 
@@ -120,7 +122,8 @@ class Model:
 
 
 @functools.lru_cache(maxsize=16)
-def _cached_model(diameter, density, surfaces, physics, precision, device_alias, air, tolerance) -> Model:
+def _cached_model(diameter, density, surfaces, physics, precision, device_alias, air, tolerance, stamps) -> Model:
+    """`Model._build`, reused while its arguments and its mesh files' `stamps` (`file_stamp`) are the same."""
     return Model._build(diameter, density, surfaces, physics, precision, wp.get_device(device_alias), air, tolerance)
 
 

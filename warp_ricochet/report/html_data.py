@@ -167,10 +167,13 @@ def _station_row(scene: dict, station: dict) -> dict:
 
 
 def _height(scene: dict, centre) -> str:
-    """The launch point's height above the first surface, along its normal."""
+    """The launch point's height above the first surface, along its normal (a mesh, whose
+    triangles carry theirs: along up, -gravity, above its `point`)."""
     surfaces = scene.get("surfaces") or [{}]
     point = np.asarray(surfaces[0].get("point", (0, 0, 0)), dtype=np.float64)
     normal = np.asarray(surfaces[0].get("normal", (0, 1, 0)), dtype=np.float64)
+    if surfaces[0].get("kind") == "mesh":
+        normal = -np.asarray((scene.get("physics") or {}).get("gravity", (0, -9.81, 0)), dtype=np.float64)
     name = surfaces[0].get("name") or "surface 0"
     return f"{_short((centre - point) @ normal / np.linalg.norm(normal), 'ft')} above {name}"
 
@@ -206,7 +209,7 @@ def _surfaces(f, scene: dict) -> list[dict]:
             "shape": _shape(s),
             "material": s.get("material") or "rigid plane (no catalogue material)",
             "point": ", ".join(dist(x) for x in s.get("point", ())),
-            "normal": ", ".join(fmt(x) for x in s.get("normal", ())),
+            "normal": "its triangles'" if s.get("kind") == "mesh" else ", ".join(fmt(x) for x in s.get("normal", ())),
         }
         for key in ("restitution", "mu_s", "mu_d"):
             value = consts[key][i] if consts is not None and key in consts else s.get(key, math.nan)

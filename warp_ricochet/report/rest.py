@@ -94,7 +94,8 @@ def read_ends(group):
 
 def draw_rest_distance(fig, group) -> bool:
     """Rest against landing distance from the shooter, a point a pellet by end state (left), and
-    the survival of both distances (right)."""
+    the survival of both distances (right: the rest distance of every pellet at rest or embedded,
+    landed or not, as its quantiles count them)."""
     ends = read_ends(group)
     if ends is None:
         return False
@@ -117,15 +118,19 @@ def draw_rest_distance(fig, group) -> bool:
         span = [min(landing[stopped].min(), rest[stopped].min()), max(landing[stopped].max(), rest[stopped].max())]
         ax1.plot(span, span, color="grey", lw=0.8, ls="--", label="rest = landing")
         ax1.legend(loc="best", fontsize="small", markerscale=2)
+    else:
+        ax1.text(0.5, 0.5, "no pellet landed and stopped", ha="center", va="center", transform=ax1.transAxes)
     ax1.set_xlabel("landing distance from the shooter (m)")
     ax1.set_ylabel("rest distance from the shooter (m)")
-    for values, name, colour in ((landing[np.isfinite(landing)], "landing", "C1"), (rest[stopped], "rest", "C0")):
+    ended = np.isin(state, STOPPED) & np.isfinite(rest)  # (a pellet embedded at its first impact never lands)
+    for values, name, colour in ((landing[np.isfinite(landing)], "landing", "C1"), (rest[ended], "rest", "C0")):
         if values.size:
             x = np.sort(values)
             ax2.step(x, 1.0 - np.arange(x.size) / x.size, where="post", color=colour, label=f"{name} ({x.size:,})")
     ax2.set_xlabel("distance from the shooter (m)")
     ax2.set_ylabel("share of pellets at least this far")
-    ax2.legend(loc="best", fontsize="small")
+    if ax2.get_lines():
+        ax2.legend(loc="best", fontsize="small")
     others = {STATES[c]: int((state == c).sum()) for c in range(len(STATES)) if c not in STOPPED}
     fig.suptitle(
         "Where the pellets end against where they land ("

@@ -63,20 +63,31 @@ class TriangleSurface:
 
 @functools.lru_cache(maxsize=16)
 def _read(path: str, stamp: tuple) -> tuple:
-    """(vertices, triangles) of a mesh file as trimesh reads it, unprocessed (no vertex merging)."""
+    """(vertices, triangles) of a mesh file as trimesh reads it, unprocessed (no vertex merging);
+    ValueError: why it cannot (what is allowed, then trimesh's reason)."""
     try:
         import trimesh
     except ImportError as exc:
-        raise err("file", path, "needs trimesh to read meshes: pip install 'warp-ricochet[mesh]'") from exc
+        raise ValueError("needs trimesh to read meshes: pip install 'warp-ricochet[mesh]'") from exc
     try:
         mesh = trimesh.load(path, force="mesh", process=False)
         vertices = np.asarray(mesh.vertices, dtype=np.float64)
         triangles = np.asarray(mesh.faces, dtype=np.int64)
     except Exception as exc:  # noqa: BLE001 - trimesh's loaders raise many kinds for a bad file
         reason = " ".join(str(exc).split())[:120] or type(exc).__name__
-        raise err("file", path, f"must be a triangle mesh (STL, OBJ or PLY) trimesh can read: {reason}") from None
+        raise ValueError(f"must be a triangle mesh (STL, OBJ or PLY) trimesh can read: {reason}") from None
     vertices.setflags(write=False)
     return vertices, triangles
+
+
+def file_stamp(path: str) -> tuple | None:
+    """(modification time in ns, size in bytes) of the file `path`, None if it cannot be read: what
+    tells an edited mesh file from the one a cache read."""
+    try:
+        status = os.stat(path)
+    except OSError:
+        return None
+    return status.st_mtime_ns, status.st_size
 
 
 def load_mesh(path: str, key: str, offset=(0.0, 0.0, 0.0)) -> TriangleSurface:
@@ -84,11 +95,10 @@ def load_mesh(path: str, key: str, offset=(0.0, 0.0, 0.0)) -> TriangleSurface:
     scene key in its one-line errors (a missing file, one that is not a mesh, `check`'s)."""
     if not os.path.isfile(path):
         raise err(key, path, "must be an existing mesh file (STL, OBJ or PLY)")
-    status = os.stat(path)
     try:
-        vertices, triangles = _read(path, (status.st_mtime_ns, status.st_size))
-    except Exception as exc:  # the reader's one line, under this key
-        raise err(key, path, str(exc).split(": ", 2)[-1]) from None
+        vertices, triangles = _read(path, file_stamp(path))
+    except ValueError as exc:  # the reader's one line, under this key
+        raise err(key, path, str(exc)) from None
     if len(triangles) and (triangles.min() < 0 or triangles.max() > np.iinfo(np.int32).max):
         raise err(key, path, "has a vertex index outside the int32 range")
     surface = TriangleSurface(vertices + np.asarray(offset, dtype=np.float64), triangles.astype(np.int32), path)
