@@ -137,12 +137,11 @@ def make_edge_contact(precision: str, large: bool = True, edges: bool = True) ->
                     q = p
             if index >= 0:
                 if not apart(p, q, low, high, near) and segment_gap(p, q, c0, c1) <= near:
-                    length = wp.length(q - p)
-                    axis = vec3()  # a corner: a post of zero axis
-                    slack = EDGE * (l1(x - p) + l1(p))
-                    if j < 3:
+                    length = wp.length(q - p)  # (0: a corner, a post of zero axis)
+                    axis = vec3()
+                    if length > ZERO:
                         axis = (q - p) / length
-                        slack = EDGE * (l1(x - p) + l1(p) + length)
+                    slack = EDGE * (l1(x - p) + l1(p) + length)
                     best = earlier(best, side_time(x - p, v, g, axis, radius, ZERO, length, slack))
         return best
 
