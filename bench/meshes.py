@@ -9,6 +9,10 @@
          (`terrain_raster`: 708 x 708 cells of 0.5 m, 0.5 m waves, a GeoTIFF in a temporary
          folder) beside its flat plane, in vacuum and in air (issue 27, part 5: at least 2e8
          pellets/s in vacuum and 1e8 in air on an H200)
+  posts  the hazard example's field shot (examples/hazard.toml: #6 lead, sea-level air, turf,
+         statistics only, float32) followed to rest, beside the same shot with a fence post in
+         its way (a post of 0.1 m radius, 1.2 m high, 20 m down range on the line of fire) and with
+         pellet-pellet collisions off: seconds and pellets/s of each, the post's cost
   rest   the trap field on the shipped terrain (examples/trap_field_study.py's scene: #7.5 lead at
          400 m/s in sea-level air, a station 10 m from the raster's west edge) followed to rest
          (`until = "rest"`, docs/geometry.md "Rest on triangles") beside the same shot on a level
@@ -19,6 +23,7 @@
     python -m bench.meshes terrain [--n 1e6] [--precision float32] [--device cpu] [--repeats 3] [--cells 708]
                                    [--flights vacuum,air]
     python -m bench.meshes rest [--n 1200] [--device cpu] [--repeats 3]
+    python -m bench.meshes posts [--n 1e6] [--device cpu] [--repeats 3]
 
 `box_shots` is also the tests' (tests/test_meshes.py). Figures: bench/RESULTS.md.
 """
@@ -264,6 +269,33 @@ def rest(n, device, repeats):
         )
 
 
+def posts(n, device, repeats):
+    """The hazard example's shot, statistics only, to rest on turf without and with a fence post
+    in its way: the median wall time of `repeats` runs after a warm-up, pellets/s and the ratio."""
+    import tomllib
+
+    from warp_ricochet.scene import scene_from_dict
+
+    raw = tomllib.loads((ROOT / "examples" / "hazard.toml").read_text())
+    raw["shot"]["shots"] = max(1, n // raw["shot"]["count"])
+    raw["physics"] = {**raw["physics"], "until": "rest"}
+    raw["output"] = {"fields": []}
+    raw.pop("hazard")
+    post = {"name": "post", "kind": "cylinder", "point": [20.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0]}
+    post |= {"radius": 0.1, "length": 1.2, "material": "concrete"}
+    count = raw["shot"]["shots"] * raw["shot"]["count"]
+    times = {}
+    for label, surfaces in (("turf", raw["surfaces"]), ("turf and a post", raw["surfaces"] + [post])):
+        seconds, stats = _timed(scene_from_dict({**raw, "surfaces": surfaces}), device, repeats)
+        times[label] = seconds
+        print(
+            f"{label}: {count:,} pellets to rest in {seconds * 1e3:.1f} ms ({count / seconds:.3g} pellets/s; median of"
+            f" {repeats}), {stats.get('rest_steps_mean', float('nan')):.1f} steps/pellet, rest distance mean"
+            f" {stats.get('rest_distance_mean', float('nan')):.2f} m  [{device}]"
+        )
+    print(f"  post / turf time {times['turf and a post'] / times['turf']:.2f}x")
+
+
 def _timed(scene, device, repeats, out=None):
     """(The median wall time (s) of `repeats` runs of `scene` after one warm-up, its statistics)."""
     import warp_ricochet as wr
@@ -290,7 +322,7 @@ def _fraction(text: str) -> float:
 
 def main(argv=None):
     parser = argparse.ArgumentParser(prog="python -m bench.meshes", description=__doc__.split("\n\n")[0])
-    parser.add_argument("what", choices=("box", "plane", "terrain", "rest"))
+    parser.add_argument("what", choices=("box", "plane", "terrain", "rest", "posts"))
     parser.add_argument("--n", type=float, default=1e6)
     parser.add_argument("--chunk", type=float, default=1e6)
     parser.add_argument("--precision", default="float32", choices=("float32", "float64"))
@@ -304,6 +336,8 @@ def main(argv=None):
         box(int(args.n), int(args.chunk), args.precision, args.device, jitter=args.jitter)
     elif args.what == "rest":
         rest(int(args.n), args.device, args.repeats)
+    elif args.what == "posts":
+        posts(int(args.n), args.device, args.repeats)
     elif args.what == "terrain":
         terrain(int(args.n), args.precision, args.device, args.repeats, args.cells, args.flights.split(","))
     else:

@@ -456,10 +456,10 @@ def make_surface_follow(
     closed = make_surface_closed_phases(precision, planes, plates)
     plough_roll, rest_state, constant_phase = closed.plough_roll, closed.rest_state, closed.constant_phase
     integrate_phase = make_surface_integrator(precision, planes, model, laws, watch, plates).integrate_phase
-    PLATES, LINES = plates, not plates  # a plate's edges are met by the phase integrator only
+    PLATES = plates
     WITH_MESHES, meshes, tri = plates >= MESHES, make_mesh_lookup(precision), make_triangle_follow(precision)
     WITH_POSTS, posts = has_posts(plates), make_cylinder_contact(precision)
-    lines = make_line_integrator(precision, planes, model, laws, watch, rough=rough)
+    lines = make_line_integrator(precision, planes, model, laws, watch, rough=rough, plates=plates)
     line_of, integrate_line = lines.line_of, lines.integrate_line
     ZERO, ONE = scalar(0.0), scalar(1.0)
 
@@ -584,7 +584,10 @@ def make_surface_follow(
                 if wp.static(AIR):
                     tolerance = physics.air.tolerance
                 event = wp.int32(HANDOVER)
-                if wp.static(LINES):
+                on_plane = True  # a plate's edges and a mesh's are met by the phase integrator only
+                if wp.static(PLATES):
+                    on_plane = face < 0 and not geo.is_plate(surfaces, k)
+                if on_plane:
                     on_line, line = line_of(
                         velocity, spin, n, contact.rolling, physics, mu_d, rolling_resistance, ploughing, tolerance
                     )

@@ -50,6 +50,10 @@ slip off the line within the tolerance: below the integration's own error its di
 lift-off and loss of grip by
 Illinois on re-steps. A slide whose speed falls below a tenth of sqrt(g R) (it would reverse) is
 handed back (HANDOVER) to the 3-D integrator, and so is a step that curves onto another surface.
+Plates, meshes and posts (other than the plane the pellet is on) are kept off by the step: no step
+is longer than their least clearance less R (`free_of`: then no path of the step can touch them),
+and a phase that comes nearer to one than NEAR x its step goes on in 3-D (HANDOVER), where the
+contact is found.
 
 Approximate maths (CUDA fast_math: __expf, __logf, approximate division and sqrt): no sin, cos or
 tan (the heading's by series); exp only of arguments within [-MAX_DECAY, MAX_DECAY]; log1p, phi1, phi2, L and G by series where
@@ -78,6 +82,7 @@ MAX_DECAY = 16.0  # 2 B h of a step at most: exp(+-16) stays far from overflow a
 HANDOVER = 7  # integrate_line's event: go on in 3-D (surface_follow.integrate_phase) from here
 LANDINGS = 12  # re-steps onto a margin's root (lift-off, loss of grip) at most
 BAND = 0.1  # events end within BAND x the tolerance of their scale (surface_follow's)
+NEAR = 0.25  # a plate, mesh or post nearer than NEAR x the step: the phase goes on in 3-D
 # a slide off the line aims at SHORT x the linear distance to the slip's zero: near it the slip's
 # direction relaxes at about 7/2 mu_d N / |s| (stiff), and a step aimed at the zero is rejected
 # (turf: 80.4 steps a pellet aimed at 1, 62.3 at 1/2, 58.2 at 0.7, 59.3 at 0.8)
@@ -401,17 +406,19 @@ def make_surface_line(
     watch: tuple = (0, 0, False),
     noise: tuple = (0.0, 0.0),
     rough=True,
+    plates=False,
 ) -> SimpleNamespace:
     """The helpers of `integrate_line` (module docstring), each accepted step given to
-    `tallies.path`'s watch of `watch`; not `rough`, for straight phases only."""
+    `tallies.path`'s watch of `watch`; not `rough`, for straight phases only; `plates`: the
+    surfaces may hold plates, meshes and posts (`geometry.make_geometry`), kept at `free_of`."""
     from ..tallies.path import make_path_watch  # (tallies imports physics: not at the top)
 
     watcher = make_path_watch(precision, *watch)
     Track, Tally = watcher.Track, watcher.Tally
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
-    STATIC = planes
-    geo = make_geometry(precision, planes)
+    STATIC, PLATES = planes, bool(plates)
+    geo = make_geometry(precision, planes, True, plates)
     ll, st = make_line_laws(precision, model, laws, noise, rough), make_line_steps(precision, model, laws, noise, rough)
     ROUGH = rough
     Line, m, state, state_at, stages = ll.Line, ll.maths, st.state, st.state_at, st.stages
@@ -429,7 +436,10 @@ def make_surface_line(
         if wp.static(STATIC is not None):
             count = wp.static(STATIC)
         for j in range(count):
-            if j != k:
+            plane = j != k
+            if wp.static(PLATES):
+                plane = plane and not geo.is_plate(surfaces, j)  # (`free_of`'s)
+            if plane:
                 height, gap, n = geo.gap(surfaces, j, position, physics.radius)
                 closing = -wp.dot(direction, n)
                 if height >= ZERO and closing > ZERO:
@@ -438,6 +448,20 @@ def make_surface_line(
                         ahead = s
                         k_ahead = wp.int32(j)
         return ahead, k_ahead
+
+    @wp.func
+    def free_of(position: vec3, k: wp.int32, surfaces: Surfaces, physics: Physics):
+        """How far (m) the centre can move from `position`, along any path, before the sphere can
+        touch a plate, mesh or post other than k: their least clearance less R (FAR: none)."""
+        free = FAR
+        if wp.static(PLATES):
+            count = geo.count(surfaces)
+            if wp.static(STATIC is not None):
+                count = wp.static(STATIC)
+            for j in range(count):
+                if j != k and geo.is_plate(surfaces, j):
+                    free = wp.min(free, geo.clearance(surfaces, j, position) - physics.radius)
+        return free
 
     @wp.func
     def target(v: scalar, e: vec3, lateral: vec3, spin: vec3, decel: scalar, dl: scalar, dw: vec3, line: Line, radius: scalar, goal: scalar):  # fmt: skip
@@ -547,6 +571,7 @@ def make_surface_line(
         reference=ll.reference,
         frozen_time=ll.frozen_time,
         ahead_of=ahead_of,
+        free_of=free_of,
         target=target,
         step_error=step_error,
         step_time=step_time,
@@ -575,16 +600,18 @@ def make_line_integrator(
     watch: tuple = (0, 0, False),
     noise: tuple = (0.0, 0.0),
     rough=True,
+    plates=False,
 ) -> SimpleNamespace:
     """`integrate_line`: `surface_follow`'s integrate_phase for a phase over the distance (module
     docstring); not `rough`, straight phases only (`line_of` refuses the rest), with the heading
-    and the offset compiled away."""
-    sl = make_surface_line(precision, planes, model, laws, watch, noise, rough)
+    and the offset compiled away; `plates`: steps kept within `free_of` (module docstring)."""
+    sl = make_surface_line(precision, planes, model, laws, watch, noise, rough, plates)
+    PLATES = bool(plates)
     ROUGH = rough
     m, Line, Track, Tally = sl.maths, sl.Line, sl.Track, sl.Tally
     along, heading, freeze, reach, stages, state_at = sl.along, sl.heading, sl.freeze, sl.reach, sl.stages, sl.state_at
-    ahead_of, target, step_error, step_time, watch_step, land_margin = (
-        sl.ahead_of, sl.target, sl.step_error, sl.step_time, sl.watch_step, sl.land_margin
+    ahead_of, free_of, target, step_error, step_time, watch_step, land_margin = (
+        sl.ahead_of, sl.free_of, sl.target, sl.step_error, sl.step_time, sl.watch_step, sl.land_margin
     )  # fmt: skip
     spin_of, first_rates, start, moved, psi_of = sl.spin_of, sl.first_rates, sl.start, sl.moved, sl.psi_of
     t = types_for(precision)
@@ -722,6 +749,13 @@ def make_line_integrator(
                 if wp.abs(wp.dot(line.slip, line.lateral)) > STOP_FRACTION:  # off the line: short of it (below)
                     aim = scalar(SHORT) * aim
                 h = wp.min(h, aim)
+            if wp.static(PLATES):  # a plate, mesh or post near: the 3-D integrator meets it
+                free = free_of(position, k, surfaces, physics)
+                if free < h:
+                    if free < scalar(NEAR) * h:
+                        event = wp.int32(HANDOVER)
+                        break
+                    h = free
             to_contact = False
             if h >= ahead:
                 h = ahead
