@@ -101,18 +101,23 @@ def _same_ends(dense, core, solid, tolerance):
         ("box front", [GROUND, {**BOX, **LOSSY}], LEVEL, 1),
         ("box top", [GROUND, {**BOX, **LOSSY}], DROPPED, 1),
         ("post", [GROUND, {**POST, **LOSSY}], LEVEL, 1),
+        ("post top", [GROUND, {**POST, **LOSSY}], DROPPED, 1),
     ],
 )
 def test_pellets_alone_end_on_a_box_or_a_post_as_without_collisions(tmp_path, name, surfaces, shot, solid):
-    """Fired level at a box's front face (back onto the ground, to rest), dropped onto its top
-    (to rest there, on its triangles: the core follows the released pellets), at a post (to the
-    landing: posts are met until landing): the run without collisions' ends, within 1e-9 m (the
-    exact flights of both phases, float64; measured 0)."""
-    until = "landing" if name == "post" else "rest"
-    dense, core = _alone_and_without(tmp_path, name.replace(" ", "_"), surfaces, shot, until)
+    """Fired level at a box's front face or a post's side (back onto the ground, to rest), dropped
+    onto the box's top or the post's top cap (to rest there, on its triangles or its cap: the core
+    follows the released pellets): the run without collisions' ends, within 1e-9 m (the exact
+    flights of both phases, float64; measured 0)."""
+    dense, core = _alone_and_without(tmp_path, name.replace(" ", "_"), surfaces, shot)
     _same_ends(dense, core, solid, 1e-9)
+    at = core["rest/position"]
     if name == "box top":  # at rest on the box's top, R above it
-        np.testing.assert_allclose(core["rest/position"][:, 1], 2.0 + R, atol=1e-9)
+        np.testing.assert_allclose(at[:, 1], 2.0 + R, atol=1e-9)
+    if name == "post top":  # at rest on its cap (y = 2, r = 0.5), R above it, or rolled off its rim onto the ground
+        on_cap = at[:, 1] > 1.0
+        np.testing.assert_allclose(at[:, 1], np.where(on_cap, 2.0 + R, R), atol=1e-9)
+        assert on_cap.mean() > 0.75 and (np.hypot(at[on_cap, 0] - 10.0, at[on_cap, 2]) <= 0.5).all()  # (measured 20 of 24)
 
 
 def test_pellets_alone_end_on_a_mesh_of_a_plane_and_on_terrain_as_without_collisions(tmp_path):

@@ -285,18 +285,20 @@ def test_bad_post_keys_are_one_line_errors(change, key, message):
 
 
 def test_posts_refuse_what_they_do_not_model_yet():
-    """A leaning post followed to rest (motion along its side), a post followed to rest with the
-    dense phase's collisions, a post as the hazard's ground. A post along gravity (either way up) is
-    followed to rest; the dense phase's collisions until landing are met (tests/test_dense_solids.py)."""
+    """A leaning post followed to rest (motion along its side), a post as the hazard's ground. A post
+    along gravity (either way up) is followed to rest, with the dense phase's collisions too (until
+    landing: tests/test_dense_solids.py; to rest: tests/test_dense_post_rest.py)."""
     leaning = POST | {"normal": [0.0, 0.01, 1.0]}
     with pytest.raises(SceneError, match='^surfaces.1.normal .*leans 0.57.* degrees .*"rest" a post must stand along'):
         scene_from_dict(_raw([GROUND, leaning], until="rest"))
     scene_from_dict(_raw([GROUND, leaning]))  # until landing: met
     for axis in ([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [0.0, 1e-7, 1.0]):
         scene_from_dict(_raw([GROUND, POST | {"normal": axis}], until="rest"))
-    with pytest.raises(SceneError, match='^physics.until .*must be "landing" .*collisions'):
-        scene_from_dict(_raw([GROUND, POST], until="rest") | {"collisions": {"enabled": True}})
-    assert scene_from_dict(_raw([GROUND, POST]) | {"collisions": {"enabled": True}}).pair_collisions
+    for until in ("landing", "rest"):
+        scene = scene_from_dict(_raw([GROUND, POST], until=until) | {"collisions": {"enabled": True}})
+        assert scene.pair_collisions and scene.physics.until == until
+    with pytest.raises(SceneError, match="^surfaces.1.normal .*leans"):  # with collisions too
+        scene_from_dict(_raw([GROUND, leaning], until="rest") | {"collisions": {"enabled": True}})
     with pytest.raises(SceneError, match="^hazard.map_surface .*must be a plane"):
         scene_from_dict(_raw([POST, GROUND]) | {"hazard": {"speed": {"fast": 50.0}}})
 

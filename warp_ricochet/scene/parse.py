@@ -444,7 +444,7 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
             f"{len(surfaces)} surfaces",
             f"at most {MAX_PLANES_IN_AIR} with [air] (a flight in air tracks its planes in the bits of an int32)",
         )
-    _check_meshes(planes, physics, pairs)
+    _check_meshes(planes, physics)
     stations = parse_stations(raw.get("stations"))
     if stations:
         check_stations(stations, shot, raw["shot"], planes, physics, hazard)
@@ -464,20 +464,11 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
 POST_LEAN = 1e-6  # rad: the most a post followed to rest may lean from gravity (docs/geometry.md)
 
 
-def _check_meshes(surfaces: tuple, physics: Physics, pairs: bool) -> None:
+def _check_meshes(surfaces: tuple, physics: Physics) -> None:
     """Posts followed to rest stand along gravity (within POST_LEAN): gravity then presses no
     pellet onto their side, which is not modelled as a surface to move along (docs/geometry.md,
-    "Posts (cylinders)"), and have no pellet-pellet collisions (a pellet the dense phase leaves on
-    a cap is not handed to the core's motion along it); triangles (boxes, meshes, terrain) are
-    followed to rest on any slope."""
-    post = next((i for i, s in enumerate(surfaces) if s.kind == "cylinder"), None)
-    if pairs and post is not None and physics.until == "rest":
-        raise err(
-            "physics.until",
-            "rest",
-            f'must be "landing" with surface {post} of kind = "cylinder" and pellet-pellet collisions '
-            "(collisions.enabled, shot.count > 1): a post's cap is not handed from the dense phase to the rest",
-        )
+    "Posts (cylinders)"), with or without pellet-pellet collisions; triangles (boxes, meshes,
+    terrain) are followed to rest on any slope."""
     g = math.sqrt(sum(x * x for x in physics.gravity))
     if physics.until != "rest" or g == 0.0:
         return
