@@ -1,7 +1,8 @@
 """The hazard watched along a path (`tallies.path`) against closed forms in float64: the reach per
 threshold of random vacuum parabolas (their body-height and threshold crossings are quadratics'
 roots), the passes through a map's cells by level at entry, the named places, and rolling with
-ploughing (its speed as a function of distance in closed form)."""
+ploughing (its speed as a function of distance in closed form); a watch ended by an escape in the
+dense phase (ESCAPED) counts nothing more."""
 
 import math
 
@@ -11,7 +12,7 @@ import warp as wp
 
 from warp_ricochet.physics.types import types_for
 from warp_ricochet.tallies.counts import DeviceTally, TallySetup
-from warp_ricochet.tallies.path import make_path_roots, make_path_watch
+from warp_ricochet.tallies.path import ESCAPED, make_path_roots, make_path_watch
 
 G = 9.81
 H = 1.8  # m, body height
@@ -295,3 +296,50 @@ def test_rolling_with_ploughing_reaches_where_its_speed_falls_to_the_threshold(d
             else:
                 d = min(math.log((a + b * v0[i] ** 2) / (a + b * s * s)) / (2 * b), length[i])
                 assert reach[i, k] == pytest.approx(5.0 + d, rel=1e-5 if precision == "float32" else 1e-12)
+
+
+def test_a_watch_ended_by_an_escape_counts_nothing_more(device):
+    """A track whose watch the dense phase ended (cell ESCAPED, `dense.watch`) given low flights and
+    rolling stretches: no reach, no pass, no place, where the same track not ended counts them all."""
+    precision = "float32"
+    t = types_for(precision)
+    places = (("all", (20.0, 0.0, 0.0), 100.0),)
+    w = make_path_watch(precision, len(SPEEDS), len(places), True)
+
+    @wp.kernel
+    def watch_after(
+        tally: w.Tally,
+        ended: wp.int32,
+        x0: wp.array(dtype=t.vec3),
+        v0: wp.array(dtype=t.vec3),
+        g: t.vec3,
+        dt: wp.array(dtype=t.scalar),
+        reach_out: wp.array2d(dtype=t.scalar),
+    ):
+        i = wp.tid()
+        track = w.start()
+        if ended != 0:
+            track.cell = wp.int32(ESCAPED)
+        track = w.parabola(track, tally, x0[i], v0[i], g, dt[i])
+        rolling = x0[i] + dt[i] * v0[i]
+        track = w.line(
+            track, tally, rolling, wp.normalize(v0[i]), t.scalar(20.0), wp.length(v0[i]), t.scalar(0.35), t.scalar(0.02)
+        )
+        w.write(track, reach_out, i)
+        w.finish(track, tally, i)
+
+    rng = np.random.default_rng(41)
+    n = 32
+    x0 = np.column_stack([rng.uniform(-4.0, 50.0, n), np.full(n, 1.0), rng.uniform(-8.0, 8.0, n)])
+    v0 = rng.uniform(40.0, 200.0, n)[:, None] * np.column_stack([np.ones(n), np.zeros(n), rng.uniform(-0.2, 0.2, n)])
+    dt = np.minimum(0.25, 30.0 / np.linalg.norm(v0, axis=1))  # within body height
+    setup = _setup(places=places)
+    found = {}
+    for ended in (0, 1):
+        inputs = [ended, *_flights(x0, v0, dt, precision, device)]
+        tally, reach = _run(watch_after, setup, precision, device, inputs, n)
+        found[ended] = (reach, tally.counts["exposure"].numpy().sum(), tally.counts["places"].numpy().sum())
+    reach, passes, visits = found[0]
+    assert np.isfinite(reach[:, 0]).all() and passes >= 2 * n and visits == n, (passes, visits)
+    reach, passes, visits = found[1]
+    assert np.isnan(reach).all() and passes == 0 and visits == 0, (passes, visits)

@@ -235,7 +235,7 @@ def make_dense_air(spec) -> SimpleNamespace:
         )
         middle = time + scalar(0.5) * scalar(count) * cloud.clock.step[s]
         position, velocity, spin, error = drifted(cloud, i, time, middle, physics)
-        watch.to(cloud, physics, i, position, time)  # (the hazard along its drift)
+        watch.to(cloud, surfaces, physics, i, position, time)  # (the hazard along its drift)
         cloud.air.time[i] = middle
         cloud.air.kick_due[i] = steps + count
         set_reference(cloud, i, position, velocity, spin, time)

@@ -161,7 +161,7 @@ def make_ends(spec) -> SimpleNamespace:
         points[i] = wp.vec3d(moved) + half_gravity * wp.float64(age * age)
 
     @wp.func
-    def release_pellet(i: wp.int32, pair: Pair, physics: Physics, cloud: Cloud):
+    def release_pellet(i: wp.int32, pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
         """The release outputs: each pellet's state when its shot left the dense phase (or where
         its flight ended in it), and the time of its last pair collision."""
         s = i / pair.count
@@ -175,7 +175,7 @@ def make_ends(spec) -> SimpleNamespace:
             velocity = ballistic_velocity(cloud.state.velocity[i], physics.gravity, age)
             if wp.static(AIR):  # the end of its drift, the air up to now; the core flies on from here
                 position, velocity, spin = air.drift_end(cloud, i, time, time, physics)
-                watch.to(cloud, physics, i, position, time)  # (the hazard along its drift; the core goes on)
+                watch.to(cloud, surfaces, physics, i, position, time)  # (the hazard along its drift; the core goes on)
                 air.air_until(cloud, i, time)
                 set_reference(cloud, i, position, velocity, spin, time)
                 cloud.state.touching[i] = -1  # (off the plane it left: the core's flight starts from the gap)

@@ -105,10 +105,10 @@ def make_setup_kernels(spec) -> SimpleNamespace:
             list_fns.grid_list(i, grid, pair, physics, cloud)
 
     @wp.kernel(**opts)
-    def release_kernel(pair: Pair, physics: Physics, cloud: Cloud):
+    def release_kernel(pair: Pair, surfaces: Surfaces, physics: Physics, cloud: Cloud):
         t = wp.tid()
         for i in range(t * pair.span, wp.min((t + 1) * pair.span, pair.pellets)):
-            end_fns.release_pellet(i, pair, physics, cloud)
+            end_fns.release_pellet(i, pair, surfaces, physics, cloud)
 
     @wp.kernel(**opts)
     def trajectory_frame_kernel(physics: Physics, cloud: Cloud, points: wp.array(dtype=wp.vec3d)):

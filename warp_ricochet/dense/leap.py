@@ -146,7 +146,7 @@ def make_leap(spec) -> SimpleNamespace:
         start = cloud.clock.leap[s]
         end = cloud.clock.time[s]
         position, velocity, spin = air.drift_end(cloud, i, start, start, physics)
-        watch_to(cloud, physics, i, position, start)  # (the hazard along its drift)
+        watch_to(cloud, surfaces, physics, i, position, start)  # (the hazard along its drift)
         set_reference(cloud, i, position, velocity, spin, start)
         air.air_until(cloud, i, start)
         cloud.state.touching[i] = -1  # (off any plane it left: plane times from the gap)

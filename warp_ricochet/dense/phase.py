@@ -131,7 +131,7 @@ class DensePhase:
             whole_phase(self)
         else:
             self._host_loop(pellets, shots, outputs, frames)
-        self._launch("release_kernel", self.threads, [p, self.model.physics, c])
+        self._launch("release_kernel", self.threads, [p, self.model.surfaces, self.model.physics, c])
         self._launch("block_totals_kernel", shots * p.frame_blocks, [p, c, self.block_totals])
         self._launch("shot_totals_kernel", shots, [p, c, self.block_totals, self.totals])
 

@@ -177,8 +177,8 @@ def make_rounds(spec) -> SimpleNamespace:
             cloud.state.touching[b] = -1
         # (a pair the law does not collide, grazing within rounding, moves its reference states to
         # `when` too: found again from there, it is no longer closing, and the clock moves on)
-        watch.to(cloud, physics, a, xa, when)  # (the hazard along their paths to the contact)
-        watch.to(cloud, physics, b, xb, when)
+        watch.to(cloud, surfaces, physics, a, xa, when)  # (the hazard along their paths to the contact)
+        watch.to(cloud, surfaces, physics, b, xb, when)
         set_reference(cloud, a, xa, va2, wa2, when)
         set_reference(cloud, b, xb, vb2, wb2, when)
         if wp.static(AIR):  # (pair_outcome gave them the air up to the contact)

@@ -404,7 +404,7 @@ def make_air_flight(precision: str, planes, laws: tuple, watch: tuple = (0, 0, F
     `to_contact` took are its sixth value), `to_contact_within` (the flight up to a time) and
     `to_contact_watched` (`to_contact` with each accepted step given to `tallies.path`'s watch of
     `watch` = (thresholds, places, map)); `watched_loop` (`make_flight_loop`'s, watched when `watch` is)."""
-    from ..tallies.path import make_path_roots, make_path_watch  # (tallies imports physics: not at the top)
+    from ..tallies.path import ESCAPED, make_path_roots, make_path_watch  # (tallies imports physics: not at the top)
 
     watcher, ground = make_path_watch(precision, *watch), make_path_roots(precision)
     Track, Tally = watcher.Track, watcher.Tally
@@ -458,8 +458,9 @@ def make_air_flight(precision: str, planes, laws: tuple, watch: tuple = (0, 0, F
         track). One loop for both builds: with WATCH (`tallies.path`'s watch) each accepted step's
         interpolant up to the contact is given to the watch, and a flight with no plane left to meet
         is flown on, watched, until it is below the hazard's ground plane falling (`ground.below`,
-        to `ground_theta` of its last step); without it (track and tally unused int32s) the code is
-        that of the flight alone."""
+        to `ground_theta` of its last step; within a `latest` short of MAX_FLIGHT_TIME, a dense
+        phase's leap, it is flown on to `latest`, its watch ended for good: ESCAPED); without it
+        (track and tally unused int32s) the code is that of the flight alone."""
         TrackT, TallyT = (Track, Tally) if WATCH else (wp.int32, wp.int32)
 
         @wp.func
@@ -501,12 +502,14 @@ def make_air_flight(precision: str, planes, laws: tuple, watch: tuple = (0, 0, F
                         gone = False
                         if k >= 0:
                             end = theta
-                        elif watched == 0 and waiting == 0 and latest >= LATEST and ground.below(tally, x1, v1):
+                        elif watched == 0 and waiting == 0 and ground.below(tally, x1, v1):
                             end = ground.ground_theta(tally, position, d0, e0, x1, d1s, e1)
                             gone = True  # it escapes: nothing left to meet, below the ground
                         track = watcher.segment(track, tally, position, d0, e0, x1, d1s, e1, h, end)
                         if gone:
-                            return scalar(NO_CONTACT), wp.int32(-1), vec3(), x1, v1, w1, steps, track
+                            if latest >= LATEST:
+                                return scalar(NO_CONTACT), wp.int32(-1), vec3(), x1, v1, w1, steps, track
+                            track.cell = wp.int32(ESCAPED)  # (flown on to `latest`: a dense phase's leap)
                     if k >= 0:
                         x, slope = dense.hermite_vec(theta, position, h * velocity, h * h * acceleration, x1, h * v1, h * h * a1)
                         w = dense.cubic_vec(theta, spin, h * spin_change, w1, h * d1)

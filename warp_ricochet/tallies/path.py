@@ -17,7 +17,8 @@ part; any other is cut at its height's apex (in vacuum the speed's minimum too) 
 crossings of body height and of each threshold's speed are found by bisection on the interpolant.
 `line` takes a straight stretch whose speed falls by a known law (rolling with ploughing in vacuum,
 `physics.surface_follow.plough_roll`), with its crossings in closed form. A flight that escapes is
-watched until its centre falls below the ground plane (`escape_time`, `below`, `ground_theta`).
+watched until its centre falls below the ground plane (`escape_time`, `below`, `ground_theta`); a
+watch the dense phase ended so (its cell ESCAPED, `dense.watch`) watches nothing more.
 
 A part within body height is walked across the map's cells along its curve (`make_path_curve`:
 row by row along the axis it moves farther along, each edge of the other axis crossed found by
@@ -42,6 +43,7 @@ from .path_roots import make_path_roots
 from .terrain_walk import make_terrain_walk
 
 NONE = -1  # the cell of a pellet above body height (no pass under way)
+ESCAPED = -2  # the cell of a pellet whose watch has ended for good (an escape in the dense phase)
 NO_REACH = -1.0  # a reach not yet found (reported as NaN)
 
 
@@ -656,9 +658,10 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
         track: Track, tally: Tally, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3, h: scalar, theta_end: scalar
     ):
         """Watch the segment's [0, theta_end] (x, h v, h^2 a at theta 0 and 1; h in s): `span` over
-        the ground plane, or over a terrain's triangles (`tallies.terrain_walk`)."""
+        the ground plane, or over a terrain's triangles (`tallies.terrain_walk`); nothing once the
+        watch has ended (cell ESCAPED)."""
         if wp.static(ON):
-            if h > ZERO and theta_end > ZERO:
+            if h > ZERO and theta_end > ZERO and track.cell != ESCAPED:
                 inv_h2 = ONE / (h * h)
                 if wp.static(TERRAIN):
                     first, last = terrain.window(tally, theta_end, x0, d0, e0, x1, d1, e1)
@@ -690,8 +693,10 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
     def line(track: Track, tally: Tally, x0: vec3, direction: vec3, length: scalar, v0: scalar, a: scalar, b: scalar):
         """Watch a straight stretch x0 + s direction, s in [0, length], along which the speed falls as
         a + b v^2 = (a + b v0^2) exp(-2 b s) (b > 0): threshold v_i is crossed at
-        s_i = ln((a + b v0^2) / (a + b v_i^2)) / (2 b)."""
+        s_i = ln((a + b v0^2) / (a + b v_i^2)) / (2 b). Nothing once the watch has ended (ESCAPED)."""
         if wp.static(ON):
+            if track.cell == ESCAPED:
+                return track
             xb = x0 + length * direction
             ha = height(tally, x0)
             hb = height(tally, xb)

@@ -1,8 +1,9 @@
 """A pellet's hazard watch (`tallies.path`'s `Track`) kept in arrays between kernels: the dense
 phase of a collision run keeps each pellet's watch from step to step and hands it to the core
 kernel with the release (docs/hazard.md section 11). A pellet row holds `reach` (m, one a
-threshold) and `ints` (the map cell of the pass under way, the pending run's row, first and last
-cell and level, then 1 + its level at each named place): every member of the Track, as it is."""
+threshold) and `ints` (the map cell of the pass under way, or ESCAPED once its watch has ended,
+the pending run's row, first and last cell and level, then 1 + its level at each named place):
+every member of the Track, as it is."""
 
 import functools
 
