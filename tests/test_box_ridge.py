@@ -136,3 +136,28 @@ def test_pellets_rolling_slowly_off_a_box_top_edge_rest_on_the_ground_beyond(tmp
     where, tol = end["position"], TOLERANCE[precision]
     assert (end["state"] == AT_REST).all(), end["state"]
     assert (np.abs(where[:, 1] - R) <= tol).all() and (where[:, 0] >= 0.5 + R - tol).all(), where
+
+
+@pytest.mark.parametrize("precision", ["float32", "float64"])
+def test_pellets_dropped_on_a_raised_squares_border_rest_on_it_or_the_ground(tmp_path, precision):
+    """A one-sided square of two triangles at y = 1 (an open mesh: its border edges have one face
+    each), 200 pellets dropped onto its border as onto the box's edges: those that roll off the
+    border (gravity pulls them off its only face) pivot to level with it and fall; every one rests
+    on the square or on the ground, after a few impacts (before the rule for a border,
+    float64 pellets hopped on it up to 20 impacts, or until max_impacts)."""
+    trimesh = pytest.importorskip("trimesh")
+    square = np.array([[-0.5, 1.0, -0.5], [0.5, 1.0, -0.5], [0.5, 1.0, 0.5], [-0.5, 1.0, 0.5]])
+    trimesh.Trimesh(vertices=square, faces=[[0, 2, 1], [0, 3, 2]], process=False).export(tmp_path / "square.stl")
+    rng = np.random.default_rng(1)
+    n = 200
+    across, along = rng.choice([-0.5, 0.5], n) + rng.normal(0.0, 1.5 * R, n), rng.uniform(-0.5, 0.5, n)
+    swap = rng.integers(0, 2, n) == 1
+    x0 = np.c_[np.where(swap, along, across), 1.0 + R + rng.uniform(0.001, 0.3, n), np.where(swap, across, along)]
+    v0 = np.c_[rng.normal(0.0, 0.1, n), -rng.uniform(0.0, 1.0, n), rng.normal(0.0, 0.1, n)]
+    mesh = {"kind": "mesh", "file": str(tmp_path / "square.stl"), **SMOOTH}
+    end = _rest(tmp_path, "square", x0, v0, mesh, precision)
+    where, tol = end["position"], TOLERANCE[precision]
+    on = (np.abs(where[:, [0, 2]]) <= 0.5 + tol).all(axis=1) & (np.abs(where[:, 1] - (1.0 + R)) <= tol)
+    off = np.abs(where[:, 1] - R) <= tol  # (some roll on under the square)
+    assert (end["state"] == AT_REST).all() and end["impacts"].max() <= 8, end["impacts"].max()
+    assert (on | off).all() and 0.2 < on.mean() < 0.8, where[~(on | off)]

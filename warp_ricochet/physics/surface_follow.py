@@ -499,9 +499,8 @@ def make_surface_follow(
                     n = geo.normal(surfaces, k, position)
                     gap, radial, reach = geo.touching(surfaces, k, position, radius)
                     if gap < reach:
-                        n = radial
                         y = position - gap * radial
-                        face, position, velocity = tri.ridge(surfaces, k, position, velocity, y, radial, g, radius)
+                        face, position, velocity, n = tri.ridge(surfaces, k, position, velocity, y, radial, g, radius)
                     if face < 0:  # none: it flies on
                         return position, velocity, spin, elapsed, path, wp.int32(FLIGHT), steps, k, track, n
                     steps += 1  # (a change of plane's cost)

@@ -29,8 +29,9 @@ at y (`edge_contact.touching`; radial unit normal r from y) rolls off it to one 
 a ridge (`ridge`): of the triangles through y, onto the one its velocity pivots it towards fastest
 (about y, r turning along the unit tangent d towards the triangle's normal n': v.d largest, > 0) if
 (v.d)^2 / 2 pays the centre's rise g.R (r - n'); else onto the one gravity pulls it towards most
-(g.d largest; its speed along -d lost), or, gravity pulling it off every one (a border), nowhere
-(it flies). Its centre goes to y + R n' and its velocity into that plane, paying any rise.
+(g.d largest; its speed along -d lost). Its centre goes to y + R n' and its velocity into that
+plane, paying any rise. Gravity pulling it off every one (a border), it pivots to where its radial
+r' is level (g.r' = 0) and flies from y + R r', its speed along r' dropped (as off a vertical side).
 
 Each change of plane is one step of the pellet's budget (`physics.max_steps`), so a pellet crossing
 many nearly coplanar triangles (a terrain's cells) costs one BVH query and one phase per triangle.
@@ -150,8 +151,9 @@ def make_triangle_follow(precision: str) -> SimpleNamespace:
     def ridge(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, y: vec3, r: vec3, g: vec3, radius: scalar):
         """A pellet staying on mesh k with its centre x over no triangle, touching an edge or a
         corner at y (r: the unit radial from y to x), rolls off it to one side, as a sphere on a
-        ridge (module docstring): (face, x', v') on the triangle through y it goes onto, or
-        (-1, x, v): none (a border it falls off)."""
+        ridge (module docstring): (face, x', v', its normal) on the triangle through y it goes onto;
+        face -1: none, gravity pulling it off every one (a border): it pivots to where r' is level
+        (g.r' = 0) and flies from x' = y + R r' (normal r')."""
         grow = slack(surfaces, k, y, radius)
         mesh, _low, _high = mc.bounds(surfaces, k)
         query = wp.mesh_query_aabb(mesh, mc.single(y - vec3(grow, grow, grow)), mc.single(y + vec3(grow, grow, grow)))
@@ -185,15 +187,19 @@ def make_triangle_follow(precision: str) -> SimpleNamespace:
                             d_down = d
                             n_down = n
         if on >= 0:
-            return on, x, v
+            return on, x, v, r
         if way >= 0 and speed > ZERO and scalar(0.5) * speed * speed >= -wp.dot(g, radius * (n_way - r)):
             x2 = y + radius * n_way  # it rolls over to where its velocity takes it
-            return way, x2, rise_paid(sm.tangential(v, n_way), x, x2, g)
-        if down < 0 or pull < ZERO:  # gravity pulls it off every triangle (a border): it falls
-            return wp.int32(-1), x, v
+            return way, x2, rise_paid(sm.tangential(v, n_way), x, x2, g), n_way
+        if down < 0 or pull < ZERO:  # gravity pulls it off every triangle (a border)
+            level = sm.tangential(g, r)  # gravity turns r along it, to where g.r' = 0
+            if wp.length(level) <= TOLERANCE * wp.length(g) or wp.dot(g, r) >= ZERO:
+                return wp.int32(-1), x, v, r
+            r2 = wp.normalize(wp.normalize(level) * (-wp.dot(g, r)) + r * wp.length(level))
+            return wp.int32(-1), y + radius * r2, sm.tangential(v, r2), r2
         x2 = y + radius * n_down  # gravity rolls it down, its speed the other way lost
         v2 = v - wp.min(wp.dot(v, d_down), ZERO) * d_down
-        return down, x2, rise_paid(sm.tangential(v2, n_down), x, x2, g)
+        return down, x2, rise_paid(sm.tangential(v2, n_down), x, x2, g), n_down
 
     @wp.func
     def cross(
