@@ -89,14 +89,16 @@ def test_pellets_dropped_on_a_boxs_top_edges_and_corners_all_rest_on_its_top_or_
 
 def test_float32_rests_agree_with_float64_statistically():
     """The rebuilt scene's 300 pellets (vacuum): the share resting on the top and the distance of
-    the rest positions from the box's vertical axis, float32 against float64 (the paths part at the
-    edges, so pellet by pellet they may not agree)."""
+    the rest positions from the box's vertical axis, float32 against float64 (the paths may part at
+    the edges, so pellet by pellet only most agree)."""
     single, double = _scene_rests("float32", False, 300), _scene_rests("float64", False, 300)
     top32, top64 = single["position"][:, 1] > 0.5, double["position"][:, 1] > 0.5
     table = [[top32.sum(), (~top32).sum()], [top64.sum(), (~top64).sum()]]
     assert stats.fisher_exact(table).pvalue > 1e-3, table
     far32, far64 = (np.linalg.norm(end["position"][:, [0, 2]], axis=1) for end in (single, double))
     assert stats.ks_2samp(far32, far64, method="asymp").pvalue > 1e-3
+    apart = np.linalg.norm(single["position"] - double["position"], axis=1)
+    assert np.mean(apart < 1e-4) > 0.9  # most pellet by pellet too (measured: 97%)
 
 
 @pytest.mark.parametrize("precision", ["float32", "float64"])
