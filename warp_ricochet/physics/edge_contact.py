@@ -33,8 +33,8 @@ from .types import types_for
 
 @functools.cache
 def make_edge_contact(precision: str, large: bool = True, edges: bool = True) -> SimpleNamespace:
-    """`mesh_time` (faces, edges and corners), `features_theta` and `contact_normal` (module
-    docstring). `large` False: every mesh has at most FEW_FACES triangles (no BVH queries compiled
+    """`mesh_time` (faces, edges and corners), `features_theta`, `contact_normal` and `touching`
+    (module docstring). `large` False: every mesh has at most FEW_FACES triangles (no BVH queries compiled
     in); `edges` False: no mesh owns edges or corners (their tests compiled out)."""
     t = types_for(precision)
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
@@ -204,27 +204,37 @@ def make_edge_contact(precision: str, large: bool = True, edges: bool = True) ->
         return found, radial
 
     @wp.func
+    def touching(surfaces: Surfaces, k: wp.int32, x: vec3, radius: scalar):
+        """(distance m, unit radial, reach m): from the nearest point of a kept edge or corner of
+        mesh k to x, if nearer than reach = R + rounding (the BVH's float32 slack); else (reach, 0,
+        reach)."""
+        mesh, low, high = mc.bounds(surfaces, k)
+        grow = radius + scalar(FLOAT32_SLACK) * (l1(low) + l1(high) + l1(x)) + TOLERANCE * radius
+        found = grow
+        radial = vec3()
+        if wp.static(edges):
+            faces = mc.faces(surfaces, k)
+            if faces <= FEW_FACES or not wp.static(large):
+                for face in range(faces):
+                    found, radial = nearest(surfaces, k, face, x, found, radial)
+            elif wp.static(large):
+                box = vec3(grow, grow, grow)
+                query = wp.mesh_query_aabb(mesh, mc.single(x - box), mc.single(x + box))
+                face = wp.int32(0)
+                while wp.mesh_query_aabb_next(query, face):
+                    found, radial = nearest(surfaces, k, face, x, found, radial)
+        return found, radial, grow
+
+    @wp.func
     def contact_normal(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, radius: scalar):
         """The unit normal of a contact with mesh k at centre x, velocity v (module docstring)."""
         n, over = mc.touched(surfaces, k, x, v, radius)
         if over or not wp.static(edges):
             return n
-        mesh, low, high = mc.bounds(surfaces, k)
-        grow = radius + scalar(FLOAT32_SLACK) * (l1(low) + l1(high) + l1(x)) + TOLERANCE * radius
-        found = grow
-        radial = vec3()
-        faces = mc.faces(surfaces, k)
-        if faces <= FEW_FACES or not wp.static(large):
-            for face in range(faces):
-                found, radial = nearest(surfaces, k, face, x, found, radial)
-        elif wp.static(large):
-            query = wp.mesh_query_aabb(mesh, mc.single(x - vec3(grow, grow, grow)), mc.single(x + vec3(grow, grow, grow)))
-            face = wp.int32(0)
-            while wp.mesh_query_aabb_next(query, face):
-                found, radial = nearest(surfaces, k, face, x, found, radial)
+        found, radial, grow = touching(surfaces, k, x, radius)
         if found < grow:
             return radial
         return n
 
     mesh_time = make_mesh_search(precision, mc.triangle_time, features_time if edges else None, large).mesh_time
-    return SimpleNamespace(mesh_time=mesh_time, features_theta=features_theta, contact_normal=contact_normal)
+    return SimpleNamespace(mesh_time=mesh_time, features_theta=features_theta, contact_normal=contact_normal, touching=touching)

@@ -327,6 +327,7 @@ def _make_geometry(precision: str, planes, snap: bool, plates: int) -> SimpleNam
         count=count,
         normal=normal,
         contact_normal=_contact_normal(precision, normal, WITH_MESHES, *_needs(plates)[1:]),
+        touching=make_edge_contact(precision, *_needs(plates)[1:]).touching,
         locate=locate,
         gap=gap,
         material=material,

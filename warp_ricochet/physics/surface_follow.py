@@ -495,9 +495,15 @@ def make_surface_follow(
         if wp.static(WITH_MESHES):
             if meshes.is_mesh(surfaces, k):
                 face = tri.start_face(surfaces, k, position, radius)
-                if face < 0:  # beside every triangle: it flies on
+                if face < 0:  # beside every triangle: on an edge or a corner it rolls off to one side
                     n = geo.normal(surfaces, k, position)
-                    return position, velocity, spin, elapsed, path, wp.int32(FLIGHT), steps, k, track, n
+                    gap, radial, reach = geo.touching(surfaces, k, position, radius)
+                    if gap < reach:
+                        y = position - gap * radial
+                        face, position, velocity, n = tri.ridge(surfaces, k, position, velocity, y, radial, g, radius)
+                    if face < 0:  # none: it flies on
+                        return position, velocity, spin, elapsed, path, wp.int32(FLIGHT), steps, k, track, n
+                    steps += 1  # (a change of plane's cost)
         if wp.static(WITH_POSTS):
             if posts.is_post(surfaces, k):
                 face = posts.cap_face(surfaces, k, position)  # a cap: as a disc plate

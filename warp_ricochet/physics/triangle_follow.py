@@ -24,6 +24,15 @@ velocity's speed along the neighbour's normal n' and N' the load on it (`surface
   POCKET times in a row at the rest speed or less (a pocket of several triangles, as the corner
   where a valley meets a slope; `physics.surface_follow`).
 
+A pellet that stays on the mesh with its centre over no triangle but on a convex edge or corner
+at y (`edge_contact.touching`; radial unit normal r from y) rolls off it to one side, as a sphere on
+a ridge (`ridge`): of the triangles through y, onto the one its velocity pivots it towards fastest
+(about y, r turning along the unit tangent d towards the triangle's normal n': v.d largest, > 0) if
+(v.d)^2 / 2 pays the centre's rise g.R (r - n'); else onto the one gravity pulls it towards most
+(g.d largest; its speed along -d lost). Its centre goes to y + R n' and its velocity into that
+plane, paying any rise. Gravity pulling it off every one (a border), it pivots to where its radial
+r' is level (g.r' = 0) and flies from y + R r', its speed along r' dropped (as off a vertical side).
+
 Each change of plane is one step of the pellet's budget (`physics.max_steps`), so a pellet crossing
 many nearly coplanar triangles (a terrain's cells) costs one BVH query and one phase per triangle.
 """
@@ -45,7 +54,7 @@ POCKET = 16  # changes of plane in a row at the rest speed or less that end at r
 
 @functools.cache
 def make_triangle_follow(precision: str) -> SimpleNamespace:
-    """`start_face` and `cross` (module docstring) of one precision."""
+    """`start_face`, `ridge` and `cross` (module docstring) of one precision."""
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
     mc, sm, faces = make_mesh_contact(precision), make_surface_motion(precision), make_mesh_faces(precision)
@@ -126,6 +135,73 @@ def make_triangle_follow(precision: str) -> SimpleNamespace:
         return best
 
     @wp.func
+    def rise_paid(v: vec3, x: vec3, x2: vec3, g: vec3):
+        """v, less the kinetic energy the centre's rise from x to x2 against g takes (J/kg); 0 if it
+        cannot pay it (the energy never rises)."""
+        rise = -wp.dot(g, x2 - x)
+        speed2 = wp.dot(v, v)
+        if rise > ZERO:
+            scale = ZERO
+            if speed2 > scalar(2.0) * rise:
+                scale = wp.sqrt(scalar(1.0) - scalar(2.0) * rise / speed2)
+            return scale * v
+        return v
+
+    @wp.func
+    def ridge(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, y: vec3, r: vec3, g: vec3, radius: scalar):
+        """A pellet staying on mesh k with its centre x over no triangle, touching an edge or a
+        corner at y (r: the unit radial from y to x), rolls off it to one side, as a sphere on a
+        ridge (module docstring): (face, x', v', its normal) on the triangle through y it goes onto;
+        face -1: none, gravity pulling it off every one (a border): it pivots to where r' is level
+        (g.r' = 0) and flies from x' = y + R r' (normal r')."""
+        grow = slack(surfaces, k, y, radius)
+        mesh, _low, _high = mc.bounds(surfaces, k)
+        query = wp.mesh_query_aabb(mesh, mc.single(y - vec3(grow, grow, grow)), mc.single(y + vec3(grow, grow, grow)))
+        face = wp.int32(0)
+        on = wp.int32(-1)
+        way = wp.int32(-1)  # the triangle its velocity pivots it towards fastest, at `speed` (m/s)
+        down = wp.int32(-1)  # the one gravity pulls it towards most, with `pull` (m/s^2)
+        speed = ZERO
+        pull = ZERO
+        n_way = vec3()
+        d_down = vec3()
+        n_down = vec3()
+        while wp.mesh_query_aabb_next(query, face):
+            a, b, c = mc.vertices(surfaces, k, face)
+            n = wp.cross(b - a, c - a)
+            if wp.length(n) > ZERO:
+                n = wp.normalize(n)
+                if wp.abs(wp.dot(y - a, n)) <= grow and mc.inside(n, a, b, c, y):
+                    d = n - wp.dot(n, r) * r  # the way r turns towards n as the sphere pivots about y
+                    if wp.length(d) <= TOLERANCE:
+                        on = face
+                    else:
+                        d = wp.normalize(d)
+                        if way < 0 or wp.dot(v, d) > speed:
+                            way = face
+                            speed = wp.dot(v, d)
+                            n_way = n
+                        if down < 0 or wp.dot(g, d) > pull:
+                            down = face
+                            pull = wp.dot(g, d)
+                            d_down = d
+                            n_down = n
+        if on >= 0:
+            return on, x, v, r
+        if way >= 0 and speed > ZERO and scalar(0.5) * speed * speed >= -wp.dot(g, radius * (n_way - r)):
+            x2 = y + radius * n_way  # it rolls over to where its velocity takes it
+            return way, x2, rise_paid(sm.tangential(v, n_way), x, x2, g), n_way
+        if down < 0 or pull < ZERO:  # gravity pulls it off every triangle (a border)
+            level = sm.tangential(g, r)  # gravity turns r along it, to where g.r' = 0
+            if wp.length(level) <= TOLERANCE * wp.length(g) or wp.dot(g, r) >= ZERO:
+                return wp.int32(-1), x, v, r
+            r2 = wp.normalize(wp.normalize(level) * (-wp.dot(g, r)) + r * wp.length(level))
+            return wp.int32(-1), y + radius * r2, sm.tangential(v, r2), r2
+        x2 = y + radius * n_down  # gravity rolls it down, its speed the other way lost
+        v2 = v - wp.min(wp.dot(v, d_down), ZERO) * d_down
+        return down, x2, rise_paid(sm.tangential(v2, n_down), x, x2, g), n_down
+
+    @wp.func
     def cross(
         surfaces: Surfaces,
         k: wp.int32,
@@ -158,14 +234,7 @@ def make_triangle_follow(precision: str) -> SimpleNamespace:
         elif sm.separates(u, load, radius) != 0:
             return wp.int32(FLIGHT), face, x, v, w
         x2 = y + (radius - height) * n2
-        v2 = v - u * n2
-        rise = -wp.dot(physics.gravity, x2 - x)  # J/kg of potential energy gained
-        speed2 = wp.dot(v2, v2)
-        if rise > ZERO:
-            scale = ZERO
-            if speed2 > scalar(2.0) * rise:
-                scale = wp.sqrt(scalar(1.0) - scalar(2.0) * rise / speed2)
-            v2 = scale * v2
+        v2 = rise_paid(v - u * n2, x, x2, physics.gravity)
         if u < ZERO and wp.length(v2) <= rest_speed:  # pushed into a concave crease from both sides?
             if wp.dot(sm.tangential(applied, n), v) > ZERO and wp.dot(sm.tangential(applied, n2), v2) < ZERO:
                 return wp.int32(REST), beyond, x2, vec3(), wp.dot(w, n) * n2
@@ -174,4 +243,4 @@ def make_triangle_follow(precision: str) -> SimpleNamespace:
             w2 = wp.dot(w, n) * n2 + wp.cross(n2, v2) / radius
         return wp.int32(CHANGE), beyond, x2, v2, w2
 
-    return SimpleNamespace(start_face=start_face, cross=cross)
+    return SimpleNamespace(start_face=start_face, ridge=ridge, cross=cross)
