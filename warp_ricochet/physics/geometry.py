@@ -125,29 +125,6 @@ def _make_geometry(precision: str, planes, snap: bool, plates: int) -> SimpleNam
             return wp.abs(a) <= surfaces.half_u[k] and wp.abs(b) <= surfaces.half_v[k]
         return a * a + b * b <= surfaces.half_u[k] * surfaces.half_u[k]
 
-    @wp.func
-    def clearance(surfaces: Surfaces, k: wp.int32, x: vec3):
-        """A lower bound (m) on the distance from x to surface k when it is not an infinite plane:
-        a mesh's or a post's (`_solids`); a rectangle's or disc's exact distance (the offset from
-        its plane beside the part of the projection that lies off it). A plane: its |height|."""
-        if wp.static(WITH_MESHES):
-            if surfaces.kind[k] >= MESH:
-                return solids.clearance(surfaces, k, x)
-        d = x - surfaces.point[k]
-        off = wp.dot(d, surfaces.normal[k])
-        kind = surfaces.kind[k]
-        if kind == 0:
-            return wp.abs(off)
-        a = wp.dot(d, surfaces.axis_u[k])
-        b = wp.dot(d, surfaces.axis_v[k])
-        zero = scalar(0.0)
-        if kind == RECTANGLE:
-            out_a = wp.max(wp.abs(a) - surfaces.half_u[k], zero)
-            out_b = wp.max(wp.abs(b) - surfaces.half_v[k], zero)
-            return wp.sqrt(off * off + out_a * out_a + out_b * out_b)
-        out = wp.max(wp.sqrt(a * a + b * b) - surfaces.half_u[k], zero)
-        return wp.sqrt(off * off + out * out)
-
     @wp.func(inline=True)
     def normal(surfaces: Surfaces, k: wp.int32, x: vec3):
         """The unit normal (towards the pellets) of surface k at the point nearest x."""
@@ -322,7 +299,7 @@ def _make_geometry(precision: str, planes, snap: bool, plates: int) -> SimpleNam
         inside=inside,
         is_plate=is_plate,
         is_solid=solids.is_solid,
-        clearance=clearance,
+        clearance=_clearance(precision, plates),
         reach=reach,
         count=count,
         normal=normal,
@@ -335,6 +312,44 @@ def _make_geometry(precision: str, planes, snap: bool, plates: int) -> SimpleNam
         contact_time=contact_time,
         next_contact=next_contact,
     )
+
+
+@functools.cache
+def _clearance(precision: str, plates: int):
+    """`clearance(surfaces, k, x)` of the kernels of `plates` (`make_geometry`)."""
+    t = types_for(precision)
+    scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
+    RECTANGLE, MESH, WITH_MESHES, solids = (
+        KINDS["rectangle"],
+        KINDS["mesh"],
+        plates >= MESHES,
+        _solids(precision, *_needs(plates)),
+    )
+
+    @wp.func
+    def clearance(surfaces: Surfaces, k: wp.int32, x: vec3):
+        """A lower bound (m) on the distance from x to surface k when it is not an infinite plane:
+        a mesh's or a post's (`_solids`); a rectangle's or disc's exact distance (the offset from
+        its plane beside the part of the projection that lies off it). A plane: its |height|."""
+        if wp.static(WITH_MESHES):
+            if surfaces.kind[k] >= MESH:
+                return solids.clearance(surfaces, k, x)
+        d = x - surfaces.point[k]
+        off = wp.dot(d, surfaces.normal[k])
+        kind = surfaces.kind[k]
+        if kind == 0:
+            return wp.abs(off)
+        a = wp.dot(d, surfaces.axis_u[k])
+        b = wp.dot(d, surfaces.axis_v[k])
+        zero = scalar(0.0)
+        if kind == RECTANGLE:
+            out_a = wp.max(wp.abs(a) - surfaces.half_u[k], zero)
+            out_b = wp.max(wp.abs(b) - surfaces.half_v[k], zero)
+            return wp.sqrt(off * off + out_a * out_a + out_b * out_b)
+        out = wp.max(wp.sqrt(a * a + b * b) - surfaces.half_u[k], zero)
+        return wp.sqrt(off * off + out * out)
+
+    return clearance
 
 
 def has_posts(plates) -> bool:

@@ -51,8 +51,8 @@ lift-off and loss of grip by
 Illinois on re-steps. A slide whose speed falls below a tenth of sqrt(g R) (it would reverse) is
 handed back (HANDOVER) to the 3-D integrator, and so is a step that curves onto another surface.
 Plates, meshes and posts (other than the plane the pellet is on) are kept off by the step: no step
-is longer than their least clearance less R (`free_of`: then no path of the step can touch them),
-and a phase that comes nearer to one than NEAR x its step goes on in 3-D (HANDOVER), where the
+is longer than their least clearance less R (`line_ahead.free_of`: then no path of the step can touch
+them), and a phase that comes nearer to one than a quarter of its step goes on in 3-D (HANDOVER), where the
 contact is found.
 
 Approximate maths (CUDA fast_math: __expf, __logf, approximate division and sqrt): no sin, cos or
@@ -71,8 +71,8 @@ import warp as wp
 
 from .air import make_air_laws
 from .ballistic import EPSILON, ROUNDING
-from .geometry import make_geometry
 from .integrate import make_dormand_prince
+from .line_ahead import make_line_ahead
 from .line_maths import make_line_maths
 from .surface_motion import make_surface_motion
 from .types import types_for
@@ -82,7 +82,6 @@ MAX_DECAY = 16.0  # 2 B h of a step at most: exp(+-16) stays far from overflow a
 HANDOVER = 7  # integrate_line's event: go on in 3-D (surface_follow.integrate_phase) from here
 LANDINGS = 12  # re-steps onto a margin's root (lift-off, loss of grip) at most
 BAND = 0.1  # events end within BAND x the tolerance of their scale (surface_follow's)
-NEAR = 0.25  # a plate, mesh or post nearer than NEAR x the step: the phase goes on in 3-D
 # a slide off the line aims at SHORT x the linear distance to the slip's zero: near it the slip's
 # direction relaxes at about 7/2 mu_d N / |s| (stiff), and a step aimed at the zero is rejected
 # (turf: 80.4 steps a pellet aimed at 1, 62.3 at 1/2, 58.2 at 0.7, 59.3 at 0.8)
@@ -410,58 +409,28 @@ def make_surface_line(
 ) -> SimpleNamespace:
     """The helpers of `integrate_line` (module docstring), each accepted step given to
     `tallies.path`'s watch of `watch`; not `rough`, for straight phases only; `plates`: the
-    surfaces may hold plates, meshes and posts (`geometry.make_geometry`), kept at `free_of`."""
+    surfaces may hold plates, meshes and posts (`geometry.make_geometry`), kept at `line_ahead.free_of`."""
     from ..tallies.path import make_path_watch  # (tallies imports physics: not at the top)
 
     watcher = make_path_watch(precision, *watch)
     Track, Tally = watcher.Track, watcher.Tally
     t = types_for(precision)
-    scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
-    STATIC, PLATES = planes, bool(plates)
-    geo = make_geometry(precision, planes, True, plates)
+    scalar, vec3, Physics = t.scalar, t.vec3, t.Physics
+    ahead = make_line_ahead(precision, planes, plates)
     ll, st = make_line_laws(precision, model, laws, noise, rough), make_line_steps(precision, model, laws, noise, rough)
     ROUGH = rough
     Line, m, state, state_at, stages = ll.Line, ll.maths, st.state, st.state_at, st.stages
     reference, frozen_time = ll.reference, ll.frozen_time
-    ZERO, ONE, TWO = scalar(0.0), scalar(1.0), scalar(2.0)
+    ZERO, ONE, TWO, HALF = scalar(0.0), scalar(1.0), scalar(2.0), scalar(0.5)
     STOP_FRACTION = scalar(max(1e-9, ROUNDING * EPSILON[precision]))
-    FAR = scalar(1e30)
 
     @wp.func
-    def ahead_of(position: vec3, k: wp.int32, surfaces: Surfaces, physics: Physics, direction: vec3):
-        """(distance along `direction` to the first other surface on the line, surface) or (FAR, -1)."""
-        ahead = FAR
-        k_ahead = wp.int32(-1)
-        count = geo.count(surfaces)
-        if wp.static(STATIC is not None):
-            count = wp.static(STATIC)
-        for j in range(count):
-            plane = j != k
-            if wp.static(PLATES):
-                plane = plane and not geo.is_plate(surfaces, j)  # (`free_of`'s)
-            if plane:
-                height, gap, n = geo.gap(surfaces, j, position, physics.radius)
-                closing = -wp.dot(direction, n)
-                if height >= ZERO and closing > ZERO:
-                    s = wp.max(gap, ZERO) / closing
-                    if s < ahead:
-                        ahead = s
-                        k_ahead = wp.int32(j)
-        return ahead, k_ahead
-
-    @wp.func
-    def free_of(position: vec3, k: wp.int32, surfaces: Surfaces, physics: Physics):
-        """How far (m) the centre can move from `position`, along any path, before the sphere can
-        touch a plate, mesh or post other than k: their least clearance less R (FAR: none)."""
-        free = FAR
-        if wp.static(PLATES):
-            count = geo.count(surfaces)
-            if wp.static(STATIC is not None):
-                count = wp.static(STATIC)
-            for j in range(count):
-                if j != k and geo.is_plate(surfaces, j):
-                    free = wp.min(free, geo.clearance(surfaces, j, position) - physics.radius)
-        return free
+    def first_slope(v: scalar, spin: vec3, dv: scalar, physics: Physics, line: Line):
+        """B of the first step: the secant of D between v / 2 and v (0 at v = 0)."""
+        half_dv, _dl, _dw, _load, _grip = ll.along(HALF * v, ZERO, spin, physics, line, ZERO)
+        if v <= line.least:
+            return ZERO
+        return (half_dv - dv) / (scalar(0.75) * v * v)
 
     @wp.func
     def target(v: scalar, e: vec3, lateral: vec3, spin: vec3, decel: scalar, dl: scalar, dw: vec3, line: Line, radius: scalar, goal: scalar):  # fmt: skip
@@ -570,8 +539,9 @@ def make_surface_line(
         reach=ll.reach,
         reference=ll.reference,
         frozen_time=ll.frozen_time,
-        ahead_of=ahead_of,
-        free_of=free_of,
+        ahead_of=ahead.ahead_of,
+        capped=ahead.capped,
+        first_slope=first_slope,
         target=target,
         step_error=step_error,
         step_time=step_time,
@@ -604,15 +574,15 @@ def make_line_integrator(
 ) -> SimpleNamespace:
     """`integrate_line`: `surface_follow`'s integrate_phase for a phase over the distance (module
     docstring); not `rough`, straight phases only (`line_of` refuses the rest), with the heading
-    and the offset compiled away; `plates`: steps kept within `free_of` (module docstring)."""
+    and the offset compiled away; `plates`: steps kept within `line_ahead.free_of` (module docstring)."""
     sl = make_surface_line(precision, planes, model, laws, watch, noise, rough, plates)
-    PLATES = bool(plates)
     ROUGH = rough
     m, Line, Track, Tally = sl.maths, sl.Line, sl.Track, sl.Tally
     along, heading, freeze, reach, stages, state_at = sl.along, sl.heading, sl.freeze, sl.reach, sl.stages, sl.state_at
-    ahead_of, free_of, target, step_error, step_time, watch_step, land_margin = (
-        sl.ahead_of, sl.free_of, sl.target, sl.step_error, sl.step_time, sl.watch_step, sl.land_margin
+    ahead_of, capped, target, step_error, step_time, watch_step, land_margin = (
+        sl.ahead_of, sl.capped, sl.target, sl.step_error, sl.step_time, sl.watch_step, sl.land_margin
     )  # fmt: skip
+    first_slope = sl.first_slope
     spin_of, first_rates, start, moved, psi_of = sl.spin_of, sl.first_rates, sl.start, sl.moved, sl.psi_of
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
@@ -622,14 +592,6 @@ def make_line_integrator(
     reference, frozen_time = sl.reference, sl.frozen_time
     AIMS = 40 if precision == "float64" else 30
     CONTACT, UNFINISHED = 4, 6  # surface_follow's end codes (it imports this module)
-
-    @wp.func
-    def first_slope(v: scalar, spin: vec3, dv: scalar, physics: Physics, line: Line):
-        """B of the first step: the secant of D between v / 2 and v (0 at v = 0)."""
-        half_dv, _dl, _dw, _load, _grip = along(HALF * v, ZERO, spin, physics, line, ZERO)
-        if v <= line.least:
-            return ZERO
-        return (half_dv - dv) / (scalar(0.75) * v * v)
 
     @wp.func
     def slip_ahead(s: scalar, v: scalar, spin: vec3, dwdt: vec3, line: Line, radius: scalar):
@@ -749,13 +711,10 @@ def make_line_integrator(
                 if wp.abs(wp.dot(line.slip, line.lateral)) > STOP_FRACTION:  # off the line: short of it (below)
                     aim = scalar(SHORT) * aim
                 h = wp.min(h, aim)
-            if wp.static(PLATES):  # a plate, mesh or post near: the 3-D integrator meets it
-                free = free_of(position, k, surfaces, physics)
-                if free < h:
-                    if free < scalar(NEAR) * h:
-                        event = wp.int32(HANDOVER)
-                        break
-                    h = free
+            h, near = capped(position, k, surfaces, physics, h)  # a plate, mesh or post near: 3-D meets it
+            if near:
+                event = wp.int32(HANDOVER)
+                break
             to_contact = False
             if h >= ahead:
                 h = ahead
