@@ -16,7 +16,7 @@ NEAR = 0.25  # a plate, mesh or post nearer than NEAR x the step: the phase goes
 
 @functools.cache
 def make_line_ahead(precision: str, planes=None, plates=False) -> SimpleNamespace:
-    """`ahead_of`, `free_of` and `capped` for one precision, number of planes (None: read at run
+    """`surface_count`, `ahead_of`, `free_of` and `capped` for one precision, number of planes (None: read at run
     time) and `plates` (`geometry.make_geometry`'s: whether plates, meshes and posts are compiled in)."""
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
@@ -74,4 +74,4 @@ def make_line_ahead(precision: str, planes=None, plates=False) -> SimpleNamespac
                 h = free
         return h, near
 
-    return SimpleNamespace(ahead_of=ahead_of, free_of=free_of, capped=capped)
+    return SimpleNamespace(surface_count=surface_count, ahead_of=ahead_of, free_of=free_of, capped=capped)

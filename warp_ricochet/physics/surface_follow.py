@@ -40,6 +40,7 @@ from .ballistic import EPSILON, ROUNDING
 from .cylinder_contact import make_cylinder_contact
 from .geometry import MESHES, has_posts, make_geometry
 from .integrate import make_dense_output
+from .line_ahead import make_line_ahead
 from .mesh_contact import make_mesh_lookup
 from .plate_edge import make_plate_edge
 from .surface_line import HANDOVER, make_line_integrator
@@ -72,16 +73,10 @@ def make_surface_closed_phases(precision: str, planes=None, plates: bool = False
     )
     ZERO, ONE, HALF = scalar(0.0), scalar(1.0), scalar(0.5)
     TOLERANCE = scalar(ROUNDING * EPSILON[precision])
-    STATIC, PLATES, WITH_MESHES, meshes = planes, plates, plates >= MESHES, make_mesh_lookup(precision)
+    PLATES, WITH_MESHES, meshes = plates, plates >= MESHES, make_mesh_lookup(precision)
     WITH_POSTS, posts = has_posts(plates), make_cylinder_contact(precision)
 
-    @wp.func
-    def surface_count(surfaces: Surfaces):
-        """The number of surfaces (fixed at code generation when `planes` is given)."""
-        count = geo.count(surfaces)
-        if wp.static(STATIC is not None):
-            count = wp.static(STATIC)
-        return count
+    surface_count = make_line_ahead(precision, planes, plates).surface_count
 
     @wp.func
     def contact_within(position: vec3, velocity: vec3, acceleration: vec3, k: wp.int32, surfaces: Surfaces, physics: Physics):
