@@ -306,7 +306,9 @@ def _berm_page(tmp_path, until: str, *more) -> str:
 
 def test_a_plate_is_named_by_its_shape_and_the_limits_say_so(tmp_path):
     """The scene's surfaces table names each surface's shape (docs/geometry.md) and the limits
-    section says plates are met inside their outline only."""
+    section says plates are met inside their outline only, and a box's convex edges and corners are
+    contacts of their own (docs/geometry.md, "Edges and corners"), not stopped only when the centre
+    reaches a triangle (a terrain's ridges are the ones that are no contacts)."""
     plate = {"kind": "rectangle", "point": [4.0, 1.0, 0.0], "normal": [-1.0, 0.0, 0.0], "axis_u": [0.0, 0.0, 1.0]}
     page = _parse(_berm_page(tmp_path, "landing", {**plate, "name": "plate", "size": [2.0, 1.0]}))
     shapes = {r[1]: r[2] for r in page.rows if len(r) > 2 and r[0] in ("0", "1", "2")}
@@ -314,6 +316,8 @@ def test_a_plate_is_named_by_its_shape_and_the_limits_say_so(tmp_path):
     assert shapes["berm"] == "box 4 m x 30 m x 2 m (12 triangles)"
     assert list(shapes.values())[0] == "infinite plane"
     assert "finite flat plates" in page.text and "surfaces of triangles" in page.text
+    assert "grazing a convex edge stopped when its centre reaches the triangle" not in page.text
+    assert "convex edges and corners are contacts of their own" in page.text and "terrain's ridges" not in page.text
 
 
 def test_the_limits_name_the_surfaces_section_and_follow_triangles_to_rest(tmp_path):
