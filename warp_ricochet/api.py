@@ -243,7 +243,31 @@ def _compute(scene, dev, writer=None, progress=None, resumed=None, dense_options
         warnings.warn(stats.bound.summary(), PrecisionWarning, stacklevel=3)
     if stats["hits"] == 0 and stats.get("entered", 0) == 0 and stats["pellets"] > 0 and scene.surfaces:
         warnings.warn(NO_HITS.format(int(stats["pellets"])), SceneWarning, stacklevel=3)
+    elif stats["missed"] > 0 and (lost := launched_behind(scene, int(stats["missed"]), int(stats["pellets"]))):
+        warnings.warn(lost, SceneWarning, stacklevel=3)
     return stats
+
+
+def launched_behind(scene, missed: int, pellets: int) -> str | None:
+    """The one-line warning for a sampled shot (no shot.file, no stations) whose launch envelope
+    reaches behind its first surface, an infinite plane (the ground): a pellet whose centre starts
+    there never meets it and is counted missed, so the statistics are of the others. None otherwise."""
+    shot = scene.shot
+    if shot.file is not None or scene.stations or not scene.surfaces or scene.surfaces[0].kind not in (None, "plane"):
+        return None
+    ground = scene.surfaces[0]
+    normal = np.asarray(ground.normal, dtype=np.float64)
+    height = float(np.dot(np.subtract(shot.envelope_center, ground.point), normal / np.linalg.norm(normal)))  # m
+    if height - shot.envelope_radius >= 0.0:
+        return None
+    name = f" ({ground.name!r})" if ground.name else ""
+    return (
+        f"shot.envelope_center = {[float(c) for c in shot.envelope_center]}: {missed:,} of {pellets:,} pellets missed "
+        f"every surface: the launch envelope (radius {shot.envelope_radius:.4g} m) reaches "
+        f"{shot.envelope_radius - height:.4g} m behind surfaces.0{name}, and a pellet launched behind a plane never "
+        f"meets it; the statistics are of the others (put the envelope's centre at least "
+        f"{shot.envelope_radius + shot.diameter / 2:.4g} m in front of the plane)"
+    )
 
 
 def _run_one(scene, dev, group=None, progress=None, dense_options=None, study=None, shards=None) -> dict:
