@@ -8,6 +8,8 @@ import os
 import tomllib
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import not_regular
 from ..fields import COLLISION_FIELDS, FIELDS, REST_FIELDS, default_fields
 from ..launch.packing import MAX_PACKING, packing_fraction
@@ -445,6 +447,8 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
             f"at most {MAX_PLANES_IN_AIR} with [air] (a flight in air tracks its planes in the bits of an int32)",
         )
     _check_meshes(planes, physics)
+    if shot.file is None:
+        _check_launch_outside(planes, shot)
     stations = parse_stations(raw.get("stations"))
     if stations:
         check_stations(stations, shot, raw["shot"], planes, physics, hazard)
@@ -459,6 +463,31 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
         hazard=hazard,
         stations=stations,
     )
+
+
+def _check_launch_outside(surfaces: tuple, shot: Shot) -> None:
+    """The launch envelope's centre lies outside every post and box: they are met from outside
+    only, so pellets launched inside one would fly through it as if it were not there."""
+    centre = np.asarray(shot.envelope_center, dtype=np.float64)
+    for i, s in enumerate(surfaces):
+        if s.kind not in ("cylinder", "box"):
+            continue
+        axis = np.asarray(s.normal, dtype=np.float64)
+        d = centre - np.asarray(s.point, dtype=np.float64)
+        if s.kind == "cylinder":  # base centre `point`, axis `normal`, `radius`, `length`
+            along = float(d @ axis)
+            inside = 0.0 < along < s.length and float(np.linalg.norm(d - along * axis)) < s.radius
+        else:  # centre `point`, sides `size` along axis_u, normal x axis_u and normal
+            u = np.asarray(s.axis_u, dtype=np.float64)
+            local = np.abs([d @ u, d @ np.cross(axis, u), d @ axis])
+            inside = bool(np.all(local < 0.5 * np.asarray(s.size, dtype=np.float64)))
+        if inside:
+            raise err(
+                "shot.envelope_center",
+                list(shot.envelope_center),
+                f"is inside surfaces.{i} ({s.name!r}, a {s.kind}), a solid met only from outside: pellets launched "
+                "inside it fly through it; the envelope's centre must lie outside every post and box",
+            )
 
 
 POST_LEAN = 1e-6  # rad: the most a post followed to rest may lean from gravity (docs/geometry.md)
