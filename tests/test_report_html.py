@@ -297,6 +297,8 @@ def _berm_page(tmp_path, until: str, *more) -> str:
     for surface in (*more, {**box, "name": "berm", "size": [4.0, 30.0, 2.0]}):
         raw["surfaces"].append({**surface, "restitution": 0.3, "mu_s": 0.2})
     raw["physics"]["until"] = until
+    if until == "rest":  # (the figure of where the pellets end)
+        raw["output"]["fields"] = [*raw["output"]["fields"], "rest"]
     path, out = tmp_path / "berm.h5", tmp_path / "berm.html"
     wr.run(scene_from_dict(raw), path, device="cpu")
     rc, _stdout, err = cli(["report", path, "--html", out])
@@ -330,6 +332,10 @@ def test_the_limits_name_the_surfaces_section_and_follow_triangles_to_rest(tmp_p
     assert "berm" in heading.group(2) and "box 4 m x 30 m x 2 m" in heading.group(2)  # the surfaces' table
     text = _parse(page).text
     assert "surfaces of triangles" in text and "terrain: followed to the landing only" not in text
+    # the figures' captions: no thresholds or danger-distance lines in a scene without [hazard], and
+    # the landing is the contact after physics.bounces ricochets, not a pellet's first one
+    assert "Landings beyond a distance" in text and "above each threshold" not in text and "vertical lines" not in text
+    assert "Where the pellets end" in text and "first landed" not in text and "after its physics.bounces" in text
 
 
 def test_a_mesh_first_is_not_given_a_normal_it_does_not_have():
