@@ -186,3 +186,18 @@ def test_a_launch_envelope_reaching_below_the_ground_warns_with_the_pellets_lost
         warnings.simplefilter("always")
         wr.run(load_scene(SCENE, ["shot.count=300", "shot.envelope_center=[0, 0.03, 0]"]), device="cpu")
     assert not [w for w in record if issubclass(w.category, wr.SceneWarning)]
+
+
+def test_a_station_whose_envelope_reaches_below_the_ground_warns_with_the_pellets_lost():
+    """The same for a station standing on the ground (its position the envelope's centre, the gun):
+    the warning names the station's key and how many pellets missed."""
+    scene = load_scene(
+        ROOT / "examples" / "trap_field.toml",
+        ["shot.shots=5", "stations.2.position=[-14.63, 0.0, 0.005]"],
+    )
+    with pytest.warns(wr.SceneWarning) as record:
+        stats = wr.run(scene, device="cpu")
+    assert stats["missed"] > 0
+    (message,) = [str(w.message) for w in record if issubclass(w.category, wr.SceneWarning)]
+    assert message.startswith("stations.2.position = [-14.63, 0.0, 0.005]: ")
+    assert f"{int(stats['missed']):,} of {int(stats['pellets']):,} pellets" in message and "0.015 m behind surfaces.0" in message

@@ -249,22 +249,29 @@ def _compute(scene, dev, writer=None, progress=None, resumed=None, dense_options
 
 
 def launched_behind(scene, missed: int, pellets: int) -> str | None:
-    """The one-line warning for a sampled shot (no shot.file, no stations) whose launch envelope
-    reaches behind its first surface, an infinite plane (the ground): a pellet whose centre starts
-    there never meets it and is counted missed, so the statistics are of the others. None otherwise."""
+    """The one-line warning for a sampled shot (no shot.file) whose launch envelope, about
+    shot.envelope_center or a station's position, reaches behind the ground (the hazard map's
+    surface, else the first; an infinite plane): a pellet whose centre starts there never meets it
+    and is counted missed, so the statistics are of the others. None otherwise."""
     shot = scene.shot
-    if shot.file is not None or scene.stations or not scene.surfaces or scene.surfaces[0].kind not in (None, "plane"):
+    index = scene.hazard.map_surface if scene.hazard is not None else 0
+    if shot.file is not None or index >= len(scene.surfaces) or scene.surfaces[index].kind not in (None, "plane"):
         return None
-    ground = scene.surfaces[0]
+    ground = scene.surfaces[index]
     normal = np.asarray(ground.normal, dtype=np.float64)
-    height = float(np.dot(np.subtract(shot.envelope_center, ground.point), normal / np.linalg.norm(normal)))  # m
+    centres = [(f"stations.{i}.position", s.position) for i, s in enumerate(scene.stations)]
+    heights = [
+        (float(np.dot(np.subtract(c, ground.point), normal / np.linalg.norm(normal))), key, c)  # m
+        for key, c in centres or [("shot.envelope_center", shot.envelope_center)]
+    ]
+    height, key, centre = min(heights, key=lambda h: h[0])
     if height - shot.envelope_radius >= 0.0:
         return None
     name = f" ({ground.name!r})" if ground.name else ""
     return (
-        f"shot.envelope_center = {[float(c) for c in shot.envelope_center]}: {missed:,} of {pellets:,} pellets missed "
+        f"{key} = {[float(c) for c in centre]}: {missed:,} of {pellets:,} pellets missed "
         f"every surface: the launch envelope (radius {shot.envelope_radius:.4g} m) reaches "
-        f"{shot.envelope_radius - height:.4g} m behind surfaces.0{name}, and a pellet launched behind a plane never "
+        f"{shot.envelope_radius - height:.4g} m behind surfaces.{index}{name}, and a pellet launched behind a plane never "
         f"meets it; the statistics are of the others (put the envelope's centre at least "
         f"{shot.envelope_radius + shot.diameter / 2:.4g} m in front of the plane)"
     )
