@@ -466,28 +466,38 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
 
 
 def _check_launch_outside(surfaces: tuple, shot: Shot) -> None:
-    """The launch envelope's centre lies outside every post and box: they are met from outside
-    only, so pellets launched inside one would fly through it as if it were not there."""
+    """The launch envelope (its sphere about shot.envelope_center) lies outside every post and box:
+    they are met from outside only, so pellets launched inside one would fly through it as if it
+    were not there."""
     centre = np.asarray(shot.envelope_center, dtype=np.float64)
     for i, s in enumerate(surfaces):
         if s.kind not in ("cylinder", "box"):
             continue
-        axis = np.asarray(s.normal, dtype=np.float64)
-        d = centre - np.asarray(s.point, dtype=np.float64)
-        if s.kind == "cylinder":  # base centre `point`, axis `normal`, `radius`, `length`
-            along = float(d @ axis)
-            inside = 0.0 < along < s.length and float(np.linalg.norm(d - along * axis)) < s.radius
-        else:  # centre `point`, sides `size` along axis_u, normal x axis_u and normal
-            u = np.asarray(s.axis_u, dtype=np.float64)
-            local = np.abs([d @ u, d @ np.cross(axis, u), d @ axis])
-            inside = bool(np.all(local < 0.5 * np.asarray(s.size, dtype=np.float64)))
-        if inside:
+        gap = _solid_distance(s, centre)  # m, negative inside
+        if gap < shot.envelope_radius:
+            where = "is inside" if gap < 0.0 else f"is {gap:.4g} m from"
             raise err(
                 "shot.envelope_center",
                 list(shot.envelope_center),
-                f"is inside surfaces.{i} ({s.name!r}, a {s.kind}), a solid met only from outside: pellets launched "
-                "inside it fly through it; the envelope's centre must lie outside every post and box",
+                f"{where} surfaces.{i} ({s.name!r}, a {s.kind}), a solid met only from outside, and the launch envelope "
+                f"(radius {shot.envelope_radius:.4g} m) reaches {shot.envelope_radius - gap:.4g} m into it: pellets "
+                "launched inside it fly through it; the envelope must lie outside every post and box",
             )
+
+
+def _solid_distance(s, x: np.ndarray) -> float:
+    """Signed distance (m; negative inside) from point x to a post (base centre `point`, axis
+    `normal`, `radius`, `length`) or a box (centre `point`, sides `size` along axis_u, normal x
+    axis_u and normal)."""
+    axis = np.asarray(s.normal, dtype=np.float64)
+    d = x - np.asarray(s.point, dtype=np.float64)
+    if s.kind == "cylinder":
+        along = float(d @ axis)
+        q = np.array([float(np.linalg.norm(d - along * axis)) - s.radius, max(-along, along - s.length)])
+    else:
+        u = np.asarray(s.axis_u, dtype=np.float64)
+        q = np.abs([d @ u, d @ np.cross(axis, u), d @ axis]) - 0.5 * np.asarray(s.size, dtype=np.float64)
+    return float(np.linalg.norm(np.maximum(q, 0.0)) + min(float(q.max()), 0.0))
 
 
 POST_LEAN = 1e-6  # rad: the most a post followed to rest may lean from gravity (docs/geometry.md)
