@@ -166,3 +166,38 @@ def test_a_scene_where_no_pellet_hits_anything_warns_in_one_line(tmp_path):
         warnings.simplefilter("always")
         wr.run(load_scene(SCENE, ["shot.count=300"]), device="cpu")
     assert not [w for w in record if issubclass(w.category, wr.SceneWarning)]
+
+
+def test_a_launch_envelope_reaching_below_the_ground_warns_with_the_pellets_lost(tmp_path):
+    """A shot whose launch envelope reaches behind the ground plane loses the pellets launched there
+    (they never meet it: missed) and every statistic is of the others: the run says so in one line
+    naming shot.envelope_center, how many of the pellets were lost and how high it must be."""
+    scene = load_scene(SCENE, ["shot.count=300", "shot.envelope_center=[0, 0.005, 0]", "output.fields=['initial.position']"])
+    path = tmp_path / "low.h5"
+    with pytest.warns(wr.SceneWarning) as record:
+        stats = wr.run(scene, path, device="cpu")
+    with h5py.File(path) as f:
+        behind = int((f["pellets/initial/position"][:, 1] < 0.0).sum())  # centres launched below the ground
+    assert behind > 0 and stats["missed"] == behind  # (the pellets the warning is about)
+    (message,) = [str(w.message) for w in record if issubclass(w.category, wr.SceneWarning)]
+    assert message.startswith("shot.envelope_center = [0.0, 0.005, 0.0]: ") and "\n" not in message
+    assert f"{behind:,} of 300 pellets" in message and "surfaces.0" in message and "0.02625 m" in message  # R + R^e
+    with warnings.catch_warnings(record=True) as record:  # the envelope clear of the ground: no SceneWarning
+        warnings.simplefilter("always")
+        wr.run(load_scene(SCENE, ["shot.count=300", "shot.envelope_center=[0, 0.03, 0]"]), device="cpu")
+    assert not [w for w in record if issubclass(w.category, wr.SceneWarning)]
+
+
+def test_a_station_whose_envelope_reaches_below_the_ground_warns_with_the_pellets_lost():
+    """The same for a station standing on the ground (its position the envelope's centre, the gun):
+    the warning names the station's key and how many pellets missed."""
+    scene = load_scene(
+        ROOT / "examples" / "trap_field.toml",
+        ["shot.shots=5", "stations.2.position=[-14.63, 0.0, 0.005]"],
+    )
+    with pytest.warns(wr.SceneWarning) as record:
+        stats = wr.run(scene, device="cpu")
+    assert stats["missed"] > 0
+    (message,) = [str(w.message) for w in record if issubclass(w.category, wr.SceneWarning)]
+    assert message.startswith("stations.2.position = [-14.63, 0.0, 0.005]: ")
+    assert f"{int(stats['missed']):,} of {int(stats['pellets']):,} pellets" in message and "0.015 m behind surfaces.0" in message

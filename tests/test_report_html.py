@@ -297,6 +297,8 @@ def _berm_page(tmp_path, until: str, *more) -> str:
     for surface in (*more, {**box, "name": "berm", "size": [4.0, 30.0, 2.0]}):
         raw["surfaces"].append({**surface, "restitution": 0.3, "mu_s": 0.2})
     raw["physics"]["until"] = until
+    if until == "rest":  # (the figure of where the pellets end)
+        raw["output"]["fields"] = [*raw["output"]["fields"], "rest"]
     path, out = tmp_path / "berm.h5", tmp_path / "berm.html"
     wr.run(scene_from_dict(raw), path, device="cpu")
     rc, _stdout, err = cli(["report", path, "--html", out])
@@ -306,7 +308,9 @@ def _berm_page(tmp_path, until: str, *more) -> str:
 
 def test_a_plate_is_named_by_its_shape_and_the_limits_say_so(tmp_path):
     """The scene's surfaces table names each surface's shape (docs/geometry.md) and the limits
-    section says plates are met inside their outline only."""
+    section says plates are met inside their outline only, and a box's convex edges and corners are
+    contacts of their own (docs/geometry.md, "Edges and corners"), not stopped only when the centre
+    reaches a triangle (a terrain's ridges are the ones that are no contacts)."""
     plate = {"kind": "rectangle", "point": [4.0, 1.0, 0.0], "normal": [-1.0, 0.0, 0.0], "axis_u": [0.0, 0.0, 1.0]}
     page = _parse(_berm_page(tmp_path, "landing", {**plate, "name": "plate", "size": [2.0, 1.0]}))
     shapes = {r[1]: r[2] for r in page.rows if len(r) > 2 and r[0] in ("0", "1", "2")}
@@ -314,6 +318,8 @@ def test_a_plate_is_named_by_its_shape_and_the_limits_say_so(tmp_path):
     assert shapes["berm"] == "box 4 m x 30 m x 2 m (12 triangles)"
     assert list(shapes.values())[0] == "infinite plane"
     assert "finite flat plates" in page.text and "surfaces of triangles" in page.text
+    assert "grazing a convex edge stopped when its centre reaches the triangle" not in page.text
+    assert "convex edges and corners are contacts of their own" in page.text and "terrain's ridges" not in page.text
 
 
 def test_the_limits_name_the_surfaces_section_and_follow_triangles_to_rest(tmp_path):
@@ -326,6 +332,10 @@ def test_the_limits_name_the_surfaces_section_and_follow_triangles_to_rest(tmp_p
     assert "berm" in heading.group(2) and "box 4 m x 30 m x 2 m" in heading.group(2)  # the surfaces' table
     text = _parse(page).text
     assert "surfaces of triangles" in text and "terrain: followed to the landing only" not in text
+    # the figures' captions: no thresholds or danger-distance lines in a scene without [hazard], and
+    # the landing is the contact after physics.bounces ricochets, not a pellet's first one
+    assert "Landings beyond a distance" in text and "above each threshold" not in text and "vertical lines" not in text
+    assert "Where the pellets end" in text and "first landed" not in text and "after its physics.bounces" in text
 
 
 def test_a_mesh_first_is_not_given_a_normal_it_does_not_have():

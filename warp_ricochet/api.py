@@ -243,7 +243,38 @@ def _compute(scene, dev, writer=None, progress=None, resumed=None, dense_options
         warnings.warn(stats.bound.summary(), PrecisionWarning, stacklevel=3)
     if stats["hits"] == 0 and stats.get("entered", 0) == 0 and stats["pellets"] > 0 and scene.surfaces:
         warnings.warn(NO_HITS.format(int(stats["pellets"])), SceneWarning, stacklevel=3)
+    elif stats["missed"] > 0 and (lost := launched_behind(scene, int(stats["missed"]), int(stats["pellets"]))):
+        warnings.warn(lost, SceneWarning, stacklevel=3)
     return stats
+
+
+def launched_behind(scene, missed: int, pellets: int) -> str | None:
+    """The one-line warning for a sampled shot (no shot.file) whose launch envelope, about
+    shot.envelope_center or a station's position, reaches behind the ground (the hazard map's
+    surface, else the first; an infinite plane): a pellet whose centre starts there never meets it
+    and is counted missed, so the statistics are of the others. None otherwise."""
+    shot = scene.shot
+    index = scene.hazard.map_surface if scene.hazard is not None else 0
+    if shot.file is not None or index >= len(scene.surfaces) or scene.surfaces[index].kind not in (None, "plane"):
+        return None
+    ground = scene.surfaces[index]
+    normal = np.asarray(ground.normal, dtype=np.float64)
+    centres = [(f"stations.{i}.position", s.position) for i, s in enumerate(scene.stations)]
+    heights = [
+        (float(np.dot(np.subtract(c, ground.point), normal / np.linalg.norm(normal))), key, c)  # m
+        for key, c in centres or [("shot.envelope_center", shot.envelope_center)]
+    ]
+    height, key, centre = min(heights, key=lambda h: h[0])
+    if height - shot.envelope_radius >= 0.0:
+        return None
+    name = f" ({ground.name!r})" if ground.name else ""
+    return (
+        f"{key} = {[float(c) for c in centre]}: {missed:,} of {pellets:,} pellets missed "
+        f"every surface: the launch envelope (radius {shot.envelope_radius:.4g} m) reaches "
+        f"{shot.envelope_radius - height:.4g} m behind surfaces.{index}{name}, and a pellet launched behind a plane never "
+        f"meets it; the statistics are of the others (put the envelope's centre at least "
+        f"{shot.envelope_radius + shot.diameter / 2:.4g} m in front of the plane)"
+    )
 
 
 def _run_one(scene, dev, group=None, progress=None, dense_options=None, study=None, shards=None) -> dict:

@@ -120,15 +120,20 @@ def figures(f) -> list[dict]:
         out.append({"title": "The map", "png": _png(fig), "caption": caption})
     fig = figure_class(figsize=(7.5, 4.6), layout="constrained")
     if hazard_plots.draw_survival(fig, f):
-        caption = (
-            "The share of landed pellets at or beyond each distance from the shooter, all of them and those above "
-            "each threshold (log scale); vertical lines: the danger distances of the landings (along the path, "
-            "the danger distances above are the reach's)."
-        )
+        caption = "The share of landed pellets at or beyond each distance from the shooter (log scale)."
+        if "hazard/thresholds/name" in f:
+            caption = (
+                "The share of landed pellets at or beyond each distance from the shooter, all of them and those above "
+                "each threshold (log scale); vertical lines: the danger distances of the landings (along the path, "
+                "the danger distances above are the reach's)."
+            )
         out.append({"title": "Landings beyond a distance", "png": _png(fig), "caption": caption})
     fig = figure_class(figsize=(12.0, 5.0), layout="constrained")
     if rest.draw_rest_distance(fig, f):
-        caption = "Left: where each pellet ends against where it first landed; right: the share of pellets at least this far."
+        caption = (
+            "Left: where each pellet ends against where it landed (its contact after its physics.bounces ricochets); "
+            "right: the share of pellets at least this far."
+        )
         out.append({"title": "Where the pellets end", "png": _png(fig), "caption": caption})
     return out
 

@@ -438,6 +438,8 @@ def limit_flags(scene: dict, reach: bool) -> dict:
         "materials": any(s.get("material") for s in scene.get("surfaces", [])),
         "plates": any((s.get("kind") or "plane") in ("rectangle", "disc") for s in scene.get("surfaces", [])),
         "triangles": any(s.get("kind") in ("box", "mesh", "terrain") for s in scene.get("surfaces", [])),
+        "edges": any(s.get("kind") in ("box", "mesh") for s in scene.get("surfaces", [])),
+        "terrain": any(s.get("kind") == "terrain" for s in scene.get("surfaces", [])),
         "posts": any(s.get("kind") == "cylinder" for s in scene.get("surfaces", [])),
         "levels": list(SHOWN_LEVELS),
     }

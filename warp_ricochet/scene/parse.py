@@ -8,6 +8,8 @@ import os
 import tomllib
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import not_regular
 from ..fields import COLLISION_FIELDS, FIELDS, REST_FIELDS, default_fields
 from ..launch.packing import MAX_PACKING, packing_fraction
@@ -445,6 +447,8 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
             f"at most {MAX_PLANES_IN_AIR} with [air] (a flight in air tracks its planes in the bits of an int32)",
         )
     _check_meshes(planes, physics)
+    if shot.file is None:
+        _check_launch_outside(planes, shot)
     stations = parse_stations(raw.get("stations"))
     if stations:
         check_stations(stations, shot, raw["shot"], planes, physics, hazard)
@@ -459,6 +463,41 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
         hazard=hazard,
         stations=stations,
     )
+
+
+def _check_launch_outside(surfaces: tuple, shot: Shot) -> None:
+    """The launch envelope (its sphere about shot.envelope_center) lies outside every post and box:
+    they are met from outside only, so pellets launched inside one would fly through it as if it
+    were not there."""
+    centre = np.asarray(shot.envelope_center, dtype=np.float64)
+    for i, s in enumerate(surfaces):
+        if s.kind not in ("cylinder", "box"):
+            continue
+        gap = _solid_distance(s, centre)  # m, negative inside
+        if gap < shot.envelope_radius:
+            where = "is inside" if gap < 0.0 else f"is {gap:.4g} m from"
+            raise err(
+                "shot.envelope_center",
+                list(shot.envelope_center),
+                f"{where} surfaces.{i} ({s.name!r}, a {s.kind}), a solid met only from outside, and the launch envelope "
+                f"(radius {shot.envelope_radius:.4g} m) reaches {shot.envelope_radius - gap:.4g} m into it: pellets "
+                "launched inside it fly through it; the envelope must lie outside every post and box",
+            )
+
+
+def _solid_distance(s, x: np.ndarray) -> float:
+    """Signed distance (m; negative inside) from point x to a post (base centre `point`, axis
+    `normal`, `radius`, `length`) or a box (centre `point`, sides `size` along axis_u, normal x
+    axis_u and normal)."""
+    axis = np.asarray(s.normal, dtype=np.float64)
+    d = x - np.asarray(s.point, dtype=np.float64)
+    if s.kind == "cylinder":
+        along = float(d @ axis)
+        q = np.array([float(np.linalg.norm(d - along * axis)) - s.radius, max(-along, along - s.length)])
+    else:
+        u = np.asarray(s.axis_u, dtype=np.float64)
+        q = np.abs([d @ u, d @ np.cross(axis, u), d @ axis]) - 0.5 * np.asarray(s.size, dtype=np.float64)
+    return float(np.linalg.norm(np.maximum(q, 0.0)) + min(float(q.max()), 0.0))
 
 
 POST_LEAN = 1e-6  # rad: the most a post followed to rest may lean from gravity (docs/geometry.md)
