@@ -480,7 +480,7 @@ def test_every_check_of_the_outputs_comes_before_the_cluster_starts(tmp_path, mo
     sweep = ["sweep", toml, "--device", "cpu", "--cluster", "local:1", "-o", out, "--param", "surfaces.0.mu_s=0.5,0.6"]
     sidecar, shards = tmp_path / "out.xmf", tmp_path / "out.h5.shards"
     cases = [
-        (lambda: out.write_bytes(b""), run, "output path = '{out}': exists; pass --overwrite"),
+        (lambda: out.write_bytes(b""), run, "output path = '{out}': exists; give --overwrite"),
         (lambda: sidecar.write_text(""), run, "output path = '{out}': out.xmf (its XDMF sidecar) exists"),
         (lambda: sidecar.write_text(""), sweep, "output path = '{out}': out.xmf (its XDMF sidecar) exists"),
         (shards.mkdir, run, "its shards' folder '{out}.shards' exists; --overwrite replaces it"),

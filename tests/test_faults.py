@@ -257,7 +257,7 @@ def test_resume_refusals_without_a_usable_partial(tmp_path, interrupted):
     done = tmp_path / "done.h5"
     done.write_bytes(b"a finished result")
     shutil.copy(partial, str(done) + ".partial")
-    cases.append((done, "exists; pass --overwrite"))
+    cases.append((done, "exists; give --overwrite"))
     for path, words in cases:
         # a writer or reader holds the file
         with held(partial) if words.startswith("in use") else contextlib.nullcontext():

@@ -4,7 +4,9 @@ dependent failures (a partial removed during the run, HDF5's open errors) as one
 keys and values not echoed whole; `report` of a killed run's partial says how far it got; a scene
 in which no pellet hits anything warns in one line."""
 
+import ast
 import os
+import re
 import subprocess
 import sys
 import warnings
@@ -201,3 +203,17 @@ def test_a_station_whose_envelope_reaches_below_the_ground_warns_with_the_pellet
     (message,) = [str(w.message) for w in record if issubclass(w.category, wr.SceneWarning)]
     assert message.startswith("stations.2.position = [-14.63, 0.0, 0.005]: ")
     assert f"{int(stats['missed']):,} of {int(stats['pellets']):,} pellets" in message and "0.015 m behind surfaces.0" in message
+
+
+def test_messages_name_an_option_to_add_in_one_wording():
+    """Issue 28: every message (and any text) of the package that tells the user to add an option says
+    "give --option" (the run, sweep and xdmf files said "pass --overwrite", report, plot, export and
+    example "give --overwrite"); the messages themselves are tested where they arise (test_xdmf,
+    test_faults, test_plots, test_gis, test_report_html, test_cluster)."""
+    verbs = {}
+    for path in sorted(Path(wr.__file__).parent.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.Constant) and isinstance(node.value, str):
+                for verb in re.findall(r"\b(pass|give|supply|add|use)\s+--[a-z]", node.value):
+                    verbs.setdefault(verb, []).append(path.name)
+    assert set(verbs) == {"give"} and len(verbs["give"]) >= 8, verbs

@@ -212,7 +212,7 @@ def test_sidecar_rules(tmp_path):
     scene_file = tmp_path / "scene.toml"
     scene_file.write_text(_scene(20).to_toml())
     rc, _, err = cli(["run", scene_file, "-o", out, "--device", "cpu"])
-    assert rc == 2 and "shot.xmf (its XDMF sidecar) exists; pass --overwrite" in err
+    assert rc == 2 and "shot.xmf (its XDMF sidecar) exists; give --overwrite" in err
     assert not out.exists() and xmf.read_text() == "mine"
     assert cli(["run", scene_file, "-o", out, "--device", "cpu", "--overwrite"])[0] == 0
     text = xmf.read_text()

@@ -67,10 +67,10 @@ def check_output_path(path, overwrite: bool) -> Path:
     if why := not_regular(p):  # (a FIFO, a device: never replaced, even with overwrite)
         raise OutputError(f"{shown}: {why}")
     if p.exists() and not overwrite:
-        raise OutputError(f"{shown}: exists; pass --overwrite (overwrite=True) to replace it")
+        raise OutputError(f"{shown}: exists; give --overwrite (overwrite=True) to replace it")
     if p.is_symlink() and not p.exists() and not overwrite:  # else found only when the run moves into place
         raise OutputError(
-            f"{shown}: is a dangling symbolic link (to {os.readlink(p)!r}); remove it, or pass "
+            f"{shown}: is a dangling symbolic link (to {os.readlink(p)!r}); remove it, or give "
             "--overwrite (overwrite=True) to replace the link"
         )
     partial = p.with_name(p.name + ".partial")
@@ -86,7 +86,7 @@ def check_output_path(path, overwrite: bool) -> Path:
                 else ("the chunks of an earlier interrupted run", "run")
             )
             raise OutputError(
-                f"{shown}: {partial.name} exists ({what[0]}); pass --resume (resume=True) to continue "
+                f"{shown}: {partial.name} exists ({what[0]}); give --resume (resume=True) to continue "
                 f"that {what[1]}, --overwrite (overwrite=True) to replace it, or move it away"
             )
     check_sidecar(p, overwrite, shown)
@@ -449,7 +449,7 @@ def check_resume_path(path, overwrite: bool) -> Path:
     """Fail early if there is no NAME.partial to continue, or NAME exists without overwrite."""
     p, shown = _target(path)
     if p.exists() and not overwrite:
-        raise OutputError(f"{shown}: exists; pass --overwrite (overwrite=True) to replace it with the resumed run")
+        raise OutputError(f"{shown}: exists; give --overwrite (overwrite=True) to replace it with the resumed run")
     check_sidecar(p, overwrite, shown)
     partial = p.with_name(p.name + ".partial")
     if partial.is_dir():

@@ -105,7 +105,7 @@ def check_resumable(path: Path, overwrite: bool) -> None:
     or whose file or XDMF sidecar exists without `overwrite` (the manifest: `SweepFolder`)."""
     folder, shown = folder_of(path), f"output path = {str(path)!r}"
     if path.exists() and not overwrite:
-        raise OutputError(f"{shown}: exists; pass --overwrite (overwrite=True) to replace it with the resumed sweep")
+        raise OutputError(f"{shown}: exists; give --overwrite (overwrite=True) to replace it with the resumed sweep")
     if folder.is_file():
         raise OutputError(
             f"{shown}: {folder.name} is a run's partial file, not a sweep's folder; warp-ricochet run ... --resume continues it"

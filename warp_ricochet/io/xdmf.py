@@ -70,7 +70,7 @@ def check_sidecar(path, overwrite: bool, shown: str) -> None:
     """Refuse (OutputError) when the sidecar of `path` exists and `overwrite` is not given."""
     xmf = sidecar_path(path)
     if xmf.exists() and not overwrite:
-        raise OutputError(f"{shown}: {xmf.name} (its XDMF sidecar) exists; pass --overwrite (overwrite=True) to replace it")
+        raise OutputError(f"{shown}: {xmf.name} (its XDMF sidecar) exists; give --overwrite (overwrite=True) to replace it")
 
 
 def write_xdmf(path, *, overwrite: bool = False) -> Path:
@@ -99,7 +99,7 @@ def write_xdmf(path, *, overwrite: bool = False) -> Path:
             try:
                 os.link(tmp, xmf)
             except FileExistsError:
-                raise OutputError(f"{shown}: {xmf.name} appeared meanwhile; pass --overwrite to replace it") from None
+                raise OutputError(f"{shown}: {xmf.name} appeared meanwhile; give --overwrite to replace it") from None
             os.unlink(tmp)
     except BaseException:
         if os.path.exists(tmp):
