@@ -130,6 +130,9 @@ def test_pellets_that_escape_have_no_rest_position(tmp_path):
     out = tmp_path / "escape.h5"
     stats = wr.run(load_scene(PAPER, ["shot.count=2000", "physics.gravity=[0.0, 9.81, 0.0]"] + REST), out, device="cpu")
     assert (stats["rest_escaped"], stats["rest_at_rest"], stats["rest_not_finished"]) == (2000, 0, 0)
+    text = format_run_summary(stats, out, "cpu")  # (issue 28: each count in its own words, the columns kept)
+    assert "hit, never landed             2,000\nmissed                        0\n" in text
+    assert "ended escaped / not finished  2,000 / 0\n" in text
     assert all(math.isnan(stats[f"rest_distance_{s}"]) for s in ("mean", "std", "min", "max"))
     assert math.isnan(stats["rest_path_mean"]) and stats["rest_impacts_mean"] == 1.0
     with h5py.File(out, "r") as f:
@@ -204,6 +207,11 @@ def test_summary_report_reader_xdmf_and_plot_show_where_pellets_end(plate, tmp_p
     text = format_run_summary(stats, path, "cpu")
     assert f"ended at rest / embedded      {int(stats['rest_at_rest']):,} / 0" in text
     assert f"ended escaped / not finished  {int(stats['rest_escaped']):,} / 0" in text
+    # issue 28: "escaped" names one count, the end state; the pellets that hit and never landed
+    # have their own row, in the same columns (the end state counts them, and the missed, too)
+    missed, hit_only = int(stats["missed"]), int(stats["escaped"])
+    assert f"hit, never landed             {hit_only:,}\nmissed                        {missed:,}\n" in text
+    assert text.count("escaped") == 1
     assert f"mean rest distance            {stats['rest_distance_mean']:.3f} m" in text
     assert "  rest_distance " in text and "  distance " in text and "not finished:" not in text
     unfinished = type(stats)(stats, rest_not_finished=7.0)

@@ -177,6 +177,8 @@ def test_imperial_summaries_print_yards_and_feet_per_second_and_keep_joules():
     assert "mean v_t pre/post    1,350.000 ft/s / 100.000 ft/s" in imperial
     assert "mean W_T at landing  1.500000 J" in imperial and "1.500000 J" in metric
     assert format_run_summary(STATS) == metric  # (the system is the block's only)
+    # issue 28: the pellets that hit and never landed in words of their own, the columns as before
+    assert "landed               100\nhit, never landed    0\nmissed               0\n" in metric
 
 
 def test_imperial_tables_convert_values_and_headers_and_swept_keys():

@@ -415,7 +415,7 @@ def settings(f, scene: dict, stats: dict) -> list[tuple[str, str]]:
         ("numerics.flight_tolerance (relative, flight in air)", fmt(numerics.get("flight_tolerance", math.nan))),
         ("numerics.fast_math", str(numerics.get("fast_math", True)).lower()),
         ("histogram bins (relative width)", "0.098%: quantiles and distances are bin upper edges"),
-        ("pellets missed / escaped / entered", f"{count('missed')} / {count('escaped')} / {count('entered')}"),
+        ("pellets missed / hit, never landed / entered", f"{count('missed')} / {count('escaped')} / {count('entered')}"),
         ("pellets not finished (budget spent)", count("rest_not_finished")),
         ("flights unfinished (in air)", count("flights_unfinished")),
     ]

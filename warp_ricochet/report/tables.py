@@ -558,7 +558,8 @@ def format_run_summary(stats: dict, output=None, device=None, scene=None) -> str
         ("stick", _count(stats.get("stick"))),
         ("slip", _count(stats.get("slip"))),
         ("landed", _count(stats.get("landed"))),
-        ("missed / escaped", f"{_count(stats.get('missed'))} / {_count(stats.get('escaped'))}"),
+        ("hit, never landed", _count(stats.get("escaped"))),  # (the end state "escaped" is another count: rest_rows)
+        ("missed", _count(stats.get("missed"))),
         *([("entered at the first impact", _count(stats.get("entered")))] if stats.get("entered", 0) > 0 else []),
         ("mean v_t pre/post", f"{val('pre_mean_vt')} / {val('post_mean_vt')}"),
         ("mean v_n pre/post", f"{val('pre_mean_vn')} / {val('post_mean_vn')}"),
