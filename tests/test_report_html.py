@@ -194,6 +194,68 @@ def test_units_imperial_gives_the_pages_lengths_in_yards_and_speeds_in_feet_per_
     assert " m/s" not in page.text.split("TOML")[0] and "launched at " in page.text and " ft above " in page.text
 
 
+def _texts(fig) -> list[str]:
+    """Every text a figure shows: titles, axis and colour-bar labels, legends, annotations."""
+    out = [fig.get_suptitle()] + [t.get_text() for legend in fig.legends for t in legend.get_texts()]
+    for ax in fig.axes:
+        out += [ax.get_title(), ax.get_xlabel(), ax.get_ylabel(), *(t.get_text() for t in ax.texts)]
+        out += [t.get_text() for t in ax.get_legend().get_texts()] if ax.get_legend() else []
+    return [t for t in out if t]
+
+
+def test_units_imperial_draws_every_figure_in_yards_with_the_tables_numbers(run_file):
+    """--units imperial (issue 28): each figure of the page is the metric one with every length in
+    yards (the axes, every line: the danger circles, outlines, curves and danger lines, the named
+    places; the map's densities per ft^2), labelled so, with no metre left; the danger distances
+    the map's legend names are the table's cells, its circles are drawn at them, and the survival
+    figure's lines are at the file's landing danger distances."""
+    from warp_ricochet import display
+    from warp_ricochet.report import html_data
+
+    with h5py.File(run_file, "r") as f:
+        metric = report_html.drawn(f)
+        with display.using("imperial"):
+            imperial = report_html.drawn(f)
+            table = html_data.danger_rows(f, float(f["stats/pellets"][()]))
+        landing_danger = f["hazard/landing_danger_distance/distance"][()]
+    assert [t for t, _, _ in imperial] == ["The map", "Landings beyond a distance", "Where the pellets end"]
+    yard, foot = 0.9144, 0.3048
+    for (title, fig_m, _), (_, fig_i, caption) in zip(metric, imperial, strict=True):
+        texts = _texts(fig_i)
+        assert "metre" not in caption, caption
+        assert not [t for t in texts if re.search(r"\(m\)| m\b|m\$\^2", t)], (title, texts)
+        assert len(fig_m.axes) == len(fig_i.axes)
+        for ax_m, ax_i in zip(fig_m.axes, fig_i.axes):
+            scale = []
+            for label_m, label_i in ((ax_m.get_xlabel(), ax_i.get_xlabel()), (ax_m.get_ylabel(), ax_i.get_ylabel())):
+                assert label_i == label_m.replace("(m)", "(yd)").replace("per m$^2$", "per ft$^2$"), (label_m, label_i)
+                scale.append(1 / yard if "(m)" in label_m else 1.0)
+            assert len(ax_m.lines) == len(ax_i.lines)
+            for line_m, line_i in zip(ax_m.lines, ax_i.lines):
+                xy_m, xy_i = np.asarray(line_m.get_xydata(), float), np.asarray(line_i.get_xydata(), float)
+                np.testing.assert_allclose(xy_i, xy_m * scale, rtol=1e-12, err_msg=title)
+            for mesh_m, mesh_i in zip(ax_m.collections, ax_i.collections):  # the map's densities: per ft^2
+                if "QuadMesh" in type(mesh_m).__name__:
+                    np.testing.assert_allclose(mesh_i.get_array(), mesh_m.get_array() * foot**2, rtol=1e-12)
+    _, fig, caption = imperial[0]
+    assert "per square foot" in caption and any("(yd)" in t for t in _texts(fig))
+    cells = {(row["name"], c["p"]): c["distance"] for row in table["rows"] for c in row["cells"]}
+    named = [re.fullmatch(r"(.+): where above; dashed: danger distance (\S+) yd \(p = (\S+)\)", t) for t in _texts(fig)]
+    named = [m for m in named if m]
+    radii = sorted(
+        round(float(np.hypot(*line.get_xydata().T).max()), 6) for line in fig.axes[0].lines if line.get_linestyle() == "--"
+    )
+    assert named and len(named) == len(radii)
+    for m in named:
+        for name in m.group(1).split(", "):
+            assert cells[(name, m.group(3))] == m.group(2), (name, m.group(0))
+        assert any(abs(r - float(m.group(2))) <= 5e-4 * r for r in radii), (m.group(0), radii)
+    vertical = [line.get_xdata() for line in imperial[1][1].axes[0].lines if len(line.get_xdata()) == 2]  # (axvline)
+    drawn_lines = {round(float(x[0]), 6) for x in vertical if x[0] == x[1]}
+    want = {round(x / yard, 6) for x in landing_danger.ravel() if np.isfinite(x)}
+    assert drawn_lines == want and want
+
+
 def test_the_named_places_and_the_outlines_when_the_file_has_them(run_file, tmp_path, monkeypatch):
     run = tmp_path / "run.h5"
     shutil.copy(run_file, run)

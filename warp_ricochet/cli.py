@@ -96,8 +96,8 @@ def _add_units(p: argparse.ArgumentParser) -> None:
         "--units",
         choices=("metric", "imperial"),
         default="metric",
-        help="units of the printed summary and tables: metric (SI, default) or imperial (distances in yards, "
-        "speeds in ft/s; energies stay in J); files are SI either way",
+        help="units of the printed summary and tables (and of the HTML report's figures): metric (SI, default) "
+        "or imperial (distances in yards, speeds in ft/s; energies stay in J); files are SI either way",
     )
 
 

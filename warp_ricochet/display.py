@@ -55,6 +55,11 @@ def value(x, si_unit: str):
         return x
 
 
+def factor(si_unit: str) -> float:
+    """What a value of `si_unit` is multiplied by to be printed (1 in metric, 1/0.9144 for m in imperial)."""
+    return IMPERIAL[si_unit][1] if imperial() and si_unit in IMPERIAL else 1.0
+
+
 def text(x, si_unit: str, spec: str = ".4g") -> str:
     """ "12.3 yd": a value and its printed unit ("n/a" for None)."""
     x = value(x, si_unit)

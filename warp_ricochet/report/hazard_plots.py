@@ -9,12 +9,15 @@ File or Group of a run) or from the same arrays in a dict (`read_plot_data`'s ke
 
 `draw_map(fig, source)` and `draw_survival(fig, source)` draw the same on a given matplotlib Figure
 and return False when the run has nothing to draw: `warp-ricochet plot` (`report.plots`) calls them.
-What the numbers mean: docs/hazard.md.
+Lengths are drawn in the printed unit (`display`: m, or yd with --units imperial; densities per
+m^2 or ft^2); the data stay SI. What the numbers mean: docs/hazard.md.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from .. import display
 
 
 def _figure(size):
@@ -102,7 +105,8 @@ def draw_survival(fig, source, title="Landings beyond a distance from the shoote
         return False
     by_level = np.asarray(d["distance_counts"], dtype=np.int64)
     total = by_level.sum()
-    edges = d["edges"]
+    k = display.factor("m")  # m -> the printed length unit
+    edges = np.asarray(d["edges"], dtype=np.float64) * k
     ax = fig.subplots()
     styles = set()  # the line styles of the danger distances drawn (one legend entry each)
     if total:
@@ -129,11 +133,11 @@ def draw_survival(fig, source, title="Landings beyond a distance from the shoote
                 r = d["danger_distance"][index, j]
                 if np.isfinite(r):
                     style = ":" if j else "--"
-                    ax.axvline(r, color=colours[index], ls=style, lw=0.8)
+                    ax.axvline(r * k, color=colours[index], ls=style, lw=0.8)
                     styles.add((j, style, p))
         ax.set_yscale("log")
         ax.set_ylim(max(0.5 / total, 1e-12), 1.5)
-    ax.set_xlabel("horizontal distance from the shooter (m)")
+    ax.set_xlabel(f"horizontal distance from the shooter ({display.unit('m')})")
     ax.set_ylabel("share of landed pellets at or beyond")
     ax.set_title(title + (f" ({total:,} landed)" if total else " (none landed)"), fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
@@ -184,8 +188,9 @@ def draw_map(fig, source, title="Landings on the map") -> bool:
             "ci_high": d["reach_ci_high"],
         }
         what, outside, title = "passes", d["map_passes_outside"], "Passes within body height on the map"
-    u, v, count = d["map_u_edges"], d["map_v_edges"], d["map_count"]
-    area = (u[1] - u[0]) * (v[1] - v[0])
+    k, length = display.factor("m"), display.unit("m")  # m -> the printed length unit
+    u, v, count = np.asarray(d["map_u_edges"]) * k, np.asarray(d["map_v_edges"]) * k, d["map_count"]
+    area = display.value((d["map_u_edges"][1] - d["map_u_edges"][0]) * (d["map_v_edges"][1] - d["map_v_edges"][0]), "m^2")
     names = d.get("names", [])
     layers = [
         np.concatenate([(d["map_above"][i] > 0).ravel(), d["danger_distance"][i], d["ci_high"][i]]) for i in range(len(names))
@@ -197,7 +202,8 @@ def draw_map(fig, source, title="Landings on the map") -> bool:
     if np.isfinite(density).any():
         mesh = ax.pcolormesh(u, v, density, norm=LogNorm(), cmap="Greys", shading="flat")
         aspect = (v[-1] - v[0]) / (u[-1] - u[0])  # the axes keep equal scales: a flat grid, a short bar
-        fig.colorbar(mesh, ax=ax, label=f"{what} per m$^2$", shrink=min(1.0, max(0.3, 1.6 * aspect)))
+        per = display.unit("m^2").replace("^2", "$^2$")
+        fig.colorbar(mesh, ax=ax, label=f"{what} per {per}", shrink=min(1.0, max(0.3, 1.6 * aspect)))
     colours = _colours(len(groups))
     uc, vc = 0.5 * (u[1:] + u[:-1]), 0.5 * (v[1:] + v[:-1])
     angle = np.linspace(0, 2 * np.pi, 361)
@@ -212,9 +218,9 @@ def draw_map(fig, source, title="Landings on the map") -> bool:
             label = f"{name}: none above"
         elif len(bounded):
             j = bounded[np.argmin(d["fractions"][bounded])]
-            r = d["danger_distance"][i, j]
+            r = d["danger_distance"][i, j] * k
             ax.plot(r * np.cos(angle), r * np.sin(angle), color=colour, ls="--", lw=0.8)
-            label = f"danger distance {r:.4g} m (p = {d['fractions'][j]:g})"
+            label = f"danger distance {r:.4g} {length} (p = {d['fractions'][j]:g})"
             label = f"{name}: where above; dashed: {label}" if contour else f"{name}: {label}"
         else:
             label = f"{name}: where above (too few {what} for a danger distance)"
@@ -224,8 +230,8 @@ def draw_map(fig, source, title="Landings on the map") -> bool:
     ax.set_xlim(u[0], u[-1])
     ax.set_ylim(v[0], v[-1])
     ax.set_aspect("equal")
-    ax.set_xlabel("u: downrange from the shooter (m)")
-    ax.set_ylabel("v: cross-range (m)")
+    ax.set_xlabel(f"u: downrange from the shooter ({length})")
+    ax.set_ylabel(f"v: cross-range ({length})")
     ax.set_title(f"{title} ({int(count.sum()):,} in the grid, {int(outside):,} outside)", fontsize=10)
     if ax.get_legend_handles_labels()[0]:
         fig.legend(fontsize=7, loc="outside lower center", frameon=False, ncol=2)

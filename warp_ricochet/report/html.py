@@ -78,17 +78,20 @@ def _png(fig) -> str:
 
 
 def _map_extras(fig, f, outlines):
-    """The outlines and the named places on the hazard map (`draw_map`'s figure)."""
+    """The outlines and the named places on the hazard map (`draw_map`'s figure, drawn in the
+    printed length unit: `display`)."""
     ax = fig.axes[0]
+    scale = display.factor("m")
     for k, (name, p, polygon) in enumerate(outlines or []):
         for j, ring in enumerate(_rings(polygon)):
+            ring = ring * scale
             ax.plot(
                 ring[:, 0], ring[:, 1], color=f"C{(k + 1) % 10}", lw=1.6, label=f"outline {name}, p = {p:g}" if j == 0 else None
             )
     if "hazard/points" in f and "hazard/map/origin" in f:
         m = f["hazard/map"]
         offset = np.asarray(f["hazard/points/position"][()], dtype=np.float64) - m["origin"][()]
-        u, v = offset @ m["u_axis"][()], offset @ m["v_axis"][()]
+        u, v = offset @ m["u_axis"][()] * scale, offset @ m["v_axis"][()] * scale
         ax.plot(u, v, ls="", marker="^", color="C3", markersize=7)
         for x, y, name in zip(u, v, html_data._names(f["hazard/points/name"])):
             ax.annotate(name, (x, y), textcoords="offset points", xytext=(4, 4), fontsize=8, color="C3")
@@ -100,6 +103,12 @@ def _map_extras(fig, f, outlines):
 
 def figures(f) -> list[dict]:
     """The report's figures as base64 PNGs: [{title, png, caption}], those the run can draw."""
+    return [{"title": title, "png": _png(fig), "caption": caption} for title, fig, caption in drawn(f)]
+
+
+def drawn(f) -> list[tuple]:
+    """The report's figures, [(title, matplotlib Figure, caption)], those the run can draw; lengths
+    in the printed unit (`display`: m, or yd with --units imperial, densities per ft^2)."""
     from .plots import require_matplotlib
 
     figure_class = require_matplotlib()
@@ -110,14 +119,14 @@ def figures(f) -> list[dict]:
         _map_extras(fig, f, outlines)
         what = "passes within body height" if "hazard/map/passes" in f else "landings"
         caption = (
-            f"Grey: {what} per square metre (log scale). Coloured contours: where {what} above each threshold "
-            "occur; dashed circles: each threshold's danger distance at the smallest p the run bounds."
+            f"Grey: {what} per square {'foot' if display.imperial() else 'metre'} (log scale). Coloured contours: where "
+            f"{what} above each threshold occur; dashed circles: each threshold's danger distance at the smallest p the run bounds."
         )
         if outlines:
             caption += " Solid coloured lines: the danger-area outlines."
         if "hazard/points" in f:
             caption += " Red triangles: the named places."
-        out.append({"title": "The map", "png": _png(fig), "caption": caption})
+        out.append(("The map", fig, caption))
     fig = figure_class(figsize=(7.5, 4.6), layout="constrained")
     if hazard_plots.draw_survival(fig, f):
         caption = "The share of landed pellets at or beyond each distance from the shooter (log scale)."
@@ -127,14 +136,14 @@ def figures(f) -> list[dict]:
                 "each threshold (log scale); vertical lines: the danger distances of the landings (along the path, "
                 "the danger distances above are the reach's)."
             )
-        out.append({"title": "Landings beyond a distance", "png": _png(fig), "caption": caption})
+        out.append(("Landings beyond a distance", fig, caption))
     fig = figure_class(figsize=(12.0, 5.0), layout="constrained")
     if rest.draw_rest_distance(fig, f):
         caption = (
             "Left: where each pellet ends against where it landed (its contact after its physics.bounces ricochets); "
             "right: the share of pellets at least this far."
         )
-        out.append({"title": "Where the pellets end", "png": _png(fig), "caption": caption})
+        out.append(("Where the pellets end", fig, caption))
     return out
 
 

@@ -95,11 +95,13 @@ def read_ends(group):
 def draw_rest_distance(fig, group) -> bool:
     """Rest against landing distance from the shooter, a point a pellet by end state (left), and
     the survival of both distances (right: the rest distance of every pellet at rest or embedded,
-    landed or not, as its quantiles count them)."""
+    landed or not, as its quantiles count them); distances in the printed unit (`display`)."""
     ends = read_ends(group)
     if ends is None:
         return False
     landing, rest, state = ends
+    k, length = display.factor("m"), display.unit("m")  # m -> the printed length unit
+    landing, rest = landing * k, rest * k
     ax1, ax2 = fig.subplots(1, 2)
     stopped = np.isin(state, STOPPED) & np.isfinite(landing)
     for code, colour in ((AT_REST, "C0"), (EMBEDDED, "C2")):
@@ -120,14 +122,14 @@ def draw_rest_distance(fig, group) -> bool:
         ax1.legend(loc="best", fontsize="small", markerscale=2)
     else:
         ax1.text(0.5, 0.5, "no pellet landed and stopped", ha="center", va="center", transform=ax1.transAxes)
-    ax1.set_xlabel("landing distance from the shooter (m)")
-    ax1.set_ylabel("rest distance from the shooter (m)")
+    ax1.set_xlabel(f"landing distance from the shooter ({length})")
+    ax1.set_ylabel(f"rest distance from the shooter ({length})")
     ended = np.isin(state, STOPPED) & np.isfinite(rest)  # (a pellet embedded at its first impact never lands)
     for values, name, colour in ((landing[np.isfinite(landing)], "landing", "C1"), (rest[ended], "rest", "C0")):
         if values.size:
             x = np.sort(values)
             ax2.step(x, 1.0 - np.arange(x.size) / x.size, where="post", color=colour, label=f"{name} ({x.size:,})")
-    ax2.set_xlabel("distance from the shooter (m)")
+    ax2.set_xlabel(f"distance from the shooter ({length})")
     ax2.set_ylabel("share of pellets at least this far")
     if ax2.get_lines():
         ax2.legend(loc="best", fontsize="small")
