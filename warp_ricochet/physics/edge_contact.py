@@ -10,7 +10,7 @@ of at most FEW_FACES).
 
 - An edge from p to q is a post of radius 0 (`cylinder_contact`): met where the centre's distance
   from the line closes to R with its projection on the segment (inclusive within EDGE_ROUNDING eps
-  of the coordinates' scale), or at once where it is within R there and closing. A corner is a
+  of the centre's and the edge's coordinates from its end: the edge's own frame), or at once where it is within R there and closing. A corner is a
   post of zero axis: met where |x - c| closes to R. Vacuum: `side_time`'s roots of the quartic on
   the parabola of eq. (36); air: `line_theta` on the step's Hermite.
 - The edges and corners are met from every side (a border edge of an open mesh from behind it too).
@@ -141,7 +141,7 @@ def make_edge_contact(precision: str, large: bool = True, edges: bool = True) ->
                     axis = vec3()
                     if length > ZERO:
                         axis = (q - p) / length
-                    slack = EDGE * (l1(x - p) + l1(p) + length)
+                    slack = EDGE * (l1(x - p) + length)  # (the edge's own frame: x - p, not x)
                     best = earlier(best, side_time(x - p, v, g, axis, radius, ZERO, length, slack))
         return best
 
@@ -174,12 +174,12 @@ def make_edge_contact(precision: str, large: bool = True, edges: bool = True) ->
             if edges[j] >= 0:
                 p, a, length = edge(surfaces, edges[j])
                 if not apart(p, p + length * a, low, high, grow + EDGE * (l1(p) + length)):
-                    slack = EDGE * (l1(x0 - p) + l1(p) + length)
+                    slack = EDGE * (l1(x0 - p) + length)
                     best = wp.min(best, line_theta(p, a, ZERO, length, radius, slack, x0, d0, e0, x1, d1, e1))
             if corners[j] >= 0:
                 c = surfaces.corner_points[corners[j]]
                 if not apart(c, c, low, high, grow + EDGE * l1(c)):
-                    slack = EDGE * (l1(x0 - c) + l1(c))
+                    slack = EDGE * l1(x0 - c)
                     best = wp.min(best, line_theta(c, vec3(), ZERO, ZERO, radius, slack, x0, d0, e0, x1, d1, e1))
         return best
 
@@ -206,10 +206,11 @@ def make_edge_contact(precision: str, large: bool = True, edges: bool = True) ->
     @wp.func
     def touching(surfaces: Surfaces, k: wp.int32, x: vec3, radius: scalar):
         """(distance m, unit radial, reach m): from the nearest point of a kept edge or corner of
-        mesh k to x, if nearer than reach = R + rounding (the BVH's float32 slack); else (reach, 0,
-        reach)."""
+        mesh k to x, if nearer than reach = R + rounding (FLOAT32_SLACK of the coordinates' scale
+        in the mesh's frame, `scale`, and the centre's own rounding); else (reach, 0, reach)."""
         mesh, low, high = mc.bounds(surfaces, k)
-        grow = radius + scalar(FLOAT32_SLACK) * (l1(low) + l1(high) + l1(x)) + TOLERANCE * radius
+        rounded = mc.state_rounding(x) + TOLERANCE * radius
+        grow = radius + scalar(FLOAT32_SLACK) * mc.scale(surfaces, k, x) + rounded
         found = grow
         radial = vec3()
         if wp.static(edges):
@@ -218,7 +219,8 @@ def make_edge_contact(precision: str, large: bool = True, edges: bool = True) ->
                 for face in range(faces):
                     found, radial = nearest(surfaces, k, face, x, found, radial)
             elif wp.static(large):
-                box = vec3(grow, grow, grow)
+                reach = radius + scalar(FLOAT32_SLACK) * (l1(low) + l1(high) + l1(x)) + rounded  # (the BVH's)
+                box = vec3(reach, reach, reach)
                 query = wp.mesh_query_aabb(mesh, mc.single(x - box), mc.single(x + box))
                 face = wp.int32(0)
                 while wp.mesh_query_aabb_next(query, face):

@@ -17,8 +17,13 @@ The BVH only proposes triangles; every test is on the kernel-precision vertices:
   behind the plane: its descending crossing) with the centre projected inside the triangle, or at
   the latest where the centre itself descends through the triangle (h = 0) inside it: a sphere that
   grazes an edge or a vertex is stopped there, so that a closed mesh is never crossed;
-- inside: the three edge functions n.((b - a) x (y - a)) are >= -EDGE_ROUNDING eps |b - a| (|y|_1 +
-  |a|_1) (inclusive, so a centre on a shared edge or vertex is inside its neighbours too).
+- inside: the three edge functions n.((b - a) x (y - a)) are >= -|b - a| (EDGE_ROUNDING eps (|y - a|_1
+  + |b - a|_1) + STATE_ROUNDING eps |y|_1): the arithmetic's rounding and the stored centre's own
+  (inclusive, so a centre on a shared edge or vertex is inside its neighbours too);
+- every tolerance scales with the mesh's own frame (`scale`: its box's extent and the centre's
+  distance from the box's centre) and the stored centre's own rounding (`state_rounding`), not with
+  the world's coordinates (docs/geometry.md, "Far from the origin"); only the float32 BVH's query
+  boxes are grown by FLOAT32_SLACK of those.
 
 A mesh of at most FEW_FACES triangles (a box, a plane's two) has every triangle tested instead of the
 chords' candidates: the same earliest contact (the chords' boxes only exclude triangles that cannot be
@@ -41,6 +46,7 @@ CHORD_EDGES = 4.0  # a chord's length at most this many of the mesh's median tri
 EDGE_ROUNDING = 8.0  # the inside test's tolerance, in machine epsilons of its operands' scale
 FLOAT32_SLACK = 2.0**-20  # relative: the BVH's float32 boxes against the kernel's vertices
 FEW_FACES = 16  # a mesh of at most this many triangles is searched whole, without its BVH
+STATE_ROUNDING = 2.0  # a stored centre's rounding (and one placement's), in eps of its own coordinates
 
 
 @functools.cache
@@ -76,6 +82,11 @@ def make_triangle_basics(precision: str) -> SimpleNamespace:
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
     entry_time = make_ballistic(precision).entry_time
     EDGE = scalar(EDGE_ROUNDING * EPSILON[precision])
+    STATE = scalar(STATE_ROUNDING * EPSILON[precision])
+
+    @wp.func
+    def l1(x: vec3):
+        return wp.abs(x[0]) + wp.abs(x[1]) + wp.abs(x[2])
 
     @wp.func
     def vertices(surfaces: Surfaces, k: wp.int32, face: wp.int32):
@@ -87,19 +98,45 @@ def make_triangle_basics(precision: str) -> SimpleNamespace:
         return a, b, c
 
     @wp.func
+    def frame(surfaces: Surfaces, k: wp.int32):
+        """Mesh k's own origin (m): the centre of its vertices' box, about which its tolerances scale."""
+        return scalar(0.5) * (surfaces.mesh_low[k] + surfaces.mesh_high[k])
+
+    @wp.func
+    def scale(surfaces: Surfaces, k: wp.int32, x: vec3):
+        """The coordinates' scale (m) in mesh k's frame: its box's l1 extent and x's l1 distance
+        from its origin (`frame`), not x's distance from the world's origin."""
+        return l1(surfaces.mesh_high[k] - surfaces.mesh_low[k]) + l1(x - frame(surfaces, k))
+
+    @wp.func
+    def state_rounding(x: vec3):
+        """How far (m) a stored centre x may lie from where it was computed: STATE_ROUNDING eps of
+        its own (world) coordinates."""
+        return STATE * l1(x)
+
+    @wp.func
+    def height_noise(surfaces: Surfaces, k: wp.int32, x: vec3, a: vec3, n: vec3):
+        """The rounding scale (m) of x's height n.(x - a) over a triangle of mesh k (vertex a, unit
+        normal n): sum_i |x_i - o_i| |n_i| + sum_i |a_i - o_i| |n_i| in the mesh's frame (o: `frame`),
+        and the stored centre's own rounding (`state_rounding`) in ROUNDING eps."""
+        o = frame(surfaces, k)
+        noise = wp.abs((x[0] - o[0]) * n[0]) + wp.abs((x[1] - o[1]) * n[1]) + wp.abs((x[2] - o[2]) * n[2])
+        noise += wp.abs((a[0] - o[0]) * n[0]) + wp.abs((a[1] - o[1]) * n[1]) + wp.abs((a[2] - o[2]) * n[2])
+        along = wp.abs(x[0] * n[0]) + wp.abs(x[1] * n[1]) + wp.abs(x[2] * n[2])
+        return noise + scalar(STATE_ROUNDING / ROUNDING) * along
+
+    @wp.func
     def single(x: vec3):
         """x in float32 (the BVH's queries)."""
         return wp.vec3f(wp.float32(x[0]), wp.float32(x[1]), wp.float32(x[2]))
 
     @wp.func
-    def l1(x: vec3):
-        return wp.abs(x[0]) + wp.abs(x[1]) + wp.abs(x[2])
-
-    @wp.func
     def edge_in(n: vec3, p: vec3, q: vec3, y: vec3):
-        """y on the inner side of edge p -> q (counter-clockwise about n), inclusive within rounding."""
+        """y on the inner side of edge p -> q (counter-clockwise about n), inclusive within the
+        rounding of the edge function in the edge's frame and of the stored point y itself."""
         e = q - p
-        return wp.dot(n, wp.cross(e, y - p)) >= -EDGE * wp.length(e) * (l1(y) + l1(p))
+        d = y - p
+        return wp.dot(n, wp.cross(e, d)) >= -wp.length(e) * (EDGE * (l1(d) + l1(e)) + state_rounding(y))
 
     @wp.func
     def inside(n: vec3, a: vec3, b: vec3, c: vec3, y: vec3):
@@ -123,7 +160,17 @@ def make_triangle_basics(precision: str) -> SimpleNamespace:
                 return -(speed + wp.sqrt(disc)) / (scalar(2.0) * half)
         return scalar(NO_CONTACT)
 
-    return SimpleNamespace(vertices=vertices, single=single, l1=l1, inside=inside, descending=descending)
+    return SimpleNamespace(
+        vertices=vertices,
+        single=single,
+        l1=l1,
+        inside=inside,
+        descending=descending,
+        frame=frame,
+        scale=scale,
+        state_rounding=state_rounding,
+        height_noise=height_noise,
+    )
 
 
 @functools.cache
@@ -150,8 +197,7 @@ def make_mesh_contact(precision: str, large: bool = True) -> SimpleNamespace:
             return scalar(NO_CONTACT)
         n = n / size
         height = wp.dot(x - a, n)
-        noise = wp.abs(x[0] * n[0]) + wp.abs(x[1] * n[1]) + wp.abs(x[2] * n[2])
-        noise += wp.abs(a[0] * n[0]) + wp.abs(a[1] * n[1]) + wp.abs(a[2] * n[2])
+        noise = basics.height_noise(surfaces, k, x, a, n)
         speed = wp.dot(v, n)
         half = scalar(0.5) * wp.dot(g, n)
         if wp.abs(half) <= TOLERANCE * l1(g):
@@ -256,12 +302,15 @@ def make_mesh_contact(precision: str, large: bool = True) -> SimpleNamespace:
     @wp.func
     def touched(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, radius: scalar):
         """(`contact_normal`, whether x is over a triangle of mesh k as its contact leaves it: R or
-        0 (within the BVH's rounding) in front of it, projected on it within EDGE_ROUNDING eps of
-        the coordinates)."""
+        0 in front of it within FLOAT32_SLACK of the coordinates' scale in the mesh's frame
+        (`scale`) and the centre's own rounding, projected on it within EDGE_ROUNDING eps of that
+        scale). The BVH's query box is grown by its float32 rounding of the world's coordinates."""
         low, high = surfaces.mesh_low[k], surfaces.mesh_high[k]
-        slack = scalar(FLOAT32_SLACK) * (l1(low) + l1(high) + l1(x)) + TOLERANCE * radius
-        fine = EDGE * (l1(low) + l1(high) + l1(x)) + TOLERANCE * radius
+        size, rounded = basics.scale(surfaces, k, x), basics.state_rounding(x) + TOLERANCE * radius
+        slack = scalar(FLOAT32_SLACK) * size + rounded
+        fine = EDGE * size + rounded
         grow = radius + slack
+        box = radius + scalar(FLOAT32_SLACK) * (l1(low) + l1(high) + l1(x)) + rounded
         best = vec3()
         steepest = scalar(0.0)
         over = wp.bool(False)
@@ -270,7 +319,7 @@ def make_mesh_contact(precision: str, large: bool = True) -> SimpleNamespace:
             for face in range(faces):
                 steepest, best, over = steeper(surfaces, k, face, x, v, slack, grow, fine, steepest, best, over)
         elif wp.static(large):
-            query = wp.mesh_query_aabb(surfaces.mesh[k], single(x - vec3(grow, grow, grow)), single(x + vec3(grow, grow, grow)))
+            query = wp.mesh_query_aabb(surfaces.mesh[k], single(x - vec3(box, box, box)), single(x + vec3(box, box, box)))
             face = wp.int32(0)
             while wp.mesh_query_aabb_next(query, face):
                 steepest, best, over = steeper(surfaces, k, face, x, v, slack, grow, fine, steepest, best, over)
@@ -418,9 +467,7 @@ def make_mesh_faces(precision: str) -> SimpleNamespace:
         """(height, noise, normal) of x over triangle `face` of mesh k's plane, as `geometry.locate`'s."""
         a, b, c = vertices(surfaces, k, face)
         n = wp.normalize(wp.cross(b - a, c - a))
-        noise = wp.abs(x[0] * n[0]) + wp.abs(x[1] * n[1]) + wp.abs(x[2] * n[2])
-        noise += wp.abs(a[0] * n[0]) + wp.abs(a[1] * n[1]) + wp.abs(a[2] * n[2])
-        return wp.dot(x - a, n), noise, n
+        return wp.dot(x - a, n), mc.height_noise(surfaces, k, x, a, n), n
 
     @wp.func
     def on_face(surfaces: Surfaces, k: wp.int32, face: wp.int32, x: vec3):

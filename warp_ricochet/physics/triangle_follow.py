@@ -63,9 +63,16 @@ def make_triangle_follow(precision: str) -> SimpleNamespace:
 
     @wp.func
     def slack(surfaces: Surfaces, k: wp.int32, x: vec3, radius: scalar):
-        """The BVH's float32 rounding at x (m), as `mesh_contact.contact_normal`'s."""
-        _mesh, low, high = mc.bounds(surfaces, k)
-        return scalar(FLOAT32_SLACK) * (mc.l1(low) + mc.l1(high) + mc.l1(x)) + TOLERANCE * radius
+        """The rounding of heights at x (m) in mesh k's frame, as `mesh_contact.contact_normal`'s."""
+        return scalar(FLOAT32_SLACK) * mc.scale(surfaces, k, x) + mc.state_rounding(x) + TOLERANCE * radius
+
+    @wp.func
+    def query(surfaces: Surfaces, k: wp.int32, x: vec3, grow: scalar):
+        """The BVH's query of mesh k's triangles within `grow` (m) of x, the box grown by the
+        float32 BVH's rounding of the world's coordinates."""
+        mesh, low, high = mc.bounds(surfaces, k)
+        grow = grow + scalar(FLOAT32_SLACK) * (mc.l1(low) + mc.l1(high) + mc.l1(x))
+        return wp.mesh_query_aabb(mesh, mc.single(x - vec3(grow, grow, grow)), mc.single(x + vec3(grow, grow, grow)))
 
     @wp.func
     def exit_time(n: vec3, a: vec3, b: vec3, c: vec3, y: vec3, v: vec3):
@@ -92,12 +99,11 @@ def make_triangle_follow(precision: str) -> SimpleNamespace:
         """Of mesh k's triangles other than `skip` over which the contact point y lies within `grow`
         of its plane, the one y moving along v stays on longest (`exit_time`): the one the path goes
         on into, not one it touches at an edge or a vertex behind it; -1 if none."""
-        mesh, _low, _high = mc.bounds(surfaces, k)
-        query = wp.mesh_query_aabb(mesh, mc.single(y - vec3(grow, grow, grow)), mc.single(y + vec3(grow, grow, grow)))
+        found = query(surfaces, k, y, grow)
         face = wp.int32(0)
         best = wp.int32(-1)
         longest = ZERO
-        while wp.mesh_query_aabb_next(query, face):
+        while wp.mesh_query_aabb_next(found, face):
             if face != skip:
                 a, b, c = mc.vertices(surfaces, k, face)
                 n = wp.cross(b - a, c - a)
@@ -117,12 +123,11 @@ def make_triangle_follow(precision: str) -> SimpleNamespace:
         grow = slack(surfaces, k, x, radius)
         low = -grow
         high = radius + grow
-        mesh, _low, _high = mc.bounds(surfaces, k)
-        query = wp.mesh_query_aabb(mesh, mc.single(x - vec3(high, high, high)), mc.single(x + vec3(high, high, high)))
+        found = query(surfaces, k, x, high)
         face = wp.int32(0)
         best = wp.int32(-1)
         least = ZERO
-        while wp.mesh_query_aabb_next(query, face):
+        while wp.mesh_query_aabb_next(found, face):
             a, b, c = mc.vertices(surfaces, k, face)
             n = wp.cross(b - a, c - a)
             if wp.length(n) > ZERO:
@@ -155,8 +160,7 @@ def make_triangle_follow(precision: str) -> SimpleNamespace:
         face -1: none, gravity pulling it off every one (a border): it pivots to where r' is level
         (g.r' = 0) and flies from x' = y + R r' (normal r')."""
         grow = slack(surfaces, k, y, radius)
-        mesh, _low, _high = mc.bounds(surfaces, k)
-        query = wp.mesh_query_aabb(mesh, mc.single(y - vec3(grow, grow, grow)), mc.single(y + vec3(grow, grow, grow)))
+        found = query(surfaces, k, y, grow)
         face = wp.int32(0)
         on = wp.int32(-1)
         way = wp.int32(-1)  # the triangle its velocity pivots it towards fastest, at `speed` (m/s)
@@ -166,7 +170,7 @@ def make_triangle_follow(precision: str) -> SimpleNamespace:
         n_way = vec3()
         d_down = vec3()
         n_down = vec3()
-        while wp.mesh_query_aabb_next(query, face):
+        while wp.mesh_query_aabb_next(found, face):
             a, b, c = mc.vertices(surfaces, k, face)
             n = wp.cross(b - a, c - a)
             if wp.length(n) > ZERO:
