@@ -21,8 +21,6 @@ import tomllib
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-POST = {"name": "post", "kind": "cylinder", "point": [20.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0]}
-POST |= {"radius": 0.1, "length": 1.2, "material": "concrete"}
 CASES = {
     "paper-vacuum": "the paper's shot in vacuum to its landing",
     "paper-air": "the paper's shot in sea-level air to its landing",
@@ -49,14 +47,14 @@ def scene_of(case: str, folder: Path):
             trimesh.Trimesh(vertices=square, faces=[[0, 1, 2], [0, 2, 3]], process=False).export(folder / "plane.stl")
             extra = ['surfaces.0.kind="mesh"', f'surfaces.0.file="{folder / "plane.stl"}"']
         return paper_scene(1000, air=case in ("paper-air", "turf"), mu_s=0.5, extra=extra)
+    if case == "post":
+        from bench.meshes import hazard_shot
+
+        return scene_from_dict(hazard_shot(4 * 280, True))
     raw = tomllib.loads((ROOT / "examples" / "hazard.toml").read_text())
     raw["shot"]["shots"] = 4
     raw["output"] = {"fields": []}
-    if case == "post":
-        raw.pop("hazard")
-        raw["surfaces"] = raw["surfaces"] + [POST]
-        raw["physics"] = {**raw["physics"], "until": "rest"}
-    elif case == "hazard":
+    if case == "hazard":
         raw["hazard"].pop("map_cell")
         raw["hazard"].pop("map_extent")
         raw["hazard"].pop("points")

@@ -269,24 +269,35 @@ def rest(n, device, repeats):
         )
 
 
-def posts(n, device, repeats):
-    """The hazard example's shot, statistics only, to rest on turf without and with a fence post
-    in its way: the median wall time of `repeats` runs after a warm-up, pellets/s and the ratio."""
-    import tomllib
+POST = {"name": "post", "kind": "cylinder", "point": [20.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0]}
+POST |= {"radius": 0.1, "length": 1.2, "material": "concrete"}  # a fence post 20 m out on the line of fire
 
-    from warp_ricochet.scene import scene_from_dict
+
+def hazard_shot(n, post: bool):
+    """The hazard example's shot (`n` pellets rounded to whole shots) to rest on turf, statistics only,
+    without its hazard, with or without POST in its way: the scene's dict."""
+    import tomllib
 
     raw = tomllib.loads((ROOT / "examples" / "hazard.toml").read_text())
     raw["shot"]["shots"] = max(1, n // raw["shot"]["count"])
     raw["physics"] = {**raw["physics"], "until": "rest"}
     raw["output"] = {"fields": []}
     raw.pop("hazard")
-    post = {"name": "post", "kind": "cylinder", "point": [20.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0]}
-    post |= {"radius": 0.1, "length": 1.2, "material": "concrete"}
+    if post:
+        raw["surfaces"] = raw["surfaces"] + [POST]
+    return raw
+
+
+def posts(n, device, repeats):
+    """The hazard example's shot, statistics only, to rest on turf without and with a fence post
+    in its way: the median wall time of `repeats` runs after a warm-up, pellets/s and the ratio."""
+    from warp_ricochet.scene import scene_from_dict
+
+    raw = hazard_shot(n, False)
     count = raw["shot"]["shots"] * raw["shot"]["count"]
     times = {}
-    for label, surfaces in (("turf", raw["surfaces"]), ("turf and a post", raw["surfaces"] + [post])):
-        seconds, stats = _timed(scene_from_dict({**raw, "surfaces": surfaces}), device, repeats)
+    for label, post in (("turf", False), ("turf and a post", True)):
+        seconds, stats = _timed(scene_from_dict(hazard_shot(n, post)), device, repeats)
         times[label] = seconds
         print(
             f"{label}: {count:,} pellets to rest in {seconds * 1e3:.1f} ms ({count / seconds:.3g} pellets/s; median of"

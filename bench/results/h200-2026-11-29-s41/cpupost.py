@@ -1,18 +1,19 @@
-import sys, time, tomllib
-from pathlib import Path
+"""CPU seconds of the post scene and turf alone (`bench.meshes.hazard_shot`), best of 2; run from a tree's root:
+PYTHONPATH=. python bench/results/h200-2026-11-29-s41/cpupost.py . 1e4"""
+
+import sys
+import time
+
 import warp_ricochet as wr
+from bench.meshes import hazard_shot
 from warp_ricochet.scene import scene_from_dict
-root = Path(sys.argv[1]); n = int(float(sys.argv[2]))
-raw = tomllib.loads((root / "examples" / "hazard.toml").read_text())
-raw["shot"]["shots"] = max(1, n // 280)
-raw["physics"] = {**raw["physics"], "until": "rest"}
-raw["output"] = {"fields": []}
-raw.pop("hazard")
-post = {"name": "post", "kind": "cylinder", "point": [20.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "radius": 0.1, "length": 1.2, "material": "concrete"}
-for label, surf in (("turf", raw["surfaces"]), ("post", raw["surfaces"] + [post])):
-    sc = scene_from_dict({**raw, "surfaces": surf})
-    wr.run(scene_from_dict({**raw, "surfaces": surf, "shot": {**raw["shot"], "shots": 1}}), None, device="cpu")
+
+n = int(float(sys.argv[2]))
+for label, post in (("turf", False), ("post", True)):
+    wr.run(scene_from_dict(hazard_shot(280, post)), None, device="cpu")  # compiles
     best = 1e9
     for _ in range(2):
-        t = time.process_time(); s = wr.run(sc, None, device="cpu"); best = min(best, time.process_time() - t)
-    print(f"{root.name} {label}: {best:.2f} CPU s for {raw['shot']['shots']*280} pellets, {s['rest_steps_mean']:.2f} steps, rest mean {s['rest_distance_mean']:.4f} m", flush=True)
+        start = time.process_time()
+        stats = wr.run(scene_from_dict(hazard_shot(n, post)), None, device="cpu")
+        best = min(best, time.process_time() - start)
+    print(f"{sys.argv[1]} {label}: {best:.2f} CPU s, {stats['rest_steps_mean']:.2f} steps, rest mean {stats['rest_distance_mean']:.4f} m")
