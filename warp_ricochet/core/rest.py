@@ -48,6 +48,7 @@ from ..physics.surface_follow import FOREVER, REST, make_surface_follow
 from ..physics.surface_motion import make_surface_laws
 from ..physics.types import types_for
 from ..tallies.path import make_path_watch
+from .lanes import any_lane
 
 CONTACT, SURFACE, FLIGHT = 0, 1, 2  # the modes of `to_rest`
 # what it ended as before: DONE_ESCAPED, DONE_NOT_FINISHED, DONE_EMBEDDED (ended in the core's landing part)
@@ -140,6 +141,11 @@ def make_to_rest(spec) -> SimpleNamespace:
         events = wp.int32(0)
         guard = EVENTS_PER_IMPACT * physics.max_impacts + 8
         while end < 0:
+            # a lane along a surface waits while another of its warp is at a contact or in flight,
+            # so that the warp's surface phases, the long ones, run together (core.lanes)
+            hopping = any_lane(wp.int32(mode != SURFACE))
+            if mode == SURFACE and hopping != 0:
+                continue
             events += 1
             if events > guard:
                 end = wp.int32(NOT_FINISHED)
