@@ -1,5 +1,6 @@
 """The core kernel's size on a CUDA architecture, without a GPU: registers a thread, stack frame and
-spills, read off `ptxas -v` for the scenes' statistics-only kernels (float32, their fast maths).
+spills, read off `ptxas -v` for the scenes' statistics-only kernels (float32, their fast maths), and
+the bytes of machine code (the cubin's .text sections).
 
 Warp's NVRTC writes the kernel's PTX (`wp.compile_aot_module(..., use_ptx=True)`); the CUDA toolkit's
 `ptxas` assembles it with `-v` (the PTX's .version is lowered to what that ptxas reads, and NVRTC's
@@ -62,7 +63,7 @@ def scene_of(case: str, folder: Path):
 
 
 def size_of(case: str, arch: int, ptxas: str, folder: Path) -> dict:
-    """{registers, stack, spill_stores, spill_loads, seconds} of the case's core kernel."""
+    """{registers, stack, spill_stores, spill_loads, code, seconds} of the case's core kernel."""
     import warp as wp
 
     from warp_ricochet.core.kernel import ricochet_kernel_for
@@ -79,9 +80,27 @@ def size_of(case: str, arch: int, ptxas: str, folder: Path) -> dict:
         done = subprocess.run([ptxas, "-v", f"-arch=sm_{arch}", str(source), "-o", str(folder / f"{case}.cubin")], capture_output=True, text=True)  # fmt: skip
         if done.returncode == 0:
             found = _entry(done.stderr)
+            found["code"] = code_bytes(folder / f"{case}.cubin")
             break
     found["seconds"] = time.perf_counter() - start
     return found
+
+
+def code_bytes(cubin: Path) -> int:
+    """Bytes of machine code in a cubin: the sizes of its ELF64 sections named .text.*."""
+    import struct
+
+    data = cubin.read_bytes()
+    (shoff,) = struct.unpack_from("<Q", data, 0x28)
+    shentsize, shnum, shstrndx = struct.unpack_from("<HHH", data, 0x3A)
+    headers = [struct.unpack_from("<IIQQQQIIQQ", data, shoff + i * shentsize) for i in range(shnum)]
+    names = headers[shstrndx][4]
+    total = 0
+    for name, _type, _flags, _addr, _offset, size, *_rest in headers:
+        label = data[names + name : data.index(b"\0", names + name)]
+        if label.startswith(b".text."):
+            total += size
+    return total
 
 
 def _entry(log: str) -> dict:
@@ -126,7 +145,8 @@ def main(argv=None):
                 continue
             print(
                 f"  {case:12s} {s['registers']:4d} registers, {s['stack']:6,d} bytes stack ({s['frame']:,d} frame),"
-                f" spills {s['spill_stores']:,d} / {s['spill_loads']:,d} bytes stored / loaded  [{s['seconds']:.0f} s]"
+                f" spills {s['spill_stores']:,d} / {s['spill_loads']:,d} bytes stored / loaded,"
+                f" {s['code']:,d} bytes of code  [{s['seconds']:.0f} s]"
                 f"  {CASES[case]}"
             )
 

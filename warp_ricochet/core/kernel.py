@@ -22,15 +22,21 @@ from .release import make_release
 # choice), chosen by measurement on an H200 (bench/RESULTS.md, `python -m bench.variants`).
 CUDA_MAX_REGISTERS = {("float32", False): 80, ("float32", True): None, ("float64", False): None, ("float64", True): None}
 CUDA_BLOCK_DIM = 256  # threads per CUDA block of the ricochet kernel
+# Runs to rest: a smaller kernel (697 -> 585 kB of sm_90 code for turf) ran 14% faster on an H200
+# (bench/RESULTS.md, "Warps that wait for their surface phases").
+REST_MAX_UNROLL = 4
 
 
 def kernel_options(spec, max_registers="default") -> dict:
     """`wp.kernel`'s options for a kernel that follows `spec`'s pellets (the core's, `core.shots`'):
-    its register cap (CUDA_MAX_REGISTERS, or `max_registers`) and fast maths."""
+    its register cap (CUDA_MAX_REGISTERS, or `max_registers`), fast maths and, to rest, the loops it unrolls."""
     cap = CUDA_MAX_REGISTERS[spec.precision, spec.fast_math] if max_registers == "default" else max_registers
     options = {} if cap is None else {"cuda_max_registers": cap}
-    if spec.fast_math:
-        options["module_options"] = {"fast_math": True}
+    module = {"fast_math": True} if spec.fast_math else {}
+    if spec.to_rest:  # loops of up to REST_MAX_UNROLL constant iterations unrolled, not 16 (Warp's default)
+        module["max_unroll"] = REST_MAX_UNROLL
+    if module:
+        options["module_options"] = module
     return options
 
 

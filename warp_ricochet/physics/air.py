@@ -20,10 +20,11 @@ them are in docs/air.md. SI units; u = v - wind is the velocity relative to the 
   T = -8 pi mu R^3 h omega with h = C_R Re_R / (64 pi) (h = 1 in Stokes flow). `dennis1980`: the fit
   to Dennis, Singh & Ingham (1980), J Fluid Mech 101:257, joined to Stokes; `loth2008`.
 
-tanh (in C_M of Loth 2021 and in Loth 2008's lift) is `make_tanh(precision)`: in float32 from one
-exp, (1 - e) / (1 + e) with e = exp(-2|x|), and its odd Taylor series for |x| < 1/8, where 1 - e
-cancels: within a few ulp of tanh, and a run in air on one CPU core takes a sixth less time than with
-the C library's tanhf (bench/RESULTS.md). float64 keeps wp.tanh.
+tanh (in C_M of Loth 2021 and in Loth 2008's lift) is `make_tanh(precision)`: in float32 on the CPU
+from one exp, (1 - e) / (1 + e) with e = exp(-2|x|), and its odd Taylor series for |x| < 1/8, where
+1 - e cancels: within a few ulp of tanh, and a run in air on one CPU core takes a sixth less time
+than with the C library's tanhf. On CUDA, and in float64, it is wp.tanh (on the H200 the formula
+made a run to rest 29% slower: bench/RESULTS.md).
 
 The laws are chosen at code generation (`make_air_laws(precision, drag, lift, spin_decay)`; lift
 or spin_decay None: that term is not compiled). The constants they read are premultiplied on the
@@ -44,24 +45,38 @@ LIFT_LAWS = ("loth2008", "linear", "sawicki2003")
 SPIN_DECAY_LAWS = ("dennis1980", "loth2008")
 
 
+_TANH32 = """
+#if defined(__CUDA_ARCH__)
+return wp::tanh(x);
+#else
+float a = wp::abs(x);
+if (a < 0.125f) {
+    float x2 = x * x;
+    return x * (1.0f + x2 * (-0.33333334f + x2 * (0.13333334f + x2 * (-0.053968254f + x2 * 0.021869488f))));
+}
+float e = wp::exp(-2.0f * a);
+float t = (1.0f - e) / (1.0f + e);
+return x < 0.0f ? -t : t;
+#endif
+"""
+
+
+@wp.func_native(_TANH32)
+def tanh32(x: wp.float32) -> wp.float32:
+    """float32 tanh(x) (module docstring): on the CPU from one exp and, below |x| = 1/8, its odd
+    series to x^9 (the next term is 8e-12 of x there); on CUDA Warp's tanh."""
+    ...
+
+
 @functools.cache
 def make_tanh(precision: str):
-    """`tanh(x)` of a precision (the module docstring): float32 from one exp, float64 wp.tanh."""
-    scalar = types_for(precision).scalar
-    ONE, SMALL = scalar(1.0), scalar(0.125)
-    C3, C5, C7, C9 = (scalar(c) for c in (-1.0 / 3.0, 2.0 / 15.0, -17.0 / 315.0, 62.0 / 2835.0))
+    """`tanh(x)` of a precision (the module docstring): float32 `tanh32`, float64 wp.tanh."""
+    if precision == "float32":
+        return tanh32
 
     @wp.func
-    def tanh(x: scalar):
-        """tanh(x): below |x| = 1/8 its series to x^9 (the next term is 8e-12 of x there)."""
-        if wp.static(precision == "float64"):
-            return wp.tanh(x)
-        a = wp.abs(x)
-        if a < SMALL:
-            x2 = x * x
-            return x * (ONE + x2 * (C3 + x2 * (C5 + x2 * (C7 + x2 * C9))))
-        e = wp.exp(scalar(-2.0) * a)
-        return wp.sign(x) * (ONE - e) / (ONE + e)
+    def tanh(x: wp.float64):
+        return wp.tanh(x)
 
     return tanh
 
