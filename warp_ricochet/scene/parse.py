@@ -446,7 +446,6 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
             f"{len(surfaces)} surfaces",
             f"at most {MAX_PLANES_IN_AIR} with [air] (a flight in air tracks its planes in the bits of an int32)",
         )
-    _check_meshes(planes, physics)
     if shot.file is None:
         _check_launch_outside(planes, shot)
     stations = parse_stations(raw.get("stations"))
@@ -498,32 +497,6 @@ def _solid_distance(s, x: np.ndarray) -> float:
         u = np.asarray(s.axis_u, dtype=np.float64)
         q = np.abs([d @ u, d @ np.cross(axis, u), d @ axis]) - 0.5 * np.asarray(s.size, dtype=np.float64)
     return float(np.linalg.norm(np.maximum(q, 0.0)) + min(float(q.max()), 0.0))
-
-
-POST_LEAN = 1e-6  # rad: the most a post followed to rest may lean from gravity (docs/geometry.md)
-
-
-def _check_meshes(surfaces: tuple, physics: Physics) -> None:
-    """Posts followed to rest stand along gravity (within POST_LEAN): gravity then presses no
-    pellet onto their side, which is not modelled as a surface to move along (docs/geometry.md,
-    "Posts (cylinders)"), with or without pellet-pellet collisions; triangles (boxes, meshes,
-    terrain) are followed to rest on any slope."""
-    g = math.sqrt(sum(x * x for x in physics.gravity))
-    if physics.until != "rest" or g == 0.0:
-        return
-    for i, s in enumerate(surfaces):
-        if s.kind == "cylinder":
-            a = s.normal
-            cos = abs(sum(x * y for x, y in zip(a, physics.gravity))) / (g * math.sqrt(sum(x * x for x in a)))
-            lean = math.acos(min(1.0, cos))
-            if math.sin(lean) > POST_LEAN:
-                raise err(
-                    f"surfaces.{i}.normal",
-                    list(a),
-                    f'leans {math.degrees(lean):.6g} degrees from gravity; with physics.until = "rest" a post '
-                    f"must stand along gravity (within {POST_LEAN:g} rad): motion along a leaning post's side is "
-                    'not modelled (or use physics.until = "landing")',
-                )
 
 
 MAX_SCENE_CHARS = 1 << 20  # a scene's text; the largest valid one (a drag table of 1,024 pairs) is ~40 kB
