@@ -26,7 +26,13 @@ state (x, v, w) (`integrate.make_dormand_prince`) at the surface's tolerance; af
 the centre is put back on the cylinder along n and v's normal part dropped (its kinetic energy never
 rises by it). Events on a step's dense output (quintic Hermite of x, cubic of w): the slip or the
 speed reaching its target (stepped to, never across, ended to first order within the band, as on a
-plane), N = 0, the grip lost and an end passed (Illinois), other surfaces (the flight's search).
+plane; a slip that spirals into 0, turned by the curvature and a drilling spin, ends within
+0.1 sqrt(tolerance) of its scale once a step aimed at 0 has turned it), N = 0, the grip lost and an
+end passed (Illinois), other surfaces (the flight's search).
+
+Sources: Newton's and Euler's equations of a rigid sphere with Coulomb friction (docs/ground.md),
+the constraint differentiated on the cylinder; cos = 2/3 is the classical particle leaving a smooth
+cylinder (or sphere) from rest at its top, N = m g cos(phi) - m v^2 / s = 0 with v^2 = 2 g s (1 - cos).
 """
 
 import functools

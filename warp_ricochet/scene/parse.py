@@ -6,11 +6,12 @@ import dataclasses
 import math
 import os
 import tomllib
+import warnings
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import not_regular
+from ..errors import SceneWarning, not_regular
 from ..fields import COLLISION_FIELDS, FIELDS, REST_FIELDS, default_fields
 from ..launch.packing import MAX_PACKING, packing_fraction
 from ..physics.limits import MAX_PLANES_IN_AIR
@@ -448,6 +449,7 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
         )
     if shot.file is None:
         _check_launch_outside(planes, shot)
+    _warn_post_creases(planes, shot, physics)
     stations = parse_stations(raw.get("stations"))
     if stations:
         check_stations(stations, shot, raw["shot"], planes, physics, hazard)
@@ -482,6 +484,35 @@ def _check_launch_outside(surfaces: tuple, shot: Shot) -> None:
                 f"(radius {shot.envelope_radius:.4g} m) reaches {shot.envelope_radius - gap:.4g} m into it: pellets "
                 "launched inside it fly through it; the envelope must lie outside every post and box",
             )
+
+
+def _warn_post_creases(surfaces: tuple, shot: Shot, physics: Physics) -> None:
+    """SceneWarning for a leaning post followed to rest whose bottom cap, tilted towards an infinite
+    plane, reaches from within a pellet's diameter of it to above it (docs/geometry.md, "Along a leaning
+    side"): pellets rolling into the acute crease under the cap may bounce there until their impacts
+    run out (NOT_FINISHED). Buried so that the cap lies below the plane, the post forms none."""
+    if physics.until != "rest":
+        return
+    for i, s in enumerate(surfaces):
+        if s.kind != "cylinder":
+            continue
+        a = np.asarray(s.normal, dtype=np.float64) / np.linalg.norm(s.normal)
+        for j, plane in enumerate(surfaces):
+            if not plane.is_plane:
+                continue
+            n = np.asarray(plane.normal, dtype=np.float64) / np.linalg.norm(plane.normal)
+            tilt = float(np.linalg.norm(n - (n @ a) * a))  # sin of the cap's tilt from the plane
+            centre = float(n @ (np.asarray(s.point, dtype=np.float64) - np.asarray(plane.point, dtype=np.float64)))
+            low, high = centre - s.radius * tilt, centre + s.radius * tilt
+            if n @ a > 0.0 and tilt > 1e-6 and low < shot.diameter and high > 0.0:
+                warnings.warn(
+                    f"surfaces.{i} ({s.name!r}): the bottom cap of this leaning post stands {high:.3g} m above the plane "
+                    f"of surfaces.{j} ({plane.name!r}), tilted {math.degrees(math.asin(min(1.0, tilt))):.3g} degrees: "
+                    "pellets rolling into the acute crease under it may bounce there until their impacts run out "
+                    f"(not finished); bury its base at least {s.radius * tilt + shot.diameter:.3g} m below that plane",
+                    SceneWarning,
+                    stacklevel=4,
+                )
 
 
 def _solid_distance(s, x: np.ndarray) -> float:
