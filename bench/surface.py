@@ -31,10 +31,10 @@ def laws_of(air):
 
 
 @functools.cache
-def kernel(precision, planes, model, laws, rough=True):
+def kernel(precision, planes, model, laws, rough=True, plates=False):
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
-    fns = make_surface_follow(precision, planes, model, laws, rough=rough)
+    fns = make_surface_follow(precision, planes, model, laws, rough=rough, plates=plates)
     follow, start, Tally = fns.follow, fns.start, fns.Tally  # (the hazard's watch: none here)
 
     @wp.kernel(enable_backward=False, module="unique")
@@ -69,12 +69,13 @@ def kernel(precision, planes, model, laws, rough=True):
     return run
 
 
-def setup(precision, planes, *, radius, gravity=(0.0, -9.81, 0.0), air=None, tolerance=1e-6, device="cpu"):
-    """(Surfaces, Physics) of planes [(point, normal), ...] for a pellet of `radius` (steel, DENSITY)."""
+def setup(precision, planes, *, radius, gravity=(0.0, -9.81, 0.0), air=None, tolerance=1e-6, device="cpu", plates=None):
+    """(Surfaces, Physics) of planes [(point, normal), ...] for a pellet of `radius` (steel, DENSITY);
+    `plates`: per plane None or `types.plate_arrays`'s (kind, axis_u, half_u, half_v, two_sided)."""
     t = types_for(precision)
     points = [p for p, _n in planes]
     normals = [np.asarray(n, float) / np.linalg.norm(n) for _p, n in planes]
-    surfaces = surfaces_of(precision, points, normals, [(0.5, 0.5, 0.5)] * len(planes), device)
+    surfaces = surfaces_of(precision, points, normals, [(0.5, 0.5, 0.5)] * len(planes), device, plates=plates)
     physics = t.Physics()
     physics.radius = t.scalar(radius)
     physics.inertia_factor = t.scalar(INERTIA_FACTOR)
@@ -88,9 +89,11 @@ def setup(precision, planes, *, radius, gravity=(0.0, -9.81, 0.0), air=None, tol
 def follow_pellets(
     precision, planes, x, v, w, *, radius, k=0, mu_s=0.5, mu_d=0.4, c=0.0, b=0.0, rest=0.0, max_steps=100000,
     gravity=(0.0, -9.81, 0.0), air=None, tolerance=1e-6, static=False, device="cpu", setup_cache=None, rough=True,
+    plates=None, compiled=False,
 ):  # fmt: skip
     """`follow` of m pellets (x, v, w broadcast to (m, 3); k, mu_s, ... to (m,)): a dict of float64
-    arrays x, v, w, elapsed, path and int arrays end, steps, k_next; `rough`: `make_surface_follow`'s."""
+    arrays x, v, w, elapsed, path and int arrays end, steps, k_next; `rough`: `make_surface_follow`'s;
+    `plates`: `setup`'s, `compiled` the kernels' `plates` (`physics.geometry`: MESHES for posts)."""
     model, laws = ("ballistic", None) if air is None else ("air", laws_of(air))
     t = types_for(precision)
     m = max([len(np.atleast_2d(q)) for q in (x, v, w)] + [np.size(q) for q in (k, mu_s, mu_d, c, b, rest, max_steps)])
@@ -99,7 +102,7 @@ def follow_pellets(
         return np.broadcast_to(np.asarray(q, float), (m, 3)).astype(precision)
 
     surfaces, physics = setup_cache or setup(
-        precision, planes, radius=radius, gravity=gravity, air=air, tolerance=tolerance, device=device
+        precision, planes, radius=radius, gravity=gravity, air=air, tolerance=tolerance, device=device, plates=plates
     )
     params = np.stack([np.broadcast_to(np.asarray(q, float), (m,)) for q in (mu_s, mu_d, c, b, rest)], axis=1)
     out_x, out_v, out_w = (wp.zeros(m, dtype=t.vec3, device=device) for _ in range(3))
@@ -109,7 +112,7 @@ def follow_pellets(
     inputs += [wp.array(np.broadcast_to(np.asarray(k, np.int32), (m,)).copy(), dtype=wp.int32, device=device)]
     steps = wp.array(np.broadcast_to(np.asarray(max_steps, np.int32), (m,)).copy(), dtype=wp.int32, device=device)
     inputs += [wp.array(params.astype(precision), device=device), steps, surfaces, physics]
-    run = kernel(precision, len(planes) if static else None, model, laws, rough)
+    run = kernel(precision, len(planes) if static else None, model, laws, rough, compiled)
     wp.launch(run, dim=m, inputs=inputs, outputs=[out_x, out_v, out_w, out_s, out_i], device=device)
     s, ints = out_s.numpy().astype(float), out_i.numpy()
     return dict(

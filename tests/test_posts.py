@@ -284,21 +284,14 @@ def test_bad_post_keys_are_one_line_errors(change, key, message):
     assert "\n" not in str(caught.value) and str(caught.value).startswith(key)
 
 
-def test_posts_refuse_what_they_do_not_model_yet():
-    """A leaning post followed to rest (motion along its side), a post as the hazard's ground. A post
-    along gravity (either way up) is followed to rest, with the dense phase's collisions too (until
-    landing: tests/test_dense_solids.py; to rest: tests/test_dense_post_rest.py)."""
-    leaning = POST | {"normal": [0.0, 0.01, 1.0]}
-    with pytest.raises(SceneError, match='^surfaces.1.normal .*leans 0.57.* degrees .*"rest" a post must stand along'):
-        scene_from_dict(_raw([GROUND, leaning], until="rest"))
-    scene_from_dict(_raw([GROUND, leaning]))  # until landing: met
-    for axis in ([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [0.0, 1e-7, 1.0]):
-        scene_from_dict(_raw([GROUND, POST | {"normal": axis}], until="rest"))
-    for until in ("landing", "rest"):
-        scene = scene_from_dict(_raw([GROUND, POST], until=until) | {"collisions": {"enabled": True}})
-        assert scene.pair_collisions and scene.physics.until == until
-    with pytest.raises(SceneError, match="^surfaces.1.normal .*leans"):  # with collisions too
-        scene_from_dict(_raw([GROUND, leaning], until="rest") | {"collisions": {"enabled": True}})
+def test_posts_are_followed_to_rest_at_any_lean_and_refused_only_as_the_hazards_ground():
+    """A post leaning any way is followed to rest (its side: physics/side_follow.py, tests/
+    test_lean_post.py), with the dense phase's collisions too; a post as the hazard's ground is refused."""
+    for axis in ([0.0, 0.01, 1.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [0.0, 1e-7, 1.0]):
+        for collisions in (False, True):
+            raw = _raw([GROUND, POST | {"normal": axis}], until="rest") | {"collisions": {"enabled": collisions}}
+            scene = scene_from_dict(raw)
+            assert scene.physics.until == "rest" and scene.pair_collisions == collisions
     with pytest.raises(SceneError, match="^hazard.map_surface .*must be a plane"):
         scene_from_dict(_raw([POST, GROUND]) | {"hazard": {"speed": {"fast": 50.0}}})
 

@@ -26,7 +26,8 @@ turns from closing to opening with its minimum inside (a graze), is bisected to 
 A dip in and out within one part between two such samples is not seen (the parts are 1/16 of a
 step the integrator keeps within its error tolerance).
 Followed to rest (`physics.surface_follow`): a pellet on a cap moves along it as along a disc plate
-(`cap_face`, `cap_plane`; `geometry.face_gap`); on the side it flies on (the caller's lift-off).
+(`cap_face`, `cap_plane`; `geometry.face_gap`); on a vertical post's side it flies on (the caller's
+lift-off), along a leaning post's side it moves (`physics.side_follow`).
 The side's searches (`side_time`, `line_theta`) also meet a mesh's convex edges (r = 0) and corners
 (a = 0: rho the distance from p) (`physics.edge_contact`).
 """

@@ -5,7 +5,8 @@ or spends its steps, as a `@wp.func` the core kernel calls (docs/ground.md 9).
 returns `follow(position, velocity, spin, k, surfaces, physics, mu_s, mu_d, rolling_resistance,
 ploughing, rest_speed, max_steps) -> (position, velocity, spin, elapsed, path, end, steps, k_next)`.
 The pellet touches surface k (gap 0; a normal speed or gap left by the caller is rounding and is
-dropped); on a post, one of its caps, followed as a disc plate (from its side it flies on at once).
+dropped); on a post, one of its caps, followed as a disc plate; from a vertical post's side it flies
+on at once, along a leaning one's it moves by `physics.side_follow`.
 It slides and rolls by the laws of `physics.surface_motion` (with the ploughing resistance b |v|^2
 beside c N) until one of the end codes:
 
@@ -43,6 +44,7 @@ from .integrate import make_dense_output
 from .line_ahead import make_line_ahead
 from .mesh_contact import make_mesh_lookup
 from .plate_edge import make_plate_edge
+from .side_follow import make_side_follow
 from .surface_line import HANDOVER, make_line_integrator
 from .surface_motion import FLIGHT, NEVER, REST, ROLLING, SLIDING, make_surface_motion
 from .surface_rates import make_surface_rates
@@ -421,7 +423,7 @@ def make_surface_integrator(
             growth = scalar(5.0)
         return position, velocity, spin, elapsed, path, wp.int32(UNFINISHED), k, steps, track
 
-    return SimpleNamespace(integrate_phase=integrate_phase)
+    return SimpleNamespace(integrate_phase=integrate_phase, watch_start=watch_start)
 
 
 @functools.cache
@@ -450,10 +452,12 @@ def make_surface_follow(
     Contact, applied_at, lifts = r.Contact, r.applied_at, r.lifts
     closed = make_surface_closed_phases(precision, planes, plates)
     plough_roll, rest_state, constant_phase = closed.plough_roll, closed.rest_state, closed.constant_phase
-    integrate_phase = make_surface_integrator(precision, planes, model, laws, watch, plates).integrate_phase
+    integrator = make_surface_integrator(precision, planes, model, laws, watch, plates)
+    integrate_phase = integrator.integrate_phase
     PLATES = plates
     WITH_MESHES, meshes, tri = plates >= MESHES, make_mesh_lookup(precision), make_triangle_follow(precision)
     WITH_POSTS, posts = has_posts(plates), make_cylinder_contact(precision)
+    sides = make_side_follow(precision, planes, model, laws, watch, plates, integrator.watch_start)
     lines = make_line_integrator(precision, planes, model, laws, watch, rough=rough, plates=plates)
     line_of, integrate_line = lines.line_of, lines.integrate_line
     ZERO, ONE = scalar(0.0), scalar(1.0)
@@ -502,8 +506,14 @@ def make_surface_follow(
         if wp.static(WITH_POSTS):
             if posts.is_post(surfaces, k):
                 face = posts.cap_face(surfaces, k, position)  # a cap: as a disc plate
-                if face == -1:  # the side: it flies on (docs/geometry.md, "Posts (cylinders)")
+                if face == -1:  # the side: along it if the post leans, else it flies on (docs/geometry.md)
                     n = geo.normal(surfaces, k, position)
+                    if sides.leans(surfaces, k, g):
+                        xs, vs, ws, es, ps, ends, taken, ks, track, n = sides.follow_side(
+                            position, velocity, spin, k, surfaces, physics, mu_s, mu_d, rolling_resistance, ploughing,
+                            rest_speed, max_steps, track, tally,
+                        )  # fmt: skip
+                        return xs, vs, ws, es, ps, ends, taken, ks, track, n
                     return position, velocity, spin, elapsed, path, wp.int32(FLIGHT), steps, k, track, n
         phase = wp.int32(0)
         while phase < MAX_FOLLOW_PHASES:
