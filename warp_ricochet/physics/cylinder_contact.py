@@ -13,7 +13,9 @@ it where, first:
 "On the length" and "over a cap" are inclusive within `slack` (EDGE_ROUNDING eps of the coordinates'
 scale in the post's own frame, |x - p|_1 + L + r, and the stored centre's own rounding,
 `mesh_contact.state_rounding`; not the world's coordinates: docs/geometry.md, "Far from the
-origin"), so that a centre crossing exactly at a rim is on both faces.
+origin"), so that a centre crossing exactly at a rim is on both faces; but a cap is met at once
+(t = 0) only by a centre that starts over it (rho <= r, no slack), so that one left beyond the rim
+within the slack flies by rather than meeting the cap at t = 0 again and again.
 Vacuum (`post_time`): on the parabola of eq. (36), rho^2 - s^2 (s = r + R or r) is a quartic in t
 whose t^4 and t^3 terms vanish when gravity is along the axis (a vertical post): then a quadratic,
 solved in closed form (one entering root, from the closest approach: t_c - sqrt((s^2 - m^2) / |B|^2)
@@ -331,7 +333,11 @@ def _post_vacuum(precision: str) -> SimpleNamespace:
                 offset = ZERO
             cap = cap_time(sign * (z - base), sign * w, sign * q, offset, over)
             if cap >= ZERO and (best < ZERO or cap < best):
-                if wp.length(across(d + cap * (v + HALF * cap * g), a)) <= r + tolerance:
+                # the centre's own crossing (offset 0) at once counts only over the cap: one starting
+                # at the cap's plane beyond the rim (within the slack) would be stopped there for ever
+                if wp.length(across(d + cap * (v + HALF * cap * g), a)) <= r + tolerance and (
+                    cap > ZERO or offset > ZERO or over
+                ):
                     best = cap
         if best > LATEST:
             best = scalar(NO_CONTACT)
