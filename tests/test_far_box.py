@@ -6,20 +6,17 @@ counted as over the top face)."""
 
 import functools
 import tempfile
-import warnings
 from pathlib import Path
 
-import h5py
 import numpy as np
 import pytest
 from helpers import explicit_scene
 from scipy import stats
 from test_box_ridge import BOX, GROUND, SMOOTH, R, _dropped, _rest
 
-import warp_ricochet as wr
+from bench.far_solids import run_rests
 from bench.meshes import inside_box
 from warp_ricochet.ends import AT_REST
-from warp_ricochet.scene import scene_from_dict
 
 N = 3000
 EAST, NORTH_EAST = (1.0, 0.0, 0.0), (0.6, 0.0, 0.8)  # unit directions of the box's offset
@@ -37,15 +34,7 @@ def _far_rests(distance, direction, precision, n=N):
     folder = Path(tempfile.mkdtemp(prefix="far-box-"))
     physics = {"gravity": [0.0, -9.81, 0.0], "until": "rest"}
     scene = explicit_scene(folder, x0 + shift, v0, surfaces=[box, GROUND], physics=physics, precision=precision)
-    raw = {**scene.to_dict(), "output": {"fields": ["rest"]}}
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        wr.run(scene_from_dict(raw), folder / "far.h5", device="cpu", overwrite=True)
-    with h5py.File(folder / "far.h5") as f:
-        end = {key: f[f"pellets/rest/{key}"][()] for key in ("state", "position", "impacts")}
-    end["position"] = end["position"].astype(np.float64) - shift
-    end["warnings"] = [str(w.message) for w in caught if issubclass(w.category, wr.PrecisionWarning)]
-    return end
+    return run_rests({**scene.to_dict(), "output": {"fields": ["rest"]}}, folder, shift)
 
 
 def _on_top_or_ground(where, tol):

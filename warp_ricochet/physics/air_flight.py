@@ -220,6 +220,7 @@ def make_solid_search(precision: str) -> SimpleNamespace:
         slack = posts.slack(surfaces, k, x0)
         best = posts.side_theta(surfaces, k, r + radius, slack, x0, d0, e0, x1, d1, e1)
         best = wp.min(best, posts.side_theta(surfaces, k, r, slack, x0, d0, e0, x1, d1, e1))
+        over = posts.on_cap(surfaces, k, x0, scalar(0.0))  # a cap met at once only from over it
         for j in range(2):
             n = axis
             level = wp.dot(base, axis) + length
@@ -231,7 +232,7 @@ def make_solid_search(precision: str) -> SimpleNamespace:
                 cap = theta
                 if m == 1:
                     cap = through
-                if cap < best:
+                if cap < best and (cap > scalar(0.0) or over):
                     x, _slope = hermite_vec(cap, x0, d0, e0, x1, d1, e1)
                     if posts.on_cap(surfaces, k, x, slack):
                         best = cap

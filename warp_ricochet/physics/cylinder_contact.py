@@ -11,7 +11,11 @@ it where, first:
   rho <= r): a sphere passing the rim with its centre beyond it, within R of the rim, flies by
   (edges are no contacts, as on plates), but its centre never passes into the post.
 "On the length" and "over a cap" are inclusive within `slack` (EDGE_ROUNDING eps of the coordinates'
-scale), so that a centre crossing exactly at a rim is on both faces.
+scale in the post's own frame, |x - p|_1 + L + r, and the stored centre's own rounding,
+`mesh_contact.state_rounding`; not the world's coordinates: docs/geometry.md, "Far from the
+origin"), so that a centre crossing exactly at a rim is on both faces; but a cap is met at once
+(t = 0) only by a centre that starts over it (rho <= r, no slack), so that one left beyond the rim
+within the slack flies by rather than meeting the cap at t = 0 again and again.
 Vacuum (`post_time`): on the parabola of eq. (36), rho^2 - s^2 (s = r + R or r) is a quartic in t
 whose t^4 and t^3 terms vanish when gravity is along the axis (a vertical post): then a quadratic,
 solved in closed form (one entering root, from the closest approach: t_c - sqrt((s^2 - m^2) / |B|^2)
@@ -39,7 +43,7 @@ import warp as wp
 
 from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT, ROUNDING, make_ballistic
 from .integrate import make_dense_output
-from .mesh_contact import EDGE_ROUNDING, make_mesh_contact
+from .mesh_contact import EDGE_ROUNDING, STATE_ROUNDING, make_mesh_contact, make_triangle_basics
 from .types import KINDS, types_for
 
 TOP_CAP, BOTTOM_CAP = -2, -3  # a post's caps as the faces a pellet moves along (`cap_face`, `cap_plane`)
@@ -61,7 +65,8 @@ def _post_shape(precision: str) -> SimpleNamespace:
     t = types_for(precision)
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
     ZERO, HALF, ONE = scalar(0.0), scalar(0.5), scalar(1.0)
-    POST, EDGE, l1 = KINDS["cylinder"], scalar(EDGE_ROUNDING * EPSILON[precision]), make_mesh_contact(precision).l1
+    POST, EDGE, basics = KINDS["cylinder"], scalar(EDGE_ROUNDING * EPSILON[precision]), make_triangle_basics(precision)
+    l1, state_rounding = basics.l1, basics.state_rounding
 
     @wp.func
     def is_post(surfaces: Surfaces, k: wp.int32):
@@ -120,9 +125,9 @@ def _post_shape(precision: str) -> SimpleNamespace:
     @wp.func
     def slack(surfaces: Surfaces, k: wp.int32, x: vec3):
         """The rounding allowed the inside tests of post k near a flight from x (m): EDGE_ROUNDING
-        eps (|x - p|_1 + |p|_1 + L + r), the scale of the contact's coordinates and their sums."""
-        p = surfaces.point[k]
-        return EDGE * (l1(x - p) + l1(p) + surfaces.half_v[k] + surfaces.half_u[k])
+        eps (|x - p|_1 + L + r), the scale of the contact's coordinates in the post's frame, and
+        the stored centre's own rounding (`mesh_contact.state_rounding`: 2 eps |x|_1)."""
+        return EDGE * (l1(x - surfaces.point[k]) + surfaces.half_v[k] + surfaces.half_u[k]) + state_rounding(x)
 
     @wp.func
     def cap_face(surfaces: Surfaces, k: wp.int32, x: vec3):
@@ -140,16 +145,19 @@ def _post_shape(precision: str) -> SimpleNamespace:
     def cap_plane(surfaces: Surfaces, k: wp.int32, face: wp.int32, x: vec3):
         """(height, noise, normal) of x over cap `face` of post k: its plane through p + L a (top,
         normal a) or p (bottom, normal -a), as `geometry.locate` of a plane (noise: the rounding
-        scale sum_i |x_i n_i| + |c_i n_i| of the signed distance from the cap's centre c)."""
+        scale of the signed distance from the cap's centre c in the post's frame, sum_i |(x - p)_i
+        n_i| + L, and the stored centre's own rounding along n, as `mesh_contact.height_noise`)."""
         a = surfaces.normal[k]
-        c = vec3(surfaces.point[k])
+        p = surfaces.point[k]
+        c = vec3(p)
         n = -a
         if face == TOP_CAP:
             n = a
             c = c + surfaces.half_v[k] * a
-        noise = wp.abs(x[0] * n[0]) + wp.abs(x[1] * n[1]) + wp.abs(x[2] * n[2])
-        noise += wp.abs(c[0] * n[0]) + wp.abs(c[1] * n[1]) + wp.abs(c[2] * n[2])
-        return wp.dot(x - c, n), noise, n
+        d = x - p
+        noise = wp.abs(d[0] * n[0]) + wp.abs(d[1] * n[1]) + wp.abs(d[2] * n[2]) + surfaces.half_v[k]
+        along = wp.abs(x[0] * n[0]) + wp.abs(x[1] * n[1]) + wp.abs(x[2] * n[2])
+        return wp.dot(x - c, n), noise + scalar(STATE_ROUNDING / ROUNDING) * along, n
 
     return SimpleNamespace(
         is_post=is_post,
@@ -326,7 +334,11 @@ def _post_vacuum(precision: str) -> SimpleNamespace:
                 offset = ZERO
             cap = cap_time(sign * (z - base), sign * w, sign * q, offset, over)
             if cap >= ZERO and (best < ZERO or cap < best):
-                if wp.length(across(d + cap * (v + HALF * cap * g), a)) <= r + tolerance:
+                # the centre's own crossing (offset 0) at once counts only over the cap: one starting
+                # at the cap's plane beyond the rim (within the slack) would be stopped there for ever
+                if wp.length(across(d + cap * (v + HALF * cap * g), a)) <= r + tolerance and (
+                    cap > ZERO or offset > ZERO or over
+                ):
                     best = cap
         if best > LATEST:
             best = scalar(NO_CONTACT)

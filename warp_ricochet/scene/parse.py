@@ -22,7 +22,7 @@ from .keys import table as _table
 from .loads import apply_load, required
 from .overrides import apply_override
 from .patterns import resolve_pattern
-from .pellets import check_pellet_file, pellet_file_rows
+from .pellets import check_pellet_file, pellet_file_rows, position_pieces
 from .schema import (
     CHECKPOINT_STEPS,
     FILE_EXCLUSIVE,
@@ -41,6 +41,7 @@ from .schema import (
     Shot,
     Surface,
 )
+from .solids import SOLIDS, closed_triangles, envelope_gap, inside_rows
 from .stations import check_stations, parse_stations
 from .terrain import TERRAIN_OPTIONAL, check_terrain, up_of
 from .triangles import load_mesh
@@ -449,6 +450,8 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
         )
     if shot.file is None:
         _check_launch_outside(planes, shot)
+    else:
+        _check_file_outside(planes, shot)
     _warn_post_creases(planes, shot, physics)
     stations = parse_stations(raw.get("stations"))
     if stations:
@@ -467,22 +470,20 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
 
 
 def _check_launch_outside(surfaces: tuple, shot: Shot) -> None:
-    """The launch envelope (its sphere about shot.envelope_center) lies outside every post and box:
-    they are met from outside only, so pellets launched inside one would fly through it as if it
-    were not there."""
+    """The launch envelope (its sphere about shot.envelope_center) lies outside every post, box and
+    closed mesh (`scene.solids`): they are met from outside only, so pellets launched inside one
+    would fly through it as if it were not there."""
     centre = np.asarray(shot.envelope_center, dtype=np.float64)
     for i, s in enumerate(surfaces):
-        if s.kind not in ("cylinder", "box"):
-            continue
-        gap = _solid_distance(s, centre)  # m, negative inside
-        if gap < shot.envelope_radius:
+        gap = envelope_gap(s, centre) if s.kind in SOLIDS else None  # m, negative inside
+        if gap is not None and gap < shot.envelope_radius:
             where = "is inside" if gap < 0.0 else f"is {gap:.4g} m from"
             raise err(
                 "shot.envelope_center",
                 list(shot.envelope_center),
-                f"{where} surfaces.{i} ({s.name!r}, a {s.kind}), a solid met only from outside, and the launch envelope "
-                f"(radius {shot.envelope_radius:.4g} m) reaches {shot.envelope_radius - gap:.4g} m into it: pellets "
-                "launched inside it fly through it; the envelope must lie outside every post and box",
+                f"{where} surfaces.{i} ({s.name!r}, a {_solid_name(s)}), a solid met only from outside, and the launch "
+                f"envelope (radius {shot.envelope_radius:.4g} m) reaches {shot.envelope_radius - gap:.4g} m into it: "
+                "pellets launched inside it fly through it; the envelope must lie outside every post, box and closed mesh",
             )
 
 
@@ -515,19 +516,33 @@ def _warn_post_creases(surfaces: tuple, shot: Shot, physics: Physics) -> None:
                 )
 
 
-def _solid_distance(s, x: np.ndarray) -> float:
-    """Signed distance (m; negative inside) from point x to a post (base centre `point`, axis
-    `normal`, `radius`, `length`) or a box (centre `point`, sides `size` along axis_u, normal x
-    axis_u and normal)."""
-    axis = np.asarray(s.normal, dtype=np.float64)
-    d = x - np.asarray(s.point, dtype=np.float64)
-    if s.kind == "cylinder":
-        along = float(d @ axis)
-        q = np.array([float(np.linalg.norm(d - along * axis)) - s.radius, max(-along, along - s.length)])
-    else:
-        u = np.asarray(s.axis_u, dtype=np.float64)
-        q = np.abs([d @ u, d @ np.cross(axis, u), d @ axis]) - 0.5 * np.asarray(s.size, dtype=np.float64)
-    return float(np.linalg.norm(np.maximum(q, 0.0)) + min(float(q.max()), 0.0))
+def _check_file_outside(surfaces: tuple, shot: Shot) -> None:
+    """Every pellet of shot.file starts with its centre outside every post, box and closed mesh
+    (`_check_launch_outside`), read a piece at a time; one line names the file, its first pellet
+    inside one and the solid."""
+    solids = [(i, s) for i, s in enumerate(surfaces) if s.kind in SOLIDS and (s.kind != "mesh" or closed_triangles(s))]
+    if not solids:
+        return
+    for start, x in position_pieces(shot.file):
+        first = None
+        for i, s in solids:
+            rows = np.flatnonzero(inside_rows(s, x))
+            if rows.size and (first is None or rows[0] < first[0]):
+                first = (int(rows[0]), i, s)
+        if first is not None:
+            row, i, s = first
+            raise err(
+                "shot.file:position",
+                x[row].tolist(),
+                f"{shot.file}: pellet {start + row} starts inside surfaces.{i} ({s.name!r}, a {_solid_name(s)}), a solid met "
+                "only from outside (pellets launched inside it fly through it); every pellet must start with its centre "
+                "outside every post, box and closed mesh",
+            )
+
+
+def _solid_name(s) -> str:
+    """How messages name a solid's kind."""
+    return {"cylinder": "post (cylinder)", "mesh": "closed mesh"}.get(s.kind, s.kind)
 
 
 MAX_SCENE_CHARS = 1 << 20  # a scene's text; the largest valid one (a drag table of 1,024 pairs) is ~40 kB

@@ -221,6 +221,23 @@ def check_pellet_file(path) -> int:
     return n
 
 
+def position_pieces(path):
+    """(start, positions (m, 3) float64, m) of a checked pellet file's pellets, PIECE_ROWS rows at a
+    time (an .npz array in Fortran order is read a column at a time into the whole array first)."""
+    path = os.fspath(path)
+    with _opened(path) as reader:
+        n = _rows(reader, path)
+        whole = None
+        for start, stop, column, values in reader.pieces("position", n):
+            if column is None:
+                yield start, np.asarray(values, dtype=np.float64)
+                continue
+            whole = np.empty((n, 3)) if whole is None else whole
+            whole[start:stop, column] = values
+        for start in range(0, n if whole is not None else 0, PIECE_ROWS):
+            yield start, whole[start : start + PIECE_ROWS]
+
+
 def load_pellet_file(path) -> dict[str, np.ndarray]:
     """Initial pellet state from .npz or .h5/.hdf5: position (N,3) m, velocity (N,3) m/s, angular_velocity
     (N,3) rad/s (zeros if absent), as float64. HDF5 arrays sit at the root or under /pellets/initial/."""
