@@ -9,7 +9,7 @@ reads on the device up to the driver's own additions; on the GPU a large frame (
 255 registers (one block of 256 threads an SM) are what make the rest and hazard kernels slow
 (bench/RESULTS.md). Compare trees side by side: run this in each.
 
-    python -m bench.kernel_size [--cases paper-vacuum,paper-air,turf,post,hazard,hazard-map,mesh]
+    python -m bench.kernel_size [--cases paper-vacuum,paper-air,turf,post,hazard,hazard-map,hazard-none,mesh]
                                 [--arch 90] [--ptxas ptxas] [--keep DIR]
 """
 
@@ -29,6 +29,7 @@ CASES = {
     "post": "the hazard example's shot to rest on turf with a fence post 20 m out, no hazard",
     "hazard": "the hazard example (the reach along the path), no map and no places",
     "hazard-map": "the hazard example with its 0.5 m exposure map",
+    "hazard-none": "the hazard example without its [hazard] table (what the watch adds: the difference)",
     "mesh": "the paper's shot in vacuum on a two-triangle mesh of its plane",
 }
 
@@ -55,7 +56,9 @@ def scene_of(case: str, folder: Path):
     raw = tomllib.loads((ROOT / "examples" / "hazard.toml").read_text())
     raw["shot"]["shots"] = 4
     raw["output"] = {"fields": []}
-    if case == "hazard":
+    if case == "hazard-none":
+        raw.pop("hazard")
+    elif case == "hazard":
         raw["hazard"].pop("map_cell")
         raw["hazard"].pop("map_extent")
         raw["hazard"].pop("points")

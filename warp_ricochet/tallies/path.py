@@ -26,7 +26,9 @@ Newton's steps in the bracket; a straight stretch by Amanatides & Woo, Eurograph
 entered is counted once, with the level at its entry, the region off the grid being one more cell.
 Consecutive entries along a map row at one level are counted as one run (`flush`: +1 and -1 at its
 ends in `exposure_runs`, summed along the rows by `landing.runs_kernel` after each chunk). The part's chord's nearest approach to each named place's vertical is
-tested against the place's radius. Loops, not unrolled: the watch is inlined at every call site.
+tested against the place's radius. Loops, not unrolled; in CUDA code `segment` and `line` are each
+one function that NVRTC does not inline (`out_of_line_on_cuda`), called from every site, so the
+watch's code is in the kernel once (bench/RESULTS.md "The watch as one call").
 """
 
 import functools
@@ -45,6 +47,25 @@ from .terrain_walk import make_terrain_walk
 NONE = -1  # the cell of a pellet above body height (no pass under way)
 ESCAPED = -2  # the cell of a pellet whose watch has ended for good (an escape in the dense phase)
 NO_REACH = -1.0  # a reach not yet found (reported as NaN)
+CUDA_NOINLINE = "noinline_cuda"  # the inline hint of `out_of_line_on_cuda`
+_CUDA_NOINLINE_ATTR = "\n#if defined(__CUDA_ARCH__) || defined(__CUDACC_RTC__)\nWP_NOINLINE\n#endif\n"
+
+
+def out_of_line_on_cuda(func):
+    """Declare `func` (a `wp.func`) not inlined in CUDA code, and leave the CPU's compiler its choice:
+    one call instead of a copy at each of the core kernel's call sites shrinks its local memory on
+    the GPU, while on the CPU the calls cost a few percent (bench/RESULTS.md "The watch as one call").
+    Warp 1.19's `inline=False` applies to both; this hint is a preprocessor test in the slot warp
+    fills from `warp._src.codegen._INLINE_ATTRS` (where warp lacks it: plain noinline). Returns func."""
+    import warp._src.codegen as codegen
+
+    attrs = getattr(codegen, "_INLINE_ATTRS", None)
+    if isinstance(attrs, dict) and "noinline" in attrs:
+        attrs.setdefault(CUDA_NOINLINE, _CUDA_NOINLINE_ATTR)
+        func.inline_hint = CUDA_NOINLINE
+    else:
+        func.inline_hint = "noinline"
+    return func
 
 
 @functools.cache
@@ -61,15 +82,21 @@ def make_path_cells(precision: str, thresholds: int, points: int, with_map: bool
     Levels = wp.types.vector(length=P, dtype=wp.int32)
     ZERO, ONE = scalar(0.0), scalar(1.0)
 
-    @wp.struct
-    class Track:
-        reach: Reach  # m, per threshold in scene order (NO_REACH: none yet)
-        places: Levels  # per named place: 1 + its highest level there (0: never there)
-        cell: wp.int32  # the map column of the pass under way (NONE: above body height)
-        run_row: wp.int32  # the pending run of entries (`enter`): its row (NONE: no run)
-        run_lo: wp.int32  # its first and last cell along u
-        run_hi: wp.int32
-        run_level: wp.int32  # the level of its entries
+    # The members the watch uses, and no others (a byte of it cost the CUDA kernel's stack ~10 bytes,
+    # even where nothing is watched: bench/RESULTS.md "The watch as one call"):
+    fields = {"cell": wp.int32}  # the map column of the pass under way (NONE: above body height; ESCAPED)
+    if thresholds > 0:
+        fields["reach"] = Reach  # m, per threshold in scene order (NO_REACH: none yet)
+        if MAP:
+            fields["run_row"] = wp.int32  # the pending run of entries (`enter`): its row (NONE: no run)
+            fields["run_lo"] = wp.int32  # its first and last cell along u
+            fields["run_hi"] = wp.int32
+            fields["run_level"] = wp.int32  # the level of its entries
+        if HAS_POINTS:
+            fields["places"] = Levels  # per named place: 1 + its highest level there (0: never there)
+    Track = wp.struct(
+        type("Track", (), {"__annotations__": fields, "__module__": __name__, "__qualname__": "make_path_cells.<locals>.Track"})
+    )
 
     @wp.func
     def level_at(lo: Reach, hi: Reach, lam: scalar):
@@ -620,10 +647,12 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
     @wp.func
     def start():
         track = Track()
-        for i in range(wp.static(K)):
-            track.reach[i] = scalar(NO_REACH)
+        if wp.static(ON):
+            for i in range(wp.static(K)):
+                track.reach[i] = scalar(NO_REACH)
         track.cell = wp.int32(NONE)
-        track.run_row = wp.int32(NONE)
+        if wp.static(ON and MAP):
+            track.run_row = wp.int32(NONE)
         return track
 
     @wp.func
@@ -721,6 +750,10 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
                     track = farther(track, tally, i, x0 + (lam * length) * direction)
             track = chord(track, tally, x0, xb, lo, hi)
         return track
+
+    if ON:  # (without a watch both are empty and inlined away)
+        out_of_line_on_cuda(segment)
+        out_of_line_on_cuda(line)
 
     @wp.func
     def finish(track: Track, tally: Tally, row: wp.int32):

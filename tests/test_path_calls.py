@@ -1,0 +1,55 @@
+"""The watch's shape in the core kernel (bench/RESULTS.md "The watch as one call"): `segment` and
+`line` kept out of line in CUDA code only (`tallies.path.out_of_line_on_cuda`), and a `Track` of
+only the members a scene uses."""
+
+import numpy as np
+import pytest
+import warp as wp
+
+from warp_ricochet.tallies.path import CUDA_NOINLINE, make_path_cells, make_path_watch, out_of_line_on_cuda
+
+
+@wp.func
+def _twice(x: wp.float32):
+    return x + x
+
+
+out_of_line_on_cuda(_twice)
+
+
+@wp.kernel
+def _twice_kernel(values: wp.array(dtype=wp.float32)):
+    i = wp.tid()
+    values[i] = _twice(values[i])
+
+
+def test_an_out_of_line_function_is_a_call_in_ptx_and_runs_on_the_cpu(tmp_path):
+    values = wp.array(np.array([1.5, -2.0], dtype=np.float32), device="cpu")
+    wp.launch(_twice_kernel, dim=2, inputs=[values], device="cpu")
+    np.testing.assert_array_equal(values.numpy(), [3.0, -4.0])  # the hint's text compiles for the CPU
+    try:
+        (ptx,) = wp.compile_aot_module(_twice_kernel.module, arch=90, module_dir=tmp_path, use_ptx=True)
+    except Exception as error:  # (no NVRTC in this installation)
+        pytest.skip(f"no PTX: {error}")
+    text = ptx.read_text()
+    assert any(line.startswith(".func") and "_twice" in line for line in text.splitlines()), "inlined in CUDA code"
+    source = next(tmp_path.glob("*.cu")).read_text()
+    assert "#if defined(__CUDA_ARCH__) || defined(__CUDACC_RTC__)\nWP_NOINLINE\n#endif" in source
+
+
+@pytest.mark.parametrize(
+    ("thresholds", "points", "with_map", "members"),
+    [
+        (0, 0, False, {"cell"}),
+        (0, 2, True, {"cell"}),
+        (4, 0, False, {"cell", "reach"}),
+        (4, 0, True, {"cell", "reach", "run_row", "run_lo", "run_hi", "run_level"}),
+        (3, 2, False, {"cell", "reach", "places"}),
+    ],
+)
+def test_a_track_holds_only_the_members_its_watch_uses(thresholds, points, with_map, members):
+    track = make_path_cells("float32", thresholds, points, with_map).Track
+    assert set(track.vars) == members
+    watch = make_path_watch("float32", thresholds, points, with_map)
+    hints = {watch.segment.inline_hint, watch.line.inline_hint}
+    assert hints == ({CUDA_NOINLINE} if thresholds > 0 else {None})
