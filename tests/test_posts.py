@@ -59,7 +59,8 @@ def _real(coefficients):
 def _contact(post, x, v, g, grow=0.0):
     """float64: (t, face) of the first contact of x + v t + g t^2 / 2 with the post (its radius and
     length grown by `grow`, m): face 0 the side, 1 the top, 2 the bottom; (inf, -1) if none. The
-    rules of docs/geometry.md: the side or a cap offset by R, else the centre reaching them."""
+    rules of docs/geometry.md: the side or a cap offset by R (the side also where the centre comes
+    onto the length within R of it, closing), else the centre reaching them."""
     p, a, r, length = _frame(post)
     r, length, p = r + grow, length + 2.0 * grow, p - grow * a
     d = x - p
@@ -71,6 +72,13 @@ def _contact(post, x, v, g, grow=0.0):
         for t in _real(quartic):
             closing = np.polyval(np.polyder(quartic), t) < 0
             if 0 <= t < best[0] and closing and 0 <= np.polyval(z, t) <= length:
+                best = (t, 0)
+    quartic = [C @ C, 2 * (B @ C), B @ B + 2 * (A @ C), 2 * (A @ B), A @ A]  # rho^2
+    for level, sign in ((length, -1.0), (0.0, 1.0)):  # the centre coming onto the length within R of the side, closing
+        for t in _real(z - [0.0, 0.0, level]):
+            rho2 = np.polyval(quartic, t)
+            onto = sign * np.polyval(np.polyder(z), t) > 0 and np.polyval(np.polyder(quartic), t) < 0
+            if 0 <= t < best[0] and onto and r * r <= rho2 <= (r + RADIUS) ** 2:
                 best = (t, 0)
     for face, sign, base in ((1, 1.0, length), (2, -1.0, 0.0)):
         for offset in (RADIUS, 0.0):
@@ -363,3 +371,65 @@ def test_no_pellet_fired_at_a_post_ends_inside(tmp_path, precision):
     assert not _inside(post, at, slack).any()
     landed = ~np.isnan(landing).any(axis=1)
     assert not _inside(post, landing[landed], slack).any()
+
+
+def _rim_entries(post, x0, v0, air):
+    """float64 (SciPy DOP853 at rtol 1e-12; constant drag in air): each flight's centre and velocity
+    where it comes down through the top's level z = L, and whether it does so within the side's
+    offset shell (r < rho < r + R, by R/8) closing on the axis there."""
+    p, a, r, length = _frame(post)
+    mass = DENSITY * 4.0 / 3.0 * math.pi * RADIUS**3
+    q = 0.0 if air is None else air["density"] * math.pi * RADIUS**2 / (2.0 * mass) * air["drag_coefficient"]
+
+    def rates(_t, y):
+        return np.concatenate([y[3:], GRAVITY - q * np.linalg.norm(y[3:]) * y[3:]])
+
+    def level(_t, y):
+        return (y[:3] - p) @ a - length
+
+    level.terminal, level.direction = True, -1
+    at, velocity, shell = [], [], []
+    for x, v in zip(x0, v0):
+        sol = solve_ivp(rates, (0.0, 1.0), np.concatenate([x, v]), method="DOP853", rtol=1e-12, atol=1e-12, events=level)
+        y = sol.y_events[0][0]
+        d = y[:3] - p
+        radial = d - (d @ a) * a
+        rho = np.linalg.norm(radial)
+        at.append(y[:3])
+        velocity.append(y[3:])
+        shell.append(r + RADIUS / 8 < rho < r + 7 * RADIUS / 8 and radial @ y[3:] < 0)
+    return np.array(at), np.array(velocity), np.array(shell)
+
+
+@pytest.mark.parametrize("precision", PRECISIONS)
+@pytest.mark.parametrize("flight", ["vacuum", "air"])
+def test_a_centre_within_r_plus_r_of_the_side_coming_down_past_the_rim_meets_the_side(tmp_path, precision, flight):
+    """Pellets falling past a post's top rim with the centre already within R of the side's
+    offset (rho in (r, r + R)) and closing on the axis meet the side where the centre comes down
+    to the top's level (z = L; the side's search meets such a centre at once), not only where the
+    centre itself reaches rho = r (issue 27: one ended 63 um inside a post 1 km away): at the
+    reference's centre there, leaving as the frictionless impact on the radial normal does."""
+    post = _post((0.0, 0.0, 0.0), (0.0, 0.0, 1.0))
+    rng = np.random.default_rng(27)
+    n = 40
+    angle = rng.uniform(0.0, 2.0 * np.pi, n)
+    out, round_ = np.c_[np.cos(angle), np.sin(angle), np.zeros(n)], np.c_[-np.sin(angle), np.cos(angle), np.zeros(n)]
+    x = (
+        (0.1 + RADIUS * rng.uniform(0.4, 0.9, n))[:, None] * out
+        + [0.0, 0.0, 2.0]
+        + rng.uniform(0.005, 0.03, n)[:, None] * [0, 0, 1]
+    )
+    v = -rng.uniform(1e-3, 4e-3, n)[:, None] * out + rng.uniform(-0.02, 0.02, n)[:, None] * round_
+    v[:, 2] = -rng.uniform(0.0, 0.5, n)
+    air = None if flight == "vacuum" else {"density": 1.225, "drag": "constant", "drag_coefficient": 0.47, "magnus": False}
+    where, before, shell = _rim_entries(post, x, v, air)
+    assert shell.sum() > 30
+    air_key = None if air is None else {**air, "spin_decay": False}
+    first, at, after, landing = _run(tmp_path, x[shell], v[shell], [GROUND, post], precision, air=air_key)
+    assert (first == 1).all(), np.flatnonzero(first != 1)
+    tolerance = 1e-9 if precision == "float64" else 2e-5
+    assert np.abs(at - where[shell]).max() <= 100 * tolerance, np.abs(at - where[shell]).max()
+    normal = where[shell] * [1.0, 1.0, 0.0] / np.hypot(where[shell, 0], where[shell, 1])[:, None]
+    expected = before[shell] - (1 + E) * np.einsum("ij,ij->i", before[shell], normal)[:, None] * normal
+    assert np.abs(after - expected).max() <= 100 * tolerance * np.abs(v).max() + 1e-3 * tolerance
+    assert not _inside(post, landing, 1e-9 if precision == "float64" else 1e-5).any()

@@ -9,7 +9,9 @@ it where, first:
 - a cap: its height (z - L on top, -z below) closes to R with rho <= r (normal: a, -a);
 - at the latest, the centre itself reaches the side (rho = r, z in [0, L]) or a cap (height 0,
   rho <= r): a sphere passing the rim with its centre beyond it, within R of the rim, flies by
-  (edges are no contacts, as on plates), but its centre never passes into the post.
+  (edges are no contacts, as on plates), but its centre never passes into the post;
+- where the centre comes onto the length through an end with rho in [r, r + R], closing on the axis
+  (met there as a flight starting there is met at once; not an edge's search, r = 0).
 "On the length" and "over a cap" are inclusive within `slack` (EDGE_ROUNDING eps of the coordinates'
 scale in the post's own frame, |x - p|_1 + L + r, and the stored centre's own rounding,
 `mesh_contact.state_rounding`; not the world's coordinates: docs/geometry.md, "Far from the
@@ -26,7 +28,8 @@ most one entering root (found, bracketed, to rounding of t); T bounds every root
 Caps: the plane's quadratic (`ballistic.entry_time`, `mesh_contact.descending`).
 Air (`side_theta`, with the caps as faces in `physics.air_flight`): rho^2 - s^2 on the step's
 quintic Hermite, sampled at SIDE_SAMPLES equal parts: a part whose end is inside, or whose slope
-turns from closing to opening with its minimum inside (a graze), is bisected to rounding of theta.
+turns from closing to opening with its minimum inside (a graze), is bisected to rounding of theta;
+one starting off the length and ending on it within [r, s], closing, is bisected on that test.
 A dip in and out within one part between two such samples is not seen (the parts are 1/16 of a
 step the integrator keeps within its error tolerance).
 Followed to rest (`physics.surface_follow`): a pellet on a cap moves along it as along a disc plate
@@ -221,6 +224,13 @@ def _post_vacuum(precision: str) -> SimpleNamespace:
         return hi
 
     @wp.func
+    def touching(t: scalar, A: vec3, B: vec3, C: vec3, ss: scalar, inner: scalar):
+        """Whether rho(t) lies in [inner, s] with the centre closing on the axis (met at once)."""
+        P = A + t * (B + t * C)
+        rr = wp.dot(P, P)
+        return rr <= ss and rr >= inner * inner and wp.dot(P, B + TWO * t * C) < ZERO
+
+    @wp.func
     def entering(
         lo: scalar,
         hi: scalar,
@@ -243,7 +253,7 @@ def _post_vacuum(precision: str) -> SimpleNamespace:
         return scalar(NO_CONTACT)
 
     @wp.func
-    def side_time(d0: vec3, v: vec3, g: vec3, a: vec3, s: scalar, inner: scalar, length: scalar, slack: scalar):
+    def closing_time(d0: vec3, v: vec3, g: vec3, a: vec3, s: scalar, inner: scalar, length: scalar, slack: scalar):
         """First t >= 0 where the centre (d0 from the base, velocity v, gravity g) closes to s of
         the axis a with z on the length (met at once where rho in [inner, s], closing), or NO_CONTACT
         (a = 0: of the point itself)."""
@@ -298,6 +308,29 @@ def _post_vacuum(precision: str) -> SimpleNamespace:
                 piece = top
         if found < ZERO:
             found = entering(lo, end, A, B, C, ss, z0, w, q, length, slack)
+        return found
+
+    @wp.func
+    def side_time(d0: vec3, v: vec3, g: vec3, a: vec3, s: scalar, inner: scalar, length: scalar, slack: scalar):
+        """First t >= 0 where the centre (d0 from the base, velocity v, gravity g) closes to s of
+        the axis a with z on the length, or (inner > 0: a post) comes onto the length through an
+        end with rho in [inner, s], closing (met at once there, as at t = 0), or NO_CONTACT (a = 0:
+        of the point itself)."""
+        found = closing_time(d0, v, g, a, s, inner, length, slack)
+        A, B, C = across(d0, a), across(v, a), HALF * across(g, a)
+        z0, w, q = wp.dot(d0, a), wp.dot(v, a), HALF * wp.dot(g, a)
+        if inner > ZERO:
+            for j in range(2):
+                sign = ONE
+                level = length
+                if j == 1:
+                    sign = scalar(-1.0)
+                    level = ZERO
+                gap = sign * (z0 - level) - slack
+                if gap > ZERO:
+                    onto = entry_time(gap, sign * w, sign * q)
+                    if onto >= ZERO and (found < ZERO or onto < found) and touching(onto, A, B, C, s * s, inner):
+                        found = onto
         return found
 
     @wp.func
@@ -407,6 +440,56 @@ def _post_air(precision: str) -> SimpleNamespace:
         return hi
 
     @wp.func
+    def touching(
+        theta: scalar,
+        p: vec3,
+        a: vec3,
+        r: scalar,
+        length: scalar,
+        ss: scalar,
+        slack: scalar,
+        x0: vec3,
+        d0: vec3,
+        e0: vec3,
+        x1: vec3,
+        d1: vec3,
+        e1: vec3,
+    ):
+        """Whether the centre at theta is met at once: rho in [r, s], z on the length, closing."""
+        x, dx = hermite_vec(theta, x0, d0, e0, x1, d1, e1)
+        radial = across(x - p, a)
+        rr = wp.dot(radial, radial)
+        closing = wp.dot(radial, across(dx, a)) < ZERO
+        return rr <= ss and rr >= r * r and closing and along(wp.dot(x - p, a), length, slack)
+
+    @wp.func
+    def touch_bisect(
+        lo: scalar,
+        hi: scalar,
+        p: vec3,
+        a: vec3,
+        r: scalar,
+        length: scalar,
+        ss: scalar,
+        slack: scalar,
+        x0: vec3,
+        d0: vec3,
+        e0: vec3,
+        x1: vec3,
+        d1: vec3,
+        e1: vec3,
+    ):
+        """Where `touching` turns true from false at lo to true at hi, to rounding of theta: hi."""
+        for _ in range(ITERATIONS):
+            if hi - lo > RESOLUTION:
+                mid = HALF * (lo + hi)
+                if touching(mid, p, a, r, length, ss, slack, x0, d0, e0, x1, d1, e1):
+                    hi = mid
+                else:
+                    lo = mid
+        return hi
+
+    @wp.func
     def line_theta(
         p: vec3,
         a: vec3,
@@ -446,6 +529,12 @@ def _post_air(precision: str) -> SimpleNamespace:
                     x, _dx = hermite_vec(root, x0, d0, e0, x1, d1, e1)
                     if along(wp.dot(x - p, a), length, slack):
                         best = root
+                if best > ONE and r > ZERO and f_hi <= ZERO:
+                    # a post's centre coming onto the length through an end already within s, closing
+                    x_lo, _dx_lo = hermite_vec(lo, x0, d0, e0, x1, d1, e1)
+                    if not along(wp.dot(x_lo - p, a), length, slack):
+                        if touching(hi, p, a, r, length, ss, slack, x0, d0, e0, x1, d1, e1):
+                            best = touch_bisect(lo, hi, p, a, r, length, ss, slack, x0, d0, e0, x1, d1, e1)
                 lo = hi
                 f_lo = f_hi
                 df_lo = df_hi
