@@ -18,7 +18,7 @@ from helpers import assert_same_run, explicit_scene, interrupt_after, paper_raw
 import warp_ricochet as wr
 from bench.surface import follow_pellets
 from warp_ricochet.ends import AT_REST
-from warp_ricochet.physics.geometry import MESHES, NO_EDGES, SMALL
+from warp_ricochet.physics.geometry import LEANING, MESHES, NO_EDGES, SMALL
 from warp_ricochet.physics.surface_follow import FLIGHT, REST
 from warp_ricochet.reference.side_motion import follow_side
 from warp_ricochet.scene import scene_from_dict
@@ -26,7 +26,7 @@ from warp_ricochet.scene import scene_from_dict
 R = 0.00125  # m, the pellets' radius
 G = 9.81  # m/s^2, along -y
 K = 0.4  # I = K m R^2
-POSTS = MESHES | SMALL | NO_EDGES  # the kernels' `plates` for a scene of planes and posts
+POSTS = MESHES | SMALL | NO_EDGES | LEANING  # the kernels' `plates` for a scene of planes and leaning posts
 PRECISIONS = ["float64", "float32"]
 CLOSE = {"float64": 1e-7, "float32": 2e-5}  # relative: closed forms against the integrated side
 PLACED = {"float64": 1e-14, "float32": 1e-6}  # m: a centre within 2 m of the origin, as rounded

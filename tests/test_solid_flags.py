@@ -48,3 +48,21 @@ def test_each_scene_compiles_the_solids_it_has(tmp_path):
     terrain = {**GROUND, "kind": "terrain", "file": str(EXAMPLES / "terrain" / "trap_field.asc"), "normal": [0.0, 0.0, 1.0]}
     assert _plates([terrain, GROUND]) == MESHES | NO_POSTS | NO_EDGES
     assert _needs(MESHES) == (True, True, True)  # MESHES alone: everything, as before the flags
+
+
+def test_only_a_leaning_post_followed_to_rest_compiles_the_side_motion():
+    """LEANING (`physics.side_follow` compiled in) for a post leaning from gravity in a run to rest;
+    not for a vertical post (either way up), nor for a leaning one followed to its landing."""
+    from warp_ricochet.physics.geometry import LEANING
+
+    def plates(normal, until):
+        shot = {"count": 4, "diameter": 0.0025, "density": 7000.0, "speed": 300.0, "direction": [1.0, 0.0, 0.0]}
+        shot |= {"envelope_radius": 0.01, "envelope_center": [0.0, 0.0, 1.0]}
+        post = {**POST, "normal": normal, "point": [10.0, 0.0, -0.5], "restitution": 0.5, "mu_s": 0.2}
+        raw = {"shot": shot, "surfaces": [GROUND, post], "physics": {"until": until, "gravity": [0, 0, -9.81]}}
+        return RunSpec.of(scene_from_dict(raw), with_output=False).plates
+
+    assert plates([0.0, 0.5, 0.866], "rest") & LEANING
+    assert not plates([0.0, 0.0, 1.0], "rest") & LEANING
+    assert not plates([0.0, 0.0, -1.0], "rest") & LEANING
+    assert not plates([0.0, 0.5, 0.866], "landing") & LEANING

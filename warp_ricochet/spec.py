@@ -39,9 +39,13 @@ MESHES = 2  # RunSpec.plates when the scene has triangles: the geometry's plate 
 
 def _plates(scene) -> bool | int:
     """`RunSpec.plates`: False (planes only), True (plates) or MESHES or'ed with what the scene's
-    solids do not need compiled in (`physics.geometry`: NO_POSTS, SMALL, NO_EDGES)."""
-    from .physics.geometry import NO_EDGES, NO_POSTS, SMALL
+    solids do not need compiled in (`physics.geometry`: NO_POSTS, SMALL, NO_EDGES) and LEANING where a
+    post run to rest leans from gravity (the kernels' test, `side_follow.leans`, in float64 here)."""
+    import numpy as np
+
+    from .physics.geometry import LEANING, NO_EDGES, NO_POSTS, SMALL
     from .physics.mesh_contact import FEW_FACES
+    from .physics.side_follow import LEAN
     from .scene.triangles import triangles_of
 
     solids = [s for s in scene.surfaces if s.is_solid]
@@ -50,7 +54,13 @@ def _plates(scene) -> bool | int:
     meshes = [s for s in solids if s.kind in ("box", "mesh")]  # (a terrain is large, without edges)
     small = all(s.kind != "terrain" for s in solids) and all(len(triangles_of(s).triangles) <= FEW_FACES for s in meshes)
     flags = (0 if any(s.kind == "cylinder" for s in solids) else NO_POSTS) | (SMALL if small else 0)
-    return MESHES | flags | (0 if meshes else NO_EDGES)
+    g = np.asarray(scene.physics.gravity, dtype=np.float64)
+    leaning = scene.physics.until == "rest" and any(
+        s.kind == "cylinder"
+        and np.linalg.norm(np.cross(np.asarray(s.normal) / np.linalg.norm(s.normal), g)) > LEAN * np.linalg.norm(g)
+        for s in solids
+    )
+    return MESHES | flags | (0 if meshes else NO_EDGES) | (LEANING if leaning else 0)
 
 
 @dataclass(frozen=True)

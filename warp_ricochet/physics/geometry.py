@@ -65,6 +65,7 @@ MESHES = 2  # `plates` when meshes are compiled in too (spec.MESHES): all their 
 NO_POSTS = 4  # no post (cylinder)
 SMALL = 8  # every mesh has at most mesh_contact.FEW_FACES triangles: no BVH query in its search
 NO_EDGES = 16  # no mesh owns edges or corners (terrain only): no edge or corner contact
+LEANING = 32  # a post leans from gravity in a run to rest: motion along its side (`physics.side_follow`)
 
 
 def make_geometry(precision: str, planes=None, snap: bool = True, plates: bool = False) -> SimpleNamespace:
@@ -72,7 +73,7 @@ def make_geometry(precision: str, planes=None, snap: bool = True, plates: bool =
     code generation (the search over them unrolled), else None; `snap`: the parabola's search takes
     a gap within the touching band as zero (module docstring); `plates`: surfaces may be plates
     (True), or plates and meshes (MESHES, 2: `physics.mesh_contact`; or'ed with NO_POSTS, SMALL and
-    NO_EDGES to leave out what the scene does not need).
+    NO_EDGES to leave out what the scene does not need, LEANING for what only leaning posts need).
     One cached set per value of the four, however they are passed."""
     return _make_geometry(precision, planes, bool(snap), int(plates))
 

@@ -39,7 +39,7 @@ import warp as wp
 from .air_flight import make_plane_search
 from .ballistic import EPSILON, ROUNDING
 from .cylinder_contact import make_cylinder_contact
-from .geometry import MESHES, has_posts, make_geometry
+from .geometry import LEANING, MESHES, has_posts, make_geometry
 from .integrate import make_dense_output
 from .line_ahead import make_line_ahead
 from .mesh_contact import make_mesh_lookup
@@ -457,7 +457,8 @@ def make_surface_follow(
     PLATES = plates
     WITH_MESHES, meshes, tri = plates >= MESHES, make_mesh_lookup(precision), make_triangle_follow(precision)
     WITH_POSTS, posts = has_posts(plates), make_cylinder_contact(precision)
-    sides = make_side_follow(precision, planes, model, laws, watch, plates, integrator.watch_start)
+    WITH_SIDES = WITH_POSTS and bool(plates & LEANING)  # a leaning post's side followed (else flown from)
+    sides = make_side_follow(precision, planes, model, laws, watch, plates, integrator.watch_start) if WITH_SIDES else None
     lines = make_line_integrator(precision, planes, model, laws, watch, rough=rough, plates=plates)
     line_of, integrate_line = lines.line_of, lines.integrate_line
     ZERO, ONE = scalar(0.0), scalar(1.0)
@@ -508,12 +509,13 @@ def make_surface_follow(
                 face = posts.cap_face(surfaces, k, position)  # a cap: as a disc plate
                 if face == -1:  # the side: along it if the post leans, else it flies on (docs/geometry.md)
                     n = geo.normal(surfaces, k, position)
-                    if sides.leans(surfaces, k, g):
-                        xs, vs, ws, es, ps, ends, taken, ks, track, n = sides.follow_side(
-                            position, velocity, spin, k, surfaces, physics, mu_s, mu_d, rolling_resistance, ploughing,
-                            rest_speed, max_steps, track, tally,
-                        )  # fmt: skip
-                        return xs, vs, ws, es, ps, ends, taken, ks, track, n
+                    if wp.static(WITH_SIDES):
+                        if sides.leans(surfaces, k, g):
+                            xs, vs, ws, es, ps, ends, taken, ks, track, n = sides.follow_side(
+                                position, velocity, spin, k, surfaces, physics, mu_s, mu_d, rolling_resistance, ploughing,
+                                rest_speed, max_steps, track, tally,
+                            )  # fmt: skip
+                            return xs, vs, ws, es, ps, ends, taken, ks, track, n
                     return position, velocity, spin, elapsed, path, wp.int32(FLIGHT), steps, k, track, n
         phase = wp.int32(0)
         while phase < MAX_FOLLOW_PHASES:
