@@ -22,8 +22,8 @@ from .release import make_release
 # choice), chosen by measurement on an H200 (bench/RESULTS.md, `python -m bench.variants`).
 CUDA_MAX_REGISTERS = {("float32", False): 80, ("float32", True): None, ("float64", False): None, ("float64", True): None}
 CUDA_BLOCK_DIM = 256  # threads per CUDA block of the ricochet kernel
-# Runs to rest: a smaller kernel (697 -> 585 kB of sm_90 code for turf) ran 14% faster on an H200
-# (bench/RESULTS.md, "Warps that wait for their surface phases").
+# Kernels to rest unroll constant loops of up to this many iterations (Warp's default: 16), for less
+# code (bench/RESULTS.md, "Warps that wait for their surface phases").
 REST_MAX_UNROLL = 4
 
 
