@@ -64,7 +64,9 @@ def make_side_rates(precision: str, model: str = "ballistic", laws=None) -> Simp
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
     State = wp.types.vector(length=9, dtype=scalar)
-    sm = make_surface_motion(precision)
+    from .cylinder_contact import make_cylinder_contact
+
+    sm, posts = make_surface_motion(precision), make_cylinder_contact(precision)
     applied_at = make_surface_rates(precision, model, laws).applied_at
     ZERO, ONE = scalar(0.0), scalar(1.0)
     TOLERANCE = scalar(ROUNDING * EPSILON[precision])
@@ -87,10 +89,11 @@ def make_side_rates(precision: str, model: str = "ballistic", laws=None) -> Simp
     def side_of(surfaces: Surfaces, k: wp.int32, radius: scalar, mu_d: scalar, rolling_resistance: scalar, ploughing: scalar):
         """The `Side` of post k for a pellet of `radius` (m) and the material's coefficients."""
         side = Side()
-        side.point = surfaces.point[k]
-        side.axis = surfaces.normal[k]
-        side.reach = surfaces.half_u[k] + radius
-        side.length = surfaces.half_v[k]
+        p, a, r, length = posts.post_frame(surfaces, k)
+        side.point = p
+        side.axis = a
+        side.reach = r + radius
+        side.length = length
         side.mu_d = mu_d
         side.rolling_resistance = rolling_resistance
         side.ploughing = ploughing
@@ -99,7 +102,8 @@ def make_side_rates(precision: str, model: str = "ballistic", laws=None) -> Simp
     @wp.func
     def leans(surfaces: Surfaces, k: wp.int32, g: vec3):
         """Whether post k's axis leans from gravity by more than LEAN (sin): gravity loads its side."""
-        return wp.length(wp.cross(surfaces.normal[k], g)) > scalar(LEAN) * wp.length(g)
+        _p, a, _r, _length = posts.post_frame(surfaces, k)
+        return wp.length(wp.cross(a, g)) > scalar(LEAN) * wp.length(g)
 
     @wp.func
     def radial(x: vec3, side: Side):
