@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 import warp as wp
 
-from warp_ricochet.tallies.path import CUDA_NOINLINE, make_path_cells, make_path_watch, out_of_line_on_cuda
+from warp_ricochet.physics.inlining import CUDA_NOINLINE, out_of_line_on_cuda
+from warp_ricochet.tallies.path import make_path_cells, make_path_watch
 
 
 @wp.func

@@ -24,6 +24,7 @@ from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT
 from .cylinder_contact import make_cylinder_contact
 from .edge_contact import make_edge_contact
 from .geometry import MESHES, make_geometry
+from .inlining import out_of_line_on_cuda
 from .integrate import make_dense_output, make_stepper
 from .mesh_contact import FEW_FACES, FLOAT32_SLACK, make_mesh_contact
 from .types import types_for
@@ -52,6 +53,7 @@ def make_roots(precision: str) -> SimpleNamespace:
             return sign * derivative
         return sign * value
 
+    @out_of_line_on_cuda
     @wp.func
     def root(
         lo: scalar,
@@ -464,6 +466,7 @@ def make_air_flight(precision: str, planes, laws: tuple, watch: tuple = (0, 0, F
         (track and tally unused int32s) the code is that of the flight alone."""
         TrackT, TallyT = (Track, Tally) if WATCH else (wp.int32, wp.int32)
 
+        @out_of_line_on_cuda
         @wp.func
         def loop(
             position: vec3,

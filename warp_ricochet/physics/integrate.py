@@ -20,6 +20,7 @@ from types import SimpleNamespace
 import warp as wp
 
 from .air import make_air_laws
+from .inlining import out_of_line_if, out_of_line_on_cuda
 from .types import types_for
 
 # Dormand-Prince 5(4): nodes, stages, fifth-order weights (the seventh stage is the next step's first)
@@ -34,13 +35,16 @@ E1, E3, E4, E5, E6, E7 = (71.0 / 57600.0, -71.0 / 16695.0, 71.0 / 1920.0, -17253
 
 
 @functools.cache
-def make_dormand_prince(precision: str, rates, Context, spin_changes: bool, state=None) -> SimpleNamespace:
+def make_dormand_prince(
+    precision: str, rates, Context, spin_changes: bool, state=None, out_of_line: bool = False
+) -> SimpleNamespace:
     """`stages(x, v, w, a, dw, h, physics, context) -> (x', v', w', a', dw', x error, v error, w
     error)`: one Dormand-Prince step of length h for the right-hand side `rates(v, w, physics,
     context) -> (dv/dt, dw/dt)` (a `@wp.func`; `context` of the Warp type `Context` carries what
     else it reads); `spin_changes` False: w is constant (its stages not computed). With `state` (a
     Warp vector type): `stages(y, f, h, physics, context) -> (y', f', error)` for dy/dt =
-    rates(y, physics, context) = f."""
+    rates(y, physics, context) = f; `out_of_line`: that step kept out of line in CUDA code
+    (`physics.inlining`: its three call sites in the air's surface lines)."""
     t = types_for(precision)
     scalar, vec3, Physics = t.scalar, t.vec3, t.Physics
     SPIN_CHANGES = spin_changes
@@ -53,6 +57,7 @@ def make_dormand_prince(precision: str, rates, Context, spin_changes: bool, stat
 
     if state is not None:
 
+        @out_of_line_if(out_of_line)
         @wp.func
         def state_stages(y: state, f1: state, h: scalar, physics: Physics, context: Context):
             """y and its rates at h and the error estimate (fifth minus fourth order)."""
@@ -138,6 +143,7 @@ def make_stepper(precision: str, laws: tuple) -> SimpleNamespace:
     air_rates = make_air_laws(precision, *laws).air_rates
     SPIN_CHANGES = laws[2] is not None
 
+    @out_of_line_on_cuda
     @wp.func
     def rates(velocity: vec3, spin: vec3, physics: Physics):
         """dv/dt (m/s^2) and dw/dt (rad/s^2) in air."""

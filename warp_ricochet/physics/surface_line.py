@@ -71,6 +71,7 @@ import warp as wp
 
 from .air import make_air_laws
 from .ballistic import EPSILON, ROUNDING
+from .inlining import out_of_line_if
 from .integrate import make_dormand_prince
 from .line_ahead import make_line_ahead
 from .line_maths import make_line_maths
@@ -149,6 +150,7 @@ def make_line_laws(
         e = line.direction + c * line.direction + s * line.lateral
         return e, wp.cross(line.normal, e)
 
+    @out_of_line_if(AIR)
     @wp.func
     def along(v: scalar, psi: scalar, spin: vec3, physics: Physics, line: Line, mu_s: scalar):
         """(dv/dt along e, dv/dt along l, domega/dt, N/m, the grip left mu_s N/m - |F|/m rolling or
@@ -317,6 +319,7 @@ def make_line_steps(
     ROUGH = rough
     W = 6 if rough else 3  # omega's first component
     state = wp.types.vector(length=STATE if rough else STRAIGHT, dtype=scalar)
+    AIR = model == "air"  # (its steps out of line in CUDA code: `physics.inlining`)
     ll = make_line_laws(precision, model, laws, noise, rough)
     Line, along, reference, m = ll.Line, ll.along, ll.reference, ll.maths
     ZERO, ONE, TWO = scalar(0.0), scalar(1.0), scalar(2.0)
@@ -348,6 +351,7 @@ def make_line_steps(
         else:
             return state(ZERO, ZERO, ZERO, spin[0], spin[1], spin[2])
 
+    @out_of_line_if(AIR)
     @wp.func
     def state_at(y: state, physics: Physics, line: Line, mu_s: scalar):
         """(E, v, omega, D, dv/dt along l, domega/dt, N/m, the grip left) at the step's point s = y[2]
@@ -359,6 +363,7 @@ def make_line_steps(
         dv, dl, dw, load, grip = along(v, psi_of(y), spin, physics, line, mu_s)
         return energy, v, spin, -dv, dl, dw, load, grip
 
+    @out_of_line_if(AIR)
     @wp.func
     def rates(y: state, physics: Physics, line: Line):
         """d/ds of y: Z' = -2 (D - D_ref) exp(2 B s), t' = 1/v (decelerating, less the frozen law's),
@@ -382,7 +387,7 @@ def make_line_steps(
             bend, sway = m.turn(y[3])
             return state(decay, late, ONE, lateral * slow * slow, bend, sway, dw[0], dw[1], dw[2])
 
-    stages = make_dormand_prince(precision, rates, Line, True, state).stages
+    stages = make_dormand_prince(precision, rates, Line, True, state, out_of_line=AIR).stages
 
     return SimpleNamespace(
         state=state,

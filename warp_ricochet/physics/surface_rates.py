@@ -8,6 +8,7 @@ from types import SimpleNamespace
 import warp as wp
 
 from .ballistic import EPSILON
+from .inlining import out_of_line_if
 from .integrate import make_dense_output, make_dormand_prince
 from .surface_line import make_line_laws
 from .surface_motion import make_surface_motion
@@ -38,6 +39,7 @@ def make_surface_rates(precision: str, model: str = "ballistic", laws=None) -> S
     line_laws = make_line_laws(precision, model, laws)
     applied_at, maths = line_laws.applied, line_laws.maths  # (g + a_air, T_air / I); Illinois
 
+    @out_of_line_if(model == "air")
     @wp.func
     def rates(velocity: vec3, spin: vec3, physics: Physics, contact: Contact):
         """(dv/dt, domega/dt) sliding or rolling (`surface_motion`), the air's forces included."""

@@ -37,6 +37,7 @@ from types import SimpleNamespace
 import warp as wp
 
 from ..physics.ballistic import EPSILON
+from ..physics.inlining import out_of_line_on_cuda
 from ..physics.integrate import make_dense_output
 from ..physics.types import types_for
 from .bins import BINS, make_bin_of
@@ -47,25 +48,6 @@ from .terrain_walk import make_terrain_walk
 NONE = -1  # the cell of a pellet above body height (no pass under way)
 ESCAPED = -2  # the cell of a pellet whose watch has ended for good (an escape in the dense phase)
 NO_REACH = -1.0  # a reach not yet found (reported as NaN)
-CUDA_NOINLINE = "noinline_cuda"  # the inline hint of `out_of_line_on_cuda`
-_CUDA_NOINLINE_ATTR = "\n#if defined(__CUDA_ARCH__) || defined(__CUDACC_RTC__)\nWP_NOINLINE\n#endif\n"
-
-
-def out_of_line_on_cuda(func):
-    """Declare `func` (a `wp.func`) not inlined in CUDA code, and leave the CPU's compiler its choice:
-    one call instead of a copy at each of the core kernel's call sites shrinks its local memory on
-    the GPU, while on the CPU the calls cost a few percent (bench/RESULTS.md "The watch as one call").
-    Warp 1.19's `inline=False` applies to both; this hint is a preprocessor test in the slot warp
-    fills from `warp._src.codegen._INLINE_ATTRS` (where warp lacks it: plain noinline). Returns func."""
-    import warp._src.codegen as codegen
-
-    attrs = getattr(codegen, "_INLINE_ATTRS", None)
-    if isinstance(attrs, dict) and "noinline" in attrs:
-        attrs.setdefault(CUDA_NOINLINE, _CUDA_NOINLINE_ATTR)
-        func.inline_hint = CUDA_NOINLINE
-    else:
-        func.inline_hint = "noinline"
-    return func
 
 
 @functools.cache
