@@ -1,5 +1,5 @@
 """The watch's shape in the core kernel (bench/RESULTS.md "The watch as one call"): `segment` and
-`line` kept out of line in CUDA code only (`tallies.path.out_of_line_on_cuda`), and a `Track` of
+`line` kept out of line in CUDA code only (`physics.inlining.out_of_line_on_cuda`), and a `Track` of
 only the members a scene uses."""
 
 import numpy as np
@@ -54,3 +54,41 @@ def test_a_track_holds_only_the_members_its_watch_uses(thresholds, points, with_
     watch = make_path_watch("float32", thresholds, points, with_map)
     hints = {watch.segment.inline_hint, watch.line.inline_hint}
     assert hints == ({CUDA_NOINLINE} if thresholds > 0 else {None})
+
+
+def test_a_hint_with_when_false_leaves_the_function_inlined():
+    @wp.func
+    def _thrice(x: wp.float32):
+        return x + x + x
+
+    assert out_of_line_on_cuda(_thrice, when=False).inline_hint is None
+    assert out_of_line_on_cuda(_thrice).inline_hint == CUDA_NOINLINE
+
+
+def test_the_air_keeps_its_large_functions_out_of_line_and_vacuum_inline():
+    """In air the flight's loop, the root finder, the air's rates and the surface line's step and
+    laws are one function each in CUDA code (bench/RESULTS.md "Functions out of line in air");
+    in vacuum the surface line's are inlined (out of line they cost the vacuum run 9-14%)."""
+    from warp_ricochet.physics.air_flight import make_air_flight, make_roots
+    from warp_ricochet.physics.integrate import make_stepper
+    from warp_ricochet.physics.surface_line import make_line_laws, make_line_steps
+    from warp_ricochet.physics.surface_rates import make_surface_rates
+
+    laws = ("loth2021", "loth2008", "dennis1980")  # any air laws: the hints do not depend on them
+    flight = make_air_flight("float32", 1, laws)
+    air_functions = (
+        flight.watched_loop,
+        make_roots("float32").root,
+        make_stepper("float32", laws).rates,
+        make_line_laws("float32", "air", laws).along,
+        make_line_steps("float32", "air", laws).state_at,
+        make_line_steps("float32", "air", laws).stages,
+        make_surface_rates("float32", "air", laws).rates,
+    )
+    assert {f.inline_hint for f in air_functions} == {CUDA_NOINLINE}
+    vacuum = (
+        make_line_laws("float32", "ballistic").along,
+        make_line_steps("float32", "ballistic").state_at,
+        make_surface_rates("float32", "ballistic").rates,
+    )
+    assert {f.inline_hint for f in vacuum} == {None}
