@@ -4,13 +4,22 @@ shot's envelope reaching into a closed mesh, as into a post or a box, and pellet
 the solid and what is allowed, exit status 2, nothing written. The closed-mesh test is the
 generalized winding number (`scene.solids`), checked here against the analytic inside of a box."""
 
+import dataclasses
+
 import numpy as np
 import pytest
-from helpers import cli
+from helpers import cli, explicit_scene
 
 from warp_ricochet.errors import SceneError
 from warp_ricochet.scene import scene_from_dict
-from warp_ricochet.scene.solids import closed_triangles, envelope_gap, inside_rows, solid_gaps, winding_numbers
+from warp_ricochet.scene.solids import (
+    closed_triangles,
+    envelope_gap,
+    inside_rows,
+    solid_gaps,
+    winding_level,
+    winding_numbers,
+)
 from warp_ricochet.scene.toml_out import toml_lines
 from warp_ricochet.scene.triangles import box_triangles
 
@@ -53,21 +62,26 @@ def _frame(box=TILTED):
     return np.stack([u, np.cross(n, u), n]), np.asarray(box["point"], float)
 
 
-def test_the_winding_number_tells_a_closed_boxs_inside_as_its_geometry_does(tmp_path):
-    """20,000 random points about a tilted box, a third of them within 1e-5 m of a face: inside
-    the closed mesh of its STL (winding number > 1/2) exactly where the box's exact signed
-    distance is negative (but for points within 1e-6 m of a face: the STL holds float32
-    vertices, 2.4e-7 m apart at 3 m), and its envelope gap equals that distance within 1e-6 m."""
-    rng = np.random.default_rng(5)
+def _about_box(rng):
+    """20,000 random points about TILTED (within 1.5 times its half sides), a third of them within
+    1e-5 m of a face, and the box as a scene surface."""
     axes, centre = _frame()
     half = 0.5 * np.asarray(TILTED["size"])
     local = rng.uniform(-1.5, 1.5, (20000, 3)) * half
     face = rng.integers(0, 3, 20000)
     near = np.arange(20000) % 3 == 0
     local[near, face[near]] = rng.choice([-1.0, 1.0], near.sum()) * half[face[near]] + rng.uniform(-1e-5, 1e-5, near.sum())
-    x = centre + local @ axes
-    mesh = scene_from_dict(_sampled([0.0, 0.0, 5.0], [GROUND, _mesh(tmp_path / "box.stl")])).surfaces[1]
     box = scene_from_dict(_sampled([0.0, 0.0, 5.0], [GROUND, {"kind": "box", **TILTED, **MATERIAL}])).surfaces[1]
+    return centre + local @ axes, box
+
+
+def test_the_winding_number_tells_a_closed_boxs_inside_as_its_geometry_does(tmp_path):
+    """20,000 random points about a tilted box, a third of them within 1e-5 m of a face: inside
+    the closed mesh of its STL (winding number > 1/2) exactly where the box's exact signed
+    distance is negative (but for points within 1e-6 m of a face: the STL holds float32
+    vertices, 2.4e-7 m apart at 3 m), and its envelope gap equals that distance within 1e-6 m."""
+    x, box = _about_box(np.random.default_rng(5))
+    mesh = scene_from_dict(_sampled([0.0, 0.0, 5.0], [GROUND, _mesh(tmp_path / "box.stl")])).surfaces[1]
     exact = solid_gaps(box, x)
     sure = np.abs(exact) > 1e-6
     inside = inside_rows(mesh, x)
@@ -88,17 +102,72 @@ def test_the_winding_number_tells_a_spheres_inside():
     assert (r < 0.995).sum() > 1500 and (r > 1.005).sum() > 1500
 
 
-def test_open_or_inward_meshes_are_not_solids(tmp_path):
-    """A box's STL less one triangle (open) and one wound inwards (met from inside) refuse nothing:
-    no volume is met from outside only."""
+def test_open_meshes_are_not_solids(tmp_path):
+    """A box's STL less one triangle (open) refuses nothing: no volume is met from outside only."""
     open_ = scene_from_dict(_sampled([0, 0, 5], [GROUND, _mesh(tmp_path / "open.stl", drop=3)])).surfaces[1]
-    inward = scene_from_dict(_sampled([0, 0, 5], [GROUND, _mesh(tmp_path / "in.stl", flip=True)])).surfaces[1]
-    assert closed_triangles(open_) is None and closed_triangles(inward) is not None
+    assert closed_triangles(open_) is None and envelope_gap(open_, np.asarray(TILTED["point"], float)) is None
+    assert not inside_rows(open_, np.asarray([TILTED["point"], [0.0, 0.0, 5.0]])).any()
+    raw = _sampled(TILTED["point"], [GROUND, {"kind": "mesh", "file": str(tmp_path / "open.stl"), **MATERIAL}])
+    assert scene_from_dict(raw).shot.envelope_center == tuple(TILTED["point"])
+
+
+def test_a_mesh_wound_inwards_has_all_outside_it_for_solid(tmp_path):
+    """The tilted box's STL wound both ways and 20,000 random points about it (a third within 1e-5 m
+    of a face) plus 2,000 beyond its bounding box: wound outwards the winding number is 1 inside
+    and 0 outside (level 1/2), wound inwards -1 inside and 0 outside (level -1/2), within 1e-9; the
+    solid of the inward mesh (inside_rows) is exactly where the box's exact signed distance is
+    positive, that of the outward one where it is negative (but within 1e-6 m of a face: the STL's
+    float32 vertices), and the inward mesh's envelope gap is minus that distance within 1e-6 m."""
+    rng = np.random.default_rng(11)
+    about, box = _about_box(rng)
     centre = np.asarray(TILTED["point"], float)
-    assert envelope_gap(open_, centre) is None and envelope_gap(inward, centre) > 0.0
-    for mesh in ("open.stl", "in.stl"):
-        raw = _sampled(TILTED["point"], [GROUND, {"kind": "mesh", "file": str(tmp_path / mesh), **MATERIAL}])
-        assert scene_from_dict(raw).shot.envelope_center == tuple(TILTED["point"])
+    beyond = rng.normal(size=(2000, 3))
+    beyond *= rng.uniform(2.0, 50.0, (2000, 1)) / np.linalg.norm(beyond, axis=1, keepdims=True)  # |x - centre| >= 2 m
+    x = np.r_[about, centre + beyond]
+    outward, inward = (
+        scene_from_dict(
+            _sampled([0.0, 0.0, 5.0] if not flip else centre, [GROUND, _mesh(tmp_path / f"{flip}.stl", flip=flip)])
+        ).surfaces[1]
+        for flip in (False, True)
+    )
+    exact = solid_gaps(box, x)
+    sure = np.abs(exact) > 1e-6
+    for mesh, level, sign in ((outward, 0.5, 1.0), (inward, -0.5, -1.0)):
+        tri = closed_triangles(mesh)
+        assert winding_level(tri) == level
+        w = winding_numbers(tri.vertices, tri.triangles, x[sure])
+        np.testing.assert_allclose(w, np.where(exact[sure] < 0, sign, 0.0), rtol=0, atol=1e-9)
+        solid = inside_rows(mesh, x)
+        assert (solid[sure] == (sign * exact[sure] < 0)).all()
+    assert solid[20000:].all() and 2000 < (~solid).sum() < 18000
+    for point, gap in zip(x[::70], exact[::70], strict=True):
+        assert envelope_gap(inward, point) == pytest.approx(-gap, abs=1e-6)
+
+
+def test_a_launch_outside_a_mesh_wound_inwards_is_refused_in_one_line(tmp_path):
+    """A room (the box's STL wound inwards): the envelope's centre outside it, or 0.01 m from a
+    wall inside it with a 0.05 m radius, is refused in one line naming shot.envelope_center, the
+    surface, that its solid is all outside it, and the depth (exit status 2, nothing written); at
+    the room's centre the scene is read."""
+    axes, centre = _frame()
+    top = centre + (0.5 * TILTED["size"][2]) * axes[2]
+    surfaces = [GROUND, _mesh(tmp_path / "room.stl", flip=True)]
+    name = "('shed', a closed mesh wound inwards, whose solid is all outside it)"
+    for where, text in (
+        ([0.0, 0.0, 5.0], f"is outside surfaces.1 {name}"),
+        (np.round(top - 0.01 * axes[2], 6).tolist(), f"is 0.01 m from surfaces.1 {name}"),
+    ):
+        with pytest.raises(SceneError) as e:
+            scene_from_dict(_sampled(where, surfaces))
+        message = str(e.value)
+        assert message.startswith(f"shot.envelope_center = {list(where)}: {text}") and "\n" not in message, message
+        assert message.endswith("outside every post, box and closed mesh (inside a closed mesh wound inwards)")
+    assert "reaches 0.04 m into it" in message
+    assert scene_from_dict(_sampled(centre, surfaces)).shot.envelope_center == tuple(centre)
+    (tmp_path / "scene.toml").write_text("\n".join(toml_lines(_sampled([0.0, 0.0, 5.0], surfaces), "")))
+    rc, _out, err = cli(["run", tmp_path / "scene.toml", "--device", "cpu", "-o", tmp_path / "out.h5"])
+    assert rc == 2 and err.count("\n") == 1 and "shot.envelope_center" in err and "wound inwards" in err, err
+    assert list(tmp_path.glob("out*")) == []
 
 
 def test_a_launch_envelope_in_a_closed_mesh_is_refused_in_one_line(tmp_path):
@@ -173,7 +242,9 @@ def test_pellets_from_a_file_starting_inside_a_solid_are_refused_in_one_line(tmp
     message = str(e.value)
     start = f"shot.file:position = {[float(c) for c in inside]}: {path}: pellet 700 starts inside surfaces.2 ('shed', {name})"
     assert message.startswith(start), message
-    assert "\n" not in message and message.endswith("outside every post, box and closed mesh")
+    assert "\n" not in message and message.endswith(
+        "outside every post, box and closed mesh (inside a closed mesh wound inwards)"
+    )
     (tmp_path / "scene.toml").write_text("\n".join(toml_lines(raw, "")))
     rc, _out, err = cli(["run", tmp_path / "scene.toml", "--device", "cpu", "-o", tmp_path / "out.h5"])
     assert rc == 2 and err.count("\n") == 1 and "pellet 700" in err and "shot.file:position" in err, err
@@ -183,3 +254,152 @@ def test_pellets_from_a_file_starting_inside_a_solid_are_refused_in_one_line(tmp
     positions[700], positions[900] = above, [0.0, -6.0, 2.0]
     _pellet_file(path, positions, fortran)
     assert scene_from_dict(raw).shot.count == 1000
+
+
+ROOM = {"point": [0.0, 0.0, 1.0], "normal": [0.0, 0.0, 1.0], "axis_u": [1.0, 0.0, 0.0], "size": [6.0, 4.0, 3.0]}
+R = 0.00125  # m, the pellets' radius
+
+
+def _first_contact(x, v, g=9.81):
+    """Float64 reference: the time and centre of each pellet's first contact inside ROOM over the
+    ground z = 0 (its floor lies below): the least positive time its parabola's centre reaches R
+    from a wall, the ceiling or the ground (the room's inside is convex: before that it touches
+    nothing), and the surface met (0 the ground, 1 the room)."""
+    half = 0.5 * np.asarray(ROOM["size"]) - R
+    times = []
+    for axis in (0, 1):
+        with np.errstate(divide="ignore"):
+            times.append(np.where(v[:, axis] > 0, half[axis] - x[:, axis], -half[axis] - x[:, axis]) / v[:, axis])
+    for height in (ROOM["point"][2] + half[2], R):  # z0 + vz t - g t^2 / 2 = height: the later root for the ground
+        disc = v[:, 2] ** 2 + 2.0 * g * (x[:, 2] - height)
+        root = (v[:, 2] + np.sqrt(np.maximum(disc, 0.0))) / g if height == R else (v[:, 2] - np.sqrt(np.maximum(disc, 0.0))) / g
+        times.append(np.where(disc >= 0.0, root, np.inf) if height != R else root)
+    times = np.stack(times, axis=1)
+    times[~(times > 0)] = np.inf
+    t = times.min(axis=1)
+    centre = x + v * t[:, None] + 0.5 * t[:, None] ** 2 * np.array([0.0, 0.0, -g])
+    return t, centre, np.where(times.argmin(axis=1) == 3, 0, 1)
+
+
+def test_pellets_launched_in_a_room_wound_inwards_stay_in_it(tmp_path):
+    """300 pellets (float32, vacuum) launched from random points inside a 6 x 4 x 3 m room (a box's
+    STL wound inwards, met from inside) over the ground, 20 to 60 m/s in random directions, to
+    their fourth impact: the scene is read (every centre is outside the room's solid), each first
+    impact's centre and surface is the float64 parabola's first contact (within 1e-5 m), every
+    impact and landing centre lies in the room (R or more from its walls, within 1e-4 m), and no
+    pellet's energy (kinetic + potential, per kg) rises."""
+    import h5py
+
+    from warp_ricochet.api import run
+
+    rng = np.random.default_rng(3)
+    x = rng.uniform([-2.7, -1.7, 0.3], [2.7, 1.7, 2.2], (300, 3))
+    d = rng.normal(size=(300, 3))
+    v = d / np.linalg.norm(d, axis=1, keepdims=True) * rng.uniform(20.0, 60.0, (300, 1))
+    room = {"kind": "mesh", "name": "room", "file": _box_stl(tmp_path / "room.stl", ROOM, flip=True), **MATERIAL}
+    physics = {"gravity": [0.0, 0.0, -9.81], "until": "landing", "bounces": 3}
+    scene = explicit_scene(tmp_path, x, v, surfaces=[GROUND, room], physics=physics, precision="float32")
+    fields = ("impact.surface", "impact.position", "landing.position", "landing.velocity")
+    run(scene.replace(output=dataclasses.replace(scene.output, fields=fields)), tmp_path / "room.h5", device="cpu")
+    with h5py.File(tmp_path / "room.h5") as f:
+        surface = f["pellets/impact/surface"][()].reshape(300, -1)
+        impacts = f["pellets/impact/position"][()].reshape(300, -1, 3)
+        landing, speed = f["pellets/landing/position"][()], np.linalg.norm(f["pellets/landing/velocity"][()], axis=1)
+    _t, centre, first = _first_contact(x, v)
+    np.testing.assert_array_equal(surface[:, 0], first)
+    assert np.abs(impacts[:, 0] - centre).max() < 1e-5 and (first == 0).sum() > 20 and (first == 1).sum() > 150
+    box = scene_from_dict(_sampled([0, 0, 5], [GROUND, {"kind": "box", **ROOM, **MATERIAL}])).surfaces[1]
+    assert np.isfinite(landing).all() and (surface >= 0).all()
+    for points in (*impacts.transpose(1, 0, 2), landing):
+        assert (solid_gaps(box, points) <= -R + 1e-4).all() and (points[:, 2] >= R - 1e-4).all()
+    energy = 0.5 * speed**2 + 9.81 * landing[:, 2]
+    assert (energy <= 0.5 * np.linalg.norm(v, axis=1) ** 2 + 9.81 * x[:, 2] + 1e-3).all()
+
+
+def test_pellets_from_a_file_outside_a_room_wound_inwards_are_refused_in_one_line(tmp_path):
+    """1,000 pellets inside the room (ROOM wound inwards) but pellet 700 outside it and pellet 900
+    on its far side: refused in one line naming shot.file:position, pellet 700's position, the
+    file, the surface and that its solid is all outside it (exit status 2, nothing written); with
+    both inside, the scene is read and a sampled shot from the room's middle runs (exit status 0)."""
+    positions = np.random.default_rng(4).uniform([-2.9, -1.9, 0.1], [2.9, 1.9, 2.4], (1000, 3))
+    positions[700], positions[900] = [0.0, 0.0, 2.5 + 1e-6], [0.0, 0.0, -3.0]
+    path = _pellet_file(tmp_path / "pellets.npz", positions)
+    room = {"kind": "mesh", "name": "room", "file": _box_stl(tmp_path / "room.stl", ROOM, flip=True), **MATERIAL}
+    raw = {**_sampled([0, 0, 1], [GROUND, room]), "shot": {"file": path, "diameter": 0.0025, "density": 7000.0}}
+    with pytest.raises(SceneError) as e:
+        scene_from_dict(raw)
+    message = str(e.value)
+    start = f"shot.file:position = [0.0, 0.0, {2.5 + 1e-6}]: {path}: pellet 700 starts outside surfaces.1 ('room', a closed "
+    assert message.startswith(start + "mesh wound inwards, whose solid is all outside it)") and "\n" not in message, message
+    (tmp_path / "scene.toml").write_text("\n".join(toml_lines(raw, "")))
+    rc, _out, err = cli(["run", tmp_path / "scene.toml", "--device", "cpu", "-o", tmp_path / "out.h5"])
+    assert rc == 2 and err.count("\n") == 1 and "pellet 700" in err and "wound inwards" in err, err
+    assert list(tmp_path.glob("out*")) == []
+    positions[700], positions[900] = [0.0, 0.0, 2.5 - 1e-6], [0.0, 0.0, 1.0]
+    _pellet_file(path, positions)
+    assert scene_from_dict(raw).shot.count == 1000
+    sampled = _sampled([0.0, 0.0, 1.0], [GROUND, room]) | {"numerics": {"precision": "float32"}}
+    (tmp_path / "sampled.toml").write_text("\n".join(toml_lines(sampled, "")))
+    rc, _out, err = cli(["run", tmp_path / "sampled.toml", "--device", "cpu", "-o", tmp_path / "sampled.h5"])
+    assert rc == 0 and (tmp_path / "sampled.h5").exists(), err
+
+
+def _stations(surfaces, mid, side=5.0, radius=0.05):
+    """Three stations `side` m apart along y, `mid` the position of the middle one, `surfaces`
+    beside the ground; the shot's envelope_center is left at its default, the origin (unused: each
+    shot starts at its station)."""
+    stations = [
+        {"name": "left", "position": [0.0, -side, 1.5], "azimuth": [-30.0, 30.0], "elevation": [2.0, 15.0]},
+        {"name": "mid", "position": [float(c) for c in mid], "azimuth": 10.0},
+        {"name": "right", "position": [0.0, side, 1.5], "azimuth": [-90.0, 90.0], "elevation": 5.0},
+    ]
+    shot = {"count": 4, "shots": 6, "diameter": 0.0025, "density": 7000.0, "speed": 300.0, "direction": [1.0, 0.0, 0.0]}
+    shot["envelope_radius"] = radius
+    return {"shot": shot, "surfaces": [GROUND, *surfaces], "physics": {"gravity": [0, 0, -9.81]}, "stations": stations}
+
+
+HUT = {"point": [0.0, 0.0, 1.0], "normal": [0.0, 0.0, 1.0], "axis_u": [1.0, 1.0, 0.0], "size": [1.0, 1.0, 2.0]}
+
+
+@pytest.mark.parametrize(
+    ("solid", "inside", "near", "name"),
+    [
+        ({"kind": "box", **HUT}, [0.1, 0.2, 1.5], [0.0, 0.0, 2.01], "is inside surfaces.1 ('hut', a box)"),
+        (
+            POST | {"point": [0.0, 0.0, 0.0]},
+            [0.05, 0.1, 1.0],
+            [0.0, 0.16, 1.0],
+            "is inside surfaces.1 ('hut', a post (cylinder))",
+        ),
+        ("mesh", [0.1, 0.2, 1.5], [0.0, 0.0, 2.01], "is inside surfaces.1 ('hut', a closed mesh)"),
+        ("room", [0.0, 0.0, 5.0], [2.99, 0.0, 1.0], "is outside surfaces.1 ('hut', a closed mesh wound inwards"),
+    ],
+    ids=["box", "post", "mesh", "room"],
+)
+def test_a_station_inside_a_solid_is_refused_in_one_line(tmp_path, solid, inside, near, name):
+    """A station's envelope (shot.envelope_radius about its position) is checked as the single
+    muzzle's: the middle station inside a box, a post or a closed mesh, or outside a room wound
+    inwards, or 0.01 m from it with a 0.05 m radius, is refused in one line naming
+    stations.1.position, its value, the station, the surface and the depth (exit status 2, nothing
+    written); with every station clear of it the scene is read, though the default, unused
+    envelope_center (the origin) lies on the base of the box, the post and the mesh."""
+    room = solid == "room"
+    if solid in ("mesh", "room"):
+        solid = {"kind": "mesh", "file": _box_stl(tmp_path / "hut.stl", ROOM if room else HUT, flip=room)}
+    surfaces = [{"name": "hut", **solid, **MATERIAL}]
+    side = 1.5 if room else 5.0  # the other stations: inside the room, or clear of the hut
+    for where, text in ((inside, name), (near, "is 0.01 m from surfaces.1 ('hut'")):
+        with pytest.raises(SceneError) as e:
+            scene_from_dict(_stations(surfaces, where, side))
+        message = str(e.value)
+        assert message.startswith(f"stations.1.position = {where}: station 'mid' {text}") and "\n" not in message, message
+        assert message.endswith("outside every post, box and closed mesh (inside a closed mesh wound inwards)")
+    assert "reaches 0.04 m into it" in message
+    clear = [0.0, 0.0, 1.0] if room else [0.0, -2.0, 1.5]
+    scene = scene_from_dict(_stations(surfaces, clear, side))
+    assert room or abs(envelope_gap(scene.surfaces[1], np.zeros(3))) < 1e-6  # (the origin: refused without stations)
+    assert scene_from_dict(_stations(surfaces, clear, side)).stations[1].position == tuple(clear)
+    (tmp_path / "scene.toml").write_text("\n".join(toml_lines(_stations(surfaces, inside, side), "")))
+    rc, _out, err = cli(["run", tmp_path / "scene.toml", "--device", "cpu", "-o", tmp_path / "out.h5"])
+    assert rc == 2 and err.count("\n") == 1 and "stations.1.position" in err and "station 'mid'" in err, err
+    assert list(tmp_path.glob("out*")) == []

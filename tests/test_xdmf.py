@@ -500,7 +500,7 @@ def test_boxes_meshes_and_terrain_are_drawn_from_the_file(tmp_path):
     from warp_ricochet.scene.triangles import box_triangles, load_mesh
 
     tetra = np.array([[30.0, 0.0, -2.0], [32.0, 0.0, -2.0], [31.0, 0.0, 0.0], [31.0, 2.0, -1.0]])
-    faces = [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]]
+    faces = [[0, 1, 2], [0, 3, 1], [1, 3, 2], [0, 2, 3]]  # wound outwards (wound inwards its solid holds the gun)
     mesh_path = tmp_path / "tetra.ply"
     trimesh.Trimesh(vertices=tetra, faces=faces, process=False).export(mesh_path)
     raster = str(files("warp_ricochet") / "examples" / "terrain" / "trap_field.asc")

@@ -33,7 +33,8 @@ one starting off the length and ending on it within [r, s], closing, is bisected
 A dip in and out within one part between two such samples is not seen (the parts are 1/16 of a
 step the integrator keeps within its error tolerance).
 Followed to rest (`physics.surface_follow`): a pellet on a cap moves along it as along a disc plate
-(`cap_face`, `cap_plane`; `geometry.face_gap`); on a vertical post's side it flies on (the caller's
+(`cap_face`, `cap_plane`; `geometry.face_gap`), and one that stops with its centre beyond the rim,
+within the slack, falls off (`off_rim`); on a vertical post's side it flies on (the caller's
 lift-off), along a leaning post's side it moves (`physics.side_follow`).
 The side's searches (`side_time`, `line_theta`) also meet a mesh's convex edges (r = 0) and corners
 (a = 0: rho the distance from p) (`physics.edge_contact`).
@@ -133,6 +134,28 @@ def _post_shape(precision: str) -> SimpleNamespace:
         return EDGE * (l1(x - surfaces.point[k]) + surfaces.half_v[k] + surfaces.half_u[k]) + state_rounding(x)
 
     @wp.func
+    def off_rim(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3):
+        """(beyond, y, w) for a pellet stopped (velocity v, m/s) on a cap of post k with its centre
+        at x: whether x lies beyond the rim (rho > r, within the slack the cap is followed with),
+        and then the point it falls from, x moved out across the axis to rho = r + 2 `slack`, clear
+        of the slack a flight meets a cap with at once (`post_time`, `side_theta`'s caps), and v
+        less any part towards the axis (closing on it the side would be met at its top, again and
+        again), so that it falls past the rim as the float64 run's pellet does (docs/geometry.md,
+        "Posts, plates and planes far from the origin"); else x and v."""
+        radial = across(x - surfaces.point[k], surfaces.normal[k])
+        rho = wp.length(radial)
+        r = surfaces.half_u[k]
+        beyond = rho > r
+        y = vec3(x)
+        w = vec3(v)
+        if beyond:
+            y = x + ((r + scalar(2.0) * slack(surfaces, k, x) - rho) / rho) * radial
+            inward = wp.dot(v, radial) / rho
+            if inward < ZERO:
+                w = v - (inward / rho) * radial
+        return beyond, y, w
+
+    @wp.func
     def cap_face(surfaces: Surfaces, k: wp.int32, x: vec3):
         """The face of post k a pellet centred at x touches: TOP_CAP or BOTTOM_CAP where `post_normal`
         is the axis (+a or -a), else -1 (the side)."""
@@ -173,6 +196,7 @@ def _post_shape(precision: str) -> SimpleNamespace:
         post_box=post_box,
         on_cap=on_cap,
         slack=slack,
+        off_rim=off_rim,
     )
 
 

@@ -10,7 +10,8 @@ on at once, along a leaning one's it moves by `physics.side_follow`.
 It slides and rolls by the laws of `physics.surface_motion` (with the ploughing resistance b |v|^2
 beside c N) until one of the end codes:
 
-- REST: its speed fell to rest_speed where the slope cannot restart it (v = 0, spin along n kept);
+- REST: its speed fell to rest_speed where the slope cannot restart it (v = 0, spin along n kept;
+  on a post's cap with its centre beyond the rim it falls off instead: FLIGHT, `rest_end`);
 - FLIGHT: the net normal force pulls it away (the caller flies it with touching = k);
 - CONTACT: it meets surface k_next (gap 0) while moving along k (the caller impacts it);
 - FOREVER: in vacuum, a phase of constant acceleration that never ends (it moves on for ever from
@@ -178,6 +179,28 @@ def make_surface_closed_phases(precision: str, planes=None, plates: bool = False
         return position, vec3(), wp.dot(spin, normal) * normal, elapsed, path, wp.int32(REST), steps, k
 
     @wp.func
+    def rest_end(
+        surfaces: Surfaces,
+        k: wp.int32,
+        face: wp.int32,
+        x: vec3,
+        v: vec3,
+        spin: vec3,
+        n: vec3,
+        elapsed: scalar,
+        path: scalar,
+        steps: wp.int32,
+    ):
+        """`rest_state` at x, but a pellet stopped on a post's cap (face < -1) with its centre beyond
+        the rim, within the slack, flies on from just past it (`cylinder_contact.off_rim`)."""
+        if wp.static(WITH_POSTS):
+            if face < -1:
+                beyond, y, w = posts.off_rim(surfaces, k, x, v)
+                if beyond:
+                    return y, w, spin, elapsed, path, wp.int32(FLIGHT), steps, k
+        return rest_state(x, spin, n, elapsed, path, steps, k)
+
+    @wp.func
     def constant_phase(
         position: vec3,
         velocity: vec3,
@@ -241,6 +264,7 @@ def make_surface_closed_phases(precision: str, planes=None, plates: bool = False
         contact_within=contact_within,
         plough_roll=plough_roll,
         rest_state=rest_state,
+        rest_end=rest_end,
         constant_phase=constant_phase,
     )
 
@@ -451,7 +475,7 @@ def make_surface_follow(
     r = make_surface_rates(precision, model, laws)
     Contact, applied_at, lifts = r.Contact, r.applied_at, r.lifts
     closed = make_surface_closed_phases(precision, planes, plates)
-    plough_roll, rest_state, constant_phase = closed.plough_roll, closed.rest_state, closed.constant_phase
+    plough_roll, rest_end, constant_phase = closed.plough_roll, closed.rest_end, closed.constant_phase
     integrator = make_surface_integrator(precision, planes, model, laws, watch, plates)
     integrate_phase = integrator.integrate_phase
     PLATES = plates
@@ -534,7 +558,7 @@ def make_surface_follow(
                 mode = forced
             forced = wp.int32(-1)
             if mode == REST:
-                rx, rv, rw, re, rp, rc, rs, rk = rest_state(position, spin, n, elapsed, path, steps, k)
+                rx, rv, rw, re, rp, rc, rs, rk = rest_end(surfaces, k, face, position, velocity, spin, n, elapsed, path, steps)
                 return rx, rv, rw, re, rp, rc, rs, rk, track, n
             if mode == FLIGHT:
                 return position, velocity, spin, elapsed, path, wp.int32(FLIGHT), steps, k, track, n
@@ -683,7 +707,7 @@ def make_surface_follow(
             if outcome == FOREVER:
                 return position, velocity, spin, elapsed, path, wp.int32(FOREVER), steps, k, track, n
             if outcome == 1:
-                rx, rv, rw, re, rp, rc, rs, rk = rest_state(position, spin, n, elapsed, path, steps, k)
+                rx, rv, rw, re, rp, rc, rs, rk = rest_end(surfaces, k, face, position, velocity, spin, n, elapsed, path, steps)
                 return rx, rv, rw, re, rp, rc, rs, rk, track, n
             if outcome == 0:
                 if mode == SLIDING:  # the slip is zero now: remove its rounding (omega_t = n x v / R)

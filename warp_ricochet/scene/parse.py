@@ -41,7 +41,7 @@ from .schema import (
     Shot,
     Surface,
 )
-from .solids import SOLIDS, closed_triangles, envelope_gap, inside_rows
+from .solids import SOLIDS, closed_triangles, envelope_gap, inside_rows, winding_level
 from .stations import check_stations, parse_stations
 from .terrain import TERRAIN_OPTIONAL, check_terrain, up_of
 from .triangles import load_mesh
@@ -448,14 +448,14 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
             f"{len(surfaces)} surfaces",
             f"at most {MAX_PLANES_IN_AIR} with [air] (a flight in air tracks its planes in the bits of an int32)",
         )
-    if shot.file is None:
-        _check_launch_outside(planes, shot)
-    else:
-        _check_file_outside(planes, shot)
-    _warn_post_creases(planes, shot, physics)
     stations = parse_stations(raw.get("stations"))
     if stations:
         check_stations(stations, shot, raw["shot"], planes, physics, hazard)
+    if shot.file is None:
+        _check_launch_outside(planes, shot, stations)
+    else:
+        _check_file_outside(planes, shot)
+    _warn_post_creases(planes, shot, physics)
     return Scene(
         shot=shot,
         surfaces=planes,
@@ -469,22 +469,29 @@ def scene_from_dict(raw: dict, base_dir=".") -> Scene:
     )
 
 
-def _check_launch_outside(surfaces: tuple, shot: Shot) -> None:
-    """The launch envelope (its sphere about shot.envelope_center) lies outside every post, box and
-    closed mesh (`scene.solids`): they are met from outside only, so pellets launched inside one
-    would fly through it as if it were not there."""
-    centre = np.asarray(shot.envelope_center, dtype=np.float64)
-    for i, s in enumerate(surfaces):
-        gap = envelope_gap(s, centre) if s.kind in SOLIDS else None  # m, negative inside
-        if gap is not None and gap < shot.envelope_radius:
-            where = "is inside" if gap < 0.0 else f"is {gap:.4g} m from"
-            raise err(
-                "shot.envelope_center",
-                list(shot.envelope_center),
-                f"{where} surfaces.{i} ({s.name!r}, a {_solid_name(s)}), a solid met only from outside, and the launch "
-                f"envelope (radius {shot.envelope_radius:.4g} m) reaches {shot.envelope_radius - gap:.4g} m into it: "
-                "pellets launched inside it fly through it; the envelope must lie outside every post, box and closed mesh",
-            )
+def _check_launch_outside(surfaces: tuple, shot: Shot, stations: tuple = ()) -> None:
+    """The launch envelope (its sphere of radius shot.envelope_radius about shot.envelope_center,
+    or about each station's position when the scene has [[stations]]) lies outside every post, box
+    and closed mesh (`scene.solids`; inside a closed mesh wound inwards): they are met from outside
+    only, so pellets launched inside one would fly through it as if it were not there."""
+    if stations:
+        launches = [(f"stations.{k}.position", st.position, f"station {st.name!r} ") for k, st in enumerate(stations)]
+    else:
+        launches = [("shot.envelope_center", shot.envelope_center, "")]
+    solids = [(i, s) for i, s in enumerate(surfaces) if s.kind in SOLIDS]
+    for key, value, who in launches:
+        centre = np.asarray(value, dtype=np.float64)
+        for i, s in solids:
+            gap = envelope_gap(s, centre)  # m, negative inside (None: an open mesh)
+            if gap is not None and gap < shot.envelope_radius:
+                where = f"is {_inside_words(s)}" if gap < 0.0 else f"is {gap:.4g} m from"
+                raise err(
+                    key,
+                    list(value),
+                    f"{who}{where} surfaces.{i} ({s.name!r}, a {_solid_name(s)}), a solid met only from outside, and "
+                    f"the launch envelope (radius {shot.envelope_radius:.4g} m) reaches {shot.envelope_radius - gap:.4g} m "
+                    f"into it: pellets launched inside it fly through it; the envelope must lie {ALLOWED}",
+                )
 
 
 def _warn_post_creases(surfaces: tuple, shot: Shot, physics: Physics) -> None:
@@ -518,7 +525,7 @@ def _warn_post_creases(surfaces: tuple, shot: Shot, physics: Physics) -> None:
 
 def _check_file_outside(surfaces: tuple, shot: Shot) -> None:
     """Every pellet of shot.file starts with its centre outside every post, box and closed mesh
-    (`_check_launch_outside`), read a piece at a time; one line names the file, its first pellet
+    (inside a closed mesh wound inwards; `_check_launch_outside`), read a piece at a time; one line names the file, its first pellet
     inside one and the solid."""
     solids = [(i, s) for i, s in enumerate(surfaces) if s.kind in SOLIDS and (s.kind != "mesh" or closed_triangles(s))]
     if not solids:
@@ -534,15 +541,25 @@ def _check_file_outside(surfaces: tuple, shot: Shot) -> None:
             raise err(
                 "shot.file:position",
                 x[row].tolist(),
-                f"{shot.file}: pellet {start + row} starts inside surfaces.{i} ({s.name!r}, a {_solid_name(s)}), a solid met "
-                "only from outside (pellets launched inside it fly through it); every pellet must start with its centre "
-                "outside every post, box and closed mesh",
+                f"{shot.file}: pellet {start + row} starts {_inside_words(s)} surfaces.{i} ({s.name!r}, a {_solid_name(s)}), "
+                "a solid met only from outside (pellets launched inside it fly through it); every pellet must start with "
+                f"its centre {ALLOWED}",
             )
 
 
 def _solid_name(s) -> str:
     """How messages name a solid's kind."""
+    if s.kind == "mesh" and winding_level(closed_triangles(s)) < 0.0:
+        return "closed mesh wound inwards, whose solid is all outside it"
     return {"cylinder": "post (cylinder)", "mesh": "closed mesh"}.get(s.kind, s.kind)
+
+
+def _inside_words(s) -> str:
+    """How messages say that a point lies in solid s (outside a closed mesh wound inwards)."""
+    return "outside" if s.kind == "mesh" and winding_level(closed_triangles(s)) < 0.0 else "inside"
+
+
+ALLOWED = "outside every post, box and closed mesh (inside a closed mesh wound inwards)"
 
 
 MAX_SCENE_CHARS = 1 << 20  # a scene's text; the largest valid one (a drag table of 1,024 pairs) is ~40 kB

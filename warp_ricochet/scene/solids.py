@@ -1,6 +1,7 @@
 """Solids a launch must start outside (docs/geometry.md, "Launches inside a solid"), on the host in
 float64: posts, boxes and closed meshes are met from outside only, so a pellet launched inside one
-flies through it as if it were not there.
+flies through it as if it were not there (the solid of a closed mesh wound inwards, a room, is all
+outside it).
 
 - `solid_gaps(s, x)`: the signed distance (m, negative inside) of points x from a post or a box,
   exact (the rounded-box distance: |max(q, 0)| + min(max_i q_i, 0), q the per-axis excess);
@@ -11,7 +12,11 @@ flies through it as if it were not there.
   numbers", ACM ToG 32(4), 2013, eq. 3), each triangle's signed solid angle by Van Oosterom and
   Strackee, IEEE Trans. Biomed. Eng. 30(2), 1983: tan(Omega/2) = a.(b x c) / (|a||b||c| +
   (a.b)|c| + (b.c)|a| + (c.a)|b|), a, b, c the vertices less x. 1 inside a closed mesh wound
-  counter-clockwise seen from outside, 0 outside; a point is inside where it exceeds 1/2;
+  counter-clockwise seen from outside, 0 outside; -1 inside one wound inwards;
+- `winding_level(tri)`: the winding number above which a point lies in a closed mesh's solid:
+  1/2 for a mesh wound outwards (its solid its inside, w = 1 there), -1/2 for one wound inwards
+  (a room: its solid all outside it, w = 0 there, -1 in the room), told by the sign of its
+  enclosed volume (1/6) sum_t a.(b x c) (the divergence theorem);
 - `inside_rows(s, x)`, `envelope_gap(s, centre)`: what `scene.parse` refuses with.
 NumPy only: no optional package is needed (a mesh file itself needs trimesh to be read)."""
 
@@ -24,7 +29,8 @@ import numpy as np
 from .triangles import TriangleSurface, triangles_of
 
 SOLIDS = ("cylinder", "box", "mesh")  # the kinds checked (a mesh: when closed)
-WINDING_INSIDE = 0.5  # a point is inside a closed mesh where its winding number exceeds this
+WINDING_INSIDE = 0.5  # a point is inside a closed mesh wound outwards where its winding number exceeds this
+FLAT_VOLUME = 1e-9  # a closed mesh whose |volume| is below this share of sum_t |a.(b x c)| / 6 encloses none
 PAIRS = 1 << 20  # point-triangle pairs a NumPy batch holds (about 8 MB per temporary array)
 
 
@@ -65,6 +71,21 @@ def closed_triangles(s) -> TriangleSurface | None:
         return None
     tri = triangles_of(s)
     return tri if _closed(tri) else None
+
+
+@functools.lru_cache(maxsize=16)
+def winding_level(tri: TriangleSurface) -> float:
+    """The winding number above which a point lies in the solid of the closed triangles `tri`:
+    WINDING_INSIDE where they enclose a positive volume (wound outwards: the solid is their
+    inside), -WINDING_INSIDE where a negative one (wound inwards, met from inside: the solid is
+    all outside them). The volume is (1/6) sum_t a.(b x c), the vertices taken about their mean
+    (it is the same about any point for a closed surface); a closed surface enclosing none (a
+    triangle and its reverse) keeps WINDING_INSIDE: no point exceeds it."""
+    v = tri.vertices - tri.vertices.mean(axis=0)
+    a, b, c = (v[tri.triangles[:, j]] for j in range(3))
+    terms = np.einsum("ij,ij->i", a, np.cross(b, c))
+    inward = terms.sum() < -FLAT_VOLUME * np.abs(terms).sum()
+    return -WINDING_INSIDE if inward else WINDING_INSIDE
 
 
 def winding_numbers(vertices: np.ndarray, triangles: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -110,30 +131,34 @@ def _mesh_distance(tri: TriangleSurface, x: np.ndarray) -> float:
 
 
 def inside_rows(s, x: np.ndarray) -> np.ndarray:
-    """Whether each point x (n, 3) lies inside solid s: a post's or a box's gap below 0, inside a
-    closed mesh (winding number above WINDING_INSIDE; only the points within its box are tested);
-    never for other surfaces."""
+    """Whether each point x (n, 3) lies inside solid s: a post's or a box's gap below 0, in a
+    closed mesh's solid (winding number above `winding_level`; only the points within its box,
+    boundary included for one wound inwards, are tested: outside the box the winding number is 0,
+    in the solid of a mesh wound inwards, outside one wound outwards); never for other surfaces."""
     if s.kind in ("cylinder", "box"):
         return solid_gaps(s, x) < 0.0
     tri = closed_triangles(s)
-    inside = np.zeros(len(x), dtype=bool)
     if tri is None:
-        return inside
+        return np.zeros(len(x), dtype=bool)
+    level = winding_level(tri)
+    inside = np.full(len(x), level < 0.0)
     low, high = tri.vertices.min(axis=0), tri.vertices.max(axis=0)
-    near = np.flatnonzero(((x > low) & (x < high)).all(axis=1))
+    within = ((x >= low) & (x <= high)) if level < 0.0 else ((x > low) & (x < high))
+    near = np.flatnonzero(within.all(axis=1))
     if near.size:
-        inside[near] = winding_numbers(tri.vertices, tri.triangles, x[near]) > WINDING_INSIDE
+        inside[near] = winding_numbers(tri.vertices, tri.triangles, x[near]) > level
     return inside
 
 
 def envelope_gap(s, centre: np.ndarray) -> float | None:
     """The signed distance (m, negative inside) from the point `centre` to solid s: a post, a box,
-    a closed mesh; None for other surfaces (planes, plates, open meshes, terrain)."""
+    a closed mesh (negative in its solid: outside it when it is wound inwards, `winding_level`);
+    None for other surfaces (planes, plates, open meshes, terrain)."""
     if s.kind in ("cylinder", "box"):
         return float(solid_gaps(s, centre)[0])
     tri = closed_triangles(s)
     if tri is None:
         return None
     distance = _mesh_distance(tri, centre)
-    inside = winding_numbers(tri.vertices, tri.triangles, centre[None, :])[0] > WINDING_INSIDE
+    inside = winding_numbers(tri.vertices, tri.triangles, centre[None, :])[0] > winding_level(tri)
     return -distance if inside else distance

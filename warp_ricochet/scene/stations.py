@@ -158,7 +158,8 @@ def check_stations(stations, shot, raw_shot: dict, surfaces, physics, hazard) ->
     sampled shots (no shot.file) around each station (no shot.envelope_center), gravity defines the
     horizontal, a downrange axis, and no station below the ground: behind the plane of the hazard
     map's surface (hazard.map_surface), else of the first surface (its normal: the side pellets come
-    from), or under a terrain's triangles there; other kinds (box, mesh) are not checked."""
+    from), or under a terrain's triangles there; other kinds (box, mesh) are not checked as the
+    ground (each station's envelope is checked against the solids by `scene.parse`)."""
     if shot.file is not None:
         raise err(
             "shot.file", shot.file, "not allowed with [[stations]]: stations sample each shot's aim (a pellet file fixes it)"
