@@ -9,7 +9,7 @@ import warp as wp
 
 from .ballistic import EPSILON
 from .integrate import make_dense_output, make_dormand_prince
-from .surface_line import make_line_laws
+from .line_laws import make_line_laws
 from .surface_motion import make_surface_motion
 from .types import types_for
 
