@@ -11,8 +11,10 @@ ricochet kernel was loaded (prof/kernel.json) and /tmp/perf-PID.map (its functio
 inlined, for `perf report`). Warp loads CPU kernels through its own JIT, without symbols for perf:
 this relies on Warp 1.19's internals (`warp._src.build.build_cpu`, `runtime.llvm.wp_lookup`).
 `report`: the shares of the samples by library, then of the kernel's samples by the innermost
-function of the package's (inlined) @wp.funcs, self and inclusive (`addr2line -i`). A call into libm
-leaves no frame of the kernel (it keeps no frame pointer), so libm's samples are not attributed.
+function of the package's (inlined) @wp.funcs, self and inclusive (`addr2line -i`), and by the
+Python line (Warp's comments in the generated C++; "?" where the optimiser left no line). A call
+into libm leaves no frame of the kernel (it keeps no frame pointer), so libm's samples are not
+attributed. The run's first compilation is in the samples too (warp-clang.so).
 """
 
 from __future__ import annotations
@@ -87,6 +89,20 @@ def _short(function):
     return re.sub(r"_\d+$", "", name.split("::")[-1])[-60:]
 
 
+def _python_line(source, where):
+    """The Python source (Warp's `// ... <L n>` comment) nearest above the generated line `where`."""
+    number = where.rsplit(":", 1)[-1].split()[0]
+    if ".cpp:" not in where or not number.isdigit():
+        return "?"
+    for k in range(int(number) - 1, max(int(number) - 60, 0), -1):
+        found = re.search(r"// (.*)<L (\d+)>", source[k])
+        if found:
+            return f"{found.group(1).strip()[:70]} (L {found.group(2)})"
+        if source[k].startswith("static CUDA_CALLABLE"):  # the function's start (a native one has no comments)
+            break
+    return "?"
+
+
 def report(data, folder: Path, top=25):
     kernel = json.loads((folder / "kernel.json").read_text())
     base, size = kernel["base"], kernel["size"]
@@ -117,16 +133,31 @@ def report(data, folder: Path, top=25):
             chains[current] = []
         elif current is not None:
             if at % 2 == 0:
-                chains[current].append(_short(line))
+                chains[current].append([line, ""])
+            else:
+                chains[current][-1][1] = line
             at += 1
-    own, inclusive = collections.Counter(), collections.Counter()
+    for chain in chains.values():  # a leaf without a name (Warp's builtins) gets the symbol's, with its signature
+        if len(chain) > 1 and "(" in chain[0][0]:
+            chain[0][0] = "(Warp's builtins)"
+        for pair in chain:
+            pair[0] = _short(pair[0])
+    source = Path(kernel["object"]).with_suffix("").with_suffix(".cpp").read_text().splitlines()
+    own, inclusive, lines_of = collections.Counter(), collections.Counter(), collections.Counter()
     for address, count in offsets.items():
-        ours = [f for f in chains.get(address, []) if "make_" in f or "tanh32" in f or KERNEL in f]
-        own[ours[0] if ours else "(Warp's builtins)"] += count
-        for function in set(ours):
+        ours = [(f, where) for f, where in chains.get(address, []) if "make_" in f or "tanh32" in f or KERNEL in f]
+        own[ours[0][0] if ours else "(Warp's builtins)"] += count
+        for function in {f for f, _where in ours}:
             inclusive[function] += count
+        if ours:  # (the location paired with a function is the line in it that is running)
+            lines_of[(ours[0][0], _python_line(source, ours[0][1]))] += count
     n = sum(offsets.values())
-    for title, counter in (("self (innermost of the package's functions)", own), ("inclusive", inclusive)):
+    lines_of = collections.Counter({f"{f}: {text}": count for (f, text), count in lines_of.items()})
+    for title, counter in (
+        ("self (innermost of the package's functions)", own),
+        ("inclusive", inclusive),
+        ("self, by the Python line before the C++ line", lines_of),
+    ):
         print(f"kernel's samples, {title}:")
         for name, count in counter.most_common(top):
             print(f"{100 * count / n:6.2f}%  {name}")
