@@ -71,7 +71,7 @@ def test_the_air_keeps_its_large_functions_out_of_line_and_vacuum_inline():
     in vacuum the surface line's are inlined (out of line they cost the vacuum run 9-14%)."""
     from warp_ricochet.physics.air_flight import make_air_flight, make_roots
     from warp_ricochet.physics.integrate import make_stepper
-    from warp_ricochet.physics.surface_line import make_line_laws, make_line_steps
+    from warp_ricochet.physics.line_laws import make_line_laws, make_line_steps
     from warp_ricochet.physics.surface_rates import make_surface_rates
 
     laws = ("loth2021", "loth2008", "dennis1980")  # any air laws: the hints do not depend on them

@@ -11,8 +11,10 @@ import pytest
 import warp as wp
 
 from bench.surface import REST_SPEED, SECOND_CONTACT, R, follow_pellets, setup
+from warp_ricochet.physics.line_laws import make_line_steps
+from warp_ricochet.physics.line_maths import make_line_maths
 from warp_ricochet.physics.surface_follow import REST
-from warp_ricochet.physics.surface_line import make_line_integrator, make_line_maths, make_line_steps
+from warp_ricochet.physics.surface_line import make_line_integrator
 from warp_ricochet.physics.types import types_for
 from warp_ricochet.reference import surface_motion as ref
 from warp_ricochet.scene.schema import Air

@@ -57,6 +57,21 @@ def test_float32_tanh_at_its_limits(kernels, device):
     assert np.isnan(got[7])
 
 
+def test_float32_tanh_saturates_as_its_formula_does(kernels, device):
+    # from |x| = 9 the formula is not evaluated: 1 - e and 1 + e (e = exp(-2|x|) < 2^-25) round to 1
+    # there, so +-1 exactly is the formula's own result; float64's tanh rounds to +-1 from |x| = 9.01
+    rng = np.random.default_rng(9)
+    x = np.concatenate([rng.uniform(8.0, 100.0, 5_000), 10.0 ** rng.uniform(1, 38, 1_000), [9.0, np.inf]])
+    x = np.concatenate([x, -x, np.nextafter(np.float32([9.0, -9.0]), np.float32(0))]).astype(np.float32)
+    got = _tanh(kernels, "float32", x, device)
+    e = np.exp(-2.0 * np.abs(x.astype(np.float64))).astype(np.float32)  # the formula, each operation in float32
+    np.testing.assert_array_equal(got, np.sign(x) * ((np.float32(1) - e) / (np.float32(1) + e)))
+    saturated = np.abs(x) >= 9.0
+    np.testing.assert_array_equal(got[saturated], np.sign(x[saturated]))
+    beyond = np.abs(x) >= 9.02
+    np.testing.assert_array_equal(got[beyond], np.tanh(x[beyond].astype(np.float64)).astype(np.float32))
+
+
 def test_float64_tanh_is_warps(kernels, device):
     x = np.random.default_rng(2).uniform(-5, 5, 1000)
     np.testing.assert_allclose(_tanh(kernels, "float64", x, device), np.tanh(x), rtol=5e-16, atol=0)  # (libm's against NumPy's)

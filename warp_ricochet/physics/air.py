@@ -21,8 +21,9 @@ them are in docs/air.md. SI units; u = v - wind is the velocity relative to the 
   to Dennis, Singh & Ingham (1980), J Fluid Mech 101:257, joined to Stokes; `loth2008`.
 
 tanh (in C_M of Loth 2021 and in Loth 2008's lift) is `make_tanh(precision)`: in float32 on the CPU
-from one exp, (1 - e) / (1 + e) with e = exp(-2|x|), and its odd Taylor series for |x| < 1/8, where
-1 - e cancels: within a few ulp of tanh, and a run in air on one CPU core takes a sixth less time
+from one exp, (1 - e) / (1 + e) with e = exp(-2|x|), its odd Taylor series for |x| < 1/8, where
+1 - e cancels, and +-1 from |x| = 9 (e < 2^-25: the formula's own result, without the exp): within a
+few ulp of tanh, and a run in air on one CPU core takes a sixth less time
 than with the C library's tanhf. On CUDA, and in float64, it is wp.tanh (on the H200 the formula
 made a run to rest 29% slower: bench/RESULTS.md).
 
@@ -54,6 +55,9 @@ if (a < 0.125f) {
     float x2 = x * x;
     return x * (1.0f + x2 * (-0.33333334f + x2 * (0.13333334f + x2 * (-0.053968254f + x2 * 0.021869488f))));
 }
+if (a >= 9.0f) {
+    return x < 0.0f ? -1.0f : 1.0f;
+}
 float e = wp::exp(-2.0f * a);
 float t = (1.0f - e) / (1.0f + e);
 return x < 0.0f ? -t : t;
@@ -63,8 +67,9 @@ return x < 0.0f ? -t : t;
 
 @wp.func_native(_TANH32)
 def tanh32(x: wp.float32) -> wp.float32:
-    """float32 tanh(x) (module docstring): on the CPU from one exp and, below |x| = 1/8, its odd
-    series to x^9 (the next term is 8e-12 of x there); on CUDA Warp's tanh."""
+    """float32 tanh(x) (module docstring): on the CPU from one exp, below |x| = 1/8 its odd series
+    to x^9 (the next term is 8e-12 of x there), from |x| = 9 +-1 (as the formula rounds); on CUDA
+    Warp's tanh."""
     ...
 
 

@@ -36,15 +36,18 @@ E1, E3, E4, E5, E6, E7 = (71.0 / 57600.0, -71.0 / 16695.0, 71.0 / 1920.0, -17253
 
 @functools.cache
 def make_dormand_prince(
-    precision: str, rates, Context, spin_changes: bool, state=None, out_of_line: bool = False
+    precision: str, rates, Context, spin_changes: bool, state=None, ends=None, out_of_line: bool = False
 ) -> SimpleNamespace:
     """`stages(x, v, w, a, dw, h, physics, context) -> (x', v', w', a', dw', x error, v error, w
     error)`: one Dormand-Prince step of length h for the right-hand side `rates(v, w, physics,
     context) -> (dv/dt, dw/dt)` (a `@wp.func`; `context` of the Warp type `Context` carries what
     else it reads); `spin_changes` False: w is constant (its stages not computed). With `state` (a
     Warp vector type): `stages(y, f, h, physics, context) -> (y', f', error)` for dy/dt =
-    rates(y, physics, context) = f; `out_of_line`: that step kept out of line in CUDA code
-    (`physics.inlining`: its three call sites in the air's surface lines)."""
+    rates(y, physics, context) = f; and with `ends(y, physics, context) -> (f, point)` (the same f
+    and what else the caller needs at y'), `stages_at(y, f, h, physics, context) -> (y', f', error,
+    point)`: the step's last stage is its end, so the point costs no evaluation of the laws more;
+    `out_of_line`: these kept out of line in CUDA code (`physics.inlining`: several call sites in the
+    air's surface lines)."""
     t = types_for(precision)
     scalar, vec3, Physics = t.scalar, t.vec3, t.Physics
     SPIN_CHANGES = spin_changes
@@ -59,18 +62,40 @@ def make_dormand_prince(
 
         @out_of_line_if(out_of_line)
         @wp.func
-        def state_stages(y: state, f1: state, h: scalar, physics: Physics, context: Context):
-            """y and its rates at h and the error estimate (fifth minus fourth order)."""
+        def state_six(y: state, f1: state, h: scalar, physics: Physics, context: Context):
+            """y at h (fifth order) and the stages 3 to 6 its error estimate takes."""
             f2 = rates(y + (h * a21) * f1, physics, context)
             f3 = rates(y + h * (a31 * f1 + a32 * f2), physics, context)
             f4 = rates(y + h * (a41 * f1 + a42 * f2 + a43 * f3), physics, context)
             f5 = rates(y + h * (a51 * f1 + a52 * f2 + a53 * f3 + a54 * f4), physics, context)
             f6 = rates(y + h * (a61 * f1 + a62 * f2 + a63 * f3 + a64 * f4 + a65 * f5), physics, context)
-            y7 = y + h * (b1 * f1 + b3 * f3 + b4 * f4 + b5 * f5 + b6 * f6)
-            f7 = rates(y7, physics, context)
-            return y7, f7, h * (e1 * f1 + e3 * f3 + e4 * f4 + e5 * f5 + e6 * f6 + e7 * f7)
+            return y + h * (b1 * f1 + b3 * f3 + b4 * f4 + b5 * f5 + b6 * f6), f3, f4, f5, f6
 
-        return SimpleNamespace(stages=state_stages)
+        @wp.func
+        def state_error(h: scalar, f1: state, f3: state, f4: state, f5: state, f6: state, f7: state):
+            """The error estimate, fifth minus fourth order."""
+            return h * (e1 * f1 + e3 * f3 + e4 * f4 + e5 * f5 + e6 * f6 + e7 * f7)
+
+        @out_of_line_if(out_of_line)
+        @wp.func
+        def state_stages(y: state, f1: state, h: scalar, physics: Physics, context: Context):
+            """y and its rates at h and the error estimate (fifth minus fourth order)."""
+            y7, f3, f4, f5, f6 = state_six(y, f1, h, physics, context)
+            f7 = rates(y7, physics, context)
+            return y7, f7, state_error(h, f1, f3, f4, f5, f6, f7)
+
+        if ends is None:
+            return SimpleNamespace(stages=state_stages)
+
+        @out_of_line_if(out_of_line)
+        @wp.func
+        def state_stages_at(y: state, f1: state, h: scalar, physics: Physics, context: Context):
+            """`state_stages` and `ends`' point at h (from the last stage's evaluation)."""
+            y7, f3, f4, f5, f6 = state_six(y, f1, h, physics, context)
+            f7, point = ends(y7, physics, context)
+            return y7, f7, state_error(h, f1, f3, f4, f5, f6, f7), point
+
+        return SimpleNamespace(stages=state_stages, stages_at=state_stages_at)
 
     @wp.func
     def combine(

@@ -10,7 +10,7 @@ import warp as wp
 from .ballistic import EPSILON
 from .inlining import out_of_line_if
 from .integrate import make_dense_output, make_dormand_prince
-from .surface_line import make_line_laws
+from .line_laws import make_line_laws
 from .surface_motion import make_surface_motion
 from .types import types_for
 
