@@ -1,0 +1,27 @@
+#!/usr/bin/env bash
+# session 43, call 3: A (main), F (air's large functions out of line), G (F + the air's contact searches)
+set -u
+out=${OUT:-/tmp/out}; mkdir -p $out
+root=$PWD
+inn() { local t=$1; shift; (cd $root/.gpu/b/exp/$t && WARP_CACHE_PATH=/tmp/wc_$t PYTHONPATH=/tmp/site:$PWD "$@") 2>&1; }
+filt() { grep -v "^Warp \|CUDA Toolkit\|Devices:\|Kernel cache\|\.cache/warp\|\"cpu\"\|\"cuda:0\"\|^Module \|^{\|/tmp/wc_\|PrecisionWarning\|return _compute"; }
+start=$(date +%s)
+for t in A F G; do
+  ( inn $t python3 -m bench.rest throughput --device cuda:0 --sizes 1e5 --repeats 1 > $out/warm-rest-$t.txt
+    inn $t python3 -m bench.path cost --device cuda:0 --sizes 1e5 --repeats 1 > $out/warm-path-$t.txt ) &
+  ( inn $t python3 -m bench.meshes posts --device cuda:0 --n 1e5 --repeats 1 > $out/warm-posts-$t.txt ) &
+done
+wait
+echo "warm-up (compile) $(( $(date +%s) - start )) s" | tee $out/times.txt
+for r in 1 2; do for t in A F G; do
+  inn $t python3 -m bench.rest throughput --device cuda:0 --sizes 1e7 --repeats 2 | filt | sed "s/^/$r $t: /"
+done; done 2>&1 | tee $out/rest.txt
+echo "rest done $(( $(date +%s) - start )) s" | tee -a $out/times.txt
+for t in A F G; do
+  inn $t python3 -m bench.meshes posts --device cuda:0 --n 1e6 --repeats 2 | filt | sed "s/^/$t: /"
+done 2>&1 | tee $out/posts.txt
+echo "posts done $(( $(date +%s) - start )) s" | tee -a $out/times.txt
+for t in A F G; do
+  inn $t timeout 120 python3 -m bench.path cost --device cuda:0 --sizes 1e7 --repeats 1 | filt | sed "s/^/$t: /"
+done 2>&1 | tee $out/path.txt
+echo "all done $(( $(date +%s) - start )) s" | tee -a $out/times.txt
