@@ -5,7 +5,9 @@ per process, for Nsight Compute and for the core kernel's registers and local me
     ncu -k regex:ricochet_kernel -c 1 --section ... python3 -m bench.mesh_profile --case mesh --repeats 0
 
 Cases: plane, mesh, bare (the mesh with its edge and corner contacts left out, the same kernel),
-rect (the plane as a rectangle plate of the mesh's size: the plates' kernel without meshes).
+rect (the plane as a rectangle plate of the mesh's size: the plates' kernel without meshes),
+terrain and terrain-air (`bench.meshes terrain`'s scene: 1,002,528 triangles, vacuum or sea-level air;
+each run also reads the raster and builds its BVH).
 Prints the kernel's registers a thread and local bytes, and the median run time. Figures: bench/RESULTS.md.
 """
 
@@ -47,7 +49,7 @@ def _no_features(vertices, triangles):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--case", choices=("plane", "mesh", "bare", "rect"), default="mesh")
+    parser.add_argument("--case", choices=("plane", "mesh", "bare", "rect", "terrain", "terrain-air"), default="mesh")
     parser.add_argument("--n", type=float, default=1e7)
     parser.add_argument("--device", default="cuda:0")
     parser.add_argument("--repeats", type=int, default=5)
@@ -73,6 +75,13 @@ def main(argv=None):
     if args.case == "bare":
         types.convex_features = _no_features
     scene = load_scene(ROOT / "examples" / "paper.toml", sets)
+    if args.case.startswith("terrain"):
+        from bench.meshes import CELL, _paper, terrain_raster
+
+        raster, half = terrain_raster(folder), 0.5 * CELL * 709
+        ground = {"kind": "terrain", "file": str(raster), "origin": [20.0, -half], "restitution": 0.01, "mu_s": 0.5}
+        catch = {"point": [0.0, -5.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.01, "mu_s": 0.5}
+        scene = _paper(n, "float32", args.case == "terrain-air", [ground | {"mu_d": 0.45}, catch | {"mu_d": 0.45}])
     wr.run(scene, None, device=args.device)
     wp.synchronize_device(args.device)
     runs = []
