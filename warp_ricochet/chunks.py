@@ -11,8 +11,9 @@ from .dense.schedule import dense_bytes_per_pellet, shot_granule
 from .errors import SceneError
 from .fields import bytes_per_pellet
 from .io.space import free_bytes, host_memory_available, size_text
+from .spec import RunSpec
 from .tallies.counts import TallySetup, tally_bytes
-from .tallies.reduce import SEGMENT, lanes_for, partial_bytes_per_pellet
+from .tallies.reduce import SEGMENT, partial_bytes_per_pellet
 
 HOST_BUFFER_BYTES = 128 << 20  # per pinned host buffer (two are used): caps host memory
 DEVICE_FRACTION = 0.5  # of the free device memory a chunk may use
@@ -31,7 +32,7 @@ def file_bytes_per_pellet(scene) -> int:
 def device_bytes_per_pellet(scene, fields) -> float:
     """Device bytes per pellet of a core chunk: outputs, statistics partials, pellet-file states."""
     return (
-        partial_bytes_per_pellet(lanes_for(scene.physics.until == "rest"))
+        partial_bytes_per_pellet(RunSpec.of(scene, with_output=False).lanes)
         + bytes_per_pellet(fields, scene.numerics.precision, scene.physics.bounces)
         + file_bytes_per_pellet(scene)
     )

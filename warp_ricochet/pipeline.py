@@ -47,7 +47,7 @@ from .tallies.collisions import (
 )
 from .tallies.counts import DeviceTally, TallySetup, TallyTotals
 from .tallies.ensemble import ensemble_of, has_ensemble, per_shot_statistics
-from .tallies.reduce import SEGMENT_WIDTH, lanes_for, launch_reduce, threads_for
+from .tallies.reduce import SEGMENT_WIDTH, launch_reduce, threads_for
 from .tallies.sums import combine, empty_totals, finalize
 from .tallies.terrain_ground import with_terrain
 
@@ -126,7 +126,7 @@ class CoreStage:
         dev = model.device
         self.model, self.pellets, self.stop = model, pellets, pellets
         self.capacity = plan_rows(scene, dev, pellets, spec.fields)
-        self.state = (reused_state if dev.is_cuda else State)(model, self.capacity, spec.core_fields, lanes_for(spec.to_rest))
+        self.state = (reused_state if dev.is_cuda else State)(model, self.capacity, spec.core_fields, spec.lanes)
         self.source = PelletSource(scene, model.precision, dev, self.capacity, arrays)
         self.kernel = ricochet_kernel_for(spec)
         self.release = empty_release(model.precision, dev.alias)
@@ -183,7 +183,7 @@ class CollisionStage:
         self.shots = pellets // self.count
         self.per_chunk = plan_shots(scene, dev, self.shots)
         self.stride = shot_stride(self.count)
-        self.state = State(model, self.per_chunk * self.stride, spec.core_fields, lanes_for(spec.to_rest))
+        self.state = State(model, self.per_chunk * self.stride, spec.core_fields, spec.lanes)
         self.dense = DensePhase(model, scene, spec, self.per_chunk * self.count, options)
         self.source = PelletSource(scene, model.precision, dev, self.per_chunk * self.count, arrays)
         self.kernel = ricochet_kernel_for(spec)

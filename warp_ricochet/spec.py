@@ -143,6 +143,17 @@ class RunSpec:
         return self.until == "rest"
 
     @property
+    def lanes(self) -> int:
+        """Threads a statistics segment (`tallies.reduce.lanes_for`): many threads of few pellets where
+        pellets are costly (followed to rest; against a terrain or a large mesh, whose BVH searches take
+        most of a run), so that a GPU has work for all its multiprocessors from fewer pellets."""
+        from .physics.geometry import SMALL
+        from .tallies.reduce import lanes_for
+
+        large = bool(self.plates & MESHES) and not self.plates & SMALL
+        return lanes_for(self.to_rest or large)
+
+    @property
     def watch(self) -> tuple[int, int, bool, bool]:
         """(thresholds, places, map, terrain) of the hazard watched along the path (`tallies.path`):
         a scene with thresholds and its tallies; (0, 0, False, False) compiles the watch away."""

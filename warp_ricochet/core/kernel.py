@@ -1,6 +1,6 @@
 """The fused ricochet kernel: a thin loop over the pellets of one chunk (`core.pellet` does the
 work), one thread per lane-interleaved set of pellets of a segment (LANES threads of PER_THREAD
-pellets, or REST_LANES threads for pellets followed to rest: `tallies.reduce`; consecutive slots
+pellets, or REST_LANES threads for costly pellets, `spec.RunSpec.lanes`: `tallies.reduce`; consecutive slots
 with `spec.thread_pieces`), ending in the thread's statistics partials (`tallies`).
 """
 
@@ -13,7 +13,7 @@ from ..physics.types import types_for
 from ..tallies.accumulate import make_accumulators
 from ..tallies.block import BEGIN
 from ..tallies.landing import make_add_landing, make_landing_tally
-from ..tallies.reduce import SEGMENT, lanes_for
+from ..tallies.reduce import SEGMENT
 from .outputs import make_outputs
 from .pellet import make_ricochet_pellet
 from .release import make_release
@@ -58,7 +58,7 @@ def ricochet_kernel_for(spec, max_registers="default"):
     TABLE = spec.hazard_map  # the map's block table (`tallies.block`)
     floats_t, extremes_t, inf = acc_fns.floats_t, acc_fns.extremes_t, acc_fns.inf
     RELEASE, CONSECUTIVE = spec.collisions, spec.thread_pieces
-    lanes, segment = lanes_for(spec.to_rest), SEGMENT
+    lanes, segment = spec.lanes, SEGMENT
     per_thread = segment // lanes
     options = kernel_options(spec, max_registers)
 

@@ -5,10 +5,10 @@ touches consecutive pellets (coalesced), and handles PER_THREAD of them. A segme
 SEGMENT = LANES * PER_THREAD pellets of one group of LANES threads. Chunks start on segment
 boundaries, so segment k always holds the same pellets and the reduction order (pellet order
 within a thread, lane order within a segment, segment order on the host, `sums.combine`) is
-independent of the chunk size. Pellets followed to rest (tens of integration steps each) are
-spread wider, to keep a GPU's multiprocessors busy from fewer pellets: REST_LANES threads a
-segment of the same SEGMENT pellets, SEGMENT // REST_LANES a thread (`lanes_for`); their partials
-take 24 bytes a pellet (1.5 with LANES).
+independent of the chunk size. Costly pellets (followed to rest, tens of integration steps each;
+against a terrain or a large mesh: `spec.RunSpec.lanes`) are spread wider, to keep a GPU's
+multiprocessors busy from fewer pellets: REST_LANES threads a segment of the same SEGMENT pellets,
+SEGMENT // REST_LANES a thread (`lanes_for`); their partials take 24 bytes a pellet (1.5 with LANES).
 """
 
 import functools
@@ -26,9 +26,9 @@ REST_PER_THREAD = SEGMENT // REST_LANES  # (16 pellets a thread)
 SEGMENT_WIDTH = NUM_SUMS + 2 * NUM_EXTREMES  # a segment's results: sums, minima, maxima
 
 
-def lanes_for(to_rest: bool) -> int:
-    """Threads a segment: REST_LANES for pellets followed to rest, else LANES."""
-    return REST_LANES if to_rest else LANES
+def lanes_for(costly: bool) -> int:
+    """Threads a segment: REST_LANES for costly pellets (`spec.RunSpec.lanes`), else LANES."""
+    return REST_LANES if costly else LANES
 
 
 def threads_for(rows: int, lanes: int = LANES) -> int:
