@@ -65,30 +65,33 @@ def test_a_hint_with_when_false_leaves_the_function_inlined():
     assert out_of_line_on_cuda(_thrice).inline_hint == CUDA_NOINLINE
 
 
-def test_the_air_keeps_its_large_functions_out_of_line_and_vacuum_inline():
-    """In air the flight's loop, the root finder, the air's rates and the surface line's step and
-    laws are one function each in CUDA code (bench/RESULTS.md "Functions out of line in air");
-    in vacuum the surface line's are inlined (out of line they cost the vacuum run 9-14%)."""
+def test_kernels_to_rest_in_air_keep_their_large_functions_out_of_line():
+    """In kernels to rest in air the flight's loop, the root finder, the air's rates and the surface
+    line's step and laws are one function each in CUDA code (bench/RESULTS.md "Functions out of line
+    in air"); kernels to the landing keep the flight inline (out of line it cost them 6%), and in
+    vacuum the surface line's are inlined (out of line they cost the vacuum run 9-14%)."""
     from warp_ricochet.physics.air_flight import make_air_flight, make_roots
     from warp_ricochet.physics.integrate import make_stepper
     from warp_ricochet.physics.line_laws import make_line_laws, make_line_steps
     from warp_ricochet.physics.surface_rates import make_surface_rates
 
     laws = ("loth2021", "loth2008", "dennis1980")  # any air laws: the hints do not depend on them
-    flight = make_air_flight("float32", 1, laws)
-    air_functions = (
-        flight.watched_loop,
-        make_roots("float32").root,
-        make_stepper("float32", laws).rates,
+    to_rest = (
+        make_air_flight("float32", 1, laws, out_of_line=True).watched_loop,
+        make_roots("float32", out_of_line=True).root,
+        make_stepper("float32", laws, out_of_line=True).rates,
         make_line_laws("float32", "air", laws).along,
         make_line_steps("float32", "air", laws).state_at,
         make_line_steps("float32", "air", laws).stages,
         make_surface_rates("float32", "air", laws).rates,
     )
-    assert {f.inline_hint for f in air_functions} == {CUDA_NOINLINE}
-    vacuum = (
+    assert {f.inline_hint for f in to_rest} == {CUDA_NOINLINE}
+    inline = (
+        make_air_flight("float32", 1, laws).watched_loop,
+        make_roots("float32").root,
+        make_stepper("float32", laws).rates,
         make_line_laws("float32", "ballistic").along,
         make_line_steps("float32", "ballistic").state_at,
         make_surface_rates("float32", "ballistic").rates,
     )
-    assert {f.inline_hint for f in vacuum} == {None}
+    assert {f.inline_hint for f in inline} == {None}

@@ -63,7 +63,10 @@ def make_ricochet_pellet(spec):
     floats_t, extremes_t = acc_fns.floats_t, acc_fns.extremes_t
     F_RANGE_STICK, F_RANGE_SLIP, F_ENTERED = acc_fns.offsets.RANGE_STICK, acc_fns.offsets.RANGE_SLIP, acc_fns.offsets.ENTERED
     X_SCALE, flight_scale = acc_fns.flight_scale_index, acc_fns.flight_scale  # the precision rule's statistic
-    flight = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws, watch=spec.watch, plates=spec.plates)
+    flight = make_flight(  # (in air, its large functions out of line in kernels to rest: `physics.inlining`)
+        spec.precision, spec.static_planes, spec.flight, spec.air_laws, watch=spec.watch, plates=spec.plates,
+        out_of_line=spec.to_rest,
+    )  # fmt: skip
     watcher = make_path_watch(spec.precision, *spec.watch)
     load_track = make_path_keep(spec.precision, *spec.watch[:3])[0]
     rests, stays, _impact, _meet, contact_point, landing_range = make_contact(spec.precision)

@@ -64,7 +64,9 @@ def make_to_rest(spec) -> SimpleNamespace:
     """`start_mode` and `to_rest` of a run spec (its precision, planes, flight model and air laws)."""
     t = types_for(spec.precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
-    flight = make_flight(spec.precision, spec.static_planes, spec.flight, spec.air_laws, watch=spec.watch, plates=spec.plates)
+    flight = make_flight(
+        spec.precision, spec.static_planes, spec.flight, spec.air_laws, watch=spec.watch, plates=spec.plates, out_of_line=True
+    )
     surface = make_surface_follow(
         spec.precision, spec.static_planes, spec.flight, spec.air_laws, watch=spec.watch, plates=spec.plates, rough=spec.rough
     )
@@ -78,7 +80,7 @@ def make_to_rest(spec) -> SimpleNamespace:
         make_surface_laws(spec.precision),
     )
     AIR = spec.in_air
-    rates = make_stepper(spec.precision, spec.air_laws).rates if AIR else None
+    rates = make_stepper(spec.precision, spec.air_laws, out_of_line=True).rates if AIR else None
 
     @wp.func
     def applied(velocity: vec3, spin: vec3, physics: Physics):

@@ -24,7 +24,7 @@ from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT
 from .cylinder_contact import make_cylinder_contact
 from .edge_contact import make_edge_contact
 from .geometry import MESHES, make_geometry
-from .inlining import out_of_line_on_cuda
+from .inlining import out_of_line_if
 from .integrate import make_dense_output, make_stepper
 from .mesh_contact import FEW_FACES, FLOAT32_SLACK, make_mesh_contact
 from .types import types_for
@@ -34,10 +34,11 @@ GAVE_UP = -2  # the plane index of a flight given up after MAX_FLIGHT_STEPS
 
 
 @functools.cache
-def make_roots(precision: str) -> SimpleNamespace:
+def make_roots(precision: str, out_of_line: bool = False) -> SimpleNamespace:
     """`root(lo, hi, slope, sign, g0, s0, q0, g1, s1, q1)`: where the quintic gap on a step (or,
     `slope`, its derivative), times `sign`, falls from > 0 at lo to <= 0 at hi (Illinois); and
-    `plane_theta` (where on the step a plane's gap is met)."""
+    `plane_theta` (where on the step a plane's gap is met). `out_of_line`: `root` one function in
+    CUDA code (`physics.inlining`; kernels to rest)."""
     t = types_for(precision)
     scalar = t.scalar
     hermite = make_dense_output(precision).hermite
@@ -53,7 +54,7 @@ def make_roots(precision: str) -> SimpleNamespace:
             return sign * derivative
         return sign * value
 
-    @out_of_line_on_cuda
+    @out_of_line_if(out_of_line)
     @wp.func
     def root(
         lo: scalar,
@@ -120,12 +121,15 @@ def make_roots(precision: str) -> SimpleNamespace:
 
 
 @functools.cache
-def make_solid_search(precision: str) -> SimpleNamespace:
+def make_solid_search(precision: str, out_of_line: bool = False) -> SimpleNamespace:
     """`mesh_theta(...)` and `post_theta(...)`: where on an accepted step a mesh or a post is met
-    (`physics.mesh_contact`, `physics.cylinder_contact`)."""
+    (`physics.mesh_contact`, `physics.cylinder_contact`); `out_of_line`: `make_roots`'."""
     t = types_for(precision)
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
-    plane_theta, hermite_vec = make_roots(precision).plane_theta, make_dense_output(precision).hermite_vec
+    plane_theta, hermite_vec = (
+        make_roots(precision, out_of_line=out_of_line).plane_theta,
+        make_dense_output(precision).hermite_vec,
+    )
     meshes, posts, edges = make_mesh_contact(precision), make_cylinder_contact(precision), make_edge_contact(precision)
 
     @wp.func
@@ -268,16 +272,20 @@ def make_solid_search(precision: str) -> SimpleNamespace:
 
 
 @functools.cache
-def make_plane_search(precision: str, planes, plates: bool = False) -> SimpleNamespace:
+def make_plane_search(precision: str, planes, plates: bool = False, out_of_line: bool = False) -> SimpleNamespace:
     """`start(...)` (the planes' states at a flight's start) and `search(...)` (the earliest
     contact on an accepted step); `planes`: fixed at code generation (unrolled) or None; `plates`:
-    surfaces may be finite plates (module docstring)."""
+    surfaces may be finite plates (module docstring); `out_of_line`: `make_roots`'."""
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
-    roots, geo = make_roots(precision), make_geometry(precision, planes, True, plates)
+    roots, geo = make_roots(precision, out_of_line=out_of_line), make_geometry(precision, planes, True, plates)
     hermite_vec = make_dense_output(precision).hermite_vec
     STATIC, PLATES, WITH_MESHES = planes, plates, plates >= MESHES
-    meshes, posts, solids = make_mesh_contact(precision), make_cylinder_contact(precision), make_solid_search(precision)
+    meshes, posts, solids = (
+        make_mesh_contact(precision),
+        make_cylinder_contact(precision),
+        make_solid_search(precision, out_of_line=out_of_line),
+    )
     plane_theta = roots.plane_theta
 
     @wp.func
@@ -402,19 +410,26 @@ def make_plane_search(precision: str, planes, plates: bool = False) -> SimpleNam
 
 
 @functools.cache
-def make_air_flight(precision: str, planes, laws: tuple, watch: tuple = (0, 0, False), plates: bool = False) -> SimpleNamespace:
+def make_air_flight(
+    precision: str, planes, laws: tuple, watch: tuple = (0, 0, False), plates: bool = False, out_of_line: bool = False
+) -> SimpleNamespace:
     """`to_contact` and `advance` in air (the flight interface of `physics.flight`; the steps a
     `to_contact` took are its sixth value), `to_contact_within` (the flight up to a time) and
     `to_contact_watched` (`to_contact` with each accepted step given to `tallies.path`'s watch of
-    `watch` = (thresholds, places, map)); `watched_loop` (`make_flight_loop`'s, watched when `watch` is)."""
+    `watch` = (thresholds, places, map)); `watched_loop` (`make_flight_loop`'s, watched when `watch` is).
+    `out_of_line`: the flight's loop, its root finder and the air's rates one function each in CUDA
+    code (`physics.inlining`): for kernels to rest, which call them from several sites."""
     from ..tallies.path import ESCAPED, make_path_roots, make_path_watch  # (tallies imports physics: not at the top)
 
     watcher, ground = make_path_watch(precision, *watch), make_path_roots(precision)
     Track, Tally = watcher.Track, watcher.Tally
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
-    stepper, dense = make_stepper(precision, laws), make_dense_output(precision)
-    search, geo = make_plane_search(precision, planes, plates), make_geometry(precision, planes, True, plates)
+    stepper, dense = make_stepper(precision, laws, out_of_line=out_of_line), make_dense_output(precision)
+    search, geo = (
+        make_plane_search(precision, planes, plates, out_of_line=out_of_line),
+        make_geometry(precision, planes, True, plates),
+    )
     LATEST, MAX_STEPS = scalar(MAX_FLIGHT_TIME), MAX_FLIGHT_STEPS
     SPIN_CHANGES = laws[2] is not None
 
@@ -466,7 +481,7 @@ def make_air_flight(precision: str, planes, laws: tuple, watch: tuple = (0, 0, F
         (track and tally unused int32s) the code is that of the flight alone."""
         TrackT, TallyT = (Track, Tally) if WATCH else (wp.int32, wp.int32)
 
-        @out_of_line_on_cuda
+        @out_of_line_if(out_of_line)
         @wp.func
         def loop(
             position: vec3,

@@ -41,16 +41,17 @@ def make_flight(
     snap: bool = True,
     watch: tuple = (0, 0, False),
     plates: bool = False,
+    out_of_line: bool = False,
 ) -> SimpleNamespace:
     """The flight functions of `model`; `planes`: the number of planes when fixed at code
     generation (loops over them unrolled), else None; `snap`: the ballistic model takes a gap
     within the touching band as zero (`physics.geometry`); `watch`: (thresholds, places, map) of
     the hazard watched along the path by `to_contact_watched` (`tallies.path`); `plates`: surfaces
-    may be finite plates (`physics.geometry`)."""
+    may be finite plates (`physics.geometry`); `out_of_line`: in air, `make_air_flight`'s (kernels to rest)."""
     if model not in MODELS:
         raise ValueError(f"flight model {model!r}: must be one of {MODELS}")
     if model == "air":
-        return _air_flight(precision, planes, laws, watch, plates)
+        return _air_flight(precision, planes, laws, watch, plates, out_of_line)
     from ..tallies.path import make_path_roots, make_path_watch  # (tallies imports physics: not at the top)
 
     watcher, ground = make_path_watch(precision, *watch), make_path_roots(precision)
@@ -113,10 +114,10 @@ def make_flight(
     )
 
 
-def _air_flight(precision: str, planes, laws, watch, plates) -> SimpleNamespace:
+def _air_flight(precision: str, planes, laws, watch, plates, out_of_line) -> SimpleNamespace:
     t = types_for(precision)
     vec3, Surfaces, Physics = t.vec3, t.Surfaces, t.Physics
-    air = make_air_flight(precision, planes, tuple(laws), watch, plates)
+    air = make_air_flight(precision, planes, tuple(laws), watch, plates, out_of_line=out_of_line)
 
     @wp.func
     def next_contact(position: vec3, velocity: vec3, spin: vec3, touching: wp.int32, surfaces: Surfaces, physics: Physics):

@@ -20,7 +20,7 @@ from types import SimpleNamespace
 import warp as wp
 
 from .air import make_air_laws
-from .inlining import out_of_line_if, out_of_line_on_cuda
+from .inlining import out_of_line_if
 from .types import types_for
 
 # Dormand-Prince 5(4): nodes, stages, fifth-order weights (the seventh stage is the next step's first)
@@ -160,15 +160,16 @@ def make_dormand_prince(
 
 
 @functools.cache
-def make_stepper(precision: str, laws: tuple) -> SimpleNamespace:
+def make_stepper(precision: str, laws: tuple, out_of_line: bool = False) -> SimpleNamespace:
     """`rates(v, w, physics) -> (dv/dt, dw/dt)` and `step(x, v, w, a, dw, h, physics) -> (x', v',
-    w', a', dw', error)` for the air laws `laws` = (drag, lift or None, spin_decay or None)."""
+    w', a', dw', error)` for the air laws `laws` = (drag, lift or None, spin_decay or None);
+    `out_of_line`: `rates` one function in CUDA code (`physics.inlining`; kernels to rest)."""
     t = types_for(precision)
     scalar, vec3, Physics = t.scalar, t.vec3, t.Physics
     air_rates = make_air_laws(precision, *laws).air_rates
     SPIN_CHANGES = laws[2] is not None
 
-    @out_of_line_on_cuda
+    @out_of_line_if(out_of_line)
     @wp.func
     def rates(velocity: vec3, spin: vec3, physics: Physics):
         """dv/dt (m/s^2) and dw/dt (rad/s^2) in air."""

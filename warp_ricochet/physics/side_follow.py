@@ -344,7 +344,7 @@ def make_side_follow(
     event_root, ends_theta = events.event_root, events.ends_theta
     s, r = make_side_rates(precision, model, laws), make_surface_rates(precision, model, laws)
     Side, pack, part, stages, margin, target = s.Side, s.pack, s.part, s.stages, s.margin, s.target
-    posts, search = make_cylinder_contact(precision), make_plane_search(precision, planes, plates)
+    posts, search = make_cylinder_contact(precision), make_plane_search(precision, planes, plates, out_of_line=True)
     ZERO, ONE, HALF = scalar(0.0), scalar(1.0), scalar(0.5)
     STOP_FRACTION, IN_VACUUM = scalar(STOP[precision]), scalar(VACUUM_TOLERANCE[precision])
     TWO_EPS = scalar(2.0 * EPSILON[precision])

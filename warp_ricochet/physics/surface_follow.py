@@ -283,7 +283,7 @@ def make_surface_integrator(
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
     AIR = model == "air"
     sm, dense = make_surface_motion(precision), make_dense_output(precision)
-    geo, search = make_geometry(precision, planes, True, plates), make_plane_search(precision, planes, plates)
+    geo, search = make_geometry(precision, planes, True, plates), make_plane_search(precision, planes, plates, out_of_line=True)
     r = make_surface_rates(precision, model, laws)
     Contact, rates, stages, margin, margin_root = r.Contact, r.rates, r.stages, r.margin, r.margin_root
     target, error_norm, simpson = r.target, r.error_norm, r.simpson
