@@ -306,3 +306,30 @@ def test_a_terrain_without_the_gis_extra_is_one_line(tmp_path, monkeypatch):
     good = plane_raster(tmp_path)
     monkeypatch.setitem(sys.modules, "rasterio", None)  # (import rasterio raises ImportError)
     one_line(terrain_scene(good), "surfaces.1.file", "needs rasterio to be read .* pip install 'warp-ricochet\\[gis\\]'")
+
+
+def test_a_terrain_s_model_is_reused_until_its_raster_changes(tmp_path):
+    """A run over a terrain (without a site) reuses the model of the run before (its triangles and
+    BVH built once), with the same impacts; a raster rewritten with other heights is read again."""
+    import os
+
+    from warp_ricochet.model import _cached_model
+
+    keys = dict(point=[-5.0, -1.5, -12.0], elevation=39.82, **RIGID)
+    raw = paper_raw(until="landing")
+    raw["shot"]["count"] = 50
+    path = plane_raster(tmp_path)
+    raw["surfaces"] = [{"kind": "terrain", "file": str(path), **keys}]
+    first = _first_impacts(raw, tmp_path, "a.h5")
+    built = _cached_model.cache_info().misses
+    again = _first_impacts(raw, tmp_path, "b.h5")
+    assert _cached_model.cache_info().misses == built  # (not built again)
+    for x, y in zip(first, again):
+        np.testing.assert_array_equal(x, y)
+    x = 2.0 * (np.arange(17) + 0.5)
+    y = 2.0 * (np.arange(12) + 0.5)[::-1]
+    write_tif(path, tilted(x[None, :], y[:, None]) + 0.25, 0.0, 24.0, 2.0)  # 0.25 m higher
+    os.utime(path, ns=(1, 1))  # (a new stamp even within the file system's time resolution)
+    higher = _first_impacts(raw, tmp_path, "c.h5")
+    assert _cached_model.cache_info().misses == built + 1
+    assert not np.array_equal(higher[0], first[0])

@@ -11,6 +11,7 @@ import dataclasses
 import functools
 import math
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 
 import numpy as np
 import warp as wp
@@ -50,10 +51,11 @@ class Model:
     @classmethod
     def from_scene(cls, scene, device) -> Model:
         """The model of `scene` on `device`; recent ones are reused (their arrays never change)
-        while their mesh files are unchanged, but for a scene with terrain, placed from the whole
-        scene (its site) each time."""
+        while their mesh and raster files are unchanged (`file_stamp`), but for a scene with a
+        terrain placed through a site (`[hazard.site]`), placed from the whole scene each time."""
         air = scene.air if scene.in_air else None
-        if any(s.kind == "terrain" for s in scene.surfaces):
+        site = None if scene.hazard is None else scene.hazard.site
+        if site is not None and any(s.kind == "terrain" for s in scene.surfaces):
             meshes = [
                 terrain_triangles(scene, i) if s.kind == "terrain" else triangles_of(s) for i, s in enumerate(scene.surfaces)
             ]
@@ -78,7 +80,7 @@ class Model:
             device.alias,
             air,
             scene.numerics.flight_tolerance,
-            tuple(file_stamp(s.file) if s.kind == "mesh" else None for s in scene.surfaces),
+            tuple(file_stamp(s.file) if s.kind in ("mesh", "terrain") else None for s in scene.surfaces),
         )
         return dataclasses.replace(model, thresholds=0 if scene.hazard is None else len(scene.hazard.thresholds))
 
@@ -87,7 +89,11 @@ class Model:
         t = types_for(precision)
         radius = 0.5 * diameter
         mass = density * 4.0 / 3.0 * math.pi * radius**3
-        meshes = [triangles_of(p) for p in planes] if meshes is None else meshes
+        if meshes is None:  # (a terrain without a site: placed from its surface alone)
+            meshes = [
+                terrain_triangles(SimpleNamespace(surfaces=planes, hazard=None), i) if p.kind == "terrain" else triangles_of(p)
+                for i, p in enumerate(planes)
+            ]
         surfaces = surfaces_of(
             precision,
             [p.point for p in planes],
@@ -123,7 +129,8 @@ class Model:
 
 @functools.lru_cache(maxsize=16)
 def _cached_model(diameter, density, surfaces, physics, precision, device_alias, air, tolerance, stamps) -> Model:
-    """`Model._build`, reused while its arguments and its mesh files' `stamps` (`file_stamp`) are the same."""
+    """`Model._build`, reused while its arguments and its mesh and raster files' `stamps` (`file_stamp`)
+    are the same."""
     return Model._build(diameter, density, surfaces, physics, precision, wp.get_device(device_alias), air, tolerance)
 
 
