@@ -82,7 +82,7 @@ def test_kernels_to_rest_in_air_keep_their_large_functions_out_of_line():
         make_stepper("float32", laws, out_of_line=True).rates,
         make_line_laws("float32", "air", laws).along,
         make_line_steps("float32", "air", laws).state_at,
-        make_line_steps("float32", "air", laws).stages,
+        make_line_steps("float32", "air", laws).six,
         make_surface_rates("float32", "air", laws).rates,
     )
     assert {f.inline_hint for f in to_rest} == {CUDA_NOINLINE}
@@ -92,6 +92,7 @@ def test_kernels_to_rest_in_air_keep_their_large_functions_out_of_line():
         make_stepper("float32", laws).rates,
         make_line_laws("float32", "ballistic").along,
         make_line_steps("float32", "ballistic").state_at,
+        make_line_steps("float32", "ballistic").six,
         make_surface_rates("float32", "ballistic").rates,
     )
     assert {f.inline_hint for f in inline} == {None}

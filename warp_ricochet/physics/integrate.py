@@ -46,8 +46,8 @@ def make_dormand_prince(
     rates(y, physics, context) = f; and with `ends(y, physics, context) -> (f, point)` (the same f
     and what else the caller needs at y'), `stages_at(y, f, h, physics, context) -> (y', f', error,
     point)`: the step's last stage is its end, so the point costs no evaluation of the laws more;
-    `out_of_line`: these kept out of line in CUDA code (`physics.inlining`: several call sites in the
-    air's surface lines)."""
+    `out_of_line`: the stages 2 to 6 both share (`six`) one function in CUDA code (`physics.inlining`:
+    the air's surface lines call the step from several sites)."""
     t = types_for(precision)
     scalar, vec3, Physics = t.scalar, t.vec3, t.Physics
     SPIN_CHANGES = spin_changes
@@ -76,7 +76,6 @@ def make_dormand_prince(
             """The error estimate, fifth minus fourth order."""
             return h * (e1 * f1 + e3 * f3 + e4 * f4 + e5 * f5 + e6 * f6 + e7 * f7)
 
-        @out_of_line_if(out_of_line)
         @wp.func
         def state_stages(y: state, f1: state, h: scalar, physics: Physics, context: Context):
             """y and its rates at h and the error estimate (fifth minus fourth order)."""
@@ -85,9 +84,8 @@ def make_dormand_prince(
             return y7, f7, state_error(h, f1, f3, f4, f5, f6, f7)
 
         if ends is None:
-            return SimpleNamespace(stages=state_stages)
+            return SimpleNamespace(stages=state_stages, six=state_six)
 
-        @out_of_line_if(out_of_line)
         @wp.func
         def state_stages_at(y: state, f1: state, h: scalar, physics: Physics, context: Context):
             """`state_stages` and `ends`' point at h (from the last stage's evaluation)."""
@@ -95,7 +93,7 @@ def make_dormand_prince(
             f7, point = ends(y7, physics, context)
             return y7, f7, state_error(h, f1, f3, f4, f5, f6, f7), point
 
-        return SimpleNamespace(stages=state_stages, stages_at=state_stages_at)
+        return SimpleNamespace(stages=state_stages, stages_at=state_stages_at, six=state_six)
 
     @wp.func
     def combine(

@@ -384,6 +384,7 @@ def make_line_steps(
         state_at=state_at,
         rates=rates,
         stages=dp.stages,
+        six=dp.six,  # (the stages' shared body: out of line in CUDA code in air)
         stages_at=dp.stages_at,
         Point=Point,
         grip_at=grip_at,
