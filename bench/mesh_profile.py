@@ -76,12 +76,9 @@ def main(argv=None):
         types.convex_features = _no_features
     scene = load_scene(ROOT / "examples" / "paper.toml", sets)
     if args.case.startswith("terrain"):
-        from bench.meshes import CELL, _paper, terrain_raster
+        from bench.meshes import _paper, terrain_raster, terrain_surfaces
 
-        raster, half = terrain_raster(folder), 0.5 * CELL * 709
-        ground = {"kind": "terrain", "file": str(raster), "origin": [20.0, -half], "restitution": 0.01, "mu_s": 0.5}
-        catch = {"point": [0.0, -5.0, 0.0], "normal": [0.0, 1.0, 0.0], "restitution": 0.01, "mu_s": 0.5}
-        scene = _paper(n, "float32", args.case == "terrain-air", [ground | {"mu_d": 0.45}, catch | {"mu_d": 0.45}])
+        scene = _paper(n, "float32", args.case == "terrain-air", terrain_surfaces(terrain_raster(folder)))
     wr.run(scene, None, device=args.device)
     wp.synchronize_device(args.device)
     runs = []

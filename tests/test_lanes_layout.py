@@ -16,16 +16,12 @@ RIGID = {"restitution": 0.01, "mu_s": 0.5, "mu_d": 0.45}
 
 
 def terrain_raw(tmp_path, count, until="landing"):
-    """The paper's shot over a 60 x 40 raster of gentle waves (0.5 m cells), a plane 5 m below."""
-    rasterio = pytest.importorskip("rasterio", reason="the gis extra (rasterio) is not installed")
-    from rasterio.transform import Affine
+    """The paper's shot over a 120 x 80 raster of gentle waves (0.5 m cells), a plane 5 m below."""
+    pytest.importorskip("rasterio", reason="the gis extra (rasterio) is not installed")
+    from test_terrain import write_tif
 
     east, north = 0.5 * np.arange(120)[None, :], 0.5 * np.arange(80)[:, None]
-    z = 0.2 * np.sin(east / 3.0) * np.cos(north / 2.0)
-    path = tmp_path / "waves.tif"
-    profile = {"driver": "GTiff", "width": 120, "height": 80, "count": 1, "dtype": "float64"}
-    with rasterio.open(path, "w", **profile, transform=Affine(0.5, 0.0, 0.0, 0.0, -0.5, 0.0)) as out:
-        out.write(z, 1)
+    path = write_tif(tmp_path / "waves.tif", 0.2 * np.sin(east / 3.0) * np.cos(north / 2.0), 0.0, 0.0, 0.5)
     raw = paper_raw(until=until)
     raw["shot"]["count"] = count
     raw["surfaces"] = [

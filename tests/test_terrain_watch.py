@@ -314,14 +314,9 @@ def test_the_grid_read_from_a_raster_is_its_placed_mesh():
 
 def _flat_raster(path):
     """A GeoTIFF of a level plane at 10 m: 300 m x 80 m of 5 m cells, its north-west corner at (0, 80)."""
-    import rasterio
-    from rasterio.transform import Affine
+    from test_terrain import write_tif
 
-    with rasterio.open(
-        path, "w", driver="GTiff", width=61, height=17, count=1, dtype="float64", transform=Affine(5.0, 0, 0, 0, -5.0, 80.0)
-    ) as dst:
-        dst.write(np.full((17, 61), 10.0), 1)
-    return path
+    return write_tif(path, np.full((17, 61), 10.0), 0.0, 80.0, 5.0)
 
 
 @pytest.mark.parametrize("precision", ["float64", "float32"])
