@@ -1,7 +1,7 @@
 """Following every pellet to its end (`physics.until = "rest"`, docs/ground.md): throughput beside
 today's path (the landing) in one run, with impacts, integration steps and bytes per pellet.
 
-    python -m bench.rest throughput [--device cuda:0] [--sizes 1e6,1e8] [--repeats 3] [--out DIR]
+    python -m bench.rest throughput [--device cuda:0] [--sizes 1e6,1e8] [--repeats 3] [--set KEY=VALUE] [--out DIR]
     python -m bench.rest collisions [--device cuda:0] [--shots 10000] [--count 450] [--out DIR]
     python -m bench.rest kernels [--device cuda:0] [--shots 10000] [--count 450]
 
@@ -59,13 +59,13 @@ def _print(row):
     )
 
 
-def throughput(device, sizes, repeats, only=""):
+def throughput(device, sizes, repeats, only="", sets=()):
     wr, wp = _wr()
     rows = []
     for label, air, until, extra in CASES:
         if only not in label:
             continue
-        settings = [f'physics.until="{until}"', *extra]
+        settings = [f'physics.until="{until}"', *extra, *sets]
         wr.run(paper_scene(1000, air=air, mu_s=0.5, extra=settings), device=device)  # compile
         for n in sizes:
             scene = paper_scene(n, air=air, mu_s=0.5, extra=settings)
@@ -148,13 +148,14 @@ def main(argv=None):
     parser.add_argument("--shots", type=_count, default=10_000)
     parser.add_argument("--count", type=_count, default=450)
     parser.add_argument("--only", default="", help="throughput, kernels: only the cases whose label holds this")
+    parser.add_argument("--set", action="append", default=[], help="throughput: KEY=VALUE for every case (repeatable)")
     parser.add_argument("--out", type=Path)
     args = parser.parse_args(argv)
     _wr_mod, wp = _wr()
     info = device_info(wp, args.device)
     print(json.dumps(info), flush=True)
     if args.what == "throughput":
-        rows = throughput(args.device, [int(float(s)) for s in args.sizes.split(",")], args.repeats, args.only)
+        rows = throughput(args.device, [int(float(s)) for s in args.sizes.split(",")], args.repeats, args.only, args.set)
     elif args.what == "kernels":
         rows = kernels(args.device, args.shots, args.count, args.only)
     else:

@@ -83,6 +83,7 @@ def setup(precision, planes, *, radius, gravity=(0.0, -9.81, 0.0), air=None, tol
     physics.impact_duration = t.scalar(0.0)
     mass = DENSITY * 4.0 / 3.0 * math.pi * radius**3
     physics.air = air_struct(air, precision, wp.get_device(device), radius, mass, gravity, tolerance)
+    physics.surface_tolerance = t.scalar(tolerance)
     return surfaces, physics
 
 

@@ -130,6 +130,7 @@ REALS = {
     "air.sound_speed": (1.0, 1e4, False),
     "air.drag_factor": (0.0, 10.0, True),
     "numerics.flight_tolerance": (1e-12, 1e-2, False),
+    "numerics.surface_tolerance": (1e-12, 1e-2, False),
 }
 INTEGERS = {
     "shot.count": (1, 2**31 - 1),
@@ -757,10 +758,11 @@ def test_a_law_parameter_without_its_law_is_named(ws, key, value, law):
     assert "is required" in assert_rejected(result, "air.drag_coefficient", ws)
 
 
-def test_a_flight_tolerance_float32_cannot_resolve_is_named(ws):
+@pytest.mark.parametrize("key", ["numerics.flight_tolerance", "numerics.surface_tolerance"])
+def test_a_tolerance_float32_cannot_resolve_is_named(ws, key):
     raw = set_path(VALID, "numerics.precision", "float32")
-    result = cli(run_args(ws, ws.write_scene(set_path(raw, "numerics.flight_tolerance", 1e-8))))
-    assert "float64" in assert_rejected(result, "numerics.flight_tolerance", ws)
+    result = cli(run_args(ws, ws.write_scene(set_path(raw, key, 1e-8))))
+    assert "float64" in assert_rejected(result, key, ws)
 
 
 def test_more_planes_than_a_flight_in_air_tracks_is_named(ws):

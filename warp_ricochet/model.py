@@ -67,7 +67,7 @@ class Model:
                 scene.numerics.precision,
                 wp.get_device(device.alias),
                 air,
-                scene.numerics.flight_tolerance,
+                (scene.numerics.flight_tolerance, scene.numerics.surface_tolerance),
                 meshes=meshes,
             )
             return dataclasses.replace(model, thresholds=0 if scene.hazard is None else len(scene.hazard.thresholds))
@@ -79,13 +79,16 @@ class Model:
             scene.numerics.precision,
             device.alias,
             air,
-            scene.numerics.flight_tolerance,
+            (scene.numerics.flight_tolerance, scene.numerics.surface_tolerance),
             tuple(file_stamp(s.file) if s.kind in ("mesh", "terrain") else None for s in scene.surfaces),
         )
         return dataclasses.replace(model, thresholds=0 if scene.hazard is None else len(scene.hazard.thresholds))
 
     @classmethod
-    def _build(cls, diameter, density, planes, physics_scene, precision, device, air=None, tolerance=1e-6, meshes=None) -> Model:
+    def _build(
+        cls, diameter, density, planes, physics_scene, precision, device, air=None, tolerances=(1e-6, 1e-6), meshes=None
+    ) -> Model:
+        """`tolerances`: numerics' (flight_tolerance, surface_tolerance)."""
         t = types_for(precision)
         radius = 0.5 * diameter
         mass = density * 4.0 / 3.0 * math.pi * radius**3
@@ -113,7 +116,8 @@ class Model:
         physics.rest_speed = t.scalar(physics_scene.rest_speed_for(radius))
         physics.max_impacts = physics_scene.max_impacts
         physics.max_steps = physics_scene.max_steps
-        physics.air = air_struct(air, precision, device, radius, mass, physics_scene.gravity, tolerance)
+        physics.surface_tolerance = t.scalar(tolerances[1])
+        physics.air = air_struct(air, precision, device, radius, mass, physics_scene.gravity, tolerances[0])
         return cls(
             device=device,
             radius=radius,
@@ -128,10 +132,10 @@ class Model:
 
 
 @functools.lru_cache(maxsize=16)
-def _cached_model(diameter, density, surfaces, physics, precision, device_alias, air, tolerance, stamps) -> Model:
+def _cached_model(diameter, density, surfaces, physics, precision, device_alias, air, tolerances, stamps) -> Model:
     """`Model._build`, reused while its arguments and its mesh and raster files' `stamps` (`file_stamp`)
     are the same."""
-    return Model._build(diameter, density, surfaces, physics, precision, wp.get_device(device_alias), air, tolerance)
+    return Model._build(diameter, density, surfaces, physics, precision, wp.get_device(device_alias), air, tolerances)
 
 
 def terrain_triangles(scene, index: int):

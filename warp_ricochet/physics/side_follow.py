@@ -22,7 +22,8 @@ side's curvature; applied = g + a_air, alpha = T_air / I):
 its centre passes an end, z = a.(x - p) outside [0, L], over the cap's rim or the bottom, as over a
 plate's edge), meets another surface (CONTACT) or spends its steps (UNFINISHED), phase after phase
 (slide, roll, grip lost, stopped). Each phase is integrated with Dormand-Prince 5(4) steps on the
-state (x, v, w) (`integrate.make_dormand_prince`) at the surface's tolerance; after each accepted step
+state (x, v, w) (`integrate.make_dormand_prince`) at `physics.surface_tolerance` in air (in vacuum
+VACUUM_TOLERANCE); after each accepted step
 the centre is put back on the cylinder along n and v's normal part dropped (its kinetic energy never
 rises by it). Events on a step's dense output (quintic Hermite of x, cubic of w): the slip or the
 speed reaching its target (stepped to, never across, ended to first order within the band, as on a
@@ -372,7 +373,7 @@ def make_side_follow(
         floor = wp.sqrt(wp.length(physics.gravity) * radius) + scalar(1e-6)
         tolerance = IN_VACUUM
         if wp.static(AIR):
-            tolerance = physics.air.tolerance
+            tolerance = physics.surface_tolerance
         band = wp.max(STOP_FRACTION, scalar(BAND) * tolerance)
         watched, waiting, now = watch_start(position, velocity, k, surfaces, physics)
         if now >= 0:

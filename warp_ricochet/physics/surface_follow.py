@@ -21,8 +21,8 @@ beside c N) until one of the end codes:
 In vacuum the phases with constant accelerations (`surface_motion`'s closed forms, without
 ploughing) and rolling on a level plane with ploughing (v' = -(5/7)(c g + b v^2): tan/atan) are
 exact; the rest (a drive across the friction, sliding with ploughing) and everything in air is
-integrated with Dormand-Prince 5(4) steps (`physics.integrate`) at the flight's relative tolerance
-(`physics.air.tolerance`; VACUUM_TOLERANCE in vacuum): a phase along one line of the plane (a level
+integrated with Dormand-Prince 5(4) steps (`physics.integrate`) at the relative tolerance of the
+phases along surfaces (`physics.surface_tolerance`, numerics.surface_tolerance): a phase along one line of the plane (a level
 plane, or along a slope's fall line) over the distance around the closed form of v' = -(A + B v^2)
 (`physics.surface_line`, few steps; exact in vacuum), the others in 3-D as follows. Events: the slip or the speed reaching its
 target (slide to roll; rest or stop) by steps aimed at it (never across: the friction's direction
@@ -55,7 +55,6 @@ from .types import types_for
 CONTACT, FOREVER, UNFINISHED = 4, 5, 6  # end codes beside surface_motion's FLIGHT (0) and REST (3)
 EDGE = 7  # a phase's end over a plate's edge (`plate_edge`): `follow` ends it in FLIGHT
 ENDS = {FLIGHT: "flight", REST: "rest", CONTACT: "contact", FOREVER: "forever", UNFINISHED: "unfinished"}
-VACUUM_TOLERANCE = 1e-6  # the integrator's relative tolerance in vacuum (the flight's default)
 MAX_FOLLOW_PHASES = 32  # slide, roll, grip lost, ...: more phases than this end UNFINISHED
 # a slip or a speed within STOP x its scale of its target has reached it (the rest to first order);
 # integrated phases widen the band to BAND x the tolerance, below the integrator's own error
@@ -281,7 +280,6 @@ def make_surface_integrator(
     Track, Tally = watcher.Track, watcher.Tally
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
-    AIR = model == "air"
     sm, dense = make_surface_motion(precision), make_dense_output(precision)
     geo, search = make_geometry(precision, planes, True, plates), make_plane_search(precision, planes, plates, out_of_line=True)
     r = make_surface_rates(precision, model, laws)
@@ -346,9 +344,7 @@ def make_surface_integrator(
         (over plate k's edge, or triangle `face`'s of mesh k), or UNFINISHED (steps_left spent)."""
         radius = physics.radius
         floor = wp.sqrt(wp.length(physics.gravity) * radius) + scalar(1e-6)
-        tolerance = scalar(VACUUM_TOLERANCE)
-        if wp.static(AIR):
-            tolerance = physics.air.tolerance
+        tolerance = physics.surface_tolerance
         band = wp.max(STOP_FRACTION, scalar(BAND) * tolerance)
         watched, waiting, now = watch_start(position, velocity, k, surfaces, physics)
         if now >= 0:
@@ -617,9 +613,7 @@ def make_surface_follow(
                 contact.rolling = wp.int32(0)
                 if mode == ROLLING:
                     contact.rolling = wp.int32(1)
-                tolerance = scalar(VACUUM_TOLERANCE)
-                if wp.static(AIR):
-                    tolerance = physics.air.tolerance
+                tolerance = physics.surface_tolerance
                 event = wp.int32(HANDOVER)
                 on_plane = True  # a plate's edges and a mesh's are met by the phase integrator only
                 if wp.static(PLATES):

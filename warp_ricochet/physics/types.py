@@ -127,6 +127,7 @@ def types_for(precision: str) -> SimpleNamespace:
         rest_speed: scalar  # m/s: on a surface, slower than it and held, a pellet is at rest
         max_impacts: wp.int32  # a pellet's budget of impacts (until = "rest")
         max_steps: wp.int32  # and of integration steps along surfaces
+        surface_tolerance: scalar  # relative tolerance of phases along surfaces (numerics.surface_tolerance)
 
     read_only(Surfaces)
     read_only(Physics)

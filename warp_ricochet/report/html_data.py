@@ -413,6 +413,7 @@ def settings(f, scene: dict, stats: dict) -> list[tuple[str, str]]:
             else f"{fmt(display.value(physics['rest_speed'], 'm/s'))} {display.unit('m/s')}",
         ),
         ("numerics.flight_tolerance (relative, flight in air)", fmt(numerics.get("flight_tolerance", math.nan))),
+        ("numerics.surface_tolerance (relative, along surfaces)", fmt(numerics.get("surface_tolerance", math.nan))),
         ("numerics.fast_math", str(numerics.get("fast_math", True)).lower()),
         ("histogram bins (relative width)", "0.098%: quantiles and distances are bin upper edges"),
         ("pellets missed / hit, never landed / entered", f"{count('missed')} / {count('escaped')} / {count('entered')}"),

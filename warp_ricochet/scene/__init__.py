@@ -13,7 +13,7 @@ Layout of a scene file::
                   time stepping of the dense phase (see docs/collisions.md)
     [air]         flight in air (absent: vacuum): density, viscosity, sound_speed, wind, the drag, lift
                   and spin-decay laws (see docs/air.md)
-    [numerics]    precision, chunk_size, fast_math, flight_tolerance
+    [numerics]    precision, chunk_size, fast_math, flight_tolerance, surface_tolerance
     [output]      path (HDF5), fields
 
 Every problem raises SceneError with a one-line message: the dotted key, the value and what is allowed.

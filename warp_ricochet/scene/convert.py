@@ -296,6 +296,7 @@ _NUMERICS = {
     "chunk_size": _int(1, INT32_MAX),
     "fast_math": _bool,
     "flight_tolerance": _range(1e-12, 1e-2),
+    "surface_tolerance": _range(1e-12, 1e-2),
 }
 
 

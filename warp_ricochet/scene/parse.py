@@ -344,13 +344,14 @@ def _check_bound(hazard, shot: Shot, collisions: Collisions) -> None:
 def _numerics(raw) -> Numerics:
     numerics = Numerics(**_table(raw, "numerics", SCHEMAS["numerics"]))
     least = MIN_FLIGHT_TOLERANCE[numerics.precision]
-    if numerics.flight_tolerance < least:
-        raise err(
-            "numerics.flight_tolerance",
-            numerics.flight_tolerance,
-            f"at least {least:g} with numerics.precision = "
-            f'"{numerics.precision}" (it cannot resolve less)' + ("; use float64" if least > 1e-12 else ""),
-        )
+    for key in ("flight_tolerance", "surface_tolerance"):
+        if getattr(numerics, key) < least:
+            raise err(
+                f"numerics.{key}",
+                getattr(numerics, key),
+                f"at least {least:g} with numerics.precision = "
+                f'"{numerics.precision}" (it cannot resolve less)' + ("; use float64" if least > 1e-12 else ""),
+            )
     return numerics
 
 

@@ -228,6 +228,7 @@ class Air:
 
 
 FLIGHT_TOLERANCE = 1e-6  # numerics.flight_tolerance by default (bench/RESULTS.md: the knee of run time against error)
+SURFACE_TOLERANCE = 1e-6  # numerics.surface_tolerance by default (docs/ground.md 9)
 MIN_FLIGHT_TOLERANCE = {"float32": 1e-6, "float64": 1e-12}  # what each precision can resolve
 
 
@@ -237,6 +238,7 @@ class Numerics:
     chunk_size: int | None = None  # None: automatic
     fast_math: bool = True  # CUDA float32: approximate div/sqrt/sin (see README)
     flight_tolerance: float = FLIGHT_TOLERANCE  # relative, of the integrated flight in air
+    surface_tolerance: float = SURFACE_TOLERANCE  # relative, of the integrated phases along surfaces
 
 
 # Tail fractions (share of landed pellets beyond these distances from the shooter), m

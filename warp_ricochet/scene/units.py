@@ -73,6 +73,7 @@ KEY_UNITS = {
     "air.lift_max": "1",
     "numerics.chunk_size": "1",
     "numerics.flight_tolerance": "1",
+    "numerics.surface_tolerance": "1",
     "output.tail_distances": "m",
     "hazard.energy_density.*": "J/m^2",
     "hazard.speed.*": "m/s",
