@@ -9,7 +9,7 @@ reads on the device up to the driver's own additions; on the GPU a large frame (
 255 registers (one block of 256 threads an SM) are what make the rest and hazard kernels slow
 (bench/RESULTS.md). Compare trees side by side: run this in each.
 
-    python -m bench.kernel_size [--cases paper-vacuum,paper-air,turf,post,hazard,hazard-map,hazard-none,mesh]
+    python -m bench.kernel_size [--cases paper-vacuum,paper-air,turf,post,hazard,hazard-map,hazard-none,mesh,box,terrain]
                                 [--arch 90] [--ptxas ptxas] [--keep DIR]
 """
 
@@ -31,6 +31,8 @@ CASES = {
     "hazard-map": "the hazard example with its 0.5 m exposure map",
     "hazard-none": "the hazard example without its [hazard] table (what the watch adds: the difference)",
     "mesh": "the paper's shot in vacuum on a two-triangle mesh of its plane",
+    "box": "the paper's shot in vacuum on its plane with bench.meshes' box on it (convex edges and corners)",
+    "terrain": "the paper's shot in vacuum over a terrain (bench.meshes: a large mesh without edges) and a plane",
 }
 
 
@@ -42,13 +44,17 @@ def scene_of(case: str, folder: Path):
     if case in ("paper-vacuum", "paper-air", "turf", "mesh"):
         extra = ['physics.until="rest"', 'surfaces.0.material="turf"'] if case == "turf" else []
         if case == "mesh":
-            import numpy as np
-            import trimesh
+            from bench.meshes import plane_mesh
 
-            square = np.array([[-1, 0, 1], [1, 0, 1], [1, 0, -1], [-1, 0, -1]], dtype=np.float64) * 1.0e4  # y = 0, up +y
-            trimesh.Trimesh(vertices=square, faces=[[0, 1, 2], [0, 2, 3]], process=False).export(folder / "plane.stl")
-            extra = ['surfaces.0.kind="mesh"', f'surfaces.0.file="{folder / "plane.stl"}"']
+            extra = plane_mesh(folder)
         return paper_scene(1000, air=case in ("paper-air", "turf"), mu_s=0.5, extra=extra)
+    if case in ("box", "terrain"):
+        from bench.meshes import BOX, MATERIAL, _paper, terrain_raster, terrain_surfaces
+
+        if case == "box":
+            plane = tomllib.loads((ROOT / "examples" / "paper.toml").read_text())["surfaces"]
+            return _paper(1000, "float32", False, plane + [{"kind": "box", **BOX, **MATERIAL}])
+        return _paper(1000, "float32", False, terrain_surfaces(terrain_raster(folder, 16), 16))  # (its code: any size)
     if case == "post":
         from bench.meshes import hazard_shot
 

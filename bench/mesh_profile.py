@@ -15,7 +15,6 @@ import argparse
 import ctypes
 import tempfile
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -54,7 +53,6 @@ def main(argv=None):
     parser.add_argument("--device", default="cuda:0")
     parser.add_argument("--repeats", type=int, default=5)
     args = parser.parse_args(argv)
-    import trimesh
 
     import warp_ricochet as wr
     from warp_ricochet.device import warp
@@ -66,12 +64,12 @@ def main(argv=None):
     n = int(args.n)
     sets = [f"shot.count={n}", "numerics.precision=float32", "output.fields=[]"]
     folder = tempfile.mkdtemp()
-    square = np.array([[-1, 0, 1], [1, 0, 1], [1, 0, -1], [-1, 0, -1]], dtype=np.float64) * 1.0e4
-    trimesh.Trimesh(vertices=square, faces=[[0, 1, 2], [0, 2, 3]], process=False).export(Path(folder) / "plane.stl")
     if args.case == "rect":
         sets += ['surfaces.0.kind="rectangle"', "surfaces.0.axis_u=[1.0, 0.0, 0.0]", "surfaces.0.size=[2.0e4, 2.0e4]"]
     elif args.case != "plane":
-        sets += ['surfaces.0.kind="mesh"', f'surfaces.0.file="{Path(folder) / "plane.stl"}"']
+        from bench.meshes import plane_mesh
+
+        sets += plane_mesh(folder)
     if args.case == "bare":
         types.convex_features = _no_features
     scene = load_scene(ROOT / "examples" / "paper.toml", sets)

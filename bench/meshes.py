@@ -139,17 +139,23 @@ def box(n, chunk, precision, device, seed=27, jitter=0.0):
     )
 
 
-def plane(n, precision, device, repeats):
+def plane_mesh(folder) -> list:
+    """The settings that make the paper's plane (y = 0, up +y) surface 0 as a two-triangle mesh of
+    a 2e4 m square, its STL written in `folder`."""
     import trimesh
 
+    square = np.array([[-1, 0, 1], [1, 0, 1], [1, 0, -1], [-1, 0, -1]], dtype=np.float64) * 1.0e4
+    trimesh.Trimesh(vertices=square, faces=[[0, 1, 2], [0, 2, 3]], process=False).export(Path(folder) / "plane.stl")
+    return ['surfaces.0.kind="mesh"', f'surfaces.0.file="{Path(folder) / "plane.stl"}"']
+
+
+def plane(n, precision, device, repeats):
     import warp_ricochet as wr
     from warp_ricochet.scene import load_scene
 
     sets = [f"shot.count={n}", f"numerics.precision={precision}", "output.fields=[]"]
     with tempfile.TemporaryDirectory() as folder:
-        square = np.array([[-1, 0, 1], [1, 0, 1], [1, 0, -1], [-1, 0, -1]], dtype=np.float64) * 1.0e4  # y = 0, up +y
-        trimesh.Trimesh(vertices=square, faces=[[0, 1, 2], [0, 2, 3]], process=False).export(Path(folder) / "plane.stl")
-        mesh = ['surfaces.0.kind="mesh"', f'surfaces.0.file="{Path(folder) / "plane.stl"}"']
+        mesh = plane_mesh(folder)
         times = {}
         for label, extra in (("plane", []), ("mesh", mesh)):
             scene = load_scene(ROOT / "examples" / "paper.toml", sets + extra)

@@ -1,6 +1,6 @@
 """Kernel-only timings of the ricochet kernel variants on one device (CUDA events), to choose
 the register cap, and the end-to-end time of `run` at the same N. CUDA only.
-Run: python -m bench.variants --device cuda:0 [--air] [--rest turf] [--caps none,80,64] [--no-run]"""
+Run: python -m bench.variants --device cuda:0 [--air] [--rest turf] [--mesh] [--caps none,80,64] [--no-run]"""
 
 import argparse
 import dataclasses
@@ -18,7 +18,16 @@ def main(argv=None):
     ap.add_argument("--block-dims", default="256", help="CUDA block sizes to try for the ricochet kernel")
     ap.add_argument("--rest", default="", help="with --air: follow the pellets to rest on this ground material")
     ap.add_argument("--no-run", action="store_true", help="the kernel variants only, not run() end to end")
+    ap.add_argument("--mesh", action="store_true", help="the paper's plane as a two-triangle mesh (mu_s 0.5, as bench.meshes)")
     args = ap.parse_args(argv)
+    import tempfile
+
+    folder = tempfile.TemporaryDirectory()
+    mesh = []
+    if args.mesh:  # (as bench.kernel_size's "mesh")
+        from bench.meshes import plane_mesh
+
+        mesh = plane_mesh(folder.name)
     from bench.__main__ import _wr, scene_for
     from bench.air import paper_scene
     from warp_ricochet.core.kernel import ricochet_kernel_for
@@ -35,7 +44,9 @@ def main(argv=None):
 
     def scene_of(n, precision="float32"):
         rest = ['physics.until="rest"', f'surfaces.0.material="{args.rest}"'] if args.rest else []
-        return paper_scene(n, precision, air=True, mu_s=0.5, extra=rest) if args.air else scene_for(n, precision)
+        if args.air or args.mesh:
+            return paper_scene(n, precision, air=args.air, mu_s=0.5, extra=rest + mesh)
+        return scene_for(n, precision)
 
     for precision in args.precisions.split(","):
         scene = scene_of(n, precision)
