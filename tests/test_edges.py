@@ -98,15 +98,15 @@ def _near_features(rng, count, reach):
     return aimed(targets, v), v
 
 
-def _contacts(tmp_path, precision, x, v):
-    """(time, normal) of each pellet's first contact with the box, by the kernels (time < 0: none)."""
+def _contacts(tmp_path, precision, x, v, solid=None):
+    """(time, normal) of each pellet's first contact with the box (or the surface `solid`), by the
+    kernels (time < 0: none)."""
     from warp_ricochet.model import Model
     from warp_ricochet.physics.flight import make_flight
     from warp_ricochet.physics.geometry import MESHES
 
-    scene = explicit_scene(
-        tmp_path, x, v, surfaces=[{"kind": "box", **BOX, **MATERIAL}], precision=precision, physics={"gravity": list(GRAVITY)}
-    )
+    solid = solid or {"kind": "box", **BOX, **MATERIAL}
+    scene = explicit_scene(tmp_path, x, v, surfaces=[solid], precision=precision, physics={"gravity": list(GRAVITY)})
     model = Model.from_scene(scene, wp.get_device("cpu"))
     t = model.types
     flight = make_flight(precision, None, "ballistic", plates=MESHES)
@@ -217,3 +217,67 @@ def test_in_thin_air_the_edges_are_met_where_the_vacuum_reference_meets_them(tmp
     assert (surface == 0).all()
     want = np.array([_reference(*pair)[1] for pair in zip(x, v)])
     assert np.abs(centre - want).max() <= 1e-6, np.abs(centre - want).max()
+
+
+SLOPE = 0.5  # the valley's sides: z = SLOPE |y| (m), for |x| <= 1 and |y| <= 1
+
+
+def _valley(path):
+    """A V-shaped valley of 8 triangles (a 3 x 3 grid of vertices, normals up) as an STL: its floor
+    along the x axis is a concave edge, its grid lines across the sides and the cells' diagonals
+    flat ones, its centre a vertex where six triangles meet; only its border is kept."""
+    import trimesh
+
+    grid = np.array([[x, y, SLOPE * abs(y)] for y in (-1.0, 0.0, 1.0) for x in (-1.0, 0.0, 1.0)])
+    cells = [(3 * row + col, 3 * row + col + 1, 3 * row + col + 4, 3 * row + col + 3) for row in range(2) for col in range(2)]
+    faces = np.array([tri for a, b, c, d in cells for tri in ((a, b, c), (a, c, d))])
+    assert len(convex_features(grid, faces)["edges"]) == 8  # the border's 8, not the floor
+    trimesh.Trimesh(vertices=grid, faces=faces, process=False).export(path)
+    return str(path)
+
+
+SIDES = [np.array([0.0, s * SLOPE, 1.0]) / np.hypot(SLOPE, 1.0) for s in (1.0, -1.0)]  # unit normals, y < 0 first
+
+
+def _valley_reference(x0, v0):
+    """Each side's time (s) of the first contact with the valley, in float64: the room R above
+    both sides is the intersection of two half-spaces (each side's plane through the floor, offset
+    by R), so the centre leaves it at the first time either side's height comes down to R."""
+    times = []
+    for n in SIDES:
+        c, b, a = n @ x0 - RADIUS, n @ v0, 0.5 * (n @ GRAVITY)  # height - R = c + b t + a t^2
+        roots = np.roots([a, b, c])
+        roots = roots[np.isreal(roots)].real
+        times.append(roots[roots >= 0].min())
+    return np.array(times)
+
+
+@pytest.mark.parametrize("precision", ["float32", "float64"])
+def test_pellets_aimed_exactly_at_flat_and_concave_edges_meet_the_faces(tmp_path, precision):
+    """400 pellets from above, aimed exactly at a valley's floor (a concave edge, not kept), at its
+    centre vertex and at its flat interior edges (grid lines and diagonals, not kept): each meets
+    the valley where the float64 reference does, with the normal of a face it touches, its centre
+    then R above both sides' planes (no pass-through between the faces)."""
+    rng = np.random.default_rng(44)
+    u = rng.uniform(-0.8, 0.8, 400)
+    targets = np.stack([u, np.zeros(400), np.zeros(400)], axis=1)  # the floor
+    targets[100:150] = 0.0  # the centre vertex
+    w = rng.uniform(0.05, 0.8, 100) * rng.choice([-1.0, 1.0], 100)
+    targets[150:250] = np.stack([np.zeros(100), w, SLOPE * np.abs(w)], axis=1)  # the grid lines x = 0
+    corner, along = rng.choice([-1.0, 0.0], (150, 2)), rng.uniform(0.05, 0.95, (150, 1))  # a cell's diagonal
+    targets[250:] = np.c_[corner + along, SLOPE * np.abs(corner[:, 1:] + along)]
+    down = np.c_[rng.normal(scale=0.5, size=(400, 2)), -np.ones(400)]
+    v = rng.uniform(30.0, 300.0, (400, 1)) * down / np.linalg.norm(down, axis=1, keepdims=True) - GRAVITY * AHEAD
+    x = aimed(targets, v)
+    times, normals = _contacts(tmp_path, precision, x, v, {"kind": "mesh", "file": _valley(tmp_path / "valley.stl"), **MATERIAL})
+    tolerance = {"float64": (1e-9, 1e-9), "float32": (2e-5, 1e-4)}[precision]  # m, normal
+    for i in range(len(x)):
+        sides = _valley_reference(x[i], v[i])
+        want = sides.min()
+        assert times[i] >= 0, i
+        got = x[i] + v[i] * times[i] + 0.5 * GRAVITY * times[i] ** 2
+        centre = x[i] + v[i] * want + 0.5 * GRAVITY * want**2
+        assert np.linalg.norm(got - centre) <= tolerance[0], (i, got - centre)
+        met = [j for j in range(2) if SIDES[j] @ got <= RADIUS + 1e-5]  # touched (the normal: the steeper's)
+        assert min(np.linalg.norm(normals[i] - SIDES[j]) for j in met) <= tolerance[1], (i, normals[i], sides)
+        assert min(side @ got for side in SIDES) >= RADIUS - tolerance[0], (i, [side @ got for side in SIDES])
