@@ -26,10 +26,11 @@ from .edge_contact import make_edge_contact
 from .geometry import MESHES, make_geometry
 from .inlining import out_of_line_if
 from .integrate import make_dense_output, make_stepper
-from .mesh_contact import FEW_FACES, FLOAT32_SLACK, make_mesh_contact
+from .mesh_contact import EDGE_ROUNDING, FEW_FACES, FLOAT32_SLACK, STATE_ROUNDING, make_mesh_contact
 from .types import types_for
 
 MAX_FLIGHT_STEPS = 1 << 16  # per flight between contacts
+CLEAR_ROUNDING = 64.0  # `clear_of`'s margin for the control points' and the interpolant's rounding, in eps
 GAVE_UP = -2  # the plane index of a flight given up after MAX_FLIGHT_STEPS
 
 
@@ -121,11 +122,14 @@ def make_roots(precision: str, out_of_line: bool = False) -> SimpleNamespace:
 
 
 @functools.cache
-def make_solid_search(precision: str, out_of_line: bool = False) -> SimpleNamespace:
+def make_solid_search(precision: str, out_of_line: bool = False, screened: bool = True) -> SimpleNamespace:
     """`mesh_theta(...)` and `post_theta(...)`: where on an accepted step a mesh or a post is met
-    (`physics.mesh_contact`, `physics.cylinder_contact`); `out_of_line`: `make_roots`'."""
+    (`physics.mesh_contact`, `physics.cylinder_contact`); `out_of_line`: `make_roots`'; `screened`
+    False: no triangle passed by its edge (`clear_of`) before its roots (the tests' reference)."""
     t = types_for(precision)
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
+    EDGE, STATE = scalar(EDGE_ROUNDING * EPSILON[precision]), scalar(STATE_ROUNDING * EPSILON[precision])
+    CLEAR = scalar(CLEAR_ROUNDING * EPSILON[precision])
     plane_theta, hermite_vec = (
         make_roots(precision, out_of_line=out_of_line).plane_theta,
         make_dense_output(precision).hermite_vec,
@@ -141,6 +145,32 @@ def make_solid_search(precision: str, out_of_line: bool = False) -> SimpleNamesp
         low = wp.min(wp.min(wp.min(x0, x1), wp.min(p1, p2)), wp.min(p3, p4))
         high = wp.max(wp.max(wp.max(x0, x1), wp.max(p1, p2)), wp.max(p3, p4))
         return low, high
+
+    @wp.func
+    def clear_of(
+        n: vec3, p: vec3, q: vec3, h: scalar, x0: vec3, v0: vec3, a0: vec3, x1: vec3, v1: vec3, a1: vec3, low: vec3, high: vec3
+    ):
+        """Whether the step's curve stays beyond the edge p -> q of a triangle of unit normal n
+        (counter-clockwise about n) by more than `mesh_contact.inside`'s tolerance anywhere in its box
+        (low, high) and CLEAR eps of its scale: its six quintic Bezier control points do (the curve is
+        their convex combination, the edge function n.((q - p) x (y - p)) is affine in y), so
+        `inside` fails wherever on the step a contact with the face could be found."""
+        d0, dd0, d1, dd1 = h * v0, h * h * a0, h * v1, h * h * a1
+        e = q - p
+        w = wp.cross(n, e)  # n.(e x (y - p)) = w.(y - p)
+        reach = scalar(0.0)  # l1 bounds over the box of |y - p| and |y|
+        span = scalar(0.0)
+        for i in range(3):
+            reach = reach + wp.max(wp.abs(low[i] - p[i]), wp.abs(high[i] - p[i]))
+            span = span + wp.max(wp.abs(low[i]), wp.abs(high[i]))
+        size = meshes.l1(x0) + meshes.l1(x1) + meshes.l1(d0) + meshes.l1(dd0) + meshes.l1(d1) + meshes.l1(dd1)
+        length = meshes.l1(e)
+        margin = wp.length(e) * (EDGE * (reach + length) + STATE * span + CLEAR * (size + reach + span + length))
+        clear = wp.dot(w, x0 - p) < -margin and wp.dot(w, x1 - p) < -margin
+        clear = clear and wp.dot(w, x0 + d0 / scalar(5.0) - p) < -margin
+        clear = clear and wp.dot(w, x0 + scalar(0.4) * d0 + dd0 / scalar(20.0) - p) < -margin
+        clear = clear and wp.dot(w, x1 - scalar(0.4) * d1 + dd1 / scalar(20.0) - p) < -margin
+        return clear and wp.dot(w, x1 - d1 / scalar(5.0) - p) < -margin
 
     @wp.func
     def face_thetas(
@@ -190,6 +220,11 @@ def make_solid_search(precision: str, out_of_line: bool = False) -> SimpleNamesp
         if wp.length(n) == scalar(0.0):
             return best
         n = wp.normalize(n)
+        if wp.static(screened):  # the curve passes the triangle by an edge: no face contact on the step
+            if clear_of(n, a, b, h, x0, v0, a0, x1, v1, a1, low, high) or clear_of(n, b, c, h, x0, v0, a0, x1, v1, a1, low, high):
+                return best
+            if clear_of(n, c, a, h, x0, v0, a0, x1, v1, a1, low, high):
+                return best
         theta, through = face_thetas(n, wp.dot(a, n), h, x0, v0, a0, x1, v1, a1, radius)
         if theta <= scalar(1.0):
             x, _slope = hermite_vec(theta, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
@@ -268,7 +303,7 @@ def make_solid_search(precision: str, out_of_line: bool = False) -> SimpleNamesp
             best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius, low, high))
         return best
 
-    return SimpleNamespace(mesh_theta=mesh_theta, post_theta=post_theta)
+    return SimpleNamespace(mesh_theta=mesh_theta, post_theta=post_theta, clear_of=clear_of, bezier_box=bezier_box)
 
 
 @functools.cache
