@@ -1,6 +1,7 @@
 """The air's search of a mesh passes a triangle whose edge the step's curve stays beyond
-(`physics.air_flight`, `clear_of`) before root finding: never one where `inside` could hold at a
-point of the step's interpolant. Checked on random steps by triangles far from the origin, and on
+(`physics.air_flight`, `clear_of`), on the whole step or on its part from where the triangle's
+offset plane can first be reached (`off_step`), before root finding: never one where `inside`
+could hold at a point of the step's interpolant (where the offset plane is reached). Checked on random steps by triangles far from the origin, and on
 steps moved to pass within 1e-9 to 1e-2 m of an edge: against the interpolant sampled in the
 kernel's own arithmetic (what the contact's `inside` test sees) and in float64 (NumPy)."""
 
@@ -10,28 +11,31 @@ import numpy as np
 import pytest
 import warp as wp
 
-from warp_ricochet.physics.air_flight import make_solid_search
+from warp_ricochet.physics.air_flight import make_solid_search, make_step_screen
 from warp_ricochet.physics.integrate import make_dense_output
 from warp_ricochet.physics.mesh_contact import make_mesh_contact
 from warp_ricochet.physics.types import types_for
 
 SAMPLES = 513  # thetas sampled on [0, 1] a step
+RADIUS = 1.25e-3  # m
 
 
 @functools.cache
 def _kernel(precision):
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
-    solids, inside = make_solid_search(precision), make_mesh_contact(precision).inside
-    hermite_vec = make_dense_output(precision).hermite_vec
+    solids, screens = make_solid_search(precision), make_step_screen(precision)
+    inside, l1 = make_mesh_contact(precision).inside, make_mesh_contact(precision).l1
+    dense = make_dense_output(precision)
 
     @wp.kernel
     def screen(
         corners: wp.array2d(dtype=vec3),
         steps: wp.array2d(dtype=vec3),
         hs: wp.array(dtype=scalar),
+        radius: scalar,
         clear: wp.array2d(dtype=wp.int32),
-        inner: wp.array(dtype=wp.int32),
+        inner: wp.array2d(dtype=wp.int32),
     ):
         i = wp.tid()
         a, b, c = corners[i, 0], corners[i, 1], corners[i, 2]
@@ -39,16 +43,27 @@ def _kernel(precision):
         x0, v0, a0, x1, v1, a1 = steps[i, 0], steps[i, 1], steps[i, 2], steps[i, 3], steps[i, 4], steps[i, 5]
         h = hs[i]
         low, high = solids.bezier_box(h, x0, v0, a0, x1, v1, a1)
-        clear[i, 0] = wp.where(solids.clear_of(n, a, b, h, x0, v0, a0, x1, v1, a1, low, high), 1, 0)
-        clear[i, 1] = wp.where(solids.clear_of(n, b, c, h, x0, v0, a0, x1, v1, a1, low, high), 1, 0)
-        clear[i, 2] = wp.where(solids.clear_of(n, c, a, h, x0, v0, a0, x1, v1, a1, low, high), 1, 0)
+        c0, c1, c2, c3, c4, c5 = screens.controls(h, x0, v0, a0, x1, v1, a1)
+        size = l1(x0) + l1(x1) + l1(h * v0) + l1(h * h * a0) + l1(h * v1) + l1(h * h * a1)
+        clear[i, 0] = wp.where(screens.clear_of(n, a, b, c0, c1, c2, c3, c4, c5, low, high, size), 1, 0)
+        clear[i, 1] = wp.where(screens.clear_of(n, b, c, c0, c1, c2, c3, c4, c5, low, high, size), 1, 0)
+        clear[i, 2] = wp.where(screens.clear_of(n, c, a, c0, c1, c2, c3, c4, c5, low, high, size), 1, 0)
+        clear[i, 3] = wp.where(screens.off_step(n, a, b, c, radius, h, x0, v0, a0, x1, v1, a1, low, high), 1, 0)
+        level = wp.dot(a, n)  # as face_thetas: the offset plane's gap at the step's ends
+        g0, s0, q0 = wp.dot(x0, n) - level - radius, h * wp.dot(v0, n), h * h * wp.dot(a0, n)
+        g1, s1, q1 = wp.dot(x1, n) - level - radius, h * wp.dot(v1, n), h * h * wp.dot(a1, n)
         count = wp.int32(0)
+        met = wp.int32(0)
         for j in range(SAMPLES):
             theta = scalar(j) / scalar(SAMPLES - 1)
-            x, _slope = hermite_vec(theta, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
+            x, _slope = dense.hermite_vec(theta, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
+            gap, _rate = dense.hermite(theta, g0, s0, q0, g1, s1, q1)
             if inside(n, a, b, c, x):
                 count += 1
-        inner[i] = count
+                if gap <= scalar(0.0):
+                    met += 1
+        inner[i, 0] = count
+        inner[i, 1] = met
 
     return screen
 
@@ -68,7 +83,8 @@ def _hermite(theta, x0, d0, dd0, x1, d1, dd1):
 def _cases(rng, count, origin):
     """Triangles of 0.2-1 m, tilted up to 0.5 rad, at `origin`; steps of 0.1-1.5 m at 10-400 m/s
     starting within 1 m of them, accelerations to 2e3 m/s^2; half moved in the triangle's plane to
-    pass an edge at 1e-9 to 1e-2 m (in or out)."""
+    pass an edge at 1e-9 to 1e-2 m (in or out), and of the rest 60% moved along the normal to
+    graze the triangle's plane offset by RADIUS at 1e-9 to 1e-3 m (above or below)."""
     up = np.array([0.0, 0.0, 1.0]) + rng.uniform(-0.5, 0.5, (count, 3)) * [1, 1, 0]
     up /= np.linalg.norm(up, axis=1, keepdims=True)
     side = np.cross(up, rng.normal(size=(count, 3)))
@@ -99,6 +115,13 @@ def _cases(rng, count, origin):
     shift = np.where(moved, target - reach, 0.0)[:, None] * w
     steps[:, 0] += shift
     steps[:, 3] += shift
+    grazing = ~moved & (rng.random(count) < 0.6)  # the offset plane's least gap on the curve at +-1e-9..1e-3 m
+    curve = curve + shift[:, None, :]
+    gap = np.einsum("ksj,kj->ks", curve - corners[:, None, 0], n).min(axis=1) - RADIUS
+    target = rng.choice([-1.0, 1.0], count) * 10.0 ** rng.uniform(-9.0, -3.0, count)
+    lift = np.where(grazing, target - gap, 0.0)[:, None] * n
+    steps[:, 0] += lift
+    steps[:, 3] += lift
     return corners, steps, h
 
 
@@ -111,15 +134,15 @@ def test_a_triangle_screened_off_a_step_is_never_under_its_curve(precision, orig
     corners, steps, h = _cases(rng, count, np.array([origin, -0.5 * origin, 0.1 * origin]))
     t = types_for(precision)
     dtype = np.float32 if precision == "float32" else np.float64
-    clear = wp.zeros((count, 3), dtype=wp.int32, device="cpu")
-    inner = wp.zeros(count, dtype=wp.int32, device="cpu")
+    clear = wp.zeros((count, 4), dtype=wp.int32, device="cpu")
+    inner = wp.zeros((count, 2), dtype=wp.int32, device="cpu")
     arrays = [wp.array(a.astype(dtype), dtype=t.vec3, device="cpu") for a in (corners, steps)]
-    wp.launch(
-        _kernel(precision), dim=count, inputs=[*arrays, wp.array(h.astype(dtype), device="cpu"), clear, inner], device="cpu"
-    )
+    hs = wp.array(h.astype(dtype), device="cpu")
+    wp.launch(_kernel(precision), dim=count, inputs=[*arrays, hs, t.scalar(RADIUS), clear, inner], device="cpu")
     clear, inner = clear.numpy().astype(bool), inner.numpy()
-    screened = clear.any(axis=1)
-    assert not (screened & (inner > 0)).any()  # never a sample of the kernel's interpolant inside
+    beyond = clear[:, :3].any(axis=1)
+    assert not (beyond & (inner[:, 0] > 0)).any()  # never a sample of the kernel's interpolant inside
+    assert not (clear[:, 3] & (inner[:, 1] > 0)).any()  # nor inside where the offset plane is reached
     x = steps.astype(dtype).astype(np.float64)  # the float64 reference: every sample beyond a cleared edge
     hh = h.astype(dtype).astype(np.float64)[:, None]
     curve = _hermite(
@@ -132,5 +155,7 @@ def test_a_triangle_screened_off_a_step_is_never_under_its_curve(precision, orig
         e = p[:, (j + 1) % 3] - p[:, j]
         edge = np.einsum("kj,ksj->ks", np.cross(n, e), curve - p[:, None, j])
         assert (edge[clear[:, j]] < 0.0).all()
-    # not vacuous: many screened, many not, and contacts under the curve among those kept
-    assert 0.2 < screened.mean() < 0.9 and (inner > 0).mean() > 0.05
+    # not vacuous: many screened by an edge, more by the part of the step near the plane, and
+    # faces met under the curve among those kept
+    assert 0.2 < beyond.mean() < clear[:, 3].mean() < 0.95
+    assert (inner[:, 1] > 0).mean() > 0.03
