@@ -2,11 +2,15 @@
 mapped onto the kernel's object file with its line tables.
 
     perf record -o perf.data python -m bench.cpu_profile run --n 2e4 --out prof/ [--set KEY=VALUE ...]
+    perf record -o perf.data python -m bench.cpu_profile run --case terrain --n 2e4 --out prof/
     python -m bench.cpu_profile report perf.data prof/
 
 `run`: the paper's shot (mu_s 0.5, float32 unless --precision) in sea-level air to rest on turf
-(`--set` adds settings), compiled with line tables (`-debug-info-kind=line-tables-only`, the same
-machine code) in its own kernel cache (prof/cache), then run --repeats times; it writes where the
+(`--set` adds settings); `--case terrain` or `terrain-air`: `bench.meshes terrain`'s scene (the
+paper's shot to the landing over 1,002,528 triangles, vacuum or sea-level air; `--set` ignored),
+or `plane` / `plane-air`: the same shot on the paper's plane (a warm-up run first); compiled with
+line tables (`-debug-info-kind=line-tables-only`, the same machine code) in its own kernel cache
+(prof/cache), then run --repeats times; it writes where the
 ricochet kernel was loaded (prof/kernel.json) and /tmp/perf-PID.map (its functions that were not
 inlined, for `perf report`). Warp loads CPU kernels through its own JIT, without symbols for perf:
 this relies on Warp 1.19's internals (`warp._src.build.build_cpu`, `runtime.llvm.wp_lookup`).
@@ -31,7 +35,7 @@ from pathlib import Path
 KERNEL = "ricochet_kernel"
 
 
-def run(n, repeats, precision, settings, out: Path):
+def run(n, repeats, precision, settings, out: Path, case="rest"):
     out.mkdir(parents=True, exist_ok=True)
     os.environ["WARP_CACHE_PATH"] = str(out / "cache")
     import warp as wp
@@ -58,8 +62,17 @@ def run(n, repeats, precision, settings, out: Path):
     import warp_ricochet as wr
     from bench.air import paper_scene
 
-    extra = ['physics.until="rest"', 'surfaces.0.material="turf"', *settings]
-    scene = paper_scene(n, precision, air=True, mu_s=0.5, extra=extra)
+    if case == "rest":
+        extra = ['physics.until="rest"', 'surfaces.0.material="turf"', *settings]
+        scene = paper_scene(n, precision, air=True, mu_s=0.5, extra=extra)
+    else:
+        import tempfile
+
+        from bench.meshes import _paper, terrain_raster, terrain_surfaces
+
+        surfaces = terrain_surfaces(terrain_raster(tempfile.mkdtemp())) if case.startswith("terrain") else None
+        scene = _paper(n, precision, case.endswith("-air"), surfaces)
+        wr.run(scene, device="cpu")  # compiles, reads the raster and builds its BVH before the timed runs
     for _ in range(repeats):
         started, cpu = time.perf_counter(), time.process_time()
         wr.run(scene, device="cpu")
@@ -170,6 +183,7 @@ def main(argv=None):
     one.add_argument("--n", type=lambda s: int(float(s)), default=20_000)
     one.add_argument("--repeats", type=int, default=3)
     one.add_argument("--precision", default="float32", choices=("float32", "float64"))
+    one.add_argument("--case", default="rest", choices=("rest", "terrain", "terrain-air", "plane", "plane-air"))
     one.add_argument("--set", action="append", default=[], help="KEY=VALUE, more scene settings")
     one.add_argument("--out", type=Path, required=True)
     two = sub.add_parser("report")
@@ -177,7 +191,7 @@ def main(argv=None):
     two.add_argument("folder", type=Path)
     args = parser.parse_args(argv)
     if args.what == "run":
-        run(args.n, args.repeats, args.precision, args.set, args.out)
+        run(args.n, args.repeats, args.precision, args.set, args.out, args.case)
     else:
         report(args.data, args.folder)
 
