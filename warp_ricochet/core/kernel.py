@@ -9,6 +9,7 @@ import functools
 import warp as wp
 
 from ..launch.source import make_source
+from ..physics.lanes import WARP_SIZE, sync_lanes
 from ..physics.types import types_for
 from ..tallies.accumulate import make_accumulators
 from ..tallies.block import BEGIN
@@ -86,12 +87,17 @@ def ricochet_kernel_for(spec, max_registers="default"):
         range_shift = scalar(0.0)
         if wp.static(TABLE):  # every thread of the block: launches cover whole blocks
             landing.table(BEGIN, 0, wp.int64(0), 0)
-        # (a bound known at run time only: Warp unrolls constant loops of up to 16 iterations)
+        # Every lane of a warp runs as many slots as its first lane (the most; a slot past `count`
+        # does nothing) and meets its warp at each (`sync_lanes`): lanes split by one pellet's
+        # branches start the next one together. (A bound known at run time only: Warp unrolls
+        # constant loops of up to 16 iterations.)
+        first_lane = lane - lane % WARP_SIZE  # (lanes is a multiple of WARP_SIZE)
         if wp.static(CONSECUTIVE):
-            last = wp.max(wp.min(per_thread, count - group * segment - lane * per_thread), 0)
+            last = wp.max(wp.min(per_thread, count - group * segment - first_lane * per_thread), 0)
         else:
-            last = wp.min(per_thread, (count - group * segment - lane + lanes - 1) // lanes)
+            last = wp.min(per_thread, (count - group * segment - first_lane + lanes - 1) // lanes)
         for j in range(last):
+            sync_lanes()
             if wp.static(CONSECUTIVE):  # a thread's slots lie in one piece of one shot (`core.shots`)
                 row = group * segment + lane * per_thread + j
             else:

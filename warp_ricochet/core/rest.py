@@ -42,13 +42,13 @@ from ..physics.geometry import make_geometry
 from ..physics.ground import make_ground
 from ..physics.ground_contact import make_ground_contact
 from ..physics.integrate import make_stepper
+from ..physics.lanes import any_lane, lanes_here, meet
 from ..physics.surface_follow import CONTACT as ENDS_IN_CONTACT
 from ..physics.surface_follow import FLIGHT as LIFTS_OFF
 from ..physics.surface_follow import FOREVER, REST, make_surface_follow
 from ..physics.surface_motion import make_surface_laws
 from ..physics.types import types_for
 from ..tallies.path import make_path_watch
-from .lanes import any_lane
 
 CONTACT, SURFACE, FLIGHT = 0, 1, 2  # the modes of `to_rest`
 # what it ended as before: DONE_ESCAPED, DONE_NOT_FINISHED, DONE_EMBEDDED (ended in the core's landing part)
@@ -144,7 +144,7 @@ def make_to_rest(spec) -> SimpleNamespace:
         guard = EVENTS_PER_IMPACT * physics.max_impacts + 8
         while end < 0:
             # a lane along a surface waits while another of its warp is at a contact or in flight,
-            # so that the warp's surface phases, the long ones, run together (core.lanes)
+            # so that the warp's surface phases, the long ones, run together (physics.lanes)
             hopping = any_lane(wp.int32(mode != SURFACE))
             if mode == SURFACE and hopping != 0:
                 continue
@@ -178,6 +178,7 @@ def make_to_rest(spec) -> SimpleNamespace:
                 if ground.sinks(material) != 0:
                     end = wp.int32(EMBEDDED)
                 else:
+                    here = lanes_here()
                     position, velocity, spin, elapsed, length, ended, taken, k_next, track, normal = surface.follow(
                         position,
                         velocity,
@@ -194,6 +195,7 @@ def make_to_rest(spec) -> SimpleNamespace:
                         track,
                         tally,
                     )
+                    meet(here)  # the lanes that came in together leave together (physics.lanes)
                     time += elapsed
                     path += length
                     steps += taken
@@ -211,9 +213,11 @@ def make_to_rest(spec) -> SimpleNamespace:
                     else:
                         end = wp.int32(NOT_FINISHED)
             else:
+                here = lanes_here()
                 dt, k_next, _normal, position_then, velocity_then, spin_then, flight_steps, track = flight.to_contact_watched(
                     position, velocity, spin, k, surfaces, physics, track, tally
                 )
+                meet(here)  # (as above)
                 steps_in_air += flight_steps
                 if k_next == GAVE_UP:
                     end = wp.int32(NOT_FINISHED)

@@ -70,6 +70,7 @@ from types import SimpleNamespace
 import warp as wp
 
 from .ballistic import EPSILON, ROUNDING
+from .lanes import any_in, lanes_here
 from .line_ahead import make_line_ahead
 from .line_laws import make_line_laws, make_line_steps
 from .types import types_for
@@ -283,6 +284,15 @@ def make_line_integrator(
     reference, frozen_time = sl.reference, sl.frozen_time
     AIMS = 40 if precision == "float64" else 30
     CONTACT, UNFINISHED = 4, 6  # surface_follow's end codes (it imports this module)
+    UNIFORM = watch[0] > 0  # a watched path: its steps warp-uniform (`integrate_line`)
+
+    @wp.func
+    def going(here: wp.int32, running: wp.int32):
+        """Whether `integrate_line`'s loop goes on: with a watch, while any lane of `here` runs (they
+        meet at each step, `physics.lanes`); else while this one does."""
+        if wp.static(UNIFORM):
+            return any_in(here, running)
+        return running
 
     @wp.func
     def slip_ahead(s: scalar, v: scalar, spin: vec3, dwdt: vec3, line: Line, radius: scalar):
@@ -343,137 +353,156 @@ def make_line_integrator(
         k_next = k
         h = FAR
         growth = scalar(5.0)
-        while steps < steps_left:
-            e = line.direction
-            spin = spin_of(v, spin, line, radius)
-            decel = -dv
-            scale = v + radius * wp.length(spin) + floor
-            if line.rolling == 0:  # sliding: the friction's side from the slip now; B at this omega, G from the last step
-                slip = v * e - radius * wp.cross(spin, n)
-                if line.straight == 0 and wp.length(slip) > STOP_FRACTION * scale:
-                    line.slip = slip * (ONE / wp.length(slip))
-                if steps > 0:
-                    slope = first_slope(v, spin, dv, physics, line)
-            line = freeze(line, energy, decel, slope, drift)
-            slow = ONE / wp.max(v, line.least)
-            ahead, k_ahead = ahead_of(position, k, surfaces, physics, e)
-            if ahead <= ZERO:
-                event = wp.int32(CONTACT)
-                k_next = k_ahead
-                break
-            if line.rolling == 0 and v < line.least:
-                event = wp.int32(HANDOVER)
-                break
-            q, rate = target(v, e, line.lateral, spin, decel, dl, dw, line, radius, goal)
-            finish = band
-            if line.rolling == 0 and wp.abs(wp.dot(line.slip, line.lateral)) > STOP_FRACTION:
-                finish = wp.max(band, tolerance)  # off the line, a slip below the integration's own error is zero
-            if rate < ZERO and q <= finish * scale:  # the rest of the way to first order
-                ds = q / (-rate)
-                dt = ds * slow
-                track = watch_step(track, tally, position, position + ds * e, line, ds, dt, v, v - decel * dt, decel)
-                position = position + ds * e
-                s += ds
-                elapsed += dt
-                spin = spin + dw * dt
-                v = wp.max(v - decel * dt, ZERO)
+        # One pass of the inner loop a step (its break ends the lane's run). With a watch the steps
+        # are warp-uniform (`going`): the lanes that came in meet at each step, so that a watch's
+        # branches do not leave them apart (bench/RESULTS.md, "Lanes that meet"); a lane done
+        # waits. The same steps and bits as a plain loop.
+        here = lanes_here()
+        running = wp.int32(1)
+        while going(here, running) != 0:
+            once = running
+            if steps >= steps_left:
+                once = wp.int32(0)
+                running = wp.int32(0)
+            while once != 0:
+                once = wp.int32(0)
+                e = line.direction
+                spin = spin_of(v, spin, line, radius)
+                decel = -dv
+                scale = v + radius * wp.length(spin) + floor
+                if line.rolling == 0:  # sliding: the friction's side from the slip now; B at this omega, G from the last step
+                    slip = v * e - radius * wp.cross(spin, n)
+                    if line.straight == 0 and wp.length(slip) > STOP_FRACTION * scale:
+                        line.slip = slip * (ONE / wp.length(slip))
+                    if steps > 0:
+                        slope = first_slope(v, spin, dv, physics, line)
+                line = freeze(line, energy, decel, slope, drift)
+                slow = ONE / wp.max(v, line.least)
+                ahead, k_ahead = ahead_of(position, k, surfaces, physics, e)
+                if ahead <= ZERO:
+                    event = wp.int32(CONTACT)
+                    k_next = k_ahead
+                    running = wp.int32(0)
+                    break
+                if line.rolling == 0 and v < line.least:
+                    event = wp.int32(HANDOVER)
+                    running = wp.int32(0)
+                    break
+                q, rate = target(v, e, line.lateral, spin, decel, dl, dw, line, radius, goal)
+                finish = band
+                if line.rolling == 0 and wp.abs(wp.dot(line.slip, line.lateral)) > STOP_FRACTION:
+                    finish = wp.max(band, tolerance)  # off the line, a slip below the integration's own error is zero
+                if rate < ZERO and q <= finish * scale:  # the rest of the way to first order
+                    ds = q / (-rate)
+                    dt = ds * slow
+                    track = watch_step(track, tally, position, position + ds * e, line, ds, dt, v, v - decel * dt, decel)
+                    position = position + ds * e
+                    s += ds
+                    elapsed += dt
+                    spin = spin + dw * dt
+                    v = wp.max(v - decel * dt, ZERO)
+                    if line.rolling != 0:
+                        v = goal
+                    event = wp.int32(0)
+                    running = wp.int32(0)
+                    break
+                if h >= FAR:
+                    h = (
+                        HALF
+                        * (energy + floor * floor)
+                        / (TWO * wp.abs(decel) + TWO * line.slope * energy + floor * floor * scalar(1e-3))
+                    )
+                if line.slope > ZERO:
+                    h = wp.min(h, scalar(MAX_DECAY) / (TWO * line.slope))
                 if line.rolling != 0:
-                    v = goal
-                event = wp.int32(0)
-                break
-            if h >= FAR:
-                h = (
-                    HALF
-                    * (energy + floor * floor)
-                    / (TWO * wp.abs(decel) + TWO * line.slope * energy + floor * floor * scalar(1e-3))
-                )
-            if line.slope > ZERO:
-                h = wp.min(h, scalar(MAX_DECAY) / (TWO * line.slope))
-            if line.rolling != 0:
-                aim = reach((goal + HALF * band * scale) * (goal + HALF * band * scale), line)
-                if aim > ZERO:
+                    aim = reach((goal + HALF * band * scale) * (goal + HALF * band * scale), line)
+                    if aim > ZERO:
+                        h = wp.min(h, aim)
+                elif rate < ZERO:
+                    aim = (q - HALF * band * scale) / (-rate)
+                    if line.stops != 0:
+                        ahead_aim = slide_aim(v, spin, dw, q, HALF * band * scale, line, radius)
+                        if ahead_aim > ZERO:
+                            aim = ahead_aim
+                    if wp.abs(wp.dot(line.slip, line.lateral)) > STOP_FRACTION:  # off the line: short of it (below)
+                        aim = scalar(SHORT) * aim
                     h = wp.min(h, aim)
-            elif rate < ZERO:
-                aim = (q - HALF * band * scale) / (-rate)
-                if line.stops != 0:
-                    ahead_aim = slide_aim(v, spin, dw, q, HALF * band * scale, line, radius)
-                    if ahead_aim > ZERO:
-                        aim = ahead_aim
-                if wp.abs(wp.dot(line.slip, line.lateral)) > STOP_FRACTION:  # off the line: short of it (below)
-                    aim = scalar(SHORT) * aim
-                h = wp.min(h, aim)
-            h, near = capped(position, k, surfaces, physics, h)  # a plate, mesh or post near: 3-D meets it
-            if near:
-                event = wp.int32(HANDOVER)
-                break
-            to_contact = False
-            if h >= ahead:
-                h = ahead
-                to_contact = True
-            y0 = start(spin)
-            f0 = first_rates(v, dl, dw, line)
-            y1, _f1, error_vector, p1 = sl.stages_at(y0, f0, h, physics, line)  # (the last stage is y1's point)
-            steps += 1
-            e1, v1, w1, dec1, dl1, dw1, load1, grip1 = sl.state_of(p1, line, mu_s)
-            error = step_error(energy, e1, v1, spin, w1, error_vector, h, line, tolerance, floor, radius)
-            dt = step_time(v, h, y1[1], line)
-            head1, lateral1 = heading(psi_of(y1), line)
-            if not (error <= ONE):
-                h = h * wp.clamp(scalar(0.9) * wp.pow(error, scalar(-0.2)), scalar(0.2), ONE)
-                growth = ONE
-                continue
-            if wp.abs(psi_of(y1)) > scalar(MAX_TURN):  # turned too far for the series: a shorter step
-                h = HALF * h
-                growth = ONE
-                continue
-            q1, _rate1 = target(v1, head1, lateral1, w1, dec1, dl1, dw1, line, radius, goal)
-            if e1 < ZERO or (q1 < ZERO and q > ZERO):  # past the target: aim short of it
-                h = HALF * h
-                growth = ONE
-                continue
-            margin1 = wp.min(load1, grip1)
-            if margin1 <= ZERO:  # lift-off or loss of grip inside: onto its root
-                h, y1, taken = land_margin(h, wp.min(load, grip), margin1, y0, f0, physics, line, mu_s)
-                steps += taken
-                e1, v1, w1, dec1, dl1, dw1, load1, grip1 = state_at(y1, physics, line, mu_s)
-                head1, lateral1 = heading(psi_of(y1), line)
-                dt = step_time(v, h, y1[1], line)
-                event = wp.int32(1)
+                h, near = capped(position, k, surfaces, physics, h)  # a plate, mesh or post near: 3-D meets it
+                if near:
+                    event = wp.int32(HANDOVER)
+                    running = wp.int32(0)
+                    break
                 to_contact = False
-            x1 = moved(position, y1, line)
-            if wp.static(ROUGH):
-                if not to_contact:  # curved onto another surface: the 3-D integrator finds where
-                    after, _k = ahead_of(x1, k, surfaces, physics, head1)
-                    if after <= ZERO:
-                        event = wp.int32(HANDOVER)
-                        break
-            track = watch_step(track, tally, position, x1, line, h, dt, v, v1, dec1)
-            position = x1
-            s += h
-            elapsed += dt
-            if line.rolling == 0 and h > STOP_FRACTION * (s + radius):
-                drift = (dec1 - decel - line.slope * (e1 - energy)) / h
-            elif wp.abs(e1 - energy) > scalar(0.05) * energy:
-                slope = (dec1 - decel) / (e1 - energy)
-            if wp.static(ROUGH):  # the next step's frame (not rough: the line's)
-                line.direction = head1 * (ONE / wp.length(head1))
-                line.lateral = wp.cross(n, line.direction)
-            energy = e1
-            v = v1
-            spin = w1
-            dv = -dec1
-            dl = dl1
-            dw = dw1
-            load = load1
-            grip = grip1
-            if event == 1:
-                break
-            if to_contact:
-                event = wp.int32(CONTACT)
-                k_next = k_ahead
-                break
-            h = h * wp.clamp(scalar(0.9) * wp.pow(wp.max(error, scalar(1e-10)), scalar(-0.2)), scalar(0.2), growth)
-            growth = scalar(5.0)
+                if h >= ahead:
+                    h = ahead
+                    to_contact = True
+                y0 = start(spin)
+                f0 = first_rates(v, dl, dw, line)
+                y1, _f1, error_vector, p1 = sl.stages_at(y0, f0, h, physics, line)  # (the last stage is y1's point)
+                steps += 1
+                e1, v1, w1, dec1, dl1, dw1, load1, grip1 = sl.state_of(p1, line, mu_s)
+                error = step_error(energy, e1, v1, spin, w1, error_vector, h, line, tolerance, floor, radius)
+                dt = step_time(v, h, y1[1], line)
+                head1, lateral1 = heading(psi_of(y1), line)
+                if not (error <= ONE):
+                    h = h * wp.clamp(scalar(0.9) * wp.pow(error, scalar(-0.2)), scalar(0.2), ONE)
+                    growth = ONE
+                    continue
+                if wp.abs(psi_of(y1)) > scalar(MAX_TURN):  # turned too far for the series: a shorter step
+                    h = HALF * h
+                    growth = ONE
+                    continue
+                q1, _rate1 = target(v1, head1, lateral1, w1, dec1, dl1, dw1, line, radius, goal)
+                if e1 < ZERO or (q1 < ZERO and q > ZERO):  # past the target: aim short of it
+                    h = HALF * h
+                    growth = ONE
+                    continue
+                margin1 = wp.min(load1, grip1)
+                if margin1 <= ZERO:  # lift-off or loss of grip inside: onto its root
+                    h, y1, taken = land_margin(h, wp.min(load, grip), margin1, y0, f0, physics, line, mu_s)
+                    steps += taken
+                    e1, v1, w1, dec1, dl1, dw1, load1, grip1 = state_at(y1, physics, line, mu_s)
+                    head1, lateral1 = heading(psi_of(y1), line)
+                    dt = step_time(v, h, y1[1], line)
+                    event = wp.int32(1)
+                    to_contact = False
+                x1 = moved(position, y1, line)
+                if wp.static(ROUGH):
+                    if not to_contact:  # curved onto another surface: the 3-D integrator finds where
+                        after, _k = ahead_of(x1, k, surfaces, physics, head1)
+                        if after <= ZERO:
+                            event = wp.int32(HANDOVER)
+                            running = wp.int32(0)
+                            break
+                track = watch_step(track, tally, position, x1, line, h, dt, v, v1, dec1)
+                position = x1
+                s += h
+                elapsed += dt
+                if line.rolling == 0 and h > STOP_FRACTION * (s + radius):
+                    drift = (dec1 - decel - line.slope * (e1 - energy)) / h
+                elif wp.abs(e1 - energy) > scalar(0.05) * energy:
+                    slope = (dec1 - decel) / (e1 - energy)
+                if wp.static(ROUGH):  # the next step's frame (not rough: the line's)
+                    line.direction = head1 * (ONE / wp.length(head1))
+                    line.lateral = wp.cross(n, line.direction)
+                energy = e1
+                v = v1
+                spin = w1
+                dv = -dec1
+                dl = dl1
+                dw = dw1
+                load = load1
+                grip = grip1
+                if event == 1:
+                    running = wp.int32(0)
+                    break
+                if to_contact:
+                    event = wp.int32(CONTACT)
+                    k_next = k_ahead
+                    running = wp.int32(0)
+                    break
+                h = h * wp.clamp(scalar(0.9) * wp.pow(wp.max(error, scalar(1e-10)), scalar(-0.2)), scalar(0.2), growth)
+                growth = scalar(5.0)
         return position, v * line.direction, spin_of(v, spin, line, radius), elapsed, s, event, k_next, steps, track
 
     return SimpleNamespace(Line=Line, line_of=sl.line_of, integrate_line=integrate_line)

@@ -28,7 +28,9 @@ Consecutive entries along a map row at one level are counted as one run (`flush`
 ends in `exposure_runs`, summed along the rows by `landing.runs_kernel` after each chunk). The part's chord's nearest approach to each named place's vertical is
 tested against the place's radius. Loops, not unrolled; in CUDA code `segment` and `line` are each
 one function that NVRTC does not inline (`out_of_line_on_cuda`), called from every site, so the
-watch's code is in the kernel once (bench/RESULTS.md "The watch as one call").
+watch's code is in the kernel once (bench/RESULTS.md "The watch as one call"); the lanes of a warp
+that enter either leave it together (`physics.lanes.meet`: its branches would otherwise leave them
+apart for the rest of the pellet, bench/RESULTS.md "Lanes that meet").
 """
 
 import functools
@@ -39,6 +41,7 @@ import warp as wp
 from ..physics.ballistic import EPSILON
 from ..physics.inlining import out_of_line_on_cuda
 from ..physics.integrate import make_dense_output
+from ..physics.lanes import lanes_here, meet
 from ..physics.types import types_for
 from .bins import BINS, make_bin_of
 from .landing import copy_of, count_one, make_landing_tally
@@ -672,6 +675,7 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
         the ground plane, or over a terrain's triangles (`tallies.terrain_walk`); nothing once the
         watch has ended (cell ESCAPED)."""
         if wp.static(ON):
+            here = lanes_here()
             if h > ZERO and theta_end > ZERO and track.cell != ESCAPED:
                 inv_h2 = ONE / (h * h)
                 if wp.static(TERRAIN):
@@ -690,6 +694,7 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
                     track = span(
                         track, tally, tally.ground_point, tally.ground_normal, ZERO, theta_end, d0, x0, d0, e0, x1, d1, e1, inv_h2
                     )
+            meet(here)  # the lanes that came in together leave together (`physics.lanes`)
         return track
 
     @wp.func
@@ -701,10 +706,8 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
         return segment(track, tally, x0, d0, e0, x1, d0 + e0, e0, dt, ONE)
 
     @wp.func
-    def line(track: Track, tally: Tally, x0: vec3, direction: vec3, length: scalar, v0: scalar, a: scalar, b: scalar):
-        """Watch a straight stretch x0 + s direction, s in [0, length], along which the speed falls as
-        a + b v^2 = (a + b v0^2) exp(-2 b s) (b > 0): threshold v_i is crossed at
-        s_i = ln((a + b v0^2) / (a + b v_i^2)) / (2 b). Nothing once the watch has ended (ESCAPED)."""
+    def line_watch(track: Track, tally: Tally, x0: vec3, direction: vec3, length: scalar, v0: scalar, a: scalar, b: scalar):
+        """`line`'s work (whose one exit, where the lanes meet, is `line`'s)."""
         if wp.static(ON):
             if track.cell == ESCAPED:
                 return track
@@ -731,6 +734,17 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
                     track = farther(track, tally, i, x0)
                     track = farther(track, tally, i, x0 + (lam * length) * direction)
             track = chord(track, tally, x0, xb, lo, hi)
+        return track
+
+    @wp.func
+    def line(track: Track, tally: Tally, x0: vec3, direction: vec3, length: scalar, v0: scalar, a: scalar, b: scalar):
+        """Watch a straight stretch x0 + s direction, s in [0, length], along which the speed falls as
+        a + b v^2 = (a + b v0^2) exp(-2 b s) (b > 0): threshold v_i is crossed at
+        s_i = ln((a + b v0^2) / (a + b v_i^2)) / (2 b). Nothing once the watch has ended (ESCAPED)."""
+        if wp.static(ON):
+            here = lanes_here()
+            track = line_watch(track, tally, x0, direction, length, v0, a, b)
+            meet(here)  # the lanes that came in together leave together (`physics.lanes`)
         return track
 
     if ON:  # (without a watch both are empty and inlined away)
