@@ -270,6 +270,61 @@ def test_places_count_the_pellets_that_pass_within_their_radius(device):
     np.testing.assert_array_equal(counts[:, 0], [0, 1, 1, 0])  # levels 1 (60 m/s) and 2 (100 m/s)
 
 
+def _reference_line_passes(x0, heading, length, v0, a, b, setup):
+    """(level, column) passes of straight stretches along `heading` on the ground, their speed
+    falling as a + b v^2 = (a + b v0^2) exp(-2 b s): each cell entered once, at its entry's level."""
+    counts = np.zeros((setup.levels, setup.cells + 2), dtype=np.int64)
+    speeds = np.sqrt(np.asarray(setup.thresholds2))
+    for x, d, v in zip(x0, length, v0):
+        reach = [min(math.log((a + b * v * v) / (a + b * s * s)) / (2 * b), d) if v >= s else -1.0 for s in speeds]
+        times = [0.0]
+        for axis, start, size in ((0, setup.map_u0, setup.map_cell), (2, setup.map_v0, setup.map_cell)):
+            if heading[axis] != 0:
+                lo, hi = sorted(((x[axis] - start) / size, (x[axis] + heading[axis] * d - start) / size))
+                times += [(start + j * size - x[axis]) / heading[axis] for j in range(math.floor(lo) + 1, math.floor(hi) + 1)]
+        last = None
+        for s in sorted(times):
+            q = x + heading * (s + 1e-9)  # just past the edge crossed at s
+            iu, iv = math.floor((q[0] - setup.map_u0) / setup.map_cell), math.floor((q[2] - setup.map_v0) / setup.map_cell)
+            column = iv * setup.map_nu + iu if 0 <= iu < setup.map_nu and 0 <= iv < setup.map_nv else setup.cells
+            if column != last:
+                counts[sum(1 for r in reach if s <= r), column] += 1
+                last = column
+    return counts
+
+
+@pytest.mark.parametrize(
+    "precision,heading", [("float64", 0.0), ("float32", 7.0), ("float64", 90.0), ("float64", 183.0), ("float64", 250.0)]
+)
+def test_straight_stretches_pass_the_cells_entered_by_level(device, precision, heading):
+    """Rolling with ploughing along straight stretches across a grid of 0.5 m cells, some off it
+    (`line`: runs along u counted at once): every cell entered counted once with the level at its
+    entry, as the closed form's speed and the line's crossings say."""
+    t = types_for(precision)
+    rng = np.random.default_rng(11)
+    n, a, b = 48, 0.35, 0.02
+    x0 = np.column_stack([rng.uniform(-4.0, 60.0, n), np.full(n, 0.00125), rng.uniform(-12.0, 12.0, n)])
+    x0 += 1e-3 * rng.uniform(size=(n, 3))  # off the cell edges
+    angle = math.radians(heading)
+    direction = np.array([math.cos(angle), 0.0, math.sin(angle)])
+    length, v0 = rng.uniform(2.0, 60.0, n), rng.uniform(20.0, 200.0, n)
+    setup = _setup()
+    _parabolas, lines = _watch_kernel(precision, 0)
+    inputs = [
+        wp.array(x0, dtype=t.vec3, device=device),
+        t.vec3(*direction),
+        wp.array(length, dtype=t.scalar, device=device),
+        wp.array(v0, dtype=t.scalar, device=device),
+        t.scalar(a),
+        t.scalar(b),
+    ]
+    tally, _reach = _run(lines, setup, precision, device, inputs, n)
+    got = tally.counts["exposure"].numpy().reshape(setup.levels, setup.cells + 2).astype(np.int64)
+    want = _reference_line_passes(x0, direction, length, v0, a, b, setup)
+    assert want[:, : setup.cells].sum() > 10 * n  # (runs along the rows, and off the grid too)
+    np.testing.assert_array_equal(got, want)
+
+
 @pytest.mark.parametrize("precision", ["float64", "float32"])
 def test_rolling_with_ploughing_reaches_where_its_speed_falls_to_the_threshold(device, precision):
     """v' = -(a + b v^2) along a line: the reach of threshold v_i is at

@@ -22,7 +22,8 @@ watch the dense phase ended so (its cell ESCAPED, `dense.watch`) watches nothing
 
 A part within body height is walked across the map's cells along its curve (`make_path_curve`:
 row by row along the axis it moves farther along, each edge of the other axis crossed found by
-Newton's steps in the bracket; a straight stretch by Amanatides & Woo, Eurographics 1987): a cell
+Newton's steps in the bracket; a straight stretch by Amanatides & Woo, Eurographics 1987, its cells
+along a row at one level taken at once, `run_along_u`): a cell
 entered is counted once, with the level at its entry, the region off the grid being one more cell.
 Consecutive entries along a map row at one level are counted as one run (`flush`: +1 and -1 at its
 ends in `exposure_runs`, summed along the rows by `landing.runs_kernel` after each chunk). The part's chord's nearest approach to each named place's vertical is
@@ -93,6 +94,19 @@ def make_path_cells(precision: str, thresholds: int, points: int, with_map: bool
         return level
 
     @wp.func
+    def level_bound(lo: Reach, hi: Reach, lam: scalar):
+        """The least chord parameter past lam at which `level_at` may change: a cell entered at a
+        parameter from lam up to (not at) it has lam's level. 2 where none comes."""
+        bound = scalar(2.0)
+        for i in range(wp.static(K)):
+            if lo[i] <= hi[i]:  # (an empty stretch never counts)
+                if lo[i] > lam:
+                    bound = wp.min(bound, lo[i])
+                if hi[i] >= lam:
+                    bound = wp.min(bound, hi[i])
+        return bound
+
+    @wp.func
     def column_of(tally: Tally, iu: wp.int32, iv: wp.int32):
         """The map column of cell (iu, iv): the cell, or the off-grid column."""
         column = tally.map_cells
@@ -146,6 +160,46 @@ def make_path_cells(precision: str, thresholds: int, points: int, with_map: bool
         return wp.int32(wp.clamp(cell, scalar(-1.0), n))
 
     @wp.func
+    def run_along_u(
+        track: Track,
+        tally: Tally,
+        iu: wp.int32,
+        iv: wp.int32,
+        level: wp.int32,
+        step_u: wp.int32,
+        du: scalar,
+        next_u: scalar,
+        next_v: scalar,
+        bound: scalar,
+        gone: wp.int32,
+        budget: wp.int32,
+    ):
+        """After `enter` of cell (iu, iv) at `level` by `walk`: where that cell ends the pending run
+        (its row and level) in the direction of motion, the cells entered next across u's edges, up
+        to the next v edge, the level's `bound`, the chord's end or the grid's, extend the run at
+        once, as `enter` would one by one (the same cells, the same next_u). Returns (track, iu,
+        next_u, gone)."""
+        at_end = (step_u > 0 and iu == track.run_hi) or (step_u < 0 and iu == track.run_lo)
+        if track.run_row == iv and track.run_level == level and track.cell == iv * tally.map_nu + iu and at_end:
+            start = iu
+            while (
+                gone < budget
+                and next_u <= next_v
+                and next_u <= ONE
+                and next_u < bound
+                and iu + step_u >= 0
+                and iu + step_u < tally.map_nu
+            ):
+                gone += 1
+                iu += step_u
+                next_u = next_u + ONE / wp.abs(du)
+            if iu != start:
+                track.run_lo = wp.min(track.run_lo, iu)
+                track.run_hi = wp.max(track.run_hi, iu)
+                track.cell = iv * tally.map_nu + iu
+        return track, iu, next_u, gone
+
+    @wp.func
     def walk(track: Track, tally: Tally, xa: vec3, xb: vec3, lo: Reach, hi: Reach):
         """Count the passes of the chord xa -> xb across the cells (in order along it)."""
         fu0 = wp.dot(xa, tally.map_u_cell) - tally.map_u_start
@@ -160,7 +214,8 @@ def make_path_cells(precision: str, thresholds: int, points: int, with_map: bool
             step_v = wp.int32(-1)
         iu = cell_index(fu0, tally.map_nu_cells, step_u)
         iv = cell_index(fv0, tally.map_nv_cells, step_v)
-        track = enter(track, tally, iu, iv, level_at(lo, hi, ZERO))
+        level = level_at(lo, hi, ZERO)
+        track = enter(track, tally, iu, iv, level)
         big = scalar(1e30)
         next_u = big  # chord parameter of the next u (v) cell boundary
         next_v = big
@@ -170,6 +225,9 @@ def make_path_cells(precision: str, thresholds: int, points: int, with_map: bool
             next_v = (scalar(iv + wp.max(step_v, 0)) - fv0) / dv
         gone = wp.int32(0)  # the cells left on the way: at most |du| + |dv| + 2 inside the grid's span
         budget = wp.int32(wp.min(wp.abs(du) + wp.abs(dv), scalar(tally.map_nu) + tally.map_nv_cells)) + 4
+        track, iu, next_u, gone = run_along_u(
+            track, tally, iu, iv, level, step_u, du, next_u, next_v, level_bound(lo, hi, ZERO), gone, budget
+        )
         while gone < budget and wp.min(next_u, next_v) <= ONE:
             gone += 1
             lam = ZERO
@@ -183,7 +241,11 @@ def make_path_cells(precision: str, thresholds: int, points: int, with_map: bool
                 next_v = next_v + ONE / wp.abs(dv)
             if (iu < -1 or iu > tally.map_nu) or (iv < -1 or iv > wp.int32(tally.map_nv_cells)):
                 break  # off the grid for good: it counts as one off-grid cell
-            track = enter(track, tally, iu, iv, level_at(lo, hi, lam))
+            level = level_at(lo, hi, lam)
+            track = enter(track, tally, iu, iv, level)
+            track, iu, next_u, gone = run_along_u(
+                track, tally, iu, iv, level, step_u, du, next_u, next_v, level_bound(lo, hi, lam), gone, budget
+            )
         return track
 
     @wp.func
