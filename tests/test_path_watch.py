@@ -134,6 +134,7 @@ def _run(kernel, setup, precision, device, inputs, n):
     t = types_for(precision)
     tally = DeviceTally(setup, precision, wp.get_device(device), active=True)
     tally.start(None)
+    tally.before_chunk()  # (as a run does: on CUDA the pooled counts are then no longer known zero)
     reach = wp.zeros((n, len(SPEEDS)), dtype=t.scalar, device=device)
     wp.launch(kernel, dim=n, inputs=[tally.struct, *inputs], outputs=[reach], device=device)
     tally.resolve()
