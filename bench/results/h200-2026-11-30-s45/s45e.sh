@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# session 45, call 5: main (N), X, and Y (X + the line integrator's steps warp-uniform, lanes meet each step)
+set -u
+out=${OUT:-/tmp/out}; mkdir -p $out
+root=$PWD
+inn() { local t=$1; shift; (cd $root/.gpu/b/exp/$t && WARP_CACHE_PATH=/tmp/wc_$t PYTHONPATH=/tmp/site:$PWD "$@") 2>&1; }
+filt() { grep -v "^Warp \|CUDA Toolkit\|Devices:\|Kernel cache\|\.cache/warp\|\"cpu\"\|\"cuda:0\"\|^Module \|^{\|/tmp/wc_\|PrecisionWarning\|return _compute\|warnings.warn"; }
+start=$(date +%s)
+for t in N X Y; do
+  ( inn $t python3 -m bench.path cost --device cuda:0 --sizes 1e5 --repeats 1 > $out/warm-path-$t.txt ) &
+  ( inn $t python3 -m bench.rest throughput --device cuda:0 --sizes 1e5 --repeats 1 --only "rest, turf" > $out/warm-rest-$t.txt ) &
+done; wait
+echo "warm-up $(( $(date +%s) - start )) s" | tee $out/times.txt
+for r in 1 2; do for t in Y X N; do
+  inn $t timeout 120 python3 -m bench.path cost --device cuda:0 --sizes 1e7 --repeats 1 | filt | grep "N 1e" | sed "s/^/$r $t: /"
+done; done 2>&1 | tee $out/path.txt
+echo "path $(( $(date +%s) - start )) s" | tee -a $out/times.txt
+for r in 1 2; do for t in Y X N; do
+  inn $t python3 -m bench.rest throughput --device cuda:0 --sizes 1e7 --repeats 2 --only "rest, turf" | filt | sed "s/^/$r $t: /"
+done; done 2>&1 | tee $out/rest.txt
+echo "done $(( $(date +%s) - start )) s" | tee -a $out/times.txt
