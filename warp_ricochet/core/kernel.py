@@ -61,6 +61,8 @@ def ricochet_kernel_for(spec, max_registers="default"):
     RELEASE, CONSECUTIVE = spec.collisions, spec.thread_pieces
     lanes, segment = spec.lanes, SEGMENT
     per_thread = segment // lanes
+    if lanes % WARP_SIZE:  # (the pellet loop's warp-uniform passes assume whole warps a group)
+        raise ValueError(f"threads a segment must be a multiple of {WARP_SIZE}: {lanes}")
     options = kernel_options(spec, max_registers)
 
     @wp.kernel(module="unique", enable_backward=False, **options)
