@@ -254,45 +254,30 @@ def make_surface_line(
 
 
 @functools.cache
-def make_line_integrator(
-    precision: str,
-    planes=None,
-    model: str = "ballistic",
-    laws=None,
-    watch: tuple = (0, 0, False),
-    noise: tuple = (0.0, 0.0),
-    rough=True,
-    plates=False,
-) -> SimpleNamespace:
-    """`integrate_line`: `surface_follow`'s integrate_phase for a phase over the distance (module
-    docstring); not `rough`, straight phases only (`line_of` refuses the rest), with the heading
-    and the offset compiled away; `plates`: steps kept within `line_ahead.free_of` (module docstring)."""
-    sl = make_surface_line(precision, planes, model, laws, watch, noise, rough, plates)
-    ROUGH = rough
-    m, Line, Track, Tally = sl.maths, sl.Line, sl.Track, sl.Tally
-    along, heading, freeze, reach, state_at = sl.along, sl.heading, sl.freeze, sl.reach, sl.state_at
-    ahead_of, capped, target, step_error, step_time, watch_step, land_margin = (
-        sl.ahead_of, sl.capped, sl.target, sl.step_error, sl.step_time, sl.watch_step, sl.land_margin
-    )  # fmt: skip
-    first_slope = sl.first_slope
-    spin_of, first_rates, start, moved, psi_of = sl.spin_of, sl.first_rates, sl.start, sl.moved, sl.psi_of
-    t = types_for(precision)
-    scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
-    ZERO, ONE, TWO, HALF = scalar(0.0), scalar(1.0), scalar(2.0), scalar(0.5)
-    STOP_FRACTION = scalar(max(1e-9, ROUNDING * EPSILON[precision]))
-    FAR = scalar(1e30)
-    reference, frozen_time = sl.reference, sl.frozen_time
-    AIMS = 40 if precision == "float64" else 30
-    CONTACT, UNFINISHED = 4, 6  # surface_follow's end codes (it imports this module)
-    UNIFORM = watch[0] > 0  # a watched path: its steps warp-uniform (`integrate_line`)
+def make_going(uniform: bool):
+    """`going(here, running)`: whether `integrate_line`'s loop goes on: where `uniform` (a watched
+    path), while any lane of `here` runs (they meet at each step, `physics.lanes`); else while this
+    one does."""
 
     @wp.func
     def going(here: wp.int32, running: wp.int32):
-        """Whether `integrate_line`'s loop goes on: with a watch, while any lane of `here` runs (they
-        meet at each step, `physics.lanes`); else while this one does."""
-        if wp.static(UNIFORM):
+        if wp.static(uniform):
             return any_in(here, running)
         return running
+
+    return going
+
+
+@functools.cache
+def make_slide_aim(precision: str, model: str = "ballistic", laws=None, noise: tuple = (0.0, 0.0), rough=True):
+    """`slide_aim(v, spin, dwdt, q, goal, line, radius)`: where a sliding phase's slip falls to `goal`
+    under its frozen law (`integrate_line`'s aim)."""
+    scalar, vec3 = types_for(precision).scalar, types_for(precision).vec3
+    ll = make_line_laws(precision, model, laws, noise, rough)
+    Line, m, reference, frozen_time = ll.Line, ll.maths, ll.reference, ll.frozen_time
+    ZERO = scalar(0.0)
+    STOP_FRACTION = scalar(max(1e-9, ROUNDING * EPSILON[precision]))
+    AIMS = 40 if precision == "float64" else 30
 
     @wp.func
     def slip_ahead(s: scalar, v: scalar, spin: vec3, dwdt: vec3, line: Line, radius: scalar):
@@ -318,6 +303,40 @@ def make_line_integrator(
                 f = slip_ahead(mid, v, spin, dwdt, line, radius) - goal
                 lo, hi, f_lo, f_hi, side = m.illinois(lo, hi, f_lo, f_hi, side, mid, f)
         return lo
+
+    return slide_aim
+
+
+@functools.cache
+def make_line_integrator(
+    precision: str,
+    planes=None,
+    model: str = "ballistic",
+    laws=None,
+    watch: tuple = (0, 0, False),
+    noise: tuple = (0.0, 0.0),
+    rough=True,
+    plates=False,
+) -> SimpleNamespace:
+    """`integrate_line`: `surface_follow`'s integrate_phase for a phase over the distance (module
+    docstring); not `rough`, straight phases only (`line_of` refuses the rest), with the heading
+    and the offset compiled away; `plates`: steps kept within `line_ahead.free_of` (module docstring)."""
+    sl = make_surface_line(precision, planes, model, laws, watch, noise, rough, plates)
+    ROUGH = rough
+    Line, Track, Tally = sl.Line, sl.Track, sl.Tally
+    along, heading, freeze, reach, state_at = sl.along, sl.heading, sl.freeze, sl.reach, sl.state_at
+    ahead_of, capped, target, step_error, step_time, watch_step, land_margin = (
+        sl.ahead_of, sl.capped, sl.target, sl.step_error, sl.step_time, sl.watch_step, sl.land_margin
+    )  # fmt: skip
+    first_slope = sl.first_slope
+    spin_of, first_rates, start, moved, psi_of = sl.spin_of, sl.first_rates, sl.start, sl.moved, sl.psi_of
+    t = types_for(precision)
+    scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
+    ZERO, ONE, TWO, HALF = scalar(0.0), scalar(1.0), scalar(2.0), scalar(0.5)
+    STOP_FRACTION = scalar(max(1e-9, ROUNDING * EPSILON[precision]))
+    FAR = scalar(1e30)
+    CONTACT, UNFINISHED = 4, 6  # surface_follow's end codes (it imports this module)
+    slide_aim, going = make_slide_aim(precision, model, laws, noise, rough), make_going(watch[0] > 0)
 
     @wp.func
     def integrate_line(

@@ -10,7 +10,7 @@ import functools
 import warp as wp
 
 from ..physics.types import types_for
-from .path import make_path_cells
+from .path_cells import make_path_cells
 
 KEPT_INTS = 5  # cell, run_row, run_lo, run_hi, run_level; then one a named place
 

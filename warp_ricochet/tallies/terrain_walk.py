@@ -140,7 +140,7 @@ def make_terrain_ground(precision: str) -> SimpleNamespace:
 @functools.cache
 def make_terrain_walk(precision: str, crossing) -> SimpleNamespace:
     """`Walk`, `begin` and `next_piece` (the pieces of a segment, module docstring), with
-    `make_terrain_ground`'s `window` and `height`; `crossing`: `tallies.path.make_path_curve`'s root
+    `make_terrain_ground`'s `window` and `height`; `crossing`: `tallies.path_cells.make_path_curve`'s root
     of a quintic reaching an edge."""
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
