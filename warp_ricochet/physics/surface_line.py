@@ -253,19 +253,17 @@ def make_surface_line(
     )
 
 
-@functools.cache
-def make_going(uniform: bool):
-    """`going(here, running)`: whether `integrate_line`'s loop goes on: where `uniform` (a watched
-    path), while any lane of `here` runs (they meet at each step, `physics.lanes`); else while this
-    one does."""
+@wp.func
+def going_together(here: wp.int32, running: wp.int32):
+    """`integrate_line`'s loop goes on while any lane of `here` runs: they meet at each step
+    (`physics.lanes`; with a watched path)."""
+    return any_in(here, running)
 
-    @wp.func
-    def going(here: wp.int32, running: wp.int32):
-        if wp.static(uniform):
-            return any_in(here, running)
-        return running
 
-    return going
+@wp.func
+def going_alone(here: wp.int32, running: wp.int32):
+    """`integrate_line`'s loop goes on while this lane runs (without a watched path)."""
+    return running
 
 
 @functools.cache
@@ -336,7 +334,7 @@ def make_line_integrator(
     STOP_FRACTION = scalar(max(1e-9, ROUNDING * EPSILON[precision]))
     FAR = scalar(1e30)
     CONTACT, UNFINISHED = 4, 6  # surface_follow's end codes (it imports this module)
-    slide_aim, going = make_slide_aim(precision, model, laws, noise, rough), make_going(watch[0] > 0)
+    slide_aim, going = make_slide_aim(precision, model, laws, noise, rough), (going_together if watch[0] > 0 else going_alone)
 
     @wp.func
     def integrate_line(
