@@ -115,3 +115,53 @@ def test_warp_uniform_loops_and_meetings_compute_what_the_thread_alone_does(devi
     wp.launch(_synced, dim=n, inputs=[11], outputs=[out], device=device)
     expected = [sum(1 + (sum(range(i % 9)) if (i + j) % 5 == 0 else 0) for j in range(11)) for i in range(n)]
     np.testing.assert_array_equal(out.numpy(), expected)
+
+
+def _own_nodes(func):
+    """The nodes of a function's body, not those of the functions defined in it."""
+    import ast
+
+    stack = [n for n in func.body if not isinstance(n, ast.FunctionDef)]
+    while stack:
+        node = stack.pop()
+        yield node
+        stack.extend(c for c in ast.iter_child_nodes(node) if not isinstance(c, ast.FunctionDef))
+
+
+def _lane_masks(tree):
+    """(function, mask name, its line, the lines of the calls given it first (`meet`, `any_in` or a
+    vote built on them), the lines of its returns) for every `X = lanes_here()` in a module."""
+    import ast
+
+    for func in ast.walk(tree):
+        if not isinstance(func, ast.FunctionDef):
+            continue
+        nodes = list(_own_nodes(func))
+        returns = [n.lineno for n in nodes if isinstance(n, ast.Return)]
+        calls = [n for n in nodes if isinstance(n, ast.Call) and isinstance(n.func, ast.Name) and n.args]
+        for node in nodes:
+            if isinstance(node, ast.Assign) and getattr(getattr(node.value, "func", None), "id", "") == "lanes_here":
+                name = node.targets[0].id
+                uses = [c.lineno for c in calls if c.func.id != "lanes_here" and getattr(c.args[0], "id", "") == name]
+                yield func.name, name, node.lineno, uses, returns
+
+
+def test_every_lane_mask_is_met_before_any_return():
+    """A lane that leaves between `lanes_here` and the `meet`/`any_in` of its mask would leave the
+    others of the mask waiting for it on a GPU (CI has none): in the package's code every mask is
+    used, and no `return` of its function lies between the mask and its last use."""
+    import ast
+    from pathlib import Path
+
+    import warp_ricochet
+
+    found = 0
+    for path in Path(warp_ricochet.__file__).parent.rglob("*.py"):
+        if path.name == "lanes.py":
+            continue
+        for func, name, line, uses, returns in _lane_masks(ast.parse(path.read_text())):
+            found += 1
+            where = f"{path.name}:{line} {func}"
+            assert uses, f"{where}: mask {name} never met"
+            assert not [r for r in returns if line < r < max(uses)], f"{where}: a return before {name} is met"
+    assert found >= 5  # segment, line, the surface phase's, the flight's, the line integrator's
