@@ -80,6 +80,7 @@ def make_path_span(precision: str, thresholds: int, points: int, with_map: bool)
     horizontal_distance = make_landing_tally(precision).horizontal_distance
     r = make_path_roots(precision)
     height_at, speed2_at, height_root, apex, speed_root = r.height_at, r.speed2_at, r.height_root, r.apex, r.speed_root
+    height_over = r.height_over
     HAS_POINTS = points > 0
     ZERO, ONE = scalar(0.0), scalar(1.0)
 
@@ -87,6 +88,66 @@ def make_path_span(precision: str, thresholds: int, points: int, with_map: bool)
     def farther(track: Track, tally: Tally, i: wp.int32, x: vec3):
         """reach_i at least the horizontal distance of x from the shooter (`landing.horizontal_distance`)."""
         track.reach[i] = wp.max(track.reach[i], horizontal_distance(tally, x))
+        return track
+
+    @wp.func
+    def stretch(
+        track: Track,
+        tally: Tally,
+        lo_t: scalar,
+        hi_t: scalar,
+        xa: vec3,
+        xb: vec3,
+        va: scalar,
+        vb: scalar,
+        x0: vec3,
+        d0: vec3,
+        e0: vec3,
+        x1: vec3,
+        d1: vec3,
+        e1: vec3,
+        inv_h2: scalar,
+    ):
+        """A stretch [lo_t, hi_t] of a segment within body height (its ends xa, xb; their squared
+        speeds va, vb; the speed monotone on it): each threshold's reach, its passes across the
+        map's cells and by the named places."""
+        span = hi_t - lo_t
+        far_a = scalar(-1.0)  # the ends' horizontal distances, once a threshold needs them
+        far_b = scalar(-1.0)
+        lo = Reach()
+        hi = Reach()
+        for i in range(tally.path_thresholds):
+            target = tally.thresholds2[i]
+            lo[i] = ONE
+            hi[i] = ZERO  # empty
+            if va >= target or vb >= target:
+                if va >= target and far_a < ZERO:
+                    far_a = horizontal_distance(tally, xa)
+                if vb >= target and far_b < ZERO:
+                    far_b = horizontal_distance(tally, xb)
+            if va >= target and vb >= target:
+                lo[i] = ZERO
+                hi[i] = ONE
+                track.reach[i] = wp.max(wp.max(track.reach[i], far_a), far_b)
+            elif va >= target or vb >= target:
+                theta = speed_root(lo_t, hi_t, target, x0, d0, e0, x1, d1, e1, inv_h2)
+                xc, _sc = hermite_vec(theta, x0, d0, e0, x1, d1, e1)
+                lam = ZERO
+                if span > ZERO:
+                    lam = (theta - lo_t) / span
+                if va >= target:
+                    lo[i] = ZERO
+                    hi[i] = lam
+                    track.reach[i] = wp.max(track.reach[i], far_a)
+                else:
+                    lo[i] = lam
+                    hi[i] = ONE
+                    track.reach[i] = wp.max(track.reach[i], far_b)
+                track = farther(track, tally, i, xc)
+        if wp.static(MAP):
+            track = curve(track, tally, lo_t, hi_t, x0, d0, e0, x1, d1, e1, lo, hi)
+        if wp.static(HAS_POINTS):
+            track = near_places(track, tally, xa, xb, lo, hi)
         return track
 
     @wp.func
@@ -105,7 +166,8 @@ def make_path_span(precision: str, thresholds: int, points: int, with_map: bool)
         e1: vec3,
         inv_h2: scalar,
     ):
-        """One part [a, b] of a segment (height over the plane (gp, gn) and speed monotone on it)."""
+        """One part [a, b] of a segment (height over the plane (gp, gn) and speed monotone on it):
+        its stretch within body height (`stretch`)."""
         fa, _ra = height_at(tally, gp, gn, a, x0, d0, e0, x1, d1, e1)
         fb, _rb = height_at(tally, gp, gn, b, x0, d0, e0, x1, d1, e1)
         if fa > ZERO and fb > ZERO:
@@ -122,48 +184,18 @@ def make_path_span(precision: str, thresholds: int, points: int, with_map: bool)
         xb, _sb = hermite_vec(hi_t, x0, d0, e0, x1, d1, e1)
         va = speed2_at(lo_t, x0, d0, e0, x1, d1, e1, inv_h2)
         vb = speed2_at(hi_t, x0, d0, e0, x1, d1, e1, inv_h2)
-        span = hi_t - lo_t
-        lo = Reach()
-        hi = Reach()
-        for i in range(tally.path_thresholds):
-            target = tally.thresholds2[i]
-            lo[i] = ONE
-            hi[i] = ZERO  # empty
-            if va >= target and vb >= target:
-                lo[i] = ZERO
-                hi[i] = ONE
-                track = farther(track, tally, i, xa)
-                track = farther(track, tally, i, xb)
-            elif va >= target or vb >= target:
-                theta = speed_root(lo_t, hi_t, target, x0, d0, e0, x1, d1, e1, inv_h2)
-                xc, _sc = hermite_vec(theta, x0, d0, e0, x1, d1, e1)
-                lam = ZERO
-                if span > ZERO:
-                    lam = (theta - lo_t) / span
-                if va >= target:
-                    lo[i] = ZERO
-                    hi[i] = lam
-                    track = farther(track, tally, i, xa)
-                else:
-                    lo[i] = lam
-                    hi[i] = ONE
-                    track = farther(track, tally, i, xb)
-                track = farther(track, tally, i, xc)
-        if wp.static(MAP):
-            track = curve(track, tally, lo_t, hi_t, x0, d0, e0, x1, d1, e1, lo, hi)
-        if wp.static(HAS_POINTS):
-            track = near_places(track, tally, xa, xb, lo, hi)
+        track = stretch(track, tally, lo_t, hi_t, xa, xb, va, vb, x0, d0, e0, x1, d1, e1, inv_h2)
         if fb > ZERO:
             track.cell = wp.int32(NONE)  # the pass ends here
         return track
 
     @wp.func
-    def turns(tally: Tally, theta_end: scalar, rate: vec3, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3):
+    def turns(tally: Tally, rate: vec3, slope: vec3):
         """1 if the segment's motion along the map's u or v axis (with a map or places) differs in
-        sign at the start (its slope `rate` there) and at theta_end (it may turn back between), else 0."""
+        sign at the start (its slope `rate` there) and at its end (`slope`: it may turn back
+        between), else 0."""
         out = wp.int32(0)
         if wp.static(MAP or HAS_POINTS):
-            _x, slope = hermite_vec(theta_end, x0, d0, e0, x1, d1, e1)
             if wp.dot(rate, tally.map_u_cell) * wp.dot(slope, tally.map_u_cell) <= ZERO:
                 out = wp.int32(1)
             if wp.dot(rate, tally.map_v_cell) * wp.dot(slope, tally.map_v_cell) <= ZERO:
@@ -189,9 +221,12 @@ def make_path_span(precision: str, thresholds: int, points: int, with_map: bool)
     ):
         """Watch [start, theta_end] of a segment over the ground plane (gp, gn) (`rate`: its slope
         at start): cut at its height's apex, each piece in `tally.path_parts` parts (loops, not
-        unrolled: one copy of the part's code wherever a segment is watched)."""
-        f0, r0 = height_at(tally, gp, gn, start, x0, d0, e0, x1, d1, e1)
-        f1, r1 = height_at(tally, gp, gn, theta_end, x0, d0, e0, x1, d1, e1)
+        unrolled: one copy of the part's code wherever a segment is watched). A segment within body
+        height throughout in one part is its own stretch, from its ends' values (`stretch`)."""
+        x_start, slope_start = hermite_vec(start, x0, d0, e0, x1, d1, e1)
+        x_end, slope_end = hermite_vec(theta_end, x0, d0, e0, x1, d1, e1)
+        f0, r0 = height_over(tally, gp, gn, x_start), wp.dot(slope_start, gn)  # (`height_at` at both ends)
+        f1, r1 = height_over(tally, gp, gn, x_end), wp.dot(slope_end, gn)
         crest = r0 > ZERO and r1 <= ZERO  # the height's maximum inside
         trough = r0 < ZERO and r1 > ZERO  # its minimum inside
         top = theta_end
@@ -200,8 +235,12 @@ def make_path_span(precision: str, thresholds: int, points: int, with_map: bool)
         if f0 > ZERO and f1 > ZERO and not trough:  # above body height throughout
             track.cell = wp.int32(NONE)
             pieces = wp.int32(0)
-        elif f0 <= ZERO and f1 <= ZERO and not crest and turns(tally, theta_end, rate, x0, d0, e0, x1, d1, e1) == 0:
-            parts = wp.int32(1)  # within it throughout, no turn back along the map's axes: one part
+        elif f0 <= ZERO and f1 <= ZERO and not crest and turns(tally, rate, slope_end) == 0:
+            # within it throughout, no turn back along the map's axes: one part, its own stretch
+            pieces = wp.int32(0)
+            va = wp.dot(slope_start, slope_start) * inv_h2  # (`speed2_at` at both ends)
+            vb = wp.dot(slope_end, slope_end) * inv_h2
+            track = stretch(track, tally, start, theta_end, x_start, x_end, va, vb, x0, d0, e0, x1, d1, e1, inv_h2)
         elif crest:  # an apex inside: two pieces
             top = apex(tally, gp, gn, start, theta_end, x0, d0, e0, x1, d1, e1)
             pieces = wp.int32(2)
