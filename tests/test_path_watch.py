@@ -83,7 +83,29 @@ def _watch_kernel(precision, places, terrain=False):
         w.write(track, reach_out, i)
         w.finish(track, tally, i)
 
-    return watch_parabolas, watch_lines
+    @wp.kernel
+    def watch_steps(
+        tally: w.Tally,
+        x0: wp.array(dtype=t.vec3),
+        direction: t.vec3,
+        length: wp.array2d(dtype=t.scalar),
+        v0: wp.array2d(dtype=t.scalar),
+        a: t.scalar,
+        b: t.scalar,
+        reach_out: wp.array2d(dtype=t.scalar),
+    ):
+        i = wp.tid()
+        track = w.start()
+        pending = w.straight_open()
+        x = x0[i]
+        for k in range(length.shape[1]):
+            track, pending = w.straight_step(track, tally, pending, x, direction, length[i, k], v0[i, k], a, b)
+            x = x + length[i, k] * direction
+        track, pending = w.straight_close(track, tally, pending)
+        w.write(track, reach_out, i)
+        w.finish(track, tally, i)
+
+    return watch_parabolas, watch_lines, watch_steps
 
 
 def _reference_reach(x0, v0, dt, v2):
@@ -148,7 +170,7 @@ def test_reach_of_parabolas_is_the_closed_form(device, precision):
     rng = np.random.default_rng(26)
     n = 256
     x0, v0, dt = _random_parabolas(rng, n)
-    parabolas, _lines = _watch_kernel(precision, 0)
+    parabolas, _lines, _steps = _watch_kernel(precision, 0)
     inputs = _flights(x0, v0, dt, precision, device)
     _tally, reach = _run(parabolas, _setup(), precision, device, inputs, n)
     length = np.linalg.norm(v0, axis=1) * dt  # about the path's length
@@ -246,7 +268,7 @@ def test_passes_are_the_cells_entered_by_level(device, precision, heading):
     v0 = speed[:, None] * np.column_stack([np.cos(side), np.zeros(n), np.sin(side)])
     dt = np.minimum(0.25, 30.0 / speed)  # it falls at most 0.31 m: within body height
     setup = _setup()
-    parabolas, _lines = _watch_kernel(precision, 0)
+    parabolas, _lines, _steps = _watch_kernel(precision, 0)
     inputs = _flights(x0, v0, dt, precision, device)
     tally, _reach = _run(parabolas, setup, precision, device, inputs, n)
     got = tally.counts["exposure"].numpy().reshape(setup.levels, setup.cells + 2).astype(np.int64)
@@ -261,7 +283,7 @@ def test_places_count_the_pellets_that_pass_within_their_radius(device):
     precision = "float64"
     places = (("near", (20.0, 0.0, 0.3), 0.25), ("far", (20.0, 0.0, -0.3), 0.25))
     setup = _setup(places=places)
-    parabolas, _lines = _watch_kernel(precision, len(places))
+    parabolas, _lines, _steps = _watch_kernel(precision, len(places))
     x0 = np.array([[0.0, 1.0, 0.1], [0.0, 1.0, 0.1]])
     v0 = np.array([[100.0, 0.0, 0.0], [60.0, 0.0, 0.0]])  # above 80 m/s and between 30 and 80 m/s
     inputs = _flights(x0, v0, [0.5, 0.5], precision, device)
@@ -310,7 +332,7 @@ def test_straight_stretches_pass_the_cells_entered_by_level(device, precision, h
     direction = np.array([math.cos(angle), 0.0, math.sin(angle)])
     length, v0 = rng.uniform(2.0, 60.0, n), rng.uniform(20.0, 200.0, n)
     setup = _setup()
-    _parabolas, lines = _watch_kernel(precision, 0)
+    _parabolas, lines, _steps = _watch_kernel(precision, 0)
     inputs = [
         wp.array(x0, dtype=t.vec3, device=device),
         t.vec3(*direction),
@@ -326,6 +348,87 @@ def test_straight_stretches_pass_the_cells_entered_by_level(device, precision, h
     np.testing.assert_array_equal(got, want)
 
 
+def _reference_step_passes(x0, heading, lengths, v0s, a, b, setup):
+    """(level, column) passes of pellets moving along `heading` on the ground in steps (lengths,
+    their starting speeds v0s: per step the speed falls as a + b v^2 = (a + b v0^2) exp(-2 b s) from
+    its own v0): each cell entered once along the whole line, at its entry's level in its step."""
+    counts = np.zeros((setup.levels, setup.cells + 2), dtype=np.int64)
+    speeds = np.sqrt(np.asarray(setup.thresholds2))
+    for x, steps, starts in zip(x0, lengths, v0s):
+        ends = np.cumsum(steps)
+        total = ends[-1]
+        times = [0.0]
+        for axis, start, size in ((0, setup.map_u0, setup.map_cell), (2, setup.map_v0, setup.map_cell)):
+            if heading[axis] != 0:
+                lo, hi = sorted(((x[axis] - start) / size, (x[axis] + heading[axis] * total - start) / size))
+                times += [(start + j * size - x[axis]) / heading[axis] for j in range(math.floor(lo) + 1, math.floor(hi) + 1)]
+        last = None
+        for s in sorted(times):
+            k = min(int(np.searchsorted(ends, s, side="right")), len(steps) - 1)
+            into = s - (ends[k] - steps[k])  # m into step k
+            v = starts[k]
+            level = sum(1 for c in speeds if v >= c and into <= math.log((a + b * v * v) / (a + b * c * c)) / (2 * b))
+            q = x + heading * (s + 1e-9)  # just past the edge crossed at s
+            iu, iv = math.floor((q[0] - setup.map_u0) / setup.map_cell), math.floor((q[2] - setup.map_v0) / setup.map_cell)
+            column = iv * setup.map_nu + iu if 0 <= iu < setup.map_nu and 0 <= iv < setup.map_nv else setup.cells
+            if column != last:
+                counts[level, column] += 1
+                last = column
+    return counts
+
+
+@pytest.mark.parametrize("precision,heading", [("float64", 0.0), ("float32", 7.0), ("float64", 120.0)])
+def test_a_phase_s_steps_walked_as_one_chord_pass_the_cells_entered_by_level(device, precision, heading):
+    """A line phase's steps (`straight_step`, walked at once by `straight_close`) across a grid of
+    0.5 m cells: every cell entered counted once with the level at its entry, as the closed form
+    says step by step; a step that starts faster than the last ended (a threshold exceeded again
+    after it was not) begins a new chord. The reach is the farthest point above each threshold."""
+    t = types_for(precision)
+    rng = np.random.default_rng(13)
+    n, m, a, b = 48, 6, 0.35, 0.02
+    x0 = np.column_stack([rng.uniform(-4.0, 60.0, n), np.full(n, 0.00125), rng.uniform(-12.0, 12.0, n)])
+    x0 += 1e-3 * rng.uniform(size=(n, 3))  # off the cell edges
+    angle = math.radians(heading)
+    direction = np.array([math.cos(angle), 0.0, math.sin(angle)])
+    lengths = rng.uniform(0.2, 12.0, (n, m))
+    lengths[::5, 2] = 0.0  # a step of no length
+    v0 = np.empty((n, m))
+    v0[:, 0] = rng.uniform(20.0, 200.0, n)
+    for k in range(1, m):
+        fallen = (a + b * v0[:, k - 1] ** 2) * np.exp(-2 * b * lengths[:, k - 1])
+        v0[:, k] = np.sqrt(np.maximum(fallen - a, 0.0) / b)
+    jumps = rng.uniform(size=(n, m)) < 0.15  # faster than the last step ended
+    v0[jumps] *= 1.6
+    setup = _setup()
+    _parabolas, _lines, steps = _watch_kernel(precision, 0)
+    inputs = [
+        wp.array(x0, dtype=t.vec3, device=device),
+        t.vec3(*direction),
+        wp.array(lengths, dtype=t.scalar, device=device),
+        wp.array(v0, dtype=t.scalar, device=device),
+        t.scalar(a),
+        t.scalar(b),
+    ]
+    tally, reach = _run(steps, setup, precision, device, inputs, n)
+    got = tally.counts["exposure"].numpy().reshape(setup.levels, setup.cells + 2).astype(np.int64)
+    want = _reference_step_passes(x0, direction, lengths, v0, a, b, setup)
+    assert jumps.sum() > 10 and want[:, : setup.cells].sum() > 10 * n
+    np.testing.assert_array_equal(got, want)
+    for i in range(n):
+        for j, c in enumerate(SPEEDS):
+            ends = np.cumsum(lengths[i]) - lengths[i]
+            far = [
+                np.hypot(*(x0[i] + direction * (e + f * min(math.log((a + b * v * v) / (a + b * c * c)) / (2 * b), d)))[[0, 2]])
+                for e, d, v in zip(ends, lengths[i], v0[i, :])
+                if v >= c and d > 0
+                for f in (0.0, 1.0)
+            ]
+            if far:
+                assert reach[i, j] == pytest.approx(max(far), rel=1e-5 if precision == "float32" else 1e-12)
+            else:
+                assert math.isnan(reach[i, j])
+
+
 @pytest.mark.parametrize("precision", ["float64", "float32"])
 def test_rolling_with_ploughing_reaches_where_its_speed_falls_to_the_threshold(device, precision):
     """v' = -(a + b v^2) along a line: the reach of threshold v_i is at
@@ -335,7 +438,7 @@ def test_rolling_with_ploughing_reaches_where_its_speed_falls_to_the_threshold(d
     v0 = np.array([200.0, 120.0, 50.0, 20.0])
     length = np.array([40.0, 300.0, 300.0, 300.0])
     x0 = np.array([[5.0, 0.00125, 0.0]] * 4)
-    _parabolas, lines = _watch_kernel(precision, 0)
+    _parabolas, lines, _steps = _watch_kernel(precision, 0)
     inputs = [
         wp.array(x0, dtype=t.vec3, device=device),
         t.vec3(1.0, 0.0, 0.0),

@@ -103,7 +103,7 @@ def make_surface_line(
     from ..tallies.path import make_path_watch  # (tallies imports physics: not at the top)
 
     watcher = make_path_watch(precision, *watch)
-    Track, Tally = watcher.Track, watcher.Tally
+    Track, Tally, Straight = watcher.Track, watcher.Tally, watcher.Straight
     t = types_for(precision)
     scalar, vec3, Physics = t.scalar, t.vec3, t.Physics
     ahead = make_line_ahead(precision, planes, plates)
@@ -157,20 +157,25 @@ def make_surface_line(
         return integrated
 
     @wp.func
-    def watch_step(track: Track, tally: Tally, x0: vec3, x1: vec3, line: Line, h: scalar, dt: scalar, v0: scalar, v1: scalar, d1: scalar):  # fmt: skip
+    def watch_step(track: Track, tally: Tally, pending: Straight, x0: vec3, x1: vec3, line: Line, h: scalar, dt: scalar, v0: scalar, v1: scalar, d1: scalar):  # fmt: skip
         """Give the step (path h from x0 to x1) to the watch: along its chord, under the frozen law
-        (A, B > 0), else the time Hermite of its ends (not `rough`: the chord is along e)."""
+        (A, B > 0; not `rough`: added to the phase's steps `pending` along e), else the time
+        Hermite of its ends (the chord along e). Returns (track, pending)."""
         e = line.direction
         if wp.static(ROUGH):
             e = x1 - x0
             if wp.length(e) > ZERO:
                 e = e * (ONE / wp.length(e))
         if line.stops != 0 and line.slope > ZERO:
-            return watcher.line(track, tally, x0, e, h, v0, line.offset, line.slope)
+            if wp.static(ROUGH):
+                return watcher.line(track, tally, x0, e, h, v0, line.offset, line.slope), pending
+            return watcher.straight_step(track, tally, pending, x0, e, h, v0, line.offset, line.slope)
         d0 = (dt * v0) * e
         e0 = (-dt * dt * line.decel) * e
         e1 = (-dt * dt * d1) * e
-        return watcher.segment(track, tally, x0, d0, e0, x1, (dt * v1) * e, e1, dt, ONE)
+        if wp.static(ROUGH):
+            return watcher.segment(track, tally, x0, d0, e0, x1, (dt * v1) * e, e1, dt, ONE), pending
+        return watcher.straight_segment(track, tally, pending, x0, d0, e0, x1, (dt * v1) * e, e1, dt)
 
     @wp.func
     def land_margin(h: scalar, m0: scalar, m1: scalar, y0: state, f0: state, physics: Physics, line: Line, mu_s: scalar):
@@ -235,6 +240,8 @@ def make_surface_line(
         step_error=step_error,
         step_time=step_time,
         watch_step=watch_step,
+        straight_open=watcher.straight_open,
+        straight_close=watcher.straight_close,
         land_margin=land_margin,
         spin_of=spin_of,
         first_rates=first_rates,
@@ -374,6 +381,7 @@ def make_line_integrator(
         # are warp-uniform (`going`): the lanes that came in meet at each step, so that a watch's
         # branches do not leave them apart (bench/RESULTS.md, "Lanes that meet"); a lane done
         # waits. The same steps and bits as a plain loop.
+        pending = sl.straight_open()  # the phase's steps along e whose walk waits (`tallies.path`)
         here = lanes_here()
         running = wp.int32(1)
         while going(here, running) != 0:
@@ -412,7 +420,9 @@ def make_line_integrator(
                 if rate < ZERO and q <= finish * scale:  # the rest of the way to first order
                     ds = q / (-rate)
                     dt = ds * slow
-                    track = watch_step(track, tally, position, position + ds * e, line, ds, dt, v, v - decel * dt, decel)
+                    track, pending = watch_step(
+                        track, tally, pending, position, position + ds * e, line, ds, dt, v, v - decel * dt, decel
+                    )
                     position = position + ds * e
                     s += ds
                     elapsed += dt
@@ -491,7 +501,7 @@ def make_line_integrator(
                             event = wp.int32(HANDOVER)
                             running = wp.int32(0)
                             break
-                track = watch_step(track, tally, position, x1, line, h, dt, v, v1, dec1)
+                track, pending = watch_step(track, tally, pending, position, x1, line, h, dt, v, v1, dec1)
                 position = x1
                 s += h
                 elapsed += dt
@@ -520,6 +530,7 @@ def make_line_integrator(
                     break
                 h = h * wp.clamp(scalar(0.9) * wp.pow(wp.max(error, scalar(1e-10)), scalar(-0.2)), scalar(0.2), growth)
                 growth = scalar(5.0)
+        track, _pending = sl.straight_close(track, tally, pending)
         return position, v * line.direction, spin_of(v, spin, line, radius), elapsed, s, event, k_next, steps, track
 
     return SimpleNamespace(Line=Line, line_of=sl.line_of, integrate_line=integrate_line)

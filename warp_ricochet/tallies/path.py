@@ -16,7 +16,10 @@ part; any other is cut at its height's apex (in vacuum the speed's minimum too) 
 `counts.PATH_PARTS` parts. On a part the height and the speed are taken as monotone: their
 crossings of body height and of each threshold's speed are found by bisection on the interpolant.
 `line` takes a straight stretch whose speed falls by a known law (rolling with ploughing in vacuum,
-`physics.surface_follow.plough_roll`), with its crossings in closed form. A flight that escapes is
+`physics.surface_follow.plough_roll`), with its crossings in closed form. With a map, the steps of a
+phase along a line (`physics.surface_line`) go to `straight_step` and `straight_segment`: their levels
+are gathered along their common chord, whose reach and walk `straight_close` takes at once where the
+phase ends (docs/hazard.md, "A phase's steps as one chord"). A flight that escapes is
 watched until its centre falls below the ground plane (`escape_time`, `below`, `ground_theta`); a
 watch the dense phase ended so (its cell ESCAPED, `dense.watch`) watches nothing more.
 
@@ -263,7 +266,7 @@ def make_path_span(precision: str, thresholds: int, points: int, with_map: bool)
 
 
 @functools.cache
-def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool, terrain: bool = False) -> SimpleNamespace:
+def make_path_lines(precision: str, thresholds: int, points: int, with_map: bool, terrain: bool = False) -> SimpleNamespace:
     """`Track` (a pellet's watch: reach per threshold in m, its level + 1 at each named place, the
     cell of the pass under way) and the functions that update it: `start`, `segment`, `line`,
     `finish`. With no thresholds the functions do nothing (compiled away); `terrain`: the hazard's
@@ -272,7 +275,8 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
     scalar, vec3 = t.scalar, t.vec3
     cells = make_path_cells(precision, thresholds, points, with_map)
     Track, Tally, Reach, flush = cells.Track, cells.Tally, cells.Reach, cells.flush
-    chord = make_path_walk(precision, thresholds, points, with_map).chord
+    walks = make_path_walk(precision, thresholds, points, with_map)
+    chord = walks.chord
     MAP, TERRAIN = with_map, terrain
     terrain = make_terrain_walk(precision, make_path_curve(precision, thresholds, points, with_map).crossing)
     hermite_vec = make_dense_output(precision).hermite_vec
@@ -360,6 +364,22 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
         return segment(track, tally, x0, d0, e0, x1, d0 + e0, e0, dt, ONE)
 
     @wp.func
+    def line_stretch(tally: Tally, length: scalar, v0: scalar, a: scalar, b: scalar):
+        """Each threshold's stretch [lo_i, hi_i] of `line`'s (fractions of `length`; lo_i > hi_i:
+        never exceeded): from its start to s_i (`line`)."""
+        lo = Reach()
+        hi = Reach()
+        for i in range(wp.static(K)):
+            target = tally.thresholds2[i]
+            lo[i] = ONE
+            hi[i] = ZERO
+            if v0 * v0 >= target and length > ZERO:
+                s = wp.log((a + b * v0 * v0) / (a + b * target)) / (scalar(2.0) * b)
+                lo[i] = ZERO
+                hi[i] = wp.min(s / length, ONE)
+        return lo, hi
+
+    @wp.func
     def line_watch(track: Track, tally: Tally, x0: vec3, direction: vec3, length: scalar, v0: scalar, a: scalar, b: scalar):
         """`line`'s work (whose one exit, where the lanes meet, is `line`'s)."""
         if wp.static(ON):
@@ -374,19 +394,11 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
             if ha > ZERO and hb > ZERO:
                 track.cell = wp.int32(NONE)
                 return track
-            lo = Reach()
-            hi = Reach()
+            lo, hi = line_stretch(tally, length, v0, a, b)
             for i in range(wp.static(K)):
-                target = tally.thresholds2[i]
-                lo[i] = ONE
-                hi[i] = ZERO
-                if v0 * v0 >= target and length > ZERO:
-                    s = wp.log((a + b * v0 * v0) / (a + b * target)) / (scalar(2.0) * b)
-                    lam = wp.min(s / length, ONE)
-                    lo[i] = ZERO
-                    hi[i] = lam
+                if lo[i] <= hi[i]:
                     track = farther(track, tally, i, x0)
-                    track = farther(track, tally, i, x0 + (lam * length) * direction)
+                    track = farther(track, tally, i, x0 + (hi[i] * length) * direction)
             track = chord(track, tally, x0, xb, lo, hi)
         return track
 
@@ -430,6 +442,263 @@ def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool
         segment=segment,
         parabola=parabola,
         line=line,
+        line_stretch=line_stretch,
+        farther=farther,
         finish=finish,
         ON=ON,
+    )
+
+
+@functools.cache
+def make_path_pending(precision: str, thresholds: int, points: int, with_map: bool, terrain: bool = False) -> SimpleNamespace:
+    """`Straight` (the steps of a phase along a line whose watch waits) and `straight_open`,
+    `straight_add`, `straight_close` (`make_path_straight`)."""
+    t = types_for(precision)
+    scalar, vec3 = t.scalar, t.vec3
+    cells = make_path_cells(precision, thresholds, points, with_map)
+    Track, Tally, Reach = cells.Track, cells.Tally, cells.Reach
+    walk_chord = make_path_walk(precision, thresholds, points, with_map).walk
+    farther = make_path_span(precision, thresholds, points, with_map).farther
+    K, ON, MAP, TERRAIN = max(thresholds, 1), thresholds > 0, with_map, terrain
+    ZERO, ONE = scalar(0.0), scalar(1.0)
+
+    # With a map, a phase's consecutive steps along one line (`straight_*`): each threshold's stretch
+    # one interval of their chord, its reach (at the interval's ends) and its walk across the map's
+    # cells taken where the phase ends; a step only adds its levels to theirs. Not over a terrain (its
+    # height is not linear along a chord); without a map each step is watched at once (`line`, `segment`).
+    STRAIGHT = ON and MAP and not TERRAIN
+    fields = {"length": scalar}  # m along the chord (< 0: none pending)
+    if STRAIGHT:
+        fields.update({"a": vec3, "b": vec3, "lo": Reach, "hi": Reach})  # its ends; threshold i's [lo_i, hi_i] (m)
+    Straight = wp.struct(
+        type(
+            "Straight",
+            (),
+            {"__annotations__": fields, "__module__": __name__, "__qualname__": "make_path_watch.<locals>.Straight"},
+        )
+    )
+
+    @wp.func
+    def straight_open():
+        """No steps pending."""
+        pending = Straight()
+        pending.length = scalar(-1.0)
+        return pending
+
+    @wp.func
+    def straight_settle(track: Track, tally: Tally, pending: Straight):
+        """The pending steps' reach (the farthest of each interval's ends: the distance from the
+        shooter is convex along a line) and their walk across the map's cells; then none pending."""
+        if wp.static(STRAIGHT):
+            if pending.length >= ZERO and track.cell != ESCAPED:
+                inv = ZERO
+                if pending.length > ZERO:
+                    inv = ONE / pending.length
+                lo = Reach()
+                hi = Reach()
+                for i in range(wp.static(K)):
+                    lo[i] = ONE
+                    hi[i] = ZERO
+                    if pending.lo[i] <= pending.hi[i]:
+                        lo[i] = wp.min(pending.lo[i] * inv, ONE)
+                        hi[i] = wp.min(pending.hi[i] * inv, ONE)
+                        track = farther(track, tally, i, pending.a + lo[i] * (pending.b - pending.a))
+                        track = farther(track, tally, i, pending.a + hi[i] * (pending.b - pending.a))
+                if wp.static(MAP):
+                    track = walk_chord(track, tally, pending.a, pending.b, lo, hi)
+        pending.length = scalar(-1.0)
+        return track, pending
+
+    @wp.func
+    def straight_close(track: Track, tally: Tally, pending: Straight):
+        """`straight_settle` (before any other watch of the pellet, and where the phase ends)."""
+        if wp.static(STRAIGHT):
+            here = lanes_here()
+            track, pending = straight_settle(track, tally, pending)
+            meet(here)  # the lanes that came in together leave together (`physics.lanes`)
+        return track, pending
+
+    @wp.func
+    def straight_add(track: Track, tally: Tally, pending: Straight, x0: vec3, xb: vec3, length: scalar, lo: Reach, hi: Reach):
+        """Add a step's chord x0 -> xb (`length` m; threshold i exceeded on [lo_i, hi_i] of it) to
+        the pending steps', whose chord it continues; where a threshold would be exceeded again
+        after it was not, theirs settled first and a new chord begun. Returns (track, pending)."""
+        s0 = pending.length
+        for i in range(wp.static(K)):
+            if lo[i] <= hi[i] and pending.lo[i] <= pending.hi[i] and pending.hi[i] < s0:
+                s0 = scalar(-1.0)
+        if s0 < ZERO:
+            if pending.length >= ZERO:
+                track, pending = straight_close(track, tally, pending)
+            s0 = ZERO
+            pending.a = x0
+            for i in range(wp.static(K)):
+                pending.lo[i] = ONE
+                pending.hi[i] = ZERO
+        for i in range(wp.static(K)):
+            if lo[i] <= hi[i]:
+                if pending.lo[i] > pending.hi[i]:
+                    pending.lo[i] = s0 + lo[i] * length
+                pending.hi[i] = s0 + hi[i] * length
+        pending.length = s0 + length
+        pending.b = xb
+        return track, pending
+
+    if STRAIGHT:
+        out_of_line_on_cuda(straight_close)
+    return SimpleNamespace(
+        Straight=Straight,
+        straight_open=straight_open,
+        straight_add=straight_add,
+        straight_close=straight_close,
+        STRAIGHT=STRAIGHT,
+    )
+
+
+@functools.cache
+def make_path_straight(precision: str, thresholds: int, points: int, with_map: bool, terrain: bool = False) -> SimpleNamespace:
+    """`straight_step` and `straight_segment`: the watch of a phase's steps along a line, gathered
+    (`make_path_pending`) with a map, else each at once (`line`, `segment` of `make_path_lines`)."""
+    t = types_for(precision)
+    scalar, vec3 = t.scalar, t.vec3
+    cells = make_path_cells(precision, thresholds, points, with_map)
+    Track, Tally, Reach, near_places = cells.Track, cells.Tally, cells.Reach, cells.near_places
+    lines = make_path_lines(precision, thresholds, points, with_map, terrain)
+    line, segment, line_stretch = lines.line, lines.segment, lines.line_stretch
+    pending_of = make_path_pending(precision, thresholds, points, with_map, terrain)
+    Straight, straight_add, straight_close, STRAIGHT = (
+        pending_of.Straight, pending_of.straight_add, pending_of.straight_close, pending_of.STRAIGHT
+    )  # fmt: skip
+    roots = make_path_roots(precision)
+    height, speed2_at, speed_root = roots.height, roots.speed2_at, roots.speed_root
+    hermite_vec = make_dense_output(precision).hermite_vec
+    K, HAS_POINTS = max(thresholds, 1), points > 0
+    ZERO, ONE = scalar(0.0), scalar(1.0)
+
+    @wp.func
+    def straight_step(
+        track: Track, tally: Tally, pending: Straight, x0: vec3, direction: vec3, length: scalar, v0: scalar, a: scalar, b: scalar
+    ):
+        """`line` of one step of a phase along `direction` (every step of the phase along the same
+        line, each starting where the last ended): within body height at an end, its levels added
+        to the pending steps' (`straight_add`; named places at once); else theirs settled, then
+        `line` (without `STRAIGHT`: `line`). Returns (track, pending)."""
+        if wp.static(not STRAIGHT):
+            return line(track, tally, x0, direction, length, v0, a, b), pending
+        if wp.static(STRAIGHT):
+            if track.cell != ESCAPED:
+                xb = x0 + length * direction
+                if height(tally, x0) > ZERO and height(tally, xb) > ZERO:
+                    track, pending = straight_close(track, tally, pending)
+                    track = line(track, tally, x0, direction, length, v0, a, b)
+                else:
+                    lo, hi = line_stretch(tally, length, v0, a, b)
+                    track, pending = straight_add(track, tally, pending, x0, xb, length, lo, hi)
+                    if wp.static(HAS_POINTS):
+                        track = near_places(track, tally, x0, xb, lo, hi)
+        return track, pending
+
+    @wp.func
+    def straight_crossing(
+        track: Track, tally: Tally, pending: Straight, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3, h: scalar
+    ):
+        """`straight_segment`'s step across a threshold's speed, or above body height at an end:
+        within it at both ends, its levels (the crossings' roots as `span`'s) added to the pending
+        steps'; else theirs settled, then `segment`. Returns (track, pending)."""
+        here = lanes_here()
+        merged = wp.int32(0)
+        if height(tally, x0) <= ZERO and height(tally, x1) <= ZERO:
+            merged = wp.int32(1)
+            inv_h2 = ONE / (h * h)
+            va = speed2_at(ZERO, x0, d0, e0, x1, d1, e1, inv_h2)
+            vb = speed2_at(ONE, x0, d0, e0, x1, d1, e1, inv_h2)
+            length = wp.length(x1 - x0)
+            lo = Reach()
+            hi = Reach()
+            for i in range(tally.path_thresholds):  # (as `span`'s one part over [0, 1])
+                target = tally.thresholds2[i]
+                lo[i] = ONE
+                hi[i] = ZERO  # empty
+                if va >= target and vb >= target:
+                    lo[i] = ZERO
+                    hi[i] = ONE
+                elif va >= target or vb >= target:
+                    theta = speed_root(ZERO, ONE, target, x0, d0, e0, x1, d1, e1, inv_h2)
+                    xc, _sc = hermite_vec(theta, x0, d0, e0, x1, d1, e1)
+                    lam = ZERO
+                    if length > ZERO:
+                        lam = wp.min(wp.length(xc - x0) / length, ONE)
+                    if va >= target:
+                        lo[i] = ZERO
+                        hi[i] = lam
+                    else:
+                        lo[i] = lam
+                        hi[i] = ONE
+            track, pending = straight_add(track, tally, pending, x0, x1, length, lo, hi)
+            if wp.static(HAS_POINTS):
+                track = near_places(track, tally, x0, x1, lo, hi)
+        meet(here)  # the lanes that came in together leave together (`physics.lanes`)
+        if merged == 0:
+            track, pending = straight_close(track, tally, pending)
+            track = segment(track, tally, x0, d0, e0, x1, d1, e1, h, ONE)
+        return track, pending
+
+    @wp.func
+    def straight_segment(
+        track: Track, tally: Tally, pending: Straight, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3, h: scalar
+    ):
+        """`segment` of one step of a phase along a line (the time Hermite of its ends along it,
+        moving on along it at both ends; its speed taken monotone): within body height at both
+        ends (over the ground plane: throughout) and across no threshold's speed, its levels (each
+        threshold exceeded throughout or nowhere) added to the pending steps'; else
+        `straight_crossing` (without `STRAIGHT`: `segment`). Returns (track, pending)."""
+        if wp.static(not STRAIGHT):
+            return segment(track, tally, x0, d0, e0, x1, d1, e1, h, ONE), pending
+        if wp.static(STRAIGHT):
+            if track.cell != ESCAPED and h > ZERO:
+                forward = wp.dot(d0, x1 - x0) > ZERO and wp.dot(d1, x1 - x0) >= ZERO
+                if not forward:
+                    track, pending = straight_close(track, tally, pending)
+                    track = segment(track, tally, x0, d0, e0, x1, d1, e1, h, ONE)
+                    return track, pending
+                inv_h2 = ONE / (h * h)
+                va = wp.dot(d0, d0) * inv_h2  # (the Hermite's slopes at its ends)
+                vb = wp.dot(d1, d1) * inv_h2
+                quick = height(tally, x0) <= ZERO and height(tally, x1) <= ZERO
+                lo = Reach()
+                hi = Reach()
+                for i in range(wp.static(K)):
+                    target = tally.thresholds2[i]
+                    lo[i] = ONE
+                    hi[i] = ZERO
+                    if va >= target and vb >= target:
+                        lo[i] = ZERO
+                        hi[i] = ONE
+                    elif va >= target or vb >= target:
+                        quick = False
+                if quick:
+                    track, pending = straight_add(track, tally, pending, x0, x1, wp.length(x1 - x0), lo, hi)
+                    if wp.static(HAS_POINTS):
+                        track = near_places(track, tally, x0, x1, lo, hi)
+                else:
+                    track, pending = straight_crossing(track, tally, pending, x0, d0, e0, x1, d1, e1, h)
+        return track, pending
+
+    if STRAIGHT:
+        out_of_line_on_cuda(straight_crossing)
+    return SimpleNamespace(straight_step=straight_step, straight_segment=straight_segment)
+
+
+@functools.cache
+def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool, terrain: bool = False) -> SimpleNamespace:
+    """`make_path_lines`' watch (`Track`, `start`, `segment`, `line`, `finish`, ...) with the
+    steps of a phase along a line (`Straight`, `straight_open`, `straight_step`,
+    `straight_segment`, `straight_close`)."""
+    pending = make_path_pending(precision, thresholds, points, with_map, terrain)
+    return SimpleNamespace(
+        **vars(make_path_lines(precision, thresholds, points, with_map, terrain)),
+        **vars(make_path_straight(precision, thresholds, points, with_map, terrain)),
+        Straight=pending.Straight,
+        straight_open=pending.straight_open,
+        straight_close=pending.straight_close,
     )
