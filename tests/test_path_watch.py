@@ -105,7 +105,31 @@ def _watch_kernel(precision, places, terrain=False):
         w.write(track, reach_out, i)
         w.finish(track, tally, i)
 
-    return watch_parabolas, watch_lines, watch_steps
+    @wp.kernel
+    def watch_hermite_steps(
+        tally: w.Tally,
+        x0: wp.array2d(dtype=t.vec3),
+        direction: t.vec3,
+        dt: wp.array2d(dtype=t.scalar),
+        v0: wp.array2d(dtype=t.scalar),
+        decel: wp.array2d(dtype=t.scalar),
+        reach_out: wp.array2d(dtype=t.scalar),
+    ):
+        i = wp.tid()
+        track = w.start()
+        pending = w.straight_open()
+        for k in range(dt.shape[1]):
+            h = dt[i, k]
+            d0 = (h * v0[i, k]) * direction
+            e0 = (-h * h * decel[i, k]) * direction
+            x1 = x0[i, k] + (h * v0[i, k] - t.scalar(0.5) * decel[i, k] * h * h) * direction
+            d1 = (h * (v0[i, k] - decel[i, k] * h)) * direction
+            track, pending = w.straight_segment(track, tally, pending, x0[i, k], d0, e0, x1, d1, e0, h)
+        track, pending = w.straight_close(track, tally, pending)
+        w.write(track, reach_out, i)
+        w.finish(track, tally, i)
+
+    return watch_parabolas, watch_lines, watch_steps, watch_hermite_steps
 
 
 def _reference_reach(x0, v0, dt, v2):
@@ -170,7 +194,7 @@ def test_reach_of_parabolas_is_the_closed_form(device, precision):
     rng = np.random.default_rng(26)
     n = 256
     x0, v0, dt = _random_parabolas(rng, n)
-    parabolas, _lines, _steps = _watch_kernel(precision, 0)
+    parabolas, _lines, _steps, _hermite = _watch_kernel(precision, 0)
     inputs = _flights(x0, v0, dt, precision, device)
     _tally, reach = _run(parabolas, _setup(), precision, device, inputs, n)
     length = np.linalg.norm(v0, axis=1) * dt  # about the path's length
@@ -268,7 +292,7 @@ def test_passes_are_the_cells_entered_by_level(device, precision, heading):
     v0 = speed[:, None] * np.column_stack([np.cos(side), np.zeros(n), np.sin(side)])
     dt = np.minimum(0.25, 30.0 / speed)  # it falls at most 0.31 m: within body height
     setup = _setup()
-    parabolas, _lines, _steps = _watch_kernel(precision, 0)
+    parabolas, _lines, _steps, _hermite = _watch_kernel(precision, 0)
     inputs = _flights(x0, v0, dt, precision, device)
     tally, _reach = _run(parabolas, setup, precision, device, inputs, n)
     got = tally.counts["exposure"].numpy().reshape(setup.levels, setup.cells + 2).astype(np.int64)
@@ -283,7 +307,7 @@ def test_places_count_the_pellets_that_pass_within_their_radius(device):
     precision = "float64"
     places = (("near", (20.0, 0.0, 0.3), 0.25), ("far", (20.0, 0.0, -0.3), 0.25))
     setup = _setup(places=places)
-    parabolas, _lines, _steps = _watch_kernel(precision, len(places))
+    parabolas, _lines, _steps, _hermite = _watch_kernel(precision, len(places))
     x0 = np.array([[0.0, 1.0, 0.1], [0.0, 1.0, 0.1]])
     v0 = np.array([[100.0, 0.0, 0.0], [60.0, 0.0, 0.0]])  # above 80 m/s and between 30 and 80 m/s
     inputs = _flights(x0, v0, [0.5, 0.5], precision, device)
@@ -332,7 +356,7 @@ def test_straight_stretches_pass_the_cells_entered_by_level(device, precision, h
     direction = np.array([math.cos(angle), 0.0, math.sin(angle)])
     length, v0 = rng.uniform(2.0, 60.0, n), rng.uniform(20.0, 200.0, n)
     setup = _setup()
-    _parabolas, lines, _steps = _watch_kernel(precision, 0)
+    _parabolas, lines, _steps, _hermite = _watch_kernel(precision, 0)
     inputs = [
         wp.array(x0, dtype=t.vec3, device=device),
         t.vec3(*direction),
@@ -348,33 +372,43 @@ def test_straight_stretches_pass_the_cells_entered_by_level(device, precision, h
     np.testing.assert_array_equal(got, want)
 
 
-def _reference_step_passes(x0, heading, lengths, v0s, a, b, setup):
-    """(level, column) passes of pellets moving along `heading` on the ground in steps (lengths,
-    their starting speeds v0s: per step the speed falls as a + b v^2 = (a + b v0^2) exp(-2 b s) from
-    its own v0): each cell entered once along the whole line, at its entry's level in its step."""
+def _reference_step_passes(x0, heading, lengths, setup, level_at, within=None):
+    """(level, column) passes of pellets moving along `heading` in steps of `lengths` (m) from x0:
+    each cell entered once along the line, at `level_at(i, k, into)` (pellet i, step k, m into it);
+    a step not `within[i, k]` body height enters none, and the next cell after it counts again."""
     counts = np.zeros((setup.levels, setup.cells + 2), dtype=np.int64)
-    speeds = np.sqrt(np.asarray(setup.thresholds2))
-    for x, steps, starts in zip(x0, lengths, v0s):
+    for i, (x, steps) in enumerate(zip(x0, lengths)):
         ends = np.cumsum(steps)
         total = ends[-1]
-        times = [0.0]
+        times = [0.0] + list(ends[:-1])  # (a step's start: where a pass may begin again)
         for axis, start, size in ((0, setup.map_u0, setup.map_cell), (2, setup.map_v0, setup.map_cell)):
             if heading[axis] != 0:
                 lo, hi = sorted(((x[axis] - start) / size, (x[axis] + heading[axis] * total - start) / size))
                 times += [(start + j * size - x[axis]) / heading[axis] for j in range(math.floor(lo) + 1, math.floor(hi) + 1)]
         last = None
-        for s in sorted(times):
+        for s in sorted(set(times)):
             k = min(int(np.searchsorted(ends, s, side="right")), len(steps) - 1)
-            into = s - (ends[k] - steps[k])  # m into step k
-            v = starts[k]
-            level = sum(1 for c in speeds if v >= c and into <= math.log((a + b * v * v) / (a + b * c * c)) / (2 * b))
+            if within is not None and not within[i, k]:
+                last = None
+                continue
             q = x + heading * (s + 1e-9)  # just past the edge crossed at s
             iu, iv = math.floor((q[0] - setup.map_u0) / setup.map_cell), math.floor((q[2] - setup.map_v0) / setup.map_cell)
             column = iv * setup.map_nu + iu if 0 <= iu < setup.map_nu and 0 <= iv < setup.map_nv else setup.cells
             if column != last:
-                counts[level, column] += 1
+                counts[level_at(i, k, s - (ends[k] - steps[k])), column] += 1
                 last = column
     return counts
+
+
+def _law_level(v0s, a, b):
+    """`_reference_step_passes`' level under the law a + b v^2 = (a + b v0^2) exp(-2 b s) of each step."""
+    speeds = np.sqrt(np.asarray([s * s for s in SPEEDS]))
+
+    def level_at(i, k, into):
+        v = v0s[i, k]
+        return sum(1 for c in speeds if v >= c and into <= math.log((a + b * v * v) / (a + b * c * c)) / (2 * b))
+
+    return level_at
 
 
 @pytest.mark.parametrize("precision,heading", [("float64", 0.0), ("float32", 7.0), ("float64", 120.0)])
@@ -400,7 +434,7 @@ def test_a_phase_s_steps_walked_as_one_chord_pass_the_cells_entered_by_level(dev
     jumps = rng.uniform(size=(n, m)) < 0.15  # faster than the last step ended
     v0[jumps] *= 1.6
     setup = _setup()
-    _parabolas, _lines, steps = _watch_kernel(precision, 0)
+    _parabolas, _lines, steps, _hermite = _watch_kernel(precision, 0)
     inputs = [
         wp.array(x0, dtype=t.vec3, device=device),
         t.vec3(*direction),
@@ -411,7 +445,7 @@ def test_a_phase_s_steps_walked_as_one_chord_pass_the_cells_entered_by_level(dev
     ]
     tally, reach = _run(steps, setup, precision, device, inputs, n)
     got = tally.counts["exposure"].numpy().reshape(setup.levels, setup.cells + 2).astype(np.int64)
-    want = _reference_step_passes(x0, direction, lengths, v0, a, b, setup)
+    want = _reference_step_passes(x0, direction, lengths, setup, _law_level(v0, a, b))
     assert jumps.sum() > 10 and want[:, : setup.cells].sum() > 10 * n
     np.testing.assert_array_equal(got, want)
     for i in range(n):
@@ -429,6 +463,88 @@ def test_a_phase_s_steps_walked_as_one_chord_pass_the_cells_entered_by_level(dev
                 assert math.isnan(reach[i, j])
 
 
+@pytest.mark.parametrize("precision,heading", [("float64", 0.0), ("float32", 11.0), ("float64", 200.0)])
+def test_a_phase_s_hermite_steps_walked_as_one_chord_pass_the_cells_entered_by_level(device, precision, heading):
+    """A phase's steps given as time Hermites along a line (`straight_segment`), of constant
+    acceleration (the Hermite is the motion): slowing or speeding up across thresholds inside a step
+    (`straight_crossing`'s roots), a step starting slower than the last ended (a threshold reached
+    again inside a step after a drop begins a new chord), a step above body height now and then (watched alone: no pass, the next cell counted again): every cell
+    entered counted once with the level at its entry, and the reach, as the closed form says."""
+    t = types_for(precision)
+    rng = np.random.default_rng(17)
+    n, m = 48, 6
+    start = np.column_stack([rng.uniform(-4.0, 60.0, n), np.zeros(n), rng.uniform(-12.0, 12.0, n)])
+    start += 1e-3 * rng.uniform(size=(n, 3))  # off the cell edges
+    angle = math.radians(heading)
+    direction = np.array([math.cos(angle), 0.0, math.sin(angle)])
+    dt = rng.uniform(0.01, 0.12, (n, m))
+    v0 = np.empty((n, m))
+    decel = rng.uniform(-300.0, 900.0, (n, m))  # m/s^2: most slow down, some speed up
+    v0[:, 0] = rng.uniform(20.0, 200.0, n)
+    drops = rng.uniform(size=(n, m)) < 0.25  # a step that starts slower than the last ended, then speeds up past it
+    drops[:, 0] = False
+    for k in range(m):
+        decel[:, k] = np.minimum(decel[:, k], 0.9 * v0[:, k] / dt[:, k])  # moving on throughout
+        if k > 0:
+            ended = v0[:, k - 1] - decel[:, k - 1] * dt[:, k - 1]
+            v0[:, k] = np.where(drops[:, k], 0.6 * ended, ended)
+            decel[:, k] = np.where(drops[:, k], -1.5 * (ended - v0[:, k]) / dt[:, k], decel[:, k])
+            decel[:, k] = np.minimum(decel[:, k], 0.9 * v0[:, k] / dt[:, k])
+    lengths = v0 * dt - 0.5 * decel * dt * dt
+    within = rng.uniform(size=(n, m)) > 0.1
+    height = np.where(within, 0.00125, 2.5)  # m: 2.5 m is above body height (1.8 m)
+    x0 = np.empty((n, m, 3))
+    for k in range(m):
+        x0[:, k] = start + (np.cumsum(lengths, axis=1)[:, k] - lengths[:, k])[:, None] * direction
+        x0[:, k, 1] = height[:, k]
+    setup = _setup()
+    *_others, hermite = _watch_kernel(precision, 0)
+    inputs = [
+        wp.array(x0, dtype=t.vec3, device=device),
+        t.vec3(*direction),
+        wp.array(dt, dtype=t.scalar, device=device),
+        wp.array(v0, dtype=t.scalar, device=device),
+        wp.array(decel, dtype=t.scalar, device=device),
+    ]
+    tally, reach = _run(hermite, setup, precision, device, inputs, n)
+    got = tally.counts["exposure"].numpy().reshape(setup.levels, setup.cells + 2).astype(np.int64)
+
+    def level_at(i, k, into):
+        v = math.sqrt(max(v0[i, k] ** 2 - 2.0 * decel[i, k] * into, 0.0))
+        return sum(1 for c in SPEEDS if v >= c)
+
+    want = _reference_step_passes(start, direction, lengths, setup, level_at, within)
+    ended = np.column_stack([np.full(n, np.inf), (v0 - decel * dt)[:, :-1]])
+    gaps = [
+        (i, k)
+        for i in range(n)
+        for k in range(1, m)
+        if within[i, k] and any(ended[i, k] >= c > v0[i, k] and v0[i, k] - decel[i, k] * dt[i, k] >= c for c in SPEEDS)
+    ]
+    rising = (
+        (decel < 0)
+        & within
+        & np.array([[any(v0[i, k] < c <= v0[i, k] - decel[i, k] * dt[i, k] for c in SPEEDS) for k in range(m)] for i in range(n)])
+    )
+    assert rising.sum() >= 5 and len(gaps) >= 5 and (~within).sum() >= 10 and want[:, : setup.cells].sum() > 10 * n
+    np.testing.assert_array_equal(got, want)
+    for i in range(n):
+        for j, c in enumerate(SPEEDS):
+            far = []
+            for k in range(m):
+                v_end = v0[i, k] - decel[i, k] * dt[i, k]
+                if (v0[i, k] < c and v_end < c) or not within[i, k]:  # (above body height: no reach)
+                    continue
+                # the stretch of the step above c: from its start or the crossing, to its end or the crossing
+                cross = (v0[i, k] ** 2 - c * c) / (2.0 * decel[i, k]) if (v0[i, k] >= c) != (v_end >= c) else None
+                ends = [0.0 if v0[i, k] >= c else cross, lengths[i, k] if v_end >= c else cross]
+                far += [np.hypot(*(x0[i, k] + direction * e)[[0, 2]]) for e in ends]
+            if far:
+                assert reach[i, j] == pytest.approx(max(far), rel=2e-5 if precision == "float32" else 1e-9)
+            else:
+                assert math.isnan(reach[i, j])
+
+
 @pytest.mark.parametrize("precision", ["float64", "float32"])
 def test_rolling_with_ploughing_reaches_where_its_speed_falls_to_the_threshold(device, precision):
     """v' = -(a + b v^2) along a line: the reach of threshold v_i is at
@@ -438,7 +554,7 @@ def test_rolling_with_ploughing_reaches_where_its_speed_falls_to_the_threshold(d
     v0 = np.array([200.0, 120.0, 50.0, 20.0])
     length = np.array([40.0, 300.0, 300.0, 300.0])
     x0 = np.array([[5.0, 0.00125, 0.0]] * 4)
-    _parabolas, lines, _steps = _watch_kernel(precision, 0)
+    _parabolas, lines, _steps, _hermite = _watch_kernel(precision, 0)
     inputs = [
         wp.array(x0, dtype=t.vec3, device=device),
         t.vec3(1.0, 0.0, 0.0),

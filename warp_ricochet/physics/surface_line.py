@@ -169,13 +169,15 @@ def make_surface_line(
         if line.stops != 0 and line.slope > ZERO:
             if wp.static(ROUGH):
                 return watcher.line(track, tally, x0, e, h, v0, line.offset, line.slope), pending
-            return watcher.straight_step(track, tally, pending, x0, e, h, v0, line.offset, line.slope)
+            if wp.static(not ROUGH):
+                return watcher.straight_step(track, tally, pending, x0, e, h, v0, line.offset, line.slope)
         d0 = (dt * v0) * e
         e0 = (-dt * dt * line.decel) * e
         e1 = (-dt * dt * d1) * e
         if wp.static(ROUGH):
             return watcher.segment(track, tally, x0, d0, e0, x1, (dt * v1) * e, e1, dt, ONE), pending
-        return watcher.straight_segment(track, tally, pending, x0, d0, e0, x1, (dt * v1) * e, e1, dt)
+        if wp.static(not ROUGH):
+            return watcher.straight_segment(track, tally, pending, x0, d0, e0, x1, (dt * v1) * e, e1, dt)
 
     @wp.func
     def land_margin(h: scalar, m0: scalar, m1: scalar, y0: state, f0: state, physics: Physics, line: Line, mu_s: scalar):
@@ -530,7 +532,8 @@ def make_line_integrator(
                     break
                 h = h * wp.clamp(scalar(0.9) * wp.pow(wp.max(error, scalar(1e-10)), scalar(-0.2)), scalar(0.2), growth)
                 growth = scalar(5.0)
-        track, _pending = sl.straight_close(track, tally, pending)
+        if wp.static(not ROUGH):  # (rough: each step watched at once)
+            track, _pending = sl.straight_close(track, tally, pending)
         return position, v * line.direction, spin_of(v, spin, line, radius), elapsed, s, event, k_next, steps, track
 
     return SimpleNamespace(Line=Line, line_of=sl.line_of, integrate_line=integrate_line)

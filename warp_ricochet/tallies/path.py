@@ -474,7 +474,7 @@ def make_path_pending(precision: str, thresholds: int, points: int, with_map: bo
         type(
             "Straight",
             (),
-            {"__annotations__": fields, "__module__": __name__, "__qualname__": "make_path_watch.<locals>.Straight"},
+            {"__annotations__": fields, "__module__": __name__, "__qualname__": "make_path_pending.<locals>.Straight"},
         )
     )
 
@@ -491,17 +491,17 @@ def make_path_pending(precision: str, thresholds: int, points: int, with_map: bo
         shooter is convex along a line) and their walk across the map's cells; then none pending."""
         if wp.static(STRAIGHT):
             if pending.length >= ZERO and track.cell != ESCAPED:
-                inv = ZERO
-                if pending.length > ZERO:
-                    inv = ONE / pending.length
                 lo = Reach()
                 hi = Reach()
                 for i in range(wp.static(K)):
                     lo[i] = ONE
                     hi[i] = ZERO
                     if pending.lo[i] <= pending.hi[i]:
-                        lo[i] = wp.min(pending.lo[i] * inv, ONE)
-                        hi[i] = wp.min(pending.hi[i] * inv, ONE)
+                        lo[i] = ZERO
+                        hi[i] = ZERO
+                        if pending.length > ZERO:
+                            lo[i] = wp.min(pending.lo[i] / pending.length, ONE)
+                            hi[i] = wp.min(pending.hi[i] / pending.length, ONE)
                         track = farther(track, tally, i, pending.a + lo[i] * (pending.b - pending.a))
                         track = farther(track, tally, i, pending.a + hi[i] * (pending.b - pending.a))
                 if wp.static(MAP):
@@ -522,10 +522,12 @@ def make_path_pending(precision: str, thresholds: int, points: int, with_map: bo
     def straight_add(track: Track, tally: Tally, pending: Straight, x0: vec3, xb: vec3, length: scalar, lo: Reach, hi: Reach):
         """Add a step's chord x0 -> xb (`length` m; threshold i exceeded on [lo_i, hi_i] of it) to
         the pending steps', whose chord it continues; where a threshold would be exceeded again
-        after it was not, theirs settled first and a new chord begun. Returns (track, pending)."""
+        after it was not (its interval would have a gap), theirs settled first and a new chord
+        begun. A step of negative length (a phase begun past its target) adds none. Returns
+        (track, pending)."""
         s0 = pending.length
         for i in range(wp.static(K)):
-            if lo[i] <= hi[i] and pending.lo[i] <= pending.hi[i] and pending.hi[i] < s0:
+            if lo[i] <= hi[i] and pending.lo[i] <= pending.hi[i] and pending.hi[i] < s0 + lo[i] * length:
                 s0 = scalar(-1.0)
         if s0 < ZERO:
             if pending.length >= ZERO:
@@ -540,7 +542,7 @@ def make_path_pending(precision: str, thresholds: int, points: int, with_map: bo
                 if pending.lo[i] > pending.hi[i]:
                     pending.lo[i] = s0 + lo[i] * length
                 pending.hi[i] = s0 + hi[i] * length
-        pending.length = s0 + length
+        pending.length = s0 + wp.max(length, ZERO)
         pending.b = xb
         return track, pending
 
