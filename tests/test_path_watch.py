@@ -317,29 +317,6 @@ def test_places_count_the_pellets_that_pass_within_their_radius(device):
     np.testing.assert_array_equal(counts[:, 0], [0, 1, 1, 0])  # levels 1 (60 m/s) and 2 (100 m/s)
 
 
-def _reference_line_passes(x0, heading, length, v0, a, b, setup):
-    """(level, column) passes of straight stretches along `heading` on the ground, their speed
-    falling as a + b v^2 = (a + b v0^2) exp(-2 b s): each cell entered once, at its entry's level."""
-    counts = np.zeros((setup.levels, setup.cells + 2), dtype=np.int64)
-    speeds = np.sqrt(np.asarray(setup.thresholds2))
-    for x, d, v in zip(x0, length, v0):
-        reach = [min(math.log((a + b * v * v) / (a + b * s * s)) / (2 * b), d) if v >= s else -1.0 for s in speeds]
-        times = [0.0]
-        for axis, start, size in ((0, setup.map_u0, setup.map_cell), (2, setup.map_v0, setup.map_cell)):
-            if heading[axis] != 0:
-                lo, hi = sorted(((x[axis] - start) / size, (x[axis] + heading[axis] * d - start) / size))
-                times += [(start + j * size - x[axis]) / heading[axis] for j in range(math.floor(lo) + 1, math.floor(hi) + 1)]
-        last = None
-        for s in sorted(times):
-            q = x + heading * (s + 1e-9)  # just past the edge crossed at s
-            iu, iv = math.floor((q[0] - setup.map_u0) / setup.map_cell), math.floor((q[2] - setup.map_v0) / setup.map_cell)
-            column = iv * setup.map_nu + iu if 0 <= iu < setup.map_nu and 0 <= iv < setup.map_nv else setup.cells
-            if column != last:
-                counts[sum(1 for r in reach if s <= r), column] += 1
-                last = column
-    return counts
-
-
 @pytest.mark.parametrize(
     "precision,heading", [("float64", 0.0), ("float32", 7.0), ("float64", 90.0), ("float64", 183.0), ("float64", 250.0)]
 )
@@ -367,7 +344,7 @@ def test_straight_stretches_pass_the_cells_entered_by_level(device, precision, h
     ]
     tally, _reach = _run(lines, setup, precision, device, inputs, n)
     got = tally.counts["exposure"].numpy().reshape(setup.levels, setup.cells + 2).astype(np.int64)
-    want = _reference_line_passes(x0, direction, length, v0, a, b, setup)
+    want = _reference_step_passes(x0, direction, length[:, None], setup, _law_level(v0[:, None], a, b))
     assert want[:, : setup.cells].sum() > 10 * n  # (runs along the rows, and off the grid too)
     np.testing.assert_array_equal(got, want)
 

@@ -275,8 +275,7 @@ def make_path_lines(precision: str, thresholds: int, points: int, with_map: bool
     scalar, vec3 = t.scalar, t.vec3
     cells = make_path_cells(precision, thresholds, points, with_map)
     Track, Tally, Reach, flush = cells.Track, cells.Tally, cells.Reach, cells.flush
-    walks = make_path_walk(precision, thresholds, points, with_map)
-    chord = walks.chord
+    chord = make_path_walk(precision, thresholds, points, with_map).chord
     MAP, TERRAIN = with_map, terrain
     terrain = make_terrain_walk(precision, make_path_curve(precision, thresholds, points, with_map).crossing)
     hermite_vec = make_dense_output(precision).hermite_vec
@@ -443,7 +442,6 @@ def make_path_lines(precision: str, thresholds: int, points: int, with_map: bool
         parabola=parabola,
         line=line,
         line_stretch=line_stretch,
-        farther=farther,
         finish=finish,
         ON=ON,
     )
