@@ -461,12 +461,11 @@ def test_a_phase_s_hermite_steps_walked_as_one_chord_pass_the_cells_entered_by_l
     drops = rng.uniform(size=(n, m)) < 0.25  # a step that starts slower than the last ended, then speeds up past it
     drops[:, 0] = False
     for k in range(m):
-        decel[:, k] = np.minimum(decel[:, k], 0.9 * v0[:, k] / dt[:, k])  # moving on throughout
         if k > 0:
             ended = v0[:, k - 1] - decel[:, k - 1] * dt[:, k - 1]
             v0[:, k] = np.where(drops[:, k], 0.6 * ended, ended)
             decel[:, k] = np.where(drops[:, k], -1.5 * (ended - v0[:, k]) / dt[:, k], decel[:, k])
-            decel[:, k] = np.minimum(decel[:, k], 0.9 * v0[:, k] / dt[:, k])
+        decel[:, k] = np.minimum(decel[:, k], 0.9 * v0[:, k] / dt[:, k])  # moving on throughout
     lengths = v0 * dt - 0.5 * decel * dt * dt
     within = rng.uniform(size=(n, m)) > 0.1
     height = np.where(within, 0.00125, 2.5)  # m: 2.5 m is above body height (1.8 m)
