@@ -7,8 +7,8 @@ import pytest
 import warp as wp
 
 from warp_ricochet.physics.inlining import CUDA_NOINLINE, out_of_line_on_cuda
-from warp_ricochet.tallies.path import make_path_watch
 from warp_ricochet.tallies.path_cells import make_path_cells
+from warp_ricochet.tallies.path_chord import make_path_watch
 
 
 @wp.func

@@ -71,7 +71,7 @@ def _line_kernel(precision, model, laws, noise):
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
     fns = make_line_integrator(precision, 1, model, laws, (0, 0, False), noise)
-    from warp_ricochet.tallies.path import make_path_watch
+    from warp_ricochet.tallies.path_chord import make_path_watch
 
     watcher = make_path_watch(precision, 0, 0, False)
 

@@ -21,7 +21,7 @@ from warp_ricochet.reference import path_hazard as ph
 from warp_ricochet.reference.terrain import TerrainHeight
 from warp_ricochet.scene.terrain import grid_triangles
 from warp_ricochet.tallies.counts import DeviceTally, TallySetup
-from warp_ricochet.tallies.path import make_path_watch
+from warp_ricochet.tallies.path_chord import make_path_watch
 from warp_ricochet.tallies.terrain_ground import TerrainGrid
 
 G = 9.81

@@ -24,7 +24,7 @@ from ..physics.ground_contact import make_ground_contact
 from ..physics.types import types_for
 from ..tallies.accumulate import make_accumulators
 from ..tallies.landing import make_add_landing, make_landing_tally
-from ..tallies.path import make_path_watch
+from ..tallies.path_chord import make_path_watch
 from ..tallies.path_keep import make_path_keep
 from ..tallies.sums import REST as X_REST
 from .outputs import make_outputs

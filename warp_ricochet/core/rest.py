@@ -48,7 +48,7 @@ from ..physics.surface_follow import FLIGHT as LIFTS_OFF
 from ..physics.surface_follow import FOREVER, REST, make_surface_follow
 from ..physics.surface_motion import make_surface_laws
 from ..physics.types import types_for
-from ..tallies.path import make_path_watch
+from ..tallies.path_chord import make_path_watch
 
 CONTACT, SURFACE, FLIGHT = 0, 1, 2  # the modes of `to_rest`
 # what it ended as before: DONE_ESCAPED, DONE_NOT_FINISHED, DONE_EMBEDDED (ended in the core's landing part)

@@ -33,7 +33,8 @@ import warp as wp
 
 from ..physics.air import make_air_laws
 from ..physics.air_flight import GAVE_UP, make_air_flight, make_plane_search
-from ..tallies.path import ESCAPED, make_path_watch
+from ..tallies.path import ESCAPED
+from ..tallies.path_chord import make_path_watch
 from ..tallies.path_keep import make_path_keep
 from ..tallies.path_roots import make_path_roots
 from .kit import dense_kit

@@ -52,7 +52,8 @@ def make_flight(
         raise ValueError(f"flight model {model!r}: must be one of {MODELS}")
     if model == "air":
         return _air_flight(precision, planes, laws, watch, plates, out_of_line)
-    from ..tallies.path import make_path_roots, make_path_watch  # (tallies imports physics: not at the top)
+    from ..tallies.path import make_path_roots  # (tallies imports physics: not at the top)
+    from ..tallies.path_chord import make_path_watch  # (tallies imports physics: not at the top)
 
     watcher, ground = make_path_watch(precision, *watch), make_path_roots(precision)
     Track, Tally = watcher.Track, watcher.Tally

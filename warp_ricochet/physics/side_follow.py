@@ -332,7 +332,7 @@ def make_side_follow(
 ) -> SimpleNamespace:
     """`leans(surfaces, k, g)` and `follow_side` (module docstring) for `surface_follow.follow`'s
     arguments; `watch_start` is its integrator's (the surfaces other than k watched at a phase's start)."""
-    from ..tallies.path import make_path_watch  # (tallies imports physics: not at the top)
+    from ..tallies.path_chord import make_path_watch  # (tallies imports physics: not at the top)
     from .cylinder_contact import make_cylinder_contact
 
     watcher = make_path_watch(precision, *watch)

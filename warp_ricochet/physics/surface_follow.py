@@ -274,7 +274,7 @@ def make_surface_integrator(
 ) -> SimpleNamespace:
     """`integrate_phase`: one sliding or rolling phase integrated to its end (module docstring),
     each accepted step given to `tallies.path`'s watch of `watch` = (thresholds, places, map)."""
-    from ..tallies.path import make_path_watch  # (tallies imports physics: not at the top)
+    from ..tallies.path_chord import make_path_watch  # (tallies imports physics: not at the top)
 
     watcher = make_path_watch(precision, *watch)
     Track, Tally = watcher.Track, watcher.Tally
@@ -460,7 +460,7 @@ def make_surface_follow(
     flight model ("ballistic": vacuum; "air" with `laws` = (drag, lift, spin_decay) of `physics.air`);
     the path is watched by `tallies.path`'s watch of `watch` = (thresholds, places, map); not
     `rough` (no rough ground), only straight phases go over the distance (`surface_line`)."""
-    from ..tallies.path import make_path_watch  # (tallies imports physics: not at the top)
+    from ..tallies.path_chord import make_path_watch  # (tallies imports physics: not at the top)
 
     watcher = make_path_watch(precision, *watch)
     Track, Tally = watcher.Track, watcher.Tally

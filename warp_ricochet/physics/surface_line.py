@@ -100,7 +100,7 @@ def make_surface_line(
     """The helpers of `integrate_line` (module docstring), each accepted step given to
     `tallies.path`'s watch of `watch`; not `rough`, for straight phases only; `plates`: the
     surfaces may hold plates, meshes and posts (`geometry.make_geometry`), kept at `line_ahead.free_of`."""
-    from ..tallies.path import make_path_watch  # (tallies imports physics: not at the top)
+    from ..tallies.path_chord import make_path_watch  # (tallies imports physics: not at the top)
 
     watcher = make_path_watch(precision, *watch)
     Track, Tally, Straight = watcher.Track, watcher.Tally, watcher.Straight
@@ -170,14 +170,14 @@ def make_surface_line(
             if wp.static(ROUGH):
                 return watcher.line(track, tally, x0, e, h, v0, line.offset, line.slope), pending
             if wp.static(not ROUGH):
-                return watcher.straight_step(track, tally, pending, x0, e, h, v0, line.offset, line.slope)
+                return watcher.straight_step(track, tally, pending, x0, e, h, v0, v1, line.offset, line.slope)
         d0 = (dt * v0) * e
         e0 = (-dt * dt * line.decel) * e
         e1 = (-dt * dt * d1) * e
         if wp.static(ROUGH):
             return watcher.segment(track, tally, x0, d0, e0, x1, (dt * v1) * e, e1, dt, ONE), pending
         if wp.static(not ROUGH):
-            return watcher.straight_segment(track, tally, pending, x0, d0, e0, x1, (dt * v1) * e, e1, dt)
+            return watcher.straight_segment(track, tally, pending, x0, d0, e0, x1, (dt * v1) * e, e1, dt, v0, v1)
 
     @wp.func
     def land_margin(h: scalar, m0: scalar, m1: scalar, y0: state, f0: state, physics: Physics, line: Line, mu_s: scalar):
@@ -533,7 +533,7 @@ def make_line_integrator(
                 h = h * wp.clamp(scalar(0.9) * wp.pow(wp.max(error, scalar(1e-10)), scalar(-0.2)), scalar(0.2), growth)
                 growth = scalar(5.0)
         if wp.static(not ROUGH):  # (rough: each step watched at once)
-            track, _pending = sl.straight_close(track, tally, pending)
+            track, _pending = sl.straight_close(track, tally, pending, position)
         return position, v * line.direction, spin_of(v, spin, line, radius), elapsed, s, event, k_next, steps, track
 
     return SimpleNamespace(Line=Line, line_of=sl.line_of, integrate_line=integrate_line)

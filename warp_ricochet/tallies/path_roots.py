@@ -1,5 +1,6 @@
 """On a path segment's Hermite quintic (`tallies.path`): the height over body height above a ground
-plane and its rate, v^2, and where they cross (bisection, to rounding); where an escape's watch
+plane and its rate, v^2, and where they cross (bisection, to rounding; along a line, a safeguarded
+Newton on the speed); where an escape's watch
 stops (docs/hazard.md section 11, "Escapes")."""
 
 import functools
@@ -22,7 +23,8 @@ def make_path_roots(precision: str) -> SimpleNamespace:
     Tally = make_landing_tally(precision).Tally
     hermite_vec = make_dense_output(precision).hermite_vec
     ITERATIONS = 30 if precision == "float32" else 60
-    ZERO = scalar(0.0)
+    TOLERANCE = scalar(4e-7) if precision == "float32" else scalar(1e-15)  # theta's Newton steps
+    ZERO, ONE = scalar(0.0), scalar(1.0)
 
     @wp.func
     def height_over(tally: Tally, gp: vec3, gn: vec3, x: vec3):
@@ -99,6 +101,36 @@ def make_path_roots(precision: str) -> SimpleNamespace:
         return b
 
     @wp.func
+    def along_root(w: scalar, p0: scalar, a0: scalar, length: scalar, p1: scalar, a1: scalar):
+        """theta in [0, 1] where the slope of the quintic Hermite along a line (0 and `length` at
+        its ends, slopes p0, p1 and second derivatives a0, a1 per unit theta: `hermite`'s basis in
+        powers of theta) equals w, taken crossed once: Newton's steps kept inside the bracket,
+        else bisection (Numerical Recipes' rtsafe), to rounding. Returns (theta, the distance along
+        the line there, m)."""
+        c3 = scalar(10.0) * length - scalar(6.0) * p0 - scalar(4.0) * p1 - scalar(1.5) * a0 + scalar(0.5) * a1
+        c4 = scalar(-15.0) * length + scalar(8.0) * p0 + scalar(7.0) * p1 + scalar(1.5) * a0 - a1
+        c5 = scalar(6.0) * length - scalar(3.0) * p0 - scalar(3.0) * p1 - scalar(0.5) * a0 + scalar(0.5) * a1
+        lo = ZERO
+        hi = ONE
+        rising = p1 > p0
+        theta = wp.clamp((w - p0) / (p1 - p0), ZERO, ONE)
+        for _ in range(ITERATIONS):
+            f = p0 + theta * (a0 + theta * (scalar(3.0) * c3 + theta * (scalar(4.0) * c4 + theta * scalar(5.0) * c5))) - w
+            df = a0 + theta * (scalar(6.0) * c3 + theta * (scalar(12.0) * c4 + theta * scalar(20.0) * c5))
+            if (f < ZERO) == rising:
+                lo = theta
+            else:
+                hi = theta
+            step = theta - f / df
+            if not (step > lo and step < hi):
+                step = scalar(0.5) * (lo + hi)
+            done = wp.abs(step - theta) <= TOLERANCE
+            theta = step
+            if done:
+                break
+        return theta, theta * (p0 + theta * (scalar(0.5) * a0 + theta * (c3 + theta * (c4 + theta * c5))))
+
+    @wp.func
     def ground_theta(tally: Tally, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3):
         """On a step that ends below the hazard's ground plane and falling: where an escape's watch
         stops (docs/hazard.md section 11): its crossing of the plane from above if it starts above
@@ -160,5 +192,6 @@ def make_path_roots(precision: str) -> SimpleNamespace:
         height_root=height_root,
         apex=apex,
         speed_root=speed_root,
+        along_root=along_root,
         ground_theta=ground_theta,
     )
