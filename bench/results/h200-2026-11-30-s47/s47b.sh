@@ -1,0 +1,19 @@
+#!/usr/bin/env bash
+# session 47, call 2: where the reach's cost is. C (the reach alone marked only where something changes),
+# hacks (not committed): HA (C, no fallback calls from the light steps, light_event and close inlined),
+# HB (C, no fallback calls), HC (C, no surface step watched). bench.path cost 1e7 alternated twice.
+set -u
+out=${OUT:-/tmp/out}; mkdir -p $out
+root=$PWD
+inn() { local t=$1; shift; (cd $root/.gpu/b/exp/$t && WARP_CACHE_PATH=/tmp/wc_$t PYTHONPATH=/tmp/site:$PWD "$@") 2>&1; }
+filt() { grep -v "^Warp \|CUDA Toolkit\|Devices:\|Kernel cache\|\.cache/warp\|\"cpu\"\|\"cuda:0\"\|^Module \|^{\|/tmp/wc_\|PrecisionWarning\|return _compute\|warnings.warn"; }
+start=$(date +%s)
+for t in C HA HB HC; do
+  ( inn $t timeout 200 python3 -m bench.path cost --device cuda:0 --sizes 1e5 --repeats 1 > $out/warm-path-$t.txt ) &
+done; wait
+for t in C HA HB HC; do tail -n 2 $out/warm-path-$t.txt; done
+echo "warm-up $(( $(date +%s) - start )) s" | tee $out/times.txt
+for r in 1 2; do for t in C HA HB HC; do
+  inn $t timeout 60 python3 -m bench.path cost --device cuda:0 --sizes 1e7 --repeats 1 | filt | grep "N 1e" | sed "s/^/$r $t: /"
+done; done 2>&1 | tee $out/path.txt
+echo "done $(( $(date +%s) - start )) s" | tee -a $out/times.txt
