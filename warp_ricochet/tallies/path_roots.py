@@ -8,7 +8,7 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from ..physics.ballistic import MAX_FLIGHT_TIME
+from ..physics.ballistic import EPSILON, MAX_FLIGHT_TIME
 from ..physics.integrate import make_dense_output
 from ..physics.types import types_for
 from .landing import make_landing_tally
@@ -21,9 +21,10 @@ def make_path_roots(precision: str) -> SimpleNamespace:
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
     Tally = make_landing_tally(precision).Tally
-    hermite_vec = make_dense_output(precision).hermite_vec
+    hermite, hermite_vec = make_dense_output(precision).hermite, make_dense_output(precision).hermite_vec
     ITERATIONS = 30 if precision == "float32" else 60
     TOLERANCE = scalar(4e-7) if precision == "float32" else scalar(1e-15)  # theta's Newton steps
+    NOISE = 16.0 * EPSILON[precision]  # a slope this close to its target (relative to its terms) is a root
     ZERO, ONE = scalar(0.0), scalar(1.0)
 
     @wp.func
@@ -103,9 +104,10 @@ def make_path_roots(precision: str) -> SimpleNamespace:
     @wp.func
     def along_root(w: scalar, p0: scalar, a0: scalar, length: scalar, p1: scalar, a1: scalar):
         """theta in [0, 1] where the slope of the quintic Hermite along a line (0 and `length` at
-        its ends, slopes p0, p1 and second derivatives a0, a1 per unit theta: `hermite`'s basis in
-        powers of theta) equals w, taken crossed once: Newton's steps kept inside the bracket,
-        else bisection (Numerical Recipes' rtsafe), to rounding. Returns (theta, the distance along
+        its ends, slopes p0, p1 and second derivatives a0, a1 per unit theta) equals w, taken
+        crossed once: Newton's steps kept inside the bracket, else bisection (Numerical Recipes'
+        rtsafe), to rounding. The slope and the distance in `hermite`'s basis (its powers of theta
+        cancel in float32), its derivative in powers of theta. Returns (theta, the distance along
         the line there, m)."""
         c3 = scalar(10.0) * length - scalar(6.0) * p0 - scalar(4.0) * p1 - scalar(1.5) * a0 + scalar(0.5) * a1
         c4 = scalar(-15.0) * length + scalar(8.0) * p0 + scalar(7.0) * p1 + scalar(1.5) * a0 - a1
@@ -114,8 +116,12 @@ def make_path_roots(precision: str) -> SimpleNamespace:
         hi = ONE
         rising = p1 > p0
         theta = wp.clamp((w - p0) / (p1 - p0), ZERO, ONE)
+        noise = scalar(NOISE) * (wp.abs(p0) + wp.abs(p1) + wp.abs(a0) + wp.abs(a1) + wp.abs(length))  # the slope's rounding
         for _ in range(ITERATIONS):
-            f = p0 + theta * (a0 + theta * (scalar(3.0) * c3 + theta * (scalar(4.0) * c4 + theta * scalar(5.0) * c5))) - w
+            _s, slope = hermite(theta, ZERO, p0, a0, length, p1, a1)
+            f = slope - w
+            if wp.abs(f) <= noise:
+                break
             df = a0 + theta * (scalar(6.0) * c3 + theta * (scalar(12.0) * c4 + theta * scalar(20.0) * c5))
             if (f < ZERO) == rising:
                 lo = theta
@@ -128,7 +134,8 @@ def make_path_roots(precision: str) -> SimpleNamespace:
             theta = step
             if done:
                 break
-        return theta, theta * (p0 + theta * (scalar(0.5) * a0 + theta * (c3 + theta * (c4 + theta * c5))))
+        s, _slope = hermite(theta, ZERO, p0, a0, length, p1, a1)
+        return theta, s
 
     @wp.func
     def ground_theta(tally: Tally, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3):
