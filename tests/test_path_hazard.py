@@ -46,6 +46,7 @@ SCENES = {  # (plane normal, ground, air, launched from the plane)
     "vacuum": ((0.0, 1.0, 0.0), GROUND, False, False),
     "air": ((0.02, 1.0, -0.01), GROUND, True, False),
     "sliding": ((0.0, 1.0, 0.0), PLOUGHED, False, True),
+    "sliding-air": ((0.0, 1.0, 0.0), GROUND, True, True),  # (along a line over the distance: `physics.surface_line`)
 }
 PELLETS = 8
 # named places along the launches' directions (within 30 deg of +x), of radii 1.5 to 30 m (area / (2 x 1.8
@@ -70,6 +71,8 @@ def _launches(kind, rng, n, normal):
         if SCENES[kind][3]:
             x, v = R * normal + rng.uniform(-1, 1, 3) * [1, 0, 1], rng.uniform(2, 40) * along
             x += (R - x @ normal) * normal
+            if SCENES[kind][2]:  # in air: no spin, so that the slip stays along the line (`physics.surface_line`)
+                w = np.zeros(3)
         else:
             angle = math.radians(rng.uniform(-20, 10))
             x = (R + rng.uniform(0.05, 3.0)) * normal
@@ -78,8 +81,9 @@ def _launches(kind, rng, n, normal):
     return out
 
 
-def _run(tmp_path, kind, precision, launches):
-    """Run the launches to rest with the hazard's map and thresholds; its file."""
+def _run(tmp_path, kind, precision, launches, alone=False):
+    """Run the launches to rest with the hazard's map and thresholds (`alone`: the thresholds only,
+    no map and no named places: the reach alone's watch, `tallies.path_chord.make_path_light`); its file."""
     normal, ground, air, _ = SCENES[kind]
     path = tmp_path / f"{kind}-{precision}.npz"
     np.savez(
@@ -90,12 +94,12 @@ def _run(tmp_path, kind, precision, launches):
         "surfaces": [{"point": [0.0, 0.0, 0.0], "normal": list(normal), **ground}],
         "physics": {"impact_duration": 0.0, "until": "rest", "rest_speed": 0.2},
         "numerics": {"precision": precision},
-        "hazard": {"speed": dict(SPEEDS), "shooter": list(SHOOTER), **MAP, "points": PLACES},
+        "hazard": {"speed": dict(SPEEDS), "shooter": list(SHOOTER), **({} if alone else {**MAP, "points": PLACES})},
         "output": {"fields": ["rest", "hazard"]},
     }
     if air:
         raw["air"] = {"density": 1.225}
-    out = tmp_path / f"{kind}-{precision}.h5"
+    out = tmp_path / f"{kind}-{precision}{'-alone' if alone else ''}.h5"
     wr.run(scene_from_dict(raw), out, device="cpu")
     return out
 
@@ -174,18 +178,22 @@ def _bounds(passes, hazard, order):
     return lower, upper
 
 
-def _compare(out, normal, launches, paths, precision, least_places=3):
+def _compare(out, normal, launches, paths, precision, least_places=3, alone=None):
     """The run file's reach, maps and named places against the sampler's on `paths` ((path, samples,
-    path length) per launch); returns the sampler's passes."""
+    path length) per launch), and the reach of the run file `alone` (the same launches' reach alone);
+    returns the sampler's passes."""
     with h5py.File(out, "r") as f:
         hazard = _hazard(f, normal)
-        reach = f["pellets/hazard/reach"][()].astype(float)
+        reaches = [f["pellets/hazard/reach"][()].astype(float)]
         places = f["hazard/points/pellets"][()]  # (places, thresholds): pellets passing above each
         kernel = {
             "passes": f["hazard/map/passes"][()],
             "exposure": f["hazard/map/exposure"][()],
             "outside": f["hazard/map/exposure_outside"][()],
         }
+    if alone is not None:
+        with h5py.File(alone, "r") as f:
+            reaches.append(f["pellets/hazard/reach"][()].astype(float))
     order = np.argsort(np.asarray(hazard.speeds), kind="stable")
     passes, flagged, bounded, levels = [], [], [], []
     for i, (path, samples, length) in enumerate(paths):
@@ -193,7 +201,7 @@ def _compare(out, normal, launches, paths, precision, least_places=3):
         tolerance = (CLOSE[precision] * scale, CLOSE[precision] * np.linalg.norm(launches[i][1]))
         rounding = (ROUNDING[precision] * scale, ROUNDING[precision] * np.linalg.norm(launches[i][1]))
         h = ph.hazard_of(path, hazard, tolerance, rounding, samples)
-        for j in range(len(hazard.speeds)):
+        for j, (which, reach) in ((j, r) for j in range(len(hazard.speeds)) for r in enumerate(reaches)):
             want, low, high = h.reach[j], h.reach_low[j], h.reach_high[j]
             if math.isnan(want):
                 assert math.isnan(reach[i, j]) or (high == high and reach[i, j] <= high + tolerance[0]), (i, j, reach[i, j])
@@ -202,7 +210,7 @@ def _compare(out, normal, launches, paths, precision, least_places=3):
                 bounded.append((i, j, low, high, reach[i, j]))
                 assert low - tolerance[0] <= reach[i, j] <= high + tolerance[0], (i, j, reach[i, j], low, high)
             else:
-                assert abs(reach[i, j] - want) <= tolerance[0], (i, j, reach[i, j], want, length)
+                assert abs(reach[i, j] - want) <= tolerance[0], (which, i, j, reach[i, j], want, length)
         passes += h.passes
         flagged += [(i, p) for p in h.passes if not p.certain]
         levels.append(ph.point_levels(path, hazard, samples))
@@ -235,7 +243,7 @@ def _compare(out, normal, launches, paths, precision, least_places=3):
 @pytest.mark.parametrize("precision", PRECISIONS)
 @pytest.mark.parametrize("kind", list(SCENES))
 def test_reach_and_exposure_match_the_brute_force_sampler(tmp_path, kind, precision):
-    rng = np.random.default_rng({"vacuum": 26, "air": 27, "sliding": 28}[kind])
+    rng = np.random.default_rng({"vacuum": 26, "air": 27, "sliding": 28, "sliding-air": 29}[kind])
     normal = SCENES[kind][0]
     launches = _launches(kind, rng, PELLETS, normal)
     out = _run(tmp_path, kind, precision, launches)
@@ -247,7 +255,8 @@ def test_reach_and_exposure_match_the_brute_force_sampler(tmp_path, kind, precis
         assert r.state == "rest"
         # the same pellet: it rests where the reference's does (tests/test_rest_core.py's bound)
         assert np.linalg.norm(position[i] - r.x) <= CLOSE[precision] * max(r.path_length, 1e-3), (i, position[i], r.x)
-    _compare(out, normal, launches, [(p, s, r.path_length) for r, p, s in references], precision)
+    alone = _run(tmp_path, kind, precision, launches, alone=True)  # (its reach: the same bound)
+    _compare(out, normal, launches, [(p, s, r.path_length) for r, p, s in references], precision, alone=alone)
 
 
 def _escapes(rng, n, normal):

@@ -85,29 +85,6 @@ def _watch_kernel(precision, places, terrain=False, with_map=True):
         w.finish(track, tally, i)
 
     @wp.kernel
-    def watch_steps(
-        tally: w.Tally,
-        x0: wp.array(dtype=t.vec3),
-        direction: t.vec3,
-        length: wp.array2d(dtype=t.scalar),
-        v0: wp.array2d(dtype=t.scalar),
-        v1: wp.array2d(dtype=t.scalar),
-        a: t.scalar,
-        b: t.scalar,
-        reach_out: wp.array2d(dtype=t.scalar),
-    ):
-        i = wp.tid()
-        track = w.start()
-        pending = w.straight_open()
-        x = x0[i]
-        for k in range(length.shape[1]):
-            track, pending = w.straight_step(track, tally, pending, x, direction, length[i, k], v0[i, k], v1[i, k], a, b)
-            x = x + length[i, k] * direction
-        track, pending = w.straight_close(track, tally, pending, x)
-        w.write(track, reach_out, i)
-        w.finish(track, tally, i)
-
-    @wp.kernel
     def watch_hermite_steps(
         tally: w.Tally,
         x0: wp.array2d(dtype=t.vec3),
@@ -134,7 +111,7 @@ def _watch_kernel(precision, places, terrain=False, with_map=True):
         w.write(track, reach_out, i)
         w.finish(track, tally, i)
 
-    return watch_parabolas, watch_lines, watch_steps, watch_hermite_steps
+    return watch_parabolas, watch_lines, watch_hermite_steps
 
 
 def _reference_reach(x0, v0, dt, v2):
@@ -199,7 +176,7 @@ def test_reach_of_parabolas_is_the_closed_form(device, precision):
     rng = np.random.default_rng(26)
     n = 256
     x0, v0, dt = _random_parabolas(rng, n)
-    parabolas, _lines, _steps, _hermite = _watch_kernel(precision, 0)
+    parabolas, _lines, _hermite = _watch_kernel(precision, 0)
     inputs = _flights(x0, v0, dt, precision, device)
     _tally, reach = _run(parabolas, _setup(), precision, device, inputs, n)
     length = np.linalg.norm(v0, axis=1) * dt  # about the path's length
@@ -297,7 +274,7 @@ def test_passes_are_the_cells_entered_by_level(device, precision, heading):
     v0 = speed[:, None] * np.column_stack([np.cos(side), np.zeros(n), np.sin(side)])
     dt = np.minimum(0.25, 30.0 / speed)  # it falls at most 0.31 m: within body height
     setup = _setup()
-    parabolas, _lines, _steps, _hermite = _watch_kernel(precision, 0)
+    parabolas, _lines, _hermite = _watch_kernel(precision, 0)
     inputs = _flights(x0, v0, dt, precision, device)
     tally, _reach = _run(parabolas, setup, precision, device, inputs, n)
     got = tally.counts["exposure"].numpy().reshape(setup.levels, setup.cells + 2).astype(np.int64)
@@ -312,7 +289,7 @@ def test_places_count_the_pellets_that_pass_within_their_radius(device):
     precision = "float64"
     places = (("near", (20.0, 0.0, 0.3), 0.25), ("far", (20.0, 0.0, -0.3), 0.25))
     setup = _setup(places=places)
-    parabolas, _lines, _steps, _hermite = _watch_kernel(precision, len(places))
+    parabolas, _lines, _hermite = _watch_kernel(precision, len(places))
     x0 = np.array([[0.0, 1.0, 0.1], [0.0, 1.0, 0.1]])
     v0 = np.array([[100.0, 0.0, 0.0], [60.0, 0.0, 0.0]])  # above 80 m/s and between 30 and 80 m/s
     inputs = _flights(x0, v0, [0.5, 0.5], precision, device)
@@ -338,7 +315,7 @@ def test_straight_stretches_pass_the_cells_entered_by_level(device, precision, h
     direction = np.array([math.cos(angle), 0.0, math.sin(angle)])
     length, v0 = rng.uniform(2.0, 60.0, n), rng.uniform(20.0, 200.0, n)
     setup = _setup()
-    _parabolas, lines, _steps, _hermite = _watch_kernel(precision, 0)
+    _parabolas, lines, _hermite = _watch_kernel(precision, 0)
     inputs = [
         wp.array(x0, dtype=t.vec3, device=device),
         t.vec3(*direction),
@@ -391,63 +368,6 @@ def _law_level(v0s, a, b):
         return sum(1 for c in speeds if v >= c and into <= math.log((a + b * v * v) / (a + b * c * c)) / (2 * b))
 
     return level_at
-
-
-@pytest.mark.parametrize("with_map", [True, False], ids=["map", "reach-alone"])
-@pytest.mark.parametrize("precision,heading", [("float64", 0.0), ("float32", 7.0), ("float64", 120.0)])
-def test_a_phase_s_steps_walked_as_one_chord_pass_the_cells_entered_by_level(device, precision, heading, with_map):
-    """A line phase's steps (`straight_step`, walked at once by `straight_close`) across a grid of
-    0.5 m cells: every cell entered counted once with the level at its entry, as the closed form
-    says step by step; a step that starts faster than the last ended (a threshold exceeded again
-    after it was not) begins a new chord. The reach is the farthest point above each threshold,
-    with a map and for the reach alone (`make_path_light`: marked only where something changes)."""
-    t = types_for(precision)
-    rng = np.random.default_rng(13)
-    n, m, a, b = 48, 6, 0.35, 0.02
-    x0 = np.column_stack([rng.uniform(-4.0, 60.0, n), np.full(n, 0.00125), rng.uniform(-12.0, 12.0, n)])
-    x0 += 1e-3 * rng.uniform(size=(n, 3))  # off the cell edges
-    angle = math.radians(heading)
-    direction = np.array([math.cos(angle), 0.0, math.sin(angle)])
-    lengths = rng.uniform(0.2, 12.0, (n, m))
-    lengths[::5, 2] = 0.0  # a step of no length
-    v0 = np.empty((n, m))
-    v1 = np.empty((n, m))  # each step's speed at its end under the law
-    jumps = rng.uniform(size=(n, m)) < 0.15  # faster than the last step ended
-    for k in range(m):
-        v0[:, k] = rng.uniform(20.0, 200.0, n) if k == 0 else np.where(jumps[:, k], 1.6, 1.0) * v1[:, k - 1]
-        fallen = (a + b * v0[:, k] ** 2) * np.exp(-2 * b * lengths[:, k])
-        v1[:, k] = np.sqrt(np.maximum(fallen - a, 0.0) / b)
-    setup = _setup()
-    _parabolas, _lines, steps, _hermite = _watch_kernel(precision, 0, with_map=with_map)
-    inputs = [
-        wp.array(x0, dtype=t.vec3, device=device),
-        t.vec3(*direction),
-        wp.array(lengths, dtype=t.scalar, device=device),
-        wp.array(v0, dtype=t.scalar, device=device),
-        wp.array(v1, dtype=t.scalar, device=device),
-        t.scalar(a),
-        t.scalar(b),
-    ]
-    tally, reach = _run(steps, setup, precision, device, inputs, n)
-    assert jumps[:, 1:].sum() > 10
-    if with_map:
-        got = tally.counts["exposure"].numpy().reshape(setup.levels, setup.cells + 2).astype(np.int64)
-        want = _reference_step_passes(x0, direction, lengths, setup, _law_level(v0, a, b))
-        assert want[:, : setup.cells].sum() > 10 * n
-        np.testing.assert_array_equal(got, want)
-    for i in range(n):
-        for j, c in enumerate(SPEEDS):
-            ends = np.cumsum(lengths[i]) - lengths[i]
-            far = [
-                np.hypot(*(x0[i] + direction * (e + f * min(math.log((a + b * v * v) / (a + b * c * c)) / (2 * b), d)))[[0, 2]])
-                for e, d, v in zip(ends, lengths[i], v0[i, :])
-                if v >= c and d > 0
-                for f in (0.0, 1.0)
-            ]
-            if far:
-                assert reach[i, j] == pytest.approx(max(far), rel=1e-5 if precision == "float32" else 1e-12)
-            else:
-                assert math.isnan(reach[i, j])
 
 
 @pytest.mark.parametrize("with_map", [True, False], ids=["map", "reach-alone"])
@@ -533,6 +453,42 @@ def test_a_phase_s_hermite_steps_walked_as_one_chord_pass_the_cells_entered_by_l
                 assert math.isnan(reach[i, j])
 
 
+# hand-made phases along x of constant-deceleration steps (from x, direction sign, each step's dt s,
+# start speed m/s and deceleration m/s^2) and the reach of the thresholds 30, 80, 150 m/s: a speed that
+# drops across thresholds between steps and never comes back (the stretch ends at the drop), one that
+# rises across 30 m/s inside a step moving toward the shooter (the stretch begins at the crossing,
+# 0.7375 m into it), a jump up then down (the stretch is the middle step)
+_HAND_MADE = {
+    "drop": (10.0, 1.0, [0.05, 0.05], [100.0, 20.0], [200.0, 20.0], [14.75, 14.75, math.nan]),
+    "rise": (20.0, -1.0, [0.05, 0.05], [29.0, 31.0], [-40.0, 200.0], [19.2625, math.nan, math.nan]),
+    "up-down": (10.0, 1.0, [0.05, 0.05, 0.05], [20.0, 100.0, 20.0], [20.0, 100.0, 20.0], [15.85, 15.85, math.nan]),
+}
+
+
+@pytest.mark.parametrize("case", list(_HAND_MADE))
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_hand_made_steps_reach_as_their_stretches_say(device, precision, case):
+    """Steps whose speed jumps between steps or rises inside one (`straight_segment`): the reach
+    alone (`make_path_light`) and the map's chord give each threshold's farthest stretch end."""
+    t = types_for(precision)
+    x, sign, dt, v0, decel, want = _HAND_MADE[case]
+    dt, v0, decel = np.array([dt]), np.array([v0]), np.array([decel])
+    lengths = v0 * dt - 0.5 * decel * dt * dt
+    starts = x + sign * (np.cumsum(lengths, axis=1) - lengths)
+    x0 = np.stack([starts, np.full_like(starts, 0.00125), np.zeros_like(starts)], axis=-1)
+    inputs = [
+        wp.array(x0, dtype=t.vec3, device=device),
+        t.vec3(sign, 0.0, 0.0),
+        wp.array(dt, dtype=t.scalar, device=device),
+        wp.array(v0, dtype=t.scalar, device=device),
+        wp.array(decel, dtype=t.scalar, device=device),
+    ]
+    for with_map in (False, True):
+        *_others, hermite = _watch_kernel(precision, 0, with_map=with_map)
+        _tally, reach = _run(hermite, _setup(), precision, device, inputs, 1)
+        np.testing.assert_allclose(reach[0], want, rtol=1e-6, err_msg=f"with_map={with_map}")
+
+
 @pytest.mark.parametrize("precision", ["float64", "float32"])
 def test_rolling_with_ploughing_reaches_where_its_speed_falls_to_the_threshold(device, precision):
     """v' = -(a + b v^2) along a line: the reach of threshold v_i is at
@@ -542,7 +498,7 @@ def test_rolling_with_ploughing_reaches_where_its_speed_falls_to_the_threshold(d
     v0 = np.array([200.0, 120.0, 50.0, 20.0])
     length = np.array([40.0, 300.0, 300.0, 300.0])
     x0 = np.array([[5.0, 0.00125, 0.0]] * 4)
-    _parabolas, lines, _steps, _hermite = _watch_kernel(precision, 0)
+    _parabolas, lines, _hermite = _watch_kernel(precision, 0)
     inputs = [
         wp.array(x0, dtype=t.vec3, device=device),
         t.vec3(1.0, 0.0, 0.0),
@@ -606,3 +562,35 @@ def test_a_watch_ended_by_an_escape_counts_nothing_more(device):
     assert np.isfinite(reach[:, 0]).all() and passes >= 2 * n and visits == n, (passes, visits)
     reach, passes, visits = found[1]
     assert np.isnan(reach).all() and passes == 0 and visits == 0, (passes, visits)
+
+
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_a_chord_of_the_reach_alone_after_an_escape_counts_nothing(device, precision):
+    """The reach alone's chord (`make_path_light`) of a track whose watch ended (cell ESCAPED): a
+    step within body height, above every threshold, leaves no reach, where the same step of a track
+    not ended reaches its end."""
+    t = types_for(precision)
+    w = make_path_watch(precision, len(SPEEDS), 0, False)
+
+    @wp.kernel
+    def steps_after(tally: w.Tally, ended: wp.int32, reach_out: wp.array2d(dtype=t.scalar)):
+        i = wp.tid()
+        track = w.start()
+        if ended != 0:
+            track.cell = wp.int32(ESCAPED)
+        pending = w.straight_open()
+        e = t.vec3(1.0, 0.0, 0.0)
+        x = t.vec3(10.0, 0.00125, 0.0)
+        h = t.scalar(0.01)
+        x1 = x + (h * t.scalar(199.0)) * e
+        d0 = (h * t.scalar(199.0)) * e
+        track, pending = w.straight_segment(track, tally, pending, x, d0, t.vec3(), x1, d0, t.vec3(), h, t.scalar(199.0), t.scalar(199.0))  # fmt: skip
+        track, pending = w.straight_close(track, tally, pending, x1)
+        w.write(track, reach_out, i)
+
+    for ended in (0, 1):
+        _tally, reach = _run(steps_after, _setup(), precision, device, [ended], 1)
+        if ended:
+            assert np.isnan(reach).all()
+        else:
+            np.testing.assert_allclose(reach[0], 10.0 + 0.01 * 199.0, rtol=1e-6)

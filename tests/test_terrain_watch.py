@@ -96,7 +96,7 @@ def _watch(precision, setup, x0, v0, dt, curve=None):
     t = types_for(precision)
     n = len(x0)
     if curve is None:
-        watch, _lines, _steps, _hermite = _watch_kernel(precision, len(setup.places), setup.terrain is not None)
+        watch, _lines, _hermite = _watch_kernel(precision, len(setup.places), setup.terrain is not None)
         inputs = [
             wp.array(x0, dtype=t.vec3, device="cpu"),
             wp.array(v0, dtype=t.vec3, device="cpu"),
@@ -400,7 +400,7 @@ def test_a_rolling_stretch_is_judged_over_the_terrain_below_it(precision):
     reach = {}
     for name, grid in (("raised", _grid(lambda x, z: 1.0 + 0.0 * x * z)), ("base", None)):
         setup = _setup(grid, places=())
-        _parabolas, lines, _steps, _hermite = _watch_kernel(precision, 0, grid is not None)
+        _parabolas, lines, _hermite = _watch_kernel(precision, 0, grid is not None)
         tally = DeviceTally(setup, precision, wp.get_device("cpu"), active=True)
         tally.start(None)
         out = wp.zeros((1, len(SPEEDS)), dtype=t.scalar, device="cpu")

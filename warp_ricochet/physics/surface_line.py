@@ -158,19 +158,15 @@ def make_surface_line(
 
     @wp.func
     def watch_step(track: Track, tally: Tally, pending: Straight, x0: vec3, x1: vec3, line: Line, h: scalar, dt: scalar, v0: scalar, v1: scalar, d1: scalar):  # fmt: skip
-        """Give the step (path h from x0 to x1) to the watch: along its chord, under the frozen law
-        (A, B > 0; not `rough`: added to the phase's steps `pending` along e), else the time
-        Hermite of its ends (the chord along e). Returns (track, pending)."""
+        """Give the step (path h from x0 to x1, dt s; speeds v0, v1 and decelerations `line.decel`,
+        d1 at its ends) to the watch as the time Hermite of its ends along its chord (quintic: the
+        integrated path to O(dt^6); not `rough`: added to the phase's steps `pending` along e).
+        Returns (track, pending)."""
         e = line.direction
         if wp.static(ROUGH):
             e = x1 - x0
             if wp.length(e) > ZERO:
                 e = e * (ONE / wp.length(e))
-        if line.stops != 0 and line.slope > ZERO:
-            if wp.static(ROUGH):
-                return watcher.line(track, tally, x0, e, h, v0, line.offset, line.slope), pending
-            if wp.static(not ROUGH):
-                return watcher.straight_step(track, tally, pending, x0, e, h, v0, v1, line.offset, line.slope)
         d0 = (dt * v0) * e
         e0 = (-dt * dt * line.decel) * e
         e1 = (-dt * dt * d1) * e

@@ -440,7 +440,6 @@ def make_path_lines(precision: str, thresholds: int, points: int, with_map: bool
         segment=segment,
         parabola=parabola,
         line=line,
-        line_stretch=line_stretch,
         finish=finish,
         ON=ON,
     )

@@ -1,10 +1,10 @@
-"""The watch of a surface phase's steps along one line (`physics.surface_line`), gathered along
-their common chord (docs/hazard.md, "A phase's steps as one chord"). With a map (`STRAIGHT`) each
-threshold's stretch is an interval of the chord, whose reach and walk across the map's cells are
-taken once where the phase ends. For the reach alone (`LIGHT`: no map, no named places, no terrain)
-a step is looked at only where something changes: where the chord begins, where the speed jumps or
-crosses a threshold's, where the chord ends. Else each step is watched at once (`tallies.path`'s
-`line`, `segment`)."""
+"""The watch of a surface phase's steps along one line (`physics.surface_line`: each step the time
+Hermite of its ends), gathered along their common chord (docs/hazard.md, "A phase's steps as one
+chord"). With a map (`STRAIGHT`) each threshold's stretch is an interval of the chord, whose reach
+and walk across the map's cells are taken once where the phase ends. For the reach alone (`LIGHT`:
+no map, no named places, no terrain) a step is looked at only where something changes: where the
+chord begins, where the speed jumps or crosses a threshold's, where the chord ends. Else each step is
+watched at once (`tallies.path`'s `segment`)."""
 
 import functools
 from types import SimpleNamespace
@@ -157,29 +157,29 @@ def make_path_pending(precision: str, thresholds: int, points: int, with_map: bo
 
 @functools.cache
 def make_path_light(precision: str, thresholds: int, points: int, with_map: bool, terrain: bool = False) -> SimpleNamespace:
-    """`light_step` and `light_segment`: the reach alone of a phase's steps along a line
-    (`make_path_pending`'s `LIGHT`). Each threshold's stretch along the chord begins where the
-    chord begins or the speed jumps above it, and ends where a step crosses its speed or the chord
-    ends (`straight_close`); the distance from the shooter is convex along a line, so those points
-    carry the stretch's reach. A step needs one look at its end speeds; the rest out of line."""
+    """`light_segment`: the reach alone of a phase's steps along a line (`make_path_pending`'s
+    `LIGHT`). Each threshold's stretches along the chord begin or end where the chord begins, where
+    the speed jumps between steps, where a step crosses its speed, or where the chord ends
+    (`straight_close`); the distance from the shooter is convex along a line, so those points carry
+    the stretches' reach. A step needs one look at its end speeds (the integrator's)."""
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
     cells = make_path_cells(precision, thresholds, points, with_map)
     Track, Tally = cells.Track, cells.Tally
     lines = make_path_lines(precision, thresholds, points, with_map, terrain)
-    line, segment, farther = lines.line, lines.segment, make_path_span(precision, thresholds, points, with_map).farther
+    segment, farther = lines.segment, make_path_span(precision, thresholds, points, with_map).farther
     pending_of = make_path_pending(precision, thresholds, points, with_map, terrain)
     Straight, straight_close, mark = pending_of.Straight, pending_of.straight_close, pending_of.mark
     roots = make_path_roots(precision)
     height, along_root = roots.height, roots.along_root
     K = max(thresholds, 1)
-    ZERO, ONE, TWO = scalar(0.0), scalar(1.0), scalar(2.0)
+    ZERO, ONE = scalar(0.0), scalar(1.0)
 
     @wp.func
     def changes(pending: Straight, v02: scalar, v12: scalar, tally: Tally):
-        """Whether a step from squared speed v02 to v12 (m^2/s^2) begins a chord, starts faster than
-        the pending steps end, or crosses a threshold's speed."""
-        out = pending.length < ZERO or v02 > pending.speed2
+        """Whether a step from squared speed v02 to v12 (m^2/s^2) begins a chord, starts at another
+        speed than the pending steps end, or crosses a threshold's speed."""
+        out = pending.length < ZERO or v02 != pending.speed2
         for i in range(wp.static(K)):
             target = tally.thresholds2[i]
             if (v02 >= target) != (v12 >= target):
@@ -187,56 +187,28 @@ def make_path_light(precision: str, thresholds: int, points: int, with_map: bool
         return out
 
     @wp.func
-    def light_event(
-        track: Track, tally: Tally, pending: Straight, x0: vec3, direction: vec3, length: scalar, v0: scalar, v1: scalar, a: scalar, b: scalar
-    ):  # fmt: skip
-        """`light_step`'s step where something changes: its start marked where a chord begins or
-        the speed jumped; each threshold it crosses marked at s_i = ln((a + b v0^2) / (a + b v_i^2))
-        / (2 b) (`line`'s law, at most its length). Returns (track, pending)."""
-        here = lanes_here()
-        v02 = v0 * v0
-        if pending.length < ZERO or v02 > pending.speed2:
+    def begin_mark(track: Track, tally: Tally, pending: Straight, x0: vec3, v02: scalar):
+        """A step's start x0 (squared speed v02) marked where a chord begins, or where the speed
+        jumps between steps (up: stretches begin there; down: they end there, at the faster of the
+        two speeds). Returns (track, pending), a chord pending."""
+        if pending.length < ZERO:
             track = mark(track, tally, x0, v02)
+        elif v02 != pending.speed2:
+            track = mark(track, tally, x0, wp.max(v02, pending.speed2))
         pending.length = ZERO
-        for i in range(wp.static(K)):
-            target = tally.thresholds2[i]
-            if v02 >= target and v1 * v1 < target:
-                s = wp.log((a + b * v02) / (a + b * target)) / (TWO * b)
-                track = farther(track, tally, i, x0 + (wp.min(s / length, ONE) * length) * direction)
-        meet(here)  # the lanes that came in together leave together (`physics.lanes`)
-        return track, pending
-
-    @wp.func
-    def light_step(
-        track: Track, tally: Tally, pending: Straight, x0: vec3, direction: vec3, length: scalar, v0: scalar, v1: scalar, a: scalar, b: scalar
-    ):  # fmt: skip
-        """`straight_step` for the reach alone (v1: the integrator's speed at its end, m/s): within
-        body height at both ends, pending (`light_event` where something changes); above it at an
-        end, the pending steps closed and the step watched alone (`line`). A step of no length
-        changes nothing. Returns (track, pending)."""
-        if track.cell != ESCAPED and length > ZERO:
-            if height(tally, x0) > ZERO or height(tally, x0 + length * direction) > ZERO:
-                track, pending = straight_close(track, tally, pending, x0)
-                track = line(track, tally, x0, direction, length, v0, a, b)
-            else:
-                if changes(pending, v0 * v0, v1 * v1, tally):
-                    track, pending = light_event(track, tally, pending, x0, direction, length, v0, v1, a, b)
-                pending.speed2 = v1 * v1
         return track, pending
 
     @wp.func
     def light_cross(
         track: Track, tally: Tally, pending: Straight, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3, h: scalar, v0: scalar, v1: scalar
     ):  # fmt: skip
-        """`light_segment`'s step where something changes: its start marked where a chord begins or
-        the speed jumped; each threshold whose speed it crosses marked at the crossing on its
-        Hermite (`along_root`). Returns (track, pending)."""
+        """`light_segment`'s step where something changes: its start marked (`begin_mark`); each
+        threshold whose speed it crosses marked at the crossing on its Hermite (`along_root`).
+        Returns (track, pending)."""
         here = lanes_here()
         v02 = v0 * v0
         v12 = v1 * v1
-        if pending.length < ZERO or v02 > pending.speed2:
-            track = mark(track, tally, x0, v02)
-        pending.length = ZERO
+        track, pending = begin_mark(track, tally, pending, x0, v02)
         length = wp.length(x1 - x0)
         u = (x1 - x0) * (ONE / length)
         for i in range(wp.static(K)):
@@ -267,19 +239,20 @@ def make_path_light(precision: str, thresholds: int, points: int, with_map: bool
                 track = segment(track, tally, x0, d0, e0, x1, d1, e1, h, ONE)
         return track, pending
 
-    return SimpleNamespace(light_step=light_step, light_segment=light_segment)
+    return SimpleNamespace(light_segment=light_segment)
 
 
 @functools.cache
 def make_path_straight(precision: str, thresholds: int, points: int, with_map: bool, terrain: bool = False) -> SimpleNamespace:
-    """`straight_step` and `straight_segment`: the watch of a phase's steps along a line, gathered
-    (`make_path_pending`) with a map, else each at once (`line`, `segment` of `make_path_lines`)."""
+    """`straight_segment`: the watch of a phase's steps along a line, gathered (`make_path_pending`)
+    with a map or for the reach alone (`make_path_light`), else each at once (`segment` of
+    `make_path_lines`)."""
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
     cells = make_path_cells(precision, thresholds, points, with_map)
     Track, Tally, Reach, near_places = cells.Track, cells.Tally, cells.Reach, cells.near_places
     lines = make_path_lines(precision, thresholds, points, with_map, terrain)
-    line, segment, line_stretch = lines.line, lines.segment, lines.line_stretch
+    segment = lines.segment
     pending_of = make_path_pending(precision, thresholds, points, with_map, terrain)
     Straight, straight_add, straight_close, STRAIGHT, LIGHT = (
         pending_of.Straight, pending_of.straight_add, pending_of.straight_close, pending_of.STRAIGHT, pending_of.LIGHT
@@ -289,32 +262,6 @@ def make_path_straight(precision: str, thresholds: int, points: int, with_map: b
     height, speed2_at, along_root = roots.height, roots.speed2_at, roots.along_root
     K, HAS_POINTS = max(thresholds, 1), points > 0
     ZERO, ONE = scalar(0.0), scalar(1.0)
-
-    @wp.func
-    def straight_step(
-        track: Track, tally: Tally, pending: Straight, x0: vec3, direction: vec3, length: scalar, v0: scalar, v1: scalar, a: scalar, b: scalar
-    ):  # fmt: skip
-        """`line` of one step of a phase along `direction` (every step of the phase along the same
-        line, each starting where the last ended; v0, v1 its end speeds, m/s): within body height
-        at an end, its levels added to the pending steps' (`straight_add`; named places at once);
-        else theirs settled, then `line`. For the reach alone `light_step`; without either, `line`.
-        Returns (track, pending)."""
-        if wp.static(LIGHT):
-            return light.light_step(track, tally, pending, x0, direction, length, v0, v1, a, b)
-        if wp.static(not STRAIGHT):
-            return line(track, tally, x0, direction, length, v0, a, b), pending
-        if wp.static(STRAIGHT):
-            if track.cell != ESCAPED:
-                xb = x0 + length * direction
-                if height(tally, x0) > ZERO and height(tally, xb) > ZERO:
-                    track, pending = straight_close(track, tally, pending, x0)
-                    track = line(track, tally, x0, direction, length, v0, a, b)
-                else:
-                    lo, hi = line_stretch(tally, length, v0, a, b)
-                    track, pending = straight_add(track, tally, pending, x0, xb, length, lo, hi)
-                    if wp.static(HAS_POINTS):
-                        track = near_places(track, tally, x0, xb, lo, hi)
-        return track, pending
 
     @wp.func
     def straight_crossing(
@@ -408,14 +355,14 @@ def make_path_straight(precision: str, thresholds: int, points: int, with_map: b
 
     if STRAIGHT:
         out_of_line_on_cuda(straight_crossing)
-    return SimpleNamespace(straight_step=straight_step, straight_segment=straight_segment)
+    return SimpleNamespace(straight_segment=straight_segment)
 
 
 @functools.cache
 def make_path_watch(precision: str, thresholds: int, points: int, with_map: bool, terrain: bool = False) -> SimpleNamespace:
     """`make_path_lines`' watch (`Track`, `start`, `segment`, `line`, `finish`, ...) with the
-    steps of a phase along a line (`Straight`, `straight_open`, `straight_step`,
-    `straight_segment`, `straight_close`)."""
+    steps of a phase along a line (`Straight`, `straight_open`, `straight_segment`,
+    `straight_close`)."""
     pending = make_path_pending(precision, thresholds, points, with_map, terrain)
     return SimpleNamespace(
         **vars(make_path_lines(precision, thresholds, points, with_map, terrain)),
