@@ -418,8 +418,12 @@ def make_line_integrator(
                 if rate < ZERO and q <= finish * scale:  # the rest of the way to first order
                     ds = q / (-rate)
                     dt = ds * slow
+                    ends = wp.sqrt(wp.max(v * v - TWO * decel * ds, ZERO))  # (watched at constant deceleration over ds)
+                    watched = dt
+                    if v + ends > ZERO:
+                        watched = TWO * ds / (v + ends)
                     track, pending = watch_step(
-                        track, tally, pending, position, position + ds * e, line, ds, dt, v, v - decel * dt, decel
+                        track, tally, pending, position, position + ds * e, line, ds, watched, v, ends, decel
                     )
                     position = position + ds * e
                     s += ds

@@ -24,7 +24,7 @@ def make_path_roots(precision: str) -> SimpleNamespace:
     hermite, hermite_vec = make_dense_output(precision).hermite, make_dense_output(precision).hermite_vec
     ITERATIONS = 30 if precision == "float32" else 60
     TOLERANCE = scalar(4e-7) if precision == "float32" else scalar(1e-15)  # theta's Newton steps
-    NOISE = 16.0 * EPSILON[precision]  # a slope this close to its target (relative to its terms) is a root
+    NOISE = 2.0 * EPSILON[precision]  # a slope this close to its target (relative to its terms) is a root
     ZERO, ONE = scalar(0.0), scalar(1.0)
 
     @wp.func
