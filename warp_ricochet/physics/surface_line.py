@@ -157,8 +157,8 @@ def make_surface_line(
         return integrated
 
     @wp.func
-    def watch_step(track: Track, tally: Tally, pending: Straight, x0: vec3, x1: vec3, line: Line, h: scalar, dt: scalar, v0: scalar, v1: scalar, d1: scalar):  # fmt: skip
-        """Give the step (path h from x0 to x1, dt s; speeds v0, v1 and decelerations `line.decel`,
+    def watch_step(track: Track, tally: Tally, pending: Straight, x0: vec3, x1: vec3, line: Line, dt: scalar, v0: scalar, v1: scalar, d1: scalar):  # fmt: skip
+        """Give the step (from x0 to x1, dt s; speeds v0, v1 and decelerations `line.decel`,
         d1 at its ends) to the watch as the time Hermite of its ends along its chord (quintic: the
         integrated path to O(dt^6); not `rough`: added to the phase's steps `pending` along e).
         Returns (track, pending)."""
@@ -422,9 +422,7 @@ def make_line_integrator(
                     watched = dt
                     if v + ends > ZERO:
                         watched = TWO * ds / (v + ends)
-                    track, pending = watch_step(
-                        track, tally, pending, position, position + ds * e, line, ds, watched, v, ends, decel
-                    )
+                    track, pending = watch_step(track, tally, pending, position, position + ds * e, line, watched, v, ends, decel)
                     position = position + ds * e
                     s += ds
                     elapsed += dt
@@ -503,7 +501,7 @@ def make_line_integrator(
                             event = wp.int32(HANDOVER)
                             running = wp.int32(0)
                             break
-                track, pending = watch_step(track, tally, pending, position, x1, line, h, dt, v, v1, dec1)
+                track, pending = watch_step(track, tally, pending, position, x1, line, dt, v, v1, dec1)
                 position = x1
                 s += h
                 elapsed += dt

@@ -37,7 +37,7 @@ def make_path_pending(precision: str, thresholds: int, points: int, with_map: bo
     # With a map, a phase's consecutive steps along one line (`straight_*`): each threshold's stretch
     # one interval of their chord, its reach (at the interval's ends) and its walk across the map's
     # cells taken where the phase ends; a step only adds its levels to theirs. Not over a terrain (its
-    # height is not linear along a chord); without a map each step is watched at once (`line`, `segment`).
+    # height is not linear along a chord), nor for named places without a map: each step at once (`segment`).
     # For the reach alone (`LIGHT`: no map, no named places, no terrain) the steps need no more than
     # their end's squared speed: each threshold's reach is marked where the chord begins, where a step
     # crosses its speed and where the chord ends (`make_path_light`).
@@ -119,8 +119,7 @@ def make_path_pending(precision: str, thresholds: int, points: int, with_map: bo
         """Add a step's chord x0 -> xb (`length` m; threshold i exceeded on [lo_i, hi_i] of it) to
         the pending steps', whose chord it continues; where a threshold would be exceeded again
         after it was not (its interval would have a gap), theirs settled first and a new chord
-        begun. A step of negative length (a phase begun past its target) adds none. Returns
-        (track, pending)."""
+        begun. Returns (track, pending)."""
         s0 = pending.length
         for i in range(wp.static(K)):
             if lo[i] <= hi[i] and pending.lo[i] <= pending.hi[i] and pending.hi[i] < s0 + lo[i] * length:
@@ -171,7 +170,7 @@ def make_path_light(precision: str, thresholds: int, points: int, with_map: bool
     pending_of = make_path_pending(precision, thresholds, points, with_map, terrain)
     Straight, straight_close, mark = pending_of.Straight, pending_of.straight_close, pending_of.mark
     roots = make_path_roots(precision)
-    height, along_root = roots.height, roots.along_root
+    height, chord_root = roots.height, roots.chord_root
     K = max(thresholds, 1)
     ZERO, ONE = scalar(0.0), scalar(1.0)
 
@@ -203,18 +202,16 @@ def make_path_light(precision: str, thresholds: int, points: int, with_map: bool
         track: Track, tally: Tally, pending: Straight, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3, h: scalar, v0: scalar, v1: scalar
     ):  # fmt: skip
         """`light_segment`'s step where something changes: its start marked (`begin_mark`); each
-        threshold whose speed it crosses marked at the crossing on its Hermite (`along_root`).
+        threshold whose speed it crosses marked at the crossing on its Hermite (`chord_root`).
         Returns (track, pending)."""
         here = lanes_here()
         v02 = v0 * v0
         v12 = v1 * v1
         track, pending = begin_mark(track, tally, pending, x0, v02)
-        length = wp.length(x1 - x0)
-        u = (x1 - x0) * (ONE / length)
         for i in range(wp.static(K)):
             target = tally.thresholds2[i]
             if (v02 >= target) != (v12 >= target):
-                _theta, s = along_root(h * wp.sqrt(target), wp.dot(d0, u), wp.dot(e0, u), length, wp.dot(d1, u), wp.dot(e1, u))
+                s, u = chord_root(target, x0, d0, e0, x1, d1, e1, h)
                 track = farther(track, tally, i, x0 + s * u)
         meet(here)  # the lanes that came in together leave together (`physics.lanes`)
         return track, pending
@@ -259,7 +256,7 @@ def make_path_straight(precision: str, thresholds: int, points: int, with_map: b
     )  # fmt: skip
     light = make_path_light(precision, thresholds, points, with_map, terrain)
     roots = make_path_roots(precision)
-    height, speed2_at, along_root = roots.height, roots.speed2_at, roots.along_root
+    height, speed2_at, chord_root = roots.height, roots.speed2_at, roots.chord_root
     K, HAS_POINTS = max(thresholds, 1), points > 0
     ZERO, ONE = scalar(0.0), scalar(1.0)
 
@@ -268,7 +265,7 @@ def make_path_straight(precision: str, thresholds: int, points: int, with_map: b
         track: Track, tally: Tally, pending: Straight, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3, h: scalar
     ):
         """`straight_segment`'s step across a threshold's speed, or above body height at an end:
-        within it at both ends, its levels (the crossings by `along_root`) added to the pending
+        within it at both ends, its levels (the crossings by `chord_root`) added to the pending
         steps'; else theirs settled, then `segment`. Returns (track, pending)."""
         here = lanes_here()
         merged = wp.int32(0)
@@ -290,9 +287,7 @@ def make_path_straight(precision: str, thresholds: int, points: int, with_map: b
                 elif va >= target or vb >= target:
                     lam = ZERO
                     if length > ZERO:
-                        u = (x1 - x0) * (ONE / length)
-                        w = h * wp.sqrt(target)
-                        _theta, s = along_root(w, wp.dot(d0, u), wp.dot(e0, u), length, wp.dot(d1, u), wp.dot(e1, u))
+                        s, _u = chord_root(target, x0, d0, e0, x1, d1, e1, h)
                         lam = wp.clamp(s / length, ZERO, ONE)
                     if va >= target:
                         lo[i] = ZERO

@@ -138,6 +138,16 @@ def make_path_roots(precision: str) -> SimpleNamespace:
         return theta, s
 
     @wp.func
+    def chord_root(target: scalar, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3, h: scalar):
+        """(m along the chord x0 -> x1 (length > 0), its unit direction) where the time Hermite of a
+        step along it (h s) reaches the squared speed `target` (`along_root` on its components along
+        the chord)."""
+        length = wp.length(x1 - x0)
+        u = (x1 - x0) * (ONE / length)
+        _theta, s = along_root(h * wp.sqrt(target), wp.dot(d0, u), wp.dot(e0, u), length, wp.dot(d1, u), wp.dot(e1, u))
+        return s, u
+
+    @wp.func
     def ground_theta(tally: Tally, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3):
         """On a step that ends below the hazard's ground plane and falling: where an escape's watch
         stops (docs/hazard.md section 11): its crossing of the plane from above if it starts above
@@ -200,5 +210,6 @@ def make_path_roots(precision: str) -> SimpleNamespace:
         apex=apex,
         speed_root=speed_root,
         along_root=along_root,
+        chord_root=chord_root,
         ground_theta=ground_theta,
     )
