@@ -348,8 +348,6 @@ def make_path_straight(precision: str, thresholds: int, points: int, with_map: b
                     track, pending = straight_crossing(track, tally, pending, x0, d0, e0, x1, d1, e1, h)
         return track, pending
 
-    if STRAIGHT:
-        out_of_line_on_cuda(straight_crossing)
     return SimpleNamespace(straight_segment=straight_segment)
 
 
