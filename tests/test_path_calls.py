@@ -44,9 +44,9 @@ def test_an_out_of_line_function_is_a_call_in_ptx_and_runs_on_the_cpu(tmp_path):
     [
         (0, 0, False, {"cell"}),
         (0, 2, True, {"cell"}),
-        (4, 0, False, {"cell", "reach"}),
-        (4, 0, True, {"cell", "reach", "run_row", "run_lo", "run_hi", "run_level"}),
-        (3, 2, False, {"cell", "reach", "places"}),
+        (4, 0, False, {"cell", "reach", "log_slot"}),
+        (4, 0, True, {"cell", "reach", "log_slot", "run_row", "run_lo", "run_hi", "run_level"}),
+        (3, 2, False, {"cell", "reach", "log_slot", "places"}),
     ],
 )
 def test_a_track_holds_only_the_members_its_watch_uses(thresholds, points, with_map, members):

@@ -18,6 +18,7 @@ from .tallies.reduce import SEGMENT, partial_bytes_per_pellet
 HOST_BUFFER_BYTES = 128 << 20  # per pinned host buffer (two are used): caps host memory
 DEVICE_FRACTION = 0.5  # of the free device memory a chunk may use
 MAX_CHUNK = 1 << 28  # pellets per chunk, statistics-only
+INDEX_LIMIT = (1 << 31) - 1  # elements of one array a kernel indexes (int32)
 CPU_STATS_CHUNK = 1 << 21  # CPU statistics-only chunk (~0.4 s on one core): progress, and interrupts between chunks
 CPU_CHUNK_PELLETS = 1 << 20  # CPU: pellets per chunk of the dense phase
 CPU_AIR_CHUNK = SEGMENT  # CPU, in air (~1e5 pellets/s a core): a chunk in well under a second, so
@@ -30,12 +31,31 @@ def file_bytes_per_pellet(scene) -> int:
 
 
 def device_bytes_per_pellet(scene, fields) -> float:
-    """Device bytes per pellet of a core chunk: outputs, statistics partials, pellet-file states."""
+    """Device bytes per pellet of a core chunk: outputs, statistics partials, pellet-file states,
+    the step log."""
+    spec = RunSpec.of(scene, with_output=False)
     return (
-        partial_bytes_per_pellet(RunSpec.of(scene, with_output=False).lanes)
+        partial_bytes_per_pellet(spec.lanes)
         + bytes_per_pellet(fields, scene.numerics.precision, scene.physics.bounces)
         + file_bytes_per_pellet(scene)
+        + log_words_per_pellet(spec) * np.dtype(scene.numerics.precision).itemsize
     )
+
+
+def log_words_per_pellet(spec) -> float:
+    """Words of the step log a pellet of a GPU chunk takes (`physics.line_log`: a thread's steps,
+    shared by its pellets), and none where it has none (`pipeline.log_threads`)."""
+    from .physics.line_log import LOG_WORDS
+
+    if not (spec.to_rest and spec.watch[0] > 0 and spec.log_steps > 0):
+        return 0.0
+    return spec.log_steps * LOG_WORDS * spec.lanes / SEGMENT
+
+
+def log_rows(spec) -> int:
+    """The most rows of a GPU chunk whose step log a 32-bit index reaches (whole segments)."""
+    words = log_words_per_pellet(spec)
+    return MAX_CHUNK if not words else max(SEGMENT, int(INDEX_LIMIT / words) // SEGMENT * SEGMENT)
 
 
 def plan_rows(scene, device, pellets: int, fields) -> int:
@@ -50,6 +70,8 @@ def plan_rows(scene, device, pellets: int, fields) -> int:
         if fields:
             rows = min(rows, int(HOST_BUFFER_BYTES / bytes_per_pellet(fields, scene.numerics.precision, scene.physics.bounces)))
     rows = max(SEGMENT, -(-rows // SEGMENT) * SEGMENT)  # whole segments: chunk-size invariance
+    if device.is_cuda:  # (the same bits for any chunk size)
+        rows = min(rows, log_rows(RunSpec.of(scene, with_output=False)))
     return min(rows, max(pellets, 1))
 
 

@@ -114,9 +114,20 @@ def landing_setup(scene, model, arrays) -> TallySetup:
     return with_terrain(TallySetup.of(scene, model.mass, model.radius, launch_speed), scene, model)
 
 
-def landing_tally(scene, model, spec, arrays) -> DeviceTally:
-    """The device tally of a run (active with spec.tally; its struct is passed either way)."""
-    return DeviceTally(landing_setup(scene, model, arrays), model.precision, model.device, spec.tally)
+def landing_tally(scene, model, spec, arrays, rows: int) -> DeviceTally:
+    """The device tally of a run (active with spec.tally; its struct is passed either way), with the
+    step log of a run to rest that watches its path for a core launch over `rows` rows (`log_threads`)."""
+    log = (log_threads(spec, model.device, rows), spec.log_steps)
+    return DeviceTally(landing_setup(scene, model, arrays), model.precision, model.device, spec.tally, log)
+
+
+def log_threads(spec, device, rows: int) -> int:
+    """Threads the step log has a column for (`physics.line_log`): a core launch's over `rows` rows
+    on a GPU, one on a CPU (its threads run one after another); none without surface phases watched
+    or with `spec.log_steps` = 0 (each step watched at once)."""
+    if not (spec.to_rest and spec.watch[0] > 0 and spec.log_steps > 0):
+        return 0
+    return threads_for(rows, spec.lanes) if device.is_cuda else 1
 
 
 class CoreStage:
@@ -131,7 +142,7 @@ class CoreStage:
         self.kernel = ricochet_kernel_for(spec)
         self.release = empty_release(model.precision, dev.alias)
         self.arrays, self.totals = self.state.arrays, None
-        self.tally = landing_tally(scene, model, spec, arrays)
+        self.tally = landing_tally(scene, model, spec, arrays, self.capacity)
         self.count = scene.shot.count
         self.shot_pass = ShotPass(scene, model, spec, self.capacity // self.count + 1, arrays) if has_ensemble(scene) else None
 
@@ -189,7 +200,7 @@ class CollisionStage:
         self.kernel = ricochet_kernel_for(spec)
         self.arrays = {**self.state.arrays, **self.dense.field_arrays}
         self.totals = self.dense.totals
-        self.tally = landing_tally(scene, model, spec, arrays)
+        self.tally = landing_tally(scene, model, spec, arrays, self.per_chunk * self.stride)
         self.shot_pass = None
         if has_ensemble(scene):
             self.shot_pass = (

@@ -34,6 +34,14 @@ def _thread_pieces(scene) -> bool:
     return scene.pair_collisions and scene.physics.until == "rest" and shot_stride(scene.shot.count) >= REST_PER_THREAD
 
 
+def _log_steps() -> int:
+    """Steps of a phase along a line a core thread logs for the watch (`physics.line_log.LOG_STEPS`,
+    read at each call: the results are the same bits for any)."""
+    from .physics import line_log
+
+    return line_log.LOG_STEPS
+
+
 MESHES = 2  # RunSpec.plates when the scene has triangles: the geometry's plate and mesh code
 
 
@@ -81,7 +89,8 @@ class RunSpec:
     pattern (`launch.pattern`), not from the jitter; stations: each shot's start and aim from its
     station (`launch.stations`); thread_pieces: each core thread follows consecutive slots of one
     piece of one shot, so the per-shot partials come from the core's threads (`core.shots`: pair
-    collisions followed to rest); terrain_ground: the hazard's ground is a terrain (`tallies.terrain_walk`)."""
+    collisions followed to rest); terrain_ground: the hazard's ground is a terrain (`tallies.terrain_walk`);
+    log_steps: steps of a phase along a line a thread keeps before its watch takes them (`physics.line_log`)."""
 
     precision: str
     bounces: int
@@ -104,6 +113,7 @@ class RunSpec:
     stations: bool = False
     thread_pieces: bool = False
     terrain_ground: bool = False
+    log_steps: int = 32
 
     @classmethod
     def of(cls, scene, *, with_output: bool = True) -> RunSpec:
@@ -135,6 +145,7 @@ class RunSpec:
             stations=bool(scene.stations),
             thread_pieces=_thread_pieces(scene),
             terrain_ground=scene.terrain_ground,
+            log_steps=_log_steps(),
         )
 
     @property

@@ -124,10 +124,24 @@ def ricochet_kernel_for(spec, max_registers="default"):
                             lo,
                             hi,
                             range_shift,
+                            tid,
                         )
                 else:
                     counts, acc, lo, hi, range_shift = ricochet_pellet(
-                        first_index + row, row, source, surfaces, physics, out, release, tally, counts, acc, lo, hi, range_shift
+                        first_index + row,
+                        row,
+                        source,
+                        surfaces,
+                        physics,
+                        out,
+                        release,
+                        tally,
+                        counts,
+                        acc,
+                        lo,
+                        hi,
+                        range_shift,
+                        tid,
                     )
         if wp.static(TABLE):
             landing.flush(tally)

@@ -93,8 +93,10 @@ def make_ricochet_pellet(spec):
         lo: extremes_t,
         hi: extremes_t,
         range_shift: scalar,
+        thread: wp.int32,
     ):
-        """Follow one pellet (global `index`, chunk row `row`) from its start; returns the thread's partials with it added."""
+        """Follow one pellet (global `index`, chunk row `row`; `thread`: the launch's) from its start;
+        returns the thread's partials with it added."""
         position, velocity, spin = vec3(), vec3(), vec3()
         time = scalar(0.0)
         touching = wp.int32(-1)  # the plane it is leaving
@@ -131,6 +133,7 @@ def make_ricochet_pellet(spec):
             launch_spin = spin
             if wp.static(WRITE):
                 outs.write_initial(out, row, position, velocity, spin)
+        track = watcher.seat(track, tally, thread)  # (its column of the step log: `physics.line_log`)
         launch_v2 = wp.dot(launch_velocity, launch_velocity)
         launch_w2 = wp.dot(launch_spin, launch_spin)
         if wp.static(RELEASE):

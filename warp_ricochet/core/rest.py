@@ -68,7 +68,14 @@ def make_to_rest(spec) -> SimpleNamespace:
         spec.precision, spec.static_planes, spec.flight, spec.air_laws, watch=spec.watch, plates=spec.plates, out_of_line=True
     )
     surface = make_surface_follow(
-        spec.precision, spec.static_planes, spec.flight, spec.air_laws, watch=spec.watch, plates=spec.plates, rough=spec.rough
+        spec.precision,
+        spec.static_planes,
+        spec.flight,
+        spec.air_laws,
+        watch=spec.watch,
+        plates=spec.plates,
+        rough=spec.rough,
+        log_steps=spec.log_steps,
     )
     watcher = make_path_watch(spec.precision, *spec.watch)
     Track, Tally = watcher.Track, watcher.Tally

@@ -87,7 +87,20 @@ def shot_kernel_for(spec):
             if member < count:
                 index = (first_shot + shot) * count + member
                 counts, acc, lo, hi, range_shift = ricochet_pellet(
-                    index, index - row_offset, source, surfaces, physics, out, release, tally, counts, acc, lo, hi, range_shift
+                    index,
+                    index - row_offset,
+                    source,
+                    surfaces,
+                    physics,
+                    out,
+                    release,
+                    tally,
+                    counts,
+                    acc,
+                    lo,
+                    hi,
+                    range_shift,
+                    tid,
                 )
         acc_fns.store_partials(tid, counts, acc, lo, hi, range_shift, partial_sums, partial_min, partial_max)
 

@@ -43,6 +43,7 @@ from .cylinder_contact import make_cylinder_contact
 from .geometry import LEANING, MESHES, has_posts, make_geometry
 from .integrate import make_dense_output
 from .line_ahead import make_line_ahead
+from .line_log import LOG_STEPS
 from .mesh_contact import make_mesh_lookup
 from .plate_edge import make_plate_edge
 from .side_follow import make_side_follow
@@ -455,11 +456,13 @@ def make_surface_follow(
     watch: tuple = (0, 0, False),
     plates: bool = False,
     rough: bool = True,
+    log_steps: int = LOG_STEPS,
 ) -> SimpleNamespace:
     """`follow` (module docstring) for one precision, number of planes (None: read at run time) and
     flight model ("ballistic": vacuum; "air" with `laws` = (drag, lift, spin_decay) of `physics.air`);
     the path is watched by `tallies.path`'s watch of `watch` = (thresholds, places, map); not
-    `rough` (no rough ground), only straight phases go over the distance (`surface_line`)."""
+    `rough` (no rough ground), only straight phases go over the distance (`surface_line`), their
+    steps watched `log_steps` at a time (`line_log`)."""
     from ..tallies.path_chord import make_path_watch  # (tallies imports physics: not at the top)
 
     watcher = make_path_watch(precision, *watch)
@@ -479,7 +482,7 @@ def make_surface_follow(
     WITH_POSTS, posts = has_posts(plates), make_cylinder_contact(precision)
     WITH_SIDES = WITH_POSTS and bool(plates & LEANING)  # a leaning post's side followed (else flown from)
     sides = make_side_follow(precision, planes, model, laws, watch, plates, integrator.watch_start) if WITH_SIDES else None
-    lines = make_line_integrator(precision, planes, model, laws, watch, rough=rough, plates=plates)
+    lines = make_line_integrator(precision, planes, model, laws, watch, rough=rough, plates=plates, log_steps=log_steps)
     line_of, integrate_line = lines.line_of, lines.integrate_line
     ZERO, ONE = scalar(0.0), scalar(1.0)
 

@@ -73,6 +73,7 @@ from .ballistic import EPSILON, ROUNDING
 from .lanes import any_in, lanes_here
 from .line_ahead import make_line_ahead
 from .line_laws import make_line_laws, make_line_steps
+from .line_log import LOG_STEPS, make_line_log
 from .types import types_for
 
 MAX_DECAY = 16.0  # 2 B h of a step at most: exp(+-16) stays far from overflow and denormals
@@ -97,13 +98,13 @@ def make_surface_line(
     rough=True,
     plates=False,
 ) -> SimpleNamespace:
-    """The helpers of `integrate_line` (module docstring), each accepted step given to
-    `tallies.path`'s watch of `watch`; not `rough`, for straight phases only; `plates`: the
+    """The helpers of `integrate_line` (module docstring), with `tallies.path`'s watch of `watch`
+    (its steps given to it by `line_log`); not `rough`, for straight phases only; `plates`: the
     surfaces may hold plates, meshes and posts (`geometry.make_geometry`), kept at `line_ahead.free_of`."""
     from ..tallies.path_chord import make_path_watch  # (tallies imports physics: not at the top)
 
     watcher = make_path_watch(precision, *watch)
-    Track, Tally, Straight = watcher.Track, watcher.Tally, watcher.Straight
+    Track, Tally = watcher.Track, watcher.Tally
     t = types_for(precision)
     scalar, vec3, Physics = t.scalar, t.vec3, t.Physics
     ahead = make_line_ahead(precision, planes, plates)
@@ -155,25 +156,6 @@ def make_surface_line(
         if line.stops != 0:
             return frozen_time(v0, m.sqrt(reference(h, line)), line) + integrated
         return integrated
-
-    @wp.func
-    def watch_step(track: Track, tally: Tally, pending: Straight, x0: vec3, x1: vec3, line: Line, dt: scalar, v0: scalar, v1: scalar, d1: scalar):  # fmt: skip
-        """Give the step (from x0 to x1, dt s; speeds v0, v1 and decelerations `line.decel`,
-        d1 at its ends) to the watch as the time Hermite of its ends along its chord (quintic: the
-        integrated path to O(dt^6); not `rough`: added to the phase's steps `pending` along e).
-        Returns (track, pending)."""
-        e = line.direction
-        if wp.static(ROUGH):
-            e = x1 - x0
-            if wp.length(e) > ZERO:
-                e = e * (ONE / wp.length(e))
-        d0 = (dt * v0) * e
-        e0 = (-dt * dt * line.decel) * e
-        e1 = (-dt * dt * d1) * e
-        if wp.static(ROUGH):
-            return watcher.segment(track, tally, x0, d0, e0, x1, (dt * v1) * e, e1, dt, ONE), pending
-        if wp.static(not ROUGH):
-            return watcher.straight_segment(track, tally, pending, x0, d0, e0, x1, (dt * v1) * e, e1, dt, v0, v1)
 
     @wp.func
     def land_margin(h: scalar, m0: scalar, m1: scalar, y0: state, f0: state, physics: Physics, line: Line, mu_s: scalar):
@@ -237,7 +219,6 @@ def make_surface_line(
         target=target,
         step_error=step_error,
         step_time=step_time,
-        watch_step=watch_step,
         straight_open=watcher.straight_open,
         straight_close=watcher.straight_close,
         land_margin=land_margin,
@@ -320,19 +301,24 @@ def make_line_integrator(
     noise: tuple = (0.0, 0.0),
     rough=True,
     plates=False,
+    log_steps: int = LOG_STEPS,
 ) -> SimpleNamespace:
     """`integrate_line`: `surface_follow`'s integrate_phase for a phase over the distance (module
     docstring); not `rough`, straight phases only (`line_of` refuses the rest), with the heading
-    and the offset compiled away; `plates`: steps kept within `line_ahead.free_of` (module docstring)."""
+    and the offset compiled away; `plates`: steps kept within `line_ahead.free_of` (module docstring);
+    the steps watched after, `log_steps` at a time (`physics.line_log`)."""
     sl = make_surface_line(precision, planes, model, laws, watch, noise, rough, plates)
+    logs = make_line_log(precision, model, laws, watch, noise, rough, log_steps)
     ROUGH = rough
     Line, Track, Tally = sl.Line, sl.Track, sl.Tally
     along, heading, freeze, reach, state_at = sl.along, sl.heading, sl.freeze, sl.reach, sl.state_at
-    ahead_of, capped, target, step_error, step_time, watch_step, land_margin = (
-        sl.ahead_of, sl.capped, sl.target, sl.step_error, sl.step_time, sl.watch_step, sl.land_margin
+    ahead_of, capped, target, step_error, step_time, land_margin = (
+        sl.ahead_of, sl.capped, sl.target, sl.step_error, sl.step_time, sl.land_margin
     )  # fmt: skip
-    first_slope = sl.first_slope
-    spin_of, first_rates, start, moved, psi_of = sl.spin_of, sl.first_rates, sl.start, sl.moved, sl.psi_of
+    log_open, log_step, log_close = logs.log_open, logs.log_step, logs.log_close
+    first_slope, spin_of, first_rates, start, moved, psi_of = (
+        sl.first_slope, sl.spin_of, sl.first_rates, sl.start, sl.moved, sl.psi_of
+    )  # fmt: skip
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
     ZERO, ONE, TWO, HALF = scalar(0.0), scalar(1.0), scalar(2.0), scalar(0.5)
@@ -380,6 +366,7 @@ def make_line_integrator(
         # branches do not leave them apart (bench/RESULTS.md, "Lanes that meet"); a lane done
         # waits. The same steps and bits as a plain loop.
         pending = sl.straight_open()  # the phase's steps along e whose walk waits (`tallies.path`)
+        log = log_open(position, v, -dv)  # the steps waiting for the watch (`physics.line_log`)
         here = lanes_here()
         running = wp.int32(1)
         while going(here, running) != 0:
@@ -422,7 +409,9 @@ def make_line_integrator(
                     watched = dt
                     if v + ends > ZERO:
                         watched = TWO * ds / (v + ends)
-                    track, pending = watch_step(track, tally, pending, position, position + ds * e, line, watched, v, ends, decel)
+                    track, pending, log = log_step(
+                        track, tally, pending, log, line, position, position + ds * e, watched, v, ends, decel
+                    )
                     position = position + ds * e
                     s += ds
                     elapsed += dt
@@ -501,7 +490,7 @@ def make_line_integrator(
                             event = wp.int32(HANDOVER)
                             running = wp.int32(0)
                             break
-                track, pending = watch_step(track, tally, pending, position, x1, line, dt, v, v1, dec1)
+                track, pending, log = log_step(track, tally, pending, log, line, position, x1, dt, v, v1, dec1)
                 position = x1
                 s += h
                 elapsed += dt
@@ -530,6 +519,7 @@ def make_line_integrator(
                     break
                 h = h * wp.clamp(scalar(0.9) * wp.pow(wp.max(error, scalar(1e-10)), scalar(-0.2)), scalar(0.2), growth)
                 growth = scalar(5.0)
+        track, pending = log_close(track, tally, pending, log, line)
         if wp.static(not ROUGH):  # (rough: each step watched at once)
             track, _pending = sl.straight_close(track, tally, pending, position)
         return position, v * line.direction, spin_of(v, spin, line, radius), elapsed, s, event, k_next, steps, track

@@ -106,6 +106,8 @@ def make_landing_tally(precision: str) -> SimpleNamespace:
         place_radius2: wp.array(dtype=scalar)  # m^2, their radius squared
         place_counts: wp.array(dtype=wp.int32)  # levels x places, flat: pellets by their highest level there
         terrain: wp.array(dtype=scalar)  # the hazard's ground as a terrain (`tallies.terrain_walk`; empty: a plane)
+        steps: wp.array(dtype=scalar)  # the step log (`physics.line_log`): steps x words x log_threads, flat (SI)
+        log_threads: wp.int32  # the threads it has a column for
 
     @wp.func
     def horizontal_distance(tally: Tally, position: vec3):

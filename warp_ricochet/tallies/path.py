@@ -297,6 +297,14 @@ def make_path_lines(precision: str, thresholds: int, points: int, with_map: bool
         return track
 
     @wp.func
+    def seat(track: Track, tally: Tally, thread: wp.int32):
+        """The track with its column of the step log (`physics.line_log`): the launch's `thread`'s
+        (one shared column where the log has one: a CPU runs a kernel's threads one after another)."""
+        if wp.static(ON):
+            track.log_slot = thread % wp.max(tally.log_threads, 1)
+        return track
+
+    @wp.func
     def terrain_span(
         track: Track,
         tally: Tally,
@@ -437,6 +445,7 @@ def make_path_lines(precision: str, thresholds: int, points: int, with_map: bool
         Tally=Tally,
         Reach=Reach,
         start=start,
+        seat=seat,
         segment=segment,
         parabola=parabola,
         line=line,

@@ -45,6 +45,7 @@ def make_path_cells(precision: str, thresholds: int, points: int, with_map: bool
     fields = {"cell": wp.int32}  # the map column of the pass under way (NONE: above body height; ESCAPED)
     if thresholds > 0:
         fields["reach"] = Reach  # m, per threshold in scene order (NO_REACH: none yet)
+        fields["log_slot"] = wp.int32  # its thread's column of the step log (`physics.line_log`)
         if MAP:
             fields["run_row"] = wp.int32  # the pending run of entries (`enter`): its row (NONE: no run)
             fields["run_lo"] = wp.int32  # its first and last cell along u

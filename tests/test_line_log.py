@@ -1,0 +1,89 @@
+"""The step log (`physics.line_log`): a phase's steps along a line are watched after, in their order
+with their values, so the hazard's outputs and the rest positions are the same bits for any log size
+as without a log (0: each step watched at once; 1: after the next is taken; 2 and 3: logs filled and
+emptied inside a phase) and
+with a column of the log a thread (a GPU's layout) as with the one column a CPU shares. On plain
+ground (the steps gathered along their chord, with a map) and on rough ground (each step watched at
+once, its chord turning)."""
+
+import json
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+import warp_ricochet as wr
+from warp_ricochet import pipeline
+from warp_ricochet.chunks import INDEX_LIMIT, MAX_CHUNK, log_rows, log_words_per_pellet
+from warp_ricochet.physics import line_log
+from warp_ricochet.physics.line_log import LOG_WORDS
+from warp_ricochet.scene import load_scene
+from warp_ricochet.spec import RunSpec
+from warp_ricochet.tallies.reduce import SEGMENT, threads_for
+
+PAPER = Path(__file__).resolve().parents[1] / "examples" / "paper.toml"
+AIR = ("air.density=1.225",)
+REST = ('physics.until="rest"', "surfaces.0.rolling_resistance=0.05", "surfaces.0.mu_s=0.5", "surfaces.0.mu_d=0.45")
+MAP = ("hazard.map_cell=0.5", "hazard.map_extent=[0.0, 400.0, -50.0, 50.0]")
+CASES = {  # (settings, log sizes against the default)
+    "plain-map": ((*AIR, *REST, *MAP, "hazard.fractions=[1e-3]"), (0, 1, 3)),
+    "rough-reach": ((*AIR, *REST, "surfaces.0.roughness=0.3", "hazard.fractions=[1e-3]"), (0, 2)),
+}
+KEYS = ("pellets/hazard/reach", "pellets/rest/position", "hazard/map/exposure", "hazard/map/passes")
+
+
+def _scene(settings, pellets=600, fields=("hazard", "rest")):
+    sets = [f"shot.count={pellets}", 'numerics.precision="float32"', "output.fields=" + json.dumps(list(fields))]
+    return load_scene(PAPER, sets + list(settings))
+
+
+def _outputs(tmp_path, name, scene):
+    path = tmp_path / f"{name}.h5"
+    wr.run(scene, path, device="cpu", overwrite=True)
+    with h5py.File(path) as f:
+        return {key: f[key][()] for key in KEYS if key in f}
+
+
+def _columns(spec, device, rows):
+    """A column of the step log a thread on the CPU too (a GPU's layout)."""
+    return threads_for(rows, spec.lanes) if spec.to_rest and spec.watch[0] > 0 else 0
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_the_hazard_is_the_same_bits_for_any_log_size_and_layout(tmp_path, monkeypatch, case):
+    settings, sizes = CASES[case]
+    scene = _scene(settings)
+    assert RunSpec.of(scene).to_rest and RunSpec.of(scene).watch[0] > 0
+    default = _outputs(tmp_path, "default", scene)
+    assert np.isfinite(default["pellets/hazard/reach"]).any()  # (something reached: the comparison bites)
+    runs = {}
+    with monkeypatch.context() as m:
+        m.setattr(pipeline, "log_threads", _columns)
+        runs["a column a thread"] = _outputs(tmp_path, "columns", scene)
+    for size in sizes:
+        with monkeypatch.context() as m:
+            m.setattr(line_log, "LOG_STEPS", size)
+            assert RunSpec.of(scene).log_steps == size
+            runs[f"{size} steps"] = _outputs(tmp_path, f"steps{size}", scene)
+    for name, outputs in runs.items():
+        assert outputs.keys() == default.keys()
+        for key, value in default.items():
+            np.testing.assert_array_equal(outputs[key], value, err_msg=f"{name}: {key}")
+
+
+def test_a_spec_logs_the_package_s_log_size_by_default():
+    assert RunSpec("float32", 0, 0).log_steps == line_log.LOG_STEPS
+
+
+def test_a_gpu_chunk_keeps_the_step_log_within_a_32_bit_index():
+    scene = _scene((*AIR, *REST, "hazard.fractions=[1e-3]"))
+    spec = RunSpec.of(scene, with_output=False)
+    words = log_words_per_pellet(spec)
+    assert words == spec.log_steps * LOG_WORDS * spec.lanes / SEGMENT
+    rows = log_rows(spec)
+    assert rows % SEGMENT == 0 and rows < MAX_CHUNK
+    assert threads_for(rows, spec.lanes) * spec.log_steps * LOG_WORDS <= INDEX_LIMIT
+    assert threads_for(rows + SEGMENT, spec.lanes) * spec.log_steps * LOG_WORDS > INDEX_LIMIT
+    landing = RunSpec.of(_scene(("hazard.fractions=[1e-3]",), fields=()), with_output=False)  # (no phase along a line)
+    assert log_words_per_pellet(landing) == 0 and log_rows(landing) == MAX_CHUNK
