@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# session 48, call 4: the surface line steps recorded into a global buffer and watched after (replayed: HR), and
+# recorded only, never watched (HD: wrong answers, timing only), against main (M, 84dddf8). Buffer: 2^23 threads x 32 steps (the second try; 2^24 was past int32).
+# bench.path cost 1e7 alternated twice, 1e8 once each.
+set -u
+out=${OUT:-/tmp/out}; mkdir -p $out
+root=$PWD
+inn() { local t=$1; shift; (cd $root/.gpu/b/exp/$t && WARP_CACHE_PATH=/tmp/wc_$t PYTHONPATH=/tmp/site:$PWD "$@") 2>&1; }
+filt() { grep -v "^Warp \|CUDA Toolkit\|Devices:\|Kernel cache\|\.cache/warp\|\"cpu\"\|\"cuda:0\"\|^Module \|^{\|/tmp/wc_\|PrecisionWarning\|return _compute\|warnings.warn"; }
+start=$(date +%s)
+for t in M HR HD; do
+  ( inn $t timeout 250 python3 -m bench.path cost --device cuda:0 --sizes 1e5 --repeats 1 > $out/warm-path-$t.txt ) &
+done; wait
+echo "warm-up $(( $(date +%s) - start )) s" | tee $out/times.txt
+for r in 1 2; do for t in M HR HD; do
+  inn $t timeout 60 python3 -m bench.path cost --device cuda:0 --sizes 1e7 --repeats 1 | filt | grep "N 1e" | sed "s/^/$r $t: /"
+done; done 2>&1 | tee $out/path.txt
+echo "path 1e7 $(( $(date +%s) - start )) s" | tee -a $out/times.txt
+for t in M HR HD; do
+  inn $t timeout 60 python3 -m bench.path cost --device cuda:0 --sizes 1e8 --repeats 1 | filt | grep "N 1e" | sed "s/^/$t: /"
+done 2>&1 | tee $out/path-1e8.txt
+echo "path 1e8 $(( $(date +%s) - start )) s" | tee -a $out/times.txt
+echo "done $(( $(date +%s) - start )) s" | tee -a $out/times.txt
