@@ -1,10 +1,12 @@
 """The step log (`physics.line_log`): a phase's steps along a line are watched after, in their order
 with their values, so the hazard's outputs and the rest positions are the same bits for any log size
 as without a log (0: each step watched at once; 1: after the next is taken; 2 and 3: logs filled and
-emptied inside a phase) and
-with a column of the log a thread (a GPU's layout) as with the one column a CPU shares. On plain
-ground (the steps gathered along their chord, with a map) and on rough ground (each step watched at
-once, its chord turning)."""
+emptied inside a phase) and with a column of the log a thread (a GPU's layout) as with the one
+column a CPU shares. On plain ground (the steps gathered along their chord, with a map), on rough
+ground (each step watched at once, its chord turning) and after pair collisions (the pellets from the
+dense phase's release). A CPU runs a kernel's threads one after another, so only a GPU can show two
+threads racing on a column: the host refuses a launch with more threads than the log has columns,
+and a chunk whose log a 32-bit index would not reach."""
 
 import json
 from pathlib import Path
@@ -15,9 +17,10 @@ import pytest
 
 import warp_ricochet as wr
 from warp_ricochet import pipeline
-from warp_ricochet.chunks import INDEX_LIMIT, MAX_CHUNK, log_rows, log_words_per_pellet
+from warp_ricochet.chunks import INDEX_LIMIT, MAX_CHUNK, log_rows, log_words, log_words_per_pellet, plan_rows, plan_shots
+from warp_ricochet.dense.schedule import shot_stride
 from warp_ricochet.physics import line_log
-from warp_ricochet.physics.line_log import LOG_WORDS
+from warp_ricochet.physics.line_log import LOG_WORDS, ROUGH_WORDS
 from warp_ricochet.scene import load_scene
 from warp_ricochet.spec import RunSpec
 from warp_ricochet.tallies.reduce import SEGMENT, threads_for
@@ -29,11 +32,12 @@ MAP = ("hazard.map_cell=0.5", "hazard.map_extent=[0.0, 400.0, -50.0, 50.0]")
 CASES = {  # (settings, log sizes against the default)
     "plain-map": ((*AIR, *REST, *MAP, "hazard.fractions=[1e-3]"), (0, 1, 3)),
     "rough-reach": ((*AIR, *REST, "surfaces.0.roughness=0.3", "hazard.fractions=[1e-3]"), (0, 2)),
+    "collisions": ((*AIR, *REST, "collisions.enabled=true", "shot.shots=3", "hazard.fractions=[1e-3]"), (0,)),
 }
 KEYS = ("pellets/hazard/reach", "pellets/rest/position", "hazard/map/exposure", "hazard/map/passes")
 
 
-def _scene(settings, pellets=600, fields=("hazard", "rest")):
+def _scene(settings, pellets=200, fields=("hazard", "rest")):
     sets = [f"shot.count={pellets}", 'numerics.precision="float32"', "output.fields=" + json.dumps(list(fields))]
     return load_scene(PAPER, sets + list(settings))
 
@@ -76,14 +80,43 @@ def test_a_spec_logs_the_package_s_log_size_by_default():
     assert RunSpec("float32", 0, 0).log_steps == line_log.LOG_STEPS
 
 
-def test_a_gpu_chunk_keeps_the_step_log_within_a_32_bit_index():
-    scene = _scene((*AIR, *REST, "hazard.fractions=[1e-3]"))
+class _H200:
+    """A stand-in for a GPU of 140 GB free (the chunk planners read these two)."""
+
+    is_cuda = True
+    free_memory = 140e9
+
+
+@pytest.mark.parametrize("rough", [False, True])
+def test_a_gpu_chunk_keeps_the_step_log_within_a_32_bit_index(rough):
+    settings = (*AIR, *REST, "hazard.fractions=[1e-3]", *(("surfaces.0.roughness=0.3",) if rough else ()))
+    scene = _scene(settings)
     spec = RunSpec.of(scene, with_output=False)
-    words = log_words_per_pellet(spec)
-    assert words == spec.log_steps * LOG_WORDS * spec.lanes / SEGMENT
+    assert log_words(spec) == spec.log_steps * (ROUGH_WORDS if rough else LOG_WORDS)
+    assert log_words_per_pellet(spec) == log_words(spec) * spec.lanes / SEGMENT
     rows = log_rows(spec)
     assert rows % SEGMENT == 0 and rows < MAX_CHUNK
-    assert threads_for(rows, spec.lanes) * spec.log_steps * LOG_WORDS <= INDEX_LIMIT
-    assert threads_for(rows + SEGMENT, spec.lanes) * spec.log_steps * LOG_WORDS > INDEX_LIMIT
+    assert threads_for(rows, spec.lanes) * log_words(spec) <= INDEX_LIMIT
+    assert threads_for(rows + SEGMENT, spec.lanes) * log_words(spec) > INDEX_LIMIT
+    big = load_scene(PAPER, [*settings, "shot.count=1000000000"])
+    assert plan_rows(big, _H200(), big.shot.pellets, ()) <= log_rows(spec)
     landing = RunSpec.of(_scene(("hazard.fractions=[1e-3]",), fields=()), with_output=False)  # (no phase along a line)
     assert log_words_per_pellet(landing) == 0 and log_rows(landing) == MAX_CHUNK
+
+
+@pytest.mark.parametrize(("count", "chunk"), [(600, 0), (460, 0), (1000, 0), (600, 300_000_000), (450, 300_000_000)])
+def test_a_gpu_chunk_of_collision_shots_keeps_the_step_log_within_a_32_bit_index(count, chunk):
+    sets = [*AIR, *REST, "collisions.enabled=true", "hazard.fractions=[1e-3]", f"shot.count={count}", "shot.shots=1000000"]
+    scene = load_scene(PAPER, sets + ([f"numerics.chunk_size={chunk}"] if chunk else []))
+    spec = RunSpec.of(scene, with_output=False)
+    slots = plan_shots(scene, _H200(), scene.shot.shots) * shot_stride(count)
+    assert slots <= log_rows(spec) and threads_for(slots, spec.lanes) * log_words(spec) <= INDEX_LIMIT
+
+
+def test_a_launch_with_more_threads_than_the_log_has_columns_is_refused():
+    scene = _scene((*AIR, *REST, "hazard.fractions=[1e-3]"))
+    spec = RunSpec.of(scene, with_output=False)
+    tally = type("Tally", (), {"struct": type("Struct", (), {"log_threads": 4096})()})()
+    pipeline.check_log(tally, spec, _H200(), 4096 * SEGMENT // spec.lanes)  # (fits: no error)
+    with pytest.raises(RuntimeError, match="step log of 4096 threads for a launch of 8192"):
+        pipeline.check_log(tally, spec, _H200(), 2 * 4096 * SEGMENT // spec.lanes)

@@ -7,10 +7,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from .dense.schedule import dense_bytes_per_pellet, shot_granule
+from .dense.schedule import dense_bytes_per_pellet, shot_granule, shot_stride
 from .errors import SceneError
 from .fields import bytes_per_pellet
 from .io.space import free_bytes, host_memory_available, size_text
+from .physics.line_log import INDEX_LIMIT, step_words
 from .spec import RunSpec
 from .tallies.counts import TallySetup, tally_bytes
 from .tallies.reduce import SEGMENT, partial_bytes_per_pellet
@@ -18,7 +19,6 @@ from .tallies.reduce import SEGMENT, partial_bytes_per_pellet
 HOST_BUFFER_BYTES = 128 << 20  # per pinned host buffer (two are used): caps host memory
 DEVICE_FRACTION = 0.5  # of the free device memory a chunk may use
 MAX_CHUNK = 1 << 28  # pellets per chunk, statistics-only
-INDEX_LIMIT = (1 << 31) - 1  # elements of one array a kernel indexes (int32)
 CPU_STATS_CHUNK = 1 << 21  # CPU statistics-only chunk (~0.4 s on one core): progress, and interrupts between chunks
 CPU_CHUNK_PELLETS = 1 << 20  # CPU: pellets per chunk of the dense phase
 CPU_AIR_CHUNK = SEGMENT  # CPU, in air (~1e5 pellets/s a core): a chunk in well under a second, so
@@ -42,18 +42,21 @@ def device_bytes_per_pellet(scene, fields) -> float:
     )
 
 
-def log_words_per_pellet(spec) -> float:
-    """Words of the step log a pellet of a GPU chunk takes (`physics.line_log`: a thread's steps,
-    shared by its pellets), and none where it has none (`pipeline.log_threads`)."""
-    from .physics.line_log import LOG_WORDS
-
+def log_words(spec) -> int:
+    """Words of the step log a core thread has (`physics.line_log`): none without phases along a line
+    watched (`spec.log_steps` = 0: each step watched at once)."""
     if not (spec.to_rest and spec.watch[0] > 0 and spec.log_steps > 0):
-        return 0.0
-    return spec.log_steps * LOG_WORDS * spec.lanes / SEGMENT
+        return 0
+    return spec.log_steps * step_words(spec.rough)
+
+
+def log_words_per_pellet(spec) -> float:
+    """Words of the step log a pellet (a slot) of a GPU chunk takes: its thread's, shared by its pellets."""
+    return log_words(spec) * spec.lanes / SEGMENT
 
 
 def log_rows(spec) -> int:
-    """The most rows of a GPU chunk whose step log a 32-bit index reaches (whole segments)."""
+    """The most rows (slots) of a GPU chunk whose step log a 32-bit index reaches (whole segments)."""
     words = log_words_per_pellet(spec)
     return MAX_CHUNK if not words else max(SEGMENT, int(INDEX_LIMIT / words) // SEGMENT * SEGMENT)
 
@@ -81,17 +84,21 @@ def plan_shots(scene, device, shots: int) -> int:
     pellets)."""
     count = scene.shot.count
     granule = shot_granule(count)
+    spec = RunSpec.of(scene, with_output=False)
     if scene.numerics.chunk_size:
         pellets = scene.numerics.chunk_size
     elif device.is_cuda:
+        log = log_words_per_pellet(spec) * np.dtype(scene.numerics.precision).itemsize * shot_stride(count) / count
         pellets = int(
             DEVICE_FRACTION
             * device.free_memory
-            / (dense_bytes_per_pellet(scene.numerics.precision, scene.collisions.max_neighbours) + 64)
+            / (dense_bytes_per_pellet(scene.numerics.precision, scene.collisions.max_neighbours) + 64 + log)
         )
     else:
         pellets = CPU_AIR_CHUNK if scene.in_air else CPU_CHUNK_PELLETS
     per_chunk = max(granule, (max(pellets // count, 1) // granule) * granule)
+    if device.is_cuda:  # (the step log's slots within a 32-bit index; the same bits for any chunk)
+        per_chunk = min(per_chunk, max(granule, log_rows(spec) // shot_stride(count) // granule * granule))
     return min(per_chunk, shots)
 
 
@@ -103,6 +110,8 @@ def check_chunk_memory(scene, dev, with_output: bool) -> None:
         return
     pellets = scene.shot.pellets
     rows = min(max(SEGMENT, -(-chunk // SEGMENT) * SEGMENT), max(pellets, 1))
+    if dev.is_cuda:  # (as `plan_rows` caps it)
+        rows = min(rows, log_rows(RunSpec.of(scene, with_output=False)))
     fields = scene.output.fields if with_output else ()
     on_device = device_bytes_per_pellet(scene, fields)
     on_host = bytes_per_pellet(fields, scene.numerics.precision, scene.physics.bounces) * (2 if dev.is_cuda else 1)

@@ -26,7 +26,7 @@ import warp as wp
 
 from . import interrupts
 from .bound import station_pieces
-from .chunks import plan_rows, plan_shots
+from .chunks import log_words, plan_rows, plan_shots
 from .core.kernel import CUDA_BLOCK_DIM, ricochet_kernel_for
 from .core.release import empty_release
 from .core.shots import ShotPass, ThreadPieces
@@ -117,7 +117,7 @@ def landing_setup(scene, model, arrays) -> TallySetup:
 def landing_tally(scene, model, spec, arrays, rows: int) -> DeviceTally:
     """The device tally of a run (active with spec.tally; its struct is passed either way), with the
     step log of a run to rest that watches its path for a core launch over `rows` rows (`log_threads`)."""
-    log = (log_threads(spec, model.device, rows), spec.log_steps)
+    log = (log_threads(spec, model.device, rows), log_words(spec))
     return DeviceTally(landing_setup(scene, model, arrays), model.precision, model.device, spec.tally, log)
 
 
@@ -125,9 +125,17 @@ def log_threads(spec, device, rows: int) -> int:
     """Threads the step log has a column for (`physics.line_log`): a core launch's over `rows` rows
     on a GPU, one on a CPU (its threads run one after another); none without surface phases watched
     or with `spec.log_steps` = 0 (each step watched at once)."""
-    if not (spec.to_rest and spec.watch[0] > 0 and spec.log_steps > 0):
+    if not log_words(spec):
         return 0
     return threads_for(rows, spec.lanes) if device.is_cuda else 1
+
+
+def check_log(tally: DeviceTally, spec, device, rows: int) -> None:
+    """A core launch over `rows` rows has a column of the step log a thread (`log_threads`): raise
+    before it where it would not (threads sharing a column would race on a GPU)."""
+    need = log_threads(spec, device, rows)
+    if need > tally.struct.log_threads:
+        raise RuntimeError(f"step log of {tally.struct.log_threads} threads for a launch of {need}")
 
 
 class CoreStage:
@@ -142,7 +150,7 @@ class CoreStage:
         self.kernel = ricochet_kernel_for(spec)
         self.release = empty_release(model.precision, dev.alias)
         self.arrays, self.totals = self.state.arrays, None
-        self.tally = landing_tally(scene, model, spec, arrays, self.capacity)
+        self.tally, self.spec = landing_tally(scene, model, spec, arrays, self.capacity), spec
         self.count = scene.shot.count
         self.shot_pass = ShotPass(scene, model, spec, self.capacity // self.count + 1, arrays) if has_ensemble(scene) else None
 
@@ -156,6 +164,7 @@ class CoreStage:
         m = self.model
         self.source.load(start, rows)
         self.tally.before_chunk()
+        check_log(self.tally, self.spec, m.device, rows)
         wp.launch(
             self.kernel,
             dim=threads_for(rows, self.state.lanes),
@@ -200,7 +209,7 @@ class CollisionStage:
         self.kernel = ricochet_kernel_for(spec)
         self.arrays = {**self.state.arrays, **self.dense.field_arrays}
         self.totals = self.dense.totals
-        self.tally = landing_tally(scene, model, spec, arrays, self.per_chunk * self.stride)
+        self.tally, self.spec = landing_tally(scene, model, spec, arrays, self.per_chunk * self.stride), spec
         self.shot_pass = None
         if has_ensemble(scene):
             self.shot_pass = (
@@ -223,6 +232,7 @@ class CollisionStage:
         self.dense.run(start, shots, self.source.struct, self.state.outputs, frames=self.frames, tally=self.tally.struct)
         interrupts.check()  # (before the core kernel's pass over the chunk)
         slots = shots * self.stride
+        check_log(self.tally, self.spec, m.device, slots)
         wp.launch(
             self.kernel,
             dim=threads_for(slots, self.state.lanes),

@@ -9,8 +9,9 @@ none of the watch's code (on a GPU the watch's branches, its roots and its state
 bench/RESULTS.md, "The steps along a line watched after").
 
 A logged step is (x1, dt, v1, d1): where it ends (m), its time (s), its speed and its deceleration
-there (m/s, m/s^2). Its start (x0, v0 and the deceleration `line.decel` there) is the step before's
-end, or where the phase began (`log_open`). The log exists where the watch is on (`watch[0] > 0`);
+there (m/s, m/s^2); on rough ground also `line.direction` at its start (the watch's direction of a
+step too short to have one of its own). Its start (x0, v0 and the deceleration `line.decel` there)
+is the step before's end, or where the phase began (`log_open`). The log exists where the watch is on (`watch[0] > 0`);
 without it, or with `log_steps` = 0, `log_step` watches each step at once.
 """
 
@@ -25,6 +26,13 @@ from .types import types_for
 
 LOG_STEPS = 32  # steps of a phase along a line a thread logs before they are watched
 LOG_WORDS = 6  # a logged step's words: where it ends (3), its time, its speed and deceleration there
+ROUGH_WORDS = 9  # on rough ground, and its direction at its start (3: the line turns every step)
+INDEX_LIMIT = (1 << 31) - 1  # elements of one array a kernel indexes (int32: Warp's shapes and indices)
+
+
+def step_words(rough: bool) -> int:
+    """Words a logged step takes (`RunSpec.rough`: a scene with rough ground)."""
+    return ROUGH_WORDS if rough else LOG_WORDS
 
 
 @functools.cache
@@ -48,7 +56,7 @@ def make_line_log(
     Line = make_line_laws(precision, model, laws, noise, rough).Line
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
-    LOGGED, ROUGH, STEPS, WORDS = watch[0] > 0 and log_steps > 0, rough, log_steps, LOG_WORDS
+    LOGGED, ROUGH, STEPS, WORDS = watch[0] > 0 and log_steps > 0, rough, log_steps, step_words(rough)
     ZERO, ONE = scalar(0.0), scalar(1.0)
 
     @wp.func
@@ -99,6 +107,10 @@ def make_line_log(
             dt = tally.steps[word + 3 * threads]
             v1 = tally.steps[word + 4 * threads]
             d1 = tally.steps[word + 5 * threads]
+            if wp.static(ROUGH):
+                line.direction = vec3(
+                    tally.steps[word + 6 * threads], tally.steps[word + 7 * threads], tally.steps[word + 8 * threads]
+                )
             line.decel = log.decel
             track, pending = watch_step(track, tally, pending, log.x, x1, line, dt, log.v, v1, d1)
             log.x = x1
@@ -133,6 +145,9 @@ def make_line_log(
             tally.steps[word + 3 * threads] = dt
             tally.steps[word + 4 * threads] = v1
             tally.steps[word + 5 * threads] = d1
+            if wp.static(ROUGH):
+                for j in range(3):
+                    tally.steps[word + (6 + j) * threads] = line.direction[j]
             log.count += 1
             if log.count == STEPS:
                 track, pending, log = log_watch(track, tally, pending, log, line)

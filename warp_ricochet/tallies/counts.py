@@ -268,8 +268,8 @@ class DeviceTally:
     arrays when the run counts nothing: `active` false): the counts of a chunk (int32, the
     histograms in copies), which `fold` adds to the run's totals on the device (`totals`, int64,
     flat: what the host copies back) and sets to zero again, so no chunk needs its own zeroing.
-    `log` = (threads, steps): the step log of a run to rest that watches its path (`physics.line_log`:
-    `steps` steps a thread; (0, 0): none)."""
+    `log` = (threads, words): the step log of a run to rest that watches its path (`physics.line_log`:
+    `words` a thread; (0, 0): none)."""
 
     def __init__(self, setup: TallySetup, precision: str, device, active: bool, log: tuple[int, int] = (0, 0)):
         import warp as wp
@@ -322,10 +322,12 @@ class DeviceTally:
         s.place_position = wp.array([p[1] for p in setup.places], dtype=t.vec3, device=device)
         s.place_radius2 = wp.array([p[2] ** 2 for p in setup.places], dtype=t.scalar, device=device)
         s.terrain = wp.array(setup.terrain.packed() if setup.terrain is not None else [], dtype=t.scalar, device=device)
-        from ..physics.line_log import LOG_WORDS
+        from ..physics.line_log import INDEX_LIMIT
 
+        if log[0] * log[1] > INDEX_LIMIT:  # (a kernel indexes it in 32 bits: `chunks.log_rows` keeps within)
+            raise ValueError(f"step log of {log[0]} threads x {log[1]} words: past {INDEX_LIMIT} elements")
         s.log_threads = log[0]
-        s.steps = _buffer(device, "step log", log[0] * log[1] * LOG_WORDS, t.scalar)  # (written before it is read)
+        s.steps = _buffer(device, "step log", log[0] * log[1], t.scalar)  # (written before it is read)
         self.places = (s.place_position, s.place_radius2, s.terrain, s.steps)  # (kept alive with the struct)
         s.hist_stride, s.copy_mask, s.map_width = sizes["hist"], self.copies - 1, width
         unused = (math.inf,) * (MAX_THRESHOLDS - len(setup.thresholds2))
