@@ -4,6 +4,7 @@ reach and maps for a comparison with the CPU's.
 
     python -m bench.path cost [--device cuda:0] [--sizes 1e8,1e9] [--repeats 2] [--out DIR]
     python -m bench.path check [--device cuda:0] [--count 20000] [--out DIR]
+    python -m bench.path logs [--device cuda:0] [--count 20000]
 
 `cost`: the paper's scene in sea-level air (examples/paper.toml, mu_s 0.5, float32) followed to
 rest on a plane with rolling resistance 0.05, statistics only: without a [hazard] table (no
@@ -11,7 +12,11 @@ thresholds: the watch compiled away), with the four default thresholds (reach an
 and with them and a map of 0.5 m cells over 0-400 m downrange and 50 m either side (passes by level,
 160,000 cells). Each row: seconds (median of --repeats after a warm-up), pellets/s and the cost
 over the run without the hazard. `check`: `count` pellets of that scene in float64 with per-pellet
-reach and the maps, written to DIR/check-DEVICE.npz.
+reach and the maps, written to DIR/check-DEVICE.npz. `logs`: the step log (`physics.line_log`)
+against each step watched at once (log size 0) and a log of 3 steps, on one device, float32: that
+scene with the map, on rough ground (the reach alone) and with pair collisions (shots of 200):
+per-pellet reach and rest positions and the maps, bit for bit or the differences (on a GPU, where
+threads sharing a column would race; a CPU runs a kernel's threads one after another).
 """
 
 from __future__ import annotations
@@ -74,9 +79,62 @@ def check(device, count, out):
     print(f"{device}: {count} pellets, passes {arrays['passes'].sum():,}, danger distances {arrays['danger'].ravel()}")
 
 
+LOG_CASES = {  # (settings, pellets of each shot: `count` in all)
+    "map": ((*BASE, *HAZARD, *MAP), None),
+    "rough, reach": ((*BASE, *HAZARD, "surfaces.0.roughness=0.3"), None),
+    "collisions, map": ((*BASE, *HAZARD, *MAP, "collisions.enabled=true"), 200),
+}
+LOG_KEYS = ("pellets/hazard/reach", "pellets/rest/position", "hazard/map/passes", "hazard/map/exposure")
+
+
+def logs(device, count, out):
+    """Each LOG_CASES scene with log sizes 0 (each step watched at once), 3 and the default: the same
+    bits, or the differences. Returns {case: {size: 'bitwise' or the differences}}."""
+    wr, _wp = _wr()
+    import tempfile
+
+    import h5py
+
+    from warp_ricochet.physics import line_log
+
+    default, found = line_log.LOG_STEPS, {}
+    folder = Path(out or tempfile.mkdtemp())
+    for case, (settings, shot) in LOG_CASES.items():
+        extra = [*settings] + ([f"shot.shots={count // shot}"] if shot else [])
+        scene_count = shot or count
+        outputs = {}
+        for size in (0, 3, default):
+            line_log.LOG_STEPS = size
+            try:
+                scene = paper_scene(scene_count, air=True, mu_s=0.5, fields=("hazard", "rest"), extra=extra)
+                path = folder / f"logs-{size}.h5"
+                wr.run(scene, path, device=device, overwrite=True)
+            finally:
+                line_log.LOG_STEPS = default
+            with h5py.File(path, "r") as f:
+                outputs[size] = {key: f[key][()] for key in LOG_KEYS if key in f}
+            path.unlink()
+        found[case] = {size: _differences(outputs[0], outputs[size]) for size in (3, default)}
+        for size, verdict in found[case].items():
+            print(f"{case:16s} log {size:2d} against each step at once: {verdict}", flush=True)
+    return found
+
+
+def _differences(a, b) -> str:
+    """'bitwise', or per array the elements that differ and the largest difference."""
+    out = []
+    for key, x in a.items():
+        y = b[key]
+        if not np.array_equal(x, y, equal_nan=True):
+            both = np.isfinite(x) & np.isfinite(y)
+            worst = np.abs(x[both].astype(np.float64) - y[both]).max(initial=0.0)
+            out.append(f"{key}: {int((x != y).sum() - (np.isnan(x) & np.isnan(y)).sum())} differ (max {worst:.3g})")
+    return "bitwise" if not out else "; ".join(out)
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(prog="python -m bench.path", description=__doc__.split("\n")[0])
-    parser.add_argument("what", choices=("cost", "check"))
+    parser.add_argument("what", choices=("cost", "check", "logs"))
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--sizes", default="1e6")
     parser.add_argument("--repeats", type=int, default=2)
@@ -90,6 +148,9 @@ def main(argv=None):
         args.out.mkdir(parents=True, exist_ok=True)
     if args.what == "check":
         check(args.device, args.count, args.out)
+        return
+    if args.what == "logs":
+        logs(args.device, args.count, args.out)
         return
     rows = cost(args.device, [int(float(s)) for s in args.sizes.split(",")], args.repeats)
     if args.out:
