@@ -1,18 +1,19 @@
 """The steps of a phase along a line, logged and given to the hazard's watch after (docs/hazard.md,
 "The steps along a line, watched after"): `surface_line.integrate_line` writes each accepted step's
-end into its thread's column of the step log (`Tally.steps`: `log_steps` steps of
-LOG_WORDS words, interleaved by thread so that a warp's writes of one step
-meet) and gives the logged steps to the watch (`watch_step`) in their order when the
-log is full and where the phase ends. The watch gets the same values in the same order as when each
-step was watched at once, so its results are the same bits for any `log_steps`; the step loop holds
-none of the watch's code (on a GPU the watch's branches, its roots and its state slowed every step:
-bench/RESULTS.md, "The steps along a line watched after").
+end into its thread's column of the step log (`Tally.steps`: `log_steps` steps of LOG_WORDS words,
+ROUGH_WORDS on rough ground, interleaved by thread so that a warp's writes of one step meet) and
+gives the logged steps to the watch (`watch_step`) in their order when the log is full and where the
+phase ends. The watch gets the same values in the same order as when each step was watched at once,
+so its results are the same bits for any `log_steps`; the step loop holds none of the watch's code
+(on a GPU the watch's branches, its roots and its state slowed every step: bench/RESULTS.md, "The
+steps along a line watched after").
 
 A logged step is (x1, dt, v1, d1): where it ends (m), its time (s), its speed and its deceleration
 there (m/s, m/s^2); on rough ground also `line.direction` at its start (the watch's direction of a
 step too short to have one of its own). Its start (x0, v0 and the deceleration `line.decel` there)
-is the step before's end, or where the phase began (`log_open`). The log exists where the watch is on (`watch[0] > 0`);
-without it, or with `log_steps` = 0, `log_step` watches each step at once.
+is the step before's end, or where the phase began (`log_open`). The log exists where the watch is
+on (`watch[0] > 0`); without it, or with `log_steps` = 0, `log_step` watches each step at once. The
+host sizes it (`pipeline.log_threads`, `chunks.log_words`) and keeps its index within INDEX_LIMIT.
 """
 
 import functools

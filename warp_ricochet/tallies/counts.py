@@ -274,6 +274,7 @@ class DeviceTally:
     def __init__(self, setup: TallySetup, precision: str, device, active: bool, log: tuple[int, int] = (0, 0)):
         import warp as wp
 
+        from ..physics.line_log import INDEX_LIMIT
         from ..physics.types import types_for
         from .landing import MAX_THRESHOLDS, make_landing_tally
 
@@ -322,8 +323,6 @@ class DeviceTally:
         s.place_position = wp.array([p[1] for p in setup.places], dtype=t.vec3, device=device)
         s.place_radius2 = wp.array([p[2] ** 2 for p in setup.places], dtype=t.scalar, device=device)
         s.terrain = wp.array(setup.terrain.packed() if setup.terrain is not None else [], dtype=t.scalar, device=device)
-        from ..physics.line_log import INDEX_LIMIT
-
         if log[0] * log[1] > INDEX_LIMIT:  # (a kernel indexes it in 32 bits: `chunks.log_rows` keeps within)
             raise ValueError(f"step log of {log[0]} threads x {log[1]} words: past {INDEX_LIMIT} elements")
         s.log_threads = log[0]
