@@ -29,6 +29,7 @@ from .bound import station_pieces
 from .chunks import log_words, plan_rows, plan_shots
 from .core.kernel import CUDA_BLOCK_DIM, ricochet_kernel_for
 from .core.release import empty_release
+from .core.replay import launch_replay
 from .core.shots import ShotPass, ThreadPieces
 from .dense.phase import DensePhase
 from .dense.schedule import shot_stride
@@ -127,6 +128,8 @@ def log_threads(spec, device, rows: int) -> int:
     or with `spec.log_steps` = 0 (each step watched at once)."""
     if not log_words(spec):
         return 0
+    if spec.replay:  # (a column a chunk row: `tallies.path_replay`)
+        return rows
     return threads_for(rows, spec.lanes) if device.is_cuda else 1
 
 
@@ -173,6 +176,7 @@ class CoreStage:
             device=m.device,
             block_dim=CUDA_BLOCK_DIM,
         )
+        launch_replay(self.spec, rows, self.state.outputs, self.release, self.tally.struct, m.device)
         self.tally.fold(rows, last=start + rows >= self.stop)
         return launch_reduce(self.state, rows, m.device, self.state.lanes), 0
 
@@ -250,6 +254,7 @@ class CollisionStage:
             device=m.device,
             block_dim=CUDA_BLOCK_DIM,
         )
+        launch_replay(self.spec, shots * self.count, self.state.outputs, self.dense.release, self.tally.struct, m.device)
         self.tally.fold(slots, last=start + rows >= self.stop)
         return launch_reduce(self.state, slots, m.device, self.state.lanes), shots
 

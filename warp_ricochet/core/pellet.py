@@ -24,7 +24,7 @@ from ..physics.ground_contact import make_ground_contact
 from ..physics.types import types_for
 from ..tallies.accumulate import make_accumulators
 from ..tallies.landing import make_add_landing, make_landing_tally
-from ..tallies.path_chord import make_path_watch
+from ..tallies.path_replay import watch_for
 from ..tallies.path_keep import make_path_keep
 from ..tallies.sums import REST as X_REST
 from .outputs import make_outputs
@@ -67,7 +67,7 @@ def make_ricochet_pellet(spec):
         spec.precision, spec.static_planes, spec.flight, spec.air_laws, watch=spec.watch, plates=spec.plates,
         out_of_line=spec.to_rest,
     )  # fmt: skip
-    watcher = make_path_watch(spec.precision, *spec.watch)
+    watcher = watch_for(spec.precision, *spec.watch)
     load_track = make_path_keep(spec.precision, *spec.watch[:3])[0]
     rests, stays, _impact, _meet, contact_point, landing_range = make_contact(spec.precision)
     geo, ground_contact = make_geometry(spec.precision, plates=spec.plates), make_ground_contact(spec.precision, spec.ground)
@@ -76,6 +76,7 @@ def make_ricochet_pellet(spec):
     Tally = make_landing_tally(spec.precision).Tally
     landing_tally = make_add_landing(spec.precision, spec.hazard_map, spec.thresholds)
     TALLY, HAZARD_OUT = spec.tally, any(f.startswith("hazard.") for f in spec.core_fields)
+    REPLAYED = spec.watch[4]
     TO_REST, horizontal_distance = spec.to_rest, make_landing_tally(spec.precision).horizontal_distance
 
     @wp.func
@@ -133,7 +134,10 @@ def make_ricochet_pellet(spec):
             launch_spin = spin
             if wp.static(WRITE):
                 outs.write_initial(out, row, position, velocity, spin)
-        track = watcher.seat(track, tally, thread)  # (its column of the step log: `physics.line_log`)
+        if wp.static(REPLAYED):  # (its column of the record log: `tallies.path_replay`)
+            track = watcher.seat(track, tally, row)
+        if wp.static(not REPLAYED):  # (its column of the step log: `physics.line_log`)
+            track = watcher.seat(track, tally, thread)
         launch_v2 = wp.dot(launch_velocity, launch_velocity)
         launch_w2 = wp.dot(launch_spin, launch_spin)
         if wp.static(RELEASE):

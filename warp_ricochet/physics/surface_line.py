@@ -101,9 +101,9 @@ def make_surface_line(
     """The helpers of `integrate_line` (module docstring), with `tallies.path`'s watch of `watch`
     (its steps given to it by `line_log`); not `rough`, for straight phases only; `plates`: the
     surfaces may hold plates, meshes and posts (`geometry.make_geometry`), kept at `line_ahead.free_of`."""
-    from ..tallies.path_chord import make_path_watch  # (tallies imports physics: not at the top)
+    from ..tallies.path_replay import watch_for  # (tallies imports physics: not at the top)
 
-    watcher = make_path_watch(precision, *watch)
+    watcher = watch_for(precision, *watch)
     Track, Tally = watcher.Track, watcher.Tally
     t = types_for(precision)
     scalar, vec3, Physics = t.scalar, t.vec3, t.Physics
@@ -315,7 +315,7 @@ def make_line_integrator(
     ahead_of, capped, target, step_error, step_time, land_margin = (
         sl.ahead_of, sl.capped, sl.target, sl.step_error, sl.step_time, sl.land_margin
     )  # fmt: skip
-    log_open, log_step, log_close = logs.log_open, logs.log_step, logs.log_close
+    log_open, log_begin, log_step, log_close = logs.log_open, logs.log_begin, logs.log_step, logs.log_close
     first_slope, spin_of, first_rates, start, moved, psi_of = (
         sl.first_slope, sl.spin_of, sl.first_rates, sl.start, sl.moved, sl.psi_of
     )  # fmt: skip
@@ -325,7 +325,7 @@ def make_line_integrator(
     STOP_FRACTION = scalar(max(1e-9, ROUNDING * EPSILON[precision]))
     FAR = scalar(1e30)
     CONTACT, UNFINISHED = 4, 6  # surface_follow's end codes (it imports this module)
-    slide_aim, going = make_slide_aim(precision, model, laws, noise, rough), (going_together if watch[0] > 0 else going_alone)
+    slide_aim, going = make_slide_aim(precision, model, laws, noise, rough), (going_together if watch[0] > 0 and not (len(watch) > 4 and watch[4]) else going_alone)
 
     @wp.func
     def integrate_line(
@@ -367,6 +367,7 @@ def make_line_integrator(
         # waits. The same steps and bits as a plain loop.
         pending = sl.straight_open()  # the phase's steps along e whose walk waits (`tallies.path`)
         log = log_open(position, v, -dv)  # the steps waiting for the watch (`physics.line_log`)
+        track, pending = log_begin(track, tally, pending, line, position, v, -dv)
         here = lanes_here()
         running = wp.int32(1)
         while going(here, running) != 0:
