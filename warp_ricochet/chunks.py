@@ -13,8 +13,8 @@ from .fields import bytes_per_pellet
 from .io.space import free_bytes, host_memory_available, size_text
 from .physics.line_log import INDEX_LIMIT, step_words
 from .spec import RunSpec
+from .tallies import path_replay
 from .tallies.counts import TallySetup, tally_bytes
-from .tallies.path_replay import COLUMN_WORDS
 from .tallies.reduce import SEGMENT, partial_bytes_per_pellet
 
 HOST_BUFFER_BYTES = 128 << 20  # per pinned host buffer (two are used): caps host memory
@@ -48,7 +48,7 @@ def log_words(spec) -> int:
     record log where the run replays its watch, `tallies.path_replay`): none without phases along a
     line watched (`spec.log_steps` = 0: each step watched at once)."""
     if spec.replay and spec.to_rest and spec.watch[0] > 0:
-        return COLUMN_WORDS
+        return path_replay.COLUMN_WORDS  # (read at each call: tests shrink it)
     if not (spec.to_rest and spec.watch[0] > 0 and spec.log_steps > 0):
         return 0
     return spec.log_steps * step_words(spec.rough)

@@ -91,7 +91,9 @@ class RunSpec:
     piece of one shot, so the per-shot partials come from the core's threads (`core.shots`: pair
     collisions followed to rest); terrain_ground: the hazard's ground is a terrain (`tallies.terrain_walk`);
     log_steps: steps of a phase along a line a thread keeps before its watch takes them (`physics.line_log`);
-    replay: a run to rest records its watch for a kernel of its own (`tallies.path_replay`: on GPUs)."""
+    replay: a run to rest records its watch for a kernel of its own (`tallies.path_replay`: on GPUs);
+    watch_only: the core kernel that follows again the pellets whose records did not fit (`core.replay`):
+    only their watch counted and written, nothing else."""
 
     precision: str
     bounces: int
@@ -116,6 +118,7 @@ class RunSpec:
     terrain_ground: bool = False
     log_steps: int = 32
     replay: bool = False
+    watch_only: bool = False
 
     @classmethod
     def of(cls, scene, *, with_output: bool = True, device=None) -> RunSpec:

@@ -60,7 +60,7 @@ def make_line_log(
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
     LOGGED, ROUGH, STEPS, WORDS = watch[0] > 0 and log_steps > 0 and not RECORDING, rough, log_steps, step_words(rough)
-    
+
     @wp.func
     def watch_step(track: Track, tally: Tally, pending: Straight, x0: vec3, x1: vec3, line: Line, dt: scalar, v0: scalar, v1: scalar, d1: scalar):  # fmt: skip
         """Give the step (from x0 to x1, dt s; speeds v0, v1 and decelerations `line.decel`,
@@ -73,14 +73,6 @@ def make_line_log(
         if wp.static(not ROUGH):
             return steps.line_step(track, tally, pending, x0, x1, line.direction, line.decel, dt, v0, v1, d1)
 
-    @wp.func
-    def log_begin(track: Track, tally: Tally, pending: Straight, line: Line, x: vec3, v: scalar, decel: scalar):
-        """A phase along a line begins at x (speed v, deceleration `decel`): recorded for the replay
-        where the watch is `RECORDING`. Returns (track, pending)."""
-        if wp.static(RECORDING):
-            track, pending = watcher.line_open(track, tally, pending, x, v, decel, line.direction)
-        return track, pending
-
     @wp.struct
     class StepLog:
         """The logged steps of a phase: how many, and where the first begins."""
@@ -91,13 +83,16 @@ def make_line_log(
         decel: scalar  # m/s^2, the deceleration there
 
     @wp.func
-    def log_open(x: vec3, v: scalar, decel: scalar):
-        """No step logged; the next begins at x, at speed v and deceleration `decel`."""
+    def log_open(track: Track, tally: Tally, pending: Straight, line: Line, x: vec3, v: scalar, decel: scalar):
+        """No step logged; the next begins at x, at speed v and deceleration `decel` (recorded for the
+        replay where the watch is `RECORDING`). Returns (log, track, pending)."""
         log = StepLog()
         log.x = x
         log.v = v
         log.decel = decel
-        return log
+        if wp.static(RECORDING):
+            track, pending = watcher.line_open(track, tally, pending, x, v, decel, line.direction)
+        return log, track, pending
 
     @wp.func
     def log_watch(track: Track, tally: Tally, pending: Straight, log: StepLog, line: Line):
@@ -168,6 +163,4 @@ def make_line_log(
 
     if LOGGED:
         out_of_line_on_cuda(log_watch)
-    return SimpleNamespace(
-        StepLog=StepLog, log_open=log_open, log_begin=log_begin, log_step=log_step, log_close=log_close, watch_step=watch_step
-    )
+    return SimpleNamespace(StepLog=StepLog, log_open=log_open, log_step=log_step, log_close=log_close, watch_step=watch_step)

@@ -4,11 +4,12 @@ In a run to rest on a GPU (`spec.RunSpec.replay`) the core kernel does not watch
 call of the watch (`tallies.path`'s `segment`, `parabola`, `line`; a phase along a line's steps and its
 end, `tallies.path_chord`) writes its arguments as a record into the pellet's column of the record log
 (`Tally.steps`: word j of chunk row r at j * log_threads + r; word 0 counts the words written, -1 where
-the core watched the pellet itself). The replay kernel (`core.replay`, one thread a pellet) then makes
-the same calls with the same values in the same order, so the results are the same bits; the core holds
-none of the watch's work in its loops (bench/RESULTS.md, "The watch replayed after the core"). Where a
-pellet's column would overflow, the core replays its records at once (`spill`) and watches the rest of
-its path itself (its Track's `log_slot` < 0 from then on).
+OVERFLOWED where it filled). The replay kernel (`core.replay`, one thread a pellet) then makes the same
+calls with the same values in the same order, so the results are the same bits; the core holds none of
+the watch's code (bench/RESULTS.md, "The watch replayed by a kernel of its own": a fallback compiled into
+the core costs although it never runs). A pellet whose column filled records no more (its Track's
+`log_slot` < 0 from then on); the host follows those pellets again with the watch in the core and the
+statistics off (`core.replay.rerun_overflowed`).
 
 A phase along a line is recorded compactly, as `physics.line_log` logs it: where it begins (x, speed,
 deceleration, direction), then each step's end (x1, dt, v1, d1; on rough ground also the direction at
@@ -21,13 +22,13 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from ..physics.inlining import out_of_line_on_cuda
 from ..physics.types import types_for
 from .path_chord import make_path_watch
 
 SEGMENT, PARABOLA, LINE, OPEN, STEP, ROUGH_STEP, CLOSE = 1, 2, 3, 4, 5, 6, 7  # record tags
 SIZE = {SEGMENT: 21, PARABOLA: 11, LINE: 11, OPEN: 9, STEP: 7, ROUGH_STEP: 10, CLOSE: 4}  # words, tag included
 COLUMN_WORDS = 512  # a pellet's column of the record log: its count and its records (words)
+OVERFLOWED = -2.0  # a column's count where the pellet's records did not fit
 REPLAY = "cuda"  # where runs to rest that watch their path replay it: "cuda" (GPUs), "always", "never"
 
 
@@ -83,7 +84,7 @@ def make_path_replay(precision: str, thresholds: int, points: int, with_map: boo
     watch's namespace with its calls written as records) of `make_path_watch`'s arguments."""
     real = make_path_watch(precision, thresholds, points, with_map, terrain)
     steps = make_line_steps(precision, thresholds, points, with_map, terrain)
-    Track, Tally, Straight = real.Track, real.Tally, real.Straight
+    Track, Tally = real.Track, real.Tally
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
 
@@ -124,7 +125,12 @@ def make_path_replay(precision: str, thresholds: int, points: int, with_map: boo
                 )  # fmt: skip
             elif tag == PARABOLA:
                 track = real.parabola(
-                    track, tally, get3(tally, slot, j + 1), get3(tally, slot, j + 4), get3(tally, slot, j + 7), get(tally, slot, j + 10)
+                    track,
+                    tally,
+                    get3(tally, slot, j + 1),
+                    get3(tally, slot, j + 4),
+                    get3(tally, slot, j + 7),
+                    get(tally, slot, j + 10),
                 )
             elif tag == LINE:
                 track = real.line(
@@ -155,30 +161,20 @@ def make_path_replay(precision: str, thresholds: int, points: int, with_map: boo
         return track, pending
 
     @wp.func
-    def spill(track: Track, tally: Tally):
-        """The column's records given to the watch now; the pellet watched by the core from here
-        on (`log_slot` < 0; its count -1: the replay kernel leaves it). Returns (track, pending)."""
-        slot = track.log_slot
-        track, pending = replay(track, tally, slot, wp.int32(get(tally, slot, 0)))
-        put(tally, slot, 0, scalar(-1.0))
-        track.log_slot = -1 - slot
-        return track, pending
-
-    @wp.func
-    def claim(track: Track, tally: Tally, pending: Straight, words: wp.int32):
+    def claim(track: Track, tally: Tally, words: wp.int32):
         """Where a record of `words` words begins in the pellet's column (its count raised), or -1
-        where the core watches the pellet itself (spilled now or before; `pending`: then the phase's
-        steps still open). Returns (track, pending, first word)."""
+        where the column is full (OVERFLOWED: no more records). Returns (track, first word)."""
         if track.log_slot < 0:
-            return track, pending, wp.int32(-1)
+            return track, wp.int32(-1)
         used = wp.int32(get(tally, track.log_slot, 0))
         if used + words >= tally.steps.shape[0] / tally.log_threads:  # (the column's words: `COLUMN_WORDS`)
-            track, pending = spill(track, tally)
-            return track, pending, wp.int32(-1)
+            put(tally, track.log_slot, 0, scalar(OVERFLOWED))
+            track.log_slot = -1 - track.log_slot
+            return track, wp.int32(-1)
         put(tally, track.log_slot, 0, scalar(used + words))
-        return track, pending, used + 1
+        return track, used + 1
 
-    return SimpleNamespace(replay=replay, spill=spill, claim=claim, get=get, put=put, put3=put3)
+    return SimpleNamespace(replay=replay, claim=claim, get=get, put=put, put3=put3)
 
 
 @functools.cache
@@ -186,7 +182,6 @@ def make_recording_watch(precision: str, thresholds: int, points: int, with_map:
     """The watch's namespace (`make_path_watch`) whose calls write records for the replay (module
     docstring), with the recorded phase along a line's `line_open`, `line_step`, `rough_step`."""
     real = make_path_watch(precision, thresholds, points, with_map, terrain)
-    steps = make_line_steps(precision, thresholds, points, with_map, terrain)
     rp = make_path_replay(precision, thresholds, points, with_map, terrain)
     claim, put, put3 = rp.claim, rp.put, rp.put3
     Track, Tally, Straight = real.Track, real.Tally, real.Straight
@@ -202,9 +197,9 @@ def make_recording_watch(precision: str, thresholds: int, points: int, with_map:
 
     @wp.func
     def segment(track: Track, tally: Tally, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3, h: scalar, theta_end: scalar):  # fmt: skip
-        track, _p, j = claim(track, tally, real.straight_open(), 21)
+        track, j = claim(track, tally, 21)
         if j < 0:
-            return real.segment(track, tally, x0, d0, e0, x1, d1, e1, h, theta_end)
+            return track
         slot = track.log_slot
         put(tally, slot, j, scalar(SEGMENT))
         put3(tally, slot, j + 1, x0)
@@ -218,14 +213,10 @@ def make_recording_watch(precision: str, thresholds: int, points: int, with_map:
         return track
 
     @wp.func
-    def watched_parabola(track: Track, tally: Tally, x0: vec3, v0: vec3, g: vec3, dt: scalar):
-        return real.parabola(track, tally, x0, v0, g, dt)
-
-    @wp.func
     def parabola(track: Track, tally: Tally, x0: vec3, v0: vec3, g: vec3, dt: scalar):
-        track, _p, j = claim(track, tally, real.straight_open(), 11)
+        track, j = claim(track, tally, 11)
         if j < 0:
-            return watched_parabola(track, tally, x0, v0, g, dt)
+            return track
         slot = track.log_slot
         put(tally, slot, j, scalar(PARABOLA))
         put3(tally, slot, j + 1, x0)
@@ -236,9 +227,9 @@ def make_recording_watch(precision: str, thresholds: int, points: int, with_map:
 
     @wp.func
     def line(track: Track, tally: Tally, x0: vec3, direction: vec3, length: scalar, v0: scalar, a: scalar, b: scalar):  # fmt: skip
-        track, _p, j = claim(track, tally, real.straight_open(), 11)
+        track, j = claim(track, tally, 11)
         if j < 0:
-            return real.line(track, tally, x0, direction, length, v0, a, b)
+            return track
         slot = track.log_slot
         put(tally, slot, j, scalar(LINE))
         put3(tally, slot, j + 1, x0)
@@ -253,7 +244,7 @@ def make_recording_watch(precision: str, thresholds: int, points: int, with_map:
     def line_open(track: Track, tally: Tally, pending: Straight, x: vec3, v: scalar, decel: scalar, e: vec3):
         """A phase along a line begins at x (speed v, deceleration `decel`, direction e). Returns
         (track, pending)."""
-        track, pending, j = claim(track, tally, pending, 9)
+        track, j = claim(track, tally, 9)
         if j >= 0:
             slot = track.log_slot
             put(tally, slot, j, scalar(OPEN))
@@ -264,18 +255,12 @@ def make_recording_watch(precision: str, thresholds: int, points: int, with_map:
         return track, pending
 
     @wp.func
-    def spilled_step(track: Track, tally: Tally, pending: Straight, x0: vec3, x1: vec3, e: vec3, decel0: scalar, dt: scalar, v0: scalar, v1: scalar, d1: scalar, rough: wp.bool):  # fmt: skip
-        if rough:
-            return steps.rough_step(track, tally, x0, x1, e, decel0, dt, v0, v1, d1), pending
-        return steps.line_step(track, tally, pending, x0, x1, e, decel0, dt, v0, v1, d1)
-
-    @wp.func
     def step(track: Track, tally: Tally, pending: Straight, x0: vec3, x1: vec3, e: vec3, decel0: scalar, dt: scalar, v0: scalar, v1: scalar, d1: scalar, rough: wp.bool):  # fmt: skip
         """A step of a phase along a line (`make_line_steps`; its start the step before's end).
         Returns (track, pending)."""
-        track, pending, j = claim(track, tally, pending, wp.where(rough, 10, 7))
+        track, j = claim(track, tally, wp.where(rough, 10, 7))
         if j < 0:
-            return spilled_step(track, tally, pending, x0, x1, e, decel0, dt, v0, v1, d1, rough)
+            return track, pending
         slot = track.log_slot
         put(tally, slot, j, wp.where(rough, scalar(ROUGH_STEP), scalar(STEP)))
         put3(tally, slot, j + 1, x1)
@@ -288,26 +273,22 @@ def make_recording_watch(precision: str, thresholds: int, points: int, with_map:
 
     @wp.func
     def straight_close(track: Track, tally: Tally, pending: Straight, x: vec3):
-        track, pending, j = claim(track, tally, pending, 4)
-        if j < 0:
-            return real.straight_close(track, tally, pending, x)
-        put(tally, track.log_slot, j, scalar(CLOSE))
-        put3(tally, track.log_slot, j + 1, x)
+        track, j = claim(track, tally, 4)
+        if j >= 0:
+            put(tally, track.log_slot, j, scalar(CLOSE))
+            put3(tally, track.log_slot, j + 1, x)
         return track, pending
 
     @wp.func
     def finish(track: Track, tally: Tally, row: wp.int32):
-        """The replay kernel finishes a recorded pellet; the core one it watched itself."""
-        if track.log_slot < 0:
-            real.finish(track, tally, row)
+        """Nothing: the replay kernel (or the rerun of an OVERFLOWED pellet) counts the pellet."""
+        pass
 
     @wp.func
     def write(track: Track, reach_out: wp.array2d(dtype=scalar), row: wp.int32):
-        if track.log_slot < 0:
-            real.write(track, reach_out, row)
+        """Nothing: the replay kernel (or the rerun) writes the pellet's reach."""
+        pass
 
-    for func in (watched_parabola, spilled_step, rp.spill):
-        out_of_line_on_cuda(func)
     return SimpleNamespace(
         **{
             **vars(real),
