@@ -84,7 +84,7 @@ def make_path_replay(precision: str, thresholds: int, points: int, with_map: boo
     watch's namespace with its calls written as records) of `make_path_watch`'s arguments."""
     real = make_path_watch(precision, thresholds, points, with_map, terrain)
     steps = make_line_steps(precision, thresholds, points, with_map, terrain)
-    Track, Tally = real.Track, real.Tally
+    Track, Tally, Straight = real.Track, real.Tally, real.Straight
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
 
@@ -106,59 +106,115 @@ def make_path_replay(precision: str, thresholds: int, points: int, with_map: boo
             put(tally, slot, j + i, value[i])
 
     @wp.func
+    def size(tag: wp.int32):
+        """Words of a record of `tag` (`SIZE`)."""
+        return wp.where(tag == SEGMENT, 21, wp.where(tag == PARABOLA or tag == LINE, 11, wp.where(tag == OPEN, 9, wp.where(tag == STEP, 7, wp.where(tag == ROUGH_STEP, 10, 4)))))  # fmt: skip
+
+    @wp.func
+    def flight(track: Track, tally: Tally, slot: wp.int32, j: wp.int32, tag: wp.int32):
+        """A SEGMENT, PARABOLA or LINE record at word j given to the watch."""
+        if tag == SEGMENT:
+            track = real.segment(
+                track, tally, get3(tally, slot, j + 1), get3(tally, slot, j + 4), get3(tally, slot, j + 7),
+                get3(tally, slot, j + 10), get3(tally, slot, j + 13), get3(tally, slot, j + 16),
+                get(tally, slot, j + 19), get(tally, slot, j + 20),
+            )  # fmt: skip
+        elif tag == PARABOLA:
+            track = real.parabola(
+                track, tally, get3(tally, slot, j + 1), get3(tally, slot, j + 4), get3(tally, slot, j + 7), get(tally, slot, j + 10)
+            )  # fmt: skip
+        else:
+            track = real.line(
+                track, tally, get3(tally, slot, j + 1), get3(tally, slot, j + 4), get(tally, slot, j + 7),
+                get(tally, slot, j + 8), get(tally, slot, j + 9), get(tally, slot, j + 10),
+            )  # fmt: skip
+        return track
+
+    @wp.struct
+    class Phase:
+        """A phase along a line under replay: its steps pending, where the next step begins (m; its
+        speed m/s and deceleration m/s^2 there) and its direction."""
+
+        pending: Straight
+        x0: vec3
+        e: vec3
+        v0: scalar
+        decel0: scalar
+
+    @wp.func
+    def open_phase():
+        phase = Phase()
+        phase.pending = real.straight_open()
+        return phase
+
+    @wp.func
+    def along(track: Track, tally: Tally, slot: wp.int32, j: wp.int32, tag: wp.int32, phase: Phase):
+        """An OPEN, STEP, ROUGH_STEP or CLOSE record at word j given to the watch (a step from the
+        one before's end). Returns (track, phase)."""
+        if tag == OPEN:
+            phase = open_phase()
+            phase.x0 = get3(tally, slot, j + 1)
+            phase.v0 = get(tally, slot, j + 4)
+            phase.decel0 = get(tally, slot, j + 5)
+            phase.e = get3(tally, slot, j + 6)
+        elif tag == CLOSE:
+            pending = phase.pending
+            track, pending = real.straight_close(track, tally, pending, get3(tally, slot, j + 1))
+            phase.pending = pending
+        else:
+            x1 = get3(tally, slot, j + 1)
+            dt = get(tally, slot, j + 4)
+            v1 = get(tally, slot, j + 5)
+            d1 = get(tally, slot, j + 6)
+            if tag == STEP:
+                pending = phase.pending
+                track, pending = steps.line_step(track, tally, pending, phase.x0, x1, phase.e, phase.decel0, dt, phase.v0, v1, d1)
+                phase.pending = pending
+            else:
+                e = get3(tally, slot, j + 7)
+                track = steps.rough_step(track, tally, phase.x0, x1, e, phase.decel0, dt, phase.v0, v1, d1)
+            phase.x0 = x1
+            phase.v0 = v1
+            phase.decel0 = d1
+        return track, phase
+
+    @wp.func
     def replay(track: Track, tally: Tally, slot: wp.int32, count: wp.int32):
-        """The column's `count` words of records given to the watch in order. Returns (track,
-        pending): the steps of a phase along a line still open at their end."""
-        pending = real.straight_open()
-        x0 = vec3()
-        e = vec3()
-        v0 = scalar(0.0)
-        decel0 = scalar(0.0)
+        """The column's `count` words of records given to the watch in order. Returns track."""
+        phase = open_phase()
         j = wp.int32(1)
         while j <= count:
             tag = wp.int32(get(tally, slot, j))
-            if tag == SEGMENT:
-                track = real.segment(
-                    track, tally, get3(tally, slot, j + 1), get3(tally, slot, j + 4), get3(tally, slot, j + 7),
-                    get3(tally, slot, j + 10), get3(tally, slot, j + 13), get3(tally, slot, j + 16),
-                    get(tally, slot, j + 19), get(tally, slot, j + 20),
-                )  # fmt: skip
-            elif tag == PARABOLA:
-                track = real.parabola(
-                    track,
-                    tally,
-                    get3(tally, slot, j + 1),
-                    get3(tally, slot, j + 4),
-                    get3(tally, slot, j + 7),
-                    get(tally, slot, j + 10),
-                )
-            elif tag == LINE:
-                track = real.line(
-                    track, tally, get3(tally, slot, j + 1), get3(tally, slot, j + 4), get(tally, slot, j + 7),
-                    get(tally, slot, j + 8), get(tally, slot, j + 9), get(tally, slot, j + 10),
-                )  # fmt: skip
-            elif tag == OPEN:
-                pending = real.straight_open()
-                x0 = get3(tally, slot, j + 1)
-                v0 = get(tally, slot, j + 4)
-                decel0 = get(tally, slot, j + 5)
-                e = get3(tally, slot, j + 6)
-            elif tag == CLOSE:
-                track, pending = real.straight_close(track, tally, pending, get3(tally, slot, j + 1))
-            else:  # STEP, ROUGH_STEP: the step from the one before's end
-                x1 = get3(tally, slot, j + 1)
-                dt = get(tally, slot, j + 4)
-                v1 = get(tally, slot, j + 5)
-                d1 = get(tally, slot, j + 6)
-                if tag == STEP:
-                    track, pending = steps.line_step(track, tally, pending, x0, x1, e, decel0, dt, v0, v1, d1)
-                else:
-                    track = steps.rough_step(track, tally, x0, x1, get3(tally, slot, j + 7), decel0, dt, v0, v1, d1)
-                x0 = x1
-                v0 = v1
-                decel0 = d1
-            j += wp.where(tag == SEGMENT, 21, wp.where(tag == PARABOLA or tag == LINE, 11, wp.where(tag == OPEN, 9, wp.where(tag == STEP, 7, wp.where(tag == ROUGH_STEP, 10, 4)))))  # fmt: skip
-        return track, pending
+            if tag <= LINE:
+                track = flight(track, tally, slot, j, tag)
+            else:
+                track, phase = along(track, tally, slot, j, tag, phase)
+            j += size(tag)
+        return track
+
+    @wp.func
+    def replay_flights(track: Track, tally: Tally, slot: wp.int32, count: wp.int32):
+        """The column's SEGMENT, PARABOLA and LINE records alone, in order (where the order of the two
+        kinds does not matter: the reach alone, a maximum). Returns track."""
+        j = wp.int32(1)
+        while j <= count:
+            tag = wp.int32(get(tally, slot, j))
+            if tag <= LINE:
+                track = flight(track, tally, slot, j, tag)
+            j += size(tag)
+        return track
+
+    @wp.func
+    def replay_lines(track: Track, tally: Tally, slot: wp.int32, count: wp.int32):
+        """The column's phases along a line alone, in order (`replay_flights`). Returns track."""
+        phase = open_phase()
+        j = wp.int32(1)
+        while j <= count:
+            tag = wp.int32(get(tally, slot, j))
+            if tag > LINE:
+                track, phase = along(track, tally, slot, j, tag, phase)
+            j += size(tag)
+        return track
 
     @wp.func
     def claim(track: Track, tally: Tally, words: wp.int32):
@@ -174,7 +230,9 @@ def make_path_replay(precision: str, thresholds: int, points: int, with_map: boo
         put(tally, track.log_slot, 0, scalar(used + words))
         return track, used + 1
 
-    return SimpleNamespace(replay=replay, claim=claim, get=get, put=put, put3=put3)
+    return SimpleNamespace(
+        replay=replay, replay_flights=replay_flights, replay_lines=replay_lines, claim=claim, get=get, put=put, put3=put3
+    )
 
 
 @functools.cache
