@@ -14,7 +14,7 @@ and with them and a map of 0.5 m cells over 0-400 m downrange and 50 m either si
 over the run without the hazard. `check`: `count` pellets of that scene in float64 with per-pellet
 reach and the maps, written to DIR/check-DEVICE.npz. `logs`: the step log (`physics.line_log`;
 logs of 3 and 32 steps) and the watch replayed after the core (`tallies.path_replay`; with columns of
-COLUMN_WORDS and of 64 words, where pellets spill) against each step watched at once (log size 0, no
+COLUMN_WORDS and of 64 words, where pellets overflow and are followed again) against each step watched at once (log size 0, no
 replay), on one device, float32: that scene with the map, on rough ground (the reach alone) and with
 pair collisions (shots of 200): per-pellet reach and rest positions and the maps, bit for bit or the
 differences (on a GPU, where threads sharing a column would race; a CPU runs a kernel's threads one
@@ -103,7 +103,7 @@ def logs(device, count, out):
 
     default, found = line_log.LOG_STEPS, {}
     ways = {"at once": (0, "never", None), "log 3": (3, "never", None), f"log {default}": (default, "never", None)}
-    ways |= {"replay": (default, "always", None), "replay, spilled": (default, "always", 64)}
+    ways |= {"replay": (default, "always", None), "replay, rerun": (default, "always", 64)}
     saved = (path_replay.REPLAY, path_replay.COLUMN_WORDS)
     folder = Path(out or tempfile.mkdtemp())
     for case, (settings, shot) in LOG_CASES.items():
