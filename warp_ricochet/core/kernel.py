@@ -74,6 +74,17 @@ def ricochet_kernel_for(spec, max_registers="default"):
             return tally.steps[row] == scalar(OVERFLOWED)
         return True
 
+    @wp.func
+    def pellet_at(row: wp.int32, first_index: wp.int32, release: Release):
+        """(global index, chunk row, whether it holds a pellet) of the chunk's slot `row`: the row
+        itself, or with pair collisions the pellet of the shot-padded slot (padding slots hold none)."""
+        if wp.static(RELEASE):
+            shot = row / release.shot_stride
+            member = row - shot * release.shot_stride
+            pellet = shot * release.shot_count + member
+            return release.first_pellet + pellet, pellet, member < release.shot_count
+        return first_index + row, row, True
+
     @wp.kernel(module="unique", enable_backward=False, **options)
     def ricochet_kernel(
         first_index: wp.int32,  # global index of the chunk's first pellet (a multiple of SEGMENT)
@@ -114,43 +125,10 @@ def ricochet_kernel_for(spec, max_registers="default"):
             else:
                 row = group * segment + j * lanes + lane
             if row < count:
-                if wp.static(RELEASE):  # slot -> pellet; padding slots hold none
-                    shot = row / release.shot_stride
-                    member = row - shot * release.shot_stride
-                    pellet = shot * release.shot_count + member
-                    if member < release.shot_count and wanted(tally, pellet):
-                        counts, acc, lo, hi, range_shift = ricochet_pellet(
-                            release.first_pellet + pellet,
-                            pellet,
-                            source,
-                            surfaces,
-                            physics,
-                            out,
-                            release,
-                            tally,
-                            counts,
-                            acc,
-                            lo,
-                            hi,
-                            range_shift,
-                            tid,
-                        )
-                elif wanted(tally, row):
+                index, pellet, held = pellet_at(row, first_index, release)
+                if held and wanted(tally, pellet):
                     counts, acc, lo, hi, range_shift = ricochet_pellet(
-                        first_index + row,
-                        row,
-                        source,
-                        surfaces,
-                        physics,
-                        out,
-                        release,
-                        tally,
-                        counts,
-                        acc,
-                        lo,
-                        hi,
-                        range_shift,
-                        tid,
+                        index, pellet, source, surfaces, physics, out, release, tally, counts, acc, lo, hi, range_shift, tid
                     )
         if wp.static(TABLE):
             landing.flush(tally)

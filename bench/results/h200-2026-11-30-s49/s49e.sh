@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# Session 49, call 5: perf/replay without the fallback calls in the core (a full column drops its
+# records: the timing of "the core records, the replay watches" alone; bench.path's scene has ~300
+# words a pellet, under the 512 of a column). RP2: lanes alone in the line loop; RP3: lanes meet.
+set -u
+out=${OUT:-/tmp/out}; mkdir -p $out
+root=$PWD
+inn() { local t=$1; shift; (cd $root/.gpu/b/exp/$t && WARP_CACHE_PATH=/tmp/wc_$t PYTHONPATH=/tmp/site:$PWD "$@") 2>&1; }
+filt() { grep -v "^Warp \|CUDA Toolkit\|Devices:\|Kernel cache\|\.cache/warp\|\"cpu\"\|\"cuda:0\"\|^Module \|^{\|/tmp/wc_\|PrecisionWarning\|return _compute\|warnings.warn"; }
+v() { case $1 in M) inn M "${@:2}";; RP2) HACK_NOFALLBACK=1 inn RP2 "${@:2}";; RP3) HACK_NOFALLBACK=1 HACK_TOGETHER=1 inn RP3 "${@:2}";; esac; }
+start=$(date +%s)
+for t in M RP2 RP3; do ( v $t timeout 200 python3 -m bench.path cost --device cuda:0 --sizes 1e5 --repeats 1 > $out/warm-$t.txt ) & done
+( cd $root/.gpu/b/exp/RP2 && HACK_NOFALLBACK=1 WARP_CACHE_PATH=/tmp/wc_C1 PYTHONPATH=/tmp/site:$PWD timeout 200 python3 $root/.gpu/b/rpcmp.py reach 20000 cuda:0 > $out/cmp.txt 2>&1 ) &
+wait
+echo "warm-up $(( $(date +%s) - start )) s" | tee $out/times.txt
+grep "replay vs" $out/cmp.txt
+for r in 1 2; do for t in M RP2 RP3; do
+  v $t timeout 60 python3 -m bench.path cost --device cuda:0 --sizes 1e7 --repeats 1 | filt | grep "N 1e" | sed "s/^/$r $t: /"
+done; done 2>&1 | tee $out/path.txt
+for t in M RP2 RP3; do
+  v $t timeout 60 python3 -m bench.path cost --device cuda:0 --sizes 1e8 --repeats 1 | filt | grep "N 1e" | sed "s/^/$t: /"
+done 2>&1 | tee $out/path-1e8.txt
+echo "done $(( $(date +%s) - start )) s" | tee -a $out/times.txt
+cd $out && tar czf all.tgz *.txt && ls
