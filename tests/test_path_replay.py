@@ -3,8 +3,7 @@ records each call of the hazard's watch into its pellet's column, the replay ker
 after it, so the hazard's outputs are the same bits as with the watch in the core (on the CPU: a GPU
 compiles the watch's roots in another kernel, within rounding). Pellets whose records do not fit are
 followed again by the core kernel with the watch in it and nothing else counted: the same bits too.
-Without a map the phases along a line and the flights are replayed by kernels of their own (the reach
-is a maximum: the order does not matter); with one (and so with named places), each column in order. Runs replay on GPUs by default; here on the CPU (`REPLAY = "always"`)."""
+Each column is replayed in order. Runs replay on GPUs by default; here on the CPU (`REPLAY = "always"`)."""
 
 import json
 from pathlib import Path

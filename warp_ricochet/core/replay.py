@@ -8,10 +8,9 @@ import functools
 
 import warp as wp
 
-from ..physics.types import types_for
 from ..tallies.landing import make_landing_tally
 from ..tallies.path_chord import make_path_watch
-from ..tallies.path_keep import kept_shapes, make_path_keep
+from ..tallies.path_keep import make_path_keep
 from ..tallies.path_replay import OVERFLOWED, make_path_replay
 from .kernel import kernel_options, ricochet_kernel_for
 from .outputs import make_outputs
@@ -19,20 +18,18 @@ from .release import make_release
 
 
 @functools.cache
-def replay_kernels_for(spec):
-    """The replay kernels of `spec`: each chunk row's track begun as the core begins it (at its
-    launch, or where the dense phase left it), its records replayed, then counted (`finish`) and
-    written (`write`, with the hazard's per-pellet fields) as the core does; rows whose records did
-    not fit (OVERFLOWED) counted into `overflowed` and left to the rerun. With a map, one kernel
-    replays each column in order (a pass enters a cell once across records); without one (the reach
-    alone, a maximum; named places come with a map), a kernel replays the phases along a line and keeps the track
-    (`make_path_keep`), then another the flights, so that a warp's lanes replay records of one kind."""
+def replay_kernel_for(spec):
+    """The replay kernel of `spec`: each chunk row's track begun as the core begins it (at its
+    launch, or where the dense phase left it), its records replayed in order (a pass enters a map
+    cell once across records), then counted (`finish`) and written (`write`, with the hazard's
+    per-pellet fields) as the core does; rows whose records did not fit (OVERFLOWED) counted into
+    `overflowed` and left to the rerun."""
     watcher = make_path_watch(spec.precision, *spec.watch[:4])
     rp = make_path_replay(spec.precision, *spec.watch[:4])
-    load_track, store_track = make_path_keep(spec.precision, *spec.watch[:3])
-    Tally, scalar, Track = make_landing_tally(spec.precision).Tally, types_for(spec.precision).scalar, watcher.Track
+    load_track = make_path_keep(spec.precision, *spec.watch[:3])[0]
+    Tally, Track = make_landing_tally(spec.precision).Tally, watcher.Track
     Outputs, Release = make_outputs(spec.precision).Outputs, make_release(spec.precision)
-    RELEASE, WRITE, ORDERED = spec.collisions, any(f.startswith("hazard.") for f in spec.core_fields), spec.hazard_map
+    RELEASE, WRITE = spec.collisions, any(f.startswith("hazard.") for f in spec.core_fields)
     options = kernel_options(spec)
     options.pop("cuda_max_registers", None)
 
@@ -59,26 +56,7 @@ def replay_kernels_for(spec):
             elif count >= 0:
                 end(rp.replay(begin(release, tally, row), tally, row, count), out, tally, row)
 
-    @wp.kernel(module="unique", enable_backward=False, **options)
-    def lines_kernel(rows: wp.int32, release: Release, tally: Tally, reach: wp.array2d(dtype=scalar), ints: wp.array2d(dtype=wp.int32), overflowed: wp.array(dtype=wp.int32)):  # fmt: skip
-        row = wp.tid()
-        if row < rows:
-            count = wp.int32(rp.get(tally, row, 0))
-            if count == wp.int32(OVERFLOWED):
-                wp.atomic_add(overflowed, 0, 1)
-            elif count >= 0:
-                store_track(rp.replay_lines(begin(release, tally, row), tally, row, count), reach, ints, row)
-
-    @wp.kernel(module="unique", enable_backward=False, **options)
-    def flights_kernel(rows: wp.int32, out: Outputs, tally: Tally, reach: wp.array2d(dtype=scalar), ints: wp.array2d(dtype=wp.int32)):  # fmt: skip
-        row = wp.tid()
-        if row < rows:
-            count = wp.int32(rp.get(tally, row, 0))
-            if count >= 0:
-                track = watcher.seat(load_track(reach, ints, row), tally, row)
-                end(rp.replay_flights(track, tally, row, count), out, tally, row)
-
-    return (replay_kernel,) if ORDERED else (lines_kernel, flights_kernel)
+    return replay_kernel
 
 
 def rerun_spec(spec):
@@ -95,18 +73,6 @@ class Replay:
         self.on = bool(spec.watch[4])
         self.overflowed = wp.zeros(1, dtype=wp.int32, device=device) if self.on else None
         self.reruns = 0  # pellets followed again in the run so far
-        self._kept = None
-
-    def kept(self, rows: int):
-        """The tracks kept between the two replay kernels (`replay_kernels_for`): arrays of at least `rows` rows."""
-        if self._kept is None or self._kept[0].shape[0] < rows:
-            shapes = kept_shapes(rows, *self.spec.watch[:2])
-            scalar = types_for(self.spec.precision).scalar
-            self._kept = (
-                wp.empty(shapes[0], dtype=scalar, device=self.device),
-                wp.empty(shapes[1], dtype=wp.int32, device=self.device),
-            )
-        return self._kept
 
     def after_core(self, rows: int, outputs, release, tally, rerun) -> None:
         """After the core kernel of a chunk of `rows` pellets: the replay kernel; where some pellets'
@@ -115,13 +81,9 @@ class Replay:
         if not self.on or rows <= 0:
             return
         self.overflowed.zero_()
-        kernels = replay_kernels_for(self.spec)
-        if len(kernels) == 1:
-            wp.launch(kernels[0], dim=rows, inputs=[rows, outputs, release, tally, self.overflowed], device=self.device)
-        else:
-            reach, ints = self.kept(rows)
-            wp.launch(kernels[0], dim=rows, inputs=[rows, release, tally, reach, ints, self.overflowed], device=self.device)
-            wp.launch(kernels[1], dim=rows, inputs=[rows, outputs, tally, reach, ints], device=self.device)
+        wp.launch(
+            replay_kernel_for(self.spec), dim=rows, inputs=[rows, outputs, release, tally, self.overflowed], device=self.device
+        )
         count = int(self.overflowed.numpy()[0])
         if count:
             self.reruns += count

@@ -193,30 +193,6 @@ def make_path_replay(precision: str, thresholds: int, points: int, with_map: boo
         return track
 
     @wp.func
-    def replay_flights(track: Track, tally: Tally, slot: wp.int32, count: wp.int32):
-        """The column's SEGMENT, PARABOLA and LINE records alone, in order (where the order of the two
-        kinds does not matter: the reach alone, a maximum). Returns track."""
-        j = wp.int32(1)
-        while j <= count:
-            tag = wp.int32(get(tally, slot, j))
-            if tag <= LINE:
-                track = flight(track, tally, slot, j, tag)
-            j += size(tag)
-        return track
-
-    @wp.func
-    def replay_lines(track: Track, tally: Tally, slot: wp.int32, count: wp.int32):
-        """The column's phases along a line alone, in order (`replay_flights`). Returns track."""
-        phase = open_phase()
-        j = wp.int32(1)
-        while j <= count:
-            tag = wp.int32(get(tally, slot, j))
-            if tag > LINE:
-                track, phase = along(track, tally, slot, j, tag, phase)
-            j += size(tag)
-        return track
-
-    @wp.func
     def claim(track: Track, tally: Tally, words: wp.int32):
         """Where a record of `words` words begins in the pellet's column (its count raised), or -1
         where the column is full (OVERFLOWED: no more records). Returns (track, first word)."""
@@ -230,9 +206,7 @@ def make_path_replay(precision: str, thresholds: int, points: int, with_map: boo
         put(tally, track.log_slot, 0, scalar(used + words))
         return track, used + 1
 
-    return SimpleNamespace(
-        replay=replay, replay_flights=replay_flights, replay_lines=replay_lines, claim=claim, get=get, put=put, put3=put3
-    )
+    return SimpleNamespace(replay=replay, claim=claim, get=get, put=put, put3=put3)
 
 
 @functools.cache
