@@ -1,6 +1,6 @@
 """The hazard watched along the path (docs/hazard.md, "The hazard along the path"): its cost beside
 the same statistics-only run followed to rest without it, in one run, and a device's per-pellet
-reach and maps for a comparison with the CPU's.
+reach and maps for a comparison with the CPU's, and the ways the watch can be given its steps compared.
 
     python -m bench.path cost [--device cuda:0] [--sizes 1e8,1e9] [--repeats 2] [--out DIR]
     python -m bench.path check [--device cuda:0] [--count 20000] [--out DIR]
@@ -12,11 +12,13 @@ thresholds: the watch compiled away), with the four default thresholds (reach an
 and with them and a map of 0.5 m cells over 0-400 m downrange and 50 m either side (passes by level,
 160,000 cells). Each row: seconds (median of --repeats after a warm-up), pellets/s and the cost
 over the run without the hazard. `check`: `count` pellets of that scene in float64 with per-pellet
-reach and the maps, written to DIR/check-DEVICE.npz. `logs`: the step log (`physics.line_log`)
-against each step watched at once (log size 0) and a log of 3 steps, on one device, float32: that
-scene with the map, on rough ground (the reach alone) and with pair collisions (shots of 200):
-per-pellet reach and rest positions and the maps, bit for bit or the differences (on a GPU, where
-threads sharing a column would race; a CPU runs a kernel's threads one after another).
+reach and the maps, written to DIR/check-DEVICE.npz. `logs`: the step log (`physics.line_log`;
+logs of 3 and 32 steps) and the watch replayed after the core (`tallies.path_replay`; with columns of
+COLUMN_WORDS and of 64 words, where pellets overflow and are followed again) against each step watched at once (log size 0, no
+replay), on one device, float32: that scene with the map, on rough ground (the reach alone) and with
+pair collisions (shots of 200): per-pellet reach and rest positions and the maps, bit for bit or the
+differences (on a GPU, where threads sharing a column would race; a CPU runs a kernel's threads one
+after another).
 """
 
 from __future__ import annotations
@@ -88,35 +90,41 @@ LOG_KEYS = ("pellets/hazard/reach", "pellets/rest/position", "hazard/map/passes"
 
 
 def logs(device, count, out):
-    """Each LOG_CASES scene with log sizes 0 (each step watched at once), 3 and the default: the same
-    bits, or the differences. Returns {case: {size: 'bitwise' or the differences}}."""
+    """Each LOG_CASES scene watched at once (log size 0, no replay), with logs of 3 and the default
+    size, and replayed (columns of the default and of 64 words): the same bits, or the differences.
+    Returns {case: {way: 'bitwise' or the differences}}."""
     wr, _wp = _wr()
     import tempfile
 
     import h5py
 
     from warp_ricochet.physics import line_log
+    from warp_ricochet.tallies import path_replay
 
     default, found = line_log.LOG_STEPS, {}
+    ways = {"at once": (0, "never", None), "log 3": (3, "never", None), f"log {default}": (default, "never", None)}
+    ways |= {"replay": (default, "always", None), "replay, rerun": (default, "always", 64)}
+    saved = (path_replay.REPLAY, path_replay.COLUMN_WORDS)
     folder = Path(out or tempfile.mkdtemp())
     for case, (settings, shot) in LOG_CASES.items():
         extra = [*settings] + ([f"shot.shots={count // shot}"] if shot else [])
-        scene_count = shot or count
         outputs = {}
-        for size in (0, 3, default):
-            line_log.LOG_STEPS = size
+        for way, (size, replay, words) in ways.items():
+            line_log.LOG_STEPS, path_replay.REPLAY = size, replay
+            path_replay.COLUMN_WORDS = words or saved[1]
             try:
-                scene = paper_scene(scene_count, air=True, mu_s=0.5, fields=("hazard", "rest"), extra=extra)
-                path = folder / f"logs-{size}.h5"
+                scene = paper_scene(shot or count, air=True, mu_s=0.5, fields=("hazard", "rest"), extra=extra)
+                path = folder / "logs.h5"
                 wr.run(scene, path, device=device, overwrite=True)
             finally:
                 line_log.LOG_STEPS = default
+                path_replay.REPLAY, path_replay.COLUMN_WORDS = saved
             with h5py.File(path, "r") as f:
-                outputs[size] = {key: f[key][()] for key in LOG_KEYS if key in f}
+                outputs[way] = {key: f[key][()] for key in LOG_KEYS if key in f}
             path.unlink()
-        found[case] = {size: _differences(outputs[0], outputs[size]) for size in (3, default)}
-        for size, verdict in found[case].items():
-            print(f"{case:16s} log {size:2d} against each step at once: {verdict}", flush=True)
+        found[case] = {way: _differences(outputs["at once"], outputs[way]) for way in list(ways)[1:]}
+        for way, verdict in found[case].items():
+            print(f"{case:16s} {way:16s} against each step at once: {verdict}", flush=True)
     return found
 
 

@@ -201,7 +201,7 @@ def _compute(scene, dev, writer=None, progress=None, resumed=None, dense_options
     `job` submitted already when given."""
     asked, plan, scene = scene, BoundPlan.of(scene), planned(scene)
     model = Model.from_scene(scene, dev) if study is None else study.model(scene)
-    spec = RunSpec.of(scene, with_output=writer is not None)
+    spec = RunSpec.of(scene, with_output=writer is not None, device=dev)
     arrays = load_pellet_file(scene.shot.file) if scene.shot.file is not None else None
     frames = writer.append_frame if writer is not None and spec.collisions and scene.collisions.frame_every else None
     log.info(

@@ -13,6 +13,7 @@ from .fields import bytes_per_pellet
 from .io.space import free_bytes, host_memory_available, size_text
 from .physics.line_log import INDEX_LIMIT, step_words
 from .spec import RunSpec
+from .tallies import path_replay
 from .tallies.counts import TallySetup, tally_bytes
 from .tallies.reduce import SEGMENT, partial_bytes_per_pellet
 
@@ -30,10 +31,10 @@ def file_bytes_per_pellet(scene) -> int:
     return 0 if scene.shot.file is None else 9 * np.dtype(scene.numerics.precision).itemsize
 
 
-def device_bytes_per_pellet(scene, fields) -> float:
-    """Device bytes per pellet of a core chunk: outputs, statistics partials, pellet-file states,
-    the step log."""
-    spec = RunSpec.of(scene, with_output=False)
+def device_bytes_per_pellet(scene, fields, device=None) -> float:
+    """Device bytes per pellet of a core chunk on `device`: outputs, statistics partials, pellet-file
+    states, the step log."""
+    spec = RunSpec.of(scene, with_output=False, device=device)
     return (
         partial_bytes_per_pellet(spec.lanes)
         + bytes_per_pellet(fields, scene.numerics.precision, scene.physics.bounces)
@@ -43,16 +44,20 @@ def device_bytes_per_pellet(scene, fields) -> float:
 
 
 def log_words(spec) -> int:
-    """Words of the step log a core thread has (`physics.line_log`): none without phases along a line
-    watched (`spec.log_steps` = 0: each step watched at once)."""
+    """Words of the step log a core thread has (`physics.line_log`; a chunk row's column of the
+    record log where the run replays its watch, `tallies.path_replay`): none without phases along a
+    line watched (`spec.log_steps` = 0: each step watched at once)."""
+    if spec.replay and spec.to_rest and spec.watch[0] > 0:
+        return path_replay.COLUMN_WORDS  # (read at each call: tests shrink it)
     if not (spec.to_rest and spec.watch[0] > 0 and spec.log_steps > 0):
         return 0
     return spec.log_steps * step_words(spec.rough)
 
 
 def log_words_per_pellet(spec) -> float:
-    """Words of the step log a pellet (a slot) of a GPU chunk takes: its thread's, shared by its pellets."""
-    return log_words(spec) * spec.lanes / SEGMENT
+    """Words of the step log a pellet (a slot) of a GPU chunk takes: its thread's, shared by its
+    pellets (its own column of the record log where the run replays its watch)."""
+    return log_words(spec) * (1 if spec.replay else spec.lanes / SEGMENT)
 
 
 def log_rows(spec) -> int:
@@ -67,14 +72,14 @@ def plan_rows(scene, device, pellets: int, fields) -> int:
         rows = scene.numerics.chunk_size
     else:
         if device.is_cuda:
-            rows = min(int(DEVICE_FRACTION * device.free_memory / device_bytes_per_pellet(scene, fields)), MAX_CHUNK)
+            rows = min(int(DEVICE_FRACTION * device.free_memory / device_bytes_per_pellet(scene, fields, device)), MAX_CHUNK)
         else:
             rows = CPU_AIR_CHUNK if scene.in_air else CPU_STATS_CHUNK
         if fields:
             rows = min(rows, int(HOST_BUFFER_BYTES / bytes_per_pellet(fields, scene.numerics.precision, scene.physics.bounces)))
     rows = max(SEGMENT, -(-rows // SEGMENT) * SEGMENT)  # whole segments: chunk-size invariance
     if device.is_cuda:  # (the same bits for any chunk size)
-        rows = min(rows, log_rows(RunSpec.of(scene, with_output=False)))
+        rows = min(rows, log_rows(RunSpec.of(scene, with_output=False, device=device)))
     return min(rows, max(pellets, 1))
 
 
@@ -84,7 +89,7 @@ def plan_shots(scene, device, shots: int) -> int:
     pellets)."""
     count = scene.shot.count
     granule = shot_granule(count)
-    spec = RunSpec.of(scene, with_output=False)
+    spec = RunSpec.of(scene, with_output=False, device=device)
     if scene.numerics.chunk_size:
         pellets = scene.numerics.chunk_size
     elif device.is_cuda:
@@ -111,9 +116,9 @@ def check_chunk_memory(scene, dev, with_output: bool) -> None:
     pellets = scene.shot.pellets
     rows = min(max(SEGMENT, -(-chunk // SEGMENT) * SEGMENT), max(pellets, 1))
     if dev.is_cuda:  # (as `plan_rows` caps it)
-        rows = min(rows, log_rows(RunSpec.of(scene, with_output=False)))
+        rows = min(rows, log_rows(RunSpec.of(scene, with_output=False, device=dev)))
     fields = scene.output.fields if with_output else ()
-    on_device = device_bytes_per_pellet(scene, fields)
+    on_device = device_bytes_per_pellet(scene, fields, dev)
     on_host = bytes_per_pellet(fields, scene.numerics.precision, scene.physics.bounces) * (2 if dev.is_cuda else 1)
     if not dev.is_cuda:
         on_host, on_device = on_host + on_device, 0

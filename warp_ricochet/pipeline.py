@@ -29,6 +29,7 @@ from .bound import station_pieces
 from .chunks import log_words, plan_rows, plan_shots
 from .core.kernel import CUDA_BLOCK_DIM, ricochet_kernel_for
 from .core.release import empty_release
+from .core.replay import Replay
 from .core.shots import ShotPass, ThreadPieces
 from .dense.phase import DensePhase
 from .dense.schedule import shot_stride
@@ -127,6 +128,8 @@ def log_threads(spec, device, rows: int) -> int:
     or with `spec.log_steps` = 0 (each step watched at once)."""
     if not log_words(spec):
         return 0
+    if spec.replay:  # (a column a chunk row: `tallies.path_replay`)
+        return rows
     return threads_for(rows, spec.lanes) if device.is_cuda else 1
 
 
@@ -136,6 +139,17 @@ def check_log(tally: DeviceTally, spec, device, rows: int) -> None:
     need = log_threads(spec, device, rows)
     if need > tally.struct.log_threads:
         raise RuntimeError(f"step log of {tally.struct.log_threads} threads for a launch of {need}")
+
+
+def launch_core(kernel, inputs, state, rows: int, device, scratch: bool = False) -> None:
+    """Launch a core kernel over `rows` rows (or slots) with `inputs`, its statistics partials into
+    `state`'s (`scratch`: into new arrays, thrown away: the rerun of `core.replay.Replay`)."""
+    partials = [state.partial_sums, state.partial_min, state.partial_max]
+    if scratch:
+        partials = [wp.empty_like(a) for a in partials]
+    wp.launch(
+        kernel, dim=threads_for(rows, state.lanes), inputs=inputs, outputs=partials, device=device, block_dim=CUDA_BLOCK_DIM
+    )
 
 
 class CoreStage:
@@ -151,6 +165,7 @@ class CoreStage:
         self.release = empty_release(model.precision, dev.alias)
         self.arrays, self.totals = self.state.arrays, None
         self.tally, self.spec = landing_tally(scene, model, spec, arrays, self.capacity), spec
+        self.replay = Replay(spec, dev)
         self.count = scene.shot.count
         self.shot_pass = ShotPass(scene, model, spec, self.capacity // self.count + 1, arrays) if has_ensemble(scene) else None
 
@@ -165,13 +180,14 @@ class CoreStage:
         self.source.load(start, rows)
         self.tally.before_chunk()
         check_log(self.tally, self.spec, m.device, rows)
-        wp.launch(
-            self.kernel,
-            dim=threads_for(rows, self.state.lanes),
-            inputs=[start, rows, self.source.struct, m.surfaces, m.physics, self.state.outputs, self.release, self.tally.struct],
-            outputs=[self.state.partial_sums, self.state.partial_min, self.state.partial_max],
-            device=m.device,
-            block_dim=CUDA_BLOCK_DIM,
+        inputs = [start, rows, self.source.struct, m.surfaces, m.physics, self.state.outputs, self.release, self.tally.struct]
+        launch_core(self.kernel, inputs, self.state, rows, m.device)
+        self.replay.after_core(
+            rows,
+            self.state.outputs,
+            self.release,
+            self.tally.struct,
+            lambda k: launch_core(k, inputs, self.state, rows, m.device, True),
         )
         self.tally.fold(rows, last=start + rows >= self.stop)
         return launch_reduce(self.state, rows, m.device, self.state.lanes), 0
@@ -210,6 +226,7 @@ class CollisionStage:
         self.arrays = {**self.state.arrays, **self.dense.field_arrays}
         self.totals = self.dense.totals
         self.tally, self.spec = landing_tally(scene, model, spec, arrays, self.per_chunk * self.stride), spec
+        self.replay = Replay(spec, dev)
         self.shot_pass = None
         if has_ensemble(scene):
             self.shot_pass = (
@@ -233,22 +250,14 @@ class CollisionStage:
         interrupts.check()  # (before the core kernel's pass over the chunk)
         slots = shots * self.stride
         check_log(self.tally, self.spec, m.device, slots)
-        wp.launch(
-            self.kernel,
-            dim=threads_for(slots, self.state.lanes),
-            inputs=[
-                0,
-                slots,
-                self.source.struct,
-                m.surfaces,
-                m.physics,
-                self.state.outputs,
-                self.dense.release,
-                self.tally.struct,
-            ],
-            outputs=[self.state.partial_sums, self.state.partial_min, self.state.partial_max],
-            device=m.device,
-            block_dim=CUDA_BLOCK_DIM,
+        inputs = [0, slots, self.source.struct, m.surfaces, m.physics, self.state.outputs, self.dense.release, self.tally.struct]
+        launch_core(self.kernel, inputs, self.state, slots, m.device)
+        self.replay.after_core(
+            shots * self.count,
+            self.state.outputs,
+            self.dense.release,
+            self.tally.struct,
+            lambda k: launch_core(k, inputs, self.state, slots, m.device, True),
         )
         self.tally.fold(slots, last=start + rows >= self.stop)
         return launch_reduce(self.state, slots, m.device, self.state.lanes), shots

@@ -90,7 +90,10 @@ class RunSpec:
     station (`launch.stations`); thread_pieces: each core thread follows consecutive slots of one
     piece of one shot, so the per-shot partials come from the core's threads (`core.shots`: pair
     collisions followed to rest); terrain_ground: the hazard's ground is a terrain (`tallies.terrain_walk`);
-    log_steps: steps of a phase along a line a thread keeps before its watch takes them (`physics.line_log`)."""
+    log_steps: steps of a phase along a line a thread keeps before its watch takes them (`physics.line_log`);
+    replay: a run to rest records its watch for a kernel of its own (`tallies.path_replay`: on GPUs);
+    watch_only: the core kernel that follows again the pellets whose records did not fit (`core.replay`):
+    only their watch counted and written, nothing else."""
 
     precision: str
     bounces: int
@@ -114,10 +117,15 @@ class RunSpec:
     thread_pieces: bool = False
     terrain_ground: bool = False
     log_steps: int = 32
+    replay: bool = False
+    watch_only: bool = False
 
     @classmethod
-    def of(cls, scene, *, with_output: bool = True) -> RunSpec:
-        """The spec of running `scene`, writing its output fields or (not with_output) statistics only."""
+    def of(cls, scene, *, with_output: bool = True, device=None) -> RunSpec:
+        """The spec of running `scene` on `device` (None: not known, no replay), writing its output
+        fields or (not with_output) statistics only."""
+        from .tallies.path_replay import replays_on
+
         precision = scene.numerics.precision
         air = scene.air if scene.in_air else None
         laws = (
@@ -146,6 +154,7 @@ class RunSpec:
             thread_pieces=_thread_pieces(scene),
             terrain_ground=scene.terrain_ground,
             log_steps=_log_steps(),
+            replay=replays_on(device) and scene.physics.until == "rest",
         )
 
     @property
@@ -165,12 +174,13 @@ class RunSpec:
         return lanes_for(self.to_rest or large)
 
     @property
-    def watch(self) -> tuple[int, int, bool, bool]:
-        """(thresholds, places, map, terrain) of the hazard watched along the path (`tallies.path`):
-        a scene with thresholds and its tallies; (0, 0, False, False) compiles the watch away."""
+    def watch(self) -> tuple[int, int, bool, bool, bool]:
+        """(thresholds, places, map, terrain, replay) of the hazard watched along the path
+        (`tallies.path`; replay: recorded by the core, `tallies.path_replay`): a scene with thresholds
+        and its tallies; (0, 0, False, False, False) compiles the watch away."""
         if not (self.tally and self.thresholds > 0):
-            return (0, 0, False, False)
-        return (self.thresholds, self.places, self.hazard_map, self.terrain_ground)
+            return (0, 0, False, False, False)
+        return (self.thresholds, self.places, self.hazard_map, self.terrain_ground, self.replay)
 
     @property
     def in_air(self) -> bool:

@@ -121,7 +121,7 @@ def run_range(scene, device, start: int, stop: int, options=None, shards=None) -
     from .spec import RunSpec
 
     dev = resolve_device(device)
-    spec = RunSpec.of(scene, with_output=shards is not None)
+    spec = RunSpec.of(scene, with_output=shards is not None, device=dev)
     key = (scene.to_toml(), str(dev), spec, options)
     model, stage, generation = Kept.take(key)
     if model is None:

@@ -14,6 +14,7 @@ from ..physics.types import types_for
 from ..tallies.accumulate import make_accumulators
 from ..tallies.block import BEGIN
 from ..tallies.landing import make_add_landing, make_landing_tally
+from ..tallies.path_replay import OVERFLOWED
 from ..tallies.reduce import SEGMENT
 from .outputs import make_outputs
 from .pellet import make_ricochet_pellet
@@ -58,12 +59,20 @@ def ricochet_kernel_for(spec, max_registers="default"):
     Tally, landing = make_landing_tally(spec.precision).Tally, make_add_landing(spec.precision, spec.hazard_map, spec.thresholds)
     TABLE = spec.hazard_map  # the map's block table (`tallies.block`)
     floats_t, extremes_t, inf = acc_fns.floats_t, acc_fns.extremes_t, acc_fns.inf
-    RELEASE, CONSECUTIVE = spec.collisions, spec.thread_pieces
+    RELEASE, CONSECUTIVE, WATCH_ONLY = spec.collisions, spec.thread_pieces, spec.watch_only
     lanes, segment = spec.lanes, SEGMENT
     per_thread = segment // lanes
     if lanes % WARP_SIZE:  # (the pellet loop's warp-uniform passes assume whole warps a group)
         raise ValueError(f"threads a segment must be a multiple of {WARP_SIZE}: {lanes}")
     options = kernel_options(spec, max_registers)
+
+    @wp.func
+    def wanted(tally: Tally, row: wp.int32):
+        """Whether the kernel follows chunk row `row`: every row, or where it reruns the watch of the
+        pellets whose records did not fit (`spec.watch_only`), those only (`core.replay`)."""
+        if wp.static(WATCH_ONLY):
+            return tally.steps[row] == scalar(OVERFLOWED)
+        return True
 
     @wp.func
     def pellet_at(row: wp.int32, first_index: wp.int32, release: Release):
@@ -117,7 +126,7 @@ def ricochet_kernel_for(spec, max_registers="default"):
                 row = group * segment + j * lanes + lane
             if row < count:
                 index, pellet, held = pellet_at(row, first_index, release)
-                if held:
+                if held and wanted(tally, pellet):
                     counts, acc, lo, hi, range_shift = ricochet_pellet(
                         index, pellet, source, surfaces, physics, out, release, tally, counts, acc, lo, hi, range_shift, tid
                     )

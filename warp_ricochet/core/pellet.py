@@ -24,8 +24,8 @@ from ..physics.ground_contact import make_ground_contact
 from ..physics.types import types_for
 from ..tallies.accumulate import make_accumulators
 from ..tallies.landing import make_add_landing, make_landing_tally
-from ..tallies.path_chord import make_path_watch
 from ..tallies.path_keep import make_path_keep
+from ..tallies.path_replay import watch_for
 from ..tallies.sums import REST as X_REST
 from .outputs import make_outputs
 from .release import ENTERED_GROUND, make_release
@@ -67,7 +67,7 @@ def make_ricochet_pellet(spec):
         spec.precision, spec.static_planes, spec.flight, spec.air_laws, watch=spec.watch, plates=spec.plates,
         out_of_line=spec.to_rest,
     )  # fmt: skip
-    watcher = make_path_watch(spec.precision, *spec.watch)
+    watcher = watch_for(spec.precision, *spec.watch)
     load_track = make_path_keep(spec.precision, *spec.watch[:3])[0]
     rests, stays, _impact, _meet, contact_point, landing_range = make_contact(spec.precision)
     geo, ground_contact = make_geometry(spec.precision, plates=spec.plates), make_ground_contact(spec.precision, spec.ground)
@@ -76,6 +76,12 @@ def make_ricochet_pellet(spec):
     Tally = make_landing_tally(spec.precision).Tally
     landing_tally = make_add_landing(spec.precision, spec.hazard_map, spec.thresholds)
     TALLY, HAZARD_OUT = spec.tally, any(f.startswith("hazard.") for f in spec.core_fields)
+    REPLAYED, WATCH_ONLY, COUNTED, WRITE = (
+        spec.watch[4],
+        spec.watch_only,
+        TALLY and not spec.watch_only,
+        WRITE and not spec.watch_only,
+    )
     TO_REST, horizontal_distance = spec.to_rest, make_landing_tally(spec.precision).horizontal_distance
 
     @wp.func
@@ -133,7 +139,7 @@ def make_ricochet_pellet(spec):
             launch_spin = spin
             if wp.static(WRITE):
                 outs.write_initial(out, row, position, velocity, spin)
-        track = watcher.seat(track, tally, thread)  # (its column of the step log: `physics.line_log`)
+        track = watcher.seat(track, tally, wp.where(wp.static(REPLAYED), row, thread))  # (its log's column: a row's, a thread's)
         launch_v2 = wp.dot(launch_velocity, launch_velocity)
         launch_w2 = wp.dot(launch_spin, launch_spin)
         if wp.static(RELEASE):
@@ -248,7 +254,7 @@ def make_ricochet_pellet(spec):
                 if wp.static(TALLY or HAZARD_OUT):
                     v2 = wp.dot(velocity, velocity)
                     exceeds = landing_tally.exceeded(tally, v2)
-                    if wp.static(TALLY):
+                    if wp.static(COUNTED):
                         landing_tally.add_landing(tally, row, k, distance, position, v2, exceeds)
                 if counts[2] == 1:
                     range_shift = distance
@@ -275,16 +281,17 @@ def make_ricochet_pellet(spec):
                 )
             )
         watcher.finish(track, tally, row)
+        if wp.static(HAZARD_OUT and (WRITE or WATCH_ONLY)):
+            watcher.write(track, out.hazard_reach, row)
         if wp.static(WRITE):
             outs.write_landing(out, row, landing_time, landing_position, landing_velocity, distance, landing_surface)
             if wp.static(HAZARD_OUT):
-                watcher.write(track, out.hazard_reach, row)
                 energy = tally.half_mass * wp.dot(landing_velocity, landing_velocity)  # NaN: never landed
                 outs.write_hazard(out, row, energy, energy * tally.inverse_area, exceeds)
         if wp.static(TO_REST):  # where it ends: its statistics, its rest distance's count, its outputs
             rest_distance = scalar(wp.nan)  # m, from the shooter (horizontal), of a pellet that stopped
             if rest_state == ENDED_AT_REST or rest_state == ENDED_EMBEDDED:
-                if wp.static(TALLY):
+                if wp.static(COUNTED):
                     rest_distance = landing_tally.add_rest(tally, row, rest_position)
                 else:
                     rest_distance = horizontal_distance(tally, rest_position)

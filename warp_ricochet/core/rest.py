@@ -48,7 +48,7 @@ from ..physics.surface_follow import FLIGHT as LIFTS_OFF
 from ..physics.surface_follow import FOREVER, REST, make_surface_follow
 from ..physics.surface_motion import make_surface_laws
 from ..physics.types import types_for
-from ..tallies.path_chord import make_path_watch
+from ..tallies.path_replay import watch_for
 
 CONTACT, SURFACE, FLIGHT = 0, 1, 2  # the modes of `to_rest`
 # what it ended as before: DONE_ESCAPED, DONE_NOT_FINISHED, DONE_EMBEDDED (ended in the core's landing part)
@@ -77,7 +77,7 @@ def make_to_rest(spec) -> SimpleNamespace:
         rough=spec.rough,
         log_steps=spec.log_steps,
     )
-    watcher = make_path_watch(spec.precision, *spec.watch)
+    watcher = watch_for(spec.precision, *spec.watch)
     Track, Tally = watcher.Track, watcher.Tally
     rests = make_contact(spec.precision)[0]
     ground_contact = make_ground_contact(spec.precision, spec.ground)

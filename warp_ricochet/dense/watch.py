@@ -45,7 +45,7 @@ def make_dense_watch(spec) -> SimpleNamespace:
     """`launch`, `arc`, `to` and (in air) `flight_within` for `spec`."""
     kit = dense_kit(spec)
     scalar, vec3, Surfaces, Physics, Cloud = kit.scalar, kit.vec3, kit.Surfaces, kit.Physics, kit.Cloud
-    watcher = make_path_watch(kit.precision, *spec.watch)
+    watcher = make_path_watch(kit.precision, *spec.watch[:4])  # (the dense phase watches at once)
     load, store = make_path_keep(kit.precision, *spec.watch[:3])
     ON, AIR, ZERO, ONE = watcher.ON, kit.AIR, scalar(0.0), scalar(1.0)
     laws = make_air_laws(kit.precision, *spec.air_laws) if AIR else None
@@ -139,7 +139,7 @@ def make_dense_watch(spec) -> SimpleNamespace:
 
     out = SimpleNamespace(launch=launch, arc=arc, to=to, ON=ON)
     if kit.AIR:
-        flight = make_air_flight(kit.precision, spec.static_planes, tuple(spec.air_laws), spec.watch, spec.plates)
+        flight = make_air_flight(kit.precision, spec.static_planes, tuple(spec.air_laws), spec.watch[:4], spec.plates)
         to_contact_within = flight.to_contact_within
         within_watched = flight.watched_loop  # (the flight's loop, watched: `physics.air_flight`)
 

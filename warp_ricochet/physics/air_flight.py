@@ -552,9 +552,9 @@ def make_air_flight(
     `out_of_line`: the flight's loop, its root finder and the air's rates one function each in CUDA
     code (`physics.inlining`): for kernels to rest, which call them from several sites."""
     from ..tallies.path import ESCAPED, make_path_roots  # (tallies imports physics: not at the top)
-    from ..tallies.path_chord import make_path_watch  # (tallies imports physics: not at the top)
+    from ..tallies.path_replay import watch_for  # (tallies imports physics: not at the top)
 
-    watcher, ground = make_path_watch(precision, *watch), make_path_roots(precision)
+    watcher, ground = watch_for(precision, *watch), make_path_roots(precision)
     Track, Tally = watcher.Track, watcher.Tally
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics

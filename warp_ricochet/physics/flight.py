@@ -53,9 +53,9 @@ def make_flight(
     if model == "air":
         return _air_flight(precision, planes, laws, watch, plates, out_of_line)
     from ..tallies.path import make_path_roots  # (tallies imports physics: not at the top)
-    from ..tallies.path_chord import make_path_watch  # (tallies imports physics: not at the top)
+    from ..tallies.path_replay import watch_for  # (tallies imports physics: not at the top)
 
-    watcher, ground = make_path_watch(precision, *watch), make_path_roots(precision)
+    watcher, ground = watch_for(precision, *watch), make_path_roots(precision)
     Track, Tally = watcher.Track, watcher.Tally
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics

@@ -48,36 +48,30 @@ def make_line_log(
 ) -> SimpleNamespace:
     """`StepLog` (where the logged steps begin, and how many), `log_open`, `log_step`, `log_close`
     and `watch_step` for `surface_line.integrate_line` of the same arguments (`make_line_integrator`'s)."""
-    from ..tallies.path_chord import make_path_watch  # (tallies imports physics: not at the top)
+    from ..tallies.path_replay import make_line_steps, watch_for  # (tallies imports physics: not at the top)
 
     if log_steps < 0:
         raise ValueError(f"log_steps must be at least 0: {log_steps}")
-    watcher = make_path_watch(precision, *watch)
+    watcher = watch_for(precision, *watch)
+    steps = make_line_steps(precision, *watch[:4])
+    RECORDING = getattr(watcher, "RECORDING", False)
     Track, Tally, Straight = watcher.Track, watcher.Tally, watcher.Straight
     Line = make_line_laws(precision, model, laws, noise, rough).Line
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
-    LOGGED, ROUGH, STEPS, WORDS = watch[0] > 0 and log_steps > 0, rough, log_steps, step_words(rough)
-    ZERO, ONE = scalar(0.0), scalar(1.0)
+    LOGGED, ROUGH, STEPS, WORDS = watch[0] > 0 and log_steps > 0 and not RECORDING, rough, log_steps, step_words(rough)
 
     @wp.func
     def watch_step(track: Track, tally: Tally, pending: Straight, x0: vec3, x1: vec3, line: Line, dt: scalar, v0: scalar, v1: scalar, d1: scalar):  # fmt: skip
         """Give the step (from x0 to x1, dt s; speeds v0, v1 and decelerations `line.decel`,
-        d1 at its ends) to the watch as the time Hermite of its ends along its chord (quintic: the
-        integrated path to O(dt^6); not `rough`: added to the phase's steps `pending` along e).
-        Returns (track, pending)."""
-        e = line.direction
+        d1 at its ends) to the watch (`tallies.path_replay.make_line_steps`; recorded for the replay
+        where the watch is `RECORDING`). Returns (track, pending)."""
+        if wp.static(RECORDING):
+            return watcher.step(track, tally, pending, x0, x1, line.direction, line.decel, dt, v0, v1, d1, ROUGH)
         if wp.static(ROUGH):
-            e = x1 - x0
-            if wp.length(e) > ZERO:
-                e = e * (ONE / wp.length(e))
-        d0 = (dt * v0) * e
-        e0 = (-dt * dt * line.decel) * e
-        e1 = (-dt * dt * d1) * e
-        if wp.static(ROUGH):
-            return watcher.segment(track, tally, x0, d0, e0, x1, (dt * v1) * e, e1, dt, ONE), pending
+            return steps.rough_step(track, tally, x0, x1, line.direction, line.decel, dt, v0, v1, d1), pending
         if wp.static(not ROUGH):
-            return watcher.straight_segment(track, tally, pending, x0, d0, e0, x1, (dt * v1) * e, e1, dt, v0, v1)
+            return steps.line_step(track, tally, pending, x0, x1, line.direction, line.decel, dt, v0, v1, d1)
 
     @wp.struct
     class StepLog:
@@ -89,13 +83,16 @@ def make_line_log(
         decel: scalar  # m/s^2, the deceleration there
 
     @wp.func
-    def log_open(x: vec3, v: scalar, decel: scalar):
-        """No step logged; the next begins at x, at speed v and deceleration `decel`."""
+    def log_open(track: Track, tally: Tally, pending: Straight, line: Line, x: vec3, v: scalar, decel: scalar):
+        """No step logged; the next begins at x, at speed v and deceleration `decel` (recorded for the
+        replay where the watch is `RECORDING`). Returns (log, track, pending)."""
         log = StepLog()
         log.x = x
         log.v = v
         log.decel = decel
-        return log
+        if wp.static(RECORDING):
+            track, pending = watcher.line_open(track, tally, pending, x, v, decel, line.direction)
+        return log, track, pending
 
     @wp.func
     def log_watch(track: Track, tally: Tally, pending: Straight, log: StepLog, line: Line):

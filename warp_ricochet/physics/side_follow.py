@@ -332,10 +332,10 @@ def make_side_follow(
 ) -> SimpleNamespace:
     """`leans(surfaces, k, g)` and `follow_side` (module docstring) for `surface_follow.follow`'s
     arguments; `watch_start` is its integrator's (the surfaces other than k watched at a phase's start)."""
-    from ..tallies.path_chord import make_path_watch  # (tallies imports physics: not at the top)
+    from ..tallies.path_replay import watch_for  # (tallies imports physics: not at the top)
     from .cylinder_contact import make_cylinder_contact
 
-    watcher = make_path_watch(precision, *watch)
+    watcher = watch_for(precision, *watch)
     Track, Tally = watcher.Track, watcher.Tally
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics

@@ -275,9 +275,9 @@ def make_surface_integrator(
 ) -> SimpleNamespace:
     """`integrate_phase`: one sliding or rolling phase integrated to its end (module docstring),
     each accepted step given to `tallies.path`'s watch of `watch` = (thresholds, places, map)."""
-    from ..tallies.path_chord import make_path_watch  # (tallies imports physics: not at the top)
+    from ..tallies.path_replay import watch_for  # (tallies imports physics: not at the top)
 
-    watcher = make_path_watch(precision, *watch)
+    watcher = watch_for(precision, *watch)
     Track, Tally = watcher.Track, watcher.Tally
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics
@@ -463,9 +463,9 @@ def make_surface_follow(
     the path is watched by `tallies.path`'s watch of `watch` = (thresholds, places, map); not
     `rough` (no rough ground), only straight phases go over the distance (`surface_line`), their
     steps watched `log_steps` at a time (`line_log`)."""
-    from ..tallies.path_chord import make_path_watch  # (tallies imports physics: not at the top)
+    from ..tallies.path_replay import watch_for  # (tallies imports physics: not at the top)
 
-    watcher = make_path_watch(precision, *watch)
+    watcher = watch_for(precision, *watch)
     Track, Tally = watcher.Track, watcher.Tally
     t = types_for(precision)
     scalar, vec3, Surfaces, Physics = t.scalar, t.vec3, t.Surfaces, t.Physics

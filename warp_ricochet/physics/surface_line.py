@@ -101,9 +101,9 @@ def make_surface_line(
     """The helpers of `integrate_line` (module docstring), with `tallies.path`'s watch of `watch`
     (its steps given to it by `line_log`); not `rough`, for straight phases only; `plates`: the
     surfaces may hold plates, meshes and posts (`geometry.make_geometry`), kept at `line_ahead.free_of`."""
-    from ..tallies.path_chord import make_path_watch  # (tallies imports physics: not at the top)
+    from ..tallies.path_replay import watch_for  # (tallies imports physics: not at the top)
 
-    watcher = make_path_watch(precision, *watch)
+    watcher = watch_for(precision, *watch)
     Track, Tally = watcher.Track, watcher.Tally
     t = types_for(precision)
     scalar, vec3, Physics = t.scalar, t.vec3, t.Physics
@@ -253,6 +253,12 @@ def going_alone(here: wp.int32, running: wp.int32):
 
 
 @functools.cache
+def going_for(watch: tuple):
+    """`integrate_line`'s loop condition: its lanes meet at each step where the watch runs in the loop
+    (`going_together`), not where nothing is watched or the watch is recorded (`tallies.path_replay`)."""
+    return going_together if watch[0] > 0 and not (len(watch) > 4 and watch[4]) else going_alone
+
+
 def make_slide_aim(precision: str, model: str = "ballistic", laws=None, noise: tuple = (0.0, 0.0), rough=True):
     """`slide_aim(v, spin, dwdt, q, goal, line, radius)`: where a sliding phase's slip falls to `goal`
     under its frozen law (`integrate_line`'s aim)."""
@@ -325,7 +331,7 @@ def make_line_integrator(
     STOP_FRACTION = scalar(max(1e-9, ROUNDING * EPSILON[precision]))
     FAR = scalar(1e30)
     CONTACT, UNFINISHED = 4, 6  # surface_follow's end codes (it imports this module)
-    slide_aim, going = make_slide_aim(precision, model, laws, noise, rough), (going_together if watch[0] > 0 else going_alone)
+    slide_aim, going = make_slide_aim(precision, model, laws, noise, rough), going_for(watch)
 
     @wp.func
     def integrate_line(
@@ -366,7 +372,7 @@ def make_line_integrator(
         # branches do not leave them apart (bench/RESULTS.md, "Lanes that meet"); a lane done
         # waits. The same steps and bits as a plain loop.
         pending = sl.straight_open()  # the phase's steps along e whose walk waits (`tallies.path`)
-        log = log_open(position, v, -dv)  # the steps waiting for the watch (`physics.line_log`)
+        log, track, pending = log_open(track, tally, pending, line, position, v, -dv)  # (`physics.line_log`)
         here = lanes_here()
         running = wp.int32(1)
         while going(here, running) != 0:

@@ -1,0 +1,131 @@
+"""The watch replayed by a kernel of its own (`tallies.path_replay`, `core.replay`): the core kernel
+records each call of the hazard's watch into its pellet's column, the replay kernel makes the same calls
+after it, so the hazard's outputs are the same bits as with the watch in the core (on the CPU: a GPU
+compiles the watch's roots in another kernel, within rounding). Pellets whose records do not fit are
+followed again by the core kernel with the watch in it and nothing else counted: the same bits too.
+Each column is replayed in order. Runs replay on GPUs by default; here on the CPU (`REPLAY = "always"`)."""
+
+import json
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+import warp_ricochet as wr
+from warp_ricochet import pipeline
+from warp_ricochet.chunks import INDEX_LIMIT, log_rows, log_words, log_words_per_pellet, plan_rows
+from warp_ricochet.core import replay
+from warp_ricochet.scene import load_scene
+from warp_ricochet.spec import RunSpec
+from warp_ricochet.tallies import path_replay
+
+PAPER = Path(__file__).resolve().parents[1] / "examples" / "paper.toml"
+AIR = ("air.density=1.225",)
+REST = ('physics.until="rest"', "surfaces.0.rolling_resistance=0.05", "surfaces.0.mu_s=0.5", "surfaces.0.mu_d=0.45")
+MAP = ("hazard.map_cell=0.5", "hazard.map_extent=[0.0, 400.0, -50.0, 50.0]")
+PLACE = ('hazard.points=[{name="path", position=[100.0, 0.0, 0.0], area=0.7}]',)
+CASES = {
+    "reach": (*AIR, *REST, "hazard.fractions=[1e-3]"),
+    "map-places": (*AIR, *REST, *MAP, *PLACE, "hazard.fractions=[1e-3]"),
+    "rough": (*AIR, *REST, "surfaces.0.roughness=0.3", "hazard.fractions=[1e-3]"),
+    "collisions": (*AIR, *REST, *MAP, "collisions.enabled=true", "shot.shots=3", "hazard.fractions=[1e-3]"),
+    "vacuum": (*REST, "hazard.fractions=[1e-3]"),
+}
+
+
+class _H200:
+    """A stand-in for a GPU of 140 GB free (the chunk planners and `replays_on` read these)."""
+
+    is_cuda = True
+    free_memory = 140e9
+
+
+def _scene(settings, pellets=200, fields=("hazard", "rest")):
+    sets = [f"shot.count={pellets}", 'numerics.precision="float32"', "output.fields=" + json.dumps(list(fields))]
+    return load_scene(PAPER, sets + list(settings))
+
+
+def _outputs(tmp_path, name, scene):
+    """Every hazard and per-pellet dataset of a run of `scene` on the CPU."""
+    path = tmp_path / f"{name}.h5"
+    wr.run(scene, path, device="cpu", overwrite=True)
+    found = {}
+    with h5py.File(path) as f:
+        f.visititems(
+            lambda key, obj: (
+                found.__setitem__(key, obj[()])
+                if isinstance(obj, h5py.Dataset) and key.split("/")[0] in ("hazard", "pellets") and obj.dtype.kind in "fiu"
+                else None
+            )
+        )
+    return found
+
+
+def _same(a, b, label):
+    assert a.keys() == b.keys(), label
+    for key, value in a.items():
+        np.testing.assert_array_equal(b[key], value, err_msg=f"{label}: {key}")
+
+
+def _runs(tmp_path, monkeypatch, scene, words=None):
+    """The outputs with the watch in the core and replayed (columns of `words` words), and the
+    pellets followed again."""
+    reruns = []
+    after = replay.Replay.after_core
+
+    def spy(self, *args):
+        after(self, *args)
+        reruns.append(self.reruns)
+
+    at_once = _outputs(tmp_path, "core", scene)
+    with monkeypatch.context() as m:
+        m.setattr(path_replay, "REPLAY", "always")
+        m.setattr(replay.Replay, "after_core", spy)
+        if words:
+            m.setattr(path_replay, "COLUMN_WORDS", words)
+        replayed = _outputs(tmp_path, "replayed", scene)
+    assert reruns, "the run did not replay"
+    return at_once, replayed, reruns[-1]
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_the_replayed_watch_gives_the_same_bits_as_the_watch_in_the_core(tmp_path, monkeypatch, case):
+    scene = _scene(CASES[case])
+    at_once, replayed, reruns = _runs(tmp_path, monkeypatch, scene)
+    assert np.isfinite(at_once["pellets/hazard/reach"]).any()  # (something reached: the comparison bites)
+    assert reruns < scene.shot.pellets  # (most pellets replayed; after pair collisions some need >512 words)
+    _same(at_once, replayed, case)
+
+
+@pytest.mark.parametrize(("case", "words"), [("reach", 64), ("map-places", 225), ("collisions", 1500)])
+def test_pellets_whose_records_do_not_fit_are_followed_again_to_the_same_bits(tmp_path, monkeypatch, case, words):
+    scene = _scene(CASES[case])
+    at_once, replayed, reruns = _runs(tmp_path, monkeypatch, scene, words)
+    assert 0 < reruns
+    if words > 64:
+        assert reruns < scene.shot.pellets  # (some fit, some not: both paths in one chunk)
+    _same(at_once, replayed, f"{case}, columns of {words} words")
+
+
+def test_a_run_to_rest_that_watches_its_path_replays_on_a_gpu_only():
+    scene = _scene(CASES["reach"])
+    on_gpu = RunSpec.of(scene, with_output=False, device=_H200())
+    assert on_gpu.replay and on_gpu.watch == (4, 0, False, False, True)  # (the four default thresholds)
+    assert not RunSpec.of(scene, with_output=False).replay  # (the CPU, or no device known)
+    assert not RunSpec.of(scene, with_output=False, device=type("Cpu", (), {"is_cuda": False})()).replay
+    landing = _scene(("hazard.fractions=[1e-3]",), fields=())  # (not followed to rest)
+    assert not RunSpec.of(landing, with_output=False, device=_H200()).watch[4]
+    quiet = _scene(REST, fields=())  # (no hazard: nothing watched, nothing recorded)
+    assert RunSpec.of(quiet, with_output=False, device=_H200()).watch == (0, 0, False, False, False)
+
+
+def test_a_gpu_chunk_keeps_the_record_log_within_a_32_bit_index():
+    scene = _scene(CASES["reach"])
+    spec = RunSpec.of(scene, with_output=False, device=_H200())
+    assert log_words(spec) == path_replay.COLUMN_WORDS == log_words_per_pellet(spec)
+    rows = log_rows(spec)
+    assert rows * path_replay.COLUMN_WORDS <= INDEX_LIMIT
+    big = load_scene(PAPER, [*(f"{k}" for k in CASES["reach"]), "shot.count=1000000000"])
+    assert plan_rows(big, _H200(), big.shot.pellets, ()) <= rows
+    assert pipeline.log_threads(spec, _H200(), 12_345) == 12_345  # (a column a chunk row)
