@@ -149,8 +149,8 @@ def make_path_replay(precision: str, thresholds: int, points: int, with_map: boo
 
     @wp.func
     def along(track: Track, tally: Tally, slot: wp.int32, j: wp.int32, tag: wp.int32, phase: Phase):
-        """An OPEN, STEP, ROUGH_STEP or CLOSE record at word j given to the watch (a step from the
-        one before's end). Returns (track, phase)."""
+        """An OPEN, ROUGH_STEP or CLOSE record at word j given to the watch (a step from the one
+        before's end; a STEP's is `replay`'s). Returns (track, phase)."""
         if tag == OPEN:
             phase = open_phase()
             phase.x0 = get3(tally, slot, j + 1)
@@ -166,13 +166,8 @@ def make_path_replay(precision: str, thresholds: int, points: int, with_map: boo
             dt = get(tally, slot, j + 4)
             v1 = get(tally, slot, j + 5)
             d1 = get(tally, slot, j + 6)
-            if tag == STEP:
-                pending = phase.pending
-                track, pending = steps.line_step(track, tally, pending, phase.x0, x1, phase.e, phase.decel0, dt, phase.v0, v1, d1)
-                phase.pending = pending
-            else:
-                e = get3(tally, slot, j + 7)
-                track = steps.rough_step(track, tally, phase.x0, x1, e, phase.decel0, dt, phase.v0, v1, d1)
+            e = get3(tally, slot, j + 7)
+            track = steps.rough_step(track, tally, phase.x0, x1, e, phase.decel0, dt, phase.v0, v1, d1)
             phase.x0 = x1
             phase.v0 = v1
             phase.decel0 = d1
@@ -180,12 +175,26 @@ def make_path_replay(precision: str, thresholds: int, points: int, with_map: boo
 
     @wp.func
     def replay(track: Track, tally: Tally, slot: wp.int32, count: wp.int32):
-        """The column's `count` words of records given to the watch in order. Returns track."""
+        """The column's `count` words of records given to the watch in order. Returns track. A STEP's
+        words (the commonest record) are read with its tag, their addresses known before it (within
+        the column), so that a step waits for one round of reads, not two."""
         phase = open_phase()
+        last = tally.steps.shape[0] / tally.log_threads - 1  # the column's last word
         j = wp.int32(1)
         while j <= count:
             tag = wp.int32(get(tally, slot, j))
-            if tag <= LINE:
+            x1 = vec3(get(tally, slot, wp.min(j + 1, last)), get(tally, slot, wp.min(j + 2, last)), get(tally, slot, wp.min(j + 3, last)))  # fmt: skip
+            dt = get(tally, slot, wp.min(j + 4, last))
+            v1 = get(tally, slot, wp.min(j + 5, last))
+            d1 = get(tally, slot, wp.min(j + 6, last))
+            if tag == STEP:
+                pending = phase.pending
+                track, pending = steps.line_step(track, tally, pending, phase.x0, x1, phase.e, phase.decel0, dt, phase.v0, v1, d1)
+                phase.pending = pending
+                phase.x0 = x1
+                phase.v0 = v1
+                phase.decel0 = d1
+            elif tag <= LINE:
                 track = flight(track, tally, slot, j, tag)
             else:
                 track, phase = along(track, tally, slot, j, tag, phase)
