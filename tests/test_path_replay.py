@@ -129,3 +129,30 @@ def test_a_gpu_chunk_keeps_the_record_log_within_a_32_bit_index():
     big = load_scene(PAPER, [*(f"{k}" for k in CASES["reach"]), "shot.count=1000000000"])
     assert plan_rows(big, _H200(), big.shot.pellets, ()) <= rows
     assert pipeline.log_threads(spec, _H200(), 12_345) == 12_345  # (a column a chunk row)
+
+
+@pytest.mark.parametrize("words", [None, 16])
+def test_a_replayed_run_in_chunks_and_resumed_is_the_same_bits_as_the_watch_in_the_core(tmp_path, monkeypatch, words):
+    """tests/test_dense_watch.py's scene followed to rest (pair collisions, a map and a place, chunks of whole shots):
+    replayed in chunks of two sizes, and stopped after a chunk then resumed, the same bits as the
+    watch in the core in chunks of one size; with columns of 16 words pellets are followed again."""
+    from tests.helpers import assert_same_run, interrupt_after
+    from tests.test_dense_watch import CHUNK, FIELDS, OVERRIDES
+
+    def _chunked(chunks):
+        return load_scene(PAPER, [*OVERRIDES, *REST, f"numerics.chunk_size={chunks * CHUNK}"])
+
+    reference = tmp_path / "core.h5"
+    wr.run(_chunked(1), reference, device="cpu")  # (REPLAY "cuda": the CPU watches in the core)
+    seen = []
+    after = replay.Replay.after_core
+    monkeypatch.setattr(replay.Replay, "after_core", lambda self, *args: (after(self, *args), seen.append(self.reruns)))
+    monkeypatch.setattr(path_replay, "REPLAY", "always")
+    if words:
+        monkeypatch.setattr(path_replay, "COLUMN_WORDS", words)
+    wr.run(_chunked(2), tmp_path / "two.h5", device="cpu")
+    assert seen and (seen[-1] > 0) == bool(words)
+    assert_same_run(tmp_path / "two.h5", reference, FIELDS, progress=())
+    interrupt_after(1, _chunked(1), tmp_path / "resumed.h5")
+    wr.run(_chunked(1), tmp_path / "resumed.h5", device="cpu", resume=True)
+    assert_same_run(tmp_path / "resumed.h5", reference, FIELDS)
