@@ -237,6 +237,7 @@ class State:
         self.partial_min = wp.empty((NUM_EXTREMES, threads), dtype=wp.float64, device=model.device)
         self.partial_max = wp.empty((NUM_EXTREMES, threads), dtype=wp.float64, device=model.device)
         self.segments = wp.empty((threads // lanes, SEGMENT_WIDTH), dtype=wp.float64, device=model.device)
+        self.scratch_partials = None  # a rerun's partials, thrown away (`pipeline.launch_core`)
 
     @staticmethod
     def bytes_per_pellet(precision: str, fields, bounces: int, lanes: int = LANES) -> float:

@@ -146,7 +146,9 @@ def launch_core(kernel, inputs, state, rows: int, device, scratch: bool = False)
     `state`'s (`scratch`: into new arrays, thrown away: the rerun of `core.replay.Replay`)."""
     partials = [state.partial_sums, state.partial_min, state.partial_max]
     if scratch:
-        partials = [wp.empty_like(a) for a in partials]
+        if state.scratch_partials is None:  # (one set, reused by the chunks)
+            state.scratch_partials = [wp.empty_like(a) for a in partials]
+        partials = state.scratch_partials
     wp.launch(
         kernel, dim=threads_for(rows, state.lanes), inputs=inputs, outputs=partials, device=device, block_dim=CUDA_BLOCK_DIM
     )

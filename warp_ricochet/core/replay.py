@@ -1,7 +1,7 @@
 """The replay kernel: a chunk's pellets' recorded watch given to the hazard's tallies after the core
 kernel (`tallies.path_replay`; `spec.RunSpec.replay`), one thread a pellet; and `Replay`, its launch
-after the core's, then the core kernel again over the pellets whose records did not fit, with the watch
-in it and nothing else counted (`spec.RunSpec.watch_only`)."""
+after the core's, then the core kernel again, following only the pellets whose records did not fit,
+with the watch in it and nothing else counted (`spec.RunSpec.watch_only`)."""
 
 import dataclasses
 import functools
@@ -72,19 +72,20 @@ class Replay:
         self.spec, self.device = spec, device
         self.on = bool(spec.watch[4])
         self.overflowed = wp.zeros(1, dtype=wp.int32, device=device) if self.on else None
-        self.reruns = 0  # pellets followed again in the run so far
+
+    @property
+    def reruns(self) -> int:
+        """Pellets followed again in the run so far (a read of the device)."""
+        return int(self.overflowed.numpy()[0]) if self.on else 0
 
     def after_core(self, rows: int, outputs, release, tally, rerun) -> None:
-        """After the core kernel of a chunk of `rows` pellets: the replay kernel; where some pellets'
-        records did not fit, `rerun(kernel)` launches the rerun kernel as the core was launched (its
-        statistics partials thrown away). One read of the device a chunk."""
+        """After the core kernel of a chunk of `rows` pellets: the replay kernel, then `rerun(kernel)`,
+        which launches the rerun kernel as the core was launched (its statistics partials thrown
+        away): it follows the rows whose records did not fit (OVERFLOWED) and passes over the rest.
+        No read of the device: the host never waits for the replay."""
         if not self.on or rows <= 0:
             return
-        self.overflowed.zero_()
         wp.launch(
             replay_kernel_for(self.spec), dim=rows, inputs=[rows, outputs, release, tally, self.overflowed], device=self.device
         )
-        count = int(self.overflowed.numpy()[0])
-        if count:
-            self.reruns += count
-            rerun(ricochet_kernel_for(rerun_spec(self.spec)))
+        rerun(ricochet_kernel_for(rerun_spec(self.spec)))

@@ -252,13 +252,13 @@ def going_alone(here: wp.int32, running: wp.int32):
     return running
 
 
-@functools.cache
 def going_for(watch: tuple):
     """`integrate_line`'s loop condition: its lanes meet at each step where the watch runs in the loop
     (`going_together`), not where nothing is watched or the watch is recorded (`tallies.path_replay`)."""
     return going_together if watch[0] > 0 and not (len(watch) > 4 and watch[4]) else going_alone
 
 
+@functools.cache
 def make_slide_aim(precision: str, model: str = "ballistic", laws=None, noise: tuple = (0.0, 0.0), rough=True):
     """`slide_aim(v, spin, dwdt, q, goal, line, radius)`: where a sliding phase's slip falls to `goal`
     under its frozen law (`integrate_line`'s aim)."""

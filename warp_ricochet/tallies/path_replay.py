@@ -1,15 +1,15 @@
-"""The hazard's watch replayed after the core (docs/hazard.md, "The watch replayed after the core").
+"""The hazard's watch replayed after the core (docs/hazard.md, "The watch replayed by a kernel of its own").
 
 In a run to rest on a GPU (`spec.RunSpec.replay`) the core kernel does not watch a pellet's path: each
 call of the watch (`tallies.path`'s `segment`, `parabola`, `line`; a phase along a line's steps and its
 end, `tallies.path_chord`) writes its arguments as a record into the pellet's column of the record log
-(`Tally.steps`: word j of chunk row r at j * log_threads + r; word 0 counts the words written, -1 where
-OVERFLOWED where it filled). The replay kernel (`core.replay`, one thread a pellet) then makes the same
-calls with the same values in the same order, so the results are the same bits; the core holds none of
-the watch's code (bench/RESULTS.md, "The watch replayed by a kernel of its own": a fallback compiled into
-the core costs although it never runs). A pellet whose column filled records no more (its Track's
-`log_slot` < 0 from then on); the host follows those pellets again with the watch in the core and the
-statistics off (`core.replay.rerun_overflowed`).
+(`Tally.steps`: word j of chunk row r at j * log_threads + r; word 0 counts the words written, or is
+OVERFLOWED where the column filled). The replay kernel (`core.replay`, one thread a pellet) then makes
+the same calls with the same values in the same order, so the results are the same bits; the core holds
+none of the watch's code (bench/RESULTS.md, "The watch replayed by a kernel of its own": a fallback
+compiled into the core costs although it never runs). A pellet whose column filled records no more
+(its Track's `log_slot` < 0 from then on), and the core kernel follows those pellets again with the
+watch in it and the statistics off (`core.replay.Replay.after_core`).
 
 A phase along a line is recorded compactly, as `physics.line_log` logs it: where it begins (x, speed,
 deceleration, direction), then each step's end (x1, dt, v1, d1; on rough ground also the direction at
@@ -108,7 +108,10 @@ def make_path_replay(precision: str, thresholds: int, points: int, with_map: boo
     @wp.func
     def size(tag: wp.int32):
         """Words of a record of `tag` (`SIZE`)."""
-        return wp.where(tag == SEGMENT, 21, wp.where(tag == PARABOLA or tag == LINE, 11, wp.where(tag == OPEN, 9, wp.where(tag == STEP, 7, wp.where(tag == ROUGH_STEP, 10, 4)))))  # fmt: skip
+        n = wp.where(tag == ROUGH_STEP, wp.static(SIZE[ROUGH_STEP]), wp.static(SIZE[CLOSE]))
+        n = wp.where(tag == STEP, wp.static(SIZE[STEP]), wp.where(tag == OPEN, wp.static(SIZE[OPEN]), n))
+        n = wp.where(tag == PARABOLA or tag == LINE, wp.static(SIZE[PARABOLA]), n)
+        return wp.where(tag == SEGMENT, wp.static(SIZE[SEGMENT]), n)
 
     @wp.func
     def flight(track: Track, tally: Tally, slot: wp.int32, j: wp.int32, tag: wp.int32):
@@ -238,7 +241,7 @@ def make_recording_watch(precision: str, thresholds: int, points: int, with_map:
 
     @wp.func
     def segment(track: Track, tally: Tally, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3, h: scalar, theta_end: scalar):  # fmt: skip
-        track, j = claim(track, tally, 21)
+        track, j = claim(track, tally, wp.static(SIZE[SEGMENT]))
         if j < 0:
             return track
         slot = track.log_slot
@@ -255,7 +258,7 @@ def make_recording_watch(precision: str, thresholds: int, points: int, with_map:
 
     @wp.func
     def parabola(track: Track, tally: Tally, x0: vec3, v0: vec3, g: vec3, dt: scalar):
-        track, j = claim(track, tally, 11)
+        track, j = claim(track, tally, wp.static(SIZE[PARABOLA]))
         if j < 0:
             return track
         slot = track.log_slot
@@ -268,7 +271,7 @@ def make_recording_watch(precision: str, thresholds: int, points: int, with_map:
 
     @wp.func
     def line(track: Track, tally: Tally, x0: vec3, direction: vec3, length: scalar, v0: scalar, a: scalar, b: scalar):  # fmt: skip
-        track, j = claim(track, tally, 11)
+        track, j = claim(track, tally, wp.static(SIZE[LINE]))
         if j < 0:
             return track
         slot = track.log_slot
@@ -285,7 +288,7 @@ def make_recording_watch(precision: str, thresholds: int, points: int, with_map:
     def line_open(track: Track, tally: Tally, pending: Straight, x: vec3, v: scalar, decel: scalar, e: vec3):
         """A phase along a line begins at x (speed v, deceleration `decel`, direction e). Returns
         (track, pending)."""
-        track, j = claim(track, tally, 9)
+        track, j = claim(track, tally, wp.static(SIZE[OPEN]))
         if j >= 0:
             slot = track.log_slot
             put(tally, slot, j, scalar(OPEN))
@@ -299,7 +302,7 @@ def make_recording_watch(precision: str, thresholds: int, points: int, with_map:
     def step(track: Track, tally: Tally, pending: Straight, x0: vec3, x1: vec3, e: vec3, decel0: scalar, dt: scalar, v0: scalar, v1: scalar, d1: scalar, rough: wp.bool):  # fmt: skip
         """A step of a phase along a line (`make_line_steps`; its start the step before's end).
         Returns (track, pending)."""
-        track, j = claim(track, tally, wp.where(rough, 10, 7))
+        track, j = claim(track, tally, wp.where(rough, wp.static(SIZE[ROUGH_STEP]), wp.static(SIZE[STEP])))
         if j < 0:
             return track, pending
         slot = track.log_slot
@@ -314,7 +317,7 @@ def make_recording_watch(precision: str, thresholds: int, points: int, with_map:
 
     @wp.func
     def straight_close(track: Track, tally: Tally, pending: Straight, x: vec3):
-        track, j = claim(track, tally, 4)
+        track, j = claim(track, tally, wp.static(SIZE[CLOSE]))
         if j >= 0:
             put(tally, track.log_slot, j, scalar(CLOSE))
             put3(tally, track.log_slot, j + 1, x)
