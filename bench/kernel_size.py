@@ -20,6 +20,7 @@ import tempfile
 import time
 import tomllib
 from pathlib import Path
+from types import SimpleNamespace
 
 ROOT = Path(__file__).resolve().parent.parent
 CASES = {
@@ -78,7 +79,8 @@ def size_of(case: str, arch: int, ptxas: str, folder: Path) -> dict:
     from warp_ricochet.core.kernel import ricochet_kernel_for
     from warp_ricochet.spec import RunSpec
 
-    kernel = ricochet_kernel_for(RunSpec.of(scene_of(case, folder), with_output=False))
+    gpu = SimpleNamespace(is_cuda=True)  # (the build a GPU runs: a run to rest that watches its path records it)
+    kernel = ricochet_kernel_for(RunSpec.of(scene_of(case, folder), with_output=False, device=gpu))
     start = time.perf_counter()
     (ptx,) = wp.compile_aot_module(kernel.module, arch=arch, module_dir=folder, use_ptx=True)
     text = ptx.read_text().replace("\0", "")

@@ -27,7 +27,9 @@ def _attributes(scene):
     from warp_ricochet.spec import RunSpec
 
     cuda = ctypes.CDLL("libcuda.so.1")
-    kernel = ricochet_kernel_for(RunSpec.of(scene, with_output=False))
+    import warp as wp
+
+    kernel = ricochet_kernel_for(RunSpec.of(scene, with_output=False, device=wp.get_device("cuda:0")))  # (the build a GPU runs)
     found = []
     for ex in kernel.module.execs.values():
         hooks = ex.get_kernel_hooks(kernel)

@@ -51,7 +51,7 @@ def main(argv=None):
     for precision in args.precisions.split(","):
         scene = scene_of(n, precision)
         model = Model.from_scene(scene, dev)
-        spec = RunSpec.of(scene, with_output=False)
+        spec = RunSpec.of(scene, with_output=False, device=dev)
         stage = CoreStage(scene, model, spec, None, n)  # its buffers and source, statistics only
         rows, state = min(stage.capacity, n), stage.state
         threads = threads_for(rows, state.lanes)
