@@ -5,14 +5,12 @@ compiles the watch's roots in another kernel, within rounding). Pellets whose re
 followed again by the core kernel with the watch in it and nothing else counted: the same bits too.
 Each column is replayed in order. Runs replay on GPUs by default; here on the CPU (`REPLAY = "always"`)."""
 
-import json
-from pathlib import Path
-
 import h5py
 import numpy as np
 import pytest
 
 import warp_ricochet as wr
+from tests.test_line_log import PAPER, _scene
 from warp_ricochet import pipeline
 from warp_ricochet.chunks import INDEX_LIMIT, log_rows, log_words, log_words_per_pellet, plan_rows
 from warp_ricochet.core import replay
@@ -20,7 +18,6 @@ from warp_ricochet.scene import load_scene
 from warp_ricochet.spec import RunSpec
 from warp_ricochet.tallies import path_replay
 
-PAPER = Path(__file__).resolve().parents[1] / "examples" / "paper.toml"
 AIR = ("air.density=1.225",)
 REST = ('physics.until="rest"', "surfaces.0.rolling_resistance=0.05", "surfaces.0.mu_s=0.5", "surfaces.0.mu_d=0.45")
 MAP = ("hazard.map_cell=0.5", "hazard.map_extent=[0.0, 400.0, -50.0, 50.0]")
@@ -39,11 +36,6 @@ class _H200:
 
     is_cuda = True
     free_memory = 140e9
-
-
-def _scene(settings, pellets=200, fields=("hazard", "rest")):
-    sets = [f"shot.count={pellets}", 'numerics.precision="float32"', "output.fields=" + json.dumps(list(fields))]
-    return load_scene(PAPER, sets + list(settings))
 
 
 def _outputs(tmp_path, name, scene):
