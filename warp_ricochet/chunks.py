@@ -47,7 +47,7 @@ def log_words(spec) -> int:
     """Words of the step log a core thread has (`physics.line_log`; a chunk row's column of the
     record log where the run replays its watch, `tallies.path_replay`): none without phases along a
     line watched (`spec.log_steps` = 0: each step watched at once)."""
-    if spec.replay and spec.to_rest and spec.watch[0] > 0:
+    if spec.watch[4]:  # (a run to rest that watches its path and records it)
         return path_replay.COLUMN_WORDS  # (read at each call: tests shrink it)
     if not (spec.to_rest and spec.watch[0] > 0 and spec.log_steps > 0):
         return 0

@@ -143,7 +143,7 @@ def check_log(tally: DeviceTally, spec, device, rows: int) -> None:
 
 def launch_core(kernel, inputs, state, rows: int, device, scratch: bool = False) -> None:
     """Launch a core kernel over `rows` rows (or slots) with `inputs`, its statistics partials into
-    `state`'s (`scratch`: into new arrays, thrown away: the rerun of `core.replay.Replay`)."""
+    `state`'s (`scratch`: into its scratch set, thrown away: the rerun of `core.replay.Replay`)."""
     partials = [state.partial_sums, state.partial_min, state.partial_max]
     if scratch:
         if state.scratch_partials is None:  # (one set, reused by the chunks)

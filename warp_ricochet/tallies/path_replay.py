@@ -80,8 +80,8 @@ def make_line_steps(precision: str, thresholds: int, points: int, with_map: bool
 
 @functools.cache
 def make_path_replay(precision: str, thresholds: int, points: int, with_map: bool, terrain: bool = False) -> SimpleNamespace:
-    """`replay` (a column's records given to the watch) and the recording watch (`recording`: the
-    watch's namespace with its calls written as records) of `make_path_watch`'s arguments."""
+    """`replay` (a column's records given to the watch), `claim` (where a record goes) and the log's
+    `get` and `put` (`put3`: a vector's three words) of `make_path_watch`'s arguments."""
     real = make_path_watch(precision, thresholds, points, with_map, terrain)
     steps = make_line_steps(precision, thresholds, points, with_map, terrain)
     Track, Tally, Straight = real.Track, real.Tally, real.Straight
@@ -152,35 +152,25 @@ def make_path_replay(precision: str, thresholds: int, points: int, with_map: boo
 
     @wp.func
     def along(track: Track, tally: Tally, slot: wp.int32, j: wp.int32, tag: wp.int32, phase: Phase):
-        """An OPEN, ROUGH_STEP or CLOSE record at word j given to the watch (a step from the one
-        before's end; a STEP's is `replay`'s). Returns (track, phase)."""
+        """An OPEN or CLOSE record at word j given to the watch (a step's is `replay`'s). Returns
+        (track, phase)."""
         if tag == OPEN:
             phase = open_phase()
             phase.x0 = get3(tally, slot, j + 1)
             phase.v0 = get(tally, slot, j + 4)
             phase.decel0 = get(tally, slot, j + 5)
             phase.e = get3(tally, slot, j + 6)
-        elif tag == CLOSE:
+        else:
             pending = phase.pending
             track, pending = real.straight_close(track, tally, pending, get3(tally, slot, j + 1))
             phase.pending = pending
-        else:
-            x1 = get3(tally, slot, j + 1)
-            dt = get(tally, slot, j + 4)
-            v1 = get(tally, slot, j + 5)
-            d1 = get(tally, slot, j + 6)
-            e = get3(tally, slot, j + 7)
-            track = steps.rough_step(track, tally, phase.x0, x1, e, phase.decel0, dt, phase.v0, v1, d1)
-            phase.x0 = x1
-            phase.v0 = v1
-            phase.decel0 = d1
         return track, phase
 
     @wp.func
     def replay(track: Track, tally: Tally, slot: wp.int32, count: wp.int32):
-        """The column's `count` words of records given to the watch in order. Returns track. A STEP's
-        words (the commonest record) are read with its tag, their addresses known before it (within
-        the column), so that a step waits for one round of reads, not two."""
+        """The column's `count` words of records given to the watch in order. Returns track. A step's
+        first words (the commonest record) are read with its tag, their addresses known before it
+        (within the column), so that a step waits for one round of reads, not two."""
         phase = open_phase()
         last = tally.steps.shape[0] / tally.log_threads - 1  # the column's last word
         j = wp.int32(1)
@@ -190,10 +180,14 @@ def make_path_replay(precision: str, thresholds: int, points: int, with_map: boo
             dt = get(tally, slot, wp.min(j + 4, last))
             v1 = get(tally, slot, wp.min(j + 5, last))
             d1 = get(tally, slot, wp.min(j + 6, last))
-            if tag == STEP:
-                pending = phase.pending
-                track, pending = steps.line_step(track, tally, pending, phase.x0, x1, phase.e, phase.decel0, dt, phase.v0, v1, d1)
-                phase.pending = pending
+            if tag == STEP or tag == ROUGH_STEP:  # a step from the one before's end
+                if tag == STEP:
+                    pending = phase.pending
+                    track, pending = steps.line_step(track, tally, pending, phase.x0, x1, phase.e, phase.decel0, dt, phase.v0, v1, d1)  # fmt: skip
+                    phase.pending = pending
+                else:  # (on rough ground, with the line's direction at its start)
+                    e = get3(tally, slot, j + 7)
+                    track = steps.rough_step(track, tally, phase.x0, x1, e, phase.decel0, dt, phase.v0, v1, d1)
                 phase.x0 = x1
                 phase.v0 = v1
                 phase.decel0 = d1
