@@ -16,6 +16,10 @@ from .kernel import kernel_options, ricochet_kernel_for
 from .outputs import make_outputs
 from .release import make_release
 
+# The replay kernel's occupancy on CUDA: 168 registers a thread in blocks of 128 threads give 12 warps an
+# SM (255 registers in blocks of 256: 8). bench/RESULTS.md, "The replay kernel's occupancy".
+REPLAY_MAX_REGISTERS, REPLAY_BLOCK_DIM = 168, 128
+
 
 @functools.cache
 def replay_kernel_for(spec):
@@ -31,7 +35,7 @@ def replay_kernel_for(spec):
     Outputs, Release = make_outputs(spec.precision).Outputs, make_release(spec.precision)
     RELEASE, WRITE = spec.collisions, any(f.startswith("hazard.") for f in spec.core_fields)
     options = kernel_options(spec)
-    options.pop("cuda_max_registers", None)
+    options["cuda_max_registers"] = REPLAY_MAX_REGISTERS
 
     @wp.func
     def begin(release: Release, tally: Tally, row: wp.int32):
@@ -86,6 +90,10 @@ class Replay:
         if not self.on or rows <= 0:
             return
         wp.launch(
-            replay_kernel_for(self.spec), dim=rows, inputs=[rows, outputs, release, tally, self.overflowed], device=self.device
+            replay_kernel_for(self.spec),
+            dim=rows,
+            inputs=[rows, outputs, release, tally, self.overflowed],
+            device=self.device,
+            block_dim=REPLAY_BLOCK_DIM,
         )
         rerun(ricochet_kernel_for(rerun_spec(self.spec)))
