@@ -117,7 +117,7 @@ def make_ricochet_pellet(spec):
         launch_spin = vec3()
         track = watcher.start()  # the hazard along its path (`tallies.path`)
         if wp.static(RELEASE):  # where the dense phase left it (its flight may have ended there)
-            if wp.static(watcher.ON):  # its watch so far: the dense phase's (`dense.watch`)
+            if wp.static(watcher.ON and not REPLAYED):  # its watch so far: the dense phase's (`dense.watch`; else the replay's)
                 track = load_track(release.watch_reach, release.watch_ints, row)
             position = release.position[row]
             velocity = release.velocity[row]

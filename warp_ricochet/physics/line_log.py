@@ -68,9 +68,9 @@ def make_line_log(
         where the watch is `RECORDING`). Returns (track, pending)."""
         if wp.static(RECORDING):
             return watcher.step(track, tally, pending, x0, x1, line.direction, line.decel, dt, v0, v1, d1, ROUGH)
-        if wp.static(ROUGH):
+        if wp.static(ROUGH and not RECORDING):
             return steps.rough_step(track, tally, x0, x1, line.direction, line.decel, dt, v0, v1, d1), pending
-        if wp.static(not ROUGH):
+        if wp.static(not ROUGH and not RECORDING):
             return steps.line_step(track, tally, pending, x0, x1, line.direction, line.decel, dt, v0, v1, d1)
 
     @wp.struct

@@ -23,6 +23,7 @@ from types import SimpleNamespace
 import warp as wp
 
 from ..physics.types import types_for
+from .path_cells import NONE
 from .path_chord import make_path_watch
 
 SEGMENT, PARABOLA, LINE, OPEN, STEP, ROUGH_STEP, CLOSE = 1, 2, 3, 4, 5, 6, 7  # record tags
@@ -80,8 +81,8 @@ def make_line_steps(precision: str, thresholds: int, points: int, with_map: bool
 
 @functools.cache
 def make_path_replay(precision: str, thresholds: int, points: int, with_map: bool, terrain: bool = False) -> SimpleNamespace:
-    """`replay` (a column's records given to the watch), `claim` (where a record goes) and the log's
-    `get` and `put` (`put3`: a vector's three words) of `make_path_watch`'s arguments."""
+    """`replay` (a column's records given to the watch) and the log's `get` and `put` (`put3`: a
+    vector's three words) of `make_path_watch`'s arguments."""
     real = make_path_watch(precision, thresholds, points, with_map, terrain)
     steps = make_line_steps(precision, thresholds, points, with_map, terrain)
     Track, Tally, Straight = real.Track, real.Tally, real.Straight
@@ -198,6 +199,70 @@ def make_path_replay(precision: str, thresholds: int, points: int, with_map: boo
             j += size(tag)
         return track
 
+    return SimpleNamespace(replay=replay, get=get, put=put, put3=put3)
+
+
+@functools.cache
+def recording_structs(scalar):
+    """The recording core's `Track` (its column of the record log, and the pass's `cell` that a dense
+    phase's leap marks) and `Straight` (nothing pending: the replay gathers a phase's steps): the
+    watch's own would be carried through the core for nothing (bench/RESULTS.md, "A slim track")."""
+    Track = wp.struct(
+        type(
+            "Track",
+            (),
+            {
+                "__annotations__": {"cell": wp.int32, "log_slot": wp.int32},
+                "__module__": __name__,
+                "__qualname__": "recording_structs.<locals>.Track",
+            },
+        )
+    )
+    Straight = wp.struct(
+        type(
+            "Straight",
+            (),
+            {"__annotations__": {"length": scalar}, "__module__": __name__, "__qualname__": "recording_structs.<locals>.Straight"},
+        )
+    )
+    return Track, Straight
+
+
+@functools.cache
+def make_recording_watch(precision: str, thresholds: int, points: int, with_map: bool, terrain: bool = False) -> SimpleNamespace:
+    """The watch's namespace (`make_path_watch`) whose calls write records for the replay (module
+    docstring), with the recorded phase along a line's `line_open` and `step`; its `Track` and
+    `Straight` are `recording_structs`' (`claim`: where a record goes in the pellet's column)."""
+    real = make_path_watch(precision, thresholds, points, with_map, terrain)
+    rp = make_path_replay(precision, thresholds, points, with_map, terrain)
+    get, put, put3 = rp.get, rp.put, rp.put3
+    Tally = real.Tally
+    t = types_for(precision)
+    scalar, vec3 = t.scalar, t.vec3
+    Track, Straight = recording_structs(scalar)
+
+    @wp.func
+    def start():
+        """No column yet (`seat`), no pass under way."""
+        track = Track()
+        track.cell = wp.int32(NONE)
+        track.log_slot = wp.int32(-1)
+        return track
+
+    @wp.func
+    def seat(track: Track, tally: Tally, row: wp.int32):
+        """The pellet's column of the record log: its chunk row's, no record in it yet."""
+        track.log_slot = row
+        put(tally, row, 0, scalar(0.0))
+        return track
+
+    @wp.func
+    def straight_open():
+        """Nothing pending (the replay gathers the phase's steps)."""
+        pending = Straight()
+        pending.length = scalar(-1.0)
+        return pending
+
     @wp.func
     def claim(track: Track, tally: Tally, words: wp.int32):
         """Where a record of `words` words begins in the pellet's column (its count raised), or -1
@@ -211,27 +276,6 @@ def make_path_replay(precision: str, thresholds: int, points: int, with_map: boo
             return track, wp.int32(-1)
         put(tally, track.log_slot, 0, scalar(used + words))
         return track, used + 1
-
-    return SimpleNamespace(replay=replay, claim=claim, get=get, put=put, put3=put3)
-
-
-@functools.cache
-def make_recording_watch(precision: str, thresholds: int, points: int, with_map: bool, terrain: bool = False) -> SimpleNamespace:
-    """The watch's namespace (`make_path_watch`) whose calls write records for the replay (module
-    docstring), with the recorded phase along a line's `line_open`, `line_step`, `rough_step`."""
-    real = make_path_watch(precision, thresholds, points, with_map, terrain)
-    rp = make_path_replay(precision, thresholds, points, with_map, terrain)
-    claim, put, put3 = rp.claim, rp.put, rp.put3
-    Track, Tally, Straight = real.Track, real.Tally, real.Straight
-    t = types_for(precision)
-    scalar, vec3 = t.scalar, t.vec3
-
-    @wp.func
-    def seat(track: Track, tally: Tally, row: wp.int32):
-        """The pellet's column of the record log: its chunk row's, no record in it yet."""
-        track = real.seat(track, tally, row)
-        put(tally, track.log_slot, 0, scalar(0.0))
-        return track
 
     @wp.func
     def segment(track: Track, tally: Tally, x0: vec3, d0: vec3, e0: vec3, x1: vec3, d1: vec3, e1: vec3, h: scalar, theta_end: scalar):  # fmt: skip
@@ -330,7 +374,11 @@ def make_recording_watch(precision: str, thresholds: int, points: int, with_map:
     return SimpleNamespace(
         **{
             **vars(real),
+            "Track": Track,
+            "Straight": Straight,
+            "start": start,
             "seat": seat,
+            "straight_open": straight_open,
             "segment": segment,
             "parabola": parabola,
             "line": line,
