@@ -79,6 +79,39 @@ def make_line_steps(precision: str, thresholds: int, points: int, with_map: bool
     return SimpleNamespace(line_step=line_step, rough_step=rough_step)
 
 
+_LOAD = "return steps.data[word];"
+_STORE = "steps.data[word] = value;"
+
+
+@wp.func_native(_LOAD)
+def load32(steps: wp.array(dtype=wp.float32), word: wp.int32) -> wp.float32:
+    """Word `word` (>= 0, within the array) of a contiguous log: no negative wrap, no stride."""
+    ...
+
+
+@wp.func_native(_STORE)
+def store32(steps: wp.array(dtype=wp.float32), word: wp.int32, value: wp.float32):
+    """Word `word` (>= 0, within the array) of a contiguous log set to `value`."""
+    ...
+
+
+@wp.func_native(_LOAD)
+def load64(steps: wp.array(dtype=wp.float64), word: wp.int32) -> wp.float64:
+    """`load32` in float64."""
+    ...
+
+
+@wp.func_native(_STORE)
+def store64(steps: wp.array(dtype=wp.float64), word: wp.int32, value: wp.float64):
+    """`store32` in float64."""
+    ...
+
+
+def raw_access(precision: str):
+    """(load, store) of a contiguous record log's words in `precision`."""
+    return (load64, store64) if precision == "float64" else (load32, store32)
+
+
 @functools.cache
 def make_path_replay(precision: str, thresholds: int, points: int, with_map: bool, terrain: bool = False) -> SimpleNamespace:
     """`replay` (a column's records given to the watch) and the log's `get` and `put` (`put3`: a
@@ -89,9 +122,11 @@ def make_path_replay(precision: str, thresholds: int, points: int, with_map: boo
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
 
+    load, store = raw_access(precision)
+
     @wp.func
     def get(tally: Tally, slot: wp.int32, j: wp.int32):
-        return tally.steps[j * tally.log_threads + slot]
+        return load(tally.steps, j * tally.log_threads + slot)
 
     @wp.func
     def get3(tally: Tally, slot: wp.int32, j: wp.int32):
@@ -99,7 +134,7 @@ def make_path_replay(precision: str, thresholds: int, points: int, with_map: boo
 
     @wp.func
     def put(tally: Tally, slot: wp.int32, j: wp.int32, value: scalar):
-        tally.steps[j * tally.log_threads + slot] = value
+        store(tally.steps, j * tally.log_threads + slot, value)
 
     @wp.func
     def put3(tally: Tally, slot: wp.int32, j: wp.int32, value: vec3):
