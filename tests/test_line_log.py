@@ -105,7 +105,12 @@ def test_a_gpu_chunk_keeps_the_step_log_within_a_32_bit_index(rough):
 
 
 @pytest.mark.parametrize(("count", "chunk"), [(600, 0), (460, 0), (1000, 0), (600, 300_000_000), (450, 300_000_000)])
-def test_a_gpu_chunk_of_collision_shots_keeps_the_step_log_within_a_32_bit_index(count, chunk):
+def test_a_gpu_chunk_of_collision_shots_keeps_the_step_log_within_a_32_bit_index(monkeypatch, count, chunk):
+    """With the watch in the core (`path_replay.REPLAY` "never"; a replay's record log is indexed in 64
+    bits: tests/test_path_replay.py)."""
+    from warp_ricochet.tallies import path_replay
+
+    monkeypatch.setattr(path_replay, "REPLAY", "never")
     sets = [*AIR, *REST, "collisions.enabled=true", "hazard.fractions=[1e-3]", f"shot.count={count}", "shot.shots=1000000"]
     scene = load_scene(PAPER, sets + ([f"numerics.chunk_size={chunk}"] if chunk else []))
     spec = RunSpec.of(scene, with_output=False)

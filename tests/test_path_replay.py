@@ -12,11 +12,22 @@ import pytest
 import warp_ricochet as wr
 from tests.test_line_log import PAPER, _scene
 from warp_ricochet import pipeline
-from warp_ricochet.chunks import INDEX_LIMIT, log_rows, log_words, log_words_per_pellet, plan_rows
+from warp_ricochet.chunks import (
+    DEVICE_FRACTION,
+    INDEX_LIMIT,
+    MAX_CHUNK,
+    device_bytes_per_pellet,
+    log_rows,
+    log_words,
+    log_words_per_pellet,
+    plan_rows,
+)
 from warp_ricochet.core import replay
 from warp_ricochet.scene import load_scene
 from warp_ricochet.spec import RunSpec
 from warp_ricochet.tallies import path_replay
+from warp_ricochet.tallies.counts import log_buffer
+from warp_ricochet.tallies.reduce import SEGMENT
 
 AIR = ("air.density=1.225",)
 REST = ('physics.until="rest"', "surfaces.0.rolling_resistance=0.05", "surfaces.0.mu_s=0.5", "surfaces.0.mu_d=0.45")
@@ -112,15 +123,59 @@ def test_a_run_to_rest_that_watches_its_path_replays_on_a_gpu_only():
     assert RunSpec.of(quiet, with_output=False, device=_H200()).watch == (0, 0, False, False, False)
 
 
-def test_a_gpu_chunk_keeps_the_record_log_within_a_32_bit_index():
+def test_a_gpu_chunk_of_a_run_that_records_is_bounded_by_memory_not_by_a_32_bit_index():
     scene = _scene(CASES["reach"])
     spec = RunSpec.of(scene, with_output=False, device=_H200())
     assert log_words(spec) == path_replay.COLUMN_WORDS == log_words_per_pellet(spec)
-    rows = log_rows(spec)
-    assert rows * path_replay.COLUMN_WORDS <= INDEX_LIMIT
+    assert log_rows(spec) == MAX_CHUNK  # (the record log is indexed in 64 bits)
     big = load_scene(PAPER, [*(f"{k}" for k in CASES["reach"]), "shot.count=1000000000"])
-    assert plan_rows(big, _H200(), big.shot.pellets, ()) <= rows
+    rows = plan_rows(big, _H200(), big.shot.pellets, ())
+    assert rows * path_replay.COLUMN_WORDS > INDEX_LIMIT  # (33 M rows of 512 words: 8x past a 32-bit index)
+    assert (rows - SEGMENT) * device_bytes_per_pellet(big, (), _H200()) <= DEVICE_FRACTION * _H200.free_memory  # (whole segments)
     assert pipeline.log_threads(spec, _H200(), 12_345) == 12_345  # (a column a chunk row)
+
+
+@pytest.mark.parametrize("precision", ["float32", "float64"])
+def test_a_log_past_a_32_bit_index_is_held_in_rows_and_reached_by_its_64_bit_index(precision):
+    """`counts.log_buffer` past its limit: a view of `limit` words over rows that hold them all; the
+    replay's raw accessors write and read every word (here a limit of 1,000 words, 7 columns of 300)."""
+    import warp as wp
+
+    scalar = wp.float64 if precision == "float64" else wp.float32
+    load, store = path_replay.raw_access(precision)
+
+    @wp.kernel(module="unique")
+    def fill(steps: wp.array(dtype=scalar), threads: wp.int32, words: wp.int32, back: wp.array(dtype=scalar)):
+        slot = wp.tid()
+        for j in range(words):
+            store(steps, j, threads, slot, scalar(j * threads + slot))
+        for j in range(words):
+            back[j * threads + slot] = load(steps, j, threads, slot)
+
+    device = wp.get_device("cpu")
+    view, rows = log_buffer(device, 7 * 300, scalar, 1000)
+    assert view.shape == (1000,) and rows.shape == (3, 1000)
+    back = wp.zeros(7 * 300, dtype=scalar, device=device)
+    wp.launch(fill, dim=7, inputs=[view, 7, 300, back], device=device)
+    np.testing.assert_array_equal(rows.numpy().ravel()[: 7 * 300], np.arange(7 * 300))
+    np.testing.assert_array_equal(back.numpy(), np.arange(7 * 300))
+    flat, none = log_buffer(device, 1000, scalar, 1000)
+    assert flat.shape == (1000,) and none is None
+
+
+def test_a_replayed_run_whose_record_log_is_past_the_index_limit_gives_the_same_bits(tmp_path, monkeypatch):
+    """A record log held in rows (`counts.log_buffer`, its limit lowered to 1e5 words) replays as
+    one flat array does."""
+    from warp_ricochet.physics import line_log
+
+    scene = _scene(CASES["map-places"])
+    with monkeypatch.context() as m:
+        m.setattr(path_replay, "REPLAY", "always")
+        flat = _outputs(tmp_path, "flat", scene)
+        m.setattr(line_log, "INDEX_LIMIT", 100_000)
+        held = _outputs(tmp_path, "rows", scene)
+    assert scene.shot.pellets * path_replay.COLUMN_WORDS > 100_000
+    _same(flat, held, "a record log in rows")
 
 
 @pytest.mark.parametrize("words", [None, 16])

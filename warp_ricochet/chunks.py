@@ -61,9 +61,10 @@ def log_words_per_pellet(spec) -> float:
 
 
 def log_rows(spec) -> int:
-    """The most rows (slots) of a GPU chunk whose step log a 32-bit index reaches (whole segments)."""
+    """The most rows (slots) of a GPU chunk whose step log a 32-bit index reaches (whole segments);
+    a record log (`spec.watch`[4]) is indexed in 64 bits: only memory bounds it (`plan_rows`)."""
     words = log_words_per_pellet(spec)
-    return MAX_CHUNK if not words else max(SEGMENT, int(INDEX_LIMIT / words) // SEGMENT * SEGMENT)
+    return MAX_CHUNK if not words or spec.watch[4] else max(SEGMENT, int(INDEX_LIMIT / words) // SEGMENT * SEGMENT)
 
 
 def plan_rows(scene, device, pellets: int, fields) -> int:

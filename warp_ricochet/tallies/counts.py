@@ -229,20 +229,34 @@ _POOL: dict = {}  # device arrays and pinned host arrays kept between runs (allo
 _CLEAN: set = set()  # the pooled count arrays known to be all zero (`DeviceTally.fold` and `receive` leave them so)
 
 
-def _buffer(device, role: str, size: int, dtype):
-    """A device array of `size`; on CUDA the one kept for `role` if it has that size and dtype (one
-    CUDA run at a time: pipeline._DEVICE_LOCK), else a new one, zeroed, that replaces it."""
+def _buffer(device, role: str, size, dtype):
+    """A device array of `size` (or shape); on CUDA the one kept for `role` if it has that shape and
+    dtype (one CUDA run at a time: pipeline._DEVICE_LOCK), else a new one, zeroed, that replaces it."""
     import warp as wp
 
+    shape = tuple(size) if isinstance(size, tuple) else (size,)
     if not device.is_cuda or not size:  # (an inactive tally leaves the kept arrays to the next run)
-        return wp.zeros(size, dtype=dtype, device=device)
+        return wp.zeros(shape, dtype=dtype, device=device)
     key = (str(device), role)
     kept = _POOL.get(key)
-    if kept is None or kept.shape != (size,) or kept.dtype != dtype:
+    if kept is None or kept.shape != shape or kept.dtype != dtype:
         _POOL[key] = None  # (freed before the new one is made)
-        _POOL[key] = wp.zeros(size, dtype=dtype, device=device)
+        _POOL[key] = wp.zeros(shape, dtype=dtype, device=device)
         _CLEAN.add(key)
     return _POOL[key]
+
+
+def log_buffer(device, words: int, dtype, limit: int):
+    """The step log of `words` words: (a flat array of them, None) up to `limit` words; past it (an
+    array's dimension holds less than 2^31) (a flat view of the first `limit` words of rows of `limit`
+    words that hold them all, those rows). Kernels reach the words past the view's shape by raw
+    64-bit index (`tallies.path_replay`)."""
+    import warp as wp
+
+    if words <= limit:
+        return _buffer(device, "step log", words, dtype), None
+    rows = _buffer(device, "step log", (-(-words // limit), limit), dtype)
+    return wp.array(ptr=rows.ptr, dtype=dtype, shape=(limit,), device=device), rows
 
 
 FOLD_LIMIT = (1 << 31) - 1  # pellets whose histogram counts may wait unfolded (int32 bins)
@@ -269,9 +283,12 @@ class DeviceTally:
     histograms in copies), which `fold` adds to the run's totals on the device (`totals`, int64,
     flat: what the host copies back) and sets to zero again, so no chunk needs its own zeroing.
     `log` = (threads, words): the step log of a run to rest that watches its path (`physics.line_log`:
-    `words` a thread; (0, 0): none)."""
+    `words` a thread; (0, 0): none); `wide`: it may hold more than INDEX_LIMIT words (a record log,
+    indexed in 64 bits: `tallies.path_replay`; `log_buffer`)."""
 
-    def __init__(self, setup: TallySetup, precision: str, device, active: bool, log: tuple[int, int] = (0, 0)):
+    def __init__(
+        self, setup: TallySetup, precision: str, device, active: bool, log: tuple[int, int] = (0, 0), wide: bool = False
+    ):
         import warp as wp
 
         from ..physics.line_log import INDEX_LIMIT
@@ -323,11 +340,11 @@ class DeviceTally:
         s.place_position = wp.array([p[1] for p in setup.places], dtype=t.vec3, device=device)
         s.place_radius2 = wp.array([p[2] ** 2 for p in setup.places], dtype=t.scalar, device=device)
         s.terrain = wp.array(setup.terrain.packed() if setup.terrain is not None else [], dtype=t.scalar, device=device)
-        if log[0] * log[1] > INDEX_LIMIT:  # (a kernel indexes it in 32 bits: `chunks.log_rows` keeps within)
+        if log[0] * log[1] > INDEX_LIMIT and not wide:  # (a kernel indexes it in 32 bits: `chunks.log_rows` keeps within)
             raise ValueError(f"step log of {log[0]} threads x {log[1]} words: past {INDEX_LIMIT} elements")
-        s.log_threads = log[0]
-        s.steps = _buffer(device, "step log", log[0] * log[1], t.scalar)  # (written before it is read)
-        self.places = (s.place_position, s.place_radius2, s.terrain, s.steps)  # (kept alive with the struct)
+        s.log_threads, s.log_words = log
+        s.steps, held = log_buffer(device, log[0] * log[1], t.scalar, INDEX_LIMIT)  # (written before it is read)
+        self.places = (s.place_position, s.place_radius2, s.terrain, s.steps, held)  # (kept alive with the struct)
         s.hist_stride, s.copy_mask, s.map_width = sizes["hist"], self.copies - 1, width
         unused = (math.inf,) * (MAX_THRESHOLDS - len(setup.thresholds2))
         s.thresholds2 = fns.Thresholds(*(float(np.dtype(precision).type(v)) for v in setup.thresholds2), *unused)

@@ -108,6 +108,7 @@ def make_landing_tally(precision: str) -> SimpleNamespace:
         terrain: wp.array(dtype=scalar)  # the hazard's ground as a terrain (`tallies.terrain_walk`; empty: a plane)
         steps: wp.array(dtype=scalar)  # the step log (`physics.line_log`): steps x words x log_threads, flat (SI)
         log_threads: wp.int32  # the threads it has a column for
+        log_words: wp.int32  # the words of a column
 
     @wp.func
     def horizontal_distance(tally: Tally, position: vec3):

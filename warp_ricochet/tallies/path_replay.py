@@ -79,30 +79,33 @@ def make_line_steps(precision: str, thresholds: int, points: int, with_map: bool
     return SimpleNamespace(line_step=line_step, rough_step=rough_step)
 
 
-_LOAD = "return steps.data[word];"
-_STORE = "steps.data[word] = value;"
+_AT = "(size_t)(unsigned int)j * (size_t)(unsigned int)threads + (size_t)(unsigned int)slot"
+_LOAD = f"return steps.data[{_AT}];"
+_STORE = f"steps.data[{_AT}] = value;"
 
 
 @wp.func_native(_LOAD)
-def load32(steps: wp.array(dtype=wp.float32), word: wp.int32) -> wp.float32:
-    """Word `word` (>= 0, within the array) of a contiguous log: no negative wrap, no stride."""
+def load32(steps: wp.array(dtype=wp.float32), j: wp.int32, threads: wp.int32, slot: wp.int32) -> wp.float32:
+    """Word j of column `slot` of a contiguous log of `threads` columns (word j * threads + slot, in 64
+    bits: the log may hold more words than its shape says, `tallies.counts.log_buffer`; no negative
+    wrap, no stride)."""
     ...
 
 
 @wp.func_native(_STORE)
-def store32(steps: wp.array(dtype=wp.float32), word: wp.int32, value: wp.float32):
-    """Word `word` (>= 0, within the array) of a contiguous log set to `value`."""
+def store32(steps: wp.array(dtype=wp.float32), j: wp.int32, threads: wp.int32, slot: wp.int32, value: wp.float32):
+    """Word j of column `slot` of a contiguous log of `threads` columns set to `value` (`load32`)."""
     ...
 
 
 @wp.func_native(_LOAD)
-def load64(steps: wp.array(dtype=wp.float64), word: wp.int32) -> wp.float64:
+def load64(steps: wp.array(dtype=wp.float64), j: wp.int32, threads: wp.int32, slot: wp.int32) -> wp.float64:
     """`load32` in float64."""
     ...
 
 
 @wp.func_native(_STORE)
-def store64(steps: wp.array(dtype=wp.float64), word: wp.int32, value: wp.float64):
+def store64(steps: wp.array(dtype=wp.float64), j: wp.int32, threads: wp.int32, slot: wp.int32, value: wp.float64):
     """`store32` in float64."""
     ...
 
@@ -126,7 +129,7 @@ def make_path_replay(precision: str, thresholds: int, points: int, with_map: boo
 
     @wp.func
     def get(tally: Tally, slot: wp.int32, j: wp.int32):
-        return load(tally.steps, j * tally.log_threads + slot)
+        return load(tally.steps, j, tally.log_threads, slot)
 
     @wp.func
     def get3(tally: Tally, slot: wp.int32, j: wp.int32):
@@ -134,7 +137,7 @@ def make_path_replay(precision: str, thresholds: int, points: int, with_map: boo
 
     @wp.func
     def put(tally: Tally, slot: wp.int32, j: wp.int32, value: scalar):
-        store(tally.steps, j * tally.log_threads + slot, value)
+        store(tally.steps, j, tally.log_threads, slot, value)
 
     @wp.func
     def put3(tally: Tally, slot: wp.int32, j: wp.int32, value: vec3):
@@ -208,7 +211,7 @@ def make_path_replay(precision: str, thresholds: int, points: int, with_map: boo
         first words (the commonest record) are read with its tag, their addresses known before it
         (within the column), so that a step waits for one round of reads, not two."""
         phase = open_phase()
-        last = tally.steps.shape[0] / tally.log_threads - 1  # the column's last word
+        last = tally.log_words - 1  # the column's last word
         j = wp.int32(1)
         while j <= count:
             tag = wp.int32(get(tally, slot, j))
@@ -305,7 +308,7 @@ def make_recording_watch(precision: str, thresholds: int, points: int, with_map:
         if track.log_slot < 0:
             return track, wp.int32(-1)
         used = wp.int32(get(tally, track.log_slot, 0))
-        if used + words >= tally.steps.shape[0] / tally.log_threads:  # (the column's words: `COLUMN_WORDS`)
+        if used + words >= tally.log_words:  # (the column's words: `COLUMN_WORDS`)
             put(tally, track.log_slot, 0, scalar(OVERFLOWED))
             track.log_slot = -1 - track.log_slot
             return track, wp.int32(-1)
