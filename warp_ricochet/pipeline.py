@@ -119,7 +119,9 @@ def landing_tally(scene, model, spec, arrays, rows: int) -> DeviceTally:
     """The device tally of a run (active with spec.tally; its struct is passed either way), with the
     step log of a run to rest that watches its path for a core launch over `rows` rows (`log_threads`)."""
     log = (log_threads(spec, model.device, rows), log_words(spec))
-    return DeviceTally(landing_setup(scene, model, arrays), model.precision, model.device, spec.tally, log, wide=bool(spec.watch[4]))
+    return DeviceTally(
+        landing_setup(scene, model, arrays), model.precision, model.device, spec.tally, log, wide=bool(spec.watch[4])
+    )
 
 
 def log_threads(spec, device, rows: int) -> int:

@@ -260,7 +260,11 @@ def recording_structs(scalar):
         type(
             "Straight",
             (),
-            {"__annotations__": {"length": scalar}, "__module__": __name__, "__qualname__": "recording_structs.<locals>.Straight"},
+            {
+                "__annotations__": {"length": scalar},
+                "__module__": __name__,
+                "__qualname__": "recording_structs.<locals>.Straight",
+            },
         )
     )
     return Track, Straight

@@ -99,7 +99,10 @@ def reduce_kernel(lanes: int = LANES):
                     m2 += deviations(n[k], t[k], q[k], mean)
             for lane in range(FULL, lanes):
                 m2 += deviations(
-                    partial_sums[rows[0], base + lane], partial_sums[rows[1], base + lane], partial_sums[rows[2], base + lane], mean
+                    partial_sums[rows[0], base + lane],
+                    partial_sums[rows[1], base + lane],
+                    partial_sums[rows[2], base + lane],
+                    mean,
                 )
         return m2
 
