@@ -57,7 +57,7 @@ def log_words(spec) -> int:
 def log_words_per_pellet(spec) -> float:
     """Words of the step log a pellet (a slot) of a GPU chunk takes: its thread's, shared by its
     pellets (its own column of the record log where the run replays its watch)."""
-    return log_words(spec) * (1 if spec.replay else spec.lanes / SEGMENT)
+    return log_words(spec) * (1 if spec.watch[4] else spec.lanes / SEGMENT)
 
 
 def log_rows(spec) -> int:

@@ -130,7 +130,7 @@ def log_threads(spec, device, rows: int) -> int:
     or with `spec.log_steps` = 0 (each step watched at once)."""
     if not log_words(spec):
         return 0
-    if spec.replay:  # (a column a chunk row: `tallies.path_replay`)
+    if spec.watch[4]:  # (a record log: a column a chunk row, `tallies.path_replay`)
         return rows
     return threads_for(rows, spec.lanes) if device.is_cuda else 1
 
