@@ -194,6 +194,29 @@ def make_path_walk(precision: str, thresholds: int, points: int, with_map: bool)
     ZERO, ONE = scalar(0.0), scalar(1.0)
 
     @wp.func
+    def crosses(lam: scalar, next_v: scalar, bound: scalar):
+        """Whether a u edge at chord parameter lam is crossed within a run: before the next v edge,
+        the chord's end and the level's `bound`."""
+        return lam <= next_v and lam <= ONE and lam < bound
+
+    @wp.func
+    def along_u(iu: wp.int32, step_u: wp.int32, du: scalar, next_u: scalar, next_v: scalar, bound: scalar, left: wp.int32, nu: wp.int32):  # fmt: skip
+        """How many u edges from cell iu (the next at chord parameter next_u, then every 1 / |du|) are
+        crossed within a run (`crosses`), at most `left`, without leaving the grid's columns: in
+        closed form, then stepped back past any edge that rounding let through (at most twice; one
+        too few is taken up by the walk, an edge at a time)."""
+        n = wp.int32(0)
+        if crosses(next_u, next_v, bound):
+            span = wp.abs(du)
+            n = wp.min(left, wp.where(step_u > 0, nu - 1 - iu, iu))
+            n = wp.min(n, wp.int32(wp.min((wp.min(next_v, ONE) - next_u) * span, scalar(nu))) + 1)
+            n = wp.min(n, wp.int32(wp.min(wp.ceil((bound - next_u) * span), scalar(nu))))
+            for _k in range(2):
+                if n > 0 and not crosses(next_u + scalar(n - 1) / span, next_v, bound):
+                    n -= 1
+        return wp.max(n, 0)
+
+    @wp.func
     def run_along_u(
         track: Track,
         tally: Tally,
@@ -216,17 +239,10 @@ def make_path_walk(precision: str, thresholds: int, points: int, with_map: bool)
         at_end = (step_u > 0 and iu == track.run_hi) or (step_u < 0 and iu == track.run_lo)
         if track.run_row == iv and track.run_level == level and track.cell == iv * tally.map_nu + iu and at_end:
             start = iu
-            while (
-                gone < budget
-                and next_u <= next_v
-                and next_u <= ONE
-                and next_u < bound
-                and iu + step_u >= 0
-                and iu + step_u < tally.map_nu
-            ):
-                gone += 1
-                iu += step_u
-                next_u = next_u + ONE / wp.abs(du)
+            n = along_u(iu, step_u, du, next_u, next_v, bound, budget - gone, tally.map_nu)
+            gone += n
+            iu += n * step_u
+            next_u = next_u + scalar(n) / wp.abs(du)
             if iu != start:
                 track.run_lo = wp.min(track.run_lo, iu)
                 track.run_hi = wp.max(track.run_hi, iu)
