@@ -83,7 +83,7 @@ def make_path_span(precision: str, thresholds: int, points: int, with_map: bool)
     r = make_path_roots(precision)
     height_at, speed2_at, height_root, apex, speed_root = r.height_at, r.speed2_at, r.height_root, r.apex, r.speed_root
     height_over = r.height_over
-    HAS_POINTS = points > 0
+    HAS_POINTS, K = points > 0, max(thresholds, 1)
     ZERO, ONE = scalar(0.0), scalar(1.0)
 
     @wp.func
@@ -118,10 +118,12 @@ def make_path_span(precision: str, thresholds: int, points: int, with_map: bool)
         far_b = scalar(-1.0)
         lo = Reach()
         hi = Reach()
-        for i in range(tally.path_thresholds):
+        for i in range(wp.static(K)):  # (unrolled: lo, hi and the thresholds held in registers)
             target = tally.thresholds2[i]
             lo[i] = ONE
             hi[i] = ZERO  # empty
+            if i >= tally.path_thresholds:
+                continue
             if va >= target or vb >= target:
                 if va >= target and far_a < ZERO:
                     far_a = horizontal_distance(tally, xa)

@@ -277,10 +277,12 @@ def make_path_straight(precision: str, thresholds: int, points: int, with_map: b
             length = wp.length(x1 - x0)
             lo = Reach()
             hi = Reach()
-            for i in range(tally.path_thresholds):  # (as `span`'s one part over [0, 1])
+            for i in range(wp.static(K)):  # (as `span`'s one part over [0, 1]; unrolled, as there)
                 target = tally.thresholds2[i]
                 lo[i] = ONE
                 hi[i] = ZERO  # empty
+                if i >= tally.path_thresholds:
+                    continue
                 if va >= target and vb >= target:
                     lo[i] = ZERO
                     hi[i] = ONE
