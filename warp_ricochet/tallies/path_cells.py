@@ -275,9 +275,8 @@ def make_path_walk(precision: str, thresholds: int, points: int, with_map: bool)
             next_v = (scalar(iv + wp.max(step_v, 0)) - fv0) / dv
         gone = wp.int32(0)  # the cells left on the way: at most |du| + |dv| + 2 inside the grid's span
         budget = wp.int32(wp.min(wp.abs(du) + wp.abs(dv), scalar(tally.map_nu) + tally.map_nv_cells)) + 4
-        track, iu, next_u, gone = run_along_u(
-            track, tally, iu, iv, level, step_u, du, next_u, next_v, level_bound(lo, hi, ZERO), gone, budget
-        )
+        bound = level_bound(lo, hi, ZERO)  # the level holds for parameters up to (not at) it
+        track, iu, next_u, gone = run_along_u(track, tally, iu, iv, level, step_u, du, next_u, next_v, bound, gone, budget)
         while gone < budget and wp.min(next_u, next_v) <= ONE:
             gone += 1
             lam = ZERO
@@ -291,11 +290,11 @@ def make_path_walk(precision: str, thresholds: int, points: int, with_map: bool)
                 next_v = next_v + ONE / wp.abs(dv)
             if (iu < -1 or iu > tally.map_nu) or (iv < -1 or iv > wp.int32(tally.map_nv_cells)):
                 break  # off the grid for good: it counts as one off-grid cell
-            level = level_at(lo, hi, lam)
+            if not (lam < bound):  # (lam only grows: before `bound`, level_at and level_bound stay)
+                level = level_at(lo, hi, lam)
+                bound = level_bound(lo, hi, lam)
             track = enter(track, tally, iu, iv, level)
-            track, iu, next_u, gone = run_along_u(
-                track, tally, iu, iv, level, step_u, du, next_u, next_v, level_bound(lo, hi, lam), gone, budget
-            )
+            track, iu, next_u, gone = run_along_u(track, tally, iu, iv, level, step_u, du, next_u, next_v, bound, gone, budget)
         return track
 
     @wp.func
