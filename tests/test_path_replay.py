@@ -25,7 +25,7 @@ from warp_ricochet.chunks import (
 from warp_ricochet.core import replay
 from warp_ricochet.scene import load_scene
 from warp_ricochet.spec import RunSpec
-from warp_ricochet.tallies import path_replay
+from warp_ricochet.tallies import counts, path_replay
 from warp_ricochet.tallies.counts import log_buffer
 from warp_ricochet.tallies.reduce import SEGMENT
 
@@ -99,6 +99,26 @@ def test_the_replayed_watch_gives_the_same_bits_as_the_watch_in_the_core(tmp_pat
     assert np.isfinite(at_once["pellets/hazard/reach"]).any()  # (something reached: the comparison bites)
     assert reruns < scene.shot.pellets  # (most pellets replayed; after pair collisions some need >512 words)
     _same(at_once, replayed, case)
+
+
+def test_the_logs_are_read_only_where_written(tmp_path, monkeypatch):
+    """The step and record logs are not zeroed (`counts.log_buffer`): filled with NaN first, both the
+    watch in the core and its replay give the same bits as ever."""
+    import warp as wp
+
+    scene = _scene(CASES["map-places"])
+    clean, _, _ = _runs(tmp_path, monkeypatch, scene)
+    filled = []
+
+    def nan_filled(shape, dtype, device):
+        filled.append(shape)
+        return wp.full(shape, value=dtype(float("nan")), dtype=dtype, device=device)
+
+    monkeypatch.setattr(counts, "_unset", nan_filled)
+    at_once, replayed, _ = _runs(tmp_path, monkeypatch, scene)
+    assert filled  # (the logs were made by `_unset`)
+    _same(clean, at_once, "the watch in the core, its step log filled with NaN")
+    _same(clean, replayed, "the replay, its record log filled with NaN")
 
 
 @pytest.mark.parametrize(("case", "words"), [("reach", 64), ("map-places", 225), ("collisions", 1500)])

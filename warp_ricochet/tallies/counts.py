@@ -229,20 +229,30 @@ _POOL: dict = {}  # device arrays and pinned host arrays kept between runs (allo
 _CLEAN: set = set()  # the pooled count arrays known to be all zero (`DeviceTally.fold` and `receive` leave them so)
 
 
-def _buffer(device, role: str, size, dtype):
-    """A device array of `size` (or shape); on CUDA the one kept for `role` if it has that shape and
-    dtype (one CUDA run at a time: pipeline._DEVICE_LOCK), else a new one, zeroed, that replaces it."""
+def _unset(shape, dtype, device):
+    """A device array left as allocated (tests fill it instead, to show that nothing reads it unwritten)."""
     import warp as wp
 
+    return wp.empty(shape, dtype=dtype, device=device)
+
+
+def _buffer(device, role: str, size, dtype, zeroed: bool = True):
+    """A device array of `size` (or shape); on CUDA the one kept for `role` if it has that shape and
+    dtype (one CUDA run at a time: pipeline._DEVICE_LOCK), else a new one, zeroed (or, not `zeroed`,
+    left as allocated), that replaces it."""
+    import warp as wp
+
+    make = wp.zeros if zeroed else _unset
     shape = tuple(size) if isinstance(size, tuple) else (size,)
     if not device.is_cuda or not size:  # (an inactive tally leaves the kept arrays to the next run)
-        return wp.zeros(shape, dtype=dtype, device=device)
+        return make(shape, dtype=dtype, device=device)
     key = (str(device), role)
     kept = _POOL.get(key)
     if kept is None or kept.shape != shape or kept.dtype != dtype:
         _POOL[key] = None  # (freed before the new one is made)
-        _POOL[key] = wp.zeros(shape, dtype=dtype, device=device)
-        _CLEAN.add(key)
+        _POOL[key] = make(shape, dtype=dtype, device=device)
+        if zeroed:
+            _CLEAN.add(key)
     return _POOL[key]
 
 
@@ -250,12 +260,13 @@ def log_buffer(device, words: int, dtype, limit: int):
     """The step log of `words` words: (a flat array of them, None) up to `limit` words; past it (an
     array's dimension holds less than 2^31) (a flat view of the first `limit` words of rows of `limit`
     words that hold them all, those rows). Kernels reach the words past the view's shape by raw
-    64-bit index (`tallies.path_replay`)."""
+    64-bit index (`tallies.path_replay`). Not zeroed: a column's words are written before they
+    are read."""
     import warp as wp
 
     if words <= limit:
-        return _buffer(device, "step log", words, dtype), None
-    rows = _buffer(device, "step log", (-(-words // limit), limit), dtype)
+        return _buffer(device, "step log", words, dtype, zeroed=False), None
+    rows = _buffer(device, "step log", (-(-words // limit), limit), dtype, zeroed=False)
     return wp.array(ptr=rows.ptr, dtype=dtype, shape=(limit,), device=device), rows
 
 
