@@ -11,10 +11,11 @@ from .dense.schedule import dense_bytes_per_pellet, shot_granule, shot_stride
 from .errors import SceneError
 from .fields import bytes_per_pellet
 from .io.space import free_bytes, host_memory_available, size_text
+from .model import held_state_bytes
 from .physics.line_log import INDEX_LIMIT, step_words
 from .spec import RunSpec
 from .tallies import path_replay
-from .tallies.counts import TallySetup, tally_bytes
+from .tallies.counts import TallySetup, pooled_bytes, tally_bytes
 from .tallies.reduce import SEGMENT, partial_bytes_per_pellet
 
 HOST_BUFFER_BYTES = 128 << 20  # per pinned host buffer (two are used): caps host memory
@@ -67,13 +68,32 @@ def log_rows(spec) -> int:
     return MAX_CHUNK if not words or spec.watch[4] else max(SEGMENT, int(INDEX_LIMIT / words) // SEGMENT * SEGMENT)
 
 
+def free_device_bytes(device) -> int:
+    """The device memory a run may plan with: the free memory and the buffers kept from the last run
+    (`tallies.counts.pooled_bytes`, `model.held_state_bytes`), which a run that needs others frees
+    first. Counting them keeps a run's chunks the same size as the last one's, so it reuses them."""
+    return device.free_memory + pooled_bytes(device) + held_state_bytes(device)
+
+
+def balanced(rows: int, pellets: int) -> int:
+    """The fewest chunks of at most `rows` (a multiple of SEGMENT) made as equal as whole segments
+    allow: no small last chunk (on a GPU, a launch's last wave and each chunk's reduction cost the
+    same for a few rows as for many)."""
+    chunks = max(-(-pellets // rows), 1)
+    each = -(-pellets // chunks)
+    return min(rows, -(-each // SEGMENT) * SEGMENT)
+
+
 def plan_rows(scene, device, pellets: int, fields) -> int:
-    """Pellets per core chunk: a multiple of SEGMENT that fits device and host memory budgets."""
+    """Pellets per core chunk: a multiple of SEGMENT that fits device and host memory budgets; on a
+    GPU without `numerics.chunk_size`, `balanced`."""
     if scene.numerics.chunk_size:
         rows = scene.numerics.chunk_size
     else:
         if device.is_cuda:
-            rows = min(int(DEVICE_FRACTION * device.free_memory / device_bytes_per_pellet(scene, fields, device)), MAX_CHUNK)
+            rows = min(
+                int(DEVICE_FRACTION * free_device_bytes(device) / device_bytes_per_pellet(scene, fields, device)), MAX_CHUNK
+            )
         else:
             rows = CPU_AIR_CHUNK if scene.in_air else CPU_STATS_CHUNK
         if fields:
@@ -81,6 +101,8 @@ def plan_rows(scene, device, pellets: int, fields) -> int:
     rows = max(SEGMENT, -(-rows // SEGMENT) * SEGMENT)  # whole segments: chunk-size invariance
     if device.is_cuda:  # (the same bits for any chunk size)
         rows = min(rows, log_rows(RunSpec.of(scene, with_output=False, device=device)))
+        if not scene.numerics.chunk_size:
+            rows = balanced(rows, pellets)
     return min(rows, max(pellets, 1))
 
 
@@ -97,7 +119,7 @@ def plan_shots(scene, device, shots: int) -> int:
         log = log_words_per_pellet(spec) * np.dtype(scene.numerics.precision).itemsize * shot_stride(count) / count
         pellets = int(
             DEVICE_FRACTION
-            * device.free_memory
+            * free_device_bytes(device)
             / (dense_bytes_per_pellet(scene.numerics.precision, scene.collisions.max_neighbours) + 64 + log)
         )
     else:
@@ -125,7 +147,7 @@ def check_chunk_memory(scene, dev, with_output: bool) -> None:
         on_host, on_device = on_host + on_device, 0
     host_free = host_memory_available()
     for need, free, where in (
-        (rows * on_device, dev.free_memory if dev.is_cuda else None, f"on {dev.alias}"),
+        (rows * on_device, free_device_bytes(dev) if dev.is_cuda else None, f"on {dev.alias}"),
         (rows * on_host, host_free, "in host memory"),
     ):
         if free is not None and need > free:
@@ -158,7 +180,7 @@ def check_tallies(scene, dev, output) -> int:
         key, value, what, fix = "output.quantiles", True, "the landing histograms need", "output.quantiles = false"
     for need, free, where in (
         (host, host_memory_available(), "of host memory"),
-        (device, dev.free_memory if dev.is_cuda else None, f"on {dev.alias}"),
+        (device, free_device_bytes(dev) if dev.is_cuda else None, f"on {dev.alias}"),
         (file, None if output is None else free_bytes(output), "on the output's disk"),
     ):
         if free is not None and need > free:

@@ -248,6 +248,16 @@ class State:
 _LAST_STATE: dict = {}
 
 
+def held_state_bytes(device) -> int:
+    """Device bytes of the chunk buffers kept from the last run on `device` (`reused_state`): free
+    for a run's planning, as a run that needs others frees them first."""
+    state = _LAST_STATE.get("state")
+    if state is None or _LAST_STATE["key"][0] != getattr(device, "alias", None):
+        return 0
+    arrays = [*state.arrays.values(), state.partial_sums, state.partial_min, state.partial_max, state.segments]
+    return sum(a.capacity for a in arrays + list(state.scratch_partials or ()))
+
+
 def reused_state(model: Model, capacity: int, fields, lanes: int = LANES) -> State:
     """The last run's chunk buffers if they fit (device, precision, bounces, capacity, fields),
     else new ones, which replace them: one set is kept in all, so device memory does not grow with

@@ -229,6 +229,14 @@ _POOL: dict = {}  # device arrays and pinned host arrays kept between runs (allo
 _CLEAN: set = set()  # the pooled count arrays known to be all zero (`DeviceTally.fold` and `receive` leave them so)
 
 
+def pooled_bytes(device) -> int:
+    """Device bytes of the arrays kept for the next run on `device` (`_buffer`): free for a run's
+    planning, as `_buffer` frees a kept array before it makes one of another shape."""
+    import warp as wp
+
+    return sum(a.capacity for (where, _role), a in _POOL.items() if where == str(device) and isinstance(a, wp.array))
+
+
 def _unset(shape, dtype, device):
     """A device array left as allocated (tests fill it instead, to show that nothing reads it unwritten)."""
     import warp as wp
