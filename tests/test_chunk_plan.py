@@ -65,3 +65,14 @@ def test_a_run_after_another_plans_the_same_chunks_with_the_buffers_it_kept(monk
     assert plan_rows(scene, after, scene.shot.pellets, ()) == first
     monkeypatch.delitem(counts._POOL, ("cuda:test", "step log"))
     assert plan_rows(scene, after, scene.shot.pellets, ()) < first  # (without the kept buffers counted)
+
+
+def test_a_workers_device_reports_its_own_kept_buffers(monkeypatch):
+    """A worker's device, described to the client (`cluster.RemoteDevice`), has its kept buffers in
+    its free memory already (`tasks.describe_device`): the client's own are not added."""
+    from warp_ricochet.cluster import RemoteDevice
+
+    kept = wp.empty(1 << 20, dtype=wp.uint8, device="cpu")
+    monkeypatch.setitem(counts._POOL, ("cuda:test", "step log"), kept)
+    assert free_device_bytes(_Gpu(1e9)) == 1e9 + kept.capacity
+    assert free_device_bytes(RemoteDevice("cuda:test", "H200", True, 10**9)) == 10**9

@@ -42,7 +42,8 @@ class RemoteDevice:
     alias: str
     name: str
     is_cuda: bool
-    free_memory: int
+    free_memory: int  # (with the buffers the worker keeps from its last run: `chunks.free_device_bytes`)
+    remote = True  # (its kept buffers are the worker's, counted in free_memory)
 
     def __str__(self) -> str:
         return self.alias

@@ -167,6 +167,7 @@ def describe_device(device) -> tuple:
     """(alias, name, is_cuda, free bytes) of `device` resolved on a worker (`cluster.RemoteDevice`);
     (None, the one-line error) for a device it does not have, raised by the client (a task that
     raises has the worker log "Compute Failed" and a traceback above the command's line)."""
+    from .chunks import free_device_bytes
     from .device import resolve_device
     from .errors import RicochetError
 
@@ -174,4 +175,4 @@ def describe_device(device) -> tuple:
         dev = resolve_device(device)
     except RicochetError as exc:
         return None, str(exc)
-    return str(dev), dev.name, bool(dev.is_cuda), int(dev.free_memory) if dev.is_cuda else 0
+    return str(dev), dev.name, bool(dev.is_cuda), int(free_device_bytes(dev)) if dev.is_cuda else 0
