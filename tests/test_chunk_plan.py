@@ -76,3 +76,27 @@ def test_a_workers_device_reports_its_own_kept_buffers(monkeypatch):
     monkeypatch.setitem(counts._POOL, ("cuda:test", "step log"), kept)
     assert free_device_bytes(_Gpu(1e9)) == 1e9 + kept.capacity
     assert free_device_bytes(RemoteDevice("cuda:test", "H200", True, 10**9)) == 10**9
+
+
+def test_a_run_frees_the_kept_buffers_it_counted_as_free_unless_it_repeats_the_last_chunks(monkeypatch):
+    """`pipeline.release_kept`: a run whose plan counted the kept buffers as free frees them before
+    it allocates, unless its chunk buffers are the kept ones (a repeat, which reuses them all); a
+    collision run (None) always frees them. Pinned host buffers stay."""
+    from warp_ricochet import model, pipeline
+
+    def keep():
+        monkeypatch.setitem(model._LAST_STATE, "key", ("cuda:test", "float32", 1))
+        monkeypatch.setitem(model._LAST_STATE, "state", object())
+        monkeypatch.setitem(counts._POOL, ("cuda:test", "step log"), wp.empty(16, dtype=wp.uint8, device="cpu"))
+        monkeypatch.setitem(counts._POOL, ("cuda:test", ("pinned",)), {"host": None})
+
+    gpu = _Gpu(1e9)
+    keep()
+    pipeline.release_kept(gpu, ("cuda:test", "float32", 1))
+    assert model._LAST_STATE and ("cuda:test", "step log") in counts._POOL  # (a repeat: all reused)
+    for other in (("cuda:test", "float32", 2), None):
+        keep()
+        pipeline.release_kept(gpu, other)
+        assert not model._LAST_STATE and ("cuda:test", "step log") not in counts._POOL
+        assert ("cuda:test", ("pinned",)) in counts._POOL
+        assert free_device_bytes(gpu) == 1e9

@@ -116,7 +116,7 @@ def test_the_logs_are_read_only_where_written(tmp_path, monkeypatch):
 
     monkeypatch.setattr(counts, "_unset", nan_filled)
     at_once, replayed, _ = _runs(tmp_path, monkeypatch, scene)
-    assert filled  # (the logs were made by `_unset`)
+    assert sum(1 for shape in filled if np.prod(shape) > 0) >= 2  # (both runs' logs made by `_unset`, not empty)
     _same(clean, at_once, "the watch in the core, its step log filled with NaN")
     _same(clean, replayed, "the replay, its record log filled with NaN")
 

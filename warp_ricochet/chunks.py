@@ -70,9 +70,10 @@ def log_rows(spec) -> int:
 
 def free_device_bytes(device) -> int:
     """The device memory a run may plan with: the free memory and the buffers kept from the last run
-    (`tallies.counts.pooled_bytes`, `model.held_state_bytes`), which a run that needs others frees
-    first. Counting them keeps a run's chunks the same size as the last one's, so it reuses them. A
-    worker's device (`cluster.RemoteDevice`) reports its own."""
+    (`tallies.counts.pooled_bytes`, `model.held_state_bytes`), which a run frees before it allocates
+    unless it repeats the last one's chunks (`pipeline.release_kept`). Counting them keeps a run's
+    chunks the same size as the last one's, so that it reuses them. A worker's device
+    (`cluster.RemoteDevice`) reports its own."""
     if getattr(device, "remote", False):
         return device.free_memory
     return device.free_memory + pooled_bytes(device) + held_state_bytes(device)

@@ -258,11 +258,26 @@ def held_state_bytes(device) -> int:
     return sum(a.capacity for a in arrays + list(state.scratch_partials or ()))
 
 
+def state_key(model: Model, capacity: int, fields, lanes: int = LANES) -> tuple:
+    """What `reused_state` keeps its buffers by: device, precision, bounces, thresholds, capacity,
+    fields and lanes."""
+    return (model.device.alias, model.precision, model.bounces, model.thresholds, capacity, tuple(fields), lanes)
+
+
+def release_kept_state(unless=None) -> bool:
+    """Free the chunk buffers kept from the last run, unless they are kept by the key `unless`.
+    Returns whether they were kept."""
+    if unless is not None and _LAST_STATE.get("key") == unless:
+        return True
+    _LAST_STATE.clear()
+    return False
+
+
 def reused_state(model: Model, capacity: int, fields, lanes: int = LANES) -> State:
     """The last run's chunk buffers if they fit (device, precision, bounces, capacity, fields),
     else new ones, which replace them: one set is kept in all, so device memory does not grow with
     the runs of a sweep. Only for CUDA runs, one at a time (pipeline's lock)."""
-    key = (model.device.alias, model.precision, model.bounces, model.thresholds, capacity, tuple(fields), lanes)
+    key = state_key(model, capacity, fields, lanes)
     if _LAST_STATE.get("key") != key:
         _LAST_STATE.clear()  # free the old buffers before allocating new ones
         _LAST_STATE.update(key=key, state=State(model, capacity, fields, lanes))

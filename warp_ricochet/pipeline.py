@@ -35,7 +35,7 @@ from .dense.phase import DensePhase
 from .dense.schedule import shot_stride
 from .errors import ChaosWarning, PrecisionWarning
 from .launch.source import PelletSource
-from .model import State, reused_state
+from .model import State, release_kept_state, reused_state, state_key
 from .physics.air_flight import MAX_FLIGHT_STEPS
 from .physics.limits import POSITION_RESOLUTION, UNIT_ROUNDOFF
 from .scene.stations import station_shots
@@ -46,7 +46,7 @@ from .tallies.collisions import (
     SKIN_OVERRUN,
     collision_statistics,
 )
-from .tallies.counts import DeviceTally, TallySetup, TallyTotals
+from .tallies.counts import DeviceTally, TallySetup, TallyTotals, release_pool
 from .tallies.ensemble import ensemble_of, has_ensemble, per_shot_statistics
 from .tallies.reduce import SEGMENT_WIDTH, launch_reduce, threads_for
 from .tallies.sums import combine, empty_totals, finalize
@@ -156,6 +156,14 @@ def launch_core(kernel, inputs, state, rows: int, device, scratch: bool = False)
     )
 
 
+def release_kept(device, key=None) -> None:
+    """Before a CUDA run allocates: the buffers kept from the last run, which its plan counted as
+    free (`chunks.free_device_bytes`), freed unless its chunk buffers are kept by `key` (the same
+    state: a repeat of the last run's chunks, which reuses them). None: always freed."""
+    if not release_kept_state(unless=key):
+        release_pool(device)
+
+
 class CoreStage:
     """Chunks of pellet rows, launched in the core kernel."""
 
@@ -163,6 +171,8 @@ class CoreStage:
         dev = model.device
         self.model, self.pellets, self.stop = model, pellets, pellets
         self.capacity = plan_rows(scene, dev, pellets, spec.fields)
+        if dev.is_cuda:
+            release_kept(dev, state_key(model, self.capacity, spec.core_fields, spec.lanes))
         self.state = (reused_state if dev.is_cuda else State)(model, self.capacity, spec.core_fields, spec.lanes)
         self.source = PelletSource(scene, model.precision, dev, self.capacity, arrays)
         self.kernel = ricochet_kernel_for(spec)
@@ -222,6 +232,8 @@ class CollisionStage:
         self.count = scene.shot.count
         self.shots = pellets // self.count
         self.per_chunk = plan_shots(scene, dev, self.shots)
+        if dev.is_cuda:
+            release_kept(dev)  # (its state is its own: nothing kept is reused)
         self.stride = shot_stride(self.count)
         self.state = State(model, self.per_chunk * self.stride, spec.core_fields, spec.lanes)
         self.dense = DensePhase(model, scene, spec, self.per_chunk * self.count, options)

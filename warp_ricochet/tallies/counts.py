@@ -231,10 +231,20 @@ _CLEAN: set = set()  # the pooled count arrays known to be all zero (`DeviceTall
 
 def pooled_bytes(device) -> int:
     """Device bytes of the arrays kept for the next run on `device` (`_buffer`): free for a run's
-    planning, as `_buffer` frees a kept array before it makes one of another shape."""
+    planning (`chunks.free_device_bytes`), as a run frees them before it allocates unless it repeats
+    the last one's chunks (`pipeline.release_kept`)."""
     import warp as wp
 
     return sum(a.capacity for (where, _role), a in _POOL.items() if where == str(device) and isinstance(a, wp.array))
+
+
+def release_pool(device) -> None:
+    """Free the device arrays kept for the next run on `device` (`_buffer`); pinned host buffers stay."""
+    import warp as wp
+
+    for key in [k for k, a in _POOL.items() if k[0] == str(device) and isinstance(a, wp.array)]:
+        del _POOL[key]
+        _CLEAN.discard(key)
 
 
 def _unset(shape, dtype, device):
@@ -252,9 +262,12 @@ def _buffer(device, role: str, size, dtype, zeroed: bool = True):
 
     make = wp.zeros if zeroed else _unset
     shape = tuple(size) if isinstance(size, tuple) else (size,)
-    if not device.is_cuda or not size:  # (an inactive tally leaves the kept arrays to the next run)
-        return make(shape, dtype=dtype, device=device)
     key = (str(device), role)
+    if not device.is_cuda or not size:
+        if device.is_cuda:  # (a role this run does not need: its kept array freed, as its plan counted it free)
+            _POOL.pop(key, None)
+            _CLEAN.discard(key)
+        return make(shape, dtype=dtype, device=device)
     kept = _POOL.get(key)
     if kept is None or kept.shape != shape or kept.dtype != dtype:
         _POOL[key] = None  # (freed before the new one is made)
