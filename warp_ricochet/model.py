@@ -250,7 +250,8 @@ _LAST_STATE: dict = {}
 
 def held_state_bytes(device) -> int:
     """Device bytes of the chunk buffers kept from the last run on `device` (`reused_state`): free
-    for a run's planning, as a run that needs others frees them first."""
+    for a run's planning, as a run frees them before it allocates unless it reuses them
+    (`pipeline.release_kept`)."""
     state = _LAST_STATE.get("state")
     if state is None or _LAST_STATE["key"][0] != getattr(device, "alias", None):
         return 0
