@@ -34,7 +34,7 @@ def replay_kernel_for(spec):
     Tally, Track = make_landing_tally(spec.precision).Tally, watcher.Track
     Outputs, Release = make_outputs(spec.precision).Outputs, make_release(spec.precision)
     RELEASE, WRITE = spec.collisions, any(f.startswith("hazard.") for f in spec.core_fields)
-    options = kernel_options(spec)
+    options = kernel_options(spec, in_place=not spec.hazard_map)  # (bench/RESULTS.md "Kernel parameters read in place")
     options["cuda_max_registers"] = REPLAY_MAX_REGISTERS
 
     @wp.func
