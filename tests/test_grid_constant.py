@@ -189,3 +189,27 @@ def test_the_core_and_replay_kernels_read_their_parameters_in_place():
         head = cuda[cuda.index("__global__") : cuda.index("{", cuda.index("__global__"))]
         assert head.count("__grid_constant__") == len(kernel.adj.args)
     assert "__grid_constant__" not in _source(replay_kernel_for(mapped), "cuda")
+
+
+# a statement that assigns to a named variable (a parameter: Warp's locals are numbered) or its field
+STORE = re.compile(r"^\s*(var_[A-Za-z]\w*)(?:\.\w+|\[[^\]]*\])*\s*(?:<<|>>|[-+*/%&|^])?=(?!=)", re.M)
+
+
+@pytest.mark.parametrize("case", ["turf", "hazard", "box", "terrain"])
+def test_no_function_writes_through_a_reference_of_a_kernel_parameters_type(case, tmp_path):
+    """A `__grid_constant__` parameter must never be written. Warp's functions take structs by
+    reference, so a function that assigned to a field of a parameter of a kernel parameter's type
+    could write one; in the generated CUDA code of `bench.kernel_size`'s scenes the functions
+    write only to references of their own local structs (a line's laws, a track, a phase)."""
+    from bench.kernel_size import scene_of
+    from warp_ricochet.core.kernel import ricochet_kernel_for
+    from warp_ricochet.core.replay import replay_kernel_for
+    from warp_ricochet.spec import RunSpec
+
+    spec = RunSpec.of(scene_of(case, tmp_path), with_output=False, device=SimpleNamespace(is_cuda=True))
+    for kernel in [ricochet_kernel_for(spec)] + ([replay_kernel_for(spec)] if spec.replay else []):
+        source = _source(kernel, "cuda")
+        written = {m.group(1) for m in STORE.finditer(source)}
+        referenced = {t for name in written for t in re.findall(rf"([\w:<>]+)&\s+{name}\b(?=[,)])", source)}
+        assert not referenced & {a.ctype() for a in kernel.adj.args}, (written, referenced)
+    assert case not in ("turf", "hazard") or written  # (the scan sees the stores it looks for)
