@@ -111,14 +111,15 @@ def test_opting_in_keys_the_module_hash():
     assert len(hashes) == 2
 
 
-def test_an_opted_in_kernel_runs_the_same_on_the_cpu():
-    values = wp.array(range(8), dtype=wp.float32, device="cpu")
+def test_an_opted_in_kernel_runs_the_same(device):
+    """The same values with the parameters in place as without, on each device (CUDA runs the rewrite)."""
+    values = wp.array(range(8), dtype=wp.float32, device=device)
     pack = Pack()
     pack.a, pack.b, pack.x = 1.5, wp.types.vector(length=32, dtype=wp.float32)(*range(32)), values
     outs = []
     for opted_in in (True, False):
-        out = wp.zeros(8, dtype=wp.float32, device="cpu")
-        wp.launch(_kernel(opted_in), dim=8, inputs=[pack, 2], outputs=[out], device="cpu")
+        out = wp.zeros(8, dtype=wp.float32, device=device)
+        wp.launch(_kernel(opted_in), dim=8, inputs=[pack, 2], outputs=[out], device=device)
         outs.append(out.numpy())
     assert (outs[0] == outs[1]).all() and outs[0][3] == 1.5 + 3 + sum(range(32)) + 2
 
@@ -131,19 +132,10 @@ def _ptx(kernel, folder):
     return Path(ptx).read_text()
 
 
-@pytest.mark.parametrize("device", [d for d in wp.get_cuda_devices()] or ["nvrtc"])
-def test_the_rewritten_code_compiles_and_runs_the_same_on_cuda(device):
-    """NVRTC compiles the rewritten module to sm_90 PTX (no GPU needed); on a GPU it runs the same."""
+def test_the_rewritten_code_compiles_for_cuda():
+    """NVRTC compiles the rewritten module to sm_90 PTX (no GPU needed)."""
     with tempfile.TemporaryDirectory() as folder:
         assert ".entry" in _ptx(_kernel(True), Path(folder))
-    if device != "nvrtc":
-        values = wp.array(range(8), dtype=wp.float32, device=device)
-        pack = Pack()
-        pack.a, pack.b, pack.x = 1.5, wp.types.vector(length=32, dtype=wp.float32)(*range(32)), values
-        outs = [wp.zeros(8, dtype=wp.float32, device=device) for _ in range(2)]
-        for opted_in, out in zip((True, False), outs, strict=True):
-            wp.launch(_kernel(opted_in), dim=8, inputs=[pack, 2], outputs=[out], device=device)
-        assert (outs[0].numpy() == outs[1].numpy()).all()
 
 
 def _specs():
