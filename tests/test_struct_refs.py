@@ -20,11 +20,30 @@ def _is_wp_func(decorator) -> bool:
     return isinstance(target, ast.Attribute) and target.attr == "func"
 
 
+def _value_fields() -> set[str]:
+    """The fields of the registered structs that are not arrays (a vector, a matrix, a nested struct,
+    a number): an element of one of them is part of the struct."""
+    import warp as wp
+
+    from warp_ricochet.launch.source import make_source
+    from warp_ricochet.physics.types import types_for
+    from warp_ricochet.tallies.landing import make_landing_tally
+
+    t = types_for("float32")
+    structs = (t.Surfaces, t.Physics, make_landing_tally("float32").Tally, make_source("float32", False).Source)
+    return {name for s in structs for name, var in s.vars.items() if not wp.types.is_array(var.type)}
+
+
+VALUE_FIELDS = _value_fields()
+
+
 def _root(node):
-    """The name a target like `a.b.c` or `a.b[i]` hangs from, and whether it passes a subscript."""
+    """The name a target like `a.b.c` or `a.b[i]` hangs from, and whether it passes a subscript of
+    an array (whose element is not the struct's: `a.arr[i]`, not `a.vec[i]`)."""
     subscripted = False
     while isinstance(node, ast.Attribute | ast.Subscript):
-        subscripted |= isinstance(node, ast.Subscript)
+        if isinstance(node, ast.Subscript):
+            subscripted |= not (isinstance(node.value, ast.Attribute) and node.value.attr in VALUE_FIELDS)
         node = node.value
     return (node.id if isinstance(node, ast.Name) else None), subscripted
 
@@ -63,8 +82,9 @@ def test_the_check_finds_a_write():
     source = (
         "@wp.func\ndef f(tally: Tally, x: float):\n    tally.hist[0] = 1\n    tally.shooter = x\n"
         "@wp.func\ndef g(s: Surfaces):\n    a, s.count = 1, 2\n"
+        "@wp.func\ndef h(tally: Tally):\n    tally.shooter[0] = 1.0\n    tally.steps[0] = 1\n"
     )
-    assert writes_to_read_only(source) == [("f", 4), ("g", 7)]
+    assert writes_to_read_only(source) == [("f", 4), ("g", 7), ("h", 10)]  # (not an element of an array)
 
 
 def test_registered_structs_are_passed_by_reference():

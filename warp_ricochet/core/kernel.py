@@ -32,13 +32,12 @@ REST_MAX_UNROLL = 4
 
 def kernel_options(spec, max_registers="default", in_place=True) -> dict:
     """`wp.kernel`'s options for a kernel that follows `spec`'s pellets (the core's, `core.shots`'):
-    its register cap (CUDA_MAX_REGISTERS, or `max_registers`), fast maths, to rest the loops it
-    unrolls, and, where `in_place`, its parameters read in place on CUDA (`physics.grid_constant`)."""
+    its register cap (CUDA_MAX_REGISTERS, or `max_registers`), fast maths and, to rest, the loops it
+    unrolls; where `in_place`, its parameters read in place on CUDA (`physics.grid_constant`)."""
     cap = CUDA_MAX_REGISTERS[spec.precision, spec.fast_math] if max_registers == "default" else max_registers
     options = {} if cap is None else {"cuda_max_registers": cap}
     module = {"fast_math": True} if spec.fast_math else {}
     if in_place:  # parameters read in place on CUDA, not copied to each thread
-        grid_constant.install()
         module |= grid_constant.module_options()
     if spec.to_rest:  # loops of up to REST_MAX_UNROLL constant iterations unrolled, not 16 (Warp's default)
         module["max_unroll"] = REST_MAX_UNROLL
