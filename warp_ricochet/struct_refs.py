@@ -7,7 +7,8 @@ such a struct and `install()` rewrites the one line of warp's `codegen_func` tha
 function's arguments, so that in CUDA code an argument of a registered type is declared `T& var`:
 the same values, read in place (CPU code keeps the copies: `by_reference`). This is only sound for structs that no function writes:
 tests/test_struct_refs.py checks every `@wp.func` of the package for an assignment to a field of
-such an argument. Kernels' arguments are not affected (they are declared elsewhere).
+such an argument. Kernels' arguments are not affected (they are declared elsewhere:
+`physics.grid_constant` reads them in place, so that these references need no per-thread copy).
 
 If warp's line is not the expected one (another warp version), nothing is changed and the code
 runs as before, slower; `WARP_RICOCHET_STRUCT_REFS=0` in the environment turns it off (benchmarks

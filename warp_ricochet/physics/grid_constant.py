@@ -28,7 +28,6 @@ def module_options() -> dict:
     import warp as wp
 
     install()
-
     return {"extra_build_options": wp.ModuleBuildOptions(extra_cuda_preamble=MARK)}
 
 
