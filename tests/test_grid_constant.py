@@ -259,6 +259,18 @@ def test_the_core_and_replay_kernels_read_their_parameters_in_place():
 FUNCTION = re.compile(r"CUDA_CALLABLE [^\n(]*\(\n(.*?)\)\n\{\n(.*?)^\}$", re.M | re.S)
 
 
+def _references(kernel):
+    """(parameter, it may be written) of every struct that a function of `kernel`'s CUDA code takes
+    by reference, of a type among the kernel's parameters'."""
+    source, types = _source(kernel, "cuda"), {a.ctype() for a in kernel.adj.args}
+    return [
+        (name, gc._writes_param(body, name))
+        for args, body in FUNCTION.findall(source)
+        for ctype, name in re.findall(r"([\w:<>]+)& (var_\w+)", args)
+        if ctype in types
+    ]
+
+
 @pytest.mark.parametrize("case", ["turf", "hazard", "box", "terrain"])
 def test_no_function_writes_a_kernel_parameter_it_takes_by_reference(case, tmp_path):
     """A `__grid_constant__` parameter must never be written. In CUDA code the functions take the
@@ -273,15 +285,9 @@ def test_no_function_writes_a_kernel_parameter_it_takes_by_reference(case, tmp_p
     spec = RunSpec.of(scene_of(case, tmp_path), with_output=False, device=SimpleNamespace(is_cuda=True))
     kernels = [ricochet_kernel_for(spec), shot_kernel_for(spec)] + ([replay_kernel_for(spec)] if spec.replay else [])
     for kernel in kernels:
-        source, types = _source(kernel, "cuda"), {a.ctype() for a in kernel.adj.args}
-        taken = [
-            (name, body)
-            for args, body in FUNCTION.findall(source)
-            for ctype, name in re.findall(r"([\w:<>]+)& (var_\w+)", args)
-            if ctype in types
-        ]
+        taken = _references(kernel)
         assert taken  # (the functions do take the kernel's structs by reference)
-        assert [name for name, body in taken if gc._writes_param(body, name)] == []
+        assert [name for name, written in taken if written] == []
 
 
 @wp.func
@@ -297,8 +303,4 @@ def test_the_scan_finds_a_function_that_writes_a_struct_it_takes_by_reference():
     def spoils(p: Pack, out: wp.array(dtype=wp.float32)):
         _spoil(p)
 
-    source = _source(spoils, "cuda")
-    taken = [
-        (name, body) for args, body in FUNCTION.findall(source) for ctype, name in re.findall(r"([\w:<>]+)& (var_\w+)", args)
-    ]
-    assert [name for name, body in taken if gc._writes_param(body, name)] == ["var_p"]
+    assert [name for name, written in _references(spoils) if written] == ["var_p"]
