@@ -142,9 +142,9 @@ def terrain_triangles(scene, index: int):
     """Terrain surface `index` of `scene` as triangles in scene coordinates (`scene.terrain.place_terrain`)."""
     from .scene.terrain import place_terrain
 
-    vertices, triangles = place_terrain(scene, index)
+    vertices, triangles, grid = place_terrain(scene, index, grid=True)
     name = scene.surfaces[index].name or f"surfaces.{index}"
-    surface = TriangleSurface(vertices, triangles.astype(np.int32), f"terrain {name!r}", edges=False)
+    surface = TriangleSurface(vertices, triangles.astype(np.int32), f"terrain {name!r}", edges=False, grid=grid)
     return surface.check(f"surfaces.{index}.file")
 
 

@@ -38,6 +38,7 @@ from types import SimpleNamespace
 import warp as wp
 
 from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT, ROUNDING, make_ballistic
+from .grid_walk import make_grid_walk
 from .types import KINDS, types_for
 
 SAGITTA = 1.0 / 16.0  # a chord's sagitta, as a fraction of the mesh's bounding-box diagonal
@@ -362,6 +363,7 @@ def make_mesh_search(precision: str, face_time, features_time=None, large: bool 
     mc = make_mesh_contact(precision, large)
     single, l1, earlier, window = mc.single, mc.l1, mc.earlier, mc.window
     FEATURES = features_time is not None
+    grid = make_grid_walk(precision, face_time)  # (a terrain owns no edges or corners)
 
     @wp.func
     def near(low: vec3, high: vec3, grow: scalar, x: vec3, v: vec3, g: vec3, end: scalar):
@@ -439,7 +441,11 @@ def make_mesh_search(precision: str, face_time, features_time=None, large: bool 
         faces = surfaces.mesh_faces[k]
         if wp.static(large):
             if faces > FEW_FACES:
-                best = chords_time(surfaces, k, x, v, g, radius, end, slack)
+                walked = wp.bool(False)
+                if grid.walked(surfaces, k):
+                    best, walked = grid.grid_time(surfaces, k, x, v, g, radius, end, slack)
+                if not walked:
+                    best = chords_time(surfaces, k, x, v, g, radius, end, slack)
                 return wp.where(best > LATEST, scalar(NO_CONTACT), best)
         for face in range(faces):  # a small mesh: every triangle, then what they own
             best = earlier(best, face_time(surfaces, k, face, x, v, g, radius))

@@ -15,6 +15,7 @@ import warp as wp
 
 from ..struct_refs import read_only
 from .mesh_edges import convex_features
+from .mipmap import max_pyramid
 
 SCALARS = {"float32": wp.float32, "float64": wp.float64}
 
@@ -74,6 +75,20 @@ def types_for(precision: str) -> SimpleNamespace:
         face_corners: wp.array(dtype=wp.vec3i)
         edge_ends: wp.array(dtype=vec3)
         corner_points: wp.array(dtype=vec3)
+        # a terrain walked in its raster (`physics.grid_walk`, scene.terrain.TerrainGrid): per surface
+        # (cols, rows, levels) of its cells (levels 0: not walked), the rows of its level 0 in
+        # grid_level and of its first cell in grid_cell; its origin (m), per_col and per_row (1/m), up;
+        # grid_level: each level's first block in grid_top (m above the origin along up:
+        # `physics.mipmap.max_pyramid`); grid_cell: each cell's first triangle (-1: a hole)
+        grid_dims: wp.array(dtype=wp.vec3i)
+        grid_first: wp.array(dtype=wp.vec2i)
+        grid_origin: wp.array(dtype=vec3)
+        grid_col: wp.array(dtype=vec3)
+        grid_row: wp.array(dtype=vec3)
+        grid_up: wp.array(dtype=vec3)
+        grid_level: wp.array(dtype=wp.int32)
+        grid_top: wp.array(dtype=scalar)
+        grid_cell: wp.array(dtype=wp.int32)
 
     @wp.struct
     class Material:
@@ -219,6 +234,7 @@ def mesh_fields(surfaces, precision: str, meshes, device) -> None:
     surfaces.mesh_faces = wp.array(np.asarray(faces, dtype=np.int32), dtype=wp.int32, device=device)
     surfaces.mesh_points = wp.array(np.concatenate(points).astype(dtype), dtype=t.vec3, device=device)
     _feature_fields(surfaces, precision, meshes, device)
+    _grid_fields(surfaces, precision, meshes, device)
     if held:
         _HELD[id(surfaces)] = held
         weakref.finalize(surfaces, _HELD.pop, id(surfaces), None)
@@ -250,6 +266,39 @@ def _feature_fields(surfaces, precision: str, meshes, device) -> None:
     surfaces.face_corners = wp.array(np.concatenate(face_corners).astype(np.int32), dtype=wp.vec3i, device=device)
     for name, values in (("edge_ends", ends), ("corner_points", corners)):
         setattr(surfaces, name, wp.array(np.concatenate([np.zeros((0, 3)), *values]).astype(dtype), dtype=t.vec3, device=device))
+
+
+def _grid_fields(surfaces, precision: str, meshes, device) -> None:
+    """Set the Surfaces' grid arrays of the terrains among `meshes` that have a `TerrainGrid`
+    (`physics.mipmap.max_pyramid`: its tops from the kernel's vertices); levels 0 for the rest."""
+    t, dtype = types_for(precision), np.dtype(precision)
+    dims, first, frames, levels, tops, cells = [], [], [], [np.zeros(0, np.int32)], [np.zeros(0, dtype)], [np.zeros(0, np.int32)]
+    level_rows = cell_rows = 0
+    for triangles in meshes:
+        grid = getattr(triangles, "grid", None)
+        if grid is None:
+            dims.append((0, 0, 0))
+            first.append((0, 0))
+            frames.append(np.zeros((4, 3)))
+            continue
+        rows, cols = grid.cells.shape
+        vertices = np.asarray(triangles.vertices, dtype=np.float64).astype(dtype)
+        starts, heights = max_pyramid(grid, vertices, np.asarray(triangles.triangles, dtype=np.int64), dtype)
+        dims.append((cols, rows, len(starts)))
+        first.append((level_rows, cell_rows))
+        frames.append(np.stack([grid.origin, grid.per_col, grid.per_row, grid.up]))
+        levels.append(starts + sum(len(h) for h in tops))
+        tops.append(heights)
+        cells.append(grid.cells.ravel())
+        level_rows, cell_rows = level_rows + len(starts), cell_rows + grid.cells.size
+    surfaces.grid_dims = wp.array(np.asarray(dims, dtype=np.int32).reshape(-1, 3), dtype=wp.vec3i, device=device)
+    surfaces.grid_first = wp.array(np.asarray(first, dtype=np.int32).reshape(-1, 2), dtype=wp.vec2i, device=device)
+    frames = np.asarray(frames, dtype=np.float64).reshape(-1, 4, 3).astype(dtype)
+    for j, name in enumerate(("grid_origin", "grid_col", "grid_row", "grid_up")):
+        setattr(surfaces, name, wp.array(np.ascontiguousarray(frames[:, j]), dtype=t.vec3, device=device))
+    surfaces.grid_level = wp.array(np.concatenate(levels).astype(np.int32), dtype=wp.int32, device=device)
+    surfaces.grid_top = wp.array(np.concatenate(tops).astype(dtype), dtype=t.scalar, device=device)
+    surfaces.grid_cell = wp.array(np.concatenate(cells).astype(np.int32), dtype=wp.int32, device=device)
 
 
 def surfaces_of(precision: str, points, normals, materials, device, ground=None, liquid=None, plates=None, meshes=None) -> object:

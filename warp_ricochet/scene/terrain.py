@@ -145,21 +145,52 @@ def up_of(gravity) -> tuple[float, float, float] | None:
     return None if g == 0.0 else tuple(0.0 - x / g for x in gravity)  # (0.0 -: no negative zeros)
 
 
-def place_terrain(scene, index: int):
+@dataclass(frozen=True, eq=False)
+class TerrainGrid:
+    """Where a terrain's triangles lie in its raster (`physics.grid_walk`): sample (row r, col c) at
+    `origin` + c dx `east` + r dy `north` + z `up` in scene coordinates (m), so a point q lies in
+    cell (floor((q - origin).per_col), floor((q - origin).per_row)) (per_col = east / dx, per_row =
+    north / dy, 1/m); `cells` int32 (rows - 1, cols - 1): the first of the cell's two triangles
+    (`grid_triangles`' order), -1 for a hole."""
+
+    origin: np.ndarray
+    per_col: np.ndarray
+    per_row: np.ndarray
+    up: np.ndarray
+    cells: np.ndarray
+
+
+def cell_triangles(valid: np.ndarray) -> np.ndarray:
+    """int32 (rows - 1, cols - 1): the first triangle of each cell as `grid_triangles` numbers them
+    (2 per cell of four valid samples, row by row), -1 for a cell with a nodata sample."""
+    quad = valid[:-1, :-1] & valid[:-1, 1:] & valid[1:, :-1] & valid[1:, 1:]
+    return np.where(quad, 2 * (np.cumsum(quad.ravel()) - 1).reshape(quad.shape), -1).astype(np.int32)
+
+
+def place_terrain(scene, index: int, grid: bool = False):
     """(vertices float64 (n, 3) in scene coordinates, triangles int32 (m, 3)) of terrain surface
     `index` of `scene`. Without [hazard.site]: point + e axis_u + n (normal x axis_u) + h normal,
     (e, n, h) from `load_terrain` (the raster's (origin, elevation) at `point`). With a site: the
     raster's (x, y) through the site's transform (gis.site.Georeference, as the GIS outputs) onto
-    the hazard's map, then at height point.up + z - elevation along up (-gravity)."""
+    the hazard's map, then at height point.up + z - elevation along up (-gravity). `grid`: a third
+    item, its `TerrainGrid` (None with a site, whose map projection does not keep the raster's cells
+    a regular grid)."""
     s = scene.surfaces[index]
     raster = read_raster(s.file, s.nodata)
     up = np.asarray(s.normal, dtype=np.float64)
     site = None if scene.hazard is None else scene.hazard.site
     if site is None:
-        local, tris = raster_triangles(raster, s.origin or raster.corner, s.elevation or 0.0)
+        x0, y0 = map(float, s.origin or raster.corner)
+        local, tris = raster_triangles(raster, (x0, y0), s.elevation or 0.0)
         east = np.asarray(s.axis_u or (1.0, 0.0, 0.0), dtype=np.float64)
         frame = np.stack([east, np.cross(up, east), up])
-        return np.asarray(s.point, dtype=np.float64) + local @ frame, tris
+        point = np.asarray(s.point, dtype=np.float64)
+        if not grid:
+            return point + local @ frame, tris
+        first = np.array([(raster.x_corner - x0) + 0.5 * raster.dx, (raster.y_corner - y0) + 0.5 * raster.dy, 0.0])
+        cells = cell_triangles(~np.isnan(raster.z))
+        found = TerrainGrid(point + first @ frame, frame[0] / raster.dx, frame[1] / raster.dy, frame[2], cells)
+        return point + local @ frame, tris, found
     from ..gis.site import Georeference, local_matrix
     from ..tallies.counts import TallySetup
 
@@ -169,7 +200,7 @@ def place_terrain(scene, index: int):
     u, v = geo.to_local(local[:, 0], local[:, 1])
     foot = np.asarray(setup.map_origin) + np.outer(u, setup.map_u) + np.outer(v, setup.map_v)
     height = np.dot(s.point, up) + local[:, 2] - foot @ up
-    return foot + np.outer(height, up), tris
+    return (foot + np.outer(height, up), tris) + ((None,) if grid else ())
 
 
 TERRAIN_OPTIONAL = ("axis_u", "origin", "elevation", "nodata")  # terrain's keys beside `file` (and point, normal)

@@ -21,12 +21,14 @@ class TriangleSurface:
     """A triangle mesh: `vertices` float64 (n, 3), m, in scene coordinates; `triangles` int32 (m, 3),
     counter-clockwise seen from the side pellets meet (outward normals); `source`: where it came
     from, for messages; `edges`: its convex edges and corners are contacts of their own
-    (`physics.edge_contact`; a terrain's are not: docs/geometry.md, "Meshes and boxes")."""
+    (`physics.edge_contact`; a terrain's are not: docs/geometry.md, "Meshes and boxes"); `grid`: a
+    terrain's `scene.terrain.TerrainGrid` (its raster walked instead of its BVH), or None."""
 
     vertices: np.ndarray
     triangles: np.ndarray
     source: str
     edges: bool = True
+    grid: object = None
 
     def check(self, key: str) -> TriangleSurface:
         """Itself, or the one-line SceneError naming `key`: an empty mesh, non-finite vertices or

@@ -1,0 +1,198 @@
+"""A terrain's raster walked along the flight (docs/geometry.md, "Terrain"); read only through
+`physics.mesh_contact` (kernels compiled with large meshes).
+
+A terrain placed without a site keeps its triangles two to a cell of a regular grid
+(`scene.terrain.TerrainGrid`). Across its `up` the centre of the parabola of eq. (36) moves on a
+straight line (gravity's part along the raster, if any, is a drift in the margin), so the flight
+crosses the cells in order. The walk follows that line through a maximum mipmap of the cells'
+heights (Tevs, Ihrke & Seidel 2008, "Maximum mipmaps for fast, accurate, and scalable dynamic height
+field rendering", I3D; `physics.mipmap.max_pyramid`):
+
+- a block of 2^L x 2^L cells is passed when the centre's lowest height over the time the line
+  spends in it (the ends, or the vertex when gravity points up) is more than the margin above the
+  block's top (the highest vertex of its cells and of those within one cell): no triangle within the
+  margin across can be met, its distance being at least that height gap;
+- otherwise the walk goes down a level; a cell reached at level 0 has the triangles of every cell
+  within the margin of its stretch of the line tested (`face_time`), but those of a cell whose own
+  top is below the stretch by the margin; then it goes up a level, as after every block passed;
+- a stretch that leaves the raster runs to where the line is past the raster's margin;
+- it stops at the first contact no later than the stretches searched: the earliest contact of the
+  mesh, as the chords' search (`mesh_contact.make_mesh_search`) finds it.
+
+The margin: R, the mesh's float32 slack (`mesh_contact.FLOAT32_SLACK`), ROUNDING eps of the
+coordinates' scale and the drift; a margin over a third of a cell, or a walk past its bound on steps,
+returns not walked (the caller searches the chords).
+"""
+
+import functools
+from types import SimpleNamespace
+
+import warp as wp
+
+from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT, ROUNDING
+from .types import types_for
+
+WIDEST = 1.0 / 3.0  # the largest margin walked, in cells (the mipmap's tops cover one cell beside a block)
+
+
+@functools.cache
+def make_grid_walk(precision: str, face_time) -> SimpleNamespace:
+    """`walked(surfaces, k)` and `grid_time(surfaces, k, x, v, g, R, end, slack)` -> (time or
+    NO_CONTACT, walked) of terrain k over [0, end] s, with `face_time(surfaces, k, face, x, v, g, R)`
+    (when the parabola meets triangle `face`; module docstring)."""
+    t = types_for(precision)
+    scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
+    LATEST, NONE = scalar(MAX_FLIGHT_TIME), scalar(NO_CONTACT)
+    TOLERANCE = scalar(ROUNDING * EPSILON[precision])
+
+    @wp.func
+    def walked(surfaces: Surfaces, k: wp.int32):
+        """Whether mesh k is a terrain with its raster's grid."""
+        return surfaces.grid_dims[k][2] > 0
+
+    @wp.func
+    def lowest(h0: scalar, rise: scalar, half: scalar, a: scalar, b: scalar):
+        """The least of h0 + rise t + half t^2 (m) over [a, b] s."""
+        low = wp.min(h0 + (rise + half * a) * a, h0 + (rise + half * b) * b)
+        if half > scalar(0.0):
+            apex = -rise / (scalar(2.0) * half)
+            if apex > a and apex < b:
+                low = wp.min(low, h0 + (rise + half * apex) * apex)
+        return low
+
+    @wp.func
+    def leave(p0: scalar, s: scalar, lo: wp.int32, hi: wp.int32):
+        """When p0 + s t (cells) leaves [lo, hi] forwards (LATEST: never)."""
+        if s > scalar(0.0):
+            return (scalar(hi) - p0) / s
+        if s < scalar(0.0):
+            return (scalar(lo) - p0) / s
+        return LATEST
+
+    @wp.func
+    def clip(p0: scalar, s: scalar, lo: scalar, hi: scalar, start: scalar, stop: scalar):
+        """[start, stop] cut to the times p0 + s t lies in [lo, hi] (stop < start: never)."""
+        if s == scalar(0.0):
+            if p0 < lo or p0 > hi:
+                return start, scalar(-1.0)
+            return start, stop
+        a, b = (lo - p0) / s, (hi - p0) / s
+        return wp.max(start, wp.min(a, b)), wp.min(stop, wp.max(a, b))
+
+    @wp.func
+    def span(a: scalar, b: scalar, pad: scalar, count: wp.int32):
+        """The cells (first, last) of [min(a, b) - pad, max(a, b) + pad] among 0 to count - 1."""
+        first = wp.int32(wp.floor(wp.max(wp.min(a, b) - pad, scalar(-1.0))))
+        last = wp.int32(wp.floor(wp.min(wp.max(a, b) + pad, scalar(count))))
+        return wp.max(first, 0), wp.min(last, count - 1)
+
+    @wp.func
+    def inside(p: scalar, lo: wp.int32, hi: wp.int32):
+        """The cell of p (cells), kept within lo to hi."""
+        return wp.min(wp.max(wp.int32(wp.floor(p)), lo), hi)
+
+    @wp.func
+    def top(surfaces: Surfaces, k: wp.int32, level: wp.int32, i: wp.int32, j: wp.int32):
+        """The top (m) of block (i, j) of `level` of mesh k's mipmap."""
+        across = (surfaces.grid_dims[k][0] + (1 << level) - 1) >> level
+        return surfaces.grid_top[surfaces.grid_level[surfaces.grid_first[k][0] + level] + j * across + i]
+
+    @wp.func
+    def cells_time(
+        surfaces: Surfaces,
+        k: wp.int32,
+        x: vec3,
+        v: vec3,
+        g: vec3,
+        radius: scalar,
+        cells: wp.vec4i,
+        floor: scalar,
+        best: scalar,
+        seen: wp.vec4i,
+    ):
+        """(the earlier of `best` and the contacts with the triangles of mesh k in `cells` (columns
+        cells[0] to cells[1] by rows cells[2] to cells[3]), but those of a cell whose top is below
+        `floor` (m) or among `seen`; `seen`, the last four cells tested (-1: none), updated)."""
+        dims, first = surfaces.grid_dims[k], surfaces.grid_first[k]
+        level = surfaces.grid_level[first[0]]
+        for j in range(cells[2], cells[3] + 1):
+            for i in range(cells[0], cells[1] + 1):
+                cell = j * dims[0] + i
+                face = surfaces.grid_cell[first[1] + cell]
+                if cell == seen[0] or cell == seen[1] or cell == seen[2] or cell == seen[3]:
+                    face = -1
+                if face >= 0 and surfaces.grid_top[level + cell] >= floor:
+                    seen = wp.vec4i(cell, seen[0], seen[1], seen[2])
+                    for f in range(face, face + 2):
+                        when = face_time(surfaces, k, f, x, v, g, radius)
+                        if when >= scalar(0.0) and (best < scalar(0.0) or when < best):
+                            best = when
+        return best, seen
+
+    @wp.func
+    def grid_time(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, g: vec3, radius: scalar, end: scalar, slack: scalar):
+        """(the earliest contact (s) of the parabola with terrain k within [0, end], or NO_CONTACT;
+        whether it was walked) (module docstring)."""
+        dims = surfaces.grid_dims[k]
+        o, up = surfaces.grid_origin[k], surfaces.grid_up[k]
+        per_col, per_row = surfaces.grid_col[k], surfaces.grid_row[k]
+        d = x - o
+        u0, w0, h0 = wp.dot(d, per_col), wp.dot(d, per_row), wp.dot(d, up)
+        su, sw, rise = wp.dot(v, per_col), wp.dot(v, per_row), wp.dot(v, up)
+        half = scalar(0.5) * wp.dot(g, up)
+        drift = scalar(0.5) * wp.length(g - scalar(2.0) * half * up) * end * end
+        extent = surfaces.mesh_high[k] - surfaces.mesh_low[k]
+        scale = wp.abs(x[0]) + wp.abs(x[1]) + wp.abs(x[2]) + wp.abs(o[0]) + wp.abs(o[1]) + wp.abs(o[2])
+        scale += wp.abs(extent[0]) + wp.abs(extent[1]) + wp.abs(extent[2]) + (wp.length(v) + wp.length(g) * end) * end
+        margin = radius + slack + drift + TOLERANCE * scale
+        mu, mw = margin * wp.length(per_col), margin * wp.length(per_row)
+        if mu > scalar(WIDEST) or mw > scalar(WIDEST):
+            return NONE, False
+        cols, rows, levels = dims[0], dims[1], dims[2]
+        start, stop = clip(u0, su, -mu, scalar(cols) + mu, scalar(0.0), end)
+        start, stop = clip(w0, sw, -mw, scalar(rows) + mw, start, stop)
+        best = NONE
+        if stop < start:
+            return best, True
+        ci = inside(u0 + su * start, 0, cols - 1)
+        cj = inside(w0 + sw * start, 0, rows - 1)
+        level = levels - 1
+        now = start
+        seen = wp.vec4i(-1, -1, -1, -1)  # the cells tested last
+        for _step in range((cols + rows + 2) * (levels + 1)):
+            lo_u, lo_w = (ci >> level) << level, (cj >> level) << level
+            hi_u, hi_w = wp.min(lo_u + (1 << level), cols), wp.min(lo_w + (1 << level), rows)
+            tu, tw = leave(u0, su, lo_u, hi_u), leave(w0, sw, lo_w, hi_w)
+            then = wp.max(wp.min(wp.min(tu, tw), stop), now)
+            ni, nj = ci, cj
+            if tu <= tw:
+                ni = wp.where(su > scalar(0.0), hi_u, lo_u - 1)
+            if tw <= tu:
+                nj = wp.where(sw > scalar(0.0), hi_w, lo_w - 1)
+            leaving = then >= stop or ni < 0 or ni >= cols or nj < 0 or nj >= rows
+            if leaving:
+                then = stop
+            floor = lowest(h0, rise, half, now, then) - margin
+            if level > 0:
+                if floor <= top(surfaces, k, level, ci >> level, cj >> level):
+                    level -= 1
+                    continue
+            else:
+                i0, i1 = span(u0 + su * now, u0 + su * then, mu, cols)
+                j0, j1 = span(w0 + sw * now, w0 + sw * then, mw, rows)
+                best, seen = cells_time(surfaces, k, x, v, g, radius, wp.vec4i(i0, i1, j0, j1), floor, best, seen)
+                if best >= scalar(0.0) and best <= then:
+                    return best, True
+            if leaving:
+                return best, True
+            if ni == ci:
+                ni = inside(u0 + su * then, lo_u, hi_u - 1)
+            if nj == cj:
+                nj = inside(w0 + sw * then, lo_w, hi_w - 1)
+            if level + 1 < levels:  # up a level if it left its parent block (not found clear)
+                if (ni >> (level + 1)) != (ci >> (level + 1)) or (nj >> (level + 1)) != (cj >> (level + 1)):
+                    level += 1
+            ci, cj, now = ni, nj, then
+        return NONE, False
+
+    return SimpleNamespace(walked=walked, grid_time=grid_time)
