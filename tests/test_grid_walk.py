@@ -116,13 +116,14 @@ def _run(tmp_path, raw, walk, device, monkeypatch):
 
 
 @pytest.mark.parametrize("precision", ["float32", "float64"])
-@pytest.mark.parametrize("case", ["level", "tilted", "weightless"])
+@pytest.mark.parametrize("case", ["level", "air", "tilted", "weightless"])
 def test_the_walk_meets_what_the_chords_meet(tmp_path, monkeypatch, device, precision, case):
     """Shots from every side at a rough raster with holes (`_shots`), two bounces, to the landing:
-    the same per-pellet outputs, bit for bit, walked and searched by the chords. "tilted": the
-    raster's up 0.3 rad off gravity, whose part along it drifts the line past a third of a cell
-    (the walk gives way to the chords); "weightless": straight lines, no gravity."""
-    rng = np.random.default_rng({"level": 1, "tilted": 2, "weightless": 3}[case])
+    the same per-pellet outputs, bit for bit, with the raster's cells (the walk in vacuum; the
+    contact normal's and the air steps' candidates) and with its BVH only (the chords). "air":
+    sea-level air; "tilted": the raster's up 0.3 rad off gravity, whose part along it drifts the line
+    past a third of a cell (the walk gives way to the chords); "weightless": straight lines."""
+    rng = np.random.default_rng({"level": 1, "air": 4, "tilted": 2, "weightless": 3}[case])
     raster = rough_raster(tmp_path / "rough.tif", rng)
     normal, east = [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]
     if case == "tilted":
@@ -150,6 +151,8 @@ def test_the_walk_meets_what_the_chords_meet(tmp_path, monkeypatch, device, prec
         "numerics": {"precision": precision},
         "output": {"fields": ["impact", "landing"]},
     }
+    if case == "air":
+        raw["air"] = {}
     walked, levels = _run(tmp_path, raw, True, device, monkeypatch)
     chords, none = _run(tmp_path, raw, False, device, monkeypatch)
     assert levels == 6 and none == 0  # (31 x 24 cells: blocks of 1 to 32 cells)

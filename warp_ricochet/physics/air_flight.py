@@ -392,9 +392,18 @@ def make_solid_search(precision: str, out_of_line: bool = False, screened: bool 
             return best
         mesh, mesh_low, mesh_high = meshes.bounds(surfaces, k)
         grow = radius + scalar(FLOAT32_SLACK) * (meshes.l1(low) + meshes.l1(high) + meshes.l1(mesh_low) + meshes.l1(mesh_high))
-        query = wp.mesh_query_aabb(
-            mesh, meshes.single(low - vec3(grow, grow, grow)), meshes.single(high + vec3(grow, grow, grow))
-        )
+        box_low, box_high = meshes.single(low - vec3(grow, grow, grow)), meshes.single(high + vec3(grow, grow, grow))
+        if meshes.walked(surfaces, k):  # a terrain: the BVH's candidates, from the cells the box spans
+            reach = scalar(0.5) * wp.length(high - low) + scalar(2.0) * grow
+            i0, i1, j0, j1 = meshes.around(surfaces, k, scalar(0.5) * (low + high), reach)
+            for j in range(j0, j1 + 1):
+                for i in range(i0, i1 + 1):
+                    first = meshes.face_of(surfaces, k, i, j)
+                    for face in range(first, wp.where(first >= 0, first + 2, first)):
+                        if meshes.boxed(surfaces, k, face, box_low, box_high):
+                            best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius, low, high))
+            return best
+        query = wp.mesh_query_aabb(mesh, box_low, box_high)
         face = wp.int32(0)
         while wp.mesh_query_aabb_next(query, face):
             best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius, low, high))

@@ -14,14 +14,17 @@ field rendering", I3D; `physics.mipmap.max_pyramid`):
   margin across can be met, its distance being at least that height gap;
 - otherwise the walk goes down a level; a cell reached at level 0 has the triangles of every cell
   within the margin of its stretch of the line tested (`face_time`), but those of a cell whose own
-  top is below the stretch by the margin; then it goes up a level, as after every block passed;
+  top the centre passes more than the margin above while the line is within the margin of that cell,
+  and those of the last four cells tested; then it goes up a level, as after every block passed;
 - a stretch that leaves the raster runs to where the line is past the raster's margin;
 - it stops at the first contact no later than the stretches searched: the earliest contact of the
   mesh, as the chords' search (`mesh_contact.make_mesh_search`) finds it.
 
-The margin: R, the mesh's float32 slack (`mesh_contact.FLOAT32_SLACK`), ROUNDING eps of the
-coordinates' scale and the drift; a margin over a third of a cell, or a walk past its bound on steps,
-returns not walked (the caller searches the chords).
+The margin: R, the mesh's float32 slack (`mesh_contact.FLOAT32_SLACK`), the face test's touching
+band (ROUNDING eps of the centre's and the triangles' scale in the mesh's frame, `triangle_time`),
+RECKONING eps of the walk's own operands and the drift; a margin over a third of a cell, or a walk
+past its bound on steps, returns not walked (the caller searches the chords).
+`make_grid_cells` gives the cells near a point, for the contact's normal and the air's steps.
 """
 
 import functools
@@ -32,7 +35,43 @@ import warp as wp
 from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT, ROUNDING
 from .types import types_for
 
+RECKONING = 16.0  # the walk's own rounding of heights and cells, in eps of their operands' scale
 WIDEST = 1.0 / 3.0  # the largest margin walked, in cells (the mipmap's tops cover one cell beside a block)
+
+
+@functools.cache
+def make_grid_cells(precision: str) -> SimpleNamespace:
+    """`walked(surfaces, k)` (whether mesh k is a terrain with its raster's grid), `face_of(surfaces,
+    k, i, j)` (the first of cell (i, j)'s two triangles, -1: a hole), `around(surfaces, k, x, reach)`
+    (the cells (i0, i1, j0, j1) within `reach` m of x across the raster, none when i0 > i1 or j0 > j1)."""
+    t = types_for(precision)
+    scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
+
+    @wp.func
+    def walked(surfaces: Surfaces, k: wp.int32):
+        """Whether mesh k is a terrain with its raster's grid."""
+        return surfaces.grid_dims[k][2] > 0
+
+    @wp.func
+    def face_of(surfaces: Surfaces, k: wp.int32, i: wp.int32, j: wp.int32):
+        """The first triangle of cell (i, j) of terrain k (-1: a hole)."""
+        return surfaces.grid_cell[surfaces.grid_first[k][1] + j * surfaces.grid_dims[k][0] + i]
+
+    @wp.func
+    def around(surfaces: Surfaces, k: wp.int32, x: vec3, reach: scalar):
+        """The cells (i0, i1, j0, j1) of terrain k within `reach` (m) of x across its raster."""
+        d = x - surfaces.grid_origin[k]
+        per_col, per_row = surfaces.grid_col[k], surfaces.grid_row[k]
+        u, w = wp.dot(d, per_col), wp.dot(d, per_row)
+        du, dw = reach * wp.length(per_col), reach * wp.length(per_row)
+        cols, rows = surfaces.grid_dims[k][0], surfaces.grid_dims[k][1]
+        i0 = wp.int32(wp.floor(wp.min(wp.max(u - du, scalar(-1.0)), scalar(cols))))
+        i1 = wp.int32(wp.floor(wp.min(wp.max(u + du, scalar(-1.0)), scalar(cols))))
+        j0 = wp.int32(wp.floor(wp.min(wp.max(w - dw, scalar(-1.0)), scalar(rows))))
+        j1 = wp.int32(wp.floor(wp.min(wp.max(w + dw, scalar(-1.0)), scalar(rows))))
+        return wp.max(i0, 0), wp.min(i1, cols - 1), wp.max(j0, 0), wp.min(j1, rows - 1)
+
+    return SimpleNamespace(walked=walked, face_of=face_of, around=around)
 
 
 @functools.cache
@@ -44,11 +83,14 @@ def make_grid_walk(precision: str, face_time) -> SimpleNamespace:
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
     LATEST, NONE = scalar(MAX_FLIGHT_TIME), scalar(NO_CONTACT)
     TOLERANCE = scalar(ROUNDING * EPSILON[precision])
+    SUMS = scalar(RECKONING * EPSILON[precision])
+    vec4 = wp.types.vector(4, scalar)
 
     @wp.func
-    def walked(surfaces: Surfaces, k: wp.int32):
-        """Whether mesh k is a terrain with its raster's grid."""
-        return surfaces.grid_dims[k][2] > 0
+    def l1(a: vec3):
+        return wp.abs(a[0]) + wp.abs(a[1]) + wp.abs(a[2])
+
+    walked = make_grid_cells(precision).walked
 
     @wp.func
     def lowest(h0: scalar, rise: scalar, half: scalar, a: scalar, b: scalar):
@@ -106,13 +148,20 @@ def make_grid_walk(precision: str, face_time) -> SimpleNamespace:
         g: vec3,
         radius: scalar,
         cells: wp.vec4i,
-        floor: scalar,
+        line: vec4,
+        path: vec3,
+        pads: vec3,
+        now: scalar,
+        then: scalar,
         best: scalar,
         seen: wp.vec4i,
     ):
         """(the earlier of `best` and the contacts with the triangles of mesh k in `cells` (columns
-        cells[0] to cells[1] by rows cells[2] to cells[3]), but those of a cell whose top is below
-        `floor` (m) or among `seen`; `seen`, the last four cells tested (-1: none), updated)."""
+        cells[0] to cells[1] by rows cells[2] to cells[3]), but those of a cell among `seen` or whose
+        top the centre passes more than the margin above while the line is within the margin of the
+        cell in [now, then] s; `seen`, the last four cells tested (-1: none), updated). `line`: (u0,
+        su, w0, sw), the line in cells; `path`: (h0, rise, half), the centre's height (m); `pads`:
+        the margin in m, across columns and across rows in cells."""
         dims, first = surfaces.grid_dims[k], surfaces.grid_first[k]
         level = surfaces.grid_level[first[0]]
         for j in range(cells[2], cells[3] + 1):
@@ -121,7 +170,12 @@ def make_grid_walk(precision: str, face_time) -> SimpleNamespace:
                 face = surfaces.grid_cell[first[1] + cell]
                 if cell == seen[0] or cell == seen[1] or cell == seen[2] or cell == seen[3]:
                     face = -1
-                if face >= 0 and surfaces.grid_top[level + cell] >= floor:
+                if face >= 0:
+                    lo, hi = clip(line[0], line[1], scalar(i) - pads[1], scalar(i + 1) + pads[1], now, then)
+                    lo, hi = clip(line[2], line[3], scalar(j) - pads[2], scalar(j + 1) + pads[2], lo, hi)
+                    if hi < lo or lowest(path[0], path[1], path[2], lo, hi) - pads[0] > surfaces.grid_top[level + cell]:
+                        face = -1
+                if face >= 0:
                     seen = wp.vec4i(cell, seen[0], seen[1], seen[2])
                     for f in range(face, face + 2):
                         when = face_time(surfaces, k, f, x, v, g, radius)
@@ -141,10 +195,10 @@ def make_grid_walk(precision: str, face_time) -> SimpleNamespace:
         su, sw, rise = wp.dot(v, per_col), wp.dot(v, per_row), wp.dot(v, up)
         half = scalar(0.5) * wp.dot(g, up)
         drift = scalar(0.5) * wp.length(g - scalar(2.0) * half * up) * end * end
-        extent = surfaces.mesh_high[k] - surfaces.mesh_low[k]
-        scale = wp.abs(x[0]) + wp.abs(x[1]) + wp.abs(x[2]) + wp.abs(o[0]) + wp.abs(o[1]) + wp.abs(o[2])
-        scale += wp.abs(extent[0]) + wp.abs(extent[1]) + wp.abs(extent[2]) + (wp.length(v) + wp.length(g) * end) * end
-        margin = radius + slack + drift + TOLERANCE * scale
+        low, high = surfaces.mesh_low[k], surfaces.mesh_high[k]
+        band = l1(x - scalar(0.5) * (low + high)) + scalar(0.5) * l1(high - low) + l1(x) / scalar(32.0) + radius
+        reckoning = l1(x) + l1(o) + (wp.length(v) + wp.length(g) * end) * end
+        margin = radius + slack + drift + TOLERANCE * band + SUMS * reckoning
         mu, mw = margin * wp.length(per_col), margin * wp.length(per_row)
         if mu > scalar(WIDEST) or mw > scalar(WIDEST):
             return NONE, False
@@ -180,7 +234,11 @@ def make_grid_walk(precision: str, face_time) -> SimpleNamespace:
             else:
                 i0, i1 = span(u0 + su * now, u0 + su * then, mu, cols)
                 j0, j1 = span(w0 + sw * now, w0 + sw * then, mw, rows)
-                best, seen = cells_time(surfaces, k, x, v, g, radius, wp.vec4i(i0, i1, j0, j1), floor, best, seen)
+                cells = wp.vec4i(i0, i1, j0, j1)
+                line, path = vec4(u0, su, w0, sw), vec3(h0, rise, half)
+                best, seen = cells_time(
+                    surfaces, k, x, v, g, radius, cells, line, path, vec3(margin, mu, mw), now, then, best, seen
+                )
                 if best >= scalar(0.0) and best <= then:
                     return best, True
             if leaving:
@@ -189,10 +247,8 @@ def make_grid_walk(precision: str, face_time) -> SimpleNamespace:
                 ni = inside(u0 + su * then, lo_u, hi_u - 1)
             if nj == cj:
                 nj = inside(w0 + sw * then, lo_w, hi_w - 1)
-            if level + 1 < levels:  # up a level if it left its parent block (not found clear)
-                if (ni >> (level + 1)) != (ci >> (level + 1)) or (nj >> (level + 1)) != (cj >> (level + 1)):
-                    level += 1
             ci, cj, now = ni, nj, then
+            level = wp.min(level + 1, levels - 1)
         return NONE, False
 
     return SimpleNamespace(walked=walked, grid_time=grid_time)

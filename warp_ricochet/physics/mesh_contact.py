@@ -38,7 +38,7 @@ from types import SimpleNamespace
 import warp as wp
 
 from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT, ROUNDING, make_ballistic
-from .grid_walk import make_grid_walk
+from .grid_walk import make_grid_cells, make_grid_walk
 from .types import KINDS, types_for
 
 SAGITTA = 1.0 / 16.0  # a chord's sagitta, as a fraction of the mesh's bounding-box diagonal
@@ -187,6 +187,7 @@ def make_mesh_contact(precision: str, large: bool = True) -> SimpleNamespace:
     LATEST = scalar(MAX_FLIGHT_TIME)
     basics = make_triangle_basics(precision)
     vertices, single, l1, inside, descending = basics.vertices, basics.single, basics.l1, basics.inside, basics.descending
+    cells = make_grid_cells(precision)
 
     @wp.func
     def triangle_time(surfaces: Surfaces, k: wp.int32, face: wp.int32, x: vec3, v: vec3, g: vec3, radius: scalar):
@@ -277,11 +278,13 @@ def make_mesh_contact(precision: str, large: bool = True) -> SimpleNamespace:
         steepest: scalar,
         best: vec3,
         over: wp.bool,
+        chosen: wp.int32,
     ):
-        """(closing speed, normal) of triangle `face` if x touches it (0 to R in front, within R
-        beside its edges) and v approaches it more steeply than `steepest`, else the arguments;
-        and `over` or'ed with whether x is over it as a face contact leaves it (R or 0 in front,
-        within `slack`; beside it within `fine`)."""
+        """(closing speed, normal, over, face) of triangle `face` if x touches it (0 to R in front,
+        within R beside its edges) and v approaches it more steeply than `steepest` (as steeply and
+        `face` < `chosen`, the triangle that gave it: the lowest-numbered at a tie, in any order), else
+        the arguments; `over` or'ed with whether x is over it as a face contact leaves it (R or 0 in
+        front, within `slack`; beside it within `fine`)."""
         a, b, c = vertices(surfaces, k, face)
         n = wp.cross(b - a, c - a)
         if wp.length(n) > scalar(0.0):
@@ -296,9 +299,18 @@ def make_mesh_contact(precision: str, large: bool = True) -> SimpleNamespace:
                 beside = wp.min(wp.min(e0, e1), e2)
                 if beside >= -fine and (height <= slack or height >= grow - scalar(2.0) * slack):
                     over = True  # as the faces' two rules leave a centre: R or 0 in front
-                if closing < steepest and beside >= -grow:
-                    return closing, n, over
-        return steepest, best, over
+                tie = closing == steepest and closing < scalar(0.0) and face < chosen
+                if (closing < steepest or tie) and beside >= -grow:
+                    return closing, n, over, face
+        return steepest, best, over, chosen
+
+    @wp.func
+    def boxed(surfaces: Surfaces, k: wp.int32, face: wp.int32, low: wp.vec3f, high: wp.vec3f):
+        """Whether triangle `face`'s float32 box meets the box (low, high), as the BVH's leaf test."""
+        a, b, c = vertices(surfaces, k, face)
+        a32, b32, c32 = single(a), single(b), single(c)
+        lo, hi = wp.min(wp.min(a32, b32), c32), wp.max(wp.max(a32, b32), c32)
+        return not (low[0] > hi[0] or low[1] > hi[1] or low[2] > hi[2] or high[0] < lo[0] or high[1] < lo[1] or high[2] < lo[2])
 
     @wp.func
     def touched(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, radius: scalar):
@@ -315,15 +327,30 @@ def make_mesh_contact(precision: str, large: bool = True) -> SimpleNamespace:
         best = vec3()
         steepest = scalar(0.0)
         over = wp.bool(False)
+        chosen = wp.int32(2147483647)
         faces = surfaces.mesh_faces[k]
         if faces <= FEW_FACES or not wp.static(large):
             for face in range(faces):
-                steepest, best, over = steeper(surfaces, k, face, x, v, slack, grow, fine, steepest, best, over)
+                steepest, best, over, chosen = steeper(surfaces, k, face, x, v, slack, grow, fine, steepest, best, over, chosen)
         elif wp.static(large):
-            query = wp.mesh_query_aabb(surfaces.mesh[k], single(x - vec3(box, box, box)), single(x + vec3(box, box, box)))
-            face = wp.int32(0)
-            while wp.mesh_query_aabb_next(query, face):
-                steepest, best, over = steeper(surfaces, k, face, x, v, slack, grow, fine, steepest, best, over)
+            if cells.walked(surfaces, k):  # the BVH's candidates: in the cells near x, boxes meeting its box
+                box_low, box_high = single(x - vec3(box, box, box)), single(x + vec3(box, box, box))
+                i0, i1, j0, j1 = cells.around(surfaces, k, x, scalar(3.0) * (box + grow))
+                for j in range(j0, j1 + 1):
+                    for i in range(i0, i1 + 1):
+                        face = cells.face_of(surfaces, k, i, j)
+                        for f in range(face, wp.where(face >= 0, face + 2, face)):
+                            if boxed(surfaces, k, f, box_low, box_high):
+                                steepest, best, over, chosen = steeper(
+                                    surfaces, k, f, x, v, slack, grow, fine, steepest, best, over, chosen
+                                )
+            else:
+                query = wp.mesh_query_aabb(surfaces.mesh[k], single(x - vec3(box, box, box)), single(x + vec3(box, box, box)))
+                face = wp.int32(0)
+                while wp.mesh_query_aabb_next(query, face):
+                    steepest, best, over, chosen = steeper(
+                        surfaces, k, face, x, v, slack, grow, fine, steepest, best, over, chosen
+                    )
         if steepest < scalar(0.0):
             return best, over
         return mesh_normal(surfaces, k, x), over
@@ -343,6 +370,10 @@ def make_mesh_contact(precision: str, large: bool = True) -> SimpleNamespace:
         mesh_normal=mesh_normal,
         touched=touched,
         contact_normal=contact_normal,
+        boxed=boxed,
+        walked=cells.walked,
+        face_of=cells.face_of,
+        around=cells.around,
         **helpers,
     )
 
