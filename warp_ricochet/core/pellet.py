@@ -106,15 +106,12 @@ def make_ricochet_pellet(spec):
         position, velocity, spin = vec3(), vec3(), vec3()
         time = scalar(0.0)
         touching = wp.int32(-1)  # the plane it is leaving
-        impacts = wp.int32(0)
-        state = wp.int32(FLYING)
+        impacts, state = wp.int32(0), wp.int32(FLYING)
         gave_up = wp.int32(0)  # its flight's integration gave up (state ESCAPED)
         resting_surface = wp.int32(-1)
         last_slipped = wp.int32(0)
-        ricochet_point = vec3()  # m, the contact point of its last ricochet
-        ricochet_time = scalar(0.0)
-        launch_velocity = vec3()
-        launch_spin = vec3()
+        ricochet_point, ricochet_time = vec3(), scalar(0.0)  # the contact point (m) and time (s) of its last ricochet
+        launch_velocity, launch_spin = vec3(), vec3()
         track = watcher.start()  # the hazard along its path (`tallies.path`)
         if wp.static(RELEASE):  # where the dense phase left it (its flight may have ended there)
             if wp.static(watcher.ON and not REPLAYED):  # its watch so far: the dense phase's (`dense.watch`; else the replay's)
@@ -229,8 +226,9 @@ def make_ricochet_pellet(spec):
         exceeds = wp.int32(0)
         if impacts > 0 and state != ESCAPED:
             k = resting_surface
+            landing_normal = vec3()  # eq. 42's contact point along it: the flight's contact normal
             if state == FLYING:
-                dt, k_next, _normal, position_then, velocity_then, spin_then, steps, track = flight.to_contact_watched(
+                dt, k_next, landing_normal, position_then, velocity_then, spin_then, steps, track = flight.to_contact_watched(
                     position, velocity, spin, touching, surfaces, physics, track, tally
                 )
                 if wp.static(AIR):
@@ -249,7 +247,9 @@ def make_ricochet_pellet(spec):
                 landing_time = time
                 landing_position = position
                 landing_velocity = velocity
-                distance = landing_range(position, physics.radius, geo.normal(surfaces, k, position), ricochet_point)
+                if state != FLYING:  # at rest where its last impact or the dense phase left it
+                    landing_normal = geo.normal(surfaces, k, position)
+                distance = landing_range(position, physics.radius, landing_normal, ricochet_point)
                 counts[2] += 1
                 if wp.static(TALLY or HAZARD_OUT):
                     v2 = wp.dot(velocity, velocity)
