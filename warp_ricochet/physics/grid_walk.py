@@ -8,10 +8,11 @@ crosses the cells in order. The walk follows that line through a maximum mipmap 
 heights (Tevs, Ihrke & Seidel 2008, "Maximum mipmaps for fast, accurate, and scalable dynamic height
 field rendering", I3D; `physics.mipmap.max_pyramid`):
 
-- a block of 2^L x 2^L cells is passed when the centre's lowest height over the time the line
-  spends in it (the ends, or the vertex when gravity points up) is more than the margin above the
-  block's top (the highest vertex of its cells and of those within one cell): no triangle within the
-  margin across can be met, its distance being at least that height gap;
+- starting from a single cell (a ricochet starts on the ground), a block of 2^L x 2^L cells is
+  passed when the centre's lowest height over the time the line spends in it (the ends, or the
+  vertex when gravity points up) is more than the margin above the block's top (the highest vertex
+  of its cells and of those within one cell): no triangle within the margin across can be met, its
+  distance being at least that height gap;
 - otherwise the walk goes down a level; a cell reached at level 0 has the triangles of every cell
   within the margin of its stretch of the line tested (`face_time`), but those of a cell whose own
   top the centre passes more than the margin above while the line is within the margin of that cell,
@@ -20,10 +21,10 @@ field rendering", I3D; `physics.mipmap.max_pyramid`):
 - it stops at the first contact no later than the stretches searched: the earliest contact of the
   mesh, as the chords' search (`mesh_contact.make_mesh_search`) finds it.
 
-The margin: R, the mesh's float32 slack (`mesh_contact.FLOAT32_SLACK`), the face test's touching
-band (ROUNDING eps of the centre's and the triangles' scale in the mesh's frame, `triangle_time`),
-RECKONING eps of the walk's own operands and the drift; a margin over a third of a cell, or a walk
-past its bound on steps, returns not walked (the caller searches the chords).
+The margin: R, the face test's touching band (ROUNDING eps of the centre's and the triangles' scale
+in the mesh's frame, `triangle_time`), RECKONING eps of the walk's own operands and the drift (the
+tops are the kernel's own vertices', rounded up: no float32 slack); a margin over a third of a
+cell, or a walk past its bound on steps, returns not walked (the caller searches the chords).
 `make_grid_cells` gives the cells near a point, for the contact's normal and the air's steps.
 """
 
@@ -35,7 +36,7 @@ import warp as wp
 from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT, ROUNDING
 from .types import types_for
 
-RECKONING = 16.0  # the walk's own rounding of heights and cells, in eps of their operands' scale
+RECKONING = 8.0  # the walk's own rounding of heights and cells, in eps of their operands' scale
 WIDEST = 1.0 / 3.0  # the largest margin walked, in cells (the mipmap's tops cover one cell beside a block)
 
 
@@ -76,7 +77,7 @@ def make_grid_cells(precision: str) -> SimpleNamespace:
 
 @functools.cache
 def make_grid_walk(precision: str, face_time) -> SimpleNamespace:
-    """`walked(surfaces, k)` and `grid_time(surfaces, k, x, v, g, R, end, slack)` -> (time or
+    """`walked(surfaces, k)` and `grid_time(surfaces, k, x, v, g, R, end)` -> (time or
     NO_CONTACT, walked) of terrain k over [0, end] s, with `face_time(surfaces, k, face, x, v, g, R)`
     (when the parabola meets triangle `face`; module docstring)."""
     t = types_for(precision)
@@ -134,10 +135,11 @@ def make_grid_walk(precision: str, face_time) -> SimpleNamespace:
         return wp.min(wp.max(wp.int32(wp.floor(p)), lo), hi)
 
     @wp.func
-    def top(surfaces: Surfaces, k: wp.int32, level: wp.int32, i: wp.int32, j: wp.int32):
-        """The top (m) of block (i, j) of `level` of mesh k's mipmap."""
-        across = (surfaces.grid_dims[k][0] + (1 << level) - 1) >> level
-        return surfaces.grid_top[surfaces.grid_level[surfaces.grid_first[k][0] + level] + j * across + i]
+    def top(surfaces: Surfaces, levels_at: wp.int32, cols: wp.int32, level: wp.int32, i: wp.int32, j: wp.int32):
+        """The top (m) of block (i, j) of `level` of a mipmap of `cols` columns whose levels start at
+        row `levels_at` of grid_level."""
+        across = (cols + (1 << level) - 1) >> level
+        return surfaces.grid_top[surfaces.grid_level[levels_at + level] + j * across + i]
 
     @wp.func
     def cells_time(
@@ -184,7 +186,7 @@ def make_grid_walk(precision: str, face_time) -> SimpleNamespace:
         return best, seen
 
     @wp.func
-    def grid_time(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, g: vec3, radius: scalar, end: scalar, slack: scalar):
+    def grid_time(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, g: vec3, radius: scalar, end: scalar):
         """(the earliest contact (s) of the parabola with terrain k within [0, end], or NO_CONTACT;
         whether it was walked) (module docstring)."""
         dims = surfaces.grid_dims[k]
@@ -198,11 +200,12 @@ def make_grid_walk(precision: str, face_time) -> SimpleNamespace:
         low, high = surfaces.mesh_low[k], surfaces.mesh_high[k]
         band = l1(x - scalar(0.5) * (low + high)) + scalar(0.5) * l1(high - low) + l1(x) / scalar(32.0) + radius
         reckoning = l1(x) + l1(o) + (wp.length(v) + wp.length(g) * end) * end
-        margin = radius + slack + drift + TOLERANCE * band + SUMS * reckoning
+        margin = radius + drift + TOLERANCE * band + SUMS * reckoning
         mu, mw = margin * wp.length(per_col), margin * wp.length(per_row)
         if mu > scalar(WIDEST) or mw > scalar(WIDEST):
             return NONE, False
         cols, rows, levels = dims[0], dims[1], dims[2]
+        levels_at = surfaces.grid_first[k][0]
         start, stop = clip(u0, su, -mu, scalar(cols) + mu, scalar(0.0), end)
         start, stop = clip(w0, sw, -mw, scalar(rows) + mw, start, stop)
         best = NONE
@@ -210,7 +213,7 @@ def make_grid_walk(precision: str, face_time) -> SimpleNamespace:
             return best, True
         ci = inside(u0 + su * start, 0, cols - 1)
         cj = inside(w0 + sw * start, 0, rows - 1)
-        level = levels - 1
+        level = wp.int32(0)
         now = start
         seen = wp.vec4i(-1, -1, -1, -1)  # the cells tested last
         for _step in range((cols + rows + 2) * (levels + 1)):
@@ -228,7 +231,7 @@ def make_grid_walk(precision: str, face_time) -> SimpleNamespace:
                 then = stop
             floor = lowest(h0, rise, half, now, then) - margin
             if level > 0:
-                if floor <= top(surfaces, k, level, ci >> level, cj >> level):
+                if floor <= top(surfaces, levels_at, cols, level, ci >> level, cj >> level):
                     level -= 1
                     continue
             else:

@@ -474,7 +474,7 @@ def make_mesh_search(precision: str, face_time, features_time=None, large: bool 
             if faces > FEW_FACES:
                 walked = wp.bool(False)
                 if grid.walked(surfaces, k):
-                    best, walked = grid.grid_time(surfaces, k, x, v, g, radius, end, slack)
+                    best, walked = grid.grid_time(surfaces, k, x, v, g, radius, end)
                 if not walked:
                     best = chords_time(surfaces, k, x, v, g, radius, end, slack)
                 return wp.where(best > LATEST, scalar(NO_CONTACT), best)
