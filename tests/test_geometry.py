@@ -54,7 +54,18 @@ def test_only_the_geometry_module_reads_the_surfaces():
     plates = {"kind", "axis_u", "axis_v", "half_u", "half_v", "two_sided"}  # (physics.types: read with plates only)
     meshes = {"mesh", "mesh_first", "mesh_low", "mesh_high", "mesh_points", "mesh_edge", "mesh_faces"}  # (read with meshes only)
     meshes |= {"face_first", "face_edges", "face_corners", "edge_ends", "corner_points"}  # (physics.edge_contact)
-    meshes |= {"grid_dims", "grid_first", "grid_origin", "grid_col", "grid_row", "grid_up", "grid_level", "grid_top", "grid_cell"}
+    meshes |= {
+        "grid_dims",
+        "grid_first",
+        "grid_origin",
+        "grid_col",
+        "grid_row",
+        "grid_up",
+        "grid_level",
+        "grid_top",
+        "grid_cell",
+        "grid_slack",
+    }
     assert fields == {"point", "normal", "point_noise", "restitution", "mu_s", "mu_d", *ground, *plates, *meshes}, (
         fields
     )  # (the parse found the struct)

@@ -14,7 +14,7 @@ from rasterio.transform import Affine  # noqa: E402
 import warp_ricochet as wr  # noqa: E402
 from warp_ricochet import model as model_module  # noqa: E402
 from warp_ricochet.model import Model  # noqa: E402
-from warp_ricochet.physics.mipmap import LOWEST_TOP, max_pyramid  # noqa: E402
+from warp_ricochet.physics.mipmap import LOWEST_TOP, grid_deviation, max_pyramid  # noqa: E402
 from warp_ricochet.scene import scene_from_dict  # noqa: E402
 from warp_ricochet.scene import terrain as terrain_module  # noqa: E402
 from warp_ricochet.scene.terrain import cell_triangles, grid_triangles  # noqa: E402
@@ -78,6 +78,21 @@ def test_the_mipmap_covers_each_block_and_its_neighbours(dtype):
                 near = cell[max(j * size - 1, 0) : (j + 1) * size + 1, max(i * size - 1, 0) : (i + 1) * size + 1]
                 assert tops[first[level] + j * across + i] >= near.max()
     assert len(tops) - first[-1] == 1
+
+
+def test_the_vertices_offset_from_their_cell_corners_is_measured():
+    """`grid_deviation`: 0 for vertices on the grid (float64); the largest offset across the raster
+    (m) of a vertex moved off its corner, in either direction."""
+    valid = np.ones((4, 6), dtype=bool)
+    tris = grid_triangles(valid, flip=False)
+    r, c = np.mgrid[0:4, 0:6]
+    frame = np.array([[0.5, 0.0, 0.0], [0.0, -0.25, 0.0], [0.0, 0.0, 1.0]])  # per_col, per_row (1/m), up
+    points = np.stack([c.ravel() / 0.5, r.ravel() / -0.25, np.zeros(24)], 1)
+    grid = terrain_module.TerrainGrid(np.zeros(3), frame[0], frame[1], frame[2], cell_triangles(valid))
+    assert grid_deviation(grid, points, tris, np.dtype(np.float64)) == 0.0
+    points[7] += [3e-4, 0.0, 5.0]  # 3e-4 m east (and any height)
+    points[16] += [0.0, 1e-3, 0.0]  # 1e-3 m north
+    assert grid_deviation(grid, points, tris, np.dtype(np.float64)) == pytest.approx(1e-3, rel=1e-9)
 
 
 def _shots(rng, count, low, high):
@@ -159,6 +174,58 @@ def test_the_walk_meets_what_the_chords_meet(tmp_path, monkeypatch, device, prec
     hit = walked["impact/surface"].reshape(len(x), -1)
     assert 0.3 * len(hit) < (hit[:, 0] == 0).sum() < len(hit)  # many meet the terrain, not all
     assert (hit[:, 1] == 0).sum() > 0.05 * len(hit)  # some twice
+    for name, values in chords.items():
+        np.testing.assert_array_equal(walked[name], values, err_msg=name)
+
+
+def edge_raster(path):
+    """4 x 40 cells of 1 m: level to row 12, then rising 2 m a row; its east column 1 m lower, so the
+    cells along its east edge face east (a pellet just outside that edge meets them)."""
+    z = np.zeros((41, 5))
+    z[13:, :] = 2.0 * (np.arange(13, 41) - 12.0)[:, None]
+    z[:, -1] -= 1.0
+    with rasterio.open(
+        path, "w", driver="GTiff", width=5, height=41, count=1, dtype="float64",
+        transform=Affine(1.0, 0.0, 1000.0, 0.0, -1.0, 2000.0),
+    ) as out:  # fmt: skip
+        out.write(z, 1)
+    return path
+
+
+@pytest.mark.parametrize("precision", ["float32", "float64"])
+def test_the_walk_meets_cells_along_the_raster_s_edge_beyond_its_block(tmp_path, monkeypatch, device, precision):
+    """A centre just outside the raster's east edge, flying nearly along it, meets the east-facing
+    cells of a rise 12 rows on: beyond the block it left the raster from (a review's case, found
+    missed by the walk as first written). The same contacts walked and by the chords, and that one
+    met at t = 0.1347 s."""
+    rng = np.random.default_rng(8)
+    x = np.array([[4.4, -1.0, 0.55]]) + np.r_[np.zeros((1, 3)), rng.uniform(-0.05, 0.05, (199, 3))]
+    v = np.array([[1.0, -90.0, 0.0]]) * np.r_[np.ones((1, 1)), rng.uniform(0.5, 1.5, (199, 1))]
+    v[100:, 0] = rng.uniform(-0.5, 3.0, 100)
+    x[150:, 0], v[150:, 1] = 1.0 - x[150:, 0], -v[150:, 1] / 3.0  # along the west edge too
+    np.savez(tmp_path / "shots.npz", position=x, velocity=v)
+    raw = {
+        "shot": {"file": str(tmp_path / "shots.npz"), "diameter": 0.2, "density": 11340.0},
+        "surfaces": [
+            {
+                "kind": "terrain",
+                "file": str(edge_raster(tmp_path / "edge.tif")),
+                "normal": [0.0, 0.0, 1.0],
+                "restitution": 0.4,
+                "mu_s": 0.3,
+            },
+            {"point": [0.0, 0.0, -40.0], "normal": [0.0, 0.0, 1.0], "restitution": 0.0, "mu_s": 0.5},
+        ],  # fmt: skip
+        "physics": {"gravity": [0.0, 0.0, -9.81], "until": "landing", "bounces": 1},
+        "numerics": {"precision": precision},
+        "output": {"fields": ["impact"]},
+    }
+    walked, levels = _run(tmp_path, raw, True, device, monkeypatch)
+    chords, _ = _run(tmp_path, raw, False, device, monkeypatch)
+    assert levels > 2
+    surface = walked["impact/surface"].reshape(len(x), -1)[:, 0]
+    assert surface[0] == 0 and (surface == 0).sum() > 50
+    np.testing.assert_allclose(walked["impact/time"].reshape(len(x), -1)[0, 0], 0.1347, atol=5e-4)
     for name, values in chords.items():
         np.testing.assert_array_equal(walked[name], values, err_msg=name)
 

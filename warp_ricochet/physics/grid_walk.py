@@ -17,13 +17,15 @@ field rendering", I3D; `physics.mipmap.max_pyramid`):
   within the margin of its stretch of the line tested (`face_time`), but those of a cell whose own
   top the centre passes more than the margin above while the line is within the margin of that cell,
   and those of the last four cells tested; then it goes up a level, as after every block passed;
-- a stretch that leaves the raster runs to where the line is past the raster's margin;
+- a stretch that leaves the raster runs to where the line is past the raster's margin, and a
+  block's is passed only above the whole raster's top (beyond the edge the line may run along it);
 - it stops at the first contact no later than the stretches searched: the earliest contact of the
   mesh, as the chords' search (`mesh_contact.make_mesh_search`) finds it.
 
 The margin: R, the face test's touching band (ROUNDING eps of the centre's and the triangles' scale
-in the mesh's frame, `triangle_time`), RECKONING eps of the walk's own operands and the drift (the
-tops are the kernel's own vertices', rounded up: no float32 slack); a margin over a third of a
+in the mesh's frame, `triangle_time`), RECKONING eps of the walk's own operands, the drift and how
+far the vertices lie from their cells' corners (`grid_slack`: float32, a skewed axis_u; the tops are
+the kernel's own vertices', rounded up, so no float32 slack of the BVH's); a margin over a third of a
 cell, or a walk past its bound on steps, returns not walked (the caller searches the chords).
 `make_grid_cells` gives the cells near a point, for the contact's normal and the air's steps.
 """
@@ -200,7 +202,7 @@ def make_grid_walk(precision: str, face_time) -> SimpleNamespace:
         low, high = surfaces.mesh_low[k], surfaces.mesh_high[k]
         band = l1(x - scalar(0.5) * (low + high)) + scalar(0.5) * l1(high - low) + l1(x) / scalar(32.0) + radius
         reckoning = l1(x) + l1(o) + (wp.length(v) + wp.length(g) * end) * end
-        margin = radius + drift + TOLERANCE * band + SUMS * reckoning
+        margin = radius + drift + TOLERANCE * band + SUMS * reckoning + surfaces.grid_slack[k]
         mu, mw = margin * wp.length(per_col), margin * wp.length(per_row)
         if mu > scalar(WIDEST) or mw > scalar(WIDEST):
             return NONE, False
@@ -229,11 +231,16 @@ def make_grid_walk(precision: str, face_time) -> SimpleNamespace:
             leaving = then >= stop or ni < 0 or ni >= cols or nj < 0 or nj >= rows
             if leaving:
                 then = stop
-            floor = lowest(h0, rise, half, now, then) - margin
             if level > 0:
-                if floor <= top(surfaces, levels_at, cols, level, ci >> level, cj >> level):
+                floor = lowest(h0, rise, half, now, then) - margin
+                limit = top(surfaces, levels_at, cols, level, ci >> level, cj >> level)
+                if leaving:  # past the raster's edge the line may run along cells beyond the block
+                    limit = wp.max(limit, top(surfaces, levels_at, cols, levels - 1, 0, 0))
+                if floor <= limit:
                     level -= 1
                     continue
+                if best >= scalar(0.0) and best <= then:
+                    return best, True
             else:
                 i0, i1 = span(u0 + su * now, u0 + su * then, mu, cols)
                 j0, j1 = span(w0 + sw * now, w0 + sw * then, mw, rows)

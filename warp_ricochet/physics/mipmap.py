@@ -35,3 +35,19 @@ def max_pyramid(grid, vertices: np.ndarray, triangles: np.ndarray, dtype) -> tup
     rounded = tops.astype(dtype)
     rounded = np.where(rounded.astype(np.float64) < tops, np.nextafter(rounded, dtype.type(np.inf)), rounded)
     return np.cumsum([0] + [lv.size for lv in levels[:-1]]).astype(np.int32), rounded
+
+
+def grid_deviation(grid, vertices: np.ndarray, triangles: np.ndarray, dtype) -> float:
+    """How far (m, across the raster) any vertex of a cell's triangles lies from that cell's corner
+    it stands for, with `grid`'s frame as rounded to `dtype` (the kernel's; `vertices` the kernel's):
+    float32 rounding, or an axis_u not quite perpendicular to up. The walk adds it to its margin."""
+    origin, per_col, per_row = (np.asarray(a, dtype=dtype).astype(np.float64) for a in (grid.origin, grid.per_col, grid.per_row))
+    rows, cols = grid.cells.shape
+    r, c = np.nonzero(grid.cells >= 0)
+    first = grid.cells[r, c]
+    corners = np.concatenate([triangles[first], triangles[first + 1]], axis=1)  # (cells, 6)
+    points = np.asarray(vertices, dtype=np.float64)[corners] - origin
+    u, w = points @ per_col, points @ per_row
+    off_u = np.minimum(np.abs(u - c[:, None]), np.abs(u - c[:, None] - 1.0)).max(initial=0.0)
+    off_w = np.minimum(np.abs(w - r[:, None]), np.abs(w - r[:, None] - 1.0)).max(initial=0.0)
+    return float(max(off_u / np.linalg.norm(per_col), off_w / np.linalg.norm(per_row)))

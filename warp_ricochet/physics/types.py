@@ -15,7 +15,7 @@ import warp as wp
 
 from ..struct_refs import read_only
 from .mesh_edges import convex_features
-from .mipmap import max_pyramid
+from .mipmap import grid_deviation, max_pyramid
 
 SCALARS = {"float32": wp.float32, "float64": wp.float64}
 
@@ -79,7 +79,8 @@ def types_for(precision: str) -> SimpleNamespace:
         # (cols, rows, levels) of its cells (levels 0: not walked), the rows of its level 0 in
         # grid_level and of its first cell in grid_cell; its origin (m), per_col and per_row (1/m), up;
         # grid_level: each level's first block in grid_top (m above the origin along up:
-        # `physics.mipmap.max_pyramid`); grid_cell: each cell's first triangle (-1: a hole)
+        # `physics.mipmap.max_pyramid`); grid_cell: each cell's first triangle (-1: a hole);
+        # grid_slack: how far (m) its vertices lie from their cell corners (`physics.mipmap.grid_deviation`)
         grid_dims: wp.array(dtype=wp.vec3i)
         grid_first: wp.array(dtype=wp.vec2i)
         grid_origin: wp.array(dtype=vec3)
@@ -89,6 +90,7 @@ def types_for(precision: str) -> SimpleNamespace:
         grid_level: wp.array(dtype=wp.int32)
         grid_top: wp.array(dtype=scalar)
         grid_cell: wp.array(dtype=wp.int32)
+        grid_slack: wp.array(dtype=scalar)
 
     @wp.struct
     class Material:
@@ -272,7 +274,8 @@ def _grid_fields(surfaces, precision: str, meshes, device) -> None:
     """Set the Surfaces' grid arrays of the terrains among `meshes` that have a `TerrainGrid`
     (`physics.mipmap.max_pyramid`: its tops from the kernel's vertices); levels 0 for the rest."""
     t, dtype = types_for(precision), np.dtype(precision)
-    dims, first, frames, levels, tops, cells = [], [], [], [np.zeros(0, np.int32)], [np.zeros(0, dtype)], [np.zeros(0, np.int32)]
+    dims, first, frames, slack = [], [], [], []
+    levels, tops, cells = [np.zeros(0, np.int32)], [np.zeros(0, dtype)], [np.zeros(0, np.int32)]
     level_rows = cell_rows = 0
     for triangles in meshes:
         grid = getattr(triangles, "grid", None)
@@ -280,10 +283,13 @@ def _grid_fields(surfaces, precision: str, meshes, device) -> None:
             dims.append((0, 0, 0))
             first.append((0, 0))
             frames.append(np.zeros((4, 3)))
+            slack.append(0.0)
             continue
         rows, cols = grid.cells.shape
         vertices = np.asarray(triangles.vertices, dtype=np.float64).astype(dtype)
-        starts, heights = max_pyramid(grid, vertices, np.asarray(triangles.triangles, dtype=np.int64), dtype)
+        indices = np.asarray(triangles.triangles, dtype=np.int64)
+        starts, heights = max_pyramid(grid, vertices, indices, dtype)
+        slack.append(grid_deviation(grid, vertices, indices, dtype))
         dims.append((cols, rows, len(starts)))
         first.append((level_rows, cell_rows))
         frames.append(np.stack([grid.origin, grid.per_col, grid.per_row, grid.up]))
@@ -299,6 +305,8 @@ def _grid_fields(surfaces, precision: str, meshes, device) -> None:
     surfaces.grid_level = wp.array(np.concatenate(levels).astype(np.int32), dtype=wp.int32, device=device)
     surfaces.grid_top = wp.array(np.concatenate(tops).astype(dtype), dtype=t.scalar, device=device)
     surfaces.grid_cell = wp.array(np.concatenate(cells).astype(np.int32), dtype=wp.int32, device=device)
+    slack = np.asarray(slack, dtype=np.float64)
+    surfaces.grid_slack = wp.array(np.nextafter(slack.astype(dtype), dtype.type(np.inf)), dtype=t.scalar, device=device)
 
 
 def surfaces_of(precision: str, points, normals, materials, device, ground=None, liquid=None, plates=None, meshes=None) -> object:
