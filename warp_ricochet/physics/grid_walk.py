@@ -18,7 +18,8 @@ field rendering", I3D; `physics.mipmap.max_pyramid`):
   top the centre passes more than the margin above while the line is within the margin of that cell,
   and those of the last four cells tested; then it goes up a level, as after every block passed;
 - a stretch that leaves the raster runs to where the line is past the raster's margin, and a
-  block's is passed only above the whole raster's top (beyond the edge the line may run along it);
+  block's is then passed only above the whole raster's top (beyond the edge the line may run
+  along it; not where the flight's window ends inside the raster);
 - it stops at the first contact no later than the stretches searched: the earliest contact of the
   mesh, as the chords' search (`mesh_contact.make_mesh_search`) finds it.
 
@@ -228,13 +229,14 @@ def make_grid_walk(precision: str, face_time) -> SimpleNamespace:
                 ni = wp.where(su > scalar(0.0), hi_u, lo_u - 1)
             if tw <= tu:
                 nj = wp.where(sw > scalar(0.0), hi_w, lo_w - 1)
-            leaving = then >= stop or ni < 0 or ni >= cols or nj < 0 or nj >= rows
+            off = ni < 0 or ni >= cols or nj < 0 or nj >= rows  # the next cell is off the raster
+            leaving = then >= stop or off
             if leaving:
                 then = stop
             if level > 0:
                 floor = lowest(h0, rise, half, now, then) - margin
                 limit = top(surfaces, levels_at, cols, level, ci >> level, cj >> level)
-                if leaving:  # past the raster's edge the line may run along cells beyond the block
+                if off:  # past the raster's edge the line may run along cells beyond the block
                     limit = wp.max(limit, top(surfaces, levels_at, cols, levels - 1, 0, 0))
                 if floor <= limit:
                     level -= 1
