@@ -333,8 +333,8 @@ def make_mesh_contact(precision: str, large: bool = True) -> SimpleNamespace:
             for face in range(faces):
                 steepest, best, over, chosen = steeper(surfaces, k, face, x, v, slack, grow, fine, steepest, best, over, chosen)
         elif wp.static(large):
+            box_low, box_high = single(x - vec3(box, box, box)), single(x + vec3(box, box, box))
             if cells.walked(surfaces, k):  # the BVH's candidates: in the cells near x, boxes meeting its box
-                box_low, box_high = single(x - vec3(box, box, box)), single(x + vec3(box, box, box))
                 i0, i1, j0, j1 = cells.around(surfaces, k, x, scalar(3.0) * (box + grow))
                 for j in range(j0, j1 + 1):
                     for i in range(i0, i1 + 1):
@@ -345,7 +345,7 @@ def make_mesh_contact(precision: str, large: bool = True) -> SimpleNamespace:
                                     surfaces, k, f, x, v, slack, grow, fine, steepest, best, over, chosen
                                 )
             else:
-                query = wp.mesh_query_aabb(surfaces.mesh[k], single(x - vec3(box, box, box)), single(x + vec3(box, box, box)))
+                query = wp.mesh_query_aabb(surfaces.mesh[k], box_low, box_high)
                 face = wp.int32(0)
                 while wp.mesh_query_aabb_next(query, face):
                     steepest, best, over, chosen = steeper(
