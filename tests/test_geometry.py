@@ -52,7 +52,16 @@ def test_only_the_geometry_module_reads_the_surfaces():
     fields = _surfaces_fields()
     ground = {*GROUND_FIELDS, "liquid"}  # the ground materials' (physics.types.Material)
     plates = {"kind", "axis_u", "axis_v", "half_u", "half_v", "two_sided"}  # (physics.types: read with plates only)
-    meshes = {"mesh", "mesh_first", "mesh_low", "mesh_high", "mesh_points", "mesh_edge", "mesh_faces"}  # (read with meshes only)
+    meshes = {
+        "mesh",
+        "mesh_first",
+        "mesh_low",
+        "mesh_high",
+        "mesh_points",
+        "mesh_triangles",
+        "mesh_edge",
+        "mesh_faces",
+    }  # (read with meshes only)
     meshes |= {"face_first", "face_edges", "face_corners", "edge_ends", "corner_points"}  # (physics.edge_contact)
     meshes |= {
         "grid_dims",

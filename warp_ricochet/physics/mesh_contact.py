@@ -2,7 +2,8 @@
 and boxes"); read only through `physics.geometry` (kernels compiled with meshes).
 
 A mesh surface k holds a `wp.Mesh` (float32 BVH: `Surfaces.mesh`) and its vertices in the kernel's
-precision (`mesh_points` from `mesh_first[k]`), with their bounding box (`mesh_low`, `mesh_high`).
+precision (`mesh_points`, a triangle's rows of them in `mesh_triangles` from `mesh_first[k]`), with
+their bounding box (`mesh_low`, `mesh_high`).
 The BVH only proposes triangles; every test is on the kernel-precision vertices:
 
 - the flight's time window near the mesh: until the centre, falling along gravity, is below the box
@@ -92,11 +93,8 @@ def make_triangle_basics(precision: str) -> SimpleNamespace:
     @wp.func
     def vertices(surfaces: Surfaces, k: wp.int32, face: wp.int32):
         """Triangle `face` of mesh k: its three vertices (m)."""
-        first, mesh = surfaces.mesh_first[k], surfaces.mesh[k]
-        a = surfaces.mesh_points[first + wp.mesh_get_index(mesh, 3 * face)]
-        b = surfaces.mesh_points[first + wp.mesh_get_index(mesh, 3 * face + 1)]
-        c = surfaces.mesh_points[first + wp.mesh_get_index(mesh, 3 * face + 2)]
-        return a, b, c
+        rows = surfaces.mesh_triangles[surfaces.mesh_first[k] + face]
+        return surfaces.mesh_points[rows[0]], surfaces.mesh_points[rows[1]], surfaces.mesh_points[rows[2]]
 
     @wp.func
     def frame(surfaces: Surfaces, k: wp.int32):

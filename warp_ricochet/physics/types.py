@@ -56,11 +56,13 @@ def types_for(precision: str) -> SimpleNamespace:
         half_v: wp.array(dtype=scalar)
         two_sided: wp.array(dtype=wp.int32)  # 1: met from either face
         # meshes (read only by kernels compiled with meshes, `physics.mesh_contact`): per surface its
-        # wp.Mesh id (0: none), the index of its first vertex in mesh_points, its bounding box (m),
+        # wp.Mesh id (0: none), the row of its first triangle in mesh_triangles, its bounding box (m),
         # its triangles' median edge (m);
-        # mesh_points: every mesh's vertices (m) in the kernel's precision
+        # mesh_points: every mesh's vertices (m) in the kernel's precision; mesh_triangles: each
+        # triangle's three vertices as rows of mesh_points
         mesh: wp.array(dtype=wp.uint64)
         mesh_first: wp.array(dtype=wp.int32)
+        mesh_triangles: wp.array(dtype=wp.vec3i)
         mesh_low: wp.array(dtype=vec3)
         mesh_high: wp.array(dtype=vec3)
         mesh_edge: wp.array(dtype=scalar)  # m: the median edge of its triangles (the chords' scale)
@@ -203,10 +205,11 @@ def mesh_fields(surfaces, precision: str, meshes, device) -> None:
     each gets a wp.Mesh (float32 BVH), kept alive as long as `surfaces`."""
     t, dtype = types_for(precision), np.dtype(precision)
     ids, first, low, high, edge, faces, points, held = [], [], [], [], [], [], [np.zeros((0, 3))], []
+    rows = [np.zeros((0, 3), np.int64)]
     count = 0
     for triangles in meshes:
         ids.append(0 if triangles is None else None)
-        first.append(count)
+        first.append(sum(len(r) for r in rows))
         faces.append(0 if triangles is None else len(triangles.triangles))
         if triangles is None:
             low.append(np.zeros(3))
@@ -227,6 +230,7 @@ def mesh_fields(surfaces, precision: str, meshes, device) -> None:
         low.append(vertices.min(axis=0))
         high.append(vertices.max(axis=0))
         points.append(vertices)
+        rows.append(np.asarray(triangles.triangles, dtype=np.int64).reshape(-1, 3) + count)
         count += len(vertices)
     surfaces.mesh = wp.array(np.asarray(ids, dtype=np.uint64), dtype=wp.uint64, device=device)
     surfaces.mesh_first = wp.array(np.asarray(first, dtype=np.int32), dtype=wp.int32, device=device)
@@ -235,6 +239,7 @@ def mesh_fields(surfaces, precision: str, meshes, device) -> None:
     surfaces.mesh_edge = wp.array(np.asarray(edge, dtype=dtype), dtype=t.scalar, device=device)
     surfaces.mesh_faces = wp.array(np.asarray(faces, dtype=np.int32), dtype=wp.int32, device=device)
     surfaces.mesh_points = wp.array(np.concatenate(points).astype(dtype), dtype=t.vec3, device=device)
+    surfaces.mesh_triangles = wp.array(np.concatenate(rows).astype(np.int32), dtype=wp.vec3i, device=device)
     _feature_fields(surfaces, precision, meshes, device)
     _grid_fields(surfaces, precision, meshes, device)
     if held:
