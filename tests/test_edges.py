@@ -9,7 +9,7 @@ from helpers import explicit_scene
 from scipy.optimize import brentq
 
 from bench.meshes import AHEAD, BOX, GRAVITY, aimed, inside_box
-from warp_ricochet.physics.mesh_edges import convex_features
+from warp_ricochet.physics.mesh_edges import convex_features, covering_faces, inner_depths
 from warp_ricochet.scene.triangles import box_triangles
 
 MATERIAL = {"restitution": 0.5, "mu_s": 0.3}
@@ -37,6 +37,36 @@ def test_a_box_keeps_its_12_edges_and_8_corners_and_a_flat_square_its_border():
     assert len(convex_features(ridge, roof)["edges"]) == 7  # the border's 6 and the ridge
     ridge[2:4, 2] = -1e-3
     assert len(convex_features(ridge, roof)["edges"]) == 6  # a valley: the border only
+
+
+def test_every_face_of_a_convex_or_flat_mesh_covers_its_edges_and_a_valley_s_do_not():
+    """`covering_faces`: a face covers the mesh's kept edges and corners where all lie on or behind
+    its plane (a box's faces, a flat square's, a convex roof's); not a valley's. `inner_depths`: how
+    deep the nearest of those that project inside a face lies (none for a box; a frustum's side
+    edges pass just under its top)."""
+    box = box_triangles(BOX["point"], BOX["normal"], BOX["axis_u"], BOX["size"])
+    assert covering_faces(box.vertices, box.triangles, convex_features(box.vertices, box.triangles)["corners"]).all()
+    square = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]])
+    assert covering_faces(square, [[0, 1, 2], [0, 2, 3]], convex_features(square, [[0, 1, 2], [0, 2, 3]])["corners"]).all()
+    ridge = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 1e-3], [1.0, 1.0, 1e-3], [0.0, 2.0, 0.0], [1.0, 2.0, 0.0]])
+    roof = [[0, 1, 3], [0, 3, 2], [2, 3, 5], [2, 5, 4]]
+    assert covering_faces(ridge, roof, convex_features(ridge, roof)["corners"]).all()
+    ridge[2:4, 2] = -1e-3  # a valley: each side's border rises above the other side's plane
+    assert not covering_faces(ridge, roof, convex_features(ridge, roof)["corners"]).any()
+    found = convex_features(box.vertices, box.triangles)  # nothing projects inside a box's face
+    assert np.isinf(inner_depths(box.vertices, box.triangles, found["edges"], found["corners"])).all()
+    top = np.array([[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0], [-1.0, 1.0, 0.0]])
+    frustum = np.r_[top, 0.5 * top - [0.0, 0.0, 1.0]]  # its sides' edges pass under its top
+    sides = [[0, 1, 2], [0, 2, 3], [4, 6, 5], [4, 7, 6], [0, 4, 5], [0, 5, 1], [1, 5, 6], [1, 6, 2], [2, 6, 7], [2, 7, 3]]
+    sides += [[3, 7, 4], [3, 4, 0]]
+    found = convex_features(frustum, sides)
+    depths = inner_depths(frustum, sides, found["edges"], found["corners"])
+    assert covering_faces(frustum, sides, found["corners"]).all() and (depths[:2] < 1e-6).all()
+    assert np.isinf(depths[2:4]).all() and (depths[4:] > 1.0).all()  # (the bottom: nothing under it)
+    lifted = box.vertices.copy()
+    lifted[0] += 1e-3 * np.asarray(BOX["normal"]) / np.linalg.norm(BOX["normal"])  # one corner pulled out
+    cover = covering_faces(lifted, box.triangles, convex_features(lifted, box.triangles)["corners"])
+    assert 0 < cover.sum() < len(cover)
 
 
 def _frame():
@@ -98,9 +128,9 @@ def _near_features(rng, count, reach):
     return aimed(targets, v), v
 
 
-def _contacts(tmp_path, precision, x, v, solid=None):
+def _contacts(tmp_path, precision, x, v, solid=None, cover=True):
     """(time, normal) of each pellet's first contact with the box (or the surface `solid`), by the
-    kernels (time < 0: none)."""
+    kernels (time < 0: none); `cover` False: every edge and corner searched, no face covering them."""
     from warp_ricochet.model import Model
     from warp_ricochet.physics.flight import make_flight
     from warp_ricochet.physics.geometry import MESHES
@@ -108,6 +138,8 @@ def _contacts(tmp_path, precision, x, v, solid=None):
     solid = solid or {"kind": "box", **BOX, **MATERIAL}
     scene = explicit_scene(tmp_path, x, v, surfaces=[solid], precision=precision, physics={"gravity": list(GRAVITY)})
     model = Model.from_scene(scene, wp.get_device("cpu"))
+    if not cover:
+        model.surfaces.face_cover.zero_()
     t = model.types
     flight = make_flight(precision, None, "ballistic", plates=MESHES)
 
@@ -281,3 +313,67 @@ def test_pellets_aimed_exactly_at_flat_and_concave_edges_meet_the_faces(tmp_path
         met = [j for j in range(2) if SIDES[j] @ got <= RADIUS + 1e-5]  # touched (the normal: the steeper's)
         assert min(np.linalg.norm(normals[i] - SIDES[j]) for j in met) <= tolerance[1], (i, normals[i], sides)
         assert min(side @ got for side in SIDES) >= RADIUS - tolerance[0], (i, [side @ got for side in SIDES])
+
+
+def _square(path):
+    """A flat 2 m square of two triangles, normal up, as an STL: its border kept, not its diagonal."""
+    import trimesh
+
+    square = np.array([[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0], [-1.0, 1.0, 0.0]])
+    trimesh.Trimesh(vertices=square, faces=[[0, 1, 2], [0, 2, 3]], process=False).export(path)
+    return str(path)
+
+
+def _at_border(rng, count, height):
+    """(x0, v0) of pellets from all directions whose unhindered centres pass, AHEAD s after launch,
+    within 1.2 R of the lines x, y = +-1 at `height(y)` (m) (a square's or the valley's border)."""
+    targets = rng.uniform(-1.1, 1.1, (count, 3))
+    side = rng.integers(0, 2, count)
+    targets[np.arange(count), side] = rng.choice([-1.0, 1.0], count) * (1.0 + rng.uniform(-1.2, 1.2, count) * RADIUS)
+    targets[:, 2] = height(targets[:, 1]) + rng.uniform(-1.2, 1.2, count) * RADIUS
+    way = rng.normal(size=(count, 3))
+    v = rng.uniform(30.0, 300.0, (count, 1)) * way / np.linalg.norm(way, axis=1, keepdims=True) - GRAVITY * AHEAD
+    return aimed(targets, v), v
+
+
+def _leaving_top(rng, count):
+    """(x0, v0) of centres 0 to 0.3 R inside R of the box's top face, over it within 2 R of its
+    edges and corners or beside them, leaving it (up to 30 m/s) and moving over or along its edges."""
+    axes, half, centre = _frame()
+    local = rng.uniform(-1.0, 1.0, (count, 3)) * half
+    near = np.stack([rng.integers(0, 3, count) != j for j in (0, 1)], axis=1)  # by an edge or at a corner
+    edge = np.sign(local[:, :2]) * (half[:2] + rng.uniform(-2.0, 0.5, (count, 2)) * RADIUS)
+    local[:, :2] = np.where(near, edge, local[:, :2])
+    local[:, 2] = half[2] + RADIUS * (1.0 - rng.uniform(0.0, 0.3, count))
+    way = rng.normal(size=(count, 3))
+    way[:, 2] = np.abs(way[:, 2]) * rng.uniform(0.01, 1.0, count)
+    v = rng.uniform(1.0, 30.0, (count, 1)) * way / np.linalg.norm(way, axis=1, keepdims=True)
+    return centre + local @ axes, v @ axes
+
+
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_edges_searched_only_before_the_covering_faces_give_the_same_contacts(tmp_path, precision):
+    """A box's and a flat square's faces cover their edges and corners (`covering_faces`), so a
+    small mesh's search looks for those only while the centre is within R of every face plane:
+    the same contacts, to the bit, as searching them all, for paths from all sides near their
+    edges and corners (within and beyond R) and at them, and paths leaving the box's top from
+    within R of it near its edges; a valley's (not covered) too.
+    In float32 a face met at an edge may be met an ulp later than the edge was."""
+    from bench.meshes import box_shots
+
+    rng = np.random.default_rng(55)
+    near, beyond, shots = _near_features(rng, 300, (0.2, 0.9)), _near_features(rng, 300, (1.0, 1.2)), box_shots(rng, 400)
+    at_box = np.r_[near[0], beyond[0], shots[0]], np.r_[near[1], beyond[1], shots[1]]
+    square = {"kind": "mesh", "file": _square(tmp_path / "square.stl"), **MATERIAL}
+    valley = {"kind": "mesh", "file": _valley(tmp_path / "valley.stl"), **MATERIAL}
+    cases = [(None, at_box), (None, _leaving_top(rng, 600)), (square, _at_border(rng, 600, np.zeros_like))]
+    cases.append((valley, _at_border(rng, 600, lambda y: SLOPE * np.abs(y))))
+    for solid, (x, v) in cases:
+        with_cover = _contacts(tmp_path, precision, x, v, solid)
+        without = _contacts(tmp_path, precision, x, v, solid, cover=False)
+        assert (with_cover[0] >= 0).sum() > len(x) // 6, solid  # (many meet it)
+        same = with_cover[0] == without[0]  # float32: where a face is met at an edge, within an ulp
+        assert same.mean() >= {"float64": 1.0, "float32": 0.99}[precision], np.flatnonzero(~same)
+        np.testing.assert_allclose(with_cover[0], without[0], rtol=3e-7)
+        np.testing.assert_array_equal(with_cover[1][same], without[1][same])
+        np.testing.assert_allclose(with_cover[1], without[1], atol=2e-2)

@@ -62,7 +62,15 @@ def test_only_the_geometry_module_reads_the_surfaces():
         "mesh_edge",
         "mesh_faces",
     }  # (read with meshes only)
-    meshes |= {"face_first", "face_edges", "face_corners", "edge_ends", "corner_points"}  # (physics.edge_contact)
+    meshes |= {
+        "face_first",
+        "face_edges",
+        "face_corners",
+        "face_cover",
+        "face_depth",
+        "edge_ends",
+        "corner_points",
+    }  # (physics.edge_contact)
     meshes |= {
         "grid_dims",
         "grid_first",

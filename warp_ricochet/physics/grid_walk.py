@@ -16,7 +16,9 @@ field rendering", I3D; `physics.mipmap.max_pyramid`):
 - otherwise the walk goes down a level; a cell reached at level 0 has the triangles of every cell
   within the margin of its stretch of the line tested (`face_time`), but those of a cell whose own
   top the centre passes more than the margin above while the line is within the margin of that cell,
-  and those of the last four cells tested; then it goes up a level, as after every block passed;
+  of one the line comes within the margin of only after the contact found so far, and of the last
+  four cells tested (a triangle test itself stops where its offset plane is reached no earlier than
+  that contact); then it goes up a level, as after every block passed;
 - a stretch that leaves the raster runs to where the line is past the raster's margin, and a
   block's is then passed only above the whole raster's top (beyond the edge the line may run
   along it; not where the flight's window ends inside the raster);
@@ -81,8 +83,9 @@ def make_grid_cells(precision: str) -> SimpleNamespace:
 @functools.cache
 def make_grid_walk(precision: str, face_time) -> SimpleNamespace:
     """`walked(surfaces, k)` and `grid_time(surfaces, k, x, v, g, R, end)` -> (time or
-    NO_CONTACT, walked) of terrain k over [0, end] s, with `face_time(surfaces, k, face, x, v, g, R)`
-    (when the parabola meets triangle `face`; module docstring)."""
+    NO_CONTACT, walked) of terrain k over [0, end] s, with `face_time(surfaces, k, face, x, v, g, R,
+    before)` (when the parabola meets triangle `face`, NO_CONTACT where not before `before` s if
+    that is >= 0; module docstring)."""
     t = types_for(precision)
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
     LATEST, NONE = scalar(MAX_FLIGHT_TIME), scalar(NO_CONTACT)
@@ -162,9 +165,10 @@ def make_grid_walk(precision: str, face_time) -> SimpleNamespace:
         seen: wp.vec4i,
     ):
         """(the earlier of `best` and the contacts with the triangles of mesh k in `cells` (columns
-        cells[0] to cells[1] by rows cells[2] to cells[3]), but those of a cell among `seen` or whose
+        cells[0] to cells[1] by rows cells[2] to cells[3]), but those of a cell among `seen`, or whose
         top the centre passes more than the margin above while the line is within the margin of the
-        cell in [now, then] s; `seen`, the last four cells tested (-1: none), updated). `line`: (u0,
+        cell in [now, then] s, or that the line comes within the margin of only from `best` on;
+        `seen`, the last four cells tested (-1: none), updated). `line`: (u0,
         su, w0, sw), the line in cells; `path`: (h0, rise, half), the centre's height (m); `pads`:
         the margin in m, across columns and across rows in cells."""
         dims, first = surfaces.grid_dims[k], surfaces.grid_first[k]
@@ -178,12 +182,14 @@ def make_grid_walk(precision: str, face_time) -> SimpleNamespace:
                 if face >= 0:
                     lo, hi = clip(line[0], line[1], scalar(i) - pads[1], scalar(i + 1) + pads[1], now, then)
                     lo, hi = clip(line[2], line[3], scalar(j) - pads[2], scalar(j + 1) + pads[2], lo, hi)
-                    if hi < lo or lowest(path[0], path[1], path[2], lo, hi) - pads[0] > surfaces.grid_top[level + cell]:
+                    if hi < lo or (best >= scalar(0.0) and best <= lo):  # (met no earlier than best)
+                        face = -1
+                    elif lowest(path[0], path[1], path[2], lo, hi) - pads[0] > surfaces.grid_top[level + cell]:
                         face = -1
                 if face >= 0:
                     seen = wp.vec4i(cell, seen[0], seen[1], seen[2])
                     for f in range(face, face + 2):
-                        when = face_time(surfaces, k, f, x, v, g, radius)
+                        when = face_time(surfaces, k, f, x, v, g, radius, best)
                         if when >= scalar(0.0) and (best < scalar(0.0) or when < best):
                             best = when
         return best, seen

@@ -28,7 +28,10 @@ The BVH only proposes triangles; every test is on the kernel-precision vertices:
 
 A mesh of at most FEW_FACES triangles (a box, a plane's two) has every triangle tested instead of the
 chords' candidates: the same earliest contact (the chords' boxes only exclude triangles that cannot be
-met), without the BVH's traversals.
+met), without the BVH's traversals. Its edges and corners are searched only from when the centre
+first comes within R of the plane of every face that covers them (`physics.mesh_edges.covering_faces`:
+all of them on or behind that plane, so each is farther from a centre in front than its height):
+in a convex or a flat mesh, a face contact leaves none to search.
 `make_mesh_search` runs that search with a given per-triangle test: `physics.edge_contact`'s adds
 the mesh's convex edges and corners each triangle owns to its face.
 """
@@ -40,6 +43,7 @@ import warp as wp
 
 from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT, ROUNDING, make_ballistic
 from .grid_walk import make_grid_cells, make_grid_walk
+from .mesh_edges import FEW_FACES, INSET
 from .types import KINDS, types_for
 
 SAGITTA = 1.0 / 16.0  # a chord's sagitta, as a fraction of the mesh's bounding-box diagonal
@@ -47,7 +51,6 @@ MAX_CHORDS = 1024  # past it the chords are longer and their boxes grown by thei
 CHORD_EDGES = 4.0  # a chord's length at most this many of the mesh's median triangle edge
 EDGE_ROUNDING = 8.0  # the inside test's tolerance, in machine epsilons of its operands' scale
 FLOAT32_SLACK = 2.0**-20  # relative: the BVH's float32 boxes against the kernel's vertices
-FEW_FACES = 16  # a mesh of at most this many triangles is searched whole, without its BVH
 STATE_ROUNDING = 2.0  # a stored centre's rounding (and one placement's), in eps of its own coordinates
 
 
@@ -78,7 +81,7 @@ def make_mesh_lookup(precision: str) -> SimpleNamespace:
 
 @functools.cache
 def make_triangle_basics(precision: str) -> SimpleNamespace:
-    """`vertices`, `single`, `l1`, `inside` and `descending`: a mesh's triangles and the tests on them
+    """`vertices`, `single`, `l1`, `inside`, `descending` and `leaves_clear`: a mesh's triangles and the tests on them
     that its contacts, the air's search, posts and the motion along triangles share (one precision)."""
     t = types_for(precision)
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
@@ -159,8 +162,45 @@ def make_triangle_basics(precision: str) -> SimpleNamespace:
                 return -(speed + wp.sqrt(disc)) / (scalar(2.0) * half)
         return scalar(NO_CONTACT)
 
+    @wp.func
+    def leaves_clear(
+        n: vec3,
+        a: vec3,
+        b: vec3,
+        c: vec3,
+        x: vec3,
+        v: vec3,
+        g: vec3,
+        radius: scalar,
+        height: scalar,
+        gap: scalar,
+        speed: scalar,
+        half: scalar,
+        deep: scalar,
+    ):
+        """Whether a centre x within R in front of triangle (a, b, c) (height in [0, R), gap =
+        height - R, leaving at `speed` > 0, `half` = g.n / 2) gets out to R of its plane, and until
+        then stays farther than R from every point on or behind its plane that projects outside the
+        triangle or onto its edges (projected inside it by e (m), less its displacement until then
+        and rounding, with e^2 + height^2 > R^2: such a point's distance is at least
+        sqrt(e^2 + height^2)) or lies more than its overlap -gap deeper than the plane (`deep`, m:
+        the least depth of those that project inside)."""
+        disc = speed * speed - scalar(4.0) * half * gap
+        if disc < scalar(0.0) or -gap >= deep:
+            return False
+        out = scalar(-2.0) * gap / (speed + wp.sqrt(disc))  # (s) when it is R out
+        e0 = wp.dot(n, wp.cross(b - a, x - a)) / wp.length(b - a)
+        e1 = wp.dot(n, wp.cross(c - b, x - b)) / wp.length(c - b)
+        e2 = wp.dot(n, wp.cross(a - c, x - c)) / wp.length(a - c)
+        moved = (wp.length(v) + scalar(0.5) * wp.length(g) * out) * out
+        spans = l1(b - a) + l1(c - b) + l1(a - c)  # (the inset `inner_depths` leaves, twice)
+        rounded = EDGE * (l1(x - a) + spans) + state_rounding(x) + scalar(2.0 * INSET) * spans
+        inner = wp.min(wp.min(e0, e1), e2) - moved - rounded
+        return inner > scalar(0.0) and inner * inner + height * height > radius * radius
+
     return SimpleNamespace(
         vertices=vertices,
+        leaves_clear=leaves_clear,
         single=single,
         l1=l1,
         inside=inside,
@@ -188,13 +228,28 @@ def make_mesh_contact(precision: str, large: bool = True) -> SimpleNamespace:
     cells = make_grid_cells(precision)
 
     @wp.func
-    def triangle_time(surfaces: Surfaces, k: wp.int32, face: wp.int32, x: vec3, v: vec3, g: vec3, radius: scalar):
-        """When the parabola meets triangle `face` of mesh k (module docstring), or NO_CONTACT."""
+    def triangle_bound(
+        surfaces: Surfaces,
+        k: wp.int32,
+        face: wp.int32,
+        x: vec3,
+        v: vec3,
+        g: vec3,
+        radius: scalar,
+        before: scalar,
+        deep: scalar,
+    ):
+        """(`triangle_time`, clear): clear (s) is when the centre, starting more than R in front of
+        the triangle's plane, or touching it (within the touching band) and leaving it, or within R
+        and leaving it over the triangle clear of its edges (`leaves_clear`, with `deep`), first
+        comes within R of it (MAX_FLIGHT_TIME: never); else 0. The time is NO_CONTACT too
+        where the offset plane is reached no earlier than `before` (>= 0; s): the triangle itself
+        no earlier, then."""
         a, b, c = vertices(surfaces, k, face)
         n = wp.cross(b - a, c - a)
         size = wp.length(n)
         if size == scalar(0.0):
-            return scalar(NO_CONTACT)
+            return scalar(NO_CONTACT), scalar(0.0)
         n = n / size
         height = wp.dot(x - a, n)
         noise = basics.height_noise(surfaces, k, x, a, n)
@@ -206,19 +261,40 @@ def make_mesh_contact(precision: str, large: bool = True) -> SimpleNamespace:
         if wp.abs(gap) <= TOLERANCE * (noise + radius):
             gap = scalar(0.0)  # the touching band
         best = scalar(NO_CONTACT)
+        clear = scalar(0.0)
         if height >= scalar(0.0):
             best = entry_time(gap, speed, half)  # the plane's rule, overlapping included
+            if gap > scalar(0.0) or (gap == scalar(0.0) and speed > scalar(0.0)):
+                clear = wp.where(best >= scalar(0.0), best, LATEST)
+            elif speed > scalar(0.0) and basics.leaves_clear(n, a, b, c, x, v, g, radius, height, gap, speed, half, deep):
+                clear = wp.where(best >= scalar(0.0), best, LATEST)
         else:
             best = descending(gap, speed, half)
+        if before >= scalar(0.0) and best >= before:
+            return scalar(NO_CONTACT), clear
         if best >= scalar(0.0) and not inside(n, a, b, c, position(x, v, g, best)):
             best = scalar(NO_CONTACT)
         if best >= scalar(0.0):  # (the centre reaches the triangle itself no earlier)
-            return best
+            return best, clear
         if wp.abs(height) <= TOLERANCE * noise:
             height = scalar(0.0)
         through = descending(height, speed, half)  # the centre reaching the triangle itself
         if through >= scalar(0.0) and inside(n, a, b, c, position(x, v, g, through)):
             best = through
+        return best, clear
+
+    @wp.func
+    def triangle_time(surfaces: Surfaces, k: wp.int32, face: wp.int32, x: vec3, v: vec3, g: vec3, radius: scalar):
+        """When the parabola meets triangle `face` of mesh k (module docstring), or NO_CONTACT."""
+        best, _clear = triangle_bound(surfaces, k, face, x, v, g, radius, scalar(NO_CONTACT), scalar(0.0))
+        return best
+
+    @wp.func
+    def triangle_before(
+        surfaces: Surfaces, k: wp.int32, face: wp.int32, x: vec3, v: vec3, g: vec3, radius: scalar, before: scalar
+    ):
+        """`triangle_time`, NO_CONTACT where the triangle is met no earlier than `before` (>= 0; s)."""
+        best, _clear = triangle_bound(surfaces, k, face, x, v, g, radius, before, scalar(0.0))
         return best
 
     @wp.func
@@ -291,10 +367,12 @@ def make_mesh_contact(precision: str, large: bool = True) -> SimpleNamespace:
             closing = wp.dot(v, n)
             if height >= -slack and height <= grow:
                 y = x - n * height  # the edge functions within R of the triangle
-                e0 = wp.dot(n, wp.cross(b - a, y - a)) / wp.length(b - a)
-                e1 = wp.dot(n, wp.cross(c - b, y - b)) / wp.length(c - b)
-                e2 = wp.dot(n, wp.cross(a - c, y - c)) / wp.length(a - c)
-                beside = wp.min(wp.min(e0, e1), e2)
+                far = -wp.max(grow, fine)  # (past it on one edge: neither test below can pass)
+                beside = wp.dot(n, wp.cross(b - a, y - a)) / wp.length(b - a)
+                if beside >= far:
+                    beside = wp.min(beside, wp.dot(n, wp.cross(c - b, y - b)) / wp.length(c - b))
+                if beside >= far:
+                    beside = wp.min(beside, wp.dot(n, wp.cross(a - c, y - c)) / wp.length(a - c))
                 if beside >= -fine and (height <= slack or height >= grow - scalar(2.0) * slack):
                     over = True  # as the faces' two rules leave a centre: R or 0 in front
                 tie = closing == steepest and closing < scalar(0.0) and face < chosen
@@ -363,6 +441,8 @@ def make_mesh_contact(precision: str, large: bool = True) -> SimpleNamespace:
     helpers = {**vars(basics), **vars(make_mesh_lookup(precision))}
     return SimpleNamespace(
         triangle_time=triangle_time,
+        triangle_bound=triangle_bound,
+        triangle_before=triangle_before,
         earlier=earlier,
         window=window,
         mesh_normal=mesh_normal,
@@ -383,16 +463,20 @@ def make_mesh_search(precision: str, face_time, features_time=None, large: bool 
     `features_time(surfaces, k, face, x, v, g, R, start, stop)` (what else the triangle owns, met
     in [start, stop] s, else NO_CONTACT), of that, over the triangles the chords' boxes find (their
     chord's times) or, for a small mesh, every triangle: its faces first, then their features
-    until the earliest face contact (at equal times the face; module docstring). `large` False:
-    every mesh is small (no chords' BVH queries compiled in)."""
+    until the earliest face contact (at equal times the face; module docstring), and in a small
+    mesh from when the centre first comes within R of every covering face's plane (`face_cover`).
+    `face_time` is `triangle_time`: its `triangle_bound` gives those times, and the raster walk
+    takes its `triangle_before`, cut short at the contact found. `large` False: every mesh is
+    small (no chords' BVH queries compiled in)."""
     t = types_for(precision)
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
     position = make_ballistic(precision).position
     LATEST = scalar(MAX_FLIGHT_TIME)
     mc = make_mesh_contact(precision, large)
+    assert face_time is mc.triangle_time, "a small mesh's features are bounded by triangle_bound, the walk cut short"
     single, l1, earlier, window = mc.single, mc.l1, mc.earlier, mc.window
     FEATURES = features_time is not None
-    grid = make_grid_walk(precision, face_time)  # (a terrain owns no edges or corners)
+    grid = make_grid_walk(precision, mc.triangle_before)  # (a terrain owns no edges or corners)
 
     @wp.func
     def near(low: vec3, high: vec3, grow: scalar, x: vec3, v: vec3, g: vec3, end: scalar):
@@ -476,14 +560,29 @@ def make_mesh_search(precision: str, face_time, features_time=None, large: bool 
                 if not walked:
                     best = chords_time(surfaces, k, x, v, g, radius, end, slack)
                 return wp.where(best > LATEST, scalar(NO_CONTACT), best)
-        for face in range(faces):  # a small mesh: every triangle, then what they own
-            best = earlier(best, face_time(surfaces, k, face, x, v, g, radius))
+        clear = scalar(0.0)  # a small mesh: every triangle, then what they own
+        for face in range(faces):
+            if wp.static(FEATURES):  # no edge or corner is met before a covering face's offset plane
+                first = surfaces.face_first[k]
+                covers = first >= 0 and surfaces.face_cover[first + face] != 0
+                deep = scalar(0.0)
+                if covers:
+                    deep = surfaces.face_depth[first + face]
+                when, bound = mc.triangle_bound(surfaces, k, face, x, v, g, radius, best, deep)
+                if covers:
+                    clear = wp.max(clear, bound)
+                best = earlier(best, when)
+            else:
+                best = earlier(best, face_time(surfaces, k, face, x, v, g, radius))
         if wp.static(FEATURES):
-            after, until = near(low, high, radius + slack, x, v, g, end)
-            if best >= scalar(0.0):
-                until = wp.min(best, until)
-            for face in range(faces):
-                best = earlier(best, features_time(surfaces, k, face, x, v, g, radius, after, until))
+            if clear < wp.where(best >= scalar(0.0), best, LATEST):  # (at equal times the face)
+                after, until = near(low, high, radius + slack, x, v, g, end)
+                after = wp.max(after, clear)
+                if best >= scalar(0.0):
+                    until = wp.min(best, until)
+                if after < until or (after == until and best < scalar(0.0)):
+                    for face in range(faces):
+                        best = earlier(best, features_time(surfaces, k, face, x, v, g, radius, after, until))
         return wp.where(best > LATEST, scalar(NO_CONTACT), best)
 
     return SimpleNamespace(mesh_time=mesh_time)

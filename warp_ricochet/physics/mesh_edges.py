@@ -15,7 +15,10 @@ first), so that a search over candidate triangles tests it once.
 
 import numpy as np
 
+FEW_FACES = 16  # a mesh of at most this many triangles is searched whole, without its BVH (`mesh_contact`)
 FLAT = 1e-9  # sine of a dihedral below which an edge counts as flat (the sphere's gap: R FLAT^2 / 8)
+COPLANAR = 64 * 2.0**-52  # a corner this far in front of a plane (of its and the plane's coordinates) counts as on it
+INSET = 1e-9  # `inner_depths`: a point projecting this far inside a triangle (of its edges' l1) counts as on its edges
 
 
 def convex_features(vertices, triangles) -> dict:
@@ -65,3 +68,63 @@ def convex_features(vertices, triangles) -> dict:
     slots = held[firsts]
     face_corners[slots // 3, slots % 3] = where[flat[slots]].astype(np.int32)
     return {"edges": points[ends], "corners": points[corner_ids], "face_edges": face_edges, "face_corners": face_corners}
+
+
+def covering_faces(vertices, triangles, corners) -> np.ndarray:
+    """Per triangle whether every kept corner (`convex_features`' `corners`: the end points of the
+    kept edges) lies on or behind its plane, n.(c - a) <= COPLANAR (|c - a| + |a|_1 + |c|_1): within
+    float64's rounding of the mesh as given,
+    then no kept edge or corner is nearer a centre in front of the plane than its height over it, so
+    none is met before the face's R-offset plane is reached from in front (`physics.edge_contact`).
+    True for every face of a convex or a flat mesh. bool (m,)."""
+    vertices = np.asarray(vertices, dtype=np.float64)
+    triangles = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    corners = np.asarray(corners, dtype=np.float64).reshape(-1, 3)
+    a, b, c = (vertices[triangles[:, j]] for j in range(3))
+    n = np.cross(b - a, c - a)
+    size = np.linalg.norm(n, axis=1, keepdims=True)
+    n = np.divide(n, size, out=np.zeros_like(n), where=size > 0)
+    away = corners[None, :, :] - a[:, None, :]  # (m, C, 3)
+    scale = np.linalg.norm(away, axis=2) + np.abs(a).sum(axis=1)[:, None] + np.abs(corners).sum(axis=1)[None, :]
+    ahead = np.einsum("mj,mcj->mc", n, away) - COPLANAR * scale
+    return (size[:, 0] > 0) & (ahead <= 0).all(axis=1)
+
+
+def inner_depths(vertices, triangles, edges, corners) -> np.ndarray:
+    """Per triangle the least depth (m) behind its plane of the kept edges' and corners' points that
+    project inside it (more than INSET of its edges' l1 lengths from them), np.inf where none does
+    (a box's faces, a flat mesh's): a centre within R in front of the triangle is farther than R
+    from every such point while its overlap of R is less than that depth, and from the points that
+    project outside it or onto its edges by at least its distance from them
+    (`mesh_contact.leaves_clear`). float64 (m,), the mesh as given."""
+    vertices = np.asarray(vertices, dtype=np.float64)
+    triangles = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    ends = np.concatenate(
+        [
+            np.asarray(edges, dtype=np.float64).reshape(-1, 2, 3),
+            np.repeat(np.asarray(corners, dtype=np.float64).reshape(-1, 1, 3), 2, axis=1),
+        ]
+    )
+    depths = np.full(len(triangles), np.inf)
+    for f, (a, b, c) in enumerate(vertices[triangles]):
+        slack = INSET * (np.abs(b - a).sum() + np.abs(c - b).sum() + np.abs(a - c).sum())
+        n = np.cross(b - a, c - a)
+        if not np.linalg.norm(n) > 0:
+            continue
+        n = n / np.linalg.norm(n)
+        sides = [np.cross(n, q - p) / np.linalg.norm(q - p) for p, q in ((a, b), (b, c), (c, a))]
+        lo, hi = np.zeros(len(ends)), np.ones(len(ends))  # the part of each segment over the triangle
+        for side, p in zip(sides, (a, b, c)):
+            f0, f1 = (ends[:, 0] - p) @ side - slack, (ends[:, 1] - p) @ side - slack
+            rising, falling = f1 > f0, f1 < f0
+            cross = np.divide(-f0, f1 - f0, out=np.zeros_like(f0), where=f1 != f0)
+            lo = np.where(rising, np.maximum(lo, cross), lo)
+            hi = np.where(falling, np.minimum(hi, cross), hi)
+            flat_out = (f1 == f0) & (f0 <= 0)
+            hi = np.where(flat_out, -1.0, hi)
+        over = lo <= hi
+        if over.any():
+            d0, d1 = -(ends[over, 0] - a) @ n, -(ends[over, 1] - a) @ n  # (linear along a segment)
+            first, last = d0 + lo[over] * (d1 - d0), d0 + hi[over] * (d1 - d0)
+            depths[f] = max(0.0, float(np.minimum(first, last).min()))
+    return depths

@@ -14,7 +14,7 @@ import numpy as np
 import warp as wp
 
 from ..struct_refs import read_only
-from .mesh_edges import convex_features
+from .mesh_edges import FEW_FACES, convex_features, covering_faces, inner_depths
 from .mipmap import grid_deviation, max_pyramid
 
 SCALARS = {"float32": wp.float32, "float64": wp.float64}
@@ -71,10 +71,15 @@ def types_for(precision: str) -> SimpleNamespace:
         # a mesh's convex and border edges and their corners (`physics.mesh_edges`, read by
         # `physics.edge_contact`): per surface the row of its first triangle in face_edges and
         # face_corners (-1: none at all), which hold per triangle the edges and corners it owns (-1: none);
-        # edge_ends: two end points (m) per edge; corner_points (m)
+        # edge_ends: two end points (m) per edge; corner_points (m); per triangle of a mesh of at most
+        # FEW_FACES, face_cover: 1 where every kept corner lies on or behind its plane
+        # (`physics.mesh_edges.covering_faces`), face_depth: the least depth (m) of the kept points
+        # projecting inside it (`physics.mesh_edges.inner_depths`; 0 for a larger mesh)
         face_first: wp.array(dtype=wp.int32)
         face_edges: wp.array(dtype=wp.vec3i)
         face_corners: wp.array(dtype=wp.vec3i)
+        face_cover: wp.array(dtype=wp.int32)
+        face_depth: wp.array(dtype=scalar)
         edge_ends: wp.array(dtype=vec3)
         corner_points: wp.array(dtype=vec3)
         # a terrain walked in its raster (`physics.grid_walk`, scene.terrain.TerrainGrid): per surface
@@ -252,6 +257,7 @@ def _feature_fields(surfaces, precision: str, meshes, device) -> None:
     their indices made global; face_first -1 for a surface without (a plane, a plate, a terrain)."""
     t, dtype = types_for(precision), np.dtype(precision)
     face_first, face_edges, face_corners, ends, corners = [], [np.zeros((0, 3), np.int32)], [np.zeros((0, 3), np.int32)], [], []
+    cover, depth = [np.zeros(0, np.int32)], [np.zeros(0)]
     rows = edge_count = corner_count = 0
     for triangles in meshes:
         if triangles is None or not getattr(triangles, "edges", True):
@@ -263,6 +269,11 @@ def _feature_fields(surfaces, precision: str, meshes, device) -> None:
         face_corners.append(np.where(found["face_corners"] >= 0, found["face_corners"] + corner_count, -1))
         ends.append(found["edges"].reshape(-1, 3))
         corners.append(found["corners"])
+        small = len(triangles.triangles) <= FEW_FACES  # (only a small mesh's search reads it)
+        covers = small and covering_faces(triangles.vertices, triangles.triangles, found["corners"])
+        cover.append(np.broadcast_to(np.asarray(covers, dtype=np.int32), len(triangles.triangles)))
+        deep = small and inner_depths(triangles.vertices, triangles.triangles, found["edges"], found["corners"])
+        depth.append(np.broadcast_to(np.asarray(deep, dtype=np.float64), len(triangles.triangles)))
         rows, edge_count, corner_count = (
             rows + len(triangles.triangles),
             edge_count + len(found["edges"]),
@@ -271,6 +282,10 @@ def _feature_fields(surfaces, precision: str, meshes, device) -> None:
     surfaces.face_first = wp.array(np.asarray(face_first, dtype=np.int32), dtype=wp.int32, device=device)
     surfaces.face_edges = wp.array(np.concatenate(face_edges).astype(np.int32), dtype=wp.vec3i, device=device)
     surfaces.face_corners = wp.array(np.concatenate(face_corners).astype(np.int32), dtype=wp.vec3i, device=device)
+    surfaces.face_cover = wp.array(np.concatenate(cover).astype(np.int32), dtype=wp.int32, device=device)
+    depth = np.concatenate(depth)  # rounded down into the kernel's precision
+    depth = np.where(depth.astype(dtype) > depth, np.nextafter(depth.astype(dtype), dtype.type(-np.inf)), depth.astype(dtype))
+    surfaces.face_depth = wp.array(np.maximum(depth, 0).astype(dtype), dtype=t.scalar, device=device)
     for name, values in (("edge_ends", ends), ("corner_points", corners)):
         setattr(surfaces, name, wp.array(np.concatenate([np.zeros((0, 3)), *values]).astype(dtype), dtype=t.vec3, device=device))
 
