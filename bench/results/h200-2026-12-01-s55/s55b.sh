@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# session 55, call 2: C2 (C with the covering rule for a centre leaving a face within its rounding, and
+# each triangle's vertex rows in a table of our own) and C3 (C2 with per-triangle normals, edge normals and
+# edge lengths computed once in float64) against main M: plane 1e8, terrain 1e7, twice; cmpwalk on C3; ncu of C3's mesh.
+set -u
+out=${OUT:-/tmp/out}; mkdir -p $out
+root=$PWD
+inn() { local t=$1; shift; (cd $root/.gpu/b/exp/$t && WARP_CACHE_PATH=/tmp/wc_$t PYTHONPATH=/tmp/site:$PWD PYTHONUNBUFFERED=1 "$@") 2>&1; }
+filt() { grep -v "^Warp \|CUDA Toolkit\|Devices:\|Kernel cache\|\.cache/warp\|\"cpu\"\|\"cuda:0\"\|^Module \|^{\|/tmp/wc_\|PrecisionWarning\|return _compute\|warnings.warn"; }
+start=$(date +%s)
+nvidia-smi --query-gpu=name,driver_version --format=csv > $out/gpu.txt
+rm -rf $root/.gpu/b/exp; mkdir -p $root/.gpu/b/exp && tar xJf $root/.gpu/b/exp.tar.xz -C $root/.gpu/b/exp
+for t in M C2 C3; do
+  ( inn $t timeout 250 python3 -m bench.meshes terrain --device cuda:0 --n 1e4 --repeats 1 --cells 64 > $out/warm-$t.txt ) &
+  ( inn $t timeout 250 python3 -m bench.meshes plane --device cuda:0 --n 1e4 --repeats 1 > $out/warm-plane-$t.txt ) &
+done
+( inn C3 timeout 250 python3 $root/bench/results/h200-2026-11-30-s54/cmpwalk.py 2e3 cuda:0 float32 > $out/warm-cmp.txt ) &
+( inn C3 timeout 250 python3 -m bench.mesh_profile --case mesh --n 1e4 --repeats 1 > $out/warm-prof.txt ) &
+wait
+echo "warm-up $(( $(date +%s) - start )) s" | tee $out/times.txt
+for r in 1 2; do for t in M C2 C3; do
+  inn $t timeout 60 python3 -m bench.meshes plane --device cuda:0 --n 1e8 --repeats 5 | filt | grep "pellets/s\|plane time" | sed "s/^/$r $t: /"
+done; done 2>&1 | tee $out/plane.txt
+echo "plane $(( $(date +%s) - start )) s" | tee -a $out/times.txt
+for r in 1 2; do for t in M C2 C3; do
+  inn $t timeout 60 python3 -m bench.meshes terrain --device cuda:0 --n 1e7 --repeats 3 | filt | grep "vacuum\|air" | sed "s/^/$r $t: /"
+done; done 2>&1 | tee $out/terrain.txt
+echo "terrain $(( $(date +%s) - start )) s" | tee -a $out/times.txt
+inn C3 timeout 120 python3 $root/bench/results/h200-2026-11-30-s54/cmpwalk.py 2e4 cuda:0 float32 | filt | tee $out/cmpwalk.txt
+echo "cmpwalk $(( $(date +%s) - start )) s" | tee -a $out/times.txt
+for c in mesh; do
+  mkdir -p $out/ncu-$c
+  inn C3 timeout 150 /usr/local/cuda/bin/ncu -k regex:ricochet_kernel -c 1 --section WarpStateStats --section SourceCounters \
+    --section LaunchStats --section Occupancy --section SpeedOfLight --import-source yes -o $out/ncu-$c/rep \
+    python3 -m bench.mesh_profile --case $c --n 1e7 --repeats 0 | filt | tail -3
+  inn C3 /usr/local/cuda/bin/ncu -i $out/ncu-$c/rep.ncu-rep --page source --csv --print-source cuda,sass > $out/ncu-$c/source.csv
+  inn C3 /usr/local/cuda/bin/ncu -i $out/ncu-$c/rep.ncu-rep --page details > $out/ncu-$c/details.txt
+  inn C3 python3 -m bench.ncu_lines $out/ncu-$c/source.csv > $out/ncu-$c/lines.txt
+  inn C3 python3 -m bench.ncu_lines $out/ncu-$c/source.csv --top 150 > $out/ncu-$c/lines150.txt 2>/dev/null
+  rm -f $out/ncu-$c/source.csv $out/ncu-$c/rep.ncu-rep
+  echo "ncu $c $(( $(date +%s) - start )) s" | tee -a $out/times.txt
+done
+cd $out && tar czf all.tgz *.txt ncu-*/*.txt
