@@ -73,24 +73,25 @@ def make_roots(precision: str, out_of_line: bool = False) -> SimpleNamespace:
         f_lo = evaluate(lo, slope, sign, g0, s0, q0, g1, s1, q1)
         f_hi = evaluate(hi, slope, sign, g0, s0, q0, g1, s1, q1)
         side = wp.int32(0)
-        for _ in range(ITERATIONS):
-            if hi - lo > THETA_TOLERANCE:
-                mid = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
-                if not (mid > lo and mid < hi):
-                    mid = scalar(0.5) * (lo + hi)
-                f_mid = evaluate(mid, slope, sign, g0, s0, q0, g1, s1, q1)
-                if f_mid > scalar(0.0):
-                    lo = mid
-                    f_lo = f_mid
-                    if side == 1:
-                        f_hi = scalar(0.5) * f_hi
-                    side = wp.int32(1)
-                else:
-                    hi = mid
-                    f_hi = f_mid
-                    if side == -1:
-                        f_lo = scalar(0.5) * f_lo
-                    side = wp.int32(-1)
+        steps = wp.int32(0)
+        while hi - lo > THETA_TOLERANCE and steps < ITERATIONS:  # (at most ITERATIONS)
+            steps += 1
+            mid = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
+            if not (mid > lo and mid < hi):
+                mid = scalar(0.5) * (lo + hi)
+            f_mid = evaluate(mid, slope, sign, g0, s0, q0, g1, s1, q1)
+            if f_mid > scalar(0.0):
+                lo = mid
+                f_lo = f_mid
+                if side == 1:
+                    f_hi = scalar(0.5) * f_hi
+                side = wp.int32(1)
+            else:
+                hi = mid
+                f_hi = f_mid
+                if side == -1:
+                    f_lo = scalar(0.5) * f_lo
+                side = wp.int32(-1)
         return hi
 
     @wp.func
@@ -520,25 +521,27 @@ def make_plane_search(precision: str, planes, plates: bool = False, out_of_line:
             elif (waiting & bit) != 0:
                 watch = wp.int32(2)
             if watch != 0:
-                g0, s0, q0, g1, s1, q1 = geo.step_gaps(surfaces, k, physics.radius, h, x0, v0, a0, x1, v1, a1)
-                if wp.static(PLATES):  # a plate not clear of its plane at the start (beside it, behind it): not this step
-                    theta = scalar(2.0)
-                    now_watched = wp.int32(0)
-                    plate = geo.is_plate(surfaces, k)
-                    if not (plate and watch == 1 and g0 <= scalar(0.0)):
-                        theta, now_watched = plane_theta(watch, g0, s0, q0, g1, s1, q1)
-                    if plate and theta <= scalar(1.0):
-                        x, _slope = hermite_vec(theta, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
-                        theta, now_watched = plate_theta(k, watch, x, theta, now_watched, surfaces)
-                else:
-                    theta, now_watched = plane_theta(watch, g0, s0, q0, g1, s1, q1)
+                theta = scalar(2.0)
+                now_watched = wp.int32(0)
+                solid = wp.bool(False)  # a mesh or a post: its own rules, not its plane's
                 if wp.static(WITH_MESHES):
-                    if meshes.is_mesh(surfaces, k):  # (its plate answer above is not used)
+                    solid = meshes.is_mesh(surfaces, k) or posts.is_post(surfaces, k)
+                if not solid:
+                    g0, s0, q0, g1, s1, q1 = geo.step_gaps(surfaces, k, physics.radius, h, x0, v0, a0, x1, v1, a1)
+                    if wp.static(PLATES):  # a plate not clear of its plane at the start (beside it, behind it): not this step
+                        plate = geo.is_plate(surfaces, k)
+                        if not (plate and watch == 1 and g0 <= scalar(0.0)):
+                            theta, now_watched = plane_theta(watch, g0, s0, q0, g1, s1, q1)
+                        if plate and theta <= scalar(1.0):
+                            x, _slope = hermite_vec(theta, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
+                            theta, now_watched = plate_theta(k, watch, x, theta, now_watched, surfaces)
+                    else:
+                        theta, now_watched = plane_theta(watch, g0, s0, q0, g1, s1, q1)
+                if wp.static(WITH_MESHES):
+                    if meshes.is_mesh(surfaces, k):
                         theta = solids.mesh_theta(surfaces, k, h, x0, v0, a0, x1, v1, a1, physics.radius)
-                        now_watched = wp.int32(0)
                     elif posts.is_post(surfaces, k):
                         theta = solids.post_theta(surfaces, k, h, x0, v0, a0, x1, v1, a1, physics.radius)
-                        now_watched = wp.int32(0)
                 if now_watched != 0:
                     watched = watched | bit
                     waiting = waiting & ~bit
