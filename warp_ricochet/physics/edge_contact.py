@@ -238,5 +238,5 @@ def make_edge_contact(precision: str, large: bool = True, edges: bool = True) ->
             return radial
         return n
 
-    mesh_time = make_mesh_search(precision, mc.triangle_time, features_time if edges else None, large).mesh_time
+    mesh_time = make_mesh_search(precision, features_time if edges else None, large).mesh_time
     return SimpleNamespace(mesh_time=mesh_time, features_theta=features_theta, contact_normal=contact_normal, touching=touching)

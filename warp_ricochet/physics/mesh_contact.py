@@ -32,8 +32,8 @@ met), without the BVH's traversals. Its edges and corners are searched only from
 first comes within R of the plane of every face that covers them (`physics.mesh_edges.covering_faces`:
 all of them on or behind that plane, so each is farther from a centre in front than its height):
 in a convex or a flat mesh, a face contact leaves none to search.
-`make_mesh_search` runs that search with a given per-triangle test: `physics.edge_contact`'s adds
-the mesh's convex edges and corners each triangle owns to its face.
+`make_mesh_search` runs that search, with what else each triangle owns: `physics.edge_contact`'s
+adds the mesh's convex edges and corners each triangle owns to its face.
 """
 
 import functools
@@ -457,23 +457,21 @@ def make_mesh_contact(precision: str, large: bool = True) -> SimpleNamespace:
 
 
 @functools.cache
-def make_mesh_search(precision: str, face_time, features_time=None, large: bool = True) -> SimpleNamespace:
-    """`mesh_time(surfaces, k, x, v, g, R)`: the earliest of `face_time(surfaces, k, face, x, v, g, R)`
-    (a `@wp.func`: when the parabola meets triangle `face`, or NO_CONTACT) and, with
+def make_mesh_search(precision: str, features_time=None, large: bool = True) -> SimpleNamespace:
+    """`mesh_time(surfaces, k, x, v, g, R)`: the earliest of `triangle_time` and, with
     `features_time(surfaces, k, face, x, v, g, R, start, stop)` (what else the triangle owns, met
     in [start, stop] s, else NO_CONTACT), of that, over the triangles the chords' boxes find (their
     chord's times) or, for a small mesh, every triangle: its faces first, then their features
     until the earliest face contact (at equal times the face; module docstring), and in a small
-    mesh from when the centre first comes within R of every covering face's plane (`face_cover`).
-    `face_time` is `triangle_time`: its `triangle_bound` gives those times, and the raster walk
-    takes its `triangle_before`, cut short at the contact found. `large` False: every mesh is
-    small (no chords' BVH queries compiled in)."""
+    mesh from when the centre first comes within R of every covering face's plane (`face_cover`,
+    the times from `triangle_bound`); the raster walk takes `triangle_before`, cut short at the
+    contact found. `large` False: every mesh is small (no chords' BVH queries compiled in)."""
     t = types_for(precision)
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
     position = make_ballistic(precision).position
     LATEST = scalar(MAX_FLIGHT_TIME)
     mc = make_mesh_contact(precision, large)
-    assert face_time is mc.triangle_time, "a small mesh's features are bounded by triangle_bound, the walk cut short"
+    face_time = mc.triangle_time
     single, l1, earlier, window = mc.single, mc.l1, mc.earlier, mc.window
     FEATURES = features_time is not None
     grid = make_grid_walk(precision, mc.triangle_before)  # (a terrain owns no edges or corners)
