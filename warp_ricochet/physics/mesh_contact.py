@@ -81,7 +81,7 @@ def make_mesh_lookup(precision: str) -> SimpleNamespace:
 
 @functools.cache
 def make_triangle_basics(precision: str) -> SimpleNamespace:
-    """`vertices`, `single`, `l1`, `inside`, `descending` and `leaves_clear`: a mesh's triangles and the tests on them
+    """`vertices`, `single`, `l1`, `inside`, `descending`, `edge_distance` and `leaves_clear`: a mesh's triangles and the tests on them
     that its contacts, the air's search, posts and the motion along triangles share (one precision)."""
     t = types_for(precision)
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
@@ -163,6 +163,12 @@ def make_triangle_basics(precision: str) -> SimpleNamespace:
         return scalar(NO_CONTACT)
 
     @wp.func
+    def edge_distance(n: vec3, p: vec3, q: vec3, y: vec3):
+        """How far (m) y projected along n lies on the inner side of the edge p -> q (counter-clockwise
+        about n): the edge function n.((q - p) x (y - p)) / |q - p|, negative beyond it."""
+        return wp.dot(n, wp.cross(q - p, y - p)) / wp.length(q - p)
+
+    @wp.func
     def leaves_clear(
         n: vec3,
         a: vec3,
@@ -189,9 +195,7 @@ def make_triangle_basics(precision: str) -> SimpleNamespace:
         if disc < scalar(0.0) or -gap >= deep:
             return False
         out = scalar(-2.0) * gap / (speed + wp.sqrt(disc))  # (s) when it is R out
-        e0 = wp.dot(n, wp.cross(b - a, x - a)) / wp.length(b - a)
-        e1 = wp.dot(n, wp.cross(c - b, x - b)) / wp.length(c - b)
-        e2 = wp.dot(n, wp.cross(a - c, x - c)) / wp.length(a - c)
+        e0, e1, e2 = edge_distance(n, a, b, x), edge_distance(n, b, c, x), edge_distance(n, c, a, x)
         moved = (wp.length(v) + scalar(0.5) * wp.length(g) * out) * out
         spans = l1(b - a) + l1(c - b) + l1(a - c)  # (the inset `inner_depths` leaves, twice)
         rounded = EDGE * (l1(x - a) + spans) + state_rounding(x) + scalar(2.0 * INSET) * spans
@@ -200,6 +204,7 @@ def make_triangle_basics(precision: str) -> SimpleNamespace:
 
     return SimpleNamespace(
         vertices=vertices,
+        edge_distance=edge_distance,
         leaves_clear=leaves_clear,
         single=single,
         l1=l1,
@@ -368,11 +373,11 @@ def make_mesh_contact(precision: str, large: bool = True) -> SimpleNamespace:
             if height >= -slack and height <= grow:
                 y = x - n * height  # the edge functions within R of the triangle
                 far = -wp.max(grow, fine)  # (past it on one edge: neither test below can pass)
-                beside = wp.dot(n, wp.cross(b - a, y - a)) / wp.length(b - a)
+                beside = basics.edge_distance(n, a, b, y)
                 if beside >= far:
-                    beside = wp.min(beside, wp.dot(n, wp.cross(c - b, y - b)) / wp.length(c - b))
+                    beside = wp.min(beside, basics.edge_distance(n, b, c, y))
                 if beside >= far:
-                    beside = wp.min(beside, wp.dot(n, wp.cross(a - c, y - c)) / wp.length(a - c))
+                    beside = wp.min(beside, basics.edge_distance(n, c, a, y))
                 if beside >= -fine and (height <= slack or height >= grow - scalar(2.0) * slack):
                     over = True  # as the faces' two rules leave a centre: R or 0 in front
                 tie = closing == steepest and closing < scalar(0.0) and face < chosen
@@ -559,9 +564,9 @@ def make_mesh_search(precision: str, features_time=None, large: bool = True) -> 
                     best = chords_time(surfaces, k, x, v, g, radius, end, slack)
                 return wp.where(best > LATEST, scalar(NO_CONTACT), best)
         clear = scalar(0.0)  # a small mesh: every triangle, then what they own
+        first = surfaces.face_first[k]
         for face in range(faces):
             if wp.static(FEATURES):  # no edge or corner is met before a covering face's offset plane
-                first = surfaces.face_first[k]
                 covers = first >= 0 and surfaces.face_cover[first + face] != 0
                 deep = scalar(0.0)
                 if covers:

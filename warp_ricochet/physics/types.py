@@ -211,10 +211,10 @@ def mesh_fields(surfaces, precision: str, meshes, device) -> None:
     t, dtype = types_for(precision), np.dtype(precision)
     ids, first, low, high, edge, faces, points, held = [], [], [], [], [], [], [np.zeros((0, 3))], []
     rows = [np.zeros((0, 3), np.int64)]
-    count = 0
+    count = rows_so_far = 0
     for triangles in meshes:
         ids.append(0 if triangles is None else None)
-        first.append(sum(len(r) for r in rows))
+        first.append(rows_so_far)
         faces.append(0 if triangles is None else len(triangles.triangles))
         if triangles is None:
             low.append(np.zeros(3))
@@ -236,7 +236,7 @@ def mesh_fields(surfaces, precision: str, meshes, device) -> None:
         high.append(vertices.max(axis=0))
         points.append(vertices)
         rows.append(np.asarray(triangles.triangles, dtype=np.int64).reshape(-1, 3) + count)
-        count += len(vertices)
+        count, rows_so_far = count + len(vertices), rows_so_far + len(rows[-1])
     surfaces.mesh = wp.array(np.asarray(ids, dtype=np.uint64), dtype=wp.uint64, device=device)
     surfaces.mesh_first = wp.array(np.asarray(first, dtype=np.int32), dtype=wp.int32, device=device)
     for name, values in (("mesh_low", low), ("mesh_high", high)):
