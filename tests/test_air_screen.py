@@ -1,9 +1,12 @@
 """The air's search of a mesh passes a triangle whose edge the step's curve stays beyond
-(`physics.air_flight`, `clear_of`), on the whole step or on its part from where the triangle's
-offset plane can first be reached (`off_step`), before root finding: never one where `inside`
-could hold at a point of the step's interpolant (where the offset plane is reached). Checked on random steps by triangles far from the origin, and on
-steps moved to pass within 1e-9 to 1e-2 m of an edge: against the interpolant sampled in the
-kernel's own arithmetic (what the contact's `inside` test sees) and in float64 (NumPy)."""
+(`physics.air_screen`, `clear_of`), on the whole step or on its part from where the triangle's
+plane or its offset can first be met (`first_met`) to the contact found so far (`off_step`'s
+bound), before root finding: never one whose face contact (`face_thetas` kept where `inside`
+holds, as `triangle_theta` unscreened) lies before that bound. Checked on random steps by
+triangles far from the origin, on steps moved to pass within 1e-9 to 1e-2 m of an edge, and on
+centres starting within R of the plane and leaving it (waiting for the turn), with bounds of 2,
+uniform on [0, 1] and within 1e-7 to 1e-2 of the face contact: an edge's clearance against the
+interpolant sampled in the kernel's own arithmetic and in float64 (NumPy)."""
 
 import functools
 
@@ -11,7 +14,8 @@ import numpy as np
 import pytest
 import warp as wp
 
-from warp_ricochet.physics.air_flight import make_solid_search, make_step_screen
+from warp_ricochet.physics.air_flight import make_solid_search
+from warp_ricochet.physics.air_screen import make_step_screen
 from warp_ricochet.physics.integrate import make_dense_output
 from warp_ricochet.physics.mesh_contact import make_mesh_contact
 from warp_ricochet.physics.types import types_for
@@ -33,9 +37,11 @@ def _kernel(precision):
         corners: wp.array2d(dtype=vec3),
         steps: wp.array2d(dtype=vec3),
         hs: wp.array(dtype=scalar),
+        bounds: wp.array(dtype=scalar),
         radius: scalar,
         clear: wp.array2d(dtype=wp.int32),
-        inner: wp.array2d(dtype=wp.int32),
+        inner: wp.array(dtype=wp.int32),
+        met: wp.array(dtype=scalar),
     ):
         i = wp.tid()
         a, b, c = corners[i, 0], corners[i, 1], corners[i, 2]
@@ -48,22 +54,23 @@ def _kernel(precision):
         clear[i, 0] = wp.where(screens.clear_of(n, a, b, c0, c1, c2, c3, c4, c5, low, high, size), 1, 0)
         clear[i, 1] = wp.where(screens.clear_of(n, b, c, c0, c1, c2, c3, c4, c5, low, high, size), 1, 0)
         clear[i, 2] = wp.where(screens.clear_of(n, c, a, c0, c1, c2, c3, c4, c5, low, high, size), 1, 0)
-        clear[i, 3] = wp.where(screens.off_step(n, a, b, c, radius, h, x0, v0, a0, x1, v1, a1, low, high), 1, 0)
-        level = wp.dot(a, n)  # as face_thetas: the offset plane's gap at the step's ends
-        g0, s0, q0 = wp.dot(x0, n) - level - radius, h * wp.dot(v0, n), h * h * wp.dot(a0, n)
-        g1, s1, q1 = wp.dot(x1, n) - level - radius, h * wp.dot(v1, n), h * h * wp.dot(a1, n)
-        count = wp.int32(0)
-        met = wp.int32(0)
-        for j in range(SAMPLES):
-            theta = scalar(j) / scalar(SAMPLES - 1)
+        clear[i, 3] = wp.where(screens.off_step(n, a, b, c, radius, h, x0, v0, a0, x1, v1, a1, low, high, bounds[i]), 1, 0)
+        theta, through = solids.face_thetas(n, wp.dot(a, n), h, x0, v0, a0, x1, v1, a1, radius)
+        if theta <= scalar(1.0):  # (as `triangle_theta` unscreened)
             x, _slope = dense.hermite_vec(theta, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
-            gap, _rate = dense.hermite(theta, g0, s0, q0, g1, s1, q1)
+            if not inside(n, a, b, c, x):
+                theta = scalar(2.0)
+        if through < theta:
+            x, _slope = dense.hermite_vec(through, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
+            if inside(n, a, b, c, x):
+                theta = through
+        met[i] = theta
+        count = wp.int32(0)
+        for j in range(SAMPLES):
+            x, _slope = dense.hermite_vec(scalar(j) / scalar(SAMPLES - 1), x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
             if inside(n, a, b, c, x):
                 count += 1
-                if gap <= scalar(0.0):
-                    met += 1
-        inner[i, 0] = count
-        inner[i, 1] = met
+        inner[i] = count
 
     return screen
 
@@ -125,24 +132,55 @@ def _cases(rng, count, origin):
     return corners, steps, h
 
 
-@pytest.mark.parametrize(
-    "precision, origin", [("float32", 0.0), ("float32", 300.0), ("float64", 300.0)], ids=["float32", "float32-far", "float64"]
-)
+def _waiting_cases(rng, count, origin):
+    """Centres starting within R of the triangle's plane (at R less 1e-9 R to R, a tenth at R),
+    leaving it at 0.05-10 m/s along its normal while moving 10-400 m/s along it, turned back by
+    50-5e3 m/s^2: the steps after a ricochet off a terrain's nearly coplanar triangles."""
+    corners, _steps, _h = _cases(rng, count, origin)
+    n = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    along = np.cross(n, rng.normal(size=(count, 3)))
+    along /= np.linalg.norm(along, axis=1, keepdims=True)
+    speed = rng.uniform(10.0, 400.0, (count, 1))
+    v0 = speed * along + 10.0 ** rng.uniform(-1.3, 1.0, (count, 1)) * n
+    a0 = -(10.0 ** rng.uniform(1.7, 3.7, (count, 1))) * n + rng.normal(0.0, 50.0, (count, 3))
+    a1 = a0 + rng.normal(0.0, 20.0, (count, 3))
+    h = rng.uniform(0.2, 2.0, count) / speed[:, 0]
+    inset = RADIUS * 10.0 ** rng.uniform(-9.0, 0.0, (count, 1)) * rng.choice([0.0, 1.0], (count, 1), p=[0.1, 0.9])
+    x0 = corners.mean(axis=1) + rng.uniform(-0.6, 0.6, (count, 1)) * along + (RADIUS - inset) * n
+    v1 = v0 + 0.5 * (a0 + a1) * h[:, None]
+    x1 = x0 + v0 * h[:, None] + (a0 / 3 + a1 / 6) * h[:, None] ** 2
+    return corners, np.stack([x0, v0, a0, x1, v1, a1], 1), h
+
+
+def _screen(precision, corners, steps, h, bounds):
+    """The kernel's (clear by each edge and off_step, inside samples, face contact)."""
+    count = len(h)
+    t = types_for(precision)
+    dtype = np.float32 if precision == "float32" else np.float64
+    clear = wp.zeros((count, 4), dtype=wp.int32, device="cpu")
+    inner = wp.zeros(count, dtype=wp.int32, device="cpu")
+    met = wp.zeros(count, dtype=t.scalar, device="cpu")
+    arrays = [wp.array(a.astype(dtype), dtype=t.vec3, device="cpu") for a in (corners, steps)]
+    scalars = [wp.array(a.astype(dtype), device="cpu") for a in (h, bounds)]
+    wp.launch(_kernel(precision), dim=count, inputs=[*arrays, *scalars, t.scalar(RADIUS), clear, inner, met], device="cpu")
+    return clear.numpy().astype(bool), inner.numpy(), met.numpy().astype(np.float64)
+
+
+CASES = [("float32", 0.0), ("float32", 300.0), ("float64", 300.0)]
+IDS = ["float32", "float32-far", "float64"]
+
+
+@pytest.mark.parametrize("precision, origin", CASES, ids=IDS)
 def test_a_triangle_screened_off_a_step_is_never_under_its_curve(precision, origin):
     rng = np.random.default_rng(44)
     count = 4000
     corners, steps, h = _cases(rng, count, np.array([origin, -0.5 * origin, 0.1 * origin]))
-    t = types_for(precision)
     dtype = np.float32 if precision == "float32" else np.float64
-    clear = wp.zeros((count, 4), dtype=wp.int32, device="cpu")
-    inner = wp.zeros((count, 2), dtype=wp.int32, device="cpu")
-    arrays = [wp.array(a.astype(dtype), dtype=t.vec3, device="cpu") for a in (corners, steps)]
-    hs = wp.array(h.astype(dtype), device="cpu")
-    wp.launch(_kernel(precision), dim=count, inputs=[*arrays, hs, t.scalar(RADIUS), clear, inner], device="cpu")
-    clear, inner = clear.numpy().astype(bool), inner.numpy()
+    clear, inner, met = _screen(precision, corners, steps, h, np.full(count, 2.0))
     beyond = clear[:, :3].any(axis=1)
-    assert not (beyond & (inner[:, 0] > 0)).any()  # never a sample of the kernel's interpolant inside
-    assert not (clear[:, 3] & (inner[:, 1] > 0)).any()  # nor inside where the offset plane is reached
+    assert not (beyond & (inner > 0)).any()  # never a sample of the kernel's interpolant inside
+    assert not (clear[:, 3] & (met <= 1.0)).any()  # nor a face contact on the step
     x = steps.astype(dtype).astype(np.float64)  # the float64 reference: every sample beyond a cleared edge
     hh = h.astype(dtype).astype(np.float64)[:, None]
     curve = _hermite(
@@ -156,6 +194,28 @@ def test_a_triangle_screened_off_a_step_is_never_under_its_curve(precision, orig
         edge = np.einsum("kj,ksj->ks", np.cross(n, e), curve - p[:, None, j])
         assert (edge[clear[:, j]] < 0.0).all()
     # not vacuous: many screened by an edge, more by the part of the step near the plane, and
-    # faces met under the curve among those kept
-    assert 0.2 < beyond.mean() < clear[:, 3].mean() < 0.95
-    assert (inner[:, 1] > 0).mean() > 0.03
+    # faces met
+    assert 0.2 < beyond.mean() < clear[:, 3].mean() < 0.99
+    assert (met <= 1.0).sum() >= 15
+
+
+@pytest.mark.parametrize("waiting", [False, True], ids=["random", "waiting"])
+@pytest.mark.parametrize("precision, origin", CASES, ids=IDS)
+def test_a_triangle_screened_before_a_bound_is_not_met_before_it(precision, origin, waiting):
+    rng = np.random.default_rng(45)
+    count = 4000 if waiting else 20000
+    maker = _waiting_cases if waiting else _cases
+    corners, steps, h = maker(rng, count, np.array([origin, -0.5 * origin, 0.1 * origin]))
+    _clear, _inner, met = _screen(precision, corners, steps, h, np.full(count, 2.0))
+    near = met * (1.0 + rng.choice([-1.0, 1.0], count) * 10.0 ** rng.uniform(-7.0, -2.0, count))
+    bounds = np.where(met <= 1.0, near, rng.uniform(0.0, 1.0, count))
+    dtype = np.float32 if precision == "float32" else np.float64
+    screened = []
+    for bound in (np.full(count, 2.0), rng.uniform(0.0, 1.0, count), bounds):
+        clear, _inner, again = _screen(precision, corners, steps, h, bound)
+        assert (again == met).all()
+        assert not (clear[:, 3] & (met < bound.astype(dtype))).any()
+        screened.append(clear[:, 3].mean())
+    # not vacuous: faces met, and more screened with a bound below 1 than without
+    assert (met <= 1.0).sum() >= (800 if waiting else 80)
+    assert screened[0] < min(screened[1:])

@@ -20,17 +20,17 @@ from types import SimpleNamespace
 
 import warp as wp
 
+from .air_screen import make_step_screen
 from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT
 from .cylinder_contact import make_cylinder_contact
 from .edge_contact import make_edge_contact
 from .geometry import MESHES, make_geometry
 from .inlining import out_of_line_if
 from .integrate import make_dense_output, make_stepper
-from .mesh_contact import EDGE_ROUNDING, FEW_FACES, FLOAT32_SLACK, STATE_ROUNDING, make_mesh_contact
+from .mesh_contact import FEW_FACES, FLOAT32_SLACK, make_mesh_contact
 from .types import types_for
 
 MAX_FLIGHT_STEPS = 1 << 16  # per flight between contacts
-CLEAR_ROUNDING = 64.0  # `clear_of`'s margin for the control points' and the interpolant's rounding, in eps
 GAVE_UP = -2  # the plane index of a flight given up after MAX_FLIGHT_STEPS
 
 
@@ -123,132 +123,6 @@ def make_roots(precision: str, out_of_line: bool = False) -> SimpleNamespace:
 
 
 @functools.cache
-def make_step_screen(precision: str) -> SimpleNamespace:
-    """`off_step(...)`: whether a triangle has no face contact on an air step, decided from the step's
-    quintic Bezier control points before `make_solid_search`'s roots (`clear_of`, `reached`, `tail`)."""
-    t = types_for(precision)
-    scalar, vec3 = t.scalar, t.vec3
-    meshes = make_mesh_contact(precision)
-    EDGE, STATE = scalar(EDGE_ROUNDING * EPSILON[precision]), scalar(STATE_ROUNDING * EPSILON[precision])
-    CLEAR = scalar(CLEAR_ROUNDING * EPSILON[precision])
-    ULPS = scalar(16.0 * EPSILON[precision])
-
-    @wp.func
-    def controls(h: scalar, x0: vec3, v0: vec3, a0: vec3, x1: vec3, v1: vec3, a1: vec3):
-        """The six control points of the step's quintic (Bezier form of `hermite_vec`'s interpolant)."""
-        d0, dd0, d1, dd1 = h * v0, h * h * a0, h * v1, h * h * a1
-        p1, p2 = x0 + d0 / scalar(5.0), x0 + scalar(0.4) * d0 + dd0 / scalar(20.0)
-        return x0, p1, p2, x1 - scalar(0.4) * d1 + dd1 / scalar(20.0), x1 - d1 / scalar(5.0), x1
-
-    @wp.func
-    def clear_of(
-        n: vec3, p: vec3, q: vec3, c0: vec3, c1: vec3, c2: vec3, c3: vec3, c4: vec3, c5: vec3, low: vec3, high: vec3, size: scalar
-    ):
-        """Whether the curve of control points c0..c5 stays beyond the edge p -> q of a triangle of
-        unit normal n (counter-clockwise about n) by more than `mesh_contact.inside`'s tolerance
-        anywhere in the box (low, high) and CLEAR eps of the step's scale `size` (m): every control
-        point does (the curve is their convex combination; the edge function n.((q - p) x (y - p))
-        is affine in y), so `inside` fails at every point of it."""
-        e = q - p
-        w = wp.cross(n, e)  # n.(e x (y - p)) = w.(y - p)
-        reach = scalar(0.0)  # l1 bounds over the box of |y - p| and |y|
-        span = scalar(0.0)
-        for i in range(3):
-            reach = reach + wp.max(wp.abs(low[i] - p[i]), wp.abs(high[i] - p[i]))
-            span = span + wp.max(wp.abs(low[i]), wp.abs(high[i]))
-        length = meshes.l1(e)
-        margin = wp.length(e) * (EDGE * (reach + length) + STATE * span + CLEAR * (size + reach + span + length))
-        clear = wp.dot(w, c0 - p) < -margin and wp.dot(w, c1 - p) < -margin and wp.dot(w, c2 - p) < -margin
-        return clear and wp.dot(w, c3 - p) < -margin and wp.dot(w, c4 - p) < -margin and wp.dot(w, c5 - p) < -margin
-
-    @wp.func
-    def crossing(t: scalar, i: wp.int32, di: scalar, j: wp.int32, dj: scalar):
-        """The least of t and where the segment from (i/5, di > 0) to (j/5, dj <= 0) crosses zero."""
-        if di > scalar(0.0) and dj <= scalar(0.0):
-            t = wp.min(t, (scalar(i) + scalar(j - i) * (di / (di - dj))) / scalar(5.0))
-        return t
-
-    @wp.func
-    def reached(n: vec3, level: scalar, c0: vec3, c1: vec3, c2: vec3, c3: vec3, c4: vec3, c5: vec3, margin: scalar):
-        """A theta before which the gap n.x - level on the curve of control points c0..c5 stays above
-        `margin` (m): where the hull of its Bernstein coefficients (i/5, n.c_i - level - margin) first
-        reaches 0, less 16 eps for its own rounding (2: never; 0: at once)."""
-        d0, d1, d2 = wp.dot(n, c0) - level - margin, wp.dot(n, c1) - level - margin, wp.dot(n, c2) - level - margin
-        d3, d4, d5 = wp.dot(n, c3) - level - margin, wp.dot(n, c4) - level - margin, wp.dot(n, c5) - level - margin
-        if not (d0 > scalar(0.0)):
-            return scalar(0.0)
-        t = scalar(2.0)
-        t = crossing(
-            crossing(crossing(crossing(crossing(t, 0, d0, 1, d1), 0, d0, 2, d2), 0, d0, 3, d3), 0, d0, 4, d4), 0, d0, 5, d5
-        )
-        t = crossing(crossing(crossing(crossing(t, 1, d1, 2, d2), 1, d1, 3, d3), 1, d1, 4, d4), 1, d1, 5, d5)
-        t = crossing(crossing(crossing(t, 2, d2, 3, d3), 2, d2, 4, d4), 2, d2, 5, d5)
-        t = crossing(crossing(crossing(t, 3, d3, 4, d4), 3, d3, 5, d5), 4, d4, 5, d5)
-        if t > scalar(1.0):
-            return t
-        return wp.max(t - ULPS, scalar(0.0))
-
-    @wp.func
-    def lerp(p: vec3, q: vec3, t: scalar):
-        return p + t * (q - p)
-
-    @wp.func
-    def tail(t: scalar, c0: vec3, c1: vec3, c2: vec3, c3: vec3, c4: vec3, c5: vec3):
-        """The control points of the curve's part on [t, 1] (de Casteljau)."""
-        a0, a1, a2, a3, a4 = lerp(c0, c1, t), lerp(c1, c2, t), lerp(c2, c3, t), lerp(c3, c4, t), lerp(c4, c5, t)
-        b0, b1, b2, b3 = lerp(a0, a1, t), lerp(a1, a2, t), lerp(a2, a3, t), lerp(a3, a4, t)
-        e0, e1, e2 = lerp(b0, b1, t), lerp(b1, b2, t), lerp(b2, b3, t)
-        f0, f1 = lerp(e0, e1, t), lerp(e1, e2, t)
-        return lerp(f0, f1, t), f1, e2, b3, a4, c5
-
-    @wp.func
-    def off_step(
-        n: vec3,
-        a: vec3,
-        b: vec3,
-        c: vec3,
-        radius: scalar,
-        h: scalar,
-        x0: vec3,
-        v0: vec3,
-        a0: vec3,
-        x1: vec3,
-        v1: vec3,
-        a1: vec3,
-        low: vec3,
-        high: vec3,
-    ):
-        """Whether triangle (a, b, c) of unit normal n has no face contact on the step: its curve stays
-        beyond an edge (`clear_of`) wherever its centre is within R + rounding in front of the
-        triangle's plane or behind it (where every contact `face_thetas` finds lies, from the first
-        theta that can be, `reached`), or never gets there."""
-        c0, c1, c2, c3, c4, c5 = controls(h, x0, v0, a0, x1, v1, a1)
-        size = (
-            meshes.l1(x0) + meshes.l1(x1) + meshes.l1(h * v0) + meshes.l1(h * h * a0) + meshes.l1(h * v1) + meshes.l1(h * h * a1)
-        )
-        if clear_of(n, a, b, c0, c1, c2, c3, c4, c5, low, high, size) or clear_of(
-            n, b, c, c0, c1, c2, c3, c4, c5, low, high, size
-        ):
-            return True
-        if clear_of(n, c, a, c0, c1, c2, c3, c4, c5, low, high, size):
-            return True
-        level = wp.dot(a, n) + radius
-        t = reached(n, level, c0, c1, c2, c3, c4, c5, CLEAR * (size + meshes.l1(a) + wp.abs(level)))
-        if t > scalar(1.0):
-            return True
-        if t <= scalar(0.0):
-            return False
-        c0, c1, c2, c3, c4, c5 = tail(t, c0, c1, c2, c3, c4, c5)
-        if clear_of(n, a, b, c0, c1, c2, c3, c4, c5, low, high, size) or clear_of(
-            n, b, c, c0, c1, c2, c3, c4, c5, low, high, size
-        ):
-            return True
-        return clear_of(n, c, a, c0, c1, c2, c3, c4, c5, low, high, size)
-
-    return SimpleNamespace(controls=controls, clear_of=clear_of, off_step=off_step)
-
-
-@functools.cache
 def make_solid_search(precision: str, out_of_line: bool = False, screened: bool = True) -> SimpleNamespace:
     """`mesh_theta(...)` and `post_theta(...)`: where on an accepted step a mesh or a post is met
     (`physics.mesh_contact`, `physics.cylinder_contact`); `out_of_line`: `make_roots`'; `screened`
@@ -310,10 +184,12 @@ def make_solid_search(precision: str, out_of_line: bool = False, screened: bool 
         radius: scalar,
         low: vec3,
         high: vec3,
+        bound: scalar,
     ):
         """Where on the step triangle `face` of mesh k, or an edge or corner it owns
         (`edge_contact.features_theta`, within the box (low, high) of the step), is met (2: not):
-        `face_thetas`, each kept where the interpolant's centre is inside the triangle."""
+        `face_thetas`, each kept where the interpolant's centre is inside the triangle; a face met no
+        earlier than `bound` (the contact found so far) may be reported as not met."""
         best = edges.features_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius, low, high)
         a, b, c = meshes.vertices(surfaces, k, face)
         n = wp.cross(b - a, c - a)
@@ -321,7 +197,7 @@ def make_solid_search(precision: str, out_of_line: bool = False, screened: bool 
             return best
         n = wp.normalize(n)
         if wp.static(screened):  # the curve passes the triangle by an edge: no face contact on the step
-            if off_step(n, a, b, c, radius, h, x0, v0, a0, x1, v1, a1, low, high):
+            if off_step(n, a, b, c, radius, h, x0, v0, a0, x1, v1, a1, low, high, bound):
                 return best
         theta, through = face_thetas(n, wp.dot(a, n), h, x0, v0, a0, x1, v1, a1, radius)
         if theta <= scalar(1.0):
@@ -389,7 +265,7 @@ def make_solid_search(precision: str, out_of_line: bool = False, screened: bool 
         low, high = bezier_box(h, x0, v0, a0, x1, v1, a1)
         if faces <= FEW_FACES:  # a small mesh: every triangle (`mesh_contact`)
             for face in range(faces):
-                best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius, low, high))
+                best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius, low, high, best))
             return best
         mesh, mesh_low, mesh_high = meshes.bounds(surfaces, k)
         grow = radius + scalar(FLOAT32_SLACK) * (meshes.l1(low) + meshes.l1(high) + meshes.l1(mesh_low) + meshes.l1(mesh_high))
@@ -397,20 +273,26 @@ def make_solid_search(precision: str, out_of_line: bool = False, screened: bool 
         if meshes.walked(surfaces, k):  # a terrain: the BVH's candidates, from the cells the box spans
             reach = scalar(0.5) * wp.length(high - low) + scalar(2.0) * grow
             i0, i1, j0, j1 = meshes.around(surfaces, k, scalar(0.5) * (low + high), reach)
-            for j in range(j0, j1 + 1):
-                for i in range(i0, i1 + 1):
-                    first = meshes.face_of(surfaces, k, i, j)
-                    for face in range(first, wp.where(first >= 0, first + 2, first)):
-                        if meshes.boxed(surfaces, k, face, box_low, box_high):
-                            best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius, low, high))
+            ni, nj = i1 - i0 + 1, j1 - j0 + 1
+            du, dw = wp.dot(x1 - x0, surfaces.grid_col[k]), wp.dot(x1 - x0, surfaces.grid_row[k])
+            along_i = wp.abs(du) >= wp.abs(dw)
+            inner = wp.where(along_i, nj, ni)
+            for m in range(ni * nj):  # rows across the step's main direction from its start: earlier contacts first
+                p, q = m / inner, m % inner
+                i, j = wp.where(along_i, p, q), wp.where(along_i, q, p)
+                i, j = wp.where(du >= scalar(0.0), i0 + i, i1 - i), wp.where(dw >= scalar(0.0), j0 + j, j1 - j)
+                first = meshes.face_of(surfaces, k, i, j)
+                for face in range(first, wp.where(first >= 0, first + 2, first)):
+                    if meshes.boxed(surfaces, k, face, box_low, box_high):
+                        best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius, low, high, best))
             return best
         query = wp.mesh_query_aabb(mesh, box_low, box_high)
         face = wp.int32(0)
         while wp.mesh_query_aabb_next(query, face):
-            best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius, low, high))
+            best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius, low, high, best))
         return best
 
-    return SimpleNamespace(mesh_theta=mesh_theta, post_theta=post_theta, bezier_box=bezier_box)
+    return SimpleNamespace(mesh_theta=mesh_theta, post_theta=post_theta, bezier_box=bezier_box, face_thetas=face_thetas)
 
 
 @functools.cache
