@@ -34,6 +34,7 @@ CASES = {
     "mesh": "the paper's shot in vacuum on a two-triangle mesh of its plane",
     "box": "the paper's shot in vacuum on its plane with bench.meshes' box on it (convex edges and corners)",
     "terrain": "the paper's shot in vacuum over a terrain (bench.meshes: a large mesh without edges) and a plane",
+    "terrain-air": "the same in sea-level air",
 }
 
 
@@ -49,13 +50,14 @@ def scene_of(case: str, folder: Path):
 
             extra = plane_mesh(folder)
         return paper_scene(1000, air=case in ("paper-air", "turf"), mu_s=0.5, extra=extra)
-    if case in ("box", "terrain"):
+    if case in ("box", "terrain", "terrain-air"):
         from bench.meshes import BOX, MATERIAL, _paper, terrain_raster, terrain_surfaces
 
         if case == "box":
             plane = tomllib.loads((ROOT / "examples" / "paper.toml").read_text())["surfaces"]
             return _paper(1000, "float32", False, plane + [{"kind": "box", **BOX, **MATERIAL}])
-        return _paper(1000, "float32", False, terrain_surfaces(terrain_raster(folder, 16), 16))  # (its code: any size)
+        surfaces = terrain_surfaces(terrain_raster(folder, 16), 16)  # (its code: any size)
+        return _paper(1000, "float32", case == "terrain-air", surfaces)
     if case == "post":
         from bench.meshes import hazard_shot
 

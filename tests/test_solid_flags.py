@@ -3,7 +3,7 @@ SMALL and NO_EDGES): only the code they need, and all of it whenever they need i
 
 from pathlib import Path
 
-from warp_ricochet.physics.geometry import MESHES, NO_EDGES, NO_POSTS, SMALL, _needs
+from warp_ricochet.physics.geometry import MESHES, NO_EDGES, NO_POSTS, SMALL, solid_needs
 from warp_ricochet.scene import scene_from_dict
 from warp_ricochet.spec import RunSpec
 
@@ -47,7 +47,7 @@ def test_each_scene_compiles_the_solids_it_has(tmp_path):
         assert _plates(surfaces) == expected, surfaces
     terrain = {**GROUND, "kind": "terrain", "file": str(EXAMPLES / "terrain" / "trap_field.asc"), "normal": [0.0, 0.0, 1.0]}
     assert _plates([terrain, GROUND]) == MESHES | NO_POSTS | NO_EDGES
-    assert _needs(MESHES) == (True, True, True)  # MESHES alone: everything, as before the flags
+    assert solid_needs(MESHES) == (True, True, True)  # MESHES alone: everything, as before the flags
 
 
 def test_only_a_leaning_post_followed_to_rest_compiles_the_side_motion():
@@ -66,3 +66,4 @@ def test_only_a_leaning_post_followed_to_rest_compiles_the_side_motion():
     assert not plates([0.0, 0.0, 1.0], "rest") & LEANING
     assert not plates([0.0, 0.0, -1.0], "rest") & LEANING
     assert not plates([0.0, 0.5, 0.866], "landing") & LEANING
+

@@ -24,7 +24,7 @@ from .air_screen import make_step_screen
 from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT
 from .cylinder_contact import make_cylinder_contact
 from .edge_contact import make_edge_contact
-from .geometry import MESHES, make_geometry
+from .geometry import MESHES, make_geometry, solid_needs
 from .inlining import out_of_line_if
 from .integrate import make_dense_output, make_stepper
 from .mesh_contact import FEW_FACES, FLOAT32_SLACK, make_mesh_contact
@@ -123,10 +123,14 @@ def make_roots(precision: str, out_of_line: bool = False) -> SimpleNamespace:
 
 
 @functools.cache
-def make_solid_search(precision: str, out_of_line: bool = False, screened: bool = True) -> SimpleNamespace:
+def make_solid_search(
+    precision: str, out_of_line: bool = False, screened: bool = True, large: bool = True, edges: bool = True
+) -> SimpleNamespace:
     """`mesh_theta(...)` and `post_theta(...)`: where on an accepted step a mesh or a post is met
     (`physics.mesh_contact`, `physics.cylinder_contact`); `out_of_line`: `make_roots`'; `screened`
-    False: no triangle passed by its edge (`clear_of`) before its roots (the tests' reference)."""
+    False: no triangle passed by its edge (`clear_of`) before its roots (the tests' reference);
+    `large` False: no mesh has more than FEW_FACES triangles, `edges` False: none owns edges or
+    corners (`geometry.solid_needs`: their code left out)."""
     t = types_for(precision)
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
     off_step = make_step_screen(precision).off_step
@@ -134,7 +138,8 @@ def make_solid_search(precision: str, out_of_line: bool = False, screened: bool 
         make_roots(precision, out_of_line=out_of_line).plane_theta,
         make_dense_output(precision).hermite_vec,
     )
-    meshes, posts, edges = make_mesh_contact(precision), make_cylinder_contact(precision), make_edge_contact(precision)
+    meshes, posts, features = make_mesh_contact(precision), make_cylinder_contact(precision), make_edge_contact(precision)
+    LARGE, EDGES = large, edges
 
     @wp.func
     def bezier_box(h: scalar, x0: vec3, v0: vec3, a0: vec3, x1: vec3, v1: vec3, a1: vec3):
@@ -190,7 +195,9 @@ def make_solid_search(precision: str, out_of_line: bool = False, screened: bool 
         (`edge_contact.features_theta`, within the box (low, high) of the step), is met (2: not):
         `face_thetas`, each kept where the interpolant's centre is inside the triangle; a face met no
         earlier than `bound` (the contact found so far) may be reported as not met."""
-        best = edges.features_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius, low, high)
+        best = scalar(2.0)
+        if wp.static(EDGES):
+            best = features.features_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius, low, high)
         a, b, c = meshes.vertices(surfaces, k, face)
         n = wp.cross(b - a, c - a)
         if wp.length(n) == scalar(0.0):
@@ -267,29 +274,34 @@ def make_solid_search(precision: str, out_of_line: bool = False, screened: bool 
             for face in range(faces):
                 best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius, low, high, best))
             return best
-        mesh, mesh_low, mesh_high = meshes.bounds(surfaces, k)
-        grow = radius + scalar(FLOAT32_SLACK) * (meshes.l1(low) + meshes.l1(high) + meshes.l1(mesh_low) + meshes.l1(mesh_high))
-        box_low, box_high = meshes.single(low - vec3(grow, grow, grow)), meshes.single(high + vec3(grow, grow, grow))
-        if meshes.walked(surfaces, k):  # a terrain: the BVH's candidates, from the cells the box spans
-            reach = scalar(0.5) * wp.length(high - low) + scalar(2.0) * grow
-            i0, i1, j0, j1 = meshes.around(surfaces, k, scalar(0.5) * (low + high), reach)
-            ni, nj = i1 - i0 + 1, j1 - j0 + 1
-            du, dw = wp.dot(x1 - x0, surfaces.grid_col[k]), wp.dot(x1 - x0, surfaces.grid_row[k])
-            along_i = wp.abs(du) >= wp.abs(dw)
-            inner = wp.where(along_i, nj, ni)
-            for m in range(ni * nj):  # rows across the step's main direction from its start: earlier contacts first
-                p, q = m / inner, m % inner
-                i, j = wp.where(along_i, p, q), wp.where(along_i, q, p)
-                i, j = wp.where(du >= scalar(0.0), i0 + i, i1 - i), wp.where(dw >= scalar(0.0), j0 + j, j1 - j)
-                first = meshes.face_of(surfaces, k, i, j)
-                for face in range(first, wp.where(first >= 0, first + 2, first)):
-                    if meshes.boxed(surfaces, k, face, box_low, box_high):
-                        best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius, low, high, best))
-            return best
-        query = wp.mesh_query_aabb(mesh, box_low, box_high)
-        face = wp.int32(0)
-        while wp.mesh_query_aabb_next(query, face):
-            best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius, low, high, best))
+        if wp.static(LARGE):
+            mesh, mesh_low, mesh_high = meshes.bounds(surfaces, k)
+            grow = radius + scalar(FLOAT32_SLACK) * (
+                meshes.l1(low) + meshes.l1(high) + meshes.l1(mesh_low) + meshes.l1(mesh_high)
+            )
+            box_low, box_high = meshes.single(low - vec3(grow, grow, grow)), meshes.single(high + vec3(grow, grow, grow))
+            if meshes.walked(surfaces, k):  # a terrain: the BVH's candidates, from the cells the box spans
+                reach = scalar(0.5) * wp.length(high - low) + scalar(2.0) * grow
+                i0, i1, j0, j1 = meshes.around(surfaces, k, scalar(0.5) * (low + high), reach)
+                ni, nj = i1 - i0 + 1, j1 - j0 + 1
+                du, dw = wp.dot(x1 - x0, surfaces.grid_col[k]), wp.dot(x1 - x0, surfaces.grid_row[k])
+                along_i = wp.abs(du) >= wp.abs(dw)
+                inner = wp.where(along_i, nj, ni)
+                for m in range(ni * nj):  # rows across the step's main direction from its start: earlier contacts first
+                    p, q = m / inner, m % inner
+                    i, j = wp.where(along_i, p, q), wp.where(along_i, q, p)
+                    i, j = wp.where(du >= scalar(0.0), i0 + i, i1 - i), wp.where(dw >= scalar(0.0), j0 + j, j1 - j)
+                    first = meshes.face_of(surfaces, k, i, j)
+                    for face in range(first, wp.where(first >= 0, first + 2, first)):
+                        if meshes.boxed(surfaces, k, face, box_low, box_high):
+                            best = wp.min(
+                                best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius, low, high, best)
+                            )
+                return best
+            query = wp.mesh_query_aabb(mesh, box_low, box_high)
+            face = wp.int32(0)
+            while wp.mesh_query_aabb_next(query, face):
+                best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius, low, high, best))
         return best
 
     return SimpleNamespace(mesh_theta=mesh_theta, post_theta=post_theta, bezier_box=bezier_box, face_thetas=face_thetas)
@@ -305,10 +317,11 @@ def make_plane_search(precision: str, planes, plates: bool = False, out_of_line:
     roots, geo = make_roots(precision, out_of_line=out_of_line), make_geometry(precision, planes, True, plates)
     hermite_vec = make_dense_output(precision).hermite_vec
     STATIC, PLATES, WITH_MESHES = planes, plates, plates >= MESHES
+    WITH_POSTS, large, edges = solid_needs(plates)
     meshes, posts, solids = (
         make_mesh_contact(precision),
         make_cylinder_contact(precision),
-        make_solid_search(precision, out_of_line=out_of_line),
+        make_solid_search(precision, out_of_line=out_of_line, large=large, edges=edges),
     )
     plane_theta = roots.plane_theta
 
@@ -422,8 +435,9 @@ def make_plane_search(precision: str, planes, plates: bool = False, out_of_line:
                 if wp.static(WITH_MESHES):
                     if meshes.is_mesh(surfaces, k):
                         theta = solids.mesh_theta(surfaces, k, h, x0, v0, a0, x1, v1, a1, physics.radius)
-                    elif posts.is_post(surfaces, k):
-                        theta = solids.post_theta(surfaces, k, h, x0, v0, a0, x1, v1, a1, physics.radius)
+                    if wp.static(WITH_POSTS):
+                        if posts.is_post(surfaces, k):
+                            theta = solids.post_theta(surfaces, k, h, x0, v0, a0, x1, v1, a1, physics.radius)
                 if now_watched != 0:
                     watched = watched | bit
                     waiting = waiting & ~bit

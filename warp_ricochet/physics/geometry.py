@@ -85,7 +85,7 @@ def _make_geometry(precision: str, planes, snap: bool, plates: int) -> SimpleNam
     ballistic = make_ballistic(precision)
     entry_time, return_time, _position = ballistic.entry_time, ballistic.return_time, ballistic.position
     STATIC_PLANES, SNAP, PLATES, WITH_MESHES = planes, snap, plates > 0, plates >= MESHES
-    RECTANGLE, MESH, solids = KINDS["rectangle"], KINDS["mesh"], _solids(precision, *_needs(plates))
+    RECTANGLE, MESH, solids = KINDS["rectangle"], KINDS["mesh"], _solids(precision, *solid_needs(plates))
     TOLERANCE = scalar(ROUNDING * EPSILON[precision])
     LATEST = scalar(MAX_FLIGHT_TIME)
 
@@ -295,7 +295,7 @@ def _make_geometry(precision: str, planes, snap: bool, plates: int) -> SimpleNam
         return best_time, best_plane
 
     return SimpleNamespace(
-        **_faces(precision, gap, inside, reach, WITH_MESHES, _needs(plates)[0]),
+        **_faces(precision, gap, inside, reach, WITH_MESHES, solid_needs(plates)[0]),
         side=side,
         inside=inside,
         is_plate=is_plate,
@@ -304,8 +304,8 @@ def _make_geometry(precision: str, planes, snap: bool, plates: int) -> SimpleNam
         reach=reach,
         count=count,
         normal=normal,
-        contact_normal=_contact_normal(precision, normal, WITH_MESHES, *_needs(plates)[1:]),
-        touching=make_edge_contact(precision, *_needs(plates)[1:]).touching,
+        contact_normal=_contact_normal(precision, normal, WITH_MESHES, *solid_needs(plates)[1:]),
+        touching=make_edge_contact(precision, *solid_needs(plates)[1:]).touching,
         locate=locate,
         gap=gap,
         material=material,
@@ -324,7 +324,7 @@ def _clearance(precision: str, plates: int):
         KINDS["rectangle"],
         KINDS["mesh"],
         plates >= MESHES,
-        _solids(precision, *_needs(plates)),
+        _solids(precision, *solid_needs(plates)),
     )
 
     @wp.func
@@ -358,7 +358,7 @@ def has_posts(plates) -> bool:
     return plates >= MESHES and not plates & NO_POSTS
 
 
-def _needs(plates: int) -> tuple:
+def solid_needs(plates: int) -> tuple:
     """(posts, large meshes, edges): the solids' code a kernel of `plates` compiles in."""
     return not plates & NO_POSTS, not plates & SMALL, not plates & NO_EDGES
 
@@ -367,7 +367,7 @@ def _needs(plates: int) -> tuple:
 def _solids(precision: str, with_posts: bool = True, large: bool = True, edges: bool = True) -> SimpleNamespace:
     """`time(surfaces, k, x, v, g, R)`, `normal(surfaces, k, x)` and `clearance(surfaces, k, x)` of
     a mesh or a post k (`physics.mesh_contact`, `physics.cylinder_contact`), and `is_solid(surfaces, k)`;
-    posts, large meshes' BVH queries and edges compiled in only as asked (`_needs`)."""
+    posts, large meshes' BVH queries and edges compiled in only as asked (`solid_needs`)."""
     t = types_for(precision)
     Surfaces, vec3, scalar = t.Surfaces, t.vec3, t.scalar
     meshes, posts, mesh_normal = (
