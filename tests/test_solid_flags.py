@@ -67,3 +67,25 @@ def test_only_a_leaning_post_followed_to_rest_compiles_the_side_motion():
     assert not plates([0.0, 0.0, -1.0], "rest") & LEANING
     assert not plates([0.0, 0.5, 0.866], "landing") & LEANING
 
+
+def test_only_a_landing_kernel_in_air_among_solids_takes_their_register_cap():
+    """`core.kernel.kernel_options`: AIR_SOLIDS_MAX_REGISTERS where a float32 kernel with fast maths
+    flies in air among meshes or posts to the landing; the plain cap elsewhere (in vacuum, over
+    planes only, to rest)."""
+    from warp_ricochet.core.kernel import AIR_SOLIDS_MAX_REGISTERS, CUDA_MAX_REGISTERS, kernel_options
+
+    def options(surfaces, air, until="landing"):
+        shot = {"count": 4, "diameter": 0.0025, "density": 7000.0, "speed": 300.0, "direction": [1.0, 0.0, 0.0]}
+        shot |= {"envelope_radius": 0.01, "envelope_center": [0.0, 0.0, 1.0]}
+        raw = {"shot": shot, "surfaces": surfaces, "physics": {"until": until, "gravity": [0, 0, -9.81]}}
+        if air:
+            raw["air"] = {}
+        return kernel_options(RunSpec.of(scene_from_dict(raw), with_output=False)).get("cuda_max_registers")
+
+    box = {**BOX, "restitution": 0.5, "mu_s": 0.2}
+    solid_cap, plain_cap = AIR_SOLIDS_MAX_REGISTERS["float32", True], CUDA_MAX_REGISTERS["float32", True]
+    assert solid_cap != plain_cap
+    assert options([GROUND, box], air=True) == solid_cap
+    assert options([GROUND, box], air=False) == plain_cap
+    assert options([GROUND], air=True) == plain_cap
+    assert options([GROUND, box], air=True, until="rest") == plain_cap

@@ -10,6 +10,7 @@ import warp as wp
 
 from ..launch.source import make_source
 from ..physics import grid_constant
+from ..physics.geometry import MESHES
 from ..physics.lanes import WARP_SIZE, sync_lanes
 from ..physics.types import types_for
 from ..tallies.accumulate import make_accumulators
@@ -24,6 +25,9 @@ from .release import make_release
 # Register cap of the CUDA ricochet kernel per (precision, fast_math) (None: the compiler's
 # choice), chosen by measurement on an H200 (bench/RESULTS.md, `python -m bench.variants`).
 CUDA_MAX_REGISTERS = {("float32", False): 80, ("float32", True): None, ("float64", False): None, ("float64", True): None}
+# The same for a kernel that flies in air among meshes or posts to their landing, where it differs
+# (bench/RESULTS.md, "An air step's triangles screened by the contact found so far").
+AIR_SOLIDS_MAX_REGISTERS = {("float32", True): 128}
 CUDA_BLOCK_DIM = 256  # threads per CUDA block of the ricochet kernel
 # Kernels to rest unroll constant loops of up to this many iterations (Warp's default: 16), for less
 # code (bench/RESULTS.md, "Warps that wait for their surface phases").
@@ -32,9 +36,15 @@ REST_MAX_UNROLL = 4
 
 def kernel_options(spec, max_registers="default", in_place=True) -> dict:
     """`wp.kernel`'s options for a kernel that follows `spec`'s pellets (the core's, `core.shots`'):
-    its register cap (CUDA_MAX_REGISTERS, or `max_registers`), fast maths and, to rest, the loops it
-    unrolls; where `in_place`, its parameters read in place on CUDA (`physics.grid_constant`)."""
-    cap = CUDA_MAX_REGISTERS[spec.precision, spec.fast_math] if max_registers == "default" else max_registers
+    its register cap (CUDA_MAX_REGISTERS or AIR_SOLIDS_MAX_REGISTERS, or `max_registers`), fast maths
+    and, to rest, the loops it unrolls; where `in_place`, its parameters read in place on CUDA
+    (`physics.grid_constant`)."""
+    cap = max_registers
+    if max_registers == "default":
+        key = spec.precision, spec.fast_math
+        cap = CUDA_MAX_REGISTERS[key]
+        if spec.flight == "air" and spec.plates >= MESHES and not spec.to_rest:
+            cap = AIR_SOLIDS_MAX_REGISTERS.get(key, cap)
     options = {} if cap is None else {"cuda_max_registers": cap}
     module = {"fast_math": True} if spec.fast_math else {}
     if in_place:  # parameters read in place on CUDA, not copied to each thread
