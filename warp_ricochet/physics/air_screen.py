@@ -27,6 +27,7 @@ def make_step_screen(precision: str) -> SimpleNamespace:
     EDGE, STATE = scalar(EDGE_ROUNDING * EPSILON[precision]), scalar(STATE_ROUNDING * EPSILON[precision])
     CLEAR = scalar(CLEAR_ROUNDING * EPSILON[precision])
     ULPS = scalar(16.0 * EPSILON[precision])
+    FOUR, FIVE = scalar(4.0), scalar(5.0)  # the degrees of the gap's derivative and of the gap
 
     @wp.func
     def controls(h: scalar, x0: vec3, v0: vec3, a0: vec3, x1: vec3, v1: vec3, a1: vec3):
@@ -57,10 +58,11 @@ def make_step_screen(precision: str) -> SimpleNamespace:
         return clear and wp.dot(w, c3 - p) < -margin and wp.dot(w, c4 - p) < -margin and wp.dot(w, c5 - p) < -margin
 
     @wp.func
-    def crossing(t: scalar, i: wp.int32, di: scalar, j: wp.int32, dj: scalar):
-        """The least of t and where the segment from (i/5, di > 0) to (j/5, dj <= 0) crosses zero."""
+    def crossing(t: scalar, i: wp.int32, di: scalar, j: wp.int32, dj: scalar, degree: scalar):
+        """The least of t and where the segment from (i/degree, di > 0) to (j/degree, dj <= 0) of a
+        Bernstein hull crosses zero."""
         if di > scalar(0.0) and dj <= scalar(0.0):
-            t = wp.min(t, (scalar(i) + scalar(j - i) * (di / (di - dj))) / scalar(5.0))
+            t = wp.min(t, (scalar(i) + scalar(j - i) * (di / (di - dj))) / degree)
         return t
 
     @wp.func
@@ -73,22 +75,24 @@ def make_step_screen(precision: str) -> SimpleNamespace:
         if not (d0 > scalar(0.0)):
             return scalar(0.0)
         t = scalar(2.0)
-        t = crossing(
-            crossing(crossing(crossing(crossing(t, 0, d0, 1, d1), 0, d0, 2, d2), 0, d0, 3, d3), 0, d0, 4, d4), 0, d0, 5, d5
-        )
-        t = crossing(crossing(crossing(crossing(t, 1, d1, 2, d2), 1, d1, 3, d3), 1, d1, 4, d4), 1, d1, 5, d5)
-        t = crossing(crossing(crossing(t, 2, d2, 3, d3), 2, d2, 4, d4), 2, d2, 5, d5)
-        t = crossing(crossing(crossing(t, 3, d3, 4, d4), 3, d3, 5, d5), 4, d4, 5, d5)
+        t = crossing(t, 0, d0, 1, d1, FIVE)
+        t = crossing(t, 0, d0, 2, d2, FIVE)
+        t = crossing(t, 0, d0, 3, d3, FIVE)
+        t = crossing(t, 0, d0, 4, d4, FIVE)
+        t = crossing(t, 0, d0, 5, d5, FIVE)
+        t = crossing(t, 1, d1, 2, d2, FIVE)
+        t = crossing(t, 1, d1, 3, d3, FIVE)
+        t = crossing(t, 1, d1, 4, d4, FIVE)
+        t = crossing(t, 1, d1, 5, d5, FIVE)
+        t = crossing(t, 2, d2, 3, d3, FIVE)
+        t = crossing(t, 2, d2, 4, d4, FIVE)
+        t = crossing(t, 2, d2, 5, d5, FIVE)
+        t = crossing(t, 3, d3, 4, d4, FIVE)
+        t = crossing(t, 3, d3, 5, d5, FIVE)
+        t = crossing(t, 4, d4, 5, d5, FIVE)
         if t > scalar(1.0):
             return t
         return wp.max(t - ULPS, scalar(0.0))
-
-    @wp.func
-    def crossing4(t: scalar, i: wp.int32, di: scalar, j: wp.int32, dj: scalar):
-        """`crossing` on the quartic hull: nodes at i/4."""
-        if di > scalar(0.0) and dj <= scalar(0.0):
-            t = wp.min(t, (scalar(i) + scalar(j - i) * (di / (di - dj))) / scalar(4.0))
-        return t
 
     @wp.func
     def turned(n: vec3, c0: vec3, c1: vec3, c2: vec3, c3: vec3, c4: vec3, c5: vec3, margin: scalar):
@@ -100,10 +104,16 @@ def make_step_screen(precision: str) -> SimpleNamespace:
         if not (e0 > scalar(0.0)):
             return scalar(0.0)
         t = scalar(2.0)
-        t = crossing4(crossing4(crossing4(crossing4(t, 0, e0, 1, e1), 0, e0, 2, e2), 0, e0, 3, e3), 0, e0, 4, e4)
-        t = crossing4(crossing4(crossing4(t, 1, e1, 2, e2), 1, e1, 3, e3), 1, e1, 4, e4)
-        t = crossing4(crossing4(t, 2, e2, 3, e3), 2, e2, 4, e4)
-        t = crossing4(t, 3, e3, 4, e4)
+        t = crossing(t, 0, e0, 1, e1, FOUR)
+        t = crossing(t, 0, e0, 2, e2, FOUR)
+        t = crossing(t, 0, e0, 3, e3, FOUR)
+        t = crossing(t, 0, e0, 4, e4, FOUR)
+        t = crossing(t, 1, e1, 2, e2, FOUR)
+        t = crossing(t, 1, e1, 3, e3, FOUR)
+        t = crossing(t, 1, e1, 4, e4, FOUR)
+        t = crossing(t, 2, e2, 3, e3, FOUR)
+        t = crossing(t, 2, e2, 4, e4, FOUR)
+        t = crossing(t, 3, e3, 4, e4, FOUR)
         if t > scalar(1.0):
             return t
         return wp.max(t - ULPS, scalar(0.0))
