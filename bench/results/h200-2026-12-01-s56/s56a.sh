@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# session 56, call 1: the terrain in sea-level air, 1e7 pellets, main M (169293f: the root stops once
+# converged, unmeasured on the GPU) against W (off_step given the contact found so far) and O (W with
+# the cells scanned from the step's start along its main direction), alternated twice; cmpwalk on O.
+set -u
+out=${OUT:-/tmp/out}; mkdir -p $out
+root=$PWD
+inn() { local t=$1; shift; (cd $root/.gpu/b/exp/$t && WARP_CACHE_PATH=/tmp/wc_$t PYTHONPATH=/tmp/site:$PWD PYTHONUNBUFFERED=1 "$@") 2>&1; }
+filt() { grep -v "^Warp \|CUDA Toolkit\|Devices:\|Kernel cache\|\.cache/warp\|\"cpu\"\|\"cuda:0\"\|^Module \|^{\|/tmp/wc_\|PrecisionWarning\|return _compute\|warnings.warn"; }
+start=$(date +%s)
+nvidia-smi --query-gpu=name,driver_version --format=csv > $out/gpu.txt
+rm -rf $root/.gpu/b/exp; mkdir -p $root/.gpu/b/exp && tar xJf $root/.gpu/b/exp.tar.xz -C $root/.gpu/b/exp
+for t in M W O; do
+  ( inn $t timeout 250 python3 -m bench.meshes terrain --device cuda:0 --n 1e4 --repeats 1 --cells 64 --flights air > $out/warm-$t.txt ) &
+done
+( inn O timeout 250 python3 $root/bench/results/h200-2026-11-30-s54/cmpwalk.py 2e3 cuda:0 float32 > $out/warm-cmp.txt ) &
+wait
+echo "warm-up $(( $(date +%s) - start )) s" | tee $out/times.txt
+for r in 1 2; do for t in M W O; do
+  inn $t timeout 60 python3 -m bench.meshes terrain --device cuda:0 --n 1e7 --repeats 3 --flights air | filt | grep "air, terrain" | sed "s/^/$r $t: /"
+done; done 2>&1 | tee $out/terrain.txt
+echo "terrain $(( $(date +%s) - start )) s" | tee -a $out/times.txt
+inn O timeout 120 python3 $root/bench/results/h200-2026-11-30-s54/cmpwalk.py 2e4 cuda:0 float32 | filt | tee $out/cmpwalk.txt
+echo "cmpwalk $(( $(date +%s) - start )) s" | tee -a $out/times.txt
+cd $out && tar czf all.tgz *.txt
