@@ -284,7 +284,7 @@ def make_solid_search(
                 reach = scalar(0.5) * wp.length(high - low) + scalar(2.0) * grow
                 i0, i1, j0, j1 = meshes.around(surfaces, k, scalar(0.5) * (low + high), reach)
                 ni, nj = i1 - i0 + 1, j1 - j0 + 1
-                du, dw = wp.dot(x1 - x0, surfaces.grid_col[k]), wp.dot(x1 - x0, surfaces.grid_row[k])
+                du, dw = meshes.across(surfaces, k, x1 - x0)
                 along_i = wp.abs(du) >= wp.abs(dw)
                 inner = wp.where(along_i, nj, ni)
                 for m in range(ni * nj):  # rows across the step's main direction from its start: earlier contacts first

@@ -49,7 +49,8 @@ WIDEST = 1.0 / 3.0  # the largest margin walked, in cells (the mipmap's tops cov
 def make_grid_cells(precision: str) -> SimpleNamespace:
     """`walked(surfaces, k)` (whether mesh k is a terrain with its raster's grid), `face_of(surfaces,
     k, i, j)` (the first of cell (i, j)'s two triangles, -1: a hole), `around(surfaces, k, x, reach)`
-    (the cells (i0, i1, j0, j1) within `reach` m of x across the raster, none when i0 > i1 or j0 > j1)."""
+    (the cells (i0, i1, j0, j1) within `reach` m of x across the raster, none when i0 > i1 or j0 > j1)
+    and `across(surfaces, k, d)` (a displacement d in columns and rows)."""
     t = types_for(precision)
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
 
@@ -77,7 +78,12 @@ def make_grid_cells(precision: str) -> SimpleNamespace:
         j1 = wp.int32(wp.floor(wp.min(wp.max(w + dw, scalar(-1.0)), scalar(rows))))
         return wp.max(i0, 0), wp.min(i1, cols - 1), wp.max(j0, 0), wp.min(j1, rows - 1)
 
-    return SimpleNamespace(walked=walked, face_of=face_of, around=around)
+    @wp.func
+    def across(surfaces: Surfaces, k: wp.int32, d: vec3):
+        """The displacement d (m) in columns and rows of terrain k's raster."""
+        return wp.dot(d, surfaces.grid_col[k]), wp.dot(d, surfaces.grid_row[k])
+
+    return SimpleNamespace(walked=walked, face_of=face_of, around=around, across=across)
 
 
 @functools.cache

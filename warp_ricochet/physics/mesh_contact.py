@@ -457,6 +457,7 @@ def make_mesh_contact(precision: str, large: bool = True) -> SimpleNamespace:
         walked=cells.walked,
         face_of=cells.face_of,
         around=cells.around,
+        across=cells.across,
         **helpers,
     )
 
