@@ -160,10 +160,10 @@ def make_step_screen(precision: str) -> SimpleNamespace:
         R (level): `reached`, or for a centre waiting within R of the plane and leaving it, its turn
         (`turned`) and then the offset plane's reach; the plane itself lies behind the offset one,
         which the centre meets first where it starts more than `margin` in front of the plane (2:
-        never; 3: behind the plane, where `face_thetas` finds nothing)."""
+        never; 3: behind the plane by more than `margin`, where `face_thetas` finds nothing)."""
         level = plane + radius
         g0, s0 = wp.dot(x0, n) - plane, h * wp.dot(v0, n)  # as `face_thetas`
-        if g0 < scalar(0.0):
+        if g0 < -margin:  # (beyond the rounding of g0 computed apart from `face_thetas`' own)
             return scalar(3.0)
         if g0 > radius or s0 <= scalar(0.0):
             return reached(n, level, c0, c1, c2, c3, c4, c5, margin)
