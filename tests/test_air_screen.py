@@ -1,8 +1,8 @@
 """The air's search of a mesh passes a triangle whose edge the step's curve stays beyond
 (`physics.air_screen`, `clear_of`), on the whole step or on its part from where the triangle's
 plane or its offset can first be met (`first_met`) to the contact found so far (`off_step`'s
-bound), before root finding: never one whose face contact (`face_thetas` kept where `inside`
-holds, as `triangle_theta` unscreened) lies before that bound. Checked on random steps by
+bound), before root finding: never one whose face contact (`face_theta`: `face_thetas` kept where
+`inside` holds, as `triangle_theta` finds it unscreened) lies before that bound. Checked on random steps by
 triangles far from the origin, on steps moved to pass within 1e-9 to 1e-2 m of an edge, and on
 centres starting within R of the plane and leaving it (waiting for the turn), with bounds of 2,
 uniform on [0, 1] and within 1e-7 to 1e-2 of the face contact: an edge's clearance against the
@@ -55,15 +55,7 @@ def _kernel(precision):
         clear[i, 1] = wp.where(screens.clear_of(n, b, c, c0, c1, c2, c3, c4, c5, low, high, size), 1, 0)
         clear[i, 2] = wp.where(screens.clear_of(n, c, a, c0, c1, c2, c3, c4, c5, low, high, size), 1, 0)
         clear[i, 3] = wp.where(screens.off_step(n, a, b, c, radius, h, x0, v0, a0, x1, v1, a1, low, high, bounds[i]), 1, 0)
-        theta, through = solids.face_thetas(n, wp.dot(a, n), h, x0, v0, a0, x1, v1, a1, radius)
-        if theta <= scalar(1.0):  # (as `triangle_theta` unscreened)
-            x, _slope = dense.hermite_vec(theta, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
-            if not inside(n, a, b, c, x):
-                theta = scalar(2.0)
-        if through < theta:
-            x, _slope = dense.hermite_vec(through, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
-            if inside(n, a, b, c, x):
-                theta = through
+        theta = solids.face_theta(n, a, b, c, h, x0, v0, a0, x1, v1, a1, radius)  # (unscreened)
         met[i] = theta
         count = wp.int32(0)
         for j in range(SAMPLES):

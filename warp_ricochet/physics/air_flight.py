@@ -123,13 +123,10 @@ def make_roots(precision: str, out_of_line: bool = False) -> SimpleNamespace:
 
 
 @functools.cache
-def make_solid_search(
-    precision: str, out_of_line: bool = False, screened: bool = True, large: bool = True, edges: bool = True
-) -> SimpleNamespace:
+def make_solid_search(precision: str, out_of_line: bool = False, large: bool = True, edges: bool = True) -> SimpleNamespace:
     """`mesh_theta(...)` and `post_theta(...)`: where on an accepted step a mesh or a post is met
-    (`physics.mesh_contact`, `physics.cylinder_contact`); `out_of_line`: `make_roots`'; `screened`
-    False: no triangle passed by its edge (`clear_of`) before its roots (the tests' reference);
-    `large` False: no mesh has more than FEW_FACES triangles, `edges` False: none owns edges or
+    (`physics.mesh_contact`, `physics.cylinder_contact`), and `face_theta(...)` (a triangle's face,
+    unscreened: the tests' reference); `out_of_line`: `make_roots`'; `large` False: no mesh has more than FEW_FACES triangles, `edges` False: none owns edges or
     corners (`geometry.solid_needs`: their code left out)."""
     t = types_for(precision)
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
@@ -175,6 +172,23 @@ def make_solid_search(
         return theta, through
 
     @wp.func
+    def face_theta(
+        n: vec3, a: vec3, b: vec3, c: vec3, h: scalar, x0: vec3, v0: vec3, a0: vec3, x1: vec3, v1: vec3, a1: vec3, radius: scalar
+    ):
+        """Where on the step the face of triangle (a, b, c), of unit normal n, is met (2: not):
+        `face_thetas`, each kept where the interpolant's centre is inside the triangle."""
+        theta, through = face_thetas(n, wp.dot(a, n), h, x0, v0, a0, x1, v1, a1, radius)
+        if theta <= scalar(1.0):
+            x, _slope = hermite_vec(theta, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
+            if not meshes.inside(n, a, b, c, x):
+                theta = scalar(2.0)
+        if through < theta:
+            x, _slope = hermite_vec(through, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
+            if meshes.inside(n, a, b, c, x):
+                theta = through
+        return theta
+
+    @wp.func
     def triangle_theta(
         surfaces: Surfaces,
         k: wp.int32,
@@ -203,18 +217,9 @@ def make_solid_search(
         if wp.length(n) == scalar(0.0):
             return best
         n = wp.normalize(n)
-        if wp.static(screened):  # the curve passes the triangle by an edge: no face contact on the step
-            if off_step(n, a, b, c, radius, h, x0, v0, a0, x1, v1, a1, low, high, bound):
-                return best
-        theta, through = face_thetas(n, wp.dot(a, n), h, x0, v0, a0, x1, v1, a1, radius)
-        if theta <= scalar(1.0):
-            x, _slope = hermite_vec(theta, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
-            if not meshes.inside(n, a, b, c, x):
-                theta = scalar(2.0)
-        if through < theta:
-            x, _slope = hermite_vec(through, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
-            if meshes.inside(n, a, b, c, x):
-                theta = through
+        if off_step(n, a, b, c, radius, h, x0, v0, a0, x1, v1, a1, low, high, bound):  # (`physics.air_screen`)
+            return best
+        theta = face_theta(n, a, b, c, h, x0, v0, a0, x1, v1, a1, radius)
         if theta <= best:  # ties: the face
             return theta
         return best
@@ -304,7 +309,7 @@ def make_solid_search(
                 best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius, low, high, best))
         return best
 
-    return SimpleNamespace(mesh_theta=mesh_theta, post_theta=post_theta, bezier_box=bezier_box, face_thetas=face_thetas)
+    return SimpleNamespace(mesh_theta=mesh_theta, post_theta=post_theta, bezier_box=bezier_box, face_theta=face_theta)
 
 
 @functools.cache

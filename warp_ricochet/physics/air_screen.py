@@ -58,12 +58,58 @@ def make_step_screen(precision: str) -> SimpleNamespace:
         return clear and wp.dot(w, c3 - p) < -margin and wp.dot(w, c4 - p) < -margin and wp.dot(w, c5 - p) < -margin
 
     @wp.func
+    def beyond_an_edge(
+        n: vec3,
+        a: vec3,
+        b: vec3,
+        c: vec3,
+        c0: vec3,
+        c1: vec3,
+        c2: vec3,
+        c3: vec3,
+        c4: vec3,
+        c5: vec3,
+        low: vec3,
+        high: vec3,
+        size: scalar,
+    ):
+        """Whether the curve of control points c0..c5 stays beyond an edge of triangle (a, b, c)
+        (`clear_of`, each edge in turn)."""
+        if clear_of(n, a, b, c0, c1, c2, c3, c4, c5, low, high, size):
+            return True
+        if clear_of(n, b, c, c0, c1, c2, c3, c4, c5, low, high, size):
+            return True
+        return clear_of(n, c, a, c0, c1, c2, c3, c4, c5, low, high, size)
+
+    @wp.func
     def crossing(t: scalar, i: wp.int32, di: scalar, j: wp.int32, dj: scalar, degree: scalar):
         """The least of t and where the segment from (i/degree, di > 0) to (j/degree, dj <= 0) of a
         Bernstein hull crosses zero."""
         if di > scalar(0.0) and dj <= scalar(0.0):
             t = wp.min(t, (scalar(i) + scalar(j - i) * (di / (di - dj))) / degree)
         return t
+
+    @wp.func
+    def hull_crossings(t: scalar, d0: scalar, d1: scalar, d2: scalar, d3: scalar, d4: scalar, degree: scalar):
+        """`crossing` over every pair of the first five Bernstein coefficients d0..d4 of a hull of
+        `degree` (the quartic's all, the quintic's but its last)."""
+        t = crossing(t, 0, d0, 1, d1, degree)
+        t = crossing(t, 0, d0, 2, d2, degree)
+        t = crossing(t, 0, d0, 3, d3, degree)
+        t = crossing(t, 0, d0, 4, d4, degree)
+        t = crossing(t, 1, d1, 2, d2, degree)
+        t = crossing(t, 1, d1, 3, d3, degree)
+        t = crossing(t, 1, d1, 4, d4, degree)
+        t = crossing(t, 2, d2, 3, d3, degree)
+        t = crossing(t, 2, d2, 4, d4, degree)
+        return crossing(t, 3, d3, 4, d4, degree)
+
+    @wp.func
+    def rounded_down(t: scalar):
+        """A hull's first zero t less 16 eps for its own rounding, within [0, 1] (above 1: never)."""
+        if t > scalar(1.0):
+            return t
+        return wp.max(t - ULPS, scalar(0.0))
 
     @wp.func
     def reached(n: vec3, level: scalar, c0: vec3, c1: vec3, c2: vec3, c3: vec3, c4: vec3, c5: vec3, margin: scalar):
@@ -74,25 +120,9 @@ def make_step_screen(precision: str) -> SimpleNamespace:
         d3, d4, d5 = wp.dot(n, c3) - level - margin, wp.dot(n, c4) - level - margin, wp.dot(n, c5) - level - margin
         if not (d0 > scalar(0.0)):
             return scalar(0.0)
-        t = scalar(2.0)
-        t = crossing(t, 0, d0, 1, d1, FIVE)
-        t = crossing(t, 0, d0, 2, d2, FIVE)
-        t = crossing(t, 0, d0, 3, d3, FIVE)
-        t = crossing(t, 0, d0, 4, d4, FIVE)
-        t = crossing(t, 0, d0, 5, d5, FIVE)
-        t = crossing(t, 1, d1, 2, d2, FIVE)
-        t = crossing(t, 1, d1, 3, d3, FIVE)
-        t = crossing(t, 1, d1, 4, d4, FIVE)
-        t = crossing(t, 1, d1, 5, d5, FIVE)
-        t = crossing(t, 2, d2, 3, d3, FIVE)
-        t = crossing(t, 2, d2, 4, d4, FIVE)
-        t = crossing(t, 2, d2, 5, d5, FIVE)
-        t = crossing(t, 3, d3, 4, d4, FIVE)
-        t = crossing(t, 3, d3, 5, d5, FIVE)
-        t = crossing(t, 4, d4, 5, d5, FIVE)
-        if t > scalar(1.0):
-            return t
-        return wp.max(t - ULPS, scalar(0.0))
+        t = hull_crossings(scalar(2.0), d0, d1, d2, d3, d4, FIVE)
+        t = crossing(crossing(crossing(t, 0, d0, 5, d5, FIVE), 1, d1, 5, d5, FIVE), 2, d2, 5, d5, FIVE)
+        return rounded_down(crossing(crossing(t, 3, d3, 5, d5, FIVE), 4, d4, 5, d5, FIVE))
 
     @wp.func
     def turned(n: vec3, c0: vec3, c1: vec3, c2: vec3, c3: vec3, c4: vec3, c5: vec3, margin: scalar):
@@ -103,20 +133,7 @@ def make_step_screen(precision: str) -> SimpleNamespace:
         e3, e4 = wp.dot(n, c4 - c3) - margin, wp.dot(n, c5 - c4) - margin
         if not (e0 > scalar(0.0)):
             return scalar(0.0)
-        t = scalar(2.0)
-        t = crossing(t, 0, e0, 1, e1, FOUR)
-        t = crossing(t, 0, e0, 2, e2, FOUR)
-        t = crossing(t, 0, e0, 3, e3, FOUR)
-        t = crossing(t, 0, e0, 4, e4, FOUR)
-        t = crossing(t, 1, e1, 2, e2, FOUR)
-        t = crossing(t, 1, e1, 3, e3, FOUR)
-        t = crossing(t, 1, e1, 4, e4, FOUR)
-        t = crossing(t, 2, e2, 3, e3, FOUR)
-        t = crossing(t, 2, e2, 4, e4, FOUR)
-        t = crossing(t, 3, e3, 4, e4, FOUR)
-        if t > scalar(1.0):
-            return t
-        return wp.max(t - ULPS, scalar(0.0))
+        return rounded_down(hull_crossings(scalar(2.0), e0, e1, e2, e3, e4, FOUR))
 
     @wp.func
     def lerp(p: vec3, q: vec3, t: scalar):
@@ -202,11 +219,7 @@ def make_step_screen(precision: str) -> SimpleNamespace:
         size = (
             meshes.l1(x0) + meshes.l1(x1) + meshes.l1(h * v0) + meshes.l1(h * h * a0) + meshes.l1(h * v1) + meshes.l1(h * h * a1)
         )
-        if clear_of(n, a, b, c0, c1, c2, c3, c4, c5, low, high, size) or clear_of(
-            n, b, c, c0, c1, c2, c3, c4, c5, low, high, size
-        ):
-            return True
-        if clear_of(n, c, a, c0, c1, c2, c3, c4, c5, low, high, size):
+        if beyond_an_edge(n, a, b, c, c0, c1, c2, c3, c4, c5, low, high, size):
             return True
         plane = wp.dot(a, n)
         margin = CLEAR * (size + meshes.l1(a) + wp.abs(plane + radius))
@@ -220,10 +233,6 @@ def make_step_screen(precision: str) -> SimpleNamespace:
             c0, c1, c2, c3, c4, c5 = tail(t, c0, c1, c2, c3, c4, c5)
         if top < scalar(1.0):
             c0, c1, c2, c3, c4, c5 = head((top - t) / (scalar(1.0) - t), c0, c1, c2, c3, c4, c5)
-        if clear_of(n, a, b, c0, c1, c2, c3, c4, c5, low, high, size) or clear_of(
-            n, b, c, c0, c1, c2, c3, c4, c5, low, high, size
-        ):
-            return True
-        return clear_of(n, c, a, c0, c1, c2, c3, c4, c5, low, high, size)
+        return beyond_an_edge(n, a, b, c, c0, c1, c2, c3, c4, c5, low, high, size)
 
     return SimpleNamespace(controls=controls, clear_of=clear_of, off_step=off_step)
