@@ -97,3 +97,13 @@ def test_kernels_to_rest_in_air_keep_their_large_functions_out_of_line():
         make_surface_rates("float32", "ballistic").rates,
     )
     assert {f.inline_hint for f in inline} == {None}
+
+
+def test_a_small_meshs_edge_search_is_one_function_in_cuda_code():
+    """A small mesh's edges and corners are searched only where no covering face rules them out
+    (rarely): their search is one call in CUDA code, in every kernel (bench/RESULTS.md "A small
+    mesh's edge search out of line"; the same outputs on the H200, landing and to rest)."""
+    from warp_ricochet.physics.edge_contact import make_edge_contact
+
+    for precision in ("float32", "float64"):
+        assert make_edge_contact(precision).features_time.inline_hint == CUDA_NOINLINE

@@ -27,13 +27,14 @@ import warp as wp
 
 from .ballistic import EPSILON, NO_CONTACT, ROUNDING, make_ballistic
 from .cylinder_contact import make_cylinder_contact
+from .inlining import out_of_line_if
 from .mesh_contact import EDGE_ROUNDING, FEW_FACES, FLOAT32_SLACK, make_mesh_contact, make_mesh_search
 from .types import types_for
 
 
 @functools.cache
 def make_edge_contact(precision: str, large: bool = True, edges: bool = True) -> SimpleNamespace:
-    """`mesh_time` (faces, edges and corners), `features_theta`, `contact_normal` and `touching`
+    """`mesh_time` (faces, edges and corners), `features_time` (its edges and corners), `features_theta`, `contact_normal` and `touching`
     (module docstring). `large` False: every mesh has at most FEW_FACES triangles (no BVH queries compiled
     in); `edges` False: no mesh owns edges or corners (their tests compiled out)."""
     t = types_for(precision)
@@ -96,6 +97,7 @@ def make_edge_contact(precision: str, large: bool = True, edges: bool = True) ->
                 s = wp.clamp((b - c) / a, ZERO, ONE)
         return wp.length(p + s * d1 - (c0 + u * d2))
 
+    @out_of_line_if(True)
     @wp.func
     def features_time(
         surfaces: Surfaces,
@@ -111,7 +113,8 @@ def make_edge_contact(precision: str, large: bool = True, edges: bool = True) ->
         """When the parabola of eq. (36) first meets an edge or corner triangle `face` owns, or
         NO_CONTACT; one that the chord from `start` to `stop` (s) passes farther from than R, its
         sagitta |g| (stop - start)^2 / 8 and rounding is not met in that time and is skipped
-        (stop < start: none is)."""
+        (stop < start: none is). One function in CUDA code (`physics.inlining`): run only where no
+        covering face rules the edges out, its inlined copies only cost the kernels room."""
         best = scalar(NO_CONTACT)
         if stop < start or surfaces.face_first[k] < 0:  # (no edges: a terrain)
             return best
@@ -239,4 +242,10 @@ def make_edge_contact(precision: str, large: bool = True, edges: bool = True) ->
         return n
 
     mesh_time = make_mesh_search(precision, features_time if edges else None, large).mesh_time
-    return SimpleNamespace(mesh_time=mesh_time, features_theta=features_theta, contact_normal=contact_normal, touching=touching)
+    return SimpleNamespace(
+        mesh_time=mesh_time,
+        features_time=features_time,
+        features_theta=features_theta,
+        contact_normal=contact_normal,
+        touching=touching,
+    )
