@@ -126,7 +126,10 @@ def make_events(spec) -> SimpleNamespace:
         exactly as the core kernel), or the end of its flight (its contact after `bounces`
         ricochets, or no closing speed). Returns the new reference state and whether it flies on."""
         radius = physics.radius
-        x0, v0, w0, t0 = position, velocity, spin, time
+        x0 = position  # (copies, each its own line: tests/test_warp_rules.py)
+        v0 = velocity
+        w0 = spin
+        t0 = time
         position, velocity, spin, velocity_after, spin_after, slipped, time, flying, impacted = plane_outcome(
             i, k, wait, position, velocity, spin, time, cloud, surfaces, physics
         )

@@ -236,7 +236,8 @@ def make_grid_walk(precision: str, face_time) -> SimpleNamespace:
             hi_u, hi_w = wp.min(lo_u + (1 << level), cols), wp.min(lo_w + (1 << level), rows)
             tu, tw = leave(u0, su, lo_u, hi_u), leave(w0, sw, lo_w, hi_w)
             then = wp.max(wp.min(wp.min(tu, tw), stop), now)
-            ni, nj = ci, cj
+            ni = ci  # (plain assignments: tests/test_warp_rules.py)
+            nj = cj
             if tu <= tw:
                 ni = wp.where(su > scalar(0.0), hi_u, lo_u - 1)
             if tw <= tu:
@@ -271,7 +272,9 @@ def make_grid_walk(precision: str, face_time) -> SimpleNamespace:
                 ni = inside(u0 + su * then, lo_u, hi_u - 1)
             if nj == cj:
                 nj = inside(w0 + sw * then, lo_w, hi_w - 1)
-            ci, cj, now = ni, nj, then
+            ci = ni
+            cj = nj
+            now = then
             level = wp.min(level + 1, levels - 1)
         return NONE, False
 
