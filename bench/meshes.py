@@ -4,7 +4,8 @@
          (issue 27, part 4: 1e7 of them), in chunks: how many meet it, how many centres are inside
          it at an impact or a landing (must be 0), and pellets/s of the runs
   plane  the paper's shot (statistics only) on its plane and on a two-triangle mesh of that
-         plane (2e4 m square): pellets/s of each and their ratio (issue 27, part 5: at most 3x)
+         plane (2e4 m square), in vacuum (default) and/or in sea-level air: pellets/s of each and
+         their ratio (issue 27, part 5: at most 3x)
   terrain  the paper's shot (statistics only) over a synthetic terrain of 1,002,528 triangles
          (`terrain_raster`: 708 x 708 cells of 0.5 m, 0.5 m waves, a GeoTIFF in a temporary
          folder) beside its flat plane, in vacuum and in air (issue 27, part 5: at least 2e8
@@ -19,7 +20,7 @@
          plane of turf: seconds, pellets/s, where the pellets end and their mean steps
 
     python -m bench.meshes box [--n 1e7] [--chunk 1e6] [--jitter 1e-5] [--precision float32] [--device cpu]
-    python -m bench.meshes plane [--n 1e6] [--precision float32] [--device cpu] [--repeats 3]
+    python -m bench.meshes plane [--n 1e6] [--precision float32] [--device cpu] [--repeats 3] [--flights vacuum,air]
     python -m bench.meshes terrain [--n 1e6] [--precision float32] [--device cpu] [--repeats 3] [--cells 708]
                                    [--flights vacuum,air]
     python -m bench.meshes rest [--n 1200] [--device cpu] [--repeats 3]
@@ -149,25 +150,32 @@ def plane_mesh(folder) -> list:
     return ['surfaces.0.kind="mesh"', f'surfaces.0.file="{Path(folder) / "plane.stl"}"']
 
 
-def plane(n, precision, device, repeats):
+def plane(n, precision, device, repeats, flights=("vacuum",)):
+    """The paper's shot (statistics only) on its plane and on `plane_mesh`, in vacuum and/or in
+    sea-level air: pellets/s of each (median wall time of `repeats` runs after a warm-up) and the
+    mesh's time over the plane's."""
     import warp_ricochet as wr
     from warp_ricochet.scene import load_scene
 
     sets = [f"shot.count={n}", f"numerics.precision={precision}", "output.fields=[]"]
     with tempfile.TemporaryDirectory() as folder:
         mesh = plane_mesh(folder)
-        times = {}
-        for label, extra in (("plane", []), ("mesh", mesh)):
-            scene = load_scene(ROOT / "examples" / "paper.toml", sets + extra)
-            wr.run(scene, None, device=device)  # warm-up: compiles
-            runs = []
-            for _ in range(repeats):
-                start = time.perf_counter()
-                wr.run(scene, None, device=device)
-                runs.append(time.perf_counter() - start)
-            times[label] = float(np.median(runs))
-            print(f"{label}: {n / times[label]:.3g} pellets/s ({times[label] * 1e3:.1f} ms, median of {repeats})")
-    print(f"mesh / plane time: {times['mesh'] / times['plane']:.2f}x  [{precision}, {device}]")
+        for flight in flights:
+            times = {}
+            air = ['air.drag="loth2021"'] if flight == "air" else []  # (an [air] table of defaults: sea-level air)
+            for label, extra in (("plane", []), ("mesh", mesh)):
+                scene = load_scene(ROOT / "examples" / "paper.toml", sets + air + extra)
+                wr.run(scene, None, device=device)  # warm-up: compiles
+                runs = []
+                for _ in range(repeats):
+                    start = time.perf_counter()
+                    wr.run(scene, None, device=device)
+                    runs.append(time.perf_counter() - start)
+                times[label] = float(np.median(runs))
+                where = f"{flight}, " if flights != ("vacuum",) else ""
+                print(f"{where}{label}: {n / times[label]:.3g} pellets/s ({times[label] * 1e3:.1f} ms, median of {repeats})")
+            where = f"{flight}: " if flights != ("vacuum",) else ""
+            print(f"{where}mesh / plane time: {times['mesh'] / times['plane']:.2f}x  [{precision}, {device}]")
 
 
 CELL = 0.5  # m: the synthetic terrain's pixel
@@ -353,7 +361,7 @@ def main(argv=None):
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--jitter", type=_fraction, default=0.0, help="box: launch positions moved by up to this fraction")
     parser.add_argument("--cells", type=int, default=708, help="terrain: cells per side (2 cells^2 triangles)")
-    parser.add_argument("--flights", default="vacuum,air", help="terrain: vacuum, air or both (comma-separated)")
+    parser.add_argument("--flights", help="terrain, plane: vacuum, air or both (comma-separated; terrain: both, plane: vacuum)")
     args = parser.parse_args(argv)
     if args.what == "box":
         box(int(args.n), int(args.chunk), args.precision, args.device, jitter=args.jitter)
@@ -362,9 +370,9 @@ def main(argv=None):
     elif args.what == "posts":
         posts(int(args.n), args.device, args.repeats)
     elif args.what == "terrain":
-        terrain(int(args.n), args.precision, args.device, args.repeats, args.cells, args.flights.split(","))
+        terrain(int(args.n), args.precision, args.device, args.repeats, args.cells, (args.flights or "vacuum,air").split(","))
     else:
-        plane(int(args.n), args.precision, args.device, args.repeats)
+        plane(int(args.n), args.precision, args.device, args.repeats, tuple((args.flights or "vacuum").split(",")))
 
 
 if __name__ == "__main__":
