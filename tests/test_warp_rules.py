@@ -63,7 +63,7 @@ def _carried(out: wp.array(dtype=wp.float32)):
     out[1] = at
 
 
-def test_a_plainly_assigned_copy_is_carried_by_a_loop_apart_from_its_source():
-    out = wp.zeros(2, dtype=wp.float32, device="cpu")
-    wp.launch(_carried, 1, outputs=[out], device="cpu")
+def test_a_plainly_assigned_copy_is_carried_by_a_loop_apart_from_its_source(device):
+    out = wp.zeros(2, dtype=wp.float32, device=device)
+    wp.launch(_carried, 1, outputs=[out], device=device)
     assert np.array_equal(out.numpy(), [3.0, 30.0])
