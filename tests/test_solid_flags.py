@@ -68,24 +68,50 @@ def test_only_a_leaning_post_followed_to_rest_compiles_the_side_motion():
     assert not plates([0.0, 0.5, 0.866], "landing") & LEANING
 
 
-def test_only_a_landing_kernel_in_air_among_solids_takes_their_register_cap():
-    """`core.kernel.kernel_options`: AIR_SOLIDS_MAX_REGISTERS where a float32 kernel with fast maths
-    flies in air among meshes or posts to the landing; the plain cap elsewhere (in vacuum, over
-    planes only, to rest)."""
-    from warp_ricochet.core.kernel import AIR_SOLIDS_MAX_REGISTERS, CUDA_MAX_REGISTERS, kernel_options
+def test_landing_kernels_among_solids_take_their_register_caps_and_block_sizes(tmp_path):
+    """`core.kernel.kernel_options` and `block_dim_for`: AIR_SOLIDS_MAX_REGISTERS where a float32
+    kernel with fast maths flies in air among meshes or posts to the landing; SMALL_SOLIDS_MAX_REGISTERS
+    and SMALL_SOLIDS_BLOCK_DIM threads a block where it flies in vacuum among small solids only (a
+    box, a post) to the landing without a hazard map; the plain cap and CUDA_BLOCK_DIM elsewhere
+    (over planes only, a large mesh, to rest, with a map, float64)."""
+    from warp_ricochet.core.kernel import (
+        AIR_SOLIDS_MAX_REGISTERS,
+        CUDA_BLOCK_DIM,
+        CUDA_MAX_REGISTERS,
+        SMALL_SOLIDS_BLOCK_DIM,
+        SMALL_SOLIDS_MAX_REGISTERS,
+        block_dim_for,
+        kernel_options,
+    )
 
-    def options(surfaces, air, until="landing"):
+    def spec(surfaces, air, until="landing", precision="float32", hazard=False):
         shot = {"count": 4, "diameter": 0.0025, "density": 7000.0, "speed": 300.0, "direction": [1.0, 0.0, 0.0]}
         shot |= {"envelope_radius": 0.01, "envelope_center": [0.0, 0.0, 1.0]}
         raw = {"shot": shot, "surfaces": surfaces, "physics": {"until": until, "gravity": [0, 0, -9.81]}}
+        raw["numerics"] = {"precision": precision}
         if air:
             raw["air"] = {}
-        return kernel_options(RunSpec.of(scene_from_dict(raw), with_output=False)).get("cuda_max_registers")
+        if hazard:
+            raw["hazard"] = {"speed": {"skin_perforation": 101.0}, "map_cell": 1.0, "map_extent": [0.0, 20.0, -5.0, 5.0]}
+        return RunSpec.of(scene_from_dict(raw), with_output=False)
 
-    box = {**BOX, "restitution": 0.5, "mu_s": 0.2}
-    solid_cap, plain_cap = AIR_SOLIDS_MAX_REGISTERS["float32", True], CUDA_MAX_REGISTERS["float32", True]
-    assert solid_cap != plain_cap
-    assert options([GROUND, box], air=True) == solid_cap
-    assert options([GROUND, box], air=False) == plain_cap
-    assert options([GROUND], air=True) == plain_cap
-    assert options([GROUND, box], air=True, until="rest") == plain_cap
+    def cap_and_block(*args, **kwargs):
+        s = spec(*args, **kwargs)
+        return kernel_options(s).get("cuda_max_registers"), block_dim_for(s)
+
+    box, post = {**BOX, "restitution": 0.5, "mu_s": 0.2}, {**POST, "restitution": 0.5, "mu_s": 0.2}
+    large = {"kind": "mesh", "file": _strip(tmp_path, 40), "restitution": 0.5, "mu_s": 0.2}
+    air_cap, small_cap = AIR_SOLIDS_MAX_REGISTERS["float32", True], SMALL_SOLIDS_MAX_REGISTERS["float32", True]
+    plain = CUDA_MAX_REGISTERS["float32", True], CUDA_BLOCK_DIM
+    assert len({air_cap, small_cap, plain[0]}) == 3 and SMALL_SOLIDS_BLOCK_DIM != CUDA_BLOCK_DIM
+    assert cap_and_block([GROUND, box], air=True) == (air_cap, CUDA_BLOCK_DIM)
+    assert cap_and_block([GROUND, box], air=False) == (small_cap, SMALL_SOLIDS_BLOCK_DIM)
+    assert cap_and_block([GROUND, post], air=False) == (small_cap, SMALL_SOLIDS_BLOCK_DIM)
+    assert cap_and_block([GROUND], air=True) == plain
+    assert cap_and_block([GROUND], air=False) == plain
+    assert cap_and_block([GROUND, large], air=False) == plain
+    assert cap_and_block([GROUND, box], air=True, until="rest") == plain
+    assert cap_and_block([GROUND, box], air=False, until="rest") == plain
+    assert cap_and_block([GROUND, box], air=False, precision="float64")[1] == CUDA_BLOCK_DIM
+    assert spec([GROUND, box], air=False, hazard=True).hazard_map
+    assert cap_and_block([GROUND, box], air=False, hazard=True) == plain

@@ -27,7 +27,7 @@ import warp as wp
 from . import interrupts
 from .bound import station_pieces
 from .chunks import log_words, plan_rows, plan_shots
-from .core.kernel import CUDA_BLOCK_DIM, ricochet_kernel_for
+from .core.kernel import block_dim_for, ricochet_kernel_for
 from .core.release import empty_release
 from .core.replay import Replay
 from .core.shots import ShotPass, ThreadPieces
@@ -143,17 +143,16 @@ def check_log(tally: DeviceTally, spec, device, rows: int) -> None:
         raise RuntimeError(f"step log of {tally.struct.log_threads} threads for a launch of {need}")
 
 
-def launch_core(kernel, inputs, state, rows: int, device, scratch: bool = False) -> None:
-    """Launch a core kernel over `rows` rows (or slots) with `inputs`, its statistics partials into
-    `state`'s (`scratch`: into its scratch set, thrown away: the rerun of `core.replay.Replay`)."""
+def launch_core(kernel, inputs, state, rows: int, device, block_dim: int, scratch: bool = False) -> None:
+    """Launch a core kernel over `rows` rows (or slots) with `inputs` in CUDA blocks of `block_dim`
+    threads, its statistics partials into `state`'s (`scratch`: into its scratch set, thrown away:
+    the rerun of `core.replay.Replay`)."""
     partials = [state.partial_sums, state.partial_min, state.partial_max]
     if scratch:
         if state.scratch_partials is None:  # (one set, reused by the chunks)
             state.scratch_partials = [wp.empty_like(a) for a in partials]
         partials = state.scratch_partials
-    wp.launch(
-        kernel, dim=threads_for(rows, state.lanes), inputs=inputs, outputs=partials, device=device, block_dim=CUDA_BLOCK_DIM
-    )
+    wp.launch(kernel, dim=threads_for(rows, state.lanes), inputs=inputs, outputs=partials, device=device, block_dim=block_dim)
 
 
 def release_kept(device, key=None) -> None:
@@ -195,13 +194,14 @@ class CoreStage:
         self.tally.before_chunk()
         check_log(self.tally, self.spec, m.device, rows)
         inputs = [start, rows, self.source.struct, m.surfaces, m.physics, self.state.outputs, self.release, self.tally.struct]
-        launch_core(self.kernel, inputs, self.state, rows, m.device)
+        block_dim = block_dim_for(self.spec)
+        launch_core(self.kernel, inputs, self.state, rows, m.device, block_dim)
         self.replay.after_core(
             rows,
             self.state.outputs,
             self.release,
             self.tally.struct,
-            lambda k: launch_core(k, inputs, self.state, rows, m.device, True),
+            lambda k: launch_core(k, inputs, self.state, rows, m.device, block_dim, True),
         )
         self.tally.fold(rows, last=start + rows >= self.stop)
         return launch_reduce(self.state, rows, m.device, self.state.lanes), 0
@@ -267,13 +267,14 @@ class CollisionStage:
         slots = shots * self.stride
         check_log(self.tally, self.spec, m.device, slots)
         inputs = [0, slots, self.source.struct, m.surfaces, m.physics, self.state.outputs, self.dense.release, self.tally.struct]
-        launch_core(self.kernel, inputs, self.state, slots, m.device)
+        block_dim = block_dim_for(self.spec)
+        launch_core(self.kernel, inputs, self.state, slots, m.device, block_dim)
         self.replay.after_core(
             shots * self.count,
             self.state.outputs,
             self.dense.release,
             self.tally.struct,
-            lambda k: launch_core(k, inputs, self.state, slots, m.device, True),
+            lambda k: launch_core(k, inputs, self.state, slots, m.device, block_dim, True),
         )
         self.tally.fold(slots, last=start + rows >= self.stop)
         return launch_reduce(self.state, slots, m.device, self.state.lanes), shots

@@ -10,7 +10,7 @@ import warp as wp
 
 from ..launch.source import make_source
 from ..physics import grid_constant
-from ..physics.geometry import MESHES
+from ..physics.geometry import MESHES, SMALL
 from ..physics.lanes import WARP_SIZE, sync_lanes
 from ..physics.types import types_for
 from ..tallies.accumulate import make_accumulators
@@ -28,7 +28,11 @@ CUDA_MAX_REGISTERS = {("float32", False): 80, ("float32", True): None, ("float64
 # The same for a kernel that flies in air among meshes or posts to their landing, where it differs
 # (bench/RESULTS.md, "An air step's triangles screened by the contact found so far").
 AIR_SOLIDS_MAX_REGISTERS = {("float32", True): 128}
-CUDA_BLOCK_DIM = 256  # threads per CUDA block of the ricochet kernel
+# ... and for one that flies in vacuum among small solids (meshes of at most FEW_FACES triangles,
+# posts) to the landing, launched in blocks of SMALL_SOLIDS_BLOCK_DIM threads: 12 warps an SM, not 8
+# (bench/RESULTS.md, "Blocks of 128 threads for a small mesh's kernel").
+SMALL_SOLIDS_MAX_REGISTERS = {("float32", True): 168}
+CUDA_BLOCK_DIM, SMALL_SOLIDS_BLOCK_DIM = 256, 128  # threads per CUDA block of the ricochet kernel (`block_dim_for`)
 # Kernels to rest unroll constant loops of up to this many iterations (Warp's default: 16), for less
 # code (bench/RESULTS.md, "Warps that wait for their surface phases").
 REST_MAX_UNROLL = 4
@@ -36,7 +40,7 @@ REST_MAX_UNROLL = 4
 
 def kernel_options(spec, max_registers="default", in_place=True) -> dict:
     """`wp.kernel`'s options for a kernel that follows `spec`'s pellets (the core's, `core.shots`'):
-    its register cap (CUDA_MAX_REGISTERS or AIR_SOLIDS_MAX_REGISTERS, or `max_registers`), fast maths
+    its register cap (CUDA_MAX_REGISTERS, AIR_SOLIDS_ or SMALL_SOLIDS_MAX_REGISTERS, or `max_registers`), fast maths
     and, to rest, the loops it unrolls; where `in_place`, its parameters read in place on CUDA
     (`physics.grid_constant`)."""
     cap = max_registers
@@ -45,6 +49,8 @@ def kernel_options(spec, max_registers="default", in_place=True) -> dict:
         cap = CUDA_MAX_REGISTERS[key]
         if spec.flight == "air" and spec.plates >= MESHES and not spec.to_rest:
             cap = AIR_SOLIDS_MAX_REGISTERS.get(key, cap)
+        elif _small_solids_landing(spec):
+            cap = SMALL_SOLIDS_MAX_REGISTERS.get(key, cap)
     options = {} if cap is None else {"cuda_max_registers": cap}
     module = {"fast_math": True} if spec.fast_math else {}
     if in_place:  # parameters read in place on CUDA, not copied to each thread
@@ -54,6 +60,22 @@ def kernel_options(spec, max_registers="default", in_place=True) -> dict:
     if module:
         options["module_options"] = module
     return options
+
+
+def _small_solids_landing(spec) -> bool:
+    """Whether `spec`'s kernel flies in vacuum among small solids only (`geometry.SMALL`) to the
+    landing, without a hazard map (whose landings are summed per block in shared memory,
+    `tallies.block`: its blocks keep their size)."""
+    small = spec.plates >= MESHES and bool(spec.plates & SMALL)
+    return small and spec.flight != "air" and not spec.to_rest and not spec.hazard_map
+
+
+def block_dim_for(spec) -> int:
+    """Threads per CUDA block of `spec`'s ricochet kernel: SMALL_SOLIDS_BLOCK_DIM where its register
+    cap is SMALL_SOLIDS_MAX_REGISTERS', else CUDA_BLOCK_DIM. Each thread's pellets, and so the
+    results, are the same for any."""
+    small = _small_solids_landing(spec) and (spec.precision, spec.fast_math) in SMALL_SOLIDS_MAX_REGISTERS
+    return SMALL_SOLIDS_BLOCK_DIM if small else CUDA_BLOCK_DIM
 
 
 @functools.cache
