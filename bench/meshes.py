@@ -363,6 +363,8 @@ def main(argv=None):
     parser.add_argument("--cells", type=int, default=708, help="terrain: cells per side (2 cells^2 triangles)")
     parser.add_argument("--flights", help="terrain, plane: vacuum, air or both (comma-separated; terrain: both, plane: vacuum)")
     args = parser.parse_args(argv)
+    if args.flights is not None and not set(args.flights.split(",")) <= {"vacuum", "air"}:
+        parser.error(f"--flights = {args.flights!r}: vacuum, air or both, comma-separated")
     if args.what == "box":
         box(int(args.n), int(args.chunk), args.precision, args.device, jitter=args.jitter)
     elif args.what == "rest":

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import warp as wp
 
-from warp_ricochet.core.kernel import CUDA_BLOCK_DIM
+from warp_ricochet.core.kernel import CUDA_BLOCK_DIM, SMALL_SOLIDS_BLOCK_DIM
 from warp_ricochet.tallies import bins, counts
 from warp_ricochet.tallies.block import BEGIN, PROBES, SLOTS
 from warp_ricochet.tallies.counts import DeviceTally, TallySetup
@@ -130,6 +130,7 @@ def test_launches_of_the_core_kernel_cover_whole_blocks():
     from warp_ricochet.tallies.reduce import PER_THREAD as CORE_PER_THREAD
 
     assert LANES % CUDA_BLOCK_DIM == 0  # threads_for() gives whole LANES groups
+    assert LANES % SMALL_SOLIDS_BLOCK_DIM == 0  # (in whole blocks of either size: `core.kernel.block_dim_for`)
     assert CUDA_BLOCK_DIM * CORE_PER_THREAD <= MAX_BLOCK_LANDINGS  # a table's energy words cannot overflow
 
 

@@ -4,8 +4,10 @@ imported from the package).
 Warp 1.19 binds the targets of a tuple assignment to the right-hand side's own symbols: after
 `at, n = lo, 0` the names `at` and `lo` are one C++ variable. Where both are then carried by a
 loop, each iteration's write-back of one overwrites the other, silently (bench/RESULTS.md, session
-57: an Illinois iteration that never moved its bracket). A plain assignment `at = lo` copies. So
-Warp code never tuple-assigns a bare name."""
+57: an Illinois iteration that never moved its bracket). `x if FLAG else y` with a condition known
+at code generation is that branch's own symbol in the same way. A plain `at = lo` copies. So Warp
+code never tuple-assigns a bare name, nor writes a conditional expression with a bare name as a
+branch."""
 
 import ast
 from pathlib import Path
@@ -26,13 +28,16 @@ def _warp_functions(tree):
 
 
 def _aliasing_assignments(source):
-    """(line, text) of each tuple assignment in Warp code with a bare name on its right."""
+    """(line, text) of each tuple assignment in Warp code with a bare name on its right, and of each
+    conditional expression with a bare name as a branch."""
     found = []
     for fn in _warp_functions(ast.parse(source)):
         for node in ast.walk(fn):
             if isinstance(node, ast.Assign) and any(isinstance(t, ast.Tuple) for t in node.targets):
                 if isinstance(node.value, ast.Tuple) and any(isinstance(e, ast.Name) for e in node.value.elts):
                     found.append((node.lineno, ast.unparse(node)))
+            elif isinstance(node, ast.IfExp) and (isinstance(node.body, ast.Name) or isinstance(node.orelse, ast.Name)):
+                found.append((node.lineno, ast.unparse(node)))
     return found
 
 
@@ -43,10 +48,10 @@ def test_warp_code_never_tuple_assigns_a_bare_name():
     assert not found, found
 
 
-def test_the_rule_sees_the_hazard_and_passes_its_remedy():
-    hazard = "@wp.func\ndef f(lo: float):\n    at, n = lo, 0\n    return at\n"
-    remedy = "@wp.func\ndef f(lo: float):\n    at = lo\n    n = 0\n    x, y = lo + 0.0, 1\n    return at\n"
-    assert [line for line, _text in _aliasing_assignments(hazard)] == [3]
+def test_the_rule_sees_the_hazards_and_passes_their_remedies():
+    hazard = "@wp.func\ndef f(lo: float):\n    at, n = lo, 0\n    x = lo if FLAG else 0.0\n    return at\n"
+    remedy = "@wp.func\ndef f(lo: float):\n    at = lo\n    n = 0\n    x, y = lo + 0.0, 1\n    z = wp.where(FLAG, lo, 0.0)\n    return at\n"
+    assert [line for line, _text in _aliasing_assignments(hazard)] == [3, 4]
     assert _aliasing_assignments(remedy) == []
 
 

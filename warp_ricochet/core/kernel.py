@@ -71,9 +71,9 @@ def _small_solids_landing(spec) -> bool:
 
 
 def block_dim_for(spec) -> int:
-    """Threads per CUDA block of `spec`'s ricochet kernel: SMALL_SOLIDS_BLOCK_DIM where its register
-    cap is SMALL_SOLIDS_MAX_REGISTERS', else CUDA_BLOCK_DIM. Each thread's pellets, and so the
-    results, are the same for any."""
+    """Threads per CUDA block of a kernel following `spec`'s pellets (the core's, `core.shots`'):
+    SMALL_SOLIDS_BLOCK_DIM where `kernel_options` caps it at SMALL_SOLIDS_MAX_REGISTERS, else
+    CUDA_BLOCK_DIM. Each thread's pellets, and so the results, are the same for any."""
     small = _small_solids_landing(spec) and (spec.precision, spec.fast_math) in SMALL_SOLIDS_MAX_REGISTERS
     return SMALL_SOLIDS_BLOCK_DIM if small else CUDA_BLOCK_DIM
 

@@ -31,7 +31,7 @@ from ..tallies.ensemble import PIECE, pieces_per_shot
 from ..tallies.landing import make_landing_tally
 from ..tallies.reduce import SEGMENT, SEGMENT_WIDTH, reduce_kernel
 from ..tallies.sums import NUM_EXTREMES, NUM_SUMS
-from .kernel import kernel_options
+from .kernel import block_dim_for, kernel_options
 from .outputs import make_outputs
 from .pellet import make_ricochet_pellet
 from .release import make_release
@@ -40,11 +40,16 @@ SUB = 32  # pellets a thread follows
 SUB_PIECES = PIECE // SUB  # threads a piece
 
 
+def shot_spec(spec):
+    """`spec` statistics only (no outputs, no landing tallies: the core kernel counts each landing
+    once): the per-piece kernel's."""
+    return dataclasses.replace(spec, fields=(), tally=False, hazard_map=False)
+
+
 @functools.cache
 def shot_kernel_for(spec):
-    """The per-piece kernel of `spec`: statistics only (no outputs, no landing tallies: the core
-    kernel counts each landing once)."""
-    spec = dataclasses.replace(spec, fields=(), tally=False, hazard_map=False)
+    """The per-piece kernel of `spec` (`shot_spec`'s), launched in blocks of `block_dim_for` its spec."""
+    spec = shot_spec(spec)
     t = types_for(spec.precision)
     scalar, Surfaces, Physics = t.scalar, t.Surfaces, t.Physics
     Source, Outputs, Release = (
@@ -116,7 +121,7 @@ class ShotPass:
         self.model, self.spec = model, spec
         self.count = scene.shot.count
         self.pieces = pieces_per_shot(self.count)
-        self.kernel = shot_kernel_for(spec)
+        self.kernel, self.block_dim = shot_kernel_for(spec), block_dim_for(shot_spec(spec))
         dev = model.device
         n = max(max_shots, 1) * self.pieces
         self.partial_sums, self.partial_min, self.partial_max, self.rows = _arrays(dev, n)
@@ -144,6 +149,7 @@ class ShotPass:
             inputs=[first_shot, self.count, self.pieces, row_offset, source, m.surfaces, m.physics, outputs, release, tally],
             outputs=[self.partial_sums, self.partial_min, self.partial_max],
             device=m.device,
+            block_dim=self.block_dim,  # (as its register cap: `core.kernel.block_dim_for`)
         )
         wp.launch(
             self.merge,
