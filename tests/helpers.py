@@ -238,3 +238,40 @@ def held(path, exclusive=False):
         yield
     finally:
         os.close(fd)
+
+
+def first_contacts(tmp_path, precision, x, v, solid, plates, gravity, cover=True):
+    """(time, normal) of each pellet's first contact with the one surface `solid` (a scene surface
+    dict), by a CPU kernel of `plates` (`physics.geometry`'s flags) flying in vacuum under `gravity`
+    (time < 0: none); `cover` False: no face covers a mesh's edges (every one searched)."""
+    import warp as wp
+
+    from warp_ricochet.model import Model
+    from warp_ricochet.physics.flight import make_flight
+
+    scene = explicit_scene(tmp_path, x, v, surfaces=[solid], precision=precision, physics={"gravity": list(gravity)})
+    model = Model.from_scene(scene, wp.get_device("cpu"))
+    if not cover:
+        model.surfaces.face_cover.zero_()
+    t = model.types
+    flight = make_flight(precision, None, "ballistic", plates=plates)
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def first(
+        surfaces: t.Surfaces,
+        physics: t.Physics,
+        x: wp.array(dtype=t.vec3),
+        v: wp.array(dtype=t.vec3),
+        times: wp.array(dtype=t.scalar),
+        normals: wp.array(dtype=t.vec3),
+    ):
+        i = wp.tid()
+        dt, k, n, _x, _v, _w, _steps = flight.to_contact(x[i], v[i], t.vec3(), wp.int32(-1), surfaces, physics)
+        times[i] = wp.where(k == 0, dt, t.scalar(-1.0))
+        normals[i] = n
+
+    arrays = [wp.array(np.asarray(a).astype(precision), dtype=t.vec3, device="cpu") for a in (x, v)]
+    times = wp.zeros(len(x), dtype=t.scalar, device="cpu")
+    normals = wp.zeros(len(x), dtype=t.vec3, device="cpu")
+    wp.launch(first, dim=len(x), inputs=[model.surfaces, model.physics, *arrays], outputs=[times, normals], device="cpu")
+    return times.numpy().astype(np.float64), normals.numpy().astype(np.float64), model

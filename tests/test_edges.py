@@ -4,8 +4,7 @@ independent float64 reference (the distance of the parabola from the box, sample
 
 import numpy as np
 import pytest
-import warp as wp
-from helpers import explicit_scene
+from helpers import explicit_scene, first_contacts
 from scipy.optimize import brentq
 
 from bench.meshes import AHEAD, BOX, GRAVITY, aimed, inside_box
@@ -131,37 +130,10 @@ def _near_features(rng, count, reach):
 def _contacts(tmp_path, precision, x, v, solid=None, cover=True):
     """(time, normal) of each pellet's first contact with the box (or the surface `solid`), by the
     kernels (time < 0: none); `cover` False: every edge and corner searched, no face covering them."""
-    from warp_ricochet.model import Model
-    from warp_ricochet.physics.flight import make_flight
     from warp_ricochet.physics.geometry import MESHES
 
     solid = solid or {"kind": "box", **BOX, **MATERIAL}
-    scene = explicit_scene(tmp_path, x, v, surfaces=[solid], precision=precision, physics={"gravity": list(GRAVITY)})
-    model = Model.from_scene(scene, wp.get_device("cpu"))
-    if not cover:
-        model.surfaces.face_cover.zero_()
-    t = model.types
-    flight = make_flight(precision, None, "ballistic", plates=MESHES)
-
-    @wp.kernel(enable_backward=False, module="unique")
-    def first(
-        surfaces: t.Surfaces,
-        physics: t.Physics,
-        x: wp.array(dtype=t.vec3),
-        v: wp.array(dtype=t.vec3),
-        times: wp.array(dtype=t.scalar),
-        normals: wp.array(dtype=t.vec3),
-    ):
-        i = wp.tid()
-        dt, k, n, _x, _v, _w, _steps = flight.to_contact(x[i], v[i], t.vec3(), wp.int32(-1), surfaces, physics)
-        times[i] = wp.where(k == 0, dt, t.scalar(-1.0))
-        normals[i] = n
-
-    arrays = [wp.array(a.astype(precision), dtype=t.vec3, device="cpu") for a in (x, v)]
-    times = wp.zeros(len(x), dtype=t.scalar, device="cpu")
-    normals = wp.zeros(len(x), dtype=t.vec3, device="cpu")
-    wp.launch(first, dim=len(x), inputs=[model.surfaces, model.physics, *arrays], outputs=[times, normals], device="cpu")
-    return times.numpy().astype(np.float64), normals.numpy().astype(np.float64)
+    return first_contacts(tmp_path, precision, x, v, solid, MESHES, GRAVITY, cover)[:2]
 
 
 @pytest.mark.parametrize("precision", ["float64", "float32"])

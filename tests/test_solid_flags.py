@@ -1,9 +1,9 @@
 """What a scene's solids compile into its kernels (`spec._plates`, `physics.geometry`'s NO_POSTS,
-SMALL and NO_EDGES): only the code they need, and all of it whenever they need it."""
+SMALL, NO_EDGES and FLAT): only the code they need, and all of it whenever they need it."""
 
 from pathlib import Path
 
-from warp_ricochet.physics.geometry import MESHES, NO_EDGES, NO_POSTS, SMALL, solid_needs
+from warp_ricochet.physics.geometry import FLAT, MESHES, NO_EDGES, NO_POSTS, SMALL, solid_needs
 from warp_ricochet.scene import scene_from_dict
 from warp_ricochet.spec import RunSpec
 
@@ -38,7 +38,8 @@ def test_each_scene_compiles_the_solids_it_has(tmp_path):
     assert _plates([GROUND, {**PLATE, **{k: GROUND[k] for k in ("restitution", "mu_s")}}]) is True
     cases = [
         ([GROUND, {**BOX, "restitution": 0.5, "mu_s": 0.2}], MESHES | NO_POSTS | SMALL),
-        ([GROUND, {**mesh, "file": small}], MESHES | NO_POSTS | SMALL),
+        ([GROUND, {**mesh, "file": small}], MESHES | NO_POSTS | SMALL | FLAT),  # (a flat strip)
+        ([GROUND, {**mesh, "file": small}, {**BOX, "restitution": 0.5, "mu_s": 0.2}], MESHES | NO_POSTS | SMALL),
         ([GROUND, {**mesh, "file": large}], MESHES | NO_POSTS),
         ([GROUND, {**POST, "restitution": 0.5, "mu_s": 0.2}], MESHES | SMALL | NO_EDGES),
         ([GROUND, {**POST, "restitution": 0.5, "mu_s": 0.2}, {**mesh, "file": large}], MESHES),
@@ -47,7 +48,8 @@ def test_each_scene_compiles_the_solids_it_has(tmp_path):
         assert _plates(surfaces) == expected, surfaces
     terrain = {**GROUND, "kind": "terrain", "file": str(EXAMPLES / "terrain" / "trap_field.asc"), "normal": [0.0, 0.0, 1.0]}
     assert _plates([terrain, GROUND]) == MESHES | NO_POSTS | NO_EDGES
-    assert solid_needs(MESHES) == (True, True, True)  # MESHES alone: everything, as before the flags
+    assert solid_needs(MESHES) == (True, True, True, False)  # MESHES alone: everything, as before the flags
+    assert solid_needs(MESHES | NO_POSTS | SMALL | FLAT) == (False, False, True, True)
 
 
 def test_only_a_leaning_post_followed_to_rest_compiles_the_side_motion():

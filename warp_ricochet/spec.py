@@ -47,12 +47,14 @@ MESHES = 2  # RunSpec.plates when the scene has triangles: the geometry's plate 
 
 def _plates(scene) -> bool | int:
     """`RunSpec.plates`: False (planes only), True (plates) or MESHES or'ed with what the scene's
-    solids do not need compiled in (`physics.geometry`: NO_POSTS, SMALL, NO_EDGES) and LEANING where a
-    post run to rest leans from gravity (the kernels' test, `side_follow.leans`, in float64 here)."""
+    solids do not need compiled in (`physics.geometry`: NO_POSTS, SMALL, NO_EDGES), FLAT where every
+    solid is a small flat mesh (`physics.mesh_edges.flat_mesh`) and LEANING where a post run to rest
+    leans from gravity (the kernels' test, `side_follow.leans`, in float64 here)."""
     import numpy as np
 
-    from .physics.geometry import LEANING, NO_EDGES, NO_POSTS, SMALL
+    from .physics.geometry import FLAT, LEANING, NO_EDGES, NO_POSTS, SMALL
     from .physics.mesh_contact import FEW_FACES
+    from .physics.mesh_edges import flat_mesh
     from .physics.side_follow import LEAN
     from .scene.triangles import triangles_of
 
@@ -60,8 +62,11 @@ def _plates(scene) -> bool | int:
     if not solids:
         return any(not s.is_plane for s in scene.surfaces)
     meshes = [s for s in solids if s.kind in ("box", "mesh")]  # (a terrain is large, without edges)
-    small = all(s.kind != "terrain" for s in solids) and all(len(triangles_of(s).triangles) <= FEW_FACES for s in meshes)
+    found = [triangles_of(s) for s in meshes]
+    small = all(s.kind != "terrain" for s in solids) and all(len(f.triangles) <= FEW_FACES for f in found)
     flags = (0 if any(s.kind == "cylinder" for s in solids) else NO_POSTS) | (SMALL if small else 0)
+    if small and len(meshes) == len(solids) and all(flat_mesh(f.vertices, f.triangles) for f in found):
+        flags |= FLAT
     g = np.asarray(scene.physics.gravity, dtype=np.float64)
     leaning = scene.physics.until == "rest" and any(
         s.kind == "cylinder"

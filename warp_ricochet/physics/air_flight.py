@@ -24,10 +24,12 @@ from .air_screen import make_step_screen
 from .ballistic import EPSILON, MAX_FLIGHT_TIME, NO_CONTACT
 from .cylinder_contact import make_cylinder_contact
 from .edge_contact import make_edge_contact
+from .flat_contact import make_flat_contact
 from .geometry import MESHES, make_geometry, solid_needs
 from .inlining import out_of_line_if
 from .integrate import make_dense_output, make_stepper
 from .mesh_contact import FEW_FACES, FLOAT32_SLACK, make_mesh_contact
+from .mesh_edges import FLAT_SINGLE
 from .types import types_for
 
 MAX_FLIGHT_STEPS = 1 << 16  # per flight between contacts
@@ -123,20 +125,24 @@ def make_roots(precision: str, out_of_line: bool = False) -> SimpleNamespace:
 
 
 @functools.cache
-def make_solid_search(precision: str, out_of_line: bool = False, large: bool = True, edges: bool = True) -> SimpleNamespace:
+def make_solid_search(
+    precision: str, out_of_line: bool = False, large: bool = True, edges: bool = True, flat: bool = False
+) -> SimpleNamespace:
     """`mesh_theta(...)` and `post_theta(...)`: where on an accepted step a mesh or a post is met
     (`physics.mesh_contact`, `physics.cylinder_contact`), and `face_theta(...)` (a triangle's face,
     unscreened: the tests' reference); `out_of_line`: `make_roots`'; `large` False: no mesh has more than FEW_FACES triangles, `edges` False: none owns edges or
-    corners (`geometry.solid_needs`: their code left out)."""
+    corners (`geometry.solid_needs`: their code left out); `flat` True: every mesh is small and flat,
+    its faces met as its plane's (`physics.flat_contact`)."""
     t = types_for(precision)
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
-    off_step = make_step_screen(precision).off_step
+    screen, flats = make_step_screen(precision), make_flat_contact(precision)
+    off_step = screen.off_step
     plane_theta, hermite_vec = (
         make_roots(precision, out_of_line=out_of_line).plane_theta,
         make_dense_output(precision).hermite_vec,
     )
     meshes, posts, features = make_mesh_contact(precision), make_cylinder_contact(precision), make_edge_contact(precision)
-    LARGE, EDGES = large, edges
+    LARGE, EDGES, FLAT = large, edges, flat
 
     @wp.func
     def bezier_box(h: scalar, x0: vec3, v0: vec3, a0: vec3, x1: vec3, v1: vec3, a1: vec3):
@@ -170,6 +176,51 @@ def make_solid_search(precision: str, out_of_line: bool = False, large: bool = T
         if g0 > scalar(0.0):  # the centre reaching the face itself
             through, _watched = plane_theta(1, g0, s0, q0, g1, s1, q1)
         return theta, through
+
+    @wp.func
+    def flat_theta(
+        surfaces: Surfaces,
+        k: wp.int32,
+        h: scalar,
+        x0: vec3,
+        v0: vec3,
+        a0: vec3,
+        x1: vec3,
+        v1: vec3,
+        a1: vec3,
+        radius: scalar,
+        bound: scalar,
+    ):
+        """Where on the step a face of flat mesh k is met (2: not): `face_thetas` of its plane, each
+        kept where the interpolant's centre is over one of its triangles; none where its plane is
+        met no earlier than `bound` (`air_screen.off_plane`)."""
+        a, n = flats.plane_of(surfaces, k)
+        if screen.off_plane(n, a, radius, h, x0, v0, a0, x1, v1, a1, bound):
+            return scalar(2.0)
+        theta, through = face_thetas(n, wp.dot(a, n), h, x0, v0, a0, x1, v1, a1, radius)
+        if theta <= scalar(1.0):
+            x, _slope = hermite_vec(theta, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
+            if not flats.over_any(surfaces, k, n, x):
+                theta = scalar(2.0)
+        if through < theta:
+            x, _slope = hermite_vec(through, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
+            if flats.over_any(surfaces, k, n, x):
+                theta = through
+        return theta
+
+    @wp.func
+    def flat_apart(
+        surfaces: Surfaces, k: wp.int32, h: scalar, x0: vec3, v0: vec3, a0: vec3, x1: vec3, v1: vec3, a1: vec3, radius: scalar
+    ):
+        """Whether the step starts more than R in front of flat mesh k's plane and stays so (its
+        control points' hull, `air_screen.off_plane`), with the margin of its vertices' distance
+        from that plane (`mesh_edges.flat_mesh`'s FLAT_SINGLE of the mesh's box): then neither a
+        face nor an edge or corner of its border (all on the plane) is met on it."""
+        a, n = flats.plane_of(surfaces, k)
+        _mesh, low, high = meshes.bounds(surfaces, k)
+        off = scalar(FLAT_SINGLE) * (meshes.l1(high - low) + meshes.l1(a) + meshes.l1(low) + meshes.l1(high))
+        far = wp.dot(x0 - a, n) > radius + off
+        return far and screen.off_plane(n, a, radius + off, h, x0, v0, a0, x1, v1, a1, scalar(2.0))
 
     @wp.func
     def face_theta(
@@ -275,6 +326,13 @@ def make_solid_search(precision: str, out_of_line: bool = False, large: bool = T
         best = scalar(2.0)
         faces = meshes.faces(surfaces, k)
         low, high = bezier_box(h, x0, v0, a0, x1, v1, a1)
+        if wp.static(FLAT):  # its border's edges and corners, then its plane
+            if flat_apart(surfaces, k, h, x0, v0, a0, x1, v1, a1, radius):
+                return best
+            if wp.static(EDGES):
+                for face in range(faces):
+                    best = wp.min(best, features.features_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius, low, high))
+            return wp.min(best, flat_theta(surfaces, k, h, x0, v0, a0, x1, v1, a1, radius, best))  # (ties: the face)
         if faces <= FEW_FACES:  # a small mesh: every triangle (`mesh_contact`)
             for face in range(faces):
                 best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius, low, high, best))
@@ -322,11 +380,11 @@ def make_plane_search(precision: str, planes, plates: bool = False, out_of_line:
     roots, geo = make_roots(precision, out_of_line=out_of_line), make_geometry(precision, planes, True, plates)
     hermite_vec = make_dense_output(precision).hermite_vec
     STATIC, PLATES, WITH_MESHES = planes, plates, plates >= MESHES
-    WITH_POSTS, large, edges = solid_needs(plates)
+    WITH_POSTS, large, edges, flat = solid_needs(plates)
     meshes, posts, solids = (
         make_mesh_contact(precision),
         make_cylinder_contact(precision),
-        make_solid_search(precision, out_of_line=out_of_line, large=large, edges=edges),
+        make_solid_search(precision, out_of_line=out_of_line, large=large, edges=edges, flat=flat),
     )
     plane_theta = roots.plane_theta
 

@@ -20,7 +20,8 @@ CLEAR_ROUNDING = 64.0  # `clear_of`'s margin for the control points' and the int
 @functools.cache
 def make_step_screen(precision: str) -> SimpleNamespace:
     """`off_step(...)`: whether a triangle has no face contact on an air step, decided from the step's
-    quintic Bezier control points before `make_solid_search`'s roots (`clear_of`, `reached`, `tail`)."""
+    quintic Bezier control points before `make_solid_search`'s roots (`clear_of`, `reached`, `tail`);
+    `off_plane(...)`: the same of a flat mesh's plane, before its triangles are asked."""
     t = types_for(precision)
     scalar, vec3 = t.scalar, t.vec3
     meshes = make_mesh_contact(precision)
@@ -194,6 +195,45 @@ def make_step_screen(precision: str) -> SimpleNamespace:
         return t
 
     @wp.func
+    def step_size(h: scalar, x0: vec3, v0: vec3, a0: vec3, x1: vec3, v1: vec3, a1: vec3):
+        """The step's coordinates' scale (m): the l1 sizes of its Hermite data."""
+        return (
+            meshes.l1(x0) + meshes.l1(x1) + meshes.l1(h * v0) + meshes.l1(h * h * a0) + meshes.l1(h * v1) + meshes.l1(h * h * a1)
+        )
+
+    @wp.func
+    def plane_met(
+        n: vec3,
+        a: vec3,
+        radius: scalar,
+        h: scalar,
+        x0: vec3,
+        v0: vec3,
+        c0: vec3,
+        c1: vec3,
+        c2: vec3,
+        c3: vec3,
+        c4: vec3,
+        c5: vec3,
+        size: scalar,
+    ):
+        """`first_met` of the plane through a of unit normal n, its margin CLEAR eps of the step's
+        scale `size` (m) and of the plane's."""
+        plane = wp.dot(a, n)
+        margin = CLEAR * (size + meshes.l1(a) + wp.abs(plane + radius))
+        return first_met(n, plane, radius, h, x0, v0, c0, c1, c2, c3, c4, c5, margin)
+
+    @wp.func
+    def off_plane(
+        n: vec3, a: vec3, radius: scalar, h: scalar, x0: vec3, v0: vec3, a0: vec3, x1: vec3, v1: vec3, a1: vec3, bound: scalar
+    ):
+        """Whether the plane through a of unit normal n (a flat mesh's, `physics.flat_contact`) has
+        no face contact on the step before theta `bound`: `first_met` there or later."""
+        c0, c1, c2, c3, c4, c5 = controls(h, x0, v0, a0, x1, v1, a1)
+        t = plane_met(n, a, radius, h, x0, v0, c0, c1, c2, c3, c4, c5, step_size(h, x0, v0, a0, x1, v1, a1))
+        return t >= wp.min(bound, scalar(1.0))
+
+    @wp.func
     def off_step(
         n: vec3,
         a: vec3,
@@ -216,14 +256,10 @@ def make_step_screen(precision: str) -> SimpleNamespace:
         or on its part from the first theta where `face_thetas` can meet the triangle's plane or its
         offset (`first_met`) to `bound`, or that part is empty."""
         c0, c1, c2, c3, c4, c5 = controls(h, x0, v0, a0, x1, v1, a1)
-        size = (
-            meshes.l1(x0) + meshes.l1(x1) + meshes.l1(h * v0) + meshes.l1(h * h * a0) + meshes.l1(h * v1) + meshes.l1(h * h * a1)
-        )
+        size = step_size(h, x0, v0, a0, x1, v1, a1)
         if beyond_an_edge(n, a, b, c, c0, c1, c2, c3, c4, c5, low, high, size):
             return True
-        plane = wp.dot(a, n)
-        margin = CLEAR * (size + meshes.l1(a) + wp.abs(plane + radius))
-        t = first_met(n, plane, radius, h, x0, v0, c0, c1, c2, c3, c4, c5, margin)
+        t = plane_met(n, a, radius, h, x0, v0, c0, c1, c2, c3, c4, c5, size)
         top = wp.min(bound, scalar(1.0))
         if t >= top:
             return True
@@ -235,4 +271,4 @@ def make_step_screen(precision: str) -> SimpleNamespace:
             c0, c1, c2, c3, c4, c5 = head((top - t) / (scalar(1.0) - t), c0, c1, c2, c3, c4, c5)
         return beyond_an_edge(n, a, b, c, c0, c1, c2, c3, c4, c5, low, high, size)
 
-    return SimpleNamespace(controls=controls, clear_of=clear_of, off_step=off_step)
+    return SimpleNamespace(controls=controls, clear_of=clear_of, off_step=off_step, off_plane=off_plane)

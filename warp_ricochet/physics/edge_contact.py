@@ -27,20 +27,22 @@ import warp as wp
 
 from .ballistic import EPSILON, NO_CONTACT, ROUNDING, make_ballistic
 from .cylinder_contact import make_cylinder_contact
+from .flat_contact import make_flat_contact
 from .inlining import out_of_line_if
 from .mesh_contact import EDGE_ROUNDING, FEW_FACES, FLOAT32_SLACK, make_mesh_contact, make_mesh_search
 from .types import types_for
 
 
 @functools.cache
-def make_edge_contact(precision: str, large: bool = True, edges: bool = True) -> SimpleNamespace:
+def make_edge_contact(precision: str, large: bool = True, edges: bool = True, flat: bool = False) -> SimpleNamespace:
     """`mesh_time` (faces, edges and corners), `features_time` (its edges and corners), `features_theta`, `contact_normal` and `touching`
     (module docstring). `large` False: every mesh has at most FEW_FACES triangles (no BVH queries compiled
-    in); `edges` False: no mesh owns edges or corners (their tests compiled out)."""
+    in); `edges` False: no mesh owns edges or corners (their tests compiled out); `flat` True: every
+    mesh is small and flat, its faces searched as its plane (`physics.flat_contact`)."""
     t = types_for(precision)
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
     ZERO, ONE, TWO = scalar(0.0), scalar(1.0), scalar(2.0)
-    mc, posts = make_mesh_contact(precision, large), make_cylinder_contact(precision)
+    mc, posts, flats = make_mesh_contact(precision, large), make_cylinder_contact(precision), make_flat_contact(precision)
     side_time, line_theta, l1, earlier = posts.side_time, posts.line_theta, mc.l1, mc.earlier
     position = make_ballistic(precision).position
     EDGE, TOLERANCE = scalar(EDGE_ROUNDING * EPSILON[precision]), scalar(ROUNDING * EPSILON[precision])
@@ -233,7 +235,10 @@ def make_edge_contact(precision: str, large: bool = True, edges: bool = True) ->
     @wp.func
     def contact_normal(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, radius: scalar):
         """The unit normal of a contact with mesh k at centre x, velocity v (module docstring)."""
-        n, over = mc.touched(surfaces, k, x, v, radius)
+        if wp.static(flat):  # (a constant: one branch compiled)
+            n, over = flats.flat_touched(surfaces, k, x, radius)
+        else:
+            n, over = mc.touched(surfaces, k, x, v, radius)
         if over or not wp.static(edges):
             return n
         found, radial, grow = touching(surfaces, k, x, radius)
@@ -241,7 +246,8 @@ def make_edge_contact(precision: str, large: bool = True, edges: bool = True) ->
             return radial
         return n
 
-    mesh_time = make_mesh_search(precision, features_time if edges else None, large).mesh_time
+    flat_bound = flats.flat_bound if flat else None
+    mesh_time = make_mesh_search(precision, features_time if edges else None, large, flat_bound).mesh_time
     return SimpleNamespace(
         mesh_time=mesh_time,
         features_time=features_time,

@@ -66,6 +66,7 @@ NO_POSTS = 4  # no post (cylinder)
 SMALL = 8  # every mesh has at most mesh_contact.FEW_FACES triangles: no BVH query in its search
 NO_EDGES = 16  # no mesh owns edges or corners (terrain only): no edge or corner contact
 LEANING = 32  # a post leans from gravity in a run to rest: motion along its side (`physics.side_follow`)
+FLAT = 64  # with SMALL and NO_POSTS: every mesh is flat, searched as its plane (`physics.flat_contact`)
 
 
 def make_geometry(precision: str, planes=None, snap: bool = True, plates: bool = False) -> SimpleNamespace:
@@ -73,7 +74,8 @@ def make_geometry(precision: str, planes=None, snap: bool = True, plates: bool =
     code generation (the search over them unrolled), else None; `snap`: the parabola's search takes
     a gap within the touching band as zero (module docstring); `plates`: surfaces may be plates
     (True), or plates and meshes (MESHES, 2: `physics.mesh_contact`; or'ed with NO_POSTS, SMALL and
-    NO_EDGES to leave out what the scene does not need, LEANING for what only leaning posts need).
+    NO_EDGES to leave out what the scene does not need, FLAT where every mesh is flat, LEANING for
+    what only leaning posts need).
     One cached set per value of the four, however they are passed."""
     return _make_geometry(precision, planes, bool(snap), int(plates))
 
@@ -359,19 +361,22 @@ def has_posts(plates) -> bool:
 
 
 def solid_needs(plates: int) -> tuple:
-    """(posts, large meshes, edges): the solids' code a kernel of `plates` compiles in."""
-    return not plates & NO_POSTS, not plates & SMALL, not plates & NO_EDGES
+    """(posts, large meshes, edges, flat): the solids' code a kernel of `plates` compiles in (flat:
+    only a flat mesh's search, `physics.flat_contact`)."""
+    return not plates & NO_POSTS, not plates & SMALL, not plates & NO_EDGES, bool(plates & FLAT)
 
 
 @functools.cache
-def _solids(precision: str, with_posts: bool = True, large: bool = True, edges: bool = True) -> SimpleNamespace:
+def _solids(
+    precision: str, with_posts: bool = True, large: bool = True, edges: bool = True, flat: bool = False
+) -> SimpleNamespace:
     """`time(surfaces, k, x, v, g, R)`, `normal(surfaces, k, x)` and `clearance(surfaces, k, x)` of
     a mesh or a post k (`physics.mesh_contact`, `physics.cylinder_contact`), and `is_solid(surfaces, k)`;
     posts, large meshes' BVH queries and edges compiled in only as asked (`solid_needs`)."""
     t = types_for(precision)
     Surfaces, vec3, scalar = t.Surfaces, t.vec3, t.scalar
     meshes, posts, mesh_normal = (
-        make_edge_contact(precision, large, edges),
+        make_edge_contact(precision, large, edges, flat),
         make_cylinder_contact(precision),
         make_mesh_contact(precision).mesh_normal,
     )
@@ -425,14 +430,14 @@ def _solids(precision: str, with_posts: bool = True, large: bool = True, edges: 
     return SimpleNamespace(time=solid_time, normal=solid_normal, clearance=solid_clearance, is_solid=is_solid)
 
 
-def _contact_normal(precision: str, normal, with_meshes: bool, large: bool = True, edges: bool = True):
+def _contact_normal(precision: str, normal, with_meshes: bool, large: bool = True, edges: bool = True, flat: bool = False):
     """`contact_normal(surfaces, k, x, v, radius)`: the unit normal of a contact with surface k at
     centre x, velocity v: `normal`'s; a mesh's: of the triangle touched there that v approaches
     most steeply, or radial from an edge or corner it touches beside every triangle
     (`physics.edge_contact.contact_normal`)."""
     t = types_for(precision)
     Surfaces, vec3, scalar = t.Surfaces, t.vec3, t.scalar
-    MESH, meshes = KINDS["mesh"], make_edge_contact(precision, large, edges)
+    MESH, meshes = KINDS["mesh"], make_edge_contact(precision, large, edges, flat)
 
     @wp.func(inline=True)
     def contact_normal(surfaces: Surfaces, k: wp.int32, x: vec3, v: vec3, radius: scalar):

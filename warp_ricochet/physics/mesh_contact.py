@@ -33,7 +33,9 @@ first comes within R of the plane of every face that covers them (`physics.mesh_
 all of them on or behind that plane, so each is farther from a centre in front than its height):
 in a convex or a flat mesh, a face contact leaves none to search.
 `make_mesh_search` runs that search, with what else each triangle owns: `physics.edge_contact`'s
-adds the mesh's convex edges and corners each triangle owns to its face.
+adds the mesh's convex edges and corners each triangle owns to its face. In a scene whose solids are
+all flat small meshes each is searched as its plane instead (`physics.flat_contact`), with the same
+rules (`make_bound_rule`).
 """
 
 import functools
@@ -218,19 +220,119 @@ def make_triangle_basics(precision: str) -> SimpleNamespace:
 
 
 @functools.cache
+def make_bound_rule(precision: str, over, leaves):
+    """`bound(surfaces, k, face, a, b, c, n, x, v, g, radius, before, deep)` -> (time, clear): the
+    parabola of eq. (36) against the plane through a of unit normal n, offset by R (the plane's
+    quadratic, `ballistic.entry_time`; from behind the plane: its descending crossing), met where
+    `over(surfaces, k, face, n, a, b, c, y)` holds of the centre y then, or at the latest where the
+    centre itself descends through the plane over it; clear (s): when the centre, more than R in
+    front, or touching (within the touching band) and leaving, or within R and leaving as
+    `leaves(surfaces, k, face, n, a, b, c, x, v, g, radius, height, gap, speed, half, deep)` allows,
+    first comes within R of the plane (MAX_FLIGHT_TIME: never), else 0. NO_CONTACT where the offset
+    plane is reached no earlier than `before` (>= 0; s). A triangle's (`triangle_bound`: `inside`)
+    and a flat mesh's (`physics.flat_contact`: on any of its triangles)."""
+    t = types_for(precision)
+    scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
+    ballistic = make_ballistic(precision)
+    entry_time, position = ballistic.entry_time, ballistic.position
+    TOLERANCE = scalar(ROUNDING * EPSILON[precision])
+    LATEST = scalar(MAX_FLIGHT_TIME)
+    basics = make_triangle_basics(precision)
+    l1, descending = basics.l1, basics.descending
+
+    @wp.func
+    def bound(
+        surfaces: Surfaces,
+        k: wp.int32,
+        face: wp.int32,
+        a: vec3,
+        b: vec3,
+        c: vec3,
+        n: vec3,
+        x: vec3,
+        v: vec3,
+        g: vec3,
+        radius: scalar,
+        before: scalar,
+        deep: scalar,
+    ):
+        """(time, clear) on the plane through a of unit normal n (`make_bound_rule`)."""
+        height = wp.dot(x - a, n)
+        noise = basics.height_noise(surfaces, k, x, a, n)
+        speed = wp.dot(v, n)
+        half = scalar(0.5) * wp.dot(g, n)
+        if wp.abs(half) <= TOLERANCE * l1(g):
+            half = scalar(0.0)  # gravity along the triangle, up to rounding
+        gap = height - radius
+        if wp.abs(gap) <= TOLERANCE * (noise + radius):
+            gap = scalar(0.0)  # the touching band
+        best = scalar(NO_CONTACT)
+        clear = scalar(0.0)
+        if height >= scalar(0.0):
+            best = entry_time(gap, speed, half)  # the plane's rule, overlapping included
+            if gap > scalar(0.0) or (gap == scalar(0.0) and speed > scalar(0.0)):
+                clear = wp.where(best >= scalar(0.0), best, LATEST)
+            elif speed > scalar(0.0) and leaves(surfaces, k, face, n, a, b, c, x, v, g, radius, height, gap, speed, half, deep):
+                clear = wp.where(best >= scalar(0.0), best, LATEST)
+        else:
+            best = descending(gap, speed, half)
+        if before >= scalar(0.0) and best >= before:
+            return scalar(NO_CONTACT), clear
+        if best >= scalar(0.0) and not over(surfaces, k, face, n, a, b, c, position(x, v, g, best)):
+            best = scalar(NO_CONTACT)
+        if best >= scalar(0.0):  # (the centre reaches the triangle itself no earlier)
+            return best, clear
+        if wp.abs(height) <= TOLERANCE * noise:
+            height = scalar(0.0)
+        through = descending(height, speed, half)  # the centre reaching the triangle itself
+        if through >= scalar(0.0) and over(surfaces, k, face, n, a, b, c, position(x, v, g, through)):
+            best = through
+        return best, clear
+
+    return bound
+
+
+@functools.cache
 def make_mesh_contact(precision: str, large: bool = True) -> SimpleNamespace:
     """`mesh_time(surfaces, k, x, v, g, R)`, `mesh_normal(surfaces, k, x)` and the helpers the air's
     search and posts share (`vertices`, `inside`, `l1`, `single`, `descending`) of one precision.
     `large` False: every mesh has at most FEW_FACES triangles (`touched` compiles no BVH query)."""
     t = types_for(precision)
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
-    ballistic = make_ballistic(precision)
-    entry_time, position = ballistic.entry_time, ballistic.position
     TOLERANCE, EDGE = scalar(ROUNDING * EPSILON[precision]), scalar(EDGE_ROUNDING * EPSILON[precision])
     LATEST = scalar(MAX_FLIGHT_TIME)
     basics = make_triangle_basics(precision)
-    vertices, single, l1, inside, descending = basics.vertices, basics.single, basics.l1, basics.inside, basics.descending
+    vertices, single, l1, inside = basics.vertices, basics.single, basics.l1, basics.inside
     cells = make_grid_cells(precision)
+
+    @wp.func
+    def face_over(surfaces: Surfaces, k: wp.int32, face: wp.int32, n: vec3, a: vec3, b: vec3, c: vec3, y: vec3):
+        """Whether y projected along n lies on triangle (a, b, c) (`inside`)."""
+        return inside(n, a, b, c, y)
+
+    @wp.func
+    def face_leaves(
+        surfaces: Surfaces,
+        k: wp.int32,
+        face: wp.int32,
+        n: vec3,
+        a: vec3,
+        b: vec3,
+        c: vec3,
+        x: vec3,
+        v: vec3,
+        g: vec3,
+        radius: scalar,
+        height: scalar,
+        gap: scalar,
+        speed: scalar,
+        half: scalar,
+        deep: scalar,
+    ):
+        """`leaves_clear` of triangle (a, b, c)."""
+        return basics.leaves_clear(n, a, b, c, x, v, g, radius, height, gap, speed, half, deep)
+
+    bound_rule = make_bound_rule(precision, face_over, face_leaves)
 
     @wp.func
     def triangle_bound(
@@ -255,38 +357,7 @@ def make_mesh_contact(precision: str, large: bool = True) -> SimpleNamespace:
         size = wp.length(n)
         if size == scalar(0.0):
             return scalar(NO_CONTACT), scalar(0.0)
-        n = n / size
-        height = wp.dot(x - a, n)
-        noise = basics.height_noise(surfaces, k, x, a, n)
-        speed = wp.dot(v, n)
-        half = scalar(0.5) * wp.dot(g, n)
-        if wp.abs(half) <= TOLERANCE * l1(g):
-            half = scalar(0.0)  # gravity along the triangle, up to rounding
-        gap = height - radius
-        if wp.abs(gap) <= TOLERANCE * (noise + radius):
-            gap = scalar(0.0)  # the touching band
-        best = scalar(NO_CONTACT)
-        clear = scalar(0.0)
-        if height >= scalar(0.0):
-            best = entry_time(gap, speed, half)  # the plane's rule, overlapping included
-            if gap > scalar(0.0) or (gap == scalar(0.0) and speed > scalar(0.0)):
-                clear = wp.where(best >= scalar(0.0), best, LATEST)
-            elif speed > scalar(0.0) and basics.leaves_clear(n, a, b, c, x, v, g, radius, height, gap, speed, half, deep):
-                clear = wp.where(best >= scalar(0.0), best, LATEST)
-        else:
-            best = descending(gap, speed, half)
-        if before >= scalar(0.0) and best >= before:
-            return scalar(NO_CONTACT), clear
-        if best >= scalar(0.0) and not inside(n, a, b, c, position(x, v, g, best)):
-            best = scalar(NO_CONTACT)
-        if best >= scalar(0.0):  # (the centre reaches the triangle itself no earlier)
-            return best, clear
-        if wp.abs(height) <= TOLERANCE * noise:
-            height = scalar(0.0)
-        through = descending(height, speed, half)  # the centre reaching the triangle itself
-        if through >= scalar(0.0) and inside(n, a, b, c, position(x, v, g, through)):
-            best = through
-        return best, clear
+        return bound_rule(surfaces, k, face, a, b, c, n / size, x, v, g, radius, before, deep)
 
     @wp.func
     def triangle_time(surfaces: Surfaces, k: wp.int32, face: wp.int32, x: vec3, v: vec3, g: vec3, radius: scalar):
@@ -463,7 +534,7 @@ def make_mesh_contact(precision: str, large: bool = True) -> SimpleNamespace:
 
 
 @functools.cache
-def make_mesh_search(precision: str, features_time=None, large: bool = True) -> SimpleNamespace:
+def make_mesh_search(precision: str, features_time=None, large: bool = True, flat_bound=None) -> SimpleNamespace:
     """`mesh_time(surfaces, k, x, v, g, R)`: the earliest of `triangle_time` and, with
     `features_time(surfaces, k, face, x, v, g, R, start, stop)` (what else the triangle owns, met
     in [start, stop] s, else NO_CONTACT), of that, over the triangles the chords' boxes find (their
@@ -471,7 +542,9 @@ def make_mesh_search(precision: str, features_time=None, large: bool = True) -> 
     until the earliest face contact (at equal times the face; module docstring), and in a small
     mesh from when the centre first comes within R of every covering face's plane (`face_cover`,
     the times from `triangle_bound`); the raster walk takes `triangle_before`, cut short at the
-    contact found. `large` False: every mesh is small (no chords' BVH queries compiled in)."""
+    contact found. `large` False: every mesh is small (no chords' BVH queries compiled in);
+    `flat_bound(surfaces, k, x, v, g, R)` -> (time, clear): every mesh is small and flat, searched
+    as its plane (`physics.flat_contact`), its first triangle covering its border."""
     t = types_for(precision)
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
     position = make_ballistic(precision).position
@@ -479,7 +552,7 @@ def make_mesh_search(precision: str, features_time=None, large: bool = True) -> 
     mc = make_mesh_contact(precision, large)
     face_time = mc.triangle_time
     single, l1, earlier, window = mc.single, mc.l1, mc.earlier, mc.window
-    FEATURES = features_time is not None
+    FEATURES, FLAT = features_time is not None, flat_bound is not None
     grid = make_grid_walk(precision, mc.triangle_before)  # (a terrain owns no edges or corners)
 
     @wp.func
@@ -566,18 +639,21 @@ def make_mesh_search(precision: str, features_time=None, large: bool = True) -> 
                 return wp.where(best > LATEST, scalar(NO_CONTACT), best)
         clear = scalar(0.0)  # a small mesh: every triangle, then what they own
         first = surfaces.face_first[k]
-        for face in range(faces):
-            if wp.static(FEATURES):  # no edge or corner is met before a covering face's offset plane
-                covers = first >= 0 and surfaces.face_cover[first + face] != 0
-                deep = scalar(0.0)
-                if covers:
-                    deep = surfaces.face_depth[first + face]
-                when, bound = mc.triangle_bound(surfaces, k, face, x, v, g, radius, best, deep)
-                if covers:
-                    clear = wp.max(clear, bound)
-                best = earlier(best, when)
-            else:
-                best = earlier(best, face_time(surfaces, k, face, x, v, g, radius))
+        if wp.static(FLAT):  # one plane (its first triangle covers its border)
+            best, clear = flat_bound(surfaces, k, x, v, g, radius)
+        else:
+            for face in range(faces):
+                if wp.static(FEATURES):  # no edge or corner is met before a covering face's offset plane
+                    covers = first >= 0 and surfaces.face_cover[first + face] != 0
+                    deep = scalar(0.0)
+                    if covers:
+                        deep = surfaces.face_depth[first + face]
+                    when, bound = mc.triangle_bound(surfaces, k, face, x, v, g, radius, best, deep)
+                    if covers:
+                        clear = wp.max(clear, bound)
+                    best = earlier(best, when)
+                else:
+                    best = earlier(best, face_time(surfaces, k, face, x, v, g, radius))
         if wp.static(FEATURES):
             if clear < wp.where(best >= scalar(0.0), best, LATEST):  # (at equal times the face)
                 after, until = near(low, high, radius + slack, x, v, g, end)

@@ -18,6 +18,9 @@ import numpy as np
 FEW_FACES = 16  # a mesh of at most this many triangles is searched whole, without its BVH (`mesh_contact`)
 FLAT = 1e-9  # sine of a dihedral below which an edge counts as flat (the sphere's gap: R FLAT^2 / 8)
 COPLANAR = 64 * 2.0**-52  # a corner this far in front of a plane (of its and the plane's coordinates) counts as on it
+FLAT_SINGLE = (
+    2.0**-23
+)  # `flat_mesh`: in float32 data, a vertex this far off the first triangle's plane (of the coordinates) is on it
 INSET = 1e-9  # `inner_depths`: a point projecting this far inside a triangle (of its edges' l1) counts as on its edges
 
 
@@ -88,6 +91,41 @@ def covering_faces(vertices, triangles, corners) -> np.ndarray:
     scale = np.linalg.norm(away, axis=2) + np.abs(a).sum(axis=1)[:, None] + np.abs(corners).sum(axis=1)[None, :]
     ahead = np.einsum("mj,mcj->mc", n, away) - COPLANAR * scale
     return (size[:, 0] > 0) & (ahead <= 0).all(axis=1)
+
+
+def flat_mesh(vertices, triangles) -> bool:
+    """Whether a mesh is flat (searched as its plane: `physics.flat_contact`): every triangle has an
+    area and turns its normal the way its first triangle's does, and every vertex lies on that
+    triangle's plane within the rounding of the coordinates as given, |n.(p - a)| <= r (|p - a| +
+    |a|_1 + |p|_1), r = COPLANAR (`covering_faces`' measure) or, where every coordinate is a float32
+    value (an STL's, a binary PLY's), FLAT_SINGLE: such a file rounds a tilted plane's vertices off
+    it by up to half a float32 ulp."""
+    vertices = np.asarray(vertices, dtype=np.float64)
+    triangles = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    if len(triangles) == 0:
+        return False
+    a, b, c = (vertices[triangles[:, j]] for j in range(3))
+    n = np.cross(b - a, c - a)
+    size = np.linalg.norm(n, axis=1)
+    if not (size > 0).all():
+        return False
+    n = n / size[:, None]
+    if not (n @ n[0] > 0).all():
+        return False
+    used = vertices[np.unique(triangles)]
+    single = np.array_equal(used.astype(np.float32).astype(np.float64), used)
+    away = used - a[0]
+    scale = np.linalg.norm(away, axis=1) + np.abs(a[0]).sum() + np.abs(used).sum(axis=1)
+    return bool((np.abs(away @ n[0]) <= (FLAT_SINGLE if single else COPLANAR) * scale).all())
+
+
+def flat_plane(vertices, triangles) -> np.ndarray:
+    """A flat mesh's plane (`flat_mesh`): its first triangle's first vertex a (m) and unit normal
+    (b - a) x (c - a) / |.|, in float64. (2, 3)."""
+    vertices = np.asarray(vertices, dtype=np.float64)
+    a, b, c = vertices[np.asarray(triangles, dtype=np.int64).reshape(-1, 3)[0]]
+    n = np.cross(b - a, c - a)
+    return np.stack([a, n / np.linalg.norm(n)])
 
 
 def inner_depths(vertices, triangles, edges, corners) -> np.ndarray:

@@ -14,7 +14,7 @@ import numpy as np
 import warp as wp
 
 from ..struct_refs import read_only
-from .mesh_edges import FEW_FACES, convex_features, covering_faces, inner_depths
+from .mesh_edges import FEW_FACES, convex_features, covering_faces, flat_mesh, flat_plane, inner_depths
 from .mipmap import grid_deviation, max_pyramid
 
 SCALARS = {"float32": wp.float32, "float64": wp.float64}
@@ -80,6 +80,11 @@ def types_for(precision: str) -> SimpleNamespace:
         face_corners: wp.array(dtype=wp.vec3i)
         face_cover: wp.array(dtype=wp.int32)
         face_depth: wp.array(dtype=scalar)
+        # per surface, a flat mesh's plane (`physics.mesh_edges.flat_mesh`, read by
+        # `physics.flat_contact`): its first triangle's first vertex (m) and unit normal, from
+        # float64 (zero for any other surface)
+        flat_point: wp.array(dtype=vec3)
+        flat_normal: wp.array(dtype=vec3)
         edge_ends: wp.array(dtype=vec3)
         corner_points: wp.array(dtype=vec3)
         # a terrain walked in its raster (`physics.grid_walk`, scene.terrain.TerrainGrid): per surface
@@ -258,12 +263,15 @@ def _feature_fields(surfaces, precision: str, meshes, device) -> None:
     t, dtype = types_for(precision), np.dtype(precision)
     face_first, face_edges, face_corners, ends, corners = [], [np.zeros((0, 3), np.int32)], [np.zeros((0, 3), np.int32)], [], []
     cover, depth = [np.zeros(0, np.int32)], [np.zeros(0)]
+    planes = np.zeros((len(meshes), 2, 3))
     rows = edge_count = corner_count = 0
-    for triangles in meshes:
+    for index, triangles in enumerate(meshes):
         if triangles is None or not getattr(triangles, "edges", True):
             face_first.append(-1)  # none
             continue
         face_first.append(rows)
+        if len(triangles.triangles) <= FEW_FACES and flat_mesh(triangles.vertices, triangles.triangles):
+            planes[index] = flat_plane(triangles.vertices, triangles.triangles)
         found = convex_features(triangles.vertices, triangles.triangles)
         face_edges.append(np.where(found["face_edges"] >= 0, found["face_edges"] + edge_count, -1))
         face_corners.append(np.where(found["face_corners"] >= 0, found["face_corners"] + corner_count, -1))
@@ -286,6 +294,8 @@ def _feature_fields(surfaces, precision: str, meshes, device) -> None:
     depth = np.concatenate(depth)  # rounded down into the kernel's precision
     depth = np.where(depth.astype(dtype) > depth, np.nextafter(depth.astype(dtype), dtype.type(-np.inf)), depth.astype(dtype))
     surfaces.face_depth = wp.array(np.maximum(depth, 0).astype(dtype), dtype=t.scalar, device=device)
+    for name, values in (("flat_point", planes[:, 0]), ("flat_normal", planes[:, 1])):
+        setattr(surfaces, name, wp.array(np.ascontiguousarray(values).astype(dtype), dtype=t.vec3, device=device))
     for name, values in (("edge_ends", ends), ("corner_points", corners)):
         setattr(surfaces, name, wp.array(np.concatenate([np.zeros((0, 3)), *values]).astype(dtype), dtype=t.vec3, device=device))
 
