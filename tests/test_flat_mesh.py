@@ -52,6 +52,30 @@ def test_flat_meshes_are_told_from_bent_ones():
     assert not flat_mesh(square, np.zeros((0, 3), int))
 
 
+def test_a_flat_mesh_s_edge_lines_give_each_triangle_s_edge_distances():
+    """`flat_edges`: w.(y - origin) - offset equals the edge function n.((q - p) x (y - p)) / |q - p|
+    of every edge of every triangle (float64, random points of the plane), positive inside; the
+    slack covers the float32 vertices' distance from the plane."""
+    from warp_ricochet.physics.mesh_edges import flat_edges, flat_plane
+
+    points = _tilted(L_POINTS, [30.0, -5.0, 12.0]).astype(np.float32).astype(np.float64)
+    plane = flat_plane(points, L_FACES)
+    origin = 0.5 * (points.min(axis=0) + points.max(axis=0))
+    w, offsets, slack = flat_edges(points, L_FACES, plane, origin)
+    a, n = plane
+    rng = np.random.default_rng(5)
+    y = rng.uniform(points.min(axis=0) - 1.0, points.max(axis=0) + 1.0, (200, 3))
+    y -= ((y - a) @ n)[:, None] * n
+    for f, face in enumerate(L_FACES):
+        for j in range(3):
+            p, q = points[face[j]], points[face[(j + 1) % 3]]
+            want = np.cross(q - p, y - p) @ n / np.linalg.norm(q - p)
+            np.testing.assert_allclose((y - origin) @ w[f, j] - offsets[f, j], want, atol=1e-9)
+        centre = points[face].mean(axis=0)
+        assert ((centre - origin) @ w[f].T - offsets[f] > 0).all()  # (inside every edge)
+    assert slack >= np.abs((points - a) @ n).max() > 0
+
+
 def _mesh(path, points):
     """The L of `points` as an STL; its scene surface."""
     import trimesh

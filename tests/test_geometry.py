@@ -72,7 +72,7 @@ def test_only_the_geometry_module_reads_the_surfaces():
         "edge_ends",
         "corner_points",
     }  # (physics.edge_contact)
-    meshes |= {"flat_point", "flat_normal"}  # (physics.flat_contact)
+    meshes |= {"flat_point", "flat_normal", "flat_slack", "flat_edge", "flat_offset"}  # (physics.flat_contact)
     meshes |= {
         "grid_dims",
         "grid_first",

@@ -29,7 +29,6 @@ from .geometry import MESHES, make_geometry, solid_needs
 from .inlining import out_of_line_if
 from .integrate import make_dense_output, make_stepper
 from .mesh_contact import FEW_FACES, FLOAT32_SLACK, make_mesh_contact
-from .mesh_edges import FLAT_SINGLE
 from .types import types_for
 
 MAX_FLIGHT_STEPS = 1 << 16  # per flight between contacts
@@ -214,11 +213,10 @@ def make_solid_search(
     ):
         """Whether the step starts more than R in front of flat mesh k's plane and stays so (its
         control points' hull, `air_screen.off_plane`), with the margin of its vertices' distance
-        from that plane (`mesh_edges.flat_mesh`'s FLAT_SINGLE of the mesh's box): then neither a
+        from that plane (`flat_contact.flat_slack`): then neither a
         face nor an edge or corner of its border (all on the plane) is met on it."""
         a, n = flats.plane_of(surfaces, k)
-        _mesh, low, high = meshes.bounds(surfaces, k)
-        off = scalar(FLAT_SINGLE) * (meshes.l1(high - low) + meshes.l1(a) + meshes.l1(low) + meshes.l1(high))
+        off = flats.flat_slack(surfaces, k)
         far = wp.dot(x0 - a, n) > radius + off
         return far and screen.off_plane(n, a, radius + off, h, x0, v0, a0, x1, v1, a1, scalar(2.0))
 

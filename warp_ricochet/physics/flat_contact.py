@@ -32,7 +32,7 @@ def make_flat_contact(precision: str) -> SimpleNamespace:
     t = types_for(precision)
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
     basics = make_triangle_basics(precision)
-    vertices, inside = basics.vertices, basics.inside
+    vertices, l1 = basics.vertices, basics.l1
     TOLERANCE, EDGE = scalar(ROUNDING * EPSILON[precision]), scalar(EDGE_ROUNDING * EPSILON[precision])
 
     @wp.func
@@ -41,13 +41,27 @@ def make_flat_contact(precision: str) -> SimpleNamespace:
         return surfaces.flat_point[k], surfaces.flat_normal[k]
 
     @wp.func
+    def beside(surfaces: Surfaces, k: wp.int32, face: wp.int32, y: vec3):
+        """How far (m) y, in flat mesh k's frame (y - `mesh_contact.frame`), lies inside the nearest
+        edge of triangle `face` in its plane (`mesh_edges.flat_edges`; negative beyond it)."""
+        row = wp.int32(3) * (surfaces.face_first[k] + face)
+        d0 = wp.dot(surfaces.flat_edge[row], y) - surfaces.flat_offset[row]
+        d1 = wp.dot(surfaces.flat_edge[row + 1], y) - surfaces.flat_offset[row + 1]
+        d2 = wp.dot(surfaces.flat_edge[row + 2], y) - surfaces.flat_offset[row + 2]
+        return wp.min(wp.min(d0, d1), d2)
+
+    @wp.func
     def over_any(surfaces: Surfaces, k: wp.int32, n: vec3, y: vec3):
-        """Whether y projected along n lies on a triangle of flat mesh k (edges included)."""
+        """Whether y projected along n lies on a triangle of flat mesh k, edges included: inside
+        each edge within EDGE_ROUNDING eps of |y - o|_1 and twice the mesh's extent (o: its frame)
+        and y's own rounding, at least `mesh_contact.inside`'s tolerance."""
+        low, high = surfaces.mesh_low[k], surfaces.mesh_high[k]
+        local = y - basics.frame(surfaces, k)
+        tolerance = EDGE * (l1(local) + scalar(2.0) * l1(high - low)) + basics.state_rounding(y)
         over = wp.bool(False)
         for face in range(surfaces.mesh_faces[k]):
             if not over:
-                a, b, c = vertices(surfaces, k, face)
-                over = inside(n, a, b, c, y)
+                over = beside(surfaces, k, face, local) >= -tolerance
         return over
 
     @wp.func
@@ -107,12 +121,17 @@ def make_flat_contact(precision: str) -> SimpleNamespace:
         height = wp.dot(x - a, n)
         over = wp.bool(False)
         if height >= -slack and height <= grow and (height <= slack or height >= grow - scalar(2.0) * slack):
-            y = x - n * height
+            local = x - n * height - basics.frame(surfaces, k)
             for face in range(surfaces.mesh_faces[k]):
                 if not over:
-                    p, q, r = vertices(surfaces, k, face)
-                    beside = wp.min(basics.edge_distance(n, p, q, y), basics.edge_distance(n, q, r, y))
-                    over = wp.min(beside, basics.edge_distance(n, r, p, y)) >= -fine
+                    over = beside(surfaces, k, face, local) >= -fine
         return n, over
 
-    return SimpleNamespace(plane_of=plane_of, over_any=over_any, flat_bound=flat_bound, flat_touched=flat_touched)
+    @wp.func
+    def flat_slack(surfaces: Surfaces, k: wp.int32):
+        """How far (m) flat mesh k's vertices may lie from its plane (`mesh_edges.flat_edges`)."""
+        return surfaces.flat_slack[k]
+
+    return SimpleNamespace(
+        plane_of=plane_of, over_any=over_any, flat_bound=flat_bound, flat_touched=flat_touched, flat_slack=flat_slack
+    )

@@ -128,6 +128,26 @@ def flat_plane(vertices, triangles) -> np.ndarray:
     return np.stack([a, n / np.linalg.norm(n)])
 
 
+def flat_edges(vertices, triangles, plane, origin) -> tuple:
+    """A flat mesh's edge lines (`flat_mesh`, its `flat_plane` (a, n)), for `physics.flat_contact`'s
+    inside tests in its plane: per triangle (a, b, c), per edge p -> q of (a -> b, b -> c, c -> a),
+    the in-plane unit normal w = n x (q - p) / |q - p| (towards the triangle: it is wound
+    counter-clockwise about n) and the offset w.(p - origin) (m), so that w.(y - origin) - offset is
+    how far y lies inside that edge (`mesh_contact.edge_distance`); and the slack (m) that covers its
+    vertices' distance from the plane, FLAT_SINGLE (|high - low|_1 + |a|_1 + |low|_1 + |high|_1) of
+    its box (low, high). float64: ((m, 3, 3) normals, (m, 3) offsets, slack)."""
+    vertices = np.asarray(vertices, dtype=np.float64)
+    corners = vertices[np.asarray(triangles, dtype=np.int64).reshape(-1, 3)]  # (m, 3, 3)
+    a, n = np.asarray(plane, dtype=np.float64)
+    p, q = corners, np.roll(corners, -1, axis=1)
+    w = np.cross(n, q - p)
+    w /= np.linalg.norm(w, axis=2, keepdims=True)
+    offsets = np.einsum("mjk,mjk->mj", w, p - np.asarray(origin, dtype=np.float64))
+    low, high = vertices.min(axis=0), vertices.max(axis=0)
+    slack = FLAT_SINGLE * (np.abs(high - low).sum() + np.abs(a).sum() + np.abs(low).sum() + np.abs(high).sum())
+    return w, offsets, float(slack)
+
+
 def inner_depths(vertices, triangles, edges, corners) -> np.ndarray:
     """Per triangle the least depth (m) behind its plane of the kept edges' and corners' points that
     project inside it (more than INSET of its edges' l1 lengths from them), np.inf where none does

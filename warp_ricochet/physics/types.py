@@ -14,7 +14,7 @@ import numpy as np
 import warp as wp
 
 from ..struct_refs import read_only
-from .mesh_edges import FEW_FACES, convex_features, covering_faces, flat_mesh, flat_plane, inner_depths
+from .mesh_edges import FEW_FACES, convex_features, covering_faces, flat_edges, flat_mesh, flat_plane, inner_depths
 from .mipmap import grid_deviation, max_pyramid
 
 SCALARS = {"float32": wp.float32, "float64": wp.float64}
@@ -85,6 +85,12 @@ def types_for(precision: str) -> SimpleNamespace:
         # float64 (zero for any other surface)
         flat_point: wp.array(dtype=vec3)
         flat_normal: wp.array(dtype=vec3)
+        # a flat mesh's slack (m: its vertices' distance from that plane, bounded) per surface, and per
+        # edge of its triangles (3 a triangle, from row 3 face_first[k]) the in-plane unit normal
+        # towards the triangle and its offset (m) from the mesh's frame (`mesh_edges.flat_edges`)
+        flat_slack: wp.array(dtype=scalar)
+        flat_edge: wp.array(dtype=vec3)
+        flat_offset: wp.array(dtype=scalar)
         edge_ends: wp.array(dtype=vec3)
         corner_points: wp.array(dtype=vec3)
         # a terrain walked in its raster (`physics.grid_walk`, scene.terrain.TerrainGrid): per surface
@@ -263,15 +269,22 @@ def _feature_fields(surfaces, precision: str, meshes, device) -> None:
     t, dtype = types_for(precision), np.dtype(precision)
     face_first, face_edges, face_corners, ends, corners = [], [np.zeros((0, 3), np.int32)], [np.zeros((0, 3), np.int32)], [], []
     cover, depth = [np.zeros(0, np.int32)], [np.zeros(0)]
-    planes = np.zeros((len(meshes), 2, 3))
+    planes, slack = np.zeros((len(meshes), 2, 3)), np.zeros(len(meshes))
+    lines, offsets = [np.zeros((0, 3, 3))], [np.zeros((0, 3))]
     rows = edge_count = corner_count = 0
     for index, triangles in enumerate(meshes):
         if triangles is None or not getattr(triangles, "edges", True):
             face_first.append(-1)  # none
             continue
         face_first.append(rows)
+        w, offset = np.zeros((len(triangles.triangles), 3, 3)), np.zeros((len(triangles.triangles), 3))
         if len(triangles.triangles) <= FEW_FACES and flat_mesh(triangles.vertices, triangles.triangles):
             planes[index] = flat_plane(triangles.vertices, triangles.triangles)
+            stored = np.asarray(triangles.vertices, dtype=np.float64).astype(dtype).astype(np.float64)
+            origin = 0.5 * (stored.min(axis=0) + stored.max(axis=0))  # (`mesh_contact.frame`)
+            w, offset, slack[index] = flat_edges(triangles.vertices, triangles.triangles, planes[index], origin)
+        lines.append(w)
+        offsets.append(offset)
         found = convex_features(triangles.vertices, triangles.triangles)
         face_edges.append(np.where(found["face_edges"] >= 0, found["face_edges"] + edge_count, -1))
         face_corners.append(np.where(found["face_corners"] >= 0, found["face_corners"] + corner_count, -1))
@@ -296,6 +309,10 @@ def _feature_fields(surfaces, precision: str, meshes, device) -> None:
     surfaces.face_depth = wp.array(np.maximum(depth, 0).astype(dtype), dtype=t.scalar, device=device)
     for name, values in (("flat_point", planes[:, 0]), ("flat_normal", planes[:, 1])):
         setattr(surfaces, name, wp.array(np.ascontiguousarray(values).astype(dtype), dtype=t.vec3, device=device))
+    surfaces.flat_edge = wp.array(np.concatenate(lines).reshape(-1, 3).astype(dtype), dtype=t.vec3, device=device)
+    surfaces.flat_offset = wp.array(np.concatenate(offsets).reshape(-1).astype(dtype), dtype=t.scalar, device=device)
+    rounded_up = np.nextafter(slack.astype(dtype), dtype.type(np.inf))
+    surfaces.flat_slack = wp.array(np.where(slack > 0, rounded_up, 0).astype(dtype), dtype=t.scalar, device=device)
     for name, values in (("edge_ends", ends), ("corner_points", corners)):
         setattr(surfaces, name, wp.array(np.concatenate([np.zeros((0, 3)), *values]).astype(dtype), dtype=t.vec3, device=device))
 
