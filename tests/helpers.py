@@ -240,17 +240,17 @@ def held(path, exclusive=False):
         os.close(fd)
 
 
-def first_contacts(tmp_path, precision, x, v, solid, plates, gravity, cover=True):
-    """(time, normal) of each pellet's first contact with the one surface `solid` (a scene surface
-    dict), by a CPU kernel of `plates` (`physics.geometry`'s flags) flying in vacuum under `gravity`
-    (time < 0: none); `cover` False: no face covers a mesh's edges (every one searched)."""
+def first_contacts(tmp_path, precision, x, v, solid, plates, gravity, cover=True, device="cpu"):
+    """(time, normal, model) of each pellet's first contact with the one surface `solid` (a scene
+    surface dict), by a kernel of `plates` (`physics.geometry`'s flags) on `device` flying in vacuum
+    under `gravity` (time < 0: none); `cover` False: no face covers a mesh's edges (every one searched)."""
     import warp as wp
 
     from warp_ricochet.model import Model
     from warp_ricochet.physics.flight import make_flight
 
     scene = explicit_scene(tmp_path, x, v, surfaces=[solid], precision=precision, physics={"gravity": list(gravity)})
-    model = Model.from_scene(scene, wp.get_device("cpu"))
+    model = Model.from_scene(scene, wp.get_device(device))
     if not cover:
         model.surfaces.face_cover.zero_()
     t = model.types
@@ -270,8 +270,8 @@ def first_contacts(tmp_path, precision, x, v, solid, plates, gravity, cover=True
         times[i] = wp.where(k == 0, dt, t.scalar(-1.0))
         normals[i] = n
 
-    arrays = [wp.array(np.asarray(a).astype(precision), dtype=t.vec3, device="cpu") for a in (x, v)]
-    times = wp.zeros(len(x), dtype=t.scalar, device="cpu")
-    normals = wp.zeros(len(x), dtype=t.vec3, device="cpu")
-    wp.launch(first, dim=len(x), inputs=[model.surfaces, model.physics, *arrays], outputs=[times, normals], device="cpu")
+    arrays = [wp.array(np.asarray(a).astype(precision), dtype=t.vec3, device=device) for a in (x, v)]
+    times = wp.zeros(len(x), dtype=t.scalar, device=device)
+    normals = wp.zeros(len(x), dtype=t.vec3, device=device)
+    wp.launch(first, dim=len(x), inputs=[model.surfaces, model.physics, *arrays], outputs=[times, normals], device=device)
     return times.numpy().astype(np.float64), normals.numpy().astype(np.float64), model

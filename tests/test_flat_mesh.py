@@ -107,13 +107,13 @@ def _shots(rng, points, count):
     return aimed(targets, v), v
 
 
-def _contacts(tmp_path, precision, solid, x, v, flat):
-    """(time, normal) of each pellet's first contact with `solid`, by a kernel compiled with the
-    flat search (`flat`) or the triangles one by one (time < 0: none)."""
+def _contacts(tmp_path, precision, solid, x, v, flat, device):
+    """(time, normal) of each pellet's first contact with `solid`, by a kernel on `device` compiled
+    with the flat search (`flat`) or the triangles one by one (time < 0: none)."""
     from warp_ricochet.physics.geometry import MESHES, NO_POSTS, SMALL
 
     plates = MESHES | NO_POSTS | SMALL | (FLAT if flat else 0)
-    times, normals, model = first_contacts(tmp_path, precision, x, v, solid, plates, GRAVITY)
+    times, normals, model = first_contacts(tmp_path, precision, x, v, solid, plates, GRAVITY, device=device)
     assert np.linalg.norm(model.surfaces.flat_normal.numpy()[0]) > 0.5  # (the host found it flat)
     return times, normals
 
@@ -121,7 +121,7 @@ def _contacts(tmp_path, precision, solid, x, v, flat):
 @pytest.mark.parametrize(
     ("precision", "origin"), [("float64", (0.0, 0.0, 0.0)), ("float64", (90.0, 4.0, -70.0)), ("float32", (0.0, 0.0, 0.0))]
 )
-def test_a_flat_mesh_is_met_where_its_triangles_are(tmp_path, precision, origin):
+def test_a_flat_mesh_is_met_where_its_triangles_are(tmp_path, precision, origin, device):
     """An L of six triangles, turned and moved (an STL: float32 vertices, off its first triangle's
     plane by their rounding): pellets from both sides at its vertices, on its border and inner edges
     (within 1.2 R of its plane) and over it meet it as its triangles searched one by one: the same
@@ -132,8 +132,8 @@ def test_a_flat_mesh_is_met_where_its_triangles_are(tmp_path, precision, origin)
     points = _tilted(L_POINTS, origin)
     solid = _mesh(tmp_path / "l.stl", points)
     x, v = _shots(np.random.default_rng(27), points, 1500)
-    flat = _contacts(tmp_path, precision, solid, x, v, flat=True)
-    each = _contacts(tmp_path, precision, solid, x, v, flat=False)
+    flat = _contacts(tmp_path, precision, solid, x, v, True, device)
+    each = _contacts(tmp_path, precision, solid, x, v, False, device)
     met = each[0] >= 0
     assert met.sum() > 600 and (~met).sum() > 50  # (most meet it; some pass by its border)
     both = met & (flat[0] >= 0)
@@ -151,7 +151,7 @@ def test_a_flat_mesh_is_met_where_its_triangles_are(tmp_path, precision, origin)
 
 
 @pytest.mark.parametrize("air", [False, True])
-def test_a_run_over_a_flat_mesh_lands_where_its_triangles_send_it(tmp_path, monkeypatch, air):
+def test_a_run_over_a_flat_mesh_lands_where_its_triangles_send_it(tmp_path, monkeypatch, air, device):
     """A run (float64, three bounces, to the landing) off the turned L (an STL) over a ground plane,
     in vacuum and in sea-level air: the same impacts and landings with the flat search as with the
     L's triangles one by one (`spec` told the L is not flat), but for the vertices' float32
@@ -182,7 +182,7 @@ def test_a_run_over_a_flat_mesh_lands_where_its_triangles_send_it(tmp_path, monk
             monkeypatch.setattr(mesh_edges, "flat_mesh", lambda *_: False)
         assert bool(RunSpec.of(scene).plates & FLAT) == (label == "flat")
         path = tmp_path / f"{label}.h5"
-        wr.run(scene, path, device="cpu")
+        wr.run(scene, path, device=device)
         with h5py.File(path) as f:
             group = f["pellets"]
             outputs[label] = {k: group[k][()] for k in ("impact/position", "landing/position")}
