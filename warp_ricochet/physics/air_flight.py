@@ -199,11 +199,11 @@ def make_solid_search(
         theta, through = face_thetas(n, wp.dot(a, n), h, x0, v0, a0, x1, v1, a1, radius)
         if theta <= scalar(1.0):
             x, _slope = hermite_vec(theta, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
-            if not flats.over_any(surfaces, k, n, x):
+            if not flats.over_any(surfaces, k, x):
                 theta = scalar(2.0)
         if through < theta:
             x, _slope = hermite_vec(through, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
-            if flats.over_any(surfaces, k, n, x):
+            if flats.over_any(surfaces, k, x):
                 theta = through
         return theta
 

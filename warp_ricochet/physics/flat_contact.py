@@ -51,8 +51,8 @@ def make_flat_contact(precision: str) -> SimpleNamespace:
         return wp.min(wp.min(d0, d1), d2)
 
     @wp.func
-    def over_any(surfaces: Surfaces, k: wp.int32, n: vec3, y: vec3):
-        """Whether y projected along n lies on a triangle of flat mesh k, edges included: inside
+    def over_any(surfaces: Surfaces, k: wp.int32, y: vec3):
+        """Whether y projected on flat mesh k's plane lies on one of its triangles, edges included: inside
         each edge within EDGE_ROUNDING eps of |y - o|_1 and twice the mesh's extent (o: its frame)
         and y's own rounding, at least `mesh_contact.inside`'s tolerance."""
         low, high = surfaces.mesh_low[k], surfaces.mesh_high[k]
@@ -67,7 +67,7 @@ def make_flat_contact(precision: str) -> SimpleNamespace:
     @wp.func
     def mesh_over(surfaces: Surfaces, k: wp.int32, face: wp.int32, n: vec3, a: vec3, b: vec3, c: vec3, y: vec3):
         """`over_any` as `mesh_contact.make_bound_rule` asks it."""
-        return over_any(surfaces, k, n, y)
+        return over_any(surfaces, k, y)
 
     @wp.func
     def mesh_leaves(

@@ -372,7 +372,8 @@ def _solids(
 ) -> SimpleNamespace:
     """`time(surfaces, k, x, v, g, R)`, `normal(surfaces, k, x)` and `clearance(surfaces, k, x)` of
     a mesh or a post k (`physics.mesh_contact`, `physics.cylinder_contact`), and `is_solid(surfaces, k)`;
-    posts, large meshes' BVH queries and edges compiled in only as asked (`solid_needs`)."""
+    posts, large meshes' BVH queries, edges and a flat mesh's search compiled in only as asked
+    (`solid_needs`)."""
     t = types_for(precision)
     Surfaces, vec3, scalar = t.Surfaces, t.vec3, t.scalar
     meshes, posts, mesh_normal = (
@@ -433,8 +434,8 @@ def _solids(
 def _contact_normal(precision: str, normal, with_meshes: bool, large: bool = True, edges: bool = True, flat: bool = False):
     """`contact_normal(surfaces, k, x, v, radius)`: the unit normal of a contact with surface k at
     centre x, velocity v: `normal`'s; a mesh's: of the triangle touched there that v approaches
-    most steeply, or radial from an edge or corner it touches beside every triangle
-    (`physics.edge_contact.contact_normal`)."""
+    most steeply (`flat`: the flat mesh's plane), or radial from an edge or corner it touches beside
+    every triangle (`physics.edge_contact.contact_normal`)."""
     t = types_for(precision)
     Surfaces, vec3, scalar = t.Surfaces, t.vec3, t.scalar
     MESH, meshes = KINDS["mesh"], make_edge_contact(precision, large, edges, flat)
