@@ -9,7 +9,8 @@ reads on the device up to the driver's own additions; on the GPU a large frame (
 255 registers (one block of 256 threads an SM) are what make the rest and hazard kernels slow
 (bench/RESULTS.md). Compare trees side by side: run this in each.
 
-    python -m bench.kernel_size [--cases paper-vacuum,paper-air,turf,post,hazard,hazard-map,hazard-none,mesh,box,terrain]
+    python -m bench.kernel_size [--cases paper-vacuum,paper-air,turf,post,hazard,hazard-map,hazard-none,mesh,mesh-air,box,
+                                         terrain,terrain-air]
                                 [--arch 90] [--ptxas ptxas] [--keep DIR]
 """
 
@@ -32,6 +33,7 @@ CASES = {
     "hazard-map": "the hazard example with its 0.5 m exposure map",
     "hazard-none": "the hazard example without its [hazard] table (what the watch adds: the difference)",
     "mesh": "the paper's shot in vacuum on a two-triangle mesh of its plane",
+    "mesh-air": "the same in sea-level air",
     "box": "the paper's shot in vacuum on its plane with bench.meshes' box on it (convex edges and corners)",
     "terrain": "the paper's shot in vacuum over a terrain (bench.meshes: a large mesh without edges) and a plane",
     "terrain-air": "the same in sea-level air",
@@ -43,13 +45,13 @@ def scene_of(case: str, folder: Path):
     from bench.air import paper_scene
     from warp_ricochet.scene import scene_from_dict
 
-    if case in ("paper-vacuum", "paper-air", "turf", "mesh"):
+    if case in ("paper-vacuum", "paper-air", "turf", "mesh", "mesh-air"):
         extra = ['physics.until="rest"', 'surfaces.0.material="turf"'] if case == "turf" else []
-        if case == "mesh":
+        if case.startswith("mesh"):
             from bench.meshes import plane_mesh
 
             extra = plane_mesh(folder)
-        return paper_scene(1000, air=case in ("paper-air", "turf"), mu_s=0.5, extra=extra)
+        return paper_scene(1000, air=case in ("paper-air", "turf", "mesh-air"), mu_s=0.5, extra=extra)
     if case in ("box", "terrain", "terrain-air"):
         from bench.meshes import BOX, MATERIAL, _paper, terrain_raster, terrain_surfaces
 
