@@ -6,6 +6,7 @@ per process, for Nsight Compute and for the core kernel's registers and local me
 
 Cases: plane, mesh, bare (the mesh with its edge and corner contacts left out, the same kernel),
 rect (the plane as a rectangle plate of the mesh's size: the plates' kernel without meshes),
+plane-air and mesh-air (in sea-level air, as `bench.meshes plane --flights air`),
 terrain and terrain-air (`bench.meshes terrain`'s scene: 1,002,528 triangles, vacuum or sea-level air;
 each run also reads the raster and builds its BVH).
 Prints the kernel's registers a thread and local bytes, and the median run time. Figures: bench/RESULTS.md.
@@ -50,7 +51,9 @@ def _no_features(vertices, triangles):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--case", choices=("plane", "mesh", "bare", "rect", "terrain", "terrain-air"), default="mesh")
+    parser.add_argument(
+        "--case", choices=("plane", "mesh", "bare", "rect", "plane-air", "mesh-air", "terrain", "terrain-air"), default="mesh"
+    )
     parser.add_argument("--n", type=float, default=1e7)
     parser.add_argument("--device", default="cuda:0")
     parser.add_argument("--repeats", type=int, default=5)
@@ -68,7 +71,9 @@ def main(argv=None):
     folder = tempfile.mkdtemp()
     if args.case == "rect":
         sets += ['surfaces.0.kind="rectangle"', "surfaces.0.axis_u=[1.0, 0.0, 0.0]", "surfaces.0.size=[2.0e4, 2.0e4]"]
-    elif args.case != "plane":
+    elif args.case in ("plane-air", "mesh-air"):
+        sets.append('air.drag="loth2021"')  # (an [air] table of defaults: sea-level air)
+    if args.case in ("mesh", "bare", "mesh-air"):
         from bench.meshes import plane_mesh
 
         sets += plane_mesh(folder)
