@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 import warp as wp
 
-from warp_ricochet.physics.air_flight import make_solid_search
+from warp_ricochet.physics.air_flight import make_face_thetas, make_solid_search
 from warp_ricochet.physics.air_screen import make_step_screen
 from warp_ricochet.physics.integrate import make_dense_output
 from warp_ricochet.physics.mesh_contact import make_mesh_contact
@@ -211,3 +211,58 @@ def test_a_triangle_screened_before_a_bound_is_not_met_before_it(precision, orig
     # not vacuous: faces met, and more screened with a bound below 1 than without
     assert (met <= 1.0).sum() >= (800 if waiting else 80)
     assert screened[0] < min(screened[1:])
+
+
+@functools.cache
+def _planes_kernel(precision):
+    t = types_for(precision)
+    scalar, vec3 = t.scalar, t.vec3
+    faces = make_face_thetas(precision)
+
+    @wp.kernel
+    def planes(
+        corners: wp.array2d(dtype=vec3),
+        steps: wp.array2d(dtype=vec3),
+        hs: wp.array(dtype=scalar),
+        radius: scalar,
+        met: wp.array2d(dtype=scalar),
+    ):
+        i = wp.tid()
+        a, b, c = corners[i, 0], corners[i, 1], corners[i, 2]
+        n = wp.normalize(wp.cross(b - a, c - a))
+        x0, v0, a0, x1, v1, a1 = steps[i, 0], steps[i, 1], steps[i, 2], steps[i, 3], steps[i, 4], steps[i, 5]
+        level = wp.dot(a, n)
+        met[i, 0] = faces.offset_theta(n, level, hs[i], x0, v0, a0, x1, v1, a1, radius)
+        met[i, 1] = faces.through_theta(n, level, hs[i], x0, v0, a0, x1, v1, a1)
+
+    return planes
+
+
+@pytest.mark.parametrize("radius", [RADIUS, 1e-5], ids=["R", "small"])
+@pytest.mark.parametrize("waiting", [False, True], ids=["random", "waiting"])
+@pytest.mark.parametrize("precision, origin", CASES, ids=IDS)
+def test_the_centre_reaches_a_plane_no_earlier_than_its_offset(precision, origin, waiting, radius):
+    """A flat mesh's search keeps its plane's offset contact over a triangle without finding where
+    the centre itself reaches the plane (`air_flight.flat_theta`): on the interpolant, from in
+    front of the plane or waiting within R of it, that is never earlier (also for a radius of
+    1e-5 m, where the two come within 2e-6 of theta)."""
+    rng = np.random.default_rng(46)
+    count = 4000 if waiting else 20000
+    maker = _waiting_cases if waiting else _cases
+    corners, steps, h = maker(rng, count, np.array([origin, -0.5 * origin, 0.1 * origin]))
+    t = types_for(precision)
+    dtype = np.float32 if precision == "float32" else np.float64
+    met = wp.zeros((count, 2), dtype=t.scalar, device="cpu")
+    arrays = [wp.array(a.astype(dtype), dtype=t.vec3, device="cpu") for a in (corners, steps)]
+    wp.launch(
+        _planes_kernel(precision),
+        dim=count,
+        inputs=[*arrays, wp.array(h.astype(dtype), device="cpu"), t.scalar(radius), met],
+        device="cpu",
+    )
+    offset, through = met.numpy().astype(np.float64).T
+    assert not ((offset <= 1.0) & (through < offset)).any()
+    # not vacuous: offsets met, and the centre reaching the plane on many of those steps
+    both = (offset <= 1.0) & (through <= 1.0)
+    assert (offset <= 1.0).sum() >= 900
+    assert both.sum() >= (1000 if waiting else 500)

@@ -124,6 +124,56 @@ def make_roots(precision: str, out_of_line: bool = False) -> SimpleNamespace:
 
 
 @functools.cache
+def make_face_thetas(precision: str, out_of_line: bool = False) -> SimpleNamespace:
+    """`offset_theta`, `through_theta` and `face_thetas`: where on an accepted step a face's plane,
+    offset by R or not, is met as a plane's (`make_roots`' `plane_theta`; `out_of_line`: its)."""
+    t = types_for(precision)
+    scalar, vec3 = t.scalar, t.vec3
+    plane_theta = make_roots(precision, out_of_line=out_of_line).plane_theta
+
+    @wp.func
+    def offset_theta(
+        n: vec3, level: scalar, h: scalar, x0: vec3, v0: vec3, a0: vec3, x1: vec3, v1: vec3, a1: vec3, radius: scalar
+    ):
+        """Where on the step the plane n.x = level offset by R is met as a plane's (2: not): watched
+        from in front, waiting where the centre starts within R of it, met at once if touching and
+        closing."""
+        g0, s0, q0 = wp.dot(x0, n) - level, h * wp.dot(v0, n), h * h * wp.dot(a0, n)
+        g1, s1, q1 = wp.dot(x1, n) - level, h * wp.dot(v1, n), h * h * wp.dot(a1, n)
+        theta = scalar(2.0)
+        if g0 > radius:
+            theta, _watched = plane_theta(1, g0 - radius, s0, q0, g1 - radius, s1, q1)
+        elif g0 >= scalar(0.0):
+            if s0 <= scalar(0.0):
+                theta = scalar(0.0)  # touching or overlapping it, closing: met now
+            else:
+                theta, _watched = plane_theta(2, g0 - radius, s0, q0, g1 - radius, s1, q1)
+        return theta
+
+    @wp.func
+    def through_theta(n: vec3, level: scalar, h: scalar, x0: vec3, v0: vec3, a0: vec3, x1: vec3, v1: vec3, a1: vec3):
+        """Where on the step the centre itself first reaches the plane n.x = level from in front (2: not)."""
+        g0, s0, q0 = wp.dot(x0, n) - level, h * wp.dot(v0, n), h * h * wp.dot(a0, n)
+        g1, s1, q1 = wp.dot(x1, n) - level, h * wp.dot(v1, n), h * h * wp.dot(a1, n)
+        through = scalar(2.0)
+        if g0 > scalar(0.0):
+            through, _watched = plane_theta(1, g0, s0, q0, g1, s1, q1)
+        return through
+
+    @wp.func
+    def face_thetas(
+        n: vec3, level: scalar, h: scalar, x0: vec3, v0: vec3, a0: vec3, x1: vec3, v1: vec3, a1: vec3, radius: scalar
+    ):
+        """Where on the step a face of unit normal n in the plane n.x = level is met, before its
+        inside test (2: not): its plane offset by R (`offset_theta`), and the plane itself met by
+        the centre from in front (`through_theta`)."""
+        theta = offset_theta(n, level, h, x0, v0, a0, x1, v1, a1, radius)
+        return theta, through_theta(n, level, h, x0, v0, a0, x1, v1, a1)
+
+    return SimpleNamespace(offset_theta=offset_theta, through_theta=through_theta, face_thetas=face_thetas)
+
+
+@functools.cache
 def make_solid_search(
     precision: str, out_of_line: bool = False, large: bool = True, edges: bool = True, flat: bool = False
 ) -> SimpleNamespace:
@@ -136,10 +186,8 @@ def make_solid_search(
     scalar, vec3, Surfaces = t.scalar, t.vec3, t.Surfaces
     screen, flats = make_step_screen(precision), make_flat_contact(precision)
     off_step = screen.off_step
-    plane_theta, hermite_vec = (
-        make_roots(precision, out_of_line=out_of_line).plane_theta,
-        make_dense_output(precision).hermite_vec,
-    )
+    hermite_vec, planes = make_dense_output(precision).hermite_vec, make_face_thetas(precision, out_of_line)
+    offset_theta, through_theta, face_thetas = planes.offset_theta, planes.through_theta, planes.face_thetas
     meshes, posts, features = make_mesh_contact(precision), make_cylinder_contact(precision), make_edge_contact(precision)
     LARGE, EDGES, FLAT = large, edges, flat
 
@@ -152,29 +200,6 @@ def make_solid_search(
         low = wp.min(wp.min(wp.min(x0, x1), wp.min(p1, p2)), wp.min(p3, p4))
         high = wp.max(wp.max(wp.max(x0, x1), wp.max(p1, p2)), wp.max(p3, p4))
         return low, high
-
-    @wp.func
-    def face_thetas(
-        n: vec3, level: scalar, h: scalar, x0: vec3, v0: vec3, a0: vec3, x1: vec3, v1: vec3, a1: vec3, radius: scalar
-    ):
-        """Where on the step a face of unit normal n in the plane n.x = level is met, before its
-        inside test (2: not): its plane offset by R as a plane's (watched from in front, waiting
-        where the centre starts within R of it, met at once if touching and closing), and the
-        plane itself met by the centre from in front."""
-        g0, s0, q0 = wp.dot(x0, n) - level, h * wp.dot(v0, n), h * h * wp.dot(a0, n)
-        g1, s1, q1 = wp.dot(x1, n) - level, h * wp.dot(v1, n), h * h * wp.dot(a1, n)
-        theta = scalar(2.0)
-        if g0 > radius:
-            theta, _watched = plane_theta(1, g0 - radius, s0, q0, g1 - radius, s1, q1)
-        elif g0 >= scalar(0.0):
-            if s0 <= scalar(0.0):
-                theta = scalar(0.0)  # touching or overlapping it, closing: met now
-            else:
-                theta, _watched = plane_theta(2, g0 - radius, s0, q0, g1 - radius, s1, q1)
-        through = scalar(2.0)
-        if g0 > scalar(0.0):  # the centre reaching the face itself
-            through, _watched = plane_theta(1, g0, s0, q0, g1, s1, q1)
-        return theta, through
 
     @wp.func
     def flat_theta(
@@ -190,18 +215,24 @@ def make_solid_search(
         radius: scalar,
         bound: scalar,
     ):
-        """Where on the step a face of flat mesh k is met (2: not): `face_thetas` of its plane, each
-        kept where the interpolant's centre is over one of its triangles; none where its plane is
-        met no earlier than `bound` (`air_screen.off_plane`)."""
+        """Where on the step a face of flat mesh k is met (2: not): its plane offset by R
+        (`offset_theta`) where the interpolant's centre is then over one of its triangles, else the
+        plane itself reached by the centre (`through_theta`) over one (the centre, coming from in
+        front or waiting within R, reaches the plane no earlier than its offset: tests/
+        test_air_screen.py); none where its plane is met no earlier than `bound`
+        (`air_screen.off_plane`)."""
         a, n = flats.plane_of(surfaces, k)
         if screen.off_plane(n, a, radius, h, x0, v0, a0, x1, v1, a1, bound):
             return scalar(2.0)
-        theta, through = face_thetas(n, wp.dot(a, n), h, x0, v0, a0, x1, v1, a1, radius)
+        level = wp.dot(a, n)
+        theta = offset_theta(n, level, h, x0, v0, a0, x1, v1, a1, radius)
         if theta <= scalar(1.0):
             x, _slope = hermite_vec(theta, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
-            if not flats.over_any(surfaces, k, x):
-                theta = scalar(2.0)
-        if through < theta:
+            if flats.over_any(surfaces, k, x):
+                return theta  # (the centre reaches the plane itself no earlier)
+        through = through_theta(n, level, h, x0, v0, a0, x1, v1, a1)
+        theta = scalar(2.0)
+        if through <= scalar(1.0):
             x, _slope = hermite_vec(through, x0, h * v0, h * h * a0, x1, h * v1, h * h * a1)
             if flats.over_any(surfaces, k, x):
                 theta = through
@@ -365,7 +396,12 @@ def make_solid_search(
                 best = wp.min(best, triangle_theta(surfaces, k, face, h, x0, v0, a0, x1, v1, a1, radius, low, high, best))
         return best
 
-    return SimpleNamespace(mesh_theta=mesh_theta, post_theta=post_theta, bezier_box=bezier_box, face_theta=face_theta)
+    return SimpleNamespace(
+        mesh_theta=mesh_theta,
+        post_theta=post_theta,
+        bezier_box=bezier_box,
+        face_theta=face_theta,
+    )
 
 
 @functools.cache
